@@ -1,0 +1,101 @@
+//! Forward kinematics (DESIGN.md conventions; see [`crate::Robot`]). Depends only on q.
+
+use crate::model::{Convention, Joint, JointType, Robot};
+use nalgebra::Matrix4;
+
+/// The link transform `A_j` of joint `j` at joint value `q` (rad or m).
+pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<f64> {
+    let (theta, d) = match joint.joint_type {
+        JointType::Revolute => (q + joint.offset, joint.d),
+        JointType::Prismatic => (joint.theta, q + joint.offset),
+    };
+    let (st, ct) = theta.sin_cos();
+    let (sa, ca) = joint.alpha.sin_cos();
+    let a = joint.a;
+    match convention {
+        // Rz(θ) Tz(d) Tx(a) Rx(α)
+        Convention::Standard => Matrix4::new(
+            ct, -st * ca, st * sa, a * ct, //
+            st, ct * ca, -ct * sa, a * st, //
+            0.0, sa, ca, d, //
+            0.0, 0.0, 0.0, 1.0,
+        ),
+        // Rx(α_{j-1}) Tx(a_{j-1}) Rz(θ) Tz(d)
+        Convention::Modified => Matrix4::new(
+            ct, -st, 0.0, a, //
+            st * ca, ct * ca, -sa, -sa * d, //
+            st * sa, ct * sa, ca, ca * d, //
+            0.0, 0.0, 0.0, 1.0,
+        ),
+    }
+}
+
+/// Every link frame in the world: `frames[0]` is the base, `frames[j]` the frame at the end of
+/// `A_j` (j = 1..=n), and the last entry the tool frame — n + 2 matrices in all.
+/// `q` must have `robot.dof()` entries (check with [`Robot::check_q`]).
+pub fn link_frames(robot: &Robot, q: &[f64]) -> Vec<Matrix4<f64>> {
+    let mut frames = Vec::with_capacity(robot.dof() + 2);
+    let mut t = robot.base;
+    frames.push(t);
+    for (joint, &qj) in robot.joints.iter().zip(q) {
+        t *= link_transform(robot.convention, joint, qj);
+        frames.push(t);
+    }
+    frames.push(t * robot.tool);
+    frames
+}
+
+/// The tool pose `T_ee = base · A_1 ⋯ A_n · tool` in the world.
+pub fn forward(robot: &Robot, q: &[f64]) -> Matrix4<f64> {
+    let mut t = robot.base;
+    for (joint, &qj) in robot.joints.iter().zip(q) {
+        t *= link_transform(robot.convention, joint, qj);
+    }
+    t * robot.tool
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::Joint;
+    use nalgebra::Vector4;
+
+    #[test]
+    fn planar_two_link_reaches_where_trigonometry_says() {
+        let robot = Robot {
+            joints: vec![Joint { a: 1.0, ..Joint::default() }, Joint { a: 0.5, ..Joint::default() }],
+            ..Robot::default()
+        };
+        let (q1, q2) = (0.3_f64, -1.1_f64);
+        let t = forward(&robot, &[q1, q2]);
+        let p = t * Vector4::new(0.0, 0.0, 0.0, 1.0);
+        assert!((p.x - (q1.cos() + 0.5 * (q1 + q2).cos())).abs() < 1e-15);
+        assert!((p.y - (q1.sin() + 0.5 * (q1 + q2).sin())).abs() < 1e-15);
+    }
+
+    #[test]
+    fn modified_and_standard_agree_on_a_chain_written_both_ways() {
+        // A standard chain (a_j, α_j) equals a modified chain whose row j+1 holds (a_j, α_j),
+        // up to the last link's Tx(a_n) Rx(α_n), which we put in the tool.
+        let std_rows = [(0.1, 0.4, 0.7), (0.2, -0.3, 0.0), (0.05, 0.0, 1.2)]; // (a, d, alpha)
+        let standard = Robot {
+            joints: std_rows.iter().map(|&(a, d, alpha)| Joint { a, d, alpha, ..Joint::default() }).collect(),
+            ..Robot::default()
+        };
+        let mut modified_joints = Vec::new();
+        let mut prev = (0.0, 0.0);
+        for &(a, d, alpha) in &std_rows {
+            modified_joints.push(Joint { a: prev.0, alpha: prev.1, d, ..Joint::default() });
+            prev = (a, alpha);
+        }
+        let last = Joint { a: prev.0, alpha: prev.1, ..Joint::default() };
+        let modified = Robot {
+            convention: Convention::Modified,
+            joints: modified_joints,
+            tool: link_transform(Convention::Modified, &last, 0.0),
+            ..Robot::default()
+        };
+        let q = [0.4, -0.9, 2.0];
+        assert!((forward(&standard, &q) - forward(&modified, &q)).abs().max() < 1e-14);
+    }
+}
