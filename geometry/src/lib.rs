@@ -6,10 +6,18 @@
 //! Entry points:
 //! * [`Polyhedron::from_polygons`] — validate and build from vertices and polygon index lists.
 //! * [`Aabb`] — centre + half-diagonal boxes.
+//! * [`shapes`] — the shape generators (box, cylinder, cone, truncated cone, sphere, extrusion,
+//!   revolution) with their size-dependent default facet count.
+//! * [`polygon2d`] — simple-polygon validation and convex decomposition.
+//! * [`Polyhedron::mass_properties`] ([`mass`]) — volume, centre of mass, inertia.
 //!
 //! Frames and units: metres, in the solid's own frame; polygons are listed counter-clockwise
 //! seen from outside, so plane normals point outward.
 
+pub mod mass;
+pub mod polygon2d;
 mod polyhedron;
+pub mod shapes;
 
-pub use polyhedron::{Aabb, GeometryError, Plane, Polygon, Polyhedron, PLANARITY_TOL};
+pub use mass::{MassError, MassProperties};
+pub use polyhedron::{Aabb, GeometryError, PLANARITY_TOL, Plane, Polygon, Polyhedron};
