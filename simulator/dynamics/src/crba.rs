@@ -1,0 +1,114 @@
+//! The joint-space inertia matrix by the composite-rigid-body algorithm (Walker & Orin 1982;
+//! Featherstone 2008, §6.2, Table 6.2), and forward dynamics through it with a Cholesky solve —
+//! the cross-check for [`crate::aba`]. Entry points: [`crba`], [`fd_cholesky`].
+
+use crate::data::Data;
+use crate::model::{DynamicsError, Model};
+use crate::rnea::{ALL, rnea_pass};
+use nalgebra::DMatrix;
+
+/// `M(q)` (kg·m², kg, or kg·m for mixed entries), motor inertia on the diagonal. Fills and
+/// returns `data.mass_matrix` (symmetric, both triangles). Depends only on q.
+pub fn crba<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+) -> Result<&'d DMatrix<f64>, DynamicsError> {
+    model.check_vector("q", q)?;
+    data.update_transforms(model, q);
+    crba_pass(model, data);
+    Ok(&data.mass_matrix)
+}
+
+pub(crate) fn crba_pass(model: &Model, data: &mut Data) {
+    let n = model.dof();
+    for j in 0..n {
+        data.ic[j] = model.links[j].inertia;
+    }
+    for j in (0..n).rev() {
+        if j > 0 {
+            let moved = data.ic[j].to_parent(&data.x[j]);
+            data.ic[j - 1] = data.ic[j - 1].add(&moved);
+        }
+        let mut f = data.ic[j].mul_motion(&model.links[j].s);
+        data.mass_matrix[(j, j)] = model.links[j].s.dot(&f) + model.links[j].motor_inertia;
+        let mut k = j;
+        while k > 0 {
+            f = data.x[k].transpose_force(&f);
+            k -= 1;
+            let mkj = model.links[k].s.dot(&f);
+            data.mass_matrix[(k, j)] = mkj;
+            data.mass_matrix[(j, k)] = mkj;
+        }
+    }
+}
+
+/// Forward dynamics `q̈ = M⁻¹ (τ − C q̇ − g − τ_friction)` by CRBA, RNEA (for the bias) and an
+/// in-place Cholesky factorisation. O(n³); use [`crate::aba`] in loops. Fills `data.qdd` (and
+/// `data.mass_matrix`, `data.tau` = the bias) and returns `data.qdd`.
+pub fn fd_cholesky<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+    qd: &[f64],
+    tau: &[f64],
+) -> Result<&'d nalgebra::DVector<f64>, DynamicsError> {
+    model.check_vector("q", q)?;
+    model.check_vector("qd", qd)?;
+    model.check_vector("tau", tau)?;
+    data.update_transforms(model, q);
+    crba_pass(model, data);
+    rnea_pass(model, data, qd, None, ALL);
+    let n = model.dof();
+    for i in 0..n {
+        data.rhs[i] = tau[i] - data.tau[i];
+    }
+    cholesky_in_place(&data.mass_matrix, &mut data.chol)?;
+    // forward then back substitution: L y = b, Lᵀ x = y
+    for i in 0..n {
+        let mut s = data.rhs[i];
+        for k in 0..i {
+            s -= data.chol[(i, k)] * data.rhs[k];
+        }
+        data.rhs[i] = s / data.chol[(i, i)];
+    }
+    for i in (0..n).rev() {
+        let mut s = data.rhs[i];
+        for k in i + 1..n {
+            s -= data.chol[(k, i)] * data.qdd[k];
+        }
+        data.qdd[i] = s / data.chol[(i, i)];
+    }
+    Ok(&data.qdd)
+}
+
+/// Lower Cholesky factor of symmetric `m` into `l` (no allocation). Fails with
+/// [`DynamicsError::SingularInertia`] naming the first joint whose pivot is not positive.
+pub(crate) fn cholesky_in_place(
+    m: &DMatrix<f64>,
+    l: &mut DMatrix<f64>,
+) -> Result<(), DynamicsError> {
+    let n = m.nrows();
+    for j in 0..n {
+        let mut d = m[(j, j)];
+        for k in 0..j {
+            d -= l[(j, k)] * l[(j, k)];
+        }
+        if !(d > 0.0) {
+            return Err(DynamicsError::SingularInertia {
+                joint: j,
+                inertia: d,
+            });
+        }
+        let dj = d.sqrt();
+        l[(j, j)] = dj;
+        for i in j + 1..n {
+            let mut s = m[(i, j)];
+            for k in 0..j {
+                s -= l[(i, k)] * l[(j, k)];
+            }
+            l[(i, j)] = s / dj;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,72 @@
+//! The workspace the algorithms write into (Pinocchio's `Data`, MuJoCo's `mjData`): allocated once
+//! per model by [`Data::new`], then reused, so RNEA, CRBA, ABA and the integrators allocate
+//! nothing per call.
+
+use crate::model::Model;
+use crate::spatial::{Force, Motion, RigidInertia, Xform};
+use nalgebra::{DMatrix, DVector, Matrix6, Vector6};
+use robosim_kinematics::fk::link_transform;
+
+/// Per-call results and scratch space for one [`Model`]. Results are public fields named after
+/// what fills them: [`crate::rnea`] fills `tau`, [`crate::crba`] fills `mass_matrix`,
+/// [`crate::aba`] fills `qdd`.
+#[derive(Debug, Clone)]
+pub struct Data {
+    /// Joint torques/forces (N·m or N), dim `dof`.
+    pub tau: DVector<f64>,
+    /// Joint accelerations (rad/s² or m/s²), dim `dof`.
+    pub qdd: DVector<f64>,
+    /// Joint-space inertia matrix `M(q)`, `dof × dof`, both triangles filled.
+    pub mass_matrix: DMatrix<f64>,
+    pub(crate) x: Vec<Xform>,
+    pub(crate) v: Vec<Motion>,
+    pub(crate) a: Vec<Motion>,
+    pub(crate) f: Vec<Force>,
+    pub(crate) ic: Vec<RigidInertia>,
+    pub(crate) ia: Vec<Matrix6<f64>>,
+    pub(crate) pa: Vec<Vector6<f64>>,
+    pub(crate) c: Vec<Vector6<f64>>,
+    pub(crate) u6: Vec<Vector6<f64>>,
+    pub(crate) d: Vec<f64>,
+    pub(crate) u: Vec<f64>,
+    /// Cholesky factor scratch (lower triangle) and a right-hand side.
+    pub(crate) chol: DMatrix<f64>,
+    pub(crate) rhs: DVector<f64>,
+}
+
+impl Data {
+    /// A workspace sized for `model`.
+    pub fn new(model: &Model) -> Data {
+        let n = model.dof();
+        Data {
+            tau: DVector::zeros(n),
+            qdd: DVector::zeros(n),
+            mass_matrix: DMatrix::zeros(n, n),
+            x: vec![Xform::default(); n],
+            v: vec![Motion::zero(); n],
+            a: vec![Motion::zero(); n],
+            f: vec![Force::zero(); n],
+            ic: vec![RigidInertia::zero(); n],
+            ia: vec![Matrix6::zeros(); n],
+            pa: vec![Vector6::zeros(); n],
+            c: vec![Vector6::zeros(); n],
+            u6: vec![Vector6::zeros(); n],
+            d: vec![0.0; n],
+            u: vec![0.0; n],
+            chol: DMatrix::zeros(n, n),
+            rhs: DVector::zeros(n),
+        }
+    }
+
+    /// Fills the parent-to-child transforms `x[j]` from the DH link transforms at `q`.
+    /// Depends only on q. `q.len() == model.dof()` is the caller's invariant.
+    pub(crate) fn update_transforms(&mut self, model: &Model, q: &[f64]) {
+        for ((x, link), &qj) in self.x.iter_mut().zip(&model.links).zip(q) {
+            let a = link_transform(model.convention, &link.joint, qj);
+            *x = Xform {
+                e: a.fixed_view::<3, 3>(0, 0).transpose(),
+                r: a.fixed_view::<3, 1>(0, 3).into_owned(),
+            };
+        }
+    }
+}

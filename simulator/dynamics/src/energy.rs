@@ -1,0 +1,55 @@
+//! Mechanical energy, for drift studies of the integrators. Entry point: [`energy`].
+
+use crate::data::Data;
+use crate::model::{DynamicsError, Model};
+use crate::spatial::Motion;
+
+/// Kinetic, potential and total energy (J).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Energy {
+    /// `½ Σ vⱼᵀ Iⱼ vⱼ + ½ Σ I_motor q̇²`.
+    pub kinetic: f64,
+    /// `−Σ mⱼ g · cⱼ` with `cⱼ` each link's centre of mass in the world (zero at the world origin).
+    pub potential: f64,
+}
+
+impl Energy {
+    pub fn total(&self) -> f64 {
+        self.kinetic + self.potential
+    }
+}
+
+/// The mechanical energy at (q, q̇). Depends on q and q̇; writes scratch in `data`.
+pub fn energy(
+    model: &Model,
+    data: &mut Data,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<Energy, DynamicsError> {
+    model.check_vector("q", q)?;
+    model.check_vector("qd", qd)?;
+    Ok(energy_unchecked(model, data, q, qd))
+}
+
+pub(crate) fn energy_unchecked(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Energy {
+    data.update_transforms(model, q);
+    let base = &model.robot.base;
+    let mut rot = base.fixed_view::<3, 3>(0, 0).into_owned();
+    let mut pos = base.fixed_view::<3, 1>(0, 3).into_owned();
+    let g = model.robot.gravity;
+    let mut v_parent = Motion::zero();
+    let (mut kinetic, mut potential) = (0.0, 0.0);
+    for j in 0..model.dof() {
+        let link = &model.links[j];
+        let x = &data.x[j];
+        let v = x.apply_motion(&v_parent).add(&link.s.scale(qd[j]));
+        kinetic +=
+            0.5 * v.dot(&link.inertia.mul_motion(&v)) + 0.5 * link.motor_inertia * qd[j] * qd[j];
+        // world pose of link frame j: R_j = R_{j-1} Eᵀ, p_j = p_{j-1} + R_{j-1} r
+        pos += rot * x.r;
+        rot *= x.e.transpose();
+        potential -= g.dot(&(rot * link.inertia.h + pos * link.inertia.m));
+        v_parent = v;
+    }
+    Energy { kinetic, potential }
+}

@@ -1,0 +1,143 @@
+//! Inverse dynamics by the recursive Newton–Euler algorithm (Luh, Walker & Paul 1980, in the
+//! spatial form of Featherstone 2008, §5.3, Table 5.1), with gravity entered as a fictitious base
+//! acceleration `a₀ = −g`. Entry points: [`rnea`], [`gravity`], [`coriolis`].
+
+use crate::data::Data;
+use crate::model::{DynamicsError, Model};
+use crate::spatial::Motion;
+use nalgebra::DVector;
+
+/// Which terms the internal pass includes.
+#[derive(Clone, Copy)]
+pub(crate) struct Terms {
+    pub gravity: bool,
+    pub friction: bool,
+    pub motor: bool,
+}
+
+pub(crate) const ALL: Terms = Terms {
+    gravity: true,
+    friction: true,
+    motor: true,
+};
+
+/// Inverse dynamics `τ = M(q) q̈ + C(q, q̇) q̇ + g(q) + τ_friction(q̇)` (N·m for revolute, N for
+/// prismatic joints), motor inertia included in `M`. Fills and returns `data.tau`. Depends on
+/// q, q̇, q̈. Inputs are checked (length, finite).
+pub fn rnea<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+    qd: &[f64],
+    qdd: &[f64],
+) -> Result<&'d DVector<f64>, DynamicsError> {
+    model.check_vector("q", q)?;
+    model.check_vector("qd", qd)?;
+    model.check_vector("qdd", qdd)?;
+    data.update_transforms(model, q);
+    rnea_pass(model, data, qd, Some(qdd), ALL);
+    Ok(&data.tau)
+}
+
+/// The gravity torque `g(q)`: the joint torques that hold the arm still at `q` (RNEA with
+/// q̇ = q̈ = 0). Fills and returns `data.tau`.
+pub fn gravity<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+) -> Result<&'d DVector<f64>, DynamicsError> {
+    model.check_vector("q", q)?;
+    data.update_transforms(model, q);
+    rnea_pass(
+        model,
+        data,
+        &[],
+        None,
+        Terms {
+            gravity: true,
+            friction: false,
+            motor: false,
+        },
+    );
+    Ok(&data.tau)
+}
+
+/// The Coriolis and centrifugal torques `C(q, q̇) q̇` (RNEA with gravity off, q̈ = 0, no
+/// friction). Fills and returns `data.tau`.
+pub fn coriolis<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<&'d DVector<f64>, DynamicsError> {
+    model.check_vector("q", q)?;
+    model.check_vector("qd", qd)?;
+    data.update_transforms(model, q);
+    rnea_pass(
+        model,
+        data,
+        qd,
+        None,
+        Terms {
+            gravity: false,
+            friction: false,
+            motor: false,
+        },
+    );
+    Ok(&data.tau)
+}
+
+/// The RNEA passes over transforms already in `data.x`. An empty `qd` means q̇ = 0; `None` for
+/// `qdd` means q̈ = 0.
+pub(crate) fn rnea_pass(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+    qdd: Option<&[f64]>,
+    terms: Terms,
+) {
+    let n = model.dof();
+    let a0 = if terms.gravity {
+        Motion {
+            w: nalgebra::Vector3::zeros(),
+            v: -model.gravity_base,
+        }
+    } else {
+        Motion::zero()
+    };
+    let mut v_parent = Motion::zero();
+    let mut a_parent = a0;
+    for j in 0..n {
+        let link = &model.links[j];
+        let x = &data.x[j];
+        let qdj = qd.get(j).copied().unwrap_or(0.0);
+        let qddj = qdd.map_or(0.0, |a| a[j]);
+        let vj_joint = link.s.scale(qdj);
+        let v = x.apply_motion(&v_parent).add(&vj_joint);
+        let a = x
+            .apply_motion(&a_parent)
+            .add(&link.s.scale(qddj))
+            .add(&v.cross_motion(&vj_joint));
+        let iv = link.inertia.mul_motion(&v);
+        data.f[j] = link.inertia.mul_motion(&a).add(&v.cross_force(&iv));
+        data.v[j] = v;
+        data.a[j] = a;
+        v_parent = v;
+        a_parent = a;
+    }
+    for j in (0..n).rev() {
+        let link = &model.links[j];
+        let mut tau = link.s.dot(&data.f[j]);
+        if terms.motor {
+            tau += link.motor_inertia * qdd.map_or(0.0, |a| a[j]);
+        }
+        if terms.friction {
+            tau += Model::friction(link, qd.get(j).copied().unwrap_or(0.0));
+        }
+        data.tau[j] = tau;
+        if j > 0 {
+            let fp = data.x[j].transpose_force(&data.f[j]);
+            data.f[j - 1] = data.f[j - 1].add(&fp);
+        }
+    }
+}
