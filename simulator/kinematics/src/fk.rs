@@ -15,17 +15,41 @@ pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<
     match convention {
         // Rz(θ) Tz(d) Tx(a) Rx(α)
         Convention::Standard => Matrix4::new(
-            ct, -st * ca, st * sa, a * ct, //
-            st, ct * ca, -ct * sa, a * st, //
-            0.0, sa, ca, d, //
-            0.0, 0.0, 0.0, 1.0,
+            ct,
+            -st * ca,
+            st * sa,
+            a * ct, //
+            st,
+            ct * ca,
+            -ct * sa,
+            a * st, //
+            0.0,
+            sa,
+            ca,
+            d, //
+            0.0,
+            0.0,
+            0.0,
+            1.0,
         ),
         // Rx(α_{j-1}) Tx(a_{j-1}) Rz(θ) Tz(d)
         Convention::Modified => Matrix4::new(
-            ct, -st, 0.0, a, //
-            st * ca, ct * ca, -sa, -sa * d, //
-            st * sa, ct * sa, ca, ca * d, //
-            0.0, 0.0, 0.0, 1.0,
+            ct,
+            -st,
+            0.0,
+            a, //
+            st * ca,
+            ct * ca,
+            -sa,
+            -sa * d, //
+            st * sa,
+            ct * sa,
+            ca,
+            ca * d, //
+            0.0,
+            0.0,
+            0.0,
+            1.0,
         ),
     }
 }
@@ -63,7 +87,16 @@ mod tests {
     #[test]
     fn planar_two_link_reaches_where_trigonometry_says() {
         let robot = Robot {
-            joints: vec![Joint { a: 1.0, ..Joint::default() }, Joint { a: 0.5, ..Joint::default() }],
+            joints: vec![
+                Joint {
+                    a: 1.0,
+                    ..Joint::default()
+                },
+                Joint {
+                    a: 0.5,
+                    ..Joint::default()
+                },
+            ],
             ..Robot::default()
         };
         let (q1, q2) = (0.3_f64, -1.1_f64);
@@ -79,16 +112,33 @@ mod tests {
         // up to the last link's Tx(a_n) Rx(α_n), which we put in the tool.
         let std_rows = [(0.1, 0.4, 0.7), (0.2, -0.3, 0.0), (0.05, 0.0, 1.2)]; // (a, d, alpha)
         let standard = Robot {
-            joints: std_rows.iter().map(|&(a, d, alpha)| Joint { a, d, alpha, ..Joint::default() }).collect(),
+            joints: std_rows
+                .iter()
+                .map(|&(a, d, alpha)| Joint {
+                    a,
+                    d,
+                    alpha,
+                    ..Joint::default()
+                })
+                .collect(),
             ..Robot::default()
         };
         let mut modified_joints = Vec::new();
         let mut prev = (0.0, 0.0);
         for &(a, d, alpha) in &std_rows {
-            modified_joints.push(Joint { a: prev.0, alpha: prev.1, d, ..Joint::default() });
+            modified_joints.push(Joint {
+                a: prev.0,
+                alpha: prev.1,
+                d,
+                ..Joint::default()
+            });
             prev = (a, alpha);
         }
-        let last = Joint { a: prev.0, alpha: prev.1, ..Joint::default() };
+        let last = Joint {
+            a: prev.0,
+            alpha: prev.1,
+            ..Joint::default()
+        };
         let modified = Robot {
             convention: Convention::Modified,
             joints: modified_joints,
@@ -96,6 +146,11 @@ mod tests {
             ..Robot::default()
         };
         let q = [0.4, -0.9, 2.0];
-        assert!((forward(&standard, &q) - forward(&modified, &q)).abs().max() < 1e-14);
+        assert!(
+            (forward(&standard, &q) - forward(&modified, &q))
+                .abs()
+                .max()
+                < 1e-14
+        );
     }
 }

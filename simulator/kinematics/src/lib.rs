@@ -3,10 +3,31 @@
 //! the same code.
 //!
 //! Entry points:
-//! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol").
+//! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol");
+//!   [`robot_from_json`] / [`robot_to_json`] — its inline JSON form; [`builtin_robot`] — the
+//!   shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
+//! * [`jacobian::jacobian`], [`jacobian::singularity`] — geometric Jacobians, distance to
+//!   singularity.
+//! * [`ik::solve`] — inverse kinematics (analytic, Newton, damped least squares, hybrid, auto).
+//! * [`encoder::encoder_error`] — encoder quantisation bounds (seed §2.7).
+//! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
+//! * [`query::dispatch`] — the query-protocol ops `fk`, `jacobian`, `ik`, `encoder_error`.
 
+mod builtin;
+pub mod encoder;
 pub mod fk;
+pub mod ik;
+pub mod jacobian;
+mod json;
 mod model;
+pub mod movej;
+pub mod pose;
 
+pub use builtin::{BUILTIN_NAMES, builtin_robot};
+pub use json::{
+    JsonError, matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array,
+    robot_from_json, robot_to_json,
+};
 pub use model::{Convention, Joint, JointType, ModelError, Robot, State};
+pub use movej::{LimitViolation, MoveJError, movej_interpolate};

@@ -102,7 +102,11 @@ impl Default for Robot {
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ModelError {
     #[error("joint {joint}: field `{field}` is not finite ({value})")]
-    NonFinite { joint: usize, field: &'static str, value: f64 },
+    NonFinite {
+        joint: usize,
+        field: &'static str,
+        value: f64,
+    },
     #[error("joint {joint}: limits [{lo}, {hi}] are reversed")]
     ReversedLimits { joint: usize, lo: f64, hi: f64 },
     #[error("joint {joint}: mass {mass} kg is negative")]
@@ -137,27 +141,50 @@ impl Robot {
                 ("coulomb", jt.coulomb),
             ] {
                 if !value.is_finite() {
-                    return Err(ModelError::NonFinite { joint: j, field, value });
+                    return Err(ModelError::NonFinite {
+                        joint: j,
+                        field,
+                        value,
+                    });
                 }
             }
             for v in jt.com.iter() {
                 if !v.is_finite() {
-                    return Err(ModelError::NonFinite { joint: j, field: "com", value: *v });
+                    return Err(ModelError::NonFinite {
+                        joint: j,
+                        field: "com",
+                        value: *v,
+                    });
                 }
             }
             for v in jt.inertia.iter() {
                 if !v.is_finite() {
-                    return Err(ModelError::NonFinite { joint: j, field: "inertia", value: *v });
+                    return Err(ModelError::NonFinite {
+                        joint: j,
+                        field: "inertia",
+                        value: *v,
+                    });
                 }
             }
             if jt.qlim[0].is_nan() || jt.qlim[1].is_nan() {
-                return Err(ModelError::NonFinite { joint: j, field: "qlim", value: f64::NAN });
+                return Err(ModelError::NonFinite {
+                    joint: j,
+                    field: "qlim",
+                    value: f64::NAN,
+                });
             }
             if jt.qlim[0] > jt.qlim[1] {
-                return Err(ModelError::ReversedLimits { joint: j, lo: jt.qlim[0], hi: jt.qlim[1] });
+                return Err(ModelError::ReversedLimits {
+                    joint: j,
+                    lo: jt.qlim[0],
+                    hi: jt.qlim[1],
+                });
             }
             if jt.mass < 0.0 {
-                return Err(ModelError::NegativeMass { joint: j, mass: jt.mass });
+                return Err(ModelError::NegativeMass {
+                    joint: j,
+                    mass: jt.mass,
+                });
             }
         }
         for (field, m) in [("base", &self.base), ("tool", &self.tool)] {
@@ -171,7 +198,10 @@ impl Robot {
     /// Checks a joint vector against this robot: right length, all finite.
     pub fn check_q(&self, q: &[f64]) -> Result<(), ModelError> {
         if q.len() != self.dof() {
-            return Err(ModelError::WrongDof { expected: self.dof(), got: q.len() });
+            return Err(ModelError::WrongDof {
+                expected: self.dof(),
+                got: q.len(),
+            });
         }
         for (index, &value) in q.iter().enumerate() {
             if !value.is_finite() {
@@ -188,7 +218,12 @@ fn is_rigid(m: &Matrix4<f64>) -> bool {
     }
     let r = m.fixed_view::<3, 3>(0, 0);
     let err = (r.transpose() * r - Matrix3::identity()).abs().max();
-    err < 1e-9 && (r.determinant() - 1.0).abs() < 1e-9 && m[(3, 0)] == 0.0 && m[(3, 1)] == 0.0 && m[(3, 2)] == 0.0 && m[(3, 3)] == 1.0
+    err < 1e-9
+        && (r.determinant() - 1.0).abs() < 1e-9
+        && m[(3, 0)] == 0.0
+        && m[(3, 1)] == 0.0
+        && m[(3, 2)] == 0.0
+        && m[(3, 3)] == 1.0
 }
 
 /// What a robot is doing: joint positions, velocities, accelerations, simulated time.
@@ -204,6 +239,11 @@ pub struct State {
 impl State {
     /// Rest at q = 0.
     pub fn zeros(dof: usize) -> Self {
-        State { q: DVector::zeros(dof), qd: DVector::zeros(dof), qdd: DVector::zeros(dof), t: 0.0 }
+        State {
+            q: DVector::zeros(dof),
+            qd: DVector::zeros(dof),
+            qdd: DVector::zeros(dof),
+            t: 0.0,
+        }
     }
 }

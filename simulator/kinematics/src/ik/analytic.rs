@@ -1,0 +1,398 @@
+//! All closed-form solutions of 6R arms with a spherical wrist: the PUMA 560 and every arm of
+//! its family (any link lengths a1, a2, a3, d1, d4, d6, lateral offset d2 + d3, any signs of the
+//! ±π/2 twists, joint offsets, base and tool; modified-DH robots after rewriting).
+//! The seed's one implemented exact solution (§2.5, "the PUMA 560 ... in a general form, in
+//! which six parameters (the lengths of the links) can vary"), after Paul & Zhang (IJRR 5(2),
+//! 1986), decoupled at the wrist centre (Pieper).
+//!
+//! Entry points: [`Analytic`] (the [`IkSolver`]), [`SphericalSolver`] (precomputed per robot,
+//! allocation-free [`SphericalSolver::solve_raw`] for benches).
+//!
+//! Branch rules (for the PUMA 560 these are Corke's `l/r`, `u/d`, `n/f`):
+//! * shoulder `Right`: θ1 = ψ + asin(k), `Left`: θ1 = ψ + π − asin(k), with ψ the azimuth of
+//!   the wrist centre and k = sin α1 · (d2 + d3) / ρ, ρ its distance from the waist axis;
+//! * elbow `Up` ⇔ σ · sin(θ3 + φ) ≤ 0 with σ = +1 right, −1 left, φ = atan2(−d4 sin α3, a3);
+//! * wrist `NoFlip` ⇔ sin α4 · sin θ5 ≤ 0; `Flip` is (θ4 + π, −θ5, θ6 + π).
+//!
+//! Rounding at the workspace boundary: a sine or cosine that exceeds 1 by at most
+//! [`CLAMP_SLACK`] is clamped and the solution carries [`Note::ElbowClamped`] /
+//! [`Note::ShoulderClamped`]; beyond that the branch is unreachable. At the wrist singularity
+//! (|sin θ5| < [`WRIST_SINGULAR`]) θ4 is taken from the reference (see [`Note::WristSingular`]);
+//! never NaN.
+
+use super::family::{ArmGeometry, Family, recognise};
+use super::{
+    Branch, Elbow, IkError, IkOptions, IkResult, IkSolver, Method, Note, Shoulder, Wrist, finish,
+    wrap,
+};
+use crate::model::Robot;
+use crate::pose::{rigid_inverse, rot_x, trans};
+use nalgebra::{Matrix3, Matrix4, Vector3};
+use std::f64::consts::PI;
+
+/// How far past ±1 a sine/cosine may be, by rounding, before the branch counts as unreachable.
+pub const CLAMP_SLACK: f64 = 1e-10;
+/// |sin θ5| below this is treated as the wrist singularity.
+pub const WRIST_SINGULAR: f64 = 1e-12;
+
+/// Rotation of a standard DH link: Rz(θ) Rx(α).
+pub(crate) fn rz_rx(theta: f64, alpha: f64) -> Matrix3<f64> {
+    let (st, ct) = theta.sin_cos();
+    let (sa, ca) = alpha.sin_cos();
+    Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca)
+}
+
+/// Closed-form flags kept without allocation (see [`Note`]).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct Flags {
+    pub wrist_singular: bool,
+    pub shoulder_singular: bool,
+    pub elbow_clamped: Option<f64>,
+    pub shoulder_clamped: Option<f64>,
+}
+
+impl Flags {
+    pub fn notes(&self) -> Vec<Note> {
+        let mut n = Vec::new();
+        if self.shoulder_singular {
+            n.push(Note::ShoulderSingular);
+        }
+        if let Some(excess) = self.shoulder_clamped {
+            n.push(Note::ShoulderClamped { excess });
+        }
+        if let Some(excess) = self.elbow_clamped {
+            n.push(Note::ElbowClamped { excess });
+        }
+        if self.wrist_singular {
+            n.push(Note::WristSingular);
+        }
+        n
+    }
+}
+
+/// The position part: waist, shoulder, elbow from the wrist point.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct ArmSolver {
+    pub d1: f64,
+    pub a1: f64,
+    pub a2: f64,
+    pub lateral: f64,
+    pub s1: f64,
+    /// Forearm as one planar link: length and angle φ.
+    pub l2: f64,
+    pub phi: f64,
+    pub alpha: [f64; 3],
+    pub scale: f64,
+}
+
+/// One arm branch: θ1..θ3 (DH angles, offsets not removed).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct ArmBranch {
+    pub theta: [f64; 3],
+    pub shoulder: Shoulder,
+    pub elbow: Elbow,
+    pub flags: Flags,
+}
+
+impl ArmSolver {
+    pub fn new(arm: &ArmGeometry) -> ArmSolver {
+        let j = &arm.chain.joints;
+        let b3 = -j[3].d * arm.s3;
+        let scale: f64 = j.iter().map(|j| j.a.abs() + j.d.abs()).sum();
+        ArmSolver {
+            d1: j[0].d,
+            a1: j[0].a,
+            a2: j[1].a,
+            lateral: arm.lateral,
+            s1: arm.s1,
+            l2: j[2].a.hypot(b3),
+            phi: b3.atan2(j[2].a),
+            alpha: [j[0].alpha, j[1].alpha, j[2].alpha],
+            scale,
+        }
+    }
+
+    /// The up-to-four arm branches reaching wrist point `p` (prefix frame), in the order
+    /// left-up, left-down, right-up, right-down; `None` where a branch cannot reach, with the
+    /// reason of the last failure. `theta1_ref` is the free θ1 at the shoulder singularity.
+    pub fn solve(
+        &self,
+        p: &Vector3<f64>,
+        theta1_ref: f64,
+    ) -> ([Option<ArmBranch>; 4], Option<&'static str>) {
+        let mut out = [None; 4];
+        let mut why = None;
+        let rho = p.x.hypot(p.y);
+        let psi = p.y.atan2(p.x);
+        let tiny = 1e-13 * self.scale;
+        let mut base_flags = Flags::default();
+        let (right, left) = if rho <= tiny && self.lateral.abs() <= tiny {
+            base_flags.shoulder_singular = true;
+            (theta1_ref, theta1_ref + PI)
+        } else {
+            let mut k = self.lateral * self.s1 / rho;
+            if !k.is_finite() || k.abs() > 1.0 + CLAMP_SLACK {
+                return (
+                    out,
+                    Some("the wrist centre is closer to the waist axis than the shoulder offset"),
+                );
+            }
+            if k.abs() > 1.0 {
+                base_flags.shoulder_clamped = Some(k.abs() - 1.0);
+                k = k.signum();
+            }
+            let a = k.asin();
+            (psi + a, psi + PI - a)
+        };
+        for (si, (shoulder, t1)) in [(Shoulder::Left, left), (Shoulder::Right, right)]
+            .into_iter()
+            .enumerate()
+        {
+            let (s, c) = t1.sin_cos();
+            let x1 = p.x * c + p.y * s - self.a1;
+            let y1 = (p.z - self.d1) * self.s1;
+            let r2 = x1 * x1 + y1 * y1;
+            let mut kk = (r2 - self.a2 * self.a2 - self.l2 * self.l2) / (2.0 * self.a2 * self.l2);
+            let mut flags = base_flags;
+            if kk.abs() > 1.0 + CLAMP_SLACK {
+                why = Some(if kk > 0.0 {
+                    "the wrist centre is farther from the shoulder than the stretched arm reaches"
+                } else {
+                    "the wrist centre is closer to the shoulder than the folded arm reaches"
+                });
+                continue;
+            }
+            if kk.abs() > 1.0 {
+                flags.elbow_clamped = Some(kk.abs() - 1.0);
+                kk = kk.signum();
+            }
+            let beta = kk.acos();
+            let sigma = if shoulder == Shoulder::Right {
+                1.0
+            } else {
+                -1.0
+            };
+            for (ei, elbow) in [Elbow::Up, Elbow::Down].into_iter().enumerate() {
+                // Up ⇔ σ·sin(θ3 + φ) ≤ 0.
+                let t3phi = if elbow == Elbow::Up {
+                    -sigma * beta
+                } else {
+                    sigma * beta
+                };
+                let (s3p, c3p) = t3phi.sin_cos();
+                let t3 = t3phi - self.phi;
+                let t2 = y1.atan2(x1) - (self.l2 * s3p).atan2(self.a2 + self.l2 * c3p);
+                out[2 * si + ei] = Some(ArmBranch {
+                    theta: [t1, t2, t3],
+                    shoulder,
+                    elbow,
+                    flags,
+                });
+            }
+        }
+        (out, why)
+    }
+
+    /// Rotation of frame 3 in the prefix frame for DH angles θ1..θ3.
+    pub fn r03(&self, theta: &[f64; 3]) -> Matrix3<f64> {
+        rz_rx(theta[0], self.alpha[0])
+            * rz_rx(theta[1], self.alpha[1])
+            * rz_rx(theta[2], self.alpha[2])
+    }
+}
+
+/// A raw closed-form solution: joint values (offsets removed, each wrapped into (−π, π]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RawSolution {
+    pub q: [f64; 6],
+    pub branch: Branch,
+    pub flags: Flags,
+}
+
+/// The spherical-wrist solver, precomputed for one robot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SphericalSolver {
+    arm: ArmSolver,
+    prefix_inv: Matrix4<f64>,
+    tail_inv: Matrix4<f64>,
+    alpha4: f64,
+    alpha5: f64,
+    s4: f64,
+    s5: f64,
+    offsets: [f64; 6],
+}
+
+impl SphericalSolver {
+    /// `NotApplicable` unless the robot is in [`Family::SphericalWrist`].
+    pub fn new(robot: &Robot) -> Result<SphericalSolver, IkError> {
+        let arm = match recognise(robot) {
+            Family::SphericalWrist(arm) => arm,
+            Family::OffsetWrist(_) => {
+                return Err(IkError::NotApplicable {
+                    method: "analytic",
+                    reason: "the wrist is not spherical (a5, d5 or a6 is not 0, or α5 is not ±π/2); use hybrid".into(),
+                });
+            }
+            Family::General(reason) => {
+                return Err(IkError::NotApplicable {
+                    method: "analytic",
+                    reason,
+                });
+            }
+        };
+        let j = &arm.chain.joints;
+        // A6 = Rz(θ6) · Tz(d6) Rx(α6) (a6 = 0): the constant tail goes with the tool.
+        let tail = trans(0.0, 0.0, j[5].d) * rot_x(j[5].alpha) * arm.chain.tool;
+        let mut offsets = [0.0; 6];
+        for (o, jt) in offsets.iter_mut().zip(j) {
+            *o = jt.offset;
+        }
+        Ok(SphericalSolver {
+            prefix_inv: rigid_inverse(&arm.chain.prefix),
+            tail_inv: rigid_inverse(&tail),
+            alpha4: j[3].alpha,
+            alpha5: j[4].alpha,
+            s4: arm.s4,
+            s5: j[4].alpha.sin().signum(),
+            offsets,
+            arm: ArmSolver::new(&arm),
+        })
+    }
+
+    /// Every solution for `target` (world frame), up to 8, in [`Branch::ALL`] order; `None`
+    /// for unreachable branches, with the reason. `reference` gives the free joints at the
+    /// singularities (joint values, not DH angles). No allocation.
+    pub fn solve_raw(
+        &self,
+        target: &Matrix4<f64>,
+        reference: &[f64; 6],
+    ) -> ([Option<RawSolution>; 8], Option<&'static str>) {
+        let w = self.prefix_inv * target * self.tail_inv;
+        let p = Vector3::new(w[(0, 3)], w[(1, 3)], w[(2, 3)]);
+        let rw = w.fixed_view::<3, 3>(0, 0).into_owned();
+        let (arms, why) = self.arm.solve(&p, reference[0] + self.offsets[0]);
+        let mut out = [None; 8];
+        for (ai, arm) in arms.iter().enumerate() {
+            let Some(arm) = arm else { continue };
+            let r36 = self.arm.r03(&arm.theta).transpose() * rw;
+            let (nx, ny, nz) = (r36[(0, 2)], r36[(1, 2)], r36[(2, 2)]);
+            let c5 = -nz * self.s4 * self.s5;
+            let h = nx.hypot(ny);
+            for (wi, wrist) in [Wrist::NoFlip, Wrist::Flip].into_iter().enumerate() {
+                let mut flags = arm.flags;
+                let s5t = if wrist == Wrist::NoFlip {
+                    -self.s4 * h
+                } else {
+                    self.s4 * h
+                };
+                let t5 = s5t.atan2(c5);
+                let t4 = if h > WRIST_SINGULAR {
+                    let g = self.s5 * s5t.signum();
+                    (ny * g).atan2(nx * g)
+                } else {
+                    flags.wrist_singular = true;
+                    let r4 = reference[3] + self.offsets[3];
+                    if wrist == Wrist::NoFlip { r4 } else { r4 + PI }
+                };
+                let partial = rz_rx(t4, self.alpha4) * rz_rx(t5, self.alpha5);
+                let rest = partial.transpose() * r36;
+                let t6 = rest[(1, 0)].atan2(rest[(0, 0)]);
+                let theta = [arm.theta[0], arm.theta[1], arm.theta[2], t4, t5, t6];
+                let mut q = [0.0; 6];
+                for k in 0..6 {
+                    q[k] = wrap(theta[k] - self.offsets[k]);
+                }
+                out[2 * ai + wi] = Some(RawSolution {
+                    q,
+                    branch: Branch {
+                        shoulder: arm.shoulder,
+                        elbow: arm.elbow,
+                        wrist,
+                    },
+                    flags,
+                });
+            }
+        }
+        (out, why)
+    }
+}
+
+/// The closed-form solver as an [`IkSolver`]. With `all`, every reachable branch; otherwise the
+/// one within limits (and converged) closest to `q0` (or to zero).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Analytic;
+
+impl IkSolver for Analytic {
+    fn method(&self) -> Method {
+        Method::Analytic
+    }
+
+    fn solve(
+        &self,
+        robot: &Robot,
+        target: &Matrix4<f64>,
+        options: &IkOptions,
+    ) -> Result<IkResult, IkError> {
+        let solver = SphericalSolver::new(robot)?;
+        let mut reference = [0.0; 6];
+        if let Some(q0) = &options.q0 {
+            reference.copy_from_slice(&q0[..6]);
+        }
+        let (raw, why) = solver.solve_raw(target, &reference);
+        let solutions: Vec<_> = raw
+            .iter()
+            .flatten()
+            .map(|s| {
+                finish(
+                    robot,
+                    target,
+                    options,
+                    s.q.to_vec(),
+                    Some(s.branch),
+                    0,
+                    s.flags.notes(),
+                )
+            })
+            .collect();
+        if solutions.is_empty() {
+            return Err(IkError::Unreachable {
+                reason: why.unwrap_or("no branch reaches the pose").to_owned(),
+            });
+        }
+        Ok(IkResult {
+            method: Method::Analytic,
+            solutions: pick(solutions, options),
+        })
+    }
+}
+
+/// All solutions, or the single preferred one: converged and within limits first, then
+/// nearest to `q0` (or zero) in the max-norm.
+pub(crate) fn pick(
+    mut solutions: Vec<super::IkSolution>,
+    options: &IkOptions,
+) -> Vec<super::IkSolution> {
+    if options.all || solutions.len() <= 1 {
+        return solutions;
+    }
+    let reference = options
+        .q0
+        .clone()
+        .unwrap_or_else(|| vec![0.0; solutions[0].q.len()]);
+    let key = |s: &super::IkSolution| {
+        let d =
+            s.q.iter()
+                .zip(&reference)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+        (!(s.converged && s.within_limits), d)
+    };
+    let best = (0..solutions.len())
+        .min_by(|&a, &b| {
+            key(&solutions[a])
+                .partial_cmp(&key(&solutions[b]))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        })
+        .unwrap_or(0);
+    vec![solutions.swap_remove(best)]
+}

@@ -1,0 +1,159 @@
+//! Recognising the closed-form family a robot belongs to (the seed's proposed extension, §2.4:
+//! "recognition of the ... configurations for which exact solutions exist").
+//!
+//! Both families are 6R arms whose first three joints are a waist (α1 = ±π/2), a shoulder and an
+//! elbow with parallel axes (α2 = 0), then α3 = ±π/2 and α4 = ±π/2 with a4 = 0:
+//! * [`Family::SphericalWrist`] — also α5 = ±π/2, a5 = d5 = a6 = 0: axes 4, 5, 6 meet in one point
+//!   (PUMA 560, most industrial 6R arms). Solved in closed form by [`super::analytic`].
+//! * [`Family::OffsetWrist`] — the wrist has offsets (a5, d5, a6, any α5): solved by
+//!   [`super::hybrid`], five joints analytic and θ6 numeric.
+//!
+//! Modified-DH robots are first rewritten as the equivalent standard chain
+//! ([`StandardChain::from_robot`]); the joint values are the same.
+
+use crate::model::{Convention, Joint, JointType, Robot};
+use crate::pose::{rot_x, trans};
+use nalgebra::Matrix4;
+use std::f64::consts::FRAC_PI_2;
+
+/// A robot rewritten in standard DH: `T_ee = prefix · A_1 ⋯ A_n · tool` with the standard
+/// `A_j`. For a modified-DH robot, `prefix = base · Rx(α_0) Tx(a_0)` and the standard row j
+/// takes the modified row j+1's a and α (the last row none); joint values are unchanged.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StandardChain {
+    pub prefix: Matrix4<f64>,
+    pub joints: Vec<Joint>,
+    pub tool: Matrix4<f64>,
+}
+
+impl StandardChain {
+    pub fn from_robot(robot: &Robot) -> StandardChain {
+        match robot.convention {
+            Convention::Standard => StandardChain {
+                prefix: robot.base,
+                joints: robot.joints.clone(),
+                tool: robot.tool,
+            },
+            Convention::Modified => {
+                let n = robot.joints.len();
+                let (a0, alpha0) = robot.joints.first().map_or((0.0, 0.0), |j| (j.a, j.alpha));
+                let joints = (0..n)
+                    .map(|j| {
+                        let (a, alpha) = robot
+                            .joints
+                            .get(j + 1)
+                            .map_or((0.0, 0.0), |next| (next.a, next.alpha));
+                        Joint {
+                            a,
+                            alpha,
+                            ..robot.joints[j].clone()
+                        }
+                    })
+                    .collect();
+                // Rx and Tx commute (same axis), so Rx(α0) Tx(a0) = the modified prefix.
+                StandardChain {
+                    prefix: robot.base * rot_x(alpha0) * trans(a0, 0.0, 0.0),
+                    joints,
+                    tool: robot.tool,
+                }
+            }
+        }
+    }
+}
+
+/// The arm part shared by both families, in standard DH.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ArmGeometry {
+    pub chain: StandardChain,
+    /// sin α1, sin α3, sin α4 (each ±1).
+    pub s1: f64,
+    pub s3: f64,
+    pub s4: f64,
+    /// Lateral (shoulder) offset d2 + d3 along the parallel shoulder/elbow axes.
+    pub lateral: f64,
+}
+
+/// Which closed form fits.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Family {
+    SphericalWrist(ArmGeometry),
+    OffsetWrist(ArmGeometry),
+    /// No closed form: the reason the first test failed.
+    General(String),
+}
+
+fn is(angle: f64, target: f64) -> bool {
+    (angle - target).abs() <= 1e-12 || (angle - target).abs() <= 1e-12 * target.abs()
+}
+
+fn sign_of_right_angle(angle: f64) -> Option<f64> {
+    if is(angle, FRAC_PI_2) {
+        Some(1.0)
+    } else if is(angle, -FRAC_PI_2) {
+        Some(-1.0)
+    } else {
+        None
+    }
+}
+
+/// Classifies `robot` (see the module docs). Length "zeros" are relative to the robot's size
+/// (1e-12 × the sum of |a| and |d|), so a 1 mm arm and a 1 km arm classify alike.
+pub fn recognise(robot: &Robot) -> Family {
+    if robot.dof() != 6 {
+        return Family::General(format!(
+            "{} joints; the closed forms are for 6",
+            robot.dof()
+        ));
+    }
+    if let Some(j) = robot
+        .joints
+        .iter()
+        .position(|j| j.joint_type != JointType::Revolute)
+    {
+        return Family::General(format!(
+            "joint {j} is prismatic; the closed forms are for 6R arms"
+        ));
+    }
+    let chain = StandardChain::from_robot(robot);
+    let jt = &chain.joints;
+    let scale: f64 = jt
+        .iter()
+        .map(|j| j.a.abs() + j.d.abs())
+        .sum::<f64>()
+        .max(f64::MIN_POSITIVE);
+    let zero = |x: f64| x.abs() <= 1e-12 * scale;
+    let Some(s1) = sign_of_right_angle(jt[0].alpha) else {
+        return Family::General("α1 is not ±π/2 (waist not perpendicular to shoulder)".into());
+    };
+    if !is(jt[1].alpha, 0.0) {
+        return Family::General("α2 is not 0 (shoulder and elbow axes not parallel)".into());
+    }
+    let Some(s3) = sign_of_right_angle(jt[2].alpha) else {
+        return Family::General("α3 is not ±π/2".into());
+    };
+    let Some(s4) = sign_of_right_angle(jt[3].alpha) else {
+        return Family::General("α4 is not ±π/2".into());
+    };
+    if !zero(jt[3].a) {
+        return Family::General("a4 is not 0 (wrist axes 4 and 5 do not meet)".into());
+    }
+    if zero(jt[1].a) || (zero(jt[2].a) && zero(jt[3].d)) {
+        return Family::General("upper arm or forearm has zero length".into());
+    }
+    let arm = ArmGeometry {
+        s1,
+        s3,
+        s4,
+        lateral: jt[1].d + jt[2].d,
+        chain: chain.clone(),
+    };
+    let spherical = sign_of_right_angle(jt[4].alpha).is_some()
+        && zero(jt[4].a)
+        && zero(jt[4].d)
+        && zero(jt[5].a);
+    if spherical {
+        Family::SphericalWrist(arm)
+    } else {
+        Family::OffsetWrist(arm)
+    }
+}

@@ -1,0 +1,130 @@
+//! Geometric Jacobians and distance to singularity. Depends only on q.
+//!
+//! Entry points: [`jacobian`] (world/base or tool frame), [`fk_and_jacobian`] (both at once, for
+//! solvers), [`singularity`] (smallest singular value, manipulability, condition number).
+//!
+//! Rows are vx vy vz ωx ωy ωz: the linear velocity of the tool-frame origin and the angular
+//! velocity of the tool (DESIGN.md). "Base" means the world frame in which
+//! `T_ee = base · A_1 ⋯ A_n · tool` is expressed (as Robotics Toolbox's `jacob0`); "tool"
+//! re-expresses both velocities in the tool frame's axes (as `jacobe`).
+
+use crate::fk::link_transform;
+use crate::model::{Convention, JointType, Robot};
+use crate::pose::{rotation, translation};
+use nalgebra::{DMatrix, Dyn, Matrix4, OMatrix, U6};
+
+/// A 6 × n Jacobian.
+pub type Jacobian = OMatrix<f64, U6, Dyn>;
+
+/// The frame a Jacobian's rows are expressed in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Frame {
+    /// The world frame (the frame `base` is given in).
+    #[default]
+    Base,
+    /// The tool frame at `q`.
+    Tool,
+}
+
+/// Tool pose and base-frame Jacobian in one pass over the chain (what an IK iteration needs).
+/// `q` must have `robot.dof()` entries. Returns `(T_ee, J)` with `J` 6 × n.
+pub fn fk_and_jacobian(robot: &Robot, q: &[f64]) -> (Matrix4<f64>, Jacobian) {
+    let n = robot.dof();
+    // Joint j's axis is z of the frame before it (standard DH: frame j−1) or of the frame after
+    // its Rx·Tx prefix (modified DH: frame j, since A_j = Rx Tx · Rz Tz and Rz Tz keeps z).
+    let mut axes = Vec::with_capacity(n);
+    let mut t = robot.base;
+    for (joint, &qj) in robot.joints.iter().zip(q) {
+        let a = link_transform(robot.convention, joint, qj);
+        let next = t * a;
+        let axis_frame = match robot.convention {
+            Convention::Standard => t,
+            Convention::Modified => next,
+        };
+        axes.push((
+            axis_frame.fixed_view::<3, 1>(0, 2).into_owned(),
+            translation(&axis_frame),
+        ));
+        t = next;
+    }
+    let tee = t * robot.tool;
+    let pe = translation(&tee);
+    let mut jac = Jacobian::zeros(n);
+    for (j, (joint, (z, o))) in robot.joints.iter().zip(axes).enumerate() {
+        match joint.joint_type {
+            JointType::Revolute => {
+                let v = z.cross(&(pe - o));
+                jac.fixed_view_mut::<3, 1>(0, j).copy_from(&v);
+                jac.fixed_view_mut::<3, 1>(3, j).copy_from(&z);
+            }
+            JointType::Prismatic => {
+                jac.fixed_view_mut::<3, 1>(0, j).copy_from(&z);
+            }
+        }
+    }
+    (tee, jac)
+}
+
+/// The geometric Jacobian at `q` in `frame` (see the module docs). `q` must have `robot.dof()`
+/// entries (check with [`Robot::check_q`]).
+pub fn jacobian(robot: &Robot, q: &[f64], frame: Frame) -> Jacobian {
+    let (tee, mut jac) = fk_and_jacobian(robot, q);
+    if frame == Frame::Tool {
+        to_tool_frame(&mut jac, &tee);
+    }
+    jac
+}
+
+/// Re-expresses a base-frame Jacobian in the axes of the tool pose `tee` (in place).
+pub fn to_tool_frame(jac: &mut Jacobian, tee: &Matrix4<f64>) {
+    let rt = rotation(tee).transpose();
+    for mut col in jac.column_iter_mut() {
+        let v = rt * col.fixed_rows::<3>(0);
+        let w = rt * col.fixed_rows::<3>(3);
+        col.fixed_rows_mut::<3>(0).copy_from(&v);
+        col.fixed_rows_mut::<3>(3).copy_from(&w);
+    }
+}
+
+/// Distance to singularity of a Jacobian.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Singularity {
+    /// Smallest of the min(6, n) singular values (0 at a singularity). Mixed units: the
+    /// linear rows are m/rad, the angular rows dimensionless.
+    pub sigma_min: f64,
+    /// Largest singular value.
+    pub sigma_max: f64,
+    /// Yoshikawa's manipulability √det(J Jᵀ) (the product of the singular values; 0 for n < 6).
+    pub manipulability: f64,
+    /// σ_max / σ_min (∞ at a singularity).
+    pub condition: f64,
+}
+
+/// Singular-value measures of `jac` (any 6 × n). Uses an SVD; never NaN for finite input.
+pub fn singularity(jac: &Jacobian) -> Singularity {
+    let n = jac.ncols();
+    if n == 0 {
+        return Singularity {
+            sigma_min: 0.0,
+            sigma_max: 0.0,
+            manipulability: 0.0,
+            condition: f64::INFINITY,
+        };
+    }
+    let m: DMatrix<f64> = DMatrix::from_iterator(6, n, jac.iter().copied());
+    let sv = m.singular_values();
+    let sigma_min = sv.iter().copied().fold(f64::INFINITY, f64::min);
+    let sigma_max = sv.iter().copied().fold(0.0, f64::max);
+    let manipulability = if n < 6 { 0.0 } else { sv.iter().product() };
+    let condition = if sigma_min > 0.0 {
+        sigma_max / sigma_min
+    } else {
+        f64::INFINITY
+    };
+    Singularity {
+        sigma_min,
+        sigma_max,
+        manipulability,
+        condition,
+    }
+}
