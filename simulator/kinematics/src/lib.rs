@@ -23,6 +23,7 @@ mod json;
 mod model;
 pub mod movej;
 pub mod pose;
+pub mod query;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
 pub use json::{

@@ -220,7 +220,7 @@ pub struct IkSolution {
     /// Whether the residual is within the requested per-axis tolerances.
     pub converged: bool,
     /// Whether every joint is within its limits (revolute joints are first moved by 2π into
-    /// their limits where that is possible).
+    /// their limits where that is possible; [`LIMIT_SLACK`] allowed for rounding).
     pub within_limits: bool,
     /// Iterations spent (0 for closed forms; the scalar root-finder's for the hybrid).
     pub iterations: usize,
@@ -340,13 +340,16 @@ pub(crate) fn finish(
     }
 }
 
+/// Slack on joint limits for values that rounding put a hair outside (rad or m).
+pub const LIMIT_SLACK: f64 = 1e-12;
+
 /// Moves each revolute joint by multiples of 2π: into its limits if possible, and then as close
 /// to `reference` as the limits allow (or into (−π, π] without a reference). Returns whether
 /// every joint ends within limits.
 pub(crate) fn fit_limits(robot: &Robot, q: &mut [f64], reference: Option<&[f64]>) -> bool {
     let mut ok = true;
     for (j, (joint, qj)) in robot.joints.iter().zip(q.iter_mut()).enumerate() {
-        let [lo, hi] = joint.qlim;
+        let [lo, hi] = [joint.qlim[0] - LIMIT_SLACK, joint.qlim[1] + LIMIT_SLACK];
         if joint.joint_type == JointType::Revolute {
             let r = reference.map_or(0.0, |r| r[j]);
             // The 2π-equivalent nearest the reference, then the nearest inside the limits.
