@@ -1,1 +1,45 @@
-//! (being written)
+//! Collision detection for robosim (seed §2.6, appendix 2.1–2.2): one module per mode behind one
+//! dispatcher, the broad phase over the bodies in use, robot checks with self-collision, moves
+//! that stop at the last safe step, and continuous checking along joint-space steps.
+//!
+//! Modes ([`Mode`]):
+//! * [`bbox`] — centre + half-diagonal boxes, dilation product, two-way test (Eq. 6–9);
+//! * [`polygon`] — the seed's polygon algorithm (POCODA with the seed's improvement);
+//! * [`exact`] — parry's GJK/EPA on the true primitives, distances and witness points.
+//!
+//! Entry points:
+//! * [`Solid`] — a body in both forms (faceted polyhedron, exact parry shape).
+//! * [`collide`] — one pair, any mode; answers [`PairResult`] (clear / contact / unknown).
+//! * [`robot::check_robot`], [`robot::move_checked`] — a robot at q against a [`robot::Scene`];
+//!   the seed's CHECK and MOVEJ/MOVEJI with collision on.
+//! * [`ccd::sweep_robot`] — time of impact along a joint-space step (conservative advancement).
+//! * [`broad`] — sweep-and-prune and BVH broad phases.
+//! * [`query`] — the `collide` and `check` ops of the query protocol.
+//! * [`report::report_collision`] — "what accuracy costs in time".
+
+pub mod bbox;
+pub mod broad;
+pub mod ccd;
+pub mod exact;
+mod outcome;
+pub mod polygon;
+pub mod robot;
+mod solid;
+
+pub use outcome::{Mode, PairResult};
+pub use polygon::PolygonOptions;
+pub use exact::ExactOptions;
+pub use solid::{default_facets, Piece, ShapeError, Solid, SolidKind, DEFAULT_CHORD_ERROR};
+
+use nalgebra::Isometry3;
+
+/// One pair of solids posed by `pa`, `pb` (solid → world) in the given mode, with each mode's
+/// default options (polygon: containment check on; exact: distance and depth computed).
+/// Symmetric: `collide(b, a)` gives the same verdict with the witness points swapped.
+pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, mode: Mode) -> PairResult {
+    match mode {
+        Mode::BBox => bbox::collide(a, pa, b, pb),
+        Mode::Polygon => polygon::collide(a, pa, b, pb, PolygonOptions::default()),
+        Mode::Exact => exact::collide(a, pa, b, pb, ExactOptions::default()),
+    }
+}

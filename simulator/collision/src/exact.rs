@@ -1,0 +1,113 @@
+//! The exact mode, on parry3d-f64 0.25.3: GJK for the boolean and the distance between convex
+//! shapes (true primitives: box, sphere, cylinder, cone; convex hulls), EPA for the penetration
+//! depth, and parry's BVH as the mid-phase of many-piece bodies (compounds, triangle meshes).
+//!
+//! It closes the first of the seed's admitted misses (§2.6, "completely inside"): GJK works on
+//! solids, so a convex body inside another intersects; for a non-convex mesh, whose parry shape
+//! is a surface, one point of the other body is tested against the mesh's oriented
+//! pseudo-normals ([`collide`] does this when the surfaces do not meet).
+//!
+//! Entry points: [`collide`] (boolean, distance, witness points, depth) and [`intersects`]
+//! (boolean only — what the robot checks use).
+
+use crate::outcome::PairResult;
+use crate::solid::{Solid, SolidKind};
+use nalgebra::{Isometry3, Point3};
+use parry3d_f64::query::{self, ClosestPoints};
+
+/// What to compute beyond the boolean.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct ExactOptions {
+    /// Separation distance and closest points when clear (one more GJK run).
+    pub distance: bool,
+    /// Penetration depth and deepest points when in contact (EPA).
+    pub depth: bool,
+}
+
+impl Default for ExactOptions {
+    fn default() -> Self {
+        ExactOptions { distance: true, depth: true }
+    }
+}
+
+/// Is `p` (world) inside the closed oriented mesh `s` posed by `ps`? `None` if `s` is not a
+/// closed mesh (the question is then answered by GJK on solids, or cannot be).
+fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> {
+    if s.kind != SolidKind::Mesh || !s.pieces[0].closed {
+        return None;
+    }
+    Some(s.exact.project_point(ps, p, true).is_inside)
+}
+
+/// Boolean only: do the exact solids touch or overlap? `Err` carries the reason when parry
+/// cannot decide (unsupported pair).
+pub fn intersects(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> Result<bool, String> {
+    let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
+    let hit = query::intersection_test(&ga, a.exact.as_ref(), &gb, b.exact.as_ref())
+        .map_err(|_| format!("parry has no intersection test for {:?} against {:?}", a.kind, b.kind))?;
+    if hit {
+        return Ok(true);
+    }
+    Ok(contained(a, pa, b, pb)?.is_some())
+}
+
+/// Containment for non-convex meshes (the surfaces do not meet): a point of one inside the
+/// other. Returns the world point, `Err` when a mesh is open and the other could be inside it.
+fn contained(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> Result<Option<Point3<f64>>, String> {
+    for (s, ps, o, po) in [(a, pa, b, pb), (b, pb, a, pa)] {
+        if s.kind == SolidKind::Mesh {
+            let p = po * o.interior_point();
+            match inside_mesh(s, ps, &p) {
+                Some(true) => return Ok(Some(p)),
+                Some(false) => {}
+                None => return Err("containment undecidable: the mesh is not a closed surface".into()),
+            }
+        }
+    }
+    Ok(None)
+}
+
+/// The exact mode for two solids posed by `pa`, `pb` (solid → world). Contact includes
+/// touching (distance 0). Distances in metres; witness points in the world frame.
+pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, opts: ExactOptions) -> PairResult {
+    let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
+    let (sa, sb) = (a.exact.as_ref(), b.exact.as_ref());
+    let hit = match query::intersection_test(&ga, sa, &gb, sb) {
+        Ok(h) => h,
+        Err(_) => return PairResult::Unknown { reason: format!("parry has no intersection test for {:?} against {:?}", a.kind, b.kind) },
+    };
+    if hit {
+        if !opts.depth {
+            return PairResult::Contact { signed_distance: None, witness: None };
+        }
+        return match query::contact(&ga, sa, &gb, sb, 0.0) {
+            Ok(Some(c)) if c.dist.is_finite() => {
+                PairResult::Contact { signed_distance: Some(c.dist.min(0.0)), witness: Some([c.point1, c.point2]) }
+            }
+            // Intersecting for sure, depth not computable (EPA gave up): the boolean stands.
+            _ => PairResult::Contact { signed_distance: None, witness: None },
+        };
+    }
+    match contained(a, pa, b, pb) {
+        Ok(Some(p)) => return PairResult::Contact { signed_distance: None, witness: Some([p, p]) },
+        Ok(None) => {}
+        Err(reason) => return PairResult::Unknown { reason },
+    }
+    if !opts.distance {
+        return PairResult::Clear { distance: None, witness: None };
+    }
+    let d = match query::distance(&ga, sa, &gb, sb) {
+        Ok(d) if d.is_finite() => d,
+        Ok(d) => return PairResult::Unknown { reason: format!("parry returned a non-finite distance ({d})") },
+        Err(_) => return PairResult::Unknown { reason: format!("parry has no distance for {:?} against {:?}", a.kind, b.kind) },
+    };
+    let witness = match query::closest_points(&ga, sa, &gb, sb, f64::MAX) {
+        Ok(ClosestPoints::WithinMargin(p1, p2)) => Some([p1, p2]),
+        _ => None,
+    };
+    if d <= 0.0 {
+        // GJK's boolean and its distance disagree at the contact boundary: report contact.
+        return PairResult::Contact { signed_distance: Some(0.0), witness };
+    }
+    PairResult::Clear { distance: Some(d), witness }
+}

@@ -1,0 +1,381 @@
+//! Collision bodies in the two forms the modes need (seed §3.2: "store both representation
+//! forms"): the faceted polyhedron the seed's polygon algorithm walks (planes, penalty planes,
+//! reduced edge array, box — all from [`robosim_geometry::Polyhedron`]), and the exact shape
+//! parry's GJK/EPA works on (the true primitive for box, sphere, cylinder and cone; the convex
+//! hull for a convex point set; a triangle mesh with oriented pseudo-normals for a non-convex
+//! polyhedron; a compound with a BVH for a body made of many convex parts).
+//!
+//! Entry points: [`Solid::cuboid`], [`Solid::sphere`], [`Solid::cylinder`], [`Solid::cone`],
+//! [`Solid::convex`], [`Solid::mesh`], [`Solid::compound`], [`default_facets`].
+//!
+//! Conventions (DESIGN.md, Shapes): metres; every primitive is centred on its bounding box with
+//! its axis along z; a cone's base disc is at z = −h/2 and its apex at z = +h/2. Faceted
+//! primitives are *inscribed* (every vertex lies on the true surface), so the faceted solid is
+//! inside the true one and [`Solid::tessellation_error`] is the Hausdorff distance between them.
+
+use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
+use parry3d_f64::shape::{SharedShape, TriMeshFlags};
+use robosim_geometry::{Aabb, GeometryError, Polyhedron};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Chord error the default facet count aims at, metres.
+pub const DEFAULT_CHORD_ERROR: f64 = 1e-3;
+
+/// Why a solid could not be built. Each variant names the offending field or part.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ShapeError {
+    /// A size field is zero, negative or not finite. Fix the field it names.
+    #[error("`{field}` must be finite and > 0, got {value}")]
+    BadDimension { field: &'static str, value: f64 },
+    /// Fewer than 3 facets around a round primitive.
+    #[error("`facets` must be at least 3, got {0}")]
+    TooFewFacets(usize),
+    /// The polygon data was refused by the geometry library (names polygon and vertex).
+    #[error("{0}")]
+    Geometry(#[from] GeometryError),
+    /// A convex point set spans no volume (fewer than 4 points off a common plane).
+    #[error("the convex hull of the {0} points is flat or empty")]
+    FlatHull(usize),
+    /// A compound part is itself a non-convex mesh or a compound (parry cannot nest them).
+    #[error("compound part {0} is not convex (only convex parts may be combined)")]
+    NonConvexPart(usize),
+    /// A compound has no parts.
+    #[error("a compound needs at least one part")]
+    EmptyCompound,
+}
+
+/// What a solid was built from (kept for reports and for the containment logic).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SolidKind {
+    Cuboid,
+    Sphere,
+    Cylinder,
+    Cone,
+    Convex,
+    Mesh,
+    Compound,
+}
+
+/// One polyhedron of a body as the polygon mode uses it: the geometry library's redundant forms
+/// plus, per polygon side, the index of its edge in the reduced edge array.
+#[derive(Debug, Clone)]
+pub struct Piece {
+    pub poly: Polyhedron,
+    /// Every vertex is on the inner side of every polygon plane.
+    pub convex: bool,
+    /// Closed, consistently oriented surface (needed for point-in-solid by ray parity).
+    pub closed: bool,
+    /// `side_edge[k]` = index into `poly.edges` of the side `poly.indices[k] → next`.
+    pub side_edge: Vec<u32>,
+}
+
+impl Piece {
+    /// Wraps a validated polyhedron.
+    pub fn new(poly: Polyhedron) -> Self {
+        let mut side_edge = Vec::with_capacity(poly.indices.len());
+        for i in 0..poly.polygons.len() {
+            let ids = poly.polygon_indices(i);
+            for k in 0..ids.len() {
+                let (a, b) = (ids[k], ids[(k + 1) % ids.len()]);
+                let key = [a.min(b), a.max(b)];
+                // Every side was inserted into `edges` by `Polyhedron::from_polygons`.
+                let e = poly.edges.binary_search(&key).unwrap_or(0);
+                side_edge.push(e as u32);
+            }
+        }
+        let size = poly.bbox.half.norm().max(f64::MIN_POSITIVE);
+        let convex = poly
+            .polygons
+            .iter()
+            .all(|pg| poly.vertices.iter().all(|v| pg.plane.signed_distance(v) <= 1e-9 * size));
+        let closed = poly.is_closed();
+        Piece { poly, convex, closed, side_edge }
+    }
+}
+
+/// A collision body (see the module docs).
+#[derive(Debug, Clone)]
+pub struct Solid {
+    pub kind: SolidKind,
+    /// Faceted form(s) for the polygon mode; several for a compound.
+    pub pieces: Vec<Piece>,
+    /// The exact shape for parry, in its own frame …
+    pub exact: SharedShape,
+    /// … placed in the solid's frame by this transform (parry's round shapes have their axis
+    /// along y; ours along z).
+    pub exact_offset: Isometry3<f64>,
+    /// Hausdorff distance between the faceted and the exact solid, metres (0 when the faceted
+    /// form *is* the exact one).
+    pub tessellation_error: f64,
+    /// Box of the faceted pieces in the solid's frame (centre + half-diagonal, seed Eq. 6).
+    pub bbox: Aabb,
+    /// Volume of the exact solid, m³ (for reports; `None` for meshes and compounds).
+    pub exact_volume: Option<f64>,
+}
+
+fn positive(field: &'static str, value: f64) -> Result<f64, ShapeError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ShapeError::BadDimension { field, value })
+    }
+}
+
+/// The default facet count around a round primitive of `radius`: the smallest count (12 to 256)
+/// whose chord error `r (1 − cos(π/n))` is at most [`DEFAULT_CHORD_ERROR`].
+pub fn default_facets(radius: f64) -> usize {
+    let mut n = 12;
+    while n < 256 && radius * (1.0 - (PI / n as f64).cos()) > DEFAULT_CHORD_ERROR {
+        n += 4;
+    }
+    n
+}
+
+/// Rotation taking parry's y axis onto our z axis (Rx(+90°)).
+fn y_to_z() -> Isometry3<f64> {
+    Isometry3::from_parts(Default::default(), UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2))
+}
+
+impl Solid {
+    fn single(kind: SolidKind, poly: Polyhedron, exact: SharedShape, exact_offset: Isometry3<f64>, err: f64, vol: Option<f64>) -> Self {
+        let bbox = poly.bbox;
+        Solid { kind, pieces: vec![Piece::new(poly)], exact, exact_offset, tessellation_error: err, bbox, exact_volume: vol }
+    }
+
+    /// A box with full side lengths `size` (m), centred at the origin.
+    pub fn cuboid(size: Vector3<f64>) -> Result<Self, ShapeError> {
+        let h = Vector3::new(positive("size[0]", size.x)? / 2.0, positive("size[1]", size.y)? / 2.0, positive("size[2]", size.z)? / 2.0);
+        let v: Vec<Point3<f64>> = (0..8)
+            .map(|i| {
+                let s = |bit: usize| if i >> bit & 1 == 1 { 1.0 } else { -1.0 };
+                Point3::new(s(0) * h.x, s(1) * h.y, s(2) * h.z)
+            })
+            .collect();
+        let f = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
+        let faces: Vec<Vec<u32>> = f.iter().map(|q| q.to_vec()).collect();
+        let poly = Polyhedron::from_polygons(v, &faces)?;
+        let vol = 8.0 * h.x * h.y * h.z;
+        Ok(Self::single(SolidKind::Cuboid, poly, SharedShape::cuboid(h.x, h.y, h.z), Isometry3::identity(), 0.0, Some(vol)))
+    }
+
+    /// A sphere of `radius` (m); faceted as a latitude/longitude polyhedron with `facets`
+    /// meridians (default [`default_facets`]) and `facets / 2` bands.
+    pub fn sphere(radius: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
+        let r = positive("radius", radius)?;
+        let n = facets.unwrap_or_else(|| default_facets(r));
+        if n < 3 {
+            return Err(ShapeError::TooFewFacets(n));
+        }
+        let m = (n / 2).max(2);
+        let mut v = vec![Point3::new(0.0, 0.0, -r), Point3::new(0.0, 0.0, r)];
+        for k in 1..m {
+            let phi = -FRAC_PI_2 + PI * k as f64 / m as f64;
+            for i in 0..n {
+                let th = TAU * i as f64 / n as f64;
+                v.push(Point3::new(r * phi.cos() * th.cos(), r * phi.cos() * th.sin(), r * phi.sin()));
+            }
+        }
+        let ring = |k: usize, i: usize| (2 + (k - 1) * n + i % n) as u32;
+        let mut faces = Vec::new();
+        for i in 0..n {
+            faces.push(vec![0, ring(1, i + 1), ring(1, i)]);
+            for k in 1..m - 1 {
+                faces.push(vec![ring(k, i), ring(k, i + 1), ring(k + 1, i + 1), ring(k + 1, i)]);
+            }
+            faces.push(vec![ring(m - 1, i), ring(m - 1, i + 1), 1]);
+        }
+        let poly = Polyhedron::from_polygons(v, &faces)?;
+        let inner = poly.polygons.iter().map(|p| p.plane.d.abs()).fold(f64::INFINITY, f64::min);
+        let vol = 4.0 / 3.0 * PI * r.powi(3);
+        Ok(Self::single(SolidKind::Sphere, poly, SharedShape::ball(r), Isometry3::identity(), r - inner, Some(vol)))
+    }
+
+    /// A cylinder of `radius` and `height` (m), axis z, centred; `facets` sides.
+    pub fn cylinder(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
+        let (r, h) = (positive("radius", radius)?, positive("height", height)?);
+        let n = facets.unwrap_or_else(|| default_facets(r));
+        if n < 3 {
+            return Err(ShapeError::TooFewFacets(n));
+        }
+        let mut v = Vec::with_capacity(2 * n);
+        for z in [-h / 2.0, h / 2.0] {
+            for i in 0..n {
+                let th = TAU * i as f64 / n as f64;
+                v.push(Point3::new(r * th.cos(), r * th.sin(), z));
+            }
+        }
+        let n32 = n as u32;
+        let mut faces: Vec<Vec<u32>> = vec![(0..n32).rev().collect(), (n32..2 * n32).collect()];
+        for i in 0..n32 {
+            let j = (i + 1) % n32;
+            faces.push(vec![i, j, n32 + j, n32 + i]);
+        }
+        let poly = Polyhedron::from_polygons(v, &faces)?;
+        let err = r * (1.0 - (PI / n as f64).cos());
+        Ok(Self::single(SolidKind::Cylinder, poly, SharedShape::cylinder(h / 2.0, r), y_to_z(), err, Some(PI * r * r * h)))
+    }
+
+    /// A cone of base `radius` and `height` (m): base disc at z = −h/2, apex at z = +h/2.
+    pub fn cone(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
+        let (r, h) = (positive("radius", radius)?, positive("height", height)?);
+        let n = facets.unwrap_or_else(|| default_facets(r));
+        if n < 3 {
+            return Err(ShapeError::TooFewFacets(n));
+        }
+        let mut v: Vec<Point3<f64>> = (0..n)
+            .map(|i| {
+                let th = TAU * i as f64 / n as f64;
+                Point3::new(r * th.cos(), r * th.sin(), -h / 2.0)
+            })
+            .collect();
+        v.push(Point3::new(0.0, 0.0, h / 2.0));
+        let n32 = n as u32;
+        let mut faces: Vec<Vec<u32>> = vec![(0..n32).rev().collect()];
+        for i in 0..n32 {
+            faces.push(vec![i, (i + 1) % n32, n32]);
+        }
+        let poly = Polyhedron::from_polygons(v, &faces)?;
+        // Hausdorff distance ≤ the base chord's sagitta (the gap shrinks linearly to the apex).
+        let err = r * (1.0 - (PI / n as f64).cos());
+        Ok(Self::single(SolidKind::Cone, poly, SharedShape::cone(h / 2.0, r), y_to_z(), err, Some(PI * r * r * h / 3.0)))
+    }
+
+    /// The convex hull of `points` (m). The faceted form is parry's hull triangulation, so both
+    /// forms are the same solid (tessellation error 0).
+    pub fn convex(points: &[Point3<f64>]) -> Result<Self, ShapeError> {
+        for (i, p) in points.iter().enumerate() {
+            if !p.coords.iter().all(|c| c.is_finite()) {
+                return Err(GeometryError::NonFiniteVertex { vertex: i, value: [p.x, p.y, p.z] }.into());
+            }
+        }
+        let hull = SharedShape::convex_hull(points).ok_or(ShapeError::FlatHull(points.len()))?;
+        let cp = hull.as_convex_polyhedron().ok_or(ShapeError::FlatHull(points.len()))?;
+        let (verts, tris) = cp.to_trimesh();
+        let faces: Vec<Vec<u32>> = tris.iter().map(|t| t.to_vec()).collect();
+        let poly = Polyhedron::from_polygons(verts, &faces)?;
+        Ok(Self::single(SolidKind::Convex, poly, hull, Isometry3::identity(), 0.0, None))
+    }
+
+    /// A polyhedron from `vertices` and convex planar `polygons` (counter-clockwise seen from
+    /// outside); degenerate, non-planar or concave polygons are refused (typed error naming the
+    /// polygon). If it is convex the exact form is its hull; otherwise an oriented triangle
+    /// mesh (surface queries through parry's BVH, containment through pseudo-normals).
+    pub fn mesh(vertices: Vec<Point3<f64>>, polygons: &[Vec<u32>]) -> Result<Self, ShapeError> {
+        let poly = Polyhedron::from_polygons(vertices, polygons)?;
+        let piece = Piece::new(poly);
+        let (exact, kind) = if piece.convex {
+            let hull = SharedShape::convex_hull(&piece.poly.vertices).ok_or(ShapeError::FlatHull(piece.poly.vertices.len()))?;
+            (hull, SolidKind::Convex)
+        } else {
+            let mut tris = Vec::new();
+            for i in 0..piece.poly.polygons.len() {
+                let ids = piece.poly.polygon_indices(i);
+                for k in 1..ids.len() - 1 {
+                    tris.push([ids[0], ids[k], ids[k + 1]]);
+                }
+            }
+            let flags = if piece.closed { TriMeshFlags::ORIENTED } else { TriMeshFlags::empty() };
+            let mesh = SharedShape::trimesh_with_flags(piece.poly.vertices.clone(), tris, flags)
+                .map_err(|_| ShapeError::FlatHull(piece.poly.vertices.len()))?;
+            (mesh, SolidKind::Mesh)
+        };
+        let bbox = piece.poly.bbox;
+        Ok(Solid { kind, pieces: vec![piece], exact, exact_offset: Isometry3::identity(), tessellation_error: 0.0, bbox, exact_volume: None })
+    }
+
+    /// A body made of convex `parts`, each placed by an isometry in the body's frame. The exact
+    /// form is a parry compound (its BVH is the mid-phase); the polygon mode walks each part.
+    pub fn compound(parts: Vec<(Isometry3<f64>, Solid)>) -> Result<Self, ShapeError> {
+        if parts.is_empty() {
+            return Err(ShapeError::EmptyCompound);
+        }
+        let mut pieces = Vec::new();
+        let mut shapes = Vec::new();
+        let mut err: f64 = 0.0;
+        let mut bbox: Option<Aabb> = None;
+        for (i, (iso, s)) in parts.into_iter().enumerate() {
+            if matches!(s.kind, SolidKind::Mesh | SolidKind::Compound) {
+                return Err(ShapeError::NonConvexPart(i));
+            }
+            for p in &s.pieces {
+                let moved = Piece::new(p.poly.transformed(&iso));
+                bbox = Some(match bbox {
+                    None => moved.poly.bbox,
+                    Some(b) => b.merged(&moved.poly.bbox),
+                });
+                pieces.push(moved);
+            }
+            shapes.push((iso * s.exact_offset, s.exact.clone()));
+            err = err.max(s.tessellation_error);
+        }
+        // `bbox` is set: there was at least one part, and each part has at least one piece.
+        let bbox = bbox.ok_or(ShapeError::EmptyCompound)?;
+        Ok(Solid { kind: SolidKind::Compound, pieces, exact: SharedShape::compound(shapes), exact_offset: Isometry3::identity(), tessellation_error: err, bbox, exact_volume: None })
+    }
+
+    /// Total number of polygons over the faceted pieces.
+    pub fn polygon_count(&self) -> usize {
+        self.pieces.iter().map(|p| p.poly.polygons.len()).sum()
+    }
+
+    /// Volume of the faceted form (divergence theorem over its polygons), m³.
+    pub fn faceted_volume(&self) -> f64 {
+        let mut vol = 0.0;
+        for piece in &self.pieces {
+            let p = &piece.poly;
+            for i in 0..p.polygons.len() {
+                let ids = p.polygon_indices(i);
+                let a = p.vertices[ids[0] as usize].coords;
+                for k in 1..ids.len() - 1 {
+                    let (b, c) = (p.vertices[ids[k] as usize].coords, p.vertices[ids[k + 1] as usize].coords);
+                    vol += a.dot(&b.cross(&c)) / 6.0;
+                }
+            }
+        }
+        vol
+    }
+
+    /// A point surely inside (or on) the solid, in its frame: the first vertex of the first
+    /// piece. Used by containment tests.
+    pub fn interior_point(&self) -> Point3<f64> {
+        self.pieces[0].poly.vertices[self.pieces[0].poly.indices[0] as usize]
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn primitives_are_closed_convex_and_inscribed() {
+        let solids = [
+            Solid::cuboid(Vector3::new(1.0, 2.0, 3.0)).expect("box"),
+            Solid::sphere(0.5, Some(16)).expect("sphere"),
+            Solid::cylinder(0.3, 1.0, Some(12)).expect("cylinder"),
+            Solid::cone(0.3, 1.0, Some(12)).expect("cone"),
+        ];
+        for s in &solids {
+            let p = &s.pieces[0];
+            assert!(p.closed && p.convex, "{:?}", s.kind);
+            assert_eq!(p.poly.euler_characteristic(), 2);
+            let v = s.faceted_volume();
+            let e = s.exact_volume.expect("primitive volume");
+            assert!(v <= e * (1.0 + 1e-12) && v > 0.8 * e, "{:?}: {v} vs {e}", s.kind);
+        }
+    }
+
+    #[test]
+    fn bad_dimensions_are_named() {
+        assert_eq!(Solid::sphere(-1.0, None).err(), Some(ShapeError::BadDimension { field: "radius", value: -1.0 }));
+        assert!(matches!(Solid::cylinder(1.0, f64::NAN, None), Err(ShapeError::BadDimension { field: "height", .. })));
+        assert_eq!(Solid::cone(1.0, 1.0, Some(2)).err(), Some(ShapeError::TooFewFacets(2)));
+    }
+
+    #[test]
+    fn default_facets_meet_the_chord_error() {
+        for r in [0.01, 0.1, 1.0] {
+            let n = default_facets(r);
+            assert!(r * (1.0 - (PI / n as f64).cos()) <= DEFAULT_CHORD_ERROR);
+        }
+    }
+}
