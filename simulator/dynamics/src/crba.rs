@@ -112,3 +112,23 @@ pub(crate) fn cholesky_in_place(
     }
     Ok(())
 }
+
+/// Solves `L Lᵀ x = b` in place (`b` becomes `x`) with the lower factor from
+/// [`cholesky_in_place`].
+pub(crate) fn cholesky_solve_in_place(l: &DMatrix<f64>, b: &mut nalgebra::DVector<f64>) {
+    let n = l.nrows();
+    for i in 0..n {
+        let mut s = b[i];
+        for k in 0..i {
+            s -= l[(i, k)] * b[k];
+        }
+        b[i] = s / l[(i, i)];
+    }
+    for i in (0..n).rev() {
+        let mut s = b[i];
+        for k in i + 1..n {
+            s -= l[(k, i)] * b[k];
+        }
+        b[i] = s / l[(i, i)];
+    }
+}

@@ -53,3 +53,44 @@ pub(crate) fn energy_unchecked(model: &Model, data: &mut Data, q: &[f64], qd: &[
     }
     Energy { kinetic, potential }
 }
+
+/// `∂T/∂q` at fixed q̇ (N·m or N): the configuration gradient of the kinetic energy, needed by the
+/// momentum-form symplectic Euler step. O(n): with `hᶜⱼ` the spatial momentum of the subtree
+/// outboard of joint j, `∂T/∂qⱼ = (vⱼ ×ₘ Sⱼ) · hᶜⱼ` (from `∂Sₖ/∂qⱼ = Sⱼ ×ₘ Sₖ` for k > j,
+/// Featherstone 2008 §3.5; the link inertias rotate with the joint too). Fills and returns
+/// `data.tau`; also leaves the generalized momentum `M q̇` in `data.rhs`.
+pub fn kinetic_gradient<'d>(
+    model: &Model,
+    data: &'d mut Data,
+    q: &[f64],
+    qd: &[f64],
+) -> Result<&'d nalgebra::DVector<f64>, DynamicsError> {
+    model.check_vector("q", q)?;
+    model.check_vector("qd", qd)?;
+    data.update_transforms(model, q);
+    kinetic_gradient_pass(model, data, qd);
+    Ok(&data.tau)
+}
+
+/// [`kinetic_gradient`] over transforms already in `data.x`; motor inertia adds only momentum.
+pub(crate) fn kinetic_gradient_pass(model: &Model, data: &mut Data, qd: &[f64]) {
+    let n = model.dof();
+    let mut v_parent = Motion::zero();
+    for j in 0..n {
+        let link = &model.links[j];
+        let v = data.x[j].apply_motion(&v_parent).add(&link.s.scale(qd[j]));
+        data.v[j] = v;
+        data.f[j] = link.inertia.mul_motion(&v);
+        v_parent = v;
+    }
+    for j in (0..n).rev() {
+        let link = &model.links[j];
+        let hc = data.f[j];
+        data.tau[j] = data.v[j].cross_motion(&link.s).dot(&hc);
+        data.rhs[j] = link.s.dot(&hc) + link.motor_inertia * qd[j];
+        if j > 0 {
+            let moved = data.x[j].transpose_force(&hc);
+            data.f[j - 1] = data.f[j - 1].add(&moved);
+        }
+    }
+}

@@ -10,6 +10,8 @@
 //! * [`crba`] (mass matrix), [`fd_cholesky`] — composite-rigid-body algorithm and M⁻¹ by Cholesky.
 //! * [`aba`] — forward dynamics by the articulated-body algorithm.
 //! * [`energy`] — kinetic + potential energy.
+//! * [`Stepper`], [`simulate`], [`state_hash`] — explicit / semi-implicit Euler, RK4 and
+//!   Dormand–Prince 5(4) with step control; inelastic joint stops ([`apply_joint_stops`]).
 //! * [`pseudo_inertia`], [`from_pseudo_inertia`], [`physically_consistent`] — the seed's
 //!   4×4 pseudo-inertia and its consistency test.
 //!
@@ -21,6 +23,7 @@ mod aba;
 mod crba;
 mod data;
 mod energy;
+mod integrate;
 mod model;
 mod rnea;
 pub mod robot_json;
@@ -29,6 +32,10 @@ mod spatial;
 pub use aba::aba;
 pub use crba::{crba, fd_cholesky};
 pub use data::Data;
-pub use energy::{Energy, energy};
+pub use energy::{Energy, energy, kinetic_gradient};
+pub use integrate::{
+    Integrator, IntegratorConfig, Sample, Stats, StepSize, Stepper, apply_joint_stops, simulate,
+    state_hash,
+};
 pub use model::{DynamicsError, Model, from_pseudo_inertia, physically_consistent, pseudo_inertia};
 pub use rnea::{coriolis, gravity, rnea};

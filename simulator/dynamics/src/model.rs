@@ -51,6 +51,9 @@ pub enum DynamicsError {
         "state became non-finite at t = {t} s (joint {joint}); reduce the step or tighten the tolerances"
     )]
     Diverged { t: f64, joint: usize },
+    /// The implicit momentum update of the symplectic Euler step did not converge.
+    #[error("symplectic Euler step at t = {t} s (h = {h:e} s) did not converge; reduce the step")]
+    NoConvergence { t: f64, h: f64 },
     /// The adaptive integrator could not meet the tolerances with a step above the floor.
     #[error("step size underflow at t = {t} s (h = {h:e} s): tolerances cannot be met")]
     StepUnderflow { t: f64, h: f64 },
