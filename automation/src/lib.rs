@@ -2,4 +2,8 @@
 //!
 //! * [`model`] — Hierarchical Process and Fault Models in a declarative text form, consistency
 //!   checks, the shipped ECLSS model.
+//! * [`diag`] — FSPI (incremental, single and multiple faults), FSCI and ILM.
 pub mod model;
+pub mod diag;
+pub mod sim;
+pub mod analysis;
