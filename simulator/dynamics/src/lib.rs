@@ -12,6 +12,7 @@
 //! * [`energy`] — kinetic + potential energy.
 //! * [`Stepper`], [`simulate`], [`state_hash`] — explicit / semi-implicit Euler, RK4 and
 //!   Dormand–Prince 5(4) with step control; inelastic joint stops ([`apply_joint_stops`]).
+//! * [`query::dispatch`] — the query-protocol ops `id`, `mass_matrix`, `gravity`, `fd`, `simulate`.
 //! * [`pseudo_inertia`], [`from_pseudo_inertia`], [`physically_consistent`] — the seed's
 //!   4×4 pseudo-inertia and its consistency test.
 //!
@@ -25,6 +26,7 @@ mod data;
 mod energy;
 mod integrate;
 mod model;
+pub mod query;
 mod rnea;
 pub mod robot_json;
 mod spatial;
