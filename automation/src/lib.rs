@@ -7,3 +7,5 @@ pub mod model;
 pub mod diag;
 pub mod sim;
 pub mod analysis;
+pub mod kernel;
+pub mod reconfig;

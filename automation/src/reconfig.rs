@@ -1,0 +1,271 @@
+//! The reconfigurable controller of the seed's pictures 6–7 (§3.4), on the dataflow kernel.
+//!
+//! A one-link arm (a point mass `m` at the end of a massless rod of length `l`, hinged at a
+//! horizontal axis, viscous damping `b`, gravity `g`; `q` measured from the downward vertical):
+//!
+//! ```text
+//!   m l² q̈ = τ − m g l sin q − b q̇
+//! ```
+//!
+//! integrated with semi-implicit Euler at step `dt` (velocity first, then position with the new
+//! velocity), is held at a set-point `q_ref` by a proportional controller `τ = Kp e`,
+//! `e = q_ref − q`. Against gravity a P controller leaves a steady-state error
+//! `e ≈ m g l sin q / Kp`. A **Checker** actor watches the tracking error; when its RMS over a
+//! window exceeds a threshold after a settling time, it rewires the *running* graph: it adds a
+//! PID actor, moves the error stream's reader from P to PID (no error sample is lost or read
+//! twice), connects PID to the torque node and removes P — while the arm keeps being simulated.
+//!
+//! ```text
+//!   torque ──► [arm] ──► state ──► [error] ──► error ──► [P]  ──► torque   (before)
+//!                                                 └────► [Checker]
+//!                                               error ──► [PID] ──► torque  (after)
+//! ```
+//!
+//! Entry point: [`run_reconfig_demo`] → [`ReconfigOutcome`] (errors before and after).
+
+use crate::kernel::{ActorSpec, Firing, Graph, Retention, Value};
+use std::sync::{Arc, Mutex};
+
+/// Parameters of the demo (SI units: kg, m, s, rad, N·m).
+#[derive(Debug, Clone, Copy)]
+pub struct ReconfigOptions {
+    pub mass: f64,
+    pub length: f64,
+    pub damping: f64,
+    pub gravity: f64,
+    /// Integration step, s.
+    pub dt: f64,
+    /// Simulated time, s.
+    pub duration: f64,
+    /// Set-point, rad from the downward vertical.
+    pub setpoint: f64,
+    /// Proportional gain of the initial controller, N·m/rad.
+    pub kp: f64,
+    /// PID gains (N·m/rad, N·m/(rad·s), N·m·s/rad).
+    pub pid: (f64, f64, f64),
+    /// RMS tracking error above which the Checker reconfigures, rad.
+    pub threshold: f64,
+    /// Length of the Checker's RMS window, s.
+    pub window: f64,
+    /// Time before the Checker judges, s.
+    pub settle: f64,
+    /// Whether the Checker may reconfigure (false: P all along, for comparison).
+    pub allow_switch: bool,
+    /// Worker threads of the kernel.
+    pub workers: usize,
+}
+
+impl Default for ReconfigOptions {
+    fn default() -> Self {
+        ReconfigOptions {
+            mass: 1.0,
+            length: 0.5,
+            damping: 0.1,
+            gravity: 9.81,
+            dt: 1e-3,
+            duration: 6.0,
+            setpoint: 1.0,
+            kp: 20.0,
+            pid: (20.0, 40.0, 2.0),
+            threshold: 0.05,
+            window: 0.5,
+            settle: 1.5,
+            allow_switch: true,
+            workers: 2,
+        }
+    }
+}
+
+/// What happened.
+#[derive(Debug, Clone)]
+pub struct ReconfigOutcome {
+    /// Simulated time at which the Checker switched to PID (None: it never did).
+    pub switched_at: Option<f64>,
+    /// RMS tracking error over the window that made the Checker switch (or over the window
+    /// ending at `settle + window` when it did not), rad.
+    pub rms_error_before: f64,
+    /// RMS tracking error over the last window of the run, rad.
+    pub rms_error_after: f64,
+    /// Tracking error at the end, rad.
+    pub final_error: f64,
+    /// Integration steps simulated.
+    pub steps: usize,
+    /// Firings recorded by the tracer.
+    pub firings: usize,
+    /// DOT of the graph before the run and after it.
+    pub dot_before: String,
+    pub dot_after: String,
+}
+
+struct Arm {
+    q: f64,
+    qd: f64,
+    t: f64,
+    steps: usize,
+    max_steps: usize,
+}
+
+#[derive(Default)]
+struct Log {
+    errors: Vec<(f64, f64)>,
+    switched_at: Option<f64>,
+    checker_window: Option<f64>,
+}
+
+fn rms(samples: &[(f64, f64)], from: f64, to: f64) -> f64 {
+    let v: Vec<f64> = samples.iter().filter(|(t, _)| *t > from && *t <= to).map(|(_, e)| e * e).collect();
+    if v.is_empty() { f64::NAN } else { (v.iter().sum::<f64>() / v.len() as f64).sqrt() }
+}
+
+fn pid_actor(name: &str, (kp, ki, kd): (f64, f64, f64), dt: f64) -> ActorSpec {
+    // Context: (integral, previous error).
+    ActorSpec::new(name, move |ctx: &mut crate::kernel::Ctx<'_>| {
+        let e = ctx.input("e").and_then(Value::as_vec).map(|v| v[1]).ok_or("PID: no error sample")?;
+        let (integral, prev) = ctx.context::<(f64, Option<f64>)>().ok_or("PID: context")?;
+        *integral += e * dt;
+        let de = prev.map_or(0.0, |p| (e - p) / dt);
+        *prev = Some(e);
+        let u = kp * e + ki * *integral + kd * de;
+        ctx.emit("u", Value::F64(u))
+    })
+    .inputs(&["e"])
+    .outputs(&["u"])
+    .context((0.0f64, None::<f64>))
+}
+
+/// Runs the reconfigurable-controller example and reports the tracking error before and after
+/// the Checker's reconfiguration. Side effects: spawns `opts.workers` threads for the run.
+///
+/// Errors: invalid options (non-positive step, duration or window), or a kernel error while
+/// building the graph.
+pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, String> {
+    if !(opts.dt > 0.0 && opts.duration > opts.dt && opts.window > 0.0 && opts.mass > 0.0 && opts.length > 0.0) {
+        return Err(format!("invalid reconfiguration demo options: {opts:?}"));
+    }
+    let o = *opts;
+    let log = Arc::new(Mutex::new(Log::default()));
+    let graph = Graph::new(o.workers);
+    graph.set_tracing(true);
+    let (torque, state, error) = graph
+        .edit(|e| -> Result<_, crate::kernel::KernelError> {
+            let torque = e.add_data("torque", Retention::Stream)?;
+            let state = e.add_data("state", Retention::Stream)?;
+            let error = e.add_data("error", Retention::Stream)?;
+            let inertia = o.mass * o.length * o.length;
+            let arm = e.add_actor(
+                ActorSpec::new("arm", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                    let tau = ctx.input_f64("tau").ok_or("arm: no torque")?;
+                    let s = ctx.context::<Arm>().ok_or("arm: context")?;
+                    if s.steps >= s.max_steps {
+                        return Ok(()); // the run is over: no new state, the loop drains
+                    }
+                    let qdd = (tau - o.mass * o.gravity * o.length * s.q.sin() - o.damping * s.qd) / inertia;
+                    s.qd += qdd * o.dt;
+                    s.q += s.qd * o.dt;
+                    s.t += o.dt;
+                    s.steps += 1;
+                    let out = Value::Vec(vec![s.t, s.q, s.qd]);
+                    ctx.emit("state", out)
+                })
+                .inputs(&["tau"])
+                .outputs(&["state"])
+                .context(Arm { q: 0.0, qd: 0.0, t: 0.0, steps: 0, max_steps: (o.duration / o.dt).round() as usize }),
+            )?;
+            let log2 = log.clone();
+            let err = e.add_actor(
+                ActorSpec::new("error", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                    let s = ctx.input("x").and_then(Value::as_vec).ok_or("error: no state")?.to_vec();
+                    let e = o.setpoint - s[1];
+                    if let Ok(mut l) = log2.lock() {
+                        l.errors.push((s[0], e));
+                    }
+                    ctx.emit("e", Value::Vec(vec![s[0], e]))
+                })
+                .inputs(&["x"])
+                .outputs(&["e"]),
+            )?;
+            let p = e.add_actor(
+                ActorSpec::new("P", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                    let e = ctx.input("e").and_then(Value::as_vec).map(|v| v[1]).ok_or("P: no error sample")?;
+                    ctx.emit("u", Value::F64(o.kp * e))
+                })
+                .inputs(&["e"])
+                .outputs(&["u"]),
+            )?;
+            let log3 = log.clone();
+            let checker = e.add_actor(
+                ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                    let Some(s) = ctx.input("e").and_then(Value::as_vec).map(|v| (v[0], v[1])) else { return Ok(()) };
+                    let window = ctx.context::<Vec<(f64, f64)>>().ok_or("Checker: context")?;
+                    window.push(s);
+                    window.retain(|(t, _)| *t > s.0 - o.window);
+                    if !o.allow_switch || s.0 < o.settle {
+                        return Ok(());
+                    }
+                    let r = rms(window, s.0 - o.window, s.0);
+                    if r <= o.threshold {
+                        return Ok(());
+                    }
+                    // Unacceptable: reconfigure the running graph to PID.
+                    let control = ctx.control().clone();
+                    control
+                        .edit(|e| -> Result<(), crate::kernel::KernelError> {
+                            let Some(p) = e.actor("P") else { return Ok(()) };
+                            let Some(torque) = e.data("torque") else { return Ok(()) };
+                            let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
+                            e.connect_out(pid, "u", torque)?;
+                            e.move_input(p, "e", pid, "e")?;
+                            e.remove_actor(p)
+                        })
+                        .map_err(|e| e.to_string())?;
+                    let me = ctx.actor_id();
+                    ctx.control().edit(|e| e.remove_actor(me)).map_err(|e| e.to_string())?;
+                    if let Ok(mut l) = log3.lock() {
+                        l.switched_at = Some(s.0);
+                        l.checker_window = Some(r);
+                    }
+                    Ok(())
+                })
+                .inputs(&["e"])
+                .firing(Firing::IfAny)
+                .context(Vec::<(f64, f64)>::new()),
+            )?;
+            e.connect_in(torque, arm, "tau")?;
+            e.connect_out(arm, "state", state)?;
+            e.connect_in(state, err, "x")?;
+            e.connect_out(err, "e", error)?;
+            e.connect_in(error, p, "e")?;
+            e.connect_in(error, checker, "e")?;
+            e.connect_out(p, "u", torque)?;
+            Ok((torque, state, error))
+        })
+        .map_err(|e| e.to_string())?;
+    let _ = (state, error);
+    let dot_before = graph.to_dot();
+    graph.write(torque, Value::F64(0.0)).map_err(|e| e.to_string())?;
+    graph.wait_idle();
+    let dot_after = graph.to_dot();
+    let firings = graph.trace().len();
+    let errors = graph.errors();
+    if let Some(e) = errors.first() {
+        return Err(format!("script error during the demo: {e}"));
+    }
+    let l = log.lock().map_err(|_| "demo log poisoned".to_string())?;
+    let mut samples = l.errors.clone();
+    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let end = samples.last().map_or(0.0, |s| s.0);
+    let before = match l.switched_at {
+        Some(ts) => rms(&samples, ts - o.window, ts),
+        None => rms(&samples, o.settle, o.settle + o.window),
+    };
+    Ok(ReconfigOutcome {
+        switched_at: l.switched_at,
+        rms_error_before: before,
+        rms_error_after: rms(&samples, end - o.window, end),
+        final_error: samples.last().map_or(f64::NAN, |s| s.1),
+        steps: samples.len(),
+        firings,
+        dot_before,
+        dot_after,
+    })
+}
