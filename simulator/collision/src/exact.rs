@@ -96,18 +96,45 @@ pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, o
     if !opts.distance {
         return PairResult::Clear { distance: None, witness: None };
     }
-    let d = match query::distance(&ga, sa, &gb, sb) {
-        Ok(d) if d.is_finite() => d,
-        Ok(d) => return PairResult::Unknown { reason: format!("parry returned a non-finite distance ({d})") },
-        Err(_) => return PairResult::Unknown { reason: format!("parry has no distance for {:?} against {:?}", a.kind, b.kind) },
+    // The distance is taken from the closest points, not from `query::distance`: parry
+    // 0.25.3's cuboid–cuboid distance applies the relative pose twice and returns wrong values
+    // for rotated boxes (see the test `parry_0_25_3_cuboid_distance_applies_pos12_twice`).
+    let (p1, p2) = match query::closest_points(&ga, sa, &gb, sb, f64::MAX) {
+        Ok(ClosestPoints::WithinMargin(p1, p2)) => (p1, p2),
+        // The boolean said apart, the closest points say touching: report the contact.
+        Ok(ClosestPoints::Intersecting) => return PairResult::Contact { signed_distance: Some(0.0), witness: None },
+        Ok(ClosestPoints::Disjoint) => return PairResult::Unknown { reason: "parry found no closest points within an unbounded margin".into() },
+        Err(_) => return PairResult::Unknown { reason: format!("parry has no closest points for {:?} against {:?}", a.kind, b.kind) },
     };
-    let witness = match query::closest_points(&ga, sa, &gb, sb, f64::MAX) {
-        Ok(ClosestPoints::WithinMargin(p1, p2)) => Some([p1, p2]),
-        _ => None,
-    };
+    let d = (p1 - p2).norm();
+    if !d.is_finite() {
+        return PairResult::Unknown { reason: format!("parry returned non-finite closest points ({p1}, {p2})") };
+    }
+    let witness = Some([p1, p2]);
     if d <= 0.0 {
-        // GJK's boolean and its distance disagree at the contact boundary: report contact.
         return PairResult::Contact { signed_distance: Some(0.0), witness };
     }
     PairResult::Clear { distance: Some(d), witness }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Isometry3, Vector3};
+
+    /// parry 0.25.3's `query::distance` for two cuboids maps the second witness point by the
+    /// relative pose a second time. Found by the closed-form reference data (box_box_aligned_0).
+    /// If this starts failing, parry was fixed and `collide` may use `query::distance` again.
+    #[test]
+    fn parry_0_25_3_cuboid_distance_applies_pos12_twice() {
+        let a = Solid::cuboid(Vector3::new(0.9633194686062108, 0.24207674294621406, 1.2955195452323596)).expect("box");
+        let b = Solid::cuboid(Vector3::new(0.3183332593024064, 1.2696940781946295, 1.110674347378684)).expect("box");
+        let pa = Isometry3::identity();
+        let pb = Isometry3::translation(0.4104713062568375, 0.44497323079839385, 1.476523080865861);
+        let expected = 1.476523080865861 - (1.2955195452323596 + 1.110674347378684) / 2.0;
+        let parry = query::distance(&pa, a.exact.as_ref(), &pb, b.exact.as_ref()).expect("supported");
+        assert!((parry - expected).abs() > 1e-3, "parry's cuboid distance is right now: {parry}");
+        let ours = collide(&a, &pa, &b, &pb, ExactOptions::default());
+        assert!((ours.signed_distance().expect("distance") - expected).abs() < 1e-12, "{ours:?} vs {expected}");
+    }
 }

@@ -23,6 +23,7 @@ pub mod ccd;
 pub mod exact;
 mod outcome;
 pub mod polygon;
+pub mod query;
 pub mod robot;
 mod solid;
 
