@@ -36,7 +36,9 @@ fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> 
     if s.kind != SolidKind::Mesh || !s.pieces[0].closed {
         return None;
     }
-    Some(s.exact.project_point(ps, p, true).is_inside)
+    // `contains_point` uses the pseudo-normals of an oriented mesh; `project_point(.., true)`
+    // does not (parry 0.25.3) and reports every outside-the-surface point as outside.
+    Some(s.exact.contains_point(ps, p))
 }
 
 /// Boolean only: do the exact solids touch or overlap? `Err` carries the reason when parry

@@ -44,6 +44,22 @@ pub enum ShapeError {
     EmptyCompound,
 }
 
+impl ShapeError {
+    /// The polygon (index in the input list) a geometry error names, if any.
+    pub fn polygon(&self) -> Option<usize> {
+        match self {
+            ShapeError::Geometry(
+                GeometryError::TooFewVertices { polygon, .. }
+                | GeometryError::IndexOutOfRange { polygon, .. }
+                | GeometryError::Degenerate { polygon, .. }
+                | GeometryError::NonPlanar { polygon, .. }
+                | GeometryError::Concave { polygon, .. },
+            ) => Some(*polygon),
+            _ => None,
+        }
+    }
+}
+
 /// What a solid was built from (kept for reports and for the containment logic).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SolidKind {
@@ -61,7 +77,7 @@ pub enum SolidKind {
 #[derive(Debug, Clone)]
 pub struct Piece {
     pub poly: Polyhedron,
-    /// Every vertex is on the inner side of every polygon plane.
+    /// Closed, and every vertex is on the inner side of every polygon plane.
     pub convex: bool,
     /// Closed, consistently oriented surface (needed for point-in-solid by ray parity).
     pub closed: bool,
@@ -84,11 +100,10 @@ impl Piece {
             }
         }
         let size = poly.bbox.half.norm().max(f64::MIN_POSITIVE);
-        let convex = poly
-            .polygons
-            .iter()
-            .all(|pg| poly.vertices.iter().all(|v| pg.plane.signed_distance(v) <= 1e-9 * size));
         let closed = poly.is_closed();
+        // An open surface is never taken for the solid hull of its vertices.
+        let convex = closed
+            && poly.polygons.iter().all(|pg| poly.vertices.iter().all(|v| pg.plane.signed_distance(v) <= 1e-9 * size));
         Piece { poly, convex, closed, side_edge }
     }
 }
