@@ -1,1 +1,62 @@
-//! (being written)
+//! The Instance Space (seed §3.2–3.3, DESIGN.md): the working model — geometry, part-whole
+//! structure, display data, collision data, kinematics and dynamics — as flat, index-addressed
+//! `#[repr(C)]` records in zero-copy shared memory (iceoryx2), written only through validated
+//! transactions that the space keeper journals, applies, publishes and announces.
+//!
+//! Entry points:
+//! * [`Model`], [`Transaction`], [`TxError`] — the plain model and the all-or-nothing writes.
+//! * [`Keeper`] — the `robosim space` process: owns the services, serialises transactions,
+//!   journals them ([`journal`]) and publishes snapshots and change records.
+//! * [`Client`] — sends transactions to the keeper (request-response), pipelined or one by one.
+//! * [`Reader`] / [`Snapshot`] — map the published model without copying it; wait for changes.
+//! * [`state`] — the simulator's high-rate state service.
+//! * [`Session`] — namespacing of shared memory, files and processes.
+//!
+//! `unsafe` appears once, in [`monotonic_ns`]; the shared-memory views are safe `bytemuck`
+//! casts over iceoryx2 samples.
+#![deny(unsafe_code)]
+
+mod client;
+pub mod journal;
+mod keeper;
+pub mod layout;
+mod model;
+mod reader;
+mod session;
+pub mod state;
+mod transaction;
+
+pub use client::{Client, ClientError, Committed, Pending};
+pub use keeper::{Keeper, KeeperError, KeeperOptions};
+pub use model::{aspect, Applied, Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Model, Object, Pose, TxError, IDENTITY, MAX_ELEMENTS};
+pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot};
+pub use session::{default_session_name, home, pid_alive, ProcInfo, Registration, Session, SessionError};
+pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
+
+/// Service suffixes inside a session (see [`Session::service`]).
+pub mod services {
+    pub const REQUESTS: &str = "space/tx";
+    pub const REQUEST_EVENT: &str = "space/tx-event";
+    pub const ACK_EVENT: &str = "space/ack-event";
+    pub const OBJECTS: &str = "space/objects";
+    pub const POSES: &str = "space/poses";
+    pub const CHANGES: &str = "space/changes";
+    pub const CHANGE_EVENT: &str = "space/changed";
+    pub fn geometry(id: u64) -> String {
+        format!("space/geometry/{id}")
+    }
+}
+
+/// CLOCK_MONOTONIC in ns: comparable across processes on one machine (unlike
+/// `std::time::Instant`, whose origin is private), and immune to wall-clock steps.
+pub fn monotonic_ns() -> u64 {
+    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    #[expect(unsafe_code, reason = "clock_gettime(2) has no safe std wrapper that exposes the raw clock")]
+    // SAFETY: `ts` is a valid, writable timespec owned by this frame; CLOCK_MONOTONIC always
+    // exists on Linux, so the call only writes `ts`.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };
+    if rc != 0 {
+        return 0;
+    }
+    ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
+}

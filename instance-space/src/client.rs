@@ -1,0 +1,132 @@
+//! Writers: send transactions to the session's keeper over iceoryx2 request-response.
+//!
+//! [`Client::transact`] sends one and waits for its acknowledgement (durable, published).
+//! [`Client::submit`] + [`Client::wait`] pipeline many (up to the keeper's in-flight limit), which
+//! is how a writer gets group commit: the keeper syncs the journal once for everything that
+//! arrived together.
+
+use crate::keeper::{events, MAX_IN_FLIGHT};
+use crate::model::{Applied, TxError};
+use crate::session::{Session, SessionError};
+use crate::services;
+use crate::transaction::Transaction;
+use iceoryx2::prelude::*;
+use std::time::{Duration, Instant};
+
+type IoxClient = iceoryx2::port::client::Client<ipc::Service, [u8], (), [u8], ()>;
+type IoxPending = iceoryx2::pending_response::PendingResponse<ipc::Service, [u8], (), [u8], ()>;
+
+/// A committed transaction: its version, created ids and change set.
+pub type Committed = Applied;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ClientError {
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    #[error("no keeper is running in session {session} (start one with `robosim space` or `robosim up`)")]
+    NoKeeper { session: String },
+    #[error("transaction refused: {0}")]
+    Refused(#[from] TxError),
+    #[error("the keeper went away before answering (it may have committed the transaction; check the version after it restarts)")]
+    KeeperGone,
+    #[error("no answer from the keeper within {0:?}")]
+    Timeout(Duration),
+    #[error("more than {MAX_IN_FLIGHT} transactions in flight; wait for some first")]
+    TooManyInFlight,
+    #[error("iceoryx2 {what}: {message}")]
+    Ipc { what: String, message: String },
+}
+
+fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> ClientError {
+    move |e| ClientError::Ipc { what: what.to_owned(), message: format!("{e:?}") }
+}
+
+/// A transaction sent and not yet answered.
+pub struct Pending {
+    inner: IoxPending,
+}
+
+pub struct Client {
+    session: Session,
+    _node: Node<ipc::Service>,
+    client: IoxClient,
+    notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    acks: iceoryx2::port::listener::Listener<ipc::Service>,
+    timeout: Duration,
+    _services: Vec<Box<dyn std::any::Any>>,
+}
+
+impl Client {
+    /// Connects to the keeper of `session` as a process of role `role` (used in its node name).
+    pub fn connect(session: &Session, role: &str) -> Result<Self, ClientError> {
+        let node = session.node(role, false)?;
+        let no_keeper = |_: Box<dyn std::fmt::Debug>| ClientError::NoKeeper { session: session.name().to_owned() };
+        let rr = node.service_builder(&session.service(services::REQUESTS)?).request_response::<[u8], [u8]>().open().map_err(|e| no_keeper(Box::new(e)))?;
+        let client = rr
+            .client_builder()
+            .initial_max_slice_len(4096)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(ipc("create client"))?;
+        let req_event = node.service_builder(&session.service(services::REQUEST_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
+        let notifier = req_event.notifier_builder().create().map_err(ipc("create request notifier"))?;
+        let ack_event = node.service_builder(&session.service(services::ACK_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
+        let acks = ack_event.listener_builder().create().map_err(ipc("create ack listener"))?;
+        Ok(Client { session: session.clone(), _node: node, client, notifier, acks, timeout: Duration::from_secs(30), _services: vec![Box::new(rr), Box::new(req_event), Box::new(ack_event)] })
+    }
+
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// How long [`Client::transact`] waits for an answer (default 30 s).
+    pub fn set_timeout(&mut self, timeout: Duration) {
+        self.timeout = timeout;
+    }
+
+    /// Sends `tx` and waits until the keeper has journaled, published and acknowledged it.
+    pub fn transact(&mut self, tx: &Transaction) -> Result<Committed, ClientError> {
+        let p = self.submit(tx)?;
+        Ok(self.wait(p)??)
+    }
+
+    /// Sends `tx` without waiting.
+    pub fn submit(&mut self, tx: &Transaction) -> Result<Pending, ClientError> {
+        self.submit_raw(&tx.encode())
+    }
+
+    /// Sends already-encoded bytes (tests use this to send malformed requests).
+    pub fn submit_raw(&mut self, bytes: &[u8]) -> Result<Pending, ClientError> {
+        let req = self.client.loan_slice_uninit(bytes.len().max(1)).map_err(|e| match format!("{e:?}") {
+            m if m.contains("ExceedsMaxLoans") || m.contains("ExceedsMaxActive") => ClientError::TooManyInFlight,
+            m => ClientError::Ipc { what: "loan request".into(), message: m },
+        })?;
+        let payload = if bytes.is_empty() { &[0u8][..] } else { bytes };
+        let inner = req.write_from_slice(payload).send().map_err(|e| match format!("{e:?}") {
+            m if m.contains("ExceedsMaxActive") => ClientError::TooManyInFlight,
+            m => ClientError::Ipc { what: "send request".into(), message: m },
+        })?;
+        let _ = self.notifier.notify_with_custom_event_id(EventId::new(events::REQUEST));
+        Ok(Pending { inner })
+    }
+
+    /// Waits for the answer to `p`: the outer error is transport, the inner the keeper's verdict.
+    pub fn wait(&mut self, p: Pending) -> Result<Result<Committed, TxError>, ClientError> {
+        let start = Instant::now();
+        loop {
+            if let Some(resp) = p.inner.receive().map_err(ipc("receive response"))? {
+                return bincode::serde::decode_from_slice::<Result<Committed, TxError>, _>(resp.payload(), bincode::config::standard())
+                    .map(|(r, _)| r)
+                    .map_err(|e| ClientError::Ipc { what: "decode response".into(), message: e.to_string() });
+            }
+            if !p.inner.is_connected() {
+                return Err(ClientError::KeeperGone);
+            }
+            let elapsed = start.elapsed();
+            if elapsed >= self.timeout {
+                return Err(ClientError::Timeout(self.timeout));
+            }
+            let _ = self.acks.timed_wait(|_| {}, (self.timeout - elapsed).min(Duration::from_millis(5)));
+        }
+    }
+}

@@ -1,0 +1,516 @@
+//! The space keeper (`robosim space`): the one writer of the Instance Space.
+//!
+//! It owns the session's long-lived services (a service vanishes with the process that
+//! created it, so readers and writers come and go while the keeper stays), takes transactions
+//! from any process over iceoryx2 request-response, and for each group of requests that arrive
+//! together:
+//! 1. validates and applies each transaction in arrival order ([`Model::apply`]); a refused one
+//!    changes nothing and gets its typed error;
+//! 2. appends each committed one to the journal and syncs once (group commit);
+//! 3. publishes what changed — a geometry segment per changed object, the objects segment if
+//!    any structure/appearance/kinematics/dynamics changed, and always the poses segment,
+//!    which is the head every snapshot starts from — then the change records;
+//! 4. only then acknowledges, and notifies readers and waiting clients.
+
+use crate::journal::{self, Journal, JournalError, RecoveryReport};
+use crate::layout::{flags, ChangeRec, GeometryHeader, ObjectRec, ObjectsHeader, PoseRec, PolygonRec, PosesHeader, SegmentWriter};
+use crate::model::{aspect, Applied, Id, Kinematics, Model, Object, TxError};
+use crate::session::{Registration, Session, SessionError};
+use crate::services;
+use crate::transaction::Transaction;
+use iceoryx2::port::update_connections::UpdateConnections;
+use iceoryx2::prelude::*;
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+type Pub = iceoryx2::port::publisher::Publisher<ipc::Service, [u64], ()>;
+type Server = iceoryx2::port::server::Server<ipc::Service, [u8], (), [u8], ()>;
+type Notifier = iceoryx2::port::notifier::Notifier<ipc::Service>;
+type Listener = iceoryx2::port::listener::Listener<ipc::Service>;
+
+/// Event ids on the keeper's request event.
+pub(crate) mod events {
+    /// A client sent a request.
+    pub const REQUEST: usize = 0;
+    /// A reader attached or opened a geometry service: deliver history now.
+    pub const HELLO: usize = 1;
+    /// On the change event: the keeper died (emitted by iceoryx2's dead-node cleanup).
+    pub const KEEPER_DEAD: usize = 7;
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum KeeperError {
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    #[error(transparent)]
+    Journal(#[from] JournalError),
+    #[error("another keeper is running in session {session} (pid {pid})")]
+    AlreadyRunning { session: String, pid: u32 },
+    #[error("iceoryx2 {what}: {message}")]
+    Ipc { what: String, message: String },
+}
+
+fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> KeeperError {
+    let what = what.into();
+    move |e| KeeperError::Ipc { what, message: format!("{e:?}") }
+}
+
+/// Tunables. The defaults suit a workstation session.
+#[derive(Debug, Clone)]
+pub struct KeeperOptions {
+    /// Write a checkpoint after this many journaled transactions.
+    pub checkpoint_every: u64,
+    /// The most requests applied in one group (one journal sync).
+    pub max_batch: usize,
+    /// How long the loop sleeps when idle.
+    pub idle_wait: Duration,
+    /// Readers per session (sizes the shared-memory pools).
+    pub max_readers: usize,
+    /// Writers per session.
+    pub max_clients: usize,
+}
+
+impl Default for KeeperOptions {
+    fn default() -> Self {
+        KeeperOptions { checkpoint_every: 100_000, max_batch: 4096, idle_wait: Duration::from_millis(20), max_readers: 16, max_clients: 16 }
+    }
+}
+
+/// Per-client in-flight requests; clients pipeline up to this many.
+pub(crate) const MAX_IN_FLIGHT: usize = 512;
+/// How many old snapshots a reader may hold while taking a new one.
+pub(crate) const MAX_HELD_SNAPSHOTS: usize = 4;
+
+pub struct Keeper {
+    session: Session,
+    opts: KeeperOptions,
+    node: Node<ipc::Service>,
+    model: Model,
+    journal: Journal,
+    epoch: u64,
+    server: Server,
+    req_listener: Listener,
+    ack_notifier: Notifier,
+    change_notifier: Notifier,
+    changes_pub: Pub,
+    objects_pub: Pub,
+    poses_pub: Pub,
+    geometry: HashMap<Id, (Pub, u64)>,
+    // Caches so a pose change costs one record update plus one copy of the poses array.
+    order: Vec<Id>,
+    index: HashMap<Id, usize>,
+    poses: Vec<PoseRec>,
+    structure_version: u64,
+    last_connect_update: Instant,
+    _registration: Registration,
+    _services: Vec<Box<dyn std::any::Any>>,
+}
+
+/// What one group did (for benchmarks and logs).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct GroupStats {
+    pub committed: usize,
+    pub refused: usize,
+}
+
+impl Keeper {
+    /// Recovers the session's model from its journal and checkpoints, creates the services and
+    /// registers as the session's `space` process. Fails if a keeper already runs there.
+    pub fn start(session: &Session, opts: KeeperOptions) -> Result<(Keeper, RecoveryReport), KeeperError> {
+        if let Some(p) = session.processes().into_iter().find(|p| p.role == "space" && p.pid != std::process::id()) {
+            return Err(KeeperError::AlreadyRunning { session: session.name().to_owned(), pid: p.pid });
+        }
+        let node = session.node("space", true)?;
+        // A keeper killed with -9 leaves its node behind; reclaim its resources now (this also
+        // fires the dead-notifier event readers listen to). Services are opened-or-created:
+        // readers that outlived the old keeper keep them alive, and their ports connect to the
+        // new keeper's publishers without re-attaching.
+        let _ = node.blocking_cleanup_dead_nodes(Duration::from_secs(2));
+        let (model, journal, report) = journal::recover(&session.data_dir())?;
+        let epoch = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64);
+
+        let rr = node
+            .service_builder(&session.service(services::REQUESTS)?)
+            .request_response::<[u8], [u8]>()
+            .max_clients(opts.max_clients)
+            .max_servers(1)
+            .max_active_requests_per_client(MAX_IN_FLIGHT)
+            .max_response_buffer_size(1)
+            .max_borrowed_responses_per_pending_response(1)
+            .max_loaned_requests(4)
+            .enable_safe_overflow_for_requests(false)
+            .enable_safe_overflow_for_responses(false)
+            .max_nodes(opts.max_clients + opts.max_readers + 4)
+            .open_or_create()
+            .map_err(ipc("create request service"))?;
+        let server = rr
+            .server_builder()
+            .initial_max_slice_len(256)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(ipc("create server"))?;
+        let req_event = node
+            .service_builder(&session.service(services::REQUEST_EVENT)?)
+            .event()
+            .max_notifiers(opts.max_clients + opts.max_readers + 4)
+            .max_listeners(2)
+            .max_nodes(opts.max_clients + opts.max_readers + 4)
+            .open_or_create()
+            .map_err(ipc("create request event"))?;
+        let req_listener = req_event.listener_builder().create().map_err(ipc("create request listener"))?;
+        let ack_event = node
+            .service_builder(&session.service(services::ACK_EVENT)?)
+            .event()
+            .max_notifiers(2)
+            .max_listeners(opts.max_clients + 4)
+            .max_nodes(opts.max_clients + opts.max_readers + 4)
+            .open_or_create()
+            .map_err(ipc("create ack event"))?;
+        let ack_notifier = ack_event.notifier_builder().create().map_err(ipc("create ack notifier"))?;
+        let change_event = node
+            .service_builder(&session.service(services::CHANGE_EVENT)?)
+            .event()
+            .max_notifiers(2)
+            .max_listeners(opts.max_readers + 4)
+            .max_nodes(opts.max_clients + opts.max_readers + 4)
+            .notifier_dead_event(EventId::new(events::KEEPER_DEAD))
+            .open_or_create()
+            .map_err(ipc("create change event"))?;
+        let change_notifier = change_event.notifier_builder().create().map_err(ipc("create change notifier"))?;
+
+        let pubsub = |suffix: &str, buffer: usize, history: usize, borrowed: usize| -> Result<_, KeeperError> {
+            node.service_builder(&session.service(suffix)?)
+                .publish_subscribe::<[u64]>()
+                .history_size(history)
+                .subscriber_max_buffer_size(buffer)
+                .subscriber_max_borrowed_samples(borrowed)
+                .enable_safe_overflow(true)
+                .max_publishers(1)
+                .max_subscribers(opts.max_readers)
+                .max_nodes(opts.max_clients + opts.max_readers + 4)
+                .open_or_create()
+                .map_err(ipc(format!("create service {suffix}")))
+        };
+        let publisher = |svc: &iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u64], ()>, len: usize, what: &str| -> Result<Pub, KeeperError> {
+            svc.publisher_builder()
+                .initial_max_slice_len(len)
+                .allocation_strategy(AllocationStrategy::PowerOfTwo)
+                .max_loaned_samples(1)
+                .create()
+                .map_err(ipc(format!("create publisher {what}")))
+        };
+        let changes_svc = pubsub(services::CHANGES, 1024, 16, 4)?;
+        let changes_pub = publisher(&changes_svc, 1024, "changes")?;
+        let objects_svc = pubsub(services::OBJECTS, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
+        let objects_pub = publisher(&objects_svc, 1024, "objects")?;
+        let poses_svc = pubsub(services::POSES, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
+        let poses_pub = publisher(&poses_svc, 1024, "poses")?;
+
+        let registration = session.register("space", &[services::REQUESTS, services::OBJECTS, services::POSES, services::CHANGES])?;
+        let mut keeper = Keeper {
+            session: session.clone(),
+            opts,
+            node,
+            model,
+            journal,
+            epoch,
+            server,
+            req_listener,
+            ack_notifier,
+            change_notifier,
+            changes_pub,
+            objects_pub,
+            poses_pub,
+            geometry: HashMap::new(),
+            order: Vec::new(),
+            index: HashMap::new(),
+            poses: Vec::new(),
+            structure_version: 0,
+            last_connect_update: Instant::now(),
+            _registration: registration,
+            _services: vec![Box::new(rr), Box::new(req_event), Box::new(ack_event), Box::new(change_event), Box::new(changes_svc), Box::new(objects_svc), Box::new(poses_svc)],
+        };
+        let ids: Vec<Id> = keeper.model.objects().filter(|o| o.geometry.is_some()).map(|o| o.id).collect();
+        for id in ids {
+            keeper.publish_geometry(id)?;
+        }
+        keeper.rebuild_structure()?;
+        keeper.publish_poses()?;
+        Ok((keeper, report))
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// Applies a transaction from inside the keeper's process (e.g. loading the start-up
+    /// scene): the same validation, journal, publication and announcement as a remote one.
+    pub fn commit_local(&mut self, tx: &Transaction) -> Result<Applied, TxError> {
+        let bytes = tx.encode();
+        let result = self.model.apply(tx);
+        if let Ok(applied) = &result {
+            self.journal.append(applied.version, &bytes).map_err(|e| TxError::Malformed { message: format!("journal: {e}") })?;
+            self.finish_group(std::slice::from_ref(applied)).map_err(|e| TxError::Malformed { message: e.to_string() })?;
+        }
+        result
+    }
+
+    /// Runs until SIGINT/SIGTERM, then writes a checkpoint and returns.
+    pub fn run(&mut self) -> Result<(), KeeperError> {
+        while self.node.wait(Duration::ZERO).is_ok() {
+            self.step(self.opts.idle_wait)?;
+        }
+        self.journal.checkpoint(&self.model)?;
+        Ok(())
+    }
+
+    /// One iteration: wait (at most `wait`) for requests, then serve every pending one as a
+    /// group.
+    pub fn step(&mut self, wait: Duration) -> Result<GroupStats, KeeperError> {
+        let mut hello = false;
+        if !self.server.has_requests().unwrap_or(false) {
+            self.req_listener
+                .timed_wait(|e| hello |= e.id == EventId::new(events::HELLO), wait)
+                .map_err(ipc("wait for requests"))?;
+        } else {
+            let _ = self.req_listener.try_wait(|e| hello |= e.id == EventId::new(events::HELLO));
+        }
+        if hello || self.last_connect_update.elapsed() > Duration::from_millis(50) {
+            self.update_connections();
+        }
+        let mut pending = Vec::new();
+        let mut applied = Vec::new();
+        let mut stats = GroupStats::default();
+        while pending.len() < self.opts.max_batch {
+            let Some(req) = self.server.receive().map_err(ipc("receive request"))? else { break };
+            let result = Transaction::decode(req.payload()).and_then(|tx| self.model.apply(&tx));
+            match &result {
+                Ok(a) => {
+                    self.journal.append(a.version, req.payload())?;
+                    applied.push(a.clone());
+                    stats.committed += 1;
+                }
+                Err(_) => stats.refused += 1,
+            }
+            pending.push((req, result));
+        }
+        if pending.is_empty() {
+            return Ok(stats);
+        }
+        self.finish_group(&applied)?;
+        for (req, result) in pending {
+            let bytes = bincode::serde::encode_to_vec(&result, bincode::config::standard()).unwrap_or_default();
+            match req.loan_slice_uninit(bytes.len()) {
+                Ok(r) => {
+                    // A client that died mid-request cannot be answered; the commit stands.
+                    let _ = r.write_from_slice(&bytes).send();
+                }
+                Err(_) => continue,
+            }
+        }
+        let _ = self.ack_notifier.notify();
+        Ok(stats)
+    }
+
+    /// Durability, then publication and announcement of a group of committed transactions.
+    fn finish_group(&mut self, applied: &[Applied]) -> Result<(), KeeperError> {
+        if applied.is_empty() {
+            return Ok(());
+        }
+        self.journal.sync()?;
+        let mut structure = false;
+        let mut geometry_changed: Vec<Id> = Vec::new();
+        let mut posed: Vec<Id> = Vec::new();
+        for a in applied {
+            for &(id, asp) in &a.changes {
+                if asp & (aspect::STRUCTURE | aspect::APPEARANCE | aspect::KINEMATICS | aspect::DYNAMICS | aspect::GEOMETRY) != 0 {
+                    structure = true;
+                }
+                if asp & aspect::GEOMETRY != 0 {
+                    geometry_changed.push(id);
+                }
+                if asp & aspect::POSE != 0 {
+                    posed.push(id);
+                }
+            }
+        }
+        geometry_changed.sort_unstable();
+        geometry_changed.dedup();
+        for id in geometry_changed {
+            self.publish_geometry(id)?;
+        }
+        if structure {
+            self.rebuild_structure()?;
+        } else {
+            for id in posed {
+                if let (Some(&i), Some(o)) = (self.index.get(&id), self.model.get(id)) {
+                    self.poses[i] = pose_rec(o);
+                }
+            }
+        }
+        self.publish_poses()?;
+        self.publish_changes(applied)?;
+        let _ = self.change_notifier.notify();
+        if self.journal.since_checkpoint >= self.opts.checkpoint_every {
+            self.journal.checkpoint(&self.model)?;
+        }
+        Ok(())
+    }
+
+    fn update_connections(&mut self) {
+        let _ = self.objects_pub.update_connections();
+        let _ = self.poses_pub.update_connections();
+        let _ = self.changes_pub.update_connections();
+        for (p, _) in self.geometry.values() {
+            let _ = p.update_connections();
+        }
+        self.last_connect_update = Instant::now();
+    }
+
+    fn send(publisher: &Pub, w: &SegmentWriter<'_>, what: &str) -> Result<(), KeeperError> {
+        let mut sample = publisher.loan_slice(w.words()).map_err(ipc(format!("loan {what}")))?;
+        w.write(sample.payload_mut());
+        sample.send().map_err(ipc(format!("send {what}")))?;
+        Ok(())
+    }
+
+    /// Objects segment (and the pose caches' order) from the model: O(objects).
+    fn rebuild_structure(&mut self) -> Result<(), KeeperError> {
+        let n = self.model.len();
+        let mut recs = Vec::with_capacity(n);
+        let mut names = Vec::new();
+        self.order.clear();
+        self.index.clear();
+        self.poses.clear();
+        for (i, o) in self.model.objects().enumerate() {
+            recs.push(object_rec(o, &mut names));
+            self.order.push(o.id);
+            self.index.insert(o.id, i);
+            self.poses.push(pose_rec(o));
+        }
+        self.structure_version = self.model.version;
+        let header = [ObjectsHeader { version: self.model.version, epoch: self.epoch, count: n as u64 }];
+        let mut w = SegmentWriter::new();
+        w.push(&header).push(&recs).push(&names);
+        Self::send(&self.objects_pub, &w, "objects")
+    }
+
+    fn publish_poses(&mut self) -> Result<(), KeeperError> {
+        let header = [PosesHeader { version: self.model.version, structure_version: self.structure_version, epoch: self.epoch, count: self.poses.len() as u64 }];
+        let mut w = SegmentWriter::new();
+        w.push(&header).push(&self.poses);
+        Self::send(&self.poses_pub, &w, "poses")
+    }
+
+    fn publish_changes(&mut self, applied: &[Applied]) -> Result<(), KeeperError> {
+        let now = crate::monotonic_ns();
+        let mut recs = Vec::with_capacity(applied.len());
+        let mut ids = Vec::new();
+        for a in applied {
+            recs.push(ChangeRec { version: a.version, aspects: a.aspects(), ids_start: ids.len() as u64, ids_len: a.changes.len() as u64, published_ns: now });
+            ids.extend(a.changes.iter().map(|c| c.0));
+        }
+        let mut w = SegmentWriter::new();
+        w.push(&recs).push(&ids);
+        Self::send(&self.changes_pub, &w, "changes")
+    }
+
+    /// Publishes (creating its service if needed) or retires the geometry of `id`.
+    fn publish_geometry(&mut self, id: Id) -> Result<(), KeeperError> {
+        let Some((poly, generation)) = self.model.get(id).and_then(|o| o.geometry.clone().map(|g| (g, o.geom_gen))) else {
+            // Deleted, or its geometry removed: the service goes with the publisher.
+            self.geometry.remove(&id);
+            return Ok(());
+        };
+        if !self.geometry.contains_key(&id) {
+            let svc = self
+                .node
+                .service_builder(&self.session.service(&services::geometry(id))?)
+                .publish_subscribe::<[u64]>()
+                .history_size(1)
+                .subscriber_max_buffer_size(1)
+                .subscriber_max_borrowed_samples(2)
+                .enable_safe_overflow(true)
+                .max_publishers(1)
+                .max_subscribers(self.opts.max_readers)
+                .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
+                .open_or_create()
+                .map_err(ipc(format!("create geometry service of object {id}")))?;
+            let p = svc
+                .publisher_builder()
+                .initial_max_slice_len(1024)
+                .allocation_strategy(AllocationStrategy::PowerOfTwo)
+                .max_loaned_samples(1)
+                .create()
+                .map_err(ipc(format!("create geometry publisher of object {id}")))?;
+            self.geometry.insert(id, (p, 0));
+            self._services.push(Box::new(svc));
+        }
+        let header = [GeometryHeader {
+            id,
+            generation,
+            bbox: [poly.bbox.center.x, poly.bbox.center.y, poly.bbox.center.z, poly.bbox.half.x, poly.bbox.half.y, poly.bbox.half.z],
+        }];
+        let vertices: Vec<[f64; 3]> = poly.vertices.iter().map(|v| [v.x, v.y, v.z]).collect();
+        let penalty: Vec<[f64; 4]> = poly.penalty.iter().map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d]).collect();
+        let polygons: Vec<PolygonRec> = poly.polygons.iter().map(|p| PolygonRec { start: p.start, len: p.len, plane: [p.plane.normal.x, p.plane.normal.y, p.plane.normal.z, p.plane.d] }).collect();
+        let mut w = SegmentWriter::new();
+        w.push(&header).push(&vertices).push(&poly.indices).push(&penalty).push(&polygons).push(&poly.edges);
+        if let Some((p, g)) = self.geometry.get_mut(&id) {
+            Self::send(p, &w, "geometry")?;
+            *g = generation;
+        }
+        Ok(())
+    }
+}
+
+fn pose_rec(o: &Object) -> PoseRec {
+    PoseRec { id: o.id, pose: o.pose, joint: o.joint }
+}
+
+fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
+    let name_off = names.len() as u32;
+    names.extend_from_slice(o.name.as_bytes());
+    let mut rec = ObjectRec {
+        id: o.id,
+        parent: o.parent,
+        kind: o.kind as u32,
+        name_off,
+        name_len: o.name.len() as u32,
+        geom_gen: o.geom_gen,
+        color: o.appearance.color,
+        surface: [o.appearance.diffuse, o.appearance.specular, o.appearance.shininess, 0.0],
+        ..bytemuck::Zeroable::zeroed()
+    };
+    if o.geometry.is_some() {
+        rec.flags |= flags::HAS_GEOMETRY;
+    }
+    match o.kinematics {
+        Some(Kinematics::Joint { index, joint, convention, a, d, alpha, theta, offset, qlim }) => {
+            rec.flags |= flags::HAS_KINEMATICS;
+            rec.kin_tag = flags::KIN_JOINT;
+            rec.joint_kind = joint as u32;
+            rec.convention = convention as u32;
+            rec.index_or_family = index;
+            rec.dh = [a, d, alpha, theta, offset, qlim[0], qlim[1]];
+        }
+        Some(Kinematics::Robot { convention, ik_family, tool }) => {
+            rec.flags |= flags::HAS_KINEMATICS;
+            rec.kin_tag = flags::KIN_ROBOT;
+            rec.convention = convention as u32;
+            rec.index_or_family = ik_family;
+            rec.tool = tool;
+        }
+        None => {}
+    }
+    if let Some(m) = o.dynamics {
+        rec.flags |= flags::HAS_DYNAMICS;
+        rec.mass = m.mass;
+        rec.com = m.com;
+        rec.inertia = m.inertia;
+    }
+    rec
+}

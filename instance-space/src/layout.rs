@@ -1,0 +1,257 @@
+//! The flat shared-memory layout: `#[repr(C)]` records addressed by index, packed into
+//! segments of `u64` words so that every section is 8-byte aligned and can be viewed in place
+//! (zero-copy) with `bytemuck` — no `unsafe` anywhere in this crate.
+//!
+//! A segment is `[magic, n_sections, (offset_words, len_bytes) × n, data…]`. The segments:
+//! * objects: [`ObjectsHeader`], [`ObjectRec`] × n, names (UTF-8 arena) — one per structure
+//!   version, O(objects), no geometry;
+//! * poses: [`PosesHeader`], [`PoseRec`] × n, in the same order as the objects — published by
+//!   every commit, O(objects), no geometry;
+//! * geometry, one service per object: [`GeometryHeader`], vertices, indices, penalty planes,
+//!   polygons, edges, box — O(that object's geometry), published only when it changes;
+//! * changes: [`ChangeRec`] × n and their ids.
+
+use bytemuck::{Pod, Zeroable};
+
+pub const MAGIC: u64 = 0x5253_494d_0001_0000; // "RSIM" v1
+
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LayoutError {
+    #[error("segment too short ({0} words)")]
+    Short(usize),
+    #[error("bad magic {0:#x}")]
+    Magic(u64),
+    #[error("section {0} is out of bounds or misaligned for its record type")]
+    Section(usize),
+    #[error("section {0} is missing")]
+    Missing(usize),
+}
+
+/// Builds a segment: push sections, then write into a `u64` buffer of [`SegmentWriter::words`].
+#[derive(Default)]
+pub struct SegmentWriter<'a> {
+    sections: Vec<&'a [u8]>,
+}
+
+impl<'a> SegmentWriter<'a> {
+    pub fn new() -> Self {
+        SegmentWriter { sections: Vec::new() }
+    }
+    pub fn push<T: Pod>(&mut self, data: &'a [T]) -> &mut Self {
+        self.sections.push(bytemuck::cast_slice(data));
+        self
+    }
+    /// Total size in words.
+    pub fn words(&self) -> usize {
+        2 + 2 * self.sections.len() + self.sections.iter().map(|s| s.len().div_ceil(8)).sum::<usize>()
+    }
+    /// Writes the segment into `out`, which must be exactly [`Self::words`] long.
+    pub fn write(&self, out: &mut [u64]) {
+        debug_assert_eq!(out.len(), self.words());
+        out[0] = MAGIC;
+        out[1] = self.sections.len() as u64;
+        let mut offset = 2 + 2 * self.sections.len();
+        for (i, s) in self.sections.iter().enumerate() {
+            out[2 + 2 * i] = offset as u64;
+            out[3 + 2 * i] = s.len() as u64;
+            let w = s.len().div_ceil(8);
+            let dst: &mut [u8] = bytemuck::cast_slice_mut(&mut out[offset..offset + w]);
+            dst[..s.len()].copy_from_slice(s);
+            dst[s.len()..].fill(0);
+            offset += w;
+        }
+    }
+    pub fn to_vec(&self) -> Vec<u64> {
+        let mut v = vec![0u64; self.words()];
+        self.write(&mut v);
+        v
+    }
+}
+
+/// A read view over a segment (borrowed from shared memory or a Vec).
+#[derive(Clone, Copy)]
+pub struct Segment<'a> {
+    words: &'a [u64],
+    n: usize,
+}
+
+impl<'a> Segment<'a> {
+    pub fn parse(words: &'a [u64]) -> Result<Self, LayoutError> {
+        if words.len() < 2 {
+            return Err(LayoutError::Short(words.len()));
+        }
+        if words[0] != MAGIC {
+            return Err(LayoutError::Magic(words[0]));
+        }
+        let n = words[1] as usize;
+        if words.len() < 2 + 2 * n {
+            return Err(LayoutError::Short(words.len()));
+        }
+        Ok(Segment { words, n })
+    }
+    /// Section `i` viewed as `[T]` in place.
+    pub fn section<T: Pod>(&self, i: usize) -> Result<&'a [T], LayoutError> {
+        if i >= self.n {
+            return Err(LayoutError::Missing(i));
+        }
+        let off = self.words[2 + 2 * i] as usize;
+        let len = self.words[3 + 2 * i] as usize;
+        let w = len.div_ceil(8);
+        let words = self.words.get(off..off.checked_add(w).ok_or(LayoutError::Section(i))?).ok_or(LayoutError::Section(i))?;
+        let bytes: &[u8] = bytemuck::cast_slice(words);
+        bytemuck::try_cast_slice(&bytes[..len]).map_err(|_| LayoutError::Section(i))
+    }
+    /// The single record of section `i`.
+    pub fn record<T: Pod>(&self, i: usize) -> Result<&'a T, LayoutError> {
+        self.section::<T>(i)?.first().ok_or(LayoutError::Section(i))
+    }
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct ObjectsHeader {
+    /// The model version this structure was published at.
+    pub version: u64,
+    /// The keeper's start time (ns since the epoch): changes when a keeper restarts.
+    pub epoch: u64,
+    pub count: u64,
+}
+
+/// `ObjectRec::flags` bits.
+pub mod flags {
+    pub const HAS_KINEMATICS: u32 = 1;
+    pub const HAS_DYNAMICS: u32 = 2;
+    pub const HAS_GEOMETRY: u32 = 4;
+    /// `kin_tag`: the kinematics record is a joint (else a robot).
+    pub const KIN_JOINT: u32 = 1;
+    pub const KIN_ROBOT: u32 = 2;
+}
+
+/// One object, every aspect but its geometry (which has its own segment) and its pose
+/// (which is in the poses segment at the same index).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct ObjectRec {
+    pub id: u64,
+    pub parent: u64,
+    /// [`crate::Kind`] as u32.
+    pub kind: u32,
+    /// [`flags`].
+    pub flags: u32,
+    /// Byte range of the name in the names section.
+    pub name_off: u32,
+    pub name_len: u32,
+    pub geom_gen: u64,
+    /// RGBA, 0..1.
+    pub color: [f32; 4],
+    /// diffuse, specular, shininess, unused.
+    pub surface: [f32; 4],
+    /// `flags::KIN_JOINT` or `flags::KIN_ROBOT` (0 = none).
+    pub kin_tag: u32,
+    /// Joint: [`crate::JointKind`]; robot: unused.
+    pub joint_kind: u32,
+    /// [`crate::DhConvention`].
+    pub convention: u32,
+    /// Joint: index in the chain; robot: IK family.
+    pub index_or_family: u32,
+    /// Joint: a, d, alpha, theta, offset, qlo, qhi (m, rad).
+    pub dh: [f64; 7],
+    /// Robot: tool transform, 3×4 row-major.
+    pub tool: [f64; 12],
+    pub mass: f64,
+    pub com: [f64; 3],
+    /// xx, yy, zz, xy, xz, yz about the centre of mass.
+    pub inertia: [f64; 6],
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct PosesHeader {
+    /// The model version of this publication (the newest committed version).
+    pub version: u64,
+    /// The objects segment these poses are indexed against.
+    pub structure_version: u64,
+    pub epoch: u64,
+    pub count: u64,
+}
+
+/// Local pose of the object at the same index of the objects segment.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct PoseRec {
+    pub id: u64,
+    /// 3×4 row-major [R | t] relative to the parent.
+    pub pose: [f64; 12],
+    /// Link joint value (rad or m).
+    pub joint: f64,
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct GeometryHeader {
+    pub id: u64,
+    pub generation: u64,
+    /// bbox centre and half-diagonal.
+    pub bbox: [f64; 6],
+}
+
+/// A polygon record: `indices[start..start+len]`, its plane `n·p + d = 0` as [nx, ny, nz, d].
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct PolygonRec {
+    pub start: u32,
+    pub len: u32,
+    pub plane: [f64; 4],
+}
+
+/// One committed transaction as announced.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct ChangeRec {
+    pub version: u64,
+    /// [`crate::aspect`] bits.
+    pub aspects: u64,
+    /// Range of this record's ids in the ids section.
+    pub ids_start: u64,
+    pub ids_len: u64,
+    /// CLOCK_MONOTONIC ns when the keeper published it (for latency measurement).
+    pub published_ns: u64,
+}
+
+/// Geometry segment sections.
+pub mod geometry_sections {
+    pub const HEADER: usize = 0;
+    pub const VERTICES: usize = 1;
+    pub const INDICES: usize = 2;
+    pub const PENALTY: usize = 3;
+    pub const POLYGONS: usize = 4;
+    pub const EDGES: usize = 5;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sections_round_trip_with_alignment() {
+        let a: [u32; 3] = [1, 2, 3];
+        let b: [[f64; 3]; 2] = [[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]];
+        let c: [u8; 5] = *b"hello";
+        let mut w = SegmentWriter::new();
+        w.push(&a).push(&b).push(&c);
+        let v = w.to_vec();
+        let s = Segment::parse(&v).expect("parse");
+        assert_eq!(s.section::<u32>(0).expect("a"), &a);
+        assert_eq!(s.section::<[f64; 3]>(1).expect("b"), &b);
+        assert_eq!(s.section::<u8>(2).expect("c"), b"hello");
+        assert!(s.section::<u8>(3).is_err());
+        assert!(Segment::parse(&[1, 2]).is_err());
+    }
+
+    #[test]
+    fn record_sizes_have_no_padding() {
+        assert_eq!(std::mem::size_of::<ObjectRec>(), 320);
+        assert_eq!(std::mem::size_of::<PoseRec>(), 112);
+        assert_eq!(std::mem::size_of::<PolygonRec>(), 40);
+    }
+}

@@ -1,0 +1,601 @@
+//! The working model as plain Rust data, and the one function that changes it:
+//! [`Model::apply`], which validates a whole [`Transaction`] and then applies it, or refuses it
+//! and changes nothing.
+//!
+//! The keeper owns a `Model`; readers never see this type — they see the flat `#[repr(C)]`
+//! records of [`crate::layout`] that the keeper publishes from it.
+//!
+//! Part-whole structure (seed §3.2 item 2): scene → robots / items → links → solids → parts.
+//! Poses are local (relative to the parent) rigid transforms, 3×4 row-major `[R | t]`, metres.
+
+use crate::transaction::{ObjRef, Op, Transaction};
+use robosim_geometry::Polyhedron;
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, BTreeSet, HashMap};
+use std::sync::Arc;
+
+/// Object identifier; assigned by the keeper, never reused within a session. 0 means "none".
+pub type Id = u64;
+
+/// The most elements any one array of a transaction may hold (vertices, polygon indices, ids).
+/// Larger requests are refused before anything is allocated for them.
+pub const MAX_ELEMENTS: u64 = 1 << 27;
+/// The longest name, bytes.
+pub const MAX_NAME_BYTES: usize = 4096;
+
+/// The kind tag of an object (seed §3.3: objects are dynamically typed).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, bincode::Encode, bincode::Decode, PartialOrd, Ord)]
+#[repr(u32)]
+pub enum Kind {
+    Scene = 1,
+    Robot = 2,
+    Item = 3,
+    Link = 4,
+    Solid = 5,
+    Part = 6,
+}
+
+impl Kind {
+    pub fn from_u32(v: u32) -> Option<Kind> {
+        Some(match v {
+            1 => Kind::Scene,
+            2 => Kind::Robot,
+            3 => Kind::Item,
+            4 => Kind::Link,
+            5 => Kind::Solid,
+            6 => Kind::Part,
+            _ => return None,
+        })
+    }
+    pub fn name(self) -> &'static str {
+        match self {
+            Kind::Scene => "scene",
+            Kind::Robot => "robot",
+            Kind::Item => "item",
+            Kind::Link => "link",
+            Kind::Solid => "solid",
+            Kind::Part => "part",
+        }
+    }
+    /// The kinds this kind may be a child of (`None` = may be a root).
+    fn allowed_parents(self) -> (&'static [Kind], bool) {
+        match self {
+            Kind::Scene => (&[], true),
+            Kind::Robot | Kind::Item => (&[Kind::Scene], true),
+            Kind::Link => (&[Kind::Robot], false),
+            Kind::Solid => (&[Kind::Scene, Kind::Item, Kind::Link, Kind::Solid], true),
+            Kind::Part => (&[Kind::Solid], false),
+        }
+    }
+}
+
+/// The aspects a change can touch (seed §3.2 items 1–6); a bit set in announcements.
+pub mod aspect {
+    pub const STRUCTURE: u64 = 1;
+    pub const GEOMETRY: u64 = 2;
+    pub const POSE: u64 = 4;
+    pub const APPEARANCE: u64 = 8;
+    pub const KINEMATICS: u64 = 16;
+    pub const DYNAMICS: u64 = 32;
+    pub const ALL: u64 = 63;
+    /// Names of the bits, for printing.
+    pub fn names(mask: u64) -> Vec<&'static str> {
+        [
+            (STRUCTURE, "structure"),
+            (GEOMETRY, "geometry"),
+            (POSE, "pose"),
+            (APPEARANCE, "appearance"),
+            (KINEMATICS, "kinematics"),
+            (DYNAMICS, "dynamics"),
+        ]
+        .iter()
+        .filter(|(b, _)| mask & b != 0)
+        .map(|(_, n)| *n)
+        .collect()
+    }
+}
+
+/// Display data (seed §3.2 item 3): RGBA colour and a Phong-like surface.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+pub struct Appearance {
+    pub color: [f32; 4],
+    pub diffuse: f32,
+    pub specular: f32,
+    pub shininess: f32,
+}
+
+impl Default for Appearance {
+    fn default() -> Self {
+        Appearance { color: [0.7, 0.7, 0.7, 1.0], diffuse: 0.8, specular: 0.2, shininess: 16.0 }
+    }
+}
+
+/// Joint type of a link.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[repr(u32)]
+pub enum JointKind {
+    Fixed = 0,
+    Revolute = 1,
+    Prismatic = 2,
+}
+
+/// DH convention (DESIGN.md: standard = distal, modified = Craig).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[repr(u32)]
+pub enum DhConvention {
+    Standard = 0,
+    Modified = 1,
+}
+
+/// Kinematics data (seed §3.2 item 5).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+pub enum Kinematics {
+    /// A link's joint: its place in the chain, type, DH row (m, rad) and limits.
+    Joint {
+        index: u32,
+        joint: JointKind,
+        convention: DhConvention,
+        a: f64,
+        d: f64,
+        alpha: f64,
+        theta: f64,
+        offset: f64,
+        qlim: [f64; 2],
+    },
+    /// A robot: its DH convention, the analytic IK family it uses (0 = numeric only), and its
+    /// tool transform (3×4 row-major).
+    Robot { convention: DhConvention, ik_family: u32, tool: Pose },
+}
+
+/// Dynamics data (seed §3.2 item 6): mass (kg), centre of mass (m, object frame), inertia about
+/// the centre of mass (kg·m²) as xx, yy, zz, xy, xz, yz.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+pub struct MassProps {
+    pub mass: f64,
+    pub com: [f64; 3],
+    pub inertia: [f64; 6],
+}
+
+/// A rigid transform, 3×4 row-major `[R | t]` (the last row 0 0 0 1 is implied).
+pub type Pose = [f64; 12];
+
+/// The identity pose.
+pub const IDENTITY: Pose = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0];
+
+/// One object of the Instance Space, every aspect in one place.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Object {
+    pub id: Id,
+    pub kind: Kind,
+    pub parent: Id,
+    pub name: String,
+    pub pose: Pose,
+    /// The joint value of a link (rad or m); 0 for other kinds.
+    pub joint: f64,
+    pub appearance: Appearance,
+    pub kinematics: Option<Kinematics>,
+    pub dynamics: Option<MassProps>,
+    /// Shared, immutable geometry: a pose change never touches it.
+    pub geometry: Option<Arc<Polyhedron>>,
+    /// Bumped on every geometry change; readers match geometry samples by it.
+    pub geom_gen: u64,
+}
+
+/// Why a transaction was refused. `op` is the index of the offending operation in the
+/// transaction; `id` the object (0 for one the transaction was creating).
+#[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize, Deserialize)]
+pub enum TxError {
+    #[error("op {op}: object {id} does not exist")]
+    UnknownObject { op: usize, id: Id },
+    #[error("op {op}: `new {reference}` refers to no earlier create in this transaction")]
+    UnknownNewRef { op: usize, reference: u32 },
+    #[error("op {op}: object {id}: {field} is not finite ({value})")]
+    NonFinite { op: usize, id: Id, field: String, value: f64 },
+    #[error("op {op}: object {id}: {field}: {reason}")]
+    InvalidValue { op: usize, id: Id, field: String, reason: String },
+    #[error("op {op}: object {id}: geometry refused: {reason}")]
+    InvalidGeometry { op: usize, id: Id, reason: String },
+    #[error("op {op}: object {id}: making {parent} its parent would close a cycle in the hierarchy")]
+    Cycle { op: usize, id: Id, parent: Id },
+    #[error("op {op}: object {id}: a {kind} cannot be a child of a {parent_kind}")]
+    WrongParentKind { op: usize, id: Id, kind: String, parent_kind: String },
+    #[error("op {op}: object {id}: a {kind} needs a parent")]
+    NeedsParent { op: usize, id: Id, kind: String },
+    #[error("op {op}: object {id} still has {children} children; delete them first or delete recursively")]
+    HasChildren { op: usize, id: Id, children: usize },
+    #[error("op {op}: object {id}: {field} asks for {requested} elements; the limit is {limit}")]
+    TooLarge { op: usize, id: Id, field: String, requested: u64, limit: u64 },
+    #[error("op {op}: object {id}: {field} is not a rigid transform (orthonormal, det +1)")]
+    NotRigid { op: usize, id: Id, field: String },
+    #[error("malformed transaction: {message}")]
+    Malformed { message: String },
+    #[error("the transaction is empty")]
+    Empty,
+}
+
+/// What a committed transaction did.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Applied {
+    pub version: u64,
+    /// Ids assigned to the transaction's creates, in order.
+    pub created: Vec<Id>,
+    /// Every touched object with the aspects touched, sorted by id.
+    pub changes: Vec<(Id, u64)>,
+}
+
+impl Applied {
+    /// The union of the aspects touched.
+    pub fn aspects(&self) -> u64 {
+        self.changes.iter().fold(0, |a, c| a | c.1)
+    }
+}
+
+/// The whole working model. `version` counts committed transactions.
+#[derive(Debug, Clone, Default)]
+pub struct Model {
+    pub version: u64,
+    next_id: Id,
+    objects: BTreeMap<Id, Object>,
+    children: HashMap<Id, BTreeSet<Id>>,
+}
+
+impl Model {
+    pub fn new() -> Self {
+        Model { version: 0, next_id: 1, objects: BTreeMap::new(), children: HashMap::new() }
+    }
+    /// Rebuilds a model from a checkpoint's parts.
+    pub(crate) fn from_parts(version: u64, next_id: Id, objects: Vec<Object>) -> Self {
+        let mut m = Model { version, next_id, objects: BTreeMap::new(), children: HashMap::new() };
+        for o in objects {
+            m.children.entry(o.parent).or_default().insert(o.id);
+            m.objects.insert(o.id, o);
+        }
+        m
+    }
+    pub fn get(&self, id: Id) -> Option<&Object> {
+        self.objects.get(&id)
+    }
+    pub fn objects(&self) -> impl Iterator<Item = &Object> {
+        self.objects.values()
+    }
+    pub fn len(&self) -> usize {
+        self.objects.len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.objects.is_empty()
+    }
+    pub fn next_id(&self) -> Id {
+        self.next_id
+    }
+    pub fn children_of(&self, id: Id) -> impl Iterator<Item = Id> + '_ {
+        self.children.get(&id).into_iter().flat_map(|s| s.iter().copied())
+    }
+
+    /// Validates `tx` as a whole against the model and applies it: on success the version
+    /// grows by one and the result says what changed; on error nothing changed at all.
+    /// Cost: proportional to the objects the transaction touches (plus its geometry), not to
+    /// the model.
+    pub fn apply(&mut self, tx: &Transaction) -> Result<Applied, TxError> {
+        if tx.ops.is_empty() {
+            return Err(TxError::Empty);
+        }
+        let mut stage = Stage { model: self, overlay: HashMap::new(), created: Vec::new(), next_id: self.next_id, touched: BTreeMap::new(), reparented: Vec::new() };
+        for (i, op) in tx.ops.iter().enumerate() {
+            stage.op(i, op)?;
+        }
+        stage.check_structure()?;
+        let Stage { overlay, created, next_id, touched, .. } = stage;
+        // Commit: nothing below can fail.
+        for (id, obj) in overlay {
+            let old_parent = self.objects.get(&id).map(|o| o.parent);
+            if let Some(p) = old_parent {
+                if let Some(set) = self.children.get_mut(&p) {
+                    set.remove(&id);
+                }
+            }
+            match obj {
+                Some(o) => {
+                    self.children.entry(o.parent).or_default().insert(id);
+                    self.objects.insert(id, o);
+                }
+                None => {
+                    self.objects.remove(&id);
+                    self.children.remove(&id);
+                }
+            }
+        }
+        self.children.retain(|_, s| !s.is_empty());
+        self.next_id = next_id;
+        self.version += 1;
+        Ok(Applied { version: self.version, created, changes: touched.into_iter().collect() })
+    }
+}
+
+/// A transaction being validated: the model plus an overlay of the objects it changed.
+struct Stage<'m> {
+    model: &'m Model,
+    /// `None` = deleted by this transaction.
+    overlay: HashMap<Id, Option<Object>>,
+    created: Vec<Id>,
+    next_id: Id,
+    touched: BTreeMap<Id, u64>,
+    reparented: Vec<(usize, Id)>,
+}
+
+impl Stage<'_> {
+    fn resolve(&self, op: usize, r: ObjRef) -> Result<Id, TxError> {
+        let id = match r {
+            ObjRef::Id(id) => id,
+            ObjRef::New(k) => *self.created.get(k as usize).ok_or(TxError::UnknownNewRef { op, reference: k })?,
+        };
+        if self.exists(id) { Ok(id) } else { Err(TxError::UnknownObject { op, id }) }
+    }
+    fn exists(&self, id: Id) -> bool {
+        match self.overlay.get(&id) {
+            Some(o) => o.is_some(),
+            None => self.model.objects.contains_key(&id),
+        }
+    }
+    fn lookup(&self, id: Id) -> Option<&Object> {
+        match self.overlay.get(&id) {
+            Some(o) => o.as_ref(),
+            None => self.model.objects.get(&id),
+        }
+    }
+    /// The staged copy of `id`, cloned from the model on first write (geometry is shared).
+    fn edit(&mut self, op: usize, r: ObjRef, aspects: u64) -> Result<&mut Object, TxError> {
+        let id = self.resolve(op, r)?;
+        if !self.overlay.contains_key(&id) {
+            let copy = self.model.objects.get(&id).cloned();
+            self.overlay.insert(id, copy);
+        }
+        *self.touched.entry(id).or_default() |= aspects;
+        // resolve() checked existence, and we just inserted the model's copy if absent.
+        self.overlay.get_mut(&id).and_then(|o| o.as_mut()).ok_or(TxError::UnknownObject { op, id })
+    }
+    fn op(&mut self, i: usize, op: &Op) -> Result<(), TxError> {
+        use crate::model::aspect::*;
+        match op {
+            Op::Create { kind, name, parent } => {
+                check_name(i, 0, name)?;
+                let parent = match parent {
+                    Some(p) => self.resolve(i, *p)?,
+                    None => 0,
+                };
+                let id = self.next_id;
+                self.next_id += 1;
+                let obj = Object {
+                    id,
+                    kind: *kind,
+                    parent,
+                    name: name.clone(),
+                    pose: IDENTITY,
+                    joint: 0.0,
+                    appearance: Appearance::default(),
+                    kinematics: None,
+                    dynamics: None,
+                    geometry: None,
+                    geom_gen: 0,
+                };
+                self.overlay.insert(id, Some(obj));
+                self.created.push(id);
+                self.touched.insert(id, ALL);
+                self.reparented.push((i, id));
+            }
+            Op::Delete { id, recursive } => {
+                let id = self.resolve(i, *id)?;
+                let mut doomed = vec![id];
+                let mut k = 0;
+                while k < doomed.len() {
+                    let d = doomed[k];
+                    let kids: Vec<Id> = self.child_ids(d);
+                    if !kids.is_empty() && !recursive {
+                        return Err(TxError::HasChildren { op: i, id: d, children: kids.len() });
+                    }
+                    doomed.extend(kids);
+                    k += 1;
+                }
+                for d in doomed {
+                    self.overlay.insert(d, None);
+                    self.touched.insert(d, ALL);
+                }
+            }
+            Op::SetParent { id, parent } => {
+                let parent = match parent {
+                    Some(p) => self.resolve(i, *p)?,
+                    None => 0,
+                };
+                let obj = self.edit(i, *id, STRUCTURE)?;
+                obj.parent = parent;
+                let id = obj.id;
+                self.reparented.push((i, id));
+            }
+            Op::SetName { id, name } => {
+                check_name(i, 0, name)?;
+                self.edit(i, *id, STRUCTURE)?.name = name.clone();
+            }
+            Op::SetPose { id, pose } => {
+                let rid = self.resolve(i, *id)?;
+                check_pose(i, rid, "pose", pose)?;
+                self.edit(i, *id, POSE)?.pose = *pose;
+            }
+            Op::SetJoint { id, value } => {
+                let rid = self.resolve(i, *id)?;
+                finite(i, rid, "joint", *value)?;
+                let obj = self.edit(i, *id, POSE)?;
+                if obj.kind != Kind::Link {
+                    return Err(TxError::InvalidValue { op: i, id: rid, field: "joint".into(), reason: format!("a {} has no joint", obj.kind.name()) });
+                }
+                obj.joint = *value;
+            }
+            Op::SetAppearance { id, appearance } => {
+                let rid = self.resolve(i, *id)?;
+                for (k, c) in appearance.color.iter().enumerate() {
+                    if !(0.0..=1.0).contains(c) {
+                        return Err(TxError::InvalidValue { op: i, id: rid, field: format!("color[{k}]"), reason: format!("{c} is outside [0, 1]") });
+                    }
+                }
+                for (f, v) in [("diffuse", appearance.diffuse), ("specular", appearance.specular), ("shininess", appearance.shininess)] {
+                    if !v.is_finite() || v < 0.0 {
+                        return Err(TxError::InvalidValue { op: i, id: rid, field: f.into(), reason: format!("{v} must be finite and ≥ 0") });
+                    }
+                }
+                self.edit(i, *id, APPEARANCE)?.appearance = *appearance;
+            }
+            Op::SetKinematics { id, kinematics } => {
+                let rid = self.resolve(i, *id)?;
+                if let Some(k) = kinematics {
+                    check_kinematics(i, rid, k)?;
+                }
+                let kind = self.lookup(rid).map(|o| o.kind);
+                match (kinematics, kind) {
+                    (Some(Kinematics::Joint { .. }), Some(k)) if k != Kind::Link => {
+                        return Err(TxError::InvalidValue { op: i, id: rid, field: "kinematics".into(), reason: format!("joint data belongs on a link, not a {}", k.name()) });
+                    }
+                    (Some(Kinematics::Robot { .. }), Some(k)) if k != Kind::Robot => {
+                        return Err(TxError::InvalidValue { op: i, id: rid, field: "kinematics".into(), reason: format!("robot data belongs on a robot, not a {}", k.name()) });
+                    }
+                    _ => {}
+                }
+                self.edit(i, *id, KINEMATICS)?.kinematics = *kinematics;
+            }
+            Op::SetDynamics { id, dynamics } => {
+                let rid = self.resolve(i, *id)?;
+                if let Some(m) = dynamics {
+                    finite(i, rid, "mass", m.mass)?;
+                    for (k, v) in m.com.iter().enumerate() {
+                        finite(i, rid, &format!("com[{k}]"), *v)?;
+                    }
+                    for (k, v) in m.inertia.iter().enumerate() {
+                        finite(i, rid, &format!("inertia[{k}]"), *v)?;
+                    }
+                    if m.mass < 0.0 {
+                        return Err(TxError::InvalidValue { op: i, id: rid, field: "mass".into(), reason: format!("{} kg is negative", m.mass) });
+                    }
+                }
+                self.edit(i, *id, DYNAMICS)?.dynamics = *dynamics;
+            }
+            Op::SetGeometry { id, geometry } => {
+                let rid = self.resolve(i, *id)?;
+                let poly = match geometry {
+                    None => None,
+                    Some(g) => {
+                        for (field, n) in [("vertices", g.vertices.len()), ("polygons", g.polygons.len())] {
+                            if n as u64 > MAX_ELEMENTS {
+                                return Err(TxError::TooLarge { op: i, id: rid, field: field.into(), requested: n as u64, limit: MAX_ELEMENTS });
+                            }
+                        }
+                        for (k, v) in g.vertices.iter().enumerate() {
+                            for (c, x) in v.iter().enumerate() {
+                                finite(i, rid, &format!("vertices[{k}][{c}]"), *x)?;
+                            }
+                        }
+                        let verts = g.vertices.iter().map(|v| nalgebra::Point3::new(v[0], v[1], v[2])).collect();
+                        let p = Polyhedron::from_polygons(verts, &g.polygons).map_err(|e| TxError::InvalidGeometry { op: i, id: rid, reason: e.to_string() })?;
+                        Some(Arc::new(p))
+                    }
+                };
+                let obj = self.edit(i, *id, GEOMETRY)?;
+                obj.geometry = poly;
+                obj.geom_gen += 1;
+            }
+        }
+        Ok(())
+    }
+
+    fn child_ids(&self, id: Id) -> Vec<Id> {
+        let mut out: Vec<Id> = self.model.children.get(&id).map(|s| s.iter().copied().filter(|c| self.lookup(*c).is_some_and(|o| o.parent == id)).collect()).unwrap_or_default();
+        for (cid, o) in &self.overlay {
+            if o.as_ref().is_some_and(|o| o.parent == id) && !out.contains(cid) {
+                out.push(*cid);
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+
+    /// Parent kinds and acyclicity, for every object whose parent this transaction set; and
+    /// (a deleted object's children were deleted with it or refused in `Delete`).
+    fn check_structure(&self) -> Result<(), TxError> {
+        // The last op that set each object's parent is the one to blame.
+        let mut last: HashMap<Id, usize> = HashMap::new();
+        for &(op, id) in &self.reparented {
+            last.insert(id, op);
+        }
+        let mut checks: Vec<(usize, Id)> = last.into_iter().map(|(id, op)| (op, id)).collect();
+        // Latest first: the op that closed a cycle is reported, not an earlier one on it.
+        checks.sort_unstable_by(|a, b| b.cmp(a));
+        for &(op, id) in &checks {
+            let Some(obj) = self.lookup(id) else { continue };
+            let (allowed, may_be_root) = obj.kind.allowed_parents();
+            if obj.parent == 0 {
+                if !may_be_root {
+                    return Err(TxError::NeedsParent { op, id, kind: obj.kind.name().into() });
+                }
+                continue;
+            }
+            let Some(parent) = self.lookup(obj.parent) else {
+                return Err(TxError::UnknownObject { op, id: obj.parent });
+            };
+            if !allowed.contains(&parent.kind) {
+                return Err(TxError::WrongParentKind { op, id, kind: obj.kind.name().into(), parent_kind: parent.kind.name().into() });
+            }
+            // Walk up: a cycle returns to `id`. Bounded by the number of objects.
+            let mut cur = obj.parent;
+            let limit = self.model.objects.len() + self.overlay.len() + 1;
+            for _ in 0..limit {
+                if cur == 0 {
+                    break;
+                }
+                if cur == id {
+                    return Err(TxError::Cycle { op, id, parent: obj.parent });
+                }
+                cur = self.lookup(cur).map_or(0, |o| o.parent);
+            }
+        }
+        Ok(())
+    }
+}
+
+fn finite(op: usize, id: Id, field: &str, value: f64) -> Result<(), TxError> {
+    if value.is_finite() { Ok(()) } else { Err(TxError::NonFinite { op, id, field: field.into(), value }) }
+}
+
+fn check_name(op: usize, id: Id, name: &str) -> Result<(), TxError> {
+    if name.len() > MAX_NAME_BYTES {
+        return Err(TxError::TooLarge { op, id, field: "name".into(), requested: name.len() as u64, limit: MAX_NAME_BYTES as u64 });
+    }
+    Ok(())
+}
+
+/// Finite, rotation orthonormal with determinant +1 (to 1e-6: poses composed in f64 by a
+/// planner drift a little; the keeper does not renormalise them).
+pub(crate) fn check_pose(op: usize, id: Id, field: &str, p: &Pose) -> Result<(), TxError> {
+    for (k, v) in p.iter().enumerate() {
+        finite(op, id, &format!("{field}[{k}]"), *v)?;
+    }
+    let r = nalgebra::Matrix3::new(p[0], p[1], p[2], p[4], p[5], p[6], p[8], p[9], p[10]);
+    let err = (r.transpose() * r - nalgebra::Matrix3::identity()).abs().max();
+    if err > 1e-6 || (r.determinant() - 1.0).abs() > 1e-6 {
+        return Err(TxError::NotRigid { op, id, field: field.into() });
+    }
+    Ok(())
+}
+
+fn check_kinematics(op: usize, id: Id, k: &Kinematics) -> Result<(), TxError> {
+    match k {
+        Kinematics::Joint { a, d, alpha, theta, offset, qlim, .. } => {
+            for (f, v) in [("a", a), ("d", d), ("alpha", alpha), ("theta", theta), ("offset", offset)] {
+                finite(op, id, f, *v)?;
+            }
+            if qlim[0].is_nan() || qlim[1].is_nan() {
+                return Err(TxError::NonFinite { op, id, field: "qlim".into(), value: f64::NAN });
+            }
+            if qlim[0] > qlim[1] {
+                return Err(TxError::InvalidValue { op, id, field: "qlim".into(), reason: format!("[{}, {}] is reversed", qlim[0], qlim[1]) });
+            }
+        }
+        Kinematics::Robot { tool, .. } => check_pose(op, id, "tool", tool)?,
+    }
+    Ok(())
+}

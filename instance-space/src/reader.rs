@@ -1,0 +1,423 @@
+//! Readers: map the keeper's published model and follow its changes.
+//!
+//! A [`Snapshot`] holds the iceoryx2 samples of one consistent version — the poses head, the
+//! objects segment it is indexed against, and the geometry samples those objects reference —
+//! and views them in place: reading the model copies nothing, whatever its size. Holding a
+//! snapshot keeps its version alive while the keeper publishes newer ones (up to
+//! `MAX_HELD_SNAPSHOTS` older snapshots per reader at a time).
+//!
+//! [`Reader::wait_change`] blocks (with a timeout) on the keeper's change event and returns the
+//! change records — version, aspects, ids — in order; [`Reader::changes_since`] answers "what
+//! changed since version N" from the records this reader has seen.
+
+use crate::keeper::events;
+use crate::layout::{flags, geometry_sections as gs, ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, PoseRec, PolygonRec, PosesHeader, Segment};
+use crate::model::{Id, Kind};
+use crate::session::{Session, SessionError};
+use crate::services;
+use iceoryx2::prelude::*;
+use std::collections::{HashMap, VecDeque};
+use std::rc::Rc;
+use std::time::{Duration, Instant};
+
+type Sample = iceoryx2::sample::Sample<ipc::Service, [u64], ()>;
+type Sub = iceoryx2::port::subscriber::Subscriber<ipc::Service, [u64], ()>;
+
+/// How many change records a reader remembers for [`Reader::changes_since`].
+const CHANGE_LOG: usize = 1 << 16;
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReaderError {
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    #[error("no keeper is running in session {session}")]
+    NoKeeper { session: String },
+    #[error("the keeper published nothing within {0:?}")]
+    Timeout(Duration),
+    #[error("a published segment is malformed: {0}")]
+    Layout(#[from] LayoutError),
+    #[error("changes before version {oldest} are no longer known to this reader (asked for changes since {since}); take a new snapshot")]
+    ChangesLost { since: u64, oldest: u64 },
+    #[error("this reader holds too many snapshots; drop old ones before taking a new one")]
+    TooManySnapshotsHeld,
+    #[error("iceoryx2 {what}: {message}")]
+    Ipc { what: String, message: String },
+}
+
+fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> ReaderError {
+    let what = what.into();
+    move |e| {
+        let message = format!("{e:?}");
+        if message.contains("ExceedsMaxBorrow") { ReaderError::TooManySnapshotsHeld } else { ReaderError::Ipc { what, message } }
+    }
+}
+
+/// One committed transaction as announced by the keeper.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Change {
+    pub version: u64,
+    /// [`crate::aspect`] bits.
+    pub aspects: u64,
+    pub ids: Vec<Id>,
+    /// CLOCK_MONOTONIC ns when the keeper published it.
+    pub published_ns: u64,
+}
+
+/// One consistent version of the model, viewed in place in shared memory.
+pub struct Snapshot {
+    version: u64,
+    epoch: u64,
+    objects: Rc<Sample>,
+    poses: Rc<Sample>,
+    /// By object index; `None` for objects without geometry.
+    geometry: Vec<Option<Rc<Sample>>>,
+}
+
+/// Geometry of one object, in place.
+#[derive(Clone, Copy)]
+pub struct GeometryView<'a> {
+    pub header: &'a GeometryHeader,
+    pub vertices: &'a [[f64; 3]],
+    pub indices: &'a [u32],
+    /// One per entry of `indices`: [nx, ny, nz, d] of that polygon side's penalty plane.
+    pub penalty: &'a [[f64; 4]],
+    pub polygons: &'a [PolygonRec],
+    pub edges: &'a [[u32; 2]],
+}
+
+/// One object with its pose and name.
+#[derive(Clone, Copy)]
+pub struct ObjectView<'a> {
+    pub rec: &'a ObjectRec,
+    pub pose: &'a PoseRec,
+    pub name: &'a str,
+}
+
+impl ObjectView<'_> {
+    pub fn kind(&self) -> Option<Kind> {
+        Kind::from_u32(self.rec.kind)
+    }
+}
+
+impl Snapshot {
+    fn seg(s: &Sample) -> Segment<'_> {
+        // Segments were validated when the snapshot was assembled.
+        Segment::parse(s.payload()).unwrap_or_else(|_| unreachable_segment())
+    }
+    /// The newest version this snapshot includes.
+    pub fn version(&self) -> u64 {
+        self.version
+    }
+    /// The keeper's start time; changes when the keeper restarts.
+    pub fn epoch(&self) -> u64 {
+        self.epoch
+    }
+    pub fn len(&self) -> usize {
+        self.objects().len()
+    }
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// Every object, sorted by id.
+    pub fn objects(&self) -> &[ObjectRec] {
+        Self::seg(&self.objects).section(1).unwrap_or(&[])
+    }
+    /// Every object's local pose, same order as [`Snapshot::objects`].
+    pub fn poses(&self) -> &[PoseRec] {
+        Self::seg(&self.poses).section(1).unwrap_or(&[])
+    }
+    pub fn name(&self, i: usize) -> &str {
+        let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
+        let r = &self.objects()[i];
+        names.get(r.name_off as usize..(r.name_off + r.name_len) as usize).and_then(|b| std::str::from_utf8(b).ok()).unwrap_or("")
+    }
+    pub fn index_of(&self, id: Id) -> Option<usize> {
+        self.objects().binary_search_by_key(&id, |r| r.id).ok()
+    }
+    pub fn object(&self, i: usize) -> ObjectView<'_> {
+        ObjectView { rec: &self.objects()[i], pose: &self.poses()[i], name: self.name(i) }
+    }
+    /// The first object called `name`.
+    pub fn find(&self, name: &str) -> Option<usize> {
+        (0..self.len()).find(|&i| self.name(i) == name)
+    }
+    pub fn geometry(&self, i: usize) -> Option<GeometryView<'_>> {
+        let s = self.geometry.get(i)?.as_ref()?;
+        let seg = Self::seg(s);
+        Some(GeometryView {
+            header: seg.record(gs::HEADER).ok()?,
+            vertices: seg.section(gs::VERTICES).ok()?,
+            indices: seg.section(gs::INDICES).ok()?,
+            penalty: seg.section(gs::PENALTY).ok()?,
+            polygons: seg.section(gs::POLYGONS).ok()?,
+            edges: seg.section(gs::EDGES).ok()?,
+        })
+    }
+    /// Total vertices over all objects (a cheap whole-model read, used by benchmarks).
+    pub fn vertex_count(&self) -> usize {
+        (0..self.len()).filter_map(|i| self.geometry(i)).map(|g| g.vertices.len()).sum()
+    }
+    /// Pose of object `i` in the world: the product of local poses up the parent chain,
+    /// 3×4 row-major.
+    pub fn world_pose(&self, i: usize) -> [f64; 12] {
+        let mut m = self.poses()[i].pose;
+        let mut parent = self.objects()[i].parent;
+        let mut guard = self.len();
+        while parent != 0 && guard > 0 {
+            let Some(p) = self.index_of(parent) else { break };
+            m = compose(&self.poses()[p].pose, &m);
+            parent = self.objects()[p].parent;
+            guard -= 1;
+        }
+        m
+    }
+}
+
+/// `a · b` for 3×4 row-major rigid transforms.
+pub fn compose(a: &[f64; 12], b: &[f64; 12]) -> [f64; 12] {
+    let mut out = [0.0; 12];
+    for r in 0..3 {
+        for c in 0..4 {
+            let mut s = if c == 3 { a[r * 4 + 3] } else { 0.0 };
+            for k in 0..3 {
+                s += a[r * 4 + k] * b[k * 4 + c];
+            }
+            out[r * 4 + c] = s;
+        }
+    }
+    out
+}
+
+fn unreachable_segment() -> Segment<'static> {
+    static EMPTY: [u64; 2] = [crate::layout::MAGIC, 0];
+    // EMPTY is a valid segment with no sections.
+    Segment::parse(&EMPTY).unwrap_or_else(|_| unreachable_segment())
+}
+
+struct GeomSub {
+    sub: Sub,
+    latest: Option<Rc<Sample>>,
+    generation: u64,
+}
+
+/// A process's read attachment to a session's Instance Space.
+pub struct Reader {
+    session: Session,
+    node: Node<ipc::Service>,
+    objects: Sub,
+    poses: Sub,
+    changes: Sub,
+    listener: iceoryx2::port::listener::Listener<ipc::Service>,
+    hello: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    geometry: HashMap<Id, GeomSub>,
+    latest_objects: Option<Rc<Sample>>,
+    current: Option<Rc<Snapshot>>,
+    log: VecDeque<Change>,
+    /// Highest change version seen (0 = none yet).
+    seen: u64,
+    /// Lowest version from which the log is gap-free.
+    log_floor: u64,
+    timeout: Duration,
+    _services: Vec<Box<dyn std::any::Any>>,
+}
+
+impl Reader {
+    /// Attaches to the keeper of `session` and waits (up to 10 s) for its current model.
+    pub fn attach(session: &Session, role: &str) -> Result<Reader, ReaderError> {
+        let node = session.node(role, false)?;
+        let no_keeper = |_: Box<dyn std::fmt::Debug>| ReaderError::NoKeeper { session: session.name().to_owned() };
+        let open = |suffix: &str| -> Result<_, ReaderError> { node.service_builder(&session.service(suffix)?).publish_subscribe::<[u64]>().open().map_err(|e| no_keeper(Box::new(e))) };
+        let objects_svc = open(services::OBJECTS)?;
+        let poses_svc = open(services::POSES)?;
+        let changes_svc = open(services::CHANGES)?;
+        let objects = objects_svc.subscriber_builder().create().map_err(ipc("subscribe objects"))?;
+        let poses = poses_svc.subscriber_builder().create().map_err(ipc("subscribe poses"))?;
+        let changes = changes_svc.subscriber_builder().create().map_err(ipc("subscribe changes"))?;
+        let change_event = node.service_builder(&session.service(services::CHANGE_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
+        let listener = change_event.listener_builder().create().map_err(ipc("listen to changes"))?;
+        let req_event = node.service_builder(&session.service(services::REQUEST_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
+        let hello = req_event.notifier_builder().create().map_err(ipc("create hello notifier"))?;
+        let mut r = Reader {
+            session: session.clone(),
+            node,
+            objects,
+            poses,
+            changes,
+            listener,
+            hello,
+            geometry: HashMap::new(),
+            latest_objects: None,
+            current: None,
+            log: VecDeque::new(),
+            seen: 0,
+            log_floor: 0,
+            timeout: Duration::from_secs(10),
+            _services: vec![Box::new(objects_svc), Box::new(poses_svc), Box::new(changes_svc), Box::new(change_event), Box::new(req_event)],
+        };
+        let _ = r.hello.notify_with_custom_event_id(EventId::new(events::HELLO));
+        let start = Instant::now();
+        while r.current.is_none() {
+            r.refresh()?;
+            if r.current.is_some() {
+                break;
+            }
+            if start.elapsed() > r.timeout {
+                return Err(ReaderError::Timeout(r.timeout));
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+        let v = r.current.as_ref().map_or(0, |s| s.version);
+        r.seen = v;
+        r.log_floor = v + 1;
+        // History of the change stream: drop what the snapshot already includes.
+        r.drain_changes()?;
+        Ok(r)
+    }
+
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// The newest consistent snapshot this reader has assembled (call [`Reader::refresh`] or
+    /// [`Reader::wait_change`] to advance it). Cheap: a reference-counted handle.
+    pub fn snapshot(&self) -> Option<Rc<Snapshot>> {
+        self.current.clone()
+    }
+
+    /// Assembles the newest published version if there is one; returns whether it advanced.
+    pub fn refresh(&mut self) -> Result<bool, ReaderError> {
+        // The poses segment is the head: the keeper publishes it last in every commit.
+        let mut head: Option<Sample> = None;
+        while let Some(s) = self.poses.receive().map_err(ipc("receive poses"))? {
+            head = Some(s);
+        }
+        let Some(head) = head else { return Ok(false) };
+        let h: PosesHeader = *Segment::parse(head.payload())?.record::<PosesHeader>(0)?;
+        // The objects segment the head is indexed against; it was published before the head.
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            if let Some(o) = &self.latest_objects {
+                let oh: ObjectsHeader = *Segment::parse(o.payload())?.record::<ObjectsHeader>(0)?;
+                if oh.version == h.structure_version && oh.epoch == h.epoch {
+                    break;
+                }
+                if oh.version > h.structure_version && oh.epoch == h.epoch {
+                    // Structure moved on after this head: a newer head follows; take it.
+                    return self.refresh();
+                }
+            }
+            match self.objects.receive().map_err(ipc("receive objects"))? {
+                Some(s) => self.latest_objects = Some(Rc::new(s)),
+                None if Instant::now() > deadline => return Err(ReaderError::Timeout(self.timeout)),
+                None => std::thread::sleep(Duration::from_micros(50)),
+            }
+        }
+        let objects = self.latest_objects.clone().ok_or(ReaderError::Timeout(self.timeout))?;
+        let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.payload())?.section::<ObjectRec>(1)?.iter().map(|r| (r.id, r.geom_gen, r.flags & flags::HAS_GEOMETRY != 0)).collect();
+        let mut geometry = Vec::with_capacity(recs.len());
+        let mut said_hello = false;
+        for &(id, generation, has) in &recs {
+            if !has {
+                geometry.push(None);
+                continue;
+            }
+            if !self.geometry.contains_key(&id) {
+                let svc = self.node.service_builder(&self.session.service(&services::geometry(id))?).publish_subscribe::<[u64]>().open().map_err(ipc(format!("open geometry of object {id}")))?;
+                let sub = svc.subscriber_builder().create().map_err(ipc(format!("subscribe geometry of object {id}")))?;
+                self._services.push(Box::new(svc));
+                self.geometry.insert(id, GeomSub { sub, latest: None, generation: 0 });
+            }
+            let Some(g) = self.geometry.get_mut(&id) else { continue };
+            while g.generation != generation {
+                match g.sub.receive().map_err(ipc(format!("receive geometry of object {id}")))? {
+                    Some(s) => {
+                        let gh: GeometryHeader = *Segment::parse(s.payload())?.record::<GeometryHeader>(gs::HEADER)?;
+                        g.generation = gh.generation;
+                        g.latest = Some(Rc::new(s));
+                        if gh.generation > generation {
+                            // Geometry newer than this head: a newer head follows.
+                            return self.refresh();
+                        }
+                    }
+                    None if Instant::now() > deadline => return Err(ReaderError::Timeout(self.timeout)),
+                    None => {
+                        if !said_hello {
+                            // New subscriber: ask the keeper to deliver its history now.
+                            let _ = self.hello.notify_with_custom_event_id(EventId::new(events::HELLO));
+                            said_hello = true;
+                        }
+                        std::thread::sleep(Duration::from_micros(50));
+                    }
+                }
+            }
+            geometry.push(g.latest.clone());
+        }
+        let live: std::collections::HashSet<Id> = recs.iter().filter(|r| r.2).map(|r| r.0).collect();
+        self.geometry.retain(|id, _| live.contains(id));
+        self.current = Some(Rc::new(Snapshot { version: h.version, epoch: h.epoch, objects, poses: Rc::new(head), geometry }));
+        Ok(true)
+    }
+
+    fn drain_changes(&mut self) -> Result<Vec<Change>, ReaderError> {
+        let mut out = Vec::new();
+        while let Some(s) = self.changes.receive().map_err(ipc("receive changes"))? {
+            let seg = Segment::parse(s.payload())?;
+            let recs: &[ChangeRec] = seg.section(0)?;
+            let ids: &[u64] = seg.section(1)?;
+            for r in recs {
+                if r.version <= self.seen {
+                    continue;
+                }
+                if r.version != self.seen + 1 {
+                    // Missed records (overflow, or a keeper restart that replayed unpublished
+                    // commits): the log is only complete from here on.
+                    self.log.clear();
+                    self.log_floor = r.version;
+                }
+                let range = r.ids_start as usize..(r.ids_start + r.ids_len) as usize;
+                let c = Change { version: r.version, aspects: r.aspects, ids: ids.get(range).unwrap_or(&[]).to_vec(), published_ns: r.published_ns };
+                self.seen = r.version;
+                self.log.push_back(c.clone());
+                if self.log.len() > CHANGE_LOG {
+                    self.log.pop_front();
+                    self.log_floor += 1;
+                }
+                out.push(c);
+            }
+        }
+        Ok(out)
+    }
+
+    /// Waits up to `timeout` for the next change(s) and returns them in version order (empty on
+    /// timeout). The snapshot is advanced to the newest version.
+    pub fn wait_change(&mut self, timeout: Duration) -> Result<Vec<Change>, ReaderError> {
+        let mut out = self.drain_changes()?;
+        if out.is_empty() {
+            self.listener.timed_wait(|_| {}, timeout).map_err(ipc("wait for changes"))?;
+            out = self.drain_changes()?;
+        } else {
+            let _ = self.listener.try_wait(|_| {});
+        }
+        if !out.is_empty() {
+            self.refresh()?;
+        }
+        Ok(out)
+    }
+
+    /// Waits for the change event without draining anything (for latency measurement:
+    /// returns the instant of wake-up in CLOCK_MONOTONIC ns, or None on timeout).
+    pub fn wait_event(&mut self, timeout: Duration) -> Result<Option<u64>, ReaderError> {
+        let n = self.listener.timed_wait(|_| {}, timeout).map_err(ipc("wait for changes"))?;
+        Ok((n > 0).then(crate::monotonic_ns))
+    }
+
+    /// Every change after `version` that this reader knows, in order; an error if some of them
+    /// happened before this reader's log begins.
+    pub fn changes_since(&mut self, version: u64) -> Result<Vec<Change>, ReaderError> {
+        self.drain_changes()?;
+        if version + 1 < self.log_floor {
+            return Err(ReaderError::ChangesLost { since: version, oldest: self.log_floor });
+        }
+        Ok(self.log.iter().filter(|c| c.version > version).cloned().collect())
+    }
+}

@@ -1,0 +1,210 @@
+//! Sessions: one namespace for all of a simulation's shared memory, services, journal and
+//! process registry. Two sessions on one machine never see each other.
+//!
+//! * Files: `$ROBOSIM_HOME/<session>/` (default `$HOME/.local/state/robosim/<session>/`), mode
+//!   0700; the journal and checkpoints under `data/` and the process registry under `run/`,
+//!   every file 0600.
+//! * iceoryx2: an explicit [`iceoryx2::config::Config`] per session — file prefix
+//!   `rs_<session>_` and root path `<session dir>/iox2/` — so nothing depends on the working
+//!   directory's `config/iceoryx2.toml`, and another session's names cannot collide.
+
+use iceoryx2::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::fs;
+use std::io::Write as _;
+use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt, PermissionsExt};
+use std::path::{Path as FsPath, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum SessionError {
+    #[error("session name {0:?} is invalid: use 1–24 characters from A–Z a–z 0–9 _ -")]
+    BadName(String),
+    #[error("cannot create {path}: {source}")]
+    Dir { path: PathBuf, source: std::io::Error },
+    #[error("iceoryx2 configuration for session {session}: {message}")]
+    Config { session: String, message: String },
+    #[error("{path}: {source}")]
+    Io { path: PathBuf, source: std::io::Error },
+}
+
+/// A session: its name and its directory.
+#[derive(Debug, Clone)]
+pub struct Session {
+    name: String,
+    dir: PathBuf,
+}
+
+/// The default session name: one per user.
+pub fn default_session_name() -> String {
+    format!("u{}", uid())
+}
+
+pub(crate) fn uid() -> u32 {
+    use std::os::unix::fs::MetadataExt;
+    // /proc/self belongs to the process's real uid; without /proc, fall back to the home dir.
+    fs::metadata("/proc/self").or_else(|_| fs::metadata(".")).map_or(0, |m| m.uid())
+}
+
+/// `$ROBOSIM_HOME`, else `$HOME/.local/state/robosim`, else `/tmp/robosim-<uid>`.
+pub fn home() -> PathBuf {
+    if let Some(h) = std::env::var_os("ROBOSIM_HOME") {
+        return PathBuf::from(h);
+    }
+    match std::env::var_os("HOME") {
+        Some(h) => PathBuf::from(h).join(".local/state/robosim"),
+        None => PathBuf::from(format!("/tmp/robosim-{}", uid())),
+    }
+}
+
+fn private_dir(path: &FsPath) -> Result<(), SessionError> {
+    fs::DirBuilder::new().recursive(true).mode(0o700).create(path).map_err(|source| SessionError::Dir { path: path.to_owned(), source })?;
+    // An existing directory keeps its mode: tighten it.
+    fs::set_permissions(path, fs::Permissions::from_mode(0o700)).map_err(|source| SessionError::Dir { path: path.to_owned(), source })
+}
+
+/// Writes `bytes` to `path` atomically (temp file, fsync, rename) with mode 0600.
+pub fn write_private(path: &FsPath, bytes: &[u8]) -> Result<(), SessionError> {
+    let tmp = path.with_extension("tmp");
+    let io = |source| SessionError::Io { path: path.to_owned(), source };
+    let mut f = fs::OpenOptions::new().write(true).create(true).truncate(true).mode(0o600).open(&tmp).map_err(io)?;
+    f.write_all(bytes).map_err(io)?;
+    f.sync_all().map_err(io)?;
+    fs::rename(&tmp, path).map_err(io)
+}
+
+impl Session {
+    /// Opens (creating its directories) the session `name`, or the default one.
+    pub fn open(name: Option<&str>) -> Result<Self, SessionError> {
+        let name = name.map(str::to_owned).unwrap_or_else(default_session_name);
+        if name.is_empty() || name.len() > 24 || !name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-') {
+            return Err(SessionError::BadName(name));
+        }
+        let root = home();
+        private_dir(&root)?;
+        let dir = root.join(&name);
+        for d in [dir.clone(), dir.join("data"), dir.join("run"), dir.join("iox2")] {
+            private_dir(&d)?;
+        }
+        Ok(Session { name, dir })
+    }
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+    pub fn dir(&self) -> &FsPath {
+        &self.dir
+    }
+    /// Journal and checkpoints.
+    pub fn data_dir(&self) -> PathBuf {
+        self.dir.join("data")
+    }
+    /// Process registry.
+    pub fn run_dir(&self) -> PathBuf {
+        self.dir.join("run")
+    }
+    /// The shared-memory file prefix of this session (in /dev/shm).
+    pub fn shm_prefix(&self) -> String {
+        format!("rs_{}_", self.name)
+    }
+
+    /// The iceoryx2 configuration of this session.
+    pub fn iox_config(&self) -> Result<iceoryx2::config::Config, SessionError> {
+        let err = |message: String| SessionError::Config { session: self.name.clone(), message };
+        let mut cfg = iceoryx2::config::Config::default();
+        cfg.global.prefix = FileName::new(self.shm_prefix().as_bytes()).map_err(|e| err(format!("prefix: {e:?}")))?;
+        let root = format!("{}/", self.dir.join("iox2").display());
+        let root = Path::new(root.as_bytes()).map_err(|e| err(format!("root path {root:?}: {e:?}")))?;
+        cfg.global.set_root_path(&root);
+        Ok(cfg)
+    }
+
+    /// Creates an iceoryx2 node named `role` in this session. With `handle_signals`, SIGINT and
+    /// SIGTERM are caught and reported by `node.wait()` instead of killing the process.
+    pub fn node(&self, role: &str, handle_signals: bool) -> Result<Node<ipc::Service>, SessionError> {
+        let cfg = self.iox_config()?;
+        let name = NodeName::new(role).map_err(|e| SessionError::Config { session: self.name.clone(), message: format!("node name {role:?}: {e:?}") })?;
+        let node = NodeBuilder::new()
+            .name(&name)
+            .config(&cfg)
+            .signal_handling_mode(if handle_signals { SignalHandlingMode::HandleTerminationRequests } else { SignalHandlingMode::Disabled })
+            .create::<ipc::Service>()
+            .map_err(|e| SessionError::Config { session: self.name.clone(), message: format!("node {role:?}: {e:?}") })?;
+        Ok(node)
+    }
+
+    /// A service name inside this session.
+    pub fn service(&self, suffix: &str) -> Result<ServiceName, SessionError> {
+        let s = format!("robosim/{}/{}", self.name, suffix);
+        ServiceName::new(&s).map_err(|e| SessionError::Config { session: self.name.clone(), message: format!("service name {s:?}: {e:?}") })
+    }
+
+    /// Registers this process in the session's registry until the returned guard drops.
+    pub fn register(&self, role: &str, attached: &[&str]) -> Result<Registration, SessionError> {
+        let info = ProcInfo {
+            role: role.to_owned(),
+            pid: std::process::id(),
+            attached: attached.iter().map(|s| s.to_string()).collect(),
+            started_unix_ms: std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64),
+        };
+        let path = self.run_dir().join(format!("{role}-{}.json", info.pid));
+        let json = serde_json::to_vec_pretty(&info).unwrap_or_default();
+        write_private(&path, &json)?;
+        Ok(Registration { path })
+    }
+
+    /// Processes registered in this session that are still alive (stale entries of dead
+    /// processes are removed).
+    pub fn processes(&self) -> Vec<ProcInfo> {
+        let mut out = Vec::new();
+        let Ok(entries) = fs::read_dir(self.run_dir()) else { return out };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.extension().is_none_or(|x| x != "json") {
+                continue;
+            }
+            let Ok(bytes) = fs::read(&p) else { continue };
+            let Ok(info) = serde_json::from_slice::<ProcInfo>(&bytes) else { continue };
+            if pid_alive(info.pid) {
+                out.push(info);
+            } else {
+                let _ = fs::remove_file(&p);
+            }
+        }
+        out.sort_by(|a, b| (role_rank(&a.role), a.pid).cmp(&(role_rank(&b.role), b.pid)));
+        out
+    }
+}
+
+fn role_rank(role: &str) -> u32 {
+    if role == "space" { 0 } else { 1 }
+}
+
+/// True if a process with this pid exists and is not a zombie.
+pub fn pid_alive(pid: u32) -> bool {
+    match fs::read_to_string(format!("/proc/{pid}/stat")) {
+        // The state is the field after the parenthesised command name.
+        Ok(stat) => stat.rsplit_once(')').is_some_and(|(_, rest)| !rest.trim_start().starts_with('Z')),
+        Err(_) => false,
+    }
+}
+
+/// One registered process of a session.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct ProcInfo {
+    pub role: String,
+    pub pid: u32,
+    /// What it is attached to (services, files).
+    pub attached: Vec<String>,
+    pub started_unix_ms: u64,
+}
+
+/// Removes the registry entry when dropped.
+#[derive(Debug)]
+pub struct Registration {
+    path: PathBuf,
+}
+
+impl Drop for Registration {
+    fn drop(&mut self) {
+        let _ = fs::remove_file(&self.path);
+    }
+}

@@ -1,0 +1,158 @@
+//! High-rate state: a running simulator owns the dynamic state (joint values, body poses,
+//! time) and publishes it on its own service, `state/<name>`, with a sequence number and the
+//! structure version it applies to, so readers see structure and state coherently: a state
+//! record whose `structure_version` is newer than the reader's snapshot waits for that
+//! snapshot; an older one refers to a structure the reader has already replaced.
+//!
+//! The service lives as long as the simulator: when it dies, readers see no new records (and
+//! `StateSubscriber::publisher_alive` turns false); the keeper and the Instance Space are
+//! unaffected.
+
+use crate::layout::{PoseRec, Segment, SegmentWriter};
+use crate::session::{Session, SessionError};
+use bytemuck::{Pod, Zeroable};
+use iceoryx2::prelude::*;
+use std::time::Duration;
+
+type Pub = iceoryx2::port::publisher::Publisher<ipc::Service, [u64], ()>;
+type Sub = iceoryx2::port::subscriber::Subscriber<ipc::Service, [u64], ()>;
+type Sample = iceoryx2::sample::Sample<ipc::Service, [u64], ()>;
+
+#[derive(Debug, thiserror::Error)]
+pub enum StateError {
+    #[error(transparent)]
+    Session(#[from] SessionError),
+    #[error("no state service {name:?} in session {session} (is the simulator running?)")]
+    NoPublisher { session: String, name: String },
+    #[error("iceoryx2 {what}: {message}")]
+    Ipc { what: String, message: String },
+    #[error("malformed state record: {0}")]
+    Layout(#[from] crate::layout::LayoutError),
+}
+
+fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> StateError {
+    move |e| StateError::Ipc { what: what.to_owned(), message: format!("{e:?}") }
+}
+
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct StateHeader {
+    /// Increases by one per published record.
+    pub seq: u64,
+    /// The Instance Space version whose structure this state applies to.
+    pub structure_version: u64,
+    /// Simulated time, s.
+    pub t: f64,
+    /// CLOCK_MONOTONIC ns at publication.
+    pub published_ns: u64,
+}
+
+/// One joint's state: the link object id, position (rad or m), velocity, effort (N·m or N).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct JointStateRec {
+    pub id: u64,
+    pub q: f64,
+    pub qd: f64,
+    pub effort: f64,
+}
+
+/// A state record as a reader receives it (copied out of shared memory: it is small).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StateRecord {
+    pub header: StateHeader,
+    pub joints: Vec<JointStateRec>,
+    pub bodies: Vec<PoseRec>,
+}
+
+fn service_name(name: &str) -> String {
+    format!("state/{name}")
+}
+
+pub struct StatePublisher {
+    _node: Node<ipc::Service>,
+    publisher: Pub,
+    notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
+    seq: u64,
+    _services: Vec<Box<dyn std::any::Any>>,
+}
+
+impl StatePublisher {
+    /// Creates the state service `name` in `session` (the caller owns it).
+    pub fn create(session: &Session, name: &str) -> Result<Self, StateError> {
+        let node = session.node(&format!("state-{name}"), false)?;
+        let svc = node
+            .service_builder(&session.service(&service_name(name))?)
+            .publish_subscribe::<[u64]>()
+            .history_size(1)
+            .subscriber_max_buffer_size(256)
+            .subscriber_max_borrowed_samples(2)
+            .enable_safe_overflow(true)
+            .max_publishers(1)
+            .max_subscribers(16)
+            .open_or_create()
+            .map_err(ipc("create state service"))?;
+        let publisher = svc.publisher_builder().initial_max_slice_len(256).allocation_strategy(AllocationStrategy::PowerOfTwo).create().map_err(ipc("create state publisher"))?;
+        let ev = node.service_builder(&session.service(&format!("{}/event", service_name(name)))?).event().open_or_create().map_err(ipc("create state event"))?;
+        let notifier = ev.notifier_builder().create().map_err(ipc("create state notifier"))?;
+        Ok(StatePublisher { _node: node, publisher, notifier, seq: 0, _services: vec![Box::new(svc), Box::new(ev)] })
+    }
+
+    /// Publishes one record; returns its sequence number.
+    pub fn publish(&mut self, structure_version: u64, t: f64, joints: &[JointStateRec], bodies: &[PoseRec]) -> Result<u64, StateError> {
+        use iceoryx2::port::update_connections::UpdateConnections;
+        self.seq += 1;
+        let header = [StateHeader { seq: self.seq, structure_version, t, published_ns: crate::monotonic_ns() }];
+        let mut w = SegmentWriter::new();
+        w.push(&header).push(joints).push(bodies);
+        let _ = self.publisher.update_connections();
+        let mut s = self.publisher.loan_slice(w.words()).map_err(ipc("loan state"))?;
+        w.write(s.payload_mut());
+        s.send().map_err(ipc("send state"))?;
+        let _ = self.notifier.notify();
+        Ok(self.seq)
+    }
+}
+
+pub struct StateSubscriber {
+    _node: Node<ipc::Service>,
+    sub: Sub,
+    listener: iceoryx2::port::listener::Listener<ipc::Service>,
+    _services: Vec<Box<dyn std::any::Any>>,
+}
+
+impl StateSubscriber {
+    pub fn open(session: &Session, name: &str, role: &str) -> Result<Self, StateError> {
+        let node = session.node(role, false)?;
+        let none = |_: Box<dyn std::fmt::Debug>| StateError::NoPublisher { session: session.name().to_owned(), name: name.to_owned() };
+        let svc = node.service_builder(&session.service(&service_name(name))?).publish_subscribe::<[u64]>().open().map_err(|e| none(Box::new(e)))?;
+        let sub = svc.subscriber_builder().create().map_err(ipc("subscribe state"))?;
+        let ev = node.service_builder(&session.service(&format!("{}/event", service_name(name)))?).event().open().map_err(|e| none(Box::new(e)))?;
+        let listener = ev.listener_builder().create().map_err(ipc("listen to state"))?;
+        Ok(StateSubscriber { _node: node, sub, listener, _services: vec![Box::new(svc), Box::new(ev)] })
+    }
+
+    fn decode(s: &Sample) -> Result<StateRecord, StateError> {
+        let seg = Segment::parse(s.payload())?;
+        Ok(StateRecord { header: *seg.record::<StateHeader>(0)?, joints: seg.section::<JointStateRec>(1)?.to_vec(), bodies: seg.section::<PoseRec>(2)?.to_vec() })
+    }
+
+    /// Every record received since the last call, oldest first.
+    pub fn drain(&mut self) -> Result<Vec<StateRecord>, StateError> {
+        let mut out = Vec::new();
+        while let Some(s) = self.sub.receive().map_err(ipc("receive state"))? {
+            out.push(Self::decode(&s)?);
+        }
+        Ok(out)
+    }
+
+    /// Waits up to `timeout` for records, then drains them.
+    pub fn wait(&mut self, timeout: Duration) -> Result<Vec<StateRecord>, StateError> {
+        let out = self.drain()?;
+        if !out.is_empty() {
+            return Ok(out);
+        }
+        self.listener.timed_wait(|_| {}, timeout).map_err(ipc("wait for state"))?;
+        self.drain()
+    }
+}
