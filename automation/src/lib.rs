@@ -9,3 +9,4 @@ pub mod sim;
 pub mod analysis;
 pub mod kernel;
 pub mod reconfig;
+pub mod bench;

@@ -58,8 +58,8 @@ fn monitor_constraint_alone_decides() {
 fn temporal_constraint_alone_decides() {
     let m = model(
         "process R { failure a failure b failure x derived failure y derived
-           propagate a -> x prob 0.9 time 10..20  propagate a -> y prob 0.9 time 10..20
-           propagate b -> x prob 0.9 time 100..200  propagate b -> y prob 0.9 time 1..5
+           propagate a -> x prob 0.9 time 10..20  propagate a -> y prob 1 time 10..20
+           propagate b -> x prob 0.9 time 1..5  propagate b -> y prob 1 time 1..5
            alarm AX detects x  alarm AY detects y }",
     );
     let g = FaultGraph::new(&m);
@@ -67,7 +67,8 @@ fn temporal_constraint_alone_decides() {
     d.add_alarm(alarm(&m, "AX"), 100.0).unwrap();
     assert_eq!(single(&m, &d), ["a", "b"]);
     d.add_alarm(alarm(&m, "AY"), 110.0).unwrap();
-    // a: t0 in [80, 90] and [90, 100] -> 90. b: t0 in [-100, 0] and [105, 109]: empty.
+    // a: t0 <= 90 (x; p < 1 gives no lower bound on t0) and t0 in [90, 100] (y) -> 90.
+    // b: t0 <= 99 and t0 in [105, 109]: empty. (No alarm is overdue: consistency is silent.)
     assert_eq!(single(&m, &d), ["a"]);
     let c = d.candidates()[0];
     assert!((c.t0.0 - 90.0).abs() < 1e-9 && (c.t0.1 - 90.0).abs() < 1e-9, "{c:?}");

@@ -11,8 +11,11 @@
 //!    it cannot be the source either (a source is active from the fault time on). The result is
 //!    stored per alarm: source → `(dmin, dmax)`.
 //! 2. **Temporal.** `dmin` is the least Σ`tmin` over the admissible paths and `dmax` the least
-//!    Σ`tmax` (the seed: "the time interval computed from the time intervals found on shortest
-//!    path"). Each single-fault candidate keeps an interval for its unknown fault time `t0`;
+//!    Σ`tmax` over the admissible paths whose edges all have probability 1 (∞ when there is
+//!    none). The seed takes both bounds from the shortest path; with probabilities below 1 the
+//!    shortest path may not fire and a slower path deliver the fault after its Σ`tmax`, which
+//!    would reject the true source — so the upper bound is taken only from paths that must
+//!    fire. Each single-fault candidate keeps an interval for its unknown fault time `t0`;
 //!    every alarm narrows it to `[t − dmax, t − dmin]`; an empty interval rejects the candidate.
 //!    Incrementally: candidates are only ever intersected with the new alarm's map.
 //! 3. **Consistency.** A failure mode that a candidate reaches along edges of probability 1 (so
@@ -294,7 +297,7 @@ impl<'g> Diagnoser<'g> {
     fn explain(&mut self, a: AlarmId) -> HashMap<FmId, (f64, f64)> {
         let g = self.g;
         let targets: Vec<FmId> = g.alarm_fms[a].iter().copied().filter(|&f| self.pending[f] == 0).collect();
-        let run = |weight: fn(&super::graph::Arc) -> f64, sc: &mut Scratch, pending: &[u32]| {
+        let run = |weight: fn(&super::graph::Arc) -> Option<f64>, sc: &mut Scratch, pending: &[u32]| {
             sc.begin();
             for &t in &targets {
                 sc.relax(t, 0.0);
@@ -304,15 +307,17 @@ impl<'g> Diagnoser<'g> {
                 out.push((v, d));
                 for arc in g.pred(v) {
                     let u = arc.to;
-                    if pending[u] == 0 {
-                        sc.relax(u, d + weight(arc));
+                    if let (0, Some(w)) = (pending[u], weight(arc)) {
+                        sc.relax(u, d + w);
                     }
                 }
             }
             out
         };
-        let mins = run(|a| a.tmin, &mut self.scratch, &self.pending);
-        let maxs = run(|a| a.tmax, &mut self.scratch, &self.pending);
+        let mins = run(|a| Some(a.tmin), &mut self.scratch, &self.pending);
+        // The latest arrival is bounded only along paths that certainly fire: with p < 1 the
+        // fast path may not fire and a slower one deliver the fault later.
+        let maxs = run(|a| (a.prob >= 1.0).then_some(a.tmax), &mut self.scratch, &self.pending);
         let mut map: HashMap<FmId, (f64, f64)> = HashMap::with_capacity(mins.len());
         for (v, d) in mins {
             if g.can_originate[v] {
