@@ -1,1 +1,49 @@
-//! (being written)
+//! The Library Space (seed §3.3, rlib.h): a declarative, parametric modelling language for
+//! colours, surfaces, solids made of parts, links, robots and scenes; its evaluator to plain
+//! data; the standard library (PUMA 560, Stanford arm, Panda, the surgical positioner, the
+//! welding cell, the Space Station of §4.1).
+//!
+//! The language is described with examples in `docs/library.md`.
+//!
+//! Entry points:
+//! * [`Library::load`], [`Library::from_source`], [`Library::standard`] — parse and check.
+//! * [`Library::declarations`], [`Library::params`] — list and inspect.
+//! * [`Library::evaluate`] → [`Evaluated`] — plain data: [`RobotModel`] (a
+//!   `robosim_kinematics::Robot` plus per-link solids), [`SolidModel`], [`SceneModel`] with
+//!   its [`Effects`].
+//! * [`cli`] — `robosim lib list|show|check`.
+//! * [`standard_robot`] — a standard-library robot by name, for the query protocol.
+//! * [`bench::report_library`] — parse + evaluate time against facet count.
+
+mod ast;
+pub mod bench;
+pub mod cli;
+mod error;
+mod eval;
+mod lexer;
+mod library;
+mod model;
+mod parser;
+mod source;
+mod stdlib;
+mod units;
+mod value;
+
+pub use ast::DeclKind;
+pub use error::{ErrorKind, LibError};
+pub use eval::EvalOptions;
+pub use library::{DeclInfo, Error, Library, ParamInfo, ParamValue, Params};
+pub use model::*;
+pub use source::Location;
+pub use stdlib::FILES as STDLIB_FILES;
+
+/// The robot model of standard-library robot `name` at its default parameters (`puma560`,
+/// `stanford_arm`, `panda`, …); `None` when there is no such robot. Loads and checks the
+/// standard library on every call — cache the [`Library`] where that matters.
+pub fn standard_robot(name: &str) -> Option<robosim_kinematics::Robot> {
+    let lib = Library::standard().ok()?;
+    match lib.evaluate(name, &Params::new()).ok()? {
+        Evaluated::Robot(r) | Evaluated::Link(r) => Some(r.robot),
+        _ => None,
+    }
+}

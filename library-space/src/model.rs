@@ -1,0 +1,211 @@
+//! The plain data a declaration evaluates to. No shared memory, no source text: the lead's
+//! instantiation copies this into the Instance Space, the simulator reads robots and effects,
+//! the display reads solids, colours and surfaces.
+//!
+//! Frames: a [`PlacedSolid`]'s `transform` maps its polyhedron's own frame (centred on its
+//! bounding box) into the frame it belongs to: the solid declaration's frame, a robot's link
+//! frame j (the frame at the end of `A_j`, DESIGN.md), or the world for scene items.
+
+use nalgebra::{Matrix4, Vector3};
+use robosim_geometry::{MassProperties, Polyhedron};
+use robosim_kinematics::Robot;
+use serde::{Deserialize, Serialize};
+
+/// Red, green, blue in [0, 1].
+pub type Rgb = [f64; 3];
+
+/// A surface finish (rlib.h `Surface`): diffuse colour plus specular highlight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Surface {
+    pub name: String,
+    pub colour: Rgb,
+    /// Specular reflectance in [0, 1].
+    pub specular: f64,
+    /// Phong exponent ≥ 0.
+    pub shininess: f64,
+    /// Opacity in [0, 1] (1: opaque).
+    pub opacity: f64,
+}
+
+/// Which generator made a primitive and with what parameters (SI), so the higher-level
+/// concept survives evaluation (seed §3.3: the Library Space knows a box is a box).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "shape", rename_all = "snake_case")]
+pub enum Primitive {
+    Box {
+        size: [f64; 3],
+    },
+    Cylinder {
+        radius: f64,
+        height: f64,
+        facets: usize,
+    },
+    Cone {
+        radius: f64,
+        height: f64,
+        facets: usize,
+    },
+    TruncatedCone {
+        bottom: f64,
+        top: f64,
+        height: f64,
+        facets: usize,
+    },
+    Sphere {
+        radius: f64,
+        facets: usize,
+    },
+    Extrusion {
+        points: Vec<[f64; 2]>,
+        height: f64,
+    },
+    Revolution {
+        points: Vec<[f64; 2]>,
+        angle: f64,
+        facets: Option<usize>,
+    },
+}
+
+/// One convex-faced primitive, placed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlacedSolid {
+    /// Path of part names from the declaration down, e.g. `upper_arm/web`.
+    pub name: String,
+    pub primitive: Primitive,
+    pub polyhedron: Polyhedron,
+    pub transform: Matrix4<f64>,
+    pub colour: Option<Rgb>,
+    pub surface: Option<Surface>,
+}
+
+/// A solid declaration evaluated: its primitives (flattened part tree) and, where a density or
+/// mass was declared, its mass properties in the solid's frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SolidModel {
+    pub name: String,
+    pub parts: Vec<PlacedSolid>,
+    pub mass: Option<MassProperties>,
+}
+
+/// A robot: the kinematic/dynamic model plus the solids drawn and collided per frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RobotModel {
+    pub robot: Robot,
+    /// Link names, one per joint of `robot`.
+    pub link_names: Vec<String>,
+    /// `frames[0]`: solids fixed to the base frame; `frames[j]`: solids of link j, in link
+    /// frame j. Length `robot.dof() + 1`.
+    pub frames: Vec<Vec<PlacedSolid>>,
+    /// The analytic inverse-kinematics family the robot declares (`puma`, `stanford`, …), if any.
+    pub ik: Option<String>,
+}
+
+/// A robot placed in a scene. Its `model.robot.base` already includes `placement`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlacedRobot {
+    pub name: String,
+    pub model: RobotModel,
+    pub placement: Matrix4<f64>,
+    /// Initial joint values (rad / m), `dof` entries.
+    pub q: Vec<f64>,
+}
+
+/// A solid placed in a scene, in the world frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlacedItem {
+    pub name: String,
+    pub solid: SolidModel,
+    pub placement: Matrix4<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CollisionMode {
+    /// Bounding boxes only (seed §2.6, first stage).
+    Bbox,
+    /// The seed's polygon algorithm.
+    Polygon,
+    /// Exact (GJK/EPA on the convex pieces).
+    Exact,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CollisionEffect {
+    pub mode: CollisionMode,
+    /// Check links of one robot against each other.
+    pub self_collision: bool,
+    /// Swept (continuous) checks between steps.
+    pub continuous: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Integrator {
+    Euler,
+    SemiImplicitEuler,
+    Rk4,
+    Dopri5,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DynamicsEffect {
+    pub integrator: Integrator,
+    /// Integration step, s.
+    pub step_s: f64,
+    /// Gravity in the world frame, m/s².
+    pub gravity: Vector3<f64>,
+}
+
+/// The effects a scene calls for (DESIGN.md, "Scenes declare their effects"). What is not
+/// declared is off and costs nothing — except kinematics, on unless the scene says `off`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Effects {
+    pub kinematics: bool,
+    pub joint_limits: bool,
+    pub collision: Option<CollisionEffect>,
+    pub dynamics: Option<DynamicsEffect>,
+    /// Encoder resolution in bits (seed §2.7), if joint readings are quantised.
+    pub encoder_bits: Option<u32>,
+    /// Signals to log (`q`, `qd`, `tau`, `contacts`, `energy`, …).
+    pub logged: Vec<String>,
+}
+
+impl Default for Effects {
+    fn default() -> Self {
+        Effects {
+            kinematics: true,
+            joint_limits: false,
+            collision: None,
+            dynamics: None,
+            encoder_bits: None,
+            logged: vec![],
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SceneModel {
+    pub name: String,
+    pub robots: Vec<PlacedRobot>,
+    pub solids: Vec<PlacedItem>,
+    pub effects: Effects,
+}
+
+/// What [`crate::Library::evaluate`] returns, by declaration kind.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum Evaluated {
+    Constant {
+        value: f64,
+        unit: String,
+    },
+    Colour {
+        rgb: Rgb,
+    },
+    Surface(Surface),
+    Solid(SolidModel),
+    /// A link declaration on its own: a one-joint robot.
+    Link(RobotModel),
+    Robot(RobotModel),
+    Scene(SceneModel),
+}
