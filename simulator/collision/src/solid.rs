@@ -8,6 +8,9 @@
 //! Entry points: [`Solid::cuboid`], [`Solid::sphere`], [`Solid::cylinder`], [`Solid::cone`],
 //! [`Solid::convex`], [`Solid::mesh`], [`Solid::compound`], [`default_facets`].
 //!
+//! The faceted primitives come from the geometry library's generators
+//! ([`robosim_geometry::shapes`]); the exact ones are parry's `Cuboid`, `Ball`, `Cylinder`, `Cone`.
+//!
 //! Conventions (DESIGN.md, Shapes): metres; every primitive is centred on its bounding box with
 //! its axis along z; a cone's base disc is at z = −h/2 and its apex at z = +h/2. Faceted
 //! primitives are *inscribed* (every vertex lies on the true surface), so the faceted solid is
@@ -15,8 +18,8 @@
 
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 use parry3d_f64::shape::{SharedShape, TriMeshFlags};
-use robosim_geometry::{Aabb, GeometryError, Polyhedron};
-use std::f64::consts::{FRAC_PI_2, PI, TAU};
+use robosim_geometry::{shapes, Aabb, GeometryError, Polyhedron};
+use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Chord error the default facet count aims at, metres.
 pub const DEFAULT_CHORD_ERROR: f64 = 1e-3;
@@ -39,6 +42,9 @@ pub enum ShapeError {
     /// A compound part is itself a non-convex mesh or a compound (parry cannot nest them).
     #[error("compound part {0} is not convex (only convex parts may be combined)")]
     NonConvexPart(usize),
+    /// The geometry library's shape generator refused the parameters.
+    #[error("{0}")]
+    Generator(#[from] shapes::ShapeError),
     /// A compound has no parts.
     #[error("a compound needs at least one part")]
     EmptyCompound,
@@ -136,14 +142,18 @@ fn positive(field: &'static str, value: f64) -> Result<f64, ShapeError> {
     }
 }
 
-/// The default facet count around a round primitive of `radius`: the smallest count (12 to 256)
-/// whose chord error `r (1 − cos(π/n))` is at most [`DEFAULT_CHORD_ERROR`].
+/// The default facet count around a round primitive of `radius` (m): the geometry library's
+/// size-dependent count for a chord error of [`DEFAULT_CHORD_ERROR`] (a multiple of 4, 8 to 256).
 pub fn default_facets(radius: f64) -> usize {
-    let mut n = 12;
-    while n < 256 && radius * (1.0 - (PI / n as f64).cos()) > DEFAULT_CHORD_ERROR {
-        n += 4;
+    shapes::default_facets(radius, DEFAULT_CHORD_ERROR)
+}
+
+fn facets_checked(facets: Option<usize>, r: f64) -> Result<usize, ShapeError> {
+    let n = facets.unwrap_or_else(|| default_facets(r));
+    if n < 3 {
+        return Err(ShapeError::TooFewFacets(n));
     }
-    n
+    Ok(n)
 }
 
 /// Rotation taking parry's y axis onto our z axis (Rx(+90°)).
@@ -159,100 +169,40 @@ impl Solid {
 
     /// A box with full side lengths `size` (m), centred at the origin.
     pub fn cuboid(size: Vector3<f64>) -> Result<Self, ShapeError> {
-        let h = Vector3::new(positive("size[0]", size.x)? / 2.0, positive("size[1]", size.y)? / 2.0, positive("size[2]", size.z)? / 2.0);
-        let v: Vec<Point3<f64>> = (0..8)
-            .map(|i| {
-                let s = |bit: usize| if i >> bit & 1 == 1 { 1.0 } else { -1.0 };
-                Point3::new(s(0) * h.x, s(1) * h.y, s(2) * h.z)
-            })
-            .collect();
-        let f = [[0, 2, 3, 1], [4, 5, 7, 6], [0, 1, 5, 4], [2, 6, 7, 3], [0, 4, 6, 2], [1, 3, 7, 5]];
-        let faces: Vec<Vec<u32>> = f.iter().map(|q| q.to_vec()).collect();
-        let poly = Polyhedron::from_polygons(v, &faces)?;
-        let vol = 8.0 * h.x * h.y * h.z;
-        Ok(Self::single(SolidKind::Cuboid, poly, SharedShape::cuboid(h.x, h.y, h.z), Isometry3::identity(), 0.0, Some(vol)))
+        let (x, y, z) = (positive("size[0]", size.x)?, positive("size[1]", size.y)?, positive("size[2]", size.z)?);
+        let poly = shapes::cuboid(x, y, z)?;
+        Ok(Self::single(SolidKind::Cuboid, poly, SharedShape::cuboid(x / 2.0, y / 2.0, z / 2.0), Isometry3::identity(), 0.0, Some(x * y * z)))
     }
 
-    /// A sphere of `radius` (m); faceted as a latitude/longitude polyhedron with `facets`
-    /// meridians (default [`default_facets`]) and `facets / 2` bands.
+    /// A sphere of `radius` (m); faceted by the geometry library's generator with `facets`
+    /// meridians (default [`default_facets`]) and `facets / 2` latitude bands.
     pub fn sphere(radius: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
         let r = positive("radius", radius)?;
-        let n = facets.unwrap_or_else(|| default_facets(r));
-        if n < 3 {
-            return Err(ShapeError::TooFewFacets(n));
-        }
-        let m = (n / 2).max(2);
-        let mut v = vec![Point3::new(0.0, 0.0, -r), Point3::new(0.0, 0.0, r)];
-        for k in 1..m {
-            let phi = -FRAC_PI_2 + PI * k as f64 / m as f64;
-            for i in 0..n {
-                let th = TAU * i as f64 / n as f64;
-                v.push(Point3::new(r * phi.cos() * th.cos(), r * phi.cos() * th.sin(), r * phi.sin()));
-            }
-        }
-        let ring = |k: usize, i: usize| (2 + (k - 1) * n + i % n) as u32;
-        let mut faces = Vec::new();
-        for i in 0..n {
-            faces.push(vec![0, ring(1, i + 1), ring(1, i)]);
-            for k in 1..m - 1 {
-                faces.push(vec![ring(k, i), ring(k, i + 1), ring(k + 1, i + 1), ring(k + 1, i)]);
-            }
-            faces.push(vec![ring(m - 1, i), ring(m - 1, i + 1), 1]);
-        }
-        let poly = Polyhedron::from_polygons(v, &faces)?;
+        let n = facets_checked(facets, r)?;
+        let poly = shapes::sphere(r, Some(n))?;
+        // Every face's nearest point to the centre lies inside the face (the faces are symmetric
+        // about their centre ray), so the deepest gap is r − (smallest plane distance).
         let inner = poly.polygons.iter().map(|p| p.plane.d.abs()).fold(f64::INFINITY, f64::min);
         let vol = 4.0 / 3.0 * PI * r.powi(3);
         Ok(Self::single(SolidKind::Sphere, poly, SharedShape::ball(r), Isometry3::identity(), r - inner, Some(vol)))
     }
 
-    /// A cylinder of `radius` and `height` (m), axis z, centred; `facets` sides.
+    /// A cylinder of `radius` and `height` (m), axis z, centred; `facets` sides (default
+    /// [`default_facets`]).
     pub fn cylinder(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
         let (r, h) = (positive("radius", radius)?, positive("height", height)?);
-        let n = facets.unwrap_or_else(|| default_facets(r));
-        if n < 3 {
-            return Err(ShapeError::TooFewFacets(n));
-        }
-        let mut v = Vec::with_capacity(2 * n);
-        for z in [-h / 2.0, h / 2.0] {
-            for i in 0..n {
-                let th = TAU * i as f64 / n as f64;
-                v.push(Point3::new(r * th.cos(), r * th.sin(), z));
-            }
-        }
-        let n32 = n as u32;
-        let mut faces: Vec<Vec<u32>> = vec![(0..n32).rev().collect(), (n32..2 * n32).collect()];
-        for i in 0..n32 {
-            let j = (i + 1) % n32;
-            faces.push(vec![i, j, n32 + j, n32 + i]);
-        }
-        let poly = Polyhedron::from_polygons(v, &faces)?;
-        let err = r * (1.0 - (PI / n as f64).cos());
-        Ok(Self::single(SolidKind::Cylinder, poly, SharedShape::cylinder(h / 2.0, r), y_to_z(), err, Some(PI * r * r * h)))
+        let n = facets_checked(facets, r)?;
+        let poly = shapes::cylinder(r, h, Some(n))?;
+        Ok(Self::single(SolidKind::Cylinder, poly, SharedShape::cylinder(h / 2.0, r), y_to_z(), shapes::chord_error(r, n), Some(PI * r * r * h)))
     }
 
     /// A cone of base `radius` and `height` (m): base disc at z = −h/2, apex at z = +h/2.
     pub fn cone(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
         let (r, h) = (positive("radius", radius)?, positive("height", height)?);
-        let n = facets.unwrap_or_else(|| default_facets(r));
-        if n < 3 {
-            return Err(ShapeError::TooFewFacets(n));
-        }
-        let mut v: Vec<Point3<f64>> = (0..n)
-            .map(|i| {
-                let th = TAU * i as f64 / n as f64;
-                Point3::new(r * th.cos(), r * th.sin(), -h / 2.0)
-            })
-            .collect();
-        v.push(Point3::new(0.0, 0.0, h / 2.0));
-        let n32 = n as u32;
-        let mut faces: Vec<Vec<u32>> = vec![(0..n32).rev().collect()];
-        for i in 0..n32 {
-            faces.push(vec![i, (i + 1) % n32, n32]);
-        }
-        let poly = Polyhedron::from_polygons(v, &faces)?;
+        let n = facets_checked(facets, r)?;
+        let poly = shapes::cone(r, h, Some(n))?;
         // Hausdorff distance ≤ the base chord's sagitta (the gap shrinks linearly to the apex).
-        let err = r * (1.0 - (PI / n as f64).cos());
-        Ok(Self::single(SolidKind::Cone, poly, SharedShape::cone(h / 2.0, r), y_to_z(), err, Some(PI * r * r * h / 3.0)))
+        Ok(Self::single(SolidKind::Cone, poly, SharedShape::cone(h / 2.0, r), y_to_z(), shapes::chord_error(r, n), Some(PI * r * r * h / 3.0)))
     }
 
     /// The convex hull of `points` (m). The faceted form is parry's hull triangulation, so both
