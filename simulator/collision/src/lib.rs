@@ -24,6 +24,7 @@ pub mod exact;
 mod outcome;
 pub mod polygon;
 pub mod query;
+pub mod report;
 pub mod robot;
 mod solid;
 
