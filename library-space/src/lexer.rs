@@ -17,11 +17,11 @@ pub enum Tok {
 impl Tok {
     pub fn describe(&self) -> String {
         match self {
-            Tok::Ident(s) => format!("`{s}`"),
-            Tok::Number(n) => format!("the number {n}"),
-            Tok::Str(s) => format!("the string \"{s}\""),
+            Tok::Ident(s) => format!("name `{s}`"),
+            Tok::Number(n) => format!("number `{n}`"),
+            Tok::Str(s) => format!("string \"{s}\""),
             Tok::Punct(c) => format!("`{c}`"),
-            Tok::Eof => "the end of the file".into(),
+            Tok::Eof => "end of file".into(),
         }
     }
 }
