@@ -11,7 +11,7 @@
 use crate::fk::link_transform;
 use crate::model::{Convention, JointType, Robot};
 use crate::pose::{rotation, translation};
-use nalgebra::{DMatrix, Dyn, Matrix4, OMatrix, U6};
+use nalgebra::{DMatrix, Dyn, Matrix4, OMatrix, U6, Vector3};
 
 /// A 6 × n Jacobian.
 pub type Jacobian = OMatrix<f64, U6, Dyn>;
@@ -29,40 +29,45 @@ pub enum Frame {
 /// Tool pose and base-frame Jacobian in one pass over the chain (what an IK iteration needs).
 /// `q` must have `robot.dof()` entries. Returns `(T_ee, J)` with `J` 6 × n.
 pub fn fk_and_jacobian(robot: &Robot, q: &[f64]) -> (Matrix4<f64>, Jacobian) {
-    let n = robot.dof();
+    let mut jac = Jacobian::zeros(robot.dof());
+    let tee = fk_and_jacobian_into(robot, q, &mut jac);
+    (tee, jac)
+}
+
+/// [`fk_and_jacobian`] into a caller-owned 6 × n buffer (no allocation). Returns `T_ee`.
+pub fn fk_and_jacobian_into(robot: &Robot, q: &[f64], jac: &mut Jacobian) -> Matrix4<f64> {
     // Joint j's axis is z of the frame before it (standard DH: frame j−1) or of the frame after
     // its Rx·Tx prefix (modified DH: frame j, since A_j = Rx Tx · Rz Tz and Rz Tz keeps z).
-    let mut axes = Vec::with_capacity(n);
+    // First pass: park each axis (rows 3..6) and its origin (rows 0..3) in the column.
     let mut t = robot.base;
-    for (joint, &qj) in robot.joints.iter().zip(q) {
-        let a = link_transform(robot.convention, joint, qj);
-        let next = t * a;
-        let axis_frame = match robot.convention {
-            Convention::Standard => t,
-            Convention::Modified => next,
+    for (j, (joint, &qj)) in robot.joints.iter().zip(q).enumerate() {
+        let next = t * link_transform(robot.convention, joint, qj);
+        let f = match robot.convention {
+            Convention::Standard => &t,
+            Convention::Modified => &next,
         };
-        axes.push((
-            axis_frame.fixed_view::<3, 1>(0, 2).into_owned(),
-            translation(&axis_frame),
-        ));
+        for i in 0..3 {
+            jac[(i, j)] = f[(i, 3)];
+            jac[(i + 3, j)] = f[(i, 2)];
+        }
         t = next;
     }
     let tee = t * robot.tool;
     let pe = translation(&tee);
-    let mut jac = Jacobian::zeros(n);
-    for (j, (joint, (z, o))) in robot.joints.iter().zip(axes).enumerate() {
-        match joint.joint_type {
-            JointType::Revolute => {
-                let v = z.cross(&(pe - o));
-                jac.fixed_view_mut::<3, 1>(0, j).copy_from(&v);
-                jac.fixed_view_mut::<3, 1>(3, j).copy_from(&z);
-            }
-            JointType::Prismatic => {
-                jac.fixed_view_mut::<3, 1>(0, j).copy_from(&z);
-            }
+    // Second pass: revolute [z × (p_e − o); z], prismatic [z; 0].
+    for (j, joint) in robot.joints.iter().enumerate() {
+        let o = Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
+        let z = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
+        let (v, w) = match joint.joint_type {
+            JointType::Revolute => (z.cross(&(pe - o)), z),
+            JointType::Prismatic => (z, Vector3::zeros()),
+        };
+        for i in 0..3 {
+            jac[(i, j)] = v[i];
+            jac[(i + 3, j)] = w[i];
         }
     }
-    (tee, jac)
+    tee
 }
 
 /// The geometric Jacobian at `q` in `frame` (see the module docs). `q` must have `robot.dof()`

@@ -12,6 +12,7 @@
 //! * [`ik::solve`] — inverse kinematics (analytic, Newton, damped least squares, hybrid, auto).
 //! * [`encoder::encoder_error`] — encoder quantisation bounds (seed §2.7).
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
+//! * [`report::report_ik`] — the IK accuracy-against-time report (`robosim report ik`).
 //! * [`query::dispatch`] — the query-protocol ops `fk`, `jacobian`, `ik`, `encoder_error`.
 
 mod builtin;
@@ -24,6 +25,7 @@ mod model;
 pub mod movej;
 pub mod pose;
 pub mod query;
+pub mod report;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
 pub use json::{

@@ -22,7 +22,7 @@ use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 use std::f64::consts::PI;
 
 /// Scan points per arm branch over θ6 ∈ [−π, π].
-pub const SAMPLES: usize = 72;
+pub const SAMPLES: usize = 48;
 
 struct Setup {
     arm: ArmSolver,
@@ -39,12 +39,22 @@ struct Setup {
 /// θ1..θ5 and the wrist constraint for one trial θ6 and arm branch.
 struct Trial {
     theta: [f64; 6],
-    f: f64,
     flags: Flags,
     branch: Option<Branch>,
 }
 
 impl Setup {
+    /// The wrist constraint f(θ6) for the four arm branches at once (one arm solve).
+    fn constraints(&self, t6: f64, theta1_ref: f64) -> [Option<f64>; 4] {
+        let w = self.g * rot_z(-t6);
+        let p4 = w * self.c5;
+        let (arms, _) = self.arm.solve(&Vector3::new(p4.x, p4.y, p4.z), theta1_ref);
+        // f = M[2][2] = z3 · (R05 Rx(α5)ᵀ) e_z, with z3 = R03 e_z.
+        let r05: Matrix3<f64> = w.fixed_view::<3, 3>(0, 0).into_owned();
+        let u = r05 * rz_rx(0.0, self.alpha5).transpose().column(2);
+        arms.map(|a| a.map(|a| self.arm.r03(&a.theta).column(2).dot(&u)))
+    }
+
     fn trial(&self, t6: f64, branch_index: usize, theta1_ref: f64) -> Option<Trial> {
         let w = self.g * rot_z(-t6);
         let p4 = w * self.c5;
@@ -63,7 +73,6 @@ impl Setup {
         };
         Some(Trial {
             theta: [arm.theta[0], arm.theta[1], arm.theta[2], t4, t5, t6],
-            f: m[(2, 2)],
             flags: arm.flags,
             branch: Some(Branch {
                 shoulder: arm.shoulder,
@@ -190,13 +199,14 @@ impl IkSolver for Hybrid {
         let theta1_ref = options.q0.as_ref().map_or(0.0, |q| q[0]) + s.offsets[0];
         let mut solutions = Vec::new();
         let mut any_reachable = false;
+        let table: Vec<(f64, [Option<f64>; 4])> = (0..=SAMPLES)
+            .map(|k| {
+                let t = -PI + 2.0 * PI * k as f64 / SAMPLES as f64;
+                (t, s.constraints(t, theta1_ref))
+            })
+            .collect();
         for bi in 0..4 {
-            let grid: Vec<(f64, Option<f64>)> = (0..=SAMPLES)
-                .map(|k| {
-                    let t = -PI + 2.0 * PI * k as f64 / SAMPLES as f64;
-                    (t, s.trial(t, bi, theta1_ref).map(|tr| tr.f))
-                })
-                .collect();
+            let grid: Vec<(f64, Option<f64>)> = table.iter().map(|(t, f)| (*t, f[bi])).collect();
             let mut roots: Vec<(f64, usize)> = Vec::new();
             for win in grid.windows(2) {
                 let ((ta, fa), (tb, fb)) = (win[0], win[1]);
@@ -207,7 +217,7 @@ impl IkSolver for Hybrid {
                 if fa == 0.0 {
                     roots.push((ta, 0));
                 } else if (fa > 0.0) != (fb > 0.0) && fb != 0.0 {
-                    let f = |t: f64| s.trial(t, bi, theta1_ref).map(|tr| tr.f);
+                    let f = |t: f64| s.constraints(t, theta1_ref)[bi];
                     if let Some(r) = brent(f, ta, tb, fa, fb) {
                         roots.push(r);
                     }

@@ -59,7 +59,7 @@ impl Method {
     }
 }
 
-/// What the caller asks of a solve. `Default` gives 1e-9 m / 1e-9 rad, one solution, 100
+/// What the caller asks of a solve. `Default` gives 1e-9 m / 1e-9 rad, one solution, 30
 /// iterations per start, 50 restarts, seed 0, limits respected.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IkOptions {
@@ -85,7 +85,7 @@ impl Default for IkOptions {
             tolerances: Tolerances::default(),
             q0: None,
             all: false,
-            max_iterations: 100,
+            max_iterations: 30,
             restarts: 50,
             seed: 0,
             respect_limits: true,
@@ -307,11 +307,11 @@ pub fn solve(
         Method::Analytic => analytic::Analytic.solve(robot, target, options),
         Method::Hybrid => hybrid::Hybrid.solve(robot, target, options),
         Method::Newton => newton::Newton.solve(robot, target, options),
-        Method::Dls => dls::Dls.solve(robot, target, options),
+        Method::Dls => dls::Dls::default().solve(robot, target, options),
         Method::Auto => match family::recognise(robot) {
             family::Family::SphericalWrist(_) => analytic::Analytic.solve(robot, target, options),
             family::Family::OffsetWrist(_) => hybrid::Hybrid.solve(robot, target, options),
-            family::Family::General(_) => dls::Dls.solve(robot, target, options),
+            family::Family::General(_) => dls::Dls::default().solve(robot, target, options),
         },
     }
 }
