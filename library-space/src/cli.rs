@@ -1,1 +1,134 @@
-//! (being written)
+//! The `robosim lib …` commands: list declarations, show one's parameters, check a file.
+//!
+//! Wire as `Lib { #[command(subcommand)] cmd: robosim_library::cli::LibCmd }` and call
+//! [`run`]; on `Err(message)` print it to stderr and exit non-zero (the message of a source
+//! error starts with `error[…]` and names file:line:col).
+
+use crate::{DeclKind, Evaluated, Library, Params};
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, clap::Subcommand)]
+pub enum LibCmd {
+    /// List every declaration with its kind (the standard library, or FILE with --file).
+    List {
+        /// A library file to list instead of the standard library (it may `include "std"`).
+        #[arg(long)]
+        file: Option<PathBuf>,
+    },
+    /// Show a declaration: kind, description, parameters with defaults and units.
+    Show {
+        name: String,
+        /// Look NAME up in this library file instead of the standard library.
+        #[arg(long)]
+        file: Option<PathBuf>,
+    },
+    /// Check a library file (any name): parse, resolve, evaluate every declaration at its
+    /// defaults. Exit status non-zero with file:line:col on the first error.
+    Check { file: PathBuf },
+}
+
+fn open(file: &Option<PathBuf>) -> Result<Library, String> {
+    match file {
+        Some(f) => Library::load(f).map_err(|e| e.to_string()),
+        None => Library::standard().map_err(|e| e.to_string()),
+    }
+}
+
+/// Runs one `lib` command, printing to stdout. `Err` carries the message for stderr.
+pub fn run(cmd: LibCmd) -> Result<(), String> {
+    print!("{}", render(cmd)?);
+    Ok(())
+}
+
+/// The text [`run`] prints (for tests and other front ends).
+pub fn render(cmd: LibCmd) -> Result<String, String> {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    match cmd {
+        LibCmd::List { file } => {
+            let lib = open(&file)?;
+            let decls = lib.declarations();
+            let w = decls.iter().map(|d| d.name.len()).max().unwrap_or(4);
+            for d in decls {
+                let doc = d.doc.as_deref().and_then(|s| s.lines().next()).unwrap_or("");
+                let _ = writeln!(out, "{:<9} {:<w$}  {}", d.kind.as_str(), d.name, doc);
+            }
+        }
+        LibCmd::Show { name, file } => {
+            let lib = open(&file)?;
+            let info = lib.declarations().into_iter().find(|d| d.name == name);
+            let params = lib.params(&name).map_err(|e| e.to_string())?;
+            let Some(d) = info else { return Err(format!("no declaration named `{name}`")) };
+            let _ = writeln!(out, "{} {}  ({})", d.kind.as_str(), d.name, d.location);
+            if let Some(doc) = &d.doc {
+                for l in doc.lines() {
+                    let _ = writeln!(out, "  {l}");
+                }
+            }
+            if params.is_empty() {
+                let _ = writeln!(out, "parameters: none");
+            } else {
+                let _ = writeln!(out, "parameters:");
+                let w = params.iter().map(|p| p.name.len()).max().unwrap_or(4);
+                for p in &params {
+                    let si = p.default_si.map(|v| format!(" = {v} {}", p.unit)).unwrap_or_default();
+                    let _ = writeln!(out, "  {:<w$}  default {}{si}  ({})", p.name, p.default_source, p.kind);
+                }
+            }
+            match lib.evaluate(&name, &Params::new()).map_err(|e| e.to_string())? {
+                Evaluated::Robot(r) | Evaluated::Link(r) => {
+                    let _ = writeln!(out, "robot: {} joints, {:?} DH, analytic IK: {}", r.robot.dof(), r.robot.convention, r.ik.as_deref().unwrap_or("none"));
+                    for (j, (n, jt)) in r.link_names.iter().zip(&r.robot.joints).enumerate() {
+                        let _ = writeln!(
+                            out,
+                            "  {:>2} {:<14} {:?} a={} d={} alpha={:.4} offset={:.4} limits=[{:.4}, {:.4}] mass={} kg",
+                            j + 1,
+                            n,
+                            jt.joint_type,
+                            jt.a,
+                            jt.d,
+                            jt.alpha,
+                            jt.offset,
+                            jt.qlim[0],
+                            jt.qlim[1],
+                            jt.mass
+                        );
+                    }
+                }
+                Evaluated::Solid(s) => {
+                    let polys: usize = s.parts.iter().map(|p| p.polyhedron.polygons.len()).sum();
+                    let _ = writeln!(out, "solid: {} primitives, {polys} polygons", s.parts.len());
+                    if let Some(m) = s.mass {
+                        let _ = writeln!(out, "  mass {} kg, volume {} m^3, centre of mass {:?}", m.mass, m.volume, m.center_of_mass.coords.as_slice());
+                    }
+                }
+                Evaluated::Scene(s) => {
+                    let _ = writeln!(out, "scene: {} robots, {} solids", s.robots.len(), s.solids.len());
+                    for r in &s.robots {
+                        let _ = writeln!(out, "  robot {} ({} joints)", r.name, r.model.robot.dof());
+                    }
+                    for i in &s.solids {
+                        let _ = writeln!(out, "  solid {} ({} primitives)", i.name, i.solid.parts.len());
+                    }
+                    let _ = writeln!(out, "  effects: {:?}", s.effects);
+                }
+                Evaluated::Constant { value, unit } => {
+                    let _ = writeln!(out, "value: {value} {unit}");
+                }
+                Evaluated::Colour { rgb } => {
+                    let _ = writeln!(out, "rgb: {rgb:?}");
+                }
+                Evaluated::Surface(s) => {
+                    let _ = writeln!(out, "surface: {s:?}");
+                }
+            }
+            let _ = DeclKind::Scene;
+        }
+        LibCmd::Check { file } => {
+            let lib = Library::load(&file).map_err(|e| e.to_string())?;
+            let n = lib.declarations().len();
+            let _ = writeln!(out, "{}: ok ({n} declarations)", file.display());
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,160 @@
+//! The evaluation API: declarations, params, evaluate, the CLI, the bench (quick).
+
+use nalgebra::Vector3;
+use robosim_library::cli::{render, LibCmd};
+use robosim_library::{DeclKind, Error, Evaluated, Library, Params, Primitive};
+
+const SRC: &str = r#"
+// A two-link planar arm.
+colour red = rgb(1, 0, 0)
+let steel = 7850 kg/m^3
+
+solid bar(length = 0.5 m, width = 4 cm) {
+    colour: red
+    part box(length, width, width) at translate(-length / 2, 0, 0)
+}
+
+robot planar(l1 = 0.5 m, l2 = 30 cm) {
+    base: translate(0, 0, 1 m)
+    tool: translate(5 cm, 0, 0)
+    link one {
+        joint: revolute
+        a: l1
+        limits: [-90 deg, 90 deg]
+        density: steel
+        part bar(length: l1)
+    }
+    link two {
+        joint: revolute
+        a: l2
+        mass: 2 kg
+        part bar(length: l2)
+    }
+    link gripper {
+        joint: fixed
+        a: 2 cm
+        part box(2 cm, 6 cm, 2 cm)
+    }
+}
+
+scene demo(reach = 0.5 m) {
+    place arm = planar(l1: reach) at translate(1 m, 0, 0) q [30 deg, -45 deg]
+    place table = bar(length: 2 m) at translate(0, 0, 0.5 m)
+    effects {
+        joint_limits: on
+        collision { mode: exact, self: on, continuous: on }
+        dynamics { integrator: semi_implicit_euler, step: 2 ms }
+        encoder_bits: 14
+        log: ["q", "tau"]
+    }
+}
+"#;
+
+fn lib() -> Library {
+    Library::from_source("demo.rsl", SRC).unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn declarations_and_params() {
+    let l = lib();
+    let kinds: Vec<(String, DeclKind)> = l.declarations().into_iter().map(|d| (d.name, d.kind)).collect();
+    assert_eq!(
+        kinds,
+        vec![
+            ("red".into(), DeclKind::Colour),
+            ("steel".into(), DeclKind::Constant),
+            ("bar".into(), DeclKind::Solid),
+            ("planar".into(), DeclKind::Robot),
+            ("demo".into(), DeclKind::Scene)
+        ]
+    );
+    assert_eq!(l.declarations()[0].doc.as_deref(), Some("A two-link planar arm."));
+    let p = l.params("planar").expect("params");
+    assert_eq!(p.len(), 2);
+    assert_eq!((p[1].name.as_str(), p[1].default_source.as_str(), p[1].default_si, p[1].unit.as_str()), ("l2", "30 cm", Some(0.3), "m"));
+    assert!(matches!(l.params("planr"), Err(Error::NoSuchDeclaration { suggestion: Some(s), .. }) if s == "planar"));
+}
+
+#[test]
+fn robot_evaluates_with_mass_from_density_and_fixed_links_folded_into_the_tool() {
+    let l = lib();
+    let Ok(Evaluated::Robot(r)) = l.evaluate("planar", &Params::new().expr("l2", "40 cm")) else { panic!("robot") };
+    assert_eq!(r.robot.dof(), 2);
+    assert_eq!(r.link_names, vec!["one", "two"]);
+    assert!((r.robot.joints[1].a - 0.4).abs() < 1e-15);
+    // link one: a steel bar 0.5 × 0.04 × 0.04 centred at x = -0.25 in link frame 1
+    let j = &r.robot.joints[0];
+    assert!((j.mass - 7850.0 * 0.5 * 0.04 * 0.04).abs() < 1e-9);
+    assert!((j.com - Vector3::new(-0.25, 0.0, 0.0)).norm() < 1e-12);
+    let ixx = j.mass * (0.04f64.powi(2) * 2.0) / 12.0;
+    let iyy = j.mass * (0.5f64.powi(2) + 0.04f64.powi(2)) / 12.0;
+    assert!((j.inertia[(0, 0)] - ixx).abs() < 1e-9 && (j.inertia[(1, 1)] - iyy).abs() < 1e-9);
+    // link two: mass given, com and inertia from geometry scaled to 2 kg
+    assert_eq!(r.robot.joints[1].mass, 2.0);
+    assert!((r.robot.joints[1].com.x + 0.2).abs() < 1e-12);
+    // the fixed gripper is folded into the tool: Tx(2 cm) then the declared tool
+    assert!((r.robot.tool[(0, 3)] - 0.07).abs() < 1e-15);
+    assert_eq!(r.frames[2].len(), 2, "link two's bar and the gripper");
+    assert_eq!(r.frames[2][0].colour, Some([1.0, 0.0, 0.0]));
+    assert!(matches!(r.frames[2][1].primitive, Primitive::Box { .. }));
+    assert!((r.robot.base[(2, 3)] - 1.0).abs() < 1e-15);
+}
+
+#[test]
+fn scene_evaluates_placements_q_and_effects() {
+    let l = lib();
+    let Ok(Evaluated::Scene(s)) = l.evaluate("demo", &Params::new().si("reach", 0.6)) else { panic!("scene") };
+    assert_eq!(s.robots.len(), 1);
+    let arm = &s.robots[0];
+    assert!((arm.q[0] - 30f64.to_radians()).abs() < 1e-15 && (arm.q[1] + 45f64.to_radians()).abs() < 1e-15);
+    assert!((arm.model.robot.joints[0].a - 0.6).abs() < 1e-15);
+    assert!((arm.model.robot.base[(0, 3)] - 1.0).abs() < 1e-15 && (arm.model.robot.base[(2, 3)] - 1.0).abs() < 1e-15);
+    assert_eq!(s.solids[0].name, "table");
+    let fx = &s.effects;
+    assert!(fx.kinematics && fx.joint_limits);
+    let c = fx.collision.expect("collision");
+    assert_eq!((c.mode, c.self_collision, c.continuous), (robosim_library::CollisionMode::Exact, true, true));
+    let d = fx.dynamics.expect("dynamics");
+    assert_eq!((d.integrator, d.step_s), (robosim_library::Integrator::SemiImplicitEuler, 0.002));
+    assert_eq!(d.gravity, Vector3::new(0.0, 0.0, -9.81));
+    assert_eq!(fx.encoder_bits, Some(14));
+    assert_eq!(fx.logged, vec!["q", "tau"]);
+}
+
+#[test]
+fn bad_parameter_values_are_refused_with_the_name() {
+    let l = lib();
+    assert!(matches!(l.evaluate("planar", &Params::new().expr("l1", "30 deg")), Err(Error::BadParameter { name, .. }) if name == "l1"));
+    assert!(matches!(l.evaluate("planar", &Params::new().si("l3", 1.0)), Err(Error::NoSuchParameter { .. })));
+    match l.evaluate("planar", &Params::new().expr("l1", "0.5 m +")) {
+        Err(Error::Source(e)) => assert_eq!(e.location.file, "<parameter l1>"),
+        other => panic!("{other:?}"),
+    }
+    // out of range at evaluation time: a negative length breaks the box
+    assert!(matches!(l.evaluate("planar", &Params::new().si("l1", -1.0)), Err(Error::Source(e)) if e.kind == robosim_library::ErrorKind::OutOfRange));
+}
+
+#[test]
+fn cli_lists_shows_and_checks() {
+    let out = render(LibCmd::List { file: None }).expect("list");
+    assert!(out.lines().any(|l| l.starts_with("robot") && l.contains("puma560")));
+    let out = render(LibCmd::Show { name: "surgical_positioner".into(), file: None }).expect("show");
+    assert!(out.contains("upper_arm") && out.contains("default 22 cm = 0.22 m"), "{out}");
+    let dir = tempfile::tempdir().expect("tmp");
+    let good = dir.path().join("good.model");
+    std::fs::write(&good, SRC).expect("write");
+    assert!(render(LibCmd::Check { file: good }).expect("check").contains("ok (5 declarations)"));
+    let bad = dir.path().join("bad.txt");
+    std::fs::write(&bad, "solid a {\n  part box(1 m, 1 m, 1 deg)\n}\n").expect("write");
+    let err = render(LibCmd::Check { file: bad.clone() }).expect_err("bad file");
+    assert!(err.contains(&format!("{}:2:22", bad.display())), "{err}");
+}
+
+#[test]
+fn bench_quick_writes_the_report() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let files = robosim_library::bench::report_library(dir.path(), true).expect("report");
+    assert!(files.iter().any(|f| f.extension().is_some_and(|e| e == "csv")));
+    let csv = std::fs::read_to_string(dir.path().join("library.csv")).expect("csv");
+    assert_eq!(csv.lines().count(), 5, "{csv}");
+}
