@@ -4,17 +4,32 @@
 use robosim_automation::reconfig::{ReconfigOptions, run_reconfig_demo};
 
 fn main() {
-    let fixed = run_reconfig_demo(&ReconfigOptions { allow_switch: false, ..Default::default() });
+    let fixed = run_reconfig_demo(&ReconfigOptions {
+        allow_switch: false,
+        ..Default::default()
+    });
     let adaptive = run_reconfig_demo(&ReconfigOptions::default());
     match (fixed, adaptive) {
         (Ok(p), Ok(r)) => {
-            println!("P controller all along:   RMS error over the last 0.5 s = {:.4} rad", p.rms_error_after);
+            println!(
+                "P controller all along:   RMS error over the last 0.5 s = {:.4} rad",
+                p.rms_error_after
+            );
             match r.switched_at {
-                Some(t) => println!("Checker switched P -> PID at t = {t:.3} s (RMS error then {:.4} rad)", r.rms_error_before),
+                Some(t) => println!(
+                    "Checker switched P -> PID at t = {t:.3} s (RMS error then {:.4} rad)",
+                    r.rms_error_before
+                ),
                 None => println!("Checker never switched"),
             }
-            println!("reconfigured controller:  RMS error over the last 0.5 s = {:.4} rad", r.rms_error_after);
-            println!("{} integration steps, {} actor firings traced", r.steps, r.firings);
+            println!(
+                "reconfigured controller:  RMS error over the last 0.5 s = {:.4} rad",
+                r.rms_error_after
+            );
+            println!(
+                "{} integration steps, {} actor firings traced",
+                r.steps, r.firings
+            );
             println!("\nGraph after the run (DOT):\n{}", r.dot_after);
         }
         (Err(e), _) | (_, Err(e)) => {

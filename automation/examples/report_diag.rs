@@ -2,7 +2,11 @@
 //! report_diag -- OUT_DIR [--quick]` (the lead wires the same function as `robosim report diag`).
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let dir = args.iter().find(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "docs/reports".into());
+    let dir = args
+        .iter()
+        .find(|a| !a.starts_with("--"))
+        .cloned()
+        .unwrap_or_else(|| "docs/reports".into());
     let quick = args.iter().any(|a| a == "--quick");
     match robosim_automation::bench::report_diag(std::path::Path::new(&dir), quick) {
         Ok(files) => files.iter().for_each(|f| println!("{}", f.display())),

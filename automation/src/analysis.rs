@@ -48,13 +48,21 @@ pub struct Resolution {
 impl Resolution {
     /// Isolated faults / all faults.
     pub fn isolation_rate(&self) -> f64 {
-        if self.faults == 0 { 0.0 } else { self.isolated as f64 / self.faults as f64 }
+        if self.faults == 0 {
+            0.0
+        } else {
+            self.isolated as f64 / self.faults as f64
+        }
     }
 
     /// The advisor's objective (lower is better): the expected ambiguity-group size, counting
     /// an undetected or wrongly diagnosed fault as the whole fault set.
     pub fn cost(&self, n_sources: usize) -> f64 {
-        let total: usize = self.outcomes.iter().map(|o| if o.correct { o.group.len() } else { n_sources }).sum();
+        let total: usize = self
+            .outcomes
+            .iter()
+            .map(|o| if o.correct { o.group.len() } else { n_sources })
+            .sum();
         total as f64 / self.outcomes.len().max(1) as f64
     }
 }
@@ -62,12 +70,21 @@ impl Resolution {
 /// Runs every source failure mode (`trials` times each, seeds derived from `opts.seed`) through
 /// simulator → filter(`present`) → diagnoser, judging the final verdict at the end of the
 /// observation window `opts.window`.
-pub fn evaluate(m: &Model, g: &FaultGraph, present: &[bool], opts: &SimOptions, trials: usize) -> Resolution {
+pub fn evaluate(
+    m: &Model,
+    g: &FaultGraph,
+    present: &[bool],
+    opts: &SimOptions,
+    trials: usize,
+) -> Resolution {
     let sources = m.source_failure_modes();
     let mut outcomes = Vec::new();
     for &f in &sources {
         for trial in 0..trials.max(1) {
-            let o = SimOptions { seed: opts.seed ^ ((f as u64) << 20) ^ trial as u64, ..*opts };
+            let o = SimOptions {
+                seed: opts.seed ^ ((f as u64) << 20) ^ trial as u64,
+                ..*opts
+            };
             outcomes.push(diagnose_one(g, f, present, &o));
         }
     }
@@ -107,14 +124,21 @@ fn diagnose_one(g: &FaultGraph, fault: FmId, present: &[bool], opts: &SimOptions
         detected: !seen.is_empty(),
         correct,
         isolated,
-        time_to_isolation: if isolated { tti.or(seen.last().map(|e| e.time)) } else { None },
+        time_to_isolation: if isolated {
+            tti.or(seen.last().map(|e| e.time))
+        } else {
+            None
+        },
         group,
     }
 }
 
 fn summarize(present: &[bool], outcomes: Vec<FaultOutcome>) -> Resolution {
     let detected: Vec<&FaultOutcome> = outcomes.iter().filter(|o| o.detected).collect();
-    let tt: Vec<f64> = outcomes.iter().filter_map(|o| o.time_to_isolation).collect();
+    let tt: Vec<f64> = outcomes
+        .iter()
+        .filter_map(|o| o.time_to_isolation)
+        .collect();
     Resolution {
         alarms_kept: present.iter().filter(|&&p| p).count(),
         faults: outcomes.len(),
@@ -127,7 +151,11 @@ fn summarize(present: &[bool], outcomes: Vec<FaultOutcome>) -> Resolution {
             detected.iter().map(|o| o.group.len()).sum::<usize>() as f64 / detected.len() as f64
         },
         max_group: outcomes.iter().map(|o| o.group.len()).max().unwrap_or(0),
-        mean_time_to_isolation: if tt.is_empty() { None } else { Some(tt.iter().sum::<f64>() / tt.len() as f64) },
+        mean_time_to_isolation: if tt.is_empty() {
+            None
+        } else {
+            Some(tt.iter().sum::<f64>() / tt.len() as f64)
+        },
         outcomes,
     }
 }
@@ -144,10 +172,18 @@ fn mask(n: usize, keep: &[AlarmId]) -> Vec<bool> {
 /// [`Resolution::cost`] most (ties: lower index), up to `budget` alarms. Returns the alarms in
 /// the order chosen — every prefix is the greedy allocation for that smaller budget — with the
 /// cost after each choice. Deterministic (every edge fires, one trial per fault).
-pub fn advise_greedy(m: &Model, g: &FaultGraph, budget: usize, opts: &SimOptions) -> Vec<(AlarmId, f64)> {
+pub fn advise_greedy(
+    m: &Model,
+    g: &FaultGraph,
+    budget: usize,
+    opts: &SimOptions,
+) -> Vec<(AlarmId, f64)> {
     let na = m.alarms.len();
     let n_src = m.source_failure_modes().len();
-    let o = SimOptions { sample_probabilities: false, ..*opts };
+    let o = SimOptions {
+        sample_probabilities: false,
+        ..*opts
+    };
     let mut chosen: Vec<AlarmId> = Vec::new();
     let mut out = Vec::new();
     while chosen.len() < budget.min(na) {
@@ -172,10 +208,18 @@ pub fn advise_greedy(m: &Model, g: &FaultGraph, budget: usize, opts: &SimOptions
 
 /// The optimal allocation of exactly `budget` alarms by exhaustive search over all subsets
 /// (C(alarms, budget) evaluations — small models only). Returns the alarms and the cost.
-pub fn advise_exhaustive(m: &Model, g: &FaultGraph, budget: usize, opts: &SimOptions) -> (Vec<AlarmId>, f64) {
+pub fn advise_exhaustive(
+    m: &Model,
+    g: &FaultGraph,
+    budget: usize,
+    opts: &SimOptions,
+) -> (Vec<AlarmId>, f64) {
     let na = m.alarms.len();
     let n_src = m.source_failure_modes().len();
-    let o = SimOptions { sample_probabilities: false, ..*opts };
+    let o = SimOptions {
+        sample_probabilities: false,
+        ..*opts
+    };
     let k = budget.min(na);
     let mut idx: Vec<usize> = (0..k).collect();
     let mut best = (idx.clone(), f64::INFINITY);

@@ -13,7 +13,9 @@
 
 use crate::analysis::{Resolution, advise_exhaustive, advise_greedy, evaluate};
 use crate::diag::{Diagnoser, FaultGraph};
-use crate::model::{Alarm, Component, Connection, Edge, FailureMode, Model, Process, SignalRef, Span, load_model};
+use crate::model::{
+    Alarm, Component, Connection, Edge, FailureMode, Model, Process, SignalRef, Span, load_model,
+};
 use crate::sim::{SimOptions, simulate};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -45,7 +47,10 @@ impl Gen {
         let mut components = Vec::new();
         if !derived {
             components.push(self.m.components.len());
-            self.m.components.push(Component { name: format!("c{id}"), span: Span::default() });
+            self.m.components.push(Component {
+                name: format!("c{id}"),
+                span: Span::default(),
+            });
         }
         self.m.failure_modes.push(FailureMode {
             path: format!("{}.{name}", self.m.processes[p].path),
@@ -59,7 +64,13 @@ impl Gen {
         self.m.processes[p].failure_modes.push(id);
         if self.rng.random::<f64>() < self.density {
             let a = self.m.alarms.len();
-            self.m.alarms.push(Alarm { name: format!("A{id}"), process: p, detects: vec![id], generator: None, span: Span::default() });
+            self.m.alarms.push(Alarm {
+                name: format!("A{id}"),
+                process: p,
+                detects: vec![id],
+                generator: None,
+                span: Span::default(),
+            });
             self.m.failure_modes[id].alarms.push(a);
             self.m.processes[p].alarms.push(a);
         }
@@ -67,20 +78,40 @@ impl Gen {
     }
 
     fn edge(&mut self, from: usize, to: usize, owner: usize) {
-        let prob = if self.rng.random::<f64>() < 0.5 { 1.0 } else { self.rng.random_range(0.5..1.0) };
+        let prob = if self.rng.random::<f64>() < 0.5 {
+            1.0
+        } else {
+            self.rng.random_range(0.5..1.0)
+        };
         let tmin = self.rng.random_range(1.0..10.0);
         let tmax = tmin + self.rng.random_range(0.0..20.0);
-        self.m.edges.push(Edge { from, to, prob, tmin, tmax, assumed: true, owner, span: Span::default() });
+        self.m.edges.push(Edge {
+            from,
+            to,
+            prob,
+            tmin,
+            tmax,
+            assumed: true,
+            owner,
+            span: Span::default(),
+        });
     }
 
     fn process(&mut self, parent: Option<usize>, budget: usize) -> usize {
         let id = self.m.processes.len();
         let (path, depth) = match parent {
-            Some(q) => (format!("{}.p{id}", self.m.processes[q].path), self.m.processes[q].depth + 1),
+            Some(q) => (
+                format!("{}.p{id}", self.m.processes[q].path),
+                self.m.processes[q].depth + 1,
+            ),
             None => ("R".to_string(), 0),
         };
         self.m.processes.push(Process {
-            name: if parent.is_some() { format!("p{id}") } else { "R".into() },
+            name: if parent.is_some() {
+                format!("p{id}")
+            } else {
+                "R".into()
+            },
             path,
             parent,
             children: Vec::new(),
@@ -113,23 +144,49 @@ impl Gen {
         let per_child = (budget - 3) / 4;
         let mut kids = Vec::new();
         for k in 0..4 {
-            let b = if k == 3 { budget - 3 - 3 * per_child } else { per_child };
+            let b = if k == 3 {
+                budget - 3 - 3 * per_child
+            } else {
+                per_child
+            };
             let c = self.process(Some(id), b);
             self.m.processes[id].children.push(c);
             kids.push(c);
         }
         // Signals: parent input -> first child, a chain of siblings, last child -> parent output.
-        let sref = |p: usize, s: &str| SignalRef { process: p, signal: s.to_string() };
-        self.m.connections.push(Connection { owner: id, from: sref(id, "i"), to: sref(kids[0], "i"), span: Span::default() });
+        let sref = |p: usize, s: &str| SignalRef {
+            process: p,
+            signal: s.to_string(),
+        };
+        self.m.connections.push(Connection {
+            owner: id,
+            from: sref(id, "i"),
+            to: sref(kids[0], "i"),
+            span: Span::default(),
+        });
         for w in kids.windows(2) {
-            self.m.connections.push(Connection { owner: id, from: sref(w[0], "o"), to: sref(w[1], "i"), span: Span::default() });
+            self.m.connections.push(Connection {
+                owner: id,
+                from: sref(w[0], "o"),
+                to: sref(w[1], "i"),
+                span: Span::default(),
+            });
         }
-        self.m.connections.push(Connection { owner: id, from: sref(kids[3], "o"), to: sref(id, "o"), span: Span::default() });
+        self.m.connections.push(Connection {
+            owner: id,
+            from: sref(kids[3], "o"),
+            to: sref(id, "o"),
+            span: Span::default(),
+        });
         // The visible failure modes of a child: its own (interface) ones.
         let visible = |g: &Gen, c: usize| g.m.processes[c].failure_modes.clone();
         for w in kids.windows(2) {
             let (a, b) = (visible(self, w[0]), visible(self, w[1]));
-            let derived_b: Vec<usize> = b.iter().copied().filter(|&f| self.m.failure_modes[f].derived).collect();
+            let derived_b: Vec<usize> = b
+                .iter()
+                .copied()
+                .filter(|&f| self.m.failure_modes[f].derived)
+                .collect();
             let target = if derived_b.is_empty() { &b } else { &derived_b };
             let from = a[self.rng.random_range(0..a.len())];
             let to = target[self.rng.random_range(0..target.len())];
@@ -194,7 +251,11 @@ pub struct UpdateTimeRow {
 /// single faults, sampled propagation, each alarm fed to the incremental diagnoser and timed;
 /// the same alarm prefix re-diagnosed from scratch is the baseline.
 pub fn measure_update_time(n: usize, trials: usize, seed: u64) -> UpdateTimeRow {
-    let m = generate(&GenOptions { failure_modes: n, alarm_density: 0.5, seed });
+    let m = generate(&GenOptions {
+        failure_modes: n,
+        alarm_density: 0.5,
+        seed,
+    });
     let g = FaultGraph::new(&m);
     let sources = m.source_failure_modes();
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xd1a9);
@@ -203,7 +264,15 @@ pub fn measure_update_time(n: usize, trials: usize, seed: u64) -> UpdateTimeRow 
     let mut groups = Vec::new();
     for t in 0..trials {
         let f = sources[rng.random_range(0..sources.len())];
-        let sim = simulate(&g, &[(f, 0.0)], &SimOptions { seed: seed + t as u64, sample_probabilities: true, window: 1e9 });
+        let sim = simulate(
+            &g,
+            &[(f, 0.0)],
+            &SimOptions {
+                seed: seed + t as u64,
+                sample_probabilities: true,
+                window: 1e9,
+            },
+        );
         let mut d = Diagnoser::new(&g, None);
         for (k, e) in sim.alarms.iter().enumerate() {
             let t0 = Instant::now();
@@ -223,12 +292,20 @@ pub fn measure_update_time(n: usize, trials: usize, seed: u64) -> UpdateTimeRow 
             groups.push(d.global_verdict().failure_modes().len() as f64);
         }
     }
-    let mean_group = if groups.is_empty() { 0.0 } else { groups.iter().sum::<f64>() / groups.len() as f64 };
+    let mean_group = if groups.is_empty() {
+        0.0
+    } else {
+        groups.iter().sum::<f64>() / groups.len() as f64
+    };
     let updates = times.len();
     let (median_us, p95_us, max_us) = if times.is_empty() {
         (0.0, 0.0, 0.0)
     } else {
-        (percentile(&mut times, 50.0), percentile(&mut times, 95.0), percentile(&mut times, 100.0))
+        (
+            percentile(&mut times, 50.0),
+            percentile(&mut times, 95.0),
+            percentile(&mut times, 100.0),
+        )
     };
     UpdateTimeRow {
         failure_modes: m.failure_modes.len(),
@@ -239,13 +316,21 @@ pub fn measure_update_time(n: usize, trials: usize, seed: u64) -> UpdateTimeRow 
         median_us,
         p95_us,
         max_us,
-        scratch_median_us: if scratch.is_empty() { 0.0 } else { percentile(&mut scratch, 50.0) },
+        scratch_median_us: if scratch.is_empty() {
+            0.0
+        } else {
+            percentile(&mut scratch, 50.0)
+        },
         mean_group,
     }
 }
 
 fn fmt(x: f64) -> String {
-    if x.abs() >= 100.0 { format!("{x:.0}") } else { format!("{x:.2}") }
+    if x.abs() >= 100.0 {
+        format!("{x:.0}")
+    } else {
+        format!("{x:.2}")
+    }
 }
 
 /// A named sensor allocation with its resolution.
@@ -256,14 +341,25 @@ pub struct AllocationRow {
 
 /// The ECLSS resolution table: all alarms; greedy allocations for shrinking budgets; random
 /// allocations of the same sizes (mean of `random_draws`); symptom-only and source-only alarms.
-pub fn eclss_resolution(budgets: &[usize], trials: usize, random_draws: usize) -> Result<Vec<AllocationRow>, String> {
+pub fn eclss_resolution(
+    budgets: &[usize],
+    trials: usize,
+    random_draws: usize,
+) -> Result<Vec<AllocationRow>, String> {
     let m = load_model("eclss").map_err(|e| e.to_string())?;
     let g = FaultGraph::new(&m);
     let na = m.alarms.len();
-    let opts = SimOptions { seed: 11, sample_probabilities: true, ..SimOptions::default() };
+    let opts = SimOptions {
+        seed: 11,
+        sample_probabilities: true,
+        ..SimOptions::default()
+    };
     let mut rows = Vec::new();
     let mut push = |label: String, present: &[bool]| {
-        rows.push(AllocationRow { label, resolution: evaluate(&m, &g, present, &opts, trials) });
+        rows.push(AllocationRow {
+            label,
+            resolution: evaluate(&m, &g, present, &opts, trials),
+        });
     };
     push(format!("all {na} alarms"), &vec![true; na]);
     let max_b = budgets.iter().copied().max().unwrap_or(0).min(na);
@@ -275,7 +371,11 @@ pub fn eclss_resolution(budgets: &[usize], trials: usize, random_draws: usize) -
         }
         push(format!("greedy {b}"), &p);
     }
-    let symptoms: Vec<bool> = m.alarms.iter().map(|a| a.detects.iter().all(|&f| m.failure_modes[f].derived)).collect();
+    let symptoms: Vec<bool> = m
+        .alarms
+        .iter()
+        .map(|a| a.detects.iter().all(|&f| m.failure_modes[f].derived))
+        .collect();
     let n_sym = symptoms.iter().filter(|&&x| x).count();
     push(format!("symptoms only ({n_sym})"), &symptoms);
     let sources: Vec<bool> = symptoms.iter().map(|x| !x).collect();
@@ -311,8 +411,15 @@ pub fn eclss_resolution(budgets: &[usize], trials: usize, random_draws: usize) -
             r.correct = (sum.1 / k).round() as usize;
             r.mean_group = sum.2 / k;
             r.max_group = sum.4;
-            r.mean_time_to_isolation = if tti_n > 0 { Some(sum.3 / tti_n as f64) } else { None };
-            rows.push(AllocationRow { label: format!("random {b} (mean of {})", random_draws.max(1)), resolution: r });
+            r.mean_time_to_isolation = if tti_n > 0 {
+                Some(sum.3 / tti_n as f64)
+            } else {
+                None
+            };
+            rows.push(AllocationRow {
+                label: format!("random {b} (mean of {})", random_draws.max(1)),
+                resolution: r,
+            });
         }
     }
     Ok(rows)
@@ -320,10 +427,18 @@ pub fn eclss_resolution(budgets: &[usize], trials: usize, random_draws: usize) -
 
 /// Greedy against exhaustive sensor advice on small random models: (model seed, alarms,
 /// budget, greedy cost, optimal cost).
-pub fn advisor_gap(models: usize, n_fm: usize, max_budget: usize) -> Vec<(u64, usize, usize, f64, f64)> {
+pub fn advisor_gap(
+    models: usize,
+    n_fm: usize,
+    max_budget: usize,
+) -> Vec<(u64, usize, usize, f64, f64)> {
     let mut out = Vec::new();
     for s in 0..models as u64 {
-        let m = generate(&GenOptions { failure_modes: n_fm, alarm_density: 0.5, seed: 100 + s });
+        let m = generate(&GenOptions {
+            failure_modes: n_fm,
+            alarm_density: 0.5,
+            seed: 100 + s,
+        });
         let g = FaultGraph::new(&m);
         let opts = SimOptions::default();
         let greedy = advise_greedy(&m, &g, max_budget, &opts);
@@ -339,9 +454,16 @@ pub fn advisor_gap(models: usize, n_fm: usize, max_budget: usize) -> Vec<(u64, u
 /// model sizes to 10,000 failure modes and the trial counts. Returns the files written.
 pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
     let mut written = Vec::new();
-    let sizes: &[usize] = if quick { &[100, 300, 1000, 3000, 10_000] } else { &[100, 300, 1000, 3000, 10_000, 30_000, 100_000] };
+    let sizes: &[usize] = if quick {
+        &[100, 300, 1000, 3000, 10_000]
+    } else {
+        &[100, 300, 1000, 3000, 10_000, 30_000, 100_000]
+    };
     let trials = if quick { 10 } else { 40 };
-    let rows: Vec<UpdateTimeRow> = sizes.iter().map(|&n| measure_update_time(n, trials, 42)).collect();
+    let rows: Vec<UpdateTimeRow> = sizes
+        .iter()
+        .map(|&n| measure_update_time(n, trials, 42))
+        .collect();
     let table = Table {
         columns: [
             "failure_modes",
@@ -380,7 +502,10 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
     };
     let series = |label: &str, f: &dyn Fn(&UpdateTimeRow) -> f64| Series {
         label: label.to_string(),
-        points: rows.iter().map(|r| (r.failure_modes as f64, f(r).max(1e-3))).collect(),
+        points: rows
+            .iter()
+            .map(|r| (r.failure_modes as f64, f(r).max(1e-3)))
+            .collect(),
     };
     let report = Report {
         name: "diag_update_time".into(),
@@ -409,12 +534,27 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
     written.extend(write_report(out_dir, &report).map_err(|e| e.to_string())?);
 
     let budgets: &[usize] = &[40, 30, 20, 15, 10, 5];
-    let res = eclss_resolution(budgets, if quick { 2 } else { 5 }, if quick { 3 } else { 10 })?;
+    let res = eclss_resolution(
+        budgets,
+        if quick { 2 } else { 5 },
+        if quick { 3 } else { 10 },
+    )?;
     let table = Table {
-        columns: ["allocation", "alarms", "faults", "detected", "isolated", "correct", "isolation_rate", "mean_group", "max_group", "mean_time_to_isolation_s"]
-            .iter()
-            .map(|s| s.to_string())
-            .collect(),
+        columns: [
+            "allocation",
+            "alarms",
+            "faults",
+            "detected",
+            "isolated",
+            "correct",
+            "isolation_rate",
+            "mean_group",
+            "max_group",
+            "mean_time_to_isolation_s",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect(),
         rows: res
             .iter()
             .map(|r| {
@@ -429,7 +569,8 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
                     format!("{:.2}", s.isolation_rate()),
                     format!("{:.2}", s.mean_group),
                     s.max_group.to_string(),
-                    s.mean_time_to_isolation.map_or("-".into(), |t| format!("{t:.0}")),
+                    s.mean_time_to_isolation
+                        .map_or("-".into(), |t| format!("{t:.0}")),
                 ]
             })
             .collect(),
@@ -439,7 +580,12 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
         points: res
             .iter()
             .filter(|r| r.label.starts_with(prefix) || r.label.starts_with("all"))
-            .map(|r| (r.resolution.alarms_kept as f64, r.resolution.isolation_rate()))
+            .map(|r| {
+                (
+                    r.resolution.alarms_kept as f64,
+                    r.resolution.isolation_rate(),
+                )
+            })
             .collect(),
     };
     let report = Report {
@@ -465,10 +611,29 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
     let worst = gap.iter().map(|g| g.3 / g.4.max(1e-12)).fold(1.0, f64::max);
     let optimal = gap.iter().filter(|g| (g.3 - g.4).abs() < 1e-9).count();
     let table = Table {
-        columns: ["model_seed", "alarms", "budget", "greedy_cost", "optimal_cost", "greedy_over_optimal"].iter().map(|s| s.to_string()).collect(),
+        columns: [
+            "model_seed",
+            "alarms",
+            "budget",
+            "greedy_cost",
+            "optimal_cost",
+            "greedy_over_optimal",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect(),
         rows: gap
             .iter()
-            .map(|g| vec![g.0.to_string(), g.1.to_string(), g.2.to_string(), format!("{:.3}", g.3), format!("{:.3}", g.4), format!("{:.3}", g.3 / g.4.max(1e-12))])
+            .map(|g| {
+                vec![
+                    g.0.to_string(),
+                    g.1.to_string(),
+                    g.2.to_string(),
+                    format!("{:.3}", g.3),
+                    format!("{:.3}", g.4),
+                    format!("{:.3}", g.3 / g.4.max(1e-12)),
+                ]
+            })
             .collect(),
     };
     let report = Report {

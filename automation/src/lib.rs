@@ -1,12 +1,28 @@
 //! robosim-automation: the automation layer of ROBOSIM (seed §3.4 and §4.3).
 //!
+//! * [`kernel`] — a macro-dataflow kernel in the spirit of the Multigraph Execution
+//!   Environment: actor and data nodes, ifall/ifany, data- and demand-driven operation, a
+//!   thread-pool scheduler, live rewiring of a running graph, a tracer and DOT export.
+//! * [`reconfig`] — the reconfigurable controller of pictures 6–7 (P → PID, rewired by a
+//!   Checker actor while the arm runs).
 //! * [`model`] — Hierarchical Process and Fault Models in a declarative text form, consistency
-//!   checks, the shipped ECLSS model.
-//! * [`diag`] — FSPI (incremental, single and multiple faults), FSCI and ILM.
-pub mod model;
-pub mod diag;
-pub mod sim;
+//!   checks as graph properties, the shipped ECLSS model (`eclss`).
+//! * [`diag`] — FSPI (incremental, the four constraints, single and multiple faults), FSCI and
+//!   ILM.
+//! * [`sim`] — the alarm pattern simulator, sensor-allocation filters, alarm files.
+//! * [`analysis`] — diagnosability (resolution per sensor allocation) and the sensor advisor.
+//! * [`bench`] — random hierarchical fault models and the `robosim report diag` reports.
+//! * [`cli`] — `robosim diag check|simulate|run|analyze`; [`query`] — the `diag_*` query ops.
+//!
+//! The model format, the algorithms and the measured curves are documented in
+//! `docs/automation.md`.
+
 pub mod analysis;
-pub mod kernel;
-pub mod reconfig;
 pub mod bench;
+pub mod cli;
+pub mod diag;
+pub mod kernel;
+pub mod model;
+pub mod query;
+pub mod reconfig;
+pub mod sim;

@@ -113,14 +113,26 @@ struct Log {
 }
 
 fn rms(samples: &[(f64, f64)], from: f64, to: f64) -> f64 {
-    let v: Vec<f64> = samples.iter().filter(|(t, _)| *t > from && *t <= to).map(|(_, e)| e * e).collect();
-    if v.is_empty() { f64::NAN } else { (v.iter().sum::<f64>() / v.len() as f64).sqrt() }
+    let v: Vec<f64> = samples
+        .iter()
+        .filter(|(t, _)| *t > from && *t <= to)
+        .map(|(_, e)| e * e)
+        .collect();
+    if v.is_empty() {
+        f64::NAN
+    } else {
+        (v.iter().sum::<f64>() / v.len() as f64).sqrt()
+    }
 }
 
 fn pid_actor(name: &str, (kp, ki, kd): (f64, f64, f64), dt: f64) -> ActorSpec {
     // Context: (integral, previous error).
     ActorSpec::new(name, move |ctx: &mut crate::kernel::Ctx<'_>| {
-        let e = ctx.input("e").and_then(Value::as_vec).map(|v| v[1]).ok_or("PID: no error sample")?;
+        let e = ctx
+            .input("e")
+            .and_then(Value::as_vec)
+            .map(|v| v[1])
+            .ok_or("PID: no error sample")?;
         let (integral, prev) = ctx.context::<(f64, Option<f64>)>().ok_or("PID: context")?;
         *integral += e * dt;
         let de = prev.map_or(0.0, |p| (e - p) / dt);
@@ -139,7 +151,12 @@ fn pid_actor(name: &str, (kp, ki, kd): (f64, f64, f64), dt: f64) -> ActorSpec {
 /// Errors: invalid options (non-positive step, duration or window), or a kernel error while
 /// building the graph.
 pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, String> {
-    if !(opts.dt > 0.0 && opts.duration > opts.dt && opts.window > 0.0 && opts.mass > 0.0 && opts.length > 0.0) {
+    if !(opts.dt > 0.0
+        && opts.duration > opts.dt
+        && opts.window > 0.0
+        && opts.mass > 0.0
+        && opts.length > 0.0)
+    {
         return Err(format!("invalid reconfiguration demo options: {opts:?}"));
     }
     let o = *opts;
@@ -159,7 +176,8 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
                     if s.steps >= s.max_steps {
                         return Ok(()); // the run is over: no new state, the loop drains
                     }
-                    let qdd = (tau - o.mass * o.gravity * o.length * s.q.sin() - o.damping * s.qd) / inertia;
+                    let qdd = (tau - o.mass * o.gravity * o.length * s.q.sin() - o.damping * s.qd)
+                        / inertia;
                     s.qd += qdd * o.dt;
                     s.q += s.qd * o.dt;
                     s.t += o.dt;
@@ -169,12 +187,22 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
                 })
                 .inputs(&["tau"])
                 .outputs(&["state"])
-                .context(Arm { q: 0.0, qd: 0.0, t: 0.0, steps: 0, max_steps: (o.duration / o.dt).round() as usize }),
+                .context(Arm {
+                    q: 0.0,
+                    qd: 0.0,
+                    t: 0.0,
+                    steps: 0,
+                    max_steps: (o.duration / o.dt).round() as usize,
+                }),
             )?;
             let log2 = log.clone();
             let err = e.add_actor(
                 ActorSpec::new("error", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let s = ctx.input("x").and_then(Value::as_vec).ok_or("error: no state")?.to_vec();
+                    let s = ctx
+                        .input("x")
+                        .and_then(Value::as_vec)
+                        .ok_or("error: no state")?
+                        .to_vec();
                     let e = o.setpoint - s[1];
                     if let Ok(mut l) = log2.lock() {
                         l.errors.push((s[0], e));
@@ -186,7 +214,11 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
             )?;
             let p = e.add_actor(
                 ActorSpec::new("P", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let e = ctx.input("e").and_then(Value::as_vec).map(|v| v[1]).ok_or("P: no error sample")?;
+                    let e = ctx
+                        .input("e")
+                        .and_then(Value::as_vec)
+                        .map(|v| v[1])
+                        .ok_or("P: no error sample")?;
                     ctx.emit("u", Value::F64(o.kp * e))
                 })
                 .inputs(&["e"])
@@ -195,7 +227,10 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
             let log3 = log.clone();
             let checker = e.add_actor(
                 ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let Some(s) = ctx.input("e").and_then(Value::as_vec).map(|v| (v[0], v[1])) else { return Ok(()) };
+                    let Some(s) = ctx.input("e").and_then(Value::as_vec).map(|v| (v[0], v[1]))
+                    else {
+                        return Ok(());
+                    };
                     let window = ctx.context::<Vec<(f64, f64)>>().ok_or("Checker: context")?;
                     window.push(s);
                     window.retain(|(t, _)| *t > s.0 - o.window);
@@ -211,7 +246,9 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
                     control
                         .edit(|e| -> Result<(), crate::kernel::KernelError> {
                             let Some(p) = e.actor("P") else { return Ok(()) };
-                            let Some(torque) = e.data("torque") else { return Ok(()) };
+                            let Some(torque) = e.data("torque") else {
+                                return Ok(());
+                            };
                             let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
                             e.connect_out(pid, "u", torque)?;
                             e.move_input(p, "e", pid, "e")?;
@@ -219,7 +256,9 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
                         })
                         .map_err(|e| e.to_string())?;
                     let me = ctx.actor_id();
-                    ctx.control().edit(|e| e.remove_actor(me)).map_err(|e| e.to_string())?;
+                    ctx.control()
+                        .edit(|e| e.remove_actor(me))
+                        .map_err(|e| e.to_string())?;
                     if let Ok(mut l) = log3.lock() {
                         l.switched_at = Some(s.0);
                         l.checker_window = Some(r);
@@ -242,7 +281,9 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
         .map_err(|e| e.to_string())?;
     let _ = (state, error);
     let dot_before = graph.to_dot();
-    graph.write(torque, Value::F64(0.0)).map_err(|e| e.to_string())?;
+    graph
+        .write(torque, Value::F64(0.0))
+        .map_err(|e| e.to_string())?;
     graph.wait_idle();
     let dot_after = graph.to_dot();
     let firings = graph.trace().len();

@@ -31,7 +31,11 @@ pub struct SimOptions {
 
 impl Default for SimOptions {
     fn default() -> Self {
-        SimOptions { seed: 1, sample_probabilities: false, window: 6.0 * 3600.0 }
+        SimOptions {
+            seed: 1,
+            sample_probabilities: false,
+            window: 6.0 * 3600.0,
+        }
     }
 }
 
@@ -87,11 +91,16 @@ pub fn simulate(g: &FaultGraph, faults: &[(FmId, f64)], opts: &SimOptions) -> Si
         }
         act[u] = Some(t);
         for arc in g.succ(u) {
-            let fires = !opts.sample_probabilities || arc.prob >= 1.0 || rng.random::<f64>() < arc.prob;
+            let fires =
+                !opts.sample_probabilities || arc.prob >= 1.0 || rng.random::<f64>() < arc.prob;
             if !fires {
                 continue;
             }
-            let delay = if arc.tmax > arc.tmin { rng.random_range(arc.tmin..=arc.tmax) } else { arc.tmin };
+            let delay = if arc.tmax > arc.tmin {
+                rng.random_range(arc.tmin..=arc.tmax)
+            } else {
+                arc.tmin
+            };
             let tv = t + delay;
             if tv <= limit && act[arc.to].is_none() && tv < best[arc.to] {
                 best[arc.to] = tv;
@@ -104,16 +113,26 @@ pub fn simulate(g: &FaultGraph, faults: &[(FmId, f64)], opts: &SimOptions) -> Si
         .iter()
         .enumerate()
         .filter_map(|(a, fms)| {
-            fms.iter().filter_map(|&f| act[f]).min_by(f64::total_cmp).map(|time| AlarmEvent { time, alarm: a })
+            fms.iter()
+                .filter_map(|&f| act[f])
+                .min_by(f64::total_cmp)
+                .map(|time| AlarmEvent { time, alarm: a })
         })
         .collect();
     alarms.sort_by(|x, y| x.time.total_cmp(&y.time).then(x.alarm.cmp(&y.alarm)));
-    SimResult { activation: act, alarms }
+    SimResult {
+        activation: act,
+        alarms,
+    }
 }
 
 /// A sensor allocation as a filter: keeps the alarms with `present[a]`.
 pub fn filter(alarms: &[AlarmEvent], present: &[bool]) -> Vec<AlarmEvent> {
-    alarms.iter().copied().filter(|e| present.get(e.alarm).copied().unwrap_or(false)).collect()
+    alarms
+        .iter()
+        .copied()
+        .filter(|e| present.get(e.alarm).copied().unwrap_or(false))
+        .collect()
 }
 
 /// Writes an alarm sequence as text: one `TIME ALARM` line per alarm (seconds, alarm name).
@@ -133,18 +152,45 @@ pub fn parse_alarms(m: &Model, text: &str, file: &str) -> Result<Vec<AlarmEvent>
         let mut words = line.split_whitespace();
         let Some(t) = words.next() else { continue };
         let col = |w: &str| raw.find(w).map_or(1, |c| c + 1);
-        let time: f64 = t.parse().map_err(|_| format!("{file}:{}:{}: `{t}` is not a time in seconds", i + 1, col(t)))?;
+        let time: f64 = t.parse().map_err(|_| {
+            format!(
+                "{file}:{}:{}: `{t}` is not a time in seconds",
+                i + 1,
+                col(t)
+            )
+        })?;
         if !time.is_finite() {
-            return Err(format!("{file}:{}:{}: time `{t}` is not finite", i + 1, col(t)));
+            return Err(format!(
+                "{file}:{}:{}: time `{t}` is not finite",
+                i + 1,
+                col(t)
+            ));
         }
-        let name = words.next().ok_or_else(|| format!("{file}:{}:{}: missing alarm name after the time", i + 1, raw.len() + 1))?;
-        let alarm = m.find_alarm(name).map_err(|e| format!("{file}:{}:{}: {e}", i + 1, col(name)))?;
+        let name = words.next().ok_or_else(|| {
+            format!(
+                "{file}:{}:{}: missing alarm name after the time",
+                i + 1,
+                raw.len() + 1
+            )
+        })?;
+        let alarm = m
+            .find_alarm(name)
+            .map_err(|e| format!("{file}:{}:{}: {e}", i + 1, col(name)))?;
         if let Some(extra) = words.next() {
-            return Err(format!("{file}:{}:{}: unexpected `{extra}` (one alarm per line)", i + 1, col(extra)));
+            return Err(format!(
+                "{file}:{}:{}: unexpected `{extra}` (one alarm per line)",
+                i + 1,
+                col(extra)
+            ));
         }
         if let Some(prev) = out.last() {
             if time < prev.time {
-                return Err(format!("{file}:{}:{}: alarms must be in time order ({time} < {})", i + 1, col(t), prev.time));
+                return Err(format!(
+                    "{file}:{}:{}: alarms must be in time order ({time} < {})",
+                    i + 1,
+                    col(t),
+                    prev.time
+                ));
             }
         }
         out.push(AlarmEvent { time, alarm });

@@ -8,19 +8,45 @@ use robosim_automation::sim::SimOptions;
 #[test]
 fn generated_models_are_consistent_and_sized() {
     for (n, seed) in [(30, 1), (100, 2), (1000, 3)] {
-        let m = generate(&GenOptions { failure_modes: n, alarm_density: 0.5, seed });
+        let m = generate(&GenOptions {
+            failure_modes: n,
+            alarm_density: 0.5,
+            seed,
+        });
         let f = check_model(&m);
-        assert!(is_consistent(&f), "{:?}", f.iter().find(|x| x.severity == robosim_automation::model::check::Severity::Error));
-        assert!(m.failure_modes.len().abs_diff(n) <= n / 10 + 2, "{} for {n}", m.failure_modes.len());
+        assert!(
+            is_consistent(&f),
+            "{:?}",
+            f.iter()
+                .find(|x| x.severity == robosim_automation::model::check::Severity::Error)
+        );
+        assert!(
+            m.failure_modes.len().abs_diff(n) <= n / 10 + 2,
+            "{} for {n}",
+            m.failure_modes.len()
+        );
         assert!(m.max_depth() >= 1 || n <= 12);
     }
 }
 
 #[test]
 fn with_every_alarm_every_fault_of_a_random_model_is_isolated() {
-    let m = generate(&GenOptions { failure_modes: 200, alarm_density: 1.0, seed: 9 });
+    let m = generate(&GenOptions {
+        failure_modes: 200,
+        alarm_density: 1.0,
+        seed: 9,
+    });
     let g = FaultGraph::new(&m);
-    let r = evaluate(&m, &g, &vec![true; m.alarms.len()], &SimOptions { sample_probabilities: true, ..Default::default() }, 1);
+    let r = evaluate(
+        &m,
+        &g,
+        &vec![true; m.alarms.len()],
+        &SimOptions {
+            sample_probabilities: true,
+            ..Default::default()
+        },
+        1,
+    );
     assert_eq!(r.isolated, r.faults);
 }
 
@@ -31,9 +57,16 @@ fn greedy_advice_is_never_better_than_exhaustive_and_improves_with_budget() {
     for (_, _, _, greedy, optimal) in &gap {
         assert!(*greedy >= optimal - 1e-9);
     }
-    assert!(gap.windows(2).all(|w| w[1].3 <= w[0].3 + 1e-9), "greedy cost falls with the budget: {gap:?}");
+    assert!(
+        gap.windows(2).all(|w| w[1].3 <= w[0].3 + 1e-9),
+        "greedy cost falls with the budget: {gap:?}"
+    );
     // Exhaustive search with the full budget keeps every alarm's information.
-    let m = generate(&GenOptions { failure_modes: 14, alarm_density: 0.5, seed: 100 });
+    let m = generate(&GenOptions {
+        failure_modes: 14,
+        alarm_density: 0.5,
+        seed: 100,
+    });
     let g = FaultGraph::new(&m);
     let (all, cost) = advise_exhaustive(&m, &g, m.alarms.len(), &SimOptions::default());
     assert_eq!(all.len(), m.alarms.len());

@@ -10,7 +10,9 @@ fn model(text: &str) -> Model {
 }
 
 fn names(m: &Model, fms: &[usize]) -> Vec<String> {
-    fms.iter().map(|&f| m.failure_modes[f].name.clone()).collect()
+    fms.iter()
+        .map(|&f| m.failure_modes[f].name.clone())
+        .collect()
 }
 
 fn single(m: &Model, d: &Diagnoser<'_>) -> Vec<String> {
@@ -71,7 +73,10 @@ fn temporal_constraint_alone_decides() {
     // b: t0 <= 99 and t0 in [105, 109]: empty. (No alarm is overdue: consistency is silent.)
     assert_eq!(single(&m, &d), ["a"]);
     let c = d.candidates()[0];
-    assert!((c.t0.0 - 90.0).abs() < 1e-9 && (c.t0.1 - 90.0).abs() < 1e-9, "{c:?}");
+    assert!(
+        (c.t0.0 - 90.0).abs() < 1e-9 && (c.t0.1 - 90.0).abs() < 1e-9,
+        "{c:?}"
+    );
 }
 
 #[test]
@@ -88,7 +93,11 @@ fn consistency_constraint_alone_decides() {
     d.add_alarm(alarm(&m, "AX"), 10.0).unwrap();
     assert_eq!(single(&m, &d), ["a", "b"], "z is not overdue yet");
     d.advance_to(10.5);
-    assert_eq!(single(&m, &d), ["a", "b"], "a's fault time can be 9: z due by 11");
+    assert_eq!(
+        single(&m, &d),
+        ["a", "b"],
+        "a's fault time can be 9: z due by 11"
+    );
     d.advance_to(20.0);
     assert_eq!(single(&m, &d), ["b"]);
 }
@@ -112,7 +121,11 @@ fn multiple_faults_are_found_when_no_single_fault_explains() {
     let hyps: Vec<Vec<String>> = v.multiple.iter().map(|h| names(&m, h)).collect();
     assert_eq!(hyps, vec![vec!["a", "b"], vec!["a", "c"]]);
     // FSCI: a and b share the pump; a and c share nothing.
-    let comp = |cs: Vec<usize>| cs.iter().map(|&c| m.components[c].name.clone()).collect::<Vec<_>>();
+    let comp = |cs: Vec<usize>| {
+        cs.iter()
+            .map(|&c| m.components[c].name.clone())
+            .collect::<Vec<_>>()
+    };
     assert_eq!(comp(fsci(&m, &v.multiple[0], true)), ["pump"]);
     assert_eq!(comp(fsci(&m, &v.multiple[1], true)), ["pump", "valve"]);
     // A single fault: the union of the candidates' components.
@@ -130,9 +143,17 @@ fn three_simultaneous_faults() {
     );
     let g = FaultGraph::new(&m);
     let mut d = Diagnoser::new(&g, None);
-    d.add_batch(&[(alarm(&m, "AX"), 2.0), (alarm(&m, "AY"), 2.0), (alarm(&m, "AZ"), 2.0)]).unwrap();
+    d.add_batch(&[
+        (alarm(&m, "AX"), 2.0),
+        (alarm(&m, "AY"), 2.0),
+        (alarm(&m, "AZ"), 2.0),
+    ])
+    .unwrap();
     let v = d.global_verdict();
-    assert_eq!(v.multiple.iter().map(|h| names(&m, h)).collect::<Vec<_>>(), vec![vec!["a", "b", "c"]]);
+    assert_eq!(
+        v.multiple.iter().map(|h| names(&m, h)).collect::<Vec<_>>(),
+        vec![vec!["a", "b", "c"]]
+    );
 }
 
 #[test]
@@ -180,8 +201,18 @@ fn ilm_refines_level_by_level_and_restarts_on_a_higher_alarm() {
     let guess = ilm.best_guess().unwrap();
     assert_eq!(guess.depth, 2);
     assert_eq!(names(&m, &guess.failure_modes), ["f1"]);
-    assert_eq!(guess.components.iter().map(|&c| m.components[c].name.as_str()).collect::<Vec<_>>(), ["c1"]);
-    assert!(!ilm.step(), "f1 belongs to A1 itself: finest resolution reached");
+    assert_eq!(
+        guess
+            .components
+            .iter()
+            .map(|&c| m.components[c].name.as_str())
+            .collect::<Vec<_>>(),
+        ["c1"]
+    );
+    assert!(
+        !ilm.step(),
+        "f1 belongs to A1 itself: finest resolution reached"
+    );
     // An alarm on the level being processed does not restart (a second fault, in A2)...
     ilm.on_alarm(alarm(&m, "L2"), 15.0).unwrap();
     assert_eq!(ilm.restarts, 0);
@@ -190,16 +221,34 @@ fn ilm_refines_level_by_level_and_restarts_on_a_higher_alarm() {
     ilm.on_alarm(alarm(&m, "LB"), 30.0).unwrap();
     assert_eq!(ilm.restarts, 1);
     assert!(ilm.levels().is_empty());
-    assert!(ilm.log.iter().any(|l| l.contains("restart at depth 0")), "{:?}", ilm.log);
+    assert!(
+        ilm.log.iter().any(|l| l.contains("restart at depth 0")),
+        "{:?}",
+        ilm.log
+    );
     assert!(ilm.step());
     let guess = ilm.best_guess().unwrap();
     assert_eq!(guess.depth, 0);
-    assert_eq!(guess.processes.iter().map(|&p| m.processes[p].path.as_str()).collect::<Vec<_>>(), ["R.A"]);
+    assert_eq!(
+        guess
+            .processes
+            .iter()
+            .map(|&p| m.processes[p].path.as_str())
+            .collect::<Vec<_>>(),
+        ["R.A"]
+    );
     ilm.run_to_completion();
     let guess = ilm.best_guess().unwrap();
     assert!(guess.multiple);
     assert_eq!(names(&m, &guess.failure_modes), ["f1", "f2"]);
-    assert_eq!(guess.components.iter().map(|&c| m.components[c].name.as_str()).collect::<Vec<_>>(), ["c1", "c2"]);
+    assert_eq!(
+        guess
+            .components
+            .iter()
+            .map(|&c| m.components[c].name.as_str())
+            .collect::<Vec<_>>(),
+        ["c1", "c2"]
+    );
 }
 
 #[test]
@@ -221,11 +270,23 @@ fn every_eclss_single_fault_is_isolated_with_all_alarms() {
     let g = FaultGraph::new(&m);
     let all = vec![true; m.alarms.len()];
     for sample in [false, true] {
-        let opts = SimOptions { seed: 7, sample_probabilities: sample, ..SimOptions::default() };
+        let opts = SimOptions {
+            seed: 7,
+            sample_probabilities: sample,
+            ..SimOptions::default()
+        };
         let r = evaluate(&m, &g, &all, &opts, if sample { 3 } else { 1 });
-        assert_eq!(r.faults, m.source_failure_modes().len() * if sample { 3 } else { 1 });
+        assert_eq!(
+            r.faults,
+            m.source_failure_modes().len() * if sample { 3 } else { 1 }
+        );
         for o in &r.outcomes {
-            assert!(o.isolated, "{} -> {:?}", m.failure_modes[o.fault].path, names(&m, &o.group));
+            assert!(
+                o.isolated,
+                "{} -> {:?}",
+                m.failure_modes[o.fault].path,
+                names(&m, &o.group)
+            );
             assert_eq!(o.time_to_isolation, Some(0.0));
         }
     }

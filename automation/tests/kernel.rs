@@ -19,8 +19,17 @@ fn ifall_waits_for_every_input_ifany_fires_on_one() {
             let b = e.add_data("b", Retention::Stream)?;
             let all_out = e.add_data("all_out", Retention::Stream)?;
             let any_out = e.add_data("any_out", Retention::Stream)?;
-            let all = e.add_actor(ActorSpec::new("all", adder).inputs(&["a", "b"]).outputs(&["out"]))?;
-            let any = e.add_actor(ActorSpec::new("any", adder).inputs(&["a", "b"]).outputs(&["out"]).firing(Firing::IfAny))?;
+            let all = e.add_actor(
+                ActorSpec::new("all", adder)
+                    .inputs(&["a", "b"])
+                    .outputs(&["out"]),
+            )?;
+            let any = e.add_actor(
+                ActorSpec::new("any", adder)
+                    .inputs(&["a", "b"])
+                    .outputs(&["out"])
+                    .firing(Firing::IfAny),
+            )?;
             for x in [all, any] {
                 e.connect_in(a, x, "a")?;
                 e.connect_in(b, x, "b")?;
@@ -33,16 +42,34 @@ fn ifall_waits_for_every_input_ifany_fires_on_one() {
     g.write(a, Value::F64(1.0)).unwrap();
     assert_eq!(g.run_manual(100).unwrap(), 1);
     assert_eq!(g.queued(any_out).unwrap(), vec![Value::F64(1.0)]);
-    assert!(g.queued(all_out).unwrap().is_empty(), "ifall must wait for b");
+    assert!(
+        g.queued(all_out).unwrap().is_empty(),
+        "ifall must wait for b"
+    );
     g.write(b, Value::F64(2.0)).unwrap();
     assert_eq!(g.run_manual(100).unwrap(), 2);
     assert_eq!(g.queued(all_out).unwrap(), vec![Value::F64(3.0)]);
-    assert_eq!(g.queued(any_out).unwrap(), vec![Value::F64(1.0), Value::F64(2.0)]);
+    assert_eq!(
+        g.queued(any_out).unwrap(),
+        vec![Value::F64(1.0), Value::F64(2.0)]
+    );
     let t = g.trace();
-    assert_eq!(t.iter().map(|r| r.actor.as_str()).collect::<Vec<_>>(), ["any", "all", "any"]);
-    assert_eq!(t[1].inputs, vec![("a".to_string(), Value::F64(1.0)), ("b".to_string(), Value::F64(2.0))]);
+    assert_eq!(
+        t.iter().map(|r| r.actor.as_str()).collect::<Vec<_>>(),
+        ["any", "all", "any"]
+    );
+    assert_eq!(
+        t[1].inputs,
+        vec![
+            ("a".to_string(), Value::F64(1.0)),
+            ("b".to_string(), Value::F64(2.0))
+        ]
+    );
     assert_eq!(t[1].outputs, vec![("out".to_string(), Value::F64(3.0))]);
-    assert!(t.iter().all(|r| r.reason == Reason::Data && r.error.is_none()));
+    assert!(
+        t.iter()
+            .all(|r| r.reason == Reason::Data && r.error.is_none())
+    );
 }
 
 #[test]
@@ -91,15 +118,24 @@ fn demand_driven_read_sends_requests_upstream() {
             Ok((raw, doubled, shown))
         })
         .unwrap();
-    assert_eq!(g.run_manual(100).unwrap(), 0, "nothing is demanded, nothing fires");
+    assert_eq!(
+        g.run_manual(100).unwrap(),
+        0,
+        "nothing is demanded, nothing fires"
+    );
     assert_eq!(g.request(doubled).unwrap(), None);
     assert_eq!(g.run_manual(100).unwrap(), 3);
     let t = g.trace();
-    assert_eq!(t.iter().map(|r| (r.actor.as_str(), r.reason)).collect::<Vec<_>>(), [
-        ("sensor", Reason::Demand),
-        ("double", Reason::Demand),
-        ("show", Reason::Data)
-    ]);
+    assert_eq!(
+        t.iter()
+            .map(|r| (r.actor.as_str(), r.reason))
+            .collect::<Vec<_>>(),
+        [
+            ("sensor", Reason::Demand),
+            ("double", Reason::Demand),
+            ("show", Reason::Data)
+        ]
+    );
     assert_eq!(g.latest(raw).unwrap(), Some(Value::F64(1.0)));
     assert_eq!(g.queued(shown).unwrap(), vec![Value::F64(2.5)]);
     // Reading a node that holds a value sends no request.
@@ -110,7 +146,10 @@ fn demand_driven_read_sends_requests_upstream() {
     g.request(doubled).unwrap();
     assert_eq!(g.run_manual(100).unwrap(), 3);
     // `shown` has no reader: it keeps both results.
-    assert_eq!(g.queued(shown).unwrap(), vec![Value::F64(2.5), Value::F64(4.5)]);
+    assert_eq!(
+        g.queued(shown).unwrap(),
+        vec![Value::F64(2.5), Value::F64(4.5)]
+    );
 }
 
 #[test]
@@ -120,7 +159,9 @@ fn rewiring_a_running_graph_loses_no_token() {
     let consumer = |name: &'static str, seen: Arc<Mutex<Vec<(String, i64)>>>| {
         ActorSpec::new(name, move |ctx: &mut Ctx<'_>| {
             let x = ctx.input_f64("x").ok_or("no x")? as i64;
-            seen.lock().map_err(|_| "poisoned")?.push((name.to_string(), x));
+            seen.lock()
+                .map_err(|_| "poisoned")?
+                .push((name.to_string(), x));
             std::thread::yield_now();
             Ok(())
         })
@@ -150,7 +191,11 @@ fn rewiring_a_running_graph_loses_no_token() {
     let seen = seen.lock().unwrap().clone();
     let mut values: Vec<i64> = seen.iter().map(|s| s.1).collect();
     values.sort_unstable();
-    assert_eq!(values, (0..200).collect::<Vec<_>>(), "every token read exactly once");
+    assert_eq!(
+        values,
+        (0..200).collect::<Vec<_>>(),
+        "every token read exactly once"
+    );
     assert!(seen.iter().any(|s| s.0 == "B"));
     assert!(g.errors().is_empty());
 }
@@ -173,7 +218,10 @@ fn tokens_wait_in_a_node_without_reader() {
         g.write(q, Value::F64(i as f64)).unwrap();
     }
     assert_eq!(g.run_manual(10).unwrap(), 0);
-    assert_eq!(g.queued(q).unwrap(), vec![Value::F64(2.0), Value::F64(3.0), Value::F64(4.0)]);
+    assert_eq!(
+        g.queued(q).unwrap(),
+        vec![Value::F64(2.0), Value::F64(3.0), Value::F64(4.0)]
+    );
     let b = g
         .edit(|e| -> Result<_, robosim_automation::kernel::KernelError> {
             let b = e.add_actor(ActorSpec::new("B", |_: &mut Ctx<'_>| Ok(())).inputs(&["x"]))?;
@@ -185,7 +233,10 @@ fn tokens_wait_in_a_node_without_reader() {
     assert_eq!(g.fired(b).unwrap(), 3);
     // Typed errors for bad edits.
     assert!(g.edit(|e| e.connect_in(q, b, "nope")).is_err());
-    assert!(g.edit(|e| e.connect_in(q, b, "x")).is_err(), "port already connected");
+    assert!(
+        g.edit(|e| e.connect_in(q, b, "x")).is_err(),
+        "port already connected"
+    );
     assert!(g.edit(|e| e.add_data("q", Retention::Stream)).is_err());
 }
 
@@ -195,7 +246,11 @@ fn dot_export_shows_live_state() {
     let q = g
         .edit(|e| -> Result<_, robosim_automation::kernel::KernelError> {
             let q = e.add_data("queue", Retention::Stream)?;
-            let a = e.add_actor(ActorSpec::new("worker", |_: &mut Ctx<'_>| Ok(())).inputs(&["x"]).firing(Firing::IfAny))?;
+            let a = e.add_actor(
+                ActorSpec::new("worker", |_: &mut Ctx<'_>| Ok(()))
+                    .inputs(&["x"])
+                    .firing(Firing::IfAny),
+            )?;
             e.connect_in(q, a, "x")?;
             Ok(q)
         })
@@ -203,15 +258,28 @@ fn dot_export_shows_live_state() {
     g.write(q, Value::F64(7.0)).unwrap();
     let dot = g.to_dot();
     assert!(dot.starts_with("digraph"));
-    assert!(dot.contains("queue\\nstream, 1 held\\nlast = 7.0000"), "{dot}");
-    assert!(dot.contains("fillcolor=yellow"), "the worker is ready: {dot}");
+    assert!(
+        dot.contains("queue\\nstream, 1 held\\nlast = 7.0000"),
+        "{dot}"
+    );
+    assert!(
+        dot.contains("fillcolor=yellow"),
+        "the worker is ready: {dot}"
+    );
     assert!(dot.contains("ifany, data-driven"));
-    assert!(dot.contains("x (1)"), "one token pending on the edge: {dot}");
+    assert!(
+        dot.contains("x (1)"),
+        "one token pending on the edge: {dot}"
+    );
 }
 
 #[test]
 fn checker_reconfigures_p_to_pid_and_the_error_drops() {
-    let fixed = run_reconfig_demo(&ReconfigOptions { allow_switch: false, ..Default::default() }).unwrap();
+    let fixed = run_reconfig_demo(&ReconfigOptions {
+        allow_switch: false,
+        ..Default::default()
+    })
+    .unwrap();
     assert_eq!(fixed.switched_at, None);
     // Against gravity P alone keeps an error: m g l sin(q) / Kp is about 0.17 rad here.
     assert!(fixed.rms_error_after > 0.1, "{fixed:?}");
@@ -223,5 +291,11 @@ fn checker_reconfigures_p_to_pid_and_the_error_drops() {
     assert_eq!(r.steps, 6000);
     assert!(r.dot_before.contains("\"P\\n") && !r.dot_before.contains("PID"));
     assert!(r.dot_after.contains("PID") && !r.dot_after.contains("\"P\\n"));
-    assert!(run_reconfig_demo(&ReconfigOptions { dt: 0.0, ..Default::default() }).is_err());
+    assert!(
+        run_reconfig_demo(&ReconfigOptions {
+            dt: 0.0,
+            ..Default::default()
+        })
+        .is_err()
+    );
 }

@@ -10,7 +10,10 @@ fn eclss_loads_and_is_consistent() {
         eprintln!("{}", f.render(&m.source));
     }
     assert!(is_consistent(&findings));
-    assert!(findings.is_empty(), "the shipped ECLSS model has no warnings either");
+    assert!(
+        findings.is_empty(),
+        "the shipped ECLSS model has no warnings either"
+    );
     // Figure 7's hierarchy: the three subsystems and the named subprocesses.
     for p in [
         "ECLSS.AirControl.THC",
@@ -31,13 +34,19 @@ fn eclss_loads_and_is_consistent() {
     ] {
         assert!(m.processes.iter().any(|q| q.path == p), "missing {p}");
     }
-    assert!(m.edges.iter().all(|e| e.assumed), "the seed gives no numbers: all edges are assumptions");
+    assert!(
+        m.edges.iter().all(|e| e.assumed),
+        "the seed gives no numbers: all edges are assumptions"
+    );
     assert!(m.find_failure_mode("no_water_for_potable_supply").is_ok());
 }
 
 fn codes(text: &str) -> Vec<(&'static str, Severity)> {
     let m = parse_model(text, "t.hfm").expect("parses");
-    check_model(&m).into_iter().map(|f| (f.code, f.severity)).collect()
+    check_model(&m)
+        .into_iter()
+        .map(|f| (f.code, f.severity))
+        .collect()
 }
 
 #[test]
@@ -59,7 +68,10 @@ fn signal_direction_is_checked() {
 fn sibling_edge_needs_a_physical_link() {
     let base = "process R { process A { output x failure f } process B { input y failure g }
                 %C propagate A.f -> B.g prob 1 time 1..2 alarm a detects B.g }";
-    assert_eq!(codes(&base.replace("%C", "")), vec![("edge-without-link", Severity::Error)]);
+    assert_eq!(
+        codes(&base.replace("%C", "")),
+        vec![("edge-without-link", Severity::Error)]
+    );
     assert!(codes(&base.replace("%C", "connect A.x -> B.y")).is_empty());
     // Against the flow is not a physical path either.
     let back = "process R { process A { input x failure f alarm a detects f } process B { output y failure g }
@@ -89,7 +101,13 @@ fn zero_time_cycle_is_an_error_and_incompleteness_warns() {
     let rendered: Vec<String> = f.iter().map(|x| x.render("t.hfm")).collect();
     assert_eq!(f[0].code, "zero-time-cycle", "{rendered:?}");
     assert!(rendered[0].contains("R.f, R.g"), "{rendered:?}");
-    assert!(f.iter().any(|x| x.code == "unobservable" && x.message.contains("R.u")));
-    assert!(f.iter().any(|x| x.code == "unreachable" && x.message.contains("R.h")));
+    assert!(
+        f.iter()
+            .any(|x| x.code == "unobservable" && x.message.contains("R.u"))
+    );
+    assert!(
+        f.iter()
+            .any(|x| x.code == "unreachable" && x.message.contains("R.h"))
+    );
     assert!(!is_consistent(&f));
 }

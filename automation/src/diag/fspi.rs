@@ -120,7 +120,13 @@ struct Scratch {
 
 impl Scratch {
     fn new(n: usize) -> Self {
-        Scratch { dist: vec![0.0; n], stamp: vec![0; n], done: vec![0; n], epoch: 0, heap: BinaryHeap::new() }
+        Scratch {
+            dist: vec![0.0; n],
+            stamp: vec![0; n],
+            done: vec![0; n],
+            epoch: 0,
+            heap: BinaryHeap::new(),
+        }
     }
     fn begin(&mut self) {
         self.epoch = self.epoch.wrapping_add(1);
@@ -173,7 +179,9 @@ impl<'g> Diagnoser<'g> {
     pub fn new(g: &'g FaultGraph, present: Option<&[bool]>) -> Self {
         let na = g.alarm_fms.len();
         let present: Vec<bool> = match present {
-            Some(p) => (0..na).map(|a| p.get(a).copied().unwrap_or(false)).collect(),
+            Some(p) => (0..na)
+                .map(|a| p.get(a).copied().unwrap_or(false))
+                .collect(),
             None => vec![true; na],
         };
         let mut pending = vec![0u32; g.len()];
@@ -239,7 +247,10 @@ impl<'g> Diagnoser<'g> {
                 return Err(AlarmError::BadTime(t));
             }
             if t + EPS < self.now {
-                return Err(AlarmError::OutOfOrder { time: t, now: self.now });
+                return Err(AlarmError::OutOfOrder {
+                    time: t,
+                    now: self.now,
+                });
             }
         }
         let mut fresh = Vec::new();
@@ -259,7 +270,10 @@ impl<'g> Diagnoser<'g> {
                 self.started = true;
                 self.single = explain
                     .iter()
-                    .map(|(&fm, &(dmin, dmax))| Candidate { fm, t0: (t - dmax, t - dmin) })
+                    .map(|(&fm, &(dmin, dmax))| Candidate {
+                        fm,
+                        t0: (t - dmax, t - dmin),
+                    })
                     .collect();
                 self.single.sort_by_key(|c| c.fm);
             } else {
@@ -271,7 +285,11 @@ impl<'g> Diagnoser<'g> {
                     None => false,
                 });
             }
-            self.ringing.push(Ringing { alarm: a, time: t, explain });
+            self.ringing.push(Ringing {
+                alarm: a,
+                time: t,
+                explain,
+            });
         }
         self.apply_consistency();
         Ok(())
@@ -296,28 +314,37 @@ impl<'g> Diagnoser<'g> {
     /// temporal bounds), see the module docs.
     fn explain(&mut self, a: AlarmId) -> HashMap<FmId, (f64, f64)> {
         let g = self.g;
-        let targets: Vec<FmId> = g.alarm_fms[a].iter().copied().filter(|&f| self.pending[f] == 0).collect();
-        let run = |weight: fn(&super::graph::Arc) -> Option<f64>, sc: &mut Scratch, pending: &[u32]| {
-            sc.begin();
-            for &t in &targets {
-                sc.relax(t, 0.0);
-            }
-            let mut out = Vec::new();
-            while let Some((v, d)) = sc.pop() {
-                out.push((v, d));
-                for arc in g.pred(v) {
-                    let u = arc.to;
-                    if let (0, Some(w)) = (pending[u], weight(arc)) {
-                        sc.relax(u, d + w);
+        let targets: Vec<FmId> = g.alarm_fms[a]
+            .iter()
+            .copied()
+            .filter(|&f| self.pending[f] == 0)
+            .collect();
+        let run =
+            |weight: fn(&super::graph::Arc) -> Option<f64>, sc: &mut Scratch, pending: &[u32]| {
+                sc.begin();
+                for &t in &targets {
+                    sc.relax(t, 0.0);
+                }
+                let mut out = Vec::new();
+                while let Some((v, d)) = sc.pop() {
+                    out.push((v, d));
+                    for arc in g.pred(v) {
+                        let u = arc.to;
+                        if let (0, Some(w)) = (pending[u], weight(arc)) {
+                            sc.relax(u, d + w);
+                        }
                     }
                 }
-            }
-            out
-        };
+                out
+            };
         let mins = run(|a| Some(a.tmin), &mut self.scratch, &self.pending);
         // The latest arrival is bounded only along paths that certainly fire: with p < 1 the
         // fast path may not fire and a slower one deliver the fault later.
-        let maxs = run(|a| (a.prob >= 1.0).then_some(a.tmax), &mut self.scratch, &self.pending);
+        let maxs = run(
+            |a| (a.prob >= 1.0).then_some(a.tmax),
+            &mut self.scratch,
+            &self.pending,
+        );
         let mut map: HashMap<FmId, (f64, f64)> = HashMap::with_capacity(mins.len());
         for (v, d) in mins {
             if g.can_originate[v] {
@@ -366,8 +393,14 @@ impl<'g> Diagnoser<'g> {
     /// that process and its subprocesses"); minimal multiple-fault hypotheses when no single
     /// failure mode explains them. Recomputed from the stored per-alarm searches (no new graph
     /// search except the consistency checks).
-    pub fn verdict(&mut self, fm_in: &dyn Fn(FmId) -> bool, alarm_in: &dyn Fn(AlarmId) -> bool) -> Verdict {
-        let rs: Vec<usize> = (0..self.ringing.len()).filter(|&i| alarm_in(self.ringing[i].alarm)).collect();
+    pub fn verdict(
+        &mut self,
+        fm_in: &dyn Fn(FmId) -> bool,
+        alarm_in: &dyn Fn(AlarmId) -> bool,
+    ) -> Verdict {
+        let rs: Vec<usize> = (0..self.ringing.len())
+            .filter(|&i| alarm_in(self.ringing[i].alarm))
+            .collect();
         if rs.is_empty() {
             return Verdict::default();
         }
@@ -376,7 +409,10 @@ impl<'g> Diagnoser<'g> {
             .explain
             .iter()
             .filter(|(f, _)| fm_in(**f))
-            .map(|(&fm, &(dmin, dmax))| Candidate { fm, t0: (first.time - dmax, first.time - dmin) })
+            .map(|(&fm, &(dmin, dmax))| Candidate {
+                fm,
+                t0: (first.time - dmax, first.time - dmin),
+            })
             .collect();
         for &i in &rs[1..] {
             let r = &self.ringing[i];
@@ -390,14 +426,26 @@ impl<'g> Diagnoser<'g> {
         }
         single.retain(|c| self.consistent(c.fm, c.t0.1));
         single.sort_by_key(|c| c.fm);
-        let multiple = if single.is_empty() { self.multiple(&rs, fm_in) } else { Vec::new() };
-        Verdict { single, multiple, alarms: rs.len() }
+        let multiple = if single.is_empty() {
+            self.multiple(&rs, fm_in)
+        } else {
+            Vec::new()
+        };
+        Verdict {
+            single,
+            multiple,
+            alarms: rs.len(),
+        }
     }
 
     /// The whole-model verdict (the incremental candidates, or the multiple-fault search).
     pub fn global_verdict(&mut self) -> Verdict {
         if !self.single.is_empty() || self.ringing.is_empty() {
-            return Verdict { single: self.single.clone(), multiple: Vec::new(), alarms: self.ringing.len() };
+            return Verdict {
+                single: self.single.clone(),
+                multiple: Vec::new(),
+                alarms: self.ringing.len(),
+            };
         }
         self.verdict(&|_| true, &|_| true)
     }
@@ -410,8 +458,12 @@ impl<'g> Diagnoser<'g> {
             .iter()
             .map(|&i| {
                 let r = &self.ringing[i];
-                let mut e: Vec<(FmId, f64, f64)> =
-                    r.explain.iter().filter(|(f, _)| fm_in(**f)).map(|(&f, &(a, b))| (f, a, b)).collect();
+                let mut e: Vec<(FmId, f64, f64)> = r
+                    .explain
+                    .iter()
+                    .filter(|(f, _)| fm_in(**f))
+                    .map(|(&f, &(a, b))| (f, a, b))
+                    .collect();
                 e.sort_by_key(|x| x.0);
                 (r.time, e)
             })
@@ -460,7 +512,12 @@ impl<'g> Diagnoser<'g> {
             }
         }
         for k in 2..=self.max_faults.max(2) {
-            let mut s = Search { ring: &ring, k, found: Vec::new(), nodes: 0 };
+            let mut s = Search {
+                ring: &ring,
+                k,
+                found: Vec::new(),
+                nodes: 0,
+            };
             dfs(&mut s, 0, &mut Vec::new());
             let mut out: Vec<Vec<FmId>> = Vec::new();
             for h in s.found {

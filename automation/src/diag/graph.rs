@@ -42,10 +42,23 @@ impl FaultGraph {
                 start[i + 1] += start[i];
             }
             let mut fill = start.clone();
-            let mut arcs = vec![Arc { to: 0, prob: 0.0, tmin: 0.0, tmax: 0.0 }; m.edges.len()];
+            let mut arcs = vec![
+                Arc {
+                    to: 0,
+                    prob: 0.0,
+                    tmin: 0.0,
+                    tmax: 0.0
+                };
+                m.edges.len()
+            ];
             for e in &m.edges {
                 let (a, b) = key(e);
-                arcs[fill[a]] = Arc { to: b, prob: e.prob, tmin: e.tmin, tmax: e.tmax };
+                arcs[fill[a]] = Arc {
+                    to: b,
+                    prob: e.prob,
+                    tmin: e.tmin,
+                    tmax: e.tmax,
+                };
                 fill[a] += 1;
             }
             (start, arcs)

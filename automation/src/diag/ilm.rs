@@ -72,7 +72,15 @@ pub struct Ilm<'g> {
 impl<'g> Ilm<'g> {
     /// A session over `model` (compiled as `graph`) with the sensor allocation `present`.
     pub fn new(model: &'g Model, graph: &'g FaultGraph, present: Option<&[bool]>) -> Self {
-        Ilm { model, diag: Diagnoser::new(graph, present), top: None, levels: Vec::new(), stale: false, restarts: 0, log: Vec::new() }
+        Ilm {
+            model,
+            diag: Diagnoser::new(graph, present),
+            top: None,
+            levels: Vec::new(),
+            stale: false,
+            restarts: 0,
+            log: Vec::new(),
+        }
     }
 
     /// The underlying incremental FSPI session.
@@ -109,7 +117,10 @@ impl<'g> Ilm<'g> {
         match current {
             None => {
                 self.top = Some(start);
-                self.log.push(format!("t={t}: alarm {} rings; start at depth {start}", self.model.alarms[a].name));
+                self.log.push(format!(
+                    "t={t}: alarm {} rings; start at depth {start}",
+                    self.model.alarms[a].name
+                ));
             }
             Some(cur) if level < cur => {
                 self.top = Some(start.min(self.top.unwrap_or(start)));
@@ -152,42 +163,54 @@ impl<'g> Ilm<'g> {
     }
 
     fn in_subtree(&self, p: ProcId, f: FmId) -> bool {
-        self.model.is_ancestor_or_self(p, self.model.failure_modes[f].process)
+        self.model
+            .is_ancestor_or_self(p, self.model.failure_modes[f].process)
     }
 
     fn step_inner(&mut self) -> bool {
         let Some(top) = self.top else { return false };
         let m = self.model;
-        let (depth, focus, prior): (usize, Vec<ProcId>, Option<Vec<FmId>>) = match self.levels.last() {
-            None => {
-                let ringing: Vec<AlarmId> = self.diag.ringing().iter().map(|r| r.alarm).collect();
-                let focus = (0..m.processes.len())
-                    .filter(|&p| m.processes[p].depth == top)
-                    .filter(|&p| ringing.iter().any(|&a| m.alarms[a].detects.iter().any(|&f| self.in_subtree(p, f))))
-                    .collect();
-                (top, focus, None)
-            }
-            Some(last) => {
-                let mut focus = Vec::new();
-                let mut prior = Vec::new();
-                for pv in &last.processes {
-                    for (q, fms) in &pv.groups {
-                        if *q != pv.process && !focus.contains(q) {
-                            focus.push(*q);
-                        }
-                        prior.extend(fms.iter().copied());
-                    }
+        let (depth, focus, prior): (usize, Vec<ProcId>, Option<Vec<FmId>>) =
+            match self.levels.last() {
+                None => {
+                    let ringing: Vec<AlarmId> =
+                        self.diag.ringing().iter().map(|r| r.alarm).collect();
+                    let focus = (0..m.processes.len())
+                        .filter(|&p| m.processes[p].depth == top)
+                        .filter(|&p| {
+                            ringing.iter().any(|&a| {
+                                m.alarms[a].detects.iter().any(|&f| self.in_subtree(p, f))
+                            })
+                        })
+                        .collect();
+                    (top, focus, None)
                 }
-                (last.depth + 1, focus, Some(prior))
-            }
-        };
+                Some(last) => {
+                    let mut focus = Vec::new();
+                    let mut prior = Vec::new();
+                    for pv in &last.processes {
+                        for (q, fms) in &pv.groups {
+                            if *q != pv.process && !focus.contains(q) {
+                                focus.push(*q);
+                            }
+                            prior.extend(fms.iter().copied());
+                        }
+                    }
+                    (last.depth + 1, focus, Some(prior))
+                }
+            };
         if focus.is_empty() {
             return false;
         }
         let mut out = Vec::new();
         for &p in &focus {
             let fm_in = |f: FmId| m.is_ancestor_or_self(p, m.failure_modes[f].process);
-            let alarm_in = |a: AlarmId| m.alarms[a].detects.iter().any(|&f| m.is_ancestor_or_self(p, m.failure_modes[f].process));
+            let alarm_in = |a: AlarmId| {
+                m.alarms[a]
+                    .detects
+                    .iter()
+                    .any(|&f| m.is_ancestor_or_self(p, m.failure_modes[f].process))
+            };
             let mut v = self.diag.verdict(&fm_in, &alarm_in);
             if let Some(prior) = &prior {
                 v.single.retain(|c| prior.contains(&c.fm));
@@ -195,36 +218,62 @@ impl<'g> Ilm<'g> {
                 if v.single.is_empty() && v.multiple.is_empty() {
                     // The subtree's own alarms alone allow nothing the level above allowed:
                     // keep the level above's hypotheses inside this process.
-                    let mut inside: Vec<FmId> = prior.iter().copied().filter(|&f| fm_in(f)).collect();
+                    let mut inside: Vec<FmId> =
+                        prior.iter().copied().filter(|&f| fm_in(f)).collect();
                     inside.sort_unstable();
                     inside.dedup();
-                    v.single = inside.into_iter().map(|fm| super::Candidate { fm, t0: (f64::NEG_INFINITY, f64::INFINITY) }).collect();
+                    v.single = inside
+                        .into_iter()
+                        .map(|fm| super::Candidate {
+                            fm,
+                            t0: (f64::NEG_INFINITY, f64::INFINITY),
+                        })
+                        .collect();
                 }
             }
             let fms = v.failure_modes();
             let mut groups: Vec<(ProcId, Vec<FmId>)> = Vec::new();
             for &f in &fms {
                 let owner = m.failure_modes[f].process;
-                let q = if owner == p { p } else { m.ancestor_at_depth(owner, m.processes[p].depth + 1) };
+                let q = if owner == p {
+                    p
+                } else {
+                    m.ancestor_at_depth(owner, m.processes[p].depth + 1)
+                };
                 match groups.iter_mut().find(|g| g.0 == q) {
                     Some(g) => g.1.push(f),
                     None => groups.push((q, vec![f])),
                 }
             }
             let components = fsci(m, &fms, v.single.is_empty());
-            out.push(ProcessVerdict { process: p, verdict: v, groups, components });
+            out.push(ProcessVerdict {
+                process: p,
+                verdict: v,
+                groups,
+                components,
+            });
         }
         if prior.is_none() && out.iter().all(|pv| pv.groups.is_empty()) && top > 0 {
             self.top = Some(top - 1);
-            self.log.push(format!("no source inside the processes at depth {top}: climb to depth {}", top - 1));
+            self.log.push(format!(
+                "no source inside the processes at depth {top}: climb to depth {}",
+                top - 1
+            ));
             return self.step_inner();
         }
         let names: Vec<String> = out
             .iter()
             .flat_map(|pv| pv.groups.iter().map(|(q, _)| m.processes[*q].path.clone()))
             .collect();
-        self.log.push(format!("depth {depth}: FSPI on {} process(es) -> sources in [{}]", focus.len(), names.join(", ")));
-        self.levels.push(LevelResult { depth, processes: out });
+        self.log.push(format!(
+            "depth {depth}: FSPI on {} process(es) -> sources in [{}]",
+            focus.len(),
+            names.join(", ")
+        ));
+        self.levels.push(LevelResult {
+            depth,
+            processes: out,
+        });
         true
     }
 
@@ -251,6 +300,12 @@ impl<'g> Ilm<'g> {
         fms.dedup();
         processes.sort_unstable();
         let components = fsci(self.model, &fms, multiple);
-        Some(Guess { depth: last.depth, processes, failure_modes: fms, components, multiple })
+        Some(Guess {
+            depth: last.depth,
+            processes,
+            failure_modes: fms,
+            components,
+            multiple,
+        })
     }
 }

@@ -24,14 +24,21 @@ use crate::model::{CompId, FmId, Model};
 /// components. `multiple == true` (they fail together): a component common to all of them if
 /// there is one (the likeliest single physical cause), else the union. Sorted, no duplicates.
 pub fn fsci(model: &Model, sources: &[FmId], multiple: bool) -> Vec<CompId> {
-    let mut union: Vec<CompId> = sources.iter().flat_map(|&f| model.failure_modes[f].components.iter().copied()).collect();
+    let mut union: Vec<CompId> = sources
+        .iter()
+        .flat_map(|&f| model.failure_modes[f].components.iter().copied())
+        .collect();
     union.sort_unstable();
     union.dedup();
     if multiple && !sources.is_empty() {
         let common: Vec<CompId> = union
             .iter()
             .copied()
-            .filter(|c| sources.iter().all(|&f| model.failure_modes[f].components.contains(c)))
+            .filter(|c| {
+                sources
+                    .iter()
+                    .all(|&f| model.failure_modes[f].components.contains(c))
+            })
             .collect();
         if !common.is_empty() {
             return common;

@@ -20,7 +20,12 @@ pub(super) fn render(st: &State) -> String {
             Retention::LastValue => "last value".to_string(),
         };
         let last = d.last.as_ref().map_or("-".to_string(), |v| v.to_string());
-        let _ = writeln!(s, "  d{i} [shape=ellipse, label=\"{}\\n{kind}\\nlast = {}\"];", esc(&d.name), esc(&last));
+        let _ = writeln!(
+            s,
+            "  d{i} [shape=ellipse, label=\"{}\\n{kind}\\nlast = {}\"];",
+            esc(&d.name),
+            esc(&last)
+        );
     }
     for (i, a) in st.actors.iter().enumerate() {
         let Some(a) = a else { continue };
@@ -53,9 +58,18 @@ pub(super) fn render(st: &State) -> String {
             if let Some(d) = p.source {
                 let pending = st.data.get(d.0).and_then(|x| x.as_ref()).map_or(0, |dn| {
                     let n = dn.next.saturating_sub(p.cursor);
-                    if dn.retention == Retention::LastValue { n.min(1) } else { n }
+                    if dn.retention == Retention::LastValue {
+                        n.min(1)
+                    } else {
+                        n
+                    }
                 });
-                let _ = writeln!(s, "  d{} -> a{i} [label=\"{} ({pending})\"];", d.0, esc(&p.name));
+                let _ = writeln!(
+                    s,
+                    "  d{} -> a{i} [label=\"{} ({pending})\"];",
+                    d.0,
+                    esc(&p.name)
+                );
             }
         }
         for p in &a.outputs {

@@ -126,7 +126,11 @@ pub enum KernelError {
     #[error("no data node with id {0}")]
     UnknownData(usize),
     #[error("actor `{actor}` has no {dir} port `{port}`")]
-    UnknownPort { actor: String, dir: &'static str, port: String },
+    UnknownPort {
+        actor: String,
+        dir: &'static str,
+        port: String,
+    },
     #[error("input port `{port}` of actor `{actor}` is already connected")]
     InputTaken { actor: String, port: String },
     #[error("a data node or actor named `{0}` already exists")]
@@ -242,7 +246,10 @@ impl Ctx<'_> {
     /// The token consumed on input port `port` by this firing (None: no token on that port —
     /// possible in `IfAny` mode or for a triggered firing).
     pub fn input(&self, port: &str) -> Option<&Value> {
-        self.inputs.iter().find(|(n, _)| n == port).and_then(|(_, v)| v.as_ref())
+        self.inputs
+            .iter()
+            .find(|(n, _)| n == port)
+            .and_then(|(_, v)| v.as_ref())
     }
     /// [`input`](Self::input) as a number.
     pub fn input_f64(&self, port: &str) -> Option<f64> {
@@ -256,7 +263,11 @@ impl Ctx<'_> {
     /// Writes `value` on output port `port` (delivered to every connected data node when the
     /// firing ends). Unknown ports are an error of the script.
     pub fn emit(&mut self, port: &str, value: Value) -> Result<(), String> {
-        let i = self.out_names.iter().position(|n| n == port).ok_or_else(|| format!("no output port `{port}`"))?;
+        let i = self
+            .out_names
+            .iter()
+            .position(|n| n == port)
+            .ok_or_else(|| format!("no output port `{port}`"))?;
         self.outputs.push((i, value));
         Ok(())
     }
@@ -363,12 +374,20 @@ impl Graph {
                 std::thread::spawn(move || c.worker_loop(w))
             })
             .collect();
-        Graph { control, workers, manual: false }
+        Graph {
+            control,
+            workers,
+            manual: false,
+        }
     }
 
     /// A graph without workers: actors fire only through [`Graph::step`] (the stepper).
     pub fn manual() -> Graph {
-        Graph { control: Control::fresh(), workers: Vec::new(), manual: true }
+        Graph {
+            control: Control::fresh(),
+            workers: Vec::new(),
+            manual: true,
+        }
     }
 
     /// The control interface (for handing to other threads).
@@ -411,7 +430,12 @@ impl Graph {
         }
         let mut st = self.control.lock();
         while st.running > 0 || !st.ready.is_empty() {
-            st = self.control.shared.idle.wait(st).unwrap_or_else(|e| e.into_inner());
+            st = self
+                .control
+                .shared
+                .idle
+                .wait(st)
+                .unwrap_or_else(|e| e.into_inner());
         }
     }
 }
@@ -432,11 +456,18 @@ pub struct Edit<'a> {
 }
 
 fn actor_mut(st: &mut State, a: ActorId) -> Result<&mut ActorSlot, KernelError> {
-    st.actors.get_mut(a.0).and_then(|s| s.as_mut()).filter(|s| !s.removed).ok_or(KernelError::UnknownActor(a.0))
+    st.actors
+        .get_mut(a.0)
+        .and_then(|s| s.as_mut())
+        .filter(|s| !s.removed)
+        .ok_or(KernelError::UnknownActor(a.0))
 }
 
 fn data_ref(st: &State, d: DataId) -> Result<&DataSlot, KernelError> {
-    st.data.get(d.0).and_then(|s| s.as_ref()).ok_or(KernelError::UnknownData(d.0))
+    st.data
+        .get(d.0)
+        .and_then(|s| s.as_ref())
+        .ok_or(KernelError::UnknownData(d.0))
 }
 
 fn port_index(slot: &ActorSlot, port: &str, input: bool) -> Result<usize, KernelError> {
@@ -455,13 +486,34 @@ fn port_index(slot: &ActorSlot, port: &str, input: bool) -> Result<usize, Kernel
 impl Edit<'_> {
     /// Adds an actor node.
     pub fn add_actor(&mut self, spec: ActorSpec) -> Result<ActorId, KernelError> {
-        if self.st.actors.iter().flatten().any(|a| !a.removed && a.name == spec.name) {
+        if self
+            .st
+            .actors
+            .iter()
+            .flatten()
+            .any(|a| !a.removed && a.name == spec.name)
+        {
             return Err(KernelError::DuplicateName(spec.name));
         }
         self.st.actors.push(Some(ActorSlot {
             name: spec.name,
-            inputs: spec.inputs.into_iter().map(|name| InPort { name, source: None, cursor: 0 }).collect(),
-            outputs: spec.outputs.into_iter().map(|name| OutPort { name, targets: Vec::new() }).collect(),
+            inputs: spec
+                .inputs
+                .into_iter()
+                .map(|name| InPort {
+                    name,
+                    source: None,
+                    cursor: 0,
+                })
+                .collect(),
+            outputs: spec
+                .outputs
+                .into_iter()
+                .map(|name| OutPort {
+                    name,
+                    targets: Vec::new(),
+                })
+                .collect(),
             firing: spec.firing,
             drive: spec.drive,
             script: spec.script,
@@ -528,7 +580,10 @@ impl Edit<'_> {
         let slot = actor_mut(self.st, a)?;
         let i = port_index(slot, port, true)?;
         if slot.inputs[i].source.is_some() {
-            return Err(KernelError::InputTaken { actor: slot.name.clone(), port: port.to_string() });
+            return Err(KernelError::InputTaken {
+                actor: slot.name.clone(),
+                port: port.to_string(),
+            });
         }
         slot.inputs[i].source = Some(d);
         slot.inputs[i].cursor = cursor;
@@ -537,24 +592,42 @@ impl Edit<'_> {
 
     /// Disconnects input port `port` of `a`; returns the data node it read and the reader's
     /// position. Unread tokens stay in the node for the next reader.
-    pub fn disconnect_in(&mut self, a: ActorId, port: &str) -> Result<Option<(DataId, u64)>, KernelError> {
+    pub fn disconnect_in(
+        &mut self,
+        a: ActorId,
+        port: &str,
+    ) -> Result<Option<(DataId, u64)>, KernelError> {
         let slot = actor_mut(self.st, a)?;
         let i = port_index(slot, port, true)?;
-        Ok(slot.inputs[i].source.take().map(|d| (d, slot.inputs[i].cursor)))
+        Ok(slot.inputs[i]
+            .source
+            .take()
+            .map(|d| (d, slot.inputs[i].cursor)))
     }
 
     /// Moves a reader: the data node feeding `(from, from_port)` now feeds `(to, to_port)`,
     /// which continues exactly where the old reader stopped — no held token is lost or read
     /// twice.
-    pub fn move_input(&mut self, from: ActorId, from_port: &str, to: ActorId, to_port: &str) -> Result<(), KernelError> {
+    pub fn move_input(
+        &mut self,
+        from: ActorId,
+        from_port: &str,
+        to: ActorId,
+        to_port: &str,
+    ) -> Result<(), KernelError> {
         {
             let slot = actor_mut(self.st, to)?;
             let j = port_index(slot, to_port, true)?;
             if slot.inputs[j].source.is_some() {
-                return Err(KernelError::InputTaken { actor: slot.name.clone(), port: to_port.to_string() });
+                return Err(KernelError::InputTaken {
+                    actor: slot.name.clone(),
+                    port: to_port.to_string(),
+                });
             }
         }
-        let Some((d, cursor)) = self.disconnect_in(from, from_port)? else { return Ok(()) };
+        let Some((d, cursor)) = self.disconnect_in(from, from_port)? else {
+            return Ok(());
+        };
         let slot = actor_mut(self.st, to)?;
         let j = port_index(slot, to_port, true)?;
         slot.inputs[j].source = Some(d);
@@ -595,19 +668,31 @@ impl Edit<'_> {
 
     /// Finds an actor by name.
     pub fn actor(&self, name: &str) -> Option<ActorId> {
-        self.st.actors.iter().position(|a| a.as_ref().is_some_and(|a| !a.removed && a.name == name)).map(ActorId)
+        self.st
+            .actors
+            .iter()
+            .position(|a| a.as_ref().is_some_and(|a| !a.removed && a.name == name))
+            .map(ActorId)
     }
 
     /// Finds a data node by name.
     pub fn data(&self, name: &str) -> Option<DataId> {
-        self.st.data.iter().position(|d| d.as_ref().is_some_and(|d| d.name == name)).map(DataId)
+        self.st
+            .data
+            .iter()
+            .position(|d| d.as_ref().is_some_and(|d| d.name == name))
+            .map(DataId)
     }
 }
 
 impl Control {
     fn fresh() -> Control {
         Control {
-            shared: Arc::new(Shared { state: Mutex::new(State::default()), work: Condvar::new(), idle: Condvar::new() }),
+            shared: Arc::new(Shared {
+                state: Mutex::new(State::default()),
+                work: Condvar::new(),
+                idle: Condvar::new(),
+            }),
         }
     }
 
@@ -714,7 +799,11 @@ impl Control {
             .actors
             .iter()
             .enumerate()
-            .filter_map(|(i, a)| a.as_ref().filter(|a| !a.removed && a.outputs.iter().any(|p| p.targets.contains(&d))).map(|_| i))
+            .filter_map(|(i, a)| {
+                a.as_ref()
+                    .filter(|a| !a.removed && a.outputs.iter().any(|p| p.targets.contains(&d)))
+                    .map(|_| i)
+            })
             .collect();
         for w in writers {
             if seen.contains(&w) {
@@ -722,7 +811,9 @@ impl Control {
             }
             seen.push(w);
             let missing: Vec<DataId> = {
-                let Some(slot) = st.actors[w].as_mut() else { continue };
+                let Some(slot) = st.actors[w].as_mut() else {
+                    continue;
+                };
                 slot.requests += 1;
                 slot.inputs
                     .iter()
@@ -738,7 +829,9 @@ impl Control {
     }
 
     fn deliver(&self, st: &mut State, d: DataId, v: Value) {
-        let Some(dn) = st.data[d.0].as_mut() else { return };
+        let Some(dn) = st.data[d.0].as_mut() else {
+            return;
+        };
         if dn.retention == Retention::Stream {
             dn.buf.push_back(v.clone());
         }
@@ -748,7 +841,11 @@ impl Control {
             .actors
             .iter()
             .enumerate()
-            .filter_map(|(i, a)| a.as_ref().filter(|a| a.inputs.iter().any(|p| p.source == Some(d))).map(|_| i))
+            .filter_map(|(i, a)| {
+                a.as_ref()
+                    .filter(|a| a.inputs.iter().any(|p| p.source == Some(d)))
+                    .map(|_| i)
+            })
             .collect();
         for r in readers {
             self.check_ready(st, r);
@@ -756,7 +853,9 @@ impl Control {
     }
 
     fn can_fire(&self, st: &State, a: usize) -> bool {
-        let Some(slot) = st.actors[a].as_ref() else { return false };
+        let Some(slot) = st.actors[a].as_ref() else {
+            return false;
+        };
         if slot.running || slot.removed {
             return false;
         }
@@ -767,7 +866,10 @@ impl Control {
         let inputs_ok = if slot.inputs.is_empty() {
             slot.requests > 0
         } else {
-            let with: usize = connected.iter().filter(|p| p.source.is_some_and(|s| has_token(&st.data, p, s))).count();
+            let with: usize = connected
+                .iter()
+                .filter(|p| p.source.is_some_and(|s| has_token(&st.data, p, s)))
+                .count();
             match slot.firing {
                 Firing::IfAll => with > 0 && with == slot.inputs.len(),
                 Firing::IfAny => with > 0,
@@ -780,7 +882,13 @@ impl Control {
     }
 
     fn check_ready(&self, st: &mut State, a: usize) {
-        if st.actors.get(a).and_then(|s| s.as_ref()).is_some_and(|s| !s.queued) && self.can_fire(st, a) {
+        if st
+            .actors
+            .get(a)
+            .and_then(|s| s.as_ref())
+            .is_some_and(|s| !s.queued)
+            && self.can_fire(st, a)
+        {
             if let Some(slot) = st.actors[a].as_mut() {
                 slot.queued = true;
             }
@@ -789,7 +897,12 @@ impl Control {
     }
 
     /// Fires actor `a`: consumes tokens under the lock, runs the script without it, delivers.
-    fn fire<'s>(&'s self, mut st: MutexGuard<'s, State>, a: usize, worker: usize) -> (MutexGuard<'s, State>, TraceRecord) {
+    fn fire<'s>(
+        &'s self,
+        mut st: MutexGuard<'s, State>,
+        a: usize,
+        worker: usize,
+    ) -> (MutexGuard<'s, State>, TraceRecord) {
         st.seq += 1;
         let seq = st.seq;
         st.running += 1;
@@ -886,8 +999,14 @@ impl Control {
             actor_id: ActorId(a),
             worker,
             reason,
-            inputs: inputs.into_iter().filter_map(|(n, v)| v.map(|v| (n, v))).collect(),
-            outputs: outputs.into_iter().map(|(i, v)| (out_names[i].clone(), v)).collect(),
+            inputs: inputs
+                .into_iter()
+                .filter_map(|(n, v)| v.map(|v| (n, v)))
+                .collect(),
+            outputs: outputs
+                .into_iter()
+                .map(|(i, v)| (out_names[i].clone(), v))
+                .collect(),
             error: result.err(),
         };
         if st.tracing {
@@ -925,7 +1044,9 @@ impl Control {
 }
 
 fn has_token(data: &[Option<DataSlot>], p: &InPort, d: DataId) -> bool {
-    data.get(d.0).and_then(|s| s.as_ref()).is_some_and(|dn| p.cursor < dn.next)
+    data.get(d.0)
+        .and_then(|s| s.as_ref())
+        .is_some_and(|dn| p.cursor < dn.next)
 }
 
 fn collect_garbage(actors: &[Option<ActorSlot>], data: &mut [Option<DataSlot>]) {

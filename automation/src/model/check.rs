@@ -43,7 +43,10 @@ impl Finding {
             Severity::Error => "error",
             Severity::Warning => "warning",
         };
-        format!("{file}:{}:{}: {sev}[{}]: {}", self.span.line, self.span.col, self.code, self.message)
+        format!(
+            "{file}:{}:{}: {sev}[{}]: {}",
+            self.span.line, self.span.col, self.code, self.message
+        )
     }
 }
 
@@ -56,7 +59,14 @@ fn adjacent(m: &Model, a: ProcId, b: ProcId) -> bool {
 /// Runs every check; findings are sorted errors first, then by place.
 pub fn check_model(m: &Model) -> Vec<Finding> {
     let mut out = Vec::new();
-    let mut push = |severity, code, message: String, span| out.push(Finding { severity, code, message, span });
+    let mut push = |severity, code, message: String, span| {
+        out.push(Finding {
+            severity,
+            code,
+            message,
+            span,
+        })
+    };
 
     for c in &m.connections {
         let (f, t) = (c.from.process, c.to.process);
@@ -103,7 +113,10 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
     }
 
     for e in &m.edges {
-        let (a, b) = (m.failure_modes[e.from].process, m.failure_modes[e.to].process);
+        let (a, b) = (
+            m.failure_modes[e.from].process,
+            m.failure_modes[e.to].process,
+        );
         let fam = |p: ProcId| p == e.owner || m.processes[p].parent == Some(e.owner);
         let name = |f: FmId| m.failure_modes[f].path.clone();
         if !adjacent(m, a, b) || !fam(a) || !fam(b) {
@@ -120,8 +133,14 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             );
             continue;
         }
-        if a != b && m.processes[a].parent == m.processes[b].parent && m.processes[a].parent.is_some() {
-            let linked = m.connections.iter().any(|c| c.from.process == a && c.to.process == b);
+        if a != b
+            && m.processes[a].parent == m.processes[b].parent
+            && m.processes[a].parent.is_some()
+        {
+            let linked = m
+                .connections
+                .iter()
+                .any(|c| c.from.process == a && c.to.process == b);
             if !linked {
                 push(
                     Severity::Error,
@@ -149,13 +168,23 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
     }
     for comp in tarjan_scc(&zero_adj) {
         if comp.len() > 1 {
-            let mut names: Vec<_> = comp.iter().map(|&f| m.failure_modes[f].path.clone()).collect();
+            let mut names: Vec<_> = comp
+                .iter()
+                .map(|&f| m.failure_modes[f].path.clone())
+                .collect();
             names.sort();
-            let span = comp.iter().map(|&f| m.failure_modes[f].span).min_by_key(|s| (s.line, s.col)).unwrap_or_default();
+            let span = comp
+                .iter()
+                .map(|&f| m.failure_modes[f].span)
+                .min_by_key(|s| (s.line, s.col))
+                .unwrap_or_default();
             push(
                 Severity::Error,
                 "zero-time-cycle",
-                format!("zero-time propagation cycle through {}: give one edge a tmin > 0", names.join(", ")),
+                format!(
+                    "zero-time propagation cycle through {}: give one edge a tmin > 0",
+                    names.join(", ")
+                ),
                 span,
             );
         }
@@ -163,7 +192,12 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
 
     for a in &m.alarms {
         if a.detects.is_empty() {
-            push(Severity::Warning, "alarm-unattached", format!("alarm `{}` detects no failure mode", a.name), a.span);
+            push(
+                Severity::Warning,
+                "alarm-unattached",
+                format!("alarm `{}` detects no failure mode", a.name),
+                a.span,
+            );
         }
     }
 
@@ -173,7 +207,9 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
         radj[e.to].push(e.from);
     }
     let mut observable = vec![false; n];
-    let mut stack: Vec<FmId> = (0..n).filter(|&f| !m.failure_modes[f].alarms.is_empty()).collect();
+    let mut stack: Vec<FmId> = (0..n)
+        .filter(|&f| !m.failure_modes[f].alarms.is_empty())
+        .collect();
     for &f in &stack {
         observable[f] = true;
     }
@@ -190,7 +226,10 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             push(
                 Severity::Warning,
                 "unobservable",
-                format!("failure mode `{}` reaches no alarm: it cannot be diagnosed", fm.path),
+                format!(
+                    "failure mode `{}` reaches no alarm: it cannot be diagnosed",
+                    fm.path
+                ),
                 fm.span,
             );
         }
@@ -198,7 +237,10 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             push(
                 Severity::Warning,
                 "unreachable",
-                format!("derived failure mode `{}` has no incoming propagation: it can never become active", fm.path),
+                format!(
+                    "derived failure mode `{}` has no incoming propagation: it can never become active",
+                    fm.path
+                ),
                 fm.span,
             );
         }

@@ -163,7 +163,9 @@ pub fn load_model(name_or_path: &str) -> Result<Model, ModelError> {
         file: name_or_path.to_string(),
         line: 0,
         col: 0,
-        message: format!("cannot read model (not a file, and not a shipped model {SHIPPED_MODELS:?}): {e}"),
+        message: format!(
+            "cannot read model (not a file, and not a shipped model {SHIPPED_MODELS:?}): {e}"
+        ),
     })?;
     parse_model(&text, name_or_path)
 }
@@ -174,10 +176,14 @@ impl Model {
         0
     }
 
-    /// Finds a failure mode by full path (`ECLSS.AirControl.humidity_high`), by path without
-    /// the root name, or by its bare name when that is unique.
+    /// Finds a failure mode by full path (`ECLSS.AirControl.humidity_high`) or by any dotted
+    /// tail of it that is unique (`AirControl.humidity_high`, or a bare unique name).
     pub fn find_failure_mode(&self, name: &str) -> Result<FmId, String> {
-        find_named(name, self.failure_modes.iter().map(|f| (&f.path, &f.name)), "failure mode")
+        find_named(
+            name,
+            self.failure_modes.iter().map(|f| (&f.path, &f.name)),
+            "failure mode",
+        )
     }
 
     /// Finds an alarm by name (alarm names are unique in a model).
@@ -212,7 +218,9 @@ impl Model {
 
     /// Failure modes that may originate a fault (not `derived`).
     pub fn source_failure_modes(&self) -> Vec<FmId> {
-        (0..self.failure_modes.len()).filter(|&f| !self.failure_modes[f].derived).collect()
+        (0..self.failure_modes.len())
+            .filter(|&f| !self.failure_modes[f].derived)
+            .collect()
     }
 
     /// The deepest process depth.
@@ -226,21 +234,25 @@ fn find_named<'a>(
     items: impl Iterator<Item = (&'a String, &'a String)>,
     what: &str,
 ) -> Result<usize, String> {
-    let mut by_short = Vec::new();
-    for (i, (path, short)) in items.enumerate() {
-        if path == name || path.split_once('.').is_some_and(|(_, rest)| rest == name) {
+    let dotted = format!(".{name}");
+    let mut hits = Vec::new();
+    for (i, (path, _)) in items.enumerate() {
+        if path == name {
             return Ok(i);
         }
-        if short == name {
-            by_short.push((i, path.clone()));
+        if path.ends_with(&dotted) {
+            hits.push((i, path.clone()));
         }
     }
-    match by_short.len() {
-        1 => Ok(by_short[0].0),
+    match hits.len() {
+        1 => Ok(hits[0].0),
         0 => Err(format!("no {what} named `{name}`")),
         _ => Err(format!(
             "{what} name `{name}` is ambiguous: {}",
-            by_short.iter().map(|(_, p)| p.as_str()).collect::<Vec<_>>().join(", ")
+            hits.iter()
+                .map(|(_, p)| p.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         )),
     }
 }

@@ -38,7 +38,12 @@ struct Lexer<'a> {
 type Spanned = (Tok, Span);
 
 fn err(file: &str, span: Span, message: impl Into<String>) -> ModelError {
-    ModelError { file: file.to_string(), line: span.line, col: span.col, message: message.into() }
+    ModelError {
+        file: file.to_string(),
+        line: span.line,
+        col: span.col,
+        message: message.into(),
+    }
 }
 
 impl<'a> Lexer<'a> {
@@ -60,10 +65,19 @@ impl<'a> Lexer<'a> {
         let mut out = Vec::new();
         loop {
             let Some(c) = self.peek() else {
-                out.push((Tok::Eof, Span { line: self.line, col: self.col }));
+                out.push((
+                    Tok::Eof,
+                    Span {
+                        line: self.line,
+                        col: self.col,
+                    },
+                ));
                 return Ok(out);
             };
-            let span = Span { line: self.line, col: self.col };
+            let span = Span {
+                line: self.line,
+                col: self.col,
+            };
             if c.is_whitespace() {
                 self.bump();
             } else if c == '#' {
@@ -72,7 +86,10 @@ impl<'a> Lexer<'a> {
                 }
             } else if c.is_ascii_alphabetic() || c == '_' {
                 let mut s = String::new();
-                while let Some(c) = self.peek().filter(|c| c.is_ascii_alphanumeric() || *c == '_') {
+                while let Some(c) = self
+                    .peek()
+                    .filter(|c| c.is_ascii_alphanumeric() || *c == '_')
+                {
                     s.push(c);
                     self.bump();
                 }
@@ -86,7 +103,8 @@ impl<'a> Lexer<'a> {
                 // A fraction only when a digit follows the dot: `10..60` is a range.
                 let mut look = self.chars.clone();
                 look.next();
-                if self.peek() == Some('.') && look.peek().is_some_and(|&(_, c)| c.is_ascii_digit()) {
+                if self.peek() == Some('.') && look.peek().is_some_and(|&(_, c)| c.is_ascii_digit())
+                {
                     s.push('.');
                     self.bump();
                     while let Some(c) = self.peek().filter(|c| c.is_ascii_digit()) {
@@ -106,7 +124,9 @@ impl<'a> Lexer<'a> {
                         self.bump();
                     }
                 }
-                let v: f64 = s.parse().map_err(|_| err(self.file, span, format!("bad number `{s}`")))?;
+                let v: f64 = s
+                    .parse()
+                    .map_err(|_| err(self.file, span, format!("bad number `{s}`")))?;
                 out.push((Tok::Num(v), span));
             } else if c == '"' {
                 self.bump();
@@ -114,7 +134,9 @@ impl<'a> Lexer<'a> {
                 loop {
                     match self.bump() {
                         Some('"') => break,
-                        Some('\n') | None => return Err(err(self.file, span, "unterminated string")),
+                        Some('\n') | None => {
+                            return Err(err(self.file, span, "unterminated string"));
+                        }
                         Some(c) => s.push(c),
                     }
                 }
@@ -134,7 +156,13 @@ impl<'a> Lexer<'a> {
                         ".."
                     }
                     '.' => ".",
-                    other => return Err(err(self.file, span, format!("unexpected character `{other}`"))),
+                    other => {
+                        return Err(err(
+                            self.file,
+                            span,
+                            format!("unexpected character `{other}`"),
+                        ));
+                    }
                 };
                 out.push((Tok::Sym(sym), span));
             }
@@ -196,17 +224,22 @@ impl Parser<'_> {
         }
     }
     fn expect_sym(&mut self, s: &str) -> Result<(), ModelError> {
-        if *self.peek() == Tok::Sym(match s {
-            "{" => "{",
-            "}" => "}",
-            "->" => "->",
-            ".." => "..",
-            _ => ",",
-        }) {
+        if *self.peek()
+            == Tok::Sym(match s {
+                "{" => "{",
+                "}" => "}",
+                "->" => "->",
+                ".." => "..",
+                _ => ",",
+            })
+        {
             self.next();
             Ok(())
         } else {
-            Err(self.error(format!("expected `{s}`, found {}", Self::describe(self.peek()))))
+            Err(self.error(format!(
+                "expected `{s}`, found {}",
+                Self::describe(self.peek())
+            )))
         }
     }
     fn ident(&mut self, what: &str) -> Result<(String, Span), ModelError> {
@@ -233,7 +266,10 @@ impl Parser<'_> {
                 self.next();
                 Ok(v)
             }
-            ref t => Err(self.error(format!("expected {what} (a number), found {}", Self::describe(t)))),
+            ref t => Err(self.error(format!(
+                "expected {what} (a number), found {}",
+                Self::describe(t)
+            ))),
         }
     }
     fn ident_list(&mut self, what: &str) -> Result<Vec<(String, Span)>, ModelError> {
@@ -257,11 +293,18 @@ impl Parser<'_> {
     fn process(&mut self) -> Result<ProcAst, ModelError> {
         let kw_span = self.span();
         if !self.keyword("process") {
-            return Err(self.error(format!("expected `process`, found {}", Self::describe(self.peek()))));
+            return Err(self.error(format!(
+                "expected `process`, found {}",
+                Self::describe(self.peek())
+            )));
         }
         let (name, _) = self.ident("a process name")?;
         self.expect_sym("{")?;
-        let mut p = ProcAst { name, span: kw_span, ..Default::default() };
+        let mut p = ProcAst {
+            name,
+            span: kw_span,
+            ..Default::default()
+        };
         loop {
             let sp = self.span();
             match self.peek().clone() {
@@ -273,8 +316,15 @@ impl Parser<'_> {
                     "process" => p.children.push(self.process()?),
                     "input" | "output" => {
                         self.next();
-                        let names = self.ident_list("a signal name")?.into_iter().map(|(n, _)| n);
-                        if kw == "input" { p.inputs.extend(names) } else { p.outputs.extend(names) }
+                        let names = self
+                            .ident_list("a signal name")?
+                            .into_iter()
+                            .map(|(n, _)| n);
+                        if kw == "input" {
+                            p.inputs.extend(names)
+                        } else {
+                            p.outputs.extend(names)
+                        }
                     }
                     "component" => {
                         self.next();
@@ -319,7 +369,10 @@ impl Parser<'_> {
                                     return Err(err(
                                         self.file,
                                         s,
-                                        format!("expected a quoted generator, found {}", Self::describe(&t)),
+                                        format!(
+                                            "expected a quoted generator, found {}",
+                                            Self::describe(&t)
+                                        ),
                                     ));
                                 }
                             }
@@ -334,15 +387,25 @@ impl Parser<'_> {
                         self.expect_sym("->")?;
                         let b = self.reference("a failure-mode reference")?;
                         if !self.keyword("prob") {
-                            return Err(self.error(format!("expected `prob`, found {}", Self::describe(self.peek()))));
+                            return Err(self.error(format!(
+                                "expected `prob`, found {}",
+                                Self::describe(self.peek())
+                            )));
                         }
                         let pspan = self.span();
                         let prob = self.number("a probability")?;
                         if !(prob > 0.0 && prob <= 1.0) {
-                            return Err(err(self.file, pspan, format!("probability {prob} is not in (0, 1]")));
+                            return Err(err(
+                                self.file,
+                                pspan,
+                                format!("probability {prob} is not in (0, 1]"),
+                            ));
                         }
                         if !self.keyword("time") {
-                            return Err(self.error(format!("expected `time`, found {}", Self::describe(self.peek()))));
+                            return Err(self.error(format!(
+                                "expected `time`, found {}",
+                                Self::describe(self.peek())
+                            )));
                         }
                         let tspan = self.span();
                         let tmin = self.number("tmin in seconds")?;
@@ -352,7 +415,9 @@ impl Parser<'_> {
                             return Err(err(
                                 self.file,
                                 tspan,
-                                format!("propagation time {tmin}..{tmax} needs 0 <= tmin <= tmax < inf"),
+                                format!(
+                                    "propagation time {tmin}..{tmax} needs 0 <= tmin <= tmax < inf"
+                                ),
                             ));
                         }
                         let assumed = self.keyword("assumed");
@@ -365,7 +430,12 @@ impl Parser<'_> {
                         )));
                     }
                 },
-                t => return Err(self.error(format!("expected a statement or `}}`, found {}", Self::describe(&t)))),
+                t => {
+                    return Err(self.error(format!(
+                        "expected a statement or `}}`, found {}",
+                        Self::describe(&t)
+                    )));
+                }
             }
         }
     }
@@ -378,7 +448,13 @@ impl Parser<'_> {
 /// references to unknown processes, signals, failure modes or components, probabilities outside
 /// (0, 1], and time intervals that are not `0 <= tmin <= tmax`.
 pub fn parse_model(text: &str, file: &str) -> Result<Model, ModelError> {
-    let toks = Lexer { chars: text.char_indices().peekable(), line: 1, col: 1, file }.tokens()?;
+    let toks = Lexer {
+        chars: text.char_indices().peekable(),
+        line: 1,
+        col: 1,
+        file,
+    }
+    .tokens()?;
     let mut p = Parser { toks, pos: 0, file };
     let root = p.process()?;
     if *p.peek() != Tok::Eof {
@@ -413,16 +489,27 @@ impl<'a> Resolver<'a> {
         }
     }
 
-    fn add_process(&mut self, mut ast: ProcAst, parent: Option<ProcId>) -> Result<ProcId, ModelError> {
+    fn add_process(
+        &mut self,
+        mut ast: ProcAst,
+        parent: Option<ProcId>,
+    ) -> Result<ProcId, ModelError> {
         let id = self.m.processes.len();
         let (path, depth) = match parent {
-            Some(q) => (format!("{}.{}", self.m.processes[q].path, ast.name), self.m.processes[q].depth + 1),
+            Some(q) => (
+                format!("{}.{}", self.m.processes[q].path, ast.name),
+                self.m.processes[q].depth + 1,
+            ),
             None => (ast.name.clone(), 0),
         };
         for (list, what) in [(&ast.inputs, "input"), (&ast.outputs, "output")] {
             for (i, s) in list.iter().enumerate() {
                 if list[..i].contains(s) || (what == "output" && ast.inputs.contains(s)) {
-                    return Err(err(self.file, ast.span, format!("signal `{s}` declared twice in process `{path}`")));
+                    return Err(err(
+                        self.file,
+                        ast.span,
+                        format!("signal `{s}` declared twice in process `{path}`"),
+                    ));
                 }
             }
         }
@@ -441,11 +528,18 @@ impl<'a> Resolver<'a> {
         let children = std::mem::take(&mut ast.children);
         self.asts.push(ast);
         for c in children {
-            if self.m.processes[id].children.iter().any(|&k| self.m.processes[k].name == c.name) {
+            if self.m.processes[id]
+                .children
+                .iter()
+                .any(|&k| self.m.processes[k].name == c.name)
+            {
                 return Err(err(
                     self.file,
                     c.span,
-                    format!("process `{}` declared twice in `{}`", c.name, self.m.processes[id].path),
+                    format!(
+                        "process `{}` declared twice in `{}`",
+                        c.name, self.m.processes[id].path
+                    ),
                 ));
             }
             let k = self.add_process(c, Some(id))?;
@@ -457,7 +551,13 @@ impl<'a> Resolver<'a> {
     /// Resolves the process part of a reference: all segments but the last.
     fn walk(&self, from: ProcId, r: &RefAst) -> Result<ProcId, ModelError> {
         let segs = &r.parts[..r.parts.len() - 1];
-        let child = |p: ProcId, n: &str| self.m.processes[p].children.iter().copied().find(|&k| self.m.processes[k].name == n);
+        let child = |p: ProcId, n: &str| {
+            self.m.processes[p]
+                .children
+                .iter()
+                .copied()
+                .find(|&k| self.m.processes[k].name == n)
+        };
         let mut p = from;
         for (i, s) in segs.iter().enumerate() {
             p = match child(p, s) {
@@ -467,7 +567,11 @@ impl<'a> Resolver<'a> {
                     return Err(err(
                         self.file,
                         r.span,
-                        format!("`{}`: no subprocess `{s}` in `{}`", r.parts.join("."), self.m.processes[p].path),
+                        format!(
+                            "`{}`: no subprocess `{s}` in `{}`",
+                            r.parts.join("."),
+                            self.m.processes[p].path
+                        ),
                     ));
                 }
             };
@@ -484,7 +588,14 @@ impl<'a> Resolver<'a> {
             .copied()
             .find(|&f| self.m.failure_modes[f].name == *name)
             .ok_or_else(|| {
-                err(self.file, r.span, format!("no failure mode `{name}` in process `{}`", self.m.processes[p].path))
+                err(
+                    self.file,
+                    r.span,
+                    format!(
+                        "no failure mode `{name}` in process `{}`",
+                        self.m.processes[p].path
+                    ),
+                )
             })
     }
 
@@ -493,9 +604,16 @@ impl<'a> Resolver<'a> {
         let name = &r.parts[r.parts.len() - 1];
         let proc_ = &self.m.processes[p];
         if !proc_.inputs.contains(name) && !proc_.outputs.contains(name) {
-            return Err(err(self.file, r.span, format!("no signal `{name}` in process `{}`", proc_.path)));
+            return Err(err(
+                self.file,
+                r.span,
+                format!("no signal `{name}` in process `{}`", proc_.path),
+            ));
         }
-        Ok(SignalRef { process: p, signal: name.clone() })
+        Ok(SignalRef {
+            process: p,
+            signal: name.clone(),
+        })
     }
 
     fn resolve(mut self, root: ProcAst) -> Result<Model, ModelError> {
@@ -506,7 +624,11 @@ impl<'a> Resolver<'a> {
         for p in 0..n {
             for (c, sp) in self.asts[p].components.clone() {
                 if comp_index.contains_key(&c) {
-                    return Err(err(self.file, sp, format!("component `{c}` declared twice")));
+                    return Err(err(
+                        self.file,
+                        sp,
+                        format!("component `{c}` declared twice"),
+                    ));
                 }
                 comp_index.insert(c.clone(), self.m.components.len());
                 self.m.components.push(Component { name: c, span: sp });
@@ -514,18 +636,29 @@ impl<'a> Resolver<'a> {
         }
         for p in 0..n {
             for (name, derived, comps, sp) in self.asts[p].failures.clone() {
-                if self.m.processes[p].failure_modes.iter().any(|&f| self.m.failure_modes[f].name == name) {
+                if self.m.processes[p]
+                    .failure_modes
+                    .iter()
+                    .any(|&f| self.m.failure_modes[f].name == name)
+                {
                     return Err(err(
                         self.file,
                         sp,
-                        format!("failure mode `{name}` declared twice in `{}`", self.m.processes[p].path),
+                        format!(
+                            "failure mode `{name}` declared twice in `{}`",
+                            self.m.processes[p].path
+                        ),
                     ));
                 }
                 let mut cs = Vec::new();
                 for (c, csp) in comps {
-                    let id = *comp_index
-                        .get(&c)
-                        .ok_or_else(|| err(self.file, csp, format!("unknown component `{c}` (declare it with `component {c}`)")))?;
+                    let id = *comp_index.get(&c).ok_or_else(|| {
+                        err(
+                            self.file,
+                            csp,
+                            format!("unknown component `{c}` (declare it with `component {c}`)"),
+                        )
+                    })?;
                     cs.push(id);
                 }
                 let id = self.m.failure_modes.len();
@@ -545,7 +678,12 @@ impl<'a> Resolver<'a> {
             for (a, b, sp) in self.asts[p].connects.clone() {
                 let from = self.signal_ref(p, &a)?;
                 let to = self.signal_ref(p, &b)?;
-                self.m.connections.push(Connection { owner: p, from, to, span: sp });
+                self.m.connections.push(Connection {
+                    owner: p,
+                    from,
+                    to,
+                    span: sp,
+                });
             }
             for (name, refs, generator, sp) in self.asts[p].alarms.clone() {
                 if self.m.alarms.iter().any(|a| a.name == name) {
@@ -560,16 +698,35 @@ impl<'a> Resolver<'a> {
                         self.m.failure_modes[f].alarms.push(id);
                     }
                 }
-                self.m.alarms.push(Alarm { name, process: p, detects, generator, span: sp });
+                self.m.alarms.push(Alarm {
+                    name,
+                    process: p,
+                    detects,
+                    generator,
+                    span: sp,
+                });
                 self.m.processes[p].alarms.push(id);
             }
             for (a, b, prob, tmin, tmax, assumed, sp) in self.asts[p].edges.clone() {
                 let from = self.fm_ref(p, &a)?;
                 let to = self.fm_ref(p, &b)?;
                 if from == to {
-                    return Err(err(self.file, sp, "a propagation edge from a failure mode to itself"));
+                    return Err(err(
+                        self.file,
+                        sp,
+                        "a propagation edge from a failure mode to itself",
+                    ));
                 }
-                self.m.edges.push(Edge { from, to, prob, tmin, tmax, assumed, owner: p, span: sp });
+                self.m.edges.push(Edge {
+                    from,
+                    to,
+                    prob,
+                    tmin,
+                    tmax,
+                    assumed,
+                    owner: p,
+                    span: sp,
+                });
             }
         }
         Ok(self.m)
@@ -582,14 +739,29 @@ mod tests {
 
     #[test]
     fn errors_name_file_line_and_column() {
-        let e = parse_model("process A {\n  failure x\n  propagate x -> y prob 0.5 time 1..2\n}\n", "m.hfm").unwrap_err();
+        let e = parse_model(
+            "process A {\n  failure x\n  propagate x -> y prob 0.5 time 1..2\n}\n",
+            "m.hfm",
+        )
+        .unwrap_err();
         assert_eq!((e.line, e.col), (3, 18), "{e}");
-        assert!(e.to_string().starts_with("m.hfm:3:18: no failure mode `y`"), "{e}");
+        assert!(
+            e.to_string().starts_with("m.hfm:3:18: no failure mode `y`"),
+            "{e}"
+        );
         let e = parse_model("process A {\n  bogus\n}", "m").unwrap_err();
         assert_eq!((e.line, e.col), (2, 3));
-        let e = parse_model("process A { failure x failure y propagate x -> y prob 1.5 time 1..2 }", "m").unwrap_err();
+        let e = parse_model(
+            "process A { failure x failure y propagate x -> y prob 1.5 time 1..2 }",
+            "m",
+        )
+        .unwrap_err();
         assert!(e.message.contains("not in (0, 1]"), "{e}");
-        let e = parse_model("process A { failure x failure y propagate x -> y prob 1 time 3..2 }", "m").unwrap_err();
+        let e = parse_model(
+            "process A { failure x failure y propagate x -> y prob 1 time 3..2 }",
+            "m",
+        )
+        .unwrap_err();
         assert!(e.message.contains("tmin <= tmax"), "{e}");
         let e = parse_model("process A { failure x components pump }", "m").unwrap_err();
         assert!(e.message.contains("unknown component `pump`"), "{e}");
@@ -603,6 +775,9 @@ mod tests {
         )
         .unwrap();
         let e = &m.edges[0];
-        assert_eq!((e.prob, e.tmin, e.tmax, e.assumed), (0.25, 10.0, 60.5, true));
+        assert_eq!(
+            (e.prob, e.tmin, e.tmax, e.assumed),
+            (0.25, 10.0, 60.5, true)
+        );
     }
 }
