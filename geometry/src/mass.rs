@@ -128,7 +128,8 @@ impl Polyhedron {
         }
         let volume = six_v / 6.0;
         let scale = self.bbox.half.norm().max(f64::MIN_POSITIVE);
-        if !(volume > 1e-15 * scale.powi(3)) {
+        // vertices are finite (validated), so volume is not NaN
+        if volume <= 1e-15 * scale.powi(3) {
             return Err(MassError::NonPositiveVolume { volume });
         }
         // centroid of a tetrahedron r,a,b,c is (a+b+c)/4 about r; weighted by det/6

@@ -296,7 +296,7 @@ fn mass_properties_of_a_moved_solid_follow_the_motion() {
 #[test]
 fn bad_parameters_are_refused_with_the_field_named() {
     assert_eq!(
-        shapes::cuboid(1.0, -2.0, 1.0).unwrap_err(),
+        shapes::cuboid(1.0, -2.0, 1.0).expect_err("negative side"),
         ShapeError::NonPositive {
             shape: "box",
             field: "y",
@@ -359,7 +359,10 @@ fn open_surfaces_have_no_mass_properties() {
         Point3::new(0.0, 1.0, 0.0),
     ];
     let tri = Polyhedron::from_polygons(v, &[vec![0, 1, 2]]).expect("one triangle");
-    assert_eq!(tri.mass_properties(1.0).unwrap_err(), MassError::NotClosed);
+    assert_eq!(
+        tri.mass_properties(1.0).expect_err("open surface"),
+        MassError::NotClosed
+    );
     assert!(matches!(
         shapes::cuboid(1.0, 1.0, 1.0)
             .expect("box")

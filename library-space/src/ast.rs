@@ -42,6 +42,10 @@ pub struct Arg {
 }
 
 #[derive(Debug, Clone, PartialEq)]
+#[expect(
+    clippy::large_enum_variant,
+    reason = "built once per file; boxing would only add indirection"
+)]
 pub enum Stmt {
     /// `let NAME = expr`
     Let {

@@ -5,7 +5,7 @@
 //! Entry point: [`report_library`] (wired as `robosim report library`).
 
 use crate::{EvalOptions, Evaluated, Library, Params};
-use robosim_report::{percentile, write_report, Plot, Report, Series, Table};
+use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -22,7 +22,11 @@ fn size(e: &Evaluated) -> (usize, usize) {
             i.solid.parts.iter().for_each(|p| add(&p.polyhedron));
         }
         for r in &s.robots {
-            r.model.frames.iter().flatten().for_each(|p| add(&p.polyhedron));
+            r.model
+                .frames
+                .iter()
+                .flatten()
+                .for_each(|p| add(&p.polyhedron));
         }
     }
     (polys, verts)
@@ -32,7 +36,11 @@ fn size(e: &Evaluated) -> (usize, usize) {
 /// `quick`: fewer facet counts and repetitions (a smoke run). Times are wall-clock on a shared
 /// machine; the report gives ratios against the smallest facet count measured in the same run.
 pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
-    let facets: &[usize] = if quick { &[8, 16, 32, 64] } else { &[8, 16, 32, 64, 128, 256, 512] };
+    let facets: &[usize] = if quick {
+        &[8, 16, 32, 64]
+    } else {
+        &[8, 16, 32, 64, 128, 256, 512]
+    };
     let reps = if quick { 3 } else { 9 };
     // parse + check of the station's files (independent of the facet override)
     let src = "include \"std/materials.rsl\"\ninclude \"std/station.rsl\"\n";
@@ -56,7 +64,9 @@ pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         let mut dims = (0, 0);
         for _ in 0..reps {
             let t = Instant::now();
-            let e = lib.evaluate_with("space_station", &Params::new(), &opts).map_err(|e| e.to_string())?;
+            let e = lib
+                .evaluate_with("space_station", &Params::new(), &opts)
+                .map_err(|e| e.to_string())?;
             ms.push(t.elapsed().as_secs_f64() * 1e3);
             dims = size(&e);
         }
@@ -84,7 +94,11 @@ pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
             format!("Parse + load-time check of std/materials.rsl and std/station.rsl (every declaration evaluated at its defaults): median {parse_med:.2} ms over {reps} runs."),
             "Evaluation of `space_station` with every round primitive forced to `facets` (EvalOptions); boxes are unaffected. Median and 90th percentile wall-clock over the repetitions.".into(),
             "time ratio and polygon ratio are against the smallest facet count in the same run (shared, noisy machine: compare ratios, not absolute times). Linear growth shows as a flat time per polygon.".into(),
-            format!("{} run, dev/release profile as built.", if quick { "quick" } else { "full" }),
+            format!(
+                "{} run, {} build.",
+                if quick { "quick" } else { "full" },
+                if cfg!(debug_assertions) { "dev-profile (opt-level 1, dependencies opt-level 2)" } else { "release" }
+            ),
         ],
         table: Table {
             columns: ["facets", "polygons", "vertices", "eval_ms_median", "eval_ms_p90", "time_ratio", "polygon_ratio", "us_per_polygon"]

@@ -50,7 +50,11 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
             let decls = lib.declarations();
             let w = decls.iter().map(|d| d.name.len()).max().unwrap_or(4);
             for d in decls {
-                let doc = d.doc.as_deref().and_then(|s| s.lines().next()).unwrap_or("");
+                let doc = d
+                    .doc
+                    .as_deref()
+                    .and_then(|s| s.lines().next())
+                    .unwrap_or("");
                 let _ = writeln!(out, "{:<9} {:<w$}  {}", d.kind.as_str(), d.name, doc);
             }
         }
@@ -58,7 +62,9 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
             let lib = open(&file)?;
             let info = lib.declarations().into_iter().find(|d| d.name == name);
             let params = lib.params(&name).map_err(|e| e.to_string())?;
-            let Some(d) = info else { return Err(format!("no declaration named `{name}`")) };
+            let Some(d) = info else {
+                return Err(format!("no declaration named `{name}`"));
+            };
             let _ = writeln!(out, "{} {}  ({})", d.kind.as_str(), d.name, d.location);
             if let Some(doc) = &d.doc {
                 for l in doc.lines() {
@@ -71,13 +77,29 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
                 let _ = writeln!(out, "parameters:");
                 let w = params.iter().map(|p| p.name.len()).max().unwrap_or(4);
                 for p in &params {
-                    let si = p.default_si.map(|v| format!(" = {v} {}", p.unit)).unwrap_or_default();
-                    let _ = writeln!(out, "  {:<w$}  default {}{si}  ({})", p.name, p.default_source, p.kind);
+                    let si = p
+                        .default_si
+                        .map(|v| format!(" = {v} {}", p.unit))
+                        .unwrap_or_default();
+                    let _ = writeln!(
+                        out,
+                        "  {:<w$}  default {}{si}  ({})",
+                        p.name, p.default_source, p.kind
+                    );
                 }
             }
-            match lib.evaluate(&name, &Params::new()).map_err(|e| e.to_string())? {
+            match lib
+                .evaluate(&name, &Params::new())
+                .map_err(|e| e.to_string())?
+            {
                 Evaluated::Robot(r) | Evaluated::Link(r) => {
-                    let _ = writeln!(out, "robot: {} joints, {:?} DH, analytic IK: {}", r.robot.dof(), r.robot.convention, r.ik.as_deref().unwrap_or("none"));
+                    let _ = writeln!(
+                        out,
+                        "robot: {} joints, {:?} DH, analytic IK: {}",
+                        r.robot.dof(),
+                        r.robot.convention,
+                        r.ik.as_deref().unwrap_or("none")
+                    );
                     for (j, (n, jt)) in r.link_names.iter().zip(&r.robot.joints).enumerate() {
                         let _ = writeln!(
                             out,
@@ -99,16 +121,33 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
                     let polys: usize = s.parts.iter().map(|p| p.polyhedron.polygons.len()).sum();
                     let _ = writeln!(out, "solid: {} primitives, {polys} polygons", s.parts.len());
                     if let Some(m) = s.mass {
-                        let _ = writeln!(out, "  mass {} kg, volume {} m^3, centre of mass {:?}", m.mass, m.volume, m.center_of_mass.coords.as_slice());
+                        let _ = writeln!(
+                            out,
+                            "  mass {} kg, volume {} m^3, centre of mass {:?}",
+                            m.mass,
+                            m.volume,
+                            m.center_of_mass.coords.as_slice()
+                        );
                     }
                 }
                 Evaluated::Scene(s) => {
-                    let _ = writeln!(out, "scene: {} robots, {} solids", s.robots.len(), s.solids.len());
+                    let _ = writeln!(
+                        out,
+                        "scene: {} robots, {} solids",
+                        s.robots.len(),
+                        s.solids.len()
+                    );
                     for r in &s.robots {
-                        let _ = writeln!(out, "  robot {} ({} joints)", r.name, r.model.robot.dof());
+                        let _ =
+                            writeln!(out, "  robot {} ({} joints)", r.name, r.model.robot.dof());
                     }
                     for i in &s.solids {
-                        let _ = writeln!(out, "  solid {} ({} primitives)", i.name, i.solid.parts.len());
+                        let _ = writeln!(
+                            out,
+                            "  solid {} ({} primitives)",
+                            i.name,
+                            i.solid.parts.len()
+                        );
                     }
                     let _ = writeln!(out, "  effects: {:?}", s.effects);
                 }

@@ -85,11 +85,12 @@ impl fmt::Display for LibError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         writeln!(f, "error[{}]: {}", self.kind.as_str(), self.message)?;
         write_loc(f, &self.location)?;
+        let pad = " ".repeat(self.location.line.to_string().len());
         if let Some(e) = &self.expected {
-            write!(f, "\n    = expected: {e}")?;
+            write!(f, "\n {pad} = expected: {e}")?;
         }
         if let Some((msg, loc)) = &self.note {
-            write!(f, "\n    = note: {msg}\n")?;
+            write!(f, "\n {pad} = note: {msg}\n")?;
             write_loc(f, loc)?;
         }
         Ok(())

@@ -62,6 +62,8 @@ pub(crate) struct Evaluator<'l> {
 }
 
 type Scope = HashMap<String, (Value, Span)>;
+/// Call arguments: optional name (with its span), value, value span.
+pub(crate) type Args = Vec<(Option<(String, Span)>, Value, Span)>;
 
 fn err(kind: ErrorKind, span: Span, msg: impl Into<String>) -> RawError {
     RawError::new(kind, span, msg)
@@ -150,12 +152,7 @@ impl<'l> Evaluator<'l> {
 
     /// Evaluates declaration `di` with `args` (already evaluated, with the spans to blame),
     /// `call_span` being where it was called from (the declaration itself at top level).
-    pub fn eval_decl(
-        &mut self,
-        di: usize,
-        args: Vec<(Option<(String, Span)>, Value, Span)>,
-        call_span: Span,
-    ) -> RResult<Value> {
+    pub fn eval_decl(&mut self, di: usize, args: Args, call_span: Span) -> RResult<Value> {
         let decl = &self.decls[di];
         if let Some(pos) = self.stack.iter().position(|&d| d == di) {
             let chain: Vec<&str> = self.stack[pos..]
@@ -185,12 +182,7 @@ impl<'l> Evaluator<'l> {
         r
     }
 
-    fn bind_params(
-        &mut self,
-        decl: &Decl,
-        args: Vec<(Option<(String, Span)>, Value, Span)>,
-        call_span: Span,
-    ) -> RResult<Scope> {
+    fn bind_params(&mut self, decl: &Decl, args: Args, call_span: Span) -> RResult<Scope> {
         let mut given: Vec<Option<(Value, Span)>> = vec![None; decl.params.len()];
         let mut positional = 0;
         for (name, value, span) in args {
@@ -327,21 +319,17 @@ impl<'l> Evaluator<'l> {
     fn push_facets(&mut self, decl: &Decl, scope: &Scope) -> RResult<()> {
         let mut f = self.facets.last().copied().flatten();
         for s in &decl.body {
-            if let Stmt::Prop { name, value, .. } = s {
-                if name == "facets" {
-                    f = Some(self.count(value, scope, 3, shapes::FACET_LIMIT)?);
-                }
+            if let Stmt::Prop { name, value, .. } = s
+                && name == "facets"
+            {
+                f = Some(self.count(value, scope, 3, shapes::FACET_LIMIT)?);
             }
         }
         self.facets.push(f);
         Ok(())
     }
 
-    pub fn eval_scene(
-        &mut self,
-        di: usize,
-        args: Vec<(Option<(String, Span)>, Value, Span)>,
-    ) -> RResult<SceneModel> {
+    pub fn eval_scene(&mut self, di: usize, args: Args) -> RResult<SceneModel> {
         let decl = &self.decls[di];
         let mut scope = self.bind_params(decl, args, decl.name_span)?;
         self.stack.push(di);
@@ -417,6 +405,10 @@ impl<'l> Evaluator<'l> {
     }
 
     /// Parts of a solid/link/robot body: `part` statements and the `colour:`/`surface:` defaults.
+    #[expect(
+        clippy::too_many_arguments,
+        reason = "the pieces of one `part` statement, passed apart so `for` can rebind the name"
+    )]
     fn part(
         &mut self,
         owner: &str,
@@ -842,7 +834,7 @@ impl<'l> Evaluator<'l> {
                     }
                 };
                 let v = self.vector(e, scope, dim, 2, what)?;
-                if !(v[0] <= v[1]) {
+                if v[0] > v[1] {
                     return Err(err(
                         ErrorKind::OutOfRange,
                         e.span,
@@ -928,7 +920,7 @@ impl<'l> Evaluator<'l> {
                 (mp.mass, mp.center_of_mass.coords, mp.inertia)
             }
             (None, Some((m, span))) => {
-                if !(m >= 0.0) {
+                if m < 0.0 {
                     return Err(
                         err(ErrorKind::OutOfRange, span, "mass must be zero or positive")
                             .expected("a mass ≥ 0 kg"),
@@ -966,8 +958,9 @@ impl<'l> Evaluator<'l> {
         let plain = |s: &mut Self, k: &str| -> RResult<f64> {
             match props.get(k) {
                 Some(e) => {
+                    // quantity_any refuses non-finite values
                     let v = s.quantity_any(e, scope)?;
-                    if !(v >= 0.0) {
+                    if v < 0.0 {
                         return Err(err(
                             ErrorKind::OutOfRange,
                             e.span,
@@ -1001,7 +994,6 @@ impl<'l> Evaluator<'l> {
             viscous,
             coulomb,
             parts,
-            span,
         })
     }
 
@@ -1566,7 +1558,7 @@ impl<'l> Evaluator<'l> {
                                             Dim::TIME,
                                             "a time step such as 1 ms",
                                         )?;
-                                        if !(s > 0.0 && s <= 1.0) {
+                                        if s <= 0.0 || s > 1.0 {
                                             return Err(err(
                                                 ErrorKind::OutOfRange,
                                                 value.span,
@@ -2341,9 +2333,9 @@ impl<'l> Evaluator<'l> {
             )),
             "identity" => Ok(Value::Transform(Matrix4::identity())),
             "rgb" => {
-                for k in 0..3 {
+                for (k, b) in bound.iter().enumerate().take(3) {
                     if !(0.0..=1.0).contains(&q(k)) {
-                        let s = bound[k].as_ref().map_or(span, |b| b.1);
+                        let s = b.as_ref().map_or(span, |b| b.1);
                         return Err(err(
                             ErrorKind::OutOfRange,
                             s,

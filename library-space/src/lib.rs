@@ -15,6 +15,11 @@
 //! * [`standard_robot`] — a standard-library robot by name, for the query protocol.
 //! * [`bench::report_library`] — parse + evaluate time against facet count.
 
+#![expect(
+    clippy::result_large_err,
+    reason = "errors carry the located source line for the user; they are rare and not on a hot path"
+)]
+
 mod ast;
 pub mod bench;
 pub mod cli;

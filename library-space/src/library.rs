@@ -613,10 +613,10 @@ impl Library {
     fn expr_refs(&self, e: &Expr, local: &HashSet<&str>, out: &mut Vec<(usize, Span)>) {
         match &e.kind {
             ExprKind::Name(n) => {
-                if !local.contains(n.as_str()) {
-                    if let Some(&k) = self.index.get(n) {
-                        out.push((k, e.span));
-                    }
+                if !local.contains(n.as_str())
+                    && let Some(&k) = self.index.get(n)
+                {
+                    out.push((k, e.span));
                 }
             }
             ExprKind::Call {

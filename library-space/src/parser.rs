@@ -456,33 +456,33 @@ impl<'a> Parser<'a> {
             Tok::Number(v) => {
                 let mut span = t.span;
                 let (mut scale, mut dim, mut unitless) = (1.0, Dim::NONE, true);
-                if let Tok::Ident(u) = &self.peek().tok {
-                    if let Some((s, d)) = unit(u) {
-                        let (s2, d2, sp) = self.unit_power(s, d)?;
-                        scale = s2;
-                        dim = d2;
+                if let Tok::Ident(u) = &self.peek().tok
+                    && let Some((s, d)) = unit(u)
+                {
+                    let (s2, d2, sp) = self.unit_power(s, d)?;
+                    scale = s2;
+                    dim = d2;
+                    span = span.to(sp);
+                    unitless = false;
+                    // compound units: kg*m^2, m/s^2, kg/m^3
+                    while (self.is_punct('*') || self.is_punct('/'))
+                        && matches!(self.peek_at(1), Tok::Ident(w) if unit(w).is_some())
+                    {
+                        let div = self.is_punct('/');
+                        self.i += 1;
+                        let Tok::Ident(w) = self.peek_at(0) else {
+                            break;
+                        };
+                        // checked just above that `w` is a unit
+                        let (s, d) = unit(w).unwrap_or((1.0, Dim::NONE));
+                        let (s, d, sp) = self.unit_power(s, d)?;
                         span = span.to(sp);
-                        unitless = false;
-                        // compound units: kg*m^2, m/s^2, kg/m^3
-                        while (self.is_punct('*') || self.is_punct('/'))
-                            && matches!(self.peek_at(1), Tok::Ident(w) if unit(w).is_some())
-                        {
-                            let div = self.is_punct('/');
-                            self.i += 1;
-                            let Tok::Ident(w) = self.peek_at(0) else {
-                                break;
-                            };
-                            // checked just above that `w` is a unit
-                            let (s, d) = unit(w).unwrap_or((1.0, Dim::NONE));
-                            let (s, d, sp) = self.unit_power(s, d)?;
-                            span = span.to(sp);
-                            if div {
-                                scale /= s;
-                                dim = dim.div(d);
-                            } else {
-                                scale *= s;
-                                dim = dim.mul(d);
-                            }
+                        if div {
+                            scale /= s;
+                            dim = dim.div(d);
+                        } else {
+                            scale *= s;
+                            dim = dim.mul(d);
                         }
                     }
                 }

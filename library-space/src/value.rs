@@ -90,5 +90,4 @@ pub struct LinkVal {
     pub viscous: f64,
     pub coulomb: f64,
     pub parts: Vec<PlacedSolid>,
-    pub span: Span,
 }

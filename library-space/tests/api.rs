@@ -1,7 +1,7 @@
 //! The evaluation API: declarations, params, evaluate, the CLI, the bench (quick).
 
 use nalgebra::Vector3;
-use robosim_library::cli::{render, LibCmd};
+use robosim_library::cli::{LibCmd, render};
 use robosim_library::{DeclKind, Error, Evaluated, Library, Params, Primitive};
 
 const SRC: &str = r#"
@@ -57,7 +57,11 @@ fn lib() -> Library {
 #[test]
 fn declarations_and_params() {
     let l = lib();
-    let kinds: Vec<(String, DeclKind)> = l.declarations().into_iter().map(|d| (d.name, d.kind)).collect();
+    let kinds: Vec<(String, DeclKind)> = l
+        .declarations()
+        .into_iter()
+        .map(|d| (d.name, d.kind))
+        .collect();
     assert_eq!(
         kinds,
         vec![
@@ -68,17 +72,32 @@ fn declarations_and_params() {
             ("demo".into(), DeclKind::Scene)
         ]
     );
-    assert_eq!(l.declarations()[0].doc.as_deref(), Some("A two-link planar arm."));
+    assert_eq!(
+        l.declarations()[0].doc.as_deref(),
+        Some("A two-link planar arm.")
+    );
     let p = l.params("planar").expect("params");
     assert_eq!(p.len(), 2);
-    assert_eq!((p[1].name.as_str(), p[1].default_source.as_str(), p[1].default_si, p[1].unit.as_str()), ("l2", "30 cm", Some(0.3), "m"));
-    assert!(matches!(l.params("planr"), Err(Error::NoSuchDeclaration { suggestion: Some(s), .. }) if s == "planar"));
+    assert_eq!(
+        (
+            p[1].name.as_str(),
+            p[1].default_source.as_str(),
+            p[1].default_si,
+            p[1].unit.as_str()
+        ),
+        ("l2", "30 cm", Some(0.3), "m")
+    );
+    assert!(
+        matches!(l.params("planr"), Err(Error::NoSuchDeclaration { suggestion: Some(s), .. }) if s == "planar")
+    );
 }
 
 #[test]
 fn robot_evaluates_with_mass_from_density_and_fixed_links_folded_into_the_tool() {
     let l = lib();
-    let Ok(Evaluated::Robot(r)) = l.evaluate("planar", &Params::new().expr("l2", "40 cm")) else { panic!("robot") };
+    let Ok(Evaluated::Robot(r)) = l.evaluate("planar", &Params::new().expr("l2", "40 cm")) else {
+        panic!("robot")
+    };
     assert_eq!(r.robot.dof(), 2);
     assert_eq!(r.link_names, vec!["one", "two"]);
     assert!((r.robot.joints[1].a - 0.4).abs() < 1e-15);
@@ -103,19 +122,33 @@ fn robot_evaluates_with_mass_from_density_and_fixed_links_folded_into_the_tool()
 #[test]
 fn scene_evaluates_placements_q_and_effects() {
     let l = lib();
-    let Ok(Evaluated::Scene(s)) = l.evaluate("demo", &Params::new().si("reach", 0.6)) else { panic!("scene") };
+    let Ok(Evaluated::Scene(s)) = l.evaluate("demo", &Params::new().si("reach", 0.6)) else {
+        panic!("scene")
+    };
     assert_eq!(s.robots.len(), 1);
     let arm = &s.robots[0];
-    assert!((arm.q[0] - 30f64.to_radians()).abs() < 1e-15 && (arm.q[1] + 45f64.to_radians()).abs() < 1e-15);
+    assert!(
+        (arm.q[0] - 30f64.to_radians()).abs() < 1e-15
+            && (arm.q[1] + 45f64.to_radians()).abs() < 1e-15
+    );
     assert!((arm.model.robot.joints[0].a - 0.6).abs() < 1e-15);
-    assert!((arm.model.robot.base[(0, 3)] - 1.0).abs() < 1e-15 && (arm.model.robot.base[(2, 3)] - 1.0).abs() < 1e-15);
+    assert!(
+        (arm.model.robot.base[(0, 3)] - 1.0).abs() < 1e-15
+            && (arm.model.robot.base[(2, 3)] - 1.0).abs() < 1e-15
+    );
     assert_eq!(s.solids[0].name, "table");
     let fx = &s.effects;
     assert!(fx.kinematics && fx.joint_limits);
     let c = fx.collision.expect("collision");
-    assert_eq!((c.mode, c.self_collision, c.continuous), (robosim_library::CollisionMode::Exact, true, true));
+    assert_eq!(
+        (c.mode, c.self_collision, c.continuous),
+        (robosim_library::CollisionMode::Exact, true, true)
+    );
     let d = fx.dynamics.expect("dynamics");
-    assert_eq!((d.integrator, d.step_s), (robosim_library::Integrator::SemiImplicitEuler, 0.002));
+    assert_eq!(
+        (d.integrator, d.step_s),
+        (robosim_library::Integrator::SemiImplicitEuler, 0.002)
+    );
     assert_eq!(d.gravity, Vector3::new(0.0, 0.0, -9.81));
     assert_eq!(fx.encoder_bits, Some(14));
     assert_eq!(fx.logged, vec!["q", "tau"]);
@@ -124,26 +157,47 @@ fn scene_evaluates_placements_q_and_effects() {
 #[test]
 fn bad_parameter_values_are_refused_with_the_name() {
     let l = lib();
-    assert!(matches!(l.evaluate("planar", &Params::new().expr("l1", "30 deg")), Err(Error::BadParameter { name, .. }) if name == "l1"));
-    assert!(matches!(l.evaluate("planar", &Params::new().si("l3", 1.0)), Err(Error::NoSuchParameter { .. })));
+    assert!(
+        matches!(l.evaluate("planar", &Params::new().expr("l1", "30 deg")), Err(Error::BadParameter { name, .. }) if name == "l1")
+    );
+    assert!(matches!(
+        l.evaluate("planar", &Params::new().si("l3", 1.0)),
+        Err(Error::NoSuchParameter { .. })
+    ));
     match l.evaluate("planar", &Params::new().expr("l1", "0.5 m +")) {
         Err(Error::Source(e)) => assert_eq!(e.location.file, "<parameter l1>"),
         other => panic!("{other:?}"),
     }
     // out of range at evaluation time: a negative length breaks the box
-    assert!(matches!(l.evaluate("planar", &Params::new().si("l1", -1.0)), Err(Error::Source(e)) if e.kind == robosim_library::ErrorKind::OutOfRange));
+    assert!(
+        matches!(l.evaluate("planar", &Params::new().si("l1", -1.0)), Err(Error::Source(e)) if e.kind == robosim_library::ErrorKind::OutOfRange)
+    );
 }
 
 #[test]
 fn cli_lists_shows_and_checks() {
     let out = render(LibCmd::List { file: None }).expect("list");
-    assert!(out.lines().any(|l| l.starts_with("robot") && l.contains("puma560")));
-    let out = render(LibCmd::Show { name: "surgical_positioner".into(), file: None }).expect("show");
-    assert!(out.contains("upper_arm") && out.contains("default 22 cm = 0.22 m"), "{out}");
+    assert!(
+        out.lines()
+            .any(|l| l.starts_with("robot") && l.contains("puma560"))
+    );
+    let out = render(LibCmd::Show {
+        name: "surgical_positioner".into(),
+        file: None,
+    })
+    .expect("show");
+    assert!(
+        out.contains("upper_arm") && out.contains("default 22 cm = 0.22 m"),
+        "{out}"
+    );
     let dir = tempfile::tempdir().expect("tmp");
     let good = dir.path().join("good.model");
     std::fs::write(&good, SRC).expect("write");
-    assert!(render(LibCmd::Check { file: good }).expect("check").contains("ok (5 declarations)"));
+    assert!(
+        render(LibCmd::Check { file: good })
+            .expect("check")
+            .contains("ok (5 declarations)")
+    );
     let bad = dir.path().join("bad.txt");
     std::fs::write(&bad, "solid a {\n  part box(1 m, 1 m, 1 deg)\n}\n").expect("write");
     let err = render(LibCmd::Check { file: bad.clone() }).expect_err("bad file");
@@ -154,7 +208,11 @@ fn cli_lists_shows_and_checks() {
 fn bench_quick_writes_the_report() {
     let dir = tempfile::tempdir().expect("tmp");
     let files = robosim_library::bench::report_library(dir.path(), true).expect("report");
-    assert!(files.iter().any(|f| f.extension().is_some_and(|e| e == "csv")));
+    assert!(
+        files
+            .iter()
+            .any(|f| f.extension().is_some_and(|e| e == "csv"))
+    );
     let csv = std::fs::read_to_string(dir.path().join("library.csv")).expect("csv");
     assert_eq!(csv.lines().count(), 5, "{csv}");
 }

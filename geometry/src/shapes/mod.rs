@@ -117,7 +117,7 @@ pub fn chord_error(radius: f64, facets: usize) -> f64 {
 /// `tol` (both metres): the smallest n with `chord_error(r, n) ≤ tol`, clamped to
 /// [`MIN_FACETS`, `MAX_FACETS`] and rounded up to a multiple of 4.
 pub fn default_facets(radius: f64, tol: f64) -> usize {
-    let n = if !(radius > tol) || !(tol > 0.0) {
+    let n = if radius.is_nan() || tol.is_nan() || radius <= tol || tol <= 0.0 {
         MIN_FACETS
     } else {
         let step = (1.0 - tol / radius).acos();
