@@ -120,3 +120,76 @@ pub fn encoder_error(
         orientation_worst_case: ow,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::builtin::builtin_robot;
+    use crate::model::{Joint, JointType};
+
+    #[test]
+    fn twelve_bit_bound_is_the_seeds_sum_and_the_worst_case_is_tighter() {
+        let robot = builtin_robot("puma560").expect("builtin");
+        let q = [0.2, 0.7, -1.9, 0.4, 1.1, -0.3];
+        let e = encoder_error(&robot, &q, &[12; 6]).expect("valid");
+        let delta = 2.0 * PI / 4096.0;
+        assert!(e.resolution.iter().all(|r| (r - delta).abs() < 1e-18));
+        let j = jacobian(&robot, &q, Frame::Base);
+        for i in 0..6 {
+            let seed_sum: f64 = (0..6).map(|c| (j[(i, c)] * delta).abs()).sum();
+            assert!((e.per_axis[i] - seed_sum).abs() < 1e-15);
+        }
+        assert!(e.position_worst_case <= e.position && e.position_worst_case > 0.5 * e.position);
+        // A worst case is attained: push every joint by ±δ and compare to the first-order value.
+        let t0 = crate::fk::forward(&robot, &q);
+        let mut max_seen = 0.0_f64;
+        for mask in 0..64u32 {
+            let qq: Vec<f64> = q
+                .iter()
+                .enumerate()
+                .map(|(k, x)| {
+                    if mask & (1 << k) != 0 {
+                        x + delta
+                    } else {
+                        x - delta
+                    }
+                })
+                .collect();
+            let t = crate::fk::forward(&robot, &qq);
+            max_seen =
+                max_seen.max((t.fixed_view::<3, 1>(0, 3) - t0.fixed_view::<3, 1>(0, 3)).norm());
+        }
+        assert!((max_seen - e.position_worst_case).abs() < 1e-2 * e.position_worst_case);
+        let e13 = encoder_error(&robot, &q, &[13; 6]).expect("valid");
+        assert!((2.0 * e13.position - e.position).abs() < 1e-15);
+    }
+
+    #[test]
+    fn bad_bits_and_unbounded_prismatic_are_errors() {
+        let robot = builtin_robot("puma560").expect("builtin");
+        let q = [0.0; 6];
+        assert_eq!(
+            encoder_error(&robot, &q, &[12; 5]),
+            Err(EncoderErrorError::WrongBits {
+                expected: 6,
+                got: 5
+            })
+        );
+        assert_eq!(
+            encoder_error(&robot, &q, &[12, 12, 0, 12, 12, 12]),
+            Err(EncoderErrorError::BadBits { joint: 2, bits: 0 })
+        );
+        let slider = Robot {
+            joints: vec![Joint {
+                joint_type: JointType::Prismatic,
+                qlim: [f64::NEG_INFINITY, 1.0],
+                ..Joint::default()
+            }],
+            ..Robot::default()
+        };
+        assert_eq!(
+            encoder_error(&slider, &[0.0], &[12]),
+            Err(EncoderErrorError::UnboundedRange { joint: 0 })
+        );
+    }
+}

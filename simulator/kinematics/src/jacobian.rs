@@ -133,3 +133,41 @@ pub fn singularity(jac: &Jacobian) -> Singularity {
         condition,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::builtin::builtin_robot;
+
+    #[test]
+    fn tool_frame_jacobian_is_the_rotated_base_one() {
+        let robot = builtin_robot("panda").expect("builtin");
+        let q = [0.1, -0.4, 0.3, -1.8, 0.2, 1.2, -0.5];
+        let jb = jacobian(&robot, &q, Frame::Base);
+        let jt = jacobian(&robot, &q, Frame::Tool);
+        let r = rotation(&crate::fk::forward(&robot, &q));
+        for c in 0..7 {
+            let v = r * jt.fixed_view::<3, 1>(0, c);
+            let w = r * jt.fixed_view::<3, 1>(3, c);
+            assert!((v - jb.fixed_view::<3, 1>(0, c)).norm() < 1e-14);
+            assert!((w - jb.fixed_view::<3, 1>(3, c)).norm() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn singularity_measure_vanishes_at_the_puma_wrist_singularity() {
+        let robot = builtin_robot("puma560").expect("builtin");
+        let s = singularity(&jacobian(
+            &robot,
+            &[0.0, 0.5, -1.0, 0.3, 0.0, 0.1],
+            Frame::Base,
+        ));
+        assert!(s.sigma_min < 1e-12 && s.manipulability < 1e-12);
+        let s = singularity(&jacobian(
+            &robot,
+            &[0.0, 0.5, -1.0, 0.3, 0.8, 0.1],
+            Frame::Base,
+        ));
+        assert!(s.sigma_min > 1e-3 && s.condition.is_finite() && s.manipulability > 0.0);
+    }
+}

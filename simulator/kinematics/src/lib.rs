@@ -13,9 +13,11 @@
 //! * [`encoder::encoder_error`] — encoder quantisation bounds (seed §2.7).
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
 //! * [`report::report_ik`] — the IK accuracy-against-time report (`robosim report ik`).
+//! * [`cli::ReportIkArgs`], [`cli::run_report_ik`] — `robosim report ik`.
 //! * [`query::dispatch`] — the query-protocol ops `fk`, `jacobian`, `ik`, `encoder_error`.
 
 mod builtin;
+pub mod cli;
 pub mod encoder;
 pub mod fk;
 pub mod ik;

@@ -60,7 +60,7 @@ impl Method {
 }
 
 /// What the caller asks of a solve. `Default` gives 1e-9 m / 1e-9 rad, one solution, 30
-/// iterations per start, 50 restarts, seed 0, limits respected.
+/// iterations per start, 200 restarts, seed 0, limits respected.
 #[derive(Debug, Clone, PartialEq)]
 pub struct IkOptions {
     pub tolerances: Tolerances,
@@ -86,7 +86,7 @@ impl Default for IkOptions {
             q0: None,
             all: false,
             max_iterations: 30,
-            restarts: 50,
+            restarts: 200,
             seed: 0,
             respect_limits: true,
         }

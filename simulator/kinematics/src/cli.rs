@@ -1,0 +1,26 @@
+//! Command-line surface for the `robosim` binary to wire: `robosim report ik [--out DIR] [--quick]`.
+//!
+//! Entry points: [`ReportIkArgs`], [`run_report_ik`].
+
+use std::path::PathBuf;
+
+/// `robosim report ik`: the IK accuracy-against-time report (see [`crate::report`]).
+#[derive(Debug, Clone, clap::Args)]
+pub struct ReportIkArgs {
+    /// Directory for ik.csv, ik.md and ik.png.
+    #[arg(long, default_value = "docs/reports")]
+    pub out: PathBuf,
+    /// 200 poses per robot instead of 10,000.
+    #[arg(long)]
+    pub quick: bool,
+}
+
+/// Runs the report and prints the paths written (one per line).
+pub fn run_report_ik(args: &ReportIkArgs) -> Result<(), String> {
+    let paths =
+        crate::report::report_ik(&args.out, args.quick).map_err(|e| format!("report ik: {e}"))?;
+    for p in paths {
+        println!("{}", p.display());
+    }
+    Ok(())
+}
