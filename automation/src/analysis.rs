@@ -169,37 +169,44 @@ fn mask(n: usize, keep: &[AlarmId]) -> Vec<bool> {
 }
 
 /// Greedy forward selection: starting from no alarm, repeatedly keep the alarm that lowers
-/// [`Resolution::cost`] most (ties: lower index), up to `budget` alarms. Returns the alarms in
+/// [`Resolution::cost`] most — ties broken by the lower mean time to isolation, then the lower
+/// alarm index — up to `budget` alarms. The cost is measured with `opts` (sampled propagation
+/// when `opts.sample_probabilities`) over `trials` scenarios per fault. Returns the alarms in
 /// the order chosen — every prefix is the greedy allocation for that smaller budget — with the
-/// cost after each choice. Deterministic (every edge fires, one trial per fault).
+/// cost after each choice.
 pub fn advise_greedy(
     m: &Model,
     g: &FaultGraph,
     budget: usize,
     opts: &SimOptions,
+    trials: usize,
 ) -> Vec<(AlarmId, f64)> {
     let na = m.alarms.len();
     let n_src = m.source_failure_modes().len();
-    let o = SimOptions {
-        sample_probabilities: false,
-        ..*opts
-    };
     let mut chosen: Vec<AlarmId> = Vec::new();
     let mut out = Vec::new();
     while chosen.len() < budget.min(na) {
-        let mut best: Option<(AlarmId, f64)> = None;
+        let mut best: Option<(AlarmId, f64, f64)> = None;
         for a in 0..na {
             if chosen.contains(&a) {
                 continue;
             }
             chosen.push(a);
-            let c = evaluate(m, g, &mask(na, &chosen), &o, 1).cost(n_src);
+            let r = evaluate(m, g, &mask(na, &chosen), opts, trials);
             chosen.pop();
-            if best.is_none_or(|(_, bc)| c < bc - 1e-12) {
-                best = Some((a, c));
+            let (c, t) = (
+                r.cost(n_src),
+                r.mean_time_to_isolation.unwrap_or(f64::INFINITY),
+            );
+            let better = match best {
+                None => true,
+                Some((_, bc, bt)) => c < bc - 1e-12 || ((c - bc).abs() <= 1e-12 && t < bt - 1e-9),
+            };
+            if better {
+                best = Some((a, c, t));
             }
         }
-        let Some((a, c)) = best else { break };
+        let Some((a, c, _)) = best else { break };
         chosen.push(a);
         out.push((a, c));
     }

@@ -324,7 +324,7 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
                     .collect(),
             };
             let max_b = budgets.iter().copied().max().unwrap_or(0);
-            let order = advise_greedy(&m, &g, max_b, &opts);
+            let order = advise_greedy(&m, &g, max_b, &opts, trials);
             let mut last = None;
             for &b in &budgets {
                 let mut p = vec![false; na];

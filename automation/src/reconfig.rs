@@ -92,6 +92,8 @@ pub struct ReconfigOutcome {
     pub steps: usize,
     /// Firings recorded by the tracer.
     pub firings: usize,
+    /// The tracking error `(t, e)` at every step, s and rad (`q = setpoint − e`).
+    pub tracking: Vec<(f64, f64)>,
     /// DOT of the graph before the run and after it.
     pub dot_before: String,
     pub dot_after: String,
@@ -306,6 +308,7 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
         final_error: samples.last().map_or(f64::NAN, |s| s.1),
         steps: samples.len(),
         firings,
+        tracking: samples,
         dot_before,
         dot_after,
     })

@@ -70,13 +70,13 @@ fn greedy_advice_is_never_better_than_exhaustive_and_improves_with_budget() {
     let g = FaultGraph::new(&m);
     let (all, cost) = advise_exhaustive(&m, &g, m.alarms.len(), &SimOptions::default());
     assert_eq!(all.len(), m.alarms.len());
-    let greedy = advise_greedy(&m, &g, m.alarms.len(), &SimOptions::default());
+    let greedy = advise_greedy(&m, &g, m.alarms.len(), &SimOptions::default(), 1);
     assert!((greedy.last().unwrap().1 - cost).abs() < 1e-9);
 }
 
 #[test]
 fn update_time_measurement_runs() {
-    let r = measure_update_time(100, 3, 1);
+    let r = measure_update_time(100, 0.3, 3, 1);
     assert!(r.failure_modes >= 90 && r.updates > 0);
     assert!(r.mean_group >= 1.0);
 }
