@@ -42,13 +42,33 @@ pub use model::*;
 pub use source::Location;
 pub use stdlib::FILES as STDLIB_FILES;
 
+/// The standard library, loaded and checked once per process (it is embedded, so this only
+/// fails if the shipped files are broken — which the tests rule out).
+pub fn standard_library() -> Option<&'static Library> {
+    static STD: std::sync::OnceLock<Option<Library>> = std::sync::OnceLock::new();
+    STD.get_or_init(|| Library::standard().ok()).as_ref()
+}
+
 /// The robot model of standard-library robot `name` at its default parameters (`puma560`,
-/// `stanford_arm`, `panda`, …); `None` when there is no such robot. Loads and checks the
-/// standard library on every call — cache the [`Library`] where that matters.
+/// `stanford_arm`, `panda`, …); `None` when there is no such robot. Suits the query protocol's
+/// `robots` resolver: the library is parsed once per process and each robot evaluated once.
 pub fn standard_robot(name: &str) -> Option<robosim_kinematics::Robot> {
-    let lib = Library::standard().ok()?;
-    match lib.evaluate(name, &Params::new()).ok()? {
+    use std::collections::HashMap;
+    use std::sync::Mutex;
+    static CACHE: std::sync::OnceLock<Mutex<HashMap<String, Option<robosim_kinematics::Robot>>>> =
+        std::sync::OnceLock::new();
+    let cache = CACHE.get_or_init(|| Mutex::new(HashMap::new()));
+    if let Ok(c) = cache.lock()
+        && let Some(r) = c.get(name)
+    {
+        return r.clone();
+    }
+    let robot = match standard_library()?.evaluate(name, &Params::new()).ok()? {
         Evaluated::Robot(r) | Evaluated::Link(r) => Some(r.robot),
         _ => None,
+    };
+    if let Ok(mut c) = cache.lock() {
+        c.insert(name.to_string(), robot.clone());
     }
+    robot
 }

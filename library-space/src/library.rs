@@ -113,6 +113,14 @@ impl From<LibError> for Error {
     }
 }
 
+impl std::str::FromStr for Library {
+    type Err = LibError;
+    /// `text.parse::<Library>()`: [`Library::from_source`] with the file name `<string>`.
+    fn from_str(text: &str) -> Result<Library, LibError> {
+        Library::from_source("<string>", text)
+    }
+}
+
 /// Builds a library from files; follows includes once each.
 struct Loader {
     map: SourceMap,
@@ -280,6 +288,36 @@ impl Library {
     /// The standard library shipped inside the crate (`library-space/stdlib/*.rsl`).
     pub fn standard() -> Result<Library, LibError> {
         Library::from_source("<standard library>", "include \"std\"\n")
+    }
+
+    /// The text of every file this library was built from, as (name, text), in load order —
+    /// what a process needs to rebuild the library with [`Library::from_sources`] (e.g. from
+    /// shared memory) without reading any file.
+    pub fn sources(&self) -> Vec<(String, String)> {
+        self.map
+            .files
+            .iter()
+            .map(|f| (f.path.clone(), f.text.clone()))
+            .collect()
+    }
+
+    /// Rebuilds a library from the complete file list of [`Library::sources`]. `include`
+    /// statements are not followed (every included file is in the list already); the result
+    /// is checked exactly as [`Library::load`] checks.
+    pub fn from_sources(files: &[(String, String)]) -> Result<Library, LibError> {
+        let mut l = Loader {
+            map: SourceMap::default(),
+            decls: vec![],
+            seen: HashSet::new(),
+        };
+        for (name, text) in files {
+            let id = l.map.add(name.clone(), text.clone());
+            let text = &l.map.files[id as usize].text;
+            let toks = lexer::lex(id, text).map_err(|e| e.locate(&l.map))?;
+            let ast = parser::parse(&toks).map_err(|e| e.locate(&l.map))?;
+            l.decls.extend(ast.decls);
+        }
+        l.finish()
     }
 
     /// Every declaration with its kind, in source order.
@@ -547,7 +585,11 @@ impl Library {
         fn lets<'a>(body: &'a [Stmt], out: &mut HashSet<&'a str>) {
             for s in body {
                 match s {
-                    Stmt::Let { name, .. } => {
+                    Stmt::Let { name, .. }
+                    | Stmt::Part {
+                        repeat: Some((name, _, _)),
+                        ..
+                    } => {
                         out.insert(name);
                     }
                     Stmt::Block { body, .. }

@@ -29,7 +29,11 @@ const DECL_WORDS: &str =
     "`include`, `let`, `colour`, `surface`, `solid`, `link`, `robot` or `scene`";
 
 pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
-    let mut p = Parser { t: tokens, i: 0 };
+    let mut p = Parser {
+        t: tokens,
+        i: 0,
+        depth: 0,
+    };
     let mut file = FileAst::default();
     while !p.at_eof() {
         let tok = p.peek().clone();
@@ -113,7 +117,12 @@ pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
 struct Parser<'a> {
     t: &'a [Token],
     i: usize,
+    /// Nesting depth of expressions and bodies, bounded so malformed input cannot overflow the
+    /// stack.
+    depth: usize,
 }
+
+const MAX_DEPTH: usize = 200;
 
 impl<'a> Parser<'a> {
     fn peek(&self) -> &'a Token {
@@ -198,6 +207,22 @@ impl<'a> Parser<'a> {
 
     /// Statements up to and including the closing `}`.
     fn body(&mut self) -> RResult<Vec<Stmt>> {
+        self.depth += 1;
+        let r = self.body_inner();
+        self.depth -= 1;
+        r
+    }
+
+    fn body_inner(&mut self) -> RResult<Vec<Stmt>> {
+        if self.depth > MAX_DEPTH {
+            let t = self.peek();
+            return Err(RawError::new(
+                ErrorKind::Syntax,
+                t.span,
+                format!("blocks nested more than {MAX_DEPTH} deep"),
+            )
+            .expected("a shallower structure"));
+        }
         let mut out = Vec::new();
         loop {
             let t = self.peek();
@@ -386,6 +411,22 @@ impl<'a> Parser<'a> {
     }
 
     pub fn expr(&mut self) -> RResult<Expr> {
+        self.depth += 1;
+        let r = self.expr_inner();
+        self.depth -= 1;
+        r
+    }
+
+    fn expr_inner(&mut self) -> RResult<Expr> {
+        if self.depth > MAX_DEPTH {
+            let t = self.peek();
+            return Err(RawError::new(
+                ErrorKind::Syntax,
+                t.span,
+                format!("expressions nested more than {MAX_DEPTH} deep"),
+            )
+            .expected("a shallower expression"));
+        }
         let mut lhs = self.term()?;
         while self.is_punct('+') || self.is_punct('-') {
             let op = if self.is_punct('+') { '+' } else { '-' };
@@ -426,7 +467,18 @@ impl<'a> Parser<'a> {
     fn unary(&mut self) -> RResult<Expr> {
         if self.is_punct('-') {
             let s = self.next().span;
-            let e = self.unary()?;
+            self.depth += 1;
+            if self.depth > MAX_DEPTH {
+                return Err(RawError::new(
+                    ErrorKind::Syntax,
+                    s,
+                    format!("expressions nested more than {MAX_DEPTH} deep"),
+                )
+                .expected("a shallower expression"));
+            }
+            let e = self.unary();
+            self.depth -= 1;
+            let e = e?;
             let span = s.to(e.span);
             return Ok(Expr {
                 kind: ExprKind::Neg(Box::new(e)),

@@ -216,3 +216,44 @@ fn bench_quick_writes_the_report() {
     let csv = std::fs::read_to_string(dir.path().join("library.csv")).expect("csv");
     assert_eq!(csv.lines().count(), 5, "{csv}");
 }
+
+#[test]
+fn a_library_rebuilt_from_its_sources_evaluates_the_same() {
+    let std = robosim_library::standard_library().expect("standard library");
+    let files = std.sources();
+    assert!(files.iter().any(|(n, _)| n == "std/station.rsl"));
+    let again = Library::from_sources(&files).expect("rebuilt");
+    let names = |l: &Library| {
+        l.declarations()
+            .into_iter()
+            .map(|d| d.name)
+            .collect::<std::collections::BTreeSet<_>>()
+    };
+    assert_eq!(names(std), names(&again));
+    assert_eq!(
+        std.evaluate("puma560", &Params::new()),
+        again.evaluate("puma560", &Params::new())
+    );
+}
+
+#[test]
+fn standard_robot_resolves_library_names() {
+    let puma = robosim_library::standard_robot("puma560").expect("puma560");
+    assert_eq!(puma.dof(), 6);
+    assert!(
+        robosim_library::standard_robot("space_station").is_none(),
+        "a scene is not a robot"
+    );
+    assert!(robosim_library::standard_robot("no_such_robot").is_none());
+}
+
+#[test]
+fn a_loop_variable_may_shadow_a_declaration_name() {
+    let src = "solid k {\n  part box(1 m, 1 m, 1 m)\n}\nsolid row {\n  part box(1 m, 1 m, 1 m) at translate(k * 2 m, 0, 0) for k in range(3)\n}\n";
+    let lib: Library = src.parse().unwrap_or_else(|e| panic!("{e}"));
+    let Ok(Evaluated::Solid(s)) = lib.evaluate("row", &Params::new()) else {
+        panic!("solid")
+    };
+    assert_eq!(s.parts.len(), 3);
+    assert_eq!(s.parts[2].transform[(0, 3)], 4.0);
+}
