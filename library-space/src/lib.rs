@@ -13,6 +13,7 @@
 //!   its [`Effects`].
 //! * [`cli`] — `robosim lib list|show|check`.
 //! * [`standard_robot`] — a standard-library robot by name, for the query protocol.
+//! * [`query::dispatch`] — the `lib_list`, `lib_params`, `lib_evaluate` query ops.
 //! * [`bench::report_library`] — parse + evaluate time against facet count.
 
 #![expect(
@@ -29,6 +30,7 @@ mod lexer;
 mod library;
 mod model;
 mod parser;
+pub mod query;
 mod source;
 mod stdlib;
 mod units;
