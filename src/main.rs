@@ -1,1 +1,124 @@
-fn main() {}
+//! `robosim`: one binary, one subcommand per process role and tool (DESIGN.md, "Layout").
+//!
+//! Processes: `space` (the keeper), `simulator`; launcher: `up`, `ps`, `down`; tools: `demo`,
+//! `bench`.
+
+mod bench;
+mod bridge;
+mod demo;
+mod launcher;
+mod scene;
+mod simulator;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(name = "robosim", version, about = "Robot and structure simulation over a shared Instance Space (after NASA-CR-185444)")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run the space keeper of a session (normally started by `robosim up`).
+    Space {
+        #[arg(long)]
+        session: Option<String>,
+        /// Scene to load when the session's model is empty.
+        #[arg(long)]
+        scene: Option<String>,
+        /// Do not sync the journal before acknowledging (benchmarks only).
+        #[arg(long, hide = true)]
+        no_sync: bool,
+    },
+    /// Start a session: the keeper with SCENE, and only the components named with --with.
+    Up {
+        scene: String,
+        /// Comma-separated components: simulator, display, editor, file, hl.
+        #[arg(long, value_delimiter = ',')]
+        with: Vec<String>,
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// List a session's processes: role, pid, what each is attached to.
+    Ps {
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// Stop a session's processes cleanly (components first, the keeper last).
+    Down {
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// Run the kinematic simulator daemon of a session (normally started by `robosim up`).
+    Simulator {
+        #[arg(long)]
+        session: Option<String>,
+        /// State publication rate, Hz.
+        #[arg(long, default_value_t = 100.0)]
+        rate: f64,
+    },
+    /// A headless session that does real work and says what it did.
+    Demo {
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// Benchmarks that write their figures into docs/.
+    Bench {
+        #[command(subcommand)]
+        which: bench::Which,
+    },
+}
+
+fn main() -> ExitCode {
+    if std::env::var_os("IOX2_LOG_LEVEL").is_none() {
+        iceoryx2_quiet();
+    }
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Space { session, scene, no_sync } => launcher::run_space(session.as_deref(), scene.as_deref(), !no_sync),
+        Command::Up { scene, with, session } => launcher::up(&scene, &with, session.as_deref()),
+        Command::Ps { session } => launcher::ps(session.as_deref()),
+        Command::Down { session } => launcher::down(session.as_deref()),
+        Command::Simulator { session, rate } => simulator::run(session.as_deref(), rate),
+        Command::Demo { session } => demo::run(session.as_deref()),
+        Command::Bench { which } => bench::run(which),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("robosim: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// iceoryx2 prints a start-up notice at Info level; keep the terminal for our own output.
+fn iceoryx2_quiet() {
+    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+}
+
+/// Errors of the command-line layer: a message that says what failed and where.
+#[derive(Debug)]
+pub struct CliError(pub String);
+
+impl std::fmt::Display for CliError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl<E: std::error::Error> From<E> for CliError {
+    fn from(e: E) -> Self {
+        CliError(e.to_string())
+    }
+}
+
+pub type Result<T> = std::result::Result<T, CliError>;
+
+#[macro_export]
+macro_rules! bail {
+    ($($t:tt)*) => { return Err($crate::CliError(format!($($t)*))) };
+}

@@ -68,16 +68,19 @@ pub struct KeeperOptions {
     pub max_readers: usize,
     /// Writers per session.
     pub max_clients: usize,
+    /// Sync the journal before acknowledging. Only benchmarks that isolate the cost of
+    /// applying and publishing turn this off; it is never off in a session.
+    pub durable: bool,
 }
 
 impl Default for KeeperOptions {
     fn default() -> Self {
-        KeeperOptions { checkpoint_every: 100_000, max_batch: 4096, idle_wait: Duration::from_millis(20), max_readers: 16, max_clients: 16 }
+        KeeperOptions { checkpoint_every: 100_000, max_batch: 4096, idle_wait: Duration::from_millis(20), max_readers: 16, max_clients: 16, durable: true }
     }
 }
 
 /// Per-client in-flight requests; clients pipeline up to this many.
-pub(crate) const MAX_IN_FLIGHT: usize = 512;
+pub(crate) const MAX_IN_FLIGHT: usize = 64;
 /// How many old snapshots a reader may hold while taking a new one.
 pub(crate) const MAX_HELD_SNAPSHOTS: usize = 4;
 
@@ -145,6 +148,7 @@ impl Keeper {
             .map_err(ipc("create request service"))?;
         let server = rr
             .server_builder()
+            .max_loaned_responses_per_request(1)
             .initial_max_slice_len(256)
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
@@ -199,8 +203,8 @@ impl Keeper {
                 .create()
                 .map_err(ipc(format!("create publisher {what}")))
         };
-        let changes_svc = pubsub(services::CHANGES, 1024, 16, 4)?;
-        let changes_pub = publisher(&changes_svc, 1024, "changes")?;
+        let changes_svc = pubsub(services::CHANGES, 256, 16, 4)?;
+        let changes_pub = publisher(&changes_svc, 64, "changes")?;
         let objects_svc = pubsub(services::OBJECTS, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let objects_pub = publisher(&objects_svc, 1024, "objects")?;
         let poses_svc = pubsub(services::POSES, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
@@ -320,7 +324,9 @@ impl Keeper {
         if applied.is_empty() {
             return Ok(());
         }
-        self.journal.sync()?;
+        if self.opts.durable {
+            self.journal.sync()?;
+        }
         let mut structure = false;
         let mut geometry_changed: Vec<Id> = Vec::new();
         let mut posed: Vec<Id> = Vec::new();

@@ -128,7 +128,36 @@ impl Session {
             .signal_handling_mode(if handle_signals { SignalHandlingMode::HandleTerminationRequests } else { SignalHandlingMode::Disabled })
             .create::<ipc::Service>()
             .map_err(|e| SessionError::Config { session: self.name.clone(), message: format!("node {role:?}: {e:?}") })?;
+        self.tighten_shm_modes();
         Ok(node)
+    }
+
+    /// iceoryx2 creates its global management segment world-writable (0666); everything of a
+    /// session must be private to its user, so tighten every file of this session's prefix
+    /// in /dev/shm to 0600 (they are all ours: the prefix names the session).
+    fn tighten_shm_modes(&self) {
+        let prefix = self.shm_prefix();
+        let Ok(entries) = fs::read_dir("/dev/shm") else { return };
+        for e in entries.flatten() {
+            if e.file_name().to_string_lossy().starts_with(&prefix) {
+                if let Ok(m) = e.metadata() {
+                    if m.permissions().mode() & 0o077 != 0 {
+                        let _ = fs::set_permissions(e.path(), fs::Permissions::from_mode(m.permissions().mode() & 0o700));
+                    }
+                }
+            }
+        }
+    }
+
+    /// The files of this session in /dev/shm with their modes (for audits and tests).
+    pub fn shm_files(&self) -> Vec<(PathBuf, u32)> {
+        let prefix = self.shm_prefix();
+        let Ok(entries) = fs::read_dir("/dev/shm") else { return Vec::new() };
+        entries
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+            .filter_map(|e| e.metadata().ok().map(|m| (e.path(), m.permissions().mode() & 0o777)))
+            .collect()
     }
 
     /// A service name inside this session.
