@@ -153,6 +153,64 @@ fn demand_driven_read_sends_requests_upstream() {
 }
 
 #[test]
+fn a_script_reading_an_empty_input_demands_it() {
+    let g = Graph::manual();
+    g.set_tracing(true);
+    let (fast, out) = g
+        .edit(|e| -> Result<_, robosim_automation::kernel::KernelError> {
+            let fast = e.add_data("fast", Retention::Stream)?;
+            let slow = e.add_data("slow", Retention::LastValue)?;
+            let out = e.add_data("out", Retention::Stream)?;
+            let src = e.add_actor(
+                ActorSpec::new("slow_source", |ctx: &mut Ctx<'_>| {
+                    ctx.emit("v", Value::F64(10.0))
+                })
+                .outputs(&["v"])
+                .drive(Drive::Demand),
+            )?;
+            let mix = e.add_actor(
+                ActorSpec::new("mix", |ctx: &mut Ctx<'_>| {
+                    match (ctx.input_f64("fast"), ctx.input_f64("slow")) {
+                        (Some(f), None) => {
+                            // The slow input is empty: ask for it and wait for it to arrive.
+                            ctx.request("slow")?;
+                            ctx.emit("out", Value::F64(f))
+                        }
+                        (f, Some(s)) => ctx.emit("out", Value::F64(f.unwrap_or(0.0) + s)),
+                        (None, None) => Ok(()),
+                    }
+                })
+                .inputs(&["fast", "slow"])
+                .outputs(&["out"])
+                .firing(Firing::IfAny),
+            )?;
+            e.connect_out(src, "v", slow)?;
+            e.connect_in(fast, mix, "fast")?;
+            e.connect_in(slow, mix, "slow")?;
+            e.connect_out(mix, "out", out)?;
+            Ok((fast, out))
+        })
+        .unwrap();
+    g.write(fast, Value::F64(1.0)).unwrap();
+    assert_eq!(g.run_manual(10).unwrap(), 3);
+    let t = g.trace();
+    assert_eq!(
+        t.iter()
+            .map(|r| (r.actor.as_str(), r.reason))
+            .collect::<Vec<_>>(),
+        [
+            ("mix", Reason::Data),
+            ("slow_source", Reason::Demand),
+            ("mix", Reason::Data)
+        ]
+    );
+    assert_eq!(
+        g.queued(out).unwrap(),
+        vec![Value::F64(1.0), Value::F64(10.0)]
+    );
+}
+
+#[test]
 fn rewiring_a_running_graph_loses_no_token() {
     let g = Graph::new(2);
     let seen: Arc<Mutex<Vec<(String, i64)>>> = Arc::new(Mutex::new(Vec::new()));

@@ -234,7 +234,7 @@ pub struct TraceRecord {
 /// The firing context handed to a script.
 pub struct Ctx<'a> {
     inputs: &'a [(String, Option<Value>)],
-    latest: &'a [Option<Value>],
+    latest: &'a [(Option<DataId>, Option<Value>)],
     out_names: &'a [String],
     outputs: Vec<(usize, Value)>,
     context: &'a mut (dyn Any + Send),
@@ -258,7 +258,21 @@ impl Ctx<'_> {
     /// The last value of the data node feeding `port`, even if already read (last-value read).
     pub fn latest(&self, port: &str) -> Option<&Value> {
         let i = self.inputs.iter().position(|(n, _)| n == port)?;
-        self.latest[i].as_ref()
+        self.latest[i].1.as_ref()
+    }
+    /// An attempted read of `port`'s data node from inside a script: when the node is empty,
+    /// request tokens go to its writers (demand-driven operation); returns the node's last
+    /// value. Errors: unknown or unconnected port.
+    pub fn request(&self, port: &str) -> Result<Option<Value>, String> {
+        let i = self
+            .inputs
+            .iter()
+            .position(|(n, _)| n == port)
+            .ok_or_else(|| format!("no input port `{port}`"))?;
+        let d = self.latest[i]
+            .0
+            .ok_or_else(|| format!("input port `{port}` is not connected"))?;
+        self.control.request(d).map_err(|e| e.to_string())
     }
     /// Writes `value` on output port `port` (delivered to every connected data node when the
     /// firing ends). Unknown ports are an error of the script.
@@ -948,7 +962,7 @@ impl Control {
                 }
             }
             inputs.push((p.name.clone(), v));
-            latest.push(l);
+            latest.push((p.source, l));
         }
         let mut context = slot.context.take().unwrap_or_else(|| Box::new(()));
         let script = slot.script.clone();
