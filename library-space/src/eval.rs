@@ -1653,7 +1653,7 @@ impl<'l> Evaluator<'l> {
                 format!(
                     "expected {}, found {} ({})",
                     dim.describe(),
-                    q.dim.describe(),
+                    q.dim.noun(),
                     q.show()
                 ),
             )

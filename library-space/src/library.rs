@@ -448,16 +448,19 @@ impl Library {
                     ev.eval(&expr, &HashMap::new()).map_err(locate)?
                 }
             };
-            args.push((
-                Some((pname.clone(), Span::default())),
-                value,
-                Span::default(),
-            ));
+            // a sentinel span (no such file) naming the argument's index, mapped back below
+            let k = args.len();
+            let sentinel = Span::new(u32::MAX, k, k);
+            args.push((Some((pname.clone(), sentinel)), value, sentinel));
         }
         let locate = |e: RawError| -> Error {
-            // argument errors carry the default span; report them as parameter errors
-            if e.span == Span::default() {
-                let pname = params.0.first().map(|p| p.0.clone()).unwrap_or_default();
+            // argument errors carry a sentinel span; report them as parameter errors
+            if e.span.file == u32::MAX {
+                let pname = params
+                    .0
+                    .get(e.span.start as usize)
+                    .map(|p| p.0.clone())
+                    .unwrap_or_default();
                 return Error::BadParameter {
                     decl: name.into(),
                     name: pname,

@@ -36,7 +36,16 @@ impl Dim {
         }
     }
 
-    /// A human name: "a length", "an angle", "a mass (kg)", or the unit formula.
+    /// The bare noun: "a length", "an angle", "a plain number", or "a quantity in kg*m^2".
+    pub fn noun(self) -> String {
+        let d = self.describe();
+        match d.find(" (") {
+            Some(k) if !d.starts_with("a quantity") => d[..k].to_string(),
+            _ => d,
+        }
+    }
+
+    /// A human name with its usual units: "a length (m, cm, mm)", or the unit formula.
     pub fn describe(self) -> String {
         let named = match self {
             Dim::NONE => "a plain number (no unit)",

@@ -27,7 +27,7 @@ impl Value {
     pub fn describe(&self) -> String {
         match self {
             Value::Num(q) if q.free && q.value == 0.0 => "the unitless number 0".into(),
-            Value::Num(q) => format!("{} ({})", q.dim.describe(), q.show()),
+            Value::Num(q) => format!("{} ({})", q.dim.noun(), q.show()),
             Value::Bool(_) => "a switch (on/off)".into(),
             Value::Str(_) => "a string".into(),
             Value::List(v) => format!("a list of {} item(s)", v.len()),

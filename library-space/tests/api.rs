@@ -257,3 +257,48 @@ fn a_loop_variable_may_shadow_a_declaration_name() {
     assert_eq!(s.parts.len(), 3);
     assert_eq!(s.parts[2].transform[(0, 3)], 4.0);
 }
+
+#[test]
+fn declared_links_are_called_from_robots_and_bad_arguments_name_the_parameter() {
+    let src = r#"
+link arm_segment(len = 0.3 m, twist = 0 deg) {
+    joint: revolute
+    a: len
+    alpha: twist
+    density: 2700 kg/m^3
+    part box(len, 3 cm, 3 cm) at translate(-len / 2, 0, 0)
+}
+robot two(first = 0.4 m, second = 0.25 m) {
+    link upper = arm_segment(len: first, twist: 90 deg)
+    link lower = arm_segment(second)
+}
+"#;
+    let lib = Library::from_source("links.rsl", src).unwrap_or_else(|e| panic!("{e}"));
+    let Ok(Evaluated::Robot(r)) = lib.evaluate("two", &Params::new()) else {
+        panic!("robot")
+    };
+    assert_eq!(r.link_names, vec!["upper", "lower"]);
+    assert!(
+        (r.robot.joints[0].a - 0.4).abs() < 1e-15
+            && (r.robot.joints[0].alpha - std::f64::consts::FRAC_PI_2).abs() < 1e-15
+    );
+    assert!((r.robot.joints[1].a - 0.25).abs() < 1e-15);
+    assert!((r.robot.joints[1].mass - 2700.0 * 0.25 * 0.03 * 0.03).abs() < 1e-9);
+    // a link declaration evaluated alone is a one-joint robot
+    assert!(
+        matches!(lib.evaluate("arm_segment", &Params::new()), Ok(Evaluated::Link(l)) if l.robot.dof() == 1)
+    );
+    match lib.evaluate(
+        "two",
+        &Params::new().si("first", 0.5).expr("second", "10 deg"),
+    ) {
+        Err(Error::BadParameter { name, message, .. }) => {
+            assert_eq!(name, "second");
+            assert!(
+                message.contains("is a length (0.25 m), but this is an angle (10 deg)"),
+                "{message}"
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+}
