@@ -481,23 +481,28 @@ impl Stepper {
         let budget = self.stats.accepted + self.stats.rejected + self.config.max_steps;
         match self.config.step {
             StepSize::Fixed(dt) => {
-                while t_target - state.t > 1e-12 * dt {
+                // times are t0 + k·dt, not a running sum, so that 2 s at 1e-4 s is 20 000 steps
+                let t0 = state.t;
+                let mut k: u64 = 0;
+                loop {
+                    let remaining = t_target - state.t;
+                    if remaining <= 1e-9 * dt {
+                        state.t = t_target;
+                        return Ok(());
+                    }
                     if self.stats.accepted + self.stats.rejected >= budget {
                         return Err(DynamicsError::TooManySteps {
                             max_steps: self.config.max_steps,
                             t_end: t_target,
                         });
                     }
-                    let remaining = t_target - state.t;
                     let last = remaining <= dt * (1.0 + 1e-9);
                     let h = if last { remaining } else { dt };
                     self.step_unchecked(model, state, tau, h)?;
-                    if last {
-                        state.t = t_target;
-                    }
+                    k += 1;
+                    state.t = if last { t_target } else { t0 + k as f64 * dt };
                     finish_step(model, state, self.config.joint_stops)?;
                 }
-                Ok(())
             }
             StepSize::Adaptive { rtol, atol } => {
                 self.advance_adaptive(model, state, tau, t_target, rtol, atol, budget)

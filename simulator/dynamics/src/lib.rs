@@ -13,6 +13,7 @@
 //! * [`Stepper`], [`simulate`], [`state_hash`] — explicit / semi-implicit Euler, RK4 and
 //!   Dormand–Prince 5(4) with step control; inelastic joint stops ([`apply_joint_stops`]).
 //! * [`query::dispatch`] — the query-protocol ops `id`, `mass_matrix`, `gravity`, `fd`, `simulate`.
+//! * [`report_dynamics`] — `robosim report dynamics`: integrator error against wall time.
 //! * [`pseudo_inertia`], [`from_pseudo_inertia`], [`physically_consistent`] — the seed's
 //!   4×4 pseudo-inertia and its consistency test.
 //!
@@ -27,6 +28,7 @@ mod energy;
 mod integrate;
 mod model;
 pub mod query;
+mod report;
 mod rnea;
 pub mod robot_json;
 mod spatial;
@@ -40,4 +42,5 @@ pub use integrate::{
     state_hash,
 };
 pub use model::{DynamicsError, Model, from_pseudo_inertia, physically_consistent, pseudo_inertia};
+pub use report::report_dynamics;
 pub use rnea::{coriolis, gravity, rnea};

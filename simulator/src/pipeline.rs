@@ -1,0 +1,306 @@
+//! The per-step pipeline: an ordered list of the stages a scene declared, nothing else
+//! (DESIGN.md, "Scenes declare their effects"). An undeclared effect has no stage, so it costs no
+//! branch, no allocation and no memory per step; the only per-step work besides the stages is
+//! advancing the clock. Stages are named by what they depend on (MuJoCo's habit).
+//!
+//! Order: motion source (dynamics, or kinematic motion) → joint limits → link frames → collision
+//! → encoder → logging.
+//!
+//! Entry points: [`Pipeline::build`], [`Pipeline::step`], [`Pipeline`]'s `Display` (the printable
+//! description), [`Command`].
+
+use crate::effects::{EffectsError, SceneEffects};
+use crate::stages;
+use nalgebra::{DVector, Matrix4};
+use robosim_collision::robot::{LinkSolids, Scene};
+use robosim_kinematics::{Robot, State};
+use std::fmt;
+
+/// What the robot is told to do.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Command {
+    /// No command: zero joint torque under dynamics, standing still under kinematic motion.
+    Idle,
+    /// Joint targets (rad or m): kinematic motion at `max_speed`, or the dynamics stage's
+    /// gravity-compensated PD controller.
+    Target(DVector<f64>),
+    /// Joint torques (N·m or N); dynamics only.
+    Torque(DVector<f64>),
+}
+
+/// Everything the stages share: the robot, its state, the command, and the outputs of declared
+/// stages (`None` when the stage that fills them is not in the pipeline).
+#[derive(Debug, Clone)]
+pub struct World {
+    pub robot: Robot,
+    pub state: State,
+    pub command: Command,
+    /// The torques applied in the last step (dynamics only; zeros otherwise).
+    pub tau: DVector<f64>,
+    /// The pipeline step (s).
+    pub dt: f64,
+    pub step: u64,
+    /// Link frames `base, 1..n, tool` in the world (link-frames stage).
+    pub frames: Option<Vec<Matrix4<f64>>>,
+    /// Quantised joint readings (encoder stage).
+    pub q_measured: Option<DVector<f64>>,
+    /// Whether the last collision check found a contact (collision stage).
+    pub contact: Option<bool>,
+    /// Steps whose collision check found a contact (collision stage; 0 otherwise).
+    pub contact_steps: u64,
+}
+
+/// Why a step failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StepError {
+    #[error("dynamics: {0}")]
+    Dynamics(#[from] robosim_dynamics::DynamicsError),
+    #[error("collision: {0}")]
+    Collision(String),
+    #[error("logging: {0}")]
+    Logging(String),
+    #[error("command: {0}")]
+    Command(String),
+}
+
+/// One stage of the pipeline.
+pub trait Stage: Send {
+    /// Short name (`dynamics`, `joint_limits`, …).
+    fn name(&self) -> &'static str;
+    /// What its result depends on (`q`, `q, qd, tau`, …).
+    fn depends_on(&self) -> &'static str;
+    /// Its settings, for the printable description.
+    fn describe(&self) -> String;
+    /// Runs the stage for the current step.
+    fn run(&mut self, world: &mut World) -> Result<(), StepError>;
+}
+
+/// A scene's simulation: the world and the stages it declared.
+pub struct Pipeline {
+    pub world: World,
+    stages: Vec<Box<dyn Stage>>,
+    /// Effects the scene did not declare (or declared off), for the description.
+    left_out: Vec<&'static str>,
+    /// Logging stage index, if declared (to hand out its rows).
+    log_stage: Option<usize>,
+    logged: Option<stages::logging::LogHandle>,
+}
+
+/// The scene around the robot, for collision: obstacles and the robot's link solids
+/// (`None`: simple DH-segment solids of the declared `link_radius`).
+#[derive(Default)]
+pub struct SceneGeometry {
+    pub obstacles: Scene,
+    pub link_solids: Option<LinkSolids>,
+}
+
+impl Pipeline {
+    /// Builds the pipeline `effects` declares for `robot` starting at rest at `q0`.
+    pub fn build(
+        robot: &Robot,
+        q0: &[f64],
+        effects: &SceneEffects,
+        geometry: SceneGeometry,
+    ) -> Result<Pipeline, EffectsError> {
+        let bad = |field: &str, reason: String| EffectsError {
+            field: field.to_string(),
+            reason,
+        };
+        robot.validate().map_err(|e| bad("robot", e.to_string()))?;
+        robot.check_q(q0).map_err(|e| bad("q0", e.to_string()))?;
+        let n = robot.dof();
+        let mut stages: Vec<Box<dyn Stage>> = Vec::new();
+        let mut left_out = Vec::new();
+        let mut dt = effects.dt;
+        if !(dt > 0.0 && dt.is_finite()) {
+            return Err(bad(
+                "dt",
+                format!("must be a positive number of seconds, got {dt}"),
+            ));
+        }
+        match &effects.dynamics {
+            Some(d) => {
+                let stage = stages::dynamics::DynamicsStage::new(robot, d)?;
+                dt = d.dt;
+                stages.push(Box::new(stage));
+            }
+            None => {
+                left_out.push("dynamics");
+                if effects.kinematics {
+                    if !(effects.max_speed > 0.0 && effects.max_speed.is_finite()) {
+                        return Err(bad(
+                            "max_speed",
+                            format!("must be positive, got {}", effects.max_speed),
+                        ));
+                    }
+                    stages.push(Box::new(stages::motion::KinematicMotion::new(
+                        effects.max_speed,
+                    )));
+                }
+            }
+        }
+        if effects.joint_limits {
+            stages.push(Box::new(stages::limits::JointLimits::new(robot)?));
+        } else {
+            left_out.push("joint_limits");
+        }
+        let mut frames = None;
+        if effects.kinematics {
+            frames = Some(vec![Matrix4::identity(); n + 2]);
+            stages.push(Box::new(stages::frames::LinkFrames));
+        } else {
+            left_out.push("kinematics");
+        }
+        let mut contact = None;
+        match &effects.collision {
+            Some(c) if c.enabled => {
+                contact = Some(false);
+                stages.push(Box::new(stages::collision::CollisionStage::new(
+                    robot, q0, c, geometry,
+                )?));
+            }
+            _ => left_out.push("collision"),
+        }
+        let mut q_measured = None;
+        match &effects.encoder {
+            Some(e) => {
+                q_measured = Some(DVector::zeros(n));
+                stages.push(Box::new(stages::encoder::Encoder::new(robot, e)?));
+            }
+            None => left_out.push("encoder"),
+        }
+        let mut log_stage = None;
+        let mut logged = None;
+        match &effects.logging {
+            Some(l) => {
+                let (stage, handle) =
+                    stages::logging::Logging::new(n, l, q_measured.is_some(), contact.is_some())?;
+                log_stage = Some(stages.len());
+                logged = Some(handle);
+                stages.push(Box::new(stage));
+            }
+            None => left_out.push("logging"),
+        }
+        let state = State {
+            q: DVector::from_column_slice(q0),
+            qd: DVector::zeros(n),
+            qdd: DVector::zeros(n),
+            t: 0.0,
+        };
+        let world = World {
+            robot: robot.clone(),
+            state,
+            command: Command::Idle,
+            tau: DVector::zeros(n),
+            dt,
+            step: 0,
+            frames,
+            q_measured,
+            contact,
+            contact_steps: 0,
+        };
+        Ok(Pipeline {
+            world,
+            stages,
+            left_out,
+            log_stage,
+            logged,
+        })
+    }
+
+    /// One step: every declared stage in order, then the clock. Time advances by `world.dt`.
+    pub fn step(&mut self) -> Result<(), StepError> {
+        for stage in &mut self.stages {
+            stage.run(&mut self.world)?;
+        }
+        self.world.step += 1;
+        // the clock is kept as step · dt so that it does not drift by summation
+        self.world.state.t = self.world.step as f64 * self.world.dt;
+        Ok(())
+    }
+
+    /// Sets the command (checked against the robot: length, finite).
+    pub fn set_command(&mut self, command: Command) -> Result<(), StepError> {
+        let n = self.world.robot.dof();
+        let check = |v: &DVector<f64>, what: &str| {
+            if v.len() != n {
+                return Err(StepError::Command(format!(
+                    "{what} has {} values but the robot has {n} joints",
+                    v.len()
+                )));
+            }
+            match v.iter().position(|x| !x.is_finite()) {
+                Some(i) => Err(StepError::Command(format!("{what}[{i}] is not finite"))),
+                None => Ok(()),
+            }
+        };
+        match &command {
+            Command::Idle => {}
+            Command::Target(q) => check(q, "target")?,
+            Command::Torque(t) => {
+                check(t, "torque")?;
+                if !self.stages.iter().any(|s| s.name() == "dynamics") {
+                    return Err(StepError::Command(
+                        "torque commands need the dynamics effect".into(),
+                    ));
+                }
+            }
+        }
+        self.world.command = command;
+        Ok(())
+    }
+
+    /// The names of the stages, in order.
+    pub fn stage_names(&self) -> Vec<&'static str> {
+        self.stages.iter().map(|s| s.name()).collect()
+    }
+
+    /// The rows logged in memory so far (`signals` columns as declared; empty when logging is
+    /// not declared or writes to a file).
+    pub fn log(&self) -> Vec<Vec<f64>> {
+        let _ = self.log_stage;
+        self.logged.as_ref().map(|h| h.rows()).unwrap_or_default()
+    }
+
+    /// The CSV header of the log, if logging is declared.
+    pub fn log_header(&self) -> Option<Vec<String>> {
+        self.logged.as_ref().map(|h| h.header())
+    }
+}
+
+impl fmt::Display for Pipeline {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let name = if self.world.robot.name.is_empty() {
+            "robot"
+        } else {
+            &self.world.robot.name
+        };
+        writeln!(
+            f,
+            "pipeline for {name} ({} joints), step {} s:",
+            self.world.robot.dof(),
+            self.world.dt
+        )?;
+        if self.stages.is_empty() {
+            writeln!(f, "  (no stages: the robot stands still)")?;
+        }
+        for (i, s) in self.stages.iter().enumerate() {
+            writeln!(
+                f,
+                "  {}. {:<13} {:<58} depends on {}",
+                i + 1,
+                s.name(),
+                s.describe(),
+                s.depends_on()
+            )?;
+        }
+        if !self.left_out.is_empty() {
+            writeln!(
+                f,
+                "  not declared (not in the pipeline, no cost): {}",
+                self.left_out.join(", ")
+            )?;
+        }
+        Ok(())
+    }
+}

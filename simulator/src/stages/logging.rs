@@ -1,0 +1,162 @@
+//! Signal logging: every `every`-th step, one row of the declared signals — to a CSV file (header
+//! first, flushed when the pipeline is dropped) or to memory. Depends on everything before it.
+
+use crate::effects::{EffectsError, LoggingEffect, Signal};
+use crate::pipeline::{Stage, StepError, World};
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::sync::{Arc, Mutex};
+
+enum Sink {
+    Memory(Arc<Mutex<Vec<Vec<f64>>>>),
+    Csv(BufWriter<File>, String),
+}
+
+pub struct Logging {
+    signals: Vec<Signal>,
+    every: u64,
+    sink: Sink,
+    row: Vec<f64>,
+}
+
+/// Read access to an in-memory log.
+#[derive(Clone)]
+pub struct LogHandle {
+    rows: Option<Arc<Mutex<Vec<Vec<f64>>>>>,
+    header: Vec<String>,
+}
+
+impl LogHandle {
+    pub fn rows(&self) -> Vec<Vec<f64>> {
+        // a poisoned lock means a stage panicked mid-push; the rows written before are intact
+        self.rows
+            .as_ref()
+            .map(|r| {
+                r.lock()
+                    .map_or_else(|p| p.into_inner().clone(), |g| g.clone())
+            })
+            .unwrap_or_default()
+    }
+    pub fn header(&self) -> Vec<String> {
+        self.header.clone()
+    }
+}
+
+fn header(signals: &[Signal], n: usize) -> Vec<String> {
+    let mut h = Vec::new();
+    for s in signals {
+        match s {
+            Signal::T | Signal::Contact => h.push(s.name().to_string()),
+            _ => (0..n).for_each(|j| h.push(format!("{}{}", s.name(), j + 1))),
+        }
+    }
+    h
+}
+
+impl Logging {
+    pub fn new(
+        n: usize,
+        l: &LoggingEffect,
+        has_encoder: bool,
+        has_collision: bool,
+    ) -> Result<(Self, LogHandle), EffectsError> {
+        let bad = |field: &str, reason: String| EffectsError {
+            field: format!("logging.{field}"),
+            reason,
+        };
+        if l.signals.is_empty() {
+            return Err(bad("signals", "declare at least one signal".into()));
+        }
+        if l.every == 0 {
+            return Err(bad("every", "must be at least 1".into()));
+        }
+        if l.signals.contains(&Signal::QMeasured) && !has_encoder {
+            return Err(bad("signals", "q_measured needs the encoder effect".into()));
+        }
+        if l.signals.contains(&Signal::Contact) && !has_collision {
+            return Err(bad("signals", "contact needs the collision effect".into()));
+        }
+        let h = header(&l.signals, n);
+        let (sink, rows) = match &l.path {
+            None => {
+                let rows = Arc::new(Mutex::new(Vec::new()));
+                (Sink::Memory(rows.clone()), Some(rows))
+            }
+            Some(path) => {
+                let mut f = BufWriter::new(
+                    File::create(path)
+                        .map_err(|e| bad("path", format!("{}: {e}", path.display())))?,
+                );
+                writeln!(f, "{}", h.join(","))
+                    .map_err(|e| bad("path", format!("{}: {e}", path.display())))?;
+                (Sink::Csv(f, path.display().to_string()), None)
+            }
+        };
+        let width = h.len();
+        Ok((
+            Logging {
+                signals: l.signals.clone(),
+                every: u64::from(l.every),
+                sink,
+                row: Vec::with_capacity(width),
+            },
+            LogHandle { rows, header: h },
+        ))
+    }
+}
+
+impl Stage for Logging {
+    fn name(&self) -> &'static str {
+        "logging"
+    }
+    fn depends_on(&self) -> &'static str {
+        "all of the above"
+    }
+    fn describe(&self) -> String {
+        let names: Vec<&str> = self.signals.iter().map(|s| s.name()).collect();
+        let to = match &self.sink {
+            Sink::Memory(_) => "memory".to_string(),
+            Sink::Csv(_, p) => format!("CSV {p}"),
+        };
+        format!("{} every {} step(s) to {to}", names.join(", "), self.every)
+    }
+    fn run(&mut self, w: &mut World) -> Result<(), StepError> {
+        if (w.step + 1) % self.every != 0 {
+            return Ok(());
+        }
+        self.row.clear();
+        for s in &self.signals {
+            match s {
+                Signal::T => self.row.push((w.step + 1) as f64 * w.dt), // the time at the end of this step
+                Signal::Q => self.row.extend(w.state.q.iter()),
+                Signal::Qd => self.row.extend(w.state.qd.iter()),
+                Signal::Qdd => self.row.extend(w.state.qdd.iter()),
+                Signal::Tau => self.row.extend(w.tau.iter()),
+                Signal::QMeasured => self.row.extend(w.q_measured.iter().flat_map(|m| m.iter())),
+                Signal::Contact => self
+                    .row
+                    .push(if w.contact == Some(true) { 1.0 } else { 0.0 }),
+            }
+        }
+        match &mut self.sink {
+            Sink::Memory(rows) => rows
+                .lock()
+                .map_err(|_| StepError::Logging("log buffer poisoned".into()))?
+                .push(self.row.clone()),
+            Sink::Csv(f, path) => {
+                let mut first = true;
+                for v in &self.row {
+                    if !first {
+                        f.write_all(b",")
+                            .map_err(|e| StepError::Logging(format!("{path}: {e}")))?;
+                    }
+                    first = false;
+                    write!(f, "{v}").map_err(|e| StepError::Logging(format!("{path}: {e}")))?;
+                }
+                f.write_all(b"\n")
+                    .map_err(|e| StepError::Logging(format!("{path}: {e}")))?;
+            }
+        }
+        Ok(())
+    }
+}

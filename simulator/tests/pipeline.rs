@@ -1,0 +1,388 @@
+//! The effect pipeline: only declared stages are built, and each stage does what its effect says.
+
+use nalgebra::{DVector, Isometry3, Vector3};
+use robosim_collision::robot::Scene;
+use robosim_collision::{Mode, Solid};
+use robosim_dynamics::robot_json::fixture_robot;
+use robosim_kinematics::{Robot, fk};
+use robosim_simulator::{
+    CollisionEffect, Command, DynamicsEffect, EncoderEffect, LoggingEffect, OnContact, Pipeline,
+    SceneEffects, SceneGeometry, Signal,
+};
+use std::sync::Arc;
+
+fn puma() -> Robot {
+    fixture_robot("puma560").expect("fixture compiled in")
+}
+
+const Q0: [f64; 6] = [0.0, 0.4, -0.6, 0.0, 0.5, 0.0];
+
+fn build(effects: &SceneEffects) -> Pipeline {
+    Pipeline::build(&puma(), &Q0, effects, SceneGeometry::default()).expect("builds")
+}
+
+fn target(q: &[f64]) -> Command {
+    Command::Target(DVector::from_column_slice(q))
+}
+
+#[test]
+fn only_declared_stages_are_built() {
+    let kin = SceneEffects {
+        kinematics: true,
+        ..SceneEffects::default()
+    };
+    let p = build(&kin);
+    assert_eq!(p.stage_names(), ["motion", "link_frames"]);
+    assert!(p.world.frames.is_some());
+    assert!(
+        p.world.q_measured.is_none() && p.world.contact.is_none(),
+        "no memory for undeclared effects"
+    );
+    let off = SceneEffects {
+        collision: Some(CollisionEffect {
+            enabled: false,
+            ..CollisionEffect::default()
+        }),
+        ..kin.clone()
+    };
+    assert_eq!(
+        build(&off).stage_names(),
+        ["motion", "link_frames"],
+        "collision declared off is not in the pipeline"
+    );
+    assert!(build(&SceneEffects::default()).stage_names().is_empty());
+    let all = SceneEffects {
+        kinematics: true,
+        joint_limits: true,
+        collision: Some(CollisionEffect::default()),
+        dynamics: Some(DynamicsEffect::default()),
+        encoder: Some(EncoderEffect { bits: 12 }),
+        logging: Some(LoggingEffect::default()),
+        ..SceneEffects::default()
+    };
+    let p = build(&all);
+    assert_eq!(
+        p.stage_names(),
+        [
+            "dynamics",
+            "joint_limits",
+            "link_frames",
+            "collision",
+            "encoder",
+            "logging"
+        ]
+    );
+    let text = p.to_string();
+    for s in [
+        "1. dynamics",
+        "semi_implicit_euler",
+        "6. logging",
+        "bbox, self on",
+    ] {
+        assert!(text.contains(s), "description lacks {s:?}:\n{text}");
+    }
+    let text = build(&kin).to_string();
+    assert!(text.contains("not declared (not in the pipeline, no cost): dynamics, joint_limits, collision, encoder, logging"), "{text}");
+}
+
+#[test]
+fn kinematic_motion_reaches_the_target_at_the_speed_limit_and_frames_follow() {
+    let mut p = build(&SceneEffects {
+        kinematics: true,
+        max_speed: 2.0,
+        ..SceneEffects::default()
+    });
+    let goal = [0.5, 0.4, -0.6, 0.0, 0.5, -1.0];
+    p.set_command(target(&goal)).expect("command");
+    for _ in 0..250 {
+        p.step().expect("step");
+    }
+    // 0.25 s at 2 rad/s: joint 1 has covered 0.5 rad exactly, joint 6 only half of its 1 rad
+    assert!((p.world.state.q[0] - 0.5).abs() < 1e-12);
+    assert!(
+        (p.world.state.q[5] + 0.5).abs() < 1e-9,
+        "{}",
+        p.world.state.q[5]
+    );
+    assert!((p.world.state.t - 0.25).abs() < 1e-15);
+    let frames = p.world.frames.as_ref().expect("declared");
+    let want = fk::link_frames(&p.world.robot, p.world.state.q.as_slice());
+    for (a, b) in frames.iter().zip(&want) {
+        assert!((a - b).abs().max() < 1e-14);
+    }
+}
+
+#[test]
+fn joint_limits_stop_a_joint_at_its_limit() {
+    let robot = puma();
+    let hi = robot.joints[1].qlim[1];
+    let mut p = build(&SceneEffects {
+        kinematics: true,
+        joint_limits: true,
+        max_speed: 5.0,
+        ..SceneEffects::default()
+    });
+    p.set_command(target(&[0.0, hi + 1.0, -0.6, 0.0, 0.5, 0.0]))
+        .expect("command");
+    for _ in 0..2000 {
+        p.step().expect("step");
+    }
+    assert_eq!(p.world.state.q[1], hi);
+    // without the effect the joint goes past
+    let mut p = build(&SceneEffects {
+        kinematics: true,
+        max_speed: 5.0,
+        ..SceneEffects::default()
+    });
+    p.set_command(target(&[0.0, hi + 1.0, -0.6, 0.0, 0.5, 0.0]))
+        .expect("command");
+    for _ in 0..2000 {
+        p.step().expect("step");
+    }
+    assert!(p.world.state.q[1] > hi + 0.9);
+}
+
+#[test]
+fn dynamics_controller_holds_and_moves_the_arm_and_torque_needs_dynamics() {
+    let effects = SceneEffects {
+        dynamics: Some(DynamicsEffect {
+            integrator: "rk4".into(),
+            kp: 400.0,
+            kd: 40.0,
+            ..DynamicsEffect::default()
+        }),
+        ..SceneEffects::default()
+    };
+    let mut p = build(&effects);
+    let goal = [0.3, 0.6, -0.8, 0.2, 0.4, 0.1];
+    p.set_command(target(&goal)).expect("command");
+    for _ in 0..4000 {
+        p.step().expect("step");
+    }
+    let err = p
+        .world
+        .state
+        .q
+        .iter()
+        .zip(goal)
+        .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(
+        err < 1e-3,
+        "computed torque settles on the target (error {err})"
+    );
+    assert!((p.world.state.t - 4.0).abs() < 1e-12);
+    // idle under dynamics: the arm falls
+    p.set_command(Command::Idle).expect("command");
+    for _ in 0..200 {
+        p.step().expect("step");
+    }
+    assert!(p.world.state.qd.norm() > 0.1);
+    let mut k = build(&SceneEffects {
+        kinematics: true,
+        ..SceneEffects::default()
+    });
+    assert!(
+        k.set_command(Command::Torque(DVector::zeros(6))).is_err(),
+        "torques need the dynamics effect"
+    );
+    assert!(k.set_command(target(&[0.0; 5])).is_err(), "wrong length");
+}
+
+fn wall_scene() -> Scene {
+    let mut scene = Scene::new();
+    // a wall across x = 0.35 … 0.45, within reach of the upper arm (a = 0.43 m) at q1 = 0
+    let wall = Solid::cuboid(Vector3::new(0.1, 3.0, 3.0)).expect("box");
+    scene.add(
+        "wall",
+        Arc::new(wall),
+        Isometry3::translation(0.4, 0.0, 0.5),
+    );
+    scene
+}
+
+#[test]
+fn collision_stops_the_arm_before_an_obstacle_or_reports() {
+    for mode in [Mode::BBox, Mode::Polygon, Mode::Exact] {
+        for continuous in [false, true] {
+            if continuous && mode != Mode::Exact {
+                continue;
+            }
+            let effects = SceneEffects {
+                kinematics: true,
+                collision: Some(CollisionEffect {
+                    mode,
+                    continuous,
+                    self_collision: false,
+                    ..CollisionEffect::default()
+                }),
+                ..SceneEffects::default()
+            };
+            let q0 = [std::f64::consts::PI, 0.0, 0.0, 0.0, 0.0, 0.0]; // arm points away from the wall
+            let mut p = Pipeline::build(
+                &puma(),
+                &q0,
+                &effects,
+                SceneGeometry {
+                    obstacles: wall_scene(),
+                    link_solids: None,
+                },
+            )
+            .expect("builds");
+            p.step().expect("step");
+            assert_eq!(p.world.contact, Some(false), "{mode:?}: clear at the start");
+            p.set_command(target(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))
+                .expect("command"); // swing into the wall
+            for _ in 0..4000 {
+                p.step().expect("step");
+            }
+            assert!(
+                p.world.state.q[0] > 0.1,
+                "{mode:?}/{continuous}: stopped before reaching the wall (q1 = {})",
+                p.world.state.q[0]
+            );
+            assert!(p.world.contact_steps > 0, "{mode:?}: contact seen");
+            let effects = SceneEffects {
+                kinematics: true,
+                collision: Some(CollisionEffect {
+                    mode,
+                    continuous,
+                    self_collision: false,
+                    on_contact: OnContact::Report,
+                    ..CollisionEffect::default()
+                }),
+                ..SceneEffects::default()
+            };
+            let mut p = Pipeline::build(
+                &puma(),
+                &q0,
+                &effects,
+                SceneGeometry {
+                    obstacles: wall_scene(),
+                    link_solids: None,
+                },
+            )
+            .expect("builds");
+            p.set_command(target(&[0.0; 6])).expect("command");
+            for _ in 0..4000 {
+                p.step().expect("step");
+            }
+            assert_eq!(
+                p.world.state.q[0], 0.0,
+                "{mode:?}: report mode does not stop the motion"
+            );
+            assert_eq!(p.world.contact, Some(true));
+        }
+    }
+}
+
+#[test]
+fn encoder_quantises_and_logging_records() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let csv = dir.path().join("run.csv");
+    for path in [None, Some(csv.clone())] {
+        let effects = SceneEffects {
+            kinematics: true,
+            encoder: Some(EncoderEffect { bits: 10 }),
+            logging: Some(LoggingEffect {
+                signals: vec![Signal::T, Signal::Q, Signal::QMeasured],
+                every: 10,
+                path: path.clone(),
+            }),
+            ..SceneEffects::default()
+        };
+        let mut p = build(&effects);
+        p.set_command(target(&[0.3, 0.1, -0.2, 0.7, 0.0, 0.0]))
+            .expect("command");
+        for _ in 0..100 {
+            p.step().expect("step");
+        }
+        let r = std::f64::consts::TAU / 1024.0;
+        let m = p.world.q_measured.as_ref().expect("declared");
+        for j in 0..6 {
+            assert!((m[j] - p.world.state.q[j]).abs() <= r / 2.0 + 1e-15);
+            assert!(((m[j] / r).round() * r - m[j]).abs() < 1e-15);
+        }
+        assert_eq!(p.log_header().expect("declared").len(), 1 + 6 + 6);
+        if path.is_none() {
+            let rows = p.log();
+            assert_eq!(rows.len(), 10);
+            assert!((rows[9][0] - 0.1).abs() < 1e-15, "t of the last row");
+            assert_eq!(rows[9][1..7], *p.world.state.q.as_slice());
+        }
+        drop(p);
+    }
+    let text = std::fs::read_to_string(&csv).expect("csv written");
+    let lines: Vec<&str> = text.lines().collect();
+    assert_eq!(lines.len(), 11);
+    assert!(lines[0].starts_with("t,q1,q2"));
+}
+
+#[test]
+fn effects_parse_from_json_with_errors_that_say_where() {
+    let text = r#"{"kinematics": true, "joint_limits": true,
+        "collision": {"mode": "polygon", "self": false, "continuous": false},
+        "dynamics": {"integrator": "rk4", "dt": 0.002, "gravity": [0, 0, -1.62]},
+        "encoder": {"bits": 14}, "logging": {"signals": ["t", "q", "tau"], "every": 5}}"#;
+    let e = SceneEffects::from_json(text).expect("parses");
+    assert_eq!(
+        e.collision.as_ref().map(|c| (c.mode, c.self_collision)),
+        Some((Mode::Polygon, false))
+    );
+    let p = build(&e);
+    assert_eq!(p.world.dt, 0.002);
+    assert!(p.to_string().contains("gravity [0, 0, -1.62]"));
+    let err =
+        SceneEffects::from_json("{\"kinematics\": true,\n \"colision\": {}}").expect_err("typo");
+    assert!(
+        err.to_string().contains("line 2") && err.to_string().contains("colision"),
+        "{err}"
+    );
+    let bad = SceneEffects {
+        dynamics: Some(DynamicsEffect {
+            integrator: "leapfrog".into(),
+            ..DynamicsEffect::default()
+        }),
+        ..SceneEffects::default()
+    };
+    let err = Pipeline::build(&puma(), &Q0, &bad, SceneGeometry::default())
+        .err()
+        .expect("refused");
+    assert_eq!(err.field, "dynamics.integrator");
+    let bad = SceneEffects {
+        logging: Some(LoggingEffect {
+            signals: vec![Signal::QMeasured],
+            every: 1,
+            path: None,
+        }),
+        ..SceneEffects::default()
+    };
+    assert_eq!(
+        Pipeline::build(&puma(), &Q0, &bad, SceneGeometry::default())
+            .err()
+            .expect("refused")
+            .field,
+        "logging.signals"
+    );
+}
+
+#[test]
+fn pipeline_runs_are_bit_identical() {
+    let effects = SceneEffects {
+        joint_limits: true,
+        dynamics: Some(DynamicsEffect {
+            integrator: "rk4".into(),
+            ..DynamicsEffect::default()
+        }),
+        ..SceneEffects::default()
+    };
+    let run = || {
+        let mut p = build(&effects);
+        p.set_command(target(&[0.3, 0.6, -0.8, 0.2, 0.4, 0.1]))
+            .expect("command");
+        for _ in 0..500 {
+            p.step().expect("step");
+        }
+        robosim_dynamics::state_hash(&p.world.state)
+    };
+    assert_eq!(run(), run());
+}
