@@ -87,13 +87,30 @@ pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         time_pts.push((dims.0 as f64, med));
         per_poly_pts.push((n as f64, us_per_poly));
     }
+    // least-squares line t = a + b·P over the medians, and its R²
+    let n = time_pts.len() as f64;
+    let (sx, sy) = time_pts
+        .iter()
+        .fold((0.0, 0.0), |(a, b), &(x, y)| (a + x, b + y));
+    let (mx, my) = (sx / n, sy / n);
+    let sxx: f64 = time_pts.iter().map(|&(x, _)| (x - mx).powi(2)).sum();
+    let sxy: f64 = time_pts.iter().map(|&(x, y)| (x - mx) * (y - my)).sum();
+    let slope = sxy / sxx;
+    let icpt = my - slope * mx;
+    let ss_res: f64 = time_pts
+        .iter()
+        .map(|&(x, y)| (y - icpt - slope * x).powi(2))
+        .sum();
+    let ss_tot: f64 = time_pts.iter().map(|&(_, y)| (y - my).powi(2)).sum();
+    let r2 = 1.0 - ss_res / ss_tot;
     let report = Report {
         name: "library".into(),
         title: "Library Space: parse and evaluate the Space Station against facet count".into(),
         notes: vec![
             format!("Parse + load-time check of std/materials.rsl and std/station.rsl (every declaration evaluated at its defaults): median {parse_med:.2} ms over {reps} runs."),
             "Evaluation of `space_station` with every round primitive forced to `facets` (EvalOptions); boxes are unaffected. Median and 90th percentile wall-clock over the repetitions.".into(),
-            "time ratio and polygon ratio are against the smallest facet count in the same run (shared, noisy machine: compare ratios, not absolute times). Linear growth shows as a flat time per polygon.".into(),
+            format!("Least-squares line through the medians: time = {icpt:.2} ms + {:.3} µs × polygons, R² = {r2:.4} (a fixed cost per evaluation plus a constant cost per polygon: linear).", slope * 1e3),
+            "time ratio and polygon ratio are against the smallest facet count in the same run (shared, noisy machine: compare ratios, not absolute times). Spheres make the polygon count grow with facets².".into(),
             format!(
                 "{} run, {} build.",
                 if quick { "quick" } else { "full" },
