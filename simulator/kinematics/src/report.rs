@@ -240,6 +240,7 @@ pub fn report_ik(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportErro
         "poses",
         "success_pct",
         "mean_us",
+        "median_us",
         "p99_us",
         "time_ratio",
         "mean_position_residual_m",

@@ -70,7 +70,8 @@ fn wrist_singular_q5_zero_follows_the_reference_convention() {
 #[test]
 fn wrist_nearly_singular_q5_1e9_stays_accurate() {
     let robot = puma();
-    for q5 in [1e-9, -1e-9, 1e-13] {
+    // 1e-4 straddles the switch from the closed-form wrist to the residual-rotation wrist.
+    for q5 in [1e-9, -1e-9, 1e-13, 1e-4, 1.0001e-4, 9.999e-5, -2e-4] {
         let q = [0.3, 0.5, -1.0, 0.7, q5, -0.4];
         let target = fk::forward(&robot, &q);
         let r = ik::solve(&robot, &target, Method::Analytic, &all()).expect("reachable");
@@ -414,4 +415,83 @@ fn per_axis_tolerance_frees_the_tool_roll() {
     // The roll about the tool z may differ; the tool axis may not.
     let t = fk::forward(&robot, &s.q);
     assert!((t.fixed_view::<3, 1>(0, 2) - target.fixed_view::<3, 1>(0, 2)).norm() < 1e-8);
+}
+
+#[test]
+fn degenerate_robots_and_options_answer_without_panicking() {
+    let target = trans(0.3, 0.1, 0.2);
+    let empty = Robot::default();
+    for m in [
+        Method::Analytic,
+        Method::Newton,
+        Method::Dls,
+        Method::Hybrid,
+        Method::Auto,
+    ] {
+        assert!(
+            matches!(
+                ik::solve(&empty, &target, m, &IkOptions::default()),
+                Err(IkError::NotApplicable { .. })
+            ),
+            "{m:?}"
+        );
+    }
+    // Unlimited prismatic and revolute joints, a fixed joint (lo = hi), every axis free.
+    let robot = Robot {
+        joints: vec![
+            Joint {
+                joint_type: robosim_kinematics::JointType::Prismatic,
+                qlim: [f64::NEG_INFINITY, f64::INFINITY],
+                ..Joint::default()
+            },
+            Joint {
+                a: 0.5,
+                qlim: [f64::NEG_INFINITY, f64::INFINITY],
+                ..Joint::default()
+            },
+            Joint {
+                a: 0.5,
+                qlim: [0.2, 0.2],
+                ..Joint::default()
+            },
+        ],
+        ..Robot::default()
+    };
+    let free = IkOptions {
+        tolerances: robosim_kinematics::pose::Tolerances::uniform(f64::INFINITY, f64::INFINITY),
+        restarts: 3,
+        ..IkOptions::default()
+    };
+    for m in [Method::Newton, Method::Dls, Method::Auto] {
+        let r = ik::solve(&robot, &target, m, &free).expect("every axis free: any q will do");
+        assert!(r.solutions[0].converged);
+    }
+    let strict = IkOptions {
+        restarts: 3,
+        ..IkOptions::default()
+    };
+    for m in [
+        Method::Newton,
+        Method::Dls,
+        Method::Auto,
+        Method::Hybrid,
+        Method::Analytic,
+    ] {
+        match ik::solve(&robot, &target, m, &strict) {
+            Ok(r) => assert!(
+                r.solutions
+                    .iter()
+                    .all(|s| s.q.iter().all(|x| x.is_finite()))
+            ),
+            Err(e) => assert!(!e.to_string().is_empty()),
+        }
+    }
+    let bad = IkOptions {
+        tolerances: robosim_kinematics::pose::Tolerances::uniform(0.0, 1e-9),
+        ..IkOptions::default()
+    };
+    assert!(matches!(
+        ik::solve(&puma(), &target, Method::Dls, &bad),
+        Err(IkError::BadOptions { .. })
+    ));
 }

@@ -34,11 +34,19 @@ use std::f64::consts::PI;
 pub const CLAMP_SLACK: f64 = 1e-10;
 /// |sin θ5| below this is treated as the wrist singularity.
 pub const WRIST_SINGULAR: f64 = 1e-12;
+/// |sin θ5| above this: the wrist angles in closed form; below, θ6 from the residual rotation.
+const WRIST_DIRECT: f64 = 1e-4;
 
 /// Rotation of a standard DH link: Rz(θ) Rx(α).
 pub(crate) fn rz_rx(theta: f64, alpha: f64) -> Matrix3<f64> {
     let (st, ct) = theta.sin_cos();
     let (sa, ca) = alpha.sin_cos();
+    Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca)
+}
+
+/// Rz(θ) Rx(α) with (sin α, cos α) given.
+pub(crate) fn rz_rx_sc(theta: f64, (sa, ca): (f64, f64)) -> Matrix3<f64> {
+    let (st, ct) = theta.sin_cos();
     Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca)
 }
 
@@ -82,6 +90,8 @@ pub(crate) struct ArmSolver {
     pub l2: f64,
     pub phi: f64,
     pub alpha: [f64; 3],
+    /// (sin α, cos α) of the first three links.
+    pub alpha_sc: [(f64, f64); 3],
     pub scale: f64,
 }
 
@@ -108,6 +118,11 @@ impl ArmSolver {
             l2: j[2].a.hypot(b3),
             phi: b3.atan2(j[2].a),
             alpha: [j[0].alpha, j[1].alpha, j[2].alpha],
+            alpha_sc: [
+                j[0].alpha.sin_cos(),
+                j[1].alpha.sin_cos(),
+                j[2].alpha.sin_cos(),
+            ],
             scale,
         }
     }
@@ -195,9 +210,8 @@ impl ArmSolver {
 
     /// Rotation of frame 3 in the prefix frame for DH angles θ1..θ3.
     pub fn r03(&self, theta: &[f64; 3]) -> Matrix3<f64> {
-        rz_rx(theta[0], self.alpha[0])
-            * rz_rx(theta[1], self.alpha[1])
-            * rz_rx(theta[2], self.alpha[2])
+        let [a1, a2, a3] = self.alpha_sc;
+        rz_rx_sc(theta[0], a1) * rz_rx_sc(theta[1], a2) * rz_rx_sc(theta[2], a3)
     }
 }
 
@@ -278,25 +292,42 @@ impl SphericalSolver {
             let (nx, ny, nz) = (r36[(0, 2)], r36[(1, 2)], r36[(2, 2)]);
             let c5 = -nz * self.s4 * self.s5;
             let h = nx.hypot(ny);
-            for (wi, wrist) in [Wrist::NoFlip, Wrist::Flip].into_iter().enumerate() {
-                let mut flags = arm.flags;
-                let s5t = if wrist == Wrist::NoFlip {
-                    -self.s4 * h
-                } else {
-                    self.s4 * h
-                };
+            // Away from the singularity, θ4, θ5, θ6 in closed form (row 2 of R36 is
+            // s4·(sin θ5 cos θ6, −sin θ5 sin θ6, −cos θ5 s5)) and the flip directly. Near it,
+            // θ6 from the residual rotation, which absorbs the noise of θ4 exactly.
+            let mut wrists = [[0.0; 3]; 2];
+            let mut flags = arm.flags;
+            if h > WRIST_DIRECT {
+                let s5t = -self.s4 * h; // NoFlip: s4·sin θ5 ≤ 0
+                let g = self.s5 * s5t.signum();
+                let k = self.s4 * s5t.signum();
+                let t4 = (ny * g).atan2(nx * g);
                 let t5 = s5t.atan2(c5);
-                let t4 = if h > WRIST_SINGULAR {
-                    let g = self.s5 * s5t.signum();
-                    (ny * g).atan2(nx * g)
-                } else {
-                    flags.wrist_singular = true;
-                    let r4 = reference[3] + self.offsets[3];
-                    if wrist == Wrist::NoFlip { r4 } else { r4 + PI }
-                };
-                let partial = rz_rx(t4, self.alpha4) * rz_rx(t5, self.alpha5);
-                let rest = partial.transpose() * r36;
-                let t6 = rest[(1, 0)].atan2(rest[(0, 0)]);
+                let t6 = (-r36[(2, 1)] * k).atan2(r36[(2, 0)] * k);
+                wrists = [[t4, t5, t6], [t4 + PI, -t5, t6 + PI]];
+            } else {
+                for (wi, wrist) in [Wrist::NoFlip, Wrist::Flip].into_iter().enumerate() {
+                    let s5t = if wrist == Wrist::NoFlip {
+                        -self.s4 * h
+                    } else {
+                        self.s4 * h
+                    };
+                    let t5 = s5t.atan2(c5);
+                    let t4 = if h > WRIST_SINGULAR {
+                        let g = self.s5 * s5t.signum();
+                        (ny * g).atan2(nx * g)
+                    } else {
+                        flags.wrist_singular = true;
+                        let r4 = reference[3] + self.offsets[3];
+                        if wrist == Wrist::NoFlip { r4 } else { r4 + PI }
+                    };
+                    let partial = rz_rx(t4, self.alpha4) * rz_rx(t5, self.alpha5);
+                    let rest = partial.transpose() * r36;
+                    wrists[wi] = [t4, t5, rest[(1, 0)].atan2(rest[(0, 0)])];
+                }
+            }
+            for (wi, wrist) in [Wrist::NoFlip, Wrist::Flip].into_iter().enumerate() {
+                let [t4, t5, t6] = wrists[wi];
                 let theta = [arm.theta[0], arm.theta[1], arm.theta[2], t4, t5, t6];
                 let mut q = [0.0; 6];
                 for k in 0..6 {

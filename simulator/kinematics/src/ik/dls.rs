@@ -79,10 +79,12 @@ pub(crate) fn random_q(robot: &Robot, rng: &mut ChaCha8Rng, scale: f64) -> Vec<f
                 JointType::Revolute => (j.qlim[0].max(-PI), j.qlim[1].min(PI)),
                 JointType::Prismatic => (j.qlim[0].max(-scale), j.qlim[1].min(scale)),
             };
+            // No room in the sampled window (lo = hi, or limits outside it): sit at the lower
+            // limit (clamped to the window when that limit is infinite).
             let (lo, hi) = if lo < hi {
                 (lo, hi)
             } else {
-                (j.qlim[0].max(-PI), j.qlim[0].max(-PI))
+                (lo.min(hi), lo.min(hi))
             };
             lo + (hi - lo) * rng.random::<f64>()
         })
