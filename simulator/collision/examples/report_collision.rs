@@ -2,7 +2,11 @@
 //! `cargo run --release -p robosim-collision --example report_collision -- docs/reports [--quick]`
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let dir = args.iter().find(|a| !a.starts_with("--")).cloned().unwrap_or_else(|| "docs/reports".into());
+    let dir = args
+        .iter()
+        .find(|a| !a.starts_with("--"))
+        .cloned()
+        .unwrap_or_else(|| "docs/reports".into());
     let quick = args.iter().any(|a| a == "--quick");
     match robosim_collision::report::report_collision(std::path::Path::new(&dir), quick) {
         Ok(paths) => {

@@ -35,9 +35,15 @@ pub fn world_box(b: &Aabb, pose: &Isometry3<f64>) -> Aabb {
 /// misses a contact of the faceted solids, and says contact for many pairs that are clear.
 pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> PairResult {
     if overlap_two_way(&a.bbox, pa, &b.bbox, pb) {
-        PairResult::Contact { signed_distance: None, witness: None }
+        PairResult::Contact {
+            signed_distance: None,
+            witness: None,
+        }
     } else {
-        PairResult::Clear { distance: None, witness: None }
+        PairResult::Clear {
+            distance: None,
+            witness: None,
+        }
     }
 }
 
@@ -50,9 +56,18 @@ mod tests {
     fn two_way_test_is_tighter_than_either_one_way_test() {
         // A long thin box rotated 45° about z next to a small box: its dilated box in the small
         // box's frame overlaps, but the small box carried into the long box's frame does not.
-        let long = Aabb { center: Point3::origin(), half: Vector3::new(1.0, 0.01, 0.01) };
-        let small = Aabb { center: Point3::origin(), half: Vector3::new(0.05, 0.05, 0.05) };
-        let t1 = Isometry3::new(Vector3::zeros(), Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_4));
+        let long = Aabb {
+            center: Point3::origin(),
+            half: Vector3::new(1.0, 0.01, 0.01),
+        };
+        let small = Aabb {
+            center: Point3::origin(),
+            half: Vector3::new(0.05, 0.05, 0.05),
+        };
+        let t1 = Isometry3::new(
+            Vector3::zeros(),
+            Vector3::new(0.0, 0.0, std::f64::consts::FRAC_PI_4),
+        );
         let t2 = Isometry3::translation(0.5, -0.3, 0.0);
         assert!(box_in_frame(&long, &t1, &t2).overlaps(&small));
         assert!(!box_in_frame(&small, &t2, &t1).overlaps(&long));

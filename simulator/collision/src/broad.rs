@@ -28,7 +28,12 @@ pub trait BroadPhase {
 
 #[inline]
 fn overlap(a: &([f64; 3], [f64; 3]), b: &([f64; 3], [f64; 3])) -> bool {
-    a.0[0] <= b.1[0] && b.0[0] <= a.1[0] && a.0[1] <= b.1[1] && b.0[1] <= a.1[1] && a.0[2] <= b.1[2] && b.0[2] <= a.1[2]
+    a.0[0] <= b.1[0]
+        && b.0[0] <= a.1[0]
+        && a.0[1] <= b.1[1]
+        && b.0[1] <= a.1[1]
+        && a.0[2] <= b.1[2]
+        && b.0[2] <= a.1[2]
 }
 
 fn bounds(b: &Aabb) -> ([f64; 3], [f64; 3]) {
@@ -73,6 +78,25 @@ pub struct SweepAndPrune {
 impl SweepAndPrune {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// Builds over `boxes` (ids = indices) with one sort instead of n insertions.
+    pub fn from_boxes(boxes: &[Aabb]) -> Self {
+        let b: Vec<([f64; 3], [f64; 3])> = boxes.iter().map(bounds).collect();
+        let mut order: Vec<u32> = (0..b.len() as u32).collect();
+        order.sort_unstable_by(|x, y| b[*x as usize].0[0].total_cmp(&b[*y as usize].0[0]));
+        let mut pos = vec![0u32; b.len()];
+        for (i, id) in order.iter().enumerate() {
+            pos[*id as usize] = i as u32;
+        }
+        let max_width = b.iter().map(|x| x.1[0] - x.0[0]).fold(0.0, f64::max);
+        SweepAndPrune {
+            present: vec![true; b.len()],
+            boxes: b,
+            order,
+            pos,
+            max_width,
+        }
     }
 
     fn swap(&mut self, a: usize, b: usize) {
@@ -160,8 +184,13 @@ impl BvhBroadPhase {
 
     /// Builds the tree over `boxes` (ids = indices) in one pass (binned SAH build).
     pub fn from_boxes(boxes: &[Aabb]) -> Self {
-        let leaves: Vec<PAabb> = boxes.iter().map(|b| PAabb::new(b.mins(), b.maxs())).collect();
-        BvhBroadPhase { bvh: Bvh::from_leaves(parry3d_f64::partitioning::BvhBuildStrategy::Binned, &leaves) }
+        let leaves: Vec<PAabb> = boxes
+            .iter()
+            .map(|b| PAabb::new(b.mins(), b.maxs()))
+            .collect();
+        BvhBroadPhase {
+            bvh: Bvh::from_leaves(parry3d_f64::partitioning::BvhBuildStrategy::Binned, &leaves),
+        }
     }
 }
 
@@ -173,7 +202,9 @@ impl BroadPhase for BvhBroadPhase {
     fn pairs_involving(&mut self, ids: &[u32], out: &mut Vec<(u32, u32)>) {
         let start = out.len();
         for &id in ids {
-            let Some(node) = self.bvh.leaf_node(id) else { continue };
+            let Some(node) = self.bvh.leaf_node(id) else {
+                continue;
+            };
             let q = node.aabb();
             for o in self.bvh.intersect_aabb(&q) {
                 if o != id {
@@ -199,8 +230,16 @@ mod tests {
     fn random_boxes(n: usize, rng: &mut ChaCha8Rng) -> Vec<Aabb> {
         (0..n)
             .map(|_| Aabb {
-                center: Point3::new(rng.random_range(0.0..10.0), rng.random_range(0.0..10.0), rng.random_range(0.0..10.0)),
-                half: Vector3::new(rng.random_range(0.05..0.4), rng.random_range(0.05..0.4), rng.random_range(0.05..0.4)),
+                center: Point3::new(
+                    rng.random_range(0.0..10.0),
+                    rng.random_range(0.0..10.0),
+                    rng.random_range(0.0..10.0),
+                ),
+                half: Vector3::new(
+                    rng.random_range(0.05..0.4),
+                    rng.random_range(0.05..0.4),
+                    rng.random_range(0.05..0.4),
+                ),
             })
             .collect()
     }
@@ -210,21 +249,32 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let mut boxes = random_boxes(600, &mut rng);
         let mut sap = SweepAndPrune::new();
-        for (i, b) in boxes.iter().enumerate() {
+        for (i, b) in boxes.iter().enumerate().take(300) {
             sap.set(i as u32, b);
         }
+        for (i, b) in boxes.iter().enumerate().skip(300) {
+            sap.set(i as u32, b);
+        }
+        let mut sap2 = SweepAndPrune::from_boxes(&boxes);
         let mut bvh = BvhBroadPhase::from_boxes(&boxes);
         for _step in 0..20 {
             let moved: Vec<u32> = (0..12).map(|_| rng.random_range(0..600u32)).collect();
             for &m in &moved {
                 let b = &mut boxes[m as usize];
-                b.center += Vector3::new(rng.random_range(-0.3..0.3), rng.random_range(-0.3..0.3), rng.random_range(-0.3..0.3));
+                b.center += Vector3::new(
+                    rng.random_range(-0.3..0.3),
+                    rng.random_range(-0.3..0.3),
+                    rng.random_range(-0.3..0.3),
+                );
                 sap.set(m, b);
+                sap2.set(m, b);
                 bvh.set(m, b);
             }
-            let (mut r, mut s, mut t) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut r, mut s, mut t, mut u) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
             brute_force_pairs(&boxes, &moved, &mut r);
             sap.pairs_involving(&moved, &mut s);
+            sap2.pairs_involving(&moved, &mut u);
+            assert_eq!(r, u);
             bvh.pairs_involving(&moved, &mut t);
             assert!(!r.is_empty());
             assert_eq!(r, s);

@@ -21,12 +21,12 @@
 //!
 //! Entry points: [`sweep_robot`], [`motion_bounds`].
 
-use crate::outcome::PairResult;
-use crate::robot::{check_link_count, link_poses, Body, CheckError, Collision, LinkSolids, Scene};
 use crate::exact::{self, ExactOptions};
+use crate::outcome::PairResult;
+use crate::robot::{Body, CheckError, Collision, LinkSolids, Scene, check_link_count, link_poses};
 use crate::solid::Solid;
 use nalgebra::Isometry3;
-use robosim_kinematics::{fk, Convention, JointType, Robot};
+use robosim_kinematics::{Convention, JointType, Robot, fk};
 
 /// Tolerances of the sweep.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -39,7 +39,10 @@ pub struct SweepOptions {
 
 impl Default for SweepOptions {
     fn default() -> Self {
-        SweepOptions { tolerance: 1e-6, max_iterations: 10_000 }
+        SweepOptions {
+            tolerance: 1e-6,
+            max_iterations: 10_000,
+        }
     }
 }
 
@@ -48,8 +51,15 @@ impl Default for SweepOptions {
 pub enum Sweep {
     Clear,
     /// First contact at fraction `s` of the step.
-    Contact { s: f64, collision: Collision },
-    Unknown { a: Body, b: Body, reason: String },
+    Contact {
+        s: f64,
+        collision: Collision,
+    },
+    Unknown {
+        a: Body,
+        b: Body,
+        reason: String,
+    },
 }
 
 /// `B_j` (m) for every entry of `links.links`: the largest distance any point of link j's solid
@@ -62,7 +72,9 @@ pub fn motion_bounds(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64]) 
             let j = &robot.joints[k];
             let a = fk::link_transform(robot.convention, j, q0[k]);
             let b = fk::link_transform(robot.convention, j, q1[k]);
-            let t = |m: &nalgebra::Matrix4<f64>| (m[(0, 3)].powi(2) + m[(1, 3)].powi(2) + m[(2, 3)].powi(2)).sqrt();
+            let t = |m: &nalgebra::Matrix4<f64>| {
+                (m[(0, 3)].powi(2) + m[(1, 3)].powi(2) + m[(2, 3)].powi(2)).sqrt()
+            };
             t(&a).max(t(&b))
         })
         .collect();
@@ -73,7 +85,8 @@ pub fn motion_bounds(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64]) 
         let mut rho: f64 = 0.0;
         for c in 0..8 {
             let s = |bit: usize| if c >> bit & 1 == 1 { 1.0 } else { -1.0 };
-            let corner = bb.center + nalgebra::Vector3::new(s(0) * bb.half.x, s(1) * bb.half.y, s(2) * bb.half.z);
+            let corner = bb.center
+                + nalgebra::Vector3::new(s(0) * bb.half.x, s(1) * bb.half.y, s(2) * bb.half.z);
             rho = rho.max((l.offset * corner).coords.norm());
         }
         rho += l.solid.tessellation_error;
@@ -114,7 +127,15 @@ enum Target<'a> {
 /// Sweeps the robot from `q0` to `q1` (one MOVEJI step) against the in-use objects of `scene`
 /// and, if `self_collision`, its own non-adjacent link pairs; exact-mode distances throughout,
 /// whatever mode the discrete checks use. See the module docs for what is guaranteed.
-pub fn sweep_robot(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64], scene: &Scene, self_collision: bool, opts: &SweepOptions) -> Result<Sweep, CheckError> {
+pub fn sweep_robot(
+    robot: &Robot,
+    links: &LinkSolids,
+    q0: &[f64],
+    q1: &[f64],
+    scene: &Scene,
+    self_collision: bool,
+    opts: &SweepOptions,
+) -> Result<Sweep, CheckError> {
     robot.check_q(q0)?;
     robot.check_q(q1)?;
     check_link_count(robot, links)?;
@@ -123,7 +144,9 @@ pub fn sweep_robot(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64], sc
     let mut pairs: Vec<(usize, Target)> = Vec::new();
     let mut cand = Vec::new();
     for (j, l) in links.links.iter().enumerate() {
-        let (Some(l), Some(p)) = (l, &p0[j]) else { continue };
+        let (Some(l), Some(p)) = (l, &p0[j]) else {
+            continue;
+        };
         let mut b = crate::bbox::world_box(&l.solid.bbox, p);
         b.half += nalgebra::Vector3::repeat(bounds[j] + l.solid.tessellation_error);
         cand.clear();
@@ -143,7 +166,13 @@ pub fn sweep_robot(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64], sc
     for (j, target) in &pairs {
         let Some(lj) = &links.links[*j] else { continue };
         let (bound, body_b) = match target {
-            Target::Object(oi, _, _) => (bounds[*j], Body::Object { index: *oi, name: scene.objects()[*oi].name.clone() }),
+            Target::Object(oi, _, _) => (
+                bounds[*j],
+                Body::Object {
+                    index: *oi,
+                    name: scene.objects()[*oi].name.clone(),
+                },
+            ),
             Target::Link(i) => (bounds[*j] + bounds[*i], Body::Link(*i)),
         };
         // Only a contact earlier than the best so far matters.
@@ -153,7 +182,14 @@ pub fn sweep_robot(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64], sc
         loop {
             iterations += 1;
             if iterations > opts.max_iterations {
-                return Ok(Sweep::Unknown { a: Body::Link(*j), b: body_b, reason: format!("conservative advancement stopped after {} iterations at s = {s:.6}", opts.max_iterations) });
+                return Ok(Sweep::Unknown {
+                    a: Body::Link(*j),
+                    b: body_b,
+                    reason: format!(
+                        "conservative advancement stopped after {} iterations at s = {s:.6}",
+                        opts.max_iterations
+                    ),
+                });
             }
             let lp = link_poses(robot, links, &lerp(q0, q1, s));
             let Some(pj) = lp[*j] else { break };
@@ -164,18 +200,48 @@ pub fn sweep_robot(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64], sc
                     _ => break,
                 },
             };
-            let r = exact::collide(&lj.solid, &pj, solid_b, &pose_b, ExactOptions { distance: true, depth: true });
+            let r = exact::collide(
+                &lj.solid,
+                &pj,
+                solid_b,
+                &pose_b,
+                ExactOptions {
+                    distance: true,
+                    depth: true,
+                },
+            );
             let (d, witness) = match r {
-                PairResult::Clear { distance: Some(d), witness } => (d, witness),
+                PairResult::Clear {
+                    distance: Some(d),
+                    witness,
+                } => (d, witness),
                 PairResult::Clear { distance: None, .. } => {
-                    return Ok(Sweep::Unknown { a: Body::Link(*j), b: body_b, reason: "no distance from the exact mode".into() });
+                    return Ok(Sweep::Unknown {
+                        a: Body::Link(*j),
+                        b: body_b,
+                        reason: "no distance from the exact mode".into(),
+                    });
                 }
                 PairResult::Contact { witness, .. } => (0.0, witness),
-                PairResult::Unknown { reason } => return Ok(Sweep::Unknown { a: Body::Link(*j), b: body_b, reason }),
+                PairResult::Unknown { reason } => {
+                    return Ok(Sweep::Unknown {
+                        a: Body::Link(*j),
+                        b: body_b,
+                        reason,
+                    });
+                }
             };
             if d <= opts.tolerance {
                 if first.as_ref().is_none_or(|(s0, _)| s < *s0) {
-                    first = Some((s, Collision { a: Body::Link(*j), b: body_b.clone(), signed_distance: Some(d), witness }));
+                    first = Some((
+                        s,
+                        Collision {
+                            a: Body::Link(*j),
+                            b: body_b.clone(),
+                            signed_distance: Some(d),
+                            witness,
+                        },
+                    ));
                 }
                 break;
             }

@@ -26,7 +26,10 @@ pub struct ExactOptions {
 
 impl Default for ExactOptions {
     fn default() -> Self {
-        ExactOptions { distance: true, depth: true }
+        ExactOptions {
+            distance: true,
+            depth: true,
+        }
     }
 }
 
@@ -43,10 +46,20 @@ fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> 
 
 /// Boolean only: do the exact solids touch or overlap? `Err` carries the reason when parry
 /// cannot decide (unsupported pair).
-pub fn intersects(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> Result<bool, String> {
+pub fn intersects(
+    a: &Solid,
+    pa: &Isometry3<f64>,
+    b: &Solid,
+    pb: &Isometry3<f64>,
+) -> Result<bool, String> {
     let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
-    let hit = query::intersection_test(&ga, a.exact.as_ref(), &gb, b.exact.as_ref())
-        .map_err(|_| format!("parry has no intersection test for {:?} against {:?}", a.kind, b.kind))?;
+    let hit =
+        query::intersection_test(&ga, a.exact.as_ref(), &gb, b.exact.as_ref()).map_err(|_| {
+            format!(
+                "parry has no intersection test for {:?} against {:?}",
+                a.kind, b.kind
+            )
+        })?;
     if hit {
         return Ok(true);
     }
@@ -55,14 +68,21 @@ pub fn intersects(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>
 
 /// Containment for non-convex meshes (the surfaces do not meet): a point of one inside the
 /// other. Returns the world point, `Err` when a mesh is open and the other could be inside it.
-fn contained(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> Result<Option<Point3<f64>>, String> {
+fn contained(
+    a: &Solid,
+    pa: &Isometry3<f64>,
+    b: &Solid,
+    pb: &Isometry3<f64>,
+) -> Result<Option<Point3<f64>>, String> {
     for (s, ps, o, po) in [(a, pa, b, pb), (b, pb, a, pa)] {
         if s.kind == SolidKind::Mesh {
             let p = po * o.interior_point();
             match inside_mesh(s, ps, &p) {
                 Some(true) => return Ok(Some(p)),
                 Some(false) => {}
-                None => return Err("containment undecidable: the mesh is not a closed surface".into()),
+                None => {
+                    return Err("containment undecidable: the mesh is not a closed surface".into());
+                }
             }
         }
     }
@@ -71,32 +91,60 @@ fn contained(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> 
 
 /// The exact mode for two solids posed by `pa`, `pb` (solid → world). Contact includes
 /// touching (distance 0). Distances in metres; witness points in the world frame.
-pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, opts: ExactOptions) -> PairResult {
+pub fn collide(
+    a: &Solid,
+    pa: &Isometry3<f64>,
+    b: &Solid,
+    pb: &Isometry3<f64>,
+    opts: ExactOptions,
+) -> PairResult {
     let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
     let (sa, sb) = (a.exact.as_ref(), b.exact.as_ref());
     let hit = match query::intersection_test(&ga, sa, &gb, sb) {
         Ok(h) => h,
-        Err(_) => return PairResult::Unknown { reason: format!("parry has no intersection test for {:?} against {:?}", a.kind, b.kind) },
+        Err(_) => {
+            return PairResult::Unknown {
+                reason: format!(
+                    "parry has no intersection test for {:?} against {:?}",
+                    a.kind, b.kind
+                ),
+            };
+        }
     };
     if hit {
         if !opts.depth {
-            return PairResult::Contact { signed_distance: None, witness: None };
+            return PairResult::Contact {
+                signed_distance: None,
+                witness: None,
+            };
         }
         return match query::contact(&ga, sa, &gb, sb, 0.0) {
-            Ok(Some(c)) if c.dist.is_finite() => {
-                PairResult::Contact { signed_distance: Some(c.dist.min(0.0)), witness: Some([c.point1, c.point2]) }
-            }
+            Ok(Some(c)) if c.dist.is_finite() => PairResult::Contact {
+                signed_distance: Some(c.dist.min(0.0)),
+                witness: Some([c.point1, c.point2]),
+            },
             // Intersecting for sure, depth not computable (EPA gave up): the boolean stands.
-            _ => PairResult::Contact { signed_distance: None, witness: None },
+            _ => PairResult::Contact {
+                signed_distance: None,
+                witness: None,
+            },
         };
     }
     match contained(a, pa, b, pb) {
-        Ok(Some(p)) => return PairResult::Contact { signed_distance: None, witness: Some([p, p]) },
+        Ok(Some(p)) => {
+            return PairResult::Contact {
+                signed_distance: None,
+                witness: Some([p, p]),
+            };
+        }
         Ok(None) => {}
         Err(reason) => return PairResult::Unknown { reason },
     }
     if !opts.distance {
-        return PairResult::Clear { distance: None, witness: None };
+        return PairResult::Clear {
+            distance: None,
+            witness: None,
+        };
     }
     // The distance is taken from the closest points, not from `query::distance`: parry
     // 0.25.3's cuboid–cuboid distance applies the relative pose twice and returns wrong values
@@ -104,19 +152,43 @@ pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, o
     let (p1, p2) = match query::closest_points(&ga, sa, &gb, sb, f64::MAX) {
         Ok(ClosestPoints::WithinMargin(p1, p2)) => (p1, p2),
         // The boolean said apart, the closest points say touching: report the contact.
-        Ok(ClosestPoints::Intersecting) => return PairResult::Contact { signed_distance: Some(0.0), witness: None },
-        Ok(ClosestPoints::Disjoint) => return PairResult::Unknown { reason: "parry found no closest points within an unbounded margin".into() },
-        Err(_) => return PairResult::Unknown { reason: format!("parry has no closest points for {:?} against {:?}", a.kind, b.kind) },
+        Ok(ClosestPoints::Intersecting) => {
+            return PairResult::Contact {
+                signed_distance: Some(0.0),
+                witness: None,
+            };
+        }
+        Ok(ClosestPoints::Disjoint) => {
+            return PairResult::Unknown {
+                reason: "parry found no closest points within an unbounded margin".into(),
+            };
+        }
+        Err(_) => {
+            return PairResult::Unknown {
+                reason: format!(
+                    "parry has no closest points for {:?} against {:?}",
+                    a.kind, b.kind
+                ),
+            };
+        }
     };
     let d = (p1 - p2).norm();
     if !d.is_finite() {
-        return PairResult::Unknown { reason: format!("parry returned non-finite closest points ({p1}, {p2})") };
+        return PairResult::Unknown {
+            reason: format!("parry returned non-finite closest points ({p1}, {p2})"),
+        };
     }
     let witness = Some([p1, p2]);
     if d <= 0.0 {
-        return PairResult::Contact { signed_distance: Some(0.0), witness };
+        return PairResult::Contact {
+            signed_distance: Some(0.0),
+            witness,
+        };
     }
-    PairResult::Clear { distance: Some(d), witness }
+    PairResult::Clear {
+        distance: Some(d),
+        witness,
+    }
 }
 
 #[cfg(test)]
@@ -129,14 +201,31 @@ mod tests {
     /// If this starts failing, parry was fixed and `collide` may use `query::distance` again.
     #[test]
     fn parry_0_25_3_cuboid_distance_applies_pos12_twice() {
-        let a = Solid::cuboid(Vector3::new(0.9633194686062108, 0.24207674294621406, 1.2955195452323596)).expect("box");
-        let b = Solid::cuboid(Vector3::new(0.3183332593024064, 1.2696940781946295, 1.110674347378684)).expect("box");
+        let a = Solid::cuboid(Vector3::new(
+            0.9633194686062108,
+            0.24207674294621406,
+            1.2955195452323596,
+        ))
+        .expect("box");
+        let b = Solid::cuboid(Vector3::new(
+            0.3183332593024064,
+            1.2696940781946295,
+            1.110674347378684,
+        ))
+        .expect("box");
         let pa = Isometry3::identity();
         let pb = Isometry3::translation(0.4104713062568375, 0.44497323079839385, 1.476523080865861);
         let expected = 1.476523080865861 - (1.2955195452323596 + 1.110674347378684) / 2.0;
-        let parry = query::distance(&pa, a.exact.as_ref(), &pb, b.exact.as_ref()).expect("supported");
-        assert!((parry - expected).abs() > 1e-3, "parry's cuboid distance is right now: {parry}");
+        let parry =
+            query::distance(&pa, a.exact.as_ref(), &pb, b.exact.as_ref()).expect("supported");
+        assert!(
+            (parry - expected).abs() > 1e-3,
+            "parry's cuboid distance is right now: {parry}"
+        );
         let ours = collide(&a, &pa, &b, &pb, ExactOptions::default());
-        assert!((ours.signed_distance().expect("distance") - expected).abs() < 1e-12, "{ours:?} vs {expected}");
+        assert!(
+            (ours.signed_distance().expect("distance") - expected).abs() < 1e-12,
+            "{ours:?} vs {expected}"
+        );
     }
 }

@@ -28,17 +28,23 @@ pub mod report;
 pub mod robot;
 mod solid;
 
+pub use exact::ExactOptions;
 pub use outcome::{Mode, PairResult};
 pub use polygon::PolygonOptions;
-pub use exact::ExactOptions;
-pub use solid::{default_facets, Piece, ShapeError, Solid, SolidKind, DEFAULT_CHORD_ERROR};
+pub use solid::{DEFAULT_CHORD_ERROR, Piece, ShapeError, Solid, SolidKind, default_facets};
 
 use nalgebra::Isometry3;
 
 /// One pair of solids posed by `pa`, `pb` (solid → world) in the given mode, with each mode's
 /// default options (polygon: containment check on; exact: distance and depth computed).
 /// Symmetric: `collide(b, a)` gives the same verdict with the witness points swapped.
-pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, mode: Mode) -> PairResult {
+pub fn collide(
+    a: &Solid,
+    pa: &Isometry3<f64>,
+    b: &Solid,
+    pb: &Isometry3<f64>,
+    mode: Mode,
+) -> PairResult {
     match mode {
         Mode::BBox => bbox::collide(a, pa, b, pb),
         Mode::Polygon => polygon::collide(a, pa, b, pb, PolygonOptions::default()),

@@ -34,11 +34,17 @@ impl Mode {
 pub enum PairResult {
     /// The bodies do not touch. `distance` (> 0) and the closest points (on a, on b) are given
     /// when the mode computes them (exact mode).
-    Clear { distance: Option<f64>, witness: Option<[Point3<f64>; 2]> },
+    Clear {
+        distance: Option<f64>,
+        witness: Option<[Point3<f64>; 2]>,
+    },
     /// The bodies touch or overlap. `signed_distance` ≤ 0 is minus the penetration depth (exact
     /// mode, when EPA gives it); `witness` are the deepest points (exact) or the point where an
     /// edge pierces a polygon (polygon mode). The bbox mode gives neither.
-    Contact { signed_distance: Option<f64>, witness: Option<[Point3<f64>; 2]> },
+    Contact {
+        signed_distance: Option<f64>,
+        witness: Option<[Point3<f64>; 2]>,
+    },
     /// The mode could not decide; the reason says why. Treat as "maybe colliding".
     Unknown { reason: String },
 }
@@ -59,7 +65,9 @@ impl PairResult {
     pub fn signed_distance(&self) -> Option<f64> {
         match self {
             PairResult::Clear { distance, .. } => *distance,
-            PairResult::Contact { signed_distance, .. } => *signed_distance,
+            PairResult::Contact {
+                signed_distance, ..
+            } => *signed_distance,
             PairResult::Unknown { .. } => None,
         }
     }
@@ -72,10 +80,17 @@ impl PairResult {
     /// The same answer with the roles of a and b exchanged (witness points swapped).
     pub fn swapped(self) -> Self {
         match self {
-            PairResult::Clear { distance, witness } => PairResult::Clear { distance, witness: witness.map(|[a, b]| [b, a]) },
-            PairResult::Contact { signed_distance, witness } => {
-                PairResult::Contact { signed_distance, witness: witness.map(|[a, b]| [b, a]) }
-            }
+            PairResult::Clear { distance, witness } => PairResult::Clear {
+                distance,
+                witness: witness.map(|[a, b]| [b, a]),
+            },
+            PairResult::Contact {
+                signed_distance,
+                witness,
+            } => PairResult::Contact {
+                signed_distance,
+                witness: witness.map(|[a, b]| [b, a]),
+            },
             u => u,
         }
     }

@@ -79,7 +79,12 @@ pub fn segment_meets_box(p: &Point3<f64>, q: &Point3<f64>, b: &Aabb) -> bool {
 /// residues have different signs…"): `None` if both ends are strictly on one side, or if the
 /// segment lies in the plane (see [`segment_in_plane_meets_polygon`]).
 #[inline]
-pub fn segment_crosses_plane(p: &Point3<f64>, q: &Point3<f64>, rp: f64, rq: f64) -> Option<Point3<f64>> {
+pub fn segment_crosses_plane(
+    p: &Point3<f64>,
+    q: &Point3<f64>,
+    rp: f64,
+    rq: f64,
+) -> Option<Point3<f64>> {
     if (rp > 0.0 && rq > 0.0) || (rp < 0.0 && rq < 0.0) || (rp == 0.0 && rq == 0.0) {
         return None;
     }
@@ -96,7 +101,11 @@ pub fn point_in_polygon(p: &Point3<f64>, penalties: &[Plane]) -> bool {
 
 /// A segment lying in a polygon's plane meets the polygon iff the part of it on the inner side
 /// of every penalty plane is non-empty (Cyrus–Beck clipping). Returns a point of the overlap.
-pub fn segment_in_plane_meets_polygon(p: &Point3<f64>, q: &Point3<f64>, penalties: &[Plane]) -> Option<Point3<f64>> {
+pub fn segment_in_plane_meets_polygon(
+    p: &Point3<f64>,
+    q: &Point3<f64>,
+    penalties: &[Plane],
+) -> Option<Point3<f64>> {
     let (mut t0, mut t1) = (0.0_f64, 1.0_f64);
     for pen in penalties {
         let (a, b) = (pen.signed_distance(p), pen.signed_distance(q));
@@ -121,14 +130,17 @@ pub fn segment_in_plane_meets_polygon(p: &Point3<f64>, q: &Point3<f64>, penaltie
 pub fn point_in_piece(p: &Point3<f64>, piece: &Piece) -> Option<bool> {
     let poly = &piece.poly;
     if piece.convex {
-        return Some(poly.polygons.iter().all(|pg| pg.plane.signed_distance(p) <= 0.0));
+        return Some(
+            poly.polygons
+                .iter()
+                .all(|pg| pg.plane.signed_distance(p) <= 0.0),
+        );
     }
     if !piece.closed {
         return None;
     }
     // A ray in a direction unlikely to graze an edge of modelled geometry.
-    let dir = Vector3::new(0.5773502691896258, 0.5773502691896257, 0.5773502691896259).normalize()
-        + Vector3::new(1.234e-3, -2.71e-4, 3.1e-5);
+    let dir = Vector3::new(1.0 + 2.1e-3, 1.0 - 4.7e-4, 1.0 + 5.3e-5).normalize();
     let far = p + dir * (4.0 * (poly.bbox.half.norm() + (p - poly.bbox.center).norm()) + 1.0);
     let mut crossings = 0usize;
     for i in 0..poly.polygons.len() {
@@ -149,7 +161,13 @@ pub fn point_in_piece(p: &Point3<f64>, piece: &Piece) -> Option<bool> {
 /// One direction of POCODA (steps 2–4): edges of `src` (whose vertices, carried into `dst`'s
 /// frame, are `src_v`, and whose frame maps into dst's by `t`) against polygons of `dst`.
 /// Returns the piercing point in dst's frame.
-fn one_way(src: &Piece, src_v: &[Point3<f64>], t: &Isometry3<f64>, dst: &Piece, scratch: &mut Vec<u32>) -> Option<Point3<f64>> {
+fn one_way(
+    src: &Piece,
+    src_v: &[Point3<f64>],
+    t: &Isometry3<f64>,
+    dst: &Piece,
+    scratch: &mut Vec<u32>,
+) -> Option<Point3<f64>> {
     let dst_box = &dst.poly.bbox;
     // Step 3 with the seed's improvement: polygon planes of src first, then its edges.
     let ne = src.poly.edges.len();
@@ -173,7 +191,11 @@ fn one_way(src: &Piece, src_v: &[Point3<f64>], t: &Isometry3<f64>, dst: &Piece, 
         return None;
     }
     // Box of (src, dst): the box of the reduced edges' ends is enough and tighter.
-    let src_box = Aabb::from_points(reduced.iter().flat_map(|e| [&src_v[e[0] as usize], &src_v[e[1] as usize]]))?;
+    let src_box = Aabb::from_points(
+        reduced
+            .iter()
+            .flat_map(|e| [&src_v[e[0] as usize], &src_v[e[1] as usize]]),
+    )?;
     // Step 4.
     for i in 0..dst.poly.polygons.len() {
         let pl = &dst.poly.polygons[i].plane;
@@ -200,7 +222,13 @@ fn one_way(src: &Piece, src_v: &[Point3<f64>], t: &Isometry3<f64>, dst: &Piece, 
 
 /// POCODA between two pieces posed by `ta`, `tb` (piece → world). Returns a world point of
 /// contact, or `None` (clear), or `Err` when containment could not be decided for an open piece.
-pub fn collide_pieces(a: &Piece, ta: &Isometry3<f64>, b: &Piece, tb: &Isometry3<f64>, opts: PolygonOptions) -> Result<Option<Point3<f64>>, String> {
+pub fn collide_pieces(
+    a: &Piece,
+    ta: &Isometry3<f64>,
+    b: &Piece,
+    tb: &Isometry3<f64>,
+    opts: PolygonOptions,
+) -> Result<Option<Point3<f64>>, String> {
     if !overlap_two_way(&a.poly.bbox, ta, &b.poly.bbox, tb) {
         return Ok(None);
     }
@@ -222,13 +250,21 @@ pub fn collide_pieces(a: &Piece, ta: &Isometry3<f64>, b: &Piece, tb: &Isometry3<
         match point_in_piece(&va, b) {
             Some(true) => return Ok(Some(tb * va)),
             Some(false) => {}
-            None => return Err("containment undecidable: the piece of b is not a closed surface".into()),
+            None => {
+                return Err(
+                    "containment undecidable: the piece of b is not a closed surface".into(),
+                );
+            }
         }
         let vb = b_in_a[b.poly.indices[0] as usize];
         match point_in_piece(&vb, a) {
             Some(true) => return Ok(Some(ta * vb)),
             Some(false) => {}
-            None => return Err("containment undecidable: the piece of a is not a closed surface".into()),
+            None => {
+                return Err(
+                    "containment undecidable: the piece of a is not a closed surface".into(),
+                );
+            }
         }
     }
     Ok(None)
@@ -236,15 +272,29 @@ pub fn collide_pieces(a: &Piece, ta: &Isometry3<f64>, b: &Piece, tb: &Isometry3<
 
 /// The polygon mode for two solids posed by `pa`, `pb` (solid → world): POCODA over every pair
 /// of faceted pieces. The witness is the point where an edge pierces a polygon (both entries).
-pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, opts: PolygonOptions) -> PairResult {
+pub fn collide(
+    a: &Solid,
+    pa: &Isometry3<f64>,
+    b: &Solid,
+    pb: &Isometry3<f64>,
+    opts: PolygonOptions,
+) -> PairResult {
     if !overlap_two_way(&a.bbox, pa, &b.bbox, pb) {
-        return PairResult::Clear { distance: None, witness: None };
+        return PairResult::Clear {
+            distance: None,
+            witness: None,
+        };
     }
     let mut doubt = None;
     for pa_piece in &a.pieces {
         for pb_piece in &b.pieces {
             match collide_pieces(pa_piece, pa, pb_piece, pb, opts) {
-                Ok(Some(x)) => return PairResult::Contact { signed_distance: None, witness: Some([x, x]) },
+                Ok(Some(x)) => {
+                    return PairResult::Contact {
+                        signed_distance: None,
+                        witness: Some([x, x]),
+                    };
+                }
                 Ok(None) => {}
                 Err(reason) => doubt = Some(reason),
             }
@@ -252,7 +302,10 @@ pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, o
     }
     match doubt {
         Some(reason) => PairResult::Unknown { reason },
-        None => PairResult::Clear { distance: None, witness: None },
+        None => PairResult::Clear {
+            distance: None,
+            witness: None,
+        },
     }
 }
 
@@ -263,10 +316,22 @@ mod tests {
     fn square_penalties() -> Vec<Plane> {
         // unit square in z = 0, CCW from +z: sides' outward normals −y, +x, +y, −x
         vec![
-            Plane { normal: -Vector3::y(), d: 0.0 },
-            Plane { normal: Vector3::x(), d: -1.0 },
-            Plane { normal: Vector3::y(), d: -1.0 },
-            Plane { normal: -Vector3::x(), d: 0.0 },
+            Plane {
+                normal: -Vector3::y(),
+                d: 0.0,
+            },
+            Plane {
+                normal: Vector3::x(),
+                d: -1.0,
+            },
+            Plane {
+                normal: Vector3::y(),
+                d: -1.0,
+            },
+            Plane {
+                normal: -Vector3::x(),
+                d: 0.0,
+            },
         ]
     }
 
@@ -275,7 +340,10 @@ mod tests {
         let pens = square_penalties();
         assert!(point_in_polygon(&Point3::new(0.5, 0.5, 0.0), &pens));
         assert!(point_in_polygon(&Point3::new(1.0, 0.5, 0.0), &pens));
-        assert!(!point_in_polygon(&Point3::new(1.0 + 1e-12, 0.5, 0.0), &pens));
+        assert!(!point_in_polygon(
+            &Point3::new(1.0 + 1e-12, 0.5, 0.0),
+            &pens
+        ));
     }
 
     #[test]
@@ -290,17 +358,58 @@ mod tests {
     #[test]
     fn coplanar_segment_clipped_by_penalties() {
         let pens = square_penalties();
-        assert!(segment_in_plane_meets_polygon(&Point3::new(-1.0, 0.5, 0.0), &Point3::new(2.0, 0.5, 0.0), &pens).is_some());
-        assert!(segment_in_plane_meets_polygon(&Point3::new(-1.0, 1.5, 0.0), &Point3::new(2.0, 1.5, 0.0), &pens).is_none());
+        assert!(
+            segment_in_plane_meets_polygon(
+                &Point3::new(-1.0, 0.5, 0.0),
+                &Point3::new(2.0, 0.5, 0.0),
+                &pens
+            )
+            .is_some()
+        );
+        assert!(
+            segment_in_plane_meets_polygon(
+                &Point3::new(-1.0, 1.5, 0.0),
+                &Point3::new(2.0, 1.5, 0.0),
+                &pens
+            )
+            .is_none()
+        );
     }
 
     #[test]
     fn plane_and_segment_box_tests() {
-        let b = Aabb { center: Point3::origin(), half: Vector3::new(1.0, 1.0, 1.0) };
-        assert!(plane_meets_box(&Plane { normal: Vector3::new(1.0, 1.0, 1.0).normalize(), d: -3f64.sqrt() }, &b));
-        assert!(!plane_meets_box(&Plane { normal: Vector3::new(1.0, 1.0, 1.0).normalize(), d: -1.8 }, &b));
-        assert!(segment_meets_box(&Point3::new(-5.0, 0.0, 0.0), &Point3::new(5.0, 0.0, 0.0), &b));
-        assert!(!segment_meets_box(&Point3::new(-5.0, 1.5, 0.0), &Point3::new(5.0, 1.5, 0.0), &b));
-        assert!(segment_meets_box(&Point3::new(1.0, 1.0, 1.0), &Point3::new(5.0, 5.0, 5.0), &b));
+        let b = Aabb {
+            center: Point3::origin(),
+            half: Vector3::new(1.0, 1.0, 1.0),
+        };
+        assert!(plane_meets_box(
+            &Plane {
+                normal: Vector3::new(1.0, 1.0, 1.0).normalize(),
+                d: -3f64.sqrt()
+            },
+            &b
+        ));
+        assert!(!plane_meets_box(
+            &Plane {
+                normal: Vector3::new(1.0, 1.0, 1.0).normalize(),
+                d: -1.8
+            },
+            &b
+        ));
+        assert!(segment_meets_box(
+            &Point3::new(-5.0, 0.0, 0.0),
+            &Point3::new(5.0, 0.0, 0.0),
+            &b
+        ));
+        assert!(!segment_meets_box(
+            &Point3::new(-5.0, 1.5, 0.0),
+            &Point3::new(5.0, 1.5, 0.0),
+            &b
+        ));
+        assert!(segment_meets_box(
+            &Point3::new(1.0, 1.0, 1.0),
+            &Point3::new(5.0, 5.0, 5.0),
+            &b
+        ));
     }
 }

@@ -19,11 +19,15 @@
 //! Entry points: [`dispatch`], [`solid_from_json`], [`pose_from_json`].
 
 use crate::outcome::{Mode, PairResult};
-use crate::robot::{check_robot, Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene};
+use crate::robot::{
+    Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
+};
 use crate::solid::Solid;
 use nalgebra::{Isometry3, Point3, Vector3};
-use robosim_kinematics::{builtin_robot, matrix4_from_json, number, number_array, robot_from_json, Robot};
-use serde_json::{json, Map, Value};
+use robosim_kinematics::{
+    Robot, builtin_robot, matrix4_from_json, number, number_array, robot_from_json,
+};
+use serde_json::{Map, Value, json};
 use std::sync::Arc;
 
 /// A failed request: `kind` is machine-readable, `message` names the field and the reason.
@@ -36,7 +40,10 @@ pub struct QueryError {
 
 impl QueryError {
     fn new(kind: &str, message: impl Into<String>) -> Self {
-        QueryError { kind: kind.to_owned(), message: message.into() }
+        QueryError {
+            kind: kind.to_owned(),
+            message: message.into(),
+        }
     }
 }
 
@@ -45,7 +52,11 @@ fn bad(message: impl Into<String>) -> QueryError {
 }
 
 /// Answers `collide` and `check`; `None` for any other op.
-pub fn dispatch(op: &str, req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Option<Result<Value, QueryError>> {
+pub fn dispatch(
+    op: &str,
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Option<Result<Value, QueryError>> {
     match op {
         "collide" => Some(op_collide(req)),
         "check" => Some(op_check(req, robots)),
@@ -54,7 +65,8 @@ pub fn dispatch(op: &str, req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -
 }
 
 fn field<'a>(v: &'a Value, key: &str, path: &str) -> Result<&'a Value, QueryError> {
-    v.get(key).ok_or_else(|| bad(format!("{path}.{key}: missing")))
+    v.get(key)
+        .ok_or_else(|| bad(format!("{path}.{key}: missing")))
 }
 
 fn num(v: &Value, key: &str, path: &str) -> Result<f64, QueryError> {
@@ -62,23 +74,36 @@ fn num(v: &Value, key: &str, path: &str) -> Result<f64, QueryError> {
 }
 
 fn point_list(v: &Value, path: &str) -> Result<Vec<Point3<f64>>, QueryError> {
-    let arr = v.as_array().ok_or_else(|| bad(format!("{path}: expected an array of [x, y, z]")))?;
+    let arr = v
+        .as_array()
+        .ok_or_else(|| bad(format!("{path}: expected an array of [x, y, z]")))?;
     arr.iter()
         .enumerate()
         .map(|(i, p)| {
             let c = number_array(p, &format!("{path}[{i}]")).map_err(|e| bad(e.to_string()))?;
             if c.len() != 3 {
-                return Err(bad(format!("{path}[{i}]: expected 3 numbers, got {}", c.len())));
+                return Err(bad(format!(
+                    "{path}[{i}]: expected 3 numbers, got {}",
+                    c.len()
+                )));
             }
             Ok(Point3::new(c[0], c[1], c[2]))
         })
         .collect()
 }
 
-fn check_keys(obj: &Map<String, Value>, allowed: &[&str], extra: &[&str], path: &str) -> Result<(), QueryError> {
+fn check_keys(
+    obj: &Map<String, Value>,
+    allowed: &[&str],
+    extra: &[&str],
+    path: &str,
+) -> Result<(), QueryError> {
     for k in obj.keys() {
         if !allowed.contains(&k.as_str()) && !extra.contains(&k.as_str()) {
-            return Err(bad(format!("{path}.{k}: unknown field (expected one of {:?})", [allowed, extra].concat())));
+            return Err(bad(format!(
+                "{path}.{k}: unknown field (expected one of {:?})",
+                [allowed, extra].concat()
+            )));
         }
     }
     Ok(())
@@ -88,28 +113,48 @@ fn check_keys(obj: &Map<String, Value>, allowed: &[&str], extra: &[&str], path: 
 pub fn pose_from_json(v: &Value, path: &str) -> Result<Isometry3<f64>, QueryError> {
     let m = matrix4_from_json(v, path).map_err(|e| bad(e.to_string()))?;
     let r = m.fixed_view::<3, 3>(0, 0);
-    let err = (r.transpose() * r - nalgebra::Matrix3::identity()).abs().max();
-    if !(err < 1e-9 && (r.determinant() - 1.0).abs() < 1e-9 && m[(3, 0)] == 0.0 && m[(3, 1)] == 0.0 && m[(3, 2)] == 0.0 && m[(3, 3)] == 1.0) {
-        return Err(bad(format!("{path}: not a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)")));
+    let err = (r.transpose() * r - nalgebra::Matrix3::identity())
+        .abs()
+        .max();
+    if !(err < 1e-9
+        && (r.determinant() - 1.0).abs() < 1e-9
+        && m[(3, 0)] == 0.0
+        && m[(3, 1)] == 0.0
+        && m[(3, 2)] == 0.0
+        && m[(3, 3)] == 1.0)
+    {
+        return Err(bad(format!(
+            "{path}: not a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)"
+        )));
     }
     Ok(crate::robot::isometry_from_matrix(&m))
 }
 
 /// A solid from DESIGN.md's shape JSON. `extra` lists keys the caller handles (name, pose…).
 pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, QueryError> {
-    let obj = v.as_object().ok_or_else(|| bad(format!("{path}: expected a shape object")))?;
-    let kind = obj.get("shape").and_then(Value::as_str).ok_or_else(|| bad(format!("{path}.shape: missing or not a string")))?;
+    let obj = v
+        .as_object()
+        .ok_or_else(|| bad(format!("{path}: expected a shape object")))?;
+    let kind = obj
+        .get("shape")
+        .and_then(Value::as_str)
+        .ok_or_else(|| bad(format!("{path}.shape: missing or not a string")))?;
     let facets = |o: &Map<String, Value>| -> Result<Option<usize>, QueryError> {
         match o.get("facets") {
             None | Some(Value::Null) => Ok(None),
-            Some(f) => f.as_u64().map(|n| Some(n as usize)).ok_or_else(|| bad(format!("{path}.facets: expected a positive integer"))),
+            Some(f) => f
+                .as_u64()
+                .map(|n| Some(n as usize))
+                .ok_or_else(|| bad(format!("{path}.facets: expected a positive integer"))),
         }
     };
-    let shape_err = |e: crate::solid::ShapeError| QueryError::new("bad_shape", format!("{path}: {e}"));
+    let shape_err =
+        |e: crate::solid::ShapeError| QueryError::new("bad_shape", format!("{path}: {e}"));
     match kind {
         "box" => {
             check_keys(obj, &["shape", "size"], extra, path)?;
-            let s = number_array(field(v, "size", path)?, &format!("{path}.size")).map_err(|e| bad(e.to_string()))?;
+            let s = number_array(field(v, "size", path)?, &format!("{path}.size"))
+                .map_err(|e| bad(e.to_string()))?;
             if s.len() != 3 {
                 return Err(bad(format!("{path}.size: expected 3 numbers")));
             }
@@ -121,28 +166,56 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, Q
         }
         "cylinder" | "cone" => {
             check_keys(obj, &["shape", "radius", "height", "facets"], extra, path)?;
-            let (r, h, f) = (num(v, "radius", path)?, num(v, "height", path)?, facets(obj)?);
-            if kind == "cylinder" { Solid::cylinder(r, h, f) } else { Solid::cone(r, h, f) }.map_err(shape_err)
+            let (r, h, f) = (
+                num(v, "radius", path)?,
+                num(v, "height", path)?,
+                facets(obj)?,
+            );
+            if kind == "cylinder" {
+                Solid::cylinder(r, h, f)
+            } else {
+                Solid::cone(r, h, f)
+            }
+            .map_err(shape_err)
         }
         "convex" => {
             check_keys(obj, &["shape", "points"], extra, path)?;
-            Solid::convex(&point_list(field(v, "points", path)?, &format!("{path}.points"))?).map_err(shape_err)
+            Solid::convex(&point_list(
+                field(v, "points", path)?,
+                &format!("{path}.points"),
+            )?)
+            .map_err(shape_err)
         }
         "mesh" => {
             check_keys(obj, &["shape", "vertices", "polygons"], extra, path)?;
             let verts = point_list(field(v, "vertices", path)?, &format!("{path}.vertices"))?;
-            let polys = field(v, "polygons", path)?.as_array().ok_or_else(|| bad(format!("{path}.polygons: expected an array of index lists")))?;
+            let polys = field(v, "polygons", path)?
+                .as_array()
+                .ok_or_else(|| bad(format!("{path}.polygons: expected an array of index lists")))?;
             let mut faces = Vec::with_capacity(polys.len());
             for (i, p) in polys.iter().enumerate() {
-                let ids = p.as_array().ok_or_else(|| bad(format!("{path}.polygons[{i}]: expected an array of vertex indices")))?;
-                let f: Option<Vec<u32>> = ids.iter().map(|x| x.as_u64().and_then(|n| u32::try_from(n).ok())).collect();
-                faces.push(f.ok_or_else(|| bad(format!("{path}.polygons[{i}]: indices must be non-negative integers")))?);
+                let ids = p.as_array().ok_or_else(|| {
+                    bad(format!(
+                        "{path}.polygons[{i}]: expected an array of vertex indices"
+                    ))
+                })?;
+                let f: Option<Vec<u32>> = ids
+                    .iter()
+                    .map(|x| x.as_u64().and_then(|n| u32::try_from(n).ok()))
+                    .collect();
+                faces.push(f.ok_or_else(|| {
+                    bad(format!(
+                        "{path}.polygons[{i}]: indices must be non-negative integers"
+                    ))
+                })?);
             }
             Solid::mesh(verts, &faces).map_err(shape_err)
         }
         "compound" => {
             check_keys(obj, &["shape", "parts"], extra, path)?;
-            let parts = field(v, "parts", path)?.as_array().ok_or_else(|| bad(format!("{path}.parts: expected an array")))?;
+            let parts = field(v, "parts", path)?
+                .as_array()
+                .ok_or_else(|| bad(format!("{path}.parts: expected an array")))?;
             let mut out = Vec::with_capacity(parts.len());
             for (i, p) in parts.iter().enumerate() {
                 let pp = format!("{path}.parts[{i}]");
@@ -151,7 +224,9 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, Q
             }
             Solid::compound(out).map_err(shape_err)
         }
-        other => Err(bad(format!("{path}.shape: unknown shape \"{other}\" (box, sphere, cylinder, cone, convex, mesh, compound)"))),
+        other => Err(bad(format!(
+            "{path}.shape: unknown shape \"{other}\" (box, sphere, cylinder, cone, convex, mesh, compound)"
+        ))),
     }
 }
 
@@ -162,7 +237,9 @@ fn mode_field(req: &Value) -> Result<Mode, QueryError> {
             "bbox" => Ok(Mode::BBox),
             "polygon" => Ok(Mode::Polygon),
             "exact" => Ok(Mode::Exact),
-            _ => Err(bad(format!("mode: \"{s}\" is not one of bbox, polygon, exact"))),
+            _ => Err(bad(format!(
+                "mode: \"{s}\" is not one of bbox, polygon, exact"
+            ))),
         },
         Some(_) => Err(bad("mode: expected a string")),
     }
@@ -216,11 +293,15 @@ fn op_collide(req: &Value) -> Result<Value, QueryError> {
 
 fn robot_field(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Robot, QueryError> {
     match field(req, "robot", "request")? {
-        Value::String(name) => robots(name)
-            .or_else(|| builtin_robot(name))
-            .ok_or_else(|| QueryError::new("unknown_robot", format!("robot: no robot named \"{name}\""))),
-        v @ Value::Object(_) => robot_from_json(v).map_err(|e| QueryError::new("bad_robot", e.to_string())),
-        _ => Err(bad("robot: expected a library name or an inline robot object")),
+        Value::String(name) => robots(name).or_else(|| builtin_robot(name)).ok_or_else(|| {
+            QueryError::new("unknown_robot", format!("robot: no robot named \"{name}\""))
+        }),
+        v @ Value::Object(_) => {
+            robot_from_json(v).map_err(|e| QueryError::new("bad_robot", e.to_string()))
+        }
+        _ => Err(bad(
+            "robot: expected a library name or an inline robot object",
+        )),
     }
 }
 
@@ -246,7 +327,10 @@ fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value
             None | Some(Value::Null) => Isometry3::identity(),
             Some(p) => pose_from_json(p, &format!("{path}.pose"))?,
         };
-        let name = o.get("name").and_then(Value::as_str).map_or_else(|| format!("object{i}"), str::to_owned);
+        let name = o
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("object{i}"), str::to_owned);
         let id = scene.add(name, Arc::new(solid), pose);
         if !bool_field(o, "use", true)? {
             scene.dont_use(id);
@@ -258,8 +342,14 @@ fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value
                 None | Some(Value::Null) => 0.04,
                 Some(v) => number(v, "link_radius").map_err(|e| bad(e.to_string()))?,
             };
-            let l = LinkSolids::from_dh(&robot, radius).map_err(|e| bad(format!("link_radius: {e}")))?;
-            (l, format!("assumed: boxes of half-width {radius} m along the DH segments (no link solids given)"))
+            let l = LinkSolids::from_dh(&robot, radius)
+                .map_err(|e| bad(format!("link_radius: {e}")))?;
+            (
+                l,
+                format!(
+                    "assumed: boxes of half-width {radius} m along the DH segments (no link solids given)"
+                ),
+            )
         }
         Some(Value::Array(arr)) => {
             let mut links = Vec::with_capacity(arr.len());
@@ -274,15 +364,30 @@ fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value
                     None | Some(Value::Null) => Isometry3::identity(),
                     Some(p) => pose_from_json(p, &format!("{path}.pose"))?,
                 };
-                links.push(Some(LinkSolid { solid: Arc::new(solid), offset }));
+                links.push(Some(LinkSolid {
+                    solid: Arc::new(solid),
+                    offset,
+                }));
             }
-            (LinkSolids { links, allowed: Vec::new() }, "given".to_owned())
+            (
+                LinkSolids {
+                    links,
+                    allowed: Vec::new(),
+                },
+                "given".to_owned(),
+            )
         }
-        Some(_) => return Err(bad("links: expected an array (base first, one entry per link, null for none)")),
+        Some(_) => {
+            return Err(bad(
+                "links: expected an array (base first, one entry per link, null for none)",
+            ));
+        }
     };
     let mut links = links;
     if let Some(a) = req.get("allowed") {
-        let arr = a.as_array().ok_or_else(|| bad("allowed: expected an array of [i, j] link pairs"))?;
+        let arr = a
+            .as_array()
+            .ok_or_else(|| bad("allowed: expected an array of [i, j] link pairs"))?;
         for (k, p) in arr.iter().enumerate() {
             let ij = number_array(p, &format!("allowed[{k}]")).map_err(|e| bad(e.to_string()))?;
             if ij.len() != 2 || ij.iter().any(|x| *x < 0.0 || x.fract() != 0.0) {

@@ -17,24 +17,26 @@
 //!
 //! Entry point: [`report_collision`].
 
-use crate::broad::{brute_force_pairs, BroadPhase, BvhBroadPhase, SweepAndPrune};
+use crate::broad::{BroadPhase, BvhBroadPhase, SweepAndPrune, brute_force_pairs};
 use crate::outcome::{Mode, PairResult};
 use crate::polygon::{self, PolygonOptions};
-use crate::robot::{check_links, link_poses, CheckResult, CollisionSettings, LinkSolids, Scene};
+use crate::robot::{CheckResult, CollisionSettings, LinkSolids, Scene, check_links, link_poses};
 use crate::solid::Solid;
-use crate::{bbox, exact, ExactOptions};
+use crate::{ExactOptions, bbox, exact};
 use nalgebra::{Isometry3, Point3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use robosim_geometry::Aabb;
 use robosim_kinematics::builtin_robot;
-use robosim_report::{percentile, write_report, Plot, Report, Series, Table};
+use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// Seconds per call of `f`, the median over `reps` repetitions of `inner` calls each.
+/// Seconds per call of `f`: the best (minimum) over `reps` repetitions of `inner` calls each.
+/// On a shared machine other processes only ever add time, so the minimum is the least noisy
+/// estimate of the cost itself.
 fn time_per_call(reps: usize, inner: usize, mut f: impl FnMut()) -> f64 {
     let mut samples: Vec<f64> = (0..reps)
         .map(|_| {
@@ -45,7 +47,7 @@ fn time_per_call(reps: usize, inner: usize, mut f: impl FnMut()) -> f64 {
             t.elapsed().as_secs_f64() / inner as f64
         })
         .collect();
-    percentile(&mut samples, 50.0)
+    percentile(&mut samples, 0.0)
 }
 
 fn random_solid(rng: &mut ChaCha8Rng, facets: Option<usize>) -> Solid {
@@ -62,10 +64,21 @@ fn random_solid(rng: &mut ChaCha8Rng, facets: Option<usize>) -> Solid {
 }
 
 fn random_pose(rng: &mut ChaCha8Rng, spread: f64) -> Isometry3<f64> {
-    let t = Vector3::new(rng.random_range(-spread..spread), rng.random_range(-spread..spread), rng.random_range(-spread..spread));
-    let r = Vector3::new(rng.random_range(-3.2..3.2), rng.random_range(-3.2..3.2), rng.random_range(-3.2..3.2));
+    let t = Vector3::new(
+        rng.random_range(-spread..spread),
+        rng.random_range(-spread..spread),
+        rng.random_range(-spread..spread),
+    );
+    let r = Vector3::new(
+        rng.random_range(-3.2..3.2),
+        rng.random_range(-3.2..3.2),
+        rng.random_range(-3.2..3.2),
+    );
     Isometry3::new(t, r)
 }
+
+/// Repetitions per timing (best of).
+const REPS: usize = 9;
 
 type Pair = (Solid, Isometry3<f64>, Solid, Isometry3<f64>);
 
@@ -74,6 +87,7 @@ enum Variant {
     BBox,
     Polygon,
     PolygonSeed,
+    ExactBool,
     Exact,
 }
 
@@ -83,6 +97,7 @@ impl Variant {
             Variant::BBox => "bbox",
             Variant::Polygon => "polygon",
             Variant::PolygonSeed => "polygon (seed: no containment test)",
+            Variant::ExactBool => "exact (boolean only)",
             Variant::Exact => "exact (boolean + depth)",
         }
     }
@@ -90,8 +105,34 @@ impl Variant {
         match self {
             Variant::BBox => bbox::collide(&p.0, &p.1, &p.2, &p.3),
             Variant::Polygon => polygon::collide(&p.0, &p.1, &p.2, &p.3, PolygonOptions::default()),
-            Variant::PolygonSeed => polygon::collide(&p.0, &p.1, &p.2, &p.3, PolygonOptions { containment: false }),
-            Variant::Exact => exact::collide(&p.0, &p.1, &p.2, &p.3, ExactOptions { distance: false, depth: true }),
+            Variant::PolygonSeed => polygon::collide(
+                &p.0,
+                &p.1,
+                &p.2,
+                &p.3,
+                PolygonOptions { containment: false },
+            ),
+            Variant::ExactBool => match exact::intersects(&p.0, &p.1, &p.2, &p.3) {
+                Ok(true) => PairResult::Contact {
+                    signed_distance: None,
+                    witness: None,
+                },
+                Ok(false) => PairResult::Clear {
+                    distance: None,
+                    witness: None,
+                },
+                Err(reason) => PairResult::Unknown { reason },
+            },
+            Variant::Exact => exact::collide(
+                &p.0,
+                &p.1,
+                &p.2,
+                &p.3,
+                ExactOptions {
+                    distance: false,
+                    depth: true,
+                },
+            ),
         }
     }
 }
@@ -124,10 +165,24 @@ fn us(s: f64) -> String {
 pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
     let mut rng = ChaCha8Rng::seed_from_u64(1988);
     let scale = if quick { 1 } else { 10 };
-    let columns = ["study", "case", "variant", "samples", "time_us", "ratio", "false_neg", "false_pos", "unknown", "note"];
-    let mut table = Table { columns: columns.iter().map(|s| s.to_string()).collect(), rows: Vec::new() };
+    let columns = [
+        "study",
+        "case",
+        "variant",
+        "samples",
+        "time_us",
+        "ratio",
+        "false_neg",
+        "false_pos",
+        "unknown",
+        "note",
+    ];
+    let mut table = Table {
+        columns: columns.iter().map(|s| s.to_string()).collect(),
+        rows: Vec::new(),
+    };
     let mut notes = vec![
-        "Wall-clock medians on a shared 2-core machine (noisy); ratios are to the baseline named in `note`, measured in the same run.".to_owned(),
+        "Wall-clock time on a shared 2-core machine under load (load average ≈ 5 during the committed run): best of 9 repetitions for per-pair and per-check times, median over the steps for the broad phase; ratios are to the baseline named in `note`, measured in the same run.".to_owned(),
         "False negatives / positives are counted against the exact mode (parry GJK/EPA on the true primitives).".to_owned(),
     ];
 
@@ -137,17 +192,31 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         .map(|_| {
             let a = random_solid(&mut rng, None);
             let b = random_solid(&mut rng, None);
-            (a, random_pose(&mut rng, 0.05), b, random_pose(&mut rng, 0.45))
+            (
+                a,
+                random_pose(&mut rng, 0.05),
+                b,
+                random_pose(&mut rng, 0.45),
+            )
         })
         .collect();
-    let truth: Vec<Option<bool>> = pairs.iter().map(|p| Variant::Exact.run(p).intersects()).collect();
+    let truth: Vec<Option<bool>> = pairs
+        .iter()
+        .map(|p| Variant::Exact.run(p).intersects())
+        .collect();
     let contacts = truth.iter().filter(|t| **t == Some(true)).count();
-    let variants = [Variant::BBox, Variant::Polygon, Variant::PolygonSeed, Variant::Exact];
+    let variants = [
+        Variant::BBox,
+        Variant::Polygon,
+        Variant::PolygonSeed,
+        Variant::ExactBool,
+        Variant::Exact,
+    ];
     let mut base_pair = f64::NAN;
     for v in variants {
         let got: Vec<Option<bool>> = pairs.iter().map(|p| v.run(p).intersects()).collect();
         let (fneg, fpos, unk) = confusion(&got, &truth);
-        let t = time_per_call(5, 1, || {
+        let t = time_per_call(REPS, 1, || {
             for p in &pairs {
                 black_box(v.run(p));
             }
@@ -174,33 +243,84 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
     let links = LinkSolids::from_dh(&robot, 0.04).map_err(|e| e.to_string())?;
     let mut scene = Scene::new();
     let head = Solid::cylinder(0.10, 0.25, None).map_err(|e| e.to_string())?;
-    let head_pose = Isometry3::new(Vector3::new(0.55, -0.15, 0.45), Vector3::new(std::f64::consts::FRAC_PI_2, 0.0, 0.0));
+    let head_pose = Isometry3::new(
+        Vector3::new(0.55, -0.15, 0.45),
+        Vector3::new(std::f64::consts::FRAC_PI_2, 0.0, 0.0),
+    );
     scene.add("head", Arc::new(head), head_pose);
     let n_q = 2000 * scale;
-    let qs: Vec<Vec<f64>> = (0..n_q).map(|_| robot.joints.iter().map(|j| rng.random_range(j.qlim[0]..j.qlim[1])).collect()).collect();
-    let settings = |mode| CollisionSettings { mode, self_collision: false, ..CollisionSettings::default() };
+    let qs: Vec<Vec<f64>> = (0..n_q)
+        .map(|_| {
+            robot
+                .joints
+                .iter()
+                .map(|j| rng.random_range(j.qlim[0]..j.qlim[1]))
+                .collect()
+        })
+        .collect();
+    let settings = |mode| CollisionSettings {
+        mode,
+        self_collision: false,
+        ..CollisionSettings::default()
+    };
     let verdict = |r: &CheckResult| match r {
         CheckResult::Clear => Some(false),
         CheckResult::Contact(_) => Some(true),
         CheckResult::Unknown { .. } => None,
     };
-    let puma_truth: Vec<Option<bool>> = qs.iter().map(|q| verdict(&check_links(&links, &link_poses(&robot, &links, q), &scene, &settings(Mode::Exact)))).collect();
+    let puma_truth: Vec<Option<bool>> = qs
+        .iter()
+        .map(|q| {
+            verdict(&check_links(
+                &links,
+                &link_poses(&robot, &links, q),
+                &scene,
+                &settings(Mode::Exact),
+            ))
+        })
+        .collect();
     let hits = puma_truth.iter().filter(|t| **t == Some(true)).count();
     // Baseline: forward kinematics alone (the check cannot be cheaper than placing the links).
-    let t_fk = time_per_call(5, 1, || {
+    let t_fk = time_per_call(REPS, 1, || {
         for q in &qs {
             black_box(link_poses(&robot, &links, q));
         }
     }) / n_q as f64;
-    table.rows.push(row(&["robot".into(), "PUMA 560 link poses only (FK)".into(), "-".into(), n_q.to_string(), us(t_fk), "1.0".into(), "".into(), "".into(), "".into(), "baseline for this study".into()]));
+    table.rows.push(row(&[
+        "robot".into(),
+        "PUMA 560 link poses only (FK)".into(),
+        "-".into(),
+        n_q.to_string(),
+        us(t_fk),
+        "1.0".into(),
+        "".into(),
+        "".into(),
+        "".into(),
+        "baseline for this study".into(),
+    ]));
     let mut puma_exact_us = f64::NAN;
     for mode in [Mode::BBox, Mode::Polygon, Mode::Exact] {
         let s = settings(mode);
-        let got: Vec<Option<bool>> = qs.iter().map(|q| verdict(&check_links(&links, &link_poses(&robot, &links, q), &scene, &s))).collect();
+        let got: Vec<Option<bool>> = qs
+            .iter()
+            .map(|q| {
+                verdict(&check_links(
+                    &links,
+                    &link_poses(&robot, &links, q),
+                    &scene,
+                    &s,
+                ))
+            })
+            .collect();
         let (fneg, fpos, unk) = confusion(&got, &puma_truth);
-        let t = time_per_call(5, 1, || {
+        let t = time_per_call(REPS, 1, || {
             for q in &qs {
-                black_box(check_links(&links, &link_poses(&robot, &links, q), &scene, &s));
+                black_box(check_links(
+                    &links,
+                    &link_poses(&robot, &links, q),
+                    &scene,
+                    &s,
+                ));
             }
         }) / n_q as f64;
         if mode == Mode::Exact {
@@ -221,7 +341,7 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
     }
     // Without culling: every link narrow-tested against the head.
     let o = &scene.objects()[0];
-    let t_noc = time_per_call(5, 1, || {
+    let t_noc = time_per_call(REPS, 1, || {
         for q in &qs {
             let lp = link_poses(&robot, &links, q);
             for (l, p) in links.links.iter().zip(&lp) {
@@ -231,50 +351,106 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
             }
         }
     }) / n_q as f64;
-    table.rows.push(row(&["robot".into(), "PUMA 560 vs surgical head".into(), "exact, no culling (every link narrow)".into(), n_q.to_string(), us(t_noc), format!("{:.1}", t_noc / t_fk), "".into(), "".into(), "".into(), "ratio to FK".into()]));
-    let s_self = CollisionSettings { self_collision: true, ..settings(Mode::Exact) };
-    let t_self = time_per_call(5, 1, || {
+    table.rows.push(row(&[
+        "robot".into(),
+        "PUMA 560 vs surgical head".into(),
+        "exact, no culling (every link narrow)".into(),
+        n_q.to_string(),
+        us(t_noc),
+        format!("{:.1}", t_noc / t_fk),
+        "".into(),
+        "".into(),
+        "".into(),
+        "ratio to FK".into(),
+    ]));
+    let s_self = CollisionSettings {
+        self_collision: true,
+        ..settings(Mode::Exact)
+    };
+    let t_self = time_per_call(REPS, 1, || {
         for q in &qs {
-            black_box(check_links(&links, &link_poses(&robot, &links, q), &scene, &s_self));
+            black_box(check_links(
+                &links,
+                &link_poses(&robot, &links, q),
+                &scene,
+                &s_self,
+            ));
         }
     }) / n_q as f64;
-    table.rows.push(row(&["robot".into(), "PUMA 560 vs surgical head + self-collision".into(), "exact with box culling".into(), n_q.to_string(), us(t_self), format!("{:.1}", t_self / t_fk), "".into(), "".into(), "".into(), "ratio to FK".into()]));
+    table.rows.push(row(&[
+        "robot".into(),
+        "PUMA 560 vs surgical head + self-collision".into(),
+        "exact with box culling".into(),
+        n_q.to_string(),
+        us(t_self),
+        format!("{:.1}", t_self / t_fk),
+        "".into(),
+        "".into(),
+        "".into(),
+        "ratio to FK".into(),
+    ]));
     notes.push(format!(
         "PUMA 560 (builtin, Corke/RTB parameters) with assumed link solids: boxes of half-width 4 cm along the DH segments (`LinkSolids::from_dh`). Surgical head: cylinder r = 0.10 m, h = 0.25 m, axis along world y, centre (0.55, −0.15, 0.45) m. Exact-mode check with culling: {puma_exact_us:.2} µs (target 5 µs)."
     ));
 
     // 3. Facet count against volume error, time and misses (cylinder pairs, polygon mode).
-    let mut vol_series = Series { label: "volume error (1 − V_faceted/V)".into(), points: Vec::new() };
-    let mut time_series = Series { label: "polygon mode µs per pair".into(), points: Vec::new() };
-    let mut miss_series = Series { label: "polygon false negatives (%)".into(), points: Vec::new() };
+    let mut vol_series = Series {
+        label: "volume error (1 − V_faceted/V)".into(),
+        points: Vec::new(),
+    };
+    let mut time_series = Series {
+        label: "polygon mode µs per pair".into(),
+        points: Vec::new(),
+    };
+    let mut miss_series = Series {
+        label: "polygon false negatives (%)".into(),
+        points: Vec::new(),
+    };
     let geo: Vec<(f64, f64, Isometry3<f64>, Isometry3<f64>)> = (0..100 * scale)
-        .map(|_| (rng.random_range(0.1..0.3), rng.random_range(0.2..0.6), random_pose(&mut rng, 0.05), random_pose(&mut rng, 0.35)))
+        .map(|_| {
+            (
+                rng.random_range(0.1..0.3),
+                rng.random_range(0.2..0.6),
+                random_pose(&mut rng, 0.05),
+                random_pose(&mut rng, 0.35),
+            )
+        })
         .collect();
     for n in [6usize, 8, 12, 16, 24, 32, 48, 64, 96, 128, 256] {
         let cyl_pairs: Vec<Pair> = geo
             .iter()
             .map(|(r, h, pa, pb)| {
-                let c = Solid::cylinder(*r, *h, Some(n)).unwrap_or_else(|_| unreachable!("valid cylinder"));
+                let c = Solid::cylinder(*r, *h, Some(n))
+                    .unwrap_or_else(|_| unreachable!("valid cylinder"));
                 (c.clone(), *pa, c, *pb)
             })
             .collect();
-        let vol_err = 1.0 - cyl_pairs[0].0.faceted_volume() / cyl_pairs[0].0.exact_volume.unwrap_or(f64::NAN);
-        let t_truth: Vec<Option<bool>> = cyl_pairs.iter().map(|p| Variant::Exact.run(p).intersects()).collect();
-        let got: Vec<Option<bool>> = cyl_pairs.iter().map(|p| Variant::Polygon.run(p).intersects()).collect();
+        let vol_err =
+            1.0 - cyl_pairs[0].0.faceted_volume() / cyl_pairs[0].0.exact_volume.unwrap_or(f64::NAN);
+        let t_truth: Vec<Option<bool>> = cyl_pairs
+            .iter()
+            .map(|p| Variant::Exact.run(p).intersects())
+            .collect();
+        let got: Vec<Option<bool>> = cyl_pairs
+            .iter()
+            .map(|p| Variant::Polygon.run(p).intersects())
+            .collect();
         let (fneg, fpos, unk) = confusion(&got, &t_truth);
-        let t = time_per_call(5, 1, || {
+        let t = time_per_call(REPS, 1, || {
             for p in &cyl_pairs {
                 black_box(Variant::Polygon.run(p));
             }
         }) / cyl_pairs.len() as f64;
-        let te = time_per_call(5, 1, || {
+        let te = time_per_call(REPS, 1, || {
             for p in &cyl_pairs {
                 black_box(Variant::Exact.run(p));
             }
         }) / cyl_pairs.len() as f64;
         vol_series.points.push((n as f64, vol_err));
         time_series.points.push((n as f64, t * 1e6));
-        miss_series.points.push((n as f64, 100.0 * fneg as f64 / cyl_pairs.len() as f64));
+        miss_series
+            .points
+            .push((n as f64, 100.0 * fneg as f64 / cyl_pairs.len() as f64));
         table.rows.push(row(&[
             "facets".into(),
             format!("cylinder vs cylinder, {n} facets, volume error {vol_err:.2e}"),
@@ -291,11 +467,24 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
 
     // 4. Broad phase, 1 % moving.
     let mut bp_series: Vec<Series> = vec![
-        Series { label: "sweep-and-prune".into(), points: Vec::new() },
-        Series { label: "bvh".into(), points: Vec::new() },
-        Series { label: "brute force".into(), points: Vec::new() },
+        Series {
+            label: "sweep-and-prune".into(),
+            points: Vec::new(),
+        },
+        Series {
+            label: "bvh".into(),
+            points: Vec::new(),
+        },
+        Series {
+            label: "brute force".into(),
+            points: Vec::new(),
+        },
     ];
-    let sizes: &[usize] = if quick { &[1000, 10_000] } else { &[1000, 3000, 10_000, 30_000] };
+    let sizes: &[usize] = if quick {
+        &[1000, 10_000]
+    } else {
+        &[1000, 3000, 10_000, 30_000]
+    };
     let steps = if quick { 20 } else { 200 };
     let mut bp10k = (f64::NAN, f64::NAN);
     for &n in sizes {
@@ -303,17 +492,31 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         let side = 50.0 * (n as f64 / 10_000.0).cbrt();
         let mut boxes: Vec<Aabb> = (0..n)
             .map(|_| Aabb {
-                center: Point3::new(rng.random_range(0.0..side), rng.random_range(0.0..side), rng.random_range(0.0..side)),
-                half: Vector3::new(rng.random_range(0.1..0.5), rng.random_range(0.1..0.5), rng.random_range(0.1..0.5)),
+                center: Point3::new(
+                    rng.random_range(0.0..side),
+                    rng.random_range(0.0..side),
+                    rng.random_range(0.0..side),
+                ),
+                half: Vector3::new(
+                    rng.random_range(0.1..0.5),
+                    rng.random_range(0.1..0.5),
+                    rng.random_range(0.1..0.5),
+                ),
             })
             .collect();
         let moving: Vec<u32> = (0..n as u32).step_by(100).collect();
-        let vel: Vec<Vector3<f64>> = moving.iter().map(|_| Vector3::new(rng.random_range(-0.05..0.05), rng.random_range(-0.05..0.05), rng.random_range(-0.05..0.05))).collect();
-        let mut sap = SweepAndPrune::new();
+        let vel: Vec<Vector3<f64>> = moving
+            .iter()
+            .map(|_| {
+                Vector3::new(
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                    rng.random_range(-0.05..0.05),
+                )
+            })
+            .collect();
         let t_build_sap = Instant::now();
-        for (i, b) in boxes.iter().enumerate() {
-            sap.set(i as u32, b);
-        }
+        let mut sap = SweepAndPrune::from_boxes(&boxes);
         let t_build_sap = t_build_sap.elapsed().as_secs_f64();
         let t_build_bvh = Instant::now();
         let mut bvh = BvhBroadPhase::from_boxes(&boxes);
@@ -354,7 +557,7 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         for (k, name) in ["sweep-and-prune", "bvh", "brute force"].iter().enumerate() {
             bp_series[k].points.push((n as f64, med[k] * 1e3));
             let build = match k {
-                0 => format!("build {:.1} ms (insertion)", t_build_sap * 1e3),
+                0 => format!("build {:.1} ms (sort)", t_build_sap * 1e3),
                 1 => format!("build {:.1} ms (binned SAH)", t_build_bvh * 1e3),
                 _ => String::new(),
             };
@@ -375,7 +578,11 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
             bp10k = (med[0], med[1]);
         }
     }
-    let winner = if bp10k.0 <= bp10k.1 { "sweep-and-prune" } else { "BVH" };
+    let winner = if bp10k.0 <= bp10k.1 {
+        "sweep-and-prune"
+    } else {
+        "BVH"
+    };
     notes.push(format!(
         "Broad phase at 10,000 bodies, 1 % moving: sweep-and-prune {:.0} µs/step, BVH {:.0} µs/step — {winner} wins this workload (both report exactly the brute-force pairs).",
         bp10k.0 * 1e6,
@@ -388,9 +595,30 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         notes,
         table,
         plots: vec![
-            Plot { title: "Cylinder facets: volume error".into(), x_label: "facets".into(), y_label: "1 − V_faceted/V".into(), log_x: true, log_y: true, series: vec![vol_series] },
-            Plot { title: "Cylinder facets: polygon-mode time and misses".into(), x_label: "facets".into(), y_label: "µs per pair / % false negatives".into(), log_x: true, log_y: false, series: vec![time_series, miss_series] },
-            Plot { title: "Broad phase, 1 % moving".into(), x_label: "bodies".into(), y_label: "ms per step".into(), log_x: true, log_y: true, series: bp_series },
+            Plot {
+                title: "Cylinder facets: volume error".into(),
+                x_label: "facets".into(),
+                y_label: "1 − V_faceted/V".into(),
+                log_x: true,
+                log_y: true,
+                series: vec![vol_series],
+            },
+            Plot {
+                title: "Cylinder facets: polygon-mode time and misses".into(),
+                x_label: "facets".into(),
+                y_label: "µs per pair / % false negatives".into(),
+                log_x: true,
+                log_y: false,
+                series: vec![time_series, miss_series],
+            },
+            Plot {
+                title: "Broad phase, 1 % moving".into(),
+                x_label: "bodies".into(),
+                y_label: "ms per step".into(),
+                log_x: true,
+                log_y: true,
+                series: bp_series,
+            },
         ],
     };
     write_report(out_dir, &report).map_err(|e| e.to_string())
@@ -404,7 +632,11 @@ mod tests {
     fn quick_report_writes_its_files() {
         let dir = tempfile::tempdir().expect("temp dir");
         let paths = report_collision(dir.path(), true).expect("report");
-        assert!(paths.iter().any(|p| p.extension().is_some_and(|e| e == "csv")));
+        assert!(
+            paths
+                .iter()
+                .any(|p| p.extension().is_some_and(|e| e == "csv"))
+        );
         let md = std::fs::read_to_string(dir.path().join("collision.md")).expect("md");
         assert!(md.contains("sweep-and-prune") && md.contains("PUMA 560"));
     }

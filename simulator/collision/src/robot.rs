@@ -24,7 +24,7 @@ use nalgebra::{Isometry3, Matrix4, Point3, Rotation3, Translation3, UnitQuaterni
 use parry3d_f64::bounding_volume::Aabb as PAabb;
 use parry3d_f64::partitioning::Bvh;
 use robosim_geometry::Aabb;
-use robosim_kinematics::{fk, Convention, JointType, ModelError, Robot};
+use robosim_kinematics::{Convention, JointType, ModelError, Robot, fk};
 use std::sync::Arc;
 
 /// Scenes with at least this many objects in use are searched through the BVH; smaller ones
@@ -35,7 +35,10 @@ const BVH_THRESHOLD: usize = 16;
 /// the query layer check).
 pub fn isometry_from_matrix(m: &Matrix4<f64>) -> Isometry3<f64> {
     let r = Rotation3::from_matrix_unchecked(m.fixed_view::<3, 3>(0, 0).into_owned());
-    Isometry3::from_parts(Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]), UnitQuaternion::from_rotation_matrix(&r))
+    Isometry3::from_parts(
+        Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]),
+        UnitQuaternion::from_rotation_matrix(&r),
+    )
 }
 
 fn paabb(b: &Aabb) -> PAabb {
@@ -72,9 +75,20 @@ impl Scene {
     }
 
     /// Adds an object at `pose` and puts it in use (USE); returns its index.
-    pub fn add(&mut self, name: impl Into<String>, solid: Arc<Solid>, pose: Isometry3<f64>) -> usize {
+    pub fn add(
+        &mut self,
+        name: impl Into<String>,
+        solid: Arc<Solid>,
+        pose: Isometry3<f64>,
+    ) -> usize {
         let world_box = world_box(&solid.bbox, &pose);
-        self.objects.push(SceneObject { name: name.into(), solid, pose, in_use: false, world_box });
+        self.objects.push(SceneObject {
+            name: name.into(),
+            solid,
+            pose,
+            in_use: false,
+            world_box,
+        });
         let id = self.objects.len() - 1;
         self.use_object(id);
         id
@@ -120,7 +134,13 @@ impl Scene {
     /// Indices of the in-use objects whose world boxes meet `b` (appended to `out`).
     pub fn candidates(&self, b: &Aabb, out: &mut Vec<usize>) {
         if self.in_use < BVH_THRESHOLD {
-            out.extend(self.objects.iter().enumerate().filter(|(_, o)| o.in_use && o.world_box.overlaps(b)).map(|(i, _)| i));
+            out.extend(
+                self.objects
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, o)| o.in_use && o.world_box.overlaps(b))
+                    .map(|(i, _)| i),
+            );
         } else {
             let q = paabb(b);
             out.extend(self.bvh.intersect_aabb(&q).map(|i| i as usize));
@@ -151,8 +171,14 @@ pub enum CheckError {
     #[error("{0}")]
     Model(#[from] ModelError),
     /// The link solids do not match the robot: there must be `dof + 1` entries (base first).
-    #[error("link solids: {got} entries for a robot with {dof} joints (expected {expected}: the base, then one per joint)")]
-    LinkCount { dof: usize, got: usize, expected: usize },
+    #[error(
+        "link solids: {got} entries for a robot with {dof} joints (expected {expected}: the base, then one per joint)"
+    )]
+    LinkCount {
+        dof: usize,
+        got: usize,
+        expected: usize,
+    },
     /// A solid could not be built.
     #[error("{0}")]
     Shape(#[from] ShapeError),
@@ -171,7 +197,11 @@ impl LinkSolids {
     /// links are declared allowed (they meet at a shared joint, like adjacent links).
     pub fn from_dh(robot: &Robot, radius: f64) -> Result<Self, CheckError> {
         if !(radius.is_finite() && radius > 0.0) {
-            return Err(ShapeError::BadDimension { field: "link_radius", value: radius }.into());
+            return Err(ShapeError::BadDimension {
+                field: "link_radius",
+                value: radius,
+            }
+            .into());
         }
         let n = robot.dof();
         let mut segs: Vec<Vec<(Point3<f64>, Point3<f64>)>> = vec![Vec::new(); n + 1];
@@ -209,14 +239,25 @@ impl LinkSolids {
                     continue;
                 }
                 let b = Solid::cuboid(Vector3::new(len, 2.0 * radius, 2.0 * radius))?;
-                let rot = UnitQuaternion::rotation_between(&Vector3::x(), &v)
-                    .unwrap_or_else(|| UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI));
-                parts.push((Isometry3::from_parts(Translation3::from(p.coords + v * 0.5), rot), b));
+                let rot =
+                    UnitQuaternion::rotation_between(&Vector3::x(), &v).unwrap_or_else(|| {
+                        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI)
+                    });
+                parts.push((
+                    Isometry3::from_parts(Translation3::from(p.coords + v * 0.5), rot),
+                    b,
+                ));
             }
             links.push(match parts.len() {
                 0 => None,
-                1 => parts.pop().map(|(offset, s)| LinkSolid { solid: Arc::new(s), offset }),
-                _ => Some(LinkSolid { solid: Arc::new(Solid::compound(parts)?), offset: Isometry3::identity() }),
+                1 => parts.pop().map(|(offset, s)| LinkSolid {
+                    solid: Arc::new(s),
+                    offset,
+                }),
+                _ => Some(LinkSolid {
+                    solid: Arc::new(Solid::compound(parts)?),
+                    offset: Isometry3::identity(),
+                }),
             });
         }
         let mut allowed = Vec::new();
@@ -230,7 +271,9 @@ impl LinkSolids {
     }
 
     fn allows(&self, i: usize, j: usize) -> bool {
-        self.allowed.iter().any(|&(a, b)| (a, b) == (i, j) || (a, b) == (j, i))
+        self.allowed
+            .iter()
+            .any(|&(a, b)| (a, b) == (i, j) || (a, b) == (j, i))
     }
 
     /// The pairs self-collision checks: non-adjacent links with solids, minus allowed pairs.
@@ -264,7 +307,13 @@ pub struct CollisionSettings {
 
 impl Default for CollisionSettings {
     fn default() -> Self {
-        CollisionSettings { enabled: true, self_collision: true, mode: Mode::Exact, all_contacts: false, continuous: false }
+        CollisionSettings {
+            enabled: true,
+            self_collision: true,
+            mode: Mode::Exact,
+            all_contacts: false,
+            continuous: false,
+        }
     }
 }
 
@@ -307,21 +356,44 @@ pub fn link_poses(robot: &Robot, links: &LinkSolids, q: &[f64]) -> Vec<Option<Is
         .links
         .iter()
         .enumerate()
-        .map(|(j, l)| l.as_ref().map(|l| isometry_from_matrix(&frames[j]) * l.offset))
+        .map(|(j, l)| {
+            l.as_ref()
+                .map(|l| isometry_from_matrix(&frames[j]) * l.offset)
+        })
         .collect()
 }
 
 /// One pair in the chosen mode (exact without the separation distance: checks need only the
 /// boolean, and the depth when in contact).
-pub(crate) fn narrow(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>, mode: Mode) -> PairResult {
+pub(crate) fn narrow(
+    a: &Solid,
+    pa: &Isometry3<f64>,
+    b: &Solid,
+    pb: &Isometry3<f64>,
+    mode: Mode,
+) -> PairResult {
     match mode {
         Mode::BBox => crate::bbox::collide(a, pa, b, pb),
         Mode::Polygon => polygon::collide(a, pa, b, pb, PolygonOptions::default()),
-        Mode::Exact => exact::collide(a, pa, b, pb, ExactOptions { distance: false, depth: true }),
+        Mode::Exact => exact::collide(
+            a,
+            pa,
+            b,
+            pb,
+            ExactOptions {
+                distance: false,
+                depth: true,
+            },
+        ),
     }
 }
 
-pub(crate) fn check_links(links: &LinkSolids, lp: &[Option<Isometry3<f64>>], scene: &Scene, settings: &CollisionSettings) -> CheckResult {
+pub(crate) fn check_links(
+    links: &LinkSolids,
+    lp: &[Option<Isometry3<f64>>],
+    scene: &Scene,
+    settings: &CollisionSettings,
+) -> CheckResult {
     let boxes: Vec<Option<Aabb>> = links
         .links
         .iter()
@@ -331,14 +403,25 @@ pub(crate) fn check_links(links: &LinkSolids, lp: &[Option<Isometry3<f64>>], sce
             _ => None,
         })
         .collect();
-    let robot_box = boxes.iter().flatten().fold(None::<Aabb>, |acc, b| Some(acc.map_or(*b, |a| a.merged(b))));
+    let robot_box = boxes
+        .iter()
+        .flatten()
+        .fold(None::<Aabb>, |acc, b| Some(acc.map_or(*b, |a| a.merged(b))));
     let mut contacts = Vec::new();
     let mut doubt: Option<(Body, Body, String)> = None;
     let mut record = |r: PairResult, a: Body, b: Body, contacts: &mut Vec<Collision>| -> bool {
         match r {
             PairResult::Clear { .. } => false,
-            PairResult::Contact { signed_distance, witness } => {
-                contacts.push(Collision { a, b, signed_distance, witness });
+            PairResult::Contact {
+                signed_distance,
+                witness,
+            } => {
+                contacts.push(Collision {
+                    a,
+                    b,
+                    signed_distance,
+                    witness,
+                });
                 !settings.all_contacts
             }
             PairResult::Unknown { reason } => {
@@ -356,12 +439,22 @@ pub(crate) fn check_links(links: &LinkSolids, lp: &[Option<Isometry3<f64>>], sce
             let o = &scene.objects[oi];
             // From the end effector inward (seed: a collision is likelier there).
             for j in (0..links.links.len()).rev() {
-                let (Some(l), Some(p), Some(b)) = (&links.links[j], &lp[j], &boxes[j]) else { continue };
+                let (Some(l), Some(p), Some(b)) = (&links.links[j], &lp[j], &boxes[j]) else {
+                    continue;
+                };
                 if !b.overlaps(&o.world_box) {
                     continue;
                 }
                 let r = narrow(&l.solid, p, &o.solid, &o.pose, settings.mode);
-                if record(r, Body::Link(j), Body::Object { index: oi, name: o.name.clone() }, &mut contacts) {
+                if record(
+                    r,
+                    Body::Link(j),
+                    Body::Object {
+                        index: oi,
+                        name: o.name.clone(),
+                    },
+                    &mut contacts,
+                ) {
                     break 'objects;
                 }
             }
@@ -369,11 +462,17 @@ pub(crate) fn check_links(links: &LinkSolids, lp: &[Option<Isometry3<f64>>], sce
     }
     if settings.self_collision && (settings.all_contacts || contacts.is_empty()) {
         for (i, j) in links.self_pairs() {
-            let (Some(bi), Some(bj)) = (&boxes[i], &boxes[j]) else { continue };
+            let (Some(bi), Some(bj)) = (&boxes[i], &boxes[j]) else {
+                continue;
+            };
             if !bi.overlaps(bj) {
                 continue;
             }
-            let (Some(li), Some(lj), Some(pi), Some(pj)) = (&links.links[i], &links.links[j], &lp[i], &lp[j]) else { continue };
+            let (Some(li), Some(lj), Some(pi), Some(pj)) =
+                (&links.links[i], &links.links[j], &lp[i], &lp[j])
+            else {
+                continue;
+            };
             let r = narrow(&li.solid, pi, &lj.solid, pj, settings.mode);
             if record(r, Body::Link(j), Body::Link(i), &mut contacts) {
                 break;
@@ -392,7 +491,13 @@ pub(crate) fn check_links(links: &LinkSolids, lp: &[Option<Isometry3<f64>>], sce
 /// The seed's CHECK for one robot at joint values `q` (rad / m) against the in-use objects of
 /// `scene`, and against itself when `settings.self_collision` is on. Ignores `settings.enabled`
 /// (a direct check is always made). Links are tested from the end effector inward.
-pub fn check_robot(robot: &Robot, links: &LinkSolids, q: &[f64], scene: &Scene, settings: &CollisionSettings) -> Result<CheckResult, CheckError> {
+pub fn check_robot(
+    robot: &Robot,
+    links: &LinkSolids,
+    q: &[f64],
+    scene: &Scene,
+    settings: &CollisionSettings,
+) -> Result<CheckResult, CheckError> {
     robot.check_q(q)?;
     check_link_count(robot, links)?;
     let lp = link_poses(robot, links, q);
@@ -401,7 +506,11 @@ pub fn check_robot(robot: &Robot, links: &LinkSolids, q: &[f64], scene: &Scene, 
 
 pub(crate) fn check_link_count(robot: &Robot, links: &LinkSolids) -> Result<(), CheckError> {
     if links.links.len() != robot.dof() + 1 {
-        return Err(CheckError::LinkCount { dof: robot.dof(), got: links.links.len(), expected: robot.dof() + 1 });
+        return Err(CheckError::LinkCount {
+            dof: robot.dof(),
+            got: links.links.len(),
+            expected: robot.dof() + 1,
+        });
     }
     Ok(())
 }
@@ -428,7 +537,15 @@ pub struct MoveOutcome {
 /// last safe step and says which pair collided. `q_from` itself is checked first (a robot that
 /// starts in contact does not move). With `settings.enabled` off, moves unchecked (C_SWITCH off).
 #[allow(clippy::too_many_arguments)]
-pub fn move_checked(robot: &Robot, links: &LinkSolids, q_from: &[f64], q_to: &[f64], steps: usize, scene: &Scene, settings: &CollisionSettings) -> Result<MoveOutcome, CheckError> {
+pub fn move_checked(
+    robot: &Robot,
+    links: &LinkSolids,
+    q_from: &[f64],
+    q_to: &[f64],
+    steps: usize,
+    scene: &Scene,
+    settings: &CollisionSettings,
+) -> Result<MoveOutcome, CheckError> {
     robot.check_q(q_from)?;
     robot.check_q(q_to)?;
     check_link_count(robot, links)?;
@@ -436,35 +553,83 @@ pub fn move_checked(robot: &Robot, links: &LinkSolids, q_from: &[f64], q_to: &[f
         return Err(CheckError::ZeroSteps);
     }
     if !settings.enabled {
-        return Ok(MoveOutcome { q: q_to.to_vec(), steps_done: steps, completed: true, stopped_by: None, time_of_impact: None });
+        return Ok(MoveOutcome {
+            q: q_to.to_vec(),
+            steps_done: steps,
+            completed: true,
+            stopped_by: None,
+            time_of_impact: None,
+        });
     }
     let at = |k: usize| -> Vec<f64> {
         let s = k as f64 / steps as f64;
-        q_from.iter().zip(q_to).map(|(a, b)| a + (b - a) * s).collect()
+        q_from
+            .iter()
+            .zip(q_to)
+            .map(|(a, b)| a + (b - a) * s)
+            .collect()
     };
     let start = check_robot(robot, links, q_from, scene, settings)?;
     if !start.is_clear() {
-        return Ok(MoveOutcome { q: q_from.to_vec(), steps_done: 0, completed: false, stopped_by: Some(start), time_of_impact: None });
+        return Ok(MoveOutcome {
+            q: q_from.to_vec(),
+            steps_done: 0,
+            completed: false,
+            stopped_by: Some(start),
+            time_of_impact: None,
+        });
     }
     let mut prev = q_from.to_vec();
     for k in 1..=steps {
         let next = if k == steps { q_to.to_vec() } else { at(k) };
         if settings.continuous {
-            match ccd::sweep_robot(robot, links, &prev, &next, scene, settings.self_collision, &ccd::SweepOptions::default())? {
+            match ccd::sweep_robot(
+                robot,
+                links,
+                &prev,
+                &next,
+                scene,
+                settings.self_collision,
+                &ccd::SweepOptions::default(),
+            )? {
                 ccd::Sweep::Clear => {}
                 ccd::Sweep::Contact { s, collision } => {
-                    return Ok(MoveOutcome { q: prev, steps_done: k - 1, completed: false, stopped_by: Some(CheckResult::Contact(vec![collision])), time_of_impact: Some(s) });
+                    return Ok(MoveOutcome {
+                        q: prev,
+                        steps_done: k - 1,
+                        completed: false,
+                        stopped_by: Some(CheckResult::Contact(vec![collision])),
+                        time_of_impact: Some(s),
+                    });
                 }
                 ccd::Sweep::Unknown { a, b, reason } => {
-                    return Ok(MoveOutcome { q: prev, steps_done: k - 1, completed: false, stopped_by: Some(CheckResult::Unknown { a, b, reason }), time_of_impact: None });
+                    return Ok(MoveOutcome {
+                        q: prev,
+                        steps_done: k - 1,
+                        completed: false,
+                        stopped_by: Some(CheckResult::Unknown { a, b, reason }),
+                        time_of_impact: None,
+                    });
                 }
             }
         }
         let r = check_robot(robot, links, &next, scene, settings)?;
         if !r.is_clear() {
-            return Ok(MoveOutcome { q: prev, steps_done: k - 1, completed: false, stopped_by: Some(r), time_of_impact: None });
+            return Ok(MoveOutcome {
+                q: prev,
+                steps_done: k - 1,
+                completed: false,
+                stopped_by: Some(r),
+                time_of_impact: None,
+            });
         }
         prev = next;
     }
-    Ok(MoveOutcome { q: prev, steps_done: steps, completed: true, stopped_by: None, time_of_impact: None })
+    Ok(MoveOutcome {
+        q: prev,
+        steps_done: steps,
+        completed: true,
+        stopped_by: None,
+        time_of_impact: None,
+    })
 }

@@ -18,7 +18,7 @@
 
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
 use parry3d_f64::shape::{SharedShape, TriMeshFlags};
-use robosim_geometry::{shapes, Aabb, GeometryError, Polyhedron};
+use robosim_geometry::{Aabb, GeometryError, Polyhedron, shapes};
 use std::f64::consts::{FRAC_PI_2, PI};
 
 /// Chord error the default facet count aims at, metres.
@@ -109,8 +109,17 @@ impl Piece {
         let closed = poly.is_closed();
         // An open surface is never taken for the solid hull of its vertices.
         let convex = closed
-            && poly.polygons.iter().all(|pg| poly.vertices.iter().all(|v| pg.plane.signed_distance(v) <= 1e-9 * size));
-        Piece { poly, convex, closed, side_edge }
+            && poly.polygons.iter().all(|pg| {
+                poly.vertices
+                    .iter()
+                    .all(|v| pg.plane.signed_distance(v) <= 1e-9 * size)
+            });
+        Piece {
+            poly,
+            convex,
+            closed,
+            side_edge,
+        }
     }
 }
 
@@ -158,20 +167,49 @@ fn facets_checked(facets: Option<usize>, r: f64) -> Result<usize, ShapeError> {
 
 /// Rotation taking parry's y axis onto our z axis (Rx(+90°)).
 fn y_to_z() -> Isometry3<f64> {
-    Isometry3::from_parts(Default::default(), UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2))
+    Isometry3::from_parts(
+        Default::default(),
+        UnitQuaternion::from_axis_angle(&Vector3::x_axis(), FRAC_PI_2),
+    )
 }
 
 impl Solid {
-    fn single(kind: SolidKind, poly: Polyhedron, exact: SharedShape, exact_offset: Isometry3<f64>, err: f64, vol: Option<f64>) -> Self {
+    fn single(
+        kind: SolidKind,
+        poly: Polyhedron,
+        exact: SharedShape,
+        exact_offset: Isometry3<f64>,
+        err: f64,
+        vol: Option<f64>,
+    ) -> Self {
         let bbox = poly.bbox;
-        Solid { kind, pieces: vec![Piece::new(poly)], exact, exact_offset, tessellation_error: err, bbox, exact_volume: vol }
+        Solid {
+            kind,
+            pieces: vec![Piece::new(poly)],
+            exact,
+            exact_offset,
+            tessellation_error: err,
+            bbox,
+            exact_volume: vol,
+        }
     }
 
     /// A box with full side lengths `size` (m), centred at the origin.
     pub fn cuboid(size: Vector3<f64>) -> Result<Self, ShapeError> {
-        let (x, y, z) = (positive("size[0]", size.x)?, positive("size[1]", size.y)?, positive("size[2]", size.z)?);
+        let (x, y, z) = (
+            positive("size[0]", size.x)?,
+            positive("size[1]", size.y)?,
+            positive("size[2]", size.z)?,
+        );
         let poly = shapes::cuboid(x, y, z)?;
-        Ok(Self::single(SolidKind::Cuboid, poly, SharedShape::cuboid(x / 2.0, y / 2.0, z / 2.0), Isometry3::identity(), 0.0, Some(x * y * z)))
+        Ok(Self::single(
+            SolidKind::Cuboid,
+            poly,
+            SharedShape::cuboid(x / 2.0, y / 2.0, z / 2.0),
+            Isometry3::identity(),
+            0.0,
+            Some(x * y * z),
+        ))
     }
 
     /// A sphere of `radius` (m); faceted by the geometry library's generator with `facets`
@@ -182,9 +220,20 @@ impl Solid {
         let poly = shapes::sphere(r, Some(n))?;
         // Every face's nearest point to the centre lies inside the face (the faces are symmetric
         // about their centre ray), so the deepest gap is r − (smallest plane distance).
-        let inner = poly.polygons.iter().map(|p| p.plane.d.abs()).fold(f64::INFINITY, f64::min);
+        let inner = poly
+            .polygons
+            .iter()
+            .map(|p| p.plane.d.abs())
+            .fold(f64::INFINITY, f64::min);
         let vol = 4.0 / 3.0 * PI * r.powi(3);
-        Ok(Self::single(SolidKind::Sphere, poly, SharedShape::ball(r), Isometry3::identity(), r - inner, Some(vol)))
+        Ok(Self::single(
+            SolidKind::Sphere,
+            poly,
+            SharedShape::ball(r),
+            Isometry3::identity(),
+            r - inner,
+            Some(vol),
+        ))
     }
 
     /// A cylinder of `radius` and `height` (m), axis z, centred; `facets` sides (default
@@ -193,7 +242,14 @@ impl Solid {
         let (r, h) = (positive("radius", radius)?, positive("height", height)?);
         let n = facets_checked(facets, r)?;
         let poly = shapes::cylinder(r, h, Some(n))?;
-        Ok(Self::single(SolidKind::Cylinder, poly, SharedShape::cylinder(h / 2.0, r), y_to_z(), shapes::chord_error(r, n), Some(PI * r * r * h)))
+        Ok(Self::single(
+            SolidKind::Cylinder,
+            poly,
+            SharedShape::cylinder(h / 2.0, r),
+            y_to_z(),
+            shapes::chord_error(r, n),
+            Some(PI * r * r * h),
+        ))
     }
 
     /// A cone of base `radius` and `height` (m): base disc at z = −h/2, apex at z = +h/2.
@@ -202,7 +258,14 @@ impl Solid {
         let n = facets_checked(facets, r)?;
         let poly = shapes::cone(r, h, Some(n))?;
         // Hausdorff distance ≤ the base chord's sagitta (the gap shrinks linearly to the apex).
-        Ok(Self::single(SolidKind::Cone, poly, SharedShape::cone(h / 2.0, r), y_to_z(), shapes::chord_error(r, n), Some(PI * r * r * h / 3.0)))
+        Ok(Self::single(
+            SolidKind::Cone,
+            poly,
+            SharedShape::cone(h / 2.0, r),
+            y_to_z(),
+            shapes::chord_error(r, n),
+            Some(PI * r * r * h / 3.0),
+        ))
     }
 
     /// The convex hull of `points` (m). The faceted form is parry's hull triangulation, so both
@@ -210,15 +273,28 @@ impl Solid {
     pub fn convex(points: &[Point3<f64>]) -> Result<Self, ShapeError> {
         for (i, p) in points.iter().enumerate() {
             if !p.coords.iter().all(|c| c.is_finite()) {
-                return Err(GeometryError::NonFiniteVertex { vertex: i, value: [p.x, p.y, p.z] }.into());
+                return Err(GeometryError::NonFiniteVertex {
+                    vertex: i,
+                    value: [p.x, p.y, p.z],
+                }
+                .into());
             }
         }
         let hull = SharedShape::convex_hull(points).ok_or(ShapeError::FlatHull(points.len()))?;
-        let cp = hull.as_convex_polyhedron().ok_or(ShapeError::FlatHull(points.len()))?;
+        let cp = hull
+            .as_convex_polyhedron()
+            .ok_or(ShapeError::FlatHull(points.len()))?;
         let (verts, tris) = cp.to_trimesh();
         let faces: Vec<Vec<u32>> = tris.iter().map(|t| t.to_vec()).collect();
         let poly = Polyhedron::from_polygons(verts, &faces)?;
-        Ok(Self::single(SolidKind::Convex, poly, hull, Isometry3::identity(), 0.0, None))
+        Ok(Self::single(
+            SolidKind::Convex,
+            poly,
+            hull,
+            Isometry3::identity(),
+            0.0,
+            None,
+        ))
     }
 
     /// A polyhedron from `vertices` and convex planar `polygons` (counter-clockwise seen from
@@ -229,7 +305,8 @@ impl Solid {
         let poly = Polyhedron::from_polygons(vertices, polygons)?;
         let piece = Piece::new(poly);
         let (exact, kind) = if piece.convex {
-            let hull = SharedShape::convex_hull(&piece.poly.vertices).ok_or(ShapeError::FlatHull(piece.poly.vertices.len()))?;
+            let hull = SharedShape::convex_hull(&piece.poly.vertices)
+                .ok_or(ShapeError::FlatHull(piece.poly.vertices.len()))?;
             (hull, SolidKind::Convex)
         } else {
             let mut tris = Vec::new();
@@ -239,13 +316,25 @@ impl Solid {
                     tris.push([ids[0], ids[k], ids[k + 1]]);
                 }
             }
-            let flags = if piece.closed { TriMeshFlags::ORIENTED } else { TriMeshFlags::empty() };
+            let flags = if piece.closed {
+                TriMeshFlags::ORIENTED
+            } else {
+                TriMeshFlags::empty()
+            };
             let mesh = SharedShape::trimesh_with_flags(piece.poly.vertices.clone(), tris, flags)
                 .map_err(|_| ShapeError::FlatHull(piece.poly.vertices.len()))?;
             (mesh, SolidKind::Mesh)
         };
         let bbox = piece.poly.bbox;
-        Ok(Solid { kind, pieces: vec![piece], exact, exact_offset: Isometry3::identity(), tessellation_error: 0.0, bbox, exact_volume: None })
+        Ok(Solid {
+            kind,
+            pieces: vec![piece],
+            exact,
+            exact_offset: Isometry3::identity(),
+            tessellation_error: 0.0,
+            bbox,
+            exact_volume: None,
+        })
     }
 
     /// A body made of convex `parts`, each placed by an isometry in the body's frame. The exact
@@ -275,7 +364,15 @@ impl Solid {
         }
         // `bbox` is set: there was at least one part, and each part has at least one piece.
         let bbox = bbox.ok_or(ShapeError::EmptyCompound)?;
-        Ok(Solid { kind: SolidKind::Compound, pieces, exact: SharedShape::compound(shapes), exact_offset: Isometry3::identity(), tessellation_error: err, bbox, exact_volume: None })
+        Ok(Solid {
+            kind: SolidKind::Compound,
+            pieces,
+            exact: SharedShape::compound(shapes),
+            exact_offset: Isometry3::identity(),
+            tessellation_error: err,
+            bbox,
+            exact_volume: None,
+        })
     }
 
     /// Total number of polygons over the faceted pieces.
@@ -292,7 +389,10 @@ impl Solid {
                 let ids = p.polygon_indices(i);
                 let a = p.vertices[ids[0] as usize].coords;
                 for k in 1..ids.len() - 1 {
-                    let (b, c) = (p.vertices[ids[k] as usize].coords, p.vertices[ids[k + 1] as usize].coords);
+                    let (b, c) = (
+                        p.vertices[ids[k] as usize].coords,
+                        p.vertices[ids[k + 1] as usize].coords,
+                    );
                     vol += a.dot(&b.cross(&c)) / 6.0;
                 }
             }
@@ -325,15 +425,34 @@ mod tests {
             assert_eq!(p.poly.euler_characteristic(), 2);
             let v = s.faceted_volume();
             let e = s.exact_volume.expect("primitive volume");
-            assert!(v <= e * (1.0 + 1e-12) && v > 0.8 * e, "{:?}: {v} vs {e}", s.kind);
+            assert!(
+                v <= e * (1.0 + 1e-12) && v > 0.8 * e,
+                "{:?}: {v} vs {e}",
+                s.kind
+            );
         }
     }
 
     #[test]
     fn bad_dimensions_are_named() {
-        assert_eq!(Solid::sphere(-1.0, None).err(), Some(ShapeError::BadDimension { field: "radius", value: -1.0 }));
-        assert!(matches!(Solid::cylinder(1.0, f64::NAN, None), Err(ShapeError::BadDimension { field: "height", .. })));
-        assert_eq!(Solid::cone(1.0, 1.0, Some(2)).err(), Some(ShapeError::TooFewFacets(2)));
+        assert_eq!(
+            Solid::sphere(-1.0, None).err(),
+            Some(ShapeError::BadDimension {
+                field: "radius",
+                value: -1.0
+            })
+        );
+        assert!(matches!(
+            Solid::cylinder(1.0, f64::NAN, None),
+            Err(ShapeError::BadDimension {
+                field: "height",
+                ..
+            })
+        ));
+        assert_eq!(
+            Solid::cone(1.0, 1.0, Some(2)).err(),
+            Some(ShapeError::TooFewFacets(2))
+        );
     }
 
     #[test]

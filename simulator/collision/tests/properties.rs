@@ -4,7 +4,7 @@
 
 use nalgebra::{Isometry3, Vector3};
 use proptest::prelude::*;
-use robosim_collision::{collide, Mode, PairResult, Solid};
+use robosim_collision::{Mode, PairResult, Solid, collide};
 
 fn shape() -> impl Strategy<Value = Solid> {
     (0usize..4, 0.2f64..1.2, 0.2f64..1.2, 0.2f64..1.2).prop_map(|(k, x, y, z)| match k {
@@ -16,7 +16,10 @@ fn shape() -> impl Strategy<Value = Solid> {
 }
 
 fn pose(spread: f64) -> impl Strategy<Value = Isometry3<f64>> {
-    (prop::array::uniform3(-spread..spread), prop::array::uniform3(-3.2f64..3.2))
+    (
+        prop::array::uniform3(-spread..spread),
+        prop::array::uniform3(-3.2f64..3.2),
+    )
         .prop_map(|(t, r)| Isometry3::new(Vector3::from(t), Vector3::from(r)))
 }
 
@@ -69,11 +72,11 @@ proptest! {
     fn polygon_mode_never_clear_where_exact_penetrates_beyond_tessellation(a in shape(), b in shape(), pa in pose(0.3), pb in pose(0.9)) {
         let exact = collide(&a, &pa, &b, &pb, Mode::Exact);
         let tess = a.tessellation_error + b.tessellation_error;
-        if let PairResult::Contact { signed_distance: Some(sd), .. } = exact {
-            if -sd > tess + GJK_TOL {
-                let poly = collide(&a, &pa, &b, &pb, Mode::Polygon);
-                prop_assert_eq!(poly.intersects(), Some(true), "depth {} > tessellation {}", -sd, tess);
-            }
+        if let PairResult::Contact { signed_distance: Some(sd), .. } = exact
+            && -sd > tess + GJK_TOL
+        {
+            let poly = collide(&a, &pa, &b, &pb, Mode::Polygon);
+            prop_assert_eq!(poly.intersects(), Some(true), "depth {} > tessellation {}", -sd, tess);
         }
         // And the converse: inscribed facets are inside the true solids.
         if exact.intersects() == Some(false) && exact.signed_distance().is_some_and(|d| d > GJK_TOL) {

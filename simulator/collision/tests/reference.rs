@@ -8,7 +8,7 @@
 //! the true solids touch (the faceted solids lie inside the true ones).
 
 use robosim_collision::query::{pose_from_json, solid_from_json};
-use robosim_collision::{collide, Mode, PairResult};
+use robosim_collision::{Mode, PairResult, collide};
 use serde_json::Value;
 
 /// Declared boundary band for booleans against FCL, and the tolerance on FCL's distances: its
@@ -51,17 +51,33 @@ fn exact_mode_matches_closed_form_signed_distances_to_1e9() {
         let k = load(c);
         let sd_ref = k.v["signed_distance"].as_f64().expect("sd");
         let r = collide(&k.a, &k.pa, &k.b, &k.pb, Mode::Exact);
-        assert_eq!(r.intersects(), Some(sd_ref <= 0.0), "{}: {r:?} vs {sd_ref}", k.name);
-        let sd = r.signed_distance().unwrap_or_else(|| panic!("{}: no signed distance: {r:?}", k.name));
+        assert_eq!(
+            r.intersects(),
+            Some(sd_ref <= 0.0),
+            "{}: {r:?} vs {sd_ref}",
+            k.name
+        );
+        let sd = r
+            .signed_distance()
+            .unwrap_or_else(|| panic!("{}: no signed distance: {r:?}", k.name));
         worst = worst.max((sd - sd_ref).abs());
-        assert!((sd - sd_ref).abs() <= 1e-9, "{}: signed distance {sd} vs closed form {sd_ref}", k.name);
-        if let (Some(w), Some(wr)) = (r.witness(), k.v["witness"].as_array()) {
-            if sd_ref > 1e-3 {
-                for (p, q) in w.iter().zip(wr) {
-                    let q: Vec<f64> = q.as_array().expect("pt").iter().map(|x| x.as_f64().expect("num")).collect();
-                    let e = ((p.x - q[0]).powi(2) + (p.y - q[1]).powi(2) + (p.z - q[2]).powi(2)).sqrt();
-                    assert!(e < 1e-6, "{}: witness off by {e}", k.name);
-                }
+        assert!(
+            (sd - sd_ref).abs() <= 1e-9,
+            "{}: signed distance {sd} vs closed form {sd_ref}",
+            k.name
+        );
+        if let (Some(w), Some(wr)) = (r.witness(), k.v["witness"].as_array())
+            && sd_ref > 1e-3
+        {
+            for (p, q) in w.iter().zip(wr) {
+                let q: Vec<f64> = q
+                    .as_array()
+                    .expect("pt")
+                    .iter()
+                    .map(|x| x.as_f64().expect("num"))
+                    .collect();
+                let e = ((p.x - q[0]).powi(2) + (p.y - q[1]).powi(2) + (p.z - q[2]).powi(2)).sqrt();
+                assert!(e < 1e-6, "{}: witness off by {e}", k.name);
             }
         }
         checked += 1;
@@ -77,17 +93,34 @@ fn exact_mode_agrees_with_fcl_outside_the_boundary_band() {
     for c in cases().iter().filter(|c| c["source"] == "fcl") {
         let k = load(c);
         let hit = k.v["intersect"].as_bool().expect("bool");
-        let margin = if hit { k.v["penetration_depth"].as_f64().unwrap_or(0.0) } else { k.v["distance"].as_f64().unwrap_or(0.0) };
+        let margin = if hit {
+            k.v["penetration_depth"].as_f64().unwrap_or(0.0)
+        } else {
+            k.v["distance"].as_f64().unwrap_or(0.0)
+        };
         let r = collide(&k.a, &k.pa, &k.b, &k.pb, Mode::Exact);
-        assert!(!matches!(r, PairResult::Unknown { .. }), "{}: {r:?}", k.name);
+        assert!(
+            !matches!(r, PairResult::Unknown { .. }),
+            "{}: {r:?}",
+            k.name
+        );
         if margin.abs() > BAND {
-            assert_eq!(r.intersects(), Some(hit), "{}: {r:?}, fcl says {hit} (margin {margin})", k.name);
+            assert_eq!(
+                r.intersects(),
+                Some(hit),
+                "{}: {r:?}, fcl says {hit} (margin {margin})",
+                k.name
+            );
             checked += 1;
         }
         if !hit && margin > BAND {
             let d = r.signed_distance().expect("distance when clear");
             worst = worst.max((d - margin).abs());
-            assert!((d - margin).abs() <= BAND, "{}: distance {d} vs fcl {margin}", k.name);
+            assert!(
+                (d - margin).abs() <= BAND,
+                "{}: distance {d} vs fcl {margin}",
+                k.name
+            );
         }
     }
     assert!(checked > 300, "only {checked} cases outside the band");
@@ -100,18 +133,36 @@ fn polygon_and_bbox_modes_against_references_with_chord_tolerance() {
         let k = load(&c);
         let sd_ref = match k.v["source"].as_str() {
             Some("closed-form") => k.v["signed_distance"].as_f64().expect("sd"),
-            _ if k.v["intersect"].as_bool() == Some(true) => -k.v["penetration_depth"].as_f64().unwrap_or(0.0),
+            _ if k.v["intersect"].as_bool() == Some(true) => {
+                -k.v["penetration_depth"].as_f64().unwrap_or(0.0)
+            }
             _ => k.v["distance"].as_f64().expect("distance"),
         };
         let tess = k.a.tessellation_error + k.b.tessellation_error;
         let poly = collide(&k.a, &k.pa, &k.b, &k.pb, Mode::Polygon);
         let bbox = collide(&k.a, &k.pa, &k.b, &k.pb, Mode::BBox);
         if sd_ref < -(tess + BAND) {
-            assert_eq!(poly.intersects(), Some(true), "{}: polygon mode missed a penetration of {} (tessellation {tess})", k.name, -sd_ref);
-            assert_eq!(bbox.intersects(), Some(true), "{}: bbox mode missed", k.name);
+            assert_eq!(
+                poly.intersects(),
+                Some(true),
+                "{}: polygon mode missed a penetration of {} (tessellation {tess})",
+                k.name,
+                -sd_ref
+            );
+            assert_eq!(
+                bbox.intersects(),
+                Some(true),
+                "{}: bbox mode missed",
+                k.name
+            );
         }
         if sd_ref > BAND {
-            assert_eq!(poly.intersects(), Some(false), "{}: polygon mode reports contact at distance {sd_ref}", k.name);
+            assert_eq!(
+                poly.intersects(),
+                Some(false),
+                "{}: polygon mode reports contact at distance {sd_ref}",
+                k.name
+            );
         }
     }
 }

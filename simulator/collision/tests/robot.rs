@@ -4,45 +4,107 @@
 use nalgebra::{Isometry3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robosim_collision::ccd::{sweep_robot, Sweep, SweepOptions};
-use robosim_collision::robot::{check_robot, move_checked, Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene};
+use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot};
+use robosim_collision::robot::{
+    Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot, move_checked,
+};
 use robosim_collision::{Mode, Solid};
-use robosim_kinematics::{builtin_robot, Joint, Robot};
+use robosim_kinematics::{Joint, Robot, builtin_robot};
 use std::sync::Arc;
 
 /// A planar 3R arm with 1 m links along x, each link a 1 × 0.1 × 0.1 box from its joint to the
 /// next.
 fn planar3() -> (Robot, LinkSolids) {
-    let robot = Robot { joints: vec![Joint { a: 1.0, ..Joint::default() }; 3], ..Robot::default() };
+    let robot = Robot {
+        joints: vec![
+            Joint {
+                a: 1.0,
+                ..Joint::default()
+            };
+            3
+        ],
+        ..Robot::default()
+    };
     let bar = Arc::new(Solid::cuboid(Vector3::new(1.0, 0.1, 0.1)).expect("bar"));
     let mut links = vec![None];
     for _ in 0..3 {
-        links.push(Some(LinkSolid { solid: bar.clone(), offset: Isometry3::translation(-0.5, 0.0, 0.0) }));
+        links.push(Some(LinkSolid {
+            solid: bar.clone(),
+            offset: Isometry3::translation(-0.5, 0.0, 0.0),
+        }));
     }
-    (robot, LinkSolids { links, allowed: vec![] })
+    (
+        robot,
+        LinkSolids {
+            links,
+            allowed: vec![],
+        },
+    )
 }
 
 #[test]
 fn check_reports_link_and_object_and_respects_use_list() {
     let (robot, links) = planar3();
     let mut scene = Scene::new();
-    let post = scene.add("post", Arc::new(Solid::cylinder(0.1, 1.0, None).expect("post")), Isometry3::translation(2.5, 0.0, 0.0));
-    scene.add("far", Arc::new(Solid::sphere(0.2, None).expect("ball")), Isometry3::translation(-5.0, 0.0, 0.0));
+    let post = scene.add(
+        "post",
+        Arc::new(Solid::cylinder(0.1, 1.0, None).expect("post")),
+        Isometry3::translation(2.5, 0.0, 0.0),
+    );
+    scene.add(
+        "far",
+        Arc::new(Solid::sphere(0.2, None).expect("ball")),
+        Isometry3::translation(-5.0, 0.0, 0.0),
+    );
     for mode in [Mode::BBox, Mode::Polygon, Mode::Exact] {
-        let s = CollisionSettings { mode, ..CollisionSettings::default() };
+        let s = CollisionSettings {
+            mode,
+            ..CollisionSettings::default()
+        };
         match check_robot(&robot, &links, &[0.0, 0.0, 0.0], &scene, &s).expect("check") {
             CheckResult::Contact(c) => {
                 assert_eq!(c[0].a, Body::Link(3), "{mode:?}");
-                assert_eq!(c[0].b, Body::Object { index: post, name: "post".into() });
+                assert_eq!(
+                    c[0].b,
+                    Body::Object {
+                        index: post,
+                        name: "post".into()
+                    }
+                );
             }
             other => panic!("{mode:?}: {other:?}"),
         }
-        assert!(check_robot(&robot, &links, &[1.2, 0.0, 0.0], &scene, &s).expect("check").is_clear(), "{mode:?}");
+        assert!(
+            check_robot(&robot, &links, &[1.2, 0.0, 0.0], &scene, &s)
+                .expect("check")
+                .is_clear(),
+            "{mode:?}"
+        );
     }
     scene.dont_use(post);
-    assert!(check_robot(&robot, &links, &[0.0, 0.0, 0.0], &scene, &CollisionSettings::default()).expect("check").is_clear());
+    assert!(
+        check_robot(
+            &robot,
+            &links,
+            &[0.0, 0.0, 0.0],
+            &scene,
+            &CollisionSettings::default()
+        )
+        .expect("check")
+        .is_clear()
+    );
     scene.use_object(post);
-    assert!(!check_robot(&robot, &links, &[0.0, 0.0, 0.0], &scene, &CollisionSettings::default()).expect("check").is_clear());
+    assert!(
+        !check_robot(
+            &robot,
+            &links,
+            &[0.0, 0.0, 0.0],
+            &scene,
+            &CollisionSettings::default()
+        )
+        .expect("check")
+        .is_clear()
+    );
 }
 
 #[test]
@@ -50,45 +112,101 @@ fn self_collision_skips_adjacent_links_obeys_its_switch_and_allowed_pairs() {
     let (robot, mut links) = planar3();
     let scene = Scene::new();
     // Straight: adjacent links overlap at their joints' ends but are never tested.
-    assert!(check_robot(&robot, &links, &[0.0, 0.0, 0.0], &scene, &CollisionSettings::default()).expect("check").is_clear());
+    assert!(
+        check_robot(
+            &robot,
+            &links,
+            &[0.0, 0.0, 0.0],
+            &scene,
+            &CollisionSettings::default()
+        )
+        .expect("check")
+        .is_clear()
+    );
     // Folded twice: link 3 lies back on link 1.
     let folded = [0.0, 3.0, 3.0];
-    let on = CollisionSettings { all_contacts: true, ..CollisionSettings::default() };
+    let on = CollisionSettings {
+        all_contacts: true,
+        ..CollisionSettings::default()
+    };
     match check_robot(&robot, &links, &folded, &scene, &on).expect("check") {
         CheckResult::Contact(c) => {
             assert_eq!(c.len(), 1);
-            assert_eq!((c[0].a.clone(), c[0].b.clone()), (Body::Link(3), Body::Link(1)));
+            assert_eq!(
+                (c[0].a.clone(), c[0].b.clone()),
+                (Body::Link(3), Body::Link(1))
+            );
             assert!(c[0].signed_distance.expect("depth") < 0.0);
         }
         other => panic!("{other:?}"),
     }
-    let off = CollisionSettings { self_collision: false, ..CollisionSettings::default() };
-    assert!(check_robot(&robot, &links, &folded, &scene, &off).expect("check").is_clear());
+    let off = CollisionSettings {
+        self_collision: false,
+        ..CollisionSettings::default()
+    };
+    assert!(
+        check_robot(&robot, &links, &folded, &scene, &off)
+            .expect("check")
+            .is_clear()
+    );
     links.allowed.push((3, 1));
-    assert!(check_robot(&robot, &links, &folded, &scene, &on).expect("check").is_clear());
+    assert!(
+        check_robot(&robot, &links, &folded, &scene, &on)
+            .expect("check")
+            .is_clear()
+    );
 }
 
 #[test]
 fn movej_stops_at_the_last_safe_step_and_names_the_pair() {
     let (robot, links) = planar3();
     let mut scene = Scene::new();
-    scene.add("wall", Arc::new(Solid::cuboid(Vector3::new(0.2, 2.0, 1.0)).expect("wall")), Isometry3::translation(0.0, 2.5, 0.0));
+    scene.add(
+        "wall",
+        Arc::new(Solid::cuboid(Vector3::new(0.2, 2.0, 1.0)).expect("wall")),
+        Isometry3::translation(0.0, 2.5, 0.0),
+    );
     let (from, to) = ([-0.5, 0.0, 0.0], [2.0, 0.0, 0.0]);
     let s = CollisionSettings::default();
     let m = move_checked(&robot, &links, &from, &to, 25, &scene, &s).expect("move");
     assert!(!m.completed && m.steps_done > 0 && m.steps_done < 25);
     // The answer is the last safe step: it is clear, and the next one is not.
-    assert!(check_robot(&robot, &links, &m.q, &scene, &s).expect("check").is_clear());
+    assert!(
+        check_robot(&robot, &links, &m.q, &scene, &s)
+            .expect("check")
+            .is_clear()
+    );
     let k = m.steps_done + 1;
-    let next: Vec<f64> = from.iter().zip(&to).map(|(a, b)| a + (b - a) * k as f64 / 25.0).collect();
-    assert!(!check_robot(&robot, &links, &next, &scene, &s).expect("check").is_clear());
+    let next: Vec<f64> = from
+        .iter()
+        .zip(&to)
+        .map(|(a, b)| a + (b - a) * k as f64 / 25.0)
+        .collect();
+    assert!(
+        !check_robot(&robot, &links, &next, &scene, &s)
+            .expect("check")
+            .is_clear()
+    );
     match m.stopped_by {
-        Some(CheckResult::Contact(c)) => assert_eq!(c[0].b, Body::Object { index: 0, name: "wall".into() }),
+        Some(CheckResult::Contact(c)) => assert_eq!(
+            c[0].b,
+            Body::Object {
+                index: 0,
+                name: "wall".into()
+            }
+        ),
         other => panic!("{other:?}"),
     }
     // C_SWITCH off: the move goes through.
-    let off = CollisionSettings { enabled: false, ..s };
-    assert!(move_checked(&robot, &links, &from, &to, 25, &scene, &off).expect("move").completed);
+    let off = CollisionSettings {
+        enabled: false,
+        ..s
+    };
+    assert!(
+        move_checked(&robot, &links, &from, &to, 25, &scene, &off)
+            .expect("move")
+            .completed
+    );
     // Bad input is refused with a typed error.
     assert!(move_checked(&robot, &links, &from, &[0.0, 0.0], 5, &scene, &s).is_err());
     assert!(move_checked(&robot, &links, &from, &to, 0, &scene, &s).is_err());
@@ -99,39 +217,63 @@ fn sweep_clear_means_no_contact_along_the_path_and_contact_is_never_late() {
     let (robot, links) = planar3();
     let mut rng = ChaCha8Rng::seed_from_u64(11);
     let opts = SweepOptions::default();
-    let s = CollisionSettings { self_collision: false, ..CollisionSettings::default() };
+    let s = CollisionSettings {
+        self_collision: false,
+        ..CollisionSettings::default()
+    };
     let (mut clears, mut contacts) = (0, 0);
     for _ in 0..60 {
         let mut scene = Scene::new();
         let r = rng.random_range(0.05..0.2);
-        let p = Isometry3::translation(rng.random_range(-2.5..2.5), rng.random_range(-2.5..2.5), 0.0);
+        let p = Isometry3::translation(
+            rng.random_range(-2.5..2.5),
+            rng.random_range(-2.5..2.5),
+            0.0,
+        );
         scene.add("ball", Arc::new(Solid::sphere(r, None).expect("ball")), p);
         let q0: Vec<f64> = (0..3).map(|_| rng.random_range(-3.0..3.0)).collect();
         let q1: Vec<f64> = q0.iter().map(|q| q + rng.random_range(-1.5..1.5)).collect();
-        if !check_robot(&robot, &links, &q0, &scene, &s).expect("check").is_clear() {
+        if !check_robot(&robot, &links, &q0, &scene, &s)
+            .expect("check")
+            .is_clear()
+        {
             continue;
         }
         let samples = |a: f64, b: f64| -> Option<f64> {
-            (0..=400).map(|i| a + (b - a) * i as f64 / 400.0).find(|&t| {
-                let q: Vec<f64> = q0.iter().zip(&q1).map(|(x, y)| x + (y - x) * t).collect();
-                !check_robot(&robot, &links, &q, &scene, &s).expect("check").is_clear()
-            })
+            (0..=400)
+                .map(|i| a + (b - a) * i as f64 / 400.0)
+                .find(|&t| {
+                    let q: Vec<f64> = q0.iter().zip(&q1).map(|(x, y)| x + (y - x) * t).collect();
+                    !check_robot(&robot, &links, &q, &scene, &s)
+                        .expect("check")
+                        .is_clear()
+                })
         };
         match sweep_robot(&robot, &links, &q0, &q1, &scene, false, &opts).expect("sweep") {
             Sweep::Clear => {
                 clears += 1;
-                assert_eq!(samples(0.0, 1.0), None, "sweep said clear, sampling found contact");
+                assert_eq!(
+                    samples(0.0, 1.0),
+                    None,
+                    "sweep said clear, sampling found contact"
+                );
             }
             Sweep::Contact { s: t, .. } => {
                 contacts += 1;
                 if let Some(first) = samples(0.0, 1.0) {
-                    assert!(t <= first + 1e-9, "sweep contact at {t}, sampled contact already at {first}");
+                    assert!(
+                        t <= first + 1e-9,
+                        "sweep contact at {t}, sampled contact already at {first}"
+                    );
                 }
             }
             Sweep::Unknown { reason, .. } => panic!("{reason}"),
         }
     }
-    assert!(clears > 5 && contacts > 5, "{clears} clear, {contacts} contact");
+    assert!(
+        clears > 5 && contacts > 5,
+        "{clears} clear, {contacts} contact"
+    );
 }
 
 #[test]
@@ -141,12 +283,21 @@ fn puma_with_assumed_link_boxes_against_a_table() {
     assert_eq!(links.links.len(), 7);
     let mut scene = Scene::new();
     // A table top in front of the pedestal, its top 0.17 m below the shoulder (z = 0.672 m).
-    scene.add("table", Arc::new(Solid::cuboid(Vector3::new(1.0, 2.0, 0.05)).expect("table")), Isometry3::translation(0.8, 0.0, 0.475));
+    scene.add(
+        "table",
+        Arc::new(Solid::cuboid(Vector3::new(1.0, 2.0, 0.05)).expect("table")),
+        Isometry3::translation(0.8, 0.0, 0.475),
+    );
     let s = CollisionSettings::default();
     // q = 0: upper arm level at shoulder height, forearm pointing up — clear of the table.
-    assert!(check_robot(&robot, &links, &[0.0; 6], &scene, &s).expect("check").is_clear());
+    assert!(
+        check_robot(&robot, &links, &[0.0; 6], &scene, &s)
+            .expect("check")
+            .is_clear()
+    );
     // Shoulder down 0.6 rad: the elbow dips to z ≈ 0.43 over the table.
-    match check_robot(&robot, &links, &[0.0, -0.6, 0.0, 0.0, 0.0, 0.0], &scene, &s).expect("check") {
+    match check_robot(&robot, &links, &[0.0, -0.6, 0.0, 0.0, 0.0, 0.0], &scene, &s).expect("check")
+    {
         CheckResult::Contact(c) => assert!(matches!(c[0].a, Body::Link(2..=4)), "{c:?}"),
         other => panic!("{other:?}"),
     }
