@@ -315,6 +315,10 @@ fn bad_parameters_are_refused_with_the_field_named() {
         Err(ShapeError::FacetsOutOfRange { facets: 2, .. })
     ));
     assert!(matches!(
+        shapes::sphere(1.0, Some(4096)),
+        Err(ShapeError::FacetsOutOfRange { max: 1024, .. })
+    ));
+    assert!(matches!(
         shapes::truncated_cone(0.0, 0.0, 1.0, None),
         Err(ShapeError::NonPositive {
             field: "radius",

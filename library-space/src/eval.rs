@@ -16,6 +16,10 @@ use robosim_kinematics::{Convention, Joint, JointType, Robot, fk};
 use std::collections::HashMap;
 use std::rc::Rc;
 
+/// The most polygons one evaluation may generate (a guard against `for` loops and facet counts
+/// that would exhaust memory).
+pub const POLYGON_BUDGET: usize = 5_000_000;
+
 /// Options that apply to a whole evaluation.
 #[derive(Debug, Clone, Default)]
 pub struct EvalOptions {
@@ -59,6 +63,8 @@ pub(crate) struct Evaluator<'l> {
     pub opts: &'l EvalOptions,
     stack: Vec<usize>,
     facets: Vec<Option<usize>>,
+    /// Polygons generated so far in this evaluation (bounded by [`POLYGON_BUDGET`]).
+    polygons: usize,
 }
 
 type Scope = HashMap<String, (Value, Span)>;
@@ -145,6 +151,7 @@ impl<'l> Evaluator<'l> {
             opts,
             stack: Vec::new(),
             facets: Vec::new(),
+            polygons: 0,
         }
     }
 
@@ -2298,7 +2305,15 @@ impl<'l> Evaluator<'l> {
                     "parameters a solid can be built from (positive sizes, a simple polygon)",
                 )
             })?;
-            let _ = s;
+            s.polygons += poly.polygons.len();
+            if s.polygons > POLYGON_BUDGET {
+                return Err(err(
+                    ErrorKind::OutOfRange,
+                    span,
+                    format!("the model has more than {POLYGON_BUDGET} polygons"),
+                )
+                .expected("fewer facets or fewer repeated parts"));
+            }
             Ok(Value::Solid(Rc::new(SolidVal {
                 parts: vec![PlacedSolid {
                     name: name.to_string(),

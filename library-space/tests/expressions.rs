@@ -147,3 +147,19 @@ robot r {
     assert_eq!((e.location.line, e.location.column), (5, 3));
     assert_eq!(e.message, "fixed link `b` sits between two moving joints");
 }
+
+#[test]
+fn models_too_large_for_memory_are_refused() {
+    let src = "solid big {\n  part sphere(1 m, 1024) for k in range(40)\n}\n";
+    let e = Library::from_source("big.rsl", src).expect_err("too big");
+    assert_eq!(e.kind, ErrorKind::OutOfRange);
+    assert_eq!(e.message, "the model has more than 5000000 polygons");
+    let e = Library::from_source("big.rsl", "solid b {\n  part sphere(1 m, 2048)\n}\n")
+        .expect_err("sphere facets");
+    assert_eq!(e.kind, ErrorKind::OutOfRange);
+    assert!(
+        e.message.contains("out of range [4, 1024]"),
+        "{}",
+        e.message
+    );
+}

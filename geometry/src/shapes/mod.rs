@@ -46,6 +46,8 @@ pub const MIN_FACETS: usize = 8;
 pub const MAX_FACETS: usize = 256;
 /// The most facets a caller may ask for around a full circle (memory guard).
 pub const FACET_LIMIT: usize = 16384;
+/// The most facets (meridians) of a sphere, whose face count grows as n²/2 (memory guard).
+pub const SPHERE_FACET_LIMIT: usize = 1024;
 
 /// Why a shape could not be generated. Every variant names the shape and the parameter.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -306,6 +308,14 @@ fn truncated_cone_named(
 pub fn sphere(radius: f64, facets: Option<usize>) -> Result<Polyhedron, ShapeError> {
     let r = positive("sphere", "radius", radius)?;
     let n = facets_or_default("sphere", facets, r, 4)?;
+    if n > SPHERE_FACET_LIMIT {
+        return Err(ShapeError::FacetsOutOfRange {
+            shape: "sphere",
+            facets: n,
+            min: 4,
+            max: SPHERE_FACET_LIMIT,
+        });
+    }
     let bands = n.div_ceil(2).max(2); // latitude step π/bands ≤ 2π/n
     let mut profile = vec![Point2::new(0.0, -r)];
     for j in 1..bands {
