@@ -217,6 +217,8 @@ pub struct Reader {
     seen: u64,
     /// Lowest version from which the log is gap-free.
     log_floor: u64,
+    /// Changes drained but not yet returned by [`Reader::wait_change`].
+    pending: Vec<Change>,
     timeout: Duration,
     _services: Vec<Box<dyn std::any::Any>>,
 }
@@ -251,6 +253,7 @@ impl Reader {
             log: VecDeque::new(),
             seen: 0,
             log_floor: 0,
+            pending: Vec::new(),
             timeout: Duration::from_secs(10),
             _services: vec![Box::new(objects_svc), Box::new(poses_svc), Box::new(changes_svc), Box::new(change_event), Box::new(req_event)],
         };
@@ -269,8 +272,9 @@ impl Reader {
         let v = r.current.as_ref().map_or(0, |s| s.version);
         r.seen = v;
         r.log_floor = v + 1;
-        // History of the change stream: drop what the snapshot already includes.
-        r.drain_changes()?;
+        // History of the change stream: what the snapshot already includes is dropped; what
+        // came after it is kept for the first wait_change.
+        r.pending = r.drain_changes()?;
         Ok(r)
     }
 
@@ -391,7 +395,8 @@ impl Reader {
     /// Waits up to `timeout` for the next change(s) and returns them in version order (empty on
     /// timeout). The snapshot is advanced to the newest version.
     pub fn wait_change(&mut self, timeout: Duration) -> Result<Vec<Change>, ReaderError> {
-        let mut out = self.drain_changes()?;
+        let mut out = std::mem::take(&mut self.pending);
+        out.extend(self.drain_changes()?);
         if out.is_empty() {
             self.listener.timed_wait(|_| {}, timeout).map_err(ipc("wait for changes"))?;
             out = self.drain_changes()?;

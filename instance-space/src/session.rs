@@ -73,14 +73,19 @@ pub fn write_private(path: &FsPath, bytes: &[u8]) -> Result<(), SessionError> {
 }
 
 impl Session {
-    /// Opens (creating its directories) the session `name`, or the default one.
+    /// Opens (creating its directories) the session `name`, or the default one, under
+    /// [`home`].
     pub fn open(name: Option<&str>) -> Result<Self, SessionError> {
+        Self::open_in(&home(), name)
+    }
+
+    /// Opens the session `name` under the directory `root` instead of [`home`].
+    pub fn open_in(root: &FsPath, name: Option<&str>) -> Result<Self, SessionError> {
         let name = name.map(str::to_owned).unwrap_or_else(default_session_name);
         if name.is_empty() || name.len() > 24 || !name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-') {
             return Err(SessionError::BadName(name));
         }
-        let root = home();
-        private_dir(&root)?;
+        private_dir(root)?;
         let dir = root.join(&name);
         for d in [dir.clone(), dir.join("data"), dir.join("run"), dir.join("iox2")] {
             private_dir(&d)?;

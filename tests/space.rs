@@ -1,0 +1,434 @@
+//! Cross-process tests of the Instance Space: real `robosim space` keepers, real reader and
+//! writer processes (this test binary re-executed in a child role), real shared memory, real
+//! `kill -9`. Each test has its own session name and its own ROBOSIM_HOME, and stops what it
+//! started.
+
+use robosim_instance_space::{Client, ClientError, Kind, Reader, Session, Transaction, TxError, IDENTITY};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
+
+/// A session with a private home directory; kills its processes and removes its shared
+/// memory when dropped.
+struct TestSession {
+    home: tempfile::TempDir,
+    name: String,
+    children: Vec<Child>,
+}
+
+impl TestSession {
+    fn new(tag: &str) -> Self {
+        // iceoryx2 warns when a reader outlives a killed keeper; that is what these tests do.
+        iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+        let home = tempfile::tempdir().expect("temp dir");
+        TestSession { home, name: format!("t{}{}", tag, std::process::id()), children: Vec::new() }
+    }
+    fn session(&self) -> Session {
+        Session::open_in(self.home.path(), Some(&self.name)).expect("session")
+    }
+    fn command(&self, program: &str) -> Command {
+        let mut c = Command::new(program);
+        c.env("ROBOSIM_HOME", self.home.path()).env("IOX2_LOG_LEVEL", "Error");
+        c
+    }
+    fn start_keeper(&mut self) -> u32 {
+        let child = self.command(ROBOSIM).args(["space", "--session", &self.name]).stdout(Stdio::null()).stderr(Stdio::inherit()).spawn().expect("start keeper");
+        let pid = child.id();
+        self.children.push(child);
+        let s = self.session();
+        let start = Instant::now();
+        loop {
+            let ok = with_home(self.home.path(), || Client::connect(&s, "probe").is_ok());
+            if ok {
+                return pid;
+            }
+            assert!(start.elapsed() < Duration::from_secs(30), "keeper did not come up");
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+    /// This test binary in a child role.
+    fn child(&mut self, role: &str, args: &[&str]) -> u32 {
+        let exe = std::env::current_exe().expect("test exe");
+        let child = self
+            .command(exe.to_str().expect("utf-8 path"))
+            .args(["--exact", "child_process_entry", "--nocapture", "--test-threads=1"])
+            .env("ROBOSIM_CHILD", role)
+            .env("ROBOSIM_CHILD_SESSION", &self.name)
+            .env("ROBOSIM_CHILD_ARGS", args.join(" "))
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("spawn child");
+        let pid = child.id();
+        self.children.push(child);
+        pid
+    }
+    fn wait_child(&mut self, pid: u32, timeout: Duration) -> bool {
+        let start = Instant::now();
+        let i = self.children.iter().position(|c| c.id() == pid).expect("our child");
+        loop {
+            if let Some(status) = self.children[i].try_wait().expect("try_wait") {
+                return status.success();
+            }
+            assert!(start.elapsed() < timeout, "child {pid} still running after {timeout:?}");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+    }
+    fn file(&self, name: &str) -> PathBuf {
+        self.home.path().join(name)
+    }
+}
+
+impl Drop for TestSession {
+    fn drop(&mut self) {
+        for c in &mut self.children {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        let prefix = format!("rs_{}_", self.name);
+        if let Ok(entries) = std::fs::read_dir("/dev/shm") {
+            for e in entries.flatten() {
+                if e.file_name().to_string_lossy().starts_with(&prefix) {
+                    let _ = std::fs::remove_file(e.path());
+                }
+            }
+        }
+    }
+}
+
+/// Runs `f` (kept as a seam: sessions are opened with an explicit home, so nothing here
+/// touches the process environment).
+fn with_home<T>(_home: &Path, f: impl FnOnce() -> T) -> T {
+    f()
+}
+
+fn kill9(pid: u32) {
+    let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
+}
+
+fn scene_tx() -> Transaction {
+    let mut tx = Transaction::new();
+    let scene = tx.create(Kind::Scene, "scene", None);
+    for k in 0..3 {
+        tx.create(Kind::Solid, &format!("body{k}"), Some(scene));
+    }
+    tx
+}
+
+/// Reads "version ids…" lines.
+fn read_log(path: &Path) -> Vec<(u64, Vec<u64>)> {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    text.lines()
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(|l| {
+            let mut it = l.split_whitespace().map(|x| x.parse::<u64>().expect("number"));
+            let v = it.next().expect("version");
+            (v, it.collect())
+        })
+        .collect()
+}
+
+// ---------------------------------------------------------------------------------------
+// Child roles (this binary re-executed with ROBOSIM_CHILD set). Without it this entry point
+// returns at once; it is not a test of anything by itself.
+
+#[test]
+fn child_process_entry() {
+    let Ok(role) = std::env::var("ROBOSIM_CHILD") else { return };
+    let name = std::env::var("ROBOSIM_CHILD_SESSION").expect("session");
+    let args: Vec<String> = std::env::var("ROBOSIM_CHILD_ARGS").unwrap_or_default().split_whitespace().map(str::to_owned).collect();
+    let session = Session::open(Some(&name)).expect("session");
+    match role.as_str() {
+        // reader OUT UNTIL: record every change (version ids…) until version UNTIL.
+        "reader" => {
+            let out = PathBuf::from(&args[0]);
+            let until: u64 = args[1].parse().expect("until");
+            let mut r = Reader::attach(&session, "test-reader").expect("attach");
+            let mut f = std::fs::File::create(&out).expect("log");
+            let snap = r.snapshot().expect("snapshot");
+            writeln!(f, "# attached at {} with {} objects", snap.version(), snap.len()).expect("write");
+            let mut last = snap.version();
+            while last < until {
+                for c in r.wait_change(Duration::from_secs(20)).expect("wait") {
+                    let ids: Vec<String> = c.ids.iter().map(u64::to_string).collect();
+                    writeln!(f, "{} {}", c.version, ids.join(" ")).expect("write");
+                    last = c.version;
+                }
+            }
+            // The snapshot must agree with the last change: same version.
+            let snap = r.snapshot().expect("snapshot");
+            writeln!(f, "# final {} {}", snap.version(), snap.len()).expect("write");
+        }
+        // writer OUT N: N transactions, each moving one of the scene's bodies; log acks.
+        "writer" => {
+            let out = PathBuf::from(&args[0]);
+            let n: usize = args[1].parse().expect("n");
+            let bodies: Vec<u64> = args[2..].iter().map(|a| a.parse().expect("id")).collect();
+            let mut c = Client::connect(&session, "test-writer").expect("connect");
+            let mut f = std::fs::File::create(&out).expect("log");
+            for k in 0..n {
+                let mut tx = Transaction::new();
+                let mut pose = IDENTITY;
+                pose[3] = k as f64;
+                let id = bodies[k % bodies.len()];
+                tx.set_pose(id, pose);
+                if k % 7 == 3 {
+                    // Some transactions touch two objects.
+                    tx.set_pose(bodies[(k + 1) % bodies.len()], pose);
+                }
+                let a = c.transact(&tx).expect("commit");
+                let ids: Vec<String> = a.changes.iter().map(|x| x.0.to_string()).collect();
+                writeln!(f, "{} {}", a.version, ids.join(" ")).expect("write");
+            }
+        }
+        // burst OUT N: pipeline N creates; log "version k" for each acknowledged one, flushed
+        // line by line; stop quietly when the keeper goes away.
+        "burst" => {
+            let out = PathBuf::from(&args[0]);
+            let n: usize = args[1].parse().expect("n");
+            let scene: u64 = args[2].parse().expect("scene");
+            let mut c = Client::connect(&session, "test-burst").expect("connect");
+            let mut f = std::fs::File::create(&out).expect("log");
+            let mut q = std::collections::VecDeque::new();
+            for k in 0..n {
+                if q.len() >= 32 {
+                    let (kk, p) = q.pop_front().expect("non-empty");
+                    match c.wait(p) {
+                        Ok(Ok(a)) => {
+                            writeln!(f, "{} {kk}", a.version).expect("write");
+                            f.flush().expect("flush");
+                        }
+                        Ok(Err(e)) => panic!("refused: {e}"),
+                        Err(_) => return,
+                    }
+                }
+                let mut tx = Transaction::new();
+                tx.create(Kind::Solid, &format!("k{k}"), Some(scene.into()));
+                match c.submit(&tx) {
+                    Ok(p) => q.push_back((k, p)),
+                    Err(_) => return,
+                }
+            }
+            while let Some((kk, p)) = q.pop_front() {
+                match c.wait(p) {
+                    Ok(Ok(a)) => writeln!(f, "{} {kk}", a.version).expect("write"),
+                    _ => return,
+                }
+            }
+        }
+        // idle: attach as a reader and wait to be killed.
+        "idle" => {
+            let _r = Reader::attach(&session, "test-idle").expect("attach");
+            println!("attached");
+            std::thread::sleep(Duration::from_secs(600));
+        }
+        other => panic!("unknown child role {other}"),
+    }
+}
+
+// ---------------------------------------------------------------------------------------
+
+#[test]
+fn writer_and_two_readers_one_late_observe_every_version_in_order() {
+    let mut t = TestSession::new("rw");
+    t.start_keeper();
+    let s = t.session();
+    let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
+    let a = c.transact(&scene_tx()).expect("scene");
+    let bodies: Vec<String> = a.created[1..].iter().map(u64::to_string).collect();
+    let n = 400u64;
+    let until = a.version + n;
+    let (early_log, late_log, writer_log) = (t.file("early.log"), t.file("late.log"), t.file("writer.log"));
+    let early = t.child("reader", &[early_log.to_str().expect("path"), &until.to_string()]);
+    // The early reader must be attached before the writer starts: wait for its header line.
+    let start = Instant::now();
+    while std::fs::read_to_string(&early_log).map_or(true, |s| s.is_empty()) {
+        assert!(start.elapsed() < Duration::from_secs(30), "early reader did not attach");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let mut wargs = vec![writer_log.to_str().expect("path").to_owned(), n.to_string()];
+    wargs.extend(bodies.iter().cloned());
+    let wargs: Vec<&str> = wargs.iter().map(String::as_str).collect();
+    let writer = t.child("writer", &wargs);
+    // Start the late reader once the writer is part-way through.
+    while read_log(&writer_log).len() < (n / 2) as usize {
+        assert!(start.elapsed() < Duration::from_secs(120), "writer stalled");
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    let late = t.child("reader", &[late_log.to_str().expect("path"), &until.to_string()]);
+    assert!(t.wait_child(writer, Duration::from_secs(120)), "writer failed");
+    assert!(t.wait_child(early, Duration::from_secs(60)), "early reader failed");
+    assert!(t.wait_child(late, Duration::from_secs(60)), "late reader failed");
+
+    let written = read_log(&writer_log);
+    assert_eq!(written.len(), n as usize);
+    let versions: Vec<u64> = written.iter().map(|w| w.0).collect();
+    assert_eq!(versions, ((a.version + 1)..=until).collect::<Vec<_>>(), "versions are consecutive");
+    let early_seen = read_log(&early_log);
+    assert_eq!(early_seen, written, "the early reader saw every version, in order, with the writer's change sets");
+    let late_text = std::fs::read_to_string(&late_log).expect("late log");
+    let attached_at: u64 = late_text.lines().next().and_then(|l| l.split_whitespace().nth(3)).and_then(|v| v.parse().ok()).expect("attach line");
+    assert!(attached_at >= a.version + n / 2, "late reader attached late ({attached_at})");
+    let late_seen = read_log(&late_log);
+    let expected: Vec<_> = written.iter().filter(|w| w.0 > attached_at).cloned().collect();
+    assert_eq!(late_seen, expected, "the late reader saw the model at once and every later version in order");
+    assert!(late_text.contains(&format!("# final {until} 4")), "late reader's final snapshot is the last version: {late_text}");
+}
+
+#[test]
+fn kill_9_of_the_keeper_mid_burst_loses_nothing_acknowledged() {
+    let mut t = TestSession::new("k9");
+    let keeper = t.start_keeper();
+    let s = t.session();
+    let scene = {
+        let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
+        let mut tx = Transaction::new();
+        tx.create(Kind::Scene, "scene", None);
+        c.transact(&tx).expect("scene").created[0]
+    };
+    let mut reader = with_home(t.home.path(), || Reader::attach(&s, "survivor")).expect("attach");
+    let log = t.file("burst.log");
+    let burst = t.child("burst", &[log.to_str().expect("path"), "10000", &scene.to_string()]);
+    let start = Instant::now();
+    while read_log(&log).len() < 1500 {
+        assert!(start.elapsed() < Duration::from_secs(120), "burst stalled");
+        std::thread::sleep(Duration::from_millis(2));
+    }
+    kill9(keeper);
+    t.wait_child(burst, Duration::from_secs(60));
+    let acked = read_log(&log);
+    assert!(acked.len() >= 1500 && acked.len() < 10000, "killed mid-burst ({} acked)", acked.len());
+    let last_acked = acked.iter().map(|a| a.0).max().expect("acks");
+
+    t.start_keeper();
+    // Every acknowledged create is there after recovery.
+    let mut fresh = with_home(t.home.path(), || Reader::attach(&s, "after")).expect("attach");
+    let snap = fresh.snapshot().expect("snapshot");
+    assert!(snap.version() >= last_acked, "recovered version {} < last acknowledged {last_acked}", snap.version());
+    let names: std::collections::HashSet<&str> = (0..snap.len()).map(|i| snap.name(i)).collect();
+    for (_, k) in &acked {
+        assert!(names.contains(format!("k{}", k[0]).as_str()), "acknowledged create k{} lost", k[0]);
+    }
+    // Versions continue, and the reader that outlived the old keeper follows the new one.
+    let mut c = with_home(t.home.path(), || Client::connect(&s, "after")).expect("connect");
+    let mut tx = Transaction::new();
+    tx.set_name(scene, "renamed");
+    let a = c.transact(&tx).expect("commit after restart");
+    assert_eq!(a.version, snap.version() + 1);
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        let _ = reader.wait_change(Duration::from_millis(200)).expect("wait");
+        if reader.snapshot().is_some_and(|s| s.version() >= a.version) {
+            break;
+        }
+        assert!(Instant::now() < deadline, "surviving reader never saw version {}", a.version);
+    }
+    let snap = reader.snapshot().expect("snapshot");
+    assert_eq!(snap.name(snap.index_of(scene).expect("scene")), "renamed");
+    assert!(fresh.refresh().is_ok());
+}
+
+#[test]
+fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
+    let mut t = TestSession::new("kr");
+    let keeper = t.start_keeper();
+    let s = t.session();
+    let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
+    let a = c.transact(&scene_tx()).expect("scene");
+    let sim = t.command(ROBOSIM).args(["simulator", "--session", &t.name.clone()]).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("simulator");
+    let sim_pid = sim.id();
+    t.children.push(sim);
+    let idle = t.child("idle", &[]);
+    let mut other = with_home(t.home.path(), || Reader::attach(&s, "other")).expect("attach");
+    // Wait until the simulator has registered.
+    let start = Instant::now();
+    while !s.processes().iter().any(|p| p.role == "simulator") {
+        assert!(start.elapsed() < Duration::from_secs(30), "simulator did not register");
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    std::thread::sleep(Duration::from_millis(300));
+    kill9(idle);
+    kill9(sim_pid);
+    t.wait_child(idle, Duration::from_secs(10));
+    let mut tx = Transaction::new();
+    tx.set_pose(a.created[1], IDENTITY);
+    let b = c.transact(&tx).expect("keeper still serves");
+    let changes = other.wait_change(Duration::from_secs(10)).expect("wait");
+    assert_eq!(changes.last().map(|c| c.version), Some(b.version), "the other reader carries on");
+    assert!(robosim_instance_space::pid_alive(keeper));
+    assert!(!s.processes().iter().any(|p| p.role == "simulator"), "the dead simulator is gone from ps");
+    // A new reader can still attach after peers died uncleanly.
+    let late = with_home(t.home.path(), || Reader::attach(&s, "late")).expect("attach after deaths");
+    assert_eq!(late.snapshot().expect("snapshot").version(), b.version);
+}
+
+#[test]
+fn bad_transactions_through_the_keeper_get_typed_errors_and_change_nothing() {
+    let mut t = TestSession::new("bad");
+    t.start_keeper();
+    let s = t.session();
+    let mut c = with_home(t.home.path(), || Client::connect(&s, "w")).expect("connect");
+    let a = c.transact(&scene_tx()).expect("scene");
+    let mut r = with_home(t.home.path(), || Reader::attach(&s, "r")).expect("attach");
+    let body = a.created[1];
+    let mut pose = IDENTITY;
+    pose[5] = f64::INFINITY;
+    let mut tx = Transaction::new();
+    tx.set_pose(body, pose);
+    assert!(matches!(c.transact(&tx), Err(ClientError::Refused(TxError::NonFinite { op: 0, id, .. })) if id == body));
+    let mut tx = Transaction::new();
+    tx.set_pose(123_456, IDENTITY);
+    assert!(matches!(c.transact(&tx), Err(ClientError::Refused(TxError::UnknownObject { id: 123_456, .. }))));
+    let p = c.submit_raw(b"\xff\xff\xff garbage").expect("sent");
+    assert!(matches!(c.wait(p).expect("answer"), Err(TxError::Malformed { .. })));
+    // A wire message claiming 10^12 vertices.
+    let mut tx = Transaction::new();
+    tx.set_geometry(body, Some(robosim_instance_space::GeometryInput { vertices: vec![[0.0; 3]], polygons: vec![] }));
+    let bytes = tx.encode();
+    let pos = bytes.windows(25).position(|w| w[0] == 1 && w[1..].iter().all(|b| *b == 0)).expect("count");
+    let mut evil = bytes[..pos].to_vec();
+    evil.push(0xFD);
+    evil.extend_from_slice(&1_000_000_000_000u64.to_le_bytes());
+    evil.extend_from_slice(&bytes[pos + 1..]);
+    let p = c.submit_raw(&evil).expect("sent");
+    assert!(matches!(c.wait(p).expect("answer"), Err(TxError::TooLarge { .. })));
+    // Nothing changed, nothing was announced.
+    assert!(r.wait_change(Duration::from_millis(300)).expect("wait").is_empty());
+    assert_eq!(r.snapshot().expect("snapshot").version(), a.version);
+}
+
+#[test]
+fn sessions_are_isolated_and_private_to_the_user() {
+    let mut a = TestSession::new("isoa");
+    let b = TestSession::new("isob");
+    a.start_keeper();
+    let sa = a.session();
+    let sb = b.session();
+    // Session b has no keeper: a reader there must not find session a's.
+    assert!(matches!(with_home(b.home.path(), || Reader::attach(&sb, "r")), Err(robosim_instance_space::ReaderError::NoKeeper { .. })));
+    let mut c = with_home(a.home.path(), || Client::connect(&sa, "w")).expect("connect");
+    c.transact(&scene_tx()).expect("commit");
+    let _r = with_home(a.home.path(), || Reader::attach(&sa, "r")).expect("attach");
+    use std::os::unix::fs::PermissionsExt;
+    let files = sa.shm_files();
+    assert!(files.len() > 5, "session a has shared memory: {files:?}");
+    for (path, mode) in &files {
+        assert_eq!(mode & 0o077, 0, "{} is mode {mode:o}", path.display());
+    }
+    // Session b's failed attach made only its own (private) node files.
+    for (path, mode) in sb.shm_files() {
+        assert_eq!(mode & 0o077, 0, "{} is mode {mode:o}", path.display());
+        assert!(!files.iter().any(|(p, _)| *p == path));
+    }
+    for dir in [sa.dir().to_owned(), sa.data_dir(), sa.run_dir()] {
+        let mode = std::fs::metadata(&dir).expect("dir").permissions().mode() & 0o777;
+        assert_eq!(mode, 0o700, "{} is mode {mode:o}", dir.display());
+    }
+    for e in std::fs::read_dir(sa.data_dir()).expect("data dir").flatten() {
+        let mode = e.metadata().expect("meta").permissions().mode() & 0o777;
+        assert_eq!(mode, 0o600, "{} is mode {mode:o}", e.path().display());
+    }
+}
