@@ -1,7 +1,7 @@
 //! "What accuracy costs in time" for inverse kinematics (issue 4): `robosim report ik`.
 //!
 //! On random reachable poses (FK of joint vectors drawn uniformly within the limits, ChaCha8
-//! seed 2026) for the PUMA 560 and the 7-DOF Franka Panda, per method: success rate, mean and
+//! seed 2026) for the PUMA 560, the 7-DOF Franka Panda (and the Stanford arm's closed form), per method: success rate, mean and
 //! p99 wall time per solve, mean residual, mean iterations; the numeric methods at tolerances
 //! 1e-3 … 1e-12 (m and rad, every axis). Times are also given as ratios to the closed-form
 //! PUMA solve measured in the same run, since the machine is shared and absolute times drift.
@@ -175,6 +175,44 @@ pub fn measure_ik(n: usize) -> Vec<IkRow> {
         }
         rows.push(acc.row("puma560", name, None));
     }
+    // The RRP closed form on the Stanford arm (half its branches reverse the boom, outside the
+    // prismatic limits; all must still reproduce the pose).
+    if let Some(stanford) = builtin_robot("stanford") {
+        let set = poses(&stanford, n, &mut rng);
+        let options = IkOptions {
+            all: true,
+            ..IkOptions::default()
+        };
+        let mut acc = Acc::default();
+        for (q, t) in &set {
+            let start = Instant::now();
+            let r = ik::solve(&stanford, black_box(t), Method::Analytic, &options);
+            acc.times.push(start.elapsed().as_secs_f64());
+            if let Ok(r) = r {
+                let good = r
+                    .solutions
+                    .iter()
+                    .all(|s| s.residual.position < 1e-10 && s.residual.orientation < 1e-10);
+                if good
+                    && r.solutions
+                        .iter()
+                        .any(|s| s.q.iter().zip(q).all(|(a, b)| (a - b).abs() < 1e-7))
+                {
+                    acc.ok += 1;
+                    let k = r.solutions.len() as f64;
+                    acc.pos += r.solutions.iter().map(|s| s.residual.position).sum::<f64>() / k;
+                    acc.ori += r
+                        .solutions
+                        .iter()
+                        .map(|s| s.residual.orientation)
+                        .sum::<f64>()
+                        / k;
+                }
+                acc.sols += r.solutions.len() as f64;
+            }
+        }
+        rows.push(acc.row("stanford", "analytic (ik::solve, all)", None));
+    }
     // Numeric methods over the tolerance sweep.
     for (robot, name, set) in [
         (&puma, "puma560", &puma_poses),
@@ -308,7 +346,7 @@ pub fn report_ik(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportErro
         notes: vec![
             format!(
                 "{n} random reachable poses per robot: FK of joint vectors drawn uniformly within the joint limits (ChaCha8, seed 2026). \
-                 PUMA 560 (standard DH, 6R spherical wrist) and Franka Panda (modified DH, 7 DOF)."
+                 PUMA 560 (standard DH, 6R spherical wrist), Franka Panda (modified DH, 7 DOF), and the Stanford arm's RRP closed form."
             ),
             "Closed forms (analytic, hybrid): success = all solutions found with position and orientation residual < 1e-10 and the \
              generating configuration among them; `raw` times SphericalSolver::solve_raw alone (all 8 branches, no allocation), \

@@ -386,7 +386,7 @@ fn dls_solves_the_panda_and_the_stanford_arm() {
                 seed: k as u64,
                 ..IkOptions::default()
             };
-            let r = ik::solve(&robot, &target, Method::Auto, &o);
+            let r = ik::solve(&robot, &target, Method::Dls, &o);
             if let Ok(r) = r {
                 assert_eq!(r.method, Method::Dls);
                 assert!(r.solutions[0].within_limits && r.solutions[0].converged);
@@ -493,5 +493,48 @@ fn degenerate_robots_and_options_answer_without_panicking() {
     assert!(matches!(
         ik::solve(&puma(), &target, Method::Dls, &bad),
         Err(IkError::BadOptions { .. })
+    ));
+}
+
+#[test]
+fn stanford_arm_is_recognised_and_solved_in_closed_form() {
+    let robot = builtin_robot("stanford").expect("builtin");
+    for q in [
+        [0.3, -0.5, 0.8, 1.0, -0.7, 0.4],
+        [-2.0, 1.2, 0.35, -0.2, 1.5, 2.9],
+        [0.1, 0.2, 1.2, 0.0, 0.0, 0.5],
+    ] {
+        let target = fk::forward(&robot, &q);
+        let r = ik::solve(&robot, &target, Method::Auto, &all()).expect("reachable");
+        assert_eq!(r.method, Method::Analytic);
+        assert_eq!(r.solutions.len(), 8);
+        assert_clean(&r, &robot, &target, 1e-10);
+        assert!(
+            contains_q(&r, &q, 1e-9),
+            "{:?}",
+            r.solutions.iter().map(|s| &s.q).collect::<Vec<_>>()
+        );
+        // Half the branches reverse the boom (d3 + d4 < 0): outside the prismatic limits.
+        assert!(
+            r.solutions
+                .iter()
+                .filter(|s| s.q[2] < 0.0)
+                .all(|s| !s.within_limits)
+        );
+        let one = ik::solve(
+            &robot,
+            &target,
+            Method::Analytic,
+            &IkOptions {
+                q0: Some(q.to_vec()),
+                ..IkOptions::default()
+            },
+        )
+        .expect("reachable");
+        assert!(contains_q(&one, &q, 1e-9));
+    }
+    assert!(matches!(
+        ik::solve(&robot, &trans(0.0, 0.0, 0.3), Method::Hybrid, &all()),
+        Err(IkError::NotApplicable { .. })
     ));
 }

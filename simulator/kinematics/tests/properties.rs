@@ -31,6 +31,18 @@ proptest! {
     }
 
     #[test]
+    fn every_analytic_stanford_solution_reproduces_the_pose(q in q_strategy(&builtin_robot("stanford").expect("builtin"))) {
+        let robot = builtin_robot("stanford").expect("builtin");
+        let target = fk::forward(&robot, &q);
+        let r = ik::solve(&robot, &target, Method::Analytic, &IkOptions { all: true, ..IkOptions::default() }).expect("reachable");
+        prop_assert_eq!(r.solutions.len(), 8);
+        for s in &r.solutions {
+            prop_assert!(pose_error(&fk::forward(&robot, &s.q), &target).norm() < 1e-10, "{:?}", s);
+        }
+        prop_assert!(r.solutions.iter().any(|s| s.within_limits && s.q.iter().zip(&q).all(|(a, b)| (a - b).abs() < 1e-8)));
+    }
+
+    #[test]
     fn hybrid_reproduces_the_puma_pose(q in q_strategy(&builtin_robot("puma560").expect("builtin"))) {
         let robot = builtin_robot("puma560").expect("builtin");
         let target = fk::forward(&robot, &q);

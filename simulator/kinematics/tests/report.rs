@@ -10,8 +10,8 @@ fn report_ik_quick_writes_csv_markdown_and_png() {
     assert!(
         header.starts_with("robot,method,tolerance,poses,success_pct,mean_us,median_us,p99_us")
     );
-    // 3 closed-form rows + 2 robots × 4 tolerances × 3 numeric methods.
-    assert_eq!(csv.lines().count(), 1 + 3 + 24);
+    // 4 closed-form rows + 2 robots × 4 tolerances × 3 numeric methods.
+    assert_eq!(csv.lines().count(), 1 + 4 + 24);
     for line in csv.lines().skip(1) {
         let success: f64 = line
             .split(',')

@@ -20,7 +20,7 @@
 //! (|sin θ5| < [`WRIST_SINGULAR`]) θ4 is taken from the reference (see [`Note::WristSingular`]);
 //! never NaN.
 
-use super::family::{ArmGeometry, Family, recognise};
+use super::family::{ArmGeometry, BoomGeometry, Family, recognise};
 use super::{
     Branch, Elbow, IkError, IkOptions, IkResult, IkSolver, Method, Note, Shoulder, Wrist, finish,
     wrap,
@@ -137,28 +137,11 @@ impl ArmSolver {
     ) -> ([Option<ArmBranch>; 4], Option<&'static str>) {
         let mut out = [None; 4];
         let mut why = None;
-        let rho = p.x.hypot(p.y);
-        let psi = p.y.atan2(p.x);
-        let tiny = 1e-13 * self.scale;
-        let mut base_flags = Flags::default();
-        let (right, left) = if rho <= tiny && self.lateral.abs() <= tiny {
-            base_flags.shoulder_singular = true;
-            (theta1_ref, theta1_ref + PI)
-        } else {
-            let mut k = self.lateral * self.s1 / rho;
-            if !k.is_finite() || k.abs() > 1.0 + CLAMP_SLACK {
-                return (
-                    out,
-                    Some("the wrist centre is closer to the waist axis than the shoulder offset"),
-                );
-            }
-            if k.abs() > 1.0 {
-                base_flags.shoulder_clamped = Some(k.abs() - 1.0);
-                k = k.signum();
-            }
-            let a = k.asin();
-            (psi + a, psi + PI - a)
-        };
+        let ((right, left), base_flags) =
+            match shoulder(p, self.lateral, self.s1, self.scale, theta1_ref) {
+                Ok(x) => x,
+                Err(reason) => return (out, Some(reason)),
+            };
         for (si, (shoulder, t1)) in [(Shoulder::Left, left), (Shoulder::Right, right)]
             .into_iter()
             .enumerate()
@@ -215,6 +198,158 @@ impl ArmSolver {
     }
 }
 
+/// The two waist angles (right, left) putting wrist point `p` in the arm's plane, from the
+/// lateral-offset equation −u_y·s1 = lateral (u: p rotated by −θ1); shared by both arms.
+fn shoulder(
+    p: &Vector3<f64>,
+    lateral: f64,
+    s1: f64,
+    scale: f64,
+    theta1_ref: f64,
+) -> Result<((f64, f64), Flags), &'static str> {
+    let rho = p.x.hypot(p.y);
+    let psi = p.y.atan2(p.x);
+    let tiny = 1e-13 * scale;
+    let mut flags = Flags::default();
+    if rho <= tiny && lateral.abs() <= tiny {
+        flags.shoulder_singular = true;
+        return Ok(((theta1_ref, theta1_ref + PI), flags));
+    }
+    let mut k = lateral * s1 / rho;
+    if !k.is_finite() || k.abs() > 1.0 + CLAMP_SLACK {
+        return Err("the wrist centre is closer to the waist axis than the shoulder offset");
+    }
+    if k.abs() > 1.0 {
+        flags.shoulder_clamped = Some(k.abs() - 1.0);
+        k = k.signum();
+    }
+    let a = k.asin();
+    Ok(((psi + a, psi + PI - a), flags))
+}
+
+/// The RRP (Stanford) arm: waist, shoulder, prismatic boom along the shoulder frame's z.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct BoomSolver {
+    d1: f64,
+    a1: f64,
+    a2: f64,
+    s1: f64,
+    s2: f64,
+    /// Offset of the boom from the shoulder along z1: d2 + a3 sin θ3 · s2.
+    lateral: f64,
+    /// Offset along the boom's normal: a3 cos θ3.
+    u: f64,
+    d4: f64,
+    theta3: f64,
+    alpha_sc: [(f64, f64); 2],
+    scale: f64,
+}
+
+impl BoomSolver {
+    fn new(g: &BoomGeometry) -> BoomSolver {
+        let j = &g.chain.joints;
+        let (st3, ct3) = j[2].theta.sin_cos();
+        BoomSolver {
+            d1: j[0].d,
+            a1: j[0].a,
+            a2: j[1].a,
+            s1: g.s1,
+            s2: g.s2,
+            lateral: j[1].d + j[2].a * st3 * g.s2,
+            u: j[2].a * ct3,
+            d4: j[3].d,
+            theta3: j[2].theta,
+            alpha_sc: [j[0].alpha.sin_cos(), j[1].alpha.sin_cos()],
+            scale: j.iter().map(|j| j.a.abs() + j.d.abs()).sum::<f64>()
+                + (j[2].qlim[1] - j[2].qlim[0]).abs().min(1e300),
+        }
+    }
+
+    /// Branches in the order left-up, left-down, right-up, right-down, where `Up` is the boom
+    /// extended forwards (D = d3 + d4 ≥ 0) and `Down` reversed (D ≤ 0); `theta[2]` is d3.
+    fn solve(
+        &self,
+        p: &Vector3<f64>,
+        theta1_ref: f64,
+    ) -> ([Option<ArmBranch>; 4], Option<&'static str>) {
+        let mut out = [None; 4];
+        let mut why = None;
+        let ((right, left), base_flags) =
+            match shoulder(p, self.lateral, self.s1, self.scale, theta1_ref) {
+                Ok(x) => x,
+                Err(reason) => return (out, Some(reason)),
+            };
+        for (si, (shoulder, t1)) in [(Shoulder::Left, left), (Shoulder::Right, right)]
+            .into_iter()
+            .enumerate()
+        {
+            let (s, c) = t1.sin_cos();
+            let x1 = p.x * c + p.y * s - self.a1;
+            let y1 = (p.z - self.d1) * self.s1;
+            let m = self.a2 + self.u;
+            let r2 = x1 * x1 + y1 * y1;
+            let mut disc = r2 - m * m;
+            let mut flags = base_flags;
+            if disc < 0.0 {
+                let excess = -disc / (m * m).max(f64::MIN_POSITIVE);
+                if excess > CLAMP_SLACK {
+                    why = Some(
+                        "the wrist centre is closer to the shoulder axis than the boom's offset",
+                    );
+                    continue;
+                }
+                flags.elbow_clamped = Some(excess);
+                disc = 0.0;
+            }
+            let root = disc.sqrt();
+            for (ei, elbow) in [Elbow::Up, Elbow::Down].into_iter().enumerate() {
+                let d = if elbow == Elbow::Up { root } else { -root };
+                let t2 = y1.atan2(x1) - (-d * self.s2).atan2(m);
+                out[2 * si + ei] = Some(ArmBranch {
+                    theta: [t1, t2, d - self.d4],
+                    shoulder,
+                    elbow,
+                    flags,
+                });
+            }
+        }
+        (out, why)
+    }
+
+    fn r03(&self, theta: &[f64; 3]) -> Matrix3<f64> {
+        rz_rx_sc(theta[0], self.alpha_sc[0])
+            * rz_rx_sc(theta[1], self.alpha_sc[1])
+            * rz_rx_sc(self.theta3, (0.0, 1.0))
+    }
+}
+
+/// The position part of either family.
+#[derive(Debug, Clone, PartialEq)]
+enum Arm {
+    Elbow(ArmSolver),
+    Boom(BoomSolver),
+}
+
+impl Arm {
+    fn solve(
+        &self,
+        p: &Vector3<f64>,
+        theta1_ref: f64,
+    ) -> ([Option<ArmBranch>; 4], Option<&'static str>) {
+        match self {
+            Arm::Elbow(a) => a.solve(p, theta1_ref),
+            Arm::Boom(b) => b.solve(p, theta1_ref),
+        }
+    }
+
+    fn r03(&self, theta: &[f64; 3]) -> Matrix3<f64> {
+        match self {
+            Arm::Elbow(a) => a.r03(theta),
+            Arm::Boom(b) => b.r03(theta),
+        }
+    }
+}
+
 /// A raw closed-form solution: joint values (offsets removed, each wrapped into (−π, π]).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RawSolution {
@@ -226,7 +361,9 @@ pub struct RawSolution {
 /// The spherical-wrist solver, precomputed for one robot.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SphericalSolver {
-    arm: ArmSolver,
+    arm: Arm,
+    /// Joint 3 is the prismatic boom (not wrapped).
+    boom: bool,
     prefix_inv: Matrix4<f64>,
     tail_inv: Matrix4<f64>,
     alpha4: f64,
@@ -237,10 +374,11 @@ pub struct SphericalSolver {
 }
 
 impl SphericalSolver {
-    /// `NotApplicable` unless the robot is in [`Family::SphericalWrist`].
+    /// `NotApplicable` unless the robot is in [`Family::SphericalWrist`] or [`Family::BoomWrist`].
     pub fn new(robot: &Robot) -> Result<SphericalSolver, IkError> {
-        let arm = match recognise(robot) {
-            Family::SphericalWrist(arm) => arm,
+        let (chain, s4, arm) = match recognise(robot) {
+            Family::SphericalWrist(g) => (g.chain.clone(), g.s4, Arm::Elbow(ArmSolver::new(&g))),
+            Family::BoomWrist(g) => (g.chain.clone(), g.s4, Arm::Boom(BoomSolver::new(&g))),
             Family::OffsetWrist(_) => {
                 return Err(IkError::NotApplicable {
                     method: "analytic",
@@ -254,22 +392,23 @@ impl SphericalSolver {
                 });
             }
         };
-        let j = &arm.chain.joints;
+        let j = &chain.joints;
         // A6 = Rz(θ6) · Tz(d6) Rx(α6) (a6 = 0): the constant tail goes with the tool.
-        let tail = trans(0.0, 0.0, j[5].d) * rot_x(j[5].alpha) * arm.chain.tool;
+        let tail = trans(0.0, 0.0, j[5].d) * rot_x(j[5].alpha) * chain.tool;
         let mut offsets = [0.0; 6];
         for (o, jt) in offsets.iter_mut().zip(j) {
             *o = jt.offset;
         }
         Ok(SphericalSolver {
-            prefix_inv: rigid_inverse(&arm.chain.prefix),
+            boom: matches!(arm, Arm::Boom(_)),
+            prefix_inv: rigid_inverse(&chain.prefix),
             tail_inv: rigid_inverse(&tail),
             alpha4: j[3].alpha,
             alpha5: j[4].alpha,
-            s4: arm.s4,
+            s4,
             s5: j[4].alpha.sin().signum(),
             offsets,
-            arm: ArmSolver::new(&arm),
+            arm,
         })
     }
 
@@ -331,7 +470,8 @@ impl SphericalSolver {
                 let theta = [arm.theta[0], arm.theta[1], arm.theta[2], t4, t5, t6];
                 let mut q = [0.0; 6];
                 for k in 0..6 {
-                    q[k] = wrap(theta[k] - self.offsets[k]);
+                    let v = theta[k] - self.offsets[k];
+                    q[k] = if k == 2 && self.boom { v } else { wrap(v) };
                 }
                 out[2 * ai + wi] = Some(RawSolution {
                     q,

@@ -8,6 +8,9 @@
 //! * [`Family::OffsetWrist`] — the wrist has offsets (a5, d5, a6, any α5): solved by
 //!   [`super::hybrid`], five joints analytic and θ6 numeric.
 //!
+//! * [`Family::BoomWrist`] — an RRP arm (waist, shoulder, prismatic boom with α3 = 0) with a
+//!   spherical wrist: the Stanford arm. Closed form by [`super::analytic`].
+//!
 //! Modified-DH robots are first rewritten as the equivalent standard chain
 //! ([`StandardChain::from_robot`]); the joint values are the same.
 
@@ -73,10 +76,23 @@ pub struct ArmGeometry {
     pub lateral: f64,
 }
 
+/// An RRP arm (the Stanford arm's family) in standard DH: waist, shoulder, a prismatic boom
+/// along the shoulder's z (α3 = 0), then a spherical wrist.
+#[derive(Debug, Clone, PartialEq)]
+pub struct BoomGeometry {
+    pub chain: StandardChain,
+    /// sin α1, sin α2, sin α4 (each ±1).
+    pub s1: f64,
+    pub s2: f64,
+    pub s4: f64,
+}
+
 /// Which closed form fits.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Family {
     SphericalWrist(ArmGeometry),
+    /// RRP arm with a spherical wrist (Stanford arm): closed form by [`super::analytic`].
+    BoomWrist(BoomGeometry),
     OffsetWrist(ArmGeometry),
     /// No closed form: the reason the first test failed.
     General(String),
@@ -105,15 +121,6 @@ pub fn recognise(robot: &Robot) -> Family {
             robot.dof()
         ));
     }
-    if let Some(j) = robot
-        .joints
-        .iter()
-        .position(|j| j.joint_type != JointType::Revolute)
-    {
-        return Family::General(format!(
-            "joint {j} is prismatic; the closed forms are for 6R arms"
-        ));
-    }
     let chain = StandardChain::from_robot(robot);
     let jt = &chain.joints;
     let scale: f64 = jt
@@ -122,6 +129,21 @@ pub fn recognise(robot: &Robot) -> Family {
         .sum::<f64>()
         .max(f64::MIN_POSITIVE);
     let zero = |x: f64| x.abs() <= 1e-12 * scale;
+    let prismatic: Vec<usize> = robot
+        .joints
+        .iter()
+        .enumerate()
+        .filter(|(_, j)| j.joint_type == JointType::Prismatic)
+        .map(|(i, _)| i)
+        .collect();
+    if prismatic == [2] {
+        return recognise_boom(&chain, &zero);
+    }
+    if let Some(j) = prismatic.first() {
+        return Family::General(format!(
+            "joint {j} is prismatic; the closed forms are for 6R arms and RRP arms"
+        ));
+    }
     let Some(s1) = sign_of_right_angle(jt[0].alpha) else {
         return Family::General("α1 is not ±π/2 (waist not perpendicular to shoulder)".into());
     };
@@ -156,4 +178,36 @@ pub fn recognise(robot: &Robot) -> Family {
     } else {
         Family::OffsetWrist(arm)
     }
+}
+
+fn recognise_boom(chain: &StandardChain, zero: &dyn Fn(f64) -> bool) -> Family {
+    let jt = &chain.joints;
+    let Some(s1) = sign_of_right_angle(jt[0].alpha) else {
+        return Family::General("RRP arm: α1 is not ±π/2".into());
+    };
+    let Some(s2) = sign_of_right_angle(jt[1].alpha) else {
+        return Family::General(
+            "RRP arm: α2 is not ±π/2 (boom not perpendicular to the shoulder axis)".into(),
+        );
+    };
+    if !is(jt[2].alpha, 0.0) {
+        return Family::General("RRP arm: α3 is not 0".into());
+    }
+    let Some(s4) = sign_of_right_angle(jt[3].alpha) else {
+        return Family::General("RRP arm: α4 is not ±π/2".into());
+    };
+    let spherical = sign_of_right_angle(jt[4].alpha).is_some()
+        && zero(jt[3].a)
+        && zero(jt[4].a)
+        && zero(jt[4].d)
+        && zero(jt[5].a);
+    if !spherical {
+        return Family::General("RRP arm without a spherical wrist".into());
+    }
+    Family::BoomWrist(BoomGeometry {
+        chain: chain.clone(),
+        s1,
+        s2,
+        s4,
+    })
 }

@@ -90,6 +90,12 @@ pub struct Hybrid;
 fn setup(robot: &Robot, target: &Matrix4<f64>) -> Result<Setup, IkError> {
     let arm: ArmGeometry = match recognise(robot) {
         Family::SphericalWrist(a) | Family::OffsetWrist(a) => a,
+        Family::BoomWrist(_) => {
+            return Err(IkError::NotApplicable {
+                method: "hybrid",
+                reason: "an RRP arm: solved by the analytic method".into(),
+            });
+        }
         Family::General(reason) => {
             return Err(IkError::NotApplicable {
                 method: "hybrid",

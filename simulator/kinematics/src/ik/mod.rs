@@ -5,7 +5,8 @@
 //! * [`dls`] — damped least squares (Levenberg–Marquardt with Sugihara's error-adaptive
 //!   damping), joint limits, seeded random restarts, per-axis tolerances;
 //! * [`analytic`] — all (up to 8) closed-form solutions of 6R arms with a spherical wrist (the
-//!   PUMA 560 family, any link lengths and twist signs), branch-labelled;
+//!   PUMA 560 family, any link lengths and twist signs) and of RRP arms with a spherical wrist
+//!   (the Stanford arm), branch-labelled;
 //! * [`hybrid`] — the seed's five-joints-analytic, one-numeric method for wrists with offsets;
 //! * [`family`] — recognising which closed form fits a robot (the seed's proposed extension).
 //!
@@ -31,8 +32,8 @@ pub enum Method {
     Newton,
     Dls,
     Hybrid,
-    /// Analytic if the geometry fits the spherical-wrist family, hybrid if it fits the
-    /// offset-wrist family, damped least squares otherwise.
+    /// Analytic if the geometry fits a spherical-wrist family (PUMA-like 6R or Stanford-like
+    /// RRP), hybrid if it fits the offset-wrist family, damped least squares otherwise.
     Auto,
 }
 
@@ -101,7 +102,8 @@ pub enum Shoulder {
     Right,
 }
 
-/// Elbow branch (Corke's `u`/`d` for the PUMA 560); see [`analytic`] for the rule.
+/// Elbow branch (Corke's `u`/`d` for the PUMA 560); see [`analytic`] for the rule. For an RRP
+/// (Stanford) arm, `Up` is the boom extended forwards (d3 + d4 ≥ 0), `Down` reversed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Elbow {
     Up,
@@ -309,7 +311,9 @@ pub fn solve(
         Method::Newton => newton::Newton.solve(robot, target, options),
         Method::Dls => dls::Dls::default().solve(robot, target, options),
         Method::Auto => match family::recognise(robot) {
-            family::Family::SphericalWrist(_) => analytic::Analytic.solve(robot, target, options),
+            family::Family::SphericalWrist(_) | family::Family::BoomWrist(_) => {
+                analytic::Analytic.solve(robot, target, options)
+            }
             family::Family::OffsetWrist(_) => hybrid::Hybrid.solve(robot, target, options),
             family::Family::General(_) => dls::Dls::default().solve(robot, target, options),
         },
