@@ -12,7 +12,6 @@ use crate::diag::{FaultGraph, Ilm};
 use crate::model::check::{Severity, check_model};
 use crate::model::{Model, load_model};
 use crate::sim::{SimOptions, simulate};
-use robosim_kinematics::Robot;
 use serde_json::{Value, json};
 
 /// A failed request: `kind` is a stable category, `message` says what and where.
@@ -49,12 +48,14 @@ fn f64_field(v: &Value, key: &str, default: Option<f64>) -> Result<f64, QueryErr
     }
 }
 
-/// Answers the ops above; `None` for any other op. `robots` is unused here (the ops take
-/// fault models, not robots) and is accepted for the common dispatcher signature.
-pub fn dispatch(
+/// Answers the ops above; `None` for any other op. `robots` (the library resolver, called
+/// with `robosim_kinematics::Robot` by the common dispatcher) is unused here — these ops take
+/// fault models, not robots — so the robot type is generic and this crate does not depend on
+/// the simulator.
+pub fn dispatch<R>(
     op: &str,
     req: &Value,
-    robots: &dyn Fn(&str) -> Option<Robot>,
+    robots: &dyn Fn(&str) -> Option<R>,
 ) -> Option<Result<Value, QueryError>> {
     let _ = robots;
     let r = match op {

@@ -131,7 +131,7 @@ fn analyze_ends_with_a_summary_line() {
 
 #[test]
 fn query_ops_answer_json() {
-    let none = |_: &str| None;
+    let none = |_: &str| None::<()>;
     assert!(dispatch("fk", &json!({}), &none).is_none());
     let r = dispatch("diag_check", &json!({"model": "eclss"}), &none)
         .unwrap()

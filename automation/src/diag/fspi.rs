@@ -21,8 +21,10 @@
 //! 3. **Consistency.** A failure mode that a candidate reaches along edges of probability 1 (so
 //!    it *must* become active) within `dmax`, and whose alarm is still normal at `now` although
 //!    `t0_max + dmax < now`, rejects the candidate (the seed: no ringing alarm later than the
-//!    latest reachability time of a normal one). Evaluated by a forward search bounded by the
-//!    time horizon `now − t0_max`, after each alarm and on [`Diagnoser::advance_to`].
+//!    latest reachability time of a normal one). Only the nearest such failure mode matters; its
+//!    distance is found by a forward search that stops there and is cached per source until
+//!    that failure mode's alarm rings. Checked after each alarm and on
+//!    [`Diagnoser::advance_to`].
 //!
 //! When no single failure mode satisfies all four, [`Diagnoser::verdict`] searches for the
 //! smallest sets of failure modes that jointly explain the alarms (each alarm explained by a
@@ -169,6 +171,8 @@ pub struct Diagnoser<'g> {
     single: Vec<Candidate>,
     started: bool,
     scratch: Scratch,
+    /// Per source: (distance, failure mode) of the nearest silent failure mode it must reach.
+    silent_cache: HashMap<FmId, (f64, Option<FmId>)>,
     /// Largest hypothesis size the multiple-fault search tries (default 3).
     pub max_faults: usize,
 }
@@ -202,6 +206,7 @@ impl<'g> Diagnoser<'g> {
             single: Vec::new(),
             started: false,
             scratch: Scratch::new(g.len()),
+            silent_cache: HashMap::new(),
             max_faults: 3,
         }
     }
@@ -361,31 +366,41 @@ impl<'g> Diagnoser<'g> {
 
     /// The consistency constraint for source `s` with latest fault time `t0_max`.
     fn consistent(&mut self, s: FmId, t0_max: f64) -> bool {
-        let horizon = self.now - t0_max;
-        if horizon <= EPS {
+        if self.now - t0_max <= EPS {
             return true;
+        }
+        let (d, _) = self.nearest_silent(s);
+        t0_max + d >= self.now - EPS
+    }
+
+    /// The least Σtmax along probability-1 edges from `s` to a failure mode whose allocated
+    /// alarm has not rung (through failure modes that are not silent), and that failure mode.
+    /// Cached per source: the silent set only shrinks, so the distance can only change when
+    /// the nearest silent failure mode itself rings (any other that rings lies at least as far).
+    fn nearest_silent(&mut self, s: FmId) -> (f64, Option<FmId>) {
+        if let Some(&(d, w)) = self.silent_cache.get(&s) {
+            if w.is_none_or(|w| self.pending[w] > 0) {
+                return (d, w);
+            }
         }
         let g = self.g;
         let sc = &mut self.scratch;
         sc.begin();
         sc.relax(s, 0.0);
+        let mut found = (f64::INFINITY, None);
         while let Some((v, d)) = sc.pop() {
             if self.pending[v] > 0 {
-                if t0_max + d < self.now - EPS {
-                    return false;
-                }
-                continue;
+                found = (d, Some(v));
+                break;
             }
             for arc in g.succ(v) {
                 if arc.prob >= 1.0 {
-                    let nd = d + arc.tmax;
-                    if nd < horizon - EPS {
-                        sc.relax(arc.to, nd);
-                    }
+                    sc.relax(arc.to, d + arc.tmax);
                 }
             }
         }
-        true
+        self.silent_cache.insert(s, found);
+        found
     }
 
     /// FSPI over a scope: single-fault candidates among the failure modes with `fm_in(f)`,
