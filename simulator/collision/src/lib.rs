@@ -11,7 +11,8 @@
 //! * [`Solid`] — a body in both forms (faceted polyhedron, exact parry shape).
 //! * [`collide`] — one pair, any mode; answers [`PairResult`] (clear / contact / unknown).
 //! * [`robot::check_robot`], [`robot::move_checked`] — a robot at q against a [`robot::Scene`];
-//!   the seed's CHECK and MOVEJ/MOVEJI with collision on.
+//!   the seed's CHECK and MOVEJ/MOVEJI with collision on; [`robot::check_robots`] for several
+//!   robots (one robot-box test per pair of robots until their boxes meet).
 //! * [`ccd::sweep_robot`] — time of impact along a joint-space step (conservative advancement).
 //! * [`broad`] — sweep-and-prune and BVH broad phases.
 //! * [`query`] — the `collide` and `check` ops of the query protocol.

@@ -308,6 +308,7 @@ fn robot_field(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Ro
 fn body_json(b: &Body) -> Value {
     match b {
         Body::Link(j) => json!({"link": j}),
+        Body::RobotLink { robot, link } => json!({"robot": robot, "link": link}),
         Body::Object { index, name } => json!({"object": index, "name": name}),
     }
 }

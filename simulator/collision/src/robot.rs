@@ -320,8 +320,17 @@ impl Default for CollisionSettings {
 /// A body taking part in a collision: a scene object, or a link of the checked robot (0 = base).
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub enum Body {
-    Object { index: usize, name: String },
+    Object {
+        index: usize,
+        name: String,
+    },
+    /// A link of the robot being checked ([`check_robot`]).
     Link(usize),
+    /// A link of robot `robot` (its index in the slice given to [`check_robots`]).
+    RobotLink {
+        robot: usize,
+        link: usize,
+    },
 }
 
 /// One colliding pair — the seed's collision structure (S1, L1, S2, L2) with witness points.
@@ -388,13 +397,8 @@ pub(crate) fn narrow(
     }
 }
 
-pub(crate) fn check_links(
-    links: &LinkSolids,
-    lp: &[Option<Isometry3<f64>>],
-    scene: &Scene,
-    settings: &CollisionSettings,
-) -> CheckResult {
-    let boxes: Vec<Option<Aabb>> = links
+fn link_boxes(links: &LinkSolids, lp: &[Option<Isometry3<f64>>]) -> Vec<Option<Aabb>> {
+    links
         .links
         .iter()
         .zip(lp)
@@ -402,11 +406,144 @@ pub(crate) fn check_links(
             (Some(l), Some(p)) => Some(world_box(&l.solid.bbox, p)),
             _ => None,
         })
-        .collect();
-    let robot_box = boxes
+        .collect()
+}
+
+fn merged_box(boxes: &[Option<Aabb>]) -> Option<Aabb> {
+    boxes
         .iter()
         .flatten()
-        .fold(None::<Aabb>, |acc, b| Some(acc.map_or(*b, |a| a.merged(b))));
+        .fold(None::<Aabb>, |acc, b| Some(acc.map_or(*b, |a| a.merged(b))))
+}
+
+/// One robot of a multi-robot check: model, link solids and joint values.
+#[derive(Debug, Clone, Copy)]
+pub struct RobotAt<'a> {
+    pub robot: &'a Robot,
+    pub links: &'a LinkSolids,
+    pub q: &'a [f64],
+}
+
+/// CHECK for several robots at once (seed §2.6): each robot against the scene (and itself, if
+/// switched on), then robots against each other — one robot-box test per pair of robots, link
+/// pairs only when the two robot boxes meet ("with three robots … only three bounding box
+/// checks are required"). Bodies are reported as [`Body::RobotLink`] and [`Body::Object`].
+pub fn check_robots(
+    robots: &[RobotAt],
+    scene: &Scene,
+    settings: &CollisionSettings,
+) -> Result<CheckResult, CheckError> {
+    let mut placed = Vec::with_capacity(robots.len());
+    for r in robots {
+        r.robot.check_q(r.q)?;
+        check_link_count(r.robot, r.links)?;
+        let lp = link_poses(r.robot, r.links, r.q);
+        let boxes = link_boxes(r.links, &lp);
+        let rb = merged_box(&boxes);
+        placed.push((lp, boxes, rb));
+    }
+    let tag = |i: usize, b: Body| match b {
+        Body::Link(link) => Body::RobotLink { robot: i, link },
+        other => other,
+    };
+    let mut contacts = Vec::new();
+    let mut doubt = None;
+    for (i, r) in robots.iter().enumerate() {
+        match check_links(r.links, &placed[i].0, scene, settings) {
+            CheckResult::Clear => {}
+            CheckResult::Contact(cs) => {
+                contacts.extend(cs.into_iter().map(|c| Collision {
+                    a: tag(i, c.a),
+                    b: tag(i, c.b),
+                    ..c
+                }));
+                if !settings.all_contacts {
+                    return Ok(CheckResult::Contact(contacts));
+                }
+            }
+            CheckResult::Unknown { a, b, reason } => {
+                doubt.get_or_insert((tag(i, a), tag(i, b), reason));
+            }
+        }
+    }
+    for i in 0..robots.len() {
+        for k in i + 1..robots.len() {
+            let (Some(bi), Some(bk)) = (&placed[i].2, &placed[k].2) else {
+                continue;
+            };
+            if !bi.overlaps(bk) {
+                continue;
+            }
+            for (a, (la, pa)) in robots[i]
+                .links
+                .links
+                .iter()
+                .zip(&placed[i].0)
+                .enumerate()
+                .rev()
+            {
+                let (Some(la), Some(pa), Some(ba)) = (la, pa, &placed[i].1[a]) else {
+                    continue;
+                };
+                for (b, (lb, pb)) in robots[k]
+                    .links
+                    .links
+                    .iter()
+                    .zip(&placed[k].0)
+                    .enumerate()
+                    .rev()
+                {
+                    let (Some(lb), Some(pb), Some(bb)) = (lb, pb, &placed[k].1[b]) else {
+                        continue;
+                    };
+                    if !ba.overlaps(bb) {
+                        continue;
+                    }
+                    let (ea, eb) = (
+                        Body::RobotLink { robot: i, link: a },
+                        Body::RobotLink { robot: k, link: b },
+                    );
+                    match narrow(&la.solid, pa, &lb.solid, pb, settings.mode) {
+                        PairResult::Clear { .. } => {}
+                        PairResult::Contact {
+                            signed_distance,
+                            witness,
+                        } => {
+                            contacts.push(Collision {
+                                a: ea,
+                                b: eb,
+                                signed_distance,
+                                witness,
+                            });
+                            if !settings.all_contacts {
+                                return Ok(CheckResult::Contact(contacts));
+                            }
+                        }
+                        PairResult::Unknown { reason } => {
+                            doubt.get_or_insert((ea, eb, reason));
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(if !contacts.is_empty() {
+        CheckResult::Contact(contacts)
+    } else if let Some((a, b, reason)) = doubt {
+        CheckResult::Unknown { a, b, reason }
+    } else {
+        CheckResult::Clear
+    })
+}
+
+pub(crate) fn check_links(
+    links: &LinkSolids,
+    lp: &[Option<Isometry3<f64>>],
+    scene: &Scene,
+    settings: &CollisionSettings,
+) -> CheckResult {
+    let boxes = link_boxes(links, lp);
+    let robot_box = merged_box(&boxes);
     let mut contacts = Vec::new();
     let mut doubt: Option<(Body, Body, String)> = None;
     let mut record = |r: PairResult, a: Body, b: Body, contacts: &mut Vec<Collision>| -> bool {

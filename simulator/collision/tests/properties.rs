@@ -56,7 +56,7 @@ proptest! {
 
     #[test]
     fn moving_both_bodies_together_changes_nothing(a in shape(), b in shape(), pa in pose(0.3), pb in pose(0.9), t in pose(50.0)) {
-        for m in [Mode::Polygon, Mode::Exact] {
+        for m in [Mode::BBox, Mode::Polygon, Mode::Exact] {
             let r0 = collide(&a, &pa, &b, &pb, m);
             let r1 = collide(&a, &(t * pa), &b, &(t * pb), m);
             if decided(&r0) {

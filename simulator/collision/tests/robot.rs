@@ -302,3 +302,51 @@ fn puma_with_assumed_link_boxes_against_a_table() {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn two_robots_meet_only_when_their_boxes_do() {
+    use robosim_collision::robot::{RobotAt, check_robots};
+    let (r1, links) = planar3();
+    // The second arm stands 5 m away along x, facing the first (base turned by π).
+    let base = Isometry3::new(
+        Vector3::new(5.0, 0.0, 0.0),
+        Vector3::new(0.0, 0.0, std::f64::consts::PI),
+    );
+    let r2 = Robot {
+        base: base.to_homogeneous(),
+        ..r1.clone()
+    };
+    let scene = Scene::new();
+    let s = CollisionSettings::default();
+    let apart = [1.5, 0.0, 0.0];
+    let reach = [0.0, 0.0, 0.0];
+    let both = |q1: &[f64], q2: &[f64]| {
+        check_robots(
+            &[
+                RobotAt {
+                    robot: &r1,
+                    links: &links,
+                    q: q1,
+                },
+                RobotAt {
+                    robot: &r2,
+                    links: &links,
+                    q: q2,
+                },
+            ],
+            &scene,
+            &s,
+        )
+        .expect("check")
+    };
+    assert!(both(&apart, &apart).is_clear());
+    // Both stretched towards each other: 3 m each over a 5 m gap — the tips overlap by 1 m.
+    match both(&reach, &reach) {
+        CheckResult::Contact(c) => {
+            assert_eq!(c[0].a, Body::RobotLink { robot: 0, link: 3 });
+            assert_eq!(c[0].b, Body::RobotLink { robot: 1, link: 3 });
+        }
+        other => panic!("{other:?}"),
+    }
+    assert!(both(&reach, &apart).is_clear());
+}
