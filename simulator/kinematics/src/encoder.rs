@@ -95,14 +95,14 @@ pub fn encoder_error(
         for mask in 0u32..(1u32 << (n - 1)) {
             let mut v = Vector3::zeros();
             let mut w = Vector3::zeros();
-            for j in 0..n {
+            for (j, &delta) in resolution.iter().enumerate() {
                 let s = if j > 0 && mask & (1 << (j - 1)) != 0 {
                     -1.0
                 } else {
                     1.0
                 };
-                v += jac.fixed_view::<3, 1>(0, j) * (s * resolution[j]);
-                w += jac.fixed_view::<3, 1>(3, j) * (s * resolution[j]);
+                v += jac.fixed_view::<3, 1>(0, j) * (s * delta);
+                w += jac.fixed_view::<3, 1>(3, j) * (s * delta);
             }
             pw = pw.max(v.norm());
             ow = ow.max(w.norm());

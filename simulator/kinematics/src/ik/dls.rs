@@ -42,7 +42,7 @@ pub struct Dls {
 }
 
 impl Default for Dls {
-    /// Tuned on 500 random Panda, PUMA 560 and Stanford poses at 1e-6 (see docs/kinematics.md):
+    /// Tuned on 500 random Panda, PUMA 560 and Stanford poses at 1e-6 (iterations to converge):
     /// small initial damping, short steps, early restarts.
     fn default() -> Self {
         Dls {

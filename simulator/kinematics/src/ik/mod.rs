@@ -21,7 +21,7 @@ pub mod newton;
 
 use crate::fk::forward;
 use crate::model::{JointType, ModelError, Robot};
-use crate::pose::{Residual, Tolerances, is_rigid};
+use crate::pose::{Residual, Tolerances, is_rigid, pose_error, to_target_frame};
 use nalgebra::Matrix4;
 use std::f64::consts::PI;
 
@@ -333,9 +333,15 @@ pub(crate) fn finish(
 ) -> IkSolution {
     let within_limits = fit_limits(robot, &mut q, options.q0.as_deref());
     let t = forward(robot, &q);
+    let e = pose_error(&t, target);
+    let residual = Residual {
+        position: e.fixed_rows::<3>(0).norm(),
+        orientation: e.fixed_rows::<3>(3).norm(),
+    };
+    let converged = options.tolerances.accept(&to_target_frame(&e, target));
     IkSolution {
-        residual: Residual::between(&t, target),
-        converged: options.tolerances.accept_pose(&t, target),
+        residual,
+        converged,
         within_limits,
         q,
         branch,
