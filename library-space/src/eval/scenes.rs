@@ -1,0 +1,437 @@
+//! Scenes: placements, initial joint values, the declared effects.
+
+use super::*;
+
+impl Evaluator<'_> {
+    pub(super) fn scene_body(&mut self, decl: &Decl, scope: &mut Scope) -> RResult<SceneModel> {
+        let mut scene = SceneModel {
+            name: decl.name.clone(),
+            robots: vec![],
+            solids: vec![],
+            effects: Effects::default(),
+        };
+        let mut names: HashMap<String, Span> = HashMap::new();
+        let mut seen = Seen::default();
+        for st in &decl.body {
+            match st {
+                Stmt::Let {
+                    name,
+                    name_span,
+                    value,
+                } => self.let_(name, *name_span, value, scope)?,
+                Stmt::Place {
+                    name,
+                    name_span,
+                    item,
+                    at,
+                    q,
+                    ..
+                } => {
+                    if let Some(prev) = names.insert(name.clone(), *name_span) {
+                        return Err(err(
+                            ErrorKind::Duplicate,
+                            *name_span,
+                            format!("scene `{}` already places `{name}`", decl.name),
+                        )
+                        .expected("a different name")
+                        .note("first placed here", prev));
+                    }
+                    let placement = match at {
+                        Some(e) => self.transform(e, scope)?,
+                        None => Matrix4::identity(),
+                    };
+                    let v = self.eval(item, scope)?;
+                    let model = match v {
+                        Value::Robot(r) => Some((*r).clone()),
+                        Value::Link(l) => Some(single_link_robot(&l)),
+                        Value::Solid(s) => {
+                            if let Some(e) = q {
+                                return Err(err(ErrorKind::Type, e.span, "a solid has no joints")
+                                    .expected("`q` only for robots"));
+                            }
+                            let solid = SolidModel {
+                                name: callee_name(item).unwrap_or_else(|| name.clone()),
+                                parts: s.parts.clone(),
+                                mass: s.mass,
+                            };
+                            scene.solids.push(PlacedItem {
+                                name: name.clone(),
+                                solid,
+                                placement,
+                            });
+                            None
+                        }
+                        other => {
+                            return Err(err(
+                                ErrorKind::Type,
+                                item.span,
+                                format!("cannot place {} in a scene", other.describe()),
+                            )
+                            .expected("a robot or a solid"));
+                        }
+                    };
+                    if let Some(mut model) = model {
+                        let dof = model.robot.dof();
+                        let qv = match q {
+                            Some(e) => self.joint_vector(e, scope, &model)?,
+                            None => vec![0.0; dof],
+                        };
+                        model.robot.base = placement * model.robot.base;
+                        model.robot.name = name.clone();
+                        scene.robots.push(PlacedRobot {
+                            name: name.clone(),
+                            model,
+                            placement,
+                            q: qv,
+                        });
+                    }
+                }
+                Stmt::Prop {
+                    name,
+                    name_span,
+                    value,
+                } => {
+                    seen.check(name, *name_span)?;
+                    match name.as_str() {
+                        "facets" => {}
+                        _ => {
+                            return Err(unknown_prop("scene", name, *name_span, &["facets"])
+                                .expected_more("or an `effects { … }` group"));
+                        }
+                    }
+                    let _ = value;
+                }
+                Stmt::Block {
+                    name,
+                    name_span,
+                    body,
+                } if name == "effects" => {
+                    seen.check(name, *name_span)?;
+                    scene.effects = self.effects(body, scope)?;
+                }
+                Stmt::Block {
+                    name, name_span, ..
+                } => {
+                    return Err(unknown_prop("scene", name, *name_span, &["effects"]));
+                }
+                other => {
+                    return Err(misplaced(
+                        other,
+                        "a scene",
+                        "`place`, `let`, `facets:` or `effects { … }`",
+                    ));
+                }
+            }
+        }
+        Ok(scene)
+    }
+
+    pub(super) fn joint_vector(
+        &mut self,
+        e: &Expr,
+        scope: &Scope,
+        model: &RobotModel,
+    ) -> RResult<Vec<f64>> {
+        let v = self.eval(e, scope)?;
+        let Value::List(items) = v else {
+            return Err(err(
+                ErrorKind::Type,
+                e.span,
+                format!("`q` must be a list, got {}", v.describe()),
+            )
+            .expected("[q1, q2, …] with one value per joint"));
+        };
+        let dof = model.robot.dof();
+        if items.len() != dof {
+            return Err(err(
+                ErrorKind::Arity,
+                e.span,
+                format!(
+                    "`q` has {} values but the robot has {dof} joints",
+                    items.len()
+                ),
+            )
+            .expected(format!("{dof} joint values")));
+        }
+        let mut out = Vec::with_capacity(dof);
+        for (j, ((v, span), joint)) in items.iter().zip(&model.robot.joints).enumerate() {
+            let dim = if joint.joint_type == JointType::Revolute {
+                Dim::ANGLE
+            } else {
+                Dim::LENGTH
+            };
+            let x = self.num_of(
+                v,
+                *span,
+                dim,
+                "a joint value (angle for revolute, length for prismatic)",
+            )?;
+            if x < joint.qlim[0] || x > joint.qlim[1] {
+                return Err(err(
+                    ErrorKind::OutOfRange,
+                    *span,
+                    format!(
+                        "q[{j}] = {} is outside joint {} ({})'s limits [{}, {}]",
+                        show(x, dim),
+                        j + 1,
+                        model.link_names[j],
+                        show(joint.qlim[0], dim),
+                        show(joint.qlim[1], dim)
+                    ),
+                )
+                .expected("a value within the joint's limits"));
+            }
+            out.push(x);
+        }
+        Ok(out)
+    }
+
+    pub(super) fn effects(&mut self, body: &[Stmt], scope: &mut Scope) -> RResult<Effects> {
+        let mut fx = Effects::default();
+        let mut seen = Seen::default();
+        const PROPS: &[&str] = &[
+            "kinematics",
+            "joint_limits",
+            "collision",
+            "dynamics",
+            "encoder_bits",
+            "log",
+        ];
+        for st in body {
+            match st {
+                Stmt::Prop {
+                    name,
+                    name_span,
+                    value,
+                } => {
+                    seen.check(name, *name_span)?;
+                    match name.as_str() {
+                        "kinematics" => fx.kinematics = self.switch(value, scope)?,
+                        "joint_limits" => fx.joint_limits = self.switch(value, scope)?,
+                        "encoder_bits" => {
+                            fx.encoder_bits = Some(self.count(value, scope, 1, 32)? as u32)
+                        }
+                        "log" => {
+                            let v = self.eval(value, scope)?;
+                            let items = match v {
+                                Value::List(items) => items,
+                                other => {
+                                    return Err(err(
+                                        ErrorKind::Type,
+                                        value.span,
+                                        format!("`log` must be a list, got {}", other.describe()),
+                                    )
+                                    .expected("[\"q\", \"tau\", …]"));
+                                }
+                            };
+                            for (it, span) in items {
+                                match it {
+                                    Value::Str(s) if !s.is_empty() => fx.logged.push(s),
+                                    other => {
+                                        return Err(err(
+                                            ErrorKind::Type,
+                                            span,
+                                            format!(
+                                                "a logged signal must be a string, got {}",
+                                                other.describe()
+                                            ),
+                                        )
+                                        .expected("a signal name in quotes such as \"q\""));
+                                    }
+                                }
+                            }
+                        }
+                        "collision" => {
+                            fx.collision = if self.switch(value, scope)? {
+                                Some(default_collision())
+                            } else {
+                                None
+                            }
+                        }
+                        "dynamics" => {
+                            fx.dynamics = if self.switch(value, scope)? {
+                                Some(default_dynamics())
+                            } else {
+                                None
+                            }
+                        }
+                        _ => return Err(unknown_prop("effects", name, *name_span, PROPS)),
+                    }
+                }
+                Stmt::Block {
+                    name,
+                    name_span,
+                    body,
+                } if name == "collision" => {
+                    seen.check(name, *name_span)?;
+                    let mut c = default_collision();
+                    let mut s2 = Seen::default();
+                    for st in body {
+                        match st {
+                            Stmt::Prop {
+                                name,
+                                name_span,
+                                value,
+                            } => {
+                                s2.check(name, *name_span)?;
+                                match name.as_str() {
+                                    "mode" => {
+                                        c.mode = match self
+                                            .word(
+                                                value,
+                                                &["bbox", "polygon", "exact"],
+                                                "collision mode",
+                                            )?
+                                            .as_str()
+                                        {
+                                            "bbox" => CollisionMode::Bbox,
+                                            "polygon" => CollisionMode::Polygon,
+                                            _ => CollisionMode::Exact,
+                                        }
+                                    }
+                                    "self" => c.self_collision = self.switch(value, scope)?,
+                                    "continuous" => c.continuous = self.switch(value, scope)?,
+                                    _ => {
+                                        return Err(unknown_prop(
+                                            "collision",
+                                            name,
+                                            *name_span,
+                                            &["mode", "self", "continuous"],
+                                        ));
+                                    }
+                                }
+                            }
+                            other => {
+                                return Err(misplaced(
+                                    other,
+                                    "`collision { … }`",
+                                    "`mode:`, `self:` or `continuous:`",
+                                ));
+                            }
+                        }
+                    }
+                    fx.collision = Some(c);
+                }
+                Stmt::Block {
+                    name,
+                    name_span,
+                    body,
+                } if name == "dynamics" => {
+                    seen.check(name, *name_span)?;
+                    let mut dy = default_dynamics();
+                    let mut s2 = Seen::default();
+                    for st in body {
+                        match st {
+                            Stmt::Prop {
+                                name,
+                                name_span,
+                                value,
+                            } => {
+                                s2.check(name, *name_span)?;
+                                match name.as_str() {
+                                    "integrator" => {
+                                        dy.integrator = match self
+                                            .word(
+                                                value,
+                                                &["euler", "semi_implicit_euler", "rk4", "dopri5"],
+                                                "integrator",
+                                            )?
+                                            .as_str()
+                                        {
+                                            "euler" => Integrator::Euler,
+                                            "semi_implicit_euler" => Integrator::SemiImplicitEuler,
+                                            "rk4" => Integrator::Rk4,
+                                            _ => Integrator::Dopri5,
+                                        }
+                                    }
+                                    "step" => {
+                                        let s = self.quantity(
+                                            value,
+                                            scope,
+                                            Dim::TIME,
+                                            "a time step such as 1 ms",
+                                        )?;
+                                        if s <= 0.0 || s > 1.0 {
+                                            return Err(err(
+                                                ErrorKind::OutOfRange,
+                                                value.span,
+                                                format!("step {s} s is out of range"),
+                                            )
+                                            .expected("a step in (0, 1 s]"));
+                                        }
+                                        dy.step_s = s;
+                                    }
+                                    "gravity" => {
+                                        let g = self.vector(
+                                            value,
+                                            scope,
+                                            Dim::ACCEL,
+                                            3,
+                                            "[gx, gy, gz] in m/s^2",
+                                        )?;
+                                        dy.gravity = Vector3::new(g[0], g[1], g[2]);
+                                    }
+                                    _ => {
+                                        return Err(unknown_prop(
+                                            "dynamics",
+                                            name,
+                                            *name_span,
+                                            &["integrator", "step", "gravity"],
+                                        ));
+                                    }
+                                }
+                            }
+                            other => {
+                                return Err(misplaced(
+                                    other,
+                                    "`dynamics { … }`",
+                                    "`integrator:`, `step:` or `gravity:`",
+                                ));
+                            }
+                        }
+                    }
+                    fx.dynamics = Some(dy);
+                }
+                Stmt::Block {
+                    name, name_span, ..
+                } => {
+                    return Err(unknown_prop(
+                        "effects",
+                        name,
+                        *name_span,
+                        &["collision", "dynamics"],
+                    ));
+                }
+                Stmt::Let {
+                    name,
+                    name_span,
+                    value,
+                } => self.let_(name, *name_span, value, scope)?,
+                other => {
+                    return Err(misplaced(
+                        other,
+                        "`effects { … }`",
+                        "effect properties such as `joint_limits: on` or `collision { … }`",
+                    ));
+                }
+            }
+        }
+        Ok(fx)
+    }
+}
+
+pub(super) fn default_collision() -> CollisionEffect {
+    CollisionEffect {
+        mode: CollisionMode::Polygon,
+        self_collision: false,
+        continuous: false,
+    }
+}
+
+pub(super) fn default_dynamics() -> DynamicsEffect {
+    DynamicsEffect {
+        integrator: Integrator::Rk4,
+        step_s: 1e-3,
+        gravity: Vector3::new(0.0, 0.0, -9.81),
+    }
+}
