@@ -183,15 +183,15 @@ pub fn parse_alarms(m: &Model, text: &str, file: &str) -> Result<Vec<AlarmEvent>
                 col(extra)
             ));
         }
-        if let Some(prev) = out.last() {
-            if time < prev.time {
-                return Err(format!(
-                    "{file}:{}:{}: alarms must be in time order ({time} < {})",
-                    i + 1,
-                    col(t),
-                    prev.time
-                ));
-            }
+        if let Some(prev) = out.last()
+            && time < prev.time
+        {
+            return Err(format!(
+                "{file}:{}:{}: alarms must be in time order ({time} < {})",
+                i + 1,
+                col(t),
+                prev.time
+            ));
         }
         out.push(AlarmEvent { time, alarm });
     }

@@ -1,4 +1,8 @@
 //! The random model generator and the advisor.
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 use robosim_automation::analysis::{advise_exhaustive, advise_greedy, evaluate};
 use robosim_automation::bench::{GenOptions, advisor_gap, generate, measure_update_time};
 use robosim_automation::diag::FaultGraph;

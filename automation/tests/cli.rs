@@ -1,4 +1,8 @@
 //! The `robosim diag` commands and the `diag_*` query ops, driven directly.
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 use robosim_automation::cli::{DiagCmd, execute};
 use robosim_automation::query::dispatch;
 use serde_json::json;

@@ -1,5 +1,9 @@
 //! FSPI's four constraints, multiple faults, FSCI and ILM on small hand-made models, and the
 //! ECLSS baseline (every single fault isolated with all alarms present).
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 use robosim_automation::analysis::evaluate;
 use robosim_automation::diag::{Diagnoser, FaultGraph, Ilm, fsci};
 use robosim_automation::model::{Model, load_model, parse_model};

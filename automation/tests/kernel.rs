@@ -1,5 +1,9 @@
 //! The dataflow kernel: firing modes, demand-driven requests, rewiring a running graph, the
 //! tracer and the DOT export; the reconfigurable-controller example.
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 use robosim_automation::kernel::{ActorSpec, Ctx, Drive, Firing, Graph, Reason, Retention, Value};
 use robosim_automation::reconfig::{ReconfigOptions, run_reconfig_demo};
 use std::sync::{Arc, Mutex};

@@ -1,4 +1,8 @@
 //! The model language and its consistency checks.
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 use robosim_automation::model::check::{Severity, check_model, is_consistent};
 use robosim_automation::model::{load_model, parse_model};
 

@@ -2,6 +2,10 @@
 //! testdata/automation/gen_reference.py): the diagnoser's per-alarm searches (admissible
 //! reachability, dmin, dmax), the zero-time-cycle check, and the arm of the reconfiguration
 //! example under its P controller.
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 use robosim_automation::diag::{Diagnoser, FaultGraph};
 use robosim_automation::model::check::check_model;
 use robosim_automation::model::parse_model;

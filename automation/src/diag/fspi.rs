@@ -41,6 +41,9 @@ use std::collections::{BinaryHeap, HashMap};
 
 const EPS: f64 = 1e-9;
 
+/// An alarm's time and its explanations (source, dmin, dmax), sorted by source.
+type Explained = (f64, Vec<(FmId, f64, f64)>);
+
 /// A single-fault hypothesis: a source failure mode and the interval its fault time lies in.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Candidate {
@@ -378,10 +381,10 @@ impl<'g> Diagnoser<'g> {
     /// Cached per source: the silent set only shrinks, so the distance can only change when
     /// the nearest silent failure mode itself rings (any other that rings lies at least as far).
     fn nearest_silent(&mut self, s: FmId) -> (f64, Option<FmId>) {
-        if let Some(&(d, w)) = self.silent_cache.get(&s) {
-            if w.is_none_or(|w| self.pending[w] > 0) {
-                return (d, w);
-            }
+        if let Some(&(d, w)) = self.silent_cache.get(&s)
+            && w.is_none_or(|w| self.pending[w] > 0)
+        {
+            return (d, w);
         }
         let g = self.g;
         let sc = &mut self.scratch;
@@ -469,7 +472,7 @@ impl<'g> Diagnoser<'g> {
     fn multiple(&mut self, rs: &[usize], fm_in: &dyn Fn(FmId) -> bool) -> Vec<Vec<FmId>> {
         const MAX_HYPOTHESES: usize = 64;
         const MAX_NODES: usize = 200_000;
-        let ring: Vec<(f64, Vec<(FmId, f64, f64)>)> = rs
+        let ring: Vec<Explained> = rs
             .iter()
             .map(|&i| {
                 let r = &self.ringing[i];
@@ -484,7 +487,7 @@ impl<'g> Diagnoser<'g> {
             })
             .collect();
         struct Search<'a> {
-            ring: &'a [(f64, Vec<(FmId, f64, f64)>)],
+            ring: &'a [Explained],
             k: usize,
             found: Vec<Vec<(FmId, f64, f64)>>,
             nodes: usize,

@@ -943,20 +943,18 @@ impl Control {
         for p in &mut slot.inputs {
             let mut v = None;
             let mut l = None;
-            if let Some(d) = p.source {
-                if let Some(dn) = data[d.0].as_ref() {
-                    l = dn.last.clone();
-                    if p.cursor < dn.next {
-                        match dn.retention {
-                            Retention::Stream => {
-                                let idx = (p.cursor.max(dn.base) - dn.base) as usize;
-                                v = dn.buf.get(idx).cloned();
-                                p.cursor = p.cursor.max(dn.base) + 1;
-                            }
-                            Retention::LastValue => {
-                                v = dn.last.clone();
-                                p.cursor = dn.next;
-                            }
+            if let Some(dn) = p.source.and_then(|d| data[d.0].as_ref()) {
+                l = dn.last.clone();
+                if p.cursor < dn.next {
+                    match dn.retention {
+                        Retention::Stream => {
+                            let idx = (p.cursor.max(dn.base) - dn.base) as usize;
+                            v = dn.buf.get(idx).cloned();
+                            p.cursor = p.cursor.max(dn.base) + 1;
+                        }
+                        Retention::LastValue => {
+                            v = dn.last.clone();
+                            p.cursor = dn.next;
                         }
                     }
                 }

@@ -177,6 +177,9 @@ struct RefAst {
     span: Span,
 }
 
+/// A failure-mode declaration: name, derived, components, place.
+type FailureAst = (String, bool, Vec<(String, Span)>, Span);
+
 #[derive(Debug, Default)]
 struct ProcAst {
     name: String,
@@ -186,7 +189,7 @@ struct ProcAst {
     components: Vec<(String, Span)>,
     children: Vec<ProcAst>,
     connects: Vec<(RefAst, RefAst, Span)>,
-    failures: Vec<(String, bool, Vec<(String, Span)>, Span)>,
+    failures: Vec<FailureAst>,
     alarms: Vec<(String, Vec<RefAst>, Option<String>, Span)>,
     edges: Vec<(RefAst, RefAst, f64, f64, f64, bool, Span)>,
 }
@@ -734,6 +737,10 @@ impl<'a> Resolver<'a> {
 }
 
 #[cfg(test)]
+#[expect(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 mod tests {
     use super::*;
 
