@@ -13,7 +13,10 @@
 use crate::outcome::PairResult;
 use crate::solid::{Solid, SolidKind};
 use nalgebra::{Isometry3, Point3};
+use parry3d_f64::query::details::intersection_test_support_map_support_map_with_params;
+use parry3d_f64::query::gjk::VoronoiSimplex;
 use parry3d_f64::query::{self, ClosestPoints};
+use parry3d_f64::shape::{Shape, ShapeType};
 
 /// What to compute beyond the boolean.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -44,6 +47,59 @@ fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> 
     Some(s.exact.contains_point(ps, p))
 }
 
+/// parry's boolean with a certificate for "apart". parry's GJK gives up after 100 iterations
+/// and then answers "no intersection" (parry 0.25.3, `gjk.rs`); so for a pair of convex support
+/// maps answered by GJK, "apart" is accepted only if GJK's last axis separates the two shapes
+/// (`min_B n·b − max_A n·a > 0`, two support-point evaluations); otherwise the answer is `Err`.
+/// Ball–ball and box–box are decided in closed form / by SAT and need no certificate; compounds
+/// and meshes run GJK per part inside parry, uncertified.
+fn certified_intersection(
+    ga: &Isometry3<f64>,
+    sa: &dyn Shape,
+    gb: &Isometry3<f64>,
+    sb: &dyn Shape,
+) -> Result<bool, String> {
+    let hit = query::intersection_test(ga, sa, gb, sb).map_err(|_| {
+        format!(
+            "parry has no intersection test for {:?} against {:?}",
+            sa.shape_type(),
+            sb.shape_type()
+        )
+    })?;
+    if hit {
+        return Ok(true);
+    }
+    let closed_form = matches!(
+        (sa.shape_type(), sb.shape_type()),
+        (ShapeType::Ball, ShapeType::Ball) | (ShapeType::Cuboid, ShapeType::Cuboid)
+    );
+    let (Some(ma), Some(mb)) = (sa.as_support_map(), sb.as_support_map()) else {
+        return Ok(false);
+    };
+    if closed_form {
+        return Ok(false);
+    }
+    let pos12 = ga.inv_mul(gb);
+    let (again, dir) = intersection_test_support_map_support_map_with_params(
+        &pos12,
+        ma,
+        mb,
+        &mut VoronoiSimplex::new(),
+        None,
+    );
+    if again {
+        return Err("parry's GJK contradicts itself on this pair (intersecting and apart)".into());
+    }
+    let gap = |n: &nalgebra::Vector3<f64>| {
+        mb.support_point(&pos12, &-n).coords.dot(n) - ma.local_support_point(n).coords.dot(n)
+    };
+    if gap(&dir) > 0.0 || gap(&-dir.into_inner()) > 0.0 {
+        Ok(false)
+    } else {
+        Err("parry's GJK stopped without a separating axis (iteration limit): apart is not certified".into())
+    }
+}
+
 /// Boolean only: do the exact solids touch or overlap? `Err` carries the reason when parry
 /// cannot decide (unsupported pair).
 pub fn intersects(
@@ -53,13 +109,7 @@ pub fn intersects(
     pb: &Isometry3<f64>,
 ) -> Result<bool, String> {
     let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
-    let hit =
-        query::intersection_test(&ga, a.exact.as_ref(), &gb, b.exact.as_ref()).map_err(|_| {
-            format!(
-                "parry has no intersection test for {:?} against {:?}",
-                a.kind, b.kind
-            )
-        })?;
+    let hit = certified_intersection(&ga, a.exact.as_ref(), &gb, b.exact.as_ref())?;
     if hit {
         return Ok(true);
     }
@@ -100,16 +150,9 @@ pub fn collide(
 ) -> PairResult {
     let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
     let (sa, sb) = (a.exact.as_ref(), b.exact.as_ref());
-    let hit = match query::intersection_test(&ga, sa, &gb, sb) {
+    let hit = match certified_intersection(&ga, sa, &gb, sb) {
         Ok(h) => h,
-        Err(_) => {
-            return PairResult::Unknown {
-                reason: format!(
-                    "parry has no intersection test for {:?} against {:?}",
-                    a.kind, b.kind
-                ),
-            };
-        }
+        Err(reason) => return PairResult::Unknown { reason },
     };
     if hit {
         if !opts.depth {
