@@ -59,7 +59,10 @@ pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
     let mut per_poly_pts = Vec::new();
     let mut base: Option<(f64, usize)> = None;
     for &n in facets {
-        let opts = EvalOptions { facets: Some(n) };
+        let opts = EvalOptions {
+            facets: Some(n),
+            max_polygons: None,
+        };
         let mut ms = Vec::with_capacity(reps);
         let mut dims = (0, 0);
         for _ in 0..reps {

@@ -126,7 +126,14 @@ fn answer(op: &str, req: &Value) -> Result<Value, QueryError> {
             };
             let geometry = req.get("geometry").and_then(Value::as_bool).unwrap_or(true);
             let e = lib
-                .evaluate_with(name()?, &params, &crate::EvalOptions { facets })
+                .evaluate_with(
+                    name()?,
+                    &params,
+                    &crate::EvalOptions {
+                        facets,
+                        max_polygons: None,
+                    },
+                )
                 .map_err(lib_err)?;
             Ok(evaluated_json(&e, geometry))
         }

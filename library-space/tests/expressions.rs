@@ -150,10 +150,24 @@ robot r {
 
 #[test]
 fn models_too_large_for_memory_are_refused() {
-    let src = "solid big {\n  part sphere(1 m, 1024) for k in range(40)\n}\n";
-    let e = Library::from_source("big.rsl", src).expect_err("too big");
-    assert_eq!(e.kind, ErrorKind::OutOfRange);
-    assert_eq!(e.message, "the model has more than 5000000 polygons");
+    let src = "solid row(n = 1) {\n  part box(1 m, 1 m, 1 m) at translate(k * 2 m, 0, 0) for k in range(n)\n}\n";
+    let lib = Library::from_source("big.rsl", src).unwrap_or_else(|e| panic!("{e}"));
+    let opts = robosim_library::EvalOptions {
+        facets: None,
+        max_polygons: Some(600),
+    };
+    assert!(
+        lib.evaluate_with("row", &Params::new().si("n", 100.0), &opts)
+            .is_ok()
+    );
+    match lib.evaluate_with("row", &Params::new().si("n", 101.0), &opts) {
+        Err(robosim_library::Error::Source(e)) => {
+            assert_eq!(e.kind, ErrorKind::OutOfRange);
+            assert_eq!(e.message, "the model has more than 600 polygons");
+            assert_eq!((e.location.line, e.location.column), (2, 8));
+        }
+        other => panic!("{other:?}"),
+    }
     let e = Library::from_source("big.rsl", "solid b {\n  part sphere(1 m, 2048)\n}\n")
         .expect_err("sphere facets");
     assert_eq!(e.kind, ErrorKind::OutOfRange);

@@ -270,8 +270,14 @@ fn welding_cell_positioner_table_is_level_at_zero_and_tilts() {
 
 #[test]
 fn evaluating_with_a_facet_override_changes_only_round_solids() {
-    let coarse = robosim_library::EvalOptions { facets: Some(8) };
-    let fine = robosim_library::EvalOptions { facets: Some(64) };
+    let coarse = robosim_library::EvalOptions {
+        facets: Some(8),
+        max_polygons: None,
+    };
+    let fine = robosim_library::EvalOptions {
+        facets: Some(64),
+        max_polygons: None,
+    };
     let count = |o| match lib().evaluate_with("puma560", &Params::new(), o) {
         Ok(Evaluated::Robot(r)) => r
             .frames

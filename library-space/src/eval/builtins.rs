@@ -205,11 +205,12 @@ impl Evaluator<'_> {
                 )
             })?;
             s.polygons += poly.polygons.len();
-            if s.polygons > POLYGON_BUDGET {
+            let budget = s.opts.max_polygons.unwrap_or(POLYGON_BUDGET);
+            if s.polygons > budget {
                 return Err(err(
                     ErrorKind::OutOfRange,
                     span,
-                    format!("the model has more than {POLYGON_BUDGET} polygons"),
+                    format!("the model has more than {budget} polygons"),
                 )
                 .expected("fewer facets or fewer repeated parts"));
             }

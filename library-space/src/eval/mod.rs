@@ -38,6 +38,8 @@ pub struct EvalOptions {
     /// Facet count for every round primitive that does not give one explicitly (overrides
     /// declarations' `facets:` and the chord-error default). Used by the facet-count benchmark.
     pub facets: Option<usize>,
+    /// The most polygons the evaluation may generate (default [`POLYGON_BUDGET`]).
+    pub max_polygons: Option<usize>,
 }
 
 /// Names the evaluator knows without declarations.
@@ -75,7 +77,7 @@ pub(crate) struct Evaluator<'l> {
     pub opts: &'l EvalOptions,
     stack: Vec<usize>,
     facets: Vec<Option<usize>>,
-    /// Polygons generated so far in this evaluation (bounded by [`POLYGON_BUDGET`]).
+    /// Polygons generated so far in this evaluation (bounded by [`EvalOptions::max_polygons`]).
     polygons: usize,
 }
 
