@@ -64,8 +64,7 @@ pub(crate) fn aba_unchecked(
         if j > 0 {
             let ia = data.ia[j] - u6 * u6.transpose() / d;
             let pa: Vector6<f64> = data.pa[j] + ia * data.c[j] + u6 * (u / d);
-            let xm = data.x[j].matrix();
-            let moved = xm.transpose() * ia * xm;
+            let moved = data.x[j].inertia_to_parent(&ia);
             data.ia[j - 1] += moved;
             let pf = data.x[j].transpose_force(&Force::from6(&pa));
             data.pa[j - 1] += pf.to6();
