@@ -361,3 +361,61 @@ fn checker_reconfigures_p_to_pid_and_the_error_drops() {
         .is_err()
     );
 }
+
+#[test]
+fn the_diagnoser_runs_as_an_actor_of_a_running_graph() {
+    use robosim_automation::diag::{FaultGraph, Ilm};
+    use robosim_automation::model::{Model, load_model};
+    use robosim_automation::sim::{SimOptions, simulate};
+    // Leaked: the actor's context holds an ILM session borrowing model and graph for 'static.
+    let model: &'static Model = Box::leak(Box::new(load_model("eclss").unwrap()));
+    let graph: &'static FaultGraph = Box::leak(Box::new(FaultGraph::new(model)));
+    let fault = model.find_failure_mode("bosch_reactor_failure").unwrap();
+    let present: Vec<bool> = model
+        .alarms
+        .iter()
+        .map(|a| a.detects.iter().all(|&x| model.failure_modes[x].derived))
+        .collect();
+    let g = Graph::new(2);
+    let (alarms, guess) = g
+        .edit(|e| -> Result<_, robosim_automation::kernel::KernelError> {
+            let alarms = e.add_data("alarms", Retention::Stream)?;
+            let guess = e.add_data("guess", Retention::LastValue)?;
+            let manager = e.add_actor(
+                ActorSpec::new("diagnostic_manager", move |ctx: &mut Ctx<'_>| {
+                    let v = ctx
+                        .input("alarm")
+                        .and_then(Value::as_vec)
+                        .ok_or("no alarm")?
+                        .to_vec();
+                    let ilm = ctx.context::<Ilm<'static>>().ok_or("context")?;
+                    ilm.on_alarm(v[1] as usize, v[0])
+                        .map_err(|e| e.to_string())?;
+                    ilm.run_to_completion();
+                    let fms = ilm
+                        .best_guess()
+                        .map(|g| g.failure_modes)
+                        .unwrap_or_default();
+                    ctx.emit("guess", Value::Vec(fms.iter().map(|&f| f as f64).collect()))
+                })
+                .inputs(&["alarm"])
+                .outputs(&["guess"])
+                .context(Ilm::new(model, graph, Some(&present))),
+            )?;
+            e.connect_in(alarms, manager, "alarm")?;
+            e.connect_out(manager, "guess", guess)?;
+            Ok((alarms, guess))
+        })
+        .unwrap();
+    let sim = simulate(graph, &[(fault, 0.0)], &SimOptions::default());
+    for ev in sim.alarms.iter().filter(|ev| present[ev.alarm]) {
+        g.write(alarms, Value::Vec(vec![ev.time, ev.alarm as f64]))
+            .unwrap();
+    }
+    g.wait_idle();
+    assert!(g.errors().is_empty(), "{:?}", g.errors());
+    assert_eq!(
+        g.latest(guess).unwrap(),
+        Some(Value::Vec(vec![fault as f64]))
+    );
+}
