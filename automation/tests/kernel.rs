@@ -419,3 +419,38 @@ fn the_diagnoser_runs_as_an_actor_of_a_running_graph() {
         Some(Value::Vec(vec![fault as f64]))
     );
 }
+
+#[test]
+fn a_panicking_script_is_an_error_not_a_dead_worker() {
+    let g = Graph::new(1);
+    let q = g
+        .edit(|e| -> Result<_, robosim_automation::kernel::KernelError> {
+            let q = e.add_data("q", Retention::Stream)?;
+            let a = e.add_actor(
+                ActorSpec::new("fragile", |ctx: &mut Ctx<'_>| {
+                    if ctx.input_f64("x") == Some(0.0) {
+                        panic!("division by zero");
+                    }
+                    Ok(())
+                })
+                .inputs(&["x"]),
+            )?;
+            e.connect_in(q, a, "x")?;
+            Ok(q)
+        })
+        .unwrap();
+    g.set_tracing(true);
+    for x in [1.0, 0.0, 2.0] {
+        g.write(q, Value::F64(x)).unwrap();
+    }
+    g.wait_idle();
+    assert_eq!(
+        g.trace().len(),
+        3,
+        "the worker survived and fired the third token"
+    );
+    assert_eq!(
+        g.errors(),
+        vec!["fragile: script panicked: division by zero".to_string()]
+    );
+}

@@ -87,7 +87,7 @@ impl fmt::Display for Value {
 /// When an actor with inputs may fire.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Firing {
-    /// Every connected input port holds a token (classical dataflow).
+    /// Every input port holds a token (classical dataflow; an unconnected port never does).
     IfAll,
     /// At least one input port holds a token.
     IfAny,
@@ -141,8 +141,9 @@ pub enum KernelError {
 
 /// The code an actor runs (reentrant: one script may serve several actors).
 pub trait Script: Send + Sync {
-    /// One firing. Reads inputs and writes outputs through `ctx`. An error is recorded in the
-    /// trace and the firing's outputs are still delivered.
+    /// One firing. Reads inputs and writes outputs through `ctx`. An error (or a panic) is
+    /// recorded in the trace and in [`Control::errors`]; the firing's outputs are still
+    /// delivered and the graph goes on.
     fn fire(&self, ctx: &mut Ctx<'_>) -> Result<(), String>;
 }
 
@@ -979,7 +980,18 @@ impl Control {
             control: self,
             actor: ActorId(a),
         };
-        let result = script.fire(&mut ctx);
+        // A panicking script must not take its worker (and the graph's bookkeeping) with it:
+        // the panic becomes the firing's error.
+        let result =
+            std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| script.fire(&mut ctx)))
+                .unwrap_or_else(|p| {
+                    let msg = p
+                        .downcast_ref::<&str>()
+                        .map(|s| s.to_string())
+                        .or_else(|| p.downcast_ref::<String>().cloned())
+                        .unwrap_or_else(|| "unknown payload".into());
+                    Err(format!("script panicked: {msg}"))
+                });
         let outputs = std::mem::take(&mut ctx.outputs);
 
         let mut st = self.lock();
