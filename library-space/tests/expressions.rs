@@ -177,3 +177,39 @@ fn models_too_large_for_memory_are_refused() {
         e.message
     );
 }
+
+#[test]
+fn facets_property_applies_to_its_body_and_what_it_calls() {
+    let src = r#"
+solid rod { part cylinder(radius: 1 cm, height: 10 cm) }
+robot r {
+    facets: 12
+    part cylinder(radius: 1 m, height: 1 m)
+    link l {
+        joint: revolute
+        facets: 6
+        part rod()
+        part cylinder(radius: 1 m, height: 1 m, facets: 40)
+    }
+}
+"#;
+    let lib = Library::from_source("f.rsl", src).unwrap_or_else(|e| panic!("{e}"));
+    let Ok(Evaluated::Robot(r)) = lib.evaluate("r", &Params::new()) else {
+        panic!("robot")
+    };
+    let sides = |p: &robosim_library::PlacedSolid| p.polyhedron.polygons.len() - 2;
+    assert_eq!(sides(&r.frames[0][0]), 12);
+    assert_eq!(
+        sides(&r.frames[1][0]),
+        6,
+        "the inline link's facets reach the called solid"
+    );
+    assert_eq!(sides(&r.frames[1][1]), 40, "an explicit argument wins");
+    let Ok(Evaluated::Solid(s)) = lib.evaluate("rod", &Params::new()) else {
+        panic!("solid")
+    };
+    assert_eq!(
+        sides(&s.parts[0]),
+        robosim_geometry::shapes::default_facets(0.01, robosim_geometry::shapes::DEFAULT_CHORD_TOL)
+    );
+}

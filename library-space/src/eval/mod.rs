@@ -311,8 +311,13 @@ impl<'l> Evaluator<'l> {
 
     /// A declaration's `facets:` property applies to the primitives of its whole body.
     fn push_facets(&mut self, decl: &Decl, scope: &Scope) -> RResult<()> {
+        self.push_facets_body(&decl.body, scope)
+    }
+
+    /// The same for an inline body (an inline link); pop with `self.facets.pop()`.
+    pub(super) fn push_facets_body(&mut self, body: &[Stmt], scope: &Scope) -> RResult<()> {
         let mut f = self.facets.last().copied().flatten();
-        for s in &decl.body {
+        for s in body {
             if let Stmt::Prop { name, value, .. } = s
                 && name == "facets"
             {

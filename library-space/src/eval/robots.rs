@@ -396,7 +396,10 @@ impl Evaluator<'_> {
                     let mut l = match def {
                         LinkDef::Inline(body) => {
                             let mut inner = scope.clone();
-                            self.link_body(name, body, &mut inner, *name_span)?
+                            self.push_facets_body(body, &inner)?;
+                            let l = self.link_body(name, body, &mut inner, *name_span);
+                            self.facets.pop();
+                            l?
                         }
                         LinkDef::Ref(e) => match self.eval(e, scope)? {
                             Value::Link(l) => (*l).clone(),
