@@ -454,3 +454,41 @@ fn a_panicking_script_is_an_error_not_a_dead_worker() {
         vec!["fragile: script panicked: division by zero".to_string()]
     );
 }
+
+#[test]
+fn move_input_hands_over_exactly_the_unread_tokens() {
+    let g = Graph::manual();
+    g.set_tracing(true);
+    let sink = |name: &str| ActorSpec::new(name, |_: &mut Ctx<'_>| Ok(())).inputs(&["x"]);
+    let (q, a, b) = g
+        .edit(|e| -> Result<_, robosim_automation::kernel::KernelError> {
+            let q = e.add_data("q", Retention::Stream)?;
+            let a = e.add_actor(sink("A"))?;
+            let b = e.add_actor(sink("B"))?;
+            e.connect_in(q, a, "x")?;
+            Ok((q, a, b))
+        })
+        .unwrap();
+    for i in 0..5 {
+        g.write(q, Value::F64(i as f64)).unwrap();
+    }
+    assert!(g.step().unwrap().is_some());
+    assert!(g.step().unwrap().is_some());
+    assert_eq!(
+        g.queued(q).unwrap().len(),
+        3,
+        "read tokens are dropped, unread ones held"
+    );
+    g.edit(|e| e.move_input(a, "x", b, "x")).unwrap();
+    assert_eq!(g.run_manual(10).unwrap(), 3);
+    let got: Vec<(String, Value)> = g
+        .trace()
+        .into_iter()
+        .map(|r| (r.actor, r.inputs[0].1.clone()))
+        .collect();
+    let want: Vec<(String, Value)> = [("A", 0.0), ("A", 1.0), ("B", 2.0), ("B", 3.0), ("B", 4.0)]
+        .iter()
+        .map(|(n, v)| (n.to_string(), Value::F64(*v)))
+        .collect();
+    assert_eq!(got, want);
+}
