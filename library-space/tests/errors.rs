@@ -112,6 +112,16 @@ fn duplicate_declaration_points_at_both() {
 }
 
 #[test]
+fn duplicate_part_name() {
+    let e =
+        fail("solid a {\n  part leg = box(1 m, 1 m, 1 m)\n  part leg = box(1 m, 1 m, 1 m)\n}\n");
+    assert_eq!(e.kind, ErrorKind::Duplicate);
+    at(&e, 3, 8);
+    assert_eq!(e.message, "`a` already has a part named `leg`");
+    assert_eq!(e.note.as_ref().map(|n| n.1.line), Some(2));
+}
+
+#[test]
 fn duplicate_property() {
     let e = fail("link l {\n  joint: revolute\n  a: 1 m\n  a: 2 m\n}\n");
     assert_eq!(e.kind, ErrorKind::Duplicate);

@@ -11,7 +11,7 @@ impl Evaluator<'_> {
         span: Span,
     ) -> RResult<LinkVal> {
         let mut parts = Vec::new();
-        let mut counter = 0;
+        let mut counter = PartNames::default();
         let mut seen = Seen::default();
         let mut props: HashMap<&str, &Expr> = HashMap::new();
         let mut colour = None;
@@ -342,7 +342,7 @@ impl Evaluator<'_> {
 
     pub(super) fn robot_body(&mut self, decl: &Decl, scope: &mut Scope) -> RResult<RobotModel> {
         let mut base_parts = Vec::new();
-        let mut counter = 0;
+        let mut counter = PartNames::default();
         let mut seen = Seen::default();
         let mut links: Vec<(LinkVal, Span)> = Vec::new();
         let mut link_names: HashMap<String, Span> = HashMap::new();

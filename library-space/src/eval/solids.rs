@@ -2,6 +2,13 @@
 
 use super::*;
 
+/// Part names of one body: a counter for unnamed parts and the names given so far.
+#[derive(Default)]
+pub(super) struct PartNames {
+    count: usize,
+    seen: HashMap<String, Span>,
+}
+
 impl Evaluator<'_> {
     /// Parts of a solid/link/robot body: `part` statements and the `colour:`/`surface:` defaults.
     #[expect(
@@ -11,7 +18,7 @@ impl Evaluator<'_> {
     pub(super) fn part(
         &mut self,
         owner: &str,
-        counter: &mut usize,
+        counter: &mut PartNames,
         name: &Option<(String, Span)>,
         shape: &Expr,
         at: &Option<Expr>,
@@ -72,17 +79,26 @@ impl Evaluator<'_> {
             .as_ref()
             .map(|e| self.surface_ref(e, scope))
             .transpose()?;
-        *counter += 1;
-        let pname = match name {
-            Some((n, _)) => n.clone(),
+        counter.count += 1;
+        let (pname, pspan) = match name {
+            Some((n, span)) => (n.clone(), *span),
             None => {
                 let base = match sv.parts.first() {
                     Some(p) if sv.parts.len() == 1 => p.name.clone(),
                     _ => callee_name(shape).unwrap_or_else(|| "part".into()),
                 };
-                format!("{base}{counter}")
+                (format!("{base}{}", counter.count), shape.span)
             }
         };
+        if let Some(prev) = counter.seen.insert(pname.clone(), pspan) {
+            return Err(err(
+                ErrorKind::Duplicate,
+                pspan,
+                format!("`{owner}` already has a part named `{pname}`"),
+            )
+            .expected("a unique name for every part (names make the part paths of the model)")
+            .note("first named here", prev));
+        }
         let single = sv.parts.len() == 1;
         for p in &sv.parts {
             out.push(PlacedSolid {
@@ -109,7 +125,7 @@ impl Evaluator<'_> {
         _kind: DeclKind,
     ) -> RResult<SolidVal> {
         let mut parts = Vec::new();
-        let mut counter = 0;
+        let mut counter = PartNames::default();
         let mut seen = Seen::default();
         let (mut colour, mut surface, mut density, mut mass) = (None, None, None, None);
         for st in body {
