@@ -57,6 +57,9 @@ pub struct Client {
 }
 
 impl Client {
+    /// The most transactions one client may have in flight (submitted, not yet answered).
+    pub const MAX_IN_FLIGHT: usize = MAX_IN_FLIGHT;
+
     /// Connects to the keeper of `session` as a process of role `role` (used in its node name).
     pub fn connect(session: &Session, role: &str) -> Result<Self, ClientError> {
         let node = session.node(role, false)?;
@@ -119,7 +122,9 @@ impl Client {
                     .map(|(r, _)| r)
                     .map_err(|e| ClientError::Ipc { what: "decode response".into(), message: e.to_string() });
             }
-            if !p.inner.is_connected() {
+            // iceoryx2 may report the connection down while it is being re-established; only
+            // a keeper that is really gone from the session ends the wait.
+            if !p.inner.is_connected() && !self.session.processes().iter().any(|p| p.role == "space") {
                 return Err(ClientError::KeeperGone);
             }
             let elapsed = start.elapsed();
