@@ -432,3 +432,77 @@ fn sessions_are_isolated_and_private_to_the_user() {
         assert_eq!(mode, 0o600, "{} is mode {mode:o}", e.path().display());
     }
 }
+
+#[test]
+fn a_held_snapshot_keeps_its_version_and_changes_since_answers_from_the_log() {
+    let mut t = TestSession::new("snap");
+    t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "w").expect("connect");
+    let a = c.transact(&scene_tx()).expect("scene");
+    let body = a.created[1];
+    let mut r = Reader::attach(&s, "r").expect("attach");
+    let old = r.snapshot().expect("snapshot");
+    let i = old.index_of(body).expect("body");
+    let mut versions = Vec::new();
+    for k in 1..=5 {
+        let mut pose = IDENTITY;
+        pose[3] = k as f64;
+        let mut tx = Transaction::new();
+        tx.set_pose(body, pose);
+        versions.push(c.transact(&tx).expect("commit").version);
+    }
+    while r.snapshot().expect("snapshot").version() < *versions.last().expect("v") {
+        r.wait_change(Duration::from_secs(5)).expect("wait");
+    }
+    let new = r.snapshot().expect("snapshot");
+    // The old snapshot still shows its own version, in the same shared memory.
+    assert_eq!(old.version(), a.version);
+    assert_eq!(old.poses()[i].pose[3], 0.0);
+    assert_eq!(new.poses()[i].pose[3], 5.0);
+    let since = r.changes_since(versions[1]).expect("changes since");
+    assert_eq!(since.iter().map(|c| c.version).collect::<Vec<_>>(), versions[2..].to_vec());
+    assert!(since.iter().all(|c| c.ids == vec![body] && c.aspects == robosim_instance_space::aspect::POSE));
+    assert!(matches!(r.changes_since(0), Err(robosim_instance_space::ReaderError::ChangesLost { .. })), "versions before the reader attached are not claimed");
+}
+
+#[test]
+fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_version() {
+    let t = TestSession::new("up");
+    let run = |args: &[&str]| {
+        let out = t.command(ROBOSIM).args(args).output().expect("run robosim");
+        (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
+    };
+    let (ok, text) = run(&["up", "demo", "--with", "display", "--session", &t.name]);
+    assert!(!ok && text.contains("not part of this build"), "{text}");
+    let (ok, text) = run(&["up", "demo", "--with", "simulator", "--session", &t.name]);
+    assert!(ok, "{text}");
+    let (ok, ps) = run(&["ps", "--session", &t.name]);
+    assert!(ok);
+    let roles: Vec<&str> = ps.lines().skip(2).filter_map(|l| l.split_whitespace().next()).collect();
+    assert_eq!(roles, vec!["space", "simulator"], "{ps}");
+    let s = t.session();
+    let mut c = Client::connect(&s, "w").expect("connect");
+    let r = Reader::attach(&s, "r").expect("attach");
+    let snap = r.snapshot().expect("snapshot");
+    let link = snap.find("link1").expect("demo scene has link1");
+    let mut tx = Transaction::new();
+    tx.set_joint(snap.objects()[link].id, 0.5);
+    let v = c.transact(&tx).expect("commit").version;
+    let mut state = robosim_instance_space::state::StateSubscriber::open(&s, "simulator", "test-state").expect("state service");
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let rec = loop {
+        if let Some(rec) = state.wait(Duration::from_millis(100)).expect("state").into_iter().find(|r| r.header.structure_version >= v) {
+            break rec;
+        }
+        assert!(Instant::now() < deadline, "no state for version {v}");
+    };
+    let j = rec.joints.iter().find(|j| j.id == snap.objects()[link].id).expect("link1 state");
+    assert_eq!(j.q, 0.5);
+    let (ok, text) = run(&["down", "--session", &t.name]);
+    assert!(ok, "{text}");
+    assert!(text.contains("stopped simulator") && text.contains("stopped space"), "{text}");
+    assert!(text.find("stopped simulator") < text.find("stopped space"), "components stop before the keeper: {text}");
+    let (_, ps) = run(&["ps", "--session", &t.name]);
+    assert_eq!(ps.lines().count(), 2, "nothing left running: {ps}");
+}
