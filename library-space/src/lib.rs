@@ -38,7 +38,7 @@ mod value;
 
 pub use ast::DeclKind;
 pub use error::{ErrorKind, LibError};
-pub use eval::EvalOptions;
+pub use eval::{EvalOptions, POLYGON_BUDGET};
 pub use library::{DeclInfo, Error, Library, ParamInfo, ParamValue, Params};
 pub use model::*;
 pub use source::Location;

@@ -100,6 +100,62 @@ pub struct RobotModel {
     pub ik: Option<String>,
 }
 
+/// A solid at its place in the world (or in a robot's base frame): a path name, the solid, and
+/// the transform from the polyhedron's frame to the world.
+#[derive(Debug, Clone, Copy)]
+pub struct Posed<'a> {
+    /// `robot/link/part` or `item/part`.
+    pub path: (&'a str, &'a str, &'a str),
+    pub solid: &'a PlacedSolid,
+    pub world: Matrix4<f64>,
+}
+
+impl RobotModel {
+    /// Every solid of the robot at joint values `q` (rad / m, `dof` entries; check with
+    /// `Robot::check_q`), with its world transform `T_frame(q) · transform`. Frame 0 is the
+    /// robot's base. Pure: no side effects.
+    pub fn posed_solids<'a>(&'a self, name: &'a str, q: &[f64]) -> Vec<Posed<'a>> {
+        let frames = robosim_kinematics::fk::link_frames(&self.robot, q);
+        let mut out = Vec::new();
+        for (j, solids) in self.frames.iter().enumerate() {
+            let link = if j == 0 {
+                "base"
+            } else {
+                self.link_names[j - 1].as_str()
+            };
+            for p in solids {
+                out.push(Posed {
+                    path: (name, link, p.name.as_str()),
+                    solid: p,
+                    world: frames[j] * p.transform,
+                });
+            }
+        }
+        out
+    }
+}
+
+impl SceneModel {
+    /// Every solid of the scene in the world: the placed solids, and the robots' solids at their
+    /// initial joint values.
+    pub fn posed_solids(&self) -> Vec<Posed<'_>> {
+        let mut out = Vec::new();
+        for it in &self.solids {
+            for p in &it.solid.parts {
+                out.push(Posed {
+                    path: (it.name.as_str(), "", p.name.as_str()),
+                    solid: p,
+                    world: it.placement * p.transform,
+                });
+            }
+        }
+        for r in &self.robots {
+            out.extend(r.model.posed_solids(&r.name, &r.q));
+        }
+        out
+    }
+}
+
 /// A robot placed in a scene. Its `model.robot.base` already includes `placement`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlacedRobot {

@@ -289,3 +289,29 @@ fn evaluating_with_a_facet_override_changes_only_round_solids() {
     };
     assert!(count(&fine) > 4 * count(&coarse) / 2);
 }
+
+#[test]
+fn posed_solids_put_the_station_together() {
+    let s = scene("space_station", &Params::new());
+    let posed = s.posed_solids();
+    let total: usize = s.solids.iter().map(|i| i.solid.parts.len()).sum::<usize>()
+        + s.robots
+            .iter()
+            .map(|r| r.model.frames.iter().map(Vec::len).sum::<usize>())
+            .sum::<usize>();
+    assert_eq!(posed.len(), total);
+    // the port outboard truss starts where the middle truss ends (y = 30 m) and runs outward
+    let port: Vec<f64> = posed
+        .iter()
+        .filter(|p| p.path.0 == "port_outboard" && p.path.2.starts_with("truss/"))
+        .map(|p| p.world[(1, 3)])
+        .collect();
+    assert!(!port.is_empty());
+    let (lo, hi) = port
+        .iter()
+        .fold((f64::MAX, f64::MIN), |(a, b), &y| (a.min(y), b.max(y)));
+    assert!(
+        lo > 29.0 && hi < 61.0 && hi > 55.0,
+        "port truss spans y in [{lo}, {hi}]"
+    );
+}
