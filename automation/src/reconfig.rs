@@ -99,6 +99,20 @@ pub struct ReconfigOutcome {
     pub dot_after: String,
 }
 
+impl ReconfigOutcome {
+    /// A few lines for a command line: the switch and the errors before and after.
+    pub fn summary(&self) -> String {
+        let switch = match self.switched_at {
+            Some(t) => format!("Checker switched P -> PID at t = {t:.3} s"),
+            None => "Checker kept the P controller".to_string(),
+        };
+        format!(
+            "{switch}\nRMS tracking error before: {:.4} rad\nRMS tracking error at the end (last window): {:.4} rad\nfinal error: {:.5} rad; {} steps, {} firings traced\n",
+            self.rms_error_before, self.rms_error_after, self.final_error, self.steps, self.firings
+        )
+    }
+}
+
 struct Arm {
     q: f64,
     qd: f64,

@@ -338,6 +338,30 @@ struct DataSlot {
     /// Sequence number the next write gets.
     next: u64,
     last: Option<Value>,
+    /// (actor, input port) reading this node.
+    readers: Vec<(usize, usize)>,
+    /// (actor, output port) writing this node.
+    writers: Vec<(usize, usize)>,
+}
+
+impl DataSlot {
+    fn unlink_reader(&mut self, a: usize, i: usize) {
+        self.readers.retain(|&r| r != (a, i));
+    }
+    fn unlink_writer(&mut self, a: usize, i: usize) {
+        self.writers.retain(|&w| w != (a, i));
+    }
+}
+
+/// Forgets actor `a` as a writer of every node its outputs feed (when its slot is freed).
+fn unlink_writers(data: &mut [Option<DataSlot>], a: usize, slot: &ActorSlot) {
+    for (i, p) in slot.outputs.iter().enumerate() {
+        for d in &p.targets {
+            if let Some(dn) = data.get_mut(d.0).and_then(|x| x.as_mut()) {
+                dn.unlink_writer(a, i);
+            }
+        }
+    }
 }
 
 #[derive(Default)]
@@ -555,6 +579,8 @@ impl Edit<'_> {
             base: 0,
             next: 0,
             last: None,
+            readers: Vec::new(),
+            writers: Vec::new(),
         }));
         Ok(DataId(self.st.data.len() - 1))
     }
@@ -566,6 +592,9 @@ impl Edit<'_> {
         let i = port_index(slot, port, false)?;
         if !slot.outputs[i].targets.contains(&d) {
             slot.outputs[i].targets.push(d);
+            if let Some(dn) = self.st.data[d.0].as_mut() {
+                dn.writers.push((a.0, i));
+            }
         }
         Ok(())
     }
@@ -575,6 +604,9 @@ impl Edit<'_> {
         let slot = actor_mut(self.st, a)?;
         let i = port_index(slot, port, false)?;
         slot.outputs[i].targets.retain(|&t| t != d);
+        if let Some(dn) = self.st.data.get_mut(d.0).and_then(|x| x.as_mut()) {
+            dn.unlink_writer(a.0, i);
+        }
         Ok(())
     }
 
@@ -602,6 +634,9 @@ impl Edit<'_> {
         }
         slot.inputs[i].source = Some(d);
         slot.inputs[i].cursor = cursor;
+        if let Some(dn) = self.st.data[d.0].as_mut() {
+            dn.readers.push((a.0, i));
+        }
         Ok(())
     }
 
@@ -614,10 +649,16 @@ impl Edit<'_> {
     ) -> Result<Option<(DataId, u64)>, KernelError> {
         let slot = actor_mut(self.st, a)?;
         let i = port_index(slot, port, true)?;
-        Ok(slot.inputs[i]
+        let taken = slot.inputs[i]
             .source
             .take()
-            .map(|d| (d, slot.inputs[i].cursor)))
+            .map(|d| (d, slot.inputs[i].cursor));
+        if let Some((d, _)) = taken
+            && let Some(dn) = self.st.data.get_mut(d.0).and_then(|x| x.as_mut())
+        {
+            dn.unlink_reader(a.0, i);
+        }
+        Ok(taken)
     }
 
     /// Moves a reader: the data node feeding `(from, from_port)` now feeds `(to, to_port)`,
@@ -647,6 +688,9 @@ impl Edit<'_> {
         let j = port_index(slot, to_port, true)?;
         slot.inputs[j].source = Some(d);
         slot.inputs[j].cursor = cursor;
+        if let Some(dn) = self.st.data[d.0].as_mut() {
+            dn.readers.push((to.0, j));
+        }
         Ok(())
     }
 
@@ -655,11 +699,21 @@ impl Edit<'_> {
     pub fn remove_actor(&mut self, a: ActorId) -> Result<(), KernelError> {
         let slot = actor_mut(self.st, a)?;
         slot.removed = true;
-        for p in &mut slot.inputs {
-            p.source = None;
+        let running = slot.running;
+        let sources: Vec<(usize, DataId)> = slot
+            .inputs
+            .iter_mut()
+            .enumerate()
+            .filter_map(|(i, p)| p.source.take().map(|d| (i, d)))
+            .collect();
+        for (i, d) in sources {
+            if let Some(dn) = self.st.data.get_mut(d.0).and_then(|x| x.as_mut()) {
+                dn.unlink_reader(a.0, i);
+            }
         }
-        if !slot.running {
-            self.st.actors[a.0] = None;
+        // A firing actor keeps its writer links until its outputs are delivered.
+        if !running && let Some(slot) = self.st.actors[a.0].take() {
+            unlink_writers(&mut self.st.data, a.0, &slot);
         }
         Ok(())
     }
@@ -810,16 +864,11 @@ impl Control {
     }
 
     fn propagate_request(&self, st: &mut State, d: DataId, seen: &mut Vec<usize>) {
-        let writers: Vec<usize> = st
-            .actors
-            .iter()
-            .enumerate()
-            .filter_map(|(i, a)| {
-                a.as_ref()
-                    .filter(|a| !a.removed && a.outputs.iter().any(|p| p.targets.contains(&d)))
-                    .map(|_| i)
-            })
-            .collect();
+        let mut writers: Vec<usize> = st.data[d.0]
+            .as_ref()
+            .map_or(Vec::new(), |dn| dn.writers.iter().map(|w| w.0).collect());
+        writers.dedup();
+        writers.retain(|&w| st.actors[w].as_ref().is_some_and(|a| !a.removed));
         for w in writers {
             if seen.contains(&w) {
                 continue;
@@ -852,16 +901,9 @@ impl Control {
         }
         dn.last = Some(v);
         dn.next += 1;
-        let readers: Vec<usize> = st
-            .actors
-            .iter()
-            .enumerate()
-            .filter_map(|(i, a)| {
-                a.as_ref()
-                    .filter(|a| a.inputs.iter().any(|p| p.source == Some(d)))
-                    .map(|_| i)
-            })
-            .collect();
+        let mut readers: Vec<usize> = dn.readers.iter().map(|r| r.0).collect();
+        readers.sort_unstable();
+        readers.dedup();
         for r in readers {
             self.check_ready(st, r);
         }
@@ -968,7 +1010,10 @@ impl Control {
         let out_names: Vec<String> = slot.outputs.iter().map(|p| p.name.clone()).collect();
         let name = slot.name.clone();
         // Streams drop what every reader has read.
-        collect_garbage(actors, data);
+        let consumed: Vec<DataId> = slot.inputs.iter().filter_map(|p| p.source).collect();
+        for d in consumed {
+            collect_garbage(actors, data, d);
+        }
         drop(st);
 
         let mut ctx = Ctx {
@@ -1006,9 +1051,11 @@ impl Control {
                     written.push((d, v.clone()));
                 }
             }
-            if slot.removed {
-                st.actors[a] = None;
-            }
+        }
+        if st.actors[a].as_ref().is_some_and(|s| s.removed)
+            && let Some(slot) = st.actors[a].take()
+        {
+            unlink_writers(&mut st.data, a, &slot);
         }
         for (d, v) in written {
             self.deliver(&mut st, d, v);
@@ -1073,25 +1120,29 @@ fn has_token(data: &[Option<DataSlot>], p: &InPort, d: DataId) -> bool {
         .is_some_and(|dn| p.cursor < dn.next)
 }
 
-fn collect_garbage(actors: &[Option<ActorSlot>], data: &mut [Option<DataSlot>]) {
-    for (i, dn) in data.iter_mut().enumerate() {
-        let Some(dn) = dn.as_mut() else { continue };
-        if dn.retention != Retention::Stream {
-            continue;
-        }
-        let floor = actors
-            .iter()
-            .flatten()
-            .flat_map(|a| a.inputs.iter())
-            .filter(|p| p.source == Some(DataId(i)))
-            .map(|p| p.cursor)
-            .min();
-        // Without readers nothing is dropped: the tokens wait for the next reader.
-        if let Some(floor) = floor {
-            while dn.base < floor && !dn.buf.is_empty() {
-                dn.buf.pop_front();
-                dn.base += 1;
-            }
+fn collect_garbage(actors: &[Option<ActorSlot>], data: &mut [Option<DataSlot>], d: DataId) {
+    let Some(dn) = data.get_mut(d.0).and_then(|x| x.as_mut()) else {
+        return;
+    };
+    if dn.retention != Retention::Stream {
+        return;
+    }
+    let floor = dn
+        .readers
+        .iter()
+        .filter_map(|&(a, i)| {
+            actors
+                .get(a)
+                .and_then(|x| x.as_ref())
+                .and_then(|s| s.inputs.get(i))
+                .map(|p| p.cursor)
+        })
+        .min();
+    // Without readers nothing is dropped: the tokens wait for the next reader.
+    if let Some(floor) = floor {
+        while dn.base < floor && !dn.buf.is_empty() {
+            dn.buf.pop_front();
+            dn.base += 1;
         }
     }
 }
