@@ -51,14 +51,43 @@ fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> 
 /// and then answers "no intersection" (parry 0.25.3, `gjk.rs`); so for a pair of convex support
 /// maps answered by GJK, "apart" is accepted only if GJK's last axis separates the two shapes
 /// (`min_B n·b − max_A n·a > 0`, two support-point evaluations); otherwise the answer is `Err`.
-/// Ball–ball and box–box are decided in closed form / by SAT and need no certificate; compounds
-/// and meshes run GJK per part inside parry, uncertified.
+/// Ball–ball and box–box are decided in closed form / by SAT and need no certificate.
+/// Compounds and triangle meshes are walked here, through their own BVH (the mid-phase), so
+/// every convex part or triangle pair is certified the same way.
 fn certified_intersection(
     ga: &Isometry3<f64>,
     sa: &dyn Shape,
     gb: &Isometry3<f64>,
     sb: &dyn Shape,
 ) -> Result<bool, String> {
+    if let Some(c) = sa.as_compound() {
+        let local = sb.compute_aabb(&ga.inv_mul(gb));
+        let mut doubt = None;
+        for i in c.bvh().intersect_aabb(&local) {
+            let (pos, part) = &c.shapes()[i as usize];
+            match certified_intersection(&(ga * pos), part.as_ref(), gb, sb) {
+                Ok(true) => return Ok(true),
+                Ok(false) => {}
+                Err(e) => doubt = Some(e),
+            }
+        }
+        return doubt.map_or(Ok(false), Err);
+    }
+    if let Some(m) = sa.as_trimesh() {
+        let local = sb.compute_aabb(&ga.inv_mul(gb));
+        let mut doubt = None;
+        for i in m.bvh().intersect_aabb(&local) {
+            match certified_intersection(ga, &m.triangle(i), gb, sb) {
+                Ok(true) => return Ok(true),
+                Ok(false) => {}
+                Err(e) => doubt = Some(e),
+            }
+        }
+        return doubt.map_or(Ok(false), Err);
+    }
+    if sb.as_compound().is_some() || sb.as_trimesh().is_some() {
+        return certified_intersection(gb, sb, ga, sa);
+    }
     let hit = query::intersection_test(ga, sa, gb, sb).map_err(|_| {
         format!(
             "parry has no intersection test for {:?} against {:?}",
