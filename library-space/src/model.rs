@@ -30,7 +30,9 @@ pub struct Surface {
 /// Which generator made a primitive and with what parameters (SI), so the higher-level
 /// concept survives evaluation (seed §3.3: the Library Space knows a box is a box).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "shape", rename_all = "snake_case")]
+/// Serialized externally tagged (`{"cylinder": {...}}`) so non-self-describing formats
+/// (bincode) carry it; the query protocol writes it as `{"shape": "cylinder", ...}`.
+#[serde(rename_all = "snake_case")]
 pub enum Primitive {
     Box {
         size: [f64; 3],
@@ -249,7 +251,8 @@ pub struct SceneModel {
 
 /// What [`crate::Library::evaluate`] returns, by declaration kind.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "lowercase")]
+/// Serialized externally tagged (`{"robot": {...}}`), which bincode supports.
+#[serde(rename_all = "lowercase")]
 pub enum Evaluated {
     Constant {
         value: f64,

@@ -180,10 +180,47 @@ pub fn robot_json(r: &Robot) -> Value {
     })
 }
 
+/// `{"shape": "cylinder", "radius": …, …}` (DESIGN.md's shape objects, plus facets).
+fn primitive_json(p: &crate::Primitive) -> Value {
+    use crate::Primitive as P;
+    match p {
+        P::Box { size } => json!({"shape": "box", "size": size}),
+        P::Cylinder {
+            radius,
+            height,
+            facets,
+        } => json!({"shape": "cylinder", "radius": radius, "height": height, "facets": facets}),
+        P::Cone {
+            radius,
+            height,
+            facets,
+        } => json!({"shape": "cone", "radius": radius, "height": height, "facets": facets}),
+        P::TruncatedCone {
+            bottom,
+            top,
+            height,
+            facets,
+        } => {
+            json!({"shape": "truncated_cone", "bottom": bottom, "top": top, "height": height, "facets": facets})
+        }
+        P::Sphere { radius, facets } => {
+            json!({"shape": "sphere", "radius": radius, "facets": facets})
+        }
+        P::Extrusion { points, height } => {
+            json!({"shape": "extrusion", "points": points, "height": height})
+        }
+        P::Revolution {
+            points,
+            angle,
+            facets,
+        } => json!({"shape": "revolution", "points": points, "angle": angle, "facets": facets}),
+    }
+}
+
 fn solid_json(p: &PlacedSolid, geometry: bool) -> Value {
     let mut v = json!({
         "name": p.name,
-        "primitive": p.primitive,
+        "primitive": primitive_json(&p.primitive),
         "transform": rows4(&p.transform),
         "colour": p.colour,
         "surface": p.surface,

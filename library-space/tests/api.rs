@@ -302,3 +302,27 @@ robot two(first = 0.4 m, second = 0.25 m) {
         other => panic!("{other:?}"),
     }
 }
+
+#[test]
+fn evaluated_models_round_trip_through_serde() {
+    // bincode (what a shared-memory transport would carry) round-trips every f64 exactly
+    let std = robosim_library::standard_library().expect("standard library");
+    let cfg = bincode::config::standard();
+    for name in [
+        "space_station",
+        "puma560",
+        "station_middle_truss",
+        "brushed_metal",
+        "grey",
+        "aluminium",
+    ] {
+        let e = std.evaluate(name, &Params::new()).expect("evaluates");
+        let bytes = bincode::serde::encode_to_vec(&e, cfg).expect("serialize");
+        let (back, _): (Evaluated, usize) =
+            bincode::serde::decode_from_slice(&bytes, cfg).expect("deserialize");
+        assert!(back == e, "{name} differs after a round trip");
+        // and JSON carries the same structure (floats to within serde_json's parsing)
+        let text = serde_json::to_string(&e).expect("json");
+        assert!(serde_json::from_str::<Evaluated>(&text).is_ok(), "{name}");
+    }
+}
