@@ -314,7 +314,7 @@ pub fn report_ik(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportErro
     for r in rows.iter().filter(|r| r.tolerance.is_none()) {
         time_series.push(Series {
             label: format!("{} {}", r.robot, r.method),
-            points: vec![(1e-12, r.mean_us), (1e-3, r.mean_us)],
+            points: vec![(1e-12, r.median_us), (1e-3, r.median_us)],
         });
     }
     let mut keys: Vec<(String, String)> = Vec::new();
@@ -333,7 +333,7 @@ pub fn report_ik(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportErro
         };
         time_series.push(Series {
             label: format!("{robot} {method}"),
-            points: pts(&|r| r.mean_us),
+            points: pts(&|r| r.median_us),
         });
         success_series.push(Series {
             label: format!("{robot} {method}"),
@@ -365,7 +365,7 @@ pub fn report_ik(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportErro
         table,
         plots: vec![
             Plot {
-                title: "Mean time per solve".into(),
+                title: "Median time per solve".into(),
                 x_label: "tolerance (m, rad)".into(),
                 y_label: "µs".into(),
                 log_x: true,
