@@ -7,12 +7,57 @@ use proptest::prelude::*;
 use robosim_collision::{Mode, PairResult, Solid, collide};
 
 fn shape() -> impl Strategy<Value = Solid> {
-    (0usize..4, 0.2f64..1.2, 0.2f64..1.2, 0.2f64..1.2).prop_map(|(k, x, y, z)| match k {
+    (0usize..6, 0.2f64..1.2, 0.2f64..1.2, 0.2f64..1.2).prop_map(|(k, x, y, z)| match k {
         0 => Solid::cuboid(Vector3::new(x, y, z)).expect("box"),
         1 => Solid::sphere(x / 2.0, Some(12)).expect("sphere"),
         2 => Solid::cylinder(x / 2.0, y, Some(12)).expect("cylinder"),
-        _ => Solid::cone(x / 2.0, y, Some(12)).expect("cone"),
+        3 => Solid::cone(x / 2.0, y, Some(12)).expect("cone"),
+        // An L of two boxes and a cylinder: a compound walked through its BVH.
+        4 => Solid::compound(vec![
+            (
+                Isometry3::translation(x / 2.0, 0.0, 0.0),
+                Solid::cuboid(Vector3::new(x, 0.1, 0.1)).expect("arm"),
+            ),
+            (
+                Isometry3::translation(0.0, y / 2.0, 0.0),
+                Solid::cuboid(Vector3::new(0.1, y, 0.1)).expect("arm"),
+            ),
+            (
+                Isometry3::translation(0.0, 0.0, z / 2.0),
+                Solid::cylinder(0.05, z, Some(8)).expect("post"),
+            ),
+        ])
+        .expect("compound"),
+        // A closed non-convex mesh: an L-shaped prism (exact mode uses an oriented trimesh).
+        _ => l_prism(x, y, z),
     })
+}
+
+fn l_prism(x: f64, y: f64, z: f64) -> Solid {
+    let outline = [
+        (0.0, 0.0),
+        (x, 0.0),
+        (x, y / 2.0),
+        (x / 2.0, y / 2.0),
+        (x / 2.0, y),
+        (0.0, y),
+    ];
+    let mut v: Vec<nalgebra::Point3<f64>> = outline
+        .iter()
+        .map(|&(a, b)| nalgebra::Point3::new(a, b, 0.0))
+        .collect();
+    v.extend(outline.iter().map(|&(a, b)| nalgebra::Point3::new(a, b, z)));
+    let mut faces: Vec<Vec<u32>> = vec![
+        vec![0, 3, 2, 1],
+        vec![0, 5, 4, 3],
+        vec![6, 7, 8, 9],
+        vec![6, 9, 10, 11],
+    ];
+    for i in 0..6u32 {
+        let j = (i + 1) % 6;
+        faces.push(vec![i, j, 6 + j, 6 + i]);
+    }
+    Solid::mesh(v, &faces).expect("L prism")
 }
 
 fn pose(spread: f64) -> impl Strategy<Value = Isometry3<f64>> {
