@@ -42,8 +42,9 @@ pub fn lex(file: u32, text: &str) -> RResult<Vec<Token>> {
     while i < b.len() {
         let c = b[i];
         if c == b'\n' {
-            // a blank line separates a comment from what follows
-            if i > 0 && text[..i].ends_with('\n') {
+            // a blank (or whitespace-only) line separates a comment from what follows
+            let line_start = text[..i].rfind('\n').map_or(0, |k| k + 1);
+            if i > 0 && text[line_start..i].trim().is_empty() && line_start > 0 {
                 doc.clear();
             }
             i += 1;

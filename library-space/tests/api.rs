@@ -326,3 +326,12 @@ fn evaluated_models_round_trip_through_serde() {
         assert!(serde_json::from_str::<Evaluated>(&text).is_ok(), "{name}");
     }
 }
+
+#[test]
+fn doc_comments_attach_to_the_next_declaration_only() {
+    let src = "// file header\r\n\r\n// the red colour\r\n// (pure)\r\ncolour red = rgb(1, 0, 0)\r\n  \r\ncolour blue = rgb(0, 0, 1)\n";
+    let lib = Library::from_source("d.rsl", src).unwrap_or_else(|e| panic!("{e}"));
+    let d = lib.declarations();
+    assert_eq!(d[0].doc.as_deref(), Some("the red colour\n(pure)"));
+    assert_eq!(d[1].doc, None);
+}
