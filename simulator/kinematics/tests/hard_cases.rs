@@ -538,3 +538,29 @@ fn stanford_arm_is_recognised_and_solved_in_closed_form() {
         Err(IkError::NotApplicable { .. })
     ));
 }
+
+#[test]
+fn families_of_the_shipped_robots() {
+    use robosim_kinematics::ik::family::recognise;
+    assert_eq!(recognise(&puma()).name(), "spherical_wrist");
+    assert_eq!(
+        recognise(&builtin_robot("stanford").expect("b")).name(),
+        "rrp_spherical_wrist"
+    );
+    assert_eq!(recognise(&offset_wrist_puma()).name(), "offset_wrist");
+    let panda = recognise(&builtin_robot("panda").expect("b"));
+    assert_eq!((panda.name(), panda.method()), ("general", Method::Dls));
+}
+
+#[test]
+fn newton_on_the_redundant_panda_uses_the_minimum_norm_step() {
+    let robot = builtin_robot("panda").expect("builtin");
+    let q = [0.1, 0.3, -0.2, -1.5, 0.2, 1.6, 0.4];
+    let target = fk::forward(&robot, &q);
+    let o = IkOptions {
+        q0: Some(q.iter().map(|x| x - 0.15).collect()),
+        ..IkOptions::default()
+    };
+    let r = ik::solve(&robot, &target, Method::Newton, &o).expect("converges from nearby");
+    assert!(r.solutions[0].converged && r.solutions[0].residual.position < 1e-9);
+}

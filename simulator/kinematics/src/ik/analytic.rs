@@ -506,8 +506,9 @@ impl IkSolver for Analytic {
     ) -> Result<IkResult, IkError> {
         let solver = SphericalSolver::new(robot)?;
         let mut reference = [0.0; 6];
-        if let Some(q0) = &options.q0 {
-            reference.copy_from_slice(&q0[..6]);
+        // `solve` has checked q0's length; a direct caller's wrong-length q0 is ignored.
+        if let Some(q0) = options.q0.as_ref().filter(|q| q.len() == 6) {
+            reference.copy_from_slice(q0);
         }
         let (raw, why) = solver.solve_raw(target, &reference);
         let solutions: Vec<_> = raw

@@ -98,6 +98,28 @@ pub enum Family {
     General(String),
 }
 
+impl Family {
+    /// A stable name for the family (what the Instance Space records as a robot's solver):
+    /// `spherical_wrist`, `rrp_spherical_wrist`, `offset_wrist` or `general`.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Family::SphericalWrist(_) => "spherical_wrist",
+            Family::BoomWrist(_) => "rrp_spherical_wrist",
+            Family::OffsetWrist(_) => "offset_wrist",
+            Family::General(_) => "general",
+        }
+    }
+
+    /// The method [`super::Method::Auto`] uses for this family.
+    pub fn method(&self) -> super::Method {
+        match self {
+            Family::SphericalWrist(_) | Family::BoomWrist(_) => super::Method::Analytic,
+            Family::OffsetWrist(_) => super::Method::Hybrid,
+            Family::General(_) => super::Method::Dls,
+        }
+    }
+}
+
 fn is(angle: f64, target: f64) -> bool {
     (angle - target).abs() <= 1e-12 || (angle - target).abs() <= 1e-12 * target.abs()
 }

@@ -202,7 +202,13 @@ impl IkSolver for Hybrid {
         options: &IkOptions,
     ) -> Result<IkResult, IkError> {
         let s = setup(robot, target)?;
-        let theta1_ref = options.q0.as_ref().map_or(0.0, |q| q[0]) + s.offsets[0];
+        let theta1_ref = options
+            .q0
+            .as_ref()
+            .and_then(|q| q.first())
+            .copied()
+            .unwrap_or(0.0)
+            + s.offsets[0];
         let mut solutions = Vec::new();
         let mut any_reachable = false;
         let table: Vec<(f64, [Option<f64>; 4])> = (0..=SAMPLES)
