@@ -10,20 +10,24 @@
 //! integrated with semi-implicit Euler at step `dt` (velocity first, then position with the new
 //! velocity), is held at a set-point `q_ref` by a proportional controller `τ = Kp e`,
 //! `e = q_ref − q`. Against gravity a P controller leaves a steady-state error
-//! `e ≈ m g l sin q / Kp`. A **Checker** actor watches the tracking error; when its RMS over a
-//! window exceeds a threshold after a settling time, it rewires the *running* graph: it adds a
-//! PID actor, moves the error stream's reader from P to PID (no error sample is lost or read
-//! twice), connects PID to the torque node and removes P — while the arm keeps being simulated.
+//! `e ≈ m g l sin q / Kp`. A **Checker** actor watches the tracking error, in lockstep with the
+//! loop (the arm steps only after the Checker has judged the previous sample, so a supervisor
+//! starved of CPU cannot fall behind a simulation that runs as fast as it can); when the RMS
+//! error over a window exceeds a threshold after a settling time, it rewires the *running*
+//! graph: it adds a PID actor, moves the error stream's reader from P to PID (no error sample
+//! is lost or read twice), connects PID to the torque node and removes P — while the arm keeps
+//! being simulated.
 //!
 //! ```text
 //!   torque ──► [arm] ──► state ──► [error] ──► error ──► [P]  ──► torque   (before)
-//!                                                 └────► [Checker]
+//!      ▲                                          └────► [Checker] ──► checked ──┐
+//!      └───────────────────────── (the arm waits for the Checker) ──────────────┘
 //!                                               error ──► [PID] ──► torque  (after)
 //! ```
 //!
 //! Entry point: [`run_reconfig_demo`] → [`ReconfigOutcome`] (errors before and after).
 
-use crate::kernel::{ActorSpec, Firing, Graph, Retention, Value};
+use crate::kernel::{ActorSpec, Graph, Retention, Value};
 use std::sync::{Arc, Mutex};
 
 /// Parameters of the demo (SI units: kg, m, s, rad, N·m).
@@ -92,6 +96,8 @@ pub struct ReconfigOutcome {
     pub steps: usize,
     /// Firings recorded by the tracer.
     pub firings: usize,
+    /// Firings per actor, from the tracer, in order of first firing.
+    pub firings_by_actor: Vec<(String, usize)>,
     /// The tracking error `(t, e)` at every step, s and rad (`q = setpoint − e`).
     pub tracking: Vec<(f64, f64)>,
     /// DOT of the graph before the run and after it.
@@ -107,8 +113,17 @@ impl ReconfigOutcome {
             None => "Checker kept the P controller".to_string(),
         };
         format!(
-            "{switch}\nRMS tracking error before: {:.4} rad\nRMS tracking error at the end (last window): {:.4} rad\nfinal error: {:.5} rad; {} steps, {} firings traced\n",
-            self.rms_error_before, self.rms_error_after, self.final_error, self.steps, self.firings
+            "{switch}\nRMS tracking error before: {:.4} rad\nRMS tracking error at the end (last window): {:.4} rad\nfinal error: {:.5} rad; {} steps, {} firings traced ({})\n",
+            self.rms_error_before,
+            self.rms_error_after,
+            self.final_error,
+            self.steps,
+            self.firings,
+            self.firings_by_actor
+                .iter()
+                .map(|(n, k)| format!("{n} {k}"))
+                .collect::<Vec<_>>()
+                .join(", ")
         )
     }
 }
@@ -179,15 +194,20 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
     let log = Arc::new(Mutex::new(Log::default()));
     let graph = Graph::new(o.workers);
     graph.set_tracing(true);
-    let (torque, state, error) = graph
+    let (torque, ack) = graph
         .edit(|e| -> Result<_, crate::kernel::KernelError> {
             let torque = e.add_data("torque", Retention::Stream)?;
             let state = e.add_data("state", Retention::Stream)?;
             let error = e.add_data("error", Retention::Stream)?;
+            // The Checker runs in lockstep with the loop: the arm steps only once the Checker
+            // has judged the previous sample. A free-running supervisor could fall thousands of
+            // steps behind a simulation that runs as fast as it can, and switch far too late.
+            let ack = e.add_data("checked", Retention::Stream)?;
             let inertia = o.mass * o.length * o.length;
             let arm = e.add_actor(
                 ActorSpec::new("arm", move |ctx: &mut crate::kernel::Ctx<'_>| {
                     let tau = ctx.input_f64("tau").ok_or("arm: no torque")?;
+                    ctx.input("ok").ok_or("arm: no Checker acknowledgement")?;
                     let s = ctx.context::<Arm>().ok_or("arm: context")?;
                     if s.steps >= s.max_steps {
                         return Ok(()); // the run is over: no new state, the loop drains
@@ -201,7 +221,7 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
                     let out = Value::Vec(vec![s.t, s.q, s.qd]);
                     ctx.emit("state", out)
                 })
-                .inputs(&["tau"])
+                .inputs(&["tau", "ok"])
                 .outputs(&["state"])
                 .context(Arm {
                     q: 0.0,
@@ -243,47 +263,42 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
             let log3 = log.clone();
             let checker = e.add_actor(
                 ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let Some(s) = ctx.input("e").and_then(Value::as_vec).map(|v| (v[0], v[1]))
-                    else {
-                        return Ok(());
-                    };
-                    let window = ctx.context::<Vec<(f64, f64)>>().ok_or("Checker: context")?;
+                    let s = ctx
+                        .input("e")
+                        .and_then(Value::as_vec)
+                        .map(|v| (v[0], v[1]))
+                        .ok_or("Checker: no error sample")?;
+                    let (window, switched) = ctx
+                        .context::<(Vec<(f64, f64)>, bool)>()
+                        .ok_or("Checker: context")?;
                     window.push(s);
                     window.retain(|(t, _)| *t > s.0 - o.window);
-                    if !o.allow_switch || s.0 < o.settle {
-                        return Ok(());
-                    }
                     let r = rms(window, s.0 - o.window, s.0);
-                    if r <= o.threshold {
-                        return Ok(());
+                    if o.allow_switch && !*switched && s.0 >= o.settle && r > o.threshold {
+                        *switched = true;
+                        // Unacceptable: reconfigure the running graph to PID.
+                        ctx.control()
+                            .edit(|e| -> Result<(), crate::kernel::KernelError> {
+                                let Some(p) = e.actor("P") else { return Ok(()) };
+                                let Some(torque) = e.data("torque") else {
+                                    return Ok(());
+                                };
+                                let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
+                                e.connect_out(pid, "u", torque)?;
+                                e.move_input(p, "e", pid, "e")?;
+                                e.remove_actor(p)
+                            })
+                            .map_err(|e| e.to_string())?;
+                        if let Ok(mut l) = log3.lock() {
+                            l.switched_at = Some(s.0);
+                            l.checker_window = Some(r);
+                        }
                     }
-                    // Unacceptable: reconfigure the running graph to PID.
-                    let control = ctx.control().clone();
-                    control
-                        .edit(|e| -> Result<(), crate::kernel::KernelError> {
-                            let Some(p) = e.actor("P") else { return Ok(()) };
-                            let Some(torque) = e.data("torque") else {
-                                return Ok(());
-                            };
-                            let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
-                            e.connect_out(pid, "u", torque)?;
-                            e.move_input(p, "e", pid, "e")?;
-                            e.remove_actor(p)
-                        })
-                        .map_err(|e| e.to_string())?;
-                    let me = ctx.actor_id();
-                    ctx.control()
-                        .edit(|e| e.remove_actor(me))
-                        .map_err(|e| e.to_string())?;
-                    if let Ok(mut l) = log3.lock() {
-                        l.switched_at = Some(s.0);
-                        l.checker_window = Some(r);
-                    }
-                    Ok(())
+                    ctx.emit("ok", Value::Unit)
                 })
                 .inputs(&["e"])
-                .firing(Firing::IfAny)
-                .context(Vec::<(f64, f64)>::new()),
+                .outputs(&["ok"])
+                .context((Vec::<(f64, f64)>::new(), false)),
             )?;
             e.connect_in(torque, arm, "tau")?;
             e.connect_out(arm, "state", state)?;
@@ -291,18 +306,28 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
             e.connect_out(err, "e", error)?;
             e.connect_in(error, p, "e")?;
             e.connect_in(error, checker, "e")?;
+            e.connect_out(checker, "ok", ack)?;
+            e.connect_in(ack, arm, "ok")?;
             e.connect_out(p, "u", torque)?;
-            Ok((torque, state, error))
+            Ok((torque, ack))
         })
         .map_err(|e| e.to_string())?;
-    let _ = (state, error);
     let dot_before = graph.to_dot();
     graph
         .write(torque, Value::F64(0.0))
         .map_err(|e| e.to_string())?;
+    graph.write(ack, Value::Unit).map_err(|e| e.to_string())?;
     graph.wait_idle();
     let dot_after = graph.to_dot();
-    let firings = graph.trace().len();
+    let trace = graph.trace();
+    let firings = trace.len();
+    let mut firings_by_actor: Vec<(String, usize)> = Vec::new();
+    for r in &trace {
+        match firings_by_actor.iter_mut().find(|(n, _)| *n == r.actor) {
+            Some(e) => e.1 += 1,
+            None => firings_by_actor.push((r.actor.clone(), 1)),
+        }
+    }
     let errors = graph.errors();
     if let Some(e) = errors.first() {
         return Err(format!("script error during the demo: {e}"));
@@ -322,6 +347,7 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
         final_error: samples.last().map_or(f64::NAN, |s| s.1),
         steps: samples.len(),
         firings,
+        firings_by_actor,
         tracking: samples,
         dot_before,
         dot_after,

@@ -344,12 +344,12 @@ fn checker_reconfigures_p_to_pid_and_the_error_drops() {
     .unwrap();
     assert_eq!(fixed.switched_at, None);
     // Against gravity P alone keeps an error: m g l sin(q) / Kp is about 0.17 rad here.
-    assert!(fixed.rms_error_after > 0.1, "{fixed:?}");
+    assert!(fixed.rms_error_after > 0.1, "{}", fixed.summary());
     let r = run_reconfig_demo(&ReconfigOptions::default()).unwrap();
     let t = r.switched_at.expect("the Checker switches");
     assert!((1.5..2.5).contains(&t), "switch at {t}");
     assert!(r.rms_error_before > 0.05);
-    assert!(r.rms_error_after < 0.01, "{r:?}");
+    assert!(r.rms_error_after < 0.01, "{}", r.summary());
     assert_eq!(r.steps, 6000);
     assert!(r.dot_before.contains("\"P\\n") && !r.dot_before.contains("PID"));
     assert!(r.dot_after.contains("PID") && !r.dot_after.contains("\"P\\n"));
