@@ -564,3 +564,44 @@ fn newton_on_the_redundant_panda_uses_the_minimum_norm_step() {
     let r = ik::solve(&robot, &target, Method::Newton, &o).expect("converges from nearby");
     assert!(r.solutions[0].converged && r.solutions[0].residual.position < 1e-9);
 }
+
+#[test]
+fn numeric_methods_reach_targets_at_singular_configurations() {
+    // Targets whose only nearby solutions are singular: wrist singular (q5 = 0), elbow straight,
+    // and the Panda stretched (q4 at its limit near 0). No NaN; DLS converges.
+    let robot = puma();
+    let q3s = straight_elbow_q3(&robot);
+    for q in [
+        [0.3, 0.5, -1.0, 0.7, 0.0, -0.4],
+        [0.1, -0.3, q3s, 0.4, -0.7, 0.2],
+    ] {
+        let target = fk::forward(&robot, &q);
+        for seed in 0..5 {
+            let o = IkOptions {
+                seed,
+                tolerances: robosim_kinematics::pose::Tolerances::uniform(1e-8, 1e-8),
+                ..IkOptions::default()
+            };
+            let r =
+                ik::solve(&robot, &target, Method::Dls, &o).expect("dls reaches a singular target");
+            assert!(r.solutions[0].converged && r.solutions[0].q.iter().all(|x| x.is_finite()));
+        }
+        // Newton started on the singular configuration itself: J is singular there. It must
+        // answer (converged, because the start is the solution) without NaN.
+        let o = IkOptions {
+            q0: Some(q.to_vec()),
+            ..IkOptions::default()
+        };
+        let r = ik::solve(&robot, &target, Method::Newton, &o).expect("the start is the solution");
+        assert_eq!(r.solutions[0].iterations, 0);
+    }
+    let panda = builtin_robot("panda").expect("builtin");
+    let q = [0.2, 0.4, -0.3, panda.joints[3].qlim[1], 0.1, 1.0, 0.3];
+    let target = fk::forward(&panda, &q);
+    let o = IkOptions {
+        tolerances: robosim_kinematics::pose::Tolerances::uniform(1e-8, 1e-8),
+        ..IkOptions::default()
+    };
+    let r = ik::solve(&panda, &target, Method::Dls, &o).expect("dls reaches the stretched Panda");
+    assert!(r.solutions[0].converged && r.solutions[0].within_limits);
+}
