@@ -138,6 +138,41 @@ impl RobotModel {
 }
 
 impl SceneModel {
+    /// What changed from `self` (the old evaluation) to `new`, item by item, by name.
+    pub fn changes_to(&self, new: &SceneModel) -> SceneChanges {
+        let mut c = SceneChanges {
+            effects: self.effects != new.effects,
+            ..SceneChanges::default()
+        };
+        for r in &new.robots {
+            match self.robots.iter().find(|o| o.name == r.name) {
+                Some(o) if o != r => c.robots.push(r.name.clone()),
+                Some(_) => {}
+                None => c.added.push(r.name.clone()),
+            }
+        }
+        for i in &new.solids {
+            match self.solids.iter().find(|o| o.name == i.name) {
+                Some(o) if o != i => c.solids.push(i.name.clone()),
+                Some(_) => {}
+                None => c.added.push(i.name.clone()),
+            }
+        }
+        for o in self
+            .robots
+            .iter()
+            .map(|r| &r.name)
+            .chain(self.solids.iter().map(|i| &i.name))
+        {
+            let still =
+                new.robots.iter().any(|r| &r.name == o) || new.solids.iter().any(|i| &i.name == o);
+            if !still {
+                c.removed.push(o.clone());
+            }
+        }
+        c
+    }
+
     /// Every solid of the scene in the world: the placed solids, and the robots' solids at their
     /// initial joint values.
     pub fn posed_solids(&self) -> Vec<Posed<'_>> {
@@ -162,6 +197,8 @@ impl SceneModel {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlacedRobot {
     pub name: String,
+    /// The robot (or link) declaration it was made from, when placed by calling one.
+    pub declaration: Option<String>,
     pub model: RobotModel,
     pub placement: Matrix4<f64>,
     /// Initial joint values (rad / m), `dof` entries.
@@ -238,6 +275,33 @@ impl Default for Effects {
             encoder_bits: None,
             logged: vec![],
         }
+    }
+}
+
+/// Which placed items differ between two evaluations of a scene (see
+/// [`SceneModel::changes_to`]): what a live parameter change must re-instantiate.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SceneChanges {
+    /// Robots present in both whose model, placement or initial q differ.
+    pub robots: Vec<String>,
+    /// Solids present in both whose geometry or placement differ.
+    pub solids: Vec<String>,
+    /// Names placed only in the new evaluation.
+    pub added: Vec<String>,
+    /// Names placed only in the old evaluation.
+    pub removed: Vec<String>,
+    /// The effects changed.
+    pub effects: bool,
+}
+
+impl SceneChanges {
+    /// Nothing changed.
+    pub fn is_empty(&self) -> bool {
+        self.robots.is_empty()
+            && self.solids.is_empty()
+            && self.added.is_empty()
+            && self.removed.is_empty()
+            && !self.effects
     }
 }
 

@@ -315,3 +315,28 @@ fn posed_solids_put_the_station_together() {
         "port truss spans y in [{lo}, {hi}]"
     );
 }
+
+#[test]
+fn changing_one_scene_parameter_changes_only_the_items_it_reaches() {
+    let old = scene("space_station", &Params::new());
+    let new = scene(
+        "space_station",
+        &Params::new().si("servicer_position", 12.0),
+    );
+    let c = old.changes_to(&new);
+    assert_eq!(c.robots, vec!["servicer"]);
+    assert!(c.solids.is_empty() && c.added.is_empty() && c.removed.is_empty() && !c.effects);
+    let turned = scene(
+        "space_station",
+        &Params::new().expr("panel_angle", "15 deg"),
+    );
+    assert_eq!(
+        old.changes_to(&turned).robots,
+        vec!["port_outboard", "starboard_outboard"]
+    );
+    assert!(old.changes_to(&old).is_empty());
+    assert_eq!(
+        old.robots[4].declaration.as_deref(),
+        Some("station_servicer")
+    );
+}

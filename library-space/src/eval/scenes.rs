@@ -80,6 +80,7 @@ impl Evaluator<'_> {
                         model.robot.name = name.clone();
                         scene.robots.push(PlacedRobot {
                             name: name.clone(),
+                            declaration: callee_name(item),
                             model,
                             placement,
                             q: qv,
