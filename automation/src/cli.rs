@@ -19,6 +19,9 @@ pub enum DiagCmd {
     Check {
         /// Model file, or a shipped model name (eclss).
         model: String,
+        /// Also write the process/fault model as Graphviz DOT to this file.
+        #[arg(long)]
+        dot: Option<PathBuf>,
     },
     /// Inject faults and print the timed alarm sequence (the format `diag run` reads).
     Simulate {
@@ -86,8 +89,11 @@ fn allocation(m: &Model, drop: &[String]) -> Result<Vec<bool>, String> {
 pub fn execute(cmd: DiagCmd) -> Result<String, String> {
     let mut o = String::new();
     match cmd {
-        DiagCmd::Check { model } => {
+        DiagCmd::Check { model, dot } => {
             let m = load(&model)?;
+            if let Some(path) = &dot {
+                std::fs::write(path, m.to_dot()).map_err(|e| format!("{}: {e}", path.display()))?;
+            }
             let findings = check_model(&m);
             let _ = writeln!(
                 o,

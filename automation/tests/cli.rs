@@ -9,8 +9,11 @@ use serde_json::json;
 
 #[test]
 fn check_reports_the_model_and_refuses_inconsistent_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let dot = dir.path().join("eclss.dot");
     let out = execute(DiagCmd::Check {
         model: "eclss".into(),
+        dot: Some(dot.clone()),
     })
     .unwrap();
     assert!(out.contains("model ECLSS"), "{out}");
@@ -18,11 +21,21 @@ fn check_reports_the_model_and_refuses_inconsistent_ones() {
         out.trim_end().ends_with("consistent (0 warning(s))"),
         "{out}"
     );
-    let dir = tempfile::tempdir().unwrap();
+    let dot = std::fs::read_to_string(dot).unwrap();
+    assert!(
+        dot.starts_with("digraph hfm") && dot.contains("label=\"CO2Reduction\""),
+        "{dot}"
+    );
+    assert_eq!(
+        dot.matches(" -> ").count(),
+        59 + 57,
+        "every edge and alarm association drawn"
+    );
     let bad = dir.path().join("bad.hfm");
     std::fs::write(&bad, "process R {\n  failure f failure g\n  propagate f -> g prob 1 time 0..1\n  propagate g -> f prob 1 time 0..1\n}\n").unwrap();
     let err = execute(DiagCmd::Check {
         model: bad.display().to_string(),
+        dot: None,
     })
     .unwrap_err();
     assert!(err.contains("bad.hfm:2:3: error[zero-time-cycle]"), "{err}");
@@ -30,6 +43,7 @@ fn check_reports_the_model_and_refuses_inconsistent_ones() {
     std::fs::write(&syntax, "process R {\n  failure f\n  alarm A detect f\n}\n").unwrap();
     let err = execute(DiagCmd::Check {
         model: syntax.display().to_string(),
+        dot: None,
     })
     .unwrap_err();
     assert!(
@@ -38,7 +52,8 @@ fn check_reports_the_model_and_refuses_inconsistent_ones() {
     );
     assert!(
         execute(DiagCmd::Check {
-            model: "no-such-model".into()
+            model: "no-such-model".into(),
+            dot: None
         })
         .is_err()
     );

@@ -1,7 +1,10 @@
 //! Property: whatever the interleaving of writes, firings and rewiring (moving the reader,
 //! disconnecting it, connecting a new one), every token written to a stream node is consumed
 //! exactly once and in order.
-#![allow(clippy::unwrap_used, reason = "a test unwraps: failing there is the test failing")]
+#![allow(
+    clippy::unwrap_used,
+    reason = "a test unwraps: failing there is the test failing"
+)]
 use proptest::prelude::*;
 use robosim_automation::kernel::{ActorId, ActorSpec, Ctx, Graph, Retention, Value};
 use std::sync::{Arc, Mutex};

@@ -262,3 +262,60 @@ impl fmt::Display for Span {
         write!(f, "{}:{}", self.line, self.col)
     }
 }
+
+impl Model {
+    /// The process and fault models as Graphviz DOT (the seed's pictures 14–22 as one
+    /// drawing): a cluster per process (nested as the hierarchy), failure modes as ellipses
+    /// (derived ones dashed), alarms as small boxes attached to what they detect, propagation
+    /// edges labelled `p [tmin, tmax]` (assumed numbers in grey).
+    pub fn to_dot(&self) -> String {
+        use std::fmt::Write as _;
+        fn esc(s: &str) -> String {
+            s.replace('"', "\\\"")
+        }
+        fn cluster(m: &Model, p: ProcId, indent: usize, out: &mut String) {
+            let pad = " ".repeat(indent);
+            let proc_ = &m.processes[p];
+            let _ = writeln!(out, "{pad}subgraph cluster_p{p} {{");
+            let _ = writeln!(out, "{pad}  label=\"{}\"; style=rounded;", esc(&proc_.name));
+            for &f in &proc_.failure_modes {
+                let fm = &m.failure_modes[f];
+                let style = if fm.derived { "dashed" } else { "solid" };
+                let _ = writeln!(
+                    out,
+                    "{pad}  f{f} [shape=ellipse, style={style}, label=\"{}\"];",
+                    esc(&fm.name)
+                );
+            }
+            for &a in &proc_.alarms {
+                let _ = writeln!(
+                    out,
+                    "{pad}  a{a} [shape=box, fontsize=9, height=0.2, label=\"{}\"];",
+                    esc(&m.alarms[a].name)
+                );
+            }
+            for &c in &proc_.children {
+                cluster(m, c, indent + 2, out);
+            }
+            let _ = writeln!(out, "{pad}}}");
+        }
+        let mut s =
+            String::from("digraph hfm {\n  rankdir=LR; compound=true; node [fontsize=10];\n");
+        cluster(self, 0, 2, &mut s);
+        for e in &self.edges {
+            let colour = if e.assumed { "grey40" } else { "black" };
+            let _ = writeln!(
+                s,
+                "  f{} -> f{} [label=\"{} [{}, {}]\", fontsize=8, color={colour}, fontcolor={colour}];",
+                e.from, e.to, e.prob, e.tmin, e.tmax
+            );
+        }
+        for (a, al) in self.alarms.iter().enumerate() {
+            for &f in &al.detects {
+                let _ = writeln!(s, "  a{a} -> f{f} [style=dotted, arrowhead=none];");
+            }
+        }
+        s.push_str("}\n");
+        s
+    }
+}
