@@ -11,7 +11,7 @@
 //!   ILM.
 //! * [`sim`] — the alarm pattern simulator, sensor-allocation filters, alarm files.
 //! * [`analysis`] — diagnosability (resolution per sensor allocation) and the sensor advisor.
-//! * [`bench`] — random hierarchical fault models and the `robosim report diag` reports.
+//! * [`bench`](mod@bench) — random hierarchical fault models and the `robosim report diag` reports.
 //! * [`cli`] — `robosim diag check|simulate|run|analyze`; [`query`] — the `diag_*` query ops.
 //!
 //! The model format, the algorithms and the measured curves are documented in

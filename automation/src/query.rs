@@ -2,9 +2,9 @@
 //!
 //! | op | request | answer |
 //! |---|---|---|
-//! | `diag_check` | model | processes, failure_modes, alarms, edges, findings: [{severity, code, message, line, col}], consistent |
-//! | `diag_simulate` | model, faults: [{fault, t?}], seed?, sample? | alarms: [{t, alarm}] |
-//! | `diag_diagnose` | model, alarms: [{t, alarm}], drop?: [alarm], until? | candidates: [failure mode], multiple: [[failure mode]], components, ilm: {depth, processes} |
+//! | `diag_check` | `model` | `processes, failure_modes, alarms, edges, findings: [{severity, code, message, line, col}], consistent` |
+//! | `diag_simulate` | `model, faults: [{fault, t?}], seed?, sample?` | `alarms: [{t, alarm}]` |
+//! | `diag_diagnose` | `model, alarms: [{t, alarm}], drop?: [alarm], until?` | `candidates: [path], multiple: [[path]], components, ilm: {depth, processes, failure_modes, restarts}` |
 //!
 //! `model` is a shipped model name (`eclss`) or a model file path.
 
