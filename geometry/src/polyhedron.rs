@@ -244,7 +244,7 @@ fn check_polygon(vertices: &[Point3<f64>], fi: usize, face: &[u32]) -> Result<Pl
         size = size.max((b - a).norm());
     }
     let area = newell.norm() * 0.5;
-    if !(area > (size * size) * 1e-12) || size == 0.0 {
+    if area.is_nan() || area <= (size * size) * 1e-12 || size == 0.0 {
         return Err(GeometryError::Degenerate { polygon: fi, area });
     }
     let normal = newell / (2.0 * area);
