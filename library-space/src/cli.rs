@@ -4,7 +4,7 @@
 //! [`run`]; on `Err(message)` print it to stderr and exit non-zero (the message of a source
 //! error starts with `error[…]` and names file:line:col).
 
-use crate::{DeclKind, Evaluated, Library, Params};
+use crate::{Evaluated, Library, Params};
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Subcommand)]
@@ -161,7 +161,6 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
                     let _ = writeln!(out, "surface: {s:?}");
                 }
             }
-            let _ = DeclKind::Scene;
         }
         LibCmd::Check { file } => {
             let lib = Library::load(&file).map_err(|e| e.to_string())?;
