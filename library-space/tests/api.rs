@@ -335,3 +335,27 @@ fn doc_comments_attach_to_the_next_declaration_only() {
     assert_eq!(d[0].doc.as_deref(), Some("the red colour\n(pure)"));
     assert_eq!(d[1].doc, None);
 }
+
+#[test]
+fn the_examples_in_the_language_reference_load() {
+    let doc = include_str!("../../docs/library.md");
+    let mut blocks = 0;
+    for block in doc.split("```rsl\n").skip(1) {
+        let src = block.split("```").next().expect("closed block");
+        // effects-only fragments are wrapped in a scene to be checked
+        let src = if src.trim_start().starts_with("effects") {
+            format!(
+                "scene fragment {{\n{}\n}}\n",
+                src.replace("bbox | polygon | exact", "polygon")
+                    .replace("on|off", "on")
+                    .replace("euler | semi_implicit_euler | rk4 | dopri5", "rk4")
+            )
+        } else {
+            src.to_string()
+        };
+        Library::from_source("docs/library.md", &src)
+            .unwrap_or_else(|e| panic!("example {blocks} in docs/library.md:\n{e}"));
+        blocks += 1;
+    }
+    assert!(blocks >= 2, "found {blocks} examples");
+}
