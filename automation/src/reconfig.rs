@@ -143,6 +143,14 @@ struct Log {
     checker_window: Option<f64>,
 }
 
+/// A (time, value) pair from a `Value::Vec` of at least two numbers.
+fn pair(v: &Value) -> Option<(f64, f64)> {
+    match v.as_vec()? {
+        [t, x, ..] => Some((*t, *x)),
+        _ => None,
+    }
+}
+
 fn rms(samples: &[(f64, f64)], from: f64, to: f64) -> f64 {
     let v: Vec<f64> = samples
         .iter()
@@ -161,8 +169,8 @@ fn pid_actor(name: &str, (kp, ki, kd): (f64, f64, f64), dt: f64) -> ActorSpec {
     ActorSpec::new(name, move |ctx: &mut crate::kernel::Ctx<'_>| {
         let e = ctx
             .input("e")
-            .and_then(Value::as_vec)
-            .map(|v| v[1])
+            .and_then(pair)
+            .map(|p| p.1)
             .ok_or("PID: no error sample")?;
         let (integral, prev) = ctx.context::<(f64, Option<f64>)>().ok_or("PID: context")?;
         *integral += e * dt;
@@ -234,16 +242,15 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
             let log2 = log.clone();
             let err = e.add_actor(
                 ActorSpec::new("error", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let s = ctx
+                    let (t, q) = ctx
                         .input("x")
-                        .and_then(Value::as_vec)
-                        .ok_or("error: no state")?
-                        .to_vec();
-                    let e = o.setpoint - s[1];
+                        .and_then(pair)
+                        .ok_or("error: no state [t, q, qd]")?;
+                    let e = o.setpoint - q;
                     if let Ok(mut l) = log2.lock() {
-                        l.errors.push((s[0], e));
+                        l.errors.push((t, e));
                     }
-                    ctx.emit("e", Value::Vec(vec![s[0], e]))
+                    ctx.emit("e", Value::Vec(vec![t, e]))
                 })
                 .inputs(&["x"])
                 .outputs(&["e"]),
@@ -252,8 +259,8 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
                 ActorSpec::new("P", move |ctx: &mut crate::kernel::Ctx<'_>| {
                     let e = ctx
                         .input("e")
-                        .and_then(Value::as_vec)
-                        .map(|v| v[1])
+                        .and_then(pair)
+                        .map(|p| p.1)
                         .ok_or("P: no error sample")?;
                     ctx.emit("u", Value::F64(o.kp * e))
                 })
@@ -265,8 +272,7 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
                 ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
                     let s = ctx
                         .input("e")
-                        .and_then(Value::as_vec)
-                        .map(|v| (v[0], v[1]))
+                        .and_then(pair)
                         .ok_or("Checker: no error sample")?;
                     let (window, switched) = ctx
                         .context::<(Vec<(f64, f64)>, bool)>()
