@@ -6,6 +6,7 @@
 mod bench;
 mod bridge;
 mod demo;
+mod instantiate;
 mod launcher;
 mod scene;
 mod simulator;
@@ -60,6 +61,28 @@ enum Command {
         #[arg(long, default_value_t = 100.0)]
         rate: f64,
     },
+    /// Instantiate a Library Space declaration into a running session (a writer process).
+    Instantiate {
+        /// Declaration name (`robosim lib list` shows them).
+        declaration: String,
+        /// Instance name (default: the declaration's).
+        #[arg(long = "as")]
+        name: Option<String>,
+        /// Parameter values, NAME=EXPR (e.g. `upper_arm=0.5 m`).
+        #[arg(long = "set")]
+        set: Vec<String>,
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// Change parameters of an instance: it alone is re-instantiated, only what differs is written.
+    Set {
+        instance: String,
+        /// NAME=EXPR pairs.
+        #[arg(required = true)]
+        params: Vec<String>,
+        #[arg(long)]
+        session: Option<String>,
+    },
     /// A headless session that does real work and says what it did.
     Demo {
         #[arg(long)]
@@ -83,6 +106,8 @@ fn main() -> ExitCode {
         Command::Ps { session } => launcher::ps(session.as_deref()),
         Command::Down { session } => launcher::down(session.as_deref()),
         Command::Simulator { session, rate } => simulator::run(session.as_deref(), rate),
+        Command::Instantiate { declaration, name, set, session } => instantiate::cli_instantiate(&declaration, name.as_deref(), &set, session.as_deref()),
+        Command::Set { instance, params, session } => instantiate::cli_set(&instance, &params, session.as_deref()),
         Command::Demo { session } => demo::run(session.as_deref()),
         Command::Bench { which } => bench::run(which),
     };

@@ -9,12 +9,19 @@ pub fn check(name: &str) -> Result<()> {
     load(name).map(|_| ())
 }
 
-/// The transactions that build scene `name`.
+/// The transactions that build scene `name`: the built-in `demo`, or any declaration of the
+/// standard library (a scene, robot, link or solid), instantiated with its defaults.
 pub fn load(name: &str) -> Result<Vec<Transaction>> {
-    match name {
-        "demo" => Ok(vec![demo()]),
-        other => bail!("unknown scene {other:?}; built-in scenes: demo"),
+    if name == "demo" {
+        return Ok(vec![demo()]);
     }
+    let Some(lib) = robosim_library::standard_library() else { bail!("the standard library failed to load") };
+    if lib.kind(name).is_none() {
+        let names: Vec<String> = lib.declarations().into_iter().filter(|d| matches!(d.kind.as_str(), "scene" | "robot")).map(|d| d.name).collect();
+        bail!("unknown scene {name:?}; scenes and robots: demo, {}", names.join(", "));
+    }
+    let origin = crate::instantiate::Origin { declaration: name.to_owned(), params: Default::default() };
+    Ok(vec![crate::instantiate::instantiate(lib, &origin, name)?])
 }
 
 /// A box centred on its bounding box (DESIGN.md, Shapes), full side lengths `size` (m).

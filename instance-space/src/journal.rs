@@ -146,6 +146,7 @@ struct ObjectData {
     dynamics: Option<MassProps>,
     geometry: Option<GeometryInput>,
     geom_gen: u64,
+    origin: String,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -173,6 +174,7 @@ fn write_checkpoint(dir: &Path, model: &Model) -> Result<(), JournalError> {
                 dynamics: o.dynamics,
                 geometry: o.geometry.as_deref().map(GeometryInput::from_polyhedron),
                 geom_gen: o.geom_gen,
+                origin: o.origin.clone(),
             })
             .collect(),
     };
@@ -221,6 +223,7 @@ fn read_checkpoint(path: &Path) -> Result<Model, JournalError> {
             dynamics: o.dynamics,
             geometry,
             geom_gen: o.geom_gen,
+            origin: o.origin,
         });
     }
     Ok(Model::from_parts(data.version, data.next_id, objects))

@@ -491,6 +491,11 @@ fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
         surface: [o.appearance.diffuse, o.appearance.specular, o.appearance.shininess, 0.0],
         ..bytemuck::Zeroable::zeroed()
     };
+    if !o.origin.is_empty() {
+        rec.origin_off = names.len() as u32;
+        rec.origin_len = o.origin.len() as u32;
+        names.extend_from_slice(o.origin.as_bytes());
+    }
     if o.geometry.is_some() {
         rec.flags |= flags::HAS_GEOMETRY;
     }

@@ -162,6 +162,9 @@ pub struct ObjectRec {
     pub com: [f64; 3],
     /// xx, yy, zz, xy, xz, yz about the centre of mass.
     pub inertia: [f64; 6],
+    /// Byte range of the origin record (instances only) in the names section.
+    pub origin_off: u32,
+    pub origin_len: u32,
 }
 
 #[repr(C)]
@@ -250,7 +253,7 @@ mod tests {
 
     #[test]
     fn record_sizes_have_no_padding() {
-        assert_eq!(std::mem::size_of::<ObjectRec>(), 320);
+        assert_eq!(std::mem::size_of::<ObjectRec>(), 328);
         assert_eq!(std::mem::size_of::<PoseRec>(), 112);
         assert_eq!(std::mem::size_of::<PolygonRec>(), 40);
     }

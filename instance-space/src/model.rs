@@ -22,6 +22,8 @@ pub type Id = u64;
 pub const MAX_ELEMENTS: u64 = 1 << 27;
 /// The longest name, bytes.
 pub const MAX_NAME_BYTES: usize = 4096;
+/// The longest origin record, bytes.
+pub const MAX_ORIGIN_BYTES: usize = 1 << 16;
 
 /// The kind tag of an object (seed §3.3: objects are dynamically typed).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, bincode::Encode, bincode::Decode, PartialOrd, Ord)]
@@ -63,7 +65,7 @@ impl Kind {
             Kind::Scene => (&[], true),
             Kind::Robot | Kind::Item => (&[Kind::Scene], true),
             Kind::Link => (&[Kind::Robot], false),
-            Kind::Solid => (&[Kind::Scene, Kind::Item, Kind::Link, Kind::Solid], true),
+            Kind::Solid => (&[Kind::Scene, Kind::Robot, Kind::Item, Kind::Link, Kind::Solid], true),
             Kind::Part => (&[Kind::Solid], false),
         }
     }
@@ -179,6 +181,10 @@ pub struct Object {
     pub geometry: Option<Arc<Polyhedron>>,
     /// Bumped on every geometry change; readers match geometry samples by it.
     pub geom_gen: u64,
+    /// For an instance of a Library Space declaration: where it came from and with which
+    /// parameters (JSON text, see `robosim instantiate`), so a parameter can be changed
+    /// later and the instance re-instantiated ("live parameters"). Empty for other objects.
+    pub origin: String,
 }
 
 /// Why a transaction was refused. `op` is the index of the offending operation in the
@@ -376,6 +382,7 @@ impl Stage<'_> {
                     dynamics: None,
                     geometry: None,
                     geom_gen: 0,
+                    origin: String::new(),
                 };
                 self.overlay.insert(id, Some(obj));
                 self.created.push(id);
@@ -413,6 +420,12 @@ impl Stage<'_> {
             Op::SetName { id, name } => {
                 check_name(i, 0, name)?;
                 self.edit(i, *id, STRUCTURE)?.name = name.clone();
+            }
+            Op::SetOrigin { id, origin } => {
+                if origin.len() > MAX_ORIGIN_BYTES {
+                    return Err(TxError::TooLarge { op: i, id: 0, field: "origin".into(), requested: origin.len() as u64, limit: MAX_ORIGIN_BYTES as u64 });
+                }
+                self.edit(i, *id, STRUCTURE)?.origin = origin.clone();
             }
             Op::SetPose { id, pose } => {
                 let rid = self.resolve(i, *id)?;

@@ -131,6 +131,12 @@ impl Snapshot {
         let r = &self.objects()[i];
         names.get(r.name_off as usize..(r.name_off + r.name_len) as usize).and_then(|b| std::str::from_utf8(b).ok()).unwrap_or("")
     }
+    /// The origin record of an instance (see [`crate::Op::SetOrigin`]); empty otherwise.
+    pub fn origin(&self, i: usize) -> &str {
+        let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
+        let r = &self.objects()[i];
+        names.get(r.origin_off as usize..(r.origin_off + r.origin_len) as usize).and_then(|b| std::str::from_utf8(b).ok()).unwrap_or("")
+    }
     pub fn index_of(&self, id: Id) -> Option<usize> {
         self.objects().binary_search_by_key(&id, |r| r.id).ok()
     }
@@ -318,20 +324,32 @@ impl Reader {
         }
         let objects = self.latest_objects.clone().ok_or(ReaderError::Timeout(self.timeout))?;
         let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.payload())?.section::<ObjectRec>(1)?.iter().map(|r| (r.id, r.geom_gen, r.flags & flags::HAS_GEOMETRY != 0)).collect();
+        // Subscribe to every geometry service this version needs first, then ask the keeper
+        // once to deliver their history, then collect: one round trip, not one per object.
+        let mut opened = false;
+        for &(id, _, has) in &recs {
+            if has && !self.geometry.contains_key(&id) {
+                let svc = self.node.service_builder(&self.session.service(&services::geometry(id))?).publish_subscribe::<[u64]>().open().map_err(ipc(format!("open geometry of object {id}")))?;
+                let sub = svc.subscriber_builder().create().map_err(ipc(format!("subscribe geometry of object {id}")))?;
+                self._services.push(Box::new(svc));
+                self.geometry.insert(id, GeomSub { sub, latest: None, generation: 0 });
+                opened = true;
+            }
+        }
+        if opened {
+            let _ = self.hello.notify_with_custom_event_id(EventId::new(events::HELLO));
+        }
         let mut geometry = Vec::with_capacity(recs.len());
-        let mut said_hello = false;
+        let mut said_hello = opened;
         for &(id, generation, has) in &recs {
             if !has {
                 geometry.push(None);
                 continue;
             }
-            if !self.geometry.contains_key(&id) {
-                let svc = self.node.service_builder(&self.session.service(&services::geometry(id))?).publish_subscribe::<[u64]>().open().map_err(ipc(format!("open geometry of object {id}")))?;
-                let sub = svc.subscriber_builder().create().map_err(ipc(format!("subscribe geometry of object {id}")))?;
-                self._services.push(Box::new(svc));
-                self.geometry.insert(id, GeomSub { sub, latest: None, generation: 0 });
-            }
-            let Some(g) = self.geometry.get_mut(&id) else { continue };
+            let Some(g) = self.geometry.get_mut(&id) else {
+                geometry.push(None);
+                continue;
+            };
             while g.generation != generation {
                 match g.sub.receive().map_err(ipc(format!("receive geometry of object {id}")))? {
                     Some(s) => {

@@ -47,6 +47,8 @@ pub enum Op {
     /// Attach (`Some`) or detach (`None`).
     SetParent { id: ObjRef, parent: Option<ObjRef> },
     SetName { id: ObjRef, name: String },
+    /// The declaration and parameters an instance came from (JSON text; empty: none).
+    SetOrigin { id: ObjRef, origin: String },
     SetPose { id: ObjRef, pose: Pose },
     SetJoint { id: ObjRef, value: f64 },
     SetAppearance { id: ObjRef, appearance: Appearance },
@@ -85,6 +87,10 @@ impl Transaction {
     }
     pub fn set_name(&mut self, id: impl Into<ObjRef>, name: &str) -> &mut Self {
         self.ops.push(Op::SetName { id: id.into(), name: name.to_owned() });
+        self
+    }
+    pub fn set_origin(&mut self, id: impl Into<ObjRef>, origin: &str) -> &mut Self {
+        self.ops.push(Op::SetOrigin { id: id.into(), origin: origin.to_owned() });
         self
     }
     pub fn set_pose(&mut self, id: impl Into<ObjRef>, pose: Pose) -> &mut Self {

@@ -1,0 +1,375 @@
+//! Instantiation: a Library Space declaration, evaluated with parameter values, becomes
+//! Instance Space objects through one validated transaction (seed §3.2: "structural
+//! declarations … instantiated with the desired parameters whenever a new entity has to be
+//! generated in the Instance Space").
+//!
+//! Every aspect goes in: polygons (the keeper derives planes, penalty planes, edges and boxes),
+//! part-whole structure (scene → robots / items → links → solids), colours and surfaces, joint
+//! types with DH rows and limits, robot IK family and tool, link masses, centres of mass and
+//! inertias.
+//!
+//! **Live parameters.** The instance's top object records its declaration and parameter values
+//! (`origin`). [`reinstantiate`] evaluates the declaration again with changed values and
+//! writes only the differences, object by object, matched by their path in the part tree: a
+//! longer link re-sends that link's kinematics, its solids' geometry and the poses that moved,
+//! and nothing of any other instance.
+
+use crate::{bail, Result};
+use nalgebra::Matrix4;
+use robosim_instance_space::{
+    Appearance, DhConvention, GeometryInput, Id, JointKind, Kind, Kinematics, MassProps, ObjRef, Pose, Snapshot, Transaction, IDENTITY,
+};
+use robosim_kinematics::{Convention, JointType};
+use robosim_library::{Evaluated, Library, PlacedSolid, Params, RobotModel};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Where an instance came from: stored on its top object as JSON.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Origin {
+    pub declaration: String,
+    /// Parameter values as expressions of the library language (`"431.8 mm"`, `"0.5"`), by
+    /// name; only those set explicitly (the rest take their declared defaults).
+    pub params: BTreeMap<String, String>,
+}
+
+/// One object to be, addressed by its path in the instance.
+#[derive(Debug, Clone, PartialEq)]
+struct Spec {
+    path: String,
+    parent: Option<String>,
+    kind: Kind,
+    name: String,
+    pose: Pose,
+    joint: f64,
+    appearance: Appearance,
+    kinematics: Option<Kinematics>,
+    dynamics: Option<MassProps>,
+    geometry: Option<GeometryInput>,
+}
+
+fn pose(m: &Matrix4<f64>) -> Pose {
+    let mut p = [0.0; 12];
+    for r in 0..3 {
+        for c in 0..4 {
+            p[r * 4 + c] = m[(r, c)];
+        }
+    }
+    p
+}
+
+fn appearance(s: &PlacedSolid) -> Appearance {
+    let mut a = Appearance::default();
+    if let Some(sf) = &s.surface {
+        a.color = [sf.colour[0] as f32, sf.colour[1] as f32, sf.colour[2] as f32, sf.opacity as f32];
+        a.specular = sf.specular as f32;
+        a.shininess = sf.shininess as f32;
+    }
+    if let Some(c) = s.colour {
+        a.color = [c[0] as f32, c[1] as f32, c[2] as f32, a.color[3]];
+    }
+    a
+}
+
+fn spec(path: String, parent: Option<String>, kind: Kind, name: &str, pose: Pose) -> Spec {
+    Spec { path, parent, kind, name: name.to_owned(), pose, joint: 0.0, appearance: Appearance::default(), kinematics: None, dynamics: None, geometry: None }
+}
+
+fn solid_specs(out: &mut Vec<Spec>, parent: &str, solids: &[PlacedSolid]) {
+    for s in solids {
+        let mut sp = spec(format!("{parent}/{}", s.name), Some(parent.to_owned()), Kind::Solid, &s.name, pose(&s.transform));
+        sp.appearance = appearance(s);
+        sp.geometry = Some(GeometryInput::from_polyhedron(&s.polyhedron));
+        out.push(sp);
+    }
+}
+
+fn ik_family(name: Option<&str>) -> u32 {
+    match name {
+        None => 0,
+        Some("puma") => 1,
+        Some("stanford") => 2,
+        Some(_) => 99,
+    }
+}
+
+/// A robot under `parent` (or as a root), with its base placement `placement`.
+fn robot_specs(out: &mut Vec<Spec>, parent: Option<&str>, name: &str, model: &RobotModel, q: &[f64]) -> Result<()> {
+    let robot = &model.robot;
+    if robot.check_q(q).is_err() {
+        bail!("robot {name}: {} initial joint values for {} joints", q.len(), robot.dof());
+    }
+    let path = match parent {
+        Some(p) => format!("{p}/{name}"),
+        None => name.to_owned(),
+    };
+    let mut r = spec(path.clone(), parent.map(str::to_owned), Kind::Robot, name, pose(&robot.base));
+    let convention = match robot.convention {
+        Convention::Standard => DhConvention::Standard,
+        Convention::Modified => DhConvention::Modified,
+    };
+    r.kinematics = Some(Kinematics::Robot { convention, ik_family: ik_family(model.ik.as_deref()), tool: pose(&robot.tool) });
+    out.push(r);
+    if let Some(base_solids) = model.frames.first() {
+        solid_specs(out, &path, base_solids);
+    }
+    // Link frames relative to the robot object (whose pose is the robot's base).
+    let local = robosim_kinematics::Robot { base: Matrix4::identity(), tool: Matrix4::identity(), ..robot.clone() };
+    let frames = robosim_kinematics::fk::link_frames(&local, q);
+    for (j, joint) in robot.joints.iter().enumerate() {
+        let lname = model.link_names.get(j).cloned().unwrap_or_else(|| format!("link{}", j + 1));
+        let lpath = format!("{path}/{lname}");
+        let mut l = spec(lpath.clone(), Some(path.clone()), Kind::Link, &lname, pose(&frames[j + 1]));
+        l.joint = q[j];
+        l.kinematics = Some(Kinematics::Joint {
+            index: j as u32,
+            joint: match joint.joint_type {
+                JointType::Revolute => JointKind::Revolute,
+                JointType::Prismatic => JointKind::Prismatic,
+            },
+            convention,
+            a: joint.a,
+            d: joint.d,
+            alpha: joint.alpha,
+            theta: joint.theta,
+            offset: joint.offset,
+            qlim: joint.qlim,
+        });
+        let i = &joint.inertia;
+        l.dynamics = Some(MassProps { mass: joint.mass, com: [joint.com.x, joint.com.y, joint.com.z], inertia: [i[(0, 0)], i[(1, 1)], i[(2, 2)], i[(0, 1)], i[(0, 2)], i[(1, 2)]] });
+        out.push(l);
+        if let Some(solids) = model.frames.get(j + 1) {
+            solid_specs(out, &lpath, solids);
+        }
+    }
+    Ok(())
+}
+
+/// The objects an evaluated declaration becomes, parents before children. `name` is the
+/// instance's name (its top object's).
+fn specs(ev: &Evaluated, name: &str) -> Result<Vec<Spec>> {
+    let mut out = Vec::new();
+    match ev {
+        Evaluated::Scene(scene) => {
+            out.push(spec(name.to_owned(), None, Kind::Scene, name, IDENTITY));
+            for it in &scene.solids {
+                let path = format!("{name}/{}", it.name);
+                out.push(spec(path.clone(), Some(name.to_owned()), Kind::Item, &it.name, pose(&it.placement)));
+                solid_specs(&mut out, &path, &it.solid.parts);
+            }
+            for r in &scene.robots {
+                robot_specs(&mut out, Some(name), &r.name, &r.model, &r.q)?;
+            }
+        }
+        Evaluated::Robot(model) | Evaluated::Link(model) => {
+            let q = vec![0.0; model.robot.dof()];
+            robot_specs(&mut out, None, name, model, &q)?;
+        }
+        Evaluated::Solid(solid) => {
+            out.push(spec(name.to_owned(), None, Kind::Item, name, IDENTITY));
+            solid_specs(&mut out, name, &solid.parts);
+            if let (Some(m), Some(top)) = (&solid.mass, out.first_mut()) {
+                let i = &m.inertia;
+                top.dynamics = Some(MassProps { mass: m.mass, com: [m.center_of_mass.x, m.center_of_mass.y, m.center_of_mass.z], inertia: [i[(0, 0)], i[(1, 1)], i[(2, 2)], i[(0, 1)], i[(0, 2)], i[(1, 2)]] });
+            }
+        }
+        other => bail!("{name}: a {} cannot be instantiated (only scenes, robots, links and solids)", kind_name(other)),
+    }
+    Ok(out)
+}
+
+fn kind_name(ev: &Evaluated) -> &'static str {
+    match ev {
+        Evaluated::Constant { .. } => "constant",
+        Evaluated::Colour { .. } => "colour",
+        Evaluated::Surface(_) => "surface",
+        Evaluated::Solid(_) => "solid",
+        Evaluated::Link(_) => "link",
+        Evaluated::Robot(_) => "robot",
+        Evaluated::Scene(_) => "scene",
+    }
+}
+
+fn evaluate(lib: &Library, origin: &Origin) -> Result<Evaluated> {
+    let mut params = Params::new();
+    for (k, v) in &origin.params {
+        params = params.expr(k, v);
+    }
+    lib.evaluate(&origin.declaration, &params).map_err(|e| crate::CliError(e.to_string()))
+}
+
+/// The transaction that creates instance `name` of `origin.declaration` with its parameters.
+pub fn instantiate(lib: &Library, origin: &Origin, name: &str) -> Result<Transaction> {
+    let ev = evaluate(lib, origin)?;
+    let specs = specs(&ev, name)?;
+    let mut tx = Transaction::new();
+    let mut refs: BTreeMap<String, ObjRef> = BTreeMap::new();
+    for (k, s) in specs.iter().enumerate() {
+        let parent = s.parent.as_ref().and_then(|p| refs.get(p).copied());
+        let r = tx.create(s.kind, &s.name, parent);
+        refs.insert(s.path.clone(), r);
+        write_aspects(&mut tx, r, s, None);
+        if k == 0 {
+            tx.set_origin(r, &serde_json::to_string(origin)?);
+        }
+    }
+    Ok(tx)
+}
+
+/// Writes the aspects of `s` that differ from `old` (all of them when `old` is None).
+fn write_aspects(tx: &mut Transaction, r: ObjRef, s: &Spec, old: Option<&Spec>) {
+    let differs = |f: &dyn Fn(&Spec) -> bool| old.is_none_or(|o| !f(o));
+    if differs(&|o| o.pose == s.pose) {
+        tx.set_pose(r, s.pose);
+    }
+    if s.kind == Kind::Link && differs(&|o| o.joint == s.joint) {
+        tx.set_joint(r, s.joint);
+    }
+    if differs(&|o| o.appearance == s.appearance) {
+        tx.set_appearance(r, s.appearance);
+    }
+    if s.kinematics.is_some() && differs(&|o| o.kinematics == s.kinematics) {
+        tx.set_kinematics(r, s.kinematics);
+    }
+    if s.dynamics.is_some() && differs(&|o| o.dynamics == s.dynamics) {
+        tx.set_dynamics(r, s.dynamics);
+    }
+    if s.geometry.is_some() && differs(&|o| o.geometry == s.geometry) {
+        tx.set_geometry(r, s.geometry.clone());
+    }
+}
+
+/// The instance's current objects, read back from a snapshot as specs keyed by path.
+fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
+    let objs = snap.objects();
+    let mut out = BTreeMap::new();
+    let mut stack = vec![(top, snap.name(top).to_owned(), None::<String>)];
+    while let Some((i, path, parent)) = stack.pop() {
+        let o = snap.object(i);
+        let geometry = snap.geometry(i).map(|g| GeometryInput {
+            vertices: g.vertices.to_vec(),
+            polygons: g.polygons.iter().map(|p| g.indices[p.start as usize..(p.start + p.len) as usize].to_vec()).collect(),
+        });
+        let r = o.rec;
+        let kinematics = match r.kin_tag {
+            robosim_instance_space::layout::flags::KIN_JOINT => Some(Kinematics::Joint {
+                index: r.index_or_family,
+                joint: if r.joint_kind == 2 { JointKind::Prismatic } else if r.joint_kind == 1 { JointKind::Revolute } else { JointKind::Fixed },
+                convention: if r.convention == 1 { DhConvention::Modified } else { DhConvention::Standard },
+                a: r.dh[0],
+                d: r.dh[1],
+                alpha: r.dh[2],
+                theta: r.dh[3],
+                offset: r.dh[4],
+                qlim: [r.dh[5], r.dh[6]],
+            }),
+            robosim_instance_space::layout::flags::KIN_ROBOT => {
+                Some(Kinematics::Robot { convention: if r.convention == 1 { DhConvention::Modified } else { DhConvention::Standard }, ik_family: r.index_or_family, tool: r.tool })
+            }
+            _ => None,
+        };
+        let dynamics = (r.flags & robosim_instance_space::layout::flags::HAS_DYNAMICS != 0).then_some(MassProps { mass: r.mass, com: r.com, inertia: r.inertia });
+        let spec = Spec {
+            path: path.clone(),
+            parent,
+            kind: o.kind().unwrap_or(Kind::Solid),
+            name: o.name.to_owned(),
+            pose: o.pose.pose,
+            joint: o.pose.joint,
+            appearance: Appearance { color: r.color, diffuse: r.surface[0], specular: r.surface[1], shininess: r.surface[2] },
+            kinematics,
+            dynamics,
+            geometry,
+        };
+        out.insert(path.clone(), (r.id, spec));
+        for (k, c) in objs.iter().enumerate() {
+            if c.parent == r.id {
+                stack.push((k, format!("{path}/{}", snap.name(k)), Some(path.clone())));
+            }
+        }
+    }
+    out
+}
+
+/// The instance called `name` in the snapshot: its index and origin.
+pub fn find_instance(snap: &Snapshot, name: &str) -> Result<(usize, Origin)> {
+    let Some(i) = (0..snap.len()).find(|&i| snap.name(i) == name && !snap.origin(i).is_empty()) else {
+        let known: Vec<&str> = (0..snap.len()).filter(|&i| !snap.origin(i).is_empty()).map(|i| snap.name(i)).collect();
+        bail!("no instance named {name:?}; instances: {}", if known.is_empty() { "none".to_owned() } else { known.join(", ") });
+    };
+    let origin: Origin = serde_json::from_str(snap.origin(i)).map_err(|e| crate::CliError(format!("instance {name}: unreadable origin record: {e}")))?;
+    Ok((i, origin))
+}
+
+/// The transaction that brings instance `name` to `origin` (new parameter values): only the
+/// objects and aspects that differ are written; objects that appear or vanish are created or
+/// deleted.
+pub fn reinstantiate(lib: &Library, snap: &Snapshot, name: &str, origin: &Origin) -> Result<Transaction> {
+    let (top, _) = find_instance(snap, name)?;
+    let ev = evaluate(lib, origin)?;
+    let mut wanted = specs(&ev, name)?;
+    // The top object keeps its place: a robot instance's parent is not in its specs.
+    let current = current_specs(snap, top);
+    let mut tx = Transaction::new();
+    let mut refs: BTreeMap<String, ObjRef> = current.iter().map(|(p, (id, _))| (p.clone(), ObjRef::Id(*id))).collect();
+    for s in wanted.iter_mut() {
+        match current.get(&s.path) {
+            Some((id, old)) => write_aspects(&mut tx, ObjRef::Id(*id), s, Some(old)),
+            None => {
+                let parent = s.parent.as_ref().and_then(|p| refs.get(p).copied());
+                let r = tx.create(s.kind, &s.name, parent);
+                refs.insert(s.path.clone(), r);
+                write_aspects(&mut tx, r, s, None);
+            }
+        }
+    }
+    let gone = |path: &str| !wanted.iter().any(|s| s.path == path);
+    for (path, (id, old)) in &current {
+        // Delete the topmost vanished objects; their subtrees go with them.
+        if gone(path) && old.parent.as_deref().is_none_or(|p| !gone(p)) {
+            tx.delete(*id, true);
+        }
+    }
+    tx.set_origin(snap.objects()[top].id, &serde_json::to_string(origin)?);
+    Ok(tx)
+}
+
+fn parse_params(pairs: &[String]) -> Result<BTreeMap<String, String>> {
+    let mut out = BTreeMap::new();
+    for p in pairs {
+        let Some((k, v)) = p.split_once('=') else { bail!("parameter {p:?} is not NAME=EXPR") };
+        out.insert(k.trim().to_owned(), v.trim().to_owned());
+    }
+    Ok(out)
+}
+
+fn library() -> Result<&'static Library> {
+    robosim_library::standard_library().ok_or_else(|| crate::CliError("the standard library failed to load".into()))
+}
+
+/// `robosim instantiate DECL [--as NAME] [--set K=V]…`
+pub fn cli_instantiate(declaration: &str, name: Option<&str>, set: &[String], session: Option<&str>) -> Result<()> {
+    let s = robosim_instance_space::Session::open(session)?;
+    let origin = Origin { declaration: declaration.to_owned(), params: parse_params(set)? };
+    let name = name.unwrap_or(declaration);
+    let tx = instantiate(library()?, &origin, name)?;
+    let mut c = robosim_instance_space::Client::connect(&s, "instantiate")?;
+    let a = c.transact(&tx)?;
+    println!("instantiated {declaration} as {name}: {} objects, version {}", a.created.len(), a.version);
+    Ok(())
+}
+
+/// `robosim set INSTANCE K=V…`
+pub fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
+    let s = robosim_instance_space::Session::open(session)?;
+    let reader = robosim_instance_space::Reader::attach(&s, "set")?;
+    let snap = reader.snapshot().ok_or_else(|| crate::CliError("no snapshot".into()))?;
+    let (_, mut origin) = find_instance(&snap, instance)?;
+    origin.params.extend(parse_params(pairs)?);
+    let tx = reinstantiate(library()?, &snap, instance, &origin)?;
+    let mut c = robosim_instance_space::Client::connect(&s, "set")?;
+    let a = c.transact(&tx)?;
+    let aspects: Vec<&str> = robosim_instance_space::aspect::names(a.aspects());
+    println!("re-instantiated {instance}: {} objects changed ({}), version {}", a.changes.len(), aspects.join(", "), a.version);
+    Ok(())
+}

@@ -1,0 +1,103 @@
+//! Library Space → Instance Space across processes: `robosim instantiate` (a writer process)
+//! fills a running keeper; a reader started late sees the whole model; `robosim set` changes
+//! one parameter of one instance and the change set names objects of that instance only.
+
+use robosim_instance_space::{Kind, Reader, Session};
+use std::collections::HashSet;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
+
+struct Keeper {
+    child: Child,
+    home: tempfile::TempDir,
+    name: String,
+}
+
+impl Drop for Keeper {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let prefix = format!("rs_{}_", self.name);
+        for e in std::fs::read_dir("/dev/shm").into_iter().flatten().flatten() {
+            if e.file_name().to_string_lossy().starts_with(&prefix) {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
+}
+
+fn robosim(k: &Keeper, args: &[&str]) -> String {
+    let out = Command::new(ROBOSIM).args(args).args(["--session", &k.name]).env("ROBOSIM_HOME", k.home.path()).output().expect("run robosim");
+    let text = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "robosim {args:?} failed: {text}");
+    text
+}
+
+/// Ids of the subtree under object `top` (inclusive).
+fn subtree(snap: &robosim_instance_space::Snapshot, top: u64) -> HashSet<u64> {
+    let mut set = HashSet::from([top]);
+    let mut grew = true;
+    while grew {
+        grew = false;
+        for o in snap.objects() {
+            if set.contains(&o.parent) && set.insert(o.id) {
+                grew = true;
+            }
+        }
+    }
+    set
+}
+
+#[test]
+fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter() {
+    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+    let home = tempfile::tempdir().expect("temp");
+    let name = format!("lib{}", std::process::id());
+    let child = Command::new(ROBOSIM).args(["space", "--session", &name]).env("ROBOSIM_HOME", home.path()).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("keeper");
+    let k = Keeper { child, home, name };
+    let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
+    let start = Instant::now();
+    while robosim_instance_space::Client::connect(&session, "probe").is_err() {
+        assert!(start.elapsed() < Duration::from_secs(30));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let out = robosim(&k, &["instantiate", "space_station", "--as", "station"]);
+    assert!(out.contains("instantiated space_station as station"), "{out}");
+    robosim(&k, &["instantiate", "puma560"]);
+
+    // A reader started after both: the whole model at once.
+    let mut reader = Reader::attach(&session, "late").expect("attach");
+    let snap = reader.snapshot().expect("snapshot");
+    let station = snap.find("station").expect("station instance");
+    let puma = snap.find("puma560").expect("puma instance");
+    let station_ids = subtree(&snap, snap.objects()[station].id);
+    let puma_ids = subtree(&snap, snap.objects()[puma].id);
+    assert!(station_ids.len() > 100, "the station has its trusses, panels, modules: {}", station_ids.len());
+    assert_eq!(snap.len(), station_ids.len() + puma_ids.len());
+    let links = snap.objects().iter().filter(|o| puma_ids.contains(&o.id) && Kind::from_u32(o.kind) == Some(Kind::Link)).count();
+    assert_eq!(links, 6, "PUMA 560 has six links");
+    let polygons: usize = (0..snap.len()).filter_map(|i| snap.geometry(i)).map(|g| g.polygons.len()).sum();
+    assert!(polygons > 1000, "every solid's polygons are mapped: {polygons}");
+    assert!(snap.origin(station).contains("space_station"));
+    let v0 = snap.version();
+
+    let out = robosim(&k, &["set", "station", "servicer_position=35 m"]);
+    assert!(out.contains("re-instantiated station"), "{out}");
+    let deadline = Instant::now() + Duration::from_secs(30);
+    let mut changes = Vec::new();
+    while changes.is_empty() {
+        changes = reader.wait_change(Duration::from_millis(200)).expect("wait");
+        assert!(Instant::now() < deadline, "no change announced");
+    }
+    assert_eq!(changes.len(), 1);
+    assert_eq!(changes[0].version, v0 + 1);
+    let touched: HashSet<u64> = changes[0].ids.iter().copied().collect();
+    assert!(!touched.is_empty() && touched.len() < station_ids.len() / 4, "only what the parameter moves: {} of {}", touched.len(), station_ids.len());
+    assert!(touched.is_subset(&station_ids), "the change set names the station only");
+    assert!(touched.is_disjoint(&puma_ids));
+    // Setting the same value again writes nothing but the origin record.
+    let out = robosim(&k, &["set", "station", "servicer_position=35 m"]);
+    assert!(out.contains("1 objects changed"), "{out}");
+}
