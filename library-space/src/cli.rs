@@ -25,6 +25,21 @@ pub enum LibCmd {
     /// Check a library file (any name): parse, resolve, evaluate every declaration at its
     /// defaults. Exit status non-zero with file:line:col on the first error.
     Check { file: PathBuf },
+    /// Evaluate a declaration and print it as JSON (the `lib_evaluate` query answer).
+    Eval {
+        name: String,
+        /// A parameter value as NAME=EXPR, e.g. `--param "upper_arm=30 cm"`; repeatable.
+        #[arg(long = "param", value_name = "NAME=EXPR")]
+        params: Vec<String>,
+        /// Force this facet count on every round primitive.
+        #[arg(long)]
+        facets: Option<usize>,
+        /// Include every solid's vertices and polygons.
+        #[arg(long)]
+        geometry: bool,
+        #[arg(long)]
+        file: Option<PathBuf>,
+    },
 }
 
 fn open(file: &Option<PathBuf>) -> Result<Library, String> {
@@ -161,6 +176,44 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
                     let _ = writeln!(out, "surface: {s:?}");
                 }
             }
+        }
+        LibCmd::Eval {
+            name,
+            params,
+            facets,
+            geometry,
+            file,
+        } => {
+            let mut obj = serde_json::Map::new();
+            for p in &params {
+                let (k, v) = p
+                    .split_once('=')
+                    .ok_or_else(|| format!("--param `{p}`: expected NAME=EXPR"))?;
+                obj.insert(
+                    k.trim().to_string(),
+                    serde_json::Value::String(v.trim().to_string()),
+                );
+            }
+            let mut req = serde_json::json!({ "name": name, "params": obj, "geometry": geometry });
+            if let Some(n) = facets {
+                req["facets"] = n.into();
+            }
+            if let Some(f) = &file {
+                req["file"] = f.display().to_string().into();
+            }
+            let answer = crate::query::dispatch("lib_evaluate", &req, &|_| None)
+                .unwrap_or_else(|| {
+                    Err(crate::query::QueryError {
+                        kind: "internal".into(),
+                        message: "lib_evaluate not handled".into(),
+                    })
+                })
+                .map_err(|e| e.message)?;
+            let _ = writeln!(
+                out,
+                "{}",
+                serde_json::to_string_pretty(&answer).map_err(|e| e.to_string())?
+            );
         }
         LibCmd::Check { file } => {
             let lib = Library::load(&file).map_err(|e| e.to_string())?;

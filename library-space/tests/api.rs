@@ -198,6 +198,26 @@ fn cli_lists_shows_and_checks() {
             .expect("check")
             .contains("ok (5 declarations)")
     );
+    let out = render(LibCmd::Eval {
+        name: "surgical_positioner".into(),
+        params: vec!["upper_arm = 30 cm".into()],
+        facets: Some(8),
+        geometry: false,
+        file: None,
+    })
+    .expect("eval");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("json");
+    assert_eq!(v["robot"]["joints"][1]["a"], 0.3);
+    assert!(
+        render(LibCmd::Eval {
+            name: "puma560".into(),
+            params: vec!["nope".into()],
+            facets: None,
+            geometry: false,
+            file: None
+        })
+        .is_err()
+    );
     let bad = dir.path().join("bad.txt");
     std::fs::write(&bad, "solid a {\n  part box(1 m, 1 m, 1 deg)\n}\n").expect("write");
     let err = render(LibCmd::Check { file: bad.clone() }).expect_err("bad file");
