@@ -124,6 +124,12 @@ impl Evaluator<'_> {
                 }
             }
         }
+        // The world's gravity is the scene's: a declared dynamics effect sets it for every robot.
+        if let Some(d) = scene.effects.dynamics {
+            for r in &mut scene.robots {
+                r.model.robot.gravity = d.gravity;
+            }
+        }
         Ok(scene)
     }
 
