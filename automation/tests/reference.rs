@@ -36,6 +36,7 @@ fn explanations_match_networkx() {
             .map(|a| (m.find_alarm(a.as_str().unwrap()).unwrap(), 0.0))
             .collect();
         diag.add_batch(&rung).unwrap();
+        diag.complete_explanations();
         for r in diag.ringing() {
             let name = &m.alarms[r.alarm].name;
             let expected = case["explain"][name].as_object().unwrap();

@@ -31,6 +31,11 @@
 //! member within that member's own fault-time interval; members pass the consistency check):
 //! the multiple-fault case.
 //!
+//! While single-fault candidates exist, an alarm's reverse searches stop as soon as every
+//! candidate is settled (nothing else can survive the intersection); the map is completed —
+//! with admissibility judged as of the alarm's time from the recorded ring times — only when a
+//! verdict needs every explanation (multiple faults, ILM scopes).
+//!
 //! Entry points: [`Diagnoser::new`], [`Diagnoser::add_alarm`], [`Diagnoser::add_batch`],
 //! [`Diagnoser::advance_to`], [`Diagnoser::candidates`], [`Diagnoser::verdict`] (any scope).
 
@@ -59,6 +64,9 @@ pub struct Ringing {
     pub time: f64,
     /// Source failure mode → (dmin, dmax) propagation time bounds to this alarm.
     pub explain: HashMap<FmId, (f64, f64)>,
+    /// False when `explain` holds only the single-fault candidates of the moment (see
+    /// [`Diagnoser::complete_explanations`]).
+    pub complete: bool,
 }
 
 /// The answer of FSPI over a scope.
@@ -273,7 +281,12 @@ impl<'g> Diagnoser<'g> {
         }
         for &(a, t) in &fresh {
             self.now = self.now.max(t);
-            let explain = self.explain(a);
+            // While single-fault candidates exist, only they can survive: search until they are
+            // all settled. The map is completed later if a verdict needs all explanations.
+            let bound: Option<Vec<FmId>> = (self.started && !self.single.is_empty())
+                .then(|| self.single.iter().map(|c| c.fm).collect());
+            let complete = bound.is_none();
+            let explain = self.explain(a, bound.as_deref(), None);
             if !self.started {
                 self.started = true;
                 self.single = explain
@@ -297,6 +310,7 @@ impl<'g> Diagnoser<'g> {
                 alarm: a,
                 time: t,
                 explain,
+                complete,
             });
         }
         self.apply_consistency();
@@ -320,39 +334,62 @@ impl<'g> Diagnoser<'g> {
 
     /// Reverse search from the failure modes alarm `a` detects (reachability, monitor and the
     /// temporal bounds), see the module docs.
-    fn explain(&mut self, a: AlarmId) -> HashMap<FmId, (f64, f64)> {
+    ///
+    /// `bound`: stop once every one of these failure modes is settled (the current single-fault
+    /// candidates — nothing else can survive the intersection); the map is then partial.
+    /// `as_of`: judge admissibility as of that time from the recorded ring times (used to
+    /// complete a partial map later) instead of the current silent set.
+    fn explain(
+        &mut self,
+        a: AlarmId,
+        bound: Option<&[FmId]>,
+        as_of: Option<f64>,
+    ) -> HashMap<FmId, (f64, f64)> {
         let g = self.g;
+        let (pending, rung, present) = (&self.pending, &self.rung, &self.present);
+        let admissible = |u: FmId| match as_of {
+            None => pending[u] == 0,
+            Some(t) => g.fm_alarms[u]
+                .iter()
+                .all(|&b| !present[b] || rung[b].is_some_and(|tb| tb <= t + EPS)),
+        };
         let targets: Vec<FmId> = g.alarm_fms[a]
             .iter()
             .copied()
-            .filter(|&f| self.pending[f] == 0)
+            .filter(|&f| admissible(f))
             .collect();
-        let run =
-            |weight: fn(&super::graph::Arc) -> Option<f64>, sc: &mut Scratch, pending: &[u32]| {
-                sc.begin();
-                for &t in &targets {
-                    sc.relax(t, 0.0);
-                }
-                let mut out = Vec::new();
-                while let Some((v, d)) = sc.pop() {
-                    out.push((v, d));
-                    for arc in g.pred(v) {
-                        let u = arc.to;
-                        if let (0, Some(w)) = (pending[u], weight(arc)) {
-                            sc.relax(u, d + w);
-                        }
+        let run = |weight: fn(&super::graph::Arc) -> Option<f64>, sc: &mut Scratch| {
+            sc.begin();
+            for &t in &targets {
+                sc.relax(t, 0.0);
+            }
+            let mut out = Vec::new();
+            let mut left = bound.map(|b| b.len());
+            while let Some((v, d)) = sc.pop() {
+                out.push((v, d));
+                if let Some(n) = left.as_mut()
+                    && bound.is_some_and(|b| b.binary_search(&v).is_ok())
+                {
+                    *n -= 1;
+                    if *n == 0 {
+                        break;
                     }
                 }
-                out
-            };
-        let mins = run(|a| Some(a.tmin), &mut self.scratch, &self.pending);
+                for arc in g.pred(v) {
+                    let u = arc.to;
+                    if let Some(w) = weight(arc)
+                        && admissible(u)
+                    {
+                        sc.relax(u, d + w);
+                    }
+                }
+            }
+            out
+        };
+        let mins = run(|a| Some(a.tmin), &mut self.scratch);
         // The latest arrival is bounded only along paths that certainly fire: with p < 1 the
         // fast path may not fire and a slower one deliver the fault later.
-        let maxs = run(
-            |a| (a.prob >= 1.0).then_some(a.tmax),
-            &mut self.scratch,
-            &self.pending,
-        );
+        let maxs = run(|a| (a.prob >= 1.0).then_some(a.tmax), &mut self.scratch);
         let mut map: HashMap<FmId, (f64, f64)> = HashMap::with_capacity(mins.len());
         for (v, d) in mins {
             if g.can_originate[v] {
@@ -365,6 +402,24 @@ impl<'g> Diagnoser<'g> {
             }
         }
         map
+    }
+
+    /// Completes the partial explanation maps of the ringing alarms selected by `which`
+    /// (searches again with admissibility as of each alarm's time).
+    fn complete_where(&mut self, which: &dyn Fn(AlarmId) -> bool) {
+        for i in 0..self.ringing.len() {
+            if !self.ringing[i].complete && which(self.ringing[i].alarm) {
+                let (a, t) = (self.ringing[i].alarm, self.ringing[i].time);
+                self.ringing[i].explain = self.explain(a, None, Some(t));
+                self.ringing[i].complete = true;
+            }
+        }
+    }
+
+    /// Makes every stored explanation map complete (each update stores only what the
+    /// single-fault candidates need while there are some).
+    pub fn complete_explanations(&mut self) {
+        self.complete_where(&|_| true);
     }
 
     /// The consistency constraint for source `s` with latest fault time `t0_max`.
@@ -409,13 +464,14 @@ impl<'g> Diagnoser<'g> {
     /// FSPI over a scope: single-fault candidates among the failure modes with `fm_in(f)`,
     /// judged on the ringing alarms with `alarm_in(a)` (the seed: the alarms ringing "within
     /// that process and its subprocesses"); minimal multiple-fault hypotheses when no single
-    /// failure mode explains them. Recomputed from the stored per-alarm searches (no new graph
-    /// search except the consistency checks).
+    /// failure mode explains them. Recomputed from the stored per-alarm searches; the partial
+    /// ones among the scope's alarms are completed first (one search each, once).
     pub fn verdict(
         &mut self,
         fm_in: &dyn Fn(FmId) -> bool,
         alarm_in: &dyn Fn(AlarmId) -> bool,
     ) -> Verdict {
+        self.complete_where(alarm_in);
         let rs: Vec<usize> = (0..self.ringing.len())
             .filter(|&i| alarm_in(self.ringing[i].alarm))
             .collect();
