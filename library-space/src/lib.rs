@@ -52,7 +52,7 @@ pub fn standard_library() -> Option<&'static Library> {
 }
 
 /// The robot model of standard-library robot `name` at its default parameters (`puma560`,
-/// `stanford_arm`, `panda`, …); `None` when there is no such robot. Suits the query protocol's
+/// `stanford`, `panda`, …); `None` when there is no such robot. Suits the query protocol's
 /// `robots` resolver: the library is parsed once per process and each robot evaluated once.
 pub fn standard_robot(name: &str) -> Option<robosim_kinematics::Robot> {
     use std::collections::HashMap;

@@ -232,7 +232,7 @@ fn surgical_positioner_link_lengths_are_parameters() {
         other => panic!("{other:?}"),
     };
     assert!((longer.robot.joints[1].a - 0.30).abs() < 1e-15);
-    assert_eq!(longer.ik.as_deref(), Some("puma"));
+    assert_eq!(longer.ik.as_deref(), Some("spherical_wrist"));
     // PUMA-like: the wrist axes meet in a point (a4 = a5 = a6 = 0, d5 = 0)
     assert!(longer.robot.joints[3..].iter().all(|j| j.a == 0.0) && longer.robot.joints[4].d == 0.0);
     let cell = scene("surgical_positioner_cell", &Params::new());
@@ -338,5 +338,21 @@ fn changing_one_scene_parameter_changes_only_the_items_it_reaches() {
     assert_eq!(
         old.robots[4].declaration.as_deref(),
         Some("station_servicer")
+    );
+}
+
+#[test]
+fn declared_ik_families_match_the_geometry() {
+    assert_eq!(robot("puma560").ik.as_deref(), Some("spherical_wrist"));
+    assert_eq!(robot("stanford").ik.as_deref(), Some("rrp_spherical_wrist"));
+    assert_eq!(robot("panda").ik, None, "7 joints: no closed form");
+    // a wrong declaration is refused where it is written
+    let src = "robot r {\n  ik: spherical_wrist\n  link a {\n    joint: revolute\n  }\n}\n";
+    let e = Library::from_source("ik.rsl", src).expect_err("wrong family");
+    assert_eq!(e.kind, robosim_library::ErrorKind::OutOfRange);
+    assert_eq!((e.location.line, e.location.column), (2, 7));
+    assert_eq!(
+        e.message,
+        "robot `r` declares `ik: spherical_wrist`, but its geometry is `general` (1 joints; the closed forms are for 6)"
     );
 }

@@ -12,7 +12,7 @@ import roboticstoolbox as rtb
 
 rng = np.random.default_rng(20261122)
 out = {"source": "roboticstoolbox-python " + rtb.__version__, "robots": {}}
-for ours, model in [("puma560", rtb.models.DH.Puma560()), ("stanford_arm", rtb.models.DH.Stanford()),
+for ours, model in [("puma560", rtb.models.DH.Puma560()), ("stanford", rtb.models.DH.Stanford()),
                     ("panda", rtb.models.DH.Panda())]:
     links = []
     for l in model.links:

@@ -443,11 +443,19 @@ impl Evaluator<'_> {
                             robot.gravity = Vector3::new(g[0], g[1], g[2]);
                         }
                         "ik" => {
-                            ik = Some(self.word(
-                                value,
-                                &["puma", "stanford", "spherical_wrist", "none"],
-                                "analytic IK family",
-                            )?)
+                            ik = Some((
+                                self.word(
+                                    value,
+                                    &[
+                                        "spherical_wrist",
+                                        "rrp_spherical_wrist",
+                                        "offset_wrist",
+                                        "general",
+                                    ],
+                                    "IK family",
+                                )?,
+                                value.span,
+                            ))
                         }
                         "colour" | "color" => colour = Some(self.colour(value, scope)?),
                         "surface" => surface = Some(self.surface_ref(value, scope)?),
@@ -553,11 +561,39 @@ impl Evaluator<'_> {
                 format!("robot `{}`: {e}", decl.name),
             )
         })?;
+        // The declared IK family must be the one the geometry admits (the kinematics crate's
+        // classification); undeclared, the recognised closed form (if any) is recorded.
+        let family = robosim_kinematics::ik::family::recognise(&robot);
+        let ik = match ik {
+            Some((w, span)) if w != family.name() => {
+                let why = match &family {
+                    robosim_kinematics::ik::family::Family::General(reason) => {
+                        format!(" ({reason})")
+                    }
+                    _ => String::new(),
+                };
+                return Err(err(
+                    ErrorKind::OutOfRange,
+                    span,
+                    format!(
+                        "robot `{}` declares `ik: {w}`, but its geometry is `{}`{why}",
+                        decl.name,
+                        family.name()
+                    ),
+                )
+                .expected(format!(
+                    "`ik: {}` (or no `ik:` to let the geometry decide)",
+                    family.name()
+                )));
+            }
+            _ if family.name() == "general" => None,
+            _ => Some(family.name().to_string()),
+        };
         Ok(RobotModel {
             robot,
             link_names: names,
             frames,
-            ik: ik.filter(|w| w != "none"),
+            ik,
         })
     }
 }
