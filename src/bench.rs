@@ -8,8 +8,8 @@
 //!     latency keeper → blocked reader (another process), p50/p99 over 10,000 changes; (d)
 //!     journaled transactions per second with group commit, and the cost of one fsync here.
 
-use crate::{bail, Result};
-use robosim_instance_space::{Client, GeometryInput, Kind, Reader, Session, Transaction, IDENTITY};
+use crate::{Result, bail};
+use robosim_instance_space::{Client, GeometryInput, IDENTITY, Kind, Reader, Session, Transaction};
 use robosim_report::percentile;
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -43,7 +43,11 @@ pub enum Which {
 pub fn run(which: Which) -> Result<()> {
     match which {
         Which::Ipc { out, quick } => ipc(&out, quick),
-        Which::IpcReader { session, count, out } => latency_reader(&session, count, &out),
+        Which::IpcReader {
+            session,
+            count,
+            out,
+        } => latency_reader(&session, count, &out),
     }
 }
 
@@ -57,7 +61,11 @@ pub fn sphere_geometry(n: usize, radius: f64) -> GeometryInput {
         let phi = std::f64::consts::PI * r as f64 / (rings + 1) as f64;
         for s in 0..segs {
             let th = std::f64::consts::TAU * s as f64 / segs as f64;
-            vertices.push([radius * phi.sin() * th.cos(), radius * phi.sin() * th.sin(), -radius * phi.cos()]);
+            vertices.push([
+                radius * phi.sin() * th.cos(),
+                radius * phi.sin() * th.sin(),
+                -radius * phi.cos(),
+            ]);
         }
     }
     vertices.push([0.0, 0.0, radius]);
@@ -90,7 +98,11 @@ impl KeeperProc {
         if !durable {
             args.push("--no-sync");
         }
-        let child = Command::new(std::env::current_exe()?).args(&args).stdout(Stdio::null()).stderr(Stdio::inherit()).spawn()?;
+        let child = Command::new(std::env::current_exe()?)
+            .args(&args)
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .spawn()?;
         let start = Instant::now();
         while Client::connect(&session, "bench-probe").is_err() {
             if start.elapsed() > Duration::from_secs(30) {
@@ -104,7 +116,9 @@ impl KeeperProc {
 
 impl Drop for KeeperProc {
     fn drop(&mut self) {
-        let _ = Command::new("kill").args(["-TERM", &self.child.id().to_string()]).status();
+        let _ = Command::new("kill")
+            .args(["-TERM", &self.child.id().to_string()])
+            .status();
         let _ = self.child.wait();
         let _ = std::fs::remove_dir_all(self.session.dir());
     }
@@ -140,11 +154,20 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
     let pid = std::process::id();
     let mut md = String::new();
     let mut csv = String::from("measure,model,value,unit\n");
-    writeln!(md, "# Instance Space benchmark (`robosim bench ipc{}`)\n", if quick { " --quick" } else { "" }).ok();
+    writeln!(
+        md,
+        "# Instance Space benchmark (`robosim bench ipc{}`)\n",
+        if quick { " --quick" } else { "" }
+    )
+    .ok();
     writeln!(md, "Measured on this machine (2 cores, shared), one run; compare figures within this table, not across runs.\n").ok();
 
     // (a) and (b): two models with the same 10 objects, 1,000 and 1,000,000 vertices in all.
-    writeln!(md, "## (a) snapshot access and (b) one-body pose transaction\n").ok();
+    writeln!(
+        md,
+        "## (a) snapshot access and (b) one-body pose transaction\n"
+    )
+    .ok();
     writeln!(md, "Both models have 10 solid bodies plus the scene; only the vertex count differs. (a) is `reader.snapshot()` plus a read of every object's geometry header (the whole model is reachable; nothing is copied). (b) is one `SetPose` transaction, end to end through the keeper process (client → keeper → apply → publish → ack), without and with the journal's fsync.\n").ok();
     writeln!(md, "| model | vertices | (a) snapshot access mean / p99 (ns) | (b) pose tx, no fsync, mean / p99 (µs) | (b) pose tx with fsync, mean / p99 (µs) |\n|---|---|---|---|---|").ok();
     let mut a_means = Vec::new();
@@ -164,7 +187,10 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
                     let t = Instant::now();
                     let s = reader.snapshot();
                     if let Some(s) = s {
-                        sink += (0..s.len()).filter_map(|i| s.geometry(i)).map(|g| g.header.generation as usize).sum::<usize>();
+                        sink += (0..s.len())
+                            .filter_map(|i| s.geometry(i))
+                            .map(|g| g.header.generation as usize)
+                            .sum::<usize>();
                     }
                     samples.push(t.elapsed().as_nanos() as f64);
                 }
@@ -198,7 +224,10 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
                 b_means.push(mean);
             }
             row.push(format!("{mean:.1} / {p99:.1}"));
-            csv.push_str(&format!("pose_tx_mean_{},{label},{mean:.2},us\n", if durable { "fsync" } else { "nosync" }));
+            csv.push_str(&format!(
+                "pose_tx_mean_{},{label},{mean:.2},us\n",
+                if durable { "fsync" } else { "nosync" }
+            ));
         }
         writeln!(md, "| {label} | {} |", row.join(" | ")).ok();
     }
@@ -214,7 +243,15 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
         let body = build(&mut client, 1, 8)?;
         let lat_path = std::env::temp_dir().join(format!("robosim-lat-{pid}.txt"));
         let mut reader = Command::new(std::env::current_exe()?)
-            .args(["bench", "ipc-reader", "--session", kp.session.name(), "--count", &lat_count.to_string(), "--out"])
+            .args([
+                "bench",
+                "ipc-reader",
+                "--session",
+                kp.session.name(),
+                "--count",
+                &lat_count.to_string(),
+                "--out",
+            ])
             .arg(&lat_path)
             .stdout(Stdio::piped())
             .spawn()?;
@@ -243,7 +280,9 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
         let n = v.len();
         let (mean, p50, p99) = stats(v);
         writeln!(md, "Keeper publishes a change record (stamped with CLOCK_MONOTONIC) and notifies; a reader process blocked in `wait_event` wakes and stamps again. {n} changes: **p50 {p50:.1} µs, p99 {p99:.1} µs**, mean {mean:.1} µs (goal p50 ≤ 15 µs; iceoryx2's event wake-up alone was measured at ≈ 12 µs on this machine).\n").ok();
-        csv.push_str(&format!("notify_latency_p50,,{p50:.2},us\nnotify_latency_p99,,{p99:.2},us\n"));
+        csv.push_str(&format!(
+            "notify_latency_p50,,{p50:.2},us\nnotify_latency_p99,,{p99:.2},us\n"
+        ));
     }
 
     // (d) journaled throughput with group commit, and one fsync.
@@ -258,7 +297,9 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
         let t = Instant::now();
         for k in 0..n {
             if in_flight.len() >= window {
-                let p = in_flight.pop_front().ok_or_else(|| crate::CliError("queue".into()))?;
+                let p = in_flight
+                    .pop_front()
+                    .ok_or_else(|| crate::CliError("queue".into()))?;
                 client.wait(p)??;
             }
             let mut tx = Transaction::new();
@@ -274,7 +315,10 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
         let tps = n as f64 / secs;
         // One fsync here: append 100 bytes and fdatasync, 200 times, in the session's data dir.
         let f_path = kp.session.data_dir().join("fsync-probe");
-        let mut f = std::fs::OpenOptions::new().create(true).append(true).open(&f_path)?;
+        let mut f = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&f_path)?;
         let mut fs = Vec::new();
         for _ in 0..200 {
             use std::io::Write;
@@ -286,7 +330,9 @@ fn ipc(out: &std::path::Path, quick: bool) -> Result<()> {
         let _ = std::fs::remove_file(&f_path);
         let (fmean, fp50, fp99) = stats(fs);
         writeln!(md, "{n} one-body pose transactions, pipelined {window} deep from one client, each journaled and acknowledged only after the group's fdatasync: **{tps:.0} transactions/s** (goal ≥ 20,000/s). One fdatasync of a 100-byte append here: mean {fmean:.0} µs, p50 {fp50:.0} µs, p99 {fp99:.0} µs — so without group commit the ceiling would be about {:.0}/s.\n", 1e6 / fmean.max(1e-9)).ok();
-        csv.push_str(&format!("journaled_tps,,{tps:.0},1/s\nfsync_mean,,{fmean:.1},us\n"));
+        csv.push_str(&format!(
+            "journaled_tps,,{tps:.0},1/s\nfsync_mean,,{fmean:.1},us\n"
+        ));
     }
     std::fs::create_dir_all(out)?;
     std::fs::write(out.join("ipc.md"), &md)?;
@@ -306,7 +352,9 @@ fn latency_reader(session: &str, count: usize, out: &std::path::Path) -> Result<
     std::io::stdout().flush()?;
     let mut lat = Vec::with_capacity(count);
     while lat.len() < count {
-        let Some(woke) = reader.wait_event(Duration::from_secs(10))? else { bail!("no change within 10 s after {} samples", lat.len()) };
+        let Some(woke) = reader.wait_event(Duration::from_secs(10))? else {
+            bail!("no change within 10 s after {} samples", lat.len())
+        };
         for ch in reader.wait_change(Duration::ZERO)? {
             lat.push(woke.saturating_sub(ch.published_ns) as f64 / 1e3);
         }

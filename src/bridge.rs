@@ -1,6 +1,6 @@
 //! Between the Instance Space's flat records and the simulator's plain `Robot` model.
 
-use robosim_instance_space::{layout::flags, Id, Kind, Snapshot};
+use robosim_instance_space::{Id, Kind, Snapshot, layout::flags};
 use robosim_kinematics::{Convention, Joint, JointType, Robot};
 
 /// A robot found in a snapshot: its kinematic model and its link ids in chain order.
@@ -18,20 +18,36 @@ pub fn robots(snap: &Snapshot) -> Vec<SpaceRobot> {
         if Kind::from_u32(r.kind) != Some(Kind::Robot) {
             continue;
         }
-        let convention = if r.kin_tag == flags::KIN_ROBOT && r.convention == 1 { Convention::Modified } else { Convention::Standard };
+        let convention = if r.kin_tag == flags::KIN_ROBOT && r.convention == 1 {
+            Convention::Modified
+        } else {
+            Convention::Standard
+        };
         let mut links: Vec<(u32, usize)> = objs
             .iter()
             .enumerate()
-            .filter(|(_, o)| o.parent == r.id && Kind::from_u32(o.kind) == Some(Kind::Link) && o.kin_tag == flags::KIN_JOINT)
+            .filter(|(_, o)| {
+                o.parent == r.id
+                    && Kind::from_u32(o.kind) == Some(Kind::Link)
+                    && o.kin_tag == flags::KIN_JOINT
+            })
             .map(|(k, o)| (o.index_or_family, k))
             .collect();
         links.sort_unstable();
-        let mut robot = Robot { name: snap.name(i).to_owned(), convention, ..Robot::default() };
+        let mut robot = Robot {
+            name: snap.name(i).to_owned(),
+            convention,
+            ..Robot::default()
+        };
         let mut q = Vec::new();
         for &(_, k) in &links {
             let o = &objs[k];
             robot.joints.push(Joint {
-                joint_type: if o.joint_kind == 2 { JointType::Prismatic } else { JointType::Revolute },
+                joint_type: if o.joint_kind == 2 {
+                    JointType::Prismatic
+                } else {
+                    JointType::Revolute
+                },
                 a: o.dh[0],
                 d: o.dh[1],
                 alpha: o.dh[2],
@@ -43,24 +59,24 @@ pub fn robots(snap: &Snapshot) -> Vec<SpaceRobot> {
             });
             q.push(snap.poses()[k].joint);
         }
-        out.push(SpaceRobot { robot, links: links.iter().map(|&(_, k)| objs[k].id).collect(), q });
+        out.push(SpaceRobot {
+            robot,
+            links: links.iter().map(|&(_, k)| objs[k].id).collect(),
+            q,
+        });
     }
     out
 }
 
 /// The link poses (relative to the robot) at `q`, 3×4 row-major, one per joint.
 pub fn link_poses(robot: &Robot, q: &[f64]) -> Vec<[f64; 12]> {
-    let base = Robot { base: nalgebra::Matrix4::identity(), tool: nalgebra::Matrix4::identity(), ..robot.clone() };
+    let base = Robot {
+        base: nalgebra::Matrix4::identity(),
+        tool: nalgebra::Matrix4::identity(),
+        ..robot.clone()
+    };
     robosim_kinematics::fk::link_frames(&base, q)[1..=robot.dof()]
         .iter()
-        .map(|m| {
-            let mut p = [0.0; 12];
-            for r in 0..3 {
-                for c in 0..4 {
-                    p[r * 4 + c] = m[(r, c)];
-                }
-            }
-            p
-        })
+        .map(crate::instantiate::pose)
         .collect()
 }

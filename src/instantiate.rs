@@ -14,13 +14,14 @@
 //! longer link re-sends that link's kinematics, its solids' geometry and the poses that moved,
 //! and nothing of any other instance.
 
-use crate::{bail, Result};
+use crate::{Result, bail};
 use nalgebra::Matrix4;
 use robosim_instance_space::{
-    Appearance, DhConvention, GeometryInput, Id, JointKind, Kind, Kinematics, MassProps, ObjRef, Pose, Snapshot, Transaction, IDENTITY,
+    Appearance, DhConvention, GeometryInput, IDENTITY, Id, JointKind, Kind, Kinematics, MassProps,
+    ObjRef, Pose, Snapshot, Transaction,
 };
 use robosim_kinematics::{Convention, JointType};
-use robosim_library::{Evaluated, Library, PlacedSolid, Params, RobotModel};
+use robosim_library::{Evaluated, Library, Params, PlacedSolid, RobotModel};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -48,7 +49,24 @@ struct Spec {
     geometry: Option<GeometryInput>,
 }
 
-fn pose(m: &Matrix4<f64>) -> Pose {
+/// Mass, centre of mass and the inertia tensor's six distinct entries (xx yy zz xy xz yz).
+fn mass_props(mass: f64, com: &nalgebra::Vector3<f64>, i: &nalgebra::Matrix3<f64>) -> MassProps {
+    MassProps {
+        mass,
+        com: [com.x, com.y, com.z],
+        inertia: [
+            i[(0, 0)],
+            i[(1, 1)],
+            i[(2, 2)],
+            i[(0, 1)],
+            i[(0, 2)],
+            i[(1, 2)],
+        ],
+    }
+}
+
+/// A rigid 4×4 as the Instance Space's 3×4 row-major pose.
+pub fn pose(m: &Matrix4<f64>) -> Pose {
     let mut p = [0.0; 12];
     for r in 0..3 {
         for c in 0..4 {
@@ -61,7 +79,12 @@ fn pose(m: &Matrix4<f64>) -> Pose {
 fn appearance(s: &PlacedSolid) -> Appearance {
     let mut a = Appearance::default();
     if let Some(sf) = &s.surface {
-        a.color = [sf.colour[0] as f32, sf.colour[1] as f32, sf.colour[2] as f32, sf.opacity as f32];
+        a.color = [
+            sf.colour[0] as f32,
+            sf.colour[1] as f32,
+            sf.colour[2] as f32,
+            sf.opacity as f32,
+        ];
         a.specular = sf.specular as f32;
         a.shininess = sf.shininess as f32;
     }
@@ -72,12 +95,29 @@ fn appearance(s: &PlacedSolid) -> Appearance {
 }
 
 fn spec(path: String, parent: Option<String>, kind: Kind, name: &str, pose: Pose) -> Spec {
-    Spec { path, parent, kind, name: name.to_owned(), pose, joint: 0.0, appearance: Appearance::default(), kinematics: None, dynamics: None, geometry: None }
+    Spec {
+        path,
+        parent,
+        kind,
+        name: name.to_owned(),
+        pose,
+        joint: 0.0,
+        appearance: Appearance::default(),
+        kinematics: None,
+        dynamics: None,
+        geometry: None,
+    }
 }
 
 fn solid_specs(out: &mut Vec<Spec>, parent: &str, solids: &[PlacedSolid]) {
     for s in solids {
-        let mut sp = spec(format!("{parent}/{}", s.name), Some(parent.to_owned()), Kind::Solid, &s.name, pose(&s.transform));
+        let mut sp = spec(
+            format!("{parent}/{}", s.name),
+            Some(parent.to_owned()),
+            Kind::Solid,
+            &s.name,
+            pose(&s.transform),
+        );
         sp.appearance = appearance(s);
         sp.geometry = Some(GeometryInput::from_polyhedron(&s.polyhedron));
         out.push(sp);
@@ -94,32 +134,66 @@ fn ik_family(name: Option<&str>) -> u32 {
 }
 
 /// A robot under `parent` (or as a root), with its base placement `placement`.
-fn robot_specs(out: &mut Vec<Spec>, parent: Option<&str>, name: &str, model: &RobotModel, q: &[f64]) -> Result<()> {
+fn robot_specs(
+    out: &mut Vec<Spec>,
+    parent: Option<&str>,
+    name: &str,
+    model: &RobotModel,
+    q: &[f64],
+) -> Result<()> {
     let robot = &model.robot;
     if robot.check_q(q).is_err() {
-        bail!("robot {name}: {} initial joint values for {} joints", q.len(), robot.dof());
+        bail!(
+            "robot {name}: {} initial joint values for {} joints",
+            q.len(),
+            robot.dof()
+        );
     }
     let path = match parent {
         Some(p) => format!("{p}/{name}"),
         None => name.to_owned(),
     };
-    let mut r = spec(path.clone(), parent.map(str::to_owned), Kind::Robot, name, pose(&robot.base));
+    let mut r = spec(
+        path.clone(),
+        parent.map(str::to_owned),
+        Kind::Robot,
+        name,
+        pose(&robot.base),
+    );
     let convention = match robot.convention {
         Convention::Standard => DhConvention::Standard,
         Convention::Modified => DhConvention::Modified,
     };
-    r.kinematics = Some(Kinematics::Robot { convention, ik_family: ik_family(model.ik.as_deref()), tool: pose(&robot.tool) });
+    r.kinematics = Some(Kinematics::Robot {
+        convention,
+        ik_family: ik_family(model.ik.as_deref()),
+        tool: pose(&robot.tool),
+    });
     out.push(r);
     if let Some(base_solids) = model.frames.first() {
         solid_specs(out, &path, base_solids);
     }
     // Link frames relative to the robot object (whose pose is the robot's base).
-    let local = robosim_kinematics::Robot { base: Matrix4::identity(), tool: Matrix4::identity(), ..robot.clone() };
+    let local = robosim_kinematics::Robot {
+        base: Matrix4::identity(),
+        tool: Matrix4::identity(),
+        ..robot.clone()
+    };
     let frames = robosim_kinematics::fk::link_frames(&local, q);
     for (j, joint) in robot.joints.iter().enumerate() {
-        let lname = model.link_names.get(j).cloned().unwrap_or_else(|| format!("link{}", j + 1));
+        let lname = model
+            .link_names
+            .get(j)
+            .cloned()
+            .unwrap_or_else(|| format!("link{}", j + 1));
         let lpath = format!("{path}/{lname}");
-        let mut l = spec(lpath.clone(), Some(path.clone()), Kind::Link, &lname, pose(&frames[j + 1]));
+        let mut l = spec(
+            lpath.clone(),
+            Some(path.clone()),
+            Kind::Link,
+            &lname,
+            pose(&frames[j + 1]),
+        );
         l.joint = q[j];
         l.kinematics = Some(Kinematics::Joint {
             index: j as u32,
@@ -135,8 +209,7 @@ fn robot_specs(out: &mut Vec<Spec>, parent: Option<&str>, name: &str, model: &Ro
             offset: joint.offset,
             qlim: joint.qlim,
         });
-        let i = &joint.inertia;
-        l.dynamics = Some(MassProps { mass: joint.mass, com: [joint.com.x, joint.com.y, joint.com.z], inertia: [i[(0, 0)], i[(1, 1)], i[(2, 2)], i[(0, 1)], i[(0, 2)], i[(1, 2)]] });
+        l.dynamics = Some(mass_props(joint.mass, &joint.com, &joint.inertia));
         out.push(l);
         if let Some(solids) = model.frames.get(j + 1) {
             solid_specs(out, &lpath, solids);
@@ -154,7 +227,13 @@ fn specs(ev: &Evaluated, name: &str) -> Result<Vec<Spec>> {
             out.push(spec(name.to_owned(), None, Kind::Scene, name, IDENTITY));
             for it in &scene.solids {
                 let path = format!("{name}/{}", it.name);
-                out.push(spec(path.clone(), Some(name.to_owned()), Kind::Item, &it.name, pose(&it.placement)));
+                out.push(spec(
+                    path.clone(),
+                    Some(name.to_owned()),
+                    Kind::Item,
+                    &it.name,
+                    pose(&it.placement),
+                ));
                 solid_specs(&mut out, &path, &it.solid.parts);
             }
             for r in &scene.robots {
@@ -169,11 +248,13 @@ fn specs(ev: &Evaluated, name: &str) -> Result<Vec<Spec>> {
             out.push(spec(name.to_owned(), None, Kind::Item, name, IDENTITY));
             solid_specs(&mut out, name, &solid.parts);
             if let (Some(m), Some(top)) = (&solid.mass, out.first_mut()) {
-                let i = &m.inertia;
-                top.dynamics = Some(MassProps { mass: m.mass, com: [m.center_of_mass.x, m.center_of_mass.y, m.center_of_mass.z], inertia: [i[(0, 0)], i[(1, 1)], i[(2, 2)], i[(0, 1)], i[(0, 2)], i[(1, 2)]] });
+                top.dynamics = Some(mass_props(m.mass, &m.center_of_mass.coords, &m.inertia));
             }
         }
-        other => bail!("{name}: a {} cannot be instantiated (only scenes, robots, links and solids)", kind_name(other)),
+        other => bail!(
+            "{name}: a {} cannot be instantiated (only scenes, robots, links and solids)",
+            kind_name(other)
+        ),
     }
     Ok(out)
 }
@@ -195,7 +276,8 @@ fn evaluate(lib: &Library, origin: &Origin) -> Result<Evaluated> {
     for (k, v) in &origin.params {
         params = params.expr(k, v);
     }
-    lib.evaluate(&origin.declaration, &params).map_err(|e| crate::CliError(e.to_string()))
+    lib.evaluate(&origin.declaration, &params)
+        .map_err(|e| crate::CliError(e.to_string()))
 }
 
 /// The transaction that creates instance `name` of `origin.declaration` with its parameters.
@@ -248,14 +330,28 @@ fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
         let o = snap.object(i);
         let geometry = snap.geometry(i).map(|g| GeometryInput {
             vertices: g.vertices.to_vec(),
-            polygons: g.polygons.iter().map(|p| g.indices[p.start as usize..(p.start + p.len) as usize].to_vec()).collect(),
+            polygons: g
+                .polygons
+                .iter()
+                .map(|p| g.indices[p.start as usize..(p.start + p.len) as usize].to_vec())
+                .collect(),
         });
         let r = o.rec;
         let kinematics = match r.kin_tag {
             robosim_instance_space::layout::flags::KIN_JOINT => Some(Kinematics::Joint {
                 index: r.index_or_family,
-                joint: if r.joint_kind == 2 { JointKind::Prismatic } else if r.joint_kind == 1 { JointKind::Revolute } else { JointKind::Fixed },
-                convention: if r.convention == 1 { DhConvention::Modified } else { DhConvention::Standard },
+                joint: if r.joint_kind == 2 {
+                    JointKind::Prismatic
+                } else if r.joint_kind == 1 {
+                    JointKind::Revolute
+                } else {
+                    JointKind::Fixed
+                },
+                convention: if r.convention == 1 {
+                    DhConvention::Modified
+                } else {
+                    DhConvention::Standard
+                },
                 a: r.dh[0],
                 d: r.dh[1],
                 alpha: r.dh[2],
@@ -263,12 +359,23 @@ fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
                 offset: r.dh[4],
                 qlim: [r.dh[5], r.dh[6]],
             }),
-            robosim_instance_space::layout::flags::KIN_ROBOT => {
-                Some(Kinematics::Robot { convention: if r.convention == 1 { DhConvention::Modified } else { DhConvention::Standard }, ik_family: r.index_or_family, tool: r.tool })
-            }
+            robosim_instance_space::layout::flags::KIN_ROBOT => Some(Kinematics::Robot {
+                convention: if r.convention == 1 {
+                    DhConvention::Modified
+                } else {
+                    DhConvention::Standard
+                },
+                ik_family: r.index_or_family,
+                tool: r.tool,
+            }),
             _ => None,
         };
-        let dynamics = (r.flags & robosim_instance_space::layout::flags::HAS_DYNAMICS != 0).then_some(MassProps { mass: r.mass, com: r.com, inertia: r.inertia });
+        let dynamics = (r.flags & robosim_instance_space::layout::flags::HAS_DYNAMICS != 0)
+            .then_some(MassProps {
+                mass: r.mass,
+                com: r.com,
+                inertia: r.inertia,
+            });
         let spec = Spec {
             path: path.clone(),
             parent,
@@ -276,7 +383,12 @@ fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
             name: o.name.to_owned(),
             pose: o.pose.pose,
             joint: o.pose.joint,
-            appearance: Appearance { color: r.color, diffuse: r.surface[0], specular: r.surface[1], shininess: r.surface[2] },
+            appearance: Appearance {
+                color: r.color,
+                diffuse: r.surface[0],
+                specular: r.surface[1],
+                shininess: r.surface[2],
+            },
             kinematics,
             dynamics,
             geometry,
@@ -293,25 +405,45 @@ fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
 
 /// The instance called `name` in the snapshot: its index and origin.
 pub fn find_instance(snap: &Snapshot, name: &str) -> Result<(usize, Origin)> {
-    let Some(i) = (0..snap.len()).find(|&i| snap.name(i) == name && !snap.origin(i).is_empty()) else {
-        let known: Vec<&str> = (0..snap.len()).filter(|&i| !snap.origin(i).is_empty()).map(|i| snap.name(i)).collect();
-        bail!("no instance named {name:?}; instances: {}", if known.is_empty() { "none".to_owned() } else { known.join(", ") });
+    let Some(i) = (0..snap.len()).find(|&i| snap.name(i) == name && !snap.origin(i).is_empty())
+    else {
+        let known: Vec<&str> = (0..snap.len())
+            .filter(|&i| !snap.origin(i).is_empty())
+            .map(|i| snap.name(i))
+            .collect();
+        bail!(
+            "no instance named {name:?}; instances: {}",
+            if known.is_empty() {
+                "none".to_owned()
+            } else {
+                known.join(", ")
+            }
+        );
     };
-    let origin: Origin = serde_json::from_str(snap.origin(i)).map_err(|e| crate::CliError(format!("instance {name}: unreadable origin record: {e}")))?;
+    let origin: Origin = serde_json::from_str(snap.origin(i))
+        .map_err(|e| crate::CliError(format!("instance {name}: unreadable origin record: {e}")))?;
     Ok((i, origin))
 }
 
 /// The transaction that brings instance `name` to `origin` (new parameter values): only the
 /// objects and aspects that differ are written; objects that appear or vanish are created or
 /// deleted.
-pub fn reinstantiate(lib: &Library, snap: &Snapshot, name: &str, origin: &Origin) -> Result<Transaction> {
+pub fn reinstantiate(
+    lib: &Library,
+    snap: &Snapshot,
+    name: &str,
+    origin: &Origin,
+) -> Result<Transaction> {
     let (top, _) = find_instance(snap, name)?;
     let ev = evaluate(lib, origin)?;
     let mut wanted = specs(&ev, name)?;
     // The top object keeps its place: a robot instance's parent is not in its specs.
     let current = current_specs(snap, top);
     let mut tx = Transaction::new();
-    let mut refs: BTreeMap<String, ObjRef> = current.iter().map(|(p, (id, _))| (p.clone(), ObjRef::Id(*id))).collect();
+    let mut refs: BTreeMap<String, ObjRef> = current
+        .iter()
+        .map(|(p, (id, _))| (p.clone(), ObjRef::Id(*id)))
+        .collect();
     for s in wanted.iter_mut() {
         match current.get(&s.path) {
             Some((id, old)) => write_aspects(&mut tx, ObjRef::Id(*id), s, Some(old)),
@@ -337,25 +469,40 @@ pub fn reinstantiate(lib: &Library, snap: &Snapshot, name: &str, origin: &Origin
 fn parse_params(pairs: &[String]) -> Result<BTreeMap<String, String>> {
     let mut out = BTreeMap::new();
     for p in pairs {
-        let Some((k, v)) = p.split_once('=') else { bail!("parameter {p:?} is not NAME=EXPR") };
+        let Some((k, v)) = p.split_once('=') else {
+            bail!("parameter {p:?} is not NAME=EXPR")
+        };
         out.insert(k.trim().to_owned(), v.trim().to_owned());
     }
     Ok(out)
 }
 
 fn library() -> Result<&'static Library> {
-    robosim_library::standard_library().ok_or_else(|| crate::CliError("the standard library failed to load".into()))
+    robosim_library::standard_library()
+        .ok_or_else(|| crate::CliError("the standard library failed to load".into()))
 }
 
 /// `robosim instantiate DECL [--as NAME] [--set K=V]…`
-pub fn cli_instantiate(declaration: &str, name: Option<&str>, set: &[String], session: Option<&str>) -> Result<()> {
+pub fn cli_instantiate(
+    declaration: &str,
+    name: Option<&str>,
+    set: &[String],
+    session: Option<&str>,
+) -> Result<()> {
     let s = robosim_instance_space::Session::open(session)?;
-    let origin = Origin { declaration: declaration.to_owned(), params: parse_params(set)? };
+    let origin = Origin {
+        declaration: declaration.to_owned(),
+        params: parse_params(set)?,
+    };
     let name = name.unwrap_or(declaration);
     let tx = instantiate(library()?, &origin, name)?;
     let mut c = robosim_instance_space::Client::connect(&s, "instantiate")?;
     let a = c.transact(&tx)?;
-    println!("instantiated {declaration} as {name}: {} objects, version {}", a.created.len(), a.version);
+    println!(
+        "instantiated {declaration} as {name}: {} objects, version {}",
+        a.created.len(),
+        a.version
+    );
     Ok(())
 }
 
@@ -363,13 +510,20 @@ pub fn cli_instantiate(declaration: &str, name: Option<&str>, set: &[String], se
 pub fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
     let s = robosim_instance_space::Session::open(session)?;
     let reader = robosim_instance_space::Reader::attach(&s, "set")?;
-    let snap = reader.snapshot().ok_or_else(|| crate::CliError("no snapshot".into()))?;
+    let snap = reader
+        .snapshot()
+        .ok_or_else(|| crate::CliError("no snapshot".into()))?;
     let (_, mut origin) = find_instance(&snap, instance)?;
     origin.params.extend(parse_params(pairs)?);
     let tx = reinstantiate(library()?, &snap, instance, &origin)?;
     let mut c = robosim_instance_space::Client::connect(&s, "set")?;
     let a = c.transact(&tx)?;
     let aspects: Vec<&str> = robosim_instance_space::aspect::names(a.aspects());
-    println!("re-instantiated {instance}: {} objects changed ({}), version {}", a.changes.len(), aspects.join(", "), a.version);
+    println!(
+        "re-instantiated {instance}: {} objects changed ({}), version {}",
+        a.changes.len(),
+        aspects.join(", "),
+        a.version
+    );
     Ok(())
 }

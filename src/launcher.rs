@@ -7,7 +7,7 @@
 //! 10 s), components first and the keeper last so that its final checkpoint sees their last
 //! writes.
 
-use crate::{bail, scene, Result};
+use crate::{Result, bail, scene};
 use robosim_instance_space::{Client, KeeperOptions, Reader, Session};
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::process::CommandExt;
@@ -26,7 +26,10 @@ const COMPONENTS: &[(&str, Option<&str>)] = &[
 /// `robosim space`: recover, load the scene into an empty model, serve until SIGTERM.
 pub fn run_space(session: Option<&str>, scene_name: Option<&str>, durable: bool) -> Result<()> {
     let session = Session::open(session)?;
-    let opts = KeeperOptions { durable, ..KeeperOptions::default() };
+    let opts = KeeperOptions {
+        durable,
+        ..KeeperOptions::default()
+    };
     let (mut keeper, report) = robosim_instance_space::Keeper::start(&session, opts)?;
     eprintln!(
         "space: session {} at version {} (checkpoint {}, {} journal records replayed)",
@@ -42,9 +45,15 @@ pub fn run_space(session: Option<&str>, scene_name: Option<&str>, durable: bool)
         if let Some(name) = scene_name {
             let txs = scene::load(name)?;
             for tx in &txs {
-                keeper.commit_local(tx).map_err(|e| crate::CliError(format!("scene {name}: {e}")))?;
+                keeper
+                    .commit_local(tx)
+                    .map_err(|e| crate::CliError(format!("scene {name}: {e}")))?;
             }
-            eprintln!("space: loaded scene {name} ({} objects, version {})", keeper.model().len(), keeper.model().version);
+            eprintln!(
+                "space: loaded scene {name} ({} objects, version {})",
+                keeper.model().len(),
+                keeper.model().version
+            );
         }
     }
     keeper.run()?;
@@ -55,7 +64,11 @@ pub fn run_space(session: Option<&str>, scene_name: Option<&str>, durable: bool)
 fn spawn(session: &Session, role: &str, args: &[&str]) -> Result<u32> {
     let exe = std::env::current_exe()?;
     let log_path = session.run_dir().join(format!("{role}.log"));
-    let log = std::fs::OpenOptions::new().create(true).append(true).mode(0o600).open(&log_path)?;
+    let log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .mode(0o600)
+        .open(&log_path)?;
     let child = Command::new(exe)
         .args(args)
         .stdin(Stdio::null())
@@ -70,13 +83,21 @@ fn spawn(session: &Session, role: &str, args: &[&str]) -> Result<u32> {
 fn wait_registered(session: &Session, role: &str, pid: u32, timeout: Duration) -> Result<()> {
     let start = Instant::now();
     loop {
-        if session.processes().iter().any(|p| p.role == role && p.pid == pid) {
+        if session
+            .processes()
+            .iter()
+            .any(|p| p.role == role && p.pid == pid)
+        {
             return Ok(());
         }
         if !robosim_instance_space::pid_alive(pid) {
-            let log = std::fs::read_to_string(session.run_dir().join(format!("{role}.log"))).unwrap_or_default();
+            let log = std::fs::read_to_string(session.run_dir().join(format!("{role}.log")))
+                .unwrap_or_default();
             let tail: Vec<&str> = log.lines().rev().take(10).collect();
-            bail!("{role} (pid {pid}) exited during start-up; its log ends:\n{}", tail.into_iter().rev().collect::<Vec<_>>().join("\n"));
+            bail!(
+                "{role} (pid {pid}) exited during start-up; its log ends:\n{}",
+                tail.into_iter().rev().collect::<Vec<_>>().join("\n")
+            );
         }
         if start.elapsed() > timeout {
             bail!("{role} (pid {pid}) did not come up within {timeout:?}");
@@ -90,8 +111,23 @@ pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()
     let session = Session::open(session)?;
     for c in with {
         match COMPONENTS.iter().find(|(n, _)| n == c) {
-            None => bail!("unknown component {c:?}; known: {}", COMPONENTS.iter().map(|c| c.0).collect::<Vec<_>>().join(", ")),
-            Some((_, None)) => bail!("component {c:?} is not part of this build yet; available: {}", COMPONENTS.iter().filter(|c| c.1.is_some()).map(|c| c.0).collect::<Vec<_>>().join(", ")),
+            None => bail!(
+                "unknown component {c:?}; known: {}",
+                COMPONENTS
+                    .iter()
+                    .map(|c| c.0)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Some((_, None)) => bail!(
+                "component {c:?} is not part of this build yet; available: {}",
+                COMPONENTS
+                    .iter()
+                    .filter(|c| c.1.is_some())
+                    .map(|c| c.0)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
             Some(_) => {}
         }
     }
@@ -99,11 +135,19 @@ pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()
     let running = session.processes();
     let keeper_pid = match running.iter().find(|p| p.role == "space") {
         Some(p) => {
-            eprintln!("session {} already has a keeper (pid {}); adding components", session.name(), p.pid);
+            eprintln!(
+                "session {} already has a keeper (pid {}); adding components",
+                session.name(),
+                p.pid
+            );
             p.pid
         }
         None => {
-            let pid = spawn(&session, "space", &["space", "--session", session.name(), "--scene", scene_name])?;
+            let pid = spawn(
+                &session,
+                "space",
+                &["space", "--session", session.name(), "--scene", scene_name],
+            )?;
             wait_registered(&session, "space", pid, Duration::from_secs(30))?;
             pid
         }
@@ -116,11 +160,16 @@ pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()
         if running.iter().any(|p| &p.role == c) {
             continue;
         }
-        let Some((_, Some(sub))) = COMPONENTS.iter().find(|(n, _)| n == c) else { continue };
+        let Some((_, Some(sub))) = COMPONENTS.iter().find(|(n, _)| n == c) else {
+            continue;
+        };
         let pid = spawn(&session, c, &[sub, "--session", session.name()])?;
         wait_registered(&session, c, pid, Duration::from_secs(30))?;
     }
-    println!("session {} up: keeper pid {keeper_pid}, model version {version}", session.name());
+    println!(
+        "session {} up: keeper pid {keeper_pid}, model version {version}",
+        session.name()
+    );
     print_ps(&session);
     Ok(())
 }
@@ -128,10 +177,18 @@ pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()
 fn print_ps(session: &Session) {
     let procs = session.processes();
     println!("{:<12} {:>8} {:>9}  attached to", "ROLE", "PID", "UPTIME");
-    let now_ms = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64);
+    let now_ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis() as u64);
     for p in procs {
         let up_s = now_ms.saturating_sub(p.started_unix_ms) as f64 / 1000.0;
-        println!("{:<12} {:>8} {:>8.1}s  {}", p.role, p.pid, up_s, p.attached.join(", "));
+        println!(
+            "{:<12} {:>8} {:>8.1}s  {}",
+            p.role,
+            p.pid,
+            up_s,
+            p.attached.join(", ")
+        );
     }
 }
 
@@ -144,7 +201,10 @@ pub fn ps(session: Option<&str>) -> Result<()> {
 }
 
 fn signal(pid: u32, sig: &str) {
-    let _ = Command::new("kill").args([&format!("-{sig}"), &pid.to_string()]).stderr(Stdio::null()).status();
+    let _ = Command::new("kill")
+        .args([&format!("-{sig}"), &pid.to_string()])
+        .stderr(Stdio::null())
+        .status();
 }
 
 fn stop(pid: u32, role: &str) -> bool {
@@ -169,10 +229,16 @@ pub fn down(session: Option<&str>) -> Result<()> {
         println!("session {}: nothing running", session.name());
         return Ok(());
     }
-    let (keepers, components): (Vec<_>, Vec<_>) = procs.into_iter().partition(|p| p.role == "space");
+    let (keepers, components): (Vec<_>, Vec<_>) =
+        procs.into_iter().partition(|p| p.role == "space");
     for p in components.iter().chain(keepers.iter()) {
         let clean = stop(p.pid, &p.role);
-        println!("stopped {} (pid {}){}", p.role, p.pid, if clean { "" } else { " by SIGKILL" });
+        println!(
+            "stopped {} (pid {}){}",
+            p.role,
+            p.pid,
+            if clean { "" } else { " by SIGKILL" }
+        );
     }
     // Registry entries of processes that died without cleaning up.
     let _ = session.processes();

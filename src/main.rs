@@ -15,7 +15,11 @@ use clap::{Parser, Subcommand};
 use std::process::ExitCode;
 
 #[derive(Parser)]
-#[command(name = "robosim", version, about = "Robot and structure simulation over a shared Instance Space (after NASA-CR-185444)")]
+#[command(
+    name = "robosim",
+    version,
+    about = "Robot and structure simulation over a shared Instance Space (after NASA-CR-185444)"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -101,13 +105,30 @@ fn main() -> ExitCode {
     }
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Space { session, scene, no_sync } => launcher::run_space(session.as_deref(), scene.as_deref(), !no_sync),
-        Command::Up { scene, with, session } => launcher::up(&scene, &with, session.as_deref()),
+        Command::Space {
+            session,
+            scene,
+            no_sync,
+        } => launcher::run_space(session.as_deref(), scene.as_deref(), !no_sync),
+        Command::Up {
+            scene,
+            with,
+            session,
+        } => launcher::up(&scene, &with, session.as_deref()),
         Command::Ps { session } => launcher::ps(session.as_deref()),
         Command::Down { session } => launcher::down(session.as_deref()),
         Command::Simulator { session, rate } => simulator::run(session.as_deref(), rate),
-        Command::Instantiate { declaration, name, set, session } => instantiate::cli_instantiate(&declaration, name.as_deref(), &set, session.as_deref()),
-        Command::Set { instance, params, session } => instantiate::cli_set(&instance, &params, session.as_deref()),
+        Command::Instantiate {
+            declaration,
+            name,
+            set,
+            session,
+        } => instantiate::cli_instantiate(&declaration, name.as_deref(), &set, session.as_deref()),
+        Command::Set {
+            instance,
+            params,
+            session,
+        } => instantiate::cli_set(&instance, &params, session.as_deref()),
         Command::Demo { session } => demo::run(session.as_deref()),
         Command::Bench { which } => bench::run(which),
     };

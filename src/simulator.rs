@@ -5,7 +5,7 @@
 //! applies to. Dynamics and collision join the pipeline when the scene declares them (see the
 //! simulator crate).
 
-use crate::{bridge, Result};
+use crate::{Result, bridge};
 use robosim_instance_space::layout::PoseRec;
 use robosim_instance_space::state::{JointStateRec, StatePublisher};
 use robosim_instance_space::{Reader, Session};
@@ -19,7 +19,15 @@ pub fn run(session: Option<&str>, rate_hz: f64) -> Result<()> {
     let signals = session.node("simulator-signals", true)?;
     let mut reader = Reader::attach(&session, "simulator")?;
     let mut state = StatePublisher::create(&session, "simulator")?;
-    let _reg = session.register("simulator", &["space/objects", "space/poses", "space/changes", "state/simulator (owner)"])?;
+    let _reg = session.register(
+        "simulator",
+        &[
+            "space/objects",
+            "space/poses",
+            "space/changes",
+            "state/simulator (owner)",
+        ],
+    )?;
     let dt = 1.0 / rate_hz;
     let mut t = 0.0;
     let mut last_q: std::collections::HashMap<u64, f64> = Default::default();
@@ -27,7 +35,9 @@ pub fn run(session: Option<&str>, rate_hz: f64) -> Result<()> {
     let mut tick: u64 = 0;
     while signals.wait(Duration::ZERO).is_ok() {
         reader.refresh()?;
-        let Some(snap) = reader.snapshot() else { continue };
+        let Some(snap) = reader.snapshot() else {
+            continue;
+        };
         let mut joints = Vec::new();
         let mut bodies = Vec::new();
         for r in bridge::robots(&snap) {
@@ -35,8 +45,17 @@ pub fn run(session: Option<&str>, rate_hz: f64) -> Result<()> {
             for ((id, q), pose) in r.links.iter().zip(&r.q).zip(poses) {
                 let qd = last_q.get(id).map_or(0.0, |prev| (q - prev) / dt);
                 last_q.insert(*id, *q);
-                joints.push(JointStateRec { id: *id, q: *q, qd, effort: 0.0 });
-                bodies.push(PoseRec { id: *id, pose, joint: *q });
+                joints.push(JointStateRec {
+                    id: *id,
+                    q: *q,
+                    qd,
+                    effort: 0.0,
+                });
+                bodies.push(PoseRec {
+                    id: *id,
+                    pose,
+                    joint: *q,
+                });
             }
         }
         state.publish(snap.version(), t, &joints, &bodies)?;
