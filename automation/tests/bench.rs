@@ -84,3 +84,55 @@ fn update_time_measurement_runs() {
     assert!(r.failure_modes >= 90 && r.updates > 0);
     assert!(r.mean_group >= 1.0);
 }
+
+#[test]
+fn bounded_searches_give_the_same_diagnoses_as_full_ones() {
+    use robosim_automation::diag::Diagnoser;
+    use robosim_automation::sim::simulate;
+    let m = generate(&GenOptions {
+        failure_modes: 400,
+        alarm_density: 0.3,
+        seed: 5,
+    });
+    let g = FaultGraph::new(&m);
+    let sources = m.source_failure_modes();
+    let mut multiple = 0;
+    for (k, &f) in sources.iter().enumerate().step_by(7) {
+        // Two faults sometimes, so the multiple-fault search (which completes maps) runs too.
+        let mut faults = vec![(f, 0.0)];
+        if k % 3 == 0 {
+            faults.push((sources[(k * 13 + 5) % sources.len()], 40.0));
+        }
+        let sim = simulate(
+            &g,
+            &faults,
+            &SimOptions {
+                seed: k as u64,
+                sample_probabilities: true,
+                ..Default::default()
+            },
+        );
+        let mut fast = Diagnoser::new(&g, None);
+        let mut full = Diagnoser::new(&g, None);
+        full.bound_searches = false;
+        for e in &sim.alarms {
+            fast.add_alarm(e.alarm, e.time).unwrap();
+            full.add_alarm(e.alarm, e.time).unwrap();
+            assert_eq!(
+                fast.candidates(),
+                full.candidates(),
+                "fault {f}, alarm {}",
+                e.alarm
+            );
+        }
+        fast.advance_to(1e6);
+        full.advance_to(1e6);
+        let v = fast.global_verdict();
+        multiple += usize::from(!v.multiple.is_empty());
+        assert_eq!(v, full.global_verdict(), "fault {f}");
+    }
+    assert!(
+        multiple > 0,
+        "some scenario needed the multiple-fault search"
+    );
+}

@@ -186,6 +186,9 @@ pub struct Diagnoser<'g> {
     silent_cache: HashMap<FmId, (f64, Option<FmId>)>,
     /// Largest hypothesis size the multiple-fault search tries (default 3).
     pub max_faults: usize,
+    /// Stop each alarm's searches once the current candidates are settled (default true;
+    /// false computes every explanation map in full — the same answers, slower).
+    pub bound_searches: bool,
 }
 
 impl<'g> Diagnoser<'g> {
@@ -219,6 +222,7 @@ impl<'g> Diagnoser<'g> {
             scratch: Scratch::new(g.len()),
             silent_cache: HashMap::new(),
             max_faults: 3,
+            bound_searches: true,
         }
     }
 
@@ -283,8 +287,9 @@ impl<'g> Diagnoser<'g> {
             self.now = self.now.max(t);
             // While single-fault candidates exist, only they can survive: search until they are
             // all settled. The map is completed later if a verdict needs all explanations.
-            let bound: Option<Vec<FmId>> = (self.started && !self.single.is_empty())
-                .then(|| self.single.iter().map(|c| c.fm).collect());
+            let bound: Option<Vec<FmId>> =
+                (self.bound_searches && self.started && !self.single.is_empty())
+                    .then(|| self.single.iter().map(|c| c.fm).collect());
             let complete = bound.is_none();
             let explain = self.explain(a, bound.as_deref(), None);
             if !self.started {
