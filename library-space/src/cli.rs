@@ -164,7 +164,7 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
                             i.solid.parts.len()
                         );
                     }
-                    let _ = writeln!(out, "  effects: {:?}", s.effects);
+                    let _ = writeln!(out, "  effects: {}", describe_effects(&s.effects));
                 }
                 Evaluated::Constant { value, unit } => {
                     let _ = writeln!(out, "value: {value} {unit}");
@@ -222,4 +222,41 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
         }
     }
     Ok(out)
+}
+
+/// One line naming the effects a scene calls for.
+fn describe_effects(fx: &crate::Effects) -> String {
+    let mut parts = Vec::new();
+    if fx.kinematics {
+        parts.push("kinematics".to_string());
+    }
+    if fx.joint_limits {
+        parts.push("joint limits".to_string());
+    }
+    if let Some(c) = fx.collision {
+        let on = |b: bool| if b { "on" } else { "off" };
+        parts.push(format!(
+            "collision {:?} (self {}, continuous {})",
+            c.mode,
+            on(c.self_collision),
+            on(c.continuous)
+        ));
+    }
+    if let Some(d) = fx.dynamics {
+        parts.push(format!(
+            "dynamics {:?}, step {} s, gravity [{}, {}, {}] m/s^2",
+            d.integrator, d.step_s, d.gravity.x, d.gravity.y, d.gravity.z
+        ));
+    }
+    if let Some(b) = fx.encoder_bits {
+        parts.push(format!("{b}-bit encoders"));
+    }
+    if !fx.logged.is_empty() {
+        parts.push(format!("logging {}", fx.logged.join(", ")));
+    }
+    if parts.is_empty() {
+        "none".into()
+    } else {
+        parts.join("; ")
+    }
 }
