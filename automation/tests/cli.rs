@@ -207,3 +207,40 @@ fn query_ops_answer_json() {
         .unwrap_err();
     assert_eq!(e.kind, "bad_request");
 }
+
+#[test]
+#[ignore = "prints the CLI output for a look; run with --ignored --nocapture"]
+fn show_cli_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = execute(DiagCmd::Simulate {
+        model: "eclss".into(),
+        faults: vec!["valve_stuck".into()],
+        seed: 2,
+        sample: false,
+        drop: vec!["A_valve".into()],
+    })
+    .unwrap();
+    println!("{sim}");
+    let file = dir.path().join("a.txt");
+    std::fs::write(&file, &sim).unwrap();
+    println!(
+        "{}",
+        execute(DiagCmd::Run {
+            model: "eclss".into(),
+            alarms: file,
+            until: Some(20000.0),
+            drop: vec!["A_valve".into()]
+        })
+        .unwrap()
+    );
+    println!(
+        "{}",
+        execute(DiagCmd::Analyze {
+            model: "eclss".into(),
+            sensors: Some(12),
+            trials: 2,
+            seed: 1
+        })
+        .unwrap()
+    );
+}

@@ -145,14 +145,18 @@ impl<'g> Ilm<'g> {
     /// Runs FSPI/FSCI on the next level down. Returns false when there is nothing (more) to do.
     pub fn step(&mut self) -> bool {
         if self.stale {
+            // New alarms on or below the current level: redo the finished levels with them
+            // (cheap: the per-alarm searches are stored), without repeating them in the log.
             self.stale = false;
             let n = self.levels.len();
+            let logged = self.log.len();
             self.levels.clear();
             for _ in 0..n {
                 if !self.step_inner() {
                     break;
                 }
             }
+            self.log.truncate(logged);
         }
         self.step_inner()
     }
