@@ -1,0 +1,313 @@
+//! The query protocol's JSON-lines transport (DESIGN.md, "The query protocol"; `robosim query`).
+//!
+//! One request per line, one answer per line, in order:
+//!
+//! ```text
+//! {"id": 7, "op": "fk", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0]}
+//! {"id":7,"ok":true,"pose":[[..],[..],[..],[..]]}
+//! {"id":8,"ok":false,"error":{"kind":"unreachable","message":"..."}}
+//! ```
+//!
+//! The ops themselves belong to the crates that compute them; this crate only frames them. A
+//! request object is handed, whole, to each crate's `query::dispatch` in turn (kinematics,
+//! dynamics, collision, library, automation) until one claims its `op`; the answer is that
+//! crate's object with `id` (echoed from the request, `null` when absent) and `ok` put first.
+//! Robot names resolve in the standard library first (`robosim_library::standard_robot`), then
+//! among the kinematics crate's reference robots (`robosim_kinematics::builtin_robot`).
+//!
+//! Whatever a line holds, it gets exactly one answer line and the stream goes on. The
+//! transport's own error kinds:
+//!
+//! * `parse_error` — the line is empty, not UTF-8, or not JSON (the message gives the input
+//!   line number when [`serve`] reads it, and the column);
+//! * `bad_request` — the line is JSON but not an object, or has no string `op`;
+//! * `unknown_op` — no crate answers `op`; the message lists the known ops ([`OPS`]);
+//! * `internal_error` — an op panicked. That is a bug in the op (input must never panic); the
+//!   transport catches it so one bad request cannot take a planner's session down.
+//!
+//! Every other kind comes from the crate that ran the op and is passed through unchanged.
+//!
+//! One op belongs to the transport itself: `{"op": "ops"}` answers `{"ops": [..]}`, the list of
+//! every op this server answers, with the area that computes it.
+//!
+//! Entry points: [`handle_line`] (one line in, one line out), [`handle_request`] (an already
+//! parsed request), [`serve`] (a whole stream, flushed after every answer), [`cli`] (the
+//! `robosim query` command).
+
+pub mod cli;
+
+use robosim_kinematics::Robot;
+use serde_json::{Map, Value};
+use std::io::{self, BufRead, Write};
+use std::panic::{AssertUnwindSafe, catch_unwind};
+
+/// Every op the transport answers, with the area (crate) that computes it, in dispatch order.
+/// `ops` is the transport's own.
+pub const OPS: &[(&str, &str)] = &[
+    ("fk", "kinematics"),
+    ("jacobian", "kinematics"),
+    ("ik", "kinematics"),
+    ("encoder_error", "kinematics"),
+    ("id", "dynamics"),
+    ("mass_matrix", "dynamics"),
+    ("gravity", "dynamics"),
+    ("fd", "dynamics"),
+    ("simulate", "dynamics"),
+    ("collide", "collision"),
+    ("check", "collision"),
+    ("lib_list", "library"),
+    ("lib_params", "library"),
+    ("lib_evaluate", "library"),
+    ("diag_check", "automation"),
+    ("diag_simulate", "automation"),
+    ("diag_diagnose", "automation"),
+    ("ops", "transport"),
+];
+
+/// Counts of one [`serve`] run: `lines` read, answered `ok` and answered with an error
+/// (`lines == ok + errors` always).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct ServeStats {
+    pub lines: u64,
+    pub ok: u64,
+    pub errors: u64,
+}
+
+/// The robot resolver handed to every op: a standard-library name first, then a reference
+/// robot of the kinematics crate. `None` for a name neither knows (the op answers
+/// `unknown_robot`).
+pub fn resolve_robot(name: &str) -> Option<Robot> {
+    robosim_library::standard_robot(name).or_else(|| robosim_kinematics::builtin_robot(name))
+}
+
+/// An error answer's `{kind, message}` before it is framed.
+#[derive(Debug, Clone, PartialEq, Eq)]
+struct Failure {
+    kind: String,
+    message: String,
+}
+
+impl Failure {
+    fn new(kind: &str, message: impl Into<String>) -> Self {
+        Failure {
+            kind: kind.to_owned(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Answers one request line; the result is one line of JSON without the trailing newline.
+/// Never panics, whatever `line` holds (see the module docs for the error kinds).
+pub fn handle_line(line: &str) -> String {
+    handle_numbered(line, None).0
+}
+
+/// Answers one parsed request value (an object with `op`, and `id` to echo), framed as one
+/// JSON line without the trailing newline. [`handle_line`] is this after parsing.
+pub fn handle_request(req: &Value) -> String {
+    framed(id_of(req), answer(req))
+}
+
+/// `line_no` (1-based) goes into transport error messages; the bool is "answered ok".
+fn handle_numbered(line: &str, line_no: Option<u64>) -> (String, bool) {
+    let at = line_no.map_or_else(String::new, |n| format!("input line {n}: "));
+    let line = line.strip_suffix('\r').unwrap_or(line);
+    if line.trim().is_empty() {
+        let f = Failure::new(
+            "parse_error",
+            format!("{at}empty line (expected one JSON request object)"),
+        );
+        return (framed(Value::Null, Err(f)), false);
+    }
+    match serde_json::from_str::<Value>(line) {
+        Ok(req) => {
+            let result = answer(&req);
+            let ok = result.is_ok();
+            (framed(id_of(&req), result), ok)
+        }
+        Err(e) => {
+            let f = Failure::new("parse_error", format!("{at}not JSON: {}", json_error(&e)));
+            (framed(Value::Null, Err(f)), false)
+        }
+    }
+}
+
+/// serde_json's message with "at line 1 column C" shortened to "at column C" (a request is a
+/// single line, so its line number inside the request says nothing).
+fn json_error(e: &serde_json::Error) -> String {
+    let s = e.to_string();
+    let suffix = format!(" at line {} column {}", e.line(), e.column());
+    match s.strip_suffix(&suffix) {
+        Some(head) if e.line() == 1 => format!("{head} at column {}", e.column()),
+        _ => s,
+    }
+}
+
+fn id_of(req: &Value) -> Value {
+    req.get("id").cloned().unwrap_or(Value::Null)
+}
+
+/// The op's answer object (without `id`/`ok`) or its failure.
+fn answer(req: &Value) -> Result<Map<String, Value>, Failure> {
+    let Some(obj) = req.as_object() else {
+        return Err(Failure::new(
+            "bad_request",
+            format!(
+                "expected a JSON object {{\"id\": .., \"op\": .., ..}}, got {}",
+                type_name(req)
+            ),
+        ));
+    };
+    let op = match obj.get("op") {
+        Some(Value::String(op)) => op.as_str(),
+        None => return Err(Failure::new("bad_request", "op: missing")),
+        Some(other) => {
+            return Err(Failure::new(
+                "bad_request",
+                format!("op: expected a string, got {}", type_name(other)),
+            ));
+        }
+    };
+    if op == "ops" {
+        let ops: Vec<Value> = OPS
+            .iter()
+            .map(|(op, area)| serde_json::json!({"op": op, "area": area}))
+            .collect();
+        let mut m = Map::new();
+        m.insert("ops".to_owned(), Value::Array(ops));
+        return Ok(m);
+    }
+    // The ops must not panic on input; should one do so all the same, the panic becomes this
+    // request's `internal_error` answer and the session goes on. Nothing shared is mutated
+    // by an op except the library's memo cache, whose mutex poisoning it already tolerates.
+    let dispatched = catch_unwind(AssertUnwindSafe(|| dispatch(op, req)))
+        .unwrap_or_else(|p| Some(Err(Failure::new("internal_error", panic_message(op, &p)))));
+    match dispatched {
+        None => Err(Failure::new(
+            "unknown_op",
+            format!(
+                "op: no op named \"{op}\" (known: {})",
+                OPS.iter().map(|(o, _)| *o).collect::<Vec<_>>().join(", ")
+            ),
+        )),
+        Some(Ok(Value::Object(m))) => Ok(m),
+        // Every crate answers an object; anything else is framed rather than dropped.
+        Some(Ok(other)) => {
+            let mut m = Map::new();
+            m.insert("value".to_owned(), other);
+            Ok(m)
+        }
+        Some(Err(f)) => Err(f),
+    }
+}
+
+/// Hands the request to each crate's `query::dispatch` until one claims `op`.
+fn dispatch(op: &str, req: &Value) -> Option<Result<Value, Failure>> {
+    let robots: &dyn Fn(&str) -> Option<Robot> = &resolve_robot;
+    macro_rules! try_crate {
+        ($call:expr) => {
+            if let Some(r) = $call {
+                return Some(r.map_err(|e| Failure {
+                    kind: e.kind,
+                    message: e.message,
+                }));
+            }
+        };
+    }
+    try_crate!(robosim_kinematics::query::dispatch(op, req, robots));
+    try_crate!(robosim_dynamics::query::dispatch(op, req, robots));
+    try_crate!(robosim_collision::query::dispatch(op, req, robots));
+    try_crate!(robosim_library::query::dispatch(op, req, robots));
+    try_crate!(robosim_automation::query::dispatch::<Robot>(
+        op, req, robots
+    ));
+    None
+}
+
+fn panic_message(op: &str, payload: &Box<dyn std::any::Any + Send>) -> String {
+    let what = payload
+        .downcast_ref::<&str>()
+        .map(|s| (*s).to_owned())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_else(|| "no message".to_owned());
+    format!("op \"{op}\" panicked ({what}); this is a bug in the op, please report the request")
+}
+
+fn type_name(v: &Value) -> &'static str {
+    match v {
+        Value::Null => "null",
+        Value::Bool(_) => "a boolean",
+        Value::Number(_) => "a number",
+        Value::String(_) => "a string",
+        Value::Array(_) => "an array",
+        Value::Object(_) => "an object",
+    }
+}
+
+/// `{"id":ID,"ok":true,...answer}` or `{"id":ID,"ok":false,"error":{"kind","message"}}`, with
+/// `id` and `ok` first so a reader of the stream sees them at a glance. An answer field named
+/// `id` or `ok` would be shadowed by the envelope and is dropped.
+fn framed(id: Value, result: Result<Map<String, Value>, Failure>) -> String {
+    let (ok, mut body) = match result {
+        Ok(m) => (true, m),
+        Err(f) => {
+            let mut e = Map::new();
+            e.insert("kind".to_owned(), Value::String(f.kind));
+            e.insert("message".to_owned(), Value::String(f.message));
+            let mut m = Map::new();
+            m.insert("error".to_owned(), Value::Object(e));
+            (false, m)
+        }
+    };
+    body.remove("id");
+    body.remove("ok");
+    let head = format!("{{\"id\":{id},\"ok\":{ok}");
+    if body.is_empty() {
+        return head + "}";
+    }
+    // Display of a Value is compact JSON (no newlines; non-finite numbers become null).
+    let rest = Value::Object(body).to_string();
+    // `rest` is "{...}" with at least one member, so it is at least 2 bytes long and both
+    // ends are ASCII braces.
+    format!("{head},{}", &rest[1..])
+}
+
+/// Reads request lines from `input` until end of input and writes one answer line to `output`
+/// for each, flushing after every answer (a planner can talk to it through pipes, one request
+/// at a time). A line that is not UTF-8 is answered with `parse_error` like any other bad line.
+/// Returns the counts, or the first I/O error of either stream (e.g. a broken pipe when the
+/// client goes away).
+pub fn serve(mut input: impl BufRead, mut output: impl Write) -> io::Result<ServeStats> {
+    let mut stats = ServeStats::default();
+    let mut buf = Vec::new();
+    loop {
+        buf.clear();
+        if input.read_until(b'\n', &mut buf)? == 0 {
+            return Ok(stats);
+        }
+        stats.lines += 1;
+        let bytes = buf.strip_suffix(b"\n").unwrap_or(&buf);
+        let (text, ok) = match std::str::from_utf8(bytes) {
+            Ok(line) => handle_numbered(line, Some(stats.lines)),
+            Err(e) => {
+                let f = Failure::new(
+                    "parse_error",
+                    format!(
+                        "input line {}: not UTF-8 (invalid byte at offset {})",
+                        stats.lines,
+                        e.valid_up_to()
+                    ),
+                );
+                (framed(Value::Null, Err(f)), false)
+            }
+        };
+        if ok {
+            stats.ok += 1;
+        } else {
+            stats.errors += 1;
+        }
+        output.write_all(text.as_bytes())?;
+        output.write_all(b"\n")?;
+        output.flush()?;
+    }
+}
