@@ -115,3 +115,11 @@ fn zero_time_cycle_is_an_error_and_incompleteness_warns() {
     );
     assert!(!is_consistent(&f));
 }
+
+#[test]
+fn alarm_outside_its_process_warns() {
+    let c = codes(
+        "process R { process A { failure f alarm X detects R.B.g } process B { failure g } }",
+    );
+    assert!(c.contains(&("alarm-scope", Severity::Warning)), "{c:?}");
+}

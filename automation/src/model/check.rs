@@ -14,6 +14,7 @@
 //! | `edge-without-link` | error | an edge between siblings follows a signal connection between them, in its direction (the HFM inherits the HPM's structure) |
 //! | `zero-time-cycle` | error | no cycle of edges all with `tmin = 0` (a fault would re-cause itself instantly) |
 //! | `alarm-unattached` | warning | an alarm detects at least one failure mode |
+//! | `alarm-scope` | warning | an alarm detects failure modes of its own process or its subprocesses |
 //! | `unobservable` | warning | some alarm is reachable from every failure mode |
 //! | `unreachable` | warning | a `derived` failure mode has an incoming edge (else it can never become active) |
 
@@ -191,6 +192,23 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
     }
 
     for a in &m.alarms {
+        for &f in &a.detects {
+            let p = m.failure_modes[f].process;
+            if !m.is_ancestor_or_self(a.process, p) {
+                push(
+                    Severity::Warning,
+                    "alarm-scope",
+                    format!(
+                        "alarm `{}` of `{}` detects `{}`, outside that process: move the alarm to `{}` or an ancestor of it",
+                        a.name,
+                        m.processes[a.process].path,
+                        m.failure_modes[f].path,
+                        m.processes[p].path
+                    ),
+                    a.span,
+                );
+            }
+        }
         if a.detects.is_empty() {
             push(
                 Severity::Warning,
