@@ -138,6 +138,7 @@ fn configurations() -> Vec<(&'static str, SceneEffects)> {
 }
 
 /// Steps `pipe` `steps` times, switching targets every 500 steps; returns seconds per step.
+/// (The motion repeats every 1000 steps, so measurements of whole thousands are alike.)
 fn run(pipe: &mut Pipeline, steps: usize) -> Result<f64, String> {
     let start = Instant::now();
     for k in 0..steps {
@@ -157,7 +158,7 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
     let robot = robosim_dynamics::robot_json::fixture_robot("puma560")
         .ok_or("the PUMA 560 fixture is missing from this build")?;
     let configs = configurations();
-    let (steps, rounds) = if quick { (1_000, 3) } else { (10_000, 9) };
+    let (target_s, rounds) = if quick { (0.002, 3) } else { (0.03, 11) };
     let mut pipes = Vec::new();
     let mut description = String::new();
     for (name, effects) in &configs {
@@ -176,30 +177,42 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         }
         pipes.push(pipe);
     }
-    // round-robin over the configurations so that machine noise hits them all alike; each round
-    // continues the same pipelines (the motion repeats every 1000 steps)
+    // warm up each pipeline and size its measurement to about `target_s` of wall time (a multiple
+    // of 1000 steps, so every measurement covers whole back-and-forth motions)
+    let mut steps = Vec::new();
+    for pipe in pipes.iter_mut() {
+        let per_step = run(pipe, 1000)?;
+        steps.push(((target_s / per_step / 1000.0).ceil() as usize).max(1) * 1000);
+    }
+    // round-robin over the configurations so that machine noise hits them all alike
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); configs.len()];
     let mut ratio_off: Vec<f64> = Vec::new();
+    let (mut a_times, mut b_times) = (Vec::new(), Vec::new());
+    let ab_steps = steps[0].max(steps[1]);
     for _ in 0..rounds {
         for (i, pipe) in pipes.iter_mut().enumerate() {
-            times[i].push(run(pipe, steps)?);
+            times[i].push(run(pipe, steps[i])?);
         }
-        // the undeclared-effect check: A, B, A, B back to back
-        let a1 = run(&mut pipes[0], steps)?;
-        let b1 = run(&mut pipes[1], steps)?;
-        let a2 = run(&mut pipes[0], steps)?;
-        let b2 = run(&mut pipes[1], steps)?;
+        // the undeclared-effect check: A B B A back to back, same number of steps
+        let a1 = run(&mut pipes[0], ab_steps)?;
+        let b1 = run(&mut pipes[1], ab_steps)?;
+        let b2 = run(&mut pipes[1], ab_steps)?;
+        let a2 = run(&mut pipes[0], ab_steps)?;
         ratio_off.push((b1 + b2) / (a1 + a2));
+        a_times.extend([a1, a2]);
+        b_times.extend([b1, b2]);
     }
     let medians: Vec<f64> = times.iter_mut().map(|t| percentile(t, 50.0)).collect();
+    let minima: Vec<f64> = times.iter_mut().map(|t| percentile(t, 0.0)).collect();
     let base = medians[0];
     let mut table = Table {
         columns: [
             "configuration",
             "stages",
             "time per step (µs, median)",
-            "ratio to kinematics only",
-            "steps in contact (all rounds)",
+            "(µs, fastest round)",
+            "ratio to kinematics only (median)",
+            "steps in contact",
         ]
         .iter()
         .map(|s| s.to_string())
@@ -207,6 +220,7 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         rows: Vec::new(),
     };
     let mut points = Vec::new();
+    let mut points_min = Vec::new();
     for (i, ((name, _), pipe)) in configs.iter().zip(&pipes).enumerate() {
         let contacts = if pipe.world.contact.is_some() {
             pipe.world.contact_steps.to_string()
@@ -217,10 +231,12 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
             name.to_string(),
             pipe.stage_names().join(" → "),
             format!("{:.3}", medians[i] * 1e6),
+            format!("{:.3}", minima[i] * 1e6),
             format!("{:.2}", medians[i] / base),
             contacts,
         ]);
         points.push((i as f64 + 1.0, medians[i] * 1e6));
+        points_min.push((i as f64 + 1.0, minima[i] * 1e6));
     }
     let mut r = ratio_off.clone();
     let (lo, med, hi) = (
@@ -228,9 +244,10 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         percentile(&mut r, 50.0),
         percentile(&mut r, 100.0),
     );
+    let (a_min, b_min) = (percentile(&mut a_times, 0.0), percentile(&mut b_times, 0.0));
     let notes = vec![
-        format!("Scene: PUMA 560 (testdata/dynamics/robots/puma560.json) moving between two joint targets (kinematic motion at 1 rad/s, or a computed-torque controller under dynamics), four box obstacles, link solids from the DH segments (radius 5 cm). {steps} steps per measurement, {rounds} rounds, round-robin over the configurations; the median per configuration."),
-        format!("Undeclared effect costs nothing: time(kinematics with collision declared off) / time(kinematics only), measured back to back (A B A B) in each round: median {med:.3}, range {lo:.3} – {hi:.3} over {rounds} rounds. Collision declared off builds no stage, so both pipelines run the same code."),
+        format!("Scene: PUMA 560 (testdata/dynamics/robots/puma560.json) moving between two joint targets (kinematic motion at 1 rad/s, or a computed-torque controller under dynamics), four box obstacles, link solids from the DH segments (radius 5 cm). Each measurement runs whole multiples of 1000 steps for about {:.0} ms of wall time after a warm-up; {rounds} rounds, round-robin over the configurations; median and fastest round per configuration.", target_s * 1e3),
+        format!("Undeclared effect costs nothing: time(kinematics with collision declared off) / time(kinematics only), measured back to back (A B B A, {ab_steps} steps each) in every round: median ratio {med:.3}, range {lo:.3} – {hi:.3} over {rounds} rounds; fastest runs {:.3} µs vs {:.3} µs per step (ratio {:.3}). Collision declared off builds no stage, so both pipelines run the same code; the spread is the machine's noise.", b_min * 1e6, a_min * 1e6, b_min / a_min),
         "Times are wall time on a shared 2-core machine (noisy); compare ratios within this run. Per-call costs of RNEA/CRBA/ABA are in docs/reports/dynamics.md.".into(),
         format!("The full pipeline as printed by the simulator:\n\n```\n{description}```"),
     ];
@@ -240,10 +257,16 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         y_label: "µs per step".into(),
         log_x: false,
         log_y: true,
-        series: vec![Series {
-            label: "median time per step".into(),
-            points,
-        }],
+        series: vec![
+            Series {
+                label: "median time per step".into(),
+                points,
+            },
+            Series {
+                label: "fastest round".into(),
+                points: points_min,
+            },
+        ],
     }];
     let report = Report {
         name: "effects".into(),

@@ -51,7 +51,7 @@ pub(crate) fn aba_unchecked(
         let s6 = link.s.to6();
         let u6 = data.ia[j] * s6;
         let d = s6.dot(&u6) + link.motor_inertia;
-        if !(d > 0.0) || !d.is_finite() {
+        if d.is_nan() || d <= 0.0 || !d.is_finite() {
             return Err(DynamicsError::SingularInertia {
                 joint: j,
                 inertia: d,

@@ -27,7 +27,7 @@ pub(crate) fn crba_pass(model: &Model, data: &mut Data) {
     }
     for j in (0..n).rev() {
         if j > 0 {
-            let moved = data.ic[j].to_parent(&data.x[j]);
+            let moved = data.ic[j].in_parent(&data.x[j]);
             data.ic[j - 1] = data.ic[j - 1].add(&moved);
         }
         let mut f = data.ic[j].mul_motion(&model.links[j].s);
@@ -94,7 +94,7 @@ pub(crate) fn cholesky_in_place(
         for k in 0..j {
             d -= l[(j, k)] * l[(j, k)];
         }
-        if !(d > 0.0) {
+        if d.is_nan() || d <= 0.0 {
             return Err(DynamicsError::SingularInertia {
                 joint: j,
                 inertia: d,

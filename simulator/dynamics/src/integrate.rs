@@ -275,6 +275,10 @@ impl Stepper {
         model.check_vector("q", state.q.as_slice())?;
         model.check_vector("qd", state.qd.as_slice())?;
         model.check_vector("tau", tau)?;
+        if state.qdd.len() != state.q.len() {
+            // a hand-made State may carry no accelerations; give it room once
+            state.qdd = DVector::zeros(state.q.len());
+        }
         self.step_unchecked(model, state, tau, h)?;
         finish_step(model, state, self.config.joint_stops).map(|_| ())
     }
@@ -380,7 +384,7 @@ impl Stepper {
         }
         let mut converged = false;
         for _ in 0..MAX_FIXED_POINT {
-            v.copy_from(&p);
+            v.copy_from(p);
             cholesky_solve_in_place(&data.chol, v); // q̇ = M(qₙ)⁻¹ p
             kinetic_gradient_pass(model, data, v.as_slice());
             let (mut diff, mut scale) = (0.0_f64, f64::MIN_POSITIVE);
@@ -398,14 +402,14 @@ impl Stepper {
         if !converged {
             return Err(DynamicsError::NoConvergence { t: state.t, h });
         }
-        v.copy_from(&p);
+        v.copy_from(p);
         cholesky_solve_in_place(&data.chol, v);
         kv[0].copy_from(&state.qd);
-        state.q.axpy(h, &v, 1.0);
+        state.q.axpy(h, v, 1.0);
         data.update_transforms(model, state.q.as_slice());
         crba_pass(model, data);
         cholesky_in_place(&data.mass_matrix, &mut data.chol)?;
-        state.qd.copy_from(&p);
+        state.qd.copy_from(p);
         cholesky_solve_in_place(&data.chol, &mut state.qd);
         for j in 0..n {
             state.qdd[j] = (state.qd[j] - kv[0][j]) / h;
@@ -469,6 +473,10 @@ impl Stepper {
         model.check_vector("q", state.q.as_slice())?;
         model.check_vector("qd", state.qd.as_slice())?;
         model.check_vector("tau", tau)?;
+        if state.qdd.len() != state.q.len() {
+            // a hand-made State may carry no accelerations; give it room once
+            state.qdd = DVector::zeros(state.q.len());
+        }
         if !t_target.is_finite() || t_target < state.t {
             return Err(DynamicsError::BadOption {
                 field: "t",

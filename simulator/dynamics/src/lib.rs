@@ -21,6 +21,11 @@
 //! gravity from the robot (world frame); joint friction `b q̇ + c sign(q̇)` and motor (rotor)
 //! inertia reflected to the joint, both optional (zero by default).
 
+#![expect(
+    clippy::needless_range_loop,
+    reason = "the algorithms index several per-joint arrays in step; indices read like the papers"
+)]
+
 mod aba;
 mod crba;
 mod data;

@@ -58,6 +58,9 @@ impl From<DynamicsError> for QueryError {
     }
 }
 
+/// One op's handler.
+type OpFn = fn(&Value, &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError>;
+
 /// Default step budget of a `simulate` request (a planner must not stall the server by accident).
 pub const DEFAULT_MAX_STEPS: u64 = 10_000_000;
 
@@ -68,7 +71,7 @@ pub fn dispatch(
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
 ) -> Option<Result<Value, QueryError>> {
-    let f: fn(&Value, &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> = match op {
+    let f: OpFn = match op {
         "id" => op_id,
         "mass_matrix" => op_mass_matrix,
         "gravity" => op_gravity,

@@ -20,6 +20,8 @@ pub const FALL_Q0: [f64; 6] = [0.0, 0.3, -0.5, 0.2, 0.6, 0.0];
 /// The time at which errors are measured (s).
 pub const FALL_T: f64 = 2.0;
 
+type Points = Vec<(f64, f64)>;
+
 struct Run {
     label: &'static str,
     setting: String,
@@ -181,7 +183,8 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
         columns: columns.iter().map(|s| s.to_string()).collect(),
         rows: Vec::new(),
     };
-    let mut by_label: Vec<(&str, Vec<(f64, f64)>, Vec<(f64, f64)>)> = Vec::new();
+    // per integrator: (label, (wall ms, error) points, (step, error) points)
+    let mut by_label: Vec<(&str, Points, Points)> = Vec::new();
     for run in &runs {
         let mut result = None;
         let wall = time_median(reps, || {

@@ -209,7 +209,7 @@ impl RigidInertia {
     }
 
     /// This inertia, given in child coordinates, expressed in parent coordinates (`Xᵀ I X`).
-    pub fn to_parent(&self, x: &Xform) -> RigidInertia {
+    pub fn in_parent(&self, x: &Xform) -> RigidInertia {
         let rot = x.e.transpose();
         let y = rot * self.h;
         let px = skew(&x.r);
@@ -266,7 +266,7 @@ mod tests {
         );
         assert!((i.mul_motion(&m).to6() - i.matrix() * m.to6()).norm() < 1e-13);
         let xm = x.matrix();
-        assert!((i.to_parent(&x).matrix() - xm.transpose() * i.matrix() * xm).norm() < 1e-13);
+        assert!((i.in_parent(&x).matrix() - xm.transpose() * i.matrix() * xm).norm() < 1e-13);
         // an articulated inertia (symmetric, not rigid-body shaped)
         let mut ia = i.matrix();
         ia += Matrix6::from_fn(|r, c| {

@@ -121,7 +121,7 @@ impl Stage for Logging {
         format!("{} every {} step(s) to {to}", names.join(", "), self.every)
     }
     fn run(&mut self, w: &mut World) -> Result<(), StepError> {
-        if (w.step + 1) % self.every != 0 {
+        if !(w.step + 1).is_multiple_of(self.every) {
             return Ok(());
         }
         self.row.clear();
