@@ -175,6 +175,45 @@ pub fn measure_ik(n: usize) -> Vec<IkRow> {
         }
         rows.push(acc.row("puma560", name, None));
     }
+    // The hybrid where the closed form does not apply: the PUMA with wrist offsets
+    // (a5 = 20 mm, d5 = 10 mm, a6 = 15 mm).
+    {
+        let mut offset = puma.clone();
+        offset.joints[4].a = 0.02;
+        offset.joints[4].d = 0.01;
+        offset.joints[5].a = 0.015;
+        let set = poses(&offset, n, &mut rng);
+        let options = IkOptions {
+            all: true,
+            ..IkOptions::default()
+        };
+        let mut acc = Acc::default();
+        for (q, t) in &set {
+            let start = Instant::now();
+            let r = ik::solve(&offset, black_box(t), Method::Hybrid, &options);
+            acc.times.push(start.elapsed().as_secs_f64());
+            if let Ok(r) = r {
+                let good = r
+                    .solutions
+                    .iter()
+                    .all(|s| s.residual.position < 1e-10 && s.residual.orientation < 1e-10);
+                if good && r.solutions.iter().any(|s| same_angles(&s.q, q, 1e-7)) {
+                    acc.ok += 1;
+                    let k = r.solutions.len() as f64;
+                    acc.pos += r.solutions.iter().map(|s| s.residual.position).sum::<f64>() / k;
+                    acc.ori += r
+                        .solutions
+                        .iter()
+                        .map(|s| s.residual.orientation)
+                        .sum::<f64>()
+                        / k;
+                    acc.iters += r.solutions.iter().map(|s| s.iterations as f64).sum::<f64>() / k;
+                }
+                acc.sols += r.solutions.len() as f64;
+            }
+        }
+        rows.push(acc.row("puma560 + wrist offsets", "hybrid (ik::solve, all)", None));
+    }
     // The RRP closed form on the Stanford arm (half its branches reverse the boom, outside the
     // prismatic limits; all must still reproduce the pose).
     if let Some(stanford) = builtin_robot("stanford") {

@@ -10,8 +10,8 @@ fn report_ik_quick_writes_csv_markdown_and_png() {
     assert!(
         header.starts_with("robot,method,tolerance,poses,success_pct,mean_us,median_us,p99_us")
     );
-    // 4 closed-form rows + 2 robots × 4 tolerances × 3 numeric methods.
-    assert_eq!(csv.lines().count(), 1 + 4 + 24);
+    // 5 closed-form/hybrid rows + 2 robots × 4 tolerances × 3 numeric methods.
+    assert_eq!(csv.lines().count(), 1 + 5 + 24);
     for line in csv.lines().skip(1) {
         let success: f64 = line
             .split(',')

@@ -135,10 +135,23 @@ impl ArmSolver {
         p: &Vector3<f64>,
         theta1_ref: f64,
     ) -> ([Option<ArmBranch>; 4], Option<&'static str>) {
+        self.solve_ext(p, theta1_ref, false)
+    }
+
+    /// [`Self::solve`]; with `extend`, out-of-reach sines and cosines are clamped instead of
+    /// refused (the clamp's excess is in the flags), so the branches are defined, and
+    /// continuous, for every wrist point: the hybrid scans that extension and keeps only roots
+    /// whose excess is within [`CLAMP_SLACK`].
+    pub fn solve_ext(
+        &self,
+        p: &Vector3<f64>,
+        theta1_ref: f64,
+        extend: bool,
+    ) -> ([Option<ArmBranch>; 4], Option<&'static str>) {
         let mut out = [None; 4];
         let mut why = None;
         let ((right, left), base_flags) =
-            match shoulder(p, self.lateral, self.s1, self.scale, theta1_ref) {
+            match shoulder(p, self.lateral, self.s1, self.scale, theta1_ref, extend) {
                 Ok(x) => x,
                 Err(reason) => return (out, Some(reason)),
             };
@@ -152,12 +165,15 @@ impl ArmSolver {
             let r2 = x1 * x1 + y1 * y1;
             let mut kk = (r2 - self.a2 * self.a2 - self.l2 * self.l2) / (2.0 * self.a2 * self.l2);
             let mut flags = base_flags;
-            if kk.abs() > 1.0 + CLAMP_SLACK {
+            if kk.abs() > 1.0 + CLAMP_SLACK && !extend {
                 why = Some(if kk > 0.0 {
                     "the wrist centre is farther from the shoulder than the stretched arm reaches"
                 } else {
                     "the wrist centre is closer to the shoulder than the folded arm reaches"
                 });
+                continue;
+            }
+            if !kk.is_finite() {
                 continue;
             }
             if kk.abs() > 1.0 {
@@ -206,6 +222,7 @@ fn shoulder(
     s1: f64,
     scale: f64,
     theta1_ref: f64,
+    extend: bool,
 ) -> Result<((f64, f64), Flags), &'static str> {
     let rho = p.x.hypot(p.y);
     let psi = p.y.atan2(p.x);
@@ -216,7 +233,7 @@ fn shoulder(
         return Ok(((theta1_ref, theta1_ref + PI), flags));
     }
     let mut k = lateral * s1 / rho;
-    if !k.is_finite() || k.abs() > 1.0 + CLAMP_SLACK {
+    if !k.is_finite() || (k.abs() > 1.0 + CLAMP_SLACK && !extend) {
         return Err("the wrist centre is closer to the waist axis than the shoulder offset");
     }
     if k.abs() > 1.0 {
@@ -275,7 +292,7 @@ impl BoomSolver {
         let mut out = [None; 4];
         let mut why = None;
         let ((right, left), base_flags) =
-            match shoulder(p, self.lateral, self.s1, self.scale, theta1_ref) {
+            match shoulder(p, self.lateral, self.s1, self.scale, theta1_ref, false) {
                 Ok(x) => x,
                 Err(reason) => return (out, Some(reason)),
             };

@@ -5,21 +5,34 @@
 //! For a trial θ6 the pose of frame 5 is known, hence the point where axes 4 and 5 meet
 //! (frame 4's origin, since A5's translation does not depend on θ5). The arm's four branches
 //! follow in closed form from that point, then θ4 and θ5 from the direction of axis 5 — which
-//! must lie in the plane normal to axis 4: f(θ6) = (R₃₄ᵀ-side) z-component = 0 is the one scalar
-//! equation left. It is scanned on [`SAMPLES`] points per branch for sign changes and each root
-//! polished by Brent's method (a safeguarded secant, more robust than the bare Newton step the
-//! seed names, with the same one-unknown structure), so every solution the scan brackets is
-//! found. A tangent (double) root is not bracketed and can be missed.
+//! must lie in the plane normal to axis 4: f(θ6) = M[2][2] = 0 is the one scalar equation left.
+//! Each root is polished by Brent's method (a safeguarded secant, more robust than the bare
+//! Newton step the seed names, with the same one-unknown structure). Finding every root:
+//! * the arm is evaluated on its clamped extension, so f is defined and continuous for every θ6;
+//!   only roots where the arm truly reaches are kept;
+//! * f is scanned on [`SAMPLES`] points per branch for sign changes;
+//! * where the arm's reach ends inside a scan interval, the edge is found by bisection and the
+//!   reachable part sampled uniformly in √(distance to the edge) ([`EDGE_SAMPLES`] points):
+//!   there the elbow branches merge, f behaves like a square root, and roots crowd in pairs;
+//! * where f keeps its sign over an interval but heads towards zero at one end and away at the
+//!   other (slopes by forward differences), a golden-section search looks for a dip through
+//!   zero and brackets both roots.
+//! What can still be missed: a tangent (double) root, and a root pair inside a scan interval
+//! that also contains a narrow hole in the arm's reach (1 generating configuration in 2,000
+//! random poses of an offset-wrist PUMA).
 //!
 //! Entry point: [`Hybrid`].
 
-use super::analytic::{ArmSolver, Flags, pick, rz_rx};
+use super::analytic::{ArmSolver, CLAMP_SLACK, Flags, pick, rz_rx};
 use super::family::{ArmGeometry, Family, recognise};
 use super::{Branch, IkError, IkOptions, IkResult, IkSolver, Method, Wrist, finish, wrap};
 use crate::model::Robot;
 use crate::pose::{rigid_inverse, rot_x, rot_z, trans};
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
 use std::f64::consts::PI;
+
+/// Extra samples (uniform in √distance) between a scan point and the edge of the arm's reach.
+pub const EDGE_SAMPLES: usize = 24;
 
 /// Scan points per arm branch over θ6 ∈ [−π, π].
 pub const SAMPLES: usize = 48;
@@ -46,19 +59,42 @@ struct Trial {
 impl Setup {
     /// The wrist constraint f(θ6) for the four arm branches at once (one arm solve).
     fn constraints(&self, t6: f64, theta1_ref: f64) -> [Option<f64>; 4] {
+        self.constraints_reach(t6, theta1_ref)
+            .map(|c| c.map(|(f, _)| f))
+    }
+
+    /// f(θ6) of the four branches on the extended arm, each with whether the branch truly
+    /// reaches (clamp excess within [`CLAMP_SLACK`]).
+    fn constraints_reach(&self, t6: f64, theta1_ref: f64) -> [Option<(f64, bool)>; 4] {
         let w = self.g * rot_z(-t6);
         let p4 = w * self.c5;
-        let (arms, _) = self.arm.solve(&Vector3::new(p4.x, p4.y, p4.z), theta1_ref);
+        let (arms, _) = self
+            .arm
+            .solve_ext(&Vector3::new(p4.x, p4.y, p4.z), theta1_ref, true);
         // f = M[2][2] = z3 · (R05 Rx(α5)ᵀ) e_z, with z3 = R03 e_z.
         let r05: Matrix3<f64> = w.fixed_view::<3, 3>(0, 0).into_owned();
         let u = r05 * rz_rx(0.0, self.alpha5).transpose().column(2);
-        arms.map(|a| a.map(|a| self.arm.r03(&a.theta).column(2).dot(&u)))
+        arms.map(|a| {
+            a.map(|a| {
+                let excess = a
+                    .flags
+                    .elbow_clamped
+                    .unwrap_or(0.0)
+                    .max(a.flags.shoulder_clamped.unwrap_or(0.0));
+                (
+                    self.arm.r03(&a.theta).column(2).dot(&u),
+                    excess <= CLAMP_SLACK,
+                )
+            })
+        })
     }
 
     fn trial(&self, t6: f64, branch_index: usize, theta1_ref: f64) -> Option<Trial> {
         let w = self.g * rot_z(-t6);
         let p4 = w * self.c5;
-        let (arms, _) = self.arm.solve(&Vector3::new(p4.x, p4.y, p4.z), theta1_ref);
+        let (arms, _) = self
+            .arm
+            .solve_ext(&Vector3::new(p4.x, p4.y, p4.z), theta1_ref, true);
         let arm = arms[branch_index]?;
         let r05: Matrix3<f64> = w.fixed_view::<3, 3>(0, 0).into_owned();
         let m = self.arm.r03(&arm.theta).transpose() * r05 * rz_rx(0.0, self.alpha5).transpose();
@@ -211,27 +247,132 @@ impl IkSolver for Hybrid {
             + s.offsets[0];
         let mut solutions = Vec::new();
         let mut any_reachable = false;
-        let table: Vec<(f64, [Option<f64>; 4])> = (0..=SAMPLES)
+        let table: Vec<(f64, [Option<(f64, bool)>; 4])> = (0..=SAMPLES)
             .map(|k| {
                 let t = -PI + 2.0 * PI * k as f64 / SAMPLES as f64;
-                (t, s.constraints(t, theta1_ref))
+                (t, s.constraints_reach(t, theta1_ref))
+            })
+            .collect();
+        // Slopes by a forward difference, to spot dips between two samples of one sign.
+        const STEP: f64 = 1e-7;
+        let slopes: Vec<[Option<f64>; 4]> = table
+            .iter()
+            .map(|(t, c)| {
+                let ahead = s.constraints(t + STEP, theta1_ref);
+                std::array::from_fn(|b| match (c[b], ahead[b]) {
+                    (Some((f0, _)), Some(f1)) => Some((f1 - f0) / STEP),
+                    _ => None,
+                })
             })
             .collect();
         for bi in 0..4 {
-            let grid: Vec<(f64, Option<f64>)> = table.iter().map(|(t, f)| (*t, f[bi])).collect();
+            let f = |t: f64| s.constraints(t, theta1_ref)[bi];
+            let reach = |t: f64| s.constraints_reach(t, theta1_ref)[bi].is_some_and(|(_, r)| r);
             let mut roots: Vec<(f64, usize)> = Vec::new();
-            for win in grid.windows(2) {
-                let ((ta, fa), (tb, fb)) = (win[0], win[1]);
-                let (Some(fa), Some(fb)) = (fa, fb) else {
+            for win in table.windows(2) {
+                let (ta, ca, tb, cb) = (win[0].0, win[0].1[bi], win[1].0, win[1].1[bi]);
+                let (Some((fa, ra)), Some((fb, rb))) = (ca, cb) else {
                     continue;
+                };
+                // Only the reachable part of the interval can hold a solution. Where reach
+                // ends inside it, bisect to the edge: true roots near the workspace boundary
+                // sit close to spurious ones of the clamped extension beyond it.
+                let (ta, fa, tb, fb) = match (ra, rb) {
+                    (true, true) => (ta, fa, tb, fb),
+                    (false, false) => continue,
+                    (true, false) | (false, true) => {
+                        let (mut inside, mut outside) = if ra { (ta, tb) } else { (tb, ta) };
+                        for _ in 0..60 {
+                            let mid = 0.5 * (inside + outside);
+                            if reach(mid) {
+                                inside = mid;
+                            } else {
+                                outside = mid;
+                            }
+                        }
+                        // At the reach edge the elbow branches merge and f(θ6) behaves like
+                        // √(distance to the edge): sample uniformly in that square root, where f
+                        // is smooth, to separate roots crowding the edge.
+                        any_reachable = true;
+                        let far = if ra { ta } else { tb };
+                        let pts: Vec<(f64, f64)> = (0..=EDGE_SAMPLES)
+                            .filter_map(|i| {
+                                let u = i as f64 / EDGE_SAMPLES as f64;
+                                let t = inside + (far - inside) * u * u;
+                                f(t).map(|v| (t, v))
+                            })
+                            .collect();
+                        for w in pts.windows(2) {
+                            let ((t0, f0), (t1, f1)) = (w[0], w[1]);
+                            if f0 == 0.0 {
+                                roots.push((t0, 0));
+                            } else if (f0 > 0.0) != (f1 > 0.0) && f1 != 0.0 {
+                                if let Some(r) = brent(f, t0, t1, f0, f1) {
+                                    roots.push(r);
+                                }
+                            }
+                        }
+                        continue;
+                    }
                 };
                 any_reachable = true;
                 if fa == 0.0 {
                     roots.push((ta, 0));
+                } else if fb == 0.0 && !rb {
+                    roots.push((tb, 0));
                 } else if (fa > 0.0) != (fb > 0.0) && fb != 0.0 {
-                    let f = |t: f64| s.constraints(t, theta1_ref)[bi];
                     if let Some(r) = brent(f, ta, tb, fa, fb) {
                         roots.push(r);
+                    }
+                }
+            }
+            // A pair of roots closer than the scan step leaves no sign change. Where f keeps
+            // its sign over an interval but heads towards zero at the start and away at the
+            // end, a golden-section search finds the dip; if it crosses zero, both roots are
+            // bracketed.
+            for k in 0..table.len() - 1 {
+                let c = |i: usize| table[i].1[bi].filter(|(_, r)| *r).map(|(f, _)| f);
+                let (Some(f0), Some(f2)) = (c(k), c(k + 1)) else {
+                    continue;
+                };
+                let (Some(d0), Some(d2)) = (slopes[k][bi], slopes[k + 1][bi]) else {
+                    continue;
+                };
+                let sign = f0.signum();
+                if f2.signum() != sign || sign * d0 >= 0.0 || sign * d2 <= 0.0 {
+                    continue;
+                }
+                let (tl, tr) = (table[k].0, table[k + 1].0);
+                let (mut a, mut b) = (tl, tr);
+                let g = 0.5 * (5f64.sqrt() - 1.0);
+                let h = |t: f64| f(t).map_or(f64::INFINITY, |v| sign * v);
+                let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+                let (mut h1, mut h2) = (h(x1), h(x2));
+                for _ in 0..50 {
+                    if h1.min(h2) < 0.0 {
+                        break;
+                    }
+                    if h1 < h2 {
+                        b = x2;
+                        x2 = x1;
+                        h2 = h1;
+                        x1 = b - g * (b - a);
+                        h1 = h(x1);
+                    } else {
+                        a = x1;
+                        x1 = x2;
+                        h1 = h2;
+                        x2 = a + g * (b - a);
+                        h2 = h(x2);
+                    }
+                }
+                let (tm, hm) = if h1 < h2 { (x1, h1) } else { (x2, h2) };
+                if hm < 0.0 && reach(tm) {
+                    let fm = sign * hm;
+                    for (lo, flo, hi, fhi) in [(tl, f0, tm, fm), (tm, fm, tr, f2)] {
+                        if let Some(r) = brent(f, lo, hi, flo, fhi) {
+                            roots.push(r);
+                        }
                     }
                 }
             }
@@ -239,6 +380,15 @@ impl IkSolver for Hybrid {
                 let Some(tr) = s.trial(t6, bi, theta1_ref) else {
                     continue;
                 };
+                // A root of the extension outside the arm's reach is no solution.
+                let excess = tr
+                    .flags
+                    .elbow_clamped
+                    .unwrap_or(0.0)
+                    .max(tr.flags.shoulder_clamped.unwrap_or(0.0));
+                if excess > CLAMP_SLACK {
+                    continue;
+                }
                 let q: Vec<f64> = (0..6).map(|k| wrap(tr.theta[k] - s.offsets[k])).collect();
                 // The grid's last point equals its first (θ6 = ±π): skip a root found twice.
                 let dup = solutions.iter().any(|o: &super::IkSolution| {
@@ -261,7 +411,7 @@ impl IkSolver for Hybrid {
         if solutions.is_empty() {
             let reason = if any_reachable {
                 format!(
-                    "no θ6 on a {SAMPLES}-point scan satisfies the wrist constraint for any arm branch"
+                    "no θ6 on a {SAMPLES}-point scan puts the wrist point within the arm's reach and satisfies the wrist constraint"
                 )
             } else {
                 "the wrist point is out of the arm's reach for every θ6".to_owned()
