@@ -17,6 +17,7 @@
 //! * where f keeps its sign over an interval but heads towards zero at one end and away at the
 //!   other (slopes by forward differences), a golden-section search looks for a dip through
 //!   zero and brackets both roots.
+//!
 //! What can still be missed: a tangent (double) root, and a root pair inside a scan interval
 //! that also contains a narrow hole in the arm's reach (1 generating configuration in 2,000
 //! random poses of an offset-wrist PUMA).
@@ -33,6 +34,9 @@ use std::f64::consts::PI;
 
 /// Extra samples (uniform in √distance) between a scan point and the edge of the arm's reach.
 pub const EDGE_SAMPLES: usize = 24;
+
+/// f(θ6) and "really reaches" for the four arm branches (None: no arm solution at all).
+type BranchValues = [Option<(f64, bool)>; 4];
 
 /// Scan points per arm branch over θ6 ∈ [−π, π].
 pub const SAMPLES: usize = 48;
@@ -65,7 +69,7 @@ impl Setup {
 
     /// f(θ6) of the four branches on the extended arm, each with whether the branch truly
     /// reaches (clamp excess within [`CLAMP_SLACK`]).
-    fn constraints_reach(&self, t6: f64, theta1_ref: f64) -> [Option<(f64, bool)>; 4] {
+    fn constraints_reach(&self, t6: f64, theta1_ref: f64) -> BranchValues {
         let w = self.g * rot_z(-t6);
         let p4 = w * self.c5;
         let (arms, _) = self
@@ -247,7 +251,7 @@ impl IkSolver for Hybrid {
             + s.offsets[0];
         let mut solutions = Vec::new();
         let mut any_reachable = false;
-        let table: Vec<(f64, [Option<(f64, bool)>; 4])> = (0..=SAMPLES)
+        let table: Vec<(f64, BranchValues)> = (0..=SAMPLES)
             .map(|k| {
                 let t = -PI + 2.0 * PI * k as f64 / SAMPLES as f64;
                 (t, s.constraints_reach(t, theta1_ref))
@@ -265,6 +269,10 @@ impl IkSolver for Hybrid {
                 })
             })
             .collect();
+        #[expect(
+            clippy::needless_range_loop,
+            reason = "bi indexes the branch inside table, slopes and closures alike"
+        )]
         for bi in 0..4 {
             let f = |t: f64| s.constraints(t, theta1_ref)[bi];
             let reach = |t: f64| s.constraints_reach(t, theta1_ref)[bi].is_some_and(|(_, r)| r);
@@ -306,10 +314,11 @@ impl IkSolver for Hybrid {
                             let ((t0, f0), (t1, f1)) = (w[0], w[1]);
                             if f0 == 0.0 {
                                 roots.push((t0, 0));
-                            } else if (f0 > 0.0) != (f1 > 0.0) && f1 != 0.0 {
-                                if let Some(r) = brent(f, t0, t1, f0, f1) {
-                                    roots.push(r);
-                                }
+                            } else if (f0 > 0.0) != (f1 > 0.0)
+                                && f1 != 0.0
+                                && let Some(r) = brent(f, t0, t1, f0, f1)
+                            {
+                                roots.push(r);
                             }
                         }
                         continue;
@@ -320,10 +329,11 @@ impl IkSolver for Hybrid {
                     roots.push((ta, 0));
                 } else if fb == 0.0 && !rb {
                     roots.push((tb, 0));
-                } else if (fa > 0.0) != (fb > 0.0) && fb != 0.0 {
-                    if let Some(r) = brent(f, ta, tb, fa, fb) {
-                        roots.push(r);
-                    }
+                } else if (fa > 0.0) != (fb > 0.0)
+                    && fb != 0.0
+                    && let Some(r) = brent(f, ta, tb, fa, fb)
+                {
+                    roots.push(r);
                 }
             }
             // A pair of roots closer than the scan step leaves no sign change. Where f keeps
