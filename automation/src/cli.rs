@@ -185,22 +185,35 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
             let events = parse_alarms(&m, &text, &alarms.display().to_string())?;
             let present = allocation(&m, &drop)?;
             let mut ilm = Ilm::new(&m, &g, Some(&present));
-            for e in &events {
-                if !present[e.alarm] {
-                    return Err(format!(
-                        "alarm {} is in the sequence but dropped from the allocation",
-                        m.alarms[e.alarm].name
-                    ));
+            // Alarms with the same time stamp rang together: one update.
+            let mut i = 0;
+            while i < events.len() {
+                let t = events[i].time;
+                let mut batch = Vec::new();
+                while i < events.len() && events[i].time == t {
+                    let e = events[i];
+                    if !present[e.alarm] {
+                        return Err(format!(
+                            "alarm {} is in the sequence but dropped from the allocation",
+                            m.alarms[e.alarm].name
+                        ));
+                    }
+                    batch.push((e.alarm, e.time));
+                    i += 1;
                 }
-                ilm.on_alarm(e.alarm, e.time).map_err(|x| x.to_string())?;
+                ilm.on_alarms(&batch).map_err(|x| x.to_string())?;
                 ilm.step();
                 let c = ilm.diagnoser().candidates();
                 let guess = ilm.best_guess();
+                let names: Vec<&str> = batch
+                    .iter()
+                    .map(|&(a, _)| m.alarms[a].name.as_str())
+                    .collect();
                 let _ = writeln!(
                     o,
                     "t={:>8.1}  {:<24} FSPI: {} single-fault candidate(s){}",
-                    e.time,
-                    m.alarms[e.alarm].name,
+                    t,
+                    names.join(" "),
                     c.len(),
                     guess.map_or(String::new(), |g| format!(
                         "; ILM depth {}: {}",

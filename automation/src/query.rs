@@ -142,6 +142,7 @@ fn diagnose(req: &Value) -> Result<Value, QueryError> {
         .and_then(Value::as_array)
         .ok_or_else(|| bad("bad_request", "`alarms` (an array) is required"))?;
     let mut ilm = Ilm::new(&m, &g, Some(&present));
+    let mut events = Vec::new();
     for (i, a) in alarms.iter().enumerate() {
         let name = a.get("alarm").and_then(Value::as_str).ok_or_else(|| {
             bad(
@@ -152,9 +153,12 @@ fn diagnose(req: &Value) -> Result<Value, QueryError> {
         let id = m
             .find_alarm(name)
             .map_err(|e| bad("unknown_alarm", format!("alarms[{i}]: {e}")))?;
-        let t = f64_field(a, "t", None)?;
-        ilm.on_alarm(id, t)
-            .map_err(|e| bad("bad_alarm", format!("alarms[{i}]: {e}")))?;
+        events.push((id, f64_field(a, "t", None)?));
+    }
+    // Alarms with the same time stamp rang together: one update.
+    for batch in events.chunk_by(|x, y| x.1 == y.1) {
+        ilm.on_alarms(batch)
+            .map_err(|e| bad("bad_alarm", e.to_string()))?;
     }
     if req.get("until").is_some() {
         ilm.advance_to(f64_field(req, "until", None)?);

@@ -308,3 +308,27 @@ fn every_eclss_single_fault_is_isolated_with_all_alarms() {
         assert_eq!(guess.processes, vec![m.failure_modes[f].process]);
     }
 }
+
+#[test]
+fn alarms_that_ring_together_are_one_update() {
+    // x follows a with no delay: both alarms carry the same time stamp.
+    let m = model(
+        "process R { failure a failure b failure x derived
+           propagate a -> x prob 1 time 0..0  propagate b -> x prob 0.5 time 1..5
+           alarm AA detects a  alarm AX detects x }",
+    );
+    let g = FaultGraph::new(&m);
+    let mut ilm = Ilm::new(&m, &g, None);
+    // Listed x first: taken one by one, a would look silent when x rang.
+    ilm.on_alarms(&[(alarm(&m, "AX"), 3.0), (alarm(&m, "AA"), 3.0)])
+        .unwrap();
+    ilm.run_to_completion();
+    assert_eq!(names(&m, &ilm.best_guess().unwrap().failure_modes), ["a"]);
+    let mut d = Diagnoser::new(&g, None);
+    d.add_alarm(alarm(&m, "AX"), 3.0).unwrap();
+    assert_eq!(
+        single(&m, &d),
+        ["b"],
+        "one by one, the silent a is excluded"
+    );
+}

@@ -106,7 +106,16 @@ impl<'g> Ilm<'g> {
     /// A new alarm: FSPI is updated at once; the migration restarts when the alarm rings
     /// higher than the level being processed.
     pub fn on_alarm(&mut self, a: AlarmId, t: f64) -> Result<(), AlarmError> {
-        self.diag.add_alarm(a, t)?;
+        self.on_alarms(&[(a, t)])
+    }
+
+    /// Alarms that rang together (same time stamp): one FSPI update, so none of them counts
+    /// as normal for the others; then the migration rule for the highest of them.
+    pub fn on_alarms(&mut self, alarms: &[(AlarmId, f64)]) -> Result<(), AlarmError> {
+        self.diag.add_batch(alarms)?;
+        let Some(&(a, t)) = alarms.iter().min_by_key(|(a, _)| self.alarm_level(*a)) else {
+            return Ok(());
+        };
         let level = self.alarm_level(a);
         let start = level.saturating_sub(1);
         let current = match (self.top, self.levels.last()) {
