@@ -5,6 +5,7 @@ Writes, next to this script:
   robots/<name>.json   the robot in robosim's inline format (DESIGN.md, "The query protocol")
   reference.json       per robot: many (q, qd, qdd) with tau = RNEA, M = CRBA, g = gravity torque,
                        and (q, qd, tau_fd) with qdd_fd = ABA.
+  reference_drive.json the PUMA 560 with motor inertia and friction, from roboticstoolbox's rne/accel.
 
 The PUMA 560, Stanford arm (standard DH) and Panda (modified DH) parameters are taken from
 roboticstoolbox-python's `rtb.models.DH.Puma560 / Stanford / Panda` (motor inertia, friction and
@@ -192,6 +193,37 @@ def cases(robot, model):
     return out
 
 
+def drive_reference():
+    """The PUMA 560 with its drive terms, reflected to the joints, against roboticstoolbox's rne and
+    accel (which model them on the DH links directly): motor inertia G² Jm, viscous friction G² B,
+    Coulomb friction |G| Tc (Tc made symmetric, Tc⁻ = −Tc⁺: robosim has one Coulomb magnitude)."""
+    r = rtb.models.DH.Puma560()
+    robot = from_rtb("puma560_drive", r)
+    for L, jt in zip(r.links, robot["joints"]):
+        L.Tc = [float(L.Tc[0]), -float(L.Tc[0])]
+        g = abs(float(L.G))
+        jt["motor_inertia"] = float(L.Jm) * g * g
+        jt["viscous"] = float(L.B) * g * g
+        jt["coulomb"] = float(L.Tc[0]) * g
+    out = []
+    for _ in range(CASES):
+        q = rng.uniform([j["qlim"][0] for j in robot["joints"]], [j["qlim"][1] for j in robot["joints"]])
+        qd = rng.uniform(-2, 2, 6)
+        qdd = rng.uniform(-5, 5, 6)
+        tau_fd = rng.uniform(-20, 20, 6)
+        out.append(
+            {
+                "q": q.tolist(),
+                "qd": qd.tolist(),
+                "qdd": qdd.tolist(),
+                "tau": np.asarray(r.rne(q, qd, qdd)).tolist(),
+                "tau_fd": tau_fd.tolist(),
+                "qdd_fd": np.asarray(r.accel(q, qd, tau_fd)).ravel().tolist(),
+            }
+        )
+    return robot, out
+
+
 def main():
     robots = []
     for name, cls in [("puma560", "Puma560"), ("stanford", "Stanford"), ("panda", "Panda")]:
@@ -212,6 +244,14 @@ def main():
         reference["robots"][robot["name"]] = cases(robot, to_pinocchio(robot))
     with open(os.path.join(HERE, "reference.json"), "w") as f:
         json.dump(reference, f)
+        f.write("\n")
+
+    robot, out = drive_reference()
+    with open(os.path.join(HERE, "robots", robot["name"] + ".json"), "w") as f:
+        json.dump(robot, f, indent=1)
+        f.write("\n")
+    with open(os.path.join(HERE, "reference_drive.json"), "w") as f:
+        json.dump({"source": "roboticstoolbox-python 1.5.0 rne / accel, gen_reference.py", "robots": {"puma560_drive": out}}, f)
         f.write("\n")
 
 

@@ -102,3 +102,44 @@ fn rnea_crba_gravity_aba_match_pinocchio() {
         );
     }
 }
+
+/// Motor inertia and friction against roboticstoolbox-python's `rne` and `accel`, which model
+/// them on the DH links (motor side, gear ratio G): the PUMA 560 with G² Jm, G² B and |G| Tc
+/// reflected to the joints (testdata/dynamics/README.md).
+#[test]
+fn motor_inertia_and_friction_match_roboticstoolbox() {
+    let reference = load(&testdata().join("reference_drive.json"));
+    let robot = robot_from_value(&load(&testdata().join("robots/puma560_drive.json")))
+        .expect("fixture parses");
+    assert!(
+        robot
+            .joints
+            .iter()
+            .all(|j| j.motor_inertia > 0.0 && j.viscous > 0.0 && j.coulomb > 0.0)
+    );
+    let model = Model::new(&robot).expect("valid");
+    let mut data = Data::new(&model);
+    let cases = reference["robots"]["puma560_drive"]
+        .as_array()
+        .expect("cases");
+    assert!(cases.len() >= 40);
+    let (mut worst_tau, mut worst_qdd) = (0.0_f64, 0.0_f64);
+    for (i, c) in cases.iter().enumerate() {
+        let (q, qd, qdd) = (vec_of(&c["q"]), vec_of(&c["qd"]), vec_of(&c["qdd"]));
+        let tau = rnea(&model, &mut data, &q, &qd, &qdd)
+            .expect("rnea")
+            .as_slice()
+            .to_vec();
+        worst_tau = worst_tau.max(rel_err(&tau, &vec_of(&c["tau"])));
+        let a = aba(&model, &mut data, &q, &qd, &vec_of(&c["tau_fd"]))
+            .expect("aba")
+            .as_slice()
+            .to_vec();
+        worst_qdd = worst_qdd.max(rel_err(&a, &vec_of(&c["qdd_fd"])));
+        assert!(
+            worst_tau <= 1e-9 && worst_qdd <= 1e-9,
+            "case {i}: tau {worst_tau:e}, qdd {worst_qdd:e}"
+        );
+    }
+    eprintln!("puma560_drive: worst relative errors tau {worst_tau:.1e}, qdd {worst_qdd:.1e}");
+}
