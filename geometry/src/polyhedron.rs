@@ -17,7 +17,10 @@ pub struct Plane {
 impl Plane {
     /// The plane through `point` with unit `normal`.
     pub fn through(point: &Point3<f64>, normal: Vector3<f64>) -> Self {
-        Plane { normal, d: -normal.dot(&point.coords) }
+        Plane {
+            normal,
+            d: -normal.dot(&point.coords),
+        }
     }
     /// The seed's "plane residue": positive outside, negative inside, metres.
     #[inline]
@@ -27,7 +30,10 @@ impl Plane {
     /// The same plane expressed in another frame: `iso` maps this plane's frame into that one.
     pub fn transformed(&self, iso: &Isometry3<f64>) -> Self {
         let n = iso.rotation * self.normal;
-        Plane { normal: n, d: self.d - n.dot(&iso.translation.vector) }
+        Plane {
+            normal: n,
+            d: self.d - n.dot(&iso.translation.vector),
+        }
     }
 }
 
@@ -48,14 +54,20 @@ impl Aabb {
             lo = lo.inf(&p.coords);
             hi = hi.sup(&p.coords);
         }
-        Some(Aabb { center: Point3::from((lo + hi) * 0.5), half: (hi - lo) * 0.5 })
+        Some(Aabb {
+            center: Point3::from((lo + hi) * 0.5),
+            half: (hi - lo) * 0.5,
+        })
     }
     /// The box of this box after a rigid motion: the seed's dilation product,
     /// `half' = |R| · half` (Eq. 9), `center' = R·center + t`.
     pub fn transformed(&self, iso: &Isometry3<f64>) -> Self {
         let r = iso.rotation.to_rotation_matrix();
         let abs = r.matrix().abs();
-        Aabb { center: iso * self.center, half: abs * self.half }
+        Aabb {
+            center: iso * self.center,
+            half: abs * self.half,
+        }
     }
     /// Two-way overlap test (touching counts as overlapping).
     #[inline]
@@ -68,7 +80,10 @@ impl Aabb {
     pub fn merged(&self, other: &Aabb) -> Self {
         let lo = (self.center.coords - self.half).inf(&(other.center.coords - other.half));
         let hi = (self.center.coords + self.half).sup(&(other.center.coords + other.half));
-        Aabb { center: Point3::from((lo + hi) * 0.5), half: (hi - lo) * 0.5 }
+        Aabb {
+            center: Point3::from((lo + hi) * 0.5),
+            half: (hi - lo) * 0.5,
+        }
     }
     pub fn mins(&self) -> Point3<f64> {
         self.center - self.half
@@ -99,13 +114,29 @@ pub enum GeometryError {
     #[error("polygon {polygon} has {len} vertices; a polygon needs at least 3")]
     TooFewVertices { polygon: usize, len: usize },
     #[error("polygon {polygon} refers to vertex {index}, but there are only {count} vertices")]
-    IndexOutOfRange { polygon: usize, index: u32, count: usize },
-    #[error("polygon {polygon} has (nearly) zero area ({area:e} m²): its vertices are collinear or repeated")]
+    IndexOutOfRange {
+        polygon: usize,
+        index: u32,
+        count: usize,
+    },
+    #[error(
+        "polygon {polygon} has (nearly) zero area ({area:e} m²): its vertices are collinear or repeated"
+    )]
     Degenerate { polygon: usize, area: f64 },
     #[error("polygon {polygon} is not planar: vertex {vertex} lies {distance:e} m off its plane")]
-    NonPlanar { polygon: usize, vertex: u32, distance: f64 },
-    #[error("polygon {polygon} is not convex at its vertex {vertex} (position {corner} in the polygon)")]
-    Concave { polygon: usize, vertex: u32, corner: usize },
+    NonPlanar {
+        polygon: usize,
+        vertex: u32,
+        distance: f64,
+    },
+    #[error(
+        "polygon {polygon} is not convex at its vertex {vertex} (position {corner} in the polygon)"
+    )]
+    Concave {
+        polygon: usize,
+        vertex: u32,
+        corner: usize,
+    },
     #[error("the solid has no polygons")]
     Empty,
 }
@@ -137,7 +168,10 @@ impl Polyhedron {
         }
         for (i, v) in vertices.iter().enumerate() {
             if !v.coords.iter().all(|c| c.is_finite()) {
-                return Err(GeometryError::NonFiniteVertex { vertex: i, value: [v.x, v.y, v.z] });
+                return Err(GeometryError::NonFiniteVertex {
+                    vertex: i,
+                    value: [v.x, v.y, v.z],
+                });
             }
         }
         let mut indices = Vec::with_capacity(faces.iter().map(Vec::len).sum());
@@ -153,11 +187,18 @@ impl Polyhedron {
                 // side direction × polygon normal points out of the interior for a CCW polygon
                 let n = (b - a).cross(&plane.normal).normalize();
                 penalty.push(Plane::through(a, n));
-                let (lo, hi) = (face[i].min(face[(i + 1) % face.len()]), face[i].max(face[(i + 1) % face.len()]));
+                let (lo, hi) = (
+                    face[i].min(face[(i + 1) % face.len()]),
+                    face[i].max(face[(i + 1) % face.len()]),
+                );
                 edges.push([lo, hi]);
             }
             indices.extend_from_slice(face);
-            polygons.push(Polygon { start, len: face.len() as u32, plane });
+            polygons.push(Polygon {
+                start,
+                len: face.len() as u32,
+                plane,
+            });
         }
         edges.sort_unstable();
         edges.dedup();
@@ -166,11 +207,23 @@ impl Polyhedron {
             for &i in &indices {
                 seen[i as usize] = true;
             }
-            vertices.iter().zip(seen).filter(|(_, s)| *s).map(|(v, _)| *v).collect()
+            vertices
+                .iter()
+                .zip(seen)
+                .filter(|(_, s)| *s)
+                .map(|(v, _)| *v)
+                .collect()
         };
         // `used` is non-empty: there is at least one polygon with at least 3 valid indices.
         let bbox = Aabb::from_points(&used).ok_or(GeometryError::Empty)?;
-        Ok(Polyhedron { vertices, indices, penalty, polygons, edges, bbox })
+        Ok(Polyhedron {
+            vertices,
+            indices,
+            penalty,
+            polygons,
+            edges,
+            bbox,
+        })
     }
 
     /// The vertex indices of polygon `i`.
@@ -199,7 +252,9 @@ impl Polyhedron {
         if directed.windows(2).any(|w| w[0] == w[1]) {
             return false;
         }
-        directed.iter().all(|&(a, b)| directed.binary_search(&(b, a)).is_ok())
+        directed
+            .iter()
+            .all(|&(a, b)| directed.binary_search(&(b, a)).is_ok())
     }
 
     /// V − E + F over the used vertices; 2 for a closed solid of genus 0.
@@ -216,23 +271,44 @@ impl Polyhedron {
         let polygons = self
             .polygons
             .iter()
-            .map(|p| Polygon { plane: p.plane.transformed(iso), ..*p })
+            .map(|p| Polygon {
+                plane: p.plane.transformed(iso),
+                ..*p
+            })
             .collect();
         let penalty = self.penalty.iter().map(|p| p.transformed(iso)).collect();
         let bbox = Aabb::from_points(&vertices).unwrap_or(self.bbox.transformed(iso));
-        Polyhedron { vertices, indices: self.indices.clone(), penalty, polygons, edges: self.edges.clone(), bbox }
+        Polyhedron {
+            vertices,
+            indices: self.indices.clone(),
+            penalty,
+            polygons,
+            edges: self.edges.clone(),
+            bbox,
+        }
     }
 }
 
 /// Newell's normal (area-weighted, robust for nearly degenerate input), then planarity and
 /// convexity against it.
-fn check_polygon(vertices: &[Point3<f64>], fi: usize, face: &[u32]) -> Result<Plane, GeometryError> {
+fn check_polygon(
+    vertices: &[Point3<f64>],
+    fi: usize,
+    face: &[u32],
+) -> Result<Plane, GeometryError> {
     if face.len() < 3 {
-        return Err(GeometryError::TooFewVertices { polygon: fi, len: face.len() });
+        return Err(GeometryError::TooFewVertices {
+            polygon: fi,
+            len: face.len(),
+        });
     }
     for &i in face {
         if i as usize >= vertices.len() {
-            return Err(GeometryError::IndexOutOfRange { polygon: fi, index: i, count: vertices.len() });
+            return Err(GeometryError::IndexOutOfRange {
+                polygon: fi,
+                index: i,
+                count: vertices.len(),
+            });
         }
     }
     let p = |k: usize| vertices[face[k % face.len()] as usize];
@@ -248,14 +324,22 @@ fn check_polygon(vertices: &[Point3<f64>], fi: usize, face: &[u32]) -> Result<Pl
         return Err(GeometryError::Degenerate { polygon: fi, area });
     }
     let normal = newell / (2.0 * area);
-    let centroid = face.iter().fold(Vector3::zeros(), |acc, &i| acc + vertices[i as usize].coords)
-        / face.len() as f64;
-    let plane = Plane { normal, d: -normal.dot(&centroid) };
+    let centroid = face.iter().fold(Vector3::zeros(), |acc, &i| {
+        acc + vertices[i as usize].coords
+    }) / face.len() as f64;
+    let plane = Plane {
+        normal,
+        d: -normal.dot(&centroid),
+    };
     let tol = PLANARITY_TOL * size.max(f64::MIN_POSITIVE);
     for &i in face {
         let dist = plane.signed_distance(&vertices[i as usize]);
         if dist.abs() > tol.max(1e-12 * centroid.norm()) {
-            return Err(GeometryError::NonPlanar { polygon: fi, vertex: i, distance: dist });
+            return Err(GeometryError::NonPlanar {
+                polygon: fi,
+                vertex: i,
+                distance: dist,
+            });
         }
     }
     // Convex and simple: every corner turns the same way as the normal, and the turning adds up
@@ -266,12 +350,20 @@ fn check_polygon(vertices: &[Point3<f64>], fi: usize, face: &[u32]) -> Result<Pl
         let (u, v) = (b - a, c - b);
         let turn = u.cross(&v).dot(&normal);
         if turn < -tol * size {
-            return Err(GeometryError::Concave { polygon: fi, vertex: face[(k + 1) % face.len()], corner: (k + 1) % face.len() });
+            return Err(GeometryError::Concave {
+                polygon: fi,
+                vertex: face[(k + 1) % face.len()],
+                corner: (k + 1) % face.len(),
+            });
         }
         total_angle += turn.atan2(u.dot(&v));
     }
     if (total_angle - std::f64::consts::TAU).abs() > 1e-6 {
-        return Err(GeometryError::Concave { polygon: fi, vertex: face[0], corner: 0 });
+        return Err(GeometryError::Concave {
+            polygon: fi,
+            vertex: face[0],
+            corner: 0,
+        });
     }
     Ok(plane)
 }
@@ -282,7 +374,13 @@ mod tests {
 
     fn unit_cube() -> (Vec<Point3<f64>>, Vec<Vec<u32>>) {
         let v: Vec<Point3<f64>> = (0..8)
-            .map(|i| Point3::new((i & 1) as f64 - 0.5, ((i >> 1) & 1) as f64 - 0.5, ((i >> 2) & 1) as f64 - 0.5))
+            .map(|i| {
+                Point3::new(
+                    (i & 1) as f64 - 0.5,
+                    ((i >> 1) & 1) as f64 - 0.5,
+                    ((i >> 2) & 1) as f64 - 0.5,
+                )
+            })
             .collect();
         let f = vec![
             vec![0, 2, 3, 1], // z-
@@ -308,7 +406,10 @@ mod tests {
         // penalty planes: the face centre is inside every side's penalty plane
         for i in 0..p.polygons.len() {
             let ids = p.polygon_indices(i);
-            let c = ids.iter().fold(Vector3::zeros(), |a, &k| a + p.vertices[k as usize].coords) / 4.0;
+            let c = ids
+                .iter()
+                .fold(Vector3::zeros(), |a, &k| a + p.vertices[k as usize].coords)
+                / 4.0;
             for pen in p.polygon_penalties(i) {
                 assert!(pen.signed_distance(&Point3::from(c)) < 0.0);
             }
@@ -329,7 +430,11 @@ mod tests {
         ];
         assert!(matches!(
             Polyhedron::from_polygons(v.clone(), &[vec![0, 1, 2, 3, 4]]),
-            Err(GeometryError::Concave { polygon: 0, vertex: 2, .. })
+            Err(GeometryError::Concave {
+                polygon: 0,
+                vertex: 2,
+                ..
+            })
         ));
         assert!(matches!(
             Polyhedron::from_polygons(v.clone(), &[vec![0, 1, 5, 4]]),
@@ -341,7 +446,11 @@ mod tests {
         ));
         assert!(matches!(
             Polyhedron::from_polygons(v, &[vec![0, 1, 9]]),
-            Err(GeometryError::IndexOutOfRange { polygon: 0, index: 9, .. })
+            Err(GeometryError::IndexOutOfRange {
+                polygon: 0,
+                index: 9,
+                ..
+            })
         ));
     }
 
@@ -368,7 +477,11 @@ mod tests {
         let carried = p.bbox.transformed(&iso);
         for v in &moved.vertices {
             let d = (v - carried.center).abs();
-            assert!(d.x <= carried.half.x + 1e-12 && d.y <= carried.half.y + 1e-12 && d.z <= carried.half.z + 1e-12);
+            assert!(
+                d.x <= carried.half.x + 1e-12
+                    && d.y <= carried.half.y + 1e-12
+                    && d.z <= carried.half.z + 1e-12
+            );
         }
     }
 }
