@@ -238,6 +238,12 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
                 None => {
                     let _ = writeln!(o, "no alarms: nothing to diagnose");
                 }
+                Some(gs) if gs.failure_modes.is_empty() => {
+                    let _ = writeln!(
+                        o,
+                        "no hypothesis of up to 3 faults explains these alarms within the model (a sensor fault, or a fault the model lacks?)"
+                    );
+                }
                 Some(gs) => {
                     let kind = if gs.multiple {
                         "multiple fault"

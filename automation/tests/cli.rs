@@ -244,3 +244,23 @@ fn show_cli_output() {
         .unwrap()
     );
 }
+
+#[test]
+fn run_says_when_nothing_explains_the_alarms() {
+    // Only the pump-flow alarm rings: both ways into Pumping.no_flow (the pump failure and the
+    // missing inlet water) have allocated alarms that stay silent, so no source reaches it.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("a.txt");
+    std::fs::write(&file, "5 A_pump_flow\n").unwrap();
+    let out = execute(DiagCmd::Run {
+        model: "eclss".into(),
+        alarms: file,
+        until: None,
+        drop: vec![],
+    })
+    .unwrap();
+    assert!(
+        out.contains("no hypothesis of up to 3 faults explains these alarms"),
+        "{out}"
+    );
+}
