@@ -136,3 +136,26 @@ fn bounded_searches_give_the_same_diagnoses_as_full_ones() {
         "some scenario needed the multiple-fault search"
     );
 }
+
+#[test]
+fn eclss_resolution_falls_as_alarms_are_filtered_away() {
+    let rows = robosim_automation::bench::eclss_resolution(&[30, 15, 5], 1, 2).unwrap();
+    let get = |label: &str| {
+        &rows
+            .iter()
+            .find(|r| r.label.starts_with(label))
+            .unwrap()
+            .resolution
+    };
+    assert_eq!(get("all").isolation_rate(), 1.0);
+    let (g30, g15, g5) = (get("greedy 30"), get("greedy 15"), get("greedy 5"));
+    assert!(
+        g30.isolation_rate() >= g15.isolation_rate() && g15.isolation_rate() >= g5.isolation_rate()
+    );
+    assert!(
+        g5.isolation_rate() < 1.0 && g5.mean_group > 1.0,
+        "5 alarms cannot separate 21 faults"
+    );
+    // The advisor beats random allocations of the same size on the quantity it optimises.
+    assert!(g5.cost(21) <= get("random 5").cost(21));
+}
