@@ -635,3 +635,29 @@ fn hybrid_finds_close_root_pairs_near_the_reach_edge() {
         "found the generating configuration in {found} of {n}"
     );
 }
+
+#[test]
+fn dls_with_all_returns_distinct_configurations() {
+    let robot = puma();
+    let q = [0.3, -0.4, 0.6, 1.0, -0.8, 0.5];
+    let target = fk::forward(&robot, &q);
+    let o = IkOptions {
+        all: true,
+        restarts: 60,
+        tolerances: robosim_kinematics::pose::Tolerances::uniform(1e-10, 1e-10),
+        ..IkOptions::default()
+    };
+    let r = ik::solve(&robot, &target, Method::Dls, &o).expect("converges");
+    assert!(r.solutions.len() >= 2, "{} solutions", r.solutions.len());
+    let closed = ik::solve(&robot, &target, Method::Analytic, &all()).expect("reachable");
+    for s in &r.solutions {
+        assert!(s.converged && s.within_limits);
+        // Each numeric answer is one of the eight closed-form ones.
+        assert!(contains_q(&closed, &s.q, 1e-6), "{:?}", s.q);
+    }
+    for (i, a) in r.solutions.iter().enumerate() {
+        for b in &r.solutions[i + 1..] {
+            assert!(!a.q.iter().zip(&b.q).all(|(x, y)| (x - y).abs() < 1e-6));
+        }
+    }
+}

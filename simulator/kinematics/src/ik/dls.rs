@@ -10,7 +10,9 @@
 //! length scale (sum of |a| and |d|) so the method is unit-free; W zeroes axes whose tolerance
 //! is infinite. Iterates are clamped into the joint limits when `respect_limits`.
 //! A start ends on convergence, on `max_iterations`, or on stagnation; the next start is drawn
-//! uniformly within the limits by a ChaCha8 generator seeded with `options.seed`.
+//! uniformly within the limits by a ChaCha8 generator seeded with `options.seed`. With
+//! `options.all`, every start runs and each distinct converged configuration is returned (a
+//! sample of the solution set — for a redundant arm it is a continuum — not a complete list).
 //!
 //! Entry point: [`Dls`].
 
@@ -22,6 +24,10 @@ use nalgebra::{Matrix4, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
+
+/// Joint-space distance (max-norm, revolute joints modulo 2π) below which two answers of an
+/// `all` solve count as one.
+pub const DISTINCT: f64 = 1e-6;
 
 /// Floor of the damping, λ̄.
 pub const LAMBDA_FLOOR: f64 = 1e-9;
@@ -198,6 +204,7 @@ impl IkSolver for Dls {
         let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
         let mut best: Option<(f64, Vec<f64>, usize)> = None;
         let mut total_iterations = 0;
+        let mut found: Vec<IkSolution> = Vec::new();
         let starts = options.restarts + 1;
         for start in 0..starts {
             let mut q = match (&options.q0, start) {
@@ -267,16 +274,40 @@ impl IkSolver for Dls {
                     total_iterations,
                     Vec::new(),
                 );
-                if sol.converged {
+                if sol.converged && !options.all {
                     return Ok(IkResult {
                         method: Method::Dls,
                         solutions: vec![sol],
                     });
                 }
+                // With `all`, every start runs and each distinct converged answer is kept.
+                let distinct = found.iter().all(|o: &IkSolution| {
+                    robot
+                        .joints
+                        .iter()
+                        .zip(o.q.iter().zip(&sol.q))
+                        .any(|(j, (a, b))| {
+                            let d = if j.joint_type == JointType::Revolute {
+                                super::wrap(a - b)
+                            } else {
+                                a - b
+                            };
+                            d.abs() > DISTINCT
+                        })
+                });
+                if sol.converged && distinct {
+                    found.push(sol);
+                }
             }
             if best.as_ref().is_none_or(|b| cur.energy < b.0) {
                 best = Some((cur.energy, q, total_iterations));
             }
+        }
+        if !found.is_empty() {
+            return Ok(IkResult {
+                method: Method::Dls,
+                solutions: found,
+            });
         }
         let (_, q, _) = best.unwrap_or((0.0, vec![0.0; n], 0));
         let sol: IkSolution = finish(
