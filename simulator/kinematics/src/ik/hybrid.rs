@@ -5,7 +5,7 @@
 //! For a trial θ6 the pose of frame 5 is known, hence the point where axes 4 and 5 meet
 //! (frame 4's origin, since A5's translation does not depend on θ5). The arm's four branches
 //! follow in closed form from that point, then θ4 and θ5 from the direction of axis 5 — which
-//! must lie in the plane normal to axis 4: f(θ6) = M[2][2] = 0 is the one scalar equation left.
+//! must lie in the plane normal to axis 4: f(θ6) = M₂₂ = 0 is the one scalar equation left.
 //! Each root is polished by Brent's method (a safeguarded secant, more robust than the bare
 //! Newton step the seed names, with the same one-unknown structure). Finding every root:
 //! * the arm is evaluated on its clamped extension, so f is defined and continuous for every θ6;
