@@ -492,3 +492,46 @@ fn move_input_hands_over_exactly_the_unread_tokens() {
         .collect();
     assert_eq!(got, want);
 }
+
+#[test]
+fn actors_run_only_on_their_worker_pool() {
+    let g = Graph::with_pools(&[("control", 1), ("supervision", 2)]);
+    g.set_tracing(true);
+    let q = g
+        .edit(|e| -> Result<_, robosim_automation::kernel::KernelError> {
+            let q = e.add_data("q", Retention::Stream)?;
+            let fast =
+                e.add_actor(ActorSpec::new("loop", |_: &mut Ctx<'_>| Ok(())).inputs(&["x"]))?;
+            let slow = e.add_actor(
+                ActorSpec::new("watch", |_: &mut Ctx<'_>| Ok(()))
+                    .inputs(&["x"])
+                    .pool("supervision"),
+            )?;
+            e.connect_in(q, fast, "x")?;
+            e.connect_in(q, slow, "x")?;
+            Ok(q)
+        })
+        .unwrap();
+    for i in 0..300 {
+        g.write(q, Value::F64(i as f64)).unwrap();
+    }
+    g.wait_idle();
+    let t = g.trace();
+    assert_eq!(t.len(), 600);
+    // Worker 0 is the control pool's thread; workers 1 and 2 belong to supervision.
+    assert!(
+        t.iter()
+            .filter(|r| r.actor == "loop")
+            .all(|r| r.worker == 0)
+    );
+    assert!(
+        t.iter()
+            .filter(|r| r.actor == "watch")
+            .all(|r| r.worker == 1 || r.worker == 2)
+    );
+    assert!(g.to_dot().contains("pool supervision"));
+    let err = g
+        .edit(|e| e.add_actor(ActorSpec::new("x", |_: &mut Ctx<'_>| Ok(())).pool("gpu")))
+        .unwrap_err();
+    assert_eq!(err.to_string(), "no worker pool named `gpu`");
+}

@@ -36,6 +36,11 @@ pub(super) fn render(st: &State) -> String {
         } else {
             "white"
         };
+        let pool = if a.pool == 0 {
+            String::new()
+        } else {
+            format!(", pool {}", st.pools[a.pool])
+        };
         let mode = format!(
             "{}, {}",
             match a.firing {
@@ -49,7 +54,7 @@ pub(super) fn render(st: &State) -> String {
         );
         let _ = writeln!(
             s,
-            "  a{i} [shape=box, style=filled, fillcolor={fill}, label=\"{}\\n{mode}\\nfired {} requests {}\"];",
+            "  a{i} [shape=box, style=filled, fillcolor={fill}, label=\"{}\\n{mode}{pool}\\nfired {} requests {}\"];",
             esc(&a.name),
             a.fired,
             a.requests

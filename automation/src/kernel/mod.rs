@@ -16,7 +16,8 @@
 //!   its empty inputs. Graphs may mix both kinds.
 //! * The **system interface**: a scheduler runs ready actors on a pool of worker threads
 //!   (`std::thread` + `Mutex`/`Condvar`), or one at a time on the caller's thread
-//!   ([`Graph::manual`] + [`Graph::step`], the stepper).
+//!   ([`Graph::manual`] + [`Graph::step`], the stepper). Named pools ([`Graph::with_pools`],
+//!   [`ActorSpec::pool`]) are the MEE's task structure: an actor runs only on its pool.
 //! * The **builder and control interface** ([`Control::edit`]) adds, removes and rewires nodes
 //!   of a *running* graph: an edit is applied atomically between firings, without stopping the
 //!   workers; a script can edit the graph it runs in ([`Ctx::control`]). Tokens held in a data
@@ -135,6 +136,8 @@ pub enum KernelError {
     InputTaken { actor: String, port: String },
     #[error("a data node or actor named `{0}` already exists")]
     DuplicateName(String),
+    #[error("no worker pool named `{0}`")]
+    UnknownPool(String),
     #[error("stepping needs a graph built with Graph::manual")]
     NotManual,
 }
@@ -165,6 +168,7 @@ pub struct ActorSpec {
     drive: Drive,
     script: Arc<dyn Script>,
     context: Box<dyn Any + Send>,
+    pool: Option<String>,
 }
 
 impl ActorSpec {
@@ -182,6 +186,7 @@ impl ActorSpec {
             drive: Drive::Data,
             script,
             context: Box::new(()),
+            pool: None,
         }
     }
     pub fn inputs(mut self, names: &[&str]) -> Self {
@@ -198,6 +203,12 @@ impl ActorSpec {
     }
     pub fn drive(mut self, d: Drive) -> Self {
         self.drive = d;
+        self
+    }
+    /// The worker pool that runs this actor (the MEE's task structure; default: the graph's
+    /// first pool). See [`Graph::with_pools`].
+    pub fn pool(mut self, name: &str) -> Self {
+        self.pool = Some(name.to_string());
         self
     }
     /// The actor's local parameter structure, reachable from the script by [`Ctx::context`].
@@ -314,6 +325,8 @@ struct OutPort {
 
 struct ActorSlot {
     name: String,
+    /// Index of the worker pool that runs it.
+    pool: usize,
     inputs: Vec<InPort>,
     outputs: Vec<OutPort>,
     firing: Firing,
@@ -368,7 +381,10 @@ fn unlink_writers(data: &mut [Option<DataSlot>], a: usize, slot: &ActorSlot) {
 struct State {
     actors: Vec<Option<ActorSlot>>,
     data: Vec<Option<DataSlot>>,
-    ready: VecDeque<usize>,
+    /// Ready actors, one queue per worker pool.
+    ready: Vec<VecDeque<usize>>,
+    /// Worker pool names (index 0 is the default).
+    pools: Vec<String>,
     running: usize,
     shutdown: bool,
     tracing: bool,
@@ -404,15 +420,32 @@ impl std::ops::Deref for Graph {
 }
 
 impl Graph {
-    /// A graph whose ready actors run on `workers` threads (at least one).
+    /// A graph whose ready actors run on `workers` threads (at least one), one pool.
     pub fn new(workers: usize) -> Graph {
-        let control = Control::fresh();
-        let workers = (0..workers.max(1))
-            .map(|w| {
+        Graph::with_pools(&[("default", workers)])
+    }
+
+    /// A graph with named worker pools — the MEE's "environment and task structure" that
+    /// assigns resources to actors: an actor declared with [`ActorSpec::pool`] runs only on its
+    /// pool's threads (e.g. a real-time control loop apart from slow supervision). The first
+    /// pool is the default. Each pool gets at least one thread.
+    pub fn with_pools(pools: &[(&str, usize)]) -> Graph {
+        let pools: Vec<(&str, usize)> = if pools.is_empty() {
+            vec![("default", 1)]
+        } else {
+            pools.to_vec()
+        };
+        let control = Control::fresh_with(pools.iter().map(|p| p.0.to_string()).collect());
+        let mut workers = Vec::new();
+        let mut w = 0;
+        for (pool, &(_, n)) in pools.iter().enumerate() {
+            for _ in 0..n.max(1) {
                 let c = control.clone();
-                std::thread::spawn(move || c.worker_loop(w))
-            })
-            .collect();
+                let id = w;
+                workers.push(std::thread::spawn(move || c.worker_loop(id, pool)));
+                w += 1;
+            }
+        }
         Graph {
             control,
             workers,
@@ -423,7 +456,7 @@ impl Graph {
     /// A graph without workers: actors fire only through [`Graph::step`] (the stepper).
     pub fn manual() -> Graph {
         Graph {
-            control: Control::fresh(),
+            control: Control::fresh_with(vec!["default".to_string()]),
             workers: Vec::new(),
             manual: true,
         }
@@ -440,7 +473,7 @@ impl Graph {
             return Err(KernelError::NotManual);
         }
         let mut st = self.control.lock();
-        while let Some(a) = st.ready.pop_front() {
+        while let Some(a) = st.ready.iter_mut().find_map(|q| q.pop_front()) {
             if let Some(slot) = st.actors[a].as_mut() {
                 slot.queued = false;
                 if self.control.can_fire(&st, a) {
@@ -468,7 +501,7 @@ impl Graph {
             return;
         }
         let mut st = self.control.lock();
-        while st.running > 0 || !st.ready.is_empty() {
+        while st.running > 0 || st.ready.iter().any(|q| !q.is_empty()) {
             st = self
                 .control
                 .shared
@@ -534,7 +567,17 @@ impl Edit<'_> {
         {
             return Err(KernelError::DuplicateName(spec.name));
         }
+        let pool = match &spec.pool {
+            None => 0,
+            Some(p) => self
+                .st
+                .pools
+                .iter()
+                .position(|q| q == p)
+                .ok_or_else(|| KernelError::UnknownPool(p.clone()))?,
+        };
         self.st.actors.push(Some(ActorSlot {
+            pool,
             name: spec.name,
             inputs: spec
                 .inputs
@@ -755,10 +798,15 @@ impl Edit<'_> {
 }
 
 impl Control {
-    fn fresh() -> Control {
+    fn fresh_with(pools: Vec<String>) -> Control {
+        let state = State {
+            ready: vec![VecDeque::new(); pools.len()],
+            pools,
+            ..State::default()
+        };
         Control {
             shared: Arc::new(Shared {
-                state: Mutex::new(State::default()),
+                state: Mutex::new(state),
                 work: Condvar::new(),
                 idle: Condvar::new(),
             }),
@@ -945,11 +993,11 @@ impl Control {
             .and_then(|s| s.as_ref())
             .is_some_and(|s| !s.queued)
             && self.can_fire(st, a)
+            && let Some(slot) = st.actors[a].as_mut()
         {
-            if let Some(slot) = st.actors[a].as_mut() {
-                slot.queued = true;
-            }
-            st.ready.push_back(a);
+            slot.queued = true;
+            let pool = slot.pool;
+            st.ready[pool].push_back(a);
         }
     }
 
@@ -1086,13 +1134,13 @@ impl Control {
         (st, rec)
     }
 
-    fn worker_loop(&self, w: usize) {
+    fn worker_loop(&self, w: usize, pool: usize) {
         let mut st = self.lock();
         loop {
             if st.shutdown {
                 return;
             }
-            match st.ready.pop_front() {
+            match st.ready[pool].pop_front() {
                 Some(a) => {
                     if let Some(slot) = st.actors[a].as_mut() {
                         slot.queued = false;
