@@ -1,0 +1,79 @@
+//! The JSON-lines transport driven as a client would: whole sessions through [`serve`], bad
+//! lines, a fuzz of arbitrary input, and interactive use through pipes. One test binary (the
+//! modules below) to keep link time down.
+
+mod bad_lines;
+mod fuzz;
+mod pipes;
+mod session;
+
+use robosim_hl_interface::serve;
+use serde_json::Value;
+
+/// Runs `input` through [`serve`] and returns the answer lines, each parsed, with the raw text.
+pub fn run_bytes(input: &[u8]) -> Vec<(String, Value)> {
+    let mut out = Vec::new();
+    let stats = serve(input, &mut out).expect("in-memory streams do not fail");
+    let text = String::from_utf8(out).expect("answers are UTF-8");
+    assert!(text.is_empty() || text.ends_with('\n'), "answer not newline-terminated");
+    let lines: Vec<(String, Value)> = text
+        .lines()
+        .map(|l| {
+            let v: Value = serde_json::from_str(l)
+                .unwrap_or_else(|e| panic!("answer is not JSON ({e}): {l}"));
+            (l.to_owned(), v)
+        })
+        .collect();
+    assert_eq!(stats.lines, lines.len() as u64, "stats.lines");
+    assert_eq!(stats.ok + stats.errors, stats.lines, "stats add up");
+    let ok = lines.iter().filter(|(_, v)| v["ok"] == Value::Bool(true)).count();
+    assert_eq!(stats.ok, ok as u64, "stats.ok");
+    lines
+}
+
+/// One request per line.
+pub fn run_values(reqs: &[Value]) -> Vec<(String, Value)> {
+    let mut input = String::new();
+    for r in reqs {
+        input.push_str(&r.to_string());
+        input.push('\n');
+    }
+    run_bytes(input.as_bytes())
+}
+
+/// The error kind of an answer (panics on an ok answer, with the answer shown).
+pub fn kind(answer: &Value) -> &str {
+    assert_eq!(answer["ok"], false, "expected an error answer: {answer}");
+    answer["error"]["kind"]
+        .as_str()
+        .unwrap_or_else(|| panic!("error.kind missing: {answer}"))
+}
+
+/// The numbers of a JSON array (panics with the path otherwise).
+pub fn numbers(v: &Value, what: &str) -> Vec<f64> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("{what}: not an array: {v}"))
+        .iter()
+        .map(|x| x.as_f64().unwrap_or_else(|| panic!("{what}: not a number: {x}")))
+        .collect()
+}
+
+/// Rows of numbers of a JSON matrix.
+pub fn rows(v: &Value, what: &str) -> Vec<Vec<f64>> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("{what}: not an array: {v}"))
+        .iter()
+        .enumerate()
+        .map(|(i, r)| numbers(r, &format!("{what}[{i}]")))
+        .collect()
+}
+
+pub fn assert_close(got: &[f64], want: &[f64], tol: f64, what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: length");
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        assert!(
+            (g - w).abs() <= tol * (1.0 + w.abs()),
+            "{what}[{i}]: got {g}, want {w}"
+        );
+    }
+}
