@@ -1,11 +1,53 @@
 //! `robosim demo`: a headless session that does real work and reports what it did. Every
-//! step below runs through the real processes and shared memory; nothing is simulated in
-//! this function itself.
+//! number printed is computed in this run; every step goes through the real crates, the real
+//! processes and the shared memory.
+//!
+//! The scene is the standard library's `surgical_positioner_cell` (seed §2.7: the kinematic
+//! surgical positioner beside the patient's head). Steps:
+//! 1. start the session (keeper and simulator daemon, each its own process);
+//! 2. attach a reader: the model is mapped from shared memory; the mapped robot is checked
+//!    against the Library Space evaluation of the same scene;
+//! 3. kinematics: a tool pose 1 mm off the head (the seed's 20.1 cm from its axis), derived
+//!    from the head's pose in the snapshot; all analytic IK solutions (seed §2.4);
+//! 4. collision: every solution's link solids against the head in the scene's declared mode
+//!    (seed §2.6); a collision-free solution whose MOVEJI path is also clear is kept;
+//! 5. MOVEJI (appendix 2.2): each interpolated step one journaled transaction; the reader sees
+//!    every version, in order, naming only the links;
+//! 6. the simulator daemon's state for the new structure version;
+//! 7. the twelve-bit encoder study at the final pose (seed §2.7);
+//! 8. dynamics: gravity torques holding the arm, checked by simulating with them;
+//! 9. automation: an ECLSS fault with its own sensor failed, its alarms, the diagnosis
+//!    (seed §4.3);
+//! 10. bad input refused whole; 11. clean stop.
+//!
+//! Entry point: [`run`].
 
-use crate::{Result, bridge, launcher};
+use crate::{Result, bail, bridge, launcher};
+use nalgebra::{Matrix4, Vector3};
+use robosim_collision::robot::{
+    Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
+    isometry_from_matrix, move_checked,
+};
+use robosim_collision::{Mode, Solid};
+use robosim_geometry::MassProperties;
 use robosim_instance_space::state::StateSubscriber;
-use robosim_instance_space::{Client, Reader, Session, Transaction, aspect};
+use robosim_instance_space::{Client, Kind, Reader, Session, Snapshot, Transaction, aspect};
+use robosim_kinematics::ik::{self, IkOptions, Method};
+use robosim_kinematics::{Robot, encoder, movej_interpolate, pose::Residual};
+use robosim_library::{CollisionMode, Evaluated, Params, PlacedSolid, Primitive, SceneModel};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
+
+/// The library scene the demo runs.
+const SCENE: &str = "surgical_positioner_cell";
+/// The seed's §2.7 study: the tool tip 20.1 cm from the head's axis (1 mm off its surface).
+const TIP_FROM_AXIS: f64 = 0.201;
+/// Where on the head the demo aims: this angle above the horizontal, towards the robot's side…
+const ARC_DEG: f64 = 45.0;
+/// …and this far along the head's axis from its centre, m.
+const ALONG_AXIS: f64 = 0.05;
+/// MOVEJI steps.
+const STEPS: usize = 30;
 
 struct SessionGuard {
     name: String,
@@ -23,7 +65,172 @@ impl Drop for SessionGuard {
     }
 }
 
+fn m4(p: &[f64; 12]) -> Matrix4<f64> {
+    let mut m = Matrix4::identity();
+    for r in 0..3 {
+        for c in 0..4 {
+            m[(r, c)] = p[r * 4 + c];
+        }
+    }
+    m
+}
+
+fn xyz(m: &Matrix4<f64>) -> String {
+    format!("({:+.3}, {:+.3}, {:+.3})", m[(0, 3)], m[(1, 3)], m[(2, 3)])
+}
+
+fn vec_str(v: &[f64], digits: usize) -> String {
+    let parts: Vec<String> = v.iter().map(|x| format!("{x:+.digits$}")).collect();
+    format!("[{}]", parts.join(", "))
+}
+
+/// A collision body for a library primitive: the exact primitive where the collision crate
+/// has one (with the library's facet count, so both faceted forms agree), else the library's
+/// polyhedron as a mesh.
+fn collision_solid(p: &PlacedSolid) -> Result<Solid> {
+    let s = match &p.primitive {
+        Primitive::Box { size } => Solid::cuboid(Vector3::new(size[0], size[1], size[2])),
+        Primitive::Cylinder {
+            radius,
+            height,
+            facets,
+        } => Solid::cylinder(*radius, *height, Some(*facets)),
+        Primitive::Cone {
+            radius,
+            height,
+            facets,
+        } => Solid::cone(*radius, *height, Some(*facets)),
+        Primitive::Sphere { radius, facets } => Solid::sphere(*radius, Some(*facets)),
+        _ => {
+            let poly = &p.polyhedron;
+            let polygons: Vec<Vec<u32>> = (0..poly.polygons.len())
+                .map(|i| poly.polygon_indices(i).to_vec())
+                .collect();
+            Solid::mesh(poly.vertices.clone(), &polygons)
+        }
+    };
+    s.map_err(|e| crate::CliError(format!("solid {}: {e}", p.name)))
+}
+
+/// The robot's link solids (base first) from the library's evaluation: one solid per frame,
+/// a compound where a frame carries several parts.
+fn link_solids(frames: &[Vec<PlacedSolid>]) -> Result<LinkSolids> {
+    let mut links = Vec::with_capacity(frames.len());
+    for parts in frames {
+        let mut placed = Vec::with_capacity(parts.len());
+        for p in parts {
+            placed.push((isometry_from_matrix(&p.transform), collision_solid(p)?));
+        }
+        links.push(match placed.len() {
+            0 => None,
+            1 => placed.pop().map(|(offset, solid)| LinkSolid {
+                solid: Arc::new(solid),
+                offset,
+            }),
+            _ => Some(LinkSolid {
+                solid: Arc::new(
+                    Solid::compound(placed).map_err(|e| crate::CliError(e.to_string()))?,
+                ),
+                offset: nalgebra::Isometry3::identity(),
+            }),
+        });
+    }
+    Ok(LinkSolids {
+        links,
+        allowed: Vec::new(),
+    })
+}
+
+/// The scene's fixed solids as collision obstacles, in the world.
+fn obstacles(scene: &SceneModel) -> Result<Scene> {
+    let mut out = Scene::new();
+    for it in &scene.solids {
+        for p in &it.solid.parts {
+            let pose = isometry_from_matrix(&(it.placement * p.transform));
+            out.add(it.name.clone(), Arc::new(collision_solid(p)?), pose);
+        }
+    }
+    Ok(out)
+}
+
+fn body_name(b: &Body, link_names: &[String]) -> String {
+    match b {
+        Body::Object { name, .. } => name.clone(),
+        Body::Link(0) | Body::RobotLink { link: 0, .. } => "base".into(),
+        Body::Link(j) | Body::RobotLink { link: j, .. } => link_names
+            .get(j - 1)
+            .cloned()
+            .unwrap_or_else(|| format!("link {j}")),
+    }
+}
+
+fn verdict(r: &CheckResult, link_names: &[String]) -> String {
+    match r {
+        CheckResult::Clear => "clear".into(),
+        CheckResult::Contact(cs) => {
+            let mut pairs: Vec<String> = cs
+                .iter()
+                .map(|c| {
+                    format!(
+                        "{}×{}",
+                        body_name(&c.a, link_names),
+                        body_name(&c.b, link_names)
+                    )
+                })
+                .collect();
+            pairs.dedup();
+            format!("HITS {}", pairs.join(", "))
+        }
+        CheckResult::Unknown { a, b, reason } => format!(
+            "unknown ({}×{}: {reason})",
+            body_name(a, link_names),
+            body_name(b, link_names)
+        ),
+    }
+}
+
+/// The mapped robot of the snapshot: DH rows from the link records, base from the robot
+/// object's world pose, tool from its record.
+fn mapped_robot(snap: &Snapshot, arm: &bridge::SpaceRobot, name: &str) -> Result<Robot> {
+    let i = snap
+        .find(name)
+        .ok_or_else(|| crate::CliError(format!("no object {name} in the snapshot")))?;
+    Ok(Robot {
+        base: m4(&snap.world_pose(i)),
+        tool: m4(&snap.objects()[i].tool),
+        ..arm.robot.clone()
+    })
+}
+
+/// Largest difference between the kinematic data of two robots (DH rows, limits, base, tool).
+fn kinematic_difference(a: &Robot, b: &Robot) -> f64 {
+    if a.dof() != b.dof() || a.convention != b.convention {
+        return f64::INFINITY;
+    }
+    let mut d: f64 = (a.base - b.base)
+        .abs()
+        .max()
+        .max((a.tool - b.tool).abs().max());
+    for (x, y) in a.joints.iter().zip(&b.joints) {
+        if x.joint_type != y.joint_type {
+            return f64::INFINITY;
+        }
+        for (p, q) in [
+            (x.a, y.a),
+            (x.d, y.d),
+            (x.alpha, y.alpha),
+            (x.offset, y.offset),
+            (x.qlim[0], y.qlim[0]),
+            (x.qlim[1], y.qlim[1]),
+        ] {
+            d = d.max((p - q).abs());
+        }
+    }
+    d
+}
+
 pub fn run(session: Option<&str>) -> Result<()> {
+    let t_start = Instant::now();
     let name = session
         .map(str::to_owned)
         .unwrap_or_else(|| format!("demo{}", std::process::id()));
@@ -31,11 +238,25 @@ pub fn run(session: Option<&str>) -> Result<()> {
         name: name.clone(),
         remove_dir: session.is_none(),
     };
-    println!("== 1. start a session: keeper + simulator, each its own process");
-    launcher::up("demo", &["simulator".to_owned()], Some(&name))?;
+    let lib = robosim_library::standard_library()
+        .ok_or_else(|| crate::CliError("the standard library failed to load".into()))?;
+    let scene = match lib.evaluate(SCENE, &Params::new()) {
+        Ok(Evaluated::Scene(s)) => s,
+        Ok(_) => bail!("{SCENE} is not a scene"),
+        Err(e) => bail!("{SCENE}: {e}"),
+    };
+    let placed = scene
+        .robots
+        .first()
+        .ok_or_else(|| crate::CliError(format!("{SCENE} places no robot")))?;
+    let model = &placed.model;
+    let link_names = &model.link_names;
+
+    println!("== 1. session on library scene {SCENE} (seed §2.7): keeper + simulator processes");
+    launcher::up(SCENE, &["simulator".to_owned()], Some(&name))?;
     let s = Session::open(Some(&name))?;
 
-    println!("\n== 2. attach a reader: the model is mapped from shared memory, not copied");
+    println!("\n== 2. a reader maps the model from shared memory (nothing is copied)");
     let mut reader = Reader::attach(&s, "demo-reader")?;
     let snap = reader
         .snapshot()
@@ -44,63 +265,227 @@ pub fn run(session: Option<&str>) -> Result<()> {
         .filter_map(|i| snap.geometry(i))
         .map(|g| g.polygons.len())
         .sum();
+    let kinds: Vec<String> = [
+        Kind::Scene,
+        Kind::Item,
+        Kind::Robot,
+        Kind::Link,
+        Kind::Solid,
+    ]
+    .iter()
+    .map(|k| {
+        let n = (0..snap.len())
+            .filter(|&i| snap.object(i).kind() == Some(*k))
+            .count();
+        format!("{n} {}", k.name())
+    })
+    .collect();
     println!(
-        "model version {}: {} objects, {} vertices, {} convex polygons",
+        "version {}: {} objects ({}), {} vertices, {} convex polygons",
         snap.version(),
         snap.len(),
+        kinds.join(", "),
         snap.vertex_count(),
         polygons
     );
-    for i in 0..snap.len() {
-        let o = snap.object(i);
-        let w = snap.world_pose(i);
-        println!(
-            "  {:<6} {:<14} at ({:+.3}, {:+.3}, {:+.3})",
-            o.kind().map_or("?", |k| k.name()),
-            o.name,
-            w[3],
-            w[7],
-            w[11]
-        );
-    }
-
-    println!(
-        "\n== 3. this process, as a writer, moves the arm (MOVEJI: 20 interpolated steps, each a transaction)"
-    );
     let robots = bridge::robots(&snap);
     let arm = robots
-        .first()
-        .ok_or_else(|| crate::CliError("the demo scene has no robot".into()))?;
-    let mut client = Client::connect(&s, "demo-writer")?;
-    let q0 = arm.q.clone();
-    let q1: Vec<f64> = q0
         .iter()
-        .enumerate()
-        .map(|(j, q)| q + if j == 0 { 0.9 } else { -1.2 })
-        .collect();
-    let steps = 20;
+        .find(|r| r.robot.name == placed.name)
+        .ok_or_else(|| crate::CliError(format!("robot {} not in the snapshot", placed.name)))?;
+    let robot = mapped_robot(&snap, arm, &placed.name)?;
+    let diff = kinematic_difference(&robot, &model.robot);
+    if diff > 1e-12 {
+        bail!("the mapped robot differs from the library's by {diff:e} (DH, limits, base, tool)");
+    }
+    // The head as the snapshot has it: its (only) solid's world pose; a cylinder along z.
+    let head_item = scene
+        .solids
+        .iter()
+        .find(|i| i.name == "head")
+        .ok_or_else(|| crate::CliError(format!("{SCENE} has no head")))?;
+    let head_obj = snap
+        .find("head")
+        .and_then(|i| (0..snap.len()).find(|&k| snap.objects()[k].parent == snap.objects()[i].id))
+        .ok_or_else(|| crate::CliError("the snapshot has no head solid".into()))?;
+    let head = m4(&snap.world_pose(head_obj));
+    let head_part = head_item
+        .solid
+        .parts
+        .first()
+        .ok_or_else(|| crate::CliError("the head has no solid".into()))?;
+    let head_lib = head_item.placement * head_part.transform;
+    if (head - head_lib).abs().max() > 1e-12 {
+        bail!("the head's pose in the snapshot differs from the library's");
+    }
+    let (radius, length) = match head_part.primitive {
+        Primitive::Cylinder { radius, height, .. } => (radius, height),
+        _ => bail!("the head is not a cylinder"),
+    };
+    // The cylinder's axis, signed to point along the world's positive side of it (the seed's
+    // head axis is world +y).
+    let axis: Vector3<f64> = head.fixed_view::<3, 1>(0, 2).into_owned();
+    let axis = if axis.sum() < 0.0 { -axis } else { axis };
+    let centre: Vector3<f64> = head.fixed_view::<3, 1>(0, 3).into_owned();
+    println!(
+        "head: cylinder r {radius:.3} m, length {length:.3} m, axis {} through {}; {}: {} joints at q {}",
+        vec_str(axis.as_slice(), 2),
+        xyz(&head),
+        placed.name,
+        robot.dof(),
+        vec_str(&arm.q, 3)
+    );
+    println!(
+        "mapped DH rows, limits, base and tool = the Library Space evaluation (max |Δ| {diff:.1e})"
+    );
+
+    println!(
+        "\n== 3. kinematics: tool tip {:.1} cm from the head's axis, pointing at it (seed §2.7)",
+        TIP_FROM_AXIS * 100.0
+    );
+    // The seed's get_location(angle): radial direction towards the robot's side of the head,
+    // ARC_DEG above the horizontal, perpendicular to the head's axis; tool z pointing at the
+    // axis, tool x along it.
+    let base_p: Vector3<f64> = robot.base.fixed_view::<3, 1>(0, 3).into_owned();
+    let to_robot = base_p - centre;
+    let horiz = (to_robot - axis * axis.dot(&to_robot) - Vector3::z() * to_robot.z).normalize();
+    let up = axis.cross(&horiz).normalize();
+    let up = if up.z < 0.0 { -up } else { up };
+    let a = ARC_DEG.to_radians();
+    let radial = horiz * a.cos() + up * a.sin();
+    let tip = centre + axis * ALONG_AXIS + radial * TIP_FROM_AXIS;
+    let z_t = -radial;
+    let x_t = axis;
+    let y_t = z_t.cross(&x_t);
+    let mut target = Matrix4::identity();
+    for r in 0..3 {
+        target[(r, 0)] = x_t[r];
+        target[(r, 1)] = y_t[r];
+        target[(r, 2)] = z_t[r];
+        target[(r, 3)] = tip[r];
+    }
+    println!(
+        "target: tip at {} ({ARC_DEG}° above horizontal, {ALONG_AXIS} m along the axis), tool z towards the axis",
+        xyz(&target)
+    );
+    let family = ik::family::recognise(&robot);
+    let opts = IkOptions {
+        all: true,
+        q0: Some(arm.q.clone()),
+        ..IkOptions::default()
+    };
+    let t0 = Instant::now();
+    let sols = ik::solve(&robot, &target, Method::Analytic, &opts)?;
+    let ik_us = t0.elapsed().as_secs_f64() * 1e6;
+    let worst = sols
+        .solutions
+        .iter()
+        .map(|s| s.residual.position.max(s.residual.orientation))
+        .fold(0.0, f64::max);
+    println!(
+        "analytic IK ({} family, all solutions): {} solutions in {ik_us:.0} µs, worst residual {worst:.1e} (m / rad)",
+        family.name(),
+        sols.solutions.len()
+    );
+
+    println!(
+        "\n== 4. collision ({}, the scene's mode; self {}): each solution's link solids against the head",
+        match scene.effects.collision.map(|c| c.mode) {
+            Some(CollisionMode::Bbox) => "bbox",
+            Some(CollisionMode::Exact) => "exact",
+            _ => "polygon",
+        },
+        if scene.effects.collision.is_some_and(|c| c.self_collision) {
+            "on"
+        } else {
+            "off"
+        }
+    );
+    let settings = CollisionSettings {
+        enabled: true,
+        self_collision: scene.effects.collision.is_some_and(|c| c.self_collision),
+        mode: match scene.effects.collision.map(|c| c.mode) {
+            Some(CollisionMode::Bbox) => Mode::BBox,
+            Some(CollisionMode::Exact) => Mode::Exact,
+            _ => Mode::Polygon,
+        },
+        all_contacts: true,
+        continuous: false,
+    };
+    let links = link_solids(&model.frames)?;
+    let obstacles = obstacles(&scene)?;
+    let mut clear = Vec::new();
+    for sol in &sols.solutions {
+        let label = sol.branch.map_or("-".into(), |b| b.label());
+        let limits = if sol.within_limits {
+            "in limits"
+        } else {
+            "OUT of limits"
+        };
+        let v = check_robot(&robot, &links, &sol.q, &obstacles, &settings)?;
+        let dist: f64 = sol
+            .q
+            .iter()
+            .zip(&arm.q)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum::<f64>()
+            .sqrt();
+        println!(
+            "  {label} q {} res {:.0e} m {}, {}",
+            vec_str(&sol.q, 2),
+            sol.residual.position,
+            limits,
+            verdict(&v, link_names)
+        );
+        if v.is_clear() && sol.converged && sol.within_limits {
+            clear.push((dist, sol));
+        }
+    }
+    clear.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut chosen = None;
+    for (dist, sol) in &clear {
+        let label = sol.branch.map_or("-".into(), |b| b.label());
+        let out = move_checked(&robot, &links, &arm.q, &sol.q, STEPS, &obstacles, &settings)?;
+        if out.completed {
+            println!(
+                "chosen: {label}, collision-free and nearest to the current q ({dist:.2} rad); its {STEPS}-step MOVEJI path is clear"
+            );
+            chosen = Some(*sol);
+            break;
+        }
+        let why = out
+            .stopped_by
+            .as_ref()
+            .map_or("?".into(), |r| verdict(r, link_names));
+        println!(
+            "  {label} rejected: its MOVEJI path stops after step {} of {STEPS}: {why}",
+            out.steps_done
+        );
+    }
+    let Some(goal) = chosen else {
+        bail!("no IK solution is collision-free with a clear MOVEJI path");
+    };
+
+    println!(
+        "\n== 5. MOVEJI there: each interpolated step one journaled transaction (joints + link poses)"
+    );
+    let path = movej_interpolate(&robot, &arm.q, &goal.q, STEPS)?;
+    let mut client = Client::connect(&s, "demo-writer")?;
     let t0 = Instant::now();
     let mut last_version = 0;
     let mut seen = Vec::new();
-    for k in 1..=steps {
-        let f = k as f64 / steps as f64;
-        let q: Vec<f64> = q0.iter().zip(&q1).map(|(a, b)| a + f * (b - a)).collect();
+    for q in &path {
         let mut tx = Transaction::new();
-        for ((id, qj), pose) in arm
-            .links
-            .iter()
-            .zip(&q)
-            .zip(bridge::link_poses(&arm.robot, &q))
-        {
+        for ((id, qj), pose) in arm.links.iter().zip(q).zip(bridge::link_poses(&robot, q)) {
             tx.set_joint(*id, *qj).set_pose(*id, pose);
         }
         let c = client.transact(&tx)?;
         last_version = c.version;
-        // The reader is told what changed: exactly the two links, pose aspect only.
+        // The reader is told what changed: exactly the arm's links, pose aspect only.
         while seen.last().is_none_or(|v: &u64| *v < c.version) {
             for ch in reader.wait_change(Duration::from_secs(5))? {
                 if ch.ids != arm.links || ch.aspects != aspect::POSE {
-                    crate::bail!(
+                    bail!(
                         "change {} named {:?} / {:?}, expected the arm's links / pose",
                         ch.version,
                         ch.ids,
@@ -112,29 +497,38 @@ pub fn run(session: Option<&str>) -> Result<()> {
         }
     }
     let elapsed = t0.elapsed();
+    let in_order = seen.windows(2).all(|w| w[1] == w[0] + 1);
     println!(
-        "{steps} journaled transactions in {:.1} ms ({:.0} µs each, fsync included); the reader saw versions {}..={} in order, each naming only the 2 links (pose)",
+        "{STEPS} transactions in {:.1} ms ({:.0} µs each, fsync included); the reader saw {} versions {}..={}{}, each naming only the {} links (pose)",
         elapsed.as_secs_f64() * 1e3,
-        elapsed.as_secs_f64() * 1e6 / steps as f64,
-        seen[0],
-        seen[seen.len() - 1]
+        elapsed.as_secs_f64() * 1e6 / STEPS as f64,
+        seen.len(),
+        seen.first().copied().unwrap_or(0),
+        seen.last().copied().unwrap_or(0),
+        if in_order {
+            " in order"
+        } else {
+            " OUT OF ORDER"
+        },
+        arm.links.len()
     );
     let snap = reader
         .snapshot()
         .ok_or_else(|| crate::CliError("no snapshot".into()))?;
-    let tip = snap
-        .index_of(*arm.links.last().unwrap_or(&0))
-        .map(|i| snap.world_pose(i));
-    if let Some(w) = tip {
+    let last_link = arm.links.last().and_then(|id| snap.index_of(*id));
+    if let Some(i) = last_link {
+        let tool_world = m4(&snap.world_pose(i)) * robot.tool;
+        let r = Residual::between(&tool_world, &target);
         println!(
-            "arm tip now at ({:+.4}, {:+.4}, {:+.4}) m, q = [{:.3}, {:.3}] rad",
-            w[3], w[7], w[11], q1[0], q1[1]
+            "snapshot v{}: tool tip at {}, off the target by {:.1e} m / {:.1e} rad",
+            snap.version(),
+            xyz(&tool_world),
+            r.position,
+            r.orientation
         );
     }
 
-    println!(
-        "\n== 4. the simulator daemon publishes high-rate state for the new structure version"
-    );
+    println!("\n== 6. the simulator daemon publishes state for the new structure version");
     let mut state = StateSubscriber::open(&s, "simulator", "demo-state")?;
     let deadline = Instant::now() + Duration::from_secs(10);
     let rec = loop {
@@ -147,32 +541,192 @@ pub fn run(session: Option<&str>) -> Result<()> {
             break r;
         }
         if Instant::now() > deadline {
-            crate::bail!("the simulator published no state for version {last_version} within 10 s");
+            bail!("the simulator published no state for version {last_version} within 10 s");
         }
     };
+    let off = arm
+        .links
+        .iter()
+        .zip(&goal.q)
+        .map(|(id, q)| {
+            rec.joints
+                .iter()
+                .find(|j| j.id == *id)
+                .map_or(f64::INFINITY, |j| (j.q - q).abs())
+        })
+        .fold(0.0, f64::max);
     println!(
-        "state #{} at t = {:.2} s for version {}: q = {:?}",
-        rec.header.seq,
-        rec.header.t,
-        rec.header.structure_version,
-        rec.joints
-            .iter()
-            .map(|j| (j.q * 1e3).round() / 1e3)
-            .collect::<Vec<_>>()
+        "state #{} at t = {:.2} s for version {}: the arm's q differ from the goal by {off:.1e} rad",
+        rec.header.seq, rec.header.t, rec.header.structure_version
     );
 
-    println!("\n== 5. bad input is refused whole, with the object and field named");
+    let bits = scene
+        .effects
+        .encoder_bits
+        .ok_or_else(|| crate::CliError(format!("{SCENE} declares no encoder bits")))?;
+    println!("\n== 7. the seed's {bits}-bit encoder study at the final pose (seed §2.7)");
+    let e = encoder::encoder_error(&robot, &goal.q, &vec![bits; robot.dof()])?;
+    println!(
+        "joint resolution {:.2} mrad: tool position error ≤ {:.3} mm (Σ|J|δ, the seed's bound), exact worst case {:.3} mm; orientation ≤ {:.2} mrad",
+        e.resolution[0] * 1e3,
+        e.position * 1e3,
+        e.position_worst_case * 1e3,
+        e.orientation * 1e3
+    );
+
+    println!("\n== 8. dynamics: gravity torques holding the arm at the final pose");
+    let density = match lib.evaluate("aluminium", &Params::new()) {
+        Ok(Evaluated::Constant { value, .. }) => value,
+        _ => bail!("the standard library has no constant `aluminium`"),
+    };
+    let mut dyn_robot = robot.clone();
+    for (j, joint) in dyn_robot.joints.iter_mut().enumerate() {
+        let parts = model.frames.get(j + 1).map_or(&[][..], Vec::as_slice);
+        let mut each = Vec::with_capacity(parts.len());
+        for p in parts {
+            let mp = p
+                .polyhedron
+                .mass_properties(density)
+                .map_err(|e| crate::CliError(format!("{}: {e}", p.name)))?;
+            each.push(mp.transformed(&isometry_from_matrix(&p.transform)));
+        }
+        if let Some(mp) = MassProperties::combine(&each) {
+            joint.mass = mp.mass;
+            joint.com = mp.center_of_mass.coords;
+            joint.inertia = mp.inertia;
+        }
+    }
+    let total: f64 = dyn_robot.joints.iter().map(|j| j.mass).sum();
+    let dm = robosim_dynamics::Model::new(&dyn_robot)?;
+    let mut data = robosim_dynamics::Data::new(&dm);
+    let g = robosim_dynamics::gravity(&dm, &mut data, &goal.q)?
+        .as_slice()
+        .to_vec();
+    println!(
+        "link masses from the link solids at aluminium {density:.0} kg/m³ (the positioner declares none): {total:.3} kg in all"
+    );
+    println!("g(q) = {} N·m", vec_str(&g, 4));
+    let cfg = robosim_dynamics::IntegratorConfig::fixed(robosim_dynamics::Integrator::Rk4, 1e-3);
+    let zeros = vec![0.0; robot.dof()];
+    let (held, _) = robosim_dynamics::simulate(&dm, cfg, &goal.q, &zeros, &g, &[1.0])?;
+    let (fell, _) = robosim_dynamics::simulate(&dm, cfg, &goal.q, &zeros, &zeros, &[0.0, 0.2])?;
+    let drift = held.last().map_or(f64::INFINITY, |h| {
+        h.q.iter()
+            .zip(&goal.q)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    });
+    let (e0, e1) = (
+        fell.first().map_or(0.0, |s| s.energy),
+        fell.last().map_or(0.0, |s| s.energy),
+    );
+    let fall = fell.last().map_or(0.0, |s| {
+        s.q.iter()
+            .zip(&goal.q)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
+    });
+    println!(
+        "RK4, 1 ms: held by g(q) for 1 s the arm drifts {drift:.1e} rad; unpowered it falls {fall:.3} rad in 0.2 s, energy change {:.1e} J",
+        e1 - e0
+    );
+
+    println!(
+        "\n== 9. automation: an ECLSS fault with its own sensor failed, alarms, diagnosis (seed §4.3)"
+    );
+    automation()?;
+
+    println!("\n== 10. bad input is refused whole, with the object and field named");
     let mut tx = Transaction::new();
     let mut pose = robosim_instance_space::IDENTITY;
     pose[3] = f64::NAN;
     tx.set_joint(arm.links[0], 0.0).set_pose(arm.links[0], pose);
     match client.transact(&tx) {
         Err(e) => println!("refused: {e}"),
-        Ok(c) => crate::bail!("a NaN pose was accepted as version {}", c.version),
+        Ok(c) => bail!("a NaN pose was accepted as version {}", c.version),
     }
     let v = reader.snapshot().map_or(0, |s| s.version());
     println!("model still at version {v}");
 
-    println!("\n== 6. stop the session");
+    println!(
+        "\n== 11. stop the session (demo ran {:.1} s)",
+        t_start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Step 9: inject one ECLSS fault whose own alarm is not allocated (its sensor failed), simulate
+/// the alarm sequence, and let FSPI/ILM isolate it from the downstream alarms.
+fn automation() -> Result<()> {
+    use robosim_automation::diag::{FaultGraph, Ilm};
+    use robosim_automation::model::load_model;
+    use robosim_automation::sim::{SimOptions, filter, simulate};
+    let m = load_model("eclss")?;
+    let g = FaultGraph::new(&m);
+    let fault = m
+        .find_failure_mode("sorbent_bed_failure")
+        .map_err(crate::CliError)?;
+    let dropped = m.find_alarm("A_co2_bed").map_err(crate::CliError)?;
+    let present: Vec<bool> = (0..m.alarms.len()).map(|a| a != dropped).collect();
+    let opts = SimOptions {
+        seed: 7,
+        sample_probabilities: true,
+        ..SimOptions::default()
+    };
+    let sim = simulate(&g, &[(fault, 0.0)], &opts);
+    let seen = filter(&sim.alarms, &present);
+    println!(
+        "injected {} at t = 0 (seed {}, edge probabilities sampled); sensor {} failed: {} of {} alarms reach the diagnoser",
+        m.failure_modes[fault].path,
+        opts.seed,
+        m.alarms[dropped].name,
+        seen.len(),
+        sim.alarms.len()
+    );
+    let mut ilm = Ilm::new(&m, &g, Some(&present));
+    let mut trail = Vec::new();
+    for e in &seen {
+        ilm.on_alarm(e.alarm, e.time)?;
+        ilm.step();
+        trail.push(format!(
+            "{}@{:.0}s→{}",
+            m.alarms[e.alarm].name,
+            e.time,
+            ilm.diagnoser().candidates().len()
+        ));
+    }
+    for chunk in trail.chunks(3) {
+        println!("  {}", chunk.join("  "));
+    }
+    // The clock runs on an hour past the last alarm: alarms a candidate should have caused by
+    // then and did not ring rule it out.
+    let last = seen.last().map_or(0.0, |e| e.time);
+    ilm.advance_to(last + 3600.0);
+    ilm.run_to_completion();
+    let Some(guess) = ilm.best_guess() else {
+        bail!("no alarm reached the diagnoser");
+    };
+    let names: Vec<&str> = guess
+        .failure_modes
+        .iter()
+        .map(|&f| m.failure_modes[f].path.as_str())
+        .collect();
+    let comps: Vec<&str> = guess
+        .components
+        .iter()
+        .map(|&c| m.components[c].name.as_str())
+        .collect();
+    let isolated = guess.failure_modes == [fault] && !guess.multiple;
+    println!(
+        "diagnosis (FSPI, ILM to depth {}): {} [components: {}] — {}",
+        guess.depth,
+        names.join(", "),
+        comps.join(", "),
+        if isolated {
+            "fault isolated"
+        } else {
+            "NOT isolated"
+        }
+    );
     Ok(())
 }

@@ -124,11 +124,14 @@ fn solid_specs(out: &mut Vec<Spec>, parent: &str, solids: &[PlacedSolid]) {
     }
 }
 
+/// The analytic IK family as the Instance Space's code (0: numeric only). Names are the
+/// kinematics crate's `Family::name()`s, which the library checks against the geometry.
 fn ik_family(name: Option<&str>) -> u32 {
     match name {
-        None => 0,
-        Some("puma") => 1,
-        Some("stanford") => 2,
+        None | Some("general") => 0,
+        Some("spherical_wrist") => 1,
+        Some("rrp_spherical_wrist") => 2,
+        Some("offset_wrist") => 3,
         Some(_) => 99,
     }
 }

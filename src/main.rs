@@ -8,6 +8,7 @@ mod bridge;
 mod demo;
 mod instantiate;
 mod launcher;
+mod reports;
 mod scene;
 mod simulator;
 
@@ -92,6 +93,23 @@ enum Command {
         #[arg(long)]
         session: Option<String>,
     },
+    /// The Library Space: list, show and check declarations.
+    Lib {
+        #[command(subcommand)]
+        cmd: robosim_library::cli::LibCmd,
+    },
+    /// Hierarchical fault models and diagnosis (seed §3.4, §4.3).
+    Diag {
+        #[command(subcommand)]
+        cmd: robosim_automation::cli::DiagCmd,
+    },
+    /// Build a scene's effect pipeline, print it, optionally run it headless.
+    Sim(robosim_simulator::cli::SimArgs),
+    /// What accuracy costs in time: regenerate a report (CSV, markdown table, PNG plot).
+    Report {
+        #[command(subcommand)]
+        which: reports::Which,
+    },
     /// Benchmarks that write their figures into docs/.
     Bench {
         #[command(subcommand)]
@@ -131,6 +149,12 @@ fn main() -> ExitCode {
         } => instantiate::cli_set(&instance, &params, session.as_deref()),
         Command::Demo { session } => demo::run(session.as_deref()),
         Command::Bench { which } => bench::run(which),
+        Command::Lib { cmd } => robosim_library::cli::run(cmd).map_err(CliError),
+        Command::Diag { cmd } => robosim_automation::cli::run(cmd).map_err(CliError),
+        Command::Sim(args) => {
+            robosim_simulator::cli::run(&args, &robosim_library::standard_robot).map_err(CliError)
+        }
+        Command::Report { which } => reports::run(which),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,10 +5,10 @@
 //! is how a writer gets group commit: the keeper syncs the journal once for everything that
 //! arrived together.
 
-use crate::keeper::{events, MAX_IN_FLIGHT};
+use crate::keeper::{MAX_IN_FLIGHT, events};
 use crate::model::{Applied, TxError};
-use crate::session::{Session, SessionError};
 use crate::services;
+use crate::session::{Session, SessionError};
 use crate::transaction::Transaction;
 use iceoryx2::prelude::*;
 use std::time::{Duration, Instant};
@@ -23,11 +23,15 @@ pub type Committed = Applied;
 pub enum ClientError {
     #[error(transparent)]
     Session(#[from] SessionError),
-    #[error("no keeper is running in session {session} (start one with `robosim space` or `robosim up`)")]
+    #[error(
+        "no keeper is running in session {session} (start one with `robosim space` or `robosim up`)"
+    )]
     NoKeeper { session: String },
     #[error("transaction refused: {0}")]
     Refused(#[from] TxError),
-    #[error("the keeper went away before answering (it may have committed the transaction; check the version after it restarts)")]
+    #[error(
+        "the keeper went away before answering (it may have committed the transaction; check the version after it restarts)"
+    )]
     KeeperGone,
     #[error("no answer from the keeper within {0:?}")]
     Timeout(Duration),
@@ -38,7 +42,10 @@ pub enum ClientError {
 }
 
 fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> ClientError {
-    move |e| ClientError::Ipc { what: what.to_owned(), message: format!("{e:?}") }
+    move |e| ClientError::Ipc {
+        what: what.to_owned(),
+        message: format!("{e:?}"),
+    }
 }
 
 /// A transaction sent and not yet answered.
@@ -63,19 +70,47 @@ impl Client {
     /// Connects to the keeper of `session` as a process of role `role` (used in its node name).
     pub fn connect(session: &Session, role: &str) -> Result<Self, ClientError> {
         let node = session.node(role, false)?;
-        let no_keeper = |_: Box<dyn std::fmt::Debug>| ClientError::NoKeeper { session: session.name().to_owned() };
-        let rr = node.service_builder(&session.service(services::REQUESTS)?).request_response::<[u8], [u8]>().open().map_err(|e| no_keeper(Box::new(e)))?;
+        let no_keeper = |_: Box<dyn std::fmt::Debug>| ClientError::NoKeeper {
+            session: session.name().to_owned(),
+        };
+        let rr = node
+            .service_builder(&session.service(services::REQUESTS)?)
+            .request_response::<[u8], [u8]>()
+            .open()
+            .map_err(|e| no_keeper(Box::new(e)))?;
         let client = rr
             .client_builder()
             .initial_max_slice_len(4096)
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
             .map_err(ipc("create client"))?;
-        let req_event = node.service_builder(&session.service(services::REQUEST_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
-        let notifier = req_event.notifier_builder().create().map_err(ipc("create request notifier"))?;
-        let ack_event = node.service_builder(&session.service(services::ACK_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
-        let acks = ack_event.listener_builder().create().map_err(ipc("create ack listener"))?;
-        Ok(Client { session: session.clone(), _node: node, client, notifier, acks, timeout: Duration::from_secs(30), _services: vec![Box::new(rr), Box::new(req_event), Box::new(ack_event)] })
+        let req_event = node
+            .service_builder(&session.service(services::REQUEST_EVENT)?)
+            .event()
+            .open()
+            .map_err(|e| no_keeper(Box::new(e)))?;
+        let notifier = req_event
+            .notifier_builder()
+            .create()
+            .map_err(ipc("create request notifier"))?;
+        let ack_event = node
+            .service_builder(&session.service(services::ACK_EVENT)?)
+            .event()
+            .open()
+            .map_err(|e| no_keeper(Box::new(e)))?;
+        let acks = ack_event
+            .listener_builder()
+            .create()
+            .map_err(ipc("create ack listener"))?;
+        Ok(Client {
+            session: session.clone(),
+            _node: node,
+            client,
+            notifier,
+            acks,
+            timeout: Duration::from_secs(30),
+            _services: vec![Box::new(rr), Box::new(req_event), Box::new(ack_event)],
+        })
     }
 
     pub fn session(&self) -> &Session {
@@ -100,16 +135,32 @@ impl Client {
 
     /// Sends already-encoded bytes (tests use this to send malformed requests).
     pub fn submit_raw(&mut self, bytes: &[u8]) -> Result<Pending, ClientError> {
-        let req = self.client.loan_slice_uninit(bytes.len().max(1)).map_err(|e| match format!("{e:?}") {
-            m if m.contains("ExceedsMaxLoans") || m.contains("ExceedsMaxActive") => ClientError::TooManyInFlight,
-            m => ClientError::Ipc { what: "loan request".into(), message: m },
-        })?;
+        let req = self
+            .client
+            .loan_slice_uninit(bytes.len().max(1))
+            .map_err(|e| match format!("{e:?}") {
+                m if m.contains("ExceedsMaxLoans") || m.contains("ExceedsMaxActive") => {
+                    ClientError::TooManyInFlight
+                }
+                m => ClientError::Ipc {
+                    what: "loan request".into(),
+                    message: m,
+                },
+            })?;
         let payload = if bytes.is_empty() { &[0u8][..] } else { bytes };
-        let inner = req.write_from_slice(payload).send().map_err(|e| match format!("{e:?}") {
-            m if m.contains("ExceedsMaxActive") => ClientError::TooManyInFlight,
-            m => ClientError::Ipc { what: "send request".into(), message: m },
-        })?;
-        let _ = self.notifier.notify_with_custom_event_id(EventId::new(events::REQUEST));
+        let inner = req
+            .write_from_slice(payload)
+            .send()
+            .map_err(|e| match format!("{e:?}") {
+                m if m.contains("ExceedsMaxActive") => ClientError::TooManyInFlight,
+                m => ClientError::Ipc {
+                    what: "send request".into(),
+                    message: m,
+                },
+            })?;
+        let _ = self
+            .notifier
+            .notify_with_custom_event_id(EventId::new(events::REQUEST));
         Ok(Pending { inner })
     }
 
@@ -118,20 +169,31 @@ impl Client {
         let start = Instant::now();
         loop {
             if let Some(resp) = p.inner.receive().map_err(ipc("receive response"))? {
-                return bincode::serde::decode_from_slice::<Result<Committed, TxError>, _>(resp.payload(), bincode::config::standard())
-                    .map(|(r, _)| r)
-                    .map_err(|e| ClientError::Ipc { what: "decode response".into(), message: e.to_string() });
+                return bincode::serde::decode_from_slice::<Result<Committed, TxError>, _>(
+                    resp.payload(),
+                    bincode::config::standard(),
+                )
+                .map(|(r, _)| r)
+                .map_err(|e| ClientError::Ipc {
+                    what: "decode response".into(),
+                    message: e.to_string(),
+                });
             }
             // iceoryx2 may report the connection down while it is being re-established; only
             // a keeper that is really gone from the session ends the wait.
-            if !p.inner.is_connected() && !self.session.processes().iter().any(|p| p.role == "space") {
+            if !p.inner.is_connected()
+                && !self.session.processes().iter().any(|p| p.role == "space")
+            {
                 return Err(ClientError::KeeperGone);
             }
             let elapsed = start.elapsed();
             if elapsed >= self.timeout {
                 return Err(ClientError::Timeout(self.timeout));
             }
-            let _ = self.acks.timed_wait(|_| {}, (self.timeout - elapsed).min(Duration::from_millis(5)));
+            let _ = self.acks.timed_wait(
+                |_| {},
+                (self.timeout - elapsed).min(Duration::from_millis(5)),
+            );
         }
     }
 }

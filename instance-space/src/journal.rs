@@ -28,7 +28,10 @@ const RECORD_HEADER: usize = 16;
 #[derive(Debug, thiserror::Error)]
 pub enum JournalError {
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: not a robosim {what} (bad magic)")]
     Magic { path: PathBuf, what: &'static str },
     #[error("{path}: checkpoint is corrupt: {reason}")]
@@ -36,7 +39,10 @@ pub enum JournalError {
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> JournalError + '_ {
-    move |source| JournalError::Io { path: path.to_owned(), source }
+    move |source| JournalError::Io {
+        path: path.to_owned(),
+        source,
+    }
 }
 
 /// The open journal the keeper appends to.
@@ -57,11 +63,19 @@ fn checkpoint_name(version: u64) -> String {
 }
 
 fn create_private(path: &Path) -> Result<File, JournalError> {
-    OpenOptions::new().create(true).truncate(true).write(true).mode(0o600).open(path).map_err(io_err(path))
+    OpenOptions::new()
+        .create(true)
+        .truncate(true)
+        .write(true)
+        .mode(0o600)
+        .open(path)
+        .map_err(io_err(path))
 }
 
 fn sync_dir(dir: &Path) -> Result<(), JournalError> {
-    File::open(dir).and_then(|d| d.sync_all()).map_err(io_err(dir))
+    File::open(dir)
+        .and_then(|d| d.sync_all())
+        .map_err(io_err(dir))
 }
 
 impl Journal {
@@ -72,14 +86,29 @@ impl Journal {
         f.write_all(JOURNAL_MAGIC).map_err(io_err(&path))?;
         f.sync_all().map_err(io_err(&path))?;
         sync_dir(dir)?;
-        Ok(Journal { dir: dir.to_owned(), path, out: BufWriter::with_capacity(1 << 20, f), since_checkpoint: 0, dirty: false })
+        Ok(Journal {
+            dir: dir.to_owned(),
+            path,
+            out: BufWriter::with_capacity(1 << 20, f),
+            since_checkpoint: 0,
+            dirty: false,
+        })
     }
 
     /// Reopens an existing journal for appending (after recovery cut it to its valid length).
     fn reopen(dir: &Path, path: PathBuf, records: u64) -> Result<Self, JournalError> {
-        let mut f = OpenOptions::new().append(true).open(&path).map_err(io_err(&path))?;
+        let mut f = OpenOptions::new()
+            .append(true)
+            .open(&path)
+            .map_err(io_err(&path))?;
         f.seek(SeekFrom::End(0)).map_err(io_err(&path))?;
-        Ok(Journal { dir: dir.to_owned(), path, out: BufWriter::with_capacity(1 << 20, f), since_checkpoint: records, dirty: false })
+        Ok(Journal {
+            dir: dir.to_owned(),
+            path,
+            out: BufWriter::with_capacity(1 << 20, f),
+            since_checkpoint: records,
+            dirty: false,
+        })
     }
 
     /// Buffers one committed transaction. Not durable until [`Journal::sync`].
@@ -120,7 +149,10 @@ impl Journal {
         // Remove journals and checkpoints older than this checkpoint.
         let keep_ck = checkpoint_name(model.version);
         let keep_j = journal_name(model.version + 1);
-        for e in fs::read_dir(&self.dir).map_err(io_err(&self.dir))?.flatten() {
+        for e in fs::read_dir(&self.dir)
+            .map_err(io_err(&self.dir))?
+            .flatten()
+        {
             let name = e.file_name().to_string_lossy().into_owned();
             let stale = (name.starts_with("journal-") && name.ends_with(".log") && name < keep_j)
                 || (name.starts_with("checkpoint-") && name.ends_with(".bin") && name < keep_ck);
@@ -178,12 +210,14 @@ fn write_checkpoint(dir: &Path, model: &Model) -> Result<(), JournalError> {
             })
             .collect(),
     };
-    let body = bincode::serde::encode_to_vec(&data, bincode::config::standard()).unwrap_or_default();
+    let body =
+        bincode::serde::encode_to_vec(&data, bincode::config::standard()).unwrap_or_default();
     let path = dir.join(checkpoint_name(model.version));
     let tmp = path.with_extension("tmp");
     let mut f = create_private(&tmp)?;
     f.write_all(CHECKPOINT_MAGIC).map_err(io_err(&tmp))?;
-    f.write_all(&crc32fast::hash(&body).to_le_bytes()).map_err(io_err(&tmp))?;
+    f.write_all(&crc32fast::hash(&body).to_le_bytes())
+        .map_err(io_err(&tmp))?;
     f.write_all(&body).map_err(io_err(&tmp))?;
     f.sync_all().map_err(io_err(&tmp))?;
     fs::rename(&tmp, &path).map_err(io_err(&path))?;
@@ -192,22 +226,35 @@ fn write_checkpoint(dir: &Path, model: &Model) -> Result<(), JournalError> {
 
 fn read_checkpoint(path: &Path) -> Result<Model, JournalError> {
     let bytes = fs::read(path).map_err(io_err(path))?;
-    let bad = |reason: &str| JournalError::Checkpoint { path: path.to_owned(), reason: reason.to_owned() };
+    let bad = |reason: &str| JournalError::Checkpoint {
+        path: path.to_owned(),
+        reason: reason.to_owned(),
+    };
     if bytes.len() < 12 || &bytes[..8] != CHECKPOINT_MAGIC {
-        return Err(JournalError::Magic { path: path.to_owned(), what: "checkpoint" });
+        return Err(JournalError::Magic {
+            path: path.to_owned(),
+            what: "checkpoint",
+        });
     }
     let crc = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
     if crc32fast::hash(&bytes[12..]) != crc {
         return Err(bad("checksum mismatch"));
     }
-    let (data, _): (CheckpointData, usize) = bincode::serde::decode_from_slice(&bytes[12..], bincode::config::standard()).map_err(|e| bad(&e.to_string()))?;
+    let (data, _): (CheckpointData, usize) =
+        bincode::serde::decode_from_slice(&bytes[12..], bincode::config::standard())
+            .map_err(|e| bad(&e.to_string()))?;
     let mut objects = Vec::with_capacity(data.objects.len());
     for o in data.objects {
         let geometry = match o.geometry {
             None => None,
             Some(g) => {
-                let verts = g.vertices.iter().map(|v| nalgebra::Point3::new(v[0], v[1], v[2])).collect();
-                let p = robosim_geometry::Polyhedron::from_polygons(verts, &g.polygons).map_err(|e| bad(&format!("object {}: {e}", o.id)))?;
+                let verts = g
+                    .vertices
+                    .iter()
+                    .map(|v| nalgebra::Point3::new(v[0], v[1], v[2]))
+                    .collect();
+                let p = robosim_geometry::Polyhedron::from_polygons(verts, &g.polygons)
+                    .map_err(|e| bad(&format!("object {}: {e}", o.id)))?;
                 Some(Arc::new(p))
             }
         };
@@ -243,10 +290,18 @@ pub struct RecoveryReport {
 /// Rebuilds the model from `dir` and opens the journal for appending.
 pub fn recover(dir: &Path) -> Result<(Model, Journal, RecoveryReport), JournalError> {
     let mut report = RecoveryReport::default();
-    let mut names: Vec<String> = fs::read_dir(dir).map_err(io_err(dir))?.flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
+    let mut names: Vec<String> = fs::read_dir(dir)
+        .map_err(io_err(dir))?
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
     names.sort();
     let mut model = Model::new();
-    for ck in names.iter().rev().filter(|n| n.starts_with("checkpoint-") && n.ends_with(".bin")) {
+    for ck in names
+        .iter()
+        .rev()
+        .filter(|n| n.starts_with("checkpoint-") && n.ends_with(".bin"))
+    {
         match read_checkpoint(&dir.join(ck)) {
             Ok(m) => {
                 model = m;
@@ -256,20 +311,30 @@ pub fn recover(dir: &Path) -> Result<(Model, Journal, RecoveryReport), JournalEr
             Err(e) => report.problems.push(format!("skipped checkpoint: {e}")),
         }
     }
-    let journals: Vec<&String> = names.iter().filter(|n| n.starts_with("journal-") && n.ends_with(".log")).collect();
+    let journals: Vec<&String> = names
+        .iter()
+        .filter(|n| n.starts_with("journal-") && n.ends_with(".log"))
+        .collect();
     let mut last: Option<(PathBuf, u64)> = None;
     let mut stop = false;
     for name in journals {
         let path = dir.join(name);
         if stop {
-            report.problems.push(format!("{}: after a corrupt record; set aside as {}.corrupt", path.display(), name));
+            report.problems.push(format!(
+                "{}: after a corrupt record; set aside as {}.corrupt",
+                path.display(),
+                name
+            ));
             let _ = fs::rename(&path, dir.join(format!("{name}.corrupt")));
             continue;
         }
         let (records, good_len, problem) = replay(&path, &mut model, &mut report)?;
         if let Some(p) = problem {
             report.problems.push(p);
-            let f = OpenOptions::new().write(true).open(&path).map_err(io_err(&path))?;
+            let f = OpenOptions::new()
+                .write(true)
+                .open(&path)
+                .map_err(io_err(&path))?;
             f.set_len(good_len).map_err(io_err(&path))?;
             f.sync_all().map_err(io_err(&path))?;
             stop = true;
@@ -277,35 +342,71 @@ pub fn recover(dir: &Path) -> Result<(Model, Journal, RecoveryReport), JournalEr
         last = Some((path, records));
     }
     let journal = match last {
-        Some((path, records)) if path.file_name().is_some_and(|n| *n.to_string_lossy() >= *journal_name(report.checkpoint_version + 1)) => Journal::reopen(dir, path, records)?,
+        Some((path, records))
+            if path.file_name().is_some_and(|n| {
+                *n.to_string_lossy() >= *journal_name(report.checkpoint_version + 1)
+            }) =>
+        {
+            Journal::reopen(dir, path, records)?
+        }
         _ => Journal::create(dir, model.version + 1)?,
     };
     Ok((model, journal, report))
 }
 
 /// Replays one journal file into `model`; returns (records replayed, valid length, problem).
-fn replay(path: &Path, model: &mut Model, report: &mut RecoveryReport) -> Result<(u64, u64, Option<String>), JournalError> {
+fn replay(
+    path: &Path,
+    model: &mut Model,
+    report: &mut RecoveryReport,
+) -> Result<(u64, u64, Option<String>), JournalError> {
     let mut bytes = Vec::new();
-    File::open(path).and_then(|mut f| f.read_to_end(&mut bytes)).map_err(io_err(path))?;
+    File::open(path)
+        .and_then(|mut f| f.read_to_end(&mut bytes))
+        .map_err(io_err(path))?;
     if bytes.len() < 8 || &bytes[..8] != JOURNAL_MAGIC {
         if bytes.len() < 8 && JOURNAL_MAGIC.starts_with(&bytes) {
             // Torn while being created: it holds nothing. Rewrite its header.
-            let mut f = OpenOptions::new().write(true).open(path).map_err(io_err(path))?;
-            f.write_all(JOURNAL_MAGIC).and_then(|_| f.sync_all()).map_err(io_err(path))?;
-            report.problems.push(format!("{}: torn header ({} bytes); rewritten empty", path.display(), bytes.len()));
+            let mut f = OpenOptions::new()
+                .write(true)
+                .open(path)
+                .map_err(io_err(path))?;
+            f.write_all(JOURNAL_MAGIC)
+                .and_then(|_| f.sync_all())
+                .map_err(io_err(path))?;
+            report.problems.push(format!(
+                "{}: torn header ({} bytes); rewritten empty",
+                path.display(),
+                bytes.len()
+            ));
             return Ok((0, 8, None));
         }
-        return Err(JournalError::Magic { path: path.to_owned(), what: "journal" });
+        return Err(JournalError::Magic {
+            path: path.to_owned(),
+            what: "journal",
+        });
     }
     let mut pos = 8usize;
     let mut records = 0u64;
     while pos < bytes.len() {
-        let at = |what: &str| Some(format!("{}: {what} at byte {pos}; dropped the tail ({} bytes)", path.display(), bytes.len() - pos));
+        let at = |what: &str| {
+            Some(format!(
+                "{}: {what} at byte {pos}; dropped the tail ({} bytes)",
+                path.display(),
+                bytes.len() - pos
+            ))
+        };
         if bytes.len() - pos < RECORD_HEADER {
             return Ok((records, pos as u64, at("torn record header")));
         }
-        let len = u32::from_le_bytes([bytes[pos], bytes[pos + 1], bytes[pos + 2], bytes[pos + 3]]) as usize;
-        let crc = u32::from_le_bytes([bytes[pos + 4], bytes[pos + 5], bytes[pos + 6], bytes[pos + 7]]);
+        let len = u32::from_le_bytes([bytes[pos], bytes[pos + 1], bytes[pos + 2], bytes[pos + 3]])
+            as usize;
+        let crc = u32::from_le_bytes([
+            bytes[pos + 4],
+            bytes[pos + 5],
+            bytes[pos + 6],
+            bytes[pos + 7],
+        ]);
         let mut v = [0u8; 8];
         v.copy_from_slice(&bytes[pos + 8..pos + 16]);
         let version = u64::from_le_bytes(v);
@@ -325,11 +426,24 @@ fn replay(path: &Path, model: &mut Model, report: &mut RecoveryReport) -> Result
             continue;
         }
         if version != model.version + 1 {
-            return Ok((records, pos as u64, at(&format!("version {version} out of sequence (expected {})", model.version + 1))));
+            return Ok((
+                records,
+                pos as u64,
+                at(&format!(
+                    "version {version} out of sequence (expected {})",
+                    model.version + 1
+                )),
+            ));
         }
         let applied = Transaction::decode(payload).and_then(|tx| model.apply(&tx));
         if let Err(e) = applied {
-            return Ok((records, pos as u64, at(&format!("record for version {version} no longer applies ({e})"))));
+            return Ok((
+                records,
+                pos as u64,
+                at(&format!(
+                    "record for version {version} no longer applies ({e})"
+                )),
+            ));
         }
         records += 1;
         report.replayed += 1;

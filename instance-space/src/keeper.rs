@@ -13,10 +13,13 @@
 //! 4. only then acknowledges, and notifies readers and waiting clients.
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
-use crate::layout::{flags, ChangeRec, GeometryHeader, ObjectRec, ObjectsHeader, PoseRec, PolygonRec, PosesHeader, SegmentWriter};
-use crate::model::{aspect, Applied, Id, Kinematics, Model, Object, TxError};
-use crate::session::{Registration, Session, SessionError};
+use crate::layout::{
+    ChangeRec, GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseRec, PosesHeader,
+    SegmentWriter, flags,
+};
+use crate::model::{Applied, Id, Kinematics, Model, Object, TxError, aspect};
 use crate::services;
+use crate::session::{Registration, Session, SessionError};
 use crate::transaction::Transaction;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
@@ -52,7 +55,10 @@ pub enum KeeperError {
 
 fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> KeeperError {
     let what = what.into();
-    move |e| KeeperError::Ipc { what, message: format!("{e:?}") }
+    move |e| KeeperError::Ipc {
+        what,
+        message: format!("{e:?}"),
+    }
 }
 
 /// Tunables. The defaults suit a workstation session.
@@ -75,7 +81,14 @@ pub struct KeeperOptions {
 
 impl Default for KeeperOptions {
     fn default() -> Self {
-        KeeperOptions { checkpoint_every: 100_000, max_batch: 4096, idle_wait: Duration::from_millis(20), max_readers: 16, max_clients: 16, durable: true }
+        KeeperOptions {
+            checkpoint_every: 100_000,
+            max_batch: 4096,
+            idle_wait: Duration::from_millis(20),
+            max_readers: 16,
+            max_clients: 16,
+            durable: true,
+        }
     }
 }
 
@@ -119,9 +132,19 @@ pub struct GroupStats {
 impl Keeper {
     /// Recovers the session's model from its journal and checkpoints, creates the services and
     /// registers as the session's `space` process. Fails if a keeper already runs there.
-    pub fn start(session: &Session, opts: KeeperOptions) -> Result<(Keeper, RecoveryReport), KeeperError> {
-        if let Some(p) = session.processes().into_iter().find(|p| p.role == "space" && p.pid != std::process::id()) {
-            return Err(KeeperError::AlreadyRunning { session: session.name().to_owned(), pid: p.pid });
+    pub fn start(
+        session: &Session,
+        opts: KeeperOptions,
+    ) -> Result<(Keeper, RecoveryReport), KeeperError> {
+        if let Some(p) = session
+            .processes()
+            .into_iter()
+            .find(|p| p.role == "space" && p.pid != std::process::id())
+        {
+            return Err(KeeperError::AlreadyRunning {
+                session: session.name().to_owned(),
+                pid: p.pid,
+            });
         }
         let node = session.node("space", true)?;
         // A keeper killed with -9 leaves its node behind; reclaim its resources now (this also
@@ -130,7 +153,9 @@ impl Keeper {
         // new keeper's publishers without re-attaching.
         let _ = node.blocking_cleanup_dead_nodes(Duration::from_secs(2));
         let (model, journal, report) = journal::recover(&session.data_dir())?;
-        let epoch = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(1, |d| d.as_nanos() as u64);
+        let epoch = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(1, |d| d.as_nanos() as u64);
 
         let rr = node
             .service_builder(&session.service(services::REQUESTS)?)
@@ -161,7 +186,10 @@ impl Keeper {
             .max_nodes(opts.max_clients + opts.max_readers + 4)
             .open_or_create()
             .map_err(ipc("create request event"))?;
-        let req_listener = req_event.listener_builder().create().map_err(ipc("create request listener"))?;
+        let req_listener = req_event
+            .listener_builder()
+            .create()
+            .map_err(ipc("create request listener"))?;
         let ack_event = node
             .service_builder(&session.service(services::ACK_EVENT)?)
             .event()
@@ -170,7 +198,10 @@ impl Keeper {
             .max_nodes(opts.max_clients + opts.max_readers + 4)
             .open_or_create()
             .map_err(ipc("create ack event"))?;
-        let ack_notifier = ack_event.notifier_builder().create().map_err(ipc("create ack notifier"))?;
+        let ack_notifier = ack_event
+            .notifier_builder()
+            .create()
+            .map_err(ipc("create ack notifier"))?;
         let change_event = node
             .service_builder(&session.service(services::CHANGE_EVENT)?)
             .event()
@@ -180,9 +211,16 @@ impl Keeper {
             .notifier_dead_event(EventId::new(events::KEEPER_DEAD))
             .open_or_create()
             .map_err(ipc("create change event"))?;
-        let change_notifier = change_event.notifier_builder().create().map_err(ipc("create change notifier"))?;
+        let change_notifier = change_event
+            .notifier_builder()
+            .create()
+            .map_err(ipc("create change notifier"))?;
 
-        let pubsub = |suffix: &str, buffer: usize, history: usize, borrowed: usize| -> Result<_, KeeperError> {
+        let pubsub = |suffix: &str,
+                      buffer: usize,
+                      history: usize,
+                      borrowed: usize|
+         -> Result<_, KeeperError> {
             node.service_builder(&session.service(suffix)?)
                 .publish_subscribe::<[u64]>()
                 .history_size(history)
@@ -195,7 +233,14 @@ impl Keeper {
                 .open_or_create()
                 .map_err(ipc(format!("create service {suffix}")))
         };
-        let publisher = |svc: &iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u64], ()>, len: usize, what: &str| -> Result<Pub, KeeperError> {
+        let publisher = |svc: &iceoryx2::service::port_factory::publish_subscribe::PortFactory<
+            ipc::Service,
+            [u64],
+            (),
+        >,
+                         len: usize,
+                         what: &str|
+         -> Result<Pub, KeeperError> {
             svc.publisher_builder()
                 .initial_max_slice_len(len)
                 .allocation_strategy(AllocationStrategy::PowerOfTwo)
@@ -210,7 +255,15 @@ impl Keeper {
         let poses_svc = pubsub(services::POSES, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let poses_pub = publisher(&poses_svc, 1024, "poses")?;
 
-        let registration = session.register("space", &[services::REQUESTS, services::OBJECTS, services::POSES, services::CHANGES])?;
+        let registration = session.register(
+            "space",
+            &[
+                services::REQUESTS,
+                services::OBJECTS,
+                services::POSES,
+                services::CHANGES,
+            ],
+        )?;
         let mut keeper = Keeper {
             session: session.clone(),
             opts,
@@ -232,9 +285,22 @@ impl Keeper {
             structure_version: 0,
             last_connect_update: Instant::now(),
             _registration: registration,
-            _services: vec![Box::new(rr), Box::new(req_event), Box::new(ack_event), Box::new(change_event), Box::new(changes_svc), Box::new(objects_svc), Box::new(poses_svc)],
+            _services: vec![
+                Box::new(rr),
+                Box::new(req_event),
+                Box::new(ack_event),
+                Box::new(change_event),
+                Box::new(changes_svc),
+                Box::new(objects_svc),
+                Box::new(poses_svc),
+            ],
         };
-        let ids: Vec<Id> = keeper.model.objects().filter(|o| o.geometry.is_some()).map(|o| o.id).collect();
+        let ids: Vec<Id> = keeper
+            .model
+            .objects()
+            .filter(|o| o.geometry.is_some())
+            .map(|o| o.id)
+            .collect();
         for id in ids {
             keeper.publish_geometry(id)?;
         }
@@ -256,8 +322,15 @@ impl Keeper {
         let bytes = tx.encode();
         let result = self.model.apply(tx);
         if let Ok(applied) = &result {
-            self.journal.append(applied.version, &bytes).map_err(|e| TxError::Malformed { message: format!("journal: {e}") })?;
-            self.finish_group(std::slice::from_ref(applied)).map_err(|e| TxError::Malformed { message: e.to_string() })?;
+            self.journal
+                .append(applied.version, &bytes)
+                .map_err(|e| TxError::Malformed {
+                    message: format!("journal: {e}"),
+                })?;
+            self.finish_group(std::slice::from_ref(applied))
+                .map_err(|e| TxError::Malformed {
+                    message: e.to_string(),
+                })?;
         }
         result
     }
@@ -280,7 +353,9 @@ impl Keeper {
                 .timed_wait(|e| hello |= e.id == EventId::new(events::HELLO), wait)
                 .map_err(ipc("wait for requests"))?;
         } else {
-            let _ = self.req_listener.try_wait(|e| hello |= e.id == EventId::new(events::HELLO));
+            let _ = self
+                .req_listener
+                .try_wait(|e| hello |= e.id == EventId::new(events::HELLO));
         }
         if hello || self.last_connect_update.elapsed() > Duration::from_millis(50) {
             self.update_connections();
@@ -289,7 +364,9 @@ impl Keeper {
         let mut applied = Vec::new();
         let mut stats = GroupStats::default();
         while pending.len() < self.opts.max_batch {
-            let Some(req) = self.server.receive().map_err(ipc("receive request"))? else { break };
+            let Some(req) = self.server.receive().map_err(ipc("receive request"))? else {
+                break;
+            };
             let result = Transaction::decode(req.payload()).and_then(|tx| self.model.apply(&tx));
             match &result {
                 Ok(a) => {
@@ -306,7 +383,8 @@ impl Keeper {
         }
         self.finish_group(&applied)?;
         for (req, result) in pending {
-            let bytes = bincode::serde::encode_to_vec(&result, bincode::config::standard()).unwrap_or_default();
+            let bytes = bincode::serde::encode_to_vec(&result, bincode::config::standard())
+                .unwrap_or_default();
             match req.loan_slice_uninit(bytes.len()) {
                 Ok(r) => {
                     // A client that died mid-request cannot be answered; the commit stands.
@@ -332,7 +410,14 @@ impl Keeper {
         let mut posed: Vec<Id> = Vec::new();
         for a in applied {
             for &(id, asp) in &a.changes {
-                if asp & (aspect::STRUCTURE | aspect::APPEARANCE | aspect::KINEMATICS | aspect::DYNAMICS | aspect::GEOMETRY) != 0 {
+                if asp
+                    & (aspect::STRUCTURE
+                        | aspect::APPEARANCE
+                        | aspect::KINEMATICS
+                        | aspect::DYNAMICS
+                        | aspect::GEOMETRY)
+                    != 0
+                {
                     structure = true;
                 }
                 if asp & aspect::GEOMETRY != 0 {
@@ -377,7 +462,9 @@ impl Keeper {
     }
 
     fn send(publisher: &Pub, w: &SegmentWriter<'_>, what: &str) -> Result<(), KeeperError> {
-        let mut sample = publisher.loan_slice(w.words()).map_err(ipc(format!("loan {what}")))?;
+        let mut sample = publisher
+            .loan_slice(w.words())
+            .map_err(ipc(format!("loan {what}")))?;
         w.write(sample.payload_mut());
         sample.send().map_err(ipc(format!("send {what}")))?;
         Ok(())
@@ -398,14 +485,23 @@ impl Keeper {
             self.poses.push(pose_rec(o));
         }
         self.structure_version = self.model.version;
-        let header = [ObjectsHeader { version: self.model.version, epoch: self.epoch, count: n as u64 }];
+        let header = [ObjectsHeader {
+            version: self.model.version,
+            epoch: self.epoch,
+            count: n as u64,
+        }];
         let mut w = SegmentWriter::new();
         w.push(&header).push(&recs).push(&names);
         Self::send(&self.objects_pub, &w, "objects")
     }
 
     fn publish_poses(&mut self) -> Result<(), KeeperError> {
-        let header = [PosesHeader { version: self.model.version, structure_version: self.structure_version, epoch: self.epoch, count: self.poses.len() as u64 }];
+        let header = [PosesHeader {
+            version: self.model.version,
+            structure_version: self.structure_version,
+            epoch: self.epoch,
+            count: self.poses.len() as u64,
+        }];
         let mut w = SegmentWriter::new();
         w.push(&header).push(&self.poses);
         Self::send(&self.poses_pub, &w, "poses")
@@ -416,7 +512,13 @@ impl Keeper {
         let mut recs = Vec::with_capacity(applied.len());
         let mut ids = Vec::new();
         for a in applied {
-            recs.push(ChangeRec { version: a.version, aspects: a.aspects(), ids_start: ids.len() as u64, ids_len: a.changes.len() as u64, published_ns: now });
+            recs.push(ChangeRec {
+                version: a.version,
+                aspects: a.aspects(),
+                ids_start: ids.len() as u64,
+                ids_len: a.changes.len() as u64,
+                published_ns: now,
+            });
             ids.extend(a.changes.iter().map(|c| c.0));
         }
         let mut w = SegmentWriter::new();
@@ -426,7 +528,11 @@ impl Keeper {
 
     /// Publishes (creating its service if needed) or retires the geometry of `id`.
     fn publish_geometry(&mut self, id: Id) -> Result<(), KeeperError> {
-        let Some((poly, generation)) = self.model.get(id).and_then(|o| o.geometry.clone().map(|g| (g, o.geom_gen))) else {
+        let Some((poly, generation)) = self
+            .model
+            .get(id)
+            .and_then(|o| o.geometry.clone().map(|g| (g, o.geom_gen)))
+        else {
             // Deleted, or its geometry removed: the service goes with the publisher.
             self.geometry.remove(&id);
             return Ok(());
@@ -458,13 +564,42 @@ impl Keeper {
         let header = [GeometryHeader {
             id,
             generation,
-            bbox: [poly.bbox.center.x, poly.bbox.center.y, poly.bbox.center.z, poly.bbox.half.x, poly.bbox.half.y, poly.bbox.half.z],
+            bbox: [
+                poly.bbox.center.x,
+                poly.bbox.center.y,
+                poly.bbox.center.z,
+                poly.bbox.half.x,
+                poly.bbox.half.y,
+                poly.bbox.half.z,
+            ],
         }];
         let vertices: Vec<[f64; 3]> = poly.vertices.iter().map(|v| [v.x, v.y, v.z]).collect();
-        let penalty: Vec<[f64; 4]> = poly.penalty.iter().map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d]).collect();
-        let polygons: Vec<PolygonRec> = poly.polygons.iter().map(|p| PolygonRec { start: p.start, len: p.len, plane: [p.plane.normal.x, p.plane.normal.y, p.plane.normal.z, p.plane.d] }).collect();
+        let penalty: Vec<[f64; 4]> = poly
+            .penalty
+            .iter()
+            .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d])
+            .collect();
+        let polygons: Vec<PolygonRec> = poly
+            .polygons
+            .iter()
+            .map(|p| PolygonRec {
+                start: p.start,
+                len: p.len,
+                plane: [
+                    p.plane.normal.x,
+                    p.plane.normal.y,
+                    p.plane.normal.z,
+                    p.plane.d,
+                ],
+            })
+            .collect();
         let mut w = SegmentWriter::new();
-        w.push(&header).push(&vertices).push(&poly.indices).push(&penalty).push(&polygons).push(&poly.edges);
+        w.push(&header)
+            .push(&vertices)
+            .push(&poly.indices)
+            .push(&penalty)
+            .push(&polygons)
+            .push(&poly.edges);
         if let Some((p, g)) = self.geometry.get_mut(&id) {
             Self::send(p, &w, "geometry")?;
             *g = generation;
@@ -474,7 +609,11 @@ impl Keeper {
 }
 
 fn pose_rec(o: &Object) -> PoseRec {
-    PoseRec { id: o.id, pose: o.pose, joint: o.joint }
+    PoseRec {
+        id: o.id,
+        pose: o.pose,
+        joint: o.joint,
+    }
 }
 
 fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
@@ -488,7 +627,12 @@ fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
         name_len: o.name.len() as u32,
         geom_gen: o.geom_gen,
         color: o.appearance.color,
-        surface: [o.appearance.diffuse, o.appearance.specular, o.appearance.shininess, 0.0],
+        surface: [
+            o.appearance.diffuse,
+            o.appearance.specular,
+            o.appearance.shininess,
+            0.0,
+        ],
         ..bytemuck::Zeroable::zeroed()
     };
     if !o.origin.is_empty() {
@@ -500,7 +644,17 @@ fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
         rec.flags |= flags::HAS_GEOMETRY;
     }
     match o.kinematics {
-        Some(Kinematics::Joint { index, joint, convention, a, d, alpha, theta, offset, qlim }) => {
+        Some(Kinematics::Joint {
+            index,
+            joint,
+            convention,
+            a,
+            d,
+            alpha,
+            theta,
+            offset,
+            qlim,
+        }) => {
             rec.flags |= flags::HAS_KINEMATICS;
             rec.kin_tag = flags::KIN_JOINT;
             rec.joint_kind = joint as u32;
@@ -508,7 +662,11 @@ fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
             rec.index_or_family = index;
             rec.dh = [a, d, alpha, theta, offset, qlim[0], qlim[1]];
         }
-        Some(Kinematics::Robot { convention, ik_family, tool }) => {
+        Some(Kinematics::Robot {
+            convention,
+            ik_family,
+            tool,
+        }) => {
             rec.flags |= flags::HAS_KINEMATICS;
             rec.kin_tag = flags::KIN_ROBOT;
             rec.convention = convention as u32;

@@ -35,7 +35,9 @@ pub struct SegmentWriter<'a> {
 
 impl<'a> SegmentWriter<'a> {
     pub fn new() -> Self {
-        SegmentWriter { sections: Vec::new() }
+        SegmentWriter {
+            sections: Vec::new(),
+        }
     }
     pub fn push<T: Pod>(&mut self, data: &'a [T]) -> &mut Self {
         self.sections.push(bytemuck::cast_slice(data));
@@ -43,7 +45,12 @@ impl<'a> SegmentWriter<'a> {
     }
     /// Total size in words.
     pub fn words(&self) -> usize {
-        2 + 2 * self.sections.len() + self.sections.iter().map(|s| s.len().div_ceil(8)).sum::<usize>()
+        2 + 2 * self.sections.len()
+            + self
+                .sections
+                .iter()
+                .map(|s| s.len().div_ceil(8))
+                .sum::<usize>()
     }
     /// Writes the segment into `out`, which must be exactly [`Self::words`] long.
     pub fn write(&self, out: &mut [u64]) {
@@ -97,7 +104,10 @@ impl<'a> Segment<'a> {
         let off = self.words[2 + 2 * i] as usize;
         let len = self.words[3 + 2 * i] as usize;
         let w = len.div_ceil(8);
-        let words = self.words.get(off..off.checked_add(w).ok_or(LayoutError::Section(i))?).ok_or(LayoutError::Section(i))?;
+        let words = self
+            .words
+            .get(off..off.checked_add(w).ok_or(LayoutError::Section(i))?)
+            .ok_or(LayoutError::Section(i))?;
         let bytes: &[u8] = bytemuck::cast_slice(words);
         bytemuck::try_cast_slice(&bytes[..len]).map_err(|_| LayoutError::Section(i))
     }

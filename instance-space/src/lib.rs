@@ -28,9 +28,14 @@ mod transaction;
 
 pub use client::{Client, ClientError, Committed, Pending};
 pub use keeper::{Keeper, KeeperError, KeeperOptions};
-pub use model::{aspect, Applied, Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Model, Object, Pose, TxError, IDENTITY, MAX_ELEMENTS};
+pub use model::{
+    Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,
+    MassProps, Model, Object, Pose, TxError, aspect,
+};
 pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot};
-pub use session::{default_session_name, home, pid_alive, ProcInfo, Registration, Session, SessionError};
+pub use session::{
+    ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,
+};
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
 
 /// Service suffixes inside a session (see [`Session::service`]).
@@ -50,8 +55,14 @@ pub mod services {
 /// CLOCK_MONOTONIC in ns: comparable across processes on one machine (unlike
 /// `std::time::Instant`, whose origin is private), and immune to wall-clock steps.
 pub fn monotonic_ns() -> u64 {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
-    #[expect(unsafe_code, reason = "clock_gettime(2) has no safe std wrapper that exposes the raw clock")]
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    #[expect(
+        unsafe_code,
+        reason = "clock_gettime(2) has no safe std wrapper that exposes the raw clock"
+    )]
     // SAFETY: `ts` is a valid, writable timespec owned by this frame; CLOCK_MONOTONIC always
     // exists on Linux, so the call only writes `ts`.
     let rc = unsafe { libc::clock_gettime(libc::CLOCK_MONOTONIC, &mut ts) };

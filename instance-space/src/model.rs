@@ -26,7 +26,20 @@ pub const MAX_NAME_BYTES: usize = 4096;
 pub const MAX_ORIGIN_BYTES: usize = 1 << 16;
 
 /// The kind tag of an object (seed §3.3: objects are dynamically typed).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, bincode::Encode, bincode::Decode, PartialOrd, Ord)]
+#[derive(
+    Debug,
+    Clone,
+    Copy,
+    PartialEq,
+    Eq,
+    Hash,
+    Serialize,
+    Deserialize,
+    bincode::Encode,
+    bincode::Decode,
+    PartialOrd,
+    Ord,
+)]
 #[repr(u32)]
 pub enum Kind {
     Scene = 1,
@@ -65,7 +78,16 @@ impl Kind {
             Kind::Scene => (&[], true),
             Kind::Robot | Kind::Item => (&[Kind::Scene], true),
             Kind::Link => (&[Kind::Robot], false),
-            Kind::Solid => (&[Kind::Scene, Kind::Robot, Kind::Item, Kind::Link, Kind::Solid], true),
+            Kind::Solid => (
+                &[
+                    Kind::Scene,
+                    Kind::Robot,
+                    Kind::Item,
+                    Kind::Link,
+                    Kind::Solid,
+                ],
+                true,
+            ),
             Kind::Part => (&[Kind::Solid], false),
         }
     }
@@ -98,7 +120,9 @@ pub mod aspect {
 }
 
 /// Display data (seed §3.2 item 3): RGBA colour and a Phong-like surface.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
 pub struct Appearance {
     pub color: [f32; 4],
     pub diffuse: f32,
@@ -108,12 +132,19 @@ pub struct Appearance {
 
 impl Default for Appearance {
     fn default() -> Self {
-        Appearance { color: [0.7, 0.7, 0.7, 1.0], diffuse: 0.8, specular: 0.2, shininess: 16.0 }
+        Appearance {
+            color: [0.7, 0.7, 0.7, 1.0],
+            diffuse: 0.8,
+            specular: 0.2,
+            shininess: 16.0,
+        }
     }
 }
 
 /// Joint type of a link.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
 #[repr(u32)]
 pub enum JointKind {
     Fixed = 0,
@@ -122,7 +153,9 @@ pub enum JointKind {
 }
 
 /// DH convention (DESIGN.md: standard = distal, modified = Craig).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
 #[repr(u32)]
 pub enum DhConvention {
     Standard = 0,
@@ -130,7 +163,9 @@ pub enum DhConvention {
 }
 
 /// Kinematics data (seed §3.2 item 5).
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
 pub enum Kinematics {
     /// A link's joint: its place in the chain, type, DH row (m, rad) and limits.
     Joint {
@@ -146,12 +181,18 @@ pub enum Kinematics {
     },
     /// A robot: its DH convention, the analytic IK family it uses (0 = numeric only), and its
     /// tool transform (3×4 row-major).
-    Robot { convention: DhConvention, ik_family: u32, tool: Pose },
+    Robot {
+        convention: DhConvention,
+        ik_family: u32,
+        tool: Pose,
+    },
 }
 
 /// Dynamics data (seed §3.2 item 6): mass (kg), centre of mass (m, object frame), inertia about
 /// the centre of mass (kg·m²) as xx, yy, zz, xy, xz, yz.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
 pub struct MassProps {
     pub mass: f64,
     pub com: [f64; 3],
@@ -196,21 +237,46 @@ pub enum TxError {
     #[error("op {op}: `new {reference}` refers to no earlier create in this transaction")]
     UnknownNewRef { op: usize, reference: u32 },
     #[error("op {op}: object {id}: {field} is not finite ({value})")]
-    NonFinite { op: usize, id: Id, field: String, value: f64 },
+    NonFinite {
+        op: usize,
+        id: Id,
+        field: String,
+        value: f64,
+    },
     #[error("op {op}: object {id}: {field}: {reason}")]
-    InvalidValue { op: usize, id: Id, field: String, reason: String },
+    InvalidValue {
+        op: usize,
+        id: Id,
+        field: String,
+        reason: String,
+    },
     #[error("op {op}: object {id}: geometry refused: {reason}")]
     InvalidGeometry { op: usize, id: Id, reason: String },
-    #[error("op {op}: object {id}: making {parent} its parent would close a cycle in the hierarchy")]
+    #[error(
+        "op {op}: object {id}: making {parent} its parent would close a cycle in the hierarchy"
+    )]
     Cycle { op: usize, id: Id, parent: Id },
     #[error("op {op}: object {id}: a {kind} cannot be a child of a {parent_kind}")]
-    WrongParentKind { op: usize, id: Id, kind: String, parent_kind: String },
+    WrongParentKind {
+        op: usize,
+        id: Id,
+        kind: String,
+        parent_kind: String,
+    },
     #[error("op {op}: object {id}: a {kind} needs a parent")]
     NeedsParent { op: usize, id: Id, kind: String },
-    #[error("op {op}: object {id} still has {children} children; delete them first or delete recursively")]
+    #[error(
+        "op {op}: object {id} still has {children} children; delete them first or delete recursively"
+    )]
     HasChildren { op: usize, id: Id, children: usize },
     #[error("op {op}: object {id}: {field} asks for {requested} elements; the limit is {limit}")]
-    TooLarge { op: usize, id: Id, field: String, requested: u64, limit: u64 },
+    TooLarge {
+        op: usize,
+        id: Id,
+        field: String,
+        requested: u64,
+        limit: u64,
+    },
     #[error("op {op}: object {id}: {field} is not a rigid transform (orthonormal, det +1)")]
     NotRigid { op: usize, id: Id, field: String },
     #[error("malformed transaction: {message}")]
@@ -247,11 +313,21 @@ pub struct Model {
 
 impl Model {
     pub fn new() -> Self {
-        Model { version: 0, next_id: 1, objects: BTreeMap::new(), children: HashMap::new() }
+        Model {
+            version: 0,
+            next_id: 1,
+            objects: BTreeMap::new(),
+            children: HashMap::new(),
+        }
     }
     /// Rebuilds a model from a checkpoint's parts.
     pub(crate) fn from_parts(version: u64, next_id: Id, objects: Vec<Object>) -> Self {
-        let mut m = Model { version, next_id, objects: BTreeMap::new(), children: HashMap::new() };
+        let mut m = Model {
+            version,
+            next_id,
+            objects: BTreeMap::new(),
+            children: HashMap::new(),
+        };
         for o in objects {
             m.children.entry(o.parent).or_default().insert(o.id);
             m.objects.insert(o.id, o);
@@ -274,7 +350,10 @@ impl Model {
         self.next_id
     }
     pub fn children_of(&self, id: Id) -> impl Iterator<Item = Id> + '_ {
-        self.children.get(&id).into_iter().flat_map(|s| s.iter().copied())
+        self.children
+            .get(&id)
+            .into_iter()
+            .flat_map(|s| s.iter().copied())
     }
 
     /// Validates `tx` as a whole against the model and applies it: on success the version
@@ -285,12 +364,25 @@ impl Model {
         if tx.ops.is_empty() {
             return Err(TxError::Empty);
         }
-        let mut stage = Stage { model: self, overlay: HashMap::new(), created: Vec::new(), next_id: self.next_id, touched: BTreeMap::new(), reparented: Vec::new() };
+        let mut stage = Stage {
+            model: self,
+            overlay: HashMap::new(),
+            created: Vec::new(),
+            next_id: self.next_id,
+            touched: BTreeMap::new(),
+            reparented: Vec::new(),
+        };
         for (i, op) in tx.ops.iter().enumerate() {
             stage.op(i, op)?;
         }
         stage.check_structure()?;
-        let Stage { overlay, created, next_id, touched, .. } = stage;
+        let Stage {
+            overlay,
+            created,
+            next_id,
+            touched,
+            ..
+        } = stage;
         // Commit: nothing below can fail.
         for (id, obj) in overlay {
             let old_parent = self.objects.get(&id).map(|o| o.parent);
@@ -313,7 +405,11 @@ impl Model {
         self.children.retain(|_, s| !s.is_empty());
         self.next_id = next_id;
         self.version += 1;
-        Ok(Applied { version: self.version, created, changes: touched.into_iter().collect() })
+        Ok(Applied {
+            version: self.version,
+            created,
+            changes: touched.into_iter().collect(),
+        })
     }
 }
 
@@ -332,9 +428,16 @@ impl Stage<'_> {
     fn resolve(&self, op: usize, r: ObjRef) -> Result<Id, TxError> {
         let id = match r {
             ObjRef::Id(id) => id,
-            ObjRef::New(k) => *self.created.get(k as usize).ok_or(TxError::UnknownNewRef { op, reference: k })?,
+            ObjRef::New(k) => *self
+                .created
+                .get(k as usize)
+                .ok_or(TxError::UnknownNewRef { op, reference: k })?,
         };
-        if self.exists(id) { Ok(id) } else { Err(TxError::UnknownObject { op, id }) }
+        if self.exists(id) {
+            Ok(id)
+        } else {
+            Err(TxError::UnknownObject { op, id })
+        }
     }
     fn exists(&self, id: Id) -> bool {
         match self.overlay.get(&id) {
@@ -357,7 +460,10 @@ impl Stage<'_> {
         }
         *self.touched.entry(id).or_default() |= aspects;
         // resolve() checked existence, and we just inserted the model's copy if absent.
-        self.overlay.get_mut(&id).and_then(|o| o.as_mut()).ok_or(TxError::UnknownObject { op, id })
+        self.overlay
+            .get_mut(&id)
+            .and_then(|o| o.as_mut())
+            .ok_or(TxError::UnknownObject { op, id })
     }
     fn op(&mut self, i: usize, op: &Op) -> Result<(), TxError> {
         use crate::model::aspect::*;
@@ -397,7 +503,11 @@ impl Stage<'_> {
                     let d = doomed[k];
                     let kids: Vec<Id> = self.child_ids(d);
                     if !kids.is_empty() && !recursive {
-                        return Err(TxError::HasChildren { op: i, id: d, children: kids.len() });
+                        return Err(TxError::HasChildren {
+                            op: i,
+                            id: d,
+                            children: kids.len(),
+                        });
                     }
                     doomed.extend(kids);
                     k += 1;
@@ -423,7 +533,13 @@ impl Stage<'_> {
             }
             Op::SetOrigin { id, origin } => {
                 if origin.len() > MAX_ORIGIN_BYTES {
-                    return Err(TxError::TooLarge { op: i, id: 0, field: "origin".into(), requested: origin.len() as u64, limit: MAX_ORIGIN_BYTES as u64 });
+                    return Err(TxError::TooLarge {
+                        op: i,
+                        id: 0,
+                        field: "origin".into(),
+                        requested: origin.len() as u64,
+                        limit: MAX_ORIGIN_BYTES as u64,
+                    });
                 }
                 self.edit(i, *id, STRUCTURE)?.origin = origin.clone();
             }
@@ -437,7 +553,12 @@ impl Stage<'_> {
                 finite(i, rid, "joint", *value)?;
                 let obj = self.edit(i, *id, POSE)?;
                 if obj.kind != Kind::Link {
-                    return Err(TxError::InvalidValue { op: i, id: rid, field: "joint".into(), reason: format!("a {} has no joint", obj.kind.name()) });
+                    return Err(TxError::InvalidValue {
+                        op: i,
+                        id: rid,
+                        field: "joint".into(),
+                        reason: format!("a {} has no joint", obj.kind.name()),
+                    });
                 }
                 obj.joint = *value;
             }
@@ -445,12 +566,26 @@ impl Stage<'_> {
                 let rid = self.resolve(i, *id)?;
                 for (k, c) in appearance.color.iter().enumerate() {
                     if !(0.0..=1.0).contains(c) {
-                        return Err(TxError::InvalidValue { op: i, id: rid, field: format!("color[{k}]"), reason: format!("{c} is outside [0, 1]") });
+                        return Err(TxError::InvalidValue {
+                            op: i,
+                            id: rid,
+                            field: format!("color[{k}]"),
+                            reason: format!("{c} is outside [0, 1]"),
+                        });
                     }
                 }
-                for (f, v) in [("diffuse", appearance.diffuse), ("specular", appearance.specular), ("shininess", appearance.shininess)] {
+                for (f, v) in [
+                    ("diffuse", appearance.diffuse),
+                    ("specular", appearance.specular),
+                    ("shininess", appearance.shininess),
+                ] {
                     if !v.is_finite() || v < 0.0 {
-                        return Err(TxError::InvalidValue { op: i, id: rid, field: f.into(), reason: format!("{v} must be finite and ≥ 0") });
+                        return Err(TxError::InvalidValue {
+                            op: i,
+                            id: rid,
+                            field: f.into(),
+                            reason: format!("{v} must be finite and ≥ 0"),
+                        });
                     }
                 }
                 self.edit(i, *id, APPEARANCE)?.appearance = *appearance;
@@ -463,10 +598,20 @@ impl Stage<'_> {
                 let kind = self.lookup(rid).map(|o| o.kind);
                 match (kinematics, kind) {
                     (Some(Kinematics::Joint { .. }), Some(k)) if k != Kind::Link => {
-                        return Err(TxError::InvalidValue { op: i, id: rid, field: "kinematics".into(), reason: format!("joint data belongs on a link, not a {}", k.name()) });
+                        return Err(TxError::InvalidValue {
+                            op: i,
+                            id: rid,
+                            field: "kinematics".into(),
+                            reason: format!("joint data belongs on a link, not a {}", k.name()),
+                        });
                     }
                     (Some(Kinematics::Robot { .. }), Some(k)) if k != Kind::Robot => {
-                        return Err(TxError::InvalidValue { op: i, id: rid, field: "kinematics".into(), reason: format!("robot data belongs on a robot, not a {}", k.name()) });
+                        return Err(TxError::InvalidValue {
+                            op: i,
+                            id: rid,
+                            field: "kinematics".into(),
+                            reason: format!("robot data belongs on a robot, not a {}", k.name()),
+                        });
                     }
                     _ => {}
                 }
@@ -483,7 +628,12 @@ impl Stage<'_> {
                         finite(i, rid, &format!("inertia[{k}]"), *v)?;
                     }
                     if m.mass < 0.0 {
-                        return Err(TxError::InvalidValue { op: i, id: rid, field: "mass".into(), reason: format!("{} kg is negative", m.mass) });
+                        return Err(TxError::InvalidValue {
+                            op: i,
+                            id: rid,
+                            field: "mass".into(),
+                            reason: format!("{} kg is negative", m.mass),
+                        });
                     }
                 }
                 self.edit(i, *id, DYNAMICS)?.dynamics = *dynamics;
@@ -493,9 +643,18 @@ impl Stage<'_> {
                 let poly = match geometry {
                     None => None,
                     Some(g) => {
-                        for (field, n) in [("vertices", g.vertices.len()), ("polygons", g.polygons.len())] {
+                        for (field, n) in [
+                            ("vertices", g.vertices.len()),
+                            ("polygons", g.polygons.len()),
+                        ] {
                             if n as u64 > MAX_ELEMENTS {
-                                return Err(TxError::TooLarge { op: i, id: rid, field: field.into(), requested: n as u64, limit: MAX_ELEMENTS });
+                                return Err(TxError::TooLarge {
+                                    op: i,
+                                    id: rid,
+                                    field: field.into(),
+                                    requested: n as u64,
+                                    limit: MAX_ELEMENTS,
+                                });
                             }
                         }
                         for (k, v) in g.vertices.iter().enumerate() {
@@ -503,8 +662,18 @@ impl Stage<'_> {
                                 finite(i, rid, &format!("vertices[{k}][{c}]"), *x)?;
                             }
                         }
-                        let verts = g.vertices.iter().map(|v| nalgebra::Point3::new(v[0], v[1], v[2])).collect();
-                        let p = Polyhedron::from_polygons(verts, &g.polygons).map_err(|e| TxError::InvalidGeometry { op: i, id: rid, reason: e.to_string() })?;
+                        let verts = g
+                            .vertices
+                            .iter()
+                            .map(|v| nalgebra::Point3::new(v[0], v[1], v[2]))
+                            .collect();
+                        let p = Polyhedron::from_polygons(verts, &g.polygons).map_err(|e| {
+                            TxError::InvalidGeometry {
+                                op: i,
+                                id: rid,
+                                reason: e.to_string(),
+                            }
+                        })?;
                         Some(Arc::new(p))
                     }
                 };
@@ -517,7 +686,17 @@ impl Stage<'_> {
     }
 
     fn child_ids(&self, id: Id) -> Vec<Id> {
-        let mut out: Vec<Id> = self.model.children.get(&id).map(|s| s.iter().copied().filter(|c| self.lookup(*c).is_some_and(|o| o.parent == id)).collect()).unwrap_or_default();
+        let mut out: Vec<Id> = self
+            .model
+            .children
+            .get(&id)
+            .map(|s| {
+                s.iter()
+                    .copied()
+                    .filter(|c| self.lookup(*c).is_some_and(|o| o.parent == id))
+                    .collect()
+            })
+            .unwrap_or_default();
         for (cid, o) in &self.overlay {
             if o.as_ref().is_some_and(|o| o.parent == id) && !out.contains(cid) {
                 out.push(*cid);
@@ -543,7 +722,11 @@ impl Stage<'_> {
             let (allowed, may_be_root) = obj.kind.allowed_parents();
             if obj.parent == 0 {
                 if !may_be_root {
-                    return Err(TxError::NeedsParent { op, id, kind: obj.kind.name().into() });
+                    return Err(TxError::NeedsParent {
+                        op,
+                        id,
+                        kind: obj.kind.name().into(),
+                    });
                 }
                 continue;
             }
@@ -551,7 +734,12 @@ impl Stage<'_> {
                 return Err(TxError::UnknownObject { op, id: obj.parent });
             };
             if !allowed.contains(&parent.kind) {
-                return Err(TxError::WrongParentKind { op, id, kind: obj.kind.name().into(), parent_kind: parent.kind.name().into() });
+                return Err(TxError::WrongParentKind {
+                    op,
+                    id,
+                    kind: obj.kind.name().into(),
+                    parent_kind: parent.kind.name().into(),
+                });
             }
             // Walk up: a cycle returns to `id`. Bounded by the number of objects.
             let mut cur = obj.parent;
@@ -561,7 +749,11 @@ impl Stage<'_> {
                     break;
                 }
                 if cur == id {
-                    return Err(TxError::Cycle { op, id, parent: obj.parent });
+                    return Err(TxError::Cycle {
+                        op,
+                        id,
+                        parent: obj.parent,
+                    });
                 }
                 cur = self.lookup(cur).map_or(0, |o| o.parent);
             }
@@ -571,12 +763,27 @@ impl Stage<'_> {
 }
 
 fn finite(op: usize, id: Id, field: &str, value: f64) -> Result<(), TxError> {
-    if value.is_finite() { Ok(()) } else { Err(TxError::NonFinite { op, id, field: field.into(), value }) }
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(TxError::NonFinite {
+            op,
+            id,
+            field: field.into(),
+            value,
+        })
+    }
 }
 
 fn check_name(op: usize, id: Id, name: &str) -> Result<(), TxError> {
     if name.len() > MAX_NAME_BYTES {
-        return Err(TxError::TooLarge { op, id, field: "name".into(), requested: name.len() as u64, limit: MAX_NAME_BYTES as u64 });
+        return Err(TxError::TooLarge {
+            op,
+            id,
+            field: "name".into(),
+            requested: name.len() as u64,
+            limit: MAX_NAME_BYTES as u64,
+        });
     }
     Ok(())
 }
@@ -588,24 +795,54 @@ pub(crate) fn check_pose(op: usize, id: Id, field: &str, p: &Pose) -> Result<(),
         finite(op, id, &format!("{field}[{k}]"), *v)?;
     }
     let r = nalgebra::Matrix3::new(p[0], p[1], p[2], p[4], p[5], p[6], p[8], p[9], p[10]);
-    let err = (r.transpose() * r - nalgebra::Matrix3::identity()).abs().max();
+    let err = (r.transpose() * r - nalgebra::Matrix3::identity())
+        .abs()
+        .max();
     if err > 1e-6 || (r.determinant() - 1.0).abs() > 1e-6 {
-        return Err(TxError::NotRigid { op, id, field: field.into() });
+        return Err(TxError::NotRigid {
+            op,
+            id,
+            field: field.into(),
+        });
     }
     Ok(())
 }
 
 fn check_kinematics(op: usize, id: Id, k: &Kinematics) -> Result<(), TxError> {
     match k {
-        Kinematics::Joint { a, d, alpha, theta, offset, qlim, .. } => {
-            for (f, v) in [("a", a), ("d", d), ("alpha", alpha), ("theta", theta), ("offset", offset)] {
+        Kinematics::Joint {
+            a,
+            d,
+            alpha,
+            theta,
+            offset,
+            qlim,
+            ..
+        } => {
+            for (f, v) in [
+                ("a", a),
+                ("d", d),
+                ("alpha", alpha),
+                ("theta", theta),
+                ("offset", offset),
+            ] {
                 finite(op, id, f, *v)?;
             }
             if qlim[0].is_nan() || qlim[1].is_nan() {
-                return Err(TxError::NonFinite { op, id, field: "qlim".into(), value: f64::NAN });
+                return Err(TxError::NonFinite {
+                    op,
+                    id,
+                    field: "qlim".into(),
+                    value: f64::NAN,
+                });
             }
             if qlim[0] > qlim[1] {
-                return Err(TxError::InvalidValue { op, id, field: "qlim".into(), reason: format!("[{}, {}] is reversed", qlim[0], qlim[1]) });
+                return Err(TxError::InvalidValue {
+                    op,
+                    id,
+                    field: "qlim".into(),
+                    reason: format!("[{}, {}] is reversed", qlim[0], qlim[1]),
+                });
             }
         }
         Kinematics::Robot { tool, .. } => check_pose(op, id, "tool", tool)?,

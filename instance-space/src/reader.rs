@@ -11,10 +11,13 @@
 //! changed since version N" from the records this reader has seen.
 
 use crate::keeper::events;
-use crate::layout::{flags, geometry_sections as gs, ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, PoseRec, PolygonRec, PosesHeader, Segment};
+use crate::layout::{
+    ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, PolygonRec, PoseRec,
+    PosesHeader, Segment, flags, geometry_sections as gs,
+};
 use crate::model::{Id, Kind};
-use crate::session::{Session, SessionError};
 use crate::services;
+use crate::session::{Session, SessionError};
 use iceoryx2::prelude::*;
 use std::collections::{HashMap, VecDeque};
 use std::rc::Rc;
@@ -36,7 +39,9 @@ pub enum ReaderError {
     Timeout(Duration),
     #[error("a published segment is malformed: {0}")]
     Layout(#[from] LayoutError),
-    #[error("changes before version {oldest} are no longer known to this reader (asked for changes since {since}); take a new snapshot")]
+    #[error(
+        "changes before version {oldest} are no longer known to this reader (asked for changes since {since}); take a new snapshot"
+    )]
     ChangesLost { since: u64, oldest: u64 },
     #[error("this reader holds too many snapshots; drop old ones before taking a new one")]
     TooManySnapshotsHeld,
@@ -48,7 +53,11 @@ fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> ReaderE
     let what = what.into();
     move |e| {
         let message = format!("{e:?}");
-        if message.contains("ExceedsMaxBorrow") { ReaderError::TooManySnapshotsHeld } else { ReaderError::Ipc { what, message } }
+        if message.contains("ExceedsMaxBorrow") {
+            ReaderError::TooManySnapshotsHeld
+        } else {
+            ReaderError::Ipc { what, message }
+        }
     }
 }
 
@@ -129,19 +138,29 @@ impl Snapshot {
     pub fn name(&self, i: usize) -> &str {
         let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
         let r = &self.objects()[i];
-        names.get(r.name_off as usize..(r.name_off + r.name_len) as usize).and_then(|b| std::str::from_utf8(b).ok()).unwrap_or("")
+        names
+            .get(r.name_off as usize..(r.name_off + r.name_len) as usize)
+            .and_then(|b| std::str::from_utf8(b).ok())
+            .unwrap_or("")
     }
     /// The origin record of an instance (see [`crate::Op::SetOrigin`]); empty otherwise.
     pub fn origin(&self, i: usize) -> &str {
         let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
         let r = &self.objects()[i];
-        names.get(r.origin_off as usize..(r.origin_off + r.origin_len) as usize).and_then(|b| std::str::from_utf8(b).ok()).unwrap_or("")
+        names
+            .get(r.origin_off as usize..(r.origin_off + r.origin_len) as usize)
+            .and_then(|b| std::str::from_utf8(b).ok())
+            .unwrap_or("")
     }
     pub fn index_of(&self, id: Id) -> Option<usize> {
         self.objects().binary_search_by_key(&id, |r| r.id).ok()
     }
     pub fn object(&self, i: usize) -> ObjectView<'_> {
-        ObjectView { rec: &self.objects()[i], pose: &self.poses()[i], name: self.name(i) }
+        ObjectView {
+            rec: &self.objects()[i],
+            pose: &self.poses()[i],
+            name: self.name(i),
+        }
     }
     /// The first object called `name`.
     pub fn find(&self, name: &str) -> Option<usize> {
@@ -161,7 +180,10 @@ impl Snapshot {
     }
     /// Total vertices over all objects (a cheap whole-model read, used by benchmarks).
     pub fn vertex_count(&self) -> usize {
-        (0..self.len()).filter_map(|i| self.geometry(i)).map(|g| g.vertices.len()).sum()
+        (0..self.len())
+            .filter_map(|i| self.geometry(i))
+            .map(|g| g.vertices.len())
+            .sum()
     }
     /// Pose of object `i` in the world: the product of local poses up the parent chain,
     /// 3×4 row-major.
@@ -170,7 +192,9 @@ impl Snapshot {
         let mut parent = self.objects()[i].parent;
         let mut guard = self.len();
         while parent != 0 && guard > 0 {
-            let Some(p) = self.index_of(parent) else { break };
+            let Some(p) = self.index_of(parent) else {
+                break;
+            };
             m = compose(&self.poses()[p].pose, &m);
             parent = self.objects()[p].parent;
             guard -= 1;
@@ -233,18 +257,48 @@ impl Reader {
     /// Attaches to the keeper of `session` and waits (up to 10 s) for its current model.
     pub fn attach(session: &Session, role: &str) -> Result<Reader, ReaderError> {
         let node = session.node(role, false)?;
-        let no_keeper = |_: Box<dyn std::fmt::Debug>| ReaderError::NoKeeper { session: session.name().to_owned() };
-        let open = |suffix: &str| -> Result<_, ReaderError> { node.service_builder(&session.service(suffix)?).publish_subscribe::<[u64]>().open().map_err(|e| no_keeper(Box::new(e))) };
+        let no_keeper = |_: Box<dyn std::fmt::Debug>| ReaderError::NoKeeper {
+            session: session.name().to_owned(),
+        };
+        let open = |suffix: &str| -> Result<_, ReaderError> {
+            node.service_builder(&session.service(suffix)?)
+                .publish_subscribe::<[u64]>()
+                .open()
+                .map_err(|e| no_keeper(Box::new(e)))
+        };
         let objects_svc = open(services::OBJECTS)?;
         let poses_svc = open(services::POSES)?;
         let changes_svc = open(services::CHANGES)?;
-        let objects = objects_svc.subscriber_builder().create().map_err(ipc("subscribe objects"))?;
-        let poses = poses_svc.subscriber_builder().create().map_err(ipc("subscribe poses"))?;
-        let changes = changes_svc.subscriber_builder().create().map_err(ipc("subscribe changes"))?;
-        let change_event = node.service_builder(&session.service(services::CHANGE_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
-        let listener = change_event.listener_builder().create().map_err(ipc("listen to changes"))?;
-        let req_event = node.service_builder(&session.service(services::REQUEST_EVENT)?).event().open().map_err(|e| no_keeper(Box::new(e)))?;
-        let hello = req_event.notifier_builder().create().map_err(ipc("create hello notifier"))?;
+        let objects = objects_svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe objects"))?;
+        let poses = poses_svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe poses"))?;
+        let changes = changes_svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe changes"))?;
+        let change_event = node
+            .service_builder(&session.service(services::CHANGE_EVENT)?)
+            .event()
+            .open()
+            .map_err(|e| no_keeper(Box::new(e)))?;
+        let listener = change_event
+            .listener_builder()
+            .create()
+            .map_err(ipc("listen to changes"))?;
+        let req_event = node
+            .service_builder(&session.service(services::REQUEST_EVENT)?)
+            .event()
+            .open()
+            .map_err(|e| no_keeper(Box::new(e)))?;
+        let hello = req_event
+            .notifier_builder()
+            .create()
+            .map_err(ipc("create hello notifier"))?;
         let mut r = Reader {
             session: session.clone(),
             node,
@@ -261,9 +315,17 @@ impl Reader {
             log_floor: 0,
             pending: Vec::new(),
             timeout: Duration::from_secs(10),
-            _services: vec![Box::new(objects_svc), Box::new(poses_svc), Box::new(changes_svc), Box::new(change_event), Box::new(req_event)],
+            _services: vec![
+                Box::new(objects_svc),
+                Box::new(poses_svc),
+                Box::new(changes_svc),
+                Box::new(change_event),
+                Box::new(req_event),
+            ],
         };
-        let _ = r.hello.notify_with_custom_event_id(EventId::new(events::HELLO));
+        let _ = r
+            .hello
+            .notify_with_custom_event_id(EventId::new(events::HELLO));
         let start = Instant::now();
         while r.current.is_none() {
             r.refresh()?;
@@ -318,26 +380,52 @@ impl Reader {
             }
             match self.objects.receive().map_err(ipc("receive objects"))? {
                 Some(s) => self.latest_objects = Some(Rc::new(s)),
-                None if Instant::now() > deadline => return Err(ReaderError::Timeout(self.timeout)),
+                None if Instant::now() > deadline => {
+                    return Err(ReaderError::Timeout(self.timeout));
+                }
                 None => std::thread::sleep(Duration::from_micros(50)),
             }
         }
-        let objects = self.latest_objects.clone().ok_or(ReaderError::Timeout(self.timeout))?;
-        let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.payload())?.section::<ObjectRec>(1)?.iter().map(|r| (r.id, r.geom_gen, r.flags & flags::HAS_GEOMETRY != 0)).collect();
+        let objects = self
+            .latest_objects
+            .clone()
+            .ok_or(ReaderError::Timeout(self.timeout))?;
+        let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.payload())?
+            .section::<ObjectRec>(1)?
+            .iter()
+            .map(|r| (r.id, r.geom_gen, r.flags & flags::HAS_GEOMETRY != 0))
+            .collect();
         // Subscribe to every geometry service this version needs first, then ask the keeper
         // once to deliver their history, then collect: one round trip, not one per object.
         let mut opened = false;
         for &(id, _, has) in &recs {
             if has && !self.geometry.contains_key(&id) {
-                let svc = self.node.service_builder(&self.session.service(&services::geometry(id))?).publish_subscribe::<[u64]>().open().map_err(ipc(format!("open geometry of object {id}")))?;
-                let sub = svc.subscriber_builder().create().map_err(ipc(format!("subscribe geometry of object {id}")))?;
+                let svc = self
+                    .node
+                    .service_builder(&self.session.service(&services::geometry(id))?)
+                    .publish_subscribe::<[u64]>()
+                    .open()
+                    .map_err(ipc(format!("open geometry of object {id}")))?;
+                let sub = svc
+                    .subscriber_builder()
+                    .create()
+                    .map_err(ipc(format!("subscribe geometry of object {id}")))?;
                 self._services.push(Box::new(svc));
-                self.geometry.insert(id, GeomSub { sub, latest: None, generation: 0 });
+                self.geometry.insert(
+                    id,
+                    GeomSub {
+                        sub,
+                        latest: None,
+                        generation: 0,
+                    },
+                );
                 opened = true;
             }
         }
         if opened {
-            let _ = self.hello.notify_with_custom_event_id(EventId::new(events::HELLO));
+            let _ = self
+                .hello
+                .notify_with_custom_event_id(EventId::new(events::HELLO));
         }
         let mut geometry = Vec::with_capacity(recs.len());
         let mut said_hello = opened;
@@ -351,9 +439,14 @@ impl Reader {
                 continue;
             };
             while g.generation != generation {
-                match g.sub.receive().map_err(ipc(format!("receive geometry of object {id}")))? {
+                match g
+                    .sub
+                    .receive()
+                    .map_err(ipc(format!("receive geometry of object {id}")))?
+                {
                     Some(s) => {
-                        let gh: GeometryHeader = *Segment::parse(s.payload())?.record::<GeometryHeader>(gs::HEADER)?;
+                        let gh: GeometryHeader =
+                            *Segment::parse(s.payload())?.record::<GeometryHeader>(gs::HEADER)?;
                         g.generation = gh.generation;
                         g.latest = Some(Rc::new(s));
                         if gh.generation > generation {
@@ -361,11 +454,15 @@ impl Reader {
                             return self.refresh();
                         }
                     }
-                    None if Instant::now() > deadline => return Err(ReaderError::Timeout(self.timeout)),
+                    None if Instant::now() > deadline => {
+                        return Err(ReaderError::Timeout(self.timeout));
+                    }
                     None => {
                         if !said_hello {
                             // New subscriber: ask the keeper to deliver its history now.
-                            let _ = self.hello.notify_with_custom_event_id(EventId::new(events::HELLO));
+                            let _ = self
+                                .hello
+                                .notify_with_custom_event_id(EventId::new(events::HELLO));
                             said_hello = true;
                         }
                         std::thread::sleep(Duration::from_micros(50));
@@ -374,9 +471,16 @@ impl Reader {
             }
             geometry.push(g.latest.clone());
         }
-        let live: std::collections::HashSet<Id> = recs.iter().filter(|r| r.2).map(|r| r.0).collect();
+        let live: std::collections::HashSet<Id> =
+            recs.iter().filter(|r| r.2).map(|r| r.0).collect();
         self.geometry.retain(|id, _| live.contains(id));
-        self.current = Some(Rc::new(Snapshot { version: h.version, epoch: h.epoch, objects, poses: Rc::new(head), geometry }));
+        self.current = Some(Rc::new(Snapshot {
+            version: h.version,
+            epoch: h.epoch,
+            objects,
+            poses: Rc::new(head),
+            geometry,
+        }));
         Ok(true)
     }
 
@@ -397,7 +501,12 @@ impl Reader {
                     self.log_floor = r.version;
                 }
                 let range = r.ids_start as usize..(r.ids_start + r.ids_len) as usize;
-                let c = Change { version: r.version, aspects: r.aspects, ids: ids.get(range).unwrap_or(&[]).to_vec(), published_ns: r.published_ns };
+                let c = Change {
+                    version: r.version,
+                    aspects: r.aspects,
+                    ids: ids.get(range).unwrap_or(&[]).to_vec(),
+                    published_ns: r.published_ns,
+                };
                 self.seen = r.version;
                 self.log.push_back(c.clone());
                 if self.log.len() > CHANGE_LOG {
@@ -413,13 +522,18 @@ impl Reader {
     /// Waits up to `timeout` for the next change(s) and returns them in version order (empty on
     /// timeout). The snapshot is advanced to the newest version.
     pub fn wait_change(&mut self, timeout: Duration) -> Result<Vec<Change>, ReaderError> {
+        // Consume pending wake-ups *before* draining: the keeper publishes a record before it
+        // notifies, so every event consumed here belongs to a record the drain below sees.
+        // (Consuming after draining would swallow the wake-up of a record published in
+        // between, and the next wait would sleep through it.)
+        let _ = self.listener.try_wait(|_| {});
         let mut out = std::mem::take(&mut self.pending);
         out.extend(self.drain_changes()?);
         if out.is_empty() {
-            self.listener.timed_wait(|_| {}, timeout).map_err(ipc("wait for changes"))?;
+            self.listener
+                .timed_wait(|_| {}, timeout)
+                .map_err(ipc("wait for changes"))?;
             out = self.drain_changes()?;
-        } else {
-            let _ = self.listener.try_wait(|_| {});
         }
         if !out.is_empty() {
             self.refresh()?;
@@ -430,7 +544,10 @@ impl Reader {
     /// Waits for the change event without draining anything (for latency measurement:
     /// returns the instant of wake-up in CLOCK_MONOTONIC ns, or None on timeout).
     pub fn wait_event(&mut self, timeout: Duration) -> Result<Option<u64>, ReaderError> {
-        let n = self.listener.timed_wait(|_| {}, timeout).map_err(ipc("wait for changes"))?;
+        let n = self
+            .listener
+            .timed_wait(|_| {}, timeout)
+            .map_err(ipc("wait for changes"))?;
         Ok((n > 0).then(crate::monotonic_ns))
     }
 
@@ -439,8 +556,16 @@ impl Reader {
     pub fn changes_since(&mut self, version: u64) -> Result<Vec<Change>, ReaderError> {
         self.drain_changes()?;
         if version + 1 < self.log_floor {
-            return Err(ReaderError::ChangesLost { since: version, oldest: self.log_floor });
+            return Err(ReaderError::ChangesLost {
+                since: version,
+                oldest: self.log_floor,
+            });
         }
-        Ok(self.log.iter().filter(|c| c.version > version).cloned().collect())
+        Ok(self
+            .log
+            .iter()
+            .filter(|c| c.version > version)
+            .cloned()
+            .collect())
     }
 }

@@ -20,11 +20,17 @@ pub enum SessionError {
     #[error("session name {0:?} is invalid: use 1–24 characters from A–Z a–z 0–9 _ -")]
     BadName(String),
     #[error("cannot create {path}: {source}")]
-    Dir { path: PathBuf, source: std::io::Error },
+    Dir {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("iceoryx2 configuration for session {session}: {message}")]
     Config { session: String, message: String },
     #[error("{path}: {source}")]
-    Io { path: PathBuf, source: std::io::Error },
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
 }
 
 /// A session: its name and its directory.
@@ -42,7 +48,9 @@ pub fn default_session_name() -> String {
 pub(crate) fn uid() -> u32 {
     use std::os::unix::fs::MetadataExt;
     // /proc/self belongs to the process's real uid; without /proc, fall back to the home dir.
-    fs::metadata("/proc/self").or_else(|_| fs::metadata(".")).map_or(0, |m| m.uid())
+    fs::metadata("/proc/self")
+        .or_else(|_| fs::metadata("."))
+        .map_or(0, |m| m.uid())
 }
 
 /// `$ROBOSIM_HOME`, else `$HOME/.local/state/robosim`, else `/tmp/robosim-<uid>`.
@@ -57,16 +65,37 @@ pub fn home() -> PathBuf {
 }
 
 fn private_dir(path: &FsPath) -> Result<(), SessionError> {
-    fs::DirBuilder::new().recursive(true).mode(0o700).create(path).map_err(|source| SessionError::Dir { path: path.to_owned(), source })?;
+    fs::DirBuilder::new()
+        .recursive(true)
+        .mode(0o700)
+        .create(path)
+        .map_err(|source| SessionError::Dir {
+            path: path.to_owned(),
+            source,
+        })?;
     // An existing directory keeps its mode: tighten it.
-    fs::set_permissions(path, fs::Permissions::from_mode(0o700)).map_err(|source| SessionError::Dir { path: path.to_owned(), source })
+    fs::set_permissions(path, fs::Permissions::from_mode(0o700)).map_err(|source| {
+        SessionError::Dir {
+            path: path.to_owned(),
+            source,
+        }
+    })
 }
 
 /// Writes `bytes` to `path` atomically (temp file, fsync, rename) with mode 0600.
 pub fn write_private(path: &FsPath, bytes: &[u8]) -> Result<(), SessionError> {
     let tmp = path.with_extension("tmp");
-    let io = |source| SessionError::Io { path: path.to_owned(), source };
-    let mut f = fs::OpenOptions::new().write(true).create(true).truncate(true).mode(0o600).open(&tmp).map_err(io)?;
+    let io = |source| SessionError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let mut f = fs::OpenOptions::new()
+        .write(true)
+        .create(true)
+        .truncate(true)
+        .mode(0o600)
+        .open(&tmp)
+        .map_err(io)?;
     f.write_all(bytes).map_err(io)?;
     f.sync_all().map_err(io)?;
     fs::rename(&tmp, path).map_err(io)
@@ -82,12 +111,22 @@ impl Session {
     /// Opens the session `name` under the directory `root` instead of [`home`].
     pub fn open_in(root: &FsPath, name: Option<&str>) -> Result<Self, SessionError> {
         let name = name.map(str::to_owned).unwrap_or_else(default_session_name);
-        if name.is_empty() || name.len() > 24 || !name.bytes().all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-') {
+        if name.is_empty()
+            || name.len() > 24
+            || !name
+                .bytes()
+                .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
+        {
             return Err(SessionError::BadName(name));
         }
         private_dir(root)?;
         let dir = root.join(&name);
-        for d in [dir.clone(), dir.join("data"), dir.join("run"), dir.join("iox2")] {
+        for d in [
+            dir.clone(),
+            dir.join("data"),
+            dir.join("run"),
+            dir.join("iox2"),
+        ] {
             private_dir(&d)?;
         }
         Ok(Session { name, dir })
@@ -113,26 +152,45 @@ impl Session {
 
     /// The iceoryx2 configuration of this session.
     pub fn iox_config(&self) -> Result<iceoryx2::config::Config, SessionError> {
-        let err = |message: String| SessionError::Config { session: self.name.clone(), message };
+        let err = |message: String| SessionError::Config {
+            session: self.name.clone(),
+            message,
+        };
         let mut cfg = iceoryx2::config::Config::default();
-        cfg.global.prefix = FileName::new(self.shm_prefix().as_bytes()).map_err(|e| err(format!("prefix: {e:?}")))?;
+        cfg.global.prefix = FileName::new(self.shm_prefix().as_bytes())
+            .map_err(|e| err(format!("prefix: {e:?}")))?;
         let root = format!("{}/", self.dir.join("iox2").display());
-        let root = Path::new(root.as_bytes()).map_err(|e| err(format!("root path {root:?}: {e:?}")))?;
+        let root =
+            Path::new(root.as_bytes()).map_err(|e| err(format!("root path {root:?}: {e:?}")))?;
         cfg.global.set_root_path(&root);
         Ok(cfg)
     }
 
     /// Creates an iceoryx2 node named `role` in this session. With `handle_signals`, SIGINT and
     /// SIGTERM are caught and reported by `node.wait()` instead of killing the process.
-    pub fn node(&self, role: &str, handle_signals: bool) -> Result<Node<ipc::Service>, SessionError> {
+    pub fn node(
+        &self,
+        role: &str,
+        handle_signals: bool,
+    ) -> Result<Node<ipc::Service>, SessionError> {
         let cfg = self.iox_config()?;
-        let name = NodeName::new(role).map_err(|e| SessionError::Config { session: self.name.clone(), message: format!("node name {role:?}: {e:?}") })?;
+        let name = NodeName::new(role).map_err(|e| SessionError::Config {
+            session: self.name.clone(),
+            message: format!("node name {role:?}: {e:?}"),
+        })?;
         let node = NodeBuilder::new()
             .name(&name)
             .config(&cfg)
-            .signal_handling_mode(if handle_signals { SignalHandlingMode::HandleTerminationRequests } else { SignalHandlingMode::Disabled })
+            .signal_handling_mode(if handle_signals {
+                SignalHandlingMode::HandleTerminationRequests
+            } else {
+                SignalHandlingMode::Disabled
+            })
             .create::<ipc::Service>()
-            .map_err(|e| SessionError::Config { session: self.name.clone(), message: format!("node {role:?}: {e:?}") })?;
+            .map_err(|e| SessionError::Config {
+                session: self.name.clone(),
+                message: format!("node {role:?}: {e:?}"),
+            })?;
         self.tighten_shm_modes();
         Ok(node)
     }
@@ -142,12 +200,17 @@ impl Session {
     /// in /dev/shm to 0600 (they are all ours: the prefix names the session).
     fn tighten_shm_modes(&self) {
         let prefix = self.shm_prefix();
-        let Ok(entries) = fs::read_dir("/dev/shm") else { return };
+        let Ok(entries) = fs::read_dir("/dev/shm") else {
+            return;
+        };
         for e in entries.flatten() {
             if e.file_name().to_string_lossy().starts_with(&prefix) {
                 if let Ok(m) = e.metadata() {
                     if m.permissions().mode() & 0o077 != 0 {
-                        let _ = fs::set_permissions(e.path(), fs::Permissions::from_mode(m.permissions().mode() & 0o700));
+                        let _ = fs::set_permissions(
+                            e.path(),
+                            fs::Permissions::from_mode(m.permissions().mode() & 0o700),
+                        );
                     }
                 }
             }
@@ -157,18 +220,27 @@ impl Session {
     /// The files of this session in /dev/shm with their modes (for audits and tests).
     pub fn shm_files(&self) -> Vec<(PathBuf, u32)> {
         let prefix = self.shm_prefix();
-        let Ok(entries) = fs::read_dir("/dev/shm") else { return Vec::new() };
+        let Ok(entries) = fs::read_dir("/dev/shm") else {
+            return Vec::new();
+        };
         entries
             .flatten()
             .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
-            .filter_map(|e| e.metadata().ok().map(|m| (e.path(), m.permissions().mode() & 0o777)))
+            .filter_map(|e| {
+                e.metadata()
+                    .ok()
+                    .map(|m| (e.path(), m.permissions().mode() & 0o777))
+            })
             .collect()
     }
 
     /// A service name inside this session.
     pub fn service(&self, suffix: &str) -> Result<ServiceName, SessionError> {
         let s = format!("robosim/{}/{}", self.name, suffix);
-        ServiceName::new(&s).map_err(|e| SessionError::Config { session: self.name.clone(), message: format!("service name {s:?}: {e:?}") })
+        ServiceName::new(&s).map_err(|e| SessionError::Config {
+            session: self.name.clone(),
+            message: format!("service name {s:?}: {e:?}"),
+        })
     }
 
     /// Registers this process in the session's registry until the returned guard drops.
@@ -177,7 +249,9 @@ impl Session {
             role: role.to_owned(),
             pid: std::process::id(),
             attached: attached.iter().map(|s| s.to_string()).collect(),
-            started_unix_ms: std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_millis() as u64),
+            started_unix_ms: std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map_or(0, |d| d.as_millis() as u64),
         };
         let path = self.run_dir().join(format!("{role}-{}.json", info.pid));
         let json = serde_json::to_vec_pretty(&info).unwrap_or_default();
@@ -189,14 +263,18 @@ impl Session {
     /// processes are removed).
     pub fn processes(&self) -> Vec<ProcInfo> {
         let mut out = Vec::new();
-        let Ok(entries) = fs::read_dir(self.run_dir()) else { return out };
+        let Ok(entries) = fs::read_dir(self.run_dir()) else {
+            return out;
+        };
         for e in entries.flatten() {
             let p = e.path();
             if p.extension().is_none_or(|x| x != "json") {
                 continue;
             }
             let Ok(bytes) = fs::read(&p) else { continue };
-            let Ok(info) = serde_json::from_slice::<ProcInfo>(&bytes) else { continue };
+            let Ok(info) = serde_json::from_slice::<ProcInfo>(&bytes) else {
+                continue;
+            };
             if pid_alive(info.pid) {
                 out.push(info);
             } else {
@@ -216,7 +294,9 @@ fn role_rank(role: &str) -> u32 {
 pub fn pid_alive(pid: u32) -> bool {
     match fs::read_to_string(format!("/proc/{pid}/stat")) {
         // The state is the field after the parenthesised command name.
-        Ok(stat) => stat.rsplit_once(')').is_some_and(|(_, rest)| !rest.trim_start().starts_with('Z')),
+        Ok(stat) => stat
+            .rsplit_once(')')
+            .is_some_and(|(_, rest)| !rest.trim_start().starts_with('Z')),
         Err(_) => false,
     }
 }

@@ -31,7 +31,10 @@ pub enum StateError {
 }
 
 fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> StateError {
-    move |e| StateError::Ipc { what: what.to_owned(), message: format!("{e:?}") }
+    move |e| StateError::Ipc {
+        what: what.to_owned(),
+        message: format!("{e:?}"),
+    }
 }
 
 #[repr(C)]
@@ -92,21 +95,53 @@ impl StatePublisher {
             .max_subscribers(16)
             .open_or_create()
             .map_err(ipc("create state service"))?;
-        let publisher = svc.publisher_builder().initial_max_slice_len(256).allocation_strategy(AllocationStrategy::PowerOfTwo).create().map_err(ipc("create state publisher"))?;
-        let ev = node.service_builder(&session.service(&format!("{}/event", service_name(name)))?).event().open_or_create().map_err(ipc("create state event"))?;
-        let notifier = ev.notifier_builder().create().map_err(ipc("create state notifier"))?;
-        Ok(StatePublisher { _node: node, publisher, notifier, seq: 0, _services: vec![Box::new(svc), Box::new(ev)] })
+        let publisher = svc
+            .publisher_builder()
+            .initial_max_slice_len(256)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(ipc("create state publisher"))?;
+        let ev = node
+            .service_builder(&session.service(&format!("{}/event", service_name(name)))?)
+            .event()
+            .open_or_create()
+            .map_err(ipc("create state event"))?;
+        let notifier = ev
+            .notifier_builder()
+            .create()
+            .map_err(ipc("create state notifier"))?;
+        Ok(StatePublisher {
+            _node: node,
+            publisher,
+            notifier,
+            seq: 0,
+            _services: vec![Box::new(svc), Box::new(ev)],
+        })
     }
 
     /// Publishes one record; returns its sequence number.
-    pub fn publish(&mut self, structure_version: u64, t: f64, joints: &[JointStateRec], bodies: &[PoseRec]) -> Result<u64, StateError> {
+    pub fn publish(
+        &mut self,
+        structure_version: u64,
+        t: f64,
+        joints: &[JointStateRec],
+        bodies: &[PoseRec],
+    ) -> Result<u64, StateError> {
         use iceoryx2::port::update_connections::UpdateConnections;
         self.seq += 1;
-        let header = [StateHeader { seq: self.seq, structure_version, t, published_ns: crate::monotonic_ns() }];
+        let header = [StateHeader {
+            seq: self.seq,
+            structure_version,
+            t,
+            published_ns: crate::monotonic_ns(),
+        }];
         let mut w = SegmentWriter::new();
         w.push(&header).push(joints).push(bodies);
         let _ = self.publisher.update_connections();
-        let mut s = self.publisher.loan_slice(w.words()).map_err(ipc("loan state"))?;
+        let mut s = self
+            .publisher
+            .loan_slice(w.words())
+            .map_err(ipc("loan state"))?;
         w.write(s.payload_mut());
         s.send().map_err(ipc("send state"))?;
         let _ = self.notifier.notify();
@@ -124,17 +159,43 @@ pub struct StateSubscriber {
 impl StateSubscriber {
     pub fn open(session: &Session, name: &str, role: &str) -> Result<Self, StateError> {
         let node = session.node(role, false)?;
-        let none = |_: Box<dyn std::fmt::Debug>| StateError::NoPublisher { session: session.name().to_owned(), name: name.to_owned() };
-        let svc = node.service_builder(&session.service(&service_name(name))?).publish_subscribe::<[u64]>().open().map_err(|e| none(Box::new(e)))?;
-        let sub = svc.subscriber_builder().create().map_err(ipc("subscribe state"))?;
-        let ev = node.service_builder(&session.service(&format!("{}/event", service_name(name)))?).event().open().map_err(|e| none(Box::new(e)))?;
-        let listener = ev.listener_builder().create().map_err(ipc("listen to state"))?;
-        Ok(StateSubscriber { _node: node, sub, listener, _services: vec![Box::new(svc), Box::new(ev)] })
+        let none = |_: Box<dyn std::fmt::Debug>| StateError::NoPublisher {
+            session: session.name().to_owned(),
+            name: name.to_owned(),
+        };
+        let svc = node
+            .service_builder(&session.service(&service_name(name))?)
+            .publish_subscribe::<[u64]>()
+            .open()
+            .map_err(|e| none(Box::new(e)))?;
+        let sub = svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe state"))?;
+        let ev = node
+            .service_builder(&session.service(&format!("{}/event", service_name(name)))?)
+            .event()
+            .open()
+            .map_err(|e| none(Box::new(e)))?;
+        let listener = ev
+            .listener_builder()
+            .create()
+            .map_err(ipc("listen to state"))?;
+        Ok(StateSubscriber {
+            _node: node,
+            sub,
+            listener,
+            _services: vec![Box::new(svc), Box::new(ev)],
+        })
     }
 
     fn decode(s: &Sample) -> Result<StateRecord, StateError> {
         let seg = Segment::parse(s.payload())?;
-        Ok(StateRecord { header: *seg.record::<StateHeader>(0)?, joints: seg.section::<JointStateRec>(1)?.to_vec(), bodies: seg.section::<PoseRec>(2)?.to_vec() })
+        Ok(StateRecord {
+            header: *seg.record::<StateHeader>(0)?,
+            joints: seg.section::<JointStateRec>(1)?.to_vec(),
+            bodies: seg.section::<PoseRec>(2)?.to_vec(),
+        })
     }
 
     /// Every record received since the last call, oldest first.
@@ -152,7 +213,9 @@ impl StateSubscriber {
         if !out.is_empty() {
             return Ok(out);
         }
-        self.listener.timed_wait(|_| {}, timeout).map_err(ipc("wait for state"))?;
+        self.listener
+            .timed_wait(|_| {}, timeout)
+            .map_err(ipc("wait for state"))?;
         self.drain()
     }
 }

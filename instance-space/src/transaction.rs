@@ -8,7 +8,9 @@ use crate::model::{Appearance, Id, Kind, Kinematics, MassProps, Pose};
 use serde::{Deserialize, Serialize};
 
 /// An object: an existing id, or the k-th object this transaction creates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
 pub enum ObjRef {
     Id(Id),
     New(u32),
@@ -23,7 +25,9 @@ impl From<Id> for ObjRef {
 /// Geometry as a writer sends it: vertices (m) and polygons as vertex-index lists,
 /// counter-clockwise seen from outside. The keeper computes planes, penalty planes, the edge
 /// list and the bounding box (seed §3.3: the redundant forms are derived, never sent).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode, Default)]
+#[derive(
+    Debug, Clone, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode, Default,
+)]
 pub struct GeometryInput {
     pub vertices: Vec<[f64; 3]>,
     pub polygons: Vec<Vec<u32>>,
@@ -34,7 +38,9 @@ impl GeometryInput {
     pub fn from_polyhedron(p: &robosim_geometry::Polyhedron) -> Self {
         GeometryInput {
             vertices: p.vertices.iter().map(|v| [v.x, v.y, v.z]).collect(),
-            polygons: (0..p.polygons.len()).map(|i| p.polygon_indices(i).to_vec()).collect(),
+            polygons: (0..p.polygons.len())
+                .map(|i| p.polygon_indices(i).to_vec())
+                .collect(),
         }
     }
 }
@@ -42,23 +48,59 @@ impl GeometryInput {
 /// One operation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode)]
 pub enum Op {
-    Create { kind: Kind, name: String, parent: Option<ObjRef> },
-    Delete { id: ObjRef, recursive: bool },
+    Create {
+        kind: Kind,
+        name: String,
+        parent: Option<ObjRef>,
+    },
+    Delete {
+        id: ObjRef,
+        recursive: bool,
+    },
     /// Attach (`Some`) or detach (`None`).
-    SetParent { id: ObjRef, parent: Option<ObjRef> },
-    SetName { id: ObjRef, name: String },
+    SetParent {
+        id: ObjRef,
+        parent: Option<ObjRef>,
+    },
+    SetName {
+        id: ObjRef,
+        name: String,
+    },
     /// The declaration and parameters an instance came from (JSON text; empty: none).
-    SetOrigin { id: ObjRef, origin: String },
-    SetPose { id: ObjRef, pose: Pose },
-    SetJoint { id: ObjRef, value: f64 },
-    SetAppearance { id: ObjRef, appearance: Appearance },
-    SetKinematics { id: ObjRef, kinematics: Option<Kinematics> },
-    SetDynamics { id: ObjRef, dynamics: Option<MassProps> },
-    SetGeometry { id: ObjRef, geometry: Option<GeometryInput> },
+    SetOrigin {
+        id: ObjRef,
+        origin: String,
+    },
+    SetPose {
+        id: ObjRef,
+        pose: Pose,
+    },
+    SetJoint {
+        id: ObjRef,
+        value: f64,
+    },
+    SetAppearance {
+        id: ObjRef,
+        appearance: Appearance,
+    },
+    SetKinematics {
+        id: ObjRef,
+        kinematics: Option<Kinematics>,
+    },
+    SetDynamics {
+        id: ObjRef,
+        dynamics: Option<MassProps>,
+    },
+    SetGeometry {
+        id: ObjRef,
+        geometry: Option<GeometryInput>,
+    },
 }
 
 /// An ordered list of operations, applied all or nothing.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode, Default)]
+#[derive(
+    Debug, Clone, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode, Default,
+)]
 pub struct Transaction {
     pub ops: Vec<Op>,
 }
@@ -69,52 +111,105 @@ impl Transaction {
     }
     /// Creates an object; returns its reference for later ops of this transaction.
     pub fn create(&mut self, kind: Kind, name: &str, parent: Option<ObjRef>) -> ObjRef {
-        let k = self.ops.iter().filter(|o| matches!(o, Op::Create { .. })).count() as u32;
-        self.ops.push(Op::Create { kind, name: name.to_owned(), parent });
+        let k = self
+            .ops
+            .iter()
+            .filter(|o| matches!(o, Op::Create { .. }))
+            .count() as u32;
+        self.ops.push(Op::Create {
+            kind,
+            name: name.to_owned(),
+            parent,
+        });
         ObjRef::New(k)
     }
     pub fn delete(&mut self, id: impl Into<ObjRef>, recursive: bool) -> &mut Self {
-        self.ops.push(Op::Delete { id: id.into(), recursive });
+        self.ops.push(Op::Delete {
+            id: id.into(),
+            recursive,
+        });
         self
     }
     pub fn attach(&mut self, id: impl Into<ObjRef>, parent: impl Into<ObjRef>) -> &mut Self {
-        self.ops.push(Op::SetParent { id: id.into(), parent: Some(parent.into()) });
+        self.ops.push(Op::SetParent {
+            id: id.into(),
+            parent: Some(parent.into()),
+        });
         self
     }
     pub fn detach(&mut self, id: impl Into<ObjRef>) -> &mut Self {
-        self.ops.push(Op::SetParent { id: id.into(), parent: None });
+        self.ops.push(Op::SetParent {
+            id: id.into(),
+            parent: None,
+        });
         self
     }
     pub fn set_name(&mut self, id: impl Into<ObjRef>, name: &str) -> &mut Self {
-        self.ops.push(Op::SetName { id: id.into(), name: name.to_owned() });
+        self.ops.push(Op::SetName {
+            id: id.into(),
+            name: name.to_owned(),
+        });
         self
     }
     pub fn set_origin(&mut self, id: impl Into<ObjRef>, origin: &str) -> &mut Self {
-        self.ops.push(Op::SetOrigin { id: id.into(), origin: origin.to_owned() });
+        self.ops.push(Op::SetOrigin {
+            id: id.into(),
+            origin: origin.to_owned(),
+        });
         self
     }
     pub fn set_pose(&mut self, id: impl Into<ObjRef>, pose: Pose) -> &mut Self {
-        self.ops.push(Op::SetPose { id: id.into(), pose });
+        self.ops.push(Op::SetPose {
+            id: id.into(),
+            pose,
+        });
         self
     }
     pub fn set_joint(&mut self, id: impl Into<ObjRef>, value: f64) -> &mut Self {
-        self.ops.push(Op::SetJoint { id: id.into(), value });
+        self.ops.push(Op::SetJoint {
+            id: id.into(),
+            value,
+        });
         self
     }
     pub fn set_appearance(&mut self, id: impl Into<ObjRef>, appearance: Appearance) -> &mut Self {
-        self.ops.push(Op::SetAppearance { id: id.into(), appearance });
+        self.ops.push(Op::SetAppearance {
+            id: id.into(),
+            appearance,
+        });
         self
     }
-    pub fn set_kinematics(&mut self, id: impl Into<ObjRef>, kinematics: Option<Kinematics>) -> &mut Self {
-        self.ops.push(Op::SetKinematics { id: id.into(), kinematics });
+    pub fn set_kinematics(
+        &mut self,
+        id: impl Into<ObjRef>,
+        kinematics: Option<Kinematics>,
+    ) -> &mut Self {
+        self.ops.push(Op::SetKinematics {
+            id: id.into(),
+            kinematics,
+        });
         self
     }
-    pub fn set_dynamics(&mut self, id: impl Into<ObjRef>, dynamics: Option<MassProps>) -> &mut Self {
-        self.ops.push(Op::SetDynamics { id: id.into(), dynamics });
+    pub fn set_dynamics(
+        &mut self,
+        id: impl Into<ObjRef>,
+        dynamics: Option<MassProps>,
+    ) -> &mut Self {
+        self.ops.push(Op::SetDynamics {
+            id: id.into(),
+            dynamics,
+        });
         self
     }
-    pub fn set_geometry(&mut self, id: impl Into<ObjRef>, geometry: Option<GeometryInput>) -> &mut Self {
-        self.ops.push(Op::SetGeometry { id: id.into(), geometry });
+    pub fn set_geometry(
+        &mut self,
+        id: impl Into<ObjRef>,
+        geometry: Option<GeometryInput>,
+    ) -> &mut Self {
+        self.ops.push(Op::SetGeometry {
+            id: id.into(),
+            geometry,
+        });
         self
     }
 
@@ -131,19 +226,37 @@ impl Transaction {
         // 1 byte on the wire, 24 in memory), so this limit never refuses an honest message.
         const CAP: usize = 1 << 34;
         let limit = bytes.len().saturating_mul(32).saturating_add(4096).min(CAP);
-        let too_large = |e: &bincode::error::DecodeError| matches!(e, bincode::error::DecodeError::LimitExceeded);
+        let too_large = |e: &bincode::error::DecodeError| {
+            matches!(e, bincode::error::DecodeError::LimitExceeded)
+        };
         let result = decode_limited(bytes, limit);
         match result {
             Ok((tx, used)) if used == bytes.len() => Ok(tx),
-            Ok((_, used)) => Err(crate::model::TxError::Malformed { message: format!("{} trailing bytes after the transaction", bytes.len() - used) }),
-            Err(e) if too_large(&e) => Err(crate::model::TxError::TooLarge { op: 0, id: 0, field: "request".into(), requested: u64::MAX, limit: limit as u64 }),
-            Err(e) => Err(crate::model::TxError::Malformed { message: e.to_string() }),
+            Ok((_, used)) => Err(crate::model::TxError::Malformed {
+                message: format!(
+                    "{} trailing bytes after the transaction",
+                    bytes.len() - used
+                ),
+            }),
+            Err(e) if too_large(&e) => Err(crate::model::TxError::TooLarge {
+                op: 0,
+                id: 0,
+                field: "request".into(),
+                requested: u64::MAX,
+                limit: limit as u64,
+            }),
+            Err(e) => Err(crate::model::TxError::Malformed {
+                message: e.to_string(),
+            }),
         }
     }
 }
 
 /// bincode's limit is a const generic; pick the smallest power of two ≥ `limit`.
-fn decode_limited(bytes: &[u8], limit: usize) -> Result<(Transaction, usize), bincode::error::DecodeError> {
+fn decode_limited(
+    bytes: &[u8],
+    limit: usize,
+) -> Result<(Transaction, usize), bincode::error::DecodeError> {
     use bincode::config::standard;
     macro_rules! try_limit {
         ($($n:literal),*) => {

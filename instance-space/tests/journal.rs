@@ -1,7 +1,7 @@
 //! Durability without processes: a torn or corrupt journal tail is detected by its checksum,
 //! reported, and cut off; nothing before it is lost; checkpoints compact the journal.
 
-use robosim_instance_space::journal::{recover, Journal};
+use robosim_instance_space::journal::{Journal, recover};
 use robosim_instance_space::{Kind, Model, Transaction};
 use std::io::Write;
 
@@ -14,7 +14,12 @@ fn commit(model: &mut Model, journal: &mut Journal, name: &str) {
 }
 
 fn journal_file(dir: &std::path::Path) -> std::path::PathBuf {
-    let mut v: Vec<_> = std::fs::read_dir(dir).expect("dir").flatten().map(|e| e.path()).filter(|p| p.extension().is_some_and(|x| x == "log")).collect();
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .expect("dir")
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "log"))
+        .collect();
     v.sort();
     v.pop().expect("a journal")
 }
@@ -29,14 +34,22 @@ fn torn_tail_is_reported_and_dropped_and_nothing_before_it_is_lost() {
     drop(journal);
     // A record torn in the middle: header and half its payload.
     let path = journal_file(dir.path());
-    let mut f = std::fs::OpenOptions::new().append(true).open(&path).expect("open");
-    f.write_all(&[40, 0, 0, 0, 1, 2, 3, 4, 6, 0, 0, 0, 0, 0, 0, 0, 9, 9]).expect("write");
+    let mut f = std::fs::OpenOptions::new()
+        .append(true)
+        .open(&path)
+        .expect("open");
+    f.write_all(&[40, 0, 0, 0, 1, 2, 3, 4, 6, 0, 0, 0, 0, 0, 0, 0, 9, 9])
+        .expect("write");
     drop(f);
     let (model2, mut journal2, report) = recover(dir.path()).expect("recovered");
     assert_eq!(model2.version, 5);
     assert_eq!(model2.len(), 5);
     assert_eq!(report.replayed, 5);
-    assert!(report.problems.iter().any(|p| p.contains("torn record")), "{:?}", report.problems);
+    assert!(
+        report.problems.iter().any(|p| p.contains("torn record")),
+        "{:?}",
+        report.problems
+    );
     // Appending continues after the cut.
     let mut m = model2;
     commit(&mut m, &mut journal2, "s5");
@@ -57,12 +70,22 @@ fn a_flipped_bit_fails_the_checksum_and_only_the_tail_from_there_is_dropped() {
     let path = journal_file(dir.path());
     let mut bytes = std::fs::read(&path).expect("read");
     // Flip a bit in the name of the third record's payload.
-    let pos = bytes.windows(7).position(|w| w == b"scene-2").expect("third record");
+    let pos = bytes
+        .windows(7)
+        .position(|w| w == b"scene-2")
+        .expect("third record");
     bytes[pos] ^= 0x20;
     std::fs::write(&path, &bytes).expect("write");
     let (model2, _, report) = recover(dir.path()).expect("recovered");
     assert_eq!(model2.version, 2, "records 1 and 2 survive");
-    assert!(report.problems.iter().any(|p| p.contains("checksum mismatch")), "{:?}", report.problems);
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|p| p.contains("checksum mismatch")),
+        "{:?}",
+        report.problems
+    );
 }
 
 #[test]
@@ -77,9 +100,25 @@ fn checkpoint_compacts_and_recovery_resumes_from_it() {
         commit(&mut model, &mut journal, &format!("b{k}"));
     }
     drop(journal);
-    let names: Vec<String> = std::fs::read_dir(dir.path()).expect("dir").flatten().map(|e| e.file_name().to_string_lossy().into_owned()).collect();
-    assert_eq!(names.iter().filter(|n| n.starts_with("journal-")).count(), 1, "old journal removed: {names:?}");
+    let names: Vec<String> = std::fs::read_dir(dir.path())
+        .expect("dir")
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(
+        names.iter().filter(|n| n.starts_with("journal-")).count(),
+        1,
+        "old journal removed: {names:?}"
+    );
     let (m2, _, report) = recover(dir.path()).expect("recovered");
-    assert_eq!((report.checkpoint_version, report.replayed, m2.version, m2.len()), (10, 3, 13, 13));
+    assert_eq!(
+        (
+            report.checkpoint_version,
+            report.replayed,
+            m2.version,
+            m2.len()
+        ),
+        (10, 3, 13, 13)
+    );
     assert_eq!(m2.next_id(), model.next_id(), "ids continue");
 }

@@ -4,8 +4,26 @@
 use robosim_instance_space::*;
 
 fn cube(s: f64) -> GeometryInput {
-    let v = (0..8).map(|i| [s * ((i & 1) as f64 - 0.5), s * (((i >> 1) & 1) as f64 - 0.5), s * (((i >> 2) & 1) as f64 - 0.5)]).collect();
-    GeometryInput { vertices: v, polygons: vec![vec![0, 2, 3, 1], vec![4, 5, 7, 6], vec![0, 1, 5, 4], vec![2, 6, 7, 3], vec![0, 4, 6, 2], vec![1, 3, 7, 5]] }
+    let v = (0..8)
+        .map(|i| {
+            [
+                s * ((i & 1) as f64 - 0.5),
+                s * (((i >> 1) & 1) as f64 - 0.5),
+                s * (((i >> 2) & 1) as f64 - 0.5),
+            ]
+        })
+        .collect();
+    GeometryInput {
+        vertices: v,
+        polygons: vec![
+            vec![0, 2, 3, 1],
+            vec![4, 5, 7, 6],
+            vec![0, 1, 5, 4],
+            vec![2, 6, 7, 3],
+            vec![0, 4, 6, 2],
+            vec![1, 3, 7, 5],
+        ],
+    }
 }
 
 /// A scene with a robot with one link carrying a solid; returns (model, scene, robot, link, solid).
@@ -26,7 +44,10 @@ fn refused(m: &mut Model, tx: &Transaction) -> TxError {
     let before_version = m.version;
     let before: Vec<Object> = m.objects().cloned().collect();
     let err = m.apply(tx).expect_err("must be refused");
-    assert_eq!(m.version, before_version, "a refused transaction bumps no version");
+    assert_eq!(
+        m.version, before_version,
+        "a refused transaction bumps no version"
+    );
     let after: Vec<Object> = m.objects().cloned().collect();
     assert_eq!(before, after, "a refused transaction changes nothing");
     err
@@ -41,7 +62,10 @@ fn nan_pose_is_refused_naming_object_and_field() {
     pose[7] = f64::NAN;
     tx.set_pose(link, pose);
     let e = refused(&mut m, &tx);
-    assert!(matches!(&e, TxError::NonFinite { op: 1, id, field, .. } if *id == link && field == "pose[7]"), "{e:?}");
+    assert!(
+        matches!(&e, TxError::NonFinite { op: 1, id, field, .. } if *id == link && field == "pose[7]"),
+        "{e:?}"
+    );
     assert!(e.to_string().contains("pose[7] is not finite"), "{e}");
 }
 
@@ -50,10 +74,22 @@ fn unknown_id_is_refused() {
     let (mut m, ..) = base_model();
     let mut tx = Transaction::new();
     tx.set_pose(999, IDENTITY);
-    assert_eq!(refused(&mut m, &tx), TxError::UnknownObject { op: 0, id: 999 });
+    assert_eq!(
+        refused(&mut m, &tx),
+        TxError::UnknownObject { op: 0, id: 999 }
+    );
     let mut tx = Transaction::new();
-    tx.ops.push(Op::SetName { id: ObjRef::New(3), name: "x".into() });
-    assert_eq!(refused(&mut m, &tx), TxError::UnknownNewRef { op: 0, reference: 3 });
+    tx.ops.push(Op::SetName {
+        id: ObjRef::New(3),
+        name: "x".into(),
+    });
+    assert_eq!(
+        refused(&mut m, &tx),
+        TxError::UnknownNewRef {
+            op: 0,
+            reference: 3
+        }
+    );
 }
 
 #[test]
@@ -64,20 +100,32 @@ fn non_planar_polygon_is_refused() {
     let mut tx = Transaction::new();
     tx.set_geometry(solid, Some(g));
     let e = refused(&mut m, &tx);
-    assert!(matches!(&e, TxError::InvalidGeometry { op: 0, id, reason } if *id == solid && reason.contains("not planar")), "{e:?}");
+    assert!(
+        matches!(&e, TxError::InvalidGeometry { op: 0, id, reason } if *id == solid && reason.contains("not planar")),
+        "{e:?}"
+    );
 }
 
 #[test]
 fn concave_polygon_is_refused() {
     let (mut m, _, _, _, solid) = base_model();
     let g = GeometryInput {
-        vertices: vec![[0.0, 0.0, 0.0], [2.0, 0.0, 0.0], [1.0, 0.5, 0.0], [2.0, 2.0, 0.0], [0.0, 2.0, 0.0]],
+        vertices: vec![
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [1.0, 0.5, 0.0],
+            [2.0, 2.0, 0.0],
+            [0.0, 2.0, 0.0],
+        ],
         polygons: vec![vec![0, 1, 2, 3, 4]],
     };
     let mut tx = Transaction::new();
     tx.set_geometry(solid, Some(g));
     let e = refused(&mut m, &tx);
-    assert!(matches!(&e, TxError::InvalidGeometry { reason, .. } if reason.contains("not convex at its vertex 2")), "{e:?}");
+    assert!(
+        matches!(&e, TxError::InvalidGeometry { reason, .. } if reason.contains("not convex at its vertex 2")),
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -88,7 +136,10 @@ fn index_out_of_range_is_refused() {
     let mut tx = Transaction::new();
     tx.set_geometry(solid, Some(g));
     let e = refused(&mut m, &tx);
-    assert!(matches!(&e, TxError::InvalidGeometry { reason, .. } if reason.contains("polygon 2 refers to vertex 42")), "{e:?}");
+    assert!(
+        matches!(&e, TxError::InvalidGeometry { reason, .. } if reason.contains("polygon 2 refers to vertex 42")),
+        "{e:?}"
+    );
 }
 
 #[test]
@@ -100,7 +151,11 @@ fn cycle_in_hierarchy_is_refused() {
     tx.attach(s1, s2);
     let e = refused(&mut m, &tx);
     assert!(matches!(e, TxError::Cycle { op: 2, .. }), "{e:?}");
-    assert_eq!(m.next_id(), 5, "ids handed out by a refused transaction are not consumed");
+    assert_eq!(
+        m.next_id(),
+        5,
+        "ids handed out by a refused transaction are not consumed"
+    );
 }
 
 #[test]
@@ -108,7 +163,10 @@ fn wrong_parent_kind_and_orphan_link_are_refused() {
     let (mut m, scene, ..) = base_model();
     let mut tx = Transaction::new();
     tx.create(Kind::Link, "loose", Some(ObjRef::Id(scene)));
-    assert!(matches!(refused(&mut m, &tx), TxError::WrongParentKind { .. }));
+    assert!(matches!(
+        refused(&mut m, &tx),
+        TxError::WrongParentKind { .. }
+    ));
     let mut tx = Transaction::new();
     tx.create(Kind::Link, "orphan", None);
     assert!(matches!(refused(&mut m, &tx), TxError::NeedsParent { .. }));
@@ -119,11 +177,20 @@ fn request_to_allocate_a_trillion_elements_is_refused_before_allocating() {
     // A hand-made wire message: SetGeometry whose vertex count claims 10^12 entries.
     let (mut m, _, _, _, solid) = base_model();
     let mut tx = Transaction::new();
-    tx.set_geometry(solid, Some(GeometryInput { vertices: vec![[0.0; 3]], polygons: vec![] }));
+    tx.set_geometry(
+        solid,
+        Some(GeometryInput {
+            vertices: vec![[0.0; 3]],
+            polygons: vec![],
+        }),
+    );
     let mut bytes = tx.encode();
     // Find the encoded vertex count (1) followed by 24 zero bytes and patch in 10^12
     // (bincode varint: 0xFD + u64 little endian).
-    let pos = bytes.windows(25).position(|w| w[0] == 1 && w[1..].iter().all(|b| *b == 0)).expect("vertex count");
+    let pos = bytes
+        .windows(25)
+        .position(|w| w[0] == 1 && w[1..].iter().all(|b| *b == 0))
+        .expect("vertex count");
     let mut patched = bytes[..pos].to_vec();
     patched.push(0xFD);
     patched.extend_from_slice(&1_000_000_000_000u64.to_le_bytes());
@@ -138,7 +205,10 @@ fn request_to_allocate_a_trillion_elements_is_refused_before_allocating() {
 #[test]
 fn oversized_geometry_is_refused_by_count() {
     let (mut m, _, _, _, solid) = base_model();
-    let g = GeometryInput { vertices: vec![[0.0; 3]; (MAX_ELEMENTS + 1) as usize], polygons: vec![] };
+    let g = GeometryInput {
+        vertices: vec![[0.0; 3]; (MAX_ELEMENTS + 1) as usize],
+        polygons: vec![],
+    };
     let mut tx = Transaction::new();
     tx.set_geometry(solid, Some(g));
     assert!(matches!(refused(&mut m, &tx), TxError::TooLarge { field, .. } if field == "vertices"));
@@ -153,7 +223,10 @@ fn delete_with_children_needs_recursive_and_then_removes_the_subtree() {
     let mut tx = Transaction::new();
     tx.delete(robot, true);
     let a = m.apply(&tx).expect("recursive delete");
-    assert_eq!(a.changes.iter().map(|c| c.0).collect::<Vec<_>>(), vec![robot, link, solid]);
+    assert_eq!(
+        a.changes.iter().map(|c| c.0).collect::<Vec<_>>(),
+        vec![robot, link, solid]
+    );
     assert_eq!(m.len(), 1);
 }
 
