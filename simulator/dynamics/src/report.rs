@@ -29,8 +29,8 @@ struct Run {
     config: IntegratorConfig,
 }
 
-/// Median wall time (s) of `f` over `reps` repeats.
-fn time_median(reps: usize, mut f: impl FnMut()) -> f64 {
+/// The `p`-th percentile of the wall time (s) of `f` over `reps` repeats.
+fn time_percentile(reps: usize, p: f64, mut f: impl FnMut()) -> f64 {
     let mut t: Vec<f64> = (0..reps)
         .map(|_| {
             let start = Instant::now();
@@ -38,12 +38,12 @@ fn time_median(reps: usize, mut f: impl FnMut()) -> f64 {
             start.elapsed().as_secs_f64()
         })
         .collect();
-    percentile(&mut t, 50.0)
+    percentile(&mut t, p)
 }
 
 /// Median time (s) of one call of `f`, from `batches` batches of `per_batch` calls.
 fn per_call(batches: usize, per_batch: usize, mut f: impl FnMut()) -> f64 {
-    time_median(batches, || {
+    time_percentile(batches, 50.0, || {
         for _ in 0..per_batch {
             f();
         }
@@ -70,31 +70,35 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
         let q: Vec<f64> = (0..n).map(|j| 0.3 + 0.1 * j as f64).collect();
         let qd: Vec<f64> = (0..n).map(|j| 0.5 - 0.2 * j as f64).collect();
         let qdd: Vec<f64> = (0..n).map(|j| 1.0 - 0.3 * j as f64).collect();
-        let (batches, per) = if quick { (3, 2_000) } else { (15, 20_000) };
-        let t_rnea = per_call(batches, per, || {
-            black_box(
-                rnea(m, &mut data, black_box(&q), &qd, &qdd)
-                    .map(|t| t[0])
-                    .ok(),
-            );
-        });
-        let t_crba = per_call(batches, per, || {
-            black_box(crba(m, &mut data, black_box(&q)).map(|t| t[(0, 0)]).ok());
-        });
-        let t_aba = per_call(batches, per, || {
-            black_box(
-                aba(m, &mut data, black_box(&q), &qd, &qdd)
-                    .map(|t| t[0])
-                    .ok(),
-            );
-        });
-        costs.push(t_aba);
+        let (batches, per) = if quick { (5, 1_000) } else { (201, 1_000) };
+        // interleave the three algorithms batch by batch so that machine noise hits them alike;
+        // short batches, most of them undisturbed; report the median and the 10th percentile
+        let mut t = [Vec::new(), Vec::new(), Vec::new()];
+        for _ in 0..batches {
+            t[0].push(per_call(1, per, || {
+                black_box(
+                    rnea(m, &mut data, black_box(&q), &qd, &qdd)
+                        .map(|t| t[0])
+                        .ok(),
+                );
+            }));
+            t[1].push(per_call(1, per, || {
+                black_box(crba(m, &mut data, black_box(&q)).map(|t| t[(0, 0)]).ok());
+            }));
+            t[2].push(per_call(1, per, || {
+                black_box(
+                    aba(m, &mut data, black_box(&q), &qd, &qdd)
+                        .map(|t| t[0])
+                        .ok(),
+                );
+            }));
+        }
+        let med: Vec<f64> = t.iter_mut().map(|x| percentile(x, 50.0) * 1e6).collect();
+        let min: Vec<f64> = t.iter_mut().map(|x| percentile(x, 10.0) * 1e6).collect();
+        costs.push(med[2] * 1e-6);
         notes.push(format!(
-            "{name}: RNEA {:.2} µs, CRBA {:.2} µs, ABA {:.2} µs per call (median of {batches} batches of {per}; RNEA/ABA = {:.2}).",
-            t_rnea * 1e6,
-            t_crba * 1e6,
-            t_aba * 1e6,
-            t_rnea / t_aba
+            "{name}: RNEA {:.2} µs, CRBA {:.2} µs, ABA {:.2} µs per call (median of {batches} interleaved batches of {per} calls; 10th percentile {:.2} / {:.2} / {:.2} µs; ABA/RNEA = {:.2}).",
+            med[0], med[1], med[2], min[0], min[1], min[2], med[2] / med[0]
         ));
     }
     let aba_cost = costs[0];
@@ -187,7 +191,8 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
     let mut by_label: Vec<(&str, Points, Points)> = Vec::new();
     for run in &runs {
         let mut result = None;
-        let wall = time_median(reps, || {
+        // the fastest repeat: a run of up to a second is often descheduled on this shared machine
+        let wall = time_percentile(reps, 0.0, || {
             result = Some(simulate(
                 &model,
                 run.config,
@@ -243,7 +248,7 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
         ),
     );
     notes.push(format!(
-        "Wall times: median of {reps} run(s) each, one thread, on a shared 2-core machine (noisy); 'wall time / ABA call' divides by the PUMA's ABA cost measured above in the same process ({:.2} µs), so it is comparable across machines. The semi-implicit Euler step is the momentum-form symplectic Euler (CRBA + two Cholesky factorisations + a fixed-point solve per step), hence its higher cost per step.",
+        "Wall times: fastest of {reps} run(s) each, one thread, on a shared 2-core machine (noisy; the other engineers' builds run alongside); 'wall time / ABA call' divides by the PUMA's median ABA cost measured above in the same process ({:.2} µs), so it is comparable across machines. The semi-implicit Euler step is the momentum-form symplectic Euler (CRBA + two Cholesky factorisations + a fixed-point solve per step), hence its higher cost per step.",
         aba_cost * 1e6
     ));
     if quick {
