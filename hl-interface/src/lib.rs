@@ -180,9 +180,7 @@ fn answer(req: &Value) -> Result<Map<String, Value>, Failure> {
     // The ops must not panic on input; should one do so all the same, the panic becomes this
     // request's `internal_error` answer and the session goes on. Nothing shared is mutated
     // by an op except the library's memo cache, whose mutex poisoning it already tolerates.
-    let dispatched = catch_unwind(AssertUnwindSafe(|| dispatch(op, req)))
-        .unwrap_or_else(|p| Some(Err(Failure::new("internal_error", panic_message(op, &p)))));
-    match dispatched {
+    match guarded(op, || dispatch(op, req)) {
         None => Err(Failure::new(
             "unknown_op",
             format!(
@@ -199,6 +197,15 @@ fn answer(req: &Value) -> Result<Map<String, Value>, Failure> {
         }
         Some(Err(f)) => Err(f),
     }
+}
+
+/// Runs one op's dispatch, turning a panic into that request's `internal_error`.
+fn guarded(
+    op: &str,
+    f: impl FnOnce() -> Option<Result<Value, Failure>>,
+) -> Option<Result<Value, Failure>> {
+    catch_unwind(AssertUnwindSafe(f))
+        .unwrap_or_else(|p| Some(Err(Failure::new("internal_error", panic_message(op, &p)))))
 }
 
 /// Hands the request to each crate's `query::dispatch` until one claims `op`.
@@ -309,5 +316,39 @@ pub fn serve(mut input: impl BufRead, mut output: impl Write) -> io::Result<Serv
         output.write_all(text.as_bytes())?;
         output.write_all(b"\n")?;
         output.flush()?;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panicking_op_becomes_internal_error() {
+        let r = guarded("boom_op", || panic!("index 9 out of range"));
+        let Some(Err(f)) = r else {
+            panic!("expected a failure, got {r:?}")
+        };
+        assert_eq!(f.kind, "internal_error");
+        assert!(
+            f.message.contains("boom_op") && f.message.contains("index 9"),
+            "{}",
+            f.message
+        );
+        let framed = framed(Value::from(3), Err(f));
+        assert!(framed.starts_with(r#"{"id":3,"ok":false,"error":{"kind":"internal_error""#));
+    }
+
+    #[test]
+    fn envelope_fields_win_over_answer_fields() {
+        let mut m = Map::new();
+        m.insert("ok".to_owned(), Value::from("shadowed"));
+        m.insert("id".to_owned(), Value::from(99));
+        m.insert("x".to_owned(), Value::from(1));
+        assert_eq!(framed(Value::from(1), Ok(m)), r#"{"id":1,"ok":true,"x":1}"#);
+        assert_eq!(
+            framed(Value::Null, Ok(Map::new())),
+            r#"{"id":null,"ok":true}"#
+        );
     }
 }

@@ -11,11 +11,31 @@ const GOOD: &str = r#"{"id": 100, "op": "fk", "robot": "puma560", "q": [0, 0, 0,
 fn each_bad_line_gets_its_error_and_the_stream_goes_on() {
     // (line, expected id, expected kind, a piece of the message)
     let cases: Vec<(String, Value, &str, &str)> = vec![
-        ("this is not json".into(), Value::Null, "parse_error", "input line 1: not JSON"),
-        ("[1, 2, 3]".into(), Value::Null, "bad_request", "got an array"),
+        (
+            "this is not json".into(),
+            Value::Null,
+            "parse_error",
+            "input line 1: not JSON",
+        ),
+        (
+            "[1, 2, 3]".into(),
+            Value::Null,
+            "bad_request",
+            "got an array",
+        ),
         ("42".into(), Value::Null, "bad_request", "got a number"),
-        (r#"{"id": 3}"#.into(), json!(3), "bad_request", "op: missing"),
-        (r#"{"id": 4, "op": 7}"#.into(), json!(4), "bad_request", "op: expected a string"),
+        (
+            r#"{"id": 3}"#.into(),
+            json!(3),
+            "bad_request",
+            "op: missing",
+        ),
+        (
+            r#"{"id": 4, "op": 7}"#.into(),
+            json!(4),
+            "bad_request",
+            "op: expected a string",
+        ),
         (
             r#"{"id": 5, "op": "fk", "robot": "puma560", "q": ["NaN", 0, 0, 0, 0, 0]}"#.into(),
             json!(5),
@@ -54,10 +74,20 @@ fn each_bad_line_gets_its_error_and_the_stream_goes_on() {
             "unknown_robot",
             "nonesuch",
         ),
-        (r#"{"id": 11, "op": "fkk"}"#.into(), json!(11), "unknown_op", "known: fk, jacobian"),
+        (
+            r#"{"id": 11, "op": "fkk"}"#.into(),
+            json!(11),
+            "unknown_op",
+            "known: fk, jacobian",
+        ),
         (String::new(), Value::Null, "parse_error", "empty line"),
         ("   \t ".into(), Value::Null, "parse_error", "empty line"),
-        (r#"{"id": 14, "op": "fk""#.into(), Value::Null, "parse_error", "not JSON"),
+        (
+            r#"{"id": 14, "op": "fk""#.into(),
+            Value::Null,
+            "parse_error",
+            "not JSON",
+        ),
         // Nesting deeper than the parser's limit is refused, not a stack overflow.
         ("[".repeat(100_000), Value::Null, "parse_error", "recursion"),
         (
@@ -88,7 +118,10 @@ fn each_bad_line_gets_its_error_and_the_stream_goes_on() {
         assert_eq!(a["id"], *id, "{short} -> {raw}");
         assert_eq!(kind(a), *want_kind, "{short} -> {raw}");
         let msg = a["error"]["message"].as_str().expect("message");
-        assert!(msg.contains(piece), "{short}: message {msg:?} lacks {piece:?}");
+        assert!(
+            msg.contains(piece),
+            "{short}: message {msg:?} lacks {piece:?}"
+        );
         let (raw, next) = &answers[2 * i + 1];
         assert_eq!(next["id"], 100, "the good line after {short}: {raw}");
         assert_eq!(next["ok"], true, "the good line after {short}: {raw}");
@@ -105,19 +138,31 @@ fn invalid_utf8_crlf_and_a_last_line_without_newline() {
     assert_eq!(answers.len(), 4);
     assert_eq!(answers[0].1["ok"], true, "CRLF accepted");
     assert_eq!(kind(&answers[1].1), "parse_error");
-    assert!(answers[1].0.contains("input line 2: not UTF-8"), "{}", answers[1].0);
+    assert!(
+        answers[1].0.contains("input line 2: not UTF-8"),
+        "{}",
+        answers[1].0
+    );
     assert_eq!(kind(&answers[2].1), "parse_error");
-    assert_eq!(answers[3].1["id"], 4, "a last line without a newline is answered");
+    assert_eq!(
+        answers[3].1["id"], 4,
+        "a last line without a newline is answered"
+    );
     assert_eq!(answers[3].1["ok"], true);
 }
 
 #[test]
 fn handle_line_frames_one_line_with_id_and_ok_first() {
-    let a = handle_line(r#"{"op": "gravity", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0], "id": "g1"}"#);
+    let a = handle_line(
+        r#"{"op": "gravity", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0], "id": "g1"}"#,
+    );
     assert!(a.starts_with(r#"{"id":"g1","ok":true,"tau":["#), "{a}");
     assert!(!a.contains('\n'));
     let e = handle_line("nope");
-    assert!(e.starts_with(r#"{"id":null,"ok":false,"error":{"kind":"parse_error""#), "{e}");
+    assert!(
+        e.starts_with(r#"{"id":null,"ok":false,"error":{"kind":"parse_error""#),
+        "{e}"
+    );
     assert!(e.contains("at column 2"), "column of the bad token: {e}");
     assert_eq!(handle_line(""), handle_line("\r"));
 }

@@ -14,14 +14,20 @@ fn line_count(bytes: &[u8]) -> usize {
 
 fn check_answers(input: &[u8]) -> Vec<Value> {
     let answers = run_bytes(input);
-    assert_eq!(answers.len(), line_count(input), "one answer per input line");
+    assert_eq!(
+        answers.len(),
+        line_count(input),
+        "one answer per input line"
+    );
     answers
         .into_iter()
         .map(|(raw, a)| {
             assert!(a.get("id").is_some(), "id missing: {raw}");
             assert!(a["ok"].is_boolean(), "ok not a boolean: {raw}");
             if a["ok"] == false {
-                let k = a["error"]["kind"].as_str().unwrap_or_else(|| panic!("kind: {raw}"));
+                let k = a["error"]["kind"]
+                    .as_str()
+                    .unwrap_or_else(|| panic!("kind: {raw}"));
                 assert!(a["error"]["message"].is_string(), "message: {raw}");
                 assert_ne!(k, "internal_error", "an op panicked: {raw}");
             }
@@ -50,16 +56,21 @@ fn arb_json() -> impl Strategy<Value = Value> {
         Just(Value::Null),
         any::<bool>().prop_map(Value::Bool),
         (-3i64..20).prop_map(|i| json!(i)),
-        prop::sample::select(vec![0.0, -1.0, 0.5, 1.5, 1e-300, 1e300, -1e300, 3.3]).prop_map(|x| json!(x)),
-        prop::sample::select(vec!["NaN", "inf", "", "puma560", "panda", "stanford", "eclss", "box", "sphere", "exact", "tool", "rk4", "dopri5", "newton", "analytic"])
-            .prop_map(|s| json!(s)),
+        prop::sample::select(vec![0.0, -1.0, 0.5, 1.5, 1e-300, 1e300, -1e300, 3.3])
+            .prop_map(|x| json!(x)),
+        prop::sample::select(vec![
+            "NaN", "inf", "", "puma560", "panda", "stanford", "eclss", "box", "sphere", "exact",
+            "tool", "rk4", "dopri5", "newton", "analytic"
+        ])
+        .prop_map(|s| json!(s)),
         "[a-z_]{0,8}".prop_map(Value::String),
     ];
     leaf.prop_recursive(3, 40, 8, |inner| {
         prop_oneof![
             prop::collection::vec(inner.clone(), 0..8).prop_map(Value::Array),
-            prop::collection::vec((prop::sample::select(KEYS.to_vec()), inner), 0..6)
-                .prop_map(|kv| Value::Object(kv.into_iter().map(|(k, v)| (k.to_owned(), v)).collect())),
+            prop::collection::vec((prop::sample::select(KEYS.to_vec()), inner), 0..6).prop_map(
+                |kv| Value::Object(kv.into_iter().map(|(k, v)| (k.to_owned(), v)).collect())
+            ),
         ]
     })
 }
@@ -67,16 +78,73 @@ fn arb_json() -> impl Strategy<Value = Value> {
 /// Request fields of all ops. Left out on purpose: the work budgets (`max_steps`,
 /// `max_iterations`, `restarts`) and `file`, so that a fuzz case stays fast and reads no files.
 const KEYS: &[&str] = &[
-    "id", "robot", "q", "qd", "qdd", "tau", "frames", "frame", "pose", "method", "all", "q0",
-    "tolerances", "respect_limits", "seed", "bits", "qd0", "t_end", "outputs", "integrator", "dt",
-    "rtol", "atol", "limits", "a", "b", "pose_a", "pose_b", "mode", "scene", "objects", "links",
-    "allowed", "self_collision", "link_radius", "shape", "size", "radius", "height", "facets",
-    "points", "vertices", "polygons", "parts", "name", "params", "geometry", "model", "faults",
-    "fault", "alarms", "alarm", "drop", "until", "sample", "convention", "joints", "type",
+    "id",
+    "robot",
+    "q",
+    "qd",
+    "qdd",
+    "tau",
+    "frames",
+    "frame",
+    "pose",
+    "method",
+    "all",
+    "q0",
+    "tolerances",
+    "respect_limits",
+    "seed",
+    "bits",
+    "qd0",
+    "t_end",
+    "outputs",
+    "integrator",
+    "dt",
+    "rtol",
+    "atol",
+    "limits",
+    "a",
+    "b",
+    "pose_a",
+    "pose_b",
+    "mode",
+    "scene",
+    "objects",
+    "links",
+    "allowed",
+    "self_collision",
+    "link_radius",
+    "shape",
+    "size",
+    "radius",
+    "height",
+    "facets",
+    "points",
+    "vertices",
+    "polygons",
+    "parts",
+    "name",
+    "params",
+    "geometry",
+    "model",
+    "faults",
+    "fault",
+    "alarms",
+    "alarm",
+    "drop",
+    "until",
+    "sample",
+    "convention",
+    "joints",
+    "type",
 ];
 
 fn eye(x: f64) -> Value {
-    json!([[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
+    json!([
+        [1.0, 0.0, 0.0, x],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0]
+    ])
 }
 
 /// One valid request per op, the starting points of the mutations (bounded work budgets).
@@ -120,7 +188,8 @@ fn arb_mutation() -> impl Strategy<Value = Mutation> {
     prop_oneof![
         (prop::sample::select(KEYS.to_vec()), arb_json()).prop_map(|(k, v)| Mutation::Set(k, v)),
         any::<usize>().prop_map(Mutation::Remove),
-        (any::<usize>(), any::<usize>(), arb_json()).prop_map(|(i, j, v)| Mutation::SetInner(i, j, v)),
+        (any::<usize>(), any::<usize>(), arb_json())
+            .prop_map(|(i, j, v)| Mutation::SetInner(i, j, v)),
     ]
 }
 

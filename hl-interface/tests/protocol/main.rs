@@ -15,18 +15,24 @@ pub fn run_bytes(input: &[u8]) -> Vec<(String, Value)> {
     let mut out = Vec::new();
     let stats = serve(input, &mut out).expect("in-memory streams do not fail");
     let text = String::from_utf8(out).expect("answers are UTF-8");
-    assert!(text.is_empty() || text.ends_with('\n'), "answer not newline-terminated");
+    assert!(
+        text.is_empty() || text.ends_with('\n'),
+        "answer not newline-terminated"
+    );
     let lines: Vec<(String, Value)> = text
         .lines()
         .map(|l| {
-            let v: Value = serde_json::from_str(l)
-                .unwrap_or_else(|e| panic!("answer is not JSON ({e}): {l}"));
+            let v: Value =
+                serde_json::from_str(l).unwrap_or_else(|e| panic!("answer is not JSON ({e}): {l}"));
             (l.to_owned(), v)
         })
         .collect();
     assert_eq!(stats.lines, lines.len() as u64, "stats.lines");
     assert_eq!(stats.ok + stats.errors, stats.lines, "stats add up");
-    let ok = lines.iter().filter(|(_, v)| v["ok"] == Value::Bool(true)).count();
+    let ok = lines
+        .iter()
+        .filter(|(_, v)| v["ok"] == Value::Bool(true))
+        .count();
     assert_eq!(stats.ok, ok as u64, "stats.ok");
     lines
 }
@@ -54,7 +60,10 @@ pub fn numbers(v: &Value, what: &str) -> Vec<f64> {
     v.as_array()
         .unwrap_or_else(|| panic!("{what}: not an array: {v}"))
         .iter()
-        .map(|x| x.as_f64().unwrap_or_else(|| panic!("{what}: not a number: {x}")))
+        .map(|x| {
+            x.as_f64()
+                .unwrap_or_else(|| panic!("{what}: not a number: {x}"))
+        })
         .collect()
 }
 

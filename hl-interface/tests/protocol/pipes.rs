@@ -40,7 +40,11 @@ fn a_client_talks_to_serve_one_request_at_a_time_through_pipes() {
     let stats = server.join().expect("server thread").expect("serve");
     assert_eq!((stats.lines, stats.ok, stats.errors), (6, 5, 1));
     line.clear();
-    assert_eq!(answers.read_line(&mut line).expect("read"), 0, "nothing after the last answer");
+    assert_eq!(
+        answers.read_line(&mut line).expect("read"),
+        0,
+        "nothing after the last answer"
+    );
 }
 
 /// The flush contract without pipes: after each answer the writer is flushed, and what was
@@ -63,7 +67,8 @@ fn serve_flushes_after_every_answer() {
         }
     }
     let mut rec = Recorder::default();
-    let input = "{\"id\":1,\"op\":\"ops\"}\nbad\n\n{\"id\":4,\"op\":\"lib_params\",\"name\":\"puma560\"}\n";
+    let input =
+        "{\"id\":1,\"op\":\"ops\"}\nbad\n\n{\"id\":4,\"op\":\"lib_params\",\"name\":\"puma560\"}\n";
     serve(input.as_bytes(), &mut rec).expect("serve");
     let ends: Vec<usize> = rec
         .bytes
@@ -73,5 +78,8 @@ fn serve_flushes_after_every_answer() {
         .map(|(i, _)| i + 1)
         .collect();
     assert_eq!(ends.len(), 4);
-    assert_eq!(rec.flushed_at, ends, "one flush right after each answer line");
+    assert_eq!(
+        rec.flushed_at, ends,
+        "one flush right after each answer line"
+    );
 }

@@ -12,7 +12,12 @@ use robosim_kinematics::{encoder::encoder_error, fk, matrix4_to_json, robot_to_j
 use serde_json::{Value, json};
 
 fn at(x: f64, y: f64, z: f64) -> Value {
-    json!([[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]])
+    json!([
+        [1.0, 0.0, 0.0, x],
+        [0.0, 1.0, 0.0, y],
+        [0.0, 0.0, 1.0, z],
+        [0.0, 0.0, 0.0, 1.0]
+    ])
 }
 
 #[test]
@@ -34,9 +39,7 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     let mut far = pose;
     far[(0, 3)] = 5.0;
     // The PUMA's end effector at q = 0 is near (0.45, -0.15, 1.10) m: one crate there, one far.
-    let crate_at = |x: f64| {
-        json!({"objects": [{"shape": "box", "size": [0.2, 0.2, 0.2], "name": "crate", "pose": at(x, -0.15, 1.1)}]})
-    };
+    let crate_at = |x: f64| json!({"objects": [{"shape": "box", "size": [0.2, 0.2, 0.2], "name": "crate", "pose": at(x, -0.15, 1.1)}]});
     let reqs = vec![
         json!({"id": 1, "op": "fk", "robot": "puma560", "q": q}),
         json!({"id": 2, "op": "jacobian", "robot": "puma560", "q": q, "frame": "base"}),
@@ -67,14 +70,19 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     for (req, (raw, a)) in reqs.iter().zip(&answers) {
         let id = req.get("id").cloned().unwrap_or(Value::Null);
         assert_eq!(a["id"], id, "ids in order: {raw}");
-        assert!(raw.starts_with(&format!("{{\"id\":{id},\"ok\":")), "id and ok first: {raw}");
+        assert!(
+            raw.starts_with(&format!("{{\"id\":{id},\"ok\":")),
+            "id and ok first: {raw}"
+        );
         let want_ok = ![17, 22].contains(&req["id"].as_i64().unwrap_or(0));
         assert_eq!(a["ok"], want_ok, "ok flag of {req}: {raw}");
     }
     let a = |i: usize| &answers[i].1;
 
     // fk: the pose (and the same pose from an inline robot, and the last repeat).
-    let want: Vec<Vec<f64>> = (0..4).map(|r| (0..4).map(|c| pose[(r, c)]).collect()).collect();
+    let want: Vec<Vec<f64>> = (0..4)
+        .map(|r| (0..4).map(|c| pose[(r, c)]).collect())
+        .collect();
     for i in [0, 19, 22] {
         let got = rows(&a(i)["pose"], "pose");
         for r in 0..4 {
@@ -84,7 +92,12 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     let p = fk::forward(&panda, &q_panda);
     let got = rows(&a(18)["pose"], "panda pose");
     for r in 0..4 {
-        assert_close(&got[r], &(0..4).map(|c| p[(r, c)]).collect::<Vec<_>>(), 1e-12, "panda");
+        assert_close(
+            &got[r],
+            &(0..4).map(|c| p[(r, c)]).collect::<Vec<_>>(),
+            1e-12,
+            "panda",
+        );
     }
 
     // jacobian: 6×n, rows vx vy vz ωx ωy ωz.
@@ -92,7 +105,12 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     let got = rows(&a(1)["jacobian"], "jacobian");
     assert_eq!(got.len(), 6);
     for r in 0..6 {
-        assert_close(&got[r], &(0..6).map(|c| j[(r, c)]).collect::<Vec<_>>(), 1e-12, "jacobian");
+        assert_close(
+            &got[r],
+            &(0..6).map(|c| j[(r, c)]).collect::<Vec<_>>(),
+            1e-12,
+            "jacobian",
+        );
     }
 
     // ik: every analytic solution reaches the pose, and the one we started from is among them.
@@ -102,7 +120,10 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     for s in sols {
         let qs = numbers(&s["q"], "ik q");
         let reached = fk::forward(&puma, &qs);
-        assert!((reached - pose).abs().max() < 1e-9, "ik solution misses the pose: {s}");
+        assert!(
+            (reached - pose).abs().max() < 1e-9,
+            "ik solution misses the pose: {s}"
+        );
         found |= qs.iter().zip(&q).all(|(x, y)| (x - y).abs() < 1e-9);
     }
     assert!(found, "the generating q is one of the solutions");
@@ -110,15 +131,32 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
 
     // encoder_error.
     let e = encoder_error(&puma, &q, &[12; 6]).expect("encoder_error");
-    assert_close(&[a(3)["position"].as_f64().expect("position")], &[e.position], 1e-12, "pos");
-    assert_close(&numbers(&a(3)["per_axis"], "per_axis"), &e.per_axis, 1e-12, "per_axis");
+    assert_close(
+        &[a(3)["position"].as_f64().expect("position")],
+        &[e.position],
+        1e-12,
+        "pos",
+    );
+    assert_close(
+        &numbers(&a(3)["per_axis"], "per_axis"),
+        &e.per_axis,
+        1e-12,
+        "per_axis",
+    );
 
     // Dynamics: id, mass matrix, gravity, fd (which must invert id), simulate.
     assert_close(&numbers(&a(4)["tau"], "tau"), &tau, 1e-12, "id tau");
-    let m = robosim_dynamics::crba(&model, &mut data, &q).expect("crba").clone();
+    let m = robosim_dynamics::crba(&model, &mut data, &q)
+        .expect("crba")
+        .clone();
     let got = rows(&a(5)["mass_matrix"], "mass_matrix");
     for r in 0..6 {
-        assert_close(&got[r], &(0..6).map(|c| m[(r, c)]).collect::<Vec<_>>(), 1e-12, "M");
+        assert_close(
+            &got[r],
+            &(0..6).map(|c| m[(r, c)]).collect::<Vec<_>>(),
+            1e-12,
+            "M",
+        );
     }
     let g: Vec<f64> = robosim_dynamics::gravity(&model, &mut data, &q)
         .expect("gravity")
@@ -126,10 +164,20 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
         .copied()
         .collect();
     assert_close(&numbers(&a(6)["tau"], "gravity"), &g, 1e-12, "gravity");
-    assert_close(&numbers(&a(7)["qdd"], "qdd"), &qdd, 1e-8, "fd(id(qdd)) = qdd");
+    assert_close(
+        &numbers(&a(7)["qdd"], "qdd"),
+        &qdd,
+        1e-8,
+        "fd(id(qdd)) = qdd",
+    );
     let samples = a(8)["samples"].as_array().expect("samples");
     assert_eq!(samples.len(), 3);
-    assert_close(&numbers(&samples[0]["q"], "q(0)"), &q, 0.0, "simulate starts at q0");
+    assert_close(
+        &numbers(&samples[0]["q"], "q(0)"),
+        &q,
+        0.0,
+        "simulate starts at q0",
+    );
     assert_eq!(samples[2]["t"], 0.05);
     assert!(samples[2]["energy"].is_object() || samples[2]["energy"].is_number());
 
@@ -143,7 +191,12 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     );
     assert_eq!(a(9)["intersect"], json!(r.intersects()));
     let sd = r.signed_distance().expect("exact mode gives a distance");
-    assert_close(&[a(9)["signed_distance"].as_f64().expect("sd")], &[sd], 1e-12, "sd");
+    assert_close(
+        &[a(9)["signed_distance"].as_f64().expect("sd")],
+        &[sd],
+        1e-12,
+        "sd",
+    );
     assert!((sd - 0.5).abs() < 1e-9);
 
     // check: contact with the crate at the hand, clear with the crate 3 m away.
@@ -153,10 +206,16 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     assert_eq!(a(11)["clear"], true);
 
     // Library.
-    let decls = robosim_library::standard_library().expect("stdlib").declarations();
+    let decls = robosim_library::standard_library()
+        .expect("stdlib")
+        .declarations();
     let listed = a(12)["declarations"].as_array().expect("declarations");
     assert_eq!(listed.len(), decls.len());
-    assert!(listed.iter().any(|d| d["name"] == "puma560" && d["kind"] == "robot"));
+    assert!(
+        listed
+            .iter()
+            .any(|d| d["name"] == "puma560" && d["kind"] == "robot")
+    );
     assert!(a(13)["params"].is_array());
     assert_eq!(a(14)["kind"], "robot");
     assert_eq!(a(14)["robot"]["joints"].as_array().map(Vec::len), Some(6));
@@ -177,7 +236,10 @@ fn mixed_session_answers_in_order_with_each_crates_values() {
     assert_eq!(kind(a(21)), "unknown_op");
     for (op, _) in OPS {
         assert!(
-            a(21)["error"]["message"].as_str().expect("message").contains(op),
+            a(21)["error"]["message"]
+                .as_str()
+                .expect("message")
+                .contains(op),
             "unknown_op lists {op}"
         );
     }
