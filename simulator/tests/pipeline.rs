@@ -422,3 +422,57 @@ fn sim_command_builds_prints_and_runs() {
     };
     assert!(run(&bad, &none).is_err());
 }
+
+#[test]
+fn every_integrator_runs_in_the_pipeline_and_agrees_with_simulate() {
+    // free fall (idle command) for 0.2 s: the pipeline's dynamics stage must reproduce
+    // robosim_dynamics::simulate with the same integrator and step
+    use robosim_dynamics::{IntegratorConfig, Model, simulate};
+    let model = Model::new(&puma()).expect("valid");
+    for (integrator, rtol) in [
+        ("euler", None),
+        ("semi_implicit_euler", None),
+        ("rk4", None),
+        ("dopri5", None),
+        ("dopri5", Some(1e-9)),
+    ] {
+        let d = DynamicsEffect {
+            integrator: integrator.into(),
+            dt: 1e-3,
+            rtol,
+            atol: rtol,
+            ..DynamicsEffect::default()
+        };
+        let mut p = build(&SceneEffects {
+            dynamics: Some(d),
+            ..SceneEffects::default()
+        });
+        for _ in 0..200 {
+            p.step().expect("step");
+        }
+        let config = match rtol {
+            None => IntegratorConfig::fixed(
+                robosim_dynamics::Integrator::from_name(integrator).expect("name"),
+                1e-3,
+            ),
+            Some(t) => IntegratorConfig::adaptive(t, t),
+        };
+        let (s, _) =
+            simulate(&model, config, &Q0, &[0.0; 6], &[0.0; 6], &[0.2]).expect("simulates");
+        let diff = p
+            .world
+            .state
+            .q
+            .iter()
+            .zip(&s[0].q)
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+        // fixed steps: the same arithmetic; adaptive: the pipeline clips its steps at
+        // every 1 ms boundary, so it agrees to the tolerance only
+        let tol = if rtol.is_some() { 1e-7 } else { 1e-12 };
+        assert!(
+            diff <= tol,
+            "{integrator} (rtol {rtol:?}): pipeline and simulate differ by {diff}"
+        );
+        assert!((p.world.state.t - 0.2).abs() < 1e-12);
+    }
+}
