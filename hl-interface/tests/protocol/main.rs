@@ -1,10 +1,11 @@
 //! The JSON-lines transport driven as a client would: whole sessions through [`serve`], bad
-//! lines, a fuzz of arbitrary input, and interactive use through pipes. One test binary (the
-//! modules below) to keep link time down.
+//! lines, a fuzz of arbitrary input, interactive use through pipes and of the real process.
+//! One test binary (the modules below) to keep link time down.
 
 mod bad_lines;
 mod fuzz;
 mod pipes;
+mod process;
 mod session;
 
 use robosim_hl_interface::serve;
