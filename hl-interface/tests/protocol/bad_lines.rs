@@ -63,6 +63,20 @@ fn each_bad_line_gets_its_error_and_the_stream_goes_on() {
             "`q`",
         ),
         (
+            r#"{"id": 81, "op": "gravity", "robot": "puma560", "q": [0, "NaN", 0, 0, 0, 0]}"#
+                .into(),
+            json!(81),
+            "invalid_request",
+            "`q`[1]",
+        ),
+        (
+            r#"{"id": 82, "op": "check", "robot": "puma560", "q": [0, 0, "NaN", 0, 0, 0], "scene": {"objects": []}}"#
+                .into(),
+            json!(82),
+            "bad_request",
+            "q[2]",
+        ),
+        (
             r#"{"id": 9, "op": "fk", "robot": "nonesuch", "q": []}"#.into(),
             json!(9),
             "unknown_robot",
