@@ -32,9 +32,10 @@
 //!
 //! Entry points: [`handle_line`] (one line in, one line out), [`handle_request`] (an already
 //! parsed request), [`serve`] (a whole stream, flushed after every answer), [`cli`] (the
-//! `robosim query` command).
+//! `robosim query` command), [`client::Client`] (a Rust client over a server's pipes).
 
 pub mod cli;
+pub mod client;
 
 use robosim_kinematics::Robot;
 use serde_json::{Map, Value};

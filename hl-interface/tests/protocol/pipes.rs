@@ -83,3 +83,31 @@ fn serve_flushes_after_every_answer() {
         "one flush right after each answer line"
     );
 }
+
+/// The client notices a stream out of step or a server that is not speaking the protocol.
+#[test]
+fn the_client_refuses_answers_that_are_not_the_protocol() {
+    use robosim_hl_interface::client::{Client, ClientError};
+    let wrong_id: &[u8] = b"{\"id\":7,\"ok\":true}\n";
+    let mut c = Client::new(wrong_id, Vec::new());
+    assert!(matches!(
+        c.call("ops", serde_json::json!({})),
+        Err(ClientError::IdMismatch { sent: 1, .. })
+    ));
+    let mut c = Client::new(&b"hello\n"[..], Vec::new());
+    assert!(matches!(
+        c.call("ops", serde_json::json!({})),
+        Err(ClientError::BadAnswer { id: 1, .. })
+    ));
+    let mut c = Client::new(&b""[..], Vec::new());
+    assert!(matches!(
+        c.call("ops", serde_json::json!({})),
+        Err(ClientError::Closed { id: 1 })
+    ));
+    let no_kind: &[u8] = b"{\"id\":1,\"ok\":false,\"error\":{}}\n";
+    let mut c = Client::new(no_kind, Vec::new());
+    assert!(matches!(
+        c.call("ops", serde_json::json!({})),
+        Err(ClientError::BadAnswer { .. })
+    ));
+}

@@ -90,3 +90,38 @@ fn a_missing_input_file_is_an_error_exit() {
     );
     assert!(out.stdout.is_empty());
 }
+
+/// The Rust client over the real process: answers, refusals, ids in step, a clean exit.
+#[test]
+fn the_client_talks_to_the_query_process() {
+    use robosim_hl_interface::client::Client;
+    let (mut child, mut client) = Client::spawn(Command::new(query_example())).expect("spawn");
+    let g = client
+        .call(
+            "gravity",
+            serde_json::json!({"robot": "puma560", "q": [0, 0.5, -1, 0, 0.3, 0]}),
+        )
+        .expect("conversation")
+        .expect("gravity answers");
+    assert_eq!(g["tau"].as_array().map(Vec::len), Some(6));
+    assert!(
+        g.get("id").is_none() && g.get("ok").is_none(),
+        "envelope stripped: {g}"
+    );
+    let refused = client
+        .call("fk", serde_json::json!({"robot": "nonesuch", "q": []}))
+        .expect("conversation")
+        .expect_err("unknown robot");
+    assert_eq!(refused.kind, "unknown_robot");
+    let ops = client
+        .call("ops", serde_json::json!({}))
+        .expect("conversation")
+        .expect("ops");
+    assert!(ops["ops"].as_array().is_some_and(|o| o.len() > 10));
+    assert!(
+        client.call("ops", serde_json::json!([1])).is_err(),
+        "fields must be an object"
+    );
+    drop(client);
+    assert!(child.wait().expect("wait").success());
+}
