@@ -102,7 +102,7 @@ impl<R: BufRead, W: Write> Client<R, W> {
             return Err(bad());
         };
         let got = answer.remove("id").unwrap_or(Value::Null);
-        if got != Value::from(id) {
+        if got != id {
             return Err(ClientError::IdMismatch { sent: id, got });
         }
         match answer.remove("ok") {
