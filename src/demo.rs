@@ -80,7 +80,12 @@ fn xyz(m: &Matrix4<f64>) -> String {
 }
 
 fn vec_str(v: &[f64], digits: usize) -> String {
-    let parts: Vec<String> = v.iter().map(|x| format!("{x:+.digits$}")).collect();
+    let scale = 10f64.powi(digits as i32);
+    // Rounded first, and + 0.0 so that a value rounding to zero prints without a minus sign.
+    let parts: Vec<String> = v
+        .iter()
+        .map(|x| format!("{:+.digits$}", (x * scale).round() / scale + 0.0))
+        .collect();
     format!("[{}]", parts.join(", "))
 }
 
@@ -277,7 +282,7 @@ pub fn run(session: Option<&str>) -> Result<()> {
         let n = (0..snap.len())
             .filter(|&i| snap.object(i).kind() == Some(*k))
             .count();
-        format!("{n} {}", k.name())
+        format!("{n} {}{}", k.name(), if n == 1 { "" } else { "s" })
     })
     .collect();
     println!(
@@ -685,18 +690,35 @@ fn automation() -> Result<()> {
     );
     let mut ilm = Ilm::new(&m, &g, Some(&present));
     let mut trail = Vec::new();
+    let mut counts_after = Vec::new();
     for e in &seen {
         ilm.on_alarm(e.alarm, e.time)?;
         ilm.step();
-        trail.push(format!(
-            "{}@{:.0}s→{}",
-            m.alarms[e.alarm].name,
-            e.time,
-            ilm.diagnoser().candidates().len()
-        ));
+        let n = ilm.diagnoser().candidates().len();
+        counts_after.push(n);
+        trail.push(format!("{}@{:.0}s→{n}", m.alarms[e.alarm].name, e.time));
     }
-    for chunk in trail.chunks(3) {
-        println!("  {}", chunk.join("  "));
+    // The first alarms in full, the rest summarised (candidate counts after each included).
+    let shown = trail.len().min(3);
+    let mut rest = String::new();
+    if let (true, Some(last)) = (trail.len() > shown, seen.last()) {
+        let mut counts = counts_after[shown..].to_vec();
+        counts.sort_unstable();
+        counts.dedup();
+        let counts: Vec<String> = counts.iter().map(usize::to_string).collect();
+        rest = format!(
+            "  … {} more up to t = {:.0} s (candidates after each: {})",
+            trail.len() - shown,
+            last.time,
+            counts.join(", ")
+        );
+    }
+    println!(
+        "alarms (→ FSPI single-fault candidates after each): {}",
+        trail[..shown].join("  ")
+    );
+    if !rest.is_empty() {
+        println!("{rest}");
     }
     // The clock runs on an hour past the last alarm: alarms a candidate should have caused by
     // then and did not ring rule it out.

@@ -480,9 +480,29 @@ fn parse_params(pairs: &[String]) -> Result<BTreeMap<String, String>> {
     Ok(out)
 }
 
-fn library() -> Result<&'static Library> {
-    robosim_library::standard_library()
-        .ok_or_else(|| crate::CliError("the standard library failed to load".into()))
+/// The standard library plus `files` (each may `include "std"`), checked as one library.
+pub fn build_library(files: &[std::path::PathBuf]) -> Result<Library> {
+    let std = Library::standard().map_err(|e| crate::CliError(e.to_string()))?;
+    let mut sources = std.sources();
+    for f in files {
+        let lib = Library::load(f).map_err(|e| crate::CliError(e.to_string()))?;
+        for (name, text) in lib.sources() {
+            if !sources.iter().any(|(n, _)| *n == name) {
+                sources.push((name, text));
+            }
+        }
+    }
+    Library::from_sources(&sources).map_err(|e| crate::CliError(e.to_string()))
+}
+
+/// A running session's Library Space, rebuilt from the source text the keeper holds in
+/// shared memory.
+pub fn session_library(session: Option<&str>) -> Result<Library> {
+    let s = robosim_instance_space::Session::open(session)?;
+    let mut reader = robosim_instance_space::Reader::attach(&s, "library")?;
+    let files = reader.library_files()?;
+    Library::from_sources(&files)
+        .map_err(|e| crate::CliError(format!("the session's Library Space: {e}")))
 }
 
 /// `robosim instantiate DECL [--as NAME] [--set K=V]…`
@@ -498,7 +518,8 @@ pub fn cli_instantiate(
         params: parse_params(set)?,
     };
     let name = name.unwrap_or(declaration);
-    let tx = instantiate(library()?, &origin, name)?;
+    let lib = session_library(session)?;
+    let tx = instantiate(&lib, &origin, name)?;
     let mut c = robosim_instance_space::Client::connect(&s, "instantiate")?;
     let a = c.transact(&tx)?;
     println!(
@@ -518,7 +539,8 @@ pub fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Resul
         .ok_or_else(|| crate::CliError("no snapshot".into()))?;
     let (_, mut origin) = find_instance(&snap, instance)?;
     origin.params.extend(parse_params(pairs)?);
-    let tx = reinstantiate(library()?, &snap, instance, &origin)?;
+    let lib = session_library(session)?;
+    let tx = reinstantiate(&lib, &snap, instance, &origin)?;
     let mut c = robosim_instance_space::Client::connect(&s, "set")?;
     let a = c.transact(&tx)?;
     let aspects: Vec<&str> = robosim_instance_space::aspect::names(a.aspects());

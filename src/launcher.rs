@@ -24,8 +24,16 @@ const COMPONENTS: &[(&str, Option<&str>)] = &[
 ];
 
 /// `robosim space`: recover, load the scene into an empty model, serve until SIGTERM.
-pub fn run_space(session: Option<&str>, scene_name: Option<&str>, durable: bool) -> Result<()> {
+pub fn run_space(
+    session: Option<&str>,
+    scene_name: Option<&str>,
+    library: &[std::path::PathBuf],
+    durable: bool,
+) -> Result<()> {
     let session = Session::open(session)?;
+    // The Library Space: the standard library plus the given files, checked before anything
+    // is published or instantiated.
+    let lib = crate::instantiate::build_library(library)?;
     let opts = KeeperOptions {
         durable,
         ..KeeperOptions::default()
@@ -41,9 +49,14 @@ pub fn run_space(session: Option<&str>, scene_name: Option<&str>, durable: bool)
     for p in &report.problems {
         eprintln!("space: recovery: {p}");
     }
+    keeper.publish_library(&lib.sources())?;
+    eprintln!(
+        "space: Library Space published ({} declarations)",
+        lib.declarations().len()
+    );
     if keeper.model().is_empty() {
         if let Some(name) = scene_name {
-            let txs = scene::load(name)?;
+            let txs = scene::load_from(&lib, name)?;
             for tx in &txs {
                 keeper
                     .commit_local(tx)
@@ -106,8 +119,18 @@ fn wait_registered(session: &Session, role: &str, pid: u32, timeout: Duration) -
     }
 }
 
-/// `robosim up SCENE --with …`
+/// `robosim up SCENE --with …` with the standard library.
 pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()> {
+    up_with_library(scene_name, with, session, &[])
+}
+
+/// `robosim up SCENE --with … --library FILE…`
+pub fn up_with_library(
+    scene_name: &str,
+    with: &[String],
+    session: Option<&str>,
+    library: &[std::path::PathBuf],
+) -> Result<()> {
     let session = Session::open(session)?;
     for c in with {
         match COMPONENTS.iter().find(|(n, _)| n == c) {
@@ -131,7 +154,8 @@ pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()
             Some(_) => {}
         }
     }
-    scene::check(scene_name)?;
+    let lib = crate::instantiate::build_library(library)?;
+    scene::load_from(&lib, scene_name)?;
     let running = session.processes();
     let keeper_pid = match running.iter().find(|p| p.role == "space") {
         Some(p) => {

@@ -35,6 +35,9 @@ enum Command {
         /// Scene to load when the session's model is empty.
         #[arg(long)]
         scene: Option<String>,
+        /// Library files to add to the session's Library Space (besides the standard library).
+        #[arg(long)]
+        library: Vec<std::path::PathBuf>,
         /// Do not sync the journal before acknowledging (benchmarks only).
         #[arg(long, hide = true)]
         no_sync: bool,
@@ -47,6 +50,9 @@ enum Command {
         with: Vec<String>,
         #[arg(long)]
         session: Option<String>,
+        /// Library files to add to the session's Library Space.
+        #[arg(long)]
+        library: Vec<std::path::PathBuf>,
     },
     /// List a session's processes: role, pid, what each is attached to.
     Ps {
@@ -95,6 +101,10 @@ enum Command {
     },
     /// The Library Space: list, show and check declarations.
     Lib {
+        /// Read the Library Space of this running session (from shared memory) instead of the
+        /// standard library.
+        #[arg(long, global = true)]
+        session: Option<String>,
         #[command(subcommand)]
         cmd: robosim_library::cli::LibCmd,
     },
@@ -126,13 +136,15 @@ fn main() -> ExitCode {
         Command::Space {
             session,
             scene,
+            library,
             no_sync,
-        } => launcher::run_space(session.as_deref(), scene.as_deref(), !no_sync),
+        } => launcher::run_space(session.as_deref(), scene.as_deref(), &library, !no_sync),
         Command::Up {
             scene,
             with,
             session,
-        } => launcher::up(&scene, &with, session.as_deref()),
+            library,
+        } => launcher::up_with_library(&scene, &with, session.as_deref(), &library),
         Command::Ps { session } => launcher::ps(session.as_deref()),
         Command::Down { session } => launcher::down(session.as_deref()),
         Command::Simulator { session, rate } => simulator::run(session.as_deref(), rate),
@@ -149,7 +161,13 @@ fn main() -> ExitCode {
         } => instantiate::cli_set(&instance, &params, session.as_deref()),
         Command::Demo { session } => demo::run(session.as_deref()),
         Command::Bench { which } => bench::run(which),
-        Command::Lib { cmd } => robosim_library::cli::run(cmd).map_err(CliError),
+        Command::Lib { session: None, cmd } => robosim_library::cli::run(cmd).map_err(CliError),
+        Command::Lib {
+            session: Some(s),
+            cmd,
+        } => instantiate::session_library(Some(&s))
+            .and_then(|lib| robosim_library::cli::render_with(cmd, Some(&lib)).map_err(CliError))
+            .map(|text| print!("{text}")),
         Command::Diag { cmd } => robosim_automation::cli::run(cmd).map_err(CliError),
         Command::Sim(args) => {
             robosim_simulator::cli::run(&args, &robosim_library::standard_robot).map_err(CliError)

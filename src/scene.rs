@@ -8,19 +8,12 @@ use robosim_instance_space::{
     Transaction,
 };
 
-pub fn check(name: &str) -> Result<()> {
-    load(name).map(|_| ())
-}
-
 /// The transactions that build scene `name`: the built-in `demo`, or any declaration of the
-/// standard library (a scene, robot, link or solid), instantiated with its defaults.
-pub fn load(name: &str) -> Result<Vec<Transaction>> {
+/// session's library (a scene, robot, link or solid), instantiated with its defaults.
+pub fn load_from(lib: &robosim_library::Library, name: &str) -> Result<Vec<Transaction>> {
     if name == "demo" {
         return Ok(vec![demo()]);
     }
-    let Some(lib) = robosim_library::standard_library() else {
-        bail!("the standard library failed to load")
-    };
     if lib.kind(name).is_none() {
         let names: Vec<String> = lib
             .declarations()

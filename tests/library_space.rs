@@ -20,7 +20,11 @@ impl Drop for Keeper {
         let _ = self.child.kill();
         let _ = self.child.wait();
         let prefix = format!("rs_{}_", self.name);
-        for e in std::fs::read_dir("/dev/shm").into_iter().flatten().flatten() {
+        for e in std::fs::read_dir("/dev/shm")
+            .into_iter()
+            .flatten()
+            .flatten()
+        {
             if e.file_name().to_string_lossy().starts_with(&prefix) {
                 let _ = std::fs::remove_file(e.path());
             }
@@ -29,8 +33,14 @@ impl Drop for Keeper {
 }
 
 fn robosim(k: &Keeper, args: &[&str]) -> String {
-    let out = Command::new(ROBOSIM).args(args).args(["--session", &k.name]).env("ROBOSIM_HOME", k.home.path()).output().expect("run robosim");
-    let text = String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
+    let out = Command::new(ROBOSIM)
+        .args(args)
+        .args(["--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .output()
+        .expect("run robosim");
+    let text =
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "robosim {args:?} failed: {text}");
     text
 }
@@ -55,7 +65,13 @@ fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter()
     iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
     let home = tempfile::tempdir().expect("temp");
     let name = format!("lib{}", std::process::id());
-    let child = Command::new(ROBOSIM).args(["space", "--session", &name]).env("ROBOSIM_HOME", home.path()).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("keeper");
+    let child = Command::new(ROBOSIM)
+        .args(["space", "--session", &name])
+        .env("ROBOSIM_HOME", home.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("keeper");
     let k = Keeper { child, home, name };
     let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
     let start = Instant::now();
@@ -64,7 +80,10 @@ fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter()
         std::thread::sleep(Duration::from_millis(20));
     }
     let out = robosim(&k, &["instantiate", "space_station", "--as", "station"]);
-    assert!(out.contains("instantiated space_station as station"), "{out}");
+    assert!(
+        out.contains("instantiated space_station as station"),
+        "{out}"
+    );
     robosim(&k, &["instantiate", "puma560"]);
 
     // A reader started after both: the whole model at once.
@@ -74,12 +93,26 @@ fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter()
     let puma = snap.find("puma560").expect("puma instance");
     let station_ids = subtree(&snap, snap.objects()[station].id);
     let puma_ids = subtree(&snap, snap.objects()[puma].id);
-    assert!(station_ids.len() > 100, "the station has its trusses, panels, modules: {}", station_ids.len());
+    assert!(
+        station_ids.len() > 100,
+        "the station has its trusses, panels, modules: {}",
+        station_ids.len()
+    );
     assert_eq!(snap.len(), station_ids.len() + puma_ids.len());
-    let links = snap.objects().iter().filter(|o| puma_ids.contains(&o.id) && Kind::from_u32(o.kind) == Some(Kind::Link)).count();
+    let links = snap
+        .objects()
+        .iter()
+        .filter(|o| puma_ids.contains(&o.id) && Kind::from_u32(o.kind) == Some(Kind::Link))
+        .count();
     assert_eq!(links, 6, "PUMA 560 has six links");
-    let polygons: usize = (0..snap.len()).filter_map(|i| snap.geometry(i)).map(|g| g.polygons.len()).sum();
-    assert!(polygons > 1000, "every solid's polygons are mapped: {polygons}");
+    let polygons: usize = (0..snap.len())
+        .filter_map(|i| snap.geometry(i))
+        .map(|g| g.polygons.len())
+        .sum();
+    assert!(
+        polygons > 1000,
+        "every solid's polygons are mapped: {polygons}"
+    );
     assert!(snap.origin(station).contains("space_station"));
     let v0 = snap.version();
 
@@ -88,16 +121,83 @@ fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter()
     let deadline = Instant::now() + Duration::from_secs(30);
     let mut changes = Vec::new();
     while changes.is_empty() {
-        changes = reader.wait_change(Duration::from_millis(200)).expect("wait");
+        changes = reader
+            .wait_change(Duration::from_millis(200))
+            .expect("wait");
         assert!(Instant::now() < deadline, "no change announced");
     }
     assert_eq!(changes.len(), 1);
     assert_eq!(changes[0].version, v0 + 1);
     let touched: HashSet<u64> = changes[0].ids.iter().copied().collect();
-    assert!(!touched.is_empty() && touched.len() < station_ids.len() / 4, "only what the parameter moves: {} of {}", touched.len(), station_ids.len());
-    assert!(touched.is_subset(&station_ids), "the change set names the station only");
+    assert!(
+        !touched.is_empty() && touched.len() < station_ids.len() / 4,
+        "only what the parameter moves: {} of {}",
+        touched.len(),
+        station_ids.len()
+    );
+    assert!(
+        touched.is_subset(&station_ids),
+        "the change set names the station only"
+    );
     assert!(touched.is_disjoint(&puma_ids));
     // Setting the same value again writes nothing but the origin record.
     let out = robosim(&k, &["set", "station", "servicer_position=35 m"]);
     assert!(out.contains("1 objects changed"), "{out}");
+}
+
+#[test]
+fn a_sessions_library_space_is_shared_memory_any_process_lists_and_instantiates_from() {
+    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+    let home = tempfile::tempdir().expect("temp");
+    let file = home.path().join("cell.rsl");
+    std::fs::write(&file, "// A fixture block for the cell.\nsolid fixture_block(size = 10 cm) {\n    part box(size, size, size / 2)\n}\n").expect("write");
+    let name = format!("lsp{}", std::process::id());
+    let child = Command::new(ROBOSIM)
+        .args(["space", "--session", &name, "--library"])
+        .arg(&file)
+        .env("ROBOSIM_HOME", home.path())
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("keeper");
+    let k = Keeper { child, home, name };
+    let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
+    let start = Instant::now();
+    while robosim_instance_space::Client::connect(&session, "probe").is_err() {
+        assert!(start.elapsed() < Duration::from_secs(30));
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    // The file is gone: other processes read the Library Space from the keeper's memory.
+    std::fs::remove_file(&file).expect("remove");
+    let list = robosim(&k, &["lib", "list"]);
+    assert!(
+        list.contains("fixture_block") && list.contains("puma560"),
+        "{list}"
+    );
+    let show = robosim(&k, &["lib", "show", "fixture_block"]);
+    assert!(show.contains("size"), "{show}");
+    let out = robosim(
+        &k,
+        &[
+            "instantiate",
+            "fixture_block",
+            "--as",
+            "jig",
+            "--set",
+            "size=20 cm",
+        ],
+    );
+    assert!(out.contains("instantiated fixture_block as jig"), "{out}");
+    let reader = Reader::attach(&session, "check").expect("attach");
+    let snap = reader.snapshot().expect("snapshot");
+    let jig = snap.find("jig").expect("jig");
+    let solid = (0..snap.len())
+        .find(|&i| snap.objects()[i].parent == snap.objects()[jig].id)
+        .expect("a part");
+    let g = snap.geometry(solid).expect("geometry");
+    let half = g.header.bbox[3..6].to_vec();
+    assert!(
+        (half[0] - 0.1).abs() < 1e-12 && (half[2] - 0.05).abs() < 1e-12,
+        "20 cm block: half-diagonal {half:?}"
+    );
 }

@@ -3,7 +3,9 @@
 //! `kill -9`. Each test has its own session name and its own ROBOSIM_HOME, and stops what it
 //! started.
 
-use robosim_instance_space::{Client, ClientError, Kind, Reader, Session, Transaction, TxError, IDENTITY};
+use robosim_instance_space::{
+    Client, ClientError, IDENTITY, Kind, Reader, Session, Transaction, TxError,
+};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
@@ -24,18 +26,29 @@ impl TestSession {
         // iceoryx2 warns when a reader outlives a killed keeper; that is what these tests do.
         iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
         let home = tempfile::tempdir().expect("temp dir");
-        TestSession { home, name: format!("t{}{}", tag, std::process::id()), children: Vec::new() }
+        TestSession {
+            home,
+            name: format!("t{}{}", tag, std::process::id()),
+            children: Vec::new(),
+        }
     }
     fn session(&self) -> Session {
         Session::open_in(self.home.path(), Some(&self.name)).expect("session")
     }
     fn command(&self, program: &str) -> Command {
         let mut c = Command::new(program);
-        c.env("ROBOSIM_HOME", self.home.path()).env("IOX2_LOG_LEVEL", "Error");
+        c.env("ROBOSIM_HOME", self.home.path())
+            .env("IOX2_LOG_LEVEL", "Error");
         c
     }
     fn start_keeper(&mut self) -> u32 {
-        let child = self.command(ROBOSIM).args(["space", "--session", &self.name]).stdout(Stdio::null()).stderr(Stdio::inherit()).spawn().expect("start keeper");
+        let child = self
+            .command(ROBOSIM)
+            .args(["space", "--session", &self.name])
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("start keeper");
         let pid = child.id();
         self.children.push(child);
         let s = self.session();
@@ -45,7 +58,10 @@ impl TestSession {
             if ok {
                 return pid;
             }
-            assert!(start.elapsed() < Duration::from_secs(30), "keeper did not come up");
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "keeper did not come up"
+            );
             std::thread::sleep(Duration::from_millis(20));
         }
     }
@@ -54,7 +70,12 @@ impl TestSession {
         let exe = std::env::current_exe().expect("test exe");
         let child = self
             .command(exe.to_str().expect("utf-8 path"))
-            .args(["--exact", "child_process_entry", "--nocapture", "--test-threads=1"])
+            .args([
+                "--exact",
+                "child_process_entry",
+                "--nocapture",
+                "--test-threads=1",
+            ])
             .env("ROBOSIM_CHILD", role)
             .env("ROBOSIM_CHILD_SESSION", &self.name)
             .env("ROBOSIM_CHILD_ARGS", args.join(" "))
@@ -68,12 +89,19 @@ impl TestSession {
     }
     fn wait_child(&mut self, pid: u32, timeout: Duration) -> bool {
         let start = Instant::now();
-        let i = self.children.iter().position(|c| c.id() == pid).expect("our child");
+        let i = self
+            .children
+            .iter()
+            .position(|c| c.id() == pid)
+            .expect("our child");
         loop {
             if let Some(status) = self.children[i].try_wait().expect("try_wait") {
                 return status.success();
             }
-            assert!(start.elapsed() < timeout, "child {pid} still running after {timeout:?}");
+            assert!(
+                start.elapsed() < timeout,
+                "child {pid} still running after {timeout:?}"
+            );
             std::thread::sleep(Duration::from_millis(10));
         }
     }
@@ -106,7 +134,9 @@ fn with_home<T>(_home: &Path, f: impl FnOnce() -> T) -> T {
 }
 
 fn kill9(pid: u32) {
-    let _ = Command::new("kill").args(["-KILL", &pid.to_string()]).status();
+    let _ = Command::new("kill")
+        .args(["-KILL", &pid.to_string()])
+        .status();
 }
 
 fn scene_tx() -> Transaction {
@@ -124,7 +154,9 @@ fn read_log(path: &Path) -> Vec<(u64, Vec<u64>)> {
     text.lines()
         .filter(|l| !l.is_empty() && !l.starts_with('#'))
         .map(|l| {
-            let mut it = l.split_whitespace().map(|x| x.parse::<u64>().expect("number"));
+            let mut it = l
+                .split_whitespace()
+                .map(|x| x.parse::<u64>().expect("number"));
             let v = it.next().expect("version");
             (v, it.collect())
         })
@@ -137,9 +169,15 @@ fn read_log(path: &Path) -> Vec<(u64, Vec<u64>)> {
 
 #[test]
 fn child_process_entry() {
-    let Ok(role) = std::env::var("ROBOSIM_CHILD") else { return };
+    let Ok(role) = std::env::var("ROBOSIM_CHILD") else {
+        return;
+    };
     let name = std::env::var("ROBOSIM_CHILD_SESSION").expect("session");
-    let args: Vec<String> = std::env::var("ROBOSIM_CHILD_ARGS").unwrap_or_default().split_whitespace().map(str::to_owned).collect();
+    let args: Vec<String> = std::env::var("ROBOSIM_CHILD_ARGS")
+        .unwrap_or_default()
+        .split_whitespace()
+        .map(str::to_owned)
+        .collect();
     let session = Session::open(Some(&name)).expect("session");
     match role.as_str() {
         // reader OUT UNTIL: record every change (version ids…) until version UNTIL.
@@ -149,7 +187,13 @@ fn child_process_entry() {
             let mut r = Reader::attach(&session, "test-reader").expect("attach");
             let mut f = std::fs::File::create(&out).expect("log");
             let snap = r.snapshot().expect("snapshot");
-            writeln!(f, "# attached at {} with {} objects", snap.version(), snap.len()).expect("write");
+            writeln!(
+                f,
+                "# attached at {} with {} objects",
+                snap.version(),
+                snap.len()
+            )
+            .expect("write");
             let mut last = snap.version();
             while last < until {
                 for c in r.wait_change(Duration::from_secs(20)).expect("wait") {
@@ -241,12 +285,22 @@ fn writer_and_two_readers_one_late_observe_every_version_in_order() {
     let bodies: Vec<String> = a.created[1..].iter().map(u64::to_string).collect();
     let n = 400u64;
     let until = a.version + n;
-    let (early_log, late_log, writer_log) = (t.file("early.log"), t.file("late.log"), t.file("writer.log"));
-    let early = t.child("reader", &[early_log.to_str().expect("path"), &until.to_string()]);
+    let (early_log, late_log, writer_log) = (
+        t.file("early.log"),
+        t.file("late.log"),
+        t.file("writer.log"),
+    );
+    let early = t.child(
+        "reader",
+        &[early_log.to_str().expect("path"), &until.to_string()],
+    );
     // The early reader must be attached before the writer starts: wait for its header line.
     let start = Instant::now();
     while std::fs::read_to_string(&early_log).map_or(true, |s| s.is_empty()) {
-        assert!(start.elapsed() < Duration::from_secs(30), "early reader did not attach");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "early reader did not attach"
+        );
         std::thread::sleep(Duration::from_millis(10));
     }
     let mut wargs = vec![writer_log.to_str().expect("path").to_owned(), n.to_string()];
@@ -258,24 +312,61 @@ fn writer_and_two_readers_one_late_observe_every_version_in_order() {
         assert!(start.elapsed() < Duration::from_secs(120), "writer stalled");
         std::thread::sleep(Duration::from_millis(5));
     }
-    let late = t.child("reader", &[late_log.to_str().expect("path"), &until.to_string()]);
-    assert!(t.wait_child(writer, Duration::from_secs(120)), "writer failed");
-    assert!(t.wait_child(early, Duration::from_secs(60)), "early reader failed");
-    assert!(t.wait_child(late, Duration::from_secs(60)), "late reader failed");
+    let late = t.child(
+        "reader",
+        &[late_log.to_str().expect("path"), &until.to_string()],
+    );
+    assert!(
+        t.wait_child(writer, Duration::from_secs(120)),
+        "writer failed"
+    );
+    assert!(
+        t.wait_child(early, Duration::from_secs(60)),
+        "early reader failed"
+    );
+    assert!(
+        t.wait_child(late, Duration::from_secs(60)),
+        "late reader failed"
+    );
 
     let written = read_log(&writer_log);
     assert_eq!(written.len(), n as usize);
     let versions: Vec<u64> = written.iter().map(|w| w.0).collect();
-    assert_eq!(versions, ((a.version + 1)..=until).collect::<Vec<_>>(), "versions are consecutive");
+    assert_eq!(
+        versions,
+        ((a.version + 1)..=until).collect::<Vec<_>>(),
+        "versions are consecutive"
+    );
     let early_seen = read_log(&early_log);
-    assert_eq!(early_seen, written, "the early reader saw every version, in order, with the writer's change sets");
+    assert_eq!(
+        early_seen, written,
+        "the early reader saw every version, in order, with the writer's change sets"
+    );
     let late_text = std::fs::read_to_string(&late_log).expect("late log");
-    let attached_at: u64 = late_text.lines().next().and_then(|l| l.split_whitespace().nth(3)).and_then(|v| v.parse().ok()).expect("attach line");
-    assert!(attached_at >= a.version + n / 2, "late reader attached late ({attached_at})");
+    let attached_at: u64 = late_text
+        .lines()
+        .next()
+        .and_then(|l| l.split_whitespace().nth(3))
+        .and_then(|v| v.parse().ok())
+        .expect("attach line");
+    assert!(
+        attached_at >= a.version + n / 2,
+        "late reader attached late ({attached_at})"
+    );
     let late_seen = read_log(&late_log);
-    let expected: Vec<_> = written.iter().filter(|w| w.0 > attached_at).cloned().collect();
-    assert_eq!(late_seen, expected, "the late reader saw the model at once and every later version in order");
-    assert!(late_text.contains(&format!("# final {until} 4")), "late reader's final snapshot is the last version: {late_text}");
+    let expected: Vec<_> = written
+        .iter()
+        .filter(|w| w.0 > attached_at)
+        .cloned()
+        .collect();
+    assert_eq!(
+        late_seen, expected,
+        "the late reader saw the model at once and every later version in order"
+    );
+    assert!(
+        late_text.contains(&format!("# final {until} 4")),
+        "late reader's final snapshot is the last version: {late_text}"
+    );
 }
 
 #[test]
@@ -291,7 +382,10 @@ fn kill_9_of_the_keeper_mid_burst_loses_nothing_acknowledged() {
     };
     let mut reader = with_home(t.home.path(), || Reader::attach(&s, "survivor")).expect("attach");
     let log = t.file("burst.log");
-    let burst = t.child("burst", &[log.to_str().expect("path"), "10000", &scene.to_string()]);
+    let burst = t.child(
+        "burst",
+        &[log.to_str().expect("path"), "10000", &scene.to_string()],
+    );
     let start = Instant::now();
     while read_log(&log).len() < 1500 {
         assert!(start.elapsed() < Duration::from_secs(120), "burst stalled");
@@ -300,17 +394,29 @@ fn kill_9_of_the_keeper_mid_burst_loses_nothing_acknowledged() {
     kill9(keeper);
     t.wait_child(burst, Duration::from_secs(60));
     let acked = read_log(&log);
-    assert!(acked.len() >= 1500 && acked.len() < 10000, "killed mid-burst ({} acked)", acked.len());
+    assert!(
+        acked.len() >= 1500 && acked.len() < 10000,
+        "killed mid-burst ({} acked)",
+        acked.len()
+    );
     let last_acked = acked.iter().map(|a| a.0).max().expect("acks");
 
     t.start_keeper();
     // Every acknowledged create is there after recovery.
     let mut fresh = with_home(t.home.path(), || Reader::attach(&s, "after")).expect("attach");
     let snap = fresh.snapshot().expect("snapshot");
-    assert!(snap.version() >= last_acked, "recovered version {} < last acknowledged {last_acked}", snap.version());
+    assert!(
+        snap.version() >= last_acked,
+        "recovered version {} < last acknowledged {last_acked}",
+        snap.version()
+    );
     let names: std::collections::HashSet<&str> = (0..snap.len()).map(|i| snap.name(i)).collect();
     for (_, k) in &acked {
-        assert!(names.contains(format!("k{}", k[0]).as_str()), "acknowledged create k{} lost", k[0]);
+        assert!(
+            names.contains(format!("k{}", k[0]).as_str()),
+            "acknowledged create k{} lost",
+            k[0]
+        );
     }
     // Versions continue, and the reader that outlived the old keeper follows the new one.
     let mut c = with_home(t.home.path(), || Client::connect(&s, "after")).expect("connect");
@@ -320,11 +426,17 @@ fn kill_9_of_the_keeper_mid_burst_loses_nothing_acknowledged() {
     assert_eq!(a.version, snap.version() + 1);
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
-        let _ = reader.wait_change(Duration::from_millis(200)).expect("wait");
+        let _ = reader
+            .wait_change(Duration::from_millis(200))
+            .expect("wait");
         if reader.snapshot().is_some_and(|s| s.version() >= a.version) {
             break;
         }
-        assert!(Instant::now() < deadline, "surviving reader never saw version {}", a.version);
+        assert!(
+            Instant::now() < deadline,
+            "surviving reader never saw version {}",
+            a.version
+        );
     }
     let snap = reader.snapshot().expect("snapshot");
     assert_eq!(snap.name(snap.index_of(scene).expect("scene")), "renamed");
@@ -338,7 +450,13 @@ fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
     let s = t.session();
     let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
     let a = c.transact(&scene_tx()).expect("scene");
-    let sim = t.command(ROBOSIM).args(["simulator", "--session", &t.name.clone()]).stdout(Stdio::null()).stderr(Stdio::null()).spawn().expect("simulator");
+    let sim = t
+        .command(ROBOSIM)
+        .args(["simulator", "--session", &t.name.clone()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("simulator");
     let sim_pid = sim.id();
     t.children.push(sim);
     let idle = t.child("idle", &[]);
@@ -346,7 +464,10 @@ fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
     // Wait until the simulator has registered.
     let start = Instant::now();
     while !s.processes().iter().any(|p| p.role == "simulator") {
-        assert!(start.elapsed() < Duration::from_secs(30), "simulator did not register");
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "simulator did not register"
+        );
         std::thread::sleep(Duration::from_millis(10));
     }
     std::thread::sleep(Duration::from_millis(300));
@@ -357,11 +478,19 @@ fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
     tx.set_pose(a.created[1], IDENTITY);
     let b = c.transact(&tx).expect("keeper still serves");
     let changes = other.wait_change(Duration::from_secs(10)).expect("wait");
-    assert_eq!(changes.last().map(|c| c.version), Some(b.version), "the other reader carries on");
+    assert_eq!(
+        changes.last().map(|c| c.version),
+        Some(b.version),
+        "the other reader carries on"
+    );
     assert!(robosim_instance_space::pid_alive(keeper));
-    assert!(!s.processes().iter().any(|p| p.role == "simulator"), "the dead simulator is gone from ps");
+    assert!(
+        !s.processes().iter().any(|p| p.role == "simulator"),
+        "the dead simulator is gone from ps"
+    );
     // A new reader can still attach after peers died uncleanly.
-    let late = with_home(t.home.path(), || Reader::attach(&s, "late")).expect("attach after deaths");
+    let late =
+        with_home(t.home.path(), || Reader::attach(&s, "late")).expect("attach after deaths");
     assert_eq!(late.snapshot().expect("snapshot").version(), b.version);
 }
 
@@ -378,25 +507,52 @@ fn bad_transactions_through_the_keeper_get_typed_errors_and_change_nothing() {
     pose[5] = f64::INFINITY;
     let mut tx = Transaction::new();
     tx.set_pose(body, pose);
-    assert!(matches!(c.transact(&tx), Err(ClientError::Refused(TxError::NonFinite { op: 0, id, .. })) if id == body));
+    assert!(
+        matches!(c.transact(&tx), Err(ClientError::Refused(TxError::NonFinite { op: 0, id, .. })) if id == body)
+    );
     let mut tx = Transaction::new();
     tx.set_pose(123_456, IDENTITY);
-    assert!(matches!(c.transact(&tx), Err(ClientError::Refused(TxError::UnknownObject { id: 123_456, .. }))));
+    assert!(matches!(
+        c.transact(&tx),
+        Err(ClientError::Refused(TxError::UnknownObject {
+            id: 123_456,
+            ..
+        }))
+    ));
     let p = c.submit_raw(b"\xff\xff\xff garbage").expect("sent");
-    assert!(matches!(c.wait(p).expect("answer"), Err(TxError::Malformed { .. })));
+    assert!(matches!(
+        c.wait(p).expect("answer"),
+        Err(TxError::Malformed { .. })
+    ));
     // A wire message claiming 10^12 vertices.
     let mut tx = Transaction::new();
-    tx.set_geometry(body, Some(robosim_instance_space::GeometryInput { vertices: vec![[0.0; 3]], polygons: vec![] }));
+    tx.set_geometry(
+        body,
+        Some(robosim_instance_space::GeometryInput {
+            vertices: vec![[0.0; 3]],
+            polygons: vec![],
+        }),
+    );
     let bytes = tx.encode();
-    let pos = bytes.windows(25).position(|w| w[0] == 1 && w[1..].iter().all(|b| *b == 0)).expect("count");
+    let pos = bytes
+        .windows(25)
+        .position(|w| w[0] == 1 && w[1..].iter().all(|b| *b == 0))
+        .expect("count");
     let mut evil = bytes[..pos].to_vec();
     evil.push(0xFD);
     evil.extend_from_slice(&1_000_000_000_000u64.to_le_bytes());
     evil.extend_from_slice(&bytes[pos + 1..]);
     let p = c.submit_raw(&evil).expect("sent");
-    assert!(matches!(c.wait(p).expect("answer"), Err(TxError::TooLarge { .. })));
+    assert!(matches!(
+        c.wait(p).expect("answer"),
+        Err(TxError::TooLarge { .. })
+    ));
     // Nothing changed, nothing was announced.
-    assert!(r.wait_change(Duration::from_millis(300)).expect("wait").is_empty());
+    assert!(
+        r.wait_change(Duration::from_millis(300))
+            .expect("wait")
+            .is_empty()
+    );
     assert_eq!(r.snapshot().expect("snapshot").version(), a.version);
 }
 
@@ -408,7 +564,10 @@ fn sessions_are_isolated_and_private_to_the_user() {
     let sa = a.session();
     let sb = b.session();
     // Session b has no keeper: a reader there must not find session a's.
-    assert!(matches!(with_home(b.home.path(), || Reader::attach(&sb, "r")), Err(robosim_instance_space::ReaderError::NoKeeper { .. })));
+    assert!(matches!(
+        with_home(b.home.path(), || Reader::attach(&sb, "r")),
+        Err(robosim_instance_space::ReaderError::NoKeeper { .. })
+    ));
     let mut c = with_home(a.home.path(), || Client::connect(&sa, "w")).expect("connect");
     c.transact(&scene_tx()).expect("commit");
     let _r = with_home(a.home.path(), || Reader::attach(&sa, "r")).expect("attach");
@@ -427,7 +586,10 @@ fn sessions_are_isolated_and_private_to_the_user() {
         let mode = std::fs::metadata(&dir).expect("dir").permissions().mode() & 0o777;
         assert_eq!(mode, 0o700, "{} is mode {mode:o}", dir.display());
     }
-    for e in std::fs::read_dir(sa.data_dir()).expect("data dir").flatten() {
+    for e in std::fs::read_dir(sa.data_dir())
+        .expect("data dir")
+        .flatten()
+    {
         let mode = e.metadata().expect("meta").permissions().mode() & 0o777;
         assert_eq!(mode, 0o600, "{} is mode {mode:o}", e.path().display());
     }
@@ -461,9 +623,22 @@ fn a_held_snapshot_keeps_its_version_and_changes_since_answers_from_the_log() {
     assert_eq!(old.poses()[i].pose[3], 0.0);
     assert_eq!(new.poses()[i].pose[3], 5.0);
     let since = r.changes_since(versions[1]).expect("changes since");
-    assert_eq!(since.iter().map(|c| c.version).collect::<Vec<_>>(), versions[2..].to_vec());
-    assert!(since.iter().all(|c| c.ids == vec![body] && c.aspects == robosim_instance_space::aspect::POSE));
-    assert!(matches!(r.changes_since(0), Err(robosim_instance_space::ReaderError::ChangesLost { .. })), "versions before the reader attached are not claimed");
+    assert_eq!(
+        since.iter().map(|c| c.version).collect::<Vec<_>>(),
+        versions[2..].to_vec()
+    );
+    assert!(
+        since
+            .iter()
+            .all(|c| c.ids == vec![body] && c.aspects == robosim_instance_space::aspect::POSE)
+    );
+    assert!(
+        matches!(
+            r.changes_since(0),
+            Err(robosim_instance_space::ReaderError::ChangesLost { .. })
+        ),
+        "versions before the reader attached are not claimed"
+    );
 }
 
 #[test]
@@ -471,7 +646,11 @@ fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_vers
     let t = TestSession::new("up");
     let run = |args: &[&str]| {
         let out = t.command(ROBOSIM).args(args).output().expect("run robosim");
-        (out.status.success(), String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr))
+        (
+            out.status.success(),
+            String::from_utf8_lossy(&out.stdout).into_owned()
+                + &String::from_utf8_lossy(&out.stderr),
+        )
     };
     let (ok, text) = run(&["up", "demo", "--with", "display", "--session", &t.name]);
     assert!(!ok && text.contains("not part of this build"), "{text}");
@@ -479,7 +658,11 @@ fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_vers
     assert!(ok, "{text}");
     let (ok, ps) = run(&["ps", "--session", &t.name]);
     assert!(ok);
-    let roles: Vec<&str> = ps.lines().skip(2).filter_map(|l| l.split_whitespace().next()).collect();
+    let roles: Vec<&str> = ps
+        .lines()
+        .skip(2)
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
     assert_eq!(roles, vec!["space", "simulator"], "{ps}");
     let s = t.session();
     let mut c = Client::connect(&s, "w").expect("connect");
@@ -489,20 +672,37 @@ fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_vers
     let mut tx = Transaction::new();
     tx.set_joint(snap.objects()[link].id, 0.5);
     let v = c.transact(&tx).expect("commit").version;
-    let mut state = robosim_instance_space::state::StateSubscriber::open(&s, "simulator", "test-state").expect("state service");
+    let mut state =
+        robosim_instance_space::state::StateSubscriber::open(&s, "simulator", "test-state")
+            .expect("state service");
     let deadline = Instant::now() + Duration::from_secs(20);
     let rec = loop {
-        if let Some(rec) = state.wait(Duration::from_millis(100)).expect("state").into_iter().find(|r| r.header.structure_version >= v) {
+        if let Some(rec) = state
+            .wait(Duration::from_millis(100))
+            .expect("state")
+            .into_iter()
+            .find(|r| r.header.structure_version >= v)
+        {
             break rec;
         }
         assert!(Instant::now() < deadline, "no state for version {v}");
     };
-    let j = rec.joints.iter().find(|j| j.id == snap.objects()[link].id).expect("link1 state");
+    let j = rec
+        .joints
+        .iter()
+        .find(|j| j.id == snap.objects()[link].id)
+        .expect("link1 state");
     assert_eq!(j.q, 0.5);
     let (ok, text) = run(&["down", "--session", &t.name]);
     assert!(ok, "{text}");
-    assert!(text.contains("stopped simulator") && text.contains("stopped space"), "{text}");
-    assert!(text.find("stopped simulator") < text.find("stopped space"), "components stop before the keeper: {text}");
+    assert!(
+        text.contains("stopped simulator") && text.contains("stopped space"),
+        "{text}"
+    );
+    assert!(
+        text.find("stopped simulator") < text.find("stopped space"),
+        "components stop before the keeper: {text}"
+    );
     let (_, ps) = run(&["ps", "--session", &t.name]);
     assert_eq!(ps.lines().count(), 2, "nothing left running: {ps}");
 }

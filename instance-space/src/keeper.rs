@@ -112,6 +112,7 @@ pub struct Keeper {
     objects_pub: Pub,
     poses_pub: Pub,
     geometry: HashMap<Id, (Pub, u64)>,
+    library: Option<Pub>,
     // Caches so a pose change costs one record update plus one copy of the poses array.
     order: Vec<Id>,
     index: HashMap<Id, usize>,
@@ -279,6 +280,7 @@ impl Keeper {
             objects_pub,
             poses_pub,
             geometry: HashMap::new(),
+            library: None,
             order: Vec::new(),
             index: HashMap::new(),
             poses: Vec::new(),
@@ -333,6 +335,43 @@ impl Keeper {
                 })?;
         }
         result
+    }
+
+    /// Publishes the session's Library Space: the library's source files (name, text), already
+    /// checked by the caller. Any process can then list and instantiate its declarations
+    /// ([`crate::Reader::library_files`]).
+    pub fn publish_library(&mut self, files: &[(String, String)]) -> Result<(), KeeperError> {
+        if self.library.is_none() {
+            let svc = self
+                .node
+                .service_builder(&self.session.service(services::LIBRARY)?)
+                .publish_subscribe::<[u64]>()
+                .history_size(1)
+                .subscriber_max_buffer_size(1)
+                .subscriber_max_borrowed_samples(1)
+                .enable_safe_overflow(true)
+                .max_publishers(1)
+                .max_subscribers(self.opts.max_readers)
+                .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
+                .open_or_create()
+                .map_err(ipc("create library service"))?;
+            let p = svc
+                .publisher_builder()
+                .initial_max_slice_len(1 << 14)
+                .allocation_strategy(AllocationStrategy::PowerOfTwo)
+                .max_loaned_samples(1)
+                .create()
+                .map_err(ipc("create library publisher"))?;
+            self.library = Some(p);
+            self._services.push(Box::new(svc));
+        }
+        let words = crate::layout::encode_files(files);
+        if let Some(p) = &self.library {
+            let mut sample = p.loan_slice(words.len()).map_err(ipc("loan library"))?;
+            sample.payload_mut().copy_from_slice(&words);
+            sample.send().map_err(ipc("send library"))?;
+        }
+        Ok(())
     }
 
     /// Runs until SIGINT/SIGTERM, then writes a checkpoint and returns.
@@ -456,6 +495,9 @@ impl Keeper {
         let _ = self.poses_pub.update_connections();
         let _ = self.changes_pub.update_connections();
         for (p, _) in self.geometry.values() {
+            let _ = p.update_connections();
+        }
+        if let Some(p) = &self.library {
             let _ = p.update_connections();
         }
         self.last_connect_update = Instant::now();

@@ -231,6 +231,43 @@ pub struct ChangeRec {
     pub published_ns: u64,
 }
 
+/// Encodes text files as a segment: section 0 holds `[name_off, name_len, text_off,
+/// text_len]` per file, section 1 the bytes.
+pub fn encode_files(files: &[(String, String)]) -> Vec<u64> {
+    let mut index: Vec<[u64; 4]> = Vec::with_capacity(files.len());
+    let mut bytes = Vec::new();
+    for (name, text) in files {
+        index.push([
+            bytes.len() as u64,
+            name.len() as u64,
+            (bytes.len() + name.len()) as u64,
+            text.len() as u64,
+        ]);
+        bytes.extend_from_slice(name.as_bytes());
+        bytes.extend_from_slice(text.as_bytes());
+    }
+    let mut w = SegmentWriter::new();
+    w.push(&index).push(&bytes);
+    w.to_vec()
+}
+
+/// Decodes [`encode_files`].
+pub fn decode_files(words: &[u64]) -> Result<Vec<(String, String)>, LayoutError> {
+    let seg = Segment::parse(words)?;
+    let index: &[[u64; 4]] = seg.section(0)?;
+    let bytes: &[u8] = seg.section(1)?;
+    let text = |off: u64, len: u64| -> Result<String, LayoutError> {
+        let r = bytes
+            .get(off as usize..(off + len) as usize)
+            .ok_or(LayoutError::Section(1))?;
+        String::from_utf8(r.to_vec()).map_err(|_| LayoutError::Section(1))
+    };
+    index
+        .iter()
+        .map(|i| Ok((text(i[0], i[1])?, text(i[2], i[3])?)))
+        .collect()
+}
+
 /// Geometry segment sections.
 pub mod geometry_sections {
     pub const HEADER: usize = 0;

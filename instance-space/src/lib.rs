@@ -47,6 +47,8 @@ pub mod services {
     pub const POSES: &str = "space/poses";
     pub const CHANGES: &str = "space/changes";
     pub const CHANGE_EVENT: &str = "space/changed";
+    /// The Library Space: the session's library as source files.
+    pub const LIBRARY: &str = "space/library";
     pub fn geometry(id: u64) -> String {
         format!("space/geometry/{id}")
     }

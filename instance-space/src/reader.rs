@@ -541,6 +541,37 @@ impl Reader {
         Ok(out)
     }
 
+    /// The session's Library Space: its source files as the keeper published them (see
+    /// `Keeper::publish_library`). Waits up to the reader's timeout for the first delivery.
+    pub fn library_files(&mut self) -> Result<Vec<(String, String)>, ReaderError> {
+        let svc = self
+            .node
+            .service_builder(&self.session.service(services::LIBRARY)?)
+            .publish_subscribe::<[u64]>()
+            .open()
+            .map_err(|e| ReaderError::Ipc {
+                what: "open the Library Space".into(),
+                message: format!("{e:?} (the keeper publishes it at start)"),
+            })?;
+        let sub = svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe library"))?;
+        let _ = self
+            .hello
+            .notify_with_custom_event_id(EventId::new(events::HELLO));
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            if let Some(s) = sub.receive().map_err(ipc("receive library"))? {
+                return Ok(crate::layout::decode_files(s.payload())?);
+            }
+            if Instant::now() > deadline {
+                return Err(ReaderError::Timeout(self.timeout));
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    }
+
     /// Waits for the change event without draining anything (for latency measurement:
     /// returns the instant of wake-up in CLOCK_MONOTONIC ns, or None on timeout).
     pub fn wait_event(&mut self, timeout: Duration) -> Result<Option<u64>, ReaderError> {

@@ -42,10 +42,12 @@ pub enum LibCmd {
     },
 }
 
-fn open(file: &Option<PathBuf>) -> Result<Library, String> {
-    match file {
-        Some(f) => Library::load(f).map_err(|e| e.to_string()),
-        None => Library::standard().map_err(|e| e.to_string()),
+fn open(file: &Option<PathBuf>, session: Option<&Library>) -> Result<Library, String> {
+    match (file, session) {
+        (Some(f), _) => Library::load(f).map_err(|e| e.to_string()),
+        // A session's Library Space, rebuilt from the source text in shared memory.
+        (None, Some(lib)) => Library::from_sources(&lib.sources()).map_err(|e| e.to_string()),
+        (None, None) => Library::standard().map_err(|e| e.to_string()),
     }
 }
 
@@ -57,11 +59,17 @@ pub fn run(cmd: LibCmd) -> Result<(), String> {
 
 /// The text [`run`] prints (for tests and other front ends).
 pub fn render(cmd: LibCmd) -> Result<String, String> {
+    render_with(cmd, None)
+}
+
+/// [`render`] against a given library (a session's Library Space) instead of the standard
+/// one, where the command names no `--file`.
+pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, String> {
     use std::fmt::Write as _;
     let mut out = String::new();
     match cmd {
         LibCmd::List { file } => {
-            let lib = open(&file)?;
+            let lib = open(&file, session)?;
             let decls = lib.declarations();
             let w = decls.iter().map(|d| d.name.len()).max().unwrap_or(4);
             for d in decls {
@@ -74,7 +82,7 @@ pub fn render(cmd: LibCmd) -> Result<String, String> {
             }
         }
         LibCmd::Show { name, file } => {
-            let lib = open(&file)?;
+            let lib = open(&file, session)?;
             let info = lib.declarations().into_iter().find(|d| d.name == name);
             let params = lib.params(&name).map_err(|e| e.to_string())?;
             let Some(d) = info else {
