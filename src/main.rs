@@ -113,6 +113,8 @@ enum Command {
         #[command(subcommand)]
         cmd: robosim_automation::cli::DiagCmd,
     },
+    /// The query protocol over JSON lines: one request per stdin line, one answer per stdout line.
+    Query(robosim_hl_interface::cli::QueryArgs),
     /// Build a scene's effect pipeline, print it, optionally run it headless.
     Sim(robosim_simulator::cli::SimArgs),
     /// What accuracy costs in time: regenerate a report (CSV, markdown table, PNG plot).
@@ -169,6 +171,7 @@ fn main() -> ExitCode {
             .and_then(|lib| robosim_library::cli::render_with(cmd, Some(&lib)).map_err(CliError))
             .map(|text| print!("{text}")),
         Command::Diag { cmd } => robosim_automation::cli::run(cmd).map_err(CliError),
+        Command::Query(args) => robosim_hl_interface::cli::run(&args).map_err(CliError),
         Command::Sim(args) => {
             robosim_simulator::cli::run(&args, &robosim_library::standard_robot).map_err(CliError)
         }
