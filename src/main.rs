@@ -8,6 +8,7 @@ mod bridge;
 mod demo;
 mod instantiate;
 mod launcher;
+mod ops;
 mod reports;
 mod scene;
 mod simulator;
@@ -113,8 +114,15 @@ enum Command {
         #[command(subcommand)]
         cmd: robosim_automation::cli::DiagCmd,
     },
-    /// The query protocol over JSON lines: one request per stdin line, one answer per stdout line.
-    Query(robosim_hl_interface::cli::QueryArgs),
+    /// The query protocol over JSON lines: one request per stdin line, one answer per stdout
+    /// line. With --session, also the simulation-library ops on that session's Instance Space
+    /// (MOVEJ, MOVEJI, KINV, JACOB, CHECK, USE, C_SWITCH, PRE/POST TRANSLATE/ROTATE, …).
+    Query {
+        #[arg(long)]
+        session: Option<String>,
+        #[command(flatten)]
+        args: robosim_hl_interface::cli::QueryArgs,
+    },
     /// Build a scene's effect pipeline, print it, optionally run it headless.
     Sim(robosim_simulator::cli::SimArgs),
     /// What accuracy costs in time: regenerate a report (CSV, markdown table, PNG plot).
@@ -171,7 +179,14 @@ fn main() -> ExitCode {
             .and_then(|lib| robosim_library::cli::render_with(cmd, Some(&lib)).map_err(CliError))
             .map(|text| print!("{text}")),
         Command::Diag { cmd } => robosim_automation::cli::run(cmd).map_err(CliError),
-        Command::Query(args) => robosim_hl_interface::cli::run(&args).map_err(CliError),
+        Command::Query {
+            session: None,
+            args,
+        } => robosim_hl_interface::cli::run(&args).map_err(CliError),
+        Command::Query {
+            session: Some(s),
+            args,
+        } => query_session(&s, &args),
         Command::Sim(args) => {
             robosim_simulator::cli::run(&args, &robosim_library::standard_robot).map_err(CliError)
         }
@@ -183,6 +198,19 @@ fn main() -> ExitCode {
             eprintln!("robosim: {e}");
             ExitCode::FAILURE
         }
+    }
+}
+
+fn query_session(session: &str, args: &robosim_hl_interface::cli::QueryArgs) -> Result<()> {
+    let s = robosim_instance_space::Session::open(Some(session))?;
+    let out = std::io::stdout();
+    match args.input.as_deref() {
+        Some(p) if p.as_os_str() != "-" => ops::serve(
+            &s,
+            std::io::BufReader::new(std::fs::File::open(p)?),
+            out.lock(),
+        ),
+        _ => ops::serve(&s, std::io::stdin().lock(), out.lock()),
     }
 }
 
