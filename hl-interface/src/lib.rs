@@ -31,7 +31,8 @@
 //! every op this server answers, with the area that computes it.
 //!
 //! Entry points: [`handle_line`] (one line in, one line out), [`handle_request`] (an already
-//! parsed request), [`serve`] (a whole stream, flushed after every answer), [`cli`] (the
+//! parsed request), [`serve`] (a whole stream, flushed after every answer), [`serve_with`]
+//! (the same with more ops, e.g. a session's, answered first), [`cli`] (the
 //! `robosim query` command), [`client::Client`] (a Rust client over a server's pipes).
 
 pub mod cli;
@@ -81,40 +82,54 @@ pub fn resolve_robot(name: &str) -> Option<Robot> {
     robosim_library::standard_robot(name).or_else(|| robosim_kinematics::builtin_robot(name))
 }
 
-/// An error answer's `{kind, message}` before it is framed.
+/// An error answer's `{kind, message}` before it is framed (the shape of every crate's
+/// `query::QueryError`); what an [`Extension`] returns for a refused request.
 #[derive(Debug, Clone, PartialEq, Eq)]
-struct Failure {
-    kind: String,
-    message: String,
+pub struct QueryError {
+    pub kind: String,
+    pub message: String,
 }
 
-impl Failure {
-    fn new(kind: &str, message: impl Into<String>) -> Self {
-        Failure {
+impl QueryError {
+    pub fn new(kind: &str, message: impl Into<String>) -> Self {
+        QueryError {
             kind: kind.to_owned(),
             message: message.into(),
         }
     }
 }
 
+/// Ops answered outside this crate's areas, consulted before them: e.g. the session ops of
+/// `robosim query --session` (MOVEJ, CHECK, ... on a running Instance Space). `answer` returns
+/// `None` for an op that is not its own; `ops` lists its ops with their area, for the `ops`
+/// op and the `unknown_op` message.
+pub struct Extension<'a> {
+    pub ops: &'a [(&'a str, &'a str)],
+    pub answer: &'a mut dyn FnMut(&str, &Value) -> Option<Result<Value, QueryError>>,
+}
+
 /// Answers one request line; the result is one line of JSON without the trailing newline.
 /// Never panics, whatever `line` holds (see the module docs for the error kinds).
 pub fn handle_line(line: &str) -> String {
-    handle_numbered(line, None).0
+    handle_numbered(line, None, &mut None).0
 }
 
 /// Answers one parsed request value (an object with `op`, and `id` to echo), framed as one
 /// JSON line without the trailing newline. [`handle_line`] is this after parsing.
 pub fn handle_request(req: &Value) -> String {
-    framed(id_of(req), answer(req))
+    framed(id_of(req), answer(req, &mut None))
 }
 
 /// `line_no` (1-based) goes into transport error messages; the bool is "answered ok".
-fn handle_numbered(line: &str, line_no: Option<u64>) -> (String, bool) {
+fn handle_numbered(
+    line: &str,
+    line_no: Option<u64>,
+    ext: &mut Option<Extension<'_>>,
+) -> (String, bool) {
     let at = line_no.map_or_else(String::new, |n| format!("input line {n}: "));
     let line = line.strip_suffix('\r').unwrap_or(line);
     if line.trim().is_empty() {
-        let f = Failure::new(
+        let f = QueryError::new(
             "parse_error",
             format!("{at}empty line (expected one JSON request object)"),
         );
@@ -122,12 +137,12 @@ fn handle_numbered(line: &str, line_no: Option<u64>) -> (String, bool) {
     }
     match serde_json::from_str::<Value>(line) {
         Ok(req) => {
-            let result = answer(&req);
+            let result = answer(&req, ext);
             let ok = result.is_ok();
             (framed(id_of(&req), result), ok)
         }
         Err(e) => {
-            let f = Failure::new("parse_error", format!("{at}not JSON: {}", json_error(&e)));
+            let f = QueryError::new("parse_error", format!("{at}not JSON: {}", json_error(&e)));
             (framed(Value::Null, Err(f)), false)
         }
     }
@@ -149,9 +164,9 @@ fn id_of(req: &Value) -> Value {
 }
 
 /// The op's answer object (without `id`/`ok`) or its failure.
-fn answer(req: &Value) -> Result<Map<String, Value>, Failure> {
+fn answer(req: &Value, ext: &mut Option<Extension<'_>>) -> Result<Map<String, Value>, QueryError> {
     let Some(obj) = req.as_object() else {
-        return Err(Failure::new(
+        return Err(QueryError::new(
             "bad_request",
             format!(
                 "expected a JSON object {{\"id\": .., \"op\": .., ..}}, got {}",
@@ -161,17 +176,19 @@ fn answer(req: &Value) -> Result<Map<String, Value>, Failure> {
     };
     let op = match obj.get("op") {
         Some(Value::String(op)) => op.as_str(),
-        None => return Err(Failure::new("bad_request", "op: missing")),
+        None => return Err(QueryError::new("bad_request", "op: missing")),
         Some(other) => {
-            return Err(Failure::new(
+            return Err(QueryError::new(
                 "bad_request",
                 format!("op: expected a string, got {}", type_name(other)),
             ));
         }
     };
+    let extra_ops: &[(&str, &str)] = ext.as_ref().map_or(&[], |e| e.ops);
     if op == "ops" {
-        let ops: Vec<Value> = OPS
+        let ops: Vec<Value> = extra_ops
             .iter()
+            .chain(OPS)
             .map(|(op, area)| serde_json::json!({"op": op, "area": area}))
             .collect();
         let mut m = Map::new();
@@ -181,12 +198,22 @@ fn answer(req: &Value) -> Result<Map<String, Value>, Failure> {
     // The ops must not panic on input; should one do so all the same, the panic becomes this
     // request's `internal_error` answer and the session goes on. Nothing shared is mutated
     // by an op except the library's memo cache, whose mutex poisoning it already tolerates.
-    match guarded(op, || dispatch(op, req)) {
-        None => Err(Failure::new(
+    let dispatched = guarded(op, || {
+        ext.as_mut()
+            .and_then(|e| (e.answer)(op, req))
+            .or_else(|| dispatch(op, req))
+    });
+    match dispatched {
+        None => Err(QueryError::new(
             "unknown_op",
             format!(
                 "op: no op named \"{op}\" (known: {})",
-                OPS.iter().map(|(o, _)| *o).collect::<Vec<_>>().join(", ")
+                extra_ops
+                    .iter()
+                    .chain(OPS)
+                    .map(|(o, _)| *o)
+                    .collect::<Vec<_>>()
+                    .join(", ")
             ),
         )),
         Some(Ok(Value::Object(m))) => Ok(m),
@@ -203,19 +230,23 @@ fn answer(req: &Value) -> Result<Map<String, Value>, Failure> {
 /// Runs one op's dispatch, turning a panic into that request's `internal_error`.
 fn guarded(
     op: &str,
-    f: impl FnOnce() -> Option<Result<Value, Failure>>,
-) -> Option<Result<Value, Failure>> {
-    catch_unwind(AssertUnwindSafe(f))
-        .unwrap_or_else(|p| Some(Err(Failure::new("internal_error", panic_message(op, &p)))))
+    f: impl FnOnce() -> Option<Result<Value, QueryError>>,
+) -> Option<Result<Value, QueryError>> {
+    catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
+        Some(Err(QueryError::new(
+            "internal_error",
+            panic_message(op, &p),
+        )))
+    })
 }
 
 /// Hands the request to each crate's `query::dispatch` until one claims `op`.
-fn dispatch(op: &str, req: &Value) -> Option<Result<Value, Failure>> {
+fn dispatch(op: &str, req: &Value) -> Option<Result<Value, QueryError>> {
     let robots: &dyn Fn(&str) -> Option<Robot> = &resolve_robot;
     macro_rules! try_crate {
         ($call:expr) => {
             if let Some(r) = $call {
-                return Some(r.map_err(|e| Failure {
+                return Some(r.map_err(|e| QueryError {
                     kind: e.kind,
                     message: e.message,
                 }));
@@ -255,7 +286,7 @@ fn type_name(v: &Value) -> &'static str {
 /// `{"id":ID,"ok":true,...answer}` or `{"id":ID,"ok":false,"error":{"kind","message"}}`, with
 /// `id` and `ok` first so a reader of the stream sees them at a glance. An answer field named
 /// `id` or `ok` would be shadowed by the envelope and is dropped.
-fn framed(id: Value, result: Result<Map<String, Value>, Failure>) -> String {
+fn framed(id: Value, result: Result<Map<String, Value>, QueryError>) -> String {
     let (ok, mut body) = match result {
         Ok(m) => (true, m),
         Err(f) => {
@@ -285,7 +316,25 @@ fn framed(id: Value, result: Result<Map<String, Value>, Failure>) -> String {
 /// at a time). A line that is not UTF-8 is answered with `parse_error` like any other bad line.
 /// Returns the counts, or the first I/O error of either stream (e.g. a broken pipe when the
 /// client goes away).
-pub fn serve(mut input: impl BufRead, mut output: impl Write) -> io::Result<ServeStats> {
+pub fn serve(input: impl BufRead, output: impl Write) -> io::Result<ServeStats> {
+    serve_inner(input, output, &mut None)
+}
+
+/// [`serve`] with an [`Extension`]'s ops answered too (tried first), with the same framing,
+/// error handling and flushing.
+pub fn serve_with(
+    input: impl BufRead,
+    output: impl Write,
+    extension: Extension<'_>,
+) -> io::Result<ServeStats> {
+    serve_inner(input, output, &mut Some(extension))
+}
+
+fn serve_inner(
+    mut input: impl BufRead,
+    mut output: impl Write,
+    ext: &mut Option<Extension<'_>>,
+) -> io::Result<ServeStats> {
     let mut stats = ServeStats::default();
     let mut buf = Vec::new();
     loop {
@@ -296,9 +345,9 @@ pub fn serve(mut input: impl BufRead, mut output: impl Write) -> io::Result<Serv
         stats.lines += 1;
         let bytes = buf.strip_suffix(b"\n").unwrap_or(&buf);
         let (text, ok) = match std::str::from_utf8(bytes) {
-            Ok(line) => handle_numbered(line, Some(stats.lines)),
+            Ok(line) => handle_numbered(line, Some(stats.lines), ext),
             Err(e) => {
-                let f = Failure::new(
+                let f = QueryError::new(
                     "parse_error",
                     format!(
                         "input line {}: not UTF-8 (invalid byte at offset {})",

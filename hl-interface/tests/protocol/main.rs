@@ -3,6 +3,7 @@
 //! One test binary (the modules below) to keep link time down.
 
 mod bad_lines;
+mod extension;
 mod fuzz;
 mod pipes;
 mod process;
