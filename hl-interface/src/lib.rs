@@ -105,8 +105,12 @@ impl QueryError {
 /// op and the `unknown_op` message.
 pub struct Extension<'a> {
     pub ops: &'a [(&'a str, &'a str)],
-    pub answer: &'a mut dyn FnMut(&str, &Value) -> Option<Result<Value, QueryError>>,
+    pub answer: &'a mut ExtensionFn<'a>,
 }
+
+/// An [`Extension`]'s answer function: `(op, whole request)` → its answer object or refusal,
+/// `None` when `op` is not its own.
+pub type ExtensionFn<'a> = dyn FnMut(&str, &Value) -> Option<Result<Value, QueryError>> + 'a;
 
 /// Answers one request line; the result is one line of JSON without the trailing newline.
 /// Never panics, whatever `line` holds (see the module docs for the error kinds).
