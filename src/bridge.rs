@@ -55,6 +55,11 @@ pub fn robots(snap: &Snapshot) -> Vec<SpaceRobot> {
                 offset: o.dh[4],
                 qlim: [o.dh[5], o.dh[6]],
                 mass: o.mass,
+                com: nalgebra::Vector3::from(o.com),
+                inertia: {
+                    let i = o.inertia;
+                    nalgebra::Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2])
+                },
                 ..Joint::default()
             });
             q.push(snap.poses()[k].joint);

@@ -610,9 +610,25 @@ pub fn run(session: Option<&str>) -> Result<()> {
     println!(
         "link masses from the link solids at aluminium {density:.0} kg/m³ (the positioner declares none): {total:.3} kg in all"
     );
-    println!("g(q) = {} N·m", vec_str(&g, 4));
-    let cfg = robosim_dynamics::IntegratorConfig::fixed(robosim_dynamics::Integrator::Rk4, 1e-3);
+    // An independent check: g(q) is the gradient of the potential energy (computed by a
+    // separate routine), here by central differences.
     let zeros = vec![0.0; robot.dof()];
+    let h = 1e-6;
+    let mut dv_err: f64 = 0.0;
+    for (j, gj) in g.iter().enumerate() {
+        let mut qp = goal.q.clone();
+        let mut qm = goal.q.clone();
+        qp[j] += h;
+        qm[j] -= h;
+        let vp = robosim_dynamics::energy(&dm, &mut data, &qp, &zeros)?.potential;
+        let vm = robosim_dynamics::energy(&dm, &mut data, &qm, &zeros)?.potential;
+        dv_err = dv_err.max(((vp - vm) / (2.0 * h) - gj).abs());
+    }
+    println!(
+        "g(q) = {} N·m; = ∂V/∂q (central differences of the potential energy) to {dv_err:.1e} N·m",
+        vec_str(&g, 4)
+    );
+    let cfg = robosim_dynamics::IntegratorConfig::fixed(robosim_dynamics::Integrator::Rk4, 1e-3);
     let (held, _) = robosim_dynamics::simulate(&dm, cfg, &goal.q, &zeros, &g, &[1.0])?;
     let (fell, _) = robosim_dynamics::simulate(&dm, cfg, &goal.q, &zeros, &zeros, &[0.0, 0.2])?;
     let drift = held.last().map_or(f64::INFINITY, |h| {

@@ -65,13 +65,27 @@ enum Command {
         #[arg(long)]
         session: Option<String>,
     },
-    /// Run the kinematic simulator daemon of a session (normally started by `robosim up`).
+    /// Run the simulator daemon of a session (normally started by `robosim up … --with simulator`).
     Simulator {
         #[arg(long)]
         session: Option<String>,
-        /// State publication rate, Hz.
+        /// realtime (one step per dt of wall time), fast, or lockstep (steps on command).
+        #[arg(long, value_enum, default_value = "realtime")]
+        mode: simulator::Mode,
+        /// The effects to simulate (the simulator's JSON form); default: the scene's declaration.
+        #[arg(long)]
+        effects: Option<String>,
+        /// State publication rate, Hz (lockstep publishes every step).
         #[arg(long, default_value_t = 100.0)]
-        rate: f64,
+        publish_hz: f64,
+    },
+    /// Send commands (JSON) to a session's simulator: target, torque, pause, resume, step, reset.
+    Simctl {
+        #[arg(long)]
+        session: Option<String>,
+        /// e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}'
+        #[arg(required = true)]
+        commands: Vec<String>,
     },
     /// Instantiate a Library Space declaration into a running session (a writer process).
     Instantiate {
@@ -157,7 +171,13 @@ fn main() -> ExitCode {
         } => launcher::up_with_library(&scene, &with, session.as_deref(), &library),
         Command::Ps { session } => launcher::ps(session.as_deref()),
         Command::Down { session } => launcher::down(session.as_deref()),
-        Command::Simulator { session, rate } => simulator::run(session.as_deref(), rate),
+        Command::Simulator {
+            session,
+            mode,
+            effects,
+            publish_hz,
+        } => simulator::run(session.as_deref(), mode, effects.as_deref(), publish_hz),
+        Command::Simctl { session, commands } => simulator::ctl(session.as_deref(), &commands),
         Command::Instantiate {
             declaration,
             name,

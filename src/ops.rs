@@ -103,12 +103,12 @@ fn vec_field(req: &Value, f: &str) -> std::result::Result<Vec<f64>, (String, Str
 }
 
 /// A robot of the snapshot, placed where it stands, with its collision geometry.
-struct Placed {
-    robot: robosim_kinematics::Robot,
-    links: Vec<Id>,
-    q: Vec<f64>,
-    subtree: HashSet<Id>,
-    solids: LinkSolids,
+pub(crate) struct Placed {
+    pub robot: robosim_kinematics::Robot,
+    pub links: Vec<Id>,
+    pub q: Vec<f64>,
+    pub subtree: HashSet<Id>,
+    pub solids: LinkSolids,
 }
 
 /// The collision solid of one Instance Space object's geometry (convex hull when convex,
@@ -191,7 +191,7 @@ fn subtree(snap: &Snapshot, top: Id) -> HashSet<Id> {
     set
 }
 
-fn placed(snap: &Snapshot, name: &str) -> std::result::Result<Placed, (String, String)> {
+pub(crate) fn placed(snap: &Snapshot, name: &str) -> std::result::Result<Placed, (String, String)> {
     let i = (0..snap.len())
         .find(|&i| snap.name(i) == name && snap.object(i).kind() == Some(Kind::Robot))
         .ok_or_else(|| {
@@ -309,13 +309,20 @@ impl Ops {
             .ok_or_else(|| err("session", "no snapshot"))
     }
 
-    /// The objects the robot can hit: every solid outside its own subtree, in use.
     fn scene(&self, snap: &Snapshot, p: &Placed) -> (Scene, Vec<String>) {
+        obstacles(snap, p, &self.unused)
+    }
+}
+
+/// The objects a robot can hit: every solid outside its own subtree and not in `unused`,
+/// named by path.
+pub(crate) fn obstacles(snap: &Snapshot, p: &Placed, unused: &HashSet<Id>) -> (Scene, Vec<String>) {
+    {
         let mut scene = Scene::new();
         let mut names = Vec::new();
         for i in 0..snap.len() {
             let o = &snap.objects()[i];
-            if p.subtree.contains(&o.id) || self.unused.contains(&o.id) {
+            if p.subtree.contains(&o.id) || unused.contains(&o.id) {
                 continue;
             }
             if let Some(s) = solid_of(snap, i) {
@@ -333,7 +340,9 @@ impl Ops {
         }
         (scene, names)
     }
+}
 
+impl Ops {
     fn write_q(&mut self, p: &Placed, q: &[f64]) -> std::result::Result<u64, (String, String)> {
         let mut tx = Transaction::new();
         for ((id, qj), pose) in p.links.iter().zip(q).zip(bridge::link_poses(&p.robot, q)) {

@@ -98,7 +98,10 @@ fn demo_runs_the_whole_system_and_reports_real_numbers() {
     let worst = number_after(enc, "exact worst case");
     assert!(bound > 0.0 && worst <= bound * (1.0 + 1e-9), "{enc}");
 
-    // 8. gravity torques hold the arm: it stays put; unpowered it falls, energy conserved.
+    // 8. gravity torques are the potential energy's gradient and hold the arm: it stays put;
+    // unpowered it falls, energy conserved.
+    let g = line(&stdout, "g(q) =");
+    assert!(number_after(g, "potential energy) to") < 1e-6, "{g}");
     let held = line(&stdout, "held by g(q)");
     assert!(number_after(held, "the arm drifts") < 1e-6, "{held}");
     assert!(number_after(held, "unpowered it falls") > 1e-3, "{held}");

@@ -219,3 +219,129 @@ impl StateSubscriber {
         self.drain()
     }
 }
+
+/// Commands to a state owner (the simulator): opaque bytes over request-response on
+/// `state/<name>/commands`; any number of senders, one receiver — the service's owner — which
+/// answers each command (e.g. "ok" or why it was refused). The sender waits for the answer, so
+/// a command is never lost with a sender that exits right after sending.
+pub struct CommandReceiver {
+    _node: Node<ipc::Service>,
+    server: iceoryx2::port::server::Server<ipc::Service, [u8], (), [u8], ()>,
+    _services: Vec<Box<dyn std::any::Any>>,
+}
+
+/// A received command; answer it with [`PendingCommand::reply`].
+pub struct PendingCommand {
+    request: iceoryx2::active_request::ActiveRequest<ipc::Service, [u8], (), [u8], ()>,
+}
+
+impl PendingCommand {
+    pub fn bytes(&self) -> &[u8] {
+        self.request.payload()
+    }
+    /// Sends the answer (a sender that already gave up is ignored).
+    pub fn reply(self, answer: &[u8]) {
+        if let Ok(r) = self.request.loan_slice_uninit(answer.len().max(1)) {
+            let payload = if answer.is_empty() { &b" "[..] } else { answer };
+            let _ = r.write_from_slice(payload).send();
+        }
+    }
+}
+
+fn command_service(name: &str) -> String {
+    format!("{}/commands", service_name(name))
+}
+
+impl CommandReceiver {
+    pub fn create(session: &Session, name: &str) -> Result<Self, StateError> {
+        let node = session.node(&format!("commands-{name}"), false)?;
+        let svc = node
+            .service_builder(&session.service(&command_service(name))?)
+            .request_response::<[u8], [u8]>()
+            .max_clients(16)
+            .max_servers(1)
+            .max_active_requests_per_client(16)
+            .max_response_buffer_size(1)
+            .max_borrowed_responses_per_pending_response(1)
+            .enable_safe_overflow_for_requests(false)
+            .open_or_create()
+            .map_err(ipc("create command service"))?;
+        let server = svc
+            .server_builder()
+            .max_loaned_responses_per_request(1)
+            .initial_max_slice_len(256)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(ipc("create command server"))?;
+        Ok(CommandReceiver {
+            _node: node,
+            server,
+            _services: vec![Box::new(svc)],
+        })
+    }
+    /// Every command received since the last call, oldest first.
+    pub fn drain(&mut self) -> Result<Vec<PendingCommand>, StateError> {
+        let mut out = Vec::new();
+        while let Some(request) = self.server.receive().map_err(ipc("receive command"))? {
+            out.push(PendingCommand { request });
+        }
+        Ok(out)
+    }
+}
+
+pub struct CommandSender {
+    _node: Node<ipc::Service>,
+    client: iceoryx2::port::client::Client<ipc::Service, [u8], (), [u8], ()>,
+    _services: Vec<Box<dyn std::any::Any>>,
+}
+
+impl CommandSender {
+    pub fn open(session: &Session, name: &str, role: &str) -> Result<Self, StateError> {
+        let node = session.node(role, false)?;
+        let none = |_: Box<dyn std::fmt::Debug>| StateError::NoPublisher {
+            session: session.name().to_owned(),
+            name: name.to_owned(),
+        };
+        let svc = node
+            .service_builder(&session.service(&command_service(name))?)
+            .request_response::<[u8], [u8]>()
+            .open()
+            .map_err(|e| none(Box::new(e)))?;
+        let client = svc
+            .client_builder()
+            .initial_max_slice_len(256)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .create()
+            .map_err(ipc("create command client"))?;
+        Ok(CommandSender {
+            _node: node,
+            client,
+            _services: vec![Box::new(svc)],
+        })
+    }
+    /// Sends one command and waits (up to `timeout`) for the receiver's answer.
+    pub fn send(&mut self, bytes: &[u8], timeout: Duration) -> Result<Vec<u8>, StateError> {
+        let r = self
+            .client
+            .loan_slice_uninit(bytes.len().max(1))
+            .map_err(ipc("loan command"))?;
+        let payload = if bytes.is_empty() { &b" "[..] } else { bytes };
+        let pending = r
+            .write_from_slice(payload)
+            .send()
+            .map_err(ipc("send command"))?;
+        let start = std::time::Instant::now();
+        loop {
+            if let Some(resp) = pending.receive().map_err(ipc("receive answer"))? {
+                return Ok(resp.payload().to_vec());
+            }
+            if start.elapsed() > timeout {
+                return Err(StateError::Ipc {
+                    what: "command".into(),
+                    message: format!("no answer within {timeout:?}"),
+                });
+            }
+            std::thread::sleep(Duration::from_micros(200));
+        }
+    }
+}
