@@ -57,10 +57,10 @@ struct SessionGuard {
 impl Drop for SessionGuard {
     fn drop(&mut self) {
         let _ = launcher::down(Some(&self.name));
-        if self.remove_dir {
-            if let Ok(s) = Session::open(Some(&self.name)) {
-                let _ = std::fs::remove_dir_all(s.dir());
-            }
+        if self.remove_dir
+            && let Ok(s) = Session::open(Some(&self.name))
+        {
+            let _ = std::fs::remove_dir_all(s.dir());
         }
     }
 }
