@@ -10,7 +10,9 @@
 //! 3. kinematics: a tool pose 1 mm off the head (the seed's 20.1 cm from its axis), derived
 //!    from the head's pose in the snapshot; all analytic IK solutions (seed §2.4);
 //! 4. collision: every solution's link solids against the head in the scene's declared mode
-//!    (seed §2.6); a collision-free solution whose MOVEJI path is also clear is kept;
+//!    (seed §2.6); a collision-free solution whose MOVEJI path is also clear is kept; then the
+//!    seed's whole sweep (861 tool poses over the head: reached clear / out of reach /
+//!    blocked, and the worst 12-bit position bound);
 //! 5. MOVEJI (appendix 2.2): each interpolated step one journaled transaction; the reader sees
 //!    every version, in order, naming only the links;
 //! 6. the simulator daemon's state for the new structure version;
@@ -356,19 +358,23 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let horiz = (to_robot - axis * axis.dot(&to_robot) - Vector3::z() * to_robot.z).normalize();
     let up = axis.cross(&horiz).normalize();
     let up = if up.z < 0.0 { -up } else { up };
-    let a = ARC_DEG.to_radians();
-    let radial = horiz * a.cos() + up * a.sin();
-    let tip = centre + axis * ALONG_AXIS + radial * TIP_FROM_AXIS;
-    let z_t = -radial;
-    let x_t = axis;
-    let y_t = z_t.cross(&x_t);
-    let mut target = Matrix4::identity();
-    for r in 0..3 {
-        target[(r, 0)] = x_t[r];
-        target[(r, 1)] = y_t[r];
-        target[(r, 2)] = z_t[r];
-        target[(r, 3)] = tip[r];
-    }
+    let location = |angle_deg: f64, along: f64| -> Matrix4<f64> {
+        let a = angle_deg.to_radians();
+        let radial = horiz * a.cos() + up * a.sin();
+        let tip = centre + axis * along + radial * TIP_FROM_AXIS;
+        let z_t = -radial;
+        let x_t = axis;
+        let y_t = z_t.cross(&x_t);
+        let mut t = Matrix4::identity();
+        for r in 0..3 {
+            t[(r, 0)] = x_t[r];
+            t[(r, 1)] = y_t[r];
+            t[(r, 2)] = z_t[r];
+            t[(r, 3)] = tip[r];
+        }
+        t
+    };
+    let target = location(ARC_DEG, ALONG_AXIS);
     println!(
         "target: tip at {} ({ARC_DEG}° above horizontal, {ALONG_AXIS} m along the axis), tool z towards the axis",
         xyz(&target)
@@ -470,6 +476,62 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let Some(goal) = chosen else {
         bail!("no IK solution is collision-free with a clear MOVEJI path");
     };
+    // The seed's whole study: every 1 cm along the head (±20 cm) and every 5° of arc from 0 to
+    // 100°; a point counts as reached when some solution is within limits and clear of the
+    // head. The 12-bit bound is taken at the clear solution nearest the start.
+    let bits = scene
+        .effects
+        .encoder_bits
+        .ok_or_else(|| crate::CliError(format!("{SCENE} declares no encoder bits")))?;
+    let t0 = Instant::now();
+    let (mut points, mut reached, mut unreachable) = (0, 0, 0);
+    let mut worst_err = (0.0_f64, 0.0, 0.0);
+    let first_settings = CollisionSettings {
+        all_contacts: false,
+        ..settings
+    };
+    for cm in -20..=20 {
+        let along = cm as f64 / 100.0;
+        for step in 0..21 {
+            let angle = 5.0 * step as f64;
+            points += 1;
+            let sols = match ik::solve(&robot, &location(angle, along), Method::Analytic, &opts) {
+                Ok(r) => r.solutions,
+                Err(ik::IkError::Unreachable { .. }) => {
+                    unreachable += 1;
+                    continue;
+                }
+                Err(e) => bail!("IK at {cm} cm, {angle}°: {e}"),
+            };
+            let mut best: Option<(f64, &ik::IkSolution)> = None;
+            for sol in sols.iter().filter(|s| s.converged && s.within_limits) {
+                if check_robot(&robot, &links, &sol.q, &obstacles, &first_settings)?.is_clear() {
+                    let d: f64 = sol.q.iter().zip(&arm.q).map(|(a, b)| (a - b).powi(2)).sum();
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, sol));
+                    }
+                }
+            }
+            if let Some((_, sol)) = best {
+                reached += 1;
+                let e = encoder::encoder_error(&robot, &sol.q, &vec![bits; robot.dof()])?;
+                if e.position > worst_err.0 {
+                    worst_err = (e.position, along, angle);
+                }
+            }
+        }
+    }
+    println!(
+        "seed's sweep, {points} points (±20 cm every 1 cm, 0–100° every 5°) in {:.0} ms: {reached} reached clear of the head, {unreachable} out of reach, {} only colliding or beyond limits",
+        t0.elapsed().as_secs_f64() * 1e3,
+        points - reached - unreachable
+    );
+    println!(
+        "  worst {bits}-bit position bound over the reached points: {:.3} mm at {:+.0} cm, {:.0}°",
+        worst_err.0 * 1e3,
+        worst_err.1 * 100.0,
+        worst_err.2
+    );
 
     println!(
         "\n== 5. MOVEJI there: each interpolated step one journaled transaction (joints + link poses)"
@@ -565,10 +627,6 @@ pub fn run(session: Option<&str>) -> Result<()> {
         rec.header.seq, rec.header.t, rec.header.structure_version
     );
 
-    let bits = scene
-        .effects
-        .encoder_bits
-        .ok_or_else(|| crate::CliError(format!("{SCENE} declares no encoder bits")))?;
     println!("\n== 7. the seed's {bits}-bit encoder study at the final pose (seed §2.7)");
     let e = encoder::encoder_error(&robot, &goal.q, &vec![bits; robot.dof()])?;
     println!(

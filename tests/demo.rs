@@ -72,6 +72,18 @@ fn demo_runs_the_whole_system_and_reports_real_numbers() {
     assert!(sol.ends_with("clear"), "{sol}");
     assert!(sol.contains("in limits"), "{sol}");
 
+    // The seed's sweep over the head: all 861 points accounted for, some reached.
+    let sweep = line(&stdout, "seed's sweep");
+    let points = number_after(sweep, "seed's sweep,");
+    let reached = number_after(sweep, "ms:");
+    let out_of_reach = number_after(sweep, "of the head,");
+    let blocked = number_after(sweep, "out of reach,");
+    assert_eq!(points, 41.0 * 21.0, "{sweep}");
+    assert!(reached > 0.0, "{sweep}");
+    assert_eq!(reached + out_of_reach + blocked, points, "{sweep}");
+    let worst = line(&stdout, "position bound over the reached points:");
+    assert!(number_after(worst, "reached points:") > 0.0, "{worst}");
+
     // 5. every MOVEJI transaction reached the reader, in order, naming only the links.
     let moved = line(&stdout, "transactions in");
     let steps = number_after(moved, "");
