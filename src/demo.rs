@@ -734,35 +734,108 @@ pub fn run(session: Option<&str>) -> Result<()> {
     Ok(())
 }
 
-/// Step 9: inject one ECLSS fault whose own alarm is not allocated (its sensor failed), simulate
-/// the alarm sequence, and let FSPI/ILM isolate it from the downstream alarms.
+/// Step 9: one ECLSS fault whose own alarm is not allocated (its sensor failed): the alarm
+/// sequence is simulated and FSPI/ILM isolate the fault from the downstream alarms alone. Then
+/// the limit of it: with two sensors failed, a fault that stays ambiguous.
 fn automation() -> Result<()> {
-    use robosim_automation::diag::{FaultGraph, Ilm};
+    use robosim_automation::diag::FaultGraph;
     use robosim_automation::model::load_model;
-    use robosim_automation::sim::{SimOptions, filter, simulate};
     let m = load_model("eclss")?;
     let g = FaultGraph::new(&m);
-    let fault = m
-        .find_failure_mode("sorbent_bed_failure")
-        .map_err(crate::CliError)?;
-    let dropped = m.find_alarm("A_co2_bed").map_err(crate::CliError)?;
-    let present: Vec<bool> = (0..m.alarms.len()).map(|a| a != dropped).collect();
+    let d = diagnose(&m, &g, "sorbent_bed_failure", &["A_co2_bed"])?;
+    println!(
+        "injected {} at t = 0 (seed {SEED}, edge probabilities sampled); sensor A_co2_bed failed: {} of {} alarms reach the diagnoser",
+        m.failure_modes[d.fault].path,
+        d.trail.len(),
+        d.all_alarms
+    );
+    // The first alarms in full, the rest summarised (candidate counts after each included).
+    let shown = d.trail.len().min(3);
+    println!(
+        "alarms (→ FSPI single-fault candidates after each): {}",
+        d.trail[..shown].join("  ")
+    );
+    if d.trail.len() > shown {
+        let mut counts = d.counts_after[shown..].to_vec();
+        counts.sort_unstable();
+        counts.dedup();
+        let counts: Vec<String> = counts.iter().map(usize::to_string).collect();
+        println!(
+            "  … {} more up to t = {:.0} s (candidates after each: {})",
+            d.trail.len() - shown,
+            d.last_time,
+            counts.join(", ")
+        );
+    }
+    println!(
+        "diagnosis (FSPI, ILM to depth {}): {} [components: {}] — {}",
+        d.depth,
+        d.names.join(", "),
+        d.components.join(", "),
+        if d.isolated {
+            "fault isolated"
+        } else {
+            "NOT isolated"
+        }
+    );
+    let d2 = diagnose(&m, &g, "valve_stuck", &["A_valve", "A_tank_pressure"])?;
+    println!(
+        "limit: valve_stuck with A_valve and A_tank_pressure failed: {} alarms leave {} candidates ({}) — {}; FSCI: {}",
+        d2.trail.len(),
+        d2.names.len(),
+        d2.names
+            .iter()
+            .map(|n| n.rsplit('.').next().unwrap_or(n))
+            .collect::<Vec<_>>()
+            .join(", "),
+        if d2.isolated { "isolated" } else { "ambiguous" },
+        d2.components.join(", ")
+    );
+    Ok(())
+}
+
+/// Seed of the alarm simulator's random stream.
+const SEED: u64 = 7;
+
+/// What one diagnosis scenario found.
+struct Diagnosis {
+    fault: usize,
+    all_alarms: usize,
+    /// `alarm@time→candidates` for each alarm the diagnoser saw.
+    trail: Vec<String>,
+    counts_after: Vec<usize>,
+    last_time: f64,
+    depth: usize,
+    names: Vec<String>,
+    components: Vec<String>,
+    isolated: bool,
+}
+
+/// Injects `fault` at t = 0, simulates its alarms (probabilities sampled, seed [`SEED`]), drops
+/// the `failed` sensors' alarms, and runs ILM over the rest; then lets the clock run an hour
+/// past the last alarm (alarms a candidate should have caused by then rule it out) and takes
+/// ILM's best guess.
+fn diagnose(
+    m: &robosim_automation::model::Model,
+    g: &robosim_automation::diag::FaultGraph,
+    fault: &str,
+    failed: &[&str],
+) -> Result<Diagnosis> {
+    use robosim_automation::diag::Ilm;
+    use robosim_automation::sim::{SimOptions, filter, simulate};
+    let fault = m.find_failure_mode(fault).map_err(crate::CliError)?;
+    let mut present = vec![true; m.alarms.len()];
+    for a in failed {
+        present[m.find_alarm(a).map_err(crate::CliError)?] = false;
+    }
     let opts = SimOptions {
-        seed: 7,
+        seed: SEED,
         sample_probabilities: true,
         ..SimOptions::default()
     };
-    let sim = simulate(&g, &[(fault, 0.0)], &opts);
+    let sim = simulate(g, &[(fault, 0.0)], &opts);
     let seen = filter(&sim.alarms, &present);
-    println!(
-        "injected {} at t = 0 (seed {}, edge probabilities sampled); sensor {} failed: {} of {} alarms reach the diagnoser",
-        m.failure_modes[fault].path,
-        opts.seed,
-        m.alarms[dropped].name,
-        seen.len(),
-        sim.alarms.len()
-    );
-    let mut ilm = Ilm::new(&m, &g, Some(&present));
+    let mut ilm = Ilm::new(m, g, Some(&present));
     let mut trail = Vec::new();
     let mut counts_after = Vec::new();
     for e in &seen {
@@ -772,57 +845,32 @@ fn automation() -> Result<()> {
         counts_after.push(n);
         trail.push(format!("{}@{:.0}s→{n}", m.alarms[e.alarm].name, e.time));
     }
-    // The first alarms in full, the rest summarised (candidate counts after each included).
-    let shown = trail.len().min(3);
-    let mut rest = String::new();
-    if let (true, Some(last)) = (trail.len() > shown, seen.last()) {
-        let mut counts = counts_after[shown..].to_vec();
-        counts.sort_unstable();
-        counts.dedup();
-        let counts: Vec<String> = counts.iter().map(usize::to_string).collect();
-        rest = format!(
-            "  … {} more up to t = {:.0} s (candidates after each: {})",
-            trail.len() - shown,
-            last.time,
-            counts.join(", ")
-        );
-    }
-    println!(
-        "alarms (→ FSPI single-fault candidates after each): {}",
-        trail[..shown].join("  ")
-    );
-    if !rest.is_empty() {
-        println!("{rest}");
-    }
-    // The clock runs on an hour past the last alarm: alarms a candidate should have caused by
-    // then and did not ring rule it out.
-    let last = seen.last().map_or(0.0, |e| e.time);
-    ilm.advance_to(last + 3600.0);
+    let last_time = seen.last().map_or(0.0, |e| e.time);
+    ilm.advance_to(last_time + 3600.0);
     ilm.run_to_completion();
     let Some(guess) = ilm.best_guess() else {
-        bail!("no alarm reached the diagnoser");
+        bail!(
+            "{}: no alarm reached the diagnoser",
+            m.failure_modes[fault].path
+        );
     };
-    let names: Vec<&str> = guess
-        .failure_modes
-        .iter()
-        .map(|&f| m.failure_modes[f].path.as_str())
-        .collect();
-    let comps: Vec<&str> = guess
-        .components
-        .iter()
-        .map(|&c| m.components[c].name.as_str())
-        .collect();
-    let isolated = guess.failure_modes == [fault] && !guess.multiple;
-    println!(
-        "diagnosis (FSPI, ILM to depth {}): {} [components: {}] — {}",
-        guess.depth,
-        names.join(", "),
-        comps.join(", "),
-        if isolated {
-            "fault isolated"
-        } else {
-            "NOT isolated"
-        }
-    );
-    Ok(())
+    Ok(Diagnosis {
+        fault,
+        all_alarms: sim.alarms.len(),
+        trail,
+        counts_after,
+        last_time,
+        depth: guess.depth,
+        names: guess
+            .failure_modes
+            .iter()
+            .map(|&f| m.failure_modes[f].path.clone())
+            .collect(),
+        components: guess
+            .components
+            .iter()
+            .map(|&c| m.components[c].name.clone())
+            .collect(),
+        isolated: guess.failure_modes == [fault] && !guess.multiple,
+    })
 }

@@ -123,6 +123,13 @@ fn demo_runs_the_whole_system_and_reports_real_numbers() {
     let diag = line(&stdout, "diagnosis (FSPI");
     assert!(diag.contains("sorbent_bed_failure"), "{diag}");
     assert!(diag.contains("fault isolated"), "{diag}");
+    // …and the stated limit: two failed sensors leave an ambiguity group containing the fault.
+    let limit = line(&stdout, "limit: valve_stuck");
+    assert!(number_after(limit, "alarms leave") >= 2.0, "{limit}");
+    assert!(
+        limit.contains("valve_stuck,") || limit.contains("valve_stuck)"),
+        "{limit}"
+    );
 
     // 10. the NaN pose was refused and the model did not move past the last MOVEJI version.
     line(&stdout, "refused:");
