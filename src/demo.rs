@@ -17,9 +17,10 @@
 //!    every version, in order, naming only the links;
 //! 6. the simulator daemon's state for the new structure version;
 //! 7. the twelve-bit encoder study at the final pose (seed §2.7);
-//! 8. dynamics: gravity torques holding the arm, checked by simulating with them;
+//! 8. dynamics: link masses from the link solids (aluminium; the positioner declares none),
+//!    gravity torques at the final pose checked against ∂V/∂q, held and unpowered runs;
 //! 9. automation: an ECLSS fault with its own sensor failed, its alarms, the diagnosis
-//!    (seed §4.3);
+//!    (seed §4.3); and a two-sensor case that stays ambiguous;
 //! 10. bad input refused whole; 11. clean stop.
 //!
 //! Entry point: [`run`].
@@ -719,7 +720,11 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let mut tx = Transaction::new();
     let mut pose = robosim_instance_space::IDENTITY;
     pose[3] = f64::NAN;
-    tx.set_joint(arm.links[0], 0.0).set_pose(arm.links[0], pose);
+    let first = *arm
+        .links
+        .first()
+        .ok_or_else(|| crate::CliError("the positioner has no links".into()))?;
+    tx.set_joint(first, 0.0).set_pose(first, pose);
     match client.transact(&tx) {
         Err(e) => println!("refused: {e}"),
         Ok(c) => bail!("a NaN pose was accepted as version {}", c.version),
