@@ -264,7 +264,12 @@ pub fn down(session: Option<&str>) -> Result<()> {
             if clean { "" } else { " by SIGKILL" }
         );
     }
-    // Registry entries of processes that died without cleaning up.
-    let _ = session.processes();
+    // Registry entries of processes that died without cleaning up; and, with every process of
+    // the session gone, what iceoryx2 leaves in /dev/shm (its global management segment).
+    if session.processes().is_empty() {
+        for (path, _) in session.shm_files() {
+            let _ = std::fs::remove_file(path);
+        }
+    }
     Ok(())
 }

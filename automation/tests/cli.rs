@@ -209,43 +209,6 @@ fn query_ops_answer_json() {
 }
 
 #[test]
-#[ignore = "prints the CLI output for a look; run with --ignored --nocapture"]
-fn show_cli_output() {
-    let dir = tempfile::tempdir().unwrap();
-    let sim = execute(DiagCmd::Simulate {
-        model: "eclss".into(),
-        faults: vec!["valve_stuck".into()],
-        seed: 2,
-        sample: false,
-        drop: vec!["A_valve".into()],
-    })
-    .unwrap();
-    println!("{sim}");
-    let file = dir.path().join("a.txt");
-    std::fs::write(&file, &sim).unwrap();
-    println!(
-        "{}",
-        execute(DiagCmd::Run {
-            model: "eclss".into(),
-            alarms: file,
-            until: Some(20000.0),
-            drop: vec!["A_valve".into()]
-        })
-        .unwrap()
-    );
-    println!(
-        "{}",
-        execute(DiagCmd::Analyze {
-            model: "eclss".into(),
-            sensors: Some(12),
-            trials: 2,
-            seed: 1
-        })
-        .unwrap()
-    );
-}
-
-#[test]
 fn run_says_when_nothing_explains_the_alarms() {
     // Only the pump-flow alarm rings: both ways into Pumping.no_flow (the pump failure and the
     // missing inlet water) have allocated alarms that stay silent, so no source reaches it.
