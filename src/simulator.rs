@@ -141,6 +141,21 @@ fn build(
         let p = ops::placed(&snap, &r.robot.name)
             .map_err(|(k, m)| crate::CliError(format!("{k}: {m}")))?;
         let (obstacles, _) = ops::obstacles(&snap, &p, &Default::default());
+        // One log per robot: a scene with two robots must not write one file twice.
+        let mut effects = effects.clone();
+        if let Some(l) = effects.logging.as_mut() {
+            if l.path
+                .as_ref()
+                .is_some_and(|p| p.starts_with(session.run_dir()))
+                || l.path.is_none()
+            {
+                l.path = Some(
+                    session
+                        .run_dir()
+                        .join(format!("simulator-{}.csv", r.robot.name)),
+                );
+            }
+        }
         let geometry = SceneGeometry {
             obstacles,
             link_solids: Some(p.solids.clone()),
