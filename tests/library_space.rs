@@ -4,33 +4,12 @@
 
 use robosim_instance_space::{Kind, Reader, Session};
 use std::collections::HashSet;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
+mod common;
 
-struct Keeper {
-    child: Child,
-    home: tempfile::TempDir,
-    name: String,
-}
-
-impl Drop for Keeper {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let prefix = format!("rs_{}_", self.name);
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-    }
-}
+use common::{Procs as Keeper, ROBOSIM};
 
 fn robosim(k: &Keeper, args: &[&str]) -> String {
     let out = Command::new(ROBOSIM)
@@ -72,7 +51,11 @@ fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter()
         .stderr(Stdio::null())
         .spawn()
         .expect("keeper");
-    let k = Keeper { child, home, name };
+    let k = Keeper {
+        children: vec![child],
+        home,
+        name,
+    };
     let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
     let start = Instant::now();
     while robosim_instance_space::Client::connect(&session, "probe").is_err() {
@@ -160,7 +143,11 @@ fn a_sessions_library_space_is_shared_memory_any_process_lists_and_instantiates_
         .stderr(Stdio::null())
         .spawn()
         .expect("keeper");
-    let k = Keeper { child, home, name };
+    let k = Keeper {
+        children: vec![child],
+        home,
+        name,
+    };
     let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
     let start = Instant::now();
     while robosim_instance_space::Client::connect(&session, "probe").is_err() {

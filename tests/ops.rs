@@ -6,33 +6,12 @@
 use robosim_instance_space::{Reader, Session};
 use serde_json::{Value, json};
 use std::io::Write;
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
+mod common;
 
-struct Keeper {
-    child: Child,
-    home: tempfile::TempDir,
-    name: String,
-}
-
-impl Drop for Keeper {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-        let prefix = format!("rs_{}_", self.name);
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-    }
-}
+use common::{Procs as Keeper, ROBOSIM};
 
 fn query(k: &Keeper, lines: &[Value]) -> Vec<Value> {
     let mut child = Command::new(ROBOSIM)
@@ -85,7 +64,11 @@ fn moveji_toward_the_head_stops_at_the_last_safe_step_and_names_the_pair() {
         .stderr(Stdio::null())
         .spawn()
         .expect("keeper");
-    let k = Keeper { child, home, name };
+    let k = Keeper {
+        children: vec![child],
+        home,
+        name,
+    };
     let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
     let start = Instant::now();
     let mut reader = loop {

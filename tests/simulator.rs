@@ -4,97 +4,37 @@
 //! joint values committed in the Instance Space (the guarantee: high-rate state is the
 //! daemon's alone and is not journaled).
 
+mod common;
+
+use common::{Procs, ROBOSIM, wait_for};
+use robosim_instance_space::Client;
 use robosim_instance_space::state::StateSubscriber;
-use robosim_instance_space::{Client, Session};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Command;
+use std::time::Duration;
 
-const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
-
-struct Procs {
-    children: Vec<Child>,
-    home: tempfile::TempDir,
-    name: String,
-}
-
-impl Drop for Procs {
-    fn drop(&mut self) {
-        for c in &mut self.children {
-            let _ = c.kill();
-            let _ = c.wait();
-        }
-        let prefix = format!("rs_{}_", self.name);
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-    }
-}
-
-impl Procs {
-    fn spawn(&mut self, args: &[&str]) -> u32 {
-        let c = Command::new(ROBOSIM)
-            .args(args)
-            .args(["--session", &self.name])
-            .env("ROBOSIM_HOME", self.home.path())
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn");
-        let pid = c.id();
-        self.children.push(c);
-        pid
-    }
-    fn simctl(&self, cmds: &[&str]) {
-        let st = Command::new(ROBOSIM)
-            .arg("simctl")
-            .args(["--session", &self.name])
-            .args(cmds)
-            .env("ROBOSIM_HOME", self.home.path())
-            .status()
-            .expect("simctl");
-        assert!(st.success());
-    }
-}
-
-fn wait_for<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
-    let start = Instant::now();
-    loop {
-        if let Some(v) = f() {
-            return v;
-        }
-        assert!(
-            start.elapsed() < Duration::from_secs(60),
-            "timed out waiting for {what}"
-        );
-        std::thread::sleep(Duration::from_millis(20));
-    }
+fn simctl(p: &Procs, cmds: &[&str]) {
+    let st = Command::new(ROBOSIM)
+        .arg("simctl")
+        .args(["--session", &p.name])
+        .args(cmds)
+        .env("ROBOSIM_HOME", p.home.path())
+        .status()
+        .expect("simctl");
+    assert!(st.success());
 }
 
 #[test]
 fn planner_commands_a_lockstep_daemon_reader_sees_states_in_order_and_kill_9_restarts_from_committed_state()
  {
-    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
-    let home = tempfile::tempdir().expect("temp");
-    let effects = home.path().join("effects.json");
+    let mut p = Procs::new("sim");
+    let effects = p.home.path().join("effects.json");
     std::fs::write(
         &effects,
         r#"{"dt": 0.01, "max_speed": 1.0, "kinematics": true, "joint_limits": true}"#,
     )
     .expect("effects");
-    let mut p = Procs {
-        children: Vec::new(),
-        home,
-        name: format!("sim{}", std::process::id()),
-    };
-    let keeper = p.spawn(&["space", "--scene", "puma560"]);
-    let session = Session::open_in(p.home.path(), Some(&p.name)).expect("session");
-    wait_for("keeper", || Client::connect(&session, "probe").ok());
+    let keeper = p.start_keeper(&["--scene", "puma560"]);
+    let session = p.session();
     let eff = effects.to_str().expect("utf-8").to_owned();
     let daemon = p.spawn(&["simulator", "--mode", "lockstep", "--effects", &eff]);
     let mut state = wait_for("state service", || {
@@ -109,10 +49,13 @@ fn planner_commands_a_lockstep_daemon_reader_sees_states_in_order_and_kill_9_res
     });
 
     // The planner: a target 0.5 rad away on two joints, then 100 steps of 10 ms.
-    p.simctl(&[
-        r#"{"cmd": "target", "robot": "puma560", "q": [0.5, -0.5, 0, 0, 0, 0]}"#,
-        r#"{"cmd": "step", "n": 100}"#,
-    ]);
+    simctl(
+        &p,
+        &[
+            r#"{"cmd": "target", "robot": "puma560", "q": [0.5, -0.5, 0, 0, 0, 0]}"#,
+            r#"{"cmd": "step", "n": 100}"#,
+        ],
+    );
     let mut records = Vec::new();
     wait_for("100 states", || {
         records.extend(state.wait(Duration::from_millis(100)).expect("state"));
@@ -165,7 +108,7 @@ fn planner_commands_a_lockstep_daemon_reader_sees_states_in_order_and_kill_9_res
             .any(|x| x.role == "simulator" && x.pid != daemon)
             .then_some(())
     });
-    p.simctl(&[r#"{"cmd": "step", "n": 1}"#]);
+    simctl(&p, &[r#"{"cmd": "step", "n": 1}"#]);
     let rec = wait_for("state after restart", || {
         state
             .wait(Duration::from_millis(100))

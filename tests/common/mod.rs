@@ -1,0 +1,90 @@
+//! Shared by the cross-process tests: a session home and the processes started in it,
+//! killed and their shared memory removed when dropped.
+
+#![allow(dead_code)]
+
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+pub const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
+
+pub struct Procs {
+    pub children: Vec<Child>,
+    pub home: tempfile::TempDir,
+    pub name: String,
+}
+
+impl Procs {
+    /// A fresh home and a session name unique to this test process and `tag`.
+    pub fn new(tag: &str) -> Self {
+        iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+        Procs {
+            children: Vec::new(),
+            home: tempfile::tempdir().expect("temp dir"),
+            name: format!("{tag}{}", std::process::id()),
+        }
+    }
+    /// `robosim ARGS --session NAME` in the background; returns its pid.
+    pub fn spawn(&mut self, args: &[&str]) -> u32 {
+        let c = Command::new(ROBOSIM)
+            .args(args)
+            .args(["--session", &self.name])
+            .env("ROBOSIM_HOME", self.home.path())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("spawn robosim");
+        let pid = c.id();
+        self.children.push(c);
+        pid
+    }
+    pub fn session(&self) -> robosim_instance_space::Session {
+        robosim_instance_space::Session::open_in(self.home.path(), Some(&self.name))
+            .expect("session")
+    }
+    /// Starts the keeper with `extra` arguments and waits until a client can connect.
+    pub fn start_keeper(&mut self, extra: &[&str]) -> u32 {
+        let mut args = vec!["space"];
+        args.extend_from_slice(extra);
+        let pid = self.spawn(&args);
+        let s = self.session();
+        wait_for("keeper", || {
+            robosim_instance_space::Client::connect(&s, "probe").ok()
+        });
+        pid
+    }
+}
+
+impl Drop for Procs {
+    fn drop(&mut self) {
+        for c in &mut self.children {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+        let prefix = format!("rs_{}_", self.name);
+        for e in std::fs::read_dir("/dev/shm")
+            .into_iter()
+            .flatten()
+            .flatten()
+        {
+            if e.file_name().to_string_lossy().starts_with(&prefix) {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
+}
+
+/// Polls `f` every 20 ms until it gives a value; fails the test after 60 s.
+pub fn wait_for<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
+    let start = Instant::now();
+    loop {
+        if let Some(v) = f() {
+            return v;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "timed out waiting for {what}"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
