@@ -54,20 +54,20 @@ pub fn run_space(
         "space: Library Space published ({} declarations)",
         lib.declarations().len()
     );
-    if keeper.model().is_empty() {
-        if let Some(name) = scene_name {
-            let txs = scene::load_from(&lib, name)?;
-            for tx in &txs {
-                keeper
-                    .commit_local(tx)
-                    .map_err(|e| crate::CliError(format!("scene {name}: {e}")))?;
-            }
-            eprintln!(
-                "space: loaded scene {name} ({} objects, version {})",
-                keeper.model().len(),
-                keeper.model().version
-            );
+    if keeper.model().is_empty()
+        && let Some(name) = scene_name
+    {
+        let txs = scene::load_from(&lib, name)?;
+        for tx in &txs {
+            keeper
+                .commit_local(tx)
+                .map_err(|e| crate::CliError(format!("scene {name}: {e}")))?;
         }
+        eprintln!(
+            "space: loaded scene {name} ({} objects, version {})",
+            keeper.model().len(),
+            keeper.model().version
+        );
     }
     keeper.run()?;
     eprintln!("space: stopped at version {}", keeper.model().version);

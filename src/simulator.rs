@@ -143,18 +143,18 @@ fn build(
         let (obstacles, _) = ops::obstacles(&snap, &p, &Default::default());
         // One log per robot: a scene with two robots must not write one file twice.
         let mut effects = effects.clone();
-        if let Some(l) = effects.logging.as_mut() {
-            if l.path
+        if let Some(l) = effects.logging.as_mut()
+            && (l
+                .path
                 .as_ref()
                 .is_some_and(|p| p.starts_with(session.run_dir()))
-                || l.path.is_none()
-            {
-                l.path = Some(
-                    session
-                        .run_dir()
-                        .join(format!("simulator-{}.csv", r.robot.name)),
-                );
-            }
+                || l.path.is_none())
+        {
+            l.path = Some(
+                session
+                    .run_dir()
+                    .join(format!("simulator-{}.csv", r.robot.name)),
+            );
         }
         let geometry = SceneGeometry {
             obstacles,
@@ -312,7 +312,7 @@ pub fn run(
             budget = budget.saturating_sub(1);
             steps += 1;
         }
-        if step_now && (steps % publish_every == 0 || mode == Mode::Lockstep) {
+        if step_now && (steps.is_multiple_of(publish_every) || mode == Mode::Lockstep) {
             let mut joints = Vec::new();
             let mut bodies = Vec::new();
             let mut t = 0.0;

@@ -72,10 +72,10 @@ fn moveji_toward_the_head_stops_at_the_last_safe_step_and_names_the_pair() {
     let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
     let start = Instant::now();
     let mut reader = loop {
-        if let Ok(r) = Reader::attach(&session, "test") {
-            if r.snapshot().is_some_and(|s| s.find("positioner").is_some()) {
-                break r;
-            }
+        if let Ok(r) = Reader::attach(&session, "test")
+            && r.snapshot().is_some_and(|s| s.find("positioner").is_some())
+        {
+            break r;
         }
         assert!(
             start.elapsed() < Duration::from_secs(30),

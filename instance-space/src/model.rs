@@ -386,10 +386,10 @@ impl Model {
         // Commit: nothing below can fail.
         for (id, obj) in overlay {
             let old_parent = self.objects.get(&id).map(|o| o.parent);
-            if let Some(p) = old_parent {
-                if let Some(set) = self.children.get_mut(&p) {
-                    set.remove(&id);
-                }
+            if let Some(p) = old_parent
+                && let Some(set) = self.children.get_mut(&p)
+            {
+                set.remove(&id);
             }
             match obj {
                 Some(o) => {

@@ -204,15 +204,14 @@ impl Session {
             return;
         };
         for e in entries.flatten() {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                if let Ok(m) = e.metadata() {
-                    if m.permissions().mode() & 0o077 != 0 {
-                        let _ = fs::set_permissions(
-                            e.path(),
-                            fs::Permissions::from_mode(m.permissions().mode() & 0o700),
-                        );
-                    }
-                }
+            if e.file_name().to_string_lossy().starts_with(&prefix)
+                && let Ok(m) = e.metadata()
+                && m.permissions().mode() & 0o077 != 0
+            {
+                let _ = fs::set_permissions(
+                    e.path(),
+                    fs::Permissions::from_mode(m.permissions().mode() & 0o700),
+                );
             }
         }
     }
@@ -281,7 +280,7 @@ impl Session {
                 let _ = fs::remove_file(&p);
             }
         }
-        out.sort_by(|a, b| (role_rank(&a.role), a.pid).cmp(&(role_rank(&b.role), b.pid)));
+        out.sort_by_key(|a| (role_rank(&a.role), a.pid));
         out
     }
 }

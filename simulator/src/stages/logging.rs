@@ -83,8 +83,15 @@ impl Logging {
                 (Sink::Memory(rows.clone()), Some(rows))
             }
             Some(path) => {
+                // Signal logs are private to the user, like everything else of a session.
+                use std::os::unix::fs::OpenOptionsExt;
                 let mut f = BufWriter::new(
-                    File::create(path)
+                    std::fs::OpenOptions::new()
+                        .write(true)
+                        .create(true)
+                        .truncate(true)
+                        .mode(0o600)
+                        .open(path)
                         .map_err(|e| bad("path", format!("{}: {e}", path.display())))?,
                 );
                 writeln!(f, "{}", h.join(","))
