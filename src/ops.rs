@@ -563,41 +563,26 @@ impl Ops {
     }
 }
 
-/// `robosim query --session NAME`: session ops here, every other op through hl-interface.
-pub fn serve(session: &Session, input: impl BufRead, mut output: impl Write) -> crate::Result<()> {
+/// `robosim query --session NAME`: the session ops, offered to hl-interface's `serve_with`
+/// as an extension (so framing, bad lines, panics and flushing behave exactly as in the pure
+/// protocol); every other op goes to the crates.
+pub fn serve(session: &Session, input: impl BufRead, output: impl Write) -> crate::Result<()> {
     let mut ops = Ops::attach(session)?;
-    for line in input.lines() {
-        let line = line?;
-        if line.trim().is_empty() {
-            continue;
-        }
-        let parsed: Option<Value> = serde_json::from_str(&line).ok();
-        let op = parsed
-            .as_ref()
-            .and_then(|v| v.get("op"))
-            .and_then(Value::as_str)
-            .map(str::to_owned);
-        let answer = match (&parsed, op) {
-            (Some(req), Some(op)) => match ops.dispatch(&op, req) {
-                Some(result) => {
-                    let id = req.get("id").cloned().unwrap_or(Value::Null);
-                    match result {
-                        Ok(mut v) => {
-                            if let Some(m) = v.as_object_mut() {
-                                m.insert("id".into(), id);
-                                m.insert("ok".into(), json!(true));
-                            }
-                            v.to_string()
-                        }
-                        Err((kind, message)) => json!({"id": id, "ok": false, "error": {"kind": kind, "message": message}}).to_string(),
-                    }
-                }
-                None => robosim_hl_interface::handle_line(&line),
-            },
-            _ => robosim_hl_interface::handle_line(&line),
-        };
-        writeln!(output, "{answer}")?;
-        output.flush()?;
-    }
+    let listing: Vec<(&str, &str)> = OPS.iter().map(|op| (*op, "session")).collect();
+    let mut answer = |op: &str,
+                      req: &Value|
+     -> Option<std::result::Result<Value, robosim_hl_interface::QueryError>> {
+        ops.dispatch(op, req).map(|r| {
+            r.map_err(|(kind, message)| robosim_hl_interface::QueryError { kind, message })
+        })
+    };
+    robosim_hl_interface::serve_with(
+        input,
+        output,
+        robosim_hl_interface::Extension {
+            ops: &listing,
+            answer: &mut answer,
+        },
+    )?;
     Ok(())
 }

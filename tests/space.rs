@@ -484,6 +484,15 @@ fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
         "the other reader carries on"
     );
     assert!(robosim_instance_space::pid_alive(keeper));
+    // SIGKILL is delivered asynchronously: wait until the simulator is really gone.
+    let start = Instant::now();
+    while robosim_instance_space::pid_alive(sim_pid) {
+        assert!(
+            start.elapsed() < Duration::from_secs(10),
+            "simulator survived SIGKILL"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
     assert!(
         !s.processes().iter().any(|p| p.role == "simulator"),
         "the dead simulator is gone from ps"
