@@ -241,8 +241,8 @@ fn main() {
              normalised, sorted by closeness; `solve_raw` returns all eight branches unchecked (its residual is checked here, \
              outside the timing); `ik::solve` adds validation, an FK residual and limits per solution."
                 .into(),
-            "The `k` crate (numeric IK) is not compared: it depends on nalgebra 0.30 (this workspace uses 0.34) and urdf-rs, a \
-             second linear-algebra stack for a dev-dependency."
+            "The numeric peer (the `k` crate) is compared by the standalone program `tools/ik-peers-numeric/` (outside the \
+             workspace: `k` depends on nalgebra 0.30 and urdf-rs): [ik_peers_numeric.md](ik_peers_numeric.md)."
                 .into(),
         ],
         table: Table {
