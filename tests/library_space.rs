@@ -2,9 +2,9 @@
 //! fills a running keeper; a reader started late sees the whole model; `robosim set` changes
 //! one parameter of one instance and the change set names objects of that instance only.
 
-use robosim_instance_space::{Kind, Reader, Session};
+use robosim_instance_space::{Kind, Reader};
 use std::collections::HashSet;
-use std::process::{Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 mod common;
@@ -41,27 +41,9 @@ fn subtree(snap: &robosim_instance_space::Snapshot, top: u64) -> HashSet<u64> {
 
 #[test]
 fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter() {
-    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
-    let home = tempfile::tempdir().expect("temp");
-    let name = format!("lib{}", std::process::id());
-    let child = Command::new(ROBOSIM)
-        .args(["space", "--session", &name])
-        .env("ROBOSIM_HOME", home.path())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("keeper");
-    let k = Keeper {
-        children: vec![child],
-        home,
-        name,
-    };
-    let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
-    let start = Instant::now();
-    while robosim_instance_space::Client::connect(&session, "probe").is_err() {
-        assert!(start.elapsed() < Duration::from_secs(30));
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let mut k = Keeper::new("lib");
+    k.start_keeper(&[]);
+    let session = k.session();
     let out = robosim(&k, &["instantiate", "space_station", "--as", "station"]);
     assert!(
         out.contains("instantiated space_station as station"),
@@ -130,30 +112,12 @@ fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter()
 
 #[test]
 fn a_sessions_library_space_is_shared_memory_any_process_lists_and_instantiates_from() {
-    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
-    let home = tempfile::tempdir().expect("temp");
-    let file = home.path().join("cell.rsl");
+    let mut k = Keeper::new("lsp");
+    let file = k.home.path().join("cell.rsl");
     std::fs::write(&file, "// A fixture block for the cell.\nsolid fixture_block(size = 10 cm) {\n    part box(size, size, size / 2)\n}\n").expect("write");
-    let name = format!("lsp{}", std::process::id());
-    let child = Command::new(ROBOSIM)
-        .args(["space", "--session", &name, "--library"])
-        .arg(&file)
-        .env("ROBOSIM_HOME", home.path())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("keeper");
-    let k = Keeper {
-        children: vec![child],
-        home,
-        name,
-    };
-    let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
-    let start = Instant::now();
-    while robosim_instance_space::Client::connect(&session, "probe").is_err() {
-        assert!(start.elapsed() < Duration::from_secs(30));
-        std::thread::sleep(Duration::from_millis(20));
-    }
+    let file_arg = file.to_str().expect("utf-8 path").to_owned();
+    k.start_keeper(&["--library", &file_arg]);
+    let session = k.session();
     // The file is gone: other processes read the Library Space from the keeper's memory.
     std::fs::remove_file(&file).expect("remove");
     let list = robosim(&k, &["lib", "list"]);

@@ -3,7 +3,7 @@
 //! head; MOVEJI stops at the last safe step and names the colliding pair (link and object); a
 //! reader sees exactly the steps that were taken; C_SWITCH off lets the same move through.
 
-use robosim_instance_space::{Reader, Session};
+use robosim_instance_space::Reader;
 use serde_json::{Value, json};
 use std::io::Write;
 use std::process::{Command, Stdio};
@@ -48,28 +48,9 @@ fn query(k: &Keeper, lines: &[Value]) -> Vec<Value> {
 
 #[test]
 fn moveji_toward_the_head_stops_at_the_last_safe_step_and_names_the_pair() {
-    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
-    let home = tempfile::tempdir().expect("temp");
-    let name = format!("ops{}", std::process::id());
-    let child = Command::new(ROBOSIM)
-        .args([
-            "space",
-            "--session",
-            &name,
-            "--scene",
-            "surgical_positioner_cell",
-        ])
-        .env("ROBOSIM_HOME", home.path())
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("keeper");
-    let k = Keeper {
-        children: vec![child],
-        home,
-        name,
-    };
-    let session = Session::open_in(k.home.path(), Some(&k.name)).expect("session");
+    let mut k = Keeper::new("ops");
+    k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let session = k.session();
     let start = Instant::now();
     let mut reader = loop {
         if let Ok(r) = Reader::attach(&session, "test")
