@@ -70,7 +70,6 @@ fn robosim_query_converses_through_pipes() {
         "b": {"shape": "box", "size": [1, 1, 1]}, "pose_b": [[1,0,0,1.5],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})
     .to_string());
     assert_eq!(c["intersect"], false, "{c}");
-    drop(ask);
     drop(to);
     let mut rest = String::new();
     assert_eq!(
