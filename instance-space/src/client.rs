@@ -70,14 +70,14 @@ impl Client {
     /// Connects to the keeper of `session` as a process of role `role` (used in its node name).
     pub fn connect(session: &Session, role: &str) -> Result<Self, ClientError> {
         let node = session.node(role, false)?;
-        let no_keeper = |_: Box<dyn std::fmt::Debug>| ClientError::NoKeeper {
+        let no_keeper = || ClientError::NoKeeper {
             session: session.name().to_owned(),
         };
         let rr = node
             .service_builder(&session.service(services::REQUESTS)?)
             .request_response::<[u8], [u8]>()
             .open()
-            .map_err(|e| no_keeper(Box::new(e)))?;
+            .map_err(|_| no_keeper())?;
         let client = rr
             .client_builder()
             .initial_max_slice_len(4096)
@@ -88,7 +88,7 @@ impl Client {
             .service_builder(&session.service(services::REQUEST_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(Box::new(e)))?;
+            .map_err(|_| no_keeper())?;
         let notifier = req_event
             .notifier_builder()
             .create()
@@ -97,7 +97,7 @@ impl Client {
             .service_builder(&session.service(services::ACK_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(Box::new(e)))?;
+            .map_err(|_| no_keeper())?;
         let acks = ack_event
             .listener_builder()
             .create()

@@ -257,14 +257,14 @@ impl Reader {
     /// Attaches to the keeper of `session` and waits (up to 10 s) for its current model.
     pub fn attach(session: &Session, role: &str) -> Result<Reader, ReaderError> {
         let node = session.node(role, false)?;
-        let no_keeper = |_: Box<dyn std::fmt::Debug>| ReaderError::NoKeeper {
+        let no_keeper = || ReaderError::NoKeeper {
             session: session.name().to_owned(),
         };
         let open = |suffix: &str| -> Result<_, ReaderError> {
             node.service_builder(&session.service(suffix)?)
                 .publish_subscribe::<[u64]>()
                 .open()
-                .map_err(|e| no_keeper(Box::new(e)))
+                .map_err(|_| no_keeper())
         };
         let objects_svc = open(services::OBJECTS)?;
         let poses_svc = open(services::POSES)?;
@@ -285,7 +285,7 @@ impl Reader {
             .service_builder(&session.service(services::CHANGE_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(Box::new(e)))?;
+            .map_err(|_| no_keeper())?;
         let listener = change_event
             .listener_builder()
             .create()
@@ -294,7 +294,7 @@ impl Reader {
             .service_builder(&session.service(services::REQUEST_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(Box::new(e)))?;
+            .map_err(|_| no_keeper())?;
         let hello = req_event
             .notifier_builder()
             .create()

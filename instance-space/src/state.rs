@@ -159,7 +159,7 @@ pub struct StateSubscriber {
 impl StateSubscriber {
     pub fn open(session: &Session, name: &str, role: &str) -> Result<Self, StateError> {
         let node = session.node(role, false)?;
-        let none = |_: Box<dyn std::fmt::Debug>| StateError::NoPublisher {
+        let none = || StateError::NoPublisher {
             session: session.name().to_owned(),
             name: name.to_owned(),
         };
@@ -167,7 +167,7 @@ impl StateSubscriber {
             .service_builder(&session.service(&service_name(name))?)
             .publish_subscribe::<[u64]>()
             .open()
-            .map_err(|e| none(Box::new(e)))?;
+            .map_err(|_| none())?;
         let sub = svc
             .subscriber_builder()
             .create()
@@ -176,7 +176,7 @@ impl StateSubscriber {
             .service_builder(&session.service(&format!("{}/event", service_name(name)))?)
             .event()
             .open()
-            .map_err(|e| none(Box::new(e)))?;
+            .map_err(|_| none())?;
         let listener = ev
             .listener_builder()
             .create()
@@ -298,7 +298,7 @@ pub struct CommandSender {
 impl CommandSender {
     pub fn open(session: &Session, name: &str, role: &str) -> Result<Self, StateError> {
         let node = session.node(role, false)?;
-        let none = |_: Box<dyn std::fmt::Debug>| StateError::NoPublisher {
+        let none = || StateError::NoPublisher {
             session: session.name().to_owned(),
             name: name.to_owned(),
         };
@@ -306,7 +306,7 @@ impl CommandSender {
             .service_builder(&session.service(&command_service(name))?)
             .request_response::<[u8], [u8]>()
             .open()
-            .map_err(|e| none(Box::new(e)))?;
+            .map_err(|_| none())?;
         let client = svc
             .client_builder()
             .initial_max_slice_len(256)

@@ -79,6 +79,29 @@ struct Acc {
 }
 
 impl Acc {
+    /// An all-solutions answer counts as a success when every solution reproduces the pose
+    /// (residual < 1e-10) and one of them is the joint vector the pose came from; residuals
+    /// and iterations are averaged over its solutions.
+    fn score_all_solutions(&mut self, r: &ik::IkResult, q: &[f64]) {
+        let good = r
+            .solutions
+            .iter()
+            .all(|s| s.residual.position < 1e-10 && s.residual.orientation < 1e-10);
+        if good && r.solutions.iter().any(|s| same_angles(&s.q, q, 1e-7)) {
+            self.ok += 1;
+            let k = r.solutions.len() as f64;
+            self.pos += r.solutions.iter().map(|s| s.residual.position).sum::<f64>() / k;
+            self.ori += r
+                .solutions
+                .iter()
+                .map(|s| s.residual.orientation)
+                .sum::<f64>()
+                / k;
+            self.iters += r.solutions.iter().map(|s| s.iterations as f64).sum::<f64>() / k;
+        }
+        self.sols += r.solutions.len() as f64;
+    }
+
     fn row(mut self, robot: &str, method: &str, tolerance: Option<f64>) -> IkRow {
         let n = self.times.len();
         let mean = self.times.iter().sum::<f64>() / n.max(1) as f64;
@@ -154,23 +177,7 @@ pub fn measure_ik(n: usize) -> Vec<IkRow> {
             let r = ik::solve(&puma, black_box(t), method, &options);
             acc.times.push(start.elapsed().as_secs_f64());
             if let Ok(r) = r {
-                let good = r
-                    .solutions
-                    .iter()
-                    .all(|s| s.residual.position < 1e-10 && s.residual.orientation < 1e-10);
-                if good && r.solutions.iter().any(|s| same_angles(&s.q, q, 1e-7)) {
-                    acc.ok += 1;
-                    let k = r.solutions.len() as f64;
-                    acc.pos += r.solutions.iter().map(|s| s.residual.position).sum::<f64>() / k;
-                    acc.ori += r
-                        .solutions
-                        .iter()
-                        .map(|s| s.residual.orientation)
-                        .sum::<f64>()
-                        / k;
-                    acc.iters += r.solutions.iter().map(|s| s.iterations as f64).sum::<f64>() / k;
-                }
-                acc.sols += r.solutions.len() as f64;
+                acc.score_all_solutions(&r, q);
             }
         }
         rows.push(acc.row("puma560", name, None));
@@ -193,23 +200,7 @@ pub fn measure_ik(n: usize) -> Vec<IkRow> {
             let r = ik::solve(&offset, black_box(t), Method::Hybrid, &options);
             acc.times.push(start.elapsed().as_secs_f64());
             if let Ok(r) = r {
-                let good = r
-                    .solutions
-                    .iter()
-                    .all(|s| s.residual.position < 1e-10 && s.residual.orientation < 1e-10);
-                if good && r.solutions.iter().any(|s| same_angles(&s.q, q, 1e-7)) {
-                    acc.ok += 1;
-                    let k = r.solutions.len() as f64;
-                    acc.pos += r.solutions.iter().map(|s| s.residual.position).sum::<f64>() / k;
-                    acc.ori += r
-                        .solutions
-                        .iter()
-                        .map(|s| s.residual.orientation)
-                        .sum::<f64>()
-                        / k;
-                    acc.iters += r.solutions.iter().map(|s| s.iterations as f64).sum::<f64>() / k;
-                }
-                acc.sols += r.solutions.len() as f64;
+                acc.score_all_solutions(&r, q);
             }
         }
         rows.push(acc.row("puma560 + wrist offsets", "hybrid (ik::solve, all)", None));
