@@ -14,10 +14,10 @@
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
 use crate::layout::{
-    ChangeRec, GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseRec, PosesHeader,
-    SegmentWriter, flags,
+    ChangeRec, ObjectsHeader, PoseRec, PosesHeader,
+    SegmentWriter,
 };
-use crate::model::{Applied, Id, Kinematics, Model, Object, TxError, aspect};
+use crate::model::{Applied, Id, Model, TxError, aspect};
 use crate::services;
 use crate::session::{Registration, Session, SessionError};
 use crate::transaction::Transaction;
@@ -477,7 +477,7 @@ impl Keeper {
         } else {
             for id in posed {
                 if let (Some(&i), Some(o)) = (self.index.get(&id), self.model.get(id)) {
-                    self.poses[i] = pose_rec(o);
+                    self.poses[i] = crate::encode::pose_rec(o);
                 }
             }
         }
@@ -521,10 +521,10 @@ impl Keeper {
         self.index.clear();
         self.poses.clear();
         for (i, o) in self.model.objects().enumerate() {
-            recs.push(object_rec(o, &mut names));
+            recs.push(crate::encode::object_rec(o, &mut names));
             self.order.push(o.id);
             self.index.insert(o.id, i);
-            self.poses.push(pose_rec(o));
+            self.poses.push(crate::encode::pose_rec(o));
         }
         self.structure_version = self.model.version;
         let header = [ObjectsHeader {
@@ -603,125 +603,12 @@ impl Keeper {
             self.geometry.insert(id, (p, 0));
             self._services.push(Box::new(svc));
         }
-        let header = [GeometryHeader {
-            id,
-            generation,
-            bbox: [
-                poly.bbox.center.x,
-                poly.bbox.center.y,
-                poly.bbox.center.z,
-                poly.bbox.half.x,
-                poly.bbox.half.y,
-                poly.bbox.half.z,
-            ],
-        }];
-        let vertices: Vec<[f64; 3]> = poly.vertices.iter().map(|v| [v.x, v.y, v.z]).collect();
-        let penalty: Vec<[f64; 4]> = poly
-            .penalty
-            .iter()
-            .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d])
-            .collect();
-        let polygons: Vec<PolygonRec> = poly
-            .polygons
-            .iter()
-            .map(|p| PolygonRec {
-                start: p.start,
-                len: p.len,
-                plane: [
-                    p.plane.normal.x,
-                    p.plane.normal.y,
-                    p.plane.normal.z,
-                    p.plane.d,
-                ],
-            })
-            .collect();
-        let mut w = SegmentWriter::new();
-        w.push(&header)
-            .push(&vertices)
-            .push(&poly.indices)
-            .push(&penalty)
-            .push(&polygons)
-            .push(&poly.edges);
+        let parts = crate::encode::GeometryParts::new(&poly, id, generation);
+        let w = parts.writer(&poly);
         if let Some((p, g)) = self.geometry.get_mut(&id) {
             Self::send(p, &w, "geometry")?;
             *g = generation;
         }
         Ok(())
     }
-}
-
-fn pose_rec(o: &Object) -> PoseRec {
-    PoseRec {
-        id: o.id,
-        pose: o.pose,
-        joint: o.joint,
-    }
-}
-
-fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
-    let name_off = names.len() as u32;
-    names.extend_from_slice(o.name.as_bytes());
-    let mut rec = ObjectRec {
-        id: o.id,
-        parent: o.parent,
-        kind: o.kind as u32,
-        name_off,
-        name_len: o.name.len() as u32,
-        geom_gen: o.geom_gen,
-        color: o.appearance.color,
-        surface: [
-            o.appearance.diffuse,
-            o.appearance.specular,
-            o.appearance.shininess,
-            0.0,
-        ],
-        ..bytemuck::Zeroable::zeroed()
-    };
-    if !o.origin.is_empty() {
-        rec.origin_off = names.len() as u32;
-        rec.origin_len = o.origin.len() as u32;
-        names.extend_from_slice(o.origin.as_bytes());
-    }
-    if o.geometry.is_some() {
-        rec.flags |= flags::HAS_GEOMETRY;
-    }
-    match o.kinematics {
-        Some(Kinematics::Joint {
-            index,
-            joint,
-            convention,
-            a,
-            d,
-            alpha,
-            theta,
-            offset,
-            qlim,
-        }) => {
-            rec.flags |= flags::HAS_KINEMATICS;
-            rec.kin_tag = flags::KIN_JOINT;
-            rec.joint_kind = joint as u32;
-            rec.convention = convention as u32;
-            rec.index_or_family = index;
-            rec.dh = [a, d, alpha, theta, offset, qlim[0], qlim[1]];
-        }
-        Some(Kinematics::Robot {
-            convention,
-            ik_family,
-            tool,
-        }) => {
-            rec.flags |= flags::HAS_KINEMATICS;
-            rec.kin_tag = flags::KIN_ROBOT;
-            rec.convention = convention as u32;
-            rec.index_or_family = ik_family;
-            rec.tool = tool;
-        }
-        None => {}
-    }
-    if let Some(m) = o.dynamics {
-        rec.flags |= flags::HAS_DYNAMICS;
-        rec.mass = m.mass;
-        rec.com = m.com;
-        rec.inertia = m.inertia;
-    }
-    rec
 }

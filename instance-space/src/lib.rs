@@ -17,6 +17,7 @@
 #![deny(unsafe_code)]
 
 mod client;
+mod encode;
 pub mod journal;
 mod keeper;
 pub mod layout;

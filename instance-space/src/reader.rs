@@ -76,10 +76,26 @@ pub struct Change {
 pub struct Snapshot {
     version: u64,
     epoch: u64,
-    objects: Rc<Sample>,
-    poses: Rc<Sample>,
+    objects: Rc<Words>,
+    poses: Rc<Words>,
     /// By object index; `None` for objects without geometry.
-    geometry: Vec<Option<Rc<Sample>>>,
+    geometry: Vec<Option<Rc<Words>>>,
+}
+
+/// A segment's words: a sample in shared memory, or (for [`Snapshot::from_model`]) a copy
+/// owned by this process.
+enum Words {
+    Shared(Sample),
+    Owned(Vec<u64>),
+}
+
+impl Words {
+    fn words(&self) -> &[u64] {
+        match self {
+            Words::Shared(s) => s.payload(),
+            Words::Owned(v) => v,
+        }
+    }
 }
 
 /// Geometry of one object, in place.
@@ -109,9 +125,27 @@ impl ObjectView<'_> {
 }
 
 impl Snapshot {
-    fn seg(s: &Sample) -> Segment<'_> {
+    fn seg(s: &Words) -> Segment<'_> {
         // Segments were validated when the snapshot was assembled.
-        Segment::parse(s.payload()).unwrap_or_else(|_| unreachable_segment())
+        Segment::parse(s.words()).unwrap_or_else(|_| unreachable_segment())
+    }
+
+    /// A process-local snapshot of a plain [`Model`](crate::Model), with the same records and
+    /// views as a published one (epoch 0). For tools that evaluate a model without a session —
+    /// `robosim render` — so they read it through the one API the session readers use.
+    pub fn from_model(model: &crate::Model) -> Snapshot {
+        let segs = crate::encode::model_segments(model, 0);
+        Snapshot {
+            version: model.version,
+            epoch: 0,
+            objects: Rc::new(Words::Owned(segs.objects)),
+            poses: Rc::new(Words::Owned(segs.poses)),
+            geometry: segs
+                .geometry
+                .into_iter()
+                .map(|g| g.map(|w| Rc::new(Words::Owned(w))))
+                .collect(),
+        }
     }
     /// The newest version this snapshot includes.
     pub fn version(&self) -> u64 {
@@ -226,7 +260,7 @@ fn unreachable_segment() -> Segment<'static> {
 
 struct GeomSub {
     sub: Sub,
-    latest: Option<Rc<Sample>>,
+    latest: Option<Rc<Words>>,
     generation: u64,
 }
 
@@ -240,7 +274,7 @@ pub struct Reader {
     listener: iceoryx2::port::listener::Listener<ipc::Service>,
     hello: iceoryx2::port::notifier::Notifier<ipc::Service>,
     geometry: HashMap<Id, GeomSub>,
-    latest_objects: Option<Rc<Sample>>,
+    latest_objects: Option<Rc<Words>>,
     current: Option<Rc<Snapshot>>,
     log: VecDeque<Change>,
     /// Highest change version seen (0 = none yet).
@@ -369,7 +403,7 @@ impl Reader {
         let deadline = Instant::now() + self.timeout;
         loop {
             if let Some(o) = &self.latest_objects {
-                let oh: ObjectsHeader = *Segment::parse(o.payload())?.record::<ObjectsHeader>(0)?;
+                let oh: ObjectsHeader = *Segment::parse(o.words())?.record::<ObjectsHeader>(0)?;
                 if oh.version == h.structure_version && oh.epoch == h.epoch {
                     break;
                 }
@@ -379,7 +413,7 @@ impl Reader {
                 }
             }
             match self.objects.receive().map_err(ipc("receive objects"))? {
-                Some(s) => self.latest_objects = Some(Rc::new(s)),
+                Some(s) => self.latest_objects = Some(Rc::new(Words::Shared(s))),
                 None if Instant::now() > deadline => {
                     return Err(ReaderError::Timeout(self.timeout));
                 }
@@ -390,7 +424,7 @@ impl Reader {
             .latest_objects
             .clone()
             .ok_or(ReaderError::Timeout(self.timeout))?;
-        let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.payload())?
+        let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.words())?
             .section::<ObjectRec>(1)?
             .iter()
             .map(|r| (r.id, r.geom_gen, r.flags & flags::HAS_GEOMETRY != 0))
@@ -448,7 +482,7 @@ impl Reader {
                         let gh: GeometryHeader =
                             *Segment::parse(s.payload())?.record::<GeometryHeader>(gs::HEADER)?;
                         g.generation = gh.generation;
-                        g.latest = Some(Rc::new(s));
+                        g.latest = Some(Rc::new(Words::Shared(s)));
                         if gh.generation > generation {
                             // Geometry newer than this head: a newer head follows.
                             return self.refresh();
@@ -478,7 +512,7 @@ impl Reader {
             version: h.version,
             epoch: h.epoch,
             objects,
-            poses: Rc::new(head),
+            poses: Rc::new(Words::Shared(head)),
             geometry,
         }));
         Ok(true)

@@ -1,0 +1,228 @@
+//! The flat records of the Instance Space built from the plain [`Model`]: one encoder, used by
+//! the keeper to publish and by [`crate::Snapshot::from_model`] for a process-local snapshot.
+
+use crate::layout::{
+    GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseRec, PosesHeader, SegmentWriter,
+    flags,
+};
+use crate::model::{Id, Kinematics, Model, Object};
+use robosim_geometry::Polyhedron;
+
+pub(crate) fn pose_rec(o: &Object) -> PoseRec {
+    PoseRec {
+        id: o.id,
+        pose: o.pose,
+        joint: o.joint,
+    }
+}
+
+/// The derived per-object arrays of a geometry segment (the polyhedron's own `indices` and
+/// `edges` are written in place).
+pub(crate) struct GeometryParts {
+    header: [GeometryHeader; 1],
+    vertices: Vec<[f64; 3]>,
+    penalty: Vec<[f64; 4]>,
+    polygons: Vec<PolygonRec>,
+}
+
+impl GeometryParts {
+    pub(crate) fn new(poly: &Polyhedron, id: Id, generation: u64) -> Self {
+        GeometryParts {
+            header: [GeometryHeader {
+                id,
+                generation,
+                bbox: [
+                    poly.bbox.center.x,
+                    poly.bbox.center.y,
+                    poly.bbox.center.z,
+                    poly.bbox.half.x,
+                    poly.bbox.half.y,
+                    poly.bbox.half.z,
+                ],
+            }],
+            vertices: poly.vertices.iter().map(|v| [v.x, v.y, v.z]).collect(),
+            penalty: poly
+                .penalty
+                .iter()
+                .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d])
+                .collect(),
+            polygons: poly
+                .polygons
+                .iter()
+                .map(|p| PolygonRec {
+                    start: p.start,
+                    len: p.len,
+                    plane: [
+                        p.plane.normal.x,
+                        p.plane.normal.y,
+                        p.plane.normal.z,
+                        p.plane.d,
+                    ],
+                })
+                .collect(),
+        }
+    }
+
+    /// The segment, sections in [`crate::layout::geometry_sections`] order.
+    pub(crate) fn writer<'a>(&'a self, poly: &'a Polyhedron) -> SegmentWriter<'a> {
+        let mut w = SegmentWriter::new();
+        w.push(&self.header)
+            .push(&self.vertices)
+            .push(&poly.indices)
+            .push(&self.penalty)
+            .push(&self.polygons)
+            .push(&poly.edges);
+        w
+    }
+}
+
+/// The three kinds of segment of a whole model, as owned words.
+pub(crate) struct ModelSegments {
+    pub objects: Vec<u64>,
+    pub poses: Vec<u64>,
+    /// In object order; `None` for objects without geometry.
+    pub geometry: Vec<Option<Vec<u64>>>,
+}
+
+/// Every segment of `model` as the keeper would publish it at its current version.
+pub(crate) fn model_segments(model: &Model, epoch: u64) -> ModelSegments {
+    let mut recs = Vec::with_capacity(model.len());
+    let mut names = Vec::new();
+    let mut poses = Vec::with_capacity(model.len());
+    let mut geometry = Vec::with_capacity(model.len());
+    for o in model.objects() {
+        recs.push(object_rec(o, &mut names));
+        poses.push(pose_rec(o));
+        geometry.push(o.geometry.as_ref().map(|poly| {
+            GeometryParts::new(poly, o.id, o.geom_gen)
+                .writer(poly)
+                .to_vec()
+        }));
+    }
+    let objects_header = [ObjectsHeader {
+        version: model.version,
+        epoch,
+        count: recs.len() as u64,
+    }];
+    let poses_header = [PosesHeader {
+        version: model.version,
+        structure_version: model.version,
+        epoch,
+        count: poses.len() as u64,
+    }];
+    let mut w = SegmentWriter::new();
+    w.push(&objects_header).push(&recs).push(&names);
+    let objects = w.to_vec();
+    let mut w = SegmentWriter::new();
+    w.push(&poses_header).push(&poses);
+    ModelSegments {
+        objects,
+        poses: w.to_vec(),
+        geometry,
+    }
+}
+
+pub(crate) fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
+    let name_off = names.len() as u32;
+    names.extend_from_slice(o.name.as_bytes());
+    let mut rec = ObjectRec {
+        id: o.id,
+        parent: o.parent,
+        kind: o.kind as u32,
+        name_off,
+        name_len: o.name.len() as u32,
+        geom_gen: o.geom_gen,
+        color: o.appearance.color,
+        surface: [
+            o.appearance.diffuse,
+            o.appearance.specular,
+            o.appearance.shininess,
+            0.0,
+        ],
+        ..bytemuck::Zeroable::zeroed()
+    };
+    if !o.origin.is_empty() {
+        rec.origin_off = names.len() as u32;
+        rec.origin_len = o.origin.len() as u32;
+        names.extend_from_slice(o.origin.as_bytes());
+    }
+    if o.geometry.is_some() {
+        rec.flags |= flags::HAS_GEOMETRY;
+    }
+    match o.kinematics {
+        Some(Kinematics::Joint {
+            index,
+            joint,
+            convention,
+            a,
+            d,
+            alpha,
+            theta,
+            offset,
+            qlim,
+        }) => {
+            rec.flags |= flags::HAS_KINEMATICS;
+            rec.kin_tag = flags::KIN_JOINT;
+            rec.joint_kind = joint as u32;
+            rec.convention = convention as u32;
+            rec.index_or_family = index;
+            rec.dh = [a, d, alpha, theta, offset, qlim[0], qlim[1]];
+        }
+        Some(Kinematics::Robot {
+            convention,
+            ik_family,
+            tool,
+        }) => {
+            rec.flags |= flags::HAS_KINEMATICS;
+            rec.kin_tag = flags::KIN_ROBOT;
+            rec.convention = convention as u32;
+            rec.index_or_family = ik_family;
+            rec.tool = tool;
+        }
+        None => {}
+    }
+    if let Some(m) = o.dynamics {
+        rec.flags |= flags::HAS_DYNAMICS;
+        rec.mass = m.mass;
+        rec.com = m.com;
+        rec.inertia = m.inertia;
+    }
+    rec
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{GeometryInput, Kind, Model, Snapshot, Transaction};
+
+    /// A local snapshot reads back what the model holds: names, parents, world poses through
+    /// the parent chain, geometry by object index.
+    #[test]
+    fn snapshot_from_model_matches_the_model() {
+        let mut model = Model::new();
+        let mut tx = Transaction::new();
+        let item = tx.create(Kind::Item, "item", None);
+        tx.set_pose(item, [1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+        let solid = tx.create(Kind::Solid, "tri", Some(item));
+        tx.set_pose(solid, [0.0, -1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 3.0, 0.0, 0.0, 1.0, 0.0]);
+        tx.set_geometry(
+            solid,
+            Some(GeometryInput {
+                vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                polygons: vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]],
+            }),
+        );
+        model.apply(&tx).expect("valid transaction");
+        let snap = Snapshot::from_model(&model);
+        assert_eq!(snap.version(), model.version);
+        assert_eq!(snap.len(), 2);
+        let i = snap.find("tri").expect("tri present");
+        assert_eq!(snap.name(i), "tri");
+        let w = snap.world_pose(i);
+        // item translates by x=2, the solid by y=3 after a 90° turn about z.
+        assert_eq!([w[3], w[7], w[11]], [2.0, 3.0, 0.0]);
+        let g = snap.geometry(i).expect("geometry");
+        assert_eq!(g.vertices.len(), 4);
+        assert_eq!(g.polygons.len(), 4);
+        assert!(snap.geometry(snap.find("item").expect("item")).is_none());
+    }
+}
