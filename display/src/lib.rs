@@ -1,0 +1,55 @@
+//! The display (seed §2.1–2.2 MD, §3.3 Display Control): draws a session's Instance Space with
+//! wgpu — shaded polygons in each object's colour and surface, a depth buffer, one directional
+//! light and an ambient term, an optional edge overlay, a LOOK-FROM / LOOK-AT camera — to PNG
+//! files on a headless device or to a window; incremental on change notifications (only what
+//! changed is uploaded, and the bytes are counted).
+//!
+//! * [`renderer`] — the GPU device, per-body slots, [`Renderer::sync`], frames, picking.
+//! * [`camera`] — LOOK-FROM / LOOK-AT, perspective / orthographic, orbit / pan / zoom, rays.
+//! * [`mesh`] — polygons to triangles and edges; ray casts.
+//! * [`image`] — PNG and the golden-image comparison.
+//! * [`trajectory`] — MD's file mode: joint-angle files played back.
+//! * [`window`] — the interactive window (winit).
+#![deny(unsafe_code)]
+
+pub mod camera;
+pub mod image;
+pub mod mesh;
+pub mod renderer;
+pub mod trajectory;
+pub mod window;
+
+pub use camera::{Camera, Projection};
+pub use image::{Diff, RgbaImage, Tolerance, compare};
+pub use renderer::{Gpu, Hit, Renderer, Style, UploadStats};
+
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum DisplayError {
+    #[error("no graphics adapter: {0}")]
+    NoAdapter(String),
+    #[error("graphics device: {0}")]
+    Device(String),
+    #[error("{0}")]
+    Camera(String),
+    #[error("{0}")]
+    Size(String),
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path}: {what}")]
+    Image { path: PathBuf, what: String },
+    #[error("{path}:{line}: {what}")]
+    Trajectory {
+        path: PathBuf,
+        line: usize,
+        what: String,
+    },
+    #[error("window: {0}")]
+    Window(String),
+}
+
+pub type Result<T> = std::result::Result<T, DisplayError>;

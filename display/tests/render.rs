@@ -1,0 +1,117 @@
+//! The renderer on the headless device against plain models: what is drawn where, and what
+//! each change uploads.
+
+use nalgebra::Point3;
+use robosim_display::{Camera, Renderer, renderer::TRANSFORM_BYTES};
+use robosim_instance_space::{Appearance, GeometryInput, IDENTITY, Kind, Model, Snapshot, Transaction};
+
+fn cube(h: f64) -> GeometryInput {
+    let vertices = (0..8)
+        .map(|i| {
+            [
+                if i & 1 == 0 { -h } else { h },
+                if i & 2 == 0 { -h } else { h },
+                if i & 4 == 0 { -h } else { h },
+            ]
+        })
+        .collect();
+    GeometryInput {
+        vertices,
+        polygons: vec![
+            vec![0, 2, 3, 1],
+            vec![4, 5, 7, 6],
+            vec![0, 1, 5, 4],
+            vec![2, 6, 7, 3],
+            vec![0, 4, 6, 2],
+            vec![1, 3, 7, 5],
+        ],
+    }
+}
+
+fn at(x: f64, y: f64, z: f64) -> [f64; 12] {
+    let mut p = IDENTITY;
+    p[3] = x;
+    p[7] = y;
+    p[11] = z;
+    p
+}
+
+/// Two cubes, red at the origin and blue at x = 3, under one item.
+fn scene() -> (Model, u64, u64) {
+    let mut model = Model::new();
+    let mut tx = Transaction::new();
+    let item = tx.create(Kind::Item, "pair", None);
+    let red = tx.create(Kind::Solid, "red", Some(item));
+    tx.set_geometry(red, Some(cube(0.5)));
+    tx.set_appearance(red, Appearance { color: [0.9, 0.1, 0.1, 1.0], ..Appearance::default() });
+    let blue = tx.create(Kind::Solid, "blue", Some(item));
+    tx.set_geometry(blue, Some(cube(0.5)));
+    tx.set_pose(blue, at(3.0, 0.0, 0.0));
+    tx.set_appearance(blue, Appearance { color: [0.1, 0.1, 0.9, 1.0], ..Appearance::default() });
+    model.apply(&tx).expect("valid");
+    let snap = Snapshot::from_model(&model);
+    let id = |n| snap.objects()[snap.find(n).expect("present")].id;
+    let (r, b) = (id("red"), id("blue"));
+    (model, r, b)
+}
+
+fn dominant(p: [u8; 4]) -> char {
+    let p = p.map(i32::from);
+    if p[0] > p[1] + 60 && p[0] > p[2] + 60 {
+        'r'
+    } else if p[2] > p[0] + 60 && p[2] > p[1] + 60 {
+        'b'
+    } else {
+        '.'
+    }
+}
+
+#[test]
+fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
+    let (mut model, red, blue) = scene();
+    let mut r = Renderer::headless().expect("a Vulkan adapter (mesa-vulkan-drivers on CI)");
+    let first = r.sync(&Snapshot::from_model(&model));
+    assert_eq!((first.meshes, first.transforms, first.materials), (2, 2, 2));
+    assert!(first.mesh_bytes > 0);
+    // Look down the −y axis at the pair: red left of centre, blue right.
+    r.camera = Camera::looking(Point3::new(1.5, -12.0, 0.0), Point3::new(1.5, 0.0, 0.0));
+    let img = r.render_image(160, 80).expect("frame");
+    let row: String = (0..160).step_by(8).map(|x| dominant(img.pixel(x, 40))).collect();
+    assert!(row.contains('r') && row.contains('b'), "{row}");
+    assert!(row.find('r') < row.find('b'), "red left of blue: {row}");
+    assert_eq!(dominant(img.pixel(2, 2)), '.', "background in the corner");
+
+    // Move blue only: one transform, no mesh, no material.
+    let mut tx = Transaction::new();
+    tx.set_pose(blue, at(3.0, 0.0, 1.0));
+    model.apply(&tx).expect("valid");
+    let moved = r.sync(&Snapshot::from_model(&model));
+    assert_eq!((moved.transforms, moved.meshes, moved.materials), (1, 0, 0), "{moved:?}");
+    assert_eq!(moved.total_bytes(), TRANSFORM_BYTES);
+    // Nothing changed: nothing sent.
+    assert_eq!(r.sync(&Snapshot::from_model(&model)).total_bytes(), 0);
+    // Recolour red: one material.
+    let mut tx = Transaction::new();
+    tx.set_appearance(red, Appearance { color: [0.1, 0.9, 0.1, 1.0], ..Appearance::default() });
+    model.apply(&tx).expect("valid");
+    let recoloured = r.sync(&Snapshot::from_model(&model));
+    assert_eq!((recoloured.transforms, recoloured.meshes, recoloured.materials), (0, 0, 1));
+    // New geometry for red: its mesh alone.
+    let mut tx = Transaction::new();
+    tx.set_geometry(red, Some(cube(0.25)));
+    model.apply(&tx).expect("valid");
+    let reshaped = r.sync(&Snapshot::from_model(&model));
+    assert_eq!((reshaped.transforms, reshaped.meshes, reshaped.materials), (0, 1, 0));
+    // Delete blue: nothing to upload, one body fewer.
+    let mut tx = Transaction::new();
+    tx.delete(blue, false);
+    model.apply(&tx).expect("valid");
+    assert_eq!(r.sync(&Snapshot::from_model(&model)).total_bytes(), 0);
+    assert_eq!(r.body_count(), 1);
+    // Pick: the ray through the centre of the view hits red's front polygon.
+    r.camera = Camera::looking(Point3::new(0.0, -12.0, 0.0), Point3::origin());
+    let hit = r.pick(80.0, 40.0, 160, 80).expect("red is under the centre");
+    assert_eq!(hit.id, red);
+    assert!((hit.distance - 11.75).abs() < 1e-6, "{hit:?}");
+    assert!(r.pick(2.0, 2.0, 160, 80).is_none());
+}
