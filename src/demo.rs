@@ -543,10 +543,7 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let mut last_version = 0;
     let mut seen = Vec::new();
     for q in &path {
-        let mut tx = Transaction::new();
-        for ((id, qj), pose) in arm.links.iter().zip(q).zip(bridge::link_poses(&robot, q)) {
-            tx.set_joint(*id, *qj).set_pose(*id, pose);
-        }
+        let tx = bridge::joint_tx(&robot, &arm.links, q);
         let c = client.transact(&tx)?;
         last_version = c.version;
         // The reader is told what changed: exactly the arm's links, pose aspect only.

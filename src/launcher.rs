@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 /// Components `up --with` knows, and whether this build has them.
 const COMPONENTS: &[(&str, Option<&str>)] = &[
     ("simulator", Some("simulator")),
-    ("display", None),
+    ("display", Some("display")),
     ("editor", None),
     ("file", None),
     ("hl", None),

@@ -6,6 +6,7 @@
 mod bench;
 mod bridge;
 mod demo;
+mod display;
 mod instantiate;
 mod launcher;
 mod ops;
@@ -109,6 +110,12 @@ enum Command {
         #[arg(long)]
         session: Option<String>,
     },
+    /// Draw a library scene or robot to PNG, with no session or other process (`--play`: one
+    /// frame per trajectory sample).
+    Render(display::RenderArgs),
+    /// Attach to a session and draw it on every change: a window, or headless PNG frames with
+    /// per-frame upload counters (frames.jsonl).
+    Display(display::DisplayArgs),
     /// A headless session that does real work and says what it did.
     Demo {
         #[arg(long)]
@@ -211,6 +218,8 @@ fn main() -> ExitCode {
             robosim_simulator::cli::run(&args, &robosim_library::standard_robot).map_err(CliError)
         }
         Command::Report { which } => reports::run(which),
+        Command::Render(args) => display::cmd_render(&args),
+        Command::Display(args) => display::cmd_display(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -261,6 +261,73 @@ pub(crate) fn placed(snap: &Snapshot, name: &str) -> std::result::Result<Placed,
     })
 }
 
+/// Objects with geometry under `top` (itself included), not descending into other links.
+fn bodies_under(snap: &Snapshot, top: Id) -> Vec<Id> {
+    let mut out = Vec::new();
+    let mut stack = vec![top];
+    while let Some(id) = stack.pop() {
+        if let Some(i) = snap.index_of(id)
+            && snap.geometry(i).is_some()
+        {
+            out.push(id);
+        }
+        for k in children(snap, id) {
+            if snap.object(k).kind() != Some(Kind::Link) {
+                stack.push(snap.objects()[k].id);
+            }
+        }
+    }
+    out
+}
+
+/// Every object with geometry in contact, for the display's collision highlight: each robot
+/// of the snapshot checked at its current q against itself (allowed pairs excepted) and the
+/// objects outside it (exact mode, all contacts). Robots that cannot be placed are skipped.
+pub(crate) fn colliding_ids(snap: &Snapshot) -> HashSet<Id> {
+    let settings = CollisionSettings {
+        all_contacts: true,
+        ..CollisionSettings::default()
+    };
+    let mut hit = HashSet::new();
+    for i in 0..snap.len() {
+        if snap.object(i).kind() != Some(Kind::Robot) {
+            continue;
+        }
+        let robot_id = snap.objects()[i].id;
+        let Ok(p) = placed(snap, snap.name(i)) else {
+            continue;
+        };
+        let (scene, _, ids) = obstacles(snap, &p, &HashSet::new());
+        let Ok(CheckResult::Contact(cs)) = robosim_collision::robot::check_robot(
+            &p.robot, &p.solids, &p.q, &scene, &settings,
+        ) else {
+            continue;
+        };
+        for c in cs {
+            for b in [&c.a, &c.b] {
+                match b {
+                    Body::Link(0) => {
+                        // The base: the robot's own solids that are not under a link.
+                        for k in children(snap, robot_id) {
+                            if snap.object(k).kind() != Some(Kind::Link) {
+                                hit.extend(bodies_under(snap, snap.objects()[k].id));
+                            }
+                        }
+                    }
+                    Body::Link(j) => {
+                        if let Some(l) = p.links.get(j - 1) {
+                            hit.extend(bodies_under(snap, *l));
+                        }
+                    }
+                    Body::Object { index, .. } => hit.extend(ids.get(*index).copied()),
+                    Body::RobotLink { .. } => {}
+                }
+            }
+        }
+    }
+    hit
+}
+
 fn body(b: &Body, p: &Placed, snap: &Snapshot, scene_names: &[String]) -> Value {
     match b {
         Body::Link(0) => json!({"robot": p.robot.name, "link": 0, "name": "base"}),
@@ -310,16 +377,22 @@ impl Ops {
     }
 
     fn scene(&self, snap: &Snapshot, p: &Placed) -> (Scene, Vec<String>) {
-        obstacles(snap, p, &self.unused)
+        let (scene, names, _) = obstacles(snap, p, &self.unused);
+        (scene, names)
     }
 }
 
 /// The objects a robot can hit: every solid outside its own subtree and not in `unused`,
 /// named by path.
-pub(crate) fn obstacles(snap: &Snapshot, p: &Placed, unused: &HashSet<Id>) -> (Scene, Vec<String>) {
+pub(crate) fn obstacles(
+    snap: &Snapshot,
+    p: &Placed,
+    unused: &HashSet<Id>,
+) -> (Scene, Vec<String>, Vec<Id>) {
     {
         let mut scene = Scene::new();
         let mut names = Vec::new();
+        let mut ids = Vec::new();
         for i in 0..snap.len() {
             let o = &snap.objects()[i];
             if p.subtree.contains(&o.id) || unused.contains(&o.id) {
@@ -336,18 +409,16 @@ pub(crate) fn obstacles(snap: &Snapshot, p: &Placed, unused: &HashSet<Id>) -> (S
                 }
                 scene.add(path.as_str(), Arc::new(s), iso(&snap.world_pose(i)));
                 names.push(path);
+                ids.push(o.id);
             }
         }
-        (scene, names)
+        (scene, names, ids)
     }
 }
 
 impl Ops {
     fn write_q(&mut self, p: &Placed, q: &[f64]) -> std::result::Result<u64, (String, String)> {
-        let mut tx = Transaction::new();
-        for ((id, qj), pose) in p.links.iter().zip(q).zip(bridge::link_poses(&p.robot, q)) {
-            tx.set_joint(*id, *qj).set_pose(*id, pose);
-        }
+        let tx = bridge::joint_tx(&p.robot, &p.links, q);
         self.client
             .transact(&tx)
             .map(|a| a.version)

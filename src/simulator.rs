@@ -140,7 +140,7 @@ fn build(
     for r in bridge::robots(&snap) {
         let p = ops::placed(&snap, &r.robot.name)
             .map_err(|(k, m)| crate::CliError(format!("{k}: {m}")))?;
-        let (obstacles, _) = ops::obstacles(&snap, &p, &Default::default());
+        let (obstacles, _, _) = ops::obstacles(&snap, &p, &Default::default());
         // One log per robot: a scene with two robots must not write one file twice.
         let mut effects = effects.clone();
         if let Some(l) = effects.logging.as_mut()

@@ -1,0 +1,599 @@
+//! `robosim render` and `robosim display`: the display crate wired to the Library Space and to
+//! sessions.
+//!
+//! * `render SCENE` evaluates a library scene or robot into a process-local model (no session,
+//!   no other process) and draws it to PNG — one image, or with `--play` one frame per
+//!   trajectory sample (MD's file mode).
+//! * `display --session S` attaches to a running session and redraws on every change
+//!   notification, uploading only what changed: headless (PNG frames and a JSON line of
+//!   upload counters per frame) or in a window. With `--play` it is also a writer: it plays
+//!   the trajectory files into the Instance Space at `--rate`.
+
+use crate::{Result, bail, bridge, instantiate, ops, scene};
+use nalgebra::{Point3, Vector3};
+use robosim_display::trajectory::Trajectory;
+use robosim_display::window::{Host, WindowOptions};
+use robosim_display::{Hit, Projection, Renderer, Style};
+use robosim_instance_space::{Client, Kind, Model, Reader, Session, Snapshot};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Camera and style options shared by `render` and `display`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// LOOK-FROM x,y,z (m, world). Default: from the seed's viewing direction, framing the model.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub from: Option<[f64; 3]>,
+    /// LOOK-AT x,y,z (m, world). Default: the centre of the model's bounding box.
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    pub at: Option<[f64; 3]>,
+    /// Camera up vector.
+    #[arg(long, value_parser = parse_vec3, default_value = "0,0,1", allow_hyphen_values = true)]
+    pub up: [f64; 3],
+    /// Vertical field of view, degrees.
+    #[arg(long, default_value_t = 40.0)]
+    pub fov: f64,
+    /// Orthographic projection (default perspective).
+    #[arg(long)]
+    pub ortho: bool,
+    /// Draw polygon edges over the shading.
+    #[arg(long)]
+    pub edges: bool,
+    /// Image size WxH (pixels).
+    #[arg(long, value_parser = parse_size, default_value = "1024x768")]
+    pub size: (u32, u32),
+    /// Draw objects in contact (each robot against itself and the rest) in the collision colour.
+    #[arg(long)]
+    pub collisions: bool,
+}
+
+fn parse_vec3(s: &str) -> std::result::Result<[f64; 3], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|f| f.trim().parse::<f64>().map_err(|_| format!("{f:?} is not a number")))
+        .collect::<std::result::Result<_, _>>()?;
+    match v.as_slice() {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
+        _ => Err(format!("{s:?}: three finite numbers x,y,z expected")),
+    }
+}
+
+fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("{s:?}: WxH expected, e.g. 1280x1024"))?;
+    let p = |t: &str| {
+        t.trim()
+            .parse::<u32>()
+            .ok()
+            .filter(|v| (1..=8192).contains(v))
+            .ok_or_else(|| format!("{s:?}: sizes are 1..=8192 pixels"))
+    };
+    Ok((p(w)?, p(h)?))
+}
+
+impl ViewArgs {
+    fn apply(&self, r: &mut Renderer) -> Result<()> {
+        r.style = Style {
+            edges: self.edges,
+            ..Style::default()
+        };
+        r.frame_all();
+        let (_, radius) = r.bounds();
+        let mut cam = r.camera;
+        if let Some(at) = self.at {
+            let offset = cam.from - cam.at;
+            cam.at = Point3::from(at);
+            cam.from = cam.at + offset;
+        }
+        if let Some(from) = self.from {
+            cam.from = Point3::from(from);
+        }
+        cam.up = Vector3::from(self.up);
+        cam.fov_y_deg = self.fov;
+        if self.fov != 40.0 && self.from.is_none() {
+            // Keep the model framed at the new field of view.
+            let d = 1.1 * radius / (self.fov.to_radians() / 2.0).sin();
+            cam.from = cam.at + (cam.from - cam.at).normalize() * d;
+        }
+        cam.projection = if self.ortho {
+            Projection::Orthographic
+        } else {
+            Projection::Perspective
+        };
+        cam.validate().map_err(crate::CliError)?;
+        r.camera = cam;
+        Ok(())
+    }
+}
+
+#[derive(clap::Args, Debug)]
+pub struct RenderArgs {
+    /// A scene or robot of the library (`robosim lib list`), or `demo`.
+    pub scene: String,
+    /// The PNG to write (one image).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+    /// Joint values ROBOT=q1,q2,… (degrees for revolute joints, metres for prismatic); repeatable.
+    #[arg(long = "joints", value_name = "ROBOT=Q,…")]
+    pub joints: Vec<String>,
+    /// Play a trajectory file into a robot, ROBOT=FILE (MD's file mode); repeatable. Needs --frames.
+    #[arg(long, value_name = "ROBOT=FILE")]
+    pub play: Vec<String>,
+    /// With --play: the directory for frame-NNNNN.png, one per sample.
+    #[arg(long)]
+    pub frames: Option<PathBuf>,
+    /// With --play: draw every Nth sample.
+    #[arg(long, default_value_t = 1)]
+    pub every: usize,
+    /// Library files to add to the standard library.
+    #[arg(long)]
+    pub library: Vec<PathBuf>,
+}
+
+/// The scene `name` of the standard library (plus `library` files) as a local model.
+pub fn local_model(library: &[PathBuf], name: &str) -> Result<Model> {
+    let lib = instantiate::build_library(library)?;
+    let mut model = Model::new();
+    for tx in scene::load_from(&lib, name)? {
+        model
+            .apply(&tx)
+            .map_err(|e| crate::CliError(format!("scene {name}: {e}")))?;
+    }
+    Ok(model)
+}
+
+/// The robot called `name` in `snap`, with its links.
+fn robot<'a>(robots: &'a [bridge::SpaceRobot], name: &str) -> Result<&'a bridge::SpaceRobot> {
+    robots.iter().find(|r| r.robot.name == name).ok_or_else(|| {
+        let names: Vec<&str> = robots.iter().map(|r| r.robot.name.as_str()).collect();
+        crate::CliError(format!(
+            "no robot named {name:?}; robots here: {}",
+            if names.is_empty() { "none".to_owned() } else { names.join(", ") }
+        ))
+    })
+}
+
+/// `ROBOT=q1,q2,…` in ROBOSIM units (degrees / metres) to SI for that robot.
+fn parse_joints(spec: &str, robots: &[bridge::SpaceRobot]) -> Result<(String, Vec<f64>)> {
+    let (name, values) = spec
+        .split_once('=')
+        .ok_or_else(|| crate::CliError(format!("--joints {spec:?}: ROBOT=q1,q2,… expected")))?;
+    let r = robot(robots, name.trim())?;
+    let vals: Vec<f64> = values
+        .split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .ok()
+                .filter(|x| x.is_finite())
+                .ok_or_else(|| crate::CliError(format!("--joints {spec:?}: {v:?} is not a finite number")))
+        })
+        .collect::<Result<_>>()?;
+    let q = si(&r.robot, &vals);
+    r.robot
+        .check_q(&q)
+        .map_err(|e| crate::CliError(format!("--joints {spec:?}: {e}")))?;
+    Ok((name.trim().to_owned(), q))
+}
+
+fn prismatic(robot: &robosim_kinematics::Robot) -> Vec<bool> {
+    robot
+        .joints
+        .iter()
+        .map(|j| j.joint_type == robosim_kinematics::JointType::Prismatic)
+        .collect()
+}
+
+fn si(robot: &robosim_kinematics::Robot, vals: &[f64]) -> Vec<f64> {
+    let p = prismatic(robot);
+    vals.iter()
+        .enumerate()
+        .map(|(j, v)| if p.get(j).copied().unwrap_or(false) { *v } else { v.to_radians() })
+        .collect()
+}
+
+/// Puts robot `name` of a local model at `q` (SI).
+fn set_local(model: &mut Model, name: &str, q: &[f64]) -> Result<()> {
+    let snap = Snapshot::from_model(model);
+    let robots = bridge::robots(&snap);
+    let r = robot(&robots, name)?;
+    model
+        .apply(&bridge::joint_tx(&r.robot, &r.links, q))
+        .map_err(|e| crate::CliError(format!("moving {name}: {e}")))?;
+    Ok(())
+}
+
+/// Trajectory tracks `ROBOT=FILE`, checked against the robots' joint counts and limits.
+struct Player {
+    tracks: Vec<(String, Trajectory, Vec<bool>)>,
+}
+
+impl Player {
+    fn load(specs: &[String], snap: &Snapshot) -> Result<Player> {
+        let robots = bridge::robots(snap);
+        let mut tracks = Vec::new();
+        for spec in specs {
+            let (name, file) = spec
+                .split_once('=')
+                .ok_or_else(|| crate::CliError(format!("--play {spec:?}: ROBOT=FILE expected")))?;
+            let r = robot(&robots, name.trim())?;
+            let t = Trajectory::load(Path::new(file.trim()))?;
+            if t.columns() != r.robot.dof() {
+                bail!(
+                    "{}: {} columns, but robot {} has {} joints",
+                    file.trim(),
+                    t.columns(),
+                    name.trim(),
+                    r.robot.dof()
+                );
+            }
+            let p = prismatic(&r.robot);
+            for k in 0..t.samples.len() {
+                r.robot.check_q(&t.sample_si(k, &p)).map_err(|e| {
+                    crate::CliError(format!("{}: sample {}: {e}", file.trim(), k + 1))
+                })?;
+            }
+            tracks.push((name.trim().to_owned(), t, p));
+        }
+        Ok(Player { tracks })
+    }
+
+    fn len(&self) -> usize {
+        self.tracks.iter().map(|t| t.1.samples.len()).max().unwrap_or(0)
+    }
+
+    /// (robot, q) of every track at sample `k` (a finished track holds its last sample).
+    fn at(&self, k: usize) -> Vec<(&str, Vec<f64>)> {
+        self.tracks
+            .iter()
+            .map(|(n, t, p)| (n.as_str(), t.sample_si(k, p)))
+            .collect()
+    }
+}
+
+fn highlight(r: &mut Renderer, snap: &Snapshot, on: bool) {
+    if on {
+        r.set_highlight(ops::colliding_ids(snap));
+    }
+}
+
+/// `robosim render SCENE …`
+pub fn cmd_render(a: &RenderArgs) -> Result<()> {
+    if a.out.is_none() && a.frames.is_none() {
+        bail!("nothing to write: give --out FILE.png, or --play ROBOT=FILE with --frames DIR");
+    }
+    if a.play.is_empty() != a.frames.is_none() {
+        bail!("--play and --frames go together");
+    }
+    if a.every == 0 {
+        bail!("--every must be at least 1");
+    }
+    let mut model = local_model(&a.library, &a.scene)?;
+    let snap = Snapshot::from_model(&model);
+    let robots = bridge::robots(&snap);
+    let settings: Vec<(String, Vec<f64>)> = a
+        .joints
+        .iter()
+        .map(|s| parse_joints(s, &robots))
+        .collect::<Result<_>>()?;
+    for (name, q) in &settings {
+        set_local(&mut model, name, q)?;
+    }
+    let mut r = Renderer::headless()?;
+    let snap = Snapshot::from_model(&model);
+    highlight(&mut r, &snap, a.view.collisions);
+    r.sync(&snap);
+    a.view.apply(&mut r)?;
+    let (w, h) = a.view.size;
+    if let Some(out) = &a.out {
+        let t0 = Instant::now();
+        r.render_image(w, h)?.save_png(out)?;
+        println!(
+            "{}: {} bodies, {} triangles, {w}×{h} on {} ({:.0} ms)",
+            out.display(),
+            r.body_count(),
+            r.triangle_count(),
+            r.gpu().describe(),
+            t0.elapsed().as_secs_f64() * 1e3
+        );
+    }
+    if let Some(dir) = &a.frames {
+        let player = Player::load(&a.play, &snap)?;
+        let mut upload = robosim_display::UploadStats::default();
+        let mut written = 0;
+        for k in (0..player.len()).step_by(a.every) {
+            for (name, q) in player.at(k) {
+                set_local(&mut model, name, &q)?;
+            }
+            let snap = Snapshot::from_model(&model);
+            highlight(&mut r, &snap, a.view.collisions);
+            upload.add(&r.sync(&snap));
+            r.render_image(w, h)?
+                .save_png(&dir.join(format!("frame-{k:05}.png")))?;
+            written += 1;
+        }
+        println!(
+            "{written} frames → {}; uploads per frame: {:.1} transforms, {:.0} B ({} meshes in all)",
+            dir.display(),
+            upload.transforms as f64 / written.max(1) as f64,
+            upload.total_bytes() as f64 / written.max(1) as f64,
+            upload.meshes
+        );
+    }
+    Ok(())
+}
+
+#[derive(clap::Args, Debug)]
+pub struct DisplayArgs {
+    #[arg(long)]
+    pub session: Option<String>,
+    /// Draw to PNG files instead of a window (the default when there is no display server).
+    #[arg(long)]
+    pub headless: bool,
+    /// Headless: the directory for latest.png and frames.jsonl (default <session>/display).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Headless: also keep every frame as frame-<version>.png.
+    #[arg(long)]
+    pub every_frame: bool,
+    /// Stop after this many frames (headless) or presented frames (window).
+    #[arg(long)]
+    pub max_frames: Option<u64>,
+    /// Play trajectory files into the session's robots, ROBOT=FILE; repeatable.
+    #[arg(long, value_name = "ROBOT=FILE")]
+    pub play: Vec<String>,
+    /// Window: replay input (`left`, `right`, `tab`, `1`–`9`, `e`, `o`, `f`, `click:X,Y`).
+    #[arg(long)]
+    pub script: Vec<String>,
+    #[command(flatten)]
+    pub view: ViewArgs,
+}
+
+/// The session side of the display: its reader and, for knob moves and playback, a client.
+struct SessionHost {
+    reader: Reader,
+    session: Session,
+    client: Option<Client>,
+    collisions: bool,
+    snap: Option<std::rc::Rc<Snapshot>>,
+}
+
+impl SessionHost {
+    fn client(&mut self) -> Result<&mut Client> {
+        if self.client.is_none() {
+            self.client = Some(Client::connect(&self.session, "display-writer")?);
+        }
+        self.client
+            .as_mut()
+            .ok_or_else(|| crate::CliError("no client".into()))
+    }
+
+    fn write_q(&mut self, name: &str, q: &[f64]) -> Result<u64> {
+        let snap = self
+            .snap
+            .clone()
+            .ok_or_else(|| crate::CliError("no model yet".into()))?;
+        let robots = bridge::robots(&snap);
+        let r = robot(&robots, name)?;
+        r.robot
+            .check_q(q)
+            .map_err(|e| crate::CliError(format!("{name}: {e}")))?;
+        let tx = bridge::joint_tx(&r.robot, &r.links, q);
+        Ok(self.client()?.transact(&tx)?.version)
+    }
+}
+
+impl Host for SessionHost {
+    fn update(&mut self, r: &mut Renderer) -> std::result::Result<bool, String> {
+        let changed = self.reader.refresh().map_err(|e| e.to_string())?;
+        if !changed && self.snap.is_some() {
+            return Ok(false);
+        }
+        let Some(snap) = self.reader.snapshot() else {
+            return Ok(false);
+        };
+        highlight(r, &snap, self.collisions);
+        r.sync(&snap);
+        self.snap = Some(snap);
+        Ok(true)
+    }
+
+    fn robots(&self) -> Vec<(String, usize)> {
+        self.snap.as_ref().map_or_else(Vec::new, |s| {
+            bridge::robots(s)
+                .into_iter()
+                .map(|r| (r.robot.name.clone(), r.robot.dof()))
+                .collect()
+        })
+    }
+
+    fn jog(&mut self, robot_index: usize, joint: usize, delta: f64) -> std::result::Result<String, String> {
+        let snap = self.snap.clone().ok_or("no model yet")?;
+        let robots = bridge::robots(&snap);
+        let r = robots.get(robot_index).ok_or("no robot to move")?;
+        let mut q = r.q.clone();
+        let Some(qj) = q.get_mut(joint) else {
+            return Err(format!("{} has no joint {}", r.robot.name, joint + 1));
+        };
+        *qj += delta;
+        let name = r.robot.name.clone();
+        let shown = q[joint].to_degrees();
+        self.write_q(&name, &q)
+            .map(|v| format!("{name} joint {} = {shown:.1}° (version {v})", joint + 1))
+            .map_err(|e| e.to_string())
+    }
+
+    fn describe(&self, hit: &Hit) -> String {
+        let Some(snap) = &self.snap else {
+            return format!("object {}", hit.id);
+        };
+        let Some(i) = snap.index_of(hit.id) else {
+            return format!("object {}", hit.id);
+        };
+        let mut link = None;
+        let mut parent = snap.objects()[i].parent;
+        let mut path = snap.name(i).to_owned();
+        while let Some(k) = (parent != 0).then(|| snap.index_of(parent)).flatten() {
+            if link.is_none() && snap.object(k).kind() == Some(Kind::Link) {
+                link = Some(snap.name(k).to_owned());
+            }
+            path = format!("{}/{path}", snap.name(k));
+            parent = snap.objects()[k].parent;
+        }
+        let p = hit.point;
+        format!(
+            "{path}{}, polygon {} at ({:.3}, {:.3}, {:.3}) m",
+            link.map(|l| format!(" (link {l})")).unwrap_or_default(),
+            hit.polygon,
+            p.x,
+            p.y,
+            p.z
+        )
+    }
+}
+
+/// One line of frames.jsonl.
+#[derive(serde::Serialize)]
+struct FrameRecord {
+    version: u64,
+    bodies: usize,
+    triangles: usize,
+    upload: robosim_display::UploadStats,
+    upload_bytes: u64,
+    render_ms: f64,
+    png: Option<String>,
+}
+
+/// `robosim display --session S …`
+pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
+    let session = Session::open(a.session.as_deref())?;
+    let headless = a.headless || std::env::var_os("DISPLAY").is_none();
+    let signals = session.node("display-signals", true)?;
+    let reader = Reader::attach(&session, "display")?;
+    let _reg = session.register(
+        "display",
+        &["space/objects", "space/poses", "space/changes", "space/geometry/*"],
+    )?;
+    let mut host = SessionHost {
+        reader,
+        session: session.clone(),
+        client: None,
+        collisions: a.view.collisions,
+        snap: None,
+    };
+    // Wait for the first model.
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while host.reader.snapshot().is_none() {
+        host.reader.wait_change(Duration::from_millis(100))?;
+        host.reader.refresh()?;
+        if Instant::now() > deadline {
+            bail!("session {}: no model published within 30 s", session.name());
+        }
+    }
+    host.snap = host.reader.snapshot();
+    let player = match &host.snap {
+        Some(s) if !a.play.is_empty() => Some(Player::load(&a.play, s)?),
+        _ => None,
+    };
+    if !headless {
+        let mut probe = Renderer::headless()?;
+        if let Some(s) = &host.snap {
+            probe.sync(s);
+        }
+        a.view.apply(&mut probe)?;
+        let camera = probe.camera;
+        drop(probe);
+        host.snap = None;
+        if player.is_some() {
+            bail!("--play in a window: play headless into the session and watch it in a second `robosim display`");
+        }
+        let opts = WindowOptions {
+            size: a.view.size,
+            title: format!("robosim — session {}", session.name()),
+            exit_after_frames: a.max_frames,
+            script: a.script.clone(),
+            ..WindowOptions::default()
+        };
+        let style = Style {
+            edges: a.view.edges,
+            ..Style::default()
+        };
+        return Ok(robosim_display::window::run(Box::new(host), Some(camera), style, opts)?);
+    }
+    let out = a
+        .out
+        .clone()
+        .unwrap_or_else(|| session.dir().join("display"));
+    std::fs::create_dir_all(&out).map_err(|e| crate::CliError(format!("{}: {e}", out.display())))?;
+    let log_path = out.join("frames.jsonl");
+    let mut log = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&log_path)
+        .map_err(|e| crate::CliError(format!("{}: {e}", log_path.display())))?;
+    let mut r = Renderer::headless()?;
+    eprintln!("display: headless on {} → {}", r.gpu().describe(), out.display());
+    let (w, h) = a.view.size;
+    let mut frames = 0u64;
+    let mut sample = 0usize;
+    let mut next_sample = Instant::now();
+    let mut first = true;
+    host.snap = None;
+    while signals.wait(Duration::ZERO).is_ok() {
+        if let Some(p) = &player
+            && sample < p.len()
+            && Instant::now() >= next_sample
+        {
+            for (name, q) in p.at(sample) {
+                host.write_q(name, &q)?;
+            }
+            let dt = p.tracks.iter().map(|t| t.1.dt).fold(f64::INFINITY, f64::min);
+            next_sample = Instant::now() + Duration::from_secs_f64(dt);
+            sample += 1;
+        }
+        if !host.update(&mut r).map_err(crate::CliError)? {
+            host.reader.wait_change(Duration::from_millis(20))?;
+            continue;
+        }
+        if first {
+            a.view.apply(&mut r)?;
+            first = false;
+        }
+        let upload = r.last_upload();
+        let t0 = Instant::now();
+        let img = r.render_image(w, h)?;
+        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let tmp = out.join("latest.png.tmp");
+        img.save_png(&tmp)?;
+        std::fs::rename(&tmp, out.join("latest.png"))
+            .map_err(|e| crate::CliError(format!("{}: {e}", out.display())))?;
+        let png = if a.every_frame {
+            let name = format!("frame-{:08}.png", r.version());
+            img.save_png(&out.join(&name))?;
+            Some(name)
+        } else {
+            None
+        };
+        let rec = FrameRecord {
+            version: r.version(),
+            bodies: r.body_count(),
+            triangles: r.triangle_count(),
+            upload,
+            upload_bytes: upload.total_bytes(),
+            render_ms,
+            png,
+        };
+        let line = serde_json::to_string(&rec).map_err(|e| crate::CliError(e.to_string()))?;
+        writeln!(log, "{line}").map_err(|e| crate::CliError(format!("{}: {e}", log_path.display())))?;
+        log.flush().map_err(|e| crate::CliError(e.to_string()))?;
+        frames += 1;
+        if a.max_frames.is_some_and(|m| frames >= m) {
+            break;
+        }
+    }
+    Ok(())
+}
