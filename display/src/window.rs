@@ -175,9 +175,14 @@ impl App {
         l.window.pre_present_notify();
         l.renderer.gpu().queue.present(frame);
         self.frames += 1;
-        if self.opts.exit_after_frames.is_some_and(|n| self.frames >= n) {
-            eprintln!("display: {} frames presented, closing", self.frames);
-            event_loop.exit();
+        if let Some(n) = self.opts.exit_after_frames {
+            if self.frames >= n && self.script_at >= self.opts.script.len() {
+                eprintln!("display: {} frames presented, closing", self.frames);
+                event_loop.exit();
+            } else {
+                // A frame budget (tests): draw continuously until it is spent.
+                l.window.request_redraw();
+            }
         }
     }
 
