@@ -129,6 +129,9 @@ pub struct RenderArgs {
     /// With --play: draw every Nth sample.
     #[arg(long, default_value_t = 1)]
     pub every: usize,
+    /// Leave out every object of this name (and what is attached to it); repeatable.
+    #[arg(long, value_name = "NAME")]
+    pub hide: Vec<String>,
     /// Library files to add to the standard library.
     #[arg(long)]
     pub library: Vec<PathBuf>,
@@ -174,10 +177,32 @@ fn parse_joints(spec: &str, robots: &[bridge::SpaceRobot]) -> Result<(String, Ve
         })
         .collect::<Result<_>>()?;
     let q = si(&r.robot, &vals);
-    r.robot
-        .check_q(&q)
-        .map_err(|e| crate::CliError(format!("--joints {spec:?}: {e}")))?;
+    check_q(&r.robot, &q).map_err(|e| crate::CliError(format!("--joints {spec:?}: {}", e.0)))?;
     Ok((name.trim().to_owned(), q))
+}
+
+/// `q` is a configuration `robot` can take: right length, finite, inside every joint's limits.
+fn check_q(robot: &robosim_kinematics::Robot, q: &[f64]) -> Result<()> {
+    robot
+        .check_q(q)
+        .map_err(|e| crate::CliError(e.to_string()))?;
+    for (j, (jt, v)) in robot.joints.iter().zip(q).enumerate() {
+        let [lo, hi] = jt.qlim;
+        if !(lo..=hi).contains(v) {
+            let deg = |x: f64| match jt.joint_type {
+                robosim_kinematics::JointType::Prismatic => format!("{x} m"),
+                _ => format!("{:.2}°", x.to_degrees()),
+            };
+            bail!(
+                "joint {} at {} is outside its limits [{}, {}]",
+                j + 1,
+                deg(*v),
+                deg(lo),
+                deg(hi)
+            );
+        }
+    }
+    Ok(())
 }
 
 fn prismatic(robot: &robosim_kinematics::Robot) -> Vec<bool> {
@@ -233,8 +258,8 @@ impl Player {
             }
             let p = prismatic(&r.robot);
             for k in 0..t.samples.len() {
-                r.robot.check_q(&t.sample_si(k, &p)).map_err(|e| {
-                    crate::CliError(format!("{}: sample {}: {e}", file.trim(), k + 1))
+                check_q(&r.robot, &t.sample_si(k, &p)).map_err(|e| {
+                    crate::CliError(format!("{}: sample {}: {}", file.trim(), k + 1, e.0))
                 })?;
             }
             tracks.push((name.trim().to_owned(), t, p));
@@ -283,6 +308,30 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     for (name, q) in &settings {
         set_local(&mut model, name, q)?;
     }
+    for name in &a.hide {
+        let snap = Snapshot::from_model(&model);
+        let ids: Vec<_> = (0..snap.len())
+            .filter(|&i| snap.name(i) == name)
+            .map(|i| snap.objects()[i].id)
+            .collect();
+        if ids.is_empty() {
+            let mut names: Vec<&str> = (0..snap.len()).map(|i| snap.name(i)).collect();
+            names.sort_unstable();
+            names.dedup();
+            bail!(
+                "--hide {name:?}: no object of that name in {}; names: {}",
+                a.scene,
+                names.join(", ")
+            );
+        }
+        let mut tx = robosim_instance_space::Transaction::new();
+        for id in ids {
+            tx.delete(id, true);
+        }
+        model
+            .apply(&tx)
+            .map_err(|e| crate::CliError(format!("--hide {name:?}: {e}")))?;
+    }
     let mut r = Renderer::headless()?;
     let snap = Snapshot::from_model(&model);
     highlight(&mut r, &snap, a.view.collisions);
@@ -304,6 +353,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     if let Some(dir) = &a.frames {
         let player = Player::load(&a.play, &snap)?;
         let mut upload = robosim_display::UploadStats::default();
+        let meshes_before = r.total_upload().meshes;
         let mut written = 0;
         for k in (0..player.len()).step_by(a.every) {
             for (name, q) in player.at(k) {
@@ -317,11 +367,11 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             written += 1;
         }
         println!(
-            "{written} frames → {}; uploads per frame: {:.1} transforms, {:.0} B ({} meshes in all)",
+            "{written} frames → {}; uploads per frame: {:.1} transforms, {:.0} B; meshes re-uploaded: {}",
             dir.display(),
             upload.transforms as f64 / written.max(1) as f64,
             upload.total_bytes() as f64 / written.max(1) as f64,
-            upload.meshes
+            r.total_upload().meshes - meshes_before
         );
     }
     Ok(())
@@ -379,9 +429,7 @@ impl SessionHost {
             .ok_or_else(|| crate::CliError("no model yet".into()))?;
         let robots = bridge::robots(&snap);
         let r = robot(&robots, name)?;
-        r.robot
-            .check_q(q)
-            .map_err(|e| crate::CliError(format!("{name}: {e}")))?;
+        check_q(&r.robot, q).map_err(|e| crate::CliError(format!("{name}: {}", e.0)))?;
         let tx = bridge::joint_tx(&r.robot, &r.links, q);
         Ok(self.client()?.transact(&tx)?.version)
     }
@@ -389,13 +437,19 @@ impl SessionHost {
 
 impl Host for SessionHost {
     fn update(&mut self, r: &mut Renderer) -> std::result::Result<bool, String> {
-        let changed = self.reader.refresh().map_err(|e| e.to_string())?;
-        if !changed && self.snap.is_some() {
-            return Ok(false);
-        }
+        // `wait_change` may already have advanced the reader: compare versions, not
+        // `refresh`'s answer.
+        self.reader.refresh().map_err(|e| e.to_string())?;
         let Some(snap) = self.reader.snapshot() else {
             return Ok(false);
         };
+        if self
+            .snap
+            .as_ref()
+            .is_some_and(|s| (s.version(), s.epoch()) == (snap.version(), snap.epoch()))
+        {
+            return Ok(false);
+        }
         highlight(r, &snap, self.collisions);
         r.sync(&snap);
         self.snap = Some(snap);

@@ -1,0 +1,287 @@
+//! The display, end to end on the headless software adapter (Mesa llvmpipe on CI):
+//! golden images of the PUMA 560 in two configurations and the Space Station; a wrong camera
+//! and a missing object failing the same comparison; a session display that, when a writer in
+//! another process moves one link, draws it in its next frame having uploaded that link's
+//! transforms only; trajectory playback of the welding cell's two robots; the window under
+//! Xvfb with scripted knob keys and a pick; and clear errors for bad input.
+//!
+//! Golden images live in tests/golden; `ROBOSIM_BLESS=1 cargo test --test display` rewrites
+//! them from this machine's renderer (look at them before committing).
+
+use nalgebra::Point3;
+use robosim_display::{Camera, Renderer, RgbaImage, Tolerance, compare};
+use robosim_instance_space::{Client, Kind, Reader, Transaction};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+mod common;
+
+use common::{Procs, ROBOSIM, wait_for};
+
+const PUMA_VIEW: [&str; 6] = ["--from", "-1.2,1.4,1.1", "--at", "0.1,0,0.55", "--size", "320x240"];
+
+fn robosim(args: &[&str]) -> Output {
+    Command::new(ROBOSIM).args(args).output().expect("run robosim")
+}
+
+fn render(out: &Path, args: &[&str]) {
+    let mut all = vec!["render"];
+    all.extend_from_slice(args);
+    let out_s = out.to_string_lossy().into_owned();
+    all.extend(["--out", &out_s]);
+    let o = robosim(&all);
+    assert!(o.status.success(), "robosim {all:?}: {}", String::from_utf8_lossy(&o.stderr));
+}
+
+fn golden(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(name)
+}
+
+fn load(p: &Path) -> RgbaImage {
+    RgbaImage::load_png(p).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Renders `args` and compares with the golden image `name` (rewritten under ROBOSIM_BLESS).
+fn check_golden(dir: &Path, name: &str, args: &[&str]) {
+    let out = dir.join(name);
+    render(&out, args);
+    let g = golden(name);
+    if std::env::var_os("ROBOSIM_BLESS").is_some() {
+        std::fs::copy(&out, &g).expect("bless");
+        return;
+    }
+    let tol = Tolerance::default();
+    let d = compare(&load(&out), &load(&g), &tol).expect("same size");
+    assert!(d.within(&tol), "{name}: {d:?} exceeds {tol:?}; this run's image: {}", out.display());
+}
+
+fn assert_differs(dir: &Path, name: &str, golden_name: &str, args: &[&str]) {
+    let out = dir.join(name);
+    render(&out, args);
+    let tol = Tolerance::default();
+    let d = compare(&load(&out), &load(&golden(golden_name)), &tol).expect("same size");
+    assert!(!d.within(&tol), "{name} should differ from {golden_name}: {d:?}");
+}
+
+#[test]
+fn golden_images_match_and_a_wrong_camera_or_missing_object_does_not() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    check_golden(d, "puma560_zero.png", &[&["puma560"][..], &PUMA_VIEW].concat());
+    check_golden(
+        d,
+        "puma560_bent.png",
+        &[&["puma560", "--joints", "puma560=30,20,-150,20,40,60"][..], &PUMA_VIEW].concat(),
+    );
+    check_golden(d, "space_station.png", &["space_station", "--size", "400x320"]);
+    if std::env::var_os("ROBOSIM_BLESS").is_some() {
+        return;
+    }
+    // The same robot from a camera 30 cm to the side.
+    assert_differs(
+        d,
+        "wrong_camera.png",
+        "puma560_zero.png",
+        &["puma560", "--from", "-1.2,1.7,1.1", "--at", "0.1,0,0.55", "--size", "320x240"],
+    );
+    // The same view without the forearm.
+    assert_differs(
+        d,
+        "no_forearm.png",
+        "puma560_zero.png",
+        &[&["puma560", "--hide", "forearm"][..], &PUMA_VIEW].concat(),
+    );
+    // The bent configuration is not the zero one.
+    assert_differs(
+        d,
+        "bent_vs_zero.png",
+        "puma560_zero.png",
+        &[&["puma560", "--joints", "puma560=30,20,-150,20,40,60"][..], &PUMA_VIEW].concat(),
+    );
+}
+
+fn frames(dir: &Path) -> Vec<Value> {
+    std::fs::read_to_string(dir.join("frames.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON line"))
+        .collect()
+}
+
+#[test]
+fn a_session_display_redraws_a_moved_link_uploading_its_transforms_only() {
+    let mut k = Procs::new("dsp");
+    k.start_keeper(&["--scene", "puma560"]);
+    let out = k.home.path().join("display-out");
+    let out_s = out.to_string_lossy().into_owned();
+    k.spawn(&[&["display", "--headless", "--every-frame", "--out", &out_s][..], &PUMA_VIEW].concat());
+    let first = wait_for("the first frame", || frames(&out).into_iter().next());
+    assert_eq!(first["upload"]["meshes"], 12, "the first frame uploads every body: {first}");
+
+    // Another process (this test) writes: link 2 (shoulder, the upper arm) turns 50° about
+    // its z axis.
+    let s = k.session();
+    let mut reader = Reader::attach(&s, "test-reader").expect("reader");
+    let snap = wait_for("a snapshot", || {
+        reader.refresh().ok()?;
+        reader.snapshot()
+    });
+    let link = snap.find("shoulder").expect("shoulder link");
+    assert_eq!(snap.object(link).kind(), Some(Kind::Link));
+    let link_id = snap.objects()[link].id;
+    // The link's own bodies: geometry objects under it, not under a further link.
+    let mut bodies = 0;
+    let mut stack = vec![link_id];
+    while let Some(id) = stack.pop() {
+        for i in 0..snap.len() {
+            let o = snap.object(i);
+            if o.rec.parent == id && o.kind() != Some(Kind::Link) {
+                bodies += usize::from(snap.geometry(i).is_some());
+                stack.push(o.rec.id);
+            }
+        }
+    }
+    assert!(bodies > 0);
+    let p = snap.poses()[link].pose;
+    let (c, sn) = (50f64.to_radians().cos(), 50f64.to_radians().sin());
+    let mut turned = p;
+    for r in 0..3 {
+        turned[r * 4] = p[r * 4] * c + p[r * 4 + 1] * sn;
+        turned[r * 4 + 1] = -p[r * 4] * sn + p[r * 4 + 1] * c;
+    }
+    let mut tx = Transaction::new();
+    tx.set_pose(link_id, turned);
+    let version = Client::connect(&s, "test-writer").expect("client").transact(&tx).expect("commit").version;
+
+    let next = wait_for("the frame of the move", || {
+        frames(&out).into_iter().find(|f| f["version"] == version)
+    });
+    let up = &next["upload"];
+    assert_eq!(up["transforms"], bodies as u64, "{next}");
+    assert_eq!((up["meshes"].as_u64(), up["materials"].as_u64()), (Some(0), Some(0)), "{next}");
+    assert_eq!(next["upload_bytes"], 64 * bodies as u64, "{next}");
+
+    // The frame shows the moved link: it matches an independent render of the same version
+    // and differs from the frame before.
+    let snap = wait_for("the moved version", || {
+        reader.refresh().ok()?;
+        reader.snapshot().filter(|s| s.version() == version)
+    });
+    let mut r = Renderer::headless().expect("adapter");
+    r.sync(&snap);
+    r.camera = Camera::looking(Point3::new(-1.2, 1.4, 1.1), Point3::new(0.1, 0.0, 0.55));
+    let expected = r.render_image(320, 240).expect("frame");
+    let shown = load(&out.join(next["png"].as_str().expect("png name")));
+    let before = load(&out.join(first["png"].as_str().expect("png name")));
+    let tol = Tolerance::default();
+    let same = compare(&shown, &expected, &tol).expect("same size");
+    assert!(same.within(&tol), "display frame vs own render: {same:?}");
+    let moved = compare(&shown, &before, &tol).expect("same size");
+    assert!(!moved.within(&tol), "the move is visible: {moved:?}");
+}
+
+#[test]
+fn welding_cell_trajectories_play_both_robots_together() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let arm = d.join("arm.traj");
+    let pos = d.join("positioner.traj");
+    std::fs::write(&arm, "# welding arm, degrees\n0 0 0 0 0 0\n20 -10 10 0 30 0\n40 -20 20 0 60 0\n60 -30 30 0 60 0\n")
+        .expect("write");
+    std::fs::write(&pos, "# tilt, turn (degrees)\n0 0\n10 45\n20 90\n").expect("write");
+    let frames_dir = d.join("frames");
+    let o = robosim(&[
+        "render",
+        "downhand_welding_cell",
+        "--play",
+        &format!("arm={}", arm.display()),
+        "--play",
+        &format!("positioner={}", pos.display()),
+        "--frames",
+        &frames_dir.to_string_lossy(),
+        "--size",
+        "200x150",
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // Four samples (the positioner holds its last one), no mesh after the first sync.
+    assert!(stdout.starts_with("4 frames"), "{stdout}");
+    assert!(stdout.contains("meshes re-uploaded: 0"), "{stdout}");
+    let tol = Tolerance::default();
+    let f = |k: usize| load(&frames_dir.join(format!("frame-{k:05}.png")));
+    assert!(!compare(&f(0), &f(3), &tol).expect("size").within(&tol));
+    // A bad trajectory line is named, and nothing is written for it.
+    std::fs::write(&pos, "0 0\n10 x\n").expect("write");
+    let o = robosim(&[
+        "render",
+        "downhand_welding_cell",
+        "--play",
+        &format!("positioner={}", pos.display()),
+        "--frames",
+        &d.join("bad").to_string_lossy(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("positioner.traj:2: column 2"), "{err}");
+    assert!(!d.join("bad").exists());
+}
+
+#[test]
+fn bad_render_input_gets_a_clear_error_and_no_file() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("x.png");
+    let out_s = out.to_string_lossy().into_owned();
+    let cases: &[(&[&str], &str)] = &[
+        (&["render", "no_such_scene"], "unknown scene \"no_such_scene\""),
+        (&["render", "puma560", "--joints", "puma560=0,0,0"], "6"),
+        (&["render", "puma560", "--joints", "puma560=0,0,0,0,0,NaN"], "not a finite number"),
+        (&["render", "puma560", "--joints", "puma560=0,90,0,0,0,0,"], "not a finite number"),
+        (&["render", "puma560", "--joints", "puma560=0,0,0,0,170,0"], "limit"),
+        (&["render", "puma560", "--joints", "ur5=0"], "no robot named \"ur5\"; robots here: puma560"),
+        (&["render", "puma560", "--from", "0,0,1", "--at", "0,0,1"], "LOOK-FROM equals LOOK-AT"),
+        (&["render", "puma560", "--from", "0,0,inf"], "three finite numbers"),
+        (&["render", "puma560", "--size", "0x10"], "1..=8192"),
+        (&["render", "puma560", "--hide", "nothing"], "no object of that name"),
+    ];
+    for (args, needle) in cases {
+        let o = robosim(&[args, &["--out", &out_s][..]].concat());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success(), "{args:?} should fail");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert!(!out.exists(), "{args:?} wrote a file");
+    }
+}
+
+#[test]
+fn the_window_moves_joints_and_picks_under_xvfb() {
+    let xvfb = Command::new("xvfb-run").arg("--help").output();
+    assert!(
+        xvfb.is_ok(),
+        "xvfb-run is needed for the window test (Debian: xvfb; .ci/run installs it)"
+    );
+    let mut k = Procs::new("dwin");
+    k.start_keeper(&["--scene", "puma560"]);
+    let o = Command::new("xvfb-run")
+        .args(["-a", ROBOSIM, "display", "--session", &k.name, "--max-frames", "5"])
+        .args(["--script", "left", "--script", "3", "--script", "right", "--script", "click:320,240"])
+        .args(["--size", "640x480"])
+        .env("ROBOSIM_HOME", k.home.path())
+        .output()
+        .expect("xvfb-run");
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
+    assert!(stdout.contains("status: puma560 joint 1 = -2.0°"), "{stdout}");
+    assert!(stdout.contains("status: puma560 joint 3 = 2.0°"), "{stdout}");
+    // The click lands on the robot: path, link, polygon.
+    let pick = stdout.lines().find(|l| l.starts_with("pick: ")).expect("a pick line");
+    assert!(pick.starts_with("pick: puma560/") && pick.contains("(link ") && pick.contains("polygon "), "{pick}");
+    // The knob moves went through the Instance Space.
+    let s = k.session();
+    let mut reader = Reader::attach(&s, "test-reader").expect("reader");
+    let snap = wait_for("snapshot", || {
+        reader.refresh().ok()?;
+        reader.snapshot()
+    });
+    let q = |name: &str| snap.poses()[snap.find(name).expect("link")].joint.to_degrees();
+    assert!((q("waist") + 2.0).abs() < 1e-9 && (q("elbow") - 2.0).abs() < 1e-9);
+}
