@@ -1,7 +1,11 @@
 //! The camera: the seed's LOOK-FROM / LOOK-AT (world coordinates, metres), an up vector, a
 //! vertical field of view, perspective or orthographic. World frame is z-up (the library's
-//! convention). Projection maps depth to wgpu's [0, 1]; near and far planes are fitted to the
-//! scene's bounding sphere every frame so depth precision follows the scene's scale.
+//! convention). Projection is reversed-Z: the near plane maps to depth 1 and the far plane to 0,
+//! which with a 32-bit float depth buffer gives nearly constant *relative* depth precision from
+//! millimetres to kilometres (the float's exponent absorbs the 1/z). Near and far planes are
+//! fitted to the scene's bounding sphere every frame; the near plane may come as close as 10⁻⁷
+//! of the far one, so a camera a few centimetres from a small part of a kilometre-sized scene
+//! still sees it (tests/render.rs, the centimetre cube on a 20 km plate).
 
 use nalgebra::{Matrix4, Point3, Vector3};
 
@@ -86,15 +90,15 @@ impl Camera {
         let r = radius.max(1e-9) * 1.01;
         let far = (depth + r).max(1e-6);
         let near = match self.projection {
-            // Keep the near/far ratio below 10^5 so the f32 depth buffer resolves the scene.
-            Projection::Perspective => (depth - r).max(far * 1e-5),
+            // Reversed-Z float depth resolves a near/far ratio of 10⁻⁷ (see the module note).
+            Projection::Perspective => (depth - r).max(far * 1e-7),
             Projection::Orthographic => depth - r,
         };
         (near, far)
     }
 
-    /// Projection for an image `aspect` = width / height, depth in [0, 1], fitted to the scene
-    /// sphere.
+    /// Projection for an image `aspect` = width / height, fitted to the scene sphere; reversed
+    /// depth: near → 1, far → 0.
     pub fn projection_matrix(&self, aspect: f64, center: &Point3<f64>, radius: f64) -> Matrix4<f64> {
         let (n, f) = self.clip_planes(center, radius);
         let half = (self.fov_y_deg.to_radians() / 2.0).tan();
@@ -104,7 +108,7 @@ impl Camera {
                 Matrix4::new(
                     fy / aspect, 0.0, 0.0, 0.0,
                     0.0, fy, 0.0, 0.0,
-                    0.0, 0.0, f / (n - f), n * f / (n - f),
+                    0.0, 0.0, n / (f - n), n * f / (f - n),
                     0.0, 0.0, -1.0, 0.0,
                 )
             }
@@ -113,7 +117,7 @@ impl Camera {
                 Matrix4::new(
                     1.0 / (h * aspect), 0.0, 0.0, 0.0,
                     0.0, 1.0 / h, 0.0, 0.0,
-                    0.0, 0.0, 1.0 / (n - f), n / (n - f),
+                    0.0, 0.0, 1.0 / (f - n), f / (f - n),
                     0.0, 0.0, 0.0, 1.0,
                 )
             }
@@ -201,7 +205,8 @@ mod tests {
             let toward = (c.from - Point3::origin()).normalize() * 2.0;
             let z_near = project(&c, Point3::origin() + toward).z;
             let z_far = project(&c, Point3::origin() - toward).z;
-            assert!((0.0..=1.0).contains(&z_near) && (0.0..=1.0).contains(&z_far) && z_near < z_far);
+            assert!((0.0..=1.0).contains(&z_near) && (0.0..=1.0).contains(&z_far));
+            assert!(z_near > z_far, "reversed depth: nearer is larger");
         }
     }
 

@@ -298,12 +298,13 @@ impl Renderer {
             depth_stencil: Some(wgpu::DepthStencilState {
                 format: DEPTH_FORMAT,
                 depth_write_enabled: Some(true),
-                depth_compare: Some(wgpu::CompareFunction::Less),
+                // Reversed-Z (camera.rs): nearer is larger.
+                depth_compare: Some(wgpu::CompareFunction::Greater),
                 stencil: Default::default(),
-                // Push polygons back a little so the edge overlay wins the depth test.
+                // Push polygons back a little (towards 0) so the edge overlay wins the test.
                 bias: wgpu::DepthBiasState {
-                    constant: 2,
-                    slope_scale: 1.0,
+                    constant: -2,
+                    slope_scale: -1.0,
                     clamp: 0.0,
                 },
             }),
@@ -337,7 +338,7 @@ impl Renderer {
             depth_stencil: Some(wgpu::DepthStencilState {
                 format: DEPTH_FORMAT,
                 depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::LessEqual),
+                depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
                 stencil: Default::default(),
                 bias: Default::default(),
             }),
@@ -785,7 +786,7 @@ impl Renderer {
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: depth,
                 depth_ops: Some(wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(1.0),
+                    load: wgpu::LoadOp::Clear(0.0),
                     store: wgpu::StoreOp::Discard,
                 }),
                 stencil_ops: None,

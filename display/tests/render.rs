@@ -6,12 +6,16 @@ use robosim_display::{Camera, Renderer, renderer::TRANSFORM_BYTES};
 use robosim_instance_space::{Appearance, GeometryInput, IDENTITY, Kind, Model, Snapshot, Transaction};
 
 fn cube(h: f64) -> GeometryInput {
+    block([h, h, h])
+}
+
+fn block(h: [f64; 3]) -> GeometryInput {
     let vertices = (0..8)
         .map(|i| {
             [
-                if i & 1 == 0 { -h } else { h },
-                if i & 2 == 0 { -h } else { h },
-                if i & 4 == 0 { -h } else { h },
+                if i & 1 == 0 { -h[0] } else { h[0] },
+                if i & 2 == 0 { -h[1] } else { h[1] },
+                if i & 4 == 0 { -h[2] } else { h[2] },
             ]
         })
         .collect();
@@ -114,4 +118,32 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     assert_eq!(hit.id, red);
     assert!((hit.distance - 11.75).abs() < 1e-6, "{hit:?}");
     assert!(r.pick(2.0, 2.0, 160, 80).is_none());
+}
+
+/// Tiny and huge in one scene: a 1 cm cube on a 20 km plate. The clip planes are fitted to
+/// the whole scene (7 km radius), so the near plane must still let a camera 8 cm from the
+/// cube see it, with the plate behind it resolved by the depth buffer.
+#[test]
+fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
+    let mut model = Model::new();
+    let mut tx = Transaction::new();
+    let plate = tx.create(Kind::Solid, "plate", None);
+    tx.set_geometry(plate, Some(block([10_000.0, 10_000.0, 0.5])));
+    tx.set_pose(plate, at(0.0, 0.0, -0.5));
+    tx.set_appearance(plate, Appearance { color: [0.2, 0.8, 0.2, 1.0], ..Appearance::default() });
+    let cube_id = tx.create(Kind::Solid, "cube", None);
+    tx.set_geometry(cube_id, Some(cube(0.005)));
+    tx.set_pose(cube_id, at(0.0, 0.0, 0.005));
+    tx.set_appearance(cube_id, Appearance { color: [0.9, 0.1, 0.1, 1.0], ..Appearance::default() });
+    model.apply(&tx).expect("valid");
+    let mut r = Renderer::headless().expect("adapter");
+    r.sync(&Snapshot::from_model(&model));
+    let (_, radius) = r.bounds();
+    assert!(radius > 7_000.0, "{radius}");
+    r.camera = Camera::looking(Point3::new(0.05, -0.05, 0.04), Point3::new(0.0, 0.0, 0.005));
+    let img = r.render_image(120, 90).expect("frame");
+    assert_eq!(dominant(img.pixel(60, 45)), 'r', "the cube at the centre: {:?}", img.pixel(60, 45));
+    // The plate fills the lower part of the view (green), not the background.
+    let p = img.pixel(60, 85);
+    assert!(p[1] > p[0] + 40 && p[1] > p[2] + 40, "plate below the cube: {p:?}");
 }
