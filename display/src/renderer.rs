@@ -221,7 +221,12 @@ impl Renderer {
     /// A renderer drawing into textures of `format` (the window's surface format, or
     /// [`Renderer::headless`]'s RGBA8 sRGB), with 4× multisampling where the adapter allows it.
     pub fn new(gpu: Gpu, format: wgpu::TextureFormat) -> Renderer {
-        let samples = {
+        // ROBOSIM_DISPLAY_SAMPLES=1 turns multisampling off (a different rasterization of the
+        // same scene: the golden-image tolerance is checked against it).
+        let forced = std::env::var("ROBOSIM_DISPLAY_SAMPLES").ok();
+        let samples = if forced.as_deref() == Some("1") {
+            1
+        } else {
             let c = gpu.adapter.get_texture_format_features(format);
             let d = gpu.adapter.get_texture_format_features(DEPTH_FORMAT);
             if c.flags.sample_count_supported(4) && d.flags.sample_count_supported(4) {
