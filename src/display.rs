@@ -451,7 +451,15 @@ impl Host for SessionHost {
             return Ok(false);
         }
         highlight(r, &snap, self.collisions);
-        r.sync(&snap);
+        // The change records since the last drawn version drive the update; without them
+        // (a reader that joined late, a keeper restart) the full comparison runs.
+        match self.reader.changes_since(r.version()) {
+            Ok(mut changes) => {
+                changes.retain(|c| c.version <= snap.version());
+                r.sync_changes(&snap, &changes)
+            }
+            Err(_) => r.sync(&snap),
+        };
         self.snap = Some(snap);
         Ok(true)
     }

@@ -10,7 +10,7 @@ use crate::image::RgbaImage;
 use crate::mesh::{CpuMesh, Vertex};
 use crate::{DisplayError, Result};
 use nalgebra::{Matrix4, Point3, Vector3};
-use robosim_instance_space::{Id, Snapshot, layout::flags};
+use robosim_instance_space::{Change, Id, Snapshot, aspect, layout::flags};
 use std::collections::HashMap;
 use wgpu::util::DeviceExt;
 
@@ -191,6 +191,10 @@ pub struct Renderer {
     free: Vec<u32>,
     next_slot: u32,
     highlight: std::collections::HashSet<Id>,
+    /// Every object's children as of the last full sync (for change-driven syncs).
+    children: HashMap<Id, Vec<Id>>,
+    /// (version, epoch) the last sync reached.
+    synced: Option<(u64, u64)>,
     last: UploadStats,
     total: UploadStats,
     version: u64,
@@ -382,6 +386,8 @@ impl Renderer {
             free: Vec::new(),
             next_slot: 0,
             highlight: Default::default(),
+            children: HashMap::new(),
+            synced: None,
             last: UploadStats::default(),
             total: UploadStats::default(),
             version: 0,
@@ -474,7 +480,12 @@ impl Renderer {
 
     /// Objects drawn in the collision colour from the next sync on.
     pub fn set_highlight(&mut self, ids: impl IntoIterator<Item = Id>) {
-        self.highlight = ids.into_iter().collect();
+        let new: std::collections::HashSet<Id> = ids.into_iter().collect();
+        if new != self.highlight {
+            self.highlight = new;
+            // Materials carry the highlight: the next sync compares them all.
+            self.synced = None;
+        }
     }
 
     fn alloc_slot(&mut self) -> u32 {
@@ -563,6 +574,10 @@ impl Renderer {
     pub fn sync(&mut self, snap: &Snapshot) -> UploadStats {
         let mut stats = UploadStats::default();
         let mut seen = std::collections::HashSet::with_capacity(self.bodies.len());
+        self.children.clear();
+        for rec in snap.objects() {
+            self.children.entry(rec.parent).or_default().push(rec.id);
+        }
         for i in 0..snap.len() {
             let rec = &snap.objects()[i];
             if rec.flags & flags::HAS_GEOMETRY == 0 {
@@ -635,10 +650,60 @@ impl Renderer {
                 }
             }
         }
+        self.finish(snap, stats)
+    }
+
+    fn finish(&mut self, snap: &Snapshot, stats: UploadStats) -> UploadStats {
         self.version = snap.version();
+        self.synced = Some((snap.version(), snap.epoch()));
         self.last = stats;
         self.total.add(&stats);
         stats
+    }
+
+    /// [`Renderer::sync`] driven by the change records since the last sync (the seed's Display
+    /// Control: "recalculates those of its internal descriptor structures which have been
+    /// affected by the changes"). When every record is pose-only and they run without a gap
+    /// from the last synced version to `snap`'s, only the changed objects and what hangs
+    /// below them are looked at — O(changed), not O(model). Anything else (structure,
+    /// geometry, appearance, a gap, a keeper restart) falls back to the full comparison.
+    pub fn sync_changes(&mut self, snap: &Snapshot, changes: &[Change]) -> UploadStats {
+        let contiguous = self.synced.is_some_and(|(v, e)| {
+            e == snap.epoch()
+                && changes.first().is_some_and(|c| c.version == v + 1)
+                && changes.windows(2).all(|w| w[1].version == w[0].version + 1)
+                && changes.last().is_some_and(|c| c.version == snap.version())
+        });
+        let pose_only = changes.iter().all(|c| c.aspects & !aspect::POSE == 0);
+        if !(contiguous && pose_only) {
+            return self.sync(snap);
+        }
+        let mut stats = UploadStats::default();
+        let mut stack: Vec<Id> = changes.iter().flat_map(|c| c.ids.iter().copied()).collect();
+        let mut visited = std::collections::HashSet::new();
+        while let Some(id) = stack.pop() {
+            if !visited.insert(id) {
+                continue;
+            }
+            if let Some(kids) = self.children.get(&id) {
+                stack.extend(kids.iter().copied());
+            }
+            let Some(slot) = self.bodies.get(&id).map(|b| b.slot) else {
+                continue;
+            };
+            let Some(i) = snap.index_of(id) else {
+                // Not in this snapshot after all: a structure change slipped through.
+                return self.sync(snap);
+            };
+            let world = snap.world_pose(i);
+            if self.bodies.get(&id).is_some_and(|b| b.world != world) {
+                self.write_transform(slot, &world, &mut stats);
+                if let Some(b) = self.bodies.get_mut(&id) {
+                    b.world = world;
+                }
+            }
+        }
+        self.finish(snap, stats)
     }
 
     /// The world bounding sphere of everything drawn (centre, radius); the unit sphere when
