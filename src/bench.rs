@@ -28,6 +28,16 @@ pub enum Which {
         #[arg(long)]
         quick: bool,
     },
+    /// Display costs: frame time (Space Station, 1280×1024) and bytes uploaded per pose update
+    /// against scene size.
+    Display {
+        /// Where to write display_frames.* and display_uploads.*.
+        #[arg(long, default_value = "docs/bench")]
+        out: PathBuf,
+        /// Fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+    },
     /// (internal) the reader process of the latency measurement.
     #[command(hide = true)]
     IpcReader {
@@ -43,6 +53,7 @@ pub enum Which {
 pub fn run(which: Which) -> Result<()> {
     match which {
         Which::Ipc { out, quick } => ipc(&out, quick),
+        Which::Display { out, quick } => crate::bench_display::run(&out, quick),
         Which::IpcReader {
             session,
             count,

@@ -4,6 +4,7 @@
 //! `bench`.
 
 mod bench;
+mod bench_display;
 mod bridge;
 mod demo;
 mod display;

@@ -905,6 +905,35 @@ impl Renderer {
         self.gpu.queue.submit([encoder.finish()]);
     }
 
+    /// Draws a frame off screen and waits for the device to finish it, reading nothing back
+    /// (what a window's frame costs before presentation; used by `robosim bench display`).
+    pub fn draw_and_wait(&mut self, width: u32, height: u32) -> Result<()> {
+        self.camera.validate().map_err(DisplayError::Camera)?;
+        if self
+            .offscreen
+            .as_ref()
+            .is_none_or(|t| t.size != (width, height))
+        {
+            self.offscreen = Some(self.make_targets(width, height, true));
+        }
+        self.write_frame(width, height);
+        let Some(t) = &self.offscreen else {
+            return Err(DisplayError::Device("no render target".into()));
+        };
+        let view = t.color.create_view(&Default::default());
+        let mut encoder = self
+            .gpu
+            .device
+            .create_command_encoder(&Default::default());
+        self.encode(&mut encoder, &view, t.msaa.as_ref(), &t.depth);
+        self.gpu.queue.submit([encoder.finish()]);
+        self.gpu
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| DisplayError::Device(format!("waiting for the frame: {e}")))?;
+        Ok(())
+    }
+
     /// Draws a frame off screen and reads it back.
     pub fn render_image(&mut self, width: u32, height: u32) -> Result<RgbaImage> {
         if width == 0 || height == 0 || width > 8192 || height > 8192 {

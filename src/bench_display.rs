@@ -1,0 +1,208 @@
+//! `robosim bench display`: what the display costs, measured in one run on this machine's
+//! adapter (Mesa llvmpipe — a CPU rasterizer — where there is no GPU) and written to
+//! `docs/bench/display_frames.{md,csv}` and `docs/bench/display_uploads.{md,csv,png}`.
+//!
+//! (a) Frame time at 1280×1024 for the Space Station, the PUMA 560 and an empty scene (the
+//!     baseline: clearing and resolving the targets), drawn and waited for, with and without
+//!     reading the image back; median and p90 of repeated frames.
+//! (b) Bytes uploaded per pose update against scene size: scenes of 10 to 10,000 bodies, one
+//!     body moved per update; with the time `sync_changes` (the change-driven path the session
+//!     display uses) and the full `sync` comparison take, as ratios to the 10-body scene.
+
+use crate::{Result, display};
+use robosim_display::Renderer;
+use robosim_instance_space::{Change, IDENTITY, Kind, Model, Snapshot, Transaction, aspect};
+use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
+use std::path::Path;
+use std::time::Instant;
+
+fn median_p90(mut v: Vec<f64>) -> (f64, f64) {
+    (percentile(&mut v, 50.0), percentile(&mut v, 90.0))
+}
+
+fn frames(r: &mut Renderer, n: usize, readback: bool) -> Result<(f64, f64)> {
+    let (w, h) = (1280, 1024);
+    for _ in 0..2 {
+        r.draw_and_wait(w, h)?;
+    }
+    let mut t = Vec::with_capacity(n);
+    for _ in 0..n {
+        let t0 = Instant::now();
+        if readback {
+            r.render_image(w, h)?;
+        } else {
+            r.draw_and_wait(w, h)?;
+        }
+        t.push(t0.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok(median_p90(t))
+}
+
+fn cubes(n: usize) -> Model {
+    let mut model = Model::new();
+    let mut tx = Transaction::new();
+    let side = (n as f64).sqrt().ceil() as usize;
+    for k in 0..n {
+        let c = tx.create(Kind::Solid, &format!("cube{k}"), None);
+        let mut p = IDENTITY;
+        p[3] = (k % side) as f64 * 0.3;
+        p[7] = (k / side) as f64 * 0.3;
+        tx.set_pose(c, p);
+        tx.set_geometry(c, Some(crate::scene::box_geometry([0.2, 0.2, 0.2])));
+    }
+    // One transaction for the whole scene; apply cannot fail on this well-formed input.
+    let _ = model.apply(&tx);
+    model
+}
+
+pub fn run(out: &Path, quick: bool) -> Result<()> {
+    let reps = if quick { 5 } else { 30 };
+    let mut r = Renderer::headless()?;
+    let adapter = r.gpu().describe();
+    let samples = r.samples();
+    // (a) frame time.
+    let mut table = Table {
+        columns: ["scene", "bodies", "triangles", "draw median (ms)", "draw p90 (ms)", "draw / empty", "draw+readback median (ms)", "draw+readback / empty"]
+            .map(String::from)
+            .to_vec(),
+        rows: Vec::new(),
+    };
+    let mut baseline = (f64::NAN, f64::NAN);
+    for scene in ["(empty)", "puma560", "space_station"] {
+        let model = if scene == "(empty)" {
+            Model::new()
+        } else {
+            display::local_model(&[], scene)?
+        };
+        let mut rr = Renderer::headless()?;
+        rr.sync(&Snapshot::from_model(&model));
+        rr.frame_all();
+        let draw = frames(&mut rr, reps, false)?;
+        let read = frames(&mut rr, reps, true)?;
+        if scene == "(empty)" {
+            baseline = (draw.0, read.0);
+        }
+        table.rows.push(vec![
+            scene.to_owned(),
+            rr.body_count().to_string(),
+            rr.triangle_count().to_string(),
+            format!("{:.1}", draw.0),
+            format!("{:.1}", draw.1),
+            format!("{:.2}", draw.0 / baseline.0),
+            format!("{:.1}", read.0),
+            format!("{:.2}", read.0 / baseline.1),
+        ]);
+        eprintln!("bench display: {scene}: draw {:.1} ms, with readback {:.1} ms", draw.0, read.0);
+    }
+    let frames_report = Report {
+        name: "display_frames".into(),
+        title: "Display: frame time at 1280×1024".into(),
+        notes: vec![
+            format!("Adapter: {adapter}; {samples}× multisampling; {reps} frames after 2 warm-up frames, one run. The machine is shared: compare within the table (the ratio columns), not across runs."),
+            "`draw` = encode, submit and wait for the device (a window's frame before presentation); `draw+readback` adds the copy to a buffer and the map (a headless PNG frame, without PNG encoding). The empty scene is the baseline: clearing, resolving and (for readback) copying 1280×1024 pixels.".into(),
+            "Regenerate: `cargo run --release -- bench display`.".into(),
+        ],
+        table,
+        plots: Vec::new(),
+    };
+    // (b) upload per pose update against scene size.
+    let updates = if quick { 50 } else { 300 };
+    let mut table = Table {
+        columns: ["bodies", "updates", "bytes per update (mean)", "bytes per update (max)", "sync_changes median (µs)", "sync_changes / 10 bodies", "full sync median (µs)", "full sync / 10 bodies"]
+            .map(String::from)
+            .to_vec(),
+        rows: Vec::new(),
+    };
+    let mut bytes_series = Series { label: "bytes uploaded per update".into(), points: Vec::new() };
+    let mut changes_series = Series { label: "sync_changes (µs)".into(), points: Vec::new() };
+    let mut full_series = Series { label: "full sync (µs)".into(), points: Vec::new() };
+    let mut base = (f64::NAN, f64::NAN);
+    for n in [10usize, 100, 1_000, 10_000] {
+        let mut model = cubes(n);
+        let snap = Snapshot::from_model(&model);
+        let ids: Vec<u64> = snap.objects().iter().map(|o| o.id).collect();
+        r.sync(&snap);
+        let (mut bytes, mut t_changes, mut t_full) = (Vec::new(), Vec::new(), Vec::new());
+        let mut rng = 0x9e37_79b9_7f4a_7c15_u64;
+        for u in 0..updates {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            let id = ids[(rng % n as u64) as usize];
+            let mut tx = Transaction::new();
+            let mut p = IDENTITY;
+            p[11] = 0.01 * (u + 1) as f64;
+            p[3] = (rng % 97) as f64 * 0.01;
+            tx.set_pose(id, p);
+            let applied = model.apply(&tx).map_err(|e| crate::CliError(e.to_string()))?;
+            let snap = Snapshot::from_model(&model);
+            let change = Change { version: applied.version, aspects: aspect::POSE, ids: vec![id], published_ns: 0 };
+            if u % 2 == 0 {
+                let t0 = Instant::now();
+                let up = r.sync_changes(&snap, std::slice::from_ref(&change));
+                t_changes.push(t0.elapsed().as_secs_f64() * 1e6);
+                bytes.push(up.total_bytes() as f64);
+            } else {
+                let t0 = Instant::now();
+                let up = r.sync(&snap);
+                t_full.push(t0.elapsed().as_secs_f64() * 1e6);
+                bytes.push(up.total_bytes() as f64);
+            }
+        }
+        let mean = bytes.iter().sum::<f64>() / bytes.len() as f64;
+        let max = bytes.iter().copied().fold(0.0, f64::max);
+        let (c, _) = median_p90(t_changes);
+        let (f, _) = median_p90(t_full);
+        if n == 10 {
+            base = (c, f);
+        }
+        table.rows.push(vec![
+            n.to_string(),
+            updates.to_string(),
+            format!("{mean:.1}"),
+            format!("{max:.0}"),
+            format!("{c:.1}"),
+            format!("{:.2}", c / base.0),
+            format!("{f:.1}"),
+            format!("{:.2}", f / base.1),
+        ]);
+        bytes_series.points.push((n as f64, mean));
+        changes_series.points.push((n as f64, c));
+        full_series.points.push((n as f64, f));
+        eprintln!("bench display: {n} bodies: {mean:.1} B/update, sync_changes {c:.1} µs, full sync {f:.1} µs");
+    }
+    let uploads_report = Report {
+        name: "display_uploads".into(),
+        title: "Display: bytes uploaded per pose update against scene size".into(),
+        notes: vec![
+            format!("Scenes of N boxes (12 triangles each); each update moves one random box (one pose transaction on a local model), then the renderer is brought up to date, alternately by `sync_changes` (the change-driven path the session display takes: pose-only records touch only the changed subtrees) and by the full `sync` comparison (every body's world pose compared). Adapter: {adapter}. One run; the machine is shared."),
+            "Goal: bytes per update constant in N — one 64-byte transform. The full comparison uploads the same bytes but its CPU time grows with N; the change-driven path's should not.".into(),
+            "Regenerate: `cargo run --release -- bench display`.".into(),
+        ],
+        table,
+        plots: vec![
+            Plot {
+                title: "Bytes uploaded per pose update".into(),
+                x_label: "bodies in the scene".into(),
+                y_label: "bytes".into(),
+                log_x: true,
+                log_y: false,
+                series: vec![bytes_series],
+            },
+            Plot {
+                title: "CPU time to bring the GPU copy up to date".into(),
+                x_label: "bodies in the scene".into(),
+                y_label: "µs (median)".into(),
+                log_x: true,
+                log_y: true,
+                series: vec![changes_series, full_series],
+            },
+        ],
+    };
+    for rep in [&frames_report, &uploads_report] {
+        for p in write_report(out, rep).map_err(|e| crate::CliError(e.to_string()))? {
+            println!("wrote {}", p.display());
+        }
+    }
+    Ok(())
+}
