@@ -320,3 +320,29 @@ fn the_window_moves_joints_and_picks_under_xvfb() {
     let q = |name: &str| snap.poses()[snap.find(name).expect("link")].joint.to_degrees();
     assert!((q("waist") + 2.0).abs() < 1e-9 && (q("elbow") - 2.0).abs() < 1e-9);
 }
+
+/// `--collisions` draws what is in contact in the collision colour: the positioner turned into
+/// the patient's head turns the head red; the same view without the flag, or with the arm
+/// turned away, does not.
+#[test]
+fn colliding_objects_are_highlighted() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let view = ["--from", "0.95,-0.75,0.55", "--at", "0.12,0,0.1", "--size", "200x150"];
+    let red_fraction = |args: &[&str], name: &str| {
+        let out = dir.path().join(name);
+        render(&out, &[&["surgical_positioner_cell"][..], &view, args].concat());
+        let img = load(&out);
+        let red = img
+            .pixels
+            .chunks_exact(4)
+            .filter(|p| p[0] as i32 > p[1] as i32 + 100 && p[0] as i32 > p[2] as i32 + 100)
+            .count();
+        red as f64 / (img.width * img.height) as f64
+    };
+    let into_head = ["--joints", "positioner=170,10,-90,0,0,0"];
+    let away = ["--joints", "positioner=0,10,-90,0,0,0"];
+    let hit = red_fraction(&[&into_head[..], &["--collisions"]].concat(), "hit.png");
+    assert!(hit > 0.1, "head and link drawn red: {hit}");
+    assert!(red_fraction(&into_head, "hit_plain.png") < 0.001);
+    assert!(red_fraction(&[&away[..], &["--collisions"]].concat(), "away.png") < 0.001);
+}
