@@ -550,7 +550,12 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     // Wait for the first model.
     let deadline = Instant::now() + Duration::from_secs(30);
     while host.reader.snapshot().is_none() {
-        host.reader.wait_change(Duration::from_millis(100))?;
+        if let Err(e) = host.reader.wait_change(Duration::from_millis(100)) {
+            if signals.wait(Duration::ZERO).is_err() {
+                return Ok(());
+            }
+            return Err(e.into());
+        }
         host.reader.refresh()?;
         if Instant::now() > deadline {
             bail!("session {}: no model published within 30 s", session.name());
@@ -618,7 +623,13 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             sample += 1;
         }
         if !host.update(&mut r).map_err(crate::CliError)? {
-            host.reader.wait_change(Duration::from_millis(20))?;
+            if let Err(e) = host.reader.wait_change(Duration::from_millis(20)) {
+                // SIGTERM/SIGINT interrupt the wait: stop cleanly (`robosim down`).
+                if signals.wait(Duration::ZERO).is_err() {
+                    break;
+                }
+                return Err(e.into());
+            }
             continue;
         }
         if first {

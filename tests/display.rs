@@ -346,3 +346,32 @@ fn colliding_objects_are_highlighted() {
     assert!(red_fraction(&into_head, "hit_plain.png") < 0.001);
     assert!(red_fraction(&[&away[..], &["--collisions"]].concat(), "away.png") < 0.001);
 }
+
+/// `up --with display` starts the display as its own process (headless without a display
+/// server), `ps` lists it with what it attached to, and `down` stops it cleanly.
+#[test]
+fn up_with_display_runs_it_headless_and_down_stops_it() {
+    let k = Procs::new("dup");
+    let run = |args: &[&str]| {
+        Command::new(ROBOSIM)
+            .args(args)
+            .args(["--session", &k.name])
+            .env("ROBOSIM_HOME", k.home.path())
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .expect("robosim")
+    };
+    let up = run(&["up", "puma560", "--with", "display"]);
+    assert!(up.status.success(), "{}", String::from_utf8_lossy(&up.stderr));
+    let ps = String::from_utf8_lossy(&run(&["ps"]).stdout).into_owned();
+    let dir = k.home.path().join(&k.name).join("display");
+    let first = wait_for("the display's first frame", || frames(&dir).into_iter().next());
+    let down = run(&["down"]);
+    assert!(ps.lines().any(|l| l.starts_with("display") && l.contains("space/geometry/*")), "{ps}");
+    assert_eq!(first["bodies"], 12, "{first}");
+    assert!(dir.join("latest.png").exists());
+    assert!(down.status.success());
+    let log = std::fs::read_to_string(k.home.path().join(&k.name).join("run/display.log")).unwrap_or_default();
+    assert!(!log.contains("robosim:"), "the display stopped with an error: {log}");
+}
