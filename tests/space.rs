@@ -661,7 +661,7 @@ fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_vers
                 + &String::from_utf8_lossy(&out.stderr),
         )
     };
-    let (ok, text) = run(&["up", "demo", "--with", "display", "--session", &t.name]);
+    let (ok, text) = run(&["up", "demo", "--with", "editor", "--session", &t.name]);
     assert!(!ok && text.contains("not part of this build"), "{text}");
     let (ok, text) = run(&["up", "demo", "--with", "simulator", "--session", &t.name]);
     assert!(ok, "{text}");

@@ -905,37 +905,8 @@ impl Renderer {
         self.gpu.queue.submit([encoder.finish()]);
     }
 
-    /// Draws a frame off screen and waits for the device to finish it, reading nothing back
-    /// (what a window's frame costs before presentation; used by `robosim bench display`).
-    pub fn draw_and_wait(&mut self, width: u32, height: u32) -> Result<()> {
-        self.camera.validate().map_err(DisplayError::Camera)?;
-        if self
-            .offscreen
-            .as_ref()
-            .is_none_or(|t| t.size != (width, height))
-        {
-            self.offscreen = Some(self.make_targets(width, height, true));
-        }
-        self.write_frame(width, height);
-        let Some(t) = &self.offscreen else {
-            return Err(DisplayError::Device("no render target".into()));
-        };
-        let view = t.color.create_view(&Default::default());
-        let mut encoder = self
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
-        self.encode(&mut encoder, &view, t.msaa.as_ref(), &t.depth);
-        self.gpu.queue.submit([encoder.finish()]);
-        self.gpu
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DisplayError::Device(format!("waiting for the frame: {e}")))?;
-        Ok(())
-    }
-
-    /// Draws a frame off screen and reads it back.
-    pub fn render_image(&mut self, width: u32, height: u32) -> Result<RgbaImage> {
+    /// Encodes a frame into the off-screen targets (made or remade for this size).
+    fn encode_offscreen(&mut self, width: u32, height: u32) -> Result<wgpu::CommandEncoder> {
         if width == 0 || height == 0 || width > 8192 || height > 8192 {
             return Err(DisplayError::Size(format!(
                 "image size {width}×{height} outside 1..=8192"
@@ -965,6 +936,31 @@ impl Renderer {
             .device
             .create_command_encoder(&Default::default());
         self.encode(&mut encoder, &view, t.msaa.as_ref(), &t.depth);
+        Ok(encoder)
+    }
+
+    fn wait(&self) -> Result<()> {
+        self.gpu
+            .device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| DisplayError::Device(format!("waiting for the frame: {e}")))?;
+        Ok(())
+    }
+
+    /// Draws a frame off screen and waits for the device to finish it, reading nothing back
+    /// (what a window's frame costs before presentation; used by `robosim bench display`).
+    pub fn draw_and_wait(&mut self, width: u32, height: u32) -> Result<()> {
+        let encoder = self.encode_offscreen(width, height)?;
+        self.gpu.queue.submit([encoder.finish()]);
+        self.wait()
+    }
+
+    /// Draws a frame off screen and reads it back.
+    pub fn render_image(&mut self, width: u32, height: u32) -> Result<RgbaImage> {
+        let mut encoder = self.encode_offscreen(width, height)?;
+        let Some(t) = &self.offscreen else {
+            return Err(DisplayError::Device("no render target".into()));
+        };
         let row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
             * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
         let readback = self.gpu.device.create_buffer(&wgpu::BufferDescriptor {
@@ -999,10 +995,7 @@ impl Renderer {
         readback.map_async(wgpu::MapMode::Read, .., move |r| {
             let _ = tx.send(r);
         });
-        self.gpu
-            .device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DisplayError::Device(format!("waiting for the frame: {e}")))?;
+        self.wait()?;
         rx.recv()
             .map_err(|e| DisplayError::Device(format!("readback: {e}")))?
             .map_err(|e| DisplayError::Device(format!("readback: {e}")))?;

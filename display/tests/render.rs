@@ -9,27 +9,10 @@ fn cube(h: f64) -> GeometryInput {
     block([h, h, h])
 }
 
+/// A box of half-sizes `h`, from the library's generator.
 fn block(h: [f64; 3]) -> GeometryInput {
-    let vertices = (0..8)
-        .map(|i| {
-            [
-                if i & 1 == 0 { -h[0] } else { h[0] },
-                if i & 2 == 0 { -h[1] } else { h[1] },
-                if i & 4 == 0 { -h[2] } else { h[2] },
-            ]
-        })
-        .collect();
-    GeometryInput {
-        vertices,
-        polygons: vec![
-            vec![0, 2, 3, 1],
-            vec![4, 5, 7, 6],
-            vec![0, 1, 5, 4],
-            vec![2, 6, 7, 3],
-            vec![0, 4, 6, 2],
-            vec![1, 3, 7, 5],
-        ],
-    }
+    let p = robosim_geometry::shapes::cuboid(2.0 * h[0], 2.0 * h[1], 2.0 * h[2]).expect("positive sizes");
+    GeometryInput::from_polyhedron(&p)
 }
 
 fn at(x: f64, y: f64, z: f64) -> [f64; 12] {
