@@ -62,9 +62,18 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let samples = r.samples();
     // (a) frame time.
     let mut table = Table {
-        columns: ["scene", "bodies", "triangles", "draw median (ms)", "draw p90 (ms)", "draw / empty", "draw+readback median (ms)", "draw+readback / empty"]
-            .map(String::from)
-            .to_vec(),
+        columns: [
+            "scene",
+            "bodies",
+            "triangles",
+            "draw median (ms)",
+            "draw p90 (ms)",
+            "draw / empty",
+            "draw+readback median (ms)",
+            "draw+readback / empty",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows: Vec::new(),
     };
     let mut baseline = (f64::NAN, f64::NAN);
@@ -92,7 +101,10 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             format!("{:.1}", read.0),
             format!("{:.2}", read.0 / baseline.1),
         ]);
-        eprintln!("bench display: {scene}: draw {:.1} ms, with readback {:.1} ms", draw.0, read.0);
+        eprintln!(
+            "bench display: {scene}: draw {:.1} ms, with readback {:.1} ms",
+            draw.0, read.0
+        );
     }
     let frames_report = Report {
         name: "display_frames".into(),
@@ -108,14 +120,32 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     // (b) upload per pose update against scene size.
     let updates = if quick { 50 } else { 300 };
     let mut table = Table {
-        columns: ["bodies", "updates", "bytes per update (mean)", "bytes per update (max)", "sync_changes median (µs)", "sync_changes / 10 bodies", "full sync median (µs)", "full sync / 10 bodies"]
-            .map(String::from)
-            .to_vec(),
+        columns: [
+            "bodies",
+            "updates",
+            "bytes per update (mean)",
+            "bytes per update (max)",
+            "sync_changes median (µs)",
+            "sync_changes / 10 bodies",
+            "full sync median (µs)",
+            "full sync / 10 bodies",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows: Vec::new(),
     };
-    let mut bytes_series = Series { label: "bytes uploaded per update".into(), points: Vec::new() };
-    let mut changes_series = Series { label: "sync_changes (µs)".into(), points: Vec::new() };
-    let mut full_series = Series { label: "full sync (µs)".into(), points: Vec::new() };
+    let mut bytes_series = Series {
+        label: "bytes uploaded per update".into(),
+        points: Vec::new(),
+    };
+    let mut changes_series = Series {
+        label: "sync_changes (µs)".into(),
+        points: Vec::new(),
+    };
+    let mut full_series = Series {
+        label: "full sync (µs)".into(),
+        points: Vec::new(),
+    };
     let mut base = (f64::NAN, f64::NAN);
     for n in [10usize, 100, 1_000, 10_000] {
         let mut model = cubes(n);
@@ -134,9 +164,16 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             p[11] = 0.01 * (u + 1) as f64;
             p[3] = (rng % 97) as f64 * 0.01;
             tx.set_pose(id, p);
-            let applied = model.apply(&tx).map_err(|e| crate::CliError(e.to_string()))?;
+            let applied = model
+                .apply(&tx)
+                .map_err(|e| crate::CliError(e.to_string()))?;
             let snap = Snapshot::from_model(&model);
-            let change = Change { version: applied.version, aspects: aspect::POSE, ids: vec![id], published_ns: 0 };
+            let change = Change {
+                version: applied.version,
+                aspects: aspect::POSE,
+                ids: vec![id],
+                published_ns: 0,
+            };
             if u % 2 == 0 {
                 let t0 = Instant::now();
                 let up = r.sync_changes(&snap, std::slice::from_ref(&change));
@@ -169,7 +206,9 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
         bytes_series.points.push((n as f64, mean));
         changes_series.points.push((n as f64, c));
         full_series.points.push((n as f64, f));
-        eprintln!("bench display: {n} bodies: {mean:.1} B/update, sync_changes {c:.1} µs, full sync {f:.1} µs");
+        eprintln!(
+            "bench display: {n} bodies: {mean:.1} B/update, sync_changes {c:.1} µs, full sync {f:.1} µs"
+        );
     }
     let uploads_report = Report {
         name: "display_uploads".into(),

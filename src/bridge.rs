@@ -88,7 +88,11 @@ pub fn link_poses(robot: &Robot, q: &[f64]) -> Vec<[f64; 12]> {
 
 /// The transaction that puts `robot`'s links (ids `links`, chain order) at `q`: each link's
 /// joint value and its pose relative to the robot.
-pub fn joint_tx(robot: &Robot, links: &[robosim_instance_space::Id], q: &[f64]) -> robosim_instance_space::Transaction {
+pub fn joint_tx(
+    robot: &Robot,
+    links: &[robosim_instance_space::Id],
+    q: &[f64],
+) -> robosim_instance_space::Transaction {
     let mut tx = robosim_instance_space::Transaction::new();
     for ((id, qj), pose) in links.iter().zip(q).zip(link_poses(robot, q)) {
         tx.set_joint(*id, *qj).set_pose(*id, pose);

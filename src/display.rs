@@ -51,7 +51,11 @@ pub struct ViewArgs {
 fn parse_vec3(s: &str) -> std::result::Result<[f64; 3], String> {
     let v: Vec<f64> = s
         .split(',')
-        .map(|f| f.trim().parse::<f64>().map_err(|_| format!("{f:?} is not a number")))
+        .map(|f| {
+            f.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("{f:?} is not a number"))
+        })
         .collect::<std::result::Result<_, _>>()?;
     match v.as_slice() {
         [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok([*x, *y, *z]),
@@ -155,7 +159,11 @@ fn robot<'a>(robots: &'a [bridge::SpaceRobot], name: &str) -> Result<&'a bridge:
         let names: Vec<&str> = robots.iter().map(|r| r.robot.name.as_str()).collect();
         crate::CliError(format!(
             "no robot named {name:?}; robots here: {}",
-            if names.is_empty() { "none".to_owned() } else { names.join(", ") }
+            if names.is_empty() {
+                "none".to_owned()
+            } else {
+                names.join(", ")
+            }
         ))
     })
 }
@@ -173,7 +181,9 @@ fn parse_joints(spec: &str, robots: &[bridge::SpaceRobot]) -> Result<(String, Ve
                 .parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| crate::CliError(format!("--joints {spec:?}: {v:?} is not a finite number")))
+                .ok_or_else(|| {
+                    crate::CliError(format!("--joints {spec:?}: {v:?} is not a finite number"))
+                })
         })
         .collect::<Result<_>>()?;
     let q = si(&r.robot, &vals);
@@ -217,7 +227,13 @@ fn si(robot: &robosim_kinematics::Robot, vals: &[f64]) -> Vec<f64> {
     let p = prismatic(robot);
     vals.iter()
         .enumerate()
-        .map(|(j, v)| if p.get(j).copied().unwrap_or(false) { *v } else { v.to_radians() })
+        .map(|(j, v)| {
+            if p.get(j).copied().unwrap_or(false) {
+                *v
+            } else {
+                v.to_radians()
+            }
+        })
         .collect()
 }
 
@@ -268,7 +284,11 @@ impl Player {
     }
 
     fn len(&self) -> usize {
-        self.tracks.iter().map(|t| t.1.samples.len()).max().unwrap_or(0)
+        self.tracks
+            .iter()
+            .map(|t| t.1.samples.len())
+            .max()
+            .unwrap_or(0)
     }
 
     /// (robot, q) of every track at sample `k` (a finished track holds its last sample).
@@ -473,7 +493,12 @@ impl Host for SessionHost {
         })
     }
 
-    fn jog(&mut self, robot_index: usize, joint: usize, delta: f64) -> std::result::Result<String, String> {
+    fn jog(
+        &mut self,
+        robot_index: usize,
+        joint: usize,
+        delta: f64,
+    ) -> std::result::Result<String, String> {
         let snap = self.snap.clone().ok_or("no model yet")?;
         let robots = bridge::robots(&snap);
         let r = robots.get(robot_index).ok_or("no robot to move")?;
@@ -538,7 +563,12 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     let reader = Reader::attach(&session, "display")?;
     let _reg = session.register(
         "display",
-        &["space/objects", "space/poses", "space/changes", "space/geometry/*"],
+        &[
+            "space/objects",
+            "space/poses",
+            "space/changes",
+            "space/geometry/*",
+        ],
     )?;
     let mut host = SessionHost {
         reader,
@@ -576,7 +606,9 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         drop(probe);
         host.snap = None;
         if player.is_some() {
-            bail!("--play in a window: play headless into the session and watch it in a second `robosim display`");
+            bail!(
+                "--play in a window: play headless into the session and watch it in a second `robosim display`"
+            );
         }
         let opts = WindowOptions {
             size: a.view.size,
@@ -589,13 +621,19 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             edges: a.view.edges,
             ..Style::default()
         };
-        return Ok(robosim_display::window::run(Box::new(host), Some(camera), style, opts)?);
+        return Ok(robosim_display::window::run(
+            Box::new(host),
+            Some(camera),
+            style,
+            opts,
+        )?);
     }
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| session.dir().join("display"));
-    std::fs::create_dir_all(&out).map_err(|e| crate::CliError(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(&out)
+        .map_err(|e| crate::CliError(format!("{}: {e}", out.display())))?;
     let log_path = out.join("frames.jsonl");
     let mut log = std::fs::OpenOptions::new()
         .create(true)
@@ -603,7 +641,11 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         .open(&log_path)
         .map_err(|e| crate::CliError(format!("{}: {e}", log_path.display())))?;
     let mut r = Renderer::headless()?;
-    eprintln!("display: headless on {} → {}", r.gpu().describe(), out.display());
+    eprintln!(
+        "display: headless on {} → {}",
+        r.gpu().describe(),
+        out.display()
+    );
     let (w, h) = a.view.size;
     let mut frames = 0u64;
     let mut sample = 0usize;
@@ -618,7 +660,11 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             for (name, q) in p.at(sample) {
                 host.write_q(name, &q)?;
             }
-            let dt = p.tracks.iter().map(|t| t.1.dt).fold(f64::INFINITY, f64::min);
+            let dt = p
+                .tracks
+                .iter()
+                .map(|t| t.1.dt)
+                .fold(f64::INFINITY, f64::min);
             next_sample = Instant::now() + Duration::from_secs_f64(dt);
             sample += 1;
         }
@@ -661,7 +707,8 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             png,
         };
         let line = serde_json::to_string(&rec).map_err(|e| crate::CliError(e.to_string()))?;
-        writeln!(log, "{line}").map_err(|e| crate::CliError(format!("{}: {e}", log_path.display())))?;
+        writeln!(log, "{line}")
+            .map_err(|e| crate::CliError(format!("{}: {e}", log_path.display())))?;
         log.flush().map_err(|e| crate::CliError(e.to_string()))?;
         frames += 1;
         if a.max_frames.is_some_and(|m| frames >= m) {

@@ -298,9 +298,9 @@ pub(crate) fn colliding_ids(snap: &Snapshot) -> HashSet<Id> {
             continue;
         };
         let (scene, _, ids) = obstacles(snap, &p, &HashSet::new());
-        let Ok(CheckResult::Contact(cs)) = robosim_collision::robot::check_robot(
-            &p.robot, &p.solids, &p.q, &scene, &settings,
-        ) else {
+        let Ok(CheckResult::Contact(cs)) =
+            robosim_collision::robot::check_robot(&p.robot, &p.solids, &p.q, &scene, &settings)
+        else {
             continue;
         };
         for c in cs {

@@ -19,10 +19,20 @@ mod common;
 
 use common::{Procs, ROBOSIM, wait_for};
 
-const PUMA_VIEW: [&str; 6] = ["--from", "-1.2,1.4,1.1", "--at", "0.1,0,0.55", "--size", "320x240"];
+const PUMA_VIEW: [&str; 6] = [
+    "--from",
+    "-1.2,1.4,1.1",
+    "--at",
+    "0.1,0,0.55",
+    "--size",
+    "320x240",
+];
 
 fn robosim(args: &[&str]) -> Output {
-    Command::new(ROBOSIM).args(args).output().expect("run robosim")
+    Command::new(ROBOSIM)
+        .args(args)
+        .output()
+        .expect("run robosim")
 }
 
 fn render(out: &Path, args: &[&str]) {
@@ -40,11 +50,17 @@ fn render_with(out: &Path, args: &[&str], samples: u32) {
         .env("ROBOSIM_DISPLAY_SAMPLES", samples.to_string())
         .output()
         .expect("run robosim");
-    assert!(o.status.success(), "robosim {all:?}: {}", String::from_utf8_lossy(&o.stderr));
+    assert!(
+        o.status.success(),
+        "robosim {all:?}: {}",
+        String::from_utf8_lossy(&o.stderr)
+    );
 }
 
 fn golden(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/golden").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/golden")
+        .join(name)
 }
 
 fn load(p: &Path) -> RgbaImage {
@@ -63,12 +79,19 @@ fn check_golden(dir: &Path, name: &str, args: &[&str], tol: &Tolerance) {
         return;
     }
     let d = compare(&load(&out), &load(&g), tol).expect("same size");
-    assert!(d.within(&tol), "{name}: {d:?} exceeds {tol:?}; this run's image: {}", out.display());
+    assert!(
+        d.within(tol),
+        "{name}: {d:?} exceeds {tol:?}; this run's image: {}",
+        out.display()
+    );
     let aliased = dir.join(format!("aliased-{name}"));
     render_with(&aliased, args, 1);
     let d = compare(&load(&aliased), &load(&g), tol).expect("same size");
     eprintln!("{name}: without multisampling {d:?}");
-    assert!(d.within(tol), "{name} without multisampling: {d:?} exceeds {tol:?}");
+    assert!(
+        d.within(tol),
+        "{name} without multisampling: {d:?} exceeds {tol:?}"
+    );
 }
 
 fn assert_differs(dir: &Path, name: &str, golden_name: &str, args: &[&str], tol: &Tolerance) {
@@ -76,7 +99,10 @@ fn assert_differs(dir: &Path, name: &str, golden_name: &str, args: &[&str], tol:
     render(&out, args);
     let d = compare(&load(&out), &load(&golden(golden_name)), tol).expect("same size");
     eprintln!("{name} vs {golden_name}: {d:?}");
-    assert!(!d.within(tol), "{name} should differ from {golden_name}: {d:?}");
+    assert!(
+        !d.within(tol),
+        "{name} should differ from {golden_name}: {d:?}"
+    );
 }
 
 #[test]
@@ -90,11 +116,20 @@ fn golden_images_match_and_a_wrong_camera_or_missing_object_does_not() {
         fraction: 0.01,
         ..Tolerance::default()
     };
-    check_golden(d, "puma560_zero.png", &[&["puma560"][..], &PUMA_VIEW].concat(), &tol);
+    check_golden(
+        d,
+        "puma560_zero.png",
+        &[&["puma560"][..], &PUMA_VIEW].concat(),
+        &tol,
+    );
     check_golden(
         d,
         "puma560_bent.png",
-        &[&["puma560", "--joints", "puma560=30,20,-150,20,40,60"][..], &PUMA_VIEW].concat(),
+        &[
+            &["puma560", "--joints", "puma560=30,20,-150,20,40,60"][..],
+            &PUMA_VIEW,
+        ]
+        .concat(),
         &tol,
     );
     let station = ["space_station", "--size", "640x512"];
@@ -107,7 +142,15 @@ fn golden_images_match_and_a_wrong_camera_or_missing_object_does_not() {
         d,
         "wrong_camera.png",
         "puma560_zero.png",
-        &["puma560", "--from", "-1.2,1.7,1.1", "--at", "0.1,0,0.55", "--size", "320x240"],
+        &[
+            "puma560",
+            "--from",
+            "-1.2,1.7,1.1",
+            "--at",
+            "0.1,0,0.55",
+            "--size",
+            "320x240",
+        ],
         &tol,
     );
     // The same view without the forearm.
@@ -123,7 +166,11 @@ fn golden_images_match_and_a_wrong_camera_or_missing_object_does_not() {
         d,
         "bent_vs_zero.png",
         "puma560_zero.png",
-        &[&["puma560", "--joints", "puma560=30,20,-150,20,40,60"][..], &PUMA_VIEW].concat(),
+        &[
+            &["puma560", "--joints", "puma560=30,20,-150,20,40,60"][..],
+            &PUMA_VIEW,
+        ]
+        .concat(),
         &tol,
     );
     // The station without its port solar array.
@@ -150,9 +197,18 @@ fn a_session_display_redraws_a_moved_link_uploading_its_transforms_only() {
     k.start_keeper(&["--scene", "puma560"]);
     let out = k.home.path().join("display-out");
     let out_s = out.to_string_lossy().into_owned();
-    k.spawn(&[&["display", "--headless", "--every-frame", "--out", &out_s][..], &PUMA_VIEW].concat());
+    k.spawn(
+        &[
+            &["display", "--headless", "--every-frame", "--out", &out_s][..],
+            &PUMA_VIEW,
+        ]
+        .concat(),
+    );
     let first = wait_for("the first frame", || frames(&out).into_iter().next());
-    assert_eq!(first["upload"]["meshes"], 12, "the first frame uploads every body: {first}");
+    assert_eq!(
+        first["upload"]["meshes"], 12,
+        "the first frame uploads every body: {first}"
+    );
 
     // Another process (this test) writes: link 2 (shoulder, the upper arm) turns 50° about
     // its z axis.
@@ -187,14 +243,22 @@ fn a_session_display_redraws_a_moved_link_uploading_its_transforms_only() {
     }
     let mut tx = Transaction::new();
     tx.set_pose(link_id, turned);
-    let version = Client::connect(&s, "test-writer").expect("client").transact(&tx).expect("commit").version;
+    let version = Client::connect(&s, "test-writer")
+        .expect("client")
+        .transact(&tx)
+        .expect("commit")
+        .version;
 
     let next = wait_for("the frame of the move", || {
         frames(&out).into_iter().find(|f| f["version"] == version)
     });
     let up = &next["upload"];
     assert_eq!(up["transforms"], bodies as u64, "{next}");
-    assert_eq!((up["meshes"].as_u64(), up["materials"].as_u64()), (Some(0), Some(0)), "{next}");
+    assert_eq!(
+        (up["meshes"].as_u64(), up["materials"].as_u64()),
+        (Some(0), Some(0)),
+        "{next}"
+    );
     assert_eq!(next["upload_bytes"], 64 * bodies as u64, "{next}");
 
     // The frame shows the moved link: it matches an independent render of the same version
@@ -257,7 +321,10 @@ fn welding_cell_trajectories_play_both_robots_together() {
         &d.join("bad").to_string_lossy(),
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success() && err.contains("positioner.traj:2: column 2"), "{err}");
+    assert!(
+        !o.status.success() && err.contains("positioner.traj:2: column 2"),
+        "{err}"
+    );
     assert!(!d.join("bad").exists());
 }
 
@@ -267,16 +334,40 @@ fn bad_render_input_gets_a_clear_error_and_no_file() {
     let out = dir.path().join("x.png");
     let out_s = out.to_string_lossy().into_owned();
     let cases: &[(&[&str], &str)] = &[
-        (&["render", "no_such_scene"], "unknown scene \"no_such_scene\""),
+        (
+            &["render", "no_such_scene"],
+            "unknown scene \"no_such_scene\"",
+        ),
         (&["render", "puma560", "--joints", "puma560=0,0,0"], "6"),
-        (&["render", "puma560", "--joints", "puma560=0,0,0,0,0,NaN"], "not a finite number"),
-        (&["render", "puma560", "--joints", "puma560=0,90,0,0,0,0,"], "not a finite number"),
-        (&["render", "puma560", "--joints", "puma560=0,0,0,0,170,0"], "limit"),
-        (&["render", "puma560", "--joints", "ur5=0"], "no robot named \"ur5\"; robots here: puma560"),
-        (&["render", "puma560", "--from", "0,0,1", "--at", "0,0,1"], "LOOK-FROM equals LOOK-AT"),
-        (&["render", "puma560", "--from", "0,0,inf"], "three finite numbers"),
+        (
+            &["render", "puma560", "--joints", "puma560=0,0,0,0,0,NaN"],
+            "not a finite number",
+        ),
+        (
+            &["render", "puma560", "--joints", "puma560=0,90,0,0,0,0,"],
+            "not a finite number",
+        ),
+        (
+            &["render", "puma560", "--joints", "puma560=0,0,0,0,170,0"],
+            "limit",
+        ),
+        (
+            &["render", "puma560", "--joints", "ur5=0"],
+            "no robot named \"ur5\"; robots here: puma560",
+        ),
+        (
+            &["render", "puma560", "--from", "0,0,1", "--at", "0,0,1"],
+            "LOOK-FROM equals LOOK-AT",
+        ),
+        (
+            &["render", "puma560", "--from", "0,0,inf"],
+            "three finite numbers",
+        ),
         (&["render", "puma560", "--size", "0x10"], "1..=8192"),
-        (&["render", "puma560", "--hide", "nothing"], "no object of that name"),
+        (
+            &["render", "puma560", "--hide", "nothing"],
+            "no object of that name",
+        ),
     ];
     for (args, needle) in cases {
         let o = robosim(&[args, &["--out", &out_s][..]].concat());
@@ -297,19 +388,52 @@ fn the_window_moves_joints_and_picks_under_xvfb() {
     let mut k = Procs::new("dwin");
     k.start_keeper(&["--scene", "puma560"]);
     let o = Command::new("xvfb-run")
-        .args(["-a", ROBOSIM, "display", "--session", &k.name, "--max-frames", "5"])
-        .args(["--script", "left", "--script", "3", "--script", "right", "--script", "click:320,240"])
+        .args([
+            "-a",
+            ROBOSIM,
+            "display",
+            "--session",
+            &k.name,
+            "--max-frames",
+            "5",
+        ])
+        .args([
+            "--script",
+            "left",
+            "--script",
+            "3",
+            "--script",
+            "right",
+            "--script",
+            "click:320,240",
+        ])
         .args(["--size", "640x480"])
         .env("ROBOSIM_HOME", k.home.path())
         .output()
         .expect("xvfb-run");
     let stdout = String::from_utf8_lossy(&o.stdout);
-    assert!(o.status.success(), "{stdout}\n{}", String::from_utf8_lossy(&o.stderr));
-    assert!(stdout.contains("status: puma560 joint 1 = -2.0°"), "{stdout}");
-    assert!(stdout.contains("status: puma560 joint 3 = 2.0°"), "{stdout}");
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout.contains("status: puma560 joint 1 = -2.0°"),
+        "{stdout}"
+    );
+    assert!(
+        stdout.contains("status: puma560 joint 3 = 2.0°"),
+        "{stdout}"
+    );
     // The click lands on the robot: path, link, polygon.
-    let pick = stdout.lines().find(|l| l.starts_with("pick: ")).expect("a pick line");
-    assert!(pick.starts_with("pick: puma560/") && pick.contains("(link ") && pick.contains("polygon "), "{pick}");
+    let pick = stdout
+        .lines()
+        .find(|l| l.starts_with("pick: "))
+        .expect("a pick line");
+    assert!(
+        pick.starts_with("pick: puma560/") && pick.contains("(link ") && pick.contains("polygon "),
+        "{pick}"
+    );
     // The knob moves went through the Instance Space.
     let s = k.session();
     let mut reader = Reader::attach(&s, "test-reader").expect("reader");
@@ -317,7 +441,11 @@ fn the_window_moves_joints_and_picks_under_xvfb() {
         reader.refresh().ok()?;
         reader.snapshot()
     });
-    let q = |name: &str| snap.poses()[snap.find(name).expect("link")].joint.to_degrees();
+    let q = |name: &str| {
+        snap.poses()[snap.find(name).expect("link")]
+            .joint
+            .to_degrees()
+    };
     assert!((q("waist") + 2.0).abs() < 1e-9 && (q("elbow") - 2.0).abs() < 1e-9);
 }
 
@@ -327,10 +455,20 @@ fn the_window_moves_joints_and_picks_under_xvfb() {
 #[test]
 fn colliding_objects_are_highlighted() {
     let dir = tempfile::tempdir().expect("tempdir");
-    let view = ["--from", "0.95,-0.75,0.55", "--at", "0.12,0,0.1", "--size", "200x150"];
+    let view = [
+        "--from",
+        "0.95,-0.75,0.55",
+        "--at",
+        "0.12,0,0.1",
+        "--size",
+        "200x150",
+    ];
     let red_fraction = |args: &[&str], name: &str| {
         let out = dir.path().join(name);
-        render(&out, &[&["surgical_positioner_cell"][..], &view, args].concat());
+        render(
+            &out,
+            &[&["surgical_positioner_cell"][..], &view, args].concat(),
+        );
         let img = load(&out);
         let red = img
             .pixels
@@ -363,15 +501,29 @@ fn up_with_display_runs_it_headless_and_down_stops_it() {
             .expect("robosim")
     };
     let up = run(&["up", "puma560", "--with", "display"]);
-    assert!(up.status.success(), "{}", String::from_utf8_lossy(&up.stderr));
+    assert!(
+        up.status.success(),
+        "{}",
+        String::from_utf8_lossy(&up.stderr)
+    );
     let ps = String::from_utf8_lossy(&run(&["ps"]).stdout).into_owned();
     let dir = k.home.path().join(&k.name).join("display");
-    let first = wait_for("the display's first frame", || frames(&dir).into_iter().next());
+    let first = wait_for("the display's first frame", || {
+        frames(&dir).into_iter().next()
+    });
     let down = run(&["down"]);
-    assert!(ps.lines().any(|l| l.starts_with("display") && l.contains("space/geometry/*")), "{ps}");
+    assert!(
+        ps.lines()
+            .any(|l| l.starts_with("display") && l.contains("space/geometry/*")),
+        "{ps}"
+    );
     assert_eq!(first["bodies"], 12, "{first}");
     assert!(dir.join("latest.png").exists());
     assert!(down.status.success());
-    let log = std::fs::read_to_string(k.home.path().join(&k.name).join("run/display.log")).unwrap_or_default();
-    assert!(!log.contains("robosim:"), "the display stopped with an error: {log}");
+    let log = std::fs::read_to_string(k.home.path().join(&k.name).join("run/display.log"))
+        .unwrap_or_default();
+    assert!(
+        !log.contains("robosim:"),
+        "the display stopped with an error: {log}"
+    );
 }

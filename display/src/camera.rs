@@ -62,19 +62,33 @@ impl Camera {
 
     /// Checks the camera can form a view: finite, from ≠ at, up not along the view direction.
     pub fn validate(&self) -> Result<(), String> {
-        let finite = self.from.iter().chain(self.at.iter()).chain(self.up.iter()).all(|v| v.is_finite());
+        let finite = self
+            .from
+            .iter()
+            .chain(self.at.iter())
+            .chain(self.up.iter())
+            .all(|v| v.is_finite());
         if !finite {
-            return Err(format!("camera has a non-finite coordinate: from {:?} at {:?} up {:?}", self.from, self.at, self.up));
+            return Err(format!(
+                "camera has a non-finite coordinate: from {:?} at {:?} up {:?}",
+                self.from, self.at, self.up
+            ));
         }
         let d = self.at - self.from;
         if d.norm() < 1e-12 {
             return Err(format!("camera LOOK-FROM equals LOOK-AT ({:?})", self.from));
         }
         if d.normalize().cross(&self.up).norm() < 1e-9 {
-            return Err(format!("camera up {:?} is parallel to the view direction", self.up));
+            return Err(format!(
+                "camera up {:?} is parallel to the view direction",
+                self.up
+            ));
         }
         if !(self.fov_y_deg > 0.0 && self.fov_y_deg < 179.0) {
-            return Err(format!("field of view {}° outside (0, 179)", self.fov_y_deg));
+            return Err(format!(
+                "field of view {}° outside (0, 179)",
+                self.fov_y_deg
+            ));
         }
         Ok(())
     }
@@ -99,26 +113,55 @@ impl Camera {
 
     /// Projection for an image `aspect` = width / height, fitted to the scene sphere; reversed
     /// depth: near → 1, far → 0.
-    pub fn projection_matrix(&self, aspect: f64, center: &Point3<f64>, radius: f64) -> Matrix4<f64> {
+    pub fn projection_matrix(
+        &self,
+        aspect: f64,
+        center: &Point3<f64>,
+        radius: f64,
+    ) -> Matrix4<f64> {
         let (n, f) = self.clip_planes(center, radius);
         let half = (self.fov_y_deg.to_radians() / 2.0).tan();
         match self.projection {
             Projection::Perspective => {
                 let fy = 1.0 / half;
                 Matrix4::new(
-                    fy / aspect, 0.0, 0.0, 0.0,
-                    0.0, fy, 0.0, 0.0,
-                    0.0, 0.0, n / (f - n), n * f / (f - n),
-                    0.0, 0.0, -1.0, 0.0,
+                    fy / aspect,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    fy,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    n / (f - n),
+                    n * f / (f - n),
+                    0.0,
+                    0.0,
+                    -1.0,
+                    0.0,
                 )
             }
             Projection::Orthographic => {
                 let h = half * (self.at - self.from).norm();
                 Matrix4::new(
-                    1.0 / (h * aspect), 0.0, 0.0, 0.0,
-                    0.0, 1.0 / h, 0.0, 0.0,
-                    0.0, 0.0, 1.0 / (f - n), f / (f - n),
-                    0.0, 0.0, 0.0, 1.0,
+                    1.0 / (h * aspect),
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    1.0 / h,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                    1.0 / (f - n),
+                    f / (f - n),
+                    0.0,
+                    0.0,
+                    0.0,
+                    1.0,
                 )
             }
         }
@@ -152,12 +195,17 @@ impl Camera {
     pub fn orbit(&mut self, yaw: f64, pitch: f64) {
         let offset = self.from - self.at;
         let up = self.up.normalize();
-        let yawed = nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(up), yaw) * offset;
+        let yawed =
+            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(up), yaw) * offset;
         let right = yawed.cross(&up);
         let angle_to_up = yawed.angle(&up);
-        let pitch = pitch.clamp(-(angle_to_up - 0.01), std::f64::consts::PI - 0.01 - angle_to_up);
+        let pitch = pitch.clamp(
+            -(angle_to_up - 0.01),
+            std::f64::consts::PI - 0.01 - angle_to_up,
+        );
         let rotated = if right.norm() > 1e-12 {
-            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(right), pitch) * yawed
+            nalgebra::Rotation3::from_axis_angle(&nalgebra::Unit::new_normalize(right), pitch)
+                * yawed
         } else {
             yawed
         };
@@ -197,7 +245,10 @@ mod tests {
     #[test]
     fn look_at_projects_to_the_centre_and_depth_is_in_range() {
         for projection in [Projection::Perspective, Projection::Orthographic] {
-            let c = Camera { projection, ..Camera::looking(Point3::new(-10.0, 10.0, 4.5), Point3::new(0.0, 0.0, 0.8)) };
+            let c = Camera {
+                projection,
+                ..Camera::looking(Point3::new(-10.0, 10.0, 4.5), Point3::new(0.0, 0.0, 0.8))
+            };
             let ndc = project(&c, c.at);
             assert!(ndc.x.abs() < 1e-12 && ndc.y.abs() < 1e-12, "{ndc:?}");
             assert!((0.0..=1.0).contains(&ndc.z));
@@ -214,7 +265,10 @@ mod tests {
     #[test]
     fn ray_inverts_projection() {
         for projection in [Projection::Perspective, Projection::Orthographic] {
-            let c = Camera { projection, ..Camera::looking(Point3::new(3.0, -4.0, 2.0), Point3::new(0.1, 0.2, 0.3)) };
+            let c = Camera {
+                projection,
+                ..Camera::looking(Point3::new(3.0, -4.0, 2.0), Point3::new(0.1, 0.2, 0.3))
+            };
             let p = Point3::new(0.5, -0.3, 0.9);
             let ndc = project(&c, p);
             let (w, h) = (300_u32, 200_u32);
@@ -234,10 +288,14 @@ mod tests {
         assert!(((c.from - c.at).norm() - d0).abs() < 1e-9);
         assert!(c.validate().is_ok(), "pitch is clamped short of the pole");
         let same = Camera::looking(Point3::origin(), Point3::origin());
-        assert!(same.validate().unwrap_err().contains("LOOK-FROM equals LOOK-AT"));
+        assert!(
+            same.validate()
+                .expect_err("refused")
+                .contains("LOOK-FROM equals LOOK-AT")
+        );
         let down = Camera::looking(Point3::new(0.0, 0.0, 5.0), Point3::origin());
-        assert!(down.validate().unwrap_err().contains("parallel"));
+        assert!(down.validate().expect_err("refused").contains("parallel"));
         let nan = Camera::looking(Point3::new(f64::NAN, 0.0, 5.0), Point3::origin());
-        assert!(nan.validate().unwrap_err().contains("non-finite"));
+        assert!(nan.validate().expect_err("refused").contains("non-finite"));
     }
 }

@@ -69,7 +69,9 @@ impl RgbaImage {
         let decoder = png::Decoder::new(std::io::BufReader::new(file));
         let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
         let mut buf = vec![0; reader.output_buffer_size()];
-        let info = reader.next_frame(&mut buf).map_err(|e| bad(e.to_string()))?;
+        let info = reader
+            .next_frame(&mut buf)
+            .map_err(|e| bad(e.to_string()))?;
         buf.truncate(info.buffer_size());
         if info.bit_depth != png::BitDepth::Eight {
             return Err(bad(format!("bit depth {:?}; 8 expected", info.bit_depth)));
@@ -214,7 +216,11 @@ mod tests {
     fn one_pixel_shift_and_small_shade_change_pass_but_missing_objects_fail() {
         let tol = Tolerance::default();
         let a = square(10, 180);
-        assert!(compare(&a, &square(11, 190), &tol).expect("same size").within(&tol));
+        assert!(
+            compare(&a, &square(11, 190), &tol)
+                .expect("same size")
+                .within(&tol)
+        );
         // Shifted by 3 px: two 20-px columns unmatched = 40/4096 ≈ 1 %.
         let d = compare(&a, &square(13, 180), &tol).expect("same size");
         assert!(!d.within(&tol), "{d:?}");
@@ -234,7 +240,7 @@ mod tests {
         assert_eq!(RgbaImage::load_png(&p).expect("load"), a);
         let bad = dir.path().join("bad.png");
         std::fs::write(&bad, b"not a png").expect("write");
-        let e = RgbaImage::load_png(&bad).unwrap_err().to_string();
+        let e = RgbaImage::load_png(&bad).expect_err("refused").to_string();
         assert!(e.contains("bad.png"), "{e}");
     }
 }

@@ -119,7 +119,9 @@ mod tests {
     use super::*;
     use robosim_instance_space::layout::{GeometryHeader, PolygonRec};
 
-    fn quad_and_triangle() -> (Vec<[f64; 3]>, Vec<u32>, Vec<PolygonRec>, Vec<[u32; 2]>) {
+    type Parts = (Vec<[f64; 3]>, Vec<u32>, Vec<PolygonRec>, Vec<[u32; 2]>);
+
+    fn quad_and_triangle() -> Parts {
         let vertices = vec![
             [0.0, 0.0, 0.0],
             [1.0, 0.0, 0.0],

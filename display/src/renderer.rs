@@ -206,10 +206,22 @@ pub struct Renderer {
 fn transform_f32(p: &[f64; 12]) -> [f32; 16] {
     // Column-major 4×4 from row-major 3×4.
     [
-        p[0] as f32, p[4] as f32, p[8] as f32, 0.0,
-        p[1] as f32, p[5] as f32, p[9] as f32, 0.0,
-        p[2] as f32, p[6] as f32, p[10] as f32, 0.0,
-        p[3] as f32, p[7] as f32, p[11] as f32, 1.0,
+        p[0] as f32,
+        p[4] as f32,
+        p[8] as f32,
+        0.0,
+        p[1] as f32,
+        p[5] as f32,
+        p[9] as f32,
+        0.0,
+        p[2] as f32,
+        p[6] as f32,
+        p[10] as f32,
+        0.0,
+        p[3] as f32,
+        p[7] as f32,
+        p[11] as f32,
+        1.0,
     ]
 }
 
@@ -587,10 +599,21 @@ impl Renderer {
             let id = rec.id;
             seen.insert(id);
             let world = snap.world_pose(i);
-            let hl = if self.highlight.contains(&id) { 1.0 } else { 0.0 };
+            let hl = if self.highlight.contains(&id) {
+                1.0
+            } else {
+                0.0
+            };
             let s = rec.surface;
             let material = [
-                rec.color[0], rec.color[1], rec.color[2], rec.color[3], s[0], s[1], s[2], hl,
+                rec.color[0],
+                rec.color[1],
+                rec.color[2],
+                rec.color[3],
+                s[0],
+                s[1],
+                s[2],
+                hl,
             ];
             match self.bodies.get(&id) {
                 Some(b) => {
@@ -716,8 +739,10 @@ impl Renderer {
             let c = Vector3::new(b.bbox[0], b.bbox[1], b.bbox[2]);
             let h = Vector3::new(b.bbox[3], b.bbox[4], b.bbox[5]);
             for r in 0..3 {
-                let center = w[r * 4] * c.x + w[r * 4 + 1] * c.y + w[r * 4 + 2] * c.z + w[r * 4 + 3];
-                let half = w[r * 4].abs() * h.x + w[r * 4 + 1].abs() * h.y + w[r * 4 + 2].abs() * h.z;
+                let center =
+                    w[r * 4] * c.x + w[r * 4 + 1] * c.y + w[r * 4 + 2] * c.z + w[r * 4 + 3];
+                let half =
+                    w[r * 4].abs() * h.x + w[r * 4 + 1].abs() * h.y + w[r * 4 + 2].abs() * h.z;
                 lo[r] = lo[r].min(center - half);
                 hi[r] = hi[r].max(center + half);
             }
@@ -895,10 +920,7 @@ impl Renderer {
             self.offscreen = Some(self.make_targets(width, height, false));
         }
         self.write_frame(width, height);
-        let mut encoder = self
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         if let Some(t) = &self.offscreen {
             self.encode(&mut encoder, view, t.msaa.as_ref(), &t.depth);
         }
@@ -931,10 +953,7 @@ impl Renderer {
             return Err(DisplayError::Device("no render target".into()));
         };
         let view = t.color.create_view(&Default::default());
-        let mut encoder = self
-            .gpu
-            .device
-            .create_command_encoder(&Default::default());
+        let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         self.encode(&mut encoder, &view, t.msaa.as_ref(), &t.depth);
         Ok(encoder)
     }

@@ -56,7 +56,12 @@ impl Trajectory {
                             .parse::<f64>()
                             .ok()
                             .filter(|v| v.is_finite() && *v > 0.0)
-                            .ok_or_else(|| bad(line, format!("dt {:?} is not a positive number", value.trim())))?;
+                            .ok_or_else(|| {
+                                bad(
+                                    line,
+                                    format!("dt {:?} is not a positive number", value.trim()),
+                                )
+                            })?;
                     }
                     _ => {}
                 }
@@ -83,7 +88,11 @@ impl Trajectory {
             {
                 return Err(bad(
                     line,
-                    format!("{} columns; the first sample has {}", row.len(), first.len()),
+                    format!(
+                        "{} columns; the first sample has {}",
+                        row.len(),
+                        first.len()
+                    ),
                 ));
             }
             t.samples.push(row);
@@ -122,20 +131,33 @@ mod tests {
     #[test]
     fn parses_units_dt_and_separators_and_names_bad_lines() {
         let p = Path::new("arm.traj");
-        let t = Trajectory::parse("# welding arm\n# dt: 0.05\n0 90, 0\n\n10\t-90 0.5 # last\n", p)
-            .expect("valid");
+        let t = Trajectory::parse(
+            "# welding arm\n# dt: 0.05\n0 90, 0\n\n10\t-90 0.5 # last\n",
+            p,
+        )
+        .expect("valid");
         assert_eq!(t.samples.len(), 2);
         assert_eq!(t.dt, 0.05);
         let q = t.sample_si(1, &[false, false, true]);
         assert!((q[0] - 10f64.to_radians()).abs() < 1e-15 && q[2] == 0.5);
-        assert_eq!(t.sample_si(99, &[]), t.sample_si(1, &[]), "holds the last sample");
+        assert_eq!(
+            t.sample_si(99, &[]),
+            t.sample_si(1, &[]),
+            "holds the last sample"
+        );
         let r = Trajectory::parse("# units: rad\n1 2\n", p).expect("valid");
         assert_eq!(r.sample_si(0, &[]), vec![1.0, 2.0]);
-        let e = Trajectory::parse("0 0\n0 x\n", p).unwrap_err().to_string();
+        let e = Trajectory::parse("0 0\n0 x\n", p)
+            .expect_err("refused")
+            .to_string();
         assert!(e.starts_with("arm.traj:2:") && e.contains("\"x\""), "{e}");
-        let e = Trajectory::parse("0 0\n0 0 0\n", p).unwrap_err().to_string();
+        let e = Trajectory::parse("0 0\n0 0 0\n", p)
+            .expect_err("refused")
+            .to_string();
         assert!(e.contains("arm.traj:2: 3 columns"), "{e}");
-        let e = Trajectory::parse("0 NaN\n", p).unwrap_err().to_string();
+        let e = Trajectory::parse("0 NaN\n", p)
+            .expect_err("refused")
+            .to_string();
         assert!(e.contains("not finite"), "{e}");
         assert!(Trajectory::parse("# nothing\n", p).is_err());
         assert!(Trajectory::parse("# dt: -1\n0\n", p).is_err());

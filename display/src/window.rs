@@ -26,7 +26,12 @@ pub trait Host {
     /// The robots the knob keys can move: name and number of joints.
     fn robots(&self) -> Vec<(String, usize)>;
     /// Turns joint `joint` (0-based) of robot `robot` by `delta` (rad or m); a status line.
-    fn jog(&mut self, robot: usize, joint: usize, delta: f64) -> std::result::Result<String, String>;
+    fn jog(
+        &mut self,
+        robot: usize,
+        joint: usize,
+        delta: f64,
+    ) -> std::result::Result<String, String>;
     /// "object … (link …), polygon …" for a pick.
     fn describe(&self, hit: &Hit) -> String;
 }
@@ -92,7 +97,10 @@ impl App {
     fn start(&mut self, event_loop: &ActiveEventLoop) -> Result<()> {
         let attrs = Window::default_attributes()
             .with_title(self.opts.title.clone())
-            .with_inner_size(winit::dpi::PhysicalSize::new(self.opts.size.0, self.opts.size.1));
+            .with_inner_size(winit::dpi::PhysicalSize::new(
+                self.opts.size.0,
+                self.opts.size.1,
+            ));
         let window = Arc::new(
             event_loop
                 .create_window(attrs)
@@ -120,7 +128,11 @@ impl App {
             height: size.height.max(1),
             present_mode: wgpu::PresentMode::AutoVsync,
             desired_maximum_frame_latency: 2,
-            alpha_mode: caps.alpha_modes.first().copied().unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            alpha_mode: caps
+                .alpha_modes
+                .first()
+                .copied()
+                .unwrap_or(wgpu::CompositeAlphaMode::Auto),
             view_formats: vec![],
         };
         surface.configure(&gpu.device, &config);
@@ -159,7 +171,8 @@ impl App {
     fn draw(&mut self, event_loop: &ActiveEventLoop) {
         let Some(l) = &mut self.live else { return };
         let frame = match l.surface.get_current_texture() {
-            wgpu::CurrentSurfaceTexture::Success(t) | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
             wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost => {
                 l.surface.configure(&l.renderer.gpu().device, &l.config);
                 l.window.request_redraw();
@@ -219,11 +232,20 @@ impl App {
 
     fn key(&mut self, key: &Key) {
         let Some(l) = &mut self.live else { return };
-        let step = if self.modifiers.shift_key() { 10f64 } else { 2f64 }.to_radians();
+        let step = if self.modifiers.shift_key() {
+            10f64
+        } else {
+            2f64
+        }
+        .to_radians();
         let robots = self.host.robots();
         match key {
             Key::Named(NamedKey::ArrowLeft) | Key::Named(NamedKey::ArrowRight) => {
-                let sign = if matches!(key, Key::Named(NamedKey::ArrowLeft)) { -1.0 } else { 1.0 };
+                let sign = if matches!(key, Key::Named(NamedKey::ArrowLeft)) {
+                    -1.0
+                } else {
+                    1.0
+                };
                 self.status = match self.host.jog(self.robot, self.joint, sign * step) {
                     Ok(s) | Err(s) => s,
                 };
@@ -358,7 +380,12 @@ impl ApplicationHandler for App {
 
 /// Opens the window and runs until it is closed (or `exit_after_frames`). Needs a display
 /// server (`DISPLAY`); the error says so when there is none.
-pub fn run(host: Box<dyn Host>, camera: Option<Camera>, style: Style, opts: WindowOptions) -> Result<()> {
+pub fn run(
+    host: Box<dyn Host>,
+    camera: Option<Camera>,
+    style: Style,
+    opts: WindowOptions,
+) -> Result<()> {
     if std::env::var_os("DISPLAY").is_none() && std::env::var_os("WAYLAND_DISPLAY").is_none() {
         return Err(DisplayError::Window(
             "no display server (DISPLAY is not set); use `robosim render` or `robosim display --headless` for images"

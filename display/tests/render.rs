@@ -3,7 +3,9 @@
 
 use nalgebra::Point3;
 use robosim_display::{Camera, Renderer, renderer::TRANSFORM_BYTES};
-use robosim_instance_space::{Appearance, GeometryInput, IDENTITY, Kind, Model, Snapshot, Transaction};
+use robosim_instance_space::{
+    Appearance, GeometryInput, IDENTITY, Kind, Model, Snapshot, Transaction,
+};
 
 fn cube(h: f64) -> GeometryInput {
     block([h, h, h])
@@ -11,7 +13,8 @@ fn cube(h: f64) -> GeometryInput {
 
 /// A box of half-sizes `h`, from the library's generator.
 fn block(h: [f64; 3]) -> GeometryInput {
-    let p = robosim_geometry::shapes::cuboid(2.0 * h[0], 2.0 * h[1], 2.0 * h[2]).expect("positive sizes");
+    let p = robosim_geometry::shapes::cuboid(2.0 * h[0], 2.0 * h[1], 2.0 * h[2])
+        .expect("positive sizes");
     GeometryInput::from_polyhedron(&p)
 }
 
@@ -30,11 +33,23 @@ fn scene() -> (Model, u64, u64) {
     let item = tx.create(Kind::Item, "pair", None);
     let red = tx.create(Kind::Solid, "red", Some(item));
     tx.set_geometry(red, Some(cube(0.5)));
-    tx.set_appearance(red, Appearance { color: [0.9, 0.1, 0.1, 1.0], ..Appearance::default() });
+    tx.set_appearance(
+        red,
+        Appearance {
+            color: [0.9, 0.1, 0.1, 1.0],
+            ..Appearance::default()
+        },
+    );
     let blue = tx.create(Kind::Solid, "blue", Some(item));
     tx.set_geometry(blue, Some(cube(0.5)));
     tx.set_pose(blue, at(3.0, 0.0, 0.0));
-    tx.set_appearance(blue, Appearance { color: [0.1, 0.1, 0.9, 1.0], ..Appearance::default() });
+    tx.set_appearance(
+        blue,
+        Appearance {
+            color: [0.1, 0.1, 0.9, 1.0],
+            ..Appearance::default()
+        },
+    );
     model.apply(&tx).expect("valid");
     let snap = Snapshot::from_model(&model);
     let id = |n| snap.objects()[snap.find(n).expect("present")].id;
@@ -63,7 +78,10 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     // Look down the −y axis at the pair: red left of centre, blue right.
     r.camera = Camera::looking(Point3::new(1.5, -12.0, 0.0), Point3::new(1.5, 0.0, 0.0));
     let img = r.render_image(160, 80).expect("frame");
-    let row: String = (0..160).step_by(8).map(|x| dominant(img.pixel(x, 40))).collect();
+    let row: String = (0..160)
+        .step_by(8)
+        .map(|x| dominant(img.pixel(x, 40)))
+        .collect();
     assert!(row.contains('r') && row.contains('b'), "{row}");
     assert!(row.find('r') < row.find('b'), "red left of blue: {row}");
     assert_eq!(dominant(img.pixel(2, 2)), '.', "background in the corner");
@@ -73,22 +91,42 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     tx.set_pose(blue, at(3.0, 0.0, 1.0));
     model.apply(&tx).expect("valid");
     let moved = r.sync(&Snapshot::from_model(&model));
-    assert_eq!((moved.transforms, moved.meshes, moved.materials), (1, 0, 0), "{moved:?}");
+    assert_eq!(
+        (moved.transforms, moved.meshes, moved.materials),
+        (1, 0, 0),
+        "{moved:?}"
+    );
     assert_eq!(moved.total_bytes(), TRANSFORM_BYTES);
     // Nothing changed: nothing sent.
     assert_eq!(r.sync(&Snapshot::from_model(&model)).total_bytes(), 0);
     // Recolour red: one material.
     let mut tx = Transaction::new();
-    tx.set_appearance(red, Appearance { color: [0.1, 0.9, 0.1, 1.0], ..Appearance::default() });
+    tx.set_appearance(
+        red,
+        Appearance {
+            color: [0.1, 0.9, 0.1, 1.0],
+            ..Appearance::default()
+        },
+    );
     model.apply(&tx).expect("valid");
     let recoloured = r.sync(&Snapshot::from_model(&model));
-    assert_eq!((recoloured.transforms, recoloured.meshes, recoloured.materials), (0, 0, 1));
+    assert_eq!(
+        (
+            recoloured.transforms,
+            recoloured.meshes,
+            recoloured.materials
+        ),
+        (0, 0, 1)
+    );
     // New geometry for red: its mesh alone.
     let mut tx = Transaction::new();
     tx.set_geometry(red, Some(cube(0.25)));
     model.apply(&tx).expect("valid");
     let reshaped = r.sync(&Snapshot::from_model(&model));
-    assert_eq!((reshaped.transforms, reshaped.meshes, reshaped.materials), (0, 1, 0));
+    assert_eq!(
+        (reshaped.transforms, reshaped.meshes, reshaped.materials),
+        (0, 1, 0)
+    );
     // Delete blue: nothing to upload, one body fewer.
     let mut tx = Transaction::new();
     tx.delete(blue, false);
@@ -97,7 +135,9 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     assert_eq!(r.body_count(), 1);
     // Pick: the ray through the centre of the view hits red's front polygon.
     r.camera = Camera::looking(Point3::new(0.0, -12.0, 0.0), Point3::origin());
-    let hit = r.pick(80.0, 40.0, 160, 80).expect("red is under the centre");
+    let hit = r
+        .pick(80.0, 40.0, 160, 80)
+        .expect("red is under the centre");
     assert_eq!(hit.id, red);
     assert!((hit.distance - 11.75).abs() < 1e-6, "{hit:?}");
     assert!(r.pick(2.0, 2.0, 160, 80).is_none());
@@ -113,11 +153,23 @@ fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
     let plate = tx.create(Kind::Solid, "plate", None);
     tx.set_geometry(plate, Some(block([10_000.0, 10_000.0, 0.5])));
     tx.set_pose(plate, at(0.0, 0.0, -0.5));
-    tx.set_appearance(plate, Appearance { color: [0.2, 0.8, 0.2, 1.0], ..Appearance::default() });
+    tx.set_appearance(
+        plate,
+        Appearance {
+            color: [0.2, 0.8, 0.2, 1.0],
+            ..Appearance::default()
+        },
+    );
     let cube_id = tx.create(Kind::Solid, "cube", None);
     tx.set_geometry(cube_id, Some(cube(0.005)));
     tx.set_pose(cube_id, at(0.0, 0.0, 0.005));
-    tx.set_appearance(cube_id, Appearance { color: [0.9, 0.1, 0.1, 1.0], ..Appearance::default() });
+    tx.set_appearance(
+        cube_id,
+        Appearance {
+            color: [0.9, 0.1, 0.1, 1.0],
+            ..Appearance::default()
+        },
+    );
     model.apply(&tx).expect("valid");
     let mut r = Renderer::headless().expect("adapter");
     r.sync(&Snapshot::from_model(&model));
@@ -125,10 +177,18 @@ fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
     assert!(radius > 7_000.0, "{radius}");
     r.camera = Camera::looking(Point3::new(0.05, -0.05, 0.04), Point3::new(0.0, 0.0, 0.005));
     let img = r.render_image(120, 90).expect("frame");
-    assert_eq!(dominant(img.pixel(60, 45)), 'r', "the cube at the centre: {:?}", img.pixel(60, 45));
+    assert_eq!(
+        dominant(img.pixel(60, 45)),
+        'r',
+        "the cube at the centre: {:?}",
+        img.pixel(60, 45)
+    );
     // The plate fills the lower part of the view (green), not the background.
     let p = img.pixel(60, 85);
-    assert!(p[1] > p[0] + 40 && p[1] > p[2] + 40, "plate below the cube: {p:?}");
+    assert!(
+        p[1] > p[0] + 40 && p[1] > p[2] + 40,
+        "plate below the cube: {p:?}"
+    );
 }
 
 /// The change-driven sync uploads what the full comparison would, and falls back to it for
@@ -143,7 +203,12 @@ fn change_driven_sync_matches_the_full_comparison() {
     let mut tx = Transaction::new();
     tx.set_pose(blue, at(3.0, 1.0, 0.0));
     model.apply(&tx).expect("valid");
-    let pose = |version, ids: Vec<u64>| Change { version, aspects: aspect::POSE, ids, published_ns: 0 };
+    let pose = |version, ids: Vec<u64>| Change {
+        version,
+        aspects: aspect::POSE,
+        ids,
+        published_ns: 0,
+    };
     let up = r.sync_changes(&Snapshot::from_model(&model), &[pose(v0 + 1, vec![blue])]);
     assert_eq!((up.transforms, up.meshes, up.materials), (1, 0, 0));
     // The item carrying both cubes moves: both transforms, found through the children index.

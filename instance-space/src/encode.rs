@@ -201,13 +201,24 @@ mod tests {
         let mut model = Model::new();
         let mut tx = Transaction::new();
         let item = tx.create(Kind::Item, "item", None);
-        tx.set_pose(item, [1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+        tx.set_pose(
+            item,
+            [1.0, 0.0, 0.0, 2.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+        );
         let solid = tx.create(Kind::Solid, "tri", Some(item));
-        tx.set_pose(solid, [0.0, -1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 3.0, 0.0, 0.0, 1.0, 0.0]);
+        tx.set_pose(
+            solid,
+            [0.0, -1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 3.0, 0.0, 0.0, 1.0, 0.0],
+        );
         tx.set_geometry(
             solid,
             Some(GeometryInput {
-                vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+                vertices: vec![
+                    [0.0, 0.0, 0.0],
+                    [1.0, 0.0, 0.0],
+                    [0.0, 1.0, 0.0],
+                    [0.0, 0.0, 1.0],
+                ],
                 polygons: vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]],
             }),
         );

@@ -13,10 +13,7 @@
 //! 4. only then acknowledges, and notifies readers and waiting clients.
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
-use crate::layout::{
-    ChangeRec, ObjectsHeader, PoseRec, PosesHeader,
-    SegmentWriter,
-};
+use crate::layout::{ChangeRec, ObjectsHeader, PoseRec, PosesHeader, SegmentWriter};
 use crate::model::{Applied, Id, Model, TxError, aspect};
 use crate::services;
 use crate::session::{Registration, Session, SessionError};
