@@ -654,6 +654,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     host.snap = None;
     while signals.wait(Duration::ZERO).is_ok() {
         if let Some(p) = &player
+            && host.snap.is_some()
             && sample < p.len()
             && Instant::now() >= next_sample
         {

@@ -527,3 +527,46 @@ fn up_with_display_runs_it_headless_and_down_stops_it() {
         "the display stopped with an error: {log}"
     );
 }
+
+/// MD's file mode into a live session: the display plays two trajectory files into the
+/// welding cell's arm and positioner (it is a writer then), and another process sees both
+/// robots end at their files' last samples.
+#[test]
+fn a_session_display_plays_trajectories_into_the_instance_space() {
+    let mut k = Procs::new("dplay");
+    k.start_keeper(&["--scene", "downhand_welding_cell"]);
+    let arm = k.home.path().join("arm.traj");
+    let pos = k.home.path().join("pos.traj");
+    std::fs::write(&arm, "# dt: 0.01\n0 0 0 0 0 0\n10 -5 5 0 20 0\n20 -10 10 0 40 15\n").expect("write");
+    std::fs::write(&pos, "# dt: 0.01\n0 0\n15 90\n").expect("write");
+    let out = k.home.path().join("play-out");
+    let (a, p, o) = (
+        format!("arm={}", arm.display()),
+        format!("positioner={}", pos.display()),
+        out.to_string_lossy().into_owned(),
+    );
+    k.spawn(&["display", "--headless", "--size", "160x120", "--out", &o, "--play", &a, "--play", &p]);
+    let s = k.session();
+    let mut reader = Reader::attach(&s, "test-reader").expect("reader");
+    let joints = |snap: &robosim_instance_space::Snapshot, robot: &str| -> Vec<f64> {
+        let rid = snap.objects()[(0..snap.len())
+            .find(|&i| snap.name(i) == robot && snap.object(i).kind() == Some(Kind::Robot))
+            .expect("robot")]
+        .id;
+        let mut links: Vec<(u32, f64)> = (0..snap.len())
+            .filter(|&i| snap.objects()[i].parent == rid && snap.object(i).kind() == Some(Kind::Link))
+            .map(|i| (snap.objects()[i].index_or_family, snap.poses()[i].joint.to_degrees()))
+            .collect();
+        links.sort_by_key(|l| l.0);
+        links.into_iter().map(|l| l.1).collect()
+    };
+    let close = |q: &[f64], want: &[f64]| q.len() == want.len() && q.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9);
+    wait_for("both robots at their last samples", || {
+        reader.refresh().ok()?;
+        let snap = reader.snapshot()?;
+        (close(&joints(&snap, "arm"), &[20.0, -10.0, 10.0, 0.0, 40.0, 15.0])
+            && close(&joints(&snap, "positioner"), &[15.0, 90.0]))
+        .then_some(())
+    });
+    wait_for("frames drawn", || (frames(&out).len() >= 2).then_some(()));
+}
