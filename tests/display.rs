@@ -537,7 +537,11 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
     k.start_keeper(&["--scene", "downhand_welding_cell"]);
     let arm = k.home.path().join("arm.traj");
     let pos = k.home.path().join("pos.traj");
-    std::fs::write(&arm, "# dt: 0.01\n0 0 0 0 0 0\n10 -5 5 0 20 0\n20 -10 10 0 40 15\n").expect("write");
+    std::fs::write(
+        &arm,
+        "# dt: 0.01\n0 0 0 0 0 0\n10 -5 5 0 20 0\n20 -10 10 0 40 15\n",
+    )
+    .expect("write");
     std::fs::write(&pos, "# dt: 0.01\n0 0\n15 90\n").expect("write");
     let out = k.home.path().join("play-out");
     let (a, p, o) = (
@@ -545,7 +549,18 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
         format!("positioner={}", pos.display()),
         out.to_string_lossy().into_owned(),
     );
-    k.spawn(&["display", "--headless", "--size", "160x120", "--out", &o, "--play", &a, "--play", &p]);
+    k.spawn(&[
+        "display",
+        "--headless",
+        "--size",
+        "160x120",
+        "--out",
+        &o,
+        "--play",
+        &a,
+        "--play",
+        &p,
+    ]);
     let s = k.session();
     let mut reader = Reader::attach(&s, "test-reader").expect("reader");
     let joints = |snap: &robosim_instance_space::Snapshot, robot: &str| -> Vec<f64> {
@@ -554,13 +569,22 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
             .expect("robot")]
         .id;
         let mut links: Vec<(u32, f64)> = (0..snap.len())
-            .filter(|&i| snap.objects()[i].parent == rid && snap.object(i).kind() == Some(Kind::Link))
-            .map(|i| (snap.objects()[i].index_or_family, snap.poses()[i].joint.to_degrees()))
+            .filter(|&i| {
+                snap.objects()[i].parent == rid && snap.object(i).kind() == Some(Kind::Link)
+            })
+            .map(|i| {
+                (
+                    snap.objects()[i].index_or_family,
+                    snap.poses()[i].joint.to_degrees(),
+                )
+            })
             .collect();
         links.sort_by_key(|l| l.0);
         links.into_iter().map(|l| l.1).collect()
     };
-    let close = |q: &[f64], want: &[f64]| q.len() == want.len() && q.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9);
+    let close = |q: &[f64], want: &[f64]| {
+        q.len() == want.len() && q.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9)
+    };
     wait_for("both robots at their last samples", || {
         reader.refresh().ok()?;
         let snap = reader.snapshot()?;

@@ -966,6 +966,13 @@ impl Renderer {
         Ok(())
     }
 
+    /// Submits the uploads written since the last frame without drawing (a frame does this
+    /// itself; the upload benchmark, which draws no frames, calls it between updates as the
+    /// display's frames would).
+    pub fn flush_uploads(&self) {
+        self.gpu.queue.submit([]);
+    }
+
     /// Draws a frame off screen and waits for the device to finish it, reading nothing back
     /// (what a window's frame costs before presentation; used by `robosim bench display`).
     pub fn draw_and_wait(&mut self, width: u32, height: u32) -> Result<()> {
