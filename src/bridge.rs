@@ -4,6 +4,7 @@ use robosim_instance_space::{Id, Kind, Snapshot, layout::flags};
 use robosim_kinematics::{Convention, Joint, JointType, Robot};
 
 /// A robot found in a snapshot: its kinematic model and its link ids in chain order.
+#[derive(Clone)]
 pub struct SpaceRobot {
     pub robot: Robot,
     pub links: Vec<Id>,

@@ -11,9 +11,11 @@
 
 use crate::{Result, bail, bridge, instantiate, ops, scene};
 use nalgebra::{Point3, Vector3};
+use robosim_display::renderer::scene_bounds;
 use robosim_display::trajectory::Trajectory;
+use robosim_display::trajectory::to_si;
 use robosim_display::window::{Host, WindowOptions};
-use robosim_display::{Hit, Projection, Renderer, Style};
+use robosim_display::{Camera, Hit, Projection, Renderer, Style};
 use robosim_instance_space::{Client, Kind, Model, Reader, Session, Snapshot};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -78,14 +80,18 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 }
 
 impl ViewArgs {
-    fn apply(&self, r: &mut Renderer) -> Result<()> {
-        r.style = Style {
+    fn style(&self) -> Style {
+        Style {
             edges: self.edges,
             ..Style::default()
-        };
-        r.frame_all();
-        let (_, radius) = r.bounds();
-        let mut cam = r.camera;
+        }
+    }
+
+    /// The camera these options ask for, around a scene with bounding sphere `bounds`: framed
+    /// from the default direction at the asked field of view, then LOOK-AT and LOOK-FROM
+    /// where given.
+    fn camera(&self, bounds: (Point3<f64>, f64)) -> Result<Camera> {
+        let mut cam = Camera::framing_fov(bounds.0, bounds.1, self.fov);
         if let Some(at) = self.at {
             let offset = cam.from - cam.at;
             cam.at = Point3::from(at);
@@ -95,19 +101,18 @@ impl ViewArgs {
             cam.from = Point3::from(from);
         }
         cam.up = Vector3::from(self.up);
-        cam.fov_y_deg = self.fov;
-        if self.fov != 40.0 && self.from.is_none() {
-            // Keep the model framed at the new field of view.
-            let d = 1.1 * radius / (self.fov.to_radians() / 2.0).sin();
-            cam.from = cam.at + (cam.from - cam.at).normalize() * d;
-        }
         cam.projection = if self.ortho {
             Projection::Orthographic
         } else {
             Projection::Perspective
         };
         cam.validate().map_err(crate::CliError)?;
-        r.camera = cam;
+        Ok(cam)
+    }
+
+    fn apply(&self, r: &mut Renderer) -> Result<()> {
+        r.style = self.style();
+        r.camera = self.camera(r.bounds())?;
         Ok(())
     }
 }
@@ -168,8 +173,11 @@ fn robot<'a>(robots: &'a [bridge::SpaceRobot], name: &str) -> Result<&'a bridge:
     })
 }
 
-/// `ROBOT=q1,q2,…` in ROBOSIM units (degrees / metres) to SI for that robot.
-fn parse_joints(spec: &str, robots: &[bridge::SpaceRobot]) -> Result<(String, Vec<f64>)> {
+/// `ROBOT=q1,q2,…` in ROBOSIM units (degrees / metres): the robot and q in SI.
+fn parse_joints<'a>(
+    spec: &str,
+    robots: &'a [bridge::SpaceRobot],
+) -> Result<(&'a bridge::SpaceRobot, Vec<f64>)> {
     let (name, values) = spec
         .split_once('=')
         .ok_or_else(|| crate::CliError(format!("--joints {spec:?}: ROBOT=q1,q2,… expected")))?;
@@ -186,9 +194,9 @@ fn parse_joints(spec: &str, robots: &[bridge::SpaceRobot]) -> Result<(String, Ve
                 })
         })
         .collect::<Result<_>>()?;
-    let q = si(&r.robot, &vals);
+    let q = to_si(&vals, &prismatic(&r.robot), false);
     check_q(&r.robot, &q).map_err(|e| crate::CliError(format!("--joints {spec:?}: {}", e.0)))?;
-    Ok((name.trim().to_owned(), q))
+    Ok((r, q))
 }
 
 /// `q` is a configuration `robot` can take: right length, finite, inside every joint's limits.
@@ -196,21 +204,18 @@ fn check_q(robot: &robosim_kinematics::Robot, q: &[f64]) -> Result<()> {
     robot
         .check_q(q)
         .map_err(|e| crate::CliError(e.to_string()))?;
-    for (j, (jt, v)) in robot.joints.iter().zip(q).enumerate() {
-        let [lo, hi] = jt.qlim;
-        if !(lo..=hi).contains(v) {
-            let deg = |x: f64| match jt.joint_type {
-                robosim_kinematics::JointType::Prismatic => format!("{x} m"),
-                _ => format!("{:.2}°", x.to_degrees()),
-            };
-            bail!(
-                "joint {} at {} is outside its limits [{}, {}]",
-                j + 1,
-                deg(*v),
-                deg(lo),
-                deg(hi)
-            );
-        }
+    if let Some((j, v, [lo, hi])) = robot.outside_limits(q) {
+        let unit = |x: f64| match robot.joints[j].joint_type {
+            robosim_kinematics::JointType::Prismatic => format!("{x} m"),
+            _ => format!("{:.2}°", x.to_degrees()),
+        };
+        bail!(
+            "joint {} at {} is outside its limits [{}, {}]",
+            j + 1,
+            unit(v),
+            unit(lo),
+            unit(hi)
+        );
     }
     Ok(())
 }
@@ -223,34 +228,18 @@ fn prismatic(robot: &robosim_kinematics::Robot) -> Vec<bool> {
         .collect()
 }
 
-fn si(robot: &robosim_kinematics::Robot, vals: &[f64]) -> Vec<f64> {
-    let p = prismatic(robot);
-    vals.iter()
-        .enumerate()
-        .map(|(j, v)| {
-            if p.get(j).copied().unwrap_or(false) {
-                *v
-            } else {
-                v.to_radians()
-            }
-        })
-        .collect()
-}
-
-/// Puts robot `name` of a local model at `q` (SI).
-fn set_local(model: &mut Model, name: &str, q: &[f64]) -> Result<()> {
-    let snap = Snapshot::from_model(model);
-    let robots = bridge::robots(&snap);
-    let r = robot(&robots, name)?;
+/// Puts robot `r` of a local model at `q` (SI). The robot's links keep their ids, so the
+/// robot found once serves every update.
+fn set_local(model: &mut Model, r: &bridge::SpaceRobot, q: &[f64]) -> Result<()> {
     model
         .apply(&bridge::joint_tx(&r.robot, &r.links, q))
-        .map_err(|e| crate::CliError(format!("moving {name}: {e}")))?;
+        .map_err(|e| crate::CliError(format!("moving {}: {e}", r.robot.name)))?;
     Ok(())
 }
 
 /// Trajectory tracks `ROBOT=FILE`, checked against the robots' joint counts and limits.
 struct Player {
-    tracks: Vec<(String, Trajectory, Vec<bool>)>,
+    tracks: Vec<(bridge::SpaceRobot, Trajectory, Vec<bool>)>,
 }
 
 impl Player {
@@ -278,7 +267,7 @@ impl Player {
                     crate::CliError(format!("{}: sample {}: {}", file.trim(), k + 1, e.0))
                 })?;
             }
-            tracks.push((name.trim().to_owned(), t, p));
+            tracks.push((r.clone(), t, p));
         }
         Ok(Player { tracks })
     }
@@ -292,10 +281,10 @@ impl Player {
     }
 
     /// (robot, q) of every track at sample `k` (a finished track holds its last sample).
-    fn at(&self, k: usize) -> Vec<(&str, Vec<f64>)> {
+    fn at(&self, k: usize) -> Vec<(&bridge::SpaceRobot, Vec<f64>)> {
         self.tracks
             .iter()
-            .map(|(n, t, p)| (n.as_str(), t.sample_si(k, p)))
+            .map(|(r, t, p)| (r, t.sample_si(k, p)))
             .collect()
     }
 }
@@ -320,13 +309,13 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     let mut model = local_model(&a.library, &a.scene)?;
     let snap = Snapshot::from_model(&model);
     let robots = bridge::robots(&snap);
-    let settings: Vec<(String, Vec<f64>)> = a
+    let settings: Vec<(&bridge::SpaceRobot, Vec<f64>)> = a
         .joints
         .iter()
         .map(|s| parse_joints(s, &robots))
         .collect::<Result<_>>()?;
-    for (name, q) in &settings {
-        set_local(&mut model, name, q)?;
+    for (r, q) in &settings {
+        set_local(&mut model, r, q)?;
     }
     for name in &a.hide {
         let snap = Snapshot::from_model(&model);
@@ -376,8 +365,8 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         let meshes_before = r.total_upload().meshes;
         let mut written = 0;
         for k in (0..player.len()).step_by(a.every) {
-            for (name, q) in player.at(k) {
-                set_local(&mut model, name, &q)?;
+            for (r, q) in player.at(k) {
+                set_local(&mut model, r, &q)?;
             }
             let snap = Snapshot::from_model(&model);
             highlight(&mut r, &snap, a.view.collisions);
@@ -597,13 +586,11 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         _ => None,
     };
     if !headless {
-        let mut probe = Renderer::headless()?;
-        if let Some(s) = &host.snap {
-            probe.sync(s);
-        }
-        a.view.apply(&mut probe)?;
-        let camera = probe.camera;
-        drop(probe);
+        let bounds = host
+            .snap
+            .as_deref()
+            .map_or((Point3::origin(), 1.0), scene_bounds);
+        let camera = a.view.camera(bounds)?;
         host.snap = None;
         if player.is_some() {
             bail!(
@@ -617,14 +604,10 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             script: a.script.clone(),
             ..WindowOptions::default()
         };
-        let style = Style {
-            edges: a.view.edges,
-            ..Style::default()
-        };
         return Ok(robosim_display::window::run(
             Box::new(host),
             Some(camera),
-            style,
+            a.view.style(),
             opts,
         )?);
     }
@@ -658,8 +641,8 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             && sample < p.len()
             && Instant::now() >= next_sample
         {
-            for (name, q) in p.at(sample) {
-                host.write_q(name, &q)?;
+            for (r, q) in p.at(sample) {
+                host.write_q(&r.robot.name, &q)?;
             }
             let dt = p
                 .tracks

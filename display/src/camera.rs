@@ -34,7 +34,11 @@ impl Camera {
     /// A camera looking at the sphere (`center`, `radius`) from the default direction, at the
     /// distance where the sphere fills the vertical field of view with a 10 % margin.
     pub fn framing(center: Point3<f64>, radius: f64) -> Camera {
-        let fov_y_deg: f64 = 40.0;
+        Self::framing_fov(center, radius, 40.0)
+    }
+
+    /// [`Camera::framing`] with a vertical field of view of `fov_y_deg` degrees.
+    pub fn framing_fov(center: Point3<f64>, radius: f64, fov_y_deg: f64) -> Camera {
         let dir = Vector3::from(DEFAULT_DIRECTION).normalize();
         let r = if radius.is_finite() && radius > 0.0 {
             radius

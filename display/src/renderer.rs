@@ -89,6 +89,40 @@ pub fn instance_descriptor(
     d.with_env()
 }
 
+/// The bounding sphere (centre, radius) of the bodies of `snap` (objects with geometry) at
+/// their world poses — what a renderer synced to `snap` reports as [`Renderer::bounds`],
+/// without a device (to place a camera before one exists).
+pub fn scene_bounds(snap: &Snapshot) -> (Point3<f64>, f64) {
+    let bodies: Vec<([f64; 12], [f64; 6])> = (0..snap.len())
+        .filter_map(|i| Some((snap.world_pose(i), snap.geometry(i)?.header.bbox)))
+        .collect();
+    sphere_around(bodies.iter().map(|(w, b)| (w, b)))
+}
+
+/// The sphere around the world boxes of bodies given as (world pose, body-frame bbox centre
+/// and half-diagonal); the unit sphere for none.
+fn sphere_around<'a>(
+    bodies: impl Iterator<Item = (&'a [f64; 12], &'a [f64; 6])>,
+) -> (Point3<f64>, f64) {
+    let mut lo = Vector3::repeat(f64::INFINITY);
+    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    for (w, bbox) in bodies {
+        let c = Vector3::new(bbox[0], bbox[1], bbox[2]);
+        let h = Vector3::new(bbox[3], bbox[4], bbox[5]);
+        for r in 0..3 {
+            let center = w[r * 4] * c.x + w[r * 4 + 1] * c.y + w[r * 4 + 2] * c.z + w[r * 4 + 3];
+            let half = w[r * 4].abs() * h.x + w[r * 4 + 1].abs() * h.y + w[r * 4 + 2].abs() * h.z;
+            lo[r] = lo[r].min(center - half);
+            hi[r] = hi[r].max(center + half);
+        }
+    }
+    if !(lo.iter().all(|v| v.is_finite()) && hi.iter().all(|v| v.is_finite())) {
+        return (Point3::origin(), 1.0);
+    }
+    let center = Point3::from((lo + hi) / 2.0);
+    (center, ((hi - lo) / 2.0).norm().max(1e-6))
+}
+
 /// Bytes and items written to the GPU by one [`Renderer::sync`] (or summed over many).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct UploadStats {
@@ -732,26 +766,7 @@ impl Renderer {
     /// The world bounding sphere of everything drawn (centre, radius); the unit sphere when
     /// nothing is.
     pub fn bounds(&self) -> (Point3<f64>, f64) {
-        let mut lo = Vector3::repeat(f64::INFINITY);
-        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
-        for b in self.bodies.values() {
-            let w = &b.world;
-            let c = Vector3::new(b.bbox[0], b.bbox[1], b.bbox[2]);
-            let h = Vector3::new(b.bbox[3], b.bbox[4], b.bbox[5]);
-            for r in 0..3 {
-                let center =
-                    w[r * 4] * c.x + w[r * 4 + 1] * c.y + w[r * 4 + 2] * c.z + w[r * 4 + 3];
-                let half =
-                    w[r * 4].abs() * h.x + w[r * 4 + 1].abs() * h.y + w[r * 4 + 2].abs() * h.z;
-                lo[r] = lo[r].min(center - half);
-                hi[r] = hi[r].max(center + half);
-            }
-        }
-        if !(lo.iter().all(|v| v.is_finite()) && hi.iter().all(|v| v.is_finite())) {
-            return (Point3::origin(), 1.0);
-        }
-        let center = Point3::from((lo + hi) / 2.0);
-        (center, ((hi - lo) / 2.0).norm().max(1e-6))
+        sphere_around(self.bodies.values().map(|b| (&b.world, &b.bbox)))
     }
 
     /// Points the camera at everything drawn, from the default direction.

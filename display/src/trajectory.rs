@@ -110,18 +110,28 @@ impl Trajectory {
     /// Sample `k` (the last one once the file is exhausted) in SI units: revolute columns
     /// (`prismatic[j] == false`) converted to radians.
     pub fn sample_si(&self, k: usize, prismatic: &[bool]) -> Vec<f64> {
-        let row = &self.samples[k.min(self.samples.len() - 1)];
-        row.iter()
-            .enumerate()
-            .map(|(j, v)| {
-                if prismatic.get(j).copied().unwrap_or(false) || self.radians {
-                    *v
-                } else {
-                    v.to_radians()
-                }
-            })
-            .collect()
+        to_si(
+            &self.samples[k.min(self.samples.len() - 1)],
+            prismatic,
+            self.radians,
+        )
     }
+}
+
+/// Joint values in ROBOSIM units to SI: revolute columns (`prismatic[j] == false`) from
+/// degrees to radians unless `radians`; prismatic columns are metres either way.
+pub fn to_si(values: &[f64], prismatic: &[bool], radians: bool) -> Vec<f64> {
+    values
+        .iter()
+        .enumerate()
+        .map(|(j, v)| {
+            if prismatic.get(j).copied().unwrap_or(false) || radians {
+                *v
+            } else {
+                v.to_radians()
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -73,6 +73,11 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     let (mut model, red, blue) = scene();
     let mut r = Renderer::headless().expect("a Vulkan adapter (mesa-vulkan-drivers on CI)");
     let first = r.sync(&Snapshot::from_model(&model));
+    // The device-free bounds (for placing a camera before a device exists) agree.
+    assert_eq!(
+        r.bounds(),
+        robosim_display::renderer::scene_bounds(&Snapshot::from_model(&model))
+    );
     assert_eq!((first.meshes, first.transforms, first.materials), (2, 2, 2));
     assert!(first.mesh_bytes > 0);
     // Look down the −y axis at the pair: red left of centre, blue right.

@@ -195,6 +195,16 @@ impl Robot {
         Ok(())
     }
 
+    /// The first joint whose value in `q` lies outside its limits: (index, value, [lo, hi]).
+    pub fn outside_limits(&self, q: &[f64]) -> Option<(usize, f64, [f64; 2])> {
+        self.joints
+            .iter()
+            .zip(q)
+            .enumerate()
+            .find(|(_, (jt, v))| !(jt.qlim[0]..=jt.qlim[1]).contains(*v))
+            .map(|(j, (jt, v))| (j, *v, jt.qlim))
+    }
+
     /// Checks a joint vector against this robot: right length, all finite.
     pub fn check_q(&self, q: &[f64]) -> Result<(), ModelError> {
         if q.len() != self.dof() {

@@ -58,18 +58,15 @@ pub fn movej_interpolate(
                 .map(|(a, b)| a + s * (b - a))
                 .collect()
         };
-        for (joint, (jt, &value)) in robot.joints.iter().zip(&q).enumerate() {
-            let [lo, hi] = jt.qlim;
-            if !(lo..=hi).contains(&value) {
-                return Err(LimitViolation {
-                    step: k,
-                    joint,
-                    value,
-                    lo,
-                    hi,
-                }
-                .into());
+        if let Some((joint, value, [lo, hi])) = robot.outside_limits(&q) {
+            return Err(LimitViolation {
+                step: k,
+                joint,
+                value,
+                lo,
+                hi,
             }
+            .into());
         }
         out.push(q);
     }
