@@ -232,7 +232,7 @@ pub struct Renderer {
     last: UploadStats,
     total: UploadStats,
     version: u64,
-    offscreen: Option<Targets>,
+    targets: Option<Targets>,
     pub camera: Camera,
     pub style: Style,
 }
@@ -437,7 +437,7 @@ impl Renderer {
             last: UploadStats::default(),
             total: UploadStats::default(),
             version: 0,
-            offscreen: None,
+            targets: None,
             camera: Camera::framing(Point3::origin(), 1.0),
             style: Style::default(),
         }
@@ -925,18 +925,23 @@ impl Renderer {
         }
     }
 
-    /// Draws a frame into a window's surface texture.
-    pub fn render_to(&mut self, view: &wgpu::TextureView, width: u32, height: u32) {
+    /// (Re)makes the colour, multisample and depth targets when the size changes.
+    fn ensure_targets(&mut self, width: u32, height: u32, offscreen: bool) {
         if self
-            .offscreen
+            .targets
             .as_ref()
             .is_none_or(|t| t.size != (width, height))
         {
-            self.offscreen = Some(self.make_targets(width, height, false));
+            self.targets = Some(self.make_targets(width, height, offscreen));
         }
+    }
+
+    /// Draws a frame into a window's surface texture.
+    pub fn render_to(&mut self, view: &wgpu::TextureView, width: u32, height: u32) {
+        self.ensure_targets(width, height, false);
         self.write_frame(width, height);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
-        if let Some(t) = &self.offscreen {
+        if let Some(t) = &self.targets {
             self.encode(&mut encoder, view, t.msaa.as_ref(), &t.depth);
         }
         self.gpu.queue.submit([encoder.finish()]);
@@ -956,15 +961,9 @@ impl Renderer {
                 self.format
             )));
         }
-        if self
-            .offscreen
-            .as_ref()
-            .is_none_or(|t| t.size != (width, height))
-        {
-            self.offscreen = Some(self.make_targets(width, height, true));
-        }
+        self.ensure_targets(width, height, true);
         self.write_frame(width, height);
-        let Some(t) = &self.offscreen else {
+        let Some(t) = &self.targets else {
             return Err(DisplayError::Device("no render target".into()));
         };
         let view = t.color.create_view(&Default::default());
@@ -999,7 +998,7 @@ impl Renderer {
     /// Draws a frame off screen and reads it back.
     pub fn render_image(&mut self, width: u32, height: u32) -> Result<RgbaImage> {
         let mut encoder = self.encode_offscreen(width, height)?;
-        let Some(t) = &self.offscreen else {
+        let Some(t) = &self.targets else {
             return Err(DisplayError::Device("no render target".into()));
         };
         let row = (width * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
