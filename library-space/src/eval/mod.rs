@@ -702,6 +702,32 @@ impl Seen {
     }
 }
 
+/// The properties of a `{ … }` group that holds nothing else (a scene's `collision { … }`,
+/// `dynamics { … }`): each as (name, span, value) in order, every name at most once; any other
+/// statement in it is refused as misplaced in `inside`, `expected` saying what may be there.
+fn group_props<'b>(
+    body: &'b [Stmt],
+    inside: &str,
+    expected: &str,
+) -> RResult<Vec<(&'b str, Span, &'b Expr)>> {
+    let mut seen = Seen::default();
+    let mut out = Vec::with_capacity(body.len());
+    for st in body {
+        match st {
+            Stmt::Prop {
+                name,
+                name_span,
+                value,
+            } => {
+                seen.check(name, *name_span)?;
+                out.push((name.as_str(), *name_span, value));
+            }
+            other => return Err(misplaced(other, inside, expected)),
+        }
+    }
+    Ok(out)
+}
+
 fn unknown_prop(what: &str, name: &str, span: Span, allowed: &[&str]) -> RawError {
     let mut msg = format!("a {what} has no property `{name}`");
     if let Some(s) = suggest(name, allowed.iter().copied()) {

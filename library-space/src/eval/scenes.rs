@@ -272,47 +272,30 @@ impl Evaluator<'_> {
                 } if name == "collision" => {
                     seen.check(name, *name_span)?;
                     let mut c = default_collision();
-                    let mut s2 = Seen::default();
-                    for st in body {
-                        match st {
-                            Stmt::Prop {
-                                name,
-                                name_span,
-                                value,
-                            } => {
-                                s2.check(name, *name_span)?;
-                                match name.as_str() {
-                                    "mode" => {
-                                        c.mode = match self
-                                            .word(
-                                                value,
-                                                &["bbox", "polygon", "exact"],
-                                                "collision mode",
-                                            )?
-                                            .as_str()
-                                        {
-                                            "bbox" => CollisionMode::Bbox,
-                                            "polygon" => CollisionMode::Polygon,
-                                            _ => CollisionMode::Exact,
-                                        }
-                                    }
-                                    "self" => c.self_collision = self.switch(value, scope)?,
-                                    "continuous" => c.continuous = self.switch(value, scope)?,
-                                    _ => {
-                                        return Err(unknown_prop(
-                                            "collision",
-                                            name,
-                                            *name_span,
-                                            &["mode", "self", "continuous"],
-                                        ));
-                                    }
+                    for (name, name_span, value) in group_props(
+                        body,
+                        "`collision { … }`",
+                        "`mode:`, `self:` or `continuous:`",
+                    )? {
+                        match name {
+                            "mode" => {
+                                c.mode = match self
+                                    .word(value, &["bbox", "polygon", "exact"], "collision mode")?
+                                    .as_str()
+                                {
+                                    "bbox" => CollisionMode::Bbox,
+                                    "polygon" => CollisionMode::Polygon,
+                                    _ => CollisionMode::Exact,
                                 }
                             }
-                            other => {
-                                return Err(misplaced(
-                                    other,
-                                    "`collision { … }`",
-                                    "`mode:`, `self:` or `continuous:`",
+                            "self" => c.self_collision = self.switch(value, scope)?,
+                            "continuous" => c.continuous = self.switch(value, scope)?,
+                            _ => {
+                                return Err(unknown_prop(
+                                    "collision",
+                                    name,
+                                    name_span,
+                                    &["mode", "self", "continuous"],
                                 ));
                             }
                         }
@@ -326,73 +309,60 @@ impl Evaluator<'_> {
                 } if name == "dynamics" => {
                     seen.check(name, *name_span)?;
                     let mut dy = default_dynamics();
-                    let mut s2 = Seen::default();
-                    for st in body {
-                        match st {
-                            Stmt::Prop {
-                                name,
-                                name_span,
-                                value,
-                            } => {
-                                s2.check(name, *name_span)?;
-                                match name.as_str() {
-                                    "integrator" => {
-                                        dy.integrator = match self
-                                            .word(
-                                                value,
-                                                &["euler", "semi_implicit_euler", "rk4", "dopri5"],
-                                                "integrator",
-                                            )?
-                                            .as_str()
-                                        {
-                                            "euler" => Integrator::Euler,
-                                            "semi_implicit_euler" => Integrator::SemiImplicitEuler,
-                                            "rk4" => Integrator::Rk4,
-                                            _ => Integrator::Dopri5,
-                                        }
-                                    }
-                                    "step" => {
-                                        let s = self.quantity(
-                                            value,
-                                            scope,
-                                            Dim::TIME,
-                                            "a time step such as 1 ms",
-                                        )?;
-                                        if s <= 0.0 || s > 1.0 {
-                                            return Err(err(
-                                                ErrorKind::OutOfRange,
-                                                value.span,
-                                                format!("step {s} s is out of range"),
-                                            )
-                                            .expected("a step in (0, 1 s]"));
-                                        }
-                                        dy.step_s = s;
-                                    }
-                                    "gravity" => {
-                                        let g = self.vector(
-                                            value,
-                                            scope,
-                                            Dim::ACCEL,
-                                            3,
-                                            "[gx, gy, gz] in m/s^2",
-                                        )?;
-                                        dy.gravity = Vector3::new(g[0], g[1], g[2]);
-                                    }
-                                    _ => {
-                                        return Err(unknown_prop(
-                                            "dynamics",
-                                            name,
-                                            *name_span,
-                                            &["integrator", "step", "gravity"],
-                                        ));
-                                    }
+                    for (name, name_span, value) in group_props(
+                        body,
+                        "`dynamics { … }`",
+                        "`integrator:`, `step:` or `gravity:`",
+                    )? {
+                        match name {
+                            "integrator" => {
+                                dy.integrator = match self
+                                    .word(
+                                        value,
+                                        &["euler", "semi_implicit_euler", "rk4", "dopri5"],
+                                        "integrator",
+                                    )?
+                                    .as_str()
+                                {
+                                    "euler" => Integrator::Euler,
+                                    "semi_implicit_euler" => Integrator::SemiImplicitEuler,
+                                    "rk4" => Integrator::Rk4,
+                                    _ => Integrator::Dopri5,
                                 }
                             }
-                            other => {
-                                return Err(misplaced(
-                                    other,
-                                    "`dynamics { … }`",
-                                    "`integrator:`, `step:` or `gravity:`",
+                            "step" => {
+                                let s = self.quantity(
+                                    value,
+                                    scope,
+                                    Dim::TIME,
+                                    "a time step such as 1 ms",
+                                )?;
+                                if s <= 0.0 || s > 1.0 {
+                                    return Err(err(
+                                        ErrorKind::OutOfRange,
+                                        value.span,
+                                        format!("step {s} s is out of range"),
+                                    )
+                                    .expected("a step in (0, 1 s]"));
+                                }
+                                dy.step_s = s;
+                            }
+                            "gravity" => {
+                                let g = self.vector(
+                                    value,
+                                    scope,
+                                    Dim::ACCEL,
+                                    3,
+                                    "[gx, gy, gz] in m/s^2",
+                                )?;
+                                dy.gravity = Vector3::new(g[0], g[1], g[2]);
+                            }
+                            _ => {
+                                return Err(unknown_prop(
+                                    "dynamics",
+                                    name,
+                                    name_span,
+                                    &["integrator", "step", "gravity"],
                                 ));
                             }
                         }
