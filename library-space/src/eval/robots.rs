@@ -496,17 +496,7 @@ impl Evaluator<'_> {
         let mut pre: Matrix4<f64> = Matrix4::identity(); // base-frame transform accumulated by leading fixed links
         let mut post: Matrix4<f64> = Matrix4::identity(); // frame-n transform accumulated by trailing fixed links
         for (k, (l, span)) in links.iter().enumerate() {
-            let fixed_a = || {
-                let j = Joint {
-                    joint_type: JointType::Revolute,
-                    a: l.a,
-                    d: l.d,
-                    alpha: l.alpha,
-                    offset: l.theta,
-                    ..Joint::default()
-                };
-                fk::link_transform(robot.convention, &j, 0.0)
-            };
+            let fixed_a = || fixed_transform(robot.convention, l);
             match l.kind {
                 JointKind::Fixed if first_moving.is_none_or(|f| k < f) => {
                     pre *= fixed_a();
@@ -529,21 +519,7 @@ impl Evaluator<'_> {
                         .expected("fixed links only before the first or after the last moving joint (DH chains have no constant transforms in between); put its parts in the previous link"));
                 }
                 JointKind::Moving(t) => {
-                    robot.joints.push(Joint {
-                        joint_type: t,
-                        a: l.a,
-                        d: l.d,
-                        alpha: l.alpha,
-                        theta: l.theta,
-                        offset: l.offset,
-                        qlim: l.qlim,
-                        mass: l.mass,
-                        com: l.com,
-                        inertia: l.inertia,
-                        motor_inertia: l.motor_inertia,
-                        viscous: l.viscous,
-                        coulomb: l.coulomb,
-                    });
+                    robot.joints.push(moving_joint(l, t));
                     names.push(l.name.clone());
                     frames.push(l.parts.clone());
                 }
@@ -608,33 +584,12 @@ pub(crate) fn single_link_robot(l: &LinkVal) -> RobotModel {
     let mut names = vec![];
     match l.kind {
         JointKind::Moving(t) => {
-            robot.joints.push(Joint {
-                joint_type: t,
-                a: l.a,
-                d: l.d,
-                alpha: l.alpha,
-                theta: l.theta,
-                offset: l.offset,
-                qlim: l.qlim,
-                mass: l.mass,
-                com: l.com,
-                inertia: l.inertia,
-                motor_inertia: l.motor_inertia,
-                viscous: l.viscous,
-                coulomb: l.coulomb,
-            });
+            robot.joints.push(moving_joint(l, t));
             frames.push(l.parts.clone());
             names.push(l.name.clone());
         }
         JointKind::Fixed => {
-            let j = Joint {
-                a: l.a,
-                d: l.d,
-                alpha: l.alpha,
-                offset: l.theta,
-                ..Joint::default()
-            };
-            robot.base = fk::link_transform(robot.convention, &j, 0.0);
+            robot.base = fixed_transform(robot.convention, l);
             frames[0] = l.parts.clone();
         }
     }
@@ -644,4 +599,35 @@ pub(crate) fn single_link_robot(l: &LinkVal) -> RobotModel {
         frames,
         ik: None,
     }
+}
+
+/// The joint of a moving link: its DH row, limits and dynamics.
+fn moving_joint(l: &LinkVal, t: JointType) -> Joint {
+    Joint {
+        joint_type: t,
+        a: l.a,
+        d: l.d,
+        alpha: l.alpha,
+        theta: l.theta,
+        offset: l.offset,
+        qlim: l.qlim,
+        mass: l.mass,
+        com: l.com,
+        inertia: l.inertia,
+        motor_inertia: l.motor_inertia,
+        viscous: l.viscous,
+        coulomb: l.coulomb,
+    }
+}
+
+/// The constant transform of a fixed link: its DH row with θ as the (fixed) joint angle.
+fn fixed_transform(convention: Convention, l: &LinkVal) -> Matrix4<f64> {
+    let j = Joint {
+        a: l.a,
+        d: l.d,
+        alpha: l.alpha,
+        offset: l.theta,
+        ..Joint::default()
+    };
+    fk::link_transform(convention, &j, 0.0)
 }
