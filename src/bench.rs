@@ -53,7 +53,7 @@ pub enum Which {
 pub fn run(which: Which) -> Result<()> {
     match which {
         Which::Ipc { out, quick } => ipc(&out, quick),
-        Which::Display { out, quick } => crate::bench_display::run(&out, quick),
+        Which::Display { out, quick } => robosim_display::bench::run(&out, quick).map_err(|e| crate::CliError(e.0)),
         Which::IpcReader {
             session,
             count,

@@ -25,7 +25,9 @@
 //!
 //! Entry point: [`run`].
 
-use crate::{Result, bail, bridge, launcher};
+use crate::{Result, bail, launcher};
+use robosim_scene::pose::to_matrix as m4;
+use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
 use nalgebra::{Matrix4, Vector3};
 use robosim_collision::robot::{
     Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
@@ -66,16 +68,6 @@ impl Drop for SessionGuard {
             let _ = std::fs::remove_dir_all(s.dir());
         }
     }
-}
-
-fn m4(p: &[f64; 12]) -> Matrix4<f64> {
-    let mut m = Matrix4::identity();
-    for r in 0..3 {
-        for c in 0..4 {
-            m[(r, c)] = p[r * 4 + c];
-        }
-    }
-    m
 }
 
 fn xyz(m: &Matrix4<f64>) -> String {
@@ -199,7 +191,7 @@ fn verdict(r: &CheckResult, link_names: &[String]) -> String {
 
 /// The mapped robot of the snapshot: DH rows from the link records, base from the robot
 /// object's world pose, tool from its record.
-fn mapped_robot(snap: &Snapshot, arm: &bridge::SpaceRobot, name: &str) -> Result<Robot> {
+fn mapped_robot(snap: &Snapshot, arm: &CompiledRobot, name: &str) -> Result<Robot> {
     let i = snap
         .find(name)
         .ok_or_else(|| crate::CliError(format!("no object {name} in the snapshot")))?;
@@ -296,7 +288,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
         snap.vertex_count(),
         polygons
     );
-    let robots = bridge::robots(&snap);
+    let compiled = CompiledScene::of(&snap);
+    let robots = compiled.robots();
     let arm = robots
         .iter()
         .find(|r| r.robot.name == placed.name)
@@ -543,7 +536,7 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let mut last_version = 0;
     let mut seen = Vec::new();
     for q in &path {
-        let tx = bridge::joint_tx(&robot, &arm.links, q);
+        let tx = joint_tx(&robot, &arm.links, q);
         let c = client.transact(&tx)?;
         last_version = c.version;
         // The reader is told what changed: exactly the arm's links, pose aspect only.

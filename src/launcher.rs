@@ -7,7 +7,8 @@
 //! 10 s), components first and the keeper last so that its final checkpoint sees their last
 //! writes.
 
-use crate::{Result, bail, scene};
+use crate::{Result, bail};
+use robosim_scene as scene;
 use robosim_instance_space::{Client, KeeperOptions, Reader, Session};
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::process::CommandExt;
@@ -33,7 +34,7 @@ pub fn run_space(
     let session = Session::open(session)?;
     // The Library Space: the standard library plus the given files, checked before anything
     // is published or instantiated.
-    let lib = crate::instantiate::build_library(library)?;
+    let lib = robosim_scene::build_library(library)?;
     let opts = KeeperOptions {
         durable,
         ..KeeperOptions::default()
@@ -154,7 +155,7 @@ pub fn up_with_library(
             Some(_) => {}
         }
     }
-    let lib = crate::instantiate::build_library(library)?;
+    let lib = robosim_scene::build_library(library)?;
     scene::load_from(&lib, scene_name)?;
     let running = session.processes();
     let keeper_pid = match running.iter().find(|p| p.role == "space") {

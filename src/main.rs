@@ -4,18 +4,12 @@
 //! `bench`.
 
 mod bench;
-mod bench_display;
-mod bridge;
 mod demo;
-mod display;
-mod instantiate;
 mod launcher;
-mod ops;
 mod reports;
-mod scene;
-mod simulator;
 
 use clap::{Parser, Subcommand};
+use robosim_hl_interface::session;
 use std::process::ExitCode;
 
 #[derive(Parser)]
@@ -72,8 +66,8 @@ enum Command {
         #[arg(long)]
         session: Option<String>,
         /// realtime (one step per dt of wall time), fast, or lockstep (steps on command).
-        #[arg(long, value_enum, default_value = "realtime")]
-        mode: simulator::Mode,
+        #[arg(long, default_value = "realtime")]
+        mode: robosim_simulator_daemon::Mode,
         /// The effects to simulate (the simulator's JSON form); default: the scene's declaration.
         #[arg(long)]
         effects: Option<String>,
@@ -113,10 +107,10 @@ enum Command {
     },
     /// Draw a library scene or robot to PNG, with no session or other process (`--play`: one
     /// frame per trajectory sample).
-    Render(display::RenderArgs),
+    Render(robosim_display::app::RenderArgs),
     /// Attach to a session and draw it on every change: a window, or headless PNG frames with
     /// per-frame upload counters (frames.jsonl).
-    Display(display::DisplayArgs),
+    Display(robosim_display::app::DisplayArgs),
     /// A headless session that does real work and says what it did.
     Demo {
         #[arg(long)]
@@ -184,26 +178,30 @@ fn main() -> ExitCode {
             mode,
             effects,
             publish_hz,
-        } => simulator::run(session.as_deref(), mode, effects.as_deref(), publish_hz),
-        Command::Simctl { session, commands } => simulator::ctl(session.as_deref(), &commands),
+        } => robosim_simulator_daemon::run(session.as_deref(), mode, effects.as_deref(), publish_hz)
+            .map(drop)
+            .map_err(CliError::from),
+        Command::Simctl { session, commands } => {
+            robosim_simulator_daemon::ctl(session.as_deref(), &commands).map_err(CliError::from)
+        }
         Command::Instantiate {
             declaration,
             name,
             set,
             session,
-        } => instantiate::cli_instantiate(&declaration, name.as_deref(), &set, session.as_deref()),
+        } => cli_instantiate(&declaration, name.as_deref(), &set, session.as_deref()),
         Command::Set {
             instance,
             params,
             session,
-        } => instantiate::cli_set(&instance, &params, session.as_deref()),
+        } => cli_set(&instance, &params, session.as_deref()),
         Command::Demo { session } => demo::run(session.as_deref()),
         Command::Bench { which } => bench::run(which),
         Command::Lib { session: None, cmd } => robosim_library::cli::run(cmd).map_err(CliError),
         Command::Lib {
             session: Some(s),
             cmd,
-        } => instantiate::session_library(Some(&s))
+        } => session_library(Some(&s))
             .and_then(|lib| robosim_library::cli::render_with(cmd, Some(&lib)).map_err(CliError))
             .map(|text| print!("{text}")),
         Command::Diag { cmd } => robosim_automation::cli::run(cmd).map_err(CliError),
@@ -219,8 +217,10 @@ fn main() -> ExitCode {
             robosim_simulator::cli::run(&args, &robosim_library::standard_robot).map_err(CliError)
         }
         Command::Report { which } => reports::run(which),
-        Command::Render(args) => display::cmd_render(&args),
-        Command::Display(args) => display::cmd_display(&args),
+        Command::Render(args) => robosim_display::app::cmd_render(&args).map_err(|e| CliError(e.0)),
+        Command::Display(args) => {
+            robosim_display::app::cmd_display(&args).map_err(|e| CliError(e.0))
+        }
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -234,14 +234,72 @@ fn main() -> ExitCode {
 fn query_session(session: &str, args: &robosim_hl_interface::cli::QueryArgs) -> Result<()> {
     let s = robosim_instance_space::Session::open(Some(session))?;
     let out = std::io::stdout();
-    match args.input.as_deref() {
-        Some(p) if p.as_os_str() != "-" => ops::serve(
+    let served = match args.input.as_deref() {
+        Some(p) if p.as_os_str() != "-" => session::serve(
             &s,
             std::io::BufReader::new(std::fs::File::open(p)?),
             out.lock(),
         ),
-        _ => ops::serve(&s, std::io::stdin().lock(), out.lock()),
+        _ => session::serve(&s, std::io::stdin().lock(), out.lock()),
+    };
+    match served {
+        Ok(_) => Ok(()),
+        Err(session::ServeError::Io(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(e.into()),
     }
+}
+
+/// A running session's Library Space.
+fn session_library(session: Option<&str>) -> Result<robosim_library::Library> {
+    let s = robosim_instance_space::Session::open(session)?;
+    let mut reader = robosim_instance_space::Reader::attach(&s, "library")?;
+    Ok(robosim_scene::session_library(&mut reader)?)
+}
+
+/// `robosim instantiate DECL [--as NAME] [--set K=V]…`
+fn cli_instantiate(
+    declaration: &str,
+    name: Option<&str>,
+    set: &[String],
+    session: Option<&str>,
+) -> Result<()> {
+    let s = robosim_instance_space::Session::open(session)?;
+    let origin = robosim_scene::Origin {
+        declaration: declaration.to_owned(),
+        params: robosim_scene::parse_params(set)?,
+    };
+    let name = name.unwrap_or(declaration);
+    let lib = session_library(session)?;
+    let tx = robosim_scene::instantiate(&lib, &origin, name)?;
+    let mut c = robosim_instance_space::Client::connect(&s, "instantiate")?;
+    let a = c.transact(&tx)?;
+    println!(
+        "instantiated {declaration} as {name}: {} objects, version {}",
+        a.created.len(),
+        a.version
+    );
+    Ok(())
+}
+
+/// `robosim set INSTANCE K=V…`: only what the new values change is written.
+fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
+    let s = robosim_instance_space::Session::open(session)?;
+    let reader = robosim_instance_space::Reader::attach(&s, "set")?;
+    let snap = reader.snapshot().ok_or_else(|| CliError("no snapshot".into()))?;
+    let (_, mut origin) = robosim_scene::find_instance(&snap, instance)?;
+    origin.params.extend(robosim_scene::parse_params(pairs)?);
+    let lib = session_library(session)?;
+    let tx = robosim_scene::reinstantiate(&lib, &snap, instance, &origin)?;
+    let mut c = robosim_instance_space::Client::connect(&s, "set")?;
+    let a = c.transact(&tx)?;
+    let aspects: Vec<&str> = robosim_instance_space::aspect::names(a.aspects());
+    println!(
+        "re-instantiated {instance}: {} objects changed ({}), version {}",
+        a.changes.len(),
+        aspects.join(", "),
+        a.version
+    );
+    Ok(())
 }
 
 /// iceoryx2 prints a start-up notice at Info level; keep the terminal for our own output.

@@ -10,8 +10,13 @@
 //! * [`image`] — PNG and the golden-image comparison.
 //! * [`trajectory`] — MD's file mode: joint-angle files played back.
 //! * [`window`] — the interactive window (winit).
+//! * [`app`] — `robosim render` and `robosim display`: the renderer wired to the Library Space
+//!   and to sessions (through robosim-scene).
+//! * [`bench`] — `robosim bench display`.
 #![deny(unsafe_code)]
 
+pub mod app;
+pub mod bench;
 pub mod camera;
 pub mod image;
 pub mod mesh;

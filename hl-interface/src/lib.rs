@@ -33,10 +33,12 @@
 //! Entry points: [`handle_line`] (one line in, one line out), [`handle_request`] (an already
 //! parsed request), [`serve`] (a whole stream, flushed after every answer), [`serve_with`]
 //! (the same with more ops, e.g. a session's, answered first), [`cli`] (the
-//! `robosim query` command), [`client::Client`] (a Rust client over a server's pipes).
+//! `robosim query` command), [`client::Client`] (a Rust client over a server's pipes),
+//! [`session`] (the simulation-library ops on a running session: MOVEJ, MOVEJI, KINV, CHECK, …).
 
 pub mod cli;
 pub mod client;
+pub mod session;
 
 use robosim_kinematics::Robot;
 use serde_json::{Map, Value};

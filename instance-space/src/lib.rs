@@ -26,6 +26,7 @@ mod reader;
 mod session;
 pub mod state;
 mod transaction;
+mod view;
 
 pub use client::{Client, ClientError, Committed, Pending};
 pub use keeper::{Keeper, KeeperError, KeeperOptions};
@@ -38,6 +39,7 @@ pub use session::{
     ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,
 };
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
+pub use view::{JointView, RobotView};
 
 /// Service suffixes inside a session (see [`Session::service`]).
 pub mod services {

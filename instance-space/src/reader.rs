@@ -161,6 +161,12 @@ impl Snapshot {
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+    pub(crate) fn objects_header(&self) -> ObjectsHeader {
+        Self::seg(&self.objects)
+            .record::<ObjectsHeader>(0)
+            .copied()
+            .unwrap_or(bytemuck::Zeroable::zeroed())
+    }
     /// Every object, sorted by id.
     pub fn objects(&self) -> &[ObjectRec] {
         Self::seg(&self.objects).section(1).unwrap_or(&[])

@@ -73,6 +73,13 @@ pub trait Stage: Send {
     fn describe(&self) -> String;
     /// Runs the stage for the current step.
     fn run(&mut self, world: &mut World) -> Result<(), StepError>;
+    /// The robot was put at `q` from outside the pipeline (a writer moved its joints in the
+    /// Instance Space): forget anything remembered about the old configuration.
+    fn teleported(&mut self, _q: &DVector<f64>) {}
+    /// The obstacles this stage checks against, if it has any (to move them in place).
+    fn obstacles_mut(&mut self) -> Option<&mut Scene> {
+        None
+    }
 }
 
 /// A scene's simulation: the world and the stages it declared.
@@ -248,6 +255,35 @@ impl Pipeline {
         }
         self.world.command = command;
         Ok(())
+    }
+
+    /// Puts the robot at `q`, at rest, without stepping (a writer moved its joints in the
+    /// Instance Space). The command stays. Checked: length and finite values.
+    pub fn teleport(&mut self, q: &[f64]) -> Result<(), StepError> {
+        let n = self.world.robot.dof();
+        if q.len() != n {
+            return Err(StepError::Command(format!(
+                "teleport to {} values but the robot has {n} joints",
+                q.len()
+            )));
+        }
+        if let Some(i) = q.iter().position(|x| !x.is_finite()) {
+            return Err(StepError::Command(format!("teleport q[{i}] is not finite")));
+        }
+        let q = DVector::from_column_slice(q);
+        self.world.state.q.copy_from(&q);
+        self.world.state.qd.fill(0.0);
+        self.world.state.qdd.fill(0.0);
+        for s in &mut self.stages {
+            s.teleported(&q);
+        }
+        Ok(())
+    }
+
+    /// The collision stage's obstacles (`None` when collision is not declared), to move an
+    /// obstacle in place (`Scene::set_pose`) instead of rebuilding the pipeline.
+    pub fn obstacles_mut(&mut self) -> Option<&mut Scene> {
+        self.stages.iter_mut().find_map(|s| s.obstacles_mut())
     }
 
     /// The names of the stages, in order.

@@ -124,4 +124,10 @@ impl Stage for CollisionStage {
         w.contact = Some(contact);
         Ok(())
     }
+    fn teleported(&mut self, q: &DVector<f64>) {
+        self.q_safe.copy_from(q);
+    }
+    fn obstacles_mut(&mut self) -> Option<&mut Scene> {
+        Some(&mut self.scene)
+    }
 }

@@ -8,15 +8,44 @@
 //!   notification, uploading only what changed: headless (PNG frames and a JSON line of
 //!   upload counters per frame) or in a window. With `--play` it is also a writer: it plays
 //!   the trajectory files into the Instance Space at `--rate`.
+//!
+//! Robots and the collision highlight come from robosim-scene's [`CompiledScene`]: the session
+//! display compiles once per structure version and follows joint changes in place.
+//!
+//! Entry points: [`cmd_render`], [`cmd_display`], [`local_model`], [`RenderArgs`],
+//! [`DisplayArgs`], [`AppError`].
 
-use crate::{Result, bail, bridge, instantiate, ops, scene};
+/// An error of the display's commands: what failed and where, for the command line.
+#[derive(Debug)]
+pub struct AppError(pub String);
+
+impl std::fmt::Display for AppError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl<E: std::error::Error> From<E> for AppError {
+    fn from(e: E) -> Self {
+        AppError(e.to_string())
+    }
+}
+
+/// Results of the display's commands.
+pub type Result<T> = std::result::Result<T, AppError>;
+
+macro_rules! bail {
+    ($($t:tt)*) => { return Err(AppError(format!($($t)*))) };
+}
+
+use crate::renderer::scene_bounds;
+use crate::trajectory::Trajectory;
+use crate::trajectory::to_si;
+use crate::window::{Host, WindowOptions};
+use crate::{Camera, Hit, Projection, Renderer, Style};
 use nalgebra::{Point3, Vector3};
-use robosim_display::renderer::scene_bounds;
-use robosim_display::trajectory::Trajectory;
-use robosim_display::trajectory::to_si;
-use robosim_display::window::{Host, WindowOptions};
-use robosim_display::{Camera, Hit, Projection, Renderer, Style};
 use robosim_instance_space::{Client, Kind, Model, Reader, Session, Snapshot};
+use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -106,7 +135,7 @@ impl ViewArgs {
         } else {
             Projection::Perspective
         };
-        cam.validate().map_err(crate::CliError)?;
+        cam.validate().map_err(AppError)?;
         Ok(cam)
     }
 
@@ -148,21 +177,21 @@ pub struct RenderArgs {
 
 /// The scene `name` of the standard library (plus `library` files) as a local model.
 pub fn local_model(library: &[PathBuf], name: &str) -> Result<Model> {
-    let lib = instantiate::build_library(library)?;
+    let lib = robosim_scene::build_library(library)?;
     let mut model = Model::new();
-    for tx in scene::load_from(&lib, name)? {
+    for tx in robosim_scene::load_from(&lib, name)? {
         model
             .apply(&tx)
-            .map_err(|e| crate::CliError(format!("scene {name}: {e}")))?;
+            .map_err(|e| AppError(format!("scene {name}: {e}")))?;
     }
     Ok(model)
 }
 
 /// The robot called `name` in `snap`, with its links.
-fn robot<'a>(robots: &'a [bridge::SpaceRobot], name: &str) -> Result<&'a bridge::SpaceRobot> {
+fn robot<'a>(robots: &'a [CompiledRobot], name: &str) -> Result<&'a CompiledRobot> {
     robots.iter().find(|r| r.robot.name == name).ok_or_else(|| {
         let names: Vec<&str> = robots.iter().map(|r| r.robot.name.as_str()).collect();
-        crate::CliError(format!(
+        AppError(format!(
             "no robot named {name:?}; robots here: {}",
             if names.is_empty() {
                 "none".to_owned()
@@ -176,11 +205,11 @@ fn robot<'a>(robots: &'a [bridge::SpaceRobot], name: &str) -> Result<&'a bridge:
 /// `ROBOT=q1,q2,…` in ROBOSIM units (degrees / metres): the robot and q in SI.
 fn parse_joints<'a>(
     spec: &str,
-    robots: &'a [bridge::SpaceRobot],
-) -> Result<(&'a bridge::SpaceRobot, Vec<f64>)> {
+    robots: &'a [CompiledRobot],
+) -> Result<(&'a CompiledRobot, Vec<f64>)> {
     let (name, values) = spec
         .split_once('=')
-        .ok_or_else(|| crate::CliError(format!("--joints {spec:?}: ROBOT=q1,q2,… expected")))?;
+        .ok_or_else(|| AppError(format!("--joints {spec:?}: ROBOT=q1,q2,… expected")))?;
     let r = robot(robots, name.trim())?;
     let vals: Vec<f64> = values
         .split(',')
@@ -190,12 +219,12 @@ fn parse_joints<'a>(
                 .ok()
                 .filter(|x| x.is_finite())
                 .ok_or_else(|| {
-                    crate::CliError(format!("--joints {spec:?}: {v:?} is not a finite number"))
+                    AppError(format!("--joints {spec:?}: {v:?} is not a finite number"))
                 })
         })
         .collect::<Result<_>>()?;
     let q = to_si(&vals, &prismatic(&r.robot), false);
-    check_q(&r.robot, &q).map_err(|e| crate::CliError(format!("--joints {spec:?}: {}", e.0)))?;
+    check_q(&r.robot, &q).map_err(|e| AppError(format!("--joints {spec:?}: {}", e.0)))?;
     Ok((r, q))
 }
 
@@ -203,7 +232,7 @@ fn parse_joints<'a>(
 fn check_q(robot: &robosim_kinematics::Robot, q: &[f64]) -> Result<()> {
     robot
         .check_q(q)
-        .map_err(|e| crate::CliError(e.to_string()))?;
+        .map_err(|e| AppError(e.to_string()))?;
     if let Some((j, v, [lo, hi])) = robot.outside_limits(q) {
         let unit = |x: f64| match robot.joints[j].joint_type {
             robosim_kinematics::JointType::Prismatic => format!("{x} m"),
@@ -230,27 +259,28 @@ fn prismatic(robot: &robosim_kinematics::Robot) -> Vec<bool> {
 
 /// Puts robot `r` of a local model at `q` (SI). The robot's links keep their ids, so the
 /// robot found once serves every update.
-fn set_local(model: &mut Model, r: &bridge::SpaceRobot, q: &[f64]) -> Result<()> {
+fn set_local(model: &mut Model, r: &CompiledRobot, q: &[f64]) -> Result<()> {
     model
-        .apply(&bridge::joint_tx(&r.robot, &r.links, q))
-        .map_err(|e| crate::CliError(format!("moving {}: {e}", r.robot.name)))?;
+        .apply(&joint_tx(&r.robot, &r.links, q))
+        .map_err(|e| AppError(format!("moving {}: {e}", r.robot.name)))?;
     Ok(())
 }
 
 /// Trajectory tracks `ROBOT=FILE`, checked against the robots' joint counts and limits.
 struct Player {
-    tracks: Vec<(bridge::SpaceRobot, Trajectory, Vec<bool>)>,
+    tracks: Vec<(CompiledRobot, Trajectory, Vec<bool>)>,
 }
 
 impl Player {
     fn load(specs: &[String], snap: &Snapshot) -> Result<Player> {
-        let robots = bridge::robots(snap);
+        let scene = CompiledScene::of(snap);
+        let robots = scene.robots();
         let mut tracks = Vec::new();
         for spec in specs {
             let (name, file) = spec
                 .split_once('=')
-                .ok_or_else(|| crate::CliError(format!("--play {spec:?}: ROBOT=FILE expected")))?;
-            let r = robot(&robots, name.trim())?;
+                .ok_or_else(|| AppError(format!("--play {spec:?}: ROBOT=FILE expected")))?;
+            let r = robot(robots, name.trim())?;
             let t = Trajectory::load(Path::new(file.trim()))?;
             if t.columns() != r.robot.dof() {
                 bail!(
@@ -264,7 +294,7 @@ impl Player {
             let p = prismatic(&r.robot);
             for k in 0..t.samples.len() {
                 check_q(&r.robot, &t.sample_si(k, &p)).map_err(|e| {
-                    crate::CliError(format!("{}: sample {}: {}", file.trim(), k + 1, e.0))
+                    AppError(format!("{}: sample {}: {}", file.trim(), k + 1, e.0))
                 })?;
             }
             tracks.push((r.clone(), t, p));
@@ -281,7 +311,7 @@ impl Player {
     }
 
     /// (robot, q) of every track at sample `k` (a finished track holds its last sample).
-    fn at(&self, k: usize) -> Vec<(&bridge::SpaceRobot, Vec<f64>)> {
+    fn at(&self, k: usize) -> Vec<(&CompiledRobot, Vec<f64>)> {
         self.tracks
             .iter()
             .map(|(r, t, p)| (r, t.sample_si(k, p)))
@@ -289,9 +319,9 @@ impl Player {
     }
 }
 
-fn highlight(r: &mut Renderer, snap: &Snapshot, on: bool) {
+fn highlight(r: &mut Renderer, scene: &CompiledScene, on: bool) {
     if on {
-        r.set_highlight(ops::colliding_ids(snap));
+        r.set_highlight(scene.colliding_ids());
     }
 }
 
@@ -308,11 +338,12 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     }
     let mut model = local_model(&a.library, &a.scene)?;
     let snap = Snapshot::from_model(&model);
-    let robots = bridge::robots(&snap);
-    let settings: Vec<(&bridge::SpaceRobot, Vec<f64>)> = a
+    let scene = CompiledScene::of(&snap);
+    let robots = scene.robots();
+    let settings: Vec<(&CompiledRobot, Vec<f64>)> = a
         .joints
         .iter()
-        .map(|s| parse_joints(s, &robots))
+        .map(|s| parse_joints(s, robots))
         .collect::<Result<_>>()?;
     for (r, q) in &settings {
         set_local(&mut model, r, q)?;
@@ -339,11 +370,15 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         }
         model
             .apply(&tx)
-            .map_err(|e| crate::CliError(format!("--hide {name:?}: {e}")))?;
+            .map_err(|e| AppError(format!("--hide {name:?}: {e}")))?;
     }
     let mut r = Renderer::headless()?;
     let snap = Snapshot::from_model(&model);
-    highlight(&mut r, &snap, a.view.collisions);
+    let mut scene = CompiledScene::new();
+    if a.view.collisions {
+        scene.sync(&snap);
+    }
+    highlight(&mut r, &scene, a.view.collisions);
     r.sync(&snap);
     a.view.apply(&mut r)?;
     let (w, h) = a.view.size;
@@ -361,7 +396,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     }
     if let Some(dir) = &a.frames {
         let player = Player::load(&a.play, &snap)?;
-        let mut upload = robosim_display::UploadStats::default();
+        let mut upload = crate::UploadStats::default();
         let meshes_before = r.total_upload().meshes;
         let mut written = 0;
         for k in (0..player.len()).step_by(a.every) {
@@ -369,7 +404,10 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
                 set_local(&mut model, r, &q)?;
             }
             let snap = Snapshot::from_model(&model);
-            highlight(&mut r, &snap, a.view.collisions);
+            if a.view.collisions {
+                scene.sync(&snap);
+            }
+            highlight(&mut r, &scene, a.view.collisions);
             upload.add(&r.sync(&snap));
             r.render_image(w, h)?
                 .save_png(&dir.join(format!("frame-{k:05}.png")))?;
@@ -419,6 +457,8 @@ struct SessionHost {
     client: Option<Client>,
     collisions: bool,
     snap: Option<std::rc::Rc<Snapshot>>,
+    /// Robots (and their solids, for the highlight) of `snap`, compiled per structure version.
+    scene: CompiledScene,
 }
 
 impl SessionHost {
@@ -428,18 +468,16 @@ impl SessionHost {
         }
         self.client
             .as_mut()
-            .ok_or_else(|| crate::CliError("no client".into()))
+            .ok_or_else(|| AppError("no client".into()))
     }
 
     fn write_q(&mut self, name: &str, q: &[f64]) -> Result<u64> {
-        let snap = self
-            .snap
-            .clone()
-            .ok_or_else(|| crate::CliError("no model yet".into()))?;
-        let robots = bridge::robots(&snap);
-        let r = robot(&robots, name)?;
-        check_q(&r.robot, q).map_err(|e| crate::CliError(format!("{name}: {}", e.0)))?;
-        let tx = bridge::joint_tx(&r.robot, &r.links, q);
+        if self.snap.is_none() {
+            bail!("no model yet");
+        }
+        let r = robot(self.scene.robots(), name)?;
+        check_q(&r.robot, q).map_err(|e| AppError(format!("{name}: {}", e.0)))?;
+        let tx = joint_tx(&r.robot, &r.links, q);
         Ok(self.client()?.transact(&tx)?.version)
     }
 }
@@ -459,7 +497,8 @@ impl Host for SessionHost {
         {
             return Ok(false);
         }
-        highlight(r, &snap, self.collisions);
+        self.scene.sync(&snap);
+        highlight(r, &self.scene, self.collisions);
         // The change records since the last drawn version drive the update; without them
         // (a reader that joined late, a keeper restart) the full comparison runs.
         match self.reader.changes_since(r.version()) {
@@ -474,12 +513,11 @@ impl Host for SessionHost {
     }
 
     fn robots(&self) -> Vec<(String, usize)> {
-        self.snap.as_ref().map_or_else(Vec::new, |s| {
-            bridge::robots(s)
-                .into_iter()
-                .map(|r| (r.robot.name.clone(), r.robot.dof()))
-                .collect()
-        })
+        self.scene
+            .robots()
+            .iter()
+            .map(|r| (r.robot.name.clone(), r.robot.dof()))
+            .collect()
     }
 
     fn jog(
@@ -488,9 +526,11 @@ impl Host for SessionHost {
         joint: usize,
         delta: f64,
     ) -> std::result::Result<String, String> {
-        let snap = self.snap.clone().ok_or("no model yet")?;
-        let robots = bridge::robots(&snap);
-        let r = robots.get(robot_index).ok_or("no robot to move")?;
+        let r = self
+            .scene
+            .robots()
+            .get(robot_index)
+            .ok_or("no robot to move")?;
         let mut q = r.q.clone();
         let Some(qj) = q.get_mut(joint) else {
             return Err(format!("{} has no joint {}", r.robot.name, joint + 1));
@@ -538,7 +578,7 @@ struct FrameRecord {
     version: u64,
     bodies: usize,
     triangles: usize,
-    upload: robosim_display::UploadStats,
+    upload: crate::UploadStats,
     upload_bytes: u64,
     render_ms: f64,
     png: Option<String>,
@@ -565,6 +605,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         client: None,
         collisions: a.view.collisions,
         snap: None,
+        scene: CompiledScene::new(),
     };
     // Wait for the first model.
     let deadline = Instant::now() + Duration::from_secs(30);
@@ -604,7 +645,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             script: a.script.clone(),
             ..WindowOptions::default()
         };
-        return Ok(robosim_display::window::run(
+        return Ok(crate::window::run(
             Box::new(host),
             Some(camera),
             a.view.style(),
@@ -616,13 +657,13 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| session.dir().join("display"));
     std::fs::create_dir_all(&out)
-        .map_err(|e| crate::CliError(format!("{}: {e}", out.display())))?;
+        .map_err(|e| AppError(format!("{}: {e}", out.display())))?;
     let log_path = out.join("frames.jsonl");
     let mut log = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
         .open(&log_path)
-        .map_err(|e| crate::CliError(format!("{}: {e}", log_path.display())))?;
+        .map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;
     let mut r = Renderer::headless()?;
     eprintln!(
         "display: headless on {} → {}",
@@ -652,7 +693,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             next_sample = Instant::now() + Duration::from_secs_f64(dt);
             sample += 1;
         }
-        if !host.update(&mut r).map_err(crate::CliError)? {
+        if !host.update(&mut r).map_err(AppError)? {
             if let Err(e) = host.reader.wait_change(Duration::from_millis(20)) {
                 // SIGTERM/SIGINT interrupt the wait: stop cleanly (`robosim down`).
                 if signals.wait(Duration::ZERO).is_err() {
@@ -673,7 +714,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         let tmp = out.join("latest.png.tmp");
         img.save_png(&tmp)?;
         std::fs::rename(&tmp, out.join("latest.png"))
-            .map_err(|e| crate::CliError(format!("{}: {e}", out.display())))?;
+            .map_err(|e| AppError(format!("{}: {e}", out.display())))?;
         let png = if a.every_frame {
             let name = format!("frame-{:08}.png", r.version());
             img.save_png(&out.join(&name))?;
@@ -690,10 +731,10 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             render_ms,
             png,
         };
-        let line = serde_json::to_string(&rec).map_err(|e| crate::CliError(e.to_string()))?;
+        let line = serde_json::to_string(&rec).map_err(|e| AppError(e.to_string()))?;
         writeln!(log, "{line}")
-            .map_err(|e| crate::CliError(format!("{}: {e}", log_path.display())))?;
-        log.flush().map_err(|e| crate::CliError(e.to_string()))?;
+            .map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;
+        log.flush().map_err(|e| AppError(e.to_string()))?;
         frames += 1;
         if a.max_frames.is_some_and(|m| frames >= m) {
             break;

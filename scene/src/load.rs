@@ -1,8 +1,9 @@
-//! Scenes the keeper can load at start. Until the Library Space lands this is one minimal
-//! built-in scene, `demo`: a table and a two-link planar arm with box links. It goes through
-//! the same validated transactions as anything else.
+//! Scenes a keeper can start with: any scene, robot, link or solid declaration of the
+//! session's Library Space, instantiated with its defaults, and one built-in scene, `demo` (a
+//! table and a two-link planar arm with box links) that needs no library. Both go through the
+//! same validated transactions as anything else.
 
-use crate::{Result, bail};
+use crate::SceneError;
 use robosim_instance_space::{
     Appearance, DhConvention, GeometryInput, IDENTITY, JointKind, Kind, Kinematics, MassProps,
     Transaction,
@@ -10,7 +11,10 @@ use robosim_instance_space::{
 
 /// The transactions that build scene `name`: the built-in `demo`, or any declaration of the
 /// session's library (a scene, robot, link or solid), instantiated with its defaults.
-pub fn load_from(lib: &robosim_library::Library, name: &str) -> Result<Vec<Transaction>> {
+pub fn load_from(
+    lib: &robosim_library::Library,
+    name: &str,
+) -> Result<Vec<Transaction>, SceneError> {
     if name == "demo" {
         return Ok(vec![demo()]);
     }
@@ -21,15 +25,12 @@ pub fn load_from(lib: &robosim_library::Library, name: &str) -> Result<Vec<Trans
             .filter(|d| matches!(d.kind.as_str(), "scene" | "robot"))
             .map(|d| d.name)
             .collect();
-        bail!(
-            "unknown scene {name:?}; scenes and robots: demo, {}",
-            names.join(", ")
-        );
+        return Err(SceneError::UnknownScene {
+            name: name.to_owned(),
+            known: format!("demo, {}", names.join(", ")),
+        });
     }
-    let origin = crate::instantiate::Origin {
-        declaration: name.to_owned(),
-        params: Default::default(),
-    };
+    let origin = crate::instantiate::Origin::defaults(name);
     Ok(vec![crate::instantiate::instantiate(lib, &origin, name)?])
 }
 

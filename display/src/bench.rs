@@ -12,8 +12,8 @@
 //!     facets per circle, drawn at 800×800 from 2 m; image error against the 256-facet
 //!     sphere (pixels without a match, mean channel difference) against frame time.
 
-use crate::{Result, display};
-use robosim_display::Renderer;
+use crate::Renderer;
+use crate::app::{self as display, AppError, Result};
 use robosim_instance_space::{Change, IDENTITY, Kind, Model, Snapshot, Transaction, aspect};
 use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
 use std::path::Path;
@@ -51,7 +51,7 @@ fn cubes(n: usize) -> Model {
         p[3] = (k % side) as f64 * 0.3;
         p[7] = (k / side) as f64 * 0.3;
         tx.set_pose(c, p);
-        tx.set_geometry(c, Some(crate::scene::box_geometry([0.2, 0.2, 0.2])));
+        tx.set_geometry(c, Some(robosim_scene::box_geometry([0.2, 0.2, 0.2])));
     }
     // One transaction for the whole scene; apply cannot fail on this well-formed input.
     let _ = model.apply(&tx);
@@ -169,7 +169,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             tx.set_pose(id, p);
             let applied = model
                 .apply(&tx)
-                .map_err(|e| crate::CliError(e.to_string()))?;
+                .map_err(|e| AppError(e.to_string()))?;
             let snap = Snapshot::from_model(&model);
             let change = Change {
                 version: applied.version,
@@ -247,7 +247,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     };
     let tess_report = tessellation(reps)?;
     for rep in [&frames_report, &uploads_report, &tess_report] {
-        for p in write_report(out, rep).map_err(|e| crate::CliError(e.to_string()))? {
+        for p in write_report(out, rep).map_err(|e| AppError(e.to_string()))? {
             println!("wrote {}", p.display());
         }
     }
@@ -256,7 +256,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
 
 fn sphere_model(facets: usize) -> Result<Model> {
     let poly = robosim_geometry::shapes::sphere(0.5, Some(facets))
-        .map_err(|e| crate::CliError(e.to_string()))?;
+        .map_err(|e| AppError(e.to_string()))?;
     let mut model = Model::new();
     let mut tx = Transaction::new();
     let s = tx.create(Kind::Solid, "sphere", None);
@@ -277,15 +277,15 @@ fn sphere_model(facets: usize) -> Result<Model> {
     );
     model
         .apply(&tx)
-        .map_err(|e| crate::CliError(e.to_string()))?;
+        .map_err(|e| AppError(e.to_string()))?;
     Ok(model)
 }
 
 fn tessellation(reps: usize) -> Result<Report> {
     use nalgebra::Point3;
     let (w, h) = (800, 800);
-    let camera = robosim_display::Camera::looking(Point3::new(-1.4, 1.2, 0.6), Point3::origin());
-    let draw = |facets: usize| -> Result<(robosim_display::RgbaImage, usize, f64)> {
+    let camera = crate::Camera::looking(Point3::new(-1.4, 1.2, 0.6), Point3::origin());
+    let draw = |facets: usize| -> Result<(crate::RgbaImage, usize, f64)> {
         let mut r = Renderer::headless()?;
         r.sync(&Snapshot::from_model(&sphere_model(facets)?));
         r.camera = camera;
@@ -301,7 +301,7 @@ fn tessellation(reps: usize) -> Result<Report> {
         Ok((r.render_image(w, h)?, r.triangle_count(), median_p90(t).0))
     };
     let (reference, _, _) = draw(robosim_geometry::shapes::MAX_FACETS)?;
-    let tol = robosim_display::Tolerance::default();
+    let tol = crate::Tolerance::default();
     let mut table = Table {
         columns: [
             "facets per circle",
@@ -323,7 +323,7 @@ fn tessellation(reps: usize) -> Result<Report> {
     let mut base = f64::NAN;
     for facets in [8usize, 16, 32, 64, 128] {
         let (img, tris, ms) = draw(facets)?;
-        let d = robosim_display::compare(&img, &reference, &tol)?;
+        let d = crate::compare(&img, &reference, &tol)?;
         if facets == 8 {
             base = ms;
         }

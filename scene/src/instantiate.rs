@@ -14,12 +14,15 @@
 //! longer link re-sends that link's kinematics, its solids' geometry and the poses that moved,
 //! and nothing of any other instance.
 
-use crate::{Result, bail};
+use crate::SceneError;
+use crate::pose::from_matrix as pose;
 use nalgebra::Matrix4;
 use robosim_instance_space::{
     Appearance, DhConvention, GeometryInput, IDENTITY, Id, JointKind, Kind, Kinematics, MassProps,
     ObjRef, Pose, Snapshot, Transaction,
 };
+
+type Result<T> = std::result::Result<T, SceneError>;
 use robosim_kinematics::{Convention, JointType};
 use robosim_library::{Evaluated, Library, Params, PlacedSolid, RobotModel};
 use serde::{Deserialize, Serialize};
@@ -32,6 +35,32 @@ pub struct Origin {
     /// Parameter values as expressions of the library language (`"431.8 mm"`, `"0.5"`), by
     /// name; only those set explicitly (the rest take their declared defaults).
     pub params: BTreeMap<String, String>,
+}
+
+impl Origin {
+    /// The origin of an instance of `declaration` with its defaults.
+    pub fn defaults(declaration: &str) -> Origin {
+        Origin {
+            declaration: declaration.to_owned(),
+            params: BTreeMap::new(),
+        }
+    }
+
+    /// The record stored on the instance's top object (JSON).
+    pub fn to_record(&self) -> String {
+        // A struct of strings and a string map always serialises.
+        serde_json::to_string(self).unwrap_or_default()
+    }
+
+    /// Reads an origin record back.
+    pub fn from_record(text: &str) -> std::result::Result<Origin, String> {
+        serde_json::from_str(text).map_err(|e| e.to_string())
+    }
+
+    /// The declaration evaluated with these parameter values.
+    pub fn evaluate(&self, lib: &Library) -> Result<Evaluated> {
+        evaluate(lib, self)
+    }
 }
 
 /// One object to be, addressed by its path in the instance.
@@ -63,17 +92,6 @@ fn mass_props(mass: f64, com: &nalgebra::Vector3<f64>, i: &nalgebra::Matrix3<f64
             i[(1, 2)],
         ],
     }
-}
-
-/// A rigid 4×4 as the Instance Space's 3×4 row-major pose.
-pub fn pose(m: &Matrix4<f64>) -> Pose {
-    let mut p = [0.0; 12];
-    for r in 0..3 {
-        for c in 0..4 {
-            p[r * 4 + c] = m[(r, c)];
-        }
-    }
-    p
 }
 
 fn appearance(s: &PlacedSolid) -> Appearance {
@@ -146,11 +164,11 @@ fn robot_specs(
 ) -> Result<()> {
     let robot = &model.robot;
     if robot.check_q(q).is_err() {
-        bail!(
+        return Err(SceneError::Instantiate(format!(
             "robot {name}: {} initial joint values for {} joints",
             q.len(),
             robot.dof()
-        );
+        )));
     }
     let path = match parent {
         Some(p) => format!("{p}/{name}"),
@@ -254,10 +272,12 @@ fn specs(ev: &Evaluated, name: &str) -> Result<Vec<Spec>> {
                 top.dynamics = Some(mass_props(m.mass, &m.center_of_mass.coords, &m.inertia));
             }
         }
-        other => bail!(
-            "{name}: a {} cannot be instantiated (only scenes, robots, links and solids)",
-            kind_name(other)
-        ),
+        other => {
+            return Err(SceneError::Instantiate(format!(
+                "{name}: a {} cannot be instantiated (only scenes, robots, links and solids)",
+                kind_name(other)
+            )));
+        }
     }
     Ok(out)
 }
@@ -280,7 +300,7 @@ fn evaluate(lib: &Library, origin: &Origin) -> Result<Evaluated> {
         params = params.expr(k, v);
     }
     lib.evaluate(&origin.declaration, &params)
-        .map_err(|e| crate::CliError(e.to_string()))
+        .map_err(|e| SceneError::Library(e.to_string()))
 }
 
 /// The transaction that creates instance `name` of `origin.declaration` with its parameters.
@@ -295,7 +315,7 @@ pub fn instantiate(lib: &Library, origin: &Origin, name: &str) -> Result<Transac
         refs.insert(s.path.clone(), r);
         write_aspects(&mut tx, r, s, None);
         if k == 0 {
-            tx.set_origin(r, &serde_json::to_string(origin)?);
+            tx.set_origin(r, &origin.to_record());
         }
     }
     Ok(tx)
@@ -326,7 +346,6 @@ fn write_aspects(tx: &mut Transaction, r: ObjRef, s: &Spec, old: Option<&Spec>) 
 
 /// The instance's current objects, read back from a snapshot as specs keyed by path.
 fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
-    let objs = snap.objects();
     let mut out = BTreeMap::new();
     let mut stack = vec![(top, snap.name(top).to_owned(), None::<String>)];
     while let Some((i, path, parent)) = stack.pop() {
@@ -340,45 +359,8 @@ fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
                 .collect(),
         });
         let r = o.rec;
-        let kinematics = match r.kin_tag {
-            robosim_instance_space::layout::flags::KIN_JOINT => Some(Kinematics::Joint {
-                index: r.index_or_family,
-                joint: if r.joint_kind == 2 {
-                    JointKind::Prismatic
-                } else if r.joint_kind == 1 {
-                    JointKind::Revolute
-                } else {
-                    JointKind::Fixed
-                },
-                convention: if r.convention == 1 {
-                    DhConvention::Modified
-                } else {
-                    DhConvention::Standard
-                },
-                a: r.dh[0],
-                d: r.dh[1],
-                alpha: r.dh[2],
-                theta: r.dh[3],
-                offset: r.dh[4],
-                qlim: [r.dh[5], r.dh[6]],
-            }),
-            robosim_instance_space::layout::flags::KIN_ROBOT => Some(Kinematics::Robot {
-                convention: if r.convention == 1 {
-                    DhConvention::Modified
-                } else {
-                    DhConvention::Standard
-                },
-                ik_family: r.index_or_family,
-                tool: r.tool,
-            }),
-            _ => None,
-        };
-        let dynamics = (r.flags & robosim_instance_space::layout::flags::HAS_DYNAMICS != 0)
-            .then_some(MassProps {
-                mass: r.mass,
-                com: r.com,
-                inertia: r.inertia,
-            });
+        let kinematics = r.kinematics();
+        let dynamics = r.dynamics();
         let spec = Spec {
             path: path.clone(),
             parent,
@@ -386,21 +368,14 @@ fn current_specs(snap: &Snapshot, top: usize) -> BTreeMap<String, (Id, Spec)> {
             name: o.name.to_owned(),
             pose: o.pose.pose,
             joint: o.pose.joint,
-            appearance: Appearance {
-                color: r.color,
-                diffuse: r.surface[0],
-                specular: r.surface[1],
-                shininess: r.surface[2],
-            },
+            appearance: r.appearance(),
             kinematics,
             dynamics,
             geometry,
         };
         out.insert(path.clone(), (r.id, spec));
-        for (k, c) in objs.iter().enumerate() {
-            if c.parent == r.id {
-                stack.push((k, format!("{path}/{}", snap.name(k)), Some(path.clone())));
-            }
+        for k in snap.children(r.id) {
+            stack.push((k, format!("{path}/{}", snap.name(k)), Some(path.clone())));
         }
     }
     out
@@ -414,17 +389,19 @@ pub fn find_instance(snap: &Snapshot, name: &str) -> Result<(usize, Origin)> {
             .filter(|&i| !snap.origin(i).is_empty())
             .map(|i| snap.name(i))
             .collect();
-        bail!(
-            "no instance named {name:?}; instances: {}",
-            if known.is_empty() {
+        return Err(SceneError::UnknownInstance {
+            name: name.to_owned(),
+            known: if known.is_empty() {
                 "none".to_owned()
             } else {
                 known.join(", ")
-            }
-        );
+            },
+        });
     };
-    let origin: Origin = serde_json::from_str(snap.origin(i))
-        .map_err(|e| crate::CliError(format!("instance {name}: unreadable origin record: {e}")))?;
+    let origin = Origin::from_record(snap.origin(i)).map_err(|reason| SceneError::Origin {
+        name: name.to_owned(),
+        reason,
+    })?;
     Ok((i, origin))
 }
 
@@ -465,15 +442,16 @@ pub fn reinstantiate(
             tx.delete(*id, true);
         }
     }
-    tx.set_origin(snap.objects()[top].id, &serde_json::to_string(origin)?);
+    tx.set_origin(snap.objects()[top].id, &origin.to_record());
     Ok(tx)
 }
 
-fn parse_params(pairs: &[String]) -> Result<BTreeMap<String, String>> {
+/// `NAME=EXPR` pairs as parameter values.
+pub fn parse_params(pairs: &[String]) -> Result<BTreeMap<String, String>> {
     let mut out = BTreeMap::new();
     for p in pairs {
         let Some((k, v)) = p.split_once('=') else {
-            bail!("parameter {p:?} is not NAME=EXPR")
+            return Err(SceneError::Param(p.clone()));
         };
         out.insert(k.trim().to_owned(), v.trim().to_owned());
     }
@@ -482,73 +460,23 @@ fn parse_params(pairs: &[String]) -> Result<BTreeMap<String, String>> {
 
 /// The standard library plus `files` (each may `include "std"`), checked as one library.
 pub fn build_library(files: &[std::path::PathBuf]) -> Result<Library> {
-    let std = Library::standard().map_err(|e| crate::CliError(e.to_string()))?;
+    let std = Library::standard().map_err(|e| SceneError::Library(e.to_string()))?;
     let mut sources = std.sources();
     for f in files {
-        let lib = Library::load(f).map_err(|e| crate::CliError(e.to_string()))?;
+        let lib = Library::load(f).map_err(|e| SceneError::Library(e.to_string()))?;
         for (name, text) in lib.sources() {
             if !sources.iter().any(|(n, _)| *n == name) {
                 sources.push((name, text));
             }
         }
     }
-    Library::from_sources(&sources).map_err(|e| crate::CliError(e.to_string()))
+    Library::from_sources(&sources).map_err(|e| SceneError::Library(e.to_string()))
 }
 
 /// A running session's Library Space, rebuilt from the source text the keeper holds in
 /// shared memory.
-pub fn session_library(session: Option<&str>) -> Result<Library> {
-    let s = robosim_instance_space::Session::open(session)?;
-    let mut reader = robosim_instance_space::Reader::attach(&s, "library")?;
+pub fn session_library(reader: &mut robosim_instance_space::Reader) -> Result<Library> {
     let files = reader.library_files()?;
     Library::from_sources(&files)
-        .map_err(|e| crate::CliError(format!("the session's Library Space: {e}")))
-}
-
-/// `robosim instantiate DECL [--as NAME] [--set K=V]…`
-pub fn cli_instantiate(
-    declaration: &str,
-    name: Option<&str>,
-    set: &[String],
-    session: Option<&str>,
-) -> Result<()> {
-    let s = robosim_instance_space::Session::open(session)?;
-    let origin = Origin {
-        declaration: declaration.to_owned(),
-        params: parse_params(set)?,
-    };
-    let name = name.unwrap_or(declaration);
-    let lib = session_library(session)?;
-    let tx = instantiate(&lib, &origin, name)?;
-    let mut c = robosim_instance_space::Client::connect(&s, "instantiate")?;
-    let a = c.transact(&tx)?;
-    println!(
-        "instantiated {declaration} as {name}: {} objects, version {}",
-        a.created.len(),
-        a.version
-    );
-    Ok(())
-}
-
-/// `robosim set INSTANCE K=V…`
-pub fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
-    let s = robosim_instance_space::Session::open(session)?;
-    let reader = robosim_instance_space::Reader::attach(&s, "set")?;
-    let snap = reader
-        .snapshot()
-        .ok_or_else(|| crate::CliError("no snapshot".into()))?;
-    let (_, mut origin) = find_instance(&snap, instance)?;
-    origin.params.extend(parse_params(pairs)?);
-    let lib = session_library(session)?;
-    let tx = reinstantiate(&lib, &snap, instance, &origin)?;
-    let mut c = robosim_instance_space::Client::connect(&s, "set")?;
-    let a = c.transact(&tx)?;
-    let aspects: Vec<&str> = robosim_instance_space::aspect::names(a.aspects());
-    println!(
-        "re-instantiated {instance}: {} objects changed ({}), version {}",
-        a.changes.len(),
-        aspects.join(", "),
-        a.version
-    );
-    Ok(())
+        .map_err(|e| SceneError::Library(format!("the session's Library Space: {e}")))
 }

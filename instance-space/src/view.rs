@@ -1,0 +1,320 @@
+//! Typed views of a snapshot's flat records: the one place that turns the raw tags of
+//! [`ObjectRec`] (`kin_tag`, `joint_kind`, `convention`, `flags`) back into the model's enums.
+//! Everyone else — the scene compiler, the file interface, the display, the session ops — reads
+//! robots, joints and mass properties through these, never through bare numbers.
+//!
+//! Entry points: [`ObjectRec::kinematics`], [`ObjectRec::dynamics`], [`ObjectRec::appearance`],
+//! [`Snapshot::robots`], [`Snapshot::robot`], [`Snapshot::children`], [`Snapshot::path`],
+//! [`Snapshot::structure_version`].
+
+use crate::layout::{ObjectRec, flags};
+use crate::model::{Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Pose};
+use crate::reader::Snapshot;
+
+impl JointKind {
+    /// The kind a record's `joint_kind` field encodes (`None`: not a known kind).
+    pub fn from_u32(v: u32) -> Option<JointKind> {
+        [JointKind::Fixed, JointKind::Revolute, JointKind::Prismatic]
+            .into_iter()
+            .find(|k| *k as u32 == v)
+    }
+}
+
+impl DhConvention {
+    /// The convention a record's `convention` field encodes (`None`: not a known one).
+    pub fn from_u32(v: u32) -> Option<DhConvention> {
+        [DhConvention::Standard, DhConvention::Modified]
+            .into_iter()
+            .find(|c| *c as u32 == v)
+    }
+}
+
+impl ObjectRec {
+    /// The object's kind (`None`: a tag this build does not know).
+    pub fn kind(&self) -> Option<Kind> {
+        Kind::from_u32(self.kind)
+    }
+
+    /// The kinematics aspect as written by the transaction that set it, or `None` when the
+    /// object has none. A record whose tags this build does not know reads as `None` too (the
+    /// keeper validated every record it published, so that only happens across versions).
+    pub fn kinematics(&self) -> Option<Kinematics> {
+        if self.flags & flags::HAS_KINEMATICS == 0 {
+            return None;
+        }
+        let convention = DhConvention::from_u32(self.convention)?;
+        match self.kin_tag {
+            flags::KIN_JOINT => Some(Kinematics::Joint {
+                index: self.index_or_family,
+                joint: JointKind::from_u32(self.joint_kind)?,
+                convention,
+                a: self.dh[0],
+                d: self.dh[1],
+                alpha: self.dh[2],
+                theta: self.dh[3],
+                offset: self.dh[4],
+                qlim: [self.dh[5], self.dh[6]],
+            }),
+            flags::KIN_ROBOT => Some(Kinematics::Robot {
+                convention,
+                ik_family: self.index_or_family,
+                tool: self.tool,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Mass, centre of mass and inertia (about the centre of mass, link frame), if set.
+    pub fn dynamics(&self) -> Option<MassProps> {
+        (self.flags & flags::HAS_DYNAMICS != 0).then_some(MassProps {
+            mass: self.mass,
+            com: self.com,
+            inertia: self.inertia,
+        })
+    }
+
+    /// Colour and surface.
+    pub fn appearance(&self) -> Appearance {
+        Appearance {
+            color: self.color,
+            diffuse: self.surface[0],
+            specular: self.surface[1],
+            shininess: self.surface[2],
+        }
+    }
+
+    pub fn has_geometry(&self) -> bool {
+        self.flags & flags::HAS_GEOMETRY != 0
+    }
+}
+
+/// One joint of a robot as the Instance Space holds it: the link object that carries it and
+/// its DH row (m, rad) in the robot's declared convention.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointView {
+    /// Index of the link object in the snapshot.
+    pub index: usize,
+    pub id: Id,
+    pub kind: JointKind,
+    pub a: f64,
+    pub d: f64,
+    pub alpha: f64,
+    pub theta: f64,
+    pub offset: f64,
+    /// [lo, hi] (rad or m).
+    pub qlim: [f64; 2],
+    /// The committed joint value (rad or m).
+    pub q: f64,
+    /// The link's mass properties, if set.
+    pub mass: Option<MassProps>,
+}
+
+/// A robot of a snapshot: the robot object and its joints in chain order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RobotView<'a> {
+    /// Index of the robot object in the snapshot.
+    pub index: usize,
+    pub id: Id,
+    pub name: &'a str,
+    pub convention: DhConvention,
+    /// The analytic IK family code (0: numeric only).
+    pub ik_family: u32,
+    /// Tool transform (3×4 row-major), relative to the last link frame.
+    pub tool: Pose,
+    /// Links that carry a joint record, sorted by their index in the chain.
+    pub joints: Vec<JointView>,
+}
+
+impl Snapshot {
+    /// The version the objects segment (structure, geometry references, kinematics, dynamics,
+    /// appearance) was published at. Equal for two snapshots exactly when only poses and
+    /// joint values differ between them — the key of every compiled-model cache.
+    pub fn structure_version(&self) -> u64 {
+        self.objects_header().version
+    }
+
+    /// Indices of the children of object `id`, in id order.
+    pub fn children(&self, id: Id) -> impl Iterator<Item = usize> + '_ {
+        self.objects()
+            .iter()
+            .enumerate()
+            .filter(move |(_, o)| o.parent == id && o.id != id)
+            .map(|(k, _)| k)
+    }
+
+    /// The object's path from its top object, `scene/robot/link`.
+    pub fn path(&self, i: usize) -> String {
+        let mut path = self.name(i).to_owned();
+        let mut parent = self.objects()[i].parent;
+        let mut guard = self.len();
+        while let Some(k) = (parent != 0 && guard > 0)
+            .then(|| self.index_of(parent))
+            .flatten()
+        {
+            path = format!("{}/{path}", self.name(k));
+            parent = self.objects()[k].parent;
+            guard -= 1;
+        }
+        path
+    }
+
+    /// The robot at object index `i`, or `None` if `i` is not a robot.
+    pub fn robot_at(&self, i: usize) -> Option<RobotView<'_>> {
+        let r = self.objects().get(i)?;
+        if r.kind() != Some(Kind::Robot) {
+            return None;
+        }
+        let (convention, ik_family, tool) = match r.kinematics() {
+            Some(Kinematics::Robot {
+                convention,
+                ik_family,
+                tool,
+            }) => (convention, ik_family, tool),
+            _ => (DhConvention::Standard, 0, crate::IDENTITY),
+        };
+        let mut joints: Vec<(u32, JointView)> = self
+            .children(r.id)
+            .filter_map(|k| {
+                let o = &self.objects()[k];
+                if o.kind() != Some(Kind::Link) {
+                    return None;
+                }
+                match o.kinematics()? {
+                    Kinematics::Joint {
+                        index,
+                        joint,
+                        a,
+                        d,
+                        alpha,
+                        theta,
+                        offset,
+                        qlim,
+                        ..
+                    } => Some((
+                        index,
+                        JointView {
+                            index: k,
+                            id: o.id,
+                            kind: joint,
+                            a,
+                            d,
+                            alpha,
+                            theta,
+                            offset,
+                            qlim,
+                            q: self.poses()[k].joint,
+                            mass: o.dynamics(),
+                        },
+                    )),
+                    Kinematics::Robot { .. } => None,
+                }
+            })
+            .collect();
+        joints.sort_by_key(|(index, j)| (*index, j.id));
+        Some(RobotView {
+            index: i,
+            id: r.id,
+            name: self.name(i),
+            convention,
+            ik_family,
+            tool,
+            joints: joints.into_iter().map(|(_, j)| j).collect(),
+        })
+    }
+
+    /// Every robot of the snapshot, in id order.
+    pub fn robots(&self) -> Vec<RobotView<'_>> {
+        (0..self.len()).filter_map(|i| self.robot_at(i)).collect()
+    }
+
+    /// The robot called `name`.
+    pub fn robot(&self, name: &str) -> Option<RobotView<'_>> {
+        (0..self.len())
+            .filter(|&i| self.name(i) == name)
+            .find_map(|i| self.robot_at(i))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::{
+        DhConvention, JointKind, Kind, Kinematics, MassProps, Model, Snapshot, Transaction,
+    };
+
+    /// Every kinematics variant written by a transaction reads back equal through the typed
+    /// view (the encoder and this decoder are each other's inverse).
+    #[test]
+    fn kinematics_round_trip_through_the_records() {
+        let mut tx = Transaction::new();
+        let robot = tx.create(Kind::Robot, "r", None);
+        let tool = [1.0, 0.0, 0.0, 0.1, 0.0, 1.0, 0.0, 0.2, 0.0, 0.0, 1.0, 0.3];
+        let rk = Kinematics::Robot {
+            convention: DhConvention::Modified,
+            ik_family: 2,
+            tool,
+        };
+        tx.set_kinematics(robot, Some(rk));
+        let mut joints = Vec::new();
+        for (j, kind) in [JointKind::Prismatic, JointKind::Revolute, JointKind::Fixed]
+            .into_iter()
+            .enumerate()
+        {
+            let l = tx.create(Kind::Link, &format!("l{j}"), Some(robot));
+            let k = Kinematics::Joint {
+                // Written out of order: the view sorts by chain index.
+                index: 2 - j as u32,
+                joint: kind,
+                convention: DhConvention::Modified,
+                a: 0.1 * j as f64,
+                d: 0.2,
+                alpha: -0.3,
+                theta: 0.4,
+                offset: 0.5,
+                qlim: [-1.0, 1.5],
+            };
+            tx.set_kinematics(l, Some(k));
+            tx.set_dynamics(
+                l,
+                Some(MassProps {
+                    mass: 1.0 + j as f64,
+                    com: [0.0, 0.1, 0.2],
+                    inertia: [1.0, 2.0, 3.0, 0.1, 0.2, 0.3],
+                }),
+            );
+            tx.set_joint(l, 0.25 * j as f64);
+            joints.push(k);
+        }
+        let mut m = Model::default();
+        m.apply(&tx).expect("valid");
+        let snap = Snapshot::from_model(&m);
+        let robots = snap.robots();
+        assert_eq!(robots.len(), 1);
+        let r = &robots[0];
+        assert_eq!(r.name, "r");
+        assert_eq!(r.convention, DhConvention::Modified);
+        assert_eq!(r.ik_family, 2);
+        assert_eq!(r.tool, tool);
+        assert_eq!(snap.objects()[r.index].kinematics(), Some(rk));
+        let kinds: Vec<JointKind> = r.joints.iter().map(|j| j.kind).collect();
+        assert_eq!(
+            kinds,
+            [JointKind::Fixed, JointKind::Revolute, JointKind::Prismatic]
+        );
+        for j in &r.joints {
+            let rec = &snap.objects()[j.index];
+            assert!(joints.contains(&rec.kinematics().expect("a joint")));
+            assert_eq!(rec.dynamics().map(|m| m.com), Some([0.0, 0.1, 0.2]));
+        }
+        assert_eq!(r.joints[0].q, 0.5);
+        assert_eq!(snap.path(r.joints[0].index), "r/l2");
+        assert_eq!(snap.robot("r").map(|v| v.id), Some(r.id));
+        assert!(snap.robot("l0").is_none());
+    }
+
+    #[test]
+    fn unknown_tags_read_as_none() {
+        assert_eq!(JointKind::from_u32(3), None);
+        assert_eq!(DhConvention::from_u32(2), None);
+        assert_eq!(JointKind::from_u32(2), Some(JointKind::Prismatic));
+    }
+}

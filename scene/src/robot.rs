@@ -1,0 +1,86 @@
+//! An Instance Space robot as the kinematics core's [`Robot`] model, and back: the joint
+//! transaction that puts a robot's links at new joint values.
+
+use crate::SceneError;
+use crate::pose;
+use nalgebra::{Matrix3, Matrix4, Vector3};
+use robosim_instance_space::{DhConvention, Id, JointKind, RobotView, Snapshot, Transaction};
+use robosim_kinematics::{Convention, Joint, JointType, Robot};
+
+/// The kinematic and dynamic model of robot `view`, placed where it stands: base = the robot
+/// object's world pose, tool = its tool record. Joints in chain order; a link that carries a
+/// fixed joint record is refused (a DH chain has none), never read as a revolute joint.
+pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, SceneError> {
+    if view.joints.is_empty() {
+        return Err(SceneError::NoJoints(view.name.to_owned()));
+    }
+    let mut joints = Vec::with_capacity(view.joints.len());
+    for j in &view.joints {
+        let joint_type = match j.kind {
+            JointKind::Revolute => JointType::Revolute,
+            JointKind::Prismatic => JointType::Prismatic,
+            JointKind::Fixed => {
+                return Err(SceneError::FixedJoint {
+                    robot: view.name.to_owned(),
+                    link: snap.name(j.index).to_owned(),
+                    id: j.id,
+                });
+            }
+        };
+        let m = j.mass.unwrap_or(robosim_instance_space::MassProps {
+            mass: 0.0,
+            com: [0.0; 3],
+            inertia: [0.0; 6],
+        });
+        let i = m.inertia;
+        joints.push(Joint {
+            joint_type,
+            a: j.a,
+            d: j.d,
+            alpha: j.alpha,
+            theta: j.theta,
+            offset: j.offset,
+            qlim: j.qlim,
+            mass: m.mass,
+            com: Vector3::from(m.com),
+            inertia: Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2]),
+            ..Joint::default()
+        });
+    }
+    Ok(Robot {
+        name: view.name.to_owned(),
+        convention: match view.convention {
+            DhConvention::Standard => Convention::Standard,
+            DhConvention::Modified => Convention::Modified,
+        },
+        joints,
+        base: pose::to_matrix(&snap.world_pose(view.index)),
+        tool: pose::to_matrix(&view.tool),
+        ..Robot::default()
+    })
+}
+
+/// The link poses relative to the robot object at `q` (3×4 row-major, one per joint): what
+/// the Instance Space holds for the links of a robot standing at `q`.
+pub fn link_poses(robot: &Robot, q: &[f64]) -> Vec<[f64; 12]> {
+    let local = Robot {
+        base: Matrix4::identity(),
+        tool: Matrix4::identity(),
+        ..robot.clone()
+    };
+    robosim_kinematics::fk::link_frames(&local, q)[1..=robot.dof()]
+        .iter()
+        .map(pose::from_matrix)
+        .collect()
+}
+
+/// The transaction that puts `robot`'s links (ids `links`, chain order) at `q`: each link's
+/// joint value and its pose relative to the robot. A joint-only change: it keeps the
+/// structure version, so compiled models are updated in place, not rebuilt.
+pub fn joint_tx(robot: &Robot, links: &[Id], q: &[f64]) -> Transaction {
+    let mut tx = Transaction::new();
+    for ((id, qj), p) in links.iter().zip(q).zip(link_poses(robot, q)) {
+        tx.set_joint(*id, *qj).set_pose(*id, p);
+    }
+    tx
+}
