@@ -38,6 +38,20 @@ pub enum Which {
         #[arg(long)]
         quick: bool,
     },
+    /// What a change costs the simulator daemon: keeper → state reaction to a one-joint
+    /// change and the daemon's CPU during a 30-step MOVEJI, per scene size; with --before, the
+    /// same for an older robosim binary, in the same run.
+    Reaction {
+        /// Where to write reaction.md and reaction.csv.
+        #[arg(long, default_value = "docs/bench")]
+        out: PathBuf,
+        /// Fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+        /// A robosim binary built from an older commit, measured beside this one.
+        #[arg(long)]
+        before: Option<PathBuf>,
+    },
     /// (internal) the reader process of the latency measurement.
     #[command(hide = true)]
     IpcReader {
@@ -53,7 +67,18 @@ pub enum Which {
 pub fn run(which: Which) -> Result<()> {
     match which {
         Which::Ipc { out, quick } => ipc(&out, quick),
-        Which::Display { out, quick } => robosim_display::bench::run(&out, quick).map_err(|e| crate::CliError(e.0)),
+        Which::Display { out, quick } => {
+            robosim_display::bench::run(&out, quick).map_err(|e| crate::CliError(e.0))
+        }
+        Which::Reaction { out, quick, before } => {
+            let me = std::env::current_exe()?;
+            for p in robosim_simulator_daemon::bench::run(&out, quick, &me, before.as_deref())
+                .map_err(crate::CliError)?
+            {
+                println!("{}", p.display());
+            }
+            Ok(())
+        }
         Which::IpcReader {
             session,
             count,

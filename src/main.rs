@@ -4,8 +4,6 @@
 //! `bench`.
 
 mod bench;
-mod demo;
-mod launcher;
 mod reports;
 
 use clap::{Parser, Subcommand};
@@ -164,23 +162,36 @@ fn main() -> ExitCode {
             scene,
             library,
             no_sync,
-        } => launcher::run_space(session.as_deref(), scene.as_deref(), &library, !no_sync),
+        } => robosim_scene::launch::run_space(
+            session.as_deref(),
+            scene.as_deref(),
+            &library,
+            !no_sync,
+        )
+        .map_err(CliError::from),
         Command::Up {
             scene,
             with,
             session,
             library,
-        } => launcher::up_with_library(&scene, &with, session.as_deref(), &library),
-        Command::Ps { session } => launcher::ps(session.as_deref()),
-        Command::Down { session } => launcher::down(session.as_deref()),
+        } => robosim_scene::launch::up_with_library(&scene, &with, session.as_deref(), &library)
+            .map_err(CliError::from),
+        Command::Ps { session } => {
+            robosim_scene::launch::ps(session.as_deref()).map_err(CliError::from)
+        }
+        Command::Down { session } => {
+            robosim_scene::launch::down(session.as_deref()).map_err(CliError::from)
+        }
         Command::Simulator {
             session,
             mode,
             effects,
             publish_hz,
-        } => robosim_simulator_daemon::run(session.as_deref(), mode, effects.as_deref(), publish_hz)
-            .map(drop)
-            .map_err(CliError::from),
+        } => {
+            robosim_simulator_daemon::run(session.as_deref(), mode, effects.as_deref(), publish_hz)
+                .map(drop)
+                .map_err(CliError::from)
+        }
         Command::Simctl { session, commands } => {
             robosim_simulator_daemon::ctl(session.as_deref(), &commands).map_err(CliError::from)
         }
@@ -195,7 +206,10 @@ fn main() -> ExitCode {
             params,
             session,
         } => cli_set(&instance, &params, session.as_deref()),
-        Command::Demo { session } => demo::run(session.as_deref()),
+        Command::Demo { session } => {
+            robosim_studies::surgical::run(session.as_deref(), &mut std::io::stdout().lock())
+                .map_err(|e| CliError(e.0))
+        }
         Command::Bench { which } => bench::run(which),
         Command::Lib { session: None, cmd } => robosim_library::cli::run(cmd).map_err(CliError),
         Command::Lib {
@@ -285,7 +299,9 @@ fn cli_instantiate(
 fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
     let s = robosim_instance_space::Session::open(session)?;
     let reader = robosim_instance_space::Reader::attach(&s, "set")?;
-    let snap = reader.snapshot().ok_or_else(|| CliError("no snapshot".into()))?;
+    let snap = reader
+        .snapshot()
+        .ok_or_else(|| CliError("no snapshot".into()))?;
     let (_, mut origin) = robosim_scene::find_instance(&snap, instance)?;
     origin.params.extend(robosim_scene::parse_params(pairs)?);
     let lib = session_library(session)?;

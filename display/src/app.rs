@@ -218,9 +218,7 @@ fn parse_joints<'a>(
                 .parse::<f64>()
                 .ok()
                 .filter(|x| x.is_finite())
-                .ok_or_else(|| {
-                    AppError(format!("--joints {spec:?}: {v:?} is not a finite number"))
-                })
+                .ok_or_else(|| AppError(format!("--joints {spec:?}: {v:?} is not a finite number")))
         })
         .collect::<Result<_>>()?;
     let q = to_si(&vals, &prismatic(&r.robot), false);
@@ -230,9 +228,7 @@ fn parse_joints<'a>(
 
 /// `q` is a configuration `robot` can take: right length, finite, inside every joint's limits.
 fn check_q(robot: &robosim_kinematics::Robot, q: &[f64]) -> Result<()> {
-    robot
-        .check_q(q)
-        .map_err(|e| AppError(e.to_string()))?;
+    robot.check_q(q).map_err(|e| AppError(e.to_string()))?;
     if let Some((j, v, [lo, hi])) = robot.outside_limits(q) {
         let unit = |x: f64| match robot.joints[j].joint_type {
             robosim_kinematics::JointType::Prismatic => format!("{x} m"),
@@ -293,9 +289,8 @@ impl Player {
             }
             let p = prismatic(&r.robot);
             for k in 0..t.samples.len() {
-                check_q(&r.robot, &t.sample_si(k, &p)).map_err(|e| {
-                    AppError(format!("{}: sample {}: {}", file.trim(), k + 1, e.0))
-                })?;
+                check_q(&r.robot, &t.sample_si(k, &p))
+                    .map_err(|e| AppError(format!("{}: sample {}: {}", file.trim(), k + 1, e.0)))?;
             }
             tracks.push((r.clone(), t, p));
         }
@@ -656,8 +651,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         .out
         .clone()
         .unwrap_or_else(|| session.dir().join("display"));
-    std::fs::create_dir_all(&out)
-        .map_err(|e| AppError(format!("{}: {e}", out.display())))?;
+    std::fs::create_dir_all(&out).map_err(|e| AppError(format!("{}: {e}", out.display())))?;
     let log_path = out.join("frames.jsonl");
     let mut log = std::fs::OpenOptions::new()
         .create(true)
@@ -732,8 +726,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             png,
         };
         let line = serde_json::to_string(&rec).map_err(|e| AppError(e.to_string()))?;
-        writeln!(log, "{line}")
-            .map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;
+        writeln!(log, "{line}").map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;
         log.flush().map_err(|e| AppError(e.to_string()))?;
         frames += 1;
         if a.max_frames.is_some_and(|m| frames >= m) {

@@ -167,9 +167,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             p[11] = 0.01 * (u + 1) as f64;
             p[3] = (rng % 97) as f64 * 0.01;
             tx.set_pose(id, p);
-            let applied = model
-                .apply(&tx)
-                .map_err(|e| AppError(e.to_string()))?;
+            let applied = model.apply(&tx).map_err(|e| AppError(e.to_string()))?;
             let snap = Snapshot::from_model(&model);
             let change = Change {
                 version: applied.version,
@@ -255,8 +253,8 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
 }
 
 fn sphere_model(facets: usize) -> Result<Model> {
-    let poly = robosim_geometry::shapes::sphere(0.5, Some(facets))
-        .map_err(|e| AppError(e.to_string()))?;
+    let poly =
+        robosim_geometry::shapes::sphere(0.5, Some(facets)).map_err(|e| AppError(e.to_string()))?;
     let mut model = Model::new();
     let mut tx = Transaction::new();
     let s = tx.create(Kind::Solid, "sphere", None);
@@ -275,9 +273,7 @@ fn sphere_model(facets: usize) -> Result<Model> {
             ..Default::default()
         },
     );
-    model
-        .apply(&tx)
-        .map_err(|e| AppError(e.to_string()))?;
+    model.apply(&tx).map_err(|e| AppError(e.to_string()))?;
     Ok(model)
 }
 

@@ -100,13 +100,13 @@ pub(crate) fn model_segments(model: &Model, epoch: u64) -> ModelSegments {
         }));
     }
     let objects_header = [ObjectsHeader {
-        version: model.version,
+        version: model.structure_version(),
         epoch,
         count: recs.len() as u64,
     }];
     let poses_header = [PosesHeader {
         version: model.version,
-        structure_version: model.version,
+        structure_version: model.structure_version(),
         epoch,
         count: poses.len() as u64,
     }];

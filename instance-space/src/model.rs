@@ -306,6 +306,9 @@ impl Applied {
 #[derive(Debug, Clone, Default)]
 pub struct Model {
     pub version: u64,
+    /// The version of the last transaction that touched anything but poses and joint values
+    /// (what a published objects segment carries: see `Snapshot::structure_version`).
+    structure_version: u64,
     next_id: Id,
     objects: BTreeMap<Id, Object>,
     children: HashMap<Id, BTreeSet<Id>>,
@@ -315,6 +318,7 @@ impl Model {
     pub fn new() -> Self {
         Model {
             version: 0,
+            structure_version: 0,
             next_id: 1,
             objects: BTreeMap::new(),
             children: HashMap::new(),
@@ -324,6 +328,7 @@ impl Model {
     pub(crate) fn from_parts(version: u64, next_id: Id, objects: Vec<Object>) -> Self {
         let mut m = Model {
             version,
+            structure_version: version,
             next_id,
             objects: BTreeMap::new(),
             children: HashMap::new(),
@@ -405,11 +410,20 @@ impl Model {
         self.children.retain(|_, s| !s.is_empty());
         self.next_id = next_id;
         self.version += 1;
-        Ok(Applied {
+        let applied = Applied {
             version: self.version,
             created,
             changes: touched.into_iter().collect(),
-        })
+        };
+        if applied.aspects() & !aspect::POSE != 0 {
+            self.structure_version = self.version;
+        }
+        Ok(applied)
+    }
+
+    /// The version of the last transaction that changed anything but poses and joint values.
+    pub fn structure_version(&self) -> u64 {
+        self.structure_version
     }
 }
 

@@ -306,7 +306,8 @@ fn compile_robot(
         all_contacts: true,
         ..CollisionSettings::default()
     };
-    if let Ok(CheckResult::Contact(cs)) = check_robot(&robot, &solids, &zero, &Scene::new(), &self_only)
+    if let Ok(CheckResult::Contact(cs)) =
+        check_robot(&robot, &solids, &zero, &Scene::new(), &self_only)
     {
         for c in cs {
             if let (Body::Link(a), Body::Link(b)) = (&c.a, &c.b) {

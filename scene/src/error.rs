@@ -30,11 +30,16 @@ pub enum SceneError {
     #[error("robot {0:?} has no joints")]
     NoJoints(String),
     /// A link of a robot's chain that the DH model cannot represent (a fixed joint record).
-    #[error("robot {robot:?}: link {link} (object {id}) has a fixed joint record; a DH chain holds revolute and prismatic joints only")]
+    #[error(
+        "robot {robot:?}: link {link} (object {id}) has a fixed joint record; a DH chain holds revolute and prismatic joints only"
+    )]
     FixedJoint { robot: String, link: String, id: Id },
     /// The robot's kinematic data is not a valid model (e.g. reversed limits).
     #[error("robot {robot:?}: {reason}")]
     BadRobot { robot: String, reason: String },
+    /// A session's processes could not be started or stopped.
+    #[error("{0}")]
+    Launch(String),
     /// The session (shared memory) could not be read or written.
     #[error("session: {0}")]
     Session(String),

@@ -12,6 +12,8 @@
 //! * [`compiled`] — [`CompiledScene`]: the robot and obstacle models of a snapshot, compiled once
 //!   per structure version and updated in place when only poses and joint values change (a
 //!   30-step MOVEJI compiles its robot once).
+//! * [`launch`] — sessions: the keeper process with its scene (`robosim space`) and `robosim
+//!   up / ps / down`.
 //! * [`pose`] — the one conversion between the Instance Space's 3×4 poses and nalgebra.
 //!
 //! Nothing here talks to a transport: it reads [`Snapshot`]s (shared or process-local) and
@@ -23,6 +25,7 @@
 pub mod compiled;
 mod error;
 pub mod instantiate;
+pub mod launch;
 pub mod load;
 pub mod pose;
 pub mod robot;
@@ -31,8 +34,7 @@ pub mod solids;
 pub use compiled::{CacheStats, CompiledRobot, CompiledScene, Obstacles, Sync};
 pub use error::SceneError;
 pub use instantiate::{
-    Origin, build_library, find_instance, instantiate, parse_params, reinstantiate,
-    session_library,
+    Origin, build_library, find_instance, instantiate, parse_params, reinstantiate, session_library,
 };
 pub use load::{box_geometry, load_from};
 pub use robot::{joint_tx, link_poses, robot_model};

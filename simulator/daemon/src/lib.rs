@@ -32,6 +32,8 @@
 //! t = 0, with a new record sequence (seq 1). The keeper and the Instance Space do not notice
 //! either event. Readers see the state service go silent and then resume (tested).
 
+pub mod bench;
+
 use nalgebra::DVector;
 use robosim_instance_space::layout::PoseRec;
 use robosim_instance_space::state::{CommandReceiver, JointStateRec, StatePublisher};
@@ -203,7 +205,8 @@ fn scene_effects(
         let text =
             std::fs::read_to_string(f).map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?;
         return Ok((
-            SceneEffects::from_json(&text).map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?,
+            SceneEffects::from_json(&text)
+                .map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?,
             format!("from {f}"),
         ));
     }

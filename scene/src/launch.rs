@@ -6,9 +6,30 @@
 //! the session's registry; `ps` reads it and `down` stops them (SIGTERM, then SIGKILL after
 //! 10 s), components first and the keeper last so that its final checkpoint sees their last
 //! writes.
+//!
+//! It lives beside instantiation because starting a session means loading a scene: the keeper
+//! process ([`run_space`]) builds the Library Space and instantiates the scene into an empty
+//! model, and [`up`] checks the scene exists before it starts anything. Processes are started
+//! from the running executable (the `robosim` binary).
+//!
+//! Entry points: [`run_space`], [`up`], [`up_with_library`], [`ps`], [`down`].
 
-use crate::{Result, bail};
-use robosim_scene as scene;
+type Result<T> = std::result::Result<T, SceneError>;
+
+macro_rules! bail {
+    ($($t:tt)*) => { return Err(SceneError::Launch(format!($($t)*))) };
+}
+
+fn io(what: &str) -> impl Fn(std::io::Error) -> SceneError + '_ {
+    move |e| SceneError::Launch(format!("{what}: {e}"))
+}
+
+fn keeper_err<E: std::fmt::Display>(e: E) -> SceneError {
+    SceneError::Session(e.to_string())
+}
+
+use crate::SceneError;
+use crate::load as scene;
 use robosim_instance_space::{Client, KeeperOptions, Reader, Session};
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::process::CommandExt;
@@ -34,12 +55,13 @@ pub fn run_space(
     let session = Session::open(session)?;
     // The Library Space: the standard library plus the given files, checked before anything
     // is published or instantiated.
-    let lib = robosim_scene::build_library(library)?;
+    let lib = crate::build_library(library)?;
     let opts = KeeperOptions {
         durable,
         ..KeeperOptions::default()
     };
-    let (mut keeper, report) = robosim_instance_space::Keeper::start(&session, opts)?;
+    let (mut keeper, report) =
+        robosim_instance_space::Keeper::start(&session, opts).map_err(keeper_err)?;
     eprintln!(
         "space: session {} at version {} (checkpoint {}, {} journal records replayed)",
         session.name(),
@@ -50,7 +72,7 @@ pub fn run_space(
     for p in &report.problems {
         eprintln!("space: recovery: {p}");
     }
-    keeper.publish_library(&lib.sources())?;
+    keeper.publish_library(&lib.sources()).map_err(keeper_err)?;
     eprintln!(
         "space: Library Space published ({} declarations)",
         lib.declarations().len()
@@ -62,7 +84,7 @@ pub fn run_space(
         for tx in &txs {
             keeper
                 .commit_local(tx)
-                .map_err(|e| crate::CliError(format!("scene {name}: {e}")))?;
+                .map_err(|e| SceneError::Instantiate(format!("scene {name}: {e}")))?;
         }
         eprintln!(
             "space: loaded scene {name} ({} objects, version {})",
@@ -70,27 +92,28 @@ pub fn run_space(
             keeper.model().version
         );
     }
-    keeper.run()?;
+    keeper.run().map_err(keeper_err)?;
     eprintln!("space: stopped at version {}", keeper.model().version);
     Ok(())
 }
 
 fn spawn(session: &Session, role: &str, args: &[&str]) -> Result<u32> {
-    let exe = std::env::current_exe()?;
+    let exe = std::env::current_exe().map_err(io("the running executable"))?;
     let log_path = session.run_dir().join(format!("{role}.log"));
     let log = std::fs::OpenOptions::new()
         .create(true)
         .append(true)
         .mode(0o600)
-        .open(&log_path)?;
+        .open(&log_path)
+        .map_err(io("the log file"))?;
     let child = Command::new(exe)
         .args(args)
         .stdin(Stdio::null())
-        .stdout(log.try_clone()?)
+        .stdout(log.try_clone().map_err(io("the log file"))?)
         .stderr(log)
         .process_group(0)
         .spawn()
-        .map_err(|e| crate::CliError(format!("cannot start {role}: {e}")))?;
+        .map_err(|e| SceneError::Launch(format!("cannot start {role}: {e}")))?;
     Ok(child.id())
 }
 
@@ -155,7 +178,7 @@ pub fn up_with_library(
             Some(_) => {}
         }
     }
-    let lib = robosim_scene::build_library(library)?;
+    let lib = crate::build_library(library)?;
     scene::load_from(&lib, scene_name)?;
     let running = session.processes();
     let keeper_pid = match running.iter().find(|p| p.role == "space") {
@@ -178,7 +201,7 @@ pub fn up_with_library(
         }
     };
     // The keeper is up when a client can connect and a reader sees the model.
-    Client::connect(&session, "launcher")?;
+    Client::connect(&session, "launcher").map_err(keeper_err)?;
     let reader = Reader::attach(&session, "launcher-reader")?;
     let version = reader.snapshot().map_or(0, |s| s.version());
     for c in with {

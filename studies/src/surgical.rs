@@ -25,9 +25,7 @@
 //!
 //! Entry point: [`run`].
 
-use crate::{Result, bail, launcher};
-use robosim_scene::pose::to_matrix as m4;
-use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
+use crate::{Result, bail, say};
 use nalgebra::{Matrix4, Vector3};
 use robosim_collision::robot::{
     Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
@@ -40,6 +38,9 @@ use robosim_instance_space::{Client, Kind, Reader, Session, Snapshot, Transactio
 use robosim_kinematics::ik::{self, IkOptions, Method};
 use robosim_kinematics::{Robot, encoder, movej_interpolate, pose::Residual};
 use robosim_library::{CollisionMode, Evaluated, Params, PlacedSolid, Primitive, SceneModel};
+use robosim_scene::launch as launcher;
+use robosim_scene::pose::to_matrix as m4;
+use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -109,7 +110,7 @@ fn collision_solid(p: &PlacedSolid) -> Result<Solid> {
             Solid::mesh(poly.vertices.clone(), &polygons)
         }
     };
-    s.map_err(|e| crate::CliError(format!("solid {}: {e}", p.name)))
+    s.map_err(|e| crate::StudyError(format!("solid {}: {e}", p.name)))
 }
 
 /// The robot's link solids (base first) from the library's evaluation: one solid per frame,
@@ -129,7 +130,7 @@ fn link_solids(frames: &[Vec<PlacedSolid>]) -> Result<LinkSolids> {
             }),
             _ => Some(LinkSolid {
                 solid: Arc::new(
-                    Solid::compound(placed).map_err(|e| crate::CliError(e.to_string()))?,
+                    Solid::compound(placed).map_err(|e| crate::StudyError(e.to_string()))?,
                 ),
                 offset: nalgebra::Isometry3::identity(),
             }),
@@ -194,7 +195,7 @@ fn verdict(r: &CheckResult, link_names: &[String]) -> String {
 fn mapped_robot(snap: &Snapshot, arm: &CompiledRobot, name: &str) -> Result<Robot> {
     let i = snap
         .find(name)
-        .ok_or_else(|| crate::CliError(format!("no object {name} in the snapshot")))?;
+        .ok_or_else(|| crate::StudyError(format!("no object {name} in the snapshot")))?;
     Ok(Robot {
         base: m4(&snap.world_pose(i)),
         tool: m4(&snap.objects()[i].tool),
@@ -229,7 +230,9 @@ fn kinematic_difference(a: &Robot, b: &Robot) -> f64 {
     d
 }
 
-pub fn run(session: Option<&str>) -> Result<()> {
+/// Runs the study in session `session` (a fresh one by default) and writes its report to
+/// `out` as it goes.
+pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     let t_start = Instant::now();
     let name = session
         .map(str::to_owned)
@@ -239,7 +242,7 @@ pub fn run(session: Option<&str>) -> Result<()> {
         remove_dir: session.is_none(),
     };
     let lib = robosim_library::standard_library()
-        .ok_or_else(|| crate::CliError("the standard library failed to load".into()))?;
+        .ok_or_else(|| crate::StudyError("the standard library failed to load".into()))?;
     let scene = match lib.evaluate(SCENE, &Params::new()) {
         Ok(Evaluated::Scene(s)) => s,
         Ok(_) => bail!("{SCENE} is not a scene"),
@@ -248,19 +251,25 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let placed = scene
         .robots
         .first()
-        .ok_or_else(|| crate::CliError(format!("{SCENE} places no robot")))?;
+        .ok_or_else(|| crate::StudyError(format!("{SCENE} places no robot")))?;
     let model = &placed.model;
     let link_names = &model.link_names;
 
-    println!("== 1. session on library scene {SCENE} (seed §2.7): keeper + simulator processes");
+    say!(
+        out,
+        "== 1. session on library scene {SCENE} (seed §2.7): keeper + simulator processes"
+    );
     launcher::up(SCENE, &["simulator".to_owned()], Some(&name))?;
     let s = Session::open(Some(&name))?;
 
-    println!("\n== 2. a reader maps the model from shared memory (nothing is copied)");
+    say!(
+        out,
+        "\n== 2. a reader maps the model from shared memory (nothing is copied)"
+    );
     let mut reader = Reader::attach(&s, "demo-reader")?;
     let snap = reader
         .snapshot()
-        .ok_or_else(|| crate::CliError("no snapshot".into()))?;
+        .ok_or_else(|| crate::StudyError("no snapshot".into()))?;
     let polygons: usize = (0..snap.len())
         .filter_map(|i| snap.geometry(i))
         .map(|g| g.polygons.len())
@@ -280,7 +289,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
         format!("{n} {}{}", k.name(), if n == 1 { "" } else { "s" })
     })
     .collect();
-    println!(
+    say!(
+        out,
         "version {}: {} objects ({}), {} vertices, {} convex polygons",
         snap.version(),
         snap.len(),
@@ -293,7 +303,7 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let arm = robots
         .iter()
         .find(|r| r.robot.name == placed.name)
-        .ok_or_else(|| crate::CliError(format!("robot {} not in the snapshot", placed.name)))?;
+        .ok_or_else(|| crate::StudyError(format!("robot {} not in the snapshot", placed.name)))?;
     let robot = mapped_robot(&snap, arm, &placed.name)?;
     let diff = kinematic_difference(&robot, &model.robot);
     if diff > 1e-12 {
@@ -304,17 +314,17 @@ pub fn run(session: Option<&str>) -> Result<()> {
         .solids
         .iter()
         .find(|i| i.name == "head")
-        .ok_or_else(|| crate::CliError(format!("{SCENE} has no head")))?;
+        .ok_or_else(|| crate::StudyError(format!("{SCENE} has no head")))?;
     let head_obj = snap
         .find("head")
         .and_then(|i| (0..snap.len()).find(|&k| snap.objects()[k].parent == snap.objects()[i].id))
-        .ok_or_else(|| crate::CliError("the snapshot has no head solid".into()))?;
+        .ok_or_else(|| crate::StudyError("the snapshot has no head solid".into()))?;
     let head = m4(&snap.world_pose(head_obj));
     let head_part = head_item
         .solid
         .parts
         .first()
-        .ok_or_else(|| crate::CliError("the head has no solid".into()))?;
+        .ok_or_else(|| crate::StudyError("the head has no solid".into()))?;
     let head_lib = head_item.placement * head_part.transform;
     if (head - head_lib).abs().max() > 1e-12 {
         bail!("the head's pose in the snapshot differs from the library's");
@@ -328,7 +338,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let axis: Vector3<f64> = head.fixed_view::<3, 1>(0, 2).into_owned();
     let axis = if axis.sum() < 0.0 { -axis } else { axis };
     let centre: Vector3<f64> = head.fixed_view::<3, 1>(0, 3).into_owned();
-    println!(
+    say!(
+        out,
         "head: cylinder r {radius:.3} m, length {length:.3} m, axis {} through {}; {}: {} joints at q {}",
         vec_str(axis.as_slice(), 2),
         xyz(&head),
@@ -336,11 +347,13 @@ pub fn run(session: Option<&str>) -> Result<()> {
         robot.dof(),
         vec_str(&arm.q, 3)
     );
-    println!(
+    say!(
+        out,
         "mapped DH rows, limits, base and tool = the Library Space evaluation (max |Δ| {diff:.1e})"
     );
 
-    println!(
+    say!(
+        out,
         "\n== 3. kinematics: tool tip {:.1} cm from the head's axis, pointing at it (seed §2.7)",
         TIP_FROM_AXIS * 100.0
     );
@@ -369,7 +382,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
         t
     };
     let target = location(ARC_DEG, ALONG_AXIS);
-    println!(
+    say!(
+        out,
         "target: tip at {} ({ARC_DEG}° above horizontal, {ALONG_AXIS} m along the axis), tool z towards the axis",
         xyz(&target)
     );
@@ -387,13 +401,15 @@ pub fn run(session: Option<&str>) -> Result<()> {
         .iter()
         .map(|s| s.residual.position.max(s.residual.orientation))
         .fold(0.0, f64::max);
-    println!(
+    say!(
+        out,
         "analytic IK ({} family, all solutions): {} solutions in {ik_us:.0} µs, worst residual {worst:.1e} (m / rad)",
         family.name(),
         sols.solutions.len()
     );
 
-    println!(
+    say!(
+        out,
         "\n== 4. collision ({}, the scene's mode; self {}): each solution's link solids against the head",
         match scene.effects.collision.map(|c| c.mode) {
             Some(CollisionMode::Bbox) => "bbox",
@@ -435,7 +451,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
             .map(|(a, b)| (a - b) * (a - b))
             .sum::<f64>()
             .sqrt();
-        println!(
+        say!(
+            out,
             "  {label} q {} res {:.0e} m {}, {}",
             vec_str(&sol.q, 2),
             sol.residual.position,
@@ -450,21 +467,23 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let mut chosen = None;
     for (dist, sol) in &clear {
         let label = sol.branch.map_or("-".into(), |b| b.label());
-        let out = move_checked(&robot, &links, &arm.q, &sol.q, STEPS, &obstacles, &settings)?;
-        if out.completed {
-            println!(
+        let moved = move_checked(&robot, &links, &arm.q, &sol.q, STEPS, &obstacles, &settings)?;
+        if moved.completed {
+            say!(
+                out,
                 "chosen: {label}, collision-free and nearest to the current q ({dist:.2} rad); its {STEPS}-step MOVEJI path is clear"
             );
             chosen = Some(*sol);
             break;
         }
-        let why = out
+        let why = moved
             .stopped_by
             .as_ref()
             .map_or("?".into(), |r| verdict(r, link_names));
-        println!(
+        say!(
+            out,
             "  {label} rejected: its MOVEJI path stops after step {} of {STEPS}: {why}",
-            out.steps_done
+            moved.steps_done
         );
     }
     let Some(goal) = chosen else {
@@ -476,7 +495,7 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let bits = scene
         .effects
         .encoder_bits
-        .ok_or_else(|| crate::CliError(format!("{SCENE} declares no encoder bits")))?;
+        .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?;
     let t0 = Instant::now();
     let (mut points, mut reached, mut unreachable) = (0, 0, 0);
     let mut worst_err = (0.0_f64, 0.0, 0.0);
@@ -515,19 +534,22 @@ pub fn run(session: Option<&str>) -> Result<()> {
             }
         }
     }
-    println!(
+    say!(
+        out,
         "seed's sweep, {points} points (±20 cm every 1 cm, 0–100° every 5°) in {:.0} ms: {reached} reached clear of the head, {unreachable} out of reach, {} only colliding or beyond limits",
         t0.elapsed().as_secs_f64() * 1e3,
         points - reached - unreachable
     );
-    println!(
+    say!(
+        out,
         "  worst {bits}-bit position bound over the reached points: {:.3} mm at {:+.0} cm, {:.0}°",
         worst_err.0 * 1e3,
         worst_err.1 * 100.0,
         worst_err.2
     );
 
-    println!(
+    say!(
+        out,
         "\n== 5. MOVEJI there: each interpolated step one journaled transaction (joints + link poses)"
     );
     let path = movej_interpolate(&robot, &arm.q, &goal.q, STEPS)?;
@@ -556,7 +578,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
     }
     let elapsed = t0.elapsed();
     let in_order = seen.windows(2).all(|w| w[1] == w[0] + 1);
-    println!(
+    say!(
+        out,
         "{STEPS} transactions in {:.1} ms ({:.0} µs each, fsync included); the reader saw {} versions {}..={}{}, each naming only the {} links (pose)",
         elapsed.as_secs_f64() * 1e3,
         elapsed.as_secs_f64() * 1e6 / STEPS as f64,
@@ -572,12 +595,13 @@ pub fn run(session: Option<&str>) -> Result<()> {
     );
     let snap = reader
         .snapshot()
-        .ok_or_else(|| crate::CliError("no snapshot".into()))?;
+        .ok_or_else(|| crate::StudyError("no snapshot".into()))?;
     let last_link = arm.links.last().and_then(|id| snap.index_of(*id));
     if let Some(i) = last_link {
         let tool_world = m4(&snap.world_pose(i)) * robot.tool;
         let r = Residual::between(&tool_world, &target);
-        println!(
+        say!(
+            out,
             "snapshot v{}: tool tip at {}, off the target by {:.1e} m / {:.1e} rad",
             snap.version(),
             xyz(&tool_world),
@@ -586,7 +610,10 @@ pub fn run(session: Option<&str>) -> Result<()> {
         );
     }
 
-    println!("\n== 6. the simulator daemon publishes state for the new structure version");
+    say!(
+        out,
+        "\n== 6. the simulator daemon publishes state for the new structure version"
+    );
     let mut state = StateSubscriber::open(&s, "simulator", "demo-state")?;
     let deadline = Instant::now() + Duration::from_secs(10);
     let rec = loop {
@@ -613,14 +640,21 @@ pub fn run(session: Option<&str>) -> Result<()> {
                 .map_or(f64::INFINITY, |j| (j.q - q).abs())
         })
         .fold(0.0, f64::max);
-    println!(
+    say!(
+        out,
         "state #{} at t = {:.2} s for version {}: the arm's q differ from the goal by {off:.1e} rad",
-        rec.header.seq, rec.header.t, rec.header.structure_version
+        rec.header.seq,
+        rec.header.t,
+        rec.header.structure_version
     );
 
-    println!("\n== 7. the seed's {bits}-bit encoder study at the final pose (seed §2.7)");
+    say!(
+        out,
+        "\n== 7. the seed's {bits}-bit encoder study at the final pose (seed §2.7)"
+    );
     let e = encoder::encoder_error(&robot, &goal.q, &vec![bits; robot.dof()])?;
-    println!(
+    say!(
+        out,
         "joint resolution {:.2} mrad: tool position error ≤ {:.3} mm (Σ|J|δ, the seed's bound), exact worst case {:.3} mm; orientation ≤ {:.2} mrad",
         e.resolution[0] * 1e3,
         e.position * 1e3,
@@ -628,7 +662,10 @@ pub fn run(session: Option<&str>) -> Result<()> {
         e.orientation * 1e3
     );
 
-    println!("\n== 8. dynamics: gravity torques holding the arm at the final pose");
+    say!(
+        out,
+        "\n== 8. dynamics: gravity torques holding the arm at the final pose"
+    );
     let density = match lib.evaluate("aluminium", &Params::new()) {
         Ok(Evaluated::Constant { value, .. }) => value,
         _ => bail!("the standard library has no constant `aluminium`"),
@@ -641,7 +678,7 @@ pub fn run(session: Option<&str>) -> Result<()> {
             let mp = p
                 .polyhedron
                 .mass_properties(density)
-                .map_err(|e| crate::CliError(format!("{}: {e}", p.name)))?;
+                .map_err(|e| crate::StudyError(format!("{}: {e}", p.name)))?;
             each.push(mp.transformed(&isometry_from_matrix(&p.transform)));
         }
         if let Some(mp) = MassProperties::combine(&each) {
@@ -656,7 +693,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
     let g = robosim_dynamics::gravity(&dm, &mut data, &goal.q)?
         .as_slice()
         .to_vec();
-    println!(
+    say!(
+        out,
         "link masses from the link solids at aluminium {density:.0} kg/m³ (the positioner declares none): {total:.3} kg in all"
     );
     // An independent check: g(q) is the gradient of the potential energy (computed by a
@@ -673,7 +711,8 @@ pub fn run(session: Option<&str>) -> Result<()> {
         let vm = robosim_dynamics::energy(&dm, &mut data, &qm, &zeros)?.potential;
         dv_err = dv_err.max(((vp - vm) / (2.0 * h) - gj).abs());
     }
-    println!(
+    say!(
+        out,
         "g(q) = {} N·m; = ∂V/∂q (central differences of the potential energy) to {dv_err:.1e} N·m",
         vec_str(&g, 4)
     );
@@ -696,33 +735,39 @@ pub fn run(session: Option<&str>) -> Result<()> {
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max)
     });
-    println!(
+    say!(
+        out,
         "RK4, 1 ms: held by g(q) for 1 s the arm drifts {drift:.1e} rad; unpowered it falls {fall:.3} rad in 0.2 s, energy change {:.1e} J",
         e1 - e0
     );
 
-    println!(
+    say!(
+        out,
         "\n== 9. automation: an ECLSS fault with its own sensor failed, alarms, diagnosis (seed §4.3)"
     );
-    automation()?;
+    automation(out)?;
 
-    println!("\n== 10. bad input is refused whole, with the object and field named");
+    say!(
+        out,
+        "\n== 10. bad input is refused whole, with the object and field named"
+    );
     let mut tx = Transaction::new();
     let mut pose = robosim_instance_space::IDENTITY;
     pose[3] = f64::NAN;
     let first = *arm
         .links
         .first()
-        .ok_or_else(|| crate::CliError("the positioner has no links".into()))?;
+        .ok_or_else(|| crate::StudyError("the positioner has no links".into()))?;
     tx.set_joint(first, 0.0).set_pose(first, pose);
     match client.transact(&tx) {
-        Err(e) => println!("refused: {e}"),
+        Err(e) => say!(out, "refused: {e}"),
         Ok(c) => bail!("a NaN pose was accepted as version {}", c.version),
     }
     let v = reader.snapshot().map_or(0, |s| s.version());
-    println!("model still at version {v}");
+    say!(out, "model still at version {v}");
 
-    println!(
+    say!(
+        out,
         "\n== 11. stop the session (demo ran {:.1} s)",
         t_start.elapsed().as_secs_f64()
     );
@@ -732,13 +777,14 @@ pub fn run(session: Option<&str>) -> Result<()> {
 /// Step 9: one ECLSS fault whose own alarm is not allocated (its sensor failed): the alarm
 /// sequence is simulated and FSPI/ILM isolate the fault from the downstream alarms alone. Then
 /// the limit of it: with two sensors failed, a fault that stays ambiguous.
-fn automation() -> Result<()> {
+fn automation(out: &mut dyn std::io::Write) -> Result<()> {
     use robosim_automation::diag::FaultGraph;
     use robosim_automation::model::load_model;
     let m = load_model("eclss")?;
     let g = FaultGraph::new(&m);
     let d = diagnose(&m, &g, "sorbent_bed_failure", &["A_co2_bed"])?;
-    println!(
+    say!(
+        out,
         "injected {} at t = 0 (seed {SEED}, edge probabilities sampled); sensor A_co2_bed failed: {} of {} alarms reach the diagnoser",
         m.failure_modes[d.fault].path,
         d.trail.len(),
@@ -746,7 +792,8 @@ fn automation() -> Result<()> {
     );
     // The first alarms in full, the rest summarised (candidate counts after each included).
     let shown = d.trail.len().min(3);
-    println!(
+    say!(
+        out,
         "alarms (→ FSPI single-fault candidates after each): {}",
         d.trail[..shown].join("  ")
     );
@@ -755,14 +802,16 @@ fn automation() -> Result<()> {
         counts.sort_unstable();
         counts.dedup();
         let counts: Vec<String> = counts.iter().map(usize::to_string).collect();
-        println!(
+        say!(
+            out,
             "  … {} more up to t = {:.0} s (candidates after each: {})",
             d.trail.len() - shown,
             d.last_time,
             counts.join(", ")
         );
     }
-    println!(
+    say!(
+        out,
         "diagnosis (FSPI, ILM to depth {}): {} [components: {}] — {}",
         d.depth,
         d.names.join(", "),
@@ -774,7 +823,8 @@ fn automation() -> Result<()> {
         }
     );
     let d2 = diagnose(&m, &g, "valve_stuck", &["A_valve", "A_tank_pressure"])?;
-    println!(
+    say!(
+        out,
         "limit: valve_stuck with A_valve and A_tank_pressure failed: {} alarms leave {} candidates ({}) — {}; FSCI: {}",
         d2.trail.len(),
         d2.names.len(),
@@ -818,10 +868,10 @@ fn diagnose(
 ) -> Result<Diagnosis> {
     use robosim_automation::diag::Ilm;
     use robosim_automation::sim::{SimOptions, filter, simulate};
-    let fault = m.find_failure_mode(fault).map_err(crate::CliError)?;
+    let fault = m.find_failure_mode(fault).map_err(crate::StudyError)?;
     let mut present = vec![true; m.alarms.len()];
     for a in failed {
-        present[m.find_alarm(a).map_err(crate::CliError)?] = false;
+        present[m.find_alarm(a).map_err(crate::StudyError)?] = false;
     }
     let opts = SimOptions {
         seed: SEED,

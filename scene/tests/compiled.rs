@@ -1,0 +1,151 @@
+//! The compiled-model cache: a joint- or pose-only change is applied in place and gives exactly
+//! what a fresh compile of the same snapshot gives; a structure change compiles again.
+
+use robosim_collision::robot::{CheckResult, CollisionSettings, check_robot};
+use robosim_instance_space::{Model, Snapshot, Transaction};
+use robosim_scene::{CompiledScene, Sync, build_library, joint_tx, load_from, pose};
+use std::collections::HashSet;
+
+fn cell() -> Model {
+    let lib = build_library(&[]).expect("standard library");
+    let mut m = Model::new();
+    for tx in load_from(&lib, "surgical_positioner_cell").expect("scene") {
+        m.apply(&tx).expect("valid");
+    }
+    m
+}
+
+/// Everything a user of the cache reads, for comparing two caches.
+fn fingerprint(c: &CompiledScene) -> Vec<String> {
+    let mut out = Vec::new();
+    for r in c.robots() {
+        out.push(format!(
+            "{} q={:?} base={:?} allowed={:?}",
+            r.name(),
+            r.q,
+            r.robot.base,
+            r.solids.allowed
+        ));
+        let obs = c.obstacles(r, &HashSet::new());
+        out.push(format!("obstacles {:?}", obs.names));
+        for o in obs.scene.objects() {
+            out.push(format!("{} {:?}", o.name, o.pose));
+        }
+        let check = check_robot(
+            &r.robot,
+            &r.solids,
+            &r.q,
+            &obs.scene,
+            &CollisionSettings {
+                all_contacts: true,
+                ..CollisionSettings::default()
+            },
+        )
+        .expect("check runs");
+        out.push(format!("clear {}", matches!(check, CheckResult::Clear)));
+    }
+    let mut hit: Vec<_> = c.colliding_ids().into_iter().collect();
+    hit.sort_unstable();
+    out.push(format!("colliding {hit:?}"));
+    out
+}
+
+#[test]
+fn joint_and_pose_changes_update_in_place_and_match_a_fresh_compile() {
+    let mut m = cell();
+    let mut cache = CompiledScene::new();
+    assert_eq!(cache.sync(&Snapshot::from_model(&m)), Sync::Compiled);
+    let snap = Snapshot::from_model(&m);
+    assert_eq!(cache.sync(&snap), Sync::Unchanged);
+    let arm = cache.robot("positioner").expect("compiled").clone();
+    // 30 joint steps toward the head, then the head moved: all in place.
+    for k in 1..=30 {
+        let q: Vec<f64> = arm.q.iter().map(|x| x + 0.02 * k as f64).collect();
+        m.apply(&joint_tx(&arm.robot, &arm.links, &q))
+            .expect("joint tx");
+        assert_eq!(cache.sync(&Snapshot::from_model(&m)), Sync::Posed);
+    }
+    let snap = Snapshot::from_model(&m);
+    let head = snap.find("head").expect("the head item");
+    let mut moved = snap.poses()[head].pose;
+    moved[3] -= 0.25;
+    let mut tx = Transaction::new();
+    tx.set_pose(snap.objects()[head].id, moved);
+    m.apply(&tx).expect("pose tx");
+    let snap = Snapshot::from_model(&m);
+    assert_eq!(cache.sync(&snap), Sync::Posed);
+    assert_eq!(cache.stats().compiles, 1);
+    assert_eq!(cache.stats().pose_updates, 31);
+    assert_eq!(fingerprint(&cache), fingerprint(&CompiledScene::of(&snap)));
+    let r = cache.robot("positioner").expect("compiled");
+    assert!((r.q[0] - (arm.q[0] + 0.6)).abs() < 1e-12);
+    // The head's solid moved with it.
+    let head_solid = cache
+        .objects()
+        .iter()
+        .find(|o| o.path.starts_with("surgical_positioner_cell/head/"))
+        .expect("head solid");
+    let want = pose::to_isometry(&snap.world_pose(head_solid.index));
+    assert_eq!(head_solid.pose, want);
+}
+
+#[test]
+fn a_structure_change_compiles_again() {
+    let mut m = cell();
+    let mut cache = CompiledScene::of(&Snapshot::from_model(&m));
+    let link = cache.robot("positioner").expect("compiled").links[0];
+    let mut tx = Transaction::new();
+    tx.set_appearance(link, robosim_instance_space::Appearance::default());
+    m.apply(&tx).expect("appearance tx");
+    assert_eq!(cache.sync(&Snapshot::from_model(&m)), Sync::Compiled);
+    assert_eq!(cache.stats().compiles, 2);
+}
+
+#[test]
+fn unknown_and_broken_robots_say_why() {
+    let m = cell();
+    let cache = CompiledScene::of(&Snapshot::from_model(&m));
+    let e = cache.robot("nobody").err().expect("unknown").to_string();
+    assert!(
+        e.contains("no robot named \"nobody\"") && e.contains("positioner"),
+        "{e}"
+    );
+}
+
+/// A link with a fixed joint record is refused with its name, not read as revolute (the old
+/// bridge decoded every joint kind but prismatic as revolute).
+#[test]
+fn regression_fixed_joint_record_is_not_read_as_revolute() {
+    use robosim_instance_space::{DhConvention, JointKind, Kind, Kinematics};
+    let mut tx = Transaction::new();
+    let r = tx.create(Kind::Robot, "arm", None);
+    tx.set_kinematics(
+        r,
+        Some(Kinematics::Robot {
+            convention: DhConvention::Standard,
+            ik_family: 0,
+            tool: robosim_instance_space::IDENTITY,
+        }),
+    );
+    let l = tx.create(Kind::Link, "wrist", Some(r));
+    tx.set_kinematics(
+        l,
+        Some(Kinematics::Joint {
+            index: 0,
+            joint: JointKind::Fixed,
+            convention: DhConvention::Standard,
+            a: 0.1,
+            d: 0.0,
+            alpha: 0.0,
+            theta: 0.0,
+            offset: 0.0,
+            qlim: [0.0, 0.0],
+        }),
+    );
+    let mut m = Model::new();
+    m.apply(&tx).expect("valid");
+    let cache = CompiledScene::of(&Snapshot::from_model(&m));
+    assert!(cache.robots().is_empty());
+    let e = cache.robot("arm").err().expect("refused").to_string();
+    assert!(e.contains("wrist") && e.contains("fixed"), "{e}");
+}

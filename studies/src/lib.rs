@@ -1,0 +1,40 @@
+//! The seed's case studies as runnable programs: each starts (or uses) a session, does the
+//! study's work through the real crates, processes and shared memory, and writes what it found
+//! to a writer — the `robosim demo` and `robosim study` commands print it.
+//!
+//! * [`surgical`] — seed §2.7: the kinematic surgical positioner beside the patient's head (IK,
+//!   collision, MOVEJI, the encoder study, dynamics, an ECLSS diagnosis), `robosim demo`.
+//!
+//! Entry points: [`surgical::run`], [`StudyError`].
+
+pub mod surgical;
+
+/// Why a study stopped: what failed, in words (every study step names its input).
+#[derive(Debug)]
+pub struct StudyError(pub String);
+
+impl std::fmt::Display for StudyError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl<E: std::error::Error> From<E> for StudyError {
+    fn from(e: E) -> Self {
+        StudyError(e.to_string())
+    }
+}
+
+pub type Result<T> = std::result::Result<T, StudyError>;
+
+macro_rules! bail {
+    ($($t:tt)*) => { return Err($crate::StudyError(format!($($t)*))) };
+}
+pub(crate) use bail;
+
+/// `writeln!` to a study's report writer; a failed write ends the study.
+macro_rules! say {
+    ($out:expr) => { writeln!($out).map_err(|e| $crate::StudyError(e.to_string()))? };
+    ($out:expr, $($t:tt)*) => { writeln!($out, $($t)*).map_err(|e| $crate::StudyError(e.to_string()))? };
+}
+pub(crate) use say;
