@@ -594,3 +594,90 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
     });
     wait_for("frames drawn", || (frames(&out).len() >= 2).then_some(()));
 }
+
+/// With a simulator running, the session display draws the simulator's published state (the
+/// links where the simulator has them), not only the committed model: a lockstep simulator
+/// drives the PUMA to a joint target while the Instance Space stays at q = 0; the frame
+/// matches an independent render of the committed model with the links at the target.
+#[test]
+fn the_session_display_draws_the_running_simulators_state() {
+    use robosim_instance_space::Snapshot;
+    use robosim_instance_space::layout::PoseRec;
+    use robosim_instance_space::state::CommandSender;
+    let mut k = Procs::new("dsim");
+    k.start_keeper(&["--scene", "puma560"]);
+    k.spawn(&["simulator", "--mode", "lockstep"]);
+    let out = k.home.path().join("display-out");
+    let out_s = out.to_string_lossy().into_owned();
+    k.spawn(
+        &[
+            &["display", "--headless", "--every-frame", "--out", &out_s][..],
+            &PUMA_VIEW,
+        ]
+        .concat(),
+    );
+    let first = wait_for("the first frame", || frames(&out).into_iter().next());
+    let s = k.session();
+    let mut ctl = wait_for("the simulator's commands", || {
+        CommandSender::open(&s, "simulator", "test").ok()
+    });
+    let target = [0.0, 0.8, -0.5, 0.0, 0.4, 0.0];
+    let send = |ctl: &mut CommandSender, c: String| {
+        let a = ctl
+            .send(c.as_bytes(), std::time::Duration::from_secs(10))
+            .expect("answer");
+        assert_eq!(a, b"ok", "{c}: {}", String::from_utf8_lossy(&a));
+    };
+    send(
+        &mut ctl,
+        serde_json::json!({"cmd": "target", "robot": "puma560", "q": target}).to_string(),
+    );
+    // Kinematic motion at 1 rad/s, dt 1 ms: 0.8 rad takes 800 steps; 2,000 are taken.
+    send(&mut ctl, r#"{"cmd": "step", "n": 2000}"#.to_owned());
+    let shown = wait_for("a frame of the simulator's state at t = 2 s", || {
+        frames(&out)
+            .into_iter()
+            .find(|f| f["sim_t"].as_f64().is_some_and(|t| t > 1.999))
+    });
+    assert!(shown["sim_seq"].as_u64().is_some_and(|n| n > 0), "{shown}");
+
+    // The committed model did not move.
+    let mut reader = Reader::attach(&s, "test-reader").expect("reader");
+    let snap: std::rc::Rc<Snapshot> = wait_for("a snapshot", || {
+        reader.refresh().ok()?;
+        reader.snapshot()
+    });
+    let view = snap.robot("puma560").expect("the robot");
+    assert!(view.joints.iter().all(|j| j.q == 0.0));
+    // An independent render: the committed model with the links at the target.
+    let scene = robosim_scene::CompiledScene::of(&snap);
+    let robot = scene.robot("puma560").expect("compiled");
+    let overrides: Vec<PoseRec> = robot
+        .links
+        .iter()
+        .zip(robosim_scene::link_poses(&robot.robot, &target))
+        .zip(target)
+        .map(|((id, pose), joint)| PoseRec {
+            id: *id,
+            pose,
+            joint,
+        })
+        .collect();
+    let mut r = Renderer::headless().expect("adapter");
+    r.sync(&snap.with_poses(&overrides));
+    r.camera = Camera::looking(Point3::new(-1.2, 1.4, 1.1), Point3::new(0.1, 0.0, 0.55));
+    let expected = r.render_image(320, 240).expect("frame");
+    let img = load(&out.join(shown["png"].as_str().expect("png name")));
+    let before = load(&out.join(first["png"].as_str().expect("png name")));
+    let tol = Tolerance::default();
+    let same = compare(&img, &expected, &tol).expect("same size");
+    assert!(
+        same.within(&tol),
+        "display frame vs render at the target: {same:?}"
+    );
+    let moved = compare(&img, &before, &tol).expect("same size");
+    assert!(
+        !moved.within(&tol),
+        "the simulated motion is visible: {moved:?}"
+    );
+}

@@ -429,7 +429,8 @@ pub struct DisplayArgs {
     /// Headless: the directory for latest.png and frames.jsonl (default <session>/display).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Headless: also keep every frame as frame-<version>.png.
+    /// Headless: also keep every frame as frame-<version>.png (frame-<version>-sim<seq>.png
+    /// when it shows the simulator's state).
     #[arg(long)]
     pub every_frame: bool,
     /// Stop after this many frames (headless) or presented frames (window).
@@ -454,6 +455,70 @@ struct SessionHost {
     snap: Option<std::rc::Rc<Snapshot>>,
     /// Robots (and their solids, for the highlight) of `snap`, compiled per structure version.
     scene: CompiledScene,
+    /// The simulator's published state, when a simulator runs (opened lazily, retried).
+    sim: SimFollower,
+}
+
+/// Follows the simulator's high-rate state (`state/simulator`): the latest record, drawn over
+/// the committed model — the links where the simulator has them.
+struct SimFollower {
+    sub: Option<robosim_instance_space::state::StateSubscriber>,
+    next_try: Instant,
+    latest: Option<robosim_instance_space::state::StateRecord>,
+    /// Records applied to the drawing (0: the committed model is drawn as it is).
+    applied: u64,
+}
+
+impl SimFollower {
+    fn new() -> Self {
+        SimFollower {
+            sub: None,
+            next_try: Instant::now(),
+            latest: None,
+            applied: 0,
+        }
+    }
+
+    /// Takes any new records; true when a newer one arrived.
+    fn poll(&mut self, session: &Session) -> bool {
+        if self.sub.is_none() && Instant::now() >= self.next_try {
+            // The service exists only while a simulator runs; look again once a second.
+            self.sub = robosim_instance_space::state::StateSubscriber::open(
+                session,
+                "simulator",
+                "display",
+            )
+            .ok();
+            self.next_try = Instant::now() + Duration::from_secs(1);
+        }
+        let Some(sub) = self.sub.as_mut() else {
+            return false;
+        };
+        match sub.drain() {
+            Ok(recs) => match recs.into_iter().last() {
+                Some(r) => {
+                    self.latest = Some(r);
+                    true
+                }
+                None => false,
+            },
+            Err(_) => {
+                self.sub = None;
+                false
+            }
+        }
+    }
+
+    /// The snapshot to draw: `snap` with the simulator's link poses, when its latest record is
+    /// for this structure (a record for an older structure may name links that changed).
+    fn drawn(&mut self, snap: &Snapshot) -> Option<Snapshot> {
+        let rec = self.latest.as_ref()?;
+        if rec.header.structure_version < snap.structure_version() {
+            return None;
+        }
+        self.applied += 1;
+        Some(snap.with_poses(&rec.bodies))
+    }
 }
 
 impl SessionHost {
@@ -485,15 +550,24 @@ impl Host for SessionHost {
         let Some(snap) = self.reader.snapshot() else {
             return Ok(false);
         };
-        if self
-            .snap
-            .as_ref()
-            .is_some_and(|s| (s.version(), s.epoch()) == (snap.version(), snap.epoch()))
+        let new_state = self.sim.poll(&self.session);
+        if !new_state
+            && self
+                .snap
+                .as_ref()
+                .is_some_and(|s| (s.version(), s.epoch()) == (snap.version(), snap.epoch()))
         {
             return Ok(false);
         }
         self.scene.sync(&snap);
         highlight(r, &self.scene, self.collisions);
+        // A running simulator's state is drawn over the committed model (full comparison:
+        // the state's link poses are not in the change records).
+        if let Some(drawn) = self.sim.drawn(&snap) {
+            r.sync(&drawn);
+            self.snap = Some(snap);
+            return Ok(true);
+        }
         // The change records since the last drawn version drive the update; without them
         // (a reader that joined late, a keeper restart) the full comparison runs.
         match self.reader.changes_since(r.version()) {
@@ -577,6 +651,10 @@ struct FrameRecord {
     upload_bytes: u64,
     render_ms: f64,
     png: Option<String>,
+    /// The simulator's state drawn in this frame (its record sequence number and time), if a
+    /// simulator runs.
+    sim_seq: Option<u64>,
+    sim_t: Option<f64>,
 }
 
 /// `robosim display --session S …`
@@ -601,6 +679,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         collisions: a.view.collisions,
         snap: None,
         scene: CompiledScene::new(),
+        sim: SimFollower::new(),
     };
     // Wait for the first model.
     let deadline = Instant::now() + Duration::from_secs(30);
@@ -710,7 +789,12 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         std::fs::rename(&tmp, out.join("latest.png"))
             .map_err(|e| AppError(format!("{}: {e}", out.display())))?;
         let png = if a.every_frame {
-            let name = format!("frame-{:08}.png", r.version());
+            // Frames of the simulator's state share the model version: the record's sequence
+            // number tells them apart.
+            let name = match host.sim.latest.as_ref().filter(|_| host.sim.applied > 0) {
+                Some(l) => format!("frame-{:08}-sim{:08}.png", r.version(), l.header.seq),
+                None => format!("frame-{:08}.png", r.version()),
+            };
             img.save_png(&out.join(&name))?;
             Some(name)
         } else {
@@ -724,6 +808,12 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             upload_bytes: upload.total_bytes(),
             render_ms,
             png,
+            sim_seq: (host.sim.applied > 0)
+                .then(|| host.sim.latest.as_ref().map(|l| l.header.seq))
+                .flatten(),
+            sim_t: (host.sim.applied > 0)
+                .then(|| host.sim.latest.as_ref().map(|l| l.header.t))
+                .flatten(),
         };
         let line = serde_json::to_string(&rec).map_err(|e| AppError(e.to_string()))?;
         writeln!(log, "{line}").map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;

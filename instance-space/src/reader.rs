@@ -147,6 +147,36 @@ impl Snapshot {
                 .collect(),
         }
     }
+    /// A process-local copy of this snapshot in which the objects of `overrides` have the
+    /// given local poses and joint values — what the simulator publishes as its high-rate state
+    /// (link poses relative to the robot) — sharing the objects segment and the geometry with
+    /// this one. Ids the snapshot does not hold are ignored. O(objects) to copy the poses.
+    pub fn with_poses(&self, overrides: &[PoseRec]) -> Snapshot {
+        let mut words = self.poses.words().to_vec();
+        let seg = Self::seg(&self.poses);
+        if let Ok(poses) = seg.section::<PoseRec>(1) {
+            let off = (poses.as_ptr() as usize - self.poses.words().as_ptr() as usize) / 8;
+            let n = poses.len() * std::mem::size_of::<PoseRec>() / 8;
+            if let Some(dst) = words.get_mut(off..off + n) {
+                let recs: &mut [PoseRec] = bytemuck::cast_slice_mut(dst);
+                for o in overrides {
+                    if let Some(i) = self.index_of(o.id)
+                        && let Some(r) = recs.get_mut(i)
+                    {
+                        r.pose = o.pose;
+                        r.joint = o.joint;
+                    }
+                }
+            }
+        }
+        Snapshot {
+            version: self.version,
+            epoch: self.epoch,
+            objects: self.objects.clone(),
+            poses: Rc::new(Words::Owned(words)),
+            geometry: self.geometry.clone(),
+        }
+    }
     /// The newest version this snapshot includes.
     pub fn version(&self) -> u64 {
         self.version

@@ -311,6 +311,52 @@ mod tests {
         assert!(snap.robot("l0").is_none());
     }
 
+    /// Overridden local poses move the object and what hangs from it; nothing else changes,
+    /// and the original snapshot is untouched.
+    #[test]
+    fn with_poses_overrides_local_poses_only() {
+        use crate::layout::PoseRec;
+        let mut tx = Transaction::new();
+        let a = tx.create(Kind::Item, "a", None);
+        let b = tx.create(Kind::Solid, "b", Some(a));
+        let c = tx.create(Kind::Item, "c", None);
+        let mut p = crate::IDENTITY;
+        p[3] = 1.0;
+        tx.set_pose(b, p);
+        tx.set_pose(c, p);
+        let mut m = Model::default();
+        m.apply(&tx).expect("valid");
+        let snap = Snapshot::from_model(&m);
+        let (ia, ib, ic) = (
+            snap.find("a").expect("a"),
+            snap.find("b").expect("b"),
+            snap.find("c").expect("c"),
+        );
+        let mut moved = crate::IDENTITY;
+        moved[7] = 2.0;
+        let o = snap.with_poses(&[
+            PoseRec {
+                id: snap.objects()[ia].id,
+                pose: moved,
+                joint: 0.5,
+            },
+            PoseRec {
+                id: 999_999,
+                pose: moved,
+                joint: 0.0,
+            },
+        ]);
+        assert_eq!(o.world_pose(ib)[3], 1.0);
+        assert_eq!(o.world_pose(ib)[7], 2.0);
+        assert_eq!(o.poses()[ia].joint, 0.5);
+        assert_eq!(o.world_pose(ic), snap.world_pose(ic));
+        assert_eq!(snap.world_pose(ib)[7], 0.0);
+        assert_eq!(
+            (o.version(), o.structure_version()),
+            (snap.version(), snap.structure_version())
+        );
+    }
+
     #[test]
     fn unknown_tags_read_as_none() {
         assert_eq!(JointKind::from_u32(3), None);
