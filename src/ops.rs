@@ -552,7 +552,7 @@ impl Ops {
 
     fn robot_op(&mut self, op: &str, req: &Value, snap: &Snapshot) -> OpResult {
         let p = placed(snap, str_field(req, "robot")?)?;
-        let inline = robosim_kinematics::robot_to_json(&p.robot);
+        let inline = robosim_hl_interface::robot_json::robot_to_json(&p.robot);
         match op {
             "get_robot" => {
                 let links: Vec<Value> = p.links.iter().map(|id| json!({"id": id, "name": snap.index_of(*id).map_or("", |k| snap.name(k))})).collect();
@@ -640,13 +640,17 @@ impl Ops {
 pub fn serve(session: &Session, input: impl BufRead, output: impl Write) -> crate::Result<()> {
     let mut ops = Ops::attach(session)?;
     let listing: Vec<(&str, &str)> = OPS.iter().map(|op| (*op, "session")).collect();
-    let mut answer = |op: &str,
-                      req: &Value|
-     -> Option<std::result::Result<Value, robosim_hl_interface::QueryError>> {
-        ops.dispatch(op, req).map(|r| {
-            r.map_err(|(kind, message)| robosim_hl_interface::QueryError { kind, message })
-        })
-    };
+    let mut answer =
+        |op: &str,
+         req: &Value|
+         -> Option<std::result::Result<Value, robosim_hl_interface::ProtocolError>> {
+            ops.dispatch(op, req).map(|r| {
+                r.map_err(|(kind, message)| robosim_hl_interface::ProtocolError {
+                    kind: robosim_hl_interface::ErrorKind::from_wire(&kind),
+                    message,
+                })
+            })
+        };
     robosim_hl_interface::serve_with(
         input,
         output,

@@ -11,9 +11,7 @@
 //! * [`Library::evaluate`] → [`Evaluated`] — plain data: [`RobotModel`] (a
 //!   `robosim_kinematics::Robot` plus per-link solids), [`SolidModel`], [`SceneModel`] with
 //!   its [`Effects`].
-//! * [`cli`] — `robosim lib list|show|check`.
 //! * [`standard_robot`] — a standard-library robot by name, for the query protocol.
-//! * [`query::dispatch`] — the `lib_list`, `lib_params`, `lib_evaluate` query ops.
 //! * [`bench::report_library`] — parse + evaluate time against facet count.
 
 #![expect(
@@ -23,14 +21,12 @@
 
 mod ast;
 pub mod bench;
-pub mod cli;
 mod error;
 mod eval;
 mod lexer;
 mod library;
 mod model;
 mod parser;
-pub mod query;
 mod source;
 mod stdlib;
 mod units;

@@ -4,12 +4,11 @@
 //! printing a pipeline describes what it built and what it left out.
 //!
 //! Entry points: [`SceneEffects`] (and its JSON form), [`Pipeline::build`], [`Pipeline::step`],
-//! [`Command`], [`report_effects`], [`cli`] (`robosim sim`).
+//! [`Command`], [`report_effects`]. `robosim sim` is `robosim_hl_interface::cli::sim`.
 //!
 //! Not here yet: the headless daemon (`robosim up SCENE --with simulator`), state publishing and
 //! the command channel of issue 6 — the pipeline is the plain-function core they will drive.
 
-pub mod cli;
 pub mod effects;
 pub mod pipeline;
 mod report;

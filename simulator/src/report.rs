@@ -155,7 +155,7 @@ fn run(pipe: &mut Pipeline, steps: usize) -> Result<f64, String> {
 /// Runs the study and writes `effects.csv`, `effects.md`, `effects.png` into `out_dir`.
 /// `quick` runs fewer steps and rounds (a few seconds, for CI).
 pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
-    let robot = robosim_dynamics::robot_json::fixture_robot("puma560")
+    let robot = robosim_dynamics::fixture_robot("puma560")
         .ok_or("the PUMA 560 fixture is missing from this build")?;
     let configs = configurations();
     // Samples of 1000 steps (one back-and-forth motion), short enough that most run without

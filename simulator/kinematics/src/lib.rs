@@ -3,9 +3,9 @@
 //! the same code.
 //!
 //! Entry points:
-//! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol");
-//!   [`robot_from_json`] / [`robot_to_json`] — its inline JSON form; [`builtin_robot`] — the
-//!   shipped PUMA 560, Stanford arm and Franka Panda.
+//! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol"; its
+//!   inline JSON form is read and written by `robosim_hl_interface::robot_json`);
+//!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
 //! * [`jacobian::jacobian`], [`jacobian::singularity`] — geometric Jacobians, distance to
 //!   singularity.
@@ -14,7 +14,6 @@
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
 //! * [`report::report_ik`] — the IK accuracy-against-time report (`robosim report ik`).
 //! * [`cli::ReportIkArgs`], [`cli::run_report_ik`] — `robosim report ik`.
-//! * [`query::dispatch`] — the query-protocol ops `fk`, `jacobian`, `ik`, `encoder_error`.
 
 mod builtin;
 pub mod cli;
@@ -22,17 +21,11 @@ pub mod encoder;
 pub mod fk;
 pub mod ik;
 pub mod jacobian;
-mod json;
 mod model;
 pub mod movej;
 pub mod pose;
-pub mod query;
 pub mod report;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
-pub use json::{
-    JsonError, matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array,
-    robot_from_json, robot_to_json,
-};
 pub use model::{Convention, Joint, JointType, ModelError, Robot, State};
 pub use movej::{LimitViolation, MoveJError, movej_interpolate};

@@ -12,41 +12,17 @@
 //! `position`, `orientation`, `per_axis` [dx dy dz rx ry rz], `position_worst_case`,
 //! `orientation_worst_case`, `resolution`.
 
-use crate::encoder::{EncoderErrorError, encoder_error};
-use crate::ik::{self, IkError, IkOptions, IkSolution, Method, Note};
-use crate::jacobian::{Frame, jacobian, singularity};
-use crate::json::{
-    JsonError, matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array,
-    robot_from_json,
+use crate::robot_json::{
+    matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array, robot_from_json,
 };
-use crate::model::Robot;
-use crate::pose::Tolerances;
-use crate::{builtin_robot, fk};
+use crate::{ErrorKind, ProtocolError};
+use robosim_kinematics::Robot;
+use robosim_kinematics::encoder::{EncoderErrorError, encoder_error};
+use robosim_kinematics::ik::{self, IkError, IkOptions, IkSolution, Method, Note};
+use robosim_kinematics::jacobian::{Frame, jacobian, singularity};
+use robosim_kinematics::pose::Tolerances;
+use robosim_kinematics::{builtin_robot, fk};
 use serde_json::{Value, json};
-
-/// A failed request: `kind` is machine-readable (`bad_request`, `unknown_robot`, `bad_robot`,
-/// `unreachable`, `not_converged`, `not_applicable`), `message` names the field and reason.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{kind}: {message}")]
-pub struct QueryError {
-    pub kind: String,
-    pub message: String,
-}
-
-impl QueryError {
-    fn new(kind: &str, message: impl Into<String>) -> Self {
-        QueryError {
-            kind: kind.to_owned(),
-            message: message.into(),
-        }
-    }
-}
-
-impl From<JsonError> for QueryError {
-    fn from(e: JsonError) -> Self {
-        QueryError::new("bad_request", e.to_string())
-    }
-}
 
 /// Answers `op` if it is one of this crate's, else `None`. `robots` resolves library names;
 /// names it does not know fall back to [`builtin_robot`].
@@ -54,7 +30,7 @@ pub fn dispatch(
     op: &str,
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Option<Result<Value, QueryError>> {
+) -> Option<Result<Value, ProtocolError>> {
     let f = match op {
         "fk" => op_fk,
         "jacobian" => op_jacobian,
@@ -65,32 +41,35 @@ pub fn dispatch(
     Some(f(req, robots))
 }
 
-fn robot(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Robot, QueryError> {
+fn robot(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Robot, ProtocolError> {
     match req.get("robot") {
-        None => Err(QueryError::new("bad_request", "robot: missing")),
+        None => Err(ProtocolError::new(ErrorKind::BadRequest, "robot: missing")),
         Some(Value::String(name)) => {
             robots(name).or_else(|| builtin_robot(name)).ok_or_else(|| {
-                QueryError::new("unknown_robot", format!("robot: no robot named \"{name}\""))
+                ProtocolError::new(
+                    ErrorKind::UnknownRobot,
+                    format!("robot: no robot named \"{name}\""),
+                )
             })
         }
         Some(v @ Value::Object(_)) => {
-            robot_from_json(v).map_err(|e| QueryError::new("bad_robot", e.to_string()))
+            robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
         }
-        Some(_) => Err(QueryError::new(
-            "bad_request",
+        Some(_) => Err(ProtocolError::new(
+            ErrorKind::BadRequest,
             "robot: expected a library name or an inline robot object",
         )),
     }
 }
 
-fn q_field(req: &Value, key: &str, robot: &Robot) -> Result<Vec<f64>, QueryError> {
+fn q_field(req: &Value, key: &str, robot: &Robot) -> Result<Vec<f64>, ProtocolError> {
     let v = req
         .get(key)
-        .ok_or_else(|| QueryError::new("bad_request", format!("{key}: missing")))?;
+        .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, format!("{key}: missing")))?;
     let q = number_array(v, key)?;
     if q.len() != robot.dof() {
-        return Err(QueryError::new(
-            "bad_request",
+        return Err(ProtocolError::new(
+            ErrorKind::BadRequest,
             format!(
                 "{key}: {} values but the robot has {} joints",
                 q.len(),
@@ -101,31 +80,31 @@ fn q_field(req: &Value, key: &str, robot: &Robot) -> Result<Vec<f64>, QueryError
     Ok(q)
 }
 
-fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, QueryError> {
+fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, ProtocolError> {
     match req.get(key) {
         None | Some(Value::Null) => Ok(default),
         Some(Value::Bool(b)) => Ok(*b),
-        Some(_) => Err(QueryError::new(
-            "bad_request",
+        Some(_) => Err(ProtocolError::new(
+            ErrorKind::BadRequest,
             format!("{key}: expected true or false"),
         )),
     }
 }
 
-fn uint_field(req: &Value, key: &str, default: u64, max: u64) -> Result<u64, QueryError> {
+fn uint_field(req: &Value, key: &str, default: u64, max: u64) -> Result<u64, ProtocolError> {
     match req.get(key) {
         None | Some(Value::Null) => Ok(default),
         Some(v) => match v.as_u64() {
             Some(x) if x <= max => Ok(x),
-            _ => Err(QueryError::new(
-                "bad_request",
+            _ => Err(ProtocolError::new(
+                ErrorKind::BadRequest,
                 format!("{key}: expected an integer in 0..={max}"),
             )),
         },
     }
 }
 
-fn op_fk(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_fk(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
     let robot = robot(req, robots)?;
     let q = q_field(req, "q", &robot)?;
     if bool_field(req, "frames", false)? {
@@ -142,15 +121,18 @@ fn op_fk(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, Q
     }
 }
 
-fn op_jacobian(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_jacobian(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Value, ProtocolError> {
     let robot = robot(req, robots)?;
     let q = q_field(req, "q", &robot)?;
     let frame = match req.get("frame").map(|v| v.as_str()) {
         None | Some(Some("base")) => Frame::Base,
         Some(Some("tool")) => Frame::Tool,
         _ => {
-            return Err(QueryError::new(
-                "bad_request",
+            return Err(ProtocolError::new(
+                ErrorKind::BadRequest,
                 "frame: expected \"base\" or \"tool\"",
             ));
         }
@@ -171,15 +153,15 @@ fn finite_or_null(x: f64) -> Value {
     if x.is_finite() { json!(x) } else { Value::Null }
 }
 
-fn axis_tolerances(v: &Value, path: &str) -> Result<[f64; 3], QueryError> {
-    let one = |x: &Value, p: &str| -> Result<f64, QueryError> {
+fn axis_tolerances(v: &Value, path: &str) -> Result<[f64; 3], ProtocolError> {
+    let one = |x: &Value, p: &str| -> Result<f64, ProtocolError> {
         if x.is_null() {
             return Ok(f64::INFINITY);
         }
         let t = number(x, p)?;
         if t <= 0.0 {
-            return Err(QueryError::new(
-                "bad_request",
+            return Err(ProtocolError::new(
+                ErrorKind::BadRequest,
                 format!("{p}: a tolerance must be positive"),
             ));
         }
@@ -191,28 +173,28 @@ fn axis_tolerances(v: &Value, path: &str) -> Result<[f64; 3], QueryError> {
             one(&a[1], &format!("{path}[1]"))?,
             one(&a[2], &format!("{path}[2]"))?,
         ]),
-        Value::Array(_) => Err(QueryError::new(
-            "bad_request",
+        Value::Array(_) => Err(ProtocolError::new(
+            ErrorKind::BadRequest,
             format!("{path}: expected a number or 3 numbers"),
         )),
         x => Ok([one(x, path)?; 3]),
     }
 }
 
-fn ik_options(req: &Value, robot: &Robot) -> Result<IkOptions, QueryError> {
+fn ik_options(req: &Value, robot: &Robot) -> Result<IkOptions, ProtocolError> {
     let mut o = IkOptions::default();
     if let Some(t) = req.get("tolerances").filter(|t| !t.is_null()) {
         let obj = t.as_object().ok_or_else(|| {
-            QueryError::new(
-                "bad_request",
+            ProtocolError::new(
+                ErrorKind::BadRequest,
                 "tolerances: expected {position, orientation}",
             )
         })?;
         let mut tol = Tolerances::default();
         for key in obj.keys() {
             if key != "position" && key != "orientation" {
-                return Err(QueryError::new(
-                    "bad_request",
+                return Err(ProtocolError::new(
+                    ErrorKind::BadRequest,
                     format!("tolerances.{key}: unknown field (position, orientation)"),
                 ));
             }
@@ -264,18 +246,18 @@ fn solution_json(s: &IkSolution) -> Value {
     v
 }
 
-fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
     let robot = robot(req, robots)?;
     let pose = matrix4_from_json(
         req.get("pose")
-            .ok_or_else(|| QueryError::new("bad_request", "pose: missing"))?,
+            .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "pose: missing"))?,
         "pose",
     )?;
     let method = match req.get("method") {
         None | Some(Value::Null) => Method::Auto,
         Some(v) => v.as_str().and_then(Method::parse).ok_or_else(|| {
-            QueryError::new(
-                "bad_request",
+            ProtocolError::new(
+                ErrorKind::BadRequest,
                 "method: expected analytic, newton, dls, hybrid or auto",
             )
         })?,
@@ -288,13 +270,17 @@ fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, Q
         })),
         Err(e) => Err(match &e {
             IkError::Model(_) | IkError::BadTarget | IkError::BadOptions { .. } => {
-                QueryError::new("bad_request", e.to_string())
+                ProtocolError::new(ErrorKind::BadRequest, e.to_string())
             }
-            IkError::Unreachable { .. } => QueryError::new("unreachable", e.to_string()),
-            IkError::NotApplicable { .. } => QueryError::new("not_applicable", e.to_string()),
+            IkError::Unreachable { .. } => {
+                ProtocolError::new(ErrorKind::Unreachable, e.to_string())
+            }
+            IkError::NotApplicable { .. } => {
+                ProtocolError::new(ErrorKind::NotApplicable, e.to_string())
+            }
             IkError::NotConverged { best, .. } => {
                 let s = solution_json(best);
-                QueryError::new("not_converged", format!("{e}; best q {}", s["q"]))
+                ProtocolError::new(ErrorKind::NotConverged, format!("{e}; best q {}", s["q"]))
             }
         }),
     }
@@ -303,18 +289,18 @@ fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, Q
 fn op_encoder_error(
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Result<Value, QueryError> {
+) -> Result<Value, ProtocolError> {
     let robot = robot(req, robots)?;
     let q = q_field(req, "q", &robot)?;
     let bits_v = req
         .get("bits")
-        .ok_or_else(|| QueryError::new("bad_request", "bits: missing"))?;
-    let to_bits = |v: &Value, p: &str| -> Result<u32, QueryError> {
+        .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "bits: missing"))?;
+    let to_bits = |v: &Value, p: &str| -> Result<u32, ProtocolError> {
         v.as_u64()
             .and_then(|b| u32::try_from(b).ok())
             .ok_or_else(|| {
-                QueryError::new(
-                    "bad_request",
+                ProtocolError::new(
+                    ErrorKind::BadRequest,
                     format!("{p}: expected a whole number of bits"),
                 )
             })
@@ -328,8 +314,8 @@ fn op_encoder_error(
         v => vec![to_bits(v, "bits")?; robot.dof()],
     };
     let e = encoder_error(&robot, &q, &bits).map_err(|e| match e {
-        EncoderErrorError::Model(m) => QueryError::new("bad_request", format!("q: {m}")),
-        other => QueryError::new("bad_request", other.to_string()),
+        EncoderErrorError::Model(m) => ProtocolError::new(ErrorKind::BadRequest, format!("q: {m}")),
+        other => ProtocolError::new(ErrorKind::BadRequest, other.to_string()),
     })?;
     Ok(json!({
         "position": e.position,

@@ -1,9 +1,8 @@
-//! The query-protocol ops of this crate driven with JSON, as a client would.
+//! The kinematics ops of the query protocol driven with JSON, as a client would.
 
-use robosim_kinematics::query::dispatch;
-use robosim_kinematics::{
-    Robot, builtin_robot, fk, matrix4_from_json, matrix4_to_json, robot_to_json,
-};
+use robosim_hl_interface::protocol::kinematics::dispatch;
+use robosim_hl_interface::robot_json::{matrix4_from_json, matrix4_to_json, robot_to_json};
+use robosim_kinematics::{Robot, builtin_robot, fk};
 use serde_json::{Value, json};
 
 fn no_library(_: &str) -> Option<Robot> {
@@ -14,7 +13,7 @@ fn ask(req: Value) -> Result<Value, (String, String)> {
     let op = req["op"].as_str().expect("op").to_owned();
     dispatch(&op, &req, &no_library)
         .expect("op is ours")
-        .map_err(|e| (e.kind, e.message))
+        .map_err(|e| (e.kind.to_string(), e.message))
 }
 
 #[test]

@@ -12,24 +12,11 @@
 //! alpha, theta, offset, qlim, mass, com, inertia (3×3 rows), motor_inertia, viscous,
 //! coulomb}], `gravity`, `base` and `tool` (4×4, row-major nested arrays).
 
-use crate::{Effects, Evaluated, Library, Params, PlacedSolid};
-use nalgebra::{Matrix3, Matrix4};
-use robosim_kinematics::{Convention, JointType, Robot};
+use crate::robot_json::{matrix_to_json, matrix4_to_json, robot_to_json};
+use crate::{ErrorKind, ProtocolError};
+use robosim_kinematics::Robot;
+use robosim_library::{Effects, Evaluated, Library, Params, PlacedSolid};
 use serde_json::{Value, json};
-
-/// An op's failure, `{kind, message}` (the lead unifies these across crates).
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct QueryError {
-    pub kind: String,
-    pub message: String,
-}
-
-fn qerr(kind: &str, message: impl Into<String>) -> QueryError {
-    QueryError {
-        kind: kind.into(),
-        message: message.into(),
-    }
-}
 
 /// Answers `op` if it is a library op (`None` otherwise). `robots` is unused: library ops
 /// resolve names in the library itself.
@@ -37,7 +24,7 @@ pub fn dispatch(
     op: &str,
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Option<Result<Value, QueryError>> {
+) -> Option<Result<Value, ProtocolError>> {
     let _ = robots;
     match op {
         "lib_list" | "lib_params" | "lib_evaluate" => Some(answer(op, req)),
@@ -45,36 +32,40 @@ pub fn dispatch(
     }
 }
 
-fn answer(op: &str, req: &Value) -> Result<Value, QueryError> {
+fn answer(op: &str, req: &Value) -> Result<Value, ProtocolError> {
     let owned;
     let lib: &Library = match req.get("file") {
-        None | Some(Value::Null) => crate::standard_library()
-            .ok_or_else(|| qerr("library_error", "the standard library failed to load"))?,
+        None | Some(Value::Null) => robosim_library::standard_library().ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::LibraryError,
+                "the standard library failed to load",
+            )
+        })?,
         Some(Value::String(f)) => {
-            owned = Library::load(f).map_err(|e| qerr("library_error", e.to_string()))?;
+            owned = Library::load(f)
+                .map_err(|e| ProtocolError::new(ErrorKind::LibraryError, e.to_string()))?;
             &owned
         }
         Some(other) => {
-            return Err(qerr(
-                "bad_request",
+            return Err(ProtocolError::new(
+                ErrorKind::BadRequest,
                 format!("`file` must be a string, got {other}"),
             ));
         }
     };
-    let name = || -> Result<&str, QueryError> {
-        req.get("name")
-            .and_then(Value::as_str)
-            .ok_or_else(|| qerr("bad_request", "missing `name` (a declaration name)"))
+    let name = || -> Result<&str, ProtocolError> {
+        req.get("name").and_then(Value::as_str).ok_or_else(|| {
+            ProtocolError::new(ErrorKind::BadRequest, "missing `name` (a declaration name)")
+        })
     };
-    let lib_err = |e: crate::Error| {
+    let lib_err = |e: robosim_library::Error| {
         let kind = match e {
-            crate::Error::NoSuchDeclaration { .. } => "unknown_declaration",
-            crate::Error::NoSuchParameter { .. } | crate::Error::BadParameter { .. } => {
-                "bad_parameter"
-            }
-            _ => "library_error",
+            robosim_library::Error::NoSuchDeclaration { .. } => ErrorKind::UnknownDeclaration,
+            robosim_library::Error::NoSuchParameter { .. }
+            | robosim_library::Error::BadParameter { .. } => ErrorKind::BadParameter,
+            _ => ErrorKind::LibraryError,
         };
-        qerr(kind, e.to_string())
+        ProtocolError::new(kind, e.to_string())
     };
     match op {
         "lib_list" => Ok(json!({ "declarations": lib.declarations() })),
@@ -91,8 +82,8 @@ fn answer(op: &str, req: &Value) -> Result<Value, QueryError> {
                             Value::Number(n) => params.si(k, n.as_f64().unwrap_or(f64::NAN)),
                             Value::String(s) => params.expr(k, s),
                             other => {
-                                return Err(qerr(
-                                    "bad_request",
+                                return Err(ProtocolError::new(
+                                    ErrorKind::BadRequest,
                                     format!(
                                         "parameter `{k}`: give an SI number or an expression string, got {other}"
                                     ),
@@ -102,8 +93,8 @@ fn answer(op: &str, req: &Value) -> Result<Value, QueryError> {
                     }
                 }
                 Some(other) => {
-                    return Err(qerr(
-                        "bad_request",
+                    return Err(ProtocolError::new(
+                        ErrorKind::BadRequest,
                         format!("`params` must be an object, got {other}"),
                     ));
                 }
@@ -114,8 +105,8 @@ fn answer(op: &str, req: &Value) -> Result<Value, QueryError> {
                     v.as_u64()
                         .filter(|n| (3..=robosim_geometry::shapes::FACET_LIMIT as u64).contains(n))
                         .ok_or_else(|| {
-                            qerr(
-                                "bad_request",
+                            ProtocolError::new(
+                                ErrorKind::BadRequest,
                                 format!(
                                     "`facets` must be a whole number in [3, {}]",
                                     robosim_geometry::shapes::FACET_LIMIT
@@ -129,7 +120,7 @@ fn answer(op: &str, req: &Value) -> Result<Value, QueryError> {
                 .evaluate_with(
                     name()?,
                     &params,
-                    &crate::EvalOptions {
+                    &robosim_library::EvalOptions {
                         facets,
                         max_polygons: None,
                     },
@@ -140,49 +131,8 @@ fn answer(op: &str, req: &Value) -> Result<Value, QueryError> {
     }
 }
 
-fn rows4(m: &Matrix4<f64>) -> Value {
-    json!(
-        (0..4)
-            .map(|r| (0..4).map(|c| m[(r, c)]).collect::<Vec<_>>())
-            .collect::<Vec<_>>()
-    )
-}
-
-fn rows3(m: &Matrix3<f64>) -> Value {
-    json!(
-        (0..3)
-            .map(|r| (0..3).map(|c| m[(r, c)]).collect::<Vec<_>>())
-            .collect::<Vec<_>>()
-    )
-}
-
-/// A robot in the query protocol's inline form (DESIGN.md).
-pub fn robot_json(r: &Robot) -> Value {
-    let joints: Vec<Value> = r
-        .joints
-        .iter()
-        .map(|j| {
-            json!({
-                "type": if j.joint_type == JointType::Revolute { "revolute" } else { "prismatic" },
-                "a": j.a, "d": j.d, "alpha": j.alpha, "theta": j.theta, "offset": j.offset,
-                "qlim": j.qlim, "mass": j.mass, "com": [j.com.x, j.com.y, j.com.z], "inertia": rows3(&j.inertia),
-                "motor_inertia": j.motor_inertia, "viscous": j.viscous, "coulomb": j.coulomb,
-            })
-        })
-        .collect();
-    json!({
-        "name": r.name,
-        "convention": if r.convention == Convention::Standard { "standard" } else { "modified" },
-        "joints": joints,
-        "gravity": [r.gravity.x, r.gravity.y, r.gravity.z],
-        "base": rows4(&r.base),
-        "tool": rows4(&r.tool),
-    })
-}
-
-/// `{"shape": "cylinder", "radius": …, …}` (DESIGN.md's shape objects, plus facets).
-fn primitive_json(p: &crate::Primitive) -> Value {
-    use crate::Primitive as P;
+fn primitive_json(p: &robosim_library::Primitive) -> Value {
+    use robosim_library::Primitive as P;
     match p {
         P::Box { size } => json!({"shape": "box", "size": size}),
         P::Cylinder {
@@ -221,7 +171,7 @@ fn solid_json(p: &PlacedSolid, geometry: bool) -> Value {
     let mut v = json!({
         "name": p.name,
         "primitive": primitive_json(&p.primitive),
-        "transform": rows4(&p.transform),
+        "transform": matrix4_to_json(&p.transform),
         "colour": p.colour,
         "surface": p.surface,
     });
@@ -262,7 +212,7 @@ fn evaluated_json(e: &Evaluated, geometry: bool) -> Value {
     match e {
         Evaluated::Robot(r) | Evaluated::Link(r) => json!({
             "kind": if matches!(e, Evaluated::Robot(_)) { "robot" } else { "link" },
-            "robot": robot_json(&r.robot),
+            "robot": robot_to_json(&r.robot),
             "link_names": r.link_names,
             "ik": r.ik,
             "frames": frames_json(&r.frames, geometry),
@@ -271,11 +221,11 @@ fn evaluated_json(e: &Evaluated, geometry: bool) -> Value {
             "kind": "scene",
             "name": s.name,
             "robots": s.robots.iter().map(|r| json!({
-                "name": r.name, "robot": robot_json(&r.model.robot), "q": r.q, "placement": rows4(&r.placement),
+                "name": r.name, "robot": robot_to_json(&r.model.robot), "q": r.q, "placement": matrix4_to_json(&r.placement),
                 "link_names": r.model.link_names, "ik": r.model.ik, "frames": frames_json(&r.model.frames, geometry),
             })).collect::<Vec<_>>(),
             "solids": s.solids.iter().map(|i| json!({
-                "name": i.name, "placement": rows4(&i.placement),
+                "name": i.name, "placement": matrix4_to_json(&i.placement),
                 "parts": i.solid.parts.iter().map(|p| solid_json(p, geometry)).collect::<Vec<_>>(),
             })).collect::<Vec<_>>(),
             "effects": effects_json(&s.effects),
@@ -284,7 +234,7 @@ fn evaluated_json(e: &Evaluated, geometry: bool) -> Value {
             "kind": "solid",
             "name": s.name,
             "parts": s.parts.iter().map(|p| solid_json(p, geometry)).collect::<Vec<_>>(),
-            "mass": s.mass.map(|m| json!({"mass": m.mass, "volume": m.volume, "com": [m.center_of_mass.x, m.center_of_mass.y, m.center_of_mass.z], "inertia": rows3(&m.inertia)})),
+            "mass": s.mass.map(|m| json!({"mass": m.mass, "volume": m.volume, "com": [m.center_of_mass.x, m.center_of_mass.y, m.center_of_mass.z], "inertia": matrix_to_json(&m.inertia)})),
         }),
         Evaluated::Constant { value, unit } => {
             json!({ "kind": "constant", "value": value, "unit": unit })

@@ -1,8 +1,6 @@
-//! The query-protocol ops driven with JSON, as a client would send them.
+//! The dynamics ops of the query protocol driven with JSON, as a client would send them.
 
-mod common;
-
-use robosim_dynamics::query::dispatch;
+use robosim_hl_interface::protocol::dynamics::dispatch;
 use robosim_kinematics::{Joint, Robot};
 use serde_json::{Value, json};
 
@@ -10,7 +8,12 @@ fn no_library(_: &str) -> Option<Robot> {
     None
 }
 
-fn ask(req: Value) -> Result<Value, robosim_dynamics::query::QueryError> {
+/// The dynamics fixtures, `testdata/dynamics/`.
+fn testdata() -> std::path::PathBuf {
+    std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/dynamics")
+}
+
+fn ask(req: Value) -> Result<Value, robosim_hl_interface::ProtocolError> {
     let op = req["op"].as_str().expect("op").to_string();
     dispatch(&op, &req, &no_library).expect("a dynamics op")
 }
@@ -24,8 +27,7 @@ fn nums(v: &Value) -> Vec<f64> {
 }
 
 fn reference_case(robot: &str) -> Value {
-    let text =
-        std::fs::read_to_string(common::testdata().join("reference.json")).expect("reference data");
+    let text = std::fs::read_to_string(testdata().join("reference.json")).expect("reference data");
     let v: Value = serde_json::from_str(&text).expect("json");
     v["robots"][robot][0].clone()
 }
@@ -64,7 +66,7 @@ fn id_mass_matrix_gravity_fd_answer_with_the_reference_values() {
 
 #[test]
 fn inline_robot_and_library_resolver_are_used() {
-    let text = std::fs::read_to_string(common::testdata().join("robots/synthetic_modified.json"))
+    let text = std::fs::read_to_string(testdata().join("robots/synthetic_modified.json"))
         .expect("fixture");
     let robot: Value = serde_json::from_str(&text).expect("json");
     let c = reference_case("synthetic_modified");

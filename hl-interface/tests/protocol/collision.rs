@@ -1,6 +1,6 @@
 //! The query-protocol ops `collide` and `check`, driven through `dispatch` with JSON.
 
-use robosim_collision::query::dispatch;
+use robosim_hl_interface::protocol::collision::dispatch;
 use robosim_kinematics::Robot;
 use serde_json::{Value, json};
 
@@ -8,7 +8,7 @@ fn no_robots(_: &str) -> Option<Robot> {
     None
 }
 
-fn ask(op: &str, req: Value) -> Result<Value, robosim_collision::query::QueryError> {
+fn ask(op: &str, req: Value) -> Result<Value, robosim_hl_interface::ProtocolError> {
     dispatch(op, &req, &no_robots).expect("op is ours")
 }
 

@@ -3,8 +3,8 @@
     clippy::unwrap_used,
     reason = "a test unwraps: failing there is the test failing"
 )]
-use robosim_automation::cli::{DiagCmd, execute};
-use robosim_automation::query::dispatch;
+use robosim_hl_interface::cli::diag::{DiagCmd, execute};
+use robosim_hl_interface::protocol::automation::dispatch;
 use serde_json::json;
 
 #[test]
@@ -150,7 +150,7 @@ fn analyze_ends_with_a_summary_line() {
 
 #[test]
 fn query_ops_answer_json() {
-    let none = |_: &str| None::<()>;
+    let none = |_: &str| None::<robosim_kinematics::Robot>;
     assert!(dispatch("fk", &json!({}), &none).is_none());
     let r = dispatch("diag_check", &json!({"model": "eclss"}), &none)
         .unwrap()

@@ -1,12 +1,15 @@
-//! The inline robot format of DESIGN.md ("The query protocol"), read and written by hand:
+//! The inline robot format of DESIGN.md ("The query protocol"), read and written by hand — the
+//! one reader/writer of it, used by every op that takes or answers a robot:
 //! 4×4 transforms and 3×3 inertias are **row-major nested arrays** here, while nalgebra's serde
 //! form is column-major and flat, so the conversion is explicit.
 //!
 //! Entry points: [`robot_from_json`], [`robot_to_json`], [`matrix4_from_json`],
-//! [`matrix4_to_json`]. Every error names the field path (`joints[2].qlim[1]`).
+//! [`matrix4_to_json`], [`matrix_to_json`], [`number`], [`number_array`]. Every error names the
+//! field path (`joints[2].qlim[1]`).
 
-use crate::model::{Convention, Joint, JointType, Robot};
+use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Matrix3, Matrix4, Vector3};
+use robosim_kinematics::{Convention, Joint, JointType, Robot};
 use serde_json::{Map, Value, json};
 
 /// A robot description (or a matrix inside a request) that could not be read.
@@ -24,6 +27,13 @@ impl JsonError {
             path: path.into(),
             reason: reason.into(),
         }
+    }
+}
+
+/// A field of a request that could not be read is a `bad_request`.
+impl From<JsonError> for ProtocolError {
+    fn from(e: JsonError) -> Self {
+        ProtocolError::new(ErrorKind::BadRequest, e.to_string())
     }
 }
 
@@ -334,5 +344,59 @@ mod tests {
                 .reason
                 .contains("joint 0")
         );
+    }
+
+    /// The robots the kinematics crate writes out as Rust equal their checked-in JSON files.
+    #[test]
+    fn builtin_robots_match_their_json() {
+        for (name, text) in [
+            (
+                "puma560",
+                include_str!("../../testdata/kinematics/puma560.json"),
+            ),
+            (
+                "stanford",
+                include_str!("../../testdata/kinematics/stanford.json"),
+            ),
+            (
+                "panda",
+                include_str!("../../testdata/kinematics/panda.json"),
+            ),
+        ] {
+            let v: Value = serde_json::from_str(text).expect("shipped JSON parses");
+            let from_file = robot_from_json(&v).expect("shipped robot is valid");
+            assert_eq!(
+                robosim_kinematics::builtin_robot(name),
+                Some(from_file),
+                "{name}"
+            );
+        }
+    }
+
+    /// The dynamics crate's fixture robots equal `testdata/dynamics/robots/*.json`.
+    #[test]
+    fn fixture_robots_match_their_json() {
+        for (name, text) in [
+            (
+                "puma560",
+                include_str!("../../testdata/dynamics/robots/puma560.json"),
+            ),
+            (
+                "stanford",
+                include_str!("../../testdata/dynamics/robots/stanford.json"),
+            ),
+            (
+                "panda",
+                include_str!("../../testdata/dynamics/robots/panda.json"),
+            ),
+        ] {
+            let v: Value = serde_json::from_str(text).expect("fixture JSON parses");
+            let from_file = robot_from_json(&v).expect("fixture robot is valid");
+            assert_eq!(
+                robosim_dynamics::fixture_robot(name),
+                Some(from_file),
+                "{name}"
+            );
+        }
     }
 }

@@ -1,9 +1,9 @@
 //! The library ops of the query protocol, driven with JSON.
 
-use robosim_library::query::dispatch;
+use robosim_hl_interface::protocol::library::dispatch;
 use serde_json::{Value, json};
 
-fn ask(op: &str, req: Value) -> Result<Value, robosim_library::query::QueryError> {
+fn ask(op: &str, req: Value) -> Result<Value, robosim_hl_interface::ProtocolError> {
     dispatch(op, &req, &|_| None).expect("a library op")
 }
 

@@ -1,13 +1,12 @@
-//! The simulator's command-line surface, for the lead to wire into the `robosim` binary:
 //! `robosim sim --robot puma560 --effects scene.json [--steps N] [--q0 …]` builds the pipeline
 //! the scene declares, prints it, and optionally runs it headless for N steps (reporting the
 //! final state and the time per step).
 //!
 //! Entry points: [`SimArgs`], [`run`].
 
-use crate::effects::SceneEffects;
-use crate::pipeline::{Pipeline, SceneGeometry};
-use robosim_kinematics::{Robot, builtin_robot, robot_from_json};
+use crate::robot_json::robot_from_json;
+use robosim_kinematics::{Robot, builtin_robot};
+use robosim_simulator::{Pipeline, SceneEffects, SceneGeometry};
 use std::path::PathBuf;
 use std::time::Instant;
 

@@ -1,14 +1,14 @@
-//! Command-line surface: `robosim diag check|simulate|run|analyze` (the lead wires [`DiagCmd`]
-//! into the `robosim` binary). MODEL is a model file or a shipped name (`eclss`).
+//! `robosim diag check|simulate|run|analyze` over the automation crate (the binary wires
+//! [`DiagCmd`]). MODEL is a model file or a shipped name (`eclss`).
 //!
 //! Entry points: [`run`] (prints to stdout) and [`execute`] (returns the text; what the tests
 //! drive).
 
-use crate::analysis::{advise_greedy, evaluate};
-use crate::diag::{FaultGraph, Ilm};
-use crate::model::check::{Severity, check_model};
-use crate::model::{Model, load_model};
-use crate::sim::{SimOptions, filter, parse_alarms, simulate, write_alarms};
+use robosim_automation::analysis::{advise_greedy, evaluate};
+use robosim_automation::diag::{FaultGraph, Ilm};
+use robosim_automation::model::check::{Severity, check_model};
+use robosim_automation::model::{Model, load_model};
+use robosim_automation::sim::{SimOptions, filter, parse_alarms, simulate, write_alarms};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -324,21 +324,22 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
                 "max_group",
                 "mean_tti_s"
             );
-            let line = |o: &mut String, label: &str, r: &crate::analysis::Resolution| {
-                let _ = writeln!(
-                    o,
-                    "{:<28} {:>6} {:>7} {:>9} {:>9} {:>10.2} {:>9} {:>12}",
-                    label,
-                    r.alarms_kept,
-                    r.faults,
-                    r.detected,
-                    r.isolated,
-                    r.mean_group,
-                    r.max_group,
-                    r.mean_time_to_isolation
-                        .map_or("-".into(), |t| format!("{t:.0}"))
-                );
-            };
+            let line =
+                |o: &mut String, label: &str, r: &robosim_automation::analysis::Resolution| {
+                    let _ = writeln!(
+                        o,
+                        "{:<28} {:>6} {:>7} {:>9} {:>9} {:>10.2} {:>9} {:>12}",
+                        label,
+                        r.alarms_kept,
+                        r.faults,
+                        r.detected,
+                        r.isolated,
+                        r.mean_group,
+                        r.max_group,
+                        r.mean_time_to_isolation
+                            .map_or("-".into(), |t| format!("{t:.0}"))
+                    );
+                };
             let all = evaluate(&m, &g, &vec![true; na], &opts, trials);
             line(&mut o, "all alarms", &all);
             let budgets: Vec<usize> = match sensors {

@@ -8,55 +8,45 @@
 //!
 //! `model` is a shipped model name (`eclss`) or a model file path.
 
-use crate::diag::{FaultGraph, Ilm};
-use crate::model::check::{Severity, check_model};
-use crate::model::{Model, load_model};
-use crate::sim::{SimOptions, simulate};
+use crate::{ErrorKind, ProtocolError};
+use robosim_automation::diag::{FaultGraph, Ilm};
+use robosim_automation::model::check::{Severity, check_model};
+use robosim_automation::model::{Model, load_model};
+use robosim_automation::sim::{SimOptions, simulate};
+use robosim_kinematics::Robot;
 use serde_json::{Value, json};
 
-/// A failed request: `kind` is a stable category, `message` says what and where.
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct QueryError {
-    pub kind: String,
-    pub message: String,
+fn model_of(req: &Value) -> Result<Model, ProtocolError> {
+    let name = req.get("model").and_then(Value::as_str).ok_or_else(|| {
+        ProtocolError::new(ErrorKind::BadRequest, "`model` (a string) is required")
+    })?;
+    load_model(name).map_err(|e| ProtocolError::new(ErrorKind::BadModel, e.to_string()))
 }
 
-fn bad(kind: &str, message: impl Into<String>) -> QueryError {
-    QueryError {
-        kind: kind.into(),
-        message: message.into(),
-    }
-}
-
-fn model_of(req: &Value) -> Result<Model, QueryError> {
-    let name = req
-        .get("model")
-        .and_then(Value::as_str)
-        .ok_or_else(|| bad("bad_request", "`model` (a string) is required"))?;
-    load_model(name).map_err(|e| bad("bad_model", e.to_string()))
-}
-
-fn f64_field(v: &Value, key: &str, default: Option<f64>) -> Result<f64, QueryError> {
+fn f64_field(v: &Value, key: &str, default: Option<f64>) -> Result<f64, ProtocolError> {
     match v.get(key) {
-        None => {
-            default.ok_or_else(|| bad("bad_request", format!("`{key}` (a number) is required")))
-        }
-        Some(x) => x
-            .as_f64()
-            .filter(|x| x.is_finite())
-            .ok_or_else(|| bad("bad_request", format!("`{key}` must be a finite number"))),
+        None => default.ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::BadRequest,
+                format!("`{key}` (a number) is required"),
+            )
+        }),
+        Some(x) => x.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::BadRequest,
+                format!("`{key}` must be a finite number"),
+            )
+        }),
     }
 }
 
-/// Answers the ops above; `None` for any other op. `robots` (the library resolver, called
-/// with `robosim_kinematics::Robot` by the common dispatcher) is unused here — these ops take
-/// fault models, not robots — so the robot type is generic and this crate does not depend on
-/// the simulator.
-pub fn dispatch<R>(
+/// Answers the ops above; `None` for any other op. `robots` (the common robot resolver) is
+/// unused here: these ops take fault models, not robots.
+pub fn dispatch(
     op: &str,
     req: &Value,
-    robots: &dyn Fn(&str) -> Option<R>,
-) -> Option<Result<Value, QueryError>> {
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Option<Result<Value, ProtocolError>> {
     let _ = robots;
     let r = match op {
         "diag_check" => check(req),
@@ -67,7 +57,7 @@ pub fn dispatch<R>(
     Some(r)
 }
 
-fn check(req: &Value) -> Result<Value, QueryError> {
+fn check(req: &Value) -> Result<Value, ProtocolError> {
     let m = model_of(req)?;
     let f = check_model(&m);
     let findings: Vec<Value> = f
@@ -84,24 +74,23 @@ fn check(req: &Value) -> Result<Value, QueryError> {
     }))
 }
 
-fn simulate_op(req: &Value) -> Result<Value, QueryError> {
+fn simulate_op(req: &Value) -> Result<Value, ProtocolError> {
     let m = model_of(req)?;
     let g = FaultGraph::new(&m);
-    let faults = req
-        .get("faults")
-        .and_then(Value::as_array)
-        .ok_or_else(|| bad("bad_request", "`faults` (an array) is required"))?;
+    let faults = req.get("faults").and_then(Value::as_array).ok_or_else(|| {
+        ProtocolError::new(ErrorKind::BadRequest, "`faults` (an array) is required")
+    })?;
     let mut inj = Vec::new();
     for (i, f) in faults.iter().enumerate() {
         let name = f.get("fault").and_then(Value::as_str).ok_or_else(|| {
-            bad(
-                "bad_request",
+            ProtocolError::new(
+                ErrorKind::BadRequest,
                 format!("faults[{i}].fault (a string) is required"),
             )
         })?;
-        let fm = m
-            .find_failure_mode(name)
-            .map_err(|e| bad("unknown_fault", format!("faults[{i}]: {e}")))?;
+        let fm = m.find_failure_mode(name).map_err(|e| {
+            ProtocolError::new(ErrorKind::UnknownFault, format!("faults[{i}]: {e}"))
+        })?;
         inj.push((fm, f64_field(f, "t", Some(0.0))?));
     }
     let seed = req.get("seed").and_then(Value::as_u64).unwrap_or(1);
@@ -123,42 +112,44 @@ fn simulate_op(req: &Value) -> Result<Value, QueryError> {
     Ok(json!({ "alarms": alarms }))
 }
 
-fn diagnose(req: &Value) -> Result<Value, QueryError> {
+fn diagnose(req: &Value) -> Result<Value, ProtocolError> {
     let m = model_of(req)?;
     let g = FaultGraph::new(&m);
     let mut present = vec![true; m.alarms.len()];
     if let Some(d) = req.get("drop").and_then(Value::as_array) {
         for (i, a) in d.iter().enumerate() {
-            let name = a
-                .as_str()
-                .ok_or_else(|| bad("bad_request", format!("drop[{i}] must be an alarm name")))?;
-            present[m
-                .find_alarm(name)
-                .map_err(|e| bad("unknown_alarm", format!("drop[{i}]: {e}")))?] = false;
+            let name = a.as_str().ok_or_else(|| {
+                ProtocolError::new(
+                    ErrorKind::BadRequest,
+                    format!("drop[{i}] must be an alarm name"),
+                )
+            })?;
+            present[m.find_alarm(name).map_err(|e| {
+                ProtocolError::new(ErrorKind::UnknownAlarm, format!("drop[{i}]: {e}"))
+            })?] = false;
         }
     }
-    let alarms = req
-        .get("alarms")
-        .and_then(Value::as_array)
-        .ok_or_else(|| bad("bad_request", "`alarms` (an array) is required"))?;
+    let alarms = req.get("alarms").and_then(Value::as_array).ok_or_else(|| {
+        ProtocolError::new(ErrorKind::BadRequest, "`alarms` (an array) is required")
+    })?;
     let mut ilm = Ilm::new(&m, &g, Some(&present));
     let mut events = Vec::new();
     for (i, a) in alarms.iter().enumerate() {
         let name = a.get("alarm").and_then(Value::as_str).ok_or_else(|| {
-            bad(
-                "bad_request",
+            ProtocolError::new(
+                ErrorKind::BadRequest,
                 format!("alarms[{i}].alarm (a string) is required"),
             )
         })?;
-        let id = m
-            .find_alarm(name)
-            .map_err(|e| bad("unknown_alarm", format!("alarms[{i}]: {e}")))?;
+        let id = m.find_alarm(name).map_err(|e| {
+            ProtocolError::new(ErrorKind::UnknownAlarm, format!("alarms[{i}]: {e}"))
+        })?;
         events.push((id, f64_field(a, "t", None)?));
     }
     // Alarms with the same time stamp rang together: one update.
     for batch in events.chunk_by(|x, y| x.1 == y.1) {
         ilm.on_alarms(batch)
-            .map_err(|e| bad("bad_alarm", e.to_string()))?;
+            .map_err(|e| ProtocolError::new(ErrorKind::BadAlarm, e.to_string()))?;
     }
     if req.get("until").is_some() {
         ilm.advance_to(f64_field(req, "until", None)?);

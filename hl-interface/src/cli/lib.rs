@@ -1,10 +1,10 @@
 //! The `robosim lib …` commands: list declarations, show one's parameters, check a file.
 //!
-//! Wire as `Lib { #[command(subcommand)] cmd: robosim_library::cli::LibCmd }` and call
+//! Wire as `Lib { #[command(subcommand)] cmd: robosim_hl_interface::cli::lib::LibCmd }` and call
 //! [`run`]; on `Err(message)` print it to stderr and exit non-zero (the message of a source
 //! error starts with `error[…]` and names file:line:col).
 
-use crate::{Evaluated, Library, Params};
+use robosim_library::{Evaluated, Library, Params};
 use std::path::PathBuf;
 
 #[derive(Debug, Clone, clap::Subcommand)]
@@ -209,12 +209,12 @@ pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, Str
             if let Some(f) = &file {
                 req["file"] = f.display().to_string().into();
             }
-            let answer = crate::query::dispatch("lib_evaluate", &req, &|_| None)
+            let answer = crate::protocol::library::dispatch("lib_evaluate", &req, &|_| None)
                 .unwrap_or_else(|| {
-                    Err(crate::query::QueryError {
-                        kind: "internal".into(),
-                        message: "lib_evaluate not handled".into(),
-                    })
+                    Err(crate::ProtocolError::new(
+                        crate::ErrorKind::InternalError,
+                        "lib_evaluate not handled",
+                    ))
                 })
                 .map_err(|e| e.message)?;
             let _ = writeln!(
@@ -233,7 +233,7 @@ pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, Str
 }
 
 /// One line naming the effects a scene calls for.
-fn describe_effects(fx: &crate::Effects) -> String {
+fn describe_effects(fx: &robosim_library::Effects) -> String {
     let mut parts = Vec::new();
     if fx.kinematics {
         parts.push("kinematics".to_string());

@@ -11,55 +11,42 @@
 //! | `simulate` | robot, q0, qd0?, tau?, t_end, outputs?, integrator, dt \| rtol+atol, limits?, max_steps? | samples [{t, q, qd, energy}], stats |
 //!
 //! `robot` is a library name (resolved by the caller's `robots`, then the fixtures compiled into
-//! this crate: puma560, stanford, panda) or an inline description ([`crate::robot_json`]).
+//! `robosim_dynamics::fixture_robot`: puma560, stanford, panda) or an inline description
+//! ([`crate::robot_json`]).
 //! Friction and motor inertia are applied when the robot has them. `simulate` starts at t = 0
 //! holds `tau` constant, and answers one sample per `outputs` time (default `[t_end]`); `limits`
 //! (default false) turns on the inelastic joint stops.
 //!
 //! Entry point: [`dispatch`].
 
-use crate::integrate::{Integrator, IntegratorConfig, StepSize, simulate};
-use crate::robot_json::{fixture_robot, robot_from_value};
-use crate::{Data, DynamicsError, Model, aba, crba, fd_cholesky, gravity, rnea};
+use crate::robot_json::robot_from_json;
+use crate::{ErrorKind, ProtocolError};
+use robosim_dynamics::{Data, DynamicsError, Model, aba, crba, fd_cholesky, gravity, rnea};
+use robosim_dynamics::{Integrator, IntegratorConfig, StepSize, fixture_robot, simulate};
 use robosim_kinematics::Robot;
 use serde_json::{Map, Value, json};
 
-/// A failed request: `kind` is a stable machine-readable tag, `message` says what and where.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{kind}: {message}")]
-pub struct QueryError {
-    pub kind: String,
-    pub message: String,
-}
-
-fn qerr(kind: &str, message: impl Into<String>) -> QueryError {
-    QueryError {
-        kind: kind.to_string(),
-        message: message.into(),
-    }
-}
-
-impl From<DynamicsError> for QueryError {
+impl From<DynamicsError> for ProtocolError {
     fn from(e: DynamicsError) -> Self {
         let kind = match &e {
             DynamicsError::Model(_)
             | DynamicsError::AsymmetricInertia { .. }
-            | DynamicsError::NegativeInertia { .. } => "invalid_robot",
+            | DynamicsError::NegativeInertia { .. } => ErrorKind::InvalidRobot,
             DynamicsError::WrongLength { .. }
             | DynamicsError::NonFinite { .. }
-            | DynamicsError::BadOption { .. } => "invalid_request",
-            DynamicsError::SingularInertia { .. } => "singular",
+            | DynamicsError::BadOption { .. } => ErrorKind::InvalidRequest,
+            DynamicsError::SingularInertia { .. } => ErrorKind::Singular,
             DynamicsError::Diverged { .. }
             | DynamicsError::NoConvergence { .. }
-            | DynamicsError::StepUnderflow { .. } => "diverged",
-            DynamicsError::TooManySteps { .. } => "too_many_steps",
+            | DynamicsError::StepUnderflow { .. } => ErrorKind::Diverged,
+            DynamicsError::TooManySteps { .. } => ErrorKind::TooManySteps,
         };
-        qerr(kind, e.to_string())
+        ProtocolError::new(kind, e.to_string())
     }
 }
 
 /// One op's handler.
-type OpFn = fn(&Value, &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError>;
+type OpFn = fn(&Value, &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError>;
 
 /// Default step budget of a `simulate` request (a planner must not stall the server by accident).
 pub const DEFAULT_MAX_STEPS: u64 = 10_000_000;
@@ -70,7 +57,7 @@ pub fn dispatch(
     op: &str,
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Option<Result<Value, QueryError>> {
+) -> Option<Result<Value, ProtocolError>> {
     let f: OpFn = match op {
         "id" => op_id,
         "mass_matrix" => op_mass_matrix,
@@ -82,18 +69,30 @@ pub fn dispatch(
     Some(f(req, robots))
 }
 
-fn model_of(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Model, QueryError> {
+fn model_of(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Model, ProtocolError> {
     let robot = match req.get("robot") {
-        None => return Err(qerr("invalid_request", "missing field `robot`")),
-        Some(Value::String(name)) => robots(name)
-            .or_else(|| fixture_robot(name))
-            .ok_or_else(|| qerr("unknown_robot", format!("no robot named {name:?}")))?,
-        Some(v @ Value::Object(_)) => {
-            robot_from_value(v).map_err(|e| qerr("invalid_robot", e.to_string()))?
+        None => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                "missing field `robot`",
+            ));
         }
+        Some(Value::String(name)) => {
+            robots(name)
+                .or_else(|| fixture_robot(name))
+                .ok_or_else(|| {
+                    ProtocolError::new(ErrorKind::UnknownRobot, format!("no robot named {name:?}"))
+                })?
+        }
+        Some(v @ Value::Object(_)) => robot_from_json(v).map_err(|e| {
+            ProtocolError::new(
+                ErrorKind::InvalidRobot,
+                format!("robot description, `{}`: {}", e.path, e.reason),
+            )
+        })?,
         Some(other) => {
-            return Err(qerr(
-                "invalid_request",
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 format!("`robot` must be a name or an object, got {other}"),
             ));
         }
@@ -101,14 +100,22 @@ fn model_of(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Model
     Ok(Model::new(&robot)?)
 }
 
-fn vector(req: &Value, field: &str, n: usize, default_zero: bool) -> Result<Vec<f64>, QueryError> {
+fn vector(
+    req: &Value,
+    field: &str,
+    n: usize,
+    default_zero: bool,
+) -> Result<Vec<f64>, ProtocolError> {
     match req.get(field) {
         None if default_zero => Ok(vec![0.0; n]),
-        None => Err(qerr("invalid_request", format!("missing field `{field}`"))),
+        None => Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
+            format!("missing field `{field}`"),
+        )),
         Some(Value::Array(a)) => {
             if a.len() != n {
-                return Err(qerr(
-                    "invalid_request",
+                return Err(ProtocolError::new(
+                    ErrorKind::InvalidRequest,
                     format!(
                         "`{field}` has {} values but the robot has {n} joints",
                         a.len()
@@ -119,34 +126,34 @@ fn vector(req: &Value, field: &str, n: usize, default_zero: bool) -> Result<Vec<
                 .enumerate()
                 .map(|(i, x)| {
                     x.as_f64().ok_or_else(|| {
-                        qerr(
-                            "invalid_request",
+                        ProtocolError::new(
+                            ErrorKind::InvalidRequest,
                             format!("`{field}`[{i}] is not a number ({x})"),
                         )
                     })
                 })
                 .collect()
         }
-        Some(other) => Err(qerr(
-            "invalid_request",
+        Some(other) => Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
             format!("`{field}` must be an array of numbers, got {other}"),
         )),
     }
 }
 
-fn number(req: &Value, field: &str) -> Result<Option<f64>, QueryError> {
+fn number(req: &Value, field: &str) -> Result<Option<f64>, ProtocolError> {
     match req.get(field) {
         None | Some(Value::Null) => Ok(None),
         Some(v) => v.as_f64().map(Some).ok_or_else(|| {
-            qerr(
-                "invalid_request",
+            ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 format!("`{field}` must be a number, got {v}"),
             )
         }),
     }
 }
 
-fn op_id(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_id(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
     let model = model_of(req, robots)?;
     let n = model.dof();
     let (q, qd, qdd) = (
@@ -161,7 +168,7 @@ fn op_id(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, Q
 fn op_mass_matrix(
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Result<Value, QueryError> {
+) -> Result<Value, ProtocolError> {
     let model = model_of(req, robots)?;
     let q = vector(req, "q", model.dof(), false)?;
     let mut data = Data::new(&model);
@@ -172,14 +179,14 @@ fn op_mass_matrix(
     Ok(json!({ "mass_matrix": rows }))
 }
 
-fn op_gravity(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_gravity(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
     let model = model_of(req, robots)?;
     let q = vector(req, "q", model.dof(), false)?;
     let mut data = Data::new(&model);
     Ok(json!({ "tau": gravity(&model, &mut data, &q)?.as_slice() }))
 }
 
-fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
     let model = model_of(req, robots)?;
     let n = model.dof();
     let (q, qd, tau) = (
@@ -192,8 +199,8 @@ fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, Q
         None | Some("aba") => aba(&model, &mut data, &q, &qd, &tau)?,
         Some("cholesky") => fd_cholesky(&model, &mut data, &q, &qd, &tau)?,
         Some(other) => {
-            return Err(qerr(
-                "invalid_request",
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 format!("`method` must be \"aba\" or \"cholesky\", got {other:?}"),
             ));
         }
@@ -201,17 +208,20 @@ fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, Q
     Ok(json!({ "qdd": qdd.as_slice() }))
 }
 
-fn op_simulate(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_simulate(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Value, ProtocolError> {
     let model = model_of(req, robots)?;
     let n = model.dof();
     let q0 = vector(req, "q0", n, false)?;
     let qd0 = vector(req, "qd0", n, true)?;
     let tau = vector(req, "tau", n, true)?;
-    let t_end =
-        number(req, "t_end")?.ok_or_else(|| qerr("invalid_request", "missing field `t_end`"))?;
+    let t_end = number(req, "t_end")?
+        .ok_or_else(|| ProtocolError::new(ErrorKind::InvalidRequest, "missing field `t_end`"))?;
     if !(t_end.is_finite() && t_end >= 0.0) {
-        return Err(qerr(
-            "invalid_request",
+        return Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
             format!("`t_end` must be a non-negative number of seconds, got {t_end}"),
         ));
     }
@@ -222,23 +232,23 @@ fn op_simulate(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Va
             .enumerate()
             .map(|(i, x)| {
                 x.as_f64().ok_or_else(|| {
-                    qerr(
-                        "invalid_request",
+                    ProtocolError::new(
+                        ErrorKind::InvalidRequest,
                         format!("`outputs`[{i}] is not a number ({x})"),
                     )
                 })
             })
             .collect::<Result<_, _>>()?,
         Some(other) => {
-            return Err(qerr(
-                "invalid_request",
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 format!("`outputs` must be an array of times, got {other}"),
             ));
         }
     };
     if let Some((i, t)) = outputs.iter().enumerate().find(|(_, t)| **t > t_end) {
-        return Err(qerr(
-            "invalid_request",
+        return Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
             format!("`outputs`[{i}] = {t} s is after t_end = {t_end} s"),
         ));
     }
@@ -246,14 +256,14 @@ fn op_simulate(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Va
         .get("integrator")
         .and_then(Value::as_str)
         .ok_or_else(|| {
-            qerr(
-                "invalid_request",
+            ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 "missing field `integrator` (euler | semi_implicit_euler | rk4 | dopri5)",
             )
         })?;
     let integrator = Integrator::from_name(name).ok_or_else(|| {
-        qerr(
-            "invalid_request",
+        ProtocolError::new(
+            ErrorKind::InvalidRequest,
             format!("unknown integrator {name:?} (euler | semi_implicit_euler | rk4 | dopri5)"),
         )
     })?;
@@ -269,14 +279,14 @@ fn op_simulate(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Va
             atol: a.unwrap_or(1e-9),
         },
         (None, None, None) => {
-            return Err(qerr(
-                "invalid_request",
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 "give `dt` (fixed step) or `rtol`/`atol` (dopri5)",
             ));
         }
         _ => {
-            return Err(qerr(
-                "invalid_request",
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 "give either `dt` or `rtol`/`atol`, not both",
             ));
         }
@@ -285,8 +295,8 @@ fn op_simulate(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Va
         None => false,
         Some(Value::Bool(b)) => *b,
         Some(other) => {
-            return Err(qerr(
-                "invalid_request",
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 format!("`limits` must be true or false, got {other}"),
             ));
         }
@@ -295,8 +305,8 @@ fn op_simulate(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Va
         None => DEFAULT_MAX_STEPS,
         Some(m) if m >= 1.0 && m.is_finite() => m as u64,
         Some(m) => {
-            return Err(qerr(
-                "invalid_request",
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
                 format!("`max_steps` must be at least 1, got {m}"),
             ));
         }

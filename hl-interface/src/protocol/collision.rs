@@ -18,37 +18,20 @@
 //!
 //! Entry points: [`dispatch`], [`solid_from_json`], [`pose_from_json`].
 
-use crate::outcome::{Mode, PairResult};
-use crate::robot::{
+use crate::robot_json::{matrix4_from_json, number, number_array, robot_from_json};
+use crate::{ErrorKind, ProtocolError};
+use nalgebra::{Isometry3, Point3, Vector3};
+use robosim_collision::Solid;
+use robosim_collision::robot::{
     Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
 };
-use crate::solid::Solid;
-use nalgebra::{Isometry3, Point3, Vector3};
-use robosim_kinematics::{
-    Robot, builtin_robot, matrix4_from_json, number, number_array, robot_from_json,
-};
+use robosim_collision::{Mode, PairResult};
+use robosim_kinematics::{Robot, builtin_robot};
 use serde_json::{Map, Value, json};
 use std::sync::Arc;
 
-/// A failed request: `kind` is machine-readable, `message` names the field and the reason.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{kind}: {message}")]
-pub struct QueryError {
-    pub kind: String,
-    pub message: String,
-}
-
-impl QueryError {
-    fn new(kind: &str, message: impl Into<String>) -> Self {
-        QueryError {
-            kind: kind.to_owned(),
-            message: message.into(),
-        }
-    }
-}
-
-fn bad(message: impl Into<String>) -> QueryError {
-    QueryError::new("bad_request", message)
+fn bad(message: impl Into<String>) -> ProtocolError {
+    ProtocolError::new(ErrorKind::BadRequest, message)
 }
 
 /// Answers `collide` and `check`; `None` for any other op.
@@ -56,7 +39,7 @@ pub fn dispatch(
     op: &str,
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Option<Result<Value, QueryError>> {
+) -> Option<Result<Value, ProtocolError>> {
     match op {
         "collide" => Some(op_collide(req)),
         "check" => Some(op_check(req, robots)),
@@ -64,16 +47,16 @@ pub fn dispatch(
     }
 }
 
-fn field<'a>(v: &'a Value, key: &str, path: &str) -> Result<&'a Value, QueryError> {
+fn field<'a>(v: &'a Value, key: &str, path: &str) -> Result<&'a Value, ProtocolError> {
     v.get(key)
         .ok_or_else(|| bad(format!("{path}.{key}: missing")))
 }
 
-fn num(v: &Value, key: &str, path: &str) -> Result<f64, QueryError> {
+fn num(v: &Value, key: &str, path: &str) -> Result<f64, ProtocolError> {
     number(field(v, key, path)?, &format!("{path}.{key}")).map_err(|e| bad(e.to_string()))
 }
 
-fn point_list(v: &Value, path: &str) -> Result<Vec<Point3<f64>>, QueryError> {
+fn point_list(v: &Value, path: &str) -> Result<Vec<Point3<f64>>, ProtocolError> {
     let arr = v
         .as_array()
         .ok_or_else(|| bad(format!("{path}: expected an array of [x, y, z]")))?;
@@ -97,7 +80,7 @@ fn check_keys(
     allowed: &[&str],
     extra: &[&str],
     path: &str,
-) -> Result<(), QueryError> {
+) -> Result<(), ProtocolError> {
     for k in obj.keys() {
         if !allowed.contains(&k.as_str()) && !extra.contains(&k.as_str()) {
             return Err(bad(format!(
@@ -110,7 +93,7 @@ fn check_keys(
 }
 
 /// A rigid 4×4 pose (row-major nested arrays); refuses non-rigid matrices.
-pub fn pose_from_json(v: &Value, path: &str) -> Result<Isometry3<f64>, QueryError> {
+pub fn pose_from_json(v: &Value, path: &str) -> Result<Isometry3<f64>, ProtocolError> {
     let m = matrix4_from_json(v, path).map_err(|e| bad(e.to_string()))?;
     let r = m.fixed_view::<3, 3>(0, 0);
     let err = (r.transpose() * r - nalgebra::Matrix3::identity())
@@ -127,11 +110,11 @@ pub fn pose_from_json(v: &Value, path: &str) -> Result<Isometry3<f64>, QueryErro
             "{path}: not a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)"
         )));
     }
-    Ok(crate::robot::isometry_from_matrix(&m))
+    Ok(robosim_collision::robot::isometry_from_matrix(&m))
 }
 
 /// A solid from DESIGN.md's shape JSON. `extra` lists keys the caller handles (name, pose…).
-pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, QueryError> {
+pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, ProtocolError> {
     let obj = v
         .as_object()
         .ok_or_else(|| bad(format!("{path}: expected a shape object")))?;
@@ -139,7 +122,7 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, Q
         .get("shape")
         .and_then(Value::as_str)
         .ok_or_else(|| bad(format!("{path}.shape: missing or not a string")))?;
-    let facets = |o: &Map<String, Value>| -> Result<Option<usize>, QueryError> {
+    let facets = |o: &Map<String, Value>| -> Result<Option<usize>, ProtocolError> {
         match o.get("facets") {
             None | Some(Value::Null) => Ok(None),
             Some(f) => f
@@ -148,8 +131,9 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, Q
                 .ok_or_else(|| bad(format!("{path}.facets: expected a positive integer"))),
         }
     };
-    let shape_err =
-        |e: crate::solid::ShapeError| QueryError::new("bad_shape", format!("{path}: {e}"));
+    let shape_err = |e: robosim_collision::ShapeError| {
+        ProtocolError::new(ErrorKind::BadShape, format!("{path}: {e}"))
+    };
     match kind {
         "box" => {
             check_keys(obj, &["shape", "size"], extra, path)?;
@@ -230,7 +214,7 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, Q
     }
 }
 
-fn mode_field(req: &Value) -> Result<Mode, QueryError> {
+fn mode_field(req: &Value) -> Result<Mode, ProtocolError> {
     match req.get("mode") {
         None | Some(Value::Null) => Ok(Mode::Exact),
         Some(Value::String(s)) => match s.as_str() {
@@ -245,7 +229,7 @@ fn mode_field(req: &Value) -> Result<Mode, QueryError> {
     }
 }
 
-fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, QueryError> {
+fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, ProtocolError> {
     match req.get(key) {
         None | Some(Value::Null) => Ok(default),
         Some(Value::Bool(b)) => Ok(*b),
@@ -257,13 +241,13 @@ fn pt(p: &Point3<f64>) -> Value {
     json!([p.x, p.y, p.z])
 }
 
-fn op_collide(req: &Value) -> Result<Value, QueryError> {
+fn op_collide(req: &Value) -> Result<Value, ProtocolError> {
     let a = solid_from_json(field(req, "a", "request")?, "a", &[])?;
     let b = solid_from_json(field(req, "b", "request")?, "b", &[])?;
     let pa = pose_from_json(field(req, "pose_a", "request")?, "pose_a")?;
     let pb = pose_from_json(field(req, "pose_b", "request")?, "pose_b")?;
     let mode = mode_field(req)?;
-    let r = crate::collide(&a, &pa, &b, &pb, mode);
+    let r = robosim_collision::collide(&a, &pa, &b, &pb, mode);
     let (verdict, reason) = match &r {
         PairResult::Clear { .. } => ("clear", None),
         PairResult::Contact { .. } => ("contact", None),
@@ -291,13 +275,19 @@ fn op_collide(req: &Value) -> Result<Value, QueryError> {
     Ok(out)
 }
 
-fn robot_field(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Robot, QueryError> {
+fn robot_field(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Robot, ProtocolError> {
     match field(req, "robot", "request")? {
         Value::String(name) => robots(name).or_else(|| builtin_robot(name)).ok_or_else(|| {
-            QueryError::new("unknown_robot", format!("robot: no robot named \"{name}\""))
+            ProtocolError::new(
+                ErrorKind::UnknownRobot,
+                format!("robot: no robot named \"{name}\""),
+            )
         }),
         v @ Value::Object(_) => {
-            robot_from_json(v).map_err(|e| QueryError::new("bad_robot", e.to_string()))
+            robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
         }
         _ => Err(bad(
             "robot: expected a library name or an inline robot object",
@@ -313,7 +303,7 @@ fn body_json(b: &Body) -> Value {
     }
 }
 
-fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, QueryError> {
+fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
     let robot = robot_field(req, robots)?;
     let q = number_array(field(req, "q", "request")?, "q").map_err(|e| bad(e.to_string()))?;
     robot.check_q(&q).map_err(|e| bad(format!("q: {e}")))?;
