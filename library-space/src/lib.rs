@@ -12,7 +12,6 @@
 //!   `robosim_kinematics::Robot` plus per-link solids), [`SolidModel`], [`SceneModel`] with
 //!   its [`Effects`].
 //! * [`standard_robot`] — a standard-library robot by name, for the query protocol.
-//! * [`bench::report_library`] — parse + evaluate time against facet count.
 
 #![expect(
     clippy::result_large_err,
@@ -20,7 +19,6 @@
 )]
 
 mod ast;
-pub mod bench;
 mod error;
 mod eval;
 mod lexer;

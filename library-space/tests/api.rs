@@ -175,19 +175,6 @@ fn bad_parameter_values_are_refused_with_the_name() {
 }
 
 #[test]
-fn bench_quick_writes_the_report() {
-    let dir = tempfile::tempdir().expect("tmp");
-    let files = robosim_library::bench::report_library(dir.path(), true).expect("report");
-    assert!(
-        files
-            .iter()
-            .any(|f| f.extension().is_some_and(|e| e == "csv"))
-    );
-    let csv = std::fs::read_to_string(dir.path().join("library.csv")).expect("csv");
-    assert_eq!(csv.lines().count(), 5, "{csv}");
-}
-
-#[test]
 fn a_library_rebuilt_from_its_sources_evaluates_the_same() {
     let std = robosim_library::standard_library().expect("standard library");
     let files = std.sources();

@@ -13,7 +13,6 @@
 //! * [`Stepper`], [`simulate`], [`state_hash`] — explicit / semi-implicit Euler, RK4 and
 //!   Dormand–Prince 5(4) with step control; inelastic joint stops ([`apply_joint_stops`]).
 //! * [`fixture_robot`] — the PUMA 560, Stanford arm and Panda without friction or motor inertia.
-//! * [`report_dynamics`] — `robosim report dynamics`: integrator error against wall time.
 //! * [`pseudo_inertia`], [`from_pseudo_inertia`], [`physically_consistent`] — the seed's
 //!   4×4 pseudo-inertia and its consistency test.
 //!
@@ -33,7 +32,6 @@ mod energy;
 mod fixtures;
 mod integrate;
 mod model;
-mod report;
 mod rnea;
 mod spatial;
 
@@ -47,5 +45,4 @@ pub use integrate::{
     state_hash,
 };
 pub use model::{DynamicsError, Model, from_pseudo_inertia, physically_consistent, pseudo_inertia};
-pub use report::report_dynamics;
 pub use rnea::{coriolis, gravity, rnea};

@@ -6,6 +6,10 @@
 //! that each robot equals its file as read, bit for bit).
 //!
 //! Entry points: [`builtin_robot`], [`BUILTIN_NAMES`].
+#![expect(
+    clippy::approx_constant,
+    reason = "the numbers are the data files' as read, digit for digit (some of them are π/2 or π/4)"
+)]
 
 use crate::model::{Convention, Joint, JointType, Robot};
 use nalgebra::{Matrix3, Matrix4, Vector3};

@@ -1,6 +1,7 @@
 //! Robot model and kinematics as plain functions over plain data (`&Robot`, `&mut State`):
-//! no shared memory here, so the query protocol, the benches and the simulator daemon all call
-//! the same code.
+//! no shared memory, no transport and no reports here, so the query protocol
+//! (`robosim_hl_interface::protocol::kinematics`), the reports (`robosim_report::ik`) and the
+//! simulator all call the same code.
 //!
 //! Entry points:
 //! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol"; its
@@ -12,11 +13,8 @@
 //! * [`ik::solve`] — inverse kinematics (analytic, Newton, damped least squares, hybrid, auto).
 //! * [`encoder::encoder_error`] — encoder quantisation bounds (seed §2.7).
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
-//! * [`report::report_ik`] — the IK accuracy-against-time report (`robosim report ik`).
-//! * [`cli::ReportIkArgs`], [`cli::run_report_ik`] — `robosim report ik`.
 
 mod builtin;
-pub mod cli;
 pub mod encoder;
 pub mod fk;
 pub mod ik;
@@ -24,7 +22,6 @@ pub mod jacobian;
 mod model;
 pub mod movej;
 pub mod pose;
-pub mod report;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
 pub use model::{Convention, Joint, JointType, ModelError, Robot, State};

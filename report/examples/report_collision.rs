@@ -1,22 +1,21 @@
-//! Writes the IK report: `cargo run --release -p robosim-kinematics --example report_ik -- OUT_DIR [--quick]`
-//! (the same as `robosim report ik` once the binary wires it).
-
+//! Writes the collision report until the lead wires `robosim report collision`:
+//! `cargo run --release -p robosim-report --example report_collision -- docs/reports [--quick]`
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
-    let quick = args.iter().any(|a| a == "--quick");
-    let out = args
+    let dir = args
         .iter()
         .find(|a| !a.starts_with("--"))
         .cloned()
         .unwrap_or_else(|| "docs/reports".into());
-    match robosim_kinematics::report::report_ik(std::path::Path::new(&out), quick) {
+    let quick = args.iter().any(|a| a == "--quick");
+    match robosim_report::collision::report_collision(std::path::Path::new(&dir), quick) {
         Ok(paths) => {
             for p in paths {
                 println!("{}", p.display());
             }
         }
         Err(e) => {
-            eprintln!("report ik: {e}");
+            eprintln!("report collision: {e}");
             std::process::exit(1);
         }
     }

@@ -3,7 +3,7 @@
 #[test]
 fn report_ik_quick_writes_csv_markdown_and_png() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let paths = robosim_kinematics::report::report_ik(dir.path(), true).expect("report written");
+    let paths = robosim_report::ik::report_ik(dir.path(), true).expect("report written");
     assert_eq!(paths.len(), 3);
     let csv = std::fs::read_to_string(dir.path().join("ik.csv")).expect("csv");
     let header = csv.lines().next().expect("header");

@@ -4,10 +4,10 @@
     reason = "a test unwraps: failing there is the test failing"
 )]
 use robosim_automation::analysis::{advise_exhaustive, advise_greedy, evaluate};
-use robosim_automation::bench::{GenOptions, advisor_gap, generate, measure_update_time};
 use robosim_automation::diag::FaultGraph;
 use robosim_automation::model::check::{check_model, is_consistent};
 use robosim_automation::sim::SimOptions;
+use robosim_report::automation::{GenOptions, advisor_gap, generate, measure_update_time};
 
 #[test]
 fn generated_models_are_consistent_and_sized() {
@@ -139,7 +139,7 @@ fn bounded_searches_give_the_same_diagnoses_as_full_ones() {
 
 #[test]
 fn eclss_resolution_falls_as_alarms_are_filtered_away() {
-    let rows = robosim_automation::bench::eclss_resolution(&[30, 15, 5], 1, 2).unwrap();
+    let rows = robosim_report::automation::eclss_resolution(&[30, 15, 5], 1, 2).unwrap();
     let get = |label: &str| {
         &rows
             .iter()

@@ -9,16 +9,15 @@
 //! Entry points: [`report_ik`] (writes CSV, markdown and PNG through `robosim-report`),
 //! [`measure_ik`] (the rows, for tests and benches).
 
-use crate::builtin::builtin_robot;
-use crate::fk::forward;
-use crate::ik::analytic::SphericalSolver;
-use crate::ik::{self, IkError, IkOptions, Method};
-use crate::model::Robot;
-use crate::pose::{Residual, Tolerances};
+use crate::plot::{Plot, Report, ReportError, Series, Table, percentile, write_report};
 use nalgebra::Matrix4;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robosim_report::{Plot, Report, ReportError, Series, Table, percentile, write_report};
+use robosim_kinematics::fk::forward;
+use robosim_kinematics::ik::analytic::SphericalSolver;
+use robosim_kinematics::ik::{self, IkError, IkOptions, Method};
+use robosim_kinematics::pose::{Residual, Tolerances};
+use robosim_kinematics::{Robot, builtin_robot};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;

@@ -4,14 +4,14 @@
 //! undeclared effect costs nothing (kinematics only against kinematics with collision declared
 //! off). Entry point: [`report_effects`].
 
-use crate::effects::{
-    CollisionEffect, DynamicsEffect, EncoderEffect, LoggingEffect, SceneEffects, Signal,
-};
-use crate::pipeline::{Command, Pipeline, SceneGeometry};
+use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use nalgebra::{DVector, Isometry3, Vector3};
 use robosim_collision::robot::Scene;
 use robosim_collision::{Mode, Solid};
-use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
+use robosim_simulator::{
+    CollisionEffect, DynamicsEffect, EncoderEffect, LoggingEffect, SceneEffects, Signal,
+};
+use robosim_simulator::{Command, Pipeline, SceneGeometry};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;

@@ -11,16 +11,16 @@
 //!   alarms are filtered away) and `diag_advisor` (greedy sensor advice against exhaustive
 //!   search on small models).
 
-use crate::analysis::{Resolution, advise_exhaustive, advise_greedy, evaluate};
-use crate::diag::{Diagnoser, FaultGraph};
-use crate::model::{
-    Alarm, Component, Connection, Edge, FailureMode, Model, Process, SignalRef, Span, load_model,
-};
-use crate::sim::{SimOptions, simulate};
+use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
+use robosim_automation::analysis::{Resolution, advise_exhaustive, advise_greedy, evaluate};
+use robosim_automation::diag::{Diagnoser, FaultGraph};
+use robosim_automation::model::{
+    Alarm, Component, Connection, Edge, FailureMode, Model, Process, SignalRef, Span, load_model,
+};
+use robosim_automation::sim::{SimOptions, simulate};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -214,7 +214,7 @@ impl Gen {
 }
 
 /// A random hierarchical process/fault model (see the module docs). Deterministic per seed;
-/// passes [`crate::model::check::check_model`] without errors.
+/// passes `robosim_automation::model::check::check_model` without errors.
 pub fn generate(opts: &GenOptions) -> Model {
     let mut g = Gen {
         m: Model {

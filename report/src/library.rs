@@ -4,8 +4,8 @@
 //!
 //! Entry point: [`report_library`] (wired as `robosim report library`).
 
-use crate::{EvalOptions, Evaluated, Library, Params};
-use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
+use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
+use robosim_library::{EvalOptions, Evaluated, Library, Params};
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 

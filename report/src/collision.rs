@@ -17,19 +17,21 @@
 //!
 //! Entry point: [`report_collision`].
 
-use crate::broad::{BroadPhase, BvhBroadPhase, SweepAndPrune, brute_force_pairs};
-use crate::outcome::{Mode, PairResult};
-use crate::polygon::{self, PolygonOptions};
-use crate::robot::{CheckResult, CollisionSettings, LinkSolids, Scene, check_links, link_poses};
-use crate::solid::Solid;
-use crate::{ExactOptions, bbox, exact};
+use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use nalgebra::{Isometry3, Point3, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use robosim_collision::Solid;
+use robosim_collision::broad::{BroadPhase, BvhBroadPhase, SweepAndPrune, brute_force_pairs};
+use robosim_collision::polygon::{self, PolygonOptions};
+use robosim_collision::robot::{
+    CheckResult, CollisionSettings, LinkSolids, Scene, check_links, link_poses,
+};
+use robosim_collision::{ExactOptions, bbox, exact};
+use robosim_collision::{Mode, PairResult};
 use robosim_geometry::Aabb;
 use robosim_kinematics::builtin_robot;
 use robosim_kinematics::ik::{self, IkOptions, Method};
-use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

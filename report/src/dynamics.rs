@@ -7,10 +7,10 @@
 //! Timing is wall time on a shared, noisy machine: each figure is the median of several repeats
 //! and is also given as a ratio to the cost of one ABA evaluation measured in the same run.
 
-use crate::fixture_robot;
-use crate::integrate::{Integrator, IntegratorConfig, simulate};
-use crate::{Data, Model, aba, crba, rnea};
-use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
+use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
+use robosim_dynamics::{
+    Data, Integrator, IntegratorConfig, Model, aba, crba, fixture_robot, rnea, simulate,
+};
 use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
