@@ -1,5 +1,5 @@
-//! Reports that publish "what accuracy costs in time": one table written as CSV and as markdown,
-//! and one PNG with a panel per plot. Every `robosim report …` command goes through
+//! The writer every report shares: one table written as CSV and as markdown, and one PNG with a
+//! panel per plot. Every `robosim report …` command goes through
 //! [`write_report`], so all reports look alike and regenerate the same way.
 //!
 //! Entry points: [`write_report`], [`percentile`].

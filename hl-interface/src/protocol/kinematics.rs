@@ -1,4 +1,4 @@
-//! The query-protocol ops of this crate (DESIGN.md, "The query protocol"): `fk`, `jacobian`,
+//! The kinematics ops of the query protocol (DESIGN.md, "The query protocol"): `fk`, `jacobian`,
 //! `ik`, `encoder_error`. Requests and answers are JSON values; the transport (JSON lines,
 //! iceoryx2) and the `id`/`ok` envelope are the caller's.
 //!
@@ -24,7 +24,7 @@ use robosim_kinematics::pose::Tolerances;
 use robosim_kinematics::{builtin_robot, fk};
 use serde_json::{Value, json};
 
-/// Answers `op` if it is one of this crate's, else `None`. `robots` resolves library names;
+/// Answers `op` if it is a kinematics op, else `None`. `robots` resolves library names;
 /// names it does not know fall back to [`builtin_robot`].
 pub fn dispatch(
     op: &str,
