@@ -121,12 +121,12 @@ enum Command {
         #[arg(long, global = true)]
         session: Option<String>,
         #[command(subcommand)]
-        cmd: robosim_library::cli::LibCmd,
+        cmd: robosim_hl_interface::cli::lib::LibCmd,
     },
     /// Hierarchical fault models and diagnosis (seed §3.4, §4.3).
     Diag {
         #[command(subcommand)]
-        cmd: robosim_automation::cli::DiagCmd,
+        cmd: robosim_hl_interface::cli::diag::DiagCmd,
     },
     /// The query protocol over JSON lines: one request per stdin line, one answer per stdout
     /// line. With --session, also the simulation-library ops on that session's Instance Space
@@ -138,7 +138,7 @@ enum Command {
         args: robosim_hl_interface::cli::QueryArgs,
     },
     /// Build a scene's effect pipeline, print it, optionally run it headless.
-    Sim(robosim_simulator::cli::SimArgs),
+    Sim(robosim_hl_interface::cli::sim::SimArgs),
     /// What accuracy costs in time: regenerate a report (CSV, markdown table, PNG plot).
     Report {
         #[command(subcommand)]
@@ -211,14 +211,18 @@ fn main() -> ExitCode {
                 .map_err(|e| CliError(e.0))
         }
         Command::Bench { which } => bench::run(which),
-        Command::Lib { session: None, cmd } => robosim_library::cli::run(cmd).map_err(CliError),
+        Command::Lib { session: None, cmd } => {
+            robosim_hl_interface::cli::lib::run(cmd).map_err(CliError)
+        }
         Command::Lib {
             session: Some(s),
             cmd,
         } => session_library(Some(&s))
-            .and_then(|lib| robosim_library::cli::render_with(cmd, Some(&lib)).map_err(CliError))
+            .and_then(|lib| {
+                robosim_hl_interface::cli::lib::render_with(cmd, Some(&lib)).map_err(CliError)
+            })
             .map(|text| print!("{text}")),
-        Command::Diag { cmd } => robosim_automation::cli::run(cmd).map_err(CliError),
+        Command::Diag { cmd } => robosim_hl_interface::cli::diag::run(cmd).map_err(CliError),
         Command::Query {
             session: None,
             args,
@@ -228,7 +232,8 @@ fn main() -> ExitCode {
             args,
         } => query_session(&s, &args),
         Command::Sim(args) => {
-            robosim_simulator::cli::run(&args, &robosim_library::standard_robot).map_err(CliError)
+            robosim_hl_interface::cli::sim::run(&args, &robosim_library::standard_robot)
+                .map_err(CliError)
         }
         Command::Report { which } => reports::run(which),
         Command::Render(args) => robosim_display::app::cmd_render(&args).map_err(|e| CliError(e.0)),

@@ -17,9 +17,9 @@ pub struct Common {
 #[derive(clap::Subcommand)]
 pub enum Which {
     /// IK methods and tolerances: success, time, residual (PUMA 560, 7-DOF arm), with peer solvers.
-    Ik(robosim_kinematics::cli::ReportIkArgs),
+    Ik(robosim_report::cli::ReportIkArgs),
     /// Collision modes, broad phase and tessellation: time against false negatives/positives.
-    Collision(robosim_collision::cli::ReportCollisionArgs),
+    Collision(robosim_report::cli::ReportCollisionArgs),
     /// Integrators and steps: error at t = 2 s of a falling PUMA 560 against wall time.
     Dynamics(Common),
     /// Time per step with each effect declared, and the cost of undeclared effects (none).
@@ -41,31 +41,31 @@ fn paths(r: std::result::Result<Vec<PathBuf>, String>) -> Result<()> {
 
 fn one(which: &str, out: &Path, quick: bool) -> Result<()> {
     match which {
-        "ik" => robosim_kinematics::cli::run_report_ik(&robosim_kinematics::cli::ReportIkArgs {
+        "ik" => robosim_report::cli::run_report_ik(&robosim_report::cli::ReportIkArgs {
             out: out.to_owned(),
             quick,
         })
         .map_err(crate::CliError),
-        "collision" => robosim_collision::cli::run_report_collision(
-            &robosim_collision::cli::ReportCollisionArgs {
+        "collision" => {
+            robosim_report::cli::run_report_collision(&robosim_report::cli::ReportCollisionArgs {
                 out: out.to_owned(),
                 quick,
-            },
-        )
-        .map_err(crate::CliError),
-        "dynamics" => paths(robosim_dynamics::report_dynamics(out, quick)),
-        "effects" => paths(robosim_simulator::report_effects(out, quick)),
-        "library" => paths(robosim_library::bench::report_library(out, quick)),
-        "diag" => paths(robosim_automation::bench::report_diag(out, quick)),
+            })
+            .map_err(crate::CliError)
+        }
+        "dynamics" => paths(robosim_report::dynamics::report_dynamics(out, quick)),
+        "effects" => paths(robosim_report::effects::report_effects(out, quick)),
+        "library" => paths(robosim_report::library::report_library(out, quick)),
+        "diag" => paths(robosim_report::automation::report_diag(out, quick)),
         other => Err(crate::CliError(format!("no report {other:?}"))),
     }
 }
 
 pub fn run(which: Which) -> Result<()> {
     match which {
-        Which::Ik(a) => robosim_kinematics::cli::run_report_ik(&a).map_err(crate::CliError),
+        Which::Ik(a) => robosim_report::cli::run_report_ik(&a).map_err(crate::CliError),
         Which::Collision(a) => {
-            robosim_collision::cli::run_report_collision(&a).map_err(crate::CliError)
+            robosim_report::cli::run_report_collision(&a).map_err(crate::CliError)
         }
         Which::Dynamics(c) => one("dynamics", &c.out, c.quick),
         Which::Effects(c) => one("effects", &c.out, c.quick),

@@ -11,18 +11,13 @@
 //!   ILM.
 //! * [`sim`] — the alarm pattern simulator, sensor-allocation filters, alarm files.
 //! * [`analysis`] — diagnosability (resolution per sensor allocation) and the sensor advisor.
-//! * [`bench`](mod@bench) — random hierarchical fault models and the `robosim report diag` reports.
-//! * [`cli`] — `robosim diag check|simulate|run|analyze`; [`query`] — the `diag_*` query ops.
 //!
 //! The model format, the algorithms and the measured curves are documented in
 //! `docs/automation.md`.
 
 pub mod analysis;
-pub mod bench;
-pub mod cli;
 pub mod diag;
 pub mod kernel;
 pub mod model;
-pub mod query;
 pub mod reconfig;
 pub mod sim;

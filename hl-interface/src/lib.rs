@@ -8,10 +8,12 @@
 //! {"id":8,"ok":false,"error":{"kind":"unreachable","message":"..."}}
 //! ```
 //!
-//! The ops themselves belong to the crates that compute them; this crate only frames them. A
-//! request object is handed, whole, to each crate's `query::dispatch` in turn (kinematics,
-//! dynamics, collision, library, automation) until one claims its `op`; the answer is that
-//! crate's object with `id` (echoed from the request, `null` when absent) and `ok` put first.
+//! The ops live in [`protocol`], one module per area, over the plain functions of the crates
+//! that compute them. A request object is handed, whole, to each area's `dispatch` in turn
+//! (kinematics, dynamics, collision, library, automation) until one claims its `op`; the answer
+//! is that area's object with `id` (echoed from the request, `null` when absent) and `ok` put
+//! first. Every refusal is one [`ProtocolError`] (an [`ErrorKind`] and a message); inline robots
+//! are read and written by [`robot_json`].
 //! Robot names resolve in the standard library first (`robosim_library::standard_robot`), then
 //! among the kinematics crate's reference robots (`robosim_kinematics::builtin_robot`).
 //!
@@ -25,20 +27,26 @@
 //! * `internal_error` — an op panicked. That is a bug in the op (input must never panic); the
 //!   transport catches it so one bad request cannot take a planner's session down.
 //!
-//! Every other kind comes from the crate that ran the op and is passed through unchanged.
+//! Every other kind comes from the area that ran the op ([`ErrorKind`] lists them all).
 //!
 //! One op belongs to the transport itself: `{"op": "ops"}` answers `{"ops": [..]}`, the list of
 //! every op this server answers, with the area that computes it.
 //!
 //! Entry points: [`handle_line`] (one line in, one line out), [`handle_request`] (an already
 //! parsed request), [`serve`] (a whole stream, flushed after every answer), [`serve_with`]
-//! (the same with more ops, e.g. a session's, answered first), [`cli`] (the
-//! `robosim query` command), [`client::Client`] (a Rust client over a server's pipes),
-//! [`session`] (the simulation-library ops on a running session: MOVEJ, MOVEJI, KINV, CHECK, …).
+//! (the same with more ops, e.g. a session's, answered first), [`protocol`] (the ops of each
+//! area), [`robot_json`] (the inline robot format), [`cli`] (the `robosim query` command),
+//! [`client::Client`] (a Rust client over a server's pipes), [`session`] (the simulation-library
+//! ops on a running session: MOVEJ, MOVEJI, KINV, CHECK, …).
 
 pub mod cli;
 pub mod client;
+mod error;
+pub mod protocol;
+pub mod robot_json;
 pub mod session;
+
+pub use error::{ErrorKind, ProtocolError};
 
 use robosim_kinematics::Robot;
 use serde_json::{Map, Value};
@@ -84,23 +92,6 @@ pub fn resolve_robot(name: &str) -> Option<Robot> {
     robosim_library::standard_robot(name).or_else(|| robosim_kinematics::builtin_robot(name))
 }
 
-/// An error answer's `{kind, message}` before it is framed (the shape of every crate's
-/// `query::QueryError`); what an [`Extension`] returns for a refused request.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct QueryError {
-    pub kind: String,
-    pub message: String,
-}
-
-impl QueryError {
-    pub fn new(kind: &str, message: impl Into<String>) -> Self {
-        QueryError {
-            kind: kind.to_owned(),
-            message: message.into(),
-        }
-    }
-}
-
 /// Ops answered outside this crate's areas, consulted before them: e.g. the session ops of
 /// `robosim query --session` (MOVEJ, CHECK, ... on a running Instance Space). `answer` returns
 /// `None` for an op that is not its own; `ops` lists its ops with their area, for the `ops`
@@ -112,7 +103,7 @@ pub struct Extension<'a> {
 
 /// An [`Extension`]'s answer function: `(op, whole request)` → its answer object or refusal,
 /// `None` when `op` is not its own.
-pub type ExtensionFn<'a> = dyn FnMut(&str, &Value) -> Option<Result<Value, QueryError>> + 'a;
+pub type ExtensionFn<'a> = dyn FnMut(&str, &Value) -> Option<Result<Value, ProtocolError>> + 'a;
 
 /// Answers one request line; the result is one line of JSON without the trailing newline.
 /// Never panics, whatever `line` holds (see the module docs for the error kinds).
@@ -135,8 +126,8 @@ fn handle_numbered(
     let at = line_no.map_or_else(String::new, |n| format!("input line {n}: "));
     let line = line.strip_suffix('\r').unwrap_or(line);
     if line.trim().is_empty() {
-        let f = QueryError::new(
-            "parse_error",
+        let f = ProtocolError::new(
+            ErrorKind::ParseError,
             format!("{at}empty line (expected one JSON request object)"),
         );
         return (framed(Value::Null, Err(f)), false);
@@ -148,7 +139,10 @@ fn handle_numbered(
             (framed(id_of(&req), result), ok)
         }
         Err(e) => {
-            let f = QueryError::new("parse_error", format!("{at}not JSON: {}", json_error(&e)));
+            let f = ProtocolError::new(
+                ErrorKind::ParseError,
+                format!("{at}not JSON: {}", json_error(&e)),
+            );
             (framed(Value::Null, Err(f)), false)
         }
     }
@@ -170,10 +164,13 @@ fn id_of(req: &Value) -> Value {
 }
 
 /// The op's answer object (without `id`/`ok`) or its failure.
-fn answer(req: &Value, ext: &mut Option<Extension<'_>>) -> Result<Map<String, Value>, QueryError> {
+fn answer(
+    req: &Value,
+    ext: &mut Option<Extension<'_>>,
+) -> Result<Map<String, Value>, ProtocolError> {
     let Some(obj) = req.as_object() else {
-        return Err(QueryError::new(
-            "bad_request",
+        return Err(ProtocolError::new(
+            ErrorKind::BadRequest,
             format!(
                 "expected a JSON object {{\"id\": .., \"op\": .., ..}}, got {}",
                 type_name(req)
@@ -182,10 +179,10 @@ fn answer(req: &Value, ext: &mut Option<Extension<'_>>) -> Result<Map<String, Va
     };
     let op = match obj.get("op") {
         Some(Value::String(op)) => op.as_str(),
-        None => return Err(QueryError::new("bad_request", "op: missing")),
+        None => return Err(ProtocolError::new(ErrorKind::BadRequest, "op: missing")),
         Some(other) => {
-            return Err(QueryError::new(
-                "bad_request",
+            return Err(ProtocolError::new(
+                ErrorKind::BadRequest,
                 format!("op: expected a string, got {}", type_name(other)),
             ));
         }
@@ -210,8 +207,8 @@ fn answer(req: &Value, ext: &mut Option<Extension<'_>>) -> Result<Map<String, Va
             .or_else(|| dispatch(op, req))
     });
     match dispatched {
-        None => Err(QueryError::new(
-            "unknown_op",
+        None => Err(ProtocolError::new(
+            ErrorKind::UnknownOp,
             format!(
                 "op: no op named \"{op}\" (known: {})",
                 extra_ops
@@ -236,37 +233,24 @@ fn answer(req: &Value, ext: &mut Option<Extension<'_>>) -> Result<Map<String, Va
 /// Runs one op's dispatch, turning a panic into that request's `internal_error`.
 fn guarded(
     op: &str,
-    f: impl FnOnce() -> Option<Result<Value, QueryError>>,
-) -> Option<Result<Value, QueryError>> {
+    f: impl FnOnce() -> Option<Result<Value, ProtocolError>>,
+) -> Option<Result<Value, ProtocolError>> {
     catch_unwind(AssertUnwindSafe(f)).unwrap_or_else(|p| {
-        Some(Err(QueryError::new(
-            "internal_error",
+        Some(Err(ProtocolError::new(
+            ErrorKind::InternalError,
             panic_message(op, &p),
         )))
     })
 }
 
-/// Hands the request to each crate's `query::dispatch` until one claims `op`.
-fn dispatch(op: &str, req: &Value) -> Option<Result<Value, QueryError>> {
+/// Hands the request to each area's `dispatch` until one claims `op`.
+fn dispatch(op: &str, req: &Value) -> Option<Result<Value, ProtocolError>> {
     let robots: &dyn Fn(&str) -> Option<Robot> = &resolve_robot;
-    macro_rules! try_crate {
-        ($call:expr) => {
-            if let Some(r) = $call {
-                return Some(r.map_err(|e| QueryError {
-                    kind: e.kind,
-                    message: e.message,
-                }));
-            }
-        };
-    }
-    try_crate!(robosim_kinematics::query::dispatch(op, req, robots));
-    try_crate!(robosim_dynamics::query::dispatch(op, req, robots));
-    try_crate!(robosim_collision::query::dispatch(op, req, robots));
-    try_crate!(robosim_library::query::dispatch(op, req, robots));
-    try_crate!(robosim_automation::query::dispatch::<Robot>(
-        op, req, robots
-    ));
-    None
+    protocol::kinematics::dispatch(op, req, robots)
+        .or_else(|| protocol::dynamics::dispatch(op, req, robots))
+        .or_else(|| protocol::collision::dispatch(op, req, robots))
+        .or_else(|| protocol::library::dispatch(op, req, robots))
+        .or_else(|| protocol::automation::dispatch(op, req, robots))
 }
 
 fn panic_message(op: &str, payload: &Box<dyn std::any::Any + Send>) -> String {
@@ -292,12 +276,12 @@ fn type_name(v: &Value) -> &'static str {
 /// `{"id":ID,"ok":true,...answer}` or `{"id":ID,"ok":false,"error":{"kind","message"}}`, with
 /// `id` and `ok` first so a reader of the stream sees them at a glance. An answer field named
 /// `id` or `ok` would be shadowed by the envelope and is dropped.
-fn framed(id: Value, result: Result<Map<String, Value>, QueryError>) -> String {
+fn framed(id: Value, result: Result<Map<String, Value>, ProtocolError>) -> String {
     let (ok, mut body) = match result {
         Ok(m) => (true, m),
         Err(f) => {
             let mut e = Map::new();
-            e.insert("kind".to_owned(), Value::String(f.kind));
+            e.insert("kind".to_owned(), Value::String(f.kind.as_str().to_owned()));
             e.insert("message".to_owned(), Value::String(f.message));
             let mut m = Map::new();
             m.insert("error".to_owned(), Value::Object(e));
@@ -353,8 +337,8 @@ fn serve_inner(
         let (text, ok) = match std::str::from_utf8(bytes) {
             Ok(line) => handle_numbered(line, Some(stats.lines), ext),
             Err(e) => {
-                let f = QueryError::new(
-                    "parse_error",
+                let f = ProtocolError::new(
+                    ErrorKind::ParseError,
                     format!(
                         "input line {}: not UTF-8 (invalid byte at offset {})",
                         stats.lines,

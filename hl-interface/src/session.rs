@@ -23,7 +23,7 @@
 //!
 //! Robots and objects are named as in the Instance Space (instance names, e.g. `puma560`).
 
-use crate::QueryError;
+use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Isometry3, Vector3};
 use robosim_collision::Mode;
 use robosim_collision::robot::{Body, CheckResult, CollisionSettings};
@@ -33,18 +33,18 @@ use serde_json::{Value, json};
 use std::collections::HashSet;
 use std::io::{BufRead, Write};
 
-type OpResult = std::result::Result<Value, QueryError>;
+type OpResult = std::result::Result<Value, ProtocolError>;
 
-fn err(kind: &str, message: impl Into<String>) -> QueryError {
-    QueryError::new(kind, message)
+fn err(kind: ErrorKind, message: impl Into<String>) -> ProtocolError {
+    ProtocolError::new(kind, message)
 }
 
-fn scene_err(e: SceneError) -> QueryError {
+fn scene_err(e: SceneError) -> ProtocolError {
     let kind = match e {
-        SceneError::UnknownRobot { .. } | SceneError::NoJoints(_) => "unknown_robot",
-        SceneError::FixedJoint { .. } | SceneError::BadRobot { .. } => "bad_robot",
-        SceneError::Session(_) => "session",
-        _ => "scene",
+        SceneError::UnknownRobot { .. } | SceneError::NoJoints(_) => ErrorKind::UnknownRobot,
+        SceneError::FixedJoint { .. } | SceneError::BadRobot { .. } => ErrorKind::BadRobot,
+        SceneError::Session(_) => ErrorKind::Session,
+        _ => ErrorKind::Scene,
     };
     err(kind, e.to_string())
 }
@@ -85,23 +85,28 @@ pub const OPS: &[&str] = &[
     "c_switch",
 ];
 
-fn str_field<'a>(req: &'a Value, f: &str) -> std::result::Result<&'a str, QueryError> {
+fn str_field<'a>(req: &'a Value, f: &str) -> std::result::Result<&'a str, ProtocolError> {
     req.get(f)
         .and_then(Value::as_str)
-        .ok_or_else(|| err("bad_request", format!("`{f}` must be a string")))
+        .ok_or_else(|| err(ErrorKind::BadRequest, format!("`{f}` must be a string")))
 }
 
-fn vec_field(req: &Value, f: &str) -> std::result::Result<Vec<f64>, QueryError> {
-    let arr = req
-        .get(f)
-        .and_then(Value::as_array)
-        .ok_or_else(|| err("bad_request", format!("`{f}` must be an array of numbers")))?;
+fn vec_field(req: &Value, f: &str) -> std::result::Result<Vec<f64>, ProtocolError> {
+    let arr = req.get(f).and_then(Value::as_array).ok_or_else(|| {
+        err(
+            ErrorKind::BadRequest,
+            format!("`{f}` must be an array of numbers"),
+        )
+    })?;
     arr.iter()
         .enumerate()
         .map(|(i, v)| {
-            v.as_f64()
-                .filter(|x| x.is_finite())
-                .ok_or_else(|| err("bad_request", format!("`{f}[{i}]` is not a finite number")))
+            v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+                err(
+                    ErrorKind::BadRequest,
+                    format!("`{f}[{i}]` is not a finite number"),
+                )
+            })
         })
         .collect()
 }
@@ -148,14 +153,14 @@ impl Ops {
     }
 
     /// The newest snapshot, with the compiled scene brought to it.
-    fn snap(&mut self) -> std::result::Result<std::rc::Rc<Snapshot>, QueryError> {
+    fn snap(&mut self) -> std::result::Result<std::rc::Rc<Snapshot>, ProtocolError> {
         self.reader
             .refresh()
-            .map_err(|e| err("session", e.to_string()))?;
+            .map_err(|e| err(ErrorKind::Session, e.to_string()))?;
         let snap = self
             .reader
             .snapshot()
-            .ok_or_else(|| err("session", "no snapshot"))?;
+            .ok_or_else(|| err(ErrorKind::Session, "no snapshot"))?;
         self.scene.sync(&snap);
         Ok(snap)
     }
@@ -169,31 +174,17 @@ impl Ops {
         self.scene.obstacles(p, &self.unused)
     }
 
-    fn write_q(&mut self, p: &CompiledRobot, q: &[f64]) -> std::result::Result<u64, QueryError> {
+    fn write_q(&mut self, p: &CompiledRobot, q: &[f64]) -> std::result::Result<u64, ProtocolError> {
         let tx = joint_tx(&p.robot, &p.links, q);
         self.client
             .transact(&tx)
             .map(|a| a.version)
-            .map_err(|e| err("transaction", e.to_string()))
+            .map_err(|e| err(ErrorKind::Transaction, e.to_string()))
     }
 
+    /// A pure-protocol op (kinematics, dynamics, ...), answered by the same code `serve` uses.
     fn pure(req: Value) -> OpResult {
-        let text = crate::handle_request(&req);
-        let mut v: Value =
-            serde_json::from_str(&text).map_err(|e| err("internal", e.to_string()))?;
-        if v.get("ok").and_then(Value::as_bool) == Some(true) {
-            if let Some(m) = v.as_object_mut() {
-                m.remove("ok");
-                m.remove("id");
-            }
-            Ok(v)
-        } else {
-            let e = v.get("error").cloned().unwrap_or(Value::Null);
-            Err(err(
-                e.get("kind").and_then(Value::as_str).unwrap_or("error"),
-                e.get("message").and_then(Value::as_str).unwrap_or(""),
-            ))
-        }
+        crate::answer(&req, &mut None).map(Value::Object)
     }
 
     /// Answers `op` if it is a session op.
@@ -209,9 +200,12 @@ impl Ops {
         match op {
             "use" | "dontuse" => {
                 let name = str_field(req, "object")?;
-                let i = snap
-                    .find(name)
-                    .ok_or_else(|| err("unknown_object", format!("no object named {name:?}")))?;
+                let i = snap.find(name).ok_or_else(|| {
+                    err(
+                        ErrorKind::UnknownObject,
+                        format!("no object named {name:?}"),
+                    )
+                })?;
                 let id = snap.objects()[i].id;
                 if op == "use" {
                     self.unused.remove(&id);
@@ -224,7 +218,7 @@ impl Ops {
                 let on = req
                     .get("on")
                     .and_then(Value::as_bool)
-                    .ok_or_else(|| err("bad_request", "`on` must be true or false"))?;
+                    .ok_or_else(|| err(ErrorKind::BadRequest, "`on` must be true or false"))?;
                 self.settings.enabled = on;
                 if let Some(s) = req.get("self_collision").and_then(Value::as_bool) {
                     self.settings.self_collision = s;
@@ -236,7 +230,7 @@ impl Ops {
                         "exact" => Mode::Exact,
                         other => {
                             return Err(err(
-                                "bad_request",
+                                ErrorKind::BadRequest,
                                 format!("mode {other:?}: expected bbox, polygon or exact"),
                             ));
                         }
@@ -248,13 +242,16 @@ impl Ops {
             }
             "pretranslate" | "posttranslate" | "prerotate" | "postrotate" => {
                 let name = str_field(req, "object")?;
-                let i = snap
-                    .find(name)
-                    .ok_or_else(|| err("unknown_object", format!("no object named {name:?}")))?;
+                let i = snap.find(name).ok_or_else(|| {
+                    err(
+                        ErrorKind::UnknownObject,
+                        format!("no object named {name:?}"),
+                    )
+                })?;
                 let t = if op.ends_with("translate") {
                     let v = vec_field(req, "by")?;
                     if v.len() != 3 {
-                        return Err(err("bad_request", "`by` must have 3 numbers"));
+                        return Err(err(ErrorKind::BadRequest, "`by` must have 3 numbers"));
                     }
                     Isometry3::translation(v[0], v[1], v[2])
                 } else {
@@ -264,7 +261,10 @@ impl Ops {
                         .and_then(Value::as_f64)
                         .filter(|a| a.is_finite())
                         .ok_or_else(|| {
-                            err("bad_request", "`angle` must be a finite number (rad)")
+                            err(
+                                ErrorKind::BadRequest,
+                                "`angle` must be a finite number (rad)",
+                            )
                         })?;
                     let a = Vector3::new(
                         *axis.first().unwrap_or(&0.0),
@@ -272,7 +272,10 @@ impl Ops {
                         *axis.get(2).unwrap_or(&0.0),
                     );
                     if axis.len() != 3 || a.norm() < 1e-12 {
-                        return Err(err("bad_request", "`axis` must be 3 numbers, not all zero"));
+                        return Err(err(
+                            ErrorKind::BadRequest,
+                            "`axis` must be 3 numbers, not all zero",
+                        ));
                     }
                     Isometry3::new(Vector3::zeros(), a.normalize() * angle)
                 };
@@ -288,7 +291,7 @@ impl Ops {
                 let v = self
                     .client
                     .transact(&tx)
-                    .map_err(|e| err("transaction", e.to_string()))?
+                    .map_err(|e| err(ErrorKind::Transaction, e.to_string()))?
                     .version;
                 Ok(json!({"object": name, "pose": pose::rows(&pose), "version": v}))
             }
@@ -302,7 +305,7 @@ impl Ops {
             .robot(str_field(req, "robot")?)
             .map_err(scene_err)?
             .clone();
-        let inline = robosim_kinematics::robot_to_json(&p.robot);
+        let inline = crate::robot_json::robot_to_json(&p.robot);
         match op {
             "get_robot" => {
                 let links: Vec<Value> = p.links.iter().map(|id| json!({"id": id, "name": snap.index_of(*id).map_or("", |k| snap.name(k))})).collect();
@@ -334,14 +337,14 @@ impl Ops {
                     &scene,
                     &self.settings,
                 )
-                .map_err(|e| err("check", e.to_string()))?;
+                .map_err(|e| err(ErrorKind::Check, e.to_string()))?;
                 Ok(contacts(&res, &p, snap, &names))
             }
             "movej" | "moveji" => {
                 let q = vec_field(req, "q")?;
                 p.robot
                     .check_q(&q)
-                    .map_err(|e| err("bad_request", e.to_string()))?;
+                    .map_err(|e| err(ErrorKind::BadRequest, e.to_string()))?;
                 let steps = if op == "movej" {
                     1
                 } else {
@@ -349,12 +352,15 @@ impl Ops {
                         .and_then(Value::as_u64)
                         .filter(|s| *s > 0 && *s <= 100_000)
                         .ok_or_else(|| {
-                            err("bad_request", "`steps` must be an integer in 1..=100000")
+                            err(
+                                ErrorKind::BadRequest,
+                                "`steps` must be an integer in 1..=100000",
+                            )
                         })? as usize
                 };
                 // Joint limits at every step (MOVEJI's check), before anything moves.
                 let path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
-                    .map_err(|e| err("joint_limit", e.to_string()))?;
+                    .map_err(|e| err(ErrorKind::JointLimit, e.to_string()))?;
                 let Obstacles { scene, names, .. } = self.obstacles(&p);
                 let outcome = robosim_collision::robot::move_checked(
                     &p.robot,
@@ -365,7 +371,7 @@ impl Ops {
                     &scene,
                     &self.settings,
                 )
-                .map_err(|e| err("check", e.to_string()))?;
+                .map_err(|e| err(ErrorKind::Check, e.to_string()))?;
                 let mut version = snap.version();
                 for step in path.iter().take(outcome.steps_done) {
                     version = self.write_q(&p, step)?;
@@ -379,7 +385,7 @@ impl Ops {
                     "collision_checked": self.settings.enabled,
                 }))
             }
-            other => Err(err("unknown_op", format!("op {other:?}"))),
+            other => Err(err(ErrorKind::UnknownOp, format!("op {other:?}"))),
         }
     }
 }

@@ -156,7 +156,7 @@ impl Snapshot {
         let seg = Self::seg(&self.poses);
         if let Ok(poses) = seg.section::<PoseRec>(1) {
             let off = (poses.as_ptr() as usize - self.poses.words().as_ptr() as usize) / 8;
-            let n = poses.len() * std::mem::size_of::<PoseRec>() / 8;
+            let n = std::mem::size_of_val(poses) / 8;
             if let Some(dst) = words.get_mut(off..off + n) {
                 let recs: &mut [PoseRec] = bytemuck::cast_slice_mut(dst);
                 for o in overrides {

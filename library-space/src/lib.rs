@@ -11,10 +11,7 @@
 //! * [`Library::evaluate`] → [`Evaluated`] — plain data: [`RobotModel`] (a
 //!   `robosim_kinematics::Robot` plus per-link solids), [`SolidModel`], [`SceneModel`] with
 //!   its [`Effects`].
-//! * [`cli`] — `robosim lib list|show|check`.
 //! * [`standard_robot`] — a standard-library robot by name, for the query protocol.
-//! * [`query::dispatch`] — the `lib_list`, `lib_params`, `lib_evaluate` query ops.
-//! * [`bench::report_library`] — parse + evaluate time against facet count.
 
 #![expect(
     clippy::result_large_err,
@@ -22,15 +19,12 @@
 )]
 
 mod ast;
-pub mod bench;
-pub mod cli;
 mod error;
 mod eval;
 mod lexer;
 mod library;
 mod model;
 mod parser;
-pub mod query;
 mod source;
 mod stdlib;
 mod units;

@@ -4,15 +4,14 @@
 //! printing a pipeline describes what it built and what it left out.
 //!
 //! Entry points: [`SceneEffects`] (and its JSON form), [`Pipeline::build`], [`Pipeline::step`],
-//! [`Command`], [`report_effects`], [`cli`] (`robosim sim`).
+//! [`Command`]. `robosim sim` is `robosim_hl_interface::cli::sim`; `robosim report effects` is
+//! `robosim_report::effects`.
 //!
 //! Not here yet: the headless daemon (`robosim up SCENE --with simulator`), state publishing and
 //! the command channel of issue 6 — the pipeline is the plain-function core they will drive.
 
-pub mod cli;
 pub mod effects;
 pub mod pipeline;
-mod report;
 mod stages;
 
 pub use effects::{
@@ -20,4 +19,3 @@ pub use effects::{
     SceneEffects, Signal,
 };
 pub use pipeline::{Command, Pipeline, SceneGeometry, Stage, StepError, World};
-pub use report::report_effects;

@@ -3,7 +3,7 @@
 use nalgebra::{DVector, Isometry3, Vector3};
 use robosim_collision::robot::Scene;
 use robosim_collision::{Mode, Solid};
-use robosim_dynamics::robot_json::fixture_robot;
+use robosim_dynamics::fixture_robot;
 use robosim_kinematics::{Robot, fk};
 use robosim_simulator::{
     CollisionEffect, Command, DynamicsEffect, EncoderEffect, LoggingEffect, OnContact, Pipeline,
@@ -385,42 +385,6 @@ fn pipeline_runs_are_bit_identical() {
         robosim_dynamics::state_hash(&p.world.state)
     };
     assert_eq!(run(), run());
-}
-
-#[test]
-fn sim_command_builds_prints_and_runs() {
-    use robosim_simulator::cli::{SimArgs, run};
-    let none = |_: &str| None;
-    let args = SimArgs {
-        robot: "puma560".into(),
-        effects: Some(r#"{"kinematics": true, "dynamics": {"integrator": "rk4"}}"#.into()),
-        q0: Some(vec![0.0, 0.4, -0.6, 0.0, 0.5, 0.0]),
-        steps: 100,
-    };
-    run(&args, &none).expect("runs");
-    let bad = SimArgs {
-        robot: "nonesuch".into(),
-        ..args.clone()
-    };
-    assert!(
-        run(&bad, &none)
-            .expect_err("unknown robot")
-            .contains("nonesuch")
-    );
-    let bad = SimArgs {
-        effects: Some(r#"{"dynamics": {"integrator": "leapfrog"}}"#.into()),
-        ..args.clone()
-    };
-    assert!(
-        run(&bad, &none)
-            .expect_err("bad integrator")
-            .contains("dynamics.integrator")
-    );
-    let bad = SimArgs {
-        q0: Some(vec![0.0; 5]),
-        ..args
-    };
-    assert!(run(&bad, &none).is_err());
 }
 
 #[test]

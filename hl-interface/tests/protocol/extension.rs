@@ -1,20 +1,20 @@
 //! `serve_with`: ops from outside the crates (a session's, in `robosim query --session`)
 //! answered first, with the same framing, and listed by `ops` and `unknown_op`.
 
-use robosim_hl_interface::{Extension, QueryError, serve_with};
+use robosim_hl_interface::{ErrorKind, Extension, ProtocolError, serve_with};
 use serde_json::{Value, json};
 
 #[test]
 fn extension_ops_are_answered_first_with_state_and_listed() {
     let mut count = 0u64;
-    let mut answer = |op: &str, req: &Value| -> Option<Result<Value, QueryError>> {
+    let mut answer = |op: &str, req: &Value| -> Option<Result<Value, ProtocolError>> {
         match op {
             "COUNT" => {
                 count += 1;
                 Some(Ok(json!({"count": count})))
             }
-            "REFUSE" => Some(Err(QueryError::new(
-                "no_session",
+            "REFUSE" => Some(Err(ProtocolError::new(
+                ErrorKind::from_wire("no_session"),
                 format!("refused {}", req["id"]),
             ))),
             "PANIC" => panic!("extension bug"),

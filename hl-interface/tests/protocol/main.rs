@@ -1,10 +1,15 @@
 //! The JSON-lines transport driven as a client would: whole sessions through [`serve`], bad
-//! lines, a fuzz of arbitrary input, interactive use through pipes and of the real process.
+//! lines, a fuzz of arbitrary input, interactive use through pipes and of the real process;
+//! and each area's ops (`kinematics`, `dynamics`, `collision`, `library`) through its `dispatch`.
 //! One test binary (the modules below) to keep link time down.
 
 mod bad_lines;
+mod collision;
+mod dynamics;
 mod extension;
 mod fuzz;
+mod kinematics;
+mod library;
 mod pipes;
 mod process;
 mod session;

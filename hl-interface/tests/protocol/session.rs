@@ -6,9 +6,10 @@ use crate::{assert_close, kind, numbers, rows, run_values};
 use nalgebra::{Isometry3, Vector3};
 use robosim_collision::{Mode, Solid};
 use robosim_dynamics::{Data, Model};
+use robosim_hl_interface::robot_json::{matrix4_to_json, robot_to_json};
 use robosim_hl_interface::{OPS, resolve_robot};
 use robosim_kinematics::jacobian::{Frame, jacobian};
-use robosim_kinematics::{encoder::encoder_error, fk, matrix4_to_json, robot_to_json};
+use robosim_kinematics::{encoder::encoder_error, fk};
 use serde_json::{Value, json};
 
 fn at(x: f64, y: f64, z: f64) -> Value {

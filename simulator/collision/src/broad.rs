@@ -1,6 +1,6 @@
 //! Broad phase over many bodies: which pairs of world boxes overlap, updated as a few bodies
 //! move (the seed's USE list scaled to thousands of bodies). Two implementations behind one
-//! trait, measured against each other by [`crate::report`]:
+//! trait, measured against each other by `robosim_report::collision`:
 //!
 //! * [`SweepAndPrune`] — boxes kept sorted by their lower x bound; a moved box is shifted to its
 //!   new place by insertion (cheap when motion per step is small), and its partners are found by

@@ -15,18 +15,13 @@
 //!   robots (one robot-box test per pair of robots until their boxes meet).
 //! * [`ccd::sweep_robot`] — time of impact along a joint-space step (conservative advancement).
 //! * [`broad`] — sweep-and-prune and BVH broad phases.
-//! * [`query`] — the `collide` and `check` ops of the query protocol.
-//! * [`report::report_collision`] — "what accuracy costs in time"; [`cli`] — `robosim report collision`.
 
 pub mod bbox;
 pub mod broad;
 pub mod ccd;
-pub mod cli;
 pub mod exact;
 mod outcome;
 pub mod polygon;
-pub mod query;
-pub mod report;
 pub mod robot;
 mod solid;
 

@@ -536,7 +536,10 @@ pub fn check_robots(
     })
 }
 
-pub(crate) fn check_links(
+/// [`check_robot`]'s checks for link poses `lp` already computed ([`link_poses`]): the
+/// robot's links against the scene and, when the settings ask, against each other. Public for
+/// the collision report, which times the checks without forward kinematics.
+pub fn check_links(
     links: &LinkSolids,
     lp: &[Option<Isometry3<f64>>],
     scene: &Scene,

@@ -12,8 +12,7 @@
 //! * [`energy`] — kinetic + potential energy.
 //! * [`Stepper`], [`simulate`], [`state_hash`] — explicit / semi-implicit Euler, RK4 and
 //!   Dormand–Prince 5(4) with step control; inelastic joint stops ([`apply_joint_stops`]).
-//! * [`query::dispatch`] — the query-protocol ops `id`, `mass_matrix`, `gravity`, `fd`, `simulate`.
-//! * [`report_dynamics`] — `robosim report dynamics`: integrator error against wall time.
+//! * [`fixture_robot`] — the PUMA 560, Stanford arm and Panda without friction or motor inertia.
 //! * [`pseudo_inertia`], [`from_pseudo_inertia`], [`physically_consistent`] — the seed's
 //!   4×4 pseudo-inertia and its consistency test.
 //!
@@ -30,22 +29,20 @@ mod aba;
 mod crba;
 mod data;
 mod energy;
+mod fixtures;
 mod integrate;
 mod model;
-pub mod query;
-mod report;
 mod rnea;
-pub mod robot_json;
 mod spatial;
 
 pub use aba::aba;
 pub use crba::{crba, fd_cholesky};
 pub use data::Data;
 pub use energy::{Energy, energy, kinetic_gradient};
+pub use fixtures::fixture_robot;
 pub use integrate::{
     Integrator, IntegratorConfig, Sample, Stats, StepSize, Stepper, apply_joint_stops, simulate,
     state_hash,
 };
 pub use model::{DynamicsError, Model, from_pseudo_inertia, physically_consistent, pseudo_inertia};
-pub use report::report_dynamics;
 pub use rnea::{coriolis, gravity, rnea};

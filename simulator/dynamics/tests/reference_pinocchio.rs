@@ -3,8 +3,8 @@
 //! a tilted base, at 40 random states each, to 1e-9 relative (per vector: |x − ref|∞ ≤ 1e-9 ·
 //! max(|ref|∞, 1)). Forward dynamics is checked twice: by ABA and by CRBA + Cholesky.
 
-use robosim_dynamics::robot_json::robot_from_value;
 use robosim_dynamics::{Data, Model, aba, crba, fd_cholesky, gravity, rnea};
+use robosim_hl_interface::robot_json::robot_from_json;
 use serde_json::Value;
 use std::path::PathBuf;
 
@@ -40,7 +40,7 @@ fn rnea_crba_gravity_aba_match_pinocchio() {
     let robots = reference["robots"].as_object().expect("robots object");
     assert!(robots.len() >= 5);
     for (name, cases) in robots {
-        let robot = robot_from_value(&load(
+        let robot = robot_from_json(&load(
             &testdata().join("robots").join(format!("{name}.json")),
         ))
         .expect("fixture parses");
@@ -109,7 +109,7 @@ fn rnea_crba_gravity_aba_match_pinocchio() {
 #[test]
 fn motor_inertia_and_friction_match_roboticstoolbox() {
     let reference = load(&testdata().join("reference_drive.json"));
-    let robot = robot_from_value(&load(&testdata().join("robots/puma560_drive.json")))
+    let robot = robot_from_json(&load(&testdata().join("robots/puma560_drive.json")))
         .expect("fixture parses");
     assert!(
         robot

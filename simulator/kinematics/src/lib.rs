@@ -1,38 +1,28 @@
 //! Robot model and kinematics as plain functions over plain data (`&Robot`, `&mut State`):
-//! no shared memory here, so the query protocol, the benches and the simulator daemon all call
-//! the same code.
+//! no shared memory, no transport and no reports here, so the query protocol
+//! (`robosim_hl_interface::protocol::kinematics`), the reports (`robosim_report::ik`) and the
+//! simulator all call the same code.
 //!
 //! Entry points:
-//! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol");
-//!   [`robot_from_json`] / [`robot_to_json`] — its inline JSON form; [`builtin_robot`] — the
-//!   shipped PUMA 560, Stanford arm and Franka Panda.
+//! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol"; its
+//!   inline JSON form is read and written by `robosim_hl_interface::robot_json`);
+//!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
 //! * [`jacobian::jacobian`], [`jacobian::singularity`] — geometric Jacobians, distance to
 //!   singularity.
 //! * [`ik::solve`] — inverse kinematics (analytic, Newton, damped least squares, hybrid, auto).
 //! * [`encoder::encoder_error`] — encoder quantisation bounds (seed §2.7).
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
-//! * [`report::report_ik`] — the IK accuracy-against-time report (`robosim report ik`).
-//! * [`cli::ReportIkArgs`], [`cli::run_report_ik`] — `robosim report ik`.
-//! * [`query::dispatch`] — the query-protocol ops `fk`, `jacobian`, `ik`, `encoder_error`.
 
 mod builtin;
-pub mod cli;
 pub mod encoder;
 pub mod fk;
 pub mod ik;
 pub mod jacobian;
-mod json;
 mod model;
 pub mod movej;
 pub mod pose;
-pub mod query;
-pub mod report;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
-pub use json::{
-    JsonError, matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array,
-    robot_from_json, robot_to_json,
-};
 pub use model::{Convention, Joint, JointType, ModelError, Robot, State};
 pub use movej::{LimitViolation, MoveJError, movej_interpolate};

@@ -1,7 +1,7 @@
 //! Shared helpers for the integration tests: the checked-in fixture robots.
 #![allow(dead_code)]
 
-use robosim_dynamics::robot_json::robot_from_value;
+use robosim_hl_interface::robot_json::robot_from_json;
 use robosim_kinematics::Robot;
 use std::path::PathBuf;
 
@@ -14,7 +14,7 @@ pub fn fixture(name: &str) -> Robot {
     let path = testdata().join("robots").join(format!("{name}.json"));
     let text = std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     let value = serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
-    robot_from_value(&value).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    robot_from_json(&value).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
 
 pub const FIXTURES: [&str; 5] = [

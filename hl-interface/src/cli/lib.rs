@@ -1,0 +1,270 @@
+//! The `robosim lib …` commands: list declarations, show one's parameters, check a file.
+//!
+//! Wire as `Lib { #[command(subcommand)] cmd: robosim_hl_interface::cli::lib::LibCmd }` and call
+//! [`run`]; on `Err(message)` print it to stderr and exit non-zero (the message of a source
+//! error starts with `error[…]` and names file:line:col).
+
+use robosim_library::{Evaluated, Library, Params};
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, clap::Subcommand)]
+pub enum LibCmd {
+    /// List every declaration with its kind (the standard library, or FILE with --file).
+    List {
+        /// A library file to list instead of the standard library (it may `include "std"`).
+        #[arg(long)]
+        file: Option<PathBuf>,
+    },
+    /// Show a declaration: kind, description, parameters with defaults and units.
+    Show {
+        name: String,
+        /// Look NAME up in this library file instead of the standard library.
+        #[arg(long)]
+        file: Option<PathBuf>,
+    },
+    /// Check a library file (any name): parse, resolve, evaluate every declaration at its
+    /// defaults. Exit status non-zero with file:line:col on the first error.
+    Check { file: PathBuf },
+    /// Evaluate a declaration and print it as JSON (the `lib_evaluate` query answer).
+    Eval {
+        name: String,
+        /// A parameter value as NAME=EXPR, e.g. `--param "upper_arm=30 cm"`; repeatable.
+        #[arg(long = "param", value_name = "NAME=EXPR")]
+        params: Vec<String>,
+        /// Force this facet count on every round primitive.
+        #[arg(long)]
+        facets: Option<usize>,
+        /// Include every solid's vertices and polygons.
+        #[arg(long)]
+        geometry: bool,
+        #[arg(long)]
+        file: Option<PathBuf>,
+    },
+}
+
+fn open(file: &Option<PathBuf>, session: Option<&Library>) -> Result<Library, String> {
+    match (file, session) {
+        (Some(f), _) => Library::load(f).map_err(|e| e.to_string()),
+        // A session's Library Space, rebuilt from the source text in shared memory.
+        (None, Some(lib)) => Library::from_sources(&lib.sources()).map_err(|e| e.to_string()),
+        (None, None) => Library::standard().map_err(|e| e.to_string()),
+    }
+}
+
+/// Runs one `lib` command, printing to stdout. `Err` carries the message for stderr.
+pub fn run(cmd: LibCmd) -> Result<(), String> {
+    print!("{}", render(cmd)?);
+    Ok(())
+}
+
+/// The text [`run`] prints (for tests and other front ends).
+pub fn render(cmd: LibCmd) -> Result<String, String> {
+    render_with(cmd, None)
+}
+
+/// [`render`] against a given library (a session's Library Space) instead of the standard
+/// one, where the command names no `--file`.
+pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, String> {
+    use std::fmt::Write as _;
+    let mut out = String::new();
+    match cmd {
+        LibCmd::List { file } => {
+            let lib = open(&file, session)?;
+            let decls = lib.declarations();
+            let w = decls.iter().map(|d| d.name.len()).max().unwrap_or(4);
+            for d in decls {
+                let doc = d
+                    .doc
+                    .as_deref()
+                    .and_then(|s| s.lines().next())
+                    .unwrap_or("");
+                let _ = writeln!(out, "{:<9} {:<w$}  {}", d.kind.as_str(), d.name, doc);
+            }
+        }
+        LibCmd::Show { name, file } => {
+            let lib = open(&file, session)?;
+            let info = lib.declarations().into_iter().find(|d| d.name == name);
+            let params = lib.params(&name).map_err(|e| e.to_string())?;
+            let Some(d) = info else {
+                return Err(format!("no declaration named `{name}`"));
+            };
+            let _ = writeln!(out, "{} {}  ({})", d.kind.as_str(), d.name, d.location);
+            if let Some(doc) = &d.doc {
+                for l in doc.lines() {
+                    let _ = writeln!(out, "  {l}");
+                }
+            }
+            if params.is_empty() {
+                let _ = writeln!(out, "parameters: none");
+            } else {
+                let _ = writeln!(out, "parameters:");
+                let w = params.iter().map(|p| p.name.len()).max().unwrap_or(4);
+                for p in &params {
+                    let si = p
+                        .default_si
+                        .map(|v| format!(" = {v} {}", p.unit))
+                        .unwrap_or_default();
+                    let _ = writeln!(
+                        out,
+                        "  {:<w$}  default {}{si}  ({})",
+                        p.name, p.default_source, p.kind
+                    );
+                }
+            }
+            match lib
+                .evaluate(&name, &Params::new())
+                .map_err(|e| e.to_string())?
+            {
+                Evaluated::Robot(r) | Evaluated::Link(r) => {
+                    let _ = writeln!(
+                        out,
+                        "robot: {} joints, {:?} DH, analytic IK: {}",
+                        r.robot.dof(),
+                        r.robot.convention,
+                        r.ik.as_deref().unwrap_or("none")
+                    );
+                    for (j, (n, jt)) in r.link_names.iter().zip(&r.robot.joints).enumerate() {
+                        let _ = writeln!(
+                            out,
+                            "  {:>2} {:<14} {:?} a={} d={} alpha={:.4} offset={:.4} limits=[{:.4}, {:.4}] mass={} kg",
+                            j + 1,
+                            n,
+                            jt.joint_type,
+                            jt.a,
+                            jt.d,
+                            jt.alpha,
+                            jt.offset,
+                            jt.qlim[0],
+                            jt.qlim[1],
+                            jt.mass
+                        );
+                    }
+                }
+                Evaluated::Solid(s) => {
+                    let polys: usize = s.parts.iter().map(|p| p.polyhedron.polygons.len()).sum();
+                    let _ = writeln!(out, "solid: {} primitives, {polys} polygons", s.parts.len());
+                    if let Some(m) = s.mass {
+                        let _ = writeln!(
+                            out,
+                            "  mass {} kg, volume {} m^3, centre of mass {:?}",
+                            m.mass,
+                            m.volume,
+                            m.center_of_mass.coords.as_slice()
+                        );
+                    }
+                }
+                Evaluated::Scene(s) => {
+                    let _ = writeln!(
+                        out,
+                        "scene: {} robots, {} solids",
+                        s.robots.len(),
+                        s.solids.len()
+                    );
+                    for r in &s.robots {
+                        let _ =
+                            writeln!(out, "  robot {} ({} joints)", r.name, r.model.robot.dof());
+                    }
+                    for i in &s.solids {
+                        let _ = writeln!(
+                            out,
+                            "  solid {} ({} primitives)",
+                            i.name,
+                            i.solid.parts.len()
+                        );
+                    }
+                    let _ = writeln!(out, "  effects: {}", describe_effects(&s.effects));
+                }
+                Evaluated::Constant { value, unit } => {
+                    let _ = writeln!(out, "value: {value} {unit}");
+                }
+                Evaluated::Colour { rgb } => {
+                    let _ = writeln!(out, "rgb: {rgb:?}");
+                }
+                Evaluated::Surface(s) => {
+                    let _ = writeln!(out, "surface: {s:?}");
+                }
+            }
+        }
+        LibCmd::Eval {
+            name,
+            params,
+            facets,
+            geometry,
+            file,
+        } => {
+            let mut obj = serde_json::Map::new();
+            for p in &params {
+                let (k, v) = p
+                    .split_once('=')
+                    .ok_or_else(|| format!("--param `{p}`: expected NAME=EXPR"))?;
+                obj.insert(
+                    k.trim().to_string(),
+                    serde_json::Value::String(v.trim().to_string()),
+                );
+            }
+            let mut req = serde_json::json!({ "name": name, "params": obj, "geometry": geometry });
+            if let Some(n) = facets {
+                req["facets"] = n.into();
+            }
+            if let Some(f) = &file {
+                req["file"] = f.display().to_string().into();
+            }
+            let answer = crate::protocol::library::dispatch("lib_evaluate", &req, &|_| None)
+                .unwrap_or_else(|| {
+                    Err(crate::ProtocolError::new(
+                        crate::ErrorKind::InternalError,
+                        "lib_evaluate not handled",
+                    ))
+                })
+                .map_err(|e| e.message)?;
+            let _ = writeln!(
+                out,
+                "{}",
+                serde_json::to_string_pretty(&answer).map_err(|e| e.to_string())?
+            );
+        }
+        LibCmd::Check { file } => {
+            let lib = Library::load(&file).map_err(|e| e.to_string())?;
+            let n = lib.declarations().len();
+            let _ = writeln!(out, "{}: ok ({n} declarations)", file.display());
+        }
+    }
+    Ok(out)
+}
+
+/// One line naming the effects a scene calls for.
+fn describe_effects(fx: &robosim_library::Effects) -> String {
+    let mut parts = Vec::new();
+    if fx.kinematics {
+        parts.push("kinematics".to_string());
+    }
+    if fx.joint_limits {
+        parts.push("joint limits".to_string());
+    }
+    if let Some(c) = fx.collision {
+        let on = |b: bool| if b { "on" } else { "off" };
+        parts.push(format!(
+            "collision {:?} (self {}, continuous {})",
+            c.mode,
+            on(c.self_collision),
+            on(c.continuous)
+        ));
+    }
+    if let Some(d) = fx.dynamics {
+        parts.push(format!(
+            "dynamics {:?}, step {} s, gravity [{}, {}, {}] m/s^2",
+            d.integrator, d.step_s, d.gravity.x, d.gravity.y, d.gravity.z
+        ));
+    }
+    if let Some(b) = fx.encoder_bits {
+        parts.push(format!("{b}-bit encoders"));
+    }
+    if !fx.logged.is_empty() {
+        parts.push(format!("logging {}", fx.logged.join(", ")));
+    }
+    if parts.is_empty() {
+        "none".into()
+    } else {
+        parts.join("; ")
+    }
+}

@@ -1,0 +1,429 @@
+//! The query-protocol ops of collision detection (DESIGN.md, "The query protocol"):
+//!
+//! * `collide` — `{a, pose_a, b, pose_b, mode?}` → `{verdict, intersect, distance,
+//!   signed_distance, witness_a, witness_b, reason?, tessellation_error}`. Shapes in DESIGN.md's
+//!   form (`box` size, `sphere` radius, `cylinder`/`cone` radius + height, `convex` points,
+//!   `mesh` vertices + polygons), plus `facets` on round shapes and a `compound` extension
+//!   (`parts`: shapes each with a `pose`). Poses are 4×4 row-major. `mode`: bbox | polygon |
+//!   exact (default exact). `intersect` is `null` when the verdict is `unknown`.
+//! * `check` — `{robot, q, scene: {objects: [shape + name + pose + use?]}, mode?,
+//!   self_collision? (true), all? (false), links?, allowed?, link_radius? (0.04 m)}` →
+//!   `{verdict, clear, contacts: [{a, b, signed_distance, witness_a, witness_b}], reason?,
+//!   link_solids}`. A body is `{"link": j}` (0 = base) or `{"object": i, "name"}`.
+//!   **Link solids**: `links` gives one entry per link, base first (`null` or a shape with a
+//!   `pose` in the link frame). A robot without them gets [`LinkSolids::from_dh`] boxes of
+//!   half-width `link_radius` along its DH segments; the answer says which was used.
+//!
+//! Errors: `bad_request` (field path and reason), `bad_shape`, `unknown_robot`, `bad_robot`.
+//!
+//! Entry points: [`dispatch`], [`solid_from_json`], [`pose_from_json`].
+
+use crate::robot_json::{matrix4_from_json, number, number_array, robot_from_json};
+use crate::{ErrorKind, ProtocolError};
+use nalgebra::{Isometry3, Point3, Vector3};
+use robosim_collision::Solid;
+use robosim_collision::robot::{
+    Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
+};
+use robosim_collision::{Mode, PairResult};
+use robosim_kinematics::{Robot, builtin_robot};
+use serde_json::{Map, Value, json};
+use std::sync::Arc;
+
+fn bad(message: impl Into<String>) -> ProtocolError {
+    ProtocolError::new(ErrorKind::BadRequest, message)
+}
+
+/// Answers `collide` and `check`; `None` for any other op.
+pub fn dispatch(
+    op: &str,
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Option<Result<Value, ProtocolError>> {
+    match op {
+        "collide" => Some(op_collide(req)),
+        "check" => Some(op_check(req, robots)),
+        _ => None,
+    }
+}
+
+fn field<'a>(v: &'a Value, key: &str, path: &str) -> Result<&'a Value, ProtocolError> {
+    v.get(key)
+        .ok_or_else(|| bad(format!("{path}.{key}: missing")))
+}
+
+fn num(v: &Value, key: &str, path: &str) -> Result<f64, ProtocolError> {
+    number(field(v, key, path)?, &format!("{path}.{key}")).map_err(|e| bad(e.to_string()))
+}
+
+fn point_list(v: &Value, path: &str) -> Result<Vec<Point3<f64>>, ProtocolError> {
+    let arr = v
+        .as_array()
+        .ok_or_else(|| bad(format!("{path}: expected an array of [x, y, z]")))?;
+    arr.iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let c = number_array(p, &format!("{path}[{i}]")).map_err(|e| bad(e.to_string()))?;
+            if c.len() != 3 {
+                return Err(bad(format!(
+                    "{path}[{i}]: expected 3 numbers, got {}",
+                    c.len()
+                )));
+            }
+            Ok(Point3::new(c[0], c[1], c[2]))
+        })
+        .collect()
+}
+
+fn check_keys(
+    obj: &Map<String, Value>,
+    allowed: &[&str],
+    extra: &[&str],
+    path: &str,
+) -> Result<(), ProtocolError> {
+    for k in obj.keys() {
+        if !allowed.contains(&k.as_str()) && !extra.contains(&k.as_str()) {
+            return Err(bad(format!(
+                "{path}.{k}: unknown field (expected one of {:?})",
+                [allowed, extra].concat()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// A rigid 4×4 pose (row-major nested arrays); refuses non-rigid matrices.
+pub fn pose_from_json(v: &Value, path: &str) -> Result<Isometry3<f64>, ProtocolError> {
+    let m = matrix4_from_json(v, path).map_err(|e| bad(e.to_string()))?;
+    let r = m.fixed_view::<3, 3>(0, 0);
+    let err = (r.transpose() * r - nalgebra::Matrix3::identity())
+        .abs()
+        .max();
+    if !(err < 1e-9
+        && (r.determinant() - 1.0).abs() < 1e-9
+        && m[(3, 0)] == 0.0
+        && m[(3, 1)] == 0.0
+        && m[(3, 2)] == 0.0
+        && m[(3, 3)] == 1.0)
+    {
+        return Err(bad(format!(
+            "{path}: not a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)"
+        )));
+    }
+    Ok(robosim_collision::robot::isometry_from_matrix(&m))
+}
+
+/// A solid from DESIGN.md's shape JSON. `extra` lists keys the caller handles (name, pose…).
+pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, ProtocolError> {
+    let obj = v
+        .as_object()
+        .ok_or_else(|| bad(format!("{path}: expected a shape object")))?;
+    let kind = obj
+        .get("shape")
+        .and_then(Value::as_str)
+        .ok_or_else(|| bad(format!("{path}.shape: missing or not a string")))?;
+    let facets = |o: &Map<String, Value>| -> Result<Option<usize>, ProtocolError> {
+        match o.get("facets") {
+            None | Some(Value::Null) => Ok(None),
+            Some(f) => f
+                .as_u64()
+                .map(|n| Some(n as usize))
+                .ok_or_else(|| bad(format!("{path}.facets: expected a positive integer"))),
+        }
+    };
+    let shape_err = |e: robosim_collision::ShapeError| {
+        ProtocolError::new(ErrorKind::BadShape, format!("{path}: {e}"))
+    };
+    match kind {
+        "box" => {
+            check_keys(obj, &["shape", "size"], extra, path)?;
+            let s = number_array(field(v, "size", path)?, &format!("{path}.size"))
+                .map_err(|e| bad(e.to_string()))?;
+            if s.len() != 3 {
+                return Err(bad(format!("{path}.size: expected 3 numbers")));
+            }
+            Solid::cuboid(Vector3::new(s[0], s[1], s[2])).map_err(shape_err)
+        }
+        "sphere" => {
+            check_keys(obj, &["shape", "radius", "facets"], extra, path)?;
+            Solid::sphere(num(v, "radius", path)?, facets(obj)?).map_err(shape_err)
+        }
+        "cylinder" | "cone" => {
+            check_keys(obj, &["shape", "radius", "height", "facets"], extra, path)?;
+            let (r, h, f) = (
+                num(v, "radius", path)?,
+                num(v, "height", path)?,
+                facets(obj)?,
+            );
+            if kind == "cylinder" {
+                Solid::cylinder(r, h, f)
+            } else {
+                Solid::cone(r, h, f)
+            }
+            .map_err(shape_err)
+        }
+        "convex" => {
+            check_keys(obj, &["shape", "points"], extra, path)?;
+            Solid::convex(&point_list(
+                field(v, "points", path)?,
+                &format!("{path}.points"),
+            )?)
+            .map_err(shape_err)
+        }
+        "mesh" => {
+            check_keys(obj, &["shape", "vertices", "polygons"], extra, path)?;
+            let verts = point_list(field(v, "vertices", path)?, &format!("{path}.vertices"))?;
+            let polys = field(v, "polygons", path)?
+                .as_array()
+                .ok_or_else(|| bad(format!("{path}.polygons: expected an array of index lists")))?;
+            let mut faces = Vec::with_capacity(polys.len());
+            for (i, p) in polys.iter().enumerate() {
+                let ids = p.as_array().ok_or_else(|| {
+                    bad(format!(
+                        "{path}.polygons[{i}]: expected an array of vertex indices"
+                    ))
+                })?;
+                let f: Option<Vec<u32>> = ids
+                    .iter()
+                    .map(|x| x.as_u64().and_then(|n| u32::try_from(n).ok()))
+                    .collect();
+                faces.push(f.ok_or_else(|| {
+                    bad(format!(
+                        "{path}.polygons[{i}]: indices must be non-negative integers"
+                    ))
+                })?);
+            }
+            Solid::mesh(verts, &faces).map_err(shape_err)
+        }
+        "compound" => {
+            check_keys(obj, &["shape", "parts"], extra, path)?;
+            let parts = field(v, "parts", path)?
+                .as_array()
+                .ok_or_else(|| bad(format!("{path}.parts: expected an array")))?;
+            let mut out = Vec::with_capacity(parts.len());
+            for (i, p) in parts.iter().enumerate() {
+                let pp = format!("{path}.parts[{i}]");
+                let pose = pose_from_json(field(p, "pose", &pp)?, &format!("{pp}.pose"))?;
+                out.push((pose, solid_from_json(p, &pp, &["pose"])?));
+            }
+            Solid::compound(out).map_err(shape_err)
+        }
+        other => Err(bad(format!(
+            "{path}.shape: unknown shape \"{other}\" (box, sphere, cylinder, cone, convex, mesh, compound)"
+        ))),
+    }
+}
+
+fn mode_field(req: &Value) -> Result<Mode, ProtocolError> {
+    match req.get("mode") {
+        None | Some(Value::Null) => Ok(Mode::Exact),
+        Some(Value::String(s)) => match s.as_str() {
+            "bbox" => Ok(Mode::BBox),
+            "polygon" => Ok(Mode::Polygon),
+            "exact" => Ok(Mode::Exact),
+            _ => Err(bad(format!(
+                "mode: \"{s}\" is not one of bbox, polygon, exact"
+            ))),
+        },
+        Some(_) => Err(bad("mode: expected a string")),
+    }
+}
+
+fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, ProtocolError> {
+    match req.get(key) {
+        None | Some(Value::Null) => Ok(default),
+        Some(Value::Bool(b)) => Ok(*b),
+        Some(_) => Err(bad(format!("{key}: expected true or false"))),
+    }
+}
+
+fn pt(p: &Point3<f64>) -> Value {
+    json!([p.x, p.y, p.z])
+}
+
+fn op_collide(req: &Value) -> Result<Value, ProtocolError> {
+    let a = solid_from_json(field(req, "a", "request")?, "a", &[])?;
+    let b = solid_from_json(field(req, "b", "request")?, "b", &[])?;
+    let pa = pose_from_json(field(req, "pose_a", "request")?, "pose_a")?;
+    let pb = pose_from_json(field(req, "pose_b", "request")?, "pose_b")?;
+    let mode = mode_field(req)?;
+    let r = robosim_collision::collide(&a, &pa, &b, &pb, mode);
+    let (verdict, reason) = match &r {
+        PairResult::Clear { .. } => ("clear", None),
+        PairResult::Contact { .. } => ("contact", None),
+        PairResult::Unknown { reason } => ("unknown", Some(reason.clone())),
+    };
+    let distance = match &r {
+        PairResult::Clear { distance, .. } => distance.map(|d| json!(d)).unwrap_or(Value::Null),
+        PairResult::Contact { .. } => json!(0.0),
+        PairResult::Unknown { .. } => Value::Null,
+    };
+    let w = r.witness();
+    let mut out = json!({
+        "mode": mode.name(),
+        "verdict": verdict,
+        "intersect": r.intersects(),
+        "distance": distance,
+        "signed_distance": r.signed_distance(),
+        "witness_a": w.map(|w| pt(&w[0])),
+        "witness_b": w.map(|w| pt(&w[1])),
+        "tessellation_error": [a.tessellation_error, b.tessellation_error],
+    });
+    if let Some(reason) = reason {
+        out["reason"] = json!(reason);
+    }
+    Ok(out)
+}
+
+fn robot_field(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Robot, ProtocolError> {
+    match field(req, "robot", "request")? {
+        Value::String(name) => robots(name).or_else(|| builtin_robot(name)).ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::UnknownRobot,
+                format!("robot: no robot named \"{name}\""),
+            )
+        }),
+        v @ Value::Object(_) => {
+            robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
+        }
+        _ => Err(bad(
+            "robot: expected a library name or an inline robot object",
+        )),
+    }
+}
+
+fn body_json(b: &Body) -> Value {
+    match b {
+        Body::Link(j) => json!({"link": j}),
+        Body::RobotLink { robot, link } => json!({"robot": robot, "link": link}),
+        Body::Object { index, name } => json!({"object": index, "name": name}),
+    }
+}
+
+fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
+    let robot = robot_field(req, robots)?;
+    let q = number_array(field(req, "q", "request")?, "q").map_err(|e| bad(e.to_string()))?;
+    robot.check_q(&q).map_err(|e| bad(format!("q: {e}")))?;
+    let mut scene = Scene::new();
+    let objs = field(field(req, "scene", "request")?, "objects", "scene")?
+        .as_array()
+        .ok_or_else(|| bad("scene.objects: expected an array"))?;
+    for (i, o) in objs.iter().enumerate() {
+        let path = format!("scene.objects[{i}]");
+        let solid = solid_from_json(o, &path, &["name", "pose", "use"])?;
+        let pose = match o.get("pose") {
+            None | Some(Value::Null) => Isometry3::identity(),
+            Some(p) => pose_from_json(p, &format!("{path}.pose"))?,
+        };
+        let name = o
+            .get("name")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("object{i}"), str::to_owned);
+        let id = scene.add(name, Arc::new(solid), pose);
+        if !bool_field(o, "use", true)? {
+            scene.dont_use(id);
+        }
+    }
+    let (links, source) = match req.get("links") {
+        None | Some(Value::Null) => {
+            let radius = match req.get("link_radius") {
+                None | Some(Value::Null) => 0.04,
+                Some(v) => number(v, "link_radius").map_err(|e| bad(e.to_string()))?,
+            };
+            let l = LinkSolids::from_dh(&robot, radius)
+                .map_err(|e| bad(format!("link_radius: {e}")))?;
+            (
+                l,
+                format!(
+                    "assumed: boxes of half-width {radius} m along the DH segments (no link solids given)"
+                ),
+            )
+        }
+        Some(Value::Array(arr)) => {
+            let mut links = Vec::with_capacity(arr.len());
+            for (j, l) in arr.iter().enumerate() {
+                if l.is_null() {
+                    links.push(None);
+                    continue;
+                }
+                let path = format!("links[{j}]");
+                let solid = solid_from_json(l, &path, &["pose"])?;
+                let offset = match l.get("pose") {
+                    None | Some(Value::Null) => Isometry3::identity(),
+                    Some(p) => pose_from_json(p, &format!("{path}.pose"))?,
+                };
+                links.push(Some(LinkSolid {
+                    solid: Arc::new(solid),
+                    offset,
+                }));
+            }
+            (
+                LinkSolids {
+                    links,
+                    allowed: Vec::new(),
+                },
+                "given".to_owned(),
+            )
+        }
+        Some(_) => {
+            return Err(bad(
+                "links: expected an array (base first, one entry per link, null for none)",
+            ));
+        }
+    };
+    let mut links = links;
+    if let Some(a) = req.get("allowed") {
+        let arr = a
+            .as_array()
+            .ok_or_else(|| bad("allowed: expected an array of [i, j] link pairs"))?;
+        for (k, p) in arr.iter().enumerate() {
+            let ij = number_array(p, &format!("allowed[{k}]")).map_err(|e| bad(e.to_string()))?;
+            if ij.len() != 2 || ij.iter().any(|x| *x < 0.0 || x.fract() != 0.0) {
+                return Err(bad(format!("allowed[{k}]: expected two link indices")));
+            }
+            links.allowed.push((ij[0] as usize, ij[1] as usize));
+        }
+    }
+    let settings = CollisionSettings {
+        mode: mode_field(req)?,
+        self_collision: bool_field(req, "self_collision", true)?,
+        all_contacts: bool_field(req, "all", false)?,
+        ..CollisionSettings::default()
+    };
+    let r = check_robot(&robot, &links, &q, &scene, &settings).map_err(|e| bad(e.to_string()))?;
+    let mut out = json!({"mode": settings.mode.name(), "link_solids": source});
+    match r {
+        CheckResult::Clear => {
+            out["verdict"] = json!("clear");
+            out["clear"] = json!(true);
+            out["contacts"] = json!([]);
+        }
+        CheckResult::Contact(cs) => {
+            out["verdict"] = json!("contact");
+            out["clear"] = json!(false);
+            out["contacts"] = Value::Array(
+                cs.iter()
+                    .map(|c| {
+                        json!({
+                            "a": body_json(&c.a), "b": body_json(&c.b),
+                            "signed_distance": c.signed_distance,
+                            "witness_a": c.witness.map(|w| pt(&w[0])),
+                            "witness_b": c.witness.map(|w| pt(&w[1])),
+                        })
+                    })
+                    .collect(),
+            );
+        }
+        CheckResult::Unknown { a, b, reason } => {
+            out["verdict"] = json!("unknown");
+            out["clear"] = json!(false);
+            out["contacts"] = json!([]);
+            out["unknown_pair"] = json!([body_json(&a), body_json(&b)]);
+            out["reason"] = json!(reason);
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,330 @@
+//! The dynamics ops of the query protocol (DESIGN.md, "The query protocol"): `id`, `mass_matrix`,
+//! `gravity`, `fd`, `simulate`. The transport (JSON lines, iceoryx2) lives elsewhere; this module
+//! turns one request object into one answer object.
+//!
+//! | op | request | answer |
+//! |---|---|---|
+//! | `id` | robot, q, qd, qdd | tau |
+//! | `mass_matrix` | robot, q | mass_matrix (n×n rows) |
+//! | `gravity` | robot, q | tau (holds the arm still) |
+//! | `fd` | robot, q, qd, tau, method?: aba\|cholesky | qdd |
+//! | `simulate` | robot, q0, qd0?, tau?, t_end, outputs?, integrator, dt \| rtol+atol, limits?, max_steps? | samples [{t, q, qd, energy}], stats |
+//!
+//! `robot` is a library name (resolved by the caller's `robots`, then the fixtures compiled into
+//! `robosim_dynamics::fixture_robot`: puma560, stanford, panda) or an inline description
+//! ([`crate::robot_json`]).
+//! Friction and motor inertia are applied when the robot has them. `simulate` starts at t = 0
+//! holds `tau` constant, and answers one sample per `outputs` time (default `[t_end]`); `limits`
+//! (default false) turns on the inelastic joint stops.
+//!
+//! Entry point: [`dispatch`].
+
+use crate::robot_json::robot_from_json;
+use crate::{ErrorKind, ProtocolError};
+use robosim_dynamics::{Data, DynamicsError, Model, aba, crba, fd_cholesky, gravity, rnea};
+use robosim_dynamics::{Integrator, IntegratorConfig, StepSize, fixture_robot, simulate};
+use robosim_kinematics::Robot;
+use serde_json::{Map, Value, json};
+
+impl From<DynamicsError> for ProtocolError {
+    fn from(e: DynamicsError) -> Self {
+        let kind = match &e {
+            DynamicsError::Model(_)
+            | DynamicsError::AsymmetricInertia { .. }
+            | DynamicsError::NegativeInertia { .. } => ErrorKind::InvalidRobot,
+            DynamicsError::WrongLength { .. }
+            | DynamicsError::NonFinite { .. }
+            | DynamicsError::BadOption { .. } => ErrorKind::InvalidRequest,
+            DynamicsError::SingularInertia { .. } => ErrorKind::Singular,
+            DynamicsError::Diverged { .. }
+            | DynamicsError::NoConvergence { .. }
+            | DynamicsError::StepUnderflow { .. } => ErrorKind::Diverged,
+            DynamicsError::TooManySteps { .. } => ErrorKind::TooManySteps,
+        };
+        ProtocolError::new(kind, e.to_string())
+    }
+}
+
+/// One op's handler.
+type OpFn = fn(&Value, &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError>;
+
+/// Default step budget of a `simulate` request (a planner must not stall the server by accident).
+pub const DEFAULT_MAX_STEPS: u64 = 10_000_000;
+
+/// Answers `op` if it is a dynamics op, `None` otherwise. `req` is the whole request object;
+/// `robots` resolves library names.
+pub fn dispatch(
+    op: &str,
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Option<Result<Value, ProtocolError>> {
+    let f: OpFn = match op {
+        "id" => op_id,
+        "mass_matrix" => op_mass_matrix,
+        "gravity" => op_gravity,
+        "fd" => op_fd,
+        "simulate" => op_simulate,
+        _ => return None,
+    };
+    Some(f(req, robots))
+}
+
+fn model_of(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Model, ProtocolError> {
+    let robot = match req.get("robot") {
+        None => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                "missing field `robot`",
+            ));
+        }
+        Some(Value::String(name)) => {
+            robots(name)
+                .or_else(|| fixture_robot(name))
+                .ok_or_else(|| {
+                    ProtocolError::new(ErrorKind::UnknownRobot, format!("no robot named {name:?}"))
+                })?
+        }
+        Some(v @ Value::Object(_)) => robot_from_json(v).map_err(|e| {
+            ProtocolError::new(
+                ErrorKind::InvalidRobot,
+                format!("robot description, `{}`: {}", e.path, e.reason),
+            )
+        })?,
+        Some(other) => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                format!("`robot` must be a name or an object, got {other}"),
+            ));
+        }
+    };
+    Ok(Model::new(&robot)?)
+}
+
+fn vector(
+    req: &Value,
+    field: &str,
+    n: usize,
+    default_zero: bool,
+) -> Result<Vec<f64>, ProtocolError> {
+    match req.get(field) {
+        None if default_zero => Ok(vec![0.0; n]),
+        None => Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
+            format!("missing field `{field}`"),
+        )),
+        Some(Value::Array(a)) => {
+            if a.len() != n {
+                return Err(ProtocolError::new(
+                    ErrorKind::InvalidRequest,
+                    format!(
+                        "`{field}` has {} values but the robot has {n} joints",
+                        a.len()
+                    ),
+                ));
+            }
+            a.iter()
+                .enumerate()
+                .map(|(i, x)| {
+                    x.as_f64().ok_or_else(|| {
+                        ProtocolError::new(
+                            ErrorKind::InvalidRequest,
+                            format!("`{field}`[{i}] is not a number ({x})"),
+                        )
+                    })
+                })
+                .collect()
+        }
+        Some(other) => Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
+            format!("`{field}` must be an array of numbers, got {other}"),
+        )),
+    }
+}
+
+fn number(req: &Value, field: &str) -> Result<Option<f64>, ProtocolError> {
+    match req.get(field) {
+        None | Some(Value::Null) => Ok(None),
+        Some(v) => v.as_f64().map(Some).ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                format!("`{field}` must be a number, got {v}"),
+            )
+        }),
+    }
+}
+
+fn op_id(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, robots)?;
+    let n = model.dof();
+    let (q, qd, qdd) = (
+        vector(req, "q", n, false)?,
+        vector(req, "qd", n, false)?,
+        vector(req, "qdd", n, false)?,
+    );
+    let mut data = Data::new(&model);
+    Ok(json!({ "tau": rnea(&model, &mut data, &q, &qd, &qdd)?.as_slice() }))
+}
+
+fn op_mass_matrix(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Value, ProtocolError> {
+    let model = model_of(req, robots)?;
+    let q = vector(req, "q", model.dof(), false)?;
+    let mut data = Data::new(&model);
+    let m = crba(&model, &mut data, &q)?;
+    let rows: Vec<Vec<f64>> = (0..m.nrows())
+        .map(|r| m.row(r).iter().copied().collect())
+        .collect();
+    Ok(json!({ "mass_matrix": rows }))
+}
+
+fn op_gravity(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, robots)?;
+    let q = vector(req, "q", model.dof(), false)?;
+    let mut data = Data::new(&model);
+    Ok(json!({ "tau": gravity(&model, &mut data, &q)?.as_slice() }))
+}
+
+fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, robots)?;
+    let n = model.dof();
+    let (q, qd, tau) = (
+        vector(req, "q", n, false)?,
+        vector(req, "qd", n, false)?,
+        vector(req, "tau", n, false)?,
+    );
+    let mut data = Data::new(&model);
+    let qdd = match req.get("method").and_then(Value::as_str) {
+        None | Some("aba") => aba(&model, &mut data, &q, &qd, &tau)?,
+        Some("cholesky") => fd_cholesky(&model, &mut data, &q, &qd, &tau)?,
+        Some(other) => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                format!("`method` must be \"aba\" or \"cholesky\", got {other:?}"),
+            ));
+        }
+    };
+    Ok(json!({ "qdd": qdd.as_slice() }))
+}
+
+fn op_simulate(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Value, ProtocolError> {
+    let model = model_of(req, robots)?;
+    let n = model.dof();
+    let q0 = vector(req, "q0", n, false)?;
+    let qd0 = vector(req, "qd0", n, true)?;
+    let tau = vector(req, "tau", n, true)?;
+    let t_end = number(req, "t_end")?
+        .ok_or_else(|| ProtocolError::new(ErrorKind::InvalidRequest, "missing field `t_end`"))?;
+    if !(t_end.is_finite() && t_end >= 0.0) {
+        return Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
+            format!("`t_end` must be a non-negative number of seconds, got {t_end}"),
+        ));
+    }
+    let outputs: Vec<f64> = match req.get("outputs") {
+        None => vec![t_end],
+        Some(Value::Array(a)) => a
+            .iter()
+            .enumerate()
+            .map(|(i, x)| {
+                x.as_f64().ok_or_else(|| {
+                    ProtocolError::new(
+                        ErrorKind::InvalidRequest,
+                        format!("`outputs`[{i}] is not a number ({x})"),
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?,
+        Some(other) => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                format!("`outputs` must be an array of times, got {other}"),
+            ));
+        }
+    };
+    if let Some((i, t)) = outputs.iter().enumerate().find(|(_, t)| **t > t_end) {
+        return Err(ProtocolError::new(
+            ErrorKind::InvalidRequest,
+            format!("`outputs`[{i}] = {t} s is after t_end = {t_end} s"),
+        ));
+    }
+    let name = req
+        .get("integrator")
+        .and_then(Value::as_str)
+        .ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                "missing field `integrator` (euler | semi_implicit_euler | rk4 | dopri5)",
+            )
+        })?;
+    let integrator = Integrator::from_name(name).ok_or_else(|| {
+        ProtocolError::new(
+            ErrorKind::InvalidRequest,
+            format!("unknown integrator {name:?} (euler | semi_implicit_euler | rk4 | dopri5)"),
+        )
+    })?;
+    let (dt, rtol, atol) = (
+        number(req, "dt")?,
+        number(req, "rtol")?,
+        number(req, "atol")?,
+    );
+    let step = match (dt, rtol, atol) {
+        (Some(dt), None, None) => StepSize::Fixed(dt),
+        (None, r, a) if r.is_some() || a.is_some() => StepSize::Adaptive {
+            rtol: r.unwrap_or(1e-6),
+            atol: a.unwrap_or(1e-9),
+        },
+        (None, None, None) => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                "give `dt` (fixed step) or `rtol`/`atol` (dopri5)",
+            ));
+        }
+        _ => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                "give either `dt` or `rtol`/`atol`, not both",
+            ));
+        }
+    };
+    let joint_stops = match req.get("limits") {
+        None => false,
+        Some(Value::Bool(b)) => *b,
+        Some(other) => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                format!("`limits` must be true or false, got {other}"),
+            ));
+        }
+    };
+    let max_steps = match number(req, "max_steps")? {
+        None => DEFAULT_MAX_STEPS,
+        Some(m) if m >= 1.0 && m.is_finite() => m as u64,
+        Some(m) => {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                format!("`max_steps` must be at least 1, got {m}"),
+            ));
+        }
+    };
+    let config = IntegratorConfig {
+        integrator,
+        step,
+        joint_stops,
+        max_steps,
+    };
+    let (samples, stats) = simulate(&model, config, &q0, &qd0, &tau, &outputs)?;
+    let samples: Vec<Value> = samples
+        .into_iter()
+        .map(|s| json!({ "t": s.t, "q": s.q, "qd": s.qd, "energy": s.energy }))
+        .collect();
+    let mut stats_obj = Map::new();
+    stats_obj.insert("accepted_steps".into(), json!(stats.accepted));
+    stats_obj.insert("rejected_steps".into(), json!(stats.rejected));
+    stats_obj.insert("evaluations".into(), json!(stats.evaluations));
+    Ok(json!({ "samples": samples, "stats": stats_obj }))
+}

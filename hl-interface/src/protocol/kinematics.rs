@@ -1,0 +1,328 @@
+//! The kinematics ops of the query protocol (DESIGN.md, "The query protocol"): `fk`, `jacobian`,
+//! `ik`, `encoder_error`. Requests and answers are JSON values; the transport (JSON lines,
+//! iceoryx2) and the `id`/`ok` envelope are the caller's.
+//!
+//! Entry point: [`dispatch`]. Fields beyond DESIGN.md's table: `fk` answers `frames` when
+//! asked; `jacobian` adds `singularity` {sigma_min, sigma_max, manipulability, condition};
+//! `ik` takes `tolerances` {position, orientation} (a number or three per-axis numbers, target
+//! frame, null for a free axis), `max_iterations`, `restarts`, `seed`, `respect_limits`, and
+//! answers `method` (the one used) and per solution `branch` (Corke's label, e.g. "lun"),
+//! `residual` {position, orientation}, `converged`, `within_limits`, `iterations`, `notes`;
+//! `encoder_error` takes `bits` (one number for all joints or one per joint) and answers
+//! `position`, `orientation`, `per_axis` [dx dy dz rx ry rz], `position_worst_case`,
+//! `orientation_worst_case`, `resolution`.
+
+use crate::robot_json::{
+    matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array, robot_from_json,
+};
+use crate::{ErrorKind, ProtocolError};
+use robosim_kinematics::Robot;
+use robosim_kinematics::encoder::{EncoderErrorError, encoder_error};
+use robosim_kinematics::ik::{self, IkError, IkOptions, IkSolution, Method, Note};
+use robosim_kinematics::jacobian::{Frame, jacobian, singularity};
+use robosim_kinematics::pose::Tolerances;
+use robosim_kinematics::{builtin_robot, fk};
+use serde_json::{Value, json};
+
+/// Answers `op` if it is a kinematics op, else `None`. `robots` resolves library names;
+/// names it does not know fall back to [`builtin_robot`].
+pub fn dispatch(
+    op: &str,
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Option<Result<Value, ProtocolError>> {
+    let f = match op {
+        "fk" => op_fk,
+        "jacobian" => op_jacobian,
+        "ik" => op_ik,
+        "encoder_error" => op_encoder_error,
+        _ => return None,
+    };
+    Some(f(req, robots))
+}
+
+fn robot(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Robot, ProtocolError> {
+    match req.get("robot") {
+        None => Err(ProtocolError::new(ErrorKind::BadRequest, "robot: missing")),
+        Some(Value::String(name)) => {
+            robots(name).or_else(|| builtin_robot(name)).ok_or_else(|| {
+                ProtocolError::new(
+                    ErrorKind::UnknownRobot,
+                    format!("robot: no robot named \"{name}\""),
+                )
+            })
+        }
+        Some(v @ Value::Object(_)) => {
+            robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
+        }
+        Some(_) => Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            "robot: expected a library name or an inline robot object",
+        )),
+    }
+}
+
+fn q_field(req: &Value, key: &str, robot: &Robot) -> Result<Vec<f64>, ProtocolError> {
+    let v = req
+        .get(key)
+        .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, format!("{key}: missing")))?;
+    let q = number_array(v, key)?;
+    if q.len() != robot.dof() {
+        return Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            format!(
+                "{key}: {} values but the robot has {} joints",
+                q.len(),
+                robot.dof()
+            ),
+        ));
+    }
+    Ok(q)
+}
+
+fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, ProtocolError> {
+    match req.get(key) {
+        None | Some(Value::Null) => Ok(default),
+        Some(Value::Bool(b)) => Ok(*b),
+        Some(_) => Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            format!("{key}: expected true or false"),
+        )),
+    }
+}
+
+fn uint_field(req: &Value, key: &str, default: u64, max: u64) -> Result<u64, ProtocolError> {
+    match req.get(key) {
+        None | Some(Value::Null) => Ok(default),
+        Some(v) => match v.as_u64() {
+            Some(x) if x <= max => Ok(x),
+            _ => Err(ProtocolError::new(
+                ErrorKind::BadRequest,
+                format!("{key}: expected an integer in 0..={max}"),
+            )),
+        },
+    }
+}
+
+fn op_fk(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
+    let robot = robot(req, robots)?;
+    let q = q_field(req, "q", &robot)?;
+    if bool_field(req, "frames", false)? {
+        let frames = fk::link_frames(&robot, &q);
+        let pose = frames
+            .last()
+            .copied()
+            .unwrap_or_else(|| fk::forward(&robot, &q));
+        Ok(
+            json!({"pose": matrix4_to_json(&pose), "frames": frames.iter().map(matrix4_to_json).collect::<Vec<_>>()}),
+        )
+    } else {
+        Ok(json!({"pose": matrix4_to_json(&fk::forward(&robot, &q))}))
+    }
+}
+
+fn op_jacobian(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Value, ProtocolError> {
+    let robot = robot(req, robots)?;
+    let q = q_field(req, "q", &robot)?;
+    let frame = match req.get("frame").map(|v| v.as_str()) {
+        None | Some(Some("base")) => Frame::Base,
+        Some(Some("tool")) => Frame::Tool,
+        _ => {
+            return Err(ProtocolError::new(
+                ErrorKind::BadRequest,
+                "frame: expected \"base\" or \"tool\"",
+            ));
+        }
+    };
+    let j = jacobian(&robot, &q, frame);
+    let s = singularity(&j);
+    Ok(json!({
+        "jacobian": matrix_to_json(&j),
+        "frame": if frame == Frame::Base { "base" } else { "tool" },
+        "singularity": {
+            "sigma_min": s.sigma_min, "sigma_max": s.sigma_max,
+            "manipulability": s.manipulability, "condition": finite_or_null(s.condition),
+        },
+    }))
+}
+
+fn finite_or_null(x: f64) -> Value {
+    if x.is_finite() { json!(x) } else { Value::Null }
+}
+
+fn axis_tolerances(v: &Value, path: &str) -> Result<[f64; 3], ProtocolError> {
+    let one = |x: &Value, p: &str| -> Result<f64, ProtocolError> {
+        if x.is_null() {
+            return Ok(f64::INFINITY);
+        }
+        let t = number(x, p)?;
+        if t <= 0.0 {
+            return Err(ProtocolError::new(
+                ErrorKind::BadRequest,
+                format!("{p}: a tolerance must be positive"),
+            ));
+        }
+        Ok(t)
+    };
+    match v {
+        Value::Array(a) if a.len() == 3 => Ok([
+            one(&a[0], &format!("{path}[0]"))?,
+            one(&a[1], &format!("{path}[1]"))?,
+            one(&a[2], &format!("{path}[2]"))?,
+        ]),
+        Value::Array(_) => Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            format!("{path}: expected a number or 3 numbers"),
+        )),
+        x => Ok([one(x, path)?; 3]),
+    }
+}
+
+fn ik_options(req: &Value, robot: &Robot) -> Result<IkOptions, ProtocolError> {
+    let mut o = IkOptions::default();
+    if let Some(t) = req.get("tolerances").filter(|t| !t.is_null()) {
+        let obj = t.as_object().ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::BadRequest,
+                "tolerances: expected {position, orientation}",
+            )
+        })?;
+        let mut tol = Tolerances::default();
+        for key in obj.keys() {
+            if key != "position" && key != "orientation" {
+                return Err(ProtocolError::new(
+                    ErrorKind::BadRequest,
+                    format!("tolerances.{key}: unknown field (position, orientation)"),
+                ));
+            }
+        }
+        if let Some(p) = obj.get("position") {
+            tol.position = axis_tolerances(p, "tolerances.position")?;
+        }
+        if let Some(r) = obj.get("orientation") {
+            tol.orientation = axis_tolerances(r, "tolerances.orientation")?;
+        }
+        o.tolerances = tol;
+    }
+    if req.get("q0").is_some_and(|v| !v.is_null()) {
+        o.q0 = Some(q_field(req, "q0", robot)?);
+    }
+    o.all = bool_field(req, "all", false)?;
+    o.respect_limits = bool_field(req, "respect_limits", true)?;
+    o.max_iterations =
+        uint_field(req, "max_iterations", o.max_iterations as u64, 1_000_000)? as usize;
+    o.restarts = uint_field(req, "restarts", o.restarts as u64, 100_000)? as usize;
+    o.seed = uint_field(req, "seed", 0, u64::MAX)?;
+    Ok(o)
+}
+
+fn solution_json(s: &IkSolution) -> Value {
+    let notes: Vec<Value> = s
+        .notes
+        .iter()
+        .map(|n| match n {
+            Note::WristSingular => json!({"kind": "wrist_singular"}),
+            Note::ShoulderSingular => json!({"kind": "shoulder_singular"}),
+            Note::ElbowClamped { excess } => json!({"kind": "elbow_clamped", "excess": excess}),
+            Note::ShoulderClamped { excess } => {
+                json!({"kind": "shoulder_clamped", "excess": excess})
+            }
+        })
+        .collect();
+    let mut v = json!({
+        "q": s.q,
+        "residual": {"position": s.residual.position, "orientation": s.residual.orientation},
+        "converged": s.converged,
+        "within_limits": s.within_limits,
+        "iterations": s.iterations,
+        "notes": notes,
+    });
+    if let Some(b) = s.branch {
+        v["branch"] = json!(b.label());
+    }
+    v
+}
+
+fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
+    let robot = robot(req, robots)?;
+    let pose = matrix4_from_json(
+        req.get("pose")
+            .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "pose: missing"))?,
+        "pose",
+    )?;
+    let method = match req.get("method") {
+        None | Some(Value::Null) => Method::Auto,
+        Some(v) => v.as_str().and_then(Method::parse).ok_or_else(|| {
+            ProtocolError::new(
+                ErrorKind::BadRequest,
+                "method: expected analytic, newton, dls, hybrid or auto",
+            )
+        })?,
+    };
+    let options = ik_options(req, &robot)?;
+    match ik::solve(&robot, &pose, method, &options) {
+        Ok(r) => Ok(json!({
+            "method": r.method.name(),
+            "solutions": r.solutions.iter().map(solution_json).collect::<Vec<_>>(),
+        })),
+        Err(e) => Err(match &e {
+            IkError::Model(_) | IkError::BadTarget | IkError::BadOptions { .. } => {
+                ProtocolError::new(ErrorKind::BadRequest, e.to_string())
+            }
+            IkError::Unreachable { .. } => {
+                ProtocolError::new(ErrorKind::Unreachable, e.to_string())
+            }
+            IkError::NotApplicable { .. } => {
+                ProtocolError::new(ErrorKind::NotApplicable, e.to_string())
+            }
+            IkError::NotConverged { best, .. } => {
+                let s = solution_json(best);
+                ProtocolError::new(ErrorKind::NotConverged, format!("{e}; best q {}", s["q"]))
+            }
+        }),
+    }
+}
+
+fn op_encoder_error(
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Result<Value, ProtocolError> {
+    let robot = robot(req, robots)?;
+    let q = q_field(req, "q", &robot)?;
+    let bits_v = req
+        .get("bits")
+        .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "bits: missing"))?;
+    let to_bits = |v: &Value, p: &str| -> Result<u32, ProtocolError> {
+        v.as_u64()
+            .and_then(|b| u32::try_from(b).ok())
+            .ok_or_else(|| {
+                ProtocolError::new(
+                    ErrorKind::BadRequest,
+                    format!("{p}: expected a whole number of bits"),
+                )
+            })
+    };
+    let bits: Vec<u32> = match bits_v {
+        Value::Array(a) => a
+            .iter()
+            .enumerate()
+            .map(|(i, b)| to_bits(b, &format!("bits[{i}]")))
+            .collect::<Result<_, _>>()?,
+        v => vec![to_bits(v, "bits")?; robot.dof()],
+    };
+    let e = encoder_error(&robot, &q, &bits).map_err(|e| match e {
+        EncoderErrorError::Model(m) => ProtocolError::new(ErrorKind::BadRequest, format!("q: {m}")),
+        other => ProtocolError::new(ErrorKind::BadRequest, other.to_string()),
+    })?;
+    Ok(json!({
+        "position": e.position,
+        "orientation": e.orientation,
+        "per_axis": e.per_axis,
+        "position_worst_case": e.position_worst_case,
+        "orientation_worst_case": e.orientation_worst_case,
+        "resolution": e.resolution,
+    }))
+}

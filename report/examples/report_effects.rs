@@ -1,0 +1,17 @@
+//! Regenerates the published effects report until `robosim report effects` is wired:
+//! `cargo run --release -p robosim-report --example report_effects -- docs/reports [--quick]`
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let dir = args
+        .iter()
+        .find(|a| !a.starts_with("--"))
+        .map_or("docs/reports", String::as_str);
+    let quick = args.iter().any(|a| a == "--quick");
+    match robosim_report::effects::report_effects(std::path::Path::new(dir), quick) {
+        Ok(paths) => paths.iter().for_each(|p| println!("{}", p.display())),
+        Err(e) => {
+            eprintln!("report effects: {e}");
+            std::process::exit(1);
+        }
+    }
+}

@@ -1,0 +1,332 @@
+//! The writer every report shares: one table written as CSV and as markdown, and one PNG with a
+//! panel per plot. Every `robosim report …` command goes through
+//! [`write_report`], so all reports look alike and regenerate the same way.
+//!
+//! Entry points: [`write_report`], [`percentile`].
+
+use plotters::prelude::*;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+/// A table: `rows[i][j]` is the cell of column `j`.
+#[derive(Debug, Clone, Default)]
+pub struct Table {
+    pub columns: Vec<String>,
+    pub rows: Vec<Vec<String>>,
+}
+
+/// One line of a plot.
+#[derive(Debug, Clone, Default)]
+pub struct Series {
+    pub label: String,
+    pub points: Vec<(f64, f64)>,
+}
+
+/// One panel.
+#[derive(Debug, Clone, Default)]
+pub struct Plot {
+    pub title: String,
+    pub x_label: String,
+    pub y_label: String,
+    pub log_x: bool,
+    pub log_y: bool,
+    pub series: Vec<Series>,
+}
+
+/// A whole report: `name` is the file stem.
+#[derive(Debug, Clone, Default)]
+pub struct Report {
+    pub name: String,
+    pub title: String,
+    pub notes: Vec<String>,
+    pub table: Table,
+    pub plots: Vec<Plot>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    #[error("cannot write {path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("table row {row} has {got} cells, but there are {expected} columns")]
+    RaggedRow {
+        row: usize,
+        got: usize,
+        expected: usize,
+    },
+    #[error("cannot draw {path}: {message}")]
+    Draw { path: PathBuf, message: String },
+}
+
+/// Writes `<dir>/<name>.csv`, `<dir>/<name>.md` (title, notes, markdown table, image link) and,
+/// when there are plots, `<dir>/<name>.png` (one panel per plot). Creates `dir`. Returns the
+/// paths written.
+pub fn write_report(dir: &Path, report: &Report) -> Result<Vec<PathBuf>, ReportError> {
+    let ncol = report.table.columns.len();
+    for (row, cells) in report.table.rows.iter().enumerate() {
+        if cells.len() != ncol {
+            return Err(ReportError::RaggedRow {
+                row,
+                got: cells.len(),
+                expected: ncol,
+            });
+        }
+    }
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_owned(),
+        source,
+    })?;
+    let mut written = Vec::new();
+
+    let csv_path = dir.join(format!("{}.csv", report.name));
+    let mut csv = String::new();
+    for line in std::iter::once(&report.table.columns).chain(&report.table.rows) {
+        let cells: Vec<String> = line.iter().map(|c| csv_cell(c)).collect();
+        csv.push_str(&cells.join(","));
+        csv.push('\n');
+    }
+    write_file(&csv_path, csv.as_bytes())?;
+    written.push(csv_path);
+
+    let png_name = format!("{}.png", report.name);
+    if !report.plots.is_empty() {
+        let png_path = dir.join(&png_name);
+        draw(&png_path, &report.plots)?;
+        written.push(png_path);
+    }
+
+    let md_path = dir.join(format!("{}.md", report.name));
+    let mut md = format!("# {}\n\n", report.title);
+    for note in &report.notes {
+        let _ = writeln!(md, "{note}\n");
+    }
+    let _ = writeln!(md, "| {} |", report.table.columns.join(" | "));
+    let _ = writeln!(md, "|{}", "---|".repeat(ncol));
+    for row in &report.table.rows {
+        let cells: Vec<String> = row.iter().map(|c| c.replace('|', "\\|")).collect();
+        let _ = writeln!(md, "| {} |", cells.join(" | "));
+    }
+    if !report.plots.is_empty() {
+        let _ = writeln!(md, "\n![{}]({png_name})", report.title);
+    }
+    let _ = writeln!(md, "\nData: [{}.csv]({}.csv)", report.name, report.name);
+    write_file(&md_path, md.as_bytes())?;
+    written.push(md_path);
+    Ok(written)
+}
+
+/// The `p`-th percentile (0–100, nearest rank) of `samples`; sorts them in place. NaN sorts last.
+/// Returns NaN for an empty slice.
+pub fn percentile(samples: &mut [f64], p: f64) -> f64 {
+    if samples.is_empty() {
+        return f64::NAN;
+    }
+    samples.sort_by(|a, b| a.total_cmp(b));
+    let rank = ((p.clamp(0.0, 100.0) / 100.0) * samples.len() as f64).ceil() as usize;
+    samples[rank.saturating_sub(1).min(samples.len() - 1)]
+}
+
+fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
+    std::fs::write(path, bytes).map_err(|source| ReportError::Io {
+        path: path.to_owned(),
+        source,
+    })
+}
+
+fn csv_cell(c: &str) -> String {
+    if c.contains([',', '"', '\n']) {
+        format!("\"{}\"", c.replace('"', "\"\""))
+    } else {
+        c.to_owned()
+    }
+}
+
+const PANEL_W: u32 = 900;
+const PANEL_H: u32 = 560;
+
+fn draw(path: &Path, plots: &[Plot]) -> Result<(), ReportError> {
+    let err = |e: &dyn std::fmt::Display| ReportError::Draw {
+        path: path.to_owned(),
+        message: e.to_string(),
+    };
+    let root =
+        BitMapBackend::new(path, (PANEL_W, PANEL_H * plots.len() as u32)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(&e))?;
+    let panels = root.split_evenly((plots.len(), 1));
+    for (plot, area) in plots.iter().zip(panels.iter()) {
+        draw_panel(plot, area).map_err(|e| err(&e))?;
+    }
+    root.present().map_err(|e| err(&e))?;
+    Ok(())
+}
+
+/// Data range of the finite (and, on log axes, positive) points, padded.
+fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite() && (!log || *v > 0.0)) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return if log { (0.1, 10.0) } else { (0.0, 1.0) };
+    }
+    if log {
+        (lo / 1.5, hi * 1.5)
+    } else if hi - lo < 1e-300 {
+        (lo - 1.0, hi + 1.0)
+    } else {
+        let pad = 0.05 * (hi - lo);
+        (lo - pad, hi + pad)
+    }
+}
+
+type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
+
+fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Error>> {
+    let xs = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0));
+    let ys = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.1));
+    let (x0, x1) = range(xs, plot.log_x);
+    let (y0, y1) = range(ys, plot.log_y);
+    let mut builder = ChartBuilder::on(area);
+    builder
+        .caption(&plot.title, ("sans-serif", 22))
+        .margin(12)
+        .x_label_area_size(45)
+        .y_label_area_size(80);
+    // The four axis combinations have different coordinate types, hence the macro.
+    macro_rules! body {
+        ($chart:expr) => {{
+            let mut chart = $chart;
+            chart
+                .configure_mesh()
+                .x_desc(plot.x_label.as_str())
+                .y_desc(plot.y_label.as_str())
+                .x_label_formatter(&|v| fmt_tick(*v))
+                .y_label_formatter(&|v| fmt_tick(*v))
+                .draw()?;
+            for (i, s) in plot.series.iter().enumerate() {
+                let color = Palette99::pick(i).to_rgba();
+                let pts: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .copied()
+                    .filter(|(x, y)| {
+                        x.is_finite()
+                            && y.is_finite()
+                            && (!plot.log_x || *x > 0.0)
+                            && (!plot.log_y || *y > 0.0)
+                    })
+                    .collect();
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))?
+                    .label(s.label.as_str())
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 18, y)], color.stroke_width(2))
+                    });
+                chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, color.filled())))?;
+            }
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .draw()?;
+        }};
+    }
+    match (plot.log_x, plot.log_y) {
+        (false, false) => body!(builder.build_cartesian_2d(x0..x1, y0..y1)?),
+        (true, false) => body!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1)?),
+        (false, true) => body!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale())?),
+        (true, true) => {
+            body!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?)
+        }
+    }
+    Ok(())
+}
+
+fn fmt_tick(v: f64) -> String {
+    let a = v.abs();
+    if a != 0.0 && !(1e-2..1e4).contains(&a) {
+        format!("{v:.0e}")
+    } else {
+        format!("{v:.3}")
+            .trim_end_matches('0')
+            .trim_end_matches('.')
+            .to_owned()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn writes_csv_markdown_and_png_that_say_what_was_given() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let report = Report {
+            name: "t".into(),
+            title: "Test".into(),
+            notes: vec!["a note".into()],
+            table: Table {
+                columns: vec!["x".into(), "y, quoted".into()],
+                rows: vec![vec!["1".into(), "2".into()]],
+            },
+            plots: vec![Plot {
+                title: "p".into(),
+                x_label: "x".into(),
+                y_label: "y".into(),
+                log_x: true,
+                log_y: true,
+                series: vec![Series {
+                    label: "s".into(),
+                    points: vec![(1.0, 1e-3), (10.0, 1e-6), (f64::NAN, 1.0)],
+                }],
+            }],
+        };
+        let paths = write_report(dir.path(), &report).expect("written");
+        assert_eq!(paths.len(), 3);
+        let csv = std::fs::read_to_string(dir.path().join("t.csv")).expect("csv");
+        assert_eq!(csv, "x,\"y, quoted\"\n1,2\n");
+        let md = std::fs::read_to_string(dir.path().join("t.md")).expect("md");
+        assert!(md.contains("| 1 | 2 |") && md.contains("![Test](t.png)") && md.contains("a note"));
+        let png = std::fs::read(dir.path().join("t.png")).expect("png");
+        assert_eq!(&png[1..4], b"PNG");
+    }
+
+    #[test]
+    fn ragged_rows_are_refused_with_their_index() {
+        let report = Report {
+            name: "r".into(),
+            table: Table {
+                columns: vec!["a".into()],
+                rows: vec![vec!["1".into()], vec![]],
+            },
+            ..Report::default()
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        assert!(matches!(
+            write_report(dir.path(), &report),
+            Err(ReportError::RaggedRow {
+                row: 1,
+                got: 0,
+                expected: 1
+            })
+        ));
+    }
+
+    #[test]
+    fn percentile_is_nearest_rank() {
+        let mut v: Vec<f64> = (1..=100).rev().map(f64::from).collect();
+        assert_eq!(percentile(&mut v, 50.0), 50.0);
+        assert_eq!(percentile(&mut v, 99.0), 99.0);
+        assert_eq!(percentile(&mut v, 100.0), 100.0);
+        assert_eq!(percentile(&mut v, 0.0), 1.0);
+    }
+}
