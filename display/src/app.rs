@@ -12,7 +12,7 @@
 //! Robots and the collision highlight come from robosim-scene's [`CompiledScene`]: the session
 //! display compiles once per structure version and follows joint changes in place.
 //!
-//! Entry points: [`cmd_render`], [`cmd_display`], [`local_model`], [`RenderArgs`],
+//! Entry points: [`cmd_render`], [`cmd_display`], [`local_store`], [`RenderArgs`],
 //! [`DisplayArgs`], [`AppError`].
 
 /// An error of the display's commands: what failed and where, for the command line.
@@ -44,7 +44,7 @@ use crate::trajectory::to_si;
 use crate::window::{Host, WindowOptions};
 use crate::{Camera, Hit, Projection, Renderer, Style};
 use nalgebra::{Point3, Vector3};
-use robosim_instance_space::{Client, Kind, Model, Reader, Session, Snapshot};
+use robosim_instance_space::{Client, Kind, Reader, Session, Snapshot, Store};
 use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -176,9 +176,9 @@ pub struct RenderArgs {
 }
 
 /// The scene `name` of the standard library (plus `library` files) as a local model.
-pub fn local_model(library: &[PathBuf], name: &str) -> Result<Model> {
+pub fn local_store(library: &[PathBuf], name: &str) -> Result<Store> {
     let lib = robosim_scene::build_library(library)?;
-    let mut model = Model::new();
+    let mut model = Store::new();
     for tx in robosim_scene::load_from(&lib, name)? {
         model
             .apply(&tx)
@@ -255,7 +255,7 @@ fn prismatic(robot: &robosim_kinematics::Robot) -> Vec<bool> {
 
 /// Puts robot `r` of a local model at `q` (SI). The robot's links keep their ids, so the
 /// robot found once serves every update.
-fn set_local(model: &mut Model, r: &CompiledRobot, q: &[f64]) -> Result<()> {
+fn set_local(model: &mut Store, r: &CompiledRobot, q: &[f64]) -> Result<()> {
     model
         .apply(&joint_tx(&r.robot, &r.links, q))
         .map_err(|e| AppError(format!("moving {}: {e}", r.robot.name)))?;
@@ -331,8 +331,8 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     if a.every == 0 {
         bail!("--every must be at least 1");
     }
-    let mut model = local_model(&a.library, &a.scene)?;
-    let snap = Snapshot::from_model(&model);
+    let mut model = local_store(&a.library, &a.scene)?;
+    let snap = Snapshot::from_store(&model);
     let scene = CompiledScene::of(&snap);
     let robots = scene.robots();
     let settings: Vec<(&CompiledRobot, Vec<f64>)> = a
@@ -344,7 +344,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
         set_local(&mut model, r, q)?;
     }
     for name in &a.hide {
-        let snap = Snapshot::from_model(&model);
+        let snap = Snapshot::from_store(&model);
         let ids: Vec<_> = (0..snap.len())
             .filter(|&i| snap.name(i) == name)
             .map(|i| snap.objects()[i].id)
@@ -368,7 +368,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             .map_err(|e| AppError(format!("--hide {name:?}: {e}")))?;
     }
     let mut r = Renderer::headless()?;
-    let snap = Snapshot::from_model(&model);
+    let snap = Snapshot::from_store(&model);
     let mut scene = CompiledScene::new();
     if a.view.collisions {
         scene.sync(&snap);
@@ -398,7 +398,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             for (r, q) in player.at(k) {
                 set_local(&mut model, r, &q)?;
             }
-            let snap = Snapshot::from_model(&model);
+            let snap = Snapshot::from_store(&model);
             if a.view.collisions {
                 scene.sync(&snap);
             }

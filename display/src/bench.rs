@@ -14,7 +14,7 @@
 
 use crate::Renderer;
 use crate::app::{self as display, AppError, Result};
-use robosim_instance_space::{Change, IDENTITY, Kind, Model, Snapshot, Transaction, aspect};
+use robosim_instance_space::{Change, IDENTITY, Kind, Snapshot, Store, Transaction, aspect};
 use robosim_report::{Plot, Report, Series, Table, percentile, write_report};
 use std::path::Path;
 use std::time::Instant;
@@ -41,8 +41,8 @@ fn frames(r: &mut Renderer, n: usize, readback: bool) -> Result<(f64, f64)> {
     Ok(median_p90(t))
 }
 
-fn cubes(n: usize) -> Model {
-    let mut model = Model::new();
+fn cubes(n: usize) -> Store {
+    let mut model = Store::new();
     let mut tx = Transaction::new();
     let side = (n as f64).sqrt().ceil() as usize;
     for k in 0..n {
@@ -82,12 +82,12 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let mut baseline = (f64::NAN, f64::NAN);
     for scene in ["(empty)", "puma560", "space_station"] {
         let model = if scene == "(empty)" {
-            Model::new()
+            Store::new()
         } else {
-            display::local_model(&[], scene)?
+            display::local_store(&[], scene)?
         };
         let mut rr = Renderer::headless()?;
-        rr.sync(&Snapshot::from_model(&model));
+        rr.sync(&Snapshot::from_store(&model));
         rr.frame_all();
         let draw = frames(&mut rr, reps, false)?;
         let read = frames(&mut rr, reps, true)?;
@@ -152,7 +152,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let mut base = (f64::NAN, f64::NAN);
     for n in [10usize, 100, 1_000, 10_000] {
         let mut model = cubes(n);
-        let snap = Snapshot::from_model(&model);
+        let snap = Snapshot::from_store(&model);
         let ids: Vec<u64> = snap.objects().iter().map(|o| o.id).collect();
         r.sync(&snap);
         let (mut bytes, mut t_changes, mut t_full) = (Vec::new(), Vec::new(), Vec::new());
@@ -168,7 +168,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             p[3] = (rng % 97) as f64 * 0.01;
             tx.set_pose(id, p);
             let applied = model.apply(&tx).map_err(|e| AppError(e.to_string()))?;
-            let snap = Snapshot::from_model(&model);
+            let snap = Snapshot::from_store(&model);
             let change = Change {
                 version: applied.version,
                 aspects: aspect::POSE,
@@ -252,10 +252,10 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     Ok(())
 }
 
-fn sphere_model(facets: usize) -> Result<Model> {
+fn sphere_model(facets: usize) -> Result<Store> {
     let poly =
         robosim_geometry::shapes::sphere(0.5, Some(facets)).map_err(|e| AppError(e.to_string()))?;
-    let mut model = Model::new();
+    let mut model = Store::new();
     let mut tx = Transaction::new();
     let s = tx.create(Kind::Solid, "sphere", None);
     tx.set_geometry(
@@ -283,7 +283,7 @@ fn tessellation(reps: usize) -> Result<Report> {
     let camera = crate::Camera::looking(Point3::new(-1.4, 1.2, 0.6), Point3::origin());
     let draw = |facets: usize| -> Result<(crate::RgbaImage, usize, f64)> {
         let mut r = Renderer::headless()?;
-        r.sync(&Snapshot::from_model(&sphere_model(facets)?));
+        r.sync(&Snapshot::from_store(&sphere_model(facets)?));
         r.camera = camera;
         for _ in 0..2 {
             r.draw_and_wait(w, h)?;

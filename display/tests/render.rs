@@ -4,7 +4,7 @@
 use nalgebra::Point3;
 use robosim_display::{Camera, Renderer, renderer::TRANSFORM_BYTES};
 use robosim_instance_space::{
-    Appearance, GeometryInput, IDENTITY, Kind, Model, Snapshot, Transaction,
+    Appearance, GeometryInput, IDENTITY, Kind, Snapshot, Store, Transaction,
 };
 
 fn cube(h: f64) -> GeometryInput {
@@ -27,8 +27,8 @@ fn at(x: f64, y: f64, z: f64) -> [f64; 12] {
 }
 
 /// Two cubes, red at the origin and blue at x = 3, under one item.
-fn scene() -> (Model, u64, u64) {
-    let mut model = Model::new();
+fn scene() -> (Store, u64, u64) {
+    let mut model = Store::new();
     let mut tx = Transaction::new();
     let item = tx.create(Kind::Item, "pair", None);
     let red = tx.create(Kind::Solid, "red", Some(item));
@@ -51,7 +51,7 @@ fn scene() -> (Model, u64, u64) {
         },
     );
     model.apply(&tx).expect("valid");
-    let snap = Snapshot::from_model(&model);
+    let snap = Snapshot::from_store(&model);
     let id = |n| snap.objects()[snap.find(n).expect("present")].id;
     let (r, b) = (id("red"), id("blue"));
     (model, r, b)
@@ -72,11 +72,11 @@ fn dominant(p: [u8; 4]) -> char {
 fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     let (mut model, red, blue) = scene();
     let mut r = Renderer::headless().expect("a Vulkan adapter (mesa-vulkan-drivers on CI)");
-    let first = r.sync(&Snapshot::from_model(&model));
+    let first = r.sync(&Snapshot::from_store(&model));
     // The device-free bounds (for placing a camera before a device exists) agree.
     assert_eq!(
         r.bounds(),
-        robosim_display::renderer::scene_bounds(&Snapshot::from_model(&model))
+        robosim_display::renderer::scene_bounds(&Snapshot::from_store(&model))
     );
     assert_eq!((first.meshes, first.transforms, first.materials), (2, 2, 2));
     assert!(first.mesh_bytes > 0);
@@ -95,7 +95,7 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     let mut tx = Transaction::new();
     tx.set_pose(blue, at(3.0, 0.0, 1.0));
     model.apply(&tx).expect("valid");
-    let moved = r.sync(&Snapshot::from_model(&model));
+    let moved = r.sync(&Snapshot::from_store(&model));
     assert_eq!(
         (moved.transforms, moved.meshes, moved.materials),
         (1, 0, 0),
@@ -103,7 +103,7 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     );
     assert_eq!(moved.total_bytes(), TRANSFORM_BYTES);
     // Nothing changed: nothing sent.
-    assert_eq!(r.sync(&Snapshot::from_model(&model)).total_bytes(), 0);
+    assert_eq!(r.sync(&Snapshot::from_store(&model)).total_bytes(), 0);
     // Recolour red: one material.
     let mut tx = Transaction::new();
     tx.set_appearance(
@@ -114,7 +114,7 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
         },
     );
     model.apply(&tx).expect("valid");
-    let recoloured = r.sync(&Snapshot::from_model(&model));
+    let recoloured = r.sync(&Snapshot::from_store(&model));
     assert_eq!(
         (
             recoloured.transforms,
@@ -127,7 +127,7 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     let mut tx = Transaction::new();
     tx.set_geometry(red, Some(cube(0.25)));
     model.apply(&tx).expect("valid");
-    let reshaped = r.sync(&Snapshot::from_model(&model));
+    let reshaped = r.sync(&Snapshot::from_store(&model));
     assert_eq!(
         (reshaped.transforms, reshaped.meshes, reshaped.materials),
         (0, 1, 0)
@@ -136,7 +136,7 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
     let mut tx = Transaction::new();
     tx.delete(blue, false);
     model.apply(&tx).expect("valid");
-    assert_eq!(r.sync(&Snapshot::from_model(&model)).total_bytes(), 0);
+    assert_eq!(r.sync(&Snapshot::from_store(&model)).total_bytes(), 0);
     assert_eq!(r.body_count(), 1);
     // Pick: the ray through the centre of the view hits red's front polygon.
     r.camera = Camera::looking(Point3::new(0.0, -12.0, 0.0), Point3::origin());
@@ -153,7 +153,7 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
 /// cube see it, with the plate behind it resolved by the depth buffer.
 #[test]
 fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
-    let mut model = Model::new();
+    let mut model = Store::new();
     let mut tx = Transaction::new();
     let plate = tx.create(Kind::Solid, "plate", None);
     tx.set_geometry(plate, Some(block([10_000.0, 10_000.0, 0.5])));
@@ -177,7 +177,7 @@ fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
     );
     model.apply(&tx).expect("valid");
     let mut r = Renderer::headless().expect("adapter");
-    r.sync(&Snapshot::from_model(&model));
+    r.sync(&Snapshot::from_store(&model));
     let (_, radius) = r.bounds();
     assert!(radius > 7_000.0, "{radius}");
     r.camera = Camera::looking(Point3::new(0.05, -0.05, 0.04), Point3::new(0.0, 0.0, 0.005));
@@ -203,7 +203,7 @@ fn change_driven_sync_matches_the_full_comparison() {
     use robosim_instance_space::{Change, aspect};
     let (mut model, red, blue) = scene();
     let mut r = Renderer::headless().expect("adapter");
-    r.sync(&Snapshot::from_model(&model));
+    r.sync(&Snapshot::from_store(&model));
     let v0 = model.version;
     let mut tx = Transaction::new();
     tx.set_pose(blue, at(3.0, 1.0, 0.0));
@@ -214,22 +214,22 @@ fn change_driven_sync_matches_the_full_comparison() {
         ids,
         published_ns: 0,
     };
-    let up = r.sync_changes(&Snapshot::from_model(&model), &[pose(v0 + 1, vec![blue])]);
+    let up = r.sync_changes(&Snapshot::from_store(&model), &[pose(v0 + 1, vec![blue])]);
     assert_eq!((up.transforms, up.meshes, up.materials), (1, 0, 0));
     // The item carrying both cubes moves: both transforms, found through the children index.
     let item = {
-        let snap = Snapshot::from_model(&model);
+        let snap = Snapshot::from_store(&model);
         snap.objects()[snap.find("pair").expect("item")].id
     };
     let mut tx = Transaction::new();
     tx.set_pose(item, at(0.0, 0.0, 2.0));
     model.apply(&tx).expect("valid");
-    let up = r.sync_changes(&Snapshot::from_model(&model), &[pose(v0 + 2, vec![item])]);
+    let up = r.sync_changes(&Snapshot::from_store(&model), &[pose(v0 + 2, vec![item])]);
     assert_eq!(up.transforms, 2);
     // A gap in the records: the full comparison runs and still finds the one change.
     let mut tx = Transaction::new();
     tx.set_pose(red, at(0.0, 0.0, 5.0));
     model.apply(&tx).expect("valid");
-    let up = r.sync_changes(&Snapshot::from_model(&model), &[]);
+    let up = r.sync_changes(&Snapshot::from_store(&model), &[]);
     assert_eq!((up.transforms, up.meshes), (1, 0));
 }

@@ -6,9 +6,9 @@
 //! arrived together.
 
 use crate::keeper::{MAX_IN_FLIGHT, events};
-use crate::model::{Applied, TxError};
 use crate::services;
 use crate::session::{Session, SessionError};
+use crate::store::{Applied, TxError};
 use crate::transaction::Transaction;
 use iceoryx2::prelude::*;
 use std::time::{Duration, Instant};

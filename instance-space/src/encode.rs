@@ -1,11 +1,11 @@
-//! The flat records of the Instance Space built from the plain [`Model`]: one encoder, used by
-//! the keeper to publish and by [`crate::Snapshot::from_model`] for a process-local snapshot.
+//! The flat records of the Instance Space built from the plain [`Store`]: one encoder, used by
+//! the keeper to publish and by [`crate::Snapshot::from_store`] for a process-local snapshot.
 
 use crate::layout::{
     GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseRec, PosesHeader, SegmentWriter,
     flags,
 };
-use crate::model::{Id, Kinematics, Model, Object};
+use crate::store::{Id, Kinematics, Object, Store};
 use robosim_geometry::Polyhedron;
 
 pub(crate) fn pose_rec(o: &Object) -> PoseRec {
@@ -85,7 +85,7 @@ pub(crate) struct ModelSegments {
 }
 
 /// Every segment of `model` as the keeper would publish it at its current version.
-pub(crate) fn model_segments(model: &Model, epoch: u64) -> ModelSegments {
+pub(crate) fn model_segments(model: &Store, epoch: u64) -> ModelSegments {
     let mut recs = Vec::with_capacity(model.len());
     let mut names = Vec::new();
     let mut poses = Vec::with_capacity(model.len());
@@ -192,13 +192,13 @@ pub(crate) fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
 
 #[cfg(test)]
 mod tests {
-    use crate::{GeometryInput, Kind, Model, Snapshot, Transaction};
+    use crate::{GeometryInput, Kind, Snapshot, Store, Transaction};
 
     /// A local snapshot reads back what the model holds: names, parents, world poses through
     /// the parent chain, geometry by object index.
     #[test]
     fn snapshot_from_model_matches_the_model() {
-        let mut model = Model::new();
+        let mut model = Store::new();
         let mut tx = Transaction::new();
         let item = tx.create(Kind::Item, "item", None);
         tx.set_pose(
@@ -223,7 +223,7 @@ mod tests {
             }),
         );
         model.apply(&tx).expect("valid transaction");
-        let snap = Snapshot::from_model(&model);
+        let snap = Snapshot::from_store(&model);
         assert_eq!(snap.version(), model.version);
         assert_eq!(snap.len(), 2);
         let i = snap.find("tri").expect("tri present");

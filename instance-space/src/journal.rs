@@ -12,7 +12,7 @@
 //!
 //! Every file is created 0600 inside the session's 0700 data directory.
 
-use crate::model::{Appearance, Id, Kind, Kinematics, MassProps, Model, Object, Pose};
+use crate::store::{Appearance, Id, Kind, Kinematics, MassProps, Object, Pose, Store};
 use crate::transaction::{GeometryInput, Transaction};
 use serde::{Deserialize, Serialize};
 use std::fs::{self, File, OpenOptions};
@@ -140,7 +140,7 @@ impl Journal {
 
     /// Writes a checkpoint of `model`, starts a new journal after it and removes the files the
     /// checkpoint made redundant. Call after [`Journal::sync`].
-    pub fn checkpoint(&mut self, model: &Model) -> Result<(), JournalError> {
+    pub fn checkpoint(&mut self, model: &Store) -> Result<(), JournalError> {
         self.sync()?;
         write_checkpoint(&self.dir, model)?;
         let next = Journal::create(&self.dir, model.version + 1)?;
@@ -188,7 +188,7 @@ struct CheckpointData {
     objects: Vec<ObjectData>,
 }
 
-fn write_checkpoint(dir: &Path, model: &Model) -> Result<(), JournalError> {
+fn write_checkpoint(dir: &Path, model: &Store) -> Result<(), JournalError> {
     let data = CheckpointData {
         version: model.version,
         next_id: model.next_id(),
@@ -224,7 +224,7 @@ fn write_checkpoint(dir: &Path, model: &Model) -> Result<(), JournalError> {
     sync_dir(dir)
 }
 
-fn read_checkpoint(path: &Path) -> Result<Model, JournalError> {
+fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
     let bytes = fs::read(path).map_err(io_err(path))?;
     let bad = |reason: &str| JournalError::Checkpoint {
         path: path.to_owned(),
@@ -273,7 +273,7 @@ fn read_checkpoint(path: &Path) -> Result<Model, JournalError> {
             origin: o.origin,
         });
     }
-    Ok(Model::from_parts(data.version, data.next_id, objects))
+    Ok(Store::from_parts(data.version, data.next_id, objects))
 }
 
 /// What recovery found.
@@ -288,7 +288,7 @@ pub struct RecoveryReport {
 }
 
 /// Rebuilds the model from `dir` and opens the journal for appending.
-pub fn recover(dir: &Path) -> Result<(Model, Journal, RecoveryReport), JournalError> {
+pub fn recover(dir: &Path) -> Result<(Store, Journal, RecoveryReport), JournalError> {
     let mut report = RecoveryReport::default();
     let mut names: Vec<String> = fs::read_dir(dir)
         .map_err(io_err(dir))?
@@ -296,7 +296,7 @@ pub fn recover(dir: &Path) -> Result<(Model, Journal, RecoveryReport), JournalEr
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    let mut model = Model::new();
+    let mut model = Store::new();
     for ck in names
         .iter()
         .rev()
@@ -357,7 +357,7 @@ pub fn recover(dir: &Path) -> Result<(Model, Journal, RecoveryReport), JournalEr
 /// Replays one journal file into `model`; returns (records replayed, valid length, problem).
 fn replay(
     path: &Path,
-    model: &mut Model,
+    model: &mut Store,
     report: &mut RecoveryReport,
 ) -> Result<(u64, u64, Option<String>), JournalError> {
     let mut bytes = Vec::new();

@@ -4,7 +4,7 @@
 //! created it, so readers and writers come and go while the keeper stays), takes transactions
 //! from any process over iceoryx2 request-response, and for each group of requests that arrive
 //! together:
-//! 1. validates and applies each transaction in arrival order ([`Model::apply`]); a refused one
+//! 1. validates and applies each transaction in arrival order ([`Store::apply`]); a refused one
 //!    changes nothing and gets its typed error;
 //! 2. appends each committed one to the journal and syncs once (group commit);
 //! 3. publishes what changed — a geometry segment per changed object, the objects segment if
@@ -14,9 +14,9 @@
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
 use crate::layout::{ChangeRec, ObjectsHeader, PoseRec, PosesHeader, SegmentWriter};
-use crate::model::{Applied, Id, Model, TxError, aspect};
 use crate::services;
 use crate::session::{Registration, Session, SessionError};
+use crate::store::{Applied, Id, Store, TxError, aspect};
 use crate::transaction::Transaction;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
@@ -98,7 +98,7 @@ pub struct Keeper {
     session: Session,
     opts: KeeperOptions,
     node: Node<ipc::Service>,
-    model: Model,
+    model: Store,
     journal: Journal,
     epoch: u64,
     server: Server,
@@ -308,7 +308,7 @@ impl Keeper {
         Ok((keeper, report))
     }
 
-    pub fn model(&self) -> &Model {
+    pub fn store(&self) -> &Store {
         &self.model
     }
     pub fn session(&self) -> &Session {

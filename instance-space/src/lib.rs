@@ -4,7 +4,7 @@
 //! transactions that the space keeper journals, applies, publishes and announces.
 //!
 //! Entry points:
-//! * [`Model`], [`Transaction`], [`TxError`] — the plain model and the all-or-nothing writes.
+//! * [`Store`], [`Transaction`], [`TxError`] — the plain model and the all-or-nothing writes.
 //! * [`Keeper`] — the `robosim space` process: owns the services, serialises transactions,
 //!   journals them ([`journal`]) and publishes snapshots and change records.
 //! * [`Client`] — sends transactions to the keeper (request-response), pipelined or one by one.
@@ -21,22 +21,22 @@ mod encode;
 pub mod journal;
 mod keeper;
 pub mod layout;
-mod model;
 mod reader;
 mod session;
 pub mod state;
+mod store;
 mod transaction;
 mod view;
 
 pub use client::{Client, ClientError, Committed, Pending};
 pub use keeper::{Keeper, KeeperError, KeeperOptions};
-pub use model::{
-    Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,
-    MassProps, Model, Object, Pose, TxError, aspect,
-};
 pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot};
 pub use session::{
     ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,
+};
+pub use store::{
+    Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,
+    MassProps, Object, Pose, Store, TxError, aspect,
 };
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
 pub use view::{JointView, RobotView};

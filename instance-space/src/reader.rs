@@ -15,9 +15,9 @@ use crate::layout::{
     ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, PolygonRec, PoseRec,
     PosesHeader, Segment, flags, geometry_sections as gs,
 };
-use crate::model::{Id, Kind};
 use crate::services;
 use crate::session::{Session, SessionError};
+use crate::store::{Id, Kind};
 use iceoryx2::prelude::*;
 use std::collections::{HashMap, VecDeque};
 use std::rc::Rc;
@@ -82,7 +82,7 @@ pub struct Snapshot {
     geometry: Vec<Option<Rc<Words>>>,
 }
 
-/// A segment's words: a sample in shared memory, or (for [`Snapshot::from_model`]) a copy
+/// A segment's words: a sample in shared memory, or (for [`Snapshot::from_store`]) a copy
 /// owned by this process.
 enum Words {
     Shared(Sample),
@@ -130,10 +130,10 @@ impl Snapshot {
         Segment::parse(s.words()).unwrap_or_else(|_| unreachable_segment())
     }
 
-    /// A process-local snapshot of a plain [`Model`](crate::Model), with the same records and
+    /// A process-local snapshot of a plain [`Store`](crate::Store), with the same records and
     /// views as a published one (epoch 0). For tools that evaluate a model without a session —
     /// `robosim render` — so they read it through the one API the session readers use.
-    pub fn from_model(model: &crate::Model) -> Snapshot {
+    pub fn from_store(model: &crate::Store) -> Snapshot {
         let segs = crate::encode::model_segments(model, 0);
         Snapshot {
             version: model.version,

@@ -1,10 +1,10 @@
 //! Transactions: what a writer asks the keeper to do, built with [`Transaction`]'s builder
-//! methods, validated and applied as a whole by [`crate::Model::apply`].
+//! methods, validated and applied as a whole by [`crate::Store::apply`].
 //!
 //! Objects the transaction creates are referred to by [`ObjRef::New`]`(k)`, the k-th create of
 //! the same transaction; the keeper assigns their ids and returns them in order.
 
-use crate::model::{Appearance, Id, Kind, Kinematics, MassProps, Pose};
+use crate::store::{Appearance, Id, Kind, Kinematics, MassProps, Pose};
 use serde::{Deserialize, Serialize};
 
 /// An object: an existing id, or the k-th object this transaction creates.
@@ -221,7 +221,7 @@ impl Transaction {
 
     /// Decodes the wire form. A length prefix that claims more memory than the message could
     /// describe (e.g. 10^12 vertices in a 40-byte request) is refused before any allocation.
-    pub fn decode(bytes: &[u8]) -> Result<Self, crate::model::TxError> {
+    pub fn decode(bytes: &[u8]) -> Result<Self, crate::store::TxError> {
         // Decoded size is at most ~32× the encoded size for our types (an empty inner Vec is
         // 1 byte on the wire, 24 in memory), so this limit never refuses an honest message.
         const CAP: usize = 1 << 34;
@@ -232,20 +232,20 @@ impl Transaction {
         let result = decode_limited(bytes, limit);
         match result {
             Ok((tx, used)) if used == bytes.len() => Ok(tx),
-            Ok((_, used)) => Err(crate::model::TxError::Malformed {
+            Ok((_, used)) => Err(crate::store::TxError::Malformed {
                 message: format!(
                     "{} trailing bytes after the transaction",
                     bytes.len() - used
                 ),
             }),
-            Err(e) if too_large(&e) => Err(crate::model::TxError::TooLarge {
+            Err(e) if too_large(&e) => Err(crate::store::TxError::TooLarge {
                 op: 0,
                 id: 0,
                 field: "request".into(),
                 requested: u64::MAX,
                 limit: limit as u64,
             }),
-            Err(e) => Err(crate::model::TxError::Malformed {
+            Err(e) => Err(crate::store::TxError::Malformed {
                 message: e.to_string(),
             }),
         }

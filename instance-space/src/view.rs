@@ -8,8 +8,8 @@
 //! [`Snapshot::structure_version`].
 
 use crate::layout::{ObjectRec, flags};
-use crate::model::{Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Pose};
 use crate::reader::Snapshot;
+use crate::store::{Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Pose};
 
 impl JointKind {
     /// The kind a record's `joint_kind` field encodes (`None`: not a known kind).
@@ -238,7 +238,7 @@ impl Snapshot {
 #[cfg(test)]
 mod tests {
     use crate::{
-        DhConvention, JointKind, Kind, Kinematics, MassProps, Model, Snapshot, Transaction,
+        DhConvention, JointKind, Kind, Kinematics, MassProps, Snapshot, Store, Transaction,
     };
 
     /// Every kinematics variant written by a transaction reads back equal through the typed
@@ -284,9 +284,9 @@ mod tests {
             tx.set_joint(l, 0.25 * j as f64);
             joints.push(k);
         }
-        let mut m = Model::default();
+        let mut m = Store::default();
         m.apply(&tx).expect("valid");
-        let snap = Snapshot::from_model(&m);
+        let snap = Snapshot::from_store(&m);
         let robots = snap.robots();
         assert_eq!(robots.len(), 1);
         let r = &robots[0];
@@ -324,9 +324,9 @@ mod tests {
         p[3] = 1.0;
         tx.set_pose(b, p);
         tx.set_pose(c, p);
-        let mut m = Model::default();
+        let mut m = Store::default();
         m.apply(&tx).expect("valid");
-        let snap = Snapshot::from_model(&m);
+        let snap = Snapshot::from_store(&m);
         let (ia, ib, ic) = (
             snap.find("a").expect("a"),
             snap.find("b").expect("b"),

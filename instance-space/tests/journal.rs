@@ -2,10 +2,10 @@
 //! reported, and cut off; nothing before it is lost; checkpoints compact the journal.
 
 use robosim_instance_space::journal::{Journal, recover};
-use robosim_instance_space::{Kind, Model, Transaction};
+use robosim_instance_space::{Kind, Store, Transaction};
 use std::io::Write;
 
-fn commit(model: &mut Model, journal: &mut Journal, name: &str) {
+fn commit(model: &mut Store, journal: &mut Journal, name: &str) {
     let mut tx = Transaction::new();
     tx.create(Kind::Scene, name, None);
     let a = model.apply(&tx).expect("valid");

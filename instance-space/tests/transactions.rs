@@ -27,8 +27,8 @@ fn cube(s: f64) -> GeometryInput {
 }
 
 /// A scene with a robot with one link carrying a solid; returns (model, scene, robot, link, solid).
-fn base_model() -> (Model, Id, Id, Id, Id) {
-    let mut m = Model::new();
+fn base_model() -> (Store, Id, Id, Id, Id) {
+    let mut m = Store::new();
     let mut tx = Transaction::new();
     let scene = tx.create(Kind::Scene, "cell", None);
     let robot = tx.create(Kind::Robot, "arm", Some(scene));
@@ -40,7 +40,7 @@ fn base_model() -> (Model, Id, Id, Id, Id) {
     (m, a.created[0], a.created[1], a.created[2], a.created[3])
 }
 
-fn refused(m: &mut Model, tx: &Transaction) -> TxError {
+fn refused(m: &mut Store, tx: &Transaction) -> TxError {
     let before_version = m.version;
     let before: Vec<Object> = m.objects().cloned().collect();
     let err = m.apply(tx).expect_err("must be refused");

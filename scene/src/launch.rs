@@ -65,7 +65,7 @@ pub fn run_space(
     eprintln!(
         "space: session {} at version {} (checkpoint {}, {} journal records replayed)",
         session.name(),
-        keeper.model().version,
+        keeper.store().version,
         report.checkpoint_version,
         report.replayed
     );
@@ -77,7 +77,7 @@ pub fn run_space(
         "space: Library Space published ({} declarations)",
         lib.declarations().len()
     );
-    if keeper.model().is_empty()
+    if keeper.store().is_empty()
         && let Some(name) = scene_name
     {
         let txs = scene::load_from(&lib, name)?;
@@ -88,12 +88,12 @@ pub fn run_space(
         }
         eprintln!(
             "space: loaded scene {name} ({} objects, version {})",
-            keeper.model().len(),
-            keeper.model().version
+            keeper.store().len(),
+            keeper.store().version
         );
     }
     keeper.run().map_err(keeper_err)?;
-    eprintln!("space: stopped at version {}", keeper.model().version);
+    eprintln!("space: stopped at version {}", keeper.store().version);
     Ok(())
 }
 

@@ -2,13 +2,13 @@
 //! what a fresh compile of the same snapshot gives; a structure change compiles again.
 
 use robosim_collision::robot::{CheckResult, CollisionSettings, check_robot};
-use robosim_instance_space::{Model, Snapshot, Transaction};
+use robosim_instance_space::{Snapshot, Store, Transaction};
 use robosim_scene::{CompiledScene, Sync, build_library, joint_tx, load_from, pose};
 use std::collections::HashSet;
 
-fn cell() -> Model {
+fn cell() -> Store {
     let lib = build_library(&[]).expect("standard library");
-    let mut m = Model::new();
+    let mut m = Store::new();
     for tx in load_from(&lib, "surgical_positioner_cell").expect("scene") {
         m.apply(&tx).expect("valid");
     }
@@ -54,8 +54,8 @@ fn fingerprint(c: &CompiledScene) -> Vec<String> {
 fn joint_and_pose_changes_update_in_place_and_match_a_fresh_compile() {
     let mut m = cell();
     let mut cache = CompiledScene::new();
-    assert_eq!(cache.sync(&Snapshot::from_model(&m)), Sync::Compiled);
-    let snap = Snapshot::from_model(&m);
+    assert_eq!(cache.sync(&Snapshot::from_store(&m)), Sync::Compiled);
+    let snap = Snapshot::from_store(&m);
     assert_eq!(cache.sync(&snap), Sync::Unchanged);
     let arm = cache.robot("positioner").expect("compiled").clone();
     // 30 joint steps toward the head, then the head moved: all in place.
@@ -63,16 +63,16 @@ fn joint_and_pose_changes_update_in_place_and_match_a_fresh_compile() {
         let q: Vec<f64> = arm.q.iter().map(|x| x + 0.02 * k as f64).collect();
         m.apply(&joint_tx(&arm.robot, &arm.links, &q))
             .expect("joint tx");
-        assert_eq!(cache.sync(&Snapshot::from_model(&m)), Sync::Posed);
+        assert_eq!(cache.sync(&Snapshot::from_store(&m)), Sync::Posed);
     }
-    let snap = Snapshot::from_model(&m);
+    let snap = Snapshot::from_store(&m);
     let head = snap.find("head").expect("the head item");
     let mut moved = snap.poses()[head].pose;
     moved[3] -= 0.25;
     let mut tx = Transaction::new();
     tx.set_pose(snap.objects()[head].id, moved);
     m.apply(&tx).expect("pose tx");
-    let snap = Snapshot::from_model(&m);
+    let snap = Snapshot::from_store(&m);
     assert_eq!(cache.sync(&snap), Sync::Posed);
     assert_eq!(cache.stats().compiles, 1);
     assert_eq!(cache.stats().pose_updates, 31);
@@ -92,19 +92,19 @@ fn joint_and_pose_changes_update_in_place_and_match_a_fresh_compile() {
 #[test]
 fn a_structure_change_compiles_again() {
     let mut m = cell();
-    let mut cache = CompiledScene::of(&Snapshot::from_model(&m));
+    let mut cache = CompiledScene::of(&Snapshot::from_store(&m));
     let link = cache.robot("positioner").expect("compiled").links[0];
     let mut tx = Transaction::new();
     tx.set_appearance(link, robosim_instance_space::Appearance::default());
     m.apply(&tx).expect("appearance tx");
-    assert_eq!(cache.sync(&Snapshot::from_model(&m)), Sync::Compiled);
+    assert_eq!(cache.sync(&Snapshot::from_store(&m)), Sync::Compiled);
     assert_eq!(cache.stats().compiles, 2);
 }
 
 #[test]
 fn unknown_and_broken_robots_say_why() {
     let m = cell();
-    let cache = CompiledScene::of(&Snapshot::from_model(&m));
+    let cache = CompiledScene::of(&Snapshot::from_store(&m));
     let e = cache.robot("nobody").err().expect("unknown").to_string();
     assert!(
         e.contains("no robot named \"nobody\"") && e.contains("positioner"),
@@ -142,9 +142,9 @@ fn regression_fixed_joint_record_is_not_read_as_revolute() {
             qlim: [0.0, 0.0],
         }),
     );
-    let mut m = Model::new();
+    let mut m = Store::new();
     m.apply(&tx).expect("valid");
-    let cache = CompiledScene::of(&Snapshot::from_model(&m));
+    let cache = CompiledScene::of(&Snapshot::from_store(&m));
     assert!(cache.robots().is_empty());
     let e = cache.robot("arm").err().expect("refused").to_string();
     assert!(e.contains("wrist") && e.contains("fixed"), "{e}");

@@ -1,8 +1,8 @@
-//! The working model as plain Rust data, and the one function that changes it:
-//! [`Model::apply`], which validates a whole [`Transaction`] and then applies it, or refuses it
+//! The keeper's store: the working model as plain Rust data, and the one function that changes it:
+//! [`Store::apply`], which validates a whole [`Transaction`] and then applies it, or refuses it
 //! and changes nothing.
 //!
-//! The keeper owns a `Model`; readers never see this type — they see the flat `#[repr(C)]`
+//! The keeper owns a `Store`; readers never see this type — they see the flat `#[repr(C)]`
 //! records of [`crate::layout`] that the keeper publishes from it.
 //!
 //! Part-whole structure (seed §3.2 item 2): scene → robots / items → links → solids → parts.
@@ -302,9 +302,12 @@ impl Applied {
     }
 }
 
-/// The whole working model. `version` counts committed transactions.
-#[derive(Debug, Clone, Default)]
-pub struct Model {
+/// The keeper's store: the whole working model of the Instance Space as plain data (the
+/// keeper's copy behind the published records). `version` counts committed transactions.
+/// Named `Store`, not `Model`, so that "Model" means one thing in the project: the
+/// immutable description a simulation core runs over (Pinocchio's and MuJoCo's sense).
+#[derive(Debug, Clone)]
+pub struct Store {
     pub version: u64,
     /// The version of the last transaction that touched anything but poses and joint values
     /// (what a published objects segment carries: see `Snapshot::structure_version`).
@@ -314,9 +317,17 @@ pub struct Model {
     children: HashMap<Id, BTreeSet<Id>>,
 }
 
-impl Model {
+impl Default for Store {
+    /// An empty store; ids start at 1 (0 is "no parent").
+    fn default() -> Self {
+        Store::new()
+    }
+}
+
+impl Store {
+    /// An empty store; ids start at 1 (0 is "no parent").
     pub fn new() -> Self {
-        Model {
+        Store {
             version: 0,
             structure_version: 0,
             next_id: 1,
@@ -326,7 +337,7 @@ impl Model {
     }
     /// Rebuilds a model from a checkpoint's parts.
     pub(crate) fn from_parts(version: u64, next_id: Id, objects: Vec<Object>) -> Self {
-        let mut m = Model {
+        let mut m = Store {
             version,
             structure_version: version,
             next_id,
@@ -429,7 +440,7 @@ impl Model {
 
 /// A transaction being validated: the model plus an overlay of the objects it changed.
 struct Stage<'m> {
-    model: &'m Model,
+    model: &'m Store,
     /// `None` = deleted by this transaction.
     overlay: HashMap<Id, Option<Object>>,
     created: Vec<Id>,
@@ -480,7 +491,7 @@ impl Stage<'_> {
             .ok_or(TxError::UnknownObject { op, id })
     }
     fn op(&mut self, i: usize, op: &Op) -> Result<(), TxError> {
-        use crate::model::aspect::*;
+        use crate::store::aspect::*;
         match op {
             Op::Create { kind, name, parent } => {
                 check_name(i, 0, name)?;
