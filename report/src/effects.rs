@@ -220,8 +220,8 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
     let mut points = Vec::new();
     let mut points_min = Vec::new();
     for (i, ((name, _), pipe)) in configs.iter().zip(&pipes).enumerate() {
-        let contacts = if pipe.world.contact.is_some() {
-            pipe.world.contact_steps.to_string()
+        let contacts = if pipe.data().contact.is_some() {
+            pipe.data().contact_steps.to_string()
         } else {
             "-".into()
         };

@@ -18,4 +18,4 @@ pub use effects::{
     CollisionEffect, DynamicsEffect, EffectsError, EncoderEffect, LoggingEffect, OnContact,
     SceneEffects, Signal,
 };
-pub use pipeline::{Command, Pipeline, SceneGeometry, Stage, StepError, World};
+pub use pipeline::{Command, Data, Model, Pipeline, SceneGeometry, Stage, StepError};

@@ -28,17 +28,26 @@ pub enum Command {
     Torque(DVector<f64>),
 }
 
-/// Everything the stages share: the robot, its state, the command, and the outputs of declared
-/// stages (`None` when the stage that fills them is not in the pipeline).
+/// What the simulation is of, fixed once the pipeline is built (MuJoCo's `mjModel`): the robot
+/// and the step. Stages read it; nothing writes it after [`Pipeline::build`]. A stage's own
+/// model part (the dynamics model, the collision solids) lives in the stage.
 #[derive(Debug, Clone)]
-pub struct World {
+pub struct Model {
     pub robot: Robot,
+    /// The pipeline step (s).
+    pub dt: f64,
+}
+
+/// What changes as the simulation runs (MuJoCo's `mjData`): the state, the command, and the
+/// outputs of declared stages (`None` when the stage that fills them is not in the pipeline).
+/// Sized once by [`Pipeline::build`]; a step allocates nothing in it.
+#[derive(Debug, Clone)]
+pub struct Data {
     pub state: State,
     pub command: Command,
     /// The torques applied in the last step (dynamics only; zeros otherwise).
     pub tau: DVector<f64>,
-    /// The pipeline step (s).
-    pub dt: f64,
+    /// Steps taken.
     pub step: u64,
     /// Link frames `base, 1..n, tool` in the world (link-frames stage).
     pub frames: Option<Vec<Matrix4<f64>>>,
@@ -71,8 +80,8 @@ pub trait Stage: Send {
     fn depends_on(&self) -> &'static str;
     /// Its settings, for the printable description.
     fn describe(&self) -> String;
-    /// Runs the stage for the current step.
-    fn run(&mut self, world: &mut World) -> Result<(), StepError>;
+    /// Runs the stage for the current step: reads `m`, reads and writes `d`.
+    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError>;
     /// The robot was put at `q` from outside the pipeline (a writer moved its joints in the
     /// Instance Space): forget anything remembered about the old configuration.
     fn teleported(&mut self, _q: &DVector<f64>) {}
@@ -82,9 +91,10 @@ pub trait Stage: Send {
     }
 }
 
-/// A scene's simulation: the world and the stages it declared.
+/// A scene's simulation: its model, its data and the stages it declared.
 pub struct Pipeline {
-    pub world: World,
+    model: Model,
+    data: Data,
     stages: Vec<Box<dyn Stage>>,
     /// Effects the scene did not declare (or declared off), for the description.
     left_out: Vec<&'static str>,
@@ -194,12 +204,14 @@ impl Pipeline {
             qdd: DVector::zeros(n),
             t: 0.0,
         };
-        let world = World {
+        let model = Model {
             robot: robot.clone(),
+            dt,
+        };
+        let data = Data {
             state,
             command: Command::Idle,
             tau: DVector::zeros(n),
-            dt,
             step: 0,
             frames,
             q_measured,
@@ -207,7 +219,8 @@ impl Pipeline {
             contact_steps: 0,
         };
         Ok(Pipeline {
-            world,
+            model,
+            data,
             stages,
             left_out,
             log_stage,
@@ -215,20 +228,31 @@ impl Pipeline {
         })
     }
 
-    /// One step: every declared stage in order, then the clock. Time advances by `world.dt`.
+    /// What the simulation is of (fixed).
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+
+    /// Where it stands: state, command, the declared stages' outputs. Changed only by
+    /// [`Pipeline::step`], [`Pipeline::set_command`] and [`Pipeline::teleport`] (checked).
+    pub fn data(&self) -> &Data {
+        &self.data
+    }
+
+    /// One step: every declared stage in order, then the clock. Time advances by `model.dt`.
     pub fn step(&mut self) -> Result<(), StepError> {
         for stage in &mut self.stages {
-            stage.run(&mut self.world)?;
+            stage.run(&self.model, &mut self.data)?;
         }
-        self.world.step += 1;
+        self.data.step += 1;
         // the clock is kept as step · dt so that it does not drift by summation
-        self.world.state.t = self.world.step as f64 * self.world.dt;
+        self.data.state.t = self.data.step as f64 * self.model.dt;
         Ok(())
     }
 
     /// Sets the command (checked against the robot: length, finite).
     pub fn set_command(&mut self, command: Command) -> Result<(), StepError> {
-        let n = self.world.robot.dof();
+        let n = self.model.robot.dof();
         let check = |v: &DVector<f64>, what: &str| {
             if v.len() != n {
                 return Err(StepError::Command(format!(
@@ -253,14 +277,14 @@ impl Pipeline {
                 }
             }
         }
-        self.world.command = command;
+        self.data.command = command;
         Ok(())
     }
 
     /// Puts the robot at `q`, at rest, without stepping (a writer moved its joints in the
     /// Instance Space). The command stays. Checked: length and finite values.
     pub fn teleport(&mut self, q: &[f64]) -> Result<(), StepError> {
-        let n = self.world.robot.dof();
+        let n = self.model.robot.dof();
         if q.len() != n {
             return Err(StepError::Command(format!(
                 "teleport to {} values but the robot has {n} joints",
@@ -271,9 +295,9 @@ impl Pipeline {
             return Err(StepError::Command(format!("teleport q[{i}] is not finite")));
         }
         let q = DVector::from_column_slice(q);
-        self.world.state.q.copy_from(&q);
-        self.world.state.qd.fill(0.0);
-        self.world.state.qdd.fill(0.0);
+        self.data.state.q.copy_from(&q);
+        self.data.state.qd.fill(0.0);
+        self.data.state.qdd.fill(0.0);
         for s in &mut self.stages {
             s.teleported(&q);
         }
@@ -306,16 +330,16 @@ impl Pipeline {
 
 impl fmt::Display for Pipeline {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let name = if self.world.robot.name.is_empty() {
+        let name = if self.model.robot.name.is_empty() {
             "robot"
         } else {
-            &self.world.robot.name
+            &self.model.robot.name
         };
         writeln!(
             f,
             "pipeline for {name} ({} joints), step {} s:",
-            self.world.robot.dof(),
-            self.world.dt
+            self.model.robot.dof(),
+            self.model.dt
         )?;
         if self.stages.is_empty() {
             writeln!(f, "  (no stages: the robot stands still)")?;

@@ -33,9 +33,9 @@ fn only_declared_stages_are_built() {
     };
     let p = build(&kin);
     assert_eq!(p.stage_names(), ["motion", "link_frames"]);
-    assert!(p.world.frames.is_some());
+    assert!(p.data().frames.is_some());
     assert!(
-        p.world.q_measured.is_none() && p.world.contact.is_none(),
+        p.data().q_measured.is_none() && p.data().contact.is_none(),
         "no memory for undeclared effects"
     );
     let off = SceneEffects {
@@ -98,15 +98,15 @@ fn kinematic_motion_reaches_the_target_at_the_speed_limit_and_frames_follow() {
         p.step().expect("step");
     }
     // 0.25 s at 2 rad/s: joint 1 has covered 0.5 rad exactly, joint 6 only half of its 1 rad
-    assert!((p.world.state.q[0] - 0.5).abs() < 1e-12);
+    assert!((p.data().state.q[0] - 0.5).abs() < 1e-12);
     assert!(
-        (p.world.state.q[5] + 0.5).abs() < 1e-9,
+        (p.data().state.q[5] + 0.5).abs() < 1e-9,
         "{}",
-        p.world.state.q[5]
+        p.data().state.q[5]
     );
-    assert!((p.world.state.t - 0.25).abs() < 1e-15);
-    let frames = p.world.frames.as_ref().expect("declared");
-    let want = fk::link_frames(&p.world.robot, p.world.state.q.as_slice());
+    assert!((p.data().state.t - 0.25).abs() < 1e-15);
+    let frames = p.data().frames.as_ref().expect("declared");
+    let want = fk::link_frames(&p.model().robot, p.data().state.q.as_slice());
     for (a, b) in frames.iter().zip(&want) {
         assert!((a - b).abs().max() < 1e-14);
     }
@@ -127,7 +127,7 @@ fn joint_limits_stop_a_joint_at_its_limit() {
     for _ in 0..2000 {
         p.step().expect("step");
     }
-    assert_eq!(p.world.state.q[1], hi);
+    assert_eq!(p.data().state.q[1], hi);
     // without the effect the joint goes past
     let mut p = build(&SceneEffects {
         kinematics: true,
@@ -139,7 +139,7 @@ fn joint_limits_stop_a_joint_at_its_limit() {
     for _ in 0..2000 {
         p.step().expect("step");
     }
-    assert!(p.world.state.q[1] > hi + 0.9);
+    assert!(p.data().state.q[1] > hi + 0.9);
 }
 
 #[test]
@@ -160,7 +160,7 @@ fn dynamics_controller_holds_and_moves_the_arm_and_torque_needs_dynamics() {
         p.step().expect("step");
     }
     let err = p
-        .world
+        .data()
         .state
         .q
         .iter()
@@ -170,13 +170,13 @@ fn dynamics_controller_holds_and_moves_the_arm_and_torque_needs_dynamics() {
         err < 1e-3,
         "computed torque settles on the target (error {err})"
     );
-    assert!((p.world.state.t - 4.0).abs() < 1e-12);
+    assert!((p.data().state.t - 4.0).abs() < 1e-12);
     // idle under dynamics: the arm falls
     p.set_command(Command::Idle).expect("command");
     for _ in 0..200 {
         p.step().expect("step");
     }
-    assert!(p.world.state.qd.norm() > 0.1);
+    assert!(p.data().state.qd.norm() > 0.1);
     let mut k = build(&SceneEffects {
         kinematics: true,
         ..SceneEffects::default()
@@ -229,18 +229,22 @@ fn collision_stops_the_arm_before_an_obstacle_or_reports() {
             )
             .expect("builds");
             p.step().expect("step");
-            assert_eq!(p.world.contact, Some(false), "{mode:?}: clear at the start");
+            assert_eq!(
+                p.data().contact,
+                Some(false),
+                "{mode:?}: clear at the start"
+            );
             p.set_command(target(&[0.0, 0.0, 0.0, 0.0, 0.0, 0.0]))
                 .expect("command"); // swing into the wall
             for _ in 0..4000 {
                 p.step().expect("step");
             }
             assert!(
-                p.world.state.q[0] > 0.1,
+                p.data().state.q[0] > 0.1,
                 "{mode:?}/{continuous}: stopped before reaching the wall (q1 = {})",
-                p.world.state.q[0]
+                p.data().state.q[0]
             );
-            assert!(p.world.contact_steps > 0, "{mode:?}: contact seen");
+            assert!(p.data().contact_steps > 0, "{mode:?}: contact seen");
             let effects = SceneEffects {
                 kinematics: true,
                 collision: Some(CollisionEffect {
@@ -267,10 +271,11 @@ fn collision_stops_the_arm_before_an_obstacle_or_reports() {
                 p.step().expect("step");
             }
             assert_eq!(
-                p.world.state.q[0], 0.0,
+                p.data().state.q[0],
+                0.0,
                 "{mode:?}: report mode does not stop the motion"
             );
-            assert_eq!(p.world.contact, Some(true));
+            assert_eq!(p.data().contact, Some(true));
         }
     }
 }
@@ -297,9 +302,9 @@ fn encoder_quantises_and_logging_records() {
             p.step().expect("step");
         }
         let r = std::f64::consts::TAU / 1024.0;
-        let m = p.world.q_measured.as_ref().expect("declared");
+        let m = p.data().q_measured.as_ref().expect("declared");
         for j in 0..6 {
-            assert!((m[j] - p.world.state.q[j]).abs() <= r / 2.0 + 1e-15);
+            assert!((m[j] - p.data().state.q[j]).abs() <= r / 2.0 + 1e-15);
             assert!(((m[j] / r).round() * r - m[j]).abs() < 1e-15);
         }
         assert_eq!(p.log_header().expect("declared").len(), 1 + 6 + 6);
@@ -307,7 +312,7 @@ fn encoder_quantises_and_logging_records() {
             let rows = p.log();
             assert_eq!(rows.len(), 10);
             assert!((rows[9][0] - 0.1).abs() < 1e-15, "t of the last row");
-            assert_eq!(rows[9][1..7], *p.world.state.q.as_slice());
+            assert_eq!(rows[9][1..7], *p.data().state.q.as_slice());
         }
         drop(p);
     }
@@ -329,7 +334,7 @@ fn effects_parse_from_json_with_errors_that_say_where() {
         Some((Mode::Polygon, false))
     );
     let p = build(&e);
-    assert_eq!(p.world.dt, 0.002);
+    assert_eq!(p.model().dt, 0.002);
     assert!(p.to_string().contains("gravity [0, 0, -1.62]"));
     let err =
         SceneEffects::from_json("{\"kinematics\": true,\n \"colision\": {}}").expect_err("typo");
@@ -382,7 +387,7 @@ fn pipeline_runs_are_bit_identical() {
         for _ in 0..500 {
             p.step().expect("step");
         }
-        robosim_dynamics::state_hash(&p.world.state)
+        robosim_dynamics::state_hash(&p.data().state)
     };
     assert_eq!(run(), run());
 }
@@ -424,7 +429,7 @@ fn every_integrator_runs_in_the_pipeline_and_agrees_with_simulate() {
         let (s, _) =
             simulate(&model, config, &Q0, &[0.0; 6], &[0.0; 6], &[0.2]).expect("simulates");
         let diff = p
-            .world
+            .data()
             .state
             .q
             .iter()
@@ -437,6 +442,6 @@ fn every_integrator_runs_in_the_pipeline_and_agrees_with_simulate() {
             diff <= tol,
             "{integrator} (rtol {rtol:?}): pipeline and simulate differ by {diff}"
         );
-        assert!((p.world.state.t - 0.2).abs() < 1e-12);
+        assert!((p.data().state.t - 0.2).abs() < 1e-12);
     }
 }

@@ -69,7 +69,7 @@ pub fn run(args: &SimArgs, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<(),
             pipe.step().map_err(|e| format!("step {k}: {e}"))?;
         }
         let wall = start.elapsed().as_secs_f64();
-        let s = &pipe.world.state;
+        let s = &pipe.data().state;
         println!(
             "ran {} steps to t = {} s in {:.3} s wall ({:.3} µs per step)",
             args.steps,

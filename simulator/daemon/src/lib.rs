@@ -478,7 +478,7 @@ pub fn run(
             s.pipeline.stage_names().join(" → ")
         );
     }
-    let dt = d.sims.first().map_or(0.01, |s| s.pipeline.world.dt);
+    let dt = d.sims.first().map_or(0.01, |s| s.pipeline.model().dt);
     let publish_every = ((1.0 / publish_hz) / dt).round().max(1.0) as u64;
     let mut running = mode != Mode::Lockstep;
     let mut budget = 0u64;
@@ -526,9 +526,9 @@ pub fn run(
             let mut bodies = Vec::new();
             let mut t = 0.0;
             for s in &d.sims {
-                let w = &s.pipeline.world;
+                let (m, w) = (s.pipeline.model(), s.pipeline.data());
                 t = w.state.t;
-                let poses = link_poses(&w.robot, w.state.q.as_slice());
+                let poses = link_poses(&m.robot, w.state.q.as_slice());
                 for (j, id) in s.links.iter().enumerate() {
                     joints.push(JointStateRec {
                         id: *id,

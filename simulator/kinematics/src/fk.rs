@@ -58,15 +58,27 @@ pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<
 /// `A_j` (j = 1..=n), and the last entry the tool frame — n + 2 matrices in all.
 /// `q` must have `robot.dof()` entries (check with [`Robot::check_q`]).
 pub fn link_frames(robot: &Robot, q: &[f64]) -> Vec<Matrix4<f64>> {
-    let mut frames = Vec::with_capacity(robot.dof() + 2);
-    let mut t = robot.base;
-    frames.push(t);
-    for (joint, &qj) in robot.joints.iter().zip(q) {
-        t *= link_transform(robot.convention, joint, qj);
-        frames.push(t);
-    }
-    frames.push(t * robot.tool);
+    let mut frames = vec![Matrix4::identity(); robot.dof() + 2];
+    link_frames_into(robot, q, &mut frames);
     frames
+}
+
+/// [`link_frames`] into a caller-owned slice of `robot.dof() + 2` frames (no allocation; see
+/// [`crate::Data`]). Panics if the slice is shorter: its size is the caller's invariant.
+pub fn link_frames_into(robot: &Robot, q: &[f64], frames: &mut [Matrix4<f64>]) {
+    let n = robot.joints.len();
+    assert!(
+        frames.len() >= n + 2,
+        "link_frames_into: {} frames for {n} joints (needs n + 2)",
+        frames.len()
+    );
+    let mut t = robot.base;
+    frames[0] = t;
+    for (j, (joint, &qj)) in robot.joints.iter().zip(q).enumerate() {
+        t *= link_transform(robot.convention, joint, qj);
+        frames[j + 1] = t;
+    }
+    frames[n + 1] = t * robot.tool;
 }
 
 /// The tool pose `T_ee = base · A_1 ⋯ A_n · tool` in the world.

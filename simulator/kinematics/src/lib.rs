@@ -8,6 +8,8 @@
 //!   inline JSON form is read and written by `robosim_hl_interface::robot_json`);
 //!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
+//! * [`Data`] — the working memory (frames, Jacobian) apart from the model: sized once for a
+//!   robot, reused so a step or an IK iteration allocates nothing.
 //! * [`jacobian::jacobian`], [`jacobian::singularity`] — geometric Jacobians, distance to
 //!   singularity.
 //! * [`ik::solve`] — inverse kinematics (analytic, Newton, damped least squares, hybrid, auto).
@@ -15,6 +17,7 @@
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
 
 mod builtin;
+mod data;
 pub mod encoder;
 pub mod fk;
 pub mod ik;
@@ -24,5 +27,6 @@ pub mod movej;
 pub mod pose;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
+pub use data::Data;
 pub use model::{Convention, Joint, JointType, ModelError, Robot, State};
 pub use movej::{LimitViolation, MoveJError, movej_interpolate};

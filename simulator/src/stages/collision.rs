@@ -6,7 +6,7 @@
 //! (`on_contact: stop`), or the contact is only recorded (`report`). Depends only on q.
 
 use crate::effects::{CollisionEffect, EffectsError, OnContact};
-use crate::pipeline::{SceneGeometry, Stage, StepError, World};
+use crate::pipeline::{Data, Model, SceneGeometry, Stage, StepError};
 use nalgebra::DVector;
 use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot};
 use robosim_collision::robot::{CheckResult, CollisionSettings, LinkSolids, Scene, check_robot};
@@ -93,11 +93,11 @@ impl Stage for CollisionStage {
             }
         )
     }
-    fn run(&mut self, w: &mut World) -> Result<(), StepError> {
-        let q = w.state.q.as_slice();
+    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError> {
+        let q = d.state.q.as_slice();
         let contact = if self.settings.continuous {
             let s = sweep_robot(
-                &w.robot,
+                &m.robot,
                 &self.links,
                 self.q_safe.as_slice(),
                 q,
@@ -108,20 +108,20 @@ impl Stage for CollisionStage {
             .map_err(|e| StepError::Collision(e.to_string()))?;
             !matches!(s, Sweep::Clear)
         } else {
-            let r = check_robot(&w.robot, &self.links, q, &self.scene, &self.settings)
+            let r = check_robot(&m.robot, &self.links, q, &self.scene, &self.settings)
                 .map_err(|e| StepError::Collision(e.to_string()))?;
             !matches!(r, CheckResult::Clear)
         };
         if contact {
-            w.contact_steps += 1;
+            d.contact_steps += 1;
             if self.on_contact == OnContact::Stop {
-                w.state.q.copy_from(&self.q_safe);
-                w.state.qd.fill(0.0);
+                d.state.q.copy_from(&self.q_safe);
+                d.state.qd.fill(0.0);
             }
         } else {
-            self.q_safe.copy_from(&w.state.q);
+            self.q_safe.copy_from(&d.state.q);
         }
-        w.contact = Some(contact);
+        d.contact = Some(contact);
         Ok(())
     }
     fn teleported(&mut self, q: &DVector<f64>) {

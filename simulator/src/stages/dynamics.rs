@@ -4,7 +4,7 @@
 //! `ë + kd ė + kp e = 0` per joint when the model is exact). Depends on q, q̇ and the command.
 
 use crate::effects::{DynamicsEffect, EffectsError};
-use crate::pipeline::{Command, Stage, StepError, World};
+use crate::pipeline::{self, Command, Stage, StepError};
 use nalgebra::{DVector, Vector3};
 use robosim_dynamics::{Data, Integrator, IntegratorConfig, Model, StepSize, Stepper, rnea};
 use robosim_kinematics::Robot;
@@ -111,38 +111,38 @@ impl Stage for DynamicsStage {
     fn describe(&self) -> String {
         self.summary.clone()
     }
-    fn run(&mut self, w: &mut World) -> Result<(), StepError> {
-        match &w.command {
+    fn run(&mut self, m: &pipeline::Model, d: &mut pipeline::Data) -> Result<(), StepError> {
+        match &d.command {
             Command::Idle => self.tau.fill(0.0),
             Command::Torque(t) => self.tau.copy_from(t),
             Command::Target(target) => {
                 // computed torque: the desired acceleration through inverse dynamics
                 for j in 0..self.qdd_des.len() {
                     self.qdd_des[j] =
-                        self.kp * (target[j] - w.state.q[j]) - self.kd * w.state.qd[j];
+                        self.kp * (target[j] - d.state.q[j]) - self.kd * d.state.qd[j];
                 }
                 let tau = rnea(
                     &self.model,
                     &mut self.data,
-                    w.state.q.as_slice(),
-                    w.state.qd.as_slice(),
+                    d.state.q.as_slice(),
+                    d.state.qd.as_slice(),
                     self.qdd_des.as_slice(),
                 )?;
                 self.tau.copy_from(tau);
             }
         }
-        let t_next = w.state.t + w.dt;
+        let t_next = d.state.t + m.dt;
         match self.stepper.config.step {
             StepSize::Fixed(dt) => {
                 self.stepper
-                    .step(&self.model, &mut w.state, self.tau.as_slice(), dt)?
+                    .step(&self.model, &mut d.state, self.tau.as_slice(), dt)?
             }
             StepSize::Adaptive { .. } => {
                 self.stepper
-                    .advance_to(&self.model, &mut w.state, self.tau.as_slice(), t_next)?
+                    .advance_to(&self.model, &mut d.state, self.tau.as_slice(), t_next)?
             }
         }
-        w.tau.copy_from(&self.tau);
+        d.tau.copy_from(&self.tau);
         Ok(())
     }
 }

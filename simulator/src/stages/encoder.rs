@@ -3,7 +3,7 @@
 //! one, into `World::q_measured`. Depends only on q.
 
 use crate::effects::{EffectsError, EncoderEffect};
-use crate::pipeline::{Stage, StepError, World};
+use crate::pipeline::{Data, Model, Stage, StepError};
 use robosim_kinematics::{JointType, Robot};
 
 pub struct Encoder {
@@ -58,13 +58,13 @@ impl Stage for Encoder {
             std::f64::consts::TAU / 2f64.powi(self.bits as i32)
         )
     }
-    fn run(&mut self, w: &mut World) -> Result<(), StepError> {
+    fn run(&mut self, _: &Model, d: &mut Data) -> Result<(), StepError> {
         // the builder allocates `q_measured` whenever it adds this stage
-        let Some(m) = w.q_measured.as_mut() else {
+        let Some(m) = d.q_measured.as_mut() else {
             return Ok(());
         };
         for (j, r) in self.resolution.iter().enumerate() {
-            m[j] = (w.state.q[j] / r).round() * r;
+            m[j] = (d.state.q[j] / r).round() * r;
         }
         Ok(())
     }

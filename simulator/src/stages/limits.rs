@@ -2,7 +2,7 @@
 //! limit is put on it and its velocity into the limit is zeroed. Depends on q, q̇.
 
 use crate::effects::EffectsError;
-use crate::pipeline::{Stage, StepError, World};
+use crate::pipeline::{self, Stage, StepError};
 use robosim_dynamics::{Model, apply_joint_stops};
 use robosim_kinematics::Robot;
 
@@ -31,8 +31,8 @@ impl Stage for JointLimits {
     fn describe(&self) -> String {
         "inelastic stops at qlim (q clamped, velocity into the limit zeroed)".into()
     }
-    fn run(&mut self, w: &mut World) -> Result<(), StepError> {
-        apply_joint_stops(&self.model, &mut w.state);
+    fn run(&mut self, _: &pipeline::Model, d: &mut pipeline::Data) -> Result<(), StepError> {
+        apply_joint_stops(&self.model, &mut d.state);
         Ok(())
     }
 }

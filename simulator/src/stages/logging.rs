@@ -2,7 +2,7 @@
 //! first, flushed when the pipeline is dropped) or to memory. Depends on everything before it.
 
 use crate::effects::{EffectsError, LoggingEffect, Signal};
-use crate::pipeline::{Stage, StepError, World};
+use crate::pipeline::{Data, Model, Stage, StepError};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::sync::{Arc, Mutex};
@@ -127,22 +127,22 @@ impl Stage for Logging {
         };
         format!("{} every {} step(s) to {to}", names.join(", "), self.every)
     }
-    fn run(&mut self, w: &mut World) -> Result<(), StepError> {
-        if !(w.step + 1).is_multiple_of(self.every) {
+    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError> {
+        if !(d.step + 1).is_multiple_of(self.every) {
             return Ok(());
         }
         self.row.clear();
         for s in &self.signals {
             match s {
-                Signal::T => self.row.push((w.step + 1) as f64 * w.dt), // the time at the end of this step
-                Signal::Q => self.row.extend(w.state.q.iter()),
-                Signal::Qd => self.row.extend(w.state.qd.iter()),
-                Signal::Qdd => self.row.extend(w.state.qdd.iter()),
-                Signal::Tau => self.row.extend(w.tau.iter()),
-                Signal::QMeasured => self.row.extend(w.q_measured.iter().flat_map(|m| m.iter())),
+                Signal::T => self.row.push((d.step + 1) as f64 * m.dt), // the time at the end of this step
+                Signal::Q => self.row.extend(d.state.q.iter()),
+                Signal::Qd => self.row.extend(d.state.qd.iter()),
+                Signal::Qdd => self.row.extend(d.state.qdd.iter()),
+                Signal::Tau => self.row.extend(d.tau.iter()),
+                Signal::QMeasured => self.row.extend(d.q_measured.iter().flat_map(|m| m.iter())),
                 Signal::Contact => self
                     .row
-                    .push(if w.contact == Some(true) { 1.0 } else { 0.0 }),
+                    .push(if d.contact == Some(true) { 1.0 } else { 0.0 }),
             }
         }
         match &mut self.sink {

@@ -2,7 +2,7 @@
 //! at most `max_speed · dt` per step; q̇ is the resulting finite difference. Depends on q and the
 //! command.
 
-use crate::pipeline::{Command, Stage, StepError, World};
+use crate::pipeline::{Command, Data, Model, Stage, StepError};
 
 pub struct KinematicMotion {
     max_speed: f64,
@@ -27,18 +27,18 @@ impl Stage for KinematicMotion {
             self.max_speed
         )
     }
-    fn run(&mut self, w: &mut World) -> Result<(), StepError> {
-        let max_step = self.max_speed * w.dt;
-        match &w.command {
+    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError> {
+        let max_step = self.max_speed * m.dt;
+        match &d.command {
             Command::Target(target) => {
-                for j in 0..w.state.q.len() {
-                    let dq = (target[j] - w.state.q[j]).clamp(-max_step, max_step);
-                    w.state.q[j] += dq;
-                    w.state.qd[j] = dq / w.dt;
+                for j in 0..d.state.q.len() {
+                    let dq = (target[j] - d.state.q[j]).clamp(-max_step, max_step);
+                    d.state.q[j] += dq;
+                    d.state.qd[j] = dq / m.dt;
                 }
             }
             // a torque command cannot be set without dynamics (Pipeline::set_command)
-            Command::Idle | Command::Torque(_) => w.state.qd.fill(0.0),
+            Command::Idle | Command::Torque(_) => d.state.qd.fill(0.0),
         }
         Ok(())
     }

@@ -11,7 +11,7 @@
 //! Entry point: [`Newton`].
 
 use super::{IkError, IkOptions, IkResult, IkSolver, Method, finish};
-use crate::jacobian::fk_and_jacobian;
+use crate::data::Data;
 use crate::model::Robot;
 use crate::pose::{pose_error, rotation, to_target_frame};
 use nalgebra::{DMatrix, DVector, Matrix4};
@@ -45,16 +45,19 @@ impl IkSolver for Newton {
         let mut q = options.q0.clone().unwrap_or_else(|| vec![0.0; n]);
         let mut iterations = 0;
         let mut converged = false;
+        // frames and Jacobian computed into one buffer for the whole solve; the m × n system
+        // is rebuilt in place (its LU factorisation still takes its own copy)
+        let mut data = Data::new(robot);
+        let mut jm = DMatrix::zeros(m, n);
         while iterations < options.max_iterations {
-            let (t, jac) = fk_and_jacobian(robot, &q);
-            let e = to_target_frame(&pose_error(&t, target), target);
+            let (t, jac) = data.fk_and_jacobian(robot, &q);
+            let e = to_target_frame(&pose_error(t, target), target);
             if options.tolerances.accept(&e) {
                 converged = true;
                 break;
             }
             iterations += 1;
             // Jacobian in target-frame axes, constrained rows only.
-            let mut jm = DMatrix::zeros(m, n);
             for c in 0..n {
                 let v = rt * jac.fixed_view::<3, 1>(0, c);
                 let w = rt * jac.fixed_view::<3, 1>(3, c);
@@ -64,7 +67,7 @@ impl IkSolver for Newton {
             }
             let em = DVector::from_iterator(m, rows.iter().map(|&i| e[i]));
             let dq = if m == n {
-                jm.lu().solve(&em)
+                jm.clone().lu().solve(&em)
             } else if n > m {
                 (&jm * jm.transpose())
                     .lu()
