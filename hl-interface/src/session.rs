@@ -85,6 +85,16 @@ pub const OPS: &[&str] = &[
     "c_switch",
 ];
 
+/// The index of the object named `name`, or an `unknown_object` error naming it.
+fn object_index(snap: &Snapshot, name: &str) -> std::result::Result<usize, ProtocolError> {
+    snap.find(name).ok_or_else(|| {
+        err(
+            ErrorKind::UnknownObject,
+            format!("no object named {name:?}"),
+        )
+    })
+}
+
 fn str_field<'a>(req: &'a Value, f: &str) -> std::result::Result<&'a str, ProtocolError> {
     req.get(f)
         .and_then(Value::as_str)
@@ -200,12 +210,7 @@ impl Ops {
         match op {
             "use" | "dontuse" => {
                 let name = str_field(req, "object")?;
-                let i = snap.find(name).ok_or_else(|| {
-                    err(
-                        ErrorKind::UnknownObject,
-                        format!("no object named {name:?}"),
-                    )
-                })?;
+                let i = object_index(&snap, name)?;
                 let id = snap.objects()[i].id;
                 if op == "use" {
                     self.unused.remove(&id);
@@ -242,12 +247,7 @@ impl Ops {
             }
             "pretranslate" | "posttranslate" | "prerotate" | "postrotate" => {
                 let name = str_field(req, "object")?;
-                let i = snap.find(name).ok_or_else(|| {
-                    err(
-                        ErrorKind::UnknownObject,
-                        format!("no object named {name:?}"),
-                    )
-                })?;
+                let i = object_index(&snap, name)?;
                 let t = if op.ends_with("translate") {
                     let v = vec_field(req, "by")?;
                     if v.len() != 3 {

@@ -4,51 +4,9 @@
 use nalgebra::Vector3;
 use robosim_library::{DeclKind, Error, Evaluated, Library, Params, Primitive};
 
-const SRC: &str = r#"
-// A two-link planar arm.
-colour red = rgb(1, 0, 0)
-let steel = 7850 kg/m^3
-
-solid bar(length = 0.5 m, width = 4 cm) {
-    colour: red
-    part box(length, width, width) at translate(-length / 2, 0, 0)
-}
-
-robot planar(l1 = 0.5 m, l2 = 30 cm) {
-    base: translate(0, 0, 1 m)
-    tool: translate(5 cm, 0, 0)
-    link one {
-        joint: revolute
-        a: l1
-        limits: [-90 deg, 90 deg]
-        density: steel
-        part bar(length: l1)
-    }
-    link two {
-        joint: revolute
-        a: l2
-        mass: 2 kg
-        part bar(length: l2)
-    }
-    link gripper {
-        joint: fixed
-        a: 2 cm
-        part box(2 cm, 6 cm, 2 cm)
-    }
-}
-
-scene demo(reach = 0.5 m) {
-    place arm = planar(l1: reach) at translate(1 m, 0, 0) q [30 deg, -45 deg]
-    place table = bar(length: 2 m) at translate(0, 0, 0.5 m)
-    effects {
-        joint_limits: on
-        collision { mode: exact, self: on, continuous: on }
-        dynamics { integrator: semi_implicit_euler, step: 2 ms }
-        encoder_bits: 14
-        log: ["q", "tau"]
-    }
-}
-"#;
+/// A two-link planar arm with a gripper and a scene declaring every effect (shared with
+/// hl-interface's CLI test).
+const SRC: &str = include_str!("planar_demo.rsl");
 
 fn lib() -> Library {
     Library::from_source("demo.rsl", SRC).unwrap_or_else(|e| panic!("{e}"))

@@ -38,6 +38,33 @@ impl Procs {
         self.children.push(c);
         pid
     }
+    /// [`Procs::spawn`] with the process's stderr written to `log`.
+    pub fn spawn_logged(&mut self, args: &[&str], log: &std::path::Path) -> u32 {
+        let c = Command::new(ROBOSIM)
+            .args(args)
+            .args(["--session", &self.name])
+            .env("ROBOSIM_HOME", self.home.path())
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(log).expect("log file"))
+            .spawn()
+            .expect("spawn robosim");
+        let pid = c.id();
+        self.children.push(c);
+        pid
+    }
+    /// SIGTERM to a process this started, then waits for it to exit.
+    pub fn stop(&mut self, pid: u32) -> std::process::ExitStatus {
+        let i = self
+            .children
+            .iter()
+            .position(|c| c.id() == pid)
+            .expect("a process this test started");
+        let mut c = self.children.remove(i);
+        let _ = Command::new("kill")
+            .args(["-TERM", &pid.to_string()])
+            .status();
+        c.wait().expect("wait")
+    }
     pub fn session(&self) -> robosim_instance_space::Session {
         robosim_instance_space::Session::open_in(self.home.path(), Some(&self.name))
             .expect("session")

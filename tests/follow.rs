@@ -1,0 +1,137 @@
+//! Work follows the change, across processes (issue: "a MOVEJI of 30 steps then compiles the
+//! robot once"). A real keeper and a real simulator daemon; this test process is the planner,
+//! running the session ops of `robosim_hl_interface::session` against the keeper.
+//!
+//! * The planner's 30-step MOVEJI commits 30 joint-only transactions; its own compiled scene is
+//!   compiled once and then only re-posed.
+//! * The daemon follows every one of them without rebuilding a pipeline or re-parsing the
+//!   Library Space (its counters, printed on SIGTERM), and its published state is the MOVEJI's
+//!   last step. A structure change (a rename) does rebuild: the cache is not simply stuck.
+
+mod common;
+
+use common::{Procs, ROBOSIM, wait_for};
+use robosim_hl_interface::session::Ops;
+use robosim_instance_space::state::StateSubscriber;
+use robosim_instance_space::{Client, Transaction};
+use serde_json::json;
+use std::process::Command;
+use std::time::Duration;
+
+fn simctl(p: &Procs, cmd: &str) {
+    let st = Command::new(ROBOSIM)
+        .args(["simctl", "--session", &p.name, cmd])
+        .env("ROBOSIM_HOME", p.home.path())
+        .status()
+        .expect("simctl");
+    assert!(st.success());
+}
+
+/// `(rebuilds, in place, library parses)` from the daemon's last line.
+fn counters(log: &str) -> (u64, u64, u64) {
+    let line = log
+        .lines()
+        .rev()
+        .find(|l| l.contains("rebuild(s)"))
+        .unwrap_or_else(|| panic!("no counters in the daemon's log:\n{log}"));
+    let num_before = |what: &str| -> u64 {
+        let head = &line[..line.find(what).expect(what)];
+        let word = head.split_whitespace().last().expect("a number");
+        word.parse()
+            .unwrap_or_else(|_| panic!("{what} in {line:?}"))
+    };
+    (
+        num_before(" rebuild(s)"),
+        num_before(" change(s) applied in place"),
+        num_before(" library parse(s)"),
+    )
+}
+
+#[test]
+fn a_30_step_moveji_compiles_once_and_the_daemon_follows_it_in_place() {
+    let mut p = Procs::new("follow");
+    let log = p.home.path().join("daemon.log");
+    // The §2.7 cell: its effects (collision, encoders, logging) are declared in the Library
+    // Space, so the daemon parses the library for them.
+    p.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let session = p.session();
+    let daemon = p.spawn_logged(&["simulator", "--mode", "lockstep"], &log);
+    let mut state = wait_for("state service", || {
+        StateSubscriber::open(&session, "simulator", "test-reader").ok()
+    });
+    // The daemon has built its pipelines from the start version once it publishes a step.
+    wait_for("the daemon's first step", || {
+        simctl(&p, r#"{"cmd": "step", "n": 1}"#);
+        (!state
+            .wait(Duration::from_millis(200))
+            .expect("state")
+            .is_empty())
+        .then_some(())
+    });
+
+    // The planner: one MOVEJI of 30 steps, each step one acknowledged transaction.
+    // from the folded start [0, 60°, -150°, 0, 0, 0] a little further from the head
+    let target = [-0.3, 0.9, -2.4, 0.2, 0.1, 0.0];
+    let mut ops = Ops::attach(&session).expect("attach the session ops");
+    let moved = ops
+        .dispatch(
+            "moveji",
+            &json!({"robot": "positioner", "q": target, "steps": 30}),
+        )
+        .expect("a session op")
+        .expect("MOVEJI through free space");
+    assert_eq!(moved["completed"], true, "{moved}");
+    assert_eq!(moved["steps_done"], 30, "{moved}");
+    let stats = ops.compiled().stats();
+    assert_eq!(stats.compiles, 1, "compiled once for 30 steps: {stats:?}");
+    // A CHECK after the 30 committed versions: the cache is keyed by structure, so it re-poses
+    // (joint values and world poses) and compiles nothing.
+    ops.dispatch("check", &json!({"robot": "positioner"}))
+        .expect("a session op")
+        .expect("check");
+    let stats = ops.compiled().stats();
+    assert_eq!(stats.compiles, 1, "still compiled once: {stats:?}");
+    assert!(stats.pose_updates >= 1, "re-posed instead: {stats:?}");
+
+    // The daemon adopts the committed joints (at rest) when it next looks: step it until its
+    // published state is the MOVEJI's last step (no sleeping on a guess of how long it takes).
+    let at_target = |q: &[f64]| q.iter().zip(target).all(|(a, b)| (a - b).abs() < 1e-12);
+    wait_for("the daemon at the MOVEJI's last step", || {
+        simctl(&p, r#"{"cmd": "step", "n": 1}"#);
+        let recs = state.wait(Duration::from_millis(200)).expect("state");
+        recs.last()
+            .map(|r| r.joints.iter().map(|j| j.q).collect::<Vec<f64>>())
+            .filter(|q| at_target(q))
+    });
+
+    // A structure change: the daemon must rebuild for it.
+    let mut c = Client::connect(&session, "writer").expect("writer");
+    let mut tx = Transaction::new();
+    tx.set_name(1, "renamed");
+    let v = c.transact(&tx).expect("rename").version;
+    wait_for("the daemon on the renamed structure", || {
+        simctl(&p, r#"{"cmd": "step", "n": 1}"#);
+        let recs = state.wait(Duration::from_millis(200)).expect("state");
+        recs.last()
+            .filter(|r| r.header.structure_version >= v)
+            .map(|_| ())
+    });
+
+    let status = p.stop(daemon);
+    assert!(status.success(), "daemon stopped cleanly on SIGTERM");
+    let text = std::fs::read_to_string(&log).expect("daemon log");
+    let (rebuilds, in_place, parses) = counters(&text);
+    assert_eq!(
+        rebuilds, 2,
+        "built at start and for the rename, never for a joint change:\n{text}"
+    );
+    assert!(
+        in_place >= 1,
+        "the MOVEJI's steps applied in place:\n{text}"
+    );
+    assert!(in_place <= 30, "at most one per committed version:\n{text}");
+    assert_eq!(
+        parses, 1,
+        "the Library Space parsed once (its sources never changed):\n{text}"
+    );
+}
