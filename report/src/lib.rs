@@ -12,6 +12,8 @@
 //! * [`effects::report_effects`] — `robosim report effects`: cost per pipeline step by effect;
 //! * [`library::report_library`] — `robosim report library`: parse + evaluate time;
 //! * [`automation::report_diag`] — `robosim report diag`: diagnosis time and resolution;
+//! * [`ipc`] — `robosim bench ipc`: the Instance Space's costs (snapshot access, pose
+//!   transactions, notification latency, journaled throughput), across real processes;
 //! * [`cli`] — the clap arguments and runners of `robosim report ik|collision`.
 
 pub mod automation;
@@ -20,6 +22,7 @@ pub mod collision;
 pub mod dynamics;
 pub mod effects;
 pub mod ik;
+pub mod ipc;
 pub mod library;
 pub mod plot;
 
