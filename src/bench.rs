@@ -1,5 +1,5 @@
-//! `robosim bench ipc|display|reaction`: the subcommands and where each bench lives
-//! (`robosim_report::ipc`, `robosim_display::bench`, `robosim_simulator_daemon::bench`).
+//! `robosim bench ipc|journal|display|reaction`: the subcommands and where each bench lives
+//! (`robosim_report::ipc`, `robosim_report::journal`, `robosim_display::bench`, `robosim_simulator_daemon::bench`).
 
 use crate::{CliError, Result};
 use std::path::PathBuf;
@@ -10,6 +10,16 @@ pub enum Which {
     /// journaled throughput.
     Ipc {
         /// Where to write ipc.md and ipc.csv.
+        #[arg(long, default_value = "docs/bench")]
+        out: PathBuf,
+        /// Fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+    },
+    /// The journal's second copy: group-commit latency, throughput and recovery time with one
+    /// and two copies, in one run.
+    Journal {
+        /// Where to write journal.md and journal.csv.
         #[arg(long, default_value = "docs/bench")]
         out: PathBuf,
         /// Fewer repetitions (for a smoke run).
@@ -56,6 +66,12 @@ pub fn run(which: Which) -> Result<()> {
     match which {
         Which::Ipc { out, quick } => {
             robosim_report::ipc::run(&out, quick).map_err(|e| CliError(e.to_string()))
+        }
+        Which::Journal { out, quick } => {
+            for p in robosim_report::journal::run(&out, quick).map_err(CliError)? {
+                println!("{}", p.display());
+            }
+            Ok(())
         }
         Which::Display { out, quick } => {
             robosim_display::bench::run(&out, quick).map_err(|e| crate::CliError(e.0))

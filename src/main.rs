@@ -36,6 +36,10 @@ enum Command {
         /// Do not sync the journal before acknowledging (benchmarks only).
         #[arg(long, hide = true)]
         no_sync: bool,
+        /// Copies of the journal: 2 (default) also writes every record to a mirror file, so one
+        /// damaged record is read from the other copy instead of cutting the records after it.
+        #[arg(long, default_value_t = 2)]
+        journal_copies: u8,
     },
     /// Start a session: the keeper with SCENE, and only the components named with --with.
     Up {
@@ -139,6 +143,12 @@ enum Command {
     },
     /// Build a scene's effect pipeline, print it, optionally run it headless.
     Sim(robosim_hl_interface::cli::sim::SimArgs),
+    /// Read a journal file (a session's `data/journal-*.log`, or a cut that recovery kept under
+    /// `data/lost/`): every readable record with its version and operations, and the damage.
+    Journal {
+        #[command(subcommand)]
+        cmd: JournalCmd,
+    },
     /// What accuracy costs in time: regenerate a report (CSV, markdown table, PNG plot).
     Report {
         #[command(subcommand)]
@@ -148,6 +158,15 @@ enum Command {
     Bench {
         #[command(subcommand)]
         which: bench::Which,
+    },
+}
+
+#[derive(Subcommand)]
+enum JournalCmd {
+    /// One line per record: byte offset, version, size and operations; damaged bytes named.
+    Inspect {
+        /// The journal file.
+        path: std::path::PathBuf,
     },
 }
 
@@ -162,11 +181,13 @@ fn main() -> ExitCode {
             scene,
             library,
             no_sync,
+            journal_copies,
         } => robosim_scene::launch::run_space(
             session.as_deref(),
             scene.as_deref(),
             &library,
             !no_sync,
+            journal_copies,
         )
         .map_err(CliError::from),
         Command::Up {
@@ -235,6 +256,10 @@ fn main() -> ExitCode {
             robosim_hl_interface::cli::sim::run(&args, &robosim_library::standard_robot)
                 .map_err(CliError)
         }
+        Command::Journal {
+            cmd: JournalCmd::Inspect { path },
+        } => robosim_instance_space::journal::inspect(&path, &mut std::io::stdout().lock())
+            .map_err(CliError::from),
         Command::Report { which } => reports::run(which),
         Command::Render(args) => robosim_display::app::cmd_render(&args).map_err(|e| CliError(e.0)),
         Command::Display(args) => {

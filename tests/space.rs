@@ -443,6 +443,47 @@ fn kill_9_of_the_keeper_mid_burst_loses_nothing_acknowledged() {
     assert!(fresh.refresh().is_ok());
 }
 
+/// Issue #20 item 3 (`keeper_gone_fails_fast`): after `kill -9` of the keeper a writer's
+/// queued requests used to wait out the 30 s timeout one by one ("no answer within 30s").
+/// Now every pending request fails with `KeeperGone` (the keeper's iceoryx2 node is `Dead`),
+/// and so does every later one. The client keeps its 30 s timeout: a `Timeout` here fails.
+#[test]
+fn keeper_gone_fails_fast_for_every_pending_request_after_kill_9() {
+    let mut t = TestSession::new("kg");
+    let keeper = t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "writer").expect("connect");
+    let scene = c.transact(&scene_tx()).expect("scene").created[0];
+    kill9(keeper);
+    // Reap it: SIGKILL is asynchronous, and the test must not race the kernel.
+    let i = t.children.iter().position(|c| c.id() == keeper).expect("ours");
+    let _ = t.children[i].wait();
+    let mut pending = Vec::new();
+    let mut refused_at_submit = 0;
+    for k in 0..5 {
+        let mut tx = Transaction::new();
+        tx.set_name(scene, &format!("after{k}"));
+        match c.submit(&tx) {
+            Ok(p) => pending.push(p),
+            Err(ClientError::KeeperGone) => refused_at_submit += 1,
+            Err(e) => panic!("submit {k}: {e}"),
+        }
+    }
+    for (k, p) in pending.into_iter().enumerate() {
+        match c.wait(p) {
+            Err(ClientError::KeeperGone) => {}
+            other => panic!("pending request {k}: expected KeeperGone, got {other:?}"),
+        }
+    }
+    // The client knows now: the next request fails without waiting.
+    let mut tx = Transaction::new();
+    tx.set_name(scene, "later");
+    assert!(
+        matches!(c.transact(&tx), Err(ClientError::KeeperGone)),
+        "a request after the keeper's death ({refused_at_submit} refused at submit)"
+    );
+}
+
 #[test]
 fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
     let mut t = TestSession::new("kr");
@@ -714,4 +755,109 @@ fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_vers
     );
     let (_, ps) = run(&["ps", "--session", &t.name]);
     assert_eq!(ps.lines().count(), 2, "nothing left running: {ps}");
+}
+
+/// Issue #20 item 9 (`journal_bit_flip_is_said_aloud_and_kept`): one flipped bit in the
+/// middle of the journal made recovery cut every later record, and `up` said only "model
+/// version 299" (the note was in `run/space.log`). Now the cut is kept as a journal file of its
+/// own, `up` says on its own stderr what was lost (versions, count, where the copy is), and
+/// `robosim journal inspect` lists the kept records. Nothing before the flip is lost.
+#[test]
+fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
+    let mut t = TestSession::new("jf");
+    let keeper = t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "writer").expect("connect");
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scene", None);
+    let scene = c.transact(&tx).expect("scene").created[0]; // version 1
+    for chunk in (1..=600).collect::<Vec<u32>>().chunks(Client::MAX_IN_FLIGHT) {
+        let pending: Vec<_> = chunk
+            .iter()
+            .map(|k| {
+                let mut tx = Transaction::new();
+                tx.set_name(scene, &format!("n{k}")); // version k + 1
+                c.submit(&tx).expect("submit")
+            })
+            .collect();
+        for p in pending {
+            c.wait(p).expect("answer").expect("committed");
+        }
+    }
+    drop(c);
+    kill9(keeper);
+    let i = t.children.iter().position(|c| c.id() == keeper).expect("ours");
+    let _ = t.children[i].wait();
+
+    // Flip one bit in the payload of the record of version 300.
+    let journal = std::fs::read_dir(s.data_dir())
+        .expect("data dir")
+        .flatten()
+        .map(|e| e.path())
+        .find(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("journal-")))
+        .expect("a journal");
+    let mut bytes = std::fs::read(&journal).expect("read journal");
+    let (records, damaged) = robosim_instance_space::journal::scan_records(&bytes, 8);
+    assert_eq!((records.len(), damaged), (601, 0), "versions 1..=601, intact");
+    let r = records.iter().find(|r| r.version == 300).expect("version 300");
+    bytes[r.offset + 16 + r.len / 2] ^= 0x10;
+    std::fs::write(&journal, &bytes).expect("write journal");
+    // The keeper keeps two copies by default; damage the mirror's copy of the same record
+    // too (with one copy damaged, recovery repairs it: instance-space/tests/journal.rs).
+    let mirror = journal.with_extension("mirror");
+    let mut m = std::fs::read(&mirror).expect("the journal's mirror");
+    m[r.offset + 16 + r.len / 2] ^= 0x10;
+    std::fs::write(&mirror, &m).expect("write mirror");
+
+    /// Stops what `up` started, whatever the test's outcome.
+    struct Down(Command);
+    impl Drop for Down {
+        fn drop(&mut self) {
+            let _ = self.0.output();
+        }
+    }
+    let mut down = t.command(ROBOSIM);
+    down.args(["down", "--session", &t.name]);
+    let _down = Down(down);
+    let out = t
+        .command(ROBOSIM)
+        .args(["up", "demo", "--session", &t.name])
+        .output()
+        .expect("run up");
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{err}");
+    for want in [
+        "RECOVERY LOST DATA",
+        "recovered only up to version 299",
+        "versions 300..=601 not replayed: 301 readable record(s)",
+        "robosim journal inspect",
+    ] {
+        assert!(err.contains(want), "`up` must say {want:?}; it said:\n{err}");
+    }
+    let copy = err
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("The cut is kept in "))
+        .map(PathBuf::from)
+        .expect("the copy's path");
+    assert!(copy.starts_with(s.data_dir().join("lost")), "{}", copy.display());
+    let inspect = t
+        .command(ROBOSIM)
+        .args(["journal", "inspect"])
+        .arg(&copy)
+        .output()
+        .expect("run journal inspect");
+    let listing = String::from_utf8_lossy(&inspect.stdout);
+    assert!(inspect.status.success(), "{listing}");
+    assert!(listing.contains("301 readable record(s)"), "{listing}");
+    assert!(
+        listing.contains(": version 301 (") && listing.contains(": version 601 ("),
+        "{listing}"
+    );
+    assert!(listing.contains("set_name"), "operations are named: {listing}");
+
+    // Everything before the flip is there.
+    let r = Reader::attach(&s, "after").expect("attach");
+    let snap = r.snapshot().expect("snapshot");
+    assert_eq!(snap.version(), 299);
+    assert_eq!(snap.name(snap.index_of(scene).expect("scene")), "n298");
 }

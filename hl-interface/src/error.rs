@@ -57,6 +57,8 @@ pub enum ErrorKind {
     NotApplicable,
     /// `singular` (dynamics): the mass matrix is singular.
     Singular,
+    /// `overflow` (dynamics): finite inputs whose result leaves f64's range (q̇ = 1e200).
+    Overflow,
     /// `diverged` (dynamics): the integration blew up or could not keep its error bound.
     Diverged,
     /// `too_many_steps` (dynamics): `simulate` exceeded its step budget.
@@ -108,6 +110,7 @@ const NAMED: &[(ErrorKind, &str)] = &[
     (ErrorKind::NotConverged, "not_converged"),
     (ErrorKind::NotApplicable, "not_applicable"),
     (ErrorKind::Singular, "singular"),
+    (ErrorKind::Overflow, "overflow"),
     (ErrorKind::Diverged, "diverged"),
     (ErrorKind::TooManySteps, "too_many_steps"),
     (ErrorKind::BadShape, "bad_shape"),

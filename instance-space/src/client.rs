@@ -10,6 +10,8 @@ use crate::services;
 use crate::session::{Session, SessionError};
 use crate::store::{Applied, TxError};
 use crate::transaction::Transaction;
+use iceoryx2::identifiers::UniqueNodeId;
+use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
 use std::time::{Duration, Instant};
 
@@ -48,6 +50,27 @@ fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> ClientError 
     }
 }
 
+/// How often a waiting writer asks whether the keeper is still alive.
+pub const LIVENESS_PERIOD: Duration = Duration::from_millis(50);
+
+/// The alive node named `space` (the keeper's role) in this session's iceoryx2 world.
+fn keeper_node(config: &iceoryx2::config::Config) -> Option<UniqueNodeId> {
+    let mut found = None;
+    let _ = Node::<ipc::Service>::list(config, |state| {
+        if let NodeState::Alive(view) = &state
+            && view
+                .details()
+                .as_ref()
+                .is_some_and(|d| d.name().as_str() == "space")
+        {
+            found = Some(*view.id());
+            return CallbackProgression::Stop;
+        }
+        CallbackProgression::Continue
+    });
+    found
+}
+
 /// A transaction sent and not yet answered.
 pub struct Pending {
     inner: IoxPending,
@@ -55,6 +78,12 @@ pub struct Pending {
 
 pub struct Client {
     session: Session,
+    config: iceoryx2::config::Config,
+    /// The keeper's iceoryx2 node when we connected: its liveness is how a dead keeper is
+    /// told from a slow one (iceoryx2 keeps a killed server's ports "connected").
+    keeper: Option<UniqueNodeId>,
+    /// Set once the keeper is known dead: every later request fails at once.
+    keeper_gone: bool,
     _node: Node<ipc::Service>,
     client: IoxClient,
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
@@ -102,8 +131,13 @@ impl Client {
             .listener_builder()
             .create()
             .map_err(ipc("create ack listener"))?;
+        let config = session.iox_config()?;
+        let keeper = keeper_node(&config);
         Ok(Client {
             session: session.clone(),
+            config,
+            keeper,
+            keeper_gone: false,
             _node: node,
             client,
             notifier,
@@ -135,6 +169,9 @@ impl Client {
 
     /// Sends already-encoded bytes (tests use this to send malformed requests).
     pub fn submit_raw(&mut self, bytes: &[u8]) -> Result<Pending, ClientError> {
+        if self.keeper_gone {
+            return Err(ClientError::KeeperGone);
+        }
         let req = self
             .client
             .loan_slice_uninit(bytes.len().max(1))
@@ -164,9 +201,36 @@ impl Client {
         Ok(Pending { inner })
     }
 
+    /// Is the keeper we connected to still alive? Asks iceoryx2 for the state of its node: a
+    /// process killed with SIGKILL leaves its node `Dead` (its monitoring lock is released), a
+    /// keeper that stopped cleanly leaves none. Without a known node (a keeper older than the
+    /// client's view), the session's process registry answers.
+    fn keeper_alive(&mut self) -> bool {
+        if self.keeper_gone {
+            return false;
+        }
+        let alive = match self.keeper {
+            Some(id) => match Node::<ipc::Service>::state_of(&self.config, id) {
+                Ok(Some(NodeState::Dead(_))) | Ok(None) => false,
+                // Alive, inaccessible, undefined or not listable: not proof of death.
+                Ok(Some(_)) | Err(_) => true,
+            },
+            None => self.session.processes().iter().any(|p| p.role == "space"),
+        };
+        self.keeper_gone = !alive;
+        alive
+    }
+
     /// Waits for the answer to `p`: the outer error is transport, the inner the keeper's verdict.
+    /// A keeper that died (even by `kill -9`) ends the wait with [`ClientError::KeeperGone`]
+    /// within [`LIVENESS_PERIOD`], and every later request of this client fails the same way
+    /// at once.
     pub fn wait(&mut self, p: Pending) -> Result<Result<Committed, TxError>, ClientError> {
         let start = Instant::now();
+        let mut checked = start;
+        if self.keeper_gone {
+            return Err(ClientError::KeeperGone);
+        }
         loop {
             if let Some(resp) = p.inner.receive().map_err(ipc("receive response"))? {
                 return bincode::serde::decode_from_slice::<Result<Committed, TxError>, _>(
@@ -185,6 +249,12 @@ impl Client {
                 && !self.session.processes().iter().any(|p| p.role == "space")
             {
                 return Err(ClientError::KeeperGone);
+            }
+            if checked.elapsed() >= LIVENESS_PERIOD {
+                checked = Instant::now();
+                if !self.keeper_alive() {
+                    return Err(ClientError::KeeperGone);
+                }
             }
             let elapsed = start.elapsed();
             if elapsed >= self.timeout {

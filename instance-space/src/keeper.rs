@@ -71,6 +71,11 @@ pub struct KeeperOptions {
     pub max_readers: usize,
     /// Writers per session.
     pub max_clients: usize,
+    /// Copies of the journal (1 or 2). With 2, every record is also written to a mirror file
+    /// and both are synced (together) before the acknowledgement, so one damaged record — a
+    /// flipped bit, a bad sector — is read from the other copy instead of cutting every record
+    /// after it. Cost: docs/bench/journal.md.
+    pub journal_copies: u8,
     /// Sync the journal before acknowledging. Only benchmarks that isolate the cost of
     /// applying and publishing turn this off; it is never off in a session.
     pub durable: bool,
@@ -84,6 +89,7 @@ impl Default for KeeperOptions {
             idle_wait: Duration::from_millis(20),
             max_readers: 16,
             max_clients: 16,
+            journal_copies: 2,
             durable: true,
         }
     }
@@ -150,7 +156,7 @@ impl Keeper {
         // readers that outlived the old keeper keep them alive, and their ports connect to the
         // new keeper's publishers without re-attaching.
         let _ = node.blocking_cleanup_dead_nodes(Duration::from_secs(2));
-        let (model, journal, report) = journal::recover(&session.data_dir())?;
+        let (model, journal, report) = journal::recover_copies(&session.data_dir(), opts.journal_copies)?;
         let epoch = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(1, |d| d.as_nanos() as u64);
@@ -253,6 +259,14 @@ impl Keeper {
         let poses_svc = pubsub(services::POSES, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let poses_pub = publisher(&poses_svc, 1024, "poses")?;
 
+        // What recovery lost is written before the keeper registers, so a launcher that
+        // waits for the registration (`robosim up`) finds it and says it aloud.
+        let lost_note = session.run_dir().join(journal::LOST_NOTE);
+        if report.lost.is_empty() {
+            let _ = std::fs::remove_file(&lost_note);
+        } else {
+            crate::session::write_private(&lost_note, report.lost_message().as_bytes())?;
+        }
         let registration = session.register(
             "space",
             &[

@@ -122,3 +122,124 @@ fn checkpoint_compacts_and_recovery_resumes_from_it() {
     );
     assert_eq!(m2.next_id(), model.next_id(), "ids continue");
 }
+
+/// Flips one bit in the payload of the record of `version` in the journal file `path`.
+fn flip(path: &std::path::Path, version: u64) {
+    let mut bytes = std::fs::read(path).expect("read");
+    let (records, _) = robosim_instance_space::journal::scan_records(&bytes, 8);
+    let r = records
+        .iter()
+        .find(|r| r.version == version)
+        .expect("record");
+    bytes[r.offset + 16 + r.len / 2] ^= 0x04;
+    std::fs::write(path, &bytes).expect("write");
+}
+
+/// Issue #20 item 9 (`journal_mirror_repairs_a_flipped_record`): with two copies, a record
+/// damaged in the journal is read from the mirror and repaired on disk; nothing is lost and
+/// every later record is replayed. Damage in the mirror alone costs nothing either.
+#[test]
+fn journal_mirror_repairs_a_flipped_record_and_nothing_is_lost() {
+    use robosim_instance_space::journal::recover_copies;
+    let dir = tempfile::tempdir().expect("temp");
+    let (mut model, mut journal, _) = recover_copies(dir.path(), 2).expect("fresh");
+    assert_eq!(journal.copies(), 2);
+    for k in 0..50 {
+        commit(&mut model, &mut journal, &format!("s{k}"));
+    }
+    drop(journal);
+    let path = journal_file(dir.path());
+    let mirror = path.with_extension("mirror");
+    assert_eq!(
+        std::fs::read(&path).expect("journal"),
+        std::fs::read(&mirror).expect("mirror"),
+        "the mirror holds the same bytes"
+    );
+    flip(&path, 20);
+    flip(&mirror, 35);
+    let (model2, mut journal2, report) = recover_copies(dir.path(), 2).expect("recovered");
+    assert_eq!(model2.version, 50, "{:?}", report.problems);
+    assert!(report.lost.is_empty(), "{:?}", report.lost);
+    assert!(
+        report
+            .problems
+            .iter()
+            .any(|p| p.contains("checksum mismatch") && p.contains("version 20 was repaired")),
+        "{:?}",
+        report.problems
+    );
+    // Repaired on disk, and the mirror was rewritten from the journal.
+    let (records, damaged) =
+        robosim_instance_space::journal::scan_records(&std::fs::read(&path).expect("j"), 8);
+    assert_eq!((records.len(), damaged), (50, 0));
+    assert_eq!(std::fs::read(&path).ok(), std::fs::read(&mirror).ok());
+    let mut m = model2;
+    commit(&mut m, &mut journal2, "after");
+    drop(journal2);
+    let (model3, _, report3) = recover_copies(dir.path(), 2).expect("again");
+    assert_eq!(model3.version, 51);
+    assert!(report3.problems.is_empty(), "{:?}", report3.problems);
+}
+
+/// Issue #20 item 9: the same record damaged in both copies is a loss. The cut is kept as a
+/// journal of its own under `lost/`, the report counts the readable records it holds (the
+/// acknowledged transactions that were not replayed) and says so in its message.
+#[test]
+fn a_record_damaged_in_both_copies_is_a_loss_reported_with_its_kept_copy() {
+    use robosim_instance_space::journal::recover_copies;
+    let dir = tempfile::tempdir().expect("temp");
+    let (mut model, mut journal, _) = recover_copies(dir.path(), 2).expect("fresh");
+    for k in 0..50 {
+        commit(&mut model, &mut journal, &format!("s{k}"));
+    }
+    drop(journal);
+    let path = journal_file(dir.path());
+    flip(&path, 20);
+    flip(&path.with_extension("mirror"), 20);
+    let (model2, _, report) = recover_copies(dir.path(), 2).expect("recovered");
+    assert_eq!(model2.version, 19);
+    assert_eq!(report.lost.len(), 1, "{:?}", report.lost);
+    let l = &report.lost[0];
+    assert_eq!(
+        (l.first_version, l.last_version, l.readable_records),
+        (20, Some(50), 30)
+    );
+    assert!(l.damaged_bytes > 0);
+    assert!(l.copy.starts_with(dir.path().join("lost")));
+    let msg = report.lost_message();
+    assert!(
+        msg.contains("versions 20..=50 not replayed: 30 readable record(s)")
+            && msg.contains(&l.copy.display().to_string()),
+        "{msg}"
+    );
+    // The kept copy reads as a journal: the 30 records after the damaged one.
+    let mut listing = Vec::new();
+    robosim_instance_space::journal::inspect(&l.copy, &mut listing).expect("inspect");
+    let listing = String::from_utf8(listing).expect("utf-8");
+    assert!(listing.contains("30 readable record(s)"), "{listing}");
+    assert!(listing.contains("version 21 (") && listing.contains("create Scene \"s49\""), "{listing}");
+}
+
+/// A torn last record with nothing readable after it was never acknowledged: it is cut and
+/// reported as a problem, but it is not a loss and no copy is kept.
+#[test]
+fn a_torn_last_record_is_not_a_loss() {
+    let dir = tempfile::tempdir().expect("temp");
+    let (mut model, mut journal, _) = recover(dir.path()).expect("fresh");
+    for k in 0..3 {
+        commit(&mut model, &mut journal, &format!("s{k}"));
+    }
+    drop(journal);
+    let path = journal_file(dir.path());
+    let len = std::fs::metadata(&path).expect("meta").len();
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open(&path)
+        .expect("open")
+        .set_len(len - 3)
+        .expect("tear");
+    let (model2, _, report) = recover(dir.path()).expect("recovered");
+    assert_eq!(model2.version, 2);
+    assert!(report.lost.is_empty(), "{:?}", report.lost);
+    assert!(!dir.path().join("lost").exists() || std::fs::read_dir(dir.path().join("lost")).expect("dir").next().is_none());
+}

@@ -14,6 +14,7 @@
 //! * [`automation::report_diag`] — `robosim report diag`: diagnosis time and resolution;
 //! * [`ipc`] — `robosim bench ipc`: the Instance Space's costs (snapshot access, pose
 //!   transactions, notification latency, journaled throughput), across real processes;
+//! * [`journal`] — `robosim bench journal`: what the journal's second copy costs;
 //! * [`cli`] — the clap arguments and runners of `robosim report ik|collision`.
 
 pub mod automation;
@@ -23,6 +24,7 @@ pub mod dynamics;
 pub mod effects;
 pub mod ik;
 pub mod ipc;
+pub mod journal;
 pub mod library;
 pub mod plot;
 

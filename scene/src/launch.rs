@@ -51,13 +51,18 @@ pub fn run_space(
     scene_name: Option<&str>,
     library: &[std::path::PathBuf],
     durable: bool,
+    journal_copies: u8,
 ) -> Result<()> {
+    if !(1..=2).contains(&journal_copies) {
+        bail!("--journal-copies must be 1 or 2, got {journal_copies}");
+    }
     let session = Session::open(session)?;
     // The Library Space: the standard library plus the given files, checked before anything
     // is published or instantiated.
     let lib = crate::build_library(library)?;
     let opts = KeeperOptions {
         durable,
+        journal_copies,
         ..KeeperOptions::default()
     };
     let (mut keeper, report) =
@@ -72,6 +77,8 @@ pub fn run_space(
     for p in &report.problems {
         eprintln!("space: recovery: {p}");
     }
+    // Lost data is said loudly, here and by `up` (from the keeper's note in run/).
+    eprint!("{}", report.lost_message());
     keeper.publish_library(&lib.sources()).map_err(keeper_err)?;
     eprintln!(
         "space: Library Space published ({} declarations)",
@@ -197,6 +204,9 @@ pub fn up_with_library(
                 &["space", "--session", session.name(), "--scene", scene_name],
             )?;
             wait_registered(&session, "space", pid, Duration::from_secs(30))?;
+            if let Ok(note) = std::fs::read_to_string(session.run_dir().join(robosim_instance_space::journal::LOST_NOTE)) {
+                eprint!("robosim up: {note}");
+            }
             pid
         }
     };

@@ -250,7 +250,9 @@ impl Pipeline {
         Ok(())
     }
 
-    /// Sets the command (checked against the robot: length, finite).
+    /// Sets the command, checked against the robot like a transaction: length, finite values,
+    /// a target inside the joint limits, torques only with the dynamics effect. A refused
+    /// command leaves the current one in place.
     pub fn set_command(&mut self, command: Command) -> Result<(), StepError> {
         let n = self.model.robot.dof();
         let check = |v: &DVector<f64>, what: &str| {
@@ -267,7 +269,15 @@ impl Pipeline {
         };
         match &command {
             Command::Idle => {}
-            Command::Target(q) => check(q, "target")?,
+            Command::Target(q) => {
+                check(q, "target")?;
+                if let Some((j, v, [lo, hi])) = self.model.robot.outside_limits(q.as_slice()) {
+                    return Err(StepError::Command(format!(
+                        "target[{j}] = {v:?} is outside joint {}'s limits [{lo:?}, {hi:?}]",
+                        j + 1
+                    )));
+                }
+            }
             Command::Torque(t) => {
                 check(t, "torque")?;
                 if !self.stages.iter().any(|s| s.name() == "dynamics") {

@@ -114,32 +114,54 @@ fn kinematic_motion_reaches_the_target_at_the_speed_limit_and_frames_follow() {
 
 #[test]
 fn joint_limits_stop_a_joint_at_its_limit() {
+    // A constant shoulder torque under dynamics drives joint 2 up to its limit: with the
+    // joint-limits effect it stops there; without it, it goes past (the effect is the only
+    // thing that models the mechanical stop).
     let robot = puma();
     let hi = robot.joints[1].qlim[1];
+    let push = |joint_limits: bool| {
+        let mut p = build(&SceneEffects {
+            joint_limits,
+            dynamics: Some(DynamicsEffect::default()),
+            ..SceneEffects::default()
+        });
+        p.set_command(Command::Torque(DVector::from_column_slice(&[
+            0.0, 400.0, 0.0, 0.0, 0.0, 0.0,
+        ])))
+        .expect("command");
+        let mut worst = f64::NEG_INFINITY;
+        for _ in 0..3000 {
+            p.step().expect("step");
+            worst = worst.max(p.data().state.q[1]);
+            if worst > hi + 0.2 {
+                break; // through the stop: no need to spin the arm up further
+            }
+        }
+        worst
+    };
+    assert_eq!(push(true), hi, "held at the limit");
+    assert!(push(false) > hi + 0.1, "without the effect the joint goes past");
+}
+
+/// Issue #20 item 4 (`simctl_validates_like_a_transaction`): a target outside the joint
+/// limits (here `1e308`) is refused by name, like a transaction with that joint value, and
+/// the previous command stays.
+#[test]
+fn a_target_outside_the_joint_limits_is_refused_and_changes_nothing() {
     let mut p = build(&SceneEffects {
         kinematics: true,
-        joint_limits: true,
-        max_speed: 5.0,
         ..SceneEffects::default()
     });
-    p.set_command(target(&[0.0, hi + 1.0, -0.6, 0.0, 0.5, 0.0]))
-        .expect("command");
-    for _ in 0..2000 {
-        p.step().expect("step");
-    }
-    assert_eq!(p.data().state.q[1], hi);
-    // without the effect the joint goes past
-    let mut p = build(&SceneEffects {
-        kinematics: true,
-        max_speed: 5.0,
-        ..SceneEffects::default()
-    });
-    p.set_command(target(&[0.0, hi + 1.0, -0.6, 0.0, 0.5, 0.0]))
-        .expect("command");
-    for _ in 0..2000 {
-        p.step().expect("step");
-    }
-    assert!(p.data().state.q[1] > hi + 0.9);
+    let before = p.data().command.clone();
+    let e = p
+        .set_command(target(&[0.0, 1e308, 0.0, 0.0, 0.0, 0.0]))
+        .expect_err("refused");
+    let m = e.to_string();
+    assert!(
+        m.contains("target[1] = 1e308 is outside joint 2's limits [-0.785"),
+        "{m}"
+    );
+    assert_eq!(p.data().command, before);
 }
 
 #[test]

@@ -36,6 +36,7 @@ impl From<DynamicsError> for ProtocolError {
             | DynamicsError::NonFinite { .. }
             | DynamicsError::BadOption { .. } => ErrorKind::InvalidRequest,
             DynamicsError::SingularInertia { .. } => ErrorKind::Singular,
+            DynamicsError::Overflow { .. } => ErrorKind::Overflow,
             DynamicsError::Diverged { .. }
             | DynamicsError::NoConvergence { .. }
             | DynamicsError::StepUnderflow { .. } => ErrorKind::Diverged,

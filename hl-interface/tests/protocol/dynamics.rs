@@ -233,3 +233,41 @@ fn bad_requests_get_typed_errors() {
     assert_eq!(sim(json!({"limits": "yes"})), Err("invalid_request".into()));
     assert_eq!(sim(json!({"t_end": null})), Err("invalid_request".into()));
 }
+
+/// Issue #20 item 6 (`dynamics_overflow_is_an_error`): q̇ = 1e200 is finite, but the
+/// velocity products overflow. `id` and `fd` used to answer `ok` with `null` numbers and
+/// `simulate` called the same input `singular`; every one now refuses with `overflow`, naming
+/// the result that overflowed.
+#[test]
+fn dynamics_overflow_is_an_error_never_null_inside_a_success() {
+    let q = json!([0.1, 0.7, -0.3, 0.2, 0.4, -0.1]);
+    let qd = json!([1e200, 0.0, 0.0, 0.0, 0.0, 1e200]);
+    let zeros = json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    let mut requests = vec![
+        (json!({"op": "id", "robot": "puma560", "q": q, "qd": qd, "qdd": zeros}), "`tau`"),
+        (json!({"op": "fd", "robot": "puma560", "q": q, "qd": qd, "tau": zeros}), "`qdd`"),
+        (
+            json!({"op": "fd", "robot": "puma560", "q": q, "qd": qd, "tau": zeros, "method": "cholesky"}),
+            "`qdd`",
+        ),
+    ];
+    for integrator in ["euler", "rk4", "dopri5", "semi_implicit_euler"] {
+        let mut r = json!({"op": "simulate", "robot": "puma560", "q0": q, "qd0": qd,
+                           "t_end": 0.01, "integrator": integrator});
+        if integrator == "dopri5" {
+            r["rtol"] = json!(1e-6);
+        } else {
+            r["dt"] = json!(1e-3);
+        }
+        requests.push((r, "overflowed"));
+    }
+    for (req, names) in requests {
+        let e = ask(req.clone()).expect_err("refused");
+        assert_eq!(e.kind.as_str(), "overflow", "{req}: {e:?}");
+        assert!(
+            e.message.contains(names) && e.message.contains("overflowed"),
+            "{req}: {}",
+            e.message
+        );
+    }
+}

@@ -12,6 +12,9 @@
 //! command it on `state/simulator/commands` with JSON lines (`robosim simctl`):
 //! `{"cmd": "target", "robot": NAME, "q": [...]}`, `{"cmd": "torque", "robot", "tau"}`,
 //! `{"cmd": "pause"}`, `{"cmd": "resume"}`, `{"cmd": "step", "n": N}`, `{"cmd": "reset"}`.
+//! Every command is validated like a transaction, and a refused one changes nothing: `n` is an
+//! integer in 1..=[`MAX_STEPS_PER_COMMAND`], a target lies inside the joint limits
+//! ([`Pipeline::set_command`]).
 //!
 //! The scene's effects come from `--effects FILE.json` (the simulator's JSON form), else from
 //! the Library Space declaration the scene was instantiated from (converted type to type,
@@ -359,6 +362,12 @@ impl Daemon<'_> {
     }
 }
 
+/// The most steps one `step` command may ask for, and the most that may be queued at once
+/// (10⁶ steps is 1000 s of a 1 ms pipeline): a larger budget is a typo, not a request.
+pub const MAX_STEPS_PER_COMMAND: u64 = 1_000_000;
+
+/// Applies one command, validated as strictly as a transaction: a refused command changes
+/// nothing (targets are checked against the joint limits by [`Pipeline::set_command`]).
 fn apply(
     sims: &mut [Sim],
     cmd: &Value,
@@ -411,7 +420,22 @@ fn apply(
             Ok(())
         }
         Some("step") => {
-            *budget += cmd.get("n").and_then(Value::as_u64).unwrap_or(1);
+            let n = match cmd.get("n") {
+                None => 1,
+                Some(v) => v
+                    .as_u64()
+                    .filter(|n| (1..=MAX_STEPS_PER_COMMAND).contains(n))
+                    .ok_or(format!(
+                        "`n` must be an integer from 1 to {MAX_STEPS_PER_COMMAND}, got {v}"
+                    ))?,
+            };
+            if *budget + n > MAX_STEPS_PER_COMMAND {
+                return Err(format!(
+                    "{budget} steps are still queued; {n} more would exceed {MAX_STEPS_PER_COMMAND}",
+                    budget = *budget
+                ));
+            }
+            *budget += n;
             Ok(())
         }
         Some("reset") => {
@@ -589,4 +613,39 @@ pub fn ctl(session: Option<&str>, commands: &[String]) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn step(n: Value, queued: u64) -> (std::result::Result<(), String>, u64) {
+        let (mut running, mut budget, mut reset) = (false, queued, false);
+        let r = apply(
+            &mut [],
+            &json!({"cmd": "step", "n": n}),
+            &mut running,
+            &mut budget,
+            &mut reset,
+        );
+        (r, budget)
+    }
+
+    /// Issue #20 item 4 (`simctl_validates_like_a_transaction`): `n = -1` used to be read as
+    /// 1 and `n = 1e12` as 1; both, and everything else that is not a step count, are refused
+    /// by name and queue nothing.
+    #[test]
+    fn simctl_step_counts_are_validated_and_a_refusal_queues_nothing() {
+        for bad in [json!(-1), json!(0), json!(1e12), json!(2.5), json!("3"), json!(null)] {
+            let (r, budget) = step(bad.clone(), 7);
+            let e = r.expect_err("refused");
+            assert!(e.contains("`n` must be an integer from 1 to 1000000"), "{bad}: {e}");
+            assert_eq!(budget, 7, "{bad}: nothing queued");
+        }
+        assert_eq!(step(json!(5), 7), (Ok(()), 12));
+        let (r, budget) = step(json!(MAX_STEPS_PER_COMMAND), 1);
+        assert!(r.expect_err("over the queue bound").contains("still queued"));
+        assert_eq!(budget, 1);
+    }
 }

@@ -20,6 +20,7 @@ pub fn aba<'d>(
     model.check_vector("qd", qd)?;
     model.check_vector("tau", tau)?;
     aba_unchecked(model, data, q, qd, tau)?;
+    Model::check_result("qdd", data.qdd.as_slice())?;
     Ok(&data.qdd)
 }
 

@@ -79,6 +79,7 @@ pub fn fd_cholesky<'d>(
         }
         data.qdd[i] = s / data.chol[(i, i)];
     }
+    Model::check_result("qdd", data.qdd.as_slice())?;
     Ok(&data.qdd)
 }
 

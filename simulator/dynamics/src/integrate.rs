@@ -221,6 +221,8 @@ pub struct Stepper {
     yv: DVector<f64>,
     /// Current adaptive step proposal (s); 0 until the first step.
     h: f64,
+    /// Start time of the step being taken (s): what a divergence inside it is reported at.
+    t_step: f64,
     pub stats: Stats,
 }
 
@@ -237,6 +239,7 @@ impl Stepper {
             kv: std::array::from_fn(|_| z()),
             yq: z(),
             yv: z(),
+            t_step: 0.0,
             h: 0.0,
             stats: Stats::default(),
         })
@@ -248,8 +251,17 @@ impl Stepper {
     }
 
     /// Evaluates f at (yq, yv) into stage `s`.
+    /// Stage `s`'s derivative at (`yq`, `yv`). A non-finite stage state, or a non-finite q̈ at a
+    /// later stage, is the step diverging ([`DynamicsError::Diverged`]); a non-finite q̈ at
+    /// stage 0 — a state that was given or accepted, finite — is an overflow of f(state)
+    /// itself ([`DynamicsError::Overflow`]), which no smaller step cures.
     fn eval(&mut self, model: &Model, s: usize, tau: &[f64]) -> Result<(), DynamicsError> {
         self.stats.evaluations += 1;
+        let t = self.t_step;
+        let bad = |v: &DVector<f64>| v.iter().position(|x| !x.is_finite());
+        if let Some(joint) = bad(&self.yq).or_else(|| bad(&self.yv)) {
+            return Err(DynamicsError::Diverged { t, joint });
+        }
         aba_unchecked(
             model,
             &mut self.data,
@@ -257,6 +269,17 @@ impl Stepper {
             self.yv.as_slice(),
             tau,
         )?;
+        if let Some(index) = bad(&self.data.qdd) {
+            return Err(if s == 0 {
+                DynamicsError::Overflow {
+                    field: "qdd",
+                    index,
+                    value: self.data.qdd[index],
+                }
+            } else {
+                DynamicsError::Diverged { t, joint: index }
+            });
+        }
         self.kq[s].copy_from(&self.yv);
         self.kv[s].copy_from(&self.data.qdd);
         Ok(())
@@ -291,6 +314,7 @@ impl Stepper {
         tau: &[f64],
         h: f64,
     ) -> Result<(), DynamicsError> {
+        self.t_step = state.t;
         if self.config.integrator == Integrator::SemiImplicitEuler {
             self.symplectic_euler(model, state, tau, h)?;
             state.t += h;
@@ -377,6 +401,16 @@ impl Stepper {
         );
         kv[1].copy_from(&data.tau); // g(qₙ)
         kinetic_gradient_pass(model, data, state.qd.as_slice()); // tau = ∂T/∂q(qₙ, q̇ₙ), rhs = pₙ
+        // At the given (finite) state: a non-finite gradient or momentum is f(state) overflowing.
+        for (field, x) in [("dT/dq", &data.tau), ("p", &data.rhs)] {
+            if let Some(index) = x.iter().position(|v| !v.is_finite()) {
+                return Err(DynamicsError::Overflow {
+                    field,
+                    index,
+                    value: x[index],
+                });
+            }
+        }
         for j in 0..n {
             let fric = Model::friction(&model.links[j], state.qd[j]);
             kq[2][j] = data.rhs[j] + h * (tau[j] - kv[1][j] - fric); // the part that does not change
@@ -494,7 +528,10 @@ impl Stepper {
                 let mut k: u64 = 0;
                 loop {
                     let remaining = t_target - state.t;
-                    if remaining <= 1e-9 * dt {
+                    // Done when what is left is rounding of t0 + k·dt (a few ulps of the
+                    // time), never a fraction of dt: with dt ≫ t_end that used to label the
+                    // initial state t_end with no step taken (issue #20 item 5).
+                    if remaining <= 4.0 * f64::EPSILON * t_target.abs() {
                         state.t = t_target;
                         return Ok(());
                     }
@@ -532,6 +569,7 @@ impl Stepper {
         if t_target <= state.t {
             return Ok(());
         }
+        self.t_step = state.t;
         self.yq.copy_from(&state.q);
         self.yv.copy_from(&state.qd);
         self.eval(model, 0, tau)?;
@@ -555,6 +593,7 @@ impl Stepper {
             if h < floor && !last {
                 return Err(DynamicsError::StepUnderflow { t: state.t, h });
             }
+            self.t_step = state.t;
             self.dopri_stages(model, state, tau, h)?;
             let err = self.dopri_error(state, h, rtol, atol);
             if err <= 1.0 {

@@ -46,6 +46,17 @@ pub enum DynamicsError {
         "joint {joint}: no inertia about the joint axis (articulated inertia {inertia:e}); forward dynamics is undefined"
     )]
     SingularInertia { joint: usize, inertia: f64 },
+    /// A result is infinite or NaN although every input was finite: a product of the inputs
+    /// left the range of f64 (q̇ = 1e200 squares to 1e400 in the velocity-product terms).
+    /// Nothing is returned; scale the inputs to physical magnitudes.
+    #[error(
+        "`{field}`[{index}] overflowed ({value}) from finite inputs: a product of the inputs exceeds the range of f64"
+    )]
+    Overflow {
+        field: &'static str,
+        index: usize,
+        value: f64,
+    },
     /// The integrated state became NaN or infinite (step too large for a stiff system).
     #[error(
         "state became non-finite at t = {t} s (joint {joint}); reduce the step or tighten the tolerances"
@@ -155,6 +166,19 @@ impl Model {
         }
         match x.iter().position(|v| !v.is_finite()) {
             Some(index) => Err(DynamicsError::NonFinite {
+                field,
+                index,
+                value: x[index],
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Checks a result vector: every value finite, else [`DynamicsError::Overflow`] naming the
+    /// first that is not (inputs were checked finite before, so the cause is overflow).
+    pub(crate) fn check_result(field: &'static str, x: &[f64]) -> Result<(), DynamicsError> {
+        match x.iter().position(|v| !v.is_finite()) {
+            Some(index) => Err(DynamicsError::Overflow {
                 field,
                 index,
                 value: x[index],

@@ -36,6 +36,7 @@ pub fn rnea<'d>(
     model.check_vector("qdd", qdd)?;
     data.update_transforms(model, q);
     rnea_pass(model, data, qd, Some(qdd), ALL);
+    Model::check_result("tau", data.tau.as_slice())?;
     Ok(&data.tau)
 }
 
@@ -59,6 +60,7 @@ pub fn gravity<'d>(
             motor: false,
         },
     );
+    Model::check_result("tau", data.tau.as_slice())?;
     Ok(&data.tau)
 }
 
@@ -84,6 +86,7 @@ pub fn coriolis<'d>(
             motor: false,
         },
     );
+    Model::check_result("tau", data.tau.as_slice())?;
     Ok(&data.tau)
 }
 

@@ -256,3 +256,28 @@ fn fixed_step_runs_are_bit_identical() {
         );
     }
 }
+
+/// Issue #20 item 5 (`simulate_dt_much_larger_than_t_end`): with dt = 10 s and t_end = 1 ms
+/// the fixed-step loop used to take no step and label the initial state t = t_end
+/// (`accepted_steps: 0`). The last step is cut to land on t_end, as for any other dt: the
+/// answer equals a run whose dt is exactly t_end, bit for bit.
+#[test]
+fn simulate_dt_much_larger_than_t_end_takes_the_step_to_t_end() {
+    let robot = common::fixture("puma560");
+    let model = Model::new(&robot).expect("valid");
+    let q0 = [0.1, 0.7, -0.3, 0.2, 0.4, -0.1];
+    let zeros = [0.0; 6];
+    for integrator in Integrator::ALL {
+        let run = |dt: f64| {
+            simulate(&model, IntegratorConfig::fixed(integrator, dt), &q0, &zeros, &zeros, &[1e-3])
+                .expect("runs")
+        };
+        let (big, stats) = run(10.0);
+        assert_eq!(stats.accepted, 1, "{integrator:?}: one step, cut to t_end");
+        assert_eq!(big[0].t, 1e-3);
+        assert_ne!(big[0].qd, zeros.to_vec(), "{integrator:?}: the arm started to fall");
+        let (exact, _) = run(1e-3);
+        assert_eq!(big[0].q, exact[0].q, "{integrator:?}");
+        assert_eq!(big[0].qd, exact[0].qd, "{integrator:?}");
+    }
+}
