@@ -194,6 +194,18 @@ fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
         p[1] > p[0] + 40 && p[1] > p[2] + 40,
         "plate below the cube: {p:?}"
     );
+    // The margins the two verdicts rest on, in 8-bit colour levels.
+    let c = img.pixel(60, 45).map(i32::from);
+    let p = p.map(i32::from);
+    let test = "a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn";
+    eprintln!(
+        "measured: {test}: cube pixel (60, 45) {c:?}, red over green and blue = {} levels (bound > 60)",
+        c[0] - c[1].max(c[2])
+    );
+    eprintln!(
+        "measured: {test}: plate pixel (60, 85) {p:?}, green over red and blue = {} levels (bound > 40)",
+        p[1] - p[0].max(p[2])
+    );
 }
 
 /// The change-driven sync uploads what the full comparison would, and falls back to it for

@@ -3,7 +3,7 @@
 
 use nalgebra::Matrix4;
 use robosim_kinematics::ik::{self, IkError, IkOptions, IkResult, Method, Note};
-use robosim_kinematics::pose::{Residual, trans};
+use robosim_kinematics::pose::{Residual, pose_error, to_target_frame, trans};
 use robosim_kinematics::{Convention, Joint, Robot, builtin_robot, fk};
 use std::f64::consts::PI;
 
@@ -18,8 +18,38 @@ fn all() -> IkOptions {
     }
 }
 
-fn assert_clean(result: &IkResult, robot: &Robot, target: &Matrix4<f64>, tol: f64) {
+/// One `measured:` line on stderr (issue #20): the worst value a test saw, against its bound.
+fn measured(test: &str, quantity: &str, worst: f64, unit: &str, bound: f64) {
+    // 4 digits, 1.000e-7 shown as 1e-7: a computed bound (1e-12 × 1e3 × 100) stays readable
+    let bound = format!("{bound:.3e}").replace(".000e", "e");
+    eprintln!("measured: {test}: {quantity} = {worst:.3e} {unit} (bound {bound})");
+}
+
+/// The two residual lines: worst position (m) and orientation (rad).
+fn measured_residual(test: &str, what: &str, (pos, ori): (f64, f64), bound: f64) {
+    measured(test, &format!("{what}position residual"), pos, "m", bound);
+    measured(
+        test,
+        &format!("{what}orientation residual"),
+        ori,
+        "rad",
+        bound,
+    );
+}
+
+/// Largest per-axis error of `q` against `target`, position (m) and orientation (rad), in the
+/// target frame's axes: what the numeric solvers' per-axis tolerances bound.
+fn axis_error(robot: &Robot, q: &[f64], target: &Matrix4<f64>) -> (f64, f64) {
+    let e = to_target_frame(&pose_error(&fk::forward(robot, q), target), target);
+    let amax = |r: std::ops::Range<usize>| r.fold(0.0_f64, |m, i| m.max(e[i].abs()));
+    (amax(0..3), amax(3..6))
+}
+
+/// Asserts every solution is finite and within `tol` of the target; returns the worst position
+/// (m) and orientation (rad) residual.
+fn assert_clean(result: &IkResult, robot: &Robot, target: &Matrix4<f64>, tol: f64) -> (f64, f64) {
     assert!(!result.solutions.is_empty());
+    let mut worst = (0.0_f64, 0.0_f64);
     for s in &result.solutions {
         assert!(s.q.iter().all(|x| x.is_finite()), "NaN in {s:?}");
         let r = Residual::between(&fk::forward(robot, &s.q), target);
@@ -28,7 +58,24 @@ fn assert_clean(result: &IkResult, robot: &Robot, target: &Matrix4<f64>, tol: f6
             "residual {r:?} for {s:?}"
         );
         assert_eq!(r, s.residual);
+        worst = (worst.0.max(r.position), worst.1.max(r.orientation));
     }
+    worst
+}
+
+/// Distance (rad, mod 2π) from `q` to the nearest solution: its largest joint difference.
+/// `contains_q(r, q, tol)` holds when this is below `tol`.
+fn q_distance(result: &IkResult, q: &[f64]) -> f64 {
+    result
+        .solutions
+        .iter()
+        .map(|s| {
+            s.q.iter().zip(q).fold(0.0_f64, |m, (a, b)| {
+                let d = (a - b).rem_euclid(2.0 * PI);
+                m.max(d.min(2.0 * PI - d))
+            })
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 fn contains_q(result: &IkResult, q: &[f64], tol: f64) -> bool {
@@ -51,7 +98,7 @@ fn wrist_singular_q5_zero_follows_the_reference_convention() {
     };
     let r = ik::solve(&robot, &target, Method::Analytic, &options).expect("reachable");
     assert_eq!(r.solutions.len(), 8);
-    assert_clean(&r, &robot, &target, 1e-10);
+    let worst = assert_clean(&r, &robot, &target, 1e-10);
     // The wrist is singular on the generating arm branch (the other branches see another R36).
     let singular: Vec<_> = r
         .solutions
@@ -59,25 +106,41 @@ fn wrist_singular_q5_zero_follows_the_reference_convention() {
         .filter(|s| s.notes.contains(&Note::WristSingular))
         .collect();
     assert_eq!(singular.len(), 2);
+    let mut dq = 0.0_f64;
     for s in singular {
         assert!(s.q[..3].iter().zip(&q).all(|(a, b)| (a - b).abs() < 1e-12));
         // θ4 from the reference (0.25), or 0.25 + π for the flipped wrist.
         let d4 = (s.q[3] - 0.25).rem_euclid(PI);
         assert!(d4 < 1e-12 || PI - d4 < 1e-12, "q4 = {}", s.q[3]);
+        dq = (s.q[..3].iter().zip(&q))
+            .fold(dq.max(d4.min(PI - d4)), |m, (a, b)| m.max((a - b).abs()));
     }
+    let test = "wrist_singular_q5_zero_follows_the_reference_convention";
+    measured_residual(test, "max ", worst, 1e-10);
+    measured(
+        test,
+        "max |q1..q3 − q|, |θ4 − q0[3]| mod π",
+        dq,
+        "rad",
+        1e-12,
+    );
 }
 
 #[test]
 fn wrist_nearly_singular_q5_1e9_stays_accurate() {
     let robot = puma();
+    let (mut pos, mut ori) = (0.0_f64, 0.0_f64);
     // 1e-4 straddles the switch from the closed-form wrist to the residual-rotation wrist.
     for q5 in [1e-9, -1e-9, 1e-13, 1e-4, 1.0001e-4, 9.999e-5, -2e-4] {
         let q = [0.3, 0.5, -1.0, 0.7, q5, -0.4];
         let target = fk::forward(&robot, &q);
         let r = ik::solve(&robot, &target, Method::Analytic, &all()).expect("reachable");
         assert_eq!(r.solutions.len(), 8);
-        assert_clean(&r, &robot, &target, 1e-10);
+        let (p, o) = assert_clean(&r, &robot, &target, 1e-10);
+        (pos, ori) = (pos.max(p), ori.max(o));
     }
+    let test = "wrist_nearly_singular_q5_1e9_stays_accurate";
+    measured_residual(test, "max ", (pos, ori), 1e-10);
 }
 
 /// A PUMA-like arm without the shoulder offset, so the wrist centre can sit on the waist axis.
@@ -103,13 +166,22 @@ fn shoulder_singular_wrist_centre_on_the_waist_axis() {
         ..all()
     };
     let r = ik::solve(&robot, &target, Method::Analytic, &options).expect("reachable");
-    assert_clean(&r, &robot, &target, 1e-9);
+    let worst = assert_clean(&r, &robot, &target, 1e-9);
     assert!(
         r.solutions
             .iter()
             .all(|s| s.notes.contains(&Note::ShoulderSingular))
     );
     assert!(contains_q(&r, &q, 1e-6));
+    let test = "shoulder_singular_wrist_centre_on_the_waist_axis";
+    measured_residual(test, "max ", worst, 1e-9);
+    measured(
+        test,
+        "generating q to the nearest solution",
+        q_distance(&r, &q),
+        "rad",
+        1e-6,
+    );
 }
 
 #[test]
@@ -128,8 +200,17 @@ fn shoulder_offset_boundary_wrist_centre_at_offset_distance() {
     let q = [0.2, q2, q3, 0.1, 0.6, 0.3];
     let target = fk::forward(&robot, &q);
     let r = ik::solve(&robot, &target, Method::Analytic, &all()).expect("reachable");
-    assert_clean(&r, &robot, &target, 1e-9);
+    let worst = assert_clean(&r, &robot, &target, 1e-9);
     assert!(contains_q(&r, &q, 1e-6));
+    let test = "shoulder_offset_boundary_wrist_centre_at_offset_distance";
+    measured_residual(test, "max ", worst, 1e-9);
+    measured(
+        test,
+        "generating q to the nearest solution",
+        q_distance(&r, &q),
+        "rad",
+        1e-6,
+    );
 }
 
 fn straight_elbow_q3(robot: &Robot) -> f64 {
@@ -142,15 +223,19 @@ fn straight_elbow_q3(robot: &Robot) -> f64 {
 fn elbow_straight_and_within_1e9_of_straight() {
     let robot = puma();
     let q3s = straight_elbow_q3(&robot);
+    let (mut pos, mut ori) = (0.0_f64, 0.0_f64);
     for q3 in [q3s, q3s + 1e-9, q3s - 1e-9] {
         let q = [0.1, -0.3, q3, 0.4, -0.7, 0.2];
         let target = fk::forward(&robot, &q);
         let r = ik::solve(&robot, &target, Method::Analytic, &all())
             .expect("boundary pose is reachable");
         // Residual of the clamped solution: the cosine's rounding moves the wrist by ~1e-11 m.
-        assert_clean(&r, &robot, &target, 1e-9);
+        let (p, o) = assert_clean(&r, &robot, &target, 1e-9);
+        (pos, ori) = (pos.max(p), ori.max(o));
         assert!(r.solutions.len() >= 4);
     }
+    let test = "elbow_straight_and_within_1e9_of_straight";
+    measured_residual(test, "max ", (pos, ori), 1e-9);
 }
 
 #[test]
@@ -174,8 +259,10 @@ fn targets_just_inside_and_just_outside_the_workspace() {
         other => panic!("1 µm outside must be unreachable, got {other:?}"),
     }
     let r = ik::solve(&robot, &inside, Method::Analytic, &all()).expect("1 µm inside is reachable");
-    assert_clean(&r, &robot, &inside, 1e-10);
+    let worst = assert_clean(&r, &robot, &inside, 1e-10);
     assert_eq!(r.solutions.len(), 8);
+    let test = "targets_just_inside_and_just_outside_the_workspace";
+    measured_residual(test, "1 µm inside: max ", worst, 1e-10);
     // Numeric methods cannot prove unreachability; they say they did not converge.
     let o = IkOptions {
         restarts: 3,
@@ -198,8 +285,17 @@ fn joints_at_their_limits_are_within_limits() {
         .collect();
     let target = fk::forward(&robot, &q);
     let r = ik::solve(&robot, &target, Method::Analytic, &all()).expect("reachable");
-    assert_clean(&r, &robot, &target, 1e-10);
+    let worst = assert_clean(&r, &robot, &target, 1e-10);
     assert!(contains_q(&r, &q, 1e-9));
+    let test = "joints_at_their_limits_are_within_limits";
+    measured_residual(test, "max ", worst, 1e-10);
+    measured(
+        test,
+        "limit q to the nearest solution",
+        q_distance(&r, &q),
+        "rad",
+        1e-9,
+    );
     // Every joint of that branch can sit in its limits; q6 = 266° may be given as -94°.
     let hit = r
         .solutions
@@ -237,7 +333,8 @@ fn link_lengths_1e_minus_3_and_1e3_metres() {
         let target = fk::forward(&robot, &q);
         let r = ik::solve(&robot, &target, Method::Analytic, &all()).expect("reachable");
         assert_eq!(r.solutions.len(), 8);
-        assert_clean(&r, &robot, &target, 1e-12 * scale.max(1.0) * 100.0);
+        let tol = 1e-12 * scale.max(1.0) * 100.0;
+        let worst = assert_clean(&r, &robot, &target, tol);
         assert!(contains_q(&r, &q, 1e-8));
         // The numeric solver is unit-free too (its tolerance scaled with the arm).
         let o = IkOptions {
@@ -246,6 +343,28 @@ fn link_lengths_1e_minus_3_and_1e3_metres() {
         };
         let d = ik::solve(&robot, &target, Method::Dls, &o).expect("dls converges");
         assert!(d.solutions[0].converged);
+        let test = "link_lengths_1e_minus_3_and_1e3_metres";
+        let arm = format!("links ×{scale:e}: ");
+        measured_residual(test, &format!("{arm}max "), worst, tol);
+        let dq = q_distance(&r, &q);
+        measured(
+            test,
+            &format!("{arm}generating q to the nearest solution"),
+            dq,
+            "rad",
+            1e-8,
+        );
+        // DLS converges per axis (target frame).
+        let (p, o) = axis_error(&robot, &d.solutions[0].q, &target);
+        let what = format!("{arm}DLS per-axis ");
+        measured(
+            test,
+            &format!("{what}position residual"),
+            p,
+            "m",
+            1e-9 * scale,
+        );
+        measured(test, &format!("{what}orientation residual"), o, "rad", 1e-9);
     }
 }
 
@@ -571,6 +690,7 @@ fn numeric_methods_reach_targets_at_singular_configurations() {
     // and the Panda stretched (q4 at its limit near 0). No NaN; DLS converges.
     let robot = puma();
     let q3s = straight_elbow_q3(&robot);
+    let (mut pos, mut ori) = (0.0_f64, 0.0_f64);
     for q in [
         [0.3, 0.5, -1.0, 0.7, 0.0, -0.4],
         [0.1, -0.3, q3s, 0.4, -0.7, 0.2],
@@ -585,6 +705,8 @@ fn numeric_methods_reach_targets_at_singular_configurations() {
             let r =
                 ik::solve(&robot, &target, Method::Dls, &o).expect("dls reaches a singular target");
             assert!(r.solutions[0].converged && r.solutions[0].q.iter().all(|x| x.is_finite()));
+            let (p, o) = axis_error(&robot, &r.solutions[0].q, &target);
+            (pos, ori) = (pos.max(p), ori.max(o));
         }
         // Newton started on the singular configuration itself: J is singular there. It must
         // answer (converged, because the start is the solution) without NaN.
@@ -604,6 +726,12 @@ fn numeric_methods_reach_targets_at_singular_configurations() {
     };
     let r = ik::solve(&panda, &target, Method::Dls, &o).expect("dls reaches the stretched Panda");
     assert!(r.solutions[0].converged && r.solutions[0].within_limits);
+    // DLS converges per axis (target frame).
+    let test = "numeric_methods_reach_targets_at_singular_configurations";
+    let what = "PUMA DLS, 2 targets × 5 seeds: max per-axis ";
+    measured_residual(test, what, (pos, ori), 1e-8);
+    let panda_error = axis_error(&panda, &r.solutions[0].q, &target);
+    measured_residual(test, "stretched Panda DLS: per-axis ", panda_error, 1e-8);
 }
 
 /// Regression: roots of the hybrid's wrist constraint come in close pairs near the edge of the
@@ -616,6 +744,7 @@ fn hybrid_finds_close_root_pairs_near_the_reach_edge() {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
     let n = 400;
     let mut found = 0;
+    let (mut pos, mut ori) = (0.0_f64, 0.0_f64);
     for _ in 0..n {
         let q: Vec<f64> = robot
             .joints
@@ -625,7 +754,8 @@ fn hybrid_finds_close_root_pairs_near_the_reach_edge() {
         let target = fk::forward(&robot, &q);
         let r = ik::solve(&robot, &target, Method::Hybrid, &all())
             .expect("a reachable pose is never called unreachable");
-        assert_clean(&r, &robot, &target, 1e-10);
+        let (p, o) = assert_clean(&r, &robot, &target, 1e-10);
+        (pos, ori) = (pos.max(p), ori.max(o));
         if contains_q(&r, &q, 1e-7) {
             found += 1;
         }
@@ -633,6 +763,12 @@ fn hybrid_finds_close_root_pairs_near_the_reach_edge() {
     assert!(
         found >= n * 99 / 100,
         "found the generating configuration in {found} of {n}"
+    );
+    let test = "hybrid_finds_close_root_pairs_near_the_reach_edge";
+    measured_residual(test, "max ", (pos, ori), 1e-10);
+    eprintln!(
+        "measured: {test}: generating q found in {found} of {n} poses (bound ≥ {})",
+        n * 99 / 100
     );
 }
 
