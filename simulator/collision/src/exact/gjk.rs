@@ -12,8 +12,8 @@
 //!
 //! A pair is *apart* when the lower bound exceeds the rounding allowance τ = 8 ε L (ε the f64
 //! machine epsilon, L the largest |a| + |b| among the support points evaluated, in A's frame),
-//! and *touching or overlapping* when the upper bound is at most τ (a point of each solid within
-//! rounding of each other; an enclosed origin gives 0). The distance is converged when
+//! and *touching or overlapping* when the upper bound is at most max(τ, [`CONTACT_BAND`] =
+//! 1e-12 m) (a point of each solid that close; an enclosed origin gives 0). The distance is converged when
 //! `upper − lower ≤ tolerance`. Anything else after [`MAX_ITERATIONS`] is undecided, and the
 //! caller answers `Unknown`.
 //!
@@ -29,6 +29,12 @@ pub(crate) const MAX_ITERATIONS: usize = 200;
 
 /// Rounding allowance per unit of coordinate magnitude: τ = `ROUNDING` · L.
 pub(crate) const ROUNDING: f64 = 8.0 * f64::EPSILON;
+
+/// Touching, metres: a point of A and a point of B this close (or closer than τ) make a
+/// contact. Issue #20 allows either answer within 1e-12 m of touching; contact is the safe one.
+/// GJK's upper bound converges slowly onto a curved contact (the origin on a curved boundary
+/// of A − B), which this band absorbs.
+pub const CONTACT_BAND: f64 = 1e-12;
 
 /// What the bounds decide.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -133,7 +139,7 @@ pub(crate) fn separation(
         best.tau = ROUNDING * scale;
         // Inside a tetrahedron of support-point differences, or a point of each solid within
         // rounding of each other.
-        if simplex.len() == 4 || upper <= best.tau {
+        if simplex.len() == 4 || upper <= best.tau.max(CONTACT_BAND) {
             best.upper = best.upper.min(upper);
             best.verdict = Verdict::Touching;
             best.converged = true;

@@ -12,6 +12,8 @@
 
 mod gjk;
 
+pub use gjk::CONTACT_BAND;
+
 use crate::outcome::PairResult;
 use crate::solid::{Solid, SolidKind};
 use nalgebra::{Isometry3, Point3};
@@ -325,9 +327,9 @@ fn collide_support_maps(
         },
         gjk::Verdict::Touching => {
             // GJK's lower bound is a certified lower bound of the signed distance (minus the
-            // depth); a bracket [lower, τ] narrower than the tolerance is the answer for
+            // depth); a bracket [lower, upper] narrower than the tolerance is the answer for
             // touching pairs.
-            if s.tau - s.lower <= DISTANCE_TOLERANCE {
+            if s.upper - s.lower <= DISTANCE_TOLERANCE {
                 return PairResult::Contact {
                     signed_distance: Some(s.lower.min(0.0)),
                     witness: Some([ga * s.pa, ga * s.pb]),
