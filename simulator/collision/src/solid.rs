@@ -107,6 +107,22 @@ fn check_thickness(
     }
 }
 
+/// The test on a primitive's closed-form volume, area and box diagonal (before its generator,
+/// which would refuse a flat one with a polygon error instead).
+fn check_dimensions(vol: f64, area: f64, extent: f64) -> Result<(), ShapeError> {
+    let thickness = 2.0 * vol / area;
+    if thickness > DEGENERATE_RELATIVE_THICKNESS * extent {
+        Ok(())
+    } else {
+        Err(ShapeError::Degenerate {
+            part: None,
+            points: 0,
+            thickness,
+            extent,
+        })
+    }
+}
+
 /// The test on a validated polyhedron (its polygons fanned into triangles).
 fn check_polyhedron(poly: &Polyhedron, part: Option<usize>) -> Result<(), ShapeError> {
     let tris = (0..poly.polygons.len()).flat_map(|i| {
@@ -268,6 +284,11 @@ impl Solid {
             positive("size[1]", size.y)?,
             positive("size[2]", size.z)?,
         );
+        check_dimensions(
+            x * y * z,
+            2.0 * (x * y + y * z + z * x),
+            (x * x + y * y + z * z).sqrt(),
+        )?;
         let poly = shapes::cuboid(x, y, z)?;
         Self::single(
             SolidKind::Cuboid,
@@ -308,6 +329,11 @@ impl Solid {
     pub fn cylinder(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
         let (r, h) = (positive("radius", radius)?, positive("height", height)?);
         let n = facets_checked(facets, r)?;
+        check_dimensions(
+            PI * r * r * h,
+            2.0 * PI * r * (r + h),
+            (8.0 * r * r + h * h).sqrt(),
+        )?;
         let poly = shapes::cylinder(r, h, Some(n))?;
         Self::single(
             SolidKind::Cylinder,
@@ -323,6 +349,11 @@ impl Solid {
     pub fn cone(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
         let (r, h) = (positive("radius", radius)?, positive("height", height)?);
         let n = facets_checked(facets, r)?;
+        check_dimensions(
+            PI * r * r * h / 3.0,
+            PI * r * (r + (r * r + h * h).sqrt()),
+            (8.0 * r * r + h * h).sqrt(),
+        )?;
         let poly = shapes::cone(r, h, Some(n))?;
         // Hausdorff distance ≤ the base chord's sagitta (the gap shrinks linearly to the apex).
         Self::single(
