@@ -88,7 +88,7 @@ fn a_flat_compound_part_is_named() {
 #[test]
 fn query_protocol_shapes_refuse_flat_convexes_and_name_the_field() {
     let flat = json!({"shape": "convex", "points": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]});
-    let e = solid_from_json(&flat, "a", &[]).err().expect("refused");
+    let e = solid_from_json(&flat, "a", &[]).expect_err("refused");
     assert!(
         e.message.starts_with("a: ") && e.message.contains("degenerate"),
         "{}",
@@ -99,13 +99,13 @@ fn query_protocol_shapes_refuse_flat_convexes_and_name_the_field() {
         {"shape": "convex", "points": [[0,0,0],[0,0,0],[0,0,0],[0,0,0]],
          "pose": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]}
     ]});
-    let e = solid_from_json(&compound, "b", &[]).err().expect("refused");
+    let e = solid_from_json(&compound, "b", &[]).expect_err("refused");
     assert!(
         e.message.starts_with("b.parts[1]: ") && e.message.contains("degenerate"),
         "{}",
         e.message
     );
     let thin = json!({"shape": "box", "size": [1, 1, 1e-12]});
-    let e = solid_from_json(&thin, "c", &[]).err().expect("refused");
+    let e = solid_from_json(&thin, "c", &[]).expect_err("refused");
     assert!(e.message.contains("degenerate"), "{}", e.message);
 }

@@ -103,7 +103,7 @@ pub(crate) fn separation(
     let mut u = warm
         .filter(|w| w.norm() > 0.0 && w.iter().all(|c| c.is_finite()))
         .unwrap_or(-pos12.translation.vector);
-    if !(u.norm() > 0.0) {
+    if u.norm().is_nan() || u.norm() <= 0.0 {
         u = Vector3::x();
     }
     u.normalize_mut();
@@ -214,7 +214,7 @@ fn reduce(s: &[Vertex], l: &[f64]) -> (Vec<Vertex>, Vec<f64>) {
 fn segment(a: Vector3<f64>, b: Vector3<f64>) -> [f64; 2] {
     let ab = b - a;
     let den = ab.norm_squared();
-    if !(den > 0.0) {
+    if den.is_nan() || den <= 0.0 {
         return [1.0, 0.0];
     }
     let t = (-a.dot(&ab) / den).clamp(0.0, 1.0);
@@ -253,7 +253,7 @@ fn triangle(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> [f64; 3] {
         return [0.0, 1.0 - w, w];
     }
     let den = va + vb + vc;
-    if !(den > 0.0) {
+    if den.is_nan() || den <= 0.0 {
         // A degenerate (zero-area) triangle that the edge tests did not catch: its longest edge.
         let pairs = [(0, 1), (0, 2), (1, 2)];
         let pts = [a, b, c];
