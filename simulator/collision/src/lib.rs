@@ -28,7 +28,10 @@ mod solid;
 pub use exact::ExactOptions;
 pub use outcome::{Mode, PairResult};
 pub use polygon::PolygonOptions;
-pub use solid::{DEFAULT_CHORD_ERROR, Piece, ShapeError, Solid, SolidKind, default_facets};
+pub use solid::{
+    DEFAULT_CHORD_ERROR, DEGENERATE_RELATIVE_THICKNESS, Piece, ShapeError, Solid, SolidKind,
+    default_facets,
+};
 
 use nalgebra::Isometry3;
 

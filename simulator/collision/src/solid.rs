@@ -36,9 +36,24 @@ pub enum ShapeError {
     /// The polygon data was refused by the geometry library (names polygon and vertex).
     #[error("{0}")]
     Geometry(#[from] GeometryError),
-    /// A convex point set spans no volume (fewer than 4 points off a common plane).
-    #[error("the convex hull of the {0} points is flat or empty")]
-    FlatHull(usize),
+    /// The solid is degenerate ([`DEGENERATE_RELATIVE_THICKNESS`]): its thickness 2V/S is at
+    /// most 1e-9 of its extent L (flat, a line, a point, or empty). `part` is the compound part
+    /// when the solid is one. Fix the points (or the size) it was built from.
+    #[error(
+        "{}the solid is degenerate: thickness 2V/S = {thickness:e} m for an extent (box \
+         diagonal) of {extent:e} m, from {points} points; a solid needs a thickness above \
+         1e-9 of its extent",
+        part_prefix(*.part)
+    )]
+    Degenerate {
+        part: Option<usize>,
+        points: usize,
+        thickness: f64,
+        extent: f64,
+    },
+    /// parry refused the triangle mesh of a non-convex polyhedron (its message).
+    #[error("the triangle mesh was refused: {0}")]
+    MeshRefused(String),
     /// A compound part is itself a non-convex mesh or a compound (parry cannot nest them).
     #[error("compound part {0} is not convex (only convex parts may be combined)")]
     NonConvexPart(usize),
@@ -48,6 +63,73 @@ pub enum ShapeError {
     /// A compound has no parts.
     #[error("a compound needs at least one part")]
     EmptyCompound,
+}
+
+fn part_prefix(part: Option<usize>) -> String {
+    part.map_or(String::new(), |i| format!("compound part {i}: "))
+}
+
+/// A solid is **degenerate** when its thickness `t = 2V/S` (V its volume, S its surface area)
+/// is at most `DEGENERATE_RELATIVE_THICKNESS · L`, L the diagonal of its bounding box — or when
+/// it has no hull at all (L = 0, fewer than 4 points off one plane). t is the thickness of a
+/// slab (a plate of thickness w has t → w), a third of a cube's side, half a square rod's width,
+/// so the test is about flatness relative to the body's own size, at any scale: a 1e-4 m plate
+/// 1 m wide passes (t/L ≈ 7e-5), 4 coplanar or coincident points do not. Applied by every
+/// constructor ([`Solid::cuboid`] … [`Solid::convex`], closed [`Solid::mesh`]es, each part of a
+/// [`Solid::compound`]), so the query protocol and the scene compiler, which build through
+/// them, refuse the same solids with the same [`ShapeError::Degenerate`].
+pub const DEGENERATE_RELATIVE_THICKNESS: f64 = 1e-9;
+
+/// The degenerate-solid test on a closed triangulated surface (outward or inward, any
+/// consistent orientation).
+fn check_thickness(
+    vertices: &[Point3<f64>],
+    triangles: impl Iterator<Item = [u32; 3]>,
+    part: Option<usize>,
+) -> Result<(), ShapeError> {
+    let (mut vol, mut area) = (0.0, 0.0);
+    for t in triangles {
+        let [a, b, c] = t.map(|i| vertices[i as usize].coords);
+        vol += a.dot(&b.cross(&c)) / 6.0;
+        area += (b - a).cross(&(c - a)).norm() / 2.0;
+    }
+    let extent = Aabb::from_points(vertices).map_or(0.0, |b| 2.0 * b.half.norm());
+    let thickness = if area > 0.0 { 2.0 * vol.abs() / area } else { 0.0 };
+    if extent > 0.0 && thickness > DEGENERATE_RELATIVE_THICKNESS * extent {
+        Ok(())
+    } else {
+        Err(ShapeError::Degenerate {
+            part,
+            points: vertices.len(),
+            thickness,
+            extent,
+        })
+    }
+}
+
+/// The test on a primitive's closed-form volume, area and box diagonal (before its generator,
+/// which would refuse a flat one with a polygon error instead).
+fn check_dimensions(vol: f64, area: f64, extent: f64) -> Result<(), ShapeError> {
+    let thickness = 2.0 * vol / area;
+    if thickness > DEGENERATE_RELATIVE_THICKNESS * extent {
+        Ok(())
+    } else {
+        Err(ShapeError::Degenerate {
+            part: None,
+            points: 0,
+            thickness,
+            extent,
+        })
+    }
+}
+
+/// The test on a validated polyhedron (its polygons fanned into triangles).
+fn check_polyhedron(poly: &Polyhedron, part: Option<usize>) -> Result<(), ShapeError> {
+    let tris = (0..poly.polygons.len()).flat_map(|i| {
+        let ids = poly.polygon_indices(i);
+        (1..ids.len() - 1).map(move |k| [ids[0], ids[k], ids[k + 1]])
+    });
+    check_thickness(&poly.vertices, tris, part)
 }
 
 impl ShapeError {
@@ -181,9 +263,10 @@ impl Solid {
         exact_offset: Isometry3<f64>,
         err: f64,
         vol: Option<f64>,
-    ) -> Self {
+    ) -> Result<Self, ShapeError> {
+        check_polyhedron(&poly, None)?;
         let bbox = poly.bbox;
-        Solid {
+        Ok(Solid {
             kind,
             pieces: vec![Piece::new(poly)],
             exact,
@@ -191,7 +274,7 @@ impl Solid {
             tessellation_error: err,
             bbox,
             exact_volume: vol,
-        }
+        })
     }
 
     /// A box with full side lengths `size` (m), centred at the origin.
@@ -201,15 +284,20 @@ impl Solid {
             positive("size[1]", size.y)?,
             positive("size[2]", size.z)?,
         );
+        check_dimensions(
+            x * y * z,
+            2.0 * (x * y + y * z + z * x),
+            (x * x + y * y + z * z).sqrt(),
+        )?;
         let poly = shapes::cuboid(x, y, z)?;
-        Ok(Self::single(
+        Self::single(
             SolidKind::Cuboid,
             poly,
             SharedShape::cuboid(x / 2.0, y / 2.0, z / 2.0),
             Isometry3::identity(),
             0.0,
             Some(x * y * z),
-        ))
+        )
     }
 
     /// A sphere of `radius` (m); faceted by the geometry library's generator with `facets`
@@ -226,14 +314,14 @@ impl Solid {
             .map(|p| p.plane.d.abs())
             .fold(f64::INFINITY, f64::min);
         let vol = 4.0 / 3.0 * PI * r.powi(3);
-        Ok(Self::single(
+        Self::single(
             SolidKind::Sphere,
             poly,
             SharedShape::ball(r),
             Isometry3::identity(),
             r - inner,
             Some(vol),
-        ))
+        )
     }
 
     /// A cylinder of `radius` and `height` (m), axis z, centred; `facets` sides (default
@@ -241,31 +329,41 @@ impl Solid {
     pub fn cylinder(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
         let (r, h) = (positive("radius", radius)?, positive("height", height)?);
         let n = facets_checked(facets, r)?;
+        check_dimensions(
+            PI * r * r * h,
+            2.0 * PI * r * (r + h),
+            (8.0 * r * r + h * h).sqrt(),
+        )?;
         let poly = shapes::cylinder(r, h, Some(n))?;
-        Ok(Self::single(
+        Self::single(
             SolidKind::Cylinder,
             poly,
             SharedShape::cylinder(h / 2.0, r),
             y_to_z(),
             shapes::chord_error(r, n),
             Some(PI * r * r * h),
-        ))
+        )
     }
 
     /// A cone of base `radius` and `height` (m): base disc at z = −h/2, apex at z = +h/2.
     pub fn cone(radius: f64, height: f64, facets: Option<usize>) -> Result<Self, ShapeError> {
         let (r, h) = (positive("radius", radius)?, positive("height", height)?);
         let n = facets_checked(facets, r)?;
+        check_dimensions(
+            PI * r * r * h / 3.0,
+            PI * r * (r + (r * r + h * h).sqrt()),
+            (8.0 * r * r + h * h).sqrt(),
+        )?;
         let poly = shapes::cone(r, h, Some(n))?;
         // Hausdorff distance ≤ the base chord's sagitta (the gap shrinks linearly to the apex).
-        Ok(Self::single(
+        Self::single(
             SolidKind::Cone,
             poly,
             SharedShape::cone(h / 2.0, r),
             y_to_z(),
             shapes::chord_error(r, n),
             Some(PI * r * r * h / 3.0),
-        ))
+        )
     }
 
     /// The convex hull of `points` (m). The faceted form is parry's hull triangulation, so both
@@ -280,21 +378,40 @@ impl Solid {
                 .into());
             }
         }
-        let hull = SharedShape::convex_hull(points).ok_or(ShapeError::FlatHull(points.len()))?;
-        let cp = hull
-            .as_convex_polyhedron()
-            .ok_or(ShapeError::FlatHull(points.len()))?;
+        let flat = || ShapeError::Degenerate {
+            part: None,
+            points: points.len(),
+            thickness: 0.0,
+            extent: Aabb::from_points(points).map_or(0.0, |b| 2.0 * b.half.norm()),
+        };
+        // Fewer than 4 points never span a volume (and parry's hull wants 4).
+        if points.len() < 4 {
+            return Err(flat());
+        }
+        let hull = SharedShape::convex_hull(points).ok_or_else(flat)?;
+        let cp = hull.as_convex_polyhedron().ok_or_else(flat)?;
         let (verts, tris) = cp.to_trimesh();
+        check_thickness(&verts, tris.iter().copied(), None).map_err(|e| match e {
+            ShapeError::Degenerate {
+                thickness, extent, ..
+            } => ShapeError::Degenerate {
+                part: None,
+                points: points.len(),
+                thickness,
+                extent,
+            },
+            other => other,
+        })?;
         let faces: Vec<Vec<u32>> = tris.iter().map(|t| t.to_vec()).collect();
         let poly = Polyhedron::from_polygons(verts, &faces)?;
-        Ok(Self::single(
+        Self::single(
             SolidKind::Convex,
             poly,
             hull,
             Isometry3::identity(),
             0.0,
             None,
-        ))
+        )
     }
 
     /// A polyhedron from `vertices` and convex planar `polygons` (counter-clockwise seen from
@@ -304,9 +421,19 @@ impl Solid {
     pub fn mesh(vertices: Vec<Point3<f64>>, polygons: &[Vec<u32>]) -> Result<Self, ShapeError> {
         let poly = Polyhedron::from_polygons(vertices, polygons)?;
         let piece = Piece::new(poly);
+        // An open surface has no volume: it stays a surface (containment in it is unknown).
+        if piece.closed {
+            check_polyhedron(&piece.poly, None)?;
+        }
         let (exact, kind) = if piece.convex {
-            let hull = SharedShape::convex_hull(&piece.poly.vertices)
-                .ok_or(ShapeError::FlatHull(piece.poly.vertices.len()))?;
+            let hull = SharedShape::convex_hull(&piece.poly.vertices).ok_or(
+                ShapeError::Degenerate {
+                    part: None,
+                    points: piece.poly.vertices.len(),
+                    thickness: 0.0,
+                    extent: 2.0 * piece.poly.bbox.half.norm(),
+                },
+            )?;
             (hull, SolidKind::Convex)
         } else {
             let mut tris = Vec::new();
@@ -322,7 +449,7 @@ impl Solid {
                 TriMeshFlags::empty()
             };
             let mesh = SharedShape::trimesh_with_flags(piece.poly.vertices.clone(), tris, flags)
-                .map_err(|_| ShapeError::FlatHull(piece.poly.vertices.len()))?;
+                .map_err(|e| ShapeError::MeshRefused(e.to_string()))?;
             (mesh, SolidKind::Mesh)
         };
         let bbox = piece.poly.bbox;
@@ -350,6 +477,11 @@ impl Solid {
         for (i, (iso, s)) in parts.into_iter().enumerate() {
             if matches!(s.kind, SolidKind::Mesh | SolidKind::Compound) {
                 return Err(ShapeError::NonConvexPart(i));
+            }
+            // `Solid`'s fields are public, so a part may not have come through a constructor:
+            // the same test again, naming the part.
+            for p in &s.pieces {
+                check_polyhedron(&p.poly, Some(i))?;
             }
             for p in &s.pieces {
                 let moved = Piece::new(p.poly.transformed(&iso));

@@ -77,7 +77,10 @@ fn exact_mode_matches_closed_form_signed_distances_to_1e9() {
                     .map(|x| x.as_f64().expect("num"))
                     .collect();
                 let e = ((p.x - q[0]).powi(2) + (p.y - q[1]).powi(2) + (p.z - q[2]).powi(2)).sqrt();
-                assert!(e < 1e-6, "{}: witness off by {e}", k.name);
+                // The certified GJK stops once the distance bracket is 1e-11 m wide; on a curved
+                // surface the witness is then good to ~√(1e-11 m · R) ≈ 2e-6 m (the distance
+                // error is quadratic in the witness error).
+                assert!(e < 1e-5, "{}: witness off by {e}", k.name);
             }
         }
         checked += 1;

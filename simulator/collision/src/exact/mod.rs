@@ -10,13 +10,20 @@
 //! Entry points: [`collide`] (boolean, distance, witness points, depth) and [`intersects`]
 //! (boolean only — what the robot checks use).
 
+mod gjk;
+
+pub use gjk::CONTACT_BAND;
+
 use crate::outcome::PairResult;
 use crate::solid::{Solid, SolidKind};
 use nalgebra::{Isometry3, Point3};
-use parry3d_f64::query::details::intersection_test_support_map_support_map_with_params;
-use parry3d_f64::query::gjk::VoronoiSimplex;
 use parry3d_f64::query::{self, ClosestPoints};
-use parry3d_f64::shape::{Shape, ShapeType};
+use parry3d_f64::shape::{Shape, ShapeType, SupportMap};
+
+/// The certified distance's bracket width, metres: a separation is reported once
+/// `upper − lower ≤ DISTANCE_TOLERANCE` (absolute; at the 100 m scale the rounding allowance
+/// 8 ε L is below it too).
+pub const DISTANCE_TOLERANCE: f64 = 1e-11;
 
 /// What to compute beyond the boolean.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -47,13 +54,14 @@ fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> 
     Some(s.exact.contains_point(ps, p))
 }
 
-/// parry's boolean with a certificate for "apart". parry's GJK gives up after 100 iterations
-/// and then answers "no intersection" (parry 0.25.3, `gjk.rs`); so for a pair of convex support
-/// maps answered by GJK, "apart" is accepted only if GJK's last axis separates the two shapes
-/// (`min_B n·b − max_A n·a > 0`, two support-point evaluations); otherwise the answer is `Err`.
-/// Ball–ball and box–box are decided in closed form / by SAT and need no certificate.
-/// Compounds and triangle meshes are walked here, through their own BVH (the mid-phase), so
-/// every convex part or triangle pair is certified the same way.
+/// The certified boolean. parry's GJK gives up after 100 iterations and then answers "no
+/// intersection", and calls shapes within ~5e-8 × their size "intersecting" (its tolerance
+/// `sqrt(10 ε)`; parry 0.25.3, `gjk.rs`), so leaf pairs of convex support maps are decided by
+/// [`gjk::separation`] instead: apart only with a separating-plane lower bound above rounding,
+/// touching only with a point of each solid within rounding; `Err` (with the bracket) otherwise.
+/// Ball–ball is parry's closed form. Compounds and triangle meshes are walked here, through
+/// their own BVH (the mid-phase), so every convex part or triangle pair is certified the same
+/// way.
 fn certified_intersection(
     ga: &Isometry3<f64>,
     sa: &dyn Shape,
@@ -88,45 +96,56 @@ fn certified_intersection(
     if sb.as_compound().is_some() || sb.as_trimesh().is_some() {
         return certified_intersection(gb, sb, ga, sa);
     }
-    let hit = query::intersection_test(ga, sa, gb, sb).map_err(|_| {
-        format!(
-            "parry has no intersection test for {:?} against {:?}",
-            sa.shape_type(),
-            sb.shape_type()
-        )
-    })?;
-    if hit {
-        return Ok(true);
+    match leaf_pair(sa, sb) {
+        Leaf::Balls => Ok(query::intersection_test(ga, sa, gb, sb)
+            .map_err(|_| unsupported(sa, sb))?),
+        Leaf::SupportMaps(ma, mb) => {
+            let s = gjk::separation(&ga.inv_mul(gb), ma, mb, None, false, DISTANCE_TOLERANCE);
+            match s.verdict {
+                gjk::Verdict::Apart => Ok(false),
+                gjk::Verdict::Touching => Ok(true),
+                gjk::Verdict::Undecided => Err(undecided(&s)),
+            }
+        }
+        Leaf::Other => Err(unsupported(sa, sb)),
     }
-    let closed_form = matches!(
-        (sa.shape_type(), sb.shape_type()),
-        (ShapeType::Ball, ShapeType::Ball) | (ShapeType::Cuboid, ShapeType::Cuboid)
-    );
-    let (Some(ma), Some(mb)) = (sa.as_support_map(), sb.as_support_map()) else {
-        return Ok(false);
-    };
-    if closed_form {
-        return Ok(false);
+}
+
+/// How a pair of leaf shapes (no compound, no mesh) is decided.
+enum Leaf<'a> {
+    /// Two balls: parry's closed form (centre distance against the radius sum) is exact.
+    Balls,
+    /// Any other pair of convex support maps: the certified GJK ([`gjk`]).
+    SupportMaps(&'a dyn SupportMap, &'a dyn SupportMap),
+    /// Not a support map (never built by [`Solid`]).
+    Other,
+}
+
+fn leaf_pair<'a>(sa: &'a dyn Shape, sb: &'a dyn Shape) -> Leaf<'a> {
+    if sa.shape_type() == ShapeType::Ball && sb.shape_type() == ShapeType::Ball {
+        return Leaf::Balls;
     }
-    let pos12 = ga.inv_mul(gb);
-    let (again, dir) = intersection_test_support_map_support_map_with_params(
-        &pos12,
-        ma,
-        mb,
-        &mut VoronoiSimplex::new(),
-        None,
-    );
-    if again {
-        return Err("parry's GJK contradicts itself on this pair (intersecting and apart)".into());
+    match (sa.as_support_map(), sb.as_support_map()) {
+        (Some(ma), Some(mb)) => Leaf::SupportMaps(ma, mb),
+        _ => Leaf::Other,
     }
-    let gap = |n: &nalgebra::Vector3<f64>| {
-        mb.support_point(&pos12, &-n).coords.dot(n) - ma.local_support_point(n).coords.dot(n)
-    };
-    if gap(&dir) > 0.0 || gap(&-dir.into_inner()) > 0.0 {
-        Ok(false)
-    } else {
-        Err("parry's GJK stopped without a separating axis (iteration limit): apart is not certified".into())
-    }
+}
+
+fn unsupported(sa: &dyn Shape, sb: &dyn Shape) -> String {
+    format!(
+        "no exact test for {:?} against {:?}",
+        sa.shape_type(),
+        sb.shape_type()
+    )
+}
+
+fn undecided(s: &gjk::Separation) -> String {
+    format!(
+        "GJK on the exact support functions stopped after {} iterations with the signed distance \
+         bracketed in [{:e}, {:e}] m around the rounding allowance {:e} m: neither apart nor \
+         touching is certified",
+        s.iterations, s.lower, s.upper, s.tau
+    )
 }
 
 /// Boolean only: do the exact solids touch or overlap? `Err` carries the reason when parry
@@ -179,6 +198,9 @@ pub fn collide(
 ) -> PairResult {
     let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
     let (sa, sb) = (a.exact.as_ref(), b.exact.as_ref());
+    if let Leaf::SupportMaps(ma, mb) = leaf_pair(sa, sb) {
+        return collide_support_maps(&ga, ma, sa, &gb, mb, sb, opts);
+    }
     let hit = match certified_intersection(&ga, sa, &gb, sb) {
         Ok(h) => h,
         Err(reason) => return PairResult::Unknown { reason },
@@ -260,6 +282,72 @@ pub fn collide(
     PairResult::Clear {
         distance: Some(d),
         witness,
+    }
+}
+
+/// Two convex leaf shapes (not both balls) posed by `ga`, `gb` (parry shape → world): the
+/// boolean and the separation from [`gjk::separation`] (certified bracket, width at most
+/// [`DISTANCE_TOLERANCE`]); the depth of an overlap from parry's EPA, checked against GJK's
+/// lower bound.
+fn collide_support_maps(
+    ga: &Isometry3<f64>,
+    ma: &dyn SupportMap,
+    sa: &dyn Shape,
+    gb: &Isometry3<f64>,
+    mb: &dyn SupportMap,
+    sb: &dyn Shape,
+    opts: ExactOptions,
+) -> PairResult {
+    let s = gjk::separation(
+        &ga.inv_mul(gb),
+        ma,
+        mb,
+        None,
+        opts.distance,
+        DISTANCE_TOLERANCE,
+    );
+    match s.verdict {
+        gjk::Verdict::Undecided => PairResult::Unknown {
+            reason: undecided(&s),
+        },
+        gjk::Verdict::Apart if !opts.distance => PairResult::Clear {
+            distance: None,
+            witness: None,
+        },
+        // Converged: the distance is within DISTANCE_TOLERANCE of `upper`. At the iteration
+        // limit with apart certified, the lower bound is the one safe figure (a sweep advancing
+        // by it cannot pass through the other body).
+        gjk::Verdict::Apart => PairResult::Clear {
+            distance: Some(if s.converged { s.upper } else { s.lower }),
+            witness: Some([ga * s.pa, ga * s.pb]),
+        },
+        gjk::Verdict::Touching if !opts.depth => PairResult::Contact {
+            signed_distance: None,
+            witness: None,
+        },
+        gjk::Verdict::Touching => {
+            // GJK's lower bound is a certified lower bound of the signed distance (minus the
+            // depth); a bracket [lower, upper] narrower than the tolerance is the answer for
+            // touching pairs.
+            if s.upper - s.lower <= DISTANCE_TOLERANCE {
+                return PairResult::Contact {
+                    signed_distance: Some(s.lower.min(0.0)),
+                    witness: Some([ga * s.pa, ga * s.pb]),
+                };
+            }
+            match query::contact(ga, sa, gb, sb, 0.0) {
+                Ok(Some(c)) if c.dist.is_finite() => PairResult::Contact {
+                    signed_distance: Some(c.dist.min(0.0)),
+                    witness: Some([c.point1, c.point2]),
+                },
+                // Touching or overlapping for sure, depth not computable (EPA gave up): the
+                // boolean stands.
+                _ => PairResult::Contact {
+                    signed_distance: None,
+                    witness: None,
+                },
+            }
+        }
     }
 }
 
