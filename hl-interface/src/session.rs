@@ -180,8 +180,19 @@ impl Ops {
         &self.scene
     }
 
-    fn obstacles(&self, p: &CompiledRobot) -> Obstacles {
-        self.scene.obstacles(p, &self.unused)
+    /// The obstacles around `p`; refused when one of them has no collision solid (a check
+    /// could not say "clear" honestly): the message names it and how to leave it out.
+    fn obstacles(&self, p: &CompiledRobot) -> std::result::Result<Obstacles, ProtocolError> {
+        let o = self.scene.obstacles(p, &self.unused);
+        match o.refused.first() {
+            None => Ok(o),
+            Some(why) => Err(ProtocolError::new(
+                ErrorKind::Check,
+                format!(
+                    "{why}; the check cannot be certified with it (leave it out with `dontuse`, or turn checks off with `c_switch`)"
+                ),
+            )),
+        }
     }
 
     fn write_q(&mut self, p: &CompiledRobot, q: &[f64]) -> std::result::Result<u64, ProtocolError> {
@@ -329,7 +340,7 @@ impl Ops {
                 json!({"op": "encoder_error", "robot": inline, "q": p.q, "bits": req.get("bits").cloned().unwrap_or(Value::Null)}),
             ),
             "check" => {
-                let Obstacles { scene, names, .. } = self.obstacles(&p);
+                let Obstacles { scene, names, .. } = self.obstacles(&p)?;
                 let res = robosim_collision::robot::check_robot(
                     &p.robot,
                     &p.solids,
@@ -361,7 +372,7 @@ impl Ops {
                 // Joint limits at every step (MOVEJI's check), before anything moves.
                 let path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
                     .map_err(|e| err(ErrorKind::JointLimit, e.to_string()))?;
-                let Obstacles { scene, names, .. } = self.obstacles(&p);
+                let Obstacles { scene, names, .. } = self.obstacles(&p)?;
                 let outcome = robosim_collision::robot::move_checked(
                     &p.robot,
                     &p.solids,

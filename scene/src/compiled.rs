@@ -76,6 +76,9 @@ pub struct Obstacles {
     pub scene: Scene,
     pub names: Vec<String>,
     pub ids: Vec<Id>,
+    /// Obstacles (outside the robot, not unused) whose geometry makes no collision solid,
+    /// with why: a check against this scene cannot say "clear" while this is not empty.
+    pub refused: Vec<String>,
 }
 
 /// What [`CompiledScene::sync`] did.
@@ -106,6 +109,9 @@ pub struct CompiledScene {
     /// Robots that could not be compiled, with why (asked for by name, they say so).
     failed: Vec<(String, SceneError)>,
     objects: Vec<SolidObject>,
+    /// Objects whose geometry makes no collision solid, with why: a check that would need
+    /// them says so instead of treating them as absent.
+    refused: Vec<(Id, String)>,
     stats: CacheStats,
 }
 
@@ -151,18 +157,21 @@ impl CompiledScene {
     }
 
     fn compile(&mut self, snap: &Snapshot) {
-        self.objects = (0..snap.len())
-            .filter_map(|i| {
-                let solid = solid_of(snap, i)?;
-                Some(SolidObject {
+        self.objects.clear();
+        self.refused.clear();
+        for i in 0..snap.len() {
+            match solid_of(snap, i) {
+                Ok(None) => {}
+                Ok(Some(solid)) => self.objects.push(SolidObject {
                     index: i,
                     id: snap.objects()[i].id,
                     path: snap.path(i),
                     solid: Arc::new(solid),
                     pose: pose::to_isometry(&snap.world_pose(i)),
-                })
-            })
-            .collect();
+                }),
+                Err(reason) => self.refused.push((snap.objects()[i].id, reason)),
+            }
+        }
         self.robots.clear();
         self.failed.clear();
         for view in snap.robots() {
@@ -202,6 +211,11 @@ impl CompiledScene {
         &self.objects
     }
 
+    /// Objects whose geometry makes no collision solid: (id, why).
+    pub fn refused(&self) -> &[(Id, String)] {
+        &self.refused
+    }
+
     /// The robot called `name`: compiled, or why not.
     pub fn robot(&self, name: &str) -> Result<&CompiledRobot, SceneError> {
         if let Some(r) = self.robots.iter().find(|r| r.robot.name == name) {
@@ -229,6 +243,12 @@ impl CompiledScene {
             scene: Scene::new(),
             names: Vec::new(),
             ids: Vec::new(),
+            refused: self
+                .refused
+                .iter()
+                .filter(|(id, _)| !robot.subtree.contains(id) && !unused.contains(id))
+                .map(|(_, why)| why.clone())
+                .collect(),
         };
         for o in &self.objects {
             if robot.subtree.contains(&o.id) || unused.contains(&o.id) {
@@ -283,7 +303,11 @@ fn compile_robot(
         robot: view.name.to_owned(),
         reason: e.to_string(),
     })?;
-    let mut links = vec![link_solid(solids_under(snap, view.id, true))];
+    let bad = |reason: String| SceneError::BadRobot {
+        robot: view.name.to_owned(),
+        reason,
+    };
+    let mut links = vec![link_solid(solids_under(snap, view.id, true).map_err(bad)?).map_err(bad)?];
     let mut link_bodies = vec![
         snap.children(view.id)
             .filter(|&k| snap.object(k).kind() != Some(Kind::Link))
@@ -291,7 +315,7 @@ fn compile_robot(
             .collect::<Vec<Id>>(),
     ];
     for j in &view.joints {
-        links.push(link_solid(solids_under(snap, j.id, false)));
+        links.push(link_solid(solids_under(snap, j.id, false).map_err(bad)?).map_err(bad)?);
         link_bodies.push(bodies_under(snap, j.id));
     }
     let mut solids = LinkSolids {

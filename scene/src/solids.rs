@@ -10,11 +10,15 @@ use robosim_instance_space::{Id, Kind, Snapshot};
 use std::collections::HashSet;
 use std::sync::Arc;
 
-/// The collision solid of object `i`'s geometry (convex hull when every vertex lies on or
-/// behind every polygon's plane, else a mesh), or `None` when it has no geometry or the
-/// geometry makes no solid.
-pub fn solid_of(snap: &Snapshot, i: usize) -> Option<Solid> {
-    let g = snap.geometry(i)?;
+/// The collision solid of object `i`'s geometry: its convex hull when every vertex lies on or
+/// behind every polygon's plane and the hull has volume, else the polygons as a mesh (a closed
+/// non-convex solid, or an open surface such as a single plate, which collides as a surface).
+/// `Ok(None)`: no geometry. `Err`: the geometry makes no collision solid at all (the reason
+/// names why) — never silently no body.
+pub fn solid_of(snap: &Snapshot, i: usize) -> Result<Option<Solid>, String> {
+    let Some(g) = snap.geometry(i) else {
+        return Ok(None);
+    };
     let pts: Vec<Point3<f64>> = g
         .vertices
         .iter()
@@ -24,21 +28,26 @@ pub fn solid_of(snap: &Snapshot, i: usize) -> Option<Solid> {
         pts.iter()
             .all(|v| p.plane[0] * v.x + p.plane[1] * v.y + p.plane[2] * v.z + p.plane[3] <= 1e-9)
     });
-    if convex {
-        Solid::convex(&pts).ok()
-    } else {
-        let polys: Vec<Vec<u32>> = g
-            .polygons
-            .iter()
-            .map(|p| g.indices[p.start as usize..(p.start + p.len) as usize].to_vec())
-            .collect();
-        Solid::mesh(pts, &polys).ok()
+    if convex && let Ok(s) = Solid::convex(&pts) {
+        return Ok(Some(s));
     }
+    let polys: Vec<Vec<u32>> = g
+        .polygons
+        .iter()
+        .map(|p| g.indices[p.start as usize..(p.start + p.len) as usize].to_vec())
+        .collect();
+    Solid::mesh(pts, &polys)
+        .map(Some)
+        .map_err(|e| format!("{}: its geometry makes no collision solid: {e}", snap.path(i)))
 }
 
 /// The solids under object `id` (recursively), posed relative to `id`'s frame; with
 /// `skip_links`, links and what hangs from them are left out (a robot's base).
-pub fn solids_under(snap: &Snapshot, id: Id, skip_links: bool) -> Vec<(Isometry3<f64>, Solid)> {
+pub fn solids_under(
+    snap: &Snapshot,
+    id: Id,
+    skip_links: bool,
+) -> Result<Vec<(Isometry3<f64>, Solid)>, String> {
     let mut out = Vec::new();
     let mut stack: Vec<(usize, Isometry3<f64>)> = snap
         .children(id)
@@ -50,27 +59,32 @@ pub fn solids_under(snap: &Snapshot, id: Id, skip_links: bool) -> Vec<(Isometry3
             continue;
         }
         let here = parent * pose::to_isometry(&o.pose.pose);
-        if let Some(s) = solid_of(snap, k) {
+        if let Some(s) = solid_of(snap, k)? {
             out.push((here, s));
         }
         stack.extend(snap.children(o.rec.id).map(|c| (c, here)));
     }
-    out
+    Ok(out)
 }
 
-/// One link's solid: nothing, its one solid with its offset, or a compound of several.
-pub fn link_solid(parts: Vec<(Isometry3<f64>, Solid)>) -> Option<LinkSolid> {
-    match parts.len() {
+/// One link's solid: nothing, its one solid with its offset, or a compound of several
+/// (`Err` names why the parts make no compound, e.g. a part that is not convex).
+pub fn link_solid(parts: Vec<(Isometry3<f64>, Solid)>) -> Result<Option<LinkSolid>, String> {
+    Ok(match parts.len() {
         0 => None,
         1 => parts.into_iter().next().map(|(offset, s)| LinkSolid {
             solid: Arc::new(s),
             offset,
         }),
-        _ => Solid::compound(parts).ok().map(|s| LinkSolid {
-            solid: Arc::new(s),
-            offset: Isometry3::identity(),
-        }),
-    }
+        _ => Some(
+            Solid::compound(parts)
+                .map(|s| LinkSolid {
+                    solid: Arc::new(s),
+                    offset: Isometry3::identity(),
+                })
+                .map_err(|e| e.to_string())?,
+        ),
+    })
 }
 
 /// `top` and every object below it.

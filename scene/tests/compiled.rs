@@ -149,3 +149,51 @@ fn regression_fixed_joint_record_is_not_read_as_revolute() {
     let e = cache.robot("arm").err().expect("refused").to_string();
     assert!(e.contains("wrist") && e.contains("fixed"), "{e}");
 }
+
+/// Issue #20 item 7 (`flat_geometry_is_a_surface_not_absent`): a zero-thickness plate (one
+/// polygon) has no volume, so it makes no convex solid; it used to become "no collision body"
+/// without a word (`.ok()`). It is now a triangle surface that collides: a plate cutting
+/// through the positioner's base is a contact, and nothing is refused.
+#[test]
+fn flat_geometry_is_a_surface_that_collides_not_an_absent_body() {
+    use robosim_instance_space::{GeometryInput, IDENTITY, Kind};
+    let mut m = cell();
+    let base = {
+        let c = CompiledScene::of(&Snapshot::from_store(&m));
+        let r = c.robot("positioner").expect("compiled");
+        nalgebra::Vector3::new(r.robot.base[(0, 3)], r.robot.base[(1, 3)], r.robot.base[(2, 3)])
+    };
+    let mut tx = Transaction::new();
+    let plate = tx.create(Kind::Solid, "plate", None);
+    tx.set_geometry(
+        plate,
+        Some(GeometryInput {
+            vertices: vec![[-5.0, -5.0, 0.0], [5.0, -5.0, 0.0], [5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]],
+            polygons: vec![vec![0, 1, 2, 3]],
+        }),
+    );
+    let mut pose = IDENTITY;
+    pose[3] = base.x;
+    pose[7] = base.y;
+    pose[11] = base.z + 0.05;
+    tx.set_pose(plate, pose);
+    m.apply(&tx).expect("a one-polygon plate is valid geometry");
+    let c = CompiledScene::of(&Snapshot::from_store(&m));
+    assert!(c.refused().is_empty(), "{:?}", c.refused());
+    assert!(c.objects().iter().any(|o| o.path.ends_with("plate")), "the plate is a body");
+    let r = c.robot("positioner").expect("compiled");
+    let obs = c.obstacles(r, &HashSet::new());
+    assert!(obs.refused.is_empty());
+    let check = check_robot(
+        &r.robot,
+        &r.solids,
+        &r.q,
+        &obs.scene,
+        &CollisionSettings::default(),
+    )
+    .expect("check runs");
+    assert!(
+        matches!(check, CheckResult::Contact(_)),
+        "the plate cuts the base: {check:?}"
+    );
+}

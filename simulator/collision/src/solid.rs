@@ -425,7 +425,9 @@ impl Solid {
         if piece.closed {
             check_polyhedron(&piece.poly, None)?;
         }
-        let (exact, kind) = if piece.convex {
+        // A convex *closed* polyhedron is its hull; an open surface (a single polygon, a sheet)
+        // stays a triangle surface, which parry intersects as such.
+        let (exact, kind) = if piece.convex && piece.closed {
             let hull = SharedShape::convex_hull(&piece.poly.vertices).ok_or(
                 ShapeError::Degenerate {
                     part: None,

@@ -251,7 +251,16 @@ struct Daemon<'a> {
 impl Daemon<'_> {
     /// The pipeline of compiled robot `r` (shares the compiled solids).
     fn pipeline(&self, r: &robosim_scene::CompiledRobot) -> Result<Sim> {
-        let obstacles = self.scene.obstacles(r, &HashSet::new()).scene;
+        let around = self.scene.obstacles(r, &HashSet::new());
+        if let (Some(why), Some(c)) = (around.refused.first(), self.effects.collision.as_ref())
+            && c.enabled
+        {
+            return Err(DaemonError::Usage(format!(
+                "robot {}: the collision effect cannot be simulated honestly: {why}",
+                r.name()
+            )));
+        }
+        let obstacles = around.scene;
         // One log per robot: a scene with two robots must not write one file twice.
         let mut effects = self.effects.clone();
         let run_dir = self.session.run_dir();
