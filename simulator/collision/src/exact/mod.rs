@@ -11,6 +11,7 @@
 //! (boolean only — what the robot checks use).
 
 mod gjk;
+mod sphere;
 
 pub use gjk::CONTACT_BAND;
 
@@ -59,7 +60,8 @@ fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> 
 /// `sqrt(10 ε)`; parry 0.25.3, `gjk.rs`), so leaf pairs of convex support maps are decided by
 /// [`gjk::separation`] instead: apart only with a separating-plane lower bound above rounding,
 /// touching only with a point of each solid within rounding; `Err` (with the bracket) otherwise.
-/// Ball–ball is parry's closed form. Compounds and triangle meshes are walked here, through
+/// Ball–ball is parry's closed form; a ball against a box, cylinder or cone is [`sphere`]'s
+/// (centre projection). Compounds and triangle meshes are walked here, through
 /// their own BVH (the mid-phase), so every convex part or triangle pair is certified the same
 /// way.
 fn certified_intersection(
@@ -96,6 +98,9 @@ fn certified_intersection(
     if sb.as_compound().is_some() || sb.as_trimesh().is_some() {
         return certified_intersection(gb, sb, ga, sa);
     }
+    if let Some((answer, _)) = ball_closed_form(ga, sa, gb, sb) {
+        return Ok(!matches!(answer, sphere::BallAnswer::Apart { .. }));
+    }
     match leaf_pair(sa, sb) {
         Leaf::Balls => Ok(query::intersection_test(ga, sa, gb, sb)
             .map_err(|_| unsupported(sa, sb))?),
@@ -129,6 +134,24 @@ fn leaf_pair<'a>(sa: &'a dyn Shape, sb: &'a dyn Shape) -> Leaf<'a> {
         (Some(ma), Some(mb)) => Leaf::SupportMaps(ma, mb),
         _ => Leaf::Other,
     }
+}
+
+/// A ball against a box, cylinder or cone (either order): the closed form of [`sphere`], and
+/// whether the ball is `sa`. `None` for any other pair.
+fn ball_closed_form(
+    ga: &Isometry3<f64>,
+    sa: &dyn Shape,
+    gb: &Isometry3<f64>,
+    sb: &dyn Shape,
+) -> Option<(sphere::BallAnswer, bool)> {
+    if let Some(ball) = sa.as_ball() {
+        if sb.as_ball().is_none() {
+            return sphere::ball_against(ga, ball, gb, sb).map(|x| (x, true));
+        }
+    } else if let Some(ball) = sb.as_ball() {
+        return sphere::ball_against(gb, ball, ga, sa).map(|x| (x, false));
+    }
+    None
 }
 
 fn unsupported(sa: &dyn Shape, sb: &dyn Shape) -> String {
@@ -198,6 +221,51 @@ pub fn collide(
 ) -> PairResult {
     let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
     let (sa, sb) = (a.exact.as_ref(), b.exact.as_ref());
+    if let Some((answer, ball_is_a)) = ball_closed_form(&ga, sa, &gb, sb) {
+        let order = |on_ball, on_other| {
+            if ball_is_a {
+                [on_ball, on_other]
+            } else {
+                [on_other, on_ball]
+            }
+        };
+        match answer {
+            sphere::BallAnswer::Apart { .. } if !opts.distance => {
+                return PairResult::Clear {
+                    distance: None,
+                    witness: None,
+                };
+            }
+            sphere::BallAnswer::Apart {
+                distance,
+                on_ball,
+                on_other,
+            } => {
+                return PairResult::Clear {
+                    distance: Some(distance),
+                    witness: Some(order(on_ball, on_other)),
+                };
+            }
+            sphere::BallAnswer::Contact { .. } if !opts.depth => {
+                return PairResult::Contact {
+                    signed_distance: None,
+                    witness: None,
+                };
+            }
+            sphere::BallAnswer::Contact {
+                signed_distance,
+                on_ball,
+                on_other,
+            } => {
+                return PairResult::Contact {
+                    signed_distance: Some(signed_distance),
+                    witness: Some(order(on_ball, on_other)),
+                };
+            }
+            // Contact for sure; the depth (centre inside) by the general path below.
+            sphere::BallAnswer::CentreInside => {}
+        }
+    }
     if let Leaf::SupportMaps(ma, mb) = leaf_pair(sa, sb) {
         return collide_support_maps(&ga, ma, sa, &gb, mb, sb, opts);
     }
