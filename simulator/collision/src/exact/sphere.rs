@@ -121,7 +121,10 @@ mod tests {
             let gb = Isometry3::translation(x * 0.6, 0.1, x * 0.8);
             match ball_against(&gb, &ball, &Isometry3::identity(), &cyl).expect("closed form") {
                 BallAnswer::Apart { distance, .. } => {
-                    assert!(gap > 0.0 && (distance - gap).abs() < 1e-15, "{gap} {distance}");
+                    assert!(
+                        gap > 0.0 && (distance - gap).abs() < 1e-15,
+                        "{gap} {distance}"
+                    );
                 }
                 BallAnswer::Contact {
                     signed_distance, ..
