@@ -11,6 +11,7 @@
 //! (boolean only — what the robot checks use).
 
 mod gjk;
+mod projection;
 mod sphere;
 
 pub use gjk::CONTACT_BAND;
@@ -105,7 +106,11 @@ fn certified_intersection(
         Leaf::Balls => Ok(query::intersection_test(ga, sa, gb, sb)
             .map_err(|_| unsupported(sa, sb))?),
         Leaf::SupportMaps(ma, mb) => {
-            let s = gjk::separation(&ga.inv_mul(gb), ma, mb, None, false, DISTANCE_TOLERANCE);
+            let pos12 = ga.inv_mul(gb);
+            let mut s = gjk::separation(&pos12, ma, mb, None, false, DISTANCE_TOLERANCE);
+            if s.verdict == gjk::Verdict::Undecided {
+                projection::refine(&mut s, &pos12, sa, sb, false, DISTANCE_TOLERANCE);
+            }
             match s.verdict {
                 gjk::Verdict::Apart => Ok(false),
                 gjk::Verdict::Touching => Ok(true),
@@ -366,14 +371,13 @@ fn collide_support_maps(
     sb: &dyn Shape,
     opts: ExactOptions,
 ) -> PairResult {
-    let s = gjk::separation(
-        &ga.inv_mul(gb),
-        ma,
-        mb,
-        None,
-        opts.distance,
-        DISTANCE_TOLERANCE,
-    );
+    let pos12 = ga.inv_mul(gb);
+    let mut s = gjk::separation(&pos12, ma, mb, None, opts.distance, DISTANCE_TOLERANCE);
+    // GJK's upper bound creeps onto curved contacts: alternating exact projections where both
+    // shapes have them (`projection`), then GJK's rules again.
+    if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
+        projection::refine(&mut s, &pos12, sa, sb, opts.distance, DISTANCE_TOLERANCE);
+    }
     match s.verdict {
         gjk::Verdict::Undecided => PairResult::Unknown {
             reason: undecided(&s),
