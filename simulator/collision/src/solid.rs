@@ -94,7 +94,11 @@ fn check_thickness(
         area += (b - a).cross(&(c - a)).norm() / 2.0;
     }
     let extent = Aabb::from_points(vertices).map_or(0.0, |b| 2.0 * b.half.norm());
-    let thickness = if area > 0.0 { 2.0 * vol.abs() / area } else { 0.0 };
+    let thickness = if area > 0.0 {
+        2.0 * vol.abs() / area
+    } else {
+        0.0
+    };
     if extent > 0.0 && thickness > DEGENERATE_RELATIVE_THICKNESS * extent {
         Ok(())
     } else {
@@ -174,8 +178,21 @@ pub struct Piece {
 }
 
 impl Piece {
-    /// Wraps a validated polyhedron.
+    /// Wraps a validated polyhedron; convexity is tested (every vertex on the inner side of
+    /// every face plane, within 1e-9 of the size: O(faces × vertices)).
     pub fn new(poly: Polyhedron) -> Self {
+        Self::wrap(poly, false)
+    }
+
+    /// Wraps a primitive's faceted form (box, sphere, cylinder, cone from the geometry
+    /// library's generators), convex by construction: closed ⇒ convex without the
+    /// O(faces × vertices) test, which takes seconds for a 256-facet sphere (its 32k faces and
+    /// vertices). `primitives_are_closed_convex_and_inscribed` runs the full test on them.
+    fn convex_primitive(poly: Polyhedron) -> Self {
+        Self::wrap(poly, true)
+    }
+
+    fn wrap(poly: Polyhedron, convex_by_construction: bool) -> Self {
         let mut side_edge = Vec::with_capacity(poly.indices.len());
         for i in 0..poly.polygons.len() {
             let ids = poly.polygon_indices(i);
@@ -191,11 +208,12 @@ impl Piece {
         let closed = poly.is_closed();
         // An open surface is never taken for the solid hull of its vertices.
         let convex = closed
-            && poly.polygons.iter().all(|pg| {
-                poly.vertices
-                    .iter()
-                    .all(|v| pg.plane.signed_distance(v) <= 1e-9 * size)
-            });
+            && (convex_by_construction
+                || poly.polygons.iter().all(|pg| {
+                    poly.vertices
+                        .iter()
+                        .all(|v| pg.plane.signed_distance(v) <= 1e-9 * size)
+                }));
         Piece {
             poly,
             convex,
@@ -268,7 +286,11 @@ impl Solid {
         let bbox = poly.bbox;
         Ok(Solid {
             kind,
-            pieces: vec![Piece::new(poly)],
+            pieces: vec![if kind == SolidKind::Convex {
+                Piece::new(poly)
+            } else {
+                Piece::convex_primitive(poly)
+            }],
             exact,
             exact_offset,
             tessellation_error: err,
@@ -428,14 +450,13 @@ impl Solid {
         // A convex *closed* polyhedron is its hull; an open surface (a single polygon, a sheet)
         // stays a triangle surface, which parry intersects as such.
         let (exact, kind) = if piece.convex && piece.closed {
-            let hull = SharedShape::convex_hull(&piece.poly.vertices).ok_or(
-                ShapeError::Degenerate {
+            let hull =
+                SharedShape::convex_hull(&piece.poly.vertices).ok_or(ShapeError::Degenerate {
                     part: None,
                     points: piece.poly.vertices.len(),
                     thickness: 0.0,
                     extent: 2.0 * piece.poly.bbox.half.norm(),
-                },
-            )?;
+                })?;
             (hull, SolidKind::Convex)
         } else {
             let mut tris = Vec::new();
@@ -552,10 +573,15 @@ mod tests {
             Solid::sphere(0.5, Some(16)).expect("sphere"),
             Solid::cylinder(0.3, 1.0, Some(12)).expect("cylinder"),
             Solid::cone(0.3, 1.0, Some(12)).expect("cone"),
+            Solid::sphere(0.5, None).expect("sphere, default facets"),
+            Solid::cylinder(0.3, 1.0, None).expect("cylinder, default facets"),
+            Solid::cone(0.3, 1.0, None).expect("cone, default facets"),
         ];
         for s in &solids {
             let p = &s.pieces[0];
             assert!(p.closed && p.convex, "{:?}", s.kind);
+            // Convex by construction (`Piece::convex_primitive`): the full test agrees.
+            assert!(Piece::new(p.poly.clone()).convex, "{:?}", s.kind);
             assert_eq!(p.poly.euler_characteristic(), 2);
             let v = s.faceted_volume();
             let e = s.exact_volume.expect("primitive volume");

@@ -11,6 +11,8 @@
 //! (boolean only — what the robot checks use).
 
 mod gjk;
+mod projection;
+mod sphere;
 
 pub use gjk::CONTACT_BAND;
 
@@ -59,7 +61,8 @@ fn inside_mesh(s: &Solid, ps: &Isometry3<f64>, p: &Point3<f64>) -> Option<bool> 
 /// `sqrt(10 ε)`; parry 0.25.3, `gjk.rs`), so leaf pairs of convex support maps are decided by
 /// [`gjk::separation`] instead: apart only with a separating-plane lower bound above rounding,
 /// touching only with a point of each solid within rounding; `Err` (with the bracket) otherwise.
-/// Ball–ball is parry's closed form. Compounds and triangle meshes are walked here, through
+/// Ball–ball is parry's closed form; a ball against a box, cylinder or cone is [`sphere`]'s
+/// (centre projection). Compounds and triangle meshes are walked here, through
 /// their own BVH (the mid-phase), so every convex part or triangle pair is certified the same
 /// way.
 fn certified_intersection(
@@ -96,11 +99,18 @@ fn certified_intersection(
     if sb.as_compound().is_some() || sb.as_trimesh().is_some() {
         return certified_intersection(gb, sb, ga, sa);
     }
+    if let Some((answer, _)) = ball_closed_form(ga, sa, gb, sb) {
+        return Ok(!matches!(answer, sphere::BallAnswer::Apart { .. }));
+    }
     match leaf_pair(sa, sb) {
         Leaf::Balls => Ok(query::intersection_test(ga, sa, gb, sb)
             .map_err(|_| unsupported(sa, sb))?),
         Leaf::SupportMaps(ma, mb) => {
-            let s = gjk::separation(&ga.inv_mul(gb), ma, mb, None, false, DISTANCE_TOLERANCE);
+            let pos12 = ga.inv_mul(gb);
+            let mut s = gjk::separation(&pos12, ma, mb, None, false, DISTANCE_TOLERANCE);
+            if s.verdict == gjk::Verdict::Undecided {
+                projection::refine(&mut s, &pos12, sa, sb, false, DISTANCE_TOLERANCE);
+            }
             match s.verdict {
                 gjk::Verdict::Apart => Ok(false),
                 gjk::Verdict::Touching => Ok(true),
@@ -129,6 +139,24 @@ fn leaf_pair<'a>(sa: &'a dyn Shape, sb: &'a dyn Shape) -> Leaf<'a> {
         (Some(ma), Some(mb)) => Leaf::SupportMaps(ma, mb),
         _ => Leaf::Other,
     }
+}
+
+/// A ball against a box, cylinder or cone (either order): the closed form of [`sphere`], and
+/// whether the ball is `sa`. `None` for any other pair.
+fn ball_closed_form(
+    ga: &Isometry3<f64>,
+    sa: &dyn Shape,
+    gb: &Isometry3<f64>,
+    sb: &dyn Shape,
+) -> Option<(sphere::BallAnswer, bool)> {
+    if let Some(ball) = sa.as_ball() {
+        if sb.as_ball().is_none() {
+            return sphere::ball_against(ga, ball, gb, sb).map(|x| (x, true));
+        }
+    } else if let Some(ball) = sb.as_ball() {
+        return sphere::ball_against(gb, ball, ga, sa).map(|x| (x, false));
+    }
+    None
 }
 
 fn unsupported(sa: &dyn Shape, sb: &dyn Shape) -> String {
@@ -198,6 +226,51 @@ pub fn collide(
 ) -> PairResult {
     let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
     let (sa, sb) = (a.exact.as_ref(), b.exact.as_ref());
+    if let Some((answer, ball_is_a)) = ball_closed_form(&ga, sa, &gb, sb) {
+        let order = |on_ball, on_other| {
+            if ball_is_a {
+                [on_ball, on_other]
+            } else {
+                [on_other, on_ball]
+            }
+        };
+        match answer {
+            sphere::BallAnswer::Apart { .. } if !opts.distance => {
+                return PairResult::Clear {
+                    distance: None,
+                    witness: None,
+                };
+            }
+            sphere::BallAnswer::Apart {
+                distance,
+                on_ball,
+                on_other,
+            } => {
+                return PairResult::Clear {
+                    distance: Some(distance),
+                    witness: Some(order(on_ball, on_other)),
+                };
+            }
+            sphere::BallAnswer::Contact { .. } if !opts.depth => {
+                return PairResult::Contact {
+                    signed_distance: None,
+                    witness: None,
+                };
+            }
+            sphere::BallAnswer::Contact {
+                signed_distance,
+                on_ball,
+                on_other,
+            } => {
+                return PairResult::Contact {
+                    signed_distance: Some(signed_distance),
+                    witness: Some(order(on_ball, on_other)),
+                };
+            }
+            // Contact for sure; the depth (centre inside) by the general path below.
+            sphere::BallAnswer::CentreInside => {}
+        }
+    }
     if let Leaf::SupportMaps(ma, mb) = leaf_pair(sa, sb) {
         return collide_support_maps(&ga, ma, sa, &gb, mb, sb, opts);
     }
@@ -298,14 +371,13 @@ fn collide_support_maps(
     sb: &dyn Shape,
     opts: ExactOptions,
 ) -> PairResult {
-    let s = gjk::separation(
-        &ga.inv_mul(gb),
-        ma,
-        mb,
-        None,
-        opts.distance,
-        DISTANCE_TOLERANCE,
-    );
+    let pos12 = ga.inv_mul(gb);
+    let mut s = gjk::separation(&pos12, ma, mb, None, opts.distance, DISTANCE_TOLERANCE);
+    // GJK's upper bound creeps onto curved contacts: alternating exact projections where both
+    // shapes have them (`projection`), then GJK's rules again.
+    if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
+        projection::refine(&mut s, &pos12, sa, sb, opts.distance, DISTANCE_TOLERANCE);
+    }
     match s.verdict {
         gjk::Verdict::Undecided => PairResult::Unknown {
             reason: undecided(&s),
