@@ -84,6 +84,17 @@ fn sync_dir(dir: &Path) -> Result<(), JournalError> {
         .map_err(io_err(dir))
 }
 
+/// Removes the mirror `m` if there is one.
+fn remove_stale_mirror(m: &Path) -> Result<(), JournalError> {
+    match fs::remove_file(m) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(JournalError::Io {
+            path: m.to_owned(),
+            source: e,
+        }),
+        _ => Ok(()),
+    }
+}
+
 /// Creates `path` holding exactly `bytes`, synced.
 fn create_with(path: &Path, bytes: &[u8]) -> Result<File, JournalError> {
     let mut f = create_private(path)?;
@@ -109,12 +120,8 @@ impl Journal {
             Some((m, BufWriter::with_capacity(1 << 20, mf)))
         } else {
             // A mirror left by an older journal of this name must not be read for this one.
-            match fs::remove_file(&m) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                    return Err(JournalError::Io { path: m, source: e });
-                }
-                _ => None,
-            }
+            remove_stale_mirror(&m)?;
+            None
         };
         sync_dir(dir)?;
         Ok(Journal {
@@ -153,12 +160,8 @@ impl Journal {
                 .map_err(io_err(&m))?;
             Some((m, BufWriter::with_capacity(1 << 20, mf)))
         } else {
-            match fs::remove_file(&m) {
-                Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                    return Err(JournalError::Io { path: m, source: e });
-                }
-                _ => None,
-            }
+            remove_stale_mirror(&m)?;
+            None
         };
         sync_dir(dir)?;
         Ok(Journal {
