@@ -11,6 +11,7 @@
 //! (boolean only — what the robot checks use).
 
 mod gjk;
+mod lower;
 mod projection;
 mod sphere;
 
@@ -110,6 +111,9 @@ fn certified_intersection(
             let mut s = gjk::separation(&pos12, ma, mb, None, false, DISTANCE_TOLERANCE);
             if s.verdict == gjk::Verdict::Undecided {
                 projection::refine(&mut s, &pos12, sa, sb, false, DISTANCE_TOLERANCE);
+            }
+            if s.verdict == gjk::Verdict::Undecided {
+                lower::refine(&mut s, &pos12, ma, mb, sa, sb, false, DISTANCE_TOLERANCE);
             }
             match s.verdict {
                 gjk::Verdict::Apart => Ok(false),
@@ -377,6 +381,11 @@ fn collide_support_maps(
     // shapes have them (`projection`), then GJK's rules again.
     if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
         projection::refine(&mut s, &pos12, sa, sb, opts.distance, DISTANCE_TOLERANCE);
+    }
+    // The lower bound is the weak side at 1e-9 m gaps on curved or large pairs: maximise the
+    // separating-plane bound over directions (`lower`), then GJK's rules again.
+    if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
+        lower::refine(&mut s, &pos12, ma, mb, sa, sb, opts.distance, DISTANCE_TOLERANCE);
     }
     match s.verdict {
         gjk::Verdict::Undecided => PairResult::Unknown {
