@@ -223,7 +223,7 @@ fn segment(a: Vector3<f64>, b: Vector3<f64>) -> [f64; 2] {
 
 /// Closest point of triangle abc to the origin, as barycentric weights (Ericson, *Real-Time
 /// Collision Detection*, §5.1.5, with p = 0).
-fn triangle(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> [f64; 3] {
+pub(crate) fn triangle(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> [f64; 3] {
     let (ab, ac) = (b - a, c - a);
     let (d1, d2) = (-ab.dot(&a), -ac.dot(&a));
     if d1 <= 0.0 && d2 <= 0.0 {

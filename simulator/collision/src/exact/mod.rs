@@ -11,6 +11,7 @@
 //! (boolean only — what the robot checks use).
 
 mod gjk;
+mod lower;
 mod projection;
 mod sphere;
 
@@ -110,6 +111,9 @@ fn certified_intersection(
             let mut s = gjk::separation(&pos12, ma, mb, None, false, DISTANCE_TOLERANCE);
             if s.verdict == gjk::Verdict::Undecided {
                 projection::refine(&mut s, &pos12, sa, sb, false, DISTANCE_TOLERANCE);
+            }
+            if s.verdict == gjk::Verdict::Undecided {
+                lower::refine(&mut s, &pos12, ma, mb, sa, sb, false, DISTANCE_TOLERANCE);
             }
             match s.verdict {
                 gjk::Verdict::Apart => Ok(false),
@@ -378,6 +382,11 @@ fn collide_support_maps(
     if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
         projection::refine(&mut s, &pos12, sa, sb, opts.distance, DISTANCE_TOLERANCE);
     }
+    // The lower bound is the weak side at 1e-9 m gaps on curved or large pairs: maximise the
+    // separating-plane bound over directions (`lower`), then GJK's rules again.
+    if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
+        lower::refine(&mut s, &pos12, ma, mb, sa, sb, opts.distance, DISTANCE_TOLERANCE);
+    }
     match s.verdict {
         gjk::Verdict::Undecided => PairResult::Unknown {
             reason: undecided(&s),
@@ -400,20 +409,39 @@ fn collide_support_maps(
         gjk::Verdict::Touching => {
             // GJK's lower bound is a certified lower bound of the signed distance (minus the
             // depth); a bracket [lower, upper] narrower than the tolerance is the answer for
-            // touching pairs.
+            // touching pairs. Otherwise the lower bound is first maximised over directions.
+            if s.upper - s.lower > DISTANCE_TOLERANCE {
+                lower::refine(&mut s, &pos12, ma, mb, sa, sb, true, DISTANCE_TOLERANCE);
+            }
             if s.upper - s.lower <= DISTANCE_TOLERANCE {
                 return PairResult::Contact {
                     signed_distance: Some(s.lower.min(0.0)),
                     witness: Some([ga * s.pa, ga * s.pb]),
                 };
             }
+            // EPA's depth where it agrees with the certified lower bound to the tolerance, or
+            // where it found a depth at all (deep overlaps: EPA is accurate there and the
+            // direction search is not, so EPA's figure stands uncertified as before). Where EPA
+            // gave up or saw no depth (a 1e-9 m overlap of curved solids comes back as depth 0),
+            // the certified lower bound itself: the depth reported is then never smaller than
+            // the true one (the safe side), but certified from that side only.
+            let tau = s.tau;
+            let lower = s.lower;
+            let usable = |d: f64| {
+                d <= lower + DISTANCE_TOLERANCE && d >= lower - tau || d < -tau || !lower.is_finite()
+            };
             match query::contact(ga, sa, gb, sb, 0.0) {
-                Ok(Some(c)) if c.dist.is_finite() => PairResult::Contact {
-                    signed_distance: Some(c.dist.min(0.0)),
-                    witness: Some([c.point1, c.point2]),
+                Ok(Some(c)) if c.dist.is_finite() && usable(c.dist.min(0.0)) => {
+                    PairResult::Contact {
+                        signed_distance: Some(c.dist.min(0.0)),
+                        witness: Some([c.point1, c.point2]),
+                    }
+                }
+                _ if s.lower.is_finite() => PairResult::Contact {
+                    signed_distance: Some(s.lower.min(0.0)),
+                    witness: Some([ga * s.pa, ga * s.pb]),
                 },
-                // Touching or overlapping for sure, depth not computable (EPA gave up): the
-                // boolean stands.
+                // Touching or overlapping for sure, no depth: the boolean stands.
                 _ => PairResult::Contact {
                     signed_distance: None,
                     witness: None,
