@@ -126,6 +126,10 @@ pub fn run(out: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
         ),
         (format!("recovery of {recover_n} records"), rec, "ms"),
     ];
+    let load = std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|l| l.split_whitespace().next().map(str::to_owned))
+        .unwrap_or_else(|| "unknown".into());
     let mut md = format!(
         "# The journal's second copy (`robosim bench journal{}`)\n\n\
          What `--journal-copies 2` (the default) costs against one copy, measured in one run on \
@@ -135,6 +139,8 @@ pub fn run(out: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
          The second copy is what lets recovery read a damaged record (a flipped bit, a bad sector) \
          from the mirror instead of cutting every record after it \
          (`instance-space/tests/journal.rs`, `tests/space.rs`).\n\n\
+         Load average at the start: {load}. The absolute figures are the disk's state during the \
+         run (other processes' builds write to the same device); the 2 / 1 column is the finding.\n\n\
          | measure | 1 copy | 2 copies | 2 / 1 |\n|---|---|---|---|\n",
         if quick { " --quick" } else { "" },
         home.display()
