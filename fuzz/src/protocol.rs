@@ -96,7 +96,13 @@ fn check(answer: &str, id: Value) {
         .unwrap_or_else(|e| panic!("answer is not JSON ({e}): {answer}"));
     let ok = v.get("ok").and_then(Value::as_bool);
     assert!(ok.is_some(), "answer without a boolean `ok`: {answer}");
-    assert_eq!(v.get("id"), Some(&id), "id not echoed: {answer}");
+    // The id is echoed as the server read it. Compared as text, not re-parsed: serde_json's
+    // default number parser is not correctly rounded, so a 17-digit float (or a 130-digit
+    // integer) can read back one ULP off (docs/fuzzing.md, "Findings").
+    assert!(
+        answer.starts_with(&format!("{{\"id\":{id},")),
+        "id not echoed: {answer}"
+    );
     if ok == Some(false) {
         let kind = v["error"]["kind"].as_str().unwrap_or("");
         assert!(
