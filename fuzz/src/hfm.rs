@@ -25,12 +25,18 @@ pub fn run(data: &[u8]) {
             let _ = robosim_automation::diag::FaultGraph::new(&m);
             for p in 0..m.processes.len() {
                 let _ = m.ancestor_at_depth(p, 0);
-                assert!(m.is_ancestor_or_self(m.root(), p), "process {p} not under the root");
+                assert!(
+                    m.is_ancestor_or_self(m.root(), p),
+                    "process {p} not under the root"
+                );
             }
         }
         Err(e) => {
             let msg = e.to_string();
-            assert!(msg.starts_with("fuzz.hfm:"), "error without the file: {msg}");
+            assert!(
+                msg.starts_with("fuzz.hfm:"),
+                "error without the file: {msg}"
+            );
         }
     }
 }

@@ -76,7 +76,11 @@ fn crc32(parts: &[&[u8]]) -> u32 {
         for &b in *p {
             crc ^= u32::from(b);
             for _ in 0..8 {
-                crc = if crc & 1 != 0 { (crc >> 1) ^ 0xEDB8_8320 } else { crc >> 1 };
+                crc = if crc & 1 != 0 {
+                    (crc >> 1) ^ 0xEDB8_8320
+                } else {
+                    crc >> 1
+                };
             }
         }
     }
@@ -87,10 +91,12 @@ fn crc32(parts: &[&[u8]]) -> u32 {
 /// an fsync per execution would bound the fuzzer to disk speed.
 fn scratch() -> std::io::Result<tempfile::TempDir> {
     let shm = Path::new("/dev/shm");
-    if shm.is_dir() {
-        if let Ok(d) = tempfile::Builder::new().prefix("robosim-fuzz").tempdir_in(shm) {
-            return Ok(d);
-        }
+    if shm.is_dir()
+        && let Ok(d) = tempfile::Builder::new()
+            .prefix("robosim-fuzz")
+            .tempdir_in(shm)
+    {
+        return Ok(d);
     }
     tempfile::Builder::new().prefix("robosim-fuzz").tempdir()
 }

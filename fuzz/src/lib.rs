@@ -26,7 +26,10 @@ pub mod trajectory;
 /// for a 100-line text parser. The file needs only `crate::{DisplayError, Result}`, given here
 /// with the same variants and messages.
 #[path = "../../display/src/trajectory.rs"]
-#[expect(dead_code, reason = "the target reads text; `Trajectory::load` (files) is the display's")]
+#[expect(
+    dead_code,
+    reason = "the target reads text; `Trajectory::load` (files) is the display's"
+)]
 mod display_trajectory;
 
 /// What the `trajectory` body reads the format with (the display's own tests give it

@@ -15,7 +15,8 @@ use std::sync::OnceLock;
 const MAX_POLYGONS: usize = 100_000;
 
 /// A small library whose declarations take the fuzzed bytes as a parameter expression.
-const PARAM_HOST: &str = "solid slab(x = 1 m, c = rgb(1, 0, 0)) { part box(x, 1 m, 1 m) colour c }\n";
+const PARAM_HOST: &str =
+    "solid slab(x = 1 m, c = rgb(1, 0, 0)) { part box(x, 1 m, 1 m) colour c }\n";
 
 pub fn run(data: &[u8]) {
     let Ok(text) = std::str::from_utf8(data) else {

@@ -61,13 +61,17 @@ fn limit(req: &mut Value) -> bool {
     {
         return false;
     }
-    let op = obj.get("op").and_then(Value::as_str).unwrap_or("").to_owned();
+    let op = obj
+        .get("op")
+        .and_then(Value::as_str)
+        .unwrap_or("")
+        .to_owned();
+    // absent or above `max`: `max`; a value of another type is left for the op to refuse
     let cap = |obj: &mut serde_json::Map<String, Value>, key: &str, max: u64| {
-        let v = obj.get(key).and_then(Value::as_f64).unwrap_or(max as f64);
-        if !(v <= max as f64) {
-            obj.insert(key.to_owned(), Value::from(max));
-        }
-        if obj.get(key).is_none() {
+        let above = obj
+            .get(key)
+            .is_none_or(|v| v.as_f64().is_some_and(|n| n > max as f64));
+        if above {
             obj.insert(key.to_owned(), Value::from(max));
         }
     };
@@ -121,9 +125,10 @@ fn limit_facets(v: &mut Value) {
             if matches!(
                 o.get("shape").and_then(Value::as_str),
                 Some("sphere" | "cylinder" | "cone")
-            ) && o.get("facets").is_none_or(|f| {
-                f.as_f64().is_some_and(|n| n > MAX_ROUND_FACETS as f64)
-            }) {
+            ) && o
+                .get("facets")
+                .is_none_or(|f| f.as_f64().is_some_and(|n| n > MAX_ROUND_FACETS as f64))
+            {
                 o.insert("facets".to_owned(), Value::from(MAX_ROUND_FACETS));
             }
             o.values_mut().for_each(limit_facets);

@@ -36,7 +36,10 @@ pub fn run(data: &[u8]) {
         }
         Err(e) => {
             let msg = e.to_string();
-            assert!(msg.starts_with("fuzz.traj:"), "error without the file: {msg}");
+            assert!(
+                msg.starts_with("fuzz.traj:"),
+                "error without the file: {msg}"
+            );
         }
     }
 }

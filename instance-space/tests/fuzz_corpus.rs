@@ -13,7 +13,9 @@ use robosim_instance_space::{Appearance, Kind, MassProps, Store, Transaction};
 use std::path::{Path, PathBuf};
 
 fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds").join(target);
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fuzz/seeds")
+        .join(target);
     let mut files: Vec<_> = std::fs::read_dir(&dir)
         .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
         .map(|e| e.expect("dir entry").path())
@@ -44,7 +46,10 @@ fn transactions() -> Vec<Transaction> {
     let mut a = Transaction::new();
     let scene = a.create(Kind::Scene, "cell", None);
     let solid = a.create(Kind::Solid, "crate", Some(scene));
-    a.set_pose(solid, [1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, -0.2, 0.0, 0.0, 1.0, 0.1]);
+    a.set_pose(
+        solid,
+        [1.0, 0.0, 0.0, 0.5, 0.0, 1.0, 0.0, -0.2, 0.0, 0.0, 1.0, 0.1],
+    );
     a.set_appearance(
         solid,
         Appearance {
@@ -65,15 +70,24 @@ fn transactions() -> Vec<Transaction> {
     let robot = a.create(Kind::Robot, "arm", Some(scene));
     let _link = a.create(Kind::Link, "upper", Some(robot));
     let cube = robosim_geometry::shapes::cuboid(0.1, 0.1, 0.1).expect("a cube");
-    a.set_geometry(solid, Some(robosim_instance_space::GeometryInput::from_polyhedron(&cube)));
+    a.set_geometry(
+        solid,
+        Some(robosim_instance_space::GeometryInput::from_polyhedron(
+            &cube,
+        )),
+    );
     let mut b = Transaction::new();
-    b.set_pose(2u64, [1.0, 0.0, 0.0, 0.6, 0.0, 1.0, 0.0, -0.2, 0.0, 0.0, 1.0, 0.1]);
+    b.set_pose(
+        2u64,
+        [1.0, 0.0, 0.0, 0.6, 0.0, 1.0, 0.0, -0.2, 0.0, 0.0, 1.0, 0.1],
+    );
     b.set_joint(4u64, 0.25);
     let mut c = Transaction::new();
     let extra = c.create(Kind::Item, "marker", None);
     c.set_name(extra, "marker-1").attach(extra, 1u64);
     let mut d = Transaction::new();
-    d.delete(5u64, false).set_origin(2u64, "{\"decl\":\"crate\"}");
+    d.delete(5u64, false)
+        .set_origin(2u64, "{\"decl\":\"crate\"}");
     vec![a, b, c, d]
 }
 
@@ -93,7 +107,11 @@ fn regenerate_journal_seeds() {
     }
     j.sync().expect("sync");
     let journal = std::fs::read(dir.path().join("journal-00000000000000000001.log")).expect("read");
-    std::fs::write(out.join("journal-4-records"), body::pack(None, &journal, false)).expect("write");
+    std::fs::write(
+        out.join("journal-4-records"),
+        body::pack(None, &journal, false),
+    )
+    .expect("write");
     // the same, torn in the middle of the last record
     let torn = &journal[..journal.len() - 7];
     std::fs::write(out.join("journal-torn-tail"), body::pack(None, torn, false)).expect("write");
@@ -111,11 +129,17 @@ fn regenerate_journal_seeds() {
     j.sync().expect("sync");
     let ck = std::fs::read(dir.path().join("checkpoint-00000000000000000002.bin")).expect("read");
     let journal = std::fs::read(dir.path().join("journal-00000000000000000003.log")).expect("read");
-    std::fs::write(out.join("checkpoint-and-journal"), body::pack(Some(&ck), &journal, false))
-        .expect("write");
+    std::fs::write(
+        out.join("checkpoint-and-journal"),
+        body::pack(Some(&ck), &journal, false),
+    )
+    .expect("write");
     // the same with checksums to be fixed by the harness (what mutations start from)
-    std::fs::write(out.join("checkpoint-and-journal-fixcrc"), body::pack(Some(&ck), &journal, true))
-        .expect("write");
+    std::fs::write(
+        out.join("checkpoint-and-journal-fixcrc"),
+        body::pack(Some(&ck), &journal, true),
+    )
+    .expect("write");
 }
 
 #[test]

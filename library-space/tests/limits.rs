@@ -9,7 +9,7 @@
 //!   most `MAX_SOURCE_BYTES`.
 
 use robosim_library::{
-    Error, ErrorKind, EVAL_STEP_BUDGET, Evaluated, Library, MAX_SOURCE_BYTES, Params,
+    EVAL_STEP_BUDGET, Error, ErrorKind, Evaluated, Library, MAX_SOURCE_BYTES, Params,
 };
 use std::time::Instant;
 
@@ -57,7 +57,11 @@ fn ten_thousand_terms_load_and_evaluate() {
     }
     src.push_str(" - 1 mm) + 0 m\n");
     let e = Library::from_source("flat.rsl", &src).expect_err("sqrt of a length");
-    assert!(e.message.contains("square root of a length"), "{}", e.message);
+    assert!(
+        e.message.contains("square root of a length"),
+        "{}",
+        e.message
+    );
     let src = src.replace("sqrt(", "abs(");
     let lib = Library::from_source("flat.rsl", &src)
         .unwrap_or_else(|e| panic!("5,000 mixed terms: {}", e.message));
@@ -79,7 +83,8 @@ fn million_terms_are_refused_with_a_location() {
         let e = Library::from_source("flat.rsl", &chain(1_000_000, op)).expect_err("too large");
         assert_eq!(e.kind, ErrorKind::Syntax);
         assert!(
-            e.message.starts_with("expression too large: more than 100000 "),
+            e.message
+                .starts_with("expression too large: more than 100000 "),
             "{}",
             e.message
         );
@@ -97,8 +102,11 @@ fn issue_20_flat_chain_of_a_million_terms_is_refused_not_a_crash() {
 #[test]
 fn issue_20_long_chains_as_parameter_expressions() {
     on_small_stack(|| {
-        let lib = Library::from_source("host.rsl", "solid slab(x = 1 m) { part box(x, 1 m, 1 m) }\n")
-            .expect("host");
+        let lib = Library::from_source(
+            "host.rsl",
+            "solid slab(x = 1 m) { part box(x, 1 m, 1 m) }\n",
+        )
+        .expect("host");
         let terms = |n: usize| vec!["1 mm"; n].join("+");
         match lib.evaluate("slab", &Params::new().expr("x", &terms(10_000))) {
             Ok(Evaluated::Solid(s)) => {
@@ -112,7 +120,11 @@ fn issue_20_long_chains_as_parameter_expressions() {
         }
         match lib.evaluate("slab", &Params::new().expr("x", &terms(1_000_000))) {
             Err(Error::Source(e)) => {
-                assert!(e.message.starts_with("expression too large"), "{}", e.message);
+                assert!(
+                    e.message.starts_with("expression too large"),
+                    "{}",
+                    e.message
+                );
                 assert_eq!(e.location.file, "<parameter x>");
             }
             Err(e) => panic!("{}", e.to_string().lines().next().unwrap_or("")),
@@ -143,8 +155,9 @@ fn issue_20_declarations_used_exponentially_many_times_are_refused_quickly() {
     let e = Library::from_source("exp.rsl", &src).expect_err("too much work");
     assert_eq!(e.kind, ErrorKind::OutOfRange);
     assert!(
-        e.message
-            .starts_with(&format!("evaluation too large: more than {EVAL_STEP_BUDGET}")),
+        e.message.starts_with(&format!(
+            "evaluation too large: more than {EVAL_STEP_BUDGET}"
+        )),
         "{e}"
     );
     assert!(e.position().starts_with("exp.rsl:"), "{e}");
@@ -178,7 +191,8 @@ fn include_error(target: &str) -> robosim_library::LibError {
     assert_eq!(e.kind, ErrorKind::Include, "{e}");
     assert_eq!(e.position(), "inc.rsl:1:9", "{e}");
     assert!(
-        e.message.starts_with(&format!("cannot read included file `{target}`: ")),
+        e.message
+            .starts_with(&format!("cannot read included file `{target}`: ")),
         "{e}"
     );
     e
@@ -187,7 +201,11 @@ fn include_error(target: &str) -> robosim_library::LibError {
 #[test]
 fn issue_20_include_dev_zero_is_refused_not_read() {
     let e = include_error("/dev/zero");
-    assert!(e.message.contains("it is a character device, not a regular file"), "{e}");
+    assert!(
+        e.message
+            .contains("it is a character device, not a regular file"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -201,14 +219,21 @@ fn issue_20_include_of_a_fifo_is_refused_without_blocking() {
     assert!(made.success());
     // opening a FIFO for reading blocks until a writer comes: the check comes before the open
     let e = include_error(fifo.to_str().expect("utf-8 path"));
-    assert!(e.message.contains("it is a FIFO (named pipe), not a regular file"), "{e}");
+    assert!(
+        e.message
+            .contains("it is a FIFO (named pipe), not a regular file"),
+        "{e}"
+    );
 }
 
 #[test]
 fn issue_20_include_of_a_directory_is_refused() {
     let dir = tempfile::tempdir().expect("tempdir");
     let e = include_error(dir.path().to_str().expect("utf-8 path"));
-    assert!(e.message.contains("it is a directory, not a regular file"), "{e}");
+    assert!(
+        e.message.contains("it is a directory, not a regular file"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -221,11 +246,15 @@ fn issue_20_include_larger_than_the_cap_is_refused() {
     drop(f);
     let e = include_error(big.to_str().expect("utf-8 path"));
     assert!(
-        e.message.contains("it is larger than 16 MiB, the limit for a library source file"),
+        e.message
+            .contains("it is larger than 16 MiB, the limit for a library source file"),
         "{e}"
     );
     // exactly at the cap is read (and then refused as text: NUL is not a token)
-    let f = std::fs::OpenOptions::new().write(true).open(&big).expect("open");
+    let f = std::fs::OpenOptions::new()
+        .write(true)
+        .open(&big)
+        .expect("open");
     f.set_len(MAX_SOURCE_BYTES).expect("set_len");
     drop(f);
     let e = Library::from_source("inc.rsl", &format!("include \"{}\"\n", big.display()))
@@ -249,7 +278,10 @@ fn issue_20_top_level_file_dev_zero_and_fifo_are_refused() {
     }
     let ok = dir.path().join("ok.rsl");
     std::fs::write(&ok, "let x = 2 + 2\n").expect("write");
-    assert_eq!(constant(&Library::load(&ok).expect("a regular file loads"), "x"), 4.0);
+    assert_eq!(
+        constant(&Library::load(&ok).expect("a regular file loads"), "x"),
+        4.0
+    );
     // a file that includes a device is refused with the including line
     let inc = dir.path().join("inc.rsl");
     std::fs::write(&inc, "\n  include \"/dev/urandom\"\n").expect("write");

@@ -45,7 +45,10 @@ fn long_chains_are_answered() {
     let a = lib_evaluate_with_chain(1_000_000);
     assert_eq!(a["ok"], false, "{a}");
     let msg = a["error"]["message"].as_str().unwrap_or("");
-    assert!(msg.contains("expression too large: more than 100000"), "{msg}");
+    assert!(
+        msg.contains("expression too large: more than 100000"),
+        "{msg}"
+    );
     assert!(msg.contains("<parameter upper_arm>:1:"), "{msg}");
 }
 
@@ -74,7 +77,9 @@ fn issue_20_lib_ops_refuse_a_file_that_is_a_device_or_a_directory() {
             assert_eq!(a["error"]["kind"], "library_error", "{a}");
             let msg = a["error"]["message"].as_str().unwrap_or("");
             assert!(
-                msg.starts_with(&format!("cannot read {file}: it is {what}, not a regular file")),
+                msg.starts_with(&format!(
+                    "cannot read {file}: it is {what}, not a regular file"
+                )),
                 "{msg}"
             );
         }
@@ -106,4 +111,3 @@ fn issue_20_collide_with_a_1024_meridian_sphere_is_refused_not_hours() {
     assert_eq!(a["ok"], true, "{a}");
     assert_eq!(a["verdict"], "clear", "{a}");
 }
-
