@@ -331,9 +331,7 @@ fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
     if crc32fast::hash(&bytes[12..]) != crc {
         return Err(bad("checksum mismatch"));
     }
-    let (data, _): (CheckpointData, usize) =
-        bincode::serde::decode_from_slice(&bytes[12..], bincode::config::standard())
-            .map_err(|e| bad(&e.to_string()))?;
+    let data = decode_checkpoint(&bytes[12..]).map_err(|e| bad(&e.to_string()))?;
     let mut objects = Vec::with_capacity(data.objects.len());
     for o in data.objects {
         let geometry = match o.geometry {
@@ -370,6 +368,28 @@ fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
 /// The file in a session's `run/` directory where the keeper leaves [`RecoveryReport::lost_message`]
 /// when its recovery lost something (removed when a later recovery loses nothing).
 pub const LOST_NOTE: &str = "recovery-lost.txt";
+
+/// Decodes a checkpoint body with a memory limit in proportion to its size, as
+/// `Transaction::decode` does: a length prefix claiming more than the body could describe
+/// (a 1 KiB checkpoint whose name claims 2^62 bytes, found by the `journal` fuzz target) is
+/// refused before anything is allocated; without the limit bincode allocated first, and an
+/// impossible size aborted the keeper during recovery.
+fn decode_checkpoint(body: &[u8]) -> Result<CheckpointData, bincode::error::DecodeError> {
+    use bincode::config::standard;
+    // decoded size is at most ~32× the encoded size (an empty Vec: 1 byte on disk, 24 in memory)
+    let limit = body.len().saturating_mul(32).saturating_add(4096);
+    macro_rules! within {
+        ($($n:literal),*) => {
+            $( if limit <= (1usize << $n) {
+                return bincode::serde::decode_from_slice(body, standard().with_limit::<{ 1usize << $n }>())
+                    .map(|(d, _)| d);
+            } )*
+        };
+    }
+    within!(16, 20, 24, 28, 30, 32, 34);
+    bincode::serde::decode_from_slice(body, standard().with_limit::<{ 1usize << 36 }>())
+        .map(|(d, _)| d)
+}
 
 /// What recovery found.
 #[derive(Debug, Default, Clone)]

@@ -25,7 +25,16 @@ pub enum ExprKind {
         args: Vec<Arg>,
     },
     Neg(Box<Expr>),
-    /// `+ - * / ^`
+    /// `a + b - c …` (ops `+ -`) or `a * b / c …` (ops `* /`): a left-associative chain of one
+    /// precedence level, `first` then each `(op, operand)` in order. Kept flat so that a chain
+    /// of any length is a `Vec`, not a left-deep tree: the parser, the evaluator, every walk
+    /// and `Drop` go through it in a loop, never one stack frame per operand.
+    Chain {
+        first: Box<Expr>,
+        rest: Vec<(char, Expr)>,
+    },
+    /// `a ^ b` (right-associative: `a ^ b ^ c` is `a ^ (b ^ c)`, its depth bounded by the
+    /// parser's nesting limit).
     Binary {
         op: char,
         lhs: Box<Expr>,

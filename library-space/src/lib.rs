@@ -32,10 +32,10 @@ mod value;
 
 pub use ast::DeclKind;
 pub use error::{ErrorKind, LibError};
-pub use eval::{EvalOptions, POLYGON_BUDGET};
+pub use eval::{EVAL_STEP_BUDGET, EvalOptions, POLYGON_BUDGET};
 pub use library::{DeclInfo, Error, Library, ParamInfo, ParamValue, Params};
 pub use model::*;
-pub use source::Location;
+pub use source::{Location, MAX_SOURCE_BYTES};
 pub use stdlib::FILES as STDLIB_FILES;
 
 /// The standard library, loaded and checked once per process (it is embedded, so this only

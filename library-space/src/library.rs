@@ -181,7 +181,7 @@ impl Loader {
             Some(d) => d.join(inc),
             None => PathBuf::from(inc),
         };
-        let text = std::fs::read_to_string(&path).map_err(|e| {
+        let text = crate::source::read_source_file(&path).map_err(|e| {
             RawError::new(
                 ErrorKind::Include,
                 span,
@@ -243,12 +243,14 @@ impl Loader {
 
 impl Library {
     /// Loads a file (and what it includes), checks it, and returns the library. Errors carry
-    /// file:line:col.
+    /// file:line:col. Every file read is a regular file of at most
+    /// [`MAX_SOURCE_BYTES`](crate::MAX_SOURCE_BYTES) bytes ([`Error::Io`] otherwise, naming the
+    /// path and why; an `include` of such a file is an [`ErrorKind::Include`] error).
     pub fn load(path: impl AsRef<Path>) -> Result<Library, Error> {
         let path = path.as_ref();
-        let text = std::fs::read_to_string(path).map_err(|e| Error::Io {
+        let text = crate::source::read_source_file(path).map_err(|message| Error::Io {
             path: path.display().to_string(),
-            message: e.to_string(),
+            message,
         })?;
         let mut l = Loader {
             map: SourceMap::default(),
@@ -677,6 +679,12 @@ impl Library {
                 }
             }
             ExprKind::Neg(x) => self.expr_refs(x, local, out),
+            ExprKind::Chain { first, rest } => {
+                self.expr_refs(first, local, out);
+                for (_, e) in rest {
+                    self.expr_refs(e, local, out);
+                }
+            }
             ExprKind::Binary { lhs, rhs, .. } => {
                 self.expr_refs(lhs, local, out);
                 self.expr_refs(rhs, local, out);

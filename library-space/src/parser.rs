@@ -1,5 +1,10 @@
 //! Recursive-descent parser for the Library Space language (grammar in docs/library.md).
 //!
+//! Recursion follows nesting only — parentheses, calls, lists, unary minus, `^`, bodies — and
+//! that is bounded ([`MAX_DEPTH`]); operator chains (`+ -`, `* /`) are read in a loop into flat
+//! [`ExprKind::Chain`] nodes ([`MAX_CHAIN`] operators at most), so no input can overflow the
+//! stack here or in any later walk of the tree.
+//!
 //! ```text
 //! file    := item*
 //! item    := 'include' STRING | 'let' NAME '=' expr | ('colour'|'color') NAME '=' expr
@@ -123,6 +128,12 @@ struct Parser<'a> {
 }
 
 const MAX_DEPTH: usize = 200;
+
+/// The most operators of one precedence level in a row (`1 + 1 + … + 1`). A chain is parsed
+/// and evaluated in a loop whatever its length; the bound keeps one expression's memory and
+/// evaluation time in proportion to what a library needs (the standard library's longest chain
+/// has a handful) and says so clearly, e.g. for a generated parameter string.
+pub(crate) const MAX_CHAIN: usize = 100_000;
 
 impl<'a> Parser<'a> {
     fn peek(&self) -> &'a Token {
@@ -427,41 +438,52 @@ impl<'a> Parser<'a> {
             )
             .expected("a shallower expression"));
         }
-        let mut lhs = self.term()?;
-        while self.is_punct('+') || self.is_punct('-') {
-            let op = if self.is_punct('+') { '+' } else { '-' };
-            self.i += 1;
-            let rhs = self.term()?;
-            let span = lhs.span.to(rhs.span);
-            lhs = Expr {
-                kind: ExprKind::Binary {
-                    op,
-                    lhs: Box::new(lhs),
-                    rhs: Box::new(rhs),
-                },
-                span,
-            };
-        }
-        Ok(lhs)
+        let first = self.term()?;
+        self.chain(first, ['+', '-'], Self::term)
     }
 
     fn term(&mut self) -> RResult<Expr> {
-        let mut lhs = self.unary()?;
-        while self.is_punct('*') || self.is_punct('/') {
-            let op = if self.is_punct('*') { '*' } else { '/' };
+        let first = self.unary()?;
+        self.chain(first, ['*', '/'], Self::unary)
+    }
+
+    /// `first {op operand}` for the two operators of one precedence level, collected into one
+    /// flat [`ExprKind::Chain`] in a loop (a chain of any length costs no stack), at most
+    /// [`MAX_CHAIN`] operators long.
+    fn chain(
+        &mut self,
+        first: Expr,
+        ops: [char; 2],
+        operand: fn(&mut Self) -> RResult<Expr>,
+    ) -> RResult<Expr> {
+        let mut rest = Vec::new();
+        let mut span = first.span;
+        while let Tok::Punct(op) = self.peek().tok
+            && ops.contains(&op)
+        {
+            if rest.len() == MAX_CHAIN {
+                return Err(RawError::new(
+                    ErrorKind::Syntax,
+                    self.peek().span,
+                    format!("expression too large: more than {MAX_CHAIN} `{}` and `{}` operators in a row", ops[0], ops[1]),
+                )
+                .expected("a shorter expression (split it with `let` variables)"));
+            }
             self.i += 1;
-            let rhs = self.unary()?;
-            let span = lhs.span.to(rhs.span);
-            lhs = Expr {
-                kind: ExprKind::Binary {
-                    op,
-                    lhs: Box::new(lhs),
-                    rhs: Box::new(rhs),
-                },
-                span,
-            };
+            let rhs = operand(self)?;
+            span = span.to(rhs.span);
+            rest.push((op, rhs));
         }
-        Ok(lhs)
+        if rest.is_empty() {
+            return Ok(first);
+        }
+        Ok(Expr {
+            kind: ExprKind::Chain {
+                first: Box::new(first),
+                rest,
+            },
+            span,
+        })
     }
 
     fn unary(&mut self) -> RResult<Expr> {
@@ -487,8 +509,20 @@ impl<'a> Parser<'a> {
         }
         let base = self.primary()?;
         if self.is_punct('^') {
-            self.i += 1;
-            let exp = self.unary()?;
+            // `a ^ b ^ c` nests to the right: one level of depth per `^`
+            let s = self.next().span;
+            self.depth += 1;
+            if self.depth > MAX_DEPTH {
+                return Err(RawError::new(
+                    ErrorKind::Syntax,
+                    s,
+                    format!("expressions nested more than {MAX_DEPTH} deep (`^` chains nest to the right)"),
+                )
+                .expected("a shallower expression"));
+            }
+            let exp = self.unary();
+            self.depth -= 1;
+            let exp = exp?;
             let span = base.span.to(exp.span);
             return Ok(Expr {
                 kind: ExprKind::Binary {

@@ -198,7 +198,15 @@ struct Parser<'a> {
     toks: Vec<Spanned>,
     pos: usize,
     file: &'a str,
+    /// How many `process` blocks enclose the one being read (bounded by
+    /// [`MAX_PROCESS_DEPTH`]: the parser and the resolver recurse once per level).
+    depth: usize,
 }
+
+/// The deepest nesting of `process` blocks a model may have. The seed's ECLSS model is five
+/// levels deep; without a bound, 100,000 nested `process a {` overflowed the stack and aborted
+/// the process reading the file (e.g. a query server answering `diag_check` with a path).
+pub const MAX_PROCESS_DEPTH: usize = 64;
 
 impl Parser<'_> {
     fn peek(&self) -> &Tok {
@@ -316,7 +324,17 @@ impl Parser<'_> {
                     return Ok(p);
                 }
                 Tok::Ident(kw) => match kw.as_str() {
-                    "process" => p.children.push(self.process()?),
+                    "process" => {
+                        if self.depth >= MAX_PROCESS_DEPTH {
+                            return Err(self.error(format!(
+                                "processes nested more than {MAX_PROCESS_DEPTH} deep"
+                            )));
+                        }
+                        self.depth += 1;
+                        let child = self.process();
+                        self.depth -= 1;
+                        p.children.push(child?)
+                    }
                     "input" | "output" => {
                         self.next();
                         let names = self
@@ -458,7 +476,12 @@ pub fn parse_model(text: &str, file: &str) -> Result<Model, ModelError> {
         file,
     }
     .tokens()?;
-    let mut p = Parser { toks, pos: 0, file };
+    let mut p = Parser {
+        toks,
+        pos: 0,
+        file,
+        depth: 0,
+    };
     let root = p.process()?;
     if *p.peek() != Tok::Eof {
         return Err(p.error(format!(
@@ -743,6 +766,36 @@ impl<'a> Resolver<'a> {
 )]
 mod tests {
     use super::*;
+
+    #[test]
+    fn issue_20_deeply_nested_processes_are_refused_not_a_stack_overflow() {
+        // 100,000 levels overflowed the stack (one parser frame per level); now a located
+        // error at the first `process` past the limit, on a 256 KiB thread to show the
+        // recursion is bounded
+        std::thread::Builder::new()
+            .stack_size(256 << 10)
+            .spawn(|| {
+                let text = "process a {\n".repeat(100_000);
+                let e = parse_model(&text, "deep.hfm").expect_err("too deep");
+                assert_eq!(
+                    e.to_string(),
+                    format!(
+                        "deep.hfm:{}:1: processes nested more than 64 deep",
+                        MAX_PROCESS_DEPTH + 2
+                    )
+                );
+                let ok = format!(
+                    "{}{}",
+                    "process a {\n".repeat(MAX_PROCESS_DEPTH + 1),
+                    "}\n".repeat(MAX_PROCESS_DEPTH + 1)
+                );
+                let m = parse_model(&ok, "deep.hfm").expect("64 levels below the root");
+                assert_eq!(m.max_depth(), MAX_PROCESS_DEPTH);
+            })
+            .expect("spawn")
+            .join()
+            .expect("the small-stack thread panicked");
+    }
 
     #[test]
     fn errors_name_file_line_and_column() {

@@ -14,6 +14,8 @@
 //!   `pose` in the link frame). A robot without them gets [`LinkSolids::from_dh`] boxes of
 //!   half-width `link_radius` along its DH segments; the answer says which was used.
 //!
+//! A sphere's `facets` is at most [`MAX_SPHERE_FACETS`] (the most its default ever is).
+//!
 //! Errors: `bad_request` (field path and reason), `bad_shape`, `unknown_robot`, `bad_robot`.
 //!
 //! Entry points: [`dispatch`], [`solid_from_json`], [`pose_from_json`].
@@ -33,6 +35,14 @@ use std::sync::Arc;
 fn bad(message: impl Into<String>) -> ProtocolError {
     ProtocolError::new(ErrorKind::BadRequest, message)
 }
+
+/// The most meridians a request's sphere may have: the geometry's largest default
+/// ([`robosim_geometry::shapes::MAX_FACETS`], for radii above about 13 m). A sphere of n
+/// meridians has about n²/2 faces and as many vertices, and building its collision solid tests
+/// every vertex against every face: the explicit maximum of the geometry
+/// (`SPHERE_FACET_LIMIT`, 1024) took hours for one `collide` (found by the `protocol` fuzz
+/// target; docs/fuzzing.md).
+pub const MAX_SPHERE_FACETS: usize = robosim_geometry::shapes::MAX_FACETS;
 
 /// Answers `collide` and `check`; `None` for any other op.
 pub fn dispatch(
@@ -146,7 +156,15 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, P
         }
         "sphere" => {
             check_keys(obj, &["shape", "radius", "facets"], extra, path)?;
-            Solid::sphere(num(v, "radius", path)?, facets(obj)?).map_err(shape_err)
+            let f = facets(obj)?;
+            if let Some(n) = f
+                && n > MAX_SPHERE_FACETS
+            {
+                return Err(bad(format!(
+                    "{path}.facets: at most {MAX_SPHERE_FACETS} for a sphere, got {n} (n meridians make about n²/2 faces)"
+                )));
+            }
+            Solid::sphere(num(v, "radius", path)?, f).map_err(shape_err)
         }
         "cylinder" | "cone" => {
             check_keys(obj, &["shape", "radius", "height", "facets"], extra, path)?;

@@ -8,11 +8,16 @@ mod collision;
 mod dynamics;
 mod extension;
 mod fuzz;
+mod fuzz_corpus;
 mod kinematics;
 mod library;
 mod pipes;
 mod process;
 mod session;
+
+/// The `protocol` fuzz target's body, replayed over its corpus by [`fuzz_corpus`].
+#[path = "../../../fuzz/src/protocol.rs"]
+mod fuzz_body;
 
 use robosim_hl_interface::serve;
 use serde_json::Value;

@@ -4,6 +4,17 @@ use super::*;
 
 impl Evaluator<'_> {
     pub(crate) fn eval(&mut self, e: &Expr, scope: &Scope) -> RResult<Value> {
+        self.steps += 1;
+        if self.steps > EVAL_STEP_BUDGET {
+            return Err(err(
+                ErrorKind::OutOfRange,
+                e.span,
+                format!(
+                    "evaluation too large: more than {EVAL_STEP_BUDGET} expression steps (declarations that use each other many times over?)"
+                ),
+            )
+            .expected("a library whose declarations are not used exponentially many times"));
+        }
         match &e.kind {
             ExprKind::Num {
                 value,
@@ -34,6 +45,19 @@ impl Evaluator<'_> {
                 )
                 .expected("a number")),
             },
+            ExprKind::Chain { first, rest } => {
+                // left to right, as `((a op b) op c) …` would: the span of the left operand
+                // grows with each step, so errors mark the same text they always did
+                let mut acc = self.eval(first, scope)?;
+                let mut span = first.span;
+                for (op, rhs) in rest {
+                    let b = self.eval(rhs, scope)?;
+                    let whole = span.to(rhs.span);
+                    acc = self.binary(*op, acc, b, span, rhs.span, whole)?;
+                    span = whole;
+                }
+                Ok(acc)
+            }
             ExprKind::Binary { op, lhs, rhs } => {
                 let a = self.eval(lhs, scope)?;
                 let b = self.eval(rhs, scope)?;

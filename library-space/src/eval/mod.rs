@@ -33,6 +33,12 @@ use solids::PartNames;
 /// that would exhaust memory).
 pub const POLYGON_BUDGET: usize = 5_000_000;
 
+/// The most expression nodes one evaluation may evaluate. Declarations are evaluated where
+/// they are used, so `let a1 = a0 + a0`, `let a2 = a1 + a1`, … doubles the work per line: 40
+/// lines would take hours. Real libraries stay far below it (every standard-library
+/// declaration evaluates within it: `tests/limits.rs`); a hostile one is stopped after seconds.
+pub const EVAL_STEP_BUDGET: u64 = 20_000_000;
+
 /// Options that apply to a whole evaluation.
 #[derive(Debug, Clone, Default)]
 pub struct EvalOptions {
@@ -80,6 +86,8 @@ pub(crate) struct Evaluator<'l> {
     facets: Vec<Option<usize>>,
     /// Polygons generated so far in this evaluation (bounded by [`EvalOptions::max_polygons`]).
     polygons: usize,
+    /// Expression nodes evaluated so far (bounded by [`EVAL_STEP_BUDGET`]).
+    pub(crate) steps: u64,
 }
 
 type Scope = HashMap<String, (Value, Span)>;
@@ -140,6 +148,7 @@ impl<'l> Evaluator<'l> {
             stack: Vec::new(),
             facets: Vec::new(),
             polygons: 0,
+            steps: 0,
         }
     }
 

@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# Bounded fuzzing for CI: builds the cargo-fuzz targets of fuzz/ once, runs each for SECONDS,
+# prints per target the executions run and the crashes found, and fails if any target crashed
+# (or hung past the per-input timeout, or ran out of memory). See docs/fuzzing.md.
+#
+#   tools/fuzz-ci.sh [SECONDS] [TARGET...]      (default: 30 s each, every target)
+#
+# Each target starts from its seeds in the repository (fuzz/seeds/TARGET/, read only) and
+# writes what it finds to fuzz/corpus/TARGET/ (not in the repository). A crashing input is
+# kept in fuzz/artifacts/TARGET/; reproduce it with `cargo +nightly fuzz run TARGET FILE`.
+#
+# libFuzzer needs nightly (sanitizer and coverage flags). Without a nightly toolchain this
+# script says so and exits 0: the seeds are still replayed on stable by `cargo test`
+# (tests/fuzz_corpus.rs of each owning crate).
+set -uo pipefail
+cd "$(dirname "$0")/.."
+
+SECONDS_PER_TARGET="${1:-30}"
+shift || true
+if [ "$#" -gt 0 ]; then
+  TARGETS=("$@")
+else
+  TARGETS=(library protocol trajectory hfm journal)
+fi
+# Per-input limits: an input slower than this many seconds is a hang; more memory than this
+# is a leak or an unbounded allocation. Both fail the run like a crash.
+TIMEOUT_S="${FUZZ_TIMEOUT_S:-20}"
+RSS_MB="${FUZZ_RSS_MB:-2048}"
+
+# FUZZ_SANITIZER: address (default) or none (faster build and runs; everything fuzzed here is
+# safe Rust). FUZZ_STABLE=1: without nightly, fuzz on stable with -s none instead of skipping.
+SANITIZER="${FUZZ_SANITIZER:-address}"
+TOOLCHAIN=nightly
+if ! rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
+  if [ "${FUZZ_STABLE:-0}" = 1 ]; then
+    echo "fuzz-ci: no nightly toolchain; fuzzing on stable without a sanitizer (FUZZ_STABLE=1)"
+    TOOLCHAIN=stable
+    SANITIZER=none
+  else
+    echo "fuzz-ci: no nightly toolchain (rustup toolchain install nightly); fuzzing skipped."
+    echo "fuzz-ci: the seed corpora are still replayed on stable by cargo test (fuzz_corpus tests)."
+    exit 0
+  fi
+fi
+if ! cargo +"$TOOLCHAIN" fuzz --version >/dev/null 2>&1; then
+  echo "fuzz-ci: installing cargo-fuzz"
+  cargo install cargo-fuzz --locked || { echo "fuzz-ci: cannot install cargo-fuzz"; exit 1; }
+fi
+
+start=$(date +%s)
+echo "fuzz-ci: building every target of fuzz/ ($TOOLCHAIN, release with debug assertions, sanitizer $SANITIZER)"
+if ! (cd fuzz && cargo +"$TOOLCHAIN" fuzz build -s "$SANITIZER") >"${TMPDIR:-/tmp}/fuzz-ci-build.log" 2>&1; then
+  tail -n 40 "${TMPDIR:-/tmp}/fuzz-ci-build.log"
+  echo "fuzz-ci: build failed"
+  exit 1
+fi
+built=$(date +%s)
+echo "fuzz-ci: built in $((built - start)) s"
+
+logs=$(mktemp -d)
+failed=()
+for t in "${TARGETS[@]}"; do
+  mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
+  before=$(ls "fuzz/artifacts/$t" | wc -l)
+  log="$logs/$t.log"
+  (cd fuzz && cargo +"$TOOLCHAIN" fuzz run -s "$SANITIZER" "$t" "corpus/$t" "seeds/$t" -- \
+      -max_total_time="$SECONDS_PER_TARGET" -timeout="$TIMEOUT_S" -rss_limit_mb="$RSS_MB" \
+      -print_final_stats=1) >"$log" 2>&1
+  status=$?
+  after=$(ls "fuzz/artifacts/$t" | wc -l)
+  crashes=$((after - before))
+  # -print_final_stats=1 prints "stat::number_of_executed_units: N", also after a crash; the
+  # "Done N runs in S second(s)" line only on a clean finish; "#N" status lines as a fallback
+  runs=$(grep -Eo 'stat::number_of_executed_units: *[0-9]+' "$log" | tail -n 1 | grep -Eo '[0-9]+$')
+  if [ -z "$runs" ]; then
+    runs=$(grep -Eo 'Done [0-9]+ runs' "$log" | tail -n 1 | awk '{print $2}')
+  fi
+  if [ -z "$runs" ]; then
+    runs=$(grep -Eo '^#[0-9]+' "$log" | tail -n 1 | tr -d '#')
+  fi
+  echo "fuzz-ci: $t: ${runs:-0} executions in ${SECONDS_PER_TARGET} s, $crashes crash(es), exit $status"
+  if [ "$status" -ne 0 ] || [ "$crashes" -gt 0 ]; then
+    failed+=("$t")
+    echo "---- $t: end of the libFuzzer log ----"
+    grep -E 'ERROR|panicked|SUMMARY|Test unit written|artifact_prefix|timeout|out-of-memory' "$log" | tail -n 20
+    tail -n 30 "$log"
+    echo "----"
+  fi
+done
+echo "fuzz-ci: total $(( $(date +%s) - start )) s (build $((built - start)) s)"
+rm -rf "$logs"
+if [ "${#failed[@]}" -gt 0 ]; then
+  echo "fuzz-ci: FAILED: ${failed[*]} (inputs in fuzz/artifacts/; replay: cargo +nightly fuzz run TARGET FILE)"
+  exit 1
+fi
+echo "fuzz-ci: no crash"
