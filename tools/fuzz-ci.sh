@@ -27,6 +27,9 @@ fi
 TIMEOUT_S="${FUZZ_TIMEOUT_S:-20}"
 RSS_MB="${FUZZ_RSS_MB:-2048}"
 
+# Exit status: 0 clean (or skipped: no nightly), 1 a target crashed, hung or ran out of memory,
+# 3 the fuzzing itself could not run (cargo-fuzz not installable, the targets did not build).
+#
 # FUZZ_SANITIZER: address (default) or none (faster build and runs; everything fuzzed here is
 # safe Rust). FUZZ_STABLE=1: without nightly, fuzz on stable with -s none instead of skipping.
 SANITIZER="${FUZZ_SANITIZER:-address}"
@@ -44,7 +47,7 @@ if ! rustup toolchain list 2>/dev/null | grep -q '^nightly'; then
 fi
 if ! cargo +"$TOOLCHAIN" fuzz --version >/dev/null 2>&1; then
   echo "fuzz-ci: installing cargo-fuzz"
-  cargo install cargo-fuzz --locked || { echo "fuzz-ci: cannot install cargo-fuzz"; exit 1; }
+  cargo install cargo-fuzz --locked || { echo "fuzz-ci: cannot install cargo-fuzz"; exit 3; }
 fi
 
 start=$(date +%s)
@@ -52,7 +55,7 @@ echo "fuzz-ci: building every target of fuzz/ ($TOOLCHAIN, release with debug as
 if ! (cd fuzz && cargo +"$TOOLCHAIN" fuzz build -s "$SANITIZER") >"${TMPDIR:-/tmp}/fuzz-ci-build.log" 2>&1; then
   tail -n 40 "${TMPDIR:-/tmp}/fuzz-ci-build.log"
   echo "fuzz-ci: build failed"
-  exit 1
+  exit 3
 fi
 built=$(date +%s)
 echo "fuzz-ci: built in $((built - start)) s"
