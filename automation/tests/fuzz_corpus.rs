@@ -4,32 +4,16 @@
 
 #[path = "../../fuzz/src/hfm.rs"]
 mod body;
+#[path = "../../fuzz/src/replay.rs"]
+mod replay;
 
-use std::path::{Path, PathBuf};
-
-fn corpus(target: &str) -> Vec<(PathBuf, Vec<u8>)> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../fuzz/seeds")
-        .join(target);
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("dir entry").path())
-        .collect();
-    files.sort();
-    assert!(!files.is_empty(), "{}: empty corpus", dir.display());
-    files
-        .into_iter()
-        .map(|p| {
-            let b = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
-            (p, b)
-        })
-        .collect()
-}
+use std::path::Path;
 
 #[test]
 fn hfm_fuzz_corpus_replays() {
-    for (path, data) in corpus("hfm") {
-        eprintln!("{}", path.display());
-        body::run(&data);
-    }
+    replay::replay(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz"),
+        "hfm",
+        body::run,
+    );
 }

@@ -6,9 +6,9 @@
 //!
 //! The same module files are compiled three ways:
 //! * by `fuzz_targets/*.rs` here, under libFuzzer (`cargo +nightly fuzz run TARGET`);
-//! * by `fuzz/tests/replay.rs` (stable), over every file of `fuzz/seeds/TARGET/`;
 //! * by `tests/fuzz_corpus.rs` of the crate each target reads (`#[path]` includes of these
-//!   files), so `cargo test --workspace` on stable re-checks the corpus, crashes included.
+//!   files and of `replay.rs`, the one corpus walk), so `cargo test --workspace` on stable
+//!   re-checks every file of `fuzz/seeds/TARGET/`, crashes included.
 //!
 //! Targets: [`library`] (Library Space language: lex, parse, check, evaluate; a parameter
 //! expression), [`protocol`] (query protocol: line → request → answer, without a session),

@@ -12,17 +12,11 @@ use std::path::Path;
 
 #[test]
 fn protocol_fuzz_corpus_replays() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz/seeds/protocol");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("dir entry").path())
-        .collect();
-    files.sort();
-    assert!(!files.is_empty(), "{}: empty corpus", dir.display());
-    for p in files {
-        eprintln!("{}", p.display());
-        fuzz_body::run(&std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display())));
-    }
+    crate::fuzz_replay::replay(
+        &Path::new(env!("CARGO_MANIFEST_DIR")).join("../fuzz"),
+        "protocol",
+        fuzz_body::run,
+    );
 }
 
 fn answer(req: &Value) -> Value {

@@ -18,6 +18,9 @@ mod session;
 /// The `protocol` fuzz target's body, replayed over its corpus by [`fuzz_corpus`].
 #[path = "../../../fuzz/src/protocol.rs"]
 mod fuzz_body;
+/// The corpus replay shared with the other crates' `fuzz_corpus` tests.
+#[path = "../../../fuzz/src/replay.rs"]
+mod fuzz_replay;
 
 use robosim_hl_interface::serve;
 use serde_json::Value;
