@@ -456,7 +456,11 @@ fn keeper_gone_fails_fast_for_every_pending_request_after_kill_9() {
     let scene = c.transact(&scene_tx()).expect("scene").created[0];
     kill9(keeper);
     // Reap it: SIGKILL is asynchronous, and the test must not race the kernel.
-    let i = t.children.iter().position(|c| c.id() == keeper).expect("ours");
+    let i = t
+        .children
+        .iter()
+        .position(|c| c.id() == keeper)
+        .expect("ours");
     let _ = t.children[i].wait();
     let mut pending = Vec::new();
     let mut refused_at_submit = 0;
@@ -771,7 +775,10 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
     let mut tx = Transaction::new();
     tx.create(Kind::Scene, "scene", None);
     let scene = c.transact(&tx).expect("scene").created[0]; // version 1
-    for chunk in (1..=600).collect::<Vec<u32>>().chunks(Client::MAX_IN_FLIGHT) {
+    for chunk in (1..=600)
+        .collect::<Vec<u32>>()
+        .chunks(Client::MAX_IN_FLIGHT)
+    {
         let pending: Vec<_> = chunk
             .iter()
             .map(|k| {
@@ -786,7 +793,11 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
     }
     drop(c);
     kill9(keeper);
-    let i = t.children.iter().position(|c| c.id() == keeper).expect("ours");
+    let i = t
+        .children
+        .iter()
+        .position(|c| c.id() == keeper)
+        .expect("ours");
     let _ = t.children[i].wait();
 
     // Flip one bit in the payload of the record of version 300.
@@ -794,12 +805,22 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
         .expect("data dir")
         .flatten()
         .map(|e| e.path())
-        .find(|p| p.file_name().is_some_and(|n| n.to_string_lossy().starts_with("journal-")))
+        .find(|p| {
+            p.file_name()
+                .is_some_and(|n| n.to_string_lossy().starts_with("journal-"))
+        })
         .expect("a journal");
     let mut bytes = std::fs::read(&journal).expect("read journal");
     let (records, damaged) = robosim_instance_space::journal::scan_records(&bytes, 8);
-    assert_eq!((records.len(), damaged), (601, 0), "versions 1..=601, intact");
-    let r = records.iter().find(|r| r.version == 300).expect("version 300");
+    assert_eq!(
+        (records.len(), damaged),
+        (601, 0),
+        "versions 1..=601, intact"
+    );
+    let r = records
+        .iter()
+        .find(|r| r.version == 300)
+        .expect("version 300");
     bytes[r.offset + 16 + r.len / 2] ^= 0x10;
     std::fs::write(&journal, &bytes).expect("write journal");
     // The keeper keeps two copies by default; damage the mirror's copy of the same record
@@ -832,14 +853,21 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
         "versions 300..=601 not replayed: 301 readable record(s)",
         "robosim journal inspect",
     ] {
-        assert!(err.contains(want), "`up` must say {want:?}; it said:\n{err}");
+        assert!(
+            err.contains(want),
+            "`up` must say {want:?}; it said:\n{err}"
+        );
     }
     let copy = err
         .lines()
         .find_map(|l| l.trim().strip_prefix("The cut is kept in "))
         .map(PathBuf::from)
         .expect("the copy's path");
-    assert!(copy.starts_with(s.data_dir().join("lost")), "{}", copy.display());
+    assert!(
+        copy.starts_with(s.data_dir().join("lost")),
+        "{}",
+        copy.display()
+    );
     let inspect = t
         .command(ROBOSIM)
         .args(["journal", "inspect"])
@@ -853,7 +881,10 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
         listing.contains(": version 301 (") && listing.contains(": version 601 ("),
         "{listing}"
     );
-    assert!(listing.contains("set_name"), "operations are named: {listing}");
+    assert!(
+        listing.contains("set_name"),
+        "operations are named: {listing}"
+    );
 
     // Everything before the flip is there.
     let r = Reader::attach(&s, "after").expect("attach");

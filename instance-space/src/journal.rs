@@ -472,8 +472,7 @@ pub fn scan_records(bytes: &[u8], from: usize) -> (Vec<RecordAt>, u64) {
     let mut out: Vec<RecordAt> = Vec::new();
     let (mut pos, mut damaged) = (from, 0u64);
     while pos < bytes.len() {
-        if let Some(r) = record_at(bytes, pos, out.last().map(|r| r.version))
-        {
+        if let Some(r) = record_at(bytes, pos, out.last().map(|r| r.version)) {
             pos += RECORD_HEADER + r.len;
             out.push(r);
         } else {
@@ -627,10 +626,7 @@ fn read_journal_bytes(path: &Path) -> Result<Vec<u8>, JournalError> {
     if !meta.is_file() {
         return Err(JournalError::Io {
             path: path.to_owned(),
-            source: std::io::Error::new(
-                std::io::ErrorKind::InvalidInput,
-                "not a regular file",
-            ),
+            source: std::io::Error::new(std::io::ErrorKind::InvalidInput, "not a regular file"),
         });
     }
     let mut bytes = Vec::new();
@@ -745,8 +741,8 @@ fn check_record(bytes: &[u8], pos: usize) -> Result<(usize, u64), &'static str> 
     if bytes.len() - pos < RECORD_HEADER {
         return Err("torn record header");
     }
-    let len = u32::from_le_bytes([bytes[pos], bytes[pos + 1], bytes[pos + 2], bytes[pos + 3]])
-        as usize;
+    let len =
+        u32::from_le_bytes([bytes[pos], bytes[pos + 1], bytes[pos + 2], bytes[pos + 3]]) as usize;
     let crc = u32::from_le_bytes([
         bytes[pos + 4],
         bytes[pos + 5],

@@ -156,7 +156,8 @@ impl Keeper {
         // readers that outlived the old keeper keep them alive, and their ports connect to the
         // new keeper's publishers without re-attaching.
         let _ = node.blocking_cleanup_dead_nodes(Duration::from_secs(2));
-        let (model, journal, report) = journal::recover_copies(&session.data_dir(), opts.journal_copies)?;
+        let (model, journal, report) =
+            journal::recover_copies(&session.data_dir(), opts.journal_copies)?;
         let epoch = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(1, |d| d.as_nanos() as u64);

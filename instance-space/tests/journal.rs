@@ -217,7 +217,10 @@ fn a_record_damaged_in_both_copies_is_a_loss_reported_with_its_kept_copy() {
     robosim_instance_space::journal::inspect(&l.copy, &mut listing).expect("inspect");
     let listing = String::from_utf8(listing).expect("utf-8");
     assert!(listing.contains("30 readable record(s)"), "{listing}");
-    assert!(listing.contains("version 21 (") && listing.contains("create Scene \"s49\""), "{listing}");
+    assert!(
+        listing.contains("version 21 (") && listing.contains("create Scene \"s49\""),
+        "{listing}"
+    );
 }
 
 /// A torn last record with nothing readable after it was never acknowledged: it is cut and
@@ -241,5 +244,11 @@ fn a_torn_last_record_is_not_a_loss() {
     let (model2, _, report) = recover(dir.path()).expect("recovered");
     assert_eq!(model2.version, 2);
     assert!(report.lost.is_empty(), "{:?}", report.lost);
-    assert!(!dir.path().join("lost").exists() || std::fs::read_dir(dir.path().join("lost")).expect("dir").next().is_none());
+    assert!(
+        !dir.path().join("lost").exists()
+            || std::fs::read_dir(dir.path().join("lost"))
+                .expect("dir")
+                .next()
+                .is_none()
+    );
 }

@@ -30,7 +30,10 @@ fn scene() -> (Store, robosim_instance_space::Id) {
 
 fn rename(id: robosim_instance_space::Id, k: u64) -> Vec<u8> {
     let mut tx = Transaction::new();
-    tx.set_name(id, &format!("scene renamed for the journal bench, number {k:012}"));
+    tx.set_name(
+        id,
+        &format!("scene renamed for the journal bench, number {k:012}"),
+    );
     tx.encode()
 }
 
@@ -83,7 +86,10 @@ pub fn run(out: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
         j.append(1, &tx.encode()).map_err(err("append"))?;
         for k in 0..recover_n {
             let mut tx = Transaction::new();
-            tx.set_name(id, &format!("scene renamed for the journal bench, number {k:012}"));
+            tx.set_name(
+                id,
+                &format!("scene renamed for the journal bench, number {k:012}"),
+            );
             let a = store.apply(&tx).map_err(err("apply"))?;
             j.append(a.version, &tx.encode()).map_err(err("append"))?;
         }

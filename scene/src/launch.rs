@@ -204,7 +204,11 @@ pub fn up_with_library(
                 &["space", "--session", session.name(), "--scene", scene_name],
             )?;
             wait_registered(&session, "space", pid, Duration::from_secs(30))?;
-            if let Ok(note) = std::fs::read_to_string(session.run_dir().join(robosim_instance_space::journal::LOST_NOTE)) {
+            if let Ok(note) = std::fs::read_to_string(
+                session
+                    .run_dir()
+                    .join(robosim_instance_space::journal::LOST_NOTE),
+            ) {
                 eprint!("robosim up: {note}");
             }
             pid

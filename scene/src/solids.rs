@@ -36,9 +36,12 @@ pub fn solid_of(snap: &Snapshot, i: usize) -> Result<Option<Solid>, String> {
         .iter()
         .map(|p| g.indices[p.start as usize..(p.start + p.len) as usize].to_vec())
         .collect();
-    Solid::mesh(pts, &polys)
-        .map(Some)
-        .map_err(|e| format!("{}: its geometry makes no collision solid: {e}", snap.path(i)))
+    Solid::mesh(pts, &polys).map(Some).map_err(|e| {
+        format!(
+            "{}: its geometry makes no collision solid: {e}",
+            snap.path(i)
+        )
+    })
 }
 
 /// The solids under object `id` (recursively), posed relative to `id`'s frame; with

@@ -161,14 +161,23 @@ fn flat_geometry_is_a_surface_that_collides_not_an_absent_body() {
     let base = {
         let c = CompiledScene::of(&Snapshot::from_store(&m));
         let r = c.robot("positioner").expect("compiled");
-        nalgebra::Vector3::new(r.robot.base[(0, 3)], r.robot.base[(1, 3)], r.robot.base[(2, 3)])
+        nalgebra::Vector3::new(
+            r.robot.base[(0, 3)],
+            r.robot.base[(1, 3)],
+            r.robot.base[(2, 3)],
+        )
     };
     let mut tx = Transaction::new();
     let plate = tx.create(Kind::Solid, "plate", None);
     tx.set_geometry(
         plate,
         Some(GeometryInput {
-            vertices: vec![[-5.0, -5.0, 0.0], [5.0, -5.0, 0.0], [5.0, 5.0, 0.0], [-5.0, 5.0, 0.0]],
+            vertices: vec![
+                [-5.0, -5.0, 0.0],
+                [5.0, -5.0, 0.0],
+                [5.0, 5.0, 0.0],
+                [-5.0, 5.0, 0.0],
+            ],
             polygons: vec![vec![0, 1, 2, 3]],
         }),
     );
@@ -180,7 +189,10 @@ fn flat_geometry_is_a_surface_that_collides_not_an_absent_body() {
     m.apply(&tx).expect("a one-polygon plate is valid geometry");
     let c = CompiledScene::of(&Snapshot::from_store(&m));
     assert!(c.refused().is_empty(), "{:?}", c.refused());
-    assert!(c.objects().iter().any(|o| o.path.ends_with("plate")), "the plate is a body");
+    assert!(
+        c.objects().iter().any(|o| o.path.ends_with("plate")),
+        "the plate is a body"
+    );
     let r = c.robot("positioner").expect("compiled");
     let obs = c.obstacles(r, &HashSet::new());
     assert!(obs.refused.is_empty());

@@ -140,7 +140,10 @@ fn joint_limits_stop_a_joint_at_its_limit() {
         worst
     };
     assert_eq!(push(true), hi, "held at the limit");
-    assert!(push(false) > hi + 0.1, "without the effect the joint goes past");
+    assert!(
+        push(false) > hi + 0.1,
+        "without the effect the joint goes past"
+    );
 }
 
 /// Issue #20 item 4 (`simctl_validates_like_a_transaction`): a target outside the joint

@@ -244,8 +244,14 @@ fn dynamics_overflow_is_an_error_never_null_inside_a_success() {
     let qd = json!([1e200, 0.0, 0.0, 0.0, 0.0, 1e200]);
     let zeros = json!([0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
     let mut requests = vec![
-        (json!({"op": "id", "robot": "puma560", "q": q, "qd": qd, "qdd": zeros}), "`tau`"),
-        (json!({"op": "fd", "robot": "puma560", "q": q, "qd": qd, "tau": zeros}), "`qdd`"),
+        (
+            json!({"op": "id", "robot": "puma560", "q": q, "qd": qd, "qdd": zeros}),
+            "`tau`",
+        ),
+        (
+            json!({"op": "fd", "robot": "puma560", "q": q, "qd": qd, "tau": zeros}),
+            "`qdd`",
+        ),
         (
             json!({"op": "fd", "robot": "puma560", "q": q, "qd": qd, "tau": zeros, "method": "cholesky"}),
             "`qdd`",

@@ -37,7 +37,9 @@ fn ns_per_pair(reps: usize, n: usize, mut f: impl FnMut()) -> f64 {
 
 fn main() {
     let mut rng = ChaCha8Rng::seed_from_u64(20);
-    println!("| pair | parry boolean | certified boolean | parry distance (bool + closest points) | certified collide (distance/depth) |");
+    println!(
+        "| pair | parry boolean | certified boolean | parry distance (bool + closest points) | certified collide (distance/depth) |"
+    );
     println!("|---|---|---|---|---|");
     for (ka, kb) in [
         ("box", "box"),
@@ -49,9 +51,20 @@ fn main() {
         let pairs: Vec<_> = (0..500)
             .map(|_| {
                 let (a, b) = (solid(ka, &mut rng), solid(kb, &mut rng));
-                let pa = Isometry3::new(Vector3::zeros(), Vector3::new(rng.random(), rng.random(), rng.random()));
-                let dir = Vector3::new(rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0), rng.random_range(-1.0..1.0)).normalize();
-                let pb = Isometry3::new(dir * rng.random_range(0.3..1.3), Vector3::new(rng.random(), rng.random(), rng.random()));
+                let pa = Isometry3::new(
+                    Vector3::zeros(),
+                    Vector3::new(rng.random(), rng.random(), rng.random()),
+                );
+                let dir = Vector3::new(
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                    rng.random_range(-1.0..1.0),
+                )
+                .normalize();
+                let pb = Isometry3::new(
+                    dir * rng.random_range(0.3..1.3),
+                    Vector3::new(rng.random(), rng.random(), rng.random()),
+                );
                 (a, pa, b, pb)
             })
             .collect();
@@ -59,7 +72,9 @@ fn main() {
         let parry_bool = ns_per_pair(9, n, || {
             for (a, pa, b, pb) in &pairs {
                 let (ga, gb) = (pa * a.exact_offset, pb * b.exact_offset);
-                black_box(query::intersection_test(&ga, a.exact.as_ref(), &gb, b.exact.as_ref()).ok());
+                black_box(
+                    query::intersection_test(&ga, a.exact.as_ref(), &gb, b.exact.as_ref()).ok(),
+                );
             }
         });
         let ours_bool = ns_per_pair(9, n, || {
@@ -83,6 +98,8 @@ fn main() {
                 black_box(exact::collide(a, pa, b, pb, ExactOptions::default()));
             }
         });
-        println!("| {ka}–{kb} | {parry_bool:.0} | {ours_bool:.0} | {parry_dist:.0} | {ours_dist:.0} |");
+        println!(
+            "| {ka}–{kb} | {parry_bool:.0} | {ours_bool:.0} | {parry_dist:.0} | {ours_dist:.0} |"
+        );
     }
 }

@@ -59,7 +59,9 @@ fn exact_mode_at_contact_matches_the_references() {
                 continue;
             }
             if sd_ref.abs() > BAND && r.intersects() != Some(sd_ref <= 0.0) {
-                failures.push(format!("{name} ({order}): boolean wrong, {r:?} vs {sd_ref:e}"));
+                failures.push(format!(
+                    "{name} ({order}): boolean wrong, {r:?} vs {sd_ref:e}"
+                ));
             }
             let Some(sd) = r.signed_distance() else {
                 if !r.is_clear() {
@@ -71,7 +73,9 @@ fn exact_mode_at_contact_matches_the_references() {
             };
             let err = sd - sd_ref;
             if spread > 1e-10 {
-                one_sided.push(format!("{name}: ours − reference = {err:e} (spread {spread:e})"));
+                one_sided.push(format!(
+                    "{name}: ours − reference = {err:e} (spread {spread:e})"
+                ));
                 if err < -DISTANCE_TOL {
                     failures.push(format!(
                         "{name} ({order}): signed distance {sd:e} below the certified lower bound \
@@ -84,9 +88,13 @@ fn exact_mode_at_contact_matches_the_references() {
                 worst = (err.abs(), name.to_owned());
             }
             if err < -DISTANCE_TOL && r.is_clear() && sd_ref > 0.0 {
-                lower_only.push(format!("{name} ({order}): {sd:e} vs {sd_ref:e} (Δ {err:e})"));
+                lower_only.push(format!(
+                    "{name} ({order}): {sd:e} vs {sd_ref:e} (Δ {err:e})"
+                ));
             } else if err.abs() > DISTANCE_TOL && !r.is_clear() {
-                depth_miss.push(format!("{name} ({order}): {sd:e} vs {sd_ref:e} (Δ {err:e})"));
+                depth_miss.push(format!(
+                    "{name} ({order}): {sd:e} vs {sd_ref:e} (Δ {err:e})"
+                ));
             } else if err.abs() > DISTANCE_TOL {
                 failures.push(format!(
                     "{name} ({order}): signed distance {sd:e} vs reference {sd_ref:e} (Δ {err:e})"
@@ -110,8 +118,17 @@ fn exact_mode_at_contact_matches_the_references() {
         lower_only.join("\n  "),
         depth_miss.join("\n  ")
     );
-    assert!(depth_miss.len() <= DEPTH_MISS_AT_MOST, "{} depth misses", depth_miss.len());
-    assert!(failures.is_empty(), "{} failures:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        depth_miss.len() <= DEPTH_MISS_AT_MOST,
+        "{} depth misses",
+        depth_miss.len()
+    );
+    assert!(
+        failures.is_empty(),
+        "{} failures:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
     // Unknown answers (of 1,120: each case in both orders): 89 when this test was written, 50
     // since a ball against a box, cylinder or cone is closed form (`exact/sphere.rs`), 24 with
     // alternating exact projections (`exact/projection.rs`), 18 with the lower bound maximised
@@ -121,6 +138,10 @@ fn exact_mode_at_contact_matches_the_references() {
     // Clear answers whose distance is GJK's certified lower bound, more than 1e-9 m below the
     // reference: 10 when written, 1 with the ball closed form, none since the lower bound is
     // maximised over directions (`exact/lower.rs`), so the ratchet became a requirement.
-    assert!(lower_only.is_empty(), "{} lower-bound distances", lower_only.len());
+    assert!(
+        lower_only.is_empty(),
+        "{} lower-bound distances",
+        lower_only.len()
+    );
     assert!(cases.len() >= 500, "only {} cases", cases.len());
 }

@@ -43,16 +43,29 @@ fn convex_of_coplanar_or_coincident_points_is_refused_with_one_error() {
     assert!(is_degenerate(&Solid::convex(&nearly), None));
     let mut plate = square.to_vec();
     plate.extend(square.iter().map(|q| q + Vector3::new(0.0, 0.0, 1e-2)));
-    assert!(Solid::convex(&plate).is_ok(), "{:?}", Solid::convex(&plate).err());
+    assert!(
+        Solid::convex(&plate).is_ok(),
+        "{:?}",
+        Solid::convex(&plate).err()
+    );
     // The same proportions at 1e-3 m and 100 m: the test is relative to the body's extent.
     for s in [1e-3, 100.0] {
         let scaled: Vec<_> = plate.iter().map(|q| Point3::from(q.coords * s)).collect();
         assert!(Solid::convex(&scaled).is_ok(), "plate at scale {s}");
         let flat: Vec<_> = square.iter().map(|q| Point3::from(q.coords * s)).collect();
-        assert!(is_degenerate(&Solid::convex(&flat), None), "square at scale {s}");
+        assert!(
+            is_degenerate(&Solid::convex(&flat), None),
+            "square at scale {s}"
+        );
     }
-    let msg = Solid::convex(&square).err().map(|e| e.to_string()).unwrap_or_default();
-    assert!(msg.contains("degenerate") && msg.contains("4 points"), "{msg}");
+    let msg = Solid::convex(&square)
+        .err()
+        .map(|e| e.to_string())
+        .unwrap_or_default();
+    assert!(
+        msg.contains("degenerate") && msg.contains("4 points"),
+        "{msg}"
+    );
 }
 
 #[test]

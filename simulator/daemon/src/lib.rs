@@ -646,15 +646,28 @@ mod tests {
     /// by name and queue nothing.
     #[test]
     fn simctl_step_counts_are_validated_and_a_refusal_queues_nothing() {
-        for bad in [json!(-1), json!(0), json!(1e12), json!(2.5), json!("3"), json!(null)] {
+        for bad in [
+            json!(-1),
+            json!(0),
+            json!(1e12),
+            json!(2.5),
+            json!("3"),
+            json!(null),
+        ] {
             let (r, budget) = step(bad.clone(), 7);
             let e = r.expect_err("refused");
-            assert!(e.contains("`n` must be an integer from 1 to 1000000"), "{bad}: {e}");
+            assert!(
+                e.contains("`n` must be an integer from 1 to 1000000"),
+                "{bad}: {e}"
+            );
             assert_eq!(budget, 7, "{bad}: nothing queued");
         }
         assert_eq!(step(json!(5), 7), (Ok(()), 12));
         let (r, budget) = step(json!(MAX_STEPS_PER_COMMAND), 1);
-        assert!(r.expect_err("over the queue bound").contains("still queued"));
+        assert!(
+            r.expect_err("over the queue bound")
+                .contains("still queued")
+        );
         assert_eq!(budget, 1);
     }
 }

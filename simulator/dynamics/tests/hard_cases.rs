@@ -294,13 +294,24 @@ fn simulate_dt_much_larger_than_t_end_takes_the_step_to_t_end() {
     let zeros = [0.0; 6];
     for integrator in Integrator::ALL {
         let run = |dt: f64| {
-            simulate(&model, IntegratorConfig::fixed(integrator, dt), &q0, &zeros, &zeros, &[1e-3])
-                .expect("runs")
+            simulate(
+                &model,
+                IntegratorConfig::fixed(integrator, dt),
+                &q0,
+                &zeros,
+                &zeros,
+                &[1e-3],
+            )
+            .expect("runs")
         };
         let (big, stats) = run(10.0);
         assert_eq!(stats.accepted, 1, "{integrator:?}: one step, cut to t_end");
         assert_eq!(big[0].t, 1e-3);
-        assert_ne!(big[0].qd, zeros.to_vec(), "{integrator:?}: the arm started to fall");
+        assert_ne!(
+            big[0].qd,
+            zeros.to_vec(),
+            "{integrator:?}: the arm started to fall"
+        );
         let (exact, _) = run(1e-3);
         assert_eq!(big[0].q, exact[0].q, "{integrator:?}");
         assert_eq!(big[0].qd, exact[0].qd, "{integrator:?}");

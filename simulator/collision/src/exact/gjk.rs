@@ -127,7 +127,10 @@ pub(crate) fn separation(
         let mix = |f: fn(&Vertex) -> Vector3<f64>| -> Vector3<f64> {
             simplex.iter().zip(&weights).map(|(s, l)| f(s) * *l).sum()
         };
-        let (pa, pb) = (Point3::from(mix(|s| s.a.coords)), Point3::from(mix(|s| s.b.coords)));
+        let (pa, pb) = (
+            Point3::from(mix(|s| s.a.coords)),
+            Point3::from(mix(|s| s.b.coords)),
+        );
         let v = mix(|s| s.w);
         let upper = v.norm();
         if !upper.is_finite() || !scale.is_finite() {
@@ -338,7 +341,10 @@ mod tests {
     #[test]
     fn cylinder_on_a_box_touching_and_1e9_apart() {
         // parry's cylinder axis is y; the box top is at y = 0.5.
-        let (bx, cyl) = (Cuboid::new(Vector3::new(1.0, 0.5, 1.0)), Cylinder::new(0.3, 0.2));
+        let (bx, cyl) = (
+            Cuboid::new(Vector3::new(1.0, 0.5, 1.0)),
+            Cylinder::new(0.3, 0.2),
+        );
         for (gap, verdict) in [(0.0, Verdict::Touching), (1e-9, Verdict::Apart)] {
             let pos12 = Isometry3::translation(0.1, 0.5 + 0.3 + gap, -0.2);
             let s = separation(&pos12, &bx, &cyl, None, true, 1e-12);

@@ -89,7 +89,9 @@ pub(crate) fn kink_tangent(s: &dyn Shape, p: &nalgebra::Point3<f64>) -> Option<V
     if let Some(b) = s.as_cuboid() {
         let he = b.half_extents;
         let tol = 1e-6 * he.norm();
-        let free: Vec<usize> = (0..3).filter(|&i| (p[i].abs() - he[i]).abs() > tol).collect();
+        let free: Vec<usize> = (0..3)
+            .filter(|&i| (p[i].abs() - he[i]).abs() > tol)
+            .collect();
         return (free.len() == 1).then(|| {
             let mut e = Vector3::zeros();
             e[free[0]] = 1.0;
@@ -153,10 +155,13 @@ pub(crate) fn refine(
     special_directions(sb, &mut own);
     cands.extend(own.iter().map(|n| pos12.rotation * n));
     cands.extend(side_normal(sa, &s.pa));
-    cands.extend(side_normal(sb, &pos12.inverse_transform_point(&s.pb)).map(|n| pos12.rotation * n));
+    cands
+        .extend(side_normal(sb, &pos12.inverse_transform_point(&s.pb)).map(|n| pos12.rotation * n));
     let mut kinks = Vec::new();
     kinks.extend(kink_tangent(sa, &s.pa));
-    kinks.extend(kink_tangent(sb, &pos12.inverse_transform_point(&s.pb)).map(|t| pos12.rotation * t));
+    kinks.extend(
+        kink_tangent(sb, &pos12.inverse_transform_point(&s.pb)).map(|t| pos12.rotation * t),
+    );
     let base = cands.clone();
     for t in &kinks {
         cands.extend(base.iter().map(|c| c - t * t.dot(c)));

@@ -104,8 +104,9 @@ fn certified_intersection(
         return Ok(!matches!(answer, sphere::BallAnswer::Apart { .. }));
     }
     match leaf_pair(sa, sb) {
-        Leaf::Balls => Ok(query::intersection_test(ga, sa, gb, sb)
-            .map_err(|_| unsupported(sa, sb))?),
+        Leaf::Balls => {
+            Ok(query::intersection_test(ga, sa, gb, sb).map_err(|_| unsupported(sa, sb))?)
+        }
         Leaf::SupportMaps(ma, mb) => {
             let pos12 = ga.inv_mul(gb);
             let mut s = gjk::separation(&pos12, ma, mb, None, false, DISTANCE_TOLERANCE);
@@ -385,7 +386,16 @@ fn collide_support_maps(
     // The lower bound is the weak side at 1e-9 m gaps on curved or large pairs: maximise the
     // separating-plane bound over directions (`lower`), then GJK's rules again.
     if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
-        lower::refine(&mut s, &pos12, ma, mb, sa, sb, opts.distance, DISTANCE_TOLERANCE);
+        lower::refine(
+            &mut s,
+            &pos12,
+            ma,
+            mb,
+            sa,
+            sb,
+            opts.distance,
+            DISTANCE_TOLERANCE,
+        );
     }
     match s.verdict {
         gjk::Verdict::Undecided => PairResult::Unknown {
@@ -428,7 +438,9 @@ fn collide_support_maps(
             let tau = s.tau;
             let lower = s.lower;
             let usable = |d: f64| {
-                d <= lower + DISTANCE_TOLERANCE && d >= lower - tau || d < -tau || !lower.is_finite()
+                d <= lower + DISTANCE_TOLERANCE && d >= lower - tau
+                    || d < -tau
+                    || !lower.is_finite()
             };
             match query::contact(ga, sa, gb, sb, 0.0) {
                 Ok(Some(c)) if c.dist.is_finite() && usable(c.dist.min(0.0)) => {

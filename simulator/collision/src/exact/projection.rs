@@ -40,7 +40,11 @@ fn project_hull(h: &ConvexPolyhedron, p: &Point3<f64>) -> Point3<f64> {
     for f in h.faces() {
         let ids = face(f.first_vertex_or_edge, f.num_vertices_or_edges);
         for k in 1..ids.len().saturating_sub(1) {
-            let (a, b, c) = (pts[ids[0] as usize], pts[ids[k] as usize], pts[ids[k + 1] as usize]);
+            let (a, b, c) = (
+                pts[ids[0] as usize],
+                pts[ids[k] as usize],
+                pts[ids[k + 1] as usize],
+            );
             let l = triangle(a - p, b - p, c - p);
             let q = Point3::from(a.coords * l[0] + b.coords * l[1] + c.coords * l[2]);
             let d = (q - p).norm_squared();
@@ -130,12 +134,23 @@ pub(crate) fn refine(
 /// one is an upper bound like the others. `swapped`: the rim shape is B (`sr` = sb).
 fn rim(s: &mut Separation, pos12: &Isometry3<f64>, sr: &dyn Shape, so: &dyn Shape, swapped: bool) {
     // Rim point in the rim shape's frame; the other shape's frame map.
-    let p = if swapped { pos12.inverse_transform_point(&s.pb) } else { s.pa };
+    let p = if swapped {
+        pos12.inverse_transform_point(&s.pb)
+    } else {
+        s.pa
+    };
     if super::lower::kink_tangent(sr, &p).is_none() || sr.as_cuboid().is_some() {
         return;
     }
     let (r, y) = if let Some(c) = sr.as_cylinder() {
-        (c.radius, if p.y >= 0.0 { c.half_height } else { -c.half_height })
+        (
+            c.radius,
+            if p.y >= 0.0 {
+                c.half_height
+            } else {
+                -c.half_height
+            },
+        )
     } else if let Some(k) = sr.as_cone() {
         (k.radius, -k.half_height)
     } else {
@@ -151,7 +166,11 @@ fn rim(s: &mut Separation, pos12: &Isometry3<f64>, sr: &dyn Shape, so: &dyn Shap
         let q = to_other.inverse_transform_point(&q);
         let d = (c - q).norm();
         if d.is_finite() && d < s.upper {
-            let (ca, cb) = if swapped { (pos12 * q, pos12 * c) } else { (c, q) };
+            let (ca, cb) = if swapped {
+                (pos12 * q, pos12 * c)
+            } else {
+                (c, q)
+            };
             (s.upper, s.pa, s.pb) = (d, ca, cb);
         }
         d
