@@ -10,7 +10,7 @@ pub enum Which {
     /// journaled throughput.
     Ipc {
         /// Where to write ipc.md and ipc.csv.
-        #[arg(long, default_value = "docs/bench")]
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
         out: PathBuf,
         /// Fewer repetitions (for a smoke run).
         #[arg(long)]
@@ -20,7 +20,7 @@ pub enum Which {
     /// and two copies, in one run.
     Journal {
         /// Where to write journal.md and journal.csv.
-        #[arg(long, default_value = "docs/bench")]
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
         out: PathBuf,
         /// Fewer repetitions (for a smoke run).
         #[arg(long)]
@@ -30,7 +30,7 @@ pub enum Which {
     /// against scene size.
     Display {
         /// Where to write display_frames.* and display_uploads.*.
-        #[arg(long, default_value = "docs/bench")]
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
         out: PathBuf,
         /// Fewer repetitions (for a smoke run).
         #[arg(long)]
@@ -41,7 +41,7 @@ pub enum Which {
     /// same for an older robosim binary, in the same run.
     Reaction {
         /// Where to write reaction.md and reaction.csv.
-        #[arg(long, default_value = "docs/bench")]
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
         out: PathBuf,
         /// Fewer repetitions (for a smoke run).
         #[arg(long)]
@@ -53,43 +53,48 @@ pub enum Which {
     /// (internal) the reader process of the latency measurement.
     #[command(hide = true)]
     IpcReader {
-        #[arg(long)]
-        session: String,
+        /// Changes to wait for.
         #[arg(long)]
         count: usize,
+        /// Where to write the latencies.
         #[arg(long)]
         out: PathBuf,
     },
 }
 
-pub fn run(which: Which) -> Result<()> {
+pub fn run(which: Which, session: Option<&str>) -> Result<()> {
+    let wrote = crate::reports::wrote;
     match which {
         Which::Ipc { out, quick } => {
-            robosim_report::ipc::run(&out, quick).map_err(|e| CliError(e.to_string()))
+            let pb = robosim_report::progress::spinner("bench ipc");
+            robosim_report::ipc::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
+            pb.finish_and_clear();
+            wrote(&out, &[])
         }
         Which::Journal { out, quick } => {
-            for p in robosim_report::journal::run(&out, quick).map_err(CliError)? {
-                println!("{}", p.display());
-            }
-            Ok(())
+            let pb = robosim_report::progress::spinner("bench journal");
+            let paths = robosim_report::journal::run(&out, quick).map_err(CliError)?;
+            pb.finish_and_clear();
+            wrote(&out, &paths)
         }
         Which::Display { out, quick } => {
-            robosim_display::bench::run(&out, quick).map_err(|e| crate::CliError(e.0))
+            let pb = robosim_report::progress::spinner("bench display");
+            robosim_display::bench::run(&out, quick).map_err(|e| crate::CliError(e.0))?;
+            pb.finish_and_clear();
+            wrote(&out, &[])
         }
         Which::Reaction { out, quick, before } => {
             let me = std::env::current_exe()?;
-            for p in robosim_simulator_daemon::bench::run(&out, quick, &me, before.as_deref())
-                .map_err(crate::CliError)?
-            {
-                println!("{}", p.display());
-            }
-            Ok(())
+            let pb = robosim_report::progress::spinner("bench reaction");
+            let paths = robosim_simulator_daemon::bench::run(&out, quick, &me, before.as_deref())
+                .map_err(crate::CliError)?;
+            pb.finish_and_clear();
+            wrote(&out, &paths)
         }
-        Which::IpcReader {
-            session,
-            count,
-            out,
-        } => robosim_report::ipc::latency_reader(&session, count, &out)
-            .map_err(|e| CliError(e.to_string())),
+        Which::IpcReader { count, out } => {
+            let session = session.ok_or_else(|| CliError("ipc-reader needs --session".into()))?;
+            robosim_report::ipc::latency_reader(session, count, &out)
+                .map_err(|e| CliError(e.to_string()))
+        }
     }
 }

@@ -17,6 +17,16 @@ use std::process::ExitCode;
     about = "Robot and structure simulation over a shared Instance Space (after NASA-CR-185444)"
 )]
 struct Cli {
+    /// The session to start, join or read (its help line, with the default, is set at run time:
+    /// see `session_help`).
+    #[arg(long, global = true, env = "ROBOSIM_SESSION", value_name = "NAME")]
+    session: Option<String>,
+    /// Print less: no progress bars; iceoryx2 prints nothing. Results and errors still print.
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    quiet: bool,
+    /// Print more: -v iceoryx2's warnings, -vv its info, -vvv its debug messages.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
     #[command(subcommand)]
     command: Command,
 }
@@ -25,8 +35,6 @@ struct Cli {
 enum Command {
     /// Run the space keeper of a session (normally started by `robosim up`).
     Space {
-        #[arg(long)]
-        session: Option<String>,
         /// Scene to load when the session's model is empty.
         #[arg(long)]
         scene: Option<String>,
@@ -41,32 +49,32 @@ enum Command {
         #[arg(long, default_value_t = 2)]
         journal_copies: u8,
     },
-    /// Start a session: the keeper with SCENE, and only the components named with --with.
+    /// Start a session: the keeper with SCENE, and only the components named with --with. A
+    /// session that already holds a model (running, or saved in its journal) keeps it.
     Up {
+        /// The library scene or robot to load (`robosim lib list`).
         scene: String,
-        /// Comma-separated components: simulator, display, editor, file, hl.
-        #[arg(long, value_delimiter = ',')]
+        /// Comma-separated components to start beside the keeper.
+        #[arg(long, value_delimiter = ',', value_parser = component_names())]
         with: Vec<String>,
-        #[arg(long)]
-        session: Option<String>,
         /// Library files to add to the session's Library Space.
         #[arg(long)]
         library: Vec<std::path::PathBuf>,
+        /// Start SCENE in an empty model: a stopped session's saved model is moved aside to
+        /// `<session>/previous-<time>/` (nothing is deleted).
+        #[arg(long)]
+        fresh: bool,
     },
     /// List a session's processes: role, pid, what each is attached to.
     Ps {
+        /// One JSON object: session, dir, processes [{role, pid, attached, started_unix_ms}].
         #[arg(long)]
-        session: Option<String>,
+        json: bool,
     },
     /// Stop a session's processes cleanly (components first, the keeper last).
-    Down {
-        #[arg(long)]
-        session: Option<String>,
-    },
+    Down,
     /// Run the simulator daemon of a session (normally started by `robosim up … --with simulator`).
     Simulator {
-        #[arg(long)]
-        session: Option<String>,
         /// realtime (one step per dt of wall time), fast, or lockstep (steps on command).
         #[arg(long, default_value = "realtime")]
         mode: robosim_simulator_daemon::Mode,
@@ -79,8 +87,6 @@ enum Command {
     },
     /// Send commands (JSON) to a session's simulator: target, torque, pause, resume, step, reset.
     Simctl {
-        #[arg(long)]
-        session: Option<String>,
         /// e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}'
         #[arg(required = true)]
         commands: Vec<String>,
@@ -95,8 +101,6 @@ enum Command {
         /// Parameter values, NAME=EXPR (e.g. `upper_arm=0.5 m`).
         #[arg(long = "set")]
         set: Vec<String>,
-        #[arg(long)]
-        session: Option<String>,
     },
     /// Change parameters of an instance: it alone is re-instantiated, only what differs is written.
     Set {
@@ -104,8 +108,6 @@ enum Command {
         /// NAME=EXPR pairs.
         #[arg(required = true)]
         params: Vec<String>,
-        #[arg(long)]
-        session: Option<String>,
     },
     /// Draw a library scene or robot to PNG, with no session or other process (`--play`: one
     /// frame per trajectory sample).
@@ -114,16 +116,9 @@ enum Command {
     /// per-frame upload counters (frames.jsonl).
     Display(robosim_display::app::DisplayArgs),
     /// A headless session that does real work and says what it did.
-    Demo {
-        #[arg(long)]
-        session: Option<String>,
-    },
+    Demo,
     /// The Library Space: list, show and check declarations.
     Lib {
-        /// Read the Library Space of this running session (from shared memory) instead of the
-        /// standard library.
-        #[arg(long, global = true)]
-        session: Option<String>,
         #[command(subcommand)]
         cmd: robosim_hl_interface::cli::lib::LibCmd,
     },
@@ -136,8 +131,6 @@ enum Command {
     /// line. With --session, also the simulation-library ops on that session's Instance Space
     /// (MOVEJ, MOVEJI, KINV, JACOB, CHECK, USE, C_SWITCH, PRE/POST TRANSLATE/ROTATE, …).
     Query {
-        #[arg(long)]
-        session: Option<String>,
         #[command(flatten)]
         args: robosim_hl_interface::cli::QueryArgs,
     },
@@ -154,11 +147,35 @@ enum Command {
         #[command(subcommand)]
         which: reports::Which,
     },
-    /// Benchmarks that write their figures into docs/.
+    /// Benchmarks: figures as ratios against a baseline measured in the same run.
     Bench {
         #[command(subcommand)]
         which: bench::Which,
     },
+    /// Print a shell completion script: `robosim completions bash > ~/.local/share/bash-completion/completions/robosim`.
+    Completions {
+        /// The shell to complete for.
+        shell: clap_complete::Shell,
+    },
+}
+
+/// The component names `up --with` accepts (only what this build has).
+fn component_names() -> clap::builder::PossibleValuesParser {
+    clap::builder::PossibleValuesParser::new(
+        robosim_scene::launch::COMPONENTS
+            .iter()
+            .map(|(name, _)| *name),
+    )
+}
+
+/// `--session`'s help line, with the values that hold on this machine now.
+fn session_help() -> String {
+    format!(
+        "The session to start, join or read [default: {}, one per user]. A session's files live \
+         in $ROBOSIM_HOME/<session>/ (now {})",
+        robosim_instance_space::default_session_name(),
+        robosim_instance_space::home().display()
+    )
 }
 
 #[derive(Subcommand)]
@@ -171,19 +188,68 @@ enum JournalCmd {
 }
 
 fn main() -> ExitCode {
-    if std::env::var_os("IOX2_LOG_LEVEL").is_none() {
-        iceoryx2_quiet();
+    // A reader that closes our standard output early (`robosim up … | head -1`) ends the
+    // command quietly, as Unix tools do, instead of a panic message: printing to a closed pipe
+    // panics in Rust's print macros; that panic is recognised, not reported, and caught here.
+    let report_panic = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if !is_broken_pipe(info.payload()) {
+            report_panic(info)
+        }
+    }));
+    match std::panic::catch_unwind(run) {
+        Ok(code) => code,
+        Err(payload) if is_broken_pipe(&*payload) => ExitCode::SUCCESS,
+        Err(payload) => std::panic::resume_unwind(payload),
     }
-    let cli = Cli::parse();
-    let result = match cli.command {
+}
+
+/// True for the panic of `print!`/`eprint!` on a closed pipe.
+fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
+    let msg = payload
+        .downcast_ref::<String>()
+        .map(String::as_str)
+        .or_else(|| payload.downcast_ref::<&str>().copied());
+    msg.is_some_and(|m| m.starts_with("failed printing to std") && m.contains("Broken pipe"))
+}
+
+fn run() -> ExitCode {
+    let help = session_help();
+    let matches = <Cli as clap::CommandFactory>::command()
+        .mut_arg("session", |a| a.help(help))
+        .get_matches();
+    let cli = match <Cli as clap::FromArgMatches>::from_arg_matches(&matches) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
+    if std::env::var_os("IOX2_LOG_LEVEL").is_none() {
+        iceoryx2_log_level(cli.quiet, cli.verbose);
+    }
+    robosim_report::progress::set_quiet(cli.quiet);
+    match dispatch(cli.command, cli.session.as_deref()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("robosim: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// A session that must already exist (for the commands that read or join one): a missing one is
+/// an error naming the sessions that run, and nothing is created.
+fn existing(session: Option<&str>) -> Result<robosim_instance_space::Session> {
+    Ok(robosim_instance_space::Session::existing(session)?)
+}
+
+fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
+    match command {
         Command::Space {
-            session,
             scene,
             library,
             no_sync,
             journal_copies,
         } => robosim_scene::launch::run_space(
-            session.as_deref(),
+            session,
             scene.as_deref(),
             &library,
             !no_sync,
@@ -193,65 +259,48 @@ fn main() -> ExitCode {
         Command::Up {
             scene,
             with,
-            session,
             library,
-        } => robosim_scene::launch::up_with_library(&scene, &with, session.as_deref(), &library)
+            fresh,
+        } => robosim_scene::launch::up_with_library(&scene, &with, session, &library, fresh)
             .map_err(CliError::from),
-        Command::Ps { session } => {
-            robosim_scene::launch::ps(session.as_deref()).map_err(CliError::from)
-        }
-        Command::Down { session } => {
-            robosim_scene::launch::down(session.as_deref()).map_err(CliError::from)
-        }
+        Command::Ps { json } => robosim_scene::launch::ps(session, json).map_err(CliError::from),
+        Command::Down => robosim_scene::launch::down(session).map_err(CliError::from),
         Command::Simulator {
-            session,
             mode,
             effects,
             publish_hz,
         } => {
-            robosim_simulator_daemon::run(session.as_deref(), mode, effects.as_deref(), publish_hz)
+            existing(session)?;
+            robosim_simulator_daemon::run(session, mode, effects.as_deref(), publish_hz)
                 .map(drop)
                 .map_err(CliError::from)
         }
-        Command::Simctl { session, commands } => {
-            robosim_simulator_daemon::ctl(session.as_deref(), &commands).map_err(CliError::from)
+        Command::Simctl { commands } => {
+            existing(session)?;
+            robosim_simulator_daemon::ctl(session, &commands).map_err(CliError::from)
         }
         Command::Instantiate {
             declaration,
             name,
             set,
-            session,
-        } => cli_instantiate(&declaration, name.as_deref(), &set, session.as_deref()),
-        Command::Set {
-            instance,
-            params,
-            session,
-        } => cli_set(&instance, &params, session.as_deref()),
-        Command::Demo { session } => {
-            robosim_studies::surgical::run(session.as_deref(), &mut std::io::stdout().lock())
-                .map_err(|e| CliError(e.0))
-        }
-        Command::Bench { which } => bench::run(which),
-        Command::Lib { session: None, cmd } => {
-            robosim_hl_interface::cli::lib::run(cmd).map_err(CliError)
-        }
-        Command::Lib {
-            session: Some(s),
-            cmd,
-        } => session_library(Some(&s))
-            .and_then(|lib| {
-                robosim_hl_interface::cli::lib::render_with(cmd, Some(&lib)).map_err(CliError)
-            })
-            .map(|text| print!("{text}")),
+        } => cli_instantiate(&declaration, name.as_deref(), &set, session),
+        Command::Set { instance, params } => cli_set(&instance, &params, session),
+        Command::Demo => robosim_studies::surgical::run(session, &mut std::io::stdout().lock())
+            .map_err(|e| CliError(e.0)),
+        Command::Bench { which } => bench::run(which, session),
+        Command::Lib { cmd } => match session {
+            None => robosim_hl_interface::cli::lib::run(cmd).map_err(CliError),
+            Some(_) => session_library(session)
+                .and_then(|lib| {
+                    robosim_hl_interface::cli::lib::render_with(cmd, Some(&lib)).map_err(CliError)
+                })
+                .map(|text| print!("{text}")),
+        },
         Command::Diag { cmd } => robosim_hl_interface::cli::diag::run(cmd).map_err(CliError),
-        Command::Query {
-            session: None,
-            args,
-        } => robosim_hl_interface::cli::run(&args).map_err(CliError),
-        Command::Query {
-            session: Some(s),
-            args,
-        } => query_session(&s, &args),
+        Command::Query { args } => match session {
+            None => robosim_hl_interface::cli::run(&args).map_err(CliError),
+            Some(s) => query_session(s, &args),
+        },
         Command::Sim(args) => {
             robosim_hl_interface::cli::sim::run(&args, &robosim_library::standard_robot)
                 .map_err(CliError)
@@ -262,21 +311,21 @@ fn main() -> ExitCode {
             .map_err(CliError::from),
         Command::Report { which } => reports::run(which),
         Command::Render(args) => robosim_display::app::cmd_render(&args).map_err(|e| CliError(e.0)),
-        Command::Display(args) => {
+        Command::Display(mut args) => {
+            existing(session)?;
+            args.session = session.map(str::to_owned);
             robosim_display::app::cmd_display(&args).map_err(|e| CliError(e.0))
         }
-    };
-    match result {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("robosim: {e}");
-            ExitCode::FAILURE
+        Command::Completions { shell } => {
+            let mut cmd = <Cli as clap::CommandFactory>::command();
+            clap_complete::generate(shell, &mut cmd, "robosim", &mut std::io::stdout());
+            Ok(())
         }
     }
 }
 
 fn query_session(session: &str, args: &robosim_hl_interface::cli::QueryArgs) -> Result<()> {
-    let s = robosim_instance_space::Session::open(Some(session))?;
+    let s = existing(Some(session))?;
     let out = std::io::stdout();
     let served = match args.input.as_deref() {
         Some(p) if p.as_os_str() != "-" => session::serve(
@@ -295,7 +344,7 @@ fn query_session(session: &str, args: &robosim_hl_interface::cli::QueryArgs) -> 
 
 /// A running session's Library Space.
 fn session_library(session: Option<&str>) -> Result<robosim_library::Library> {
-    let s = robosim_instance_space::Session::open(session)?;
+    let s = existing(session)?;
     let mut reader = robosim_instance_space::Reader::attach(&s, "library")?;
     Ok(robosim_scene::session_library(&mut reader)?)
 }
@@ -307,7 +356,7 @@ fn cli_instantiate(
     set: &[String],
     session: Option<&str>,
 ) -> Result<()> {
-    let s = robosim_instance_space::Session::open(session)?;
+    let s = existing(session)?;
     let origin = robosim_scene::Origin {
         declaration: declaration.to_owned(),
         params: robosim_scene::parse_params(set)?,
@@ -327,7 +376,7 @@ fn cli_instantiate(
 
 /// `robosim set INSTANCE K=V…`: only what the new values change is written.
 fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
-    let s = robosim_instance_space::Session::open(session)?;
+    let s = existing(session)?;
     let reader = robosim_instance_space::Reader::attach(&s, "set")?;
     let snap = reader
         .snapshot()
@@ -348,9 +397,18 @@ fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()
     Ok(())
 }
 
-/// iceoryx2 prints a start-up notice at Info level; keep the terminal for our own output.
-fn iceoryx2_quiet() {
-    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+/// iceoryx2 prints a start-up notice at Info level; keep the terminal for our own output unless
+/// asked for more (-v) or less (-q).
+fn iceoryx2_log_level(quiet: bool, verbose: u8) {
+    use iceoryx2::prelude::LogLevel;
+    let level = match (quiet, verbose) {
+        (true, _) => LogLevel::Fatal,
+        (false, 0) => LogLevel::Error,
+        (false, 1) => LogLevel::Warn,
+        (false, 2) => LogLevel::Info,
+        (false, _) => LogLevel::Debug,
+    };
+    iceoryx2::prelude::set_log_level(level);
 }
 
 /// Errors of the command-line layer: a message that says what failed and where.

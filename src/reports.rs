@@ -1,13 +1,33 @@
 //! `robosim report …`: every "what accuracy costs in time" study, each owned by the crate whose
-//! knob it measures, written as CSV + markdown + PNG (default into `docs/reports/`).
+//! knob it measures, written as CSV + markdown + PNG (default into `./robosim-reports/`; the
+//! published ones are regenerated with `--out docs/reports`).
 
 use crate::Result;
 use std::path::{Path, PathBuf};
 
+/// Where reports and benches go without `--out`: a directory named for us in the working
+/// directory, never into a path that happens to exist there (`docs/` of whatever repository the
+/// user stands in).
+pub const DEFAULT_OUT: &str = "robosim-reports";
+
+/// Prints where the files of a report or bench went: the paths it returned, or else the
+/// directory (absolute, so a relative `--out` cannot surprise).
+pub fn wrote(out: &Path, paths: &[PathBuf]) -> Result<()> {
+    if paths.is_empty() {
+        let abs = std::fs::canonicalize(out).unwrap_or_else(|_| out.to_owned());
+        println!("wrote into {}", abs.display());
+    }
+    for p in paths {
+        let abs = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
+        println!("wrote {}", abs.display());
+    }
+    Ok(())
+}
+
 #[derive(clap::Args, Debug, Clone)]
 pub struct Common {
-    /// Output directory.
-    #[arg(long, default_value = "docs/reports")]
+    /// Output directory (created if missing).
+    #[arg(long, default_value = DEFAULT_OUT)]
     pub out: PathBuf,
     /// Fewer samples (a smoke run; the published reports use the full run).
     #[arg(long)]
@@ -32,50 +52,54 @@ pub enum Which {
     All(Common),
 }
 
-fn paths(r: std::result::Result<Vec<PathBuf>, String>) -> Result<()> {
-    for p in r.map_err(crate::CliError)? {
-        println!("wrote {}", p.display());
-    }
-    Ok(())
+fn paths(out: &Path, r: std::result::Result<Vec<PathBuf>, String>) -> Result<()> {
+    wrote(out, &r.map_err(crate::CliError)?)
 }
 
 fn one(which: &str, out: &Path, quick: bool) -> Result<()> {
+    let pb = robosim_report::progress::spinner(&format!("report {which}"));
+    let r = one_report(which, out, quick);
+    pb.finish_and_clear();
+    r
+}
+
+fn one_report(which: &str, out: &Path, quick: bool) -> Result<()> {
     match which {
-        "ik" => robosim_report::cli::run_report_ik(&robosim_report::cli::ReportIkArgs {
-            out: out.to_owned(),
-            quick,
-        })
-        .map_err(crate::CliError),
-        "collision" => {
-            robosim_report::cli::run_report_collision(&robosim_report::cli::ReportCollisionArgs {
-                out: out.to_owned(),
-                quick,
-            })
-            .map_err(crate::CliError)
-        }
-        "dynamics" => paths(robosim_report::dynamics::report_dynamics(out, quick)),
-        "effects" => paths(robosim_report::effects::report_effects(out, quick)),
-        "library" => paths(robosim_report::library::report_library(out, quick)),
-        "diag" => paths(robosim_report::automation::report_diag(out, quick)),
+        "ik" => paths(
+            out,
+            robosim_report::ik::report_ik(out, quick).map_err(|e| format!("report ik: {e}")),
+        ),
+        "collision" => paths(
+            out,
+            robosim_report::collision::report_collision(out, quick)
+                .map_err(|e| format!("report collision: {e}")),
+        ),
+        "dynamics" => paths(out, robosim_report::dynamics::report_dynamics(out, quick)),
+        "effects" => paths(out, robosim_report::effects::report_effects(out, quick)),
+        "library" => paths(out, robosim_report::library::report_library(out, quick)),
+        "diag" => paths(out, robosim_report::automation::report_diag(out, quick)),
         other => Err(crate::CliError(format!("no report {other:?}"))),
     }
 }
 
 pub fn run(which: Which) -> Result<()> {
     match which {
-        Which::Ik(a) => robosim_report::cli::run_report_ik(&a).map_err(crate::CliError),
-        Which::Collision(a) => {
-            robosim_report::cli::run_report_collision(&a).map_err(crate::CliError)
-        }
+        Which::Ik(a) => one("ik", &a.out, a.quick),
+        Which::Collision(a) => one("collision", &a.out, a.quick),
         Which::Dynamics(c) => one("dynamics", &c.out, c.quick),
         Which::Effects(c) => one("effects", &c.out, c.quick),
         Which::Library(c) => one("library", &c.out, c.quick),
         Which::Diag(c) => one("diag", &c.out, c.quick),
         Which::All(c) => {
-            for w in ["ik", "collision", "dynamics", "effects", "library", "diag"] {
-                println!("== report {w}");
+            let names = ["ik", "collision", "dynamics", "effects", "library", "diag"];
+            let pb = robosim_report::progress::bar(names.len() as u64, "report all");
+            for w in names {
+                pb.set_message(w);
+                pb.suspend(|| println!("== report {w}"));
                 one(w, &c.out, c.quick)?;
+                pb.inc(1);
             }
+            pb.finish_and_clear();
             Ok(())
         }
     }

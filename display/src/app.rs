@@ -147,6 +147,7 @@ impl ViewArgs {
 }
 
 #[derive(clap::Args, Debug)]
+#[command(group(clap::ArgGroup::new("output").required(true).multiple(true).args(["out", "frames"])))]
 pub struct RenderArgs {
     /// A scene or robot of the library (`robosim lib list`), or `demo`.
     pub scene: String,
@@ -421,7 +422,8 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
 
 #[derive(clap::Args, Debug)]
 pub struct DisplayArgs {
-    #[arg(long)]
+    /// The session to attach to: the binary's global `--session` (ROBOSIM_SESSION) fills it.
+    #[arg(skip)]
     pub session: Option<String>,
     /// Draw to PNG files instead of a window (the default when there is no display server).
     #[arg(long)]

@@ -33,6 +33,7 @@ pub use keeper::{Keeper, KeeperError, KeeperOptions};
 pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot};
 pub use session::{
     ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,
+    running_sessions, write_private,
 };
 pub use store::{
     Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,

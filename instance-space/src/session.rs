@@ -31,6 +31,21 @@ pub enum SessionError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// A reader or joiner named a session that was never started (nothing is created).
+    #[error("no session {name} under {}; {}", home.display(), running_list(running))]
+    NoSession {
+        name: String,
+        home: PathBuf,
+        running: Vec<String>,
+    },
+}
+
+fn running_list(running: &[String]) -> String {
+    if running.is_empty() {
+        "no session is running (start one with `robosim up SCENE --session NAME`)".into()
+    } else {
+        format!("running sessions: {}", running.join(", "))
+    }
 }
 
 /// A session: its name and its directory.
@@ -101,6 +116,43 @@ pub fn write_private(path: &FsPath, bytes: &[u8]) -> Result<(), SessionError> {
     fs::rename(&tmp, path).map_err(io)
 }
 
+fn checked_name(name: Option<&str>) -> Result<String, SessionError> {
+    let name = name.map(str::to_owned).unwrap_or_else(default_session_name);
+    if name.is_empty()
+        || name.len() > 24
+        || !name
+            .bytes()
+            .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
+    {
+        return Err(SessionError::BadName(name));
+    }
+    Ok(name)
+}
+
+/// The sessions under `root` that have at least one live registered process, sorted. Reads
+/// only: stale registry entries are left for the session's own processes to clean.
+pub fn running_sessions(root: &FsPath) -> Vec<String> {
+    let Ok(entries) = fs::read_dir(root) else {
+        return Vec::new();
+    };
+    let mut out: Vec<String> = entries
+        .flatten()
+        .filter(|e| {
+            fs::read_dir(e.path().join("run")).is_ok_and(|run| {
+                run.flatten().any(|r| {
+                    fs::read(r.path())
+                        .ok()
+                        .and_then(|b| serde_json::from_slice::<ProcInfo>(&b).ok())
+                        .is_some_and(|p| pid_alive(p.pid))
+                })
+            })
+        })
+        .filter_map(|e| e.file_name().into_string().ok())
+        .collect();
+    out.sort();
+    out
+}
+
 impl Session {
     /// Opens (creating its directories) the session `name`, or the default one, under
     /// [`home`].
@@ -108,17 +160,31 @@ impl Session {
         Self::open_in(&home(), name)
     }
 
+    /// Opens the session `name` (or the default one) under [`home`] only if it exists: for
+    /// the processes that read or join a session (`ps`, `query --session`, `display`, …). A
+    /// missing session is [`SessionError::NoSession`], naming the sessions that run, and
+    /// nothing is created.
+    pub fn existing(name: Option<&str>) -> Result<Self, SessionError> {
+        Self::existing_in(&home(), name)
+    }
+
+    /// [`Session::existing`] under the directory `root` instead of [`home`].
+    pub fn existing_in(root: &FsPath, name: Option<&str>) -> Result<Self, SessionError> {
+        let name = checked_name(name)?;
+        let dir = root.join(&name);
+        if !dir.join("data").is_dir() {
+            return Err(SessionError::NoSession {
+                name,
+                home: root.to_owned(),
+                running: running_sessions(root),
+            });
+        }
+        Self::open_in(root, Some(&name))
+    }
+
     /// Opens the session `name` under the directory `root` instead of [`home`].
     pub fn open_in(root: &FsPath, name: Option<&str>) -> Result<Self, SessionError> {
-        let name = name.map(str::to_owned).unwrap_or_else(default_session_name);
-        if name.is_empty()
-            || name.len() > 24
-            || !name
-                .bytes()
-                .all(|b| b.is_ascii_alphanumeric() || b == b'_' || b == b'-')
-        {
-            return Err(SessionError::BadName(name));
-        }
+        let name = checked_name(name)?;
         private_dir(root)?;
         let dir = root.join(&name);
         for d in [

@@ -95,8 +95,9 @@ pub enum Error {
         name: String,
         known: Vec<String>,
     },
-    /// A parameter value of the wrong kind or unit.
-    #[error("parameter `{name}` of `{decl}`: {message}")]
+    /// A parameter value of the wrong kind or unit. `message` continues the sentence that
+    /// names the parameter ("is a length, but this is a number").
+    #[error("parameter `{name}` of `{decl}` {message}")]
     BadParameter {
         decl: String,
         name: String,
@@ -430,7 +431,7 @@ impl Library {
                     };
                     let dim = self.param_dim(di, pname, &mut ev)?;
                     if !x.is_finite() {
-                        return Err(bad(format!("{x} is not finite")));
+                        return Err(bad(format!("is {x}, which is not finite")));
                     }
                     Value::Num(crate::units::Quantity::new(*x, dim))
                 }
@@ -463,10 +464,16 @@ impl Library {
                     .get(e.span.start as usize)
                     .map(|p| p.0.clone())
                     .unwrap_or_default();
+                // The evaluator's message names the parameter already: say it once.
+                let prefix = format!("parameter `{pname}` of `{name}` ");
+                let message = match e.message.strip_prefix(&prefix) {
+                    Some(rest) => rest.to_owned(),
+                    None => format!("is refused: {}", e.message),
+                };
                 return Error::BadParameter {
                     decl: name.into(),
                     name: pname,
-                    message: e.message,
+                    message,
                 };
             }
             Error::Source(e.locate(&self.map))

@@ -118,6 +118,17 @@ fn bad_parameter_values_are_refused_with_the_name() {
     assert!(
         matches!(l.evaluate("planar", &Params::new().expr("l1", "30 deg")), Err(Error::BadParameter { name, .. }) if name == "l1")
     );
+    // Issue #19 item 9: the message names the parameter once ("parameter `l1` of `planar` is
+    // a length …", not "parameter `l1` of `planar`: parameter `l1` of `planar` is …").
+    let e = l
+        .evaluate("planar", &Params::new().expr("l1", "30 deg"))
+        .expect_err("an angle for a length")
+        .to_string();
+    assert_eq!(e.matches("parameter `l1`").count(), 1, "{e}");
+    assert!(
+        e.starts_with("parameter `l1` of `planar` is a length"),
+        "{e}"
+    );
     assert!(matches!(
         l.evaluate("planar", &Params::new().si("l3", 1.0)),
         Err(Error::NoSuchParameter { .. })

@@ -10,7 +10,7 @@ use std::path::PathBuf;
 #[derive(Debug, Clone, clap::Args)]
 pub struct ReportIkArgs {
     /// Directory for ik.csv, ik.md and ik.png.
-    #[arg(long, default_value = "docs/reports")]
+    #[arg(long, default_value = "robosim-reports")]
     pub out: PathBuf,
     /// 200 poses per robot instead of 10,000.
     #[arg(long)]
@@ -31,7 +31,7 @@ pub fn run_report_ik(args: &ReportIkArgs) -> Result<(), String> {
 #[derive(Debug, Clone, clap::Args)]
 pub struct ReportCollisionArgs {
     /// Directory for collision.csv, collision.md and collision.png.
-    #[arg(long, default_value = "docs/reports")]
+    #[arg(long, default_value = "robosim-reports")]
     pub out: PathBuf,
     /// A tenth of the samples and two broad-phase sizes (a smoke run; rougher figures).
     #[arg(long)]

@@ -27,5 +27,6 @@ pub mod ipc;
 pub mod journal;
 pub mod library;
 pub mod plot;
+pub mod progress;
 
 pub use plot::{Plot, Report, ReportError, Series, Table, percentile, write_report};

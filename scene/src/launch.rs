@@ -36,14 +36,14 @@ use std::os::unix::process::CommandExt;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// Components `up --with` knows, and whether this build has them.
-const COMPONENTS: &[(&str, Option<&str>)] = &[
-    ("simulator", Some("simulator")),
-    ("display", Some("display")),
-    ("editor", None),
-    ("file", None),
-    ("hl", None),
-];
+/// Components `up --with` can start: the name and the subcommand that runs it. Only what
+/// this build has is offered (the design card's editor, file interface and high-level interface
+/// processes join this list when they exist).
+pub const COMPONENTS: &[(&str, &str)] = &[("simulator", "simulator"), ("display", "display")];
+
+/// The file in `data/` where the keeper records the scene it loaded into the empty model, so
+/// that a later `up` can tell whether the saved model is the scene it is asked for.
+pub const SCENE_NOTE: &str = "scene";
 
 /// `robosim space`: recover, load the scene into an empty model, serve until SIGTERM.
 pub fn run_space(
@@ -93,6 +93,10 @@ pub fn run_space(
                 .commit_local(tx)
                 .map_err(|e| SceneError::Instantiate(format!("scene {name}: {e}")))?;
         }
+        robosim_instance_space::write_private(
+            &session.data_dir().join(SCENE_NOTE),
+            name.as_bytes(),
+        )?;
         eprintln!(
             "space: loaded scene {name} ({} objects, version {})",
             keeper.store().len(),
@@ -152,77 +156,174 @@ fn wait_registered(session: &Session, role: &str, pid: u32, timeout: Duration) -
 
 /// `robosim up SCENE --with …` with the standard library.
 pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()> {
-    up_with_library(scene_name, with, session, &[])
+    up_with_library(scene_name, with, session, &[], false)
 }
 
-/// `robosim up SCENE --with … --library FILE…`
+/// What a session already holds when `up` is asked for a scene.
+enum Existing {
+    /// Nothing: a new session.
+    Nothing,
+    /// A saved model (journal/checkpoint in `data/`), from the recorded scene if known.
+    Saved(Option<String>),
+    /// A running keeper (pid), with the recorded scene if known.
+    Running(u32, Option<String>),
+}
+
+fn existing(session: &Session) -> Existing {
+    let recorded = std::fs::read_to_string(session.data_dir().join(SCENE_NOTE)).ok();
+    if let Some(p) = session.processes().iter().find(|p| p.role == "space") {
+        return Existing::Running(p.pid, recorded);
+    }
+    let saved = std::fs::read_dir(session.data_dir()).is_ok_and(|d| {
+        d.flatten().any(|e| {
+            let n = e.file_name().to_string_lossy().into_owned();
+            n.starts_with("journal-") || n.starts_with("checkpoint-")
+        })
+    });
+    if saved {
+        Existing::Saved(recorded)
+    } else {
+        Existing::Nothing
+    }
+}
+
+/// Moves a stopped session's saved model aside (`<session>/previous-<unix ms>/`) so the next
+/// keeper starts empty; nothing is deleted.
+fn move_aside(session: &Session) -> Result<std::path::PathBuf> {
+    let ms = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_millis());
+    let to = session.dir().join(format!("previous-{ms}"));
+    std::fs::rename(session.data_dir(), &to).map_err(io("moving the saved model aside"))?;
+    // Recreates data/ (0700).
+    Session::open_in(
+        session.dir().parent().unwrap_or(session.dir()),
+        Some(session.name()),
+    )?;
+    Ok(to)
+}
+
+/// `robosim up SCENE --with … --library FILE… [--fresh]`
+///
+/// A session that already holds a model — a running keeper, or a saved journal after `down` —
+/// keeps it: `up` adds the components to it when SCENE is the scene that model came from, and
+/// otherwise refuses with the ways to do the other thing (instantiate SCENE into the session,
+/// or `--fresh`, which moves the saved model aside and starts SCENE in an empty one).
 pub fn up_with_library(
     scene_name: &str,
     with: &[String],
     session: Option<&str>,
     library: &[std::path::PathBuf],
+    fresh: bool,
 ) -> Result<()> {
-    let session = Session::open(session)?;
     for c in with {
-        match COMPONENTS.iter().find(|(n, _)| n == c) {
-            None => bail!(
-                "unknown component {c:?}; known: {}",
+        if !COMPONENTS.iter().any(|(n, _)| n == c) {
+            bail!(
+                "unknown component {c:?}; available: {}",
                 COMPONENTS
                     .iter()
                     .map(|c| c.0)
                     .collect::<Vec<_>>()
                     .join(", ")
-            ),
-            Some((_, None)) => bail!(
-                "component {c:?} is not part of this build yet; available: {}",
-                COMPONENTS
-                    .iter()
-                    .filter(|c| c.1.is_some())
-                    .map(|c| c.0)
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            Some(_) => {}
+            );
         }
     }
     let lib = crate::build_library(library)?;
     scene::load_from(&lib, scene_name)?;
-    let running = session.processes();
-    let keeper_pid = match running.iter().find(|p| p.role == "space") {
-        Some(p) => {
-            eprintln!(
-                "session {} already has a keeper (pid {}); adding components",
-                session.name(),
-                p.pid
-            );
-            p.pid
-        }
-        None => {
-            let pid = spawn(
-                &session,
-                "space",
-                &["space", "--session", session.name(), "--scene", scene_name],
-            )?;
-            wait_registered(&session, "space", pid, Duration::from_secs(30))?;
-            if let Ok(note) = std::fs::read_to_string(
-                session
-                    .run_dir()
-                    .join(robosim_instance_space::journal::LOST_NOTE),
-            ) {
-                eprint!("robosim up: {note}");
+    let session = Session::open(session)?;
+    let name = session.name().to_owned();
+    let other = |running: bool, recorded: &Option<String>| -> SceneError {
+        let from = recorded
+            .as_deref()
+            .map_or("a model of unknown origin".to_owned(), |r| {
+                format!("scene {r}")
+            });
+        let (what, start, stop) = if running {
+            (
+                "already runs",
+                String::new(),
+                format!("robosim down --session {name} && "),
+            )
+        } else {
+            let resume = recorded.as_deref().unwrap_or(scene_name);
+            (
+                "has a saved model (in its journal) of",
+                format!("robosim up {resume} --session {name} && "),
+                String::new(),
+            )
+        };
+        SceneError::Launch(format!(
+            "session {name} {what} {from}; {scene_name} was not loaded.\n  \
+             to add {scene_name} to that model: {start}robosim instantiate {scene_name} --session {name}\n  \
+             to start over with {scene_name}:   {stop}robosim up {scene_name} --session {name} --fresh   \
+             (the saved model is moved aside, not deleted)"
+        ))
+    };
+    let running = match existing(&session) {
+        Existing::Running(pid, _) if fresh => bail!(
+            "session {name} is running (keeper pid {pid}); --fresh needs it stopped: \
+             robosim down --session {name}"
+        ),
+        Existing::Running(pid, recorded) => {
+            if recorded.as_deref() != Some(scene_name) {
+                return Err(other(true, &recorded));
             }
-            pid
+            eprintln!(
+                "session {name} already runs scene {scene_name} (keeper pid {pid}); adding components"
+            );
+            true
         }
+        Existing::Saved(_) if fresh => {
+            let to = move_aside(&session)?;
+            eprintln!(
+                "session {name}: the saved model was moved to {}",
+                to.display()
+            );
+            false
+        }
+        Existing::Saved(recorded) => {
+            if recorded.as_deref() != Some(scene_name) {
+                return Err(other(false, &recorded));
+            }
+            eprintln!(
+                "session {name}: resuming the saved model of scene {scene_name} from its journal \
+                 (--fresh starts over)"
+            );
+            false
+        }
+        Existing::Nothing => false,
+    };
+    let procs = session.processes();
+    let keeper_pid = if running {
+        procs
+            .iter()
+            .find(|p| p.role == "space")
+            .map_or(0, |p| p.pid)
+    } else {
+        let pid = spawn(
+            &session,
+            "space",
+            &["space", "--session", session.name(), "--scene", scene_name],
+        )?;
+        wait_registered(&session, "space", pid, Duration::from_secs(30))?;
+        if let Ok(note) = std::fs::read_to_string(
+            session
+                .run_dir()
+                .join(robosim_instance_space::journal::LOST_NOTE),
+        ) {
+            eprint!("robosim up: {note}");
+        }
+        pid
     };
     // The keeper is up when a client can connect and a reader sees the model.
     Client::connect(&session, "launcher").map_err(keeper_err)?;
     let reader = Reader::attach(&session, "launcher-reader")?;
     let version = reader.snapshot().map_or(0, |s| s.version());
     for c in with {
-        if running.iter().any(|p| &p.role == c) {
+        if procs.iter().any(|p| &p.role == c) {
             continue;
         }
-        let Some((_, Some(sub))) = COMPONENTS.iter().find(|(n, _)| n == c) else {
+        let Some((_, sub)) = COMPONENTS.iter().find(|(n, _)| n == c) else {
             continue;
         };
         let pid = spawn(&session, c, &[sub, "--session", session.name()])?;
@@ -254,9 +355,18 @@ fn print_ps(session: &Session) {
     }
 }
 
-/// `robosim ps`
-pub fn ps(session: Option<&str>) -> Result<()> {
-    let session = Session::open(session)?;
+/// `robosim ps [--json]`: a missing session is an error, and nothing is created.
+pub fn ps(session: Option<&str>, json: bool) -> Result<()> {
+    let session = Session::existing(session)?;
+    if json {
+        let v = serde_json::json!({
+            "session": session.name(),
+            "dir": session.dir(),
+            "processes": session.processes(),
+        });
+        println!("{v}");
+        return Ok(());
+    }
     println!("session {} ({})", session.name(), session.dir().display());
     print_ps(&session);
     Ok(())
@@ -283,9 +393,10 @@ fn stop(pid: u32, role: &str) -> bool {
     true
 }
 
-/// `robosim down`
+/// `robosim down`. What it stopped is printed once everything is stopped, so a reader that
+/// closes the pipe early (`| head -1`) cannot interrupt it half way.
 pub fn down(session: Option<&str>) -> Result<()> {
-    let session = Session::open(session)?;
+    let session = Session::existing(session)?;
     let procs = session.processes();
     if procs.is_empty() {
         println!("session {}: nothing running", session.name());
@@ -293,15 +404,17 @@ pub fn down(session: Option<&str>) -> Result<()> {
     }
     let (keepers, components): (Vec<_>, Vec<_>) =
         procs.into_iter().partition(|p| p.role == "space");
+    let mut report = String::new();
     for p in components.iter().chain(keepers.iter()) {
         let clean = stop(p.pid, &p.role);
-        println!(
-            "stopped {} (pid {}){}",
+        report += &format!(
+            "stopped {} (pid {}){}\n",
             p.role,
             p.pid,
             if clean { "" } else { " by SIGKILL" }
         );
     }
+    print!("{report}");
     // Registry entries of processes that died without cleaning up; and, with every process of
     // the session gone, what iceoryx2 leaves in /dev/shm (its global management segment).
     if session.processes().is_empty() {
