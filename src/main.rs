@@ -104,6 +104,7 @@ enum Command {
     },
     /// Change parameters of an instance: it alone is re-instantiated, only what differs is written.
     Set {
+        /// The instance (its name in the session, e.g. `station`).
         instance: String,
         /// NAME=EXPR pairs.
         #[arg(required = true)]
@@ -432,4 +433,36 @@ pub type Result<T> = std::result::Result<T, CliError>;
 #[macro_export]
 macro_rules! bail {
     ($($t:tt)*) => { return Err($crate::CliError(format!($($t)*))) };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// Every argument of every subcommand, as `command path: --arg`, that has no help line.
+    fn undocumented(cmd: &clap::Command, path: &str, out: &mut Vec<String>) {
+        for a in cmd.get_arguments() {
+            let builtin = matches!(a.get_id().as_str(), "help" | "version");
+            if !builtin && !a.is_hide_set() && a.get_help().is_none() {
+                out.push(format!("{path}: {}", a.get_id()));
+            }
+        }
+        for sub in cmd.get_subcommands() {
+            if !sub.is_hide_set() {
+                undocumented(sub, &format!("{path} {}", sub.get_name()), out);
+            }
+        }
+    }
+
+    /// Issue #19 item 12: `--help` explains every argument, and clap's own checks of the
+    /// command tree (unique names, globals, groups) hold.
+    #[test]
+    fn every_argument_has_a_help_line() {
+        let cmd = Cli::command();
+        cmd.clone().debug_assert();
+        let mut missing = Vec::new();
+        undocumented(&cmd, "robosim", &mut missing);
+        assert!(missing.is_empty(), "arguments without help: {missing:#?}");
+    }
 }

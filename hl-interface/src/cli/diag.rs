@@ -25,6 +25,7 @@ pub enum DiagCmd {
     },
     /// Inject faults and print the timed alarm sequence (the format `diag run` reads).
     Simulate {
+        /// Model file, or a shipped model name (eclss).
         model: String,
         /// Failure mode to inject, as NAME or NAME@SECONDS (repeat for multiple faults).
         #[arg(long = "fault", required = true)]
@@ -41,7 +42,9 @@ pub enum DiagCmd {
     },
     /// Diagnose an alarm sequence file (lines `SECONDS ALARM`) with FSPI, FSCI and ILM.
     Run {
+        /// Model file, or a shipped model name (eclss).
         model: String,
+        /// The alarm sequence: lines `SECONDS ALARM` (what `diag simulate` prints).
         #[arg(long)]
         alarms: PathBuf,
         /// Judge the diagnosis at this time (seconds; default: the last alarm).
@@ -54,6 +57,7 @@ pub enum DiagCmd {
     /// Diagnosability: every single fault through simulator and diagnoser; resolution per
     /// sensor allocation; with --sensors N, the advisor's choice of N alarms.
     Analyze {
+        /// Model file, or a shipped model name (eclss).
         model: String,
         /// Sensor budget: how many alarms to keep.
         #[arg(long)]
@@ -61,6 +65,7 @@ pub enum DiagCmd {
         /// Simulated scenarios per fault (propagation sampled).
         #[arg(long, default_value_t = 3)]
         trials: usize,
+        /// Seed of the scenario sampling.
         #[arg(long, default_value_t = 1)]
         seed: u64,
     },

@@ -17,6 +17,7 @@ pub enum LibCmd {
     },
     /// Show a declaration: kind, description, parameters with defaults and units.
     Show {
+        /// The declaration (`robosim lib list` names them).
         name: String,
         /// Look NAME up in this library file instead of the standard library.
         #[arg(long)]
@@ -24,9 +25,13 @@ pub enum LibCmd {
     },
     /// Check a library file (any name): parse, resolve, evaluate every declaration at its
     /// defaults. Exit status non-zero with file:line:col on the first error.
-    Check { file: PathBuf },
+    Check {
+        /// The library file to check.
+        file: PathBuf,
+    },
     /// Evaluate a declaration and print it as JSON (the `lib_evaluate` query answer).
     Eval {
+        /// The declaration to evaluate.
         name: String,
         /// A parameter value as NAME=EXPR, e.g. `--param "upper_arm=30 cm"`; repeatable.
         #[arg(long = "param", value_name = "NAME=EXPR")]
@@ -37,6 +42,7 @@ pub enum LibCmd {
         /// Include every solid's vertices and polygons.
         #[arg(long)]
         geometry: bool,
+        /// Look NAME up in this library file instead of the standard library.
         #[arg(long)]
         file: Option<PathBuf>,
     },
