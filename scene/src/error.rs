@@ -40,8 +40,9 @@ pub enum SceneError {
     /// A session's processes could not be started or stopped.
     #[error("{0}")]
     Launch(String),
-    /// The session (shared memory) could not be read or written.
-    #[error("session: {0}")]
+    /// The session (shared memory) could not be read or written. The message names the
+    /// session already (every `SessionError` and `ReaderError` does), so it is not prefixed.
+    #[error("{0}")]
     Session(String),
 }
 
