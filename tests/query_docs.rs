@@ -1,4 +1,5 @@
-//! docs/query.md against real runs, and the routing of an op that is both a pure and a session
+//! docs/query.md against real runs (its two example sections, made by the `make_query_doc`
+//! example of hl-interface, with the block format and cutting rule of its `doc.rs`), and the routing of an op that is both a pure and a session
 //! op (`check`): a request file runs verbatim with and without `--session`.
 //!
 //! Each test starts its own session (`robosim up surgical_positioner_cell`, the README's
@@ -9,6 +10,12 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 mod common;
+#[path = "../hl-interface/examples/make_query_doc/doc.rs"]
+#[allow(
+    dead_code,
+    reason = "shared with the make_query_doc example, which writes what this reads"
+)]
+mod doc;
 
 use common::{Procs, ROBOSIM};
 
@@ -163,4 +170,67 @@ fn pure_requests_mean_the_same_in_a_session_and_a_named_robot_is_the_sessions() 
     assert_eq!(a[2]["error"]["kind"], "bad_request", "{}", a[2]);
     let m = a[2]["error"]["message"].as_str().expect("message");
     assert!(m.starts_with("`mode`") && m.contains("c_switch"), "{m}");
+}
+
+/// Every documented example of `markers`' section against `answers`, the answer lines of a
+/// fresh run of `file`: the request line verbatim, the heading, the answer by [`doc::compare`].
+fn assert_documented(markers: doc::Markers, file: &Path, answers: &[String]) {
+    let text = std::fs::read_to_string(repo().join("docs/query.md")).expect("docs/query.md");
+    let examples = doc::parse(&text, markers).unwrap_or_else(|e| panic!("{e}"));
+    let requests: Vec<String> = std::fs::read_to_string(file)
+        .expect("request file")
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    let regenerate = "(regenerate: cargo run -p robosim-hl-interface --example make_query_doc -- target/debug/robosim)";
+    assert_eq!(
+        examples.len(),
+        requests.len(),
+        "{}: one example per request line {regenerate}",
+        markers.begin
+    );
+    assert_eq!(answers.len(), requests.len(), "one answer per request line");
+    let mut stale = Vec::new();
+    for ((ex, req), got) in examples.iter().zip(&requests).zip(answers) {
+        if ex.request != *req {
+            stale.push(format!(
+                "request: documented {}, file has {req}",
+                ex.request
+            ));
+        } else if ex.title != doc::title(req, got) {
+            stale.push(format!("{req}: heading {}, answer {got}", ex.title));
+        } else if let Err(why) = doc::compare(&ex.answer, got) {
+            stale.push(format!("{req}: {why}\n  answer now: {got}"));
+        }
+    }
+    assert!(
+        stale.is_empty(),
+        "docs/query.md and robosim disagree: a regression, or a stale doc {regenerate}:\n{}",
+        stale.join("\n")
+    );
+}
+
+#[test]
+fn docs_query_pure_examples_are_what_robosim_query_answers() {
+    let file = repo().join("hl-interface/examples/requests.jsonl");
+    assert_documented(doc::PURE, &file, &query_pure(&file));
+}
+
+/// The session examples as the README runs them: `robosim up surgical_positioner_cell`, then
+/// the file through `robosim query --session`, on a fresh session (the versions count from it).
+#[test]
+fn docs_query_session_examples_are_what_a_fresh_session_answers() {
+    let file = repo().join("hl-interface/examples/session_requests.jsonl");
+    let up = Up::new("qdocs", "surgical_positioner_cell");
+    let answers = up.query(&file);
+    assert_documented(doc::SESSION, &file, &answers);
+    // Every session op has an example (a new op needs one in session_requests.jsonl).
+    let shown: std::collections::HashSet<String> = std::fs::read_to_string(&file)
+        .expect("file")
+        .lines()
+        .filter_map(|l| json(l)["op"].as_str().map(str::to_owned))
+        .collect();
+    for op in robosim_hl_interface::session::OPS {
+        assert!(shown.contains(*op), "session op {op} has no example");
+    }
 }
