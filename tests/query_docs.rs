@@ -224,6 +224,18 @@ fn docs_query_session_examples_are_what_a_fresh_session_answers() {
     let up = Up::new("qdocs", "surgical_positioner_cell");
     let answers = up.query(&file);
     assert_documented(doc::SESSION, &file, &answers);
+    // What the story shows, said outright (ids are line numbers).
+    let a = |id: usize| json(&answers[id - 1]);
+    assert_eq!(a(8)["completed"], false, "MOVEJI toward the head stops");
+    assert_eq!(a(11)["in_use"], false);
+    assert_eq!(
+        a(12)["completed"],
+        true,
+        "with the head out of use (its cylinder part too), the same move goes through: {}",
+        a(12)
+    );
+    assert_eq!(a(14)["status"], "contact", "USE brings it back: {}", a(14));
+    assert_eq!(a(3)["verdict"], "contact", "the pure check, in a session");
     // Every session op has an example (a new op needs one in session_requests.jsonl).
     let shown: std::collections::HashSet<String> = std::fs::read_to_string(&file)
         .expect("file")

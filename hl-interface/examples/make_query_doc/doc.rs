@@ -145,7 +145,7 @@ pub fn render(pairs: &[(String, String)]) -> String {
 }
 
 /// The text between `m`'s markers in `doc`.
-fn between<'a>(doc: &'a str, m: Markers) -> Result<(&'a str, &'a str, &'a str), DocError> {
+fn between(doc: &str, m: Markers) -> Result<(&str, &str, &str), DocError> {
     let missing = |what: &str| DocError(format!("docs/query.md: no marker line {what}"));
     let (head, rest) = doc.split_once(m.begin).ok_or_else(|| missing(m.begin))?;
     let (body, tail) = rest.split_once(m.end).ok_or_else(|| missing(m.end))?;
