@@ -1,6 +1,7 @@
-//! `robosim query` without the rest of the binary: serves JSON-lines requests from standard
-//! input (or `--input FILE`) to standard output. Used to produce docs/query.md's examples:
-//! `cargo run -p robosim-hl-interface --example query < requests.jsonl`.
+//! `robosim query` without the rest of the binary (no `--session`): serves JSON-lines requests
+//! from standard input (or `--input FILE`) to standard output:
+//! `cargo run -p robosim-hl-interface --example query < hl-interface/examples/requests.jsonl`.
+//! (docs/query.md's examples come from the real binary: the `make_query_doc` example.)
 
 use clap::Parser;
 use robosim_hl_interface::cli::{QueryArgs, run};

@@ -17,11 +17,16 @@
 //! | `kinv` | robot, pose, method?, all? | KINV: IK of the robot where it stands (base = its world pose, q0 = current q) |
 //! | `jacob` | robot, frame? | JACOB at the current q |
 //! | `encoder` | robot, bits | encoder-quantisation error bound at the current q (seed §2.7) |
-//! | `check` | robot | CHECK: the robot at its current q against the objects in use |
+//! | `check` | robot (only) | CHECK: the robot at its current q against the objects in use |
 //! | `use` / `dontuse` | object | USE / DONTUSE: the object takes part in collision checks or not |
 //! | `c_switch` | on, self_collision?, mode? (bbox\|polygon\|exact) | C_SWITCH |
 //!
 //! Robots and objects are named as in the Instance Space (instance names, e.g. `puma560`).
+//!
+//! An op that is both a session op and a pure op (`check`, see [`SHARED`]) is routed by the
+//! request's form alone, never by what the session holds: a request that brings the pure op's
+//! own data (`q` or `scene`, or an inline robot object) is the pure op's, so a pure request
+//! means the same with and without `--session`; one that only names a robot is the session's.
 
 use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Isometry3, Vector3};
@@ -59,7 +64,9 @@ pub enum AttachError {
 }
 
 /// Session state of one query stream: its attachments, the compiled scene, and the seed's
-/// collision switches (C_SWITCH, USE/DONTUSE).
+/// collision switches (C_SWITCH, USE/DONTUSE). The switches belong to the stream: a new
+/// `robosim query --session` starts with collision on, self-collision on, mode exact and
+/// every object in use.
 pub struct Ops {
     reader: Reader,
     client: Client,
@@ -84,6 +91,47 @@ pub const OPS: &[&str] = &[
     "dontuse",
     "c_switch",
 ];
+
+/// The ops that exist both here and in the pure protocol ([`crate::OPS`]), each with the
+/// fields that only its pure form carries. A request for such an op with any of these fields,
+/// or with an inline robot (an object in `robot`), is answered by the pure op; otherwise by the
+/// session op ([`is_pure_form`]).
+pub const SHARED: &[(&str, &[&str])] = &[("check", &["q", "scene"])];
+
+/// Whether `req` is the pure form of `op`, an op in [`SHARED`] (for any other op: false).
+pub fn is_pure_form(op: &str, req: &Value) -> bool {
+    SHARED.iter().any(|(o, fields)| {
+        *o == op
+            && (req.get("robot").is_some_and(Value::is_object)
+                || fields.iter().any(|f| req.get(f).is_some()))
+    })
+}
+
+/// Refuses a field of `req` outside `allowed` (besides `id` and `op`), naming it and `hint`.
+fn only_fields(
+    req: &Value,
+    op: &str,
+    allowed: &[&str],
+    hint: &str,
+) -> std::result::Result<(), ProtocolError> {
+    let Some(extra) = req.as_object().and_then(|m| {
+        m.keys()
+            .find(|k| !["id", "op"].contains(&k.as_str()) && !allowed.contains(&k.as_str()))
+    }) else {
+        return Ok(());
+    };
+    Err(err(
+        ErrorKind::BadRequest,
+        format!(
+            "`{extra}`: the session `{op}` takes only {}; {hint}",
+            allowed
+                .iter()
+                .map(|f| format!("`{f}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    ))
+}
 
 /// The index of the object named `name`, or an `unknown_object` error naming it.
 fn object_index(snap: &Snapshot, name: &str) -> std::result::Result<usize, ProtocolError> {
@@ -180,10 +228,22 @@ impl Ops {
         &self.scene
     }
 
-    /// The obstacles around `p`; refused when one of them has no collision solid (a check
-    /// could not say "clear" honestly): the message names it and how to leave it out.
-    fn obstacles(&self, p: &CompiledRobot) -> std::result::Result<Obstacles, ProtocolError> {
-        let o = self.scene.obstacles(p, &self.unused);
+    /// The obstacles around `p`, without the objects out of use (DONTUSE) and their parts;
+    /// refused when one of them has no collision solid (a check could not say "clear"
+    /// honestly): the message names it and how to leave it out.
+    fn obstacles(
+        &self,
+        p: &CompiledRobot,
+        snap: &Snapshot,
+    ) -> std::result::Result<Obstacles, ProtocolError> {
+        // An instance's solids are its parts (e.g. `head` → `.../head/cylinder1`): leaving
+        // the instance out leaves out everything under it, as it stands in this snapshot.
+        let unused: HashSet<Id> = self
+            .unused
+            .iter()
+            .flat_map(|id| robosim_scene::solids::subtree(snap, *id))
+            .collect();
+        let o = self.scene.obstacles(p, &unused);
         match o.refused.first() {
             None => Ok(o),
             Some(why) => Err(ProtocolError::new(
@@ -208,9 +268,9 @@ impl Ops {
         crate::answer(&req, &mut None).map(Value::Object)
     }
 
-    /// Answers `op` if it is a session op.
+    /// Answers `op` if it is a session op and `req` is not the pure form of a [`SHARED`] op.
     pub fn dispatch(&mut self, op: &str, req: &Value) -> Option<OpResult> {
-        if !OPS.contains(&op) {
+        if !OPS.contains(&op) || is_pure_form(op, req) {
             return None;
         }
         Some(self.answer(op, req))
@@ -340,7 +400,15 @@ impl Ops {
                 json!({"op": "encoder_error", "robot": inline, "q": p.q, "bits": req.get("bits").cloned().unwrap_or(Value::Null)}),
             ),
             "check" => {
-                let Obstacles { scene, names, .. } = self.obstacles(&p)?;
+                only_fields(
+                    req,
+                    op,
+                    &["robot"],
+                    "it checks the robot at its current q with c_switch's settings \
+                     (set `mode` and `self_collision` with `c_switch`); \
+                     a check of a given q and scene takes `q` and `scene` too",
+                )?;
+                let Obstacles { scene, names, .. } = self.obstacles(&p, snap)?;
                 let res = robosim_collision::robot::check_robot(
                     &p.robot,
                     &p.solids,
@@ -372,7 +440,7 @@ impl Ops {
                 // Joint limits at every step (MOVEJI's check), before anything moves.
                 let path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
                     .map_err(|e| err(ErrorKind::JointLimit, e.to_string()))?;
-                let Obstacles { scene, names, .. } = self.obstacles(&p)?;
+                let Obstacles { scene, names, .. } = self.obstacles(&p, snap)?;
                 let outcome = robosim_collision::robot::move_checked(
                     &p.robot,
                     &p.solids,
@@ -429,4 +497,64 @@ pub enum ServeError {
     Attach(#[from] AttachError),
     #[error(transparent)]
     Io(#[from] std::io::Error),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_op_in_both_protocols_has_a_routing_rule() {
+        for op in OPS {
+            let pure = crate::OPS.iter().any(|(o, _)| o == op);
+            let ruled = SHARED.iter().any(|(o, _)| o == op);
+            assert_eq!(pure, ruled, "{op}: pure op {pure}, in SHARED {ruled}");
+        }
+    }
+
+    #[test]
+    fn the_request_form_alone_picks_the_pure_or_the_session_check() {
+        let session = json!({"id": 1, "op": "check", "robot": "positioner"});
+        assert!(!is_pure_form("check", &session));
+        for pure in [
+            json!({"op": "check", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0], "scene": {"objects": []}}),
+            json!({"op": "check", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0]}),
+            json!({"op": "check", "robot": "puma560", "scene": {"objects": []}}),
+            json!({"op": "check", "robot": {"joints": []}}),
+        ] {
+            assert!(is_pure_form("check", &pure), "{pure}");
+        }
+        // Ops that are only session ops are never routed away, whatever their fields.
+        assert!(!is_pure_form(
+            "movej",
+            &json!({"robot": "positioner", "q": [0.0]})
+        ));
+    }
+
+    #[test]
+    fn the_session_check_names_a_field_it_does_not_take() {
+        let e = only_fields(
+            &json!({"id": 1, "op": "check", "robot": "positioner", "mode": "bbox"}),
+            "check",
+            &["robot"],
+            "hint",
+        )
+        .expect_err("mode is refused");
+        assert_eq!(e.kind, ErrorKind::BadRequest);
+        assert!(
+            e.message
+                .starts_with("`mode`: the session `check` takes only `robot`"),
+            "{}",
+            e.message
+        );
+        assert!(
+            only_fields(
+                &json!({"id": 1, "op": "check", "robot": "p"}),
+                "check",
+                &["robot"],
+                ""
+            )
+            .is_ok()
+        );
+    }
 }
