@@ -189,6 +189,10 @@ enum JournalCmd {
 }
 
 fn main() -> ExitCode {
+    // SAFETY: the first statement of main: no other thread exists yet (the function's contract).
+    // Mesa's device-select layer would otherwise print "error: XDG_RUNTIME_DIR is invalid" on
+    // successful renders without XDG_RUNTIME_DIR (docs/display.md, "Requirements and noise").
+    unsafe { robosim_display::quiet_vulkan_probe() };
     // A reader that closes our standard output early (`robosim up … | head -1`) ends the
     // command quietly, as Unix tools do, instead of a panic message: printing to a closed pipe
     // panics in Rust's print macros; that panic is recognised, not reported, and caught here.

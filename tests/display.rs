@@ -681,3 +681,65 @@ fn the_session_display_draws_the_running_simulators_state() {
         "the simulated motion is visible: {moved:?}"
     );
 }
+
+/// Issue 19, item 3: without `XDG_RUNTIME_DIR` (CI, `ssh`, containers) Mesa's device-select
+/// layer asked libwayland for a compositor, and libwayland printed "error: XDG_RUNTIME_DIR is
+/// invalid or not set" twice on a run that then succeeded. A successful `render` and a
+/// successful headless session `display` print nothing called "error".
+#[test]
+fn render_and_display_print_no_error_without_xdg_runtime_dir() {
+    fn bare(c: &mut Command) -> &mut Command {
+        for k in [
+            "XDG_RUNTIME_DIR",
+            "WAYLAND_DISPLAY",
+            "WAYLAND_SOCKET",
+            "NODEVICE_SELECT",
+            "MESA_VK_DEVICE_SELECT",
+            "DRI_PRIME",
+        ] {
+            c.env_remove(k);
+        }
+        c
+    }
+    fn assert_quiet(what: &str, o: &Output) {
+        let text = format!(
+            "{}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(o.status.success(), "{what} failed: {text}");
+        assert!(
+            !text.to_lowercase().contains("error"),
+            "{what} succeeded but printed an error: {text}"
+        );
+    }
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("tmp.png");
+    let o = bare(Command::new(ROBOSIM).args(["render", "puma560", "--out"]))
+        .arg(&png)
+        .output()
+        .expect("robosim render");
+    assert_quiet("render", &o);
+    assert!(png.exists());
+
+    let mut k = Procs::new("dxdg");
+    k.start_keeper(&["--scene", "puma560"]);
+    let out = k.home.path().join("display-out");
+    let o = bare(Command::new(ROBOSIM).args([
+        "display",
+        "--headless",
+        "--max-frames",
+        "1",
+        "--size",
+        "160x120",
+        "--session",
+        &k.name,
+        "--out",
+    ]))
+    .arg(&out)
+    .env("ROBOSIM_HOME", k.home.path())
+    .output()
+    .expect("robosim display");
+    assert_quiet("display --headless", &o);
+    assert_eq!(frames(&out).len(), 1);
+}

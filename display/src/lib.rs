@@ -13,6 +13,8 @@
 //! * [`app`] — `robosim render` and `robosim display`: the renderer wired to the Library Space
 //!   and to sessions (through robosim-scene).
 //! * [`bench`] — `robosim bench display`.
+//! * [`vulkan_env`] — what the Vulkan loader sees: no "error" line from Mesa's Wayland probe
+//!   on a successful run ([`quiet_vulkan_probe`], called first thing in `main`).
 #![deny(unsafe_code)]
 
 pub mod app;
@@ -22,11 +24,13 @@ pub mod image;
 pub mod mesh;
 pub mod renderer;
 pub mod trajectory;
+pub mod vulkan_env;
 pub mod window;
 
 pub use camera::{Camera, Projection};
 pub use image::{Diff, RgbaImage, Tolerance, compare};
 pub use renderer::{Gpu, Hit, Renderer, Style, UploadStats};
+pub use vulkan_env::quiet_vulkan_probe;
 
 use std::path::PathBuf;
 
