@@ -743,3 +743,57 @@ fn render_and_display_print_no_error_without_xdg_runtime_dir() {
     assert_quiet("display --headless", &o);
     assert_eq!(frames(&out).len(), 1);
 }
+
+/// Every path under `dir` (itself included) whose mode lets the group or others in.
+fn not_private(dir: &Path) -> Vec<(PathBuf, u32)> {
+    use std::os::unix::fs::PermissionsExt;
+    let mut wide = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(p) = stack.pop() {
+        let Ok(m) = std::fs::symlink_metadata(&p) else {
+            continue; // removed meanwhile (latest.png.tmp renamed)
+        };
+        let mode = m.permissions().mode() & 0o777;
+        if mode & 0o077 != 0 {
+            wide.push((p.clone(), mode));
+        }
+        if m.is_dir() {
+            stack.extend(
+                std::fs::read_dir(&p)
+                    .into_iter()
+                    .flatten()
+                    .flatten()
+                    .map(|e| e.path()),
+            );
+        }
+    }
+    wide
+}
+
+/// Issue 19, item 8: a session is private (0600 / 0700), and so is everything the display
+/// writes into it — `display/` itself, `latest.png` (written to a temp file and renamed),
+/// the kept frames and `frames.jsonl`.
+#[test]
+fn the_session_display_writes_only_private_files() {
+    let mut k = Procs::new("dpriv");
+    k.start_keeper(&["--scene", "puma560"]);
+    let display_dir = k.home.path().join(&k.name).join("display");
+    k.spawn(&[
+        "display",
+        "--headless",
+        "--every-frame",
+        "--size",
+        "160x120",
+    ]);
+    let first = wait_for("the first frame", || {
+        frames(&display_dir).into_iter().next()
+    });
+    let png = first["png"].as_str().expect("a kept frame");
+    for f in ["latest.png", "frames.jsonl", png] {
+        assert!(display_dir.join(f).is_file(), "{f} written");
+    }
+    // Only display/ is the display's: iceoryx2 makes its iox2/nodes and iox2/services
+    // directories 0750 (the Instance Space's session code, not this crate's).
+    let wide = not_private(&display_dir);
+    assert!(wide.is_empty(), "group/other-accessible: {wide:?}");
+}

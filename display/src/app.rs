@@ -728,17 +728,15 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             opts,
         )?);
     }
+    // Everything the session display writes is private (0700 / 0600), as the rest of the
+    // session; the session's own display/ directory is tightened if an older run made it wider.
     let out = a
         .out
         .clone()
         .unwrap_or_else(|| session.dir().join("display"));
-    std::fs::create_dir_all(&out).map_err(|e| AppError(format!("{}: {e}", out.display())))?;
+    crate::private::private_dir(&out, a.out.is_none())?;
     let log_path = out.join("frames.jsonl");
-    let mut log = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(&log_path)
-        .map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;
+    let mut log = crate::private::append_file(&log_path)?;
     let mut r = Renderer::headless()?;
     eprintln!(
         "display: headless on {} → {}",
@@ -787,7 +785,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         let img = r.render_image(w, h)?;
         let render_ms = t0.elapsed().as_secs_f64() * 1e3;
         let tmp = out.join("latest.png.tmp");
-        img.save_png(&tmp)?;
+        img.save_png_private(&tmp)?;
         std::fs::rename(&tmp, out.join("latest.png"))
             .map_err(|e| AppError(format!("{}: {e}", out.display())))?;
         let png = if a.every_frame {
@@ -797,7 +795,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
                 Some(l) => format!("frame-{:08}-sim{:08}.png", r.version(), l.header.seq),
                 None => format!("frame-{:08}.png", r.version()),
             };
-            img.save_png(&out.join(&name))?;
+            img.save_png_private(&out.join(&name))?;
             Some(name)
         } else {
             None

@@ -35,6 +35,8 @@ impl RgbaImage {
         ]
     }
 
+    /// Writes the image as an 8-bit RGBA PNG at `path` (parent directories created), with the
+    /// process's default file mode.
     pub fn save_png(&self, path: &Path) -> Result<()> {
         let io = |e: std::io::Error| DisplayError::Io {
             path: path.to_path_buf(),
@@ -43,7 +45,19 @@ impl RgbaImage {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(io)?;
         }
-        let file = std::fs::File::create(path).map_err(io)?;
+        self.encode_into(path, std::fs::File::create(path).map_err(io)?)
+    }
+
+    /// [`RgbaImage::save_png`] for a session's files: the file mode 0600, missing parent
+    /// directories 0700 ([`crate::private`]).
+    pub fn save_png_private(&self, path: &Path) -> Result<()> {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            crate::private::private_dir(dir, false)?;
+        }
+        self.encode_into(path, crate::private::create_file(path)?)
+    }
+
+    fn encode_into(&self, path: &Path, file: std::fs::File) -> Result<()> {
         let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.width, self.height);
         enc.set_color(png::ColorType::Rgba);
         enc.set_depth(png::BitDepth::Eight);

@@ -8,6 +8,7 @@
 //! * [`camera`] — LOOK-FROM / LOOK-AT, perspective / orthographic, orbit / pan / zoom, rays.
 //! * [`mesh`] — polygons to triangles and edges; ray casts.
 //! * [`image`] — PNG and the golden-image comparison.
+//! * [`private`] — the session display's files and directories, mode 0600 / 0700.
 //! * [`trajectory`] — MD's file mode: joint-angle files played back.
 //! * [`window`] — the interactive window (winit).
 //! * [`app`] — `robosim render` and `robosim display`: the renderer wired to the Library Space
@@ -22,6 +23,7 @@ pub mod bench;
 pub mod camera;
 pub mod image;
 pub mod mesh;
+pub mod private;
 pub mod renderer;
 pub mod trajectory;
 pub mod vulkan_env;
