@@ -797,3 +797,28 @@ fn the_session_display_writes_only_private_files() {
     let wide = not_private(&display_dir);
     assert!(wide.is_empty(), "group/other-accessible: {wide:?}");
 }
+
+/// Issue 19, item 15: the display's software Vulkan driver is the one system package; without
+/// any Vulkan driver `render` fails and says how to get one, and writes nothing.
+#[test]
+fn render_without_a_vulkan_driver_says_how_to_get_one() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let png = dir.path().join("none.png");
+    let missing = dir.path().join("no-such-icd.json");
+    let o = Command::new(ROBOSIM)
+        .args(["render", "puma560", "--out"])
+        .arg(&png)
+        // The loader's driver lists (new name, old name): a file that does not exist.
+        .env("VK_DRIVER_FILES", &missing)
+        .env("VK_ICD_FILENAMES", &missing)
+        .output()
+        .expect("robosim render");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("no graphics adapter")
+            && err.contains("sudo apt-get install mesa-vulkan-drivers libvulkan1"),
+        "{err}"
+    );
+    assert!(!png.exists());
+}

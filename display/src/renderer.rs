@@ -22,6 +22,12 @@ const FRAME_BYTES: u64 = 112;
 const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
+/// What to do when no Vulkan adapter is found: the software driver is the one system package
+/// the display needs.
+pub const NO_ADAPTER_HINT: &str = "robosim draws with Vulkan; on a machine without a GPU \
+     install Mesa's software Vulkan driver: sudo apt-get install mesa-vulkan-drivers libvulkan1 \
+     (Debian/Ubuntu; Fedora: sudo dnf install mesa-vulkan-drivers)";
+
 /// The device everything is drawn with.
 pub struct Gpu {
     pub instance: wgpu::Instance,
@@ -49,12 +55,7 @@ impl Gpu {
             compatible_surface: surface,
             apply_limit_buckets: false,
         }))
-        .map_err(|e| {
-            DisplayError::NoAdapter(format!(
-                "{e}; on a machine without a GPU install Mesa's Vulkan driver \
-                 (Debian: mesa-vulkan-drivers libvulkan1)"
-            ))
-        })?;
+        .map_err(|e| DisplayError::NoAdapter(format!("{e}; {NO_ADAPTER_HINT}")))?;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("robosim display"),
             required_features: wgpu::Features::empty(),

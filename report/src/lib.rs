@@ -15,13 +15,15 @@
 //! * [`ipc`] — `robosim bench ipc`: the Instance Space's costs (snapshot access, pose
 //!   transactions, notification latency, journaled throughput), across real processes;
 //! * [`journal`] — `robosim bench journal`: what the journal's second copy costs;
-//! * [`cli`] — the clap arguments and runners of `robosim report ik|collision`.
+//! * [`cli`] — the clap arguments and runners of `robosim report ik|collision`;
+//! * [`font`] — the bundled font plots and the display's status line are drawn with.
 
 pub mod automation;
 pub mod cli;
 pub mod collision;
 pub mod dynamics;
 pub mod effects;
+pub mod font;
 pub mod ik;
 pub mod ipc;
 pub mod journal;

@@ -151,6 +151,7 @@ fn draw(path: &Path, plots: &[Plot]) -> Result<(), ReportError> {
         path: path.to_owned(),
         message: e.to_string(),
     };
+    crate::font::register_for_plots().map_err(|e| err(&e))?;
     let root =
         BitMapBackend::new(path, (PANEL_W, PANEL_H * plots.len() as u32)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
@@ -197,7 +198,7 @@ fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Er
     let (y0, y1) = range(ys, plot.log_y);
     let mut builder = ChartBuilder::on(area);
     builder
-        .caption(&plot.title, ("sans-serif", 22))
+        .caption(&plot.title, (crate::font::PLOT_FAMILY, 22))
         .margin(12)
         .x_label_area_size(45)
         .y_label_area_size(80);
@@ -298,6 +299,35 @@ mod tests {
         assert!(md.contains("| 1 | 2 |") && md.contains("![Test](t.png)") && md.contains("a note"));
         let png = std::fs::read(dir.path().join("t.png")).expect("png");
         assert_eq!(&png[1..4], b"PNG");
+    }
+
+    /// Text is drawn with the bundled font (no system fonts): the same plot with another
+    /// title and axis labels is another picture.
+    #[test]
+    fn plot_text_is_drawn_with_the_bundled_font() {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let png = |name: &str, title: &str, label: &str| {
+            let report = Report {
+                name: name.into(),
+                table: Table::default(),
+                plots: vec![Plot {
+                    title: title.into(),
+                    x_label: label.into(),
+                    y_label: label.into(),
+                    series: vec![Series {
+                        label: label.into(),
+                        points: vec![(0.0, 0.0), (1.0, 1.0)],
+                    }],
+                    ..Plot::default()
+                }],
+                ..Report::default()
+            };
+            write_report(dir.path(), &report).expect("drawn");
+            std::fs::read(dir.path().join(format!("{name}.png"))).expect("png")
+        };
+        let a = png("a", "Accuracy against time", "µs per step");
+        assert_eq!(a, png("a2", "Accuracy against time", "µs per step"));
+        assert_ne!(a, png("b", "", ""));
     }
 
     #[test]
