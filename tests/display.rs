@@ -270,6 +270,8 @@ fn a_session_display_redraws_a_moved_link_uploading_its_transforms_only() {
     let mut r = Renderer::headless().expect("adapter");
     r.sync(&snap);
     r.camera = Camera::looking(Point3::new(-1.2, 1.4, 1.1), Point3::new(0.1, 0.0, 0.55));
+    // The session display draws the ground grid and axes by default.
+    r.style.grid = true;
     let expected = r.render_image(320, 240).expect("frame");
     let shown = load(&out.join(next["png"].as_str().expect("png name")));
     let before = load(&out.join(first["png"].as_str().expect("png name")));
@@ -406,6 +408,11 @@ fn the_window_moves_joints_and_picks_under_xvfb() {
             "right",
             "--script",
             "click:320,240",
+            // The grid and axes off and on again (drawn in the frames between).
+            "--script",
+            "g",
+            "--script",
+            "g",
         ])
         .args(["--size", "640x480"])
         .env("ROBOSIM_HOME", k.home.path())
@@ -640,6 +647,16 @@ fn the_session_display_draws_the_running_simulators_state() {
             .find(|f| f["sim_t"].as_f64().is_some_and(|t| t > 1.999))
     });
     assert!(shown["sim_seq"].as_u64().is_some_and(|n| n > 0), "{shown}");
+    // The overlay says what is drawn: the simulator's time and the joints at the target, in
+    // degrees (0.8 rad = 45.8°, −0.5 rad = −28.6°, 0.4 rad = 22.9°); the committed model's
+    // frame has none.
+    let status = shown["status"].as_str().expect("a status line").to_owned();
+    assert!(
+        status.starts_with("simulator  t = 2.000 s")
+            && status.contains("\npuma560  0.0°  45.8°  -28.6°  0.0°  22.9°  0.0°"),
+        "{status}"
+    );
+    assert!(first["status"].is_null(), "{first}");
 
     // The committed model did not move.
     let mut reader = Reader::attach(&s, "test-reader").expect("reader");
@@ -666,10 +683,19 @@ fn the_session_display_draws_the_running_simulators_state() {
     let mut r = Renderer::headless().expect("adapter");
     r.sync(&snap.with_poses(&overrides));
     r.camera = Camera::looking(Point3::new(-1.2, 1.4, 1.1), Point3::new(0.1, 0.0, 0.55));
+    r.style.grid = true;
+    let plain = r.render_image(320, 240).expect("frame");
+    r.set_status(Some(&status));
     let expected = r.render_image(320, 240).expect("frame");
     let img = load(&out.join(shown["png"].as_str().expect("png name")));
-    let before = load(&out.join(first["png"].as_str().expect("png name")));
+    // The overlay is drawn: without it the independent render is another picture.
     let tol = Tolerance::default();
+    let no_overlay = compare(&img, &plain, &tol).expect("same size");
+    assert!(
+        !no_overlay.within(&tol),
+        "the status is visible: {no_overlay:?}"
+    );
+    let before = load(&out.join(first["png"].as_str().expect("png name")));
     let same = compare(&img, &expected, &tol).expect("same size");
     assert!(
         same.within(&tol),
@@ -821,4 +847,146 @@ fn render_without_a_vulkan_driver_says_how_to_get_one() {
         "{err}"
     );
     assert!(!png.exists());
+}
+
+/// Issue 19, item 16: `render --grid` adds the ground grid and world axes; without the flag
+/// the picture is the golden one (checked by the golden test), so they are another picture.
+#[test]
+fn render_with_grid_is_not_the_golden_picture() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let out = dir.path().join("grid.png");
+    render(&out, &[&["puma560", "--grid"][..], &PUMA_VIEW].concat());
+    let tol = Tolerance::default();
+    let d = compare(&load(&out), &load(&golden("puma560_zero.png")), &tol).expect("same size");
+    assert!(!d.within(&tol), "the grid is visible: {d:?}");
+}
+
+/// Issue 19, item 16: a display opened on an empty session frames the camera when the first
+/// bodies arrive: after `instantiate space_station` the frame is the station seen whole, as an
+/// independent render framed on its bounding sphere shows it.
+#[test]
+fn a_display_opened_on_an_empty_session_frames_the_first_model() {
+    let mut k = Procs::new("dframe");
+    k.start_keeper(&[]);
+    let out = k.home.path().join("display-out");
+    let out_s = out.to_string_lossy().into_owned();
+    k.spawn(&[
+        "display",
+        "--headless",
+        "--every-frame",
+        "--size",
+        "320x240",
+        "--out",
+        &out_s,
+    ]);
+    let first = wait_for("the first frame", || frames(&out).into_iter().next());
+    assert_eq!(first["bodies"], 0, "{first}");
+    let st = Command::new(ROBOSIM)
+        .args(["instantiate", "space_station", "--as", "station"])
+        .args(["--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .status()
+        .expect("instantiate");
+    assert!(st.success());
+    let shown = wait_for("a frame of the station", || {
+        frames(&out)
+            .into_iter()
+            .find(|f| f["bodies"].as_u64().is_some_and(|b| b > 0))
+    });
+    let s = k.session();
+    let mut reader = Reader::attach(&s, "test-reader").expect("reader");
+    let version = shown["version"].as_u64().expect("version");
+    let snap = wait_for("the shown version", || {
+        reader.refresh().ok()?;
+        reader.snapshot().filter(|s| s.version() >= version)
+    });
+    let mut r = Renderer::headless().expect("adapter");
+    r.sync(&snap);
+    assert_eq!(shown["bodies"], r.body_count() as u64, "{shown}");
+    let (c, radius) = r.bounds();
+    r.camera = Camera::framing_fov(c, radius, 40.0);
+    r.style.grid = true;
+    let expected = r.render_image(320, 240).expect("frame");
+    let img = load(&out.join(shown["png"].as_str().expect("png name")));
+    let tol = Tolerance {
+        fraction: 0.01,
+        ..Tolerance::default()
+    };
+    let d = compare(&img, &expected, &tol).expect("same size");
+    assert!(d.within(&tol), "display frame vs the framed station: {d:?}");
+}
+
+/// Issue 19, item 16: with `--collisions` and a simulator running, the bodies in contact at
+/// the simulator's state (not the committed model's) are drawn in the collision colour. The
+/// simulator (kinematics only: nothing stops the motion) drives the surgical positioner into
+/// the patient's head while the Instance Space keeps it folded away.
+#[test]
+fn the_session_display_colours_the_contacts_of_the_simulated_state() {
+    use robosim_instance_space::state::CommandSender;
+    let mut k = Procs::new("dsimc");
+    let effects = k.home.path().join("effects.json");
+    std::fs::write(
+        &effects,
+        r#"{"dt": 0.01, "max_speed": 1.0, "kinematics": true, "joint_limits": true}"#,
+    )
+    .expect("effects");
+    k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let eff = effects.to_string_lossy().into_owned();
+    k.spawn(&["simulator", "--mode", "lockstep", "--effects", &eff]);
+    let out = k.home.path().join("display-out");
+    let out_s = out.to_string_lossy().into_owned();
+    k.spawn(&[
+        "display",
+        "--headless",
+        "--collisions",
+        "--no-grid",
+        "--every-frame",
+        "--out",
+        &out_s,
+        "--from",
+        "0.95,-0.75,0.55",
+        "--at",
+        "0.12,0,0.1",
+        "--size",
+        "200x150",
+    ]);
+    let red_fraction = |f: &Value| {
+        let img = load(&out.join(f["png"].as_str().expect("png name")));
+        let red = img
+            .pixels
+            .chunks_exact(4)
+            .filter(|p| p[0] as i32 > p[1] as i32 + 100 && p[0] as i32 > p[2] as i32 + 100)
+            .count();
+        red as f64 / (img.width * img.height) as f64
+    };
+    let first = wait_for("the first frame", || frames(&out).into_iter().next());
+    assert!(red_fraction(&first) < 0.001, "nothing in contact at first");
+    let s = k.session();
+    let mut ctl = wait_for("the simulator's commands", || {
+        CommandSender::open(&s, "simulator", "test").ok()
+    });
+    let into_head: Vec<f64> = [170.0f64, 10.0, -90.0, 0.0, 0.0, 0.0]
+        .iter()
+        .map(|d| d.to_radians())
+        .collect();
+    for c in [
+        serde_json::json!({"cmd": "target", "robot": "positioner", "q": into_head}).to_string(),
+        // 1 rad/s, 10 ms steps: the largest move (170°) takes about 300 steps.
+        r#"{"cmd": "step", "n": 400}"#.to_owned(),
+    ] {
+        let a = ctl
+            .send(c.as_bytes(), std::time::Duration::from_secs(10))
+            .expect("answer");
+        assert_eq!(a, b"ok", "{c}: {}", String::from_utf8_lossy(&a));
+    }
+    let hit = wait_for("a frame of the simulated state at t = 4 s", || {
+        frames(&out)
+            .into_iter()
+            .find(|f| f["sim_t"].as_f64().is_some_and(|t| t > 3.999))
+    });
+    let red = red_fraction(&hit);
+    assert!(
+        red > 0.1,
+        "head and link drawn red at the simulated state: {red}"
+    );
 }

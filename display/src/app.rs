@@ -109,11 +109,19 @@ fn parse_size(s: &str) -> std::result::Result<(u32, u32), String> {
 }
 
 impl ViewArgs {
-    fn style(&self) -> Style {
+    /// The style these options ask for; `grid`: the ground grid and world axes.
+    fn style(&self, grid: bool) -> Style {
         Style {
             edges: self.edges,
+            grid,
             ..Style::default()
         }
+    }
+
+    /// True when the camera is placed by the user (LOOK-FROM or LOOK-AT given): the display
+    /// then never re-frames it by itself.
+    fn placed(&self) -> bool {
+        self.from.is_some() || self.at.is_some()
     }
 
     /// The camera these options ask for, around a scene with bounding sphere `bounds`: framed
@@ -139,8 +147,8 @@ impl ViewArgs {
         Ok(cam)
     }
 
-    fn apply(&self, r: &mut Renderer) -> Result<()> {
-        r.style = self.style();
+    fn apply(&self, r: &mut Renderer, grid: bool) -> Result<()> {
+        r.style = self.style(grid);
         r.camera = self.camera(r.bounds())?;
         Ok(())
     }
@@ -171,6 +179,9 @@ pub struct RenderArgs {
     /// Leave out every object of this name (and what is attached to it); repeatable.
     #[arg(long, value_name = "NAME")]
     pub hide: Vec<String>,
+    /// Draw the ground grid (z = 0) and the world axes (x red, y green, z blue).
+    #[arg(long)]
+    pub grid: bool,
     /// Library files to add to the standard library.
     #[arg(long)]
     pub library: Vec<PathBuf>,
@@ -376,7 +387,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     }
     highlight(&mut r, &scene, a.view.collisions);
     r.sync(&snap);
-    a.view.apply(&mut r)?;
+    a.view.apply(&mut r, a.grid)?;
     let (w, h) = a.view.size;
     if let Some(out) = &a.out {
         let t0 = Instant::now();
@@ -441,9 +452,13 @@ pub struct DisplayArgs {
     /// Play trajectory files into the session's robots, ROBOT=FILE; repeatable.
     #[arg(long, value_name = "ROBOT=FILE")]
     pub play: Vec<String>,
-    /// Window: replay input (`left`, `right`, `tab`, `1`–`9`, `e`, `o`, `f`, `click:X,Y`).
+    /// Window: replay input (`left`, `right`, `tab`, `1`–`9`, `e`, `o`, `f`, `g`, `click:X,Y`).
     #[arg(long)]
     pub script: Vec<String>,
+    /// Leave out the ground grid and world axes (drawn by default; `G` toggles them in the
+    /// window).
+    #[arg(long)]
+    pub no_grid: bool,
     #[command(flatten)]
     pub view: ViewArgs,
 }
@@ -459,6 +474,11 @@ struct SessionHost {
     scene: CompiledScene,
     /// The simulator's published state, when a simulator runs (opened lazily, retried).
     sim: SimFollower,
+    /// The last update drew the simulator's state (not only the committed model).
+    showing_sim: bool,
+    /// With `collisions` and a simulator: the robots at the simulator's joint values, for the
+    /// contacts of what is drawn (the simulator does not publish its contacts).
+    sim_scene: CompiledScene,
 }
 
 /// Follows the simulator's high-rate state (`state/simulator`): the latest record, drawn over
@@ -524,6 +544,38 @@ impl SimFollower {
 }
 
 impl SessionHost {
+    /// The simulator's state drawn, as the overlay shows it: time (s) and record number, then
+    /// one line per robot with its joint values (degrees for revolute joints, metres for
+    /// prismatic ones). `None` when the committed model alone is drawn.
+    fn sim_status(&self) -> Option<String> {
+        if !self.showing_sim {
+            return None;
+        }
+        let rec = self.sim.latest.as_ref()?;
+        let mut text = format!(
+            "simulator  t = {:.3} s  (record {})",
+            rec.header.t, rec.header.seq
+        );
+        for r in self.scene.robots() {
+            let values: Vec<String> = r
+                .links
+                .iter()
+                .zip(&r.robot.joints)
+                .filter_map(|(id, joint)| {
+                    let q = rec.joints.iter().find(|j| j.id == *id)?.q;
+                    Some(match joint.joint_type {
+                        robosim_kinematics::JointType::Prismatic => format!("{q:.3} m"),
+                        _ => format!("{:.1}°", q.to_degrees()),
+                    })
+                })
+                .collect();
+            if !values.is_empty() {
+                text.push_str(&format!("\n{}  {}", r.robot.name, values.join("  ")));
+            }
+        }
+        Some(text)
+    }
+
     fn client(&mut self) -> Result<&mut Client> {
         if self.client.is_none() {
             self.client = Some(Client::connect(&self.session, "display-writer")?);
@@ -562,14 +614,26 @@ impl Host for SessionHost {
             return Ok(false);
         }
         self.scene.sync(&snap);
-        highlight(r, &self.scene, self.collisions);
         // A running simulator's state is drawn over the committed model (full comparison:
-        // the state's link poses are not in the change records).
+        // the state's link poses are not in the change records), with the contacts at that
+        // state.
         if let Some(drawn) = self.sim.drawn(&snap) {
+            if self.collisions
+                && let Some(rec) = &self.sim.latest
+            {
+                self.sim_scene.sync(&snap);
+                let q: Vec<(robosim_instance_space::Id, f64)> =
+                    rec.joints.iter().map(|j| (j.id, j.q)).collect();
+                self.sim_scene.set_joints(&q);
+                r.set_highlight(self.sim_scene.colliding_ids());
+            }
             r.sync(&drawn);
             self.snap = Some(snap);
+            self.showing_sim = true;
             return Ok(true);
         }
+        self.showing_sim = false;
+        highlight(r, &self.scene, self.collisions);
         // The change records since the last drawn version drive the update; without them
         // (a reader that joined late, a keeper restart) the full comparison runs.
         match self.reader.changes_since(r.version()) {
@@ -612,6 +676,10 @@ impl Host for SessionHost {
         self.write_q(&name, &q)
             .map(|v| format!("{name} joint {} = {shown:.1}° (version {v})", joint + 1))
             .map_err(|e| e.to_string())
+    }
+
+    fn status(&self) -> Option<String> {
+        self.sim_status()
     }
 
     fn describe(&self, hit: &Hit) -> String {
@@ -657,6 +725,8 @@ struct FrameRecord {
     /// simulator runs.
     sim_seq: Option<u64>,
     sim_t: Option<f64>,
+    /// The status overlay drawn in this frame's top-left corner, if any.
+    status: Option<String>,
 }
 
 /// `robosim display --session S …`
@@ -682,6 +752,8 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         snap: None,
         scene: CompiledScene::new(),
         sim: SimFollower::new(),
+        showing_sim: false,
+        sim_scene: CompiledScene::new(),
     };
     // Wait for the first model.
     let deadline = Instant::now() + Duration::from_secs(30);
@@ -719,12 +791,13 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             title: format!("robosim — session {}", session.name()),
             exit_after_frames: a.max_frames,
             script: a.script.clone(),
+            frame_first_bodies: !a.view.placed(),
             ..WindowOptions::default()
         };
         return Ok(crate::window::run(
             Box::new(host),
             Some(camera),
-            a.view.style(),
+            a.view.style(!a.no_grid),
             opts,
         )?);
     }
@@ -747,7 +820,9 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     let mut frames = 0u64;
     let mut sample = 0usize;
     let mut next_sample = Instant::now();
-    let mut first = true;
+    // The camera is framed on the first frame; if that frame has nothing to draw (an empty
+    // session), again on the first frame that has, unless the user placed it.
+    let mut framed = false;
     host.snap = None;
     while signals.wait(Duration::ZERO).is_ok() {
         if let Some(p) = &player
@@ -776,10 +851,12 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             }
             continue;
         }
-        if first {
-            a.view.apply(&mut r)?;
-            first = false;
+        if !framed {
+            a.view.apply(&mut r, !a.no_grid)?;
+            framed = r.body_count() > 0 || a.view.placed();
         }
+        let status = host.status();
+        r.set_status(status.as_deref());
         let upload = r.last_upload();
         let t0 = Instant::now();
         let img = r.render_image(w, h)?;
@@ -814,6 +891,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             sim_t: (host.sim.applied > 0)
                 .then(|| host.sim.latest.as_ref().map(|l| l.header.t))
                 .flatten(),
+            status,
         };
         let line = serde_json::to_string(&rec).map_err(|e| AppError(e.to_string()))?;
         writeln!(log, "{line}").map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;

@@ -7,6 +7,8 @@
 //! * [`renderer`] — the GPU device, per-body slots, [`Renderer::sync`], frames, picking.
 //! * [`camera`] — LOOK-FROM / LOOK-AT, perspective / orthographic, orbit / pan / zoom, rays.
 //! * [`mesh`] — polygons to triangles and edges; ray casts.
+//! * [`guides`] — the ground grid and the world axes.
+//! * [`overlay`] — the status text drawn over a frame (bundled font).
 //! * [`image`] — PNG and the golden-image comparison.
 //! * [`private`] — the session display's files and directories, mode 0600 / 0700.
 //! * [`trajectory`] — MD's file mode: joint-angle files played back.
@@ -21,8 +23,10 @@
 pub mod app;
 pub mod bench;
 pub mod camera;
+pub mod guides;
 pub mod image;
 pub mod mesh;
+pub mod overlay;
 pub mod private;
 pub mod renderer;
 pub mod trajectory;

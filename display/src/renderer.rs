@@ -4,10 +4,16 @@
 //! a snapshot and uploads only what differs: a moved body's 64-byte transform, a recoloured
 //! body's 32-byte material, a re-shaped body's mesh. Every byte written is counted
 //! ([`UploadStats`]).
+//!
+//! Besides the model a frame may show the guides (ground grid and world axes, [`Style::grid`];
+//! [`crate::guides`]) and a status overlay ([`Renderer::set_status`]; [`crate::overlay`]).
+//! Neither is model data: their uploads are not in [`UploadStats`].
 
 use crate::camera::Camera;
+use crate::guides::{GuideVertex, Guides};
 use crate::image::RgbaImage;
 use crate::mesh::{CpuMesh, Vertex};
+use crate::overlay::Overlay;
 use crate::{DisplayError, Result};
 use nalgebra::{Matrix4, Point3, Vector3};
 use robosim_instance_space::{Change, Id, Snapshot, aspect, layout::flags};
@@ -124,6 +130,19 @@ fn sphere_around<'a>(
     (center, ((hi - lo) / 2.0).norm().max(1e-6))
 }
 
+/// The smallest sphere holding spheres `a` and `b` (centre, radius).
+fn sphere_union(a: (Point3<f64>, f64), b: (Point3<f64>, f64)) -> (Point3<f64>, f64) {
+    let d = (b.0 - a.0).norm();
+    if d + b.1 <= a.1 {
+        return a;
+    }
+    if d + a.1 <= b.1 {
+        return b;
+    }
+    let r = (d + a.1 + b.1) / 2.0;
+    (a.0 + (b.0 - a.0) * ((r - a.1) / d), r)
+}
+
 /// Bytes and items written to the GPU by one [`Renderer::sync`] (or summed over many).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, serde::Serialize)]
 pub struct UploadStats {
@@ -160,6 +179,8 @@ impl UploadStats {
 pub struct Style {
     /// Draw every polygon edge over the shading.
     pub edges: bool,
+    /// Draw the ground grid (z = 0) and the world axes ([`crate::guides`]).
+    pub grid: bool,
     /// Linear RGB background.
     pub background: [f64; 3],
     /// Ambient term (0..1) added to every surface.
@@ -170,6 +191,7 @@ impl Default for Style {
     fn default() -> Self {
         Style {
             edges: false,
+            grid: false,
             background: [0.62, 0.68, 0.75],
             ambient: 0.22,
         }
@@ -216,6 +238,10 @@ pub struct Renderer {
     samples: u32,
     solid: wgpu::RenderPipeline,
     edge: wgpu::RenderPipeline,
+    guide: wgpu::RenderPipeline,
+    /// The guides drawn for the current bounds, their line vertices and count.
+    guides: Option<(Guides, wgpu::Buffer, u32)>,
+    overlay: Overlay,
     layout: wgpu::BindGroupLayout,
     frame: wgpu::Buffer,
     transforms: wgpu::Buffer,
@@ -408,6 +434,41 @@ impl Renderer {
             multiview_mask: None,
             cache: None,
         });
+        let guide = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("robosim guides"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState {
+                module: &shader,
+                entry_point: Some("vs_guide"),
+                compilation_options: Default::default(),
+                buffers: &[Some(wgpu::VertexBufferLayout {
+                    array_stride: std::mem::size_of::<GuideVertex>() as u64,
+                    step_mode: wgpu::VertexStepMode::Vertex,
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4],
+                })],
+            },
+            primitive: wgpu::PrimitiveState {
+                topology: wgpu::PrimitiveTopology::LineList,
+                ..Default::default()
+            },
+            depth_stencil: Some(wgpu::DepthStencilState {
+                format: DEPTH_FORMAT,
+                depth_write_enabled: Some(false),
+                depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
+                stencil: Default::default(),
+                bias: Default::default(),
+            }),
+            multisample,
+            fragment: Some(wgpu::FragmentState {
+                module: &shader,
+                entry_point: Some("fs_guide"),
+                compilation_options: Default::default(),
+                targets: &target,
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        let overlay = Overlay::new(device, format, samples, DEPTH_FORMAT);
         let frame = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("robosim frame"),
             size: FRAME_BYTES,
@@ -423,6 +484,9 @@ impl Renderer {
             samples,
             solid,
             edge,
+            guide,
+            guides: None,
+            overlay,
             layout,
             frame,
             transforms,
@@ -780,8 +844,59 @@ impl Renderer {
         };
     }
 
+    /// The guides for what is drawn now, when [`Style::grid`] is on.
+    pub fn guides(&self) -> Option<Guides> {
+        self.style.grid.then(|| {
+            let (c, r) = self.bounds();
+            Guides::around(c, r)
+        })
+    }
+
+    /// Shows `text` (lines separated by `\n`) in the frame's top-left corner from the next
+    /// frame on; `None`: nothing. Rasterized and uploaded only when it changes.
+    pub fn set_status(&mut self, text: Option<&str>) {
+        self.overlay
+            .set_text(&self.gpu.device, &self.gpu.queue, text);
+    }
+
+    /// The status text shown, if any.
+    pub fn status(&self) -> Option<&str> {
+        self.overlay.text()
+    }
+
+    /// Where the status panel is drawn: x, y, width, height in pixels from the top-left.
+    pub fn status_rect(&self) -> Option<[u32; 4]> {
+        self.overlay.rect()
+    }
+
+    /// Brings the guides' vertex buffer up to the current bounds (rebuilt only when the grid's
+    /// step, centre or size changes) and places the overlay for a `width` × `height` target.
+    fn prepare_extras(&mut self, width: u32, height: u32) {
+        match self.guides() {
+            None => self.guides = None,
+            Some(g) if self.guides.as_ref().is_some_and(|c| c.0 == g) => {}
+            Some(g) => {
+                let v = g.vertices();
+                let buf = self
+                    .gpu
+                    .device
+                    .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                        label: Some("robosim guides"),
+                        contents: bytemuck::cast_slice(&v),
+                        usage: wgpu::BufferUsages::VERTEX,
+                    });
+                self.guides = Some((g, buf, v.len() as u32));
+            }
+        }
+        self.overlay.prepare(&self.gpu.queue, width, height);
+    }
+
     fn write_frame(&self, width: u32, height: u32) {
-        let (center, radius) = self.bounds();
+        // The depth range holds the model and, when drawn, the guides.
+        let (center, radius) = match &self.guides {
+            Some((g, _, _)) => sphere_union(self.bounds(), g.bounds()),
+            None => self.bounds(),
+        };
         let aspect = width as f64 / height.max(1) as f64;
         let c = &self.camera;
         let vp = c.projection_matrix(aspect, &center, radius) * c.view();
@@ -924,6 +1039,13 @@ impl Renderer {
                 }
             }
         }
+        // After the model: its depth hides the guides behind it.
+        if let Some((_, buf, n)) = &self.guides {
+            pass.set_pipeline(&self.guide);
+            pass.set_vertex_buffer(0, buf.slice(..));
+            pass.draw(0..*n, 0..1);
+        }
+        self.overlay.draw(&mut pass);
     }
 
     /// (Re)makes the colour, multisample and depth targets when the size changes.
@@ -940,6 +1062,7 @@ impl Renderer {
     /// Draws a frame into a window's surface texture.
     pub fn render_to(&mut self, view: &wgpu::TextureView, width: u32, height: u32) {
         self.ensure_targets(width, height, false);
+        self.prepare_extras(width, height);
         self.write_frame(width, height);
         let mut encoder = self.gpu.device.create_command_encoder(&Default::default());
         if let Some(t) = &self.targets {
@@ -963,6 +1086,7 @@ impl Renderer {
             )));
         }
         self.ensure_targets(width, height, true);
+        self.prepare_extras(width, height);
         self.write_frame(width, height);
         let Some(t) = &self.targets else {
             return Err(DisplayError::Device("no render target".into()));

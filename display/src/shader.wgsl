@@ -90,3 +90,23 @@ fn fs_edge(in: LineOut) -> @location(0) vec4<f32> {
     let mat = materials[in.slot];
     return vec4<f32>(mat.color.rgb * frame.view_dir.w, 1.0);
 }
+
+// The guides: ground grid and world axes, world-space lines with their own colour (linear
+// RGBA), depth-tested against the model but not written to the depth buffer.
+struct GuideOut {
+    @builtin(position) clip: vec4<f32>,
+    @location(0) color: vec4<f32>,
+};
+
+@vertex
+fn vs_guide(@location(0) pos: vec3<f32>, @location(1) color: vec4<f32>) -> GuideOut {
+    var out: GuideOut;
+    out.clip = frame.view_proj * vec4<f32>(pos, 1.0);
+    out.color = color;
+    return out;
+}
+
+@fragment
+fn fs_guide(in: GuideOut) -> @location(0) vec4<f32> {
+    return in.color;
+}

@@ -3,7 +3,9 @@
 //! left drag), zoom (wheel), pick (left click: object, link and polygon, as Starbase's pick
 //! returned segment, label and offset), and the knob box as keys: `1`–`9` choose a joint,
 //! `Tab` the next robot, `←`/`→` turn the chosen joint by 2° (`Shift`: 10°), `E` toggles the
-//! edge overlay, `O` perspective/orthographic, `F` frames everything, `Esc` quits.
+//! edge overlay, `G` the ground grid and world axes, `O` perspective/orthographic, `F` frames
+//! everything, `Esc` quits. The host's status (the simulator's time and joint values when one
+//! runs) is drawn in the top-left corner and put in the title.
 //!
 //! What a window shows comes from a [`Host`]: the session (or local model) it draws, which
 //! moves joints through the Instance Space like any other writer.
@@ -34,6 +36,10 @@ pub trait Host {
     ) -> std::result::Result<String, String>;
     /// "object … (link …), polygon …" for a pick.
     fn describe(&self, hit: &Hit) -> String;
+    /// Text drawn over the frame's top-left corner (lines separated by `\n`), if any.
+    fn status(&self) -> Option<String> {
+        None
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -45,9 +51,12 @@ pub struct WindowOptions {
     /// How often to look for model changes.
     pub poll: Duration,
     /// Input replayed through the same handlers as the user's, one per poll after the first
-    /// frame (for tests under Xvfb): `left`, `right`, `tab`, `1`–`9`, `e`, `o`, `f`,
+    /// frame (for tests under Xvfb): `left`, `right`, `tab`, `1`–`9`, `e`, `o`, `f`, `g`,
     /// `click:X,Y`.
     pub script: Vec<String>,
+    /// When the window opens on a model with nothing to draw (an empty session), frame the
+    /// camera on the first bodies that appear — unless the user moved it first.
+    pub frame_first_bodies: bool,
 }
 
 impl Default for WindowOptions {
@@ -58,6 +67,7 @@ impl Default for WindowOptions {
             exit_after_frames: None,
             poll: Duration::from_millis(16),
             script: Vec::new(),
+            frame_first_bodies: true,
         }
     }
 }
@@ -86,6 +96,8 @@ struct App {
     frames: u64,
     script_at: usize,
     next_poll: Instant,
+    /// Waiting for the first bodies to frame them (see [`WindowOptions::frame_first_bodies`]).
+    frame_pending: bool,
 }
 
 impl App {
@@ -145,6 +157,8 @@ impl App {
             Some(c) => renderer.camera = c,
             None => renderer.frame_all(),
         }
+        self.frame_pending = self.opts.frame_first_bodies && renderer.body_count() == 0;
+        renderer.set_status(self.host.status().as_deref());
         eprintln!("display: window on {}", renderer.gpu().describe());
         self.live = Some(Live {
             window,
@@ -269,6 +283,7 @@ impl App {
                     }
                 }
                 "f" | "F" => l.renderer.frame_all(),
+                "g" | "G" => l.renderer.style.grid = !l.renderer.style.grid,
                 _ => {}
             },
             _ => {}
@@ -295,15 +310,29 @@ impl ApplicationHandler for App {
         }
         if Instant::now() >= self.next_poll {
             self.next_poll = Instant::now() + self.opts.poll;
+            let mut title = None;
             if let Some(l) = &mut self.live {
                 match self.host.update(&mut l.renderer) {
-                    Ok(true) => l.window.request_redraw(),
-                    Ok(false) => {}
-                    Err(e) => {
-                        self.status = e;
-                        self.update_title();
+                    Ok(true) => {
+                        if self.frame_pending && l.renderer.body_count() > 0 {
+                            l.renderer.frame_all();
+                            self.frame_pending = false;
+                        }
+                        let status = self.host.status();
+                        if status.as_deref() != l.renderer.status() {
+                            l.renderer.set_status(status.as_deref());
+                            // The title carries the first line too.
+                            title = status.and_then(|s| s.lines().next().map(str::to_owned));
+                        }
+                        l.window.request_redraw();
                     }
+                    Ok(false) => {}
+                    Err(e) => title = Some(e),
                 }
+            }
+            if let Some(t) = title {
+                self.status = t;
+                self.update_title();
             }
         }
         event_loop.set_control_flow(ControlFlow::WaitUntil(self.next_poll));
@@ -349,6 +378,7 @@ impl ApplicationHandler for App {
                 if let (Some((button, start)), Some(l)) = (self.pressed, &mut self.live) {
                     if (position.x - start.0).abs() + (position.y - start.1).abs() > 3.0 {
                         self.dragged = true;
+                        self.frame_pending = false;
                     }
                     if !self.dragged {
                         return;
@@ -368,6 +398,7 @@ impl ApplicationHandler for App {
                     MouseScrollDelta::LineDelta(_, y) => y as f64,
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
+                self.frame_pending = false;
                 if let Some(l) = &mut self.live {
                     l.renderer.camera.zoom(0.9f64.powf(lines));
                     l.window.request_redraw();
@@ -410,6 +441,7 @@ pub fn run(
         frames: 0,
         script_at: 0,
         next_poll: Instant::now(),
+        frame_pending: false,
     };
     event_loop
         .run_app(&mut app)

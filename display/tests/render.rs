@@ -245,3 +245,72 @@ fn change_driven_sync_matches_the_full_comparison() {
     let up = r.sync_changes(&Snapshot::from_store(&model), &[]);
     assert_eq!((up.transforms, up.meshes), (1, 0));
 }
+
+/// Issue 19, item 16: with [`Style::grid`](robosim_display::Style) the world axes are drawn
+/// from the origin — x red, y green, z blue — where the camera projects them, and the ground
+/// grid in the z = 0 plane; without it the same pixels show the background.
+#[test]
+fn the_grid_and_world_axes_are_drawn_where_the_camera_projects_them() {
+    // A grey cube floating above the origin, so nothing hides the axes.
+    let mut model = Store::new();
+    let mut tx = Transaction::new();
+    let cube_id = tx.create(Kind::Solid, "float", None);
+    tx.set_geometry(cube_id, Some(cube(0.5)));
+    tx.set_pose(cube_id, at(0.0, 0.0, 2.0));
+    model.apply(&tx).expect("valid");
+    let mut r = Renderer::headless().expect("adapter");
+    r.sync(&Snapshot::from_store(&model));
+    r.camera = Camera::looking(Point3::new(4.0, -5.0, 3.0), Point3::new(0.0, 0.0, 1.0));
+    let (w, h) = (320u32, 240u32);
+    assert!(r.guides().is_none(), "off by default");
+    let plain = r.render_image(w, h).expect("frame");
+    r.style.grid = true;
+    let g = r.guides().expect("on");
+    let img = r.render_image(w, h).expect("frame");
+    // Pixel of a world point (x and y of a perspective projection do not depend on the depth
+    // range, so any sphere does).
+    let m = r
+        .camera
+        .projection_matrix(w as f64 / h as f64, &Point3::origin(), 10.0)
+        * r.camera.view();
+    let pixel = |p: Point3<f64>| {
+        let c = m * p.to_homogeneous();
+        (
+            ((c.x / c.w + 1.0) / 2.0 * w as f64) as i64,
+            ((1.0 - c.y / c.w) / 2.0 * h as f64) as i64,
+        )
+    };
+    // Some pixel within 2 of (x, y) passes `test` (a 1-pixel line may land one pixel over).
+    let near =
+        |img: &robosim_display::RgbaImage, (x, y): (i64, i64), test: &dyn Fn([i32; 4]) -> bool| {
+            (-2..=2).any(|dy| {
+                (-2..=2).any(|dx| {
+                    let (px, py) = (x + dx, y + dy);
+                    (0..w as i64).contains(&px)
+                        && (0..h as i64).contains(&py)
+                        && test(img.pixel(px as u32, py as u32).map(i32::from))
+                })
+            })
+        };
+    let red = |p: [i32; 4]| p[0] > p[1] + 60 && p[0] > p[2] + 60;
+    let green = |p: [i32; 4]| p[1] > p[0] + 40 && p[1] > p[2] + 40;
+    let blue = |p: [i32; 4]| p[2] > p[0] + 60 && p[2] > p[1] + 60;
+    let tests: [&dyn Fn([i32; 4]) -> bool; 3] = [&red, &green, &blue];
+    for (axis, test) in tests.iter().enumerate() {
+        let mut p = Point3::origin();
+        p[axis] = 0.6 * g.axis_length;
+        let at_px = pixel(p);
+        assert!(near(&img, at_px, test), "axis {axis} at {at_px:?}");
+        assert!(!near(&plain, at_px, test), "axis {axis} without the grid");
+    }
+    // A grid line (x = one step, halfway between the y = 0 and y = step lines): darker than
+    // the background with the grid, the background without.
+    let on_line = pixel(Point3::new(g.step, 0.5 * g.step, 0.0));
+    let darker = |bg: [u8; 4]| {
+        let bg = bg.map(i32::from);
+        move |p: [i32; 4]| p[2] < bg[2] - 12
+    };
+    let bg = plain.pixel(2, 2);
+    assert!(near(&img, on_line, &darker(bg)), "grid line at {on_line:?}");
+    assert!(!near(&plain, on_line, &darker(bg)));
+}

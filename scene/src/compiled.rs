@@ -261,6 +261,20 @@ impl CompiledScene {
         out
     }
 
+    /// Puts the compiled robots' joints at `joints` (link object id, joint value in rad or m),
+    /// e.g. a running simulator's published state; links not named keep their values. Only
+    /// the robots' `q` changes: a later [`CompiledScene::sync`] to a new version puts them back
+    /// at the snapshot's values, one to the same version leaves them.
+    pub fn set_joints(&mut self, joints: &[(Id, f64)]) {
+        for r in &mut self.robots {
+            for (qj, id) in r.q.iter_mut().zip(&r.links) {
+                if let Some((_, q)) = joints.iter().find(|(link, _)| link == id) {
+                    *qj = *q;
+                }
+            }
+        }
+    }
+
     /// Every object with geometry in contact, for the display's collision highlight: each
     /// robot at its current q against itself (allowed pairs excepted) and the objects outside
     /// it (exact mode, all contacts).
