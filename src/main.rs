@@ -76,12 +76,16 @@ enum Command {
         /// State publication rate, Hz (lockstep publishes every step).
         #[arg(long, default_value_t = 100.0)]
         publish_hz: f64,
+        /// Also record the run to this MCAP file (joint states, link poses, contacts, events).
+        #[arg(long)]
+        record: Option<std::path::PathBuf>,
     },
-    /// Send commands (JSON) to a session's simulator: target, torque, pause, resume, step, reset.
+    /// Send commands to a session's simulator: target, torque, pause, resume, step, reset, get.
     Simctl {
         #[arg(long)]
         session: Option<String>,
-        /// e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}'
+        /// JSON, e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}', or a
+        /// bare get, pause, resume, step or reset
         #[arg(required = true)]
         commands: Vec<String>,
     },
@@ -208,8 +212,15 @@ fn main() -> ExitCode {
             mode,
             effects,
             publish_hz,
+            record,
         } => {
-            robosim_simulator_daemon::run(session.as_deref(), mode, effects.as_deref(), publish_hz)
+            let opts = robosim_simulator_daemon::Options {
+                mode,
+                effects,
+                publish_hz,
+                record,
+            };
+            robosim_simulator_daemon::run(session.as_deref(), &opts)
                 .map(drop)
                 .map_err(CliError::from)
         }

@@ -20,6 +20,7 @@
 //! | `check` | robot | CHECK: the robot at its current q against the objects in use |
 //! | `use` / `dontuse` | object | USE / DONTUSE: the object takes part in collision checks or not |
 //! | `c_switch` | on, self_collision?, mode? (bbox\|polygon\|exact) | C_SWITCH |
+//! | `sim_state` | — | the running simulator's state: the answer of `robosim simctl get` (time, steps, mode, per robot q, qd, τ, target, contact) |
 //!
 //! Robots and objects are named as in the Instance Space (instance names, e.g. `puma560`).
 
@@ -61,6 +62,7 @@ pub enum AttachError {
 /// Session state of one query stream: its attachments, the compiled scene, and the seed's
 /// collision switches (C_SWITCH, USE/DONTUSE).
 pub struct Ops {
+    session: Session,
     reader: Reader,
     client: Client,
     scene: CompiledScene,
@@ -83,6 +85,7 @@ pub const OPS: &[&str] = &[
     "use",
     "dontuse",
     "c_switch",
+    "sim_state",
 ];
 
 /// The index of the object named `name`, or an `unknown_object` error naming it.
@@ -154,6 +157,7 @@ impl Ops {
     /// Attaches to `session` as a reader and a writer (role `query`).
     pub fn attach(session: &Session) -> std::result::Result<Self, AttachError> {
         Ok(Ops {
+            session: session.clone(),
             reader: Reader::attach(session, "query")?,
             client: Client::connect(session, "query")?,
             scene: CompiledScene::new(),
@@ -213,7 +217,32 @@ impl Ops {
         if !OPS.contains(&op) {
             return None;
         }
+        if op == "sim_state" {
+            return Some(self.sim_state());
+        }
         Some(self.answer(op, req))
+    }
+
+    /// `sim_state`: asks the session's simulator daemon (`{"cmd": "get"}` on its command
+    /// service) and answers its JSON as it is.
+    fn sim_state(&self) -> OpResult {
+        let none = |e: String| err(ErrorKind::Session, e);
+        let mut sender = robosim_instance_space::state::CommandSender::open(
+            &self.session,
+            "simulator",
+            "query-sim",
+        )
+        .map_err(|e| none(e.to_string()))?;
+        let answer = sender
+            .send(br#"{"cmd":"get"}"#, std::time::Duration::from_secs(10))
+            .map_err(|e| none(format!("the simulator: {e}")))?;
+        match serde_json::from_slice::<Value>(&answer) {
+            Ok(Value::Object(m)) => Ok(Value::Object(m)),
+            _ => Err(none(format!(
+                "the simulator answered {:?}, not its state",
+                String::from_utf8_lossy(&answer)
+            ))),
+        }
     }
 
     fn answer(&mut self, op: &str, req: &Value) -> OpResult {
