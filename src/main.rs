@@ -84,10 +84,14 @@ enum Command {
         /// State publication rate, Hz (lockstep publishes every step).
         #[arg(long, default_value_t = 100.0)]
         publish_hz: f64,
+        /// Also record the run to this MCAP file (joint states, link poses, contacts, events).
+        #[arg(long)]
+        record: Option<std::path::PathBuf>,
     },
-    /// Send commands (JSON) to a session's simulator: target, torque, pause, resume, step, reset.
+    /// Send commands to a session's simulator: target, torque, pause, resume, step, reset, get.
     Simctl {
-        /// e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}'
+        /// JSON, e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}', or a
+        /// bare get, pause, resume, step or reset
         #[arg(required = true)]
         commands: Vec<String>,
     },
@@ -274,9 +278,16 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             mode,
             effects,
             publish_hz,
+            record,
         } => {
             existing(session)?;
-            robosim_simulator_daemon::run(session, mode, effects.as_deref(), publish_hz)
+            let opts = robosim_simulator_daemon::Options {
+                mode,
+                effects,
+                publish_hz,
+                record,
+            };
+            robosim_simulator_daemon::run(session, &opts)
                 .map(drop)
                 .map_err(CliError::from)
         }

@@ -20,6 +20,7 @@
 //! | `check` | robot (only) | CHECK: the robot at its current q against the objects in use |
 //! | `use` / `dontuse` | object | USE / DONTUSE: the object takes part in collision checks or not |
 //! | `c_switch` | on, self_collision?, mode? (bbox\|polygon\|exact) | C_SWITCH |
+//! | `sim_state` | — | the running simulator's state: the answer of `robosim simctl get` (time, steps, mode, per robot q, qd, τ, target, contact) |
 //!
 //! Robots and objects are named as in the Instance Space (instance names, e.g. `puma560`).
 //!
@@ -68,6 +69,7 @@ pub enum AttachError {
 /// `robosim query --session` starts with collision on, self-collision on, mode exact and
 /// every object in use.
 pub struct Ops {
+    session: Session,
     reader: Reader,
     client: Client,
     scene: CompiledScene,
@@ -90,6 +92,7 @@ pub const OPS: &[&str] = &[
     "use",
     "dontuse",
     "c_switch",
+    "sim_state",
 ];
 
 /// The ops that exist both here and in the pure protocol ([`crate::OPS`]), each with the
@@ -202,6 +205,7 @@ impl Ops {
     /// Attaches to `session` as a reader and a writer (role `query`).
     pub fn attach(session: &Session) -> std::result::Result<Self, AttachError> {
         Ok(Ops {
+            session: session.clone(),
             reader: Reader::attach(session, "query")?,
             client: Client::connect(session, "query")?,
             scene: CompiledScene::new(),
@@ -273,7 +277,40 @@ impl Ops {
         if !OPS.contains(&op) || is_pure_form(op, req) {
             return None;
         }
+        if op == "sim_state" {
+            return Some(self.sim_state());
+        }
         Some(self.answer(op, req))
+    }
+
+    /// `sim_state`: asks the session's simulator daemon (`{"cmd": "get"}` on its command
+    /// service) and answers its JSON as it is.
+    fn sim_state(&self) -> OpResult {
+        let none = |e: String| err(ErrorKind::Session, e);
+        // The message does not name the session: the same request gets the same answer in any
+        // session without a simulator (docs/query.md's example is checked against a fresh one).
+        let mut sender = robosim_instance_space::state::CommandSender::open(
+            &self.session,
+            "simulator",
+            "query-sim",
+        )
+        .map_err(|_| {
+            none(
+                "no simulator runs in this session: start one with `robosim up SCENE --with \
+                 simulator` (or `robosim simulator`)"
+                    .into(),
+            )
+        })?;
+        let answer = sender
+            .send(br#"{"cmd":"get"}"#, std::time::Duration::from_secs(10))
+            .map_err(|e| none(format!("the simulator: {e}")))?;
+        match serde_json::from_slice::<Value>(&answer) {
+            Ok(Value::Object(m)) => Ok(Value::Object(m)),
+            _ => Err(none(format!(
+                "the simulator answered {:?}, not its state",
+                String::from_utf8_lossy(&answer)
+            ))),
+        }
     }
 
     fn answer(&mut self, op: &str, req: &Value) -> OpResult {

@@ -139,6 +139,7 @@ pub struct EncoderEffect {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum Signal {
+    /// Simulation time: always logged, as the first column `t_s` (declaring it adds nothing).
     T,
     Q,
     Qd,

@@ -85,6 +85,10 @@ pub trait Stage: Send {
     /// The robot was put at `q` from outside the pipeline (a writer moved its joints in the
     /// Instance Space): forget anything remembered about the old configuration.
     fn teleported(&mut self, _q: &DVector<f64>) {}
+    /// Writes out what the stage buffers (the logging stage's CSV rows).
+    fn flush(&mut self) -> Result<(), StepError> {
+        Ok(())
+    }
     /// The obstacles this stage checks against, if it has any (to move them in place).
     fn obstacles_mut(&mut self) -> Option<&mut Scene> {
         None
@@ -190,8 +194,13 @@ impl Pipeline {
         let mut logged = None;
         match &effects.logging {
             Some(l) => {
-                let (stage, handle) =
-                    stages::logging::Logging::new(n, l, q_measured.is_some(), contact.is_some())?;
+                let joints: Vec<_> = robot.joints.iter().map(|j| j.joint_type).collect();
+                let (stage, handle) = stages::logging::Logging::new(
+                    &joints,
+                    l,
+                    q_measured.is_some(),
+                    contact.is_some(),
+                )?;
                 log_stage = Some(stages.len());
                 logged = Some(handle);
                 stages.push(Box::new(stage));
@@ -320,19 +329,26 @@ impl Pipeline {
         self.stages.iter_mut().find_map(|s| s.obstacles_mut())
     }
 
+    /// Writes out the rows the logging stage buffers, so a reader of its CSV file sees every
+    /// step taken so far (the file is also flushed when the pipeline is dropped).
+    pub fn flush_log(&mut self) -> Result<(), StepError> {
+        self.stages.iter_mut().try_for_each(|s| s.flush())
+    }
+
     /// The names of the stages, in order.
     pub fn stage_names(&self) -> Vec<&'static str> {
         self.stages.iter().map(|s| s.name()).collect()
     }
 
-    /// The rows logged in memory so far (`signals` columns as declared; empty when logging is
-    /// not declared or writes to a file).
+    /// The rows logged in memory so far (`t_s`, then the `signals` columns as declared; empty
+    /// when logging is not declared or writes to a file).
     pub fn log(&self) -> Vec<Vec<f64>> {
         let _ = self.log_stage;
         self.logged.as_ref().map(|h| h.rows()).unwrap_or_default()
     }
 
-    /// The CSV header of the log, if logging is declared.
+    /// The CSV header of the log, if logging is declared: `t_s`, then one column per signal and
+    /// joint named with its unit (`q1_rad`, `q3_m`, `qd1_rad_s`, `tau1_Nm`, `contact`).
     pub fn log_header(&self) -> Option<Vec<String>> {
         self.logged.as_ref().map(|h| h.header())
     }

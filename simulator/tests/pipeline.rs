@@ -344,7 +344,47 @@ fn encoder_quantises_and_logging_records() {
     let text = std::fs::read_to_string(&csv).expect("csv written");
     let lines: Vec<&str> = text.lines().collect();
     assert_eq!(lines.len(), 11);
-    assert!(lines[0].starts_with("t,q1,q2"));
+    assert!(
+        lines[0].starts_with("t_s,q1_rad,q2_rad,q3_rad,q4_rad,q5_rad,q6_rad,q_measured1_rad,"),
+        "{}",
+        lines[0]
+    );
+}
+
+/// Issue #19 item 5: the time is always the first column, and every column carries its unit
+/// — metres for the Stanford arm's prismatic joint 3, radians for the others.
+#[test]
+fn log_header_has_time_first_and_units_per_joint_type() {
+    let robot = robosim_kinematics::builtin_robot("stanford").expect("builtin");
+    let q0 = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0];
+    let effects = SceneEffects {
+        dynamics: Some(DynamicsEffect::default()),
+        logging: Some(LoggingEffect {
+            signals: vec![Signal::Q, Signal::Qd, Signal::Qdd, Signal::Tau],
+            every: 2,
+            path: None,
+        }),
+        ..SceneEffects::default()
+    };
+    let mut p = Pipeline::build(&robot, &q0, &effects, SceneGeometry::default()).expect("builds");
+    let h = p.log_header().expect("declared");
+    assert_eq!(h[0], "t_s", "time first although not declared");
+    assert_eq!(
+        h[1..7],
+        ["q1_rad", "q2_rad", "q3_m", "q4_rad", "q5_rad", "q6_rad"]
+    );
+    assert_eq!(h[9], "qd3_m_s");
+    assert_eq!(h[15], "qdd3_m_s2");
+    assert_eq!(h[19..22], ["tau1_Nm", "tau2_Nm", "tau3_N"]);
+    assert_eq!(h.len(), 1 + 4 * 6);
+    for _ in 0..4 {
+        p.step().expect("step");
+    }
+    let rows = p.log();
+    assert_eq!(rows.len(), 2);
+    let dt = p.model().dt;
+    assert!((rows[1][0] - 4.0 * dt).abs() < 1e-15, "t_s of the last row");
+    assert_eq!(rows[1][1..7], *p.data().state.q.as_slice());
 }
 
 #[test]

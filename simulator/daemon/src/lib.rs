@@ -9,12 +9,18 @@
 //!
 //! It owns the high-rate state and publishes it on `state/simulator` (joint q, qd, τ, link
 //! poses, time), every record naming the Instance Space version it applies to. Other processes
-//! command it on `state/simulator/commands` with JSON lines (`robosim simctl`):
+//! command it on `state/simulator/commands` with JSON lines (`robosim simctl`, [`ctl`]):
 //! `{"cmd": "target", "robot": NAME, "q": [...]}`, `{"cmd": "torque", "robot", "tau"}`,
-//! `{"cmd": "pause"}`, `{"cmd": "resume"}`, `{"cmd": "step", "n": N}`, `{"cmd": "reset"}`.
-//! Every command is validated like a transaction, and a refused one changes nothing: `n` is an
-//! integer in 1..=[`MAX_STEPS_PER_COMMAND`], a target lies inside the joint limits
+//! `{"cmd": "pause"}`, `{"cmd": "resume"}`, `{"cmd": "step", "n": N}`, `{"cmd": "reset"}`, and
+//! `{"cmd": "get"}`, answered with the simulator's state as JSON ([`status`]). Every command is
+//! validated like a transaction, and a refused one changes nothing: `n` is an integer in
+//! 1..=[`MAX_STEPS_PER_COMMAND`], a target lies inside the joint limits
 //! ([`Pipeline::set_command`]).
+//!
+//! What a run leaves: the CSV signal log the scene declares (`<session>/run/simulator-<robot>.csv`,
+//! time `t_s` first, every column with its unit; flushed whenever the daemon is idle) and, with
+//! `--record FILE`, an MCAP recording of joint states, link poses, contacts and events
+//! ([`recording`]).
 //!
 //! The scene's effects come from `--effects FILE.json` (the simulator's JSON form), else from
 //! the Library Space declaration the scene was instantiated from (converted type to type,
@@ -28,7 +34,8 @@
 //! moved obstacle is moved in the collision stage's scene, a moved robot base rebuilds that
 //! robot's pipeline only. Robots that were not touched keep simulating undisturbed.
 //!
-//! Entry points: [`run`] (the process), [`ctl`] (`robosim simctl`), [`Mode`], [`Counters`].
+//! Entry points: [`run`] (the process) with its [`Options`], [`ctl`] (`robosim simctl`),
+//! [`Mode`], [`Counters`].
 //!
 //! **After `kill -9`:** the high-rate state is the daemon's alone and is not journaled; a
 //! restarted daemon starts again from the joint values committed in the Instance Space, at
@@ -36,12 +43,18 @@
 //! either event. Readers see the state service go silent and then resume (tested).
 
 pub mod bench;
+mod ctl;
+pub mod recording;
+pub mod status;
+
+pub use ctl::ctl;
 
 use nalgebra::DVector;
 use robosim_instance_space::layout::PoseRec;
 use robosim_instance_space::state::{CommandReceiver, JointStateRec, StatePublisher};
 use robosim_instance_space::{Kind, Reader, Session, Snapshot};
 use robosim_library::Library;
+use robosim_record::{Level, time_ns};
 use robosim_scene::{CompiledScene, Origin, Sync, link_poses};
 use robosim_simulator::effects::{
     CollisionEffect, DynamicsEffect, EncoderEffect, LoggingEffect, SceneEffects, Signal,
@@ -49,6 +62,7 @@ use robosim_simulator::effects::{
 use robosim_simulator::pipeline::{Command, Pipeline, SceneGeometry};
 use serde_json::Value;
 use std::collections::HashSet;
+use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
 /// Why the daemon (or `simctl`) stopped with an error.
@@ -66,8 +80,12 @@ pub enum DaemonError {
     Robot { robot: String, reason: String },
     #[error("{0}")]
     Usage(String),
-    #[error("simulator: {0}")]
-    Refused(String),
+    #[error("the simulator refused {command}: {reason}")]
+    Refused { command: String, reason: String },
+    #[error(transparent)]
+    Record(#[from] robosim_record::RecordError),
+    #[error("simulator log: {0}")]
+    Log(String),
 }
 
 type Result<T> = std::result::Result<T, DaemonError>;
@@ -81,6 +99,40 @@ pub enum Mode {
     Fast,
     /// Only when a client says `step`.
     Lockstep,
+}
+
+impl Mode {
+    /// The name `--mode` takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Realtime => "realtime",
+            Mode::Fast => "fast",
+            Mode::Lockstep => "lockstep",
+        }
+    }
+}
+
+/// How `robosim simulator` runs.
+#[derive(Debug, Clone)]
+pub struct Options {
+    pub mode: Mode,
+    /// The effects to simulate (the simulator's JSON form); `None`: the scene's declaration.
+    pub effects: Option<String>,
+    /// State publication rate, Hz (lock-step publishes every step).
+    pub publish_hz: f64,
+    /// Record the run to this MCAP file ([`recording`]).
+    pub record: Option<PathBuf>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            mode: Mode::Realtime,
+            effects: None,
+            publish_hz: 100.0,
+            record: None,
+        }
+    }
 }
 
 impl std::str::FromStr for Mode {
@@ -97,13 +149,22 @@ impl std::str::FromStr for Mode {
     }
 }
 
-struct Sim {
-    name: String,
+/// One robot's pipeline and what the daemon knows about it.
+pub(crate) struct Sim {
+    pub(crate) name: String,
     links: Vec<u64>,
+    /// Link (joint) names in chain order, from the snapshot the pipeline was built from.
+    pub(crate) link_names: Vec<String>,
+    /// The CSV signal log, if logging is declared.
+    pub(crate) log_path: Option<PathBuf>,
+    /// Why the last step failed, until the pipeline is rebuilt.
+    pub(crate) error: Option<String>,
+    /// The collision stage's verdict at the last recorded sample.
+    pub(crate) contact_was: bool,
     /// The committed joint values this pipeline last adopted.
     committed_q: Vec<f64>,
     base: nalgebra::Matrix4<f64>,
-    pipeline: Pipeline,
+    pub(crate) pipeline: Pipeline,
 }
 
 /// What the daemon did with the changes it saw (printed when it stops; read by benches).
@@ -246,11 +307,13 @@ struct Daemon<'a> {
     source: String,
     sims: Vec<Sim>,
     counters: Counters,
+    /// Steps since the pipelines were last built (all of them).
+    clock_steps: u64,
 }
 
 impl Daemon<'_> {
     /// The pipeline of compiled robot `r` (shares the compiled solids).
-    fn pipeline(&self, r: &robosim_scene::CompiledRobot) -> Result<Sim> {
+    fn pipeline(&self, r: &robosim_scene::CompiledRobot, snap: &Snapshot) -> Result<Sim> {
         let around = self.scene.obstacles(r, &HashSet::new());
         if let (Some(why), Some(c)) = (around.refused.first(), self.effects.collision.as_ref())
             && c.enabled
@@ -282,6 +345,14 @@ impl Daemon<'_> {
         Ok(Sim {
             name: r.name().to_owned(),
             links: r.links.clone(),
+            link_names: r
+                .links
+                .iter()
+                .map(|id| snap.index_of(*id).map_or("", |k| snap.name(k)).to_owned())
+                .collect(),
+            log_path: effects.logging.as_ref().and_then(|l| l.path.clone()),
+            error: None,
+            contact_was: false,
             committed_q: r.q.clone(),
             base: r.robot.base,
             pipeline,
@@ -307,9 +378,10 @@ impl Daemon<'_> {
             .scene
             .robots()
             .iter()
-            .map(|r| self.pipeline(r))
+            .map(|r| self.pipeline(r, snap))
             .collect::<Result<_>>()?;
         self.counters.rebuilds += 1;
+        self.clock_steps = 0;
         Ok(())
     }
 
@@ -326,7 +398,7 @@ impl Daemon<'_> {
             }
             Sync::Unchanged => Ok(false),
             Sync::Posed => {
-                self.in_place()?;
+                self.in_place(snap)?;
                 self.counters.in_place += 1;
                 Ok(true)
             }
@@ -335,13 +407,13 @@ impl Daemon<'_> {
 
     /// A joint/pose-only change: adopt committed joints that changed, move obstacles, rebuild
     /// only a robot whose base moved.
-    fn in_place(&mut self) -> Result<()> {
+    fn in_place(&mut self, snap: &Snapshot) -> Result<()> {
         for k in 0..self.sims.len() {
             let Some(r) = self.scene.robots().get(k) else {
                 continue;
             };
             if r.robot.base != self.sims[k].base {
-                self.sims[k] = self.pipeline(r)?;
+                self.sims[k] = self.pipeline(r, snap)?;
                 continue;
             }
             if r.q != self.sims[k].committed_q {
@@ -455,14 +527,34 @@ fn apply(
     }
 }
 
+impl Daemon<'_> {
+    /// The pipeline step (s): every robot's pipeline is built from the same effects.
+    fn dt(&self) -> f64 {
+        self.sims.first().map_or(0.01, |s| s.pipeline.model().dt)
+    }
+
+    /// Writes out every robot's buffered CSV log rows.
+    fn flush_logs(&mut self) -> Result<()> {
+        for s in &mut self.sims {
+            s.pipeline
+                .flush_log()
+                .map_err(|e| DaemonError::Log(format!("robot {}: {e}", s.name)))?;
+        }
+        Ok(())
+    }
+}
+
+/// The command's `cmd`, if it is a JSON object with one.
+fn cmd_name(v: &Value) -> Option<&str> {
+    v.get("cmd").and_then(Value::as_str)
+}
+
 /// The daemon's main loop (see the module docs); returns when the session signals it to stop
-/// (SIGTERM/SIGINT).
-pub fn run(
-    session: Option<&str>,
-    mode: Mode,
-    effects_file: Option<&str>,
-    publish_hz: f64,
-) -> Result<Counters> {
+/// (SIGTERM/SIGINT), after closing the recording.
+pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
+    let Options {
+        mode, publish_hz, ..
+    } = *opts;
     if !(publish_hz.is_finite() && publish_hz > 0.0) {
         return Err(DaemonError::Usage(format!(
             "--publish-hz {publish_hz} must be positive"
@@ -488,13 +580,14 @@ pub fn run(
         .ok_or_else(|| DaemonError::Usage("no snapshot".into()))?;
     let mut d = Daemon {
         session: &session,
-        effects_file,
+        effects_file: opts.effects.as_deref(),
         scene: CompiledScene::new(),
         library: LibraryCache::default(),
         effects: SceneEffects::default(),
         source: String::new(),
         sims: Vec::new(),
         counters: Counters::default(),
+        clock_steps: 0,
     };
     d.follow(&mut reader, &snap, false)?;
     let mut version = snap.version();
@@ -511,24 +604,81 @@ pub fn run(
             s.pipeline.stage_names().join(" → ")
         );
     }
-    let dt = d.sims.first().map_or(0.01, |s| s.pipeline.model().dt);
+    let mut recording = match &opts.record {
+        Some(path) => {
+            let names: Vec<&str> = d.sims.iter().map(|s| s.name.as_str()).collect();
+            let source = format!(
+                "simulator of session {}: {} in {} mode, effects {}",
+                session.name(),
+                names.join(", "),
+                mode.name(),
+                d.source
+            );
+            let mut r = recording::Recording::create(path, &source)?;
+            r.sample(0, &mut d.sims)?;
+            eprintln!("simulator: recording to {}", path.display());
+            Some(r)
+        }
+        None => None,
+    };
+    let dt = d.dt();
     let publish_every = ((1.0 / publish_hz) / dt).round().max(1.0) as u64;
     let mut running = mode != Mode::Lockstep;
     let mut budget = 0u64;
     let start = Instant::now();
     let mut steps = 0u64;
+    // The recording's clock: run time since start, ns (recording module docs).
+    let mut run_ns = 0u64;
     let mut wall_origin = (start, 0u64);
+    // Steps taken since the CSV logs were last flushed.
+    let mut logs_dirty = false;
     while signals.wait(Duration::ZERO).is_ok() {
         let mut reset = false;
         for cmd in commands.drain()? {
-            let outcome = serde_json::from_slice::<Value>(cmd.bytes())
-                .map_err(|e| format!("not JSON: {e}"))
-                .and_then(|v| apply(&mut d.sims, &v, &mut running, &mut budget, &mut reset));
+            let parsed =
+                serde_json::from_slice::<Value>(cmd.bytes()).map_err(|e| format!("not JSON: {e}"));
+            if let Ok(v) = &parsed
+                && cmd_name(v) == Some("get")
+            {
+                let l = status::LoopState {
+                    mode,
+                    running,
+                    budget,
+                    run_steps: steps,
+                    clock_steps: d.clock_steps,
+                    dt: d.dt(),
+                    version,
+                };
+                let rec = recording.as_ref().map(|r| (r.path(), r.messages()));
+                cmd.reply(
+                    status::status(&d.sims, &l, &d.source, rec)
+                        .to_string()
+                        .as_bytes(),
+                );
+                continue;
+            }
+            let outcome = parsed.and_then(|v| {
+                apply(&mut d.sims, &v, &mut running, &mut budget, &mut reset).map(|()| v)
+            });
+            let text = String::from_utf8_lossy(cmd.bytes()).into_owned();
             match outcome {
-                Ok(()) => cmd.reply(b"ok"),
+                Ok(v) => {
+                    cmd.reply(b"ok");
+                    if let Some(r) = &mut recording {
+                        r.event(run_ns, Level::Info, "simulator", &v.to_string())?;
+                    }
+                }
                 Err(e) => {
                     eprintln!("simulator: command refused: {e}");
                     cmd.reply(format!("refused: {e}").as_bytes());
+                    if let Some(r) = &mut recording {
+                        r.event(
+                            run_ns,
+                            Level::Warning,
+                            "simulator",
+                            &format!("refused {text}: {e}"),
+                        )?;
+                    }
                 }
             }
         }
@@ -538,21 +688,44 @@ pub fn run(
         if let Some(snap) = reader.snapshot()
             && (reset || snap.version() != version)
         {
+            let rebuilds = d.counters.rebuilds;
             if d.follow(&mut reader, &snap, reset)? && reset {
                 wall_origin = (Instant::now(), steps);
             }
             version = snap.version();
+            if let Some(r) = &mut recording
+                && d.counters.rebuilds != rebuilds
+            {
+                let why = if reset { "reset" } else { "structure changed" };
+                r.event(
+                    run_ns,
+                    Level::Info,
+                    "simulator",
+                    &format!(
+                        "{why}: pipelines rebuilt at version {version} from the committed joint values; their clock restarts at 0"
+                    ),
+                )?;
+            }
         }
         let step_now = running || budget > 0;
         if step_now {
             for s in &mut d.sims {
                 if let Err(e) = s.pipeline.step() {
                     eprintln!("simulator: {}: {e}; paused", s.name);
+                    if let Some(r) = &mut recording {
+                        r.event(run_ns, Level::Error, &s.name, &format!("{e}; paused"))?;
+                    }
+                    s.error = Some(e.to_string());
                     running = false;
                 }
             }
             budget = budget.saturating_sub(1);
             steps += 1;
+            d.clock_steps += 1;
+            run_ns += time_ns(1, d.dt());
+            if let Some(r) = &mut recording {
+                r.sample(run_ns, &mut d.sims)?;
+            }
         }
         if step_now && (steps.is_multiple_of(publish_every) || mode == Mode::Lockstep) {
             let mut joints = Vec::new();
@@ -578,6 +751,17 @@ pub fn run(
             }
             state.publish(version, t, &joints, &bodies)?;
         }
+        // Idle (lock-step with nothing queued, or paused): everything so far goes to disk, so
+        // `get`, the CSV log and the recording agree for a reader.
+        let idle = !running && budget == 0;
+        logs_dirty |= step_now;
+        if idle && logs_dirty {
+            d.flush_logs()?;
+            logs_dirty = false;
+        }
+        if let Some(r) = &mut recording {
+            r.maybe_flush(idle)?;
+        }
         match mode {
             Mode::Fast => {}
             Mode::Realtime => {
@@ -589,11 +773,20 @@ pub fn run(
                 }
             }
             Mode::Lockstep => {
-                if budget == 0 && !running {
+                if idle {
                     std::thread::sleep(Duration::from_micros(200));
                 }
             }
         }
+    }
+    if let Some(r) = recording {
+        let path = r.path().to_owned();
+        let counts = r.finish()?;
+        eprintln!(
+            "simulator: recorded {} messages to {}",
+            counts.values().sum::<u64>(),
+            path.display()
+        );
     }
     let c = d.counters;
     eprintln!(
@@ -601,27 +794,6 @@ pub fn run(
         c.rebuilds, c.in_place, c.library_parses
     );
     Ok(c)
-}
-
-/// `robosim simctl --session S JSON…`: send commands to the session's simulator.
-pub fn ctl(session: Option<&str>, commands: &[String]) -> Result<()> {
-    let session = Session::open(session)?;
-    let mut sender =
-        robosim_instance_space::state::CommandSender::open(&session, "simulator", "simctl")?;
-    for c in commands {
-        let v: Value = serde_json::from_str(c)
-            .map_err(|e| DaemonError::Usage(format!("command {c:?} is not JSON: {e}")))?;
-        if v.get("cmd").and_then(Value::as_str).is_none() {
-            return Err(DaemonError::Usage(format!("command {c} has no \"cmd\"")));
-        }
-        let answer = sender.send(c.as_bytes(), Duration::from_secs(10))?;
-        let answer = String::from_utf8_lossy(&answer).into_owned();
-        println!("{answer}");
-        if answer != "ok" {
-            return Err(DaemonError::Refused(answer));
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

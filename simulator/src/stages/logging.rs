@@ -1,8 +1,12 @@
 //! Signal logging: every `every`-th step, one row of the declared signals — to a CSV file (header
-//! first, flushed when the pipeline is dropped) or to memory. Depends on everything before it.
+//! first, flushed by `Pipeline::flush_log` and when the pipeline is dropped) or to memory.
+//! Depends on everything before it.
+//! The first column is always the simulation time `t_s`; every column name carries its unit
+//! (`q1_rad`, `q3_m`, `qd1_rad_s`, `tau1_Nm`).
 
 use crate::effects::{EffectsError, LoggingEffect, Signal};
 use crate::pipeline::{Data, Model, Stage, StepError};
+use robosim_kinematics::JointType;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::sync::{Arc, Mutex};
@@ -42,20 +46,65 @@ impl LogHandle {
     }
 }
 
-fn header(signals: &[Signal], n: usize) -> Vec<String> {
-    let mut h = Vec::new();
+/// The column names, each with its unit: `t_s` first (always: the time at the end of the
+/// logged step), then per declared signal one column per joint, `<signal><j>_<unit>` with
+/// j from 1 — rad, rad/s, rad/s², N·m for a revolute joint; m, m/s, m/s², N for a prismatic
+/// one — and `contact` (1 = the step's check found a contact, 0 = clear).
+fn header(signals: &[Signal], joints: &[JointType]) -> Vec<String> {
+    let mut h = vec!["t_s".to_string()];
     for s in signals {
+        let unit = |j: JointType| {
+            let revolute = j == JointType::Revolute;
+            match s {
+                Signal::Q | Signal::QMeasured => {
+                    if revolute {
+                        "rad"
+                    } else {
+                        "m"
+                    }
+                }
+                Signal::Qd => {
+                    if revolute {
+                        "rad_s"
+                    } else {
+                        "m_s"
+                    }
+                }
+                Signal::Qdd => {
+                    if revolute {
+                        "rad_s2"
+                    } else {
+                        "m_s2"
+                    }
+                }
+                Signal::Tau => {
+                    if revolute {
+                        "Nm"
+                    } else {
+                        "N"
+                    }
+                }
+                Signal::T | Signal::Contact => "",
+            }
+        };
         match s {
-            Signal::T | Signal::Contact => h.push(s.name().to_string()),
-            _ => (0..n).for_each(|j| h.push(format!("{}{}", s.name(), j + 1))),
+            Signal::T => {}
+            Signal::Contact => h.push(s.name().to_string()),
+            _ => h.extend(
+                joints
+                    .iter()
+                    .enumerate()
+                    .map(|(j, t)| format!("{}{}_{}", s.name(), j + 1, unit(*t))),
+            ),
         }
     }
     h
 }
 
 impl Logging {
+    /// The logging stage of a robot whose joints are `joints` (chain order).
     pub fn new(
-        n: usize,
+        joints: &[JointType],
         l: &LoggingEffect,
         has_encoder: bool,
         has_collision: bool,
@@ -76,7 +125,7 @@ impl Logging {
         if l.signals.contains(&Signal::Contact) && !has_collision {
             return Err(bad("signals", "contact needs the collision effect".into()));
         }
-        let h = header(&l.signals, n);
+        let h = header(&l.signals, joints);
         let (sink, rows) = match &l.path {
             None => {
                 let rows = Arc::new(Mutex::new(Vec::new()));
@@ -127,14 +176,24 @@ impl Stage for Logging {
         };
         format!("{} every {} step(s) to {to}", names.join(", "), self.every)
     }
+    fn flush(&mut self) -> Result<(), StepError> {
+        match &mut self.sink {
+            Sink::Memory(_) => Ok(()),
+            Sink::Csv(f, path) => f
+                .flush()
+                .map_err(|e| StepError::Logging(format!("{path}: {e}"))),
+        }
+    }
     fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError> {
         if !(d.step + 1).is_multiple_of(self.every) {
             return Ok(());
         }
         self.row.clear();
+        // t_s: the time at the end of this step (the pipeline's clock after it)
+        self.row.push((d.step + 1) as f64 * m.dt);
         for s in &self.signals {
             match s {
-                Signal::T => self.row.push((d.step + 1) as f64 * m.dt), // the time at the end of this step
+                Signal::T => {}
                 Signal::Q => self.row.extend(d.state.q.iter()),
                 Signal::Qd => self.row.extend(d.state.qd.iter()),
                 Signal::Qdd => self.row.extend(d.state.qdd.iter()),

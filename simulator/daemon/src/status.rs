@@ -1,0 +1,106 @@
+//! The answer to `{"cmd": "get"}` (`robosim simctl get`, the query protocol's `sim_state`):
+//! the simulator's state as one JSON object.
+//!
+//! ```json
+//! {"t_s": 0.5, "steps": 50, "run_steps": 50, "dt_s": 0.01, "mode": "lockstep",
+//!  "state": "paused", "running": false, "queued_steps": 0, "version": 3,
+//!  "effects": "from effects.json", "recording": {"path": "run.mcap", "messages": 153},
+//!  "robots": [{"name": "puma560", "t_s": 0.5, "steps": 50,
+//!              "stages": ["motion", "joint_limits", "link_frames", "logging"],
+//!              "joints": ["link1", …], "joint_types": ["revolute", …],
+//!              "q": […], "qd": […], "tau": […], "target": […], "torque": null,
+//!              "contact": null, "contact_steps": 0, "error": null,
+//!              "log": "/…/run/simulator-puma560.csv"}]}
+//! ```
+//!
+//! Units: `t_s`, `dt_s` s; `q`, `target` rad (revolute) or m (prismatic), as `joint_types`
+//! says; `qd` rad/s or m/s; `tau`, `torque` N·m or N. `t_s`/`steps`: since the pipelines were
+//! last built (start, `reset`, a structure change); `run_steps`: since the daemon started (the
+//! recording's clock). `state`: `running` (free-running), `stepping` (lock-step steps queued)
+//! or `paused`. `contact`: `null` when the robot's pipeline does not check collisions. `error`:
+//! why the robot's last step failed (the daemon then pauses), else `null`. The daemon runs no
+//! automation layer, so there are no alarms besides contacts and step errors.
+
+use crate::{Mode, Sim};
+use robosim_kinematics::JointType;
+use robosim_simulator::pipeline::Command;
+use serde_json::{Value, json};
+
+/// The daemon's loop state that `get` reports.
+pub(crate) struct LoopState {
+    pub mode: Mode,
+    pub running: bool,
+    pub budget: u64,
+    /// Steps since the daemon started.
+    pub run_steps: u64,
+    /// Steps since the pipelines were last built.
+    pub clock_steps: u64,
+    pub dt: f64,
+    /// The Instance Space version the pipelines follow.
+    pub version: u64,
+}
+
+fn robot(s: &Sim) -> Value {
+    let (m, w) = (s.pipeline.model(), s.pipeline.data());
+    let types: Vec<&str> = m
+        .robot
+        .joints
+        .iter()
+        .map(|j| match j.joint_type {
+            JointType::Revolute => "revolute",
+            JointType::Prismatic => "prismatic",
+        })
+        .collect();
+    let (target, torque) = match &w.command {
+        Command::Idle => (None, None),
+        Command::Target(q) => (Some(q.as_slice()), None),
+        Command::Torque(t) => (None, Some(t.as_slice())),
+    };
+    json!({
+        "name": s.name,
+        "t_s": w.state.t,
+        "steps": w.step,
+        "stages": s.pipeline.stage_names(),
+        "joints": s.link_names,
+        "joint_types": types,
+        "q": w.state.q.as_slice(),
+        "qd": w.state.qd.as_slice(),
+        "tau": w.tau.as_slice(),
+        "target": target,
+        "torque": torque,
+        "contact": w.contact,
+        "contact_steps": w.contact_steps,
+        "error": s.error,
+        "log": s.log_path.as_ref().map(|p| p.display().to_string()),
+    })
+}
+
+/// The `get` answer (module docs).
+pub(crate) fn status(
+    sims: &[Sim],
+    l: &LoopState,
+    effects: &str,
+    recording: Option<(&std::path::Path, u64)>,
+) -> Value {
+    let state = if l.running {
+        "running"
+    } else if l.budget > 0 {
+        "stepping"
+    } else {
+        "paused"
+    };
+    json!({
+        "t_s": l.clock_steps as f64 * l.dt,
+        "steps": l.clock_steps,
+        "run_steps": l.run_steps,
+        "dt_s": l.dt,
+        "mode": l.mode.name(),
+        "state": state,
+        "running": l.running,
+        "queued_steps": l.budget,
+        "version": l.version,
+        "effects": effects,
+        "recording": recording.map(|(p, n)| json!({"path": p.display().to_string(), "messages": n})),
+        "robots": sims.iter().map(robot).collect::<Vec<_>>(),
+    })
+}

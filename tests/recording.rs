@@ -1,0 +1,374 @@
+//! Issue #19 items 5, 9 and 14, with a real keeper, a real lock-step simulator daemon and the
+//! real `robosim` binary: the simulator's state read with `simctl get` and the query
+//! protocol's `sim_state`; the CSV log's time column and units; a `simctl` refusal said once,
+//! on stderr; the run recorded to MCAP, read back with the `mcap` crate — closed with its
+//! summary by `robosim down`, still streamable after `kill -9`.
+
+mod common;
+
+use common::{Procs, ROBOSIM, wait_for};
+use serde_json::{Value, json};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+const DT: f64 = 0.01;
+
+/// Kinematic motion at 1 rad/s, joint limits, collision (bbox, no self-collision: the scene
+/// has no obstacles, so every check is clear), and a CSV log of q and qd.
+const EFFECTS: &str = r#"{"dt": 0.01, "max_speed": 1.0, "kinematics": true, "joint_limits": true,
+    "collision": {"mode": "bbox", "self": false}, "logging": {"signals": ["q", "qd"]}}"#;
+
+/// A keeper with the PUMA 560 scene and a lock-step daemon recording to `run.mcap`.
+fn session_with_daemon(tag: &str) -> (Procs, u32, PathBuf) {
+    let mut p = Procs::new(tag);
+    let effects = p.home.path().join("effects.json");
+    std::fs::write(&effects, EFFECTS).expect("effects");
+    let mcap = p.home.path().join("run.mcap");
+    p.start_keeper(&["--scene", "puma560"]);
+    let eff = effects.to_str().expect("utf-8").to_owned();
+    let rec = mcap.to_str().expect("utf-8").to_owned();
+    let daemon = p.spawn(&[
+        "simulator",
+        "--mode",
+        "lockstep",
+        "--effects",
+        &eff,
+        "--record",
+        &rec,
+    ]);
+    let session = p.session();
+    wait_for("simulator registered", || {
+        session
+            .processes()
+            .iter()
+            .any(|x| x.role == "simulator" && x.pid == daemon)
+            .then_some(())
+    });
+    (p, daemon, mcap)
+}
+
+fn simctl(p: &Procs, cmds: &[&str]) -> Output {
+    Command::new(ROBOSIM)
+        .arg("simctl")
+        .args(["--session", &p.name])
+        .args(cmds)
+        .env("ROBOSIM_HOME", p.home.path())
+        .output()
+        .expect("simctl")
+}
+
+fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// `simctl get`, parsed; asserts it succeeded with one JSON line on stdout and nothing on
+/// stderr.
+fn get(p: &Procs) -> Value {
+    let out = simctl(p, &["get"]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert!(out.stderr.is_empty(), "stderr: {}", text(&out.stderr));
+    let stdout = text(&out.stdout);
+    assert_eq!(stdout.lines().count(), 1, "{stdout}");
+    serde_json::from_str(&stdout).expect("get answers JSON")
+}
+
+/// Steps `n` lock-step steps and waits until `get` says they were taken.
+fn step(p: &Procs, n: u64) -> Value {
+    let out = simctl(p, &[&json!({"cmd": "step", "n": n}).to_string()]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    assert_eq!(text(&out.stdout), "ok\n");
+    wait_for("the steps taken", || {
+        let s = get(p);
+        (s["state"] == "paused").then_some(s)
+    })
+}
+
+fn floats(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .expect("array")
+        .iter()
+        .map(|x| x.as_f64().expect("number"))
+        .collect()
+}
+
+/// The joint-state messages of `topic` streamed from `bytes`, stopping at the first record
+/// that cannot be read (a file cut by `kill -9`): (log_time, publish_time, JSON).
+fn stream(bytes: &[u8], topic: &str) -> Vec<(u64, u64, Value)> {
+    mcap::MessageStream::new(bytes)
+        .expect("MCAP magic")
+        .map_while(Result::ok)
+        .filter(|m| m.channel.topic == topic)
+        .map(|m| {
+            (
+                m.log_time,
+                m.publish_time,
+                serde_json::from_slice(&m.data).expect("JSON message"),
+            )
+        })
+        .collect()
+}
+
+/// `log_time == publish_time == k · dt` for k = 0, 1, …, in ns.
+fn assert_times_k_dt(msgs: &[(u64, u64, Value)]) {
+    for (k, (log, publish, _)) in msgs.iter().enumerate() {
+        let want = (k as f64 * DT * 1e9).round() as u64;
+        assert_eq!((*log, *publish), (want, want), "message {k}");
+    }
+}
+
+/// Equal but for the last bit: the CSV is parsed by `str::parse` (correctly rounded), the JSON
+/// by serde_json, whose default float parser may be one ulp off (both writers print the
+/// shortest representation that round-trips).
+fn assert_close(a: &[f64], b: &[f64], what: &str) {
+    assert_eq!(a.len(), b.len(), "{what}");
+    for (x, y) in a.iter().zip(b) {
+        assert!(
+            (x - y).abs() <= 1e-12 * x.abs().max(1.0),
+            "{what}: {a:?} vs {b:?}"
+        );
+    }
+}
+
+fn csv(path: &Path) -> (String, Vec<Vec<f64>>) {
+    let t = std::fs::read_to_string(path).expect("CSV log");
+    let mut lines = t.lines();
+    let header = lines.next().expect("header").to_owned();
+    let rows = lines
+        .map(|l| l.split(',').map(|x| x.parse().expect("number")).collect())
+        .collect();
+    (header, rows)
+}
+
+/// Item 5 and item 14: N lock-step steps; `get` (and `sim_state` over the query protocol)
+/// reports t = N·dt and the q of the CSV log's last row; the log has `t_s` first and units in
+/// its header; `robosim down` closes the recording with its summary: N + 1 messages per
+/// state channel (the start state and one per step) at k·dt, schemas present.
+#[test]
+fn get_reports_the_lockstep_state_the_csv_log_has_and_down_closes_the_mcap_recording() {
+    const N: u64 = 50;
+    let (mut p, daemon, mcap_path) = session_with_daemon("rec");
+    let target = r#"{"cmd": "target", "robot": "puma560", "q": [1.0, -0.5, 0, 0, 0, 0]}"#;
+    let out = simctl(&p, &[target]);
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let s = step(&p, N);
+
+    assert!(
+        (s["t_s"].as_f64().expect("t_s") - N as f64 * DT).abs() < 1e-12,
+        "{s}"
+    );
+    assert_eq!(s["steps"], N);
+    assert_eq!(s["run_steps"], N);
+    assert_eq!(s["dt_s"], DT);
+    assert_eq!(s["mode"], "lockstep");
+    assert_eq!(s["running"], false);
+    assert_eq!(s["queued_steps"], 0);
+    let r = &s["robots"][0];
+    assert_eq!(r["name"], "puma560");
+    assert_eq!(r["joint_types"], json!(vec!["revolute"; 6]));
+    assert_eq!(r["joints"].as_array().map(Vec::len), Some(6));
+    assert_eq!(floats(&r["target"]), [1.0, -0.5, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(r["contact"], false, "collision checked, nothing to hit");
+    let q = floats(&r["q"]);
+    assert!(
+        (q[0] - 0.5).abs() < 1e-9 && (q[1] + 0.5).abs() < 1e-9,
+        "1 rad/s for 0.5 s: {q:?}"
+    );
+
+    // The CSV log: time first, units in the header, its last row is what `get` says.
+    let log = PathBuf::from(r["log"].as_str().expect("log path"));
+    assert_eq!(log, p.session().run_dir().join("simulator-puma560.csv"));
+    let (header, rows) = csv(&log);
+    let want: Vec<String> = std::iter::once("t_s".to_owned())
+        .chain((1..=6).map(|j| format!("q{j}_rad")))
+        .chain((1..=6).map(|j| format!("qd{j}_rad_s")))
+        .collect();
+    assert_eq!(header, want.join(","));
+    assert_eq!(rows.len() as u64, N, "one row per step");
+    let last = rows.last().expect("rows");
+    assert!((last[0] - N as f64 * DT).abs() < 1e-12, "t_s {}", last[0]);
+    assert_close(&last[1..7], &q, "the log's last q is get's q");
+    assert_close(&last[7..13], &floats(&r["qd"]), "and its qd");
+
+    // The same state over the query protocol.
+    let mut child = Command::new(ROBOSIM)
+        .args(["query", "--session", &p.name])
+        .env("ROBOSIM_HOME", p.home.path())
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("query");
+    writeln!(
+        child.stdin.take().expect("stdin"),
+        r#"{{"id": 7, "op": "sim_state"}}"#
+    )
+    .expect("write");
+    let out = child.wait_with_output().expect("query output");
+    assert!(out.status.success(), "{}", text(&out.stderr));
+    let mut answer: Value = serde_json::from_slice(&out.stdout).expect("one JSON answer");
+    assert_eq!(answer["ok"], true, "{answer}");
+    let m = answer.as_object_mut().expect("object");
+    assert_eq!(m.remove("id"), Some(json!(7)));
+    m.remove("ok");
+    assert_eq!(answer, s, "sim_state answers what simctl get does");
+
+    // `robosim down` stops the daemon with SIGTERM; it closes the recording.
+    let down = Command::new(ROBOSIM)
+        .args(["down", "--session", &p.name])
+        .env("ROBOSIM_HOME", p.home.path())
+        .output()
+        .expect("down");
+    assert!(down.status.success(), "{}", text(&down.stderr));
+    let said = text(&down.stdout);
+    assert!(
+        said.contains(&format!("stopped simulator (pid {daemon})\n")),
+        "stopped cleanly, not by SIGKILL: {said}"
+    );
+    let i = p
+        .children
+        .iter()
+        .position(|c| c.id() == daemon)
+        .expect("daemon child");
+    let status = p.children.remove(i).wait().expect("wait");
+    assert!(status.success(), "daemon exit: {status}");
+
+    let bytes = std::fs::read(&mcap_path).expect("recording");
+    let summary = mcap::Summary::read(&bytes)
+        .expect("readable summary")
+        .expect("summary section present: the file was closed");
+    let mut schemas: Vec<(String, String)> = summary
+        .schemas
+        .values()
+        .map(|s| (s.name.clone(), s.encoding.clone()))
+        .collect();
+    schemas.sort();
+    assert_eq!(
+        schemas,
+        [
+            "foxglove.FrameTransforms",
+            "foxglove.Log",
+            "robosim.Contacts",
+            "sensor_msgs/msg/JointState"
+        ]
+        .map(|n| (n.to_owned(), "jsonschema".to_owned()))
+    );
+    for s in summary.schemas.values() {
+        let v: Value = serde_json::from_slice(&s.data).expect("schema is JSON");
+        assert_eq!(v["title"], s.name.as_str());
+    }
+    let stats = summary.stats.as_ref().expect("statistics");
+    let count = |topic: &str| {
+        let (id, c) = summary
+            .channels
+            .iter()
+            .find(|(_, c)| c.topic == topic)
+            .unwrap_or_else(|| panic!("channel {topic}"));
+        assert_eq!(c.message_encoding, "json");
+        assert!(c.schema.is_some(), "{topic} has a schema");
+        stats.channel_message_counts.get(id).copied().unwrap_or(0)
+    };
+    for topic in ["/puma560/joint_states", "/tf", "/contacts"] {
+        assert_eq!(
+            count(topic),
+            N + 1,
+            "{topic}: the start state and one per step"
+        );
+    }
+    assert_eq!(
+        count("/simulator/log"),
+        2,
+        "the target and the step command"
+    );
+    assert_eq!(stats.message_end_time, (N as f64 * DT * 1e9).round() as u64);
+
+    let joints = stream(&bytes, "/puma560/joint_states");
+    assert_eq!(joints.len() as u64, N + 1);
+    assert_times_k_dt(&joints);
+    let last = &joints.last().expect("messages").2;
+    assert_eq!(
+        floats(&last["position"]),
+        q,
+        "the last joint state is get's q"
+    );
+    assert_eq!(last["name"], r["joints"]);
+    assert_eq!(
+        floats(&joints[0].2["position"]),
+        [0.0; 6],
+        "the start state"
+    );
+    let tf = stream(&bytes, "/tf");
+    assert_times_k_dt(&tf);
+    let transforms = tf[0].2["transforms"].as_array().expect("transforms");
+    assert_eq!(
+        transforms.len(),
+        7,
+        "world → puma560, puma560 → its 6 links"
+    );
+    assert_eq!(transforms[0]["parent_frame_id"], "world");
+    assert_eq!(transforms[1]["parent_frame_id"], "puma560");
+}
+
+/// Item 9: a refusal is one message, once, on stderr, exit status 1; `ok` answers go to
+/// stdout; the commands after a refused one are not sent.
+#[test]
+fn a_simctl_refusal_is_said_once_on_stderr_and_stops_the_commands_after_it() {
+    let (p, _daemon, _) = session_with_daemon("refuse");
+    let out = simctl(
+        &p,
+        &[
+            "pause",
+            r#"{"cmd": "step", "n": 0}"#,
+            r#"{"cmd": "resume"}"#,
+        ],
+    );
+    assert_eq!(out.status.code(), Some(1));
+    assert_eq!(text(&out.stdout), "ok\n", "only the accepted pause");
+    let err = text(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "one line: {err}");
+    assert_eq!(
+        err.matches("must be an integer from 1 to").count(),
+        1,
+        "{err}"
+    );
+    assert!(
+        err.contains(r#"refused {"cmd": "step", "n": 0}"#),
+        "names the command: {err}"
+    );
+    assert_eq!(get(&p)["running"], false, "resume was not sent");
+
+    // A command that is not one is refused before anything is sent.
+    let out = simctl(&p, &["resume", "stpe"]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(out.stdout.is_empty());
+    let err = text(&out.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains(r#""stpe""#), "{err}");
+    assert_eq!(get(&p)["running"], false, "resume was not sent");
+}
+
+/// Item 14 after `kill -9`: no summary, but streaming reads every message up to the last
+/// flushed chunk — all of them, since an idle lock-step daemon has flushed everything.
+#[test]
+fn a_recording_cut_by_kill_9_streams_every_message_written_before_it() {
+    const N: u64 = 20;
+    let (p, daemon, mcap_path) = session_with_daemon("reck");
+    let s = step(&p, N);
+    let q = floats(&s["robots"][0]["q"]);
+    let _ = Command::new("kill")
+        .args(["-KILL", &daemon.to_string()])
+        .status();
+    wait_for("daemon gone", || {
+        (!robosim_instance_space::pid_alive(daemon)).then_some(())
+    });
+    let bytes = std::fs::read(&mcap_path).expect("recording");
+    assert!(
+        !matches!(mcap::Summary::read(&bytes), Ok(Some(_))),
+        "no summary after kill -9"
+    );
+    let joints = stream(&bytes, "/puma560/joint_states");
+    assert_eq!(joints.len() as u64, N + 1, "nothing flushed was lost");
+    assert_times_k_dt(&joints);
+    assert_eq!(floats(&joints.last().expect("messages").2["position"]), q);
+    assert_eq!(stream(&bytes, "/tf").len() as u64, N + 1);
+}
