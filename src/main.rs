@@ -30,6 +30,9 @@ enum Command {
         /// Scene to load when the session's model is empty.
         #[arg(long)]
         scene: Option<String>,
+        /// Start from this model file (`robosim save`): it replaces what the session held.
+        #[arg(long, conflicts_with = "scene")]
+        load: Option<std::path::PathBuf>,
         /// Library files to add to the session's Library Space (besides the standard library).
         #[arg(long)]
         library: Vec<std::path::PathBuf>,
@@ -43,7 +46,11 @@ enum Command {
     },
     /// Start a session: the keeper with SCENE, and only the components named with --with.
     Up {
-        scene: String,
+        #[arg(required_unless_present = "load")]
+        scene: Option<String>,
+        /// Start the session from this model file (`robosim save`) instead of a scene.
+        #[arg(long, conflicts_with = "scene")]
+        load: Option<std::path::PathBuf>,
         /// Comma-separated components: simulator, display, editor, file, hl.
         #[arg(long, value_delimiter = ',')]
         with: Vec<String>,
@@ -154,6 +161,43 @@ enum Command {
         #[command(subcommand)]
         which: reports::Which,
     },
+    /// Save the session's whole model (every object, every aspect, its Library Space
+    /// additions) at one version to FILE (binary with a checksum; JSON for .json).
+    Save {
+        #[command(flatten)]
+        args: robosim_file_io::cli::SaveArgs,
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// Load a model file into the session as one transaction (replace by default, or --merge).
+    Load {
+        #[command(flatten)]
+        args: robosim_file_io::cli::LoadArgs,
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// The session's (or a model file's) version, object counts and model digest.
+    Info {
+        #[command(flatten)]
+        args: robosim_file_io::cli::InfoArgs,
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// Export for other tools: glTF 2.0 binary (.glb), binary STL, the logged joint trajectory
+    /// (CSV), of a session or (--scene) a library scene.
+    Export {
+        #[command(flatten)]
+        args: robosim_file_io::cli::ExportArgs,
+        #[arg(long)]
+        session: Option<String>,
+    },
+    /// Import into a session: `mesh FILE --as NAME --at x,y,z[,r,p,y]` (STL or OBJ).
+    Import {
+        #[command(subcommand)]
+        cmd: robosim_file_io::cli::ImportCmd,
+        #[arg(long, global = true)]
+        session: Option<String>,
+    },
     /// Benchmarks that write their figures into docs/.
     Bench {
         #[command(subcommand)]
@@ -178,7 +222,23 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Space {
             session,
+            load: Some(file),
+            library,
+            no_sync,
+            journal_copies,
+            ..
+        } => robosim_file_io::cli::space_load(
+            &file,
+            session.as_deref(),
+            &library,
+            !no_sync,
+            journal_copies,
+        )
+        .map_err(CliError::from),
+        Command::Space {
+            session,
             scene,
+            load: None,
             library,
             no_sync,
             journal_copies,
@@ -191,12 +251,41 @@ fn main() -> ExitCode {
         )
         .map_err(CliError::from),
         Command::Up {
-            scene,
+            load: Some(file),
             with,
             session,
             library,
-        } => robosim_scene::launch::up_with_library(&scene, &with, session.as_deref(), &library)
+            ..
+        } => robosim_file_io::cli::up_load(&file, &with, session.as_deref(), &library)
             .map_err(CliError::from),
+        Command::Up {
+            scene,
+            load: None,
+            with,
+            session,
+            library,
+        } => robosim_scene::launch::up_with_library(
+            scene.as_deref().unwrap_or_default(),
+            &with,
+            session.as_deref(),
+            &library,
+        )
+        .map_err(CliError::from),
+        Command::Save { args, session } => {
+            robosim_file_io::cli::save(&args, session.as_deref()).map_err(CliError::from)
+        }
+        Command::Load { args, session } => {
+            robosim_file_io::cli::load(&args, session.as_deref()).map_err(CliError::from)
+        }
+        Command::Info { args, session } => {
+            robosim_file_io::cli::info(&args, session.as_deref()).map_err(CliError::from)
+        }
+        Command::Export { args, session } => {
+            robosim_file_io::cli::export(&args, session.as_deref()).map_err(CliError::from)
+        }
+        Command::Import { cmd, session } => {
+            robosim_file_io::cli::import(&cmd, session.as_deref()).map_err(CliError::from)
+        }
         Command::Ps { session } => {
             robosim_scene::launch::ps(session.as_deref()).map_err(CliError::from)
         }

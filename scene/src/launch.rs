@@ -12,7 +12,8 @@
 //! model, and [`up`] checks the scene exists before it starts anything. Processes are started
 //! from the running executable (the `robosim` binary).
 //!
-//! Entry points: [`run_space`], [`up`], [`up_with_library`], [`ps`], [`down`].
+//! Entry points: [`run_space`] ([`run_space_with`] a [`Preload`]ed model), [`up`],
+//! [`up_with_library`], [`up_from_file`], [`ps`], [`down`].
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -45,6 +46,22 @@ const COMPONENTS: &[(&str, Option<&str>)] = &[
     ("hl", None),
 ];
 
+/// A model the keeper starts from instead of its scene (`robosim space --load FILE`), prepared
+/// by the file interface, which this crate does not depend on.
+pub struct Preload {
+    /// Where the model comes from (for messages).
+    pub what: String,
+    /// Library Space files the model's instances came from, besides the standard library.
+    pub library: Vec<(String, String)>,
+    /// The one transaction that replaces the recovered model with the preloaded one.
+    #[expect(clippy::type_complexity, reason = "a one-off callback")]
+    pub transaction: Box<
+        dyn FnOnce(
+            &robosim_instance_space::Store,
+        ) -> std::result::Result<robosim_instance_space::Transaction, String>,
+    >,
+}
+
 /// `robosim space`: recover, load the scene into an empty model, serve until SIGTERM.
 pub fn run_space(
     session: Option<&str>,
@@ -53,13 +70,27 @@ pub fn run_space(
     durable: bool,
     journal_copies: u8,
 ) -> Result<()> {
+    run_space_with(session, scene_name, library, durable, journal_copies, None)
+}
+
+/// [`run_space`], starting from `preload` when given: its transaction replaces whatever the
+/// keeper recovered (journaled like any other), and the scene is not loaded.
+pub fn run_space_with(
+    session: Option<&str>,
+    scene_name: Option<&str>,
+    library: &[std::path::PathBuf],
+    durable: bool,
+    journal_copies: u8,
+    preload: Option<Preload>,
+) -> Result<()> {
     if !(1..=2).contains(&journal_copies) {
         bail!("--journal-copies must be 1 or 2, got {journal_copies}");
     }
     let session = Session::open(session)?;
     // The Library Space: the standard library plus the given files, checked before anything
     // is published or instantiated.
-    let lib = crate::build_library(library)?;
+    let extra = preload.as_ref().map_or(&[][..], |p| p.library.as_slice());
+    let lib = crate::instantiate::build_library_from(library, extra)?;
     let opts = KeeperOptions {
         durable,
         journal_copies,
@@ -84,7 +115,21 @@ pub fn run_space(
         "space: Library Space published ({} declarations)",
         lib.declarations().len()
     );
-    if keeper.store().is_empty()
+    if let Some(p) = preload {
+        let tx = (p.transaction)(keeper.store())
+            .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
+        if !tx.ops.is_empty() {
+            let a = keeper
+                .commit_local(&tx)
+                .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
+            eprintln!(
+                "space: loaded {} ({} objects, version {})",
+                p.what,
+                a.created.len(),
+                a.version
+            );
+        }
+    } else if keeper.store().is_empty()
         && let Some(name) = scene_name
     {
         let txs = scene::load_from(&lib, name)?;
@@ -162,6 +207,32 @@ pub fn up_with_library(
     session: Option<&str>,
     library: &[std::path::PathBuf],
 ) -> Result<()> {
+    up_start(Start::Scene(scene_name), with, session, library)
+}
+
+/// `robosim up --load FILE --with …`: a session whose keeper starts from a model file (checked
+/// by the caller, the file interface). The file's model replaces what the session held.
+pub fn up_from_file(
+    file: &std::path::Path,
+    with: &[String],
+    session: Option<&str>,
+    library: &[std::path::PathBuf],
+) -> Result<()> {
+    up_start(Start::File(file), with, session, library)
+}
+
+/// What a new keeper starts with.
+enum Start<'a> {
+    Scene(&'a str),
+    File(&'a std::path::Path),
+}
+
+fn up_start(
+    start: Start<'_>,
+    with: &[String],
+    session: Option<&str>,
+    library: &[std::path::PathBuf],
+) -> Result<()> {
     let session = Session::open(session)?;
     for c in with {
         match COMPONENTS.iter().find(|(n, _)| n == c) {
@@ -185,10 +256,27 @@ pub fn up_with_library(
             Some(_) => {}
         }
     }
-    let lib = crate::build_library(library)?;
-    scene::load_from(&lib, scene_name)?;
+    let from_file = matches!(start, Start::File(_));
+    let start_args: Vec<String> = match start {
+        Start::Scene(scene_name) => {
+            let lib = crate::build_library(library)?;
+            scene::load_from(&lib, scene_name)?;
+            vec!["--scene".into(), scene_name.into()]
+        }
+        Start::File(file) => {
+            let abs = std::path::absolute(file).map_err(io("the model file"))?;
+            vec!["--load".into(), abs.display().to_string()]
+        }
+    };
     let running = session.processes();
     let keeper_pid = match running.iter().find(|p| p.role == "space") {
+        Some(p) if from_file => bail!(
+            "session {} is running (keeper pid {}): load the file into it with `robosim load {} --session {}`",
+            session.name(),
+            p.pid,
+            start_args[1],
+            session.name()
+        ),
         Some(p) => {
             eprintln!(
                 "session {} already has a keeper (pid {}); adding components",
@@ -198,11 +286,9 @@ pub fn up_with_library(
             p.pid
         }
         None => {
-            let pid = spawn(
-                &session,
-                "space",
-                &["space", "--session", session.name(), "--scene", scene_name],
-            )?;
+            let mut args = vec!["space", "--session", session.name()];
+            args.extend(start_args.iter().map(String::as_str));
+            let pid = spawn(&session, "space", &args)?;
             wait_registered(&session, "space", pid, Duration::from_secs(30))?;
             if let Ok(note) = std::fs::read_to_string(
                 session
