@@ -296,19 +296,25 @@ fn refused_loads_leave_the_session_untouched_and_import_export_work() {
         format::encode_binary(&orphan),
         "names parent 424242, which is not in the file",
     ));
-    // Valid as a file, refused by the keeper: a link hung directly under the scene.
+    // Valid as a file, refused by the keeper: a link hung under a solid.
     let mut wrong = puma.clone();
     let link = wrong
         .objects
         .iter()
         .position(|o| o.kind == robosim_instance_space::Kind::Link)
         .expect("a link");
-    wrong.objects[link].parent = wrong.objects[0].id;
+    let solid = wrong
+        .objects
+        .iter()
+        .find(|o| o.kind == robosim_instance_space::Kind::Solid && o.parent == wrong.objects[0].id)
+        .expect("a base solid")
+        .id;
+    wrong.objects[link].parent = solid;
     let link_name = wrong.objects[link].name.clone();
     cases.push((
         "wrong.rsm",
         format::encode_binary(&wrong),
-        "a link cannot be a child of a scene",
+        "a link cannot be a child of a solid",
     ));
     for (name, bytes, want) in &cases {
         let path = dir.join(name);

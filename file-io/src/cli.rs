@@ -349,6 +349,7 @@ pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
     let mut c = robosim_instance_space::Client::connect(&s, "file-io")?;
     let applied = c.transact(&tx).map_err(|e| match e {
         robosim_instance_space::ClientError::Refused(source) => FileError::Refused {
+            path: a.file.clone(),
             session: s.name().to_owned(),
             id: 0,
             name: a.name.clone(),

@@ -70,15 +70,20 @@ pub enum FileError {
         field: String,
         value: f64,
     },
-    #[error("session {session} refused the file's object {id} ({name:?}): {source}")]
+    #[error("{path}: session {session} refused the file's object {id} ({name:?}): {source}")]
     Refused {
+        path: PathBuf,
         session: String,
         id: Id,
         name: String,
         source: TxError,
     },
-    #[error("session {session} refused the load: {source}")]
-    RefusedWhole { session: String, source: TxError },
+    #[error("{path}: session {session} refused the load: {source}")]
+    RefusedWhole {
+        path: PathBuf,
+        session: String,
+        source: TxError,
+    },
     #[error("{path}:{line}: {reason}")]
     Mesh {
         path: PathBuf,

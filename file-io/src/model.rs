@@ -259,6 +259,7 @@ impl SavedModel {
 
 /// A refusal of the keeper, blamed on the file object whose op it names.
 pub(crate) fn blame(
+    path: &std::path::Path,
     model: &SavedModel,
     plan: &LoadPlan,
     session: &str,
@@ -284,12 +285,14 @@ pub(crate) fn blame(
         .and_then(|i| model.objects.get(i))
     {
         Some(o) => FileError::Refused {
+            path: path.to_owned(),
             session: session.to_owned(),
             id: o.id,
             name: o.name.clone(),
             source: e,
         },
         None => FileError::RefusedWhole {
+            path: path.to_owned(),
             session: session.to_owned(),
             source: e,
         },

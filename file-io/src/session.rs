@@ -112,7 +112,7 @@ pub fn load(session: &Session, path: &Path, mode: LoadMode) -> Result<Loaded, Fi
     let applied = match client.transact(&plan.tx) {
         Ok(a) => a,
         Err(robosim_instance_space::ClientError::Refused(e)) => {
-            return Err(blame(&model, &plan, session.name(), e));
+            return Err(blame(path, &model, &plan, session.name(), e));
         }
         Err(e) => return Err(e.into()),
     };

@@ -300,9 +300,19 @@ fn up_start(
             pid
         }
     };
-    // The keeper is up when a client can connect and a reader sees the model.
+    // The keeper is up when a client can connect and a reader sees the model. A keeper that
+    // starts from a big model file (replacing what it recovered) may publish later than a
+    // reader's 10 s: wait on while it lives, up to 5 minutes.
     Client::connect(&session, "launcher").map_err(keeper_err)?;
-    let reader = Reader::attach(&session, "launcher-reader")?;
+    let waiting = Instant::now();
+    let reader = loop {
+        match Reader::attach(&session, "launcher-reader") {
+            Err(robosim_instance_space::ReaderError::Timeout(_))
+                if robosim_instance_space::pid_alive(keeper_pid)
+                    && waiting.elapsed() < Duration::from_secs(300) => {}
+            r => break r?,
+        }
+    };
     let version = reader.snapshot().map_or(0, |s| s.version());
     for c in with {
         if running.iter().any(|p| &p.role == c) {
