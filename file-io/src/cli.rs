@@ -353,7 +353,7 @@ pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
             session: s.name().to_owned(),
             id: 0,
             name: a.name.clone(),
-            source,
+            source: Box::new(source),
         },
         e => e.into(),
     })?;

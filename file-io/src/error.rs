@@ -76,13 +76,13 @@ pub enum FileError {
         session: String,
         id: Id,
         name: String,
-        source: TxError,
+        source: Box<TxError>,
     },
     #[error("{path}: session {session} refused the load: {source}")]
     RefusedWhole {
         path: PathBuf,
         session: String,
-        source: TxError,
+        source: Box<TxError>,
     },
     #[error("{path}:{line}: {reason}")]
     Mesh {

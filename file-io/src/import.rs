@@ -78,7 +78,7 @@ fn degenerate(t: &[[f64; 3]; 3]) -> bool {
     ];
     let area = len(cross) * 0.5;
     let size = len(u).max(len(v)).max(len(sub(t[2], t[1])));
-    n == [0.0; 3] || !(area > size * size * 1e-11)
+    n == [0.0; 3] || area.is_nan() || area <= size * size * 1e-11
 }
 
 /// The triangles as Instance Space geometry: identical vertices welded, degenerate triangles

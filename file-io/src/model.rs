@@ -289,12 +289,12 @@ pub(crate) fn blame(
             session: session.to_owned(),
             id: o.id,
             name: o.name.clone(),
-            source: e,
+            source: Box::new(e),
         },
         None => FileError::RefusedWhole {
             path: path.to_owned(),
             session: session.to_owned(),
-            source: e,
+            source: Box::new(e),
         },
     }
 }

@@ -66,14 +66,13 @@ pub fn convert(
         ));
     }
     let mut q = Vec::with_capacity(columns.len());
-    for j in 0..columns.len() {
+    for (j, column) in columns.iter().enumerate() {
         let want = format!("q{}", j + 1);
         q.push(names.iter().position(|n| *n == want).ok_or_else(|| {
             err(
                 1,
                 format!(
-                    "no column {want} for joint {} in {header:?} (does the scene log q?)",
-                    columns[j]
+                    "no column {want} for joint {column} in {header:?} (does the scene log q?)"
                 ),
             )
         })?);

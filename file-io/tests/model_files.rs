@@ -54,7 +54,8 @@ fn the_digest_ignores_ids_versions_and_sibling_order_but_not_content() {
     moved.objects.reverse();
     assert_eq!(digest(&moved), Some(d));
     // Any content: a vertex 1 µm off, a name, a colour, a joint value.
-    let edits: Vec<Box<dyn Fn(&mut SavedModel)>> = vec![
+    type Edit = Box<dyn Fn(&mut SavedModel)>;
+    let edits: Vec<Edit> = vec![
         Box::new(|m| {
             let o = m
                 .objects
