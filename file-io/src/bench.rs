@@ -172,9 +172,18 @@ pub fn run(out: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
     std::fs::create_dir_all(out).map_err(err("output directory"))?;
     let mut csv = String::from("measure,median_s,baseline,ratio_to_baseline\n");
     let mut md = String::new();
+    let load = std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|l| l.split_whitespace().next().map(str::to_owned))
+        .unwrap_or_else(|| "?".into());
+    let build = if cfg!(debug_assertions) {
+        "the dev profile (opt-level 1 for workspace crates, 2 for dependencies)"
+    } else {
+        "the release profile"
+    };
     let _ = writeln!(
         md,
-        "# Model files: save and load against `cp`\n\n`robosim bench files{}` — one run, {reps} interleaved repetitions, medians. Model: {} solids (cylinders of {facets} facets), {vertices} vertices; binary file {:.1} MB, JSON {:.1} MB. Directory: the sessions' device (`$ROBOSIM_HOME`). Baseline: `cp` of the same file (one read, one write: the physical limit), started as a process like any copy; with fsync rows, `cp` followed by `sync FILE`.\n",
+        "# Model files: save and load against `cp`\n\n`robosim bench files{}` — one run, {reps} interleaved repetitions, medians; built with {build}; load average {load} at the start. Model: {} solids (cylinders of {facets} facets), {vertices} vertices; binary file {:.1} MB, JSON {:.1} MB. Directory: the sessions' device (`$ROBOSIM_HOME`). Baseline: `cp` of the same file (one read, one write: the physical limit), started as a process like any copy; with fsync rows, `cp` followed by `sync FILE`.\n",
         if quick { " --quick" } else { "" },
         solids,
         bin_bytes as f64 / 1e6,
