@@ -1,5 +1,6 @@
-//! `robosim bench ipc|journal|display|reaction`: the subcommands and where each bench lives
-//! (`robosim_report::ipc`, `robosim_report::journal`, `robosim_display::bench`, `robosim_simulator_daemon::bench`).
+//! `robosim bench ipc|journal|display|reaction|files`: the subcommands and where each bench lives
+//! (`robosim_report::ipc`, `robosim_report::journal`, `robosim_display::bench`, `robosim_simulator_daemon::bench`,
+//! `robosim_file_io::bench`).
 
 use crate::{CliError, Result};
 use std::path::PathBuf;
@@ -50,6 +51,15 @@ pub enum Which {
         #[arg(long)]
         before: Option<PathBuf>,
     },
+    /// Model files: save and load of a 10⁶-vertex model against `cp` of the same bytes.
+    Files {
+        /// Where to write files.md and files.csv.
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
+        out: PathBuf,
+        /// A 10⁵-vertex model and fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+    },
     /// (internal) the reader process of the latency measurement.
     #[command(hide = true)]
     IpcReader {
@@ -95,6 +105,12 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
             let session = session.ok_or_else(|| CliError("ipc-reader needs --session".into()))?;
             robosim_report::ipc::latency_reader(session, count, &out)
                 .map_err(|e| CliError(e.to_string()))
+        }
+        Which::Files { out, quick } => {
+            let pb = robosim_report::progress::spinner("bench files");
+            let paths = robosim_file_io::bench::run(&out, quick).map_err(CliError)?;
+            pb.finish_and_clear();
+            wrote(&out, &paths)
         }
     }
 }

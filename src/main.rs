@@ -38,6 +38,9 @@ enum Command {
         /// Scene to load when the session's model is empty.
         #[arg(long)]
         scene: Option<String>,
+        /// Start from this model file (`robosim save`): it replaces what the session held.
+        #[arg(long, conflicts_with = "scene")]
+        load: Option<std::path::PathBuf>,
         /// Library files to add to the session's Library Space (besides the standard library).
         #[arg(long)]
         library: Vec<std::path::PathBuf>,
@@ -53,7 +56,11 @@ enum Command {
     /// session that already holds a model (running, or saved in its journal) keeps it.
     Up {
         /// The library scene or robot to load (`robosim lib list`).
-        scene: String,
+        #[arg(required_unless_present = "load")]
+        scene: Option<String>,
+        /// Start the session from this model file (`robosim save`) instead of a scene.
+        #[arg(long, conflicts_with = "scene")]
+        load: Option<std::path::PathBuf>,
         /// Comma-separated components to start beside the keeper.
         #[arg(long, value_delimiter = ',', value_parser = component_names())]
         with: Vec<String>,
@@ -151,6 +158,33 @@ enum Command {
     Report {
         #[command(subcommand)]
         which: reports::Which,
+    },
+    /// Save the session's whole model (every object, every aspect, its Library Space
+    /// additions) at one version to FILE (binary with a checksum; JSON for .json).
+    Save {
+        #[command(flatten)]
+        args: robosim_file_io::cli::SaveArgs,
+    },
+    /// Load a model file into the session as one transaction (replace by default, or --merge).
+    Load {
+        #[command(flatten)]
+        args: robosim_file_io::cli::LoadArgs,
+    },
+    /// The session's (or a model file's) version, object counts and model digest.
+    Info {
+        #[command(flatten)]
+        args: robosim_file_io::cli::InfoArgs,
+    },
+    /// Export for other tools: glTF 2.0 binary (.glb), binary STL, the logged joint trajectory
+    /// (CSV), of a session or (--scene) a library scene.
+    Export {
+        #[command(flatten)]
+        args: robosim_file_io::cli::ExportArgs,
+    },
+    /// Import into a session: `mesh FILE --as NAME --at x,y,z[,r,p,y]` (STL or OBJ).
+    Import {
+        #[command(subcommand)]
+        cmd: robosim_file_io::cli::ImportCmd,
     },
     /// Benchmarks: figures as ratios against a baseline measured in the same run.
     Bench {
@@ -253,7 +287,16 @@ fn existing(session: Option<&str>) -> Result<robosim_instance_space::Session> {
 fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
     match command {
         Command::Space {
+            load: Some(file),
+            library,
+            no_sync,
+            journal_copies,
+            ..
+        } => robosim_file_io::cli::space_load(&file, session, &library, !no_sync, journal_copies)
+            .map_err(CliError::from),
+        Command::Space {
             scene,
+            load: None,
             library,
             no_sync,
             journal_copies,
@@ -266,12 +309,43 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         )
         .map_err(CliError::from),
         Command::Up {
+            load: Some(file),
+            with,
+            library,
+            ..
+        } => robosim_file_io::cli::up_load(&file, &with, session, &library).map_err(CliError::from),
+        Command::Up {
             scene,
+            load: None,
             with,
             library,
             fresh,
-        } => robosim_scene::launch::up_with_library(&scene, &with, session, &library, fresh)
-            .map_err(CliError::from),
+        } => robosim_scene::launch::up_with_library(
+            scene.as_deref().unwrap_or_default(),
+            &with,
+            session,
+            &library,
+            fresh,
+        )
+        .map_err(CliError::from),
+        Command::Save { args } => {
+            existing(session)?;
+            robosim_file_io::cli::save(&args, session).map_err(CliError::from)
+        }
+        Command::Load { args } => {
+            existing(session)?;
+            robosim_file_io::cli::load(&args, session).map_err(CliError::from)
+        }
+        Command::Info { args } => {
+            robosim_file_io::cli::info(&args, session).map_err(CliError::from)
+        }
+        Command::Export { args } => {
+            robosim_file_io::cli::export(&args, session).map_err(CliError::from)
+        }
+        Command::Import { cmd } => {
+            existing(session)?;
+            robosim_file_io::cli::import(&cmd, session).map_err(CliError::from)
+        }
         Command::Ps { json } => robosim_scene::launch::ps(session, json).map_err(CliError::from),
         Command::Down => robosim_scene::launch::down(session).map_err(CliError::from),
         Command::Simulator {

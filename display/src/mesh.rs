@@ -47,8 +47,8 @@ impl CpuMesh {
                 poly.plane[1] as f32,
                 poly.plane[2] as f32,
             ];
-            for k in 1..idx.len().saturating_sub(1) {
-                for &i in &[idx[0], idx[k], idx[k + 1]] {
+            for tri in robosim_geometry::triangulate::fan(idx) {
+                for i in tri {
                     mesh.vertices.push(Vertex { pos: v(i), normal });
                 }
                 mesh.tri_polygon.push(pi as u32);

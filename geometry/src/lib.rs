@@ -10,6 +10,7 @@
 //!   revolution) with their size-dependent default facet count.
 //! * [`polygon2d`] — simple-polygon validation and convex decomposition.
 //! * [`Polyhedron::mass_properties`] ([`mass`]) — volume, centre of mass, inertia.
+//! * [`triangulate`] — the fan triangles of the (convex) polygons, for the display and export.
 //!
 //! Frames and units: metres, in the solid's own frame; polygons are listed counter-clockwise
 //! seen from outside, so plane normals point outward.
@@ -18,6 +19,7 @@ pub mod mass;
 pub mod polygon2d;
 mod polyhedron;
 pub mod shapes;
+pub mod triangulate;
 
 pub use mass::{MassError, MassProperties};
 pub use polyhedron::{Aabb, GeometryError, PLANARITY_TOL, Plane, Polygon, Polyhedron};

@@ -255,21 +255,27 @@ impl Journal {
     }
 }
 
-/// One object in checkpoint form.
-#[derive(Serialize, Deserialize)]
-struct ObjectData {
-    id: Id,
-    kind: Kind,
-    parent: Id,
-    name: String,
-    pose: Pose,
-    joint: f64,
-    appearance: Appearance,
-    kinematics: Option<Kinematics>,
-    dynamics: Option<MassProps>,
-    geometry: Option<GeometryInput>,
-    geom_gen: u64,
-    origin: String,
+/// One object in checkpoint form: every aspect of an Instance Space object as plain data, the
+/// geometry as the vertices and polygons a writer sends (the derived forms are recomputed on
+/// load). The keeper's checkpoints and the file interface's model files (`file-io/`) both hold
+/// objects in this form, so there is one serialised model, not two.
+///
+/// Units and frames as in [`Object`]: metres, radians, kilograms; `pose` local to `parent`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObjectData {
+    pub id: Id,
+    pub kind: Kind,
+    /// 0: a root.
+    pub parent: Id,
+    pub name: String,
+    pub pose: Pose,
+    pub joint: f64,
+    pub appearance: Appearance,
+    pub kinematics: Option<Kinematics>,
+    pub dynamics: Option<MassProps>,
+    pub geometry: Option<GeometryInput>,
+    pub geom_gen: u64,
+    pub origin: String,
 }
 
 #[derive(Serialize, Deserialize)]

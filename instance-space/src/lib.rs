@@ -29,6 +29,7 @@ mod transaction;
 mod view;
 
 pub use client::{Client, ClientError, Committed, Pending};
+pub use journal::ObjectData;
 pub use keeper::{Keeper, KeeperError, KeeperOptions};
 pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot};
 pub use session::{

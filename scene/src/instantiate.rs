@@ -460,15 +460,30 @@ pub fn parse_params(pairs: &[String]) -> Result<BTreeMap<String, String>> {
 
 /// The standard library plus `files` (each may `include "std"`), checked as one library.
 pub fn build_library(files: &[std::path::PathBuf]) -> Result<Library> {
+    build_library_from(files, &[])
+}
+
+/// [`build_library`] plus source files already in memory as (name, text) — a model file's
+/// Library Space additions; a name already present is not added twice.
+pub fn build_library_from(
+    files: &[std::path::PathBuf],
+    extra: &[(String, String)],
+) -> Result<Library> {
     let std = Library::standard().map_err(|e| SceneError::Library(e.to_string()))?;
     let mut sources = std.sources();
+    let mut add = |name: String, text: String| {
+        if !sources.iter().any(|(n, _)| *n == name) {
+            sources.push((name, text));
+        }
+    };
     for f in files {
         let lib = Library::load(f).map_err(|e| SceneError::Library(e.to_string()))?;
         for (name, text) in lib.sources() {
-            if !sources.iter().any(|(n, _)| *n == name) {
-                sources.push((name, text));
-            }
+            add(name, text);
         }
+    }
+    for (name, text) in extra {
+        add(name.clone(), text.clone());
     }
     Library::from_sources(&sources).map_err(|e| SceneError::Library(e.to_string()))
 }

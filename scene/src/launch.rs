@@ -12,7 +12,8 @@
 //! model, and [`up`] checks the scene exists before it starts anything. Processes are started
 //! from the running executable (the `robosim` binary).
 //!
-//! Entry points: [`run_space`], [`up`], [`up_with_library`], [`ps`], [`down`].
+//! Entry points: [`run_space`] ([`run_space_with`] a [`Preload`]ed model), [`up`],
+//! [`up_with_library`], [`up_from_file`], [`ps`], [`down`].
 
 type Result<T> = std::result::Result<T, SceneError>;
 
@@ -45,6 +46,25 @@ pub const COMPONENTS: &[(&str, &str)] = &[("simulator", "simulator"), ("display"
 /// that a later `up` can tell whether the saved model is the scene it is asked for.
 pub const SCENE_NOTE: &str = "scene";
 
+/// How the scene note records a model the keeper started from a file (`space --load`).
+const FILE_NOTE_PREFIX: &str = "file ";
+
+/// A model the keeper starts from instead of its scene (`robosim space --load FILE`), prepared
+/// by the file interface, which this crate does not depend on.
+pub struct Preload {
+    /// Where the model comes from (for messages).
+    pub what: String,
+    /// Library Space files the model's instances came from, besides the standard library.
+    pub library: Vec<(String, String)>,
+    /// The one transaction that replaces the recovered model with the preloaded one.
+    #[expect(clippy::type_complexity, reason = "a one-off callback")]
+    pub transaction: Box<
+        dyn FnOnce(
+            &robosim_instance_space::Store,
+        ) -> std::result::Result<robosim_instance_space::Transaction, String>,
+    >,
+}
+
 /// `robosim space`: recover, load the scene into an empty model, serve until SIGTERM.
 pub fn run_space(
     session: Option<&str>,
@@ -53,13 +73,27 @@ pub fn run_space(
     durable: bool,
     journal_copies: u8,
 ) -> Result<()> {
+    run_space_with(session, scene_name, library, durable, journal_copies, None)
+}
+
+/// [`run_space`], starting from `preload` when given: its transaction replaces whatever the
+/// keeper recovered (journaled like any other), and the scene is not loaded.
+pub fn run_space_with(
+    session: Option<&str>,
+    scene_name: Option<&str>,
+    library: &[std::path::PathBuf],
+    durable: bool,
+    journal_copies: u8,
+    preload: Option<Preload>,
+) -> Result<()> {
     if !(1..=2).contains(&journal_copies) {
         bail!("--journal-copies must be 1 or 2, got {journal_copies}");
     }
     let session = Session::open(session)?;
     // The Library Space: the standard library plus the given files, checked before anything
     // is published or instantiated.
-    let lib = crate::build_library(library)?;
+    let extra = preload.as_ref().map_or(&[][..], |p| p.library.as_slice());
+    let lib = crate::instantiate::build_library_from(library, extra)?;
     let opts = KeeperOptions {
         durable,
         journal_copies,
@@ -84,7 +118,26 @@ pub fn run_space(
         "space: Library Space published ({} declarations)",
         lib.declarations().len()
     );
-    if keeper.store().is_empty()
+    if let Some(p) = preload {
+        let tx = (p.transaction)(keeper.store())
+            .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
+        if !tx.ops.is_empty() {
+            let a = keeper
+                .commit_local(&tx)
+                .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
+            eprintln!(
+                "space: loaded {} ({} objects, version {})",
+                p.what,
+                a.created.len(),
+                a.version
+            );
+        }
+        // What the model now comes from, for a later `up SCENE` (see `up_start`).
+        robosim_instance_space::write_private(
+            &session.data_dir().join(SCENE_NOTE),
+            format!("{FILE_NOTE_PREFIX}{}", p.what).as_bytes(),
+        )?;
+    } else if keeper.store().is_empty()
         && let Some(name) = scene_name
     {
         let txs = scene::load_from(&lib, name)?;
@@ -216,6 +269,46 @@ pub fn up_with_library(
     library: &[std::path::PathBuf],
     fresh: bool,
 ) -> Result<()> {
+    up_start(Start::Scene(scene_name), with, session, library, fresh)
+}
+
+/// `robosim up --load FILE --with …`: a session whose keeper starts from a model file (checked
+/// by the caller, the file interface). The file's model replaces what a stopped session held
+/// (one journaled transaction); a running session is refused (use `robosim load`).
+pub fn up_from_file(
+    file: &std::path::Path,
+    with: &[String],
+    session: Option<&str>,
+    library: &[std::path::PathBuf],
+) -> Result<()> {
+    up_start(Start::File(file), with, session, library, false)
+}
+
+/// What a new keeper starts with.
+#[derive(Clone, Copy)]
+enum Start<'a> {
+    Scene(&'a str),
+    File(&'a std::path::Path),
+}
+
+/// What the scene note says a session's model came from, in words.
+fn origin_words(recorded: Option<&str>) -> String {
+    match recorded {
+        None => "a model of unknown origin".to_owned(),
+        Some(r) => match r.strip_prefix(FILE_NOTE_PREFIX) {
+            Some(file) => format!("the model loaded from {file}"),
+            None => format!("scene {r}"),
+        },
+    }
+}
+
+fn up_start(
+    start: Start<'_>,
+    with: &[String],
+    session: Option<&str>,
+    library: &[std::path::PathBuf],
+    fresh: bool,
+) -> Result<()> {
     for c in with {
         if !COMPONENTS.iter().any(|(n, _)| n == c) {
             bail!(
@@ -228,16 +321,21 @@ pub fn up_with_library(
             );
         }
     }
-    let lib = crate::build_library(library)?;
-    scene::load_from(&lib, scene_name)?;
+    let start_args: Vec<String> = match start {
+        Start::Scene(scene_name) => {
+            let lib = crate::build_library(library)?;
+            scene::load_from(&lib, scene_name)?;
+            vec!["--scene".into(), scene_name.into()]
+        }
+        Start::File(file) => {
+            let abs = std::path::absolute(file).map_err(io("the model file"))?;
+            vec!["--load".into(), abs.display().to_string()]
+        }
+    };
     let session = Session::open(session)?;
     let name = session.name().to_owned();
-    let other = |running: bool, recorded: &Option<String>| -> SceneError {
-        let from = recorded
-            .as_deref()
-            .map_or("a model of unknown origin".to_owned(), |r| {
-                format!("scene {r}")
-            });
+    let other = |scene_name: &str, running: bool, recorded: &Option<String>| -> SceneError {
+        let from = origin_words(recorded.as_deref());
         let (what, start, stop) = if running {
             (
                 "already runs",
@@ -245,7 +343,10 @@ pub fn up_with_library(
                 format!("robosim down --session {name} && "),
             )
         } else {
-            let resume = recorded.as_deref().unwrap_or(scene_name);
+            let resume = match recorded.as_deref() {
+                Some(r) if !r.starts_with(FILE_NOTE_PREFIX) => r,
+                _ => "SCENE",
+            };
             (
                 "has a saved model (in its journal) of",
                 format!("robosim up {resume} --session {name} && "),
@@ -259,21 +360,34 @@ pub fn up_with_library(
              (the saved model is moved aside, not deleted)"
         ))
     };
-    let running = match existing(&session) {
-        Existing::Running(pid, _) if fresh => bail!(
+    let running = match (existing(&session), start) {
+        (Existing::Running(pid, _), Start::File(_)) => bail!(
+            "session {name} is running (keeper pid {pid}): load the file into it with \
+             `robosim load {} --session {name}`",
+            start_args[1]
+        ),
+        (Existing::Running(pid, _), Start::Scene(_)) if fresh => bail!(
             "session {name} is running (keeper pid {pid}); --fresh needs it stopped: \
              robosim down --session {name}"
         ),
-        Existing::Running(pid, recorded) => {
+        (Existing::Running(pid, recorded), Start::Scene(scene_name)) => {
             if recorded.as_deref() != Some(scene_name) {
-                return Err(other(true, &recorded));
+                return Err(other(scene_name, true, &recorded));
             }
             eprintln!(
                 "session {name} already runs scene {scene_name} (keeper pid {pid}); adding components"
             );
             true
         }
-        Existing::Saved(_) if fresh => {
+        (Existing::Saved(recorded), Start::File(file)) => {
+            eprintln!(
+                "session {name}: {} is replaced by {} (one journaled transaction)",
+                origin_words(recorded.as_deref()),
+                file.display()
+            );
+            false
+        }
+        (Existing::Saved(_), Start::Scene(_)) if fresh => {
             let to = move_aside(&session)?;
             eprintln!(
                 "session {name}: the saved model was moved to {}",
@@ -281,9 +395,9 @@ pub fn up_with_library(
             );
             false
         }
-        Existing::Saved(recorded) => {
+        (Existing::Saved(recorded), Start::Scene(scene_name)) => {
             if recorded.as_deref() != Some(scene_name) {
-                return Err(other(false, &recorded));
+                return Err(other(scene_name, false, &recorded));
             }
             eprintln!(
                 "session {name}: resuming the saved model of scene {scene_name} from its journal \
@@ -291,7 +405,7 @@ pub fn up_with_library(
             );
             false
         }
-        Existing::Nothing => false,
+        (Existing::Nothing, _) => false,
     };
     let procs = session.processes();
     let keeper_pid = if running {
@@ -300,11 +414,9 @@ pub fn up_with_library(
             .find(|p| p.role == "space")
             .map_or(0, |p| p.pid)
     } else {
-        let pid = spawn(
-            &session,
-            "space",
-            &["space", "--session", session.name(), "--scene", scene_name],
-        )?;
+        let mut args = vec!["space", "--session", session.name()];
+        args.extend(start_args.iter().map(String::as_str));
+        let pid = spawn(&session, "space", &args)?;
         wait_registered(&session, "space", pid, Duration::from_secs(30))?;
         if let Ok(note) = std::fs::read_to_string(
             session
@@ -315,9 +427,19 @@ pub fn up_with_library(
         }
         pid
     };
-    // The keeper is up when a client can connect and a reader sees the model.
+    // The keeper is up when a client can connect and a reader sees the model. A keeper that
+    // starts from a big model file (replacing what it recovered) may publish later than a
+    // reader's 10 s: wait on while it lives, up to 5 minutes.
     Client::connect(&session, "launcher").map_err(keeper_err)?;
-    let reader = Reader::attach(&session, "launcher-reader")?;
+    let waiting = Instant::now();
+    let reader = loop {
+        match Reader::attach(&session, "launcher-reader") {
+            Err(robosim_instance_space::ReaderError::Timeout(_))
+                if robosim_instance_space::pid_alive(keeper_pid)
+                    && waiting.elapsed() < Duration::from_secs(300) => {}
+            r => break r?,
+        }
+    };
     let version = reader.snapshot().map_or(0, |s| s.version());
     for c in with {
         if procs.iter().any(|p| &p.role == c) {

@@ -1,0 +1,405 @@
+//! The command-line glue of the file interface: one clap argument struct and one run function
+//! per command; the binary adds the subcommands and passes `--session`.
+//!
+//! `robosim save FILE`, `load FILE [--merge|--replace]`, `info [FILE]`, `export [FORMAT] FILE`,
+//! `import mesh FILE --as NAME --at x,y,z[,r,p,y]`, `up --load FILE`, `space --load FILE`.
+
+use crate::error::FileError;
+use crate::format::{self, Encoding};
+use crate::model::LoadMode;
+use crate::session::{self, Info};
+use robosim_instance_space::{Appearance, Kind, Reader, Session};
+use std::path::{Path, PathBuf};
+
+type Result<T> = std::result::Result<T, FileError>;
+
+/// `robosim save FILE`
+#[derive(clap::Args, Debug)]
+pub struct SaveArgs {
+    /// The model file: binary (checksummed), or JSON when the name ends in .json.
+    pub file: PathBuf,
+    /// Write the readable JSON form whatever the name.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn save(a: &SaveArgs, session: Option<&str>) -> Result<()> {
+    let s = Session::open(session)?;
+    let enc = if a.json {
+        Encoding::Json
+    } else {
+        Encoding::from_path(&a.file)
+    };
+    let r = session::save(&s, &a.file, enc)?;
+    println!(
+        "saved session {} at version {} to {}: {} objects, {} bytes, digest {}",
+        s.name(),
+        r.version,
+        a.file.display(),
+        r.objects,
+        r.bytes,
+        r.digest
+    );
+    Ok(())
+}
+
+/// `robosim load FILE`
+#[derive(clap::Args, Debug)]
+pub struct LoadArgs {
+    /// A model file written by `robosim save` (binary or JSON, told apart by content).
+    pub file: PathBuf,
+    /// Add the file's objects beside the session's (new ids) instead of replacing them.
+    #[arg(long, conflicts_with = "replace")]
+    pub merge: bool,
+    /// Delete every object of the session and create the file's (the default).
+    #[arg(long)]
+    pub replace: bool,
+}
+
+pub fn load(a: &LoadArgs, session: Option<&str>) -> Result<()> {
+    let s = Session::open(session)?;
+    let mode = if a.merge {
+        LoadMode::Merge
+    } else {
+        LoadMode::Replace
+    };
+    let r = session::load(&s, &a.file, mode)?;
+    if !r.missing_library.is_empty() {
+        eprintln!(
+            "robosim load: the file's Library Space files {} are not in session {}'s (a running keeper's library cannot grow); the objects loaded, but `robosim set` cannot re-instantiate instances of their declarations — start the session with `robosim up --load {}` to have them",
+            r.missing_library.join(", "),
+            s.name(),
+            a.file.display()
+        );
+    }
+    println!(
+        "loaded {} into session {} ({}): {} objects created, {} deleted, version {}",
+        a.file.display(),
+        s.name(),
+        if a.merge { "merge" } else { "replace" },
+        r.created,
+        r.deleted,
+        r.version
+    );
+    Ok(())
+}
+
+/// `robosim info [FILE]`
+#[derive(clap::Args, Debug)]
+pub struct InfoArgs {
+    /// Describe this model file instead of a session's model.
+    pub file: Option<PathBuf>,
+}
+
+pub fn info(a: &InfoArgs, session: Option<&str>) -> Result<()> {
+    let info = match &a.file {
+        Some(f) => Info::of(&format::read(f)?),
+        None => session::info(&Session::open(session)?)?,
+    };
+    print!("{info}");
+    Ok(())
+}
+
+/// `robosim export [FORMAT] FILE`
+#[derive(clap::Args, Debug)]
+pub struct ExportArgs {
+    /// `[gltf|stl|trajectory] FILE`; without a format, the file's extension says
+    /// (.glb, .stl, .csv).
+    #[arg(num_args = 1..=2, value_names = ["FORMAT", "FILE"], required = true)]
+    pub what: Vec<String>,
+    /// Export a Library Space declaration instantiated with its defaults, without a session.
+    #[arg(long)]
+    pub scene: Option<String>,
+    /// Library files to add to the standard library (with --scene).
+    #[arg(long)]
+    pub library: Vec<PathBuf>,
+    /// STL: only this object and what hangs under it (by name).
+    #[arg(long)]
+    pub body: Option<String>,
+    /// Trajectory: the robot (default: the session's only robot).
+    #[arg(long)]
+    pub robot: Option<String>,
+    /// Trajectory: the simulator log to read (default: the session's run/simulator-ROBOT.csv).
+    #[arg(long)]
+    pub log: Option<PathBuf>,
+    /// Trajectory: seconds between two log rows, for a log without a time column.
+    #[arg(long)]
+    pub dt: Option<f64>,
+}
+
+/// The export formats.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Format {
+    Gltf,
+    Stl,
+    Trajectory,
+}
+
+fn export_format(what: &[String]) -> Result<(Format, PathBuf)> {
+    let parse = |f: &str| match f.to_ascii_lowercase().as_str() {
+        "gltf" | "glb" => Ok(Format::Gltf),
+        "stl" => Ok(Format::Stl),
+        "trajectory" | "csv" => Ok(Format::Trajectory),
+        "urdf" => Err(FileError::Usage(
+            "URDF export belongs to the URDF issue and is not built yet".into(),
+        )),
+        other => Err(FileError::Usage(format!(
+            "unknown export format {other:?}: gltf, stl or trajectory"
+        ))),
+    };
+    match what {
+        [f, file] => Ok((parse(f)?, PathBuf::from(file))),
+        [file] => {
+            let p = PathBuf::from(file);
+            let ext = p
+                .extension()
+                .and_then(|e| e.to_str())
+                .unwrap_or("")
+                .to_owned();
+            Ok((
+                parse(&ext).map_err(|_| {
+                    FileError::Usage(format!(
+                        "{file}: say the format (gltf, stl, trajectory) or use .glb, .stl or .csv"
+                    ))
+                })?,
+                p,
+            ))
+        }
+        _ => Err(FileError::Usage("export [FORMAT] FILE".into())),
+    }
+}
+
+pub fn export(a: &ExportArgs, session: Option<&str>) -> Result<()> {
+    let (fmt, out) = export_format(&a.what)?;
+    if fmt == Format::Trajectory {
+        return export_trajectory(a, session, &out);
+    }
+    let (model, what) = match &a.scene {
+        Some(name) => (
+            crate::scene_model(name, &a.library)?,
+            format!("scene {name}"),
+        ),
+        None => {
+            let s = Session::open(session)?;
+            (session::read_session(&s)?, format!("session {}", s.name()))
+        }
+    };
+    match fmt {
+        Format::Gltf => {
+            let (bytes, st) = crate::gltf::to_glb(&model).ok_or_else(|| {
+                FileError::Usage(format!("{what}: the model's structure is invalid"))
+            })?;
+            format::write_atomic(&out, &bytes)?;
+            println!(
+                "exported {what} to {}: {} nodes, {} meshes, {} triangles, {} materials",
+                out.display(),
+                st.nodes,
+                st.meshes,
+                st.triangles,
+                st.materials
+            );
+        }
+        Format::Stl => {
+            let roots: Option<Vec<u64>> = match &a.body {
+                None => None,
+                Some(name) => {
+                    let ids: Vec<u64> = model
+                        .objects
+                        .iter()
+                        .filter(|o| o.name == *name)
+                        .map(|o| o.id)
+                        .collect();
+                    match ids.len() {
+                        0 => {
+                            return Err(FileError::Usage(format!("{what} has no object {name:?}")));
+                        }
+                        1 => Some(ids),
+                        n => {
+                            return Err(FileError::Usage(format!(
+                                "{what} has {n} objects named {name:?} (ids {ids:?}); rename one first"
+                            )));
+                        }
+                    }
+                }
+            };
+            let label = a
+                .body
+                .as_deref()
+                .map_or(what.clone(), |b| format!("{what}, body {b}"));
+            let (bytes, n) =
+                crate::stl::to_stl(&model, roots.as_deref(), &label).ok_or_else(|| {
+                    FileError::Usage(format!("{what}: the model's structure is invalid"))
+                })?;
+            format::write_atomic(&out, &bytes)?;
+            println!(
+                "exported {label} to {}: {n} triangles (world frame, m)",
+                out.display()
+            );
+        }
+        Format::Trajectory => {}
+    }
+    Ok(())
+}
+
+fn export_trajectory(a: &ExportArgs, session: Option<&str>, out: &Path) -> Result<()> {
+    let s = Session::open(session)?;
+    let reader = Reader::attach(&s, "file-io")?;
+    let snap = reader
+        .snapshot()
+        .ok_or_else(|| FileError::Usage(format!("session {}: no model", s.name())))?;
+    let robot = match &a.robot {
+        Some(r) => r.clone(),
+        None => {
+            let robots = snap.robots();
+            match robots.as_slice() {
+                [one] => one.name.to_owned(),
+                _ => {
+                    let names: Vec<&str> = robots.iter().map(|r| r.name).collect();
+                    return Err(FileError::Usage(format!(
+                        "say which robot with --robot: {}",
+                        names.join(", ")
+                    )));
+                }
+            }
+        }
+    };
+    let columns = crate::trajectory::joint_columns(&snap, &robot)?;
+    let log = a
+        .log
+        .clone()
+        .unwrap_or_else(|| s.run_dir().join(format!("simulator-{robot}.csv")));
+    let rows = crate::trajectory::export(&log, &columns, a.dt, out)?;
+    println!(
+        "exported {robot}'s trajectory from {} to {}: {rows} samples, columns t_s,{}",
+        log.display(),
+        out.display(),
+        columns.join(",")
+    );
+    Ok(())
+}
+
+/// `robosim import …`
+#[derive(clap::Subcommand, Debug)]
+pub enum ImportCmd {
+    /// An STL (binary or ASCII) or OBJ mesh as an item placed in the scene (one transaction).
+    Mesh(ImportMeshArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ImportMeshArgs {
+    /// The mesh file (.stl or .obj).
+    pub file: PathBuf,
+    /// The item's name (its solid is NAME-mesh).
+    #[arg(long = "as")]
+    pub name: String,
+    /// Position (m) and optionally roll, pitch, yaw (deg) in the parent's frame.
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
+    pub at: String,
+    /// File units to metres (e.g. 0.001 for a file in millimetres).
+    #[arg(long, default_value_t = 1.0)]
+    pub scale: f64,
+    /// Keep the convex hull instead of the mesh.
+    #[arg(long)]
+    pub hull: bool,
+    /// r,g,b[,a] in 0..1.
+    #[arg(long)]
+    pub color: Option<String>,
+    /// The scene to place it in (default: the session's first scene).
+    #[arg(long)]
+    pub parent: Option<String>,
+}
+
+pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
+    let ImportCmd::Mesh(a) = cmd;
+    let pose = crate::import::parse_at(&a.at)?;
+    let mut appearance = Appearance::default();
+    if let Some(c) = &a.color {
+        appearance.color = crate::import::parse_color(c)?;
+    }
+    let tris = crate::import::read_mesh(&a.file, a.scale)?;
+    let g = crate::import::mesh_geometry(&tris, a.hull, &a.file)?;
+    let s = Session::open(session)?;
+    let reader = Reader::attach(&s, "file-io")?;
+    let snap = reader
+        .snapshot()
+        .ok_or_else(|| FileError::Usage(format!("session {}: no model", s.name())))?;
+    let scenes: Vec<usize> = (0..snap.len())
+        .filter(|&i| snap.object(i).kind() == Some(Kind::Scene))
+        .collect();
+    let parent = match &a.parent {
+        Some(p) => Some(
+            scenes
+                .iter()
+                .find(|&&i| snap.name(i) == p)
+                .map(|&i| snap.objects()[i].id)
+                .ok_or_else(|| {
+                    FileError::Usage(format!("session {} has no scene {p:?}", s.name()))
+                })?,
+        ),
+        None => scenes.first().map(|&i| snap.objects()[i].id),
+    };
+    drop(snap);
+    let place = crate::import::Placement {
+        name: a.name.clone(),
+        pose,
+        parent,
+        appearance,
+    };
+    let tx = crate::import::import_tx(&g.geometry, &place);
+    let mut c = robosim_instance_space::Client::connect(&s, "file-io")?;
+    let applied = c.transact(&tx).map_err(|e| match e {
+        robosim_instance_space::ClientError::Refused(source) => FileError::Refused {
+            path: a.file.clone(),
+            session: s.name().to_owned(),
+            id: 0,
+            name: a.name.clone(),
+            source: Box::new(source),
+        },
+        e => e.into(),
+    })?;
+    println!(
+        "imported {} as {}: {} triangles read, {} dropped (zero area), {} vertices, {} polygons{}, version {}",
+        a.file.display(),
+        a.name,
+        g.read,
+        g.dropped,
+        g.geometry.vertices.len(),
+        g.geometry.polygons.len(),
+        if a.hull { " (convex hull)" } else { "" },
+        applied.version
+    );
+    Ok(())
+}
+
+/// `robosim up --load FILE --with …`: checks the file, then starts the session's keeper from it.
+pub fn up_load(
+    file: &Path,
+    with: &[String],
+    session: Option<&str>,
+    library: &[PathBuf],
+) -> Result<()> {
+    format::read(file)?;
+    robosim_scene::launch::up_from_file(file, with, session, library)?;
+    Ok(())
+}
+
+/// `robosim space --load FILE`: the keeper, starting from the file's model (it replaces what
+/// the session's journal held, as one journaled transaction).
+pub fn space_load(
+    file: &Path,
+    session: Option<&str>,
+    library: &[PathBuf],
+    durable: bool,
+    journal_copies: u8,
+) -> Result<()> {
+    let preload = session::preload(file)?;
+    robosim_scene::launch::run_space_with(
+        session,
+        None,
+        library,
+        durable,
+        journal_copies,
+        Some(preload),
+    )?;
+    Ok(())
+}

@@ -1,0 +1,110 @@
+//! What can go wrong reading, writing, loading and exchanging model files. Every variant names
+//! the file (or the session) and says what was wrong where; none of them leaves a session
+//! changed (a load is one transaction: refused whole or applied whole).
+
+use robosim_instance_space::{Id, TxError};
+use std::path::PathBuf;
+
+/// A problem with the objects a model file holds (checked before anything is sent).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ModelProblem {
+    #[error("object {index} has id 0 (0 means \"no object\")")]
+    ZeroId { index: usize },
+    #[error("objects {first} and {second} both have id {id}")]
+    DuplicateId { id: Id, first: usize, second: usize },
+    #[error("object {id} ({name:?}) names parent {parent}, which is not in the file")]
+    MissingParent { id: Id, name: String, parent: Id },
+    #[error("object {id} ({name:?}) is its own ancestor (the parent links form a cycle)")]
+    Cycle { id: Id, name: String },
+}
+
+/// Why a file operation failed.
+#[derive(Debug, thiserror::Error)]
+pub enum FileError {
+    #[error("{path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error(
+        "{path}: not a robosim model file (it starts neither with the model file magic nor with a JSON object)"
+    )]
+    Magic { path: PathBuf },
+    #[error(
+        "{path}: truncated: the header announces {expected} bytes, the file has {found} (an interrupted copy or write?)"
+    )]
+    Truncated {
+        path: PathBuf,
+        expected: u64,
+        found: u64,
+    },
+    #[error(
+        "{path}: written in model format version {found}, newer than this build reads (up to {supported}); load it with a newer robosim"
+    )]
+    FutureFormat {
+        path: PathBuf,
+        found: u32,
+        supported: u32,
+    },
+    #[error("{path}: model format version {found} does not exist (versions start at 1)")]
+    UnknownFormat { path: PathBuf, found: u32 },
+    #[error(
+        "{path}: checksum mismatch (stored crc32 {stored:08x}, computed {computed:08x}): the file was damaged or edited; the JSON form is the one to edit"
+    )]
+    Checksum {
+        path: PathBuf,
+        stored: u32,
+        computed: u32,
+    },
+    #[error("{path}: {reason}")]
+    Decode { path: PathBuf, reason: String },
+    #[error("{path}: invalid model: {problem}")]
+    Model {
+        path: PathBuf,
+        problem: ModelProblem,
+    },
+    #[error("{path}: {what} {field} is {value}, which JSON cannot hold; save in the binary form")]
+    NotJsonable {
+        path: PathBuf,
+        what: String,
+        field: String,
+        value: f64,
+    },
+    #[error("{path}: session {session} refused the file's object {id} ({name:?}): {source}")]
+    Refused {
+        path: PathBuf,
+        session: String,
+        id: Id,
+        name: String,
+        source: Box<TxError>,
+    },
+    #[error("{path}: session {session} refused the load: {source}")]
+    RefusedWhole {
+        path: PathBuf,
+        session: String,
+        source: Box<TxError>,
+    },
+    #[error("{path}:{line}: {reason}")]
+    Mesh {
+        path: PathBuf,
+        line: usize,
+        reason: String,
+    },
+    #[error("{0}")]
+    Usage(String),
+    #[error(transparent)]
+    Session(#[from] robosim_instance_space::SessionError),
+    #[error(transparent)]
+    Reader(#[from] robosim_instance_space::ReaderError),
+    #[error(transparent)]
+    Client(#[from] robosim_instance_space::ClientError),
+    #[error(transparent)]
+    Scene(#[from] robosim_scene::SceneError),
+}
+
+pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> FileError + '_ {
+    move |source| FileError::Io {
+        path: path.to_owned(),
+        source,
+    }
+}

@@ -1,0 +1,53 @@
+//! The file interface (seed §3.2, component 3: "services to save and restore the objects in the
+//! databases"), and exchange with other tools.
+//!
+//! * [`format`] — the model file: header (magic, format version, length, CRC-32), a bincode 2
+//!   body or the same content as JSON; [`format::read`] / [`format::write`].
+//! * [`model`] — [`SavedModel`]: every object in the keeper's checkpoint form
+//!   ([`robosim_instance_space::ObjectData`]) plus the session's Library Space additions; its
+//!   validation and the one transaction that loads it ([`LoadMode`]).
+//! * [`digest`] — [`ModelDigest`]: SHA-256 of a canonical encoding, independent of ids, order,
+//!   process and machine.
+//! * [`session`] — against a running session: [`session::save`], [`session::load`],
+//!   [`session::info`], and a keeper's start from a file ([`session::preload`]).
+//! * [`gltf`], [`stl`], [`trajectory`] — export: `.glb`, binary STL in world coordinates, the
+//!   logged joint trajectory as CSV with units.
+//! * [`import`] — STL / OBJ meshes as items placed in the scene ([`stl`], [`obj`] read them).
+//! * [`bench`] — save and load of a 10⁶-vertex model against `cp` (`robosim bench files`).
+//! * [`cli`] — the command-line glue (clap argument structs and run functions).
+//!
+//! URDF export belongs to the URDF issue and is not here.
+
+pub mod bench;
+pub mod cli;
+pub mod digest;
+mod error;
+pub mod format;
+pub mod gltf;
+pub mod import;
+pub mod model;
+pub mod obj;
+pub mod session;
+pub mod stl;
+pub mod trajectory;
+mod world;
+
+pub use digest::{ModelDigest, digest};
+pub use error::{FileError, ModelProblem};
+pub use format::{Encoding, FORMAT_VERSION};
+pub use model::{LibrarySource, LoadMode, SavedModel};
+
+/// The model of a Library Space declaration (a scene, robot, link or solid, or the built-in
+/// `demo`) instantiated with its defaults, without any session — what `robosim render` draws.
+/// `library`: files to add to the standard library.
+pub fn scene_model(name: &str, library: &[std::path::PathBuf]) -> Result<SavedModel, FileError> {
+    let lib = robosim_scene::build_library(library)?;
+    let mut store = robosim_instance_space::Store::new();
+    for tx in robosim_scene::load_from(&lib, name)? {
+        store
+            .apply(&tx)
+            .map_err(|e| FileError::Usage(format!("scene {name} does not instantiate: {e}")))?;
+    }
+    let snap = robosim_instance_space::Snapshot::from_store(&store);
+    Ok(SavedModel::from_snapshot(&snap, &lib.sources()))
+}

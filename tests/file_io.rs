@@ -1,0 +1,382 @@
+//! The file interface across processes (issue #15): real keepers, displays and simulators
+//! started with `robosim`, over real shared memory.
+//!
+//! * a session saved, stopped and started again from the file has the same model digest
+//!   (Space Station, welding cell; binary and JSON; a fresh session and the same one);
+//! * a load reaches a running display and simulator as one change (one version step);
+//! * refused loads (truncated, flipped byte, wrong magic, future format, missing parent id,
+//!   a model the keeper refuses) change nothing: same digest, same version;
+//! * import of a mesh and export of a session as glTF and STL.
+
+mod common;
+
+use common::{Procs, ROBOSIM, wait_for};
+use robosim_file_io::format::{self, Encoding};
+use robosim_file_io::{SavedModel, scene_model};
+use robosim_instance_space::Reader;
+use robosim_instance_space::state::StateSubscriber;
+use std::path::Path;
+use std::process::{Command, Output};
+use std::time::Duration;
+
+/// A session started with `robosim up`: its processes are not this test's children, so
+/// `robosim down` stops them when the guard drops (also when an assertion failed).
+struct Up<'a>(&'a Procs);
+
+impl Drop for Up<'_> {
+    fn drop(&mut self) {
+        let _ = run(self.0, &["down"]);
+    }
+}
+
+fn run(p: &Procs, args: &[&str]) -> Output {
+    Command::new(ROBOSIM)
+        .args(args)
+        .args(["--session", &p.name])
+        .env("ROBOSIM_HOME", p.home.path())
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .expect("robosim runs")
+}
+
+fn ok(p: &Procs, args: &[&str]) -> String {
+    let o = run(p, args);
+    assert!(
+        o.status.success(),
+        "robosim {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn refused(p: &Procs, args: &[&str]) -> String {
+    let o = run(p, args);
+    assert!(!o.status.success(), "robosim {args:?} succeeded");
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// `robosim info`: (version, digest, object count).
+fn info(p: &Procs) -> (u64, String, usize) {
+    let out = ok(p, &["info"]);
+    let field = |name: &str| -> String {
+        out.lines()
+            .find_map(|l| l.strip_prefix(&format!("{name} ")))
+            .unwrap_or_else(|| panic!("no {name} in {out}"))
+            .to_owned()
+    };
+    let objects = field("objects");
+    (
+        field("version").parse().expect("version"),
+        field("digest"),
+        objects
+            .split_whitespace()
+            .next()
+            .and_then(|n| n.parse().ok())
+            .expect("object count"),
+    )
+}
+
+fn s(p: &Path) -> &str {
+    p.to_str().expect("utf-8 path")
+}
+
+fn round_trip(scene: &str, tag: &str) {
+    let a = Procs::new(tag);
+    let _up_a = Up(&a);
+    ok(&a, &["up", scene]);
+    let (_, digest, objects) = info(&a);
+    let bin = a.home.path().join(format!("{scene}.rsm"));
+    let json = a.home.path().join(format!("{scene}.json"));
+    ok(&a, &["save", s(&bin)]);
+    ok(&a, &["save", s(&json)]);
+    ok(&a, &["down"]);
+
+    // A fresh session from the binary file.
+    let b = Procs::new(&format!("{tag}b"));
+    let _up_b = Up(&b);
+    ok(&b, &["up", "--load", s(&bin)]);
+    let (_, d, n) = info(&b);
+    assert_eq!(
+        (d.as_str(), n),
+        (digest.as_str(), objects),
+        "{scene}: binary round trip"
+    );
+    ok(&b, &["down"]);
+
+    // The original session again, from the JSON file: the file replaces the model its journal
+    // recovered (one more version), and the digest is the saved one.
+    ok(&a, &["up", "--load", s(&json)]);
+    let (_, d, n) = info(&a);
+    assert_eq!(
+        (d.as_str(), n),
+        (digest.as_str(), objects),
+        "{scene}: JSON round trip"
+    );
+
+    if scene == "space_station" {
+        // glTF of the running session: one node per object, one mesh per body.
+        let glb = a.home.path().join("station.glb");
+        ok(&a, &["export", s(&glb)]);
+        let g = gltf::Gltf::open(&glb).expect("the gltf crate reads the export");
+        assert_eq!(g.nodes().count(), objects);
+        let model = format::read(&bin).expect("saved model");
+        let bodies = model
+            .objects
+            .iter()
+            .filter(|o| o.geometry.is_some())
+            .count();
+        assert_eq!(g.meshes().count(), bodies);
+    }
+}
+
+#[test]
+fn space_station_round_trips_through_a_file_with_the_same_digest() {
+    round_trip("space_station", "fst");
+}
+
+#[test]
+fn welding_cell_round_trips_through_a_file_with_the_same_digest() {
+    round_trip("downhand_welding_cell", "fwc");
+}
+
+/// What the display writes per frame (frames.jsonl): version, bodies, triangles.
+fn frames(dir: &Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(dir.join("frames.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+fn simctl(p: &Procs, cmd: &str) {
+    ok(p, &["simctl", cmd]);
+}
+
+#[test]
+fn a_load_reaches_a_running_display_and_simulator_as_one_change() {
+    let mut k = Procs::new("fds");
+    k.start_keeper(&["--scene", "puma560"]);
+    let out = k.home.path().join("display-out");
+    k.spawn(&[
+        "display",
+        "--headless",
+        "--size",
+        "320x240",
+        "--out",
+        s(&out),
+    ]);
+    k.spawn(&["simulator", "--mode", "lockstep"]);
+    let session = k.session();
+    let mut state = wait_for("the simulator's state service", || {
+        StateSubscriber::open(&session, "simulator", "test-state").ok()
+    });
+    wait_for("the display's first frame", || {
+        frames(&out).into_iter().next()
+    });
+    let mut reader = Reader::attach(&session, "test-reader").expect("reader");
+    let v0 = reader.snapshot().expect("snapshot").version();
+    simctl(&k, r#"{"cmd": "step", "n": 1}"#);
+    wait_for("a state of the first model", || {
+        state
+            .wait(Duration::from_millis(100))
+            .expect("state")
+            .into_iter()
+            .find(|r| r.header.structure_version == v0)
+    });
+
+    // The welding cell, saved by the file interface, replaces the PUMA.
+    let cell = scene_model("downhand_welding_cell", &[]).expect("cell");
+    let file = k.home.path().join("cell.rsm");
+    format::write(&cell, &file, Encoding::Binary).expect("write");
+    ok(&k, &["load", s(&file)]);
+
+    // Every reader sees one change: one version step, structure included.
+    let mut changes = Vec::new();
+    wait_for("the load's change record", || {
+        changes.extend(reader.wait_change(Duration::from_millis(100)).ok()?);
+        changes.iter().any(|c| c.version > v0).then_some(())
+    });
+    let after: Vec<_> = changes.iter().filter(|c| c.version > v0).collect();
+    assert_eq!(after.len(), 1, "one change: {after:?}");
+    let v1 = after[0].version;
+    assert_eq!(v1, v0 + 1);
+    assert!(after[0].aspects & robosim_instance_space::aspect::STRUCTURE != 0);
+
+    // The display draws the whole cell at v1 and never anything in between.
+    let bodies = cell.objects.iter().filter(|o| o.geometry.is_some()).count();
+    let triangles: usize = cell
+        .objects
+        .iter()
+        .filter_map(|o| o.geometry.as_ref())
+        .flat_map(|g| g.polygons.iter().map(|p| p.len() - 2))
+        .sum();
+    let frame = wait_for("the display's frame of the load", || {
+        frames(&out).into_iter().find(|f| f["version"] == v1)
+    });
+    assert_eq!(frame["bodies"], bodies as u64, "{frame}");
+    assert_eq!(frame["triangles"], triangles as u64, "{frame}");
+    for f in frames(&out) {
+        let v = f["version"].as_u64().expect("version");
+        assert!(v <= v0 || v == v1, "a frame of a version in between: {f}");
+    }
+
+    // The simulator rebuilt for the cell at v1: every joint of both robots.
+    let joints = cell
+        .objects
+        .iter()
+        .filter(|o| {
+            matches!(
+                o.kinematics,
+                Some(robosim_instance_space::Kinematics::Joint { .. })
+            )
+        })
+        .count();
+    simctl(&k, r#"{"cmd": "step", "n": 1}"#);
+    let rec = wait_for("a state of the loaded model", || {
+        state
+            .wait(Duration::from_millis(100))
+            .expect("state")
+            .into_iter()
+            .find(|r| r.header.structure_version >= v1)
+    });
+    assert_eq!(rec.header.structure_version, v1);
+    assert_eq!(
+        rec.joints.len(),
+        joints,
+        "the simulator runs the loaded robots"
+    );
+}
+
+/// `bytes` with format version `v` and a checksum that matches (what a newer writer makes).
+fn with_version(good: &[u8], v: u32) -> Vec<u8> {
+    let mut b = good.to_vec();
+    b[8..12].copy_from_slice(&v.to_le_bytes());
+    let mut h = crc32fast::Hasher::new();
+    h.update(&b[8..24]);
+    h.update(&b[28..]);
+    let crc = h.finalize();
+    b[24..28].copy_from_slice(&crc.to_le_bytes());
+    b
+}
+
+#[test]
+fn refused_loads_leave_the_session_untouched_and_import_export_work() {
+    let mut k = Procs::new("fbad");
+    k.start_keeper(&["--scene", "demo"]);
+    let before = info(&k);
+    let dir = k.home.path();
+    let puma = scene_model("puma560", &[]).expect("puma");
+    let good = format::encode_binary(&puma);
+    let mut cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        (
+            "truncated.rsm",
+            good[..good.len() - 64].to_vec(),
+            "truncated",
+        ),
+        (
+            "magic.rsm",
+            [b"NOTMODEL", &good[8..]].concat(),
+            "not a robosim model file",
+        ),
+        (
+            "future.rsm",
+            with_version(&good, 99),
+            "format version 99, newer than this build",
+        ),
+    ];
+    let mut flipped = good.clone();
+    flipped[good.len() / 2] ^= 0x04;
+    cases.push(("flipped.rsm", flipped, "checksum mismatch"));
+    let mut orphan: SavedModel = puma.clone();
+    orphan.objects[3].parent = 424_242;
+    cases.push((
+        "orphan.rsm",
+        format::encode_binary(&orphan),
+        "names parent 424242, which is not in the file",
+    ));
+    // Valid as a file, refused by the keeper: a link hung under a solid.
+    let mut wrong = puma.clone();
+    let link = wrong
+        .objects
+        .iter()
+        .position(|o| o.kind == robosim_instance_space::Kind::Link)
+        .expect("a link");
+    let solid = wrong
+        .objects
+        .iter()
+        .find(|o| o.kind == robosim_instance_space::Kind::Solid && o.parent == wrong.objects[0].id)
+        .expect("a base solid")
+        .id;
+    wrong.objects[link].parent = solid;
+    let link_name = wrong.objects[link].name.clone();
+    cases.push((
+        "wrong.rsm",
+        format::encode_binary(&wrong),
+        "a link cannot be a child of a solid",
+    ));
+    for (name, bytes, want) in &cases {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).expect("write");
+        let err = refused(&k, &["load", s(&path)]);
+        assert!(err.contains(want), "{name}: {err}");
+        assert!(
+            err.contains(name),
+            "{name}: the error names the file or object: {err}"
+        );
+        assert_eq!(info(&k), before, "{name}: the session is untouched");
+    }
+    let err = refused(&k, &["load", s(&dir.join("wrong.rsm"))]);
+    assert!(
+        err.contains(&format!("{link_name:?}")),
+        "names the object: {err}"
+    );
+
+    // Import: an OBJ cube in millimetres, placed at (1, 0, 0.5) turned 90° about z.
+    let obj = dir.join("cube.obj");
+    std::fs::write(
+        &obj,
+        "v 0 0 0\nv 100 0 0\nv 100 100 0\nv 0 100 0\nv 0 0 100\nv 100 0 100\nv 100 100 100\nv 0 100 100\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n",
+    )
+    .expect("obj");
+    let out = ok(
+        &k,
+        &[
+            "import",
+            "mesh",
+            s(&obj),
+            "--as",
+            "fixture",
+            "--at",
+            "1,0,0.5,0,0,90",
+            "--scale",
+            "0.001",
+        ],
+    );
+    assert!(out.contains("12 triangles read"), "{out}");
+    let (v, _, n) = info(&k);
+    assert_eq!(
+        (v, n),
+        (before.0 + 1, before.2 + 2),
+        "one transaction: item and solid"
+    );
+    // STL of the imported body in world coordinates: x from 0.9 to 1.0 after the turn.
+    let stl = dir.join("fixture.stl");
+    ok(&k, &["export", "stl", s(&stl), "--body", "fixture"]);
+    let tris = robosim_file_io::stl::read_stl(&std::fs::read(&stl).expect("stl"), &stl)
+        .expect("reads back");
+    assert_eq!(tris.len(), 12);
+    let xs: Vec<f64> = tris.iter().flatten().map(|p| p[0]).collect();
+    let lo = xs.iter().cloned().fold(f64::MAX, f64::min);
+    let hi = xs.iter().cloned().fold(f64::MIN, f64::max);
+    assert!(
+        (lo - 0.9).abs() < 1e-6 && (hi - 1.0).abs() < 1e-6,
+        "{lo} {hi}"
+    );
+    // And the session as glTF: one node per object.
+    let glb = dir.join("session.glb");
+    ok(&k, &["export", "gltf", s(&glb)]);
+    let g = gltf::Gltf::open(&glb).expect("gltf reads it");
+    assert_eq!(g.nodes().count(), n);
+}
