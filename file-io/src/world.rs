@@ -4,20 +4,9 @@ use crate::model::SavedModel;
 use robosim_instance_space::{ObjectData, Pose};
 use std::collections::HashMap;
 
-/// `a · b` for 3×4 row-major rigid transforms.
-pub fn compose(a: &Pose, b: &Pose) -> Pose {
-    let mut out = [0.0; 12];
-    for r in 0..3 {
-        for c in 0..4 {
-            let mut s = if c == 3 { a[r * 4 + 3] } else { 0.0 };
-            for k in 0..3 {
-                s += a[r * 4 + k] * b[k * 4 + c];
-            }
-            out[r * 4 + c] = s;
-        }
-    }
-    out
-}
+/// `a · b` for 3×4 row-major rigid transforms (the reader's own composition, so exported
+/// world poses are the ones every process computes).
+pub use robosim_instance_space::compose;
 
 /// `p` applied to the point `v` (m).
 pub fn apply(p: &Pose, v: &[f64; 3]) -> [f64; 3] {

@@ -31,7 +31,7 @@ mod view;
 pub use client::{Client, ClientError, Committed, Pending};
 pub use journal::ObjectData;
 pub use keeper::{Keeper, KeeperError, KeeperOptions};
-pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot};
+pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot, compose};
 pub use session::{
     ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,
     running_sessions, write_private,
