@@ -372,3 +372,50 @@ fn a_recording_cut_by_kill_9_streams_every_message_written_before_it() {
     assert_eq!(floats(&joints.last().expect("messages").2["position"]), q);
     assert_eq!(stream(&bytes, "/tf").len() as u64, N + 1);
 }
+
+/// Item 14, the display's side: `render --play … --record FILE.mcap` records every sample of
+/// the trajectory as joint states (in SI units) and link poses at the file's dt, readable with
+/// the `mcap` crate; the summary is written (the file is closed).
+#[test]
+fn a_render_playback_is_recorded_to_mcap_at_the_trajectorys_dt() {
+    let dir = tempfile::tempdir().expect("dir");
+    let traj = dir.path().join("puma.traj");
+    // Degrees for revolute joints; dt 0.05 s; 4 samples.
+    std::fs::write(
+        &traj,
+        "# dt: 0.05\n0 0 0 0 0 0\n10 20 -30 0 45 0\n20 40 -60 0 45 0\n30 45 -90 10 45 0\n",
+    )
+    .expect("trajectory");
+    let mcap_path = dir.path().join("play.mcap");
+    let out = Command::new(ROBOSIM)
+        .args(["render", "puma560", "--play"])
+        .arg(format!("puma560={}", traj.display()))
+        .arg("--record")
+        .arg(&mcap_path)
+        .output()
+        .expect("render");
+    assert!(
+        out.status.success(),
+        "{}{}",
+        text(&out.stdout),
+        text(&out.stderr)
+    );
+    let bytes = std::fs::read(&mcap_path).expect("recording");
+    assert!(
+        matches!(mcap::Summary::read(&bytes), Ok(Some(_))),
+        "summary present"
+    );
+    let states = stream(&bytes, "/puma560/joint_states");
+    assert_eq!(states.len(), 4, "one message per sample");
+    for (k, (log, publish, _)) in states.iter().enumerate() {
+        let want = (k as f64 * 0.05 * 1e9).round() as u64;
+        assert_eq!((*log, *publish), (want, want), "sample {k}");
+    }
+    let last = floats(&states[3].2["position"]);
+    let want: Vec<f64> = [30.0, 45.0, -90.0, 10.0, 45.0, 0.0]
+        .iter()
+        .map(|d: &f64| d.to_radians())
+        .collect();
+    assert_close(&last, &want, "last sample in rad");
+    assert_eq!(stream(&bytes, "/tf").len(), 4, "link poses per sample");
+}

@@ -155,7 +155,7 @@ impl ViewArgs {
 }
 
 #[derive(clap::Args, Debug)]
-#[command(group(clap::ArgGroup::new("output").required(true).multiple(true).args(["out", "frames"])))]
+#[command(group(clap::ArgGroup::new("output").required(true).multiple(true).args(["out", "frames", "record"])))]
 pub struct RenderArgs {
     /// A scene or robot of the library (`robosim lib list`), or `demo`.
     pub scene: String,
@@ -173,6 +173,10 @@ pub struct RenderArgs {
     /// With --play: the directory for frame-NNNNN.png, one per sample.
     #[arg(long)]
     pub frames: Option<PathBuf>,
+    /// With --play: also record the playback to this MCAP file — joint states and link poses of
+    /// every sample (not only every Nth), at the trajectory's dt — for Foxglove and other tools.
+    #[arg(long, value_name = "FILE.mcap", requires = "play")]
+    pub record: Option<PathBuf>,
     /// With --play: draw every Nth sample.
     #[arg(long, default_value_t = 1)]
     pub every: usize,
@@ -326,6 +330,57 @@ impl Player {
     }
 }
 
+/// `render --play … --record FILE.mcap`: every sample of every track as joint states and link
+/// poses (robosim-record's channels, the simulator's too), at the tracks' common dt.
+fn record_playback(path: &Path, player: &Player, snap: &Snapshot) -> Result<()> {
+    let dt = player.tracks.first().map_or(1.0 / 30.0, |t| t.1.dt);
+    if let Some((r, t, _)) = player.tracks.iter().find(|t| t.1.dt != dt) {
+        bail!(
+            "--record: the tracks' sample periods differ ({} has dt {} s, the first {dt} s); \
+             one recording has one clock",
+            r.robot.name,
+            t.dt
+        );
+    }
+    let names: Vec<Vec<String>> = player
+        .tracks
+        .iter()
+        .map(|(r, _, _)| {
+            r.link_index
+                .iter()
+                .map(|&i| snap.name(i).to_owned())
+                .collect()
+        })
+        .collect();
+    let samples: Vec<Vec<Vec<f64>>> = player
+        .tracks
+        .iter()
+        .map(|(_, t, p)| (0..t.samples.len()).map(|k| t.sample_si(k, p)).collect())
+        .collect();
+    let tracks: Vec<robosim_record::playback::Track<'_>> = player
+        .tracks
+        .iter()
+        .zip(names.iter().zip(&samples))
+        .map(
+            |((r, _, _), (names, samples))| robosim_record::playback::Track {
+                name: &r.robot.name,
+                robot: &r.robot,
+                joint_names: names,
+                samples,
+            },
+        )
+        .collect();
+    let counts = robosim_record::playback::record_playback(path, &tracks, dt, 1)
+        .map_err(|e| AppError(e.to_string()))?;
+    let total: u64 = counts.values().sum();
+    println!(
+        "recorded {} samples ({total} messages) → {}",
+        player.len(),
+        path.display()
+    );
+    Ok(())
+}
+
 fn highlight(r: &mut Renderer, scene: &CompiledScene, on: bool) {
     if on {
         r.set_highlight(scene.colliding_ids());
@@ -334,11 +389,14 @@ fn highlight(r: &mut Renderer, scene: &CompiledScene, on: bool) {
 
 /// `robosim render SCENE …`
 pub fn cmd_render(a: &RenderArgs) -> Result<()> {
-    if a.out.is_none() && a.frames.is_none() {
-        bail!("nothing to write: give --out FILE.png, or --play ROBOT=FILE with --frames DIR");
+    if a.out.is_none() && a.frames.is_none() && a.record.is_none() {
+        bail!(
+            "nothing to write: give --out FILE.png, or --play ROBOT=FILE with --frames DIR \
+             and/or --record FILE.mcap"
+        );
     }
-    if a.play.is_empty() != a.frames.is_none() {
-        bail!("--play and --frames go together");
+    if a.play.is_empty() != (a.frames.is_none() && a.record.is_none()) {
+        bail!("--play goes with --frames DIR and/or --record FILE.mcap");
     }
     if a.every == 0 {
         bail!("--every must be at least 1");
@@ -400,6 +458,9 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             r.gpu().describe(),
             t0.elapsed().as_secs_f64() * 1e3
         );
+    }
+    if let Some(path) = &a.record {
+        record_playback(path, &Player::load(&a.play, &snap)?, &snap)?;
     }
     if let Some(dir) = &a.frames {
         let player = Player::load(&a.play, &snap)?;
