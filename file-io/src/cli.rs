@@ -103,8 +103,8 @@ pub fn info(a: &InfoArgs, session: Option<&str>) -> Result<()> {
 /// `robosim export [FORMAT] FILE`
 #[derive(clap::Args, Debug)]
 pub struct ExportArgs {
-    /// `[gltf|stl|trajectory] FILE`; without a format, the file's extension says
-    /// (.glb, .stl, .csv).
+    /// `[gltf|stl|trajectory|urdf] FILE`; without a format, the file's extension says
+    /// (.glb, .stl, .csv, .urdf).
     #[arg(num_args = 1..=2, value_names = ["FORMAT", "FILE"], required = true)]
     pub what: Vec<String>,
     /// Export a Library Space declaration instantiated with its defaults, without a session.
@@ -116,7 +116,7 @@ pub struct ExportArgs {
     /// STL: only this object and what hangs under it (by name).
     #[arg(long)]
     pub body: Option<String>,
-    /// Trajectory: the robot (default: the session's only robot).
+    /// Trajectory and URDF: the robot (default: the session's or scene's only robot).
     #[arg(long)]
     pub robot: Option<String>,
     /// Trajectory: the simulator log to read (default: the session's run/simulator-ROBOT.csv).
@@ -133,6 +133,7 @@ enum Format {
     Gltf,
     Stl,
     Trajectory,
+    Urdf,
 }
 
 fn export_format(what: &[String]) -> Result<(Format, PathBuf)> {
@@ -140,11 +141,9 @@ fn export_format(what: &[String]) -> Result<(Format, PathBuf)> {
         "gltf" | "glb" => Ok(Format::Gltf),
         "stl" => Ok(Format::Stl),
         "trajectory" | "csv" => Ok(Format::Trajectory),
-        "urdf" => Err(FileError::Usage(
-            "URDF export belongs to the URDF issue and is not built yet".into(),
-        )),
+        "urdf" => Ok(Format::Urdf),
         other => Err(FileError::Usage(format!(
-            "unknown export format {other:?}: gltf, stl or trajectory"
+            "unknown export format {other:?}: gltf, stl, trajectory or urdf"
         ))),
     };
     match what {
@@ -159,7 +158,7 @@ fn export_format(what: &[String]) -> Result<(Format, PathBuf)> {
             Ok((
                 parse(&ext).map_err(|_| {
                     FileError::Usage(format!(
-                        "{file}: say the format (gltf, stl, trajectory) or use .glb, .stl or .csv"
+                        "{file}: say the format (gltf, stl, trajectory, urdf) or use .glb, .stl, .csv or .urdf"
                     ))
                 })?,
                 p,
@@ -173,6 +172,9 @@ pub fn export(a: &ExportArgs, session: Option<&str>) -> Result<()> {
     let (fmt, out) = export_format(&a.what)?;
     if fmt == Format::Trajectory {
         return export_trajectory(a, session, &out);
+    }
+    if fmt == Format::Urdf {
+        return export_urdf(a, session, &out);
     }
     let (model, what) = match &a.scene {
         Some(name) => (
@@ -236,8 +238,55 @@ pub fn export(a: &ExportArgs, session: Option<&str>) -> Result<()> {
                 out.display()
             );
         }
-        Format::Trajectory => {}
+        Format::Trajectory | Format::Urdf => {}
     }
+    Ok(())
+}
+
+/// `robosim export robot.urdf [--robot NAME] (--session S | --scene NAME)`: a robot of a session
+/// or of a library scene, at its placement there, as URDF ([`crate::urdf`]).
+fn export_urdf(a: &ExportArgs, session: Option<&str>, out: &Path) -> Result<()> {
+    let robots = match &a.scene {
+        Some(name) => crate::scene_robots(name, &a.library)?,
+        None => {
+            let s = Session::open(session)?;
+            let reader = Reader::attach(&s, "file-io")?;
+            let snap = reader
+                .snapshot()
+                .ok_or_else(|| FileError::Usage(format!("session {}: no model", s.name())))?;
+            crate::robots_of(&snap)
+        }
+    };
+    let names: Vec<&str> = robots.iter().map(|r| r.name.as_str()).collect();
+    let robot = match &a.robot {
+        Some(want) => robots.iter().find(|r| r.name == *want).ok_or_else(|| {
+            FileError::Usage(format!(
+                "no robot {want:?} to export; robots: {}",
+                names.join(", ")
+            ))
+        })?,
+        None => match robots.as_slice() {
+            [one] => one,
+            _ => {
+                return Err(FileError::Usage(format!(
+                    "say which robot with --robot: {}",
+                    names.join(", ")
+                )));
+            }
+        },
+    };
+    let text = crate::urdf::to_urdf(robot).map_err(FileError::Usage)?;
+    format::write_atomic(out, text.as_bytes())?;
+    println!(
+        "exported robot {} to {}: {} joints, {} convention DH as URDF origins and z axes",
+        robot.name,
+        out.display(),
+        robot.dof(),
+        match robot.convention {
+            robosim_kinematics::Convention::Standard => "standard",
+            robosim_kinematics::Convention::Modified => "modified",
+        }
+    );
     Ok(())
 }
 

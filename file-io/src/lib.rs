@@ -14,9 +14,9 @@
 //!   logged joint trajectory as CSV with units.
 //! * [`import`] — STL / OBJ meshes as items placed in the scene ([`stl`], [`obj`] read them).
 //! * [`bench`] — save and load of a 10⁶-vertex model against `cp` (`robosim bench files`).
+//! * [`urdf`] — a robot as URDF (its DH chain as joint origins and z axes, inertials, limits),
+//!   checked against Pinocchio.
 //! * [`cli`] — the command-line glue (clap argument structs and run functions).
-//!
-//! URDF export belongs to the URDF issue and is not here.
 
 pub mod bench;
 pub mod cli;
@@ -30,6 +30,7 @@ pub mod obj;
 pub mod session;
 pub mod stl;
 pub mod trajectory;
+pub mod urdf;
 mod world;
 
 pub use digest::{ModelDigest, digest};
@@ -40,6 +41,34 @@ pub use model::{LibrarySource, LoadMode, SavedModel};
 /// The model of a Library Space declaration (a scene, robot, link or solid, or the built-in
 /// `demo`) instantiated with its defaults, without any session — what `robosim render` draws.
 /// `library`: files to add to the standard library.
+/// The robots of a Library Space scene (or robot) instantiated with its defaults, as the
+/// Instance Space holds them (base = the placement in the scene; friction and motor inertia
+/// are not part of the Instance Space's joint record, so they are 0 here).
+pub fn scene_robots(
+    name: &str,
+    library: &[std::path::PathBuf],
+) -> Result<Vec<robosim_kinematics::Robot>, FileError> {
+    let lib = robosim_scene::build_library(library)?;
+    let mut store = robosim_instance_space::Store::new();
+    for tx in robosim_scene::load_from(&lib, name)? {
+        store
+            .apply(&tx)
+            .map_err(|e| FileError::Usage(format!("scene {name} does not instantiate: {e}")))?;
+    }
+    Ok(robots_of(&robosim_instance_space::Snapshot::from_store(
+        &store,
+    )))
+}
+
+/// The robots of a snapshot as kinematic (and dynamic) models.
+pub fn robots_of(snap: &robosim_instance_space::Snapshot) -> Vec<robosim_kinematics::Robot> {
+    robosim_scene::CompiledScene::of(snap)
+        .robots()
+        .iter()
+        .map(|r| r.robot.clone())
+        .collect()
+}
+
 pub fn scene_model(name: &str, library: &[std::path::PathBuf]) -> Result<SavedModel, FileError> {
     let lib = robosim_scene::build_library(library)?;
     let mut store = robosim_instance_space::Store::new();
