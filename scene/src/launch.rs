@@ -371,12 +371,19 @@ fn up_start(
              robosim down --session {name}"
         ),
         (Existing::Running(pid, recorded), Start::Scene(scene_name)) => {
-            if recorded.as_deref() != Some(scene_name) {
-                return Err(other(scene_name, true, &recorded));
+            match recorded.as_deref() {
+                Some(r) if r == scene_name => eprintln!(
+                    "session {name} already runs scene {scene_name} (keeper pid {pid}); adding components"
+                ),
+                // A model whose origin was never recorded (a keeper started by hand, or by an
+                // older robosim): keep it, and say that SCENE was not loaded.
+                None => eprintln!(
+                    "session {name} already runs a model (keeper pid {pid}) whose scene is not \
+                     recorded; {scene_name} was not loaded (`robosim instantiate {scene_name}` adds \
+                     it); adding components"
+                ),
+                Some(_) => return Err(other(scene_name, true, &recorded)),
             }
-            eprintln!(
-                "session {name} already runs scene {scene_name} (keeper pid {pid}); adding components"
-            );
             true
         }
         (Existing::Saved(recorded), Start::File(file)) => {
@@ -396,13 +403,17 @@ fn up_start(
             false
         }
         (Existing::Saved(recorded), Start::Scene(scene_name)) => {
-            if recorded.as_deref() != Some(scene_name) {
-                return Err(other(scene_name, false, &recorded));
+            match recorded.as_deref() {
+                Some(r) if r == scene_name => eprintln!(
+                    "session {name}: resuming the saved model of scene {scene_name} from its \
+                     journal (--fresh starts over)"
+                ),
+                None => eprintln!(
+                    "session {name}: resuming its saved model from the journal; its scene is not \
+                     recorded, so {scene_name} was not loaded (--fresh starts over with it)"
+                ),
+                Some(_) => return Err(other(scene_name, false, &recorded)),
             }
-            eprintln!(
-                "session {name}: resuming the saved model of scene {scene_name} from its journal \
-                 (--fresh starts over)"
-            );
             false
         }
         (Existing::Nothing, _) => false,
