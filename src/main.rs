@@ -337,9 +337,15 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             robosim_file_io::cli::load(&args, session).map_err(CliError::from)
         }
         Command::Info { args } => {
+            if args.file.is_none() {
+                existing(session)?;
+            }
             robosim_file_io::cli::info(&args, session).map_err(CliError::from)
         }
         Command::Export { args } => {
+            if args.scene.is_none() {
+                existing(session)?;
+            }
             robosim_file_io::cli::export(&args, session).map_err(CliError::from)
         }
         Command::Import { cmd } => {

@@ -50,6 +50,9 @@ fn reading_a_missing_session_is_an_error_and_creates_nothing() {
         &["instantiate", "puma560", "--session", "NOPE"],
         &["set", "x", "a=1", "--session", "NOPE"],
         &["display", "--headless", "--session", "NOPE"],
+        &["info", "--session", "NOPE"],
+        &["export", "x.glb", "--session", "NOPE"],
+        &["save", "x.rsm", "--session", "NOPE"],
     ] {
         let o = robosim(&p, args, home);
         let t = text(&o);
