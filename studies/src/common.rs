@@ -158,8 +158,8 @@ pub fn pose_fixed(parts: &[Part]) -> Vec<Posed<'_>> {
 /// The smallest distance between any part of `a` and any part of `b` (m; ≤ 0 in contact) in
 /// `mode`, with the pair's names; pairs whose bounding spheres are farther apart than the
 /// best found so far are skipped. `None` when either list is empty. A mode that gives no
-/// distance (bbox, polygon) answers 0 for a contact and the sphere lower bound when clear,
-/// flagged by `exact == false`.
+/// distance (bbox, polygon) answers 0 for a contact and, when clear, the sphere lower bound
+/// (at least 1e-9 m, so clear stays > 0), flagged by `exact == false`.
 pub fn clearance(a: &[Posed<'_>], b: &[Posed<'_>], mode: Mode) -> Option<Clearance> {
     let mut pairs: Vec<(f64, usize, usize)> = Vec::with_capacity(a.len() * b.len());
     for (i, pa) in a.iter().enumerate() {
@@ -182,7 +182,8 @@ pub fn clearance(a: &[Posed<'_>], b: &[Posed<'_>], mode: Mode) -> Option<Clearan
             } => (signed_distance.unwrap_or(0.0).min(0.0), signed_distance.is_some()),
             PairResult::Clear { distance, .. } => match distance {
                 Some(d) => (d, true),
-                None => (lb.max(0.0), false),
+                // clear, distance unknown: the sphere lower bound, kept above zero
+                None => (lb.max(1e-9), false),
             },
             // not decided: counted as touching, so that it is looked at
             PairResult::Unknown { .. } => (0.0, false),

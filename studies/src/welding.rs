@@ -12,8 +12,9 @@
 //!    the table angle is the 2π-equivalent nearest the previous within its ±360°;
 //! 3. the torch pose: approach a = −cos τ·n + sin τ·t (travel angle τ, push), the tip the
 //!    standoff back along a; the roll about a is free (a 5-D task) and is chosen with the IK
-//!    branch: every roll on a 30° grid, every analytic solution (spherical wrist), the one
-//!    within limits nearest the previous joint values (branch kept continuous);
+//!    branch: rolls within ±2°…±30° of the previous roll, then round the turn, every analytic
+//!    solution (spherical wrist), the one within limits and keeping the minimum clearance that
+//!    is nearest the previous joint values (branch and roll kept continuous);
 //! 4. checks: joint limits, joint speeds against the stated limits, clearances arm ×
 //!    (positioner + workpiece) in the chosen collision mode, downhand error, torch angles
 //!    measured from the FK of the joint values actually used.
@@ -34,6 +35,8 @@ use std::f64::consts::{PI, TAU};
 use std::path::Path;
 
 pub const SCENE: &str = "downhand_welding_study";
+/// The approach pose before each seam: this far back along the torch axis, m.
+const APPROACH_M: f64 = 0.08;
 
 /// Which seam.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,6 +76,8 @@ pub struct WeldingParams {
     pub downhand_tol: f64,
     /// Search tolerance of the positioner's downhand solve, rad.
     pub positioner_tol: f64,
+    /// Clearance the arm's solution is chosen to keep from positioner and work, m.
+    pub min_clearance_m: f64,
     /// Joint speed limits, rad/s: arm (6), positioner (2).
     pub arm_speed: [f64; 6],
     pub positioner_speed: [f64; 2],
@@ -93,6 +98,7 @@ impl Default for WeldingParams {
             standoff_m: 0.015,
             downhand_tol: d(5.0),
             positioner_tol: 1e-6,
+            min_clearance_m: 0.005,
             // IRB 1400 class data sheet order: 110°/s on the main axes, 280°/s on the wrist
             arm_speed: [
                 d(110.0),
@@ -138,6 +144,9 @@ impl WeldingParams {
         }
         if !(self.standoff_m.is_finite() && self.standoff_m >= 0.0 && self.standoff_m < 0.1) {
             bail!("standoff {} m: expected [0, 0.1) m", self.standoff_m);
+        }
+        if !(self.min_clearance_m.is_finite() && self.min_clearance_m >= 0.0) {
+            bail!("minimum clearance {} m: expected a finite distance ≥ 0", self.min_clearance_m);
         }
         if !pos(self.downhand_tol) || !pos(self.positioner_tol) {
             bail!("tolerances must be positive angles");
@@ -481,8 +490,11 @@ fn torch_target(
     m
 }
 
-/// The arm's joints for the torch at the seam frame: every roll on a 30° grid, every analytic
-/// solution within limits, the one nearest `prev` (weighted by the joint speed limits).
+/// The arm's joints (and the torch roll) for the torch at the seam frame: rolls near the
+/// previous one first, then round the turn; every analytic solution within limits; of these, the nearest to `prev` (weighted by the joint speed limits)
+/// whose arm keeps `min_clearance_m` from the positioner and workpiece at `qp` — or, when none
+/// does, the one with the most clearance.
+#[allow(clippy::too_many_arguments)]
 fn arm_ik(
     s: &Setup,
     p: &WeldingParams,
@@ -490,17 +502,29 @@ fn arm_ik(
     t: &Vector3<f64>,
     n: &Vector3<f64>,
     prev: &[f64],
-) -> std::result::Result<Vec<f64>, String> {
+    qp: &[f64],
+    standoff: f64,
+    prev_roll: f64,
+) -> std::result::Result<(Vec<f64>, f64), String> {
     let opts = IkOptions {
         all: true,
         q0: Some(prev.to_vec()),
         ..IkOptions::default()
     };
-    let mut best: Option<(f64, Vec<f64>)> = None;
+    let mut cands: Vec<(f64, Vec<f64>, f64)> = Vec::new();
     let mut why = String::from("unreachable at every torch roll");
-    for k in 0..12 {
-        let roll = -PI + k as f64 * PI / 6.0;
-        let target = torch_target(p, point, t, n, roll);
+    let q = WeldingParams {
+        standoff_m: standoff,
+        ..p.clone()
+    };
+    // rolls near the previous one first (continuity), then around the whole turn
+    let offsets = [
+        0.0, 2.0, -2.0, 5.0, -5.0, 10.0, -10.0, 20.0, -20.0, 30.0, -30.0, 60.0, -60.0, 90.0,
+        -90.0, 120.0, -120.0, 150.0, -150.0, 180.0,
+    ];
+    for off in offsets {
+        let roll = prev_roll + f64::to_radians(off);
+        let target = torch_target(&q, point, t, n, roll);
         match ik::solve(&s.arm.robot, &target, Method::Analytic, &opts) {
             Ok(r) => {
                 for sol in r.solutions {
@@ -515,20 +539,35 @@ fn arm_ik(
                         .zip(&p.arm_speed)
                         .map(|((a, b), v)| ((a - b) / v).abs())
                         .fold(0.0, f64::max);
-                    if best.as_ref().is_none_or(|b| d < b.0) {
-                        best = Some((d, sol.q));
-                    }
+                    cands.push((d, sol.q, roll));
                 }
             }
             Err(ik::IkError::Unreachable { reason }) => {
-                if best.is_none() && why.starts_with("unreachable") {
+                if cands.is_empty() && why.starts_with("unreachable") {
                     why = format!("unreachable: {reason}");
                 }
             }
             Err(e) => return Err(e.to_string()),
         }
     }
-    best.map(|b| b.1).ok_or(why)
+    cands.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut roomiest: Option<(f64, &Vec<f64>, f64)> = None;
+    // bbox and polygon tell clear from contact but give no distance
+    let enough = if p.mode == Mode::Exact {
+        p.min_clearance_m
+    } else {
+        1e-9
+    };
+    for (_, c, roll) in &cands {
+        let cl = clearance(s, p, c, qp).0;
+        if cl >= enough {
+            return Ok((c.clone(), *roll));
+        }
+        if roomiest.is_none_or(|r| cl > r.0) {
+            roomiest = Some((cl, c, *roll));
+        }
+    }
+    roomiest.map(|r| (r.1.clone(), r.2)).ok_or(why)
 }
 
 /// One step's record.
@@ -611,6 +650,7 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
     let mut qa = s.arm.q0.clone();
     let mut qp = s.positioner.q0.clone();
     let mut t = 0.0;
+    let mut roll = 0.0;
     let (mut mid_dh, mut mid_tip) = (0.0f64, 0.0f64);
     let speed_ratio = |a: &[f64], b: &[f64], v: &[f64], dt: f64| {
         a.iter()
@@ -625,48 +665,68 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
         let (qp1, _) = downhand(s, &n0, &qp, p.positioner_tol);
         let tp = table_pose(s, &qp1);
         let r = rot(&tp);
-        let start_arm = arm_ik(s, p, &tp.transform_point(&pt0), &(r * t0v), &(r * n0), &qa);
-        // reposition: joint-space move at the speed limits
-        if let Ok(qa1) = &start_arm {
-            let dur = qa
-                .iter()
-                .zip(qa1)
-                .zip(&p.arm_speed)
-                .chain(qp.iter().zip(&qp1).zip(&p.positioner_speed))
-                .map(|((a, b), v)| (b - a).abs() / v)
-                .fold(0.0, f64::max);
-            let n = (dur / p.step_s).ceil().max(1.0) as usize;
-            let (qa0, qp0) = (qa.clone(), qp.clone());
-            for k in 1..=n {
-                let u = k as f64 / n as f64;
-                let qa_k: Vec<f64> = qa0.iter().zip(qa1).map(|(a, b)| a + u * (b - a)).collect();
-                let qp_k: Vec<f64> = qp0.iter().zip(&qp1).map(|(a, b)| a + u * (b - a)).collect();
-                t += p.step_s;
-                let (cl, pair) = clearance(s, p, &qa_k, &qp_k);
-                steps.push(Step {
-                    t,
-                    seam: si,
-                    s: -1.0,
-                    arm_speed_ratio: speed_ratio(&qa_k, &qa, &p.arm_speed, p.step_s),
-                    pos_speed_ratio: speed_ratio(&qp_k, &qp, &p.positioner_speed, p.step_s),
-                    q_arm: qa_k.clone(),
-                    q_pos: qp_k.clone(),
-                    downhand_err: 0.0,
-                    work_angle: 0.0,
-                    work_err: 0.0,
-                    travel_angle: 0.0,
-                    travel_err: 0.0,
-                    tip_err: 0.0,
-                    problem: if cl <= 0.0 {
-                        format!("repositioning: contact {} × {}", pair.0, pair.1)
-                    } else {
-                        String::new()
-                    },
-                    clearance: cl,
-                    clearance_pair: pair,
-                });
-                qa = qa_k;
-                qp = qp_k;
+        let start_arm = arm_ik(s, p, &tp.transform_point(&pt0), &(r * t0v), &(r * n0), &s.arm.q0, &qp1, p.standoff_m, 0.0);
+        let approach = start_arm.as_ref().map_err(Clone::clone).and_then(|(_, roll)| arm_ik(s, p, &tp.transform_point(&pt0), &(r * t0v), &(r * n0), &s.arm.q0, &qp1, p.standoff_m + APPROACH_M, *roll));
+        if let Ok((_, r0)) = &start_arm {
+            roll = *r0;
+        }
+        // reposition in joint space at the speed limits: the arm back to a retracted pose, the
+        // positioner to the seam's first downhand pose, the arm to a pose 80 mm back along the
+        // torch axis, then in to the weld start
+        if let (Ok((qa1, _)), Ok((qa_app, _))) = (&start_arm, &approach) {
+            let safe = retract(s, p, &qp, &qp1);
+            let segments: [(Vec<f64>, Vec<f64>); 4] = [
+                (safe.clone(), qp.clone()),
+                (safe, qp1.clone()),
+                (qa_app.clone(), qp1.clone()),
+                (qa1.clone(), qp1.clone()),
+            ];
+            for (qa_to, qp_to) in segments {
+                let dur = qa
+                    .iter()
+                    .zip(&qa_to)
+                    .zip(&p.arm_speed)
+                    .chain(qp.iter().zip(&qp_to).zip(&p.positioner_speed))
+                    .map(|((a, b), v)| (b - a).abs() / v)
+                    .fold(0.0, f64::max);
+                if dur == 0.0 {
+                    continue;
+                }
+                let n = (dur / p.step_s).ceil().max(1.0) as usize;
+                let (qa0, qp0) = (qa.clone(), qp.clone());
+                for k in 1..=n {
+                    let u = k as f64 / n as f64;
+                    let qa_k: Vec<f64> =
+                        qa0.iter().zip(&qa_to).map(|(a, b)| a + u * (b - a)).collect();
+                    let qp_k: Vec<f64> =
+                        qp0.iter().zip(&qp_to).map(|(a, b)| a + u * (b - a)).collect();
+                    t += p.step_s;
+                    let (cl, pair) = clearance(s, p, &qa_k, &qp_k);
+                    steps.push(Step {
+                        t,
+                        seam: si,
+                        s: -1.0,
+                        arm_speed_ratio: speed_ratio(&qa_k, &qa, &p.arm_speed, p.step_s),
+                        pos_speed_ratio: speed_ratio(&qp_k, &qp, &p.positioner_speed, p.step_s),
+                        q_arm: qa_k.clone(),
+                        q_pos: qp_k.clone(),
+                        downhand_err: 0.0,
+                        work_angle: 0.0,
+                        work_err: 0.0,
+                        travel_angle: 0.0,
+                        travel_err: 0.0,
+                        tip_err: 0.0,
+                        problem: if cl <= 0.0 {
+                            format!("repositioning: contact {} × {}", pair.0, pair.1)
+                        } else {
+                            String::new()
+                        },
+                        clearance: cl,
+                        clearance_pair: pair,
+                    });
+                    qa = qa_k;
+                    qp = qp_k;
+                }
             }
         }
         // weld
@@ -689,8 +749,11 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
             }
             let tp = table_pose(s, &qp_k);
             let r = rot(&tp);
-            let qa_k = match arm_ik(s, p, &tp.transform_point(&pt), &(r * tv), &(r * nv), &qa) {
-                Ok(q) => q,
+            let qa_k = match arm_ik(s, p, &tp.transform_point(&pt), &(r * tv), &(r * nv), &qa, &qp_k, p.standoff_m, roll) {
+                Ok((q, r1)) => {
+                    roll = r1;
+                    q
+                }
                 Err(why) => {
                     if problem.is_empty() {
                         problem = format!("arm: {why}");
@@ -758,6 +821,28 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
         mid_downhand: mid_dh,
         mid_tip,
     })
+}
+
+/// The retracted arm pose for repositioning: the scene's start pose with the shoulder and elbow
+/// lifted, on a 10° grid, the one with the largest clearance at both positioner poses.
+fn retract(s: &Setup, p: &WeldingParams, qp_a: &[f64], qp_b: &[f64]) -> Vec<f64> {
+    let mut best = (f64::NEG_INFINITY, s.arm.q0.clone());
+    let lim = &s.arm.robot.joints;
+    for k2 in 0..=8 {
+        for k3 in 0..=8 {
+            let mut q = s.arm.q0.clone();
+            q[1] = (-70.0 + 10.0 * k2 as f64).to_radians();
+            q[2] = (-60.0 + 10.0 * k3 as f64).to_radians();
+            if q[1] < lim[1].qlim[0] || q[1] > lim[1].qlim[1] || q[2] < lim[2].qlim[0] || q[2] > lim[2].qlim[1] {
+                continue;
+            }
+            let c = clearance(s, p, &q, qp_a).0.min(clearance(s, p, &q, qp_b).0);
+            if c > best.0 {
+                best = (c, q);
+            }
+        }
+    }
+    best.1
 }
 
 /// Clearance arm × (positioner + workpiece) in the chosen mode, with the closest pair. The
@@ -967,7 +1052,7 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
         format!("{cycle:.1}"),
     ]);
     let mut notes = vec![format!(
-        "Scene `{SCENE}` (effects: kinematics, joint limits, collision {}). Coordination per step: positioner from the downhand condition (seam normal up; tilt scan + golden section, table angle in closed form), then the arm's analytic IK over torch rolls on a 30° grid, the solution nearest the previous step kept (branch continuity). Targets: travel (push) angle {:.0}°, work angle along the joint's bisector, standoff {:.0} mm, downhand tolerance {:.0}°; speed limits arm {:?}°/s, positioner {:?}°/s. See docs/studies.md.",
+        "Scene `{SCENE}` (effects: kinematics, joint limits, collision {}). Coordination per step: positioner from the downhand condition (seam normal up; tilt scan + golden section, table angle in closed form), then the arm's analytic IK over torch rolls (near the previous roll first), the collision-free solution nearest the previous step kept (branch continuity). Targets: travel (push) angle {:.0}°, work angle along the joint's bisector, standoff {:.0} mm, downhand tolerance {:.0}°; speed limits arm {:?}°/s, positioner {:?}°/s. See docs/studies.md.",
         match p.mode {
             Mode::BBox => "bbox",
             Mode::Polygon => "polygon",
