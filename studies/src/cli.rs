@@ -24,10 +24,10 @@ pub struct WeldingArgs {
     #[arg(long, default_value = "both", value_parser = ["circle", "saddle", "both"])]
     pub seam: String,
     /// Torch travel speed along the seam, mm/s.
-    #[arg(long, default_value_t = 8.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 8.0)]
     pub speed: f64,
     /// Step, s.
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 0.25)]
     pub step: f64,
     /// Height of the saddle seam's branch axis above the flange, m (default: the workpiece's).
     #[arg(long)]
@@ -61,19 +61,19 @@ pub struct StationArgs {
     #[arg(long, default_value_t = 10.0)]
     pub step: f64,
     /// Length of the run in orbits.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1.0)]
     pub orbits: f64,
     /// Keep-out distance between the servicer and an array, m.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1.0)]
     pub keep_out: f64,
     /// Constant station load, kW.
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 100.0)]
     pub load: f64,
     /// Battery capacity, kWh.
-    #[arg(long, default_value_t = 150.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 150.0)]
     pub battery: f64,
     /// When the servicer's ORU swap starts, s.
-    #[arg(long, default_value_t = 300.0)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = 300.0)]
     pub task_start: f64,
     /// Collision mode of the clearance checks.
     #[arg(long, default_value = "exact", value_parser = ["bbox", "polygon", "exact"])]
