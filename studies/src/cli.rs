@@ -91,7 +91,11 @@ fn mode(s: &str) -> Result<Mode> {
         "bbox" => Mode::BBox,
         "polygon" => Mode::Polygon,
         "exact" => Mode::Exact,
-        other => return Err(StudyError(format!("collision mode {other:?}: bbox, polygon or exact"))),
+        other => {
+            return Err(StudyError(format!(
+                "collision mode {other:?}: bbox, polygon or exact"
+            )));
+        }
     })
 }
 
@@ -115,7 +119,11 @@ pub fn run(cmd: &StudyCmd, log: &mut dyn std::io::Write) -> Result<()> {
             station::run(&p, &a.out, log)?;
             if a.accuracy {
                 station::accuracy(&p, &a.out, &[60.0, 30.0, 10.0, 5.0])?;
-                crate::say!(log, "accuracy against time: {}", a.out.join("station_accuracy.md").display());
+                crate::say!(
+                    log,
+                    "accuracy against time: {}",
+                    a.out.join("station_accuracy.md").display()
+                );
             }
             Ok(())
         }
@@ -137,7 +145,11 @@ pub fn run(cmd: &StudyCmd, log: &mut dyn std::io::Write) -> Result<()> {
             welding::run(&p, &a.out, log)?;
             if a.accuracy {
                 welding::accuracy(&p, &a.out)?;
-                crate::say!(log, "accuracy against time: {}", a.out.join("welding_accuracy.md").display());
+                crate::say!(
+                    log,
+                    "accuracy against time: {}",
+                    a.out.join("welding_accuracy.md").display()
+                );
             }
             Ok(())
         }

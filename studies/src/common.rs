@@ -61,10 +61,7 @@ impl Body {
                     .iter()
                     .fold(nalgebra::Vector3::zeros(), |a, v| a + v.coords)
                     / n;
-                let radius = vs
-                    .iter()
-                    .map(|v| (v.coords - c).norm())
-                    .fold(0.0, f64::max);
+                let radius = vs.iter().map(|v| (v.coords - c).norm()).fold(0.0, f64::max);
                 parts.push(Part {
                     name: s.name.clone(),
                     link,
@@ -126,10 +123,7 @@ pub fn fixed_parts(scene: &SceneModel) -> Result<Vec<Part>> {
                 .iter()
                 .fold(nalgebra::Vector3::zeros(), |a, v| a + v.coords)
                 / n;
-            let radius = vs
-                .iter()
-                .map(|v| (v.coords - c).norm())
-                .fold(0.0, f64::max);
+            let radius = vs.iter().map(|v| (v.coords - c).norm()).fold(0.0, f64::max);
             out.push(Part {
                 name: format!("{}/{}", it.name, s.name),
                 link: 0,
@@ -179,7 +173,10 @@ pub fn clearance(a: &[Posed<'_>], b: &[Posed<'_>], mode: Mode) -> Option<Clearan
         let (d, exact) = match r {
             PairResult::Contact {
                 signed_distance, ..
-            } => (signed_distance.unwrap_or(0.0).min(0.0), signed_distance.is_some()),
+            } => (
+                signed_distance.unwrap_or(0.0).min(0.0),
+                signed_distance.is_some(),
+            ),
             PairResult::Clear { distance, .. } => match distance {
                 Some(d) => (d, true),
                 // clear, distance unknown: the sphere lower bound, kept above zero

@@ -171,7 +171,7 @@ mod tests {
     #[test]
     fn period_is_the_closed_form_and_the_published_value() {
         // 400 km: 2π √((6778.137 km)³ / μ) = 5553.6 s (92.56 min), the ISS-like figure.
-        let o = Orbit::new(400e3, 0.0).unwrap();
+        let o = Orbit::new(400e3, 0.0).expect("a valid orbit");
         let t = o.period_s();
         let a: f64 = 6_778_137.0;
         assert!((t - std::f64::consts::TAU * (a.powi(3) / 3.986_004_418e14).sqrt()).abs() < 1e-9);
@@ -189,7 +189,7 @@ mod tests {
             (800e3, 35.0),
             (350e3, -45.0),
         ] {
-            let o = Orbit::new(h, f64::to_radians(beta_deg)).unwrap();
+            let o = Orbit::new(h, f64::to_radians(beta_deg)).expect("a valid orbit");
             let t = o.period_s();
             // start just after orbit noon so the run holds one whole eclipse
             let iv = o.eclipse_intervals(0.01, t, 30.0);
@@ -209,7 +209,7 @@ mod tests {
             }
         }
         // β = 0 at 400 km: 39.0 % of the orbit in shadow (35.9 of 92.6 min).
-        let o = Orbit::new(400e3, 0.0).unwrap();
+        let o = Orbit::new(400e3, 0.0).expect("a valid orbit");
         assert!((o.eclipse_fraction_closed_form() - 0.3901).abs() < 1e-4);
     }
 
@@ -217,17 +217,17 @@ mod tests {
     fn beyond_the_critical_beta_there_is_no_eclipse() {
         let h: f64 = 400e3;
         let crit = (EARTH_RADIUS_M / (EARTH_RADIUS_M + h)).asin();
-        let o = Orbit::new(h, crit + 0.01).unwrap();
+        let o = Orbit::new(h, crit + 0.01).expect("a valid orbit");
         assert_eq!(o.eclipse_fraction_closed_form(), 0.0);
         assert!(o.eclipse_intervals(0.0, o.period_s(), 10.0).is_empty());
-        let o = Orbit::new(h, crit - 0.01).unwrap();
+        let o = Orbit::new(h, crit - 0.01).expect("a valid orbit");
         assert!(o.eclipse_fraction_closed_form() > 0.0);
         assert_eq!(o.eclipse_intervals(0.01, o.period_s(), 10.0).len(), 1);
     }
 
     #[test]
     fn the_sun_in_the_body_frame_is_a_unit_vector_overhead_at_noon() {
-        let o = Orbit::new(400e3, 0.5).unwrap();
+        let o = Orbit::new(400e3, 0.5).expect("a valid orbit");
         let s = o.sun_body(0.0);
         assert!((s - Vector3::new(0.0, 0.5f64.sin(), 0.5f64.cos())).norm() < 1e-15);
         for k in 0..16 {

@@ -98,10 +98,16 @@ impl StationParams {
             bail!("start angle {}: expected a finite angle", self.theta0);
         }
         if !(self.keep_out_m.is_finite() && self.keep_out_m >= 0.0) {
-            bail!("keep-out {} m: expected a finite distance ≥ 0", self.keep_out_m);
+            bail!(
+                "keep-out {} m: expected a finite distance ≥ 0",
+                self.keep_out_m
+            );
         }
         if !pos(self.tracking_tol) {
-            bail!("tracking tolerance {}: expected a positive angle", self.tracking_tol);
+            bail!(
+                "tracking tolerance {}: expected a positive angle",
+                self.tracking_tol
+            );
         }
         if !pos(self.battery_j) || !(0.0..=1.0).contains(&self.soc0) {
             bail!(
@@ -110,7 +116,10 @@ impl StationParams {
                 self.soc0
             );
         }
-        for (n, e) in [("charge", self.charge_eff), ("discharge", self.discharge_eff)] {
+        for (n, e) in [
+            ("charge", self.charge_eff),
+            ("discharge", self.discharge_eff),
+        ] {
             if !(e > 0.0 && e <= 1.0) {
                 bail!("{n} efficiency {e}: expected a value in (0, 1]");
             }
@@ -129,7 +138,10 @@ impl StationParams {
         if let Some(b) = self.beta_rad
             && !(b.is_finite() && b.abs() <= std::f64::consts::FRAC_PI_2)
         {
-            bail!("beta {} deg: expected an angle in [-90, 90] deg", b.to_degrees());
+            bail!(
+                "beta {} deg: expected an angle in [-90, 90] deg",
+                b.to_degrees()
+            );
         }
         Ok(())
     }
@@ -262,7 +274,11 @@ fn best_joint(s: &Setup, a: &Array, q: &mut [f64], j: usize, sun: &Vector3<f64>)
         q[j] = v;
         normal_at(s, a, q).dot(sun)
     };
-    let (f0, f1, f2) = (at(0.0), at(std::f64::consts::FRAC_PI_2), at(std::f64::consts::PI));
+    let (f0, f1, f2) = (
+        at(0.0),
+        at(std::f64::consts::FRAC_PI_2),
+        at(std::f64::consts::PI),
+    );
     let b = 0.5 * (f0 - f2);
     let c = f1 - 0.5 * (f0 + f2);
     let mut best = wrap(c.atan2(b));
@@ -295,7 +311,8 @@ pub fn track(s: &Setup, a: &Array, prev: &[f64], sun: &Vector3<f64>, tol: f64) -
         let v = f(al, &mut q);
         // ties (the mirror solution) go to the one nearest the previous angle
         let better = v > best.0 + 1e-12
-            || ((v - best.0).abs() <= 1e-12 && wrap(al - prev[0]).abs() < wrap(best.1 - prev[0]).abs());
+            || ((v - best.0).abs() <= 1e-12
+                && wrap(al - prev[0]).abs() < wrap(best.1 - prev[0]).abs());
         if better {
             best = (v, al);
         }
@@ -377,7 +394,8 @@ pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
         }
     };
     let mut at_site = q0.clone();
-    at_site[0] = (ORU_SITE[1] - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
+    at_site[0] =
+        (ORU_SITE[1] - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
     let above_oru = [ORU_SITE[0], ORU_SITE[1], ORU_SITE[2] + ABOVE];
     let above_spare = [SPARE_SITE[0], SPARE_SITE[1], SPARE_SITE[2] + ABOVE];
     let reach = solve("above the ORU", above_oru, &at_site)?;
@@ -392,7 +410,11 @@ pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
     Ok(vec![
         w("start, stowed", &q0, 0.0),
         w("travel along the truss to the ORU site", &at_site, 0.0),
-        w("reach over the ORU on the solar structure's mast", &reach, 0.0),
+        w(
+            "reach over the ORU on the solar structure's mast",
+            &reach,
+            0.0,
+        ),
         w("grasp and release the failed ORU", &grasp, 120.0),
         w("lift it out", &reach, 0.0),
         w("carry it over the truss", &over_spare, 0.0),
@@ -455,7 +477,11 @@ fn servicer_at(sched: &[(f64, Vec<f64>, &'static str)], t: f64) -> (Vec<f64>, &'
     for w in sched.windows(2) {
         let (a, b) = (&w[0], &w[1]);
         if t <= b.0 {
-            let u = if b.0 > a.0 { (t - a.0) / (b.0 - a.0) } else { 1.0 };
+            let u = if b.0 > a.0 {
+                (t - a.0) / (b.0 - a.0)
+            } else {
+                1.0
+            };
             let q = a.1.iter().zip(&b.1).map(|(x, y)| x + u * (y - x)).collect();
             return (q, b.2);
         }
@@ -524,7 +550,11 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
     let t_end = p.orbits * period;
     let n = (t_end / p.step_s).ceil() as usize;
     let sched = schedule(s, p.task_start_s)?;
-    let mut prev: Vec<Vec<f64>> = s.arrays.iter().map(|a| s.bodies[a.body].q0.clone()).collect();
+    let mut prev: Vec<Vec<f64>> = s
+        .arrays
+        .iter()
+        .map(|a| s.bodies[a.body].q0.clone())
+        .collect();
     let fixed = common::pose_fixed(&s.fixed);
     let mut soc = p.soc0;
     let (mut energy, mut lost, mut unserved) = (0.0, 0.0, 0.0);
@@ -809,7 +839,12 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
         .iter()
         .filter(|st| st.arrays.iter().any(|a| a.2))
         .count();
-    let blocked: Vec<f64> = run.steps.iter().filter(|st| st.blocked).map(|st| st.t).collect();
+    let blocked: Vec<f64> = run
+        .steps
+        .iter()
+        .filter(|st| st.blocked)
+        .map(|st| st.t)
+        .collect();
     let min_cl = run
         .steps
         .iter()
@@ -832,9 +867,21 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
     let task_end = run.schedule.last().map_or(0.0, |w| w.0);
     let area: f64 = s.arrays.iter().map(|a| a.area_m2).sum();
     let rows = vec![
-        ("orbit altitude", format!("{:.1}", s.orbit.altitude_m / 1e3), "km"),
-        ("beta angle", format!("{:.2}", s.orbit.beta_rad.to_degrees()), "deg"),
-        ("period (closed form 2π√(a³/μ))", format!("{:.2}", run.period_s / 60.0), "min"),
+        (
+            "orbit altitude",
+            format!("{:.1}", s.orbit.altitude_m / 1e3),
+            "km",
+        ),
+        (
+            "beta angle",
+            format!("{:.2}", s.orbit.beta_rad.to_degrees()),
+            "deg",
+        ),
+        (
+            "period (closed form 2π√(a³/μ))",
+            format!("{:.2}", run.period_s / 60.0),
+            "min",
+        ),
         ("run length", format!("{:.2}", t_end / 60.0), "min"),
         ("step", format!("{}", p.step_s), "s"),
         (
@@ -856,21 +903,61 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             ),
             "kW",
         ),
-        ("orbit-average power", format!("{:.1}", run.energy_j / t_end.max(1e-9) / 1e3), "kW"),
-        ("energy from the arrays", format!("{:.1}", run.energy_j / 3.6e6), "kWh"),
-        ("energy lost to feathering", format!("{:.2}", run.lost_j / 3.6e6), "kWh"),
-        ("steps with an array feathered", format!("{feathered_steps}"), "1"),
-        ("worst tracking incidence (unfeathered)", format!("{worst_inc:.3}"), "deg"),
-        ("battery state of charge, minimum", format!("{soc_min:.3}"), "1"),
-        ("load not served", format!("{:.2}", run.unserved_j / 3.6e6), "kWh"),
+        (
+            "orbit-average power",
+            format!("{:.1}", run.energy_j / t_end.max(1e-9) / 1e3),
+            "kW",
+        ),
+        (
+            "energy from the arrays",
+            format!("{:.1}", run.energy_j / 3.6e6),
+            "kWh",
+        ),
+        (
+            "energy lost to feathering",
+            format!("{:.2}", run.lost_j / 3.6e6),
+            "kWh",
+        ),
+        (
+            "steps with an array feathered",
+            format!("{feathered_steps}"),
+            "1",
+        ),
+        (
+            "worst tracking incidence (unfeathered)",
+            format!("{worst_inc:.3}"),
+            "deg",
+        ),
+        (
+            "battery state of charge, minimum",
+            format!("{soc_min:.3}"),
+            "1",
+        ),
+        (
+            "load not served",
+            format!("{:.2}", run.unserved_j / 3.6e6),
+            "kWh",
+        ),
         (
             "minimum servicer–array clearance",
             min_cl.map_or("none".into(), |c| format!("{:.3}", c.0)),
             "m",
         ),
-        ("minimum servicer–structure clearance", format!("{min_struct:.3}"), "m"),
-        ("steps blocked (keep-out broken even feathered)", format!("{}", blocked.len()), "1"),
-        ("ORU task", format!("{:.1} to {:.1}", p.task_start_s / 60.0, task_end / 60.0), "min"),
+        (
+            "minimum servicer–structure clearance",
+            format!("{min_struct:.3}"),
+            "m",
+        ),
+        (
+            "steps blocked (keep-out broken even feathered)",
+            format!("{}", blocked.len()),
+            "1",
+        ),
+        (
+            "ORU task",
+            format!("{:.1} to {:.1}", p.task_start_s / 60.0, task_end / 60.0),
+            "min",
+        ),
         ("wall time of the run", format!("{:.2}", run.wall_s), "s"),
     ];
     let table = Table {
@@ -991,7 +1078,9 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             y_label: "power (kW)".into(),
             series: vec![
                 series("delivered", &|st| st.power_w / 1e3),
-                series("tracking without feathering", &|st| st.tracked_power_w / 1e3),
+                series("tracking without feathering", &|st| {
+                    st.tracked_power_w / 1e3
+                }),
             ],
             ..Plot::default()
         },
@@ -1018,7 +1107,9 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             y_label: "distance (m)".into(),
             series: vec![
                 series("to the arrays", &|st| st.clearance_arrays.min(30.0)),
-                series("to the fixed structure", &|st| st.clearance_structure.min(30.0)),
+                series("to the fixed structure", &|st| {
+                    st.clearance_structure.min(30.0)
+                }),
             ],
             ..Plot::default()
         },
@@ -1055,10 +1146,19 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
             _ => 0.0,
         }
     };
-    let min_cl = |r: &Run| r.steps.iter().map(|st| st.clearance_arrays).fold(f64::INFINITY, f64::min);
+    let min_cl = |r: &Run| {
+        r.steps
+            .iter()
+            .map(|st| st.clearance_arrays)
+            .fold(f64::INFINITY, f64::min)
+    };
     let mut time_pts = Vec::new();
     let mut energy_pts = Vec::new();
-    for (mode, tol) in [(Mode::Exact, p.tracking_tol), (Mode::BBox, p.tracking_tol), (Mode::Exact, 1e-2)] {
+    for (mode, tol) in [
+        (Mode::Exact, p.tracking_tol),
+        (Mode::BBox, p.tracking_tol),
+        (Mode::Exact, 1e-2),
+    ] {
         for &h in steps {
             let r = simulate(
                 &s,
@@ -1071,8 +1171,8 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
                 },
             )?;
             let de = (r.energy_j - reference.energy_j).abs() / reference.energy_j.max(1.0);
-            let sampled_eclipse = r.steps.iter().filter(|st| st.eclipse).count() as f64
-                / r.steps.len().max(1) as f64;
+            let sampled_eclipse =
+                r.steps.iter().filter(|st| st.eclipse).count() as f64 / r.steps.len().max(1) as f64;
             let ms = r.wall_s * 1e3;
             let label = format!("{} tol {:.0e}", mode_name(mode), tol);
             time_pts.push((label.clone(), h, ms));
@@ -1089,7 +1189,13 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
                 ),
                 format!("{:.1}", entry_err(&r)),
                 format!("{:.3}", min_cl(&r)),
-                format!("{}", r.steps.iter().filter(|st| st.arrays.iter().any(|a| a.2)).count()),
+                format!(
+                    "{}",
+                    r.steps
+                        .iter()
+                        .filter(|st| st.arrays.iter().any(|a| a.2))
+                        .count()
+                ),
                 format!("{}", r.steps.iter().filter(|st| st.blocked).count()),
                 format!("{ms:.1}"),
             ]);
@@ -1102,19 +1208,21 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
             .into_iter()
             .map(|l| Series {
                 label: l.clone(),
-                points: pts.iter().filter(|p| p.0 == l).map(|p| (p.1, p.2)).collect(),
+                points: pts
+                    .iter()
+                    .filter(|p| p.0 == l)
+                    .map(|p| (p.1, p.2))
+                    .collect(),
             })
             .collect::<Vec<_>>()
     };
     let report = Report {
         name: "station_accuracy".into(),
         title: "Space Station study: what accuracy costs in time".into(),
-        notes: vec![
-            format!(
-                "Each row is the whole study ({} orbit(s)) at one step, collision mode and tracking tolerance. Energy error is against the finest exact run (step {fine_step} s). The sampled eclipse fraction (share of steps in shadow) is compared with the closed form, and the first step in shadow with the eclipse entry found by bisection (which does not depend on the step). bbox gives no distances: its clearance is a bounding-sphere lower bound when the boxes are apart and 0 when they meet, so it cannot prove most feathered angles clear — those steps are reported blocked (the arm would have to wait) where exact finds a clear angle.",
-                p.orbits
-            ),
-        ],
+        notes: vec![format!(
+            "Each row is the whole study ({} orbit(s)) at one step, collision mode and tracking tolerance. Energy error is against the finest exact run (step {fine_step} s). The sampled eclipse fraction (share of steps in shadow) is compared with the closed form, and the first step in shadow with the eclipse entry found by bisection (which does not depend on the step). bbox gives no distances: its clearance is a bounding-sphere lower bound when the boxes are apart and 0 when they meet, so it cannot prove most feathered angles clear — those steps are reported blocked (the arm would have to wait) where exact finds a clear angle.",
+            p.orbits
+        )],
         table: Table {
             columns: vec![
                 "collision mode".into(),

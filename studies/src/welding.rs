@@ -100,14 +100,7 @@ impl Default for WeldingParams {
             positioner_tol: 1e-6,
             min_clearance_m: 0.005,
             // IRB 1400 class data sheet order: 110°/s on the main axes, 280°/s on the wrist
-            arm_speed: [
-                d(110.0),
-                d(110.0),
-                d(110.0),
-                d(280.0),
-                d(280.0),
-                d(280.0),
-            ],
+            arm_speed: [d(110.0), d(110.0), d(110.0), d(280.0), d(280.0), d(280.0)],
             // a two-axis positioner's order: 60°/s tilt, 90°/s table
             positioner_speed: [d(60.0), d(90.0)],
         }
@@ -140,18 +133,29 @@ impl WeldingParams {
             bail!("arm x {x} m: expected a finite position within 100 m");
         }
         if !(self.travel_angle.is_finite() && self.travel_angle.abs() < PI / 3.0) {
-            bail!("travel angle {} deg: expected |angle| < 60 deg", self.travel_angle.to_degrees());
+            bail!(
+                "travel angle {} deg: expected |angle| < 60 deg",
+                self.travel_angle.to_degrees()
+            );
         }
         if !(self.standoff_m.is_finite() && self.standoff_m >= 0.0 && self.standoff_m < 0.1) {
             bail!("standoff {} m: expected [0, 0.1) m", self.standoff_m);
         }
         if !(self.min_clearance_m.is_finite() && self.min_clearance_m >= 0.0) {
-            bail!("minimum clearance {} m: expected a finite distance ≥ 0", self.min_clearance_m);
+            bail!(
+                "minimum clearance {} m: expected a finite distance ≥ 0",
+                self.min_clearance_m
+            );
         }
         if !pos(self.downhand_tol) || !pos(self.positioner_tol) {
             bail!("tolerances must be positive angles");
         }
-        if !self.arm_speed.iter().chain(&self.positioner_speed).all(|v| pos(*v)) {
+        if !self
+            .arm_speed
+            .iter()
+            .chain(&self.positioner_speed)
+            .all(|v| pos(*v))
+        {
             bail!("joint speed limits must be positive");
         }
         Ok(())
@@ -227,7 +231,10 @@ fn off_surface(c: &Cyl, p: &Point3<f64>) -> (f64, bool) {
     let d = p - c.centre;
     let along = d.dot(&c.axis);
     let radial = (d - along * c.axis).norm();
-    ((radial - c.radius).abs(), along.abs() <= c.height / 2.0 + 1e-9)
+    (
+        (radial - c.radius).abs(),
+        along.abs() <= c.height / 2.0 + 1e-9,
+    )
 }
 
 /// The seams of the workpiece on link `table` of the positioner (`parts`: that link's solids).
@@ -257,7 +264,10 @@ pub fn seams(
         match kind {
             SeamKind::Circle => {
                 if pipe.radius >= flange.radius {
-                    bail!("the pipe (radius {} m) is wider than the flange: no fillet seam", pipe.radius);
+                    bail!(
+                        "the pipe (radius {} m) is wider than the flange: no fillet seam",
+                        pipe.radius
+                    );
                 }
                 for k in 0..=n {
                     let phi = TAU * k as f64 / n as f64;
@@ -282,7 +292,9 @@ pub fn seams(
                     );
                 }
                 if rb >= pipe.radius {
-                    bail!("the branch (radius {rb} m) is not narrower than the pipe: no saddle seam");
+                    bail!(
+                        "the branch (radius {rb} m) is not narrower than the pipe: no saddle seam"
+                    );
                 }
                 let w = up.cross(&b).normalize();
                 let origin = top + up * h;
@@ -423,13 +435,20 @@ pub fn downhand(s: &Setup, n: &Vector3<f64>, prev: &[f64], tol: f64) -> (Vec<f64
     let h = (lim[0][1] - lim[0][0]) / nscan as f64;
     let mut cands: Vec<(Vec<f64>, f64)> = Vec::new();
     for k in 0..scan.len() {
-        let left = if k > 0 { scan[k - 1].1 } else { f64::NEG_INFINITY };
+        let left = if k > 0 {
+            scan[k - 1].1
+        } else {
+            f64::NEG_INFINITY
+        };
         let right = scan.get(k + 1).map_or(f64::NEG_INFINITY, |x| x.1);
         if scan[k].1 < left || scan[k].1 < right {
             continue;
         }
         let g = 0.5 * (5f64.sqrt() - 1.0);
-        let (mut lo, mut hi) = ((scan[k].0 - h).max(lim[0][0]), (scan[k].0 + h).min(lim[0][1]));
+        let (mut lo, mut hi) = (
+            (scan[k].0 - h).max(lim[0][0]),
+            (scan[k].0 + h).min(lim[0][1]),
+        );
         let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
         let (mut f1, mut f2) = (best_table(x1).1, best_table(x2).1);
         while hi - lo > tol {
@@ -519,8 +538,8 @@ fn arm_ik(
     };
     // rolls near the previous one first (continuity), then around the whole turn
     let offsets = [
-        0.0, 2.0, -2.0, 5.0, -5.0, 10.0, -10.0, 20.0, -20.0, 30.0, -30.0, 60.0, -60.0, 90.0,
-        -90.0, 120.0, -120.0, 150.0, -150.0, 180.0,
+        0.0, 2.0, -2.0, 5.0, -5.0, 10.0, -10.0, 20.0, -20.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0,
+        120.0, -120.0, 150.0, -150.0, 180.0,
     ];
     for off in offsets {
         let roll = prev_roll + f64::to_radians(off);
@@ -665,8 +684,33 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
         let (qp1, _) = downhand(s, &n0, &qp, p.positioner_tol);
         let tp = table_pose(s, &qp1);
         let r = rot(&tp);
-        let start_arm = arm_ik(s, p, &tp.transform_point(&pt0), &(r * t0v), &(r * n0), &s.arm.q0, &qp1, p.standoff_m, 0.0);
-        let approach = start_arm.as_ref().map_err(Clone::clone).and_then(|(_, roll)| arm_ik(s, p, &tp.transform_point(&pt0), &(r * t0v), &(r * n0), &s.arm.q0, &qp1, p.standoff_m + APPROACH_M, *roll));
+        let start_arm = arm_ik(
+            s,
+            p,
+            &tp.transform_point(&pt0),
+            &(r * t0v),
+            &(r * n0),
+            &s.arm.q0,
+            &qp1,
+            p.standoff_m,
+            0.0,
+        );
+        let approach = start_arm
+            .as_ref()
+            .map_err(Clone::clone)
+            .and_then(|(_, roll)| {
+                arm_ik(
+                    s,
+                    p,
+                    &tp.transform_point(&pt0),
+                    &(r * t0v),
+                    &(r * n0),
+                    &s.arm.q0,
+                    &qp1,
+                    p.standoff_m + APPROACH_M,
+                    *roll,
+                )
+            });
         if let Ok((_, r0)) = &start_arm {
             roll = *r0;
         }
@@ -696,10 +740,16 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
                 let (qa0, qp0) = (qa.clone(), qp.clone());
                 for k in 1..=n {
                     let u = k as f64 / n as f64;
-                    let qa_k: Vec<f64> =
-                        qa0.iter().zip(&qa_to).map(|(a, b)| a + u * (b - a)).collect();
-                    let qp_k: Vec<f64> =
-                        qp0.iter().zip(&qp_to).map(|(a, b)| a + u * (b - a)).collect();
+                    let qa_k: Vec<f64> = qa0
+                        .iter()
+                        .zip(&qa_to)
+                        .map(|(a, b)| a + u * (b - a))
+                        .collect();
+                    let qp_k: Vec<f64> = qp0
+                        .iter()
+                        .zip(&qp_to)
+                        .map(|(a, b)| a + u * (b - a))
+                        .collect();
                     t += p.step_s;
                     let (cl, pair) = clearance(s, p, &qa_k, &qp_k);
                     steps.push(Step {
@@ -749,7 +799,17 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
             }
             let tp = table_pose(s, &qp_k);
             let r = rot(&tp);
-            let qa_k = match arm_ik(s, p, &tp.transform_point(&pt), &(r * tv), &(r * nv), &qa, &qp_k, p.standoff_m, roll) {
+            let qa_k = match arm_ik(
+                s,
+                p,
+                &tp.transform_point(&pt),
+                &(r * tv),
+                &(r * nv),
+                &qa,
+                &qp_k,
+                p.standoff_m,
+                roll,
+            ) {
                 Ok((q, r1)) => {
                     roll = r1;
                     q
@@ -833,7 +893,11 @@ fn retract(s: &Setup, p: &WeldingParams, qp_a: &[f64], qp_b: &[f64]) -> Vec<f64>
             let mut q = s.arm.q0.clone();
             q[1] = (-70.0 + 10.0 * k2 as f64).to_radians();
             q[2] = (-60.0 + 10.0 * k3 as f64).to_radians();
-            if q[1] < lim[1].qlim[0] || q[1] > lim[1].qlim[1] || q[2] < lim[2].qlim[0] || q[2] > lim[2].qlim[1] {
+            if q[1] < lim[1].qlim[0]
+                || q[1] > lim[1].qlim[1]
+                || q[2] < lim[2].qlim[0]
+                || q[2] > lim[2].qlim[1]
+            {
                 continue;
             }
             let c = clearance(s, p, &q, qp_a).0.min(clearance(s, p, &q, qp_b).0);
@@ -854,7 +918,10 @@ fn clearance(s: &Setup, p: &WeldingParams, qa: &[f64], qp: &[f64]) -> (f64, (Str
     let a = s.arm.posed(&fa);
     let b = s.positioner.posed(&fp);
     match common::clearance(&a, &b, p.mode) {
-        Some(c) => (c.distance, (format!("arm/{}", c.a), format!("positioner/{}", c.b))),
+        Some(c) => (
+            c.distance,
+            (format!("arm/{}", c.a), format!("positioner/{}", c.b)),
+        ),
         None => (f64::INFINITY, (String::new(), String::new())),
     }
 }
@@ -874,7 +941,12 @@ pub fn sections(s: &Setup, run: &Run) -> Vec<(String, f64, f64, String)> {
         } else {
             100.0 * st.s / seam.length()
         };
-        let reason = st.problem.split(" (").next().unwrap_or(&st.problem).to_owned();
+        let reason = st
+            .problem
+            .split(" (")
+            .next()
+            .unwrap_or(&st.problem)
+            .to_owned();
         match (&last, out.last_mut()) {
             (Some((ls, lr)), Some(sec)) if *ls == st.seam && *lr == reason => {
                 sec.2 = pct;
@@ -922,7 +994,12 @@ pub fn run(p: &WeldingParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
         .map(String::from),
     );
     cols.extend(s.arm.link_names.iter().map(|n| format!("arm_{n}_deg")));
-    cols.extend(s.positioner.link_names.iter().map(|n| format!("positioner_{n}_deg")));
+    cols.extend(
+        s.positioner
+            .link_names
+            .iter()
+            .map(|n| format!("positioner_{n}_deg")),
+    );
     cols.extend(
         [
             "arm_speed_ratio",
@@ -981,7 +1058,10 @@ pub fn run(p: &WeldingParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     robosim_report::write_report(dir, &summary)?;
     if p.frames > 0 {
         if p.arm_x_m.is_some() {
-            say!(log, "frames: not drawn (the display draws the scene at its default arm_x)");
+            say!(
+                log,
+                "frames: not drawn (the display draws the scene at its default arm_x)"
+            );
         } else {
             common::render_frames(
                 SCENE,
@@ -1020,16 +1100,16 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
         rows.push(vec![
             seam.kind.name().to_owned(),
             format!("{:.1}", seam.length() * 1e3),
-            format!(
-                "{:.1}",
-                100.0 * ok.len() as f64 / st.len().max(1) as f64
-            ),
+            format!("{:.1}", 100.0 * ok.len() as f64 / st.len().max(1) as f64),
             format!("{:.3}", worst(&|x| x.downhand_err).to_degrees()),
             format!("{:.3}", worst(&|x| x.work_err).to_degrees()),
             format!("{:.3}", worst(&|x| x.travel_err).to_degrees()),
             format!("{:.3}", worst(&|x| x.tip_err) * 1e3),
             format!("{:.3}", min_cl * 1e3),
-            format!("{:.2}", worst(&|x| x.arm_speed_ratio.max(x.pos_speed_ratio))),
+            format!(
+                "{:.2}",
+                worst(&|x| x.arm_speed_ratio.max(x.pos_speed_ratio))
+            ),
             format!("{:.1}", t_b - t_a),
         ]);
     }
@@ -1038,7 +1118,10 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
     let all = weld_steps(run).count();
     rows.push(vec![
         "cell (all seams + repositioning)".into(),
-        format!("{:.1}", s.seams.iter().map(|x| x.length()).sum::<f64>() * 1e3),
+        format!(
+            "{:.1}",
+            s.seams.iter().map(|x| x.length()).sum::<f64>() * 1e3
+        ),
         format!("{:.1}", 100.0 * all_ok as f64 / all.max(1) as f64),
         String::new(),
         String::new(),
@@ -1046,7 +1129,11 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
         String::new(),
         format!(
             "{:.3}",
-            run.steps.iter().map(|x| x.clearance).fold(f64::INFINITY, f64::min) * 1e3
+            run.steps
+                .iter()
+                .map(|x| x.clearance)
+                .fold(f64::INFINITY, f64::min)
+                * 1e3
         ),
         String::new(),
         format!("{cycle:.1}"),
@@ -1084,13 +1171,21 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
     for (j, n) in s.arm.link_names.iter().enumerate() {
         joints.push(Series {
             label: format!("arm {n}"),
-            points: run.steps.iter().map(|st| (st.t, st.q_arm[j].to_degrees())).collect(),
+            points: run
+                .steps
+                .iter()
+                .map(|st| (st.t, st.q_arm[j].to_degrees()))
+                .collect(),
         });
     }
     for (j, n) in s.positioner.link_names.iter().enumerate() {
         joints.push(Series {
             label: format!("positioner {n}"),
-            points: run.steps.iter().map(|st| (st.t, st.q_pos[j].to_degrees())).collect(),
+            points: run
+                .steps
+                .iter()
+                .map(|st| (st.t, st.q_pos[j].to_degrees()))
+                .collect(),
         });
     }
     let plots = vec![
@@ -1196,7 +1291,11 @@ pub fn accuracy(p: &WeldingParams, dir: &Path) -> Result<robosim_report::Report>
                 .filter(|x| x.problem.is_empty())
                 .map(|x| x.downhand_err)
                 .fold(0.0, f64::max);
-            let min_cl = r.steps.iter().map(|x| x.clearance).fold(f64::INFINITY, f64::min);
+            let min_cl = r
+                .steps
+                .iter()
+                .map(|x| x.clearance)
+                .fold(f64::INFINITY, f64::min);
             let ok = weld_steps(&r).filter(|x| x.problem.is_empty()).count();
             let all = weld_steps(&r).count();
             err_pts.push((label.clone(), h, r.mid_downhand.to_degrees().max(1e-9)));
@@ -1221,7 +1320,11 @@ pub fn accuracy(p: &WeldingParams, dir: &Path) -> Result<robosim_report::Report>
             .into_iter()
             .map(|l| Series {
                 label: l.clone(),
-                points: pts.iter().filter(|p| p.0 == l).map(|p| (p.1, p.2)).collect(),
+                points: pts
+                    .iter()
+                    .filter(|p| p.0 == l)
+                    .map(|p| (p.1, p.2))
+                    .collect(),
             })
             .collect::<Vec<_>>()
     };

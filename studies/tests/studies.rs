@@ -9,15 +9,27 @@ use robosim_studies::welding::{self, SeamKind, WeldingParams};
 use std::path::Path;
 
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
-    let text = std::fs::read_to_string(path).unwrap();
+    let text = std::fs::read_to_string(path).expect("the file reads");
     let mut lines = text.lines();
-    let cols: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let cols: Vec<String> = lines
+        .next()
+        .expect("the file reads")
+        .split(',')
+        .map(String::from)
+        .collect();
     let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|c| c.parse::<f64>().unwrap()).collect())
+        .map(|l| {
+            l.split(',')
+                .map(|c| c.parse::<f64>().expect("a number"))
+                .collect()
+        })
         .collect();
     for r in &rows {
         assert_eq!(r.len(), cols.len());
-        assert!(r.iter().all(|v| v.is_finite()), "non-finite value in {path:?}");
+        assert!(
+            r.iter().all(|v| v.is_finite()),
+            "non-finite value in {path:?}"
+        );
     }
     (cols, rows)
 }
@@ -32,7 +44,16 @@ fn col(cols: &[String], name: &str) -> usize {
 fn units_named(cols: &[String]) {
     for c in cols {
         let ok = [
-            "_s", "_m", "_deg", "_mm", "_kw", "_kwh", "_pct", "_ratio", "_soc", "_feathered",
+            "_s",
+            "_m",
+            "_deg",
+            "_mm",
+            "_kw",
+            "_kwh",
+            "_pct",
+            "_ratio",
+            "_soc",
+            "_feathered",
         ]
         .iter()
         .any(|u| c.ends_with(u))
@@ -55,11 +76,11 @@ fn quick_welding() -> WeldingParams {
 
 #[test]
 fn welding_study_welds_both_seams_downhand_and_writes_playable_trajectories() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().expect("temp dir");
     let p = quick_welding();
     let mut log = Vec::new();
-    let run = welding::run(&p, dir.path(), &mut log).unwrap();
-    let setup = welding::setup(&p).unwrap();
+    let run = welding::run(&p, dir.path(), &mut log).expect("temp dir");
+    let setup = welding::setup(&p).expect("the study sets up");
     // every weld step feasible, downhand and the torch angles held at the steps
     let weld: Vec<_> = run.steps.iter().filter(|s| s.s >= 0.0).collect();
     assert!(weld.len() > 50);
@@ -73,7 +94,11 @@ fn welding_study_welds_both_seams_downhand_and_writes_playable_trajectories() {
     }
     // both seams covered to their ends
     for (i, seam) in setup.seams.iter().enumerate() {
-        let last = weld.iter().filter(|s| s.seam == i).map(|s| s.s).fold(0.0, f64::max);
+        let last = weld
+            .iter()
+            .filter(|s| s.seam == i)
+            .map(|s| s.s)
+            .fold(0.0, f64::max);
         assert!((last - seam.length()).abs() < 1e-9);
     }
     // within the joint limits at every step, welding or not
@@ -91,7 +116,7 @@ fn welding_study_welds_both_seams_downhand_and_writes_playable_trajectories() {
     for (name, robot) in [("arm", arm), ("positioner", pos)] {
         let t =
             robosim_display::trajectory::Trajectory::load(&dir.path().join(format!("{name}.traj")))
-                .unwrap();
+                .expect("the trajectory loads");
         assert_eq!(t.samples.len(), run.steps.len());
         assert_eq!(t.columns(), robot.dof());
         assert!((t.dt - p.step_s).abs() < 1e-12);
@@ -101,8 +126,12 @@ fn welding_study_welds_both_seams_downhand_and_writes_playable_trajectories() {
         }
     }
     // the summary says what was found
-    let md = std::fs::read_to_string(dir.path().join("welding_summary.md")).unwrap();
-    assert!(md.contains("| circle |") && md.contains("| saddle |"), "{md}");
+    let md =
+        std::fs::read_to_string(dir.path().join("welding_summary.md")).expect("the file reads");
+    assert!(
+        md.contains("| circle |") && md.contains("| saddle |"),
+        "{md}"
+    );
     assert!(md.contains("Every step of every seam can be welded downhand"));
     assert!(dir.path().join("welding_summary.png").exists());
 }
@@ -110,8 +139,12 @@ fn welding_study_welds_both_seams_downhand_and_writes_playable_trajectories() {
 #[test]
 fn seams_lie_on_the_workpiece_and_the_positioner_turns_them_up() {
     let p = quick_welding();
-    let s = welding::setup(&p).unwrap();
-    let circle = s.seams.iter().find(|x| x.kind == SeamKind::Circle).unwrap();
+    let s = welding::setup(&p).expect("the study sets up");
+    let circle = s
+        .seams
+        .iter()
+        .find(|x| x.kind == SeamKind::Circle)
+        .expect("the study sets up");
     // the circle: radius of the pipe (0.1 m), on the flange top (0.02 m), length 2πr
     assert!((circle.length() - std::f64::consts::TAU * 0.1).abs() < 1e-3);
     for (pt, n) in circle.points.iter().zip(&circle.normals) {
@@ -120,7 +153,11 @@ fn seams_lie_on_the_workpiece_and_the_positioner_turns_them_up() {
         // a 90° fillet: the bisector is 45° up from the pipe's radial direction
         assert!((n.z - std::f64::consts::FRAC_1_SQRT_2).abs() < 1e-12);
     }
-    let saddle = s.seams.iter().find(|x| x.kind == SeamKind::Saddle).unwrap();
+    let saddle = s
+        .seams
+        .iter()
+        .find(|x| x.kind == SeamKind::Saddle)
+        .expect("the seam is there");
     for pt in &saddle.points {
         // on the pipe (r = 0.1 about z) and on the branch (r = 0.05 about x at z = 0.2)
         assert!((pt.coords.xy().norm() - 0.1).abs() < 1e-9);
@@ -142,31 +179,35 @@ fn seams_lie_on_the_workpiece_and_the_positioner_turns_them_up() {
 
 #[test]
 fn an_unreachable_seam_is_reported_where_and_why_without_nan() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().expect("temp dir");
     let p = WeldingParams {
         arm_x_m: Some(-1.45),
         seams: vec![SeamKind::Saddle],
         ..quick_welding()
     };
     let mut log = Vec::new();
-    let run = welding::run(&p, dir.path(), &mut log).unwrap();
-    let s = welding::setup(&p).unwrap();
+    let run = welding::run(&p, dir.path(), &mut log).expect("the study runs");
+    let s = welding::setup(&p).expect("the study sets up");
     let sections = welding::sections(&s, &run);
     assert!(!sections.is_empty());
-    assert!(sections.iter().any(|x| x.3.contains("unreachable")), "{sections:?}");
+    assert!(
+        sections.iter().any(|x| x.3.contains("unreachable")),
+        "{sections:?}"
+    );
     // some of the saddle can still be welded: not everything is infeasible
     assert!(run.steps.iter().any(|x| x.s >= 0.0 && x.problem.is_empty()));
     let (cols, rows) = read_csv(&dir.path().join("welding.csv"));
     assert!(rows.iter().any(|r| r[col(&cols, "feasible")] == 0.0));
-    let md = std::fs::read_to_string(dir.path().join("welding_summary.md")).unwrap();
+    let md =
+        std::fs::read_to_string(dir.path().join("welding_summary.md")).expect("the file reads");
     assert!(md.contains("Infeasible: saddle seam"), "{md}");
 }
 
 #[test]
 fn bad_welding_parameters_are_refused_by_name() {
     let bad = |p: WeldingParams, words: &str| {
-        let dir = tempfile::tempdir().unwrap();
-        let e = welding::run(&p, dir.path(), &mut Vec::new()).unwrap_err();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let e = welding::run(&p, dir.path(), &mut Vec::new()).expect_err("refused");
         assert!(e.0.contains(words), "{e}");
         assert!(!dir.path().join("welding.csv").exists());
     };
@@ -211,11 +252,11 @@ fn quick_station() -> StationParams {
 
 #[test]
 fn station_study_tracks_the_sun_feathers_for_the_servicer_and_keeps_the_battery() {
-    let dir = tempfile::tempdir().unwrap();
+    let dir = tempfile::tempdir().expect("temp dir");
     let p = quick_station();
     let mut log = Vec::new();
-    let run = station::run(&p, dir.path(), &mut log).unwrap();
-    let s = station::setup(&p).unwrap();
+    let run = station::run(&p, dir.path(), &mut log).expect("temp dir");
+    let s = station::setup(&p).expect("the study sets up");
     let area: f64 = s.arrays.iter().map(|a| a.area_m2).sum();
     // 2 outboard wings of 2 × 10 m × 30 m and 2 solar structures of 2 × 6 m × 16 m
     assert!((area - (2.0 * 600.0 + 2.0 * 192.0)).abs() < 1e-9);
@@ -266,11 +307,12 @@ fn station_study_tracks_the_sun_feathers_for_the_servicer_and_keeps_the_battery(
         let t = robosim_display::trajectory::Trajectory::load(
             &dir.path().join(format!("{}.traj", b.name)),
         )
-        .unwrap();
+        .expect("the trajectory loads");
         assert_eq!(t.samples.len(), run.steps.len());
         assert_eq!(t.columns(), b.robot.dof());
     }
-    let md = std::fs::read_to_string(dir.path().join("station_summary.md")).unwrap();
+    let md =
+        std::fs::read_to_string(dir.path().join("station_summary.md")).expect("the file reads");
     assert!(md.contains("Array feathered for the servicer"), "{md}");
     assert!(md.contains("energy lost to feathering"));
 }
@@ -278,7 +320,7 @@ fn station_study_tracks_the_sun_feathers_for_the_servicer_and_keeps_the_battery(
 #[test]
 fn station_orbit_matches_the_closed_forms_and_the_declared_effect() {
     let p = quick_station();
-    let s = station::setup(&p).unwrap();
+    let s = station::setup(&p).expect("the study sets up");
     // the scene's declared orbit: 400 km, beta 20°
     assert!((s.orbit.altitude_m - 400e3).abs() < 1e-6);
     assert!((s.orbit.beta_rad - 20f64.to_radians()).abs() < 1e-12);
@@ -291,26 +333,26 @@ fn station_orbit_matches_the_closed_forms_and_the_declared_effect() {
             ..p.clone()
         },
     )
-    .unwrap();
+    .expect("it succeeds");
     let shadow: f64 = run.eclipses.iter().map(|[a, b]| b - a).sum();
     assert!((shadow / run.period_s - s.orbit.eclipse_fraction_closed_form()).abs() < 1e-6);
     // the run ends one period after it started
-    assert!((run.steps.last().unwrap().t - run.period_s).abs() < 1e-9);
+    assert!((run.steps.last().expect("it succeeds").t - run.period_s).abs() < 1e-9);
     // parameters override the declared orbit; a high beta has no eclipse
     let high = station::setup(&StationParams {
         beta_rad: Some(80f64.to_radians()),
         altitude_m: Some(800e3),
         ..p.clone()
     })
-    .unwrap();
+    .expect("it succeeds");
     assert_eq!(high.orbit.eclipse_fraction_closed_form(), 0.0);
 }
 
 #[test]
 fn bbox_clearances_are_conservative_against_exact() {
     let p = quick_station();
-    let s = station::setup(&p).unwrap();
-    let exact = station::simulate(&s, &p).unwrap();
+    let s = station::setup(&p).expect("the study sets up");
+    let exact = station::simulate(&s, &p).expect("the simulation runs");
     let bbox = station::simulate(
         &s,
         &StationParams {
@@ -318,7 +360,7 @@ fn bbox_clearances_are_conservative_against_exact() {
             ..p.clone()
         },
     )
-    .unwrap();
+    .expect("it succeeds");
     // bbox gives lower bounds only: wherever exact has to feather, bbox feathers too or finds
     // no angle it can prove clear (blocked)
     for (e, b) in exact.steps.iter().zip(&bbox.steps) {
@@ -333,8 +375,8 @@ fn bbox_clearances_are_conservative_against_exact() {
 #[test]
 fn bad_station_parameters_are_refused_by_name() {
     let bad = |p: StationParams, words: &str| {
-        let dir = tempfile::tempdir().unwrap();
-        let e = station::run(&p, dir.path(), &mut Vec::new()).unwrap_err();
+        let dir = tempfile::tempdir().expect("temp dir");
+        let e = station::run(&p, dir.path(), &mut Vec::new()).expect_err("refused");
         assert!(e.0.contains(words), "{e}");
         assert!(!dir.path().join("station.csv").exists());
     };

@@ -421,7 +421,10 @@ impl Evaluator<'_> {
                                     return Err(err(
                                         ErrorKind::OutOfRange,
                                         value.span,
-                                        format!("beta angle {} deg is out of range", b.to_degrees()),
+                                        format!(
+                                            "beta angle {} deg is out of range",
+                                            b.to_degrees()
+                                        ),
                                     )
                                     .expected("a beta angle in [-90 deg, 90 deg]"));
                                 }
