@@ -129,6 +129,11 @@ enum Command {
     Display(robosim_display::app::DisplayArgs),
     /// A headless session that does real work and says what it did.
     Demo,
+    /// The seed's case studies end to end, written to --out DIR (docs/studies.md).
+    Study {
+        #[command(subcommand)]
+        cmd: robosim_studies::cli::StudyCmd,
+    },
     /// The Library Space: list, show and check declarations.
     Lib {
         #[command(subcommand)]
@@ -382,6 +387,8 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         } => cli_instantiate(&declaration, name.as_deref(), &set, session),
         Command::Set { instance, params } => cli_set(&instance, &params, session),
         Command::Demo => robosim_studies::surgical::run(session, &mut std::io::stdout().lock())
+            .map_err(|e| CliError(e.0)),
+        Command::Study { cmd } => robosim_studies::cli::run(&cmd, &mut std::io::stdout().lock())
             .map_err(|e| CliError(e.0)),
         Command::Bench { which } => bench::run(which, session),
         Command::Lib { cmd } => match session {

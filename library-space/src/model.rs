@@ -263,6 +263,31 @@ pub struct Effects {
     pub encoder_bits: Option<u32>,
     /// Signals to log (`q`, `qd`, `tau`, `contacts`, `energy`, …).
     pub logged: Vec<String>,
+    /// A circular Earth orbit the scene flies (the sun vector and eclipses follow from it).
+    #[serde(default)]
+    pub orbit: Option<OrbitEffect>,
+    /// Solar arrays turn their gimbals to face the sun (needs `orbit`).
+    #[serde(default)]
+    pub sun_tracking: bool,
+    /// Electrical power from the arrays and a battery (needs `orbit`).
+    #[serde(default)]
+    pub power: Option<PowerEffect>,
+}
+
+/// `orbit { altitude: 400 km, beta: 0 deg }`: a circular orbit about a spherical Earth.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OrbitEffect {
+    /// Height above the Earth's mean equatorial radius, m (> 0).
+    pub altitude_m: f64,
+    /// Angle between the orbit plane and the sun vector, rad, in [−90°, 90°].
+    pub beta_rad: f64,
+}
+
+/// `power { efficiency: 0.14 }`: array power = Σ projected area × efficiency × solar flux.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PowerEffect {
+    /// Solar-cell efficiency, in (0, 1].
+    pub efficiency: f64,
 }
 
 impl Default for Effects {
@@ -274,6 +299,9 @@ impl Default for Effects {
             dynamics: None,
             encoder_bits: None,
             logged: vec![],
+            orbit: None,
+            sun_tracking: false,
+            power: None,
         }
     }
 }

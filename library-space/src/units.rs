@@ -100,6 +100,7 @@ impl fmt::Display for Dim {
 /// The units the language knows, with their SI scale.
 pub fn unit(name: &str) -> Option<(f64, Dim)> {
     Some(match name {
+        "km" => (1e3, Dim::LENGTH),
         "m" => (1.0, Dim::LENGTH),
         "cm" => (1e-2, Dim::LENGTH),
         "mm" => (1e-3, Dim::LENGTH),

@@ -5,9 +5,19 @@
 //! * [`surgical`] — seed §2.7: the kinematic surgical positioner beside the patient's head (IK,
 //!   collision, MOVEJI, the encoder study, dynamics, an ECLSS diagnosis), `robosim demo`.
 //!
-//! Entry points: [`surgical::run`], [`StudyError`].
+//! * [`welding`] — seed §2.2/§2.7: the downhand welding cell, `robosim study welding`.
+//! * [`station`] — seed chapter 4: the Space Station's orbit, sun-tracking arrays, power and
+//!   an ORU swap by the servicer, `robosim study station`; [`orbit`] is its orbit model.
+//! * [`common`] — bodies, clearances, trajectory files, CSV and frames the two share.
+//!
+//! Entry points: [`surgical::run`], [`welding::run`], [`station::run`], [`StudyError`].
 
+pub mod cli;
+pub mod common;
+pub mod orbit;
+pub mod station;
 pub mod surgical;
+pub mod welding;
 
 /// Why a study stopped: what failed, in words (every study step names its input).
 #[derive(Debug)]

@@ -88,7 +88,7 @@ fn vec_str(v: &[f64], digits: usize) -> String {
 /// A collision body for a library primitive: the exact primitive where the collision crate
 /// has one (with the library's facet count, so both faceted forms agree), else the library's
 /// polyhedron as a mesh.
-fn collision_solid(p: &PlacedSolid) -> Result<Solid> {
+pub(crate) fn collision_solid(p: &PlacedSolid) -> Result<Solid> {
     let s = match &p.primitive {
         Primitive::Box { size } => Solid::cuboid(Vector3::new(size[0], size[1], size[2])),
         Primitive::Cylinder {

@@ -196,6 +196,8 @@ impl Evaluator<'_> {
     pub(super) fn effects(&mut self, body: &[Stmt], scope: &mut Scope) -> RResult<Effects> {
         let mut fx = Effects::default();
         let mut seen = Seen::default();
+        // The sun and eclipses come from the orbit: tracking and power without one mean nothing.
+        let mut needs_orbit: Option<(Span, &str)> = None;
         const PROPS: &[&str] = &[
             "kinematics",
             "joint_limits",
@@ -203,6 +205,9 @@ impl Evaluator<'_> {
             "dynamics",
             "encoder_bits",
             "log",
+            "orbit",
+            "sun_tracking",
+            "power",
         ];
         for st in body {
             match st {
@@ -214,6 +219,12 @@ impl Evaluator<'_> {
                     seen.check(name, *name_span)?;
                     match name.as_str() {
                         "kinematics" => fx.kinematics = self.switch(value, scope)?,
+                        "sun_tracking" => {
+                            fx.sun_tracking = self.switch(value, scope)?;
+                            if fx.sun_tracking {
+                                needs_orbit = Some((*name_span, "sun_tracking"));
+                            }
+                        }
                         "joint_limits" => fx.joint_limits = self.switch(value, scope)?,
                         "encoder_bits" => {
                             fx.encoder_bits = Some(self.count(value, scope, 1, 32)? as u32)
@@ -370,13 +381,127 @@ impl Evaluator<'_> {
                     fx.dynamics = Some(dy);
                 }
                 Stmt::Block {
+                    name,
+                    name_span,
+                    body,
+                } if name == "orbit" => {
+                    seen.check(name, *name_span)?;
+                    let (mut altitude, mut beta) = (None, 0.0);
+                    for (name, name_span, value) in
+                        group_props(body, "`orbit { … }`", "`altitude:` or `beta:`")?
+                    {
+                        match name {
+                            "altitude" => {
+                                let h = self.quantity(
+                                    value,
+                                    scope,
+                                    Dim::LENGTH,
+                                    "an altitude such as 400 km",
+                                )?;
+                                // Below 100 km there is no orbit (the Kármán line); beyond a
+                                // geostationary radius the station model makes no sense.
+                                if !(100e3..=36_000e3).contains(&h) {
+                                    return Err(err(
+                                        ErrorKind::OutOfRange,
+                                        value.span,
+                                        format!("orbit altitude {h} m is out of range"),
+                                    )
+                                    .expected("an altitude in [100 km, 36000 km]"));
+                                }
+                                altitude = Some(h);
+                            }
+                            "beta" => {
+                                let b = self.quantity(
+                                    value,
+                                    scope,
+                                    Dim::ANGLE,
+                                    "a beta angle such as 20 deg",
+                                )?;
+                                if b.abs() > std::f64::consts::FRAC_PI_2 {
+                                    return Err(err(
+                                        ErrorKind::OutOfRange,
+                                        value.span,
+                                        format!(
+                                            "beta angle {} deg is out of range",
+                                            b.to_degrees()
+                                        ),
+                                    )
+                                    .expected("a beta angle in [-90 deg, 90 deg]"));
+                                }
+                                beta = b;
+                            }
+                            _ => {
+                                return Err(unknown_prop(
+                                    "orbit",
+                                    name,
+                                    name_span,
+                                    &["altitude", "beta"],
+                                ));
+                            }
+                        }
+                    }
+                    let Some(altitude_m) = altitude else {
+                        return Err(err(
+                            ErrorKind::Type,
+                            *name_span,
+                            "`orbit { … }` needs an altitude".to_string(),
+                        )
+                        .expected("`orbit { altitude: 400 km }`"));
+                    };
+                    fx.orbit = Some(OrbitEffect {
+                        altitude_m,
+                        beta_rad: beta,
+                    });
+                }
+                Stmt::Block {
+                    name,
+                    name_span,
+                    body,
+                } if name == "power" => {
+                    seen.check(name, *name_span)?;
+                    let mut p = PowerEffect { efficiency: 0.14 };
+                    for (name, name_span, value) in
+                        group_props(body, "`power { … }`", "`efficiency:`")?
+                    {
+                        match name {
+                            "efficiency" => {
+                                let e = self.quantity(
+                                    value,
+                                    scope,
+                                    Dim::NONE,
+                                    "a plain fraction such as 0.14",
+                                )?;
+                                if !(e > 0.0 && e <= 1.0) {
+                                    return Err(err(
+                                        ErrorKind::OutOfRange,
+                                        value.span,
+                                        format!("efficiency {e} is out of range"),
+                                    )
+                                    .expected("an efficiency in (0, 1]"));
+                                }
+                                p.efficiency = e;
+                            }
+                            _ => {
+                                return Err(unknown_prop(
+                                    "power",
+                                    name,
+                                    name_span,
+                                    &["efficiency"],
+                                ));
+                            }
+                        }
+                    }
+                    fx.power = Some(p);
+                    needs_orbit = Some((*name_span, "power"));
+                }
+                Stmt::Block {
                     name, name_span, ..
                 } => {
                     return Err(unknown_prop(
                         "effects",
                         name,
                         *name_span,
-                        &["collision", "dynamics"],
+                        &["collision", "dynamics", "orbit", "power"],
                     ));
                 }
                 Stmt::Let {
@@ -392,6 +517,14 @@ impl Evaluator<'_> {
                     ));
                 }
             }
+        }
+        if let (Some((span, what)), None) = (needs_orbit, fx.orbit) {
+            return Err(err(
+                ErrorKind::Type,
+                span,
+                format!("`{what}` needs an `orbit {{ … }}` effect (the sun comes from the orbit)"),
+            )
+            .expected("`orbit { altitude: 400 km, beta: 0 deg }` in the same `effects { … }`"));
         }
         Ok(fx)
     }

@@ -1,0 +1,1263 @@
+//! `robosim study station`: the Space Station of seed chapter 4 in a circular orbit, its solar
+//! arrays tracking the sun, its power and battery, and the mobile servicer swapping an orbital
+//! replacement unit (ORU) while the arrays turn. The scene is the library's
+//! `space_station_study`; the orbit, sun tracking and power are effects it declares (no other
+//! scene pays for them). Model choices are stated in docs/studies.md and in the report notes.
+//!
+//! Per step (default 10 s): the orbit angle, the sun in the body frame (LVLH hold, [`orbit`]),
+//! eclipse from the geometry; each array's gimbals set to face the sun (a 1-D closed form per
+//! joint, the outboard's alpha angle refined by golden-section search to the tracking
+//! tolerance); the servicer at its planned joint values; its clearance to every array part
+//! (exact distances); where it is inside the keep-out distance the array is feathered — set to
+//! the best-powered angle that clears — and the power lost is the difference. Power = Σ over the
+//! panels of area × efficiency × flux × cos⁺(incidence), zero in eclipse; the battery integrates
+//! power minus load with charge and discharge efficiencies.
+//!
+//! Entry points: [`StationParams`], [`run`], [`simulate`].
+
+use crate::common::{self, Body, Csv, Posed};
+use crate::orbit::Orbit;
+use crate::{Result, StudyError, bail, say};
+use nalgebra::{Matrix4, Vector3};
+use robosim_collision::Mode;
+use robosim_kinematics::ik::{self, IkOptions, Method};
+use robosim_library::{Params, Primitive, SceneModel};
+use std::path::Path;
+
+/// The library scene of the study.
+pub const SCENE: &str = "space_station_study";
+/// Solar flux at 1 AU, W/m² (the total solar irradiance, SORCE/TIM 2008: 1360.8 ± 0.5).
+pub const SOLAR_FLUX: f64 = 1361.0;
+
+/// The study's parameters (defaults in [`StationParams::default`], stated in docs/studies.md).
+#[derive(Debug, Clone, PartialEq)]
+pub struct StationParams {
+    /// Orbit altitude, m (None: the scene's declared `orbit` effect, 400 km).
+    pub altitude_m: Option<f64>,
+    /// Beta angle, rad (None: the scene's, 20°).
+    pub beta_rad: Option<f64>,
+    /// Step, s.
+    pub step_s: f64,
+    /// Length of the run in orbits (≥ 1 for the command; tests use less).
+    pub orbits: f64,
+    /// Orbit angle at t = 0, rad from orbit noon.
+    pub theta0: f64,
+    /// Keep-out distance between the servicer and an array, m.
+    pub keep_out_m: f64,
+    /// Tracking tolerance of the 2-axis search, rad.
+    pub tracking_tol: f64,
+    /// Collision mode of the clearance checks.
+    pub mode: Mode,
+    /// Battery: usable capacity (J), initial state of charge (0–1), charge and discharge
+    /// efficiencies.
+    pub battery_j: f64,
+    pub soc0: f64,
+    pub charge_eff: f64,
+    pub discharge_eff: f64,
+    /// Constant station load, W.
+    pub load_w: f64,
+    /// When the servicer task starts, s.
+    pub task_start_s: f64,
+    /// Frames to render headless (0: none).
+    pub frames: usize,
+}
+
+impl Default for StationParams {
+    fn default() -> Self {
+        StationParams {
+            altitude_m: None,
+            beta_rad: None,
+            step_s: 10.0,
+            orbits: 1.0,
+            theta0: 0.0,
+            keep_out_m: 1.0,
+            tracking_tol: 1e-4,
+            mode: Mode::Exact,
+            battery_j: 150.0 * 3.6e6,
+            soc0: 0.8,
+            charge_eff: 0.9,
+            discharge_eff: 0.9,
+            load_w: 100e3,
+            task_start_s: 300.0,
+            frames: 12,
+        }
+    }
+}
+
+impl StationParams {
+    /// Refuses what has no meaning, naming it.
+    pub fn check(&self) -> Result<()> {
+        let pos = |v: f64| v.is_finite() && v > 0.0;
+        if !pos(self.step_s) {
+            bail!("step {} s: expected a positive finite step", self.step_s);
+        }
+        if !pos(self.orbits) || self.orbits > 100.0 {
+            bail!("orbits {}: expected a number in (0, 100]", self.orbits);
+        }
+        if !self.theta0.is_finite() {
+            bail!("start angle {}: expected a finite angle", self.theta0);
+        }
+        if !(self.keep_out_m.is_finite() && self.keep_out_m >= 0.0) {
+            bail!(
+                "keep-out {} m: expected a finite distance ≥ 0",
+                self.keep_out_m
+            );
+        }
+        if !pos(self.tracking_tol) {
+            bail!(
+                "tracking tolerance {}: expected a positive angle",
+                self.tracking_tol
+            );
+        }
+        if !pos(self.battery_j) || !(0.0..=1.0).contains(&self.soc0) {
+            bail!(
+                "battery {} J at state of charge {}: expected a positive capacity and a charge in [0, 1]",
+                self.battery_j,
+                self.soc0
+            );
+        }
+        for (n, e) in [
+            ("charge", self.charge_eff),
+            ("discharge", self.discharge_eff),
+        ] {
+            if !(e > 0.0 && e <= 1.0) {
+                bail!("{n} efficiency {e}: expected a value in (0, 1]");
+            }
+        }
+        if !(self.load_w.is_finite() && self.load_w >= 0.0) {
+            bail!("load {} W: expected a finite power ≥ 0", self.load_w);
+        }
+        if !(self.task_start_s.is_finite() && self.task_start_s >= 0.0) {
+            bail!("task start {} s: expected a time ≥ 0", self.task_start_s);
+        }
+        if let Some(h) = self.altitude_m
+            && !(h.is_finite() && h > 0.0)
+        {
+            bail!("altitude {h} m: expected a positive altitude (above 100 km for an orbit)");
+        }
+        if let Some(b) = self.beta_rad
+            && !(b.is_finite() && b.abs() <= std::f64::consts::FRAC_PI_2)
+        {
+            bail!(
+                "beta {} deg: expected an angle in [-90, 90] deg",
+                b.to_degrees()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// A solar array: a placed robot whose last link carries the cell panels.
+pub struct Array {
+    pub body: usize,
+    /// Panel area, m², and cell normal in the panel link's frame.
+    pub area_m2: f64,
+    pub normal: Vector3<f64>,
+    /// The link the panels ride on.
+    pub link: usize,
+}
+
+/// The study set up from the scene: bodies, arrays, the servicer, fixed structure, orbit.
+pub struct Setup {
+    pub scene: SceneModel,
+    pub bodies: Vec<Body>,
+    pub arrays: Vec<Array>,
+    pub servicer: usize,
+    pub fixed: Vec<common::Part>,
+    pub orbit: Orbit,
+    pub efficiency: f64,
+}
+
+/// Builds the setup: the scene evaluated with the orbit parameters, its arrays found by their
+/// panels (box parts named `panel…` or `blanket…`: area = the two large sides, normal = the
+/// thin axis).
+pub fn setup(p: &StationParams) -> Result<Setup> {
+    p.check()?;
+    let mut params = Params::new();
+    if let Some(h) = p.altitude_m {
+        params = params.si("altitude", h);
+    }
+    if let Some(b) = p.beta_rad {
+        params = params.si("beta", b);
+    }
+    let (_lib, scene) = common::scene(SCENE, &params)?;
+    let fx = &scene.effects;
+    let Some(o) = fx.orbit else {
+        bail!("{SCENE} declares no orbit effect");
+    };
+    if !fx.sun_tracking {
+        bail!("{SCENE} does not declare sun_tracking");
+    }
+    let Some(power) = fx.power else {
+        bail!("{SCENE} declares no power effect");
+    };
+    let orbit = Orbit::new(o.altitude_m, o.beta_rad)?;
+    let bodies: Vec<Body> = scene.robots.iter().map(Body::of).collect::<Result<_>>()?;
+    let mut arrays = Vec::new();
+    let mut servicer = None;
+    for (i, (b, placed)) in bodies.iter().zip(&scene.robots).enumerate() {
+        if b.declaration.as_deref() == Some("station_servicer") {
+            servicer = Some(i);
+        }
+        let mut area = 0.0;
+        let mut normal = None;
+        let mut link = 0;
+        for (j, parts) in placed.model.frames.iter().enumerate() {
+            for s in parts {
+                let leaf = s.name.rsplit('/').next().unwrap_or(&s.name);
+                if !(leaf.starts_with("panel") || leaf.starts_with("blanket")) {
+                    continue;
+                }
+                let Primitive::Box { size } = s.primitive else {
+                    continue;
+                };
+                let thin = (0..3)
+                    .min_by(|&a, &b| size[a].total_cmp(&size[b]))
+                    .unwrap_or(1);
+                area += size.iter().product::<f64>() / size[thin];
+                let r = s.transform.fixed_view::<3, 3>(0, 0);
+                normal = Some(r * Vector3::ith(thin, 1.0));
+                link = j;
+            }
+        }
+        if let Some(normal) = normal {
+            if link == 0 {
+                bail!("array {}: its panels are fixed to the base", b.name);
+            }
+            arrays.push(Array {
+                body: i,
+                area_m2: area,
+                normal,
+                link,
+            });
+        }
+    }
+    let Some(servicer) = servicer else {
+        bail!("{SCENE} places no station_servicer");
+    };
+    if arrays.is_empty() {
+        bail!("{SCENE} has no solar arrays (parts named panel… or blanket…)");
+    }
+    let fixed = common::fixed_parts(&scene)?;
+    Ok(Setup {
+        scene,
+        bodies,
+        arrays,
+        servicer,
+        fixed,
+        orbit,
+        efficiency: power.efficiency,
+    })
+}
+
+/// The cell normal of array `a` in the body frame at `q`.
+fn normal_at(s: &Setup, a: &Array, q: &[f64]) -> Vector3<f64> {
+    let f = s.bodies[a.body].frames(q);
+    let r: Matrix4<f64> = f[a.link];
+    r.fixed_view::<3, 3>(0, 0) * a.normal
+}
+
+/// Wraps an angle into (−π, π].
+fn wrap(a: f64) -> f64 {
+    let w = a.rem_euclid(std::f64::consts::TAU);
+    if w > std::f64::consts::PI {
+        w - std::f64::consts::TAU
+    } else {
+        w
+    }
+}
+
+/// The best angle of joint `j` (others as in `q`) for n·ŝ: n·ŝ = A + B cos q + C sin q for a
+/// revolute joint, so q* = atan2(C, B) from three evaluations. Kept within the joint's limits.
+fn best_joint(s: &Setup, a: &Array, q: &mut [f64], j: usize, sun: &Vector3<f64>) -> f64 {
+    let mut at = |v: f64| {
+        q[j] = v;
+        normal_at(s, a, q).dot(sun)
+    };
+    let (f0, f1, f2) = (
+        at(0.0),
+        at(std::f64::consts::FRAC_PI_2),
+        at(std::f64::consts::PI),
+    );
+    let b = 0.5 * (f0 - f2);
+    let c = f1 - 0.5 * (f0 + f2);
+    let mut best = wrap(c.atan2(b));
+    let lim = s.bodies[a.body].robot.joints[j].qlim;
+    if best < lim[0] || best > lim[1] {
+        best = best.clamp(lim[0], lim[1]);
+    }
+    q[j] = best;
+    normal_at(s, a, q).dot(sun)
+}
+
+/// Sun tracking for one array: gimbal angles facing the sun (cos of the incidence returned).
+/// One joint: the closed form. Two: for each alpha the best beta in closed form, alpha by a
+/// 10° scan then golden-section search to `tol`, the branch nearest `prev` kept.
+pub fn track(s: &Setup, a: &Array, prev: &[f64], sun: &Vector3<f64>, tol: f64) -> (Vec<f64>, f64) {
+    let mut q = prev.to_vec();
+    let n = q.len();
+    if n == 1 {
+        let c = best_joint(s, a, &mut q, 0, sun);
+        return (q, c);
+    }
+    let j1 = n - 1;
+    let f = |alpha: f64, q: &mut Vec<f64>| {
+        q[0] = alpha;
+        best_joint(s, a, q, j1, sun)
+    };
+    let mut best = (f64::NEG_INFINITY, 0.0);
+    for k in 0..36 {
+        let al = wrap(-std::f64::consts::PI + (k as f64 + 0.5) * std::f64::consts::TAU / 36.0);
+        let v = f(al, &mut q);
+        // ties (the mirror solution) go to the one nearest the previous angle
+        let better = v > best.0 + 1e-12
+            || ((v - best.0).abs() <= 1e-12
+                && wrap(al - prev[0]).abs() < wrap(best.1 - prev[0]).abs());
+        if better {
+            best = (v, al);
+        }
+    }
+    let h = std::f64::consts::TAU / 36.0;
+    let (mut lo, mut hi) = (best.1 - h, best.1 + h);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (f(x1, &mut q), f(x2, &mut q));
+    while hi - lo > tol {
+        if f1 < f2 {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2, &mut q);
+        } else {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1, &mut q);
+        }
+    }
+    let c = f(wrap(0.5 * (lo + hi)), &mut q);
+    (q, c)
+}
+
+/// One segment of the servicer's task: joint values to reach, and a dwell there.
+#[derive(Debug, Clone)]
+pub struct Waypoint {
+    pub what: &'static str,
+    pub q: Vec<f64>,
+    pub dwell_s: f64,
+}
+
+/// Where the ORU swap happens, in the body frame (m): the failed unit sits on the port solar
+/// structure's mast 8 m out from the truss, between the blankets' roots; the spare waits on the
+/// truss top. The effector approaches both from above (its z axis down).
+pub const ORU_SITE: [f64; 3] = [8.0, 18.0, 1.5];
+pub const SPARE_SITE: [f64; 3] = [-1.0, 14.0, 3.4];
+/// Height of the reach pose above each site, m.
+const ABOVE: f64 = 2.5;
+
+/// The servicer's effector pose at `p` pointing down (z = −z body, x = +x body).
+fn down_at(p: [f64; 3]) -> Matrix4<f64> {
+    let mut m = Matrix4::identity();
+    m[(1, 1)] = -1.0;
+    m[(2, 2)] = -1.0;
+    m[(0, 3)] = p[0];
+    m[(1, 3)] = p[1];
+    m[(2, 3)] = p[2];
+    m
+}
+
+/// The ORU swap: travel along the truss, reach over the ORU, grasp, lift, stow it beside the
+/// spare, bring the spare, insert it, withdraw, return. The poses at the sites are solved by
+/// inverse kinematics (damped least squares over all six joints, rail included, seeded from
+/// the pose before); a site the servicer cannot reach is an error naming it.
+pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
+    let robot = &s.bodies[s.servicer].robot;
+    let q0 = s.bodies[s.servicer].q0.clone();
+    let solve = |what: &str, p: [f64; 3], seed: &[f64]| -> Result<Vec<f64>> {
+        let opts = IkOptions {
+            q0: Some(seed.to_vec()),
+            ..IkOptions::default()
+        };
+        match ik::solve(robot, &down_at(p), Method::Dls, &opts) {
+            Ok(r) => r
+                .solutions
+                .into_iter()
+                .next()
+                .map(|x| x.q)
+                .ok_or_else(|| StudyError(format!("servicer: no pose {what}"))),
+            Err(e) => Err(StudyError(format!(
+                "servicer cannot reach {what} at ({:.2}, {:.2}, {:.2}) m: {e}",
+                p[0], p[1], p[2]
+            ))),
+        }
+    };
+    let mut at_site = q0.clone();
+    at_site[0] =
+        (ORU_SITE[1] - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
+    let above_oru = [ORU_SITE[0], ORU_SITE[1], ORU_SITE[2] + ABOVE];
+    let above_spare = [SPARE_SITE[0], SPARE_SITE[1], SPARE_SITE[2] + ABOVE];
+    let reach = solve("above the ORU", above_oru, &at_site)?;
+    let grasp = solve("the ORU", ORU_SITE, &reach)?;
+    let over_spare = solve("above the spare", above_spare, &reach)?;
+    let spare = solve("the spare", SPARE_SITE, &over_spare)?;
+    let w = |what: &'static str, q: &Vec<f64>, dwell_s: f64| Waypoint {
+        what,
+        q: q.clone(),
+        dwell_s,
+    };
+    Ok(vec![
+        w("start, stowed", &q0, 0.0),
+        w("travel along the truss to the ORU site", &at_site, 0.0),
+        w(
+            "reach over the ORU on the solar structure's mast",
+            &reach,
+            0.0,
+        ),
+        w("grasp and release the failed ORU", &grasp, 120.0),
+        w("lift it out", &reach, 0.0),
+        w("carry it over the truss", &over_spare, 0.0),
+        w("stow it and take the spare", &spare, 120.0),
+        w("lift the spare", &over_spare, 0.0),
+        w("carry the spare out", &reach, 0.0),
+        w("insert and bolt the spare", &grasp, 180.0),
+        w("withdraw", &reach, 0.0),
+        w("fold and return", &q0, 0.0),
+    ])
+}
+
+/// Joint speed limits of the servicer: rail 0.05 m/s, revolute joints 1°/s (the scale of the
+/// station's mobile servicing system, which moves at centimetres per second).
+pub fn servicer_speed(robot: &robosim_kinematics::Robot) -> Vec<f64> {
+    robot
+        .joints
+        .iter()
+        .map(|j| match j.joint_type {
+            robosim_kinematics::JointType::Prismatic => 0.05,
+            robosim_kinematics::JointType::Revolute => 1f64.to_radians(),
+        })
+        .collect()
+}
+
+/// The task as a timed schedule: (t, q) at each waypoint arrival and departure, segments
+/// timed by the slowest joint at its speed limit.
+pub fn schedule(s: &Setup, start: f64) -> Result<Vec<(f64, Vec<f64>, &'static str)>> {
+    let speed = servicer_speed(&s.bodies[s.servicer].robot);
+    let mut out: Vec<(f64, Vec<f64>, &'static str)> = Vec::new();
+    let mut t = start;
+    let mut prev: Option<Vec<f64>> = None;
+    for w in task(s)? {
+        if let Some(p) = &prev {
+            let dur = p
+                .iter()
+                .zip(&w.q)
+                .zip(&speed)
+                .map(|((a, b), v)| (b - a).abs() / v)
+                .fold(0.0, f64::max);
+            t += dur;
+        }
+        out.push((t, w.q.clone(), w.what));
+        if w.dwell_s > 0.0 {
+            t += w.dwell_s;
+            out.push((t, w.q.clone(), w.what));
+        }
+        prev = Some(w.q);
+    }
+    Ok(out)
+}
+
+/// The servicer's planned joint values at `t` (linear in joint space between schedule points;
+/// before the start and after the end, at rest there), and what it is doing.
+fn servicer_at(sched: &[(f64, Vec<f64>, &'static str)], t: f64) -> (Vec<f64>, &'static str) {
+    let first = &sched[0];
+    if t <= first.0 {
+        return (first.1.clone(), "waiting");
+    }
+    for w in sched.windows(2) {
+        let (a, b) = (&w[0], &w[1]);
+        if t <= b.0 {
+            let u = if b.0 > a.0 {
+                (t - a.0) / (b.0 - a.0)
+            } else {
+                1.0
+            };
+            let q = a.1.iter().zip(&b.1).map(|(x, y)| x + u * (y - x)).collect();
+            return (q, b.2);
+        }
+    }
+    let last = &sched[sched.len() - 1];
+    (last.1.clone(), "done")
+}
+
+/// One step's record.
+#[derive(Debug, Clone)]
+pub struct Step {
+    pub t: f64,
+    pub theta: f64,
+    pub sun: Vector3<f64>,
+    pub eclipse: bool,
+    /// Per array: joint values, cos incidence, feathered.
+    pub arrays: Vec<(Vec<f64>, f64, bool)>,
+    pub power_w: f64,
+    pub tracked_power_w: f64,
+    pub soc: f64,
+    pub servicer_q: Vec<f64>,
+    pub activity: &'static str,
+    /// Smallest servicer × array distance, m, and the pair.
+    pub clearance_arrays: f64,
+    pub clearance_pair: (String, String),
+    /// Smallest servicer × fixed structure distance, m, and the pair.
+    pub clearance_structure: f64,
+    pub structure_pair: (String, String),
+    /// The servicer within the keep-out of an array even feathered (a contact if ≤ 0).
+    pub blocked: bool,
+}
+
+/// A run's outcome.
+#[derive(Debug, Clone)]
+pub struct Run {
+    pub steps: Vec<Step>,
+    pub period_s: f64,
+    pub eclipses: Vec<[f64; 2]>,
+    pub schedule: Vec<(f64, Vec<f64>, &'static str)>,
+    /// Energy delivered by the arrays, J, and energy lost to feathering, J.
+    pub energy_j: f64,
+    pub lost_j: f64,
+    /// Load not served because the battery was empty, J.
+    pub unserved_j: f64,
+    pub wall_s: f64,
+}
+
+/// Clearance of the servicer parts to array `a` at `q`.
+fn array_clearance(
+    s: &Setup,
+    a: &Array,
+    q: &[f64],
+    servicer: &[Posed<'_>],
+    mode: Mode,
+) -> Option<common::Clearance> {
+    let b = &s.bodies[a.body];
+    let frames = b.frames(q);
+    let posed = b.posed(&frames);
+    common::clearance(servicer, &posed, mode)
+}
+
+/// Runs the study's time loop.
+pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
+    let t0 = std::time::Instant::now();
+    let period = s.orbit.period_s();
+    let t_end = p.orbits * period;
+    let n = (t_end / p.step_s).ceil() as usize;
+    let sched = schedule(s, p.task_start_s)?;
+    let mut prev: Vec<Vec<f64>> = s
+        .arrays
+        .iter()
+        .map(|a| s.bodies[a.body].q0.clone())
+        .collect();
+    let fixed = common::pose_fixed(&s.fixed);
+    let mut soc = p.soc0;
+    let (mut energy, mut lost, mut unserved) = (0.0, 0.0, 0.0);
+    let mut steps = Vec::with_capacity(n + 1);
+    for k in 0..=n {
+        let t = (k as f64 * p.step_s).min(t_end);
+        let theta = s.orbit.angle(p.theta0, t);
+        let sun = s.orbit.sun_body(theta);
+        let eclipse = s.orbit.eclipse_at(theta);
+        let (sq, activity) = servicer_at(&sched, t);
+        let sb = &s.bodies[s.servicer];
+        sb.robot
+            .check_q(&sq)
+            .map_err(|e| StudyError(format!("servicer at t = {t} s: {e}")))?;
+        let sframes = sb.frames(&sq);
+        let sposed = sb.posed(&sframes);
+        let structure = common::clearance(&sposed, &fixed, p.mode);
+        let mut arrays = Vec::with_capacity(s.arrays.len());
+        let (mut power, mut tracked) = (0.0, 0.0);
+        let mut clear_min = (f64::INFINITY, (String::new(), String::new()));
+        let mut blocked = false;
+        for (ai, a) in s.arrays.iter().enumerate() {
+            let (q, c) = track(s, a, &prev[ai], &sun, p.tracking_tol);
+            let ideal = a.area_m2 * s.efficiency * SOLAR_FLUX * c.max(0.0);
+            let mut chosen = (q.clone(), c, false);
+            let cl = array_clearance(s, a, &q, &sposed, p.mode);
+            let mut cl_d = cl.as_ref().map_or(f64::INFINITY, |c| c.distance);
+            let mut pair = cl.map(|c| (c.a, c.b)).unwrap_or_default();
+            if cl_d < p.keep_out_m {
+                // feather: the best-powered candidate angle (5° grid on the panel joint, then
+                // on both) that clears the keep-out
+                let mut cands: Vec<(f64, Vec<f64>)> = Vec::new();
+                let j = q.len() - 1;
+                for k in 0..72 {
+                    let mut qq = q.clone();
+                    qq[j] = wrap(k as f64 * 5f64.to_radians());
+                    cands.push((normal_at(s, a, &qq).dot(&sun), qq));
+                }
+                if q.len() > 1 {
+                    for k0 in 0..36 {
+                        for k1 in 0..36 {
+                            let mut qq = q.clone();
+                            qq[0] = wrap(k0 as f64 * 10f64.to_radians());
+                            qq[j] = wrap(k1 as f64 * 10f64.to_radians());
+                            cands.push((normal_at(s, a, &qq).dot(&sun), qq));
+                        }
+                    }
+                }
+                cands.sort_by(|x, y| y.0.total_cmp(&x.0));
+                let mut found = false;
+                for (cc, qq) in cands {
+                    let lim_ok = s.bodies[a.body].robot.outside_limits(&qq).is_none();
+                    if !lim_ok {
+                        continue;
+                    }
+                    if let Some(c2) = array_clearance(s, a, &qq, &sposed, p.mode)
+                        && c2.distance >= p.keep_out_m
+                    {
+                        cl_d = c2.distance;
+                        pair = (c2.a, c2.b);
+                        chosen = (qq, cc, true);
+                        found = true;
+                        break;
+                    }
+                }
+                if !found {
+                    blocked = true;
+                }
+            }
+            let got = a.area_m2 * s.efficiency * SOLAR_FLUX * chosen.1.max(0.0);
+            if !eclipse {
+                power += got;
+                tracked += ideal;
+            }
+            if cl_d < clear_min.0 {
+                clear_min = (cl_d, pair);
+            }
+            prev[ai] = chosen.0.clone();
+            arrays.push(chosen);
+        }
+        // battery over the step just ended (the power of this step held over the next)
+        if k > 0 {
+            let dt = t - steps.last().map_or(0.0, |s: &Step| s.t);
+            let last = steps.last().map_or(0.0, |s: &Step| s.power_w);
+            let last_tracked = steps.last().map_or(0.0, |s: &Step| s.tracked_power_w);
+            energy += last * dt;
+            lost += (last_tracked - last) * dt;
+            let net = last - p.load_w;
+            let de = if net >= 0.0 {
+                net * p.charge_eff
+            } else {
+                net / p.discharge_eff
+            } * dt;
+            let e = soc * p.battery_j + de;
+            if e < 0.0 {
+                unserved += -e * p.discharge_eff;
+            }
+            soc = (e / p.battery_j).clamp(0.0, 1.0);
+        }
+        steps.push(Step {
+            t,
+            theta,
+            sun,
+            eclipse,
+            arrays,
+            power_w: power,
+            tracked_power_w: tracked,
+            soc,
+            servicer_q: sq,
+            activity,
+            clearance_arrays: clear_min.0,
+            clearance_pair: clear_min.1,
+            clearance_structure: structure.as_ref().map_or(f64::INFINITY, |c| c.distance),
+            structure_pair: structure.map(|c| (c.a, c.b)).unwrap_or_default(),
+            blocked,
+        });
+    }
+    Ok(Run {
+        steps,
+        period_s: period,
+        eclipses: s.orbit.eclipse_intervals(p.theta0, t_end, p.step_s),
+        schedule: sched,
+        energy_j: energy,
+        lost_j: lost,
+        unserved_j: unserved,
+        wall_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+fn mode_name(m: Mode) -> &'static str {
+    match m {
+        Mode::BBox => "bbox",
+        Mode::Polygon => "polygon",
+        Mode::Exact => "exact",
+    }
+}
+
+/// Runs the study and writes its outputs into `dir`: `station.csv` (per step), trajectory
+/// files per robot, `station_summary.{md,csv,png}`, `station_accuracy.{md,csv,png}` and
+/// `frames/`. Progress and the summary go to `log`.
+pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Result<Run> {
+    let s = setup(p)?;
+    std::fs::create_dir_all(dir).map_err(|e| StudyError(format!("{}: {e}", dir.display())))?;
+    say!(
+        log,
+        "station study: {} km, beta {:.1}°, period {:.1} min, closed-form eclipse {:.1} % of the orbit; step {} s over {} orbit(s)",
+        s.orbit.altitude_m / 1e3,
+        s.orbit.beta_rad.to_degrees(),
+        s.orbit.period_s() / 60.0,
+        100.0 * s.orbit.eclipse_fraction_closed_form(),
+        p.step_s,
+        p.orbits
+    );
+    let run = simulate(&s, p)?;
+    // --- per-step CSV
+    let mut cols: Vec<String> = [
+        "t_s",
+        "orbit_angle_deg",
+        "sun_x",
+        "sun_y",
+        "sun_z",
+        "sun_from_zenith_deg",
+        "eclipse",
+    ]
+    .iter()
+    .map(|c| c.to_string())
+    .collect();
+    for a in &s.arrays {
+        let b = &s.bodies[a.body];
+        for (j, ln) in b.link_names.iter().enumerate() {
+            let _ = j;
+            cols.push(format!("{}_{}_deg", b.name, ln));
+        }
+        cols.push(format!("{}_incidence_deg", b.name));
+        cols.push(format!("{}_feathered", b.name));
+    }
+    let sb = &s.bodies[s.servicer];
+    for (ln, j) in sb.link_names.iter().zip(&sb.robot.joints) {
+        cols.push(match j.joint_type {
+            robosim_kinematics::JointType::Prismatic => format!("servicer_{ln}_m"),
+            robosim_kinematics::JointType::Revolute => format!("servicer_{ln}_deg"),
+        });
+    }
+    for c in [
+        "power_kw",
+        "tracked_power_kw",
+        "power_lost_kw",
+        "battery_soc",
+        "battery_kwh",
+        "clearance_arrays_m",
+        "clearance_structure_m",
+        "blocked",
+    ] {
+        cols.push(c.into());
+    }
+    let mut csv = Csv::create(&dir.join("station.csv"), &cols)?;
+    let finite = |v: f64| if v.is_finite() { v } else { 1e9 };
+    for st in &run.steps {
+        let mut row = vec![
+            st.t,
+            st.theta.to_degrees(),
+            st.sun.x,
+            st.sun.y,
+            st.sun.z,
+            st.sun.z.clamp(-1.0, 1.0).acos().to_degrees(),
+            st.eclipse as u8 as f64,
+        ];
+        for (q, c, f) in &st.arrays {
+            row.extend(q.iter().map(|v| v.to_degrees()));
+            row.push(c.clamp(-1.0, 1.0).acos().to_degrees());
+            row.push(*f as u8 as f64);
+        }
+        for (v, j) in st.servicer_q.iter().zip(&sb.robot.joints) {
+            row.push(match j.joint_type {
+                robosim_kinematics::JointType::Prismatic => *v,
+                robosim_kinematics::JointType::Revolute => v.to_degrees(),
+            });
+        }
+        row.extend([
+            st.power_w / 1e3,
+            st.tracked_power_w / 1e3,
+            (st.tracked_power_w - st.power_w) / 1e3,
+            st.soc,
+            st.soc * p.battery_j / 3.6e6,
+            finite(st.clearance_arrays),
+            finite(st.clearance_structure),
+            st.blocked as u8 as f64,
+        ]);
+        csv.row(&row)?;
+    }
+    csv.finish()?;
+    // --- trajectories (display file mode) for every robot
+    let mut plays = Vec::new();
+    for (bi, b) in s.bodies.iter().enumerate() {
+        let samples: Vec<Vec<f64>> = run
+            .steps
+            .iter()
+            .map(|st| {
+                if bi == s.servicer {
+                    st.servicer_q.clone()
+                } else if let Some(ai) = s.arrays.iter().position(|a| a.body == bi) {
+                    st.arrays[ai].0.clone()
+                } else {
+                    b.q0.clone()
+                }
+            })
+            .collect();
+        let path = dir.join(format!("{}.traj", b.name));
+        common::write_trajectory(&path, &b.robot, p.step_s, &samples)?;
+        plays.push((b.name.clone(), path));
+    }
+    // --- summary
+    let summary = summarise(&s, p, &run);
+    for line in &summary.notes {
+        say!(log, "{line}");
+    }
+    robosim_report::write_report(dir, &summary)?;
+    // --- frames
+    if p.frames > 0 {
+        common::render_frames(
+            SCENE,
+            &plays,
+            run.steps.len(),
+            p.frames,
+            &dir.join("frames"),
+            Some([34.0, -4.0, 22.0]),
+            Some([4.0, 16.0, 0.0]),
+        )?;
+        say!(log, "frames: {}", dir.join("frames").display());
+    }
+    say!(log, "wrote {}", dir.display());
+    Ok(run)
+}
+
+/// The summary report: key numbers (table), notes (model and findings), time plots.
+pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Report {
+    use robosim_report::{Plot, Report, Series, Table};
+    let t_end = run.steps.last().map_or(0.0, |st| st.t);
+    let shadow: f64 = run.eclipses.iter().map(|[a, b]| b - a).sum();
+    let feathered_steps = run
+        .steps
+        .iter()
+        .filter(|st| st.arrays.iter().any(|a| a.2))
+        .count();
+    let blocked: Vec<f64> = run
+        .steps
+        .iter()
+        .filter(|st| st.blocked)
+        .map(|st| st.t)
+        .collect();
+    let min_cl = run
+        .steps
+        .iter()
+        .map(|st| (st.clearance_arrays, st.t, &st.clearance_pair))
+        .min_by(|a, b| a.0.total_cmp(&b.0));
+    let min_struct = run
+        .steps
+        .iter()
+        .map(|st| st.clearance_structure)
+        .fold(f64::INFINITY, f64::min);
+    let worst_inc = run
+        .steps
+        .iter()
+        .flat_map(|st| st.arrays.iter().filter(|a| !a.2).map(|a| a.1))
+        .fold(1.0f64, f64::min)
+        .clamp(-1.0, 1.0)
+        .acos()
+        .to_degrees();
+    let soc_min = run.steps.iter().map(|st| st.soc).fold(1.0, f64::min);
+    let task_end = run.schedule.last().map_or(0.0, |w| w.0);
+    let area: f64 = s.arrays.iter().map(|a| a.area_m2).sum();
+    let rows = vec![
+        (
+            "orbit altitude",
+            format!("{:.1}", s.orbit.altitude_m / 1e3),
+            "km",
+        ),
+        (
+            "beta angle",
+            format!("{:.2}", s.orbit.beta_rad.to_degrees()),
+            "deg",
+        ),
+        (
+            "period (closed form 2π√(a³/μ))",
+            format!("{:.2}", run.period_s / 60.0),
+            "min",
+        ),
+        ("run length", format!("{:.2}", t_end / 60.0), "min"),
+        ("step", format!("{}", p.step_s), "s"),
+        (
+            "eclipse fraction, closed form",
+            format!("{:.4}", s.orbit.eclipse_fraction_closed_form()),
+            "1",
+        ),
+        (
+            "eclipse fraction, geometry over the run",
+            format!("{:.4}", if t_end > 0.0 { shadow / t_end } else { 0.0 }),
+            "1",
+        ),
+        ("array panel area", format!("{area:.0}"), "m²"),
+        (
+            "peak power",
+            format!(
+                "{:.1}",
+                run.steps.iter().map(|st| st.power_w).fold(0.0, f64::max) / 1e3
+            ),
+            "kW",
+        ),
+        (
+            "orbit-average power",
+            format!("{:.1}", run.energy_j / t_end.max(1e-9) / 1e3),
+            "kW",
+        ),
+        (
+            "energy from the arrays",
+            format!("{:.1}", run.energy_j / 3.6e6),
+            "kWh",
+        ),
+        (
+            "energy lost to feathering",
+            format!("{:.2}", run.lost_j / 3.6e6),
+            "kWh",
+        ),
+        (
+            "steps with an array feathered",
+            format!("{feathered_steps}"),
+            "1",
+        ),
+        (
+            "worst tracking incidence (unfeathered)",
+            format!("{worst_inc:.3}"),
+            "deg",
+        ),
+        (
+            "battery state of charge, minimum",
+            format!("{soc_min:.3}"),
+            "1",
+        ),
+        (
+            "load not served",
+            format!("{:.2}", run.unserved_j / 3.6e6),
+            "kWh",
+        ),
+        (
+            "minimum servicer–array clearance",
+            min_cl.map_or("none".into(), |c| format!("{:.3}", c.0)),
+            "m",
+        ),
+        (
+            "minimum servicer–structure clearance",
+            format!("{min_struct:.3}"),
+            "m",
+        ),
+        (
+            "steps blocked (keep-out broken even feathered)",
+            format!("{}", blocked.len()),
+            "1",
+        ),
+        (
+            "ORU task",
+            format!("{:.1} to {:.1}", p.task_start_s / 60.0, task_end / 60.0),
+            "min",
+        ),
+        ("wall time of the run", format!("{:.2}", run.wall_s), "s"),
+    ];
+    let table = Table {
+        columns: vec!["quantity".into(), "value".into(), "unit".into()],
+        rows: rows
+            .into_iter()
+            .map(|(a, b, c)| vec![a.to_owned(), b, c.to_owned()])
+            .collect(),
+    };
+    let mut notes = vec![
+        format!(
+            "Scene `{SCENE}` (effects: kinematics, joint limits, collision {}, orbit, sun tracking, power). Model: circular orbit about a spherical Earth (μ = 3.986004418e14 m³/s², R = 6378.137 km), sun fixed and infinitely far, cylindrical shadow, LVLH hold (body x ram, y orbit normal along the truss, z zenith); power = Σ panel area × {} × {SOLAR_FLUX} W/m² × cos⁺ incidence, 0 in eclipse; battery {:.0} kWh, charge/discharge efficiency {}/{}, constant load {:.0} kW. See docs/studies.md.",
+            mode_name(p.mode),
+            s.efficiency,
+            p.battery_j / 3.6e6,
+            p.charge_eff,
+            p.discharge_eff,
+            p.load_w / 1e3
+        ),
+        format!(
+            "Eclipses from the geometry: {}.",
+            if run.eclipses.is_empty() {
+                "none (β beyond the critical angle)".to_owned()
+            } else {
+                run.eclipses
+                    .iter()
+                    .map(|[a, b]| format!("{:.1}–{:.1} min", a / 60.0, b / 60.0))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            }
+        ),
+    ];
+    if let Some((d, t, pair)) = min_cl {
+        notes.push(format!(
+            "Closest approach of the servicer to an array: {d:.3} m at t = {:.1} min ({} × {}); keep-out {} m.",
+            t / 60.0,
+            pair.0,
+            pair.1,
+            p.keep_out_m
+        ));
+    }
+    if let Some(st) = run
+        .steps
+        .iter()
+        .min_by(|a, b| a.clearance_structure.total_cmp(&b.clearance_structure))
+    {
+        notes.push(format!(
+            "Closest approach of the servicer to the fixed structure: {:.3} m at t = {:.1} min ({} × {}){}.",
+            st.clearance_structure,
+            st.t / 60.0,
+            st.structure_pair.0,
+            st.structure_pair.1,
+            if st.clearance_structure <= 0.0 { " — a CONTACT" } else { "" }
+        ));
+    }
+    // feathered spans
+    let mut spans: Vec<(f64, f64, f64)> = Vec::new();
+    for st in &run.steps {
+        let f = st.arrays.iter().any(|a| a.2);
+        let lost = (st.tracked_power_w - st.power_w) / 1e3;
+        match spans.last_mut() {
+            Some(sp) if f && (st.t - sp.1 - p.step_s).abs() < 1e-6 => {
+                sp.1 = st.t;
+                sp.2 = sp.2.max(lost);
+            }
+            _ if f => spans.push((st.t, st.t, lost)),
+            _ => {}
+        }
+    }
+    for (a, b, l) in &spans {
+        notes.push(format!(
+            "Array feathered for the servicer from {:.1} to {:.1} min: up to {l:.1} kW lost.",
+            a / 60.0,
+            b / 60.0
+        ));
+    }
+    if !blocked.is_empty() {
+        notes.push(format!(
+            "The servicer is inside the keep-out of an array even with it feathered at {} step(s), first at {:.1} min.",
+            blocked.len(),
+            blocked[0] / 60.0
+        ));
+    }
+    for w in &run.schedule {
+        let sb = &s.bodies[s.servicer];
+        let tip = robosim_kinematics::fk::forward(&sb.robot, &w.1);
+        notes.push(format!(
+            "Task {:.1} min: {} (effector at ({:.2}, {:.2}, {:.2}) m).",
+            w.0 / 60.0,
+            w.2,
+            tip[(0, 3)],
+            tip[(1, 3)],
+            tip[(2, 3)]
+        ));
+    }
+    let series = |label: &str, f: &dyn Fn(&Step) -> f64| Series {
+        label: label.into(),
+        points: run.steps.iter().map(|st| (st.t / 60.0, f(st))).collect(),
+    };
+    let mut angle_series = Vec::new();
+    for (ai, a) in s.arrays.iter().enumerate() {
+        let b = &s.bodies[a.body];
+        for (j, ln) in b.link_names.iter().enumerate() {
+            angle_series.push(Series {
+                label: format!("{} {ln}", b.name),
+                points: run
+                    .steps
+                    .iter()
+                    .map(|st| (st.t / 60.0, st.arrays[ai].0[j].to_degrees()))
+                    .collect(),
+            });
+        }
+    }
+    let plots = vec![
+        Plot {
+            title: "Array power".into(),
+            x_label: "t (min)".into(),
+            y_label: "power (kW)".into(),
+            series: vec![
+                series("delivered", &|st| st.power_w / 1e3),
+                series("tracking without feathering", &|st| {
+                    st.tracked_power_w / 1e3
+                }),
+            ],
+            ..Plot::default()
+        },
+        Plot {
+            title: "Battery and eclipse".into(),
+            x_label: "t (min)".into(),
+            y_label: "state of charge / eclipse flag (1)".into(),
+            series: vec![
+                series("state of charge", &|st| st.soc),
+                series("eclipse", &|st| st.eclipse as u8 as f64),
+            ],
+            ..Plot::default()
+        },
+        Plot {
+            title: "Array gimbal angles (sun tracking)".into(),
+            x_label: "t (min)".into(),
+            y_label: "angle (deg)".into(),
+            series: angle_series,
+            ..Plot::default()
+        },
+        Plot {
+            title: "Servicer clearance".into(),
+            x_label: "t (min)".into(),
+            y_label: "distance (m)".into(),
+            series: vec![
+                series("to the arrays", &|st| st.clearance_arrays.min(30.0)),
+                series("to the fixed structure", &|st| {
+                    st.clearance_structure.min(30.0)
+                }),
+            ],
+            ..Plot::default()
+        },
+    ];
+    Report {
+        name: "station_summary".into(),
+        title: "Space Station study: orbit, sun tracking, power, ORU swap".into(),
+        notes,
+        table,
+        plots,
+    }
+}
+
+/// "What accuracy costs in time": the study run at several steps and collision modes, each
+/// against the finest exact run; written as `station_accuracy.{md,csv,png}`.
+pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_report::Report> {
+    use robosim_report::{Plot, Report, Series, Table};
+    let s = setup(p)?;
+    let mut rows = Vec::new();
+    let fine_step = steps.iter().copied().fold(f64::INFINITY, f64::min);
+    let reference = simulate(
+        &s,
+        &StationParams {
+            step_s: fine_step,
+            frames: 0,
+            ..p.clone()
+        },
+    )?;
+    // the eclipse entry as the steps see it (first step in shadow) against the bisected one
+    let entry_err = |r: &Run| {
+        let first = r.steps.iter().find(|x| x.eclipse).map(|x| x.t);
+        match (first, r.eclipses.first()) {
+            (Some(t), Some(iv)) => (t - iv[0]).abs(),
+            _ => 0.0,
+        }
+    };
+    let min_cl = |r: &Run| {
+        r.steps
+            .iter()
+            .map(|st| st.clearance_arrays)
+            .fold(f64::INFINITY, f64::min)
+    };
+    let mut time_pts = Vec::new();
+    let mut energy_pts = Vec::new();
+    for (mode, tol) in [
+        (Mode::Exact, p.tracking_tol),
+        (Mode::BBox, p.tracking_tol),
+        (Mode::Exact, 1e-2),
+    ] {
+        for &h in steps {
+            let r = simulate(
+                &s,
+                &StationParams {
+                    step_s: h,
+                    mode,
+                    tracking_tol: tol,
+                    frames: 0,
+                    ..p.clone()
+                },
+            )?;
+            let de = (r.energy_j - reference.energy_j).abs() / reference.energy_j.max(1.0);
+            let sampled_eclipse =
+                r.steps.iter().filter(|st| st.eclipse).count() as f64 / r.steps.len().max(1) as f64;
+            let ms = r.wall_s * 1e3;
+            let label = format!("{} tol {:.0e}", mode_name(mode), tol);
+            time_pts.push((label.clone(), h, ms));
+            energy_pts.push((label.clone(), h, de));
+            rows.push(vec![
+                mode_name(mode).to_owned(),
+                format!("{tol:.0e}"),
+                format!("{h}"),
+                format!("{}", r.steps.len()),
+                format!("{de:.2e}"),
+                format!(
+                    "{:.2e}",
+                    (sampled_eclipse - s.orbit.eclipse_fraction_closed_form()).abs()
+                ),
+                format!("{:.1}", entry_err(&r)),
+                format!("{:.3}", min_cl(&r)),
+                format!(
+                    "{}",
+                    r.steps
+                        .iter()
+                        .filter(|st| st.arrays.iter().any(|a| a.2))
+                        .count()
+                ),
+                format!("{}", r.steps.iter().filter(|st| st.blocked).count()),
+                format!("{ms:.1}"),
+            ]);
+        }
+    }
+    let group = |pts: &[(String, f64, f64)]| {
+        let mut labels: Vec<String> = pts.iter().map(|p| p.0.clone()).collect();
+        labels.dedup();
+        labels
+            .into_iter()
+            .map(|l| Series {
+                label: l.clone(),
+                points: pts
+                    .iter()
+                    .filter(|p| p.0 == l)
+                    .map(|p| (p.1, p.2))
+                    .collect(),
+            })
+            .collect::<Vec<_>>()
+    };
+    let report = Report {
+        name: "station_accuracy".into(),
+        title: "Space Station study: what accuracy costs in time".into(),
+        notes: vec![format!(
+            "Each row is the whole study ({} orbit(s)) at one step, collision mode and tracking tolerance. Energy error is against the finest exact run (step {fine_step} s). The sampled eclipse fraction (share of steps in shadow) is compared with the closed form, and the first step in shadow with the eclipse entry found by bisection (which does not depend on the step). bbox gives no distances: its clearance is a bounding-sphere lower bound when the boxes are apart and 0 when they meet, so it cannot prove most feathered angles clear — those steps are reported blocked (the arm would have to wait) where exact finds a clear angle.",
+            p.orbits
+        )],
+        table: Table {
+            columns: vec![
+                "collision mode".into(),
+                "tracking tol (rad)".into(),
+                "step (s)".into(),
+                "steps".into(),
+                "energy rel. error".into(),
+                "sampled eclipse fraction error".into(),
+                "eclipse entry seen late by (s)".into(),
+                "min clearance (m)".into(),
+                "feathered steps".into(),
+                "blocked steps".into(),
+                "wall time (ms)".into(),
+            ],
+            rows,
+        },
+        plots: vec![
+            Plot {
+                title: "Energy error against step".into(),
+                x_label: "step (s)".into(),
+                y_label: "relative error".into(),
+                log_x: true,
+                log_y: true,
+                series: group(&energy_pts),
+            },
+            Plot {
+                title: "Wall time against step".into(),
+                x_label: "step (s)".into(),
+                y_label: "wall time (ms)".into(),
+                log_x: true,
+                log_y: true,
+                series: group(&time_pts),
+            },
+        ],
+    };
+    robosim_report::write_report(dir, &report)?;
+    Ok(report)
+}
