@@ -13,3 +13,7 @@ pub mod lang;
 pub mod program;
 pub mod robot;
 pub mod shape;
+pub mod codegen;
+pub mod session;
+pub mod structure;
+pub mod commands;

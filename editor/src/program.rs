@@ -453,7 +453,10 @@ impl Interp<'_> {
                 if name == "LOAD" {
                     self.work = w;
                 } else {
-                    self.work.objects.extend(w.objects);
+                    // the register's objects first: CLEAR, make, ADD B, STORE B keeps the
+                    // order the objects were made in
+                    let mine = std::mem::replace(&mut self.work.objects, w.objects);
+                    self.work.objects.extend(mine);
                 }
             }
             "MOVE" | "DRAW" => {

@@ -41,7 +41,7 @@ pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathB
         Default::default();
     for e in rd.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
-        if name.starts_with('.') || !e.path().is_file() {
+        if name.starts_with('.') || !e.path().is_file() || !looks_like_link_file(&e.path()) {
             continue;
         }
         if let Some((p, ext)) = name.split_once('.') {
@@ -77,6 +77,21 @@ pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathB
             .then_with(|| natural(&a.0).cmp(&natural(&b.0)))
     });
     Ok((prefix, files.into_iter().map(|f| f.1).collect()))
+}
+
+/// Whether a file starts like a link file (a first row of four numbers); other files in the
+/// directory (a program, notes) are not links.
+fn looks_like_link_file(p: &Path) -> bool {
+    use std::io::BufRead;
+    let Ok(f) = std::fs::File::open(p) else {
+        return false;
+    };
+    let mut first = String::new();
+    if std::io::BufReader::new(f).read_line(&mut first).is_err() {
+        return false;
+    }
+    let toks: Vec<&str> = first.split_whitespace().collect();
+    toks.len() == 4 && toks.iter().all(|t| t.parse::<f64>().is_ok())
 }
 
 fn natural(s: &str) -> (String, u64, String) {

@@ -214,14 +214,19 @@ fn shift(mut p: Polyhedron, c: Vector3<f64>) -> Polyhedron {
     p
 }
 
-/// A face's frame (seed §2.3, attach): origin at the polygon's centre (the mean of its
-/// vertices), z along its outward normal, x along its first side, y = z × x.
+/// A face's frame (seed §2.3, attach: "the normal direction for each polygon is set to the 'Z'
+/// axis. Vectors for the 'X' and 'Y' axes must also be constructed"): origin at the polygon's
+/// centre (the mean of its vertices), z along its outward normal, x along the object's own x
+/// axis projected into the face — or its y axis when the normal is within 25.8° of ±x
+/// (|n·x| > 0.9) — and y = z × x. The rule depends only on the face's plane, not on the
+/// generator's vertex order, so a user can predict it: attaching Table 1's custom object to its
+/// cylinder gives exactly Table 1's ROTATE X = -90, ROTATE Y = -90.
 pub fn face_frame(poly: &Polyhedron, k: usize) -> Matrix4<f64> {
     let idx = poly.polygon_indices(k);
     let v: Vec<Point3<f64>> = idx.iter().map(|&i| poly.vertices[i as usize]).collect();
     let c = v.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / v.len() as f64;
     let n = poly.polygons[k].plane.normal.normalize();
-    let e = v[1] - v[0];
+    let e = if n.x.abs() > 0.9 { Vector3::y() } else { Vector3::x() };
     let x = (e - n * n.dot(&e)).normalize();
     let y = n.cross(&x);
     frame(&x, &y, &n, &c)
