@@ -353,7 +353,7 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
         "check" => {
             let row = ed.design().check_joints().map_err(|e| e.to_string())?;
             Ok(Outcome::Said(format!(
-                "link {}: valid DH: THETA {} {}, DZ {} {}, DA {} {}, ALPHA {} {}",
+                "link {}: valid DH: THETA {:.6} {}, DZ {:.6} {}, DA {:.6} {}, ALPHA {:.6} {}",
                 ed.design().link().name,
                 row.theta / p.angle.0,
                 p.angle.1,
@@ -391,6 +391,9 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
         "code" => {
             let f = word(&l, 0, "a file name")?;
             let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
+            if let Some(dir) = std::path::Path::new(f).parent().filter(|d| !d.as_os_str().is_empty()) {
+                std::fs::create_dir_all(dir).map_err(|e| format!("code: {}: {e}", dir.display()))?;
+            }
             std::fs::write(f, text).map_err(|e| format!("code: {f}: {e}"))?;
             Ok(Outcome::Said(format!("wrote {f}")))
         }

@@ -17,3 +17,4 @@ pub mod codegen;
 pub mod session;
 pub mod structure;
 pub mod commands;
+pub mod cli;
