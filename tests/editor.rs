@@ -29,10 +29,33 @@ fn frames(dir: &Path) -> Vec<Value> {
 }
 
 const EDITS: &[&str] = &[
-    "box", "cylinder", "cone", "truncated-cone", "sphere", "extrude", "revolve", "clone",
-    "translate", "home", "rotate", "rotate-rel", "delete", "attach", "resize", "r-joint-i",
-    "p-joint-i", "f-joint-i", "r-joint-i+1", "p-joint-i+1", "f-joint-i+1", "link", "undo", "redo",
-    "load", "restart", "read-code",
+    "box",
+    "cylinder",
+    "cone",
+    "truncated-cone",
+    "sphere",
+    "extrude",
+    "revolve",
+    "clone",
+    "translate",
+    "home",
+    "rotate",
+    "rotate-rel",
+    "delete",
+    "attach",
+    "resize",
+    "r-joint-i",
+    "p-joint-i",
+    "f-joint-i",
+    "r-joint-i+1",
+    "p-joint-i+1",
+    "f-joint-i+1",
+    "link",
+    "undo",
+    "redo",
+    "load",
+    "restart",
+    "read-code",
 ];
 
 #[test]
@@ -50,7 +73,9 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
         "--out",
         &out_s,
     ]);
-    wait_for("the display's first frame", || frames(&out).into_iter().next());
+    wait_for("the display's first frame", || {
+        frames(&out).into_iter().next()
+    });
     let links = k.home.path().join("links");
     let script = include_str!("../testdata/robosim/pictures1-5.edit")
         .replace("@DIR@", &links.display().to_string());
@@ -63,7 +88,10 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
         cur.push('\n');
         let verb = line.split_whitespace().next().unwrap_or("");
         if EDITS.contains(&verb) {
-            pieces.push(std::mem::replace(&mut cur, String::from("units cm\nunits deg\n")));
+            pieces.push(std::mem::replace(
+                &mut cur,
+                String::from("units cm\nunits deg\n"),
+            ));
         }
     }
     pieces.push(cur);
@@ -72,7 +100,10 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
     for (i, piece) in pieces.iter().enumerate() {
         let f = k.home.path().join(format!("piece{i}.edit"));
         std::fs::write(&f, piece).expect("piece");
-        let o = robosim(&k, &["edit", "--robot", "C", "--script", &f.to_string_lossy()]);
+        let o = robosim(
+            &k,
+            &["edit", "--robot", "C", "--script", &f.to_string_lossy()],
+        );
         let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
         assert!(
             o.status.success(),
@@ -88,7 +119,11 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
         else {
             continue;
         };
-        let verb = piece.lines().last().and_then(|l| l.split_whitespace().next()).unwrap_or("");
+        let verb = piece
+            .lines()
+            .last()
+            .and_then(|l| l.split_whitespace().next())
+            .unwrap_or("");
         if matches!(verb, "cylinder" | "extrude" | "box") {
             bodies += 1;
         }
@@ -105,7 +140,13 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
     let again = k.home.path().join("again");
     let o = robosim(
         &k,
-        &["lang", "run", &links.join("C.rsim").to_string_lossy(), "--out", &again.to_string_lossy()],
+        &[
+            "lang",
+            "run",
+            &links.join("C.rsim").to_string_lossy(),
+            "--out",
+            &again.to_string_lossy(),
+        ],
     );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     for f in ["C.LOC", "C.L1"] {
@@ -115,7 +156,10 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
             "{f}"
         );
     }
-    let o = robosim(&k, &["lang", "load", &links.to_string_lossy(), "--as", "c2"]);
+    let o = robosim(
+        &k,
+        &["lang", "load", &links.to_string_lossy(), "--as", "c2"],
+    );
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let s = k.session();
     let mut reader = robosim_instance_space::Reader::attach(&s, "test").expect("reader");
@@ -130,12 +174,27 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
 
     // A failed program writes nothing and says where.
     let bad = k.home.path().join("bad.rsim");
-    std::fs::write(&bad, "BOX X = 1, Y = 1, Z = 1\nSTORE-LINK B.LOC\nCYLINDER R = -2, H = 1\n")
-        .expect("bad");
+    std::fs::write(
+        &bad,
+        "BOX X = 1, Y = 1, Z = 1\nSTORE-LINK B.LOC\nCYLINDER R = -2, H = 1\n",
+    )
+    .expect("bad");
     let none = k.home.path().join("none");
-    let o = robosim(&k, &["lang", "run", &bad.to_string_lossy(), "--out", &none.to_string_lossy()]);
+    let o = robosim(
+        &k,
+        &[
+            "lang",
+            "run",
+            &bad.to_string_lossy(),
+            "--out",
+            &none.to_string_lossy(),
+        ],
+    );
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("bad.rsim:3:10: CYLINDER: argument R must be positive, got -2"), "{err}");
+    assert!(
+        err.contains("bad.rsim:3:10: CYLINDER: argument R must be positive, got -2"),
+        "{err}"
+    );
     assert!(!none.join("B.LOC").exists());
 }

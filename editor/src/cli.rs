@@ -15,7 +15,10 @@ pub fn lang_run(program_path: &Path, out: &Path) -> Result<String, String> {
         .map_err(|e| format!("{}: {e}", program_path.display()))?;
     let o = program::run(&text, &program_path.display().to_string()).map_err(|e| e.to_string())?;
     if o.links.is_empty() {
-        return Err(format!("{}: the program stores no link (STORE-LINK)", program_path.display()));
+        return Err(format!(
+            "{}: the program stores no link (STORE-LINK)",
+            program_path.display()
+        ));
     }
     let paths = program::write_links(&o, out)?;
     let mut s = String::new();
@@ -51,7 +54,11 @@ pub fn lang_load(
     Ok(format!(
         "loaded {prefix} ({} links: {}) as robot {name}: {} joints, {} objects, version {}",
         r.links.len(),
-        r.links.iter().map(|l| l.0.as_str()).collect::<Vec<_>>().join(", "),
+        r.links
+            .iter()
+            .map(|l| l.0.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
         r.robot.joints.len(),
         a.created.len(),
         a.version
@@ -135,11 +142,7 @@ impl rustyline::highlight::Highlighter for Helper {}
 impl rustyline::validate::Validator for Helper {}
 impl rustyline::Helper for Helper {}
 
-fn interactive(
-    ed: &mut Editor<Client>,
-    p: &mut Prompt,
-    session: &Session,
-) -> Result<(), String> {
+fn interactive(ed: &mut Editor<Client>, p: &mut Prompt, session: &Session) -> Result<(), String> {
     let names = Rc::new(RefCell::new(Vec::new()));
     let mut rl: rustyline::Editor<Helper, rustyline::history::FileHistory> =
         rustyline::Editor::new().map_err(|e| e.to_string())?;

@@ -13,11 +13,44 @@ use robosim_file_io::linkfile::LinkJoint;
 
 /// Every verb, for completion and help.
 pub const VERBS: &[&str] = &[
-    "units", "box", "cylinder", "cone", "truncated-cone", "sphere", "move", "draw", "extrude",
-    "revolve", "clone", "translate", "home", "rotate", "rotate-rel", "delete", "attach", "resize",
-    "r-joint-i", "p-joint-i", "f-joint-i", "r-joint-i+1", "p-joint-i+1", "f-joint-i+1", "check",
-    "link", "undo", "redo", "save", "load", "restart", "code", "read-code", "run", "faces", "list",
-    "help", "quit",
+    "units",
+    "box",
+    "cylinder",
+    "cone",
+    "truncated-cone",
+    "sphere",
+    "move",
+    "draw",
+    "extrude",
+    "revolve",
+    "clone",
+    "translate",
+    "home",
+    "rotate",
+    "rotate-rel",
+    "delete",
+    "attach",
+    "resize",
+    "r-joint-i",
+    "p-joint-i",
+    "f-joint-i",
+    "r-joint-i+1",
+    "p-joint-i+1",
+    "f-joint-i+1",
+    "check",
+    "link",
+    "undo",
+    "redo",
+    "save",
+    "load",
+    "restart",
+    "code",
+    "read-code",
+    "run",
+    "faces",
+    "list",
+    "help",
+    "quit",
 ];
 
 /// The prompt's state besides the design: units and the polygon being drawn.
@@ -92,7 +125,10 @@ fn split(line: &str) -> Result<Option<Line>, String> {
                 None
             } else {
                 Some(unit(u).ok_or_else(|| {
-                    format!("argument {}: unknown unit {u:?} (m, cm, mm, in, ft, deg, rad)", k.to_uppercase())
+                    format!(
+                        "argument {}: unknown unit {u:?} (m, cm, mm, in, ft, deg, rad)",
+                        k.to_uppercase()
+                    )
                 })?)
             };
             l.args.push((k.to_ascii_uppercase(), x, u));
@@ -136,8 +172,12 @@ impl Prompt {
     fn count(l: &Line) -> Result<Option<usize>, String> {
         match l.args.iter().find(|a| a.0 == "N") {
             None => Ok(None),
-            Some((_, v, None)) if v.fract() == 0.0 && *v >= 3.0 && *v <= 16384.0 => Ok(Some(*v as usize)),
-            Some((_, v, _)) => Err(format!("argument N: {v} facets (an integer from 3 to 16384)")),
+            Some((_, v, None)) if v.fract() == 0.0 && *v >= 3.0 && *v <= 16384.0 => {
+                Ok(Some(*v as usize))
+            }
+            Some((_, v, _)) => Err(format!(
+                "argument N: {v} facets (an integer from 3 to 16384)"
+            )),
         }
     }
 
@@ -148,7 +188,11 @@ impl Prompt {
                     "{}: unknown argument {} (it takes {})",
                     l.verb,
                     a.0,
-                    if allowed.is_empty() { "none".into() } else { allowed.join(", ") }
+                    if allowed.is_empty() {
+                        "none".into()
+                    } else {
+                        allowed.join(", ")
+                    }
                 ));
             }
         }
@@ -190,7 +234,11 @@ fn face(d: &Design, obj: &str, w: &str) -> Result<usize, String> {
     let sign = match w {
         "top" => 1.0,
         "bottom" => -1.0,
-        other => return Err(format!("{other:?} is not a polygon (a number, top or bottom)")),
+        other => {
+            return Err(format!(
+                "{other:?} is not a polygon (a number, top or bottom)"
+            ));
+        }
     };
     (0..p.polygons.len())
         .max_by(|&a, &b| {
@@ -200,7 +248,11 @@ fn face(d: &Design, obj: &str, w: &str) -> Result<usize, String> {
 }
 
 /// Runs one line against the editor.
-pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Result<Outcome, String> {
+pub fn execute<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    line: &str,
+) -> Result<Outcome, String> {
     let Some(l) = split(line)? else {
         return Ok(Outcome::Said(String::new()));
     };
@@ -215,9 +267,16 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
             match unit(w) {
                 Some(Unit::Length(f)) => p.length = (f, w.to_owned()),
                 Some(Unit::Angle(f)) => p.angle = (f, w.to_owned()),
-                None => return Err(format!("units: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)")),
+                None => {
+                    return Err(format!(
+                        "units: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)"
+                    ));
+                }
             }
-            Ok(Outcome::Said(format!("units {} and {}", p.length.1, p.angle.1)))
+            Ok(Outcome::Said(format!(
+                "units {} and {}",
+                p.length.1, p.angle.1
+            )))
         }
         "box" | "cylinder" | "cone" | "truncated-cone" | "sphere" => {
             let name = word(&l, 0, "an object name")?;
@@ -235,7 +294,11 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
                     let r = p.need(&l, "R", true)?;
                     let h = p.need(&l, "H", true)?;
                     let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(r));
-                    if v == "cone" { Shape::Cone { r, h, n } } else { Shape::Cylinder { r, h, n } }
+                    if v == "cone" {
+                        Shape::Cone { r, h, n }
+                    } else {
+                        Shape::Cylinder { r, h, n }
+                    }
                 }
                 "truncated-cone" => {
                     Prompt::check_keys(&l, &["R1", "R2", "H", "N"])?;
@@ -281,7 +344,8 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
                 let angle = p.get(&l, "A", false)?.unwrap_or(std::f64::consts::TAU);
                 let rmax = pts.iter().map(|q| q[0]).fold(0.0, f64::max);
                 let n = Prompt::count(&l)?.unwrap_or_else(|| {
-                    ((facets_for(rmax) as f64 * angle / std::f64::consts::TAU).ceil() as usize).max(1)
+                    ((facets_for(rmax) as f64 * angle / std::f64::consts::TAU).ceil() as usize)
+                        .max(1)
                 });
                 Shape::Revolve {
                     profile: pts.iter().map(|q| [q[0], q[2]]).collect(),
@@ -296,7 +360,10 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
             r
         }
         "clone" => {
-            let (src, name) = (word(&l, 0, "the object to clone")?, word(&l, 1, "the new name")?);
+            let (src, name) = (
+                word(&l, 0, "the object to clone")?,
+                word(&l, 1, "the new name")?,
+            );
             done(ed.apply(|d| d.clone_object(src, name)))
         }
         "translate" => {
@@ -319,7 +386,12 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
         }
         "attach" => {
             // attach CHILD FACE [to] BASE FACE
-            let w: Vec<&str> = l.words.iter().map(String::as_str).filter(|w| *w != "to").collect();
+            let w: Vec<&str> = l
+                .words
+                .iter()
+                .map(String::as_str)
+                .filter(|w| *w != "to")
+                .collect();
             if w.len() != 4 {
                 return Err("attach: attach CHILD POLYGON to BASE POLYGON (polygon: a number, top or bottom)".into());
             }
@@ -391,8 +463,12 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
         "code" => {
             let f = word(&l, 0, "a file name")?;
             let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
-            if let Some(dir) = std::path::Path::new(f).parent().filter(|d| !d.as_os_str().is_empty()) {
-                std::fs::create_dir_all(dir).map_err(|e| format!("code: {}: {e}", dir.display()))?;
+            if let Some(dir) = std::path::Path::new(f)
+                .parent()
+                .filter(|d| !d.as_os_str().is_empty())
+            {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| format!("code: {}: {e}", dir.display()))?;
             }
             std::fs::write(f, text).map_err(|e| format!("code: {f}: {e}"))?;
             Ok(Outcome::Said(format!("wrote {f}")))
@@ -412,14 +488,20 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
             let paths = program::write_links(&out, std::path::Path::new(dir))?;
             Ok(Outcome::Said(format!(
                 "wrote {}",
-                paths.iter().map(|p| p.display().to_string()).collect::<Vec<_>>().join(", ")
+                paths
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
             )))
         }
         "faces" => {
             let o = word(&l, 0, "an object")?;
             let obj = ed.design().object(o).map_err(|e| e.to_string())?;
             let Some(poly) = obj.shape.polyhedron().map_err(|e| e.to_string())? else {
-                return Ok(Outcome::Said(format!("{o}: a joint marker; polygon 0 is its frame")));
+                return Ok(Outcome::Said(format!(
+                    "{o}: a joint marker; polygon 0 is its frame"
+                )));
             };
             let mut s = String::new();
             for k in 0..poly.polygons.len() {
@@ -433,25 +515,40 @@ pub fn execute<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, line: &str) -> Resu
                     f[(0, 2)],
                     f[(1, 2)],
                     f[(2, 2)],
-                    if obj.shape.planar_face(&poly, k) { "" } else { " (curved-surface facet)" }
+                    if obj.shape.planar_face(&poly, k) {
+                        ""
+                    } else {
+                        " (curved-surface facet)"
+                    }
                 ));
             }
             Ok(Outcome::Said(s.trim_end().to_owned()))
         }
         "list" => {
             let d = ed.design();
-            let mut s = format!("robot {}, link {} of {}:", d.robot, d.link().name, d.links.len());
+            let mut s = format!(
+                "robot {}, link {} of {}:",
+                d.robot,
+                d.link().name,
+                d.links.len()
+            );
             for o in &d.link().objects {
                 s.push_str(&format!(
                     "\n  {} {}{}",
                     o.name,
                     o.shape.command(),
-                    o.parent.as_ref().map(|p| format!(" on {p}")).unwrap_or_default()
+                    o.parent
+                        .as_ref()
+                        .map(|p| format!(" on {p}"))
+                        .unwrap_or_default()
                 ));
             }
             Ok(Outcome::Said(s))
         }
-        "help" => Ok(Outcome::Said(format!("commands: {} (docs/editor.md)", VERBS.join(" ")))),
+        "help" => Ok(Outcome::Said(format!(
+            "commands: {} (docs/editor.md)",
+            VERBS.join(" ")
+        ))),
         "quit" | "exit" => Ok(Outcome::Quit),
         other => {
             let near = VERBS
@@ -478,7 +575,14 @@ fn code_units(p: &Prompt) -> CodeUnits {
     };
     CodeUnits {
         length: (p.length.0, name(&p.length.1)),
-        angle: (p.angle.0, if name(&p.angle.1) == "RAD" { "RAD" } else { "DEG" }),
+        angle: (
+            p.angle.0,
+            if name(&p.angle.1) == "RAD" {
+                "RAD"
+            } else {
+                "DEG"
+            },
+        ),
     }
 }
 
@@ -489,7 +593,9 @@ fn validate(d: &Design) -> Result<(), String> {
     }
     for l in &d.links {
         for o in &l.objects {
-            o.shape.polyhedron().map_err(|e| format!("{}: {e}", o.name))?;
+            o.shape
+                .polyhedron()
+                .map_err(|e| format!("{}: {e}", o.name))?;
             if !o.ref_.iter().chain(o.amat.iter()).all(|x| x.is_finite()) {
                 return Err(format!("{}: a transform is not finite", o.name));
             }

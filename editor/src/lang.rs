@@ -145,7 +145,10 @@ fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, Lang
         return Err(err(
             start,
             "",
-            format!("expected a command name, found {:?}", c.peek().unwrap_or(' ')),
+            format!(
+                "expected a command name, found {:?}",
+                c.peek().unwrap_or(' ')
+            ),
         ));
     }
     let mut cmd = Command {
@@ -183,13 +186,18 @@ fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, Lang
     let mut key = (tok, tok_start);
     loop {
         if key.0.is_empty() {
-            return Err(err(key.1, &name, "expected an argument name before '='".into()));
+            return Err(err(
+                key.1,
+                &name,
+                "expected an argument name before '='".into(),
+            ));
         }
         // at '='
         c.i += 1;
         c.skip_ws();
         let num_start = c.i;
-        let num = c.take_while(|ch| ch.is_ascii_digit() || matches!(ch, '.' | '-' | '+' | 'e' | 'E'));
+        let num =
+            c.take_while(|ch| ch.is_ascii_digit() || matches!(ch, '.' | '-' | '+' | 'e' | 'E'));
         let value: f64 = num.parse().map_err(|_| {
             err(
                 num_start,
@@ -209,7 +217,10 @@ fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, Lang
             return Err(err(
                 num_start,
                 &name,
-                format!("argument {}: {num} is not finite", key.0.to_ascii_uppercase()),
+                format!(
+                    "argument {}: {num} is not finite",
+                    key.0.to_ascii_uppercase()
+                ),
             ));
         }
         c.skip_ws();
@@ -257,7 +268,10 @@ fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, Lang
                 return Err(err(
                     c.i,
                     &name,
-                    format!("unexpected {ch:?} after argument {} (arguments are separated by commas)", key.0.to_ascii_uppercase()),
+                    format!(
+                        "unexpected {ch:?} after argument {} (arguments are separated by commas)",
+                        key.0.to_ascii_uppercase()
+                    ),
                 ));
             }
         }
@@ -288,8 +302,15 @@ mod tests {
     #[test]
     fn errors_say_where() {
         let e = parse("BOX X = 1, Y = oops", "p.rsim").expect_err("bad");
-        assert_eq!(e.to_string(), "p.rsim:1:16: BOX: argument Y: \"oops\" is not a number");
+        assert_eq!(
+            e.to_string(),
+            "p.rsim:1:16: BOX: argument Y: \"oops\" is not a number"
+        );
         let e = parse("BOX X = 1 furlong", "p").expect_err("unit");
-        assert!(e.to_string().starts_with("p:1:11: BOX: argument X: unknown unit"), "{e}");
+        assert!(
+            e.to_string()
+                .starts_with("p:1:11: BOX: argument X: unknown unit"),
+            "{e}"
+        );
     }
 }

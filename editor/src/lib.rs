@@ -9,12 +9,12 @@
 //!
 //! Documentation: docs/editor.md.
 
+pub mod cli;
+pub mod codegen;
+pub mod commands;
 pub mod lang;
 pub mod program;
 pub mod robot;
-pub mod shape;
-pub mod codegen;
 pub mod session;
+pub mod shape;
 pub mod structure;
-pub mod commands;
-pub mod cli;

@@ -301,7 +301,10 @@ impl Interp<'_> {
             (None, Some((w, _))) => Err(self.err(
                 c,
                 a.span,
-                format!("argument {} is a plain number; it takes no unit ({w})", a.key),
+                format!(
+                    "argument {} is a plain number; it takes no unit ({w})",
+                    a.key
+                ),
             )),
             (Some(true), None) => Ok(a.value * self.length),
             (Some(false), None) => Ok(a.value * self.angle),
@@ -321,7 +324,11 @@ impl Interp<'_> {
 
     fn word(&self, c: &Command, what: &str) -> Result<(String, Span), LangError> {
         if let Some(a) = c.args.first() {
-            return Err(self.err(c, a.span, format!("takes {what}, not KEY = VALUE arguments")));
+            return Err(self.err(
+                c,
+                a.span,
+                format!("takes {what}, not KEY = VALUE arguments"),
+            ));
         }
         c.word
             .clone()
@@ -343,15 +350,16 @@ impl Interp<'_> {
         let mut ch = w.chars();
         match (ch.next(), ch.next()) {
             (Some(r), None) if r.is_ascii_alphabetic() => Ok(r.to_ascii_uppercase()),
-            _ => Err(self.err(
-                c,
-                s,
-                format!("{w:?} is not a register (one letter A–Z)"),
-            )),
+            _ => Err(self.err(c, s, format!("{w:?} is not a register (one letter A–Z)"))),
         }
     }
 
-    fn positive(&self, c: &Command, args: &BTreeMap<String, (f64, Span)>, k: &str) -> Result<f64, LangError> {
+    fn positive(
+        &self,
+        c: &Command,
+        args: &BTreeMap<String, (f64, Span)>,
+        k: &str,
+    ) -> Result<f64, LangError> {
         let Some(&(v, s)) = args.get(k) else {
             return Err(self.err(c, c.span, format!("argument {k} is missing")));
         };
@@ -366,14 +374,23 @@ impl Interp<'_> {
         }
     }
 
-    fn facets(&self, c: &Command, args: &BTreeMap<String, (f64, Span)>, r: f64) -> Result<usize, LangError> {
+    fn facets(
+        &self,
+        c: &Command,
+        args: &BTreeMap<String, (f64, Span)>,
+        r: f64,
+    ) -> Result<usize, LangError> {
         match args.get("N") {
             None => Ok(facets_for(r)),
             Some(&(n, s)) => {
                 if n.fract() == 0.0 && (3.0..=16384.0).contains(&n) {
                     Ok(n as usize)
                 } else {
-                    Err(self.err(c, s, format!("argument N: {n} facets (an integer from 3 to 16384)")))
+                    Err(self.err(
+                        c,
+                        s,
+                        format!("argument N: {n} facets (an integer from 3 to 16384)"),
+                    ))
                 }
             }
         }
@@ -421,7 +438,11 @@ impl Interp<'_> {
                     return Err(self.err(c, c.span, "argument RHO (kg/m³) is missing".into()));
                 };
                 if !(v >= 0.0) {
-                    return Err(self.err(c, s, format!("argument RHO must be zero or positive, got {v}")));
+                    return Err(self.err(
+                        c,
+                        s,
+                        format!("argument RHO must be zero or positive, got {v}"),
+                    ));
                 }
                 self.density = v;
             }
@@ -430,7 +451,11 @@ impl Interp<'_> {
                 let p = ["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0));
                 if name == "LOOK-FROM" {
                     if p == [0.0; 3] {
-                        return Err(self.err(c, c.span, "at least one of X, Y, Z must be non-zero".into()));
+                        return Err(self.err(
+                            c,
+                            c.span,
+                            "at least one of X, Y, Z must be non-zero".into(),
+                        ));
                     }
                     self.out.look_from = Some(p);
                 } else {
@@ -448,7 +473,11 @@ impl Interp<'_> {
             "LOAD" | "ADD" => {
                 let r = self.register(c)?;
                 let Some(w) = self.regs.get(&r).cloned() else {
-                    return Err(self.err(c, c.word.as_ref().map_or(c.span, |w| w.1), format!("register {r} was never stored")));
+                    return Err(self.err(
+                        c,
+                        c.word.as_ref().map_or(c.span, |w| w.1),
+                        format!("register {r} was never stored"),
+                    ));
                 };
                 if name == "LOAD" {
                     self.work = w;
@@ -469,7 +498,11 @@ impl Interp<'_> {
                     )));
                 }
                 if name == "DRAW" && self.profile.is_empty() {
-                    return Err(self.err(c, c.span, "DRAW before MOVE (a polygon starts with MOVE)".into()));
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        "DRAW before MOVE (a polygon starts with MOVE)".into(),
+                    ));
                 }
                 self.profile.push((p, c.span));
             }
@@ -486,10 +519,14 @@ impl Interp<'_> {
                     pts.pop();
                 }
                 if pts.len() < 3 {
-                    return Err(self.err(c, c.span, format!(
-                        "needs a MOVE/DRAW polygon of at least 3 points before it, has {}",
-                        pts.len()
-                    )));
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        format!(
+                            "needs a MOVE/DRAW polygon of at least 3 points before it, has {}",
+                            pts.len()
+                        ),
+                    ));
                 }
                 let shape = if extrude {
                     if let Some((_, s)) = pts.iter().find(|p| p.0[2] != 0.0) {
@@ -497,7 +534,8 @@ impl Interp<'_> {
                             file: self.file.to_owned(),
                             span: *s,
                             command: "MOVE/DRAW".into(),
-                            what: "an EXTRUDE-SURFACE polygon lies in the XY plane: Z must be 0".into(),
+                            what: "an EXTRUDE-SURFACE polygon lies in the XY plane: Z must be 0"
+                                .into(),
                         });
                     }
                     let h = self.positive(c, &a, "Z")?;
@@ -574,18 +612,30 @@ impl Interp<'_> {
                     _ => LinkJoint::Fixed,
                 };
                 let output = name.ends_with("I+1");
-                if let Some(o) = self.work.objects.iter().find(|o| matches!(o.shape, Shape::Joint { output: out, .. } if out == output)) {
-                    return Err(self.err(c, c.span, format!(
-                        "the working object already has an {} joint (made on line {})",
-                        if output { "I+1" } else { "I" },
-                        o.span.line
-                    )));
+                if let Some(o) =
+                    self.work.objects.iter().find(
+                        |o| matches!(o.shape, Shape::Joint { output: out, .. } if out == output),
+                    )
+                {
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        format!(
+                            "the working object already has an {} joint (made on line {})",
+                            if output { "I+1" } else { "I" },
+                            o.span.line
+                        ),
+                    ));
                 }
                 self.add_shape(c, Shape::Joint { kind, output })?;
             }
             "ROTATE" => {
                 if c.args.is_empty() {
-                    return Err(self.err(c, c.span, "needs at least one of X, Y, Z (angles)".into()));
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        "needs at least one of X, Y, Z (angles)".into(),
+                    ));
                 }
                 // applied in the order written
                 self.args(c, &["X", "Y", "Z"], |_| Some(false))?;
@@ -608,15 +658,30 @@ impl Interp<'_> {
                 let (w, s) = self.word(c, "a link name such as C.LOC")?;
                 if w.is_empty()
                     || w.starts_with('.')
-                    || !w.chars().all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '.' | '_' | '-' | '+'))
+                    || !w
+                        .chars()
+                        .all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '.' | '_' | '-' | '+'))
                 {
-                    return Err(self.err(c, s, format!("{w:?} is not a link name (letters, digits, . _ - +)")));
+                    return Err(self.err(
+                        c,
+                        s,
+                        format!("{w:?} is not a link name (letters, digits, . _ - +)"),
+                    ));
                 }
-                if self.out.links.iter().any(|l| l.name.eq_ignore_ascii_case(&w)) {
+                if self
+                    .out
+                    .links
+                    .iter()
+                    .any(|l| l.name.eq_ignore_ascii_case(&w))
+                {
                     return Err(self.err(c, s, format!("link {w} is stored twice")));
                 }
                 if self.work.objects.is_empty() {
-                    return Err(self.err(c, c.span, "the working object is empty (LOAD a register first?)".into()));
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        "the working object is empty (LOAD a register first?)".into(),
+                    ));
                 }
                 let file = build_link(&self.work.objects, self.density)
                     .map_err(|e| self.err(c, s, format!("link {w}: {e}")))?;
@@ -629,7 +694,12 @@ impl Interp<'_> {
             }
             "VIEW" => {
                 self.no_args(c)?;
-                let joints = self.work.objects.iter().filter(|o| o.shape.is_joint()).count();
+                let joints = self
+                    .work
+                    .objects
+                    .iter()
+                    .filter(|o| o.shape.is_joint())
+                    .count();
                 self.out.views.push(format!(
                     "line {}: {} objects, {} joints in the working object; {} links stored",
                     c.span.line,

@@ -123,14 +123,19 @@ pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRo
     let Some((bname, base)) = links.first() else {
         return Err("no links".into());
     };
-    if matches!(base.joint_i, Some(LinkJoint::Revolute | LinkJoint::Prismatic)) {
+    if matches!(
+        base.joint_i,
+        Some(LinkJoint::Revolute | LinkJoint::Prismatic)
+    ) {
         return Err(format!(
             "{bname}: the base link's I joint is {:?}; a base has a fixed I joint or none",
             base.joint_i
         ));
     }
     if links.len() < 2 {
-        return Err(format!("{bname}: a robot needs the base link and at least one moving link"));
+        return Err(format!(
+            "{bname}: a robot needs the base link and at least one moving link"
+        ));
     }
     let mut joints = Vec::new();
     for (k, (lname, l)) in links.iter().enumerate().skip(1) {
@@ -255,7 +260,14 @@ pub fn robot_transaction(r: &LoadedRobot, name: &str) -> Result<Transaction, Str
                 Some(MassProps {
                     mass: j.mass,
                     com: [j.com.x, j.com.y, j.com.z],
-                    inertia: [i[(0, 0)], i[(1, 1)], i[(2, 2)], i[(0, 1)], i[(0, 2)], i[(1, 2)]],
+                    inertia: [
+                        i[(0, 0)],
+                        i[(1, 1)],
+                        i[(2, 2)],
+                        i[(0, 1)],
+                        i[(0, 2)],
+                        i[(1, 2)],
+                    ],
                 }),
             );
             link

@@ -222,7 +222,8 @@ impl<S: Space> Editor<S> {
         }
         // forget what was deleted
         let d = &self.design;
-        self.links.retain(|l, _| d.links.iter().any(|x| &x.name == l));
+        self.links
+            .retain(|l, _| d.links.iter().any(|x| &x.name == l));
         self.objects.retain(|(l, o), _| {
             d.links
                 .iter()
@@ -326,7 +327,9 @@ impl<S: Space> Editor<S> {
                 if prev.map(|p| &p.parent) != Some(&o.parent) {
                     let parent = match &o.parent {
                         None => lref,
-                        Some(p) => *refs.get(p).ok_or_else(|| EditError::Invalid(format!("{}: parent {p} does not exist", o.name)))?,
+                        Some(p) => *refs.get(p).ok_or_else(|| {
+                            EditError::Invalid(format!("{}: parent {p} does not exist", o.name))
+                        })?,
                     };
                     tx.attach(id, parent);
                 }
@@ -409,7 +412,12 @@ fn write_object(
     Ok(())
 }
 
-type Ids = (Design, Id, BTreeMap<String, Id>, BTreeMap<(String, String), Id>);
+type Ids = (
+    Design,
+    Id,
+    BTreeMap<String, Id>,
+    BTreeMap<(String, String), Id>,
+);
 
 /// The design `robot` an editor left in the space, with the ids of its objects.
 fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
@@ -435,7 +443,9 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
     for lname in &header.links {
         let item = format!("{robot}.{lname}");
         let Some(li) = snap.children(scene).find(|&k| snap.name(k) == item) else {
-            return Err(EditError::Invalid(format!("{robot}: link {item} is missing")));
+            return Err(EditError::Invalid(format!(
+                "{robot}: link {item} is missing"
+            )));
         };
         let lid = snap.objects()[li].id;
         links.insert(lname.clone(), lid);

@@ -10,27 +10,57 @@
 
 use nalgebra::{Matrix4, Point2, Point3, Vector3};
 use robosim_file_io::linkfile::LinkJoint;
-use robosim_geometry::shapes::{self, DEFAULT_CHORD_TOL, ShapeError, default_facets};
 use robosim_geometry::Polyhedron;
+use robosim_geometry::shapes::{self, DEFAULT_CHORD_TOL, ShapeError, default_facets};
 use serde::{Deserialize, Serialize};
 
 /// What an object is, with its dimensions (m, rad).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "type", rename_all = "snake_case")]
 pub enum Shape {
-    Box { x: f64, y: f64, z: f64 },
-    Cylinder { r: f64, h: f64, n: usize },
-    Cone { r: f64, h: f64, n: usize },
+    Box {
+        x: f64,
+        y: f64,
+        z: f64,
+    },
+    Cylinder {
+        r: f64,
+        h: f64,
+        n: usize,
+    },
+    Cone {
+        r: f64,
+        h: f64,
+        n: usize,
+    },
     /// `upper` radius at +h/2, `lower` at −h/2.
-    TruncatedCone { upper: f64, lower: f64, h: f64, n: usize },
-    Sphere { r: f64, n: usize },
+    TruncatedCone {
+        upper: f64,
+        lower: f64,
+        h: f64,
+        n: usize,
+    },
+    Sphere {
+        r: f64,
+        n: usize,
+    },
     /// A polygon in the XY plane extruded by `h` symmetrically about z = 0; the polygon keeps
     /// its XY placement (Table 1's custom object sits on its cylinder only this way).
-    Extrude { profile: Vec<[f64; 2]>, h: f64 },
+    Extrude {
+        profile: Vec<[f64; 2]>,
+        h: f64,
+    },
     /// A (ρ, z) profile revolved about z by `angle`, `n` segments; it keeps its z placement.
-    Revolve { profile: Vec<[f64; 2]>, angle: f64, n: usize },
+    Revolve {
+        profile: Vec<[f64; 2]>,
+        angle: f64,
+        n: usize,
+    },
     /// A joint marker: the link's input (I) or output (I+1) joint frame, z along the axis.
-    Joint { kind: LinkJoint, output: bool },
+    Joint {
+        kind: LinkJoint,
+        output: bool,
+    },
 }
 
 /// The default facet count of a round shape of radius `r` (m).
@@ -54,7 +84,11 @@ impl Shape {
             Shape::Extrude { .. } => "EXTRUDE-SURFACE".into(),
             Shape::Revolve { .. } => "REV-SURFACE".into(),
             Shape::Joint { kind, output } => {
-                format!("{}-JOINT-{}", kind.letter(), if *output { "I+1" } else { "I" })
+                format!(
+                    "{}-JOINT-{}",
+                    kind.letter(),
+                    if *output { "I+1" } else { "I" }
+                )
             }
         }
     }
@@ -74,7 +108,8 @@ impl Shape {
             }
             Shape::Sphere { r, n } => shapes::sphere(*r, Some(*n))?,
             Shape::Extrude { profile, h } => {
-                let pts: Vec<Point2<f64>> = profile.iter().map(|p| Point2::new(p[0], p[1])).collect();
+                let pts: Vec<Point2<f64>> =
+                    profile.iter().map(|p| Point2::new(p[0], p[1])).collect();
                 let p = shapes::extrude(&pts, *h)?;
                 // The generator centres the solid on its box; put the polygon back where it was.
                 let (lo, hi) = bounds(profile.iter().map(|p| [p[0], p[1], 0.0]));
@@ -82,7 +117,8 @@ impl Shape {
                 shift(p, c)
             }
             Shape::Revolve { profile, angle, n } => {
-                let pts: Vec<Point2<f64>> = profile.iter().map(|p| Point2::new(p[0], p[1])).collect();
+                let pts: Vec<Point2<f64>> =
+                    profile.iter().map(|p| Point2::new(p[0], p[1])).collect();
                 let p = shapes::revolve(&pts, *angle, Some(*n))?;
                 // Undo the generator's centring: the box of the revolved points as it made them.
                 let full = *angle >= std::f64::consts::TAU * (1.0 - 1e-12);
@@ -142,9 +178,21 @@ impl Shape {
         }
         let d = |i: usize| dims[i];
         let s = match self {
-            Shape::Box { .. } => Shape::Box { x: d(0), y: d(1), z: d(2) },
-            Shape::Cylinder { n, .. } => Shape::Cylinder { r: d(0), h: d(1), n: *n },
-            Shape::Cone { n, .. } => Shape::Cone { r: d(0), h: d(1), n: *n },
+            Shape::Box { .. } => Shape::Box {
+                x: d(0),
+                y: d(1),
+                z: d(2),
+            },
+            Shape::Cylinder { n, .. } => Shape::Cylinder {
+                r: d(0),
+                h: d(1),
+                n: *n,
+            },
+            Shape::Cone { n, .. } => Shape::Cone {
+                r: d(0),
+                h: d(1),
+                n: *n,
+            },
             Shape::TruncatedCone { n, .. } => Shape::TruncatedCone {
                 upper: d(0),
                 lower: d(1),
@@ -172,7 +220,9 @@ impl Shape {
         match self {
             Shape::Box { x, y, z } => vec![*x, *y, *z],
             Shape::Cylinder { r, h, .. } | Shape::Cone { r, h, .. } => vec![*r, *h],
-            Shape::TruncatedCone { upper, lower, h, .. } => vec![*upper, *lower, *h],
+            Shape::TruncatedCone {
+                upper, lower, h, ..
+            } => vec![*upper, *lower, *h],
             Shape::Sphere { r, .. } => vec![*r],
             Shape::Extrude { h, .. } => vec![*h],
             Shape::Revolve { angle, .. } => vec![*angle],
@@ -226,7 +276,11 @@ pub fn face_frame(poly: &Polyhedron, k: usize) -> Matrix4<f64> {
     let v: Vec<Point3<f64>> = idx.iter().map(|&i| poly.vertices[i as usize]).collect();
     let c = v.iter().fold(Vector3::zeros(), |a, p| a + p.coords) / v.len() as f64;
     let n = poly.polygons[k].plane.normal.normalize();
-    let e = if n.x.abs() > 0.9 { Vector3::y() } else { Vector3::x() };
+    let e = if n.x.abs() > 0.9 {
+        Vector3::y()
+    } else {
+        Vector3::x()
+    };
     let x = (e - n * n.dot(&e)).normalize();
     let y = n.cross(&x);
     frame(&x, &y, &n, &c)

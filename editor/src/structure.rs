@@ -489,7 +489,9 @@ pub fn world_in(l: &LinkDesign, name: &str) -> Result<Matrix4<f64>, EditError> {
         at = o.parent.clone();
         guard -= 1;
         if guard == 0 {
-            return Err(EditError::Invalid(format!("{name}: the attachments form a cycle")));
+            return Err(EditError::Invalid(format!(
+                "{name}: the attachments form a cycle"
+            )));
         }
     }
     Ok(m)
@@ -507,7 +509,9 @@ fn finite(v: &[f64; 3], what: &str) -> Result<(), EditError> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
     } else {
-        Err(EditError::Invalid(format!("the {what} {v:?} is not finite")))
+        Err(EditError::Invalid(format!(
+            "the {what} {v:?} is not finite"
+        )))
     }
 }
 

@@ -45,7 +45,10 @@ fn pictures_1_to_5_walkthrough_gives_table_1_geometry_and_a_robot_matching_a_han
         .lines()
         .filter(|l| {
             let v = l.split_whitespace().next().unwrap_or("");
-            !matches!(v, "" | "#" | "units" | "move" | "draw" | "check" | "run" | "code" | "faces" | "list")
+            !matches!(
+                v,
+                "" | "#" | "units" | "move" | "draw" | "check" | "run" | "code" | "faces" | "list"
+            )
         })
         .count() as u64;
     assert_eq!(ed.version - v0, edits);
@@ -56,7 +59,8 @@ fn pictures_1_to_5_walkthrough_gives_table_1_geometry_and_a_robot_matching_a_han
     let mut d_loc = d.clone();
     d_loc.current = loc;
     let w = d_loc.world("custom").expect("custom");
-    let table1 = tr(0.0, -0.3, 0.35) * axis_rotation(1, -std::f64::consts::FRAC_PI_2)
+    let table1 = tr(0.0, -0.3, 0.35)
+        * axis_rotation(1, -std::f64::consts::FRAC_PI_2)
         * axis_rotation(0, -std::f64::consts::FRAC_PI_2);
     assert!((w - table1).amax() < 1e-12, "{w}");
     assert!((d_loc.world("base").expect("base") - tr(0.0, -0.3, -0.25)).amax() < 1e-12);
@@ -72,11 +76,14 @@ fn pictures_1_to_5_walkthrough_gives_table_1_geometry_and_a_robot_matching_a_han
     for poly in &pa {
         let found = pb.iter().any(|q| {
             q.len() == poly.len()
-                && q.iter().zip(poly).all(|(x, y)| {
-                    (Vector3::from(*x) - Vector3::from(*y)).norm() < 1e-12
-                })
+                && q.iter()
+                    .zip(poly)
+                    .all(|(x, y)| (Vector3::from(*x) - Vector3::from(*y)).norm() < 1e-12)
         });
-        assert!(found, "polygon {poly:?} of the editor's C.LOC is not in Table 1's");
+        assert!(
+            found,
+            "polygon {poly:?} of the editor's C.LOC is not in Table 1's"
+        );
     }
     assert!((ours.ajnt_i - theirs.ajnt_i).amax() < 1e-12);
     assert!(
@@ -119,9 +126,25 @@ fn attach_aligns_faces_and_resize_keeps_the_attachment() {
     let check = |ed: &Editor<Store>, child: &str, cface: usize, base: &str, bface: usize| {
         let d = ed.design();
         let fc = d.world(child).expect("c")
-            * face_frame(&d.object(child).expect("c").shape.polyhedron().expect("p").expect("g"), cface);
+            * face_frame(
+                &d.object(child)
+                    .expect("c")
+                    .shape
+                    .polyhedron()
+                    .expect("p")
+                    .expect("g"),
+                cface,
+            );
         let fb = d.world(base).expect("b")
-            * face_frame(&d.object(base).expect("b").shape.polyhedron().expect("p").expect("g"), bface);
+            * face_frame(
+                &d.object(base)
+                    .expect("b")
+                    .shape
+                    .polyhedron()
+                    .expect("p")
+                    .expect("g"),
+                bface,
+            );
         let (nc, nb) = (fc.fixed_view::<3, 1>(0, 2), fb.fixed_view::<3, 1>(0, 2));
         assert!((nc + nb).amax() < 1e-12, "normals opposite");
         assert!(
@@ -132,13 +155,25 @@ fn attach_aligns_faces_and_resize_keeps_the_attachment() {
     let bottom = |s: &Shape| {
         let g = s.polyhedron().expect("p").expect("g");
         (0..g.polygons.len())
-            .min_by(|&a, &b| g.polygons[a].plane.normal.z.total_cmp(&g.polygons[b].plane.normal.z))
+            .min_by(|&a, &b| {
+                g.polygons[a]
+                    .plane
+                    .normal
+                    .z
+                    .total_cmp(&g.polygons[b].plane.normal.z)
+            })
             .expect("face")
     };
     let top = |s: &Shape| {
         let g = s.polyhedron().expect("p").expect("g");
         (0..g.polygons.len())
-            .max_by(|&a, &b| g.polygons[a].plane.normal.z.total_cmp(&g.polygons[b].plane.normal.z))
+            .max_by(|&a, &b| {
+                g.polygons[a]
+                    .plane
+                    .normal
+                    .z
+                    .total_cmp(&g.polygons[b].plane.normal.z)
+            })
             .expect("face")
     };
     let post = ed.design().object("post").expect("post").shape.clone();
@@ -157,7 +192,9 @@ fn attach_aligns_faces_and_resize_keeps_the_attachment() {
     check(&ed, "cap", bottom(&cap), "post", top(&post2));
     // and the Instance Space holds the same world poses as the design
     let snap = snapshot(&ed);
-    let cap_i = (0..snap.len()).find(|&i| snap.name(i) == "cap").expect("cap in space");
+    let cap_i = (0..snap.len())
+        .find(|&i| snap.name(i) == "cap")
+        .expect("cap in space");
     let w = robosim_scene::pose::to_matrix(&snap.world_pose(cap_i));
     assert!((w - ed.design().world("cap").expect("cap")).amax() < 1e-12);
 }
@@ -202,9 +239,17 @@ fn undo_restores_the_previous_model_exactly_and_redo_reapplies() {
     for k in (0..steps.len()).rev() {
         execute(&mut ed, &mut p, "undo").expect("undo");
         assert_eq!(ed.design(), &states[k].0, "undo of {:?}: design", steps[k]);
-        assert_eq!(space_state(&ed.space), states[k].1, "undo of {:?}: space", steps[k]);
+        assert_eq!(
+            space_state(&ed.space),
+            states[k].1,
+            "undo of {:?}: space",
+            steps[k]
+        );
     }
-    assert!(execute(&mut ed, &mut p, "undo").is_err(), "nothing left to undo");
+    assert!(
+        execute(&mut ed, &mut p, "undo").is_err(),
+        "nothing left to undo"
+    );
     for (k, s) in steps.iter().enumerate() {
         execute(&mut ed, &mut p, "redo").expect("redo");
         assert_eq!(ed.design(), &states[k + 1].0, "redo of {s:?}");
@@ -219,19 +264,44 @@ fn undo_restores_the_previous_model_exactly_and_redo_reapplies() {
 fn bad_input_gets_a_clear_error_and_changes_nothing() {
     let mut ed = Editor::new(Store::new(), "B").expect("editor");
     let mut p = Prompt::default();
-    run_script(&mut ed, &mut p, "box a X=10 Y=10 Z=10\ncylinder c R=5 H=10 N=16\nr-joint-i j1\nr-joint-i+1 j2\nattach j1 0 to a bottom\nattach j2 0 to a top\ntranslate j2 Y=3");
+    run_script(
+        &mut ed,
+        &mut p,
+        "box a X=10 Y=10 Z=10\ncylinder c R=5 H=10 N=16\nr-joint-i j1\nr-joint-i+1 j2\nattach j1 0 to a bottom\nattach j2 0 to a top\ntranslate j2 Y=3",
+    );
     let before = (ed.design().clone(), space_state(&ed.space), ed.version);
     let cases: [(&str, &str); 10] = [
         ("wibble a", "unknown command \"wibble\""),
-        ("cylinder d R=-5 H=10", "d: cylinder: `bottom radius` must be zero or positive and finite, got -0.05"),
+        (
+            "cylinder d R=-5 H=10",
+            "d: cylinder: `bottom radius` must be zero or positive and finite, got -0.05",
+        ),
         ("box e X=1 Y=nan Z=1", "argument Y: \"nan\" is not a number"),
-        ("attach a top to c 3", "c: polygon 3 is a facet of the cylinder's curved surface, not a planar face"),
-        ("attach a top to c 99", "c: polygon 99 does not exist (it has polygons 0 to 17)"),
-        ("translate zz X=1", "no object \"zz\" in link LOC (objects: a, c, j1, j2)"),
-        ("check", "the I→I+1 relation of link LOC is not a DH transform: DA:"),
-        ("box a X=1 Y=1 Z=1", "an object \"a\" already exists in link LOC"),
+        (
+            "attach a top to c 3",
+            "c: polygon 3 is a facet of the cylinder's curved surface, not a planar face",
+        ),
+        (
+            "attach a top to c 99",
+            "c: polygon 99 does not exist (it has polygons 0 to 17)",
+        ),
+        (
+            "translate zz X=1",
+            "no object \"zz\" in link LOC (objects: a, c, j1, j2)",
+        ),
+        (
+            "check",
+            "the I→I+1 relation of link LOC is not a DH transform: DA:",
+        ),
+        (
+            "box a X=1 Y=1 Z=1",
+            "an object \"a\" already exists in link LOC",
+        ),
         ("attach j1 0 to c top", "j1 is already attached to a"),
-        ("resize a X=-3", "a: box: `x` must be a positive finite length in metres, got -0.03"),
+        (
+            "resize a X=-3",
+            "a: box: `x` must be a positive finite length in metres, got -0.03",
+        ),
     ];
     for (line, want) in cases {
         let e = execute(&mut ed, &mut p, line).expect_err(line);
@@ -263,7 +333,10 @@ fn code_round_trips_to_1e_12_both_ways() {
         for (a, b) in placed_ed.iter().zip(placed_run) {
             assert_eq!(a.shape, b.shape, "{}", l.name);
             assert!((a.m - b.m).amax() < 1e-12, "{}: pose", l.name);
-            for (va, vb) in program::placed_vertices(a).iter().zip(program::placed_vertices(b)) {
+            for (va, vb) in program::placed_vertices(a)
+                .iter()
+                .zip(program::placed_vertices(b))
+            {
                 assert!((va - vb).norm() < 1e-12);
             }
         }

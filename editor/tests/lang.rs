@@ -43,12 +43,23 @@ fn table_1_verbatim_writes_c_loc_with_table_2_rows() {
     let text = std::fs::read_to_string(&paths[0]).expect("read");
     let lines: Vec<Vec<f64>> = text
         .lines()
-        .map(|l| l.split_whitespace().map(|t| t.parse().expect("number")).collect())
+        .map(|l| {
+            l.split_whitespace()
+                .map(|t| t.parse().expect("number"))
+                .collect()
+        })
         .collect();
-    assert!(lines.iter().all(|l| l.len() == 4), "four columns in every row");
+    assert!(
+        lines.iter().all(|l| l.len() == 4),
+        "four columns in every row"
+    );
     let nvec = lines[18][0] as usize;
     assert_eq!(lines.len(), nvec + 19, "rows 20 … NVEC+19 are the vectors");
-    assert_eq!(&lines[1], &[1.0, 1.0, 3.0, 1.0], "JA1 JA2 JTYPE1 (fixed) JTYPE2 (revolute)");
+    assert_eq!(
+        &lines[1],
+        &[1.0, 1.0, 3.0, 1.0],
+        "JA1 JA2 JTYPE1 (fixed) JTYPE2 (revolute)"
+    );
     assert_eq!(&lines[18][1..], &[0.0, 0.0, 0.0]);
     assert_eq!(lines[19][3], 0.0, "the list starts with a move");
 
@@ -95,7 +106,10 @@ fn table_1_verbatim_writes_c_loc_with_table_2_rows() {
         .iter()
         .filter(|p| (centre(p) - Vector3::new(0.0, -0.3, 0.25)).norm() < 1e-12)
         .count();
-    assert_eq!(hits, 2, "the cylinder's top and the custom object's base share their centre");
+    assert_eq!(
+        hits, 2,
+        "the cylinder's top and the custom object's base share their centre"
+    );
 }
 
 #[test]
@@ -114,13 +128,31 @@ fn a_failed_program_writes_no_link_file_and_says_where() {
     assert!(std::fs::read_dir(dir.path()).expect("dir").next().is_none());
 
     let cases = [
-        ("CLEAR\nWIBBLE X = 1\n", "u.rsim:2:1: WIBBLE: unknown command"),
-        ("BOX X = 1, Y = 2\n", "u.rsim:1:1: BOX: argument Z is missing"),
+        (
+            "CLEAR\nWIBBLE X = 1\n",
+            "u.rsim:2:1: WIBBLE: unknown command",
+        ),
+        (
+            "BOX X = 1, Y = 2\n",
+            "u.rsim:1:1: BOX: argument Z is missing",
+        ),
         ("ADD Q\n", "u.rsim:1:5: ADD: register Q was never stored"),
-        ("ROTATE X = 1 cm\n", "u.rsim:1:8: ROTATE: argument X is an angle; cm is not a unit of that"),
-        ("UNITS FURLONG\n", "u.rsim:1:7: UNITS: unknown unit \"FURLONG\" (M, CM, MM, IN, FT, DEG or RAD)"),
-        ("END\nCLEAR\n", "u.rsim:2:1: CLEAR: a command after END (line 1)"),
-        ("MOVE X=0\nDRAW X=1\nDRAW Y=1\n", "u.rsim:1:1: MOVE: this MOVE/DRAW polygon is never used by EXTRUDE-SURFACE or REV-SURFACE"),
+        (
+            "ROTATE X = 1 cm\n",
+            "u.rsim:1:8: ROTATE: argument X is an angle; cm is not a unit of that",
+        ),
+        (
+            "UNITS FURLONG\n",
+            "u.rsim:1:7: UNITS: unknown unit \"FURLONG\" (M, CM, MM, IN, FT, DEG or RAD)",
+        ),
+        (
+            "END\nCLEAR\n",
+            "u.rsim:2:1: CLEAR: a command after END (line 1)",
+        ),
+        (
+            "MOVE X=0\nDRAW X=1\nDRAW Y=1\n",
+            "u.rsim:1:1: MOVE: this MOVE/DRAW polygon is never used by EXTRUDE-SURFACE or REV-SURFACE",
+        ),
     ];
     for (text, want) in cases {
         let e = program::run(text, "u.rsim").expect_err(text);
@@ -204,7 +236,15 @@ fn link_files_load_as_a_robot_whose_fk_equals_a_hand_written_dh_model() {
         robosim_instance_space::Snapshot::from_store(&st)
     };
     let s1 = (0..snap_q.len())
-        .find(|&i| snap_q.name(i) == "s1" && snap_q.object(i).rec.parent != 0 && snap_q.name(snap_q.index_of(snap_q.object(i).rec.parent).expect("parent")) == "C.L1")
+        .find(|&i| {
+            snap_q.name(i) == "s1"
+                && snap_q.object(i).rec.parent != 0
+                && snap_q.name(
+                    snap_q
+                        .index_of(snap_q.object(i).rec.parent)
+                        .expect("parent"),
+                ) == "C.L1"
+        })
         .expect("the box solid");
     let w = robosim_scene::pose::to_matrix(&snap_q.world_pose(s1));
     let g = snap_q.geometry(s1).expect("geometry");
@@ -215,6 +255,9 @@ fn link_files_load_as_a_robot_whose_fk_equals_a_hand_written_dh_model() {
             let h = (to_world * Vector3::from(*fv).push(1.0)).xyz();
             best = best.min((h - p).norm());
         }
-        assert!(best < 1e-12, "vertex {v:?} is {best} m from the hand model's");
+        assert!(
+            best < 1e-12,
+            "vertex {v:?} is {best} m from the hand model's"
+        );
     }
 }

@@ -186,14 +186,7 @@ impl LinkFile {
         };
         let m4 = |s: &mut String, m: &Matrix4<f64>| {
             for r in 0..4 {
-                let _ = writeln!(
-                    s,
-                    "{} {} {} {}",
-                    m[(r, 0)],
-                    m[(r, 1)],
-                    m[(r, 2)],
-                    m[(r, 3)]
-                );
+                let _ = writeln!(s, "{} {} {} {}", m[(r, 0)], m[(r, 1)], m[(r, 2)], m[(r, 3)]);
             }
         };
         row(
@@ -274,7 +267,9 @@ impl LinkFile {
                     .parse::<f64>()
                     .ok()
                     .filter(|x| x.is_finite())
-                    .ok_or_else(|| syntax(ln + 1, c + 1, format!("{tok:?} is not a finite number")))?;
+                    .ok_or_else(|| {
+                        syntax(ln + 1, c + 1, format!("{tok:?} is not a finite number"))
+                    })?;
                 k += 1;
             }
             if k != 4 {
@@ -295,28 +290,33 @@ impl LinkFile {
                 ),
             });
         }
-        let m4 = |at: usize| {
-            Matrix4::from_fn(|r, c| rows[at + r].1[c])
-        };
+        let m4 = |at: usize| Matrix4::from_fn(|r, c| rows[at + r].1[c]);
         let r2 = rows[1];
-        let joint = |flag: f64, code: f64, col: usize| -> Result<Option<LinkJoint>, LinkFileError> {
-            if flag == 0.0 {
-                return Ok(None);
-            }
-            if flag != 1.0 {
-                return Err(syntax(r2.0, col, format!("joint flag {flag} is not 0 or 1")));
-            }
-            LinkJoint::from_code(code as u32)
-                .filter(|_| code.fract() == 0.0)
-                .map(Some)
-                .ok_or_else(|| {
-                    syntax(
+        let joint =
+            |flag: f64, code: f64, col: usize| -> Result<Option<LinkJoint>, LinkFileError> {
+                if flag == 0.0 {
+                    return Ok(None);
+                }
+                if flag != 1.0 {
+                    return Err(syntax(
                         r2.0,
-                        col + 2,
-                        format!("joint type {code} is not 1 (revolute), 2 (prismatic) or 3 (fixed)"),
-                    )
-                })
-        };
+                        col,
+                        format!("joint flag {flag} is not 0 or 1"),
+                    ));
+                }
+                LinkJoint::from_code(code as u32)
+                    .filter(|_| code.fract() == 0.0)
+                    .map(Some)
+                    .ok_or_else(|| {
+                        syntax(
+                            r2.0,
+                            col + 2,
+                            format!(
+                                "joint type {code} is not 1 (revolute), 2 (prismatic) or 3 (fixed)"
+                            ),
+                        )
+                    })
+            };
         let joint_i = joint(r2.1[0], r2.1[2], 1)?;
         let joint_i1 = joint(r2.1[1], r2.1[3], 2)?;
         let (nl, nrow) = rows[18];
@@ -325,10 +325,7 @@ impl LinkFile {
             return Err(syntax(
                 nl,
                 1,
-                format!(
-                    "NVEC = {n}, but {} vector rows follow",
-                    rows.len() - 19
-                ),
+                format!("NVEC = {n}, but {} vector rows follow", rows.len() - 19),
             ));
         }
         let mut vectors = Vec::with_capacity(n as usize);
@@ -336,7 +333,13 @@ impl LinkFile {
             let d = match v[3] {
                 0.0 => false,
                 1.0 => true,
-                other => return Err(syntax(l, 4, format!("D = {other} is not 0 (move) or 1 (draw)"))),
+                other => {
+                    return Err(syntax(
+                        l,
+                        4,
+                        format!("D = {other} is not 0 (move) or 1 (draw)"),
+                    ));
+                }
             };
             if !d && vectors.is_empty() {
                 // fine: a list starts with a move
@@ -436,7 +439,10 @@ impl LinkFile {
 
     /// The polygons grouped into solids: polygons sharing a vertex (bit-equal coordinates) are
     /// one solid. Each solid: its distinct vertices and polygons as index lists.
-    pub fn solids(&self, path: &Path) -> Result<Vec<(Vec<Point3<f64>>, Vec<Vec<u32>>)>, LinkFileError> {
+    pub fn solids(
+        &self,
+        path: &Path,
+    ) -> Result<Vec<(Vec<Point3<f64>>, Vec<Vec<u32>>)>, LinkFileError> {
         let polys = self.polygons(path)?;
         let key = |v: &[f64; 3]| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits()];
         // union-find over polygons
@@ -572,15 +578,12 @@ mod tests {
         let l = sample();
         let text = l.to_text().replacen("0.2 0.3", "0.2 zz", 1);
         let e = LinkFile::parse(&text, Path::new("X.L1")).expect_err("bad number");
-        assert_eq!(
-            e.to_string(),
-            "X.L1:1:9: \"zz\" is not a finite number"
-        );
+        assert_eq!(e.to_string(), "X.L1:1:9: \"zz\" is not a finite number");
         let short: String = l.to_text().lines().take(10).collect::<Vec<_>>().join("\n");
         assert!(LinkFile::parse(&short, Path::new("X")).is_err());
-        let bad_n = l.to_text().replacen("\n15 0 0 0\n", "\n14 0 0 0\n", 1);
+        let bad_n = l.to_text().replacen("\n12 0 0 0\n", "\n11 0 0 0\n", 1);
         let e = LinkFile::parse(&bad_n, Path::new("X")).expect_err("nvec");
-        assert!(e.to_string().contains("NVEC = 14, but 15"), "{e}");
+        assert!(e.to_string().contains("NVEC = 11, but 12"), "{e}");
     }
 
     #[test]
