@@ -115,7 +115,7 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
             .lines()
             .filter_map(|l| l.strip_prefix("ok, version "))
             .filter_map(|l| l.split_whitespace().next()?.parse::<u64>().ok())
-            .last()
+            .next_back()
         else {
             continue;
         };

@@ -437,7 +437,7 @@ impl Interp<'_> {
                 let Some(&(v, s)) = a.get("RHO") else {
                     return Err(self.err(c, c.span, "argument RHO (kg/m³) is missing".into()));
                 };
-                if !(v >= 0.0) {
+                if v.is_nan() || v < 0.0 {
                     return Err(self.err(
                         c,
                         s,

@@ -44,8 +44,11 @@ pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathB
         if name.starts_with('.') || !e.path().is_file() || !looks_like_link_file(&e.path()) {
             continue;
         }
-        if let Some((p, ext)) = name.split_once('.') {
-            if !p.is_empty() && !ext.is_empty() {
+        if let Some((p, ext)) = name.split_once('.')
+            && !p.is_empty()
+            && !ext.is_empty()
+        {
+            {
                 by_prefix
                     .entry(p.to_owned())
                     .or_default()

@@ -338,8 +338,10 @@ impl<S: Space> Editor<S> {
             // deleted objects (their children were re-hung above)
             if let Some(ol) = old_l {
                 for o in &ol.objects {
-                    if !l.objects.iter().any(|x| x.name == o.name) {
-                        if let Some(&id) = self.objects.get(&(l.name.clone(), o.name.clone())) {
+                    if !l.objects.iter().any(|x| x.name == o.name)
+                        && let Some(&id) = self.objects.get(&(l.name.clone(), o.name.clone()))
+                    {
+                        {
                             deletes.push(id);
                         }
                     }
@@ -347,8 +349,10 @@ impl<S: Space> Editor<S> {
             }
         }
         for l in &old.links {
-            if !d.links.iter().any(|x| x.name == l.name) {
-                if let Some(&id) = self.links.get(&l.name) {
+            if !d.links.iter().any(|x| x.name == l.name)
+                && let Some(&id) = self.links.get(&l.name)
+            {
+                {
                     tx.delete(id, true);
                 }
             }

@@ -190,22 +190,21 @@ impl Design {
             object: name.to_owned(),
             what: e.to_string(),
         })?;
-        if let Shape::Joint { output, .. } = &shape {
-            if let Some(o) = self
+        if let Shape::Joint { output, .. } = &shape
+            && let Some(o) = self
                 .link()
                 .objects
                 .iter()
                 .find(|o| matches!(o.shape, Shape::Joint { output: x, .. } if x == *output))
-            {
-                return Err(EditError::Joints {
-                    link: self.link().name.clone(),
-                    what: format!(
-                        "it already has an {} joint ({}); delete it first",
-                        if *output { "I+1" } else { "I" },
-                        o.name
-                    ),
-                });
-            }
+        {
+            return Err(EditError::Joints {
+                link: self.link().name.clone(),
+                what: format!(
+                    "it already has an {} joint ({}); delete it first",
+                    if *output { "I+1" } else { "I" },
+                    o.name
+                ),
+            });
         }
         let mut d = self.clone();
         d.link_mut().objects.push(EdObject {

@@ -174,6 +174,9 @@ pub enum LinkFileError {
     Content { path: PathBuf, what: String },
 }
 
+/// One solid of a link: its distinct vertices and its polygons as index lists.
+pub type Solid = (Vec<Point3<f64>>, Vec<Vec<u32>>);
+
 /// The polygons of a vector list, and where each came from.
 pub type Polygons = Vec<Vec<[f64; 3]>>;
 
@@ -439,10 +442,7 @@ impl LinkFile {
 
     /// The polygons grouped into solids: polygons sharing a vertex (bit-equal coordinates) are
     /// one solid. Each solid: its distinct vertices and polygons as index lists.
-    pub fn solids(
-        &self,
-        path: &Path,
-    ) -> Result<Vec<(Vec<Point3<f64>>, Vec<Vec<u32>>)>, LinkFileError> {
+    pub fn solids(&self, path: &Path) -> Result<Vec<Solid>, LinkFileError> {
         let polys = self.polygons(path)?;
         let key = |v: &[f64; 3]| [v[0].to_bits(), v[1].to_bits(), v[2].to_bits()];
         // union-find over polygons
