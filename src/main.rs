@@ -196,6 +196,23 @@ enum Command {
         #[command(subcommand)]
         which: bench::Which,
     },
+    /// The ROBOSIM language (seed Table 1): run a program into link files, load link files as
+    /// a robot (docs/editor.md).
+    Lang {
+        #[command(subcommand)]
+        cmd: LangCmd,
+    },
+    /// The structure editor (R2): a prompt with line editing, history and completion, or a
+    /// script; every edit is one transaction of the session (docs/editor.md).
+    Edit {
+        /// The robot being designed (its links are ROBOT.LOC, ROBOT.L1, …); resumed when the
+        /// session holds it.
+        #[arg(long, default_value = "C")]
+        robot: String,
+        /// Run the commands of FILE instead of prompting.
+        #[arg(long)]
+        script: Option<std::path::PathBuf>,
+    },
     /// Print a shell completion script: `robosim completions bash > ~/.local/share/bash-completion/completions/robosim`.
     Completions {
         /// The shell to complete for.
@@ -220,6 +237,27 @@ fn session_help() -> String {
         robosim_instance_space::default_session_name(),
         robosim_instance_space::home().display()
     )
+}
+
+#[derive(Subcommand)]
+enum LangCmd {
+    /// Run PROGRAM: every STORE-LINK writes a link file (Table 2) into DIR; a program with an
+    /// error writes none.
+    Run {
+        program: std::path::PathBuf,
+        #[arg(long)]
+        out: std::path::PathBuf,
+    },
+    /// Load the link files in DIR (ROBOT.LOC first, then ROBOT.L1, …) as robot NAME into the
+    /// session.
+    Load {
+        dir: std::path::PathBuf,
+        #[arg(long = "as")]
+        name: String,
+        /// Which robot's files, when DIR holds several (the part before the dot).
+        #[arg(long)]
+        robot: Option<String>,
+    },
 }
 
 #[derive(Subcommand)]
@@ -418,6 +456,23 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             existing(session)?;
             args.session = session.map(str::to_owned);
             robosim_display::app::cmd_display(&args).map_err(|e| CliError(e.0))
+        }
+        Command::Lang {
+            cmd: LangCmd::Run { program, out },
+        } => robosim_editor::cli::lang_run(&program, &out)
+            .map(|s| print!("{s}"))
+            .map_err(CliError),
+        Command::Lang {
+            cmd: LangCmd::Load { dir, name, robot },
+        } => {
+            let s = existing(session)?;
+            robosim_editor::cli::lang_load(&dir, &name, robot.as_deref(), &s)
+                .map(|m| println!("{m}"))
+                .map_err(CliError)
+        }
+        Command::Edit { robot, script } => {
+            let s = existing(session)?;
+            robosim_editor::cli::edit(&s, &robot, script.as_deref()).map_err(CliError)
         }
         Command::Completions { shell } => {
             let mut cmd = <Cli as clap::CommandFactory>::command();

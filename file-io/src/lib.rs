@@ -12,6 +12,7 @@
 //!   [`session::info`], and a keeper's start from a file ([`session::preload`]).
 //! * [`gltf`], [`stl`], [`trajectory`] — export: `.glb`, binary STL in world coordinates, the
 //!   logged joint trajectory as CSV with units.
+//! * [`linkfile`] — ROBOSIM link files (seed Table 2): write, read, DH rows, pseudo-inertia.
 //! * [`import`] — STL / OBJ meshes as items placed in the scene ([`stl`], [`obj`] read them).
 //! * [`bench`] — save and load of a 10⁶-vertex model against `cp` (`robosim bench files`).
 //! * [`urdf`] — a robot as URDF (its DH chain as joint origins and z axes, inertials, limits),
@@ -25,6 +26,7 @@ mod error;
 pub mod format;
 pub mod gltf;
 pub mod import;
+pub mod linkfile;
 pub mod model;
 pub mod obj;
 pub mod session;

@@ -1,0 +1,190 @@
+//! The command-line glue: `robosim lang run`, `robosim lang load`, `robosim edit`.
+
+use crate::commands::{Outcome, Prompt, VERBS, execute};
+use crate::session::Editor;
+use crate::{program, robot};
+use robosim_instance_space::{Client, Reader, Session};
+use std::cell::RefCell;
+use std::path::Path;
+use std::rc::Rc;
+
+/// `robosim lang run PROGRAM --out DIR`: every STORE-LINK becomes a link file in DIR; a program
+/// with an error writes none.
+pub fn lang_run(program_path: &Path, out: &Path) -> Result<String, String> {
+    let text = std::fs::read_to_string(program_path)
+        .map_err(|e| format!("{}: {e}", program_path.display()))?;
+    let o = program::run(&text, &program_path.display().to_string()).map_err(|e| e.to_string())?;
+    if o.links.is_empty() {
+        return Err(format!(
+            "{}: the program stores no link (STORE-LINK)",
+            program_path.display()
+        ));
+    }
+    let paths = program::write_links(&o, out)?;
+    let mut s = String::new();
+    for v in &o.views {
+        s.push_str(&format!("VIEW {v}\n"));
+    }
+    for (l, p) in o.links.iter().zip(&paths) {
+        s.push_str(&format!(
+            "{}: {} vectors, joints I {} / I+1 {}, mass {:.6} kg\n",
+            p.display(),
+            l.file.vectors.len(),
+            l.file.joint_i.map_or('-', |j| j.letter()),
+            l.file.joint_i1.map_or('-', |j| j.letter()),
+            l.file.ainert[(3, 3)]
+        ));
+    }
+    Ok(s)
+}
+
+/// `robosim lang load DIR --as NAME [--robot PREFIX]`: the link files become a robot in the
+/// session (one transaction).
+pub fn lang_load(
+    dir: &Path,
+    name: &str,
+    prefix: Option<&str>,
+    session: &Session,
+) -> Result<String, String> {
+    let (prefix, paths) = robot::link_paths(dir, prefix)?;
+    let r = robot::load_links(&paths, name)?;
+    let tx = robot::robot_transaction(&r, name)?;
+    let mut c = Client::connect(session, "lang-load").map_err(|e| e.to_string())?;
+    let a = c.transact(&tx).map_err(|e| e.to_string())?;
+    Ok(format!(
+        "loaded {prefix} ({} links: {}) as robot {name}: {} joints, {} objects, version {}",
+        r.links.len(),
+        r.links
+            .iter()
+            .map(|l| l.0.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        r.robot.joints.len(),
+        a.created.len(),
+        a.version
+    ))
+}
+
+/// `robosim edit --robot NAME [--script FILE]`: resumes design NAME when the session holds one.
+pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(), String> {
+    let client = Client::connect(session, "edit").map_err(|e| e.to_string())?;
+    let reader = Reader::attach(session, "edit").map_err(|e| e.to_string())?;
+    let snap = reader.snapshot();
+    let mut ed = match snap.as_deref() {
+        Some(s) if crate::session::design_from_snapshot(s, robot).is_ok() => {
+            Editor::resume(client, s, robot).map_err(|e| e.to_string())?
+        }
+        _ => Editor::new(client, robot).map_err(|e| e.to_string())?,
+    };
+    drop(snap);
+    let mut p = Prompt::default();
+    match script {
+        Some(path) => {
+            let text =
+                std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            for (k, line) in text.lines().enumerate() {
+                match execute(&mut ed, &mut p, line) {
+                    Ok(Outcome::Quit) => break,
+                    Ok(Outcome::Said(s)) => {
+                        if !s.is_empty() {
+                            println!("{s}");
+                        }
+                    }
+                    Err(e) => {
+                        return Err(format!(
+                            "{}:{}: {e} (this line changed nothing; the lines before it are committed)",
+                            path.display(),
+                            k + 1
+                        ));
+                    }
+                }
+            }
+            Ok(())
+        }
+        None => interactive(&mut ed, &mut p, session),
+    }
+}
+
+struct Helper {
+    names: Rc<RefCell<Vec<String>>>,
+}
+
+impl rustyline::completion::Completer for Helper {
+    type Candidate = String;
+    fn complete(
+        &self,
+        line: &str,
+        pos: usize,
+        _ctx: &rustyline::Context<'_>,
+    ) -> rustyline::Result<(usize, Vec<String>)> {
+        let start = line[..pos]
+            .rfind(|c: char| c.is_whitespace() || c == ',')
+            .map_or(0, |i| i + 1);
+        let word = &line[start..pos];
+        let first = line[..start].trim().is_empty();
+        let pool: Vec<String> = if first {
+            VERBS.iter().map(|s| (*s).to_owned()).collect()
+        } else {
+            let mut v = self.names.borrow().clone();
+            v.extend(["top", "bottom", "to"].map(str::to_owned));
+            v
+        };
+        Ok((
+            start,
+            pool.into_iter().filter(|c| c.starts_with(word)).collect(),
+        ))
+    }
+}
+impl rustyline::hint::Hinter for Helper {
+    type Hint = String;
+}
+impl rustyline::highlight::Highlighter for Helper {}
+impl rustyline::validate::Validator for Helper {}
+impl rustyline::Helper for Helper {}
+
+fn interactive(ed: &mut Editor<Client>, p: &mut Prompt, session: &Session) -> Result<(), String> {
+    let names = Rc::new(RefCell::new(Vec::new()));
+    let mut rl: rustyline::Editor<Helper, rustyline::history::FileHistory> =
+        rustyline::Editor::new().map_err(|e| e.to_string())?;
+    rl.set_helper(Some(Helper {
+        names: names.clone(),
+    }));
+    let hist = session.dir().join("edit-history.txt");
+    let _ = rl.load_history(&hist);
+    println!(
+        "robosim edit: robot {}, link {} — `help` lists the commands, `quit` leaves",
+        ed.design().robot,
+        ed.design().link().name
+    );
+    loop {
+        *names.borrow_mut() = ed
+            .design()
+            .link()
+            .objects
+            .iter()
+            .map(|o| o.name.clone())
+            .collect();
+        let prompt = format!("{}.{}> ", ed.design().robot, ed.design().link().name);
+        match rl.readline(&prompt) {
+            Ok(line) => {
+                if !line.trim().is_empty() {
+                    let _ = rl.add_history_entry(line.as_str());
+                }
+                match execute(ed, p, &line) {
+                    Ok(Outcome::Quit) => break,
+                    Ok(Outcome::Said(s)) => {
+                        if !s.is_empty() {
+                            println!("{s}");
+                        }
+                    }
+                    Err(e) => eprintln!("error: {e} (nothing changed)"),
+                }
+            }
+            Err(rustyline::error::ReadlineError::Interrupted) => continue,
+            Err(rustyline::error::ReadlineError::Eof) => break,
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+    let _ = rl.save_history(&hist);
+    Ok(())
+}

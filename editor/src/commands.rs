@@ -1,0 +1,608 @@
+//! The editor's commands (R2's menus as typed commands, seed §2.3; docs/editor.md lists them):
+//! one line each, `verb [NAME …] [KEY = VALUE [UNIT] …]`. Numbers take the session's units
+//! (`units cm`, `units deg`: the defaults) unless they carry their own (`R = 10 cm`). The same
+//! lines come from the prompt of `robosim edit` or from `--script FILE`.
+
+use crate::codegen::{self, CodeUnits};
+use crate::lang::{Unit, unit};
+use crate::program;
+use crate::session::{Editor, Space};
+use crate::shape::{Shape, facets_for};
+use crate::structure::{Design, EditError};
+use robosim_file_io::linkfile::LinkJoint;
+
+/// Every verb, for completion and help.
+pub const VERBS: &[&str] = &[
+    "units",
+    "box",
+    "cylinder",
+    "cone",
+    "truncated-cone",
+    "sphere",
+    "move",
+    "draw",
+    "extrude",
+    "revolve",
+    "clone",
+    "translate",
+    "home",
+    "rotate",
+    "rotate-rel",
+    "delete",
+    "attach",
+    "resize",
+    "r-joint-i",
+    "p-joint-i",
+    "f-joint-i",
+    "r-joint-i+1",
+    "p-joint-i+1",
+    "f-joint-i+1",
+    "check",
+    "link",
+    "undo",
+    "redo",
+    "save",
+    "load",
+    "restart",
+    "code",
+    "read-code",
+    "run",
+    "faces",
+    "list",
+    "help",
+    "quit",
+];
+
+/// The prompt's state besides the design: units and the polygon being drawn.
+pub struct Prompt {
+    pub length: (f64, String),
+    pub angle: (f64, String),
+    pub profile: Vec<[f64; 3]>,
+}
+
+impl Default for Prompt {
+    fn default() -> Self {
+        Prompt {
+            length: (0.01, "cm".into()),
+            angle: (std::f64::consts::PI / 180.0, "deg".into()),
+            profile: Vec::new(),
+        }
+    }
+}
+
+/// What a line did.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    /// A message (the edit's version, or what was asked for).
+    Said(String),
+    Quit,
+}
+
+struct Line {
+    verb: String,
+    words: Vec<String>,
+    args: Vec<(String, f64, Option<Unit>)>,
+}
+
+fn split(line: &str) -> Result<Option<Line>, String> {
+    let line = line.split(['#', '!']).next().unwrap_or("");
+    // glue "K = V" into "K=V"
+    let mut s = String::new();
+    for part in line.split('=') {
+        if !s.is_empty() {
+            s = s.trim_end().to_owned();
+            s.push('=');
+            s.push_str(part.trim_start());
+        } else {
+            s.push_str(part);
+        }
+    }
+    let toks: Vec<&str> = s
+        .split(|c: char| c.is_whitespace() || c == ',')
+        .filter(|t| !t.is_empty())
+        .collect();
+    let Some(verb) = toks.first() else {
+        return Ok(None);
+    };
+    let mut l = Line {
+        verb: verb.to_ascii_lowercase(),
+        words: Vec::new(),
+        args: Vec::new(),
+    };
+    for t in &toks[1..] {
+        if let Some((k, v)) = t.split_once('=') {
+            let num_end = v
+                .find(|c: char| c.is_ascii_alphabetic() && c != 'e' && c != 'E')
+                .unwrap_or(v.len());
+            let (n, u) = v.split_at(num_end);
+            let x: f64 = n
+                .parse()
+                .map_err(|_| format!("argument {}: {v:?} is not a number", k.to_uppercase()))?;
+            if !x.is_finite() {
+                return Err(format!("argument {}: {v} is not finite", k.to_uppercase()));
+            }
+            let u = if u.is_empty() {
+                None
+            } else {
+                Some(unit(u).ok_or_else(|| {
+                    format!(
+                        "argument {}: unknown unit {u:?} (m, cm, mm, in, ft, deg, rad)",
+                        k.to_uppercase()
+                    )
+                })?)
+            };
+            l.args.push((k.to_ascii_uppercase(), x, u));
+        } else if let (Some(u), Some(last)) = (unit(t), l.args.last_mut()) {
+            if last.2.is_none() {
+                last.2 = Some(u);
+            } else {
+                return Err(format!("a second unit {t:?} after argument {}", last.0));
+            }
+        } else {
+            l.words.push((*t).to_owned());
+        }
+    }
+    Ok(Some(l))
+}
+
+impl Prompt {
+    fn get(&self, l: &Line, key: &str, length: bool) -> Result<Option<f64>, String> {
+        let Some((_, v, u)) = l.args.iter().find(|a| a.0 == key) else {
+            return Ok(None);
+        };
+        Ok(Some(match (u, length) {
+            (None, true) => v * self.length.0,
+            (None, false) => v * self.angle.0,
+            (Some(Unit::Length(f)), true) => v * f,
+            (Some(Unit::Angle(f)), false) => v * f,
+            _ => {
+                return Err(format!(
+                    "argument {key} is {}; that unit is not one",
+                    if length { "a length" } else { "an angle" }
+                ));
+            }
+        }))
+    }
+
+    fn need(&self, l: &Line, key: &str, length: bool) -> Result<f64, String> {
+        self.get(l, key, length)?
+            .ok_or_else(|| format!("{}: argument {key} is missing", l.verb))
+    }
+
+    fn count(l: &Line) -> Result<Option<usize>, String> {
+        match l.args.iter().find(|a| a.0 == "N") {
+            None => Ok(None),
+            Some((_, v, None)) if v.fract() == 0.0 && *v >= 3.0 && *v <= 16384.0 => {
+                Ok(Some(*v as usize))
+            }
+            Some((_, v, _)) => Err(format!(
+                "argument N: {v} facets (an integer from 3 to 16384)"
+            )),
+        }
+    }
+
+    fn check_keys(l: &Line, allowed: &[&str]) -> Result<(), String> {
+        for a in &l.args {
+            if !allowed.contains(&a.0.as_str()) {
+                return Err(format!(
+                    "{}: unknown argument {} (it takes {})",
+                    l.verb,
+                    a.0,
+                    if allowed.is_empty() {
+                        "none".into()
+                    } else {
+                        allowed.join(", ")
+                    }
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn xyz(&self, l: &Line, length: bool) -> Result<[f64; 3], String> {
+        Self::check_keys(l, &["X", "Y", "Z"])?;
+        Ok([
+            self.get(l, "X", length)?.unwrap_or(0.0),
+            self.get(l, "Y", length)?.unwrap_or(0.0),
+            self.get(l, "Z", length)?.unwrap_or(0.0),
+        ])
+    }
+}
+
+fn word<'a>(l: &'a Line, i: usize, what: &str) -> Result<&'a str, String> {
+    l.words
+        .get(i)
+        .map(String::as_str)
+        .ok_or_else(|| format!("{}: needs {what}", l.verb))
+}
+
+/// Which polygon a face word names: a number, `top` or `bottom` (the polygon whose outward
+/// normal points most along +z / −z of the object's own frame).
+fn face(d: &Design, obj: &str, w: &str) -> Result<usize, String> {
+    if let Ok(k) = w.parse::<usize>() {
+        return Ok(k);
+    }
+    let o = d.object(obj).map_err(|e| e.to_string())?;
+    if o.shape.is_joint() {
+        return Ok(0);
+    }
+    let p = o
+        .shape
+        .polyhedron()
+        .map_err(|e| e.to_string())?
+        .ok_or("no polygons")?;
+    let sign = match w {
+        "top" => 1.0,
+        "bottom" => -1.0,
+        other => {
+            return Err(format!(
+                "{other:?} is not a polygon (a number, top or bottom)"
+            ));
+        }
+    };
+    (0..p.polygons.len())
+        .max_by(|&a, &b| {
+            (sign * p.polygons[a].plane.normal.z).total_cmp(&(sign * p.polygons[b].plane.normal.z))
+        })
+        .ok_or_else(|| "no polygons".into())
+}
+
+/// Runs one line against the editor.
+pub fn execute<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    line: &str,
+) -> Result<Outcome, String> {
+    let Some(l) = split(line)? else {
+        return Ok(Outcome::Said(String::new()));
+    };
+    let done = |r: Result<crate::session::Done, EditError>| -> Result<Outcome, String> {
+        r.map(|d| Outcome::Said(format!("ok, version {} ({} ops)", d.version, d.ops)))
+            .map_err(|e| e.to_string())
+    };
+    let v = l.verb.as_str();
+    match v {
+        "units" => {
+            let w = word(&l, 0, "a unit (m, cm, mm, in, ft, deg, rad)")?;
+            match unit(w) {
+                Some(Unit::Length(f)) => p.length = (f, w.to_owned()),
+                Some(Unit::Angle(f)) => p.angle = (f, w.to_owned()),
+                None => {
+                    return Err(format!(
+                        "units: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)"
+                    ));
+                }
+            }
+            Ok(Outcome::Said(format!(
+                "units {} and {}",
+                p.length.1, p.angle.1
+            )))
+        }
+        "box" | "cylinder" | "cone" | "truncated-cone" | "sphere" => {
+            let name = word(&l, 0, "an object name")?;
+            let shape = match v {
+                "box" => {
+                    Prompt::check_keys(&l, &["X", "Y", "Z"])?;
+                    Shape::Box {
+                        x: p.need(&l, "X", true)?,
+                        y: p.need(&l, "Y", true)?,
+                        z: p.need(&l, "Z", true)?,
+                    }
+                }
+                "cylinder" | "cone" => {
+                    Prompt::check_keys(&l, &["R", "H", "N"])?;
+                    let r = p.need(&l, "R", true)?;
+                    let h = p.need(&l, "H", true)?;
+                    let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(r));
+                    if v == "cone" {
+                        Shape::Cone { r, h, n }
+                    } else {
+                        Shape::Cylinder { r, h, n }
+                    }
+                }
+                "truncated-cone" => {
+                    Prompt::check_keys(&l, &["R1", "R2", "H", "N"])?;
+                    let upper = p.need(&l, "R1", true)?;
+                    let lower = p.need(&l, "R2", true)?;
+                    let h = p.need(&l, "H", true)?;
+                    let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(upper.max(lower)));
+                    Shape::TruncatedCone { upper, lower, h, n }
+                }
+                _ => {
+                    Prompt::check_keys(&l, &["R", "N"])?;
+                    let r = p.need(&l, "R", true)?;
+                    let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(r));
+                    Shape::Sphere { r, n }
+                }
+            };
+            done(ed.apply(|d| d.make(name, shape)))
+        }
+        "move" | "draw" => {
+            let pt = p.xyz(&l, true)?;
+            if v == "move" {
+                p.profile.clear();
+            } else if p.profile.is_empty() {
+                return Err("draw: start the polygon with move".into());
+            }
+            p.profile.push(pt);
+            Ok(Outcome::Said(format!("{} points", p.profile.len())))
+        }
+        "extrude" | "revolve" => {
+            let name = word(&l, 0, "an object name")?;
+            let mut pts = p.profile.clone();
+            if pts.len() > 1 && pts.first() == pts.last() {
+                pts.pop();
+            }
+            let shape = if v == "extrude" {
+                Prompt::check_keys(&l, &["Z"])?;
+                Shape::Extrude {
+                    profile: pts.iter().map(|q| [q[0], q[1]]).collect(),
+                    h: p.need(&l, "Z", true)?,
+                }
+            } else {
+                Prompt::check_keys(&l, &["A", "N"])?;
+                let angle = p.get(&l, "A", false)?.unwrap_or(std::f64::consts::TAU);
+                let rmax = pts.iter().map(|q| q[0]).fold(0.0, f64::max);
+                let n = Prompt::count(&l)?.unwrap_or_else(|| {
+                    ((facets_for(rmax) as f64 * angle / std::f64::consts::TAU).ceil() as usize)
+                        .max(1)
+                });
+                Shape::Revolve {
+                    profile: pts.iter().map(|q| [q[0], q[2]]).collect(),
+                    angle,
+                    n,
+                }
+            };
+            let r = done(ed.apply(|d| d.make(name, shape)));
+            if r.is_ok() {
+                p.profile.clear();
+            }
+            r
+        }
+        "clone" => {
+            let (src, name) = (
+                word(&l, 0, "the object to clone")?,
+                word(&l, 1, "the new name")?,
+            );
+            done(ed.apply(|d| d.clone_object(src, name)))
+        }
+        "translate" => {
+            let o = word(&l, 0, "an object")?;
+            let t = p.xyz(&l, true)?;
+            done(ed.apply(|d| d.translate(o, t)))
+        }
+        "home" => {
+            let o = word(&l, 0, "an object")?;
+            done(ed.apply(|d| d.home(o)))
+        }
+        "rotate" | "rotate-rel" => {
+            let o = word(&l, 0, "an object")?;
+            let r = p.xyz(&l, false)?;
+            done(ed.apply(|d| d.rotate(o, r, v == "rotate-rel")))
+        }
+        "delete" => {
+            let o = word(&l, 0, "an object")?;
+            done(ed.apply(|d| d.delete(o)))
+        }
+        "attach" => {
+            // attach CHILD FACE [to] BASE FACE
+            let w: Vec<&str> = l
+                .words
+                .iter()
+                .map(String::as_str)
+                .filter(|w| *w != "to")
+                .collect();
+            if w.len() != 4 {
+                return Err("attach: attach CHILD POLYGON to BASE POLYGON (polygon: a number, top or bottom)".into());
+            }
+            let d0 = ed.design().clone();
+            let (cf, bf) = (face(&d0, w[0], w[1])?, face(&d0, w[2], w[3])?);
+            done(ed.apply(|d| d.attach(w[0], cf, w[2], bf)))
+        }
+        "resize" => {
+            let o = word(&l, 0, "an object")?;
+            let obj = ed.design().object(o).map_err(|e| e.to_string())?.clone();
+            let names = obj.shape.dim_names();
+            Prompt::check_keys(&l, names)?;
+            let cur = obj.shape.dims();
+            let mut dims = Vec::new();
+            for (k, n) in names.iter().enumerate() {
+                let is_angle = matches!(obj.shape, Shape::Revolve { .. });
+                dims.push(p.get(&l, n, !is_angle)?.unwrap_or(cur[k]));
+            }
+            done(ed.apply(|d| d.resize(o, &dims)))
+        }
+        "r-joint-i" | "p-joint-i" | "f-joint-i" | "r-joint-i+1" | "p-joint-i+1" | "f-joint-i+1" => {
+            let name = word(&l, 0, "a name for the joint")?;
+            let kind = match &v[..1] {
+                "r" => LinkJoint::Revolute,
+                "p" => LinkJoint::Prismatic,
+                _ => LinkJoint::Fixed,
+            };
+            let output = v.ends_with("i+1");
+            done(ed.apply(|d| d.make(name, Shape::Joint { kind, output })))
+        }
+        "check" => {
+            let row = ed.design().check_joints().map_err(|e| e.to_string())?;
+            Ok(Outcome::Said(format!(
+                "link {}: valid DH: THETA {:.6} {}, DZ {:.6} {}, DA {:.6} {}, ALPHA {:.6} {}",
+                ed.design().link().name,
+                row.theta / p.angle.0,
+                p.angle.1,
+                row.dz / p.length.0,
+                p.length.1,
+                row.da / p.length.0,
+                p.length.1,
+                row.alpha / p.angle.0,
+                p.angle.1
+            )))
+        }
+        "link" => {
+            let n = word(&l, 0, "a link name (LOC, L1, …)")?;
+            done(ed.apply(|d| d.switch_link(n)))
+        }
+        "undo" => done(ed.undo()),
+        "redo" => done(ed.redo()),
+        "save" => {
+            let f = word(&l, 0, "a file name")?;
+            let text = serde_json::to_string_pretty(ed.design()).map_err(|e| e.to_string())?;
+            std::fs::write(f, text).map_err(|e| format!("save: {f}: {e}"))?;
+            Ok(Outcome::Said(format!("saved {f}")))
+        }
+        "load" => {
+            let f = word(&l, 0, "a file name")?;
+            let text = std::fs::read_to_string(f).map_err(|e| format!("load: {f}: {e}"))?;
+            let d: Design = serde_json::from_str(&text).map_err(|e| format!("load: {f}: {e}"))?;
+            validate(&d).map_err(|e| format!("load: {f}: {e}"))?;
+            done(ed.replace(d))
+        }
+        "restart" => {
+            let robot = ed.design().robot.clone();
+            done(ed.replace(Design::new(&robot)))
+        }
+        "code" => {
+            let f = word(&l, 0, "a file name")?;
+            let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
+            if let Some(dir) = std::path::Path::new(f)
+                .parent()
+                .filter(|d| !d.as_os_str().is_empty())
+            {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| format!("code: {}: {e}", dir.display()))?;
+            }
+            std::fs::write(f, text).map_err(|e| format!("code: {f}: {e}"))?;
+            Ok(Outcome::Said(format!("wrote {f}")))
+        }
+        "read-code" => {
+            let f = word(&l, 0, "a ROBOSIM program")?;
+            let text = std::fs::read_to_string(f).map_err(|e| format!("read-code: {f}: {e}"))?;
+            let out = program::run(&text, f).map_err(|e| e.to_string())?;
+            let robot = ed.design().robot.clone();
+            let d = codegen::design_from_program(&out, &robot).map_err(|e| e.to_string())?;
+            done(ed.replace(d))
+        }
+        "run" => {
+            let dir = word(&l, 0, "a directory for the link files")?;
+            let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
+            let out = program::run(&text, "(generated)").map_err(|e| e.to_string())?;
+            let paths = program::write_links(&out, std::path::Path::new(dir))?;
+            Ok(Outcome::Said(format!(
+                "wrote {}",
+                paths
+                    .iter()
+                    .map(|p| p.display().to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )))
+        }
+        "faces" => {
+            let o = word(&l, 0, "an object")?;
+            let obj = ed.design().object(o).map_err(|e| e.to_string())?;
+            let Some(poly) = obj.shape.polyhedron().map_err(|e| e.to_string())? else {
+                return Ok(Outcome::Said(format!(
+                    "{o}: a joint marker; polygon 0 is its frame"
+                )));
+            };
+            let mut s = String::new();
+            for k in 0..poly.polygons.len() {
+                let f = crate::shape::face_frame(&poly, k);
+                s.push_str(&format!(
+                    "{k}: centre ({:.4}, {:.4}, {:.4}) {}, normal ({:.3}, {:.3}, {:.3}){}\n",
+                    f[(0, 3)] / p.length.0,
+                    f[(1, 3)] / p.length.0,
+                    f[(2, 3)] / p.length.0,
+                    p.length.1,
+                    f[(0, 2)],
+                    f[(1, 2)],
+                    f[(2, 2)],
+                    if obj.shape.planar_face(&poly, k) {
+                        ""
+                    } else {
+                        " (curved-surface facet)"
+                    }
+                ));
+            }
+            Ok(Outcome::Said(s.trim_end().to_owned()))
+        }
+        "list" => {
+            let d = ed.design();
+            let mut s = format!(
+                "robot {}, link {} of {}:",
+                d.robot,
+                d.link().name,
+                d.links.len()
+            );
+            for o in &d.link().objects {
+                s.push_str(&format!(
+                    "\n  {} {}{}",
+                    o.name,
+                    o.shape.command(),
+                    o.parent
+                        .as_ref()
+                        .map(|p| format!(" on {p}"))
+                        .unwrap_or_default()
+                ));
+            }
+            Ok(Outcome::Said(s))
+        }
+        "help" => Ok(Outcome::Said(format!(
+            "commands: {} (docs/editor.md)",
+            VERBS.join(" ")
+        ))),
+        "quit" | "exit" => Ok(Outcome::Quit),
+        other => {
+            let near = VERBS
+                .iter()
+                .find(|k| k.starts_with(&other[..other.len().min(2)]))
+                .map(|k| format!(" (did you mean {k}?)"))
+                .unwrap_or_default();
+            Err(format!("unknown command {other:?}{near}"))
+        }
+    }
+}
+
+fn code_units(p: &Prompt) -> CodeUnits {
+    let name = |s: &str| -> &'static str {
+        match s.to_ascii_uppercase().as_str() {
+            "M" => "M",
+            "MM" => "MM",
+            "IN" => "IN",
+            "FT" => "FT",
+            "RAD" => "RAD",
+            "DEG" => "DEG",
+            _ => "CM",
+        }
+    };
+    CodeUnits {
+        length: (p.length.0, name(&p.length.1)),
+        angle: (
+            p.angle.0,
+            if name(&p.angle.1) == "RAD" {
+                "RAD"
+            } else {
+                "DEG"
+            },
+        ),
+    }
+}
+
+/// Checks a loaded design: every shape builds, parents exist, transforms are finite.
+fn validate(d: &Design) -> Result<(), String> {
+    if d.links.is_empty() || d.current >= d.links.len() {
+        return Err("no links, or the current link is out of range".into());
+    }
+    for l in &d.links {
+        for o in &l.objects {
+            o.shape
+                .polyhedron()
+                .map_err(|e| format!("{}: {e}", o.name))?;
+            if !o.ref_.iter().chain(o.amat.iter()).all(|x| x.is_finite()) {
+                return Err(format!("{}: a transform is not finite", o.name));
+            }
+            if let Some(p) = &o.parent {
+                crate::structure::world_in(l, p).map_err(|e| e.to_string())?;
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,752 @@
+//! The ROBOSIM language's meaning (seed §2.3, Table 1): an interpreter with ROBOSIM's working
+//! object (the accumulator), its registers, the MOVE/DRAW polyline, and STORE-LINK, which turns
+//! the working object into a link file (Table 2).
+//!
+//! * The working object is a list of placed objects (a shape and its transform) and at most one
+//!   I and one I+1 joint. A primitive or a joint command adds one at the origin; ROTATE and
+//!   TRANSLATE move everything in it about the fixed axes (`M ← R·M`); CLEAR empties it.
+//! * `STORE r` copies it to register r (A–Z), `LOAD r` replaces it with r, `ADD r` adds r to it.
+//! * MOVE / DRAW collect a polygon for EXTRUDE-SURFACE (in XY, Z = 0) or REV-SURFACE (X = ρ,
+//!   Y = 0, Z = z); a last point equal to the first closes it and is dropped; either winding is
+//!   accepted (the generators orient faces outward themselves).
+//! * UNITS sets the length unit (M, CM, MM, IN, FT; default CM, the seed's) or the angle unit
+//!   (DEG, RAD; default DEG) for the lines after it; a number may carry its own unit.
+//! * DENSITY RHO = v (kg/m³; default 2700, aluminium) is used for AINERT.
+//!
+//! [`run`] interprets a whole program and returns every link it stored; nothing is written. A
+//! program with an error returns the error and no link at all.
+
+use crate::lang::{Arg, Command, LangError, Span, Unit, parse, unit};
+use crate::shape::{Shape, axis_rotation, facets_for, rigid_inverse};
+use nalgebra::{Matrix4, Point3, Vector3};
+use robosim_file_io::linkfile::{self, DhRow, LinkFile, LinkJoint, pseudo_inertia};
+use std::collections::BTreeMap;
+
+/// The default density, kg/m³ (aluminium).
+pub const DEFAULT_DENSITY: f64 = 2700.0;
+/// Tolerance of the DH check (unitless on axes, metres on offsets).
+pub const DH_TOL: f64 = 1e-9;
+
+/// A shape and where the program put it (construction frame of the link).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Placed {
+    pub shape: Shape,
+    pub m: Matrix4<f64>,
+    /// The line that made it.
+    pub span: Span,
+}
+
+/// The working object or a register.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Work {
+    pub objects: Vec<Placed>,
+}
+
+/// A link the program stored.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StoredLink {
+    /// The STORE-LINK name, e.g. `C.LOC`.
+    pub name: String,
+    pub objects: Vec<Placed>,
+    pub file: LinkFile,
+    pub span: Span,
+}
+
+/// What a run produced.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Output {
+    pub links: Vec<StoredLink>,
+    /// LOOK-FROM and LOOK-AT (m), when given.
+    pub look_from: Option<[f64; 3]>,
+    pub look_at: Option<[f64; 3]>,
+    /// One line per VIEW.
+    pub views: Vec<String>,
+}
+
+/// Why a working object cannot become a link file.
+pub type LinkError = String;
+
+/// The link file of `objects` (construction frame, m) with uniform `density` (kg/m³).
+pub fn build_link(objects: &[Placed], density: f64) -> Result<LinkFile, LinkError> {
+    let mut joint_i = None;
+    let mut joint_i1 = None;
+    let mut polygons: Vec<Vec<[f64; 3]>> = Vec::new();
+    let mut ainert = Matrix4::zeros();
+    for o in objects {
+        match &o.shape {
+            Shape::Joint { kind, output } => {
+                let slot = if *output { &mut joint_i1 } else { &mut joint_i };
+                if slot.is_some() {
+                    return Err(format!(
+                        "two {} joints in one link (the second made on line {})",
+                        if *output { "I+1" } else { "I" },
+                        o.span.line
+                    ));
+                }
+                *slot = Some((*kind, o.m));
+            }
+            shape => {
+                let Some(p) = shape.polyhedron().map_err(|e| e.to_string())? else {
+                    continue;
+                };
+                let iso = isometry(&o.m);
+                let placed = p.transformed(&iso);
+                for k in 0..placed.polygons.len() {
+                    polygons.push(
+                        placed
+                            .polygon_indices(k)
+                            .iter()
+                            .map(|&i| {
+                                let v = placed.vertices[i as usize];
+                                [v.x, v.y, v.z]
+                            })
+                            .collect(),
+                    );
+                }
+                let mp = p.mass_properties(density).map_err(|e| e.to_string())?;
+                let mp = mp.transformed(&iso);
+                ainert += pseudo_inertia(mp.mass, &mp.center_of_mass.coords, &mp.inertia);
+            }
+        }
+    }
+    let ajnt_i = joint_i.map_or(Matrix4::identity(), |j| j.1);
+    let ajnt_i1 = joint_i1.map_or(ajnt_i, |j| j.1);
+    let amat = rigid_inverse(&ajnt_i) * ajnt_i1;
+    let moving = matches!(
+        joint_i,
+        Some((LinkJoint::Revolute | LinkJoint::Prismatic, _))
+    );
+    let dh = match linkfile::dh_decompose(&amat, DH_TOL) {
+        Ok(row) => row,
+        Err(e) if moving => {
+            return Err(format!(
+                "the I joint and the I+1 joint are not related by a DH transform: {e}"
+            ));
+        }
+        Err(_) => DhRow::default(),
+    };
+    Ok(LinkFile {
+        dh,
+        joint_i: joint_i.map(|j| j.0),
+        joint_i1: joint_i1.map(|j| j.0),
+        ainert,
+        ajnt_i,
+        ajnt_i1,
+        amat,
+        vectors: LinkFile::vectors_of(&polygons),
+    })
+}
+
+/// A 4×4 rigid transform as an isometry.
+pub fn isometry(m: &Matrix4<f64>) -> nalgebra::Isometry3<f64> {
+    let r = nalgebra::Rotation3::from_matrix_unchecked(m.fixed_view::<3, 3>(0, 0).into_owned());
+    nalgebra::Isometry3::from_parts(
+        nalgebra::Translation3::new(m[(0, 3)], m[(1, 3)], m[(2, 3)]),
+        nalgebra::UnitQuaternion::from_rotation_matrix(&r),
+    )
+}
+
+/// Vertices of a placed shape, transformed by its matrix directly (no quaternion round trip).
+pub fn placed_vertices(p: &Placed) -> Vec<Point3<f64>> {
+    match p.shape.polyhedron() {
+        Ok(Some(poly)) => poly
+            .vertices
+            .iter()
+            .map(|v| Point3::from((p.m * v.to_homogeneous()).xyz()))
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+struct Interp<'a> {
+    file: &'a str,
+    length: f64,
+    angle: f64,
+    density: f64,
+    work: Work,
+    regs: BTreeMap<char, Work>,
+    profile: Vec<([f64; 3], Span)>,
+    out: Output,
+    ended: Option<Span>,
+}
+
+/// Runs a program (its text, `file` naming it in errors).
+pub fn run(text: &str, file: &str) -> Result<Output, LangError> {
+    let cmds = parse(text, file)?;
+    run_commands(&cmds, file)
+}
+
+/// Runs parsed commands.
+pub fn run_commands(cmds: &[Command], file: &str) -> Result<Output, LangError> {
+    let mut it = Interp {
+        file,
+        length: 0.01,
+        angle: std::f64::consts::PI / 180.0,
+        density: DEFAULT_DENSITY,
+        work: Work::default(),
+        regs: BTreeMap::new(),
+        profile: Vec::new(),
+        out: Output::default(),
+        ended: None,
+    };
+    for c in cmds {
+        if let Some(end) = it.ended {
+            return Err(it.err(
+                c,
+                c.span,
+                format!("a command after END (line {})", end.line),
+            ));
+        }
+        it.command(c)?;
+    }
+    if let Some((_, s)) = it.profile.first() {
+        return Err(LangError {
+            file: file.to_owned(),
+            span: *s,
+            command: "MOVE".into(),
+            what: "this MOVE/DRAW polygon is never used by EXTRUDE-SURFACE or REV-SURFACE".into(),
+        });
+    }
+    Ok(it.out)
+}
+
+/// The commands the language knows, for completion and documentation.
+pub const COMMANDS: &[&str] = &[
+    "UNITS",
+    "DENSITY",
+    "LOOK-FROM",
+    "LOOK-AT",
+    "CLEAR",
+    "STORE",
+    "LOAD",
+    "ADD",
+    "MOVE",
+    "DRAW",
+    "EXTRUDE-SURFACE",
+    "REV-SURFACE",
+    "BOX",
+    "CYLINDER",
+    "CONE",
+    "TRUNCATED-CONE",
+    "SPHERE",
+    "R-JOINT-I",
+    "P-JOINT-I",
+    "F-JOINT-I",
+    "R-JOINT-I+1",
+    "P-JOINT-I+1",
+    "F-JOINT-I+1",
+    "ROTATE",
+    "TRANSLATE",
+    "STORE-LINK",
+    "VIEW",
+    "END",
+];
+
+impl Interp<'_> {
+    fn err(&self, c: &Command, span: Span, what: String) -> LangError {
+        LangError {
+            file: self.file.to_owned(),
+            span,
+            command: c.name.clone(),
+            what,
+        }
+    }
+
+    /// The arguments of `c`, each key at most once and from `allowed`; values in SI, each
+    /// converted with `kind(key)` (true = a length, false = an angle, None = a plain number).
+    fn args(
+        &self,
+        c: &Command,
+        allowed: &[&str],
+        kind: impl Fn(&str) -> Option<bool>,
+    ) -> Result<BTreeMap<String, (f64, Span)>, LangError> {
+        if let Some((w, s)) = &c.word {
+            return Err(self.err(
+                c,
+                *s,
+                format!(
+                    "takes KEY = VALUE arguments ({}), not the word {w:?}",
+                    allowed.join(", ")
+                ),
+            ));
+        }
+        let mut out = BTreeMap::new();
+        for a in &c.args {
+            if !allowed.contains(&a.key.as_str()) {
+                return Err(self.err(
+                    c,
+                    a.span,
+                    format!(
+                        "unknown argument {} (it takes {})",
+                        a.key,
+                        if allowed.is_empty() {
+                            "none".to_owned()
+                        } else {
+                            allowed.join(", ")
+                        }
+                    ),
+                ));
+            }
+            if out.contains_key(&a.key) {
+                return Err(self.err(c, a.span, format!("argument {} given twice", a.key)));
+            }
+            out.insert(a.key.clone(), (self.value(c, a, kind(&a.key))?, a.span));
+        }
+        Ok(out)
+    }
+
+    fn value(&self, c: &Command, a: &Arg, length: Option<bool>) -> Result<f64, LangError> {
+        match (length, &a.unit) {
+            (None, None) => Ok(a.value),
+            (None, Some((w, _))) => Err(self.err(
+                c,
+                a.span,
+                format!(
+                    "argument {} is a plain number; it takes no unit ({w})",
+                    a.key
+                ),
+            )),
+            (Some(true), None) => Ok(a.value * self.length),
+            (Some(false), None) => Ok(a.value * self.angle),
+            (Some(true), Some((_, Unit::Length(f)))) => Ok(a.value * f),
+            (Some(false), Some((_, Unit::Angle(f)))) => Ok(a.value * f),
+            (Some(l), Some((w, _))) => Err(self.err(
+                c,
+                a.span,
+                format!(
+                    "argument {} is {}; {w} is not a unit of that",
+                    a.key,
+                    if l { "a length" } else { "an angle" }
+                ),
+            )),
+        }
+    }
+
+    fn word(&self, c: &Command, what: &str) -> Result<(String, Span), LangError> {
+        if let Some(a) = c.args.first() {
+            return Err(self.err(
+                c,
+                a.span,
+                format!("takes {what}, not KEY = VALUE arguments"),
+            ));
+        }
+        c.word
+            .clone()
+            .ok_or_else(|| self.err(c, c.span, format!("needs {what}")))
+    }
+
+    fn no_args(&self, c: &Command) -> Result<(), LangError> {
+        if let Some((w, s)) = &c.word {
+            return Err(self.err(c, *s, format!("takes no argument, found {w:?}")));
+        }
+        if let Some(a) = c.args.first() {
+            return Err(self.err(c, a.span, format!("takes no argument, found {}", a.key)));
+        }
+        Ok(())
+    }
+
+    fn register(&self, c: &Command) -> Result<char, LangError> {
+        let (w, s) = self.word(c, "a register name (one letter A–Z)")?;
+        let mut ch = w.chars();
+        match (ch.next(), ch.next()) {
+            (Some(r), None) if r.is_ascii_alphabetic() => Ok(r.to_ascii_uppercase()),
+            _ => Err(self.err(c, s, format!("{w:?} is not a register (one letter A–Z)"))),
+        }
+    }
+
+    fn positive(
+        &self,
+        c: &Command,
+        args: &BTreeMap<String, (f64, Span)>,
+        k: &str,
+    ) -> Result<f64, LangError> {
+        let Some(&(v, s)) = args.get(k) else {
+            return Err(self.err(c, c.span, format!("argument {k} is missing")));
+        };
+        if v > 0.0 {
+            Ok(v)
+        } else {
+            Err(self.err(
+                c,
+                s,
+                format!("argument {k} must be positive, got {}", v / self.length),
+            ))
+        }
+    }
+
+    fn facets(
+        &self,
+        c: &Command,
+        args: &BTreeMap<String, (f64, Span)>,
+        r: f64,
+    ) -> Result<usize, LangError> {
+        match args.get("N") {
+            None => Ok(facets_for(r)),
+            Some(&(n, s)) => {
+                if n.fract() == 0.0 && (3.0..=16384.0).contains(&n) {
+                    Ok(n as usize)
+                } else {
+                    Err(self.err(
+                        c,
+                        s,
+                        format!("argument N: {n} facets (an integer from 3 to 16384)"),
+                    ))
+                }
+            }
+        }
+    }
+
+    fn add_shape(&mut self, c: &Command, shape: Shape) -> Result<(), LangError> {
+        shape
+            .polyhedron()
+            .map_err(|e| self.err(c, c.span, e.to_string()))?;
+        self.work.objects.push(Placed {
+            shape,
+            m: Matrix4::identity(),
+            span: c.span,
+        });
+        Ok(())
+    }
+
+    fn transform(&mut self, t: &Matrix4<f64>) {
+        for o in &mut self.work.objects {
+            o.m = t * o.m;
+        }
+    }
+
+    fn command(&mut self, c: &Command) -> Result<(), LangError> {
+        let len = |_: &str| Some(true);
+        let name = c.name.as_str();
+        match name {
+            "UNITS" => {
+                let (w, s) = self.word(c, "a unit (M, CM, MM, IN, FT, DEG or RAD)")?;
+                match unit(&w) {
+                    Some(Unit::Length(f)) => self.length = f,
+                    Some(Unit::Angle(f)) => self.angle = f,
+                    None => {
+                        return Err(self.err(
+                            c,
+                            s,
+                            format!("unknown unit {w:?} (M, CM, MM, IN, FT, DEG or RAD)"),
+                        ));
+                    }
+                }
+            }
+            "DENSITY" => {
+                let a = self.args(c, &["RHO"], |_| None)?;
+                let Some(&(v, s)) = a.get("RHO") else {
+                    return Err(self.err(c, c.span, "argument RHO (kg/m³) is missing".into()));
+                };
+                if v.is_nan() || v < 0.0 {
+                    return Err(self.err(
+                        c,
+                        s,
+                        format!("argument RHO must be zero or positive, got {v}"),
+                    ));
+                }
+                self.density = v;
+            }
+            "LOOK-FROM" | "LOOK-AT" => {
+                let a = self.args(c, &["X", "Y", "Z"], len)?;
+                let p = ["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0));
+                if name == "LOOK-FROM" {
+                    if p == [0.0; 3] {
+                        return Err(self.err(
+                            c,
+                            c.span,
+                            "at least one of X, Y, Z must be non-zero".into(),
+                        ));
+                    }
+                    self.out.look_from = Some(p);
+                } else {
+                    self.out.look_at = Some(p);
+                }
+            }
+            "CLEAR" => {
+                self.no_args(c)?;
+                self.work = Work::default();
+            }
+            "STORE" => {
+                let r = self.register(c)?;
+                self.regs.insert(r, self.work.clone());
+            }
+            "LOAD" | "ADD" => {
+                let r = self.register(c)?;
+                let Some(w) = self.regs.get(&r).cloned() else {
+                    return Err(self.err(
+                        c,
+                        c.word.as_ref().map_or(c.span, |w| w.1),
+                        format!("register {r} was never stored"),
+                    ));
+                };
+                if name == "LOAD" {
+                    self.work = w;
+                } else {
+                    // the register's objects first: CLEAR, make, ADD B, STORE B keeps the
+                    // order the objects were made in
+                    let mine = std::mem::replace(&mut self.work.objects, w.objects);
+                    self.work.objects.extend(mine);
+                }
+            }
+            "MOVE" | "DRAW" => {
+                let a = self.args(c, &["X", "Y", "Z"], len)?;
+                let p = ["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0));
+                if name == "MOVE" && !self.profile.is_empty() {
+                    return Err(self.err(c, c.span, format!(
+                        "a second MOVE: the polygon started on line {} was not used by EXTRUDE-SURFACE or REV-SURFACE",
+                        self.profile[0].1.line
+                    )));
+                }
+                if name == "DRAW" && self.profile.is_empty() {
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        "DRAW before MOVE (a polygon starts with MOVE)".into(),
+                    ));
+                }
+                self.profile.push((p, c.span));
+            }
+            "EXTRUDE-SURFACE" | "REV-SURFACE" => {
+                let extrude = name == "EXTRUDE-SURFACE";
+                let allowed: &[&str] = if extrude { &["Z"] } else { &["A", "N"] };
+                let a = self.args(c, allowed, |k| match k {
+                    "Z" => Some(true),
+                    "A" => Some(false),
+                    _ => None,
+                })?;
+                let mut pts: Vec<([f64; 3], Span)> = std::mem::take(&mut self.profile);
+                if pts.len() > 1 && pts.first().map(|p| p.0) == pts.last().map(|p| p.0) {
+                    pts.pop();
+                }
+                if pts.len() < 3 {
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        format!(
+                            "needs a MOVE/DRAW polygon of at least 3 points before it, has {}",
+                            pts.len()
+                        ),
+                    ));
+                }
+                let shape = if extrude {
+                    if let Some((_, s)) = pts.iter().find(|p| p.0[2] != 0.0) {
+                        return Err(LangError {
+                            file: self.file.to_owned(),
+                            span: *s,
+                            command: "MOVE/DRAW".into(),
+                            what: "an EXTRUDE-SURFACE polygon lies in the XY plane: Z must be 0"
+                                .into(),
+                        });
+                    }
+                    let h = self.positive(c, &a, "Z")?;
+                    Shape::Extrude {
+                        profile: pts.iter().map(|p| [p.0[0], p.0[1]]).collect(),
+                        h,
+                    }
+                } else {
+                    if let Some((_, s)) = pts.iter().find(|p| p.0[1] != 0.0 || p.0[0] < 0.0) {
+                        return Err(LangError {
+                            file: self.file.to_owned(),
+                            span: *s,
+                            command: "MOVE/DRAW".into(),
+                            what: "a REV-SURFACE profile lies in the XZ half-plane: Y = 0 and X (the radius) ≥ 0".into(),
+                        });
+                    }
+                    let angle = a.get("A").map_or(std::f64::consts::TAU, |v| v.0);
+                    let rmax = pts.iter().map(|p| p.0[0]).fold(0.0, f64::max);
+                    let full_n = self.facets(c, &a, rmax)?;
+                    let n = if a.contains_key("N") {
+                        full_n
+                    } else {
+                        ((full_n as f64 * angle / std::f64::consts::TAU).ceil() as usize).max(1)
+                    };
+                    Shape::Revolve {
+                        profile: pts.iter().map(|p| [p.0[0], p.0[2]]).collect(),
+                        angle,
+                        n,
+                    }
+                };
+                self.add_shape(c, shape)?;
+            }
+            "BOX" => {
+                let a = self.args(c, &["X", "Y", "Z"], len)?;
+                let s = Shape::Box {
+                    x: self.positive(c, &a, "X")?,
+                    y: self.positive(c, &a, "Y")?,
+                    z: self.positive(c, &a, "Z")?,
+                };
+                self.add_shape(c, s)?;
+            }
+            "CYLINDER" | "CONE" => {
+                let a = self.args(c, &["R", "H", "N"], |k| (k != "N").then_some(true))?;
+                let r = self.positive(c, &a, "R")?;
+                let h = self.positive(c, &a, "H")?;
+                let n = self.facets(c, &a, r)?;
+                let s = if name == "CONE" {
+                    Shape::Cone { r, h, n }
+                } else {
+                    Shape::Cylinder { r, h, n }
+                };
+                self.add_shape(c, s)?;
+            }
+            "TRUNCATED-CONE" => {
+                let a = self.args(c, &["R1", "R2", "H", "N"], |k| (k != "N").then_some(true))?;
+                let upper = self.positive(c, &a, "R1")?;
+                let lower = self.positive(c, &a, "R2")?;
+                let h = self.positive(c, &a, "H")?;
+                let n = self.facets(c, &a, upper.max(lower))?;
+                self.add_shape(c, Shape::TruncatedCone { upper, lower, h, n })?;
+            }
+            "SPHERE" => {
+                let a = self.args(c, &["R", "N"], |k| (k != "N").then_some(true))?;
+                let r = self.positive(c, &a, "R")?;
+                let n = self.facets(c, &a, r)?;
+                self.add_shape(c, Shape::Sphere { r, n })?;
+            }
+            "R-JOINT-I" | "P-JOINT-I" | "F-JOINT-I" | "R-JOINT-I+1" | "P-JOINT-I+1"
+            | "F-JOINT-I+1" => {
+                self.no_args(c)?;
+                let kind = match &name[..1] {
+                    "R" => LinkJoint::Revolute,
+                    "P" => LinkJoint::Prismatic,
+                    _ => LinkJoint::Fixed,
+                };
+                let output = name.ends_with("I+1");
+                if let Some(o) =
+                    self.work.objects.iter().find(
+                        |o| matches!(o.shape, Shape::Joint { output: out, .. } if out == output),
+                    )
+                {
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        format!(
+                            "the working object already has an {} joint (made on line {})",
+                            if output { "I+1" } else { "I" },
+                            o.span.line
+                        ),
+                    ));
+                }
+                self.add_shape(c, Shape::Joint { kind, output })?;
+            }
+            "ROTATE" => {
+                if c.args.is_empty() {
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        "needs at least one of X, Y, Z (angles)".into(),
+                    ));
+                }
+                // applied in the order written
+                self.args(c, &["X", "Y", "Z"], |_| Some(false))?;
+                for a in &c.args {
+                    let v = self.value(c, a, Some(false))?;
+                    let axis = match a.key.as_str() {
+                        "X" => 0,
+                        "Y" => 1,
+                        _ => 2,
+                    };
+                    self.transform(&axis_rotation(axis, v));
+                }
+            }
+            "TRANSLATE" => {
+                let a = self.args(c, &["X", "Y", "Z"], len)?;
+                let t = Vector3::from(["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0)));
+                self.transform(&Matrix4::new_translation(&t));
+            }
+            "STORE-LINK" => {
+                let (w, s) = self.word(c, "a link name such as C.LOC")?;
+                if w.is_empty()
+                    || w.starts_with('.')
+                    || !w
+                        .chars()
+                        .all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '.' | '_' | '-' | '+'))
+                {
+                    return Err(self.err(
+                        c,
+                        s,
+                        format!("{w:?} is not a link name (letters, digits, . _ - +)"),
+                    ));
+                }
+                if self
+                    .out
+                    .links
+                    .iter()
+                    .any(|l| l.name.eq_ignore_ascii_case(&w))
+                {
+                    return Err(self.err(c, s, format!("link {w} is stored twice")));
+                }
+                if self.work.objects.is_empty() {
+                    return Err(self.err(
+                        c,
+                        c.span,
+                        "the working object is empty (LOAD a register first?)".into(),
+                    ));
+                }
+                let file = build_link(&self.work.objects, self.density)
+                    .map_err(|e| self.err(c, s, format!("link {w}: {e}")))?;
+                self.out.links.push(StoredLink {
+                    name: w,
+                    objects: self.work.objects.clone(),
+                    file,
+                    span: c.span,
+                });
+            }
+            "VIEW" => {
+                self.no_args(c)?;
+                let joints = self
+                    .work
+                    .objects
+                    .iter()
+                    .filter(|o| o.shape.is_joint())
+                    .count();
+                self.out.views.push(format!(
+                    "line {}: {} objects, {} joints in the working object; {} links stored",
+                    c.span.line,
+                    self.work.objects.len() - joints,
+                    joints,
+                    self.out.links.len()
+                ));
+            }
+            "END" => {
+                self.no_args(c)?;
+                self.ended = Some(c.span);
+            }
+            other => {
+                let near = COMMANDS
+                    .iter()
+                    .find(|k| k.starts_with(&other[..other.len().min(3)]))
+                    .map(|k| format!(" (did you mean {k}?)"))
+                    .unwrap_or_default();
+                return Err(self.err(c, c.span, format!("unknown command{near}")));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Writes every link of `out` into `dir` (created if missing): all files are first written
+/// under temporary names and renamed only when all were written, so a failed write leaves no
+/// link file of this run behind.
+pub fn write_links(out: &Output, dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
+    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    let mut tmps = Vec::new();
+    for l in &out.links {
+        let tmp = dir.join(format!(".{}.tmp", l.name));
+        if let Err(e) = std::fs::write(&tmp, l.file.to_text()) {
+            for t in &tmps {
+                let _ = std::fs::remove_file(t);
+            }
+            let _ = std::fs::remove_file(&tmp);
+            return Err(format!("{}: {e}", tmp.display()));
+        }
+        tmps.push(tmp);
+    }
+    let mut paths = Vec::new();
+    for (l, tmp) in out.links.iter().zip(&tmps) {
+        let p = dir.join(&l.name);
+        std::fs::rename(tmp, &p).map_err(|e| format!("{}: {e}", p.display()))?;
+        paths.push(p);
+    }
+    Ok(paths)
+}

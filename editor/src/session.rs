@@ -1,0 +1,481 @@
+//! The editor against the Instance Space: each accepted edit becomes **one** keeper transaction
+//! (so every other process — the display first — sees it through the change notifications),
+//! undo and redo are transactions too, and a refused edit sends nothing.
+//!
+//! Where the design lives in the Instance Space: a scene object named after the robot, one item
+//! per link (`ROBOT.LINK`), one solid per editor object under its parent object (or the link),
+//! pose = `ref · amat`, geometry = the shape's polygons (joint markers have none). Each
+//! object's origin record holds its editor record (shape, ref, amat, attachment) as JSON, so
+//! the design can be read back from the space ([`design_from_snapshot`]) by a restarted editor.
+
+use crate::structure::{Design, EdObject, EditError};
+use robosim_instance_space::{
+    GeometryInput, Id, Kind, ObjRef, Snapshot, Store, Transaction, TxError,
+};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Where transactions go.
+pub trait Space {
+    /// Commits one transaction; the ids of its creates, in order, and the version.
+    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), String>;
+}
+
+impl Space for Store {
+    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), String> {
+        self.apply(tx)
+            .map(|a| (a.created, a.version))
+            .map_err(|e: TxError| e.to_string())
+    }
+}
+
+impl Space for robosim_instance_space::Client {
+    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), String> {
+        self.transact(tx)
+            .map(|a| (a.created, a.version))
+            .map_err(|e| e.to_string())
+    }
+}
+
+/// The record on each object (its origin field).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct ObjectRecord {
+    editor: u32,
+    link: String,
+    object: EdObject,
+}
+
+/// The record on the design's scene object.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+struct DesignRecord {
+    editor: u32,
+    robot: String,
+    links: Vec<String>,
+    current: usize,
+}
+
+/// An editor session: the design, its history, and what of it the space holds.
+pub struct Editor<S: Space> {
+    pub space: S,
+    design: Design,
+    undo: Vec<Design>,
+    redo: Vec<Design>,
+    /// ids in the space: the scene, each link item, each (link, object).
+    scene: Option<Id>,
+    links: BTreeMap<String, Id>,
+    objects: BTreeMap<(String, String), Id>,
+    /// What the space holds (the design last committed).
+    committed: Option<Design>,
+    /// Version of the last commit.
+    pub version: u64,
+}
+
+/// The result of an accepted edit.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Done {
+    pub version: u64,
+    pub ops: usize,
+}
+
+impl<S: Space> Editor<S> {
+    /// A new design `robot`, written to the space at once.
+    pub fn new(space: S, robot: &str) -> Result<Editor<S>, EditError> {
+        let mut e = Editor {
+            space,
+            design: Design::new(robot),
+            undo: Vec::new(),
+            redo: Vec::new(),
+            scene: None,
+            links: BTreeMap::new(),
+            objects: BTreeMap::new(),
+            committed: None,
+            version: 0,
+        };
+        e.sync()?;
+        Ok(e)
+    }
+
+    /// Resumes design `robot` found in `snap` (written by an earlier editor).
+    pub fn resume(space: S, snap: &Snapshot, robot: &str) -> Result<Editor<S>, EditError> {
+        let (design, scene, links, objects) = read_snapshot(snap, robot)?;
+        Ok(Editor {
+            space,
+            committed: Some(design.clone()),
+            design,
+            undo: Vec::new(),
+            redo: Vec::new(),
+            scene: Some(scene),
+            links,
+            objects,
+            version: snap.version(),
+        })
+    }
+
+    pub fn design(&self) -> &Design {
+        &self.design
+    }
+
+    /// The space id of object `name` of the current link.
+    pub fn id_of(&self, name: &str) -> Option<Id> {
+        self.objects
+            .get(&(self.design.link().name.clone(), name.to_owned()))
+            .copied()
+    }
+
+    /// The object (current link) whose space id is `id`.
+    pub fn name_of(&self, id: Id) -> Option<String> {
+        let link = &self.design.link().name;
+        self.objects
+            .iter()
+            .find(|((l, _), v)| l == link && **v == id)
+            .map(|((_, o), _)| o.clone())
+    }
+
+    /// Applies an edit: the new design is committed as one transaction, or nothing changes.
+    pub fn apply(
+        &mut self,
+        edit: impl FnOnce(&Design) -> Result<Design, EditError>,
+    ) -> Result<Done, EditError> {
+        let new = edit(&self.design)?;
+        let old = std::mem::replace(&mut self.design, new);
+        match self.sync() {
+            Ok(done) => {
+                self.undo.push(old);
+                self.redo.clear();
+                Ok(done)
+            }
+            Err(e) => {
+                self.design = old;
+                Err(e)
+            }
+        }
+    }
+
+    /// Undoes the last edit (one transaction back to the previous design).
+    pub fn undo(&mut self) -> Result<Done, EditError> {
+        let Some(prev) = self.undo.pop() else {
+            return Err(EditError::Invalid("nothing to undo".into()));
+        };
+        let cur = std::mem::replace(&mut self.design, prev);
+        match self.sync() {
+            Ok(d) => {
+                self.redo.push(cur);
+                Ok(d)
+            }
+            Err(e) => {
+                let prev = std::mem::replace(&mut self.design, cur);
+                self.undo.push(prev);
+                Err(e)
+            }
+        }
+    }
+
+    /// Redoes the last undone edit.
+    pub fn redo(&mut self) -> Result<Done, EditError> {
+        let Some(next) = self.redo.pop() else {
+            return Err(EditError::Invalid("nothing to redo".into()));
+        };
+        let cur = std::mem::replace(&mut self.design, next);
+        match self.sync() {
+            Ok(d) => {
+                self.undo.push(cur);
+                Ok(d)
+            }
+            Err(e) => {
+                let next = std::mem::replace(&mut self.design, cur);
+                self.redo.push(next);
+                Err(e)
+            }
+        }
+    }
+
+    /// Replaces the whole design (load, restart, code → editor) as one undoable edit.
+    pub fn replace(&mut self, d: Design) -> Result<Done, EditError> {
+        self.apply(|_| Ok(d))
+    }
+
+    /// Commits the difference between what the space holds and the design.
+    fn sync(&mut self) -> Result<Done, EditError> {
+        let (tx, creates) = self.diff()?;
+        if tx.ops.is_empty() {
+            self.committed = Some(self.design.clone());
+            return Ok(Done {
+                version: self.version,
+                ops: 0,
+            });
+        }
+        let (ids, version) = self
+            .space
+            .commit(&tx)
+            .map_err(|e| EditError::Invalid(format!("the keeper refused the edit: {e}")))?;
+        for (k, key) in creates.into_iter().enumerate() {
+            let Some(&id) = ids.get(k) else { break };
+            match key {
+                Created::Scene => self.scene = Some(id),
+                Created::Link(l) => {
+                    self.links.insert(l, id);
+                }
+                Created::Object(l, o) => {
+                    self.objects.insert((l, o), id);
+                }
+            }
+        }
+        // forget what was deleted
+        let d = &self.design;
+        self.links
+            .retain(|l, _| d.links.iter().any(|x| &x.name == l));
+        self.objects.retain(|(l, o), _| {
+            d.links
+                .iter()
+                .any(|x| &x.name == l && x.objects.iter().any(|y| &y.name == o))
+        });
+        self.committed = Some(self.design.clone());
+        self.version = version;
+        Ok(Done {
+            version,
+            ops: tx.ops.len(),
+        })
+    }
+
+    fn diff(&self) -> Result<(Transaction, Vec<Created>), EditError> {
+        let mut tx = Transaction::new();
+        let mut creates = Vec::new();
+        let d = &self.design;
+        let empty = Design {
+            robot: d.robot.clone(),
+            links: Vec::new(),
+            current: 0,
+        };
+        let old = self.committed.as_ref().unwrap_or(&empty);
+        let scene: ObjRef = match self.scene {
+            Some(id) => ObjRef::Id(id),
+            None => {
+                creates.push(Created::Scene);
+                tx.create(Kind::Scene, &d.robot, None)
+            }
+        };
+        let header = DesignRecord {
+            editor: 1,
+            robot: d.robot.clone(),
+            links: d.links.iter().map(|l| l.name.clone()).collect(),
+            current: d.current,
+        };
+        let old_header = DesignRecord {
+            editor: 1,
+            robot: old.robot.clone(),
+            links: old.links.iter().map(|l| l.name.clone()).collect(),
+            current: old.current,
+        };
+        if self.scene.is_none() || header != old_header {
+            tx.set_origin(scene, &json(&header));
+        }
+        let mut deletes: Vec<Id> = Vec::new();
+        for l in &d.links {
+            let lref: ObjRef = match self.links.get(&l.name) {
+                Some(&id) => ObjRef::Id(id),
+                None => {
+                    creates.push(Created::Link(l.name.clone()));
+                    let r = tx.create(Kind::Item, &format!("{}.{}", d.robot, l.name), Some(scene));
+                    tx.set_origin(r, "{\"editor\":1}");
+                    r
+                }
+            };
+            let old_l = old.links.iter().find(|x| x.name == l.name);
+            let mut refs: BTreeMap<String, ObjRef> = BTreeMap::new();
+            for o in &l.objects {
+                if let Some(&id) = self.objects.get(&(l.name.clone(), o.name.clone())) {
+                    refs.insert(o.name.clone(), ObjRef::Id(id));
+                }
+            }
+            // creates, parents first
+            let mut pending: Vec<&EdObject> = l
+                .objects
+                .iter()
+                .filter(|o| !refs.contains_key(&o.name))
+                .collect();
+            while !pending.is_empty() {
+                let before = pending.len();
+                let mut rest = Vec::new();
+                for o in pending {
+                    let parent = match &o.parent {
+                        None => Some(lref),
+                        Some(p) => refs.get(p).copied(),
+                    };
+                    match parent {
+                        Some(p) => {
+                            creates.push(Created::Object(l.name.clone(), o.name.clone()));
+                            let r = tx.create(Kind::Solid, &o.name, Some(p));
+                            refs.insert(o.name.clone(), r);
+                            write_object(&mut tx, r, &l.name, o, None)?;
+                        }
+                        None => rest.push(o),
+                    }
+                }
+                if rest.len() == before {
+                    return Err(EditError::Invalid(
+                        "the attachments name objects that do not exist".into(),
+                    ));
+                }
+                pending = rest;
+            }
+            // changed objects
+            for o in &l.objects {
+                let Some(&id) = self.objects.get(&(l.name.clone(), o.name.clone())) else {
+                    continue;
+                };
+                let prev = old_l.and_then(|x| x.objects.iter().find(|y| y.name == o.name));
+                if prev.map(|p| &p.parent) != Some(&o.parent) {
+                    let parent = match &o.parent {
+                        None => lref,
+                        Some(p) => *refs.get(p).ok_or_else(|| {
+                            EditError::Invalid(format!("{}: parent {p} does not exist", o.name))
+                        })?,
+                    };
+                    tx.attach(id, parent);
+                }
+                write_object(&mut tx, ObjRef::Id(id), &l.name, o, prev)?;
+            }
+            // deleted objects (their children were re-hung above)
+            if let Some(ol) = old_l {
+                for o in &ol.objects {
+                    if !l.objects.iter().any(|x| x.name == o.name)
+                        && let Some(&id) = self.objects.get(&(l.name.clone(), o.name.clone()))
+                    {
+                        {
+                            deletes.push(id);
+                        }
+                    }
+                }
+            }
+        }
+        for l in &old.links {
+            if !d.links.iter().any(|x| x.name == l.name)
+                && let Some(&id) = self.links.get(&l.name)
+            {
+                {
+                    tx.delete(id, true);
+                }
+            }
+        }
+        for id in deletes {
+            tx.delete(id, false);
+        }
+        Ok((tx, creates))
+    }
+}
+
+enum Created {
+    Scene,
+    Link(String),
+    Object(String, String),
+}
+
+fn json<T: Serialize>(v: &T) -> String {
+    serde_json::to_string(v).unwrap_or_default()
+}
+
+fn pose(m: &nalgebra::Matrix4<f64>) -> [f64; 12] {
+    robosim_scene::pose::from_matrix(m)
+}
+
+fn write_object(
+    tx: &mut Transaction,
+    r: ObjRef,
+    link: &str,
+    o: &EdObject,
+    prev: Option<&EdObject>,
+) -> Result<(), EditError> {
+    if prev.is_some_and(|p| p == o) {
+        return Ok(());
+    }
+    let local = o.ref_ * o.amat;
+    if prev.is_none_or(|p| p.ref_ * p.amat != local) {
+        tx.set_pose(r, pose(&local));
+    }
+    if prev.is_none_or(|p| p.shape != o.shape) {
+        let g = o
+            .shape
+            .polyhedron()
+            .map_err(|e| EditError::Shape {
+                object: o.name.clone(),
+                what: e.to_string(),
+            })?
+            .map(|p| GeometryInput::from_polyhedron(&p));
+        if prev.is_some() || g.is_some() {
+            tx.set_geometry(r, g);
+        }
+    }
+    tx.set_origin(
+        r,
+        &json(&ObjectRecord {
+            editor: 1,
+            link: link.to_owned(),
+            object: o.clone(),
+        }),
+    );
+    Ok(())
+}
+
+type Ids = (
+    Design,
+    Id,
+    BTreeMap<String, Id>,
+    BTreeMap<(String, String), Id>,
+);
+
+/// The design `robot` an editor left in the space, with the ids of its objects.
+fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
+    let Some(si) = (0..snap.len()).find(|&i| {
+        snap.name(i) == robot
+            && snap.object(i).kind() == Some(Kind::Scene)
+            && snap.origin(i).contains("\"editor\"")
+    }) else {
+        return Err(EditError::Invalid(format!(
+            "the session holds no editor design {robot:?}"
+        )));
+    };
+    let header: DesignRecord = serde_json::from_str(snap.origin(si))
+        .map_err(|e| EditError::Invalid(format!("{robot}: its editor record: {e}")))?;
+    let scene = snap.objects()[si].id;
+    let mut design = Design {
+        robot: header.robot.clone(),
+        links: Vec::new(),
+        current: header.current,
+    };
+    let mut links = BTreeMap::new();
+    let mut objects = BTreeMap::new();
+    for lname in &header.links {
+        let item = format!("{robot}.{lname}");
+        let Some(li) = snap.children(scene).find(|&k| snap.name(k) == item) else {
+            return Err(EditError::Invalid(format!(
+                "{robot}: link {item} is missing"
+            )));
+        };
+        let lid = snap.objects()[li].id;
+        links.insert(lname.clone(), lid);
+        let mut objs = Vec::new();
+        let mut stack: Vec<Id> = vec![lid];
+        while let Some(p) = stack.pop() {
+            for k in snap.children(p) {
+                let rec: ObjectRecord = serde_json::from_str(snap.origin(k)).map_err(|e| {
+                    EditError::Invalid(format!("{}: its editor record: {e}", snap.path(k)))
+                })?;
+                let id = snap.objects()[k].id;
+                objects.insert((lname.clone(), rec.object.name.clone()), id);
+                objs.push((id, rec.object));
+                stack.push(id);
+            }
+        }
+        objs.sort_by_key(|(id, _)| *id);
+        design.links.push(crate::structure::LinkDesign {
+            name: lname.clone(),
+            objects: objs.into_iter().map(|x| x.1).collect(),
+        });
+    }
+    Ok((design, scene, links, objects))
+}
+
+/// The design `robot` as the space holds it.
+pub fn design_from_snapshot(snap: &Snapshot, robot: &str) -> Result<Design, EditError> {
+    read_snapshot(snap, robot).map(|x| x.0)
+}

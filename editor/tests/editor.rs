@@ -1,0 +1,364 @@
+//! The editor's operations, each one transaction against a keeper's store: the seed's pictures
+//! 1–5 walk-through as a script, attach and resize geometry, undo, refusals that change nothing,
+//! and code generation both ways.
+
+use nalgebra::{Matrix4, Vector3};
+use robosim_editor::commands::{Outcome, Prompt, execute};
+use robosim_editor::session::{Editor, design_from_snapshot};
+use robosim_editor::shape::{Shape, axis_rotation, face_frame};
+use robosim_editor::{codegen, program, robot};
+use robosim_instance_space::{Snapshot, Store};
+
+/// The seed's pictures 1–5 (§2.3): a cylinder moved aside, a custom extruded object attached
+/// to it, a fixed I joint at the cylinder's base and a revolute I+1 joint on the custom object,
+/// the link saved; a box link with its joints; code generated and run.
+pub const WALKTHROUGH: &str = include_str!("../../testdata/robosim/pictures1-5.edit");
+
+fn run_script<S: robosim_editor::session::Space>(ed: &mut Editor<S>, p: &mut Prompt, text: &str) {
+    for (k, line) in text.lines().enumerate() {
+        match execute(ed, p, line) {
+            Ok(Outcome::Quit) => break,
+            Ok(_) => {}
+            Err(e) => panic!("line {}: {line:?}: {e}", k + 1),
+        }
+    }
+}
+
+fn snapshot(ed: &Editor<Store>) -> Snapshot {
+    Snapshot::from_store(&ed.space)
+}
+
+fn tr(x: f64, y: f64, z: f64) -> Matrix4<f64> {
+    Matrix4::new_translation(&Vector3::new(x, y, z))
+}
+
+#[test]
+fn pictures_1_to_5_walkthrough_gives_table_1_geometry_and_a_robot_matching_a_hand_dh_model() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut ed = Editor::new(Store::new(), "C").expect("editor");
+    let mut p = Prompt::default();
+    let script = WALKTHROUGH.replace("@DIR@", &dir.path().display().to_string());
+    let v0 = ed.version;
+    run_script(&mut ed, &mut p, &script);
+    // one transaction per edit: the version counts the accepted edits
+    let edits = script
+        .lines()
+        .filter(|l| {
+            let v = l.split_whitespace().next().unwrap_or("");
+            !matches!(
+                v,
+                "" | "#" | "units" | "move" | "draw" | "check" | "run" | "code" | "faces" | "list"
+            )
+        })
+        .count() as u64;
+    assert_eq!(ed.version - v0, edits);
+
+    // The custom object is where Table 1 puts it: ROTATE X=-90, ROTATE Y=-90, TRANSLATE (0,-30,35) cm.
+    let d = ed.design().clone();
+    let loc = d.links.iter().position(|l| l.name == "LOC").expect("LOC");
+    let mut d_loc = d.clone();
+    d_loc.current = loc;
+    let w = d_loc.world("custom").expect("custom");
+    let table1 = tr(0.0, -0.3, 0.35)
+        * axis_rotation(1, -std::f64::consts::FRAC_PI_2)
+        * axis_rotation(0, -std::f64::consts::FRAC_PI_2);
+    assert!((w - table1).amax() < 1e-12, "{w}");
+    assert!((d_loc.world("base").expect("base") - tr(0.0, -0.3, -0.25)).amax() < 1e-12);
+
+    // Run Table 1 itself: its C.LOC and ours hold the same polygons (the I+1 joint's x axis
+    // differs: R2's face x rule is not documented; ours is in docs/editor.md).
+    let ours = robosim_file_io::linkfile::LinkFile::read(&dir.path().join("C.LOC")).expect("C.LOC");
+    let t1 = program::run(include_str!("../../testdata/robosim/table1.rsim"), "t1").expect("t1");
+    let theirs = &t1.links[0].file;
+    let pa = ours.polygons(std::path::Path::new("a")).expect("a");
+    let pb = theirs.polygons(std::path::Path::new("b")).expect("b");
+    assert_eq!(pa.len(), pb.len());
+    for poly in &pa {
+        let found = pb.iter().any(|q| {
+            q.len() == poly.len()
+                && q.iter()
+                    .zip(poly)
+                    .all(|(x, y)| (Vector3::from(*x) - Vector3::from(*y)).norm() < 1e-12)
+        });
+        assert!(
+            found,
+            "polygon {poly:?} of the editor's C.LOC is not in Table 1's"
+        );
+    }
+    assert!((ours.ajnt_i - theirs.ajnt_i).amax() < 1e-12);
+    assert!(
+        (ours.ajnt_i1.column(2) - theirs.ajnt_i1.column(2)).amax() < 1e-12,
+        "the I+1 joint's axis and origin are Table 1's"
+    );
+    assert!((ours.ajnt_i1.column(3) - theirs.ajnt_i1.column(3)).amax() < 1e-12);
+
+    // Loaded as a robot, its FK is the DH model written by hand (docs/editor.md, walk-through):
+    // base = T(-5, 0, 80) cm · Ry(-45°); joint 1 revolute, θ offset 30°, d = 40 cm, a = 0, α = 90°.
+    let (_, paths) = robot::link_paths(dir.path(), Some("C")).expect("paths");
+    let r = robot::load_links(&paths, "c").expect("robot");
+    let hand = robosim_kinematics::Robot {
+        joints: vec![robosim_kinematics::Joint {
+            d: 0.4,
+            alpha: std::f64::consts::FRAC_PI_2,
+            offset: 30f64.to_radians(),
+            theta: 30f64.to_radians(),
+            ..Default::default()
+        }],
+        base: tr(-0.05, 0.0, 0.8) * axis_rotation(1, -std::f64::consts::FRAC_PI_4),
+        ..Default::default()
+    };
+    for q in [-3.0, -1.0, 0.0, 0.25, 2.5] {
+        let a = robosim_kinematics::fk::forward(&r.robot, &[q]);
+        let b = robosim_kinematics::fk::forward(&hand, &[q]);
+        assert!((a - b).amax() < 1e-12, "q = {q}\n{a}\n{b}");
+    }
+}
+
+#[test]
+fn attach_aligns_faces_and_resize_keeps_the_attachment() {
+    let mut ed = Editor::new(Store::new(), "A").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        "box base X=40 Y=30 Z=20\nrotate base X=20 Y=-35 Z=10\ntranslate base X=5 Y=-7 Z=3\ncylinder post R=4 H=25\nrotate post X=70\nattach post bottom to base 5\nbox cap X=6 Y=6 Z=2\nattach cap bottom to post top",
+    );
+    let check = |ed: &Editor<Store>, child: &str, cface: usize, base: &str, bface: usize| {
+        let d = ed.design();
+        let fc = d.world(child).expect("c")
+            * face_frame(
+                &d.object(child)
+                    .expect("c")
+                    .shape
+                    .polyhedron()
+                    .expect("p")
+                    .expect("g"),
+                cface,
+            );
+        let fb = d.world(base).expect("b")
+            * face_frame(
+                &d.object(base)
+                    .expect("b")
+                    .shape
+                    .polyhedron()
+                    .expect("p")
+                    .expect("g"),
+                bface,
+            );
+        let (nc, nb) = (fc.fixed_view::<3, 1>(0, 2), fb.fixed_view::<3, 1>(0, 2));
+        assert!((nc + nb).amax() < 1e-12, "normals opposite");
+        assert!(
+            (fc.fixed_view::<3, 1>(0, 3) - fb.fixed_view::<3, 1>(0, 3)).amax() < 1e-12,
+            "centres coincide"
+        );
+    };
+    let bottom = |s: &Shape| {
+        let g = s.polyhedron().expect("p").expect("g");
+        (0..g.polygons.len())
+            .min_by(|&a, &b| {
+                g.polygons[a]
+                    .plane
+                    .normal
+                    .z
+                    .total_cmp(&g.polygons[b].plane.normal.z)
+            })
+            .expect("face")
+    };
+    let top = |s: &Shape| {
+        let g = s.polyhedron().expect("p").expect("g");
+        (0..g.polygons.len())
+            .max_by(|&a, &b| {
+                g.polygons[a]
+                    .plane
+                    .normal
+                    .z
+                    .total_cmp(&g.polygons[b].plane.normal.z)
+            })
+            .expect("face")
+    };
+    let post = ed.design().object("post").expect("post").shape.clone();
+    let cap = ed.design().object("cap").expect("cap").shape.clone();
+    check(&ed, "post", bottom(&post), "base", 5);
+    check(&ed, "cap", bottom(&cap), "post", top(&post));
+    // resize the middle object: both attachments hold
+    execute(&mut ed, &mut p, "resize post R=7 H=60").expect("resize");
+    let post2 = ed.design().object("post").expect("post").shape.clone();
+    assert_eq!(post2.dims(), vec![0.07, 0.6]);
+    check(&ed, "post", bottom(&post2), "base", 5);
+    check(&ed, "cap", bottom(&cap), "post", top(&post2));
+    // resize the base: the post stays on its face 5
+    execute(&mut ed, &mut p, "resize base X=80").expect("resize base");
+    check(&ed, "post", bottom(&post2), "base", 5);
+    check(&ed, "cap", bottom(&cap), "post", top(&post2));
+    // and the Instance Space holds the same world poses as the design
+    let snap = snapshot(&ed);
+    let cap_i = (0..snap.len())
+        .find(|&i| snap.name(i) == "cap")
+        .expect("cap in space");
+    let w = robosim_scene::pose::to_matrix(&snap.world_pose(cap_i));
+    assert!((w - ed.design().world("cap").expect("cap")).amax() < 1e-12);
+}
+
+fn space_state(s: &Store) -> Vec<(String, [f64; 12], String, Option<usize>)> {
+    let snap = Snapshot::from_store(s);
+    let mut v: Vec<_> = (0..snap.len())
+        .map(|i| {
+            (
+                snap.path(i),
+                snap.world_pose(i),
+                snap.origin(i).to_owned(),
+                snap.geometry(i).map(|g| g.vertices.len()),
+            )
+        })
+        .collect();
+    v.sort_by(|a, b| a.0.cmp(&b.0));
+    v
+}
+
+#[test]
+fn undo_restores_the_previous_model_exactly_and_redo_reapplies() {
+    let mut ed = Editor::new(Store::new(), "U").expect("editor");
+    let mut p = Prompt::default();
+    let steps = [
+        "box a X=10 Y=10 Z=10",
+        "cylinder b R=3 H=8",
+        "attach b bottom to a top",
+        "rotate-rel b Z=30",
+        "translate a X=4",
+        "resize a Z=20",
+        "delete a",
+        "clone b c",
+        "link L1",
+        "sphere s R=5",
+    ];
+    let mut states = vec![(ed.design().clone(), space_state(&ed.space))];
+    for s in steps {
+        execute(&mut ed, &mut p, s).unwrap_or_else(|e| panic!("{s}: {e}"));
+        states.push((ed.design().clone(), space_state(&ed.space)));
+    }
+    for k in (0..steps.len()).rev() {
+        execute(&mut ed, &mut p, "undo").expect("undo");
+        assert_eq!(ed.design(), &states[k].0, "undo of {:?}: design", steps[k]);
+        assert_eq!(
+            space_state(&ed.space),
+            states[k].1,
+            "undo of {:?}: space",
+            steps[k]
+        );
+    }
+    assert!(
+        execute(&mut ed, &mut p, "undo").is_err(),
+        "nothing left to undo"
+    );
+    for (k, s) in steps.iter().enumerate() {
+        execute(&mut ed, &mut p, "redo").expect("redo");
+        assert_eq!(ed.design(), &states[k + 1].0, "redo of {s:?}");
+        assert_eq!(space_state(&ed.space), states[k + 1].1);
+    }
+    // the design can be read back from the space alone (a restarted editor)
+    let back = design_from_snapshot(&Snapshot::from_store(&ed.space), "U").expect("read back");
+    assert_eq!(&back, ed.design());
+}
+
+#[test]
+fn bad_input_gets_a_clear_error_and_changes_nothing() {
+    let mut ed = Editor::new(Store::new(), "B").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        "box a X=10 Y=10 Z=10\ncylinder c R=5 H=10 N=16\nr-joint-i j1\nr-joint-i+1 j2\nattach j1 0 to a bottom\nattach j2 0 to a top\ntranslate j2 Y=3",
+    );
+    let before = (ed.design().clone(), space_state(&ed.space), ed.version);
+    let cases: [(&str, &str); 10] = [
+        ("wibble a", "unknown command \"wibble\""),
+        (
+            "cylinder d R=-5 H=10",
+            "d: cylinder: `bottom radius` must be zero or positive and finite, got -0.05",
+        ),
+        ("box e X=1 Y=nan Z=1", "argument Y: \"nan\" is not a number"),
+        (
+            "attach a top to c 3",
+            "c: polygon 3 is a facet of the cylinder's curved surface, not a planar face",
+        ),
+        (
+            "attach a top to c 99",
+            "c: polygon 99 does not exist (it has polygons 0 to 17)",
+        ),
+        (
+            "translate zz X=1",
+            "no object \"zz\" in link LOC (objects: a, c, j1, j2)",
+        ),
+        (
+            "check",
+            "the I→I+1 relation of link LOC is not a DH transform: DA:",
+        ),
+        (
+            "box a X=1 Y=1 Z=1",
+            "an object \"a\" already exists in link LOC",
+        ),
+        ("attach j1 0 to c top", "j1 is already attached to a"),
+        (
+            "resize a X=-3",
+            "a: box: `x` must be a positive finite length in metres, got -0.03",
+        ),
+    ];
+    for (line, want) in cases {
+        let e = execute(&mut ed, &mut p, line).expect_err(line);
+        assert!(e.contains(want), "{line}: {e}\n  wanted: {want}");
+        assert_eq!(ed.design(), &before.0, "{line} changed the design");
+        assert_eq!(space_state(&ed.space), before.1, "{line} changed the space");
+        assert_eq!(ed.version, before.2, "{line} committed something");
+    }
+}
+
+#[test]
+fn code_round_trips_to_1e_12_both_ways() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut ed = Editor::new(Store::new(), "R").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        "box a X=10 Y=12 Z=14\nrotate a X=13 Y=-71 Z=155\ntranslate a X=1.5 Y=-2 Z=3\ntruncated-cone t R1=3 R2=5 H=6\nattach t bottom to a 2\nrotate-rel t Z=17\nsphere s R=2\ntranslate s Z=30\nmove X=0 Y=0\ndraw X=4 Y=0\ndraw X=4 Y=3\ndraw X=0 Y=5\nextrude x Z=2\nrotate x Y=90 Z=-90\nf-joint-i in\nattach in 0 to a 0\nr-joint-i+1 out\nattach out 0 to t top\nlink L1\nmove X=0 Y=0 Z=0\ndraw X=3 Y=0 Z=0\ndraw X=3 Y=0 Z=5\ndraw X=1 Y=0 Z=5\nrevolve r A=270 N=12\ncone k R=2 H=3\ntranslate k X=7\nr-joint-i ji\nattach ji 0 to r bottom\nr-joint-i+1 jo\nattach jo 0 to r top\nrotate-rel jo Z=40",
+    );
+    // edit → code → link files: every vertex where the editor has it
+    let code = codegen::generate(ed.design(), codegen::CodeUnits::default()).expect("code");
+    let out = program::run(&code, "gen.rsim").expect("generated code runs");
+    assert_eq!(out.links.len(), 2);
+    for (k, l) in ed.design().links.iter().enumerate() {
+        let placed_ed = ed.design().placed(k).expect("placed");
+        let placed_run = &out.links[k].objects;
+        assert_eq!(placed_ed.len(), placed_run.len());
+        for (a, b) in placed_ed.iter().zip(placed_run) {
+            assert_eq!(a.shape, b.shape, "{}", l.name);
+            assert!((a.m - b.m).amax() < 1e-12, "{}: pose", l.name);
+            for (va, vb) in program::placed_vertices(a)
+                .iter()
+                .zip(program::placed_vertices(b))
+            {
+                assert!((va - vb).norm() < 1e-12);
+            }
+        }
+    }
+    program::write_links(&out, dir.path()).expect("write");
+    // code → editor → code: the same objects, the same link files to 1e-12
+    let back = codegen::design_from_program(&out, "R").expect("design");
+    let code2 = codegen::generate(&back, codegen::CodeUnits::default()).expect("code2");
+    let out2 = program::run(&code2, "gen2.rsim").expect("runs");
+    for (l1, l2) in out.links.iter().zip(&out2.links) {
+        assert_eq!(l1.name, l2.name);
+        for (a, b) in l1.objects.iter().zip(&l2.objects) {
+            assert_eq!(a.shape, b.shape);
+            assert!((a.m - b.m).amax() < 1e-12);
+        }
+        assert!((l1.file.ajnt_i - l2.file.ajnt_i).amax() < 1e-12);
+        assert!((l1.file.ajnt_i1 - l2.file.ajnt_i1).amax() < 1e-12);
+        assert!((l1.file.ainert - l2.file.ainert).amax() < 1e-12);
+        assert_eq!(l1.file.vectors.len(), l2.file.vectors.len());
+        for (x, y) in l1.file.vectors.iter().zip(&l2.file.vectors) {
+            assert_eq!(x.1, y.1);
+            assert!((Vector3::from(x.0) - Vector3::from(y.0)).norm() < 1e-12);
+        }
+    }
+}

@@ -1,0 +1,200 @@
+//! The editor and the ROBOSIM language as processes (issue 13): `robosim edit --script` writes
+//! the seed's pictures 1–5 walk-through into a session piece by piece — each piece a separate
+//! editor process that resumes the design from the Instance Space — while a headless display
+//! process beside it draws every committed version; then `robosim lang run` and `robosim lang
+//! load` turn the result into a robot of the session.
+
+mod common;
+
+use common::{Procs, ROBOSIM, wait_for};
+use serde_json::Value;
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn robosim(p: &Procs, args: &[&str]) -> Output {
+    Command::new(ROBOSIM)
+        .args(args)
+        .args(["--session", &p.name])
+        .env("ROBOSIM_HOME", p.home.path())
+        .output()
+        .expect("run robosim")
+}
+
+fn frames(dir: &Path) -> Vec<Value> {
+    std::fs::read_to_string(dir.join("frames.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+const EDITS: &[&str] = &[
+    "box",
+    "cylinder",
+    "cone",
+    "truncated-cone",
+    "sphere",
+    "extrude",
+    "revolve",
+    "clone",
+    "translate",
+    "home",
+    "rotate",
+    "rotate-rel",
+    "delete",
+    "attach",
+    "resize",
+    "r-joint-i",
+    "p-joint-i",
+    "f-joint-i",
+    "r-joint-i+1",
+    "p-joint-i+1",
+    "f-joint-i+1",
+    "link",
+    "undo",
+    "redo",
+    "load",
+    "restart",
+    "read-code",
+];
+
+#[test]
+fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_robot() {
+    let mut k = Procs::new("edt");
+    k.start_keeper(&[]);
+    let out = k.home.path().join("display-out");
+    let out_s = out.to_string_lossy().into_owned();
+    k.spawn(&[
+        "display",
+        "--headless",
+        "--every-frame",
+        "--size",
+        "160x120",
+        "--out",
+        &out_s,
+    ]);
+    wait_for("the display's first frame", || {
+        frames(&out).into_iter().next()
+    });
+    let links = k.home.path().join("links");
+    let script = include_str!("../testdata/robosim/pictures1-5.edit")
+        .replace("@DIR@", &links.display().to_string());
+
+    // Pieces: the lines up to and including one edit (units and the polygon travel with it).
+    let mut pieces: Vec<String> = Vec::new();
+    let mut cur = String::from("units cm\nunits deg\n");
+    for line in script.lines() {
+        cur.push_str(line);
+        cur.push('\n');
+        let verb = line.split_whitespace().next().unwrap_or("");
+        if EDITS.contains(&verb) {
+            pieces.push(std::mem::replace(
+                &mut cur,
+                String::from("units cm\nunits deg\n"),
+            ));
+        }
+    }
+    pieces.push(cur);
+    let mut bodies = 0u64;
+    let mut seen = 0;
+    for (i, piece) in pieces.iter().enumerate() {
+        let f = k.home.path().join(format!("piece{i}.edit"));
+        std::fs::write(&f, piece).expect("piece");
+        let o = robosim(
+            &k,
+            &["edit", "--robot", "C", "--script", &f.to_string_lossy()],
+        );
+        let stdout = String::from_utf8_lossy(&o.stdout).into_owned();
+        assert!(
+            o.status.success(),
+            "piece {i}:\n{piece}\n{stdout}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        // "ok, version N (k ops)": the version this edit committed
+        let Some(version) = stdout
+            .lines()
+            .filter_map(|l| l.strip_prefix("ok, version "))
+            .filter_map(|l| l.split_whitespace().next()?.parse::<u64>().ok())
+            .next_back()
+        else {
+            continue;
+        };
+        let verb = piece
+            .lines()
+            .last()
+            .and_then(|l| l.split_whitespace().next())
+            .unwrap_or("");
+        if matches!(verb, "cylinder" | "extrude" | "box") {
+            bodies += 1;
+        }
+        let frame = wait_for(&format!("the display's frame of version {version}"), || {
+            frames(&out).into_iter().find(|f| f["version"] == version)
+        });
+        assert_eq!(frame["bodies"], bodies, "piece {i} ({verb}): {frame}");
+        seen += 1;
+    }
+    assert!(seen >= 14, "every edit was drawn: {seen}");
+    assert!(links.join("C.LOC").exists() && links.join("C.L1").exists());
+
+    // The same link files from `lang run` of the generated program, and into the session.
+    let again = k.home.path().join("again");
+    let o = robosim(
+        &k,
+        &[
+            "lang",
+            "run",
+            &links.join("C.rsim").to_string_lossy(),
+            "--out",
+            &again.to_string_lossy(),
+        ],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["C.LOC", "C.L1"] {
+        assert_eq!(
+            std::fs::read(links.join(f)).expect("first"),
+            std::fs::read(again.join(f)).expect("again"),
+            "{f}"
+        );
+    }
+    let o = robosim(
+        &k,
+        &["lang", "load", &links.to_string_lossy(), "--as", "c2"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s = k.session();
+    let mut reader = robosim_instance_space::Reader::attach(&s, "test").expect("reader");
+    let snap = wait_for("the robot", || {
+        reader.refresh().ok()?;
+        reader.snapshot().filter(|s| s.robot("c2").is_some())
+    });
+    let view = snap.robot("c2").expect("c2");
+    let model = robosim_scene::robot_model(&snap, &view).expect("a robot the simulator can use");
+    assert_eq!(model.joints.len(), 1);
+    assert!((model.joints[0].d - 0.4).abs() < 1e-12);
+
+    // A failed program writes nothing and says where.
+    let bad = k.home.path().join("bad.rsim");
+    std::fs::write(
+        &bad,
+        "BOX X = 1, Y = 1, Z = 1\nSTORE-LINK B.LOC\nCYLINDER R = -2, H = 1\n",
+    )
+    .expect("bad");
+    let none = k.home.path().join("none");
+    let o = robosim(
+        &k,
+        &[
+            "lang",
+            "run",
+            &bad.to_string_lossy(),
+            "--out",
+            &none.to_string_lossy(),
+        ],
+    );
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("bad.rsim:3:10: CYLINDER: argument R must be positive, got -2"),
+        "{err}"
+    );
+    assert!(!none.join("B.LOC").exists());
+}
