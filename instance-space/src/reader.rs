@@ -85,8 +85,9 @@ pub struct Snapshot {
     chunk_len: usize,
     /// [`Snapshot::poses`] as one slice, assembled on first use when there are several chunks.
     flat: std::cell::OnceCell<Vec<PoseRec>>,
-    /// By object index; `None` for objects without geometry.
-    geometry: Vec<Option<Rc<Words>>>,
+    /// By object index; `None` for objects without geometry. Shared by the snapshots of one
+    /// objects segment (a pose change does not touch it).
+    geometry: Rc<Vec<Option<Rc<Words>>>>,
 }
 
 /// A segment's words: a sample in shared memory, or (for [`Snapshot::from_store`]) a copy
@@ -149,11 +150,12 @@ impl Snapshot {
             poses: vec![Rc::new(Words::Owned(segs.poses))],
             chunk_len: model.len().max(1),
             flat: std::cell::OnceCell::new(),
-            geometry: segs
-                .geometry
-                .into_iter()
-                .map(|g| g.map(|w| Rc::new(Words::Owned(w))))
-                .collect(),
+            geometry: Rc::new(
+                segs.geometry
+                    .into_iter()
+                    .map(|g| g.map(|w| Rc::new(Words::Owned(w))))
+                    .collect(),
+            ),
         }
     }
     /// A process-local copy of this snapshot in which the objects of `overrides` have the
@@ -475,10 +477,45 @@ impl Reader {
         while let Some(s) = self.poses.receive().map_err(ipc("receive poses"))? {
             head = Some(s);
         }
-        let Some(head) = head else { return Ok(false) };
+        let Some(mut head) = head else {
+            return Ok(false);
+        };
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            if let Some(snapshot) = self.assemble(&head, deadline)? {
+                self.current = Some(Rc::new(snapshot));
+                return Ok(true);
+            }
+            // Something newer than this head was published: a newer head follows (the keeper
+            // publishes the head last, microseconds later). Let go of this one and take the
+            // newest. A keeper killed between the two never sends it: after a grace second the
+            // snapshot stays where it was (`false`), as when nothing new was published.
+            drop(head);
+            let grace = Instant::now() + self.timeout.min(Duration::from_secs(1));
+            head = loop {
+                let mut newest = None;
+                while let Some(s) = self.poses.receive().map_err(ipc("receive poses"))? {
+                    newest = Some(s);
+                }
+                if let Some(s) = newest {
+                    break s;
+                }
+                if Instant::now() > grace {
+                    return Ok(false);
+                }
+                std::thread::sleep(Duration::from_micros(50));
+            };
+        }
+    }
+
+    /// The snapshot of the version `head` names, or `None` if a part newer than it was found.
+    fn assemble(
+        &mut self,
+        head: &Sample,
+        deadline: Instant,
+    ) -> Result<Option<Snapshot>, ReaderError> {
         let h: PosesHeader = *Segment::parse(head.payload())?.record::<PosesHeader>(0)?;
         // The objects segment the head is indexed against; it was published before the head.
-        let deadline = Instant::now() + self.timeout;
         loop {
             if let Some(o) = &self.latest_objects {
                 let oh: ObjectsHeader = *Segment::parse(o.words())?.record::<ObjectsHeader>(0)?;
@@ -486,8 +523,8 @@ impl Reader {
                     break;
                 }
                 if oh.version > h.structure_version && oh.epoch == h.epoch {
-                    // Structure moved on after this head: a newer head follows; take it.
-                    return self.refresh();
+                    // Structure moved on after this head.
+                    return Ok(None);
                 }
             }
             match self.objects.receive().map_err(ipc("receive objects"))? {
@@ -502,6 +539,25 @@ impl Reader {
             .latest_objects
             .clone()
             .ok_or(ReaderError::Timeout(self.timeout))?;
+        // Same objects segment as the current snapshot (a pose-only change): same geometry.
+        if let Some(cur) = &self.current
+            && Rc::ptr_eq(&cur.objects, &objects)
+        {
+            let geometry = cur.geometry.clone();
+            let n = cur.len();
+            let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
+                return Ok(None);
+            };
+            return Ok(Some(Snapshot {
+                version: h.version,
+                epoch: h.epoch,
+                objects,
+                poses,
+                chunk_len: (h.chunk_len as usize).max(1),
+                flat: std::cell::OnceCell::new(),
+                geometry,
+            }));
+        }
         let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.words())?
             .section::<ObjectRec>(1)?
             .iter()
@@ -563,7 +619,7 @@ impl Reader {
                         g.latest = Some(Rc::new(Words::Shared(s)));
                         if gh.generation > generation {
                             // Geometry newer than this head: a newer head follows.
-                            return self.refresh();
+                            return Ok(None);
                         }
                     }
                     None if Instant::now() > deadline => {
@@ -586,20 +642,19 @@ impl Reader {
         let live: std::collections::HashSet<Id> =
             recs.iter().filter(|r| r.2).map(|r| r.0).collect();
         self.geometry.retain(|id, _| live.contains(id));
-        let Some(poses) = self.collect_pose_chunks(&head, &h, recs.len(), deadline)? else {
-            // A chunk newer than this head: a newer head follows; take it.
-            return self.refresh();
+        let Some(poses) = self.collect_pose_chunks(head, &h, recs.len(), deadline)? else {
+            // A chunk newer than this head: a newer head follows.
+            return Ok(None);
         };
-        self.current = Some(Rc::new(Snapshot {
+        Ok(Some(Snapshot {
             version: h.version,
             epoch: h.epoch,
             objects,
             poses,
             chunk_len: (h.chunk_len as usize).max(1),
             flat: std::cell::OnceCell::new(),
-            geometry,
-        }));
-        Ok(true)
+            geometry: Rc::new(geometry),
+        }))
     }
 
     /// The pose chunks the head names, each at the generation the head gives: chunks this

@@ -77,7 +77,11 @@ impl KeeperProc {
             .spawn()?;
         let start = Instant::now();
         while Client::connect(&session, "bench-probe").is_err() {
-            if start.elapsed() > Duration::from_secs(30) {
+            if start.elapsed() > Duration::from_secs(60) {
+                let mut child = child;
+                let _ = child.kill();
+                let _ = child.wait();
+                let _ = std::fs::remove_dir_all(session.dir());
                 bail!("keeper for {name} did not start");
             }
             std::thread::sleep(Duration::from_millis(20));
