@@ -86,7 +86,8 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let pid = std::process::id();
     let mut rows = Vec::new();
     for n in SIZES {
-        let kp = KeeperProc::start(&format!("scale{pid}n{n}"), false)?;
+        // Short session names: iceoryx2 limits the length of the names derived from them.
+        let kp = KeeperProc::start(&format!("sc{pid}n{n}"), false)?;
         let mut client = Client::connect(&kp.session, "scale-writer")?;
         let body = build(&mut client, n)?;
         let mut follower = Reader::attach(&kp.session, "scale-follower")?;
