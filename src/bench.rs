@@ -1,5 +1,5 @@
-//! `robosim bench ipc|journal|display|reaction|files`: the subcommands and where each bench lives
-//! (`robosim_report::ipc`, `robosim_report::journal`, `robosim_display::bench`, `robosim_simulator_daemon::bench`,
+//! `robosim bench ipc|scale|journal|display|reaction|files`: the subcommands and where each bench
+//! lives (`robosim_report::ipc`, `robosim_report::scale`, `robosim_report::journal`, `robosim_display::bench`, `robosim_simulator_daemon::bench`,
 //! `robosim_file_io::bench`).
 
 use crate::{CliError, Result};
@@ -11,6 +11,16 @@ pub enum Which {
     /// journaled throughput.
     Ipc {
         /// Where to write ipc.md and ipc.csv.
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
+        out: PathBuf,
+        /// Fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+    },
+    /// What a one-body change costs at 10², 10³, 10⁴ and 10⁵ objects: pose transaction, a
+    /// reader following it, notification latency, late-joiner attach.
+    Scale {
+        /// Where to write scale.md and scale.csv.
         #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
         out: PathBuf,
         /// Fewer repetitions (for a smoke run).
@@ -78,6 +88,12 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
         Which::Ipc { out, quick } => {
             let pb = robosim_report::progress::spinner("bench ipc");
             robosim_report::ipc::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
+            pb.finish_and_clear();
+            wrote(&out, &[])
+        }
+        Which::Scale { out, quick } => {
+            let pb = robosim_report::progress::spinner("bench scale");
+            robosim_report::scale::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
             pb.finish_and_clear();
             wrote(&out, &[])
         }

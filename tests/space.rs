@@ -896,3 +896,79 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
     assert_eq!(snap.version(), 299);
     assert_eq!(snap.name(snap.index_of(scene).expect("scene")), "n298");
 }
+
+/// Issue 18 §3: the poses are published in chunks of `POSE_CHUNK` objects. A one-body pose
+/// transaction republishes only its chunk (and the small head); a reader's new snapshot reuses
+/// the samples of the chunks that did not change (the very same shared memory), a held
+/// snapshot keeps its own poses, a late joiner gets the whole state, and an object added at
+/// the end touches only the last chunk.
+#[test]
+fn a_pose_change_republishes_only_its_chunk_and_readers_reuse_the_others() {
+    use robosim_instance_space::layout::POSE_CHUNK;
+    let mut t = TestSession::new("chunks");
+    t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "w").expect("connect");
+    let mut tx = Transaction::new();
+    let scene = tx.create(Kind::Scene, "scene", None);
+    // Three chunks, the last one partly full.
+    let n = 2 * POSE_CHUNK + 88;
+    for k in 0..n {
+        tx.create(Kind::Solid, &format!("body{k}"), Some(scene));
+    }
+    let built = c.transact(&tx).expect("build");
+    let mut r = Reader::attach(&s, "r").expect("attach");
+    let old = r.snapshot().expect("snapshot");
+    assert_eq!(old.len(), n + 1);
+    // A body in the middle chunk.
+    let body = built.created[POSE_CHUNK + 10];
+    let i = old.index_of(body).expect("body");
+    assert_eq!(i / POSE_CHUNK, 1, "the body is in the middle chunk");
+    let mut pose = IDENTITY;
+    pose[3] = 7.0;
+    let mut tx = Transaction::new();
+    tx.set_pose(body, pose);
+    let moved = c.transact(&tx).expect("move");
+    while r.snapshot().expect("snapshot").version() < moved.version {
+        r.wait_change(Duration::from_secs(5)).expect("wait");
+    }
+    let new = r.snapshot().expect("snapshot");
+    assert_eq!(new.version(), moved.version);
+    assert_eq!(
+        old.pose(i).pose[3],
+        0.0,
+        "a held snapshot keeps its version"
+    );
+    assert_eq!(new.pose(i).pose[3], 7.0);
+    assert_eq!(new.world_pose(i)[3], 7.0);
+    // Unchanged chunks are the same samples; the changed one is new.
+    let first = 0;
+    let last = n; // the last object (index n: the scene is index 0)
+    assert!(std::ptr::eq(old.pose(first), new.pose(first)));
+    assert!(std::ptr::eq(old.pose(last), new.pose(last)));
+    assert!(!std::ptr::eq(old.pose(i), new.pose(i)));
+    // The whole-array view agrees with the per-record one.
+    let all = new.poses();
+    assert_eq!(all.len(), n + 1);
+    assert!((0..=n).all(|k| all[k] == *new.pose(k)));
+    assert_eq!(new.object(i).pose.pose[3], 7.0);
+    // A late joiner gets the whole state of the newest version.
+    let late = Reader::attach(&s, "late").expect("late joiner");
+    let ls = late.snapshot().expect("snapshot");
+    assert_eq!(ls.version(), moved.version);
+    assert_eq!(ls.poses(), new.poses());
+    // An object added at the end (the largest id sorts last) touches only the last chunk.
+    let mut tx = Transaction::new();
+    tx.create(Kind::Solid, "appended", Some(built.created[0].into()));
+    let added = c.transact(&tx).expect("append");
+    while r.snapshot().expect("snapshot").version() < added.version {
+        r.wait_change(Duration::from_secs(5)).expect("wait");
+    }
+    let grown = r.snapshot().expect("snapshot");
+    assert_eq!(grown.len(), n + 2);
+    assert_eq!(grown.pose(i).pose[3], 7.0);
+    assert!(std::ptr::eq(new.pose(first), grown.pose(first)));
+    assert!(std::ptr::eq(new.pose(i), grown.pose(i)));
+    assert!(!std::ptr::eq(new.pose(last), grown.pose(last)));
+    assert_eq!(grown.name(n + 1), "appended");
+}

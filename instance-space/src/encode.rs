@@ -2,7 +2,7 @@
 //! the keeper to publish and by [`crate::Snapshot::from_store`] for a process-local snapshot.
 
 use crate::layout::{
-    GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseRec, PosesHeader, SegmentWriter,
+    GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader, PoseRec, SegmentWriter,
     flags,
 };
 use crate::store::{Id, Kinematics, Object, Store};
@@ -79,6 +79,7 @@ impl GeometryParts {
 /// The three kinds of segment of a whole model, as owned words.
 pub(crate) struct ModelSegments {
     pub objects: Vec<u64>,
+    /// Every pose as one chunk (a pose chunk segment with `first` 0).
     pub poses: Vec<u64>,
     /// In object order; `None` for objects without geometry.
     pub geometry: Vec<Option<Vec<u64>>>,
@@ -104,22 +105,39 @@ pub(crate) fn model_segments(model: &Store, epoch: u64) -> ModelSegments {
         epoch,
         count: recs.len() as u64,
     }];
-    let poses_header = [PosesHeader {
-        version: model.version,
-        structure_version: model.structure_version(),
-        epoch,
-        count: poses.len() as u64,
-    }];
     let mut w = SegmentWriter::new();
     w.push(&objects_header).push(&recs).push(&names);
     let objects = w.to_vec();
-    let mut w = SegmentWriter::new();
-    w.push(&poses_header).push(&poses);
+    let chunk_header = [pose_chunk_header(epoch, model.version, 0, poses.len())];
     ModelSegments {
         objects,
-        poses: w.to_vec(),
+        poses: pose_chunk_writer(&chunk_header, &poses).to_vec(),
         geometry,
     }
+}
+
+pub(crate) fn pose_chunk_header(
+    epoch: u64,
+    generation: u64,
+    first: usize,
+    count: usize,
+) -> PoseChunkHeader {
+    PoseChunkHeader {
+        epoch,
+        generation,
+        first: first as u64,
+        count: count as u64,
+    }
+}
+
+/// A pose chunk segment: its header and its records.
+pub(crate) fn pose_chunk_writer<'a>(
+    header: &'a [PoseChunkHeader; 1],
+    recs: &'a [PoseRec],
+) -> SegmentWriter<'a> {
+    let mut w = SegmentWriter::new();
+    w.push(header).push(recs);
+    w
 }
 
 pub(crate) fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {

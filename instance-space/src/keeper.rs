@@ -8,12 +8,15 @@
 //!    changes nothing and gets its typed error;
 //! 2. appends each committed one to the journal and syncs once (group commit);
 //! 3. publishes what changed — a geometry segment per changed object, the objects segment if
-//!    any structure/appearance/kinematics/dynamics changed, and always the poses segment,
-//!    which is the head every snapshot starts from — then the change records;
+//!    any structure/appearance/kinematics/dynamics changed, the pose chunks (of
+//!    [`POSE_CHUNK`] objects each) holding a pose that changed, and always the poses head
+//!    (version and chunk generations), which every snapshot starts from — then the change
+//!    records. A one-body pose transaction thus publishes one chunk and the head: its cost
+//!    follows what it moved, not the size of the model.
 //! 4. only then acknowledges, and notifies readers and waiting clients.
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
-use crate::layout::{ChangeRec, ObjectsHeader, PoseRec, PosesHeader, SegmentWriter};
+use crate::layout::{ChangeRec, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader, SegmentWriter};
 use crate::services;
 use crate::session::{Registration, Session, SessionError};
 use crate::store::{Applied, Id, Store, TxError, aspect};
@@ -27,6 +30,8 @@ type Pub = iceoryx2::port::publisher::Publisher<ipc::Service, [u64], ()>;
 type Server = iceoryx2::port::server::Server<ipc::Service, [u8], (), [u8], ()>;
 type Notifier = iceoryx2::port::notifier::Notifier<ipc::Service>;
 type Listener = iceoryx2::port::listener::Listener<ipc::Service>;
+type PubSubService =
+    iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, [u64], ()>;
 
 /// Event ids on the keeper's request event.
 pub(crate) mod events {
@@ -114,9 +119,14 @@ pub struct Keeper {
     changes_pub: Pub,
     objects_pub: Pub,
     poses_pub: Pub,
+    /// One publisher per pose chunk, and the version each chunk was last published at.
+    chunk_pubs: Vec<(Pub, PubSubService)>,
+    chunk_gen: Vec<u64>,
+    /// Chunks to publish with the next head.
+    chunk_dirty: Vec<bool>,
     geometry: HashMap<Id, (Pub, u64)>,
     library: Option<Pub>,
-    // Caches so a pose change costs one record update plus one copy of the poses array.
+    // Caches so a pose change costs one record update plus one copy of its chunk.
     order: Vec<Id>,
     index: HashMap<Id, usize>,
     poses: Vec<PoseRec>,
@@ -291,6 +301,9 @@ impl Keeper {
             changes_pub,
             objects_pub,
             poses_pub,
+            chunk_pubs: Vec::new(),
+            chunk_gen: Vec::new(),
+            chunk_dirty: Vec::new(),
             geometry: HashMap::new(),
             library: None,
             order: Vec::new(),
@@ -490,6 +503,9 @@ impl Keeper {
             for id in posed {
                 if let (Some(&i), Some(o)) = (self.index.get(&id), self.model.get(id)) {
                     self.poses[i] = crate::encode::pose_rec(o);
+                    if let Some(d) = self.chunk_dirty.get_mut(i / POSE_CHUNK) {
+                        *d = true;
+                    }
                 }
             }
         }
@@ -505,6 +521,9 @@ impl Keeper {
     fn update_connections(&mut self) {
         let _ = self.objects_pub.update_connections();
         let _ = self.poses_pub.update_connections();
+        for (p, _) in &self.chunk_pubs {
+            let _ = p.update_connections();
+        }
         let _ = self.changes_pub.update_connections();
         for (p, _) in self.geometry.values() {
             let _ = p.update_connections();
@@ -524,20 +543,35 @@ impl Keeper {
         Ok(())
     }
 
-    /// Objects segment (and the pose caches' order) from the model: O(objects).
+    /// Objects segment (and the pose caches' order) from the model: O(objects). Marks for
+    /// publication the pose chunks whose records differ from the last published ones (an
+    /// object added at the end touches only the last chunk).
     fn rebuild_structure(&mut self) -> Result<(), KeeperError> {
         let n = self.model.len();
         let mut recs = Vec::with_capacity(n);
         let mut names = Vec::new();
+        let old_poses = std::mem::take(&mut self.poses);
         self.order.clear();
         self.index.clear();
-        self.poses.clear();
+        self.poses.reserve(n);
         for (i, o) in self.model.objects().enumerate() {
             recs.push(crate::encode::object_rec(o, &mut names));
             self.order.push(o.id);
             self.index.insert(o.id, i);
             self.poses.push(crate::encode::pose_rec(o));
         }
+        let chunks = n.div_ceil(POSE_CHUNK);
+        let first_time = self.chunk_gen.is_empty();
+        self.chunk_gen.resize(chunks, 0);
+        self.chunk_dirty.resize(chunks, false);
+        for k in 0..chunks {
+            let range = k * POSE_CHUNK..((k + 1) * POSE_CHUNK).min(n);
+            if first_time || old_poses.get(range.clone()) != Some(&self.poses[range]) {
+                self.chunk_dirty[k] = true;
+            }
+        }
+        // Chunks past the end go with their publishers (readers stop asking for them).
+        self.chunk_pubs.truncate(chunks);
         self.structure_version = self.model.version;
         let header = [ObjectsHeader {
             version: self.model.version,
@@ -549,16 +583,76 @@ impl Keeper {
         Self::send(&self.objects_pub, &w, "objects")
     }
 
+    /// Publishes the changed pose chunks, then the head that names their generations: a
+    /// reader that has the head finds every chunk it names already published.
     fn publish_poses(&mut self) -> Result<(), KeeperError> {
+        let version = self.model.version;
+        for k in 0..self.chunk_dirty.len() {
+            if !self.chunk_dirty[k] {
+                continue;
+            }
+            while self.chunk_pubs.len() <= k {
+                let p = self.chunk_publisher(self.chunk_pubs.len())?;
+                self.chunk_pubs.push(p);
+            }
+            let first = k * POSE_CHUNK;
+            let recs = &self.poses[first..(first + POSE_CHUNK).min(self.poses.len())];
+            let header = [crate::encode::pose_chunk_header(
+                self.epoch,
+                version,
+                first,
+                recs.len(),
+            )];
+            Self::send(
+                &self.chunk_pubs[k].0,
+                &crate::encode::pose_chunk_writer(&header, recs),
+                "pose chunk",
+            )?;
+            self.chunk_gen[k] = version;
+            self.chunk_dirty[k] = false;
+        }
         let header = [PosesHeader {
-            version: self.model.version,
+            version,
             structure_version: self.structure_version,
             epoch: self.epoch,
             count: self.poses.len() as u64,
+            chunk_len: POSE_CHUNK as u64,
         }];
         let mut w = SegmentWriter::new();
-        w.push(&header).push(&self.poses);
+        w.push(&header).push(&self.chunk_gen);
         Self::send(&self.poses_pub, &w, "poses")
+    }
+
+    /// Opens or creates the service of pose chunk `k` and its publisher.
+    fn chunk_publisher(&mut self, k: usize) -> Result<(Pub, PubSubService), KeeperError> {
+        let svc = self
+            .node
+            .service_builder(&self.session.service(&services::pose_chunk(k))?)
+            .publish_subscribe::<[u64]>()
+            .history_size(1)
+            .subscriber_max_buffer_size(2)
+            .subscriber_max_borrowed_samples(MAX_HELD_SNAPSHOTS + 1)
+            .enable_safe_overflow(true)
+            .max_publishers(1)
+            .max_subscribers(self.opts.max_readers)
+            .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
+            .open_or_create()
+            .map_err(ipc(format!("create service of pose chunk {k}")))?;
+        let header = [crate::encode::pose_chunk_header(0, 0, 0, POSE_CHUNK)];
+        let full = [PoseRec {
+            id: 0,
+            pose: [0.0; 12],
+            joint: 0.0,
+        }; POSE_CHUNK];
+        let words = crate::encode::pose_chunk_writer(&header, &full).words();
+        let p = svc
+            .publisher_builder()
+            .initial_max_slice_len(words)
+            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .max_loaned_samples(1)
+            .create()
+            .map_err(ipc(format!("create publisher of pose chunk {k}")))?;
+        Ok((p, svc))
     }
 
     fn publish_changes(&mut self, applied: &[Applied]) -> Result<(), KeeperError> {

@@ -5,8 +5,11 @@
 //! A segment is `[magic, n_sections, (offset_words, len_bytes) × n, data…]`. The segments:
 //! * objects: [`ObjectsHeader`], [`ObjectRec`] × n, names (UTF-8 arena) — one per structure
 //!   version, O(objects), no geometry;
-//! * poses: [`PosesHeader`], [`PoseRec`] × n, in the same order as the objects — published by
-//!   every commit, O(objects), no geometry;
+//! * poses head: [`PosesHeader`] and the generation of every pose chunk — published by every
+//!   commit, O(objects / [`POSE_CHUNK`]) words;
+//! * pose chunks, one service per [`POSE_CHUNK`] objects: [`PoseChunkHeader`], [`PoseRec`] ×
+//!   up to [`POSE_CHUNK`], in the same order as the objects — published only when a pose in
+//!   that range (or the structure) changed, O(changed chunks);
 //! * geometry, one service per object: [`GeometryHeader`], vertices, indices, penalty planes,
 //!   polygons, edges, box — O(that object's geometry), published only when it changes;
 //! * changes: [`ChangeRec`] × n and their ids.
@@ -177,6 +180,9 @@ pub struct ObjectRec {
     pub origin_len: u32,
 }
 
+/// The poses head: section 0 this header, section 1 one `u64` per pose chunk — the model
+/// version at which that chunk was last published (its generation). A reader assembles the
+/// poses of this version from the chunk samples with exactly these generations.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
 pub struct PosesHeader {
@@ -185,6 +191,26 @@ pub struct PosesHeader {
     /// The objects segment these poses are indexed against.
     pub structure_version: u64,
     pub epoch: u64,
+    pub count: u64,
+    /// Records per chunk (every chunk but the last is full).
+    pub chunk_len: u64,
+}
+
+/// Objects per pose chunk: a one-body pose transaction republishes one chunk of this many
+/// records (28 KiB) and a head of one word per chunk, so at 10⁵ objects the keeper copies
+/// ≈ 31 KiB per commit instead of 11 MiB.
+pub const POSE_CHUNK: usize = 256;
+
+/// A pose chunk: section 0 this header, section 1 the [`PoseRec`]s of objects
+/// `first..first + count` (object order).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct PoseChunkHeader {
+    pub epoch: u64,
+    /// The model version at which this chunk was published.
+    pub generation: u64,
+    /// Index of the first object in this chunk.
+    pub first: u64,
     pub count: u64,
 }
 

@@ -49,11 +49,16 @@ pub mod services {
     pub const REQUEST_EVENT: &str = "space/tx-event";
     pub const ACK_EVENT: &str = "space/ack-event";
     pub const OBJECTS: &str = "space/objects";
+    /// The poses head (version and chunk generations); the chunks are [`pose_chunk`].
     pub const POSES: &str = "space/poses";
     pub const CHANGES: &str = "space/changes";
     pub const CHANGE_EVENT: &str = "space/changed";
     /// The Library Space: the session's library as source files.
     pub const LIBRARY: &str = "space/library";
+    /// Pose chunk `k`: the poses of objects `k·POSE_CHUNK ..` (see [`crate::layout::POSE_CHUNK`]).
+    pub fn pose_chunk(k: usize) -> String {
+        format!("space/poses/{k}")
+    }
     pub fn geometry(id: u64) -> String {
         format!("space/geometry/{id}")
     }

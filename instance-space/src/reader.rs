@@ -1,8 +1,8 @@
 //! Readers: map the keeper's published model and follow its changes.
 //!
-//! A [`Snapshot`] holds the iceoryx2 samples of one consistent version — the poses head, the
-//! objects segment it is indexed against, and the geometry samples those objects reference —
-//! and views them in place: reading the model copies nothing, whatever its size. Holding a
+//! A [`Snapshot`] holds the iceoryx2 samples of one consistent version — the pose chunks the
+//! poses head names, the objects segment it is indexed against, and the geometry samples those
+//! objects reference — and views them in place: reading the model copies nothing, whatever its size. Holding a
 //! snapshot keeps its version alive while the keeper publishes newer ones (up to
 //! `MAX_HELD_SNAPSHOTS` older snapshots per reader at a time).
 //!
@@ -12,8 +12,8 @@
 
 use crate::keeper::events;
 use crate::layout::{
-    ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, PolygonRec, PoseRec,
-    PosesHeader, Segment, flags, geometry_sections as gs,
+    ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader,
+    PoseRec, PosesHeader, Segment, flags, geometry_sections as gs,
 };
 use crate::services;
 use crate::session::{Session, SessionError};
@@ -77,9 +77,17 @@ pub struct Snapshot {
     version: u64,
     epoch: u64,
     objects: Rc<Words>,
-    poses: Rc<Words>,
-    /// By object index; `None` for objects without geometry.
-    geometry: Vec<Option<Rc<Words>>>,
+    /// The pose chunk segments of this version, in object order (one chunk holding every pose
+    /// for a process-local snapshot). A chunk unchanged between versions is the same sample,
+    /// shared by the snapshots of both.
+    poses: Vec<Rc<Words>>,
+    /// Records per chunk (≥ 1).
+    chunk_len: usize,
+    /// [`Snapshot::poses`] as one slice, assembled on first use when there are several chunks.
+    flat: std::cell::OnceCell<Vec<PoseRec>>,
+    /// By object index; `None` for objects without geometry. Shared by the snapshots of one
+    /// objects segment (a pose change does not touch it).
+    geometry: Rc<Vec<Option<Rc<Words>>>>,
 }
 
 /// A segment's words: a sample in shared memory, or (for [`Snapshot::from_store`]) a copy
@@ -139,12 +147,15 @@ impl Snapshot {
             version: model.version,
             epoch: 0,
             objects: Rc::new(Words::Owned(segs.objects)),
-            poses: Rc::new(Words::Owned(segs.poses)),
-            geometry: segs
-                .geometry
-                .into_iter()
-                .map(|g| g.map(|w| Rc::new(Words::Owned(w))))
-                .collect(),
+            poses: vec![Rc::new(Words::Owned(segs.poses))],
+            chunk_len: model.len().max(1),
+            flat: std::cell::OnceCell::new(),
+            geometry: Rc::new(
+                segs.geometry
+                    .into_iter()
+                    .map(|g| g.map(|w| Rc::new(Words::Owned(w))))
+                    .collect(),
+            ),
         }
     }
     /// A process-local copy of this snapshot in which the objects of `overrides` have the
@@ -152,28 +163,29 @@ impl Snapshot {
     /// (link poses relative to the robot) — sharing the objects segment and the geometry with
     /// this one. Ids the snapshot does not hold are ignored. O(objects) to copy the poses.
     pub fn with_poses(&self, overrides: &[PoseRec]) -> Snapshot {
-        let mut words = self.poses.words().to_vec();
-        let seg = Self::seg(&self.poses);
-        if let Ok(poses) = seg.section::<PoseRec>(1) {
-            let off = (poses.as_ptr() as usize - self.poses.words().as_ptr() as usize) / 8;
-            let n = std::mem::size_of_val(poses) / 8;
-            if let Some(dst) = words.get_mut(off..off + n) {
-                let recs: &mut [PoseRec] = bytemuck::cast_slice_mut(dst);
-                for o in overrides {
-                    if let Some(i) = self.index_of(o.id)
-                        && let Some(r) = recs.get_mut(i)
-                    {
-                        r.pose = o.pose;
-                        r.joint = o.joint;
-                    }
-                }
+        let mut recs = self.poses().to_vec();
+        for o in overrides {
+            if let Some(i) = self.index_of(o.id)
+                && let Some(r) = recs.get_mut(i)
+            {
+                r.pose = o.pose;
+                r.joint = o.joint;
             }
         }
+        let header = [crate::encode::pose_chunk_header(
+            self.epoch,
+            self.version,
+            0,
+            recs.len(),
+        )];
+        let words = crate::encode::pose_chunk_writer(&header, &recs).to_vec();
         Snapshot {
             version: self.version,
             epoch: self.epoch,
             objects: self.objects.clone(),
-            poses: Rc::new(Words::Owned(words)),
+            poses: vec![Rc::new(Words::Owned(words))],
+            chunk_len: recs.len().max(1),
+            flat: std::cell::OnceCell::new(),
             geometry: self.geometry.clone(),
         }
     }
@@ -201,9 +213,30 @@ impl Snapshot {
     pub fn objects(&self) -> &[ObjectRec] {
         Self::seg(&self.objects).section(1).unwrap_or(&[])
     }
-    /// Every object's local pose, same order as [`Snapshot::objects`].
+    /// Every object's local pose, same order as [`Snapshot::objects`]. In place when the
+    /// model fits one pose chunk; otherwise the chunks are copied into one array on the first
+    /// call (O(objects), once per snapshot) — [`Snapshot::pose`] reads one record in place.
     pub fn poses(&self) -> &[PoseRec] {
-        Self::seg(&self.poses).section(1).unwrap_or(&[])
+        match self.poses.len() {
+            0 => &[],
+            1 => self.chunk(0),
+            _ => self.flat.get_or_init(|| {
+                let mut v = Vec::with_capacity(self.len());
+                for k in 0..self.poses.len() {
+                    v.extend_from_slice(self.chunk(k));
+                }
+                v
+            }),
+        }
+    }
+    /// The local pose of object `i`, in place. Panics if `i` is out of range, like indexing.
+    pub fn pose(&self, i: usize) -> &PoseRec {
+        &self.chunk(i / self.chunk_len)[i % self.chunk_len]
+    }
+    fn chunk(&self, k: usize) -> &[PoseRec] {
+        self.poses
+            .get(k)
+            .map_or(&[], |c| Self::seg(c).section(1).unwrap_or(&[]))
     }
     pub fn name(&self, i: usize) -> &str {
         let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
@@ -228,7 +261,7 @@ impl Snapshot {
     pub fn object(&self, i: usize) -> ObjectView<'_> {
         ObjectView {
             rec: &self.objects()[i],
-            pose: &self.poses()[i],
+            pose: self.pose(i),
             name: self.name(i),
         }
     }
@@ -258,14 +291,14 @@ impl Snapshot {
     /// Pose of object `i` in the world: the product of local poses up the parent chain,
     /// 3×4 row-major.
     pub fn world_pose(&self, i: usize) -> [f64; 12] {
-        let mut m = self.poses()[i].pose;
+        let mut m = self.pose(i).pose;
         let mut parent = self.objects()[i].parent;
         let mut guard = self.len();
         while parent != 0 && guard > 0 {
             let Some(p) = self.index_of(parent) else {
                 break;
             };
-            m = compose(&self.poses()[p].pose, &m);
+            m = compose(&self.pose(p).pose, &m);
             parent = self.objects()[p].parent;
             guard -= 1;
         }
@@ -294,6 +327,13 @@ fn unreachable_segment() -> Segment<'static> {
     Segment::parse(&EMPTY).unwrap_or_else(|_| unreachable_segment())
 }
 
+struct ChunkSub {
+    sub: Sub,
+    latest: Option<Rc<Words>>,
+    epoch: u64,
+    generation: u64,
+}
+
 struct GeomSub {
     sub: Sub,
     latest: Option<Rc<Words>>,
@@ -310,6 +350,8 @@ pub struct Reader {
     listener: iceoryx2::port::listener::Listener<ipc::Service>,
     hello: iceoryx2::port::notifier::Notifier<ipc::Service>,
     geometry: HashMap<Id, GeomSub>,
+    /// Subscriptions to the pose chunks, by chunk index.
+    chunks: Vec<ChunkSub>,
     latest_objects: Option<Rc<Words>>,
     current: Option<Rc<Snapshot>>,
     log: VecDeque<Change>,
@@ -378,6 +420,7 @@ impl Reader {
             listener,
             hello,
             geometry: HashMap::new(),
+            chunks: Vec::new(),
             latest_objects: None,
             current: None,
             log: VecDeque::new(),
@@ -428,15 +471,51 @@ impl Reader {
 
     /// Assembles the newest published version if there is one; returns whether it advanced.
     pub fn refresh(&mut self) -> Result<bool, ReaderError> {
-        // The poses segment is the head: the keeper publishes it last in every commit.
+        // The poses head: the keeper publishes it last in every commit, after the objects
+        // segment, the geometry and the pose chunks it names.
         let mut head: Option<Sample> = None;
         while let Some(s) = self.poses.receive().map_err(ipc("receive poses"))? {
             head = Some(s);
         }
-        let Some(head) = head else { return Ok(false) };
+        let Some(mut head) = head else {
+            return Ok(false);
+        };
+        let deadline = Instant::now() + self.timeout;
+        loop {
+            if let Some(snapshot) = self.assemble(&head, deadline)? {
+                self.current = Some(Rc::new(snapshot));
+                return Ok(true);
+            }
+            // Something newer than this head was published: a newer head follows (the keeper
+            // publishes the head last, microseconds later). Let go of this one and take the
+            // newest. A keeper killed between the two never sends it: after a grace second the
+            // snapshot stays where it was (`false`), as when nothing new was published.
+            drop(head);
+            let grace = Instant::now() + self.timeout.min(Duration::from_secs(1));
+            head = loop {
+                let mut newest = None;
+                while let Some(s) = self.poses.receive().map_err(ipc("receive poses"))? {
+                    newest = Some(s);
+                }
+                if let Some(s) = newest {
+                    break s;
+                }
+                if Instant::now() > grace {
+                    return Ok(false);
+                }
+                std::thread::sleep(Duration::from_micros(50));
+            };
+        }
+    }
+
+    /// The snapshot of the version `head` names, or `None` if a part newer than it was found.
+    fn assemble(
+        &mut self,
+        head: &Sample,
+        deadline: Instant,
+    ) -> Result<Option<Snapshot>, ReaderError> {
         let h: PosesHeader = *Segment::parse(head.payload())?.record::<PosesHeader>(0)?;
         // The objects segment the head is indexed against; it was published before the head.
-        let deadline = Instant::now() + self.timeout;
         loop {
             if let Some(o) = &self.latest_objects {
                 let oh: ObjectsHeader = *Segment::parse(o.words())?.record::<ObjectsHeader>(0)?;
@@ -444,8 +523,8 @@ impl Reader {
                     break;
                 }
                 if oh.version > h.structure_version && oh.epoch == h.epoch {
-                    // Structure moved on after this head: a newer head follows; take it.
-                    return self.refresh();
+                    // Structure moved on after this head.
+                    return Ok(None);
                 }
             }
             match self.objects.receive().map_err(ipc("receive objects"))? {
@@ -460,6 +539,25 @@ impl Reader {
             .latest_objects
             .clone()
             .ok_or(ReaderError::Timeout(self.timeout))?;
+        // Same objects segment as the current snapshot (a pose-only change): same geometry.
+        if let Some(cur) = &self.current
+            && Rc::ptr_eq(&cur.objects, &objects)
+        {
+            let geometry = cur.geometry.clone();
+            let n = cur.len();
+            let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
+                return Ok(None);
+            };
+            return Ok(Some(Snapshot {
+                version: h.version,
+                epoch: h.epoch,
+                objects,
+                poses,
+                chunk_len: (h.chunk_len as usize).max(1),
+                flat: std::cell::OnceCell::new(),
+                geometry,
+            }));
+        }
         let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.words())?
             .section::<ObjectRec>(1)?
             .iter()
@@ -521,7 +619,7 @@ impl Reader {
                         g.latest = Some(Rc::new(Words::Shared(s)));
                         if gh.generation > generation {
                             // Geometry newer than this head: a newer head follows.
-                            return self.refresh();
+                            return Ok(None);
                         }
                     }
                     None if Instant::now() > deadline => {
@@ -544,14 +642,116 @@ impl Reader {
         let live: std::collections::HashSet<Id> =
             recs.iter().filter(|r| r.2).map(|r| r.0).collect();
         self.geometry.retain(|id, _| live.contains(id));
-        self.current = Some(Rc::new(Snapshot {
+        let Some(poses) = self.collect_pose_chunks(head, &h, recs.len(), deadline)? else {
+            // A chunk newer than this head: a newer head follows.
+            return Ok(None);
+        };
+        Ok(Some(Snapshot {
             version: h.version,
             epoch: h.epoch,
             objects,
-            poses: Rc::new(Words::Shared(head)),
-            geometry,
-        }));
-        Ok(true)
+            poses,
+            chunk_len: (h.chunk_len as usize).max(1),
+            flat: std::cell::OnceCell::new(),
+            geometry: Rc::new(geometry),
+        }))
+    }
+
+    /// The pose chunks the head names, each at the generation the head gives: chunks this
+    /// reader already holds at that generation are reused, the others received (only those
+    /// changed since this reader's last snapshot). `None` when a chunk is newer than the head.
+    fn collect_pose_chunks(
+        &mut self,
+        head: &Sample,
+        h: &PosesHeader,
+        objects: usize,
+        deadline: Instant,
+    ) -> Result<Option<Vec<Rc<Words>>>, ReaderError> {
+        let gens: Vec<u64> = Segment::parse(head.payload())?.section::<u64>(1)?.to_vec();
+        let n = h.count as usize;
+        let chunk_len = h.chunk_len as usize;
+        if chunk_len == 0 || n != objects || gens.len() != n.div_ceil(chunk_len) {
+            return Err(LayoutError::Section(1).into());
+        }
+        let mut opened = false;
+        while self.chunks.len() < gens.len() {
+            let k = self.chunks.len();
+            let svc = self
+                .node
+                .service_builder(&self.session.service(&services::pose_chunk(k))?)
+                .publish_subscribe::<[u64]>()
+                .open()
+                .map_err(ipc(format!("open pose chunk {k}")))?;
+            let sub = svc
+                .subscriber_builder()
+                .create()
+                .map_err(ipc(format!("subscribe pose chunk {k}")))?;
+            self._services.push(Box::new(svc));
+            self.chunks.push(ChunkSub {
+                sub,
+                latest: None,
+                epoch: 0,
+                generation: 0,
+            });
+            opened = true;
+        }
+        self.chunks.truncate(gens.len());
+        let mut said_hello = false;
+        if opened {
+            // New subscribers: ask the keeper to deliver their history now.
+            let _ = self
+                .hello
+                .notify_with_custom_event_id(EventId::new(events::HELLO));
+            said_hello = true;
+        }
+        let mut out = Vec::with_capacity(gens.len());
+        for (k, &generation) in gens.iter().enumerate() {
+            let c = &mut self.chunks[k];
+            while !(c.epoch == h.epoch && c.generation == generation) {
+                match c
+                    .sub
+                    .receive()
+                    .map_err(ipc(format!("receive pose chunk {k}")))?
+                {
+                    Some(s) => {
+                        let ch: PoseChunkHeader =
+                            *Segment::parse(s.payload())?.record::<PoseChunkHeader>(0)?;
+                        c.epoch = ch.epoch;
+                        c.generation = ch.generation;
+                        c.latest = Some(Rc::new(Words::Shared(s)));
+                        if ch.epoch > h.epoch || (ch.epoch == h.epoch && ch.generation > generation)
+                        {
+                            return Ok(None);
+                        }
+                    }
+                    None if Instant::now() > deadline => {
+                        return Err(ReaderError::Timeout(self.timeout));
+                    }
+                    None => {
+                        if !said_hello {
+                            let _ = self
+                                .hello
+                                .notify_with_custom_event_id(EventId::new(events::HELLO));
+                            said_hello = true;
+                        }
+                        std::thread::sleep(Duration::from_micros(50));
+                    }
+                }
+            }
+            let latest = c.latest.clone().ok_or(ReaderError::Timeout(self.timeout))?;
+            let seg = Segment::parse(latest.words())?;
+            let ch: PoseChunkHeader = *seg.record(0)?;
+            let first = k * chunk_len;
+            let count = chunk_len.min(n - first);
+            if ch.first as usize != first
+                || ch.count as usize != count
+                || seg.section::<PoseRec>(1)?.len() != count
+            {
+                return Err(LayoutError::Section(1).into());
+            }
+            out.push(latest);
+        }
+        Ok(Some(out))
     }
 
     fn drain_changes(&mut self) -> Result<Vec<Change>, ReaderError> {

@@ -202,7 +202,7 @@ impl Snapshot {
                             theta,
                             offset,
                             qlim,
-                            q: self.poses()[k].joint,
+                            q: self.pose(k).joint,
                             mass: o.dynamics(),
                         },
                     )),

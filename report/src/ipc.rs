@@ -56,13 +56,13 @@ pub fn sphere_geometry(n: usize, radius: f64) -> GeometryInput {
     GeometryInput { vertices, polygons }
 }
 
-struct KeeperProc {
+pub(crate) struct KeeperProc {
     child: Child,
-    session: Session,
+    pub(crate) session: Session,
 }
 
 impl KeeperProc {
-    fn start(name: &str, durable: bool) -> Result<Self> {
+    pub(crate) fn start(name: &str, durable: bool) -> Result<Self> {
         let session = Session::open(Some(name))?;
         let _ = std::fs::remove_dir_all(session.data_dir());
         let session = Session::open(Some(name))?;
@@ -77,7 +77,11 @@ impl KeeperProc {
             .spawn()?;
         let start = Instant::now();
         while Client::connect(&session, "bench-probe").is_err() {
-            if start.elapsed() > Duration::from_secs(30) {
+            if start.elapsed() > Duration::from_secs(60) {
+                let mut child = child;
+                let _ = child.kill();
+                let _ = child.wait();
+                let _ = std::fs::remove_dir_all(session.dir());
                 bail!("keeper for {name} did not start");
             }
             std::thread::sleep(Duration::from_millis(20));
@@ -114,7 +118,8 @@ fn build(client: &mut Client, objects: usize, verts_each: usize) -> Result<u64> 
     Ok(first)
 }
 
-fn stats(mut v: Vec<f64>) -> (f64, f64, f64) {
+/// Mean, p50 and p99.
+pub(crate) fn stats(mut v: Vec<f64>) -> (f64, f64, f64) {
     let mean = v.iter().sum::<f64>() / v.len().max(1) as f64;
     (mean, percentile(&mut v, 50.0), percentile(&mut v, 99.0))
 }
@@ -337,6 +342,6 @@ pub fn latency_reader(session: &str, count: usize, out: &Path) -> Result<()> {
 }
 
 /// The `robosim` binary that runs the keeper and reader processes: this process's own.
-fn bin() -> std::io::Result<PathBuf> {
+pub(crate) fn bin() -> std::io::Result<PathBuf> {
     std::env::current_exe()
 }

@@ -14,6 +14,7 @@
 //! * [`automation::report_diag`] — `robosim report diag`: diagnosis time and resolution;
 //! * [`ipc`] — `robosim bench ipc`: the Instance Space's costs (snapshot access, pose
 //!   transactions, notification latency, journaled throughput), across real processes;
+//! * [`scale`] — `robosim bench scale`: what a one-body change costs at 10²…10⁵ objects;
 //! * [`journal`] — `robosim bench journal`: what the journal's second copy costs;
 //! * [`cli`] — the clap arguments and runners of `robosim report ik|collision`;
 //! * [`font`] — the bundled font plots and the display's status line are drawn with.
@@ -30,5 +31,6 @@ pub mod journal;
 pub mod library;
 pub mod plot;
 pub mod progress;
+pub mod scale;
 
 pub use plot::{Plot, Report, ReportError, Series, Table, percentile, write_report};

@@ -1,0 +1,264 @@
+//! `robosim bench scale`: does a one-body change cost the same at 10², 10³, 10⁴ and 10⁵
+//! objects? For each size, in one run, against a keeper process of its own:
+//!
+//! * the keeper's time per one-body pose transaction, end to end (client → keeper → apply →
+//!   publish → acknowledge), without the journal's fsync (which does not depend on the model's
+//!   size and would hide what does);
+//! * a reader following that change (`wait_change`: drain the change record and assemble the
+//!   new snapshot), in this process;
+//! * change-notification latency keeper → a reader blocked in another process;
+//! * a late joiner's `Reader::attach` (the whole model, first snapshot).
+//!
+//! Figures are reported with their ratio to the 10² model of the same run (the goal is each
+//! within 1.5×). Bodies are solids without geometry, so the pose path is measured alone (each
+//! object with geometry has a geometry service of its own, a cost of its own).
+
+use crate::ipc::{KeeperProc, Result, bin, stats};
+use robosim_instance_space::layout::{POSE_CHUNK, PoseRec};
+use robosim_instance_space::{Client, IDENTITY, Kind, Reader, Transaction};
+use std::fmt::Write as _;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+macro_rules! bail {
+    ($($t:tt)*) => { return Err(format!($($t)*).into()) };
+}
+
+/// Model sizes (bodies, besides the scene).
+pub const SIZES: [usize; 4] = [100, 1_000, 10_000, 100_000];
+
+/// A scene of `n` solids without geometry, created 1,000 per transaction; returns the id of the
+/// middle one.
+fn build(client: &mut Client, n: usize) -> Result<u64> {
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scale", None);
+    let scene = client.transact(&tx)?.created[0];
+    let mut middle = 0;
+    let mut k = 0;
+    while k < n {
+        let mut tx = Transaction::new();
+        let end = (k + 1_000).min(n);
+        for j in k..end {
+            tx.create(Kind::Solid, &format!("body{j}"), Some(scene.into()));
+        }
+        let c = client.transact(&tx)?;
+        if (k..end).contains(&(n / 2)) {
+            middle = c.created[n / 2 - k];
+        }
+        k = end;
+    }
+    Ok(middle)
+}
+
+fn pose_tx(body: u64, k: usize) -> Transaction {
+    let mut tx = Transaction::new();
+    let mut pose = IDENTITY;
+    pose[3] = k as f64 * 1e-3;
+    tx.set_pose(body, pose);
+    tx
+}
+
+/// Bytes the keeper copies into shared memory for a one-body pose transaction at `n` objects:
+/// now (one pose chunk and the head) and with the whole head of before (every pose).
+fn published_bytes(n: usize) -> (usize, usize) {
+    let rec = std::mem::size_of::<PoseRec>();
+    // A segment: 2 words, 2 words per section, the sections rounded up to words.
+    let head = 8 * (2 + 4 + 5 + n.div_ceil(POSE_CHUNK));
+    let chunk = 8 * (2 + 4 + 4) + POSE_CHUNK.min(n) * rec;
+    let whole = 8 * (2 + 4 + 4) + n * rec;
+    (head + chunk, whole)
+}
+
+struct Row {
+    n: usize,
+    tx: (f64, f64, f64),
+    follow: (f64, f64, f64),
+    notify: (f64, f64, f64),
+    attach: (f64, f64, f64),
+}
+
+/// Runs the bench and writes `scale.md` and `scale.csv` into `out`.
+pub fn run(out: &Path, quick: bool) -> Result<()> {
+    let tx_reps = if quick { 300 } else { 3_000 };
+    let lat_count = if quick { 300 } else { 2_000 };
+    let attach_reps = if quick { 3 } else { 10 };
+    let pid = std::process::id();
+    let mut rows = Vec::new();
+    for n in SIZES {
+        // Short session names: iceoryx2 limits the length of the names derived from them.
+        let kp = KeeperProc::start(&format!("sc{pid}n{n}"), false)?;
+        let mut client = Client::connect(&kp.session, "scale-writer")?;
+        let body = build(&mut client, n)?;
+        let mut follower = Reader::attach(&kp.session, "scale-follower")?;
+        // Warm-up: first touch of shared-memory pages is not what this measures.
+        for k in 0..200 {
+            client.transact(&pose_tx(body, k))?;
+            follower.wait_change(Duration::from_secs(5))?;
+        }
+        let mut tx_us = Vec::with_capacity(tx_reps);
+        let mut follow_us = Vec::with_capacity(tx_reps);
+        for k in 0..tx_reps {
+            let tx = pose_tx(body, k + 1);
+            let t = Instant::now();
+            let c = client.transact(&tx)?;
+            tx_us.push(t.elapsed().as_nanos() as f64 / 1e3);
+            let t = Instant::now();
+            let changes = follower.wait_change(Duration::from_secs(5))?;
+            follow_us.push(t.elapsed().as_nanos() as f64 / 1e3);
+            let snap = follower.snapshot().ok_or("no snapshot")?;
+            if changes.last().map(|c| c.version) != Some(c.version) || snap.version() != c.version {
+                bail!(
+                    "the follower did not reach version {} at {n} bodies",
+                    c.version
+                );
+            }
+            let i = snap.index_of(body).ok_or("body missing")?;
+            if snap.pose(i).pose[3] != tx_pose_x(k + 1) {
+                bail!("the follower's snapshot has a stale pose at {n} bodies");
+            }
+        }
+
+        // Notification latency: a reader process blocked in wait_event.
+        let lat_path = std::env::temp_dir().join(format!("robosim-scale-lat-{pid}-{n}.txt"));
+        let mut reader = Command::new(bin()?)
+            .args([
+                "bench",
+                "ipc-reader",
+                "--session",
+                kp.session.name(),
+                "--count",
+                &lat_count.to_string(),
+                "--out",
+            ])
+            .arg(&lat_path)
+            .stdout(Stdio::piped())
+            .spawn()?;
+        let mut line = String::new();
+        use std::io::BufRead;
+        if let Some(o) = reader.stdout.as_mut() {
+            std::io::BufReader::new(o).read_line(&mut line)?;
+        }
+        for k in 0..lat_count {
+            client.transact(&pose_tx(body, k))?;
+            follower.wait_change(Duration::from_secs(5))?;
+            // Let the reader block again, so every sample is a wake-up from sleep.
+            std::thread::sleep(Duration::from_micros(300));
+        }
+        let status = reader.wait()?;
+        if !status.success() {
+            bail!("latency reader failed at {n} bodies: {status}");
+        }
+        let text = std::fs::read_to_string(&lat_path)?;
+        let _ = std::fs::remove_file(&lat_path);
+        let lat: Vec<f64> = text.lines().filter_map(|l| l.parse().ok()).collect();
+
+        // Late joiners.
+        let mut attach_ms = Vec::with_capacity(attach_reps);
+        for _ in 0..attach_reps {
+            let t = Instant::now();
+            let r = Reader::attach(&kp.session, "scale-joiner")?;
+            attach_ms.push(t.elapsed().as_nanos() as f64 / 1e6);
+            let len = r.snapshot().map_or(0, |s| s.len());
+            if len != n + 1 {
+                bail!("a late joiner saw {len} objects, not {}", n + 1);
+            }
+        }
+        rows.push(Row {
+            n,
+            tx: stats(tx_us),
+            follow: stats(follow_us),
+            notify: stats(lat),
+            attach: stats(attach_ms),
+        });
+    }
+    write(out, quick, &rows)
+}
+
+fn tx_pose_x(k: usize) -> f64 {
+    k as f64 * 1e-3
+}
+
+fn write(out: &Path, quick: bool, rows: &[Row]) -> Result<()> {
+    let base = &rows[0];
+    let mut md = String::new();
+    let mut csv = String::from("measure,bodies,value,unit\n");
+    writeln!(
+        md,
+        "# Costs that follow the change (`robosim bench scale{}`)\n",
+        if quick { " --quick" } else { "" }
+    )
+    .ok();
+    writeln!(md, "Measured on this machine (2 cores, shared), one run; ratios are to the 10² model of the same run (goal: each ≤ 1.5 at 10⁵). Bodies are solids without geometry under one scene; one body in the middle is moved by one `SetPose` transaction at a time. The keeper runs without the journal's fsync (a constant ≈ 130 µs here, docs/bench/ipc.md (d)) so that what grows with the model is not hidden.\n").ok();
+    writeln!(md, "* **pose tx**: `Client::transact`, end to end through the keeper process (apply, publish one pose chunk of {POSE_CHUNK} records and the head, acknowledge);").ok();
+    writeln!(md, "* **reader follows**: `Reader::wait_change` right after the acknowledgement, in this process: drain the change record and assemble the new snapshot (receive the one changed chunk; reuse the others);").ok();
+    writeln!(md, "* **notify**: keeper's publish stamp → a reader process blocked in `wait_event` wakes (CLOCK_MONOTONIC);").ok();
+    writeln!(
+        md,
+        "* **attach**: a late joiner's `Reader::attach` until its first snapshot (the whole model);"
+    )
+    .ok();
+    writeln!(md, "* **bytes published**: what the keeper copies into shared memory per one-body pose transaction, computed from the layout — now, and with the whole pose head republished per commit as before.\n").ok();
+    writeln!(md, "| bodies | pose tx mean / p99 (µs) | ×10² | reader follows mean / p99 (µs) | ×10² | notify p50 / p99 (µs) | ×10² (p50) | attach mean (ms) | ×10² | bytes published now / whole head |\n|---|---|---|---|---|---|---|---|---|---|").ok();
+    for r in rows {
+        let (now, whole) = published_bytes(r.n);
+        writeln!(
+            md,
+            "| {} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.2} | {:.2} | {} / {} |",
+            r.n,
+            r.tx.0,
+            r.tx.2,
+            r.tx.0 / base.tx.0,
+            r.follow.0,
+            r.follow.2,
+            r.follow.0 / base.follow.0,
+            r.notify.1,
+            r.notify.2,
+            r.notify.1 / base.notify.1,
+            r.attach.0,
+            r.attach.0 / base.attach.0,
+            now,
+            whole
+        )
+        .ok();
+        for (m, v, u) in [
+            ("pose_tx_mean", r.tx.0, "us"),
+            ("pose_tx_p99", r.tx.2, "us"),
+            ("reader_follow_mean", r.follow.0, "us"),
+            ("reader_follow_p99", r.follow.2, "us"),
+            ("notify_p50", r.notify.1, "us"),
+            ("notify_p99", r.notify.2, "us"),
+            ("attach_mean", r.attach.0, "ms"),
+            ("published_bytes", now as f64, "B"),
+            ("whole_head_bytes", whole as f64, "B"),
+        ] {
+            writeln!(csv, "{m},{},{v:.3},{u}", r.n).ok();
+        }
+    }
+    writeln!(
+        md,
+        "\nRegenerate: `cargo run --release -- bench scale --out docs/bench`."
+    )
+    .ok();
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("scale.md"), &md)?;
+    std::fs::write(out.join("scale.csv"), &csv)?;
+    print!("{md}");
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn published_bytes_follow_the_layout() {
+        // 10⁵ objects: 391 chunks; head 11 + 391 words, chunk 10 words + 256 records.
+        let (now, whole) = published_bytes(100_000);
+        assert_eq!(now, 8 * (11 + 391) + 80 + 256 * 112);
+        assert_eq!(whole, 80 + 100_000 * 112);
+        // A model smaller than a chunk publishes its records once, as before, plus the head.
+        let (now, whole) = published_bytes(100);
+        assert_eq!(now - 8 * 12, whole);
+    }
+}
