@@ -38,9 +38,14 @@ fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
     {}
     let mut q = p.joints("positioner").expect("joints");
     q[0] = 1.0;
-    let v = p.set_joints("positioner", &q).expect("set past the soft limit");
+    let v = p
+        .set_joints("positioner", &q)
+        .expect("set past the soft limit");
     let mut seen = Vec::new();
-    while seen.last().is_none_or(|c: &robosim_hl_interface::planner::ChangeInfo| c.version <= v) {
+    while seen
+        .last()
+        .is_none_or(|c: &robosim_hl_interface::planner::ChangeInfo| c.version <= v)
+    {
         let c = p
             .wait_change(Duration::from_secs(20))
             .expect("wait")
@@ -48,7 +53,11 @@ fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
         seen.extend(c.changes);
     }
     let versions: Vec<u64> = seen.iter().map(|c| c.version).collect();
-    assert_eq!(versions, vec![v, v + 1], "ours, then the rule's, nothing between");
+    assert_eq!(
+        versions,
+        vec![v, v + 1],
+        "ours, then the rule's, nothing between"
+    );
     assert_eq!(seen[1].names[0], "waist");
     let after = p.snapshot().expect("snapshot");
     assert_eq!(after.version(), v + 1);
@@ -68,6 +77,10 @@ fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
     k.start_keeper(&[]);
     let mut p = Planner::attach_to(&k.session()).expect("attach again");
     let snap = p.snapshot().expect("snapshot");
-    assert_eq!(snap.version(), v + 1, "the rule's transaction was journaled");
+    assert_eq!(
+        snap.version(),
+        v + 1,
+        "the rule's transaction was journaled"
+    );
     assert_eq!(p.joints("positioner").expect("joints")[0], 0.8);
 }

@@ -286,9 +286,7 @@ impl Planner {
             if done >= want && left == 0 {
                 return Ok(s);
             }
-            if s.get("running").and_then(Value::as_bool) == Some(false)
-                && left == 0
-                && done < want
+            if s.get("running").and_then(Value::as_bool) == Some(false) && left == 0 && done < want
             {
                 // The daemon paused itself (a failed step) or was reset: the steps will not come.
                 return Err(session_err(format!(
@@ -340,7 +338,10 @@ fn pose_from_json(v: &Value, at: &str) -> Result<robosim_instance_space::Pose> {
         .as_array()
         .ok_or_else(|| bad(format!("{at}: a pose is a 4×4 or 3×4 array of rows")))?;
     if !(rows.len() == 3 || rows.len() == 4) {
-        return Err(bad(format!("{at}: a pose has 3 or 4 rows, got {}", rows.len())));
+        return Err(bad(format!(
+            "{at}: a pose has 3 or 4 rows, got {}",
+            rows.len()
+        )));
     }
     let mut m = [0.0; 12];
     for (r, row) in rows.iter().enumerate() {

@@ -90,9 +90,9 @@ fn to_json(py: Python<'_>, v: &Bound<'_, PyAny>, at: &str) -> PyResult<Value> {
     }
     if v.is_instance_of::<PyFloat>() {
         let x: f64 = v.extract()?;
-        return Number::from_f64(x).map(Value::Number).ok_or_else(|| {
-            bad_request(py, format!("{at}: {x} is not a finite number"))
-        });
+        return Number::from_f64(x)
+            .map(Value::Number)
+            .ok_or_else(|| bad_request(py, format!("{at}: {x} is not a finite number")));
     }
     if let Ok(s) = v.cast::<PyString>() {
         return Ok(Value::String(s.to_cow()?.into_owned()));
@@ -169,7 +169,11 @@ fn to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
             let rows: Option<Vec<Vec<f64>>> = (!a.is_empty())
                 .then(|| {
                     a.iter()
-                        .map(|r| r.as_array().filter(|r| !r.is_empty()).and_then(|r| numbers(r)))
+                        .map(|r| {
+                            r.as_array()
+                                .filter(|r| !r.is_empty())
+                                .and_then(|r| numbers(r))
+                        })
                         .collect()
                 })
                 .flatten();
@@ -276,7 +280,10 @@ impl Snapshot {
         let i = self.snap.find(name).ok_or_else(|| {
             raise(
                 py,
-                ProtocolError::new(ErrorKind::UnknownObject, format!("no object named {name:?}")),
+                ProtocolError::new(
+                    ErrorKind::UnknownObject,
+                    format!("no object named {name:?}"),
+                ),
             )
         })?;
         pose_array(py, &self.snap.world_pose(i))
@@ -474,7 +481,10 @@ impl Sim {
         q: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let q = vector(py, q, "q")?;
-        self.command(py, serde_json::json!({"cmd": "target", "robot": robot, "q": q}))
+        self.command(
+            py,
+            serde_json::json!({"cmd": "target", "robot": robot, "q": q}),
+        )
     }
 
     /// Applies joint torques / forces (N·m / N) to `robot` while stepping.
@@ -485,7 +495,10 @@ impl Sim {
         tau: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let tau = vector(py, tau, "tau")?;
-        self.command(py, serde_json::json!({"cmd": "torque", "robot": robot, "tau": tau}))
+        self.command(
+            py,
+            serde_json::json!({"cmd": "torque", "robot": robot, "tau": tau}),
+        )
     }
 
     fn pause<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {

@@ -41,7 +41,11 @@ fn pytest_suite_passes_against_real_sessions() {
     let dir = profile_dir();
     let lib = dir.join("lib_robosim.so");
     let bin = dir.join("robosim");
-    assert!(lib.is_file(), "{} is missing: build the workspace", lib.display());
+    assert!(
+        lib.is_file(),
+        "{} is missing: build the workspace",
+        lib.display()
+    );
     assert!(
         bin.is_file(),
         "{} is missing: `cargo build --workspace` (the suite starts real sessions)",

@@ -74,10 +74,7 @@ pub enum RulesError {
 
 /// A name as a CLIPS symbol when it is one, else as a string.
 fn sym(name: &str) -> String {
-    let ok = name
-        .chars()
-        .next()
-        .is_some_and(|c| c.is_ascii_alphabetic())
+    let ok = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
         && name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
@@ -97,7 +94,10 @@ pub struct Mirror {
 
 impl Mirror {
     /// The facts the session holds now.
-    pub fn facts_of(p: &mut Planner, sim: Option<&Value>) -> Result<Vec<(String, String, String)>, ProtocolError> {
+    pub fn facts_of(
+        p: &mut Planner,
+        sim: Option<&Value>,
+    ) -> Result<Vec<(String, String, String)>, ProtocolError> {
         let snap = p.snapshot()?;
         let mut out = Vec::new();
         let retract_one = |template: &str, cond: String| {
@@ -137,7 +137,10 @@ impl Mirror {
                         num(j.qlim[0]),
                         num(j.qlim[1])
                     ),
-                    retract_one("joint", format!("(and (eq ?f:robot {rn}) (= ?f:index {k}))")),
+                    retract_one(
+                        "joint",
+                        format!("(and (eq ?f:robot {rn}) (= ?f:index {k}))"),
+                    ),
                 ));
             }
         }
@@ -170,8 +173,12 @@ impl Mirror {
                 ),
                 retract_one("sim-robot", format!("(eq ?f:name {rn})")),
             ));
-            let retract_alarm =
-                |kind: &str| retract_one("alarm", format!("(and (eq ?f:source {rn}) (eq ?f:kind {kind}))"));
+            let retract_alarm = |kind: &str| {
+                retract_one(
+                    "alarm",
+                    format!("(and (eq ?f:source {rn}) (eq ?f:kind {kind}))"),
+                )
+            };
             if contact {
                 out.push((
                     format!("alarm {rn} contact"),
@@ -185,7 +192,10 @@ impl Mirror {
             if let Some(e) = error {
                 out.push((
                     format!("alarm {rn} step-error"),
-                    format!("(alarm (source {rn}) (kind step-error) (message {}))", quote(e)),
+                    format!(
+                        "(alarm (source {rn}) (kind step-error) (message {}))",
+                        quote(e)
+                    ),
                     retract_alarm("step-error"),
                 ));
             }
@@ -239,11 +249,7 @@ fn number(args: &[Arg], i: usize, what: &str) -> Result<f64, String> {
 
 /// What `(robosim COMMAND ARGS…)` does (module docs). `answers` collects the facts to assert
 /// for `query` answers (asserted by the caller after the call returns).
-pub fn call(
-    p: &mut Planner,
-    args: &[Arg],
-    answers: &mut Vec<String>,
-) -> Result<i64, String> {
+pub fn call(p: &mut Planner, args: &[Arg], answers: &mut Vec<String>) -> Result<i64, String> {
     let command = text(args, 0, "the command")?;
     let e = |e: ProtocolError| e.to_string();
     let json_arg = |i: usize| -> Result<Value, String> {
@@ -269,10 +275,7 @@ pub fn call(
                 .collect::<Result<Vec<_>, _>>()?;
             p.set_joints(&robot, &q).map(|v| v as i64).map_err(e)
         }
-        "transact" => p
-            .transact_json(&json_arg(1)?)
-            .map(|v| v as i64)
-            .map_err(e),
+        "transact" => p.transact_json(&json_arg(1)?).map(|v| v as i64).map_err(e),
         "query" => {
             let req = json_arg(1)?;
             let answer = p.query(&req).map_err(e)?;
