@@ -72,6 +72,9 @@ pub struct ChangeInfo {
 pub struct Changes {
     /// The newest version among them.
     pub version: u64,
+    /// Some commits between the last return and these were not seen (the reader's change log
+    /// had moved on); the snapshot is current all the same.
+    pub lost: bool,
     pub changes: Vec<ChangeInfo>,
 }
 
@@ -169,11 +172,21 @@ impl Planner {
         let seen = self.seen;
         let r = self.ops.reader_mut();
         let lost = |e: robosim_instance_space::ReaderError| session_err(e.to_string());
-        let mut changes = r.changes_since(seen).map_err(lost)?;
+        // A planner that did not look for a long while may have missed change records (the
+        // reader's log is bounded): it gets what is still known, marked `lost`.
+        let mut missed = false;
+        let mut since = |r: &mut robosim_instance_space::Reader| match r.changes_since(seen) {
+            Err(robosim_instance_space::ReaderError::ChangesLost { oldest, .. }) => {
+                missed = true;
+                r.changes_since(oldest.saturating_sub(1)).map_err(lost)
+            }
+            other => other.map_err(lost),
+        };
+        let mut changes = since(r)?;
         if changes.is_empty() && !timeout.is_zero() {
             r.wait_change(timeout.max(Duration::from_millis(1)))
                 .map_err(lost)?;
-            changes = r.changes_since(seen).map_err(lost)?;
+            changes = since(r)?;
         }
         if !changes.is_empty() {
             r.refresh().map_err(lost)?;
@@ -191,6 +204,7 @@ impl Planner {
         };
         Ok(Some(Changes {
             version,
+            lost: missed,
             changes: changes
                 .into_iter()
                 .map(|c| ChangeInfo {

@@ -14,6 +14,8 @@ import pytest
 import robosim
 
 ROBOT = "positioner"
+# Child planners import the same package this suite runs with.
+PKG_PATH = os.path.dirname(os.path.dirname(os.path.abspath(robosim.__file__)))
 
 
 def test_attaching_to_a_missing_session_raises_a_clear_error(lab):
@@ -205,7 +207,7 @@ def test_a_planner_killed_with_sigkill_leaves_the_session_intact(lab):
     child = subprocess.Popen(
         [sys.executable, "-c", PLANNER, lab.name],
         stdout=subprocess.PIPE,
-        env=dict(os.environ, ROBOSIM_HOME=lab.home),
+        env=dict(os.environ, ROBOSIM_HOME=lab.home, PYTHONPATH=PKG_PATH),
     )
     try:
         assert child.stdout.readline().strip() == b"attached"
@@ -225,3 +227,19 @@ def test_a_planner_killed_with_sigkill_leaves_the_session_intact(lab):
     assert other.snapshot().version == v
     assert other.sim.step(1)["queued_steps"] == 0
     assert s.query({"op": "check", "robot": ROBOT})["status"] in ("clear", "contact")
+
+
+def test_the_surgical_planner_example_reaches_targets_on_the_head(lab):
+    lab.attach()
+    here = os.path.dirname(os.path.abspath(__file__))
+    example = os.path.join(here, "..", "examples", "surgical_planner.py")
+    out = subprocess.run(
+        [sys.executable, example, "--session", lab.name],
+        capture_output=True,
+        text=True,
+        env=dict(os.environ, ROBOSIM_HOME=lab.home, PYTHONPATH=PKG_PATH),
+        timeout=300,
+    )
+    assert out.returncode == 0, out.stdout + out.stderr
+    assert "targets reached" in out.stdout
+    assert "back home: done" in out.stdout
