@@ -95,6 +95,12 @@ enum Command {
         #[arg(long)]
         record: Option<std::path::PathBuf>,
     },
+    /// Run a CLIPS rule base on a session: the Instance Space, simulator and alarms as facts on
+    /// every change; rules write through (robosim …) (docs/rules.md).
+    Rules {
+        /// The rule file (.clp), e.g. hl-interface/rules/rulebases/joint_guard.clp
+        file: std::path::PathBuf,
+    },
     /// Send commands to a session's simulator: target, torque, pause, resume, step, reset, get.
     Simctl {
         /// JSON, e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}', or a
@@ -413,6 +419,10 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             robosim_simulator_daemon::run(session, &opts)
                 .map(drop)
                 .map_err(CliError::from)
+        }
+        Command::Rules { file } => {
+            existing(session)?;
+            robosim_rules::run(&file, session).map_err(|e| CliError(e.to_string()))
         }
         Command::Simctl { commands } => {
             existing(session)?;

@@ -42,6 +42,7 @@
 pub mod cli;
 pub mod client;
 mod error;
+pub mod planner;
 pub mod protocol;
 pub mod robot_json;
 pub mod session;
@@ -104,6 +105,16 @@ pub struct Extension<'a> {
 /// An [`Extension`]'s answer function: `(op, whole request)` → its answer object or refusal,
 /// `None` when `op` is not its own.
 pub type ExtensionFn<'a> = dyn FnMut(&str, &Value) -> Option<Result<Value, ProtocolError>> + 'a;
+
+/// Answers one parsed request with `extension`'s ops tried first, as [`serve_with`] does, and
+/// returns the answer object (without `id` and `ok`) or the refusal — for clients that embed
+/// the protocol instead of framing lines (the planner client, [`planner`]).
+pub fn answer_with(
+    req: &Value,
+    extension: Extension<'_>,
+) -> Result<Map<String, Value>, ProtocolError> {
+    answer(req, &mut Some(extension))
+}
 
 /// Answers one request line; the result is one line of JSON without the trailing newline.
 /// Never panics, whatever `line` holds (see the module docs for the error kinds).

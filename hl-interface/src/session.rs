@@ -55,6 +55,16 @@ fn scene_err(e: SceneError) -> ProtocolError {
     err(kind, e.to_string())
 }
 
+/// A writer's failure as the protocol's error: the keeper's refusal is `transaction`, a keeper
+/// that is missing or went away (or any other transport failure) is `session`.
+pub fn client_err(e: robosim_instance_space::ClientError) -> ProtocolError {
+    let kind = match e {
+        robosim_instance_space::ClientError::Refused(_) => ErrorKind::Transaction,
+        _ => ErrorKind::Session,
+    };
+    err(kind, e.to_string())
+}
+
 /// Why a session could not be attached.
 #[derive(Debug, thiserror::Error)]
 pub enum AttachError {
@@ -227,6 +237,41 @@ impl Ops {
         Ok(snap)
     }
 
+    /// The session this attachment belongs to.
+    pub fn session(&self) -> &Session {
+        &self.session
+    }
+
+    /// The reader under the ops (a client waits for changes on it: [`Reader::wait_change`]).
+    pub fn reader_mut(&mut self) -> &mut Reader {
+        &mut self.reader
+    }
+
+    /// The transaction client under the ops (a client sends its own transactions on it).
+    pub fn client_mut(&mut self) -> &mut Client {
+        &mut self.client
+    }
+
+    /// Sets the committed joint values of `robot` (rad / m, in chain order) and the poses of its
+    /// links, in one transaction, without a collision check (that is MOVEJ's); returns the
+    /// acknowledged version. Refused, changing nothing, when `q` has the wrong length, is not
+    /// finite (`bad_request`) or leaves the joint limits (`joint_limit`), or when the keeper
+    /// refuses the transaction (`transaction`).
+    pub fn set_joints(
+        &mut self,
+        robot: &str,
+        q: &[f64],
+    ) -> std::result::Result<u64, ProtocolError> {
+        self.snap()?;
+        let p = self.scene.robot(robot).map_err(scene_err)?.clone();
+        p.robot
+            .check_q(q)
+            .map_err(|e| err(ErrorKind::BadRequest, format!("robot {robot}: {e}")))?;
+        robosim_kinematics::movej_interpolate(&p.robot, q, q, 1)
+            .map_err(|e| err(ErrorKind::JointLimit, format!("robot {robot}: {e}")))?;
+        self.write_q(&p, q)
+    }
+
     /// The compiled scene (as of the last request), e.g. for its counters.
     pub fn compiled(&self) -> &CompiledScene {
         &self.scene
@@ -264,7 +309,7 @@ impl Ops {
         self.client
             .transact(&tx)
             .map(|a| a.version)
-            .map_err(|e| err(ErrorKind::Transaction, e.to_string()))
+            .map_err(client_err)
     }
 
     /// A pure-protocol op (kinematics, dynamics, ...), answered by the same code `serve` uses.

@@ -1,0 +1,358 @@
+//! `robosim rules FILE.clp --session S`: a CLIPS rule base (seed §3.4) on a running session.
+//!
+//! The real CLIPS 6.30 engine ([`clips`], the one module with `unsafe`) runs the rule file.
+//! The session is mirrored into its working memory as facts, brought up to date on every
+//! change of the Instance Space (and whenever the simulator's state changes, polled every
+//! [`POLL`]), and the rules write back through one function, `(robosim COMMAND ARGS…)`.
+//!
+//! Facts (templates in [`TEMPLATES`]; names are symbols):
+//! * `(space (version V))`
+//! * `(robot (name R) (dof N))`, `(joint (robot R) (index I) (name LINK) (q Q) (lo LO) (hi HI))`
+//!   — committed joint values, rad / m;
+//! * `(instance (name O) (kind K))` for every object of the Instance Space (`object` is a
+//!   reserved word in CLIPS);
+//! * `(sim (state running|stepping|paused|none) (t T) (steps N))`,
+//!   `(sim-robot (name R) (contact yes|no) (error nil|"…"))` — the simulator daemon's state;
+//! * `(alarm (source S) (kind K) (message M))` — the alarms of the session: a simulator contact
+//!   (`kind contact`) or step error (`kind step-error`) per robot.
+//!
+//! Only facts whose content changed are retracted and asserted again, so a rule fires on a
+//! change, not on every mirror pass.
+//!
+//! Functions the rules call (each returns an integer: a version, 0, or -1 on failure, when
+//! `(robosim-error (command C) (message M))` is asserted and the message printed):
+//! * `(robosim set-joint R I Q)` — one joint, one transaction; `(robosim set-joints R Q1 … Qn)`;
+//! * `(robosim transact "JSON")` — a transaction in the planner's JSON form
+//!   (`[["set_pose", obj, T], …]`, docs/python.md);
+//! * `(robosim query "JSON")` — any op of the query protocol (MOVEJ, MOVEJI, KINV, CHECK, …);
+//!   its answer is asserted as `(robosim-answer (op OP) (json "…"))`; returns the answer's
+//!   `version` when it has one, else 0;
+//! * `(robosim sim "JSON")` — a simulator command (`{"cmd": "pause"}`, …).
+//!
+//! Rule bases shipped: `hl-interface/rules/rulebases/joint_guard.clp` (soft joint limits
+//! enforced by setting the joint back, contact alarms handled by pausing the simulator and
+//! backing the robot off to its last clear joints). docs/rules.md.
+
+pub mod clips;
+
+use clips::{Arg, Clips, ClipsError, quote};
+use robosim_hl_interface::ProtocolError;
+use robosim_hl_interface::planner::Planner;
+use robosim_instance_space::Session;
+use serde_json::Value;
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::rc::Rc;
+use std::time::Duration;
+
+/// How often the simulator's state is looked at when nothing is committed.
+pub const POLL: Duration = Duration::from_millis(100);
+
+/// The bridge's templates, built before the rule file is loaded.
+pub const TEMPLATES: &[&str] = &[
+    "(deftemplate space (slot version))",
+    "(deftemplate robot (slot name) (slot dof))",
+    "(deftemplate joint (slot robot) (slot index) (slot name) (slot q) (slot lo) (slot hi))",
+    "(deftemplate instance (slot name) (slot kind))",
+    "(deftemplate sim (slot state) (slot t) (slot steps))",
+    "(deftemplate sim-robot (slot name) (slot contact) (slot error))",
+    "(deftemplate alarm (slot source) (slot kind) (slot message))",
+    "(deftemplate robosim-error (slot command) (slot message))",
+    "(deftemplate robosim-answer (slot op) (slot json))",
+];
+
+#[derive(Debug, thiserror::Error)]
+pub enum RulesError {
+    #[error(transparent)]
+    Clips(#[from] ClipsError),
+    #[error("{0}")]
+    Session(#[from] ProtocolError),
+    #[error("session: {0}")]
+    Registry(#[from] robosim_instance_space::SessionError),
+}
+
+/// A name as a CLIPS symbol when it is one, else as a string.
+fn sym(name: &str) -> String {
+    let ok = name.chars().next().is_some_and(|c| c.is_ascii_alphabetic())
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+    if ok { name.to_owned() } else { quote(name) }
+}
+
+fn num(x: f64) -> String {
+    // Debug formatting keeps a decimal point (CLIPS reads `1` as an integer, `1.0` as a float).
+    format!("{x:?}")
+}
+
+/// The mirrored facts: key → (fact text, retraction expression).
+#[derive(Default)]
+pub struct Mirror {
+    facts: BTreeMap<String, (String, String)>,
+}
+
+impl Mirror {
+    /// The facts the session holds now.
+    pub fn facts_of(
+        p: &mut Planner,
+        sim: Option<&Value>,
+    ) -> Result<Vec<(String, String, String)>, ProtocolError> {
+        let snap = p.snapshot()?;
+        let mut out = Vec::new();
+        let retract_one = |template: &str, cond: String| {
+            format!("(do-for-all-facts ((?f {template})) {cond} (retract ?f))")
+        };
+        out.push((
+            "space".into(),
+            format!("(space (version {}))", snap.version()),
+            retract_one("space", "TRUE".into()),
+        ));
+        for i in 0..snap.len() {
+            let name = sym(snap.name(i));
+            let kind = snap
+                .object(i)
+                .kind()
+                .map_or("unknown".to_owned(), |k| format!("{k:?}").to_lowercase());
+            out.push((
+                format!("instance {name}"),
+                format!("(instance (name {name}) (kind {kind}))"),
+                retract_one("instance", format!("(eq ?f:name {name})")),
+            ));
+        }
+        for r in snap.robots() {
+            let rn = sym(r.name);
+            out.push((
+                format!("robot {rn}"),
+                format!("(robot (name {rn}) (dof {}))", r.joints.len()),
+                retract_one("robot", format!("(eq ?f:name {rn})")),
+            ));
+            for (k, j) in r.joints.iter().enumerate() {
+                out.push((
+                    format!("joint {rn} {k}"),
+                    format!(
+                        "(joint (robot {rn}) (index {k}) (name {}) (q {}) (lo {}) (hi {}))",
+                        sym(snap.name(j.index)),
+                        num(j.q),
+                        num(j.qlim[0]),
+                        num(j.qlim[1])
+                    ),
+                    retract_one(
+                        "joint",
+                        format!("(and (eq ?f:robot {rn}) (= ?f:index {k}))"),
+                    ),
+                ));
+            }
+        }
+        let state = sim
+            .and_then(|s| s.get("state").and_then(Value::as_str))
+            .unwrap_or("none");
+        out.push((
+            "sim".into(),
+            format!(
+                "(sim (state {state}) (t {}) (steps {}))",
+                num(sim.and_then(|s| s.get("t_s")?.as_f64()).unwrap_or(0.0)),
+                sim.and_then(|s| s.get("steps")?.as_u64()).unwrap_or(0)
+            ),
+            retract_one("sim", "TRUE".into()),
+        ));
+        for r in sim
+            .and_then(|s| s.get("robots")?.as_array())
+            .into_iter()
+            .flatten()
+        {
+            let rn = sym(r.get("name").and_then(Value::as_str).unwrap_or(""));
+            let contact = r.get("contact").is_some_and(|c| !c.is_null());
+            let error = r.get("error").and_then(Value::as_str);
+            out.push((
+                format!("sim-robot {rn}"),
+                format!(
+                    "(sim-robot (name {rn}) (contact {}) (error {}))",
+                    if contact { "yes" } else { "no" },
+                    error.map_or("nil".into(), quote)
+                ),
+                retract_one("sim-robot", format!("(eq ?f:name {rn})")),
+            ));
+            let retract_alarm = |kind: &str| {
+                retract_one(
+                    "alarm",
+                    format!("(and (eq ?f:source {rn}) (eq ?f:kind {kind}))"),
+                )
+            };
+            if contact {
+                out.push((
+                    format!("alarm {rn} contact"),
+                    format!(
+                        "(alarm (source {rn}) (kind contact) (message {}))",
+                        quote(&r.get("contact").map(Value::to_string).unwrap_or_default())
+                    ),
+                    retract_alarm("contact"),
+                ));
+            }
+            if let Some(e) = error {
+                out.push((
+                    format!("alarm {rn} step-error"),
+                    format!(
+                        "(alarm (source {rn}) (kind step-error) (message {}))",
+                        quote(e)
+                    ),
+                    retract_alarm("step-error"),
+                ));
+            }
+        }
+        Ok(out)
+    }
+
+    /// Brings working memory to `facts`: retracts what went or changed, asserts what is new
+    /// or changed. Returns how many facts were asserted.
+    pub fn update(
+        &mut self,
+        clips: &mut Clips,
+        facts: Vec<(String, String, String)>,
+    ) -> Result<usize, ClipsError> {
+        let mut next = BTreeMap::new();
+        for (key, fact, retract) in facts {
+            next.insert(key, (fact, retract));
+        }
+        for (key, (fact, retract)) in &self.facts {
+            if next.get(key).is_none_or(|(f, _)| f != fact) {
+                clips.eval(retract)?;
+            }
+        }
+        let mut asserted = 0;
+        for (key, (fact, _)) in &next {
+            if self.facts.get(key).is_none_or(|(f, _)| f != fact) {
+                clips.assert_str(fact)?;
+                asserted += 1;
+            }
+        }
+        self.facts = next;
+        Ok(asserted)
+    }
+}
+
+fn text(args: &[Arg], i: usize, what: &str) -> Result<String, String> {
+    match args.get(i) {
+        Some(Arg::Text(s)) => Ok(s.clone()),
+        Some(Arg::Num(x)) => Ok(x.to_string()),
+        None => Err(format!("missing {what} (argument {i})")),
+    }
+}
+
+fn number(args: &[Arg], i: usize, what: &str) -> Result<f64, String> {
+    match args.get(i) {
+        Some(Arg::Num(x)) => Ok(*x),
+        Some(Arg::Text(s)) => Err(format!("{what} (argument {i}) must be a number, got {s:?}")),
+        None => Err(format!("missing {what} (argument {i})")),
+    }
+}
+
+/// What `(robosim COMMAND ARGS…)` does (module docs). `answers` collects the facts to assert
+/// for `query` answers (asserted by the caller after the call returns).
+pub fn call(p: &mut Planner, args: &[Arg], answers: &mut Vec<String>) -> Result<i64, String> {
+    let command = text(args, 0, "the command")?;
+    let e = |e: ProtocolError| e.to_string();
+    let json_arg = |i: usize| -> Result<Value, String> {
+        let t = text(args, i, "the JSON text")?;
+        serde_json::from_str(&t).map_err(|err| format!("argument {i} is not JSON: {err}"))
+    };
+    match command.as_str() {
+        "set-joint" => {
+            let robot = text(args, 1, "the robot")?;
+            let index = number(args, 2, "the joint index")?;
+            let value = number(args, 3, "the joint value")?;
+            let mut q = p.joints(&robot).map_err(e)?;
+            let k = (index >= 0.0 && index.fract() == 0.0 && (index as usize) < q.len())
+                .then_some(index as usize)
+                .ok_or_else(|| format!("robot {robot} has no joint {index}"))?;
+            q[k] = value;
+            p.set_joints(&robot, &q).map(|v| v as i64).map_err(e)
+        }
+        "set-joints" => {
+            let robot = text(args, 1, "the robot")?;
+            let q = (2..args.len())
+                .map(|i| number(args, i, "a joint value"))
+                .collect::<Result<Vec<_>, _>>()?;
+            p.set_joints(&robot, &q).map(|v| v as i64).map_err(e)
+        }
+        "transact" => p.transact_json(&json_arg(1)?).map(|v| v as i64).map_err(e),
+        "query" => {
+            let req = json_arg(1)?;
+            let answer = p.query(&req).map_err(e)?;
+            let op = req.get("op").and_then(Value::as_str).unwrap_or("");
+            answers.push(format!(
+                "(robosim-answer (op {}) (json {}))",
+                sym(op),
+                quote(&answer.to_string())
+            ));
+            Ok(answer.get("version").and_then(Value::as_i64).unwrap_or(0))
+        }
+        "sim" => p.sim_command(&json_arg(1)?).map(|_| 0).map_err(e),
+        other => Err(format!(
+            "unknown command {other:?} (set-joint, set-joints, transact, query, sim)"
+        )),
+    }
+}
+
+/// `robosim rules FILE --session S`: runs until SIGTERM/SIGINT.
+pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
+    let session = Session::existing(session)?;
+    let signals = session.node("rules-signals", true)?;
+    let planner = Rc::new(RefCell::new(Planner::attach_to(&session)?));
+    let answers: Rc<RefCell<Vec<String>>> = Rc::default();
+    let (p2, a2) = (planner.clone(), answers.clone());
+    let mut clips = Clips::new(Box::new(move |args: &[Arg]| {
+        let mut p = p2
+            .try_borrow_mut()
+            .map_err(|_| "the planner is busy (a nested call)".to_owned())?;
+        call(&mut p, args, &mut a2.borrow_mut())
+    }))?;
+    for t in TEMPLATES {
+        clips.build(t)?;
+    }
+    clips.load(file)?;
+    let _reg = session.register("rules", &["space/objects", "space/poses", "space/changes"])?;
+    eprintln!(
+        "rules: {} loaded on session {}",
+        file.display(),
+        session.name()
+    );
+    let mut mirror = Mirror::default();
+    let mut last_sim: Option<Value> = None;
+    let mut first = true;
+    while signals.wait(Duration::ZERO).is_ok() {
+        let changed = if first {
+            true
+        } else {
+            planner.borrow_mut().wait_change(POLL)?.is_some()
+        };
+        first = false;
+        // The simulator's state, without the fields that change on every step by themselves.
+        let sim = planner.borrow_mut().sim_state().ok();
+        let sim_key = sim.as_ref().map(|s| {
+            let mut s = s.clone();
+            if let Some(m) = s.as_object_mut() {
+                m.remove("recording");
+            }
+            s
+        });
+        if !changed && sim_key == last_sim {
+            continue;
+        }
+        last_sim = sim_key;
+        let facts = Mirror::facts_of(&mut planner.borrow_mut(), sim.as_ref())?;
+        mirror.update(&mut clips, facts)?;
+        loop {
+            clips.run(-1);
+            let pending: Vec<String> = answers.borrow_mut().drain(..).collect();
+            if pending.is_empty() {
+                break;
+            }
+            for f in pending {
+                clips.assert_str(&f)?;
+            }
+        }
+    }
+    eprintln!("rules: stopped");
+    Ok(())
+}

@@ -1,0 +1,11 @@
+from ._robosim import (
+    JointLimitError as JointLimitError,
+    RobosimError as RobosimError,
+    Session as Session,
+    SessionError as SessionError,
+    Sim as Sim,
+    Snapshot as Snapshot,
+    TransactionError as TransactionError,
+)
+
+__version__: str
