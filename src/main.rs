@@ -250,14 +250,18 @@ enum LangCmd {
     /// Run PROGRAM: every STORE-LINK writes a link file (Table 2) into DIR; a program with an
     /// error writes none.
     Run {
+        /// The ROBOSIM program (Table 1's language; lengths in cm unless a UNITS line says).
         program: std::path::PathBuf,
+        /// The folder the link files are written to (created if missing).
         #[arg(long)]
         out: std::path::PathBuf,
     },
     /// Load the link files in DIR (ROBOT.LOC first, then ROBOT.L1, …) as robot NAME into the
     /// session.
     Load {
+        /// The folder holding the link files (ROBOT.LOC, ROBOT.L1, …).
         dir: std::path::PathBuf,
+        /// The robot's name in the Instance Space.
         #[arg(long = "as")]
         name: String,
         /// Which robot's files, when DIR holds several (the part before the dot).

@@ -14,7 +14,7 @@ use crate::shape::rigid_inverse;
 use nalgebra::{Matrix3, Matrix4};
 use robosim_file_io::linkfile::{self, LinkFile, LinkJoint, from_pseudo_inertia};
 use robosim_instance_space::{
-    DhConvention, GeometryInput, JointKind, Kind, Kinematics, MassProps, Transaction,
+    DhConvention, GeometryInput, JointKind, Kind, Kinematics, Transaction,
 };
 use robosim_kinematics::{Convention, Joint, JointType, Robot};
 use std::path::{Path, PathBuf};
@@ -257,21 +257,11 @@ pub fn robot_transaction(r: &LoadedRobot, name: &str) -> Result<Transaction, Str
                     qlim: j.qlim,
                 }),
             );
-            let i = j.inertia;
             tx.set_dynamics(
                 link,
-                Some(MassProps {
-                    mass: j.mass,
-                    com: [j.com.x, j.com.y, j.com.z],
-                    inertia: [
-                        i[(0, 0)],
-                        i[(1, 1)],
-                        i[(2, 2)],
-                        i[(0, 1)],
-                        i[(0, 2)],
-                        i[(1, 2)],
-                    ],
-                }),
+                Some(robosim_scene::instantiate::mass_props(
+                    j.mass, &j.com, &j.inertia,
+                )),
             );
             link
         };

@@ -79,7 +79,11 @@ struct Spec {
 }
 
 /// Mass, centre of mass and the inertia tensor's six distinct entries (xx yy zz xy xz yz).
-fn mass_props(mass: f64, com: &nalgebra::Vector3<f64>, i: &nalgebra::Matrix3<f64>) -> MassProps {
+pub fn mass_props(
+    mass: f64,
+    com: &nalgebra::Vector3<f64>,
+    i: &nalgebra::Matrix3<f64>,
+) -> MassProps {
     MassProps {
         mass,
         com: [com.x, com.y, com.z],
