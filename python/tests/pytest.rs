@@ -39,7 +39,14 @@ fn pytest_suite_passes_against_real_sessions() {
         String::from_utf8_lossy(&probe.stderr)
     );
     let dir = profile_dir();
-    let lib = dir.join("lib_robosim.so");
+    // `cargo build` puts the extension in target/<profile>/; when `cargo test` builds it as this
+    // test's dependency it stays in target/<profile>/deps/. Take the newer of the two.
+    let lib = ["lib_robosim.so", "deps/lib_robosim.so"]
+        .iter()
+        .map(|p| dir.join(p))
+        .filter(|p| p.is_file())
+        .max_by_key(|p| p.metadata().and_then(|m| m.modified()).ok())
+        .unwrap_or_else(|| dir.join("lib_robosim.so"));
     let bin = dir.join("robosim");
     assert!(
         lib.is_file(),
