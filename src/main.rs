@@ -101,6 +101,17 @@ enum Command {
         /// The rule file (.clp), e.g. hl-interface/rules/rulebases/joint_guard.clp
         file: std::path::PathBuf,
     },
+    /// Run the automation layer's plant on a session: a fault model (the ECLSS by default) whose
+    /// injected faults raise alarms over time; its units live in the Instance Space, where
+    /// isolating and replacing them are transactions (docs/rules.md).
+    Automation {
+        /// The fault model: a shipped name (`eclss`) or a model file (`robosim diag check`).
+        #[arg(long, default_value = "eclss")]
+        model: String,
+        /// Plant seconds per wall-clock second (propagation delays are minutes to hours).
+        #[arg(long, default_value_t = 1.0)]
+        time_scale: f64,
+    },
     /// Send commands to a session's simulator: target, torque, pause, resume, step, reset, get.
     Simctl {
         /// JSON, e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}', or a
@@ -427,6 +438,11 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         Command::Rules { file } => {
             existing(session)?;
             robosim_rules::run(&file, session).map_err(|e| CliError(e.to_string()))
+        }
+        Command::Automation { model, time_scale } => {
+            existing(session)?;
+            robosim_hl_interface::plant::run(session, &model, time_scale)
+                .map_err(|e| CliError(e.to_string()))
         }
         Command::Simctl { commands } => {
             existing(session)?;

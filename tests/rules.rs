@@ -1,7 +1,12 @@
-//! `robosim rules` (issue 16): a CLIPS rule base reacting to a change within one notification.
-//! A planner sets the positioner's waist past joint_guard.clp's soft limit; the very next
-//! commit is the rule's transaction setting it back to the limit, and it is journaled (a
-//! restarted keeper has it).
+//! `robosim rules` (issue 16), with real processes:
+//! * a CLIPS rule base reacting to a change within one notification: a planner sets the
+//!   positioner's waist past joint_guard.clp's soft limit; the very next commit is the rule's
+//!   transaction setting it back to the limit, and it is journaled (a restarted keeper has it);
+//! * joint_guard.clp's contact rule: the simulator reports a contact, the rules pause it and
+//!   command the robot back to its last clear joints;
+//! * eclss_guard.clp on the automation plant (`robosim automation`): an injected ECLSS fault
+//!   rings alarms, the rules diagnose them, isolate the faulty unit and then bring its spare on
+//!   line — two transactions, in that order, journaled — and the plant's alarms stop.
 
 use robosim_hl_interface::planner::Planner;
 use std::time::Duration;
@@ -14,6 +19,213 @@ const RULES: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
     "/hl-interface/rules/rulebases/joint_guard.clp"
 );
+const ECLSS_RULES: &str = concat!(
+    env!("CARGO_MANIFEST_DIR"),
+    "/hl-interface/rules/rulebases/eclss_guard.clp"
+);
+
+/// Waits until a process with `role` is registered in the session.
+fn wait_role(k: &Procs, role: &str) {
+    let session = k.session();
+    wait_for(role, || {
+        session
+            .processes()
+            .iter()
+            .any(|p| p.role == role)
+            .then_some(())
+    });
+}
+
+/// Drains the commits already made (the rules' start-up mirror makes none, the plant's set-up
+/// one): returns when nothing is committed for 300 ms.
+fn settle(p: &mut Planner) {
+    while p
+        .wait_change(Duration::from_millis(300))
+        .expect("wait")
+        .is_some()
+    {}
+}
+
+/// The next commits after the planner's last seen version, until `n` more arrived (20 s at most).
+fn next_commits(p: &mut Planner, n: usize) -> Vec<robosim_hl_interface::planner::ChangeInfo> {
+    let mut seen = Vec::new();
+    while seen.len() < n {
+        let c = p
+            .wait_change(Duration::from_secs(20))
+            .expect("wait")
+            .unwrap_or_else(|| panic!("{n} commits within 20 s, got {seen:?}"));
+        seen.extend(c.changes);
+    }
+    seen
+}
+
+/// The parent's name of object `name` in the newest snapshot.
+fn parent_of(p: &mut Planner, name: &str) -> String {
+    let snap = p.snapshot().expect("snapshot");
+    let i = snap
+        .find(name)
+        .unwrap_or_else(|| panic!("no object {name}"));
+    let parent = snap.objects()[i].parent;
+    snap.index_of(parent)
+        .map(|k| snap.name(k).to_owned())
+        .unwrap_or_default()
+}
+
+#[test]
+fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled() {
+    let mut k = Procs::new("rulesec");
+    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let plant = k.spawn(&["automation"]);
+    wait_role(&k, "automation");
+    let rules = k.spawn(&["rules", ECLSS_RULES]);
+    wait_role(&k, "rules");
+    let session = k.session();
+    let mut p = Planner::attach_to(&session).expect("attach");
+    settle(&mut p);
+    // The plant's units are in the session: on line, spares, none isolated.
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed"), "eclss");
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed_spare"), "eclss_spares");
+    let before = p.snapshot().expect("snapshot").version();
+    let state = p
+        .plant_command(&serde_json::json!({"cmd": "fault", "fault": "sorbent_bed_failure"}))
+        .expect("inject the fault");
+    let alarms = state["alarms"].as_array().expect("alarms");
+    assert_eq!(
+        alarms[0]["alarm"], "A_co2_bed",
+        "the fault's own alarm rings at once"
+    );
+    // Unknown and derived failure modes are refused, and change nothing.
+    assert!(
+        p.plant_command(&serde_json::json!({"cmd": "fault", "fault": "no_such_fault"}))
+            .is_err()
+    );
+    assert!(
+        p.plant_command(&serde_json::json!({"cmd": "fault", "fault": "co2_not_removed"}))
+            .is_err()
+    );
+    let seen = next_commits(&mut p, 2);
+    let versions: Vec<u64> = seen.iter().map(|c| c.version).collect();
+    assert_eq!(
+        versions,
+        vec![before + 1, before + 2],
+        "nothing between: {seen:?}"
+    );
+    assert_eq!(
+        seen[0].names,
+        vec!["co2_sorbent_bed"],
+        "first the isolation"
+    );
+    assert_eq!(
+        seen[1].names,
+        vec!["co2_sorbent_bed_spare"],
+        "then the reconfiguration"
+    );
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed"), "eclss_isolated");
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed_spare"), "eclss");
+    // The plant follows the committed model: the fault is contained and repaired, its alarms
+    // stop ringing.
+    let state = wait_for("the plant to see the repair", || {
+        let s = p
+            .plant_command(&serde_json::json!({"cmd": "get"}))
+            .expect("plant state");
+        (s["faults"][0]["repaired"] == true).then_some(s)
+    });
+    assert_eq!(state["faults"][0]["contained"], true);
+    assert_eq!(state["alarms"], serde_json::json!([]));
+    assert_eq!(state["isolated"], serde_json::json!(["co2_sorbent_bed"]));
+    // Nothing more is done once the alarms are handled.
+    assert!(
+        p.wait_change(Duration::from_millis(500))
+            .expect("wait")
+            .is_none()
+    );
+    drop(p);
+    k.stop(rules);
+    k.stop(plant);
+    k.stop(keeper);
+    k.start_keeper(&[]);
+    let mut p = Planner::attach_to(&k.session()).expect("attach again");
+    assert_eq!(
+        p.snapshot().expect("snapshot").version(),
+        before + 2,
+        "both journaled"
+    );
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed"), "eclss_isolated");
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed_spare"), "eclss");
+}
+
+#[test]
+fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() {
+    let mut k = Procs::new("rulesct");
+    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    // A free-running simulator: the rule's pause is what stops it.
+    let sim = k.spawn(&["simulator", "--mode", "realtime"]);
+    wait_role(&k, "simulator");
+    let session = k.session();
+    let mut p = Planner::attach_to(&session).expect("attach");
+    let st = wait_for("the simulator's commands", || p.sim_state().ok());
+    assert_eq!(st["running"], true);
+    assert_eq!(st["robots"][0]["contact"], false, "clear at the start");
+    // A configuration that touches the head, found with the session's own CHECK: the shoulder
+    // swung from the folded start towards the head (moves unchecked) until CHECK reports a
+    // contact; then back to the start.
+    let clear = p.joints("positioner").expect("joints");
+    p.query(&serde_json::json!({"op": "c_switch", "on": false}))
+        .expect("c_switch");
+    let hit = (1..=40)
+        .map(|k| {
+            let mut q = clear.clone();
+            q[1] = clear[1] + 0.05 * k as f64;
+            q
+        })
+        .find(|q| {
+            p.query(&serde_json::json!({"op": "movej", "robot": "positioner", "q": q}))
+                .expect("movej");
+            let r = p
+                .query(&serde_json::json!({"op": "check", "robot": "positioner"}))
+                .expect("check");
+            r["status"] == "contact"
+        })
+        .expect("a joint configuration touching the head");
+    p.query(&serde_json::json!({"op": "movej", "robot": "positioner", "q": clear}))
+        .expect("back to the start");
+    wait_for("the simulator to see the start joints clear", || {
+        let st = p.sim_state().ok()?;
+        (st["robots"][0]["contact"] == false && st["version"] == p.snapshot().ok()?.version())
+            .then_some(())
+    });
+    let rules = k.spawn(&["rules", RULES]);
+    wait_role(&k, "rules");
+    settle(&mut p);
+    let v = p.set_joints("positioner", &hit).expect("move into contact");
+    // The simulator takes the committed joints and finds the contact on its next step; the
+    // rules pause it, then command the robot back.
+    let seen = next_commits(&mut p, 2);
+    let versions: Vec<u64> = seen.iter().map(|c| c.version).collect();
+    assert_eq!(
+        versions,
+        vec![v, v + 1],
+        "ours, then the rule's, nothing between"
+    );
+    let after = p.joints("positioner").expect("joints");
+    assert_eq!(after, clear, "backed off to the last clear joints");
+    let st = p.sim_state().expect("state");
+    assert_eq!(st["running"], false, "the simulator was paused: {st}");
+    assert!(
+        st["robots"][0]["contact_steps"].as_u64().unwrap_or(0) > 0,
+        "it had seen the contact: {st}"
+    );
+    // Handled once: no further commit.
+    assert!(
+        p.wait_change(Duration::from_millis(500))
+            .expect("wait")
+            .is_none()
+    );
+    drop(p);
+    k.stop(rules);
+    k.stop(sim);
+    k.stop(keeper);
+}
 
 #[test]
 fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {

@@ -43,6 +43,7 @@ pub mod cli;
 pub mod client;
 mod error;
 pub mod planner;
+pub mod plant;
 pub mod protocol;
 pub mod robot_json;
 pub mod session;

@@ -82,6 +82,8 @@ pub struct Changes {
 pub struct Planner {
     ops: Ops,
     sim: Option<CommandSender>,
+    /// The automation plant's command channel (`robosim automation`), opened on first use.
+    plant: Option<CommandSender>,
     /// The newest version [`Planner::wait_change`] returned (at first: the attached snapshot's).
     seen: u64,
 }
@@ -111,6 +113,7 @@ impl Planner {
         Ok(Planner {
             ops,
             sim: None,
+            plant: None,
             seen,
         })
     }
@@ -238,36 +241,32 @@ impl Planner {
     /// Sends one command to the session's simulator (`robosim simctl`'s JSON form) and returns
     /// its answer: the state for `get`, `"ok"` otherwise; a refusal is a `session` error.
     pub fn sim_command(&mut self, cmd: &Value) -> Result<Value> {
-        if self.sim.is_none() {
-            let s = CommandSender::open(self.ops.session(), "simulator", "planner-sim").map_err(
-                |_| {
-                    session_err(format!(
-                        "no simulator runs in session {}: start one with `robosim simulator --session {} --mode lockstep`",
-                        self.ops.session().name(),
-                        self.ops.session().name()
-                    ))
-                },
-            )?;
-            self.sim = Some(s);
-        }
-        let Some(sim) = self.sim.as_mut() else {
-            return Err(session_err("no simulator"));
-        };
-        let answer = match sim.send(cmd.to_string().as_bytes(), SIM_TIMEOUT) {
-            Ok(a) => a,
-            Err(e) => {
-                // A restarted daemon is a new service: open it again next time.
-                self.sim = None;
-                return Err(session_err(format!("the simulator: {e}")));
-            }
-        };
-        let text = String::from_utf8_lossy(&answer);
-        if let Some(reason) = text.strip_prefix("refused: ") {
-            return Err(session_err(format!(
-                "the simulator refused {cmd}: {reason}"
-            )));
-        }
-        Ok(serde_json::from_str(&text).unwrap_or_else(|_| Value::String(text.into_owned())))
+        let session = self.ops.session().name().to_owned();
+        command(
+            self.ops.session(),
+            &mut self.sim,
+            "simulator",
+            cmd,
+            &format!(
+                "no simulator runs in session {session}: start one with `robosim simulator --session {session} --mode lockstep`"
+            ),
+        )
+    }
+
+    /// Sends one command to the session's automation plant (`robosim automation`,
+    /// [`crate::plant`]): `{"cmd": "fault", "fault": NAME}` or `{"cmd": "get"}`; the plant's
+    /// state, or a `session` error (no plant, or the command refused).
+    pub fn plant_command(&mut self, cmd: &Value) -> Result<Value> {
+        let session = self.ops.session().name().to_owned();
+        command(
+            self.ops.session(),
+            &mut self.plant,
+            crate::plant::SERVICE,
+            cmd,
+            &format!(
+                "no automation plant runs in session {session}: start one with `robosim automation --session {session}`"
+            ),
+        )
     }
 
     /// The simulator's state (`sim_state`).
@@ -321,6 +320,37 @@ impl Planner {
             std::thread::sleep(Duration::from_micros(100));
         }
     }
+}
+
+/// One command on the command channel `target` (the simulator's or the plant's), opened into
+/// `slot` on first use and again after a failure (a restarted owner is a new service).
+fn command(
+    session: &Session,
+    slot: &mut Option<CommandSender>,
+    target: &str,
+    cmd: &Value,
+    missing: &str,
+) -> Result<Value> {
+    if slot.is_none() {
+        let role = format!("planner-{target}");
+        *slot =
+            Some(CommandSender::open(session, target, &role).map_err(|_| session_err(missing))?);
+    }
+    let Some(sender) = slot.as_mut() else {
+        return Err(session_err(missing));
+    };
+    let answer = match sender.send(cmd.to_string().as_bytes(), SIM_TIMEOUT) {
+        Ok(a) => a,
+        Err(e) => {
+            *slot = None;
+            return Err(session_err(format!("the {target}: {e}")));
+        }
+    };
+    let text = String::from_utf8_lossy(&answer);
+    if let Some(reason) = text.strip_prefix("refused: ") {
+        return Err(session_err(format!("the {target} refused {cmd}: {reason}")));
+    }
+    Ok(serde_json::from_str(&text).unwrap_or_else(|_| Value::String(text.into_owned())))
 }
 
 /// The committed joint values of `robot` in `snap`.

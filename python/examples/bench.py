@@ -1,21 +1,31 @@
-"""Latency of the Python client against the same work through `robosim query --session` pipes.
+"""Latency of the Python client against the Rust planner client and `robosim query --session` pipes.
 
     python3 python/examples/bench.py --session lab [--n 2000]
+    python3 python/examples/bench.py --fresh [--n 2000] [--planner-bench PATH]
 
-Measures, on one session, p50 and p99 of:
+With --session: one running session. With --fresh: two fresh sessions of the
+surgical_positioner_cell, one whose keeper syncs its journal before every acknowledgement (the
+default) and one started with `robosim space --no-sync`, every row measured on both in this run;
+the Rust rows come from the planner_bench example (`--planner-bench`, default
+target/release/examples/planner_bench).
+
+Measures p50 and p99 of:
 * Python `set_joints` → acknowledged (one transaction, keeper journaled and published);
 * Python `query(movej)` with collision checks off → acknowledged;
 * the same movej request through a `robosim query --session` child's pipes (JSON lines);
 * a change → Python `wait_changes` wake-up: a writer process commits every 2 ms, the waiter
-  compares CLOCK_MONOTONIC at wake-up with the keeper's publish stamp.
+  compares CLOCK_MONOTONIC at wake-up with the keeper's publish stamp;
+* the same two through the Rust planner client (the planner_bench example), when given.
 Prints a markdown table (µs).
 """
 
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 
 import numpy as np
@@ -30,20 +40,26 @@ def pct(xs):
     return f"{np.percentile(xs, 50):.1f} | {np.percentile(xs, 99):.1f}"
 
 
-def main():
-    ap = argparse.ArgumentParser()
-    ap.add_argument("--session", default="lab")
-    ap.add_argument("--n", type=int, default=2000)
-    ap.add_argument("--robosim", default=os.environ.get("ROBOSIM_BIN", "robosim"))
-    a = ap.parse_args()
-    s = robosim.Session(a.session)
+def measure(session, n, robosim_bin, planner_bench):
+    """Every row on one running session: [(row, p50 | p99 text)]."""
+    rows = []
+    if planner_bench:
+        out = subprocess.run(
+            [planner_bench, "--session", session, "--n", str(n)],
+            check=True, capture_output=True, text=True,
+        ).stdout
+        for line in out.splitlines():
+            r = json.loads(line)
+            rows.append((r["row"], f"{r['p50_us']:.1f} | {r['p99_us']:.1f}"))
+    s = robosim.Session(session)
     q0 = s.joints(ROBOT)
-    qs = [q0 + 1e-4 * (k % 2) for k in range(a.n)]
+    qs = [q0 + 1e-4 * (k % 2) for k in range(n)]
     ack = []
     for q in qs:
         t = time.perf_counter_ns()
         s.set_joints(ROBOT, q)
         ack.append(time.perf_counter_ns() - t)
+    rows.append(("Python `set_joints` → acknowledged", pct(ack)))
     s.query({"op": "c_switch", "on": False})
     mv = []
     for q in qs:
@@ -51,8 +67,9 @@ def main():
         t = time.perf_counter_ns()
         s.query(req)
         mv.append(time.perf_counter_ns() - t)
+    rows.append(("Python `query(movej)` (collision off) → acknowledged", pct(mv)))
     child = subprocess.Popen(
-        [a.robosim, "query", "--session", a.session],
+        [robosim_bin, "query", "--session", session],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -71,26 +88,79 @@ def main():
         pipe.append(time.perf_counter_ns() - t)
     child.stdin.close()
     child.wait()
+    rows.append(("`robosim query --session` pipes, the same movej (= set_joints' transaction) → answer line", pct(pipe)))
     writer = subprocess.Popen(
-        [sys.executable, "-c", WRITER, a.session, str(a.n // 4)],
+        [sys.executable, "-c", WRITER, session, str(n // 4)],
         env=os.environ,
     )
     while s.wait_change(0) is not None:
         pass
     wake = []
-    while writer.poll() is None or len(wake) == 0:
+    while True:
         cs = s.wait_changes(1.0)
         now = time.monotonic_ns()
         if cs and len(cs) == 1:  # one commit per wake-up: its own latency
             wake.append(now - cs[0]["published_ns"])
         if writer.poll() is not None:
             break
-    print("| path | p50 µs | p99 µs |")
-    print("|---|---|---|")
-    print(f"| Python `set_joints` → acknowledged | {pct(ack)} |")
-    print(f"| Python `query(movej)` → acknowledged | {pct(mv)} |")
-    print(f"| `robosim query --session` pipes, movej → answer line | {pct(pipe)} |")
-    print(f"| commit published → Python `wait_changes` awake ({len(wake)} samples) | {pct(wake)} |")
+    rows.append((f"commit published → Python `wait_changes` returned ({len(wake)} samples)", pct(wake)))
+    return rows
+
+
+def fresh_session(robosim_bin, name, no_sync):
+    """A keeper of its own in a temp home; returns (process, home)."""
+    home = tempfile.mkdtemp(prefix="robosim-bench-")
+    os.environ["ROBOSIM_HOME"] = home
+    args = [robosim_bin, "space", "--scene", "surgical_positioner_cell", "--session", name]
+    if no_sync:
+        args.append("--no-sync")
+    p = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    start = time.monotonic()
+    while True:
+        try:
+            robosim.Session(name)
+            return p, home
+        except robosim.SessionError:
+            if time.monotonic() - start > 30:
+                p.kill()
+                raise
+            time.sleep(0.05)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--session", default="lab")
+    ap.add_argument("--fresh", action="store_true")
+    ap.add_argument("--n", type=int, default=2000)
+    ap.add_argument("--robosim", default=os.environ.get("ROBOSIM_BIN", "robosim"))
+    ap.add_argument("--planner-bench", default=None)
+    a = ap.parse_args()
+    if not a.fresh:
+        rows = measure(a.session, a.n, a.robosim, a.planner_bench)
+        print("| path | p50 µs | p99 µs |")
+        print("|---|---|---|")
+        for r, v in rows:
+            print(f"| {r} | {v} |")
+        return
+    bench = a.planner_bench or os.path.join("target", "release", "examples", "planner_bench")
+    table = {}
+    for no_sync in (False, True):
+        name = f"bench{'nosync' if no_sync else 'sync'}{os.getpid()}"
+        keeper, home = fresh_session(a.robosim, name, no_sync)
+        try:
+            for r, v in measure(name, a.n, a.robosim, bench):
+                table.setdefault(r.split(" (")[0] if "samples" in r else r, {})[no_sync] = v
+        finally:
+            keeper.terminate()
+            keeper.wait()
+            for f in os.listdir("/dev/shm"):
+                if f.startswith(f"rs_{name}_"):
+                    os.remove(os.path.join("/dev/shm", f))
+            shutil.rmtree(home, ignore_errors=True)
+    print("| path | journal synced: p50 µs | p99 µs | --no-sync: p50 µs | p99 µs |")
+    print("|---|---|---|---|---|")
+    for r, v in table.items():
+        print(f"| {r} | {v.get(False, '– | –')} | {v.get(True, '– | –')} |")
 
 
 WRITER = """

@@ -9,12 +9,16 @@
 //! * `(space (version V))`
 //! * `(robot (name R) (dof N))`, `(joint (robot R) (index I) (name LINK) (q Q) (lo LO) (hi HI))`
 //!   — committed joint values, rad / m;
-//! * `(instance (name O) (kind K))` for every object of the Instance Space (`object` is a
-//!   reserved word in CLIPS);
+//! * `(instance (name O) (kind K) (parent P|nil))` for every object of the Instance Space
+//!   (`object` is a reserved word in CLIPS);
 //! * `(sim (state running|stepping|paused|none) (t T) (steps N))`,
 //!   `(sim-robot (name R) (contact yes|no) (error nil|"…"))` — the simulator daemon's state;
-//! * `(alarm (source S) (kind K) (message M))` — the alarms of the session: a simulator contact
-//!   (`kind contact`) or step error (`kind step-error`) per robot.
+//! * `(alarm (source S) (kind K) (value V) (message M))` — the alarms of the session: a
+//!   simulator contact (`kind contact`) or step error (`kind step-error`) per robot, and every
+//!   alarm the automation plant (`robosim automation`, `robosim_hl_interface::plant`) rings:
+//!   source the fault model's process, kind the alarm's name, value the plant time it rang;
+//! * `(diagnosis (model M) (failure-modes …) (components …) (alarms N))` — after
+//!   `(robosim diagnose)`.
 //!
 //! Only facts whose content changed are retracted and asserted again, so a rule fires on a
 //! change, not on every mirror pass.
@@ -27,11 +31,14 @@
 //! * `(robosim query "JSON")` — any op of the query protocol (MOVEJ, MOVEJI, KINV, CHECK, …);
 //!   its answer is asserted as `(robosim-answer (op OP) (json "…"))`; returns the answer's
 //!   `version` when it has one, else 0;
-//! * `(robosim sim "JSON")` — a simulator command (`{"cmd": "pause"}`, …).
+//! * `(robosim sim "JSON")` — a simulator command (`{"cmd": "pause"}`, …);
+//! * `(robosim diagnose)` — the query op `diag_diagnose` over every alarm the plant rings now;
+//!   asserts a `diagnosis` fact, returns the number of components it names.
 //!
-//! Rule bases shipped: `hl-interface/rules/rulebases/joint_guard.clp` (soft joint limits
+//! Rule bases shipped (`hl-interface/rules/rulebases/`): `joint_guard.clp` (soft joint limits
 //! enforced by setting the joint back, contact alarms handled by pausing the simulator and
-//! backing the robot off to its last clear joints). docs/rules.md.
+//! backing the robot off to its clear joints) and `eclss_guard.clp` (ECLSS alarms diagnosed,
+//! the faulty unit isolated, then its spare brought on line). docs/rules.md.
 
 pub mod clips;
 
@@ -54,10 +61,11 @@ pub const TEMPLATES: &[&str] = &[
     "(deftemplate space (slot version))",
     "(deftemplate robot (slot name) (slot dof))",
     "(deftemplate joint (slot robot) (slot index) (slot name) (slot q) (slot lo) (slot hi))",
-    "(deftemplate instance (slot name) (slot kind))",
+    "(deftemplate instance (slot name) (slot kind) (slot parent))",
     "(deftemplate sim (slot state) (slot t) (slot steps))",
     "(deftemplate sim-robot (slot name) (slot contact) (slot error))",
-    "(deftemplate alarm (slot source) (slot kind) (slot message))",
+    "(deftemplate alarm (slot source) (slot kind) (slot value) (slot message))",
+    "(deftemplate diagnosis (slot model) (multislot failure-modes) (multislot components) (slot alarms))",
     "(deftemplate robosim-error (slot command) (slot message))",
     "(deftemplate robosim-answer (slot op) (slot json))",
 ];
@@ -97,6 +105,7 @@ impl Mirror {
     pub fn facts_of(
         p: &mut Planner,
         sim: Option<&Value>,
+        plant: Option<&Value>,
     ) -> Result<Vec<(String, String, String)>, ProtocolError> {
         let snap = p.snapshot()?;
         let mut out = Vec::new();
@@ -114,9 +123,13 @@ impl Mirror {
                 .object(i)
                 .kind()
                 .map_or("unknown".to_owned(), |k| format!("{k:?}").to_lowercase());
+            let parent = snap
+                .index_of(snap.objects()[i].parent)
+                .filter(|_| snap.objects()[i].parent != 0)
+                .map_or("nil".to_owned(), |k| sym(snap.name(k)));
             out.push((
                 format!("instance {name}"),
-                format!("(instance (name {name}) (kind {kind}))"),
+                format!("(instance (name {name}) (kind {kind}) (parent {parent}))"),
                 retract_one("instance", format!("(eq ?f:name {name})")),
             ));
         }
@@ -162,7 +175,8 @@ impl Mirror {
             .flatten()
         {
             let rn = sym(r.get("name").and_then(Value::as_str).unwrap_or(""));
-            let contact = r.get("contact").is_some_and(|c| !c.is_null());
+            // `contact` is null without a collision stage, else whether the last check touched.
+            let contact = r.get("contact") == Some(&Value::Bool(true));
             let error = r.get("error").and_then(Value::as_str);
             out.push((
                 format!("sim-robot {rn}"),
@@ -193,12 +207,34 @@ impl Mirror {
                 out.push((
                     format!("alarm {rn} step-error"),
                     format!(
-                        "(alarm (source {rn}) (kind step-error) (message {}))",
+                        "(alarm (source {rn}) (kind step-error) (value 1) (message {}))",
                         quote(e)
                     ),
                     retract_alarm("step-error"),
                 ));
             }
+        }
+        // The automation plant's ringing alarms (`robosim automation`): source the process,
+        // kind the alarm's name, value the plant time it rang (s).
+        for a in plant
+            .and_then(|s| s.get("alarms")?.as_array())
+            .into_iter()
+            .flatten()
+        {
+            let source = sym(a.get("process").and_then(Value::as_str).unwrap_or(""));
+            let kind = sym(a.get("alarm").and_then(Value::as_str).unwrap_or(""));
+            out.push((
+                format!("alarm {source} {kind}"),
+                format!(
+                    "(alarm (source {source}) (kind {kind}) (value {}) (message {}))",
+                    num(a.get("t_s").and_then(Value::as_f64).unwrap_or(0.0)),
+                    quote(a.get("message").and_then(Value::as_str).unwrap_or(""))
+                ),
+                retract_one(
+                    "alarm",
+                    format!("(and (eq ?f:source {source}) (eq ?f:kind {kind}))"),
+                ),
+            ));
         }
         Ok(out)
     }
@@ -248,8 +284,14 @@ fn number(args: &[Arg], i: usize, what: &str) -> Result<f64, String> {
 }
 
 /// What `(robosim COMMAND ARGS…)` does (module docs). `answers` collects the facts to assert
-/// for `query` answers (asserted by the caller after the call returns).
-pub fn call(p: &mut Planner, args: &[Arg], answers: &mut Vec<String>) -> Result<i64, String> {
+/// for `query` and `diagnose` answers (asserted by the caller after the call returns); `plant`
+/// is the automation plant's state as last mirrored.
+pub fn call(
+    p: &mut Planner,
+    args: &[Arg],
+    answers: &mut Vec<String>,
+    plant: Option<&Value>,
+) -> Result<i64, String> {
     let command = text(args, 0, "the command")?;
     let e = |e: ProtocolError| e.to_string();
     let json_arg = |i: usize| -> Result<Value, String> {
@@ -288,8 +330,45 @@ pub fn call(p: &mut Planner, args: &[Arg], answers: &mut Vec<String>) -> Result<
             Ok(answer.get("version").and_then(Value::as_i64).unwrap_or(0))
         }
         "sim" => p.sim_command(&json_arg(1)?).map(|_| 0).map_err(e),
+        "diagnose" => {
+            let plant = plant.ok_or("no automation plant runs in the session")?;
+            let model = plant
+                .get("source")
+                .and_then(Value::as_str)
+                .ok_or("the plant's state names no model")?;
+            let alarms: Vec<Value> = plant
+                .get("alarms")
+                .and_then(Value::as_array)
+                .into_iter()
+                .flatten()
+                .map(|a| serde_json::json!({"t": a.get("t_s"), "alarm": a.get("alarm")}))
+                .collect();
+            if alarms.is_empty() {
+                return Err("no alarm is ringing: nothing to diagnose".into());
+            }
+            let req = serde_json::json!({"op": "diag_diagnose", "model": model, "alarms": alarms});
+            let answer = p.query(&req).map_err(e)?;
+            let list = |v: Option<&Value>| -> Vec<String> {
+                v.and_then(Value::as_array)
+                    .into_iter()
+                    .flatten()
+                    .filter_map(Value::as_str)
+                    .map(sym)
+                    .collect()
+            };
+            let fms = list(answer.get("ilm").and_then(|i| i.get("failure_modes")));
+            let comps = list(answer.get("components"));
+            answers.push(format!(
+                "(diagnosis (model {}) (failure-modes {}) (components {}) (alarms {}))",
+                sym(plant.get("model").and_then(Value::as_str).unwrap_or(model)),
+                fms.join(" "),
+                comps.join(" "),
+                alarms.len()
+            ));
+            Ok(comps.len() as i64)
+        }
         other => Err(format!(
-            "unknown command {other:?} (set-joint, set-joints, transact, query, sim)"
+            "unknown command {other:?} (set-joint, set-joints, transact, query, sim, diagnose)"
         )),
     }
 }
@@ -300,12 +379,13 @@ pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
     let signals = session.node("rules-signals", true)?;
     let planner = Rc::new(RefCell::new(Planner::attach_to(&session)?));
     let answers: Rc<RefCell<Vec<String>>> = Rc::default();
-    let (p2, a2) = (planner.clone(), answers.clone());
+    let plant_state: Rc<RefCell<Option<Value>>> = Rc::default();
+    let (p2, a2, s2) = (planner.clone(), answers.clone(), plant_state.clone());
     let mut clips = Clips::new(Box::new(move |args: &[Arg]| {
         let mut p = p2
             .try_borrow_mut()
             .map_err(|_| "the planner is busy (a nested call)".to_owned())?;
-        call(&mut p, args, &mut a2.borrow_mut())
+        call(&mut p, args, &mut a2.borrow_mut(), s2.borrow().as_ref())
     }))?;
     for t in TEMPLATES {
         clips.build(t)?;
@@ -336,11 +416,27 @@ pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
             }
             s
         });
-        if !changed && sim_key == last_sim {
+        // The automation plant's state, without its clock.
+        let plant = planner
+            .borrow_mut()
+            .plant_command(&serde_json::json!({"cmd": "get"}))
+            .ok()
+            .map(|mut s| {
+                if let Some(m) = s.as_object_mut() {
+                    m.remove("t_s");
+                }
+                s
+            });
+        if !changed && sim_key == last_sim && plant == *plant_state.borrow() {
             continue;
         }
         last_sim = sim_key;
-        let facts = Mirror::facts_of(&mut planner.borrow_mut(), sim.as_ref())?;
+        *plant_state.borrow_mut() = plant;
+        let facts = Mirror::facts_of(
+            &mut planner.borrow_mut(),
+            sim.as_ref(),
+            plant_state.borrow().as_ref(),
+        )?;
         mirror.update(&mut clips, facts)?;
         loop {
             clips.run(-1);
