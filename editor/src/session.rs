@@ -322,7 +322,7 @@ impl<S: Space> Editor<S> {
         if self.scene.is_none() || header != old_header {
             tx.set_origin(scene, &json(&header));
         }
-        let mut deletes: Vec<Id> = Vec::new();
+        let mut deletes: Vec<(usize, Id)> = Vec::new();
         for l in &d.links {
             let lref: ObjRef = match self.links.get(&l.name) {
                 Some(&id) => ObjRef::Id(id),
@@ -388,15 +388,30 @@ impl<S: Space> Editor<S> {
                 }
                 write_object(&mut tx, ObjRef::Id(id), &l.name, o, prev)?;
             }
-            // deleted objects (their children were re-hung above)
+            // deleted objects (their surviving children were re-hung above); an object deleted
+            // with its parent goes first (deepest first: each delete finds no children left)
             if let Some(ol) = old_l {
+                let depth = |o: &EdObject| {
+                    let mut d = 0usize;
+                    let mut cur = o.parent.as_deref();
+                    while let Some(p) = cur {
+                        d += 1;
+                        cur = ol
+                            .objects
+                            .iter()
+                            .find(|x| x.name == p)
+                            .and_then(|x| x.parent.as_deref());
+                        if d > ol.objects.len() {
+                            break;
+                        }
+                    }
+                    d
+                };
                 for o in &ol.objects {
                     if !l.objects.iter().any(|x| x.name == o.name)
                         && let Some(&id) = self.objects.get(&(l.name.clone(), o.name.clone()))
                     {
-                        {
-                            deletes.push(id);
-                        }
+                        deletes.push((depth(o), id));
                     }
                 }
             }
@@ -410,7 +425,8 @@ impl<S: Space> Editor<S> {
                 }
             }
         }
-        for id in deletes {
+        deletes.sort_by(|a, b| b.0.cmp(&a.0));
+        for (_, id) in deletes {
             tx.delete(id, false);
         }
         Ok((tx, creates))

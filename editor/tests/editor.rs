@@ -531,7 +531,7 @@ fn the_prompt_completes_commands_object_names_and_polygon_words() {
     let names = vec!["cyl".to_owned(), "custom".to_owned(), "arm".to_owned()];
     assert_eq!(
         complete("tr", 2, &names),
-        (0, vec!["translate".to_owned(), "truncated-cone".to_owned()])
+        (0, vec!["truncated-cone".to_owned(), "translate".to_owned()])
     );
     assert_eq!(complete("  undo", 4, &names), (2, vec!["undo".to_owned()]));
     assert_eq!(
