@@ -533,7 +533,11 @@ fn the_prompt_completes_commands_object_names_and_polygon_words() {
         complete("tr", 2, &names),
         (0, vec!["truncated-cone".to_owned(), "translate".to_owned()])
     );
-    assert_eq!(complete("  undo", 4, &names), (2, vec!["undo".to_owned()]));
+    assert_eq!(
+        complete("  undo", 4, &names),
+        (2, vec!["units".to_owned(), "undo".to_owned()])
+    );
+    assert_eq!(complete("  undo", 5, &names), (2, vec!["undo".to_owned()]));
     assert_eq!(
         complete("attach cu", 9, &names),
         (7, vec!["custom".to_owned()])
