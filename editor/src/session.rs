@@ -425,7 +425,7 @@ impl<S: Space> Editor<S> {
                 }
             }
         }
-        deletes.sort_by(|a, b| b.0.cmp(&a.0));
+        deletes.sort_by_key(|d| std::cmp::Reverse(d.0));
         for (_, id) in deletes {
             tx.delete(id, false);
         }
