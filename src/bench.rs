@@ -1,6 +1,6 @@
-//! `robosim bench ipc|scale|journal|display|reaction|files`: the subcommands and where each bench
+//! `robosim bench ipc|scale|journal|display|reaction|files|editor`: the subcommands and where each bench
 //! lives (`robosim_report::ipc`, `robosim_report::scale`, `robosim_report::journal`, `robosim_display::bench`, `robosim_simulator_daemon::bench`,
-//! `robosim_file_io::bench`).
+//! `robosim_file_io::bench`, `robosim_editor::bench`).
 
 use crate::{CliError, Result};
 use std::path::PathBuf;
@@ -70,6 +70,16 @@ pub enum Which {
         #[arg(long)]
         quick: bool,
     },
+    /// One editor edit in the Space Station model: keeper time (round trip against an empty
+    /// transaction's), announcement and a reader reaching the new version, with the model size.
+    Editor {
+        /// Where to write editor.md and editor.csv.
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
+        out: PathBuf,
+        /// Fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+    },
     /// (internal) the reader process of the latency measurement.
     #[command(hide = true)]
     IpcReader {
@@ -121,6 +131,13 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
             let session = session.ok_or_else(|| CliError("ipc-reader needs --session".into()))?;
             robosim_report::ipc::latency_reader(session, count, &out)
                 .map_err(|e| CliError(e.to_string()))
+        }
+        Which::Editor { out, quick } => {
+            let me = std::env::current_exe()?;
+            let pb = robosim_report::progress::spinner("bench editor");
+            let paths = robosim_editor::bench::run(&out, quick, &me).map_err(CliError)?;
+            pb.finish_and_clear();
+            wrote(&out, &paths)
         }
         Which::Files { out, quick } => {
             let pb = robosim_report::progress::spinner("bench files");

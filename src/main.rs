@@ -258,14 +258,18 @@ fn session_help() -> String {
 
 #[derive(Subcommand)]
 enum LangCmd {
-    /// Run PROGRAM: every STORE-LINK writes a link file (Table 2) into DIR; a program with an
-    /// error writes none.
+    /// Run PROGRAM: every STORE-LINK writes a link file (Table 2) into DIR; with --as NAME the
+    /// links become robot NAME in the session (--session) at once. A program with an error
+    /// writes nothing and changes nothing.
     Run {
         /// The ROBOSIM program (Table 1's language; lengths in cm unless a UNITS line says).
         program: std::path::PathBuf,
-        /// The folder the link files are written to (created if missing).
-        #[arg(long)]
-        out: std::path::PathBuf,
+        /// The folder the link files are written to (created if missing); optional with --as.
+        #[arg(long, required_unless_present = "name")]
+        out: Option<std::path::PathBuf>,
+        /// Load the program's links into the session as this robot (one transaction).
+        #[arg(long = "as")]
+        name: Option<String>,
     },
     /// Load the link files in DIR (ROBOT.LOC first, then ROBOT.L1, …) as robot NAME into the
     /// session.
@@ -488,10 +492,19 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             robosim_display::app::cmd_display(&args).map_err(|e| CliError(e.0))
         }
         Command::Lang {
-            cmd: LangCmd::Run { program, out },
-        } => robosim_editor::cli::lang_run(&program, &out)
-            .map(|s| print!("{s}"))
-            .map_err(CliError),
+            cmd: LangCmd::Run { program, out, name },
+        } => match (name, out) {
+            (Some(name), out) => {
+                let s = existing(session)?;
+                robosim_editor::cli::lang_run_into(&program, out.as_deref(), &name, &s)
+                    .map(|m| println!("{m}"))
+                    .map_err(CliError)
+            }
+            (None, Some(out)) => robosim_editor::cli::lang_run(&program, &out)
+                .map(|s| print!("{s}"))
+                .map_err(CliError),
+            (None, None) => Err(CliError("lang run: give --out DIR or --as NAME".into())),
+        },
         Command::Lang {
             cmd: LangCmd::Load { dir, name, robot },
         } => {

@@ -454,6 +454,19 @@ fn the_window_moves_joints_and_picks_under_xvfb() {
             .to_degrees()
     };
     assert!((q("waist") + 2.0).abs() < 1e-9 && (q("elbow") - 2.0).abs() < 1e-9);
+    // The click is the session's selection (what `robosim edit` reads as `.`): the object the
+    // pick line names, with a polygon.
+    assert!(pick.contains("— selected (version "), "{pick}");
+    let sel = snap.selection().expect("the click selected something");
+    let i = snap
+        .index_of(sel.object)
+        .expect("the selected object exists");
+    assert!(snap.path(i).starts_with("puma560/"), "{}", snap.path(i));
+    assert!(
+        pick.starts_with(&format!("pick: {}", snap.path(i))),
+        "{pick}"
+    );
+    assert!(sel.polygon.is_some());
 }
 
 /// `--collisions` draws what is in contact in the collision colour: the positioner turned into

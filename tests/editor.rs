@@ -95,6 +95,10 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
         }
     }
     pieces.push(cur);
+    let edits = script
+        .lines()
+        .filter(|l| EDITS.contains(&l.split_whitespace().next().unwrap_or("")))
+        .count();
     let mut bodies = 0u64;
     let mut seen = 0;
     for (i, piece) in pieces.iter().enumerate() {
@@ -110,20 +114,23 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
             "piece {i}:\n{piece}\n{stdout}\n{}",
             String::from_utf8_lossy(&o.stderr)
         );
-        // "ok, version N (k ops)": the version this edit committed
-        let Some(version) = stdout
-            .lines()
-            .filter_map(|l| l.strip_prefix("ok, version "))
-            .filter_map(|l| l.split_whitespace().next()?.parse::<u64>().ok())
-            .next_back()
-        else {
-            continue;
-        };
         let verb = piece
             .lines()
             .last()
             .and_then(|l| l.split_whitespace().next())
             .unwrap_or("");
+        if !EDITS.contains(&verb) {
+            // the tail: check, list, code, run — no edit
+            assert!(!stdout.contains("ok, version"), "piece {i}: {stdout}");
+            continue;
+        }
+        // "ok, version N (k ops)": the version this edit committed
+        let version = stdout
+            .lines()
+            .filter_map(|l| l.strip_prefix("ok, version "))
+            .filter_map(|l| l.split_whitespace().next()?.parse::<u64>().ok())
+            .next_back()
+            .unwrap_or_else(|| panic!("piece {i} ({verb}) committed nothing: {stdout}"));
         if matches!(verb, "cylinder" | "extrude" | "box") {
             bodies += 1;
         }
@@ -133,7 +140,8 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
         assert_eq!(frame["bodies"], bodies, "piece {i} ({verb}): {frame}");
         seen += 1;
     }
-    assert!(seen >= 14, "every edit was drawn: {seen}");
+    assert_eq!(edits, 15, "the walk-through's edits");
+    assert_eq!(seen, edits, "every edit was drawn");
     assert!(links.join("C.LOC").exists() && links.join("C.L1").exists());
 
     // The same link files from `lang run` of the generated program, and into the session.
@@ -197,4 +205,129 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
         "{err}"
     );
     assert!(!none.join("B.LOC").exists());
+}
+
+/// Issue 13 §5: the display's pick selects what the next editor command acts on, carried
+/// through the Instance Space. An editor process builds two boxes; a headless display process
+/// looking at box `a` along +y clicks the middle of its image, which commits the session's
+/// selection (box `a`, its −y face); a second editor process reads the pick and
+/// `attach b bottom to . .` puts box b's bottom on that face.
+#[test]
+fn a_pick_in_the_display_is_what_the_next_editor_command_acts_on() {
+    use robosim_editor::shape::face_frame;
+    let mut k = Procs::new("pck");
+    k.start_keeper(&[]);
+    let first = k.home.path().join("first.edit");
+    std::fs::write(
+        &first,
+        "units cm\nbox a X = 20, Y = 20, Z = 20\nbox b X = 10, Y = 10, Z = 4\ntranslate b X = 100\n",
+    )
+    .expect("script");
+    let o = robosim(
+        &k,
+        &["edit", "--robot", "P", "--script", &first.to_string_lossy()],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    // The display: from 3 m along −y, looking at a's centre; one click in the middle.
+    let out = k.home.path().join("display-out");
+    let display = k.spawn(&[
+        "display",
+        "--headless",
+        "--size",
+        "160x120",
+        "--from",
+        "0,-3,0",
+        "--at",
+        "0,0,0",
+        "--out",
+        &out.to_string_lossy(),
+        "--script",
+        "click:80,60",
+    ]);
+    let s = k.session();
+    let mut reader = robosim_instance_space::Reader::attach(&s, "test").expect("reader");
+    let snap = wait_for("the display's pick", || {
+        reader.refresh().ok()?;
+        reader.snapshot().filter(|s| s.selection().is_some())
+    });
+    k.stop(display);
+    let sel = snap.selection().expect("selected");
+    let i = snap.index_of(sel.object).expect("the picked object exists");
+    assert_eq!(snap.name(i), "a", "the pick hit box a");
+    let polygon = sel.polygon.expect("the pick hit a polygon") as usize;
+    let design = robosim_editor::session::design_from_snapshot(&snap, "P").expect("design");
+    let a = design.object("a").expect("a");
+    let poly = a.shape.polyhedron().expect("shape").expect("polygons");
+    let fa = face_frame(&poly, polygon);
+    assert!(
+        (fa[(1, 2)] + 1.0).abs() < 1e-12,
+        "the face seen from −y has its normal along −y: {fa}"
+    );
+    drop(snap);
+
+    // A second editor process: the pick, as the selection it reads, is `.`.
+    let second = k.home.path().join("second.edit");
+    std::fs::write(&second, "picked\nattach b bottom to . .\n").expect("script");
+    let o = robosim(
+        &k,
+        &[
+            "edit",
+            "--robot",
+            "P",
+            "--script",
+            &second.to_string_lossy(),
+        ],
+    );
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        stdout.contains(&format!("picked: a, polygon {polygon}")),
+        "{stdout}"
+    );
+    let version: u64 = stdout
+        .lines()
+        .filter_map(|l| l.strip_prefix("ok, version "))
+        .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+        .next_back()
+        .expect("the attach committed");
+    let snap = wait_for("the attach", || {
+        reader.refresh().ok()?;
+        reader.snapshot().filter(|s| s.version() >= version)
+    });
+    let design = robosim_editor::session::design_from_snapshot(&snap, "P").expect("design");
+    let b = design.object("b").expect("b");
+    assert_eq!(b.parent.as_deref(), Some("a"));
+    assert_eq!(b.faces.map(|f| f[0]), Some(polygon), "on the picked face");
+    // In the world: b's bottom centre on a's picked face centre, the normals opposite.
+    let bpoly = b.shape.polyhedron().expect("shape").expect("polygons");
+    let bottom = (0..bpoly.polygons.len())
+        .min_by(|&x, &y| {
+            bpoly.polygons[x]
+                .plane
+                .normal
+                .z
+                .total_cmp(&bpoly.polygons[y].plane.normal.z)
+        })
+        .expect("bottom");
+    let wa = design.world("a").expect("a") * face_frame(&poly, polygon);
+    let wb = design.world("b").expect("b") * face_frame(&bpoly, bottom);
+    for r in 0..3 {
+        assert!(
+            (wa[(r, 3)] - wb[(r, 3)]).abs() < 1e-12,
+            "centres: {wa} {wb}"
+        );
+        assert!(
+            (wa[(r, 2)] + wb[(r, 2)]).abs() < 1e-12,
+            "normals: {wa} {wb}"
+        );
+    }
+    // The space holds b under a.
+    let ia = snap.find("a").expect("a");
+    let ib = snap.find("b").expect("b");
+    assert_eq!(snap.objects()[ib].parent, snap.objects()[ia].id);
 }

@@ -513,7 +513,9 @@ pub struct DisplayArgs {
     /// Play trajectory files into the session's robots, ROBOT=FILE; repeatable.
     #[arg(long, value_name = "ROBOT=FILE")]
     pub play: Vec<String>,
-    /// Window: replay input (`left`, `right`, `tab`, `1`–`9`, `e`, `o`, `f`, `g`, `click:X,Y`).
+    /// Replay input: in a window `left`, `right`, `tab`, `1`–`9`, `e`, `o`, `f`, `g`,
+    /// `click:X,Y`; headless `click:X,Y` (pixels of the --size image), one step after each
+    /// drawn frame — a click commits the pick as the session's selection.
     #[arg(long)]
     pub script: Vec<String>,
     /// Leave out the ground grid and world axes (drawn by default; `G` toggles them in the
@@ -743,6 +745,15 @@ impl Host for SessionHost {
         self.sim_status()
     }
 
+    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, String> {
+        let mut tx = robosim_instance_space::Transaction::new();
+        tx.select(hit.map(|h| h.id.into()), hit.map(|h| h.polygon));
+        let c = self.client().map_err(|e| e.to_string())?;
+        c.transact(&tx)
+            .map(|a| a.version)
+            .map_err(|e| e.to_string())
+    }
+
     fn describe(&self, hit: &Hit) -> String {
         let Some(snap) = &self.snap else {
             return format!("object {}", hit.id);
@@ -871,6 +882,12 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     crate::private::private_dir(&out, a.out.is_none())?;
     let log_path = out.join("frames.jsonl");
     let mut log = crate::private::append_file(&log_path)?;
+    let clicks = a
+        .script
+        .iter()
+        .map(|step| parse_click(step))
+        .collect::<Result<Vec<_>>>()?;
+    let mut next_click = 0usize;
     let mut r = Renderer::headless()?;
     eprintln!(
         "display: headless on {} → {}",
@@ -961,6 +978,32 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         if a.max_frames.is_some_and(|m| frames >= m) {
             break;
         }
+        // Scripted input: one click after each drawn frame, through the pick the window uses
+        // (same camera, same image size); the selection it commits brings the next frame.
+        if let Some(&(x, y)) = clicks.get(next_click) {
+            next_click += 1;
+            let hit = r.pick(x, y, w, h);
+            let what = match &hit {
+                Some(h) => host.describe(h),
+                None => "nothing there".into(),
+            };
+            match host.select(hit.as_ref()) {
+                Ok(v) => println!("pick: {what} — selected (version {v})"),
+                Err(e) => println!("pick: {what} — not selected: {e}"),
+            }
+        }
     }
     Ok(())
+}
+
+/// A headless script step: `click:X,Y` (pixels from the top-left corner).
+fn parse_click(step: &str) -> Result<(f64, f64)> {
+    step.strip_prefix("click:")
+        .and_then(|xy| xy.split_once(','))
+        .and_then(|(x, y)| Some((x.trim().parse().ok()?, y.trim().parse().ok()?)))
+        .ok_or_else(|| {
+            AppError(format!(
+                "--script {step:?}: headless, a step is click:X,Y (pixels); keys need a window"
+            ))
+        })
 }

@@ -36,6 +36,10 @@ pub trait Host {
     ) -> std::result::Result<String, String>;
     /// "object … (link …), polygon …" for a pick.
     fn describe(&self, hit: &Hit) -> String;
+    /// Makes a pick the session's selection (the object and polygon hit; `None`, a click on
+    /// nothing, clears it) — one transaction, so the editor and every other process see it.
+    /// The new version, or why it could not be written.
+    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, String>;
     /// Text drawn over the frame's top-left corner (lines separated by `\n`), if any.
     fn status(&self) -> Option<String> {
         None
@@ -213,12 +217,17 @@ impl App {
         }
     }
 
+    /// A pick: described, and committed as the session's selection.
     fn click(&mut self, x: f64, y: f64) {
         let Some(l) = &self.live else { return };
         let hit = l.renderer.pick(x, y, l.config.width, l.config.height);
-        self.status = match hit {
-            Some(h) => self.host.describe(&h),
+        let what = match &hit {
+            Some(h) => self.host.describe(h),
             None => "nothing there".into(),
+        };
+        self.status = match self.host.select(hit.as_ref()) {
+            Ok(v) => format!("{what} — selected (version {v})"),
+            Err(e) => format!("{what} — not selected: {e}"),
         };
         println!("pick: {}", self.status);
         self.update_title();

@@ -1,6 +1,6 @@
 //! The command-line glue: `robosim lang run`, `robosim lang load`, `robosim edit`.
 
-use crate::commands::{Outcome, Prompt, VERBS, execute};
+use crate::commands::{Outcome, Picked, Prompt, VERBS, execute};
 use crate::session::Editor;
 use crate::{program, robot};
 use robosim_instance_space::{Client, Reader, Session};
@@ -38,6 +38,63 @@ pub fn lang_run(program_path: &Path, out: &Path) -> Result<String, String> {
     Ok(s)
 }
 
+/// `robosim lang run PROGRAM --as NAME [--out DIR]`: the program's links become robot NAME in
+/// the session at once (one transaction), as `lang run` then `lang load` would make it; with
+/// `--out` the link files are written too. A program with an error changes nothing.
+pub fn lang_run_into(
+    program_path: &Path,
+    out: Option<&Path>,
+    name: &str,
+    session: &Session,
+) -> Result<String, String> {
+    let text = std::fs::read_to_string(program_path)
+        .map_err(|e| format!("{}: {e}", program_path.display()))?;
+    let o = program::run(&text, &program_path.display().to_string()).map_err(|e| e.to_string())?;
+    let links: Vec<_> = o
+        .links
+        .iter()
+        .map(|l| (l.name.clone(), l.file.clone()))
+        .collect();
+    if links.is_empty() {
+        return Err(format!(
+            "{}: the program stores no link (STORE-LINK)",
+            program_path.display()
+        ));
+    }
+    let (prefix, links) =
+        robot::order_links(links).map_err(|e| format!("{}: {e}", program_path.display()))?;
+    let r = robot::from_links(links, name)?;
+    let tx = robot::robot_transaction(&r, name)?;
+    let mut written = String::new();
+    if let Some(dir) = out {
+        let paths = program::write_links(&o, dir)?;
+        written = format!(
+            "; wrote {}",
+            paths
+                .iter()
+                .map(|p| p.display().to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let mut c = Client::connect(session, "lang-run").map_err(|e| e.to_string())?;
+    let a = c.transact(&tx).map_err(|e| e.to_string())?;
+    Ok(format!(
+        "ran {} into session {}: {prefix} ({} links: {}) as robot {name}: {} joints, {} objects, version {}{written}",
+        program_path.display(),
+        session.name(),
+        r.links.len(),
+        r.links
+            .iter()
+            .map(|l| l.0.as_str())
+            .collect::<Vec<_>>()
+            .join(", "),
+        r.robot.joints.len(),
+        a.created.len(),
+        a.version
+    ))
+}
+
 /// `robosim lang load DIR --as NAME [--robot PREFIX]`: the link files become a robot in the
 /// session (one transaction).
 pub fn lang_load(
@@ -65,10 +122,46 @@ pub fn lang_load(
     ))
 }
 
+/// Brings the prompt up to the session: the reader to at least `version` (the editor's own last
+/// commit, so a relative move of a model object starts from the pose it wrote) and whatever
+/// else arrived since (the change notifications); the model and the display's pick read from
+/// it. A message when the pick changed.
+pub fn follow<S: crate::session::Space>(
+    reader: &mut Reader,
+    ed: &Editor<S>,
+    p: &mut Prompt,
+    version: u64,
+) -> Result<Option<String>, String> {
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
+    loop {
+        reader.refresh().map_err(|e| e.to_string())?;
+        if reader.snapshot().is_some_and(|s| s.version() >= version) {
+            break;
+        }
+        if std::time::Instant::now() > deadline {
+            return Err(format!(
+                "the session did not publish version {version} within 10 s"
+            ));
+        }
+        reader
+            .wait_change(std::time::Duration::from_millis(100))
+            .map_err(|e| e.to_string())?;
+    }
+    let snap = reader.snapshot();
+    let picked = snap.as_deref().and_then(|s| Picked::read(s, ed));
+    let said = (picked != p.picked).then(|| match &picked {
+        Some(k) => format!("picked: {}", k.describe()),
+        None => "picked: nothing".to_owned(),
+    });
+    p.picked = picked;
+    p.model = snap;
+    Ok(said)
+}
+
 /// `robosim edit --robot NAME [--script FILE]`: resumes design NAME when the session holds one.
 pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(), String> {
     let client = Client::connect(session, "edit").map_err(|e| e.to_string())?;
-    let reader = Reader::attach(session, "edit").map_err(|e| e.to_string())?;
+    let mut reader = Reader::attach(session, "edit").map_err(|e| e.to_string())?;
     let snap = reader.snapshot();
     let mut ed = match snap.as_deref() {
         Some(s) if crate::session::design_from_snapshot(s, robot).is_ok() => {
@@ -83,6 +176,9 @@ pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(),
             let text =
                 std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
             for (k, line) in text.lines().enumerate() {
+                if let Some(said) = follow(&mut reader, &ed, &mut p, ed.version)? {
+                    println!("{said}");
+                }
                 match execute(&mut ed, &mut p, line) {
                     Ok(Outcome::Quit) => break,
                     Ok(Outcome::Said(s)) => {
@@ -101,12 +197,38 @@ pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(),
             }
             Ok(())
         }
-        None => interactive(&mut ed, &mut p, session),
+        None => interactive(&mut ed, &mut p, &mut reader, session),
     }
 }
 
 struct Helper {
     names: Rc<RefCell<Vec<String>>>,
+}
+
+/// Completion at `pos` in `line`: a command for the first word, else an object name of
+/// `names`, a polygon word (`top`, `bottom`), `to` or `selected`. The start of the word
+/// completed and the candidates, in order.
+pub fn complete(line: &str, pos: usize, names: &[String]) -> (usize, Vec<String>) {
+    let pos = pos.min(line.len());
+    if !line.is_char_boundary(pos) {
+        return (pos, Vec::new());
+    }
+    let start = line[..pos]
+        .rfind(|c: char| c.is_whitespace() || c == ',')
+        .map_or(0, |i| i + 1);
+    let word = &line[start..pos];
+    let first = line[..start].trim().is_empty();
+    let pool: Vec<String> = if first {
+        VERBS.iter().map(|s| (*s).to_owned()).collect()
+    } else {
+        let mut v = names.to_vec();
+        v.extend(["top", "bottom", "to", "selected"].map(str::to_owned));
+        v
+    };
+    (
+        start,
+        pool.into_iter().filter(|c| c.starts_with(word)).collect(),
+    )
 }
 
 impl rustyline::completion::Completer for Helper {
@@ -117,22 +239,7 @@ impl rustyline::completion::Completer for Helper {
         pos: usize,
         _ctx: &rustyline::Context<'_>,
     ) -> rustyline::Result<(usize, Vec<String>)> {
-        let start = line[..pos]
-            .rfind(|c: char| c.is_whitespace() || c == ',')
-            .map_or(0, |i| i + 1);
-        let word = &line[start..pos];
-        let first = line[..start].trim().is_empty();
-        let pool: Vec<String> = if first {
-            VERBS.iter().map(|s| (*s).to_owned()).collect()
-        } else {
-            let mut v = self.names.borrow().clone();
-            v.extend(["top", "bottom", "to"].map(str::to_owned));
-            v
-        };
-        Ok((
-            start,
-            pool.into_iter().filter(|c| c.starts_with(word)).collect(),
-        ))
+        Ok(complete(line, pos, &self.names.borrow()))
     }
 }
 impl rustyline::hint::Hinter for Helper {
@@ -142,7 +249,12 @@ impl rustyline::highlight::Highlighter for Helper {}
 impl rustyline::validate::Validator for Helper {}
 impl rustyline::Helper for Helper {}
 
-fn interactive(ed: &mut Editor<Client>, p: &mut Prompt, session: &Session) -> Result<(), String> {
+fn interactive(
+    ed: &mut Editor<Client>,
+    p: &mut Prompt,
+    reader: &mut Reader,
+    session: &Session,
+) -> Result<(), String> {
     let names = Rc::new(RefCell::new(Vec::new()));
     let mut rl: rustyline::Editor<Helper, rustyline::history::FileHistory> =
         rustyline::Editor::new().map_err(|e| e.to_string())?;
@@ -164,7 +276,20 @@ fn interactive(ed: &mut Editor<Client>, p: &mut Prompt, session: &Session) -> Re
             .iter()
             .map(|o| o.name.clone())
             .collect();
-        let prompt = format!("{}.{}> ", ed.design().robot, ed.design().link().name);
+        // What the display picked since the last line (read at each prompt: a pick made while
+        // a line is being typed shows at the next one).
+        if let Some(said) = follow(reader, ed, p, ed.version)? {
+            println!("{said}");
+        }
+        let prompt = format!(
+            "{}.{}{}> ",
+            ed.design().robot,
+            ed.design().link().name,
+            p.picked
+                .as_ref()
+                .map(|k| format!(" [{}]", k.name.as_deref().unwrap_or(&k.path)))
+                .unwrap_or_default()
+        );
         match rl.readline(&prompt) {
             Ok(line) => {
                 if !line.trim().is_empty() {

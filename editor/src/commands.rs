@@ -10,6 +10,8 @@ use crate::session::{Editor, Space};
 use crate::shape::{Shape, facets_for};
 use crate::structure::{Design, EditError};
 use robosim_file_io::linkfile::LinkJoint;
+use robosim_instance_space::{Id, Snapshot};
+use std::rc::Rc;
 
 /// Every verb, for completion and help.
 pub const VERBS: &[&str] = &[
@@ -48,16 +50,24 @@ pub const VERBS: &[&str] = &[
     "read-code",
     "run",
     "faces",
+    "picked",
     "list",
     "help",
     "quit",
 ];
 
-/// The prompt's state besides the design: units and the polygon being drawn.
+/// The prompt's state besides the design: units, the polygon being drawn, and what the editor
+/// last read of the session (its model and the display's pick).
 pub struct Prompt {
     pub length: (f64, String),
     pub angle: (f64, String),
     pub profile: Vec<[f64; 3]>,
+    /// The session's selection as last read: `.` (or `selected`) names this object, and as a
+    /// polygon word this polygon.
+    pub picked: Option<Picked>,
+    /// The session's model as last read: objects outside the design (a library scene's
+    /// modules) are found here by path for `translate` and `rotate-rel`.
+    pub model: Option<Rc<Snapshot>>,
 }
 
 impl Default for Prompt {
@@ -66,8 +76,136 @@ impl Default for Prompt {
             length: (0.01, "cm".into()),
             angle: (std::f64::consts::PI / 180.0, "deg".into()),
             profile: Vec::new(),
+            picked: None,
+            model: None,
         }
     }
+}
+
+/// The display's pick, as the editor reads it from the session's selection.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Picked {
+    pub id: Id,
+    pub polygon: Option<u32>,
+    /// The design object it is (in the current link), if it is one.
+    pub name: Option<String>,
+    /// Its path in the session's model (`scene/item/object`).
+    pub path: String,
+}
+
+impl Picked {
+    /// The selection of `snap`, named against the editor's design.
+    pub fn read<S: Space>(snap: &Snapshot, ed: &Editor<S>) -> Option<Picked> {
+        let sel = snap.selection()?;
+        let i = snap.index_of(sel.object)?;
+        Some(Picked {
+            id: sel.object,
+            polygon: sel.polygon,
+            name: ed.name_of(sel.object),
+            path: snap.path(i),
+        })
+    }
+    /// "cyl (polygon 3)" or "station/truss/m1 (not in the design)".
+    pub fn describe(&self) -> String {
+        let poly = self
+            .polygon
+            .map(|k| format!(", polygon {k}"))
+            .unwrap_or_default();
+        match &self.name {
+            Some(n) => format!("{n}{poly}"),
+            None => format!(
+                "{} (not in the design: translate and rotate-rel move it){poly}",
+                self.path
+            ),
+        }
+    }
+}
+
+/// The words that name the picked object (and, as a polygon word, the picked polygon).
+fn is_pick(w: &str) -> bool {
+    w == "." || w.eq_ignore_ascii_case("selected")
+}
+
+/// What an object word names: a design object, or an object of the session's model outside the
+/// design (by its path, or the pick).
+enum Target {
+    Design(String),
+    Model { id: Id, path: String },
+}
+
+fn pick(p: &Prompt) -> Result<&Picked, String> {
+    p.picked
+        .as_ref()
+        .ok_or_else(|| "nothing is picked: click an object in the display first".to_owned())
+}
+
+fn target<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<Target, String> {
+    if is_pick(w) {
+        let k = pick(p)?;
+        return Ok(match &k.name {
+            Some(n) => Target::Design(n.clone()),
+            None => Target::Model {
+                id: k.id,
+                path: k.path.clone(),
+            },
+        });
+    }
+    let not_found = match ed.design().object(w) {
+        Ok(_) => return Ok(Target::Design(w.to_owned())),
+        Err(e) => e.to_string(),
+    };
+    if let Some(snap) = &p.model {
+        let path = w.trim_start_matches('/');
+        let last = path.rsplit('/').next().unwrap_or(path);
+        if let Some(i) = (0..snap.len()).find(|&i| snap.name(i) == last && snap.path(i) == path) {
+            if snap.origin(i).contains("\"editor\"") {
+                return Err(format!(
+                    "{w}: an object of an editor design; edit it in that design (robosim edit --robot …)"
+                ));
+            }
+            return Ok(Target::Model {
+                id: snap.objects()[i].id,
+                path: path.to_owned(),
+            });
+        }
+    }
+    Err(not_found)
+}
+
+/// The design object a word names (`.`: the pick, which must be a design object).
+fn design_name<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<String, String> {
+    if is_pick(w) {
+        let k = pick(p)?;
+        return k.name.clone().ok_or_else(|| {
+            format!(
+                "the picked object {} is not part of design {}: only translate and rotate-rel act on the model's other objects",
+                k.path,
+                ed.design().robot
+            )
+        });
+    }
+    Ok(w.to_owned())
+}
+
+/// The picked object's local pose in the last-read model, and the pose `f` makes of it.
+fn move_model<S: Space>(
+    ed: &mut Editor<S>,
+    p: &Prompt,
+    id: Id,
+    path: &str,
+    f: impl FnOnce(nalgebra::Matrix4<f64>) -> nalgebra::Matrix4<f64>,
+) -> Result<crate::session::Done, String> {
+    let snap = p
+        .model
+        .as_ref()
+        .ok_or("the session's model has not been read")?;
+    let i = snap
+        .index_of(id)
+        .ok_or_else(|| format!("{path}: no longer in the session"))?;
+    let before = snap.pose(i).pose;
+    let after = robosim_scene::pose::from_matrix(&f(robosim_scene::pose::to_matrix(&before)));
+    ed.move_model_object(id, before, after)
+        .map_err(|e| format!("{path}: {e}"))
 }
 
 /// What a line did.
@@ -217,10 +355,22 @@ fn word<'a>(l: &'a Line, i: usize, what: &str) -> Result<&'a str, String> {
 }
 
 /// Which polygon a face word names: a number, `top` or `bottom` (the polygon whose outward
-/// normal points most along +z / −z of the object's own frame).
-fn face(d: &Design, obj: &str, w: &str) -> Result<usize, String> {
+/// normal points most along +z / −z of the object's own frame), or `.` / `selected`: the
+/// polygon picked in the display (on this object).
+fn face(d: &Design, p: &Prompt, obj: &str, w: &str) -> Result<usize, String> {
     if let Ok(k) = w.parse::<usize>() {
         return Ok(k);
+    }
+    if is_pick(w) {
+        let k = pick(p)?;
+        return match (&k.name, k.polygon) {
+            (Some(n), Some(poly)) if n == obj => Ok(poly as usize),
+            (Some(n), None) if n == obj => Err(format!("the pick on {obj} is not on a polygon")),
+            _ => Err(format!(
+                "the picked polygon is on {}, not on {obj}",
+                k.name.as_deref().unwrap_or(&k.path)
+            )),
+        };
     }
     let o = d.object(obj).map_err(|e| e.to_string())?;
     if o.shape.is_joint() {
@@ -353,36 +503,83 @@ pub fn execute<S: Space>(
                     n,
                 }
             };
+            // The seed asks counter-clockwise for extrude and clockwise for revolve; either is
+            // accepted (the faces are oriented outward from the signed area): say when the
+            // drawing went the other way.
+            let plane: Vec<[f64; 2]> = match &shape {
+                Shape::Extrude { profile, .. } | Shape::Revolve { profile, .. } => profile.clone(),
+                _ => Vec::new(),
+            };
+            let area = signed_area(&plane);
+            let note = match v {
+                "extrude" if area < 0.0 => {
+                    "; the polygon was drawn clockwise (the seed asks counter-clockwise for extrude): winding fixed, faces oriented outward"
+                }
+                "revolve" if area > 0.0 => {
+                    "; the profile was drawn counter-clockwise (the seed asks clockwise for revolve): winding fixed, faces oriented outward"
+                }
+                _ => "",
+            };
             let r = done(ed.apply(|d| d.make(name, shape)));
             if r.is_ok() {
                 p.profile.clear();
             }
-            r
+            r.map(|o| match o {
+                Outcome::Said(s) => Outcome::Said(format!("{s}{note}")),
+                other => other,
+            })
         }
         "clone" => {
-            let (src, name) = (
-                word(&l, 0, "the object to clone")?,
-                word(&l, 1, "the new name")?,
-            );
-            done(ed.apply(|d| d.clone_object(src, name)))
+            let src = design_name(ed, p, word(&l, 0, "the object to clone")?)?;
+            let name = word(&l, 1, "the new name")?;
+            done(ed.apply(|d| d.clone_object(&src, name)))
         }
         "translate" => {
-            let o = word(&l, 0, "an object")?;
             let t = p.xyz(&l, true)?;
-            done(ed.apply(|d| d.translate(o, t)))
+            match target(ed, p, word(&l, 0, "an object")?)? {
+                Target::Design(o) => done(ed.apply(|d| d.translate(&o, t))),
+                Target::Model { id, path } => {
+                    if !t.iter().all(|x| x.is_finite()) {
+                        return Err("translate: the translation is not finite".into());
+                    }
+                    let d = move_model(ed, p, id, &path, |m| {
+                        nalgebra::Matrix4::new_translation(&nalgebra::Vector3::from(t)) * m
+                    })?;
+                    Ok(Outcome::Said(format!(
+                        "ok, version {} ({} ops): moved {path}",
+                        d.version, d.ops
+                    )))
+                }
+            }
         }
         "home" => {
-            let o = word(&l, 0, "an object")?;
-            done(ed.apply(|d| d.home(o)))
+            let o = design_name(ed, p, word(&l, 0, "an object")?)?;
+            done(ed.apply(|d| d.home(&o)))
         }
         "rotate" | "rotate-rel" => {
-            let o = word(&l, 0, "an object")?;
             let r = p.xyz(&l, false)?;
-            done(ed.apply(|d| d.rotate(o, r, v == "rotate-rel")))
+            match target(ed, p, word(&l, 0, "an object")?)? {
+                Target::Design(o) => done(ed.apply(|d| d.rotate(&o, r, v == "rotate-rel"))),
+                Target::Model { id, path } => {
+                    if v == "rotate" {
+                        return Err(format!(
+                            "rotate: {path} is not in the design and has no home to rotate from; use rotate-rel"
+                        ));
+                    }
+                    let rot = crate::shape::axis_rotation(2, r[2])
+                        * crate::shape::axis_rotation(1, r[1])
+                        * crate::shape::axis_rotation(0, r[0]);
+                    let d = move_model(ed, p, id, &path, |m| m * rot)?;
+                    Ok(Outcome::Said(format!(
+                        "ok, version {} ({} ops): turned {path}",
+                        d.version, d.ops
+                    )))
+                }
+            }
         }
         "delete" => {
-            let o = word(&l, 0, "an object")?;
-            done(ed.apply(|d| d.delete(o)))
+            let o = design_name(ed, p, word(&l, 0, "an object")?)?;
+            done(ed.apply(|d| d.delete(&o)))
         }
         "attach" => {
             // attach CHILD FACE [to] BASE FACE
@@ -393,14 +590,15 @@ pub fn execute<S: Space>(
                 .filter(|w| *w != "to")
                 .collect();
             if w.len() != 4 {
-                return Err("attach: attach CHILD POLYGON to BASE POLYGON (polygon: a number, top or bottom)".into());
+                return Err("attach: attach CHILD POLYGON to BASE POLYGON (polygon: a number, top, bottom, or . for the picked one)".into());
             }
+            let (child, base) = (design_name(ed, p, w[0])?, design_name(ed, p, w[2])?);
             let d0 = ed.design().clone();
-            let (cf, bf) = (face(&d0, w[0], w[1])?, face(&d0, w[2], w[3])?);
-            done(ed.apply(|d| d.attach(w[0], cf, w[2], bf)))
+            let (cf, bf) = (face(&d0, p, &child, w[1])?, face(&d0, p, &base, w[3])?);
+            done(ed.apply(|d| d.attach(&child, cf, &base, bf)))
         }
         "resize" => {
-            let o = word(&l, 0, "an object")?;
+            let o = &design_name(ed, p, word(&l, 0, "an object")?)?;
             let obj = ed.design().object(o).map_err(|e| e.to_string())?.clone();
             let names = obj.shape.dim_names();
             Prompt::check_keys(&l, names)?;
@@ -496,7 +694,7 @@ pub fn execute<S: Space>(
             )))
         }
         "faces" => {
-            let o = word(&l, 0, "an object")?;
+            let o = &design_name(ed, p, word(&l, 0, "an object")?)?;
             let obj = ed.design().object(o).map_err(|e| e.to_string())?;
             let Some(poly) = obj.shape.polyhedron().map_err(|e| e.to_string())? else {
                 return Ok(Outcome::Said(format!(
@@ -524,6 +722,10 @@ pub fn execute<S: Space>(
             }
             Ok(Outcome::Said(s.trim_end().to_owned()))
         }
+        "picked" => Ok(Outcome::Said(match &p.picked {
+            Some(k) => format!("picked: {}", k.describe()),
+            None => "nothing is picked (click an object in the display)".into(),
+        })),
         "list" => {
             let d = ed.design();
             let mut s = format!(
@@ -559,6 +761,16 @@ pub fn execute<S: Space>(
             Err(format!("unknown command {other:?}{near}"))
         }
     }
+}
+
+/// Twice the signed area of a closed polygon (shoelace): positive counter-clockwise.
+fn signed_area(pts: &[[f64; 2]]) -> f64 {
+    (0..pts.len())
+        .map(|i| {
+            let (a, b) = (pts[i], pts[(i + 1) % pts.len()]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum()
 }
 
 fn code_units(p: &Prompt) -> CodeUnits {

@@ -9,6 +9,7 @@
 //!
 //! Documentation: docs/editor.md.
 
+pub mod bench;
 pub mod cli;
 pub mod codegen;
 pub mod commands;

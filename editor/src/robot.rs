@@ -82,6 +82,39 @@ pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathB
     Ok((prefix, files.into_iter().map(|f| f.1).collect()))
 }
 
+/// Link files held in memory (a program's STORE-LINKs, `PREFIX.EXT` names) ordered as
+/// [`link_paths`] orders files: the base `LOC` first, then the others in natural order. All must
+/// belong to one robot (one prefix). The prefix and the ordered links.
+pub fn order_links(
+    mut links: Vec<(String, LinkFile)>,
+) -> Result<(String, Vec<(String, LinkFile)>), String> {
+    let prefix_of = |n: &str| n.split_once('.').map_or(n, |(p, _)| p).to_owned();
+    let Some(first) = links.first().map(|l| prefix_of(&l.0)) else {
+        return Err("no links".into());
+    };
+    let mut others: Vec<String> = links
+        .iter()
+        .map(|l| prefix_of(&l.0))
+        .filter(|p| *p != first)
+        .collect();
+    if !others.is_empty() {
+        others.dedup();
+        return Err(format!(
+            "links of several robots ({first}, {}); write them with --out and load one with `robosim lang load DIR --robot NAME`",
+            others.join(", ")
+        ));
+    }
+    let ext = |n: &str| n.split_once('.').map_or("", |(_, e)| e).to_owned();
+    links.sort_by(|a, b| {
+        let (ea, eb) = (ext(&a.0), ext(&b.0));
+        let base = |e: &str| !e.eq_ignore_ascii_case("LOC");
+        base(&ea)
+            .cmp(&base(&eb))
+            .then_with(|| natural(&ea).cmp(&natural(&eb)))
+    });
+    Ok((first, links))
+}
+
 /// Whether a file starts like a link file (a first row of four numbers); other files in the
 /// directory (a program, notes) are not links.
 fn looks_like_link_file(p: &Path) -> bool {

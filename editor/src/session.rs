@@ -10,7 +10,7 @@
 
 use crate::structure::{Design, EdObject, EditError};
 use robosim_instance_space::{
-    GeometryInput, Id, Kind, ObjRef, Snapshot, Store, Transaction, TxError,
+    GeometryInput, Id, Kind, ObjRef, Pose, Snapshot, Store, Transaction, TxError,
 };
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -54,12 +54,21 @@ struct DesignRecord {
     current: usize,
 }
 
+/// One undoable step: a whole design (what the design was before, or after), or a move of an
+/// object of the session's model that is not part of the design (its local pose before and
+/// after).
+#[derive(Debug, Clone)]
+enum Step {
+    Design(Design),
+    Pose { id: Id, before: Pose, after: Pose },
+}
+
 /// An editor session: the design, its history, and what of it the space holds.
 pub struct Editor<S: Space> {
     pub space: S,
     design: Design,
-    undo: Vec<Design>,
-    redo: Vec<Design>,
+    undo: Vec<Step>,
+    redo: Vec<Step>,
     /// ids in the space: the scene, each link item, each (link, object).
     scene: Option<Id>,
     links: BTreeMap<String, Id>,
@@ -140,7 +149,7 @@ impl<S: Space> Editor<S> {
         let old = std::mem::replace(&mut self.design, new);
         match self.sync() {
             Ok(done) => {
-                self.undo.push(old);
+                self.undo.push(Step::Design(old));
                 self.redo.clear();
                 Ok(done)
             }
@@ -151,42 +160,86 @@ impl<S: Space> Editor<S> {
         }
     }
 
-    /// Undoes the last edit (one transaction back to the previous design).
-    pub fn undo(&mut self) -> Result<Done, EditError> {
-        let Some(prev) = self.undo.pop() else {
-            return Err(EditError::Invalid("nothing to undo".into()));
+    /// Moves object `id` of the session's model — one that is not part of the design, e.g. a
+    /// module of a library scene — from local pose `before` (what the space holds) to `after`:
+    /// one transaction (a single pose op), undoable like any edit.
+    pub fn move_model_object(
+        &mut self,
+        id: Id,
+        before: Pose,
+        after: Pose,
+    ) -> Result<Done, EditError> {
+        let done = self.commit_pose(id, after)?;
+        self.undo.push(Step::Pose { id, before, after });
+        self.redo.clear();
+        Ok(done)
+    }
+
+    fn commit_pose(&mut self, id: Id, pose: Pose) -> Result<Done, EditError> {
+        let mut tx = Transaction::new();
+        tx.set_pose(id, pose);
+        let (_, version) = self
+            .space
+            .commit(&tx)
+            .map_err(|e| EditError::Invalid(format!("the keeper refused the edit: {e}")))?;
+        self.version = version;
+        Ok(Done { version, ops: 1 })
+    }
+
+    /// Goes one step through the history: `from` is popped, the step applied in the direction
+    /// `back`, and pushed on `to` (on failure, back on `from`).
+    fn step(&mut self, back: bool) -> Result<Done, EditError> {
+        let (from, what) = if back {
+            (&mut self.undo, "undo")
+        } else {
+            (&mut self.redo, "redo")
         };
-        let cur = std::mem::replace(&mut self.design, prev);
-        match self.sync() {
-            Ok(d) => {
-                self.redo.push(cur);
-                Ok(d)
+        let Some(step) = from.pop() else {
+            return Err(EditError::Invalid(format!("nothing to {what}")));
+        };
+        let result = match &step {
+            Step::Design(d) => {
+                let cur = std::mem::replace(&mut self.design, d.clone());
+                match self.sync() {
+                    Ok(done) => Ok((done, Step::Design(cur))),
+                    Err(e) => {
+                        self.design = cur;
+                        Err(e)
+                    }
+                }
+            }
+            Step::Pose { id, before, after } => self
+                .commit_pose(*id, if back { *before } else { *after })
+                .map(|done| (done, step.clone())),
+        };
+        match result {
+            Ok((done, inverse)) => {
+                if back {
+                    self.redo.push(inverse);
+                } else {
+                    self.undo.push(inverse);
+                }
+                Ok(done)
             }
             Err(e) => {
-                let prev = std::mem::replace(&mut self.design, cur);
-                self.undo.push(prev);
+                if back {
+                    self.undo.push(step);
+                } else {
+                    self.redo.push(step);
+                }
                 Err(e)
             }
         }
     }
 
+    /// Undoes the last edit (one transaction back to the previous design, or pose).
+    pub fn undo(&mut self) -> Result<Done, EditError> {
+        self.step(true)
+    }
+
     /// Redoes the last undone edit.
     pub fn redo(&mut self) -> Result<Done, EditError> {
-        let Some(next) = self.redo.pop() else {
-            return Err(EditError::Invalid("nothing to redo".into()));
-        };
-        let cur = std::mem::replace(&mut self.design, next);
-        match self.sync() {
-            Ok(d) => {
-                self.undo.push(cur);
-                Ok(d)
-            }
-            Err(e) => {
-                let next = std::mem::replace(&mut self.design, cur);
-                self.redo.push(next);
-                Err(e)
-            }
-        }
+        self.step(false)
     }
 
     /// Replaces the whole design (load, restart, code → editor) as one undoable edit.
@@ -269,7 +322,7 @@ impl<S: Space> Editor<S> {
         if self.scene.is_none() || header != old_header {
             tx.set_origin(scene, &json(&header));
         }
-        let mut deletes: Vec<Id> = Vec::new();
+        let mut deletes: Vec<(usize, Id)> = Vec::new();
         for l in &d.links {
             let lref: ObjRef = match self.links.get(&l.name) {
                 Some(&id) => ObjRef::Id(id),
@@ -335,15 +388,30 @@ impl<S: Space> Editor<S> {
                 }
                 write_object(&mut tx, ObjRef::Id(id), &l.name, o, prev)?;
             }
-            // deleted objects (their children were re-hung above)
+            // deleted objects (their surviving children were re-hung above); an object deleted
+            // with its parent goes first (deepest first: each delete finds no children left)
             if let Some(ol) = old_l {
+                let depth = |o: &EdObject| {
+                    let mut d = 0usize;
+                    let mut cur = o.parent.as_deref();
+                    while let Some(p) = cur {
+                        d += 1;
+                        cur = ol
+                            .objects
+                            .iter()
+                            .find(|x| x.name == p)
+                            .and_then(|x| x.parent.as_deref());
+                        if d > ol.objects.len() {
+                            break;
+                        }
+                    }
+                    d
+                };
                 for o in &ol.objects {
                     if !l.objects.iter().any(|x| x.name == o.name)
                         && let Some(&id) = self.objects.get(&(l.name.clone(), o.name.clone()))
                     {
-                        {
-                            deletes.push(id);
-                        }
+                        deletes.push((depth(o), id));
                     }
                 }
             }
@@ -357,7 +425,8 @@ impl<S: Space> Editor<S> {
                 }
             }
         }
-        for id in deletes {
+        deletes.sort_by_key(|d| std::cmp::Reverse(d.0));
+        for (_, id) in deletes {
             tx.delete(id, false);
         }
         Ok((tx, creates))

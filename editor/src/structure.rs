@@ -9,7 +9,8 @@
 //! Choices where the seed is silent or R2 had a limit (docs/editor.md):
 //! * **delete** keeps the children where they are in the world and unattaches them — the seed's
 //!   own choice (§2.3, "a virtual object … provides invisible support to the child objects");
-//! * **translate** is relative, along the object's home axes; **rotate** (absolute) replaces
+//! * **translate** is relative, along the axes of the frame the object hangs in (its parent's,
+//!   or the link's); **rotate** (absolute) replaces
 //!   the rotation of `amat` by `Rz·Ry·Rx` from home, keeping its translation; **rotate-rel**
 //!   turns about the object's current axes (`amat · Rz·Ry·Rx`);
 //! * **attach** refuses an object that is already attached (the seed: "Once an object is
@@ -239,7 +240,9 @@ impl Design {
         Ok(d)
     }
 
-    /// Relative translation along the object's home axes (m).
+    /// Relative translation (m) along the axes of the frame the object hangs in — its parent
+    /// object's, or the link's when unattached: the local pose `ref · amat` becomes
+    /// `T(v) · ref · amat` (`amat ← R⁻¹ · T(v) · R · amat` with R the rotation of `ref`).
     pub fn translate(&self, name: &str, v: [f64; 3]) -> Result<Design, EditError> {
         finite(&v, "translation")?;
         self.with_object(name, |o| {

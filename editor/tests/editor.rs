@@ -199,7 +199,11 @@ fn attach_aligns_faces_and_resize_keeps_the_attachment() {
     assert!((w - ed.design().world("cap").expect("cap")).amax() < 1e-12);
 }
 
-fn space_state(s: &Store) -> Vec<(String, [f64; 12], String, Option<usize>)> {
+type SpaceState = Vec<(String, [f64; 12], String, Option<(Vec<[f64; 3]>, Vec<u32>)>)>;
+
+/// Every object of the space: path, world pose, editor record, and its geometry's vertex
+/// values and polygon indices.
+fn space_state(s: &Store) -> SpaceState {
     let snap = Snapshot::from_store(s);
     let mut v: Vec<_> = (0..snap.len())
         .map(|i| {
@@ -207,7 +211,8 @@ fn space_state(s: &Store) -> Vec<(String, [f64; 12], String, Option<usize>)> {
                 snap.path(i),
                 snap.world_pose(i),
                 snap.origin(i).to_owned(),
-                snap.geometry(i).map(|g| g.vertices.len()),
+                snap.geometry(i)
+                    .map(|g| (g.vertices.to_vec(), g.indices.to_vec())),
             )
         })
         .collect();
@@ -361,4 +366,367 @@ fn code_round_trips_to_1e_12_both_ways() {
             assert!((Vector3::from(x.0) - Vector3::from(y.0)).norm() < 1e-12);
         }
     }
+}
+
+fn said(r: Result<Outcome, String>) -> String {
+    match r {
+        Ok(Outcome::Said(s)) => s,
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn save_load_restart_and_read_code_as_commands() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path().display().to_string();
+    let mut ed = Editor::new(Store::new(), "S").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        "box a X=10 Y=10 Z=10\ncylinder b R=3 H=8\nattach b bottom to a top\nrotate-rel b Z=30\ntranslate a Y=4\nlink L1\nsphere s R=5\ntranslate s Z=12",
+    );
+    let design = ed.design().clone();
+    let space = space_state(&ed.space);
+    assert!(said(execute(&mut ed, &mut p, &format!("save {d}/d.json"))).starts_with("saved"));
+    assert!(said(execute(&mut ed, &mut p, &format!("code {d}/d.rsim"))).starts_with("wrote"));
+
+    said(execute(&mut ed, &mut p, "restart"));
+    assert_eq!(ed.design(), &robosim_editor::structure::Design::new("S"));
+    assert!(
+        space_state(&ed.space).iter().all(|o| o.3.is_none()),
+        "restart leaves no solid in the space"
+    );
+
+    said(execute(&mut ed, &mut p, &format!("load {d}/d.json")));
+    assert_eq!(ed.design(), &design, "load gives back the saved design");
+    assert_eq!(
+        space_state(&ed.space),
+        space,
+        "and the space holds it as before"
+    );
+
+    // A file that is not a design: refused, nothing changes.
+    std::fs::write(dir.path().join("bad.json"), "{\"robot\": 3}").expect("bad");
+    let v = ed.version;
+    let e = execute(&mut ed, &mut p, &format!("load {d}/bad.json")).expect_err("bad design");
+    assert!(e.contains("bad.json"), "{e}");
+    assert_eq!((ed.design(), ed.version), (&design, v));
+
+    // read-code: the generated program back into the editor, every object where it was.
+    said(execute(&mut ed, &mut p, "restart"));
+    said(execute(&mut ed, &mut p, &format!("read-code {d}/d.rsim")));
+    assert_eq!(ed.design().links.len(), design.links.len());
+    for k in 0..design.links.len() {
+        let (a, b) = (
+            design.placed(k).expect("saved"),
+            ed.design().placed(k).expect("read"),
+        );
+        assert_eq!(a.len(), b.len(), "link {k}");
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.shape, y.shape);
+            assert!((x.m - y.m).amax() < 1e-12, "link {k}: {} vs {}", x.m, y.m);
+        }
+    }
+    // and read-code is one undoable edit
+    said(execute(&mut ed, &mut p, "undo"));
+    assert_eq!(ed.design(), &robosim_editor::structure::Design::new("S"));
+}
+
+#[test]
+fn home_undoes_every_move_since_the_object_was_placed() {
+    let mut ed = Editor::new(Store::new(), "H").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        "box a X=10 Y=10 Z=10\ncylinder b R=3 H=8\nattach b bottom to a top",
+    );
+    let home = ed.design().world("b").expect("b");
+    run_script(
+        &mut ed,
+        &mut p,
+        "translate b X=5 Y=-2\nrotate b Z=40\nrotate-rel b X=10",
+    );
+    assert!((ed.design().world("b").expect("b") - home).amax() > 0.01);
+    said(execute(&mut ed, &mut p, "home b"));
+    let b = ed.design().object("b").expect("b");
+    assert_eq!(b.amat, Matrix4::identity());
+    assert!((ed.design().world("b").expect("b") - home).amax() < 1e-12);
+    assert_eq!(b.parent.as_deref(), Some("a"), "home keeps the attachment");
+}
+
+#[test]
+fn delete_keeps_the_children_where_they_are_in_the_world() {
+    let mut ed = Editor::new(Store::new(), "D").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        "box a X=10 Y=10 Z=10\ncylinder b R=3 H=8\nattach b bottom to a top\ncylinder c R=1 H=2\nattach c bottom to b top\ntranslate a X=7\nrotate-rel a Z=25 X=-15",
+    );
+    let (wb, wc) = (
+        ed.design().world("b").expect("b"),
+        ed.design().world("c").expect("c"),
+    );
+    let world_in_space = |ed: &Editor<Store>, name: &str| {
+        let snap = snapshot(ed);
+        snap.world_pose(snap.find(name).expect(name))
+    };
+    let (sb, sc) = (world_in_space(&ed, "b"), world_in_space(&ed, "c"));
+    said(execute(&mut ed, &mut p, "delete a"));
+    let d = ed.design();
+    assert!(d.object("a").is_err());
+    assert_eq!(d.object("b").expect("b").parent, None, "b is unattached");
+    assert_eq!(d.object("c").expect("c").parent.as_deref(), Some("b"));
+    assert!((d.world("b").expect("b") - wb).amax() < 1e-12);
+    assert!((d.world("c").expect("c") - wc).amax() < 1e-12);
+    for (name, before) in [("b", sb), ("c", sc)] {
+        let after = world_in_space(&ed, name);
+        for k in 0..12 {
+            assert!(
+                (after[k] - before[k]).abs() < 1e-12,
+                "{name} moved in the space"
+            );
+        }
+    }
+}
+
+#[test]
+fn a_prismatic_joint_loads_as_a_prismatic_robot_joint() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let mut ed = Editor::new(Store::new(), "PJ").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        &format!(
+            "box base X=10 Y=10 Z=10\nf-joint-i in\nattach in 0 to base bottom\np-joint-i+1 out\nattach out 0 to base top\nlink L1\nbox slide X=5 Y=5 Z=20\np-joint-i pin\nattach pin 0 to slide bottom\nr-joint-i+1 next\nattach next 0 to slide top\ncheck\nrun {}",
+            dir.path().display()
+        ),
+    );
+    let (prefix, paths) = robot::link_paths(dir.path(), None).expect("link files");
+    assert_eq!(prefix, "PJ");
+    let r = robot::load_links(&paths, "pj").expect("a robot");
+    assert_eq!(
+        r.robot.joints[0].joint_type,
+        robosim_kinematics::JointType::Prismatic
+    );
+    // what `robosim lang load` commits: the simulator's model of it has the prismatic joint
+    let tx = robot::robot_transaction(&r, "pj").expect("tx");
+    let mut store = Store::new();
+    store.apply(&tx).expect("the keeper accepts it");
+    let snap = Snapshot::from_store(&store);
+    let view = snap.robot("pj").expect("robot pj");
+    let model = robosim_scene::robot_model(&snap, &view).expect("model");
+    assert_eq!(
+        model.joints[0].joint_type,
+        robosim_kinematics::JointType::Prismatic
+    );
+}
+
+#[test]
+fn the_prompt_completes_commands_object_names_and_polygon_words() {
+    use robosim_editor::cli::complete;
+    let names = vec!["cyl".to_owned(), "custom".to_owned(), "arm".to_owned()];
+    assert_eq!(
+        complete("tr", 2, &names),
+        (0, vec!["truncated-cone".to_owned(), "translate".to_owned()])
+    );
+    assert_eq!(
+        complete("  undo", 4, &names),
+        (2, vec!["units".to_owned(), "undo".to_owned()])
+    );
+    assert_eq!(complete("  undo", 5, &names), (2, vec!["undo".to_owned()]));
+    assert_eq!(
+        complete("attach cu", 9, &names),
+        (7, vec!["custom".to_owned()])
+    );
+    assert_eq!(
+        complete("attach custom 5 to c", 20, &names),
+        (19, vec!["cyl".to_owned(), "custom".to_owned()])
+    );
+    assert_eq!(
+        complete("attach x t", 10, &names),
+        (9, vec!["top".to_owned(), "to".to_owned()])
+    );
+    assert_eq!(
+        complete("attach x 0 to y se", 18, &names),
+        (16, vec!["selected".to_owned()])
+    );
+    // a word not at the cursor's end: only what is before the cursor counts
+    assert_eq!(complete("box a", 1, &names), (0, vec!["box".to_owned()]));
+    // a cursor inside a multi-byte character: nothing, no panic
+    assert_eq!(complete("é", 1, &names), (1, Vec::new()));
+}
+
+/// The session's selection (the display's pick) is what `.` names; an object of the model
+/// outside the design (a library scene's module) is moved by path or pick, one pose op,
+/// undoable; commands that need a design object refuse it.
+#[test]
+fn the_pick_and_objects_outside_the_design_are_edited_with_undo() {
+    use robosim_editor::commands::Picked;
+    use robosim_instance_space::{IDENTITY, Kind, Transaction};
+    use std::rc::Rc;
+    let mut ed = Editor::new(Store::new(), "M").expect("editor");
+    let mut p = Prompt::default();
+    let mut tx = Transaction::new();
+    let sc = tx.create(Kind::Scene, "station", None);
+    let m = tx.create(Kind::Item, "module", Some(sc));
+    let mut pose0 = IDENTITY;
+    pose0[3] = 1.0;
+    pose0[7] = 2.0;
+    tx.set_pose(m, pose0);
+    let module = ed.space.apply(&tx).expect("station").created[1];
+    run_script(&mut ed, &mut p, "box a X=10 Y=10 Z=10");
+    let pose_of = |ed: &Editor<Store>| ed.space.get(module).expect("module").pose;
+    let read = |ed: &Editor<Store>, p: &mut Prompt| {
+        let snap = snapshot(ed);
+        p.picked = Picked::read(&snap, ed);
+        p.model = Some(Rc::new(snap));
+    };
+
+    read(&ed, &mut p);
+    said(execute(
+        &mut ed,
+        &mut p,
+        "translate station/module X=10 Z=-5",
+    ));
+    let moved = pose_of(&ed);
+    let mut want = pose0;
+    want[3] += 0.1;
+    want[11] -= 0.05;
+    assert_eq!(moved, want);
+    read(&ed, &mut p);
+    said(execute(&mut ed, &mut p, "rotate-rel /station/module Z=90"));
+    let turned = pose_of(&ed);
+    assert!(
+        (turned[0]).abs() < 1e-15 && (turned[4] - 1.0).abs() < 1e-15,
+        "{turned:?}"
+    );
+    assert_eq!(
+        [turned[3], turned[7], turned[11]],
+        [want[3], want[7], want[11]]
+    );
+    let e = execute(&mut ed, &mut p, "rotate station/module Z=90").expect_err("no home");
+    assert!(e.contains("rotate-rel"), "{e}");
+    said(execute(&mut ed, &mut p, "undo"));
+    assert_eq!(pose_of(&ed), moved);
+    said(execute(&mut ed, &mut p, "undo"));
+    assert_eq!(pose_of(&ed), pose0);
+    said(execute(&mut ed, &mut p, "redo"));
+    assert_eq!(pose_of(&ed), moved);
+
+    // Nothing picked yet.
+    let e = execute(&mut ed, &mut p, "translate . X=1").expect_err("no pick");
+    assert!(e.contains("nothing is picked"), "{e}");
+    // The display picks polygon 2 of box a.
+    let a = ed.id_of("a").expect("a");
+    let mut tx = Transaction::new();
+    tx.select(Some(a.into()), Some(2));
+    ed.space.apply(&tx).expect("select");
+    read(&ed, &mut p);
+    assert_eq!(
+        said(execute(&mut ed, &mut p, "picked")),
+        "picked: a, polygon 2"
+    );
+    let before = ed.design().world("a").expect("a");
+    said(execute(&mut ed, &mut p, "translate . X=5"));
+    let after = ed.design().world("a").expect("a");
+    assert!((after[(0, 3)] - before[(0, 3)] - 0.05).abs() < 1e-15);
+    // ... and then the module.
+    let mut tx = Transaction::new();
+    tx.select(Some(module.into()), None);
+    ed.space.apply(&tx).expect("select");
+    read(&ed, &mut p);
+    said(execute(&mut ed, &mut p, "translate selected Y=1"));
+    assert!((pose_of(&ed)[7] - moved[7] - 0.01).abs() < 1e-15);
+    let e = execute(&mut ed, &mut p, "delete .").expect_err("not a design object");
+    assert!(e.contains("station/module is not part of design M"), "{e}");
+    let e = execute(&mut ed, &mut p, "attach a bottom to a .").expect_err("pick elsewhere");
+    assert!(e.contains("picked polygon is on station/module"), "{e}");
+}
+
+#[test]
+fn extrude_and_revolve_say_when_they_fixed_the_winding() {
+    let mut ed = Editor::new(Store::new(), "W").expect("editor");
+    let mut p = Prompt::default();
+    let ccw = "move X=0 Y=0\ndraw X=4 Y=0\ndraw X=4 Y=3\ndraw X=0 Y=3";
+    let cw = "move X=0 Y=0\ndraw X=0 Y=3\ndraw X=4 Y=3\ndraw X=4 Y=0";
+    run_script(&mut ed, &mut p, ccw);
+    let s = said(execute(&mut ed, &mut p, "extrude a Z=2"));
+    assert!(!s.contains("winding"), "{s}");
+    run_script(&mut ed, &mut p, cw);
+    let s = said(execute(&mut ed, &mut p, "extrude b Z=2"));
+    assert!(
+        s.contains("drawn clockwise") && s.contains("winding fixed"),
+        "{s}"
+    );
+    // both solids have their faces outward: the same volume, positive
+    let vol = |n: &str| {
+        let poly = ed
+            .design()
+            .object(n)
+            .expect(n)
+            .shape
+            .polyhedron()
+            .expect("ok")
+            .expect("solid");
+        // divergence theorem over each polygon's fan: positive when the faces point outward
+        (0..poly.polygons.len())
+            .map(|k| {
+                let ix = poly.polygon_indices(k);
+                let v = |j: usize| poly.vertices[ix[j] as usize].coords;
+                (1..ix.len() - 1)
+                    .map(|j| v(0).dot(&v(j).cross(&v(j + 1))) / 6.0)
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+    };
+    assert!((vol("a") - 4e-2 * 3e-2 * 2e-2).abs() < 1e-15);
+    assert!((vol("b") - vol("a")).abs() < 1e-15);
+    // revolve: the seed draws clockwise in the x–z plane
+    run_script(
+        &mut ed,
+        &mut p,
+        "move X=1 Z=0\ndraw X=1 Z=5\ndraw X=3 Z=5\ndraw X=3 Z=0",
+    );
+    let s = said(execute(&mut ed, &mut p, "revolve r N=12"));
+    assert!(!s.contains("winding"), "{s}");
+    run_script(
+        &mut ed,
+        &mut p,
+        "move X=1 Z=0\ndraw X=3 Z=0\ndraw X=3 Z=5\ndraw X=1 Z=5",
+    );
+    let s = said(execute(&mut ed, &mut p, "revolve q N=12"));
+    assert!(
+        s.contains("counter-clockwise") && s.contains("winding fixed"),
+        "{s}"
+    );
+}
+
+/// docs/editor.md: translate moves along the axes of the frame the object hangs in (its
+/// parent's), not along its own or its home axes.
+#[test]
+fn translate_moves_along_the_parent_axes_whatever_the_objects_rotation() {
+    let mut ed = Editor::new(Store::new(), "T").expect("editor");
+    let mut p = Prompt::default();
+    run_script(
+        &mut ed,
+        &mut p,
+        "box a X=10 Y=10 Z=10\nrotate a Z=90\nbox c X=2 Y=2 Z=2\nattach c bottom to a 0\nrotate-rel c Z=30",
+    );
+    let world = |ed: &Editor<Store>, n: &str| ed.design().world(n).expect(n);
+    let (a0, c0) = (world(&ed, "a"), world(&ed, "c"));
+    said(execute(&mut ed, &mut p, "translate a X=5"));
+    let a1 = world(&ed, "a");
+    // a hangs in the link frame: +5 cm along the link's x, although a is turned by 90° about z
+    assert!(((a1 - a0).column(3) - nalgebra::Vector4::new(0.05, 0.0, 0.0, 0.0)).amax() < 1e-12);
+    said(execute(&mut ed, &mut p, "translate c X=1"));
+    let c1 = world(&ed, "c");
+    // c hangs in a's frame: the move is along a's x axis in the world, minus the move of a
+    let along = a1.fixed_view::<3, 1>(0, 0) * 0.01;
+    let moved =
+        c1.fixed_view::<3, 1>(0, 3) - (c0.fixed_view::<3, 1>(0, 3) + Vector3::new(0.05, 0.0, 0.0));
+    assert!((moved - along).amax() < 1e-12, "{moved} vs {along}");
 }

@@ -125,7 +125,28 @@ fn a_failed_program_writes_no_link_file_and_says_where() {
         e.to_string(),
         "bad.rsim:38:10: CYLINDER: argument R must be positive, got -1"
     );
-    assert!(std::fs::read_dir(dir.path()).expect("dir").next().is_none());
+    // What `robosim lang run` does with it: the output folder (existing, empty) stays empty —
+    // C.LOC, stored before the error, is not written either.
+    let program = dir.path().join("bad.rsim");
+    std::fs::write(&program, &bad).expect("program");
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).expect("out");
+    let e = robosim_editor::cli::lang_run(&program, &out).expect_err("negative radius");
+    assert!(
+        e.ends_with("bad.rsim:38:10: CYLINDER: argument R must be positive, got -1"),
+        "{e}"
+    );
+    assert_eq!(
+        std::fs::read_dir(&out).expect("out").count(),
+        0,
+        "a failed program wrote into {}",
+        out.display()
+    );
+    // the same program without the error writes both links there (the check can fail)
+    let good = bad.replace("R = -1.0", "R = 1.0");
+    std::fs::write(&program, &good).expect("program");
+    robosim_editor::cli::lang_run(&program, &out).expect("runs");
+    assert!(out.join("C.LOC").exists() && out.join("C.L1").exists());
 
     let cases = [
         (

@@ -13,7 +13,9 @@
 //! `"robosim-model-digest-1"`, the number of roots (u64) and the root digests, sorted.
 //!
 //! **What is not:** object ids and parent ids (a load creates new ones; the tree is what counts),
-//! the version, geometry generations, and the Library Space (a model's instances name their
+//! the version, geometry generations, the session's selection (the display's pick: where a
+//! person is pointing, not what the model is — a model file does not carry it either), and
+//! the Library Space (a model's instances name their
 //! declarations in `origin`, which is in).
 //!
 //! Sorting the children's digests makes the digest independent of sibling order; two models

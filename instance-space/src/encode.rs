@@ -100,11 +100,12 @@ pub(crate) fn model_segments(model: &Store, epoch: u64) -> ModelSegments {
                 .to_vec()
         }));
     }
-    let objects_header = [ObjectsHeader {
-        version: model.structure_version(),
+    let objects_header = [ObjectsHeader::new(
+        model.structure_version(),
         epoch,
-        count: recs.len() as u64,
-    }];
+        recs.len(),
+        model.selection(),
+    )];
     let mut w = SegmentWriter::new();
     w.push(&objects_header).push(&recs).push(&names);
     let objects = w.to_vec();

@@ -307,8 +307,14 @@ fn write_checkpoint(dir: &Path, model: &Store) -> Result<(), JournalError> {
             })
             .collect(),
     };
-    let body =
+    let mut body =
         bincode::serde::encode_to_vec(&data, bincode::config::standard()).unwrap_or_default();
+    // The session's selection follows the objects (a checkpoint written before selections
+    // existed simply ends after them: see `read_checkpoint`).
+    body.extend(
+        bincode::serde::encode_to_vec(model.selection(), bincode::config::standard())
+            .unwrap_or_default(),
+    );
     let path = dir.join(checkpoint_name(model.version));
     let tmp = path.with_extension("tmp");
     let mut f = create_private(&tmp)?;
@@ -337,7 +343,17 @@ fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
     if crc32fast::hash(&bytes[12..]) != crc {
         return Err(bad("checksum mismatch"));
     }
-    let data = decode_checkpoint(&bytes[12..]).map_err(|e| bad(&e.to_string()))?;
+    let (data, used) = decode_checkpoint(&bytes[12..]).map_err(|e| bad(&e.to_string()))?;
+    let rest = &bytes[12 + used..];
+    let selection: Option<crate::Selection> = if rest.is_empty() {
+        None
+    } else {
+        match bincode::serde::decode_from_slice(rest, bincode::config::standard()) {
+            Ok((s, n)) if n == rest.len() => s,
+            Ok(_) => return Err(bad("trailing bytes after the selection")),
+            Err(e) => return Err(bad(&format!("selection: {e}"))),
+        }
+    };
     let mut objects = Vec::with_capacity(data.objects.len());
     for o in data.objects {
         let geometry = match o.geometry {
@@ -368,7 +384,12 @@ fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
             origin: o.origin,
         });
     }
-    Ok(Store::from_parts(data.version, data.next_id, objects))
+    Ok(Store::from_parts(
+        data.version,
+        data.next_id,
+        objects,
+        selection,
+    ))
 }
 
 /// The file in a session's `run/` directory where the keeper leaves [`RecoveryReport::lost_message`]
@@ -380,21 +401,20 @@ pub const LOST_NOTE: &str = "recovery-lost.txt";
 /// (a 1 KiB checkpoint whose name claims 2^62 bytes, found by the `journal` fuzz target) is
 /// refused before anything is allocated; without the limit bincode allocated first, and an
 /// impossible size aborted the keeper during recovery.
-fn decode_checkpoint(body: &[u8]) -> Result<CheckpointData, bincode::error::DecodeError> {
+/// Returns the data and the bytes it took.
+fn decode_checkpoint(body: &[u8]) -> Result<(CheckpointData, usize), bincode::error::DecodeError> {
     use bincode::config::standard;
     // decoded size is at most ~32× the encoded size (an empty Vec: 1 byte on disk, 24 in memory)
     let limit = body.len().saturating_mul(32).saturating_add(4096);
     macro_rules! within {
         ($($n:literal),*) => {
             $( if limit <= (1usize << $n) {
-                return bincode::serde::decode_from_slice(body, standard().with_limit::<{ 1usize << $n }>())
-                    .map(|(d, _)| d);
+                return bincode::serde::decode_from_slice(body, standard().with_limit::<{ 1usize << $n }>());
             } )*
         };
     }
     within!(16, 20, 24, 28, 30, 32, 34);
     bincode::serde::decode_from_slice(body, standard().with_limit::<{ 1usize << 36 }>())
-        .map(|(d, _)| d)
 }
 
 /// What recovery found.

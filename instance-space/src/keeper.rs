@@ -479,7 +479,8 @@ impl Keeper {
                         | aspect::APPEARANCE
                         | aspect::KINEMATICS
                         | aspect::DYNAMICS
-                        | aspect::GEOMETRY)
+                        | aspect::GEOMETRY
+                        | aspect::SELECTION)
                     != 0
                 {
                     structure = true;
@@ -573,11 +574,12 @@ impl Keeper {
         // Chunks past the end go with their publishers (readers stop asking for them).
         self.chunk_pubs.truncate(chunks);
         self.structure_version = self.model.version;
-        let header = [ObjectsHeader {
-            version: self.model.version,
-            epoch: self.epoch,
-            count: n as u64,
-        }];
+        let header = [ObjectsHeader::new(
+            self.model.version,
+            self.epoch,
+            n,
+            self.model.selection(),
+        )];
         let mut w = SegmentWriter::new();
         w.push(&header).push(&recs).push(&names);
         Self::send(&self.objects_pub, &w, "objects")

@@ -128,6 +128,40 @@ pub struct ObjectsHeader {
     /// The keeper's start time (ns since the epoch): changes when a keeper restarts.
     pub epoch: u64,
     pub count: u64,
+    /// The session's selection ([`crate::Selection`]): the object's id, 0 for none.
+    pub selected: u64,
+    /// The selected polygon, [`NO_POLYGON`] for the object as a whole.
+    pub selected_polygon: u64,
+}
+
+/// `ObjectsHeader::selected_polygon` when no polygon is selected.
+pub const NO_POLYGON: u64 = u64::MAX;
+
+impl ObjectsHeader {
+    /// The header of a model's objects segment.
+    pub(crate) fn new(
+        version: u64,
+        epoch: u64,
+        count: usize,
+        selection: Option<crate::Selection>,
+    ) -> Self {
+        ObjectsHeader {
+            version,
+            epoch,
+            count: count as u64,
+            selected: selection.map_or(0, |s| s.object),
+            selected_polygon: selection
+                .and_then(|s| s.polygon)
+                .map_or(NO_POLYGON, u64::from),
+        }
+    }
+    /// The selection this header carries.
+    pub fn selection(&self) -> Option<crate::Selection> {
+        (self.selected != 0).then(|| crate::Selection {
+            object: self.selected,
+            polygon: u32::try_from(self.selected_polygon).ok(),
+        })
+    }
 }
 
 /// `ObjectRec::flags` bits.

@@ -38,7 +38,7 @@ pub use session::{
 };
 pub use store::{
     Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,
-    MassProps, Object, Pose, Store, TxError, aspect,
+    MassProps, Object, Pose, Selection, Store, TxError, aspect,
 };
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
 pub use view::{JointView, RobotView};

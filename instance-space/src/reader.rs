@@ -209,6 +209,10 @@ impl Snapshot {
             .copied()
             .unwrap_or(bytemuck::Zeroable::zeroed())
     }
+    /// The session's selection at this version (the display's last pick), if any.
+    pub fn selection(&self) -> Option<crate::Selection> {
+        self.objects_header().selection()
+    }
     /// Every object, sorted by id.
     pub fn objects(&self) -> &[ObjectRec] {
         Self::seg(&self.objects).section(1).unwrap_or(&[])

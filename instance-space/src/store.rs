@@ -101,7 +101,11 @@ pub mod aspect {
     pub const APPEARANCE: u64 = 8;
     pub const KINEMATICS: u64 = 16;
     pub const DYNAMICS: u64 = 32;
+    /// Every aspect of one object (what a create or a delete touches).
     pub const ALL: u64 = 63;
+    /// The session's selection (the display's pick, see [`crate::Selection`]) moved to or away
+    /// from the object. Not part of [`ALL`]: it is a session record, not an object aspect.
+    pub const SELECTION: u64 = 64;
     /// Names of the bits, for printing.
     pub fn names(mask: u64) -> Vec<&'static str> {
         [
@@ -111,6 +115,7 @@ pub mod aspect {
             (APPEARANCE, "appearance"),
             (KINEMATICS, "kinematics"),
             (DYNAMICS, "dynamics"),
+            (SELECTION, "selection"),
         ]
         .iter()
         .filter(|(b, _)| mask & b != 0)
@@ -197,6 +202,21 @@ pub struct MassProps {
     pub mass: f64,
     pub com: [f64; 3],
     pub inertia: [f64; 6],
+}
+
+/// The session's selection: the object (and polygon of its geometry, when the pick hit one)
+/// that the next editing command acts on. The display writes it when the user picks (clicks);
+/// the editor reads it. One per session, a record of the Instance Space beside the objects —
+/// not an object aspect — published in the objects segment's header
+/// (`Snapshot::selection`), journaled like any transaction and kept in checkpoints. A deleted
+/// object stops being selected; a polygon the object's new geometry no longer has is dropped.
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
+pub struct Selection {
+    pub object: Id,
+    /// Index into the object's geometry polygons; `None`: the object as a whole.
+    pub polygon: Option<u32>,
 }
 
 /// A rigid transform, 3×4 row-major `[R | t]` (the last row 0 0 0 1 is implied).
@@ -315,6 +335,7 @@ pub struct Store {
     next_id: Id,
     objects: BTreeMap<Id, Object>,
     children: HashMap<Id, BTreeSet<Id>>,
+    selection: Option<Selection>,
 }
 
 impl Default for Store {
@@ -333,22 +354,44 @@ impl Store {
             next_id: 1,
             objects: BTreeMap::new(),
             children: HashMap::new(),
+            selection: None,
         }
     }
     /// Rebuilds a model from a checkpoint's parts.
-    pub(crate) fn from_parts(version: u64, next_id: Id, objects: Vec<Object>) -> Self {
+    pub(crate) fn from_parts(
+        version: u64,
+        next_id: Id,
+        objects: Vec<Object>,
+        selection: Option<Selection>,
+    ) -> Self {
         let mut m = Store {
             version,
             structure_version: version,
             next_id,
             objects: BTreeMap::new(),
             children: HashMap::new(),
+            selection: None,
         };
         for o in objects {
             m.children.entry(o.parent).or_default().insert(o.id);
             m.objects.insert(o.id, o);
         }
+        m.selection = selection.and_then(|s| m.still_valid(s));
         m
+    }
+    /// The session's selection (see [`Selection`]).
+    pub fn selection(&self) -> Option<Selection> {
+        self.selection
+    }
+    /// `s` as far as the model still holds it: `None` when its object is gone; without its
+    /// polygon when the object's geometry no longer has that polygon.
+    fn still_valid(&self, s: Selection) -> Option<Selection> {
+        let o = self.objects.get(&s.object)?;
+        let polys = o.geometry.as_ref().map_or(0, |g| g.polygons.len());
+        Some(Selection {
+            object: s.object,
+            polygon: s.polygon.filter(|&k| (k as usize) < polys),
+        })
     }
     pub fn get(&self, id: Id) -> Option<&Object> {
         self.objects.get(&id)
@@ -387,6 +430,7 @@ impl Store {
             next_id: self.next_id,
             touched: BTreeMap::new(),
             reparented: Vec::new(),
+            selection: None,
         };
         for (i, op) in tx.ops.iter().enumerate() {
             stage.op(i, op)?;
@@ -396,7 +440,8 @@ impl Store {
             overlay,
             created,
             next_id,
-            touched,
+            mut touched,
+            selection,
             ..
         } = stage;
         // Commit: nothing below can fail.
@@ -420,6 +465,19 @@ impl Store {
         }
         self.children.retain(|_, s| !s.is_empty());
         self.next_id = next_id;
+        // The selection: as the transaction set it, then as the committed model still holds
+        // it (a deleted object, a polygon its new geometry lacks). Both the object it left and
+        // the one it reached are announced with the SELECTION aspect.
+        let before = self.selection;
+        let after = selection
+            .unwrap_or(before)
+            .and_then(|s| self.still_valid(s));
+        if after != before {
+            for s in [before, after].into_iter().flatten() {
+                *touched.entry(s.object).or_default() |= aspect::SELECTION;
+            }
+            self.selection = after;
+        }
         self.version += 1;
         let applied = Applied {
             version: self.version,
@@ -447,6 +505,8 @@ struct Stage<'m> {
     next_id: Id,
     touched: BTreeMap<Id, u64>,
     reparented: Vec<(usize, Id)>,
+    /// Set by a `Select` op: the selection to commit (`Some(None)`: cleared).
+    selection: Option<Option<Selection>>,
 }
 
 impl Stage<'_> {
@@ -705,6 +765,39 @@ impl Stage<'_> {
                 let obj = self.edit(i, *id, GEOMETRY)?;
                 obj.geometry = poly;
                 obj.geom_gen += 1;
+            }
+            Op::Select { id, polygon } => {
+                let Some(id) = id else {
+                    if polygon.is_some() {
+                        return Err(TxError::InvalidValue {
+                            op: i,
+                            id: 0,
+                            field: "selection".into(),
+                            reason: "a polygon without an object".into(),
+                        });
+                    }
+                    self.selection = Some(None);
+                    return Ok(());
+                };
+                let rid = self.resolve(i, *id)?;
+                if let Some(k) = polygon {
+                    let n = self
+                        .lookup(rid)
+                        .and_then(|o| o.geometry.as_ref())
+                        .map_or(0, |g| g.polygons.len());
+                    if *k as usize >= n {
+                        return Err(TxError::InvalidValue {
+                            op: i,
+                            id: rid,
+                            field: "selection polygon".into(),
+                            reason: format!("polygon {k} does not exist (the object has {n})"),
+                        });
+                    }
+                }
+                self.selection = Some(Some(Selection {
+                    object: rid,
+                    polygon: *polygon,
+                }));
             }
         }
         Ok(())

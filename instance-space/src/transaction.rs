@@ -95,6 +95,12 @@ pub enum Op {
         id: ObjRef,
         geometry: Option<GeometryInput>,
     },
+    /// Sets the session's selection ([`crate::Selection`]): an object and optionally one of
+    /// its polygons, or nothing (`id: None`).
+    Select {
+        id: Option<ObjRef>,
+        polygon: Option<u32>,
+    },
 }
 
 /// An ordered list of operations, applied all or nothing.
@@ -210,6 +216,12 @@ impl Transaction {
             id: id.into(),
             geometry,
         });
+        self
+    }
+
+    /// Selects object `id` (and polygon `polygon` of its geometry), or clears the selection.
+    pub fn select(&mut self, id: Option<ObjRef>, polygon: Option<u32>) -> &mut Self {
+        self.ops.push(Op::Select { id, polygon });
         self
     }
 

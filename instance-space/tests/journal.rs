@@ -252,3 +252,32 @@ fn a_torn_last_record_is_not_a_loss() {
                 .is_none()
     );
 }
+
+/// The selection is part of what recovery restores: from a checkpoint (written after the
+/// objects) and from the journal records after it.
+#[test]
+fn the_selection_survives_a_checkpoint_and_the_journal_after_it() {
+    let dir = tempfile::tempdir().expect("temp");
+    let (mut model, mut journal, _) = recover(dir.path()).expect("fresh");
+    commit(&mut model, &mut journal, "a");
+    commit(&mut model, &mut journal, "b");
+    let (a, b) = (1, 2);
+    let mut tx = Transaction::new();
+    tx.select(Some(a.into()), None);
+    let v = model.apply(&tx).expect("select").version;
+    journal.append(v, &tx.encode()).expect("append");
+    journal.checkpoint(&model).expect("checkpoint");
+    drop(journal);
+    let (mut model, mut journal, _) = recover(dir.path()).expect("recover from the checkpoint");
+    assert_eq!(model.selection().map(|s| s.object), Some(a));
+    assert_eq!(model.version, v);
+    let mut tx = Transaction::new();
+    tx.select(Some(b.into()), None);
+    let v = model.apply(&tx).expect("select b").version;
+    journal.append(v, &tx.encode()).expect("append");
+    journal.sync().expect("sync");
+    drop(journal);
+    let (m3, _, _) = recover(dir.path()).expect("recover");
+    assert_eq!(m3.selection().map(|s| s.object), Some(b));
+    assert_eq!(m3.version, model.version);
+}

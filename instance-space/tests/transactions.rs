@@ -239,3 +239,59 @@ fn a_pose_change_touches_only_the_pose_aspect_of_one_object() {
     assert_eq!(a.changes, vec![(link, aspect::POSE)]);
     assert_eq!(a.version, 2);
 }
+
+/// The session's selection (the display's pick): an object and one of its polygons, checked
+/// against the model, announced with the SELECTION aspect on the objects it left and reached,
+/// published in the snapshot, and dropped with its object.
+#[test]
+fn selection_is_checked_announced_published_and_dropped_with_its_object() {
+    use robosim_instance_space::{Selection, Snapshot, TxError, aspect};
+    let mut m = Store::new();
+    let mut tx = Transaction::new();
+    let s = tx.create(Kind::Scene, "s", None);
+    let a = tx.create(Kind::Solid, "a", Some(s));
+    tx.set_geometry(a, Some(cube(1.0)));
+    tx.create(Kind::Solid, "b", Some(s));
+    let ids = m.apply(&tx).expect("scene").created;
+    let (a, b) = (ids[1], ids[2]);
+
+    let mut tx = Transaction::new();
+    tx.select(Some(a.into()), Some(6));
+    let e = m.apply(&tx).expect_err("a cube has 6 polygons");
+    assert!(
+        matches!(&e, TxError::InvalidValue { id, field, .. } if *id == a && field == "selection polygon"),
+        "{e}"
+    );
+    let mut tx = Transaction::new();
+    tx.select(Some(b.into()), Some(0));
+    assert!(m.apply(&tx).is_err(), "b has no geometry, so no polygon 0");
+    let mut tx = Transaction::new();
+    tx.select(None, Some(0));
+    assert!(m.apply(&tx).is_err(), "a polygon without an object");
+    assert_eq!(m.selection(), None, "refused selections changed nothing");
+
+    let mut tx = Transaction::new();
+    tx.select(Some(a.into()), Some(5));
+    let applied = m.apply(&tx).expect("select a/5");
+    assert_eq!(applied.changes, vec![(a, aspect::SELECTION)]);
+    let want = Selection {
+        object: a,
+        polygon: Some(5),
+    };
+    assert_eq!(m.selection(), Some(want));
+    assert_eq!(Snapshot::from_store(&m).selection(), Some(want));
+
+    let mut tx = Transaction::new();
+    tx.select(Some(b.into()), None);
+    let applied = m.apply(&tx).expect("select b");
+    assert_eq!(
+        applied.changes,
+        vec![(a, aspect::SELECTION), (b, aspect::SELECTION)],
+        "both the object left and the one reached"
+    );
+    let mut tx = Transaction::new();
+    tx.delete(b, false);
+    m.apply(&tx).expect("delete b");
+    assert_eq!(m.selection(), None, "a deleted object is not selected");
+    assert_eq!(Snapshot::from_store(&m).selection(), None);
+}
