@@ -409,8 +409,8 @@ pub fn sites(s: &Setup) -> [Point3<f64>; 3] {
 
 /// The ORU swap: travel along the truss (the array carrying the failed ORU parks with its
 /// grapple up), reach over the ORU, grasp it, lift it out, carry it over the truss and set it
-/// down beside the spare, take the spare, carry it out, insert and bolt it, withdraw (the array
-/// tracks again), return. The effector's tip stops [`GRAPPLE_M`] above each ORU frame. The
+/// down beside the spare, take the spare, carry it out, insert and bolt it, withdraw, return
+/// (the array tracks again). The effector's tip stops [`GRAPPLE_M`] above each ORU frame. The
 /// poses are solved by inverse kinematics (damped least squares over all six joints, rail
 /// included, seeded from the pose before); a site the servicer cannot reach is an error
 /// naming it.
@@ -485,11 +485,13 @@ pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
             after_dwell: Some(OruEvent::InstallSpare),
             ..w("insert and bolt the spare", &grasp, 180.0)
         },
+        w("withdraw", &reach, 0.0),
+        // the array tracks again once the servicer is back, clear of its sweep (the study's
+        // arrays turn at once: no gimbal rate)
         Waypoint {
             on_arrival: Some(OruEvent::Unpark),
-            ..w("withdraw", &reach, 0.0)
+            ..w("fold and return", &q0, 0.0)
         },
-        w("fold and return", &q0, 0.0),
     ];
     out.shrink_to_fit();
     Ok(out)
@@ -629,7 +631,27 @@ pub fn oru_frame(s: &Setup, h: Held, q_array: &[f64], q_servicer: &[f64]) -> Iso
     }
 }
 
-/// The ORU box posed at ORU frame `w`, named `name`.
+/// Where the servicer let go of the spare against where its mount is (m): the distance of the
+/// spare's frame in the effector just before it is bolted from the mount's frame with the array
+/// parked. `None` when the run ends before the spare is bolted.
+pub fn install_error(s: &Setup, run: &Run) -> Option<f64> {
+    let plan = Plan {
+        points: run.schedule.clone(),
+        events: run.events.clone(),
+    };
+    let t_end = run.steps.last()?.t;
+    let (te, _) = run
+        .events
+        .iter()
+        .find(|(t, e)| *e == OruEvent::InstallSpare && *t <= t_end)?;
+    let before = oru_state(s, &plan, te - 1e-6);
+    let sq = servicer_at(&plan.points, *te).0;
+    let held = oru_frame(s, before.spare, &s.oru.service_q, &sq);
+    let mount = oru_frame(s, Held::OnArray, &s.oru.service_q, &sq);
+    Some((held.translation.vector - mount.translation.vector).norm())
+}
+
+/// The ORU box posed at ORU frame `w`.
 fn posed_oru<'a>(part: &'a common::Part, w: &Isometry3<f64>) -> Posed<'a> {
     let pose = w * part.offset;
     Posed {
@@ -1431,13 +1453,18 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             if serviced_min <= 0.0 { " — a CONTACT" } else { " (no keep-out: it is worked on)" }
         ));
     }
+    let plan = Plan {
+        points: run.schedule.clone(),
+        events: run.events.clone(),
+    };
     for (te, e) in &run.events {
-        let at = run.steps.iter().find(|st| st.t >= *te);
+        // where the ORU is at the event (after it), the array parked
+        let ost = oru_state(s, &plan, *te);
+        let sq = servicer_at(&plan.points, *te).0;
         let where_ = |i: usize| {
-            at.map_or(String::new(), |st| {
-                let p = st.oru_at[i];
-                format!(" at ({:.3}, {:.3}, {:.3}) m", p.x, p.y, p.z)
-            })
+            let h = if i == 0 { ost.failed } else { ost.spare };
+            let p = oru_frame(s, h, &s.oru.service_q, &sq).translation.vector;
+            format!(" at ({:.3}, {:.3}, {:.3}) m", p.x, p.y, p.z)
         };
         let what = match e {
             OruEvent::Park => continue,
@@ -1449,14 +1476,13 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
         };
         notes.push(format!("ORU {:.1} min: {what}.", te / 60.0));
     }
-    if let Some(last) = run.steps.last()
-        && last.oru.spare == Held::OnArray
+    if let (Some(last), Some(install)) = (run.steps.last(), install_error(s, run))
         && matches!(last.oru.failed, Held::Fixed(_))
     {
-        let [site, _, stow] = sites(s);
+        let [_, _, stow] = sites(s);
         notes.push(format!(
-            "At the end: the spare's frame {:.1} mm from the failed unit's site, the failed unit's {:.1} mm from its stowage.",
-            (last.oru_at[1] - site).norm() * 1e3,
+            "At the end: the spare bolted {:.2} mm from the failed unit's mount (where the servicer let go of it, against the mount), the failed unit {:.2} mm from its stowage.",
+            install * 1e3,
             (last.oru_at[0] - stow).norm() * 1e3
         ));
     }
