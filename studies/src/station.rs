@@ -1214,7 +1214,14 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
     let worst_inc = run
         .steps
         .iter()
-        .flat_map(|st| st.arrays.iter().filter(|a| !a.2).map(|a| a.1))
+        .flat_map(|st| {
+            st.arrays
+                .iter()
+                .enumerate()
+                // neither feathered nor parked for the servicer: tracking
+                .filter(|(ai, a)| !a.2 && !(st.oru.parked && *ai == s.oru.array))
+                .map(|(_, a)| a.1)
+        })
         .fold(1.0f64, f64::min)
         .clamp(-1.0, 1.0)
         .acos()
@@ -1280,7 +1287,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             "1",
         ),
         (
-            "worst tracking incidence (unfeathered)",
+            "worst tracking incidence (neither feathered nor parked)",
             format!("{worst_inc:.3}"),
             "deg",
         ),
