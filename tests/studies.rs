@@ -152,7 +152,8 @@ fn the_station_scene_runs_its_orbit_sun_tracking_and_power_in_the_daemon() {
             .iter()
             .position(|x| study.bodies[x.body].name == name)
             .expect("the study has the array");
-        let (want, cos) = robosim_studies::station::track(&study, &study.arrays[ai], &q, &sun, 1e-6);
+        let (want, cos) =
+            robosim_studies::station::track(&study, &study.arrays[ai], &q, &sun, 1e-6);
         let inc = a["incidence_deg"].as_f64().expect("incidence");
         assert!(
             (inc - cos.clamp(-1.0, 1.0).acos().to_degrees()).abs() < 0.05,
@@ -177,7 +178,10 @@ fn the_station_scene_runs_its_orbit_sun_tracking_and_power_in_the_daemon() {
         .map(|a| a["power_w"].as_f64().expect("power"))
         .sum();
     assert!((pw["power_w"].as_f64().expect("power") - total).abs() < 1e-6);
-    assert!(total > 100e3 && total <= 1584.0 * 0.14 * 1361.0 + 1e-6, "{total} W");
+    assert!(
+        total > 100e3 && total <= 1584.0 * 0.14 * 1361.0 + 1e-6,
+        "{total} W"
+    );
     assert!(pw["battery_soc"].as_f64().expect("soc") > 0.8, "{pw}");
     assert!(pw["energy_kwh"].as_f64().expect("energy") > 0.0);
 
@@ -208,8 +212,14 @@ fn the_welding_scene_runs_in_the_daemon_without_a_space_stage() {
     let s = step(&p, 20);
     assert!(s.get("space").is_none(), "{s}");
     let robots = s["robots"].as_array().expect("robots");
-    let names: Vec<&str> = robots.iter().map(|r| r["name"].as_str().unwrap_or("")).collect();
-    assert!(names.contains(&"arm") && names.contains(&"positioner"), "{names:?}");
+    let names: Vec<&str> = robots
+        .iter()
+        .map(|r| r["name"].as_str().unwrap_or(""))
+        .collect();
+    assert!(
+        names.contains(&"arm") && names.contains(&"positioner"),
+        "{names:?}"
+    );
     for r in robots {
         let stages: Vec<&str> = r["stages"]
             .as_array()
@@ -233,14 +243,25 @@ fn robosim_study_runs_from_the_command_line() {
         .args(["study", "welding", "--out"])
         .arg(&out)
         .args([
-            "--seam", "circle", "--step", "1", "--speed", "20", "--frames", "0", "--accuracy",
+            "--seam",
+            "circle",
+            "--step",
+            "1",
+            "--speed",
+            "20",
+            "--frames",
+            "0",
+            "--accuracy",
             "false",
         ])
         .output()
         .expect("robosim study");
     assert!(o.status.success(), "{}", text(&o.stderr));
     let said = text(&o.stdout);
-    assert!(said.contains("welding study: 1 seam(s) (circle 628 mm)"), "{said}");
+    assert!(
+        said.contains("welding study: 1 seam(s) (circle 628 mm)"),
+        "{said}"
+    );
     for f in [
         "welding.csv",
         "arm.traj",

@@ -116,13 +116,7 @@ pub fn wrap(a: f64) -> f64 {
 
 /// The best angle of joint `j` (the others as in `q`) for n·ŝ, in closed form, kept within the
 /// joint's limits; `q[j]` is set to it and n·ŝ returned.
-fn best_joint(
-    robot: &Robot,
-    a: &SolarArray,
-    q: &mut [f64],
-    j: usize,
-    sun: &Vector3<f64>,
-) -> f64 {
+fn best_joint(robot: &Robot, a: &SolarArray, q: &mut [f64], j: usize, sun: &Vector3<f64>) -> f64 {
     let mut at = |v: f64| {
         q[j] = v;
         a.normal_at(robot, q).dot(sun)
@@ -236,7 +230,11 @@ impl Battery {
         } * dt_s;
         let e = self.energy_j() + de;
         self.soc = (e / self.capacity_j).clamp(0.0, 1.0);
-        if e < 0.0 { -e * self.discharge_eff } else { 0.0 }
+        if e < 0.0 {
+            -e * self.discharge_eff
+        } else {
+            0.0
+        }
     }
 }
 
@@ -282,7 +280,10 @@ mod tests {
         // nothing for 2 h: 200 kWh / 0.9 needed, 150 stored: 150 × 0.9 = 135 kWh served
         let unserved = b.step(0.0, 7200.0);
         assert_eq!(b.soc, 0.0);
-        assert!((unserved / 3.6e6 - (200.0 - 135.0)).abs() < 1e-9, "{unserved}");
+        assert!(
+            (unserved / 3.6e6 - (200.0 - 135.0)).abs() < 1e-9,
+            "{unserved}"
+        );
     }
 
     #[test]

@@ -17,13 +17,13 @@
 
 use crate::common::{self, Body, Csv, Posed};
 use crate::{Result, StudyError, bail, say};
-use robosim_simulator::orbit::Orbit;
-use robosim_simulator::power::{self, Battery, SolarArray};
 use nalgebra::{Isometry3, Matrix4, Point3, Vector3};
-use robosim_collision::robot::isometry_from_matrix;
 use robosim_collision::Mode;
+use robosim_collision::robot::isometry_from_matrix;
 use robosim_kinematics::ik::{self, IkOptions, Method};
 use robosim_library::{Params, Primitive, SceneModel};
+use robosim_simulator::orbit::Orbit;
+use robosim_simulator::power::{self, Battery, SolarArray};
 use std::path::Path;
 
 /// The library scene of the study.
@@ -438,7 +438,8 @@ pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
     };
     let [oru, spare, stow] = sites(s);
     let mut at_site = q0.clone();
-    at_site[0] = (oru.y - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
+    at_site[0] =
+        (oru.y - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
     let reach = solve("above the ORU", oru, ABOVE, &at_site)?;
     let grasp = solve("the ORU", oru, 0.0, &reach)?;
     let over_stow = solve("above the stowage", stow, ABOVE, &reach)?;

@@ -447,7 +447,10 @@ fn between_step_errors_shrink_as_the_step_shrinks() {
     let mut last: Option<(f64, f64, f64)> = None;
     for h in [2.0, 1.0, 0.5, 0.25] {
         let r = welding::simulate(&s, &at(h)).expect("the simulation runs");
-        eprintln!("step {h} s: mid-step downhand {:.3e} rad, tip {:.3e} m", r.mid_downhand, r.mid_tip);
+        eprintln!(
+            "step {h} s: mid-step downhand {:.3e} rad, tip {:.3e} m",
+            r.mid_downhand, r.mid_tip
+        );
         assert!(r.steps.iter().all(|x| x.problem.is_empty()), "h {h}");
         assert!(r.mid_downhand > 0.0 && r.mid_tip > 0.0);
         if let Some((h0, dh0, tip0)) = last {
@@ -521,7 +524,14 @@ fn a_travel_speed_over_a_joint_speed_limit_is_reported() {
             .any(|x| x.3.contains("joint speed over the limit"))
     );
     // the default speed limits hold at the same travel speed
-    let ok = welding::simulate(&s, &WeldingParams { speed_m_s: 0.05, ..circle_at(0.5) }).expect("it runs");
+    let ok = welding::simulate(
+        &s,
+        &WeldingParams {
+            speed_m_s: 0.05,
+            ..circle_at(0.5)
+        },
+    )
+    .expect("it runs");
     assert!(ok.steps.iter().all(|x| x.problem.is_empty()));
 }
 
@@ -602,7 +612,11 @@ fn welding_accuracy_section_rows_and_errors_shrink_with_the_step() {
     // solutions (they prove no 5 mm clearance) and may switch roll between two steps, which
     // no step size removes; they are only checked to report a number.
     for pair in [0, 6] {
-        assert!(num(pair + 1, tip) < 0.7 * num(pair, tip), "{:?}", r.table.rows);
+        assert!(
+            num(pair + 1, tip) < 0.7 * num(pair, tip),
+            "{:?}",
+            r.table.rows
+        );
     }
     for row in 0..8 {
         assert!(num(row, tip).is_finite());
@@ -699,7 +713,11 @@ fn station_clearance_is_checked_between_steps() {
         "{:?}",
         md.table.rows
     );
-    assert!(md.notes.iter().any(|n| n.starts_with("Between the samples")));
+    assert!(
+        md.notes
+            .iter()
+            .any(|n| n.starts_with("Between the samples"))
+    );
 }
 
 /// The library refuses the station's effects where they mean nothing, naming them.
@@ -720,11 +738,13 @@ fn the_library_refuses_tracking_without_an_orbit_and_a_bad_efficiency() {
     assert!(e.contains("sun_tracking") && e.contains("orbit"), "{e}");
     let e = eval("        power { efficiency: 0.14 }").expect_err("refused");
     assert!(e.contains("power") && e.contains("orbit"), "{e}");
-    let e = eval("        orbit { altitude: 400 km, beta: 0 deg }\n        power { efficiency: 1.5 }")
-        .expect_err("refused");
+    let e =
+        eval("        orbit { altitude: 400 km, beta: 0 deg }\n        power { efficiency: 1.5 }")
+            .expect_err("refused");
     assert!(e.contains("efficiency 1.5 is out of range"), "{e}");
-    let e = eval("        orbit { altitude: 400 km, beta: 0 deg }\n        power { efficiency: 0 }")
-        .expect_err("refused");
+    let e =
+        eval("        orbit { altitude: 400 km, beta: 0 deg }\n        power { efficiency: 0 }")
+            .expect_err("refused");
     assert!(e.contains("efficiency 0 is out of range"), "{e}");
     eval("        orbit { altitude: 400 km, beta: 0 deg }\n        sun_tracking: on\n        power { efficiency: 0.3 }")
         .expect("a valid declaration");
@@ -750,7 +770,11 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
     assert!(matches!(last.oru.failed, station::Held::Fixed(_)));
     assert!(!last.oru.parked);
     // where they end: at the sites, to the IK's tolerance
-    assert!((last.oru_at[0] - stow).norm() < 1e-3, "{:?}", last.oru_at[0]);
+    assert!(
+        (last.oru_at[0] - stow).norm() < 1e-3,
+        "{:?}",
+        last.oru_at[0]
+    );
     // the spare is on the mount of a tracking array again: its frame turns with the array,
     // but at the service angle it is where the failed one was; the servicer let go of it
     // there, to the IK's tolerance
@@ -764,11 +788,16 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
         for (i, h) in [st.oru.failed, st.oru.spare].iter().enumerate() {
             if let station::Held::Carried(_) = h {
                 carried[i] += 1;
-                let tip = robosim_kinematics::fk::forward(&s.bodies[s.servicer].robot, &st.servicer_q);
+                let tip =
+                    robosim_kinematics::fk::forward(&s.bodies[s.servicer].robot, &st.servicer_q);
                 // the grapple stays GRAPPLE_M below the effector's tip
                 let d = nalgebra::Vector3::new(tip[(0, 3)], tip[(1, 3)], tip[(2, 3)])
                     - st.oru_at[i].coords;
-                assert!((d.norm() - station::GRAPPLE_M).abs() < 1e-3, "t {}: {d:?}", st.t);
+                assert!(
+                    (d.norm() - station::GRAPPLE_M).abs() < 1e-3,
+                    "t {}: {d:?}",
+                    st.t
+                );
             }
         }
         assert!(st.clearance_structure > 0.0, "t {}", st.t);
@@ -780,6 +809,14 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
     }
     assert!(carried[0] > 0 && carried[1] > 0, "{carried:?}");
     let md = station::summarise(&s, &p, &run);
-    assert!(md.notes.iter().any(|n| n.contains("the spare bolted on the mount")));
-    assert!(md.notes.iter().any(|n| n.starts_with("At the end: the spare bolted")));
+    assert!(
+        md.notes
+            .iter()
+            .any(|n| n.contains("the spare bolted on the mount"))
+    );
+    assert!(
+        md.notes
+            .iter()
+            .any(|n| n.starts_with("At the end: the spare bolted"))
+    );
 }

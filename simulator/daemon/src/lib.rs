@@ -250,7 +250,11 @@ pub fn not_simulated(e: &robosim_library::Effects) -> Vec<String> {
                 "contacts" | "contact" | "t" | "q" | "qd" | "qdd" | "tau" | "q_measured"
             )
         })
-        .map(|s| format!("logged signal {s:?} (the simulator logs t, q, qd, qdd, tau, q_measured, contact)"))
+        .map(|s| {
+            format!(
+                "logged signal {s:?} (the simulator logs t, q, qd, qdd, tau, q_measured, contact)"
+            )
+        })
         .collect()
 }
 
