@@ -252,10 +252,19 @@ fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Er
     Ok(())
 }
 
+/// A tick label: plain with up to 3 decimals in [0.01, 10⁴), else in exponent form with up to 3
+/// significant digits (ticks 1.2e-5 apart must not all read "1e-5").
 fn fmt_tick(v: f64) -> String {
     let a = v.abs();
     if a != 0.0 && !(1e-2..1e4).contains(&a) {
-        format!("{v:.0e}")
+        let s = format!("{v:.2e}");
+        match s.split_once('e') {
+            Some((m, e)) => {
+                let m = m.trim_end_matches('0').trim_end_matches('.');
+                format!("{m}e{e}")
+            }
+            None => s,
+        }
     } else {
         format!("{v:.3}")
             .trim_end_matches('0')
@@ -267,6 +276,19 @@ fn fmt_tick(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 17 audit: the welding summary's error axis read "1e-5" at 1.0, 1.2 and 1.4 × 10⁻⁵.
+    #[test]
+    fn tick_labels_in_exponent_form_keep_the_digits_that_tell_them_apart() {
+        let labels: Vec<String> = [1.0e-5, 1.2e-5, 1.4e-5, 8e-6, 2.5e6]
+            .iter()
+            .map(|v| fmt_tick(*v))
+            .collect();
+        assert_eq!(labels, ["1e-5", "1.2e-5", "1.4e-5", "8e-6", "2.5e6"]);
+        assert_eq!(fmt_tick(0.0), "0");
+        assert_eq!(fmt_tick(12.5), "12.5");
+        assert_eq!(fmt_tick(-1.25e-3), "-1.25e-3");
+    }
 
     #[test]
     fn writes_csv_markdown_and_png_that_say_what_was_given() {

@@ -7,11 +7,15 @@
 //! [`Command`]. `robosim sim` is `robosim_hl_interface::cli::sim`; `robosim report effects` is
 //! `robosim_report::effects`.
 //!
-//! Not here yet: the headless daemon (`robosim up SCENE --with simulator`), state publishing and
-//! the command channel of issue 6 — the pipeline is the plain-function core they will drive.
+//! Scene-level effects (not per robot): [`orbit`] (a circular orbit, the sun vector, eclipses)
+//! and [`power`] (solar arrays found by their panels, sun tracking of their gimbals, array
+//! power, the battery) — the models the simulator daemon's space stage and `robosim study
+//! station` share. The daemon itself is `robosim-simulator-daemon`.
 
 pub mod effects;
+pub mod orbit;
 pub mod pipeline;
+pub mod power;
 mod stages;
 
 pub use effects::{

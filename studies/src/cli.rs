@@ -29,8 +29,9 @@ pub struct WeldingArgs {
     /// Step, s.
     #[arg(long, allow_hyphen_values = true, default_value_t = 0.25)]
     pub step: f64,
-    /// Height of the saddle seam's branch axis above the flange, m (default: the workpiece's).
-    #[arg(long)]
+    /// Height of the branch's axis above the flange, m (the scene's `branch_height`, default
+    /// 0.18 m): moves the branch, so the saddle seam with it.
+    #[arg(long, allow_hyphen_values = true)]
     pub branch_height: Option<f64>,
     /// The arm's base along world x, m (default: the scene's −1.1 m).
     #[arg(long, allow_hyphen_values = true)]
@@ -144,7 +145,7 @@ pub fn run(cmd: &StudyCmd, log: &mut dyn std::io::Write) -> Result<()> {
             };
             welding::run(&p, &a.out, log)?;
             if a.accuracy {
-                welding::accuracy(&p, &a.out)?;
+                welding::accuracy(&p, &a.out, &[1.0, 0.5, 0.25, 0.1])?;
                 crate::say!(
                     log,
                     "accuracy against time: {}",

@@ -7,14 +7,17 @@
 //!
 //! * [`welding`] — seed §2.2/§2.7: the downhand welding cell, `robosim study welding`.
 //! * [`station`] — seed chapter 4: the Space Station's orbit, sun-tracking arrays, power and
-//!   an ORU swap by the servicer, `robosim study station`; [`orbit`] is its orbit model.
+//!   an ORU swap by the servicer, `robosim study station`; [`orbit`] is its orbit model and
+//!   `robosim_simulator::power` its arrays, tracking, power and battery (both shared with the
+//!   simulator daemon's space stage).
 //! * [`common`] — bodies, clearances, trajectory files, CSV and frames the two share.
 //!
 //! Entry points: [`surgical::run`], [`welding::run`], [`station::run`], [`StudyError`].
 
 pub mod cli;
 pub mod common;
-pub mod orbit;
+/// The orbit model (the `orbit` effect), shared with the simulator daemon.
+pub use robosim_simulator::orbit;
 pub mod station;
 pub mod surgical;
 pub mod welding;

@@ -16,18 +16,19 @@
 //! Entry points: [`StationParams`], [`run`], [`simulate`].
 
 use crate::common::{self, Body, Csv, Posed};
-use crate::orbit::Orbit;
 use crate::{Result, StudyError, bail, say};
-use nalgebra::{Matrix4, Vector3};
+use nalgebra::{Isometry3, Matrix4, Point3, Vector3};
 use robosim_collision::Mode;
+use robosim_collision::robot::isometry_from_matrix;
 use robosim_kinematics::ik::{self, IkOptions, Method};
 use robosim_library::{Params, Primitive, SceneModel};
+use robosim_simulator::orbit::Orbit;
+use robosim_simulator::power::{self, Battery, SolarArray};
 use std::path::Path;
 
 /// The library scene of the study.
 pub const SCENE: &str = "space_station_study";
-/// Solar flux at 1 AU, W/m² (the total solar irradiance, SORCE/TIM 2008: 1360.8 ± 0.5).
-pub const SOLAR_FLUX: f64 = 1361.0;
+pub use robosim_simulator::power::SOLAR_FLUX;
 
 /// The study's parameters (defaults in [`StationParams::default`], stated in docs/studies.md).
 #[derive(Debug, Clone, PartialEq)]
@@ -64,6 +65,7 @@ pub struct StationParams {
 
 impl Default for StationParams {
     fn default() -> Self {
+        let b = Battery::default();
         StationParams {
             altitude_m: None,
             beta_rad: None,
@@ -73,11 +75,11 @@ impl Default for StationParams {
             keep_out_m: 1.0,
             tracking_tol: 1e-4,
             mode: Mode::Exact,
-            battery_j: 150.0 * 3.6e6,
-            soc0: 0.8,
-            charge_eff: 0.9,
-            discharge_eff: 0.9,
-            load_w: 100e3,
+            battery_j: b.capacity_j,
+            soc0: b.soc,
+            charge_eff: b.charge_eff,
+            discharge_eff: b.discharge_eff,
+            load_w: b.load_w,
             task_start_s: 300.0,
             frames: 12,
         }
@@ -147,14 +149,10 @@ impl StationParams {
     }
 }
 
-/// A solar array: a placed robot whose last link carries the cell panels.
+/// A solar array: a placed robot (`body`) whose link carries the cell panels.
 pub struct Array {
     pub body: usize,
-    /// Panel area, m², and cell normal in the panel link's frame.
-    pub area_m2: f64,
-    pub normal: Vector3<f64>,
-    /// The link the panels ride on.
-    pub link: usize,
+    pub cells: SolarArray,
 }
 
 /// The study set up from the scene: bodies, arrays, the servicer, fixed structure, orbit.
@@ -166,6 +164,119 @@ pub struct Setup {
     pub fixed: Vec<common::Part>,
     pub orbit: Orbit,
     pub efficiency: f64,
+    pub oru: OruSetup,
+}
+
+/// The two ORUs of the swap, read from the scene: the failed one on an array's link (part
+/// `oru_box` of a robot), the spare on the truss (the solid `spare_oru`). Both are taken out
+/// of the bodies' and the fixed structure's parts: where they are is the swap's state
+/// ([`OruState`]), and they are checked for clearance wherever they are.
+pub struct OruSetup {
+    /// The boxes of the failed ORU and of the spare (named so), their offsets given in the
+    /// ORU's own frame (the grapple fixture: the top face's centre, z out of the box).
+    pub parts: [common::Part; 2],
+    /// The array (index into `Setup::arrays`) carrying the failed ORU, the link it rides on
+    /// and its ORU frame in that link's frame.
+    pub array: usize,
+    pub link: usize,
+    pub mount: Isometry3<f64>,
+    /// The spare's ORU frame in the world.
+    pub spare: Isometry3<f64>,
+    /// The array's joints with the ORU's grapple facing up (+z body): the service angle at
+    /// which the array is parked while the servicer works on it.
+    pub service_q: Vec<f64>,
+}
+
+/// The grapple fixture's height: the effector's tip stops this far above the ORU's frame
+/// (the fixture is not a body), m.
+pub const GRAPPLE_M: f64 = 0.05;
+/// Where the failed ORU is stowed: beside the spare on the truss top (body frame, m): the
+/// ORU frame's position, 1.2 m along the truss from the spare's.
+pub const STOW_OFFSET: [f64; 3] = [0.0, 1.2, 0.0];
+
+/// The ORU's box among `parts` (a box whose leaf name starts with `oru`: `oru_box` in the
+/// solid, `oru0` where the solar structure places it), with its height (box z).
+fn oru_box(parts: &[robosim_library::PlacedSolid]) -> Option<(&robosim_library::PlacedSolid, f64)> {
+    parts.iter().find_map(|s| {
+        let leaf = s.name.rsplit('/').next().unwrap_or(&s.name);
+        match s.primitive {
+            // a solid placed as a part takes the placing part's name (`oru0` on the mast)
+            Primitive::Box { size } if leaf.starts_with("oru") => Some((s, size[2])),
+            _ => None,
+        }
+    })
+}
+
+/// Finds the ORUs (see [`OruSetup`]) and takes them out of `bodies` and `fixed`.
+fn oru_setup(
+    scene: &SceneModel,
+    bodies: &mut [Body],
+    arrays: &[Array],
+    fixed: &mut Vec<common::Part>,
+) -> Result<OruSetup> {
+    let lift = |h: f64| Isometry3::translation(0.0, 0.0, h / 2.0);
+    // the failed ORU: on an array's link
+    let mut found = None;
+    for (ai, a) in arrays.iter().enumerate() {
+        let placed = &scene.robots[a.body];
+        for (link, parts) in placed.model.frames.iter().enumerate() {
+            if let Some((solid, h)) = oru_box(parts) {
+                let mount = isometry_from_matrix(&solid.transform) * lift(h);
+                found = Some((ai, link, mount, solid.name.clone()));
+            }
+        }
+    }
+    let Some((ai, link, mount, name)) = found else {
+        bail!("{SCENE}: no array carries an ORU (a box part named oru…)");
+    };
+    let body = &mut bodies[arrays[ai].body];
+    let k = body
+        .parts
+        .iter()
+        .position(|p| p.name == name && p.link == link)
+        .ok_or_else(|| StudyError(format!("{}: ORU part {name} not found", body.name)))?;
+    let mut failed = body.parts.remove(k);
+    failed.offset = mount.inverse() * failed.offset;
+    failed.link = 0;
+    failed.name = "failed ORU".into();
+    // the spare: a placed solid
+    let Some(item) = scene.solids.iter().find(|x| x.name == "spare_oru") else {
+        bail!("{SCENE} places no spare_oru");
+    };
+    let Some((solid, h)) = oru_box(&item.solid.parts) else {
+        bail!("{SCENE}: spare_oru has no part oru_box");
+    };
+    let spare = isometry_from_matrix(&(item.placement * solid.transform)) * lift(h);
+    let Some(k) = fixed.iter().position(|p| p.name.starts_with("spare_oru/")) else {
+        bail!("{SCENE}: the spare ORU is not among the fixed parts");
+    };
+    let mut spare_part = fixed.remove(k);
+    spare_part.offset = spare.inverse() * spare_part.offset;
+    spare_part.name = "spare ORU".into();
+    // the service angle: the grapple's z axis up
+    let a = &arrays[ai];
+    let up = SolarArray {
+        area_m2: 0.0,
+        normal: mount * Vector3::z(),
+        link,
+    };
+    let robot = &bodies[a.body].robot;
+    let (service_q, c) = power::track(robot, &up, &bodies[a.body].q0, &Vector3::z(), 1e-9);
+    if c < 1.0 - 1e-9 {
+        bail!(
+            "{}: no gimbal angle turns its ORU's grapple up (best {:.2}° off)",
+            bodies[a.body].name,
+            c.clamp(-1.0, 1.0).acos().to_degrees()
+        );
+    }
+    Ok(OruSetup {
+        parts: [failed, spare_part],
+        array: ai,
+        link,
+        mount,
+        spare,
+        service_q,
+    })
 }
 
 /// Builds the setup: the scene evaluated with the orbit parameters, its arrays found by their
@@ -199,37 +310,11 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
         if b.declaration.as_deref() == Some("station_servicer") {
             servicer = Some(i);
         }
-        let mut area = 0.0;
-        let mut normal = None;
-        let mut link = 0;
-        for (j, parts) in placed.model.frames.iter().enumerate() {
-            for s in parts {
-                let leaf = s.name.rsplit('/').next().unwrap_or(&s.name);
-                if !(leaf.starts_with("panel") || leaf.starts_with("blanket")) {
-                    continue;
-                }
-                let Primitive::Box { size } = s.primitive else {
-                    continue;
-                };
-                let thin = (0..3)
-                    .min_by(|&a, &b| size[a].total_cmp(&size[b]))
-                    .unwrap_or(1);
-                area += size.iter().product::<f64>() / size[thin];
-                let r = s.transform.fixed_view::<3, 3>(0, 0);
-                normal = Some(r * Vector3::ith(thin, 1.0));
-                link = j;
-            }
-        }
-        if let Some(normal) = normal {
-            if link == 0 {
+        if let Some(cells) = power::solar_array(&placed.model) {
+            if cells.link == 0 {
                 bail!("array {}: its panels are fixed to the base", b.name);
             }
-            arrays.push(Array {
-                body: i,
-                area_m2: area,
-                normal,
-                link,
-            });
+            arrays.push(Array { body: i, cells });
         }
     }
     let Some(servicer) = servicer else {
@@ -238,7 +323,9 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
     if arrays.is_empty() {
         bail!("{SCENE} has no solar arrays (parts named panel… or blanket…)");
     }
-    let fixed = common::fixed_parts(&scene)?;
+    let mut fixed = common::fixed_parts(&scene)?;
+    let mut bodies = bodies;
+    let oru = oru_setup(&scene, &mut bodies, &arrays, &mut fixed)?;
     Ok(Setup {
         scene,
         bodies,
@@ -247,113 +334,51 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
         fixed,
         orbit,
         efficiency: power.efficiency,
+        oru,
     })
 }
 
 /// The cell normal of array `a` in the body frame at `q`.
 fn normal_at(s: &Setup, a: &Array, q: &[f64]) -> Vector3<f64> {
-    let f = s.bodies[a.body].frames(q);
-    let r: Matrix4<f64> = f[a.link];
-    r.fixed_view::<3, 3>(0, 0) * a.normal
+    a.cells.normal_at(&s.bodies[a.body].robot, q)
 }
 
-/// Wraps an angle into (−π, π].
-fn wrap(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
-    } else {
-        w
-    }
-}
+use robosim_simulator::power::wrap;
 
-/// The best angle of joint `j` (others as in `q`) for n·ŝ: n·ŝ = A + B cos q + C sin q for a
-/// revolute joint, so q* = atan2(C, B) from three evaluations. Kept within the joint's limits.
-fn best_joint(s: &Setup, a: &Array, q: &mut [f64], j: usize, sun: &Vector3<f64>) -> f64 {
-    let mut at = |v: f64| {
-        q[j] = v;
-        normal_at(s, a, q).dot(sun)
-    };
-    let (f0, f1, f2) = (
-        at(0.0),
-        at(std::f64::consts::FRAC_PI_2),
-        at(std::f64::consts::PI),
-    );
-    let b = 0.5 * (f0 - f2);
-    let c = f1 - 0.5 * (f0 + f2);
-    let mut best = wrap(c.atan2(b));
-    let lim = s.bodies[a.body].robot.joints[j].qlim;
-    if best < lim[0] || best > lim[1] {
-        best = best.clamp(lim[0], lim[1]);
-    }
-    q[j] = best;
-    normal_at(s, a, q).dot(sun)
-}
-
-/// Sun tracking for one array: gimbal angles facing the sun (cos of the incidence returned).
-/// One joint: the closed form. Two: for each alpha the best beta in closed form, alpha by a
-/// 10° scan then golden-section search to `tol`, the branch nearest `prev` kept.
+/// Sun tracking for one array ([`power::track`]): gimbal angles facing the sun, and the cos
+/// of the incidence.
 pub fn track(s: &Setup, a: &Array, prev: &[f64], sun: &Vector3<f64>, tol: f64) -> (Vec<f64>, f64) {
-    let mut q = prev.to_vec();
-    let n = q.len();
-    if n == 1 {
-        let c = best_joint(s, a, &mut q, 0, sun);
-        return (q, c);
-    }
-    let j1 = n - 1;
-    let f = |alpha: f64, q: &mut Vec<f64>| {
-        q[0] = alpha;
-        best_joint(s, a, q, j1, sun)
-    };
-    let mut best = (f64::NEG_INFINITY, 0.0);
-    for k in 0..36 {
-        let al = wrap(-std::f64::consts::PI + (k as f64 + 0.5) * std::f64::consts::TAU / 36.0);
-        let v = f(al, &mut q);
-        // ties (the mirror solution) go to the one nearest the previous angle
-        let better = v > best.0 + 1e-12
-            || ((v - best.0).abs() <= 1e-12
-                && wrap(al - prev[0]).abs() < wrap(best.1 - prev[0]).abs());
-        if better {
-            best = (v, al);
-        }
-    }
-    let h = std::f64::consts::TAU / 36.0;
-    let (mut lo, mut hi) = (best.1 - h, best.1 + h);
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-    let (mut f1, mut f2) = (f(x1, &mut q), f(x2, &mut q));
-    while hi - lo > tol {
-        if f1 < f2 {
-            lo = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = lo + g * (hi - lo);
-            f2 = f(x2, &mut q);
-        } else {
-            hi = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = hi - g * (hi - lo);
-            f1 = f(x1, &mut q);
-        }
-    }
-    let c = f(wrap(0.5 * (lo + hi)), &mut q);
-    (q, c)
+    power::track(&s.bodies[a.body].robot, &a.cells, prev, sun, tol)
 }
 
-/// One segment of the servicer's task: joint values to reach, and a dwell there.
+/// What happens to the ORUs at a point of the task.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum OruEvent {
+    /// The array carrying the failed ORU is parked at its service angle (grapple up).
+    Park,
+    /// The servicer holds the failed ORU (its bolts released).
+    GraspFailed,
+    /// The failed ORU is set down beside the spare, fixed there.
+    StowFailed,
+    /// The servicer holds the spare.
+    GraspSpare,
+    /// The spare is bolted on the array's mount.
+    InstallSpare,
+    /// The array tracks the sun again.
+    Unpark,
+}
+
+/// One segment of the servicer's task: joint values to reach, a dwell there, and what happens
+/// to the ORUs on arrival and after the dwell.
 #[derive(Debug, Clone)]
 pub struct Waypoint {
     pub what: &'static str,
     pub q: Vec<f64>,
     pub dwell_s: f64,
+    pub on_arrival: Option<OruEvent>,
+    pub after_dwell: Option<OruEvent>,
 }
 
-/// Where the ORU swap happens, in the body frame (m): the failed unit sits on the port solar
-/// structure's mast 8 m out from the truss, between the blankets' roots; the spare waits on the
-/// truss top. The effector approaches both from above (its z axis down).
-pub const ORU_SITE: [f64; 3] = [8.0, 18.0, 1.5];
-pub const SPARE_SITE: [f64; 3] = [-1.0, 14.0, 3.4];
 /// Height of the reach pose above each site, m.
 const ABOVE: f64 = 2.5;
 
@@ -368,14 +393,32 @@ fn down_at(p: [f64; 3]) -> Matrix4<f64> {
     m
 }
 
-/// The ORU swap: travel along the truss, reach over the ORU, grasp, lift, stow it beside the
-/// spare, bring the spare, insert it, withdraw, return. The poses at the sites are solved by
-/// inverse kinematics (damped least squares over all six joints, rail included, seeded from
-/// the pose before); a site the servicer cannot reach is an error naming it.
+/// The sites of the swap (body frame, m): the failed ORU's frame with its array parked at the
+/// service angle, the spare's, and where the failed one is stowed.
+pub fn sites(s: &Setup) -> [Point3<f64>; 3] {
+    let a = &s.arrays[s.oru.array];
+    let f = s.bodies[a.body].frames(&s.oru.service_q);
+    let oru = isometry_from_matrix(&f[s.oru.link]) * s.oru.mount;
+    let spare = s.oru.spare.translation.vector;
+    [
+        Point3::from(oru.translation.vector),
+        Point3::from(spare),
+        Point3::from(spare + Vector3::from(STOW_OFFSET)),
+    ]
+}
+
+/// The ORU swap: travel along the truss (the array carrying the failed ORU parks with its
+/// grapple up), reach over the ORU, grasp it, lift it out, carry it over the truss and set it
+/// down beside the spare, take the spare, carry it out, insert and bolt it, withdraw, return
+/// (the array tracks again). The effector's tip stops [`GRAPPLE_M`] above each ORU frame. The
+/// poses are solved by inverse kinematics (damped least squares over all six joints, rail
+/// included, seeded from the pose before); a site the servicer cannot reach is an error
+/// naming it.
 pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
     let robot = &s.bodies[s.servicer].robot;
     let q0 = s.bodies[s.servicer].q0.clone();
-    let solve = |what: &str, p: [f64; 3], seed: &[f64]| -> Result<Vec<f64>> {
+    let solve = |what: &str, p: Point3<f64>, up: f64, seed: &[f64]| -> Result<Vec<f64>> {
+        let p = [p.x, p.y, p.z + GRAPPLE_M + up];
         let opts = IkOptions {
             q0: Some(seed.to_vec()),
             ..IkOptions::default()
@@ -393,38 +436,66 @@ pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
             ))),
         }
     };
+    let [oru, spare, stow] = sites(s);
     let mut at_site = q0.clone();
     at_site[0] =
-        (ORU_SITE[1] - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
-    let above_oru = [ORU_SITE[0], ORU_SITE[1], ORU_SITE[2] + ABOVE];
-    let above_spare = [SPARE_SITE[0], SPARE_SITE[1], SPARE_SITE[2] + ABOVE];
-    let reach = solve("above the ORU", above_oru, &at_site)?;
-    let grasp = solve("the ORU", ORU_SITE, &reach)?;
-    let over_spare = solve("above the spare", above_spare, &reach)?;
-    let spare = solve("the spare", SPARE_SITE, &over_spare)?;
+        (oru.y - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
+    let reach = solve("above the ORU", oru, ABOVE, &at_site)?;
+    let grasp = solve("the ORU", oru, 0.0, &reach)?;
+    let over_stow = solve("above the stowage", stow, ABOVE, &reach)?;
+    let stow_q = solve("the stowage", stow, 0.0, &over_stow)?;
+    let over_spare = solve("above the spare", spare, ABOVE, &over_stow)?;
+    let spare_q = solve("the spare", spare, 0.0, &over_spare)?;
     let w = |what: &'static str, q: &Vec<f64>, dwell_s: f64| Waypoint {
         what,
         q: q.clone(),
         dwell_s,
+        on_arrival: None,
+        after_dwell: None,
     };
-    Ok(vec![
+    let mut out = vec![
         w("start, stowed", &q0, 0.0),
-        w("travel along the truss to the ORU site", &at_site, 0.0),
+        Waypoint {
+            after_dwell: Some(OruEvent::Park),
+            ..w("travel along the truss to the ORU site", &at_site, 0.0)
+        },
         w(
             "reach over the ORU on the solar structure's mast",
             &reach,
             0.0,
         ),
-        w("grasp and release the failed ORU", &grasp, 120.0),
+        Waypoint {
+            after_dwell: Some(OruEvent::GraspFailed),
+            ..w("grasp the failed ORU and release its bolts", &grasp, 120.0)
+        },
         w("lift it out", &reach, 0.0),
-        w("carry it over the truss", &over_spare, 0.0),
-        w("stow it and take the spare", &spare, 120.0),
+        w("carry it over the truss", &over_stow, 0.0),
+        Waypoint {
+            after_dwell: Some(OruEvent::StowFailed),
+            ..w("set the failed ORU down beside the spare", &stow_q, 60.0)
+        },
+        w("lift off", &over_stow, 0.0),
+        w("move over the spare", &over_spare, 0.0),
+        Waypoint {
+            after_dwell: Some(OruEvent::GraspSpare),
+            ..w("take the spare", &spare_q, 60.0)
+        },
         w("lift the spare", &over_spare, 0.0),
         w("carry the spare out", &reach, 0.0),
-        w("insert and bolt the spare", &grasp, 180.0),
+        Waypoint {
+            after_dwell: Some(OruEvent::InstallSpare),
+            ..w("insert and bolt the spare", &grasp, 180.0)
+        },
         w("withdraw", &reach, 0.0),
-        w("fold and return", &q0, 0.0),
-    ])
+        // the array tracks again once the servicer is back, clear of its sweep (the study's
+        // arrays turn at once: no gimbal rate)
+        Waypoint {
+            on_arrival: Some(OruEvent::Unpark),
+            ..w("fold and return", &q0, 0.0)
+        },
+    ];
+    out.shrink_to_fit();
+    Ok(out)
 }
 
 /// Joint speed limits of the servicer: rail 0.05 m/s, revolute joints 1°/s (the scale of the
@@ -440,11 +511,19 @@ pub fn servicer_speed(robot: &robosim_kinematics::Robot) -> Vec<f64> {
         .collect()
 }
 
-/// The task as a timed schedule: (t, q) at each waypoint arrival and departure, segments
-/// timed by the slowest joint at its speed limit.
-pub fn schedule(s: &Setup, start: f64) -> Result<Vec<(f64, Vec<f64>, &'static str)>> {
+/// The task timed: the servicer's (t, q, what) at each waypoint arrival and departure
+/// (segments timed by the slowest joint at its speed limit) and the ORU events in time order.
+#[derive(Debug, Clone)]
+pub struct Plan {
+    pub points: Vec<(f64, Vec<f64>, &'static str)>,
+    pub events: Vec<(f64, OruEvent)>,
+}
+
+/// The task as a timed [`Plan`] starting at `start` (s).
+pub fn schedule(s: &Setup, start: f64) -> Result<Plan> {
     let speed = servicer_speed(&s.bodies[s.servicer].robot);
     let mut out: Vec<(f64, Vec<f64>, &'static str)> = Vec::new();
+    let mut events = Vec::new();
     let mut t = start;
     let mut prev: Option<Vec<f64>> = None;
     for w in task(s)? {
@@ -458,13 +537,129 @@ pub fn schedule(s: &Setup, start: f64) -> Result<Vec<(f64, Vec<f64>, &'static st
             t += dur;
         }
         out.push((t, w.q.clone(), w.what));
+        if let Some(e) = w.on_arrival {
+            events.push((t, e));
+        }
         if w.dwell_s > 0.0 {
             t += w.dwell_s;
             out.push((t, w.q.clone(), w.what));
         }
+        if let Some(e) = w.after_dwell {
+            events.push((t, e));
+        }
         prev = Some(w.q);
     }
-    Ok(out)
+    Ok(Plan {
+        points: out,
+        events,
+    })
+}
+
+/// Where an ORU is.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Held {
+    /// On the array's mount (moving with its link).
+    OnArray,
+    /// In the servicer's effector: its frame at the effector frame × this grip.
+    Carried(Isometry3<f64>),
+    /// Set down: its frame in the body frame.
+    Fixed(Isometry3<f64>),
+}
+
+/// The swap's state at a time: where each ORU is, and whether the array is parked.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OruState {
+    pub failed: Held,
+    pub spare: Held,
+    pub parked: bool,
+}
+
+/// The servicer's effector frame at `q`.
+fn effector(s: &Setup, q: &[f64]) -> Isometry3<f64> {
+    isometry_from_matrix(&robosim_kinematics::fk::forward(
+        &s.bodies[s.servicer].robot,
+        q,
+    ))
+}
+
+/// The swap's state at `t`: the plan's events up to and including `t` applied in order.
+pub fn oru_state(s: &Setup, plan: &Plan, t: f64) -> OruState {
+    let mut st = OruState {
+        failed: Held::OnArray,
+        spare: Held::Fixed(s.oru.spare),
+        parked: false,
+    };
+    let a = &s.arrays[s.oru.array];
+    let mount_world = || {
+        let f = s.bodies[a.body].frames(&s.oru.service_q);
+        isometry_from_matrix(&f[s.oru.link]) * s.oru.mount
+    };
+    for &(te, e) in &plan.events {
+        if te > t {
+            break;
+        }
+        let end = effector(s, &servicer_at(&plan.points, te).0);
+        match e {
+            OruEvent::Park => st.parked = true,
+            OruEvent::Unpark => st.parked = false,
+            OruEvent::GraspFailed => st.failed = Held::Carried(end.inverse() * mount_world()),
+            OruEvent::StowFailed => {
+                if let Held::Carried(g) = st.failed {
+                    st.failed = Held::Fixed(end * g);
+                }
+            }
+            OruEvent::GraspSpare => {
+                if let Held::Fixed(w) = st.spare {
+                    st.spare = Held::Carried(end.inverse() * w);
+                }
+            }
+            OruEvent::InstallSpare => st.spare = Held::OnArray,
+        }
+    }
+    st
+}
+
+/// The world frame of an ORU held as `h`, with the array at `q_array` and the servicer at
+/// `q_servicer`.
+pub fn oru_frame(s: &Setup, h: Held, q_array: &[f64], q_servicer: &[f64]) -> Isometry3<f64> {
+    match h {
+        Held::OnArray => {
+            let f = s.bodies[s.arrays[s.oru.array].body].frames(q_array);
+            isometry_from_matrix(&f[s.oru.link]) * s.oru.mount
+        }
+        Held::Carried(g) => effector(s, q_servicer) * g,
+        Held::Fixed(w) => w,
+    }
+}
+
+/// Where the servicer let go of the spare against where its mount is (m): the distance of the
+/// spare's frame in the effector just before it is bolted from the mount's frame with the array
+/// parked. `None` when the run ends before the spare is bolted.
+pub fn install_error(s: &Setup, run: &Run) -> Option<f64> {
+    let plan = Plan {
+        points: run.schedule.clone(),
+        events: run.events.clone(),
+    };
+    let t_end = run.steps.last()?.t;
+    let (te, _) = run
+        .events
+        .iter()
+        .find(|(t, e)| *e == OruEvent::InstallSpare && *t <= t_end)?;
+    let before = oru_state(s, &plan, te - 1e-6);
+    let sq = servicer_at(&plan.points, *te).0;
+    let held = oru_frame(s, before.spare, &s.oru.service_q, &sq);
+    let mount = oru_frame(s, Held::OnArray, &s.oru.service_q, &sq);
+    Some((held.translation.vector - mount.translation.vector).norm())
+}
+
+/// The ORU box posed at ORU frame `w`.
+fn posed_oru<'a>(part: &'a common::Part, w: &Isometry3<f64>) -> Posed<'a> {
+    let pose = w * part.offset;
+    Posed {
+        part,
+        pose,
+        centre: pose * part.centre,
+    }
 }
 
 /// The servicer's planned joint values at `t` (linear in joint space between schedule points;
@@ -512,6 +707,19 @@ pub struct Step {
     pub structure_pair: (String, String),
     /// The servicer within the keep-out of an array even feathered (a contact if ≤ 0).
     pub blocked: bool,
+    /// Between the previous step and this one (servicer and arrays interpolated in joint
+    /// space, checked at [`between_samples`] points): the smallest servicer × array distance,
+    /// m, and the pair (∞ at the first step).
+    pub between_clearance: f64,
+    pub between_pair: (String, String),
+    /// Where the ORUs are (the swap's state) and their frames' positions (body frame, m):
+    /// failed, spare.
+    pub oru: OruState,
+    pub oru_at: [Point3<f64>; 2],
+    /// The array carrying the failed ORU is parked at its service angle for the servicer
+    /// (no keep-out: the servicer works on it); the clearance servicer (with what it carries)
+    /// × that array (with the ORU on it), m — ∞ when not parked.
+    pub clearance_serviced: f64,
 }
 
 /// A run's outcome.
@@ -521,7 +729,9 @@ pub struct Run {
     pub period_s: f64,
     pub eclipses: Vec<[f64; 2]>,
     pub schedule: Vec<(f64, Vec<f64>, &'static str)>,
-    /// Energy delivered by the arrays, J, and energy lost to feathering, J.
+    pub events: Vec<(f64, OruEvent)>,
+    /// Energy delivered by the arrays, J, and energy lost to feathering and to parking the
+    /// serviced array, J.
     pub energy_j: f64,
     pub lost_j: f64,
     /// Load not served because the battery was empty, J.
@@ -529,18 +739,40 @@ pub struct Run {
     pub wall_s: f64,
 }
 
-/// Clearance of the servicer parts to array `a` at `q`.
+/// Clearance of the servicer parts (with what it carries) to array `ai` at `q`, with the ORUs
+/// that `oru` has on its mount.
 fn array_clearance(
     s: &Setup,
-    a: &Array,
+    ai: usize,
     q: &[f64],
     servicer: &[Posed<'_>],
+    oru: &OruState,
     mode: Mode,
 ) -> Option<common::Clearance> {
-    let b = &s.bodies[a.body];
+    let b = &s.bodies[s.arrays[ai].body];
     let frames = b.frames(q);
-    let posed = b.posed(&frames);
+    let mut posed = b.posed(&frames);
+    if ai == s.oru.array {
+        let mount = isometry_from_matrix(&frames[s.oru.link]) * s.oru.mount;
+        for (h, part) in [oru.failed, oru.spare].iter().zip(&s.oru.parts) {
+            if *h == Held::OnArray {
+                posed.push(posed_oru(part, &mount));
+            }
+        }
+    }
     common::clearance(servicer, &posed, mode)
+}
+
+/// The servicer's parts at `q` with the ORUs it carries.
+fn servicer_posed<'a>(s: &'a Setup, q: &[f64], oru: &OruState) -> Vec<Posed<'a>> {
+    let sb = &s.bodies[s.servicer];
+    let mut posed = sb.posed(&sb.frames(q));
+    for (h, part) in [oru.failed, oru.spare].iter().zip(&s.oru.parts) {
+        if let Held::Carried(_) = h {
+            posed.push(posed_oru(part, &oru_frame(s, *h, &[], q)));
+        }
+    }
+    posed
 }
 
 /// Runs the study's time loop.
@@ -549,14 +781,21 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
     let period = s.orbit.period_s();
     let t_end = p.orbits * period;
     let n = (t_end / p.step_s).ceil() as usize;
-    let sched = schedule(s, p.task_start_s)?;
+    let plan = schedule(s, p.task_start_s)?;
+    let sched = &plan.points;
     let mut prev: Vec<Vec<f64>> = s
         .arrays
         .iter()
         .map(|a| s.bodies[a.body].q0.clone())
         .collect();
     let fixed = common::pose_fixed(&s.fixed);
-    let mut soc = p.soc0;
+    let mut battery = Battery {
+        capacity_j: p.battery_j,
+        soc: p.soc0,
+        charge_eff: p.charge_eff,
+        discharge_eff: p.discharge_eff,
+        load_w: p.load_w,
+    };
     let (mut energy, mut lost, mut unserved) = (0.0, 0.0, 0.0);
     let mut steps = Vec::with_capacity(n + 1);
     for k in 0..=n {
@@ -564,23 +803,47 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         let theta = s.orbit.angle(p.theta0, t);
         let sun = s.orbit.sun_body(theta);
         let eclipse = s.orbit.eclipse_at(theta);
-        let (sq, activity) = servicer_at(&sched, t);
+        let (sq, activity) = servicer_at(sched, t);
         let sb = &s.bodies[s.servicer];
         sb.robot
             .check_q(&sq)
             .map_err(|e| StudyError(format!("servicer at t = {t} s: {e}")))?;
-        let sframes = sb.frames(&sq);
-        let sposed = sb.posed(&sframes);
-        let structure = common::clearance(&sposed, &fixed, p.mode);
+        let ost = oru_state(s, &plan, t);
+        let sposed = servicer_posed(s, &sq, &ost);
+        // the fixed structure with the ORUs set down on it
+        let mut fixed_now = fixed.clone();
+        for (h, part) in [ost.failed, ost.spare].iter().zip(&s.oru.parts) {
+            if let Held::Fixed(w) = h {
+                fixed_now.push(posed_oru(part, w));
+            }
+        }
+        let structure = common::clearance(&sposed, &fixed_now, p.mode);
+        let mut serviced = f64::INFINITY;
         let mut arrays = Vec::with_capacity(s.arrays.len());
         let (mut power, mut tracked) = (0.0, 0.0);
         let mut clear_min = (f64::INFINITY, (String::new(), String::new()));
         let mut blocked = false;
+        let prev_arrays = prev.clone();
         for (ai, a) in s.arrays.iter().enumerate() {
             let (q, c) = track(s, a, &prev[ai], &sun, p.tracking_tol);
-            let ideal = a.area_m2 * s.efficiency * SOLAR_FLUX * c.max(0.0);
+            let ideal = a.cells.power_w(s.efficiency, c);
+            if ost.parked && ai == s.oru.array {
+                // parked for the servicer: no tracking, no keep-out (it is worked on), but
+                // its clearance is watched for a contact
+                let qs = s.oru.service_q.clone();
+                let cs = normal_at(s, a, &qs).dot(&sun);
+                serviced = array_clearance(s, ai, &qs, &sposed, &ost, p.mode)
+                    .map_or(f64::INFINITY, |c| c.distance);
+                if !eclipse {
+                    power += a.cells.power_w(s.efficiency, cs);
+                    tracked += ideal;
+                }
+                prev[ai] = qs.clone();
+                arrays.push((qs, cs, false));
+                continue;
+            }
             let mut chosen = (q.clone(), c, false);
-            let cl = array_clearance(s, a, &q, &sposed, p.mode);
+            let cl = array_clearance(s, ai, &q, &sposed, &ost, p.mode);
             let mut cl_d = cl.as_ref().map_or(f64::INFINITY, |c| c.distance);
             let mut pair = cl.map(|c| (c.a, c.b)).unwrap_or_default();
             if cl_d < p.keep_out_m {
@@ -610,7 +873,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                     if !lim_ok {
                         continue;
                     }
-                    if let Some(c2) = array_clearance(s, a, &qq, &sposed, p.mode)
+                    if let Some(c2) = array_clearance(s, ai, &qq, &sposed, &ost, p.mode)
                         && c2.distance >= p.keep_out_m
                     {
                         cl_d = c2.distance;
@@ -624,7 +887,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                     blocked = true;
                 }
             }
-            let got = a.area_m2 * s.efficiency * SOLAR_FLUX * chosen.1.max(0.0);
+            let got = a.cells.power_w(s.efficiency, chosen.1);
             if !eclipse {
                 power += got;
                 tracked += ideal;
@@ -642,23 +905,30 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             let last_tracked = steps.last().map_or(0.0, |s: &Step| s.tracked_power_w);
             energy += last * dt;
             lost += (last_tracked - last) * dt;
-            let net = last - p.load_w;
-            let de = if net >= 0.0 {
-                net * p.charge_eff
-            } else {
-                net / p.discharge_eff
-            } * dt;
-            let e = soc * p.battery_j + de;
-            if e < 0.0 {
-                unserved += -e * p.discharge_eff;
-            }
-            soc = (e / p.battery_j).clamp(0.0, 1.0);
+            unserved += battery.step(last, dt);
         }
+        let soc = battery.soc;
+        // between the samples: the servicer may sweep more than the keep-out in one step
+        let between = match steps.last() {
+            Some(last) => {
+                let now: Vec<Vec<f64>> = arrays.iter().map(|a| a.0.clone()).collect();
+                between_clearance(s, p, &plan, last.t, t, &prev_arrays, &now)
+            }
+            None => (f64::INFINITY, Default::default()),
+        };
+        let q_oru_array = &arrays[s.oru.array].0;
+        let oru_at = [ost.failed, ost.spare]
+            .map(|h| Point3::from(oru_frame(s, h, q_oru_array, &sq).translation.vector));
         steps.push(Step {
             t,
             theta,
             sun,
             eclipse,
+            oru: ost,
+            oru_at,
+            clearance_serviced: serviced,
+            between_clearance: between.0,
+            between_pair: between.1,
             arrays,
             power_w: power,
             tracked_power_w: tracked,
@@ -676,12 +946,68 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         steps,
         period_s: period,
         eclipses: s.orbit.eclipse_intervals(p.theta0, t_end, p.step_s),
-        schedule: sched,
+        schedule: plan.points.clone(),
+        events: plan.events.clone(),
         energy_j: energy,
         lost_j: lost,
         unserved_j: unserved,
         wall_s: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// How many points inside a step of the servicer from `qa` to `qb` are checked: enough that
+/// no link origin of the servicer moves more than half the keep-out between two checks (at
+/// least one, the midpoint).
+pub fn between_samples(s: &Setup, p: &StationParams, qa: &[f64], qb: &[f64]) -> usize {
+    let sb = &s.bodies[s.servicer];
+    let (fa, fb) = (sb.frames(qa), sb.frames(qb));
+    let moved = fa
+        .iter()
+        .zip(&fb)
+        .map(|(a, b)| (a.fixed_view::<3, 1>(0, 3) - b.fixed_view::<3, 1>(0, 3)).norm())
+        .fold(0.0, f64::max);
+    let h = (0.5 * p.keep_out_m).max(0.05);
+    ((moved / h).ceil() as usize).clamp(1, 64)
+}
+
+/// The smallest servicer × array distance strictly between two steps at `ta` and `tb`: the
+/// servicer on its schedule, each array linearly (the short way round) from `qa` to `qb`.
+fn between_clearance(
+    s: &Setup,
+    p: &StationParams,
+    plan: &Plan,
+    ta: f64,
+    tb: f64,
+    qa: &[Vec<f64>],
+    qb: &[Vec<f64>],
+) -> (f64, (String, String)) {
+    let sched = &plan.points;
+    let n = between_samples(s, p, &servicer_at(sched, ta).0, &servicer_at(sched, tb).0);
+    let mut best = (f64::INFINITY, (String::new(), String::new()));
+    for k in 1..=n {
+        let u = k as f64 / (n + 1) as f64;
+        let tu = ta + u * (tb - ta);
+        let sq = servicer_at(sched, tu).0;
+        let ost = oru_state(s, plan, tu);
+        let posed = servicer_posed(s, &sq, &ost);
+        for ai in 0..s.arrays.len() {
+            if ost.parked && ai == s.oru.array {
+                // worked on: no keep-out (its contacts are checked at the steps)
+                continue;
+            }
+            let q: Vec<f64> = qa[ai]
+                .iter()
+                .zip(&qb[ai])
+                .map(|(x, y)| x + u * wrap(y - x))
+                .collect();
+            if let Some(c) = array_clearance(s, ai, &q, &posed, &ost, p.mode)
+                && c.distance < best.0
+            {
+                best = (c.distance, (c.a, c.b));
+            }
+        }
+    }
+    best
 }
 
 fn mode_name(m: Mode) -> &'static str {
@@ -745,8 +1071,17 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
         "battery_soc",
         "battery_kwh",
         "clearance_arrays_m",
+        "clearance_between_steps_m",
         "clearance_structure_m",
         "blocked",
+        "parked",
+        "clearance_serviced_m",
+        "failed_oru_x_m",
+        "failed_oru_y_m",
+        "failed_oru_z_m",
+        "spare_oru_x_m",
+        "spare_oru_y_m",
+        "spare_oru_z_m",
     ] {
         cols.push(c.into());
     }
@@ -780,9 +1115,15 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
             st.soc,
             st.soc * p.battery_j / 3.6e6,
             finite(st.clearance_arrays),
+            finite(st.between_clearance),
             finite(st.clearance_structure),
             st.blocked as u8 as f64,
+            st.oru.parked as u8 as f64,
+            finite(st.clearance_serviced),
         ]);
+        for at in &st.oru_at {
+            row.extend([at.x, at.y, at.z]);
+        }
         csv.row(&row)?;
     }
     csv.finish()?;
@@ -850,6 +1191,22 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
         .iter()
         .map(|st| (st.clearance_arrays, st.t, &st.clearance_pair))
         .min_by(|a, b| a.0.total_cmp(&b.0));
+    let min_between = run
+        .steps
+        .iter()
+        .map(|st| (st.between_clearance, st.t, &st.between_pair))
+        .min_by(|a, b| a.0.total_cmp(&b.0));
+    let between_breaks: Vec<f64> = run
+        .steps
+        .iter()
+        .filter(|st| st.between_clearance < p.keep_out_m)
+        .map(|st| st.t)
+        .collect();
+    let serviced_min = run
+        .steps
+        .iter()
+        .map(|st| st.clearance_serviced)
+        .fold(f64::INFINITY, f64::min);
     let min_struct = run
         .steps
         .iter()
@@ -858,14 +1215,21 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
     let worst_inc = run
         .steps
         .iter()
-        .flat_map(|st| st.arrays.iter().filter(|a| !a.2).map(|a| a.1))
+        .flat_map(|st| {
+            st.arrays
+                .iter()
+                .enumerate()
+                // neither feathered nor parked for the servicer: tracking
+                .filter(|(ai, a)| !a.2 && !(st.oru.parked && *ai == s.oru.array))
+                .map(|(_, a)| a.1)
+        })
         .fold(1.0f64, f64::min)
         .clamp(-1.0, 1.0)
         .acos()
         .to_degrees();
     let soc_min = run.steps.iter().map(|st| st.soc).fold(1.0, f64::min);
     let task_end = run.schedule.last().map_or(0.0, |w| w.0);
-    let area: f64 = s.arrays.iter().map(|a| a.area_m2).sum();
+    let area: f64 = s.arrays.iter().map(|a| a.cells.area_m2).sum();
     let rows = vec![
         (
             "orbit altitude",
@@ -914,7 +1278,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             "kWh",
         ),
         (
-            "energy lost to feathering",
+            "energy lost to feathering and parking",
             format!("{:.2}", run.lost_j / 3.6e6),
             "kWh",
         ),
@@ -924,7 +1288,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             "1",
         ),
         (
-            "worst tracking incidence (unfeathered)",
+            "worst tracking incidence (neither feathered nor parked)",
             format!("{worst_inc:.3}"),
             "deg",
         ),
@@ -941,6 +1305,21 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
         (
             "minimum servicer–array clearance",
             min_cl.map_or("none".into(), |c| format!("{:.3}", c.0)),
+            "m",
+        ),
+        (
+            "minimum servicer–array clearance between steps",
+            min_between.map_or("none".into(), |c| format!("{:.3}", c.0)),
+            "m",
+        ),
+        (
+            "steps with the keep-out broken between samples",
+            format!("{}", between_breaks.len()),
+            "1",
+        ),
+        (
+            "minimum servicer–serviced array clearance (parked, no keep-out)",
+            format!("{serviced_min:.3}"),
             "m",
         ),
         (
@@ -999,6 +1378,23 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             p.keep_out_m
         ));
     }
+    if let Some((d, t, pair)) = min_between {
+        notes.push(format!(
+            "Between the samples (servicer on its schedule and arrays interpolated in joint space, checked at points no more than half the keep-out of servicer motion apart): closest approach {d:.3} m in the step ending at t = {:.1} min ({} × {}); {}.",
+            t / 60.0,
+            pair.0,
+            pair.1,
+            if between_breaks.is_empty() {
+                "the keep-out holds between every pair of steps".to_owned()
+            } else {
+                format!(
+                    "the keep-out is broken between samples in {} step(s), first in the step ending at {:.1} min — a finer step would feather there",
+                    between_breaks.len(),
+                    between_breaks[0] / 60.0
+                )
+            }
+        ));
+    }
     if let Some(st) = run
         .steps
         .iter()
@@ -1039,6 +1435,63 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             "The servicer is inside the keep-out of an array even with it feathered at {} step(s), first at {:.1} min.",
             blocked.len(),
             blocked[0] / 60.0
+        ));
+    }
+    // the parked spans and the ORUs' journey
+    let parked: Vec<f64> = run
+        .steps
+        .iter()
+        .filter(|st| st.oru.parked)
+        .map(|st| st.t)
+        .collect();
+    if let (Some(a), Some(b)) = (parked.first(), parked.last()) {
+        let name = &s.bodies[s.arrays[s.oru.array].body].name;
+        let lost: f64 = run
+            .steps
+            .windows(2)
+            .filter(|w| w[0].oru.parked)
+            .map(|w| (w[0].tracked_power_w - w[0].power_w) * (w[1].t - w[0].t))
+            .sum();
+        notes.push(format!(
+            "{name} parked at its service angle (the ORU's grapple up) from {:.1} to {:.1} min while the servicer works on it: {:.2} kWh lost; closest approach to it {:.3} m{}.",
+            a / 60.0,
+            b / 60.0,
+            lost / 3.6e6,
+            serviced_min,
+            if serviced_min <= 0.0 { " — a CONTACT" } else { " (no keep-out: it is worked on)" }
+        ));
+    }
+    let plan = Plan {
+        points: run.schedule.clone(),
+        events: run.events.clone(),
+    };
+    for (te, e) in &run.events {
+        // where the ORU is at the event (after it), the array parked
+        let ost = oru_state(s, &plan, *te);
+        let sq = servicer_at(&plan.points, *te).0;
+        let where_ = |i: usize| {
+            let h = if i == 0 { ost.failed } else { ost.spare };
+            let p = oru_frame(s, h, &s.oru.service_q, &sq).translation.vector;
+            format!(" at ({:.3}, {:.3}, {:.3}) m", p.x, p.y, p.z)
+        };
+        let what = match e {
+            OruEvent::Park => continue,
+            OruEvent::Unpark => continue,
+            OruEvent::GraspFailed => format!("the failed ORU grasped{}", where_(0)),
+            OruEvent::StowFailed => format!("the failed ORU set down{}", where_(0)),
+            OruEvent::GraspSpare => format!("the spare grasped{}", where_(1)),
+            OruEvent::InstallSpare => format!("the spare bolted on the mount{}", where_(1)),
+        };
+        notes.push(format!("ORU {:.1} min: {what}.", te / 60.0));
+    }
+    if let (Some(last), Some(install)) = (run.steps.last(), install_error(s, run))
+        && matches!(last.oru.failed, Held::Fixed(_))
+    {
+        let [_, _, stow] = sites(s);
+        notes.push(format!(
+            "At the end: the spare bolted {:.2} mm from the failed unit's mount (where the servicer let go of it, against the mount), the failed unit {:.2} mm from its stowage.",
+            install * 1e3,
+            (last.oru_at[0] - stow).norm() * 1e3
         ));
     }
     for w in &run.schedule {
@@ -1107,6 +1560,9 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             y_label: "distance (m)".into(),
             series: vec![
                 series("to the arrays", &|st| st.clearance_arrays.min(30.0)),
+                series("to the arrays between steps", &|st| {
+                    st.between_clearance.min(30.0)
+                }),
                 series("to the fixed structure", &|st| {
                     st.clearance_structure.min(30.0)
                 }),
@@ -1152,6 +1608,12 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
             .map(|st| st.clearance_arrays)
             .fold(f64::INFINITY, f64::min)
     };
+    let min_between = |r: &Run| {
+        r.steps
+            .iter()
+            .map(|st| st.between_clearance)
+            .fold(f64::INFINITY, f64::min)
+    };
     let mut time_pts = Vec::new();
     let mut energy_pts = Vec::new();
     for (mode, tol) in [
@@ -1189,6 +1651,14 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
                 ),
                 format!("{:.1}", entry_err(&r)),
                 format!("{:.3}", min_cl(&r)),
+                format!("{:.3}", min_between(&r)),
+                format!(
+                    "{}",
+                    r.steps
+                        .iter()
+                        .filter(|st| st.between_clearance < p.keep_out_m)
+                        .count()
+                ),
                 format!(
                     "{}",
                     r.steps
@@ -1220,7 +1690,7 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
         name: "station_accuracy".into(),
         title: "Space Station study: what accuracy costs in time".into(),
         notes: vec![format!(
-            "Each row is the whole study ({} orbit(s)) at one step, collision mode and tracking tolerance. Energy error is against the finest exact run (step {fine_step} s). The sampled eclipse fraction (share of steps in shadow) is compared with the closed form, and the first step in shadow with the eclipse entry found by bisection (which does not depend on the step). bbox gives no distances: its clearance is a bounding-sphere lower bound when the boxes are apart and 0 when they meet, so it cannot prove most feathered angles clear — those steps are reported blocked (the arm would have to wait) where exact finds a clear angle.",
+            "Each row is the whole study ({} orbit(s)) at one step, collision mode and tracking tolerance. Energy error is against the finest exact run (step {fine_step} s). The sampled eclipse fraction (share of steps in shadow) is compared with the closed form, and the first step in shadow with the eclipse entry found by bisection (which does not depend on the step). Clearances are checked at the steps (where feathering acts) and between them (servicer on its schedule, arrays interpolated; points no more than half the keep-out of servicer motion apart): a break between steps is what a controller sampling at that step would not see. bbox gives no distances: its clearance is a bounding-sphere lower bound when the boxes are apart and 0 when they meet, so it cannot prove most feathered angles clear — those steps are reported blocked (the arm would have to wait) where exact finds a clear angle.",
             p.orbits
         )],
         table: Table {
@@ -1233,6 +1703,8 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
                 "sampled eclipse fraction error".into(),
                 "eclipse entry seen late by (s)".into(),
                 "min clearance (m)".into(),
+                "min clearance between steps (m)".into(),
+                "keep-out broken between steps".into(),
                 "feathered steps".into(),
                 "blocked steps".into(),
                 "wall time (ms)".into(),

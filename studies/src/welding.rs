@@ -63,7 +63,8 @@ pub struct WeldingParams {
     /// Travel speed of the torch relative to the work, m/s.
     pub speed_m_s: f64,
     pub step_s: f64,
-    /// Saddle: height of the branch axis above the flange top, m (None: the workpiece's).
+    /// Saddle: height of the branch axis above the flange top, m (None: the scene's 0.18 m).
+    /// A scene parameter: it moves the branch that is drawn and collided, and the seam with it.
     pub branch_height_m: Option<f64>,
     /// The arm's base x, m (None: the scene's).
     pub arm_x_m: Option<f64>,
@@ -238,11 +239,7 @@ fn off_surface(c: &Cyl, p: &Point3<f64>) -> (f64, bool) {
 }
 
 /// The seams of the workpiece on link `table` of the positioner (`parts`: that link's solids).
-pub fn seams(
-    parts: &[PlacedSolid],
-    kinds: &[SeamKind],
-    branch_height: Option<f64>,
-) -> Result<Vec<Seam>> {
+pub fn seams(parts: &[PlacedSolid], kinds: &[SeamKind]) -> Result<Vec<Seam>> {
     let flange = cyl(parts, "flange")?;
     let pipe = cyl(parts, "pipe")?;
     let up = flange.axis;
@@ -282,8 +279,7 @@ pub fn seams(
                 let branch = cyl(parts, "branch")?;
                 let b = branch.axis;
                 // the branch axis meets the pipe axis at this height above the flange
-                let along = (branch.centre - top).dot(&up);
-                let h = branch_height.unwrap_or(along);
+                let h = (branch.centre - top).dot(&up);
                 let rb = branch.radius;
                 if h - rb < 0.0 || h + rb > pipe.height {
                     bail!(
@@ -367,6 +363,9 @@ pub fn setup(p: &WeldingParams) -> Result<Setup> {
     if let Some(x) = p.arm_x_m {
         params = params.si("arm_x", x);
     }
+    if let Some(h) = p.branch_height_m {
+        params = params.si("branch_height", h);
+    }
     let (_lib, scene) = common::scene(SCENE, &params)?;
     let find = |decl: &str| {
         scene
@@ -378,7 +377,7 @@ pub fn setup(p: &WeldingParams) -> Result<Setup> {
     let arm_p = find("weld_arm")?;
     let pos_p = find("weld_study_positioner")?;
     let table_link = pos_p.model.frames.len() - 1;
-    let seams = seams(&pos_p.model.frames[table_link], &p.seams, p.branch_height_m)?;
+    let seams = seams(&pos_p.model.frames[table_link], &p.seams)?;
     Ok(Setup {
         arm: Body::of(arm_p)?,
         positioner: Body::of(pos_p)?,
@@ -782,6 +781,7 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
         // weld
         let len = seam.length();
         let n = (len / p.speed_m_s / p.step_s).ceil().max(1.0) as usize;
+        let mut s_prev = 0.0;
         for k in 0..=n {
             let sarc = (k as f64 * p.speed_m_s * p.step_s).min(len);
             if k > 0 {
@@ -825,7 +825,9 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
             if k > 0 {
                 let qa_m: Vec<f64> = qa.iter().zip(&qa_k).map(|(a, b)| 0.5 * (a + b)).collect();
                 let qp_m: Vec<f64> = qp.iter().zip(&qp_k).map(|(a, b)| 0.5 * (a + b)).collect();
-                let s_m = (sarc - 0.5 * p.speed_m_s * p.step_s).max(0.0);
+                // the seam point half way between the two samples (the last step of a seam is
+                // shortened to end on the seam's end, so not sarc − v·h/2)
+                let s_m = 0.5 * (s_prev + sarc);
                 let m = measure(s, p, seam, s_m, &qa_m, &qp_m);
                 if problem.is_empty() {
                     mid_dh = mid_dh.max(m[0]);
@@ -873,6 +875,7 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
             });
             qa = qa_k;
             qp = qp_k;
+            s_prev = sarc;
         }
     }
     Ok(Run {
@@ -1057,10 +1060,10 @@ pub fn run(p: &WeldingParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     }
     robosim_report::write_report(dir, &summary)?;
     if p.frames > 0 {
-        if p.arm_x_m.is_some() {
+        if p.arm_x_m.is_some() || p.branch_height_m.is_some() {
             say!(
                 log,
-                "frames: not drawn (the display draws the scene at its default arm_x)"
+                "frames: not drawn (the display draws the scene at its default arm_x and branch_height)"
             );
         } else {
             common::render_frames(
@@ -1255,15 +1258,15 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
     }
 }
 
-/// "What accuracy costs in time": the study at several steps and collision modes and two
-/// positioner tolerances; written as `welding_accuracy.{md,csv,png}`.
-pub fn accuracy(p: &WeldingParams, dir: &Path) -> Result<robosim_report::Report> {
+/// "What accuracy costs in time": the study at each of `steps` (s) in three collision modes,
+/// and in exact mode with a coarse positioner tolerance; written as
+/// `welding_accuracy.{md,csv,png}` (`robosim study welding` uses 1, 0.5, 0.25, 0.1 s).
+pub fn accuracy(p: &WeldingParams, dir: &Path, steps: &[f64]) -> Result<robosim_report::Report> {
     use robosim_report::{Plot, Report, Series, Table};
     let s = setup(p)?;
     let mut rows = Vec::new();
     let mut err_pts: Vec<(String, f64, f64)> = Vec::new();
     let mut time_pts: Vec<(String, f64, f64)> = Vec::new();
-    let steps = [1.0, 0.5, 0.25, 0.1];
     for (mode, tol) in [
         (Mode::Exact, p.positioner_tol),
         (Mode::Polygon, p.positioner_tol),
@@ -1278,7 +1281,7 @@ pub fn accuracy(p: &WeldingParams, dir: &Path) -> Result<robosim_report::Report>
                 Mode::Exact => "exact",
             }
         );
-        for h in steps {
+        for &h in steps {
             let q = WeldingParams {
                 step_s: h,
                 mode,

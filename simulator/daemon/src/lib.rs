@@ -24,7 +24,12 @@
 //!
 //! The scene's effects come from `--effects FILE.json` (the simulator's JSON form), else from
 //! the Library Space declaration the scene was instantiated from (converted type to type,
-//! [`declared_effects`]), else kinematics only.
+//! [`declared_effects`]), else kinematics only. The scene-level effects `orbit`,
+//! `sun_tracking` and `power` run as the space stage after every step of the robots'
+//! pipelines ([`space`]; only when declared): the orbit clock and sun vector, the arrays'
+//! gimbals given sun-facing targets, power and battery in `get`'s `"space"` object. A declared
+//! effect the daemon does not simulate is named on stderr at start ([`not_simulated`]), never
+//! dropped silently.
 //!
 //! **Work follows the change.** The robots and obstacles come from a [`CompiledScene`]: a new
 //! structure version (or a keeper restart) compiles the scene and rebuilds the pipelines; the
@@ -45,6 +50,7 @@
 pub mod bench;
 mod ctl;
 pub mod recording;
+mod space;
 pub mod status;
 
 pub use ctl::ctl;
@@ -233,6 +239,25 @@ pub fn declared_effects(e: &robosim_library::Effects, log_path: &std::path::Path
     }
 }
 
+/// What a library declaration asks for that the daemon does not simulate (said on stderr when
+/// the pipelines are built): logged signals the simulator does not know.
+pub fn not_simulated(e: &robosim_library::Effects) -> Vec<String> {
+    e.logged
+        .iter()
+        .filter(|s| {
+            !matches!(
+                s.as_str(),
+                "contacts" | "contact" | "t" | "q" | "qd" | "qdd" | "tau" | "q_measured"
+            )
+        })
+        .map(|s| {
+            format!(
+                "logged signal {s:?} (the simulator logs t, q, qd, qdd, tau, q_measured, contact)"
+            )
+        })
+        .collect()
+}
+
 /// The Library Space, parsed once and again only when the session's sources change.
 #[derive(Default)]
 struct LibraryCache {
@@ -256,6 +281,10 @@ impl LibraryCache {
     }
 }
 
+/// The library declaration and the evaluated scene, when the effects come from the library
+/// (the space stage reads them; `--effects` JSON has no orbit, so it builds none).
+type Declared = Option<(robosim_library::Effects, robosim_library::SceneModel)>;
+
 /// The scene's declared effects: `--effects`, else its Library Space declaration.
 fn scene_effects(
     session: &Session,
@@ -264,7 +293,7 @@ fn scene_effects(
     counters: &mut Counters,
     snap: &Snapshot,
     file: Option<&str>,
-) -> Result<(SceneEffects, String)> {
+) -> Result<(SceneEffects, String, Declared)> {
     if let Some(f) = file {
         let text =
             std::fs::read_to_string(f).map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?;
@@ -272,6 +301,7 @@ fn scene_effects(
             SceneEffects::from_json(&text)
                 .map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?,
             format!("from {f}"),
+            None,
         ));
     }
     let scene = (0..snap.len())
@@ -284,6 +314,7 @@ fn scene_effects(
             return Ok((
                 declared_effects(&sc.effects, &path),
                 format!("declared by scene {}", origin.declaration),
+                Some((sc.effects.clone(), sc)),
             ));
         }
     }
@@ -293,6 +324,7 @@ fn scene_effects(
             ..SceneEffects::default()
         },
         "none declared: kinematics only".into(),
+        None,
     ))
 }
 
@@ -306,6 +338,8 @@ struct Daemon<'a> {
     effects: SceneEffects,
     source: String,
     sims: Vec<Sim>,
+    /// The orbit, sun tracking and power, when the scene declares an orbit ([`space`]).
+    space: Option<space::SpaceStage>,
     counters: Counters,
     /// Steps since the pipelines were last built (all of them).
     clock_steps: u64,
@@ -361,7 +395,7 @@ impl Daemon<'_> {
 
     /// Every robot's pipeline from the compiled scene (after a structure change or a reset).
     fn rebuild(&mut self, reader: &mut Reader, snap: &Snapshot) -> Result<()> {
-        let (effects, source) = scene_effects(
+        let (effects, source, declared) = scene_effects(
             self.session,
             reader,
             &mut self.library,
@@ -380,6 +414,18 @@ impl Daemon<'_> {
             .iter()
             .map(|r| self.pipeline(r, snap))
             .collect::<Result<_>>()?;
+        self.space = None;
+        if let Some((fx, scene)) = &declared {
+            for what in not_simulated(fx) {
+                eprintln!("simulator: WARNING: declared but not simulated: {what}");
+            }
+            let mut notes = Vec::new();
+            self.space = space::SpaceStage::build(fx, scene, &mut self.sims, &mut notes)
+                .map_err(|e| DaemonError::Effects(format!("the space stage: {e}")))?;
+            for n in notes {
+                eprintln!("simulator: WARNING: {n}");
+            }
+        }
         self.counters.rebuilds += 1;
         self.clock_steps = 0;
         Ok(())
@@ -586,6 +632,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
         effects: SceneEffects::default(),
         source: String::new(),
         sims: Vec::new(),
+        space: None,
         counters: Counters::default(),
         clock_steps: 0,
     };
@@ -603,6 +650,9 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
             s.name,
             s.pipeline.stage_names().join(" → ")
         );
+    }
+    if let Some(sp) = &d.space {
+        eprintln!("simulator: space stage: {}", sp.describe());
     }
     let mut recording = match &opts.record {
         Some(path) => {
@@ -650,8 +700,9 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     version,
                 };
                 let rec = recording.as_ref().map(|r| (r.path(), r.messages()));
+                let space = d.space.as_ref().map(|sp| sp.status(&d.sims));
                 cmd.reply(
-                    status::status(&d.sims, &l, &d.source, rec)
+                    status::status(&d.sims, &l, &d.source, rec, space)
                         .to_string()
                         .as_bytes(),
                 );
@@ -716,6 +767,16 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                         r.event(run_ns, Level::Error, &s.name, &format!("{e}; paused"))?;
                     }
                     s.error = Some(e.to_string());
+                    running = false;
+                }
+            }
+            if let Some(sp) = &mut d.space {
+                let t = d.sims.first().map_or(0.0, |s| s.pipeline.data().state.t);
+                if let Err(e) = sp.update(&mut d.sims, t, dt) {
+                    eprintln!("simulator: space stage: {e}; paused");
+                    if let Some(r) = &mut recording {
+                        r.event(run_ns, Level::Error, "space", &format!("{e}; paused"))?;
+                    }
                     running = false;
                 }
             }

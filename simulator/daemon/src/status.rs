@@ -20,6 +20,19 @@
 //! or `paused`. `contact`: `null` when the robot's pipeline does not check collisions. `error`:
 //! why the robot's last step failed (the daemon then pauses), else `null`. The daemon runs no
 //! automation layer, so there are no alarms besides contacts and step errors.
+//!
+//! A scene that declares `orbit` (and `sun_tracking`, `power`) adds a `"space"` object (absent
+//! otherwise):
+//! ```json
+//! "space": {"t_s": 2.0, "orbit": {"altitude_m": 4e5, "beta_deg": 20, "period_s": 5553.6,
+//!           "angle_deg": 0.13}, "sun_body": [x, y, z], "eclipse": false, "sun_tracking": true,
+//!           "arrays": [{"robot": "port_outboard", "q": […], "incidence_deg": 0.01,
+//!                       "area_m2": 1200, "power_w": 2.3e5}],
+//!           "power": {"efficiency": 0.14, "power_w": 3.0e5, "energy_kwh": 0.17,
+//!                     "battery_soc": 0.8, "battery_kwh": 120.1, "battery_capacity_kwh": 150,
+//!                     "load_w": 1e5, "unserved_kwh": 0}}
+//! ```
+//! (`power` is `null` when the scene declares no power effect.)
 
 use crate::{Mode, Sim};
 use robosim_kinematics::JointType;
@@ -81,6 +94,7 @@ pub(crate) fn status(
     l: &LoopState,
     effects: &str,
     recording: Option<(&std::path::Path, u64)>,
+    space: Option<Value>,
 ) -> Value {
     let state = if l.running {
         "running"
@@ -89,7 +103,7 @@ pub(crate) fn status(
     } else {
         "paused"
     };
-    json!({
+    let mut v = json!({
         "t_s": l.clock_steps as f64 * l.dt,
         "steps": l.clock_steps,
         "run_steps": l.run_steps,
@@ -102,5 +116,9 @@ pub(crate) fn status(
         "effects": effects,
         "recording": recording.map(|(p, n)| json!({"path": p.display().to_string(), "messages": n})),
         "robots": sims.iter().map(robot).collect::<Vec<_>>(),
-    })
+    });
+    if let (Some(space), Some(m)) = (space, v.as_object_mut()) {
+        m.insert("space".into(), space);
+    }
+    v
 }

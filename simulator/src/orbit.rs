@@ -1,5 +1,7 @@
 //! A circular Earth orbit, the sun vector in the station's LVLH frame and eclipses from the
-//! geometry (the station study's `orbit` effect). One model, stated:
+//! geometry: the `orbit` effect a scene may declare (`effects { orbit { altitude, beta } }`),
+//! used by the simulator daemon's space stage (`robosim up space_station_study --with
+//! simulator`) and by `robosim study station` alike. One model, stated:
 //!
 //! * Earth: a sphere of the mean equatorial radius [`EARTH_RADIUS_M`], point-mass gravity
 //!   [`MU_EARTH`]; no J2, no drag; the orbit is circular, so the angular rate is constant.

@@ -1,0 +1,295 @@
+//! Solar arrays, sun tracking, array power and the battery: the `sun_tracking` and `power`
+//! effects a scene may declare (both need `orbit`, [`crate::orbit`]). The simulator daemon's
+//! space stage and `robosim study station` use these same functions. The model, stated:
+//!
+//! * **Arrays** are robots whose links carry cell panels: box parts whose name starts with
+//!   `panel` or `blanket` ([`is_panel`]). Area = the two large sides of each box; the cells
+//!   face along the box's thin axis; an array's panels ride on one link (the last one found).
+//! * **Tracking**: for one joint, n·ŝ = A + B cos q + C sin q, so q* = atan2(C, B) (three
+//!   evaluations); for two (alpha, beta), beta in closed form for each alpha and alpha by a 10°
+//!   scan then golden-section search to the tolerance, ties to the angle nearest the previous
+//!   one ([`track`]).
+//! * **Power** = area × efficiency × [`SOLAR_FLUX`] × max(0, cos incidence), zero in eclipse
+//!   ([`SolarArray::power_w`]). No shadowing of one array by another.
+//! * **Battery**: one energy store; the net power P − L charges at `charge_eff` and discharges
+//!   at 1/`discharge_eff`, held over each step, clamped to [0, capacity] (a surplus is shunted,
+//!   a shortfall is load not served) ([`Battery::step`]).
+//!
+//! Entry points: [`solar_array`], [`SolarArray::from_panels`], [`track`], [`Battery`].
+
+use nalgebra::{Matrix3, Vector3};
+use robosim_kinematics::{Robot, fk};
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
+/// Solar flux at 1 AU, W/m² (the total solar irradiance, SORCE/TIM 2008: 1360.8 ± 0.5).
+pub const SOLAR_FLUX: f64 = 1361.0;
+
+/// Whether a part named `leaf` (its last path component) is a cell panel.
+pub fn is_panel(leaf: &str) -> bool {
+    leaf.starts_with("panel") || leaf.starts_with("blanket")
+}
+
+/// One box part of a robot, as [`SolarArray::from_panels`] reads it.
+#[derive(Debug, Clone, Copy)]
+pub struct PanelBox {
+    /// The link frame it rides on (0 = base).
+    pub link: usize,
+    /// Box sizes along its own axes, m.
+    pub size: [f64; 3],
+    /// Its orientation in the link frame.
+    pub rotation: Matrix3<f64>,
+}
+
+/// A solar array: the panels of one robot.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SolarArray {
+    /// Cell area, m² (both large sides of every panel).
+    pub area_m2: f64,
+    /// The cell normal in the frame of `link`.
+    pub normal: Vector3<f64>,
+    /// The link the panels ride on (index into `fk::link_frames`; 0 = base).
+    pub link: usize,
+}
+
+impl SolarArray {
+    /// The array of a robot's panel boxes (`None`: no panels).
+    pub fn from_panels(panels: impl IntoIterator<Item = PanelBox>) -> Option<SolarArray> {
+        let mut out: Option<SolarArray> = None;
+        for p in panels {
+            let thin = (0..3)
+                .min_by(|&a, &b| p.size[a].total_cmp(&p.size[b]))
+                .unwrap_or(1);
+            let area = p.size.iter().product::<f64>() / p.size[thin];
+            let normal = p.rotation * Vector3::ith(thin, 1.0);
+            let a = out.get_or_insert(SolarArray {
+                area_m2: 0.0,
+                normal,
+                link: p.link,
+            });
+            a.area_m2 += area;
+            a.normal = normal;
+            a.link = p.link;
+        }
+        out
+    }
+
+    /// The cell normal in the robot's world frame at joint values `q`.
+    pub fn normal_at(&self, robot: &Robot, q: &[f64]) -> Vector3<f64> {
+        let f = fk::link_frames(robot, q);
+        f[self.link].fixed_view::<3, 3>(0, 0) * self.normal
+    }
+
+    /// Electrical power, W, at cos incidence `cos_incidence` (0 when the sun is behind the
+    /// cells), `efficiency` in (0, 1].
+    pub fn power_w(&self, efficiency: f64, cos_incidence: f64) -> f64 {
+        self.area_m2 * efficiency * SOLAR_FLUX * cos_incidence.max(0.0)
+    }
+}
+
+/// The solar array of a library robot model: its box parts named `panel…`/`blanket…`
+/// ([`is_panel`]); `None` when it has none.
+pub fn solar_array(model: &robosim_library::RobotModel) -> Option<SolarArray> {
+    let panels = model
+        .frames
+        .iter()
+        .enumerate()
+        .flat_map(|(link, parts)| parts.iter().map(move |s| (link, s)))
+        .filter_map(|(link, s)| {
+            let leaf = s.name.rsplit('/').next().unwrap_or(&s.name);
+            match s.primitive {
+                robosim_library::Primitive::Box { size } if is_panel(leaf) => Some(PanelBox {
+                    link,
+                    size,
+                    rotation: s.transform.fixed_view::<3, 3>(0, 0).into_owned(),
+                }),
+                _ => None,
+            }
+        });
+    SolarArray::from_panels(panels)
+}
+
+/// Wraps an angle into (−π, π].
+pub fn wrap(a: f64) -> f64 {
+    let w = a.rem_euclid(TAU);
+    if w > PI { w - TAU } else { w }
+}
+
+/// The best angle of joint `j` (the others as in `q`) for n·ŝ, in closed form, kept within the
+/// joint's limits; `q[j]` is set to it and n·ŝ returned.
+fn best_joint(robot: &Robot, a: &SolarArray, q: &mut [f64], j: usize, sun: &Vector3<f64>) -> f64 {
+    let mut at = |v: f64| {
+        q[j] = v;
+        a.normal_at(robot, q).dot(sun)
+    };
+    let (f0, f1, f2) = (at(0.0), at(FRAC_PI_2), at(PI));
+    let b = 0.5 * (f0 - f2);
+    let c = f1 - 0.5 * (f0 + f2);
+    let lim = robot.joints[j].qlim;
+    q[j] = wrap(c.atan2(b)).clamp(lim[0], lim[1]);
+    a.normal_at(robot, q).dot(sun)
+}
+
+/// Sun tracking for one array: gimbal angles facing the sun `sun` (robot world frame, unit),
+/// starting from `prev`; returns them and the cos of the incidence. One joint: the closed form.
+/// More: the last joint in closed form for each angle of the first, the first by a 10° scan and
+/// golden-section search to `tol` (rad), ties to the angle nearest `prev`.
+pub fn track(
+    robot: &Robot,
+    a: &SolarArray,
+    prev: &[f64],
+    sun: &Vector3<f64>,
+    tol: f64,
+) -> (Vec<f64>, f64) {
+    let mut q = prev.to_vec();
+    let n = q.len();
+    if n == 1 {
+        let c = best_joint(robot, a, &mut q, 0, sun);
+        return (q, c);
+    }
+    let j1 = n - 1;
+    let f = |alpha: f64, q: &mut Vec<f64>| {
+        q[0] = alpha;
+        best_joint(robot, a, q, j1, sun)
+    };
+    let mut best = (f64::NEG_INFINITY, 0.0);
+    for k in 0..36 {
+        let al = wrap(-PI + (k as f64 + 0.5) * TAU / 36.0);
+        let v = f(al, &mut q);
+        // ties (the mirror solution) go to the one nearest the previous angle
+        let better = v > best.0 + 1e-12
+            || ((v - best.0).abs() <= 1e-12
+                && wrap(al - prev[0]).abs() < wrap(best.1 - prev[0]).abs());
+        if better {
+            best = (v, al);
+        }
+    }
+    let h = TAU / 36.0;
+    let (mut lo, mut hi) = (best.1 - h, best.1 + h);
+    let g = 0.5 * (5f64.sqrt() - 1.0);
+    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
+    let (mut f1, mut f2) = (f(x1, &mut q), f(x2, &mut q));
+    while hi - lo > tol {
+        if f1 < f2 {
+            lo = x1;
+            x1 = x2;
+            f1 = f2;
+            x2 = lo + g * (hi - lo);
+            f2 = f(x2, &mut q);
+        } else {
+            hi = x2;
+            x2 = x1;
+            f2 = f1;
+            x1 = hi - g * (hi - lo);
+            f1 = f(x1, &mut q);
+        }
+    }
+    let c = f(wrap(0.5 * (lo + hi)), &mut q);
+    (q, c)
+}
+
+/// One energy store (module docs). Defaults: 150 kWh usable, 80 % charged, 0.9 / 0.9, a
+/// constant 100 kW load (the station study's, stated in docs/studies.md).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Battery {
+    /// Usable capacity, J.
+    pub capacity_j: f64,
+    /// State of charge, 0–1.
+    pub soc: f64,
+    pub charge_eff: f64,
+    pub discharge_eff: f64,
+    /// Constant load, W.
+    pub load_w: f64,
+}
+
+impl Default for Battery {
+    fn default() -> Self {
+        Battery {
+            capacity_j: 150.0 * 3.6e6,
+            soc: 0.8,
+            charge_eff: 0.9,
+            discharge_eff: 0.9,
+            load_w: 100e3,
+        }
+    }
+}
+
+impl Battery {
+    /// Stored energy, J.
+    pub fn energy_j(&self) -> f64 {
+        self.soc * self.capacity_j
+    }
+
+    /// Array power `power_w` held for `dt_s` against the load: charges or discharges; returns
+    /// the load not served (J) when the store runs empty.
+    pub fn step(&mut self, power_w: f64, dt_s: f64) -> f64 {
+        let net = power_w - self.load_w;
+        let de = if net >= 0.0 {
+            net * self.charge_eff
+        } else {
+            net / self.discharge_eff
+        } * dt_s;
+        let e = self.energy_j() + de;
+        self.soc = (e / self.capacity_j).clamp(0.0, 1.0);
+        if e < 0.0 {
+            -e * self.discharge_eff
+        } else {
+            0.0
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panel_box_has_two_sides_of_cells_facing_its_thin_axis() {
+        let a = SolarArray::from_panels([
+            PanelBox {
+                link: 2,
+                size: [10.0, 0.1, 30.0],
+                rotation: Matrix3::identity(),
+            },
+            PanelBox {
+                link: 2,
+                size: [10.0, 0.1, 30.0],
+                rotation: Matrix3::identity(),
+            },
+        ])
+        .expect("an array");
+        // 2 panels × 2 sides × 10 m × 30 m
+        assert!((a.area_m2 - 600.0).abs() < 1e-9);
+        assert_eq!(a.normal, Vector3::y());
+        assert_eq!(a.link, 2);
+        assert!(SolarArray::from_panels([]).is_none());
+        // 600 m² × 0.14 × 1361 W/m² at normal incidence; half at 60°; none from behind
+        assert!((a.power_w(0.14, 1.0) - 114_324.0).abs() < 1e-6);
+        assert!((a.power_w(0.14, 0.5) - 57_162.0).abs() < 1e-6);
+        assert_eq!(a.power_w(0.14, -0.3), 0.0);
+    }
+
+    #[test]
+    fn the_battery_charges_discharges_and_runs_empty_as_stated() {
+        let mut b = Battery::default();
+        // 130 kW against 100 kW for an hour: +30 kWh × 0.9 = 27 kWh
+        assert_eq!(b.step(130e3, 3600.0), 0.0);
+        assert!((b.energy_j() - (120.0 + 27.0) * 3.6e6).abs() < 1e-3);
+        // full: the surplus is shunted
+        b.step(1e6, 3600.0);
+        assert_eq!(b.soc, 1.0);
+        // nothing for 2 h: 200 kWh / 0.9 needed, 150 stored: 150 × 0.9 = 135 kWh served
+        let unserved = b.step(0.0, 7200.0);
+        assert_eq!(b.soc, 0.0);
+        assert!(
+            (unserved / 3.6e6 - (200.0 - 135.0)).abs() < 1e-9,
+            "{unserved}"
+        );
+    }
+
+    #[test]
+    fn wrap_keeps_angles_in_the_half_open_turn() {
+        assert!((wrap(3.0 * PI) - PI).abs() < 1e-12);
+        assert!((wrap(-PI) - PI).abs() < 1e-12);
+        assert!((wrap(0.5 + TAU) - 0.5).abs() < 1e-12);
+    }
+}
