@@ -25,54 +25,12 @@
 use crate::cli::follow;
 use crate::commands::{Prompt, execute};
 use crate::session::Editor;
-use robosim_instance_space::{Client, ClientError, Kind, Reader, Session, Transaction, TxError};
+use robosim_instance_space::{
+    Client, ClientError, Kind, Reader, ScratchKeeper, Transaction, TxError,
+};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-/// A keeper process on a fresh session, stopped (SIGTERM) and its files removed on drop.
-struct KeeperProc {
-    child: Child,
-    session: Session,
-}
-
-impl KeeperProc {
-    fn start(exe: &Path, name: &str, durable: bool) -> Result<Self, String> {
-        let session = Session::open(Some(name)).map_err(|e| e.to_string())?;
-        let _ = std::fs::remove_dir_all(session.data_dir());
-        let session = Session::open(Some(name)).map_err(|e| e.to_string())?;
-        let mut args = vec!["space", "--session", name, "--scene", "space_station"];
-        if !durable {
-            args.push("--no-sync");
-        }
-        let child = Command::new(exe)
-            .args(&args)
-            .stdout(Stdio::null())
-            .stderr(Stdio::inherit())
-            .spawn()
-            .map_err(|e| format!("{}: {e}", exe.display()))?;
-        let kp = KeeperProc { child, session };
-        let start = Instant::now();
-        while Client::connect(&kp.session, "bench-probe").is_err() {
-            if start.elapsed() > Duration::from_secs(120) {
-                return Err(format!("the keeper of {name} did not start within 120 s"));
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        Ok(kp)
-    }
-}
-
-impl Drop for KeeperProc {
-    fn drop(&mut self) {
-        let _ = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status();
-        let _ = self.child.wait();
-        let _ = std::fs::remove_dir_all(self.session.dir());
-    }
-}
 
 fn percentile(v: &mut [f64], p: f64) -> f64 {
     if v.is_empty() {
@@ -144,10 +102,16 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
         } else {
             "journal not synced"
         };
-        let kp = KeeperProc::start(exe, &format!("be{pid}{}", durable as u8), durable)?;
+        let args: &[&str] = if durable {
+            &["--scene", "space_station"]
+        } else {
+            &["--scene", "space_station", "--no-sync"]
+        };
+        let name = format!("be{pid}{}", durable as u8);
+        let kp = ScratchKeeper::start(exe, &name, args, Duration::from_secs(120))?;
         let err = |e: ClientError| e.to_string();
-        let mut raw = Client::connect(&kp.session, "bench-raw").map_err(err)?;
-        let mut reader = Reader::attach(&kp.session, "bench-reader").map_err(|e| e.to_string())?;
+        let mut raw = Client::connect(kp.session(), "bench-raw").map_err(err)?;
+        let mut reader = Reader::attach(kp.session(), "bench-reader").map_err(|e| e.to_string())?;
         reach(&mut reader, 1)?;
         // The module edited: the first item of the scene with geometry below it, by path.
         let snap = reader.snapshot().ok_or("no model")?;
@@ -162,7 +126,7 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
         module = snap.path(target);
         let pose0 = snap.pose(target).pose;
         drop(snap);
-        let client = Client::connect(&kp.session, "bench-editor").map_err(err)?;
+        let client = Client::connect(kp.session(), "bench-editor").map_err(err)?;
         let mut ed = Editor::new(client, "bench").map_err(|e| e.to_string())?;
         let mut p = Prompt::default();
         follow(&mut reader, &ed, &mut p, ed.version)?;

@@ -22,6 +22,7 @@ pub mod journal;
 mod keeper;
 pub mod layout;
 mod reader;
+mod scratch;
 mod session;
 pub mod state;
 mod store;
@@ -32,6 +33,7 @@ pub use client::{Client, ClientError, Committed, Pending};
 pub use journal::ObjectData;
 pub use keeper::{Keeper, KeeperError, KeeperOptions};
 pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot, compose};
+pub use scratch::ScratchKeeper;
 pub use session::{
     ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,
     running_sessions, write_private,

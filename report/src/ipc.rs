@@ -10,10 +10,12 @@
 //!     journaled transactions per second with group commit, and the cost of one fsync here.
 
 use crate::percentile;
-use robosim_instance_space::{Client, GeometryInput, IDENTITY, Kind, Reader, Session, Transaction};
+use robosim_instance_space::{
+    Client, GeometryInput, IDENTITY, Kind, Reader, ScratchKeeper, Session, Transaction,
+};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// Anything that stopped the bench, as text for the command line.
@@ -56,48 +58,15 @@ pub fn sphere_geometry(n: usize, radius: f64) -> GeometryInput {
     GeometryInput { vertices, polygons }
 }
 
-pub(crate) struct KeeperProc {
-    child: Child,
-    pub(crate) session: Session,
-}
-
-impl KeeperProc {
-    pub(crate) fn start(name: &str, durable: bool) -> Result<Self> {
-        let session = Session::open(Some(name))?;
-        let _ = std::fs::remove_dir_all(session.data_dir());
-        let session = Session::open(Some(name))?;
-        let mut args = vec!["space", "--session", name];
-        if !durable {
-            args.push("--no-sync");
-        }
-        let child = Command::new(bin()?)
-            .args(&args)
-            .stdout(Stdio::null())
-            .stderr(Stdio::inherit())
-            .spawn()?;
-        let start = Instant::now();
-        while Client::connect(&session, "bench-probe").is_err() {
-            if start.elapsed() > Duration::from_secs(60) {
-                let mut child = child;
-                let _ = child.kill();
-                let _ = child.wait();
-                let _ = std::fs::remove_dir_all(session.dir());
-                bail!("keeper for {name} did not start");
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        Ok(KeeperProc { child, session })
-    }
-}
-
-impl Drop for KeeperProc {
-    fn drop(&mut self) {
-        let _ = Command::new("kill")
-            .args(["-TERM", &self.child.id().to_string()])
-            .status();
-        let _ = self.child.wait();
-        let _ = std::fs::remove_dir_all(self.session.dir());
-    }
+/// A keeper process of this binary on a fresh session `name` (journal synced when `durable`).
+pub(crate) fn keeper(name: &str, durable: bool) -> Result<ScratchKeeper> {
+    let args: &[&str] = if durable { &[] } else { &["--no-sync"] };
+    Ok(ScratchKeeper::start(
+        &bin()?,
+        name,
+        args,
+        Duration::from_secs(60),
+    )?)
 }
 
 /// Builds a scene of `objects` solids with `verts_each` vertices each; returns the id of one.
@@ -153,10 +122,10 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     for (label, verts_each) in [("1k", 100usize), ("1M", 100_000usize)] {
         let mut row = Vec::new();
         for durable in [false, true] {
-            let kp = KeeperProc::start(&format!("bench{pid}{label}{}", durable as u8), durable)?;
-            let mut client = Client::connect(&kp.session, "bench-writer")?;
+            let kp = keeper(&format!("bench{pid}{label}{}", durable as u8), durable)?;
+            let mut client = Client::connect(kp.session(), "bench-writer")?;
             let body = build(&mut client, 10, verts_each)?;
-            let reader = Reader::attach(&kp.session, "bench-reader")?;
+            let reader = Reader::attach(kp.session(), "bench-reader")?;
             let total_verts = reader.snapshot().map_or(0, |s| s.vertex_count());
             if !durable {
                 let mut samples = Vec::with_capacity(reps);
@@ -216,8 +185,8 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     // (c) notification latency keeper → blocked reader in another process.
     writeln!(md, "## (c) change-notification latency\n").ok();
     {
-        let kp = KeeperProc::start(&format!("bench{pid}lat"), false)?;
-        let mut client = Client::connect(&kp.session, "bench-writer")?;
+        let kp = keeper(&format!("bench{pid}lat"), false)?;
+        let mut client = Client::connect(kp.session(), "bench-writer")?;
         let body = build(&mut client, 1, 8)?;
         let lat_path = std::env::temp_dir().join(format!("robosim-lat-{pid}.txt"));
         let mut reader = Command::new(bin()?)
@@ -225,7 +194,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
                 "bench",
                 "ipc-reader",
                 "--session",
-                kp.session.name(),
+                kp.session().name(),
                 "--count",
                 &lat_count.to_string(),
                 "--out",
@@ -266,8 +235,8 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     // (d) journaled throughput with group commit, and one fsync.
     writeln!(md, "## (d) journaled transactions per second\n").ok();
     {
-        let kp = KeeperProc::start(&format!("bench{pid}tps"), true)?;
-        let mut client = Client::connect(&kp.session, "bench-writer")?;
+        let kp = keeper(&format!("bench{pid}tps"), true)?;
+        let mut client = Client::connect(kp.session(), "bench-writer")?;
         let body = build(&mut client, 1, 8)?;
         let n = if quick { 5_000 } else { 50_000 };
         let window = Client::MAX_IN_FLIGHT;
@@ -290,7 +259,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
         let secs = t.elapsed().as_secs_f64();
         let tps = n as f64 / secs;
         // One fsync here: append 100 bytes and fdatasync, 200 times, in the session's data dir.
-        let f_path = kp.session.data_dir().join("fsync-probe");
+        let f_path = kp.session().data_dir().join("fsync-probe");
         let mut f = std::fs::OpenOptions::new()
             .create(true)
             .append(true)

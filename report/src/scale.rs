@@ -13,7 +13,7 @@
 //! within 1.5×). Bodies are solids without geometry, so the pose path is measured alone (each
 //! object with geometry has a geometry service of its own, a cost of its own).
 
-use crate::ipc::{KeeperProc, Result, bin, stats};
+use crate::ipc::{Result, bin, keeper, stats};
 use robosim_instance_space::layout::{POSE_CHUNK, PoseRec};
 use robosim_instance_space::{Client, IDENTITY, Kind, Reader, Transaction};
 use std::fmt::Write as _;
@@ -87,10 +87,10 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let mut rows = Vec::new();
     for n in SIZES {
         // Short session names: iceoryx2 limits the length of the names derived from them.
-        let kp = KeeperProc::start(&format!("sc{pid}n{n}"), false)?;
-        let mut client = Client::connect(&kp.session, "scale-writer")?;
+        let kp = keeper(&format!("sc{pid}n{n}"), false)?;
+        let mut client = Client::connect(kp.session(), "scale-writer")?;
         let body = build(&mut client, n)?;
-        let mut follower = Reader::attach(&kp.session, "scale-follower")?;
+        let mut follower = Reader::attach(kp.session(), "scale-follower")?;
         // Warm-up: first touch of shared-memory pages is not what this measures.
         for k in 0..200 {
             client.transact(&pose_tx(body, k))?;
@@ -126,7 +126,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
                 "bench",
                 "ipc-reader",
                 "--session",
-                kp.session.name(),
+                kp.session().name(),
                 "--count",
                 &lat_count.to_string(),
                 "--out",
@@ -157,7 +157,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
         let mut attach_ms = Vec::with_capacity(attach_reps);
         for _ in 0..attach_reps {
             let t = Instant::now();
-            let r = Reader::attach(&kp.session, "scale-joiner")?;
+            let r = Reader::attach(kp.session(), "scale-joiner")?;
             attach_ms.push(t.elapsed().as_nanos() as f64 / 1e6);
             let len = r.snapshot().map_or(0, |s| s.len());
             if len != n + 1 {
