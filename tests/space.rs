@@ -548,6 +548,73 @@ fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
     assert_eq!(late.snapshot().expect("snapshot").version(), b.version);
 }
 
+/// Ctrl-Z and `fg` (SIGSTOP, SIGCONT), a debugger or strace attaching: a stopped and continued
+/// process has its blocking wait fail with EINTR. The keeper took that for a fatal iceoryx2
+/// error and exited ("wait for requests: InterruptSignal"), losing the session's writer.
+#[test]
+fn stop_and_continue_of_the_keeper_and_the_simulator_is_not_an_error() {
+    let mut t = TestSession::new("sc");
+    let keeper = t.start_keeper();
+    let s = t.session();
+    let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
+    let a = c.transact(&scene_tx()).expect("scene");
+    let sim = t
+        .command(ROBOSIM)
+        .args(["simulator", "--session", &t.name.clone()])
+        .stdout(Stdio::null())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("simulator");
+    let sim_pid = sim.id();
+    t.children.push(sim);
+    let mut reader = with_home(t.home.path(), || Reader::attach(&s, "watch")).expect("attach");
+    let start = Instant::now();
+    while !s.processes().iter().any(|p| p.role == "simulator") {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "simulator did not register"
+        );
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let signal = |sig: &str, pid: u32| {
+        let ok = Command::new("kill")
+            .args([sig, &pid.to_string()])
+            .status()
+            .expect("kill")
+            .success();
+        assert!(ok, "kill {sig} {pid}");
+    };
+    for k in 0..3 {
+        for pid in [keeper, sim_pid] {
+            signal("-STOP", pid);
+        }
+        for pid in [keeper, sim_pid] {
+            signal("-CONT", pid);
+        }
+        let mut tx = Transaction::new();
+        let mut pose = IDENTITY;
+        pose[3] = k as f64 + 1.0;
+        tx.set_pose(a.created[1], pose);
+        let b = c.transact(&tx).unwrap_or_else(|e| {
+            panic!("cycle {k}: the keeper no longer serves after SIGCONT: {e}")
+        });
+        let seen = reader.wait_change(Duration::from_secs(10)).expect("wait");
+        assert_eq!(seen.last().map(|c| c.version), Some(b.version), "cycle {k}");
+    }
+    // Both still run: not exited (a dead child would be a zombie, so ask try_wait, not kill 0).
+    for child in &mut t.children {
+        assert!(
+            child.try_wait().expect("try_wait").is_none(),
+            "process {} exited after stop/continue",
+            child.id()
+        );
+    }
+    assert!(
+        s.processes().iter().any(|p| p.role == "simulator"),
+        "the simulator is still registered"
+    );
+}
+
 #[test]
 fn bad_transactions_through_the_keeper_get_typed_errors_and_change_nothing() {
     let mut t = TestSession::new("bad");

@@ -413,9 +413,12 @@ impl Keeper {
     pub fn step(&mut self, wait: Duration) -> Result<GroupStats, KeeperError> {
         let mut hello = false;
         if !self.server.has_requests().unwrap_or(false) {
-            self.req_listener
-                .timed_wait(|e| hello |= e.id == EventId::new(events::HELLO), wait)
-                .map_err(ipc("wait for requests"))?;
+            crate::session::timed_wait_events(
+                &self.req_listener,
+                |e| hello |= e.id == EventId::new(events::HELLO),
+                wait,
+            )
+            .map_err(ipc("wait for requests"))?;
         } else {
             let _ = self
                 .req_listener

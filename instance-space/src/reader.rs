@@ -804,8 +804,7 @@ impl Reader {
         let mut out = std::mem::take(&mut self.pending);
         out.extend(self.drain_changes()?);
         if out.is_empty() {
-            self.listener
-                .timed_wait(|_| {}, timeout)
+            crate::session::timed_wait_events(&self.listener, |_| {}, timeout)
                 .map_err(ipc("wait for changes"))?;
             out = self.drain_changes()?;
         }
@@ -849,9 +848,7 @@ impl Reader {
     /// Waits for the change event without draining anything (for latency measurement:
     /// returns the instant of wake-up in CLOCK_MONOTONIC ns, or None on timeout).
     pub fn wait_event(&mut self, timeout: Duration) -> Result<Option<u64>, ReaderError> {
-        let n = self
-            .listener
-            .timed_wait(|_| {}, timeout)
+        let n = crate::session::timed_wait_events(&self.listener, |_| {}, timeout)
             .map_err(ipc("wait for changes"))?;
         Ok((n > 0).then(crate::monotonic_ns))
     }

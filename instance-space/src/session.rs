@@ -387,3 +387,20 @@ impl Drop for Registration {
         let _ = fs::remove_file(&self.path);
     }
 }
+
+/// iceoryx2's timed wait on `listener`, with an interrupted wait taken as a wake-up with no
+/// events. A blocking wait fails with EINTR when the process is stopped and continued (Ctrl-Z
+/// and `fg`, a debugger or strace attaching) or when a handled SIGINT/SIGTERM arrives; neither
+/// is an error of the wait. Processes that handle termination signals see them through their
+/// node's `wait` (the flag stays set until that looks), processes that do not are ended by the
+/// signal itself, so nothing is lost by carrying on.
+pub(crate) fn timed_wait_events<F: FnMut(EventActivation)>(
+    listener: &iceoryx2::port::listener::Listener<ipc::Service>,
+    callback: F,
+    timeout: std::time::Duration,
+) -> Result<u64, iceoryx2::port::listener::ListenerWaitError> {
+    match listener.timed_wait(callback, timeout) {
+        Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => Ok(0),
+        r => r,
+    }
+}

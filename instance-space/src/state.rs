@@ -213,8 +213,7 @@ impl StateSubscriber {
         if !out.is_empty() {
             return Ok(out);
         }
-        self.listener
-            .timed_wait(|_| {}, timeout)
+        crate::session::timed_wait_events(&self.listener, |_| {}, timeout)
             .map_err(ipc("wait for state"))?;
         self.drain()
     }
