@@ -3,7 +3,8 @@
 //!   positioner's waist past joint_guard.clp's soft limit; the very next commit is the rule's
 //!   transaction setting it back to the limit, and it is journaled (a restarted keeper has it);
 //! * joint_guard.clp's contact rule: the simulator reports a contact, the rules pause it and
-//!   command the robot back to its last clear joints;
+//!   command the robot back to its last clear joints — the pause ordered before the back-off
+//!   commit by the Instance Space version the simulator's `paused_at` carries;
 //! * eclss_guard.clp on the automation plant (`robosim automation`): an injected ECLSS fault
 //!   rings alarms, the rules diagnose them, isolate the faulty unit and then bring its spare on
 //!   line — two transactions, in that order, journaled — and the plant's alarms stop.
@@ -209,8 +210,21 @@ fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() 
     );
     let after = p.joints("positioner").expect("joints");
     assert_eq!(after, clear, "backed off to the last clear joints");
-    let st = p.sim_state().expect("state");
-    assert_eq!(st["running"], false, "the simulator was paused: {st}");
+    // The pause and the back-off travel on different channels, so seeing the back-off says
+    // nothing about the pause: wait for it, then order it by the newest committed version it
+    // carries: after our contact commit, before the rule's back-off (joint_guard.clp pauses
+    // first).
+    let st = wait_for("the simulator paused", || {
+        let st = p.sim_state().ok()?;
+        (st["running"] == false).then_some(st)
+    });
+    assert_eq!(st["paused_at"]["cause"], "command", "{st}");
+    assert_eq!(
+        st["paused_at"]["version"],
+        v,
+        "paused after the contact commit {v} and before the back-off commit {}: {st}",
+        v + 1
+    );
     assert!(
         st["robots"][0]["contact_steps"].as_u64().unwrap_or(0) > 0,
         "it had seen the contact: {st}"
