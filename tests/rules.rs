@@ -7,14 +7,18 @@
 //!   commit by the Instance Space version the simulator's `paused_at` carries;
 //! * eclss_guard.clp on the automation plant (`robosim automation`): an injected ECLSS fault
 //!   rings alarms, the rules diagnose them, isolate the faulty unit and then bring its spare on
-//!   line — two transactions, in that order, journaled — and the plant's alarms stop.
+//!   line — two transactions, in that order, journaled — and the plant's alarms stop;
+//! * the launcher: `robosim up station_eclss` starts the plant the scene declares (and
+//!   `up SCENE --with automation` one a scene does not), `ps` lists it, a fault injected into
+//!   it rings, `down` stops it.
 
 use robosim_hl_interface::planner::Planner;
+use std::process::Command;
 use std::time::Duration;
 
 mod common;
 
-use common::{Procs, wait_for};
+use common::{Procs, ROBOSIM, wait_for};
 
 const RULES: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -309,4 +313,124 @@ fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
         "the rule's transaction was journaled"
     );
     assert_eq!(p.joints("positioner").expect("joints")[0], 0.8);
+}
+
+/// `robosim ARGS --session NAME` in the session's home, to completion: (success, stdout + stderr).
+fn robosim(k: &Procs, args: &[&str]) -> (bool, String) {
+    let out = Command::new(ROBOSIM)
+        .args(args)
+        .args(["--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .env("IOX2_LOG_LEVEL", "Error")
+        .output()
+        .expect("run robosim");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
+    )
+}
+
+/// Runs `robosim down` for the session when dropped, so a failed assertion does not leave the
+/// processes `up` started (they are not this test's children) running.
+struct Down<'a>(&'a Procs);
+
+impl Drop for Down<'_> {
+    fn drop(&mut self) {
+        robosim(self.0, &["down"]);
+    }
+}
+
+/// The roles `robosim ps --json` lists, with their pids.
+fn ps(k: &Procs) -> Vec<(String, u32)> {
+    let (ok, text) = robosim(k, &["ps", "--json"]);
+    assert!(ok, "{text}");
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("ps --json");
+    v["processes"]
+        .as_array()
+        .expect("processes")
+        .iter()
+        .map(|p| {
+            (
+                p["role"].as_str().unwrap_or_default().to_owned(),
+                p["pid"].as_u64().unwrap_or(0) as u32,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn up_starts_the_eclss_plant_a_scene_declares_or_with_names_and_down_stops_it() {
+    let k = Procs::new("upeclss");
+    let down = Down(&k);
+    let (ok, text) = robosim(&k, &["up", "station_eclss"]);
+    assert!(ok, "{text}");
+    let procs = ps(&k);
+    let roles: Vec<&str> = procs.iter().map(|(r, _)| r.as_str()).collect();
+    assert_eq!(
+        roles,
+        vec!["space", "automation"],
+        "the scene's plant is started: {text}"
+    );
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    // The plant the scene declares: its model and time scale.
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "get"}))
+        .expect("the plant answers");
+    assert_eq!(st["model"], "eclss");
+    assert_eq!(st["time_scale"], 60.0, "station_eclss's time_scale");
+    assert_eq!(st["alarms"], serde_json::json!([]));
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed"), "eclss");
+    assert!(
+        p.snapshot()
+            .expect("snapshot")
+            .find("middle_truss")
+            .is_some(),
+        "and the scene itself"
+    );
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "fault", "fault": "sorbent_bed_failure"}))
+        .expect("inject the fault");
+    assert_eq!(st["alarms"][0]["alarm"], "A_co2_bed", "{st}");
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "get"}))
+        .expect("plant state");
+    assert_eq!(st["alarms"][0]["alarm"], "A_co2_bed", "still ringing: {st}");
+    drop(p);
+    drop(down);
+    for (role, pid) in &procs {
+        assert!(
+            !robosim_instance_space::pid_alive(*pid),
+            "down stopped {role} (pid {pid})"
+        );
+    }
+    assert!(ps(&k).is_empty(), "nothing left registered");
+
+    // A scene that declares no plant gets one with --with: the default model at the wall clock.
+    let k = Procs::new("upwith");
+    let down = Down(&k);
+    let (ok, text) = robosim(&k, &["up", "demo"]);
+    assert!(ok, "{text}");
+    assert_eq!(ps(&k).len(), 1, "demo declares no plant: the keeper alone");
+    let (ok, text) = robosim(&k, &["up", "demo", "--with", "automation"]);
+    assert!(ok, "{text}");
+    let procs = ps(&k);
+    assert_eq!(
+        procs.iter().map(|(r, _)| r.as_str()).collect::<Vec<_>>(),
+        vec!["space", "automation"]
+    );
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "get"}))
+        .expect("the plant answers");
+    assert_eq!(
+        (&st["model"], &st["time_scale"]),
+        (&serde_json::json!("eclss"), &serde_json::json!(1.0))
+    );
+    drop(p);
+    let (ok, text) = robosim(&k, &["down"]);
+    assert!(ok && text.contains("stopped automation"), "{text}");
+    drop(down);
+    for (role, pid) in &procs {
+        assert!(!robosim_instance_space::pid_alive(*pid), "{role} stopped");
+    }
 }
