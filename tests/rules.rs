@@ -41,6 +41,19 @@ fn wait_role(k: &Procs, role: &str) {
     });
 }
 
+/// A session of its own (`tag`) with a keeper on the surgical-positioner cell and then each of
+/// `components` (`robosim ARGS`, whose first word is the role it registers as), each waited for
+/// in turn; the keeper's pid first, then the components'.
+fn session_with(tag: &str, components: &[&[&str]]) -> (Procs, Vec<u32>) {
+    let mut k = Procs::new(tag);
+    let mut pids = vec![k.start_keeper(&["--scene", "surgical_positioner_cell"])];
+    for args in components {
+        pids.push(k.spawn(args));
+        wait_role(&k, args[0]);
+    }
+    (k, pids)
+}
+
 /// Drains the commits already made (the rules' start-up mirror makes none, the plant's set-up
 /// one): returns when nothing is committed for 300 ms.
 fn settle(p: &mut Planner) {
@@ -78,12 +91,10 @@ fn parent_of(p: &mut Planner, name: &str) -> String {
 
 #[test]
 fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled() {
-    let mut k = Procs::new("rulesec");
-    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
-    let plant = k.spawn(&["automation"]);
-    wait_role(&k, "automation");
-    let rules = k.spawn(&["rules", ECLSS_RULES]);
-    wait_role(&k, "rules");
+    let (mut k, pids) = session_with("rulesec", &[&["automation"], &["rules", ECLSS_RULES]]);
+    let [keeper, plant, rules] = pids[..] else {
+        unreachable!("a keeper and two components")
+    };
     let session = k.session();
     let mut p = Planner::attach_to(&session).expect("attach");
     settle(&mut p);
@@ -161,11 +172,11 @@ fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled
 
 #[test]
 fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() {
-    let mut k = Procs::new("rulesct");
-    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
     // A free-running simulator: the rule's pause is what stops it.
-    let sim = k.spawn(&["simulator", "--mode", "realtime"]);
-    wait_role(&k, "simulator");
+    let (mut k, pids) = session_with("rulesct", &[&["simulator", "--mode", "realtime"]]);
+    let [keeper, sim] = pids[..] else {
+        unreachable!("a keeper and one component")
+    };
     let session = k.session();
     let mut p = Planner::attach_to(&session).expect("attach");
     let st = wait_for("the simulator's commands", || p.sim_state().ok());
@@ -247,25 +258,15 @@ fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() 
 
 #[test]
 fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
-    let mut k = Procs::new("rules");
-    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
-    let rules = k.spawn(&["rules", RULES]);
+    let (mut k, pids) = session_with("rules", &[&["rules", RULES]]);
+    let [keeper, rules] = pids[..] else {
+        unreachable!("a keeper and one component")
+    };
     let session = k.session();
-    wait_for("the rules process", || {
-        session
-            .processes()
-            .iter()
-            .any(|p| p.role == "rules")
-            .then_some(())
-    });
     let mut p = Planner::attach_to(&session).expect("attach");
     // The rules mirror the session when they start; let that settle (no commit expected:
     // the waist starts inside its soft limit).
-    while p
-        .wait_change(Duration::from_millis(300))
-        .expect("wait")
-        .is_some()
-    {}
+    settle(&mut p);
     let mut q = p.joints("positioner").expect("joints");
     q[0] = 1.0;
     let v = p
