@@ -52,8 +52,9 @@ enum Command {
         #[arg(long, default_value_t = 2)]
         journal_copies: u8,
     },
-    /// Start a session: the keeper with SCENE, and only the components named with --with. A
-    /// session that already holds a model (running, or saved in its journal) keeps it.
+    /// Start a session: the keeper with SCENE, and only the components named with --with or
+    /// declared by SCENE (an `automation { … }` effect starts the automation plant). A session
+    /// that already holds a model (running, or saved in its journal) keeps it.
     Up {
         /// The library scene or robot to load (`robosim lib list`).
         #[arg(required_unless_present = "load")]

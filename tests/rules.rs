@@ -3,17 +3,22 @@
 //!   positioner's waist past joint_guard.clp's soft limit; the very next commit is the rule's
 //!   transaction setting it back to the limit, and it is journaled (a restarted keeper has it);
 //! * joint_guard.clp's contact rule: the simulator reports a contact, the rules pause it and
-//!   command the robot back to its last clear joints;
+//!   command the robot back to its last clear joints — the pause ordered before the back-off
+//!   commit by the Instance Space version the simulator's `paused_at` carries;
 //! * eclss_guard.clp on the automation plant (`robosim automation`): an injected ECLSS fault
 //!   rings alarms, the rules diagnose them, isolate the faulty unit and then bring its spare on
-//!   line — two transactions, in that order, journaled — and the plant's alarms stop.
+//!   line — two transactions, in that order, journaled — and the plant's alarms stop;
+//! * the launcher: `robosim up station_eclss` starts the plant the scene declares (and
+//!   `up SCENE --with automation` one a scene does not), `ps` lists it, a fault injected into
+//!   it rings, `down` stops it.
 
 use robosim_hl_interface::planner::Planner;
+use std::process::Command;
 use std::time::Duration;
 
 mod common;
 
-use common::{Procs, wait_for};
+use common::{Procs, ROBOSIM, wait_for};
 
 const RULES: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -34,6 +39,19 @@ fn wait_role(k: &Procs, role: &str) {
             .any(|p| p.role == role)
             .then_some(())
     });
+}
+
+/// A session of its own (`tag`) with a keeper on the surgical-positioner cell and then each of
+/// `components` (`robosim ARGS`, whose first word is the role it registers as), each waited for
+/// in turn; the keeper's pid first, then the components'.
+fn session_with(tag: &str, components: &[&[&str]]) -> (Procs, Vec<u32>) {
+    let mut k = Procs::new(tag);
+    let mut pids = vec![k.start_keeper(&["--scene", "surgical_positioner_cell"])];
+    for args in components {
+        pids.push(k.spawn(args));
+        wait_role(&k, args[0]);
+    }
+    (k, pids)
 }
 
 /// Drains the commits already made (the rules' start-up mirror makes none, the plant's set-up
@@ -73,12 +91,10 @@ fn parent_of(p: &mut Planner, name: &str) -> String {
 
 #[test]
 fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled() {
-    let mut k = Procs::new("rulesec");
-    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
-    let plant = k.spawn(&["automation"]);
-    wait_role(&k, "automation");
-    let rules = k.spawn(&["rules", ECLSS_RULES]);
-    wait_role(&k, "rules");
+    let (mut k, pids) = session_with("rulesec", &[&["automation"], &["rules", ECLSS_RULES]]);
+    let [keeper, plant, rules] = pids[..] else {
+        unreachable!("a keeper and two components")
+    };
     let session = k.session();
     let mut p = Planner::attach_to(&session).expect("attach");
     settle(&mut p);
@@ -156,11 +172,11 @@ fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled
 
 #[test]
 fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() {
-    let mut k = Procs::new("rulesct");
-    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
     // A free-running simulator: the rule's pause is what stops it.
-    let sim = k.spawn(&["simulator", "--mode", "realtime"]);
-    wait_role(&k, "simulator");
+    let (mut k, pids) = session_with("rulesct", &[&["simulator", "--mode", "realtime"]]);
+    let [keeper, sim] = pids[..] else {
+        unreachable!("a keeper and one component")
+    };
     let session = k.session();
     let mut p = Planner::attach_to(&session).expect("attach");
     let st = wait_for("the simulator's commands", || p.sim_state().ok());
@@ -209,8 +225,21 @@ fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() 
     );
     let after = p.joints("positioner").expect("joints");
     assert_eq!(after, clear, "backed off to the last clear joints");
-    let st = p.sim_state().expect("state");
-    assert_eq!(st["running"], false, "the simulator was paused: {st}");
+    // The pause and the back-off travel on different channels, so seeing the back-off says
+    // nothing about the pause: wait for it, then order it by the newest committed version it
+    // carries: after our contact commit, before the rule's back-off (joint_guard.clp pauses
+    // first).
+    let st = wait_for("the simulator paused", || {
+        let st = p.sim_state().ok()?;
+        (st["running"] == false).then_some(st)
+    });
+    assert_eq!(st["paused_at"]["cause"], "command", "{st}");
+    assert_eq!(
+        st["paused_at"]["version"],
+        v,
+        "paused after the contact commit {v} and before the back-off commit {}: {st}",
+        v + 1
+    );
     assert!(
         st["robots"][0]["contact_steps"].as_u64().unwrap_or(0) > 0,
         "it had seen the contact: {st}"
@@ -229,25 +258,15 @@ fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() 
 
 #[test]
 fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
-    let mut k = Procs::new("rules");
-    let keeper = k.start_keeper(&["--scene", "surgical_positioner_cell"]);
-    let rules = k.spawn(&["rules", RULES]);
+    let (mut k, pids) = session_with("rules", &[&["rules", RULES]]);
+    let [keeper, rules] = pids[..] else {
+        unreachable!("a keeper and one component")
+    };
     let session = k.session();
-    wait_for("the rules process", || {
-        session
-            .processes()
-            .iter()
-            .any(|p| p.role == "rules")
-            .then_some(())
-    });
     let mut p = Planner::attach_to(&session).expect("attach");
     // The rules mirror the session when they start; let that settle (no commit expected:
     // the waist starts inside its soft limit).
-    while p
-        .wait_change(Duration::from_millis(300))
-        .expect("wait")
-        .is_some()
-    {}
+    settle(&mut p);
     let mut q = p.joints("positioner").expect("joints");
     q[0] = 1.0;
     let v = p
@@ -295,4 +314,124 @@ fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
         "the rule's transaction was journaled"
     );
     assert_eq!(p.joints("positioner").expect("joints")[0], 0.8);
+}
+
+/// `robosim ARGS --session NAME` in the session's home, to completion: (success, stdout + stderr).
+fn robosim(k: &Procs, args: &[&str]) -> (bool, String) {
+    let out = Command::new(ROBOSIM)
+        .args(args)
+        .args(["--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .env("IOX2_LOG_LEVEL", "Error")
+        .output()
+        .expect("run robosim");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
+    )
+}
+
+/// Runs `robosim down` for the session when dropped, so a failed assertion does not leave the
+/// processes `up` started (they are not this test's children) running.
+struct Down<'a>(&'a Procs);
+
+impl Drop for Down<'_> {
+    fn drop(&mut self) {
+        robosim(self.0, &["down"]);
+    }
+}
+
+/// The roles `robosim ps --json` lists, with their pids.
+fn ps(k: &Procs) -> Vec<(String, u32)> {
+    let (ok, text) = robosim(k, &["ps", "--json"]);
+    assert!(ok, "{text}");
+    let v: serde_json::Value = serde_json::from_str(text.trim()).expect("ps --json");
+    v["processes"]
+        .as_array()
+        .expect("processes")
+        .iter()
+        .map(|p| {
+            (
+                p["role"].as_str().unwrap_or_default().to_owned(),
+                p["pid"].as_u64().unwrap_or(0) as u32,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn up_starts_the_eclss_plant_a_scene_declares_or_with_names_and_down_stops_it() {
+    let k = Procs::new("upeclss");
+    let down = Down(&k);
+    let (ok, text) = robosim(&k, &["up", "station_eclss"]);
+    assert!(ok, "{text}");
+    let procs = ps(&k);
+    let roles: Vec<&str> = procs.iter().map(|(r, _)| r.as_str()).collect();
+    assert_eq!(
+        roles,
+        vec!["space", "automation"],
+        "the scene's plant is started: {text}"
+    );
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    // The plant the scene declares: its model and time scale.
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "get"}))
+        .expect("the plant answers");
+    assert_eq!(st["model"], "eclss");
+    assert_eq!(st["time_scale"], 60.0, "station_eclss's time_scale");
+    assert_eq!(st["alarms"], serde_json::json!([]));
+    assert_eq!(parent_of(&mut p, "co2_sorbent_bed"), "eclss");
+    assert!(
+        p.snapshot()
+            .expect("snapshot")
+            .find("middle_truss")
+            .is_some(),
+        "and the scene itself"
+    );
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "fault", "fault": "sorbent_bed_failure"}))
+        .expect("inject the fault");
+    assert_eq!(st["alarms"][0]["alarm"], "A_co2_bed", "{st}");
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "get"}))
+        .expect("plant state");
+    assert_eq!(st["alarms"][0]["alarm"], "A_co2_bed", "still ringing: {st}");
+    drop(p);
+    drop(down);
+    for (role, pid) in &procs {
+        assert!(
+            !robosim_instance_space::pid_alive(*pid),
+            "down stopped {role} (pid {pid})"
+        );
+    }
+    assert!(ps(&k).is_empty(), "nothing left registered");
+
+    // A scene that declares no plant gets one with --with: the default model at the wall clock.
+    let k = Procs::new("upwith");
+    let down = Down(&k);
+    let (ok, text) = robosim(&k, &["up", "demo"]);
+    assert!(ok, "{text}");
+    assert_eq!(ps(&k).len(), 1, "demo declares no plant: the keeper alone");
+    let (ok, text) = robosim(&k, &["up", "demo", "--with", "automation"]);
+    assert!(ok, "{text}");
+    let procs = ps(&k);
+    assert_eq!(
+        procs.iter().map(|(r, _)| r.as_str()).collect::<Vec<_>>(),
+        vec!["space", "automation"]
+    );
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    let st = p
+        .plant_command(&serde_json::json!({"cmd": "get"}))
+        .expect("the plant answers");
+    assert_eq!(
+        (&st["model"], &st["time_scale"]),
+        (&serde_json::json!("eclss"), &serde_json::json!(1.0))
+    );
+    drop(p);
+    let (ok, text) = robosim(&k, &["down"]);
+    assert!(ok && text.contains("stopped automation"), "{text}");
+    drop(down);
+    for (role, pid) in &procs {
+        assert!(!robosim_instance_space::pid_alive(*pid), "{role} stopped");
+    }
 }

@@ -272,6 +272,30 @@ pub struct Effects {
     /// Electrical power from the arrays and a battery (needs `orbit`).
     #[serde(default)]
     pub power: Option<PowerEffect>,
+    /// The automation layer's plant (a fault model whose faults ring alarms), run beside the
+    /// simulator as its own process (`robosim automation`, started by `robosim up`).
+    #[serde(default)]
+    pub automation: Option<AutomationEffect>,
+}
+
+/// `automation { model: "eclss", time_scale: 60 }` (or `automation: on`, the ECLSS at the wall
+/// clock's pace): the scene's fault-monitoring plant. Not a simulator stage: `robosim up SCENE`
+/// starts `robosim automation --model MODEL --time-scale X` as one more component process.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct AutomationEffect {
+    /// The fault model: a shipped name (`eclss`) or a model file (`robosim diag check`).
+    pub model: String,
+    /// Plant seconds per wall-clock second (> 0).
+    pub time_scale: f64,
+}
+
+impl Default for AutomationEffect {
+    fn default() -> Self {
+        AutomationEffect {
+            model: "eclss".into(),
+            time_scale: 1.0,
+        }
+    }
 }
 
 /// `orbit { altitude: 400 km, beta: 0 deg }`: a circular orbit about a spherical Earth.
@@ -302,6 +326,7 @@ impl Default for Effects {
             orbit: None,
             sun_tracking: false,
             power: None,
+            automation: None,
         }
     }
 }

@@ -285,3 +285,50 @@ fn the_examples_in_the_language_reference_load() {
     }
     assert!(blocks >= 2, "found {blocks} examples");
 }
+
+/// The `automation` effect (a scene's fault-monitoring plant, started by `robosim up`): the
+/// switch means the ECLSS at the wall clock's pace, the block sets model and pace, and bad
+/// values are refused by name and place.
+#[test]
+fn the_automation_effect_declares_the_plant_and_refuses_bad_values() {
+    let scene = |effects: &str| {
+        let src = format!("scene plant_scene(pace = 30) {{\n    effects {{ {effects} }}\n}}\n");
+        Library::from_source("a.rsl", &src)
+            .map_err(|e| e.to_string())
+            .and_then(|l| {
+                l.evaluate("plant_scene", &Params::new())
+                    .map_err(|e| e.to_string())
+            })
+    };
+    let fx = |effects: &str| match scene(effects) {
+        Ok(Evaluated::Scene(s)) => s.effects,
+        other => panic!("{effects}: {other:?}"),
+    };
+    assert_eq!(fx("kinematics: on").automation, None, "off unless declared");
+    let a = fx("automation: on").automation.expect("declared");
+    assert_eq!((a.model.as_str(), a.time_scale), ("eclss", 1.0));
+    assert_eq!(fx("automation: off").automation, None);
+    let a = fx("automation { model: \"plant.hfm\", time_scale: pace }")
+        .automation
+        .expect("declared");
+    assert_eq!((a.model.as_str(), a.time_scale), ("plant.hfm", 30.0));
+    for (bad, says) in [
+        (
+            "automation { time_scale: 0 }",
+            "time_scale 0 is out of range",
+        ),
+        ("automation { time_scale: 2 s }", "time_scale"),
+        (
+            "automation { model: 3 }",
+            "the automation model must be a name in quotes",
+        ),
+        (
+            "automation { model: \"\" }",
+            "the automation model must be a name in quotes",
+        ),
+        ("automation { modle: \"eclss\" }", "did you mean `model`"),
+    ] {
+        let e = scene(bad).expect_err(bad);
+        assert!(e.contains(says) && e.contains("a.rsl:2:"), "{bad}: {e}");
+    }
+}

@@ -74,3 +74,6 @@ class Session:
         """The commits after the last one seen: version, aspects, objects, ids, published_ns."""
     def query(self, request: Dict[str, Json]) -> Dict[str, Json]:
         """Any op of the query protocol; the answer dict (number arrays as numpy arrays)."""
+    def plant_command(self, command: Dict[str, Json]) -> Dict[str, Json]:
+        """A command to the automation plant: {"cmd": "fault", "fault": NAME} or {"cmd": "get"};
+        its state (faults, ringing alarms, units). SessionError if no plant runs or it refuses."""

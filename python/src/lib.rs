@@ -429,6 +429,21 @@ impl Session {
         to_py(py, &answer)
     }
 
+    /// One command to the session's automation plant (`robosim automation`): `{"cmd": "fault",
+    /// "fault": NAME}` injects a failure mode now, `{"cmd": "get"}` reads its state; the plant's
+    /// state as a dict (model, t_s, faults, the ringing alarms, online, isolated,
+    /// spares_online). `SessionError` when no plant runs in the session or the plant refuses
+    /// the command (an unknown or derived failure mode), which then changes nothing.
+    fn plant_command<'py>(
+        &mut self,
+        py: Python<'py>,
+        command: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let cmd = to_json(py, command, "command")?;
+        let answer = self.planner.plant_command(&cmd).map_err(|e| raise(py, e))?;
+        to_py(py, &answer)
+    }
+
     /// The session's simulator.
     #[getter]
     fn sim(slf: Bound<'_, Self>) -> Sim {

@@ -61,6 +61,14 @@ class Procs:
         self.wait_for(lambda: s.sim.state(), "the simulator")
         return p
 
+    def start_plant(self, *args):
+        """The automation plant (``robosim automation``, the ECLSS model); returns once it
+        answers commands (its units are then committed)."""
+        p = self.spawn("automation", *args)
+        s = self.attach()
+        self.wait_for(lambda: s.plant_command({"cmd": "get"}), "the automation plant")
+        return p
+
     def wait_for(self, f, what, timeout=30.0):
         start = time.monotonic()
         while True:

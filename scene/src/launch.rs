@@ -1,6 +1,7 @@
 //! The launcher: `robosim up / ps / down`, and the keeper process itself (`robosim space`).
 //!
-//! `up` starts the keeper and then only the components named with `--with`, each as its own
+//! `up` starts the keeper and then only the components named with `--with` or declared by the
+//! scene (an `automation { … }` effect: the automation plant, [`declared_components`]), each as its own
 //! OS process in its own process group (so a Ctrl-C in the launching terminal does not take
 //! the session down), logging to `<session>/run/<role>.log`. Processes register themselves in
 //! the session's registry; `ps` reads it and `down` stops them (SIGTERM, then SIGKILL after
@@ -39,8 +40,46 @@ use std::time::{Duration, Instant};
 
 /// Components `up --with` can start: the name and the subcommand that runs it. Only what
 /// this build has is offered (the design card's editor, file interface and high-level interface
-/// processes join this list when they exist).
-pub const COMPONENTS: &[(&str, &str)] = &[("simulator", "simulator"), ("display", "display")];
+/// processes join this list when they exist). `automation` is the automation layer's plant
+/// (`robosim automation`, the ECLSS fault model by default); a scene that declares an
+/// `automation { … }` effect has it started with its model and time scale without `--with`.
+pub const COMPONENTS: &[(&str, &str)] = &[
+    ("simulator", "simulator"),
+    ("display", "display"),
+    ("automation", "automation"),
+];
+
+/// The components scene `name` declares (its effects), with the arguments each is started with
+/// besides `--session`: the automation plant of an `automation { … }` effect. A robot, link or
+/// solid, and the built-in `demo`, declare none.
+pub fn declared_components(
+    lib: &robosim_library::Library,
+    name: &str,
+) -> Result<Vec<(String, Vec<String>)>> {
+    if name == "demo" {
+        return Ok(Vec::new());
+    }
+    let origin = crate::instantiate::Origin::defaults(name);
+    let Ok(robosim_library::Evaluated::Scene(sc)) = origin.evaluate(lib) else {
+        return Ok(Vec::new());
+    };
+    Ok(sc
+        .effects
+        .automation
+        .iter()
+        .map(|a| {
+            (
+                "automation".to_owned(),
+                vec![
+                    "--model".to_owned(),
+                    a.model.clone(),
+                    "--time-scale".to_owned(),
+                    a.time_scale.to_string(),
+                ],
+            )
+        })
+        .collect())
+}
 
 /// The file in `data/` where the keeper records the scene it loaded into the empty model, so
 /// that a later `up` can tell whether the saved model is the scene it is asked for.
@@ -321,10 +360,15 @@ fn up_start(
             );
         }
     }
+    // What to start besides the keeper: the scene's declared components with their
+    // arguments, then those named with --with (a name the scene declares is started once, as
+    // the scene says).
+    let mut components: Vec<(String, Vec<String>)> = Vec::new();
     let start_args: Vec<String> = match start {
         Start::Scene(scene_name) => {
             let lib = crate::build_library(library)?;
             scene::load_from(&lib, scene_name)?;
+            components = declared_components(&lib, scene_name)?;
             vec!["--scene".into(), scene_name.into()]
         }
         Start::File(file) => {
@@ -453,13 +497,20 @@ fn up_start(
     };
     let version = reader.snapshot().map_or(0, |s| s.version());
     for c in with {
+        if !components.iter().any(|(n, _)| n == c) {
+            components.push((c.clone(), Vec::new()));
+        }
+    }
+    for (c, extra) in &components {
         if procs.iter().any(|p| &p.role == c) {
             continue;
         }
         let Some((_, sub)) = COMPONENTS.iter().find(|(n, _)| n == c) else {
             continue;
         };
-        let pid = spawn(&session, c, &[sub, "--session", session.name()])?;
+        let mut args = vec![*sub, "--session", session.name()];
+        args.extend(extra.iter().map(String::as_str));
+        let pid = spawn(&session, c, &args)?;
         wait_registered(&session, c, pid, Duration::from_secs(30))?;
     }
     println!(

@@ -268,6 +268,12 @@ fn describe_effects(fx: &robosim_library::Effects) -> String {
     if !fx.logged.is_empty() {
         parts.push(format!("logging {}", fx.logged.join(", ")));
     }
+    if let Some(a) = &fx.automation {
+        parts.push(format!(
+            "automation plant {} (time scale {})",
+            a.model, a.time_scale
+        ));
+    }
     if parts.is_empty() {
         "none".into()
     } else {

@@ -208,6 +208,7 @@ impl Evaluator<'_> {
             "orbit",
             "sun_tracking",
             "power",
+            "automation",
         ];
         for st in body {
             match st {
@@ -265,6 +266,10 @@ impl Evaluator<'_> {
                             } else {
                                 None
                             }
+                        }
+                        "automation" => {
+                            fx.automation =
+                                self.switch(value, scope)?.then(AutomationEffect::default)
                         }
                         "dynamics" => {
                             fx.dynamics = if self.switch(value, scope)? {
@@ -495,13 +500,69 @@ impl Evaluator<'_> {
                     needs_orbit = Some((*name_span, "power"));
                 }
                 Stmt::Block {
+                    name,
+                    name_span,
+                    body,
+                } if name == "automation" => {
+                    seen.check(name, *name_span)?;
+                    let mut a = AutomationEffect::default();
+                    for (name, name_span, value) in
+                        group_props(body, "`automation { … }`", "`model:` or `time_scale:`")?
+                    {
+                        match name {
+                            "model" => match self.eval(value, scope)? {
+                                Value::Str(m) if !m.trim().is_empty() => a.model = m,
+                                other => {
+                                    return Err(err(
+                                        ErrorKind::Type,
+                                        value.span,
+                                        format!(
+                                            "the automation model must be a name in quotes, got {}",
+                                            other.describe()
+                                        ),
+                                    )
+                                    .expected(
+                                        "a shipped fault model such as \"eclss\", or a model file's path",
+                                    ));
+                                }
+                            },
+                            "time_scale" => {
+                                let x = self.quantity(
+                                    value,
+                                    scope,
+                                    Dim::NONE,
+                                    "plant seconds per wall-clock second, such as 60",
+                                )?;
+                                if !(x.is_finite() && x > 0.0) {
+                                    return Err(err(
+                                        ErrorKind::OutOfRange,
+                                        value.span,
+                                        format!("time_scale {x} is out of range"),
+                                    )
+                                    .expected("a positive number of plant seconds per second"));
+                                }
+                                a.time_scale = x;
+                            }
+                            _ => {
+                                return Err(unknown_prop(
+                                    "automation",
+                                    name,
+                                    name_span,
+                                    &["model", "time_scale"],
+                                ));
+                            }
+                        }
+                    }
+                    fx.automation = Some(a);
+                }
+                Stmt::Block {
                     name, name_span, ..
                 } => {
                     return Err(unknown_prop(
                         "effects",
                         name,
                         *name_span,
-                        &["collision", "dynamics", "orbit", "power"],
+                        &["collision", "dynamics", "orbit", "power", "automation"],
                     ));
                 }
                 Stmt::Let {

@@ -590,6 +590,19 @@ impl Daemon<'_> {
     }
 }
 
+/// The record of a pause beginning now, after `run_steps` steps: the newest version committed
+/// to the Instance Space at this moment (the reader is refreshed first, so a transaction
+/// acknowledged before the pause is counted and one committed after it is not), which orders
+/// the pause against the journal's versions.
+fn pause_record(reader: &mut Reader, run_steps: u64, cause: &'static str) -> Result<status::Pause> {
+    reader.refresh()?;
+    Ok(status::Pause {
+        version: reader.snapshot().map_or(0, |s| s.version()),
+        run_steps,
+        cause,
+    })
+}
+
 /// The command's `cmd`, if it is a JSON object with one.
 fn cmd_name(v: &Value) -> Option<&str> {
     v.get("cmd").and_then(Value::as_str)
@@ -674,6 +687,8 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
     let dt = d.dt();
     let publish_every = ((1.0 / publish_hz) / dt).round().max(1.0) as u64;
     let mut running = mode != Mode::Lockstep;
+    // Where the current pause began (status::Pause), `None` while running.
+    let mut paused_at: Option<status::Pause> = None;
     let mut budget = 0u64;
     let start = Instant::now();
     let mut steps = 0u64;
@@ -698,6 +713,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     clock_steps: d.clock_steps,
                     dt: d.dt(),
                     version,
+                    paused_at,
                 };
                 let rec = recording.as_ref().map(|r| (r.path(), r.messages()));
                 let space = d.space.as_ref().map(|sp| sp.status(&d.sims));
@@ -708,9 +724,15 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 );
                 continue;
             }
+            let was_running = running;
             let outcome = parsed.and_then(|v| {
                 apply(&mut d.sims, &v, &mut running, &mut budget, &mut reset).map(|()| v)
             });
+            if was_running && !running {
+                paused_at = Some(pause_record(&mut reader, steps, "command")?);
+            } else if running {
+                paused_at = None;
+            }
             let text = String::from_utf8_lossy(cmd.bytes()).into_owned();
             match outcome {
                 Ok(v) => {
@@ -767,6 +789,9 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                         r.event(run_ns, Level::Error, &s.name, &format!("{e}; paused"))?;
                     }
                     s.error = Some(e.to_string());
+                    if running {
+                        paused_at = Some(pause_record(&mut reader, steps, "error")?);
+                    }
                     running = false;
                 }
             }
@@ -776,6 +801,9 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     eprintln!("simulator: space stage: {e}; paused");
                     if let Some(r) = &mut recording {
                         r.event(run_ns, Level::Error, "space", &format!("{e}; paused"))?;
+                    }
+                    if running {
+                        paused_at = Some(pause_record(&mut reader, steps, "error")?);
                     }
                     running = false;
                 }

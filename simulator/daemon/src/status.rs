@@ -4,6 +4,7 @@
 //! ```json
 //! {"t_s": 0.5, "steps": 50, "run_steps": 50, "dt_s": 0.01, "mode": "lockstep",
 //!  "state": "paused", "running": false, "queued_steps": 0, "version": 3,
+//!  "paused_at": {"version": 3, "run_steps": 50, "cause": "command"},
 //!  "effects": "from effects.json", "recording": {"path": "run.mcap", "messages": 153},
 //!  "robots": [{"name": "puma560", "t_s": 0.5, "steps": 50,
 //!              "stages": ["motion", "joint_limits", "link_frames", "logging"],
@@ -18,7 +19,15 @@
 //! last built (start, `reset`, a structure change); `run_steps`: since the daemon started (the
 //! recording's clock). `state`: `running` (free-running), `stepping` (lock-step steps queued)
 //! or `paused`. `contact`: `null` when the robot's pipeline does not check collisions. `error`:
-//! why the robot's last step failed (the daemon then pauses), else `null`. The daemon runs no
+//! why the robot's last step failed (the daemon then pauses), else `null`.
+//!
+//! `paused_at`: where the current pause of a free-running daemon began — `version`, the newest
+//! version committed to the Instance Space at that moment (so a transaction whose acknowledged
+//! version is greater was committed after the pause, one at most `version` before it);
+//! `run_steps` at the pause; `cause`, `command` (a `pause`) or `error` (a failed step). `null`
+//! while running, and in lock-step until the daemon has been resumed and paused again. The
+//! simulator's state travels on its own channel, not in the journal: this is how a reader
+//! orders a pause against commits. The daemon runs no
 //! automation layer, so there are no alarms besides contacts and step errors.
 //!
 //! A scene that declares `orbit` (and `sun_tracking`, `power`) adds a `"space"` object (absent
@@ -51,6 +60,20 @@ pub(crate) struct LoopState {
     pub dt: f64,
     /// The Instance Space version the pipelines follow.
     pub version: u64,
+    /// Where the current pause began; `None` while running (and in lock-step until the daemon
+    /// has run free and been paused).
+    pub paused_at: Option<Pause>,
+}
+
+/// A pause of a free-running daemon, placed in the Instance Space's history (module docs).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Pause {
+    /// The newest version committed when the daemon paused.
+    pub version: u64,
+    /// `run_steps` when it paused.
+    pub run_steps: u64,
+    /// `command` (a `pause`) or `error` (a failed step).
+    pub cause: &'static str,
 }
 
 fn robot(s: &Sim) -> Value {
@@ -113,6 +136,9 @@ pub(crate) fn status(
         "running": l.running,
         "queued_steps": l.budget,
         "version": l.version,
+        "paused_at": l.paused_at.map(|p| json!({
+            "version": p.version, "run_steps": p.run_steps, "cause": p.cause,
+        })),
         "effects": effects,
         "recording": recording.map(|(p, n)| json!({"path": p.display().to_string(), "messages": n})),
         "robots": sims.iter().map(robot).collect::<Vec<_>>(),
