@@ -9,7 +9,9 @@
 //! joint, the outboard's alpha angle refined by golden-section search to the tracking
 //! tolerance); the servicer at its planned joint values; its clearance to every array part
 //! (exact distances); where it is inside the keep-out distance the array is feathered — set to
-//! the best-powered angle that clears — and the power lost is the difference. Power = Σ over the
+//! the best-powered angle that clears — and the power lost is the difference; an angle must
+//! also clear the servicer's planned sweep over the steps on either side of the sample, so the
+//! keep-out holds between the samples too (checked there, [`between_samples`]). Power = Σ over the
 //! panels of area × efficiency × flux × cos⁺(incidence), zero in eclipse; the battery integrates
 //! power minus load with charge and discharge efficiencies.
 //!
@@ -818,6 +820,28 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             }
         }
         let structure = common::clearance(&sposed, &fixed_now, p.mode);
+        // the servicer's planned sweep over the steps on either side of this sample (with what
+        // it carries then): an array angle chosen here must clear all of it, so that the
+        // motion between two samples — the servicer on its schedule, the array between two
+        // angles that each clear it — keeps the keep-out (the step is not a blind spot)
+        let t_prev = k.checked_sub(1).map(|j| j as f64 * p.step_s);
+        let t_next = (k < n).then(|| ((k + 1) as f64 * p.step_s).min(t_end));
+        let sweep_states: Vec<(f64, OruState)> = sweep_times(s, p, sched, t, t_prev, t_next)
+            .into_iter()
+            .map(|tu| (tu, oru_state(s, &plan, tu)))
+            .collect();
+        let sweep: Vec<(OruState, Vec<Posed<'_>>)> = sweep_states
+            .iter()
+            .map(|(tu, o)| (*o, servicer_posed(s, &servicer_at(sched, *tu).0, o)))
+            .collect();
+        let swept_clear = |ai: usize, q: &[f64]| {
+            sweep.iter().all(|(o, posed)| {
+                // parked then: worked on, no keep-out (as between the steps)
+                (o.parked && ai == s.oru.array)
+                    || array_clearance(s, ai, q, posed, o, p.mode)
+                        .is_none_or(|c| c.distance >= p.keep_out_m)
+            })
+        };
         let mut serviced = f64::INFINITY;
         let mut arrays = Vec::with_capacity(s.arrays.len());
         let (mut power, mut tracked) = (0.0, 0.0);
@@ -846,9 +870,9 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             let cl = array_clearance(s, ai, &q, &sposed, &ost, p.mode);
             let mut cl_d = cl.as_ref().map_or(f64::INFINITY, |c| c.distance);
             let mut pair = cl.map(|c| (c.a, c.b)).unwrap_or_default();
-            if cl_d < p.keep_out_m {
+            if cl_d < p.keep_out_m || !swept_clear(ai, &q) {
                 // feather: the best-powered candidate angle (5° grid on the panel joint, then
-                // on both) that clears the keep-out
+                // on both) that clears the keep-out here and over the servicer's sweep
                 let mut cands: Vec<(f64, Vec<f64>)> = Vec::new();
                 let j = q.len() - 1;
                 for k in 0..72 {
@@ -873,11 +897,15 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                     if !lim_ok {
                         continue;
                     }
-                    if let Some(c2) = array_clearance(s, ai, &qq, &sposed, &ost, p.mode)
-                        && c2.distance >= p.keep_out_m
+                    let c2 = array_clearance(s, ai, &qq, &sposed, &ost, p.mode);
+                    if c2.as_ref().is_none_or(|c2| c2.distance >= p.keep_out_m)
+                        && swept_clear(ai, &qq)
                     {
-                        cl_d = c2.distance;
-                        pair = (c2.a, c2.b);
+                        let (d2, pair2) = c2.map_or((f64::INFINITY, Default::default()), |c| {
+                            (c.distance, (c.a, c.b))
+                        });
+                        cl_d = d2;
+                        pair = pair2;
                         chosen = (qq, cc, true);
                         found = true;
                         break;
@@ -968,6 +996,25 @@ pub fn between_samples(s: &Setup, p: &StationParams, qa: &[f64], qb: &[f64]) -> 
         .fold(0.0, f64::max);
     let h = (0.5 * p.keep_out_m).max(0.05);
     ((moved / h).ceil() as usize).clamp(1, 64)
+}
+
+/// The times of the servicer's sweep an array angle chosen at the sample `t` must clear: the
+/// neighbouring samples `t_prev` and `t_next` (where there are) and the points between each of
+/// them and `t` that [`between_samples`] takes — the same density as the between-step check.
+fn sweep_times(
+    s: &Setup,
+    p: &StationParams,
+    sched: &[(f64, Vec<f64>, &'static str)],
+    t: f64,
+    t_prev: Option<f64>,
+    t_next: Option<f64>,
+) -> Vec<f64> {
+    let mut out = Vec::new();
+    for other in [t_prev, t_next].into_iter().flatten() {
+        let n = between_samples(s, p, &servicer_at(sched, t).0, &servicer_at(sched, other).0);
+        out.extend((1..=n + 1).map(|k| t + (other - t) * k as f64 / (n + 1) as f64));
+    }
+    out
 }
 
 /// The smallest servicer × array distance strictly between two steps at `ta` and `tb`: the
@@ -1380,7 +1427,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
     }
     if let Some((d, t, pair)) = min_between {
         notes.push(format!(
-            "Between the samples (servicer on its schedule and arrays interpolated in joint space, checked at points no more than half the keep-out of servicer motion apart): closest approach {d:.3} m in the step ending at t = {:.1} min ({} × {}); {}.",
+            "Between the samples (servicer on its schedule and arrays interpolated in joint space, checked at points no more than half the keep-out of servicer motion apart): closest approach {d:.3} m in the step ending at t = {:.1} min ({} × {}); {}. How the keep-out is ensured between samples: each array's angle at a sample is chosen (tracking, else the best-powered feathered angle) to clear the keep-out against the servicer's planned sweep over the steps on either side of the sample, at the same points, so the array is feathered a step early where the arm will pass; this check verifies it.",
             t / 60.0,
             pair.0,
             pair.1,
@@ -1388,7 +1435,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
                 "the keep-out holds between every pair of steps".to_owned()
             } else {
                 format!(
-                    "the keep-out is broken between samples in {} step(s), first in the step ending at {:.1} min — a finer step would feather there",
+                    "the keep-out is still broken between samples in {} step(s), first in the step ending at {:.1} min (an array swings between two clear angles through the arm's path)",
                     between_breaks.len(),
                     between_breaks[0] / 60.0
                 )

@@ -820,3 +820,38 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
             .any(|n| n.starts_with("At the end: the spare bolted"))
     );
 }
+
+/// The default run (10 s steps, one orbit) keeps the 1 m keep-out between the steps too: an
+/// array angle is chosen at each sample to clear the servicer's planned sweep over the steps on
+/// either side, so the arm sweeping ~1.2 m in one step cannot pass inside the keep-out unseen
+/// (before this, the step ending at 10.5 min came to 0.775 m). The between-step check verifies.
+#[test]
+fn the_default_station_run_keeps_the_keep_out_between_steps() {
+    let p = StationParams {
+        frames: 0,
+        ..StationParams::default()
+    };
+    let s = station::setup(&p).expect("the study sets up");
+    let run = station::simulate(&s, &p).expect("the simulation runs");
+    let worst = run
+        .steps
+        .iter()
+        .map(|st| st.between_clearance)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        worst >= p.keep_out_m,
+        "closest approach between steps {worst} m"
+    );
+    for st in &run.steps {
+        assert!(!st.blocked, "t {}", st.t);
+        assert!(st.clearance_arrays >= p.keep_out_m, "t {}", st.t);
+    }
+    let md = station::summarise(&s, &p, &run);
+    assert!(
+        md.notes
+            .iter()
+            .any(|n| n.contains("the keep-out holds between every pair of steps")),
+        "{:?}",
+        md.notes
+    );
+}
