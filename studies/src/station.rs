@@ -187,6 +187,10 @@ pub struct OruSetup {
     /// The array's joints with the ORU's grapple facing up (+z body): the service angle at
     /// which the array is parked while the servicer works on it.
     pub service_q: Vec<f64>,
+    /// The ORUs as objects of the scene (failed, spare): the object's path (names below the
+    /// scene, as the display and the Instance Space name it) and its frame in the ORU's frame —
+    /// what the headless frames and the daemon move.
+    pub objects: [(String, Isometry3<f64>); 2],
 }
 
 /// The grapple fixture's height: the effector's tip stops this far above the ORU's frame
@@ -224,11 +228,11 @@ fn oru_setup(
         for (link, parts) in placed.model.frames.iter().enumerate() {
             if let Some((solid, h)) = oru_box(parts) {
                 let mount = isometry_from_matrix(&solid.transform) * lift(h);
-                found = Some((ai, link, mount, solid.name.clone()));
+                found = Some((ai, link, mount, solid.name.clone(), h));
             }
         }
     }
-    let Some((ai, link, mount, name)) = found else {
+    let Some((ai, link, mount, name, h_failed)) = found else {
         bail!("{SCENE}: no array carries an ORU (a box part named oru…)");
     };
     let body = &mut bodies[arrays[ai].body];
@@ -249,6 +253,22 @@ fn oru_setup(
         bail!("{SCENE}: spare_oru has no part oru_box");
     };
     let spare = isometry_from_matrix(&(item.placement * solid.transform)) * lift(h);
+    // the objects: the failed ORU is the part on the array's link (its frame the box's), the
+    // spare the placed item (its frame the placement)
+    let placed = &scene.robots[arrays[ai].body];
+    let link_name = placed
+        .model
+        .link_names
+        .get(link.wrapping_sub(1))
+        .ok_or_else(|| StudyError(format!("{}: the ORU rides on the base", placed.name)))?;
+    let failed_obj = (
+        format!("{}/{link_name}/{name}", placed.name),
+        lift(h_failed).inverse(),
+    );
+    let spare_obj = (
+        item.name.clone(),
+        (isometry_from_matrix(&solid.transform) * lift(h)).inverse(),
+    );
     let Some(k) = fixed.iter().position(|p| p.name.starts_with("spare_oru/")) else {
         bail!("{SCENE}: the spare ORU is not among the fixed parts");
     };
@@ -278,6 +298,7 @@ fn oru_setup(
         mount,
         spare,
         service_q,
+        objects: [failed_obj, spare_obj],
     })
 }
 
@@ -1175,7 +1196,6 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     }
     csv.finish()?;
     // --- trajectories (display file mode) for every robot
-    let mut plays = Vec::new();
     for (bi, b) in s.bodies.iter().enumerate() {
         let samples: Vec<Vec<f64>> = run
             .steps
@@ -1192,7 +1212,6 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
             .collect();
         let path = dir.join(format!("{}.traj", b.name));
         common::write_trajectory(&path, &b.robot, p.step_s, &samples)?;
-        plays.push((b.name.clone(), path));
     }
     // --- summary
     let summary = summarise(&s, p, &run);
@@ -1202,19 +1221,70 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     robosim_report::write_report(dir, &summary)?;
     // --- frames
     if p.frames > 0 {
-        common::render_frames(
-            SCENE,
-            &plays,
-            run.steps.len(),
-            p.frames,
-            &dir.join("frames"),
-            Some([34.0, -4.0, 22.0]),
-            Some([4.0, 16.0, 0.0]),
-        )?;
+        // the robots' trajectories and the ORUs where the swap has them at each step
+        let args = frame_args(&s, &run, dir, p.frames);
+        robosim_display::app::cmd_render(&args)
+            .map_err(|e| StudyError(format!("frames: {}", e.0)))?;
         say!(log, "frames: {}", dir.join("frames").display());
     }
     say!(log, "wrote {}", dir.display());
     Ok(run)
+}
+
+/// The ORUs' world poses at every step of `run` as the display's pose tracks: each ORU object
+/// where the swap has it at that step (on its array's mount at the array's angle, in the
+/// servicer's grip, or set down) — what the headless frames draw.
+pub fn frame_poses(s: &Setup, run: &Run) -> Vec<robosim_display::app::PoseTrack> {
+    (0..2)
+        .map(|i| {
+            let (object, in_oru) = &s.oru.objects[i];
+            let world = run
+                .steps
+                .iter()
+                .map(|st| {
+                    let h = if i == 0 { st.oru.failed } else { st.oru.spare };
+                    let w = oru_frame(s, h, &st.arrays[s.oru.array].0, &st.servicer_q) * in_oru;
+                    let m = w.to_homogeneous();
+                    let mut out = [0.0; 12];
+                    for r in 0..3 {
+                        for c in 0..4 {
+                            out[r * 4 + c] = m[(r, c)];
+                        }
+                    }
+                    out
+                })
+                .collect();
+            robosim_display::app::PoseTrack {
+                object: object.clone(),
+                world,
+            }
+        })
+        .collect()
+}
+
+/// The headless frames' request: the scene, every robot's trajectory file in `dir` (as [`run`]
+/// writes them), `count` frames into `dir/frames`, the ORUs moved per step ([`frame_poses`]).
+pub fn frame_args(
+    s: &Setup,
+    run: &Run,
+    dir: &Path,
+    count: usize,
+) -> robosim_display::app::RenderArgs {
+    let plays: Vec<(String, std::path::PathBuf)> = s
+        .bodies
+        .iter()
+        .map(|b| (b.name.clone(), dir.join(format!("{}.traj", b.name))))
+        .collect();
+    common::render_args(
+        SCENE,
+        &plays,
+        run.steps.len(),
+        count,
+        &dir.join("frames"),
+        Some([34.0, -4.0, 22.0]),
+        Some([4.0, 16.0, 0.0]),
+        frame_poses(s, run),
+    )
 }
 
 /// The summary report: key numbers (table), notes (model and findings), time plots.

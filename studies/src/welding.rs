@@ -1060,6 +1060,7 @@ pub fn run(p: &WeldingParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
                 &dir.join("frames"),
                 Some([-0.4, -2.2, 1.6]),
                 Some([-0.4, 0.0, 0.8]),
+                vec![],
             )?;
             say!(log, "frames: {}", dir.join("frames").display());
         }

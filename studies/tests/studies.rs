@@ -855,3 +855,73 @@ fn the_default_station_run_keeps_the_keep_out_between_steps() {
         md.notes
     );
 }
+
+/// The headless frames draw the ORUs where the swap has them, not where the scene places them:
+/// the model the display draws for a frame mid-carry has each ORU object at the pose
+/// `station.csv` gives for that time (the data path to the renderer, no pixels), and that is
+/// metres from its scene position.
+#[test]
+fn headless_frames_draw_the_orus_where_the_swap_has_carried_them() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let p = StationParams {
+        orbits: 0.6,
+        ..quick_station()
+    };
+    let run = station::run(&p, dir.path(), &mut Vec::new()).expect("the study runs");
+    let s = station::setup(&p).expect("the study sets up");
+    let (cols, rows) = read_csv(&dir.path().join("station.csv"));
+    let args = station::frame_args(&s, &run, dir.path(), 12);
+    let scene = robosim_display::app::played_snapshot(&args, 0).expect("the first frame");
+    let mut checked = 0;
+    for (i, prefix) in [(0, "failed_oru"), (1, "spare_oru")] {
+        let (object, in_oru) = &s.oru.objects[i];
+        // a step where this ORU is in the servicer's grip
+        let k = run
+            .steps
+            .iter()
+            .position(|st| {
+                let h = if i == 0 { st.oru.failed } else { st.oru.spare };
+                matches!(h, station::Held::Carried(_))
+            })
+            .expect("the ORU is carried");
+        let k = k + 1; // one step into the carry
+        let snap = robosim_display::app::played_snapshot(&args, k).expect("the frame's model");
+        let at = robosim_display::app::find_path(&snap, object)
+            .unwrap_or_else(|| panic!("no object {object}"));
+        let w = snap.world_pose(at);
+        let obj = nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(w[3], w[7], w[11]),
+            nalgebra::UnitQuaternion::from_matrix(&nalgebra::Matrix3::new(
+                w[0], w[1], w[2], w[4], w[5], w[6], w[8], w[9], w[10],
+            )),
+        );
+        // the ORU frame the object stands for, against the CSV's row of that step
+        let oru = (obj * in_oru.inverse()).translation.vector;
+        let row = &rows[k];
+        assert_eq!(row[col(&cols, "t_s")], run.steps[k].t);
+        let csv = nalgebra::Vector3::new(
+            row[col(&cols, &format!("{prefix}_x_m"))],
+            row[col(&cols, &format!("{prefix}_y_m"))],
+            row[col(&cols, &format!("{prefix}_z_m"))],
+        );
+        assert!(
+            (oru - csv).norm() < 1e-6,
+            "{object} at t {}: drawn at {oru:?}, station.csv {csv:?}",
+            run.steps[k].t
+        );
+        // and not where the scene places it
+        let at0 = robosim_display::app::find_path(&scene, object).expect("in the scene");
+        let w0 = scene.world_pose(at0);
+        let moved = nalgebra::Vector3::new(w[3] - w0[3], w[7] - w0[7], w[11] - w0[11]).norm();
+        assert!(moved > 0.1, "{object} drawn {moved} m from its scene place");
+        checked += 1;
+    }
+    assert_eq!(checked, 2);
+    // a track that names no object is refused by name
+    let mut bad = args.clone();
+    bad.poses[0].object = "port_solar/gimbal/no_such".into();
+    match robosim_display::app::played_snapshot(&bad, 0) {
+        Ok(_) => panic!("a track naming no object was accepted"),
+        Err(e) => assert!(e.0.contains("no_such"), "{}", e.0),
+    }
+}
