@@ -206,27 +206,10 @@ pub struct PoseTrack {
     pub world: Vec<[f64; 12]>,
 }
 
-/// The index of the object at `path` (names from below the scene, `/`-separated; the first
-/// match, the path's ancestors checked up the parent chain).
+/// The index of the object at `path` (names from below the scene, `/`-separated:
+/// [`Snapshot::find_path`]).
 pub fn find_path(snap: &Snapshot, path: &str) -> Option<usize> {
-    let names: Vec<&str> = path.split('/').collect();
-    let (last, above) = names.split_last()?;
-    (0..snap.len()).find(|&i| {
-        if snap.name(i) != *last {
-            return false;
-        }
-        let mut at = i;
-        for want in above.iter().rev() {
-            let Some(p) = snap.index_of(snap.objects()[at].parent) else {
-                return false;
-            };
-            if snap.name(p) != *want {
-                return false;
-            }
-            at = p;
-        }
-        true
-    })
+    snap.find_path(path)
 }
 
 /// `a⁻¹` of a 3×4 row-major rigid transform.

@@ -272,6 +272,27 @@ pub struct Effects {
     /// Electrical power from the arrays and a battery (needs `orbit`).
     #[serde(default)]
     pub power: Option<PowerEffect>,
+    /// The kinematic step (s) when dynamics is not declared: `kinematics { step: 100 ms }`
+    /// (`None`: the simulator's default, 1 ms).
+    #[serde(default)]
+    pub kinematic_step_s: Option<f64>,
+    /// A manipulator task: the servicer swaps an orbital replacement unit (ORU).
+    #[serde(default)]
+    pub oru_swap: Option<OruSwapEffect>,
+}
+
+/// `oru_swap { servicer: "servicer", spare: "spare_oru", start: 300 s }`: the placed robot
+/// `servicer` takes the failed ORU (the box part named `oru…` on a robot's link) off its robot,
+/// sets it down beside the placed solid `spare`, and bolts the spare in its place, starting at
+/// `start` (the plan: `robosim_simulator::swap`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OruSwapEffect {
+    /// The place name of the manipulator doing the swap.
+    pub servicer: String,
+    /// The place name of the spare ORU (a solid with a box part named `oru…`).
+    pub spare: String,
+    /// When the task starts, s (≥ 0).
+    pub start_s: f64,
 }
 
 /// `orbit { altitude: 400 km, beta: 0 deg }`: a circular orbit about a spherical Earth.
@@ -302,6 +323,8 @@ impl Default for Effects {
             orbit: None,
             sun_tracking: false,
             power: None,
+            kinematic_step_s: None,
+            oru_swap: None,
         }
     }
 }

@@ -748,6 +748,18 @@ fn the_library_refuses_tracking_without_an_orbit_and_a_bad_efficiency() {
     assert!(e.contains("efficiency 0 is out of range"), "{e}");
     eval("        orbit { altitude: 400 km, beta: 0 deg }\n        sun_tracking: on\n        power { efficiency: 0.3 }")
         .expect("a valid declaration");
+    // the swap names placed things; the kinematic step is a time in (0, 1 s]
+    let e = eval("        oru_swap { servicer: \"nobody\", spare: \"x\" }").expect_err("refused");
+    assert!(
+        e.contains("servicer \"nobody\" is not a placed robot"),
+        "{e}"
+    );
+    let e = eval("        oru_swap { servicer: \"one\", spare: \"x\" }").expect_err("refused");
+    assert!(e.contains("spare \"x\" is not a placed solid"), "{e}");
+    let e = eval("        oru_swap { servicer: \"one\" }").expect_err("refused");
+    assert!(e.contains("needs a servicer and a spare"), "{e}");
+    let e = eval("        kinematics { step: 2 s }").expect_err("refused");
+    assert!(e.contains("kinematic step 2 s is out of range"), "{e}");
 }
 
 /// The ORU swap moves objects: the failed ORU rides its array's mast until grasped, travels in
@@ -778,7 +790,7 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
     // the spare is on the mount of a tracking array again: its frame turns with the array,
     // but at the service angle it is where the failed one was; the servicer let go of it
     // there, to the IK's tolerance
-    let mount = station::oru_frame(&s, station::Held::OnArray, &s.oru.service_q, &[]);
+    let mount = station::oru_frame(&s, station::Held::OnArray, &s.oru.swap.service_q, &[]);
     assert!((mount.translation.vector - site.coords).norm() < 1e-9);
     let install = station::install_error(&s, &run).expect("the spare was bolted");
     assert!(install < 1e-3, "{install} m");
@@ -804,7 +816,7 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
         assert!(st.clearance_serviced > 0.0, "t {}", st.t);
         if st.oru.parked {
             assert!(st.clearance_serviced.is_finite());
-            assert_eq!(st.arrays[s.oru.array].0, s.oru.service_q);
+            assert_eq!(st.arrays[s.oru.array].0, s.oru.swap.service_q);
         }
     }
     assert!(carried[0] > 0 && carried[1] > 0, "{carried:?}");
@@ -874,7 +886,7 @@ fn headless_frames_draw_the_orus_where_the_swap_has_carried_them() {
     let scene = robosim_display::app::played_snapshot(&args, 0).expect("the first frame");
     let mut checked = 0;
     for (i, prefix) in [(0, "failed_oru"), (1, "spare_oru")] {
-        let (object, in_oru) = &s.oru.objects[i];
+        let (object, in_oru) = &s.oru.swap.objects[i];
         // a step where this ORU is in the servicer's grip
         let k = run
             .steps
