@@ -782,14 +782,14 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 }
             }
             let t = d.sims.first().map_or(0.0, |s| s.pipeline.data().state.t);
-            if let Some(sp) = &mut d.space {
-                if let Err(e) = sp.update(&mut d.sims, t, dt) {
-                    eprintln!("simulator: space stage: {e}; paused");
-                    if let Some(r) = &mut recording {
-                        r.event(run_ns, Level::Error, "space", &format!("{e}; paused"))?;
-                    }
-                    running = false;
+            if let Some(sp) = &mut d.space
+                && let Err(e) = sp.update(&mut d.sims, t, dt)
+            {
+                eprintln!("simulator: space stage: {e}; paused");
+                if let Some(r) = &mut recording {
+                    r.event(run_ns, Level::Error, "space", &format!("{e}; paused"))?;
                 }
+                running = false;
             }
             // after the space stage: the swap parks the robot it works on
             if let Some(sw) = &mut d.swap
