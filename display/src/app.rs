@@ -154,7 +154,7 @@ impl ViewArgs {
     }
 }
 
-#[derive(clap::Args, Debug)]
+#[derive(clap::Args, Debug, Clone)]
 #[command(group(clap::ArgGroup::new("output").required(true).multiple(true).args(["out", "frames", "record"])))]
 pub struct RenderArgs {
     /// A scene or robot of the library (`robosim lib list`), or `demo`.
@@ -189,6 +189,110 @@ pub struct RenderArgs {
     /// Library files to add to the standard library.
     #[arg(long)]
     pub library: Vec<PathBuf>,
+    /// With --play: objects moved per sample beside the robots' joints (no command-line form;
+    /// programs such as `robosim study station` set them, for what no joint carries — an ORU
+    /// in a manipulator's grip). One pose per trajectory sample.
+    #[arg(skip)]
+    pub poses: Vec<PoseTrack>,
+}
+
+/// An object's world pose per played sample ([`RenderArgs::poses`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PoseTrack {
+    /// The object's names from below the scene down to it, `/`-separated: `spare_oru`,
+    /// `port_solar/gimbal/oru0`.
+    pub object: String,
+    /// Its world pose at each sample, 3×4 row-major [R | t].
+    pub world: Vec<[f64; 12]>,
+}
+
+/// The index of the object at `path` (names from below the scene, `/`-separated:
+/// [`Snapshot::find_path`]).
+pub fn find_path(snap: &Snapshot, path: &str) -> Option<usize> {
+    snap.find_path(path)
+}
+
+/// `a⁻¹` of a 3×4 row-major rigid transform.
+fn invert(a: &[f64; 12]) -> [f64; 12] {
+    let mut out = [0.0; 12];
+    for r in 0..3 {
+        for c in 0..3 {
+            out[r * 4 + c] = a[c * 4 + r];
+        }
+        out[r * 4 + 3] = -(0..3).map(|k| a[k * 4 + r] * a[k * 4 + 3]).sum::<f64>();
+    }
+    out
+}
+
+/// Pose tracks resolved against the model: (object id, parent id, world poses).
+struct Posed(Vec<(u64, u64, Vec<[f64; 12]>)>);
+
+impl Posed {
+    fn resolve(tracks: &[PoseTrack], snap: &Snapshot, samples: usize) -> Result<Posed> {
+        let mut out = Vec::new();
+        for t in tracks {
+            let Some(i) = find_path(snap, &t.object) else {
+                bail!("pose track: no object {:?} in the scene", t.object);
+            };
+            if t.world.len() != samples {
+                bail!(
+                    "pose track {}: {} poses for {samples} trajectory samples",
+                    t.object,
+                    t.world.len()
+                );
+            }
+            if let Some(k) = t
+                .world
+                .iter()
+                .position(|w| w.iter().any(|v| !v.is_finite()))
+            {
+                bail!("pose track {}: sample {} is not finite", t.object, k + 1);
+            }
+            let o = &snap.objects()[i];
+            out.push((o.id, o.parent, t.world.clone()));
+        }
+        Ok(Posed(out))
+    }
+
+    /// Moves every tracked object to its world pose at sample `k` (after the robots' joints of
+    /// that sample: its parent may ride on one).
+    fn apply(&self, model: &mut Store, k: usize) -> Result<()> {
+        if self.0.is_empty() {
+            return Ok(());
+        }
+        let snap = Snapshot::from_store(model);
+        let mut tx = robosim_instance_space::Transaction::new();
+        for (id, parent, world) in &self.0 {
+            let parent_world = match snap.index_of(*parent) {
+                Some(p) => snap.world_pose(p),
+                None => [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            };
+            let w = &world[k.min(world.len().saturating_sub(1))];
+            tx.set_pose(
+                *id,
+                robosim_instance_space::compose(&invert(&parent_world), w),
+            );
+        }
+        model
+            .apply(&tx)
+            .map_err(|e| AppError(format!("pose tracks at sample {k}: {e}")))?;
+        Ok(())
+    }
+}
+
+/// The model `render` draws for played sample `k` of `a` (its `--joints`, `--hide`, the played
+/// trajectories' joints and the pose tracks at that sample): what frame `k` shows, without a
+/// GPU.
+pub fn played_snapshot(a: &RenderArgs, k: usize) -> Result<Snapshot> {
+    let mut model = prepared_model(a)?;
+    let snap = Snapshot::from_store(&model);
+    let player = Player::load(&a.play, &snap)?;
+    let posed = Posed::resolve(&a.poses, &snap, player.len())?;
+    for (r, q) in player.at(k) {
+        set_local(&mut model, r, &q)?;
+    }
+    posed.apply(&mut model, k)?;
+    Ok(Snapshot::from_store(&model))
 }
 
 /// The scene `name` of the standard library (plus `library` files) as a local model.
@@ -387,20 +491,8 @@ fn highlight(r: &mut Renderer, scene: &CompiledScene, on: bool) {
     }
 }
 
-/// `robosim render SCENE …`
-pub fn cmd_render(a: &RenderArgs) -> Result<()> {
-    if a.out.is_none() && a.frames.is_none() && a.record.is_none() {
-        bail!(
-            "nothing to write: give --out FILE.png, or --play ROBOT=FILE with --frames DIR \
-             and/or --record FILE.mcap"
-        );
-    }
-    if a.play.is_empty() != (a.frames.is_none() && a.record.is_none()) {
-        bail!("--play goes with --frames DIR and/or --record FILE.mcap");
-    }
-    if a.every == 0 {
-        bail!("--every must be at least 1");
-    }
+/// The local model of `render`: the scene with `--joints` set and `--hide` objects removed.
+fn prepared_model(a: &RenderArgs) -> Result<Store> {
     let mut model = local_store(&a.library, &a.scene)?;
     let snap = Snapshot::from_store(&model);
     let scene = CompiledScene::of(&snap);
@@ -437,6 +529,27 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             .apply(&tx)
             .map_err(|e| AppError(format!("--hide {name:?}: {e}")))?;
     }
+    Ok(model)
+}
+
+/// `robosim render SCENE …`
+pub fn cmd_render(a: &RenderArgs) -> Result<()> {
+    if a.out.is_none() && a.frames.is_none() && a.record.is_none() {
+        bail!(
+            "nothing to write: give --out FILE.png, or --play ROBOT=FILE with --frames DIR \
+             and/or --record FILE.mcap"
+        );
+    }
+    if a.play.is_empty() != (a.frames.is_none() && a.record.is_none()) {
+        bail!("--play goes with --frames DIR and/or --record FILE.mcap");
+    }
+    if a.every == 0 {
+        bail!("--every must be at least 1");
+    }
+    if !a.poses.is_empty() && a.play.is_empty() {
+        bail!("pose tracks go with --play");
+    }
+    let mut model = prepared_model(a)?;
     let mut r = Renderer::headless()?;
     let snap = Snapshot::from_store(&model);
     let mut scene = CompiledScene::new();
@@ -464,6 +577,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     }
     if let Some(dir) = &a.frames {
         let player = Player::load(&a.play, &snap)?;
+        let posed = Posed::resolve(&a.poses, &snap, player.len())?;
         let mut upload = crate::UploadStats::default();
         let meshes_before = r.total_upload().meshes;
         let mut written = 0;
@@ -471,6 +585,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
             for (r, q) in player.at(k) {
                 set_local(&mut model, r, &q)?;
             }
+            posed.apply(&mut model, k)?;
             let snap = Snapshot::from_store(&model);
             if a.view.collisions {
                 scene.sync(&snap);

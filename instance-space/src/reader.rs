@@ -273,6 +273,26 @@ impl Snapshot {
     pub fn find(&self, name: &str) -> Option<usize> {
         (0..self.len()).find(|&i| self.name(i) == name)
     }
+    /// The first object at `path`: names `/`-separated, the last the object's, those before it
+    /// its parent's, grandparent's… (`spare_oru`, `port_solar/gimbal/oru0`); the path need not
+    /// reach the root.
+    pub fn find_path(&self, path: &str) -> Option<usize> {
+        let names: Vec<&str> = path.split('/').collect();
+        let (last, above) = names.split_last()?;
+        (0..self.len()).find(|&i| {
+            if self.name(i) != *last {
+                return false;
+            }
+            let mut at = i;
+            for want in above.iter().rev() {
+                match self.index_of(self.objects()[at].parent) {
+                    Some(p) if self.name(p) == *want => at = p,
+                    _ => return false,
+                }
+            }
+            true
+        })
+    }
     pub fn geometry(&self, i: usize) -> Option<GeometryView<'_>> {
         let s = self.geometry.get(i)?.as_ref()?;
         let seg = Self::seg(s);

@@ -276,6 +276,27 @@ pub struct Effects {
     /// simulator as its own process (`robosim automation`, started by `robosim up`).
     #[serde(default)]
     pub automation: Option<AutomationEffect>,
+    /// The kinematic step (s) when dynamics is not declared: `kinematics { step: 100 ms }`
+    /// (`None`: the simulator's default, 1 ms).
+    #[serde(default)]
+    pub kinematic_step_s: Option<f64>,
+    /// A manipulator task: the servicer swaps an orbital replacement unit (ORU).
+    #[serde(default)]
+    pub oru_swap: Option<OruSwapEffect>,
+}
+
+/// `oru_swap { servicer: "servicer", spare: "spare_oru", start: 300 s }`: the placed robot
+/// `servicer` takes the failed ORU (the box part named `oru…` on a robot's link) off its robot,
+/// sets it down beside the placed solid `spare`, and bolts the spare in its place, starting at
+/// `start` (the plan: `robosim_simulator::swap`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct OruSwapEffect {
+    /// The place name of the manipulator doing the swap.
+    pub servicer: String,
+    /// The place name of the spare ORU (a solid with a box part named `oru…`).
+    pub spare: String,
+    /// When the task starts, s (≥ 0).
+    pub start_s: f64,
 }
 
 /// `automation { model: "eclss", time_scale: 60 }` (or `automation: on`, the ECLSS at the wall
@@ -327,6 +348,8 @@ impl Default for Effects {
             sun_tracking: false,
             power: None,
             automation: None,
+            kinematic_step_s: None,
+            oru_swap: None,
         }
     }
 }

@@ -10,13 +10,17 @@
 //! Scene-level effects (not per robot): [`orbit`] (a circular orbit, the sun vector, eclipses)
 //! and [`power`] (solar arrays found by their panels, sun tracking of their gimbals, array
 //! power, the battery) — the models the simulator daemon's space stage and `robosim study
-//! station` share. The daemon itself is `robosim-simulator-daemon`.
+//! station` share; [`swap`] (the `oru_swap` effect: the servicer's ORU swap planned, the ORUs'
+//! state over time) for the same two; [`numeric`] (golden-section search) for them and the studies. The daemon
+//! itself is `robosim-simulator-daemon`.
 
 pub mod effects;
+pub mod numeric;
 pub mod orbit;
 pub mod pipeline;
 pub mod power;
 mod stages;
+pub mod swap;
 
 pub use effects::{
     CollisionEffect, DynamicsEffect, EffectsError, EncoderEffect, LoggingEffect, OnContact,

@@ -164,26 +164,8 @@ pub fn track(
         }
     }
     let h = TAU / 36.0;
-    let (mut lo, mut hi) = (best.1 - h, best.1 + h);
-    let g = 0.5 * (5f64.sqrt() - 1.0);
-    let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-    let (mut f1, mut f2) = (f(x1, &mut q), f(x2, &mut q));
-    while hi - lo > tol {
-        if f1 < f2 {
-            lo = x1;
-            x1 = x2;
-            f1 = f2;
-            x2 = lo + g * (hi - lo);
-            f2 = f(x2, &mut q);
-        } else {
-            hi = x2;
-            x2 = x1;
-            f2 = f1;
-            x1 = hi - g * (hi - lo);
-            f1 = f(x1, &mut q);
-        }
-    }
-    let c = f(wrap(0.5 * (lo + hi)), &mut q);
+    let alpha = crate::numeric::golden_max(|x| f(x, &mut q), best.1 - h, best.1 + h, tol);
+    let c = f(wrap(alpha), &mut q);
     (q, c)
 }
 

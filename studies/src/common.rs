@@ -282,6 +282,7 @@ impl Csv {
 
 /// Renders `count` frames of the trajectories headless (the display's `render --play`) into
 /// `dir`, seen from `from` towards `at` (None: the display frames the model).
+#[allow(clippy::too_many_arguments)]
 pub fn render_frames(
     scene: &str,
     plays: &[(String, PathBuf)],
@@ -290,11 +291,29 @@ pub fn render_frames(
     dir: &Path,
     from: Option<[f64; 3]>,
     at: Option<[f64; 3]>,
+    poses: Vec<robosim_display::app::PoseTrack>,
 ) -> Result<()> {
     if count == 0 || samples == 0 {
         return Ok(());
     }
-    let args = robosim_display::app::RenderArgs {
+    let args = render_args(scene, plays, samples, count, dir, from, at, poses);
+    robosim_display::app::cmd_render(&args).map_err(|e| StudyError(format!("frames: {}", e.0)))
+}
+
+/// What [`render_frames`] asks the display to draw: the scene, the played trajectories, every
+/// `samples / count`-th sample, the camera, objects moved per sample (`poses`).
+#[allow(clippy::too_many_arguments)]
+pub fn render_args(
+    scene: &str,
+    plays: &[(String, PathBuf)],
+    samples: usize,
+    count: usize,
+    dir: &Path,
+    from: Option<[f64; 3]>,
+    at: Option<[f64; 3]>,
+    poses: Vec<robosim_display::app::PoseTrack>,
+) -> robosim_display::app::RenderArgs {
+    robosim_display::app::RenderArgs {
         scene: scene.to_owned(),
         out: None,
         view: robosim_display::app::ViewArgs {
@@ -314,12 +333,12 @@ pub fn render_frames(
             .collect(),
         frames: Some(dir.to_owned()),
         record: None,
-        every: samples.div_ceil(count).max(1),
+        every: samples.div_ceil(count.max(1)).max(1),
         hide: vec![],
         grid: false,
         library: vec![],
-    };
-    robosim_display::app::cmd_render(&args).map_err(|e| StudyError(format!("frames: {}", e.0)))
+        poses,
+    }
 }
 
 /// Elapsed seconds of a closure's run, with its value.

@@ -9,7 +9,9 @@
 //! joint, the outboard's alpha angle refined by golden-section search to the tracking
 //! tolerance); the servicer at its planned joint values; its clearance to every array part
 //! (exact distances); where it is inside the keep-out distance the array is feathered — set to
-//! the best-powered angle that clears — and the power lost is the difference. Power = Σ over the
+//! the best-powered angle that clears — and the power lost is the difference; an angle must
+//! also clear the servicer's planned sweep over the steps on either side of the sample, so the
+//! keep-out holds between the samples too (checked there, [`between_samples`]). Power = Σ over the
 //! panels of area × efficiency × flux × cos⁺(incidence), zero in eclipse; the battery integrates
 //! power minus load with charge and discharge efficiencies.
 //!
@@ -17,11 +19,10 @@
 
 use crate::common::{self, Body, Csv, Posed};
 use crate::{Result, StudyError, bail, say};
-use nalgebra::{Isometry3, Matrix4, Point3, Vector3};
+use nalgebra::{Isometry3, Point3, Vector3};
 use robosim_collision::Mode;
 use robosim_collision::robot::isometry_from_matrix;
-use robosim_kinematics::ik::{self, IkOptions, Method};
-use robosim_library::{Params, Primitive, SceneModel};
+use robosim_library::{Params, SceneModel};
 use robosim_simulator::orbit::Orbit;
 use robosim_simulator::power::{self, Battery, SolarArray};
 use std::path::Path;
@@ -167,115 +168,65 @@ pub struct Setup {
     pub oru: OruSetup,
 }
 
-/// The two ORUs of the swap, read from the scene: the failed one on an array's link (part
-/// `oru_box` of a robot), the spare on the truss (the solid `spare_oru`). Both are taken out
-/// of the bodies' and the fixed structure's parts: where they are is the swap's state
+/// The two ORUs of the swap the scene declares (`oru_swap`): the plan's view of them
+/// ([`Swap`]: the failed one on an array's link, the spare on the truss) and their boxes, taken
+/// out of the bodies' and the fixed structure's parts: where they are is the swap's state
 /// ([`OruState`]), and they are checked for clearance wherever they are.
 pub struct OruSetup {
     /// The boxes of the failed ORU and of the spare (named so), their offsets given in the
     /// ORU's own frame (the grapple fixture: the top face's centre, z out of the box).
     pub parts: [common::Part; 2],
-    /// The array (index into `Setup::arrays`) carrying the failed ORU, the link it rides on
-    /// and its ORU frame in that link's frame.
+    /// The array (index into `Setup::arrays`) carrying the failed ORU.
     pub array: usize,
-    pub link: usize,
-    pub mount: Isometry3<f64>,
-    /// The spare's ORU frame in the world.
-    pub spare: Isometry3<f64>,
-    /// The array's joints with the ORU's grapple facing up (+z body): the service angle at
-    /// which the array is parked while the servicer works on it.
-    pub service_q: Vec<f64>,
+    /// The plan's model of the swap (shared with the simulator daemon's swap stage).
+    pub swap: Swap,
 }
 
-/// The grapple fixture's height: the effector's tip stops this far above the ORU's frame
-/// (the fixture is not a body), m.
-pub const GRAPPLE_M: f64 = 0.05;
-/// Where the failed ORU is stowed: beside the spare on the truss top (body frame, m): the
-/// ORU frame's position, 1.2 m along the truss from the spare's.
-pub const STOW_OFFSET: [f64; 3] = [0.0, 1.2, 0.0];
+pub use robosim_simulator::swap::{
+    GRAPPLE_M, Held, OruEvent, OruState, Plan, STOW_OFFSET, Swap, Waypoint, servicer_at,
+    servicer_speed,
+};
 
-/// The ORU's box among `parts` (a box whose leaf name starts with `oru`: `oru_box` in the
-/// solid, `oru0` where the solar structure places it), with its height (box z).
-fn oru_box(parts: &[robosim_library::PlacedSolid]) -> Option<(&robosim_library::PlacedSolid, f64)> {
-    parts.iter().find_map(|s| {
-        let leaf = s.name.rsplit('/').next().unwrap_or(&s.name);
-        match s.primitive {
-            // a solid placed as a part takes the placing part's name (`oru0` on the mast)
-            Primitive::Box { size } if leaf.starts_with("oru") => Some((s, size[2])),
-            _ => None,
-        }
-    })
-}
-
-/// Finds the ORUs (see [`OruSetup`]) and takes them out of `bodies` and `fixed`.
+/// Finds the ORUs of the scene's declared swap ([`Swap::from_scene`]) and takes them out of
+/// `bodies` and `fixed`.
 fn oru_setup(
     scene: &SceneModel,
     bodies: &mut [Body],
     arrays: &[Array],
     fixed: &mut Vec<common::Part>,
 ) -> Result<OruSetup> {
-    let lift = |h: f64| Isometry3::translation(0.0, 0.0, h / 2.0);
-    // the failed ORU: on an array's link
-    let mut found = None;
-    for (ai, a) in arrays.iter().enumerate() {
-        let placed = &scene.robots[a.body];
-        for (link, parts) in placed.model.frames.iter().enumerate() {
-            if let Some((solid, h)) = oru_box(parts) {
-                let mount = isometry_from_matrix(&solid.transform) * lift(h);
-                found = Some((ai, link, mount, solid.name.clone()));
-            }
-        }
-    }
-    let Some((ai, link, mount, name)) = found else {
-        bail!("{SCENE}: no array carries an ORU (a box part named oru…)");
+    let Some(fx) = &scene.effects.oru_swap else {
+        bail!("{SCENE} declares no oru_swap effect");
     };
-    let body = &mut bodies[arrays[ai].body];
+    let swap = Swap::from_scene(scene, fx).map_err(|e| StudyError(e.0))?;
+    let Some(ai) = arrays.iter().position(|a| a.body == swap.array) else {
+        bail!(
+            "{}: the robot carrying the failed ORU is not a solar array",
+            scene.robots[swap.array].name
+        );
+    };
+    let body = &mut bodies[swap.array];
+    let name = &swap.failed_part;
     let k = body
         .parts
         .iter()
-        .position(|p| p.name == name && p.link == link)
+        .position(|p| &p.name == name && p.link == swap.link)
         .ok_or_else(|| StudyError(format!("{}: ORU part {name} not found", body.name)))?;
     let mut failed = body.parts.remove(k);
-    failed.offset = mount.inverse() * failed.offset;
+    failed.offset = swap.mount.inverse() * failed.offset;
     failed.link = 0;
     failed.name = "failed ORU".into();
-    // the spare: a placed solid
-    let Some(item) = scene.solids.iter().find(|x| x.name == "spare_oru") else {
-        bail!("{SCENE} places no spare_oru");
-    };
-    let Some((solid, h)) = oru_box(&item.solid.parts) else {
-        bail!("{SCENE}: spare_oru has no part oru_box");
-    };
-    let spare = isometry_from_matrix(&(item.placement * solid.transform)) * lift(h);
-    let Some(k) = fixed.iter().position(|p| p.name.starts_with("spare_oru/")) else {
+    let prefix = format!("{}/", fx.spare);
+    let Some(k) = fixed.iter().position(|p| p.name.starts_with(&prefix)) else {
         bail!("{SCENE}: the spare ORU is not among the fixed parts");
     };
     let mut spare_part = fixed.remove(k);
-    spare_part.offset = spare.inverse() * spare_part.offset;
+    spare_part.offset = swap.spare.inverse() * spare_part.offset;
     spare_part.name = "spare ORU".into();
-    // the service angle: the grapple's z axis up
-    let a = &arrays[ai];
-    let up = SolarArray {
-        area_m2: 0.0,
-        normal: mount * Vector3::z(),
-        link,
-    };
-    let robot = &bodies[a.body].robot;
-    let (service_q, c) = power::track(robot, &up, &bodies[a.body].q0, &Vector3::z(), 1e-9);
-    if c < 1.0 - 1e-9 {
-        bail!(
-            "{}: no gimbal angle turns its ORU's grapple up (best {:.2}° off)",
-            bodies[a.body].name,
-            c.clamp(-1.0, 1.0).acos().to_degrees()
-        );
-    }
     Ok(OruSetup {
         parts: [failed, spare_part],
         array: ai,
-        link,
-        mount,
-        spare,
-        service_q,
+        swap,
     })
 }
 
@@ -305,11 +256,7 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
     let orbit = Orbit::new(o.altitude_m, o.beta_rad)?;
     let bodies: Vec<Body> = scene.robots.iter().map(Body::of).collect::<Result<_>>()?;
     let mut arrays = Vec::new();
-    let mut servicer = None;
     for (i, (b, placed)) in bodies.iter().zip(&scene.robots).enumerate() {
-        if b.declaration.as_deref() == Some("station_servicer") {
-            servicer = Some(i);
-        }
         if let Some(cells) = power::solar_array(&placed.model) {
             if cells.link == 0 {
                 bail!("array {}: its panels are fixed to the base", b.name);
@@ -317,15 +264,13 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
             arrays.push(Array { body: i, cells });
         }
     }
-    let Some(servicer) = servicer else {
-        bail!("{SCENE} places no station_servicer");
-    };
     if arrays.is_empty() {
         bail!("{SCENE} has no solar arrays (parts named panel… or blanket…)");
     }
     let mut fixed = common::fixed_parts(&scene)?;
     let mut bodies = bodies;
     let oru = oru_setup(&scene, &mut bodies, &arrays, &mut fixed)?;
+    let servicer = oru.swap.servicer;
     Ok(Setup {
         scene,
         bodies,
@@ -351,285 +296,30 @@ pub fn track(s: &Setup, a: &Array, prev: &[f64], sun: &Vector3<f64>, tol: f64) -
     power::track(&s.bodies[a.body].robot, &a.cells, prev, sun, tol)
 }
 
-/// What happens to the ORUs at a point of the task.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum OruEvent {
-    /// The array carrying the failed ORU is parked at its service angle (grapple up).
-    Park,
-    /// The servicer holds the failed ORU (its bolts released).
-    GraspFailed,
-    /// The failed ORU is set down beside the spare, fixed there.
-    StowFailed,
-    /// The servicer holds the spare.
-    GraspSpare,
-    /// The spare is bolted on the array's mount.
-    InstallSpare,
-    /// The array tracks the sun again.
-    Unpark,
-}
-
-/// One segment of the servicer's task: joint values to reach, a dwell there, and what happens
-/// to the ORUs on arrival and after the dwell.
-#[derive(Debug, Clone)]
-pub struct Waypoint {
-    pub what: &'static str,
-    pub q: Vec<f64>,
-    pub dwell_s: f64,
-    pub on_arrival: Option<OruEvent>,
-    pub after_dwell: Option<OruEvent>,
-}
-
-/// Height of the reach pose above each site, m.
-const ABOVE: f64 = 2.5;
-
-/// The servicer's effector pose at `p` pointing down (z = −z body, x = +x body).
-fn down_at(p: [f64; 3]) -> Matrix4<f64> {
-    let mut m = Matrix4::identity();
-    m[(1, 1)] = -1.0;
-    m[(2, 2)] = -1.0;
-    m[(0, 3)] = p[0];
-    m[(1, 3)] = p[1];
-    m[(2, 3)] = p[2];
-    m
-}
-
 /// The sites of the swap (body frame, m): the failed ORU's frame with its array parked at the
-/// service angle, the spare's, and where the failed one is stowed.
+/// service angle, the spare's, and where the failed one is stowed ([`Swap::sites`]).
 pub fn sites(s: &Setup) -> [Point3<f64>; 3] {
-    let a = &s.arrays[s.oru.array];
-    let f = s.bodies[a.body].frames(&s.oru.service_q);
-    let oru = isometry_from_matrix(&f[s.oru.link]) * s.oru.mount;
-    let spare = s.oru.spare.translation.vector;
-    [
-        Point3::from(oru.translation.vector),
-        Point3::from(spare),
-        Point3::from(spare + Vector3::from(STOW_OFFSET)),
-    ]
+    s.oru.swap.sites()
 }
 
-/// The ORU swap: travel along the truss (the array carrying the failed ORU parks with its
-/// grapple up), reach over the ORU, grasp it, lift it out, carry it over the truss and set it
-/// down beside the spare, take the spare, carry it out, insert and bolt it, withdraw, return
-/// (the array tracks again). The effector's tip stops [`GRAPPLE_M`] above each ORU frame. The
-/// poses are solved by inverse kinematics (damped least squares over all six joints, rail
-/// included, seeded from the pose before); a site the servicer cannot reach is an error
-/// naming it.
+/// The servicer's waypoints ([`Swap::task`]).
 pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
-    let robot = &s.bodies[s.servicer].robot;
-    let q0 = s.bodies[s.servicer].q0.clone();
-    let solve = |what: &str, p: Point3<f64>, up: f64, seed: &[f64]| -> Result<Vec<f64>> {
-        let p = [p.x, p.y, p.z + GRAPPLE_M + up];
-        let opts = IkOptions {
-            q0: Some(seed.to_vec()),
-            ..IkOptions::default()
-        };
-        match ik::solve(robot, &down_at(p), Method::Dls, &opts) {
-            Ok(r) => r
-                .solutions
-                .into_iter()
-                .next()
-                .map(|x| x.q)
-                .ok_or_else(|| StudyError(format!("servicer: no pose {what}"))),
-            Err(e) => Err(StudyError(format!(
-                "servicer cannot reach {what} at ({:.2}, {:.2}, {:.2}) m: {e}",
-                p[0], p[1], p[2]
-            ))),
-        }
-    };
-    let [oru, spare, stow] = sites(s);
-    let mut at_site = q0.clone();
-    at_site[0] =
-        (oru.y - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
-    let reach = solve("above the ORU", oru, ABOVE, &at_site)?;
-    let grasp = solve("the ORU", oru, 0.0, &reach)?;
-    let over_stow = solve("above the stowage", stow, ABOVE, &reach)?;
-    let stow_q = solve("the stowage", stow, 0.0, &over_stow)?;
-    let over_spare = solve("above the spare", spare, ABOVE, &over_stow)?;
-    let spare_q = solve("the spare", spare, 0.0, &over_spare)?;
-    let w = |what: &'static str, q: &Vec<f64>, dwell_s: f64| Waypoint {
-        what,
-        q: q.clone(),
-        dwell_s,
-        on_arrival: None,
-        after_dwell: None,
-    };
-    let mut out = vec![
-        w("start, stowed", &q0, 0.0),
-        Waypoint {
-            after_dwell: Some(OruEvent::Park),
-            ..w("travel along the truss to the ORU site", &at_site, 0.0)
-        },
-        w(
-            "reach over the ORU on the solar structure's mast",
-            &reach,
-            0.0,
-        ),
-        Waypoint {
-            after_dwell: Some(OruEvent::GraspFailed),
-            ..w("grasp the failed ORU and release its bolts", &grasp, 120.0)
-        },
-        w("lift it out", &reach, 0.0),
-        w("carry it over the truss", &over_stow, 0.0),
-        Waypoint {
-            after_dwell: Some(OruEvent::StowFailed),
-            ..w("set the failed ORU down beside the spare", &stow_q, 60.0)
-        },
-        w("lift off", &over_stow, 0.0),
-        w("move over the spare", &over_spare, 0.0),
-        Waypoint {
-            after_dwell: Some(OruEvent::GraspSpare),
-            ..w("take the spare", &spare_q, 60.0)
-        },
-        w("lift the spare", &over_spare, 0.0),
-        w("carry the spare out", &reach, 0.0),
-        Waypoint {
-            after_dwell: Some(OruEvent::InstallSpare),
-            ..w("insert and bolt the spare", &grasp, 180.0)
-        },
-        w("withdraw", &reach, 0.0),
-        // the array tracks again once the servicer is back, clear of its sweep (the study's
-        // arrays turn at once: no gimbal rate)
-        Waypoint {
-            on_arrival: Some(OruEvent::Unpark),
-            ..w("fold and return", &q0, 0.0)
-        },
-    ];
-    out.shrink_to_fit();
-    Ok(out)
+    s.oru.swap.task().map_err(|e| StudyError(e.0))
 }
 
-/// Joint speed limits of the servicer: rail 0.05 m/s, revolute joints 1°/s (the scale of the
-/// station's mobile servicing system, which moves at centimetres per second).
-pub fn servicer_speed(robot: &robosim_kinematics::Robot) -> Vec<f64> {
-    robot
-        .joints
-        .iter()
-        .map(|j| match j.joint_type {
-            robosim_kinematics::JointType::Prismatic => 0.05,
-            robosim_kinematics::JointType::Revolute => 1f64.to_radians(),
-        })
-        .collect()
-}
-
-/// The task timed: the servicer's (t, q, what) at each waypoint arrival and departure
-/// (segments timed by the slowest joint at its speed limit) and the ORU events in time order.
-#[derive(Debug, Clone)]
-pub struct Plan {
-    pub points: Vec<(f64, Vec<f64>, &'static str)>,
-    pub events: Vec<(f64, OruEvent)>,
-}
-
-/// The task as a timed [`Plan`] starting at `start` (s).
+/// The task as a timed [`Plan`] starting at `start` (s) ([`Swap::schedule`]).
 pub fn schedule(s: &Setup, start: f64) -> Result<Plan> {
-    let speed = servicer_speed(&s.bodies[s.servicer].robot);
-    let mut out: Vec<(f64, Vec<f64>, &'static str)> = Vec::new();
-    let mut events = Vec::new();
-    let mut t = start;
-    let mut prev: Option<Vec<f64>> = None;
-    for w in task(s)? {
-        if let Some(p) = &prev {
-            let dur = p
-                .iter()
-                .zip(&w.q)
-                .zip(&speed)
-                .map(|((a, b), v)| (b - a).abs() / v)
-                .fold(0.0, f64::max);
-            t += dur;
-        }
-        out.push((t, w.q.clone(), w.what));
-        if let Some(e) = w.on_arrival {
-            events.push((t, e));
-        }
-        if w.dwell_s > 0.0 {
-            t += w.dwell_s;
-            out.push((t, w.q.clone(), w.what));
-        }
-        if let Some(e) = w.after_dwell {
-            events.push((t, e));
-        }
-        prev = Some(w.q);
-    }
-    Ok(Plan {
-        points: out,
-        events,
-    })
+    s.oru.swap.schedule(start).map_err(|e| StudyError(e.0))
 }
 
-/// Where an ORU is.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum Held {
-    /// On the array's mount (moving with its link).
-    OnArray,
-    /// In the servicer's effector: its frame at the effector frame × this grip.
-    Carried(Isometry3<f64>),
-    /// Set down: its frame in the body frame.
-    Fixed(Isometry3<f64>),
-}
-
-/// The swap's state at a time: where each ORU is, and whether the array is parked.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct OruState {
-    pub failed: Held,
-    pub spare: Held,
-    pub parked: bool,
-}
-
-/// The servicer's effector frame at `q`.
-fn effector(s: &Setup, q: &[f64]) -> Isometry3<f64> {
-    isometry_from_matrix(&robosim_kinematics::fk::forward(
-        &s.bodies[s.servicer].robot,
-        q,
-    ))
-}
-
-/// The swap's state at `t`: the plan's events up to and including `t` applied in order.
+/// The swap's state at `t` ([`Swap::state`]).
 pub fn oru_state(s: &Setup, plan: &Plan, t: f64) -> OruState {
-    let mut st = OruState {
-        failed: Held::OnArray,
-        spare: Held::Fixed(s.oru.spare),
-        parked: false,
-    };
-    let a = &s.arrays[s.oru.array];
-    let mount_world = || {
-        let f = s.bodies[a.body].frames(&s.oru.service_q);
-        isometry_from_matrix(&f[s.oru.link]) * s.oru.mount
-    };
-    for &(te, e) in &plan.events {
-        if te > t {
-            break;
-        }
-        let end = effector(s, &servicer_at(&plan.points, te).0);
-        match e {
-            OruEvent::Park => st.parked = true,
-            OruEvent::Unpark => st.parked = false,
-            OruEvent::GraspFailed => st.failed = Held::Carried(end.inverse() * mount_world()),
-            OruEvent::StowFailed => {
-                if let Held::Carried(g) = st.failed {
-                    st.failed = Held::Fixed(end * g);
-                }
-            }
-            OruEvent::GraspSpare => {
-                if let Held::Fixed(w) = st.spare {
-                    st.spare = Held::Carried(end.inverse() * w);
-                }
-            }
-            OruEvent::InstallSpare => st.spare = Held::OnArray,
-        }
-    }
-    st
+    s.oru.swap.state(plan, t)
 }
 
-/// The world frame of an ORU held as `h`, with the array at `q_array` and the servicer at
-/// `q_servicer`.
+/// The world frame of an ORU held as `h` ([`Swap::frame`]).
 pub fn oru_frame(s: &Setup, h: Held, q_array: &[f64], q_servicer: &[f64]) -> Isometry3<f64> {
-    match h {
-        Held::OnArray => {
-            let f = s.bodies[s.arrays[s.oru.array].body].frames(q_array);
-            isometry_from_matrix(&f[s.oru.link]) * s.oru.mount
-        }
-        Held::Carried(g) => effector(s, q_servicer) * g,
-        Held::Fixed(w) => w,
-    }
+    s.oru.swap.frame(h, q_array, q_servicer)
 }
 
 /// Where the servicer let go of the spare against where its mount is (m): the distance of the
@@ -647,8 +337,8 @@ pub fn install_error(s: &Setup, run: &Run) -> Option<f64> {
         .find(|(t, e)| *e == OruEvent::InstallSpare && *t <= t_end)?;
     let before = oru_state(s, &plan, te - 1e-6);
     let sq = servicer_at(&plan.points, *te).0;
-    let held = oru_frame(s, before.spare, &s.oru.service_q, &sq);
-    let mount = oru_frame(s, Held::OnArray, &s.oru.service_q, &sq);
+    let held = oru_frame(s, before.spare, &s.oru.swap.service_q, &sq);
+    let mount = oru_frame(s, Held::OnArray, &s.oru.swap.service_q, &sq);
     Some((held.translation.vector - mount.translation.vector).norm())
 }
 
@@ -660,29 +350,6 @@ fn posed_oru<'a>(part: &'a common::Part, w: &Isometry3<f64>) -> Posed<'a> {
         pose,
         centre: pose * part.centre,
     }
-}
-
-/// The servicer's planned joint values at `t` (linear in joint space between schedule points;
-/// before the start and after the end, at rest there), and what it is doing.
-fn servicer_at(sched: &[(f64, Vec<f64>, &'static str)], t: f64) -> (Vec<f64>, &'static str) {
-    let first = &sched[0];
-    if t <= first.0 {
-        return (first.1.clone(), "waiting");
-    }
-    for w in sched.windows(2) {
-        let (a, b) = (&w[0], &w[1]);
-        if t <= b.0 {
-            let u = if b.0 > a.0 {
-                (t - a.0) / (b.0 - a.0)
-            } else {
-                1.0
-            };
-            let q = a.1.iter().zip(&b.1).map(|(x, y)| x + u * (y - x)).collect();
-            return (q, b.2);
-        }
-    }
-    let last = &sched[sched.len() - 1];
-    (last.1.clone(), "done")
 }
 
 /// One step's record.
@@ -753,7 +420,7 @@ fn array_clearance(
     let frames = b.frames(q);
     let mut posed = b.posed(&frames);
     if ai == s.oru.array {
-        let mount = isometry_from_matrix(&frames[s.oru.link]) * s.oru.mount;
+        let mount = isometry_from_matrix(&frames[s.oru.swap.link]) * s.oru.swap.mount;
         for (h, part) in [oru.failed, oru.spare].iter().zip(&s.oru.parts) {
             if *h == Held::OnArray {
                 posed.push(posed_oru(part, &mount));
@@ -818,6 +485,28 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             }
         }
         let structure = common::clearance(&sposed, &fixed_now, p.mode);
+        // the servicer's planned sweep over the steps on either side of this sample (with what
+        // it carries then): an array angle chosen here must clear all of it, so that the
+        // motion between two samples — the servicer on its schedule, the array between two
+        // angles that each clear it — keeps the keep-out (the step is not a blind spot)
+        let t_prev = k.checked_sub(1).map(|j| j as f64 * p.step_s);
+        let t_next = (k < n).then(|| ((k + 1) as f64 * p.step_s).min(t_end));
+        let sweep_states: Vec<(f64, OruState)> = sweep_times(s, p, sched, t, t_prev, t_next)
+            .into_iter()
+            .map(|tu| (tu, oru_state(s, &plan, tu)))
+            .collect();
+        let sweep: Vec<(OruState, Vec<Posed<'_>>)> = sweep_states
+            .iter()
+            .map(|(tu, o)| (*o, servicer_posed(s, &servicer_at(sched, *tu).0, o)))
+            .collect();
+        let swept_clear = |ai: usize, q: &[f64]| {
+            sweep.iter().all(|(o, posed)| {
+                // parked then: worked on, no keep-out (as between the steps)
+                (o.parked && ai == s.oru.array)
+                    || array_clearance(s, ai, q, posed, o, p.mode)
+                        .is_none_or(|c| c.distance >= p.keep_out_m)
+            })
+        };
         let mut serviced = f64::INFINITY;
         let mut arrays = Vec::with_capacity(s.arrays.len());
         let (mut power, mut tracked) = (0.0, 0.0);
@@ -830,7 +519,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             if ost.parked && ai == s.oru.array {
                 // parked for the servicer: no tracking, no keep-out (it is worked on), but
                 // its clearance is watched for a contact
-                let qs = s.oru.service_q.clone();
+                let qs = s.oru.swap.service_q.clone();
                 let cs = normal_at(s, a, &qs).dot(&sun);
                 serviced = array_clearance(s, ai, &qs, &sposed, &ost, p.mode)
                     .map_or(f64::INFINITY, |c| c.distance);
@@ -846,9 +535,9 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             let cl = array_clearance(s, ai, &q, &sposed, &ost, p.mode);
             let mut cl_d = cl.as_ref().map_or(f64::INFINITY, |c| c.distance);
             let mut pair = cl.map(|c| (c.a, c.b)).unwrap_or_default();
-            if cl_d < p.keep_out_m {
+            if cl_d < p.keep_out_m || !swept_clear(ai, &q) {
                 // feather: the best-powered candidate angle (5° grid on the panel joint, then
-                // on both) that clears the keep-out
+                // on both) that clears the keep-out here and over the servicer's sweep
                 let mut cands: Vec<(f64, Vec<f64>)> = Vec::new();
                 let j = q.len() - 1;
                 for k in 0..72 {
@@ -873,11 +562,15 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                     if !lim_ok {
                         continue;
                     }
-                    if let Some(c2) = array_clearance(s, ai, &qq, &sposed, &ost, p.mode)
-                        && c2.distance >= p.keep_out_m
+                    let c2 = array_clearance(s, ai, &qq, &sposed, &ost, p.mode);
+                    if c2.as_ref().is_none_or(|c2| c2.distance >= p.keep_out_m)
+                        && swept_clear(ai, &qq)
                     {
-                        cl_d = c2.distance;
-                        pair = (c2.a, c2.b);
+                        let (d2, pair2) = c2.map_or((f64::INFINITY, Default::default()), |c| {
+                            (c.distance, (c.a, c.b))
+                        });
+                        cl_d = d2;
+                        pair = pair2;
                         chosen = (qq, cc, true);
                         found = true;
                         break;
@@ -968,6 +661,25 @@ pub fn between_samples(s: &Setup, p: &StationParams, qa: &[f64], qb: &[f64]) -> 
         .fold(0.0, f64::max);
     let h = (0.5 * p.keep_out_m).max(0.05);
     ((moved / h).ceil() as usize).clamp(1, 64)
+}
+
+/// The times of the servicer's sweep an array angle chosen at the sample `t` must clear: the
+/// neighbouring samples `t_prev` and `t_next` (where there are) and the points between each of
+/// them and `t` that [`between_samples`] takes — the same density as the between-step check.
+fn sweep_times(
+    s: &Setup,
+    p: &StationParams,
+    sched: &[(f64, Vec<f64>, &'static str)],
+    t: f64,
+    t_prev: Option<f64>,
+    t_next: Option<f64>,
+) -> Vec<f64> {
+    let mut out = Vec::new();
+    for other in [t_prev, t_next].into_iter().flatten() {
+        let n = between_samples(s, p, &servicer_at(sched, t).0, &servicer_at(sched, other).0);
+        out.extend((1..=n + 1).map(|k| t + (other - t) * k as f64 / (n + 1) as f64));
+    }
+    out
 }
 
 /// The smallest servicer × array distance strictly between two steps at `ta` and `tb`: the
@@ -1128,7 +840,6 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     }
     csv.finish()?;
     // --- trajectories (display file mode) for every robot
-    let mut plays = Vec::new();
     for (bi, b) in s.bodies.iter().enumerate() {
         let samples: Vec<Vec<f64>> = run
             .steps
@@ -1145,7 +856,6 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
             .collect();
         let path = dir.join(format!("{}.traj", b.name));
         common::write_trajectory(&path, &b.robot, p.step_s, &samples)?;
-        plays.push((b.name.clone(), path));
     }
     // --- summary
     let summary = summarise(&s, p, &run);
@@ -1155,19 +865,70 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     robosim_report::write_report(dir, &summary)?;
     // --- frames
     if p.frames > 0 {
-        common::render_frames(
-            SCENE,
-            &plays,
-            run.steps.len(),
-            p.frames,
-            &dir.join("frames"),
-            Some([34.0, -4.0, 22.0]),
-            Some([4.0, 16.0, 0.0]),
-        )?;
+        // the robots' trajectories and the ORUs where the swap has them at each step
+        let args = frame_args(&s, &run, dir, p.frames);
+        robosim_display::app::cmd_render(&args)
+            .map_err(|e| StudyError(format!("frames: {}", e.0)))?;
         say!(log, "frames: {}", dir.join("frames").display());
     }
     say!(log, "wrote {}", dir.display());
     Ok(run)
+}
+
+/// The ORUs' world poses at every step of `run` as the display's pose tracks: each ORU object
+/// where the swap has it at that step (on its array's mount at the array's angle, in the
+/// servicer's grip, or set down) — what the headless frames draw.
+pub fn frame_poses(s: &Setup, run: &Run) -> Vec<robosim_display::app::PoseTrack> {
+    (0..2)
+        .map(|i| {
+            let (object, in_oru) = &s.oru.swap.objects[i];
+            let world = run
+                .steps
+                .iter()
+                .map(|st| {
+                    let h = if i == 0 { st.oru.failed } else { st.oru.spare };
+                    let w = oru_frame(s, h, &st.arrays[s.oru.array].0, &st.servicer_q) * in_oru;
+                    let m = w.to_homogeneous();
+                    let mut out = [0.0; 12];
+                    for r in 0..3 {
+                        for c in 0..4 {
+                            out[r * 4 + c] = m[(r, c)];
+                        }
+                    }
+                    out
+                })
+                .collect();
+            robosim_display::app::PoseTrack {
+                object: object.clone(),
+                world,
+            }
+        })
+        .collect()
+}
+
+/// The headless frames' request: the scene, every robot's trajectory file in `dir` (as [`run`]
+/// writes them), `count` frames into `dir/frames`, the ORUs moved per step ([`frame_poses`]).
+pub fn frame_args(
+    s: &Setup,
+    run: &Run,
+    dir: &Path,
+    count: usize,
+) -> robosim_display::app::RenderArgs {
+    let plays: Vec<(String, std::path::PathBuf)> = s
+        .bodies
+        .iter()
+        .map(|b| (b.name.clone(), dir.join(format!("{}.traj", b.name))))
+        .collect();
+    common::render_args(
+        SCENE,
+        &plays,
+        run.steps.len(),
+        count,
+        &dir.join("frames"),
+        Some([34.0, -4.0, 22.0]),
+        Some([4.0, 16.0, 0.0]),
+        frame_poses(s, run),
+    )
 }
 
 /// The summary report: key numbers (table), notes (model and findings), time plots.
@@ -1380,7 +1141,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
     }
     if let Some((d, t, pair)) = min_between {
         notes.push(format!(
-            "Between the samples (servicer on its schedule and arrays interpolated in joint space, checked at points no more than half the keep-out of servicer motion apart): closest approach {d:.3} m in the step ending at t = {:.1} min ({} × {}); {}.",
+            "Between the samples (servicer on its schedule and arrays interpolated in joint space, checked at points no more than half the keep-out of servicer motion apart): closest approach {d:.3} m in the step ending at t = {:.1} min ({} × {}); {}. How the keep-out is ensured between samples: each array's angle at a sample is chosen (tracking, else the best-powered feathered angle) to clear the keep-out against the servicer's planned sweep over the steps on either side of the sample, at the same points, so the array is feathered a step early where the arm will pass; this check verifies it.",
             t / 60.0,
             pair.0,
             pair.1,
@@ -1388,7 +1149,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
                 "the keep-out holds between every pair of steps".to_owned()
             } else {
                 format!(
-                    "the keep-out is broken between samples in {} step(s), first in the step ending at {:.1} min — a finer step would feather there",
+                    "the keep-out is still broken between samples in {} step(s), first in the step ending at {:.1} min (an array swings between two clear angles through the arm's path)",
                     between_breaks.len(),
                     between_breaks[0] / 60.0
                 )
@@ -1471,7 +1232,9 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
         let sq = servicer_at(&plan.points, *te).0;
         let where_ = |i: usize| {
             let h = if i == 0 { ost.failed } else { ost.spare };
-            let p = oru_frame(s, h, &s.oru.service_q, &sq).translation.vector;
+            let p = oru_frame(s, h, &s.oru.swap.service_q, &sq)
+                .translation
+                .vector;
             format!(" at ({:.3}, {:.3}, {:.3}) m", p.x, p.y, p.z)
         };
         let what = match e {

@@ -443,29 +443,12 @@ pub fn downhand(s: &Setup, n: &Vector3<f64>, prev: &[f64], tol: f64) -> (Vec<f64
         if scan[k].1 < left || scan[k].1 < right {
             continue;
         }
-        let g = 0.5 * (5f64.sqrt() - 1.0);
-        let (mut lo, mut hi) = (
+        let q1 = robosim_simulator::numeric::golden_max(
+            |x| best_table(x).1,
             (scan[k].0 - h).max(lim[0][0]),
             (scan[k].0 + h).min(lim[0][1]),
+            tol,
         );
-        let (mut x1, mut x2) = (hi - g * (hi - lo), lo + g * (hi - lo));
-        let (mut f1, mut f2) = (best_table(x1).1, best_table(x2).1);
-        while hi - lo > tol {
-            if f1 < f2 {
-                lo = x1;
-                x1 = x2;
-                f1 = f2;
-                x2 = lo + g * (hi - lo);
-                f2 = best_table(x2).1;
-            } else {
-                hi = x2;
-                x2 = x1;
-                f2 = f1;
-                x1 = hi - g * (hi - lo);
-                f1 = best_table(x1).1;
-            }
-        }
-        let q1 = 0.5 * (lo + hi);
         let (q2, v) = best_table(q1);
         cands.push((vec![q1, q2], v));
     }
@@ -1077,6 +1060,7 @@ pub fn run(p: &WeldingParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
                 &dir.join("frames"),
                 Some([-0.4, -2.2, 1.6]),
                 Some([-0.4, 0.0, 0.8]),
+                vec![],
             )?;
             say!(log, "frames: {}", dir.join("frames").display());
         }

@@ -748,6 +748,18 @@ fn the_library_refuses_tracking_without_an_orbit_and_a_bad_efficiency() {
     assert!(e.contains("efficiency 0 is out of range"), "{e}");
     eval("        orbit { altitude: 400 km, beta: 0 deg }\n        sun_tracking: on\n        power { efficiency: 0.3 }")
         .expect("a valid declaration");
+    // the swap names placed things; the kinematic step is a time in (0, 1 s]
+    let e = eval("        oru_swap { servicer: \"nobody\", spare: \"x\" }").expect_err("refused");
+    assert!(
+        e.contains("servicer \"nobody\" is not a placed robot"),
+        "{e}"
+    );
+    let e = eval("        oru_swap { servicer: \"one\", spare: \"x\" }").expect_err("refused");
+    assert!(e.contains("spare \"x\" is not a placed solid"), "{e}");
+    let e = eval("        oru_swap { servicer: \"one\" }").expect_err("refused");
+    assert!(e.contains("needs a servicer and a spare"), "{e}");
+    let e = eval("        kinematics { step: 2 s }").expect_err("refused");
+    assert!(e.contains("kinematic step 2 s is out of range"), "{e}");
 }
 
 /// The ORU swap moves objects: the failed ORU rides its array's mast until grasped, travels in
@@ -778,7 +790,7 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
     // the spare is on the mount of a tracking array again: its frame turns with the array,
     // but at the service angle it is where the failed one was; the servicer let go of it
     // there, to the IK's tolerance
-    let mount = station::oru_frame(&s, station::Held::OnArray, &s.oru.service_q, &[]);
+    let mount = station::oru_frame(&s, station::Held::OnArray, &s.oru.swap.service_q, &[]);
     assert!((mount.translation.vector - site.coords).norm() < 1e-9);
     let install = station::install_error(&s, &run).expect("the spare was bolted");
     assert!(install < 1e-3, "{install} m");
@@ -804,7 +816,7 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
         assert!(st.clearance_serviced > 0.0, "t {}", st.t);
         if st.oru.parked {
             assert!(st.clearance_serviced.is_finite());
-            assert_eq!(st.arrays[s.oru.array].0, s.oru.service_q);
+            assert_eq!(st.arrays[s.oru.array].0, s.oru.swap.service_q);
         }
     }
     assert!(carried[0] > 0 && carried[1] > 0, "{carried:?}");
@@ -819,4 +831,109 @@ fn the_oru_swap_carries_the_failed_unit_out_and_the_spare_to_its_site() {
             .iter()
             .any(|n| n.starts_with("At the end: the spare bolted"))
     );
+}
+
+/// The default run (10 s steps, one orbit) keeps the 1 m keep-out between the steps too: an
+/// array angle is chosen at each sample to clear the servicer's planned sweep over the steps on
+/// either side, so the arm sweeping ~1.2 m in one step cannot pass inside the keep-out unseen
+/// (before this, the step ending at 10.5 min came to 0.775 m). The between-step check verifies.
+#[test]
+fn the_default_station_run_keeps_the_keep_out_between_steps() {
+    let p = StationParams {
+        frames: 0,
+        ..StationParams::default()
+    };
+    let s = station::setup(&p).expect("the study sets up");
+    let run = station::simulate(&s, &p).expect("the simulation runs");
+    let worst = run
+        .steps
+        .iter()
+        .map(|st| st.between_clearance)
+        .fold(f64::INFINITY, f64::min);
+    assert!(
+        worst >= p.keep_out_m,
+        "closest approach between steps {worst} m"
+    );
+    for st in &run.steps {
+        assert!(!st.blocked, "t {}", st.t);
+        assert!(st.clearance_arrays >= p.keep_out_m, "t {}", st.t);
+    }
+    let md = station::summarise(&s, &p, &run);
+    assert!(
+        md.notes
+            .iter()
+            .any(|n| n.contains("the keep-out holds between every pair of steps")),
+        "{:?}",
+        md.notes
+    );
+}
+
+/// The headless frames draw the ORUs where the swap has them, not where the scene places them:
+/// the model the display draws for a frame mid-carry has each ORU object at the pose
+/// `station.csv` gives for that time (the data path to the renderer, no pixels), and that is
+/// metres from its scene position.
+#[test]
+fn headless_frames_draw_the_orus_where_the_swap_has_carried_them() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let p = StationParams {
+        orbits: 0.6,
+        ..quick_station()
+    };
+    let run = station::run(&p, dir.path(), &mut Vec::new()).expect("the study runs");
+    let s = station::setup(&p).expect("the study sets up");
+    let (cols, rows) = read_csv(&dir.path().join("station.csv"));
+    let args = station::frame_args(&s, &run, dir.path(), 12);
+    let scene = robosim_display::app::played_snapshot(&args, 0).expect("the first frame");
+    let mut checked = 0;
+    for (i, prefix) in [(0, "failed_oru"), (1, "spare_oru")] {
+        let (object, in_oru) = &s.oru.swap.objects[i];
+        // a step where this ORU is in the servicer's grip
+        let k = run
+            .steps
+            .iter()
+            .position(|st| {
+                let h = if i == 0 { st.oru.failed } else { st.oru.spare };
+                matches!(h, station::Held::Carried(_))
+            })
+            .expect("the ORU is carried");
+        let k = k + 1; // one step into the carry
+        let snap = robosim_display::app::played_snapshot(&args, k).expect("the frame's model");
+        let at = robosim_display::app::find_path(&snap, object)
+            .unwrap_or_else(|| panic!("no object {object}"));
+        let w = snap.world_pose(at);
+        let obj = nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(w[3], w[7], w[11]),
+            nalgebra::UnitQuaternion::from_matrix(&nalgebra::Matrix3::new(
+                w[0], w[1], w[2], w[4], w[5], w[6], w[8], w[9], w[10],
+            )),
+        );
+        // the ORU frame the object stands for, against the CSV's row of that step
+        let oru = (obj * in_oru.inverse()).translation.vector;
+        let row = &rows[k];
+        assert_eq!(row[col(&cols, "t_s")], run.steps[k].t);
+        let csv = nalgebra::Vector3::new(
+            row[col(&cols, &format!("{prefix}_x_m"))],
+            row[col(&cols, &format!("{prefix}_y_m"))],
+            row[col(&cols, &format!("{prefix}_z_m"))],
+        );
+        assert!(
+            (oru - csv).norm() < 1e-6,
+            "{object} at t {}: drawn at {oru:?}, station.csv {csv:?}",
+            run.steps[k].t
+        );
+        // and not where the scene places it
+        let at0 = robosim_display::app::find_path(&scene, object).expect("in the scene");
+        let w0 = scene.world_pose(at0);
+        let moved = nalgebra::Vector3::new(w[3] - w0[3], w[7] - w0[7], w[11] - w0[11]).norm();
+        assert!(moved > 0.1, "{object} drawn {moved} m from its scene place");
+        checked += 1;
+    }
+    assert_eq!(checked, 2);
+    // a track that names no object is refused by name
+    let mut bad = args.clone();
+    bad.poses[0].object = "port_solar/gimbal/no_such".into();
+    match robosim_display::app::played_snapshot(&bad, 0) {
+        Ok(_) => panic!("a track naming no object was accepted"),
+        Err(e) => assert!(e.0.contains("no_such"), "{}", e.0),
+    }
 }

@@ -124,6 +124,32 @@ impl Evaluator<'_> {
                 }
             }
         }
+        // The swap names a placed robot and a placed solid of this scene.
+        if let Some(sw) = &scene.effects.oru_swap {
+            let span = decl.name_span;
+            if !scene.robots.iter().any(|r| r.name == sw.servicer) {
+                return Err(err(
+                    ErrorKind::Type,
+                    span,
+                    format!(
+                        "scene {}: oru_swap's servicer {:?} is not a placed robot",
+                        scene.name, sw.servicer
+                    ),
+                )
+                .expected("the place name of a robot of the scene"));
+            }
+            if !scene.solids.iter().any(|r| r.name == sw.spare) {
+                return Err(err(
+                    ErrorKind::Type,
+                    span,
+                    format!(
+                        "scene {}: oru_swap's spare {:?} is not a placed solid",
+                        scene.name, sw.spare
+                    ),
+                )
+                .expected("the place name of a solid of the scene"));
+            }
+        }
         // The world's gravity is the scene's: a declared dynamics effect sets it for every robot.
         if let Some(d) = scene.effects.dynamics {
             for r in &mut scene.robots {
@@ -209,6 +235,7 @@ impl Evaluator<'_> {
             "sun_tracking",
             "power",
             "automation",
+            "oru_swap",
         ];
         for st in body {
             match st {
@@ -462,6 +489,115 @@ impl Evaluator<'_> {
                     name,
                     name_span,
                     body,
+                } if name == "kinematics" => {
+                    seen.check(name, *name_span)?;
+                    fx.kinematics = true;
+                    for (name, name_span, value) in
+                        group_props(body, "`kinematics { … }`", "`step:`")?
+                    {
+                        match name {
+                            "step" => {
+                                let s = self.quantity(
+                                    value,
+                                    scope,
+                                    Dim::TIME,
+                                    "a time step such as 100 ms",
+                                )?;
+                                if !(s > 0.0 && s <= 1.0) {
+                                    return Err(err(
+                                        ErrorKind::OutOfRange,
+                                        value.span,
+                                        format!("kinematic step {s} s is out of range"),
+                                    )
+                                    .expected("a step in (0, 1 s]"));
+                                }
+                                fx.kinematic_step_s = Some(s);
+                            }
+                            _ => {
+                                return Err(unknown_prop("kinematics", name, name_span, &["step"]));
+                            }
+                        }
+                    }
+                }
+                Stmt::Block {
+                    name,
+                    name_span,
+                    body,
+                } if name == "oru_swap" => {
+                    seen.check(name, *name_span)?;
+                    let (mut servicer, mut spare, mut start) = (None, None, 0.0);
+                    for (name, name_span, value) in group_props(
+                        body,
+                        "`oru_swap { … }`",
+                        "`servicer:`, `spare:` or `start:`",
+                    )? {
+                        match name {
+                            "servicer" | "spare" => {
+                                let v = match self.eval(value, scope)? {
+                                    Value::Str(s) if !s.is_empty() => s,
+                                    other => {
+                                        return Err(err(
+                                            ErrorKind::Type,
+                                            value.span,
+                                            format!(
+                                                "`{name}` must be a place name in quotes, got {}",
+                                                other.describe()
+                                            ),
+                                        )
+                                        .expected("a place name such as \"servicer\""));
+                                    }
+                                };
+                                if name == "servicer" {
+                                    servicer = Some(v);
+                                } else {
+                                    spare = Some(v);
+                                }
+                            }
+                            "start" => {
+                                let t = self.quantity(
+                                    value,
+                                    scope,
+                                    Dim::TIME,
+                                    "a start time such as 300 s",
+                                )?;
+                                if !(t.is_finite() && t >= 0.0) {
+                                    return Err(err(
+                                        ErrorKind::OutOfRange,
+                                        value.span,
+                                        format!("oru_swap start {t} s is out of range"),
+                                    )
+                                    .expected("a time ≥ 0"));
+                                }
+                                start = t;
+                            }
+                            _ => {
+                                return Err(unknown_prop(
+                                    "oru_swap",
+                                    name,
+                                    name_span,
+                                    &["servicer", "spare", "start"],
+                                ));
+                            }
+                        }
+                    }
+                    let (Some(servicer), Some(spare)) = (servicer, spare) else {
+                        return Err(err(
+                            ErrorKind::Type,
+                            *name_span,
+                            "`oru_swap { … }` needs a servicer and a spare".to_string(),
+                        )
+                        .expected("`oru_swap { servicer: \"servicer\", spare: \"spare_oru\" }`"));
+                    };
+                    fx.oru_swap = Some(OruSwapEffect {
+                        servicer,
+                        spare,
+                        start_s: start,
+                    });
+                }
+                Stmt::Block {
+                    name,
+                    name_span,
+                    body,
                 } if name == "power" => {
                     seen.check(name, *name_span)?;
                     let mut p = PowerEffect { efficiency: 0.14 };
@@ -562,7 +698,15 @@ impl Evaluator<'_> {
                         "effects",
                         name,
                         *name_span,
-                        &["collision", "dynamics", "orbit", "power", "automation"],
+                        &[
+                            "kinematics",
+                            "collision",
+                            "dynamics",
+                            "orbit",
+                            "power",
+                            "oru_swap",
+                            "automation",
+                        ],
                     ));
                 }
                 Stmt::Let {

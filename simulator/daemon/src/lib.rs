@@ -52,6 +52,7 @@ mod ctl;
 pub mod recording;
 mod space;
 pub mod status;
+mod swap;
 
 pub use ctl::ctl;
 
@@ -225,6 +226,7 @@ pub fn declared_effects(e: &robosim_library::Effects, log_path: &std::path::Path
         })
         .collect();
     SceneEffects {
+        dt: e.kinematic_step_s.unwrap_or(SceneEffects::default().dt),
         kinematics: e.kinematics,
         joint_limits: e.joint_limits,
         collision,
@@ -340,6 +342,8 @@ struct Daemon<'a> {
     sims: Vec<Sim>,
     /// The orbit, sun tracking and power, when the scene declares an orbit ([`space`]).
     space: Option<space::SpaceStage>,
+    /// The ORU swap, when the scene declares `oru_swap` ([`swap`]).
+    swap: Option<swap::SwapStage>,
     counters: Counters,
     /// Steps since the pipelines were last built (all of them).
     clock_steps: u64,
@@ -415,6 +419,7 @@ impl Daemon<'_> {
             .map(|r| self.pipeline(r, snap))
             .collect::<Result<_>>()?;
         self.space = None;
+        self.swap = None;
         if let Some((fx, scene)) = &declared {
             for what in not_simulated(fx) {
                 eprintln!("simulator: WARNING: declared but not simulated: {what}");
@@ -425,6 +430,8 @@ impl Daemon<'_> {
             for n in notes {
                 eprintln!("simulator: WARNING: {n}");
             }
+            self.swap = swap::SwapStage::build(fx, scene, &mut self.sims, snap)
+                .map_err(|e| DaemonError::Effects(format!("the swap stage: {e}")))?;
         }
         self.counters.rebuilds += 1;
         self.clock_steps = 0;
@@ -646,6 +653,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
         source: String::new(),
         sims: Vec::new(),
         space: None,
+        swap: None,
         counters: Counters::default(),
         clock_steps: 0,
     };
@@ -666,6 +674,9 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
     }
     if let Some(sp) = &d.space {
         eprintln!("simulator: space stage: {}", sp.describe());
+    }
+    if let Some(sw) = &d.swap {
+        eprintln!("simulator: swap stage: {}", sw.describe(&d.sims));
     }
     let mut recording = match &opts.record {
         Some(path) => {
@@ -717,11 +728,11 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 };
                 let rec = recording.as_ref().map(|r| (r.path(), r.messages()));
                 let space = d.space.as_ref().map(|sp| sp.status(&d.sims));
-                cmd.reply(
-                    status::status(&d.sims, &l, &d.source, rec, space)
-                        .to_string()
-                        .as_bytes(),
-                );
+                let mut answer = status::status(&d.sims, &l, &d.source, rec, space);
+                if let Some(sw) = &d.swap {
+                    answer["swap"] = sw.status(&d.sims);
+                }
+                cmd.reply(answer.to_string().as_bytes());
                 continue;
             }
             let was_running = running;
@@ -795,18 +806,31 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     running = false;
                 }
             }
-            if let Some(sp) = &mut d.space {
-                let t = d.sims.first().map_or(0.0, |s| s.pipeline.data().state.t);
-                if let Err(e) = sp.update(&mut d.sims, t, dt) {
-                    eprintln!("simulator: space stage: {e}; paused");
-                    if let Some(r) = &mut recording {
-                        r.event(run_ns, Level::Error, "space", &format!("{e}; paused"))?;
-                    }
-                    if running {
-                        paused_at = Some(pause_record(&mut reader, steps, "error")?);
-                    }
-                    running = false;
+            let t = d.sims.first().map_or(0.0, |s| s.pipeline.data().state.t);
+            if let Some(sp) = &mut d.space
+                && let Err(e) = sp.update(&mut d.sims, t, dt)
+            {
+                eprintln!("simulator: space stage: {e}; paused");
+                if let Some(r) = &mut recording {
+                    r.event(run_ns, Level::Error, "space", &format!("{e}; paused"))?;
                 }
+                if running {
+                    paused_at = Some(pause_record(&mut reader, steps, "error")?);
+                }
+                running = false;
+            }
+            // after the space stage: the swap parks the robot it works on
+            if let Some(sw) = &mut d.swap
+                && let Err(e) = sw.update(&mut d.sims, t, dt)
+            {
+                eprintln!("simulator: swap stage: {e}; paused");
+                if let Some(r) = &mut recording {
+                    r.event(run_ns, Level::Error, "swap", &format!("{e}; paused"))?;
+                }
+                if running {
+                    paused_at = Some(pause_record(&mut reader, steps, "error")?);
+                }
+                running = false;
             }
             budget = budget.saturating_sub(1);
             steps += 1;
@@ -837,6 +861,9 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                         joint: w.state.q[j],
                     });
                 }
+            }
+            if let Some(sw) = &d.swap {
+                bodies.extend_from_slice(sw.records());
             }
             state.publish(version, t, &joints, &bodies)?;
         }

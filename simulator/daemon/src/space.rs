@@ -4,12 +4,13 @@
 //!
 //! * **orbit**: the orbit angle θ = ω t (the run starts at orbit noon), the sun in the body
 //!   frame under LVLH hold and the eclipse flag from the geometry ([`robosim_simulator::orbit`]);
-//! * **sun_tracking**: each array's gimbals are given the sun-facing joint values as their
-//!   target ([`robosim_simulator::power::track`]), so they turn there through their own pipeline
+//! * **sun_tracking**: each array's gimbals are given the joint values facing the sun as it
+//!   will be after the next step as their target ([`robosim_simulator::power::track`]), so
+//!   they turn there through their own pipeline
 //!   — kinematic motion at the scene's speed limit, joint limits, collision — and their joint
 //!   values are published on `state/simulator` like any simulated joint motion. The solve is
 //!   repeated when the sun has moved 10⁻⁴ rad in the body frame since the last one (every
-//!   ~0.09 s of simulated time at 400 km), not every step;
+//!   ~0.09 s of simulated time at 400 km: every step at the station scene's 1 s step);
 //! * **power**: Σ arrays area × efficiency × flux × cos⁺ incidence at the arrays' *current*
 //!   joint values (an array still turning delivers less), zero in eclipse; the battery
 //!   ([`robosim_simulator::power::Battery`], its stated defaults) integrates it over each step.
@@ -149,22 +150,26 @@ impl SpaceStage {
         self.theta = self.orbit.angle(0.0, t);
         self.sun = self.orbit.sun_body(self.theta);
         self.eclipse = self.orbit.eclipse_at(self.theta);
+        // the targets are for the next step: the sun where it will be then
+        let sun_next = self
+            .orbit
+            .sun_body(self.orbit.angle(0.0, t + dt_next(sims)));
         if self.tracking
             && self
                 .tracked_sun
-                .is_none_or(|s| s.angle(&self.sun) >= RETRACK_RAD)
+                .is_none_or(|s| s.angle(&sun_next) >= RETRACK_RAD)
         {
             for a in &self.arrays {
                 let s = &mut sims[a.sim];
                 let robot = &s.pipeline.model().robot;
                 let q_now = s.pipeline.data().state.q.as_slice().to_vec();
-                let (q, _) = power::track(robot, &a.cells, &q_now, &self.sun, TRACKING_TOL);
+                let (q, _) = power::track(robot, &a.cells, &q_now, &sun_next, TRACKING_TOL);
                 let q = nearest_within_limits(robot, &q, &q_now);
                 s.pipeline
                     .set_command(Command::Target(nalgebra::DVector::from_vec(q)))
                     .map_err(|e| format!("sun tracking of {}: {e}", s.name))?;
             }
-            self.tracked_sun = Some(self.sun);
+            self.tracked_sun = Some(sun_next);
         }
         self.power_w = 0.0;
         for a in &mut self.arrays {
@@ -227,6 +232,11 @@ impl SpaceStage {
             "power": power,
         })
     }
+}
+
+/// The pipelines' step (s): what the next step will take.
+fn dt_next(sims: &[Sim]) -> f64 {
+    sims.first().map_or(0.0, |s| s.pipeline.model().dt)
 }
 
 /// `q` with each revolute joint moved by whole turns to the value nearest `now` that stays
