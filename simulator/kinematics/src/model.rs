@@ -84,7 +84,8 @@ pub struct Joint {
     pub coulomb: f64,
     /// A general (non-DH) joint's placement and axis; `None` (the default): a DH row, read by
     /// the robot's [`Convention`] (see the module docs).
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// (Always serialised, `null` when absent: bincode, which carries robots between
+    /// processes, cannot skip fields.)
     pub origin: Option<Origin>,
 }
 
