@@ -33,6 +33,7 @@ pub mod session;
 pub mod stl;
 pub mod trajectory;
 pub mod urdf;
+pub mod urdf_import;
 mod world;
 
 pub use digest::{ModelDigest, digest};

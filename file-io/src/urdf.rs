@@ -84,6 +84,12 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
+    if let Some(j) = robot.joints.iter().position(|j| j.is_general()) {
+        return Err(format!(
+            "robot {}: joint {j} is a general (placement and axis) joint; the URDF export writes DH chains only (issue #14)",
+            robot.name
+        ));
+    }
     let name = xml(&robot.name);
     let mut out = String::new();
     let _ = writeln!(out, "<?xml version=\"1.0\"?>");

@@ -58,13 +58,22 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
     let model = Model::new(&robot).map_err(|e| e.to_string())?;
     let panda = Model::new(&fixture_robot("panda").ok_or("the Panda fixture is missing")?)
         .map_err(|e| e.to_string())?;
+    // The same PUMA with every joint general (placement and axis, as a URDF gives them): the
+    // algorithms are one code path; this times the general placements against DH rows.
+    let general =
+        Model::new(&robosim_kinematics::chain::to_general(&robot)).map_err(|e| e.to_string())?;
     let zeros = [0.0; 6];
     let reps = if quick { 1 } else { 5 };
 
     // --- per-call costs (the baseline for the ratios) ---
     let mut notes = Vec::new();
     let mut costs = Vec::new();
-    for (name, m) in [("PUMA 560 (6 DOF)", &model), ("Panda (7 DOF)", &panda)] {
+    let mut medians = Vec::new();
+    for (name, m) in [
+        ("PUMA 560 (6 DOF)", &model),
+        ("PUMA 560 as general joints", &general),
+        ("Panda (7 DOF)", &panda),
+    ] {
         let n = m.dof();
         let mut data = Data::new(m);
         let q: Vec<f64> = (0..n).map(|j| 0.3 + 0.1 * j as f64).collect();
@@ -100,7 +109,14 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
             "{name}: RNEA {:.2} µs, CRBA {:.2} µs, ABA {:.2} µs per call (median of {batches} interleaved batches of {per} calls; 10th percentile {:.2} / {:.2} / {:.2} µs; ABA/RNEA = {:.2}).",
             med[0], med[1], med[2], min[0], min[1], min[2], med[2] / med[0]
         ));
+        medians.push(med);
     }
+    notes.push(format!(
+        "PUMA 560, general joints / DH rows (same run): RNEA {:.2}, CRBA {:.2}, ABA {:.2}.",
+        medians[1][0] / medians[0][0],
+        medians[1][1] / medians[0][1],
+        medians[1][2] / medians[0][2]
+    ));
     let aba_cost = costs[0];
 
     // --- the reference solution ---

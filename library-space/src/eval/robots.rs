@@ -617,6 +617,7 @@ fn moving_joint(l: &LinkVal, t: JointType) -> Joint {
         motor_inertia: l.motor_inertia,
         viscous: l.viscous,
         coulomb: l.coulomb,
+        origin: None,
     }
 }
 

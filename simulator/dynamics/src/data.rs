@@ -2,10 +2,10 @@
 //! per model by [`Data::new`], then reused, so RNEA, CRBA, ABA and the integrators allocate
 //! nothing per call.
 
-use crate::model::Model;
+use crate::model::{Model, Motor};
 use crate::spatial::{Force, Motion, RigidInertia, Xform};
 use nalgebra::{DMatrix, DVector, Matrix6, Vector6};
-use robosim_kinematics::fk::link_transform;
+use robosim_kinematics::axis_rotation;
 
 /// Per-call results and scratch space for one [`Model`]. Results are public fields named after
 /// what fills them: [`crate::rnea`] fills `tau`, [`crate::crba`] fills `mass_matrix`,
@@ -58,15 +58,34 @@ impl Data {
         }
     }
 
-    /// Fills the parent-to-child transforms `x[j]` from the DH link transforms at `q`.
-    /// Depends only on q. `q.len() == model.dof()` is the caller's invariant.
+    /// Fills the parent-to-child transforms `x[j]` at `q`: the constant `C_j` followed by the
+    /// joint's motion (see the model's module docs). Depends only on q. `q.len() ==
+    /// model.dof()` is the caller's invariant.
     pub(crate) fn update_transforms(&mut self, model: &Model, q: &[f64]) {
         for ((x, link), &qj) in self.x.iter_mut().zip(&model.links).zip(q) {
-            let a = link_transform(model.convention, &link.joint, qj);
-            *x = Xform {
-                e: a.fixed_view::<3, 3>(0, 0).transpose(),
-                r: a.fixed_view::<3, 1>(0, 3).into_owned(),
-            };
+            let t = qj + link.offset;
+            match link.motor {
+                Motor::Aligned { i, sign } => {
+                    // e = Rm(t)ᵀ e_c: rows j, k of e_c turn by −t about axis i.
+                    let (s, c) = t.sin_cos();
+                    let s = s * sign;
+                    let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+                    let rj = link.e_c.row(j);
+                    let rk = link.e_c.row(k);
+                    x.e.set_row(i, &link.e_c.row(i));
+                    x.e.set_row(j, &(rj * c + rk * s));
+                    x.e.set_row(k, &(rk * c - rj * s));
+                    x.r = link.r_c;
+                }
+                Motor::Revolute => {
+                    x.e = axis_rotation(&link.axis, t).transpose() * link.e_c;
+                    x.r = link.r_c;
+                }
+                Motor::Prismatic => {
+                    x.e = link.e_c;
+                    x.r = link.r_c + link.e_c.tr_mul(&link.axis) * t;
+                }
+            }
         }
     }
 }

@@ -3,15 +3,18 @@
 //! frame j, its spatial inertia about the link-frame origin, motor inertia, friction and limits;
 //! and gravity in the base frame. Never changes during a step ([`crate::Data`] holds what does).
 //!
-//! Frames (DESIGN.md): link frame j is the frame at the end of `A_j`. In standard (distal) DH the
-//! joint j axis is `z_{j-1}`; in link frame j it is the constant line with direction
-//! `u = (0, sin α, cos α)` through `(−a, 0, 0)`. In modified (Craig) DH it is `z_j` through the
-//! origin of frame j. Either way the motion subspace `S_j` is constant in link frame j, so one
-//! set of algorithms serves both conventions (Featherstone 2008, §3.5 and §4.4).
+//! Frames: the one joint model of `robosim_kinematics` (`A_j = P_j · M_j(q_j) · T_j`, DH rows and
+//! general joints alike). The dynamics works in the **joint frames**: body j's frame is joint
+//! frame j moved by q_j (`P_j · M_j`), not link frame j — so the parent-to-child transform is a
+//! constant `C_j = T_{j−1} · P_j` followed by the motion about the axis (Pinocchio's layout), the
+//! motion subspace `S_j` is the bare axis (`[u; 0]` revolute, `[0; u]` prismatic), and each link's
+//! inertia is moved once, at build time, from link frame j into joint frame j by `T_j`. Joint
+//! torques, `M(q)` and `q̈` do not depend on the frames chosen; only the rounding does.
 
 use crate::spatial::{Motion, RigidInertia, skew};
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
-use robosim_kinematics::{Convention, Joint, JointType, ModelError, Robot};
+use robosim_kinematics::chain::Inertial;
+use robosim_kinematics::{Joint, JointType, ModelError, Robot};
 
 /// Why a model, an input vector or a simulation was refused or stopped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -76,13 +79,34 @@ pub enum DynamicsError {
     BadOption { field: &'static str, reason: String },
 }
 
-/// One link of the dynamics model (link frame j quantities).
+/// How the motion of a joint is applied to its constant transform (see [`Data`]'s
+/// `update_transforms`): an axis along ±x, ±y or ±z rotates two rows (exact and cheap), any
+/// other axis goes through the full rotation matrix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum Motor {
+    /// Revolute about coordinate axis `i` with sign `sign`.
+    Aligned { i: usize, sign: f64 },
+    /// Revolute about a unit axis.
+    Revolute,
+    /// Prismatic along a unit axis.
+    Prismatic,
+}
+
+/// One link of the dynamics model (joint frame j quantities; see the module docs).
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Link {
     pub joint: Joint,
-    /// Motion subspace (joint axis as a unit twist) in link frame j.
+    /// `C_j = T_{j−1} · P_j`: the parent body's frame → joint frame j before the motion, as
+    /// `e_c = Rᵀ` (parent coordinates → joint coordinates) and `r_c` (joint origin in parent).
+    pub e_c: Matrix3<f64>,
+    pub r_c: Vector3<f64>,
+    /// The joint axis (unit, joint frame), its offset and how its motion is applied.
+    pub axis: Vector3<f64>,
+    pub offset: f64,
+    pub motor: Motor,
+    /// Motion subspace (joint axis as a unit twist) in joint frame j.
     pub s: Motion,
-    /// Spatial inertia about the link-frame origin.
+    /// Spatial inertia about the joint-frame origin.
     pub inertia: RigidInertia,
     pub motor_inertia: f64,
     pub viscous: f64,
@@ -93,7 +117,6 @@ pub(crate) struct Link {
 /// [`Model::new`]; pair it with a [`crate::Data`] workspace.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Model {
-    pub(crate) convention: Convention,
     pub(crate) links: Vec<Link>,
     /// Gravity in the base frame (m/s²): the robot's world gravity rotated by `base`ᵀ.
     pub(crate) gravity_base: Vector3<f64>,
@@ -106,6 +129,7 @@ impl Model {
     pub fn new(robot: &Robot) -> Result<Model, DynamicsError> {
         robot.validate()?;
         let mut links = Vec::with_capacity(robot.dof());
+        let mut prev_trailing = Matrix4::identity();
         for (j, jt) in robot.joints.iter().enumerate() {
             let asym = (jt.inertia - jt.inertia.transpose()).abs().max();
             if asym > 1e-9 * (1.0 + jt.inertia.abs().max()) {
@@ -122,10 +146,50 @@ impl Model {
                     eigenvalue: min_eig,
                 });
             }
+            let g = jt.geometry(robot.convention);
+            let c = match &g.placement {
+                Some(p) => prev_trailing * p,
+                None => prev_trailing,
+            };
+            let trailing = g.trailing.unwrap_or_else(Matrix4::identity);
+            prev_trailing = trailing;
+            // The link's inertial, moved from link frame j into joint frame j by T_j.
+            let inertial = Inertial {
+                mass: jt.mass,
+                com: jt.com,
+                inertia: sym,
+            }
+            .transformed(&trailing);
+            let u = g.axis;
+            let (motor, s) = match g.joint_type {
+                JointType::Revolute => (
+                    aligned(&u).map_or(Motor::Revolute, |(i, sign)| Motor::Aligned { i, sign }),
+                    Motion {
+                        w: u,
+                        v: Vector3::zeros(),
+                    },
+                ),
+                JointType::Prismatic => (
+                    Motor::Prismatic,
+                    Motion {
+                        w: Vector3::zeros(),
+                        v: u,
+                    },
+                ),
+            };
             links.push(Link {
                 joint: jt.clone(),
-                s: motion_subspace(robot.convention, jt),
-                inertia: RigidInertia::from_com(jt.mass, &jt.com, &sym),
+                e_c: c.fixed_view::<3, 3>(0, 0).transpose(),
+                r_c: c.fixed_view::<3, 1>(0, 3).into_owned(),
+                axis: u,
+                offset: g.offset,
+                motor,
+                s,
+                inertia: RigidInertia::from_com(
+                    inertial.mass,
+                    &inertial.com,
+                    &((inertial.inertia + inertial.inertia.transpose()) * 0.5),
+                ),
                 motor_inertia: jt.motor_inertia,
                 viscous: jt.viscous,
                 coulomb: jt.coulomb,
@@ -133,7 +197,6 @@ impl Model {
         }
         let rot = robot.base.fixed_view::<3, 3>(0, 0).into_owned();
         Ok(Model {
-            convention: robot.convention,
             links,
             gravity_base: rot.tr_mul(&robot.gravity),
             robot: robot.clone(),
@@ -202,36 +265,11 @@ impl Model {
     }
 }
 
-/// The joint axis as a unit twist in link frame j (see the module docs).
-fn motion_subspace(convention: Convention, joint: &Joint) -> Motion {
-    let z = Vector3::z();
-    match (convention, joint.joint_type) {
-        (Convention::Standard, jt) => {
-            let (sa, ca) = joint.alpha.sin_cos();
-            let u = Vector3::new(0.0, sa, ca);
-            match jt {
-                JointType::Revolute => {
-                    let r = Vector3::new(-joint.a, 0.0, 0.0);
-                    Motion {
-                        w: u,
-                        v: r.cross(&u),
-                    }
-                }
-                JointType::Prismatic => Motion {
-                    w: Vector3::zeros(),
-                    v: u,
-                },
-            }
-        }
-        (Convention::Modified, JointType::Revolute) => Motion {
-            w: z,
-            v: Vector3::zeros(),
-        },
-        (Convention::Modified, JointType::Prismatic) => Motion {
-            w: Vector3::zeros(),
-            v: z,
-        },
-    }
+/// `Some((i, ±1))` when `u` is exactly ±e_i.
+fn aligned(u: &Vector3<f64>) -> Option<(usize, f64)> {
+    (0..3).find_map(|i| {
+        (u[i].abs() == 1.0 && u[(i + 1) % 3] == 0.0 && u[(i + 2) % 3] == 0.0).then(|| (i, u[i]))
+    })
 }
 
 /// The seed's pseudo-inertia matrix of a link (ROBOSIM's per-link `inertia` matrix, seed §2 and
@@ -280,7 +318,6 @@ pub fn physically_consistent(joint: &Joint) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use robosim_kinematics::fk::link_transform;
 
     #[test]
     fn pseudo_inertia_round_trips() {
@@ -306,12 +343,22 @@ mod tests {
         );
     }
 
-    /// The joint axis in link frame j must be the one the kinematics moves: differentiate FK.
+    /// The motion subspace must be the body twist of the transform the algorithms use:
+    /// differentiate the parent-to-child transform of every joint of DH and general chains.
     #[test]
-    fn motion_subspace_matches_differentiated_link_transform() {
+    fn motion_subspace_matches_differentiated_transforms() {
+        use robosim_kinematics::{Convention, Origin};
+        let general = Joint {
+            origin: Some(Origin {
+                placement: robosim_kinematics::pose::trans(0.1, -0.2, 0.3)
+                    * robosim_kinematics::pose::rot_x(0.4),
+                axis: Vector3::new(0.36, 0.48, 0.8),
+            }),
+            ..Joint::default()
+        };
         for convention in [Convention::Standard, Convention::Modified] {
             for joint_type in [JointType::Revolute, JointType::Prismatic] {
-                let joint = Joint {
+                let dh = Joint {
                     joint_type,
                     a: 0.3,
                     d: -0.2,
@@ -320,29 +367,46 @@ mod tests {
                     offset: 0.1,
                     ..Joint::default()
                 };
-                let q = 0.9;
+                let gen_joint = Joint {
+                    joint_type,
+                    ..general.clone()
+                };
+                let robot = Robot {
+                    convention,
+                    joints: vec![dh.clone(), dh.clone(), gen_joint.clone(), dh],
+                    ..Robot::default()
+                };
+                let model = Model::new(&robot).expect("valid");
+                let mut data = crate::Data::new(&model);
+                let as4 = |x: &crate::spatial::Xform| {
+                    let mut m = Matrix4::identity();
+                    m.fixed_view_mut::<3, 3>(0, 0).copy_from(&x.e.transpose());
+                    m.fixed_view_mut::<3, 1>(0, 3).copy_from(&x.r);
+                    m
+                };
+                let q = [0.9, -0.3, 0.5, 1.1];
                 let h = 1e-6;
-                let a0 = link_transform(convention, &joint, q);
-                let a1 = link_transform(convention, &joint, q + h);
-                let a_1 = link_transform(convention, &joint, q - h);
-                // body twist of frame j: A⁻¹ dA/dq
-                let inv = a0.try_inverse().expect("rigid transform is invertible");
-                let tw = inv * (a1 - a_1) / (2.0 * h);
-                let w = Vector3::new(tw[(2, 1)], tw[(0, 2)], tw[(1, 0)]);
-                let v = Vector3::new(tw[(0, 3)], tw[(1, 3)], tw[(2, 3)]);
-                let s = motion_subspace(convention, &joint);
-                assert!(
-                    (s.w - w).norm() < 1e-8,
-                    "{convention:?} {joint_type:?}: w {:?} vs {:?}",
-                    s.w,
-                    w
-                );
-                assert!(
-                    (s.v - v).norm() < 1e-8,
-                    "{convention:?} {joint_type:?}: v {:?} vs {:?}",
-                    s.v,
-                    v
-                );
+                for k in 0..4 {
+                    let mut qp = q;
+                    let mut qm = q;
+                    qp[k] += h;
+                    qm[k] -= h;
+                    data.update_transforms(&model, &q);
+                    let a0 = as4(&data.x[k]);
+                    data.update_transforms(&model, &qp);
+                    let a1 = as4(&data.x[k]);
+                    data.update_transforms(&model, &qm);
+                    let a_1 = as4(&data.x[k]);
+                    let inv = a0.try_inverse().expect("rigid transform is invertible");
+                    let tw = inv * (a1 - a_1) / (2.0 * h);
+                    let w = Vector3::new(tw[(2, 1)], tw[(0, 2)], tw[(1, 0)]);
+                    let v = Vector3::new(tw[(0, 3)], tw[(1, 3)], tw[(2, 3)]);
+                    let s = &model.links[k].s;
+                    assert!(
+                        (s.w - w).norm() < 1e-8 && (s.v - v).norm() < 1e-8,
+                        "{convention:?} {joint_type:?} joint {k}: s {s:?} vs w {w:?} v {v:?}"
+                    );
+                }
             }
         }
     }

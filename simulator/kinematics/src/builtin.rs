@@ -50,6 +50,7 @@ fn puma560() -> Robot {
                 motor_inertia: 0.784029968642,
                 viscous: 5.801821767950799,
                 coulomb: 25.983606500000004,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -65,6 +66,7 @@ fn puma560() -> Robot {
                 motor_inertia: 2.324814845,
                 viscous: 9.496868641825,
                 coulomb: 10.6197775,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -80,6 +82,7 @@ fn puma560() -> Robot {
                 motor_inertia: 0.5768733319380001,
                 viscous: 3.9804259903721997,
                 coulomb: 6.36419655,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -95,6 +98,7 @@ fn puma560() -> Robot {
                 motor_inertia: 0.19079062612368,
                 viscous: 0.411645229697152,
                 coulomb: 1.06831142,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -110,6 +114,7 @@ fn puma560() -> Robot {
                 motor_inertia: 0.17070629165700002,
                 viscous: 0.4272830209354,
                 coulomb: 0.85444524,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -125,6 +130,7 @@ fn puma560() -> Robot {
                 motor_inertia: 0.19406450566800004,
                 viscous: 0.2158232532732,
                 coulomb: 0.55443978,
+                origin: None,
             },
         ],
         gravity: Vector3::new(0.0, 0.0, -9.81),
@@ -153,6 +159,7 @@ fn stanford() -> Robot {
                 motor_inertia: 0.953,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -168,6 +175,7 @@ fn stanford() -> Robot {
                 motor_inertia: 2.193,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Prismatic,
@@ -183,6 +191,7 @@ fn stanford() -> Robot {
                 motor_inertia: 0.782,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -198,6 +207,7 @@ fn stanford() -> Robot {
                 motor_inertia: 0.106,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -213,6 +223,7 @@ fn stanford() -> Robot {
                 motor_inertia: 0.097,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -228,6 +239,7 @@ fn stanford() -> Robot {
                 motor_inertia: 0.02,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
         ],
         gravity: Vector3::new(0.0, 0.0, -9.81),
@@ -259,6 +271,7 @@ fn panda() -> Robot {
                 motor_inertia: 0.0,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -277,6 +290,7 @@ fn panda() -> Robot {
                 motor_inertia: 0.0,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -295,6 +309,7 @@ fn panda() -> Robot {
                 motor_inertia: 0.0,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -313,6 +328,7 @@ fn panda() -> Robot {
                 motor_inertia: 0.0,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -331,6 +347,7 @@ fn panda() -> Robot {
                 motor_inertia: 0.0,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -349,6 +366,7 @@ fn panda() -> Robot {
                 motor_inertia: 0.0,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -367,6 +385,7 @@ fn panda() -> Robot {
                 motor_inertia: 0.0,
                 viscous: 0.0,
                 coulomb: 0.0,
+                origin: None,
             },
         ],
         gravity: Vector3::new(0.0, 0.0, -9.81),

@@ -1,57 +1,13 @@
-//! Forward kinematics (DESIGN.md conventions; see [`crate::Robot`]). Depends only on q.
+//! Forward kinematics on the one joint model (see [`crate::Robot`] and the `model` module docs:
+//! `A_j = P_j · M_j(q_j) · T_j`). Depends only on q.
 
-use crate::model::{Convention, Joint, JointType, Robot};
+use crate::model::{Convention, Joint, Robot};
 use nalgebra::Matrix4;
 
-/// The link transform `A_j` of joint `j` at joint value `q` (rad or m).
+/// The link transform `A_j = P_j · M_j(q + offset_j) · T_j` of joint `j` at joint value `q`
+/// (rad or m), through [`Joint::geometry`] — one code path for DH rows and general joints.
 pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<f64> {
-    let (theta, d) = match joint.joint_type {
-        JointType::Revolute => (q + joint.offset, joint.d),
-        JointType::Prismatic => (joint.theta, q + joint.offset),
-    };
-    let (st, ct) = theta.sin_cos();
-    let (sa, ca) = joint.alpha.sin_cos();
-    let a = joint.a;
-    match convention {
-        // Rz(θ) Tz(d) Tx(a) Rx(α)
-        Convention::Standard => Matrix4::new(
-            ct,
-            -st * ca,
-            st * sa,
-            a * ct, //
-            st,
-            ct * ca,
-            -ct * sa,
-            a * st, //
-            0.0,
-            sa,
-            ca,
-            d, //
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-        ),
-        // Rx(α_{j-1}) Tx(a_{j-1}) Rz(θ) Tz(d)
-        Convention::Modified => Matrix4::new(
-            ct,
-            -st,
-            0.0,
-            a, //
-            st * ca,
-            ct * ca,
-            -sa,
-            -sa * d, //
-            st * sa,
-            ct * sa,
-            ca,
-            ca * d, //
-            0.0,
-            0.0,
-            0.0,
-            1.0,
-        ),
-    }
+    joint.geometry(convention).transform(q)
 }
 
 /// Every link frame in the world: `frames[0]` is the base, `frames[j]` the frame at the end of

@@ -4,12 +4,13 @@
 //! solvers), [`singularity`] (smallest singular value, manipulability, condition number).
 //!
 //! Rows are vx vy vz ωx ωy ωz: the linear velocity of the tool-frame origin and the angular
-//! velocity of the tool (DESIGN.md). "Base" means the world frame in which
+//! velocity of the tool (DESIGN.md), for every joint of the one joint model (revolute column
+//! `[u × (p_e − o); u]` with `u` the world axis through the joint frame's origin `o`, prismatic
+//! `[u; 0]`). "Base" means the world frame in which
 //! `T_ee = base · A_1 ⋯ A_n · tool` is expressed (as Robotics Toolbox's `jacob0`); "tool"
 //! re-expresses both velocities in the tool frame's axes (as `jacobe`).
 
-use crate::fk::link_transform;
-use crate::model::{Convention, JointType, Robot};
+use crate::model::{JointType, Robot};
 use crate::pose::{rotation, translation};
 use nalgebra::{DMatrix, Dyn, Matrix4, OMatrix, U6, Vector3};
 
@@ -36,21 +37,21 @@ pub fn fk_and_jacobian(robot: &Robot, q: &[f64]) -> (Matrix4<f64>, Jacobian) {
 
 /// [`fk_and_jacobian`] into a caller-owned 6 × n buffer (no allocation). Returns `T_ee`.
 pub fn fk_and_jacobian_into(robot: &Robot, q: &[f64], jac: &mut Jacobian) -> Matrix4<f64> {
-    // Joint j's axis is z of the frame before it (standard DH: frame j−1) or of the frame after
-    // its Rx·Tx prefix (modified DH: frame j, since A_j = Rx Tx · Rz Tz and Rz Tz keeps z).
-    // First pass: park each axis (rows 3..6) and its origin (rows 0..3) in the column.
+    // Joint j's axis is u_j in the joint frame W_j = (frame j−1) · P_j, through W_j's origin
+    // (model docs). First pass: park the world axis (rows 3..6) and W_j's origin (rows 0..3).
     let mut t = robot.base;
     for (j, (joint, &qj)) in robot.joints.iter().zip(q).enumerate() {
-        let next = t * link_transform(robot.convention, joint, qj);
-        let f = match robot.convention {
-            Convention::Standard => &t,
-            Convention::Modified => &next,
+        let g = joint.geometry(robot.convention);
+        let w = match &g.placement {
+            Some(p) => t * p,
+            None => t,
         };
+        let axis = w.fixed_view::<3, 3>(0, 0) * g.axis;
         for i in 0..3 {
-            jac[(i, j)] = f[(i, 3)];
-            jac[(i + 3, j)] = f[(i, 2)];
+            jac[(i, j)] = w[(i, 3)];
+            jac[(i + 3, j)] = axis[i];
         }
-        t = next;
+        t *= g.transform(qj);
     }
     let tee = t * robot.tool;
     let pe = translation(&tee);

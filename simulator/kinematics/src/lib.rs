@@ -4,7 +4,10 @@
 //! simulator all call the same code.
 //!
 //! Entry points:
-//! * [`Robot`], [`Joint`], [`Convention`] — the model (DESIGN.md, "The query protocol"; its
+//! * [`Robot`], [`Joint`], [`Convention`], [`JointGeometry`] — the one joint model (a fixed
+//!   placement, a motion about a unit axis, a trailing transform; DH rows and general URDF-style
+//!   joints both fill it: see the `model` module docs) and [`chain::build_chain`], which folds
+//!   fixed joints into it (DESIGN.md, "The query protocol"; its
 //!   inline JSON form is read and written by `robosim_hl_interface::robot_json`);
 //!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
@@ -17,6 +20,7 @@
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
 
 mod builtin;
+pub mod chain;
 mod data;
 pub mod encoder;
 pub mod fk;
@@ -28,5 +32,7 @@ pub mod pose;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
 pub use data::Data;
-pub use model::{Convention, Joint, JointType, ModelError, Robot, State};
+pub use model::{
+    Convention, Joint, JointGeometry, JointType, ModelError, Origin, Robot, State, axis_rotation,
+};
 pub use movej::{LimitViolation, MoveJError, movej_interpolate};

@@ -1,11 +1,43 @@
 //! The robot model: what a robot *is*. Never changes during a step (see [`State`] for what it
 //! is doing).
 //!
-//! Conventions (DESIGN.md): SI units; standard (distal) DH `A_j = Rz(θ_j) Tz(d_j) Tx(a_j) Rx(α_j)`;
-//! modified (Craig) DH, row j holding `a_{j-1}, α_{j-1}`: `A_j = Rx(α_{j-1}) Tx(a_{j-1}) Rz(θ_j) Tz(d_j)`.
-//! Revolute: `θ_j = q_j + offset_j`; prismatic: `d_j = q_j + offset_j` with constant `theta`.
-//! `T_ee = base · A_1 ⋯ A_n · tool`. `com` and `inertia` (about the centre of mass) are in link
-//! frame j, the frame at the end of `A_j`.
+//! # One joint model
+//!
+//! Every joint, however it was described, is the same thing to the algorithms (FK, Jacobians,
+//! IK, encoder error, MOVEJ, RNEA/CRBA/ABA): a [`JointGeometry`]
+//!
+//! ```text
+//! A_j(q) = P_j · M_j(q_j + offset_j) · T_j
+//! ```
+//!
+//! * `P_j` — the fixed **placement**: parent link frame j−1 → joint frame j, a rigid transform;
+//! * `M_j` — the **motion** about the unit **axis** `u_j` (given in the joint frame, through its
+//!   origin): a rotation by the angle for a revolute joint, a translation along `u_j` by the
+//!   distance for a prismatic one;
+//! * `T_j` — a fixed **trailing** transform from the moved joint frame to link frame j.
+//!
+//! `T_ee = base · A_1 ⋯ A_n · tool`. Link frame j is the frame at the end of `A_j`; `com` and
+//! `inertia` (about the centre of mass) are given in it. SI units: m, rad, kg, kg·m².
+//!
+//! A joint is filled in one of two ways:
+//! * **General** ([`Joint::origin`] is `Some`): URDF's `<origin>` and `<axis>`. `P_j` is
+//!   `origin.placement`, `u_j` is `origin.axis`, `T_j = 1`, so link frame j *is* the moved joint
+//!   frame (URDF's child link frame). `a`, `d`, `alpha` and `theta` are ignored.
+//! * **DH** (`origin` is `None`, the default), by the robot's [`Convention`]:
+//!   - standard (distal) DH `A_j = Rz(θ_j) Tz(d_j) Tx(a_j) Rx(α_j)`: revolute `P = 1`,
+//!     `u = z`, `T = Tz(d) Tx(a) Rx(α)`; prismatic `P = Rz(θ)`, `u = z`, `T = Tx(a) Rx(α)`;
+//!   - modified (Craig) DH, row j holding `a_{j-1}, α_{j-1}`:
+//!     `A_j = Rx(α_{j-1}) Tx(a_{j-1}) Rz(θ_j) Tz(d_j)`: revolute `P = Rx(α) Tx(a)`, `u = z`,
+//!     `T = Tz(d)`; prismatic `P = Rx(α) Tx(a) Rz(θ)`, `u = z`, `T = 1`.
+//!
+//!   Revolute: `θ_j = q_j + offset_j`; prismatic: `d_j = q_j + offset_j` with constant `theta`.
+//!   The products are formed so that DH rows give bit-for-bit the closed-form DH matrices.
+//!
+//! Joint kinds: revolute, prismatic; a **continuous** joint is a revolute one with limits
+//! `[−∞, ∞]`; a **fixed** joint has no coordinate and is folded when a chain is built
+//! ([`crate::chain`]): its transform joins the next joint's placement (or the tool) and the
+//! inertia of what it carries is lumped into the link it hangs from — as Pinocchio's URDF
+//! reader does, so q, M(q) and τ are those of the chain with the fixed joints.
 
 use nalgebra::{DVector, Matrix3, Matrix4, Vector3};
 use serde::{Deserialize, Serialize};
@@ -50,6 +82,163 @@ pub struct Joint {
     pub viscous: f64,
     /// Coulomb friction magnitude, N·m (0: none).
     pub coulomb: f64,
+    /// A general (non-DH) joint's placement and axis; `None` (the default): a DH row, read by
+    /// the robot's [`Convention`] (see the module docs).
+    /// (Always serialised, `null` when absent: bincode, which carries robots between
+    /// processes, cannot skip fields.)
+    pub origin: Option<Origin>,
+}
+
+/// A general joint's geometry, as URDF's `<origin>` and `<axis>`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Origin {
+    /// Parent link frame → joint frame, a rigid 4×4 transform (m).
+    pub placement: Matrix4<f64>,
+    /// The joint axis in the joint frame, a unit vector: the rotation axis (through the joint
+    /// frame's origin) of a revolute joint, the direction of travel of a prismatic one.
+    pub axis: Vector3<f64>,
+}
+
+/// The canonical form every algorithm uses: `A(q) = P · M(q + offset) · T` (see the module
+/// docs). `None` for `placement` or `trailing` means the identity (skipped, not multiplied).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointGeometry {
+    pub joint_type: JointType,
+    pub placement: Option<Matrix4<f64>>,
+    /// Unit axis in the joint frame.
+    pub axis: Vector3<f64>,
+    pub offset: f64,
+    pub trailing: Option<Matrix4<f64>>,
+}
+
+impl JointGeometry {
+    /// The motion `M(q + offset)` alone: rotation about / translation along the axis.
+    pub fn motion(&self, q: f64) -> Matrix4<f64> {
+        let x = q + self.offset;
+        let mut m = Matrix4::identity();
+        match self.joint_type {
+            JointType::Revolute => {
+                m.fixed_view_mut::<3, 3>(0, 0)
+                    .copy_from(&axis_rotation(&self.axis, x));
+            }
+            JointType::Prismatic => {
+                m.fixed_view_mut::<3, 1>(0, 3).copy_from(&(self.axis * x));
+            }
+        }
+        m
+    }
+
+    /// The link transform `A(q) = P · M(q + offset) · T`.
+    pub fn transform(&self, q: f64) -> Matrix4<f64> {
+        let m = match &self.trailing {
+            Some(t) => self.motion(q) * t,
+            None => self.motion(q),
+        };
+        match &self.placement {
+            Some(p) => p * m,
+            None => m,
+        }
+    }
+}
+
+/// The rotation by `angle` about the unit `axis`. Exact (no rounding beyond sin and cos) when
+/// the axis is ±x, ±y or ±z, as DH and most URDF axes are; Rodrigues' formula otherwise.
+pub fn axis_rotation(axis: &Vector3<f64>, angle: f64) -> Matrix3<f64> {
+    let (s, c) = angle.sin_cos();
+    let aligned =
+        |i: usize| axis[i].abs() == 1.0 && axis[(i + 1) % 3] == 0.0 && axis[(i + 2) % 3] == 0.0;
+    for i in 0..3 {
+        if aligned(i) {
+            let s = s * axis[i];
+            let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+            let mut r = Matrix3::zeros();
+            r[(i, i)] = 1.0;
+            r[(j, j)] = c;
+            r[(k, k)] = c;
+            r[(j, k)] = -s;
+            r[(k, j)] = s;
+            return r;
+        }
+    }
+    let u = axis;
+    let k = Matrix3::new(0.0, -u.z, u.y, u.z, 0.0, -u.x, -u.y, u.x, 0.0);
+    Matrix3::identity() * c + k * s + (u * u.transpose()) * (1.0 - c)
+}
+
+impl Joint {
+    /// This joint in the canonical form (see the module docs); `convention` is the robot's
+    /// and matters only for a DH row.
+    pub fn geometry(&self, convention: Convention) -> JointGeometry {
+        if let Some(o) = &self.origin {
+            return JointGeometry {
+                joint_type: self.joint_type,
+                placement: Some(o.placement),
+                axis: o.axis,
+                offset: self.offset,
+                trailing: None,
+            };
+        }
+        let z = Vector3::z();
+        let (sa, ca) = self.alpha.sin_cos();
+        // Tx(a) Rx(α) with a translation `dz` along z first: Tz(dz) Tx(a) Rx(α).
+        let tz_tx_rx = |dz: f64| {
+            Matrix4::new(
+                1.0, 0.0, 0.0, self.a, //
+                0.0, ca, -sa, 0.0, //
+                0.0, sa, ca, dz, //
+                0.0, 0.0, 0.0, 1.0,
+            )
+        };
+        let rx_tx = Matrix4::new(
+            1.0, 0.0, 0.0, self.a, //
+            0.0, ca, -sa, 0.0, //
+            0.0, sa, ca, 0.0, //
+            0.0, 0.0, 0.0, 1.0,
+        );
+        let rz = |theta: f64| {
+            let (st, ct) = theta.sin_cos();
+            Matrix4::new(
+                ct, -st, 0.0, 0.0, //
+                st, ct, 0.0, 0.0, //
+                0.0, 0.0, 1.0, 0.0, //
+                0.0, 0.0, 0.0, 1.0,
+            )
+        };
+        let tz = |d: f64| {
+            let mut m = Matrix4::identity();
+            m[(2, 3)] = d;
+            m
+        };
+        let (placement, trailing) = match (convention, self.joint_type) {
+            (Convention::Standard, JointType::Revolute) => (None, Some(tz_tx_rx(self.d))),
+            (Convention::Standard, JointType::Prismatic) => {
+                (Some(rz(self.theta)), Some(tz_tx_rx(0.0)))
+            }
+            (Convention::Modified, JointType::Revolute) => (Some(rx_tx), Some(tz(self.d))),
+            (Convention::Modified, JointType::Prismatic) => (Some(rx_tx * rz(self.theta)), None),
+        };
+        JointGeometry {
+            joint_type: self.joint_type,
+            placement,
+            axis: z,
+            offset: self.offset,
+            trailing,
+        }
+    }
+
+    /// Whether this joint is a general one (has an [`Origin`]) rather than a DH row.
+    pub fn is_general(&self) -> bool {
+        self.origin.is_some()
+    }
+
+    /// The fixed lengths this joint contributes to the arm's size (m): `|a| + |d|` for a DH
+    /// row, the placement's translation length for a general joint.
+    pub fn length(&self) -> f64 {
+        match &self.origin {
+            Some(o) => o.placement.fixed_view::<3, 1>(0, 3).norm(),
+            None => self.a.abs() + self.d.abs(),
+        }
+    }
 }
 
 impl Default for Joint {
@@ -68,6 +257,7 @@ impl Default for Joint {
             motor_inertia: 0.0,
             viscous: 0.0,
             coulomb: 0.0,
+            origin: None,
         }
     }
 }
@@ -113,6 +303,12 @@ pub enum ModelError {
     NegativeMass { joint: usize, mass: f64 },
     #[error("`{field}` is not a rigid transform (finite, orthonormal rotation, last row 0 0 0 1)")]
     NotRigid { field: &'static str },
+    #[error(
+        "joint {joint}: origin placement is not a rigid transform (finite, orthonormal rotation, last row 0 0 0 1)"
+    )]
+    NotRigidOrigin { joint: usize },
+    #[error("joint {joint}: axis {axis:?} is not a finite unit vector")]
+    BadAxis { joint: usize, axis: [f64; 3] },
     #[error("q has {got} values but the robot has {expected} joints")]
     WrongDof { expected: usize, got: usize },
     #[error("q[{index}] is not finite ({value})")]
@@ -179,6 +375,18 @@ impl Robot {
                     lo: jt.qlim[0],
                     hi: jt.qlim[1],
                 });
+            }
+            if let Some(o) = &jt.origin {
+                if !is_rigid(&o.placement) {
+                    return Err(ModelError::NotRigidOrigin { joint: j });
+                }
+                let n = o.axis.norm();
+                if !n.is_finite() || (n - 1.0).abs() > 1e-9 {
+                    return Err(ModelError::BadAxis {
+                        joint: j,
+                        axis: [o.axis.x, o.axis.y, o.axis.z],
+                    });
+                }
             }
             if jt.mass < 0.0 {
                 return Err(ModelError::NegativeMass {

@@ -63,7 +63,7 @@ impl Default for Dls {
 
 /// The arm's length scale used to make position errors unit-free.
 pub(crate) fn length_scale(robot: &Robot) -> f64 {
-    let s: f64 = robot.joints.iter().map(|j| j.a.abs() + j.d.abs()).sum();
+    let s: f64 = robot.joints.iter().map(|j| j.length()).sum();
     let prismatic: f64 = robot
         .joints
         .iter()

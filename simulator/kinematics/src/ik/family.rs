@@ -143,6 +143,11 @@ pub fn recognise(robot: &Robot) -> Family {
             robot.dof()
         ));
     }
+    if let Some(j) = robot.joints.iter().position(|j| j.is_general()) {
+        return Family::General(format!(
+            "joint {j} is a general (placement and axis) joint; closed forms are recognised from DH rows only"
+        ));
+    }
     let chain = StandardChain::from_robot(robot);
     let jt = &chain.joints;
     let scale: f64 = jt

@@ -1,0 +1,901 @@
+//! URDF import (issue #14, first part): a URDF file read into robosim's one joint model
+//! (`robosim_kinematics`, module `model`: `A_j = P_j · M_j(q_j) · T_j`) as a serial chain from
+//! the URDF's root link to a chosen tip link. Entry points: [`import_urdf`] (a file),
+//! [`import_urdf_str`] (text with a name to report it under).
+//!
+//! What is read: `<link>` with its `<inertial>` (`<origin xyz rpy>`, `<mass value>`,
+//! `<inertia ixx ixy ixz iyy iyz izz>`: the tensor about the centre of mass in the axes the
+//! inertial origin's rpy names); `<joint>` of type revolute, continuous, prismatic or fixed with
+//! `<origin xyz rpy>` (URDF's fixed-axis roll–pitch–yaw, `R = Rz(y) Ry(p) Rx(r)`; absent =
+//! identity), `<axis xyz>` (absent = x, normalised as urdfdom does), `<limit lower upper effort
+//! velocity>` (required for revolute and prismatic joints, as the URDF spec says),
+//! `<dynamics damping friction>` (viscous, Coulomb) and `<mimic>` (noted; refused on the chain).
+//!
+//! The chain: q is the movable joints from the root to `tip`, in order; a continuous joint is
+//! one angle with limits ±∞; fixed joints on the chain are folded
+//! ([`robosim_kinematics::chain`]). Every joint **off** the chain is held at q = 0 and what it
+//! carries is rigid with the link it hangs from: its inertial is lumped into that link. The
+//! robot's base frame is the root link's frame (base = identity), link frame j is the child
+//! link frame of movable joint j, the tool is the tip link's frame; gravity (0, 0, −9.81).
+//!
+//! Not read (noted in [`UrdfRobot::notes`]): `<visual>` and `<collision>` geometry, materials
+//! and meshes (FK and dynamics need none of them), `<transmission>`, `<gazebo>`, safety
+//! controllers, calibration. Refused: floating and planar joints, xacro files, and every
+//! malformed input (see [`UrdfErrorKind`]); each error names the file, the line (roxmltree's
+//! positions) and the element.
+
+use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
+use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_chain};
+use robosim_kinematics::{ModelError, Robot};
+use std::collections::{HashMap, HashSet};
+use std::path::{Path, PathBuf};
+
+/// What was wrong, without the where (see [`UrdfError`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum UrdfErrorKind {
+    #[error("cannot read the file: {0}")]
+    Io(String),
+    #[error("malformed XML: {0}")]
+    Xml(String),
+    #[error("the root element is <{0}>, not <robot>")]
+    NotARobot(String),
+    #[error(
+        "a xacro file (it has <xacro:…> elements): run `xacro` on it first and import the URDF it writes"
+    )]
+    Xacro,
+    #[error("attribute `{0}` is missing")]
+    MissingAttribute(&'static str),
+    #[error("attribute `{attribute}` = {value:?}: {reason}")]
+    BadNumber {
+        attribute: &'static str,
+        value: String,
+        reason: &'static str,
+    },
+    #[error("joint type {0:?} is not supported (revolute, continuous, prismatic and fixed are)")]
+    UnsupportedJointType(String),
+    #[error("two elements are named {0:?}")]
+    DuplicateName(String),
+    #[error("<{0}> is missing")]
+    MissingElement(&'static str),
+    #[error("{role} link {link:?} is not a <link> of this robot")]
+    MissingLink { role: &'static str, link: String },
+    #[error("link {link:?} is the child of two joints ({first:?} and this one)")]
+    TwoParents { link: String, first: String },
+    #[error("the joints form a cycle through link {0:?}")]
+    Cycle(String),
+    #[error("two root links (links no joint moves): {0:?} and {1:?}")]
+    TwoRoots(String, String),
+    #[error("no root link (every link is some joint's child: the joints form a cycle)")]
+    NoRoot,
+    #[error("mass {0} kg is negative")]
+    NegativeMass(f64),
+    #[error("inertia is not positive semi-definite (principal moment {0:e} kg·m²)")]
+    InertiaNotPsd(f64),
+    #[error("axis is the zero vector")]
+    ZeroAxis,
+    #[error("lower limit {0} is above the upper limit {1}")]
+    ReversedLimits(f64, f64),
+    #[error("tip {0:?} is not a <link> of this robot")]
+    TipNotALink(String),
+    #[error("no tip given and the robot has {0} leaf links ({1}); name the tip link")]
+    AmbiguousTip(usize, String),
+    #[error(
+        "joint {0:?} on the chain mimics another joint; mimic joints are only supported off the chain (held at 0)"
+    )]
+    MimicOnChain(String),
+    #[error("the imported chain is not a valid robot: {0}")]
+    Model(ModelError),
+}
+
+/// A URDF problem: the file, the 1-based line (0 when there is no element, as for an unreadable
+/// file), the element (`<joint name="j1">`, `<link name="l2">/<inertial>/<mass>`, …) and what.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{}:{line}: {element}: {kind}", file.display())]
+pub struct UrdfError {
+    pub file: PathBuf,
+    pub line: u32,
+    pub element: String,
+    pub kind: UrdfErrorKind,
+}
+
+/// Per movable joint of the chain: the URDF's names and the limits robosim's model does not
+/// hold (effort and velocity; 0 or absent in the file = unknown, given as ∞).
+#[derive(Debug, Clone, PartialEq)]
+pub struct UrdfJoint {
+    pub name: String,
+    /// The child link (link frame j).
+    pub link: String,
+    /// `continuous` in the file (q unbounded).
+    pub continuous: bool,
+    /// Maximum effort, N·m or N.
+    pub effort: f64,
+    /// Maximum velocity, rad/s or m/s.
+    pub velocity: f64,
+}
+
+/// An imported chain (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct UrdfRobot {
+    /// The chain in the one joint model, validated.
+    pub robot: Robot,
+    pub root: String,
+    pub tip: String,
+    /// The movable joints, in q order.
+    pub joints: Vec<UrdfJoint>,
+    /// The fixed joints folded into the chain, root to tip.
+    pub folded: Vec<String>,
+    /// Joints off the chain (held at 0, their links lumped).
+    pub held: Vec<String>,
+    /// What was read but not used (geometry, mimic off the chain, …), one sentence each.
+    pub notes: Vec<String>,
+}
+
+/// Reads the URDF at `path` and builds the chain from its root link to `tip` (`None`: the only
+/// leaf link, when there is exactly one).
+pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
+    let text = std::fs::read_to_string(path).map_err(|e| UrdfError {
+        file: path.to_path_buf(),
+        line: 0,
+        element: "file".into(),
+        kind: UrdfErrorKind::Io(e.to_string()),
+    })?;
+    import_urdf_str(&text, path, tip)
+}
+
+struct LinkRec {
+    line: u32,
+    inertial: Inertial,
+    geometry: usize,
+}
+
+#[derive(Clone)]
+struct JointRec {
+    name: String,
+    line: u32,
+    kind: SegmentKind,
+    parent: String,
+    child: String,
+    placement: Matrix4<f64>,
+    axis: Vector3<f64>,
+    qlim: [f64; 2],
+    effort: f64,
+    velocity: f64,
+    viscous: f64,
+    coulomb: f64,
+    mimic: bool,
+}
+
+struct Reader<'a, 'input> {
+    file: &'a Path,
+    doc: &'a roxmltree::Document<'input>,
+}
+
+impl Reader<'_, '_> {
+    fn line(&self, node: roxmltree::Node) -> u32 {
+        self.doc.text_pos_at(node.range().start).row
+    }
+
+    fn err(&self, node: roxmltree::Node, element: &str, kind: UrdfErrorKind) -> UrdfError {
+        UrdfError {
+            file: self.file.to_path_buf(),
+            line: self.line(node),
+            element: element.to_string(),
+            kind,
+        }
+    }
+
+    fn attr<'n>(
+        &self,
+        node: roxmltree::Node<'n, '_>,
+        element: &str,
+        name: &'static str,
+    ) -> Result<&'n str, UrdfError> {
+        node.attribute(name)
+            .ok_or_else(|| self.err(node, element, UrdfErrorKind::MissingAttribute(name)))
+    }
+
+    /// A finite number attribute; `default` when absent (`None`: required).
+    fn number(
+        &self,
+        node: roxmltree::Node,
+        element: &str,
+        name: &'static str,
+        default: Option<f64>,
+    ) -> Result<f64, UrdfError> {
+        let Some(text) = node.attribute(name) else {
+            return default
+                .ok_or_else(|| self.err(node, element, UrdfErrorKind::MissingAttribute(name)));
+        };
+        let bad = |reason| {
+            self.err(
+                node,
+                element,
+                UrdfErrorKind::BadNumber {
+                    attribute: name,
+                    value: text.to_string(),
+                    reason,
+                },
+            )
+        };
+        let v: f64 = text.trim().parse().map_err(|_| bad("not a number"))?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(bad("not finite"))
+        }
+    }
+
+    /// Three finite numbers separated by white space; `default` when the attribute is absent.
+    fn triple(
+        &self,
+        node: roxmltree::Node,
+        element: &str,
+        name: &'static str,
+        default: [f64; 3],
+    ) -> Result<Vector3<f64>, UrdfError> {
+        let Some(text) = node.attribute(name) else {
+            return Ok(Vector3::from(default));
+        };
+        let bad = |reason| {
+            self.err(
+                node,
+                element,
+                UrdfErrorKind::BadNumber {
+                    attribute: name,
+                    value: text.to_string(),
+                    reason,
+                },
+            )
+        };
+        let parts: Vec<&str> = text.split_whitespace().collect();
+        if parts.len() != 3 {
+            return Err(bad("not three numbers"));
+        }
+        let mut v = Vector3::zeros();
+        for (i, p) in parts.iter().enumerate() {
+            v[i] = p.parse::<f64>().map_err(|_| bad("not a number"))?;
+            if !v[i].is_finite() {
+                return Err(bad("not finite"));
+            }
+        }
+        Ok(v)
+    }
+
+    /// `<origin xyz rpy>` under `parent` as a rigid transform (identity when absent).
+    fn origin(&self, parent: roxmltree::Node, element: &str) -> Result<Matrix4<f64>, UrdfError> {
+        let Some(o) = child(parent, "origin") else {
+            return Ok(Matrix4::identity());
+        };
+        let element = format!("{element}/<origin>");
+        let xyz = self.triple(o, &element, "xyz", [0.0; 3])?;
+        let rpy = self.triple(o, &element, "rpy", [0.0; 3])?;
+        let mut m = Matrix4::identity();
+        m.fixed_view_mut::<3, 3>(0, 0).copy_from(&rpy_matrix(&rpy));
+        m.fixed_view_mut::<3, 1>(0, 3).copy_from(&xyz);
+        Ok(m)
+    }
+
+    fn inertial(&self, link: roxmltree::Node, element: &str) -> Result<Inertial, UrdfError> {
+        let Some(node) = child(link, "inertial") else {
+            return Ok(Inertial::default());
+        };
+        let element = format!("{element}/<inertial>");
+        let o = self.origin(node, &element)?;
+        let mass_node = child(node, "mass")
+            .ok_or_else(|| self.err(node, &element, UrdfErrorKind::MissingElement("mass")))?;
+        let mass_el = format!("{element}/<mass>");
+        let mass = self.number(mass_node, &mass_el, "value", None)?;
+        if mass < 0.0 {
+            return Err(self.err(mass_node, &mass_el, UrdfErrorKind::NegativeMass(mass)));
+        }
+        let inertia = match child(node, "inertia") {
+            None => Matrix3::zeros(),
+            Some(i) => {
+                let el = format!("{element}/<inertia>");
+                let g = |n| self.number(i, &el, n, Some(0.0));
+                let (ixx, ixy, ixz, iyy, iyz, izz) = (
+                    g("ixx")?,
+                    g("ixy")?,
+                    g("ixz")?,
+                    g("iyy")?,
+                    g("iyz")?,
+                    g("izz")?,
+                );
+                let m = Matrix3::new(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz);
+                let min = SymmetricEigen::new(m).eigenvalues.min();
+                if min < -1e-12 * (1.0 + m.abs().max()) {
+                    return Err(self.err(i, &el, UrdfErrorKind::InertiaNotPsd(min)));
+                }
+                m
+            }
+        };
+        let r = o.fixed_view::<3, 3>(0, 0).into_owned();
+        Ok(Inertial {
+            mass,
+            com: o.fixed_view::<3, 1>(0, 3).into_owned(),
+            inertia: r * inertia * r.transpose(),
+        })
+    }
+
+    fn joint(&self, node: roxmltree::Node) -> Result<JointRec, UrdfError> {
+        let name = self.attr(node, "<joint>", "name")?.to_string();
+        let element = format!("<joint name={name:?}>");
+        let type_name = self.attr(node, &element, "type")?;
+        let kind = match type_name {
+            "revolute" => SegmentKind::Revolute,
+            "continuous" => SegmentKind::Continuous,
+            "prismatic" => SegmentKind::Prismatic,
+            "fixed" => SegmentKind::Fixed,
+            other => {
+                return Err(self.err(
+                    node,
+                    &element,
+                    UrdfErrorKind::UnsupportedJointType(other.to_string()),
+                ));
+            }
+        };
+        let link_of = |tag: &'static str| -> Result<String, UrdfError> {
+            let n = child(node, tag)
+                .ok_or_else(|| self.err(node, &element, UrdfErrorKind::MissingElement(tag)))?;
+            Ok(self
+                .attr(n, &format!("{element}/<{tag}>"), "link")?
+                .to_string())
+        };
+        let parent = link_of("parent")?;
+        let child_link = link_of("child")?;
+        let placement = self.origin(node, &element)?;
+        let axis = match child(node, "axis") {
+            None => Vector3::x(),
+            Some(a) => {
+                let el = format!("{element}/<axis>");
+                let v = self.triple(a, &el, "xyz", [1.0, 0.0, 0.0])?;
+                let n = v.norm();
+                if n == 0.0 {
+                    return Err(self.err(a, &el, UrdfErrorKind::ZeroAxis));
+                }
+                if n == 1.0 { v } else { v / n }
+            }
+        };
+        let limit = child(node, "limit");
+        let el = format!("{element}/<limit>");
+        let (mut qlim, mut effort, mut velocity) = ([f64::NEG_INFINITY, f64::INFINITY], 0.0, 0.0);
+        if let Some(l) = limit {
+            effort = self.number(l, &el, "effort", Some(0.0))?;
+            velocity = self.number(l, &el, "velocity", Some(0.0))?;
+            if matches!(kind, SegmentKind::Revolute | SegmentKind::Prismatic) {
+                qlim = [
+                    self.number(l, &el, "lower", Some(0.0))?,
+                    self.number(l, &el, "upper", Some(0.0))?,
+                ];
+                if qlim[0] > qlim[1] {
+                    return Err(self.err(l, &el, UrdfErrorKind::ReversedLimits(qlim[0], qlim[1])));
+                }
+            }
+        } else if matches!(kind, SegmentKind::Revolute | SegmentKind::Prismatic) {
+            return Err(self.err(node, &element, UrdfErrorKind::MissingElement("limit")));
+        }
+        let unknown = |x: f64| if x > 0.0 { x } else { f64::INFINITY };
+        let (viscous, coulomb) = match child(node, "dynamics") {
+            None => (0.0, 0.0),
+            Some(d) => {
+                let el = format!("{element}/<dynamics>");
+                (
+                    self.number(d, &el, "damping", Some(0.0))?,
+                    self.number(d, &el, "friction", Some(0.0))?,
+                )
+            }
+        };
+        Ok(JointRec {
+            line: self.line(node),
+            kind,
+            parent,
+            child: child_link,
+            placement,
+            axis,
+            qlim,
+            effort: unknown(effort),
+            velocity: unknown(velocity),
+            viscous,
+            coulomb,
+            mimic: child(node, "mimic").is_some(),
+            name,
+        })
+    }
+}
+
+fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
+    node.children()
+        .find(|c| c.is_element() && c.tag_name().name() == tag)
+}
+
+/// URDF's roll–pitch–yaw: `R = Rz(yaw) Ry(pitch) Rx(roll)`.
+pub fn rpy_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
+    let (sr, cr) = rpy.x.sin_cos();
+    let (sp, cp) = rpy.y.sin_cos();
+    let (sy, cy) = rpy.z.sin_cos();
+    Matrix3::new(
+        cy * cp,
+        cy * sp * sr - sy * cr,
+        cy * sp * cr + sy * sr,
+        sy * cp,
+        sy * sp * sr + cy * cr,
+        sy * sp * cr - cy * sr,
+        -sp,
+        cp * sr,
+        cp * cr,
+    )
+}
+
+/// [`import_urdf`] on text already read; `file` names it in errors.
+pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
+    let doc = roxmltree::Document::parse(text).map_err(|e| {
+        let pos = e.pos();
+        UrdfError {
+            file: file.to_path_buf(),
+            line: pos.row,
+            element: format!("column {}", pos.col),
+            kind: UrdfErrorKind::Xml(e.to_string()),
+        }
+    })?;
+    let rd = Reader { file, doc: &doc };
+    let root_el = doc.root_element();
+    // Processed URDFs often still declare xmlns:xacro (the UR files do): only elements in the
+    // xacro namespace mark an unprocessed file.
+    let is_xacro = root_el.descendants().any(|n| {
+        n.is_element()
+            && n.tag_name()
+                .namespace()
+                .is_some_and(|u| u.contains("xacro"))
+    });
+    if is_xacro {
+        return Err(rd.err(root_el, "<robot>", UrdfErrorKind::Xacro));
+    }
+    if root_el.tag_name().name() != "robot" {
+        return Err(rd.err(
+            root_el,
+            &format!("<{}>", root_el.tag_name().name()),
+            UrdfErrorKind::NotARobot(root_el.tag_name().name().to_string()),
+        ));
+    }
+    let robot_name = root_el.attribute("name").unwrap_or("urdf").to_string();
+
+    let mut links: HashMap<String, LinkRec> = HashMap::new();
+    let mut link_order: Vec<String> = Vec::new();
+    let mut joints: Vec<JointRec> = Vec::new();
+    let mut joint_names: HashSet<String> = HashSet::new();
+    for node in root_el.children().filter(|n| n.is_element()) {
+        match node.tag_name().name() {
+            "link" => {
+                let name = rd.attr(node, "<link>", "name")?.to_string();
+                let element = format!("<link name={name:?}>");
+                if links.contains_key(&name) {
+                    return Err(rd.err(node, &element, UrdfErrorKind::DuplicateName(name)));
+                }
+                let inertial = rd.inertial(node, &element)?;
+                let geometry = node
+                    .children()
+                    .filter(|c| {
+                        c.is_element() && matches!(c.tag_name().name(), "visual" | "collision")
+                    })
+                    .count();
+                links.insert(
+                    name.clone(),
+                    LinkRec {
+                        line: rd.line(node),
+                        inertial,
+                        geometry,
+                    },
+                );
+                link_order.push(name);
+            }
+            "joint" => {
+                let j = rd.joint(node)?;
+                if !joint_names.insert(j.name.clone()) {
+                    let el = format!("<joint name={:?}>", j.name);
+                    return Err(rd.err(node, &el, UrdfErrorKind::DuplicateName(j.name)));
+                }
+                joints.push(j);
+            }
+            _ => {}
+        }
+    }
+
+    // The tree: each link's parent joint; every joint's links must exist.
+    let joint_err = |j: &JointRec, kind| UrdfError {
+        file: file.to_path_buf(),
+        line: j.line,
+        element: format!("<joint name={:?}>", j.name),
+        kind,
+    };
+    let mut parent_joint: HashMap<&str, usize> = HashMap::new();
+    let mut children: HashMap<&str, Vec<usize>> = HashMap::new();
+    for (k, j) in joints.iter().enumerate() {
+        for (role, link) in [("parent", &j.parent), ("child", &j.child)] {
+            if !links.contains_key(link) {
+                return Err(joint_err(
+                    j,
+                    UrdfErrorKind::MissingLink {
+                        role,
+                        link: link.clone(),
+                    },
+                ));
+            }
+        }
+        if let Some(&first) = parent_joint.get(j.child.as_str()) {
+            return Err(joint_err(
+                j,
+                UrdfErrorKind::TwoParents {
+                    link: j.child.clone(),
+                    first: joints[first].name.clone(),
+                },
+            ));
+        }
+        parent_joint.insert(&j.child, k);
+        children.entry(&j.parent).or_default().push(k);
+    }
+    let roots: Vec<&String> = link_order
+        .iter()
+        .filter(|l| !parent_joint.contains_key(l.as_str()))
+        .collect();
+    let root = match roots.as_slice() {
+        [] => {
+            return Err(UrdfError {
+                file: file.to_path_buf(),
+                line: rd.line(root_el),
+                element: format!("<robot name={robot_name:?}>"),
+                kind: UrdfErrorKind::NoRoot,
+            });
+        }
+        [r] => (*r).clone(),
+        [a, b, ..] => {
+            return Err(UrdfError {
+                file: file.to_path_buf(),
+                line: links[b.as_str()].line,
+                element: format!("<link name={b:?}>"),
+                kind: UrdfErrorKind::TwoRoots((*a).clone(), (*b).clone()),
+            });
+        }
+    };
+    // Every link must be reachable from the root; one that is not sits on a cycle.
+    let mut reached: HashSet<&str> = HashSet::new();
+    let mut stack = vec![root.as_str()];
+    while let Some(l) = stack.pop() {
+        reached.insert(l);
+        for &k in children.get(l).map_or(&[][..], |v| v.as_slice()) {
+            stack.push(&joints[k].child);
+        }
+    }
+    if let Some(l) = link_order.iter().find(|l| !reached.contains(l.as_str())) {
+        let j = &joints[parent_joint[l.as_str()]];
+        return Err(joint_err(j, UrdfErrorKind::Cycle(l.clone())));
+    }
+
+    // The tip, and the chain root → tip.
+    let tip = match tip {
+        Some(t) => {
+            if !links.contains_key(t) {
+                return Err(UrdfError {
+                    file: file.to_path_buf(),
+                    line: rd.line(root_el),
+                    element: format!("<robot name={robot_name:?}>"),
+                    kind: UrdfErrorKind::TipNotALink(t.to_string()),
+                });
+            }
+            t.to_string()
+        }
+        None => {
+            let leaves: Vec<&String> = link_order
+                .iter()
+                .filter(|l| !children.contains_key(l.as_str()))
+                .collect();
+            if leaves.len() != 1 {
+                return Err(UrdfError {
+                    file: file.to_path_buf(),
+                    line: rd.line(root_el),
+                    element: format!("<robot name={robot_name:?}>"),
+                    kind: UrdfErrorKind::AmbiguousTip(
+                        leaves.len(),
+                        leaves
+                            .iter()
+                            .map(|s| s.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", "),
+                    ),
+                });
+            }
+            leaves[0].clone()
+        }
+    };
+    let mut chain: Vec<usize> = Vec::new();
+    let mut l = tip.as_str();
+    while let Some(&k) = parent_joint.get(l) {
+        chain.push(k);
+        l = joints[k].parent.as_str();
+    }
+    chain.reverse();
+    let on_chain: HashSet<usize> = chain.iter().copied().collect();
+
+    // Off-chain subtrees at q = 0, lumped into the chain link they hang from.
+    fn subtree(
+        link: &str,
+        joints: &[JointRec],
+        links: &HashMap<String, LinkRec>,
+        children: &HashMap<&str, Vec<usize>>,
+        skip: &HashSet<usize>,
+        held: &mut Vec<usize>,
+    ) -> Inertial {
+        let mut total = links[link].inertial;
+        for &k in children.get(link).map_or(&[][..], |v| v.as_slice()) {
+            if skip.contains(&k) {
+                continue;
+            }
+            held.push(k);
+            let sub = subtree(&joints[k].child, joints, links, children, skip, held);
+            total.merge(&sub.transformed(&joints[k].placement));
+        }
+        total
+    }
+    let mut held = Vec::new();
+    let mut notes = Vec::new();
+    let mut segments = Vec::with_capacity(chain.len());
+    for &k in &chain {
+        let j = &joints[k];
+        if j.mimic && j.kind != SegmentKind::Fixed {
+            return Err(joint_err(j, UrdfErrorKind::MimicOnChain(j.name.clone())));
+        }
+        segments.push(Segment {
+            kind: j.kind,
+            placement: j.placement,
+            axis: j.axis,
+            qlim: j.qlim,
+            viscous: j.viscous,
+            coulomb: j.coulomb,
+            child: subtree(&j.child, &joints, &links, &children, &on_chain, &mut held),
+        });
+    }
+    // What the root carries off the chain cannot move: it is not part of the dynamics.
+    let mut root_held = Vec::new();
+    subtree(&root, &joints, &links, &children, &on_chain, &mut root_held);
+    held.extend(root_held);
+    held.sort_unstable();
+
+    let built = build_chain(&robot_name, &segments);
+    let robot = built.robot;
+    robot.validate().map_err(|e| UrdfError {
+        file: file.to_path_buf(),
+        line: rd.line(root_el),
+        element: format!("<robot name={robot_name:?}>"),
+        kind: UrdfErrorKind::Model(e),
+    })?;
+    let movable: Vec<UrdfJoint> = built
+        .segment_of_joint
+        .iter()
+        .map(|&s| {
+            let j = &joints[chain[s]];
+            UrdfJoint {
+                name: j.name.clone(),
+                link: j.child.clone(),
+                continuous: j.kind == SegmentKind::Continuous,
+                effort: j.effort,
+                velocity: j.velocity,
+            }
+        })
+        .collect();
+    let folded = chain
+        .iter()
+        .filter(|&&k| joints[k].kind == SegmentKind::Fixed)
+        .map(|&k| joints[k].name.clone())
+        .collect();
+    for &k in &held {
+        if joints[k].mimic {
+            notes.push(format!(
+                "joint {:?} mimics another joint; it is off the chain and held at 0",
+                joints[k].name
+            ));
+        }
+    }
+    let geometry: usize = links.values().map(|l| l.geometry).sum();
+    if geometry > 0 {
+        notes.push(format!(
+            "{geometry} <visual>/<collision> elements not loaded (URDF geometry and meshes are not imported yet; FK and dynamics do not need them)"
+        ));
+    }
+    Ok(UrdfRobot {
+        robot,
+        root,
+        tip,
+        joints: movable,
+        folded,
+        held: held.iter().map(|&k| joints[k].name.clone()).collect(),
+        notes,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use robosim_kinematics::fk::forward;
+    use robosim_kinematics::pose::{rot_z, trans};
+
+    const TWO_LINK: &str = r#"<?xml version="1.0"?>
+<robot name="two">
+  <link name="base"/>
+  <link name="l1">
+    <inertial><origin xyz="0.1 0 0" rpy="0 0 0"/><mass value="2"/>
+      <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.02" iyz="0" izz="0.03"/></inertial>
+    <visual><geometry><mesh filename="package://nowhere/l1.stl"/></geometry></visual>
+  </link>
+  <link name="l2"/>
+  <link name="tip"/>
+  <joint name="j1" type="continuous">
+    <parent link="base"/><child link="l1"/>
+    <origin xyz="0 0 0.5" rpy="0 0 0"/><axis xyz="0 0 1"/>
+  </joint>
+  <joint name="j2" type="revolute">
+    <parent link="l1"/><child link="l2"/>
+    <origin xyz="1 0 0"/><axis xyz="0 0 2"/>
+    <limit lower="-2" upper="2" effort="10" velocity="3"/>
+  </joint>
+  <joint name="j3" type="fixed">
+    <parent link="l2"/><child link="tip"/><origin xyz="0.5 0 0"/>
+  </joint>
+</robot>"#;
+
+    fn import(text: &str, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
+        import_urdf_str(text, Path::new("t.urdf"), tip)
+    }
+
+    #[test]
+    fn planar_chain_with_fixed_tip_has_the_expected_forward_kinematics() {
+        let r = import(TWO_LINK, None).expect("imports");
+        assert_eq!(r.tip, "tip");
+        assert_eq!(r.robot.dof(), 2);
+        assert_eq!(r.folded, vec!["j3".to_string()]);
+        assert!(r.joints[0].continuous && r.joints[0].effort.is_infinite());
+        assert_eq!((r.joints[1].effort, r.joints[1].velocity), (10.0, 3.0));
+        assert_eq!(r.robot.joints[0].qlim, [f64::NEG_INFINITY, f64::INFINITY]);
+        assert_eq!(r.robot.joints[1].qlim, [-2.0, 2.0]);
+        assert_eq!(r.notes.len(), 1, "{:?}", r.notes);
+        let q = [0.3, -0.8];
+        let expected = trans(0.0, 0.0, 0.5)
+            * rot_z(q[0])
+            * trans(1.0, 0.0, 0.0)
+            * rot_z(q[1])
+            * trans(0.5, 0.0, 0.0);
+        assert!((forward(&r.robot, &q) - expected).abs().max() < 1e-15);
+        assert_eq!(r.robot.joints[0].mass, 2.0);
+    }
+
+    fn kind_of(text: &str, tip: Option<&str>) -> (u32, String, UrdfErrorKind) {
+        let e = import(text, tip).expect_err("refused");
+        assert!(e.to_string().starts_with("t.urdf:"), "{e}");
+        (e.line, e.element, e.kind)
+    }
+
+    #[test]
+    fn bad_input_is_refused_with_file_line_and_element() {
+        let (line, _, kind) = kind_of("<robot name='x'>\n<link name='a'>\n</robot>", None);
+        assert!(
+            matches!(kind, UrdfErrorKind::Xml(_)) && line == 3,
+            "{line} {kind:?}"
+        );
+
+        let missing_parent = TWO_LINK.replace(r#"<parent link="l1"/>"#, r#"<parent link="lx"/>"#);
+        let (line, element, kind) = kind_of(&missing_parent, None);
+        assert_eq!(element, r#"<joint name="j2">"#);
+        assert_eq!(line, 15);
+        assert!(matches!(
+            kind,
+            UrdfErrorKind::MissingLink { role: "parent", .. }
+        ));
+
+        let nan = TWO_LINK.replace(r#"<origin xyz="1 0 0"/>"#, r#"<origin xyz="1 nan 0"/>"#);
+        let (line, element, kind) = kind_of(&nan, None);
+        assert_eq!(
+            (line, element.as_str()),
+            (17, r#"<joint name="j2">/<origin>"#)
+        );
+        assert!(matches!(
+            kind,
+            UrdfErrorKind::BadNumber {
+                attribute: "xyz",
+                ..
+            }
+        ));
+
+        let neg = TWO_LINK.replace(r#"<mass value="2"/>"#, r#"<mass value="-2"/>"#);
+        let (line, element, kind) = kind_of(&neg, None);
+        assert_eq!(line, 5);
+        assert_eq!(element, r#"<link name="l1">/<inertial>/<mass>"#);
+        assert_eq!(kind, UrdfErrorKind::NegativeMass(-2.0));
+
+        let npd = TWO_LINK.replace(r#"izz="0.03""#, r#"izz="-0.03""#);
+        assert!(matches!(
+            kind_of(&npd, None).2,
+            UrdfErrorKind::InertiaNotPsd(_)
+        ));
+
+        let (_, _, kind) = kind_of(TWO_LINK, Some("nope"));
+        assert_eq!(kind, UrdfErrorKind::TipNotALink("nope".into()));
+
+        let two_roots = TWO_LINK.replace(
+            r#"<link name="tip"/>"#,
+            "<link name=\"tip\"/><link name=\"stray\"/>",
+        );
+        assert!(matches!(
+            kind_of(&two_roots, None).2,
+            UrdfErrorKind::TwoRoots(..)
+        ));
+
+        // A cycle: base → l1 → l2 → tip and tip → l1 would give l1 two parents; a detached ring
+        // l2 ⇄ tip (l1 → l2 replaced by tip → l2) leaves no second root but a cycle.
+        let ring = TWO_LINK.replace(
+            r#"<parent link="l1"/><child link="l2"/>"#,
+            r#"<parent link="tip"/><child link="l2"/>"#,
+        );
+        assert!(matches!(
+            kind_of(&ring, Some("l1")).2,
+            UrdfErrorKind::Cycle(_)
+        ));
+
+        let two_parents = TWO_LINK.replace(
+            r#"<parent link="l2"/><child link="tip"/>"#,
+            r#"<parent link="l2"/><child link="l1"/>"#,
+        );
+        assert!(matches!(
+            kind_of(&two_parents, None).2,
+            UrdfErrorKind::TwoParents { .. }
+        ));
+
+        let floating = TWO_LINK.replace(r#"type="continuous""#, r#"type="floating""#);
+        assert!(matches!(
+            kind_of(&floating, None).2,
+            UrdfErrorKind::UnsupportedJointType(_)
+        ));
+
+        let xacro = "<robot name='x' xmlns:xacro='http://www.ros.org/wiki/xacro'><xacro:macro name='m'/><link name='a'/></robot>";
+        assert_eq!(kind_of(xacro, None).2, UrdfErrorKind::Xacro);
+
+        let no_limit = TWO_LINK.replace(
+            r#"<limit lower="-2" upper="2" effort="10" velocity="3"/>"#,
+            "",
+        );
+        assert_eq!(
+            kind_of(&no_limit, None).2,
+            UrdfErrorKind::MissingElement("limit")
+        );
+
+        let mimic = TWO_LINK.replace(
+            r#"<axis xyz="0 0 2"/>"#,
+            r#"<axis xyz="0 0 2"/><mimic joint="j1"/>"#,
+        );
+        assert!(matches!(
+            kind_of(&mimic, None).2,
+            UrdfErrorKind::MimicOnChain(_)
+        ));
+
+        let e = import_urdf(Path::new("/nonexistent/robot.urdf"), None).expect_err("no file");
+        assert!(matches!(e.kind, UrdfErrorKind::Io(_)));
+        assert!(e.to_string().contains("/nonexistent/robot.urdf"));
+    }
+
+    #[test]
+    fn an_off_chain_branch_is_held_at_zero_and_lumped() {
+        // A finger on l1, off the chain to `tip`: its mass joins l1's.
+        let text = TWO_LINK.replace(
+            "</robot>",
+            r#"<link name="finger"><inertial><origin xyz="0 0.1 0"/><mass value="1"/>
+               <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+             <joint name="f" type="prismatic"><parent link="l1"/><child link="finger"/>
+               <origin xyz="0.2 0 0"/><limit lower="0" upper="0.04" effort="1" velocity="1"/>
+               <mimic joint="j2"/></joint>
+             </robot>"#,
+        );
+        let r = import(&text, Some("tip")).expect("imports");
+        assert_eq!(r.held, vec!["f".to_string()]);
+        assert!(r.notes.iter().any(|n| n.contains("mimics")));
+        let j = &r.robot.joints[0];
+        assert_eq!(j.mass, 3.0);
+        assert!((j.com - Vector3::new((0.2 + 0.2) / 3.0, 0.1 / 3.0, 0.0)).norm() < 1e-15);
+    }
+}
