@@ -65,6 +65,28 @@ impl TestSession {
             std::thread::sleep(Duration::from_millis(20));
         }
     }
+    /// Starts `robosim simulator` on this session and returns its pid once it has registered.
+    fn start_simulator(&mut self) -> u32 {
+        let child = self
+            .command(ROBOSIM)
+            .args(["simulator", "--session", &self.name])
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("start simulator");
+        let pid = child.id();
+        self.children.push(child);
+        let s = self.session();
+        let start = Instant::now();
+        while !s.processes().iter().any(|p| p.role == "simulator") {
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "simulator did not register"
+            );
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        pid
+    }
     /// This test binary in a child role.
     fn child(&mut self, role: &str, args: &[&str]) -> u32 {
         let exe = std::env::current_exe().expect("test exe");
@@ -495,26 +517,9 @@ fn kill_9_of_a_reader_or_the_simulator_leaves_the_keeper_and_others_running() {
     let s = t.session();
     let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
     let a = c.transact(&scene_tx()).expect("scene");
-    let sim = t
-        .command(ROBOSIM)
-        .args(["simulator", "--session", &t.name.clone()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("simulator");
-    let sim_pid = sim.id();
-    t.children.push(sim);
+    let sim_pid = t.start_simulator();
     let idle = t.child("idle", &[]);
     let mut other = with_home(t.home.path(), || Reader::attach(&s, "other")).expect("attach");
-    // Wait until the simulator has registered.
-    let start = Instant::now();
-    while !s.processes().iter().any(|p| p.role == "simulator") {
-        assert!(
-            start.elapsed() < Duration::from_secs(30),
-            "simulator did not register"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
     std::thread::sleep(Duration::from_millis(300));
     kill9(idle);
     kill9(sim_pid);
@@ -558,24 +563,8 @@ fn stop_and_continue_of_the_keeper_and_the_simulator_is_not_an_error() {
     let s = t.session();
     let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
     let a = c.transact(&scene_tx()).expect("scene");
-    let sim = t
-        .command(ROBOSIM)
-        .args(["simulator", "--session", &t.name.clone()])
-        .stdout(Stdio::null())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("simulator");
-    let sim_pid = sim.id();
-    t.children.push(sim);
+    let sim_pid = t.start_simulator();
     let mut reader = with_home(t.home.path(), || Reader::attach(&s, "watch")).expect("attach");
-    let start = Instant::now();
-    while !s.processes().iter().any(|p| p.role == "simulator") {
-        assert!(
-            start.elapsed() < Duration::from_secs(30),
-            "simulator did not register"
-        );
-        std::thread::sleep(Duration::from_millis(10));
-    }
     let signal = |sig: &str, pid: u32| {
         let ok = Command::new("kill")
             .args([sig, &pid.to_string()])
