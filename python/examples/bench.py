@@ -2,6 +2,7 @@
 
     python3 python/examples/bench.py --session lab [--n 2000]
     python3 python/examples/bench.py --fresh [--n 2000] [--planner-bench PATH]
+    python3 python/examples/bench.py --spin-compare 200 [--reps 5] [--n 2000] [--planner-bench PATH]
 
 With --session: one running session. With --fresh: two fresh sessions of the
 surgical_positioner_cell, one whose keeper syncs its journal before every acknowledgement (the
@@ -17,6 +18,11 @@ Measures p50 and p99 of:
   compares CLOCK_MONOTONIC at wake-up with the keeper's publish stamp;
 * the same two through the Rust planner client (the planner_bench example), when given.
 Prints a markdown table (µs).
+
+With --spin-compare S: two fresh --no-sync sessions, one keeper started with ROBOSIM_SPIN_US=0
+and one with ROBOSIM_SPIN_US=S (the clients of each with the same setting), and `set_joints` →
+acknowledged from Rust and Python measured on each in turn, --reps times, with the keepers' CPU
+time over each block (in % of one core).
 """
 
 import argparse
@@ -127,6 +133,69 @@ def fresh_session(robosim_bin, name, no_sync):
             time.sleep(0.05)
 
 
+def keeper_ticks(pid):
+    with open(f"/proc/{pid}/stat") as f:
+        rest = f.read().rsplit(") ", 1)[1].split()
+    return int(rest[11]) + int(rest[12])
+
+
+def spin_compare(a, bench):
+    """set_joints round trips against keepers with and without a spin window, interleaved."""
+    home = tempfile.mkdtemp(prefix="robosim-bench-")
+    os.environ["ROBOSIM_HOME"] = home
+    spins = (0, a.spin_compare)
+    keepers, sessions = {}, {}
+    try:
+        for spin in spins:
+            name = f"benchspin{spin}x{os.getpid()}"
+            env = dict(os.environ, ROBOSIM_SPIN_US=str(spin))
+            keepers[spin] = (name, subprocess.Popen(
+                [a.robosim, "space", "--scene", "surgical_positioner_cell", "--session", name,
+                 "--no-sync"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+        for spin in spins:
+            os.environ["ROBOSIM_SPIN_US"] = str(spin)
+            name = keepers[spin][0]
+            start = time.monotonic()
+            while True:
+                try:
+                    sessions[spin] = robosim.Session(name)
+                    break
+                except robosim.SessionError:
+                    if time.monotonic() - start > 60:
+                        raise
+                    time.sleep(0.05)
+        print("| rep | spin µs | Rust p50 µs | Rust p99 µs | Python p50 µs | Python p99 µs | keeper CPU % of a core |")
+        print("|---|---|---|---|---|---|---|")
+        for rep in range(a.reps):
+            for spin in spins:
+                name, proc = keepers[spin]
+                env = dict(os.environ, ROBOSIM_SPIN_US=str(spin))
+                t0, c0 = time.monotonic(), keeper_ticks(proc.pid)
+                out = subprocess.run([bench, "--session", name, "--n", str(a.n), "--ack-only"],
+                                     check=True, capture_output=True, text=True, env=env).stdout
+                r = json.loads(out.splitlines()[0])
+                s = sessions[spin]
+                q0 = s.joints(ROBOT)
+                ack = []
+                for k in range(a.n):
+                    q = q0 + 1e-4 * (k % 2)
+                    t = time.perf_counter_ns()
+                    s.set_joints(ROBOT, q)
+                    ack.append(time.perf_counter_ns() - t)
+                cpu = (keeper_ticks(proc.pid) - c0) / 100 / (time.monotonic() - t0) * 100
+                print(f"| {rep} | {spin} | {r['p50_us']:.1f} | {r['p99_us']:.1f} | {pct(ack)} | {cpu:.0f} |",
+                      flush=True)
+    finally:
+        sessions.clear()
+        for name, proc in keepers.values():
+            proc.terminate()
+            proc.wait()
+            for f in os.listdir("/dev/shm"):
+                if f.startswith(f"rs_{name}_"):
+                    os.remove(os.path.join("/dev/shm", f))
+        shutil.rmtree(home, ignore_errors=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--session", default="lab")
@@ -134,7 +203,12 @@ def main():
     ap.add_argument("--n", type=int, default=2000)
     ap.add_argument("--robosim", default=os.environ.get("ROBOSIM_BIN", "robosim"))
     ap.add_argument("--planner-bench", default=None)
+    ap.add_argument("--spin-compare", type=int, default=None, metavar="S")
+    ap.add_argument("--reps", type=int, default=5)
     a = ap.parse_args()
+    if a.spin_compare is not None:
+        spin_compare(a, a.planner_bench or os.path.join("target", "release", "examples", "planner_bench"))
+        return
     if not a.fresh:
         rows = measure(a.session, a.n, a.robosim, a.planner_bench)
         print("| path | p50 µs | p99 µs |")
