@@ -686,7 +686,9 @@ fn large_answers_arrive_whole_in_parts() {
     let a = c.transact(&big(0)).expect("committed");
     assert_eq!(a.created.len(), 3000);
     assert_eq!(a.changes.len(), 3000);
-    let pending: Vec<_> = (1..=3).map(|k| c.submit(&big(k)).expect("submit")).collect();
+    let pending: Vec<_> = (1..=3)
+        .map(|k| c.submit(&big(k)).expect("submit"))
+        .collect();
     let mut versions = Vec::new();
     for p in pending {
         let b = c.wait(p).expect("answer").expect("committed");

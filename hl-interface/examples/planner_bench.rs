@@ -147,7 +147,11 @@ fn churn(
             .args(["--session", session, "--attach-once"])
             .output()?;
         if !out.status.success() {
-            return Err(format!("attach-once child failed: {}", String::from_utf8_lossy(&out.stderr)).into());
+            return Err(format!(
+                "attach-once child failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+            .into());
         }
         if let Ok(ns) = String::from_utf8_lossy(&out.stdout).trim().parse::<f64>() {
             attach.push(ns);
