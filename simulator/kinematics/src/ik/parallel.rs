@@ -57,9 +57,9 @@ impl ParallelSolver {
         let tail = trans(j[5].a, 0.0, j[5].d) * rot_x(j[5].alpha) * g.chain.tool;
         let mut rows = [(0.0, 0.0, 0.0); 6];
         let mut offsets = [0.0; 6];
-        for k in 0..6 {
-            rows[k] = (j[k].d, j[k].a, j[k].alpha);
-            offsets[k] = j[k].offset;
+        for ((row, offset), jt) in rows.iter_mut().zip(offsets.iter_mut()).zip(j) {
+            *row = (jt.d, jt.a, jt.alpha);
+            *offset = jt.offset;
         }
         ParallelSolver {
             prefix_inv: rigid_inverse(&g.chain.prefix),
@@ -157,8 +157,8 @@ impl ParallelSolver {
                     let t4 = t234 - t2 - t3;
                     let theta = [t1, t2, t3, t4, t5, t6];
                     let mut q = [0.0; 6];
-                    for i in 0..6 {
-                        q[i] = wrap(theta[i] - self.offsets[i]);
+                    for ((qi, t), o) in q.iter_mut().zip(theta).zip(self.offsets) {
+                        *qi = wrap(t - o);
                     }
                     let mut flags = flags;
                     if let Some(e) = c3_excess {
