@@ -82,9 +82,12 @@ fn lines(stdout: Vec<u8>) -> Vec<String> {
 
 /// The answer lines of `robosim query --input FILE` (no session).
 fn query_pure(input: &Path) -> Vec<String> {
+    // From the repository's root, as make_query_doc runs it: the examples name URDF files by
+    // relative paths.
     let out = Command::new(ROBOSIM)
         .args(["query", "--input"])
         .arg(input)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
         .output()
         .expect("run robosim query");
     assert!(

@@ -66,10 +66,16 @@ const ROBOT_KEYS: &[&str] = &[
 /// Reads a robot in DESIGN.md's inline format and validates it ([`Robot::validate`]).
 /// Unknown keys are refused (a misspelt `"alpah"` would otherwise silently be 0); `source` and
 /// `notes` are free-form and ignored. Missing fields take [`Joint::default`] / [`Robot::default`].
+///
+/// An object with a `urdf` key is a URDF file instead: `{"urdf": PATH, "tip": LINK}` —
+/// the serial chain from the file's root link to `tip` ([`robot_from_urdf_json`]).
 pub fn robot_from_json(v: &Value) -> Result<Robot, JsonError> {
     let obj = v
         .as_object()
         .ok_or_else(|| JsonError::new("robot", "expected an object"))?;
+    if obj.contains_key("urdf") {
+        return robot_from_urdf_json(obj);
+    }
     check_keys(obj, ROBOT_KEYS, "robot")?;
     let mut robot = Robot::default();
     if let Some(name) = obj.get("name") {
@@ -113,6 +119,34 @@ pub fn robot_from_json(v: &Value) -> Result<Robot, JsonError> {
         .validate()
         .map_err(|e| JsonError::new("robot", e.to_string()))?;
     Ok(robot)
+}
+
+const URDF_KEYS: &[&str] = &["urdf", "tip"];
+
+/// `{"urdf": PATH, "tip": LINK}` (DESIGN.md, the query protocol): the serial chain of the URDF
+/// at PATH (relative paths from the answering process's working directory) from its root link
+/// to the link `tip` (absent: the only leaf link, when there is exactly one), imported by
+/// [`robosim_file_io::urdf_import::import_urdf`]. q is the chain's movable joints from the root;
+/// joints off the chain are held at 0, rigid with the link they hang from; the base frame is the
+/// root link's frame and the tool frame the tip link's. The file is read on every request.
+/// Errors: `robot.urdf` / `robot.tip` for a field of the wrong type, else `robot.urdf` with the
+/// importer's message (file, line, element and what: a missing file, malformed XML, a tip that
+/// is not a link, ...).
+pub fn robot_from_urdf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError> {
+    check_keys(obj, URDF_KEYS, "robot")?;
+    let path = obj
+        .get("urdf")
+        .and_then(Value::as_str)
+        .ok_or_else(|| JsonError::new("robot.urdf", "expected the URDF file's path (a string)"))?;
+    let tip = match obj.get("tip") {
+        None | Some(Value::Null) => None,
+        Some(t) => Some(t.as_str().ok_or_else(|| {
+            JsonError::new("robot.tip", "expected the tip link's name (a string)")
+        })?),
+    };
+    robosim_file_io::urdf_import::import_urdf(std::path::Path::new(path), tip)
+        .map(|imported| imported.robot)
+        .map_err(|e| JsonError::new("robot.urdf", e.to_string()))
 }
 
 fn joint_from_json(v: &Value, path: &str) -> Result<Joint, JsonError> {

@@ -154,6 +154,7 @@ fn ik_family(name: Option<&str>) -> u32 {
         Some("spherical_wrist") => 1,
         Some("rrp_spherical_wrist") => 2,
         Some("offset_wrist") => 3,
+        Some("three_parallel") => 4,
         Some(_) => 99,
     }
 }

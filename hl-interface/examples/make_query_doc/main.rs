@@ -45,8 +45,10 @@ fn repo() -> PathBuf {
 /// `robosim ARGS` with ROBOSIM_HOME = `home`; its standard output, or an error naming the
 /// command and carrying its standard error.
 fn robosim(exe: &Path, home: &Path, args: &[&str]) -> Result<String> {
+    // From the repository's root: the examples name URDF files by relative paths.
     let out = Command::new(exe)
         .args(args)
+        .current_dir(repo())
         .env("ROBOSIM_HOME", home)
         .output()
         .map_err(|e| format!("cannot run {}: {e}", exe.display()))?;

@@ -263,9 +263,20 @@ fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
         })?,
     };
     let options = ik_options(req, &robot)?;
+    // The closed-form family the geometry admits, and whether it was read from DH rows or
+    // from general joints' placements and axes (a URDF): what `auto` chose from.
+    let family = ik::family::recognise(&robot);
+    let mut family_json = json!({
+        "name": family.name(),
+        "from": if ik::family::recognised_from_axes(&robot) { "joint_axes" } else { "dh_rows" },
+    });
+    if let ik::family::Family::General(reason) = &family {
+        family_json["reason"] = json!(reason);
+    }
     match ik::solve(&robot, &pose, method, &options) {
         Ok(r) => Ok(json!({
             "method": r.method.name(),
+            "family": family_json,
             "solutions": r.solutions.iter().map(solution_json).collect::<Vec<_>>(),
         })),
         Err(e) => Err(match &e {

@@ -450,6 +450,7 @@ impl Evaluator<'_> {
                                         "spherical_wrist",
                                         "rrp_spherical_wrist",
                                         "offset_wrist",
+                                        "three_parallel",
                                         "general",
                                     ],
                                     "IK family",

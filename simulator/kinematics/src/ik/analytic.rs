@@ -20,12 +20,16 @@
 //! (|sin θ5| < [`WRIST_SINGULAR`]) θ4 is taken from the reference (see [`Note::WristSingular`]);
 //! never NaN.
 
-use super::family::{ArmGeometry, BoomGeometry, Family, recognise};
+use super::family::{ArmGeometry, BoomGeometry, Family, recognise, recognised_from_axes};
+use super::parallel::ParallelSolver;
 use super::{
     Branch, Elbow, IkError, IkOptions, IkResult, IkSolver, Method, Note, Shoulder, Wrist, finish,
     wrap,
 };
+use crate::fk::forward;
+use crate::jacobian::{Frame, jacobian};
 use crate::model::Robot;
+use crate::pose::pose_error;
 use crate::pose::{rigid_inverse, rot_x, trans};
 use nalgebra::{Matrix3, Matrix4, Vector3};
 use std::f64::consts::PI;
@@ -393,13 +397,24 @@ pub struct SphericalSolver {
 impl SphericalSolver {
     /// `NotApplicable` unless the robot is in [`Family::SphericalWrist`] or [`Family::BoomWrist`].
     pub fn new(robot: &Robot) -> Result<SphericalSolver, IkError> {
-        let (chain, s4, arm) = match recognise(robot) {
+        SphericalSolver::from_family(recognise(robot))
+    }
+
+    /// The solver for a family [`recognise`] returned (`NotApplicable` unless spherical).
+    pub fn from_family(family: Family) -> Result<SphericalSolver, IkError> {
+        let (chain, s4, arm) = match family {
             Family::SphericalWrist(g) => (g.chain.clone(), g.s4, Arm::Elbow(ArmSolver::new(&g))),
             Family::BoomWrist(g) => (g.chain.clone(), g.s4, Arm::Boom(BoomSolver::new(&g))),
             Family::OffsetWrist(_) => {
                 return Err(IkError::NotApplicable {
                     method: "analytic",
                     reason: "the wrist is not spherical (a5, d5 or a6 is not 0, or α5 is not ±π/2); use hybrid".into(),
+                });
+            }
+            Family::ThreeParallel(_) => {
+                return Err(IkError::NotApplicable {
+                    method: "analytic",
+                    reason: "the UR type (three parallel axes): see ik::parallel".into(),
                 });
             }
             Family::General(reason) => {
@@ -521,24 +536,35 @@ impl IkSolver for Analytic {
         target: &Matrix4<f64>,
         options: &IkOptions,
     ) -> Result<IkResult, IkError> {
-        let solver = SphericalSolver::new(robot)?;
         let mut reference = [0.0; 6];
         // `solve` has checked q0's length; a direct caller's wrong-length q0 is ignored.
         if let Some(q0) = options.q0.as_ref().filter(|q| q.len() == 6) {
             reference.copy_from_slice(q0);
         }
-        let (raw, why) = solver.solve_raw(target, &reference);
+        let (raw, why) = match recognise(robot) {
+            Family::ThreeParallel(g) => ParallelSolver::new(&g).solve_raw(target, &reference),
+            family => SphericalSolver::from_family(family)?.solve_raw(target, &reference),
+        };
+        // A family recognised from joint axes (within RECOVERED_TOLERANCE) is solved for the
+        // ideal geometry; Newton steps on the true model take the answer the rest of the way.
+        let polish_steps = if recognised_from_axes(robot) {
+            POLISH_STEPS
+        } else {
+            0
+        };
         let solutions: Vec<_> = raw
             .iter()
             .flatten()
             .map(|s| {
+                let mut q = s.q.to_vec();
+                let steps = polish(robot, target, &mut q, polish_steps);
                 finish(
                     robot,
                     target,
                     options,
-                    s.q.to_vec(),
+                    q,
                     Some(s.branch),
-                    0,
+                    steps,
                     s.flags.notes(),
                 )
             })
@@ -553,6 +579,35 @@ impl IkSolver for Analytic {
             solutions: pick(solutions, options),
         })
     }
+}
+
+/// At most this many Newton steps polish a closed-form answer of a family recognised from
+/// joint axes (the answer is within ~1e-11 of the true one, so one or two suffice).
+pub const POLISH_STEPS: usize = 4;
+
+/// Newton steps `J Δq = e` (base-frame Jacobian, LU) on `robot` towards `target`, at most
+/// `steps`, stopping when a step no longer reduces the pose error; returns the steps taken.
+fn polish(robot: &Robot, target: &Matrix4<f64>, q: &mut [f64], steps: usize) -> usize {
+    let error = |q: &[f64]| pose_error(&forward(robot, q), target);
+    let mut e = error(q);
+    for step in 0..steps {
+        if e.amax() == 0.0 {
+            return step;
+        }
+        let j = jacobian(robot, q, Frame::Base);
+        let j6 = nalgebra::Matrix6::from_iterator(j.iter().copied());
+        let Some(dq) = j6.lu().solve(&e) else {
+            return step;
+        };
+        let trial: Vec<f64> = q.iter().zip(dq.iter()).map(|(a, b)| a + b).collect();
+        let e_trial = error(&trial);
+        if e_trial.norm() >= e.norm() {
+            return step;
+        }
+        q.copy_from_slice(&trial);
+        e = e_trial;
+    }
+    steps
 }
 
 /// All solutions, or the single preferred one: converged and within limits first, then

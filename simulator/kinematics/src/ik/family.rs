@@ -10,6 +10,14 @@
 //!
 //! * [`Family::BoomWrist`] — an RRP arm (waist, shoulder, prismatic boom with α3 = 0) with a
 //!   spherical wrist: the Stanford arm. Closed form by [`super::analytic`].
+//! * [`Family::ThreeParallel`] — the UR type: a 6R arm with α1 = ±π/2, α2 = α3 = 0 (axes 2, 3
+//!   and 4 parallel, same direction), α4 = ±π/2, α5 = ±π/2, a5 = 0, a2 and a3 not 0 (UR3/5/10,
+//!   many cobots). Closed form (up to 8) by [`super::parallel`].
+//!
+//! A robot with general joints (placement and axis, as from a URDF) is first rewritten as its
+//! equivalent standard-DH chain ([`super::equivalent::equivalent_dh`]) and recognised with the
+//! tolerance [`super::equivalent::RECOVERED_TOLERANCE`] (1e-9 rad, 1e-9 × the arm's size)
+//! instead of 1e-12; [`recognised_from_axes`] tells which way a robot was recognised.
 //!
 //! Modified-DH robots are first rewritten as the equivalent standard chain
 //! ([`StandardChain::from_robot`]); the joint values are the same.
@@ -87,6 +95,16 @@ pub struct BoomGeometry {
     pub s4: f64,
 }
 
+/// A 6R arm of the UR type in standard DH (see the module docs).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParallelGeometry {
+    pub chain: StandardChain,
+    /// sin α1, sin α4, sin α5 (each ±1).
+    pub s1: f64,
+    pub s4: f64,
+    pub s5: f64,
+}
+
 /// Which closed form fits.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Family {
@@ -94,18 +112,21 @@ pub enum Family {
     /// RRP arm with a spherical wrist (Stanford arm): closed form by [`super::analytic`].
     BoomWrist(BoomGeometry),
     OffsetWrist(ArmGeometry),
+    /// The UR type (three parallel middle axes): closed form by [`super::parallel`].
+    ThreeParallel(ParallelGeometry),
     /// No closed form: the reason the first test failed.
     General(String),
 }
 
 impl Family {
     /// A stable name for the family (what the Instance Space records as a robot's solver):
-    /// `spherical_wrist`, `rrp_spherical_wrist`, `offset_wrist` or `general`.
+    /// `spherical_wrist`, `rrp_spherical_wrist`, `offset_wrist`, `three_parallel` or `general`.
     pub fn name(&self) -> &'static str {
         match self {
             Family::SphericalWrist(_) => "spherical_wrist",
             Family::BoomWrist(_) => "rrp_spherical_wrist",
             Family::OffsetWrist(_) => "offset_wrist",
+            Family::ThreeParallel(_) => "three_parallel",
             Family::General(_) => "general",
         }
     }
@@ -113,29 +134,39 @@ impl Family {
     /// The method [`super::Method::Auto`] uses for this family.
     pub fn method(&self) -> super::Method {
         match self {
-            Family::SphericalWrist(_) | Family::BoomWrist(_) => super::Method::Analytic,
+            Family::SphericalWrist(_) | Family::BoomWrist(_) | Family::ThreeParallel(_) => {
+                super::Method::Analytic
+            }
             Family::OffsetWrist(_) => super::Method::Hybrid,
             Family::General(_) => super::Method::Dls,
         }
     }
 }
 
-fn is(angle: f64, target: f64) -> bool {
-    (angle - target).abs() <= 1e-12 || (angle - target).abs() <= 1e-12 * target.abs()
+fn is_within(angle: f64, target: f64, tol: f64) -> bool {
+    (angle - target).abs() <= tol || (angle - target).abs() <= tol * target.abs()
 }
 
-fn sign_of_right_angle(angle: f64) -> Option<f64> {
-    if is(angle, FRAC_PI_2) {
+fn sign_within(angle: f64, tol: f64) -> Option<f64> {
+    if is_within(angle, FRAC_PI_2, tol) {
         Some(1.0)
-    } else if is(angle, -FRAC_PI_2) {
+    } else if is_within(angle, -FRAC_PI_2, tol) {
         Some(-1.0)
     } else {
         None
     }
 }
 
+/// Whether [`recognise`] reads `robot`'s geometry from its joint placements and axes (some
+/// joint is general) rather than from its DH rows.
+pub fn recognised_from_axes(robot: &Robot) -> bool {
+    robot.joints.iter().any(Joint::is_general)
+}
+
 /// Classifies `robot` (see the module docs). Length "zeros" are relative to the robot's size
-/// (1e-12 × the sum of |a| and |d|), so a 1 mm arm and a 1 km arm classify alike.
+/// (1e-12 × the sum of |a| and |d|), so a 1 mm arm and a 1 km arm classify alike. A robot with
+/// general joints is classified by its equivalent DH chain with the looser
+/// [`super::equivalent::RECOVERED_TOLERANCE`]; the family's chain is then that DH chain.
 pub fn recognise(robot: &Robot) -> Family {
     if robot.dof() != 6 {
         return Family::General(format!(
@@ -143,11 +174,18 @@ pub fn recognise(robot: &Robot) -> Family {
             robot.dof()
         ));
     }
-    if let Some(j) = robot.joints.iter().position(|j| j.is_general()) {
-        return Family::General(format!(
-            "joint {j} is a general (placement and axis) joint; closed forms are recognised from DH rows only"
-        ));
+    if recognised_from_axes(robot) {
+        return match super::equivalent::equivalent_dh(robot) {
+            Some(dh) => classify(&dh, super::equivalent::RECOVERED_TOLERANCE),
+            None => Family::General("the joint axes have no equivalent DH chain".into()),
+        };
     }
+    classify(robot, 1e-12)
+}
+
+fn classify(robot: &Robot, tol: f64) -> Family {
+    let is = |angle: f64, target: f64| is_within(angle, target, tol);
+    let sign_of_right_angle = |angle: f64| sign_within(angle, tol);
     let chain = StandardChain::from_robot(robot);
     let jt = &chain.joints;
     let scale: f64 = jt
@@ -155,7 +193,7 @@ pub fn recognise(robot: &Robot) -> Family {
         .map(|j| j.a.abs() + j.d.abs())
         .sum::<f64>()
         .max(f64::MIN_POSITIVE);
-    let zero = |x: f64| x.abs() <= 1e-12 * scale;
+    let zero = |x: f64| x.abs() <= tol * scale;
     let prismatic: Vec<usize> = robot
         .joints
         .iter()
@@ -164,7 +202,7 @@ pub fn recognise(robot: &Robot) -> Family {
         .map(|(i, _)| i)
         .collect();
     if prismatic == [2] {
-        return recognise_boom(&chain, &zero);
+        return recognise_boom(&chain, &zero, tol);
     }
     if let Some(j) = prismatic.first() {
         return Family::General(format!(
@@ -177,8 +215,11 @@ pub fn recognise(robot: &Robot) -> Family {
     if !is(jt[1].alpha, 0.0) {
         return Family::General("α2 is not 0 (shoulder and elbow axes not parallel)".into());
     }
+    if is(jt[2].alpha, 0.0) {
+        return recognise_parallel(&chain, s1, &zero, tol);
+    }
     let Some(s3) = sign_of_right_angle(jt[2].alpha) else {
-        return Family::General("α3 is not ±π/2".into());
+        return Family::General("α3 is neither ±π/2 nor 0".into());
     };
     let Some(s4) = sign_of_right_angle(jt[3].alpha) else {
         return Family::General("α4 is not ±π/2".into());
@@ -207,7 +248,37 @@ pub fn recognise(robot: &Robot) -> Family {
     }
 }
 
-fn recognise_boom(chain: &StandardChain, zero: &dyn Fn(f64) -> bool) -> Family {
+/// The UR type, after α1 = ±π/2 and α2 = α3 = 0 have been seen.
+fn recognise_parallel(
+    chain: &StandardChain,
+    s1: f64,
+    zero: &dyn Fn(f64) -> bool,
+    tol: f64,
+) -> Family {
+    let jt = &chain.joints;
+    let Some(s4) = sign_within(jt[3].alpha, tol) else {
+        return Family::General("axes 2, 3, 4 parallel but α4 is not ±π/2".into());
+    };
+    let Some(s5) = sign_within(jt[4].alpha, tol) else {
+        return Family::General("axes 2, 3, 4 parallel but α5 is not ±π/2".into());
+    };
+    if !zero(jt[4].a) {
+        return Family::General("axes 2, 3, 4 parallel but a5 is not 0".into());
+    }
+    if zero(jt[1].a) || zero(jt[2].a) {
+        return Family::General("axes 2, 3, 4 parallel but a2 or a3 is 0".into());
+    }
+    Family::ThreeParallel(ParallelGeometry {
+        chain: chain.clone(),
+        s1,
+        s4,
+        s5,
+    })
+}
+
+fn recognise_boom(chain: &StandardChain, zero: &dyn Fn(f64) -> bool, tol: f64) -> Family {
+    let is = |angle: f64, target: f64| is_within(angle, target, tol);
+    let sign_of_right_angle = |angle: f64| sign_within(angle, tol);
     let jt = &chain.joints;
     let Some(s1) = sign_of_right_angle(jt[0].alpha) else {
         return Family::General("RRP arm: α1 is not ±π/2".into());

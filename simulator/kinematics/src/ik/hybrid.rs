@@ -136,6 +136,12 @@ fn setup(robot: &Robot, target: &Matrix4<f64>) -> Result<Setup, IkError> {
                 reason: "an RRP arm: solved by the analytic method".into(),
             });
         }
+        Family::ThreeParallel(_) => {
+            return Err(IkError::NotApplicable {
+                method: "hybrid",
+                reason: "a UR-type arm (three parallel axes): solved by the analytic method".into(),
+            });
+        }
         Family::General(reason) => {
             return Err(IkError::NotApplicable {
                 method: "hybrid",

@@ -6,18 +6,22 @@
 //!   damping), joint limits, seeded random restarts, per-axis tolerances;
 //! * [`analytic`] — all (up to 8) closed-form solutions of 6R arms with a spherical wrist (the
 //!   PUMA 560 family, any link lengths and twist signs) and of RRP arms with a spherical wrist
-//!   (the Stanford arm), branch-labelled;
+//!   (the Stanford arm), branch-labelled; [`parallel`] — the same for the UR type (axes 2, 3, 4
+//!   parallel);
 //! * [`hybrid`] — the seed's five-joints-analytic, one-numeric method for wrists with offsets;
-//! * [`family`] — recognising which closed form fits a robot (the seed's proposed extension).
+//! * [`family`] — recognising which closed form fits a robot (the seed's proposed extension),
+//!   from DH rows or, through [`equivalent`], from general joints' placements and axes.
 //!
 //! Entry points: [`solve`] with a [`Method`] (use [`Method::Auto`] to let the geometry
 //! decide), the [`IkSolver`] trait, [`IkOptions`], [`IkResult`], [`IkError`].
 
 pub mod analytic;
 pub mod dls;
+pub mod equivalent;
 pub mod family;
 pub mod hybrid;
 pub mod newton;
+pub mod parallel;
 
 use crate::fk::forward;
 use crate::model::{JointType, ModelError, Robot};
@@ -311,9 +315,9 @@ pub fn solve(
         Method::Newton => newton::Newton.solve(robot, target, options),
         Method::Dls => dls::Dls::default().solve(robot, target, options),
         Method::Auto => match family::recognise(robot) {
-            family::Family::SphericalWrist(_) | family::Family::BoomWrist(_) => {
-                analytic::Analytic.solve(robot, target, options)
-            }
+            family::Family::SphericalWrist(_)
+            | family::Family::BoomWrist(_)
+            | family::Family::ThreeParallel(_) => analytic::Analytic.solve(robot, target, options),
             family::Family::OffsetWrist(_) => hybrid::Hybrid.solve(robot, target, options),
             family::Family::General(_) => dls::Dls::default().solve(robot, target, options),
         },
