@@ -25,7 +25,7 @@
 //! positions) and the element.
 
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
-use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_chain};
+use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_chain, build_tree};
 use robosim_kinematics::{ModelError, Robot};
 use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -128,6 +128,26 @@ pub struct UrdfRobot {
     pub held: Vec<String>,
     /// What was read but not used (geometry, mimic off the chain, …), one sentence each.
     pub notes: Vec<String>,
+    /// The movable joints' parent links, in q order (for a chain, the previous joint's child
+    /// link; for a tree, [`Robot::parents`] by link name).
+    pub parent_links: Vec<String>,
+    /// The `<mimic>` joints among the movable joints of the robot (a tree's finger joint): each
+    /// is imported as an **independent** coordinate, as Pinocchio's URDF reader does by default
+    /// (`buildModel(…, mimic=False)`); the relation is kept here for a controller to impose.
+    pub mimics: Vec<UrdfMimic>,
+}
+
+/// A `<mimic>` relation `q[joint] = multiplier · q[mimicked] + offset`, noted, not imposed
+/// (see [`UrdfRobot::mimics`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct UrdfMimic {
+    /// The mimicking joint's name and its index in q.
+    pub joint: String,
+    pub index: usize,
+    /// The joint it follows (its name as in the file).
+    pub mimicked: String,
+    pub multiplier: f64,
+    pub offset: f64,
 }
 
 /// Reads the URDF at `path` and builds the chain from its root link to `tip` (`None`: the only
@@ -140,6 +160,28 @@ pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfErro
         kind: UrdfErrorKind::Io(e.to_string()),
     })?;
     import_urdf_str(&text, path, tip)
+}
+
+/// Reads the URDF at `path` as a kinematic **tree**: every movable joint of the file is a
+/// coordinate (depth first from the root link, children in file order), [`Robot::parents`]
+/// says which link each hangs from, fixed joints are folded into the movable joint (or root)
+/// above them, inertia rigid with the root is dropped (it cannot move). `<mimic>` joints are
+/// independent coordinates, noted in [`UrdfRobot::mimics`]. The robot's tool is the identity
+/// on the last joint's child link, which [`UrdfRobot::tip`] names; [`UrdfRobot::held`] is
+/// empty.
+pub fn import_urdf_tree(path: &Path) -> Result<UrdfRobot, UrdfError> {
+    let text = std::fs::read_to_string(path).map_err(|e| UrdfError {
+        file: path.to_path_buf(),
+        line: 0,
+        element: "file".into(),
+        kind: UrdfErrorKind::Io(e.to_string()),
+    })?;
+    import_urdf_tree_str(&text, path)
+}
+
+/// [`import_urdf_tree`] on text already read; `file` names it in errors.
+pub fn import_urdf_tree_str(text: &str, file: &Path) -> Result<UrdfRobot, UrdfError> {
+    import_impl(text, file, None, true)
 }
 
 struct LinkRec {
@@ -163,6 +205,8 @@ struct JointRec {
     viscous: f64,
     coulomb: f64,
     mimic: bool,
+    /// `<mimic joint multiplier offset>`: (joint, multiplier, offset).
+    mimic_of: Option<(String, f64, f64)>,
 }
 
 struct Reader<'a, 'input> {
@@ -398,6 +442,17 @@ impl Reader<'_, '_> {
             viscous,
             coulomb,
             mimic: child(node, "mimic").is_some(),
+            mimic_of: match child(node, "mimic") {
+                None => None,
+                Some(m) => {
+                    let el = format!("{element}/<mimic>");
+                    Some((
+                        self.attr(m, &el, "joint")?.to_string(),
+                        self.number(m, &el, "multiplier", Some(1.0))?,
+                        self.number(m, &el, "offset", Some(0.0))?,
+                    ))
+                }
+            },
             name,
         })
     }
@@ -428,6 +483,15 @@ pub fn rpy_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
 
 /// [`import_urdf`] on text already read; `file` names it in errors.
 pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
+    import_impl(text, file, tip, false)
+}
+
+fn import_impl(
+    text: &str,
+    file: &Path,
+    tip: Option<&str>,
+    tree: bool,
+) -> Result<UrdfRobot, UrdfError> {
     let doc = roxmltree::Document::parse(text).map_err(|e| {
         let pos = e.pos();
         UrdfError {
@@ -570,6 +634,19 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
         return Err(joint_err(j, UrdfErrorKind::Cycle(l.clone())));
     }
 
+    if tree {
+        return build_whole_tree(
+            file,
+            &rd,
+            root_el,
+            &robot_name,
+            &root,
+            &links,
+            &joints,
+            &children,
+        );
+    }
+
     // The tip, and the chain root → tip.
     let tip = match tip {
         Some(t) => {
@@ -700,6 +777,10 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
             "{geometry} <visual>/<collision> elements not loaded (URDF geometry and meshes are not imported yet; FK and dynamics do not need them)"
         ));
     }
+    let parent_links = movable
+        .iter()
+        .map(|m| joints[parent_joint[m.link.as_str()]].parent.clone())
+        .collect();
     Ok(UrdfRobot {
         robot,
         root,
@@ -708,6 +789,115 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
         folded,
         held: held.iter().map(|&k| joints[k].name.clone()).collect(),
         notes,
+        parent_links,
+        mimics: Vec::new(),
+    })
+}
+
+/// The whole tree (see [`import_urdf_tree`]), after the checks every import makes.
+#[allow(clippy::too_many_arguments)]
+fn build_whole_tree(
+    file: &Path,
+    rd: &Reader,
+    root_el: roxmltree::Node,
+    robot_name: &str,
+    root: &str,
+    links: &HashMap<String, LinkRec>,
+    joints: &[JointRec],
+    children: &HashMap<&str, Vec<usize>>,
+) -> Result<UrdfRobot, UrdfError> {
+    // Depth first from the root, children in file order: parents come first.
+    let mut dfs: Vec<usize> = Vec::with_capacity(joints.len());
+    fn visit(
+        link: &str,
+        joints: &[JointRec],
+        children: &HashMap<&str, Vec<usize>>,
+        out: &mut Vec<usize>,
+    ) {
+        for &k in children.get(link).map_or(&[][..], |v| v.as_slice()) {
+            out.push(k);
+            visit(&joints[k].child, joints, children, out);
+        }
+    }
+    visit(root, joints, children, &mut dfs);
+    let mut seg_of_joint: HashMap<usize, usize> = HashMap::new();
+    let mut segments = Vec::with_capacity(dfs.len());
+    let mut parents = Vec::with_capacity(dfs.len());
+    let parent_joint_of = |link: &str| joints.iter().position(|j| j.child == link);
+    for (s, &k) in dfs.iter().enumerate() {
+        let j = &joints[k];
+        seg_of_joint.insert(k, s);
+        parents.push(parent_joint_of(&j.parent).map(|pk| seg_of_joint[&pk]));
+        segments.push(Segment {
+            kind: j.kind,
+            placement: j.placement,
+            axis: j.axis,
+            qlim: j.qlim,
+            viscous: j.viscous,
+            coulomb: j.coulomb,
+            child: links[&j.child].inertial,
+        });
+    }
+    let built = build_tree(robot_name, &segments, &parents);
+    let robot = built.robot;
+    robot.validate().map_err(|e| UrdfError {
+        file: file.to_path_buf(),
+        line: rd.line(root_el),
+        element: format!("<robot name={robot_name:?}>"),
+        kind: UrdfErrorKind::Model(e),
+    })?;
+    let mut notes = Vec::new();
+    let mut mimics = Vec::new();
+    let mut movable = Vec::new();
+    let mut parent_links = Vec::new();
+    for (index, &s) in built.segment_of_joint.iter().enumerate() {
+        let j = &joints[dfs[s]];
+        movable.push(UrdfJoint {
+            name: j.name.clone(),
+            link: j.child.clone(),
+            continuous: j.kind == SegmentKind::Continuous,
+            effort: j.effort,
+            velocity: j.velocity,
+        });
+        parent_links.push(j.parent.clone());
+        if let Some((mimicked, multiplier, offset)) = &j.mimic_of {
+            notes.push(format!(
+                "joint {:?} mimics {mimicked:?} (×{multiplier} + {offset}); imported as an independent coordinate",
+                j.name
+            ));
+            mimics.push(UrdfMimic {
+                joint: j.name.clone(),
+                index,
+                mimicked: mimicked.clone(),
+                multiplier: *multiplier,
+                offset: *offset,
+            });
+        }
+    }
+    let folded = dfs
+        .iter()
+        .filter(|&&k| joints[k].kind == SegmentKind::Fixed)
+        .map(|&k| joints[k].name.clone())
+        .collect();
+    let geometry: usize = links.values().map(|l| l.geometry).sum();
+    if geometry > 0 {
+        notes.push(format!(
+            "{geometry} <visual>/<collision> elements not loaded (FK and dynamics do not need them)"
+        ));
+    }
+    let tip = movable
+        .last()
+        .map_or_else(|| root.to_string(), |m| m.link.clone());
+    Ok(UrdfRobot {
+        robot,
+        root: root.to_string(),
+        tip,
+        joints: movable,
+        folded,
+        held: Vec::new(),
+        notes,
+        parent_links,
+        mimics,
     })
 }
 

@@ -3,8 +3,8 @@
 //! through the URDF exporter (DH → URDF → general joints must be the same robot).
 
 use nalgebra::DMatrix;
-use robosim_file_io::urdf_import::{UrdfRobot, import_urdf, import_urdf_str};
-use robosim_kinematics::jacobian::{Frame, jacobian};
+use robosim_file_io::urdf_import::{UrdfRobot, import_urdf, import_urdf_str, import_urdf_tree};
+use robosim_kinematics::jacobian::{Frame, jacobian, link_jacobian};
 use robosim_kinematics::{Robot, fk};
 use std::path::Path;
 
@@ -108,6 +108,107 @@ fn imported_urdfs_match_pinocchio() {
     eprintln!(
         "worst vs Pinocchio: FK {:.1e}, Jacobian {:.1e}, RNEA {:.1e} rel, M {:.1e} rel, ABA {:.1e} rel",
         worst[0], worst[1], worst[2], worst[3], worst[4]
+    );
+}
+
+/// The whole Panda URDF as a kinematic tree (7 arm joints and both finger joints, the second a
+/// `<mimic>` imported as an independent coordinate, as Pinocchio's default model has it):
+/// every link frame's pose and Jacobian (base and local axes), RNEA, CRBA, ABA and gravity
+/// against Pinocchio 4.1's full model at 10 random states.
+#[test]
+fn the_panda_tree_matches_pinocchio() {
+    let reference: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir().join("urdf/pinocchio_reference.json")).expect("reference"),
+    )
+    .expect("JSON");
+    let r = &reference["trees"]["panda"];
+    let imported = import_urdf_tree(&dir().join("urdf").join(r["file"].as_str().expect("file")))
+        .expect("imports");
+    let strings = |v: &serde_json::Value| -> Vec<String> {
+        v.as_array()
+            .expect("array")
+            .iter()
+            .map(|x| x.as_str().expect("string").to_string())
+            .collect()
+    };
+    let names: Vec<String> = imported.joints.iter().map(|j| j.name.clone()).collect();
+    assert_eq!(names, strings(&r["joints"]), "q order");
+    let links: Vec<String> = imported.joints.iter().map(|j| j.link.clone()).collect();
+    assert_eq!(links, strings(&r["links"]));
+    // Pinocchio's parents (joint numbers, 0 = universe) are robosim's link-frame numbers.
+    let parents: Vec<usize> = floats(&r["parents"]).iter().map(|&p| p as usize).collect();
+    assert_eq!(imported.robot.parents, parents);
+    assert!(!imported.robot.is_chain());
+    assert_eq!(imported.mimics.len(), 1, "{:?}", imported.mimics);
+    assert_eq!(imported.mimics[0].joint, "panda_finger_joint2");
+    assert_eq!(imported.mimics[0].mimicked, "panda_finger_joint1");
+    assert_eq!(imported.mimics[0].index, 8);
+    assert_eq!(imported.tip, "panda_rightfinger");
+    let mut robot: Robot = imported.robot.clone();
+    for j in &mut robot.joints {
+        j.viscous = 0.0;
+        j.coulomb = 0.0;
+    }
+    let n = robot.dof();
+    assert_eq!(n, 9);
+    let model = robosim_dynamics::Model::new(&robot).expect("dynamics model");
+    let mut data = robosim_dynamics::Data::new(&model);
+    let samples = r["samples"].as_array().expect("samples");
+    assert_eq!(samples.len(), 10);
+    let mut worst = [0.0_f64; 6];
+    for s in samples {
+        let q = floats(&s["q"]);
+        let frames = fk::link_frames(&robot, &q);
+        let (mut e_fk, mut e_j) = (0.0_f64, 0.0_f64);
+        for (k, l) in s["links"].as_array().expect("links").iter().enumerate() {
+            let theirs = matrix(&l["pose"]);
+            let ours = DMatrix::from_column_slice(4, 4, frames[k + 1].as_slice());
+            e_fk = e_fk.max((&ours - &theirs).abs().max());
+            let pose = fk::link_pose(&robot, &q, k + 1);
+            e_fk = e_fk.max(
+                (DMatrix::from_column_slice(4, 4, pose.as_slice()) - &theirs)
+                    .abs()
+                    .max(),
+            );
+            for (frame, key) in [(Frame::Base, "jacobian"), (Frame::Tool, "jacobian_tool")] {
+                let (_, j) = link_jacobian(&robot, &q, k + 1, frame);
+                let ours = DMatrix::from_column_slice(6, n, j.as_slice());
+                e_j = e_j.max((ours - matrix(&l[key])).abs().max());
+            }
+        }
+        assert!(e_fk <= 1e-12, "tree FK at {q:?}: {e_fk:e}");
+        assert!(e_j <= 1e-12, "tree Jacobians at {q:?}: {e_j:e}");
+        // The tool (identity on the last joint's link) and its Jacobian are link n's.
+        let tool = fk::forward(&robot, &q);
+        assert!((tool - frames[n]).abs().max() <= 1e-15);
+        let jt = jacobian(&robot, &q, Frame::Base);
+        assert_eq!(jt, link_jacobian(&robot, &q, n, Frame::Base).1);
+        let (qd, qdd, tau) = (floats(&s["qd"]), floats(&s["qdd"]), floats(&s["tau"]));
+        let t = robosim_dynamics::rnea(&model, &mut data, &q, &qd, &qdd).expect("rnea");
+        let e_rnea = rel(t.as_slice(), &floats(&s["rnea"]));
+        let m = robosim_dynamics::crba(&model, &mut data, &q).expect("crba");
+        let theirs = matrix(&s["mass_matrix"]);
+        let e_m = rel(m.as_slice(), theirs.transpose().as_slice());
+        let a = robosim_dynamics::aba(&model, &mut data, &q, &qd, &tau).expect("aba");
+        let e_aba = rel(a.as_slice(), &floats(&s["aba"]));
+        let g = robosim_dynamics::gravity(&model, &mut data, &q).expect("gravity");
+        let e_g = rel(g.as_slice(), &floats(&s["gravity"]));
+        assert!(
+            e_rnea <= 1e-10 && e_m <= 1e-10 && e_aba <= 1e-10 && e_g <= 1e-10,
+            "tree dynamics at {q:?}: rnea {e_rnea:e}, M {e_m:e}, aba {e_aba:e}, g {e_g:e}"
+        );
+        // ABA and the Cholesky path agree on the tree too.
+        let chol = robosim_dynamics::fd_cholesky(&model, &mut data, &q, &qd, &tau)
+            .expect("fd_cholesky")
+            .clone();
+        assert!(rel(chol.as_slice(), &floats(&s["aba"])) <= 1e-10);
+        for (w, e) in worst.iter_mut().zip([e_fk, e_j, e_rnea, e_m, e_aba, e_g]) {
+            *w = w.max(e);
+        }
+    }
+    eprintln!(
+        "Panda tree vs Pinocchio: FK {:.1e}, Jacobians {:.1e}, RNEA {:.1e} rel, M {:.1e} rel, ABA {:.1e} rel, gravity {:.1e} rel",
+        worst[0], worst[1], worst[2], worst[3], worst[4], worst[5]
     );
 }
 

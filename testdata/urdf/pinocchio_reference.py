@@ -24,6 +24,14 @@ qd and qdd uniform in [-1, 1], tau uniform in [-5, 5]; then
   * aba:         qdd = ABA(q, qd, tau).
 Gravity (0, 0, -9.81). Matrices are row-major nested lists.
 
+Trees ("trees" in the JSON): the FULL model of a URDF (every movable joint a coordinate; the
+Panda's two finger joints included — pin.buildModelFromUrdf's default treats the <mimic> finger
+joint as an independent joint, as robosim's import_urdf_tree does), 10 samples (the same rng,
+drawn after the chains), per sample q, qd, qdd, tau and
+  * links:     per movable joint, its child link's pose (oMf of the link's body frame, = the
+               joint's placement oMi) and its Jacobian (LOCAL_WORLD_ALIGNED and LOCAL);
+  * rnea, mass_matrix, aba, gravity (pin.computeGeneralizedGravity) as above.
+
 Usage, from the repository root (pin 3.x or newer):
     python3 -m venv /tmp/pin && /tmp/pin/bin/pip install pin
     /tmp/pin/bin/python testdata/urdf/pinocchio_reference.py
@@ -72,6 +80,48 @@ for name, file, tip in ROBOTS:
     out["robots"][name] = {
         "file": file, "tip": tip,
         "joints": [model.names[j] for j in range(1, model.njoints)],
+        "samples": samples,
+    }
+TREES = [("panda", "panda.urdf")]
+out["trees"] = {}
+for name, file in TREES:
+    model = pin.buildModelFromUrdf(os.path.join(HERE, file))
+    data = model.createData()
+    joints = [model.names[j] for j in range(1, model.njoints)]
+    child_links = []
+    for j in range(1, model.njoints):
+        body = [f for f in model.frames if f.parentJoint == j and f.type == pin.BODY and f.placement.isIdentity()]
+        child_links.append(body[0].name)
+    samples = []
+    for _ in range(10):
+        lo = np.maximum(model.lowerPositionLimit, -np.pi)
+        hi = np.minimum(model.upperPositionLimit, np.pi)
+        q = rng.uniform(lo, hi)
+        qd = rng.uniform(-1.0, 1.0, model.nv)
+        qdd = rng.uniform(-1.0, 1.0, model.nv)
+        tau = rng.uniform(-5.0, 5.0, model.nv)
+        pin.forwardKinematics(model, data, q)
+        pin.computeJointJacobians(model, data, q)
+        per_link = []
+        for j in range(1, model.njoints):
+            per_link.append({
+                "pose": data.oMi[j].homogeneous.tolist(),
+                "jacobian": pin.getJointJacobian(model, data, j, pin.LOCAL_WORLD_ALIGNED).tolist(),
+                "jacobian_tool": pin.getJointJacobian(model, data, j, pin.LOCAL).tolist(),
+            })
+        rnea = pin.rnea(model, data, q, qd, qdd).copy()
+        m = pin.crba(model, data, q).copy()
+        m = np.triu(m) + np.triu(m, 1).T
+        aba = pin.aba(model, data, q, qd, tau).copy()
+        grav = pin.computeGeneralizedGravity(model, data, q).copy()
+        samples.append({
+            "q": q.tolist(), "qd": qd.tolist(), "qdd": qdd.tolist(), "tau": tau.tolist(),
+            "links": per_link, "rnea": rnea.tolist(), "mass_matrix": m.tolist(),
+            "aba": aba.tolist(), "gravity": grav.tolist(),
+        })
+    out["trees"][name] = {
+        "file": file, "joints": joints, "links": child_links,
+        "parents": [int(model.parents[j]) for j in range(1, model.njoints)],
         "samples": samples,
     }
 with open(os.path.join(HERE, "pinocchio_reference.json"), "w") as f:

@@ -35,16 +35,18 @@ pub(crate) fn aba_unchecked(
     let n = model.dof();
     data.update_transforms(model, q);
     // pass 1: velocities, velocity-product accelerations, bias forces
-    let mut v_parent = Motion::zero();
     for j in 0..n {
         let link = &model.links[j];
         let vj = link.s.scale(qd[j]);
+        let v_parent = match link.parent {
+            Some(p) => data.v[p],
+            None => Motion::zero(),
+        };
         let v = data.x[j].apply_motion(&v_parent).add(&vj);
         data.v[j] = v;
         data.c[j] = v.cross_motion(&vj).to6();
         data.ia[j] = link.inertia.matrix();
         data.pa[j] = v.cross_force(&link.inertia.mul_motion(&v)).to6();
-        v_parent = v;
     }
     // pass 2: articulated inertias, inward
     for j in (0..n).rev() {
@@ -62,27 +64,30 @@ pub(crate) fn aba_unchecked(
         data.u6[j] = u6;
         data.d[j] = d;
         data.u[j] = u;
-        if j > 0 {
+        if let Some(p) = link.parent {
             let ia = data.ia[j] - u6 * u6.transpose() / d;
             let pa: Vector6<f64> = data.pa[j] + ia * data.c[j] + u6 * (u / d);
             let moved = data.x[j].inertia_to_parent(&ia);
-            data.ia[j - 1] += moved;
+            data.ia[p] += moved;
             let pf = data.x[j].transpose_force(&Force::from6(&pa));
-            data.pa[j - 1] += pf.to6();
+            data.pa[p] += pf.to6();
         }
     }
     // pass 3: accelerations, outward
-    let mut a_parent = Motion {
+    let a0 = Motion {
         w: Vector3::zeros(),
         v: -model.gravity_base,
     };
     for j in 0..n {
+        let a_parent = match model.links[j].parent {
+            Some(p) => data.a[p],
+            None => a0,
+        };
         let a_pre = data.x[j].apply_motion(&a_parent).to6() + data.c[j];
         let qdd = (data.u[j] - data.u6[j].dot(&a_pre)) / data.d[j];
         data.qdd[j] = qdd;
         let a = a_pre + model.links[j].s.to6() * qdd;
         data.a[j] = Motion::from6(&a);
-        a_parent = data.a[j];
     }
     Ok(())
 }

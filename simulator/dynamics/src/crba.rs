@@ -22,20 +22,24 @@ pub fn crba<'d>(
 
 pub(crate) fn crba_pass(model: &Model, data: &mut Data) {
     let n = model.dof();
+    if !model.robot.is_chain() {
+        data.mass_matrix.fill(0.0);
+    }
     for j in 0..n {
         data.ic[j] = model.links[j].inertia;
     }
     for j in (0..n).rev() {
-        if j > 0 {
+        if let Some(p) = model.links[j].parent {
             let moved = data.ic[j].in_parent(&data.x[j]);
-            data.ic[j - 1] = data.ic[j - 1].add(&moved);
+            data.ic[p] = data.ic[p].add(&moved);
         }
         let mut f = data.ic[j].mul_motion(&model.links[j].s);
         data.mass_matrix[(j, j)] = model.links[j].s.dot(&f) + model.links[j].motor_inertia;
+        // Up the support path; entries of joints on other branches stay 0.
         let mut k = j;
-        while k > 0 {
+        while let Some(p) = model.links[k].parent {
             f = data.x[k].transpose_force(&f);
-            k -= 1;
+            k = p;
             let mkj = model.links[k].s.dot(&f);
             data.mass_matrix[(k, j)] = mkj;
             data.mass_matrix[(j, k)] = mkj;

@@ -4,7 +4,7 @@
 
 use crate::model::{Model, Motor};
 use crate::spatial::{Force, Motion, RigidInertia, Xform};
-use nalgebra::{DMatrix, DVector, Matrix6, Vector6};
+use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 use robosim_kinematics::axis_rotation;
 
 /// Per-call results and scratch space for one [`Model`]. Results are public fields named after
@@ -29,6 +29,8 @@ pub struct Data {
     pub(crate) u6: Vec<Vector6<f64>>,
     pub(crate) d: Vec<f64>,
     pub(crate) u: Vec<f64>,
+    /// World rotation and position of each body (energy's potential term).
+    pub(crate) world: Vec<(Matrix3<f64>, Vector3<f64>)>,
     /// Cholesky factor scratch (lower triangle) and a right-hand side.
     pub(crate) chol: DMatrix<f64>,
     pub(crate) rhs: DVector<f64>,
@@ -53,6 +55,7 @@ impl Data {
             u6: vec![Vector6::zeros(); n],
             d: vec![0.0; n],
             u: vec![0.0; n],
+            world: vec![(Matrix3::identity(), Vector3::zeros()); n],
             chol: DMatrix::zeros(n, n),
             rhs: DVector::zeros(n),
         }

@@ -34,22 +34,26 @@ pub fn energy(
 pub(crate) fn energy_unchecked(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Energy {
     data.update_transforms(model, q);
     let base = &model.robot.base;
-    let mut rot = base.fixed_view::<3, 3>(0, 0).into_owned();
-    let mut pos = base.fixed_view::<3, 1>(0, 3).into_owned();
+    let base_rot = base.fixed_view::<3, 3>(0, 0).into_owned();
+    let base_pos = base.fixed_view::<3, 1>(0, 3).into_owned();
     let g = model.robot.gravity;
-    let mut v_parent = Motion::zero();
     let (mut kinetic, mut potential) = (0.0, 0.0);
     for j in 0..model.dof() {
         let link = &model.links[j];
         let x = &data.x[j];
+        let (v_parent, rot_p, pos_p) = match link.parent {
+            Some(p) => (data.v[p], data.world[p].0, data.world[p].1),
+            None => (Motion::zero(), base_rot, base_pos),
+        };
         let v = x.apply_motion(&v_parent).add(&link.s.scale(qd[j]));
         kinetic +=
             0.5 * v.dot(&link.inertia.mul_motion(&v)) + 0.5 * link.motor_inertia * qd[j] * qd[j];
-        // world pose of link frame j: R_j = R_{j-1} Eᵀ, p_j = p_{j-1} + R_{j-1} r
-        pos += rot * x.r;
-        rot *= x.e.transpose();
+        // world pose of body j: R_j = R_parent Eᵀ, p_j = p_parent + R_parent r
+        let pos = pos_p + rot_p * x.r;
+        let rot = rot_p * x.e.transpose();
         potential -= g.dot(&(rot * link.inertia.h + pos * link.inertia.m));
-        v_parent = v;
+        data.v[j] = v;
+        data.world[j] = (rot, pos);
     }
     Energy { kinetic, potential }
 }
@@ -75,22 +79,24 @@ pub fn kinetic_gradient<'d>(
 /// [`kinetic_gradient`] over transforms already in `data.x`; motor inertia adds only momentum.
 pub(crate) fn kinetic_gradient_pass(model: &Model, data: &mut Data, qd: &[f64]) {
     let n = model.dof();
-    let mut v_parent = Motion::zero();
     for j in 0..n {
         let link = &model.links[j];
+        let v_parent = match link.parent {
+            Some(p) => data.v[p],
+            None => Motion::zero(),
+        };
         let v = data.x[j].apply_motion(&v_parent).add(&link.s.scale(qd[j]));
         data.v[j] = v;
         data.f[j] = link.inertia.mul_motion(&v);
-        v_parent = v;
     }
     for j in (0..n).rev() {
         let link = &model.links[j];
         let hc = data.f[j];
         data.tau[j] = data.v[j].cross_motion(&link.s).dot(&hc);
         data.rhs[j] = link.s.dot(&hc) + link.motor_inertia * qd[j];
-        if j > 0 {
+        if let Some(p) = link.parent {
             let moved = data.x[j].transpose_force(&hc);
-            data.f[j - 1] = data.f[j - 1].add(&moved);
+            data.f[p] = data.f[p].add(&moved);
         }
     }
 }

@@ -10,6 +10,11 @@
 //! motion subspace `S_j` is the bare axis (`[u; 0]` revolute, `[0; u]` prismatic), and each link's
 //! inertia is moved once, at build time, from link frame j into joint frame j by `T_j`. Joint
 //! torques, `M(q)` and `q̈` do not depend on the frames chosen; only the rounding does.
+//!
+//! Trees: every body has a parent ([`robosim_kinematics::Robot::parents`]; Pinocchio's
+//! `parents`), `C_j = T_parent · P_j`, and the algorithms run their outward passes in joint
+//! order (parents come first) and their inward passes in reverse, accumulating into the parent
+//! — one code path; a chain is the tree whose parent is the previous joint.
 
 use crate::spatial::{Motion, RigidInertia, skew};
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
@@ -96,6 +101,8 @@ pub(crate) enum Motor {
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct Link {
     pub joint: Joint,
+    /// The parent body (0-based joint index); `None`: the base. A chain has `Some(j − 1)`.
+    pub parent: Option<usize>,
     /// `C_j = T_{j−1} · P_j`: the parent body's frame → joint frame j before the motion, as
     /// `e_c = Rᵀ` (parent coordinates → joint coordinates) and `r_c` (joint origin in parent).
     pub e_c: Matrix3<f64>,
@@ -128,8 +135,10 @@ impl Model {
     /// inertias) and precomputes the per-link constants.
     pub fn new(robot: &Robot) -> Result<Model, DynamicsError> {
         robot.validate()?;
-        let mut links = Vec::with_capacity(robot.dof());
-        let mut prev_trailing = Matrix4::identity();
+        let mut links: Vec<Link> = Vec::with_capacity(robot.dof());
+        // T_k of every body so far (index 0: the base, identity), for C_j = T_parent · P_j.
+        let mut trailings: Vec<Matrix4<f64>> = Vec::with_capacity(robot.dof() + 1);
+        trailings.push(Matrix4::identity());
         for (j, jt) in robot.joints.iter().enumerate() {
             let asym = (jt.inertia - jt.inertia.transpose()).abs().max();
             if asym > 1e-9 * (1.0 + jt.inertia.abs().max()) {
@@ -147,12 +156,14 @@ impl Model {
                 });
             }
             let g = jt.geometry(robot.convention);
+            let parent_frame = robot.parent(j);
+            let prev_trailing = trailings[parent_frame];
             let c = match &g.placement {
                 Some(p) => prev_trailing * p,
                 None => prev_trailing,
             };
             let trailing = g.trailing.unwrap_or_else(Matrix4::identity);
-            prev_trailing = trailing;
+            trailings.push(trailing);
             // The link's inertial, moved from link frame j into joint frame j by T_j.
             let inertial = Inertial {
                 mass: jt.mass,
@@ -179,6 +190,7 @@ impl Model {
             };
             links.push(Link {
                 joint: jt.clone(),
+                parent: parent_frame.checked_sub(1),
                 e_c: c.fixed_view::<3, 3>(0, 0).transpose(),
                 r_c: c.fixed_view::<3, 1>(0, 3).into_owned(),
                 axis: u,

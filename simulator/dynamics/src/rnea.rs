@@ -108,11 +108,13 @@ pub(crate) fn rnea_pass(
     } else {
         Motion::zero()
     };
-    let mut v_parent = Motion::zero();
-    let mut a_parent = a0;
     for j in 0..n {
         let link = &model.links[j];
         let x = &data.x[j];
+        let (v_parent, a_parent) = match link.parent {
+            Some(p) => (data.v[p], data.a[p]),
+            None => (Motion::zero(), a0),
+        };
         let qdj = qd.get(j).copied().unwrap_or(0.0);
         let qddj = qdd.map_or(0.0, |a| a[j]);
         let vj_joint = link.s.scale(qdj);
@@ -125,8 +127,6 @@ pub(crate) fn rnea_pass(
         data.f[j] = link.inertia.mul_motion(&a).add(&v.cross_force(&iv));
         data.v[j] = v;
         data.a[j] = a;
-        v_parent = v;
-        a_parent = a;
     }
     for j in (0..n).rev() {
         let link = &model.links[j];
@@ -138,9 +138,9 @@ pub(crate) fn rnea_pass(
             tau += Model::friction(link, qd.get(j).copied().unwrap_or(0.0));
         }
         data.tau[j] = tau;
-        if j > 0 {
+        if let Some(p) = link.parent {
             let fp = data.x[j].transpose_force(&data.f[j]);
-            data.f[j - 1] = data.f[j - 1].add(&fp);
+            data.f[p] = data.f[p].add(&fp);
         }
     }
 }

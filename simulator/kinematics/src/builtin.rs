@@ -35,6 +35,7 @@ fn puma560() -> Robot {
     Robot {
         name: "puma560".to_owned(),
         convention: Convention::Standard,
+        parents: Vec::new(),
         joints: vec![
             Joint {
                 joint_type: JointType::Revolute,
@@ -144,6 +145,7 @@ fn stanford() -> Robot {
     Robot {
         name: "stanford".to_owned(),
         convention: Convention::Standard,
+        parents: Vec::new(),
         joints: vec![
             Joint {
                 joint_type: JointType::Revolute,
@@ -253,6 +255,7 @@ fn panda() -> Robot {
     Robot {
         name: "panda".to_owned(),
         convention: Convention::Modified,
+        parents: Vec::new(),
         joints: vec![
             Joint {
                 joint_type: JointType::Revolute,

@@ -160,6 +160,84 @@ pub fn build_chain(name: &str, segments: &[Segment]) -> BuiltChain {
     }
 }
 
+/// Folds a **tree** of segments into a robot (see [`Robot::parents`]): `parents[k]` is the
+/// segment whose child link segment `k` hangs from (`None`: the root link), and must come
+/// before `k`. Movable segments become joints in segment order; a fixed segment is folded as in
+/// [`build_chain`] — its transform joins the placements of the movable joints below it and its
+/// child's inertial is lumped into the movable link it hangs from (dropped when that is the
+/// root). The tool is the identity on the last joint's link frame. A chain (`parents[k] = k−1`)
+/// gives [`build_chain`]'s joints, inertials and parents (its tool aside). Does not validate.
+/// Panics if `parents` is not as long as `segments` or a parent does not come first.
+pub fn build_tree(name: &str, segments: &[Segment], parents: &[Option<usize>]) -> BuiltChain {
+    assert_eq!(
+        segments.len(),
+        parents.len(),
+        "build_tree: one parent per segment"
+    );
+    let mut joints: Vec<Joint> = Vec::new();
+    let mut joint_parents: Vec<usize> = Vec::new();
+    let mut segment_of_joint = Vec::new();
+    let mut inertials: Vec<Inertial> = Vec::new();
+    // Per segment: the link frame its child is rigid with (0 = root, k = joint k−1) and the
+    // fixed transform from that frame to the child link's frame.
+    let mut anchor: Vec<(usize, Matrix4<f64>)> = Vec::with_capacity(segments.len());
+    for (k, (seg, parent)) in segments.iter().zip(parents).enumerate() {
+        let (frame, pending) = match parent {
+            Some(p) => {
+                assert!(
+                    *p < k,
+                    "build_tree: segment {k}'s parent {p} does not come first"
+                );
+                anchor[*p]
+            }
+            None => (0, Matrix4::identity()),
+        };
+        let (joint_type, qlim) = match seg.kind {
+            SegmentKind::Revolute => (JointType::Revolute, seg.qlim),
+            SegmentKind::Continuous => (JointType::Revolute, [f64::NEG_INFINITY, f64::INFINITY]),
+            SegmentKind::Prismatic => (JointType::Prismatic, seg.qlim),
+            SegmentKind::Fixed => {
+                let x = pending * seg.placement;
+                if frame > 0 {
+                    inertials[frame - 1].merge(&seg.child.transformed(&x));
+                }
+                anchor.push((frame, x));
+                continue;
+            }
+        };
+        joints.push(Joint {
+            joint_type,
+            qlim,
+            viscous: seg.viscous,
+            coulomb: seg.coulomb,
+            origin: Some(Origin {
+                placement: pending * seg.placement,
+                axis: seg.axis,
+            }),
+            ..Joint::default()
+        });
+        joint_parents.push(frame);
+        segment_of_joint.push(k);
+        inertials.push(seg.child);
+        anchor.push((joints.len(), Matrix4::identity()));
+    }
+    for (joint, inertial) in joints.iter_mut().zip(&inertials) {
+        joint.mass = inertial.mass;
+        joint.com = inertial.com;
+        joint.inertia = inertial.inertia;
+    }
+    let chain = joint_parents.iter().enumerate().all(|(j, &p)| p == j);
+    BuiltChain {
+        robot: Robot {
+            name: name.to_string(),
+            joints,
+            parents: if chain { Vec::new() } else { joint_parents },
+            ..Robot::default()
+        },
+        segment_of_joint,
+    }
+}
+
 /// The same robot with every joint general (an [`Origin`] and an axis, no trailing transform):
 /// joint j's placement becomes `T_{j−1} · P_j`, link frame j becomes joint frame j moved by q
 /// (its inertial is re-expressed there by `T_j`) and the tool becomes `T_n · tool`. FK, the
@@ -167,9 +245,11 @@ pub fn build_chain(name: &str, segments: &[Segment]) -> BuiltChain {
 /// frames. This is DH → URDF-style origins and axes.
 pub fn to_general(robot: &Robot) -> Robot {
     let mut out = robot.clone();
-    let mut prev = Matrix4::identity();
-    for (joint, orig) in out.joints.iter_mut().zip(&robot.joints) {
+    let mut trailings: Vec<Matrix4<f64>> = vec![Matrix4::identity()];
+    let mut last = Matrix4::identity();
+    for (j, (joint, orig)) in out.joints.iter_mut().zip(&robot.joints).enumerate() {
         let g = orig.geometry(robot.convention);
+        let prev = trailings[robot.parent(j)];
         let placement = match &g.placement {
             Some(p) => prev * p,
             None => prev,
@@ -187,9 +267,10 @@ pub fn to_general(robot: &Robot) -> Robot {
             placement,
             axis: g.axis,
         });
-        prev = trailing;
+        trailings.push(trailing);
+        last = trailing;
     }
-    out.tool = prev * robot.tool;
+    out.tool = last * robot.tool;
     out
 }
 

@@ -28,22 +28,40 @@ pub fn link_frames_into(robot: &Robot, q: &[f64], frames: &mut [Matrix4<f64>]) {
         "link_frames_into: {} frames for {n} joints (needs n + 2)",
         frames.len()
     );
-    let mut t = robot.base;
-    frames[0] = t;
+    frames[0] = robot.base;
     for (j, (joint, &qj)) in robot.joints.iter().zip(q).enumerate() {
-        t *= link_transform(robot.convention, joint, qj);
-        frames[j + 1] = t;
+        frames[j + 1] = frames[robot.parent(j)] * link_transform(robot.convention, joint, qj);
     }
-    frames[n + 1] = t * robot.tool;
+    frames[n + 1] = frames[n] * robot.tool;
 }
 
-/// The tool pose `T_ee = base · A_1 ⋯ A_n · tool` in the world.
+/// The tool pose `T_ee = base · A_1 ⋯ A_n · tool` in the world (for a tree, the product along
+/// the last joint's support path).
 pub fn forward(robot: &Robot, q: &[f64]) -> Matrix4<f64> {
+    if !robot.is_chain() {
+        return link_pose(robot, q, robot.dof()) * robot.tool;
+    }
     let mut t = robot.base;
     for (joint, &qj) in robot.joints.iter().zip(q) {
         t *= link_transform(robot.convention, joint, qj);
     }
     t * robot.tool
+}
+
+/// The world pose of link frame `link` (0 = base, k = the end of joint k−1; see
+/// [`Robot::parents`]): the product of the link transforms along its support path.
+/// Panics if `link > robot.dof()`.
+pub fn link_pose(robot: &Robot, q: &[f64], link: usize) -> Matrix4<f64> {
+    assert!(
+        link <= robot.dof(),
+        "link_pose: link frame {link} of {}",
+        robot.dof()
+    );
+    let mut t = robot.base;
+    for j in robot.support(link) {
+        t *= link_transform(robot.convention, &robot.joints[j], q[j]);
+    }
+    t
 }
 
 #[cfg(test)]

@@ -262,13 +262,22 @@ impl Default for Joint {
     }
 }
 
-/// A serial robot: an ordered chain of joints with base and tool transforms.
+/// A robot: joints with base and tool transforms — a serial chain, or a kinematic **tree**
+/// (a Panda's fingers, Baxter's two arms) when [`Robot::parents`] says so.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct Robot {
     pub name: String,
     pub convention: Convention,
     pub joints: Vec<Joint>,
+    /// The tree, Pinocchio's `parents` in link-frame numbers: link frame 0 is the base, link
+    /// frame k (k = 1..=n) the frame at the end of joint k−1 (0-based joint index), and joint j
+    /// hangs from link frame `parents[j]`, which must be ≤ j (parents come first). **Empty: a
+    /// serial chain**, the same as `parents[j] = j` (Pinocchio's `parents[i] = i − 1`). For a
+    /// tree, `A_j`'s placement `P_j` is given in link frame `parents[j]`; a DH row's placement
+    /// is read the same way (its trailing `T_j` ends link frame j). The tool hangs from the
+    /// last joint's link frame. (Always serialised, like every field.)
+    pub parents: Vec<usize>,
     pub base: Matrix4<f64>,
     pub tool: Matrix4<f64>,
     /// Gravity acceleration in the base frame's parent (world), m/s².
@@ -281,6 +290,7 @@ impl Default for Robot {
             name: String::new(),
             convention: Convention::Standard,
             joints: Vec::new(),
+            parents: Vec::new(),
             base: Matrix4::identity(),
             tool: Matrix4::identity(),
             gravity: Vector3::new(0.0, 0.0, -9.81),
@@ -309,6 +319,14 @@ pub enum ModelError {
     NotRigidOrigin { joint: usize },
     #[error("joint {joint}: axis {axis:?} is not a finite unit vector")]
     BadAxis { joint: usize, axis: [f64; 3] },
+    #[error(
+        "`parents` has {got} entries but the robot has {expected} joints (empty for a serial chain)"
+    )]
+    ParentsLength { expected: usize, got: usize },
+    #[error(
+        "joint {joint}: parent link frame {parent} is not before it (parents[j] must be at most j)"
+    )]
+    ParentAfterChild { joint: usize, parent: usize },
     #[error("q has {got} values but the robot has {expected} joints")]
     WrongDof { expected: usize, got: usize },
     #[error("q[{index}] is not finite ({value})")]
@@ -321,9 +339,46 @@ impl Robot {
         self.joints.len()
     }
 
+    /// Whether the robot is a serial chain (no branches).
+    pub fn is_chain(&self) -> bool {
+        self.parents.iter().enumerate().all(|(j, &p)| p == j)
+    }
+
+    /// The link frame joint `j` (0-based) hangs from: 0 = the base, k = the end of joint k−1
+    /// (see [`Robot::parents`]).
+    #[inline]
+    pub fn parent(&self, j: usize) -> usize {
+        self.parents.get(j).copied().unwrap_or(j)
+    }
+
+    /// The joints that move link frame `link` (1..=n; 0, the base, has none), root first:
+    /// the support path (Pinocchio's `supports`). For a chain, `0..link`.
+    pub fn support(&self, link: usize) -> Vec<usize> {
+        let mut path = Vec::new();
+        let mut k = link;
+        while k > 0 {
+            path.push(k - 1);
+            k = self.parent(k - 1);
+        }
+        path.reverse();
+        path
+    }
+
     /// Checks every field a user or a planner could get wrong; the algorithms assume a
     /// validated robot.
     pub fn validate(&self) -> Result<(), ModelError> {
+        if !self.parents.is_empty() {
+            if self.parents.len() != self.dof() {
+                return Err(ModelError::ParentsLength {
+                    expected: self.dof(),
+                    got: self.parents.len(),
+                });
+            }
+            if let Some((joint, &parent)) = self.parents.iter().enumerate().find(|(j, p)| **p > *j)
+            {
+                return Err(ModelError::ParentAfterChild { joint, parent });
+            }
+        }
         for (j, jt) in self.joints.iter().enumerate() {
             for (field, value) in [
                 ("a", jt.a),
