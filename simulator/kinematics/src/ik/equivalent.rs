@@ -42,7 +42,8 @@ fn frame(o: &Vector3<f64>, x: &Vector3<f64>, z: &Vector3<f64>) -> Matrix4<f64> {
 /// geometry. Limits are copied; inertial data are not (the result is for kinematics).
 pub fn equivalent_dh(robot: &Robot) -> Option<Robot> {
     let n = robot.joints.len();
-    if n == 0 {
+    // a tree has no one chain of axes to read DH rows from
+    if n == 0 || !robot.is_chain() {
         return None;
     }
     let scale = robot
@@ -147,5 +148,6 @@ pub fn equivalent_dh(robot: &Robot) -> Option<Robot> {
         gravity: robot.gravity,
         base,
         tool,
+        parents: Vec::new(),
     })
 }
