@@ -355,10 +355,7 @@ fn the_station_daemon_carries_out_the_oru_swap_as_the_study_does() {
         let q_now = floats(&servicer["q"]);
         let q_plan = station::servicer_at(&plan.points, t).0;
         assert!(
-            q_now
-                .iter()
-                .zip(&q_plan)
-                .all(|(a, b)| (a - b).abs() <= 1e-6),
+            q_now.iter().zip(&q_plan).all(|(a, b)| (a - b).abs() <= 1e-6),
             "t {t}: the servicer at {q_now:?}, the plan's {q_plan:?}; {servicer}"
         );
         for (i, prefix) in ["failed_oru", "spare_oru"].iter().enumerate() {

@@ -540,8 +540,7 @@ impl Daemon<'_> {
             let committed = robosim_kinematics::fk::link_frames(&r.robot, &r.q);
             let mut moved = HashMap::new();
             for (j, ids) in r.link_bodies.iter().enumerate().skip(1) {
-                let m =
-                    isometry_from_matrix(&now[j]) * isometry_from_matrix(&committed[j]).inverse();
+                let m = isometry_from_matrix(&now[j]) * isometry_from_matrix(&committed[j]).inverse();
                 moved.extend(ids.iter().map(|id| (*id, m)));
             }
             for (s, (sim, other)) in self.sims.iter_mut().zip(self.scene.robots()).enumerate() {
