@@ -39,14 +39,6 @@
 //! moved obstacle is moved in the collision stage's scene, a moved robot base rebuilds that
 //! robot's pipeline only. Robots that were not touched keep simulating undisturbed.
 //!
-//! **Robots see each other where they are simulated.** Each pipeline's collision scene holds
-//! the other robots' link bodies; before every step the daemon moves them to the joints the
-//! other robots' pipelines have now (`Daemon::place_simulated`), not the committed ones. So
-//! every pipeline checks its step against the others at the start of that step, whatever the
-//! order the pipelines step in. Limits: a robot mounted on another robot's link moves with the
-//! committed link, not the simulated one; an ORU the swap stage carries is placed by that
-//! stage in the servicer's scene only.
-//!
 //! Entry points: [`run`] (the process) with its [`Options`], [`ctl`] (`robosim simctl`),
 //! [`Mode`], [`Counters`].
 //!
@@ -65,7 +57,6 @@ mod swap;
 pub use ctl::ctl;
 
 use nalgebra::DVector;
-use robosim_collision::robot::isometry_from_matrix;
 use robosim_instance_space::layout::PoseRec;
 use robosim_instance_space::state::{CommandReceiver, JointStateRec, StatePublisher};
 use robosim_instance_space::{Kind, Reader, Session, Snapshot};
@@ -77,7 +68,7 @@ use robosim_simulator::effects::{
 };
 use robosim_simulator::pipeline::{Command, Pipeline, SceneGeometry};
 use serde_json::Value;
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -179,10 +170,6 @@ pub(crate) struct Sim {
     pub(crate) contact_was: bool,
     /// The committed joint values this pipeline last adopted.
     committed_q: Vec<f64>,
-    /// The joint values at which this robot's link bodies stand in the other pipelines'
-    /// collision scenes ([`Daemon::place_simulated`]); the committed ones after a build or an
-    /// in-place update.
-    placed_q: Vec<f64>,
     base: nalgebra::Matrix4<f64>,
     pub(crate) pipeline: Pipeline,
 }
@@ -405,7 +392,6 @@ impl Daemon<'_> {
             error: None,
             contact_was: false,
             committed_q: r.q.clone(),
-            placed_q: r.q.clone(),
             base: r.robot.base,
             pipeline,
         })
@@ -506,65 +492,7 @@ impl Daemon<'_> {
                 }
             }
         }
-        // every obstacle now stands where the snapshot has it: the robots' bodies at their
-        // committed joints, to be placed again where the pipelines have them
-        for (s, r) in self.sims.iter_mut().zip(self.scene.robots()) {
-            s.placed_q.clone_from(&r.q);
-        }
         Ok(())
-    }
-
-    /// Puts every robot's link bodies, in the other pipelines' collision scenes, where its own
-    /// pipeline has them now (the scene has them at the committed joints). Called before each
-    /// step, so every pipeline checks its step against the other robots' joints at the start
-    /// of the step: deterministic, and independent of the order the pipelines step in. Only a
-    /// robot whose simulated joints moved since it was last placed costs anything: two FK
-    /// passes and a pose per body. A body moves with its link by the link's motion from its
-    /// committed to its simulated frame. Obstacles the swap stage owns (the ORUs in the
-    /// servicer's scene) are left to it.
-    fn place_simulated(&mut self) {
-        let owned = self
-            .swap
-            .as_ref()
-            .map(swap::SwapStage::owned_obstacles)
-            .unwrap_or_default();
-        for k in 0..self.sims.len() {
-            let Some(r) = self.scene.robots().get(k) else {
-                continue;
-            };
-            let q = self.sims[k].pipeline.data().state.q.as_slice().to_vec();
-            if q == self.sims[k].placed_q {
-                continue;
-            }
-            let now = robosim_kinematics::fk::link_frames(&r.robot, &q);
-            let committed = robosim_kinematics::fk::link_frames(&r.robot, &r.q);
-            let mut moved = HashMap::new();
-            for (j, ids) in r.link_bodies.iter().enumerate().skip(1) {
-                let m = isometry_from_matrix(&now[j]) * isometry_from_matrix(&committed[j]).inverse();
-                moved.extend(ids.iter().map(|id| (*id, m)));
-            }
-            for (s, (sim, other)) in self.sims.iter_mut().zip(self.scene.robots()).enumerate() {
-                if s == k {
-                    continue;
-                }
-                let Some(scene) = sim.pipeline.obstacles_mut() else {
-                    continue;
-                };
-                let outside = self
-                    .scene
-                    .objects()
-                    .iter()
-                    .filter(|o| !other.subtree.contains(&o.id));
-                for (j, o) in outside.enumerate() {
-                    if let Some(m) = moved.get(&o.id)
-                        && !owned.contains(&(s, j))
-                    {
-                        scene.set_pose(j, m * o.pose);
-                    }
-                }
-            }
-            self.sims[k].placed_q = q;
-        }
     }
 }
 
@@ -865,7 +793,6 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
         }
         let step_now = running || budget > 0;
         if step_now {
-            d.place_simulated();
             for s in &mut d.sims {
                 if let Err(e) = s.pipeline.step() {
                     eprintln!("simulator: {}: {e}; paused", s.name);

@@ -16,9 +16,9 @@
 //!   display attached to the session draws them where they are (as it draws the links). The
 //!   servicer's collision stage sees them there too (their obstacles are moved with them; in
 //!   its grip an ORU is part of the servicer, as in the study, and not its obstacle).
-//!   Other robots are its obstacles where their pipelines have them (the daemon places every
-//!   robot's link bodies in the others' scenes before each step; the ORUs it owns are left to
-//!   this stage), so an array the plan has parked is met parked. The daemon commits nothing to the Instance Space: the committed model keeps the scene's
+//!   Other robots are still its obstacles at their committed joints (the daemon's model for
+//!   every robot), not where their pipelines have turned them. The
+//!   daemon commits nothing to the Instance Space: the committed model keeps the scene's
 //!   placement, as it keeps the committed joints.
 //!
 //! What `get` reports is [`SwapStage::status`] under the key `"swap"`.
@@ -240,15 +240,6 @@ impl SwapStage {
             }
         }
         Ok(())
-    }
-
-    /// The obstacles this stage places itself: (the servicer's pipeline, index in its
-    /// collision scene) of every ORU part. [`crate::Daemon::place_simulated`] leaves them alone.
-    pub(crate) fn owned_obstacles(&self) -> Vec<(usize, usize)> {
-        self.objects
-            .iter()
-            .flat_map(|o| o.obstacles.iter().map(|(j, _)| (self.servicer, *j)))
-            .collect()
     }
 
     /// The ORU objects' pose records (relative to their parents) at the last update, published
