@@ -39,6 +39,12 @@
 //! moved obstacle is moved in the collision stage's scene, a moved robot base rebuilds that
 //! robot's pipeline only. Robots that were not touched keep simulating undisturbed.
 //!
+//! **Robots see each other where they are simulated.** Each pipeline's obstacles include the
+//! other robots' links; before every step the daemon moves them to the other robots'
+//! simulated joints (only robots whose q changed; placements, nothing re-tessellated), so
+//! every pipeline checks against the others at the start of the step, independently of the
+//! order the pipelines step in ([`follow`]).
+//!
 //! Entry points: [`run`] (the process) with its [`Options`], [`ctl`] (`robosim simctl`),
 //! [`Mode`], [`Counters`].
 //!
@@ -49,6 +55,7 @@
 
 pub mod bench;
 mod ctl;
+mod follow;
 pub mod recording;
 mod space;
 pub mod status;
@@ -344,6 +351,8 @@ struct Daemon<'a> {
     space: Option<space::SpaceStage>,
     /// The ORU swap, when the scene declares `oru_swap` ([`swap`]).
     swap: Option<swap::SwapStage>,
+    /// Where each robot's links are in the other pipelines' obstacle scenes ([`follow`]).
+    follow: Option<follow::Follow>,
     counters: Counters,
     /// Steps since the pipelines were last built (all of them).
     clock_steps: u64,
@@ -433,9 +442,25 @@ impl Daemon<'_> {
             self.swap = swap::SwapStage::build(fx, scene, &mut self.sims, snap)
                 .map_err(|e| DaemonError::Effects(format!("the swap stage: {e}")))?;
         }
+        self.refollow(snap);
         self.counters.rebuilds += 1;
         self.clock_steps = 0;
         Ok(())
+    }
+
+    /// The robots' link objects in the other pipelines' scenes, from the compiled (committed)
+    /// scene, leaving out what the swap stage places ([`follow`]).
+    fn refollow(&mut self, snap: &Snapshot) {
+        let owned = self
+            .swap
+            .as_ref()
+            .map(|sw| {
+                sw.object_ids()
+                    .flat_map(|id| robosim_scene::solids::subtree(snap, id))
+                    .collect()
+            })
+            .unwrap_or_default();
+        self.follow = Some(follow::Follow::build(&self.scene, &self.sims, &owned));
     }
 
     /// Brings the pipelines to `snap`; returns whether anything was applied.
@@ -492,6 +517,9 @@ impl Daemon<'_> {
                 }
             }
         }
+        // the robots' links were put back at their committed poses: shown again at their
+        // simulated joints before the next step
+        self.refollow(snap);
         Ok(())
     }
 }
@@ -654,6 +682,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
         sims: Vec::new(),
         space: None,
         swap: None,
+        follow: None,
         counters: Counters::default(),
         clock_steps: 0,
     };
@@ -793,6 +822,11 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
         }
         let step_now = running || budget > 0;
         if step_now {
+            // every pipeline checks against the other robots at their simulated joints at the
+            // start of this step, whatever the order it steps in ([`follow`])
+            if let Some(f) = &mut d.follow {
+                f.show(&mut d.sims);
+            }
             for s in &mut d.sims {
                 if let Err(e) = s.pipeline.step() {
                     eprintln!("simulator: {}: {e}; paused", s.name);

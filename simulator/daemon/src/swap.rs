@@ -16,9 +16,9 @@
 //!   display attached to the session draws them where they are (as it draws the links). The
 //!   servicer's collision stage sees them there too (their obstacles are moved with them; in
 //!   its grip an ORU is part of the servicer, as in the study, and not its obstacle).
-//!   Other robots are still its obstacles at their committed joints (the daemon's model for
-//!   every robot), not where their pipelines have turned them. The
-//!   daemon commits nothing to the Instance Space: the committed model keeps the scene's
+//!   The other robots are its obstacles where their pipelines have them (the daemon moves
+//!   them before every step, [`crate::follow`]), the parked array at its service angle; the
+//!   ORUs are left out of that (this stage places them). The daemon commits nothing to the Instance Space: the committed model keeps the scene's
 //!   placement, as it keeps the committed joints.
 //!
 //! What `get` reports is [`SwapStage::status`] under the key `"swap"`.
@@ -240,6 +240,12 @@ impl SwapStage {
             }
         }
         Ok(())
+    }
+
+    /// The ORU objects' ids: the stage places them (and their parts) in the servicer's
+    /// obstacle scene itself, so the daemon does not move them with the carrying robot.
+    pub(crate) fn object_ids(&self) -> impl Iterator<Item = u64> + '_ {
+        self.objects.iter().map(|o| o.id)
     }
 
     /// The ORU objects' pose records (relative to their parents) at the last update, published
