@@ -18,9 +18,10 @@
 //! robot's base frame is the root link's frame (base = identity), link frame j is the child
 //! link frame of movable joint j, the tool is the tip link's frame; gravity (0, 0, −9.81).
 //!
-//! Not read (noted in [`UrdfRobot::notes`]): `<visual>` and `<collision>` geometry, materials
-//! and meshes (FK and dynamics need none of them), `<transmission>`, `<gazebo>`, safety
-//! controllers, calibration. Refused: floating and planar joints, xacro files, and every
+//! Geometry: `<visual>`, `<collision>` and `<material>` are read into [`UrdfRobot::geometry`]
+//! by [`crate::urdf_geometry`]; meshes are only named there and loaded when an operation needs
+//! them (FK and dynamics do not). Not read: `<transmission>`, `<gazebo>`, safety controllers,
+//! calibration. Refused: floating and planar joints, xacro files, and every
 //! malformed input (see [`UrdfErrorKind`]); each error names the file, the line (roxmltree's
 //! positions) and the element.
 
@@ -85,6 +86,9 @@ pub enum UrdfErrorKind {
     MimicOnChain(String),
     #[error("the imported chain is not a valid robot: {0}")]
     Model(ModelError),
+    /// A `<mesh>` (or a collision solid) that cannot be used; found when geometry is needed.
+    #[error("{0}")]
+    Mesh(crate::urdf_geometry::MeshProblem),
 }
 
 /// A URDF problem: the file, the 1-based line (0 when there is no element, as for an unreadable
@@ -126,8 +130,11 @@ pub struct UrdfRobot {
     pub folded: Vec<String>,
     /// Joints off the chain (held at 0, their links lumped).
     pub held: Vec<String>,
-    /// What was read but not used (geometry, mimic off the chain, …), one sentence each.
+    /// What was read but not used (mimic off the chain, …), one sentence each.
     pub notes: Vec<String>,
+    /// Visual and collision geometry of every link, keyed by link name (meshes not loaded:
+    /// [`crate::urdf_geometry`]).
+    pub geometry: crate::urdf_geometry::UrdfGeometry,
 }
 
 /// Reads the URDF at `path` and builds the chain from its root link to `tip` (`None`: the only
@@ -145,7 +152,6 @@ pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfErro
 struct LinkRec {
     line: u32,
     inertial: Inertial,
-    geometry: usize,
 }
 
 #[derive(Clone)]
@@ -165,17 +171,22 @@ struct JointRec {
     mimic: bool,
 }
 
-struct Reader<'a, 'input> {
-    file: &'a Path,
+pub(crate) struct Reader<'a, 'input> {
+    pub(crate) file: &'a Path,
     doc: &'a roxmltree::Document<'input>,
 }
 
 impl Reader<'_, '_> {
-    fn line(&self, node: roxmltree::Node) -> u32 {
+    pub(crate) fn line(&self, node: roxmltree::Node) -> u32 {
         self.doc.text_pos_at(node.range().start).row
     }
 
-    fn err(&self, node: roxmltree::Node, element: &str, kind: UrdfErrorKind) -> UrdfError {
+    pub(crate) fn err(
+        &self,
+        node: roxmltree::Node,
+        element: &str,
+        kind: UrdfErrorKind,
+    ) -> UrdfError {
         UrdfError {
             file: self.file.to_path_buf(),
             line: self.line(node),
@@ -184,7 +195,7 @@ impl Reader<'_, '_> {
         }
     }
 
-    fn attr<'n>(
+    pub(crate) fn attr<'n>(
         &self,
         node: roxmltree::Node<'n, '_>,
         element: &str,
@@ -195,7 +206,7 @@ impl Reader<'_, '_> {
     }
 
     /// A finite number attribute; `default` when absent (`None`: required).
-    fn number(
+    pub(crate) fn number(
         &self,
         node: roxmltree::Node,
         element: &str,
@@ -226,7 +237,7 @@ impl Reader<'_, '_> {
     }
 
     /// Three finite numbers separated by white space; `default` when the attribute is absent.
-    fn triple(
+    pub(crate) fn triple(
         &self,
         node: roxmltree::Node,
         element: &str,
@@ -262,7 +273,11 @@ impl Reader<'_, '_> {
     }
 
     /// `<origin xyz rpy>` under `parent` as a rigid transform (identity when absent).
-    fn origin(&self, parent: roxmltree::Node, element: &str) -> Result<Matrix4<f64>, UrdfError> {
+    pub(crate) fn origin(
+        &self,
+        parent: roxmltree::Node,
+        element: &str,
+    ) -> Result<Matrix4<f64>, UrdfError> {
         let Some(o) = child(parent, "origin") else {
             return Ok(Matrix4::identity());
         };
@@ -403,7 +418,10 @@ impl Reader<'_, '_> {
     }
 }
 
-fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
+pub(crate) fn child<'a, 'i>(
+    node: roxmltree::Node<'a, 'i>,
+    tag: &str,
+) -> Option<roxmltree::Node<'a, 'i>> {
     node.children()
         .find(|c| c.is_element() && c.tag_name().name() == tag)
 }
@@ -459,6 +477,7 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
     }
     let robot_name = root_el.attribute("name").unwrap_or("urdf").to_string();
 
+    let mut geometry = crate::urdf_geometry::read_all(&rd, root_el)?;
     let mut links: HashMap<String, LinkRec> = HashMap::new();
     let mut link_order: Vec<String> = Vec::new();
     let mut joints: Vec<JointRec> = Vec::new();
@@ -472,18 +491,11 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
                     return Err(rd.err(node, &element, UrdfErrorKind::DuplicateName(name)));
                 }
                 let inertial = rd.inertial(node, &element)?;
-                let geometry = node
-                    .children()
-                    .filter(|c| {
-                        c.is_element() && matches!(c.tag_name().name(), "visual" | "collision")
-                    })
-                    .count();
                 links.insert(
                     name.clone(),
                     LinkRec {
                         line: rd.line(node),
                         inertial,
-                        geometry,
                     },
                 );
                 link_order.push(name);
@@ -694,12 +706,21 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
             ));
         }
     }
-    let geometry: usize = links.values().map(|l| l.geometry).sum();
-    if geometry > 0 {
-        notes.push(format!(
-            "{geometry} <visual>/<collision> elements not loaded (URDF geometry and meshes are not imported yet; FK and dynamics do not need them)"
-        ));
-    }
+    let tree: Vec<crate::urdf_geometry::TreeJoint> = joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| crate::urdf_geometry::TreeJoint {
+            parent: &j.parent,
+            child: &j.child,
+            placement: j.placement,
+            body: built
+                .segment_of_joint
+                .iter()
+                .position(|&s| chain[s] == k)
+                .map(|i| i + 1),
+        })
+        .collect();
+    crate::urdf_geometry::place(&mut geometry, &root, &tree);
     Ok(UrdfRobot {
         robot,
         root,
@@ -708,6 +729,7 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
         folded,
         held: held.iter().map(|&k| joints[k].name.clone()).collect(),
         notes,
+        geometry,
     })
 }
 
@@ -755,7 +777,9 @@ mod tests {
         assert_eq!((r.joints[1].effort, r.joints[1].velocity), (10.0, 3.0));
         assert_eq!(r.robot.joints[0].qlim, [f64::NEG_INFINITY, f64::INFINITY]);
         assert_eq!(r.robot.joints[1].qlim, [-2.0, 2.0]);
-        assert_eq!(r.notes.len(), 1, "{:?}", r.notes);
+        assert!(r.notes.is_empty(), "{:?}", r.notes);
+        let g = &r.geometry.links["l1"];
+        assert_eq!((g.body, g.visual.len()), (1, 1));
         let q = [0.3, -0.8];
         let expected = trans(0.0, 0.0, 0.5)
             * rot_z(q[0])
