@@ -166,14 +166,14 @@ const SMALL: &str = r#"<?xml version="1.0"?>
     <collision><origin xyz="0 0 0.25"/><geometry><cylinder radius="0.05" length="0.5"/></geometry></collision>
   </link>
   <link name="tool">
-    <collision><origin xyz="0.1 0 0"/><geometry><sphere radius="0.03"/></geometry></collision>
+    <collision><origin xyz="0 0.2 0"/><geometry><sphere radius="0.03"/></geometry></collision>
     <collision><geometry>MESH</geometry></collision>
   </link>
   <joint name="j1" type="continuous">
     <parent link="base"/><child link="arm"/><origin xyz="0 0 0.1"/><axis xyz="0 0 1"/>
   </joint>
   <joint name="fixed_tool" type="fixed">
-    <parent link="arm"/><child link="tool"/><origin xyz="0 0 0.5" rpy="0 1.5707963267948966 0"/>
+    <parent link="arm"/><child link="tool"/><origin xyz="0 0 0.6" rpy="0 1.5707963267948966 0"/>
   </joint>
 </robot>"#;
 
@@ -238,9 +238,10 @@ fn primitives_meshes_and_materials_are_placed_in_their_bodies() {
     // Body 1: the arm's cylinder, the tool's sphere and the (scaled) tetrahedron, compound.
     let arm = ls.links[1].as_ref().expect("arm");
     assert_eq!(arm.solid.kind, robosim_collision::SolidKind::Compound);
-    // The tool frame is at z = 0.5, turned +90° about y: its x axis is the arm's −z. The
-    // sphere (tool x = 0.1) is at arm z = 0.4; the tetrahedron's far corner (0.04, 0, 0) at
-    // z = 0.46. At q = 0, base at the origin, joint 1 at z = 0.1: world z = 0.5 and 0.56.
+    // The tool frame is at arm z = 0.6 (world z = 0.7 with joint 1 at z = 0.1), turned +90°
+    // about y (tool x = arm −z, tool z = arm x): the tetrahedron's top face is the plane
+    // z = 0.7 and its corner (0, 0, 0) sits on the joint axis; the sphere (tool y = 0.2) is at
+    // arm (0, 0.2, 0.6), i.e. world (−0.2 sin q, 0.2 cos q, 0.7).
     let q = [0.7];
     let pose = isometry_from_matrix(&fk::link_frames(&r.robot, &q)[1]) * arm.offset;
     let probe = Solid::sphere(0.001, None).expect("probe");
@@ -257,13 +258,14 @@ fn primitives_meshes_and_materials_are_placed_in_their_bodies() {
         PairResult::Contact { .. } => 0.0,
         other => panic!("{other:?}"),
     };
-    // Just below the tetrahedron's tip on the axis, and above it.
-    assert!(dist(Vector3::new(0.0, 0.0, 0.5595)) < 1e-12);
-    let above = dist(Vector3::new(0.0, 0.0, 0.6));
-    assert!((above - (0.6 - 0.56 - 0.001)).abs() < 1e-9, "{above}");
-    // Beside the sphere (centre z = 0.5, radius 0.03) at 0.1 m: outside the 0.05 m cylinder too.
-    let side = dist(Vector3::new(0.1, 0.0, 0.5));
-    assert!((side - (0.1 - 0.05 - 0.001)).abs() < 1e-9, "{side}");
+    // Above the tetrahedron's corner on the axis (probe radius 0.001).
+    let above = dist(Vector3::new(0.0, 0.0, 0.75));
+    assert!((above - (0.75 - 0.7 - 0.001)).abs() < 1e-9, "{above}");
+    // Above the sphere: rotated with joint 1.
+    let c = Vector3::new(-0.2 * q[0].sin(), 0.2 * q[0].cos(), 0.7);
+    let over = dist(c + Vector3::new(0.0, 0.0, 0.1));
+    assert!((over - (0.1 - 0.03 - 0.001)).abs() < 1e-9, "{over}");
+    assert!(dist(c) < 1e-12);
 }
 
 #[test]
@@ -300,7 +302,7 @@ fn missing_unknown_and_malformed_meshes_fail_only_where_geometry_is_needed() {
         // FK and dynamics need no mesh: the import works.
         let r = import_urdf(&urdf, None).expect("imports without loading meshes");
         let t = fk::forward(&r.robot, &[0.0]);
-        assert!((t[(2, 3)] - 0.6).abs() < 1e-15);
+        assert!((t[(2, 3)] - 0.7).abs() < 1e-15);
         let e = link_solids(&r).expect_err("the mesh is needed now");
         assert!(is(&e.kind), "{mesh}: {e}");
         assert_eq!(e.file, urdf);
