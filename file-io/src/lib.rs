@@ -17,6 +17,9 @@
 //! * [`bench`] — save and load of a 10⁶-vertex model against `cp` (`robosim bench files`).
 //! * [`urdf`] — a robot as URDF (its DH chain as joint origins and z axes, inertials, limits),
 //!   checked against Pinocchio.
+//! * [`urdf_import`] — a URDF read as a chain; [`urdf_geometry`] its visual and collision
+//!   geometry (meshes loaded lazily, [`package`] resolves `package://` names) and the collision
+//!   solids of its links.
 //! * [`cli`] — the command-line glue (clap argument structs and run functions).
 
 pub mod bench;
@@ -29,10 +32,12 @@ pub mod import;
 pub mod linkfile;
 pub mod model;
 pub mod obj;
+pub mod package;
 pub mod session;
 pub mod stl;
 pub mod trajectory;
 pub mod urdf;
+pub mod urdf_geometry;
 pub mod urdf_import;
 mod world;
 

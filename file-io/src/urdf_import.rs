@@ -18,9 +18,10 @@
 //! robot's base frame is the root link's frame (base = identity), link frame j is the child
 //! link frame of movable joint j, the tool is the tip link's frame; gravity (0, 0, −9.81).
 //!
-//! Not read (noted in [`UrdfRobot::notes`]): `<visual>` and `<collision>` geometry, materials
-//! and meshes (FK and dynamics need none of them), `<transmission>`, `<gazebo>`, safety
-//! controllers, calibration. Refused: floating and planar joints, xacro files, and every
+//! Geometry: `<visual>`, `<collision>` and `<material>` are read into [`UrdfRobot::geometry`]
+//! by [`crate::urdf_geometry`]; meshes are only named there and loaded when an operation needs
+//! them (FK and dynamics do not). Not read: `<transmission>`, `<gazebo>`, safety controllers,
+//! calibration. Refused: floating and planar joints, xacro files, and every
 //! malformed input (see [`UrdfErrorKind`]); each error names the file, the line (roxmltree's
 //! positions) and the element.
 
@@ -85,6 +86,9 @@ pub enum UrdfErrorKind {
     MimicOnChain(String),
     #[error("the imported chain is not a valid robot: {0}")]
     Model(ModelError),
+    /// A `<mesh>` (or a collision solid) that cannot be used; found when geometry is needed.
+    #[error("{0}")]
+    Mesh(crate::urdf_geometry::MeshProblem),
 }
 
 /// A URDF problem: the file, the 1-based line (0 when there is no element, as for an unreadable
@@ -126,7 +130,7 @@ pub struct UrdfRobot {
     pub folded: Vec<String>,
     /// Joints off the chain (held at 0, their links lumped).
     pub held: Vec<String>,
-    /// What was read but not used (geometry, mimic off the chain, …), one sentence each.
+    /// What was read but not used (mimic off the chain, …), one sentence each.
     pub notes: Vec<String>,
     /// The movable joints' parent links, in q order (for a chain, the previous joint's child
     /// link; for a tree, [`Robot::parents`] by link name).
@@ -135,6 +139,9 @@ pub struct UrdfRobot {
     /// is imported as an **independent** coordinate, as Pinocchio's URDF reader does by default
     /// (`buildModel(…, mimic=False)`); the relation is kept here for a controller to impose.
     pub mimics: Vec<UrdfMimic>,
+    /// Visual and collision geometry of every link, keyed by link name (meshes not loaded:
+    /// [`crate::urdf_geometry`]).
+    pub geometry: crate::urdf_geometry::UrdfGeometry,
 }
 
 /// A `<mimic>` relation `q[joint] = multiplier · q[mimicked] + offset`, noted, not imposed
@@ -187,7 +194,6 @@ pub fn import_urdf_tree_str(text: &str, file: &Path) -> Result<UrdfRobot, UrdfEr
 struct LinkRec {
     line: u32,
     inertial: Inertial,
-    geometry: usize,
 }
 
 #[derive(Clone)]
@@ -209,17 +215,22 @@ struct JointRec {
     mimic_of: Option<(String, f64, f64)>,
 }
 
-struct Reader<'a, 'input> {
-    file: &'a Path,
+pub(crate) struct Reader<'a, 'input> {
+    pub(crate) file: &'a Path,
     doc: &'a roxmltree::Document<'input>,
 }
 
 impl Reader<'_, '_> {
-    fn line(&self, node: roxmltree::Node) -> u32 {
+    pub(crate) fn line(&self, node: roxmltree::Node) -> u32 {
         self.doc.text_pos_at(node.range().start).row
     }
 
-    fn err(&self, node: roxmltree::Node, element: &str, kind: UrdfErrorKind) -> UrdfError {
+    pub(crate) fn err(
+        &self,
+        node: roxmltree::Node,
+        element: &str,
+        kind: UrdfErrorKind,
+    ) -> UrdfError {
         UrdfError {
             file: self.file.to_path_buf(),
             line: self.line(node),
@@ -228,7 +239,7 @@ impl Reader<'_, '_> {
         }
     }
 
-    fn attr<'n>(
+    pub(crate) fn attr<'n>(
         &self,
         node: roxmltree::Node<'n, '_>,
         element: &str,
@@ -239,7 +250,7 @@ impl Reader<'_, '_> {
     }
 
     /// A finite number attribute; `default` when absent (`None`: required).
-    fn number(
+    pub(crate) fn number(
         &self,
         node: roxmltree::Node,
         element: &str,
@@ -270,7 +281,7 @@ impl Reader<'_, '_> {
     }
 
     /// Three finite numbers separated by white space; `default` when the attribute is absent.
-    fn triple(
+    pub(crate) fn triple(
         &self,
         node: roxmltree::Node,
         element: &str,
@@ -306,7 +317,11 @@ impl Reader<'_, '_> {
     }
 
     /// `<origin xyz rpy>` under `parent` as a rigid transform (identity when absent).
-    fn origin(&self, parent: roxmltree::Node, element: &str) -> Result<Matrix4<f64>, UrdfError> {
+    pub(crate) fn origin(
+        &self,
+        parent: roxmltree::Node,
+        element: &str,
+    ) -> Result<Matrix4<f64>, UrdfError> {
         let Some(o) = child(parent, "origin") else {
             return Ok(Matrix4::identity());
         };
@@ -458,7 +473,10 @@ impl Reader<'_, '_> {
     }
 }
 
-fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
+pub(crate) fn child<'a, 'i>(
+    node: roxmltree::Node<'a, 'i>,
+    tag: &str,
+) -> Option<roxmltree::Node<'a, 'i>> {
     node.children()
         .find(|c| c.is_element() && c.tag_name().name() == tag)
 }
@@ -523,6 +541,7 @@ fn import_impl(
     }
     let robot_name = root_el.attribute("name").unwrap_or("urdf").to_string();
 
+    let mut geometry = crate::urdf_geometry::read_all(&rd, root_el)?;
     let mut links: HashMap<String, LinkRec> = HashMap::new();
     let mut link_order: Vec<String> = Vec::new();
     let mut joints: Vec<JointRec> = Vec::new();
@@ -536,18 +555,11 @@ fn import_impl(
                     return Err(rd.err(node, &element, UrdfErrorKind::DuplicateName(name)));
                 }
                 let inertial = rd.inertial(node, &element)?;
-                let geometry = node
-                    .children()
-                    .filter(|c| {
-                        c.is_element() && matches!(c.tag_name().name(), "visual" | "collision")
-                    })
-                    .count();
                 links.insert(
                     name.clone(),
                     LinkRec {
                         line: rd.line(node),
                         inertial,
-                        geometry,
                     },
                 );
                 link_order.push(name);
@@ -644,6 +656,7 @@ fn import_impl(
             &links,
             &joints,
             &children,
+            geometry,
         );
     }
 
@@ -771,16 +784,25 @@ fn import_impl(
             ));
         }
     }
-    let geometry: usize = links.values().map(|l| l.geometry).sum();
-    if geometry > 0 {
-        notes.push(format!(
-            "{geometry} <visual>/<collision> elements not loaded (URDF geometry and meshes are not imported yet; FK and dynamics do not need them)"
-        ));
-    }
     let parent_links = movable
         .iter()
         .map(|m| joints[parent_joint[m.link.as_str()]].parent.clone())
         .collect();
+    let tree: Vec<crate::urdf_geometry::TreeJoint> = joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| crate::urdf_geometry::TreeJoint {
+            parent: &j.parent,
+            child: &j.child,
+            placement: j.placement,
+            body: built
+                .segment_of_joint
+                .iter()
+                .position(|&s| chain[s] == k)
+                .map(|i| i + 1),
+        })
+        .collect();
+    crate::urdf_geometry::place(&mut geometry, &root, &tree);
     Ok(UrdfRobot {
         robot,
         root,
@@ -791,6 +813,7 @@ fn import_impl(
         notes,
         parent_links,
         mimics: Vec::new(),
+        geometry,
     })
 }
 
@@ -805,6 +828,7 @@ fn build_whole_tree(
     links: &HashMap<String, LinkRec>,
     joints: &[JointRec],
     children: &HashMap<&str, Vec<usize>>,
+    mut geometry: crate::urdf_geometry::UrdfGeometry,
 ) -> Result<UrdfRobot, UrdfError> {
     // Depth first from the root, children in file order: parents come first.
     let mut dfs: Vec<usize> = Vec::with_capacity(joints.len());
@@ -879,12 +903,22 @@ fn build_whole_tree(
         .filter(|&&k| joints[k].kind == SegmentKind::Fixed)
         .map(|&k| joints[k].name.clone())
         .collect();
-    let geometry: usize = links.values().map(|l| l.geometry).sum();
-    if geometry > 0 {
-        notes.push(format!(
-            "{geometry} <visual>/<collision> elements not loaded (FK and dynamics do not need them)"
-        ));
-    }
+    // geometry: a joint's child link moves with its body (1-based, q order); fixed joints'
+    // children are rigid with their parent's body
+    let tree: Vec<crate::urdf_geometry::TreeJoint> = joints
+        .iter()
+        .enumerate()
+        .map(|(k, j)| crate::urdf_geometry::TreeJoint {
+            parent: &j.parent,
+            child: &j.child,
+            placement: j.placement,
+            body: seg_of_joint
+                .get(&k)
+                .and_then(|s| built.segment_of_joint.iter().position(|x| x == s))
+                .map(|i| i + 1),
+        })
+        .collect();
+    crate::urdf_geometry::place(&mut geometry, root, &tree);
     let tip = movable
         .last()
         .map_or_else(|| root.to_string(), |m| m.link.clone());
@@ -898,6 +932,7 @@ fn build_whole_tree(
         notes,
         parent_links,
         mimics,
+        geometry,
     })
 }
 
@@ -945,7 +980,9 @@ mod tests {
         assert_eq!((r.joints[1].effort, r.joints[1].velocity), (10.0, 3.0));
         assert_eq!(r.robot.joints[0].qlim, [f64::NEG_INFINITY, f64::INFINITY]);
         assert_eq!(r.robot.joints[1].qlim, [-2.0, 2.0]);
-        assert_eq!(r.notes.len(), 1, "{:?}", r.notes);
+        assert!(r.notes.is_empty(), "{:?}", r.notes);
+        let g = &r.geometry.links["l1"];
+        assert_eq!((g.body, g.visual.len()), (1, 1));
         let q = [0.3, -0.8];
         let expected = trans(0.0, 0.0, 0.5)
             * rot_z(q[0])

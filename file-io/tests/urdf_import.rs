@@ -57,11 +57,10 @@ fn imported_urdfs_match_pinocchio() {
             .map(|j| j.as_str().expect("name"))
             .collect();
         assert_eq!(names, expected, "{name}: q order");
-        assert!(
-            imported.notes.iter().any(|n| n.contains("not loaded")),
-            "{name}: {:?}",
-            imported.notes
-        );
+        // The geometry is read but no mesh is loaded: the UR5's meshes are not vendored, and
+        // its FK and dynamics below need none.
+        let (_, collision, meshes) = imported.geometry.counts();
+        assert!(collision > 0 && meshes > 0, "{name}: geometry read");
         // Pinocchio's RNEA/ABA have no joint friction; the Panda's URDF has damping.
         let mut robot: Robot = imported.robot.clone();
         for j in &mut robot.joints {

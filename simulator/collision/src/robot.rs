@@ -229,9 +229,9 @@ impl LinkSolids {
         }
         let tool_t = Point3::new(robot.tool[(0, 3)], robot.tool[(1, 3)], robot.tool[(2, 3)]);
         segs[n].push((Point3::origin(), tool_t));
-        let mut links = Vec::with_capacity(n + 1);
+        let mut parts = Vec::with_capacity(n + 1);
         for s in &segs {
-            let mut parts = Vec::new();
+            let mut link = Vec::new();
             for (p, q) in s {
                 let v = q - p;
                 let len = v.norm();
@@ -243,25 +243,39 @@ impl LinkSolids {
                     UnitQuaternion::rotation_between(&Vector3::x(), &v).unwrap_or_else(|| {
                         UnitQuaternion::from_axis_angle(&Vector3::z_axis(), std::f64::consts::PI)
                     });
-                parts.push((
+                link.push((
                     Isometry3::from_parts(Translation3::from(p.coords + v * 0.5), rot),
                     b,
                 ));
             }
-            links.push(match parts.len() {
+            parts.push(link);
+        }
+        Self::from_parts(parts)
+    }
+
+    /// Link solids from convex parts placed in each link frame: `parts[0]` the base's, `parts[j]`
+    /// link j's (solid frame → link frame), for any joint model (DH rows, URDF origins and
+    /// axes). A link with no part is `None`, one part is its solid at its offset, several make
+    /// a compound. Pairs of links separated only by links without solids are declared allowed
+    /// (they meet at a shared joint, like adjacent links). [`Self::from_dh`] ends here, and so
+    /// does the URDF importer's collision geometry.
+    pub fn from_parts(parts: Vec<Vec<(Isometry3<f64>, Solid)>>) -> Result<Self, CheckError> {
+        let mut links = Vec::with_capacity(parts.len());
+        for mut link in parts {
+            links.push(match link.len() {
                 0 => None,
-                1 => parts.pop().map(|(offset, s)| LinkSolid {
+                1 => link.pop().map(|(offset, s)| LinkSolid {
                     solid: Arc::new(s),
                     offset,
                 }),
                 _ => Some(LinkSolid {
-                    solid: Arc::new(Solid::compound(parts)?),
+                    solid: Arc::new(Solid::compound(link)?),
                     offset: Isometry3::identity(),
                 }),
             });
         }
         let mut allowed = Vec::new();
-        let solid_links: Vec<usize> = (0..=n).filter(|&i| links[i].is_some()).collect();
+        let solid_links: Vec<usize> = (0..links.len()).filter(|&i| links[i].is_some()).collect();
         for w in solid_links.windows(2) {
             if w[1] > w[0] + 1 {
                 allowed.push((w[0], w[1]));
