@@ -101,6 +101,10 @@ enum Command {
     Rules {
         /// The rule file (.clp), e.g. hl-interface/rules/rulebases/joint_guard.clp
         file: std::path::PathBuf,
+        /// CLIPS watch items traced on stdout, e.g. `facts,rules` (any of facts, rules,
+        /// activations, statistics, all).
+        #[arg(long, value_delimiter = ',')]
+        watch: Vec<String>,
     },
     /// Run the automation layer's plant on a session: a fault model (the ECLSS by default) whose
     /// injected faults raise alarms over time; its units live in the Instance Space, where
@@ -440,9 +444,9 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 .map(drop)
                 .map_err(CliError::from)
         }
-        Command::Rules { file } => {
+        Command::Rules { file, watch } => {
             existing(session)?;
-            robosim_rules::run(&file, session).map_err(|e| CliError(e.to_string()))
+            robosim_rules::run(&file, session, &watch).map_err(|e| CliError(e.to_string()))
         }
         Command::Automation { model, time_scale } => {
             existing(session)?;

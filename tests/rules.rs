@@ -91,7 +91,10 @@ fn parent_of(p: &mut Planner, name: &str) -> String {
 
 #[test]
 fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled() {
-    let (mut k, pids) = session_with("rulesec", &[&["automation"], &["rules", ECLSS_RULES]]);
+    let (mut k, pids) = session_with(
+        "rulesec",
+        &[&["automation"], &["rules", ECLSS_RULES, "--watch", "rules"]],
+    );
     let [keeper, plant, rules] = pids[..] else {
         unreachable!("a keeper and two components")
     };
@@ -210,7 +213,7 @@ fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() 
         (st["robots"][0]["contact"] == false && st["version"] == p.snapshot().ok()?.version())
             .then_some(())
     });
-    let rules = k.spawn(&["rules", RULES]);
+    let rules = k.spawn(&["rules", RULES, "--watch", "facts,rules"]);
     wait_role(&k, "rules");
     settle(&mut p);
     let v = p.set_joints("positioner", &hit).expect("move into contact");

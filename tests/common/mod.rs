@@ -3,7 +3,7 @@
 
 #![allow(dead_code)]
 
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command};
 use std::time::{Duration, Instant};
 
 pub const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
@@ -24,28 +24,25 @@ impl Procs {
             name: format!("{tag}{}", std::process::id()),
         }
     }
-    /// `robosim ARGS --session NAME` in the background; returns its pid.
+    /// `robosim ARGS --session NAME` in the background; returns its pid. Its stdout and stderr go to
+    /// `HOME/logs/PID.log`, printed when the test fails (see `Drop`).
     pub fn spawn(&mut self, args: &[&str]) -> u32 {
-        let c = Command::new(ROBOSIM)
-            .args(args)
-            .args(["--session", &self.name])
-            .env("ROBOSIM_HOME", self.home.path())
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("spawn robosim");
-        let pid = c.id();
-        self.children.push(c);
+        let dir = self.home.path().join("logs");
+        std::fs::create_dir_all(&dir).expect("log dir");
+        let tmp = dir.join(format!("starting-{}.log", self.children.len()));
+        let pid = self.spawn_logged(args, &tmp);
+        let _ = std::fs::rename(&tmp, dir.join(format!("{pid}-{}.log", args[0])));
         pid
     }
-    /// [`Procs::spawn`] with the process's stderr written to `log`.
+    /// [`Procs::spawn`] with the process's stdout and stderr written to `log`.
     pub fn spawn_logged(&mut self, args: &[&str], log: &std::path::Path) -> u32 {
+        let f = std::fs::File::create(log).expect("log file");
         let c = Command::new(ROBOSIM)
             .args(args)
             .args(["--session", &self.name])
             .env("ROBOSIM_HOME", self.home.path())
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(log).expect("log file"))
+            .stdout(f.try_clone().expect("log file"))
+            .stderr(f)
             .spawn()
             .expect("spawn robosim");
         let pid = c.id();
@@ -87,6 +84,34 @@ impl Drop for Procs {
         for c in &mut self.children {
             let _ = c.kill();
             let _ = c.wait();
+        }
+        // A failing test shows what its processes said: the logs go with the temp home.
+        // With ROBOSIM_TEST_LOG_DIR set, whole logs are kept there (DIR/SESSION/).
+        if std::thread::panicking() {
+            if let Some(keep) = std::env::var_os("ROBOSIM_TEST_LOG_DIR") {
+                let to = std::path::Path::new(&keep).join(&self.name);
+                let _ = std::fs::create_dir_all(&to);
+                for e in std::fs::read_dir(self.home.path().join("logs"))
+                    .into_iter()
+                    .flatten()
+                    .flatten()
+                {
+                    let _ = std::fs::copy(e.path(), to.join(e.file_name()));
+                }
+            }
+            let logs = std::fs::read_dir(self.home.path().join("logs"));
+            for e in logs.into_iter().flatten().flatten() {
+                let text = std::fs::read_to_string(e.path()).unwrap_or_default();
+                let tail: Vec<&str> = text.lines().rev().take(60).collect();
+                eprintln!(
+                    "--- {} (last {} lines) ---",
+                    e.file_name().to_string_lossy(),
+                    tail.len()
+                );
+                for l in tail.iter().rev() {
+                    eprintln!("{l}");
+                }
+            }
         }
         let prefix = format!("rs_{}_", self.name);
         for e in std::fs::read_dir("/dev/shm")

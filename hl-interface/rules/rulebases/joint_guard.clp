@@ -33,9 +33,11 @@
   (printout t "joint_guard: " ?r " joint " ?i " at " ?q " is past " ?lo "; set back at version " ?v crlf)
   (assert (guard-event (robot ?r) (index ?i) (from ?q) (to ?lo) (version ?v))))
 
-;;; Remember where each robot was last seen clear.
+;;; Remember where each robot was last seen clear: the committed joints of a version the
+;;; simulator has stepped with (joints committed since are not known to be clear yet).
 (defrule remember-clear-pose
-  (sim-robot (name ?r) (contact no))
+  (space (version ?v))
+  (sim-robot (name ?r) (contact no) (version ?v))
   (robot (name ?r) (dof ?n))
   =>
   (bind ?q (create$))

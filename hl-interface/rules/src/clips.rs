@@ -63,6 +63,8 @@ unsafe extern "C" {
     fn EnvRtnUnknown(env: *mut c_void, i: c_int, out: *mut DataObject) -> *mut DataObject;
     fn EnvRtnLexeme(env: *mut c_void, i: c_int) -> *const c_char;
     fn EnvRtnDouble(env: *mut c_void, i: c_int) -> f64;
+    /// C stdio's: CLIPS's `printout t` goes to a buffered `stdout`.
+    fn fflush(stream: *mut c_void) -> c_int;
     fn EnvDefineFunction2(
         env: *mut c_void,
         name: *const c_char,
@@ -173,10 +175,14 @@ impl Clips {
             ClipsError::NoEnvironment
         })?;
         let clips = Clips { env, handler };
-        let name = cstring("name", "robosim")?;
-        let restrictions = cstring("restrictions", "1*")?;
+        // CLIPS 6.30 keeps these two pointers as they are (extnfunc.c: `actualFunctionName`,
+        // `restrictions`) and reads the restrictions on every call: they must live as long
+        // as the environment, hence literals. A dropped CString here once made calls fail at
+        // random with "[ARGACCES4] Function robosim expected no more than 0 argument(s)".
+        let name: &'static CStr = c"robosim";
+        let restrictions: &'static CStr = c"1*";
         // SAFETY: `env` is a live environment; the context pointer stays valid until Drop
-        // clears it; CLIPS copies the name strings into its own tables.
+        // clears it; the strings are 'static.
         unsafe {
             SetEnvironmentContext(env.as_ptr(), handler as *mut c_void);
             EnvDefineFunction2(
@@ -263,7 +269,12 @@ impl Clips {
     /// Runs the agenda to quiescence (or `limit` firings; negative: no limit); rules fired.
     pub fn run(&mut self, limit: i64) -> i64 {
         // SAFETY: live environment; callbacks reach the handler through the context.
-        unsafe { EnvRun(self.env.as_ptr(), limit) }
+        let fired = unsafe { EnvRun(self.env.as_ptr(), limit) };
+        // What the rules printed shows now, not when a buffer fills (a log read while the
+        // process runs, or after it is killed, has it). SAFETY: fflush(NULL) flushes every
+        // output stream.
+        unsafe { fflush(std::ptr::null_mut()) };
+        fired
     }
 }
 
@@ -276,5 +287,46 @@ impl Drop for Clips {
             DestroyEnvironment(self.env.as_ptr());
             drop(Box::from_raw(self.handler));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::cell::RefCell;
+    use std::rc::Rc;
+
+    /// The `robosim` function keeps its "at least one argument" restriction however the heap
+    /// is reused after the environment was made (CLIPS reads the restriction string on every
+    /// call and does not copy it).
+    #[test]
+    fn robosim_calls_take_any_number_of_arguments_after_the_heap_is_reused() {
+        let seen: Rc<RefCell<Vec<usize>>> = Rc::default();
+        let s2 = seen.clone();
+        let mut clips = Clips::new(Box::new(move |args: &[Arg]| {
+            s2.borrow_mut().push(args.len());
+            Ok(0)
+        }))
+        .expect("environment");
+        // Small blocks full of '0' take the place of anything small freed since: a restriction
+        // read from freed memory would say "no arguments".
+        let filler: Vec<CString> = (0..20_000)
+            .map(|k| CString::new(vec![b'0'; 2 + k % 14]).expect("no NUL"))
+            .collect();
+        for n in 1..=4 {
+            let args: Vec<String> = (0..n).map(|k| format!("a{k}")).collect();
+            clips
+                .eval(&format!("(robosim {})", args.join(" ")))
+                .expect("the call evaluates");
+        }
+        assert_eq!(*seen.borrow(), vec![1, 2, 3, 4]);
+        // At least one argument (the command) is required.
+        let _ = clips.eval("(robosim)");
+        assert_eq!(
+            seen.borrow().len(),
+            4,
+            "a call without a command is refused by CLIPS"
+        );
+        drop(filler);
     }
 }

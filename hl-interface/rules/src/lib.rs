@@ -12,7 +12,8 @@
 //! * `(instance (name O) (kind K) (parent P|nil))` for every object of the Instance Space
 //!   (`object` is a reserved word in CLIPS);
 //! * `(sim (state running|stepping|paused|none) (t T) (steps N))`,
-//!   `(sim-robot (name R) (contact yes|no) (error nil|"…"))` — the simulator daemon's state;
+//!   `(sim-robot (name R) (contact yes|no) (error nil|"…") (version V))` — the simulator
+//!   daemon's state; V is the Instance Space version whose joints it last took;
 //! * `(alarm (source S) (kind K) (value V) (message M))` — the alarms of the session: a
 //!   simulator contact (`kind contact`) or step error (`kind step-error`) per robot, and every
 //!   alarm the automation plant (`robosim automation`, `robosim_hl_interface::plant`) rings:
@@ -55,6 +56,8 @@ use std::time::Duration;
 
 /// How often the simulator's state is looked at when nothing is committed.
 pub const POLL: Duration = Duration::from_millis(100);
+/// A mirror-and-run pass slower than this is said on stderr.
+const SLOW_PASS: Duration = Duration::from_secs(2);
 
 /// The bridge's templates, built before the rule file is loaded.
 pub const TEMPLATES: &[&str] = &[
@@ -63,15 +66,20 @@ pub const TEMPLATES: &[&str] = &[
     "(deftemplate joint (slot robot) (slot index) (slot name) (slot q) (slot lo) (slot hi))",
     "(deftemplate instance (slot name) (slot kind) (slot parent))",
     "(deftemplate sim (slot state) (slot t) (slot steps))",
-    "(deftemplate sim-robot (slot name) (slot contact) (slot error))",
+    "(deftemplate sim-robot (slot name) (slot contact) (slot error) (slot version))",
     "(deftemplate alarm (slot source) (slot kind) (slot value) (slot message))",
     "(deftemplate diagnosis (slot model) (multislot failure-modes) (multislot components) (slot alarms))",
     "(deftemplate robosim-error (slot command) (slot message))",
     "(deftemplate robosim-answer (slot op) (slot json))",
 ];
 
+/// What `--watch` may trace (CLIPS `watch` items).
+pub const WATCH_ITEMS: &[&str] = &["facts", "rules", "activations", "statistics", "all"];
+
 #[derive(Debug, thiserror::Error)]
 pub enum RulesError {
+    #[error("--watch {0:?}: not a watch item (facts, rules, activations, statistics, all)")]
+    Watch(String),
     #[error(transparent)]
     Clips(#[from] ClipsError),
     #[error("{0}")]
@@ -169,6 +177,9 @@ impl Mirror {
             ),
             retract_one("sim", "TRUE".into()),
         ));
+        // The Instance Space version whose joints the simulator last took: its robots'
+        // `contact` is from a step after it.
+        let sim_version = sim.and_then(|s| s.get("version")?.as_u64()).unwrap_or(0);
         for r in sim
             .and_then(|s| s.get("robots")?.as_array())
             .into_iter()
@@ -181,9 +192,10 @@ impl Mirror {
             out.push((
                 format!("sim-robot {rn}"),
                 format!(
-                    "(sim-robot (name {rn}) (contact {}) (error {}))",
+                    "(sim-robot (name {rn}) (contact {}) (error {}) (version {}))",
                     if contact { "yes" } else { "no" },
-                    error.map_or("nil".into(), quote)
+                    error.map_or("nil".into(), quote),
+                    sim_version
                 ),
                 retract_one("sim-robot", format!("(eq ?f:name {rn})")),
             ));
@@ -373,8 +385,30 @@ pub fn call(
     }
 }
 
+/// `r`'s value; its error is written to stderr when it differs from the last one said in
+/// `last` (`None` while the peer answers), so a peer that stops answering is said once.
+fn said(last: &mut Option<String>, peer: &str, r: Result<Value, ProtocolError>) -> Option<Value> {
+    match r {
+        Ok(v) => {
+            if last.as_ref().is_some_and(|e| !e.is_empty()) {
+                eprintln!("rules: the {peer} answers again");
+            }
+            *last = None;
+            Some(v)
+        }
+        Err(e) => {
+            let m = e.to_string();
+            if last.as_deref() != Some(m.as_str()) {
+                eprintln!("rules: no state from the {peer}: {m}");
+                *last = Some(m);
+            }
+            None
+        }
+    }
+}
+
 /// `robosim rules FILE --session S`: runs until SIGTERM/SIGINT.
-pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
+pub fn run(file: &Path, session: Option<&str>, watch: &[String]) -> Result<(), RulesError> {
     let session = Session::existing(session)?;
     let signals = session.node("rules-signals", true)?;
     let planner = Rc::new(RefCell::new(Planner::attach_to(&session)?));
@@ -390,16 +424,20 @@ pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
     for t in TEMPLATES {
         clips.build(t)?;
     }
+    for item in watch {
+        if !WATCH_ITEMS.contains(&item.as_str()) {
+            return Err(RulesError::Watch(item.clone()));
+        }
+        clips.eval(&format!("(watch {item})"))?;
+    }
     clips.load(file)?;
-    let _reg = session.register("rules", &["space/objects", "space/poses", "space/changes"])?;
-    eprintln!(
-        "rules: {} loaded on session {}",
-        file.display(),
-        session.name()
-    );
+    // Registered (seen by `robosim ps` and waiting launchers) once the first pass has mirrored
+    // the session and run the rules on it: what is committed after that is a change to them.
+    let mut registered = None;
     let mut mirror = Mirror::default();
     let mut last_sim: Option<Value> = None;
     let mut first = true;
+    let (mut sim_error, mut plant_error) = (Some(String::new()), Some(String::new()));
     while signals.wait(Duration::ZERO).is_ok() {
         let changed = if first {
             true
@@ -407,8 +445,14 @@ pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
             planner.borrow_mut().wait_change(POLL)?.is_some()
         };
         first = false;
+        let pass = std::time::Instant::now();
         // The simulator's state, without the fields that change on every step by themselves.
-        let sim = planner.borrow_mut().sim_state().ok();
+        // A peer that stops answering (or starts again) is said once, not on every pass.
+        let sim = said(
+            &mut sim_error,
+            "simulator",
+            planner.borrow_mut().sim_state(),
+        );
         let sim_key = sim.as_ref().map(|s| {
             let mut s = s.clone();
             if let Some(m) = s.as_object_mut() {
@@ -417,16 +461,19 @@ pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
             s
         });
         // The automation plant's state, without its clock.
-        let plant = planner
-            .borrow_mut()
-            .plant_command(&serde_json::json!({"cmd": "get"}))
-            .ok()
-            .map(|mut s| {
-                if let Some(m) = s.as_object_mut() {
-                    m.remove("t_s");
-                }
-                s
-            });
+        let plant = said(
+            &mut plant_error,
+            "automation plant",
+            planner
+                .borrow_mut()
+                .plant_command(&serde_json::json!({"cmd": "get"})),
+        )
+        .map(|mut s| {
+            if let Some(m) = s.as_object_mut() {
+                m.remove("t_s");
+            }
+            s
+        });
         if !changed && sim_key == last_sim && plant == *plant_state.borrow() {
             continue;
         }
@@ -447,6 +494,22 @@ pub fn run(file: &Path, session: Option<&str>) -> Result<(), RulesError> {
             for f in pending {
                 clips.assert_str(&f)?;
             }
+        }
+        if registered.is_none() {
+            registered = Some(
+                session.register("rules", &["space/objects", "space/poses", "space/changes"])?,
+            );
+            eprintln!(
+                "rules: {} loaded on session {}",
+                file.display(),
+                session.name()
+            );
+        }
+        if pass.elapsed() > SLOW_PASS {
+            eprintln!(
+                "rules: a pass took {:.1} s (peers slow to answer?)",
+                pass.elapsed().as_secs_f64()
+            );
         }
     }
     eprintln!("rules: stopped");
