@@ -172,20 +172,24 @@ impl Keeper {
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(1, |d| d.as_nanos() as u64);
 
-        let rr = node
-            .service_builder(&session.service(services::REQUESTS)?)
-            .request_response::<[u8], [u8]>()
-            .max_clients(opts.max_clients)
-            .max_servers(1)
-            .max_active_requests_per_client(MAX_IN_FLIGHT)
-            .max_response_buffer_size(1)
-            .max_borrowed_responses_per_pending_response(1)
-            .max_loaned_requests(4)
-            .enable_safe_overflow_for_requests(false)
-            .enable_safe_overflow_for_responses(false)
-            .max_nodes(opts.max_clients + opts.max_readers + 4)
-            .open_or_create()
-            .map_err(ipc("create request service"))?;
+        let rr = {
+            let name = session.service(services::REQUESTS)?;
+            session.open_or_create_service(|| {
+                node.service_builder(&name)
+                    .request_response::<[u8], [u8]>()
+                    .max_clients(opts.max_clients)
+                    .max_servers(1)
+                    .max_active_requests_per_client(MAX_IN_FLIGHT)
+                    .max_response_buffer_size(1)
+                    .max_borrowed_responses_per_pending_response(1)
+                    .max_loaned_requests(4)
+                    .enable_safe_overflow_for_requests(false)
+                    .enable_safe_overflow_for_responses(false)
+                    .max_nodes(opts.max_clients + opts.max_readers + 4)
+                    .open_or_create()
+            })
+        }
+        .map_err(ipc("create request service"))?;
         let server = rr
             .server_builder()
             .max_loaned_responses_per_request(1)
@@ -193,39 +197,51 @@ impl Keeper {
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
             .map_err(ipc("create server"))?;
-        let req_event = node
-            .service_builder(&session.service(services::REQUEST_EVENT)?)
-            .event()
-            .max_notifiers(opts.max_clients + opts.max_readers + 4)
-            .max_listeners(2)
-            .max_nodes(opts.max_clients + opts.max_readers + 4)
-            .open_or_create()
-            .map_err(ipc("create request event"))?;
+        let req_event = {
+            let name = session.service(services::REQUEST_EVENT)?;
+            session.open_or_create_service(|| {
+                node.service_builder(&name)
+                    .event()
+                    .max_notifiers(opts.max_clients + opts.max_readers + 4)
+                    .max_listeners(2)
+                    .max_nodes(opts.max_clients + opts.max_readers + 4)
+                    .open_or_create()
+            })
+        }
+        .map_err(ipc("create request event"))?;
         let req_listener = req_event
             .listener_builder()
             .create()
             .map_err(ipc("create request listener"))?;
-        let ack_event = node
-            .service_builder(&session.service(services::ACK_EVENT)?)
-            .event()
-            .max_notifiers(2)
-            .max_listeners(opts.max_clients + 4)
-            .max_nodes(opts.max_clients + opts.max_readers + 4)
-            .open_or_create()
-            .map_err(ipc("create ack event"))?;
+        let ack_event = {
+            let name = session.service(services::ACK_EVENT)?;
+            session.open_or_create_service(|| {
+                node.service_builder(&name)
+                    .event()
+                    .max_notifiers(2)
+                    .max_listeners(opts.max_clients + 4)
+                    .max_nodes(opts.max_clients + opts.max_readers + 4)
+                    .open_or_create()
+            })
+        }
+        .map_err(ipc("create ack event"))?;
         let ack_notifier = ack_event
             .notifier_builder()
             .create()
             .map_err(ipc("create ack notifier"))?;
-        let change_event = node
-            .service_builder(&session.service(services::CHANGE_EVENT)?)
-            .event()
-            .max_notifiers(2)
-            .max_listeners(opts.max_readers + 4)
-            .max_nodes(opts.max_clients + opts.max_readers + 4)
-            .notifier_dead_event(EventId::new(events::KEEPER_DEAD))
-            .open_or_create()
-            .map_err(ipc("create change event"))?;
+        let change_event = {
+            let name = session.service(services::CHANGE_EVENT)?;
+            session.open_or_create_service(|| {
+                node.service_builder(&name)
+                    .event()
+                    .max_notifiers(2)
+                    .max_listeners(opts.max_readers + 4)
+                    .max_nodes(opts.max_clients + opts.max_readers + 4)
+                    .notifier_dead_event(EventId::new(events::KEEPER_DEAD))
+                    .open_or_create()
+            })
+        }
+        .map_err(ipc("create change event"))?;
         let change_notifier = change_event
             .notifier_builder()
             .create()
@@ -236,16 +252,20 @@ impl Keeper {
                       history: usize,
                       borrowed: usize|
          -> Result<_, KeeperError> {
-            node.service_builder(&session.service(suffix)?)
-                .publish_subscribe::<[u64]>()
-                .history_size(history)
-                .subscriber_max_buffer_size(buffer)
-                .subscriber_max_borrowed_samples(borrowed)
-                .enable_safe_overflow(true)
-                .max_publishers(1)
-                .max_subscribers(opts.max_readers)
-                .max_nodes(opts.max_clients + opts.max_readers + 4)
-                .open_or_create()
+            let name = session.service(suffix)?;
+            session
+                .open_or_create_service(|| {
+                    node.service_builder(&name)
+                        .publish_subscribe::<[u64]>()
+                        .history_size(history)
+                        .subscriber_max_buffer_size(buffer)
+                        .subscriber_max_borrowed_samples(borrowed)
+                        .enable_safe_overflow(true)
+                        .max_publishers(1)
+                        .max_subscribers(opts.max_readers)
+                        .max_nodes(opts.max_clients + opts.max_readers + 4)
+                        .open_or_create()
+                })
                 .map_err(ipc(format!("create service {suffix}")))
         };
         let publisher = |svc: &iceoryx2::service::port_factory::publish_subscribe::PortFactory<
@@ -367,19 +387,23 @@ impl Keeper {
     /// ([`crate::Reader::library_files`]).
     pub fn publish_library(&mut self, files: &[(String, String)]) -> Result<(), KeeperError> {
         if self.library.is_none() {
-            let svc = self
-                .node
-                .service_builder(&self.session.service(services::LIBRARY)?)
-                .publish_subscribe::<[u64]>()
-                .history_size(1)
-                .subscriber_max_buffer_size(1)
-                .subscriber_max_borrowed_samples(1)
-                .enable_safe_overflow(true)
-                .max_publishers(1)
-                .max_subscribers(self.opts.max_readers)
-                .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
-                .open_or_create()
-                .map_err(ipc("create library service"))?;
+            let svc = {
+                let name = self.session.service(services::LIBRARY)?;
+                self.session.open_or_create_service(|| {
+                    self.node
+                        .service_builder(&name)
+                        .publish_subscribe::<[u64]>()
+                        .history_size(1)
+                        .subscriber_max_buffer_size(1)
+                        .subscriber_max_borrowed_samples(1)
+                        .enable_safe_overflow(true)
+                        .max_publishers(1)
+                        .max_subscribers(self.opts.max_readers)
+                        .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
+                        .open_or_create()
+                })
+            }
+            .map_err(ipc("create library service"))?;
             let p = svc
                 .publisher_builder()
                 .initial_max_slice_len(1 << 14)
@@ -630,19 +654,23 @@ impl Keeper {
 
     /// Opens or creates the service of pose chunk `k` and its publisher.
     fn chunk_publisher(&mut self, k: usize) -> Result<(Pub, PubSubService), KeeperError> {
-        let svc = self
-            .node
-            .service_builder(&self.session.service(&services::pose_chunk(k))?)
-            .publish_subscribe::<[u64]>()
-            .history_size(1)
-            .subscriber_max_buffer_size(2)
-            .subscriber_max_borrowed_samples(MAX_HELD_SNAPSHOTS + 1)
-            .enable_safe_overflow(true)
-            .max_publishers(1)
-            .max_subscribers(self.opts.max_readers)
-            .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
-            .open_or_create()
-            .map_err(ipc(format!("create service of pose chunk {k}")))?;
+        let svc = {
+            let name = self.session.service(&services::pose_chunk(k))?;
+            self.session.open_or_create_service(|| {
+                self.node
+                    .service_builder(&name)
+                    .publish_subscribe::<[u64]>()
+                    .history_size(1)
+                    .subscriber_max_buffer_size(2)
+                    .subscriber_max_borrowed_samples(MAX_HELD_SNAPSHOTS + 1)
+                    .enable_safe_overflow(true)
+                    .max_publishers(1)
+                    .max_subscribers(self.opts.max_readers)
+                    .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
+                    .open_or_create()
+            })
+        }
+        .map_err(ipc(format!("create service of pose chunk {k}")))?;
         let header = [crate::encode::pose_chunk_header(0, 0, 0, POSE_CHUNK)];
         let full = [PoseRec {
             id: 0,
@@ -691,19 +719,23 @@ impl Keeper {
             return Ok(());
         };
         if !self.geometry.contains_key(&id) {
-            let svc = self
-                .node
-                .service_builder(&self.session.service(&services::geometry(id))?)
-                .publish_subscribe::<[u64]>()
-                .history_size(1)
-                .subscriber_max_buffer_size(1)
-                .subscriber_max_borrowed_samples(2)
-                .enable_safe_overflow(true)
-                .max_publishers(1)
-                .max_subscribers(self.opts.max_readers)
-                .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
-                .open_or_create()
-                .map_err(ipc(format!("create geometry service of object {id}")))?;
+            let svc = {
+                let name = self.session.service(&services::geometry(id))?;
+                self.session.open_or_create_service(|| {
+                    self.node
+                        .service_builder(&name)
+                        .publish_subscribe::<[u64]>()
+                        .history_size(1)
+                        .subscriber_max_buffer_size(1)
+                        .subscriber_max_borrowed_samples(2)
+                        .enable_safe_overflow(true)
+                        .max_publishers(1)
+                        .max_subscribers(self.opts.max_readers)
+                        .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
+                        .open_or_create()
+                })
+            }
+            .map_err(ipc(format!("create geometry service of object {id}")))?;
             let p = svc
                 .publisher_builder()
                 .initial_max_slice_len(1024)

@@ -232,6 +232,64 @@ impl Session {
         Ok(cfg)
     }
 
+    /// Removes this session's iceoryx2 static service configs that a process left half-made
+    /// more than `min_age` ago; the paths removed.
+    ///
+    /// iceoryx2 0.10 makes a service's static config file first, with mode 0600, and makes it
+    /// read-only once the service is complete. A process killed in between (a keeper killed
+    /// while it makes a pose-chunk service) leaves the 0600 file for good: everyone who opens
+    /// or creates that service afterwards gets `HangsInCreation`, and its dead-node cleanup
+    /// does not remove it (iceoryx2 issue #1584). A file still 0600 after iceoryx2's own
+    /// creation timeout belongs to no creation in progress.
+    pub fn remove_stalled_services(&self, min_age: std::time::Duration) -> Vec<PathBuf> {
+        let dir = self.dir.join("iox2").join("services");
+        let prefix = self.shm_prefix();
+        let mut removed = Vec::new();
+        for e in fs::read_dir(&dir).into_iter().flatten().flatten() {
+            let name = e.file_name().to_string_lossy().into_owned();
+            let Ok(meta) = e.metadata() else { continue };
+            let stalled = name.starts_with(&prefix)
+                && name.ends_with(".service")
+                && meta.is_file()
+                && meta.permissions().mode() & 0o777 == 0o600
+                && meta
+                    .modified()
+                    .ok()
+                    .and_then(|m| m.elapsed().ok())
+                    .is_some_and(|age| age >= min_age);
+            if stalled && fs::remove_file(e.path()).is_ok() {
+                removed.push(e.path());
+            }
+        }
+        removed
+    }
+
+    /// Runs `open_or_create` (an iceoryx2 service builder's); when it fails because the service
+    /// hangs in creation, removes the session's stalled service configs
+    /// ([`Session::remove_stalled_services`]) and runs it once more.
+    pub fn open_or_create_service<T, E: std::fmt::Debug>(
+        &self,
+        mut open_or_create: impl FnMut() -> Result<T, E>,
+    ) -> Result<T, E> {
+        match open_or_create() {
+            // iceoryx2's error types differ per messaging pattern; each names the cause so.
+            Err(e) if format!("{e:?}").contains("HangsInCreation") => {
+                let timeout = self
+                    .iox_config()
+                    .map(|c| c.global.creation_timeout)
+                    .unwrap_or(std::time::Duration::from_millis(500));
+                for path in self.remove_stalled_services(timeout) {
+                    eprintln!(
+                        "robosim: removed {}: a service left half-made by a process that died while making it",
+                        path.display()
+                    );
+                }
+                open_or_create()
+            }
+            r => r,
+        }
+    }
+
     /// Creates an iceoryx2 node named `role` in this session. With `handle_signals`, SIGINT and
     /// SIGTERM are caught and reported by `node.wait()` instead of killing the process.
     pub fn node(
