@@ -500,7 +500,10 @@ fn a_keeper_killed_while_making_a_service_does_not_stop_the_next_one() {
     for k in 0..300 {
         tx.create(Kind::Solid, &format!("b{k}"), Some(built.created[0].into()));
     }
-    let last = c.transact(&tx).expect("objects of a second pose chunk").version;
+    let last = c
+        .transact(&tx)
+        .expect("objects of a second pose chunk")
+        .version;
     drop(c);
     let made: Vec<PathBuf> = service_files(&t).difference(&before).cloned().collect();
     assert!(!made.is_empty(), "a second pose chunk makes a service");

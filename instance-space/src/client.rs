@@ -25,10 +25,15 @@ pub type Committed = Applied;
 pub enum ClientError {
     #[error(transparent)]
     Session(#[from] SessionError),
+    /// A keeper's service could not be opened: none runs, or (`cause`) iceoryx2 refused it.
     #[error(
-        "no keeper is running in session {session} (start one with `robosim space` or `robosim up`)"
+        "no keeper is running in session {session} (start one with `robosim space` or `robosim up`; opening its {service} service: {cause})"
     )]
-    NoKeeper { session: String },
+    NoKeeper {
+        session: String,
+        service: String,
+        cause: String,
+    },
     #[error("transaction refused: {0}")]
     Refused(#[from] TxError),
     #[error(
@@ -99,14 +104,16 @@ impl Client {
     /// Connects to the keeper of `session` as a process of role `role` (used in its node name).
     pub fn connect(session: &Session, role: &str) -> Result<Self, ClientError> {
         let node = session.node(role, false)?;
-        let no_keeper = || ClientError::NoKeeper {
+        let no_keeper = |service: &str, e: &dyn std::fmt::Debug| ClientError::NoKeeper {
             session: session.name().to_owned(),
+            service: service.to_owned(),
+            cause: format!("{e:?}"),
         };
         let rr = node
             .service_builder(&session.service(services::REQUESTS)?)
             .request_response::<[u8], [u8]>()
             .open()
-            .map_err(|_| no_keeper())?;
+            .map_err(|e| no_keeper(services::REQUESTS, &e))?;
         let client = rr
             .client_builder()
             .initial_max_slice_len(4096)
@@ -117,7 +124,7 @@ impl Client {
             .service_builder(&session.service(services::REQUEST_EVENT)?)
             .event()
             .open()
-            .map_err(|_| no_keeper())?;
+            .map_err(|e| no_keeper(services::REQUEST_EVENT, &e))?;
         let notifier = req_event
             .notifier_builder()
             .create()
@@ -126,7 +133,7 @@ impl Client {
             .service_builder(&session.service(services::ACK_EVENT)?)
             .event()
             .open()
-            .map_err(|_| no_keeper())?;
+            .map_err(|e| no_keeper(services::ACK_EVENT, &e))?;
         let acks = ack_event
             .listener_builder()
             .create()

@@ -33,8 +33,13 @@ const CHANGE_LOG: usize = 1 << 16;
 pub enum ReaderError {
     #[error(transparent)]
     Session(#[from] SessionError),
-    #[error("no keeper is running in session {session}")]
-    NoKeeper { session: String },
+    /// A keeper's service could not be opened: none runs, or (`cause`) iceoryx2 refused it.
+    #[error("no keeper is running in session {session} (opening its {service} service: {cause})")]
+    NoKeeper {
+        session: String,
+        service: String,
+        cause: String,
+    },
     #[error("the keeper published nothing within {0:?}")]
     Timeout(Duration),
     #[error("a published segment is malformed: {0}")]
@@ -393,14 +398,16 @@ impl Reader {
     /// Attaches to the keeper of `session` and waits (up to 10 s) for its current model.
     pub fn attach(session: &Session, role: &str) -> Result<Reader, ReaderError> {
         let node = session.node(role, false)?;
-        let no_keeper = || ReaderError::NoKeeper {
+        let no_keeper = |service: &str, e: &dyn std::fmt::Debug| ReaderError::NoKeeper {
             session: session.name().to_owned(),
+            service: service.to_owned(),
+            cause: format!("{e:?}"),
         };
         let open = |suffix: &str| -> Result<_, ReaderError> {
             node.service_builder(&session.service(suffix)?)
                 .publish_subscribe::<[u64]>()
                 .open()
-                .map_err(|_| no_keeper())
+                .map_err(|e| no_keeper(suffix, &e))
         };
         let objects_svc = open(services::OBJECTS)?;
         let poses_svc = open(services::POSES)?;
@@ -421,7 +428,7 @@ impl Reader {
             .service_builder(&session.service(services::CHANGE_EVENT)?)
             .event()
             .open()
-            .map_err(|_| no_keeper())?;
+            .map_err(|e| no_keeper(services::CHANGE_EVENT, &e))?;
         let listener = change_event
             .listener_builder()
             .create()
@@ -430,7 +437,7 @@ impl Reader {
             .service_builder(&session.service(services::REQUEST_EVENT)?)
             .event()
             .open()
-            .map_err(|_| no_keeper())?;
+            .map_err(|e| no_keeper(services::REQUEST_EVENT, &e))?;
         let hello = req_event
             .notifier_builder()
             .create()
