@@ -11,7 +11,15 @@
 //!   `wait_change` returns (the snapshot refreshed, the names looked up) against the keeper's
 //!   publish stamp, counting only wake-ups that saw exactly one commit.
 //!
-//! Prints one JSON object per row: `{"row", "p50_us", "p99_us", "n"}`.
+//! * with `--churn K`, instead: a client leaving the session, K times — a process attaches a
+//!   planner, commits once and exits; then the time of this planner's next `set_joints`
+//!   (the keeper notices the departure on its next receive) and the keeper's CPU time per
+//!   attach + departure (from /proc, 10 ms ticks, summed over the K cycles), and the child's
+//!   attach time;
+//! * with `--ack-only`, only the first row.
+//!
+//! Prints one JSON object per row: `{"row", "p50_us", "p99_us", "n"}` (churn rows add
+//! `max_us`, and the CPU row `mean_us`).
 
 use robosim_hl_interface::planner::Planner;
 use std::time::{Duration, Instant};
@@ -52,6 +60,18 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         q[5] += 1e-4 * (k % 2) as f64;
         q
     };
+    if args.iter().any(|a| a == "--attach-once") {
+        let t = Instant::now();
+        let mut c = Planner::attach(&session)?;
+        let attach = t.elapsed().as_nanos();
+        let q = c.joints(ROBOT)?;
+        c.set_joints(ROBOT, &q)?;
+        println!("{attach}");
+        return Ok(());
+    }
+    if let Some(k) = arg("--churn") {
+        return churn(&mut p, &session, k.parse()?, &q_at);
+    }
     if let Some(k) = arg("--writer") {
         for i in 0..k.parse::<usize>()? {
             p.set_joints(ROBOT, &q_at(i))?;
@@ -67,6 +87,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         ack.push(t.elapsed().as_nanos() as f64);
     }
     row("Rust planner `set_joints` → acknowledged", ack);
+    if args.iter().any(|a| a == "--ack-only") {
+        return Ok(());
+    }
     let exe = std::env::current_exe()?;
     let mut writer = std::process::Command::new(exe)
         .args(["--session", &session, "--writer", &(n / 4).to_string()])
@@ -88,6 +111,71 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     row(
         "commit published → Rust planner `wait_change` returned",
         wake,
+    );
+    Ok(())
+}
+
+/// The keeper's CPU time (user + system) in clock ticks.
+fn keeper_ticks(pid: u32) -> Result<u64, Box<dyn std::error::Error>> {
+    let stat = std::fs::read_to_string(format!("/proc/{pid}/stat"))?;
+    // Fields after the command name (which may hold spaces) start at ") ".
+    let rest = stat.rsplit_once(") ").map_or("", |(_, r)| r);
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let field = |i: usize| f.get(i).and_then(|v| v.parse::<u64>().ok()).unwrap_or(0);
+    // utime and stime are fields 14 and 15 of stat, 12 and 13 after the name.
+    Ok(field(11) + field(12))
+}
+
+fn churn(
+    p: &mut Planner,
+    session: &str,
+    k: usize,
+    q_at: &dyn Fn(usize) -> Vec<f64>,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let keeper = robosim_instance_space::Session::open(Some(session))?
+        .processes()
+        .into_iter()
+        .find(|p| p.role == "space")
+        .ok_or("no keeper in the session")?
+        .pid;
+    let hz = 100.0; // USER_HZ on Linux
+    let exe = std::env::current_exe()?;
+    let (mut next, mut attach) = (Vec::new(), Vec::new());
+    let cpu0 = keeper_ticks(keeper)?;
+    for i in 0..k {
+        let out = std::process::Command::new(&exe)
+            .args(["--session", session, "--attach-once"])
+            .output()?;
+        if !out.status.success() {
+            return Err(format!(
+                "attach-once child failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            )
+            .into());
+        }
+        if let Ok(ns) = String::from_utf8_lossy(&out.stdout).trim().parse::<f64>() {
+            attach.push(ns);
+        }
+        let t = Instant::now();
+        p.set_joints(ROBOT, &q_at(i))?;
+        next.push(t.elapsed().as_nanos() as f64);
+    }
+    let cpu = (keeper_ticks(keeper)? - cpu0) as f64 / hz;
+    let max = |v: &[f64]| v.iter().copied().fold(0.0, f64::max) / 1e3;
+    for (name, v) in [
+        ("first `set_joints` after a client left", next),
+        ("a client's `Planner::attach`", attach),
+    ] {
+        println!(
+            "{}",
+            serde_json::json!({"row": name, "p50_us": pct(v.clone(), 50.0) / 1e3,
+                               "p99_us": pct(v.clone(), 99.0) / 1e3, "max_us": max(&v), "n": v.len()})
+        );
+    }
+    println!(
+        "{}",
+        serde_json::json!({"row": "keeper CPU per client attach + departure",
+                           "mean_us": cpu * 1e6 / k as f64, "n": k})
     );
     Ok(())
 }

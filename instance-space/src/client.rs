@@ -5,7 +5,7 @@
 //! is how a writer gets group commit: the keeper syncs the journal once for everything that
 //! arrived together.
 
-use crate::keeper::{MAX_IN_FLIGHT, events};
+use crate::keeper::{MAX_IN_FLIGHT, MORE_MAGIC, answer, events};
 use crate::services;
 use crate::session::{Session, SessionError};
 use crate::store::{Applied, TxError};
@@ -94,6 +94,8 @@ pub struct Client {
     notifier: iceoryx2::port::notifier::Notifier<ipc::Service>,
     acks: iceoryx2::port::listener::Listener<ipc::Service>,
     timeout: Duration,
+    /// How long [`Client::wait`] polls for the answer before blocking on the event.
+    spin: Duration,
     _services: Vec<Box<dyn std::any::Any>>,
 }
 
@@ -140,6 +142,10 @@ impl Client {
             .map_err(ipc("create ack listener"))?;
         let config = session.iox_config()?;
         let keeper = keeper_node(&config);
+        let spin = crate::keeper::spin_from_env().map_err(|message| ClientError::Ipc {
+            what: "spin window".into(),
+            message,
+        })?;
         Ok(Client {
             session: session.clone(),
             config,
@@ -150,6 +156,7 @@ impl Client {
             notifier,
             acks,
             timeout: Duration::from_secs(30),
+            spin,
             _services: vec![Box::new(rr), Box::new(req_event), Box::new(ack_event)],
         })
     }
@@ -161,6 +168,13 @@ impl Client {
     /// How long [`Client::transact`] waits for an answer (default 30 s).
     pub fn set_timeout(&mut self, timeout: Duration) {
         self.timeout = timeout;
+    }
+
+    /// How long [`Client::wait`] polls for its answer (yielding the CPU between polls) before
+    /// it blocks on the acknowledgement event; zero blocks at once. The default comes from
+    /// `ROBOSIM_SPIN_US` ([`crate::keeper::SPIN_ENV`]), read at connect.
+    pub fn set_spin(&mut self, spin: Duration) {
+        self.spin = spin;
     }
 
     /// Sends `tx` and waits until the keeper has journaled, published and acknowledged it.
@@ -233,22 +247,56 @@ impl Client {
     /// within [`LIVENESS_PERIOD`], and every later request of this client fails the same way
     /// at once.
     pub fn wait(&mut self, p: Pending) -> Result<Result<Committed, TxError>, ClientError> {
+        let mut p = p;
+        let mut whole: Vec<u8> = Vec::new();
+        loop {
+            let resp = self.wait_response(&p)?;
+            match resp.first() {
+                Some(&answer::WHOLE) => return decode_answer(&resp[1..]),
+                Some(&answer::PART) if resp.len() >= answer::PART_HEADER => {
+                    let word = |at: usize| {
+                        resp.get(at..at + 8)
+                            .and_then(|b| <[u8; 8]>::try_from(b).ok())
+                            .map_or(0, u64::from_le_bytes)
+                    };
+                    let (token, total) = (word(1), word(9) as usize);
+                    whole.extend_from_slice(&resp[answer::PART_HEADER..]);
+                    if whole.len() >= total {
+                        return decode_answer(&whole);
+                    }
+                    let mut more = MORE_MAGIC.to_vec();
+                    more.extend_from_slice(&token.to_le_bytes());
+                    drop(p);
+                    p = self.submit_raw(&more)?;
+                }
+                _ => {
+                    return Err(ClientError::Ipc {
+                        what: "receive response".into(),
+                        message: "the keeper's answer was cut off or expired".into(),
+                    });
+                }
+            }
+        }
+    }
+
+    /// The bytes of the next response to `p` (see [`Client::wait`] for the errors).
+    fn wait_response(&mut self, p: &Pending) -> Result<Vec<u8>, ClientError> {
         let start = Instant::now();
         let mut checked = start;
         if self.keeper_gone {
             return Err(ClientError::KeeperGone);
         }
+        // The spin window: poll for the answer before paying for a blocking wake-up.
+        while start.elapsed() < self.spin {
+            if let Some(resp) = p.inner.receive().map_err(ipc("receive response"))? {
+                return Ok(resp.payload().to_vec());
+            }
+            std::hint::spin_loop();
+            std::thread::yield_now();
+        }
         loop {
             if let Some(resp) = p.inner.receive().map_err(ipc("receive response"))? {
-                return bincode::serde::decode_from_slice::<Result<Committed, TxError>, _>(
-                    resp.payload(),
-                    bincode::config::standard(),
-                )
-                .map(|(r, _)| r)
-                .map_err(|e| ClientError::Ipc {
-                    what: "decode response".into(),
-                    message: e.to_string(),
-                });
+                return Ok(resp.payload().to_vec());
             }
             // iceoryx2 may report the connection down while it is being re-established; only
             // a keeper that is really gone from the session ends the wait.
@@ -273,4 +321,17 @@ impl Client {
             );
         }
     }
+}
+
+/// The keeper's verdict from its encoded answer.
+fn decode_answer(bytes: &[u8]) -> Result<Result<Committed, TxError>, ClientError> {
+    bincode::serde::decode_from_slice::<Result<Committed, TxError>, _>(
+        bytes,
+        bincode::config::standard(),
+    )
+    .map(|(r, _)| r)
+    .map_err(|e| ClientError::Ipc {
+        what: "decode response".into(),
+        message: e.to_string(),
+    })
 }

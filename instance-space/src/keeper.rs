@@ -84,7 +84,61 @@ pub struct KeeperOptions {
     /// Sync the journal before acknowledging. Only benchmarks that isolate the cost of
     /// applying and publishing turn this off; it is never off in a session.
     pub durable: bool,
+    /// The spin window: after serving a group, the keeper keeps polling for the next request
+    /// (yielding the CPU between polls) for this long before it blocks on the request event
+    /// again. A client that sends its next request within the window skips one event wake-up
+    /// (≈ 50 µs on a small VM); the price is up to one core for the window after every
+    /// request. Zero (the default) blocks at once. Set by `ROBOSIM_SPIN_US` (see
+    /// [`spin_from_env`]); docs/bench/python.md has the measurement.
+    pub spin: Duration,
+    /// Answers in a fixed-size response pool of [`RESPONSE_CAP`] bytes each (larger answers
+    /// go in parts). `false` restores the resizable pool, whose per-client connection is
+    /// ~200 MB of bookkeeping that the keeper initialises when a client connects and scans
+    /// when it leaves (a quarter-second stall per departure); only the detach benchmark turns
+    /// it off, to measure the difference.
+    pub static_responses: bool,
 }
+
+/// The environment variable that sets the spin window, in µs, of a keeper
+/// ([`KeeperOptions::spin`]) and of a client waiting for its answer ([`crate::Client`]).
+pub const SPIN_ENV: &str = "ROBOSIM_SPIN_US";
+
+/// The spin window named by [`SPIN_ENV`] (zero when unset); an unreadable value is an error
+/// naming the variable.
+pub fn spin_from_env() -> Result<Duration, String> {
+    match std::env::var(SPIN_ENV) {
+        Err(_) => Ok(Duration::ZERO),
+        Ok(v) => v
+            .trim()
+            .parse::<u64>()
+            .ok()
+            .filter(|us| *us <= 1_000_000)
+            .map(Duration::from_micros)
+            .ok_or_else(|| {
+                format!("{SPIN_ENV}={v:?}: expected a whole number of microseconds, 0 to 1000000")
+            }),
+    }
+}
+
+/// The largest answer sent in one response; a larger one is sent in parts, each fetched by a
+/// continuation request ([`MORE_MAGIC`]).
+pub(crate) const RESPONSE_CAP: usize = 4096;
+/// The start of a continuation request: `MORE_MAGIC`, then the answer's token (u64 LE). A
+/// transaction's encoding never starts with 0xFF (not a bincode varint tag).
+pub(crate) const MORE_MAGIC: [u8; 5] = [0xFF, b'M', b'O', b'R', b'E'];
+/// Response tags (first byte of every response).
+pub(crate) mod answer {
+    /// The whole answer follows.
+    pub const WHOLE: u8 = 0;
+    /// A part: token (u64 LE), total length (u64 LE), then the bytes from the part's offset.
+    pub const PART: u8 = 1;
+    /// The continuation named an answer the keeper no longer holds.
+    pub const EXPIRED: u8 = 2;
+    /// Header length of a part.
+    pub const PART_HEADER: usize = 17;
+}
+/// Large answers not yet fully fetched, at most this many (the oldest go first).
+const MAX_LARGE_ANSWERS: usize = 64;
 
 impl Default for KeeperOptions {
     fn default() -> Self {
@@ -96,6 +150,8 @@ impl Default for KeeperOptions {
             max_clients: 16,
             journal_copies: 2,
             durable: true,
+            spin: Duration::ZERO,
+            static_responses: true,
         }
     }
 }
@@ -132,8 +188,19 @@ pub struct Keeper {
     poses: Vec<PoseRec>,
     structure_version: u64,
     last_connect_update: Instant,
+    /// When the last group was served (the spin window runs from here).
+    last_served: Option<Instant>,
+    /// Large answers being fetched in parts: token → (encoded answer, next offset).
+    large: std::collections::BTreeMap<u64, (Vec<u8>, usize)>,
+    next_token: u64,
     _registration: Registration,
     _services: Vec<Box<dyn std::any::Any>>,
+}
+
+/// What the keeper sends back for one request.
+enum Reply {
+    Tx(Result<Applied, TxError>),
+    More(u64),
 }
 
 /// What one group did (for benchmarks and logs).
@@ -190,13 +257,31 @@ impl Keeper {
             })
         }
         .map_err(ipc("create request service"))?;
-        let server = rr
-            .server_builder()
-            .max_loaned_responses_per_request(1)
-            .initial_max_slice_len(256)
-            .allocation_strategy(AllocationStrategy::PowerOfTwo)
-            .create()
-            .map_err(ipc("create server"))?;
+        // The response pool. iceoryx2 keeps, per client connection, one flag per response
+        // chunk for every channel (2 × in-flight + loans) and every segment the pool may
+        // grow to (255 for a resizable pool): with a resizable pool that is ~200 MB written
+        // when a client connects and scanned when it leaves (`UsedChunkList::remove_all`),
+        // a quarter second in which the keeper serves nobody. A fixed pool has one segment;
+        // answers larger than its chunks go in parts (see `send_answer`). The pool holds what
+        // can be in use at once: every client's in-flight answers, each buffered or borrowed
+        // (this keeper answers each request at once, once, and keeps no request), not
+        // iceoryx2's worst case for servers that hold requests.
+        let server = if opts.static_responses {
+            let need = opts.max_clients * MAX_IN_FLIGHT * 2 + 1;
+            rr.server_builder()
+                .max_loaned_responses_per_request(1)
+                .initial_max_slice_len(RESPONSE_CAP)
+                .allocation_strategy(AllocationStrategy::Static)
+                .override_response_preallocation(move |worst| need.min(worst))
+                .create()
+        } else {
+            rr.server_builder()
+                .max_loaned_responses_per_request(1)
+                .initial_max_slice_len(256)
+                .allocation_strategy(AllocationStrategy::PowerOfTwo)
+                .create()
+        }
+        .map_err(ipc("create server"))?;
         let req_event = {
             let name = session.service(services::REQUEST_EVENT)?;
             session.open_or_create_service(|| {
@@ -331,6 +416,9 @@ impl Keeper {
             poses: Vec::new(),
             structure_version: 0,
             last_connect_update: Instant::now(),
+            last_served: None,
+            large: std::collections::BTreeMap::new(),
+            next_token: 1,
             _registration: registration,
             _services: vec![
                 Box::new(rr),
@@ -433,10 +521,23 @@ impl Keeper {
     }
 
     /// One iteration: wait (at most `wait`) for requests, then serve every pending one as a
-    /// group.
+    /// group. Within the spin window after the last group ([`KeeperOptions::spin`]) the wait
+    /// polls instead of blocking.
     pub fn step(&mut self, wait: Duration) -> Result<GroupStats, KeeperError> {
         let mut hello = false;
-        if !self.server.has_requests().unwrap_or(false) {
+        let mut ready = self.server.has_requests().unwrap_or(false);
+        if !ready && let Some(at) = self.last_served {
+            let until = at + self.opts.spin;
+            while Instant::now() < until {
+                std::hint::spin_loop();
+                if self.server.has_requests().unwrap_or(false) {
+                    ready = true;
+                    break;
+                }
+                std::thread::yield_now();
+            }
+        }
+        if !ready {
             crate::session::timed_wait_events(
                 &self.req_listener,
                 |e| hello |= e.id == EventId::new(events::HELLO),
@@ -458,24 +559,44 @@ impl Keeper {
             let Some(req) = self.server.receive().map_err(ipc("receive request"))? else {
                 break;
             };
-            let result = Transaction::decode(req.payload()).and_then(|tx| self.model.apply(&tx));
+            let payload = req.payload();
+            if let Some(token) = payload
+                .strip_prefix(&MORE_MAGIC[..])
+                .and_then(|t| <[u8; 8]>::try_from(t).ok())
+            {
+                pending.push((req, Reply::More(u64::from_le_bytes(token))));
+                continue;
+            }
+            let result = Transaction::decode(payload).and_then(|tx| self.model.apply(&tx));
             match &result {
                 Ok(a) => {
-                    self.journal.append(a.version, req.payload())?;
+                    self.journal.append(a.version, payload)?;
                     applied.push(a.clone());
                     stats.committed += 1;
                 }
                 Err(_) => stats.refused += 1,
             }
-            pending.push((req, result));
+            pending.push((req, Reply::Tx(result)));
         }
         if pending.is_empty() {
+            if self
+                .last_served
+                .is_some_and(|at| at.elapsed() >= self.opts.spin)
+            {
+                self.last_served = None;
+            }
             return Ok(stats);
         }
         self.finish_group(&applied)?;
-        for (req, result) in pending {
-            let bytes = bincode::serde::encode_to_vec(&result, bincode::config::standard())
-                .unwrap_or_default();
+        for (req, reply) in pending {
+            let bytes = match reply {
+                Reply::Tx(result) => {
+                    let bytes = bincode::serde::encode_to_vec(&result, bincode::config::standard())
+                        .unwrap_or_default();
+                    self.first_part(bytes)
+                }
+                Reply::More(token) => self.next_part(token),
+            };
             match req.loan_slice_uninit(bytes.len()) {
                 Ok(r) => {
                     // A client that died mid-request cannot be answered; the commit stands.
@@ -485,7 +606,46 @@ impl Keeper {
             }
         }
         let _ = self.ack_notifier.notify();
+        if !self.opts.spin.is_zero() {
+            self.last_served = Some(Instant::now());
+        }
         Ok(stats)
+    }
+
+    /// The response carrying `answer`: whole when it fits [`RESPONSE_CAP`], else its first
+    /// part (the rest is kept for the client's continuation requests).
+    fn first_part(&mut self, answer: Vec<u8>) -> Vec<u8> {
+        if answer.len() < RESPONSE_CAP {
+            let mut out = Vec::with_capacity(answer.len() + 1);
+            out.push(answer::WHOLE);
+            out.extend_from_slice(&answer);
+            return out;
+        }
+        let token = self.next_token;
+        self.next_token += 1;
+        while self.large.len() >= MAX_LARGE_ANSWERS {
+            self.large.pop_first();
+        }
+        self.large.insert(token, (answer, 0));
+        self.next_part(token)
+    }
+
+    /// The next part of large answer `token` (forgotten once its last part is sent).
+    fn next_part(&mut self, token: u64) -> Vec<u8> {
+        let Some((answer, offset)) = self.large.get_mut(&token) else {
+            return vec![answer::EXPIRED];
+        };
+        let end = (*offset + RESPONSE_CAP - answer::PART_HEADER).min(answer.len());
+        let mut out = Vec::with_capacity(answer::PART_HEADER + end - *offset);
+        out.push(answer::PART);
+        out.extend_from_slice(&token.to_le_bytes());
+        out.extend_from_slice(&(answer.len() as u64).to_le_bytes());
+        out.extend_from_slice(&answer[*offset..end]);
+        *offset = end;
+        if end == answer.len() {
+            self.large.remove(&token);
+        }
+        out
     }
 
     /// Durability, then publication and announcement of a group of committed transactions.

@@ -31,7 +31,7 @@ mod view;
 
 pub use client::{Client, ClientError, Committed, Pending};
 pub use journal::ObjectData;
-pub use keeper::{Keeper, KeeperError, KeeperOptions};
+pub use keeper::{Keeper, KeeperError, KeeperOptions, SPIN_ENV, spin_from_env};
 pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot, compose};
 pub use scratch::ScratchKeeper;
 pub use session::{

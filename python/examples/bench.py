@@ -2,6 +2,7 @@
 
     python3 python/examples/bench.py --session lab [--n 2000]
     python3 python/examples/bench.py --fresh [--n 2000] [--planner-bench PATH]
+    python3 python/examples/bench.py --spin-compare 200 [--reps 5] [--n 2000] [--planner-bench PATH]
 
 With --session: one running session. With --fresh: two fresh sessions of the
 surgical_positioner_cell, one whose keeper syncs its journal before every acknowledgement (the
@@ -17,6 +18,11 @@ Measures p50 and p99 of:
   compares CLOCK_MONOTONIC at wake-up with the keeper's publish stamp;
 * the same two through the Rust planner client (the planner_bench example), when given.
 Prints a markdown table (µs).
+
+With --spin-compare S: two fresh --no-sync sessions, one keeper started with ROBOSIM_SPIN_US=0
+and one with ROBOSIM_SPIN_US=S (the clients of each with the same setting), and `set_joints` →
+acknowledged from Rust and Python measured on each in turn, --reps times, with the keepers' CPU
+time over each block (in % of one core).
 """
 
 import argparse
@@ -127,6 +133,61 @@ def fresh_session(robosim_bin, name, no_sync):
             time.sleep(0.05)
 
 
+def keeper_ticks(pid):
+    with open(f"/proc/{pid}/stat") as f:
+        rest = f.read().rsplit(") ", 1)[1].split()
+    return int(rest[11]) + int(rest[12])
+
+
+def spin_compare(a, bench):
+    """set_joints round trips against keepers with and without a spin window, interleaved."""
+    home = tempfile.mkdtemp(prefix="robosim-bench-")
+    os.environ["ROBOSIM_HOME"] = home
+    spins = (0, a.spin_compare)
+    keepers = {}
+    try:
+        for spin in spins:
+            name = f"bs{spin}x{os.getpid()}"  # short: session names are bounded
+            env = dict(os.environ, ROBOSIM_SPIN_US=str(spin))
+            keepers[spin] = (name, subprocess.Popen(
+                [a.robosim, "space", "--scene", "surgical_positioner_cell", "--session", name,
+                 "--no-sync"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env))
+        for spin in spins:  # wait for both keepers
+            start = time.monotonic()
+            while subprocess.run([sys.executable, "-c", PY_ACK, keepers[spin][0], "1"],
+                                 capture_output=True).returncode != 0:
+                if time.monotonic() - start > 60:
+                    raise RuntimeError(f"keeper of {keepers[spin][0]} did not come up")
+                time.sleep(0.1)
+        print("| rep | spin µs | Rust p50 µs | Rust p99 µs | Python p50 µs | Python p99 µs | keeper CPU % of a core |")
+        print("|---|---|---|---|---|---|---|")
+        for rep in range(a.reps):
+            for spin in spins:
+                name, proc = keepers[spin]
+                env = dict(os.environ, ROBOSIM_SPIN_US=str(spin))
+                t0, c0 = time.monotonic(), keeper_ticks(proc.pid)
+                r = {"p50_us": float("nan"), "p99_us": float("nan")}
+                if os.path.exists(bench):
+                    out = subprocess.run([bench, "--session", name, "--n", str(a.n), "--ack-only"],
+                                         check=True, capture_output=True, text=True, env=env).stdout
+                    r = json.loads(out.splitlines()[0])
+                # Python in a process of its own per block (one attachment per process).
+                ack = json.loads(subprocess.run([sys.executable, "-c", PY_ACK, name, str(a.n)],
+                                                check=True, capture_output=True, text=True,
+                                                env=env).stdout)
+                cpu = (keeper_ticks(proc.pid) - c0) / 100 / (time.monotonic() - t0) * 100
+                print(f"| {rep} | {spin} | {r['p50_us']:.1f} | {r['p99_us']:.1f} | {pct(ack)} | {cpu:.0f} |",
+                      flush=True)
+    finally:
+        for name, proc in keepers.values():
+            proc.terminate()
+            proc.wait()
+            for f in os.listdir("/dev/shm"):
+                if f.startswith(f"rs_{name}_"):
+                    os.remove(os.path.join("/dev/shm", f))
+        shutil.rmtree(home, ignore_errors=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--session", default="lab")
@@ -134,7 +195,12 @@ def main():
     ap.add_argument("--n", type=int, default=2000)
     ap.add_argument("--robosim", default=os.environ.get("ROBOSIM_BIN", "robosim"))
     ap.add_argument("--planner-bench", default=None)
+    ap.add_argument("--spin-compare", type=int, default=None, metavar="S")
+    ap.add_argument("--reps", type=int, default=5)
     a = ap.parse_args()
+    if a.spin_compare is not None:
+        spin_compare(a, a.planner_bench or os.path.join("target", "release", "examples", "planner_bench"))
+        return
     if not a.fresh:
         rows = measure(a.session, a.n, a.robosim, a.planner_bench)
         print("| path | p50 µs | p99 µs |")
@@ -162,6 +228,19 @@ def main():
     for r, v in table.items():
         print(f"| {r} | {v.get(False, '– | –')} | {v.get(True, '– | –')} |")
 
+
+PY_ACK = """
+import json, sys, time, robosim
+s = robosim.Session(sys.argv[1])
+q0 = s.joints("positioner")
+ack = []
+for k in range(int(sys.argv[2])):
+    q = q0 + 1e-4 * (k % 2)
+    t = time.perf_counter_ns()
+    s.set_joints("positioner", q)
+    ack.append(time.perf_counter_ns() - t)
+print(json.dumps(ack))
+"""
 
 WRITER = """
 import sys, time, robosim

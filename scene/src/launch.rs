@@ -133,9 +133,13 @@ pub fn run_space_with(
     // is published or instantiated.
     let extra = preload.as_ref().map_or(&[][..], |p| p.library.as_slice());
     let lib = crate::instantiate::build_library_from(library, extra)?;
+    let spin = robosim_instance_space::spin_from_env().map_err(SceneError::Launch)?;
+    let static_responses = std::env::var_os("ROBOSIM_BENCH_DYNAMIC_RESPONSES").is_none();
     let opts = KeeperOptions {
         durable,
         journal_copies,
+        spin,
+        static_responses,
         ..KeeperOptions::default()
     };
     let (mut keeper, report) =
