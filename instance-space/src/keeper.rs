@@ -239,49 +239,6 @@ impl Keeper {
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(1, |d| d.as_nanos() as u64);
 
-        let rr = {
-            let name = session.service(services::REQUESTS)?;
-            session.open_or_create_service(|| {
-                node.service_builder(&name)
-                    .request_response::<[u8], [u8]>()
-                    .max_clients(opts.max_clients)
-                    .max_servers(1)
-                    .max_active_requests_per_client(MAX_IN_FLIGHT)
-                    .max_response_buffer_size(1)
-                    .max_borrowed_responses_per_pending_response(1)
-                    .max_loaned_requests(4)
-                    .enable_safe_overflow_for_requests(false)
-                    .enable_safe_overflow_for_responses(false)
-                    .max_nodes(opts.max_clients + opts.max_readers + 4)
-                    .open_or_create()
-            })
-        }
-        .map_err(ipc("create request service"))?;
-        // The response pool. iceoryx2 keeps, per client connection, one flag per response
-        // chunk for every channel (2 × in-flight + loans) and every segment the pool may
-        // grow to (255 for a resizable pool): with a resizable pool that is ~200 MB written
-        // when a client connects and scanned when it leaves (`UsedChunkList::remove_all`),
-        // a quarter second in which the keeper serves nobody. A fixed pool has one segment;
-        // answers larger than its chunks go in parts (see `send_answer`). The pool holds what
-        // can be in use at once: every client's in-flight answers, each buffered or borrowed
-        // (this keeper answers each request at once, once, and keeps no request), not
-        // iceoryx2's worst case for servers that hold requests.
-        let server = if opts.static_responses {
-            let need = opts.max_clients * MAX_IN_FLIGHT * 2 + 1;
-            rr.server_builder()
-                .max_loaned_responses_per_request(1)
-                .initial_max_slice_len(RESPONSE_CAP)
-                .allocation_strategy(AllocationStrategy::Static)
-                .override_response_preallocation(move |worst| need.min(worst))
-                .create()
-        } else {
-            rr.server_builder()
-                .max_loaned_responses_per_request(1)
-                .initial_max_slice_len(256)
-                .allocation_strategy(AllocationStrategy::PowerOfTwo)
-                .create()
-        }
-        .map_err(ipc("create server"))?;
         let req_event = {
             let name = session.service(services::REQUEST_EVENT)?;
             session.open_or_create_service(|| {
@@ -375,6 +332,54 @@ impl Keeper {
         let poses_svc = pubsub(services::POSES, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let poses_pub = publisher(&poses_svc, 1024, "poses")?;
 
+        // The request service last: a writer that can connect (`Client::connect`, which is
+        // how launchers and tests wait for a keeper) finds every other service of the keeper
+        // already there. Made first, it opened a window in which a reader attaching got
+        // `DoesNotExist` for space/objects — wide enough to fail tests once the response pool
+        // was preallocated (a fixed pool takes a while to make).
+        let rr = {
+            let name = session.service(services::REQUESTS)?;
+            session.open_or_create_service(|| {
+                node.service_builder(&name)
+                    .request_response::<[u8], [u8]>()
+                    .max_clients(opts.max_clients)
+                    .max_servers(1)
+                    .max_active_requests_per_client(MAX_IN_FLIGHT)
+                    .max_response_buffer_size(1)
+                    .max_borrowed_responses_per_pending_response(1)
+                    .max_loaned_requests(4)
+                    .enable_safe_overflow_for_requests(false)
+                    .enable_safe_overflow_for_responses(false)
+                    .max_nodes(opts.max_clients + opts.max_readers + 4)
+                    .open_or_create()
+            })
+        }
+        .map_err(ipc("create request service"))?;
+        // The response pool. iceoryx2 keeps, per client connection, one flag per response
+        // chunk for every channel (2 × in-flight + loans) and every segment the pool may
+        // grow to (255 for a resizable pool): with a resizable pool that is ~200 MB written
+        // when a client connects and scanned when it leaves (`UsedChunkList::remove_all`),
+        // a quarter second in which the keeper serves nobody. A fixed pool has one segment;
+        // answers larger than its chunks go in parts (see `send_answer`). The pool holds what
+        // can be in use at once: every client's in-flight answers, each buffered or borrowed
+        // (this keeper answers each request at once, once, and keeps no request), not
+        // iceoryx2's worst case for servers that hold requests.
+        let server = if opts.static_responses {
+            let need = opts.max_clients * MAX_IN_FLIGHT * 2 + 1;
+            rr.server_builder()
+                .max_loaned_responses_per_request(1)
+                .initial_max_slice_len(RESPONSE_CAP)
+                .allocation_strategy(AllocationStrategy::Static)
+                .override_response_preallocation(move |worst| need.min(worst))
+                .create()
+        } else {
+            rr.server_builder()
+                .max_loaned_responses_per_request(1)
+                .initial_max_slice_len(256)
+                .allocation_strategy(AllocationStrategy::PowerOfTwo)
+                .create()
+        }
+        .map_err(ipc("create server"))?;
         // What recovery lost is written before the keeper registers, so a launcher that
         // waits for the registration (`robosim up`) finds it and says it aloud.
         let lost_note = session.run_dir().join(journal::LOST_NOTE);
