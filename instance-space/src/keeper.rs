@@ -210,6 +210,39 @@ pub struct GroupStats {
     pub refused: usize,
 }
 
+/// How a keeper service's subscribers queue samples: buffered, kept for late joiners, held.
+struct SubscriberQueue {
+    buffer: usize,
+    history: usize,
+    borrowed: usize,
+}
+
+/// Opens or creates one of the keeper's publish-subscribe services (`suffix` in `session`):
+/// one publisher (the keeper), overflow-safe, sized for the session's readers and clients.
+fn pubsub_service(
+    session: &Session,
+    node: &Node<ipc::Service>,
+    opts: &KeeperOptions,
+    suffix: &str,
+    q: SubscriberQueue,
+) -> Result<PubSubService, KeeperError> {
+    let name = session.service(suffix)?;
+    session
+        .open_or_create_service(|| {
+            node.service_builder(&name)
+                .publish_subscribe::<[u64]>()
+                .history_size(q.history)
+                .subscriber_max_buffer_size(q.buffer)
+                .subscriber_max_borrowed_samples(q.borrowed)
+                .enable_safe_overflow(true)
+                .max_publishers(1)
+                .max_subscribers(opts.max_readers)
+                .max_nodes(opts.max_clients + opts.max_readers + 4)
+                .open_or_create()
+        })
+        .map_err(ipc(format!("create service {suffix}")))
+}
+
 impl Keeper {
     /// Recovers the session's model from its journal and checkpoints, creates the services and
     /// registers as the session's `space` process. Fails if a keeper already runs there.
@@ -289,26 +322,18 @@ impl Keeper {
             .create()
             .map_err(ipc("create change notifier"))?;
 
-        let pubsub = |suffix: &str,
-                      buffer: usize,
-                      history: usize,
-                      borrowed: usize|
-         -> Result<_, KeeperError> {
-            let name = session.service(suffix)?;
-            session
-                .open_or_create_service(|| {
-                    node.service_builder(&name)
-                        .publish_subscribe::<[u64]>()
-                        .history_size(history)
-                        .subscriber_max_buffer_size(buffer)
-                        .subscriber_max_borrowed_samples(borrowed)
-                        .enable_safe_overflow(true)
-                        .max_publishers(1)
-                        .max_subscribers(opts.max_readers)
-                        .max_nodes(opts.max_clients + opts.max_readers + 4)
-                        .open_or_create()
-                })
-                .map_err(ipc(format!("create service {suffix}")))
+        let pubsub = |suffix: &str, buffer: usize, history: usize, borrowed: usize| {
+            pubsub_service(
+                session,
+                &node,
+                &opts,
+                suffix,
+                SubscriberQueue {
+                    buffer,
+                    history,
+                    borrowed,
+                },
+            )
         };
         let publisher = |svc: &iceoryx2::service::port_factory::publish_subscribe::PortFactory<
             ipc::Service,
@@ -480,23 +505,17 @@ impl Keeper {
     /// ([`crate::Reader::library_files`]).
     pub fn publish_library(&mut self, files: &[(String, String)]) -> Result<(), KeeperError> {
         if self.library.is_none() {
-            let svc = {
-                let name = self.session.service(services::LIBRARY)?;
-                self.session.open_or_create_service(|| {
-                    self.node
-                        .service_builder(&name)
-                        .publish_subscribe::<[u64]>()
-                        .history_size(1)
-                        .subscriber_max_buffer_size(1)
-                        .subscriber_max_borrowed_samples(1)
-                        .enable_safe_overflow(true)
-                        .max_publishers(1)
-                        .max_subscribers(self.opts.max_readers)
-                        .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
-                        .open_or_create()
-                })
-            }
-            .map_err(ipc("create library service"))?;
+            let svc = pubsub_service(
+                &self.session,
+                &self.node,
+                &self.opts,
+                services::LIBRARY,
+                SubscriberQueue {
+                    buffer: 1,
+                    history: 1,
+                    borrowed: 1,
+                },
+            )?;
             let p = svc
                 .publisher_builder()
                 .initial_max_slice_len(1 << 14)
@@ -819,23 +838,17 @@ impl Keeper {
 
     /// Opens or creates the service of pose chunk `k` and its publisher.
     fn chunk_publisher(&mut self, k: usize) -> Result<(Pub, PubSubService), KeeperError> {
-        let svc = {
-            let name = self.session.service(&services::pose_chunk(k))?;
-            self.session.open_or_create_service(|| {
-                self.node
-                    .service_builder(&name)
-                    .publish_subscribe::<[u64]>()
-                    .history_size(1)
-                    .subscriber_max_buffer_size(2)
-                    .subscriber_max_borrowed_samples(MAX_HELD_SNAPSHOTS + 1)
-                    .enable_safe_overflow(true)
-                    .max_publishers(1)
-                    .max_subscribers(self.opts.max_readers)
-                    .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
-                    .open_or_create()
-            })
-        }
-        .map_err(ipc(format!("create service of pose chunk {k}")))?;
+        let svc = pubsub_service(
+            &self.session,
+            &self.node,
+            &self.opts,
+            &services::pose_chunk(k),
+            SubscriberQueue {
+                buffer: 2,
+                history: 1,
+                borrowed: MAX_HELD_SNAPSHOTS + 1,
+            },
+        )?;
         let header = [crate::encode::pose_chunk_header(0, 0, 0, POSE_CHUNK)];
         let full = [PoseRec {
             id: 0,
@@ -884,23 +897,17 @@ impl Keeper {
             return Ok(());
         };
         if !self.geometry.contains_key(&id) {
-            let svc = {
-                let name = self.session.service(&services::geometry(id))?;
-                self.session.open_or_create_service(|| {
-                    self.node
-                        .service_builder(&name)
-                        .publish_subscribe::<[u64]>()
-                        .history_size(1)
-                        .subscriber_max_buffer_size(1)
-                        .subscriber_max_borrowed_samples(2)
-                        .enable_safe_overflow(true)
-                        .max_publishers(1)
-                        .max_subscribers(self.opts.max_readers)
-                        .max_nodes(self.opts.max_clients + self.opts.max_readers + 4)
-                        .open_or_create()
-                })
-            }
-            .map_err(ipc(format!("create geometry service of object {id}")))?;
+            let svc = pubsub_service(
+                &self.session,
+                &self.node,
+                &self.opts,
+                &services::geometry(id),
+                SubscriberQueue {
+                    buffer: 1,
+                    history: 1,
+                    borrowed: 2,
+                },
+            )?;
             let p = svc
                 .publisher_builder()
                 .initial_max_slice_len(1024)
