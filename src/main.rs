@@ -490,7 +490,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         } => robosim_instance_space::journal::inspect(&path, &mut std::io::stdout().lock())
             .map_err(CliError::from),
         Command::Report { which } => reports::run(which),
-        Command::Render(args) => robosim_display::app::cmd_render(&args).map_err(|e| CliError(e.0)),
+        Command::Render(args) => render(&args),
         Command::Display(mut args) => {
             existing(session)?;
             args.session = session.map(str::to_owned);
@@ -528,6 +528,24 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `robosim render SCENE|FILE.urdf …`: a URDF file is imported by the file interface into a
+/// local model (robot, visuals and collision solids, as `robosim import urdf` does), the rest
+/// comes from the library.
+fn render(args: &robosim_display::app::RenderArgs) -> Result<()> {
+    let path = std::path::Path::new(&args.scene);
+    let urdf = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
+    let out = if urdf {
+        let store =
+            robosim_file_io::urdf_session::urdf_store(path).map_err(|e| CliError(e.to_string()))?;
+        robosim_display::app::cmd_render_store(args, store)
+    } else {
+        robosim_display::app::cmd_render(args)
+    };
+    out.map_err(|e| CliError(e.0))
 }
 
 fn query_session(session: &str, args: &robosim_hl_interface::cli::QueryArgs) -> Result<()> {

@@ -380,3 +380,136 @@ fn refused_loads_leave_the_session_untouched_and_import_export_work() {
     let g = gltf::Gltf::open(&glb).expect("gltf reads it");
     assert_eq!(g.nodes().count(), n);
 }
+
+/// The Panda of testdata/urdf without its Collada visuals, collision meshes by absolute path,
+/// written into `dir` (the line count kept, so errors point at the original's lines).
+fn collision_only_panda(dir: &Path) -> std::path::PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/urdf");
+    let text = std::fs::read_to_string(root.join("panda.urdf")).expect("panda.urdf");
+    let mut out = String::new();
+    let mut rest = text.as_str();
+    while let Some(start) = rest.find("<visual>") {
+        out.push_str(&rest[..start]);
+        let end = rest[start..].find("</visual>").expect("closed") + start + "</visual>".len();
+        out.push_str(&"\n".repeat(rest[start..end].matches('\n').count()));
+        rest = &rest[end..];
+    }
+    out.push_str(rest);
+    let out = out.replace(
+        "package://example-robot-data/",
+        &format!("file://{}/", root.join("example-robot-data").display()),
+    );
+    let path = dir.join("panda.urdf");
+    std::fs::write(&path, out).expect("write");
+    path
+}
+
+/// `robosim import urdf` into a running session: one transaction (robot, 9 general-joint links,
+/// the collision solids); the session's ops use it (get_robot reads the tree back, movej moves
+/// it and writes the link poses FK gives); the model saves as format version 2 and loads into
+/// a fresh session with the same digest; a URDF whose mesh is missing is refused with file and
+/// line, and changes nothing.
+#[test]
+fn a_urdf_robot_imported_into_a_session_is_a_robot_of_the_session() {
+    let k = Procs::new("urdfs");
+    let _up = Up(&k);
+    ok(&k, &["up", "demo"]);
+    let before = info(&k);
+    let urdf = collision_only_panda(k.home.path());
+    let out = ok(
+        &k,
+        &[
+            "import",
+            "urdf",
+            s(&urdf),
+            "--as",
+            "arm",
+            "--at",
+            "1,0,0,0,0,90",
+        ],
+    );
+    assert!(out.contains("9 joints (a tree)"), "{out}");
+    let solids = robosim_file_io::urdf_import::import_urdf_tree(&urdf)
+        .expect("imports")
+        .geometry
+        .counts()
+        .1;
+    let (v, _, n) = info(&k);
+    assert_eq!(
+        (v, n),
+        (before.0 + 1, before.2 + 1 + 9 + solids),
+        "one transaction: robot, links, solids"
+    );
+
+    // The session's ops: get_robot, then a movej (collision checks off: the demo's table).
+    let q = [0.3, -0.5, 0.2, -2.0, 0.1, 1.6, 0.7, 0.01, 0.02];
+    let requests = format!(
+        "{{\"id\": 1, \"op\": \"get_robot\", \"robot\": \"arm\"}}\n\
+         {{\"id\": 2, \"op\": \"c_switch\", \"on\": false}}\n\
+         {{\"id\": 3, \"op\": \"movej\", \"robot\": \"arm\", \"q\": {q:?}}}\n"
+    );
+    let req = k.home.path().join("requests.jsonl");
+    std::fs::write(&req, requests).expect("requests");
+    let out = ok(&k, &["query", "--input", s(&req)]);
+    let answers: Vec<serde_json::Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON answer"))
+        .collect();
+    assert_eq!(answers[0]["ok"], true, "{out}");
+    let links: Vec<&str> = answers[0]["links"]
+        .as_array()
+        .expect("links")
+        .iter()
+        .map(|l| l["name"].as_str().expect("name"))
+        .collect();
+    assert_eq!(links[0], "panda_link1");
+    assert_eq!(links[8], "panda_rightfinger");
+    assert_eq!(answers[2]["ok"], true, "{out}");
+    assert_eq!(answers[2]["completed"], true, "{out}");
+    // The link poses the session now holds are the tree's FK at q (from the file itself).
+    let model = robosim_file_io::urdf_import::import_urdf_tree(&urdf).expect("imports");
+    let frames = robosim_kinematics::fk::link_frames(&model.robot, &q);
+    let session = k.session();
+    let reader = Reader::attach(&session, "test").expect("attach");
+    let snap = reader.snapshot().expect("snapshot");
+    let robot = snap.robot("arm").expect("arm");
+    for (j, link) in robot.joints.iter().enumerate() {
+        let p = snap.poses()[link.index].pose;
+        let m = robosim_scene::pose::to_matrix(&p);
+        assert!(
+            (m - frames[j + 1]).abs().max() < 1e-12,
+            "link {j} pose after movej"
+        );
+        assert_eq!(snap.poses()[link.index].joint, q[j]);
+    }
+    drop(snap);
+    drop(reader);
+
+    // Saved: version 2 (a general joint); loaded into a fresh session: the same model.
+    let (_, digest, objects) = info(&k);
+    let bin = k.home.path().join("with-urdf.rsm");
+    ok(&k, &["save", s(&bin)]);
+    let bytes = std::fs::read(&bin).expect("saved");
+    assert_eq!(bytes[8..12], 2u32.to_le_bytes(), "format version 2");
+    let b = Procs::new("urdfs2");
+    let _up_b = Up(&b);
+    ok(&b, &["up", "--load", s(&bin)]);
+    assert_eq!(info(&b).1, digest);
+    assert_eq!(info(&b).2, objects);
+
+    // A missing mesh: refused before the session is touched.
+    let text = std::fs::read_to_string(&urdf)
+        .expect("read")
+        .replace("collision/link5.stl", "collision/link5_gone.stl");
+    std::fs::write(&urdf, &text).expect("write");
+    let line = text
+        .lines()
+        .position(|l| l.contains("link5_gone.stl"))
+        .expect("there")
+        + 1;
+    let here = info(&k);
+    let err = refused(&k, &["import", "urdf", s(&urdf), "--as", "arm2"]);
+    assert!(err.contains(&format!("panda.urdf:{line}")), "{err}");
+    assert!(err.contains("link5_gone.stl"), "{err}");
+    assert_eq!(info(&k), here, "nothing entered the session");
+}

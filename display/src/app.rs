@@ -157,7 +157,8 @@ impl ViewArgs {
 #[derive(clap::Args, Debug, Clone)]
 #[command(group(clap::ArgGroup::new("output").required(true).multiple(true).args(["out", "frames", "record"])))]
 pub struct RenderArgs {
-    /// A scene or robot of the library (`robosim lib list`), or `demo`.
+    /// A scene or robot of the library (`robosim lib list`), `demo`, or a URDF file
+    /// (`FILE.urdf`: its robot with visuals, at the origin).
     pub scene: String,
     /// The PNG to write (one image).
     #[arg(long)]
@@ -284,7 +285,7 @@ impl Posed {
 /// trajectories' joints and the pose tracks at that sample): what frame `k` shows, without a
 /// GPU.
 pub fn played_snapshot(a: &RenderArgs, k: usize) -> Result<Snapshot> {
-    let mut model = prepared_model(a)?;
+    let mut model = prepared_model(a, local_store(&a.library, &a.scene)?)?;
     let snap = Snapshot::from_store(&model);
     let player = Player::load(&a.play, &snap)?;
     let posed = Posed::resolve(&a.poses, &snap, player.len())?;
@@ -492,8 +493,7 @@ fn highlight(r: &mut Renderer, scene: &CompiledScene, on: bool) {
 }
 
 /// The local model of `render`: the scene with `--joints` set and `--hide` objects removed.
-fn prepared_model(a: &RenderArgs) -> Result<Store> {
-    let mut model = local_store(&a.library, &a.scene)?;
+fn prepared_model(a: &RenderArgs, mut model: Store) -> Result<Store> {
     let snap = Snapshot::from_store(&model);
     let scene = CompiledScene::of(&snap);
     let robots = scene.robots();
@@ -534,6 +534,12 @@ fn prepared_model(a: &RenderArgs) -> Result<Store> {
 
 /// `robosim render SCENE …`
 pub fn cmd_render(a: &RenderArgs) -> Result<()> {
+    cmd_render_store(a, local_store(&a.library, &a.scene)?)
+}
+
+/// `robosim render` of a model built elsewhere (`model`; `a.scene` only names it in messages):
+/// how `robosim render FILE.urdf` draws a URDF robot the file interface imported.
+pub fn cmd_render_store(a: &RenderArgs, model: Store) -> Result<()> {
     if a.out.is_none() && a.frames.is_none() && a.record.is_none() {
         bail!(
             "nothing to write: give --out FILE.png, or --play ROBOT=FILE with --frames DIR \
@@ -549,7 +555,7 @@ pub fn cmd_render(a: &RenderArgs) -> Result<()> {
     if !a.poses.is_empty() && a.play.is_empty() {
         bail!("pose tracks go with --play");
     }
-    let mut model = prepared_model(a)?;
+    let mut model = prepared_model(a, model)?;
     let mut r = Renderer::headless()?;
     let snap = Snapshot::from_store(&model);
     let mut scene = CompiledScene::new();

@@ -691,7 +691,9 @@ impl Renderer {
         }
         for i in 0..snap.len() {
             let rec = &snap.objects()[i];
-            if rec.flags & flags::HAS_GEOMETRY == 0 {
+            // Fully transparent (alpha 0) is not drawn: an imported URDF link's collision
+            // solids when it has visuals (file-io's urdf_session), kept for collision only.
+            if rec.flags & flags::HAS_GEOMETRY == 0 || rec.color[3] <= 0.0 {
                 continue;
             }
             let Some(g) = snap.geometry(i) else { continue };

@@ -332,6 +332,26 @@ fn export_trajectory(a: &ExportArgs, session: Option<&str>, out: &Path) -> Resul
 pub enum ImportCmd {
     /// An STL (binary or ASCII) or OBJ mesh as an item placed in the scene (one transaction).
     Mesh(ImportMeshArgs),
+    /// A URDF robot — its whole tree, general joints, inertials, visuals and collision shapes
+    /// (meshes as convex hulls) — as a robot placed in the scene (one transaction;
+    /// docs/file-io.md, "URDF into a session").
+    Urdf(ImportUrdfArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ImportUrdfArgs {
+    /// The URDF file (`package://` meshes are found through ROS_PACKAGE_PATH and the file's
+    /// ancestors; xacro files are refused: run xacro first).
+    pub file: PathBuf,
+    /// The robot's name in the session (default: the URDF's `<robot name>`).
+    #[arg(long = "as")]
+    pub name: Option<String>,
+    /// Position (m) and optionally roll, pitch, yaw (deg) of the root link in the parent's frame.
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
+    pub at: String,
+    /// The scene to place it in (default: the session's first scene).
+    #[arg(long)]
+    pub parent: Option<String>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -359,23 +379,23 @@ pub struct ImportMeshArgs {
 }
 
 pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
-    let ImportCmd::Mesh(a) = cmd;
-    let pose = crate::import::parse_at(&a.at)?;
-    let mut appearance = Appearance::default();
-    if let Some(c) = &a.color {
-        appearance.color = crate::import::parse_color(c)?;
+    match cmd {
+        ImportCmd::Mesh(a) => import_mesh(a, session),
+        ImportCmd::Urdf(a) => import_urdf(a, session),
     }
-    let tris = crate::import::read_mesh(&a.file, a.scale)?;
-    let g = crate::import::mesh_geometry(&tris, a.hull, &a.file)?;
-    let s = Session::open(session)?;
-    let reader = Reader::attach(&s, "file-io")?;
+}
+
+/// The scene an import goes into: the one named `parent`, else the session's first scene
+/// (`None`: the session has no scene, the import is a root object).
+fn import_parent(s: &Session, parent: Option<&str>) -> Result<Option<u64>> {
+    let reader = Reader::attach(s, "file-io")?;
     let snap = reader
         .snapshot()
         .ok_or_else(|| FileError::Usage(format!("session {}: no model", s.name())))?;
     let scenes: Vec<usize> = (0..snap.len())
         .filter(|&i| snap.object(i).kind() == Some(Kind::Scene))
         .collect();
-    let parent = match &a.parent {
+    Ok(match parent {
         Some(p) => Some(
             scenes
                 .iter()
@@ -386,8 +406,39 @@ pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
                 })?,
         ),
         None => scenes.first().map(|&i| snap.objects()[i].id),
-    };
-    drop(snap);
+    })
+}
+
+/// Sends an import's one transaction; a refusal names the file and the object.
+fn import_commit(
+    s: &Session,
+    tx: &robosim_instance_space::Transaction,
+    file: &Path,
+    name: &str,
+) -> Result<robosim_instance_space::Applied> {
+    let mut c = robosim_instance_space::Client::connect(s, "file-io")?;
+    c.transact(tx).map_err(|e| match e {
+        robosim_instance_space::ClientError::Refused(source) => FileError::Refused {
+            path: file.to_owned(),
+            session: s.name().to_owned(),
+            id: 0,
+            name: name.to_owned(),
+            source: Box::new(source),
+        },
+        e => e.into(),
+    })
+}
+
+fn import_mesh(a: &ImportMeshArgs, session: Option<&str>) -> Result<()> {
+    let pose = crate::import::parse_at(&a.at)?;
+    let mut appearance = Appearance::default();
+    if let Some(c) = &a.color {
+        appearance.color = crate::import::parse_color(c)?;
+    }
+    let tris = crate::import::read_mesh(&a.file, a.scale)?;
+    let g = crate::import::mesh_geometry(&tris, a.hull, &a.file)?;
+    let s = Session::open(session)?;
+    let parent = import_parent(&s, a.parent.as_deref())?;
     let place = crate::import::Placement {
         name: a.name.clone(),
         pose,
@@ -395,17 +446,7 @@ pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
         appearance,
     };
     let tx = crate::import::import_tx(&g.geometry, &place);
-    let mut c = robosim_instance_space::Client::connect(&s, "file-io")?;
-    let applied = c.transact(&tx).map_err(|e| match e {
-        robosim_instance_space::ClientError::Refused(source) => FileError::Refused {
-            path: a.file.clone(),
-            session: s.name().to_owned(),
-            id: 0,
-            name: a.name.clone(),
-            source: Box::new(source),
-        },
-        e => e.into(),
-    })?;
+    let applied = import_commit(&s, &tx, &a.file, &a.name)?;
     println!(
         "imported {} as {}: {} triangles read, {} dropped (zero area), {} vertices, {} polygons{}, version {}",
         a.file.display(),
@@ -417,6 +458,40 @@ pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
         if a.hull { " (convex hull)" } else { "" },
         applied.version
     );
+    Ok(())
+}
+
+fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
+    let pose = crate::import::parse_at(&a.at)?;
+    // Everything that can be wrong with the file is found before the session is touched.
+    let u = crate::urdf_import::import_urdf_tree(&a.file)?;
+    let name = a.name.clone().unwrap_or_else(|| u.robot.name.clone());
+    let s = Session::open(session)?;
+    let parent = import_parent(&s, a.parent.as_deref())?;
+    let place = crate::urdf_session::UrdfPlacement {
+        name: name.clone(),
+        pose,
+        parent,
+    };
+    let imp = crate::urdf_session::urdf_tx(&u, &place)?;
+    let applied = import_commit(&s, &imp.tx, &a.file, &name)?;
+    println!(
+        "imported {} as robot {name}: {} joints ({}), {} visuals, {} collision solids, {} mesh triangles read, version {}",
+        a.file.display(),
+        imp.joints,
+        if u.robot.parents.is_empty() {
+            "a chain"
+        } else {
+            "a tree"
+        },
+        imp.visuals,
+        imp.solids,
+        imp.triangles,
+        applied.version
+    );
+    for n in &u.notes {
+        println!("  note: {n}");
+    }
     Ok(())
 }
 

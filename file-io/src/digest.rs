@@ -5,7 +5,9 @@
 //! +0): kind (u32); name (u64 length, UTF-8 bytes); local pose (12 × f64, row-major `[R | t]`);
 //! joint value (f64); appearance (colour 4 × f32, diffuse, specular, shininess f32);
 //! kinematics (tag u8: 0 none, 1 joint — index u32, joint type u32, convention u32, a, d,
-//! alpha, theta, offset, qlim[2] f64; 2 robot — convention u32, IK family u32, tool 12 × f64);
+//! alpha, theta, offset, qlim[2] f64; 2 robot — convention u32, IK family u32, tool 12 × f64;
+//! 3 general joint — index u32, parent u32, joint type u32, placement 12 × f64, axis 3 × f64,
+//! offset, qlim[2] f64);
 //! dynamics (tag u8, then mass, com[3], inertia[6] f64); geometry (tag u8, then vertex count u64,
 //! vertices 3 × f64 each, polygon count u64, each polygon's length u64 and u32 indices, in the
 //! stored order); origin (u64 length, bytes); then the number of children (u64) and their
@@ -111,6 +113,23 @@ fn object_fields(e: &mut Enc, o: &ObjectData) {
             e.u32(convention as u32);
             e.u32(ik_family);
             e.f64s(&tool);
+        }
+        Some(Kinematics::Axis {
+            index,
+            parent,
+            joint,
+            placement,
+            axis,
+            offset,
+            qlim,
+        }) => {
+            e.u8(3);
+            e.u32(index);
+            e.u32(parent);
+            e.u32(joint as u32);
+            e.f64s(&placement);
+            e.f64s(&axis);
+            e.f64s(&[offset, qlim[0], qlim[1]]);
         }
     }
     match o.dynamics {

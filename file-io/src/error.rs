@@ -100,6 +100,9 @@ pub enum FileError {
     Client(#[from] robosim_instance_space::ClientError),
     #[error(transparent)]
     Scene(#[from] robosim_scene::SceneError),
+    /// A URDF file that cannot be imported (file, line, element and what).
+    #[error(transparent)]
+    Urdf(#[from] crate::urdf_import::UrdfError),
 }
 
 pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> FileError + '_ {

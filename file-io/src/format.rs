@@ -21,9 +21,14 @@
 //! out and its version is read), trailing bytes, decoding (with a memory limit in proportion to the file size, as the
 //! keeper's checkpoints are read), then the model's structure ([`SavedModel::plan`]).
 //!
-//! **Versions.** Version 1's body is [`Body`] over the keeper's [`ObjectData`]. A change to
-//! either makes version 2; the version-1 reader then keeps a frozen copy of today's types. The
-//! file `testdata/file-io/station-v1.rsm`, written by version 1, is loaded by a test forever.
+//! **Versions.** Version 1's body is [`Body`] over the keeper's [`ObjectData`]. Version 2 adds
+//! one thing, general joints (`Kinematics::Axis`, an enum variant appended after version 1's,
+//! so a version-1 body decodes with today's types unchanged and one decoder reads both). A
+//! model without general joints is still written as version 1, so an older build reads it; a
+//! model with them is written as version 2, which an older build refuses as a newer format.
+//! Any other change makes version 3, and the older readers then keep a frozen copy of today's
+//! types. The file `testdata/file-io/station-v1.rsm`, written by version 1, is loaded by a test
+//! forever.
 
 use crate::error::{FileError, io};
 use crate::model::{LibrarySource, SavedModel};
@@ -34,12 +39,25 @@ use std::path::Path;
 /// The magic that starts a binary model file.
 pub const MAGIC: [u8; 8] = *b"\x89RSMODEL";
 /// The format version this build writes (and the newest it reads).
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
+
+/// The oldest version that can hold `model`: 2 when it has a general joint, else 1.
+fn version_for(model: &SavedModel) -> u32 {
+    if model
+        .objects
+        .iter()
+        .any(|o| matches!(o.kinematics, Some(Kinematics::Axis { .. })))
+    {
+        2
+    } else {
+        1
+    }
+}
 /// The `"format"` value of the JSON encoding.
 pub const JSON_FORMAT: &str = "robosim-model";
 const HEADER: usize = 28;
 
-/// The content of a model file, format version 1.
+/// The content of a model file, format versions 1 and 2.
 #[derive(Debug, Serialize, Deserialize)]
 pub struct Body {
     /// The Instance Space version the model was saved at.
@@ -105,7 +123,7 @@ pub fn encode_binary(model: &SavedModel) -> Vec<u8> {
         bincode::serde::encode_to_vec(&body, bincode::config::standard()).unwrap_or_default();
     let mut out = Vec::with_capacity(HEADER + body.len());
     out.extend_from_slice(&MAGIC);
-    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&version_for(model).to_le_bytes());
     out.extend_from_slice(&0u32.to_le_bytes());
     out.extend_from_slice(&(body.len() as u64).to_le_bytes());
     let crc = checksum(&out[8..HEADER - 4], &body);
@@ -125,7 +143,7 @@ fn checksum(head: &[u8], body: &[u8]) -> u32 {
 /// limit of ±∞ is refused (the binary form holds it).
 pub fn encode_json(model: &SavedModel, path: &Path) -> Result<Vec<u8>, FileError> {
     for o in &model.objects {
-        if let Some(Kinematics::Joint { qlim, .. }) = o.kinematics {
+        if let Some(Kinematics::Joint { qlim, .. } | Kinematics::Axis { qlim, .. }) = o.kinematics {
             for (k, v) in qlim.iter().enumerate() {
                 if !v.is_finite() {
                     return Err(FileError::NotJsonable {
@@ -140,7 +158,7 @@ pub fn encode_json(model: &SavedModel, path: &Path) -> Result<Vec<u8>, FileError
     }
     let out = JsonOut {
         format: JSON_FORMAT,
-        format_version: FORMAT_VERSION,
+        format_version: version_for(model),
         version: model.version,
         objects: &model.objects,
         library: &model.library,

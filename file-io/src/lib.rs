@@ -39,6 +39,7 @@ pub mod trajectory;
 pub mod urdf;
 pub mod urdf_geometry;
 pub mod urdf_import;
+pub mod urdf_session;
 mod world;
 
 pub use digest::{ModelDigest, digest};

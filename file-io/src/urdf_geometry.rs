@@ -142,7 +142,7 @@ pub struct LinkGeometry {
 }
 
 impl MeshRef {
-    fn err(&self, p: MeshProblem) -> UrdfError {
+    pub(crate) fn err(&self, p: MeshProblem) -> UrdfError {
         UrdfError {
             file: self.urdf.clone(),
             line: self.line,

@@ -172,7 +172,8 @@ impl Client {
 
     /// How long [`Client::wait`] polls for its answer (yielding the CPU between polls) before
     /// it blocks on the acknowledgement event; zero blocks at once. The default comes from
-    /// `ROBOSIM_SPIN_US` ([`crate::keeper::SPIN_ENV`]), read at connect.
+    /// `ROBOSIM_SPIN_US` ([`crate::keeper::SPIN_ENV`]), read at connect, else
+    /// [`crate::keeper::DEFAULT_SPIN_US`].
     pub fn set_spin(&mut self, spin: Duration) {
         self.spin = spin;
     }

@@ -187,6 +187,23 @@ pub(crate) fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
             rec.index_or_family = index;
             rec.dh = [a, d, alpha, theta, offset, qlim[0], qlim[1]];
         }
+        Some(Kinematics::Axis {
+            index,
+            parent,
+            joint,
+            placement,
+            axis,
+            offset,
+            qlim,
+        }) => {
+            rec.flags |= flags::HAS_KINEMATICS;
+            rec.kin_tag = flags::KIN_AXIS;
+            rec.joint_kind = joint as u32;
+            rec.convention = parent;
+            rec.index_or_family = index;
+            rec.dh = [axis[0], axis[1], axis[2], 0.0, offset, qlim[0], qlim[1]];
+            rec.tool = placement;
+        }
         Some(Kinematics::Robot {
             convention,
             ik_family,

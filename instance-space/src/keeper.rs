@@ -88,8 +88,9 @@ pub struct KeeperOptions {
     /// (yielding the CPU between polls) for this long before it blocks on the request event
     /// again. A client that sends its next request within the window skips one event wake-up
     /// (≈ 50 µs on a small VM); the price is up to one core for the window after every
-    /// request. Zero (the default) blocks at once. Set by `ROBOSIM_SPIN_US` (see
-    /// [`spin_from_env`]); docs/bench/python.md has the measurement.
+    /// request. Zero blocks at once (`KeeperOptions::default`); a session's keeper takes
+    /// [`spin_from_env`] (default [`DEFAULT_SPIN_US`]); docs/bench/python.md has the
+    /// measurement.
     pub spin: Duration,
     /// Answers in a fixed-size response pool of [`RESPONSE_CAP`] bytes each (larger answers
     /// go in parts). `false` restores the resizable pool, whose per-client connection is
@@ -103,11 +104,18 @@ pub struct KeeperOptions {
 /// ([`KeeperOptions::spin`]) and of a client waiting for its answer ([`crate::Client`]).
 pub const SPIN_ENV: &str = "ROBOSIM_SPIN_US";
 
-/// The spin window named by [`SPIN_ENV`] (zero when unset); an unreadable value is an error
-/// naming the variable.
+/// The spin window of a session's keeper and of a client when [`SPIN_ENV`] is unset, µs. With
+/// 100 µs on both sides a Python `set_joints` round trip (release build, 2-core VM) took p50
+/// 38–48 µs against 76–95 µs blocking, measured interleaved in one run (docs/bench/python.md);
+/// the keeper's CPU while a planner streams rose from 22–28 % to 27–32 % of a core, and an idle
+/// keeper does not spin. `ROBOSIM_SPIN_US=0` blocks at once, as before.
+pub const DEFAULT_SPIN_US: u64 = 100;
+
+/// The spin window named by [`SPIN_ENV`] ([`DEFAULT_SPIN_US`] when unset); an unreadable value
+/// is an error naming the variable.
 pub fn spin_from_env() -> Result<Duration, String> {
     match std::env::var(SPIN_ENV) {
-        Err(_) => Ok(Duration::ZERO),
+        Err(_) => Ok(Duration::from_micros(DEFAULT_SPIN_US)),
         Ok(v) => v
             .trim()
             .parse::<u64>()

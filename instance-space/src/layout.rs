@@ -172,6 +172,8 @@ pub mod flags {
     /// `kin_tag`: the kinematics record is a joint (else a robot).
     pub const KIN_JOINT: u32 = 1;
     pub const KIN_ROBOT: u32 = 2;
+    /// `kin_tag`: the kinematics record is a general joint (placement and axis).
+    pub const KIN_AXIS: u32 = 3;
 }
 
 /// One object, every aspect but its geometry (which has its own segment) and its pose
@@ -193,17 +195,19 @@ pub struct ObjectRec {
     pub color: [f32; 4],
     /// diffuse, specular, shininess, unused.
     pub surface: [f32; 4],
-    /// `flags::KIN_JOINT` or `flags::KIN_ROBOT` (0 = none).
+    /// `flags::KIN_JOINT`, `flags::KIN_ROBOT` or `flags::KIN_AXIS` (0 = none).
     pub kin_tag: u32,
-    /// Joint: [`crate::JointKind`]; robot: unused.
+    /// Joint and general joint: [`crate::JointKind`]; robot: unused.
     pub joint_kind: u32,
-    /// [`crate::DhConvention`].
+    /// Joint and robot: [`crate::DhConvention`]; general joint: the parent link frame
+    /// (`Kinematics::Axis::parent`).
     pub convention: u32,
-    /// Joint: index in the chain; robot: IK family.
+    /// Joint and general joint: index in q; robot: IK family.
     pub index_or_family: u32,
-    /// Joint: a, d, alpha, theta, offset, qlo, qhi (m, rad).
+    /// Joint: a, d, alpha, theta, offset, qlo, qhi (m, rad). General joint: axis x, y, z,
+    /// unused, offset, qlo, qhi.
     pub dh: [f64; 7],
-    /// Robot: tool transform, 3×4 row-major.
+    /// Robot: tool transform; general joint: placement. 3×4 row-major.
     pub tool: [f64; 12],
     pub mass: f64,
     pub com: [f64; 3],

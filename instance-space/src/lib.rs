@@ -31,7 +31,7 @@ mod view;
 
 pub use client::{Client, ClientError, Committed, Pending};
 pub use journal::ObjectData;
-pub use keeper::{Keeper, KeeperError, KeeperOptions, SPIN_ENV, spin_from_env};
+pub use keeper::{DEFAULT_SPIN_US, Keeper, KeeperError, KeeperOptions, SPIN_ENV, spin_from_env};
 pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot, compose};
 pub use scratch::ScratchKeeper;
 pub use session::{
@@ -43,7 +43,7 @@ pub use store::{
     MassProps, Object, Pose, Selection, Store, TxError, aspect,
 };
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
-pub use view::{JointView, RobotView};
+pub use view::{JointOrigin, JointView, RobotView};
 
 /// Service suffixes inside a session (see [`Session::service`]).
 pub mod services {

@@ -48,6 +48,9 @@ pub enum Kind {
     Link = 4,
     Solid = 5,
     Part = 6,
+    /// Geometry that is drawn and nothing else: no collision, no contact, no mass (a URDF
+    /// `<visual>`; the link's `<collision>` shapes are its solids). Placed like a solid.
+    Visual = 7,
 }
 
 impl Kind {
@@ -59,6 +62,7 @@ impl Kind {
             4 => Kind::Link,
             5 => Kind::Solid,
             6 => Kind::Part,
+            7 => Kind::Visual,
             _ => return None,
         })
     }
@@ -70,6 +74,7 @@ impl Kind {
             Kind::Link => "link",
             Kind::Solid => "solid",
             Kind::Part => "part",
+            Kind::Visual => "visual",
         }
     }
     /// The kinds this kind may be a child of (`None` = may be a root).
@@ -78,7 +83,7 @@ impl Kind {
             Kind::Scene => (&[], true),
             Kind::Robot | Kind::Item => (&[Kind::Scene], true),
             Kind::Link => (&[Kind::Robot], false),
-            Kind::Solid => (
+            Kind::Solid | Kind::Visual => (
                 &[
                     Kind::Scene,
                     Kind::Robot,
@@ -190,6 +195,29 @@ pub enum Kinematics {
         convention: DhConvention,
         ik_family: u32,
         tool: Pose,
+    },
+    /// A link's **general** joint (URDF's `<origin>` and `<axis>`; issue 14): the joint frame
+    /// placed in the link frame it hangs from, and an axis in the joint frame. DH rows are one
+    /// way to fill a joint, this is the other; one robot may mix neither — a robot's joints are
+    /// all `Joint` (a DH chain) or all `Axis` (a chain or a tree).
+    Axis {
+        /// Index of the joint in q (0-based).
+        index: u32,
+        /// The link frame this joint hangs from, in Pinocchio's numbering: 0 the robot's base
+        /// frame, k the link of the joint at index k − 1. At most `index` (parents come first);
+        /// `index` itself means "the previous joint's link" in a chain, so a chain is
+        /// `parent = index` throughout.
+        parent: u32,
+        joint: JointKind,
+        /// Parent link frame → joint frame, 3×4 row-major (m).
+        placement: Pose,
+        /// Unit axis in the joint frame: the rotation axis of a revolute joint, the direction
+        /// of travel of a prismatic one.
+        axis: [f64; 3],
+        /// Added to q before the motion (rad or m).
+        offset: f64,
+        /// [lo, hi] (rad or m; ±∞ for a continuous joint).
+        qlim: [f64; 2],
     },
 }
 
@@ -682,7 +710,9 @@ impl Stage<'_> {
                 }
                 let kind = self.lookup(rid).map(|o| o.kind);
                 match (kinematics, kind) {
-                    (Some(Kinematics::Joint { .. }), Some(k)) if k != Kind::Link => {
+                    (Some(Kinematics::Joint { .. } | Kinematics::Axis { .. }), Some(k))
+                        if k != Kind::Link =>
+                    {
                         return Err(TxError::InvalidValue {
                             op: i,
                             id: rid,
@@ -946,24 +976,64 @@ fn check_kinematics(op: usize, id: Id, k: &Kinematics) -> Result<(), TxError> {
             ] {
                 finite(op, id, f, *v)?;
             }
-            if qlim[0].is_nan() || qlim[1].is_nan() {
-                return Err(TxError::NonFinite {
-                    op,
-                    id,
-                    field: "qlim".into(),
-                    value: f64::NAN,
-                });
+            check_qlim(op, id, qlim)?;
+        }
+        Kinematics::Robot { tool, .. } => check_pose(op, id, "tool", tool)?,
+        Kinematics::Axis {
+            index,
+            parent,
+            placement,
+            axis,
+            offset,
+            qlim,
+            ..
+        } => {
+            check_pose(op, id, "placement", placement)?;
+            for (k, v) in axis.iter().enumerate() {
+                finite(op, id, &format!("axis[{k}]"), *v)?;
             }
-            if qlim[0] > qlim[1] {
+            let norm = axis.iter().map(|v| v * v).sum::<f64>().sqrt();
+            if (norm - 1.0).abs() > 1e-6 {
                 return Err(TxError::InvalidValue {
                     op,
                     id,
-                    field: "qlim".into(),
-                    reason: format!("[{}, {}] is reversed", qlim[0], qlim[1]),
+                    field: "axis".into(),
+                    reason: format!("{axis:?} is not a unit vector (norm {norm})"),
+                });
+            }
+            finite(op, id, "offset", *offset)?;
+            check_qlim(op, id, qlim)?;
+            if parent > index {
+                return Err(TxError::InvalidValue {
+                    op,
+                    id,
+                    field: "parent".into(),
+                    reason: format!(
+                        "link frame {parent} is not before joint {index} (parents come first: at most {index})"
+                    ),
                 });
             }
         }
-        Kinematics::Robot { tool, .. } => check_pose(op, id, "tool", tool)?,
+    }
+    Ok(())
+}
+
+fn check_qlim(op: usize, id: Id, qlim: &[f64; 2]) -> Result<(), TxError> {
+    if qlim[0].is_nan() || qlim[1].is_nan() {
+        return Err(TxError::NonFinite {
+            op,
+            id,
+            field: "qlim".into(),
+            value: f64::NAN,
+        });
+    }
+    if qlim[0] > qlim[1] {
+        return Err(TxError::InvalidValue {
+            op,
+            id,
+            field: "qlim".into(),
+            reason: format!("[{}, {}] is reversed", qlim[0], qlim[1]),
+        });
     }
     Ok(())
 }

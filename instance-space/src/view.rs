@@ -42,6 +42,17 @@ impl ObjectRec {
         if self.flags & flags::HAS_KINEMATICS == 0 {
             return None;
         }
+        if self.kin_tag == flags::KIN_AXIS {
+            return Some(Kinematics::Axis {
+                index: self.index_or_family,
+                parent: self.convention,
+                joint: JointKind::from_u32(self.joint_kind)?,
+                placement: self.tool,
+                axis: [self.dh[0], self.dh[1], self.dh[2]],
+                offset: self.dh[4],
+                qlim: [self.dh[5], self.dh[6]],
+            });
+        }
         let convention = DhConvention::from_u32(self.convention)?;
         match self.kin_tag {
             flags::KIN_JOINT => Some(Kinematics::Joint {
@@ -107,6 +118,20 @@ pub struct JointView {
     pub q: f64,
     /// The link's mass properties, if set.
     pub mass: Option<MassProps>,
+    /// A general joint's placement, axis and parent link frame (`Kinematics::Axis`); `None`
+    /// for a DH row (`a`, `d`, `alpha`, `theta` then hold it, and are 0 here otherwise).
+    pub origin: Option<JointOrigin>,
+}
+
+/// A general joint's geometry as the Instance Space holds it (`Kinematics::Axis`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointOrigin {
+    /// The link frame the joint hangs from (0: the robot's base; k: the link of joint k − 1).
+    pub parent: u32,
+    /// Parent link frame → joint frame, 3×4 row-major (m).
+    pub placement: Pose,
+    /// Unit axis in the joint frame.
+    pub axis: [f64; 3],
 }
 
 /// A robot of a snapshot: the robot object and its joints in chain order.
@@ -204,6 +229,36 @@ impl Snapshot {
                             qlim,
                             q: self.pose(k).joint,
                             mass: o.dynamics(),
+                            origin: None,
+                        },
+                    )),
+                    Kinematics::Axis {
+                        index,
+                        parent,
+                        joint,
+                        placement,
+                        axis,
+                        offset,
+                        qlim,
+                    } => Some((
+                        index,
+                        JointView {
+                            index: k,
+                            id: o.id,
+                            kind: joint,
+                            a: 0.0,
+                            d: 0.0,
+                            alpha: 0.0,
+                            theta: 0.0,
+                            offset,
+                            qlim,
+                            q: self.pose(k).joint,
+                            mass: o.dynamics(),
+                            origin: Some(JointOrigin {
+                                parent,
+                                placement,
+                                axis,
+                            }),
                         },
                     )),
                     Kinematics::Robot { .. } => None,
@@ -355,6 +410,152 @@ mod tests {
             (o.version(), o.structure_version()),
             (snap.version(), snap.structure_version())
         );
+    }
+
+    /// A general joint (`Kinematics::Axis`) reads back equal through the records, the view
+    /// carries its placement, axis and parent, and a visual is an object like a solid.
+    #[test]
+    fn general_joints_round_trip_through_the_records() {
+        let mut tx = Transaction::new();
+        let robot = tx.create(Kind::Robot, "tree", None);
+        let c = std::f64::consts::FRAC_1_SQRT_2;
+        let placement = [c, -c, 0.0, 0.1, c, c, 0.0, -0.2, 0.0, 0.0, 1.0, 0.333];
+        let mut written = Vec::new();
+        // Joint 0 on the base, joint 1 on joint 0's link, joint 2 on the base again: a tree.
+        for (j, (parent, kind)) in [
+            (0, JointKind::Revolute),
+            (1, JointKind::Prismatic),
+            (0, JointKind::Revolute),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let l = tx.create(Kind::Link, &format!("l{j}"), Some(robot));
+            let k = Kinematics::Axis {
+                index: j as u32,
+                parent,
+                joint: kind,
+                placement,
+                axis: [0.0, 0.6, -0.8],
+                offset: 0.25 * j as f64,
+                qlim: [f64::NEG_INFINITY, 1.0 + j as f64],
+            };
+            tx.set_kinematics(l, Some(k));
+            let v = tx.create(Kind::Visual, &format!("v{j}"), Some(l));
+            tx.set_geometry(
+                v,
+                Some(crate::GeometryInput {
+                    vertices: vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]],
+                    polygons: vec![vec![0, 1, 2]],
+                }),
+            );
+            written.push(k);
+        }
+        let mut m = Store::default();
+        m.apply(&tx).expect("valid");
+        let snap = Snapshot::from_store(&m);
+        let r = snap.robot("tree").expect("robot");
+        assert_eq!(r.joints.len(), 3);
+        for (j, (view, k)) in r.joints.iter().zip(&written).enumerate() {
+            assert_eq!(
+                snap.objects()[view.index].kinematics(),
+                Some(*k),
+                "joint {j}"
+            );
+            let o = view.origin.expect("a general joint has an origin");
+            assert_eq!(o.placement, placement);
+            assert_eq!(o.axis, [0.0, 0.6, -0.8]);
+            assert_eq!(o.parent, [0, 1, 0][j]);
+            assert_eq!(view.offset, 0.25 * j as f64);
+        }
+        let v = snap.find("v1").expect("visual");
+        assert_eq!(snap.object(v).kind(), Some(Kind::Visual));
+        assert!(snap.geometry(v).is_some());
+    }
+
+    /// What a general joint must be: a rigid placement, a unit axis, a parent before it.
+    #[test]
+    fn bad_general_joints_are_refused_by_field() {
+        let good = Kinematics::Axis {
+            index: 1,
+            parent: 1,
+            joint: JointKind::Revolute,
+            placement: crate::IDENTITY,
+            axis: [0.0, 0.0, 1.0],
+            offset: 0.0,
+            qlim: [-1.0, 1.0],
+        };
+        let with = |f: &dyn Fn(&mut Kinematics)| {
+            let mut k = good;
+            f(&mut k);
+            k
+        };
+        let mut skew = crate::IDENTITY;
+        skew[1] = 0.5;
+        let cases: Vec<(Kinematics, &str)> = vec![
+            (
+                with(&|k| {
+                    if let Kinematics::Axis { axis, .. } = k {
+                        *axis = [0.0, 0.0, 2.0]
+                    }
+                }),
+                "axis",
+            ),
+            (
+                with(&|k| {
+                    if let Kinematics::Axis { axis, .. } = k {
+                        axis[0] = f64::NAN
+                    }
+                }),
+                "axis[0]",
+            ),
+            (
+                with(&|k| {
+                    if let Kinematics::Axis { parent, .. } = k {
+                        *parent = 2
+                    }
+                }),
+                "parent",
+            ),
+            (
+                with(&|k| {
+                    if let Kinematics::Axis { placement, .. } = k {
+                        *placement = skew
+                    }
+                }),
+                "placement",
+            ),
+            (
+                with(&|k| {
+                    if let Kinematics::Axis { qlim, .. } = k {
+                        *qlim = [1.0, -1.0]
+                    }
+                }),
+                "qlim",
+            ),
+            (
+                with(&|k| {
+                    if let Kinematics::Axis { offset, .. } = k {
+                        *offset = f64::INFINITY
+                    }
+                }),
+                "offset",
+            ),
+        ];
+        for (k, field) in cases {
+            let mut tx = Transaction::new();
+            let robot = tx.create(Kind::Robot, "r", None);
+            let l = tx.create(Kind::Link, "l", Some(robot));
+            tx.set_kinematics(l, Some(k));
+            let e = Store::default().apply(&tx).expect_err(field);
+            assert!(e.to_string().contains(field), "{field}: {e}");
+        }
+        // On a solid, joint data is refused as for a DH row.
+        let mut tx = Transaction::new();
+        let s = tx.create(Kind::Solid, "s", None);
+        tx.set_kinematics(s, Some(good));
+        let e = Store::default().apply(&tx).expect_err("not a link");
+        assert!(e.to_string().contains("belongs on a link"), "{e}");
     }
 
     #[test]

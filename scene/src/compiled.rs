@@ -312,11 +312,8 @@ fn compile_robot(
     snap: &Snapshot,
     view: &robosim_instance_space::RobotView<'_>,
 ) -> Result<CompiledRobot, SceneError> {
+    // Validated by `robot_model`.
     let robot = robot_model(snap, view)?;
-    robot.validate().map_err(|e| SceneError::BadRobot {
-        robot: view.name.to_owned(),
-        reason: e.to_string(),
-    })?;
     let bad = |reason: String| SceneError::BadRobot {
         robot: view.name.to_owned(),
         reason,
@@ -332,10 +329,13 @@ fn compile_robot(
         links.push(link_solid(solids_under(snap, j.id, false).map_err(bad)?).map_err(bad)?);
         link_bodies.push(bodies_under(snap, j.id));
     }
-    let mut solids = LinkSolids {
-        links,
-        allowed: Vec::new(),
-    };
+    // In a tree, a joint's link meets the link it hangs from at the joint, as adjacent links of
+    // a chain do (which the checker skips by index): declared allowed.
+    let allowed = (robot.parents.iter().enumerate())
+        .filter(|&(j, &p)| p != j)
+        .map(|(j, &p)| (p, j + 1))
+        .collect();
+    let mut solids = LinkSolids { links, allowed };
     // Allowed pairs (the seed's robot-declared exceptions): link solids that already overlap
     // at the DH zero configuration are structural contacts of the model, not events. Adjacent
     // links are skipped by the checker itself. Done once per structure version.

@@ -5,17 +5,21 @@ use crate::SceneError;
 use crate::pose;
 use nalgebra::{Matrix3, Matrix4, Vector3};
 use robosim_instance_space::{DhConvention, Id, JointKind, RobotView, Snapshot, Transaction};
-use robosim_kinematics::{Convention, Joint, JointType, Robot};
+use robosim_kinematics::{Convention, Joint, JointType, Origin, Robot};
 
 /// The kinematic and dynamic model of robot `view`, placed where it stands: base = the robot
-/// object's world pose, tool = its tool record. Joints in chain order; a link that carries a
-/// fixed joint record is refused (a DH chain has none), never read as a revolute joint.
+/// object's world pose, tool = its tool record. Joints in q order. A robot's joints are all DH
+/// rows (`Kinematics::Joint`: a chain read by the robot's convention) or all general joints
+/// (`Kinematics::Axis`: placement and axis, a chain or a tree by their parents); a mix is
+/// refused, and so is a link that carries a fixed joint record (never read as a revolute one).
 pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, SceneError> {
     if view.joints.is_empty() {
         return Err(SceneError::NoJoints(view.name.to_owned()));
     }
+    let general = view.joints[0].origin.is_some();
     let mut joints = Vec::with_capacity(view.joints.len());
-    for j in &view.joints {
+    let mut parents = Vec::with_capacity(view.joints.len());
+    for (k, j) in view.joints.iter().enumerate() {
         let joint_type = match j.kind {
             JointKind::Revolute => JointType::Revolute,
             JointKind::Prismatic => JointType::Prismatic,
@@ -27,12 +31,42 @@ pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, Scene
                 });
             }
         };
+        if j.origin.is_some() != general {
+            return Err(SceneError::BadRobot {
+                robot: view.name.to_owned(),
+                reason: format!(
+                    "link {} (object {}) is a {} joint and link {} a {} one; a robot's joints are all DH rows or all general (placement and axis)",
+                    snap.name(view.joints[0].index),
+                    view.joints[0].id,
+                    if general { "general" } else { "DH" },
+                    snap.name(j.index),
+                    if general { "DH" } else { "general" },
+                ),
+            });
+        }
         let m = j.mass.unwrap_or(robosim_instance_space::MassProps {
             mass: 0.0,
             com: [0.0; 3],
             inertia: [0.0; 6],
         });
         let i = m.inertia;
+        let origin = j.origin.map(|o| {
+            parents.push(o.parent as usize);
+            Origin {
+                placement: pose::to_matrix(&o.placement),
+                axis: Vector3::from(o.axis),
+            }
+        });
+        if origin.is_some() && parents[k] > k {
+            return Err(SceneError::BadRobot {
+                robot: view.name.to_owned(),
+                reason: format!(
+                    "link {} (joint {k}) hangs from link frame {}, which is not before it",
+                    snap.name(j.index),
+                    parents[k]
+                ),
+            });
+        }
         joints.push(Joint {
             joint_type,
             a: j.a,
@@ -44,20 +78,31 @@ pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, Scene
             mass: m.mass,
             com: Vector3::from(m.com),
             inertia: Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2]),
+            origin,
             ..Joint::default()
         });
     }
-    Ok(Robot {
+    // A chain (every joint on the previous one's link) is `parents` empty, the chain fast path.
+    if parents.iter().enumerate().all(|(k, p)| *p == k) {
+        parents.clear();
+    }
+    let robot = Robot {
         name: view.name.to_owned(),
         convention: match view.convention {
             DhConvention::Standard => Convention::Standard,
             DhConvention::Modified => Convention::Modified,
         },
         joints,
+        parents,
         base: pose::to_matrix(&snap.world_pose(view.index)),
         tool: pose::to_matrix(&view.tool),
         ..Robot::default()
-    })
+    };
+    robot.validate().map_err(|e| SceneError::BadRobot {
+        robot: view.name.to_owned(),
+        reason: e.to_string(),
+    })?;
+    Ok(robot)
 }
 
 /// The link poses relative to the robot object at `q` (3×4 row-major, one per joint): what

@@ -13,9 +13,12 @@ use std::sync::Arc;
 /// The collision solid of object `i`'s geometry: its convex hull when every vertex lies on or
 /// behind every polygon's plane and the hull has volume, else the polygons as a mesh (a closed
 /// non-convex solid, or an open surface such as a single plate, which collides as a surface).
-/// `Ok(None)`: no geometry. `Err`: the geometry makes no collision solid at all (the reason
-/// names why) — never silently no body.
+/// `Ok(None)`: no geometry, or a [`Kind::Visual`] (drawn, never collided). `Err`: the geometry
+/// makes no collision solid at all (the reason names why) — never silently no body.
 pub fn solid_of(snap: &Snapshot, i: usize) -> Result<Option<Solid>, String> {
+    if snap.object(i).kind() == Some(Kind::Visual) {
+        return Ok(None);
+    }
     let Some(g) = snap.geometry(i) else {
         return Ok(None);
     };
@@ -105,13 +108,15 @@ pub fn subtree(snap: &Snapshot, top: Id) -> HashSet<Id> {
     set
 }
 
-/// Objects with geometry under `top` (itself included), not descending into links below it.
+/// Objects with collision geometry under `top` (itself included; visuals are not bodies), not
+/// descending into links below it.
 pub fn bodies_under(snap: &Snapshot, top: Id) -> Vec<Id> {
     let mut out = Vec::new();
     let mut stack = vec![top];
     while let Some(id) = stack.pop() {
         if let Some(i) = snap.index_of(id)
             && snap.geometry(i).is_some()
+            && snap.object(i).kind() != Some(Kind::Visual)
         {
             out.push(id);
         }

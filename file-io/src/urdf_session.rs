@@ -1,0 +1,249 @@
+//! A URDF robot as Instance Space objects, in one transaction (`robosim import urdf`).
+//!
+//! What the Instance Space gets, for a robot imported with [`crate::urdf_import::import_urdf_tree`]
+//! (the whole tree: fixed joints folded, every movable joint a coordinate):
+//!
+//! * a **robot** object, placed where asked, tool = identity;
+//! * per movable joint, in q order, a **link** object named after the joint's child link, with
+//!   a general joint record (`Kinematics::Axis`: the joint's placement in the link frame it
+//!   hangs from, its axis, limits, and that parent link frame — a tree is kept as a tree), its
+//!   mass properties, and its pose at q = 0 relative to the robot (as for every robot: poses of
+//!   links are relative to the robot object);
+//! * per URDF `<visual>`, a **visual** object (`Kind::Visual`: drawn, never collided) under the
+//!   body the URDF link is rigid with (the robot for the root link and what is fixed to it, else
+//!   the link of its movable joint), placed by the link's place in that body and the visual's
+//!   origin, coloured by its material;
+//! * per URDF `<collision>`, a **solid**: boxes, cylinders and spheres as the geometry library
+//!   makes them (cylinders and spheres faceted to 1 mm chord error), meshes as their **convex
+//!   hull** (what the collision core and the simulator's contacts want; docs/file-io.md says
+//!   when that is far from the mesh). When the URDF link has visuals its solids are kept
+//!   undrawn (alpha 0: the display skips them), else they are what is drawn.
+//!
+//! Every mesh is loaded here (geometry is what an import is for): a missing or unreadable mesh
+//! is an error naming the URDF file, line and element, and nothing enters the Instance Space.
+
+use crate::import::mesh_geometry;
+use crate::urdf_geometry::{Geometry, MeshProblem, Shape};
+use crate::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
+use robosim_instance_space::{
+    Appearance, DhConvention, GeometryInput, IDENTITY, JointKind, Kind, Kinematics, MassProps,
+    ObjRef, Pose, Transaction,
+};
+use robosim_kinematics::JointType;
+use robosim_scene::pose::from_matrix;
+
+/// Where the robot goes.
+#[derive(Debug, Clone)]
+pub struct UrdfPlacement {
+    /// The robot object's name.
+    pub name: String,
+    /// Its pose relative to `parent`.
+    pub pose: Pose,
+    /// The scene it stands in (`None`: a root object).
+    pub parent: Option<u64>,
+}
+
+/// The transaction and what it holds.
+#[derive(Debug, Clone)]
+pub struct UrdfImport {
+    pub tx: Transaction,
+    /// Movable joints (link objects).
+    pub joints: usize,
+    /// Visual objects and collision solids created.
+    pub visuals: usize,
+    pub solids: usize,
+    /// Triangles read from mesh files.
+    pub triangles: usize,
+}
+
+/// The one transaction that creates robot `u` as [`UrdfPlacement`] says (see the module docs).
+pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfError> {
+    let robot = &u.robot;
+    let n = robot.dof();
+    let file = &u.geometry.file;
+    let mut tx = Transaction::new();
+    let r = tx.create(Kind::Robot, &place.name, place.parent.map(ObjRef::Id));
+    tx.set_pose(r, place.pose);
+    tx.set_kinematics(
+        r,
+        Some(Kinematics::Robot {
+            convention: DhConvention::Standard,
+            ik_family: 0,
+            tool: IDENTITY,
+        }),
+    );
+    let q0 = vec![0.0; n];
+    let poses = robosim_scene::link_poses(robot, &q0);
+    let mut bodies = vec![r];
+    for (j, joint) in robot.joints.iter().enumerate() {
+        let Some(origin) = &joint.origin else {
+            // import_urdf_tree writes every joint with its origin; a DH row here is a bug.
+            return Err(UrdfError {
+                file: file.clone(),
+                line: 0,
+                element: format!("joint {j}"),
+                kind: UrdfErrorKind::Model(robosim_kinematics::ModelError::NonFinite {
+                    joint: j,
+                    field: "origin (a DH row, not a URDF joint)",
+                    value: f64::NAN,
+                }),
+            });
+        };
+        let name = u
+            .joints
+            .get(j)
+            .map_or_else(|| format!("link{}", j + 1), |uj| uj.link.clone());
+        let l = tx.create(Kind::Link, &name, Some(r));
+        tx.set_kinematics(
+            l,
+            Some(Kinematics::Axis {
+                index: j as u32,
+                parent: robot.parents.get(j).copied().unwrap_or(j) as u32,
+                joint: match joint.joint_type {
+                    JointType::Revolute => JointKind::Revolute,
+                    JointType::Prismatic => JointKind::Prismatic,
+                },
+                placement: from_matrix(&origin.placement),
+                axis: [origin.axis.x, origin.axis.y, origin.axis.z],
+                offset: joint.offset,
+                qlim: joint.qlim,
+            }),
+        );
+        let i = &joint.inertia;
+        tx.set_dynamics(
+            l,
+            Some(MassProps {
+                mass: joint.mass,
+                com: [joint.com.x, joint.com.y, joint.com.z],
+                inertia: [
+                    i[(0, 0)],
+                    i[(1, 1)],
+                    i[(2, 2)],
+                    i[(0, 1)],
+                    i[(0, 2)],
+                    i[(1, 2)],
+                ],
+            }),
+        );
+        tx.set_pose(l, poses[j]);
+        tx.set_joint(l, 0.0);
+        bodies.push(l);
+    }
+    let (mut visuals, mut solids, mut triangles) = (0, 0, 0);
+    for (link, g) in &u.geometry.links {
+        let Some(&body) = bodies.get(g.body) else {
+            continue;
+        };
+        for (k, s) in g.visual.iter().enumerate() {
+            let (geometry, tris) = shape_geometry(s, false, file, link, "visual")?;
+            triangles += tris;
+            let v = tx.create(Kind::Visual, &format!("{link}-visual{k}"), Some(body));
+            tx.set_pose(v, from_matrix(&(g.in_body * s.origin)));
+            tx.set_geometry(v, Some(geometry));
+            tx.set_appearance(v, appearance(s, 1.0));
+            visuals += 1;
+        }
+        let hidden = !g.visual.is_empty();
+        for (k, s) in g.collision.iter().enumerate() {
+            let (geometry, tris) = shape_geometry(s, true, file, link, "collision")?;
+            triangles += tris;
+            let c = tx.create(Kind::Solid, &format!("{link}-collision{k}"), Some(body));
+            tx.set_pose(c, from_matrix(&(g.in_body * s.origin)));
+            tx.set_geometry(c, Some(geometry));
+            tx.set_appearance(c, appearance(s, if hidden { 0.0 } else { 1.0 }));
+            solids += 1;
+        }
+    }
+    Ok(UrdfImport {
+        tx,
+        joints: n,
+        visuals,
+        solids,
+        triangles,
+    })
+}
+
+/// A shape's colour: its material's, else the default grey; alpha forced to `alpha` when 0
+/// (undrawn), else the material's.
+fn appearance(s: &Shape, alpha: f32) -> Appearance {
+    let mut a = Appearance::default();
+    if let Some(rgba) = s.material.as_ref().and_then(|m| m.rgba) {
+        a.color = rgba.map(|c| c.clamp(0.0, 1.0) as f32);
+    }
+    if alpha == 0.0 {
+        a.color[3] = 0.0;
+    } else if a.color[3] <= 0.0 {
+        // A material with alpha 0 would vanish; URDF viewers draw it.
+        a.color[3] = 1.0;
+    }
+    a
+}
+
+/// A shape as Instance Space geometry (and the triangles read for a mesh); a collision mesh
+/// becomes its convex hull.
+fn shape_geometry(
+    s: &Shape,
+    collision: bool,
+    file: &std::path::Path,
+    link: &str,
+    what: &str,
+) -> Result<(GeometryInput, usize), UrdfError> {
+    use robosim_geometry::shapes;
+    let bad = |reason: String| UrdfError {
+        file: file.to_owned(),
+        line: s.line,
+        element: format!("<link name={link:?}>/<{what}>"),
+        kind: UrdfErrorKind::Mesh(MeshProblem::Shape(reason)),
+    };
+    let poly = match &s.geometry {
+        Geometry::Box { size } => shapes::cuboid(size.x, size.y, size.z),
+        Geometry::Cylinder { radius, length } => shapes::cylinder(*radius, *length, None),
+        Geometry::Sphere { radius } => shapes::sphere(*radius, None),
+        Geometry::Mesh(m) => {
+            let tris = m.load()?;
+            let path = m.path()?;
+            let g = mesh_geometry(&tris, collision, &path)
+                .map_err(|e| m.err(MeshProblem::Shape(e.to_string())))?;
+            return Ok((g.geometry, g.read));
+        }
+    };
+    poly.map(|p| (GeometryInput::from_polyhedron(&p), 0))
+        .map_err(|e| bad(e.to_string()))
+}
+
+/// A process-local model of the robot in the URDF file at `path`: one scene, `urdf`, with the
+/// robot at its origin under its `<robot name>` — what `robosim render FILE.urdf` draws.
+pub fn urdf_store(
+    path: &std::path::Path,
+) -> Result<robosim_instance_space::Store, crate::FileError> {
+    let u = crate::urdf_import::import_urdf_tree(path)?;
+    let mut store = robosim_instance_space::Store::default();
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "urdf", None);
+    store.apply(&tx).map_err(|e| refused(path, &u, e))?;
+    let scene = robosim_instance_space::Snapshot::from_store(&store).objects()[0].id;
+    let imp = urdf_tx(
+        &u,
+        &UrdfPlacement {
+            name: u.robot.name.clone(),
+            pose: IDENTITY,
+            parent: Some(scene),
+        },
+    )?;
+    store.apply(&imp.tx).map_err(|e| refused(path, &u, e))?;
+    Ok(store)
+}
+
+fn refused(
+    path: &std::path::Path,
+    u: &UrdfRobot,
+    e: robosim_instance_space::TxError,
+) -> crate::FileError {
+    crate::FileError::Refused {
+        path: path.to_owned(),
+        session: "(local)".into(),
+        id: 0,
+        name: u.robot.name.clone(),
+        source: Box::new(e),
+    }
+}
