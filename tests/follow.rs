@@ -135,3 +135,59 @@ fn a_30_step_moveji_compiles_once_and_the_daemon_follows_it_in_place() {
         "the Library Space parsed once (its sources never changed):\n{text}"
     );
 }
+
+/// A paused daemon follows commits without stepping: `get` says which version its pipelines
+/// follow (`version`) and at which version they last stepped (`stepped_version`, where each
+/// robot's `contact` was computed), so a reader — the rules' clear-pose memory — never takes a
+/// stale contact for the word on a newer commit.
+#[test]
+fn a_paused_daemon_says_its_contact_is_from_an_older_version() {
+    let mut p = Procs::new("stepver");
+    p.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let session = p.session();
+    let log = p.home.path().join("daemon.log");
+    let daemon = p.spawn_logged(&["simulator", "--mode", "lockstep"], &log);
+    let mut ops = Ops::attach(&session).expect("attach the session ops");
+    let mut get = || -> serde_json::Value {
+        ops.dispatch("sim_state", &json!({}))
+            .expect("a session op")
+            .expect("sim_state")
+    };
+    // Step once so that there is a step to speak of.
+    let first = wait_for("the daemon's first step", || {
+        simctl(&p, r#"{"cmd": "step", "n": 1}"#);
+        let g = get();
+        (g["stepped_version"].as_u64() > Some(0)).then_some(g)
+    });
+    assert_eq!(first["stepped_version"], first["version"], "{first}");
+    // A commit while it is idle (lock-step, nothing queued): followed, not stepped with.
+    let mut c = Client::connect(&session, "writer").expect("writer");
+    let view_q = {
+        let snap = robosim_instance_space::Reader::attach(&session, "q")
+            .expect("reader")
+            .snapshot()
+            .expect("snapshot");
+        let r = snap.robot("positioner").expect("positioner");
+        r.joints.iter().map(|j| (j.id, j.q)).collect::<Vec<_>>()
+    };
+    let mut tx = Transaction::new();
+    tx.set_joint(view_q[0].0, view_q[0].1 + 0.01);
+    let v = c.transact(&tx).expect("commit").version;
+    let followed = wait_for("the daemon following the commit", || {
+        let g = get();
+        (g["version"].as_u64() >= Some(v)).then_some(g)
+    });
+    assert_eq!(followed["state"], "paused", "{followed}");
+    assert!(
+        followed["stepped_version"].as_u64() < Some(v),
+        "no step since the commit, so its contact is not about it: {followed}"
+    );
+    // One step later it is.
+    simctl(&p, r#"{"cmd": "step", "n": 1}"#);
+    let stepped = wait_for("the step", || {
+        let g = get();
+        (g["stepped_version"].as_u64() >= Some(v)).then_some(g)
+    });
+    assert_eq!(stepped["stepped_version"], stepped["version"], "{stepped}");
+    assert!(p.stop(daemon).success());
+}

@@ -13,7 +13,8 @@
 //!   (`object` is a reserved word in CLIPS);
 //! * `(sim (state running|stepping|paused|none) (t T) (steps N))`,
 //!   `(sim-robot (name R) (contact yes|no) (error nil|"…") (version V))` — the simulator
-//!   daemon's state; V is the Instance Space version whose joints it last took;
+//!   daemon's state; V is the Instance Space version it had taken at its last step (its
+//!   `stepped_version`: `contact` was computed there);
 //! * `(alarm (source S) (kind K) (value V) (message M))` — the alarms of the session: a
 //!   simulator contact (`kind contact`) or step error (`kind step-error`) per robot, and every
 //!   alarm the automation plant (`robosim automation`, `robosim_hl_interface::plant`) rings:
@@ -177,9 +178,12 @@ impl Mirror {
             ),
             retract_one("sim", "TRUE".into()),
         ));
-        // The Instance Space version whose joints the simulator last took: its robots'
-        // `contact` is from a step after it.
-        let sim_version = sim.and_then(|s| s.get("version")?.as_u64()).unwrap_or(0);
+        // The Instance Space version the simulator had taken at its last step: its robots'
+        // `contact` was computed there. (Not `version`, the one it follows: a paused simulator
+        // follows commits without stepping, and its `contact` is then older than them.)
+        let sim_version = sim
+            .and_then(|s| s.get("stepped_version")?.as_u64())
+            .unwrap_or(0);
         for r in sim
             .and_then(|s| s.get("robots")?.as_array())
             .into_iter()

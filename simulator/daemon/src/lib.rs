@@ -688,6 +688,10 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
     };
     d.follow(&mut reader, &snap, false)?;
     let mut version = snap.version();
+    // The version the pipelines had taken when they last stepped (0: not yet): their robots'
+    // `contact` and `error` are from that step. A paused daemon follows commits without
+    // stepping, so this can lag `version` (status.rs).
+    let mut stepped_version = 0;
     drop(snap);
     eprintln!(
         "simulator: {} robot(s), mode {mode:?}, effects {}",
@@ -753,6 +757,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     clock_steps: d.clock_steps,
                     dt: d.dt(),
                     version,
+                    stepped_version,
                     paused_at,
                 };
                 let rec = recording.as_ref().map(|r| (r.path(), r.messages()));
@@ -866,6 +871,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 }
                 running = false;
             }
+            stepped_version = version;
             budget = budget.saturating_sub(1);
             steps += 1;
             d.clock_steps += 1;

@@ -3,7 +3,7 @@
 //!
 //! ```json
 //! {"t_s": 0.5, "steps": 50, "run_steps": 50, "dt_s": 0.01, "mode": "lockstep",
-//!  "state": "paused", "running": false, "queued_steps": 0, "version": 3,
+//!  "state": "paused", "running": false, "queued_steps": 0, "version": 3, "stepped_version": 3,
 //!  "paused_at": {"version": 3, "run_steps": 50, "cause": "command"},
 //!  "effects": "from effects.json", "recording": {"path": "run.mcap", "messages": 153},
 //!  "robots": [{"name": "puma560", "t_s": 0.5, "steps": 50,
@@ -20,6 +20,13 @@
 //! recording's clock). `state`: `running` (free-running), `stepping` (lock-step steps queued)
 //! or `paused`. `contact`: `null` when the robot's pipeline does not check collisions. `error`:
 //! why the robot's last step failed (the daemon then pauses), else `null`.
+//!
+//! `version`: the Instance Space version the pipelines follow (joint values and structure
+//! taken from it); `stepped_version`: the version they had taken when they last stepped, 0
+//! before the first step. Each robot's `contact` and `error` come from that step: a paused
+//! daemon follows commits without stepping, so a commit made while it is paused is in
+//! `version` and not yet in `stepped_version` — a reader that wants the simulator's word on a
+//! commit waits for `stepped_version` to reach it.
 //!
 //! `paused_at`: where the current pause of a free-running daemon began — `version`, the newest
 //! version committed to the Instance Space at that moment (so a transaction whose acknowledged
@@ -60,6 +67,8 @@ pub(crate) struct LoopState {
     pub dt: f64,
     /// The Instance Space version the pipelines follow.
     pub version: u64,
+    /// The version they had taken at their last step (0: no step yet).
+    pub stepped_version: u64,
     /// Where the current pause began; `None` while running (and in lock-step until the daemon
     /// has run free and been paused).
     pub paused_at: Option<Pause>,
@@ -136,6 +145,7 @@ pub(crate) fn status(
         "running": l.running,
         "queued_steps": l.budget,
         "version": l.version,
+        "stepped_version": l.stepped_version,
         "paused_at": l.paused_at.map(|p| json!({
             "version": p.version, "run_steps": p.run_steps, "cause": p.cause,
         })),
