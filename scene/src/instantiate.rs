@@ -221,19 +221,33 @@ fn robot_specs(
             pose(&frames[j + 1]),
         );
         l.joint = q[j];
-        l.kinematics = Some(Kinematics::Joint {
-            index: j as u32,
-            joint: match joint.joint_type {
-                JointType::Revolute => JointKind::Revolute,
-                JointType::Prismatic => JointKind::Prismatic,
+        let kind = match joint.joint_type {
+            JointType::Revolute => JointKind::Revolute,
+            JointType::Prismatic => JointKind::Prismatic,
+        };
+        // A general joint (placement and axis) keeps its form and its place in a tree; a DH
+        // row stays a DH row.
+        l.kinematics = Some(match &joint.origin {
+            Some(o) => Kinematics::Axis {
+                index: j as u32,
+                parent: robot.parents.get(j).copied().unwrap_or(j) as u32,
+                joint: kind,
+                placement: pose(&o.placement),
+                axis: [o.axis.x, o.axis.y, o.axis.z],
+                offset: joint.offset,
+                qlim: joint.qlim,
             },
-            convention,
-            a: joint.a,
-            d: joint.d,
-            alpha: joint.alpha,
-            theta: joint.theta,
-            offset: joint.offset,
-            qlim: joint.qlim,
+            None => Kinematics::Joint {
+                index: j as u32,
+                joint: kind,
+                convention,
+                a: joint.a,
+                d: joint.d,
+                alpha: joint.alpha,
+                theta: joint.theta,
+                offset: joint.offset,
+                qlim: joint.qlim,
+            },
         });
         l.dynamics = Some(mass_props(joint.mass, &joint.com, &joint.inertia));
         out.push(l);
