@@ -542,7 +542,7 @@ mod tests {
     fn units_up_axis_node_transforms_and_colours_are_applied() {
         let parts = read_dae(QUAD.as_bytes(), Path::new("q.dae")).expect("reads");
         assert_eq!(parts.len(), 2);
-        let red = parts.iter().find(|p| p.rgba.is_some()).unwrap();
+        let red = parts.iter().find(|p| p.rgba.is_some()).expect("present");
         assert_eq!(red.rgba, Some([1.0, 0.0, 0.0, 1.0]));
         assert_eq!(red.triangles.len(), 2);
         // (1000, 1000, 0) mm, translated by (0, 0, 2000) mm in Y-up → (1, 0, 1)·… in Z-up:
@@ -552,34 +552,34 @@ mod tests {
         for k in 0..3 {
             assert!((p[k] - want[k]).abs() < 1e-12, "{p:?}");
         }
-        let plain = parts.iter().find(|p| p.rgba.is_none()).unwrap();
+        let plain = parts.iter().find(|p| p.rgba.is_none()).expect("present");
         assert_eq!(plain.triangles.len(), 1);
     }
 
     #[test]
     fn malformed_collada_names_file_line_and_element() {
         let bad_index = QUAD.replace("<p>0 1 2</p>", "<p>0 1 9</p>");
-        let e = read_dae(bad_index.as_bytes(), Path::new("q.dae")).unwrap_err();
+        let e = read_dae(bad_index.as_bytes(), Path::new("q.dae")).expect_err("an error");
         assert_eq!(e.element, "<p>");
         assert_eq!(e.line, 16);
         assert!(e.reason.contains("index 9"), "{e}");
         assert!(e.to_string().starts_with("q.dae:16: <p>:"), "{e}");
 
         let bad_float = QUAD.replace("1000 1000 0 0", "1000 x 0 0");
-        let e = read_dae(bad_float.as_bytes(), Path::new("q.dae")).unwrap_err();
+        let e = read_dae(bad_float.as_bytes(), Path::new("q.dae")).expect_err("an error");
         assert_eq!(e.element, "<float_array id=\"g-pos-a\">");
 
         let bad_ref = QUAD.replace("url=\"#g\"", "url=\"#nothing\"");
-        let e = read_dae(bad_ref.as_bytes(), Path::new("q.dae")).unwrap_err();
+        let e = read_dae(bad_ref.as_bytes(), Path::new("q.dae")).expect_err("an error");
         assert_eq!(e.element, "<instance_geometry>");
 
         let bad_count = QUAD.replace("<vcount>4</vcount>", "<vcount>3</vcount>");
-        let e = read_dae(bad_count.as_bytes(), Path::new("q.dae")).unwrap_err();
+        let e = read_dae(bad_count.as_bytes(), Path::new("q.dae")).expect_err("an error");
         assert_eq!(e.element, "<vcount>");
 
-        let e = read_dae(b"<COLLADA><asset>", Path::new("q.dae")).unwrap_err();
+        let e = read_dae(b"<COLLADA><asset>", Path::new("q.dae")).expect_err("an error");
         assert!(e.reason.contains("malformed XML"), "{e}");
-        let e = read_dae(b"<robot/>", Path::new("q.dae")).unwrap_err();
+        let e = read_dae(b"<robot/>", Path::new("q.dae")).expect_err("an error");
         assert!(e.reason.contains("not <COLLADA>"), "{e}");
     }
 }

@@ -47,9 +47,10 @@ pub enum MeshProblem {
     UnsupportedFormat { path: PathBuf, format: String },
     #[error("{0}")]
     Read(String),
-    /// A malformed or unsupported Collada file: its own file, line and element.
+    /// A malformed or unsupported Collada file: its own file, line and element (boxed: it
+    /// would double the size of every `UrdfError`).
     #[error("{0}")]
-    Dae(#[from] crate::dae::DaeError),
+    Dae(Box<crate::dae::DaeError>),
     #[error("mesh file {0} has no triangles")]
     Empty(PathBuf),
     #[error("collision solid: {0}")]
@@ -191,7 +192,9 @@ impl MeshRef {
             }
         })?;
         let mut parts = match ext.as_str() {
-            "dae" => read_dae(&bytes, &path).map_err(|e| self.err(e.into()))?,
+            "dae" => {
+                read_dae(&bytes, &path).map_err(|e| self.err(MeshProblem::Dae(Box::new(e))))?
+            }
             "stl" => vec![ColouredTriangles {
                 triangles: crate::stl::read_stl(&bytes, &path)
                     .map_err(|e| self.err(MeshProblem::Read(e.to_string())))?,
