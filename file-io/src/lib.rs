@@ -18,12 +18,13 @@
 //! * [`urdf`] — a robot as URDF (its DH chain as joint origins and z axes, inertials, limits),
 //!   checked against Pinocchio.
 //! * [`urdf_import`] — a URDF read as a chain; [`urdf_geometry`] its visual and collision
-//!   geometry (meshes loaded lazily, [`package`] resolves `package://` names) and the collision
-//!   solids of its links.
+//!   geometry (meshes loaded lazily, [`package`] resolves `package://` names, [`dae`] reads
+//!   Collada visual meshes) and the collision solids of its links.
 //! * [`cli`] — the command-line glue (clap argument structs and run functions).
 
 pub mod bench;
 pub mod cli;
+pub mod dae;
 pub mod digest;
 mod error;
 pub mod format;

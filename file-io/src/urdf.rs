@@ -1,7 +1,7 @@
-//! URDF export of a robot (issue #15 item 3; the URDF import and the general joint model are
-//! issue #14): the DH chain written as URDF joint origins and axes, with its inertials, limits
-//! and friction, so that other tools (Pinocchio, MoveIt, MuJoCo's URDF loader) read the robot
-//! we built.
+//! URDF export of a robot (issue #15 item 3, issue #14 item 4): a DH chain, or a robot of the
+//! general joint model (imported from URDF, or edited) and kinematic trees, written as URDF
+//! joint origins and axes with its inertials, limits and friction, so that other tools
+//! (Pinocchio, MoveIt, MuJoCo's URDF loader) read the robot we built.
 //!
 //! Frames. URDF moves a child link by `origin · motion(q)` with the motion about (revolute) or
 //! along (prismatic) the joint's axis, here always z. A DH link transform splits the same way:
@@ -14,7 +14,15 @@
 //! origin_j = P_{j-1} · A_j(0) · P_j⁻¹        motion: Rz(q) or Tz(q)
 //! ```
 //!
-//! (`P_0 = I`). The robot's base placement is a fixed joint from a root link `world`; the tool
+//! (`P_0 = I`). A **general** joint (`Joint::origin`, `A_j = P_j · M_j(q + offset)`) has no
+//! trailing part: its `P_j` (above) is the identity, its URDF origin is `P_j · M_j(offset)`
+//! written in the URDF link of its parent, and its axis is its own (`<axis xyz>`, each number
+//! in its shortest exact form; a DH joint's axis is `0 0 1`). A **tree** ([`Robot::parents`]):
+//! joint j's parent link is the link of frame `parents[j]`, and `P_{j-1}` above becomes the
+//! trailing part of that frame; joints are written in robosim's order, so a robot whose joints
+//! are in depth-first order (as `import_urdf_tree` numbers them) is re-imported with the same
+//! q. A revolute joint with limits `[−∞, ∞]` is written `continuous`; a revolute or prismatic
+//! joint with only one infinite limit is refused (URDF cannot say it). The robot's base placement is a fixed joint from a root link `world`; the tool
 //! is a fixed joint to a link `tool` with origin `P_n · tool`. Each link's inertial is its DH
 //! link's centre of mass and inertia, placed by `P_j` (the inertia tensor is written in the DH
 //! frame's axes, which the inertial origin's rpy names).
@@ -53,16 +61,43 @@ fn rigid_inverse(m: &Matrix4<f64>) -> Matrix4<f64> {
 }
 
 /// `xyz="…" rpy="…"` of a rigid transform, URDF's fixed-axis roll, pitch, yaw
-/// (`R = Rz(yaw) Ry(pitch) Rx(roll)`), every number in its shortest exact form.
-fn origin_attrs(m: &Matrix4<f64>) -> String {
-    let r = Rotation3::from_matrix_unchecked(m.fixed_view::<3, 3>(0, 0).into_owned());
-    let (roll, pitch, yaw) = r.euler_angles();
+/// (`R = Rz(yaw) Ry(pitch) Rx(roll)`), every number in its shortest exact form. `rpy` chooses
+/// how the angles are found: nalgebra's `euler_angles` (the DH files, unchanged since they were
+/// checked against Pinocchio) or [`rpy_stable`] (the general model).
+fn origin_attrs_with(m: &Matrix4<f64>, rpy: fn(&Matrix3<f64>) -> [f64; 3]) -> String {
+    let [roll, pitch, yaw] = rpy(&m.fixed_view::<3, 3>(0, 0).into_owned());
     format!(
         "xyz=\"{:?} {:?} {:?}\" rpy=\"{roll:?} {pitch:?} {yaw:?}\"",
         m[(0, 3)],
         m[(1, 3)],
         m[(2, 3)]
     )
+}
+
+fn rpy_nalgebra(r: &Matrix3<f64>) -> [f64; 3] {
+    let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(*r).euler_angles();
+    [roll, pitch, yaw]
+}
+
+/// Roll, pitch, yaw of a rotation such that `Rz(yaw) Ry(pitch) Rx(roll)` gives it back to a few
+/// ulps **also near pitch = ±π/2** (the UR arms' `rpy="0 1.570796325 0"`), where reading the
+/// angles from single entries (`asin`) loses up to half the digits: yaw from the first column,
+/// then roll and pitch from `Rz(yaw)ᵀ R = Ry(pitch) Rx(roll)`, whose second row `(0, cos roll,
+/// −sin roll)` is not scaled by `cos pitch`.
+pub fn rpy_stable(r: &Matrix3<f64>) -> [f64; 3] {
+    let yaw = r[(1, 0)].atan2(r[(0, 0)]);
+    let (sy, cy) = yaw.sin_cos();
+    // Rows of Rz(yaw)ᵀ R: row0 = cy·r0 + sy·r1, row1 = −sy·r0 + cy·r1, row2 = r2.
+    let row0_0 = cy * r[(0, 0)] + sy * r[(1, 0)];
+    let row1_1 = -sy * r[(0, 1)] + cy * r[(1, 1)];
+    let row1_2 = -sy * r[(0, 2)] + cy * r[(1, 2)];
+    let roll = (-row1_2).atan2(row1_1);
+    let pitch = (-r[(2, 0)]).atan2(row0_0);
+    [roll, pitch, yaw]
+}
+
+fn origin_attrs(m: &Matrix4<f64>) -> String {
+    origin_attrs_with(m, rpy_nalgebra)
 }
 
 /// XML text of a name (robot and link names are library identifiers, but say it safely).
@@ -78,29 +113,55 @@ pub fn link_name(robot: &Robot, j: usize) -> String {
     format!("{}_link{j}", robot.name)
 }
 
-/// The robot as URDF text. Refused: a model that does not validate (non-finite fields, reversed
-/// limits), with the model's own message.
+/// The robot as URDF text (see the module docs). Refused: a model that does not validate
+/// (non-finite fields, reversed limits), with the model's own message, and a revolute or
+/// prismatic joint with a half-infinite range (or an infinite prismatic one).
 pub fn to_urdf(robot: &Robot) -> Result<String, String> {
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
-    if let Some(j) = robot.joints.iter().position(|j| j.is_general()) {
-        return Err(format!(
-            "robot {}: joint {j} is a general (placement and axis) joint; the URDF export writes DH chains only (issue #14)",
-            robot.name
-        ));
+    let general = !robot.is_chain() || robot.joints.iter().any(|j| j.is_general());
+    for (k, j) in robot.joints.iter().enumerate() {
+        let [lo, hi] = j.qlim;
+        let continuous =
+            j.joint_type == JointType::Revolute && lo == f64::NEG_INFINITY && hi == f64::INFINITY;
+        if !(continuous || lo.is_finite() && hi.is_finite()) {
+            return Err(format!(
+                "robot {}: joint {k} has limits [{lo}, {hi}]; URDF has no half-bounded or unbounded {} joint",
+                robot.name,
+                match j.joint_type {
+                    JointType::Revolute => "revolute",
+                    JointType::Prismatic => "prismatic",
+                }
+            ));
+        }
     }
+    let oa = |m: &Matrix4<f64>| {
+        if general {
+            origin_attrs_with(m, rpy_stable)
+        } else {
+            origin_attrs(m)
+        }
+    };
     let name = xml(&robot.name);
     let mut out = String::new();
     let _ = writeln!(out, "<?xml version=\"1.0\"?>");
-    let _ = writeln!(
-        out,
-        "<!-- Written by robosim from the {} DH model of {name} (docs/file-io.md, \"URDF\"). -->",
-        match robot.convention {
-            Convention::Standard => "standard",
-            Convention::Modified => "modified",
-        }
-    );
+    if general {
+        let _ = writeln!(
+            out,
+            "<!-- Written by robosim from the joint model (origins and axes{}) of {name} (docs/file-io.md, \"URDF\"). -->",
+            if robot.is_chain() { "" } else { ", a tree" }
+        );
+    } else {
+        let _ = writeln!(
+            out,
+            "<!-- Written by robosim from the {} DH model of {name} (docs/file-io.md, \"URDF\"). -->",
+            match robot.convention {
+                Convention::Standard => "standard",
+                Convention::Modified => "modified",
+            }
+        );
+    }
     let _ = writeln!(out, "<robot name=\"{name}\">");
     let _ = writeln!(out, "  <link name=\"world\"/>");
     let _ = writeln!(out, "  <link name=\"{}\"/>", xml(&link_name(robot, 0)));
@@ -108,27 +169,41 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
         out,
         "  <joint name=\"{name}_base_joint\" type=\"fixed\">\n    <parent link=\"world\"/>\n    <child link=\"{}\"/>\n    <origin {}/>\n  </joint>",
         xml(&link_name(robot, 0)),
-        origin_attrs(&robot.base)
+        oa(&robot.base)
     );
-    let mut prev_post = Matrix4::identity();
+    // posts[k]: the trailing part of link frame k (P_k above; the identity for the base and
+    // for a general joint).
+    let mut posts: Vec<Option<Matrix4<f64>>> = vec![None; robot.dof() + 1];
     for (k, j) in robot.joints.iter().enumerate() {
         let i = k + 1;
-        let p = post(robot.convention, j);
-        let origin = prev_post * link_transform(robot.convention, j, 0.0) * rigid_inverse(&p);
+        let parent = robot.parent(k);
+        let p = (!j.is_general()).then(|| post(robot.convention, j));
+        let a0 = link_transform(robot.convention, j, 0.0);
+        // (The DH path multiplies as it always has, identities included, so a DH chain's file
+        // is unchanged byte for byte; a general joint skips the identity factors.)
+        let origin = match (&posts[parent], &p) {
+            (pp, Some(p)) => pp.unwrap_or_else(Matrix4::identity) * a0 * rigid_inverse(p),
+            (Some(pp), None) => pp * a0,
+            (None, None) => a0,
+        };
         let child = xml(&link_name(robot, i));
-        // The inertial: centre of mass and inertia of DH link i, seen from L_i = F_i · P_i⁻¹.
-        let com = p * j.com.push(1.0);
-        let mut inertial_frame = p;
-        inertial_frame
-            .fixed_view_mut::<3, 1>(0, 3)
-            .copy_from(&com.xyz());
+        // The inertial: centre of mass and inertia of link i, seen from L_i = F_i · P_i⁻¹.
+        let inertial_frame = match &p {
+            Some(p) => {
+                let com = p * j.com.push(1.0);
+                let mut f = *p;
+                f.fixed_view_mut::<3, 1>(0, 3).copy_from(&com.xyz());
+                f
+            }
+            None => Matrix4::new_translation(&j.com),
+        };
         let _ = writeln!(out, "  <link name=\"{child}\">");
         if j.mass > 0.0 {
             let m = &j.inertia;
             let _ = writeln!(
                 out,
                 "    <inertial>\n      <origin {}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>",
-                origin_attrs(&inertial_frame),
+                oa(&inertial_frame),
                 j.mass,
                 m[(0, 0)],
                 m[(0, 1)],
@@ -139,17 +214,29 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
             );
         }
         let _ = writeln!(out, "  </link>");
+        let continuous = j.joint_type == JointType::Revolute && j.qlim[0] == f64::NEG_INFINITY;
         let kind = match j.joint_type {
+            JointType::Revolute if continuous => "continuous",
             JointType::Revolute => "revolute",
             JointType::Prismatic => "prismatic",
         };
+        let axis = match &j.origin {
+            Some(o) => format!("{:?} {:?} {:?}", o.axis.x, o.axis.y, o.axis.z),
+            None => "0 0 1".to_string(),
+        };
+        let limit = if continuous {
+            "<limit effort=\"0\" velocity=\"0\"/>".to_string()
+        } else {
+            format!(
+                "<limit lower=\"{:?}\" upper=\"{:?}\" effort=\"0\" velocity=\"0\"/>",
+                j.qlim[0], j.qlim[1]
+            )
+        };
         let _ = writeln!(
             out,
-            "  <joint name=\"{name}_joint{i}\" type=\"{kind}\">\n    <parent link=\"{}\"/>\n    <child link=\"{child}\"/>\n    <origin {}/>\n    <axis xyz=\"0 0 1\"/>\n    <limit lower=\"{:?}\" upper=\"{:?}\" effort=\"0\" velocity=\"0\"/>\n    <dynamics damping=\"{:?}\" friction=\"{:?}\"/>",
-            xml(&link_name(robot, i - 1)),
-            origin_attrs(&origin),
-            j.qlim[0],
-            j.qlim[1],
+            "  <joint name=\"{name}_joint{i}\" type=\"{kind}\">\n    <parent link=\"{}\"/>\n    <child link=\"{child}\"/>\n    <origin {}/>\n    <axis xyz=\"{axis}\"/>\n    {limit}\n    <dynamics damping=\"{:?}\" friction=\"{:?}\"/>",
+            xml(&link_name(robot, parent)),
+            oa(&origin),
             j.viscous,
             j.coulomb
         );
@@ -161,15 +248,19 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
             );
         }
         let _ = writeln!(out, "  </joint>");
-        prev_post = p;
+        posts[i] = p;
     }
+    let tool_origin = match &posts[robot.dof()] {
+        Some(p) => p * robot.tool,
+        None => robot.tool,
+    };
     let tool = xml(&format!("{}_tool", robot.name));
     let _ = writeln!(out, "  <link name=\"{tool}\"/>");
     let _ = writeln!(
         out,
         "  <joint name=\"{name}_tool_joint\" type=\"fixed\">\n    <parent link=\"{}\"/>\n    <child link=\"{tool}\"/>\n    <origin {}/>\n  </joint>",
         xml(&link_name(robot, robot.dof())),
-        origin_attrs(&(prev_post * robot.tool))
+        oa(&tool_origin)
     );
     let _ = writeln!(out, "</robot>");
     Ok(out)

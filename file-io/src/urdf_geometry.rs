@@ -7,9 +7,11 @@
 //! Meshes are **loaded lazily**: the import records the file name, scale and where it was
 //! written; [`MeshRef::load`] resolves it ([`crate::package`]) and reads it only when an
 //! operation needs geometry (collision, drawing). A URDF whose meshes are missing still imports,
-//! and its FK and dynamics work. STL (binary and ASCII) and OBJ are read; Collada (`.dae`) is
-//! refused with [`MeshProblem::UnsupportedFormat`] (not read yet: the Panda's visual meshes are
-//! DAE, its collision meshes STL).
+//! and its FK and dynamics work. STL (binary and ASCII), OBJ and Collada (`.dae`, read by
+//! [`crate::dae`]: its `<unit meter>` and `<up_axis>` honoured, so its triangles come out in
+//! metres, Z up, before the URDF `scale`) are read; any other extension is
+//! [`MeshProblem::UnsupportedFormat`]. The Panda's visual meshes are DAE, its collision meshes
+//! STL.
 //!
 //! Placement: each URDF link is rigid with one robosim body — the root link with body 0, the
 //! child link of the chain's movable joint j with body j; a link behind a fixed joint, or off
@@ -24,6 +26,7 @@
 //! [`LinkSolids::from_dh`], so a URDF robot is checked by the one path
 //! ([`robosim_collision::robot::check_robot`]).
 
+use crate::dae::{ColouredTriangles, read_dae};
 use crate::package::{ResolveError, resolve};
 use crate::stl::Triangles;
 use crate::urdf_import::{Reader, UrdfError, UrdfErrorKind, UrdfRobot, child};
@@ -40,12 +43,14 @@ pub enum MeshProblem {
     Resolve(#[from] ResolveError),
     #[error("mesh file {0} does not exist")]
     NotFound(PathBuf),
-    #[error(
-        "mesh file {path}: format {format:?} is not read (STL and OBJ are; Collada .dae is not yet)"
-    )]
+    #[error("mesh file {path}: format {format:?} is not read (STL, OBJ and Collada .dae are)")]
     UnsupportedFormat { path: PathBuf, format: String },
     #[error("{0}")]
     Read(String),
+    /// A malformed or unsupported Collada file: its own file, line and element (boxed: it
+    /// would double the size of every `UrdfError`).
+    #[error("{0}")]
+    Dae(Box<crate::dae::DaeError>),
     #[error("mesh file {0} has no triangles")]
     Empty(PathBuf),
     #[error("collision solid: {0}")]
@@ -159,13 +164,24 @@ impl MeshRef {
 
     /// The mesh's triangles in the geometry frame, scaled (m).
     pub fn load(&self) -> Result<Triangles, UrdfError> {
+        Ok(self
+            .load_coloured()?
+            .into_iter()
+            .flat_map(|p| p.triangles)
+            .collect())
+    }
+
+    /// The mesh's triangles in the geometry frame, scaled (m), grouped by colour: a Collada
+    /// file's parts carry the diffuse colour of their material; STL and OBJ are one part
+    /// without colour.
+    pub fn load_coloured(&self) -> Result<Vec<ColouredTriangles>, UrdfError> {
         let path = self.path()?;
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .unwrap_or("")
             .to_ascii_lowercase();
-        if !matches!(ext.as_str(), "stl" | "obj") {
+        if !matches!(ext.as_str(), "stl" | "obj" | "dae") {
             return Err(self.err(MeshProblem::UnsupportedFormat { path, format: ext }));
         }
         let bytes = std::fs::read(&path).map_err(|e| {
@@ -175,23 +191,33 @@ impl MeshRef {
                 self.err(MeshProblem::Read(format!("{}: {e}", path.display())))
             }
         })?;
-        let mut tris = if ext == "stl" {
-            crate::stl::read_stl(&bytes, &path)
-        } else {
-            crate::obj::read_obj(&bytes, &path)
-        }
-        .map_err(|e| self.err(MeshProblem::Read(e.to_string())))?;
-        if tris.is_empty() {
+        let mut parts = match ext.as_str() {
+            "dae" => {
+                read_dae(&bytes, &path).map_err(|e| self.err(MeshProblem::Dae(Box::new(e))))?
+            }
+            "stl" => vec![ColouredTriangles {
+                triangles: crate::stl::read_stl(&bytes, &path)
+                    .map_err(|e| self.err(MeshProblem::Read(e.to_string())))?,
+                rgba: None,
+            }],
+            _ => vec![ColouredTriangles {
+                triangles: crate::obj::read_obj(&bytes, &path)
+                    .map_err(|e| self.err(MeshProblem::Read(e.to_string())))?,
+                rgba: None,
+            }],
+        };
+        parts.retain(|p| !p.triangles.is_empty());
+        if parts.is_empty() {
             return Err(self.err(MeshProblem::Empty(path)));
         }
-        for t in &mut tris {
+        for t in parts.iter_mut().flat_map(|p| p.triangles.iter_mut()) {
             for v in t.iter_mut() {
                 for (c, s) in v.iter_mut().zip(self.scale.iter()) {
                     *c *= s;
                 }
             }
         }
-        Ok(tris)
+        Ok(parts)
     }
 }
 

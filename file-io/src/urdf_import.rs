@@ -499,6 +499,29 @@ pub fn rpy_matrix(rpy: &Vector3<f64>) -> Matrix3<f64> {
     )
 }
 
+/// A parse error of the XML itself: the line and column where the parser stopped, and the tag
+/// when the parser names one (a close tag that does not match). A file that ends inside its
+/// root element is reported at its last line (roxmltree says 1:1 for that).
+fn xml_error(text: &str, file: &Path, e: roxmltree::Error) -> UrdfError {
+    let pos = e.pos();
+    let (line, element) = match &e {
+        roxmltree::Error::UnexpectedCloseTag(_, actual, _) => {
+            (pos.row, format!("</{actual}> (column {})", pos.col))
+        }
+        roxmltree::Error::UnclosedRootNode => (
+            u32::try_from(text.lines().count().max(1)).unwrap_or(u32::MAX),
+            "end of file".to_string(),
+        ),
+        _ => (pos.row, format!("column {}", pos.col)),
+    };
+    UrdfError {
+        file: file.to_path_buf(),
+        line,
+        element,
+        kind: UrdfErrorKind::Xml(e.to_string()),
+    }
+}
+
 /// [`import_urdf`] on text already read; `file` names it in errors.
 pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
     import_impl(text, file, tip, false)
@@ -510,15 +533,7 @@ fn import_impl(
     tip: Option<&str>,
     tree: bool,
 ) -> Result<UrdfRobot, UrdfError> {
-    let doc = roxmltree::Document::parse(text).map_err(|e| {
-        let pos = e.pos();
-        UrdfError {
-            file: file.to_path_buf(),
-            line: pos.row,
-            element: format!("column {}", pos.col),
-            kind: UrdfErrorKind::Xml(e.to_string()),
-        }
-    })?;
+    let doc = roxmltree::Document::parse(text).map_err(|e| xml_error(text, file, e))?;
     let rd = Reader { file, doc: &doc };
     let root_el = doc.root_element();
     // Processed URDFs often still declare xmlns:xacro (the UR files do): only elements in the

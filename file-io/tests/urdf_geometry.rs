@@ -1,6 +1,8 @@
 //! URDF geometry (issue #14): visual and collision elements, package:// meshes, the Panda's
 //! collision solids against a reference distance from coal (hpp-fcl), and the bad inputs
-//! (a missing mesh, an unknown package, a malformed mesh) failing only where geometry is needed.
+//! (a missing mesh, an unknown package, a malformed mesh) failing only where geometry is needed;
+//! the Panda's Collada visual meshes against figures computed independently
+//! (testdata/urdf/panda_visual_meshes.py, ElementTree + numpy).
 
 use nalgebra::{Isometry3, Matrix4, Translation3, UnitQuaternion, Vector3};
 use robosim_collision::exact::{ExactOptions, collide};
@@ -67,17 +69,6 @@ fn panda_geometry_is_read_and_placed_by_link() {
         Geometry::Mesh(m) => {
             assert!(m.uri.ends_with("collision/link4.stl"));
             assert!(m.path().expect("resolves").is_file());
-        }
-        other => panic!("{other:?}"),
-    }
-    // The visual meshes are DAE: named, and refused only when loaded.
-    match &g.links["panda_link4"].visual[0].geometry {
-        Geometry::Mesh(m) => {
-            let e = m.load().expect_err("dae is not read");
-            assert!(matches!(
-                e.kind,
-                UrdfErrorKind::Mesh(MeshProblem::UnsupportedFormat { .. })
-            ));
         }
         other => panic!("{other:?}"),
     }
@@ -326,4 +317,142 @@ fn missing_unknown_and_malformed_meshes_fail_only_where_geometry_is_needed() {
     let urdf = write_robot(tmp.path(), r#"<capsule radius="1" length="2"/>"#);
     let e = import_urdf(&urdf, None).expect_err("not a URDF geometry");
     assert!(matches!(e.kind, UrdfErrorKind::MissingElement(_)), "{e}");
+}
+
+fn bounds(tris: &[[[f64; 3]; 3]]) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for v in tris.iter().flatten() {
+        for k in 0..3 {
+            lo[k] = lo[k].min(v[k]);
+            hi[k] = hi[k].max(v[k]);
+        }
+    }
+    (lo, hi)
+}
+
+/// Every visual mesh panda.urdf names is a Collada file, and each loads with the triangle count
+/// and bounding box that an independent reader (testdata/urdf/panda_visual_meshes.py: Python's
+/// ElementTree and numpy, node matrices and units applied) computed from the same file; and
+/// the visual box agrees with the collision STL's to a few centimetres (a wrong unit, up axis or
+/// node transform would be off by far more).
+#[test]
+fn every_panda_visual_dae_loads_as_the_independent_reader_reads_it() {
+    let reference: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(testdata().join("panda_visual_meshes.json")).expect("json"),
+    )
+    .expect("parses");
+    let r = import_urdf(&testdata().join("panda.urdf"), Some("panda_hand")).expect("imports");
+    let mut loaded = std::collections::BTreeSet::new();
+    let mut visuals = 0;
+    for (link, lg) in &r.geometry.links {
+        for v in &lg.visual {
+            let Geometry::Mesh(m) = &v.geometry else {
+                panic!("{link}: the Panda's visuals are meshes")
+            };
+            visuals += 1;
+            assert!(m.uri.ends_with(".dae"), "{}", m.uri);
+            let key = m
+                .uri
+                .strip_prefix("package://example-robot-data/")
+                .expect("package uri");
+            let want = &reference[key];
+            assert!(want.is_object(), "{key} has reference figures");
+            let parts = m.load_coloured().unwrap_or_else(|e| panic!("{e}"));
+            // Materials with a diffuse colour come through.
+            assert!(parts.iter().any(|p| p.rgba.is_some()), "{key}: no colour");
+            let tris = m.load().unwrap_or_else(|e| panic!("{e}"));
+            assert_eq!(
+                tris.len() as u64,
+                want["triangles"].as_u64().expect("count"),
+                "{key}"
+            );
+            let (lo, hi) = bounds(&tris);
+            let (wlo, whi) = (v3(&want["min"]), v3(&want["max"]));
+            for k in 0..3 {
+                assert!(
+                    (lo[k] - wlo[k]).abs() < 1e-12 && (hi[k] - whi[k]).abs() < 1e-12,
+                    "{key} axis {k}: [{}, {}] against [{}, {}]",
+                    lo[k],
+                    hi[k],
+                    wlo[k],
+                    whi[k]
+                );
+            }
+            if let Some(c) = lg.collision.first()
+                && let Geometry::Mesh(cm) = &c.geometry
+            {
+                let (clo, chi) = bounds(&cm.load().expect("collision stl"));
+                for k in 0..3 {
+                    assert!(
+                        (lo[k] - clo[k]).abs() < 0.03 && (hi[k] - chi[k]).abs() < 0.03,
+                        "{key} axis {k}: visual [{}, {}] collision [{}, {}]",
+                        lo[k],
+                        hi[k],
+                        clo[k],
+                        chi[k]
+                    );
+                }
+            }
+            loaded.insert(key.to_string());
+        }
+    }
+    assert_eq!(visuals, 11, "link0..7, hand, two fingers");
+    assert_eq!(
+        loaded.len(),
+        reference.as_object().expect("map").len(),
+        "every file in the reference loaded: {loaded:?}"
+    );
+}
+
+/// A malformed Collada file is a typed error naming the URDF's `<mesh>` and the .dae's own
+/// line and element; a missing one is `NotFound`.
+#[test]
+fn malformed_and_missing_dae_are_typed_errors_naming_file_and_element() {
+    let tmp = tempfile::tempdir().expect("tmp");
+    std::fs::write(
+        tmp.path().join("bad.dae"),
+        concat!(
+            "<?xml version=\"1.0\"?>\n<COLLADA>\n<library_geometries>\n<geometry id=\"g\"><mesh>\n",
+            "<source id=\"s\"><float_array id=\"a\" count=\"9\">0 0 0 1 0 zero 0 1 0</float_array></source>\n",
+            "<vertices id=\"v\"><input semantic=\"POSITION\" source=\"#s\"/></vertices>\n",
+            "<triangles count=\"1\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/><p>0 1 2</p></triangles>\n",
+            "</mesh></geometry>\n</library_geometries>\n</COLLADA>"
+        ),
+    )
+    .expect("write");
+    let urdf = tmp.path().join("d.urdf");
+    std::fs::write(
+        &urdf,
+        r#"<robot name="d"><link name="a">
+  <visual><geometry><mesh filename="bad.dae"/></geometry></visual>
+  <visual><geometry><mesh filename="gone.dae"/></geometry></visual>
+</link></robot>"#,
+    )
+    .expect("write");
+    let r = import_urdf(&urdf, None).expect("meshes are not read at import");
+    let lg = &r.geometry.links["a"];
+    let Geometry::Mesh(bad) = &lg.visual[0].geometry else {
+        panic!("a mesh")
+    };
+    let e = bad.load().expect_err("malformed");
+    let UrdfErrorKind::Mesh(MeshProblem::Dae(d)) = &e.kind else {
+        panic!("{e}")
+    };
+    assert_eq!((d.line, d.element.as_str()), (5, "<float_array id=\"a\">"));
+    assert!(d.file.ends_with("bad.dae"));
+    assert_eq!((e.file.as_path(), e.line), (urdf.as_path(), 2));
+    let text = e.to_string();
+    assert!(text.contains("bad.dae:5: <float_array id=\"a\">"), "{text}");
+    assert!(text.contains("\"zero\" is not a finite number"), "{text}");
+    assert!(text.contains("d.urdf:2"), "{text}");
+    let Geometry::Mesh(gone) = &lg.visual[1].geometry else {
+        panic!("a mesh")
+    };
+    let e = gone.load().expect_err("missing");
+    assert!(
+        matches!(&e.kind, UrdfErrorKind::Mesh(MeshProblem::NotFound(p)) if p.ends_with("gone.dae")),
+        "{e}"
+    );
+    assert_eq!(e.line, 3);
 }
