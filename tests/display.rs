@@ -1003,3 +1003,46 @@ fn the_session_display_colours_the_contacts_of_the_simulated_state() {
         "head and link drawn red at the simulated state: {red}"
     );
 }
+
+const PANDA_VIEW: [&str; 6] = [
+    "--from",
+    "1.3,-1.0,0.9",
+    "--at",
+    "0.2,0,0.45",
+    "--size",
+    "320x240",
+];
+
+/// `robosim render FILE.urdf`: the Panda of example-robot-data drawn from its Collada visuals
+/// (the file interface's URDF import: general joints, a tree, meshes) matches its golden image;
+/// the collision hulls are not drawn over the visuals (hiding the hand's visual changes the
+/// picture, which it would not if the hand's hull were drawn too); a bent arm is another
+/// picture.
+#[test]
+fn a_urdf_robot_renders_from_its_visual_meshes() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let d = dir.path();
+    let tol = Tolerance::default();
+    let urdf = Path::new(env!("CARGO_MANIFEST_DIR")).join("testdata/urdf/panda.urdf");
+    let urdf = urdf.to_str().expect("utf-8 path");
+    let pose = ["--joints", "panda=0,-30,0,-120,0,90,45,0.03,0.03"];
+    let args = [&[urdf][..], &pose, &PANDA_VIEW].concat();
+    check_golden(d, "panda_urdf.png", &args, &tol);
+    if std::env::var_os("ROBOSIM_BLESS").is_some() {
+        return;
+    }
+    assert_differs(
+        d,
+        "panda_no_hand_visual.png",
+        "panda_urdf.png",
+        &[&args[..], &["--hide", "panda_hand-visual0"]].concat(),
+        &tol,
+    );
+    assert_differs(
+        d,
+        "panda_zero.png",
+        "panda_urdf.png",
+        &[&[urdf][..], &PANDA_VIEW].concat(),
+        &tol,
+    );
+}

@@ -476,7 +476,7 @@ fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
     let imp = crate::urdf_session::urdf_tx(&u, &place)?;
     let applied = import_commit(&s, &imp.tx, &a.file, &name)?;
     println!(
-        "imported {} as robot {name}: {} joints ({}), {} visuals, {} collision solids, {} mesh triangles read, version {}",
+        "imported {} as robot {name}: {} joints ({}), {} visuals, {} collision solids ({} meshes decomposed: hull far from the mesh), {} mesh triangles read, version {}",
         a.file.display(),
         imp.joints,
         if u.robot.parents.is_empty() {
@@ -486,6 +486,7 @@ fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
         },
         imp.visuals,
         imp.solids,
+        imp.decomposed,
         imp.triangles,
         applied.version
     );

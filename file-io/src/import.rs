@@ -98,27 +98,40 @@ pub fn mesh_geometry(tris: &Triangles, hull: bool, path: &Path) -> Result<MeshGe
             .flatten()
             .map(|v| nalgebra::Point3::new(v[0], v[1], v[2]))
             .collect();
-        let (hv, ht) =
-            parry3d_f64::transformation::try_convex_hull(&pts).map_err(|e| FileError::Mesh {
-                path: path.to_owned(),
-                line: 0,
-                reason: format!("its convex hull cannot be built: {e:?}"),
-            })?;
-        let hv: Vec<[f64; 3]> = hv.iter().map(|p| [p.x, p.y, p.z]).collect();
-        let hull_tris: Triangles = ht
-            .iter()
-            .map(|t| [hv[t[0] as usize], hv[t[1] as usize], hv[t[2] as usize]])
-            .collect();
-        let mut g = weld(&hull_tris);
+        let mut g = hull_geometry(&pts, path)?;
         g.read = tris.len();
-        if g.geometry.polygons.is_empty() {
-            return Err(empty("a flat hull (all points in one plane)"));
-        }
         return Ok(g);
     }
     let g = weld(tris);
     if g.geometry.polygons.is_empty() {
         return Err(empty("every triangle has zero area"));
+    }
+    Ok(g)
+}
+
+/// The convex hull of `points` as Instance Space geometry (its triangles, welded); `path` names
+/// the mesh in errors.
+pub fn hull_geometry(
+    points: &[nalgebra::Point3<f64>],
+    path: &Path,
+) -> Result<MeshGeometry, FileError> {
+    let bad = |reason: String| FileError::Mesh {
+        path: path.to_owned(),
+        line: 0,
+        reason,
+    };
+    let (hv, ht) = parry3d_f64::transformation::try_convex_hull(points)
+        .map_err(|e| bad(format!("its convex hull cannot be built: {e:?}")))?;
+    let hv: Vec<[f64; 3]> = hv.iter().map(|p| [p.x, p.y, p.z]).collect();
+    let hull_tris: Triangles = ht
+        .iter()
+        .map(|t| [hv[t[0] as usize], hv[t[1] as usize], hv[t[2] as usize]])
+        .collect();
+    let g = weld(&hull_tris);
+    if g.geometry.polygons.is_empty() {
+        return Err(bad(
+            "a flat hull (all points in one plane): nothing to import".into(),
+        ));
     }
     Ok(g)
 }

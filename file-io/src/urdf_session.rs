@@ -15,14 +15,15 @@
 //!   origin, coloured by its material;
 //! * per URDF `<collision>`, a **solid**: boxes, cylinders and spheres as the geometry library
 //!   makes them (cylinders and spheres faceted to 1 mm chord error), meshes as their **convex
-//!   hull** (what the collision core and the simulator's contacts want; docs/file-io.md says
-//!   when that is far from the mesh). When the URDF link has visuals its solids are kept
+//!   hull** (what the collision core and the simulator's contacts want) — or, when the mesh is
+//!   closed and its hull more than 25 % bigger, as the convex parts of a V-HACD decomposition
+//!   (`LINK-collisionK.P`; [`robosim_collision::decompose`]). When the URDF link has visuals its solids are kept
 //!   undrawn (alpha 0: the display skips them), else they are what is drawn.
 //!
 //! Every mesh is loaded here (geometry is what an import is for): a missing or unreadable mesh
 //! is an error naming the URDF file, line and element, and nothing enters the Instance Space.
 
-use crate::import::mesh_geometry;
+use crate::import::{hull_geometry, mesh_geometry};
 use crate::urdf_geometry::{Geometry, MeshProblem, Shape};
 use crate::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
 use robosim_instance_space::{
@@ -54,6 +55,8 @@ pub struct UrdfImport {
     pub solids: usize,
     /// Triangles read from mesh files.
     pub triangles: usize,
+    /// Collision meshes whose hull was far from them, made of several convex parts.
+    pub decomposed: usize,
 }
 
 /// The one transaction that creates robot `u` as [`UrdfPlacement`] says (see the module docs).
@@ -129,29 +132,41 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
         tx.set_joint(l, 0.0);
         bodies.push(l);
     }
-    let (mut visuals, mut solids, mut triangles) = (0, 0, 0);
+    let (mut visuals, mut solids, mut triangles, mut decomposed) = (0, 0, 0, 0);
     for (link, g) in &u.geometry.links {
         let Some(&body) = bodies.get(g.body) else {
             continue;
         };
         for (k, s) in g.visual.iter().enumerate() {
-            let (geometry, tris) = shape_geometry(s, false, file, link, "visual")?;
+            let (pieces, tris, _) = shape_geometry(s, false, file, link, "visual")?;
             triangles += tris;
-            let v = tx.create(Kind::Visual, &format!("{link}-visual{k}"), Some(body));
-            tx.set_pose(v, from_matrix(&(g.in_body * s.origin)));
-            tx.set_geometry(v, Some(geometry));
-            tx.set_appearance(v, appearance(s, 1.0));
-            visuals += 1;
+            for geometry in pieces {
+                let v = tx.create(Kind::Visual, &format!("{link}-visual{k}"), Some(body));
+                tx.set_pose(v, from_matrix(&(g.in_body * s.origin)));
+                tx.set_geometry(v, Some(geometry));
+                tx.set_appearance(v, appearance(s, 1.0));
+                visuals += 1;
+            }
         }
         let hidden = !g.visual.is_empty();
         for (k, s) in g.collision.iter().enumerate() {
-            let (geometry, tris) = shape_geometry(s, true, file, link, "collision")?;
+            let (parts, tris, split) = shape_geometry(s, true, file, link, "collision")?;
             triangles += tris;
-            let c = tx.create(Kind::Solid, &format!("{link}-collision{k}"), Some(body));
-            tx.set_pose(c, from_matrix(&(g.in_body * s.origin)));
-            tx.set_geometry(c, Some(geometry));
-            tx.set_appearance(c, appearance(s, if hidden { 0.0 } else { 1.0 }));
-            solids += 1;
+            decomposed += usize::from(split);
+            let many = parts.len() > 1;
+            for (p, geometry) in parts.into_iter().enumerate() {
+                // A decomposed mesh's parts are `LINK-collisionK.P`.
+                let name = if many {
+                    format!("{link}-collision{k}.{p}")
+                } else {
+                    format!("{link}-collision{k}")
+                };
+                let c = tx.create(Kind::Solid, &name, Some(body));
+                tx.set_pose(c, from_matrix(&(g.in_body * s.origin)));
+                tx.set_geometry(c, Some(geometry));
+                tx.set_appearance(c, appearance(s, if hidden { 0.0 } else { 1.0 }));
+                solids += 1;
+            }
         }
     }
     Ok(UrdfImport {
@@ -160,6 +175,7 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
         visuals,
         solids,
         triangles,
+        decomposed,
     })
 }
 
@@ -179,15 +195,16 @@ fn appearance(s: &Shape, alpha: f32) -> Appearance {
     a
 }
 
-/// A shape as Instance Space geometry (and the triangles read for a mesh); a collision mesh
-/// becomes its convex hull.
+/// A shape as Instance Space geometry: one piece, or for a collision mesh its convex parts
+/// (the hull, or a decomposition when the hull is far from the mesh:
+/// [`robosim_collision::decompose`]). Also the triangles read, and whether it was decomposed.
 fn shape_geometry(
     s: &Shape,
     collision: bool,
     file: &std::path::Path,
     link: &str,
     what: &str,
-) -> Result<(GeometryInput, usize), UrdfError> {
+) -> Result<(Vec<GeometryInput>, usize, bool), UrdfError> {
     use robosim_geometry::shapes;
     let bad = |reason: String| UrdfError {
         file: file.to_owned(),
@@ -202,12 +219,26 @@ fn shape_geometry(
         Geometry::Mesh(m) => {
             let tris = m.load()?;
             let path = m.path()?;
-            let g = mesh_geometry(&tris, collision, &path)
-                .map_err(|e| m.err(MeshProblem::Shape(e.to_string())))?;
-            return Ok((g.geometry, g.read));
+            let shape = |e: String| m.err(MeshProblem::Shape(e));
+            if !collision {
+                let g = mesh_geometry(&tris, false, &path).map_err(|e| shape(e.to_string()))?;
+                return Ok((vec![g.geometry], g.read, false));
+            }
+            let d = robosim_collision::decompose::convex_parts(
+                &tris,
+                robosim_collision::decompose::DEFAULT_EXCESS,
+            )
+            .map_err(|e| shape(e.to_string()))?;
+            let parts = d
+                .parts
+                .iter()
+                .map(|p| hull_geometry(p, &path).map(|g| g.geometry))
+                .collect::<Result<Vec<_>, _>>()
+                .map_err(|e| shape(e.to_string()))?;
+            return Ok((parts, tris.len(), d.decomposed));
         }
     };
-    poly.map(|p| (GeometryInput::from_polyhedron(&p), 0))
+    poly.map(|p| (vec![GeometryInput::from_polyhedron(&p)], 0, false))
         .map_err(|e| bad(e.to_string()))
 }
 

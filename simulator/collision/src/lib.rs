@@ -15,10 +15,13 @@
 //!   robots (one robot-box test per pair of robots until their boxes meet).
 //! * [`ccd::sweep_robot`] — time of impact along a joint-space step (conservative advancement).
 //! * [`broad`] — sweep-and-prune and BVH broad phases.
+//! * [`decompose::convex_parts`] — a triangle mesh as convex parts: its hull, or V-HACD when the
+//!   hull is far from the mesh.
 
 pub mod bbox;
 pub mod broad;
 pub mod ccd;
+pub mod decompose;
 pub mod exact;
 mod outcome;
 pub mod polygon;
