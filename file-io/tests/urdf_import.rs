@@ -36,7 +36,7 @@ fn rel(ours: &[f64], theirs: &[f64]) -> f64 {
 
 /// Pose, Jacobians (base = Pinocchio LOCAL_WORLD_ALIGNED, tool = LOCAL), RNEA, CRBA and ABA of
 /// the imported UR5 and Panda against Pinocchio 4.1 at 20 random states each. The vendored
-/// URDFs name meshes that are not there: FK and dynamics must not need them.
+/// URDFs name meshes that are not all there (the UR5's visuals): FK and dynamics must not need them.
 #[test]
 fn imported_urdfs_match_pinocchio() {
     let reference: serde_json::Value = serde_json::from_str(
@@ -57,7 +57,7 @@ fn imported_urdfs_match_pinocchio() {
             .map(|j| j.as_str().expect("name"))
             .collect();
         assert_eq!(names, expected, "{name}: q order");
-        // The geometry is read but no mesh is loaded: the UR5's meshes are not vendored, and
+        // The geometry is read but no mesh is loaded (the UR5's visual meshes are not vendored), and
         // its FK and dynamics below need none.
         let (_, collision, meshes) = imported.geometry.counts();
         assert!(collision > 0 && meshes > 0, "{name}: geometry read");
