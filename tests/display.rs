@@ -1006,9 +1006,9 @@ fn the_session_display_colours_the_contacts_of_the_simulated_state() {
 
 const PANDA_VIEW: [&str; 6] = [
     "--from",
-    "1.3,-1.0,0.9",
+    "1.15,-0.9,0.85",
     "--at",
-    "0.2,0,0.45",
+    "0.25,0,0.45",
     "--size",
     "320x240",
 ];

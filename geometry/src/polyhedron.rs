@@ -312,11 +312,15 @@ fn check_polygon(
         }
     }
     let p = |k: usize| vertices[face[k % face.len()] as usize];
+    // Newell's normal about the first vertex, not the origin: the same vector in exact
+    // arithmetic, without the cancellation of large cross products for a small polygon far
+    // from the origin (a mesh's sliver triangle otherwise came out 3e-12 m "off its plane").
+    let o = p(0);
     let mut newell = Vector3::zeros();
     let mut size: f64 = 0.0;
     for k in 0..face.len() {
         let (a, b) = (p(k), p(k + 1));
-        newell += a.coords.cross(&b.coords);
+        newell += (a - o).cross(&(b - o));
         size = size.max((b - a).norm());
     }
     let area = newell.norm() * 0.5;
