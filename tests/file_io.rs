@@ -485,6 +485,71 @@ fn a_urdf_robot_imported_into_a_session_is_a_robot_of_the_session() {
     drop(snap);
     drop(reader);
 
+    // The simulator runs it: rigid-body dynamics of the tree under gravity (RK4 at 1 ms, a soft
+    // PD hold of the committed joints that gravity overcomes), 1 s in lock-step: finite, no
+    // step error, moved by gravity, and held within its joint limits by the limits stage.
+    let effects = k.home.path().join("effects.json");
+    std::fs::write(
+        &effects,
+        r#"{"dt": 0.01, "joint_limits": true, "dynamics": {"integrator": "rk4", "dt": 0.001, "gravity": [0, 0, -9.81], "kp": 100, "kd": 20}}"#,
+    )
+    .expect("effects");
+    let mut daemon = Command::new(ROBOSIM)
+        .args(["simulator", "--mode", "lockstep", "--effects", s(&effects)])
+        .args(["--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("simulator");
+    let simctl = |cmd: &str| {
+        let o = run(&k, &["simctl", cmd]);
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    let state = wait_for("the simulator at t = 1 s", || {
+        simctl(r#"{"cmd": "step", "n": 1}"#);
+        let g: serde_json::Value = serde_json::from_str(&simctl(r#"{"cmd": "get"}"#)).ok()?;
+        let steps = g["steps"].as_u64()?;
+        if steps < 100 {
+            simctl(&format!(r#"{{"cmd": "step", "n": {}}}"#, 100 - steps));
+        }
+        (steps >= 100).then_some(g)
+    });
+    let _ = daemon.kill();
+    let _ = daemon.wait();
+    let arm = state["robots"]
+        .as_array()
+        .expect("robots")
+        .iter()
+        .find(|r| r["name"] == "arm")
+        .unwrap_or_else(|| panic!("the simulator has the imported robot: {state}"))
+        .clone();
+    assert!(arm["error"].is_null(), "{arm}");
+    assert!(
+        arm["stages"].as_array().expect("stages").iter().any(|s| s == "dynamics"),
+        "{arm}"
+    );
+    let sim_q: Vec<f64> = arm["q"]
+        .as_array()
+        .expect("q")
+        .iter()
+        .map(|v| v.as_f64().expect("finite q"))
+        .collect();
+    assert_eq!(sim_q.len(), 9);
+    let off = sim_q
+        .iter()
+        .zip(q)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(off > 1e-4, "gravity moved the arm: {off} rad, q {sim_q:?}");
+    for (j, (v, joint)) in sim_q.iter().zip(&model.robot.joints).enumerate() {
+        assert!(
+            *v >= joint.qlim[0] - 1e-9 && *v <= joint.qlim[1] + 1e-9,
+            "joint {j} at {v} within its limits {:?}",
+            joint.qlim
+        );
+    }
+
     // Saved: version 2 (a general joint); loaded into a fresh session: the same model.
     let (_, digest, objects) = info(&k);
     let bin = k.home.path().join("with-urdf.rsm");
