@@ -70,6 +70,19 @@ pub enum Which {
         #[arg(long)]
         quick: bool,
     },
+    /// URDF import: the Panda (meshes and all) parsed, made a transaction, applied, and
+    /// `robosim import urdf` into a running session end to end, against `import mesh` of a cube.
+    Urdf {
+        /// Where to write urdf.md and urdf.csv.
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
+        out: PathBuf,
+        /// Fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+        /// The URDF to import.
+        #[arg(long, default_value = "testdata/urdf/panda.urdf")]
+        urdf: PathBuf,
+    },
     /// One editor edit in the Space Station model: keeper time (round trip against an empty
     /// transaction's), announcement and a reader reaching the new version, with the model size.
     Editor {
@@ -136,6 +149,14 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
             let me = std::env::current_exe()?;
             let pb = robosim_report::progress::spinner("bench editor");
             let paths = robosim_editor::bench::run(&out, quick, &me).map_err(CliError)?;
+            pb.finish_and_clear();
+            wrote(&out, &paths)
+        }
+        Which::Urdf { out, quick, urdf } => {
+            let me = std::env::current_exe()?;
+            let pb = robosim_report::progress::spinner("bench urdf");
+            let paths =
+                robosim_file_io::bench_urdf::run(&out, quick, &me, &urdf).map_err(CliError)?;
             pb.finish_and_clear();
             wrote(&out, &paths)
         }

@@ -526,7 +526,11 @@ fn a_urdf_robot_imported_into_a_session_is_a_robot_of_the_session() {
         .clone();
     assert!(arm["error"].is_null(), "{arm}");
     assert!(
-        arm["stages"].as_array().expect("stages").iter().any(|s| s == "dynamics"),
+        arm["stages"]
+            .as_array()
+            .expect("stages")
+            .iter()
+            .any(|s| s == "dynamics"),
         "{arm}"
     );
     let sim_q: Vec<f64> = arm["q"]

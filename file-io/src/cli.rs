@@ -352,6 +352,9 @@ pub struct ImportUrdfArgs {
     /// The scene to place it in (default: the session's first scene).
     #[arg(long)]
     pub parent: Option<String>,
+    /// Leave the `<visual>`s out (their meshes are not read; the collision solids are drawn).
+    #[arg(long)]
+    pub no_visuals: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -472,6 +475,7 @@ fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
         name: name.clone(),
         pose,
         parent,
+        visuals: !a.no_visuals,
     };
     let imp = crate::urdf_session::urdf_tx(&u, &place)?;
     let applied = import_commit(&s, &imp.tx, &a.file, &name)?;

@@ -23,6 +23,7 @@
 //! * [`cli`] — the command-line glue (clap argument structs and run functions).
 
 pub mod bench;
+pub mod bench_urdf;
 pub mod cli;
 pub mod dae;
 pub mod digest;

@@ -42,6 +42,9 @@ pub struct UrdfPlacement {
     pub pose: Pose,
     /// The scene it stands in (`None`: a root object).
     pub parent: Option<u64>,
+    /// Import the `<visual>`s (else the collision solids are what is drawn, and visual meshes
+    /// are not read: for a URDF whose visual meshes are not at hand).
+    pub visuals: bool,
 }
 
 /// The transaction and what it holds.
@@ -137,7 +140,8 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
         let Some(&body) = bodies.get(g.body) else {
             continue;
         };
-        for (k, s) in g.visual.iter().enumerate() {
+        let shown = if place.visuals { &g.visual[..] } else { &[] };
+        for (k, s) in shown.iter().enumerate() {
             let (pieces, tris, _) = shape_geometry(s, false, file, link, "visual")?;
             triangles += tris;
             for geometry in pieces {
@@ -148,7 +152,7 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
                 visuals += 1;
             }
         }
-        let hidden = !g.visual.is_empty();
+        let hidden = !shown.is_empty();
         for (k, s) in g.collision.iter().enumerate() {
             let (parts, tris, split) = shape_geometry(s, true, file, link, "collision")?;
             triangles += tris;
@@ -259,6 +263,7 @@ pub fn urdf_store(
             name: u.robot.name.clone(),
             pose: IDENTITY,
             parent: Some(scene),
+            visuals: true,
         },
     )?;
     store.apply(&imp.tx).map_err(|e| refused(path, &u, e))?;

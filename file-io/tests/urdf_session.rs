@@ -165,6 +165,7 @@ fn a_urdf_robots_collision_shapes_are_solids_that_collide() {
             name: "arm".into(),
             pose: at,
             parent: Some(lab),
+            visuals: true,
         },
     )
     .expect("transaction");
@@ -255,4 +256,72 @@ fn a_missing_mesh_fails_the_import_and_names_where() {
     );
     assert!(msg.contains("link3_gone.stl"), "names the mesh: {msg}");
     assert!(msg.contains("<mesh>"), "names the element: {msg}");
+}
+
+/// The UR5's collision meshes: those whose hull is far from them (closed meshes, hull > 1.25 ×
+/// their volume, measured) arrive as several convex solids `LINK-collisionK.P`, the others as
+/// their hull; the decomposed parts hold less volume than the hull and at least the mesh's
+/// (they cover it: conservative for collision). Without visuals the solids are drawn.
+#[test]
+fn concave_collision_meshes_arrive_decomposed() {
+    let u = import_urdf_tree(&dir().join("ur5_robot.urdf")).expect("imports");
+    let imp = urdf_tx(
+        &u,
+        &UrdfPlacement {
+            name: "ur5".into(),
+            pose: robosim_instance_space::IDENTITY,
+            parent: None,
+            visuals: false,
+        },
+    )
+    .expect("transaction");
+    let (_, collisions, _) = u.geometry.counts();
+    assert!(imp.decomposed >= 1, "{imp:?}");
+    assert!(imp.solids > collisions, "{} > {collisions}", imp.solids);
+    let mut store = Store::default();
+    store.apply(&imp.tx).expect("the keeper's checks pass");
+    let snap = Snapshot::from_store(&store);
+    let mut checked = 0;
+    for g in u.geometry.links.values() {
+        for s in &g.collision {
+            let robosim_file_io::urdf_geometry::Geometry::Mesh(m) = &s.geometry else {
+                continue;
+            };
+            let tris = m.load().expect("mesh");
+            let d = robosim_collision::decompose::convex_parts(
+                &tris,
+                robosim_collision::decompose::DEFAULT_EXCESS,
+            )
+            .expect("parts");
+            if !d.decomposed {
+                continue;
+            }
+            let v = d.mesh_volume.expect("closed");
+            let parts: f64 = d
+                .parts
+                .iter()
+                .map(|p| {
+                    robosim_collision::Solid::convex(p)
+                        .expect("part")
+                        .faceted_volume()
+                })
+                .sum();
+            assert!(d.hull_volume > 1.25 * v, "hull {} mesh {v}", d.hull_volume);
+            assert!(
+                parts < d.hull_volume && parts >= v,
+                "parts {parts}, mesh {v}, hull {}",
+                d.hull_volume
+            );
+            checked += 1;
+        }
+    }
+    assert_eq!(checked, imp.decomposed);
+    let drawn = (0..snap.len())
+        .filter(|&i| snap.object(i).kind() == Some(Kind::Solid))
+        .all(|i| snap.objects()[i].color[3] == 1.0);
+    assert!(drawn, "without visuals the solids are drawn");
+    assert!(
+        (0..snap.len()).any(|i| snap.name(i).ends_with(".1")),
+        "decomposed parts are named LINK-collisionK.P"
+    );
 }
