@@ -554,6 +554,69 @@ fn a_urdf_robot_imported_into_a_session_is_a_robot_of_the_session() {
         );
     }
 
+    // One tip of the tree: kinv and jacob on the chain to link 7 (the fingers held). The
+    // target is link 7's world pose at another q; the answer's q is the robot's whole q.
+    let q2 = [-0.4, 0.3, 0.5, -1.7, -0.2, 2.1, 0.3, q[7], q[8]];
+    let base = {
+        let reader = Reader::attach(&session, "base").expect("attach");
+        let snap = reader.snapshot().expect("snapshot");
+        let i = snap.robot("arm").expect("arm").index;
+        robosim_scene::pose::to_matrix(&snap.world_pose(i))
+    };
+    let target = base * robosim_kinematics::fk::link_frames(&model.robot, &q2)[7];
+    let rows: Vec<Vec<f64>> = (0..4)
+        .map(|r| (0..4).map(|c| target[(r, c)]).collect())
+        .collect();
+    let req = k.home.path().join("tip.jsonl");
+    std::fs::write(
+        &req,
+        format!(
+            "{{\"id\": 4, \"op\": \"jacob\", \"robot\": \"arm\", \"tip\": \"panda_link7\"}}\n\
+             {{\"id\": 5, \"op\": \"kinv\", \"robot\": \"arm\", \"tip\": \"panda_link7\", \"pose\": {}}}\n\
+             {{\"id\": 6, \"op\": \"kinv\", \"robot\": \"arm\", \"tip\": \"panda_hand\", \"pose\": {}}}\n",
+            serde_json::json!(rows),
+            serde_json::json!(rows)
+        ),
+    )
+    .expect("requests");
+    let out = ok(&k, &["query", "--input", s(&req)]);
+    let answers: Vec<serde_json::Value> = out
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON answer"))
+        .collect();
+    assert_eq!(
+        answers[0]["chain"],
+        serde_json::json!([0, 1, 2, 3, 4, 5, 6]),
+        "{out}"
+    );
+    assert_eq!(
+        answers[0]["jacobian"][0].as_array().map(Vec::len),
+        Some(7),
+        "{out}"
+    );
+    assert_eq!(answers[1]["ok"], true, "{out}");
+    let sol: Vec<f64> = answers[1]["solutions"][0]["q"]
+        .as_array()
+        .expect("q")
+        .iter()
+        .map(|v| v.as_f64().expect("number"))
+        .collect();
+    assert_eq!(sol.len(), 9, "the whole q");
+    assert_eq!((sol[7], sol[8]), (q[7], q[8]), "the fingers held");
+    let reached = base * robosim_kinematics::fk::link_frames(&model.robot, &sol)[7];
+    assert!(
+        (reached - target).abs().max() < 1e-6,
+        "kinv on the chain reaches link 7's target: {}",
+        (reached - target).abs().max()
+    );
+    assert_eq!(answers[2]["ok"], false, "{out}");
+    assert!(
+        answers[2]["error"]["message"]
+            .as_str()
+            .is_some_and(|m| m.contains("panda_link7")),
+        "a tip that is not a link object lists the links: {out}"
+    );
+
     // Saved: version 2 (a general joint); loaded into a fresh session: the same model.
     let (_, digest, objects) = info(&k);
     let bin = k.home.path().join("with-urdf.rsm");

@@ -325,3 +325,38 @@ fn concave_collision_meshes_arrive_decomposed() {
         "decomposed parts are named LINK-collisionK.P"
     );
 }
+
+/// A tree's chain to one tip (`Robot::chain_to`, what the session's kinv and jacob use with
+/// `tip`): its tip frame and its Jacobian at its own q are the tree's at any q that agrees on
+/// the chain's joints, to rounding.
+#[test]
+fn a_trees_chain_to_a_tip_is_the_tree_along_that_path() {
+    let u = import_urdf_tree(&dir().join("panda.urdf")).expect("imports");
+    let tree = &u.robot;
+    let q = [0.3, -0.4, 0.2, -1.9, 0.5, 1.4, -0.6, 0.02, 0.035];
+    let tree_frames = fk::link_frames(tree, &q);
+    for link in 1..=tree.dof() {
+        let (chain, joints) = tree.chain_to(link).expect("a link");
+        let qc: Vec<f64> = joints.iter().map(|&j| q[j]).collect();
+        assert_eq!(joints, tree.support(link));
+        let frames = fk::link_frames(&chain, &qc);
+        let e = (frames[chain.dof()] - tree_frames[link]).abs().max();
+        assert!(e < 1e-15, "link {link}: tip frame {e:e}");
+        let (_, jt) = link_jacobian(tree, &q, link, Frame::Base);
+        let (_, jc) = link_jacobian(&chain, &qc, chain.dof(), Frame::Base);
+        for (k, &j) in joints.iter().enumerate() {
+            let e = (jc.column(k) - jt.column(j)).abs().max();
+            assert!(e < 1e-15, "link {link}, joint {j}: Jacobian column {e:e}");
+        }
+    }
+    // The two fingers: chains of 8 joints sharing the arm's 7.
+    assert_eq!(
+        tree.chain_to(8).expect("left").1,
+        vec![0, 1, 2, 3, 4, 5, 6, 7]
+    );
+    assert_eq!(
+        tree.chain_to(9).expect("right").1,
+        vec![0, 1, 2, 3, 4, 5, 6, 8]
+    );
+    assert!(tree.chain_to(0).is_none() && tree.chain_to(10).is_none());
+}

@@ -9,7 +9,7 @@
 
 use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Matrix3, Matrix4, Vector3};
-use robosim_kinematics::{Convention, Joint, JointType, Robot};
+use robosim_kinematics::{Convention, Joint, JointType, Origin, Robot};
 use serde_json::{Map, Value, json};
 
 /// A robot description (or a matrix inside a request) that could not be read.
@@ -51,11 +51,14 @@ const JOINT_KEYS: &[&str] = &[
     "motor_inertia",
     "viscous",
     "coulomb",
+    "origin",
 ];
+const ORIGIN_KEYS: &[&str] = &["placement", "axis"];
 const ROBOT_KEYS: &[&str] = &[
     "name",
     "convention",
     "joints",
+    "parents",
     "gravity",
     "base",
     "tool",
@@ -105,6 +108,23 @@ pub fn robot_from_json(v: &Value) -> Result<Robot, JsonError> {
         robot
             .joints
             .push(joint_from_json(jv, &format!("robot.joints[{j}]"))?);
+    }
+    if let Some(p) = obj.get("parents") {
+        let arr = p
+            .as_array()
+            .ok_or_else(|| JsonError::new("robot.parents", "expected an array of link frames"))?;
+        robot.parents = arr
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                v.as_u64().map(|x| x as usize).ok_or_else(|| {
+                    JsonError::new(
+                        format!("robot.parents[{k}]"),
+                        "expected a link frame number (0 = the base)",
+                    )
+                })
+            })
+            .collect::<Result<_, _>>()?;
     }
     if let Some(g) = obj.get("gravity") {
         robot.gravity = vector3(g, "robot.gravity")?;
@@ -203,6 +223,25 @@ fn joint_from_json(v: &Value, path: &str) -> Result<Joint, JsonError> {
     }
     if let Some(i) = obj.get("inertia") {
         joint.inertia = matrix3_from_json(i, &format!("{path}.inertia"))?;
+    }
+    match obj.get("origin") {
+        None | Some(Value::Null) => {}
+        Some(o) => {
+            let p = format!("{path}.origin");
+            let map = o.as_object().ok_or_else(|| {
+                JsonError::new(&p, "expected {\"placement\": 4×4, \"axis\": [x, y, z]}")
+            })?;
+            check_keys(map, ORIGIN_KEYS, &p)?;
+            let placement = map
+                .get("placement")
+                .ok_or_else(|| JsonError::new(format!("{p}.placement"), "missing"))
+                .and_then(|v| matrix4_from_json(v, &format!("{p}.placement")))?;
+            let axis = map
+                .get("axis")
+                .ok_or_else(|| JsonError::new(format!("{p}.axis"), "missing"))
+                .and_then(|v| vector3(v, &format!("{p}.axis")))?;
+            joint.origin = Some(Origin { placement, axis });
+        }
     }
     Ok(joint)
 }
@@ -314,28 +353,89 @@ pub fn robot_to_json(robot: &Robot) -> Value {
         .joints
         .iter()
         .map(|j| {
-            json!({
+            let mut v = json!({
                 "type": match j.joint_type { JointType::Revolute => "revolute", JointType::Prismatic => "prismatic" },
                 "a": j.a, "d": j.d, "alpha": j.alpha, "theta": j.theta, "offset": j.offset,
                 "qlim": [limit_to_json(j.qlim[0]), limit_to_json(j.qlim[1])],
                 "mass": j.mass, "com": [j.com.x, j.com.y, j.com.z], "inertia": matrix_to_json(&j.inertia),
                 "motor_inertia": j.motor_inertia, "viscous": j.viscous, "coulomb": j.coulomb,
-            })
+            });
+            // A general joint (URDF's origin and axis) carries them; a DH row does not.
+            if let (Some(o), Some(m)) = (&j.origin, v.as_object_mut()) {
+                m.insert(
+                    "origin".into(),
+                    json!({
+                        "placement": matrix4_to_json(&o.placement),
+                        "axis": [o.axis.x, o.axis.y, o.axis.z],
+                    }),
+                );
+            }
+            v
         })
         .collect();
-    json!({
+    let mut out = json!({
         "name": robot.name,
         "convention": match robot.convention { Convention::Standard => "standard", Convention::Modified => "modified" },
         "joints": joints,
         "gravity": [robot.gravity.x, robot.gravity.y, robot.gravity.z],
         "base": matrix4_to_json(&robot.base),
         "tool": matrix4_to_json(&robot.tool),
-    })
+    });
+    if !robot.parents.is_empty()
+        && let Some(m) = out.as_object_mut()
+    {
+        m.insert("parents".into(), json!(robot.parents));
+    }
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A general-joint tree (what `get_robot` answers for a URDF robot) reads back as itself:
+    /// origins, axes and parents survive the inline form (before, they were dropped, and the
+    /// session's kinv and jacob silently solved an all-zero DH chain).
+    #[test]
+    fn general_joints_and_trees_round_trip() {
+        let mut robot = Robot {
+            name: "y".into(),
+            parents: vec![0, 1, 1],
+            ..Robot::default()
+        };
+        for k in 0..3 {
+            let mut placement = Matrix4::identity();
+            placement[(0, 3)] = 0.1 * (k + 1) as f64;
+            placement[(2, 3)] = -0.05;
+            robot.joints.push(Joint {
+                joint_type: if k == 2 {
+                    JointType::Prismatic
+                } else {
+                    JointType::Revolute
+                },
+                qlim: [-1.0, 1.0],
+                origin: Some(Origin {
+                    placement,
+                    axis: Vector3::new(0.0, 0.6, 0.8),
+                }),
+                ..Joint::default()
+            });
+        }
+        let v = robot_to_json(&robot);
+        assert_eq!(v["parents"], json!([0, 1, 1]));
+        let back = robot_from_json(&v).expect("reads back");
+        assert_eq!(back, robot);
+        // A DH chain writes neither field.
+        let dh = robot_to_json(&Robot {
+            joints: vec![Joint::default()],
+            ..Robot::default()
+        });
+        assert!(dh.get("parents").is_none() && dh["joints"][0].get("origin").is_none());
+        let mut bad = v.clone();
+        bad["joints"][0]["origin"]["axis"] = json!([0, 0]);
+        let e = robot_from_json(&bad).expect_err("a short axis");
+        assert!(e.to_string().contains("robot.joints[0].origin.axis"), "{e}");
+    }
 
     #[test]
     fn transforms_are_row_major() {

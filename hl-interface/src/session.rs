@@ -34,6 +34,7 @@ use nalgebra::{Isometry3, Vector3};
 use robosim_collision::Mode;
 use robosim_collision::robot::{Body, CheckResult, CollisionSettings};
 use robosim_instance_space::{Client, Id, Reader, Session, Snapshot, Transaction};
+use robosim_kinematics::Robot;
 use robosim_scene::{CompiledRobot, CompiledScene, Obstacles, SceneError, joint_tx, pose};
 use serde_json::{Value, json};
 use std::collections::HashSet;
@@ -452,12 +453,89 @@ impl Ops {
         }
     }
 
+    /// kinv or jacob on the chain `robot` (joints `joints` of a robot at `q`): the answer of
+    /// the pure op on the chain, with `chain` (the joints' indices in the robot's q) and, for
+    /// kinv, each solution's `q` given whole (the joints off the chain where they are).
+    fn chain_op(op: &str, req: &Value, robot: &Robot, joints: &[usize], q: &[f64]) -> OpResult {
+        let inline = crate::robot_json::robot_to_json(robot);
+        let q_chain: Vec<f64> = joints.iter().map(|&j| q[j]).collect();
+        let mut out = if op == "kinv" {
+            let mut r = req.clone();
+            if let Some(m) = r.as_object_mut() {
+                m.remove("tip");
+                m.insert("op".into(), json!("ik"));
+                m.insert("robot".into(), inline);
+                m.entry("q0").or_insert(json!(q_chain));
+            }
+            Self::pure(r)?
+        } else {
+            Self::pure(
+                json!({"op": "jacobian", "robot": inline, "q": q_chain, "frame": req.get("frame").cloned().unwrap_or(json!("base"))}),
+            )?
+        };
+        if let Some(sols) = out.get_mut("solutions").and_then(Value::as_array_mut) {
+            for s in sols {
+                let Some(qc) = s.get("q").and_then(Value::as_array).cloned() else {
+                    continue;
+                };
+                let mut whole: Vec<Value> = q.iter().map(|x| json!(x)).collect();
+                for (k, &j) in joints.iter().enumerate() {
+                    if let Some(v) = qc.get(k) {
+                        whole[j] = v.clone();
+                    }
+                }
+                s["q"] = Value::Array(whole);
+            }
+        }
+        out["chain"] = json!(joints);
+        Ok(out)
+    }
+
     fn robot_op(&mut self, op: &str, req: &Value, snap: &Snapshot) -> OpResult {
         let p = self
             .scene
             .robot(str_field(req, "robot")?)
             .map_err(scene_err)?
             .clone();
+        // `tip`: a link of the robot; kinv and jacob then act on the chain from the base to it
+        // (a branching robot — a Panda's fingers — has one per leaf), the other joints held.
+        let chain = match req.get("tip") {
+            None | Some(Value::Null) => None,
+            Some(t) => {
+                let name = t
+                    .as_str()
+                    .ok_or_else(|| err(ErrorKind::BadRequest, "`tip` must be a link name"))?;
+                let k = p
+                    .links
+                    .iter()
+                    .position(|id| snap.index_of(*id).is_some_and(|i| snap.name(i) == name))
+                    .ok_or_else(|| {
+                        let names: Vec<&str> = p
+                            .links
+                            .iter()
+                            .filter_map(|id| snap.index_of(*id).map(|i| snap.name(i)))
+                            .collect();
+                        err(
+                            ErrorKind::BadRequest,
+                            format!(
+                                "`tip` {name:?} is not a link of {}; its links: {}",
+                                p.robot.name,
+                                names.join(", ")
+                            ),
+                        )
+                    })?;
+                if !matches!(op, "kinv" | "jacob") {
+                    return Err(err(
+                        ErrorKind::BadRequest,
+                        format!("`tip` is for kinv and jacob, not {op}"),
+                    ));
+                }
+                p.robot.chain_to(k + 1)
+            }
+        };
+        if let Some((robot, joints)) = chain {
+            return Self::chain_op(op, req, &robot, &joints, &p.q);
+        }
         let inline = crate::robot_json::robot_to_json(&p.robot);
         match op {
             "get_robot" => {

@@ -364,6 +364,35 @@ impl Robot {
         path
     }
 
+    /// The serial chain from the base to link frame `link` (1..=n) of a tree — its support
+    /// path's joints, in order, as a robot of their own — and those joints' indices in this
+    /// robot's q. Every joint keeps its geometry (a joint's placement is in the link frame it
+    /// hangs from, which is the previous joint's of the chain), so the chain's link frames and
+    /// Jacobian at its q are this robot's at any q that agrees on those joints: what IK and the
+    /// query protocol use for one tip of a branching robot. The tool is this robot's when `link`
+    /// is the last link frame (where the tool hangs), else the identity (the tip link's frame).
+    /// `None` for `link` 0 or past n.
+    pub fn chain_to(&self, link: usize) -> Option<(Robot, Vec<usize>)> {
+        if link == 0 || link > self.dof() {
+            return None;
+        }
+        let path = self.support(link);
+        let chain = Robot {
+            name: self.name.clone(),
+            convention: self.convention,
+            joints: path.iter().map(|&j| self.joints[j].clone()).collect(),
+            parents: Vec::new(),
+            base: self.base,
+            tool: if link == self.dof() {
+                self.tool
+            } else {
+                Matrix4::identity()
+            },
+            gravity: self.gravity,
+        };
+        Some((chain, path))
+    }
+
     /// Checks every field a user or a planner could get wrong; the algorithms assume a
     /// validated robot.
     pub fn validate(&self) -> Result<(), ModelError> {
