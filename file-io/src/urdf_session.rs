@@ -27,8 +27,8 @@ use crate::import::{hull_geometry, mesh_geometry};
 use crate::urdf_geometry::{Geometry, MeshProblem, Shape};
 use crate::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
 use robosim_instance_space::{
-    Appearance, DhConvention, GeometryInput, IDENTITY, JointKind, Kind, Kinematics, MassProps,
-    ObjRef, Pose, Transaction,
+    Appearance, DhConvention, GeometryInput, IDENTITY, JointKind, Kind, Kinematics, ObjRef, Pose,
+    Transaction,
 };
 use robosim_kinematics::JointType;
 use robosim_scene::pose::from_matrix;
@@ -115,21 +115,13 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
                 qlim: joint.qlim,
             }),
         );
-        let i = &joint.inertia;
         tx.set_dynamics(
             l,
-            Some(MassProps {
-                mass: joint.mass,
-                com: [joint.com.x, joint.com.y, joint.com.z],
-                inertia: [
-                    i[(0, 0)],
-                    i[(1, 1)],
-                    i[(2, 2)],
-                    i[(0, 1)],
-                    i[(0, 2)],
-                    i[(1, 2)],
-                ],
-            }),
+            Some(robosim_scene::instantiate::mass_props(
+                joint.mass,
+                &joint.com,
+                &joint.inertia,
+            )),
         );
         tx.set_pose(l, poses[j]);
         tx.set_joint(l, 0.0);

@@ -2,36 +2,17 @@
 //! example-robot-data, read by `pinocchio_reference.py`), and against robosim's own DH robots
 //! through the URDF exporter (DH → URDF → general joints must be the same robot).
 
+mod reference;
+
 use nalgebra::DMatrix;
+use reference::{floats, matrix, rel};
 use robosim_file_io::urdf_import::{UrdfRobot, import_urdf, import_urdf_str, import_urdf_tree};
 use robosim_kinematics::jacobian::{Frame, jacobian, link_jacobian};
 use robosim_kinematics::{Robot, fk};
 use std::path::Path;
 
 fn dir() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata")
-}
-
-fn floats(v: &serde_json::Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
-
-fn matrix(v: &serde_json::Value) -> DMatrix<f64> {
-    let rows: Vec<Vec<f64>> = v.as_array().expect("rows").iter().map(floats).collect();
-    DMatrix::from_fn(rows.len(), rows[0].len(), |r, c| rows[r][c])
-}
-
-fn rel(ours: &[f64], theirs: &[f64]) -> f64 {
-    let d = ours
-        .iter()
-        .zip(theirs)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
-    d / theirs.iter().map(|x| x.abs()).fold(1.0, f64::max)
+    reference::testdata()
 }
 
 /// Pose, Jacobians (base = Pinocchio LOCAL_WORLD_ALIGNED, tool = LOCAL), RNEA, CRBA and ABA of

@@ -3,7 +3,10 @@
 //! read back through the records, the scene compiler and the kinematics and dynamics cores — and
 //! its geometry must be there, drawn and collided as the URDF says.
 
+mod reference;
+
 use nalgebra::DMatrix;
+use reference::{floats, matrix, rel};
 use robosim_file_io::urdf_import::import_urdf_tree;
 use robosim_file_io::urdf_session::{UrdfPlacement, urdf_store, urdf_tx};
 use robosim_instance_space::{Kind, Snapshot, Store, Transaction};
@@ -13,29 +16,7 @@ use robosim_scene::CompiledScene;
 use std::path::{Path, PathBuf};
 
 fn dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/urdf")
-}
-
-fn floats(v: &serde_json::Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
-
-fn matrix(v: &serde_json::Value) -> DMatrix<f64> {
-    let rows: Vec<Vec<f64>> = v.as_array().expect("rows").iter().map(floats).collect();
-    DMatrix::from_fn(rows.len(), rows[0].len(), |r, c| rows[r][c])
-}
-
-fn rel(ours: &[f64], theirs: &[f64]) -> f64 {
-    let d = ours
-        .iter()
-        .zip(theirs)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
-    d / theirs.iter().map(|x| x.abs()).fold(1.0, f64::max)
+    reference::testdata().join("urdf")
 }
 
 /// The Panda of testdata/urdf without its `<visual>`s (their meshes are Collada), its collision
@@ -335,12 +316,12 @@ fn a_trees_chain_to_a_tip_is_the_tree_along_that_path() {
     let tree = &u.robot;
     let q = [0.3, -0.4, 0.2, -1.9, 0.5, 1.4, -0.6, 0.02, 0.035];
     let tree_frames = fk::link_frames(tree, &q);
-    for link in 1..=tree.dof() {
+    for (link, tree_frame) in tree_frames.iter().enumerate().skip(1) {
         let (chain, joints) = tree.chain_to(link).expect("a link");
         let qc: Vec<f64> = joints.iter().map(|&j| q[j]).collect();
         assert_eq!(joints, tree.support(link));
         let frames = fk::link_frames(&chain, &qc);
-        let e = (frames[chain.dof()] - tree_frames[link]).abs().max();
+        let e = (frames[chain.dof()] - tree_frame).abs().max();
         assert!(e < 1e-15, "link {link}: tip frame {e:e}");
         let (_, jt) = link_jacobian(tree, &q, link, Frame::Base);
         let (_, jc) = link_jacobian(&chain, &qc, chain.dof(), Frame::Base);
