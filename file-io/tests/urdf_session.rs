@@ -316,7 +316,7 @@ fn a_trees_chain_to_a_tip_is_the_tree_along_that_path() {
     let tree = &u.robot;
     let q = [0.3, -0.4, 0.2, -1.9, 0.5, 1.4, -0.6, 0.02, 0.035];
     let tree_frames = fk::link_frames(tree, &q);
-    for (link, tree_frame) in tree_frames.iter().enumerate().skip(1) {
+    for (link, tree_frame) in tree_frames.iter().enumerate().take(tree.dof() + 1).skip(1) {
         let (chain, joints) = tree.chain_to(link).expect("a link");
         let qc: Vec<f64> = joints.iter().map(|&j| q[j]).collect();
         assert_eq!(joints, tree.support(link));
