@@ -321,11 +321,7 @@ impl Library {
             let toks = lexer::lex(id, text).map_err(|e| e.locate(&l.map))?;
             let mut ast = parser::parse(&toks).map_err(|e| e.locate(&l.map))?;
             let embedded = stdlib::FILES.iter().any(|(n, t)| n == name && t == text);
-            resolve_urdf(
-                &mut ast.decls,
-                embedded,
-                Path::new(name.as_str()).parent(),
-            );
+            resolve_urdf(&mut ast.decls, embedded, Path::new(name.as_str()).parent());
             l.decls.extend(ast.decls);
         }
         l.finish()
@@ -747,9 +743,8 @@ fn resolve_urdf(decls: &mut [Decl], embedded: bool, dir: Option<&Path>) {
             ))
         } else {
             let joined = dir.map_or_else(|| p.to_path_buf(), |d| d.join(p));
-            std::path::absolute(&joined).map_err(|e| {
-                format!("cannot make `{}` an absolute path: {e}", joined.display())
-            })
+            std::path::absolute(&joined)
+                .map_err(|e| format!("cannot make `{}` an absolute path: {e}", joined.display()))
         };
     }
 }

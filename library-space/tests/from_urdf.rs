@@ -60,7 +60,10 @@ fn the_panda_chain_with_a_tip_and_a_base_has_the_urdf_readers_kinematics() {
     assert_eq!(m.robot.name, "panda_arm");
     let links: Vec<String> = (1..=7).map(|k| format!("panda_link{k}")).collect();
     assert_eq!(m.link_names, links);
-    assert!(m.robot.joints.iter().all(|j| j.origin.is_some()), "general joints");
+    assert!(
+        m.robot.joints.iter().all(|j| j.origin.is_some()),
+        "general joints"
+    );
     let base = translate(0.1, 0.0, 0.5) * rot_z(std::f64::consts::FRAC_PI_2);
     assert!(max_diff(&m.robot.base, &(base * u.robot.base)) < 1e-15);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(14);
@@ -75,7 +78,10 @@ fn the_panda_chain_with_a_tip_and_a_base_has_the_urdf_readers_kinematics() {
         let got = forward(&m.robot, &q);
         assert!(max_diff(&got, &want) <= 1e-12, "q {q:?}: {got} vs {want}");
         // every link frame, not only the tool
-        for (a, b) in link_frames(&m.robot, &q).iter().zip(link_frames(&u.robot, &q)) {
+        for (a, b) in link_frames(&m.robot, &q)
+            .iter()
+            .zip(link_frames(&u.robot, &q))
+        {
             assert!(max_diff(a, &(base * b)) <= 1e-12);
         }
     }
@@ -93,7 +99,10 @@ fn the_panda_chain_with_a_tip_and_a_base_has_the_urdf_readers_kinematics() {
             assert_eq!(names, [format!("panda_link{j}/collision0")], "body {j}");
         } else {
             assert_eq!(names.len(), 10, "{names:?}");
-            assert!(names.contains(&"panda_link7/collision0") && names.contains(&"panda_hand/collision0"));
+            assert!(
+                names.contains(&"panda_link7/collision0")
+                    && names.contains(&"panda_hand/collision0")
+            );
             assert_eq!(names.iter().filter(|n| n.contains("finger")).count(), 8);
         }
         for p in f {
@@ -102,7 +111,7 @@ fn the_panda_chain_with_a_tip_and_a_base_has_the_urdf_readers_kinematics() {
             assert!(p.polyhedron.bbox.center.coords.norm() < 1e-9, "{}", p.name);
         }
     }
-    // The hull holds the mesh: every vertex of the STL is inside it (in the link frame).
+    // The hull holds the mesh: every vertex of the STL is on or inside it (in the link frame).
     let g = &u.geometry.links["panda_link4"];
     let robosim_urdf::urdf_geometry::Geometry::Mesh(mesh) = &g.collision[0].geometry else {
         panic!("link 4's collision is a mesh");
@@ -111,17 +120,20 @@ fn the_panda_chain_with_a_tip_and_a_base_has_the_urdf_readers_kinematics() {
     let hull = &m.frames[4][0];
     // the mesh's vertices are in its geometry frame; the hull's transform maps the hull's
     // own frame into the body's
-    let to_body = g.in_body * g.collision[0].origin;
-    let inv = hull.transform.try_inverse().expect("rigid");
-    for t in &tris {
-        for v in t {
-            let p = (inv * to_body).transform_point(&nalgebra::Point3::new(v[0], v[1], v[2]));
-            for k in 0..hull.polyhedron.polygons.len() {
-                let plane = &hull.polyhedron.polygons[k].plane;
-                assert!(plane.signed_distance(&p) <= 1e-9, "vertex {v:?} outside the hull");
-            }
+    let to_hull = hull.transform.try_inverse().expect("rigid") * g.in_body * g.collision[0].origin;
+    let mut worst = f64::NEG_INFINITY;
+    for v in tris.iter().flatten() {
+        let p = to_hull.transform_point(&nalgebra::Point3::new(v[0], v[1], v[2]));
+        for poly in &hull.polyhedron.polygons {
+            worst = worst.max(poly.plane.signed_distance(&p));
         }
     }
+    println!("worst vertex outside the hull of link 4: {worst:e} m");
+    assert!(
+        worst <= 1e-12,
+        "a mesh vertex is {worst} m outside the hull"
+    );
+    assert!(worst > -1e-9, "some mesh vertex lies on the hull");
 }
 
 #[test]
@@ -130,7 +142,10 @@ fn the_whole_panda_tree_has_nine_joints_and_the_panda_parents() {
     let rsl = write(
         tmp.path(),
         "tree.rsl",
-        &format!("robot panda_tree from_urdf \"{}\"\n", panda_urdf().display()),
+        &format!(
+            "robot panda_tree from_urdf \"{}\"\n",
+            panda_urdf().display()
+        ),
     );
     let lib = Library::load(&rsl).expect("loads");
     let m = robot(&lib, "panda_tree", &Params::new());
@@ -148,12 +163,19 @@ fn the_whole_panda_tree_has_nine_joints_and_the_panda_parents() {
             .iter()
             .map(|j| rng.random_range(j.qlim[0]..=j.qlim[1]))
             .collect();
-        for (a, b) in link_frames(&m.robot, &q).iter().zip(link_frames(&u.robot, &q)) {
+        for (a, b) in link_frames(&m.robot, &q)
+            .iter()
+            .zip(link_frames(&u.robot, &q))
+        {
             assert!(max_diff(a, &b) <= 1e-12);
         }
     }
     // the hand (fixed to link 7) and both fingers have collision solids
-    assert!(m.frames[7].iter().any(|p| p.name.starts_with("panda_hand/")));
+    assert!(
+        m.frames[7]
+            .iter()
+            .any(|p| p.name.starts_with("panda_hand/"))
+    );
     assert!(!m.frames[8].is_empty() && !m.frames[9].is_empty());
 }
 
@@ -198,7 +220,11 @@ fn a_relative_name_is_read_from_the_declaring_files_folder_with_its_shapes_and_c
     let lib = Library::load(&top).expect("loads");
     let m = robot(&lib, "small", &Params::new());
     assert_eq!(m.link_names, ["upper", "hand"]);
-    assert_eq!(m.robot.parents, Vec::<usize>::new(), "a chain: the tree has one branch");
+    assert_eq!(
+        m.robot.parents,
+        Vec::<usize>::new(),
+        "a chain: the tree has one branch"
+    );
     let prims: Vec<Vec<&Primitive>> = m
         .frames
         .iter()
@@ -221,7 +247,11 @@ fn a_relative_name_is_read_from_the_declaring_files_folder_with_its_shapes_and_c
             }],
         ]
     );
-    assert_eq!(m.frames[1][0].colour, Some([1.0, 0.5, 0.0]), "the visual's material");
+    assert_eq!(
+        m.frames[1][0].colour,
+        Some([1.0, 0.5, 0.0]),
+        "the visual's material"
+    );
     assert_eq!(m.frames[0][0].colour, None);
     assert!(max_diff(&m.frames[1][0].transform, &translate(0.0, 0.0, 0.25)) < 1e-15);
     // at q = (0.3, 0): the cylinder's centre is 0.25 m up the upper arm, turned about y
@@ -255,7 +285,13 @@ fn a_missing_file_names_the_rsl_place_and_the_urdf_problem() {
     assert!(e.location.file.ends_with("bad.rsl"));
     let text = e.to_string();
     let missing = tmp.path().join("nowhere/ghost.urdf");
-    assert!(text.contains(&format!("{}:0: file: cannot read the file", missing.display())), "{text}");
+    assert!(
+        text.contains(&format!(
+            "{}:0: file: cannot read the file",
+            missing.display()
+        )),
+        "{text}"
+    );
     assert!(text.contains("bad.rsl:2:23"), "{text}");
 }
 
@@ -270,8 +306,14 @@ fn a_tip_that_is_not_a_link_names_the_tip_and_the_urdf() {
     assert_eq!(e.kind, ErrorKind::Include);
     assert_eq!((e.location.line, e.location.column), (2, 10), "{e}");
     let text = e.to_string();
-    assert!(text.contains("tip \"elbow\" is not a <link> of this robot"), "{text}");
-    assert!(text.contains(&format!("{}:", tmp.path().join("small.urdf").display())), "{text}");
+    assert!(
+        text.contains("tip \"elbow\" is not a <link> of this robot"),
+        "{text}"
+    );
+    assert!(
+        text.contains(&format!("{}:", tmp.path().join("small.urdf").display())),
+        "{text}"
+    );
 }
 
 #[test]
@@ -299,7 +341,10 @@ fn from_urdf_is_only_for_robots_and_takes_only_robot_properties() {
     write(tmp.path(), "small.urdf", SMALL);
     let e = load_err("solid thing from_urdf \"small.urdf\" {}\n", tmp.path());
     assert_eq!(e.kind, ErrorKind::Syntax);
-    assert!(e.message.contains("a solid cannot be read `from_urdf`"), "{e}");
+    assert!(
+        e.message.contains("a solid cannot be read `from_urdf`"),
+        "{e}"
+    );
     let e = load_err(
         "robot small from_urdf \"small.urdf\" {\n    link extra { joint: revolute }\n}\n",
         tmp.path(),
@@ -320,7 +365,11 @@ fn a_library_rebuilt_from_its_sources_reads_relative_names_from_the_recorded_fol
     // the file's recorded name gives the folder.
     let tmp = tempfile::tempdir().expect("tmp");
     write(tmp.path(), "small.urdf", SMALL);
-    let rsl = write(tmp.path(), "small.rsl", "robot small from_urdf \"small.urdf\"\n");
+    let rsl = write(
+        tmp.path(),
+        "small.rsl",
+        "robot small from_urdf \"small.urdf\"\n",
+    );
     let lib = Library::load(&rsl).expect("loads");
     let again = Library::from_sources(&lib.sources()).expect("rebuilds");
     assert_eq!(

@@ -58,7 +58,10 @@ fn check(decl: &str, tip: Option<&str>, dof: usize) {
     assert_eq!(r.robot.parents, model.robot.parents);
     // every body with a collision mesh in the URDF became a collision solid
     assert_eq!(r.solids.links.len(), dof + 1);
-    assert!(r.solids.links.iter().all(Option::is_some), "every body has a solid");
+    assert!(
+        r.solids.links.iter().all(Option::is_some),
+        "every body has a solid"
+    );
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(29);
     for _ in 0..30 {
         let q: Vec<f64> = model

@@ -225,12 +225,7 @@ impl Reader<'_, '_> {
         self.doc.text_pos_at(node.range().start).row
     }
 
-    pub fn err(
-        &self,
-        node: roxmltree::Node,
-        element: &str,
-        kind: UrdfErrorKind,
-    ) -> UrdfError {
+    pub fn err(&self, node: roxmltree::Node, element: &str, kind: UrdfErrorKind) -> UrdfError {
         UrdfError {
             file: self.file.to_path_buf(),
             line: self.line(node),
@@ -473,10 +468,7 @@ impl Reader<'_, '_> {
     }
 }
 
-pub fn child<'a, 'i>(
-    node: roxmltree::Node<'a, 'i>,
-    tag: &str,
-) -> Option<roxmltree::Node<'a, 'i>> {
+pub fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
     node.children()
         .find(|c| c.is_element() && c.tag_name().name() == tag)
 }

@@ -10,7 +10,9 @@ use crate::ast::UrdfSource;
 use robosim_urdf::urdf_geometry::{Geometry, LinkGeometry, Shape, hull_points};
 use robosim_urdf::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
 
-const PROPS: &[&str] = &["tip", "base", "tool", "gravity", "colour", "surface", "facets"];
+const PROPS: &[&str] = &[
+    "tip", "base", "tool", "gravity", "colour", "surface", "facets",
+];
 
 impl Evaluator<'_> {
     pub(super) fn urdf_robot(
@@ -43,9 +45,14 @@ impl Evaluator<'_> {
                                 return Err(err(
                                     ErrorKind::Type,
                                     value.span,
-                                    format!("`tip` must name a URDF link, but this is {}", other.describe()),
+                                    format!(
+                                        "`tip` must name a URDF link, but this is {}",
+                                        other.describe()
+                                    ),
                                 )
-                                .expected("the tip link's name in quotes, e.g. tip: \"panda_link8\""));
+                                .expected(
+                                    "the tip link's name in quotes, e.g. tip: \"panda_link8\"",
+                                ));
                             }
                         },
                         "base" => base = Some(self.transform(value, scope)?),
@@ -175,7 +182,8 @@ impl Evaluator<'_> {
                 Primitive::Box {
                     size: [size.x, size.y, size.z],
                 },
-                shapes::cuboid(size.x, size.y, size.z).map_err(|e| shape_err(None, e.to_string()))?,
+                shapes::cuboid(size.x, size.y, size.z)
+                    .map_err(|e| shape_err(None, e.to_string()))?,
                 Matrix4::identity(),
             ),
             Geometry::Cylinder { radius, length } => {
@@ -203,17 +211,27 @@ impl Evaluator<'_> {
                 )
             }
             Geometry::Mesh(m) => {
-                let hull = robosim_collision::Solid::convex(&hull_points(&m.load()?))
-                    .map_err(|e| shape_err(Some(m), e.to_string()))?;
-                let Some(piece) = hull.pieces.first() else {
-                    return Err(shape_err(Some(m), "its convex hull has no polygons".into()));
-                };
+                // parry's hull as triangles (as `robosim import mesh --hull` makes it): every
+                // hull vertex on or behind every face, so the Instance Space's convexity test
+                // takes it for the convex solid it is
+                let pts = hull_points(&m.load()?);
+                if pts.len() < 4 {
+                    return Err(shape_err(
+                        Some(m),
+                        format!("{} distinct points span no volume", pts.len()),
+                    ));
+                }
+                let (verts, tris) =
+                    parry3d_f64::transformation::try_convex_hull(&pts).map_err(|e| {
+                        shape_err(Some(m), format!("its convex hull cannot be built: {e:?}"))
+                    })?;
+                let faces: Vec<Vec<u32>> = tris.iter().map(|t| t.to_vec()).collect();
+                let hull = Polyhedron::from_polygons(verts, &faces)
+                    .map_err(|e| shape_err(Some(m), format!("its convex hull: {e}")))?;
                 // centred on its bounding box, as every PlacedSolid's polyhedron is
-                let c = piece.poly.bbox.center.coords;
-                let poly = piece
-                    .poly
-                    .transformed(&Isometry3::translation(-c.x, -c.y, -c.z));
-                let h = piece.poly.bbox.half;
+                let c = hull.bbox.center.coords;
+                let poly = hull.transformed(&Isometry3::translation(-c.x, -c.y, -c.z));
+                let h = hull.bbox.half;
                 placed(
                     Primitive::Box {
                         size: [2.0 * h.x, 2.0 * h.y, 2.0 * h.z],
@@ -251,7 +269,12 @@ fn link_colour(g: &LinkGeometry) -> Option<Rgb> {
 
 /// A URDF problem as a library error: located at the `from_urdf` file name (at `tip:` when the
 /// tip is what is wrong), the URDF's own file:line: element: message inside.
-fn urdf_error(decl: &Decl, src: &UrdfSource, tip: Option<&(String, Span)>, e: &UrdfError) -> RawError {
+fn urdf_error(
+    decl: &Decl,
+    src: &UrdfSource,
+    tip: Option<&(String, Span)>,
+    e: &UrdfError,
+) -> RawError {
     let span = match (&e.kind, tip) {
         (UrdfErrorKind::TipNotALink(_), Some((_, s))) => *s,
         _ => src.span,
