@@ -5,10 +5,8 @@
 //! take for ASCII), a u32 triangle count, then per triangle a normal and three vertices (12 ×
 //! f32, little-endian) and a u16 attribute (0). Units: metres; STL itself has none.
 
-use crate::error::FileError;
 use crate::model::SavedModel;
 use crate::world::{apply, normal, triangles, world_poses};
-use std::path::Path;
 
 /// The binary STL of every body under (and including) the objects `roots` (all objects when
 /// `None`), in world coordinates. Returns the bytes and the triangle count; `None` when the
