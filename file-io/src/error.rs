@@ -105,6 +105,16 @@ pub enum FileError {
     Urdf(#[from] crate::urdf_import::UrdfError),
 }
 
+impl From<robosim_urdf::stl::MeshFileError> for FileError {
+    fn from(e: robosim_urdf::stl::MeshFileError) -> Self {
+        FileError::Mesh {
+            path: e.path,
+            line: e.line,
+            reason: e.reason,
+        }
+    }
+}
+
 pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> FileError + '_ {
     move |source| FileError::Io {
         path: path.to_owned(),

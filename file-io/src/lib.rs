@@ -19,13 +19,13 @@
 //!   checked against Pinocchio.
 //! * [`urdf_import`] — a URDF read as a chain; [`urdf_geometry`] its visual and collision
 //!   geometry (meshes loaded lazily, [`package`] resolves `package://` names, [`dae`] reads
-//!   Collada visual meshes) and the collision solids of its links.
+//!   Collada visual meshes) and the collision solids of its links — all re-exported from the
+//!   `robosim-urdf` crate (file-io/urdf/), which the Library Space uses for `from_urdf`.
 //! * [`cli`] — the command-line glue (clap argument structs and run functions).
 
 pub mod bench;
 pub mod bench_urdf;
 pub mod cli;
-pub mod dae;
 pub mod digest;
 mod error;
 pub mod format;
@@ -33,16 +33,16 @@ pub mod gltf;
 pub mod import;
 pub mod linkfile;
 pub mod model;
-pub mod obj;
-pub mod package;
 pub mod session;
 pub mod stl;
 pub mod trajectory;
 pub mod urdf;
-pub mod urdf_geometry;
-pub mod urdf_import;
 pub mod urdf_session;
 mod world;
+
+// The URDF reader and the mesh readers live in `robosim-urdf` (file-io/urdf/); re-exported under
+// their old paths. `stl` stays here: it adds the STL writer to the reader.
+pub use robosim_urdf::{dae, obj, package, urdf_geometry, urdf_import};
 
 pub use digest::{ModelDigest, digest};
 pub use error::{FileError, ModelProblem};

@@ -156,6 +156,19 @@ pub struct Decl {
     /// The `//` comment lines directly above the declaration.
     pub doc: Option<String>,
     pub span: Span,
+    /// `robot NAME from_urdf "FILE" { … }`: the URDF file the robot is read from.
+    pub urdf: Option<UrdfSource>,
+}
+
+/// The file of a `from_urdf` robot: as written, where, and the path it resolves to (relative
+/// names against the folder of the `.rsl` file that declares it; set by the loader, which
+/// knows that file). `Err`: why it cannot be resolved (a standard-library file is embedded
+/// and has no folder).
+#[derive(Debug, Clone, PartialEq)]
+pub struct UrdfSource {
+    pub path: String,
+    pub span: Span,
+    pub resolved: Result<std::path::PathBuf, String>,
 }
 
 /// One parsed file: its declarations and includes, in order.

@@ -137,16 +137,18 @@ impl Loader {
         text: String,
         dir: Option<PathBuf>,
     ) -> Result<(), LibError> {
+        let embedded = stdlib::FILES.iter().any(|(n, _)| *n == key);
         if !self.seen.insert(key) {
             return Ok(());
         }
         let id = self.map.add(display, text);
         let text = &self.map.files[id as usize].text;
         let toks = lexer::lex(id, text).map_err(|e| e.locate(&self.map))?;
-        let ast = parser::parse(&toks).map_err(|e| e.locate(&self.map))?;
+        let mut ast = parser::parse(&toks).map_err(|e| e.locate(&self.map))?;
         for (inc, span) in &ast.includes {
             self.include(inc, *span, dir.as_deref())?;
         }
+        resolve_urdf(&mut ast.decls, embedded, dir.as_deref());
         self.decls.extend(ast.decls);
         Ok(())
     }
@@ -317,7 +319,9 @@ impl Library {
             let id = l.map.add(name.clone(), text.clone());
             let text = &l.map.files[id as usize].text;
             let toks = lexer::lex(id, text).map_err(|e| e.locate(&l.map))?;
-            let ast = parser::parse(&toks).map_err(|e| e.locate(&l.map))?;
+            let mut ast = parser::parse(&toks).map_err(|e| e.locate(&l.map))?;
+            let embedded = stdlib::FILES.iter().any(|(n, t)| n == name && t == text);
+            resolve_urdf(&mut ast.decls, embedded, Path::new(name.as_str()).parent());
             l.decls.extend(ast.decls);
         }
         l.finish()
@@ -718,6 +722,30 @@ impl Library {
             r.map_err(|e| e.locate(&self.map))?;
         }
         Ok(())
+    }
+}
+
+/// Resolves the `from_urdf` file names of `decls` (declared in one file): absolute names as
+/// they are; relative ones against `dir`, the declaring file's folder (`None`: a text without
+/// a file, resolved against the current directory as its includes are), made absolute so the
+/// result does not depend on a later change of directory. A standard-library file is
+/// embedded and has no folder: its relative names are refused when the robot is evaluated.
+fn resolve_urdf(decls: &mut [Decl], embedded: bool, dir: Option<&Path>) {
+    for d in decls {
+        let Some(u) = &mut d.urdf else { continue };
+        let p = Path::new(&u.path);
+        u.resolved = if p.is_absolute() {
+            Ok(p.to_path_buf())
+        } else if embedded {
+            Err(format!(
+                "`{}` is relative, and the standard library's files are embedded in the program, with no folder to resolve it against",
+                u.path
+            ))
+        } else {
+            let joined = dir.map_or_else(|| p.to_path_buf(), |d| d.join(p));
+            std::path::absolute(&joined)
+                .map_err(|e| format!("cannot make `{}` an absolute path: {e}", joined.display()))
+        };
     }
 }
 

@@ -9,6 +9,7 @@
 //! file    := item*
 //! item    := 'include' STRING | 'let' NAME '=' expr | ('colour'|'color') NAME '=' expr
 //!          | ('surface'|'solid'|'link'|'robot'|'scene') NAME params? '{' stmt* '}'
+//!          | 'robot' NAME params? 'from_urdf' STRING ['{' stmt* '}']
 //! params  := '(' [NAME '=' expr {',' NAME '=' expr}] ')'
 //! stmt    := 'let' NAME '=' expr | NAME ':' expr | NAME '{' stmt* '}'
 //!          | 'part' [NAME '='] expr ['at' expr] [('colour'|'color') expr] ['surface' expr]
@@ -84,6 +85,7 @@ pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
                     body: vec![],
                     doc: tok.doc,
                     span,
+                    urdf: None,
                 });
             }
             "surface" | "solid" | "link" | "robot" | "scene" => {
@@ -96,11 +98,48 @@ pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
                 };
                 let (name, name_span) = p.name("a name for the declaration")?;
                 let params = if p.is_punct('(') { p.params()? } else { vec![] };
-                p.expect(
-                    '{',
-                    "`{` to open the declaration's body (or `(` for its parameters)",
-                )?;
-                let body = p.body()?;
+                let urdf = if p.is_word("from_urdf") {
+                    let w = p.next().clone();
+                    if kind != DeclKind::Robot {
+                        return Err(RawError::new(
+                            ErrorKind::Syntax,
+                            w.span,
+                            format!("a {} cannot be read `from_urdf`", kind.as_str()),
+                        )
+                        .expected("`robot NAME from_urdf \"FILE.urdf\" { … }`"));
+                    }
+                    let t = p.next().clone();
+                    match t.tok {
+                        Tok::Str(s) => Some(UrdfSource {
+                            resolved: Ok(std::path::PathBuf::from(&s)),
+                            path: s,
+                            span: t.span,
+                        }),
+                        ref other => {
+                            return Err(p.unexpected(
+                                &t,
+                                other,
+                                "the URDF file name in quotes after `from_urdf`",
+                            ));
+                        }
+                    }
+                } else {
+                    None
+                };
+                // a `from_urdf` robot's body is optional
+                let body = if urdf.is_some() && !p.is_punct('{') {
+                    vec![]
+                } else {
+                    p.expect(
+                        '{',
+                        if urdf.is_some() {
+                            "`{` to open the robot's properties (tip, base, …)"
+                        } else {
+                            "`{` to open the declaration's body (or `(` for its parameters, or `from_urdf \"FILE\"` for a robot)"
+                        },
+                    )?;
+                    p.body()?
+                };
                 let end = p.t[p.i - 1].span;
                 file.decls.push(Decl {
                     kind,
@@ -111,6 +150,7 @@ pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
                     body,
                     doc: tok.doc,
                     span: tok.span.to(end),
+                    urdf,
                 });
             }
             _ => return Err(p.unexpected(&tok, &tok.tok, DECL_WORDS)),

@@ -25,6 +25,7 @@ mod expr;
 mod robots;
 mod scenes;
 mod solids;
+mod urdf;
 
 pub(crate) use robots::single_link_robot;
 use solids::PartNames;

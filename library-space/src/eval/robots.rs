@@ -341,6 +341,9 @@ impl Evaluator<'_> {
     }
 
     pub(super) fn robot_body(&mut self, decl: &Decl, scope: &mut Scope) -> RResult<RobotModel> {
+        if let Some(src) = &decl.urdf {
+            return self.urdf_robot(decl, src, scope);
+        }
         let mut base_parts = Vec::new();
         let mut counter = PartNames::default();
         let mut seen = Seen::default();

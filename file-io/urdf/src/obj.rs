@@ -4,12 +4,11 @@
 //! (what exporters write); a concave face would be covered wrongly. Every other statement
 //! (`vt`, `vn`, `g`, `o`, `s`, `usemtl`, `mtllib`, `l`, comments) is ignored.
 
-use crate::error::FileError;
-use crate::stl::Triangles;
+use crate::stl::{MeshFileError, Triangles};
 use std::path::Path;
 
-pub fn read_obj(bytes: &[u8], path: &Path) -> Result<Triangles, FileError> {
-    let err = |line: usize, reason: String| FileError::Mesh {
+pub fn read_obj(bytes: &[u8], path: &Path) -> Result<Triangles, MeshFileError> {
+    let err = |line: usize, reason: String| MeshFileError {
         path: path.to_owned(),
         line,
         reason,

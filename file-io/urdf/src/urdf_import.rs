@@ -215,22 +215,17 @@ struct JointRec {
     mimic_of: Option<(String, f64, f64)>,
 }
 
-pub(crate) struct Reader<'a, 'input> {
-    pub(crate) file: &'a Path,
+pub struct Reader<'a, 'input> {
+    pub file: &'a Path,
     doc: &'a roxmltree::Document<'input>,
 }
 
 impl Reader<'_, '_> {
-    pub(crate) fn line(&self, node: roxmltree::Node) -> u32 {
+    pub fn line(&self, node: roxmltree::Node) -> u32 {
         self.doc.text_pos_at(node.range().start).row
     }
 
-    pub(crate) fn err(
-        &self,
-        node: roxmltree::Node,
-        element: &str,
-        kind: UrdfErrorKind,
-    ) -> UrdfError {
+    pub fn err(&self, node: roxmltree::Node, element: &str, kind: UrdfErrorKind) -> UrdfError {
         UrdfError {
             file: self.file.to_path_buf(),
             line: self.line(node),
@@ -239,7 +234,7 @@ impl Reader<'_, '_> {
         }
     }
 
-    pub(crate) fn attr<'n>(
+    pub fn attr<'n>(
         &self,
         node: roxmltree::Node<'n, '_>,
         element: &str,
@@ -250,7 +245,7 @@ impl Reader<'_, '_> {
     }
 
     /// A finite number attribute; `default` when absent (`None`: required).
-    pub(crate) fn number(
+    pub fn number(
         &self,
         node: roxmltree::Node,
         element: &str,
@@ -281,7 +276,7 @@ impl Reader<'_, '_> {
     }
 
     /// Three finite numbers separated by white space; `default` when the attribute is absent.
-    pub(crate) fn triple(
+    pub fn triple(
         &self,
         node: roxmltree::Node,
         element: &str,
@@ -317,7 +312,7 @@ impl Reader<'_, '_> {
     }
 
     /// `<origin xyz rpy>` under `parent` as a rigid transform (identity when absent).
-    pub(crate) fn origin(
+    pub fn origin(
         &self,
         parent: roxmltree::Node,
         element: &str,
@@ -473,10 +468,7 @@ impl Reader<'_, '_> {
     }
 }
 
-pub(crate) fn child<'a, 'i>(
-    node: roxmltree::Node<'a, 'i>,
-    tag: &str,
-) -> Option<roxmltree::Node<'a, 'i>> {
+pub fn child<'a, 'i>(node: roxmltree::Node<'a, 'i>, tag: &str) -> Option<roxmltree::Node<'a, 'i>> {
     node.children()
         .find(|c| c.is_element() && c.tag_name().name() == tag)
 }

@@ -147,7 +147,7 @@ pub struct LinkGeometry {
 }
 
 impl MeshRef {
-    pub(crate) fn err(&self, p: MeshProblem) -> UrdfError {
+    pub fn err(&self, p: MeshProblem) -> UrdfError {
         UrdfError {
             file: self.urdf.clone(),
             line: self.line,
@@ -223,7 +223,7 @@ impl MeshRef {
 
 /// Reads every link's `<visual>` and `<collision>` (placement not yet known: body 0, identity;
 /// [`place`] sets it). Called once by the importer.
-pub(crate) fn read_all(rd: &Reader, robot: roxmltree::Node) -> Result<UrdfGeometry, UrdfError> {
+pub fn read_all(rd: &Reader, robot: roxmltree::Node) -> Result<UrdfGeometry, UrdfError> {
     let mut named: HashMap<String, Material> = HashMap::new();
     for m in robot
         .children()
@@ -396,7 +396,7 @@ fn geometry(rd: &Reader, g: roxmltree::Node, el: &str) -> Result<Geometry, UrdfE
 
 /// One joint of the URDF tree for [`place`]: `body` is `Some(j)` for the chain's movable joint
 /// j (1-based body index), `None` for a joint rigid at q = 0 (fixed, or held off the chain).
-pub(crate) struct TreeJoint<'a> {
+pub struct TreeJoint<'a> {
     pub parent: &'a str,
     pub child: &'a str,
     pub placement: Matrix4<f64>,
@@ -404,7 +404,7 @@ pub(crate) struct TreeJoint<'a> {
 }
 
 /// Sets each link's body and `in_body` from the root outward.
-pub(crate) fn place(geometry: &mut UrdfGeometry, root: &str, joints: &[TreeJoint]) {
+pub fn place(geometry: &mut UrdfGeometry, root: &str, joints: &[TreeJoint]) {
     let mut stack = vec![(root.to_string(), 0usize, Matrix4::identity())];
     while let Some((link, body, in_body)) = stack.pop() {
         if let Some(g) = geometry.links.get_mut(&link) {

@@ -1,0 +1,25 @@
+//! URDF reading (issue #14), split out of the file interface (`robosim-file-io`) so that the
+//! Library Space can declare a robot `from_urdf "file"` without depending on file-io (which
+//! depends on the Library Space). Nothing here knows sessions, scenes or the library:
+//! plain files in, plain data (`robosim_kinematics::Robot`, collision solids) out.
+//!
+//! * [`urdf_import`] — a URDF read as a chain ([`urdf_import::import_urdf`]) or as the whole
+//!   tree ([`urdf_import::import_urdf_tree`]); every error names the file, line and element.
+//! * [`urdf_geometry`] — its visual and collision geometry (meshes loaded lazily,
+//!   [`urdf_geometry::MeshRef::load`]) and the collision solids of its bodies
+//!   ([`urdf_geometry::link_solids`]).
+//! * [`package`] — `package://` names resolved against `ROS_PACKAGE_PATH` and the URDF's
+//!   ancestors.
+//! * [`dae`] — Collada visual meshes; [`stl`], [`obj`] — the STL and OBJ mesh readers.
+//!
+//! `robosim-file-io` re-exports these modules under their old paths
+//! (`robosim_file_io::urdf_import`, …).
+
+pub mod dae;
+pub mod obj;
+pub mod package;
+pub mod stl;
+pub mod urdf_geometry;
+pub mod urdf_import;
+
+pub use urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot, import_urdf, import_urdf_tree};

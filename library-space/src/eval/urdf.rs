@@ -1,0 +1,288 @@
+//! `robot NAME from_urdf "FILE" { tip: …, base: … }`: a robot read from a URDF file with the
+//! `robosim-urdf` reader. The chain from the root link to `tip` (`import_urdf`), or without
+//! `tip` the whole tree (`import_urdf_tree`), in the one joint model (general joints: origin
+//! and axis); link names are the URDF child links of the movable joints; each body's solids
+//! are its links' `<collision>` shapes (box, cylinder and sphere through the geometry crate's
+//! generators, a mesh as its convex hull), coloured by the link's first `<visual>` colour.
+
+use super::*;
+use crate::ast::UrdfSource;
+use robosim_urdf::urdf_geometry::{Geometry, LinkGeometry, Shape, hull_points};
+use robosim_urdf::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
+
+const PROPS: &[&str] = &[
+    "tip", "base", "tool", "gravity", "colour", "surface", "facets",
+];
+
+impl Evaluator<'_> {
+    pub(super) fn urdf_robot(
+        &mut self,
+        decl: &Decl,
+        src: &UrdfSource,
+        scope: &mut Scope,
+    ) -> RResult<RobotModel> {
+        let mut seen = Seen::default();
+        let mut tip: Option<(String, Span)> = None;
+        let (mut base, mut tool, mut gravity) = (None, None, None);
+        let (mut colour, mut surface) = (None, None);
+        for st in &decl.body {
+            match st {
+                Stmt::Let {
+                    name,
+                    name_span,
+                    value,
+                } => self.let_(name, *name_span, value, scope)?,
+                Stmt::Prop {
+                    name,
+                    name_span,
+                    value,
+                } => {
+                    seen.check(name, *name_span)?;
+                    match name.as_str() {
+                        "tip" => match self.eval(value, scope)? {
+                            Value::Str(s) if !s.is_empty() => tip = Some((s, value.span)),
+                            other => {
+                                return Err(err(
+                                    ErrorKind::Type,
+                                    value.span,
+                                    format!(
+                                        "`tip` must name a URDF link, but this is {}",
+                                        other.describe()
+                                    ),
+                                )
+                                .expected(
+                                    "the tip link's name in quotes, e.g. tip: \"panda_link8\"",
+                                ));
+                            }
+                        },
+                        "base" => base = Some(self.transform(value, scope)?),
+                        "tool" => tool = Some(self.transform(value, scope)?),
+                        "gravity" => {
+                            let g =
+                                self.vector(value, scope, Dim::ACCEL, 3, "[gx, gy, gz] in m/s^2")?;
+                            gravity = Some(Vector3::new(g[0], g[1], g[2]));
+                        }
+                        "colour" | "color" => colour = Some(self.colour(value, scope)?),
+                        "surface" => surface = Some(self.surface_ref(value, scope)?),
+                        "facets" => {}
+                        _ => return Err(unknown_prop("from_urdf robot", name, *name_span, PROPS)),
+                    }
+                }
+                other => {
+                    return Err(misplaced(
+                        other,
+                        "a `from_urdf` robot (its links and solids come from the URDF file)",
+                        "`let` or a property (tip, base, tool, gravity, colour, surface, facets)",
+                    ));
+                }
+            }
+        }
+        let path = src.resolved.as_ref().map_err(|why| {
+            err(
+                ErrorKind::Include,
+                src.span,
+                format!("robot `{}`: cannot resolve the URDF file: {why}", decl.name),
+            )
+            .expected("an absolute path, or a robot declared in your own .rsl file (relative names are read from its folder)")
+        })?;
+        let imported = match &tip {
+            Some((t, _)) => robosim_urdf::import_urdf(path, Some(t)),
+            None => robosim_urdf::import_urdf_tree(path),
+        };
+        let u = imported.map_err(|e| urdf_error(decl, src, tip.as_ref(), &e))?;
+        let mut robot = u.robot.clone();
+        robot.name = decl.name.clone();
+        if let Some(b) = base {
+            robot.base = b * robot.base;
+        }
+        if let Some(t) = tool {
+            robot.tool *= t;
+        }
+        if let Some(g) = gravity {
+            robot.gravity = g;
+        }
+        let link_names: Vec<String> = u.joints.iter().map(|j| j.link.clone()).collect();
+        let mut frames: Vec<Vec<PlacedSolid>> = vec![Vec::new(); robot.dof() + 1];
+        for (link, g) in &u.geometry.links {
+            let shade = link_colour(g);
+            for (k, s) in g.collision.iter().enumerate() {
+                let mut p = self
+                    .urdf_solid(s, &u, link, k)
+                    .map_err(|e| urdf_error(decl, src, tip.as_ref(), &e))?;
+                p.transform = g.in_body * s.origin * p.transform;
+                p.colour = shade;
+                self.count_polygons(p.polyhedron.polygons.len(), src.span)?;
+                if let Some(f) = frames.get_mut(g.body) {
+                    f.push(p);
+                }
+            }
+        }
+        for f in &mut frames {
+            fill_appearance(f, colour, surface.as_ref());
+        }
+        robot.validate().map_err(|e| {
+            err(
+                ErrorKind::OutOfRange,
+                decl.name_span,
+                format!("robot `{}`: {e}", decl.name),
+            )
+        })?;
+        let ik = if robot.parents.is_empty() {
+            match robosim_kinematics::ik::family::recognise(&robot) {
+                robosim_kinematics::ik::family::Family::General(_) => None,
+                f => Some(f.name().to_string()),
+            }
+        } else {
+            None
+        };
+        Ok(RobotModel {
+            robot,
+            link_names,
+            frames,
+            ik,
+        })
+    }
+
+    /// One `<collision>` shape as a placed solid in the shape's own frame (`transform`: the
+    /// polyhedron's frame, centred on its bounding box, in the geometry frame).
+    fn urdf_solid(
+        &self,
+        s: &Shape,
+        u: &UrdfRobot,
+        link: &str,
+        k: usize,
+    ) -> Result<PlacedSolid, UrdfError> {
+        let g = &s.geometry;
+        let name = format!("{link}/collision{k}");
+        let facets = |r: f64| {
+            self.opts
+                .facets
+                .or(self.facets.last().copied().flatten())
+                .unwrap_or_else(|| shapes::default_facets(r, shapes::DEFAULT_CHORD_TOL))
+        };
+        let placed = |primitive, polyhedron, transform| PlacedSolid {
+            name: name.clone(),
+            primitive,
+            polyhedron,
+            transform,
+            colour: None,
+            surface: None,
+        };
+        let shape_err = |m: Option<&robosim_urdf::urdf_geometry::MeshRef>, e: String| match m {
+            Some(m) => m.err(robosim_urdf::urdf_geometry::MeshProblem::Shape(e)),
+            None => UrdfError {
+                file: u.geometry.file.clone(),
+                line: s.line,
+                element: format!("<link name={link:?}>/<collision>"),
+                kind: UrdfErrorKind::Mesh(robosim_urdf::urdf_geometry::MeshProblem::Shape(e)),
+            },
+        };
+        Ok(match g {
+            Geometry::Box { size } => placed(
+                Primitive::Box {
+                    size: [size.x, size.y, size.z],
+                },
+                shapes::cuboid(size.x, size.y, size.z)
+                    .map_err(|e| shape_err(None, e.to_string()))?,
+                Matrix4::identity(),
+            ),
+            Geometry::Cylinder { radius, length } => {
+                let n = facets(*radius);
+                placed(
+                    Primitive::Cylinder {
+                        radius: *radius,
+                        height: *length,
+                        facets: n,
+                    },
+                    shapes::cylinder(*radius, *length, Some(n))
+                        .map_err(|e| shape_err(None, e.to_string()))?,
+                    Matrix4::identity(),
+                )
+            }
+            Geometry::Sphere { radius } => {
+                let n = facets(*radius).max(4);
+                placed(
+                    Primitive::Sphere {
+                        radius: *radius,
+                        facets: n,
+                    },
+                    shapes::sphere(*radius, Some(n)).map_err(|e| shape_err(None, e.to_string()))?,
+                    Matrix4::identity(),
+                )
+            }
+            Geometry::Mesh(m) => {
+                // parry's hull as triangles (as `robosim import mesh --hull` makes it): every
+                // hull vertex on or behind every face, so the Instance Space's convexity test
+                // takes it for the convex solid it is
+                let pts = hull_points(&m.load()?);
+                if pts.len() < 4 {
+                    return Err(shape_err(
+                        Some(m),
+                        format!("{} distinct points span no volume", pts.len()),
+                    ));
+                }
+                let (verts, tris) =
+                    parry3d_f64::transformation::try_convex_hull(&pts).map_err(|e| {
+                        shape_err(Some(m), format!("its convex hull cannot be built: {e:?}"))
+                    })?;
+                let faces: Vec<Vec<u32>> = tris.iter().map(|t| t.to_vec()).collect();
+                let hull = Polyhedron::from_polygons(verts, &faces)
+                    .map_err(|e| shape_err(Some(m), format!("its convex hull: {e}")))?;
+                // centred on its bounding box, as every PlacedSolid's polyhedron is
+                let c = hull.bbox.center.coords;
+                let poly = hull.transformed(&Isometry3::translation(-c.x, -c.y, -c.z));
+                let h = hull.bbox.half;
+                placed(
+                    Primitive::Box {
+                        size: [2.0 * h.x, 2.0 * h.y, 2.0 * h.z],
+                    },
+                    poly,
+                    Matrix4::new_translation(&c),
+                )
+            }
+        })
+    }
+
+    /// Adds `n` polygons to this evaluation's count, refused past the budget.
+    fn count_polygons(&mut self, n: usize, span: Span) -> RResult<()> {
+        self.polygons += n;
+        let budget = self.opts.max_polygons.unwrap_or(POLYGON_BUDGET);
+        if self.polygons > budget {
+            return Err(err(
+                ErrorKind::OutOfRange,
+                span,
+                format!("the model has more than {budget} polygons"),
+            )
+            .expected("fewer facets (`facets:`) or coarser meshes"));
+        }
+        Ok(())
+    }
+}
+
+/// The link's colour: its first `<visual>` with an RGBA material (alpha dropped).
+fn link_colour(g: &LinkGeometry) -> Option<Rgb> {
+    g.visual
+        .iter()
+        .find_map(|v| v.material.as_ref().and_then(|m| m.rgba))
+        .map(|c| [c[0], c[1], c[2]])
+}
+
+/// A URDF problem as a library error: located at the `from_urdf` file name (at `tip:` when the
+/// tip is what is wrong), the URDF's own file:line: element: message inside.
+fn urdf_error(
+    decl: &Decl,
+    src: &UrdfSource,
+    tip: Option<&(String, Span)>,
+    e: &UrdfError,
+) -> RawError {
+    let span = match (&e.kind, tip) {
+        (UrdfErrorKind::TipNotALink(_), Some((_, s))) => *s,
+        _ => src.span,
+    };
+    err(
+        ErrorKind::Include,
+        span,
+        format!("robot `{}`: cannot import URDF `{}`: {e}", decl.name, src.path),
+    )
+    .expected("a readable URDF file (relative names from the folder of this .rsl file) and, for `tip:`, one of its links")
+}
