@@ -443,8 +443,22 @@ pub fn link_solids(robot: &UrdfRobot) -> Result<LinkSolids, UrdfError> {
                 Geometry::Sphere { radius } => {
                     Solid::sphere(*radius, None).map_err(at_collision)?
                 }
-                Geometry::Mesh(m) => Solid::convex(&hull_points(&m.load()?))
-                    .map_err(|e| m.err(MeshProblem::Shape(e.to_string())))?,
+                Geometry::Mesh(m) => {
+                    // As `robosim import urdf` does: the hull, or convex parts when the hull is
+                    // far from a closed mesh (robosim_collision::decompose).
+                    let shape =
+                        |e: robosim_collision::ShapeError| m.err(MeshProblem::Shape(e.to_string()));
+                    let d = robosim_collision::decompose::convex_parts(
+                        &m.load()?,
+                        robosim_collision::decompose::DEFAULT_EXCESS,
+                    )
+                    .map_err(shape)?;
+                    let at = isometry_from_matrix(&(g.in_body * s.origin));
+                    for p in &d.parts {
+                        parts[g.body].push((at, Solid::convex(p).map_err(shape)?));
+                    }
+                    continue;
+                }
             };
             let at = isometry_from_matrix(&(g.in_body * s.origin));
             parts[g.body].push((at, solid));
