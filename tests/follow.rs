@@ -148,16 +148,23 @@ fn a_paused_daemon_says_its_contact_is_from_an_older_version() {
     let log = p.home.path().join("daemon.log");
     let daemon = p.spawn_logged(&["simulator", "--mode", "lockstep"], &log);
     let mut ops = Ops::attach(&session).expect("attach the session ops");
-    let mut get = || -> serde_json::Value {
+    // `None` until the daemon answers (it makes its command service after it starts).
+    let mut get = || -> Option<serde_json::Value> {
         ops.dispatch("sim_state", &json!({}))
             .expect("a session op")
-            .expect("sim_state")
+            .ok()
     };
-    // Step once so that there is a step to speak of.
+    // Step once so that there is a step to speak of (simctl fails until the daemon is there).
     let first = wait_for("the daemon's first step", || {
-        simctl(&p, r#"{"cmd": "step", "n": 1}"#);
-        let g = get();
-        (g["stepped_version"].as_u64() > Some(0)).then_some(g)
+        let stepped = Command::new(ROBOSIM)
+            .args(["simctl", "--session", &p.name, r#"{"cmd": "step", "n": 1}"#])
+            .env("ROBOSIM_HOME", p.home.path())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .expect("simctl")
+            .success();
+        let g = get()?;
+        (stepped && g["stepped_version"].as_u64() > Some(0)).then_some(g)
     });
     assert_eq!(first["stepped_version"], first["version"], "{first}");
     // A commit while it is idle (lock-step, nothing queued): followed, not stepped with.
@@ -174,7 +181,7 @@ fn a_paused_daemon_says_its_contact_is_from_an_older_version() {
     tx.set_joint(view_q[0].0, view_q[0].1 + 0.01);
     let v = c.transact(&tx).expect("commit").version;
     let followed = wait_for("the daemon following the commit", || {
-        let g = get();
+        let g = get()?;
         (g["version"].as_u64() >= Some(v)).then_some(g)
     });
     assert_eq!(followed["state"], "paused", "{followed}");
@@ -185,7 +192,7 @@ fn a_paused_daemon_says_its_contact_is_from_an_older_version() {
     // One step later it is.
     simctl(&p, r#"{"cmd": "step", "n": 1}"#);
     let stepped = wait_for("the step", || {
-        let g = get();
+        let g = get()?;
         (g["stepped_version"].as_u64() >= Some(v)).then_some(g)
     });
     assert_eq!(stepped["stepped_version"], stepped["version"], "{stepped}");
