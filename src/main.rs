@@ -214,6 +214,9 @@ enum Command {
         cmd: robosim_file_io::cli::ImportCmd,
     },
     /// Benchmarks: figures as ratios against a baseline measured in the same run.
+    /// Carry this session's space to other machines over Zenoh (--listen, beside the keeper),
+    /// or keep this session a replica of one (--connect): docs/bridge.md.
+    Bridge(robosim_bridge::BridgeArgs),
     Bench {
         #[command(subcommand)]
         which: bench::Which,
@@ -468,6 +471,9 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         Command::Study { cmd } => robosim_studies::cli::run(&cmd, &mut std::io::stdout().lock())
             .map_err(|e| CliError(e.0)),
         Command::Bench { which } => bench::run(which, session),
+        Command::Bridge(args) => {
+            robosim_bridge::run(session, &args).map_err(|e| CliError(e.to_string()))
+        }
         Command::Lib { cmd } => match session {
             None => robosim_hl_interface::cli::lib::run(cmd).map_err(CliError),
             Some(_) => session_library(session)

@@ -278,7 +278,7 @@ pub(crate) fn blame(
         | T::HasChildren { op, .. }
         | T::TooLarge { op, .. }
         | T::NotRigid { op, .. } => Some(*op),
-        T::Malformed { .. } | T::Empty => None,
+        T::Malformed { .. } | T::Empty | T::Forward { .. } => None,
     };
     match op
         .and_then(|op| plan.op_object.get(op).copied().flatten())

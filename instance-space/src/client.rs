@@ -6,6 +6,7 @@
 //! arrived together.
 
 use crate::keeper::{MAX_IN_FLIGHT, MORE_MAGIC, answer, events};
+use crate::replica::{LOG_MAGIC, LogAnswer, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
 use crate::session::{Session, SessionError};
 use crate::store::{Applied, TxError};
@@ -248,12 +249,40 @@ impl Client {
     /// within [`LIVENESS_PERIOD`], and every later request of this client fails the same way
     /// at once.
     pub fn wait(&mut self, p: Pending) -> Result<Result<Committed, TxError>, ClientError> {
+        let bytes = self.wait_answer(p)?;
+        decode_answer(&bytes)
+    }
+
+    /// The whole model and library of the keeper at its current version (for a bridge that
+    /// keeps a replica: [`crate::replica`]).
+    pub fn snapshot(&mut self) -> Result<SpaceSnapshot, ClientError> {
+        let p = self.submit_raw(&SNAPSHOT_MAGIC)?;
+        let bytes = self.wait_answer(p)?;
+        decode(&bytes, "decode snapshot")
+    }
+
+    /// The transactions the keeper committed after `version`, and its library when its
+    /// generation is not `library_gen` ([`crate::replica`]).
+    pub fn log_since(&mut self, version: u64, library_gen: u64) -> Result<LogAnswer, ClientError> {
+        let mut req = LOG_MAGIC.to_vec();
+        req.extend_from_slice(&version.to_le_bytes());
+        req.extend_from_slice(&library_gen.to_le_bytes());
+        let p = self.submit_raw(&req)?;
+        let bytes = self.wait_answer(p)?;
+        decode(&bytes, "decode log answer")
+    }
+
+    /// The whole encoded answer to `p`, its parts fetched and joined.
+    fn wait_answer(&mut self, p: Pending) -> Result<Vec<u8>, ClientError> {
         let mut p = p;
         let mut whole: Vec<u8> = Vec::new();
         loop {
-            let resp = self.wait_response(&p)?;
+            let mut resp = self.wait_response(&p)?;
             match resp.first() {
-                Some(&answer::WHOLE) => return decode_answer(&resp[1..]),
+                Some(&answer::WHOLE) => {
+                    resp.remove(0);
+                    return Ok(resp);
+                }
                 Some(&answer::PART) if resp.len() >= answer::PART_HEADER => {
                     let word = |at: usize| {
                         resp.get(at..at + 8)
@@ -263,7 +292,7 @@ impl Client {
                     let (token, total) = (word(1), word(9) as usize);
                     whole.extend_from_slice(&resp[answer::PART_HEADER..]);
                     if whole.len() >= total {
-                        return decode_answer(&whole);
+                        return Ok(whole);
                     }
                     let mut more = MORE_MAGIC.to_vec();
                     more.extend_from_slice(&token.to_le_bytes());
@@ -326,13 +355,14 @@ impl Client {
 
 /// The keeper's verdict from its encoded answer.
 fn decode_answer(bytes: &[u8]) -> Result<Result<Committed, TxError>, ClientError> {
-    bincode::serde::decode_from_slice::<Result<Committed, TxError>, _>(
-        bytes,
-        bincode::config::standard(),
-    )
-    .map(|(r, _)| r)
-    .map_err(|e| ClientError::Ipc {
-        what: "decode response".into(),
-        message: e.to_string(),
-    })
+    decode(bytes, "decode response")
+}
+
+fn decode<T: serde::de::DeserializeOwned>(bytes: &[u8], what: &str) -> Result<T, ClientError> {
+    bincode::serde::decode_from_slice::<T, _>(bytes, bincode::config::standard())
+        .map(|(r, _)| r)
+        .map_err(|e| ClientError::Ipc {
+            what: what.into(),
+            message: e.to_string(),
+        })
 }

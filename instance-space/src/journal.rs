@@ -285,7 +285,10 @@ struct CheckpointData {
     objects: Vec<ObjectData>,
 }
 
-fn write_checkpoint(dir: &Path, model: &Store) -> Result<(), JournalError> {
+/// The whole model as checkpoint bytes: magic, crc32 of the body, the body (bincode). The same
+/// bytes are a checkpoint file's and what a network bridge sends a late joiner
+/// ([`decode_store`] reads both).
+pub fn encode_store(model: &Store) -> Vec<u8> {
     let data = CheckpointData {
         version: model.version,
         next_id: model.next_id(),
@@ -310,18 +313,23 @@ fn write_checkpoint(dir: &Path, model: &Store) -> Result<(), JournalError> {
     let mut body =
         bincode::serde::encode_to_vec(&data, bincode::config::standard()).unwrap_or_default();
     // The session's selection follows the objects (a checkpoint written before selections
-    // existed simply ends after them: see `read_checkpoint`).
+    // existed simply ends after them: see `decode_store`).
     body.extend(
         bincode::serde::encode_to_vec(model.selection(), bincode::config::standard())
             .unwrap_or_default(),
     );
+    let mut out = Vec::with_capacity(12 + body.len());
+    out.extend_from_slice(CHECKPOINT_MAGIC);
+    out.extend_from_slice(&crc32fast::hash(&body).to_le_bytes());
+    out.extend_from_slice(&body);
+    out
+}
+
+fn write_checkpoint(dir: &Path, model: &Store) -> Result<(), JournalError> {
     let path = dir.join(checkpoint_name(model.version));
     let tmp = path.with_extension("tmp");
     let mut f = create_private(&tmp)?;
-    f.write_all(CHECKPOINT_MAGIC).map_err(io_err(&tmp))?;
-    f.write_all(&crc32fast::hash(&body).to_le_bytes())
-        .map_err(io_err(&tmp))?;
-    f.write_all(&body).map_err(io_err(&tmp))?;
+    f.write_all(&encode_store(model)).map_err(io_err(&tmp))?;
     f.sync_all().map_err(io_err(&tmp))?;
     fs::rename(&tmp, &path).map_err(io_err(&path))?;
     sync_dir(dir)
@@ -329,15 +337,33 @@ fn write_checkpoint(dir: &Path, model: &Store) -> Result<(), JournalError> {
 
 fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
     let bytes = fs::read(path).map_err(io_err(path))?;
-    let bad = |reason: &str| JournalError::Checkpoint {
-        path: path.to_owned(),
-        reason: reason.to_owned(),
-    };
-    if bytes.len() < 12 || &bytes[..8] != CHECKPOINT_MAGIC {
-        return Err(JournalError::Magic {
+    decode_store(&bytes).map_err(|e| match e {
+        StoreDecodeError::Magic => JournalError::Magic {
             path: path.to_owned(),
             what: "checkpoint",
-        });
+        },
+        StoreDecodeError::Corrupt(reason) => JournalError::Checkpoint {
+            path: path.to_owned(),
+            reason,
+        },
+    })
+}
+
+/// Why [`decode_store`] refused its bytes.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StoreDecodeError {
+    #[error("not a robosim model encoding (bad magic)")]
+    Magic,
+    #[error("model encoding is corrupt: {0}")]
+    Corrupt(String),
+}
+
+/// Reads [`encode_store`]'s bytes back into a model: checksum, bounded decode, every geometry
+/// re-validated, as recovery does.
+pub fn decode_store(bytes: &[u8]) -> Result<Store, StoreDecodeError> {
+    let bad = |reason: &str| StoreDecodeError::Corrupt(reason.to_owned());
+    if bytes.len() < 12 || &bytes[..8] != CHECKPOINT_MAGIC {
+        return Err(StoreDecodeError::Magic);
     }
     let crc = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
     if crc32fast::hash(&bytes[12..]) != crc {
@@ -390,6 +416,22 @@ fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
         objects,
         selection,
     ))
+}
+
+/// Replaces everything in the data directory `dir` by `model`: every journal and checkpoint
+/// there is removed, a checkpoint of `model` written and a new journal opened after it. For a
+/// mirror that takes its model from elsewhere (a bridge's snapshot), not for recovery.
+pub fn reset(dir: &Path, model: &Store, copies: u8) -> Result<Journal, JournalError> {
+    for e in fs::read_dir(dir).map_err(io_err(dir))?.flatten() {
+        let name = e.file_name().to_string_lossy().into_owned();
+        if (name.starts_with("journal-") && (name.ends_with(".log") || name.ends_with(".mirror")))
+            || (name.starts_with("checkpoint-") && name.ends_with(".bin"))
+        {
+            fs::remove_file(e.path()).map_err(io_err(&e.path()))?;
+        }
+    }
+    write_checkpoint(dir, model)?;
+    Journal::create_copies(dir, model.version + 1, copies)
 }
 
 /// The file in a session's `run/` directory where the keeper leaves [`RecoveryReport::lost_message`]

@@ -17,6 +17,7 @@
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
 use crate::layout::{ChangeRec, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader, SegmentWriter};
+use crate::replica::{LOG_MAGIC, Log, LogAnswer, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
 use crate::session::{Registration, Session, SessionError};
 use crate::store::{Applied, Id, Store, TxError, aspect};
@@ -53,6 +54,9 @@ pub enum KeeperError {
     AlreadyRunning { session: String, pid: u32 },
     #[error("iceoryx2 {what}: {message}")]
     Ipc { what: String, message: String },
+    /// A replica was handed a transaction that does not follow its model.
+    #[error("replica out of step: {0}")]
+    OutOfStep(String),
 }
 
 fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> KeeperError {
@@ -98,6 +102,11 @@ pub struct KeeperOptions {
     /// when it leaves (a quarter-second stall per departure); only the detach benchmark turns
     /// it off, to measure the difference.
     pub static_responses: bool,
+    /// A replica's keeper (`robosim bridge --connect`): its model comes from another keeper
+    /// through [`Keeper::apply_upstream`]; its writers' transactions are not applied here but
+    /// handed out by [`Keeper::take_forwarded`] and answered by [`Keeper::answer_forwarded`]
+    /// once the other keeper has committed (or refused) them.
+    pub replica: bool,
 }
 
 /// The environment variable that sets the spin window, in µs, of a keeper
@@ -160,6 +169,7 @@ impl Default for KeeperOptions {
             durable: true,
             spin: Duration::ZERO,
             static_responses: true,
+            replica: false,
         }
     }
 }
@@ -201,6 +211,15 @@ pub struct Keeper {
     /// Large answers being fetched in parts: token → (encoded answer, next offset).
     large: std::collections::BTreeMap<u64, (Vec<u8>, usize)>,
     next_token: u64,
+    /// The last committed transactions, for replicas catching up ([`crate::replica`]).
+    log: Log,
+    /// The Library Space as last published, and how many times it was published.
+    library_files: Vec<(String, String)>,
+    library_gen: u64,
+    /// Replica: writers' transactions held until the other keeper answers (ticket → request),
+    /// and the ones not yet handed to the bridge.
+    held: HashMap<u64, ActiveRequest>,
+    to_forward: Vec<(u64, Vec<u8>)>,
     _registration: Registration,
     _services: Vec<Box<dyn std::any::Any>>,
 }
@@ -209,6 +228,18 @@ pub struct Keeper {
 enum Reply {
     Tx(Result<Applied, TxError>),
     More(u64),
+    /// Already encoded (a snapshot or a log answer).
+    Bytes(Vec<u8>),
+}
+
+type ActiveRequest = iceoryx2::active_request::ActiveRequest<ipc::Service, [u8], (), [u8], ()>;
+
+/// Where a starting keeper's model comes from.
+enum Source {
+    /// The session's journal and checkpoints.
+    Recover,
+    /// Given (a replica's snapshot); the data directory is reset to it.
+    Given(Box<Store>),
 }
 
 /// What one group did (for benchmarks and logs).
@@ -258,6 +289,25 @@ impl Keeper {
         session: &Session,
         opts: KeeperOptions,
     ) -> Result<(Keeper, RecoveryReport), KeeperError> {
+        Keeper::start_from(session, opts, Source::Recover)
+    }
+
+    /// Starts a keeper whose model is `model` (a replica's snapshot): the session's data
+    /// directory is reset to it (older journals and checkpoints removed), then everything is
+    /// as [`Keeper::start`].
+    pub fn start_with(
+        session: &Session,
+        opts: KeeperOptions,
+        model: Store,
+    ) -> Result<Keeper, KeeperError> {
+        Keeper::start_from(session, opts, Source::Given(Box::new(model))).map(|(k, _)| k)
+    }
+
+    fn start_from(
+        session: &Session,
+        opts: KeeperOptions,
+        source: Source,
+    ) -> Result<(Keeper, RecoveryReport), KeeperError> {
         if let Some(p) = session
             .processes()
             .into_iter()
@@ -274,8 +324,13 @@ impl Keeper {
         // readers that outlived the old keeper keep them alive, and their ports connect to the
         // new keeper's publishers without re-attaching.
         let _ = node.blocking_cleanup_dead_nodes(Duration::from_secs(2));
-        let (model, journal, report) =
-            journal::recover_copies(&session.data_dir(), opts.journal_copies)?;
+        let (model, journal, report) = match source {
+            Source::Recover => journal::recover_copies(&session.data_dir(), opts.journal_copies)?,
+            Source::Given(model) => {
+                let j = journal::reset(&session.data_dir(), &model, opts.journal_copies)?;
+                (*model, j, RecoveryReport::default())
+            }
+        };
         let epoch = std::time::SystemTime::now()
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(1, |d| d.as_nanos() as u64);
@@ -457,6 +512,11 @@ impl Keeper {
             last_served: None,
             large: std::collections::BTreeMap::new(),
             next_token: 1,
+            log: Log::default(),
+            library_files: Vec::new(),
+            library_gen: 0,
+            held: HashMap::new(),
+            to_forward: Vec::new(),
             _registration: registration,
             _services: vec![
                 Box::new(rr),
@@ -500,6 +560,7 @@ impl Keeper {
                 .map_err(|e| TxError::Malformed {
                     message: format!("journal: {e}"),
                 })?;
+            self.log.push(applied.version, &bytes);
             self.finish_group(std::slice::from_ref(applied))
                 .map_err(|e| TxError::Malformed {
                     message: e.to_string(),
@@ -534,6 +595,8 @@ impl Keeper {
             self.library = Some(p);
             self._services.push(Box::new(svc));
         }
+        self.library_files = files.to_vec();
+        self.library_gen += 1;
         let words = crate::layout::encode_files(files);
         if let Some(p) = &self.library {
             let mut sample = p.loan_slice(words.len()).map_err(ipc("loan library"))?;
@@ -541,6 +604,17 @@ impl Keeper {
             sample.send().map_err(ipc("send library"))?;
         }
         Ok(())
+    }
+
+    /// Has the process been asked to stop (SIGINT/SIGTERM)? For loops that drive the keeper
+    /// with [`Keeper::step`] themselves; then call [`Keeper::checkpoint`].
+    pub fn interrupted(&self) -> bool {
+        self.node.wait(Duration::ZERO).is_err()
+    }
+
+    /// Writes a checkpoint of the model now (what [`Keeper::run`] does when it stops).
+    pub fn checkpoint(&mut self) -> Result<(), KeeperError> {
+        Ok(self.journal.checkpoint(&self.model)?)
     }
 
     /// Runs until SIGINT/SIGTERM, then writes a checkpoint and returns.
@@ -599,10 +673,29 @@ impl Keeper {
                 pending.push((req, Reply::More(u64::from_le_bytes(token))));
                 continue;
             }
-            let result = Transaction::decode(payload).and_then(|tx| self.model.apply(&tx));
+            if payload == &SNAPSHOT_MAGIC[..] {
+                pending.push((req, Reply::Bytes(self.snapshot_answer())));
+                continue;
+            }
+            if let Some(rest) = payload.strip_prefix(&LOG_MAGIC[..]) {
+                let answer = self.log_answer(rest);
+                pending.push((req, Reply::Bytes(answer)));
+                continue;
+            }
+            let tx = Transaction::decode(payload);
+            if self.opts.replica && tx.is_ok() {
+                // Not ours to apply: the bridge forwards it to the keeper that owns the model.
+                let ticket = self.next_token;
+                self.next_token += 1;
+                self.to_forward.push((ticket, payload.to_vec()));
+                self.held.insert(ticket, req);
+                continue;
+            }
+            let result = tx.and_then(|tx| self.model.apply(&tx));
             match &result {
                 Ok(a) => {
                     self.journal.append(a.version, payload)?;
+                    self.log.push(a.version, payload);
                     applied.push(a.clone());
                     stats.committed += 1;
                 }
@@ -611,6 +704,10 @@ impl Keeper {
             pending.push((req, Reply::Tx(result)));
         }
         if pending.is_empty() {
+            if !self.to_forward.is_empty() {
+                self.last_served = Some(Instant::now());
+                return Ok(stats);
+            }
             if self
                 .last_served
                 .is_some_and(|at| at.elapsed() >= self.opts.spin)
@@ -628,6 +725,7 @@ impl Keeper {
                     self.first_part(bytes)
                 }
                 Reply::More(token) => self.next_part(token),
+                Reply::Bytes(bytes) => self.first_part(bytes),
             };
             match req.loan_slice_uninit(bytes.len()) {
                 Ok(r) => {
@@ -642,6 +740,143 @@ impl Keeper {
             self.last_served = Some(Instant::now());
         }
         Ok(stats)
+    }
+
+    /// The answer to a snapshot request: the whole model and library, encoded.
+    fn snapshot_answer(&self) -> Vec<u8> {
+        let snap = SpaceSnapshot {
+            model: journal::encode_store(&self.model),
+            library: self.library_files.clone(),
+            library_gen: self.library_gen,
+        };
+        bincode::serde::encode_to_vec(&snap, bincode::config::standard()).unwrap_or_default()
+    }
+
+    /// The answer to a log request (`rest`: the asker's version and library generation).
+    fn log_answer(&self, rest: &[u8]) -> Vec<u8> {
+        let word = |at: usize| {
+            rest.get(at..at + 8)
+                .and_then(|b| <[u8; 8]>::try_from(b).ok())
+                .map(u64::from_le_bytes)
+        };
+        let version = self.model.version;
+        let answer = match (word(0), word(8)) {
+            (Some(since), Some(lib_gen)) => match self.log.after(since, version) {
+                Ok(entries) => LogAnswer::Entries {
+                    version,
+                    entries,
+                    library: (lib_gen != self.library_gen)
+                        .then(|| (self.library_gen, self.library_files.clone())),
+                },
+                Err(gone) => gone,
+            },
+            // A request cut short cannot be answered with entries; a snapshot mends it.
+            _ => LogAnswer::Gone { oldest: 0, version },
+        };
+        bincode::serde::encode_to_vec(&answer, bincode::config::standard()).unwrap_or_default()
+    }
+
+    /// Replica: the writers' transactions received since the last call, (ticket, encoded
+    /// transaction) in arrival order. Each must be answered with [`Keeper::answer_forwarded`].
+    pub fn take_forwarded(&mut self) -> Vec<(u64, Vec<u8>)> {
+        std::mem::take(&mut self.to_forward)
+    }
+
+    /// How many forwarded transactions wait for their answer.
+    pub fn forwarded_in_flight(&self) -> usize {
+        self.held.len()
+    }
+
+    /// Replica: answers the writer of forwarded transaction `ticket` with the other keeper's
+    /// verdict. Call it for a commit only once [`Keeper::apply_upstream`] has brought this
+    /// model to the commit's version, so the writer reads its own write. A writer that left
+    /// meanwhile is skipped.
+    pub fn answer_forwarded(&mut self, ticket: u64, verdict: &Result<Applied, TxError>) {
+        let Some(req) = self.held.remove(&ticket) else {
+            return;
+        };
+        let bytes =
+            bincode::serde::encode_to_vec(verdict, bincode::config::standard()).unwrap_or_default();
+        let bytes = self.first_part(bytes);
+        if let Ok(r) = req.loan_slice_uninit(bytes.len()) {
+            let _ = r.write_from_slice(&bytes).send();
+        }
+        let _ = self.ack_notifier.notify();
+    }
+
+    /// Replica: applies transactions the other keeper committed, `(version, encoded)`, in
+    /// order, then journals, publishes and announces them as one group. Entries at or below
+    /// this model's version are skipped (already applied); one that does not follow it, does
+    /// not decode or is refused here means the two models differ, and is an error (take a new
+    /// snapshot): the entries before it stay applied.
+    pub fn apply_upstream(&mut self, entries: &[(u64, Vec<u8>)]) -> Result<usize, KeeperError> {
+        let mut applied = Vec::new();
+        let mut failure = None;
+        for (version, bytes) in entries {
+            if *version <= self.model.version {
+                continue;
+            }
+            if *version != self.model.version + 1 {
+                failure = Some(format!(
+                    "transaction {version} does not follow version {}",
+                    self.model.version
+                ));
+                break;
+            }
+            match Transaction::decode(bytes).and_then(|tx| self.model.apply(&tx)) {
+                Ok(a) => {
+                    self.journal.append(a.version, bytes)?;
+                    self.log.push(a.version, bytes);
+                    applied.push(a);
+                }
+                Err(e) => {
+                    failure = Some(format!("transaction {version} was refused here: {e}"));
+                    break;
+                }
+            }
+        }
+        self.finish_group(&applied)?;
+        match failure {
+            Some(why) => Err(KeeperError::OutOfStep(why)),
+            None => Ok(applied.len()),
+        }
+    }
+
+    /// Replaces the whole model (a replica's new snapshot): the data directory is reset to
+    /// it, every segment republished under a new epoch (readers start over, as after a keeper
+    /// restart) and the change announced.
+    pub fn replace_model(&mut self, model: Store) -> Result<(), KeeperError> {
+        self.journal = journal::reset(&self.session.data_dir(), &model, self.opts.journal_copies)?;
+        self.model = model;
+        self.log.clear();
+        self.epoch = (std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(1, |d| d.as_nanos() as u64))
+        .max(self.epoch + 1);
+        let stale: Vec<Id> = self
+            .geometry
+            .keys()
+            .copied()
+            .filter(|id| self.model.get(*id).is_none_or(|o| o.geometry.is_none()))
+            .collect();
+        for id in stale {
+            self.geometry.remove(&id);
+        }
+        let ids: Vec<Id> = self
+            .model
+            .objects()
+            .filter(|o| o.geometry.is_some())
+            .map(|o| o.id)
+            .collect();
+        for id in ids {
+            self.publish_geometry(id)?;
+        }
+        self.chunk_gen.clear();
+        self.chunk_dirty.clear();
+        self.rebuild_structure()?;
+        self.publish_poses()?;
+        let _ = self.change_notifier.notify();
+        Ok(())
     }
 
     /// The response carrying `answer`: whole when it fits [`RESPONSE_CAP`], else its first

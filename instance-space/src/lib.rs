@@ -22,6 +22,7 @@ pub mod journal;
 mod keeper;
 pub mod layout;
 mod reader;
+pub mod replica;
 mod scratch;
 mod session;
 pub mod state;

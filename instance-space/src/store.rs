@@ -331,6 +331,11 @@ pub enum TxError {
     Malformed { message: String },
     #[error("the transaction is empty")]
     Empty,
+    /// A replica's bridge could not have the transaction decided by the keeper that owns the
+    /// model (`robosim bridge`): refused there by flag, or no answer (then it may have been
+    /// committed: the replica shows it when it arrives).
+    #[error("not committed through the bridge: {reason}")]
+    Forward { reason: String },
 }
 
 /// What a committed transaction did.
