@@ -27,6 +27,16 @@ pub enum Which {
         #[arg(long)]
         quick: bool,
     },
+    /// The space over Zenoh: a pose transaction written on a replica against the primary,
+    /// the replica's lag and a late joiner's start, at 10² to 10⁵ bodies (docs/bridge.md).
+    Bridge {
+        /// Where to write bridge.md and bridge.csv.
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
+        out: PathBuf,
+        /// Fewer repetitions (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+    },
     /// The journal's second copy: group-commit latency, throughput and recovery time with one
     /// and two copies, in one run.
     Journal {
@@ -117,6 +127,12 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
         Which::Scale { out, quick } => {
             let pb = robosim_report::progress::spinner("bench scale");
             robosim_report::scale::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
+            pb.finish_and_clear();
+            wrote(&out, &[])
+        }
+        Which::Bridge { out, quick } => {
+            let pb = robosim_report::progress::spinner("bench bridge");
+            robosim_report::bridge::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
             pb.finish_and_clear();
             wrote(&out, &[])
         }

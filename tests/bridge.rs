@@ -386,3 +386,39 @@ fn a_cut_link_between_two_network_namespaces_resynchronises() {
         assert!(model.get(id).is_some(), "acknowledged object {id} is missing");
     }
 }
+
+#[test]
+fn the_library_and_the_simulators_state_cross_too() {
+    use robosim_instance_space::state::{JointStateRec, StatePublisher, StateSubscriber};
+    let pair = Pair::start("brs", &[]);
+    let (ps, rs) = (pair.p.session(), pair.r.session());
+    // The Library Space: the replica's readers get the primary's source files.
+    let mut pr = robosim_instance_space::Reader::attach(&ps, "probe").expect("reader");
+    let mut rr = robosim_instance_space::Reader::attach(&rs, "probe").expect("reader");
+    let files = pr.library_files().expect("primary library");
+    assert!(!files.is_empty());
+    assert_eq!(rr.library_files().expect("replica library"), files);
+
+    // State: records published on the primary's `state/simulator` reach the replica's, at
+    // most --state-hz a second, the newest one last.
+    let mut publisher = StatePublisher::create(&ps, "simulator").expect("state service");
+    let joint = |q: f64| JointStateRec {
+        id: 7,
+        q,
+        qd: 0.5,
+        effort: -1.0,
+    };
+    let mut sub = wait_for("the replica's state service", || {
+        publisher.publish(3, 0.0, &[joint(0.0)], &[]).expect("publish");
+        StateSubscriber::open(&rs, "simulator", "probe").ok()
+    });
+    let got = wait_for("the newest state on the replica", || {
+        publisher.publish(3, 1.25, &[joint(0.75)], &[]).expect("publish");
+        sub.wait(std::time::Duration::from_millis(100))
+            .expect("state")
+            .into_iter()
+            .find(|r| r.header.t == 1.25)
+    });
+    assert_eq!(got.joints, vec![joint(0.75)]);
+    assert_eq!(got.header.structure_version, 3);
+}

@@ -51,6 +51,7 @@ pub fn serve(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()>
     let log_pub = z
         .declare_publisher(k("log"))
         .congestion_control(zenoh::qos::CongestionControl::Block)
+        .express(true)
         .wait()
         .map_err(zerr("declare log publisher"))?;
     let mut states = StatePassing::new(session, args, &z)?;
@@ -70,14 +71,23 @@ pub fn serve(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()>
         library_gen: 0,
         at: Instant::now() - heartbeat,
     };
+    let mut last_activity = Instant::now();
     while signals.wait(Duration::ZERO).is_ok() {
-        let _ = reader.wait_event(heartbeat.min(Duration::from_millis(5)))?;
+        // Zenoh's queries do not wake the keeper's change event, so the wait is short while
+        // there is traffic and longer once there has been none for a while.
+        let _ = reader.wait_event(crate::poll_wait(last_activity).min(heartbeat))?;
+        let before = (published.version, published.at);
         publish_log(&mut client, &log_pub, &mut published, heartbeat)?;
+        if published.version != before.0 {
+            last_activity = Instant::now();
+        }
         while let Ok(Some(q)) = snapshots.try_recv() {
+            last_activity = Instant::now();
             let snap = client.snapshot()?;
             let _ = q.reply(q.key_expr().clone(), encode(&snap)).wait();
         }
         while let Ok(Some(q)) = logs.try_recv() {
+            last_activity = Instant::now();
             let asked = q
                 .payload()
                 .and_then(|p| decode::<(u64, u64)>(&p.to_bytes()));
@@ -88,9 +98,11 @@ pub fn serve(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()>
                     version: published.version,
                 },
             };
-            let _ = q.reply(q.key_expr().clone(), encode(&answer)).wait();
+            let _ = q.reply(q.key_expr().clone(), encode(&answer)).express(true).wait();
         }
-        forward_writes(&mut client, &txs, args)?;
+        if forward_writes(&mut client, &txs, args)? > 0 {
+            last_activity = Instant::now();
+        }
         states.pass(session, &z)?;
     }
     drop(registration);
@@ -167,9 +179,11 @@ fn forward_writes(
     client: &mut Client,
     txs: &zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
     args: &BridgeArgs,
-) -> Result<()> {
+) -> Result<usize> {
     let mut sent = Vec::new();
+    let mut count = 0;
     while let Ok(Some(q)) = txs.try_recv() {
+        count += 1;
         let bytes = q
             .payload()
             .map(|p| p.to_bytes().into_owned())
@@ -182,7 +196,7 @@ fn forward_writes(
                         args.key
                     ),
                 });
-            let _ = q.reply(q.key_expr().clone(), encode(&verdict)).wait();
+            let _ = q.reply(q.key_expr().clone(), encode(&verdict)).express(true).wait();
             continue;
         }
         match client.submit_raw(&bytes) {
@@ -201,7 +215,7 @@ fn forward_writes(
     for (q, p) in sent {
         answer(client, q, p)?;
     }
-    Ok(())
+    Ok(count)
 }
 
 fn answer(
@@ -210,7 +224,7 @@ fn answer(
     p: robosim_instance_space::Pending,
 ) -> Result<()> {
     let verdict = client.wait(p)?;
-    let _ = q.reply(q.key_expr().clone(), encode(&verdict)).wait();
+    let _ = q.reply(q.key_expr().clone(), encode(&verdict)).express(true).wait();
     Ok(())
 }
 

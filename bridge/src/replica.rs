@@ -59,8 +59,13 @@ pub fn follow(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()
         .ok_or_else(|| BridgeError::Snapshot("stopped before the primary answered".into()))?;
     let model = decode_model(&snap)?;
     let version = model.version;
+    // No fsync and one journal copy: a replica that restarts takes a new snapshot from the
+    // primary (whose keeper is the durable one), so its own journal is never what it recovers
+    // from; syncing it cost milliseconds per applied group.
     let opts = KeeperOptions {
         replica: true,
+        durable: false,
+        journal_copies: 1,
         spin: Duration::ZERO,
         ..KeeperOptions::default()
     };
@@ -83,13 +88,13 @@ pub fn follow(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()
     };
     r.set_library(snap.library_gen, &snap.library)?;
     eprintln!("bridge: replica at version {version}");
+    let mut last_activity = Instant::now();
     while !r.keeper.interrupted() {
-        let busy = !r.in_flight.is_empty() || !r.committed.is_empty();
-        r.keeper.step(if busy {
-            Duration::from_micros(200)
-        } else {
-            Duration::from_millis(2)
-        })?;
+        if !r.in_flight.is_empty() || !r.committed.is_empty() {
+            last_activity = Instant::now();
+        }
+        let before = r.keeper.store().version;
+        r.keeper.step(crate::poll_wait(last_activity))?;
         r.forward()?;
         while let Ok(Some(sample)) = log_sub.try_recv() {
             match decode::<LogMsg>(&sample.payload().to_bytes()) {
@@ -103,6 +108,9 @@ pub fn follow(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()
         r.collect_answers();
         r.answer_committed();
         states.relay(r.keeper.session())?;
+        if r.keeper.store().version != before || r.keeper.forwarded_in_flight() > 0 {
+            last_activity = Instant::now();
+        }
         let silent = r.last_heard.elapsed()
             > Duration::from_millis(args.heartbeat_ms.saturating_mul(10).max(2000));
         if silent && r.connected {
@@ -222,6 +230,7 @@ impl Replica<'_> {
                 .get(key(&self.args.key, "log"))
                 .payload(encode(&(mine, self.library_gen)))
                 .timeout(Duration::from_secs(5))
+                .express(true)
                 .wait()
                 .map_err(zerr("ask the log"))?;
             let Ok(reply) = replies.recv() else {
@@ -277,6 +286,7 @@ impl Replica<'_> {
                 .get(key(&self.args.key, "tx"))
                 .payload(bytes)
                 .timeout(Duration::from_millis(self.args.tx_timeout_ms))
+                .express(true)
                 .wait();
             match sent {
                 Ok(replies) => self.in_flight.push(InFlight {

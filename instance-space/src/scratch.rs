@@ -22,13 +22,26 @@ impl ScratchKeeper {
     /// `timeout` for it to accept a client. On any failure the process is stopped and the
     /// session directory removed before the error (text naming the session) is returned.
     pub fn start(exe: &Path, name: &str, args: &[&str], timeout: Duration) -> Result<Self, String> {
+        ScratchKeeper::start_as(exe, name, &["space"], args, timeout)
+    }
+
+    /// [`ScratchKeeper::start`] of another command that runs the session's keeper (`robosim
+    /// bridge --connect …`, whose replica is the keeper): `exe COMMAND… --session NAME ARGS…`.
+    pub fn start_as(
+        exe: &Path,
+        name: &str,
+        command: &[&str],
+        args: &[&str],
+        timeout: Duration,
+    ) -> Result<Self, String> {
         let what = |e: &dyn std::fmt::Display| format!("scratch session {name}: {e}");
         let session = Session::open(Some(name)).map_err(|e| what(&e))?;
         let _ = std::fs::remove_dir_all(session.data_dir());
         // Reopened: recreates data/ with its permissions.
         let session = Session::open(Some(name)).map_err(|e| what(&e))?;
         let child = Command::new(exe)
-            .args(["space", "--session", name])
+            .args(command)
+            .args(["--session", name])
             .args(args)
             .stdout(Stdio::null())
             .stderr(Stdio::inherit())

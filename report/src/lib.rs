@@ -20,6 +20,7 @@
 //! * [`font`] — the bundled font plots and the display's status line are drawn with.
 
 pub mod automation;
+pub mod bridge;
 pub mod cli;
 pub mod collision;
 pub mod dynamics;
