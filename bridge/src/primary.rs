@@ -73,9 +73,12 @@ pub fn serve(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()>
     };
     let mut last_activity = Instant::now();
     while signals.wait(Duration::ZERO).is_ok() {
-        // Zenoh's queries do not wake the keeper's change event, so the wait is short while
-        // there is traffic and longer once there has been none for a while.
-        let _ = reader.wait_event(crate::poll_wait(last_activity).min(heartbeat))?;
+        // Zenoh's queries do not wake the keeper's change event: poll both (see poll_sleep).
+        if reader.wait_event(Duration::ZERO)?.is_none() {
+            crate::poll_sleep(last_activity);
+        } else {
+            last_activity = Instant::now();
+        }
         let before = (published.version, published.at);
         publish_log(&mut client, &log_pub, &mut published, heartbeat)?;
         if published.version != before.0 {

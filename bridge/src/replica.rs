@@ -94,7 +94,10 @@ pub fn follow(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()
             last_activity = Instant::now();
         }
         let before = r.keeper.store().version;
-        r.keeper.step(crate::poll_wait(last_activity))?;
+        let served = r.keeper.step(Duration::ZERO)?;
+        if served.committed + served.refused == 0 {
+            crate::poll_sleep(last_activity);
+        }
         r.forward()?;
         while let Ok(Some(sample)) = log_sub.try_recv() {
             match decode::<LogMsg>(&sample.payload().to_bytes()) {

@@ -457,6 +457,17 @@ pub(crate) fn timed_wait_events<F: FnMut(EventActivation)>(
     callback: F,
     timeout: std::time::Duration,
 ) -> Result<u64, iceoryx2::port::listener::ListenerWaitError> {
+    // A zero timeout polls: iceoryx2's timed wait takes zero as "no timeout" and blocks.
+    if timeout.is_zero() {
+        let mut n = 0;
+        let mut callback = callback;
+        return listener
+            .try_wait(|e| {
+                n += 1;
+                callback(e)
+            })
+            .map(|_| n);
+    }
     match listener.timed_wait(callback, timeout) {
         Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => Ok(0),
         r => r,
