@@ -289,11 +289,22 @@ impl Hosts {
     fn link(&self, up: bool) {
         let va = format!("rsva{}", std::process::id());
         let ok = Command::new("ip")
-            .args(["-n", &self.a, "link", "set", &va, if up { "up" } else { "down" }])
+            .args([
+                "-n",
+                &self.a,
+                "link",
+                "set",
+                &va,
+                if up { "up" } else { "down" },
+            ])
             .status()
             .expect("ip")
             .success();
-        assert!(ok, "could not set the link {}", if up { "up" } else { "down" });
+        assert!(
+            ok,
+            "could not set the link {}",
+            if up { "up" } else { "down" }
+        );
     }
 }
 
@@ -346,15 +357,29 @@ fn a_cut_link_between_two_network_namespaces_resynchronises() {
     spawn_in(
         &mut p,
         &hosts.a,
-        &["bridge", "--listen", "tcp/10.77.0.1:7447", "--heartbeat-ms", "100"],
+        &[
+            "bridge",
+            "--listen",
+            "tcp/10.77.0.1:7447",
+            "--heartbeat-ms",
+            "100",
+        ],
     );
     spawn_in(
         &mut r,
         &hosts.b,
-        &["bridge", "--connect", "tcp/10.77.0.1:7447", "--tx-timeout-ms", "1500"],
+        &[
+            "bridge",
+            "--connect",
+            "tcp/10.77.0.1:7447",
+            "--tx-timeout-ms",
+            "1500",
+        ],
     );
     let (ps, rs) = (p.session(), r.session());
-    wait_for("the replica's keeper", || Client::connect(&rs, "probe").ok());
+    wait_for("the replica's keeper", || {
+        Client::connect(&rs, "probe").ok()
+    });
     let mut pw = Client::connect(&ps, "writer").expect("primary writer");
     let mut rw = Client::connect(&rs, "writer").expect("replica writer");
     let root = scene(&mut pw);
@@ -366,7 +391,8 @@ fn a_cut_link_between_two_network_namespaces_resynchronises() {
     hosts.link(false);
     let mut refused = 0;
     for k in 0..6 {
-        acknowledged.push(create_solid(&mut pw, &format!("cut-p{k}"), root).expect("primary write"));
+        acknowledged
+            .push(create_solid(&mut pw, &format!("cut-p{k}"), root).expect("primary write"));
         if k % 3 == 0 {
             match create_solid(&mut rw, &format!("cut-r{k}"), root) {
                 Err(ClientError::Refused(TxError::Forward { .. })) => refused += 1,
@@ -383,7 +409,10 @@ fn a_cut_link_between_two_network_namespaces_resynchronises() {
     let model = robosim_instance_space::journal::decode_store(&model_bytes(&ps)).expect("model");
     assert_eq!(model.version, v);
     for id in acknowledged {
-        assert!(model.get(id).is_some(), "acknowledged object {id} is missing");
+        assert!(
+            model.get(id).is_some(),
+            "acknowledged object {id} is missing"
+        );
     }
 }
 
@@ -409,11 +438,15 @@ fn the_library_and_the_simulators_state_cross_too() {
         effort: -1.0,
     };
     let mut sub = wait_for("the replica's state service", || {
-        publisher.publish(3, 0.0, &[joint(0.0)], &[]).expect("publish");
+        publisher
+            .publish(3, 0.0, &[joint(0.0)], &[])
+            .expect("publish");
         StateSubscriber::open(&rs, "simulator", "probe").ok()
     });
     let got = wait_for("the newest state on the replica", || {
-        publisher.publish(3, 1.25, &[joint(0.75)], &[]).expect("publish");
+        publisher
+            .publish(3, 1.25, &[joint(0.75)], &[])
+            .expect("publish");
         sub.wait(std::time::Duration::from_millis(100))
             .expect("state")
             .into_iter()

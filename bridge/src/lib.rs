@@ -61,7 +61,8 @@ pub struct BridgeArgs {
     #[arg(long, conflicts_with = "connect", required_unless_present = "connect")]
     pub listen: Option<String>,
     /// Keep this session a replica of the space served at a Zenoh endpoint, e.g.
-    /// tcp/10.0.0.1:7447 (reconnects until stopped). The session must have no keeper.
+    /// tcp/10.0.0.1:7447 (reconnects until stopped). The session must have no keeper: this
+    /// bridge becomes its keeper, and the session's model is replaced by the primary's.
     #[arg(long)]
     pub connect: Option<String>,
     /// With --listen: refuse remote writers (replicas read; their transactions are refused
@@ -119,7 +120,7 @@ impl StateMsg {
     }
     /// The records, or `None` when a length is not a whole number of records.
     pub fn records(&self) -> Option<(Vec<JointStateRec>, Vec<PoseRec>)> {
-        let whole = |len: usize, size: usize| len % size == 0;
+        let whole = |len: usize, size: usize| len.is_multiple_of(size);
         if !whole(self.joints.len(), size_of::<JointStateRec>())
             || !whole(self.bodies.len(), size_of::<PoseRec>())
         {

@@ -101,7 +101,10 @@ pub fn serve(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()>
                     version: published.version,
                 },
             };
-            let _ = q.reply(q.key_expr().clone(), encode(&answer)).express(true).wait();
+            let _ = q
+                .reply(q.key_expr().clone(), encode(&answer))
+                .express(true)
+                .wait();
         }
         if forward_writes(&mut client, &txs, args)? > 0 {
             last_activity = Instant::now();
@@ -199,7 +202,10 @@ fn forward_writes(
                         args.key
                     ),
                 });
-            let _ = q.reply(q.key_expr().clone(), encode(&verdict)).express(true).wait();
+            let _ = q
+                .reply(q.key_expr().clone(), encode(&verdict))
+                .express(true)
+                .wait();
             continue;
         }
         match client.submit_raw(&bytes) {
@@ -227,7 +233,10 @@ fn answer(
     p: robosim_instance_space::Pending,
 ) -> Result<()> {
     let verdict = client.wait(p)?;
-    let _ = q.reply(q.key_expr().clone(), encode(&verdict)).express(true).wait();
+    let _ = q
+        .reply(q.key_expr().clone(), encode(&verdict))
+        .express(true)
+        .wait();
     Ok(())
 }
 

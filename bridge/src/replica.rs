@@ -143,7 +143,7 @@ fn snapshot(
             .timeout(Duration::from_secs(10))
             .wait()
             .map_err(zerr("ask for a snapshot"))?;
-        while let Ok(reply) = replies.recv() {
+        if let Ok(reply) = replies.recv() {
             match reply.result() {
                 Ok(sample) => {
                     return match decode::<SpaceSnapshot>(&sample.payload().to_bytes()) {
@@ -410,10 +410,10 @@ impl StateRelay {
                     }
                 }
             }
-            if let Some(p) = publisher {
-                if let Err(e) = p.publish(msg.structure_version, msg.t, &joints, &bodies) {
-                    eprintln!("bridge: state {name}: {e}");
-                }
+            if let Some(p) = publisher
+                && let Err(e) = p.publish(msg.structure_version, msg.t, &joints, &bodies)
+            {
+                eprintln!("bridge: state {name}: {e}");
             }
         }
         Ok(())

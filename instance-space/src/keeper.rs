@@ -154,6 +154,14 @@ pub(crate) mod answer {
     /// Header length of a part.
     pub const PART_HEADER: usize = 17;
 }
+/// A keeper's epoch: the wall clock in ns when it started (or replaced its model), so a
+/// reader tells a new keeper's segments from an old one's.
+fn wall_clock_epoch() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(1, |d| d.as_nanos() as u64)
+}
+
 /// Large answers not yet fully fetched, at most this many (the oldest go first).
 const MAX_LARGE_ANSWERS: usize = 64;
 
@@ -331,9 +339,7 @@ impl Keeper {
                 (*model, j, RecoveryReport::default())
             }
         };
-        let epoch = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(1, |d| d.as_nanos() as u64);
+        let epoch = wall_clock_epoch();
 
         let req_event = {
             let name = session.service(services::REQUEST_EVENT)?;
@@ -528,17 +534,7 @@ impl Keeper {
                 Box::new(poses_svc),
             ],
         };
-        let ids: Vec<Id> = keeper
-            .model
-            .objects()
-            .filter(|o| o.geometry.is_some())
-            .map(|o| o.id)
-            .collect();
-        for id in ids {
-            keeper.publish_geometry(id)?;
-        }
-        keeper.rebuild_structure()?;
-        keeper.publish_poses()?;
+        keeper.publish_all()?;
         Ok((keeper, report))
     }
 
@@ -849,10 +845,7 @@ impl Keeper {
         self.journal = journal::reset(&self.session.data_dir(), &model, self.opts.journal_copies)?;
         self.model = model;
         self.log.clear();
-        self.epoch = (std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map_or(1, |d| d.as_nanos() as u64))
-        .max(self.epoch + 1);
+        self.epoch = wall_clock_epoch().max(self.epoch + 1);
         let stale: Vec<Id> = self
             .geometry
             .keys()
@@ -862,6 +855,16 @@ impl Keeper {
         for id in stale {
             self.geometry.remove(&id);
         }
+        self.chunk_gen.clear();
+        self.chunk_dirty.clear();
+        self.publish_all()?;
+        let _ = self.change_notifier.notify();
+        Ok(())
+    }
+
+    /// Publishes the whole model: every geometry, the objects segment, every pose chunk and the
+    /// head (a keeper starting, or a replica's model replaced).
+    fn publish_all(&mut self) -> Result<(), KeeperError> {
         let ids: Vec<Id> = self
             .model
             .objects()
@@ -871,12 +874,8 @@ impl Keeper {
         for id in ids {
             self.publish_geometry(id)?;
         }
-        self.chunk_gen.clear();
-        self.chunk_dirty.clear();
         self.rebuild_structure()?;
-        self.publish_poses()?;
-        let _ = self.change_notifier.notify();
-        Ok(())
+        self.publish_poses()
     }
 
     /// The response carrying `answer`: whole when it fits [`RESPONSE_CAP`], else its first

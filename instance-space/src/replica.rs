@@ -111,11 +111,11 @@ mod tests {
         for v in 5..=9 {
             log.push(v, &[v as u8]);
         }
-        let got = log.after(6, 9).unwrap();
+        let got = log.after(6, 9).expect("entries");
         assert_eq!(got.iter().map(|e| e.0).collect::<Vec<_>>(), vec![7, 8, 9]);
         assert_eq!(got[0].1, vec![7]);
-        assert_eq!(log.after(4, 9).unwrap().len(), 5);
-        assert_eq!(log.after(9, 9).unwrap(), Vec::new());
+        assert_eq!(log.after(4, 9).expect("entries").len(), 5);
+        assert_eq!(log.after(9, 9).expect("entries"), Vec::new());
         assert_eq!(
             log.after(3, 9),
             Err(LogAnswer::Gone {
@@ -140,7 +140,7 @@ mod tests {
             Err(LogAnswer::Gone { oldest: 2, .. })
         ));
         // One answer is bounded too, but never empty while something is due.
-        let got = log.after(1, 3).unwrap();
+        let got = log.after(1, 3).expect("entries");
         assert_eq!(got.len(), 1);
     }
 }

@@ -13,7 +13,7 @@
 //! model). Bodies are solids without geometry, as in `bench scale`.
 
 use crate::ipc::{Result, bin, keeper, stats};
-use robosim_instance_space::{Client, IDENTITY, Kind, Reader, ScratchKeeper, Transaction};
+use robosim_instance_space::{Client, IDENTITY, Reader, ScratchKeeper, Transaction};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -40,27 +40,6 @@ impl Drop for Stopped {
     }
 }
 
-fn build(client: &mut Client, n: usize) -> Result<u64> {
-    let mut tx = Transaction::new();
-    tx.create(Kind::Scene, "bridge", None);
-    let scene = client.transact(&tx)?.created[0];
-    let mut body = 0;
-    let mut k = 0;
-    while k < n {
-        let mut tx = Transaction::new();
-        let end = (k + 1_000).min(n);
-        for j in k..end {
-            tx.create(Kind::Solid, &format!("body{j}"), Some(scene.into()));
-        }
-        let c = client.transact(&tx)?;
-        if (k..end).contains(&(n / 2)) {
-            body = c.created[n / 2 - k];
-        }
-        k = end;
-    }
-    Ok(body)
-}
-
 fn pose_tx(body: u64, x: f64) -> Transaction {
     let mut tx = Transaction::new();
     let mut pose = IDENTITY;
@@ -77,8 +56,10 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     for n in SIZES {
         let primary = keeper(&format!("brp{pid}n{n}"), false)?;
         let mut pw = Client::connect(primary.session(), "bench-writer")?;
-        let body = build(&mut pw, n)?;
-        let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+        let body = crate::scale::build(&mut pw, n)?;
+        let port = std::net::TcpListener::bind("127.0.0.1:0")?
+            .local_addr()?
+            .port();
         let endpoint = format!("tcp/127.0.0.1:{port}");
         let _bridge = Stopped(
             Command::new(bin()?)
@@ -115,7 +96,9 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
                     break;
                 }
                 if t.elapsed() > Duration::from_secs(30) {
-                    return Err(format!("the replica did not reach version {v} at {n} bodies").into());
+                    return Err(
+                        format!("the replica did not reach version {v} at {n} bodies").into(),
+                    );
                 }
             }
             let tlag = t.elapsed();
@@ -123,8 +106,12 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             let t = Instant::now();
             let c = rw.transact(&pose_tx(body, -(k as f64) * 1e-3))?;
             let tf = t.elapsed();
-            if follower.refresh().is_ok() && follower.snapshot().is_some_and(|s| s.version() < c.version) {
-                return Err(format!("the replica answered before it had version {}", c.version).into());
+            if follower.refresh().is_ok()
+                && follower.snapshot().is_some_and(|s| s.version() < c.version)
+            {
+                return Err(
+                    format!("the replica answered before it had version {}", c.version).into(),
+                );
             }
             if !warm {
                 local.push(tl.as_nanos() as f64 / 1e3);

@@ -30,7 +30,7 @@ pub const SIZES: [usize; 4] = [100, 1_000, 10_000, 100_000];
 
 /// A scene of `n` solids without geometry, created 1,000 per transaction; returns the id of the
 /// middle one.
-fn build(client: &mut Client, n: usize) -> Result<u64> {
+pub(crate) fn build(client: &mut Client, n: usize) -> Result<u64> {
     let mut tx = Transaction::new();
     tx.create(Kind::Scene, "scale", None);
     let scene = client.transact(&tx)?.created[0];
