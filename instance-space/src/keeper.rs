@@ -512,6 +512,17 @@ impl Keeper {
     /// checked by the caller. Any process can then list and instantiate its declarations
     /// ([`crate::Reader::library_files`]).
     pub fn publish_library(&mut self, files: &[(String, String)]) -> Result<(), KeeperError> {
+        self.publish_library_checked(files, None)
+    }
+
+    /// [`Keeper::publish_library`] with the checked library's encoding beside the sources
+    /// (`robosim_library::Library::encode_checked`, opaque here), so that readers decode it
+    /// instead of parsing and checking the sources again ([`crate::Reader::library`]).
+    pub fn publish_library_checked(
+        &mut self,
+        files: &[(String, String)],
+        checked: Option<&[u8]>,
+    ) -> Result<(), KeeperError> {
         if self.library.is_none() {
             let svc = pubsub_service(
                 &self.session,
@@ -534,7 +545,7 @@ impl Keeper {
             self.library = Some(p);
             self._services.push(Box::new(svc));
         }
-        let words = crate::layout::encode_files(files);
+        let words = crate::layout::encode_library(files, checked);
         if let Some(p) = &self.library {
             let mut sample = p.loan_slice(words.len()).map_err(ipc("loan library"))?;
             sample.payload_mut().copy_from_slice(&words);
