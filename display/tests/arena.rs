@@ -181,12 +181,13 @@ fn bodies_added_removed_and_reshaped_draw_as_a_fresh_renderer_draws() {
     assert!(draws >= 1);
 }
 
-/// The same churn with every shared buffer capped at 16 KiB (about 600 vertices): meshes are
+/// The same churn with every shared buffer capped at 64 KiB (2,340 triangle vertices, more
+/// than the largest mesh here, which a buffer must hold whole): meshes are
 /// spread over many pages, and a page that cannot grow gets a neighbour.
 #[test]
 fn meshes_spread_over_many_small_buffers_draw_the_same() {
     let mut r = Renderer::headless().expect("adapter");
-    r.set_mesh_buffer_limit(16 << 10);
+    r.set_mesh_buffer_limit(64 << 10);
     churn(&mut r);
     let (tri_buffers, edge_buffers, _) = r.mesh_buffers();
     assert!(
