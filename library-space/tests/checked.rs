@@ -30,17 +30,17 @@ fn the_standard_library_decoded_lists_and_evaluates_as_parsed() {
         );
     }
     // With a parameter: the expression is parsed against the decoded library's sources.
-    let p = Params::new().expr("a2", "500 mm");
+    let p = Params::new().expr("upper_arm", "300 mm");
     assert_eq!(
-        decoded.evaluate("puma560", &p).expect("evaluates"),
-        lib.evaluate("puma560", &p).expect("evaluates")
+        decoded.evaluate("surgical_positioner", &p).expect("evaluates"),
+        lib.evaluate("surgical_positioner", &p).expect("evaluates")
     );
     // Errors are located in the right file and line.
     let e = decoded
-        .evaluate("puma560", &Params::new().expr("a2", "5 deg"))
+        .evaluate("surgical_positioner", &Params::new().expr("upper_arm", "5 deg"))
         .expect_err("an angle is not a length");
     let e2 = lib
-        .evaluate("puma560", &Params::new().expr("a2", "5 deg"))
+        .evaluate("surgical_positioner", &Params::new().expr("upper_arm", "5 deg"))
         .expect_err("an angle is not a length");
     assert_eq!(e.to_string(), e2.to_string());
 }
