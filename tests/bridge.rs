@@ -427,6 +427,10 @@ fn the_library_and_the_simulators_state_cross_too() {
     let files = pr.library_files().expect("primary library");
     assert!(!files.is_empty());
     assert_eq!(rr.library_files().expect("replica library"), files);
+    // ... and the checked library beside them, so they read it instead of parsing it.
+    let (lib, from) = robosim_scene::session_library_from(&mut rr).expect("replica library");
+    assert_eq!(from, robosim_scene::LibraryFrom::Checked);
+    assert!(lib.declarations().iter().any(|d| d.name == "puma560"));
 
     // State: records published on the primary's `state/simulator` reach the replica's, at
     // most --state-hz a second, the newest one last.

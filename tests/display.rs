@@ -583,10 +583,11 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
     ]);
     let s = k.session();
     let mut reader = Reader::attach(&s, "test-reader").expect("reader");
-    let joints = |snap: &robosim_instance_space::Snapshot, robot: &str| -> Vec<f64> {
+    // `None` until the keeper has committed the scene (its request service, which
+    // `start_keeper` waits for, is up before the scene is loaded).
+    let joints = |snap: &robosim_instance_space::Snapshot, robot: &str| -> Option<Vec<f64>> {
         let rid = snap.objects()[(0..snap.len())
-            .find(|&i| snap.name(i) == robot && snap.object(i).kind() == Some(Kind::Robot))
-            .expect("robot")]
+            .find(|&i| snap.name(i) == robot && snap.object(i).kind() == Some(Kind::Robot))?]
         .id;
         let mut links: Vec<(u32, f64)> = (0..snap.len())
             .filter(|&i| {
@@ -600,7 +601,7 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
             })
             .collect();
         links.sort_by_key(|l| l.0);
-        links.into_iter().map(|l| l.1).collect()
+        Some(links.into_iter().map(|l| l.1).collect())
     };
     let close = |q: &[f64], want: &[f64]| {
         q.len() == want.len() && q.iter().zip(want).all(|(a, b)| (a - b).abs() < 1e-9)
@@ -608,8 +609,10 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
     wait_for("both robots at their last samples", || {
         reader.refresh().ok()?;
         let snap = reader.snapshot()?;
-        (close(&joints(&snap, "arm"), &[20.0, -10.0, 10.0, 0.0, 40.0, 15.0])
-            && close(&joints(&snap, "positioner"), &[15.0, 90.0]))
+        (close(
+            &joints(&snap, "arm")?,
+            &[20.0, -10.0, 10.0, 0.0, 40.0, 15.0],
+        ) && close(&joints(&snap, "positioner")?, &[15.0, 90.0]))
         .then_some(())
     });
     wait_for("frames drawn", || (frames(&out).len() >= 2).then_some(()));

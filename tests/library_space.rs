@@ -152,3 +152,62 @@ fn a_sessions_library_space_is_shared_memory_any_process_lists_and_instantiates_
         "20 cm block: half-diagonal {half:?}"
     );
 }
+
+/// The keeper publishes the checked library beside its source (issue 18 §3): a process
+/// decodes it instead of parsing and checking the source, and gets the library the source
+/// makes — the standard library plus the session's own file.
+#[test]
+fn a_process_reads_the_checked_library_the_keeper_published_without_parsing() {
+    let mut k = Keeper::new("libchk");
+    let file = k.home.path().join("fixtures.rsl");
+    std::fs::write(
+        &file,
+        "solid fixture_block(size = 10 cm) {\n    part box(size, size, size / 2)\n}\n",
+    )
+    .expect("write");
+    let path = file.to_string_lossy().into_owned();
+    k.start_keeper(&["--library", &path]);
+    let mut reader = Reader::attach(&k.session(), "lib").expect("attach");
+    let published = reader.library().expect("the Library Space");
+    assert!(published.checked.is_some(), "the keeper published it");
+    let (lib, from) = robosim_scene::session_library_from(&mut reader).expect("library");
+    assert_eq!(from, robosim_scene::LibraryFrom::Checked);
+    let parsed = robosim_library::Library::from_sources(&published.files).expect("parses");
+    assert_eq!(lib.declarations(), parsed.declarations());
+    assert!(lib.kind("fixture_block").is_some() && lib.kind("puma560").is_some());
+    assert_eq!(
+        lib.evaluate(
+            "fixture_block",
+            &robosim_library::Params::new().expr("size", "20 cm")
+        )
+        .expect("evaluates"),
+        parsed
+            .evaluate(
+                "fixture_block",
+                &robosim_library::Params::new().expr("size", "20 cm")
+            )
+            .expect("evaluates")
+    );
+    // Without the encoding (a keeper of an older build): parsed, and said why.
+    let source_only = robosim_instance_space::LibraryPublication {
+        checked: None,
+        ..published.clone()
+    };
+    let (again, from) = robosim_scene::library_from_publication(&source_only).expect("parses");
+    assert!(
+        matches!(&from, robosim_scene::LibraryFrom::Parsed { reason } if reason.contains("no checked library")),
+        "{from:?}"
+    );
+    assert_eq!(again.declarations(), lib.declarations());
+    // A damaged encoding: parsed, and the reason names the damage.
+    let mut damaged = published.clone();
+    if let Some(b) = damaged.checked.as_mut() {
+        let last = b.len() - 1;
+        b[last] ^= 0xff;
+    }
+    let (_, from) = robosim_scene::library_from_publication(&damaged).expect("parses");
+    assert!(
+        matches!(&from, robosim_scene::LibraryFrom::Parsed { reason } if reason.contains("checksum")),
+        "{from:?}"
+    );
+}

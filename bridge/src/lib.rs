@@ -96,7 +96,7 @@ pub struct LogMsg {
     pub after: u64,
     pub version: u64,
     pub entries: Vec<(u64, Vec<u8>)>,
-    pub library: Option<(u64, Vec<(String, String)>)>,
+    pub library: Option<(u64, robosim_instance_space::replica::PublishedLibrary)>,
 }
 
 /// A state record as it crosses the wire: the header's fields and the records' bytes (the

@@ -14,7 +14,7 @@
 //!   committed.
 
 use crate::{BridgeArgs, BridgeError, LogMsg, Result, StateMsg, decode, encode, key, zerr};
-use robosim_instance_space::replica::{LogAnswer, SpaceSnapshot};
+use robosim_instance_space::replica::{LogAnswer, PublishedLibrary, SpaceSnapshot};
 use robosim_instance_space::state::StatePublisher;
 use robosim_instance_space::{Applied, Keeper, KeeperOptions, Session, Store, TxError};
 use std::time::{Duration, Instant};
@@ -179,9 +179,10 @@ fn decode_model(snap: &SpaceSnapshot) -> Result<Store> {
 }
 
 impl Replica<'_> {
-    fn set_library(&mut self, generation: u64, files: &[(String, String)]) -> Result<()> {
+    fn set_library(&mut self, generation: u64, library: &PublishedLibrary) -> Result<()> {
         if generation != self.library_gen {
-            self.keeper.publish_library(files)?;
+            self.keeper
+                .publish_library_checked(&library.files, library.checked.as_deref())?;
             self.library_gen = generation;
         }
         Ok(())

@@ -5,6 +5,7 @@
 //! changed is uploaded, and the bytes are counted).
 //!
 //! * [`renderer`] — the GPU device, per-body slots, [`Renderer::sync`], frames, picking.
+//! * [`arena`] — space in the shared mesh buffers: ranges, holes, growth, compaction.
 //! * [`camera`] — LOOK-FROM / LOOK-AT, perspective / orthographic, orbit / pan / zoom, rays.
 //! * [`mesh`] — polygons to triangles and edges; ray casts.
 //! * [`guides`] — the ground grid and the world axes.
@@ -21,6 +22,7 @@
 #![deny(unsafe_code)]
 
 pub mod app;
+pub mod arena;
 pub mod bench;
 pub mod camera;
 pub mod guides;

@@ -65,12 +65,6 @@ impl CpuMesh {
         self.tri_polygon.len()
     }
 
-    /// Bytes this mesh occupies on the GPU (vertex and edge buffers).
-    pub fn gpu_bytes(&self) -> u64 {
-        (std::mem::size_of_val(self.vertices.as_slice())
-            + std::mem::size_of_val(self.edge_points.as_slice())) as u64
-    }
-
     /// Nearest hit of a ray (body frame) with the mesh: distance along the ray and the source
     /// polygon. Möller–Trumbore, both faces (the display draws both).
     pub fn raycast(&self, origin: [f64; 3], dir: [f64; 3]) -> Option<(f64, u32)> {

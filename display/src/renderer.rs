@@ -1,23 +1,28 @@
 //! The GPU side: one wgpu device, two pipelines (shaded polygons, edge overlay), and per body a
-//! slot in two storage arrays (transform, material) plus its own vertex buffers — the seed's
-//! display list with one segment per body (§2.1). [`Renderer::sync`] brings the GPU copy up to
-//! a snapshot and uploads only what differs: a moved body's 64-byte transform, a recoloured
-//! body's 32-byte material, a re-shaped body's mesh. Every byte written is counted
-//! ([`UploadStats`]).
+//! slot in two storage arrays (transform, material) plus a range in the shared mesh buffers
+//! ([`crate::arena`]: every body's triangles in one of a few large vertex buffers, its edges in
+//! another, each vertex carrying its body's slot) — the seed's display list with one segment
+//! per body (§2.1), packed so that the number of GPU resources does not grow with the number
+//! of bodies. [`Renderer::sync`] brings the GPU copy up to a snapshot and uploads only what
+//! differs: a moved body's 64-byte transform, a recoloured body's 32-byte material, a
+//! re-shaped body's mesh. Every byte written is counted ([`UploadStats`]). A frame draws each
+//! shared buffer's live runs (one draw per run between freed ranges, not one per body).
 //!
 //! Besides the model a frame may show the guides (ground grid and world axes, [`Style::grid`];
 //! [`crate::guides`]) and a status overlay ([`Renderer::set_status`]; [`crate::overlay`]).
 //! Neither is model data: their uploads are not in [`UploadStats`].
 
+use crate::arena::{Arena, Span};
 use crate::camera::Camera;
 use crate::guides::{GuideVertex, Guides};
 use crate::image::RgbaImage;
-use crate::mesh::{CpuMesh, Vertex};
+use crate::mesh::CpuMesh;
 use crate::overlay::Overlay;
 use crate::{DisplayError, Result};
 use nalgebra::{Matrix4, Point3, Vector3};
 use robosim_instance_space::{Change, Id, Snapshot, aspect, layout::flags};
 use std::collections::HashMap;
+use std::mem::size_of;
 use wgpu::util::DeviceExt;
 
 /// Bytes of one body's transform on the GPU (a 4×4 f32 matrix).
@@ -25,6 +30,26 @@ pub const TRANSFORM_BYTES: u64 = 64;
 /// Bytes of one body's material (colour + surface).
 pub const MATERIAL_BYTES: u64 = 32;
 const FRAME_BYTES: u64 = 112;
+/// Vertices a shared mesh buffer starts with (it doubles when full).
+const ARENA_INITIAL: u32 = 1 << 12;
+
+/// One vertex of the shared triangle buffers: the mesh's vertex and its body's slot (the
+/// index of its transform and material).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SlotVertex {
+    pub pos: [f32; 3],
+    pub normal: [f32; 3],
+    pub slot: u32,
+}
+
+/// One end of an edge line in the shared edge buffers.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct SlotPoint {
+    pub pos: [f32; 3],
+    pub slot: u32,
+}
 const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
@@ -65,7 +90,12 @@ impl Gpu {
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("robosim display"),
             required_features: wgpu::Features::empty(),
-            required_limits: wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits()),
+            // The adapter's largest buffer (the shared mesh buffers grow up to it; beyond it
+            // another one is added).
+            required_limits: wgpu::Limits {
+                max_buffer_size: adapter.limits().max_buffer_size,
+                ..wgpu::Limits::downlevel_defaults().using_resolution(adapter.limits())
+            },
             ..Default::default()
         }))
         .map_err(|e| DisplayError::Device(e.to_string()))?;
@@ -111,23 +141,111 @@ pub fn scene_bounds(snap: &Snapshot) -> (Point3<f64>, f64) {
 fn sphere_around<'a>(
     bodies: impl Iterator<Item = (&'a [f64; 12], &'a [f64; 6])>,
 ) -> (Point3<f64>, f64) {
-    let mut lo = Vector3::repeat(f64::INFINITY);
-    let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
     for (w, bbox) in bodies {
-        let c = Vector3::new(bbox[0], bbox[1], bbox[2]);
-        let h = Vector3::new(bbox[3], bbox[4], bbox[5]);
+        let (l, h) = world_box(w, bbox);
         for r in 0..3 {
-            let center = w[r * 4] * c.x + w[r * 4 + 1] * c.y + w[r * 4 + 2] * c.z + w[r * 4 + 3];
-            let half = w[r * 4].abs() * h.x + w[r * 4 + 1].abs() * h.y + w[r * 4 + 2].abs() * h.z;
-            lo[r] = lo[r].min(center - half);
-            hi[r] = hi[r].max(center + half);
+            lo[r] = lo[r].min(l[r]);
+            hi[r] = hi[r].max(h[r]);
         }
     }
+    sphere_of_box(lo, hi)
+}
+
+/// The world axis-aligned box (low, high corners) of a body-frame box (centre and
+/// half-diagonal) at world pose `w`.
+fn world_box(w: &[f64; 12], bbox: &[f64; 6]) -> ([f64; 3], [f64; 3]) {
+    let c = Vector3::new(bbox[0], bbox[1], bbox[2]);
+    let h = Vector3::new(bbox[3], bbox[4], bbox[5]);
+    let mut lo = [0.0; 3];
+    let mut hi = [0.0; 3];
+    for r in 0..3 {
+        let center = w[r * 4] * c.x + w[r * 4 + 1] * c.y + w[r * 4 + 2] * c.z + w[r * 4 + 3];
+        let half = w[r * 4].abs() * h.x + w[r * 4 + 1].abs() * h.y + w[r * 4 + 2].abs() * h.z;
+        lo[r] = center - half;
+        hi[r] = center + half;
+    }
+    (lo, hi)
+}
+
+/// The sphere around a box; the unit sphere for an empty (or non-finite) one.
+fn sphere_of_box(lo: [f64; 3], hi: [f64; 3]) -> (Point3<f64>, f64) {
     if !(lo.iter().all(|v| v.is_finite()) && hi.iter().all(|v| v.is_finite())) {
         return (Point3::origin(), 1.0);
     }
+    let (lo, hi) = (Vector3::from(lo), Vector3::from(hi));
     let center = Point3::from((lo + hi) / 2.0);
     (center, ((hi - lo) / 2.0).norm().max(1e-6))
+}
+
+/// Every slot's world box and a binary tree of their unions, so that the scene's box is the
+/// root and a body's move updates the boxes on its way up (O(log bodies)) instead of every
+/// frame going over every body. Min and max are exact, so the root is the box a pass over all
+/// bodies finds ([`scene_bounds`]).
+struct BoxTree {
+    /// Leaves (a power of two); node `k`'s children are `2k` and `2k + 1`, leaf `i` is node
+    /// `leaves + i`.
+    leaves: usize,
+    lo: Vec<[f64; 3]>,
+    hi: Vec<[f64; 3]>,
+}
+
+impl BoxTree {
+    const EMPTY_LO: [f64; 3] = [f64::INFINITY; 3];
+    const EMPTY_HI: [f64; 3] = [f64::NEG_INFINITY; 3];
+
+    fn new() -> BoxTree {
+        BoxTree {
+            leaves: 1,
+            lo: vec![Self::EMPTY_LO; 2],
+            hi: vec![Self::EMPTY_HI; 2],
+        }
+    }
+
+    fn join(&mut self, k: usize) {
+        let (a, b) = (2 * k, 2 * k + 1);
+        self.lo[k] = std::array::from_fn(|r| self.lo[a][r].min(self.lo[b][r]));
+        self.hi[k] = std::array::from_fn(|r| self.hi[a][r].max(self.hi[b][r]));
+    }
+
+    /// Sets slot `slot`'s box (`EMPTY_*`: no body there).
+    fn set(&mut self, slot: u32, lo: [f64; 3], hi: [f64; 3]) {
+        let slot = slot as usize;
+        if slot >= self.leaves {
+            let mut leaves = self.leaves;
+            while leaves <= slot {
+                leaves *= 2;
+            }
+            let mut lo_v = vec![Self::EMPTY_LO; 2 * leaves];
+            let mut hi_v = vec![Self::EMPTY_HI; 2 * leaves];
+            lo_v[leaves..leaves + self.leaves].copy_from_slice(&self.lo[self.leaves..]);
+            hi_v[leaves..leaves + self.leaves].copy_from_slice(&self.hi[self.leaves..]);
+            self.leaves = leaves;
+            self.lo = lo_v;
+            self.hi = hi_v;
+            for k in (1..leaves).rev() {
+                self.join(k);
+            }
+        }
+        let mut k = self.leaves + slot;
+        self.lo[k] = lo;
+        self.hi[k] = hi;
+        while k > 1 {
+            k /= 2;
+            self.join(k);
+        }
+    }
+
+    fn clear(&mut self, slot: u32) {
+        if (slot as usize) < self.leaves {
+            self.set(slot, Self::EMPTY_LO, Self::EMPTY_HI);
+        }
+    }
+
+    fn root(&self) -> ([f64; 3], [f64; 3]) {
+        (self.lo[1], self.hi[1])
+    }
 }
 
 /// The smallest sphere holding spheres `a` and `b` (centre, radius).
@@ -152,11 +270,14 @@ pub struct UploadStats {
     /// Body materials written.
     pub materials: u64,
     pub material_bytes: u64,
-    /// Meshes (vertex + edge buffers) uploaded.
+    /// Meshes (their triangle and edge vertices) uploaded.
     pub meshes: u64,
     pub mesh_bytes: u64,
-    /// Times the per-body arrays grew and were rewritten whole.
+    /// Times the per-body arrays grew and were rewritten whole, or a shared mesh buffer grew
+    /// (its contents copied on the GPU, not uploaded again).
     pub regrowths: u64,
+    /// Times a shared mesh buffer was compacted (its live ranges copied together on the GPU).
+    pub compactions: u64,
 }
 
 impl UploadStats {
@@ -171,6 +292,7 @@ impl UploadStats {
         self.meshes += o.meshes;
         self.mesh_bytes += o.mesh_bytes;
         self.regrowths += o.regrowths;
+        self.compactions += o.compactions;
     }
 }
 
@@ -198,10 +320,38 @@ impl Default for Style {
     }
 }
 
-struct GpuMesh {
-    cpu: CpuMesh,
-    vertices: wgpu::Buffer,
-    edges: Option<wgpu::Buffer>,
+/// Where a body's vertices are in a [`Pool`]: page and range (in vertices).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Place {
+    page: u32,
+    span: Span,
+}
+
+/// One shared vertex buffer and the allocator of its space.
+struct Page {
+    arena: Arena,
+    buffer: wgpu::Buffer,
+}
+
+/// Meshes of one kind (triangles, or edge lines) packed into shared vertex buffers: a page
+/// grows by doubling (a bigger buffer, the live part copied on the GPU) up to the device's
+/// largest buffer, and another page is added beyond that.
+struct Pool {
+    label: &'static str,
+    /// Bytes per vertex.
+    stride: u64,
+    /// The most vertices one page (buffer) may hold.
+    max_elems: u32,
+    pages: Vec<Page>,
+}
+
+/// Which buffer a queued write goes to.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Target {
+    Transforms,
+    Materials,
+    Tri(u32),
+    Edge(u32),
 }
 
 struct Body {
@@ -211,7 +361,11 @@ struct Body {
     geom_gen: u64,
     /// bbox centre and half-diagonal, body frame.
     bbox: [f64; 6],
-    mesh: GpuMesh,
+    /// The mesh on the CPU (for picking and for the counts).
+    cpu: CpuMesh,
+    /// Its triangles and edges in the shared buffers (`None`: it has none).
+    tri: Option<Place>,
+    edge: Option<Place>,
 }
 
 struct Targets {
@@ -248,6 +402,17 @@ pub struct Renderer {
     materials: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     capacity: u32,
+    /// Every body's triangles, and every body's edge lines, in shared buffers.
+    tris: Pool,
+    edges: Pool,
+    /// Writes not yet handed to the queue: contiguous writes to one buffer are merged (a
+    /// first sync of 10⁵ bodies makes a few large writes, not 10⁵ small ones). Flushed at
+    /// the end of every sync and before any buffer is replaced.
+    writes: Vec<(Target, u64, Vec<u8>)>,
+    /// Triangles of all bodies.
+    triangles: usize,
+    /// Every body's world box, and their union ([`Renderer::bounds`]).
+    boxes: BoxTree,
     bodies: HashMap<Id, Body>,
     free: Vec<u32>,
     next_slot: u32,
@@ -292,6 +457,130 @@ fn mat4_f32(m: &Matrix4<f64>) -> [f32; 16] {
         *o = *v as f32;
     }
     out
+}
+
+impl Pool {
+    fn new(label: &'static str, stride: u64, max_buffer: u64) -> Pool {
+        let mut p = Pool {
+            label,
+            stride,
+            max_elems: 0,
+            pages: Vec::new(),
+        };
+        p.set_limit(max_buffer);
+        p
+    }
+
+    /// The largest buffer to make, in bytes (at most 2 GiB: a page's offsets are u32
+    /// vertices, and no scene needs more per buffer).
+    fn set_limit(&mut self, bytes: u64) {
+        self.max_elems = (bytes.min(1 << 31) / self.stride).max(1) as u32;
+    }
+
+    fn buffer(&self, device: &wgpu::Device, elems: u32) -> wgpu::Buffer {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(self.label),
+            size: elems as u64 * self.stride,
+            usage: wgpu::BufferUsages::VERTEX
+                | wgpu::BufferUsages::COPY_DST
+                | wgpu::BufferUsages::COPY_SRC,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// `n` vertices in the first page with room (a hole or above its top), without growing.
+    fn try_alloc(&mut self, n: u32) -> Option<Place> {
+        self.pages.iter_mut().enumerate().find_map(|(k, p)| {
+            p.arena.alloc(n).map(|start| Place {
+                page: k as u32,
+                span: Span { start, len: n },
+            })
+        })
+    }
+
+    /// Makes room for `n` vertices — the last page grown (up to [`Pool::max_elems`]), else a
+    /// new page — and allocates them there. The caller has flushed its queued writes.
+    fn make_room(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        n: u32,
+        stats: &mut UploadStats,
+    ) -> Option<Place> {
+        let max = self.max_elems as u64;
+        let growable = self.pages.last().and_then(|p| {
+            let needed = p.arena.needed_for(n);
+            (needed <= max).then(|| (p.arena.capacity() as u64 * 2).max(needed).min(max) as u32)
+        });
+        let page = match growable {
+            Some(capacity) => {
+                let k = self.pages.len() - 1;
+                let buffer = self.buffer(device, capacity);
+                let p = &mut self.pages[k];
+                let live = p.arena.top() as u64 * self.stride;
+                if live > 0 {
+                    let mut enc = device.create_command_encoder(&Default::default());
+                    enc.copy_buffer_to_buffer(&p.buffer, 0, &buffer, 0, live);
+                    // Submitted now: writes queued for the new buffer from here on belong to
+                    // the next submission, which runs after this copy.
+                    queue.submit([enc.finish()]);
+                }
+                p.buffer = buffer;
+                p.arena.grow(capacity);
+                stats.regrowths += 1;
+                k
+            }
+            None => {
+                let capacity = (n.next_power_of_two() as u64)
+                    .max(ARENA_INITIAL as u64)
+                    .min(max) as u32;
+                let buffer = self.buffer(device, capacity);
+                self.pages.push(Page {
+                    arena: Arena::new(capacity),
+                    buffer,
+                });
+                self.pages.len() - 1
+            }
+        };
+        let start = self.pages[page].arena.alloc(n)?;
+        Some(Place {
+            page: page as u32,
+            span: Span { start, len: n },
+        })
+    }
+
+    /// Compacts page `page` into a new buffer (half as big again as what is live, at least
+    /// the initial size): every live run copied on the GPU, submitted at once.
+    fn compact(
+        &mut self,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+        page: u32,
+    ) -> crate::arena::Compaction {
+        let used = self.pages[page as usize].arena.used() as u64;
+        let capacity = (used + used / 2)
+            .max(ARENA_INITIAL as u64)
+            .min(self.max_elems as u64)
+            .max(used) as u32;
+        let buffer = self.buffer(device, capacity);
+        let stride = self.stride;
+        let p = &mut self.pages[page as usize];
+        let c = p.arena.compact();
+        p.arena.set_capacity(capacity);
+        let mut enc = device.create_command_encoder(&Default::default());
+        for &(src, dst, len) in &c.copies {
+            enc.copy_buffer_to_buffer(
+                &p.buffer,
+                src as u64 * stride,
+                &buffer,
+                dst as u64 * stride,
+                len as u64 * stride,
+            );
+        }
+        queue.submit([enc.finish()]);
+        p.buffer = buffer;
+        c
+    }
 }
 
 impl Renderer {
@@ -367,9 +656,9 @@ impl Renderer {
                 entry_point: Some("vs_solid"),
                 compilation_options: Default::default(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<Vertex>() as u64,
+                    array_stride: std::mem::size_of::<SlotVertex>() as u64,
                     step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3],
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x3, 2 => Uint32],
                 })],
             },
             primitive: wgpu::PrimitiveState {
@@ -408,9 +697,9 @@ impl Renderer {
                 entry_point: Some("vs_edge"),
                 compilation_options: Default::default(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: 12,
+                    array_stride: std::mem::size_of::<SlotPoint>() as u64,
                     step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3],
+                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
                 })],
             },
             primitive: wgpu::PrimitiveState {
@@ -478,6 +767,17 @@ impl Renderer {
         let capacity = 64;
         let (transforms, materials) = Self::body_arrays(device, capacity);
         let bind_group = Self::bind(device, &layout, &frame, &transforms, &materials);
+        let max_buffer = device.limits().max_buffer_size;
+        let tris = Pool::new(
+            "robosim shared triangles",
+            size_of::<SlotVertex>() as u64,
+            max_buffer,
+        );
+        let edges = Pool::new(
+            "robosim shared edges",
+            size_of::<SlotPoint>() as u64,
+            max_buffer,
+        );
         Renderer {
             gpu,
             format,
@@ -493,6 +793,11 @@ impl Renderer {
             materials,
             bind_group,
             capacity,
+            tris,
+            edges,
+            writes: Vec::new(),
+            triangles: 0,
+            boxes: BoxTree::new(),
             bodies: HashMap::new(),
             free: Vec::new(),
             next_slot: 0,
@@ -586,7 +891,35 @@ impl Renderer {
 
     /// Triangles on the GPU.
     pub fn triangle_count(&self) -> usize {
-        self.bodies.values().map(|b| b.mesh.cpu.triangles()).sum()
+        self.triangles
+    }
+
+    /// The shared mesh buffers: (triangle buffers, edge buffers, draws a frame makes for the
+    /// triangles with [`Style::edges`] off). Does not grow with the number of bodies.
+    pub fn mesh_buffers(&self) -> (usize, usize, usize) {
+        let draws = self.tris.pages.iter().map(|p| p.arena.runs().count()).sum();
+        (self.tris.pages.len(), self.edges.pages.len(), draws)
+    }
+
+    /// Caps every shared mesh buffer at `bytes` (tests: many pages with small meshes). Takes
+    /// effect for buffers made or grown from now on.
+    #[doc(hidden)]
+    pub fn set_mesh_buffer_limit(&mut self, bytes: u64) {
+        self.tris.set_limit(bytes);
+        self.edges.set_limit(bytes);
+    }
+
+    /// Where each body's triangles are in the shared buffers: (id, page, first vertex,
+    /// vertices); for tests, checking that no two bodies overlap.
+    #[doc(hidden)]
+    pub fn mesh_ranges(&self) -> Vec<(Id, u32, u32, u32)> {
+        let mut v: Vec<_> = self
+            .bodies
+            .iter()
+            .filter_map(|(&id, b)| b.tri.map(|p| (id, p.page, p.span.start, p.span.len)))
+            .collect();
+        v.sort_by_key(|r| (r.1, r.2));
+        v
     }
 
     /// Objects drawn in the collision colour from the next sync on.
@@ -606,9 +939,40 @@ impl Renderer {
         })
     }
 
+    fn buffer(&self, t: Target) -> &wgpu::Buffer {
+        match t {
+            Target::Transforms => &self.transforms,
+            Target::Materials => &self.materials,
+            Target::Tri(p) => &self.tris.pages[p as usize].buffer,
+            Target::Edge(p) => &self.edges.pages[p as usize].buffer,
+        }
+    }
+
+    /// Queues `bytes` for `target` at `offset`, merged with the previous write to the same
+    /// buffer when it ends where this one begins.
+    fn queue_write(&mut self, target: Target, offset: u64, bytes: &[u8]) {
+        if let Some(k) = self.writes.iter().position(|w| w.0 == target) {
+            let w = &mut self.writes[k];
+            if w.1 + w.2.len() as u64 == offset {
+                w.2.extend_from_slice(bytes);
+                return;
+            }
+            let (t, o, data) = self.writes.swap_remove(k);
+            self.gpu.queue.write_buffer(self.buffer(t), o, &data);
+        }
+        self.writes.push((target, offset, bytes.to_vec()));
+    }
+
+    /// Hands every queued write to the queue (the next submission carries them).
+    fn flush_writes(&mut self) {
+        for (t, o, data) in std::mem::take(&mut self.writes) {
+            self.gpu.queue.write_buffer(self.buffer(t), o, &data);
+        }
+    }
+
     fn write_transform(&mut self, slot: u32, world: &[f64; 12], stats: &mut UploadStats) {
-        self.gpu.queue.write_buffer(
-            &self.transforms,
+        self.queue_write(
+            Target::Transforms,
             slot as u64 * TRANSFORM_BYTES,
             bytemuck::cast_slice(&transform_f32(world)),
         );
@@ -617,8 +981,8 @@ impl Renderer {
     }
 
     fn write_material(&mut self, slot: u32, material: &[f32; 8], stats: &mut UploadStats) {
-        self.gpu.queue.write_buffer(
-            &self.materials,
+        self.queue_write(
+            Target::Materials,
             slot as u64 * MATERIAL_BYTES,
             bytemuck::cast_slice(material),
         );
@@ -626,31 +990,144 @@ impl Renderer {
         stats.material_bytes += MATERIAL_BYTES;
     }
 
-    fn upload_mesh(&self, cpu: CpuMesh, stats: &mut UploadStats) -> GpuMesh {
-        let device = &self.gpu.device;
-        let vertices = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("robosim body vertices"),
-            contents: bytemuck::cast_slice(&cpu.vertices),
-            usage: wgpu::BufferUsages::VERTEX,
-        });
-        let edges = (!cpu.edge_points.is_empty()).then(|| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("robosim body edges"),
-                contents: bytemuck::cast_slice(&cpu.edge_points),
-                usage: wgpu::BufferUsages::VERTEX,
+    /// Places a body's mesh in the shared buffers (growing or adding one when full) and
+    /// queues its vertices, each tagged with the body's slot. A mesh larger than the device's
+    /// largest buffer is not drawn (said on stderr).
+    fn upload_mesh(
+        &mut self,
+        slot: u32,
+        cpu: &CpuMesh,
+        stats: &mut UploadStats,
+    ) -> (Option<Place>, Option<Place>) {
+        let tri_bytes: Vec<SlotVertex> = cpu
+            .vertices
+            .iter()
+            .map(|v| SlotVertex {
+                pos: v.pos,
+                normal: v.normal,
+                slot,
             })
-        });
+            .collect();
+        let edge_bytes: Vec<SlotPoint> = cpu
+            .edge_points
+            .iter()
+            .map(|&pos| SlotPoint { pos, slot })
+            .collect();
+        let tri = self.place(
+            false,
+            tri_bytes.len(),
+            bytemuck::cast_slice(&tri_bytes),
+            stats,
+        );
+        let edge = self.place(
+            true,
+            edge_bytes.len(),
+            bytemuck::cast_slice(&edge_bytes),
+            stats,
+        );
         stats.meshes += 1;
-        stats.mesh_bytes += cpu.gpu_bytes();
-        GpuMesh {
-            cpu,
-            vertices,
-            edges,
+        stats.mesh_bytes += (std::mem::size_of_val(tri_bytes.as_slice())
+            + std::mem::size_of_val(edge_bytes.as_slice())) as u64;
+        (tri, edge)
+    }
+
+    fn place(
+        &mut self,
+        edges: bool,
+        n: usize,
+        bytes: &[u8],
+        stats: &mut UploadStats,
+    ) -> Option<Place> {
+        let pool = if edges {
+            &mut self.edges
+        } else {
+            &mut self.tris
+        };
+        if n == 0 {
+            return None;
+        }
+        if n > pool.max_elems as usize {
+            eprintln!(
+                "display: a mesh of {n} vertices is larger than the device's largest buffer ({} vertices); not drawn",
+                pool.max_elems
+            );
+            return None;
+        }
+        let n = n as u32;
+        let place = match pool.try_alloc(n) {
+            Some(p) => p,
+            None => {
+                // Growing copies a buffer's live part on the GPU: what is queued for it must
+                // be written first.
+                self.flush_writes();
+                let pool = if edges {
+                    &mut self.edges
+                } else {
+                    &mut self.tris
+                };
+                pool.make_room(&self.gpu.device, &self.gpu.queue, n, stats)?
+            }
+        };
+        let stride = if edges {
+            self.edges.stride
+        } else {
+            self.tris.stride
+        };
+        let target = if edges {
+            Target::Edge(place.page)
+        } else {
+            Target::Tri(place.page)
+        };
+        self.queue_write(target, place.span.start as u64 * stride, bytes);
+        Some(place)
+    }
+
+    /// Frees a body's ranges in the shared buffers.
+    fn release(&mut self, tri: Option<Place>, edge: Option<Place>) {
+        if let Some(p) = tri {
+            self.tris.pages[p.page as usize].arena.free(p.span);
+        }
+        if let Some(p) = edge {
+            self.edges.pages[p.page as usize].arena.free(p.span);
+        }
+    }
+
+    /// Compacts every shared buffer whose holes have become many or large
+    /// ([`Arena::wants_compaction`]): its live ranges are copied together into a new buffer
+    /// on the GPU and the bodies' ranges follow.
+    fn compact_pools(&mut self, stats: &mut UploadStats) {
+        for edges in [false, true] {
+            let pool = if edges { &self.edges } else { &self.tris };
+            let due: Vec<u32> = (0..pool.pages.len() as u32)
+                .filter(|&p| pool.pages[p as usize].arena.wants_compaction())
+                .collect();
+            if due.is_empty() {
+                continue;
+            }
+            self.flush_writes();
+            for page in due {
+                let pool = if edges {
+                    &mut self.edges
+                } else {
+                    &mut self.tris
+                };
+                let c = pool.compact(&self.gpu.device, &self.gpu.queue, page);
+                stats.compactions += 1;
+                for b in self.bodies.values_mut() {
+                    let place = if edges { &mut b.edge } else { &mut b.tri };
+                    if let Some(p) = place
+                        && p.page == page
+                    {
+                        p.span.start = c.moved(p.span.start);
+                    }
+                }
+            }
         }
     }
 
     /// Grows the per-body arrays to hold slot `needed` and rewrites them whole.
     fn grow(&mut self, needed: u32, stats: &mut UploadStats) {
+        self.flush_writes();
         let mut capacity = self.capacity;
         while capacity <= needed {
             capacity *= 2;
@@ -666,11 +1143,13 @@ impl Renderer {
             &self.transforms,
             &self.materials,
         );
-        let all: Vec<(u32, [f64; 12], [f32; 8])> = self
+        let mut all: Vec<(u32, [f64; 12], [f32; 8])> = self
             .bodies
             .values()
             .map(|b| (b.slot, b.world, b.material))
             .collect();
+        // In slot order: the writes merge into one per array.
+        all.sort_by_key(|b| b.0);
         for (slot, world, material) in all {
             self.write_transform(slot, &world, stats);
             self.write_material(slot, &material, stats);
@@ -721,15 +1200,29 @@ impl Renderer {
                     let (slot, old_world, old_material, old_gen) =
                         (b.slot, b.world, b.material, b.geom_gen);
                     if old_gen != rec.geom_gen {
-                        let mesh = self.upload_mesh(CpuMesh::from_geometry(&g), &mut stats);
+                        // New geometry: the old ranges are freed first, so a mesh of the same
+                        // size or smaller goes back where it was.
+                        let (tri, edge) = (b.tri, b.edge);
+                        let old_tris = b.cpu.triangles();
+                        self.release(tri, edge);
+                        let cpu = CpuMesh::from_geometry(&g);
+                        let (tri, edge) = self.upload_mesh(slot, &cpu, &mut stats);
+                        self.triangles = self.triangles - old_tris + cpu.triangles();
+                        let (lo, hi) = world_box(&world, &g.header.bbox);
+                        self.boxes.set(slot, lo, hi);
                         if let Some(b) = self.bodies.get_mut(&id) {
-                            b.mesh = mesh;
+                            b.cpu = cpu;
+                            b.tri = tri;
+                            b.edge = edge;
                             b.geom_gen = rec.geom_gen;
                             b.bbox = g.header.bbox;
                         }
                     }
                     if old_world != world {
                         self.write_transform(slot, &world, &mut stats);
+                        let bbox = self.bodies.get(&id).map_or(g.header.bbox, |b| b.bbox);
+                        let (lo, hi) = world_box(&world, &bbox);
+                        self.boxes.set(slot, lo, hi);
                     }
                     if old_material != material {
                         self.write_material(slot, &material, &mut stats);
@@ -744,9 +1237,13 @@ impl Renderer {
                     if slot >= self.capacity {
                         self.grow(slot, &mut stats);
                     }
-                    let mesh = self.upload_mesh(CpuMesh::from_geometry(&g), &mut stats);
+                    let cpu = CpuMesh::from_geometry(&g);
+                    let (tri, edge) = self.upload_mesh(slot, &cpu, &mut stats);
                     self.write_transform(slot, &world, &mut stats);
                     self.write_material(slot, &material, &mut stats);
+                    self.triangles += cpu.triangles();
+                    let (lo, hi) = world_box(&world, &g.header.bbox);
+                    self.boxes.set(slot, lo, hi);
                     self.bodies.insert(
                         id,
                         Body {
@@ -755,7 +1252,9 @@ impl Renderer {
                             material,
                             geom_gen: rec.geom_gen,
                             bbox: g.header.bbox,
-                            mesh,
+                            cpu,
+                            tri,
+                            edge,
                         },
                     );
                 }
@@ -770,14 +1269,19 @@ impl Renderer {
                 .collect();
             for id in gone {
                 if let Some(b) = self.bodies.remove(&id) {
+                    self.release(b.tri, b.edge);
+                    self.triangles -= b.cpu.triangles();
+                    self.boxes.clear(b.slot);
                     self.free.push(b.slot);
                 }
             }
         }
+        self.compact_pools(&mut stats);
         self.finish(snap, stats)
     }
 
     fn finish(&mut self, snap: &Snapshot, stats: UploadStats) -> UploadStats {
+        self.flush_writes();
         self.version = snap.version();
         self.synced = Some((snap.version(), snap.epoch()));
         self.last = stats;
@@ -824,6 +1328,8 @@ impl Renderer {
                 self.write_transform(slot, &world, &mut stats);
                 if let Some(b) = self.bodies.get_mut(&id) {
                     b.world = world;
+                    let (lo, hi) = world_box(&world, &b.bbox);
+                    self.boxes.set(slot, lo, hi);
                 }
             }
         }
@@ -833,7 +1339,8 @@ impl Renderer {
     /// The world bounding sphere of everything drawn (centre, radius); the unit sphere when
     /// nothing is.
     pub fn bounds(&self) -> (Point3<f64>, f64) {
-        sphere_around(self.bodies.values().map(|b| (&b.world, &b.bbox)))
+        let (lo, hi) = self.boxes.root();
+        sphere_of_box(lo, hi)
     }
 
     /// Points the camera at everything drawn, from the default direction.
@@ -1024,22 +1531,24 @@ impl Renderer {
             multiview_mask: None,
         });
         pass.set_bind_group(0, &self.bind_group, &[]);
-        pass.set_pipeline(&self.solid);
-        for b in self.bodies.values() {
-            let n = b.mesh.cpu.vertices.len() as u32;
-            if n > 0 {
-                pass.set_vertex_buffer(0, b.mesh.vertices.slice(..));
-                pass.draw(0..n, b.slot..b.slot + 1);
-            }
-        }
-        if self.style.edges {
-            pass.set_pipeline(&self.edge);
-            for b in self.bodies.values() {
-                if let Some(e) = &b.mesh.edges {
-                    pass.set_vertex_buffer(0, e.slice(..));
-                    pass.draw(0..b.mesh.cpu.edge_points.len() as u32, b.slot..b.slot + 1);
+        // Each shared buffer's live runs: one draw per run, whatever the number of bodies
+        // (every vertex carries its body's slot).
+        let draw_pool = |pass: &mut wgpu::RenderPass<'_>, pool: &Pool| {
+            for p in &pool.pages {
+                if p.arena.top() == 0 {
+                    continue;
+                }
+                pass.set_vertex_buffer(0, p.buffer.slice(..));
+                for run in p.arena.runs() {
+                    pass.draw(run.start..run.end(), 0..1);
                 }
             }
+        };
+        pass.set_pipeline(&self.solid);
+        draw_pool(&mut pass, &self.tris);
+        if self.style.edges {
+            pass.set_pipeline(&self.edge);
+            draw_pool(&mut pass, &self.edges);
         }
         // After the model: its depth hides the guides behind it.
         if let Some((_, buf, n)) = &self.guides {
@@ -1112,6 +1621,19 @@ impl Renderer {
     /// display's frames would).
     pub fn flush_uploads(&self) {
         self.gpu.queue.submit([]);
+    }
+
+    /// Encodes a frame off screen and submits it without waiting (the CPU part of a frame;
+    /// `robosim bench display` times it and then [`Renderer::wait_idle`]s).
+    pub fn submit_frame(&mut self, width: u32, height: u32) -> Result<()> {
+        let encoder = self.encode_offscreen(width, height)?;
+        self.gpu.queue.submit([encoder.finish()]);
+        Ok(())
+    }
+
+    /// Waits for everything submitted to finish.
+    pub fn wait_idle(&self) -> Result<()> {
+        self.wait()
     }
 
     /// Draws a frame off screen and waits for the device to finish it, reading nothing back
@@ -1202,7 +1724,7 @@ impl Renderer {
             };
             let o = rt([origin.x - t[0], origin.y - t[1], origin.z - t[2]]);
             let d = rt([dir.x, dir.y, dir.z]);
-            if let Some((dist, polygon)) = b.mesh.cpu.raycast(o, d)
+            if let Some((dist, polygon)) = b.cpu.raycast(o, d)
                 && best.is_none_or(|h| dist < h.distance)
             {
                 best = Some(Hit {
@@ -1214,5 +1736,51 @@ impl Renderer {
             }
         }
         best
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The tree's root is the box a pass over every body finds, through moves, removals and
+    /// growth of the slot range.
+    #[test]
+    fn the_box_tree_root_is_the_union_of_the_live_boxes() {
+        let mut t = BoxTree::new();
+        let mut live: HashMap<u32, ([f64; 12], [f64; 6])> = HashMap::new();
+        let mut rng = 0x9e37_79b9_7f4a_7c15_u64;
+        let mut next = || {
+            rng ^= rng << 13;
+            rng ^= rng >> 7;
+            rng ^= rng << 17;
+            (rng % 10_000) as f64 / 100.0 - 50.0
+        };
+        for step in 0..3_000u32 {
+            let slot = (next().abs() * 3.0) as u32;
+            if step % 4 == 3 {
+                t.clear(slot);
+                live.remove(&slot);
+            } else {
+                let mut w = [0.0; 12];
+                // A rotation about z by a random angle, a random translation.
+                let a = next() / 10.0;
+                w[0] = a.cos();
+                w[1] = -a.sin();
+                w[4] = a.sin();
+                w[5] = a.cos();
+                w[10] = 1.0;
+                w[3] = next();
+                w[7] = next();
+                w[11] = next();
+                let bbox = [next() / 10.0, 0.0, 0.5, 1.0, next().abs() / 10.0, 0.25];
+                let (lo, hi) = world_box(&w, &bbox);
+                t.set(slot, lo, hi);
+                live.insert(slot, (w, bbox));
+            }
+            let brute = sphere_around(live.values().map(|(w, b)| (w, b)));
+            let (lo, hi) = t.root();
+            assert_eq!(sphere_of_box(lo, hi), brute, "step {step}");
+        }
     }
 }

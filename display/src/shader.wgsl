@@ -1,8 +1,9 @@
 // robosim display: flat-shaded polygons (one normal per polygon, as the seed's polygon models
 // are drawn) lit by one directional light plus an ambient term, Blinn–Phong specular; and a
 // line pass for the edge overlay. Per-body data live in two storage arrays indexed by the
-// draw's instance index (the body's slot): a pose change rewrites one `transforms` entry, an
-// appearance change one `materials` entry, and no vertex buffer is touched.
+// body's slot, which every vertex carries (all bodies' meshes share a few vertex buffers and
+// are drawn by a few draws): a pose change rewrites one `transforms` entry, an appearance
+// change one `materials` entry, and no vertex buffer is touched.
 
 struct Frame {
     view_proj: mat4x4<f32>,
@@ -34,7 +35,7 @@ struct VsOut {
 
 @vertex
 fn vs_solid(@location(0) pos: vec3<f32>, @location(1) normal: vec3<f32>,
-            @builtin(instance_index) slot: u32) -> VsOut {
+            @location(2) slot: u32) -> VsOut {
     let m = transforms[slot];
     let world = m * vec4<f32>(pos, 1.0);
     var out: VsOut;
@@ -78,7 +79,7 @@ struct LineOut {
 };
 
 @vertex
-fn vs_edge(@location(0) pos: vec3<f32>, @builtin(instance_index) slot: u32) -> LineOut {
+fn vs_edge(@location(0) pos: vec3<f32>, @location(1) slot: u32) -> LineOut {
     var out: LineOut;
     out.clip = frame.view_proj * (transforms[slot] * vec4<f32>(pos, 1.0));
     out.slot = slot;

@@ -17,7 +17,7 @@
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
 use crate::layout::{ChangeRec, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader, SegmentWriter};
-use crate::replica::{LOG_MAGIC, Log, LogAnswer, SNAPSHOT_MAGIC, SpaceSnapshot};
+use crate::replica::{LOG_MAGIC, Log, LogAnswer, PublishedLibrary, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
 use crate::session::{Registration, Session, SessionError};
 use crate::store::{Applied, Id, Store, TxError, aspect};
@@ -222,7 +222,7 @@ pub struct Keeper {
     /// The last committed transactions, for replicas catching up ([`crate::replica`]).
     log: Log,
     /// The Library Space as last published, and how many times it was published.
-    library_files: Vec<(String, String)>,
+    library_files: PublishedLibrary,
     library_gen: u64,
     /// Replica: writers' transactions held until the other keeper answers (ticket → request),
     /// and the ones not yet handed to the bridge.
@@ -519,7 +519,7 @@ impl Keeper {
             large: std::collections::BTreeMap::new(),
             next_token: 1,
             log: Log::default(),
-            library_files: Vec::new(),
+            library_files: PublishedLibrary::default(),
             library_gen: 0,
             held: HashMap::new(),
             to_forward: Vec::new(),
@@ -569,6 +569,17 @@ impl Keeper {
     /// checked by the caller. Any process can then list and instantiate its declarations
     /// ([`crate::Reader::library_files`]).
     pub fn publish_library(&mut self, files: &[(String, String)]) -> Result<(), KeeperError> {
+        self.publish_library_checked(files, None)
+    }
+
+    /// [`Keeper::publish_library`] with the checked library's encoding beside the sources
+    /// (`robosim_library::Library::encode_checked`, opaque here), so that readers decode it
+    /// instead of parsing and checking the sources again ([`crate::Reader::library`]).
+    pub fn publish_library_checked(
+        &mut self,
+        files: &[(String, String)],
+        checked: Option<&[u8]>,
+    ) -> Result<(), KeeperError> {
         if self.library.is_none() {
             let svc = pubsub_service(
                 &self.session,
@@ -591,9 +602,12 @@ impl Keeper {
             self.library = Some(p);
             self._services.push(Box::new(svc));
         }
-        self.library_files = files.to_vec();
+        self.library_files = PublishedLibrary {
+            files: files.to_vec(),
+            checked: checked.map(<[u8]>::to_vec),
+        };
         self.library_gen += 1;
-        let words = crate::layout::encode_files(files);
+        let words = crate::layout::encode_library(files, checked);
         if let Some(p) = &self.library {
             let mut sample = p.loan_slice(words.len()).map_err(ipc("loan library"))?;
             sample.payload_mut().copy_from_slice(&words);

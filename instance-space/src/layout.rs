@@ -298,6 +298,13 @@ pub struct ChangeRec {
 /// Encodes text files as a segment: section 0 holds `[name_off, name_len, text_off,
 /// text_len]` per file, section 1 the bytes.
 pub fn encode_files(files: &[(String, String)]) -> Vec<u64> {
+    encode_library(files, None)
+}
+
+/// The Library Space's publication: [`encode_files`] and, as section 2, the checked library's
+/// encoding (opaque here; `robosim_library::Library::encode_checked`). A reader that knows
+/// only sections 0 and 1 reads the files as before.
+pub fn encode_library(files: &[(String, String)], checked: Option<&[u8]>) -> Vec<u64> {
     let mut index: Vec<[u64; 4]> = Vec::with_capacity(files.len());
     let mut bytes = Vec::new();
     for (name, text) in files {
@@ -312,10 +319,23 @@ pub fn encode_files(files: &[(String, String)]) -> Vec<u64> {
     }
     let mut w = SegmentWriter::new();
     w.push(&index).push(&bytes);
+    if let Some(c) = checked {
+        w.push(c);
+    }
     w.to_vec()
 }
 
-/// Decodes [`encode_files`].
+/// The checked library's encoding in a publication of [`encode_library`], if it has one.
+pub fn decode_library_checked(words: &[u64]) -> Result<Option<Vec<u8>>, LayoutError> {
+    let seg = Segment::parse(words)?;
+    match seg.section::<u8>(2) {
+        Ok(b) => Ok(Some(b.to_vec())),
+        Err(LayoutError::Missing(_)) => Ok(None),
+        Err(e) => Err(e),
+    }
+}
+
+/// Decodes [`encode_files`] (and the files of [`encode_library`]).
 pub fn decode_files(words: &[u64]) -> Result<Vec<(String, String)>, LayoutError> {
     let seg = Segment::parse(words)?;
     let index: &[[u64; 4]] = seg.section(0)?;

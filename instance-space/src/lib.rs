@@ -33,7 +33,9 @@ mod view;
 pub use client::{Client, ClientError, Committed, Pending};
 pub use journal::ObjectData;
 pub use keeper::{DEFAULT_SPIN_US, Keeper, KeeperError, KeeperOptions, SPIN_ENV, spin_from_env};
-pub use reader::{Change, GeometryView, ObjectView, Reader, ReaderError, Snapshot, compose};
+pub use reader::{
+    Change, GeometryView, LibraryPublication, ObjectView, Reader, ReaderError, Snapshot, compose,
+};
 pub use scratch::ScratchKeeper;
 pub use session::{
     ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,

@@ -361,12 +361,26 @@ struct ChunkSub {
     latest: Option<Rc<Words>>,
     epoch: u64,
     generation: u64,
+    /// The (first object, count) `latest` was checked against: a chunk that did not change
+    /// since is not parsed and checked again (a pose-only follow then costs one generation
+    /// compare per unchanged chunk).
+    checked: Option<(usize, usize)>,
 }
 
 struct GeomSub {
     sub: Sub,
     latest: Option<Rc<Words>>,
     generation: u64,
+}
+
+/// The Library Space as published ([`Reader::library`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct LibraryPublication {
+    /// The library's source files (name, text), in load order.
+    pub files: Vec<(String, String)>,
+    /// The checked library's encoding (`robosim_library::Library::encode_checked`), if the
+    /// keeper published one.
+    pub checked: Option<Vec<u8>>,
 }
 
 /// A process's read attachment to a session's Instance Space.
@@ -723,6 +737,7 @@ impl Reader {
                 latest: None,
                 epoch: 0,
                 generation: 0,
+                checked: None,
             });
             opened = true;
         }
@@ -750,6 +765,7 @@ impl Reader {
                         c.epoch = ch.epoch;
                         c.generation = ch.generation;
                         c.latest = Some(Rc::new(Words::Shared(s)));
+                        c.checked = None;
                         if ch.epoch > h.epoch || (ch.epoch == h.epoch && ch.generation > generation)
                         {
                             return Ok(None);
@@ -770,15 +786,18 @@ impl Reader {
                 }
             }
             let latest = c.latest.clone().ok_or(ReaderError::Timeout(self.timeout))?;
-            let seg = Segment::parse(latest.words())?;
-            let ch: PoseChunkHeader = *seg.record(0)?;
             let first = k * chunk_len;
             let count = chunk_len.min(n - first);
-            if ch.first as usize != first
-                || ch.count as usize != count
-                || seg.section::<PoseRec>(1)?.len() != count
-            {
-                return Err(LayoutError::Section(1).into());
+            if c.checked != Some((first, count)) {
+                let seg = Segment::parse(latest.words())?;
+                let ch: PoseChunkHeader = *seg.record(0)?;
+                if ch.first as usize != first
+                    || ch.count as usize != count
+                    || seg.section::<PoseRec>(1)?.len() != count
+                {
+                    return Err(LayoutError::Section(1).into());
+                }
+                c.checked = Some((first, count));
             }
             out.push(latest);
         }
@@ -844,6 +863,13 @@ impl Reader {
     /// The session's Library Space: its source files as the keeper published them (see
     /// `Keeper::publish_library`). Waits up to the reader's timeout for the first delivery.
     pub fn library_files(&mut self) -> Result<Vec<(String, String)>, ReaderError> {
+        Ok(self.library()?.files)
+    }
+
+    /// The session's Library Space as the keeper published it: the source files and, when the
+    /// keeper published one (`Keeper::publish_library_checked`), the checked library's
+    /// encoding. Waits up to the reader's timeout for the first delivery.
+    pub fn library(&mut self) -> Result<LibraryPublication, ReaderError> {
         let svc = self
             .node
             .service_builder(&self.session.service(services::LIBRARY)?)
@@ -863,7 +889,10 @@ impl Reader {
         let deadline = Instant::now() + self.timeout;
         loop {
             if let Some(s) = sub.receive().map_err(ipc("receive library"))? {
-                return Ok(crate::layout::decode_files(s.payload())?);
+                return Ok(LibraryPublication {
+                    files: crate::layout::decode_files(s.payload())?,
+                    checked: crate::layout::decode_library_checked(s.payload())?,
+                });
             }
             if Instant::now() > deadline {
                 return Err(ReaderError::Timeout(self.timeout));

@@ -31,10 +31,20 @@ pub const LOG_ANSWER_BYTES: usize = 1 << 20;
 pub struct SpaceSnapshot {
     /// [`crate::journal::encode_store`] of the model (its version inside).
     pub model: Vec<u8>,
-    /// The Library Space's source files (name, text), as the keeper publishes them.
-    pub library: Vec<(String, String)>,
+    /// The Library Space as the keeper publishes it.
+    pub library: PublishedLibrary,
     /// Counts the keeper's library publications (0: none yet).
     pub library_gen: u64,
+}
+
+/// The Library Space as a keeper publishes it (`Keeper::publish_library_checked`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct PublishedLibrary {
+    /// The source files (name, text).
+    pub files: Vec<(String, String)>,
+    /// The checked library's encoding (`robosim_library::Library::encode_checked`), when the
+    /// publisher gave it: readers decode it instead of parsing the sources.
+    pub checked: Option<Vec<u8>>,
 }
 
 /// The transactions after a version.
@@ -46,7 +56,7 @@ pub enum LogAnswer {
     Entries {
         version: u64,
         entries: Vec<(u64, Vec<u8>)>,
-        library: Option<(u64, Vec<(String, String)>)>,
+        library: Option<(u64, PublishedLibrary)>,
     },
     /// The keeper no longer holds the transaction after the asked version (its log starts at
     /// `oldest`), or the asker is ahead of it (`version`, a different history): take a snapshot.

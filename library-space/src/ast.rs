@@ -3,13 +3,13 @@
 
 use crate::source::Span;
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Expr {
     pub kind: ExprKind,
     pub span: Span,
 }
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum ExprKind {
     /// A number with its unit suffix already applied: SI value and dimension exponents.
     Num {
@@ -44,13 +44,13 @@ pub enum ExprKind {
 }
 
 /// A call argument, positional or `name: value`.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Arg {
     pub name: Option<(String, Span)>,
     pub value: Expr,
 }
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 #[expect(
     clippy::large_enum_variant,
     reason = "built once per file; boxing would only add indirection"
@@ -103,7 +103,7 @@ pub enum Stmt {
     },
 }
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum LinkDef {
     Inline(Vec<Stmt>),
     Ref(Expr),
@@ -137,14 +137,14 @@ impl DeclKind {
 }
 
 /// `name = default` in a declaration's parameter list.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Param {
     pub name: String,
     pub span: Span,
     pub default: Expr,
 }
 
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Decl {
     pub kind: DeclKind,
     pub name: String,
@@ -164,7 +164,7 @@ pub struct Decl {
 /// names against the folder of the `.rsl` file that declares it; set by the loader, which
 /// knows that file). `Err`: why it cannot be resolved (a standard-library file is embedded
 /// and has no folder).
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct UrdfSource {
     pub path: String,
     pub span: Span,

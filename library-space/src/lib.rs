@@ -12,6 +12,9 @@
 //!   `robosim_kinematics::Robot` plus per-link solids), [`SolidModel`], [`SceneModel`] with
 //!   its [`Effects`].
 //! * [`standard_robot`] — a standard-library robot by name, for the query protocol.
+//! * [`Library::encode_checked`], [`Library::decode_checked`] — the checked library as bytes,
+//!   what a session publishes so that its processes read the library instead of re-parsing
+//!   and re-checking it.
 
 #![expect(
     clippy::result_large_err,
@@ -19,6 +22,7 @@
 )]
 
 mod ast;
+mod checked;
 mod error;
 mod eval;
 mod lexer;
@@ -31,6 +35,7 @@ mod units;
 mod value;
 
 pub use ast::DeclKind;
+pub use checked::{CHECKED_FORMAT, StaleEncoding, sources_digest};
 pub use error::{ErrorKind, LibError};
 pub use eval::{EVAL_STEP_BUDGET, EvalOptions, POLYGON_BUDGET};
 pub use library::{DeclInfo, Error, Library, ParamInfo, ParamValue, Params};

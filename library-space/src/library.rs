@@ -16,9 +16,9 @@ use std::path::{Path, PathBuf};
 /// A parsed, checked library (the Library Space's content).
 #[derive(Debug, Clone)]
 pub struct Library {
-    map: SourceMap,
-    decls: Vec<Decl>,
-    index: HashMap<String, usize>,
+    pub(crate) map: SourceMap,
+    pub(crate) decls: Vec<Decl>,
+    pub(crate) index: HashMap<String, usize>,
 }
 
 /// One declaration as listed by [`Library::declarations`].

@@ -5,7 +5,7 @@
 use std::fmt;
 
 /// Exponents of (length, mass, angle, time).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub struct Dim(pub [i8; 4]);
 
 impl Dim {

@@ -7,7 +7,10 @@
 //! * a reader following that change (`wait_change`: drain the change record and assemble the
 //!   new snapshot), in this process;
 //! * change-notification latency keeper → a reader blocked in another process;
-//! * a late joiner's `Reader::attach` (the whole model, first snapshot).
+//! * a late joiner's `Reader::attach` (the whole model, first snapshot);
+//! * a new process's way to a usable Library Space (the standard library, against the 10²
+//!   keeper): attach, receive the publication, then parse and check the source (as before)
+//!   or decode the checked library the keeper publishes beside it.
 //!
 //! Figures are reported with their ratio to the 10² model of the same run (the goal is each
 //! within 1.5×). Bodies are solids without geometry, so the pose path is measured alone (each
@@ -70,6 +73,59 @@ fn published_bytes(n: usize) -> (usize, usize) {
     (head + chunk, whole)
 }
 
+/// A new process's way to a usable Library Space, in ms: (attach, receive, parse + check,
+/// decode), each (mean, p50, p99); and the sizes published (source bytes, encoding bytes).
+struct LibRow {
+    attach: (f64, f64, f64),
+    receive: (f64, f64, f64),
+    parse: (f64, f64, f64),
+    decode: (f64, f64, f64),
+    source_bytes: usize,
+    checked_bytes: usize,
+    declarations: usize,
+}
+
+fn library_row(session: &robosim_instance_space::Session, reps: usize) -> Result<LibRow> {
+    use robosim_library::Library;
+    let ms = |t: Instant| t.elapsed().as_nanos() as f64 / 1e6;
+    let (mut attach, mut receive, mut parse, mut decode) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let (mut source_bytes, mut checked_bytes, mut declarations) = (0, 0, 0);
+    for _ in 0..reps {
+        let t = Instant::now();
+        let mut r = Reader::attach(session, "scale-library")?;
+        attach.push(ms(t));
+        let t = Instant::now();
+        let published = r.library()?;
+        receive.push(ms(t));
+        let Some(checked) = &published.checked else {
+            bail!("the keeper published no checked library");
+        };
+        let t = Instant::now();
+        let parsed = Library::from_sources(&published.files).map_err(|e| e.to_string())?;
+        parse.push(ms(t));
+        let t = Instant::now();
+        let decoded = Library::decode_checked(checked, &published.files)
+            .map_err(|e| format!("the published checked library: {e}"))?;
+        decode.push(ms(t));
+        if decoded.declarations() != parsed.declarations() {
+            bail!("the decoded library lists other declarations than the parsed one");
+        }
+        source_bytes = published.files.iter().map(|(n, t)| n.len() + t.len()).sum();
+        checked_bytes = checked.len();
+        declarations = parsed.declarations().len();
+    }
+    Ok(LibRow {
+        attach: stats(attach),
+        receive: stats(receive),
+        parse: stats(parse),
+        decode: stats(decode),
+        source_bytes,
+        checked_bytes,
+        declarations,
+    })
+}
+
 struct Row {
     n: usize,
     tx: (f64, f64, f64),
@@ -85,9 +141,13 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let attach_reps = if quick { 3 } else { 10 };
     let pid = std::process::id();
     let mut rows = Vec::new();
+    let mut lib = None;
     for n in SIZES {
         // Short session names: iceoryx2 limits the length of the names derived from them.
         let kp = keeper(&format!("sc{pid}n{n}"), false)?;
+        if lib.is_none() {
+            lib = Some(library_row(kp.session(), if quick { 5 } else { 20 })?);
+        }
         let mut client = Client::connect(kp.session(), "scale-writer")?;
         let body = build(&mut client, n)?;
         let mut follower = Reader::attach(kp.session(), "scale-follower")?;
@@ -172,14 +232,15 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             attach: stats(attach_ms),
         });
     }
-    write(out, quick, &rows)
+    let lib = lib.ok_or("no library measurement")?;
+    write(out, quick, &rows, &lib)
 }
 
 fn tx_pose_x(k: usize) -> f64 {
     k as f64 * 1e-3
 }
 
-fn write(out: &Path, quick: bool, rows: &[Row]) -> Result<()> {
+fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
     let base = &rows[0];
     let mut md = String::new();
     let mut csv = String::from("measure,bodies,value,unit\n");
@@ -235,6 +296,28 @@ fn write(out: &Path, quick: bool, rows: &[Row]) -> Result<()> {
             writeln!(csv, "{m},{},{v:.3},{u}", r.n).ok();
         }
     }
+    writeln!(md, "\n## A new process's Library Space\n").ok();
+    writeln!(md, "The standard library ({} declarations, {} bytes of source) as a process gets it from the 10² session: `Reader::attach`, then `Reader::library` (the keeper's publication: the source files and the checked library's encoding, {} bytes), then either **parse + check** the source (`Library::from_sources`, what every process did before) or **decode** the encoding (`Library::decode_checked`: digest and checksum compared, the declarations' syntax trees read; nothing parsed or evaluated). The two libraries are compared (same declarations) on every repetition.\n", lib.declarations, lib.source_bytes, lib.checked_bytes).ok();
+    writeln!(
+        md,
+        "| step | mean (ms) | p50 (ms) | p99 (ms) |\n|---|---|---|---|"
+    )
+    .ok();
+    for (name, key, v) in [
+        ("attach", "library_attach", lib.attach),
+        ("receive the publication", "library_receive", lib.receive),
+        ("parse + check the source", "library_parse", lib.parse),
+        ("decode the checked library", "library_decode", lib.decode),
+    ] {
+        writeln!(md, "| {name} | {:.2} | {:.2} | {:.2} |", v.0, v.1, v.2).ok();
+        writeln!(csv, "{key}_mean,100,{:.4},ms", v.0).ok();
+        writeln!(csv, "{key}_p99,100,{:.4},ms", v.2).ok();
+    }
+    let before = lib.attach.0 + lib.receive.0 + lib.parse.0;
+    let after = lib.attach.0 + lib.receive.0 + lib.decode.0;
+    writeln!(md, "\nAttach to a usable library (means): **{before:.1} ms** parsing, **{after:.1} ms** decoding ({:.2}× ; the library alone: {:.1}× faster).", after / before, lib.parse.0 / lib.decode.0).ok();
+    writeln!(csv, "library_usable_parse,100,{before:.4},ms").ok();
+    writeln!(csv, "library_usable_decode,100,{after:.4},ms").ok();
     writeln!(
         md,
         "\nRegenerate: `cargo run --release -- bench scale --out docs/bench`."

@@ -507,10 +507,48 @@ pub fn build_library_from(
     Library::from_sources(&sources).map_err(|e| SceneError::Library(e.to_string()))
 }
 
-/// A running session's Library Space, rebuilt from the source text the keeper holds in
-/// shared memory.
+/// How [`session_library_from`] got the library.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum LibraryFrom {
+    /// Decoded from the checked encoding the keeper published: nothing parsed or evaluated.
+    Checked,
+    /// Parsed and checked from the published source text, and why the encoding was not used.
+    Parsed { reason: String },
+}
+
+/// A running session's Library Space: the checked library the keeper published, read without
+/// parsing; else (a keeper that published only the source text, or an encoding that is
+/// stale — another build's, other sources' — or damaged) rebuilt from the source text.
 pub fn session_library(reader: &mut robosim_instance_space::Reader) -> Result<Library> {
-    let files = reader.library_files()?;
-    Library::from_sources(&files)
-        .map_err(|e| SceneError::Library(format!("the session's Library Space: {e}")))
+    Ok(session_library_from(reader)?.0)
+}
+
+/// [`session_library`], saying how the library was obtained. An encoding that is present but
+/// not usable is also reported on stderr (it should not happen: keeper and readers are the
+/// same program); its absence is not (an older keeper publishes none).
+pub fn session_library_from(
+    reader: &mut robosim_instance_space::Reader,
+) -> Result<(Library, LibraryFrom)> {
+    let published = reader.library()?;
+    library_from_publication(&published)
+}
+
+/// The library of a publication ([`session_library_from`] without the reader).
+pub fn library_from_publication(
+    published: &robosim_instance_space::LibraryPublication,
+) -> Result<(Library, LibraryFrom)> {
+    let reason = match &published.checked {
+        Some(bytes) => match Library::decode_checked(bytes, &published.files) {
+            Ok(lib) => return Ok((lib, LibraryFrom::Checked)),
+            Err(e) => {
+                let reason = format!("the published checked library is not usable: {e}");
+                eprintln!("library: {reason}; parsing the session's library source instead");
+                reason
+            }
+        },
+        None => "the keeper published no checked library (only its source)".to_owned(),
+    };
+    let lib = Library::from_sources(&published.files)
+        .map_err(|e| SceneError::Library(format!("the session's Library Space: {e}")))?;
+    Ok((lib, LibraryFrom::Parsed { reason }))
 }

@@ -156,7 +156,11 @@ pub fn run_space_with(
     }
     // Lost data is said loudly, here and by `up` (from the keeper's note in run/).
     eprint!("{}", report.lost_message());
-    keeper.publish_library(&lib.sources()).map_err(keeper_err)?;
+    // The sources (for tools that need the text: `save`, `load`) and the checked library
+    // (what every process reads instead of parsing and checking the sources again).
+    keeper
+        .publish_library_checked(&lib.sources(), Some(&lib.encode_checked()))
+        .map_err(keeper_err)?;
     eprintln!(
         "space: Library Space published ({} declarations)",
         lib.declarations().len()

@@ -34,7 +34,8 @@ pub mod solids;
 pub use compiled::{CacheStats, CompiledRobot, CompiledScene, Obstacles, Sync};
 pub use error::SceneError;
 pub use instantiate::{
-    Origin, build_library, find_instance, instantiate, parse_params, reinstantiate, session_library,
+    LibraryFrom, Origin, build_library, find_instance, instantiate, library_from_publication,
+    parse_params, reinstantiate, session_library, session_library_from,
 };
 pub use load::{box_geometry, load_from};
 pub use robot::{joint_tx, link_poses, robot_model};

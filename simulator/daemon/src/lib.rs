@@ -188,7 +188,7 @@ pub struct Counters {
     pub rebuilds: u64,
     /// Joint/pose-only versions applied in place.
     pub in_place: u64,
-    /// Library Space parses.
+    /// Library Space reads (the checked encoding decoded, or the source parsed).
     pub library_parses: u64,
 }
 
@@ -267,7 +267,8 @@ pub fn not_simulated(e: &robosim_library::Effects) -> Vec<String> {
         .collect()
 }
 
-/// The Library Space, parsed once and again only when the session's sources change.
+/// The Library Space, read once (the keeper's checked encoding, else parsed from the source)
+/// and again only when the session's sources change.
 #[derive(Default)]
 struct LibraryCache {
     sources: Vec<(String, String)>,
@@ -276,12 +277,12 @@ struct LibraryCache {
 
 impl LibraryCache {
     fn get(&mut self, reader: &mut Reader, counters: &mut Counters) -> Result<&Library> {
-        let sources = reader.library_files()?;
-        if self.library.is_none() || sources != self.sources {
-            let lib = Library::from_sources(&sources)
-                .map_err(|e| DaemonError::Effects(format!("the session's Library Space: {e}")))?;
+        let published = reader.library()?;
+        if self.library.is_none() || published.files != self.sources {
+            let (lib, _) = robosim_scene::library_from_publication(&published)
+                .map_err(|e| DaemonError::Effects(e.to_string()))?;
             counters.library_parses += 1;
-            self.sources = sources;
+            self.sources = published.files;
             self.library = Some(lib);
         }
         self.library
