@@ -320,19 +320,8 @@ impl Drop for Hosts {
 fn spawn_in(p: &mut Procs, ns: &str, args: &[&str]) -> u32 {
     let dir = p.home.path().join("logs");
     std::fs::create_dir_all(&dir).expect("log dir");
-    let log = std::fs::File::create(dir.join(format!("{ns}-{}.log", args[0]))).expect("log");
-    let c = Command::new("ip")
-        .args(["netns", "exec", ns, common::ROBOSIM])
-        .args(args)
-        .args(["--session", &p.name])
-        .env("ROBOSIM_HOME", p.home.path())
-        .stdout(log.try_clone().expect("log"))
-        .stderr(log)
-        .spawn()
-        .expect("ip netns exec");
-    let pid = c.id();
-    p.children.push(c);
-    pid
+    let log = dir.join(format!("{ns}-{}.log", args[0]));
+    p.spawn_wrapped(&["ip", "netns", "exec", ns], args, &log)
 }
 
 #[test]

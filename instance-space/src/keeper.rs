@@ -684,10 +684,12 @@ impl Keeper {
                 continue;
             }
             if payload == &SNAPSHOT_MAGIC[..] {
+                self.log.start();
                 pending.push((req, Reply::Bytes(self.snapshot_answer())));
                 continue;
             }
             if let Some(rest) = payload.strip_prefix(&LOG_MAGIC[..]) {
+                self.log.start();
                 let answer = self.log_answer(rest);
                 pending.push((req, Reply::Bytes(answer)));
                 continue;

@@ -63,15 +63,27 @@ pub enum LogAnswer {
     Gone { oldest: u64, version: u64 },
 }
 
-/// The keeper's in-memory log of committed transactions, bounded in bytes and entries.
+/// The keeper's in-memory log of committed transactions, bounded in bytes and entries. It
+/// keeps nothing until someone first asks for a snapshot or the log ([`Log::start`]): a
+/// session nobody bridges does not copy its commits.
 #[derive(Debug, Default)]
 pub(crate) struct Log {
     entries: std::collections::VecDeque<(u64, Vec<u8>)>,
     bytes: usize,
+    on: bool,
 }
 
 impl Log {
+    /// Keeps the transactions committed from now on. Whoever asked has the version it asked
+    /// at; what came before is answered [`LogAnswer::Gone`] (a snapshot mends it).
+    pub fn start(&mut self) {
+        self.on = true;
+    }
+
     pub fn push(&mut self, version: u64, tx: &[u8]) {
+        if !self.on {
+            return;
+        }
         self.entries.push_back((version, tx.to_vec()));
         self.bytes += tx.len();
         while self.bytes > LOG_MAX_BYTES || self.entries.len() > LOG_MAX_ENTRIES {
@@ -118,6 +130,7 @@ mod tests {
     #[test]
     fn the_log_answers_from_the_version_after_the_asked_one_or_says_it_is_gone() {
         let mut log = Log::default();
+        log.start();
         for v in 5..=9 {
             log.push(v, &[v as u8]);
         }
@@ -138,8 +151,26 @@ mod tests {
     }
 
     #[test]
+    fn the_log_keeps_nothing_until_it_is_started() {
+        let mut log = Log::default();
+        log.push(1, &[1]);
+        assert_eq!(log.bytes, 0);
+        assert!(matches!(
+            log.after(0, 1),
+            Err(LogAnswer::Gone {
+                oldest: 2,
+                version: 1
+            })
+        ));
+        log.start();
+        log.push(2, &[2]);
+        assert_eq!(log.after(1, 2).expect("entries"), vec![(2, vec![2])]);
+    }
+
+    #[test]
     fn the_log_drops_its_oldest_entries_past_its_byte_bound() {
         let mut log = Log::default();
+        log.start();
         let big = vec![0u8; LOG_MAX_BYTES / 2 + 1];
         log.push(1, &big);
         log.push(2, &big);

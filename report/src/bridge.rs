@@ -13,7 +13,8 @@
 //! model). Bodies are solids without geometry, as in `bench scale`.
 
 use crate::ipc::{Result, bin, keeper, stats};
-use robosim_instance_space::{Client, IDENTITY, Reader, ScratchKeeper, Transaction};
+use crate::scale::pose_tx;
+use robosim_instance_space::{Client, Reader, ScratchKeeper};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -38,14 +39,6 @@ impl Drop for Stopped {
             .status();
         let _ = self.0.wait();
     }
-}
-
-fn pose_tx(body: u64, x: f64) -> Transaction {
-    let mut tx = Transaction::new();
-    let mut pose = IDENTITY;
-    pose[3] = x;
-    tx.set_pose(body, pose);
-    tx
 }
 
 /// Runs the bench and writes `bridge.md` and `bridge.csv` into `out`.

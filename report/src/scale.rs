@@ -54,10 +54,11 @@ pub(crate) fn build(client: &mut Client, n: usize) -> Result<u64> {
     Ok(middle)
 }
 
-fn pose_tx(body: u64, k: usize) -> Transaction {
+/// Moves `body` to x = `x` m (the benches' one-body pose transaction).
+pub(crate) fn pose_tx(body: u64, x: f64) -> Transaction {
     let mut tx = Transaction::new();
     let mut pose = IDENTITY;
-    pose[3] = k as f64 * 1e-3;
+    pose[3] = x;
     tx.set_pose(body, pose);
     tx
 }
@@ -153,13 +154,13 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
         let mut follower = Reader::attach(kp.session(), "scale-follower")?;
         // Warm-up: first touch of shared-memory pages is not what this measures.
         for k in 0..200 {
-            client.transact(&pose_tx(body, k))?;
+            client.transact(&pose_tx(body, k as f64 * 1e-3))?;
             follower.wait_change(Duration::from_secs(5))?;
         }
         let mut tx_us = Vec::with_capacity(tx_reps);
         let mut follow_us = Vec::with_capacity(tx_reps);
         for k in 0..tx_reps {
-            let tx = pose_tx(body, k + 1);
+            let tx = pose_tx(body, (k + 1) as f64 * 1e-3);
             let t = Instant::now();
             let c = client.transact(&tx)?;
             tx_us.push(t.elapsed().as_nanos() as f64 / 1e3);
@@ -200,7 +201,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             std::io::BufReader::new(o).read_line(&mut line)?;
         }
         for k in 0..lat_count {
-            client.transact(&pose_tx(body, k))?;
+            client.transact(&pose_tx(body, k as f64 * 1e-3))?;
             follower.wait_change(Duration::from_secs(5))?;
             // Let the reader block again, so every sample is a wake-up from sleep.
             std::thread::sleep(Duration::from_micros(300));

@@ -36,8 +36,21 @@ impl Procs {
     }
     /// [`Procs::spawn`] with the process's stdout and stderr written to `log`.
     pub fn spawn_logged(&mut self, args: &[&str], log: &std::path::Path) -> u32 {
+        self.spawn_wrapped(&[], args, log)
+    }
+    /// [`Procs::spawn_logged`] run by a wrapper command, `WRAPPER… robosim ARGS` (e.g.
+    /// `ip netns exec NS` to start it on another network host); empty: directly.
+    pub fn spawn_wrapped(&mut self, wrapper: &[&str], args: &[&str], log: &std::path::Path) -> u32 {
         let f = std::fs::File::create(log).expect("log file");
-        let c = Command::new(ROBOSIM)
+        let mut c = match wrapper.split_first() {
+            Some((cmd, rest)) => {
+                let mut c = Command::new(cmd);
+                c.args(rest).arg(ROBOSIM);
+                c
+            }
+            None => Command::new(ROBOSIM),
+        };
+        let c = c
             .args(args)
             .args(["--session", &self.name])
             .env("ROBOSIM_HOME", self.home.path())
