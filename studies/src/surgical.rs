@@ -563,7 +563,6 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     // head axis is world +y).
     let axis: Vector3<f64> = head.fixed_view::<3, 1>(0, 2).into_owned();
     let axis = if axis.sum() < 0.0 { -axis } else { axis };
-    let centre: Vector3<f64> = head.fixed_view::<3, 1>(0, 3).into_owned();
     say!(
         out,
         "head: cylinder r {radius:.3} m, length {length:.3} m, axis {} through {}; {}: {} joints at q {}",

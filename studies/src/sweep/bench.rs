@@ -24,7 +24,8 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
     } else {
         vec!["bits=10,12,14,16".into(), "upper_arm=0.18:0.26:5".into()]
     };
-    let (axes, jobs) = plan(def, &params).map_err(|e| e.to_string())?;
+    let p = plan(def, &params).map_err(|e| e.to_string())?;
+    let jobs = &p.jobs;
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut rows: Vec<(String, usize, f64, String)> = Vec::new();
 
@@ -36,14 +37,14 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
         .map(|j| (def.run)(&j.params).map_err(|e| e.0))
         .collect();
     let serial_s = t0.elapsed().as_secs_f64();
-    let reference = csv(def, &axes, &jobs, &outcomes);
+    let reference = csv(def, &p.axes, jobs, &outcomes);
     rows.push(("in this process, no workers".into(), 0, serial_s, load0));
 
     let opts = Options::default();
     let mut walls = Vec::new();
     for workers in [1usize, 2] {
         let l = load();
-        let ran = sweep_local(def, &axes, &jobs, exe, workers, &opts, None, &mut |line| {
+        let ran = sweep_local(&p, exe, workers, &opts, None, &mut |line| {
             eprintln!("{line}")
         })
         .map_err(|e| e.to_string())?;

@@ -49,8 +49,15 @@ pub fn study_named(name: &str) -> Result<&'static StudyDef, SweepError> {
     })
 }
 
+/// A sweep to run: the study, its axes and its jobs (every point checked by the study).
+pub struct Plan {
+    pub def: &'static StudyDef,
+    pub axes: Vec<Axis>,
+    pub jobs: Vec<Job>,
+}
+
 /// Parses the `--param`s of `def` into axes and jobs, and has the study check every point.
-pub fn plan(def: &StudyDef, params: &[String]) -> Result<(Vec<Axis>, Vec<Job>), SweepError> {
+pub fn plan(def: &'static StudyDef, params: &[String]) -> Result<Plan, SweepError> {
     let axes = params
         .iter()
         .map(|a| spec::parse_axis(def, a))
@@ -63,7 +70,7 @@ pub fn plan(def: &StudyDef, params: &[String]) -> Result<(Vec<Axis>, Vec<Job>), 
             why: e.0,
         })?;
     }
-    Ok((axes, jobs))
+    Ok(Plan { def, axes, jobs })
 }
 
 fn point_words(j: &Job) -> String {
@@ -123,18 +130,17 @@ pub struct Ran {
     pub csv: String,
 }
 
-/// Runs the sweep of `def` over `axes`/`jobs` on `workers` local `exe sweep-worker` processes,
+/// Runs `plan` on `workers` local `exe sweep-worker` processes,
 /// writes the CSV to `out` (when given) and logs worker events to `log`.
 pub fn sweep_local(
-    def: &StudyDef,
-    axes: &[Axis],
-    jobs: &[Job],
+    plan: &Plan,
     exe: &Path,
     workers: usize,
     opts: &Options,
     out: Option<&Path>,
     log: &mut dyn FnMut(String),
 ) -> Result<Ran, SweepError> {
+    let Plan { def, axes, jobs } = plan;
     let launchers: Vec<Box<dyn Launcher>> = (0..workers)
         .map(|_| {
             Box::new(LocalLauncher {
@@ -204,25 +210,20 @@ pub fn run(args: &SweepArgs, exe: &Path, out: &mut dyn Write) -> Result<(), Swee
             why: "a job must be tried at least once".into(),
         });
     }
-    let (axes, jobs) = plan(def, &args.params)?;
+    let p = plan(def, &args.params)?;
     let opts = Options {
         max_attempts: args.attempts,
         job_timeout,
     };
-    let ran = sweep_local(
-        def,
-        &axes,
-        &jobs,
-        exe,
-        workers.min(jobs.len().max(1)),
-        &opts,
-        Some(&args.out),
-        &mut |line| eprintln!("{line}"),
-    )?;
-    let shape = if axes.is_empty() {
+    let workers = workers.min(p.jobs.len().max(1));
+    let ran = sweep_local(&p, exe, workers, &opts, Some(&args.out), &mut |line| {
+        eprintln!("{line}")
+    })?;
+    let shape = if p.axes.is_empty() {
         "the study's defaults".to_owned()
     } else {
-        axes.iter()
+        p.axes
+            .iter()
             .map(|a| format!("{} {}", a.name, a.values.len()))
             .collect::<Vec<_>>()
             .join(" × ")
@@ -236,7 +237,7 @@ pub fn run(args: &SweepArgs, exe: &Path, out: &mut dyn Write) -> Result<(), Swee
         "sweep {}: {} jobs ({shape}) on {} workers in {:.1} s: {} ran, {} failed; {} worker deaths, {} jobs redone",
         def.name,
         ran.jobs,
-        workers.min(jobs.len().max(1)),
+        workers,
         ran.wall_s,
         ran.jobs - ran.failed,
         ran.failed,

@@ -138,16 +138,16 @@ pub fn run(
     }
 
     // A worker is gone: its job back to the queue (or failed), the slot started again.
-    let mut died = |s: usize,
-                    slot: &mut Slot,
-                    why: &str,
-                    queue: &mut VecDeque<usize>,
-                    attempts: &mut [u32],
-                    results: &mut [Option<Outcome>],
-                    remaining: &mut usize,
-                    stats: &mut Stats,
-                    log: &mut dyn FnMut(String),
-                    last: &mut String| {
+    let died = |s: usize,
+                slot: &mut Slot,
+                why: &str,
+                queue: &mut VecDeque<usize>,
+                attempts: &mut [u32],
+                results: &mut [Option<Outcome>],
+                remaining: &mut usize,
+                stats: &mut Stats,
+                log: &mut dyn FnMut(String),
+                last: &mut String| {
         let Some(mut link) = slot.link.take() else {
             return;
         };
@@ -321,26 +321,24 @@ pub fn run(
             }
             None => {}
         }
-        // liveness and timeouts
+        // timeouts, and idle workers that exited (one with a job in flight is reported by the
+        // end of its output, after its last line)
         for (s, slot) in slots.iter_mut().enumerate() {
-            let why = match (&mut slot.link, slot.in_flight) {
-                (None, _) => continue,
-                (Some(_), Some((k, t0)))
-                    if opts.job_timeout.is_some_and(|limit| t0.elapsed() > limit) =>
-                {
+            let Some(link) = slot.link.as_mut() else {
+                continue;
+            };
+            let why = match slot.in_flight {
+                Some((k, t0)) if opts.job_timeout.is_some_and(|limit| t0.elapsed() > limit) => {
                     format!(
                         "job {} ran over the {:.1} s timeout",
                         jobs[k].index,
                         opts.job_timeout.map_or(0.0, |d| d.as_secs_f64())
                     )
                 }
-                (Some(link), _) if !link.is_alive() => "it is no longer alive".to_owned(),
-                _ => continue,
+                Some(_) => continue,
+                None if !link.is_alive() => "it is no longer alive".to_owned(),
+                None => continue,
             };
-            // a process that exited may still have its last line in the channel: read it first
-            if slot.in_flight.is_some() && why.starts_with("it is no longer") {
-                continue;
-            }
             died(
                 s,
                 slot,
@@ -365,4 +363,178 @@ pub fn run(
         .map(|r| r.unwrap_or_else(|| Err("no result (internal: job lost)".into())))
         .collect();
     Ok((outcomes, stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::spec::Value;
+    use std::sync::mpsc::Sender;
+
+    /// Workers on threads: each answers job i with [i, 2i], and "dies" (its output ends
+    /// without an answer) on job `die_on`; `start` false: it cannot be started.
+    struct Threads {
+        die_on: Option<usize>,
+        start: bool,
+    }
+
+    struct ThreadLink {
+        jobs: Option<Sender<String>>,
+        alive: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    }
+
+    impl Launcher for Threads {
+        fn describe(&self) -> String {
+            "thread".into()
+        }
+        fn launch(&mut self, sink: EventSink) -> Result<Box<dyn WorkerLink>, String> {
+            if !self.start {
+                return Err("no threads today".into());
+            }
+            let (tx, rx) = mpsc::channel::<String>();
+            let alive = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+            let flag = alive.clone();
+            let die_on = self.die_on;
+            std::thread::spawn(move || {
+                for line in rx {
+                    let (_, job) = protocol::parse_job(&line).expect("a job line");
+                    if Some(job.index) == die_on {
+                        break;
+                    }
+                    let i = job.index as f64;
+                    sink.line(protocol::result_line(job.index, &Ok(vec![i, 2.0 * i])));
+                }
+                flag.store(false, std::sync::atomic::Ordering::SeqCst);
+                sink.closed();
+            });
+            Ok(Box::new(ThreadLink {
+                jobs: Some(tx),
+                alive,
+            }))
+        }
+    }
+
+    impl WorkerLink for ThreadLink {
+        fn describe(&self) -> String {
+            "thread".into()
+        }
+        fn send(&mut self, line: &str) -> Result<(), String> {
+            self.jobs
+                .as_ref()
+                .ok_or("closed")?
+                .send(line.to_owned())
+                .map_err(|e| e.to_string())
+        }
+        fn is_alive(&mut self) -> bool {
+            self.alive.load(std::sync::atomic::Ordering::SeqCst)
+        }
+        fn kill(&mut self) -> String {
+            self.jobs = None;
+            "stopped".into()
+        }
+        fn finish(&mut self, _grace: Duration) {
+            self.jobs = None;
+        }
+    }
+
+    fn jobs(n: usize) -> Vec<Job> {
+        (0..n)
+            .map(|index| Job {
+                index,
+                params: vec![("x".into(), Value::Num(index as f64))],
+            })
+            .collect()
+    }
+
+    fn launchers(n: usize, die_on: Option<usize>, start: bool) -> Vec<Box<dyn Launcher>> {
+        (0..n)
+            .map(|_| Box::new(Threads { die_on, start }) as Box<dyn Launcher>)
+            .collect()
+    }
+
+    #[test]
+    fn every_job_answered_once_in_job_order() {
+        let js = jobs(25);
+        let (out, stats) = run(
+            "t",
+            &js,
+            launchers(3, None, true),
+            &Options::default(),
+            &mut |_| {},
+            &mut |_| {},
+        )
+        .expect("sweep");
+        for (i, o) in out.iter().enumerate() {
+            assert_eq!(o, &Ok(vec![i as f64, 2.0 * i as f64]));
+        }
+        assert_eq!(stats.per_slot.iter().sum::<usize>(), 25);
+        assert_eq!((stats.started, stats.deaths, stats.redone), (3, 0, 0));
+    }
+
+    #[test]
+    fn a_job_that_ends_every_worker_fails_after_its_attempts_and_alone() {
+        let js = jobs(6);
+        let mut log = Vec::new();
+        let (out, stats) = run(
+            "t",
+            &js,
+            launchers(2, Some(4), true),
+            &Options {
+                max_attempts: 3,
+                job_timeout: None,
+            },
+            &mut |l| log.push(l),
+            &mut |_| {},
+        )
+        .expect("sweep");
+        for (i, o) in out.iter().enumerate() {
+            if i == 4 {
+                let e = o.as_ref().expect_err("job 4 fails");
+                assert!(
+                    e.starts_with("the worker died 3 times running this job"),
+                    "{e}"
+                );
+            } else {
+                assert_eq!(o, &Ok(vec![i as f64, 2.0 * i as f64]));
+            }
+        }
+        assert_eq!((stats.deaths, stats.redone), (3, 2), "{log:#?}");
+        assert!(
+            log.iter()
+                .any(|l| l.contains("job 4 is redone (attempt 2 of 3)"))
+        );
+        assert!(
+            log.iter()
+                .any(|l| l.contains("job 4 failed: tried 3 times"))
+        );
+    }
+
+    #[test]
+    fn workers_that_cannot_start_end_the_sweep_with_an_error() {
+        let e = run(
+            "t",
+            &jobs(2),
+            launchers(2, None, false),
+            &Options::default(),
+            &mut |_| {},
+            &mut |_| {},
+        )
+        .expect_err("no workers");
+        assert!(
+            e.to_string()
+                .contains("no worker left with 2 jobs to run (last: no threads today)"),
+            "{e}"
+        );
+        assert!(matches!(
+            run(
+                "t",
+                &jobs(1),
+                Vec::new(),
+                &Options::default(),
+                &mut |_| {},
+                &mut |_| {}
+            ),
+            Err(SweepError::NoWorkers)
+        ));
+    }
 }
