@@ -298,7 +298,7 @@ fn bad_input_is_refused_by_name_without_a_panic() {
         ),
         (
             &["sweep", "surgical", "--param", "bits=8:16:4"],
-            "bits = 10.666666666666666: expected whole numbers",
+            "--param \"bits=8:16:4\": bits = 10.66666666666666",
         ),
         (
             &["sweep", "welding", "--param", "mode=0:1:2"],
