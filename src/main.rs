@@ -5,6 +5,7 @@
 
 mod bench;
 mod reports;
+mod sweep_remote;
 
 use clap::{Parser, Subcommand};
 use robosim_hl_interface::session;
@@ -163,6 +164,9 @@ enum Command {
     /// (internal) a sweep's worker: job lines on stdin, result lines on stdout.
     #[command(hide = true)]
     SweepWorker,
+    /// Runs sweep workers here for `robosim sweep --remote ENDPOINT` on other machines, over
+    /// Zenoh (docs/studies.md, "Sweeps on other machines"); until stopped.
+    SweepHost(robosim_bridge::sweep_link::HostArgs),
     /// The Library Space: list, show and check declarations.
     Lib {
         #[command(subcommand)]
@@ -480,9 +484,20 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         Command::Sweep(args) => robosim_studies::sweep::cli::run(
             &args,
             &std::env::current_exe()?,
+            &mut sweep_remote::connect,
             &mut std::io::stdout().lock(),
         )
         .map_err(CliError::from),
+        Command::SweepHost(args) => {
+            let exe = std::env::current_exe()?;
+            let spawn = || {
+                let mut c = std::process::Command::new(&exe);
+                c.arg("sweep-worker");
+                c
+            };
+            robosim_bridge::sweep_link::host(&args, &spawn, &mut |line| eprintln!("{line}"))
+                .map_err(|e| CliError(e.to_string()))
+        }
         Command::SweepWorker => robosim_studies::sweep::cli::worker().map_err(CliError::from),
         Command::Bench { which } => bench::run(which, session),
         Command::Bridge(args) => {

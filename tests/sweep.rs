@@ -338,3 +338,183 @@ fn bad_input_is_refused_by_name_without_a_panic() {
         assert!(!out.exists(), "{args:?} wrote a CSV");
     }
 }
+
+// ---- workers on another machine: `robosim sweep-host` over Zenoh, TCP on localhost ----
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .and_then(|l| l.local_addr())
+        .expect("a free port")
+        .port()
+}
+
+/// A `robosim sweep-host` process, killed (SIGKILL) and reaped when dropped.
+struct Host {
+    child: std::process::Child,
+    endpoint: String,
+    log: std::sync::Arc<std::sync::Mutex<String>>,
+}
+
+impl Host {
+    /// Starts a host with `workers` workers on a free port and waits for its ready line.
+    fn start(workers: usize) -> Host {
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let mut child = Command::new(ROBOSIM)
+            .args(["sweep-host", "--listen", &endpoint, "--workers"])
+            .arg(workers.to_string())
+            .env_remove("ROBOSIM_SWEEP_DIE_ON")
+            .env_remove("ROBOSIM_SWEEP_DIE_ONCE")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("robosim sweep-host starts");
+        let mut lines = BufReader::new(child.stderr.take().expect("stderr")).lines();
+        let log = std::sync::Arc::new(std::sync::Mutex::new(String::new()));
+        let mut first = String::new();
+        for line in lines.by_ref() {
+            let line = line.expect("host stderr");
+            first += &line;
+            first.push('\n');
+            if line.starts_with("sweep-host: listening on") {
+                break;
+            }
+        }
+        assert!(
+            first.contains(&format!("listening on {endpoint}")),
+            "the host did not start:\n{first}"
+        );
+        *log.lock().expect("log") = first;
+        let l = log.clone();
+        // keep reading so the host never blocks on a full pipe
+        std::thread::spawn(move || {
+            for line in lines.map_while(Result::ok) {
+                let mut g = l.lock().expect("log");
+                *g += &line;
+                g.push('\n');
+            }
+        });
+        Host {
+            child,
+            endpoint,
+            log,
+        }
+    }
+    fn log(&self) -> String {
+        self.log.lock().expect("log").clone()
+    }
+}
+
+impl Drop for Host {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+#[test]
+fn remote_workers_on_a_sweep_host_give_the_one_worker_csv() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let one = reference(dir.path());
+    let host = Host::start(2);
+    let o = sweep(
+        dir.path(),
+        "remote.csv",
+        &["--workers", "0", "--remote", &host.endpoint],
+        &[],
+    );
+    let log = ok(&o);
+    let csv = std::fs::read_to_string(dir.path().join("remote.csv")).expect("remote.csv");
+    assert_eq!(csv, one, "{log}\nhost:\n{}", host.log());
+    assert!(
+        log.contains(&format!("sweep: {}: a sweep host with 2 workers", host.endpoint)),
+        "{log}"
+    );
+    assert_eq!(
+        log.matches(&format!("started: remote {} pipe ", host.endpoint))
+            .count(),
+        2,
+        "{log}"
+    );
+    assert!(!log.contains("died"), "{log}");
+    assert!(
+        text(&o.stdout).contains("4 ran, 0 failed; 0 worker deaths"),
+        "{}",
+        text(&o.stdout)
+    );
+}
+
+#[test]
+fn a_sweep_host_killed_mid_sweep_has_its_jobs_redone_locally() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let one = reference(dir.path());
+    let mut host = Host::start(1);
+    let mut child = Command::new(ROBOSIM)
+        .arg("sweep")
+        .arg("surgical")
+        .args(PARAMS)
+        .args(["--workers", "1", "--remote", &host.endpoint, "--out"])
+        .arg(dir.path().join("host-killed.csv"))
+        .env("ROBOSIM_HOME", dir.path())
+        .env_remove("ROBOSIM_SWEEP_DIE_ON")
+        .env_remove("ROBOSIM_SWEEP_DIE_ONCE")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("robosim sweep starts");
+    let stderr = child.stderr.take().expect("stderr");
+    let mut log = String::new();
+    let mut killed = false;
+    for line in BufReader::new(stderr).lines() {
+        let line = line.expect("stderr line");
+        log += &line;
+        log.push('\n');
+        if !killed && line.starts_with("sweep: worker 1 started: remote ") {
+            // stopped first, so its worker cannot answer anything before the kill, then
+            // SIGKILL: whatever the timing, the host is gone mid-sweep
+            let pid = host.child.id().to_string();
+            for sig in ["-STOP", "-KILL"] {
+                let s = Command::new("kill")
+                    .args([sig, &pid])
+                    .status()
+                    .expect("kill runs");
+                assert!(s.success(), "kill {sig} {pid}");
+            }
+            let _ = host.child.wait();
+            killed = true;
+        }
+    }
+    let mut stdout = String::new();
+    std::io::Read::read_to_string(&mut child.stdout.take().expect("stdout"), &mut stdout)
+        .expect("stdout");
+    let status = child.wait().expect("wait");
+    assert!(status.success(), "{log}\n{stdout}");
+    assert!(killed, "the remote worker never started:\n{log}");
+    assert!(
+        log.contains("died: its output ended (its host is gone"),
+        "the host's death is not seen:\n{log}"
+    );
+    assert!(stdout.contains("4 ran, 0 failed"), "{stdout}\n{log}");
+    let csv =
+        std::fs::read_to_string(dir.path().join("host-killed.csv")).expect("host-killed.csv");
+    assert_eq!(csv, one, "{log}");
+}
+
+#[test]
+fn a_remote_endpoint_with_no_host_is_refused_by_name() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+    let o = sweep(
+        dir.path(),
+        "none.csv",
+        &["--workers", "0", "--remote", &endpoint, "--remote-wait", "2"],
+        &[],
+    );
+    assert!(!o.status.success());
+    let err = text(&o.stderr);
+    assert!(
+        err.contains(&format!("--remote {endpoint}: no sweep host answered within 2 s")),
+        "{err}"
+    );
+    assert!(!dir.path().join("none.csv").exists());
+}

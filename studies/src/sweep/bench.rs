@@ -79,8 +79,9 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
          the head, the encoder bound) for one configuration. The same jobs are run in this \
          process one after another (no workers: the study's own cost), then by the coordinator \
          on 1 and on 2 `robosim sweep-worker` processes, in the same run; the three CSVs are \
-         identical (checked). This machine: {cores} cores. Wall time from CLOCK_MONOTONIC, \
-         process start-up included. Speed-up = wall time on 1 worker / wall time.\n\n\
+         identical (checked). This machine: {cores} cores; build: {profile}. Wall time from \
+         CLOCK_MONOTONIC, process start-up included. Speed-up = wall time on 1 worker / wall \
+         time.\n\n\
          | configuration | workers | jobs | wall (s) | jobs/s | speed-up over 1 worker | load avg before |\n\
          |---|---:|---:|---:|---:|---:|---:|\n",
         if quick { " --quick" } else { "" },
@@ -89,7 +90,12 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
             .map(|p| format!("--param {p}"))
             .collect::<Vec<_>>()
             .join(" "),
-        jobs.len()
+        jobs.len(),
+        profile = if cfg!(debug_assertions) {
+            "dev profile (opt-level 1, dependencies 2, debug assertions on)"
+        } else {
+            "release profile"
+        },
     );
     for (name, workers, wall, l) in &rows {
         let jps = jobs.len() as f64 / wall;

@@ -21,9 +21,20 @@ pub struct SweepArgs {
     /// parameters: every combination is run, the first parameter varying slowest.
     #[arg(long = "param", value_name = "NAME=RANGE")]
     pub params: Vec<String>,
-    /// Worker processes on this machine [default: one per core].
+    /// Worker processes on this machine [default: one per core]. 0 with --remote: only
+    /// remote workers.
     #[arg(long)]
     pub workers: Option<usize>,
+    /// Workers on another machine: the Zenoh endpoint where `robosim sweep-host` listens
+    /// there, e.g. tcp/10.0.0.2:7448; as many workers as that host runs. Repeat for more hosts.
+    #[arg(long = "remote", value_name = "ENDPOINT")]
+    pub remote: Vec<String>,
+    /// Key prefix of the sweep hosts on the Zenoh network (their --key).
+    #[arg(long, default_value = "robosim", value_name = "PREFIX")]
+    pub remote_key: String,
+    /// How long to wait at the start for each --remote host to answer, seconds.
+    #[arg(long, default_value_t = 15.0, value_name = "SECONDS")]
+    pub remote_wait: f64,
     /// The CSV to write: the parameters' columns, then the study's result columns, then
     /// `error` (empty for a job that ran), one row per point in job order.
     #[arg(long)]
@@ -130,6 +141,17 @@ pub struct Ran {
     pub csv: String,
 }
 
+/// `workers` launchers of local `exe sweep-worker` processes.
+pub fn local_launchers(exe: &Path, workers: usize) -> Vec<Box<dyn Launcher>> {
+    (0..workers)
+        .map(|_| {
+            Box::new(LocalLauncher {
+                exe: exe.to_owned(),
+            }) as Box<dyn Launcher>
+        })
+        .collect()
+}
+
 /// Runs `plan` on `workers` local `exe sweep-worker` processes,
 /// writes the CSV to `out` (when given) and logs worker events to `log`.
 pub fn sweep_local(
@@ -140,14 +162,19 @@ pub fn sweep_local(
     out: Option<&Path>,
     log: &mut dyn FnMut(String),
 ) -> Result<Ran, SweepError> {
+    sweep_on(plan, local_launchers(exe, workers), opts, out, log)
+}
+
+/// Runs `plan` on the workers `launchers` start (one each), writes the CSV to `out` (when
+/// given) and logs worker events to `log`.
+pub fn sweep_on(
+    plan: &Plan,
+    launchers: Vec<Box<dyn Launcher>>,
+    opts: &Options,
+    out: Option<&Path>,
+    log: &mut dyn FnMut(String),
+) -> Result<Ran, SweepError> {
     let Plan { def, axes, jobs } = plan;
-    let launchers: Vec<Box<dyn Launcher>> = (0..workers)
-        .map(|_| {
-            Box::new(LocalLauncher {
-                exe: exe.to_owned(),
-            }) as Box<dyn Launcher>
-        })
-        .collect();
     let pb = robosim_report::progress::bar(jobs.len() as u64, &format!("sweep {}", def.name));
     let t0 = std::time::Instant::now();
     let (outcomes, stats) = coordinator::run(
@@ -182,16 +209,27 @@ pub fn sweep_local(
     })
 }
 
-/// `robosim sweep …`: `exe` is the robosim binary the workers run; the summary goes to `out`,
-/// worker events to stderr.
-pub fn run(args: &SweepArgs, exe: &Path, out: &mut dyn Write) -> Result<(), SweepError> {
+/// Connects to a `--remote` host: (endpoint, key prefix, how long to wait for it) → one
+/// launcher per worker there.
+pub type ConnectRemote<'a> =
+    &'a mut dyn FnMut(&str, &str, Duration) -> Result<Vec<Box<dyn Launcher>>, SweepError>;
+
+/// `robosim sweep …`: `exe` is the robosim binary the local workers run, `remote` connects to
+/// the `--remote` hosts (after the parameters are checked); the summary goes to `out`, worker
+/// events to stderr.
+pub fn run(
+    args: &SweepArgs,
+    exe: &Path,
+    remote: ConnectRemote<'_>,
+    out: &mut dyn Write,
+) -> Result<(), SweepError> {
     let def = study_named(&args.study)?;
     let workers = args.workers.unwrap_or_else(|| {
         std::thread::available_parallelism()
             .map(|n| n.get())
             .unwrap_or(1)
     });
-    if workers == 0 {
+    if workers == 0 && args.remote.is_empty() {
         return Err(SweepError::NoWorkers);
     }
     let job_timeout = match args.job_timeout {
@@ -204,6 +242,12 @@ pub fn run(args: &SweepArgs, exe: &Path, out: &mut dyn Write) -> Result<(), Swee
             });
         }
     };
+    if !(args.remote_wait.is_finite() && args.remote_wait > 0.0) {
+        return Err(SweepError::Param {
+            arg: format!("--remote-wait {}", args.remote_wait),
+            why: "expected a positive number of seconds".into(),
+        });
+    }
     if args.attempts == 0 {
         return Err(SweepError::Param {
             arg: "--attempts 0".into(),
@@ -215,8 +259,22 @@ pub fn run(args: &SweepArgs, exe: &Path, out: &mut dyn Write) -> Result<(), Swee
         max_attempts: args.attempts,
         job_timeout,
     };
-    let workers = workers.min(p.jobs.len().max(1));
-    let ran = sweep_local(&p, exe, workers, &opts, Some(&args.out), &mut |line| {
+    let mut launchers = local_launchers(exe, workers.min(p.jobs.len().max(1)));
+    for endpoint in &args.remote {
+        let there = remote(
+            endpoint,
+            &args.remote_key,
+            Duration::from_secs_f64(args.remote_wait),
+        )?;
+        eprintln!(
+            "sweep: {endpoint}: a sweep host with {} worker{}",
+            there.len(),
+            if there.len() == 1 { "" } else { "s" }
+        );
+        launchers.extend(there);
+    }
+    let workers = launchers.len();
+    let ran = sweep_on(&p, launchers, &opts, Some(&args.out), &mut |line| {
         eprintln!("{line}")
     })?;
     let shape = if p.axes.is_empty() {

@@ -202,6 +202,10 @@ pub fn run(
             if slot.link.is_none() && !start(s, slot, &mut stats, log, &mut last_death) {
                 slot.idle_deaths += 1;
                 if slot.idle_deaths >= max_attempts {
+                    log(format!(
+                        "sweep: worker {s} given up: it could not be started {} times in a row",
+                        slot.idle_deaths
+                    ));
                     slot.retired = true;
                 }
                 continue;

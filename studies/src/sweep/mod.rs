@@ -43,8 +43,11 @@ pub enum SweepError {
     #[error("{axes} is more than {max} jobs")]
     TooMany { max: usize, axes: String },
     /// `--workers 0` and no other worker.
-    #[error("no workers: give --workers N with N ≥ 1")]
+    #[error("no workers: give --workers N with N ≥ 1, or --remote ENDPOINT")]
     NoWorkers,
+    /// A `--remote` host could not be reached or refused.
+    #[error("--remote {endpoint}: {why}")]
+    Remote { endpoint: String, why: String },
     /// Every worker died or could not start, with jobs left.
     #[error("no worker left with {remaining} jobs to run (last: {last})")]
     NoWorkersLeft { remaining: usize, last: String },
