@@ -103,13 +103,13 @@ pub enum Which {
         #[arg(long)]
         quick: bool,
     },
-    /// A parameter sweep (surgical: encoder bits × upper arm) in this process, on 1 and on 2
+    /// A parameter sweep (surgical: encoder bits × upper arm × forearm) in this process, on 1 and on 2
     /// worker processes: wall time and speed-up.
     Sweep {
         /// Where to write sweep.md and sweep.csv.
         #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
         out: PathBuf,
-        /// A 4-job sweep instead of 20 (for a smoke run).
+        /// A 4-job sweep instead of 108 (for a smoke run).
         #[arg(long)]
         quick: bool,
     },

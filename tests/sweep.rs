@@ -52,9 +52,28 @@ fn reference(dir: &Path) -> String {
     std::fs::read_to_string(dir.join("one.csv")).expect("one.csv")
 }
 
+/// The CSV's rows and fields (RFC 4180: a field in quotes may hold commas and doubled quotes;
+/// no field of these sweeps holds a line break).
 fn rows(csv: &str) -> Vec<Vec<String>> {
     csv.lines()
-        .map(|l| l.split(',').map(str::to_owned).collect())
+        .map(|l| {
+            let (mut fields, mut field, mut quoted) = (Vec::new(), String::new(), false);
+            let mut chars = l.chars().peekable();
+            while let Some(c) = chars.next() {
+                match (c, quoted) {
+                    ('"', true) if chars.peek() == Some(&'"') => {
+                        field.push('"');
+                        chars.next();
+                    }
+                    ('"', _) => quoted = !quoted,
+                    (',', false) => fields.push(std::mem::take(&mut field)),
+                    _ => field.push(c),
+                }
+            }
+            assert!(!quoted, "unclosed quote in {l:?}");
+            fields.push(field);
+            fields
+        })
         .collect()
 }
 
@@ -65,10 +84,35 @@ fn col(table: &[Vec<String>], name: &str) -> usize {
         .unwrap_or_else(|| panic!("no column {name} in {:?}", table[0]))
 }
 
+/// The same grid computed in this process, one job after another, no worker: the CSV every
+/// sweep must give.
+fn in_process() -> String {
+    use robosim_studies::sweep::cli;
+    let def = cli::study_named("surgical").expect("surgical");
+    let params: Vec<String> = PARAMS
+        .iter()
+        .skip(1)
+        .step_by(2)
+        .map(|p| p.to_string())
+        .collect();
+    let plan = cli::plan(def, &params).expect("plan");
+    let outcomes: Vec<_> = plan
+        .jobs
+        .iter()
+        .map(|j| (def.run)(&j.params).map_err(|e| e.0))
+        .collect();
+    cli::csv(def, &plan.axes, &plan.jobs, &outcomes)
+}
+
 #[test]
 fn two_workers_give_the_one_worker_csv_in_job_order() {
     let dir = tempfile::tempdir().expect("temp dir");
     let one = reference(dir.path());
+    assert_eq!(
+        one,
+        in_process(),
+        "one worker differs from the in-process run"
+    );
     let log = ok(&sweep(dir.path(), "two.csv", &["--workers", "2"], &[]));
     let two = std::fs::read_to_string(dir.path().join("two.csv")).expect("two.csv");
     assert_eq!(one, two, "the CSV depends on the number of workers");
@@ -427,7 +471,10 @@ fn remote_workers_on_a_sweep_host_give_the_one_worker_csv() {
     let csv = std::fs::read_to_string(dir.path().join("remote.csv")).expect("remote.csv");
     assert_eq!(csv, one, "{log}\nhost:\n{}", host.log());
     assert!(
-        log.contains(&format!("sweep: {}: a sweep host with 2 workers", host.endpoint)),
+        log.contains(&format!(
+            "sweep: {}: a sweep host with 2 workers",
+            host.endpoint
+        )),
         "{log}"
     );
     assert_eq!(
@@ -495,8 +542,7 @@ fn a_sweep_host_killed_mid_sweep_has_its_jobs_redone_locally() {
         "the host's death is not seen:\n{log}"
     );
     assert!(stdout.contains("4 ran, 0 failed"), "{stdout}\n{log}");
-    let csv =
-        std::fs::read_to_string(dir.path().join("host-killed.csv")).expect("host-killed.csv");
+    let csv = std::fs::read_to_string(dir.path().join("host-killed.csv")).expect("host-killed.csv");
     assert_eq!(csv, one, "{log}");
 }
 
@@ -507,13 +553,22 @@ fn a_remote_endpoint_with_no_host_is_refused_by_name() {
     let o = sweep(
         dir.path(),
         "none.csv",
-        &["--workers", "0", "--remote", &endpoint, "--remote-wait", "2"],
+        &[
+            "--workers",
+            "0",
+            "--remote",
+            &endpoint,
+            "--remote-wait",
+            "2",
+        ],
         &[],
     );
     assert!(!o.status.success());
     let err = text(&o.stderr);
     assert!(
-        err.contains(&format!("--remote {endpoint}: no sweep host answered within 2 s")),
+        err.contains(&format!(
+            "--remote {endpoint}: no sweep host answered within 2 s"
+        )),
         "{err}"
     );
     assert!(!dir.path().join("none.csv").exists());

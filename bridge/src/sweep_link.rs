@@ -51,8 +51,7 @@ pub struct HostArgs {
 }
 
 fn check_key(k: &str) -> Result<()> {
-    if k.is_empty() || k.contains(['*', '$', '#', '?']) || k.starts_with('/') || k.ends_with('/')
-    {
+    if k.is_empty() || k.contains(['*', '$', '#', '?']) || k.starts_with('/') || k.ends_with('/') {
         return Err(BridgeError::Usage(format!(
             "--key {k:?}: a Zenoh key prefix without wildcards, `?` or a leading or trailing /"
         )));
@@ -81,7 +80,10 @@ enum HostEvent {
     Info(zenoh::query::Query),
     Open(zenoh::query::Query),
     /// A message for pipe `id` (`<cid>/<n>`).
-    In { id: String, payload: Vec<u8> },
+    In {
+        id: String,
+        payload: Vec<u8>,
+    },
     /// A coordinator's token went: kill its processes.
     CoordinatorGone(String),
     /// Pipe `id`'s process closed its stdout.
@@ -105,7 +107,11 @@ fn status_words(s: std::process::ExitStatus) -> String {
 /// Runs a host until the process is ended: on each open request, `spawn()` is started with
 /// piped stdin/stdout (stderr inherited) and piped to the requesting coordinator. `ready` is
 /// called once the host listens.
-pub fn host(args: &HostArgs, spawn: &dyn Fn() -> Command, ready: &mut dyn FnMut(&str)) -> Result<()> {
+pub fn host(
+    args: &HostArgs,
+    spawn: &dyn Fn() -> Command,
+    ready: &mut dyn FnMut(&str),
+) -> Result<()> {
     check_key(&args.key)?;
     let workers = args.workers.unwrap_or_else(|| {
         std::thread::available_parallelism()
@@ -145,10 +151,7 @@ pub fn host(args: &HostArgs, spawn: &dyn Fn() -> Command, ready: &mut dyn FnMut(
         .declare_subscriber(k("pipe/*/*/in"))
         .callback(move |s| {
             let ke = s.key_expr().as_str();
-            if let Some(id) = ke
-                .strip_prefix(&prefix)
-                .and_then(|r| r.strip_suffix("/in"))
-            {
+            if let Some(id) = ke.strip_prefix(&prefix).and_then(|r| r.strip_suffix("/in")) {
                 let _ = t.send(HostEvent::In {
                     id: id.to_owned(),
                     payload: s.payload().to_bytes().into_owned(),
@@ -216,7 +219,9 @@ pub fn host(args: &HostArgs, spawn: &dyn Fn() -> Command, ready: &mut dyn FnMut(
                 } else if running.contains_key(&id) {
                     Err(format!("pipe {id} is open already"))
                 } else if running.len() >= workers {
-                    Err(format!("the host is full: {workers} of {workers} workers run"))
+                    Err(format!(
+                        "the host is full: {workers} of {workers} workers run"
+                    ))
                 } else {
                     start(&z, &id, spawn(), &out_key(&id), tx.clone()).map(|r| {
                         running.insert(id.clone(), r);
@@ -407,7 +412,10 @@ impl Remote {
             match replies.recv().map(|r| r.into_result()) {
                 Ok(Ok(sample)) => {
                     let text = String::from_utf8_lossy(&sample.payload().to_bytes()).into_owned();
-                    match text.strip_prefix("workers=").and_then(|n| n.parse::<usize>().ok()) {
+                    match text
+                        .strip_prefix("workers=")
+                        .and_then(|n| n.parse::<usize>().ok())
+                    {
                         Some(n) => break n,
                         None => last = format!("it answered {text:?}"),
                     }

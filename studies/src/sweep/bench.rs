@@ -1,5 +1,5 @@
 //! `robosim bench sweep`: one sweep (the §2.7 surgical positioner, encoder bits × upper arm
-//! length) run in this process without workers (the baseline of the study's own cost), on
+//! × forearm length, 108 jobs) run in this process without workers (the baseline of the study's own cost), on
 //! one worker process and on two, in the same run; wall time, jobs per second and the speed-up
 //! of two workers over one, written as sweep.md and sweep.csv. The three result tables are
 //! compared: the bench fails if they differ.
@@ -22,7 +22,11 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
     let params: Vec<String> = if quick {
         vec!["bits=12,16".into(), "upper_arm=0.2:0.24:2".into()]
     } else {
-        vec!["bits=10,12,14,16".into(), "upper_arm=0.18:0.26:5".into()]
+        vec![
+            "bits=10,12,14,16".into(),
+            "upper_arm=0.18:0.26:9".into(),
+            "forearm=0.18,0.2,0.22".into(),
+        ]
     };
     let p = plan(def, &params).map_err(|e| e.to_string())?;
     let jobs = &p.jobs;
