@@ -1,6 +1,6 @@
-//! `robosim bench ipc|scale|journal|display|reaction|files|editor`: the subcommands and where each bench
+//! `robosim bench ipc|scale|journal|display|reaction|files|editor|urdf|sweep`: the subcommands and where each bench
 //! lives (`robosim_report::ipc`, `robosim_report::scale`, `robosim_report::journal`, `robosim_display::bench`, `robosim_simulator_daemon::bench`,
-//! `robosim_file_io::bench`, `robosim_editor::bench`).
+//! `robosim_file_io::bench`, `robosim_editor::bench`, `robosim_studies::sweep::bench`).
 
 use crate::{CliError, Result};
 use std::path::PathBuf;
@@ -103,6 +103,16 @@ pub enum Which {
         #[arg(long)]
         quick: bool,
     },
+    /// A parameter sweep (surgical: encoder bits × upper arm × forearm) in this process, on 1 and on 2
+    /// worker processes: wall time and speed-up.
+    Sweep {
+        /// Where to write sweep.md and sweep.csv.
+        #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
+        out: PathBuf,
+        /// A 4-job sweep instead of 108 (for a smoke run).
+        #[arg(long)]
+        quick: bool,
+    },
     /// (internal) the reader process of the latency measurement.
     #[command(hide = true)]
     IpcReader {
@@ -174,6 +184,11 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
             let paths =
                 robosim_file_io::bench_urdf::run(&out, quick, &me, &urdf).map_err(CliError)?;
             pb.finish_and_clear();
+            wrote(&out, &paths)
+        }
+        Which::Sweep { out, quick } => {
+            let me = std::env::current_exe()?;
+            let paths = robosim_studies::sweep::bench::run(&out, quick, &me).map_err(CliError)?;
             wrote(&out, &paths)
         }
         Which::Files { out, quick } => {

@@ -5,6 +5,7 @@
 
 mod bench;
 mod reports;
+mod sweep_remote;
 
 use clap::{Parser, Subcommand};
 use robosim_hl_interface::session;
@@ -156,6 +157,16 @@ enum Command {
         #[command(subcommand)]
         cmd: robosim_studies::cli::StudyCmd,
     },
+    /// A parameter study over worker processes: every combination of the --param values is
+    /// one job; jobs go to N headless workers, results to one CSV; a worker that dies has its
+    /// job redone (docs/studies.md, "Sweeps").
+    Sweep(robosim_studies::sweep::cli::SweepArgs),
+    /// (internal) a sweep's worker: job lines on stdin, result lines on stdout.
+    #[command(hide = true)]
+    SweepWorker,
+    /// Runs sweep workers here for `robosim sweep --remote ENDPOINT` on other machines, over
+    /// Zenoh (docs/studies.md, "Sweeps on other machines"); until stopped.
+    SweepHost(robosim_bridge::sweep_link::HostArgs),
     /// The Library Space: list, show and check declarations.
     Lib {
         #[command(subcommand)]
@@ -470,6 +481,24 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             .map_err(|e| CliError(e.0)),
         Command::Study { cmd } => robosim_studies::cli::run(&cmd, &mut std::io::stdout().lock())
             .map_err(|e| CliError(e.0)),
+        Command::Sweep(args) => robosim_studies::sweep::cli::run(
+            &args,
+            &std::env::current_exe()?,
+            &mut sweep_remote::connect,
+            &mut std::io::stdout().lock(),
+        )
+        .map_err(CliError::from),
+        Command::SweepHost(args) => {
+            let exe = std::env::current_exe()?;
+            let spawn = || {
+                let mut c = std::process::Command::new(&exe);
+                c.arg("sweep-worker");
+                c
+            };
+            robosim_bridge::sweep_link::host(&args, &spawn, &mut |line| eprintln!("{line}"))
+                .map_err(|e| CliError(e.to_string()))
+        }
+        Command::SweepWorker => robosim_studies::sweep::cli::worker().map_err(CliError::from),
         Command::Bench { which } => bench::run(which, session),
         Command::Bridge(args) => {
             robosim_bridge::run(session, &args).map_err(|e| CliError(e.to_string()))

@@ -11,6 +11,9 @@
 //!   from a snapshot, applies the primary's transactions in order, catches up after a lost link
 //!   from the primary keeper's log (or a new snapshot when the log no longer reaches back), and
 //!   forwards its own writers' transactions.
+//! * [`sweep_link`] — `robosim sweep-host` and `robosim sweep --remote`: line pipes to worker
+//!   processes on other machines (a host starts them; a coordinator sends lines and hears
+//!   their output and their end, or the host's).
 //!
 //! What crosses the wire (all bincode, under the key prefix `--key`, default `robosim`):
 //! `<key>/snapshot` (query → [`SpaceSnapshot`]), `<key>/log` (query (version, library
@@ -19,6 +22,7 @@
 
 pub mod primary;
 pub mod replica;
+pub mod sweep_link;
 
 use robosim_instance_space::layout::PoseRec;
 use robosim_instance_space::state::{JointStateRec, StateHeader, StateRecord};

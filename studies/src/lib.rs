@@ -10,6 +10,8 @@
 //!   an ORU swap by the servicer, `robosim study station`; [`orbit`] is its orbit model and
 //!   `robosim_simulator::power` its arrays, tracking, power and battery (both shared with the
 //!   simulator daemon's space stage).
+//! * [`sweep`] — `robosim sweep STUDY --param … --workers N`: a parameter study over worker
+//!   processes, gathered into one CSV; a dead worker's job is redone.
 //! * [`common`] — bodies, clearances, trajectory files, CSV and frames the two share.
 //!
 //! Entry points: [`surgical::run`], [`welding::run`], [`station::run`], [`StudyError`].
@@ -20,6 +22,7 @@ pub mod common;
 pub use robosim_simulator::orbit;
 pub mod station;
 pub mod surgical;
+pub mod sweep;
 pub mod welding;
 
 /// Why a study stopped: what failed, in words (every study step names its input).

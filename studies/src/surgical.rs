@@ -230,6 +230,232 @@ fn kinematic_difference(a: &Robot, b: &Robot) -> f64 {
     d
 }
 
+/// The head's frame for the seed's `get_location(angle)`: its centre and axis (signed to point
+/// along the world's positive side of it; the seed's head axis is world +y), the horizontal
+/// direction towards the robot's side and the upward normal of the two.
+pub struct HeadFrame {
+    centre: Vector3<f64>,
+    axis: Vector3<f64>,
+    horiz: Vector3<f64>,
+    up: Vector3<f64>,
+}
+
+impl HeadFrame {
+    /// From the head cylinder's world pose (its axis is its local z) and the robot (its base).
+    pub fn new(head: &Matrix4<f64>, robot: &Robot) -> HeadFrame {
+        let axis: Vector3<f64> = head.fixed_view::<3, 1>(0, 2).into_owned();
+        let axis = if axis.sum() < 0.0 { -axis } else { axis };
+        let centre: Vector3<f64> = head.fixed_view::<3, 1>(0, 3).into_owned();
+        let base_p: Vector3<f64> = robot.base.fixed_view::<3, 1>(0, 3).into_owned();
+        let to_robot = base_p - centre;
+        let horiz = (to_robot - axis * axis.dot(&to_robot) - Vector3::z() * to_robot.z).normalize();
+        let up = axis.cross(&horiz).normalize();
+        let up = if up.z < 0.0 { -up } else { up };
+        HeadFrame {
+            centre,
+            axis,
+            horiz,
+            up,
+        }
+    }
+
+    /// The seed's get_location: the tool tip `TIP_FROM_AXIS` from the axis, `angle_deg` above
+    /// the horizontal towards the robot and `along` m along the axis, tool z pointing at the
+    /// axis, tool x along it.
+    pub fn location(&self, angle_deg: f64, along: f64) -> Matrix4<f64> {
+        let a = angle_deg.to_radians();
+        let radial = self.horiz * a.cos() + self.up * a.sin();
+        let tip = self.centre + self.axis * along + radial * TIP_FROM_AXIS;
+        let z_t = -radial;
+        let x_t = self.axis;
+        let y_t = z_t.cross(&x_t);
+        let mut t = Matrix4::identity();
+        for r in 0..3 {
+            t[(r, 0)] = x_t[r];
+            t[(r, 1)] = y_t[r];
+            t[(r, 2)] = z_t[r];
+            t[(r, 3)] = tip[r];
+        }
+        t
+    }
+}
+
+/// What the seed's reach and accuracy sweep found.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Reach {
+    /// Tool poses tried (41 × 21).
+    pub points: usize,
+    /// Reached by a solution within limits and clear of the head.
+    pub reached: usize,
+    /// No IK solution at all.
+    pub unreachable: usize,
+    /// Worst encoder position bound over the reached points, m, and where: (bound, along the
+    /// axis m, angle deg).
+    pub worst_position: (f64, f64, f64),
+    /// Mean position bound over the reached points, m (0 when none).
+    pub mean_position: f64,
+    /// Worst orientation bound over the reached points, rad.
+    pub worst_orientation: f64,
+}
+
+/// The seed's whole §2.7 study: every 1 cm along the head (±20 cm) and every 5° of arc from 0 to
+/// 100°; a point counts as reached when some solution is within limits and clear of the head
+/// (first contact ends a check). The `bits`-bit bounds are taken at the clear solution nearest
+/// `q_start`.
+pub fn reach_sweep(
+    robot: &Robot,
+    links: &LinkSolids,
+    obstacles: &Scene,
+    settings: &CollisionSettings,
+    q_start: &[f64],
+    bits: u32,
+    frame: &HeadFrame,
+) -> Result<Reach> {
+    let opts = IkOptions {
+        all: true,
+        q0: Some(q_start.to_vec()),
+        ..IkOptions::default()
+    };
+    let (mut points, mut reached, mut unreachable) = (0, 0, 0);
+    let mut worst = (0.0_f64, 0.0, 0.0);
+    let (mut sum, mut worst_orientation) = (0.0, 0.0_f64);
+    let first_settings = CollisionSettings {
+        all_contacts: false,
+        ..*settings
+    };
+    for cm in -20..=20 {
+        let along = cm as f64 / 100.0;
+        for step in 0..21 {
+            let angle = 5.0 * step as f64;
+            points += 1;
+            let target = frame.location(angle, along);
+            let sols = match ik::solve(robot, &target, Method::Analytic, &opts) {
+                Ok(r) => r.solutions,
+                Err(ik::IkError::Unreachable { .. }) => {
+                    unreachable += 1;
+                    continue;
+                }
+                Err(e) => bail!("IK at {cm} cm, {angle}°: {e}"),
+            };
+            let mut best: Option<(f64, &ik::IkSolution)> = None;
+            for sol in sols.iter().filter(|s| s.converged && s.within_limits) {
+                if check_robot(robot, links, &sol.q, obstacles, &first_settings)?.is_clear() {
+                    let d: f64 = sol
+                        .q
+                        .iter()
+                        .zip(q_start)
+                        .map(|(a, b)| (a - b).powi(2))
+                        .sum();
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, sol));
+                    }
+                }
+            }
+            if let Some((_, sol)) = best {
+                reached += 1;
+                let e = encoder::encoder_error(robot, &sol.q, &vec![bits; robot.dof()])?;
+                sum += e.position;
+                worst_orientation = worst_orientation.max(e.orientation);
+                if e.position > worst.0 {
+                    worst = (e.position, along, angle);
+                }
+            }
+        }
+    }
+    Ok(Reach {
+        points,
+        reached,
+        unreachable,
+        worst_position: worst,
+        mean_position: if reached > 0 {
+            sum / reached as f64
+        } else {
+            0.0
+        },
+        worst_orientation,
+    })
+}
+
+/// The §2.7 configuration a sweep point describes (None: the scene's default).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct ReachParams {
+    /// Encoder bits per joint.
+    pub bits: Option<u32>,
+    /// The positioner's upper arm and forearm, m.
+    pub upper_arm_m: Option<f64>,
+    pub forearm_m: Option<f64>,
+    /// The robot's base from the head's axis, m.
+    pub stand_off_m: Option<f64>,
+}
+
+/// [`reach_sweep`] on the library's `surgical_positioner_cell` with `p`, no session: the robot,
+/// head, collision mode and start pose as the scene declares them.
+pub fn reach(p: &ReachParams) -> Result<Reach> {
+    let mut params = Params::new();
+    for (name, v) in [
+        ("upper_arm", p.upper_arm_m),
+        ("forearm", p.forearm_m),
+        ("stand_off", p.stand_off_m),
+    ] {
+        if let Some(v) = v {
+            if !(v.is_finite() && v > 0.0 && v < 10.0) {
+                bail!("{name} {v} m: expected a length in (0, 10) m");
+            }
+            params = params.si(name, v);
+        }
+    }
+    if let Some(b) = p.bits
+        && !(1..=52).contains(&b)
+    {
+        bail!("encoder bits {b}: expected 1 to 52");
+    }
+    let (_lib, scene) = crate::common::scene(SCENE, &params)?;
+    let placed = scene
+        .robots
+        .first()
+        .ok_or_else(|| crate::StudyError(format!("{SCENE} places no robot")))?;
+    let head_item = scene
+        .solids
+        .iter()
+        .find(|i| i.name == "head")
+        .ok_or_else(|| crate::StudyError(format!("{SCENE} has no head")))?;
+    let head_part = head_item
+        .solid
+        .parts
+        .first()
+        .ok_or_else(|| crate::StudyError("the head has no solid".into()))?;
+    let robot = &placed.model.robot;
+    let frame = HeadFrame::new(&(head_item.placement * head_part.transform), robot);
+    let bits = match p.bits {
+        Some(b) => b,
+        None => scene
+            .effects
+            .encoder_bits
+            .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?,
+    };
+    let settings = settings_of(&scene);
+    let links = link_solids(&placed.model.frames)?;
+    let obstacles = obstacles(&scene)?;
+    reach_sweep(
+        robot, &links, &obstacles, &settings, &placed.q, bits, &frame,
+    )
+}
+
+/// The scene's declared collision checking (polygon when it names no mode), every contact.
+fn settings_of(scene: &SceneModel) -> CollisionSettings {
+    CollisionSettings {
+        enabled: true,
+        self_collision: scene.effects.collision.is_some_and(|c| c.self_collision),
+        mode: match scene.effects.collision.map(|c| c.mode) {
+            Some(CollisionMode::Bbox) => Mode::BBox,
+            Some(CollisionMode::Exact) => Mode::Exact,
+            _ => Mode::Polygon,
+        },
+        all_contacts: true,
+        continuous: false,
+    }
+}
+
 /// Runs the study in session `session` (a fresh one by default) and writes its report to
 /// `out` as it goes.
 pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
@@ -337,7 +563,6 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     // head axis is world +y).
     let axis: Vector3<f64> = head.fixed_view::<3, 1>(0, 2).into_owned();
     let axis = if axis.sum() < 0.0 { -axis } else { axis };
-    let centre: Vector3<f64> = head.fixed_view::<3, 1>(0, 3).into_owned();
     say!(
         out,
         "head: cylinder r {radius:.3} m, length {length:.3} m, axis {} through {}; {}: {} joints at q {}",
@@ -357,30 +582,8 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         "\n== 3. kinematics: tool tip {:.1} cm from the head's axis, pointing at it (seed §2.7)",
         TIP_FROM_AXIS * 100.0
     );
-    // The seed's get_location(angle): radial direction towards the robot's side of the head,
-    // ARC_DEG above the horizontal, perpendicular to the head's axis; tool z pointing at the
-    // axis, tool x along it.
-    let base_p: Vector3<f64> = robot.base.fixed_view::<3, 1>(0, 3).into_owned();
-    let to_robot = base_p - centre;
-    let horiz = (to_robot - axis * axis.dot(&to_robot) - Vector3::z() * to_robot.z).normalize();
-    let up = axis.cross(&horiz).normalize();
-    let up = if up.z < 0.0 { -up } else { up };
-    let location = |angle_deg: f64, along: f64| -> Matrix4<f64> {
-        let a = angle_deg.to_radians();
-        let radial = horiz * a.cos() + up * a.sin();
-        let tip = centre + axis * along + radial * TIP_FROM_AXIS;
-        let z_t = -radial;
-        let x_t = axis;
-        let y_t = z_t.cross(&x_t);
-        let mut t = Matrix4::identity();
-        for r in 0..3 {
-            t[(r, 0)] = x_t[r];
-            t[(r, 1)] = y_t[r];
-            t[(r, 2)] = z_t[r];
-            t[(r, 3)] = tip[r];
-        }
-        t
-    };
+    let frame = HeadFrame::new(&head, &robot);
+    let location = |angle_deg: f64, along: f64| frame.location(angle_deg, along);
     let target = location(ARC_DEG, ALONG_AXIS);
     say!(
         out,
@@ -422,17 +625,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
             "off"
         }
     );
-    let settings = CollisionSettings {
-        enabled: true,
-        self_collision: scene.effects.collision.is_some_and(|c| c.self_collision),
-        mode: match scene.effects.collision.map(|c| c.mode) {
-            Some(CollisionMode::Bbox) => Mode::BBox,
-            Some(CollisionMode::Exact) => Mode::Exact,
-            _ => Mode::Polygon,
-        },
-        all_contacts: true,
-        continuous: false,
-    };
+    let settings = settings_of(&scene);
     let links = link_solids(&model.frames)?;
     let obstacles = obstacles(&scene)?;
     let mut clear = Vec::new();
@@ -489,51 +682,20 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     let Some(goal) = chosen else {
         bail!("no IK solution is collision-free with a clear MOVEJI path");
     };
-    // The seed's whole study: every 1 cm along the head (±20 cm) and every 5° of arc from 0 to
-    // 100°; a point counts as reached when some solution is within limits and clear of the
-    // head. The 12-bit bound is taken at the clear solution nearest the start.
+    // The seed's whole study (see `reach_sweep`).
     let bits = scene
         .effects
         .encoder_bits
         .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?;
     let t0 = Instant::now();
-    let (mut points, mut reached, mut unreachable) = (0, 0, 0);
-    let mut worst_err = (0.0_f64, 0.0, 0.0);
-    let first_settings = CollisionSettings {
-        all_contacts: false,
-        ..settings
-    };
-    for cm in -20..=20 {
-        let along = cm as f64 / 100.0;
-        for step in 0..21 {
-            let angle = 5.0 * step as f64;
-            points += 1;
-            let sols = match ik::solve(&robot, &location(angle, along), Method::Analytic, &opts) {
-                Ok(r) => r.solutions,
-                Err(ik::IkError::Unreachable { .. }) => {
-                    unreachable += 1;
-                    continue;
-                }
-                Err(e) => bail!("IK at {cm} cm, {angle}°: {e}"),
-            };
-            let mut best: Option<(f64, &ik::IkSolution)> = None;
-            for sol in sols.iter().filter(|s| s.converged && s.within_limits) {
-                if check_robot(&robot, &links, &sol.q, &obstacles, &first_settings)?.is_clear() {
-                    let d: f64 = sol.q.iter().zip(&arm.q).map(|(a, b)| (a - b).powi(2)).sum();
-                    if best.is_none_or(|(bd, _)| d < bd) {
-                        best = Some((d, sol));
-                    }
-                }
-            }
-            if let Some((_, sol)) = best {
-                reached += 1;
-                let e = encoder::encoder_error(&robot, &sol.q, &vec![bits; robot.dof()])?;
-                if e.position > worst_err.0 {
-                    worst_err = (e.position, along, angle);
-                }
-            }
-        }
-    }
+    let reach = reach_sweep(&robot, &links, &obstacles, &settings, &arm.q, bits, &frame)?;
+    let Reach {
+        points,
+        reached,
+        unreachable,
+        ..
+    } = reach;
+    let worst_err = reach.worst_position;
     say!(
         out,
         "seed's sweep, {points} points (±20 cm every 1 cm, 0–100° every 5°) in {:.0} ms: {reached} reached clear of the head, {unreachable} out of reach, {} only colliding or beyond limits",

@@ -1,0 +1,127 @@
+//! `robosim bench sweep`: one sweep (the §2.7 surgical positioner, encoder bits × upper arm
+//! × forearm length, 108 jobs) run in this process without workers (the baseline of the study's own cost), on
+//! one worker process and on two, in the same run; wall time, jobs per second and the speed-up
+//! of two workers over one, written as sweep.md and sweep.csv. The three result tables are
+//! compared: the bench fails if they differ.
+
+use super::cli::{csv, plan, study_named, sweep_local};
+use super::coordinator::Options;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+fn load() -> String {
+    std::fs::read_to_string("/proc/loadavg")
+        .ok()
+        .and_then(|s| s.split_whitespace().next().map(str::to_owned))
+        .unwrap_or_else(|| "?".into())
+}
+
+/// Runs the bench; `exe` is the robosim binary for the workers. Returns the files written.
+pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> {
+    let def = study_named("surgical").map_err(|e| e.to_string())?;
+    let params: Vec<String> = if quick {
+        vec!["bits=12,16".into(), "upper_arm=0.2:0.24:2".into()]
+    } else {
+        vec![
+            "bits=10,12,14,16".into(),
+            "upper_arm=0.18:0.26:9".into(),
+            "forearm=0.18,0.2,0.22".into(),
+        ]
+    };
+    let p = plan(def, &params).map_err(|e| e.to_string())?;
+    let jobs = &p.jobs;
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut rows: Vec<(String, usize, f64, String)> = Vec::new();
+
+    // baseline: the same jobs, one after another, in this process
+    let load0 = load();
+    let t0 = Instant::now();
+    let outcomes: Vec<_> = jobs
+        .iter()
+        .map(|j| (def.run)(&j.params).map_err(|e| e.0))
+        .collect();
+    let serial_s = t0.elapsed().as_secs_f64();
+    let reference = csv(def, &p.axes, jobs, &outcomes);
+    rows.push(("in this process, no workers".into(), 0, serial_s, load0));
+
+    let opts = Options::default();
+    let mut walls = Vec::new();
+    for workers in [1usize, 2] {
+        let l = load();
+        let ran = sweep_local(&p, exe, workers, &opts, None, &mut |line| {
+            eprintln!("{line}")
+        })
+        .map_err(|e| e.to_string())?;
+        if ran.csv != reference {
+            return Err(format!(
+                "the sweep on {workers} worker(s) gave other results than the in-process run"
+            ));
+        }
+        if ran.failed > 0 {
+            return Err(format!("{} jobs failed on {workers} worker(s)", ran.failed));
+        }
+        walls.push(ran.wall_s);
+        rows.push((
+            format!(
+                "{workers} worker process{}",
+                if workers == 1 { "" } else { "es" }
+            ),
+            workers,
+            ran.wall_s,
+            l,
+        ));
+    }
+    let one = walls[0];
+    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+    let mut c = String::from(
+        "configuration,workers,jobs,wall_s,jobs_per_s,speedup_over_1_worker,load_avg_1min_before\n",
+    );
+    let mut md = format!(
+        "# Sweep: one parameter study on 1 and 2 worker processes (`robosim bench sweep{}`)\n\n\
+         The sweep: `robosim sweep surgical {}` — {} jobs, each the seed's §2.7 reach and \
+         encoder-accuracy study (861 tool poses over the head: analytic IK, collision against \
+         the head, the encoder bound) for one configuration. The same jobs are run in this \
+         process one after another (no workers: the study's own cost), then by the coordinator \
+         on 1 and on 2 `robosim sweep-worker` processes, in the same run; the three CSVs are \
+         identical (checked). This machine: {cores} cores; build: {profile}. Wall time from \
+         CLOCK_MONOTONIC, process start-up included. Speed-up = wall time on 1 worker / wall \
+         time.\n\n\
+         | configuration | workers | jobs | wall (s) | jobs/s | speed-up over 1 worker | load avg before |\n\
+         |---|---:|---:|---:|---:|---:|---:|\n",
+        if quick { " --quick" } else { "" },
+        params
+            .iter()
+            .map(|p| format!("--param {p}"))
+            .collect::<Vec<_>>()
+            .join(" "),
+        jobs.len(),
+        profile = if cfg!(debug_assertions) {
+            "dev profile (opt-level 1, dependencies 2, debug assertions on)"
+        } else {
+            "release profile"
+        },
+    );
+    for (name, workers, wall, l) in &rows {
+        let jps = jobs.len() as f64 / wall;
+        let speed = one / wall;
+        c += &format!(
+            "{name},{workers},{},{wall:.3},{jps:.2},{speed:.2},{l}\n",
+            jobs.len()
+        );
+        md += &format!(
+            "| {name} | {workers} | {} | {wall:.2} | {jps:.2} | {speed:.2} | {l} |\n",
+            jobs.len()
+        );
+    }
+    md += &format!(
+        "\nSpeed-up of 2 workers over 1: **{:.2}×**; 1 worker over the in-process run: {:.2}× \
+         (the cost of a process, its start and the protocol).\n",
+        one / walls[1],
+        serial_s / one
+    );
+    let md_path = out.join("sweep.md");
+    let csv_path = out.join("sweep.csv");
+    std::fs::write(&md_path, md).map_err(|e| format!("{}: {e}", md_path.display()))?;
+    std::fs::write(&csv_path, c).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    Ok(vec![md_path, csv_path])
+}

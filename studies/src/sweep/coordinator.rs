@@ -1,0 +1,544 @@
+//! The coordinator: hands jobs to workers one at a time (a slow worker gets fewer), gathers
+//! their results by job index, and redoes the job of a worker that died.
+//!
+//! A worker is dead when its output ends (exit, crash, `kill -9`), when it stops being alive
+//! ([`WorkerLink::is_alive`], checked every tick), when it answers for a job it was not given,
+//! or when a job runs over the timeout. Its job in flight goes back to the front of the queue
+//! and is redone (on whichever worker is free first) until it has been tried `max_attempts`
+//! times; then it is a failed job ("the worker died … times running this job"). The slot is
+//! started again; a slot whose workers die `max_attempts` times in a row without a job in
+//! flight (one that cannot start) is given up. Every death is one log line; the results do not
+//! depend on who ran what.
+
+use super::SweepError;
+use super::protocol::{self, Outcome};
+use super::spec::Job;
+use super::transport::{Event, EventSink, Launcher, WorkerLink};
+use std::collections::VecDeque;
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
+
+/// How the coordinator deals with failure.
+#[derive(Debug, Clone)]
+pub struct Options {
+    /// Tries per job before it is reported failed (≥ 1).
+    pub max_attempts: u32,
+    /// A job running longer than this kills its worker (and counts as a death). None: no limit.
+    pub job_timeout: Option<Duration>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            max_attempts: 3,
+            job_timeout: None,
+        }
+    }
+}
+
+/// What happened in a sweep besides the results.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Stats {
+    /// Workers started, including restarts.
+    pub started: usize,
+    /// Workers that died.
+    pub deaths: usize,
+    /// Jobs sent again after their worker died.
+    pub redone: usize,
+    /// Jobs each slot completed.
+    pub per_slot: Vec<usize>,
+}
+
+struct Slot {
+    launcher: Box<dyn Launcher>,
+    link: Option<Box<dyn WorkerLink>>,
+    generation: u64,
+    in_flight: Option<(usize, Instant)>,
+    /// Deaths without a job in flight since the last result.
+    idle_deaths: u32,
+    retired: bool,
+}
+
+/// Runs `jobs` of `study` on the workers `launchers` start (one worker per launcher), and
+/// returns each job's outcome by position in `jobs`. `log` gets one line per event worth
+/// telling (a worker started, died, a job redone); `done` is called after every result.
+pub fn run(
+    study: &str,
+    jobs: &[Job],
+    launchers: Vec<Box<dyn Launcher>>,
+    opts: &Options,
+    log: &mut dyn FnMut(String),
+    done: &mut dyn FnMut(usize),
+) -> Result<(Vec<Outcome>, Stats), SweepError> {
+    if launchers.is_empty() {
+        return Err(SweepError::NoWorkers);
+    }
+    let max_attempts = opts.max_attempts.max(1);
+    let (tx, rx) = mpsc::channel::<Event>();
+    let mut slots: Vec<Slot> = launchers
+        .into_iter()
+        .map(|launcher| Slot {
+            launcher,
+            link: None,
+            generation: 0,
+            in_flight: None,
+            idle_deaths: 0,
+            retired: false,
+        })
+        .collect();
+    let by_index: std::collections::HashMap<usize, usize> =
+        jobs.iter().enumerate().map(|(k, j)| (j.index, k)).collect();
+    let mut queue: VecDeque<usize> = (0..jobs.len()).collect();
+    let mut attempts = vec![0u32; jobs.len()];
+    let mut results: Vec<Option<Outcome>> = vec![None; jobs.len()];
+    let mut remaining = jobs.len();
+    let mut stats = Stats {
+        per_slot: vec![0; slots.len()],
+        ..Stats::default()
+    };
+    let mut last_death = String::new();
+
+    // Starts slot `s`'s worker; false when it could not.
+    let start = |s: usize,
+                 slot: &mut Slot,
+                 stats: &mut Stats,
+                 log: &mut dyn FnMut(String),
+                 last: &mut String|
+     -> bool {
+        slot.generation += 1;
+        match slot
+            .launcher
+            .launch(EventSink::new(tx.clone(), s, slot.generation))
+        {
+            Ok(link) => {
+                log(format!(
+                    "sweep: worker {s} started: {} {}",
+                    slot.launcher.describe(),
+                    link.describe()
+                ));
+                slot.link = Some(link);
+                stats.started += 1;
+                true
+            }
+            Err(e) => {
+                log(format!(
+                    "sweep: worker {s} ({}) could not start: {e}",
+                    slot.launcher.describe()
+                ));
+                *last = e;
+                false
+            }
+        }
+    };
+
+    for (s, slot) in slots.iter_mut().enumerate() {
+        if !start(s, slot, &mut stats, log, &mut last_death) {
+            slot.retired = true;
+        }
+    }
+
+    // A worker is gone: its job back to the queue (or failed), the slot started again.
+    let died = |s: usize,
+                slot: &mut Slot,
+                why: &str,
+                queue: &mut VecDeque<usize>,
+                attempts: &mut Vec<u32>,
+                results: &mut Vec<Option<Outcome>>,
+                remaining: &mut usize,
+                stats: &mut Stats,
+                log: &mut dyn FnMut(String),
+                last: &mut String| {
+        let Some(mut link) = slot.link.take() else {
+            return;
+        };
+        let who = link.describe();
+        let how = link.kill();
+        stats.deaths += 1;
+        let mut line = format!("sweep: worker {s} ({who}) died: {why} ({how})");
+        *last = format!("{why} ({how})");
+        match slot.in_flight.take() {
+            Some((k, _)) => {
+                slot.idle_deaths = 0;
+                attempts[k] += 1;
+                if attempts[k] >= max_attempts {
+                    line += &format!(
+                        "; job {} failed: tried {} times",
+                        jobs[k].index, attempts[k]
+                    );
+                    results[k] = Some(Err(format!(
+                        "the worker died {} times running this job (last: {why}, {how})",
+                        attempts[k]
+                    )));
+                    *remaining -= 1;
+                } else {
+                    line += &format!(
+                        "; job {} is redone (attempt {} of {max_attempts})",
+                        jobs[k].index,
+                        attempts[k] + 1
+                    );
+                    stats.redone += 1;
+                    queue.push_front(k);
+                }
+            }
+            None => slot.idle_deaths += 1,
+        }
+        log(line);
+        if slot.idle_deaths >= max_attempts {
+            log(format!(
+                "sweep: worker {s} given up: it died {} times without running a job",
+                slot.idle_deaths
+            ));
+            slot.retired = true;
+        }
+    };
+
+    let tick = Duration::from_millis(200);
+    while remaining > 0 {
+        // restart dead slots, then give every idle worker a job
+        for (s, slot) in slots.iter_mut().enumerate() {
+            if slot.retired || queue.is_empty() {
+                continue;
+            }
+            if slot.link.is_none() && !start(s, slot, &mut stats, log, &mut last_death) {
+                slot.idle_deaths += 1;
+                if slot.idle_deaths >= max_attempts {
+                    log(format!(
+                        "sweep: worker {s} given up: it could not be started {} times in a row",
+                        slot.idle_deaths
+                    ));
+                    slot.retired = true;
+                }
+                continue;
+            }
+            if slot.in_flight.is_some() {
+                continue;
+            }
+            let Some(k) = queue.pop_front() else { break };
+            let line = protocol::job_line(study, &jobs[k]);
+            let sent = match slot.link.as_mut() {
+                Some(link) => link.send(&line),
+                None => Err("not started".into()),
+            };
+            match sent {
+                Ok(()) => slot.in_flight = Some((k, Instant::now())),
+                Err(e) => {
+                    // never reached the worker: not an attempt
+                    queue.push_front(k);
+                    died(
+                        s,
+                        slot,
+                        &format!("sending job {}: {e}", jobs[k].index),
+                        &mut queue,
+                        &mut attempts,
+                        &mut results,
+                        &mut remaining,
+                        &mut stats,
+                        log,
+                        &mut last_death,
+                    );
+                }
+            }
+        }
+        if slots.iter().all(|s| s.retired) {
+            return Err(SweepError::NoWorkersLeft {
+                remaining,
+                last: last_death,
+            });
+        }
+        let ev = match rx.recv_timeout(tick) {
+            Ok(ev) => Some(ev),
+            Err(mpsc::RecvTimeoutError::Timeout) => None,
+            // the coordinator holds a sender: the channel cannot disconnect
+            Err(mpsc::RecvTimeoutError::Disconnected) => None,
+        };
+        match ev {
+            Some(Event::Line {
+                slot: s,
+                generation,
+                line,
+            }) => {
+                let Some(slot) = slots.get_mut(s) else {
+                    continue;
+                };
+                if generation != slot.generation || slot.link.is_none() {
+                    continue;
+                }
+                let parsed = protocol::parse_result(&line);
+                let expected = slot.in_flight.map(|(k, _)| jobs[k].index);
+                match parsed {
+                    Ok((index, outcome)) if Some(index) == expected => {
+                        let k = by_index[&index];
+                        slot.in_flight = None;
+                        slot.idle_deaths = 0;
+                        if results[k].is_none() {
+                            results[k] = Some(outcome);
+                            remaining -= 1;
+                            stats.per_slot[s] += 1;
+                            done(remaining);
+                        }
+                    }
+                    other => {
+                        let why = match other {
+                            Ok((index, _)) => format!(
+                                "answered for job {index} while running {}",
+                                expected.map_or("none".into(), |i| i.to_string())
+                            ),
+                            Err(e) => e,
+                        };
+                        died(
+                            s,
+                            slot,
+                            &why,
+                            &mut queue,
+                            &mut attempts,
+                            &mut results,
+                            &mut remaining,
+                            &mut stats,
+                            log,
+                            &mut last_death,
+                        );
+                    }
+                }
+            }
+            Some(Event::Closed {
+                slot: s,
+                generation,
+            }) => {
+                let Some(slot) = slots.get_mut(s) else {
+                    continue;
+                };
+                if generation != slot.generation || slot.link.is_none() {
+                    continue;
+                }
+                died(
+                    s,
+                    slot,
+                    "its output ended",
+                    &mut queue,
+                    &mut attempts,
+                    &mut results,
+                    &mut remaining,
+                    &mut stats,
+                    log,
+                    &mut last_death,
+                );
+            }
+            None => {}
+        }
+        // timeouts, and idle workers that exited (one with a job in flight is reported by the
+        // end of its output, after its last line)
+        for (s, slot) in slots.iter_mut().enumerate() {
+            let Some(link) = slot.link.as_mut() else {
+                continue;
+            };
+            let why = match slot.in_flight {
+                Some((k, t0)) if opts.job_timeout.is_some_and(|limit| t0.elapsed() > limit) => {
+                    format!(
+                        "job {} ran over the {:.1} s timeout",
+                        jobs[k].index,
+                        opts.job_timeout.map_or(0.0, |d| d.as_secs_f64())
+                    )
+                }
+                Some(_) => continue,
+                None if !link.is_alive() => "it is no longer alive".to_owned(),
+                None => continue,
+            };
+            died(
+                s,
+                slot,
+                &why,
+                &mut queue,
+                &mut attempts,
+                &mut results,
+                &mut remaining,
+                &mut stats,
+                log,
+                &mut last_death,
+            );
+        }
+    }
+    for slot in &mut slots {
+        if let Some(mut link) = slot.link.take() {
+            link.finish(Duration::from_secs(2));
+        }
+    }
+    let outcomes = results
+        .into_iter()
+        .map(|r| r.unwrap_or_else(|| Err("no result (internal: job lost)".into())))
+        .collect();
+    Ok((outcomes, stats))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::spec::Value;
+    use std::sync::mpsc::Sender;
+
+    /// Workers on threads: each answers job i with [i, 2i], and "dies" (its output ends
+    /// without an answer) on job `die_on`; `start` false: it cannot be started.
+    struct Threads {
+        die_on: Option<usize>,
+        start: bool,
+    }
+
+    struct ThreadLink {
+        jobs: Option<Sender<String>>,
+        alive: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    }
+
+    impl Launcher for Threads {
+        fn describe(&self) -> String {
+            "thread".into()
+        }
+        fn launch(&mut self, sink: EventSink) -> Result<Box<dyn WorkerLink>, String> {
+            if !self.start {
+                return Err("no threads today".into());
+            }
+            let (tx, rx) = mpsc::channel::<String>();
+            let alive = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+            let flag = alive.clone();
+            let die_on = self.die_on;
+            std::thread::spawn(move || {
+                for line in rx {
+                    let (_, job) = protocol::parse_job(&line).expect("a job line");
+                    if Some(job.index) == die_on {
+                        break;
+                    }
+                    let i = job.index as f64;
+                    sink.line(protocol::result_line(job.index, &Ok(vec![i, 2.0 * i])));
+                }
+                flag.store(false, std::sync::atomic::Ordering::SeqCst);
+                sink.closed();
+            });
+            Ok(Box::new(ThreadLink {
+                jobs: Some(tx),
+                alive,
+            }))
+        }
+    }
+
+    impl WorkerLink for ThreadLink {
+        fn describe(&self) -> String {
+            "thread".into()
+        }
+        fn send(&mut self, line: &str) -> Result<(), String> {
+            self.jobs
+                .as_ref()
+                .ok_or("closed")?
+                .send(line.to_owned())
+                .map_err(|e| e.to_string())
+        }
+        fn is_alive(&mut self) -> bool {
+            self.alive.load(std::sync::atomic::Ordering::SeqCst)
+        }
+        fn kill(&mut self) -> String {
+            self.jobs = None;
+            "stopped".into()
+        }
+        fn finish(&mut self, _grace: Duration) {
+            self.jobs = None;
+        }
+    }
+
+    fn jobs(n: usize) -> Vec<Job> {
+        (0..n)
+            .map(|index| Job {
+                index,
+                params: vec![("x".into(), Value::Num(index as f64))],
+            })
+            .collect()
+    }
+
+    fn launchers(n: usize, die_on: Option<usize>, start: bool) -> Vec<Box<dyn Launcher>> {
+        (0..n)
+            .map(|_| Box::new(Threads { die_on, start }) as Box<dyn Launcher>)
+            .collect()
+    }
+
+    #[test]
+    fn every_job_answered_once_in_job_order() {
+        let js = jobs(25);
+        let (out, stats) = run(
+            "t",
+            &js,
+            launchers(3, None, true),
+            &Options::default(),
+            &mut |_| {},
+            &mut |_| {},
+        )
+        .expect("sweep");
+        for (i, o) in out.iter().enumerate() {
+            assert_eq!(o, &Ok(vec![i as f64, 2.0 * i as f64]));
+        }
+        assert_eq!(stats.per_slot.iter().sum::<usize>(), 25);
+        assert_eq!((stats.started, stats.deaths, stats.redone), (3, 0, 0));
+    }
+
+    #[test]
+    fn a_job_that_ends_every_worker_fails_after_its_attempts_and_alone() {
+        let js = jobs(6);
+        let mut log = Vec::new();
+        let (out, stats) = run(
+            "t",
+            &js,
+            launchers(2, Some(4), true),
+            &Options {
+                max_attempts: 3,
+                job_timeout: None,
+            },
+            &mut |l| log.push(l),
+            &mut |_| {},
+        )
+        .expect("sweep");
+        for (i, o) in out.iter().enumerate() {
+            if i == 4 {
+                let e = o.as_ref().expect_err("job 4 fails");
+                assert!(
+                    e.starts_with("the worker died 3 times running this job"),
+                    "{e}"
+                );
+            } else {
+                assert_eq!(o, &Ok(vec![i as f64, 2.0 * i as f64]));
+            }
+        }
+        assert_eq!((stats.deaths, stats.redone), (3, 2), "{log:#?}");
+        assert!(
+            log.iter()
+                .any(|l| l.contains("job 4 is redone (attempt 2 of 3)"))
+        );
+        assert!(
+            log.iter()
+                .any(|l| l.contains("job 4 failed: tried 3 times"))
+        );
+    }
+
+    #[test]
+    fn workers_that_cannot_start_end_the_sweep_with_an_error() {
+        let e = run(
+            "t",
+            &jobs(2),
+            launchers(2, None, false),
+            &Options::default(),
+            &mut |_| {},
+            &mut |_| {},
+        )
+        .expect_err("no workers");
+        assert!(
+            e.to_string()
+                .contains("no worker left with 2 jobs to run (last: no threads today)"),
+            "{e}"
+        );
+        assert!(matches!(
+            run(
+                "t",
+                &jobs(1),
+                Vec::new(),
+                &Options::default(),
+                &mut |_| {},
+                &mut |_| {}
+            ),
+            Err(SweepError::NoWorkers)
+        ));
+    }
+}
