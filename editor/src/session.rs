@@ -250,7 +250,7 @@ impl<S: Space> Editor<S> {
     /// Commits the difference between what the space holds and the design.
     fn sync(&mut self) -> Result<Done, EditError> {
         let (tx, creates) = self.diff()?;
-        if tx.ops.is_empty() {
+        if tx.is_empty() {
             self.committed = Some(self.design.clone());
             return Ok(Done {
                 version: self.version,
@@ -286,7 +286,7 @@ impl<S: Space> Editor<S> {
         self.version = version;
         Ok(Done {
             version,
-            ops: tx.ops.len(),
+            ops: tx.len(),
         })
     }
 

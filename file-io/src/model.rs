@@ -233,7 +233,7 @@ impl SavedModel {
             }
         }
         Ok(LoadPlan {
-            tx: Transaction { ops },
+            tx: Transaction::from_ops(ops),
             op_object,
         })
     }

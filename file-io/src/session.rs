@@ -102,7 +102,7 @@ pub fn load(session: &Session, path: &Path, mode: LoadMode) -> Result<Loaded, Fi
             path: path.to_owned(),
             problem,
         })?;
-    if plan.tx.ops.is_empty() {
+    if plan.tx.is_empty() {
         return Err(FileError::Usage(format!(
             "{}: the file holds no objects and the session none to replace: nothing to load",
             path.display()

@@ -665,7 +665,7 @@ pub fn inspect(path: &Path, out: &mut dyn Write) -> Result<(), JournalError> {
 fn summarize(tx: &Transaction) -> String {
     use crate::transaction::Op;
     let names: Vec<String> = tx
-        .ops
+        .ops()
         .iter()
         .take(4)
         .map(|op| match op {
@@ -679,13 +679,13 @@ fn summarize(tx: &Transaction) -> String {
             }
         })
         .collect();
-    let more = tx.ops.len().saturating_sub(names.len());
+    let more = tx.len().saturating_sub(names.len());
     let tail = if more > 0 {
         format!(", … {more} more")
     } else {
         String::new()
     };
-    format!("{} op(s): {}{tail}", tx.ops.len(), names.join(", "))
+    format!("{} op(s): {}{tail}", tx.len(), names.join(", "))
 }
 
 /// Reads a journal file, refusing anything that is not a regular file.

@@ -453,7 +453,7 @@ impl Store {
     /// Cost: proportional to the objects the transaction touches (plus its geometry), not to
     /// the model.
     pub fn apply(&mut self, tx: &Transaction) -> Result<Applied, TxError> {
-        if tx.ops.is_empty() {
+        if tx.is_empty() {
             return Err(TxError::Empty);
         }
         let mut stage = Stage {
@@ -465,7 +465,7 @@ impl Store {
             reparented: Vec::new(),
             selection: None,
         };
-        for (i, op) in tx.ops.iter().enumerate() {
+        for (i, op) in tx.ops().iter().enumerate() {
             stage.op(i, op)?;
         }
         stage.check_structure()?;

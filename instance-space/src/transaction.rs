@@ -104,25 +104,89 @@ pub enum Op {
 }
 
 /// An ordered list of operations, applied all or nothing.
-#[derive(
-    Debug, Clone, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode, Default,
-)]
+///
+/// The operations are private so that the count of creates (what the next
+/// [`Transaction::create`] answers, `ObjRef::New(k)`) cannot drift from them: a writer that
+/// builds a model of N objects in one transaction pays O(N), not O(N²) for counting them again
+/// on every create. On the wire (serde and bincode) a transaction is only its operations.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+#[serde(from = "TxWire", into = "TxWire")]
 pub struct Transaction {
-    pub ops: Vec<Op>,
+    ops: Vec<Op>,
+    /// How many of `ops` are [`Op::Create`].
+    creates: u32,
 }
+
+/// [`Transaction`]'s serde form: `{"ops": [...]}`.
+#[derive(Serialize, Deserialize)]
+struct TxWire {
+    ops: Vec<Op>,
+}
+
+impl From<TxWire> for Transaction {
+    fn from(w: TxWire) -> Self {
+        Transaction::from_ops(w.ops)
+    }
+}
+
+impl From<Transaction> for TxWire {
+    fn from(t: Transaction) -> Self {
+        TxWire { ops: t.ops }
+    }
+}
+
+impl bincode::Encode for Transaction {
+    fn encode<E: bincode::enc::Encoder>(
+        &self,
+        encoder: &mut E,
+    ) -> Result<(), bincode::error::EncodeError> {
+        self.ops.encode(encoder)
+    }
+}
+
+impl<C> bincode::Decode<C> for Transaction {
+    fn decode<D: bincode::de::Decoder<Context = C>>(
+        decoder: &mut D,
+    ) -> Result<Self, bincode::error::DecodeError> {
+        Ok(Transaction::from_ops(Vec::<Op>::decode(decoder)?))
+    }
+}
+bincode::impl_borrow_decode!(Transaction);
 
 impl Transaction {
     pub fn new() -> Self {
         Transaction::default()
     }
-    /// Creates an object; returns its reference for later ops of this transaction.
-    pub fn create(&mut self, kind: Kind, name: &str, parent: Option<ObjRef>) -> ObjRef {
-        let k = self
-            .ops
+    /// A transaction of these operations, in order.
+    pub fn from_ops(ops: Vec<Op>) -> Self {
+        let creates = ops
             .iter()
             .filter(|o| matches!(o, Op::Create { .. }))
             .count() as u32;
-        self.ops.push(Op::Create {
+        Transaction { ops, creates }
+    }
+    /// The operations, in order.
+    pub fn ops(&self) -> &[Op] {
+        &self.ops
+    }
+    pub fn is_empty(&self) -> bool {
+        self.ops.is_empty()
+    }
+    pub fn len(&self) -> usize {
+        self.ops.len()
+    }
+    /// Appends one operation (a create among them is `ObjRef::New` of the creates before it).
+    pub fn push(&mut self, op: Op) -> &mut Self {
+        if matches!(op, Op::Create { .. }) {
+            self.creates += 1;
+        }
+        self.ops.push(op);
+        self
+    }
+    /// Creates an object; returns its reference for later ops of this transaction.
+    pub fn create(&mut self, kind: Kind, name: &str, parent: Option<ObjRef>) -> ObjRef {
+        let k = self.creates;
+        self.push(Op::Create {
             kind,
             name: name.to_owned(),
             parent,
@@ -277,4 +341,40 @@ fn decode_limited(
     }
     try_limit!(16, 20, 24, 28, 30, 32);
     bincode::decode_from_slice(bytes, standard().with_limit::<{ 1usize << 34 }>())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_creates() -> Transaction {
+        let mut tx = Transaction::new();
+        let a = tx.create(Kind::Solid, "a", None);
+        tx.set_name(a, "a2");
+        let b = tx.create(Kind::Solid, "b", Some(a));
+        assert_eq!((a, b), (ObjRef::New(0), ObjRef::New(1)));
+        tx
+    }
+
+    /// The count of creates survives both wire forms: the next create after decoding refers
+    /// to the third object, not the first (a stale count would alias two new objects).
+    #[test]
+    fn creates_count_survives_the_wire() {
+        let tx = two_creates();
+        let mut back = Transaction::decode(&tx.encode()).unwrap();
+        assert_eq!(back, tx);
+        assert_eq!(back.create(Kind::Solid, "c", None), ObjRef::New(2));
+        let json = serde_json::to_string(&tx).unwrap();
+        assert!(json.starts_with("{\"ops\":["), "{json}");
+        let mut back: Transaction = serde_json::from_str(&json).unwrap();
+        assert_eq!(back, tx);
+        assert_eq!(back.create(Kind::Solid, "c", None), ObjRef::New(2));
+        let mut built = Transaction::from_ops(tx.ops().to_vec());
+        built.push(Op::Create {
+            kind: Kind::Solid,
+            name: "c".into(),
+            parent: None,
+        });
+        assert_eq!(built.create(Kind::Solid, "d", None), ObjRef::New(3));
+    }
 }

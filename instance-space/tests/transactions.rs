@@ -79,7 +79,7 @@ fn unknown_id_is_refused() {
         TxError::UnknownObject { op: 0, id: 999 }
     );
     let mut tx = Transaction::new();
-    tx.ops.push(Op::SetName {
+    tx.push(Op::SetName {
         id: ObjRef::New(3),
         name: "x".into(),
     });

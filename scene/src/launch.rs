@@ -168,7 +168,7 @@ pub fn run_space_with(
     if let Some(p) = preload {
         let tx = (p.transaction)(keeper.store())
             .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
-        if !tx.ops.is_empty() {
+        if !tx.is_empty() {
             let a = keeper
                 .commit_local(&tx)
                 .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
