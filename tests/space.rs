@@ -1110,10 +1110,39 @@ fn a_pose_change_republishes_only_its_chunk_and_readers_reuse_the_others() {
     assert!((0..=n).all(|k| all[k] == *new.pose(k)));
     assert_eq!(new.object(i).pose.pose[3], 7.0);
     // A late joiner gets the whole state of the newest version.
-    let late = Reader::attach(&s, "late").expect("late joiner");
+    // It reads them from one pose base, subscribing to no chunk service.
+    let mut late = Reader::attach(&s, "late").expect("late joiner");
     let ls = late.snapshot().expect("snapshot");
     assert_eq!(ls.version(), moved.version);
     assert_eq!(ls.poses(), new.poses());
+    assert_eq!(
+        late.pose_chunks_followed(),
+        0,
+        "attach opened chunk services"
+    );
+    // A change in one chunk: the late joiner follows that chunk alone and keeps the others
+    // from its base (the same shared memory as in its first snapshot).
+    let mut tx = Transaction::new();
+    pose[3] = 9.0;
+    tx.set_pose(body, pose);
+    let again = c.transact(&tx).expect("move again");
+    while late.snapshot().expect("snapshot").version() < again.version {
+        late.wait_change(Duration::from_secs(5)).expect("wait");
+    }
+    let ls2 = late.snapshot().expect("snapshot");
+    assert_eq!(ls2.pose(i).pose[3], 9.0);
+    assert_eq!(ls.pose(i).pose[3], 7.0, "the late joiner's held snapshot");
+    assert_eq!(late.pose_chunks_followed(), 1);
+    assert!(std::ptr::eq(ls.pose(first), ls2.pose(first)));
+    assert!(std::ptr::eq(ls.pose(last), ls2.pose(last)));
+    let all2 = ls2.poses();
+    assert!((0..=n).all(|k| all2[k] == *ls2.pose(k)));
+    while r.snapshot().expect("snapshot").version() < again.version {
+        r.wait_change(Duration::from_secs(5)).expect("wait");
+    }
+    let r2 = r.snapshot().expect("snapshot");
+    assert_eq!(r2.poses(), all2);
+    drop((late, ls, ls2));
     // An object added at the end (the largest id sorts last) touches only the last chunk.
     let mut tx = Transaction::new();
     tx.create(Kind::Solid, "appended", Some(built.created[0].into()));
@@ -1123,9 +1152,9 @@ fn a_pose_change_republishes_only_its_chunk_and_readers_reuse_the_others() {
     }
     let grown = r.snapshot().expect("snapshot");
     assert_eq!(grown.len(), n + 2);
-    assert_eq!(grown.pose(i).pose[3], 7.0);
+    assert_eq!(grown.pose(i).pose[3], 9.0);
     assert!(std::ptr::eq(new.pose(first), grown.pose(first)));
-    assert!(std::ptr::eq(new.pose(i), grown.pose(i)));
+    assert!(std::ptr::eq(r2.pose(i), grown.pose(i)));
     assert!(!std::ptr::eq(new.pose(last), grown.pose(last)));
     assert_eq!(grown.name(n + 1), "appended");
 }

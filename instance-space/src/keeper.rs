@@ -40,6 +40,9 @@ pub(crate) mod events {
     pub const REQUEST: usize = 0;
     /// A reader attached or opened a geometry service: deliver history now.
     pub const HELLO: usize = 1;
+    /// A reader wants every pose at once (attaching, or after a keeper restart): publish the
+    /// pose base unless the one published is current. Implies [`HELLO`].
+    pub const BASE: usize = 2;
     /// On the change event: the keeper died (emitted by iceoryx2's dead-node cleanup).
     pub const KEEPER_DEAD: usize = 7;
 }
@@ -201,6 +204,10 @@ pub struct Keeper {
     changes_pub: Pub,
     objects_pub: Pub,
     poses_pub: Pub,
+    /// The pose base (every pose of one version, on request) and the (epoch, version) of the
+    /// last one published.
+    base_pub: Pub,
+    base_published: Option<(u64, u64)>,
     /// One publisher per pose chunk, and the version each chunk was last published at.
     chunk_pubs: Vec<(Pub, PubSubService)>,
     chunk_gen: Vec<u64>,
@@ -425,6 +432,8 @@ impl Keeper {
         let objects_pub = publisher(&objects_svc, 1024, "objects")?;
         let poses_svc = pubsub(services::POSES, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let poses_pub = publisher(&poses_svc, 1024, "poses")?;
+        let base_svc = pubsub(services::POSE_BASE, 1, 1, MAX_HELD_SNAPSHOTS + 1)?;
+        let base_pub = publisher(&base_svc, 1024, "pose base")?;
 
         // The request service last: a writer that can connect (`Client::connect`, which is
         // how launchers and tests wait for a keeper) finds every other service of the keeper
@@ -505,6 +514,8 @@ impl Keeper {
             changes_pub,
             objects_pub,
             poses_pub,
+            base_pub,
+            base_published: None,
             chunk_pubs: Vec::new(),
             chunk_gen: Vec::new(),
             chunk_dirty: Vec::new(),
@@ -532,6 +543,7 @@ impl Keeper {
                 Box::new(changes_svc),
                 Box::new(objects_svc),
                 Box::new(poses_svc),
+                Box::new(base_svc),
             ],
         };
         keeper.publish_all()?;
@@ -640,7 +652,11 @@ impl Keeper {
     /// group. Within the spin window after the last group ([`KeeperOptions::spin`]) the wait
     /// polls instead of blocking.
     pub fn step(&mut self, wait: Duration) -> Result<GroupStats, KeeperError> {
-        let mut hello = false;
+        let (mut hello, mut base) = (false, false);
+        let mut on_event = |e: iceoryx2::prelude::EventId| {
+            hello |= e == EventId::new(events::HELLO) || e == EventId::new(events::BASE);
+            base |= e == EventId::new(events::BASE);
+        };
         let mut ready = self.server.has_requests().unwrap_or(false);
         if !ready && let Some(at) = self.last_served {
             let until = at + self.opts.spin;
@@ -654,19 +670,16 @@ impl Keeper {
             }
         }
         if !ready {
-            crate::session::timed_wait_events(
-                &self.req_listener,
-                |e| hello |= e.id == EventId::new(events::HELLO),
-                wait,
-            )
-            .map_err(ipc("wait for requests"))?;
+            crate::session::timed_wait_events(&self.req_listener, |e| on_event(e.id), wait)
+                .map_err(ipc("wait for requests"))?;
         } else {
-            let _ = self
-                .req_listener
-                .try_wait(|e| hello |= e.id == EventId::new(events::HELLO));
+            let _ = self.req_listener.try_wait(|e| on_event(e.id));
         }
         if hello || self.last_connect_update.elapsed() > Duration::from_millis(50) {
             self.update_connections();
+        }
+        if base {
+            self.publish_base()?;
         }
         let mut pending = Vec::new();
         let mut applied = Vec::new();
@@ -991,6 +1004,7 @@ impl Keeper {
     fn update_connections(&mut self) {
         let _ = self.objects_pub.update_connections();
         let _ = self.poses_pub.update_connections();
+        let _ = self.base_pub.update_connections();
         for (p, _) in &self.chunk_pubs {
             let _ = p.update_connections();
         }
@@ -1082,16 +1096,36 @@ impl Keeper {
             self.chunk_gen[k] = version;
             self.chunk_dirty[k] = false;
         }
-        let header = [PosesHeader {
-            version,
+        let header = [self.poses_header()];
+        let mut w = SegmentWriter::new();
+        w.push(&header).push(&self.chunk_gen);
+        Self::send(&self.poses_pub, &w, "poses")
+    }
+
+    /// Publishes the pose base — the current head and every pose record in one sample — unless
+    /// the last one published is of this version (a new subscriber then has it from the
+    /// service's history). O(objects), once per request, never per commit.
+    fn publish_base(&mut self) -> Result<(), KeeperError> {
+        let now = (self.epoch, self.model.version);
+        if self.base_published == Some(now) {
+            return Ok(());
+        }
+        let header = [self.poses_header()];
+        let mut w = SegmentWriter::new();
+        w.push(&header).push(&self.chunk_gen).push(&self.poses);
+        Self::send(&self.base_pub, &w, "pose base")?;
+        self.base_published = Some(now);
+        Ok(())
+    }
+
+    fn poses_header(&self) -> PosesHeader {
+        PosesHeader {
+            version: self.model.version,
             structure_version: self.structure_version,
             epoch: self.epoch,
             count: self.poses.len() as u64,
             chunk_len: POSE_CHUNK as u64,
-        }];
-        let mut w = SegmentWriter::new();
-        w.push(&header).push(&self.chunk_gen);
-        Self::send(&self.poses_pub, &w, "poses")
+        }
     }
 
     /// Opens or creates the service of pose chunk `k` and its publisher.

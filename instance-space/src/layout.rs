@@ -10,6 +10,10 @@
 //! * pose chunks, one service per [`POSE_CHUNK`] objects: [`PoseChunkHeader`], [`PoseRec`] ×
 //!   up to [`POSE_CHUNK`], in the same order as the objects — published only when a pose in
 //!   that range (or the structure) changed, O(changed chunks);
+//! * pose base: the poses head's [`PosesHeader`] and chunk generations, then every
+//!   [`PoseRec`] — the whole poses of one version in one sample, O(objects), published only
+//!   when a reader asks for it (attaching, or after a keeper restart), so that a late joiner
+//!   subscribes to one service instead of one per chunk;
 //! * geometry, one service per object: [`GeometryHeader`], vertices, indices, penalty planes,
 //!   polygons, edges, box — O(that object's geometry), published only when it changes;
 //! * changes: [`ChangeRec`] × n and their ids.

@@ -56,6 +56,9 @@ pub mod services {
     pub const OBJECTS: &str = "space/objects";
     /// The poses head (version and chunk generations); the chunks are [`pose_chunk`].
     pub const POSES: &str = "space/poses";
+    /// The pose base: every pose of one version, published on a reader's request (see
+    /// [`crate::layout`]).
+    pub const POSE_BASE: &str = "space/pose-base";
     pub const CHANGES: &str = "space/changes";
     pub const CHANGE_EVENT: &str = "space/changed";
     /// The Library Space: the session's library as source files.

@@ -82,10 +82,10 @@ pub struct Snapshot {
     version: u64,
     epoch: u64,
     objects: Rc<Words>,
-    /// The pose chunk segments of this version, in object order (one chunk holding every pose
-    /// for a process-local snapshot). A chunk unchanged between versions is the same sample,
-    /// shared by the snapshots of both.
-    poses: Vec<Rc<Words>>,
+    /// Where each pose chunk of this version is, in object order (one chunk holding every pose
+    /// for a process-local snapshot): its own chunk sample, or its range of a pose base. A
+    /// chunk unchanged between versions is the same sample, shared by the snapshots of both.
+    poses: Vec<PoseSrc>,
     /// Records per chunk (≥ 1).
     chunk_len: usize,
     /// [`Snapshot::poses`] as one slice, assembled on first use when there are several chunks.
@@ -93,6 +93,39 @@ pub struct Snapshot {
     /// By object index; `None` for objects without geometry. Shared by the snapshots of one
     /// objects segment (a pose change does not touch it).
     geometry: Rc<Vec<Option<Rc<Words>>>>,
+}
+
+/// One pose chunk of a snapshot: records `first..first + count` of section `section` of
+/// `words` (a chunk segment: section 1 from 0; a pose base: section 2 from the chunk's first
+/// object). Bounds were checked when the snapshot was assembled.
+#[derive(Clone)]
+struct PoseSrc {
+    words: Rc<Words>,
+    section: usize,
+    first: usize,
+    count: usize,
+    /// The chunk's generation (the version it was published at).
+    generation: u64,
+}
+
+impl PoseSrc {
+    /// A whole chunk segment (section 1).
+    fn chunk(words: Rc<Words>, count: usize, generation: u64) -> PoseSrc {
+        PoseSrc {
+            words,
+            section: 1,
+            first: 0,
+            count,
+            generation,
+        }
+    }
+    fn records(&self) -> &[PoseRec] {
+        Snapshot::seg(&self.words)
+            .section::<PoseRec>(self.section)
+            .ok()
+            .and_then(|s| s.get(self.first..self.first + self.count))
+            .unwrap_or(&[])
+    }
 }
 
 /// A segment's words: a sample in shared memory, or (for [`Snapshot::from_store`]) a copy
@@ -152,7 +185,11 @@ impl Snapshot {
             version: model.version,
             epoch: 0,
             objects: Rc::new(Words::Owned(segs.objects)),
-            poses: vec![Rc::new(Words::Owned(segs.poses))],
+            poses: vec![PoseSrc::chunk(
+                Rc::new(Words::Owned(segs.poses)),
+                model.len(),
+                model.version,
+            )],
             chunk_len: model.len().max(1),
             flat: std::cell::OnceCell::new(),
             geometry: Rc::new(
@@ -188,7 +225,11 @@ impl Snapshot {
             version: self.version,
             epoch: self.epoch,
             objects: self.objects.clone(),
-            poses: vec![Rc::new(Words::Owned(words))],
+            poses: vec![PoseSrc::chunk(
+                Rc::new(Words::Owned(words)),
+                recs.len(),
+                self.version,
+            )],
             chunk_len: recs.len().max(1),
             flat: std::cell::OnceCell::new(),
             geometry: self.geometry.clone(),
@@ -223,16 +264,24 @@ impl Snapshot {
         Self::seg(&self.objects).section(1).unwrap_or(&[])
     }
     /// Every object's local pose, same order as [`Snapshot::objects`]. In place when the
-    /// model fits one pose chunk; otherwise the chunks are copied into one array on the first
-    /// call (O(objects), once per snapshot) — [`Snapshot::pose`] reads one record in place.
+    /// model fits one pose chunk or every chunk is still as in one pose base; otherwise the
+    /// chunks are copied into one array on the first call (O(objects), once per snapshot) —
+    /// [`Snapshot::pose`] reads one record in place.
     pub fn poses(&self) -> &[PoseRec] {
-        match self.poses.len() {
-            0 => &[],
-            1 => self.chunk(0),
-            _ => self.flat.get_or_init(|| {
+        match self.poses.first() {
+            None => &[],
+            Some(c) if self.poses.len() == 1 => c.records(),
+            Some(c)
+                if c.first == 0 && self.poses.iter().all(|o| Rc::ptr_eq(&o.words, &c.words)) =>
+            {
+                // Every chunk from the same base, in order: its whole section.
+                let all: &[PoseRec] = Self::seg(&c.words).section(c.section).unwrap_or(&[]);
+                all.get(..self.len()).unwrap_or(&[])
+            }
+            Some(_) => self.flat.get_or_init(|| {
                 let mut v = Vec::with_capacity(self.len());
-                for k in 0..self.poses.len() {
-                    v.extend_from_slice(self.chunk(k));
+                for c in &self.poses {
+                    v.extend_from_slice(c.records());
                 }
                 v
             }),
@@ -243,9 +292,7 @@ impl Snapshot {
         &self.chunk(i / self.chunk_len)[i % self.chunk_len]
     }
     fn chunk(&self, k: usize) -> &[PoseRec] {
-        self.poses
-            .get(k)
-            .map_or(&[], |c| Self::seg(c).section(1).unwrap_or(&[]))
+        self.poses.get(k).map_or(&[], PoseSrc::records)
     }
     pub fn name(&self, i: usize) -> &str {
         let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
@@ -367,6 +414,64 @@ struct ChunkSub {
     checked: Option<(usize, usize)>,
 }
 
+/// A received pose base (see [`crate::layout`]), checked: its head and chunk generations.
+struct Base {
+    words: Rc<Words>,
+    head: PosesHeader,
+    gens: Vec<u64>,
+}
+
+impl Base {
+    fn parse(s: Sample) -> Result<Base, ReaderError> {
+        let words = Rc::new(Words::Shared(s));
+        let (head, gens) = {
+            let seg = Segment::parse(words.words())?;
+            let head: PosesHeader = *seg.record(0)?;
+            let gens = seg.section::<u64>(1)?.to_vec();
+            let recs = seg.section::<PoseRec>(2)?.len();
+            let chunk_len = head.chunk_len as usize;
+            if chunk_len == 0
+                || recs != head.count as usize
+                || gens.len() != recs.div_ceil(chunk_len)
+            {
+                return Err(LayoutError::Section(2).into());
+            }
+            (head, gens)
+        };
+        Ok(Base { words, head, gens })
+    }
+
+    /// Chunk `k` (`count` records of `chunk_len` per chunk) as of generation `generation` of
+    /// `epoch`, if this base holds it: same epoch and chunking, same generation.
+    fn chunk(
+        &self,
+        k: usize,
+        chunk_len: usize,
+        count: usize,
+        epoch: u64,
+        generation: u64,
+    ) -> Option<PoseSrc> {
+        let first = k * chunk_len;
+        (self.head.epoch == epoch
+            && self.head.chunk_len as usize == chunk_len
+            && self.gens.get(k) == Some(&generation)
+            && first + count <= self.head.count as usize)
+            .then(|| PoseSrc {
+                words: self.words.clone(),
+                section: 2,
+                first,
+                count,
+                generation,
+            })
+    }
+}
+
+/// A reader asks for a pose base, rather than opening chunk services one by one, when it has no
+/// snapshot yet (attaching) or more than this many chunks it follows no service of changed at
+/// once (a keeper restart, a simulator that moved everything): opening one iceoryx2 service
+/// costs milliseconds, a base one round trip.
+const BASE_OVER: usize = 8;
+
 struct GeomSub {
     sub: Sub,
     latest: Option<Rc<Words>>,
@@ -393,8 +498,12 @@ pub struct Reader {
     listener: iceoryx2::port::listener::Listener<ipc::Service>,
     hello: iceoryx2::port::notifier::Notifier<ipc::Service>,
     geometry: HashMap<Id, GeomSub>,
-    /// Subscriptions to the pose chunks, by chunk index.
-    chunks: Vec<ChunkSub>,
+    /// Subscriptions to the pose chunks, by chunk index: opened when this reader first needs
+    /// a chunk that its pose base does not hold.
+    chunks: Vec<Option<ChunkSub>>,
+    base_sub: Sub,
+    /// The newest pose base received.
+    base: Option<Base>,
     latest_objects: Option<Rc<Words>>,
     current: Option<Rc<Snapshot>>,
     log: VecDeque<Change>,
@@ -426,6 +535,11 @@ impl Reader {
         let objects_svc = open(services::OBJECTS)?;
         let poses_svc = open(services::POSES)?;
         let changes_svc = open(services::CHANGES)?;
+        let base_svc = open(services::POSE_BASE)?;
+        let base_sub = base_svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe pose base"))?;
         let objects = objects_svc
             .subscriber_builder()
             .create()
@@ -466,6 +580,8 @@ impl Reader {
             hello,
             geometry: HashMap::new(),
             chunks: Vec::new(),
+            base_sub,
+            base: None,
             latest_objects: None,
             current: None,
             log: VecDeque::new(),
@@ -477,6 +593,7 @@ impl Reader {
                 Box::new(objects_svc),
                 Box::new(poses_svc),
                 Box::new(changes_svc),
+                Box::new(base_svc),
                 Box::new(change_event),
                 Box::new(req_event),
             ],
@@ -506,6 +623,12 @@ impl Reader {
 
     pub fn session(&self) -> &Session {
         &self.session
+    }
+
+    /// How many pose chunk services this reader subscribes to: those it had to follow since
+    /// its pose base (a late joiner starts with none, whatever the model's size).
+    pub fn pose_chunks_followed(&self) -> usize {
+        self.chunks.iter().filter(|c| c.is_some()).count()
     }
 
     /// The newest consistent snapshot this reader has assembled (call [`Reader::refresh`] or
@@ -703,45 +826,60 @@ impl Reader {
     }
 
     /// The pose chunks the head names, each at the generation the head gives: chunks this
-    /// reader already holds at that generation are reused, the others received (only those
-    /// changed since this reader's last snapshot). `None` when a chunk is newer than the head.
+    /// reader already holds at that generation are reused, the others taken from its pose base
+    /// or received (only those changed since this reader's last snapshot). A reader without a
+    /// snapshot, or missing many chunks at once, asks the keeper for a base first. `None` when
+    /// a chunk or the base is newer than the head.
     fn collect_pose_chunks(
         &mut self,
         head: &Sample,
         h: &PosesHeader,
         objects: usize,
         deadline: Instant,
-    ) -> Result<Option<Vec<Rc<Words>>>, ReaderError> {
+    ) -> Result<Option<Vec<PoseSrc>>, ReaderError> {
         let gens: Vec<u64> = Segment::parse(head.payload())?.section::<u64>(1)?.to_vec();
         let n = h.count as usize;
         let chunk_len = h.chunk_len as usize;
         if chunk_len == 0 || n != objects || gens.len() != n.div_ceil(chunk_len) {
             return Err(LayoutError::Section(1).into());
         }
-        let mut opened = false;
-        while self.chunks.len() < gens.len() {
-            let k = self.chunks.len();
-            let svc = self
-                .node
-                .service_builder(&self.session.service(&services::pose_chunk(k))?)
-                .publish_subscribe::<[u64]>()
-                .open()
-                .map_err(ipc(format!("open pose chunk {k}")))?;
-            let sub = svc
-                .subscriber_builder()
-                .create()
-                .map_err(ipc(format!("subscribe pose chunk {k}")))?;
-            self._services.push(Box::new(svc));
-            self.chunks.push(ChunkSub {
-                sub,
-                latest: None,
-                epoch: 0,
-                generation: 0,
-                checked: None,
+        let count_of = |k: usize| chunk_len.min(n - k * chunk_len);
+        // A chunk no service is followed for: as the current snapshot holds it (the same
+        // memory as before), else from the pose base.
+        let cur = self
+            .current
+            .clone()
+            .filter(|c| c.epoch == h.epoch && c.chunk_len == chunk_len);
+        let in_base = |base: &Option<Base>, k: usize| {
+            let held = cur.as_ref().and_then(|c| {
+                c.poses
+                    .get(k)
+                    .filter(|p| p.generation == gens[k] && p.count == count_of(k))
             });
-            opened = true;
-        }
+            held.cloned().or_else(|| {
+                base.as_ref()
+                    .and_then(|b| b.chunk(k, chunk_len, count_of(k), h.epoch, gens[k]))
+            })
+        };
         self.chunks.truncate(gens.len());
+        self.chunks.resize_with(gens.len(), || None);
+        self.receive_base()?;
+        let unopened = (0..gens.len())
+            .filter(|&k| self.chunks[k].is_none() && in_base(&self.base, k).is_none())
+            .count();
+        if unopened > 0
+            && (self.current.is_none() || unopened > BASE_OVER)
+            && !self.wait_base(h, deadline)?
+        {
+            return Ok(None);
+        }
+        let mut opened = false;
+        for k in 0..gens.len() {
+            if self.chunks[k].is_none() && in_base(&self.base, k).is_none() {
+                self.chunks[k] = Some(self.open_chunk(k)?);
+                opened = true;
+            }
+        }
         let mut said_hello = false;
         if opened {
             // New subscribers: ask the keeper to deliver their history now.
@@ -752,7 +890,12 @@ impl Reader {
         }
         let mut out = Vec::with_capacity(gens.len());
         for (k, &generation) in gens.iter().enumerate() {
-            let c = &mut self.chunks[k];
+            let count = count_of(k);
+            let Some(c) = self.chunks[k].as_mut() else {
+                // Not followed: the base holds it (checked above).
+                out.push(in_base(&self.base, k).ok_or(LayoutError::Section(1))?);
+                continue;
+            };
             while !(c.epoch == h.epoch && c.generation == generation) {
                 match c
                     .sub
@@ -787,7 +930,6 @@ impl Reader {
             }
             let latest = c.latest.clone().ok_or(ReaderError::Timeout(self.timeout))?;
             let first = k * chunk_len;
-            let count = chunk_len.min(n - first);
             if c.checked != Some((first, count)) {
                 let seg = Segment::parse(latest.words())?;
                 let ch: PoseChunkHeader = *seg.record(0)?;
@@ -799,9 +941,71 @@ impl Reader {
                 }
                 c.checked = Some((first, count));
             }
-            out.push(latest);
+            out.push(PoseSrc::chunk(latest, count, generation));
         }
         Ok(Some(out))
+    }
+
+    /// Opens the service of pose chunk `k` and subscribes (the caller says hello once for all
+    /// it opened, so that the keeper delivers their history).
+    fn open_chunk(&mut self, k: usize) -> Result<ChunkSub, ReaderError> {
+        let svc = self
+            .node
+            .service_builder(&self.session.service(&services::pose_chunk(k))?)
+            .publish_subscribe::<[u64]>()
+            .open()
+            .map_err(ipc(format!("open pose chunk {k}")))?;
+        let sub = svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc(format!("subscribe pose chunk {k}")))?;
+        self._services.push(Box::new(svc));
+        Ok(ChunkSub {
+            sub,
+            latest: None,
+            epoch: 0,
+            generation: 0,
+            checked: None,
+        })
+    }
+
+    /// Takes the newest pose base published, if one came since the last call.
+    fn receive_base(&mut self) -> Result<(), ReaderError> {
+        let mut newest = None;
+        while let Some(s) = self.base_sub.receive().map_err(ipc("receive pose base"))? {
+            newest = Some(s);
+        }
+        if let Some(s) = newest {
+            self.base = Some(Base::parse(s)?);
+        }
+        Ok(())
+    }
+
+    /// Asks the keeper for a pose base and waits for one at least as new as head `h`. `false`
+    /// when the base is newer than the head (a newer head follows).
+    fn wait_base(&mut self, h: &PosesHeader, deadline: Instant) -> Result<bool, ReaderError> {
+        let fresh = |b: &Base| {
+            b.head.epoch > h.epoch || (b.head.epoch == h.epoch && b.head.version >= h.version)
+        };
+        if !self.base.as_ref().is_some_and(fresh) {
+            let _ = self
+                .hello
+                .notify_with_custom_event_id(EventId::new(events::BASE));
+            loop {
+                self.receive_base()?;
+                if self.base.as_ref().is_some_and(fresh) {
+                    break;
+                }
+                if Instant::now() > deadline {
+                    return Err(ReaderError::Timeout(self.timeout));
+                }
+                std::thread::sleep(Duration::from_micros(50));
+            }
+        }
+        Ok(self
+            .base
+            .as_ref()
+            .is_some_and(|b| b.head.epoch == h.epoch && b.head.version == h.version))
     }
 
     fn drain_changes(&mut self) -> Result<Vec<Change>, ReaderError> {
