@@ -138,7 +138,13 @@ fn up_with_another_scene_says_what_happened_and_fresh_starts_over() {
             .any(|e| e.file_name().to_string_lossy().starts_with("journal-")),
         "the journal was moved, not deleted"
     );
-    let note = std::fs::read_to_string(home.join(&s).join("data/scene")).expect("scene note");
+    let note = std::fs::read_to_string(
+        robosim_instance_space::Session::open_in(home, Some(&s))
+            .expect("session")
+            .data_dir()
+            .join(robosim_scene::launch::SCENE_NOTE),
+    )
+    .expect("scene note");
     assert_eq!(note, "stanford");
 }
 

@@ -89,10 +89,10 @@ impl Procs {
             robosim_instance_space::Client::connect(&s, "probe").ok()
         });
         // The keeper serves before it has committed its scene; it notes the scene once the
-        // scene is in (`robosim_scene::launch::SCENE_NOTE`). Tests start from a model that is
+        // scene is in. Tests start from a model that is
         // there, not from a race with its loading.
         if extra.contains(&"--scene") {
-            let note = self.home.path().join(&self.name).join("data/scene");
+            let note = s.data_dir().join(robosim_scene::launch::SCENE_NOTE);
             wait_for("the keeper's scene", || note.exists().then_some(()));
         }
         pid

@@ -59,6 +59,67 @@ struct Slot {
     retired: bool,
 }
 
+/// The jobs' book: what is queued, tried, answered and still to come, and what the workers
+/// did. A worker's death is booked here ([`Ledger::died`]).
+struct Ledger<'j> {
+    jobs: &'j [Job],
+    max_attempts: u32,
+    queue: VecDeque<usize>,
+    attempts: Vec<u32>,
+    results: Vec<Option<Outcome>>,
+    remaining: usize,
+    stats: Stats,
+    /// Why the last worker died (said when every slot is given up).
+    last_death: String,
+}
+
+impl Ledger<'_> {
+    /// Slot `s`'s worker is gone (`why`): its job back to the front of the queue (or failed
+    /// after `max_attempts` tries), the death logged; the slot is given up after
+    /// `max_attempts` deaths in a row without a job.
+    fn died(&mut self, s: usize, slot: &mut Slot, why: &str, log: &mut dyn FnMut(String)) {
+        let Some(mut link) = slot.link.take() else {
+            return;
+        };
+        let who = link.describe();
+        let how = link.kill();
+        self.stats.deaths += 1;
+        let mut line = format!("sweep: worker {s} ({who}) died: {why} ({how})");
+        self.last_death = format!("{why} ({how})");
+        match slot.in_flight.take() {
+            Some((k, _)) => {
+                slot.idle_deaths = 0;
+                self.attempts[k] += 1;
+                let (index, tried) = (self.jobs[k].index, self.attempts[k]);
+                if tried >= self.max_attempts {
+                    line += &format!("; job {index} failed: tried {tried} times");
+                    self.results[k] = Some(Err(format!(
+                        "the worker died {tried} times running this job (last: {why}, {how})"
+                    )));
+                    self.remaining -= 1;
+                } else {
+                    line += &format!(
+                        "; job {index} is redone (attempt {} of {})",
+                        tried + 1,
+                        self.max_attempts
+                    );
+                    self.stats.redone += 1;
+                    self.queue.push_front(k);
+                }
+            }
+            None => slot.idle_deaths += 1,
+        }
+        log(line);
+        if slot.idle_deaths >= self.max_attempts {
+            log(format!(
+                "sweep: worker {s} given up: it died {} times without running a job",
+                slot.idle_deaths
+            ));
+            slot.retired = true;
+        }
+    }
+}
+
 /// Runs `jobs` of `study` on the workers `launchers` start (one worker per launcher), and
 /// returns each job's outcome by position in `jobs`. `log` gets one line per event worth
 /// telling (a worker started, died, a job redone); `done` is called after every result.
@@ -88,15 +149,19 @@ pub fn run(
         .collect();
     let by_index: std::collections::HashMap<usize, usize> =
         jobs.iter().enumerate().map(|(k, j)| (j.index, k)).collect();
-    let mut queue: VecDeque<usize> = (0..jobs.len()).collect();
-    let mut attempts = vec![0u32; jobs.len()];
-    let mut results: Vec<Option<Outcome>> = vec![None; jobs.len()];
-    let mut remaining = jobs.len();
-    let mut stats = Stats {
-        per_slot: vec![0; slots.len()],
-        ..Stats::default()
+    let mut book = Ledger {
+        jobs,
+        max_attempts,
+        queue: (0..jobs.len()).collect(),
+        attempts: vec![0u32; jobs.len()],
+        results: vec![None; jobs.len()],
+        remaining: jobs.len(),
+        stats: Stats {
+            per_slot: vec![0; slots.len()],
+            ..Stats::default()
+        },
+        last_death: String::new(),
     };
-    let mut last_death = String::new();
 
     // Starts slot `s`'s worker; false when it could not.
     let start = |s: usize,
@@ -132,74 +197,19 @@ pub fn run(
     };
 
     for (s, slot) in slots.iter_mut().enumerate() {
-        if !start(s, slot, &mut stats, log, &mut last_death) {
+        if !start(s, slot, &mut book.stats, log, &mut book.last_death) {
             slot.retired = true;
         }
     }
 
-    // A worker is gone: its job back to the queue (or failed), the slot started again.
-    let died = |s: usize,
-                slot: &mut Slot,
-                why: &str,
-                queue: &mut VecDeque<usize>,
-                attempts: &mut Vec<u32>,
-                results: &mut Vec<Option<Outcome>>,
-                remaining: &mut usize,
-                stats: &mut Stats,
-                log: &mut dyn FnMut(String),
-                last: &mut String| {
-        let Some(mut link) = slot.link.take() else {
-            return;
-        };
-        let who = link.describe();
-        let how = link.kill();
-        stats.deaths += 1;
-        let mut line = format!("sweep: worker {s} ({who}) died: {why} ({how})");
-        *last = format!("{why} ({how})");
-        match slot.in_flight.take() {
-            Some((k, _)) => {
-                slot.idle_deaths = 0;
-                attempts[k] += 1;
-                if attempts[k] >= max_attempts {
-                    line += &format!(
-                        "; job {} failed: tried {} times",
-                        jobs[k].index, attempts[k]
-                    );
-                    results[k] = Some(Err(format!(
-                        "the worker died {} times running this job (last: {why}, {how})",
-                        attempts[k]
-                    )));
-                    *remaining -= 1;
-                } else {
-                    line += &format!(
-                        "; job {} is redone (attempt {} of {max_attempts})",
-                        jobs[k].index,
-                        attempts[k] + 1
-                    );
-                    stats.redone += 1;
-                    queue.push_front(k);
-                }
-            }
-            None => slot.idle_deaths += 1,
-        }
-        log(line);
-        if slot.idle_deaths >= max_attempts {
-            log(format!(
-                "sweep: worker {s} given up: it died {} times without running a job",
-                slot.idle_deaths
-            ));
-            slot.retired = true;
-        }
-    };
-
     let tick = Duration::from_millis(200);
-    while remaining > 0 {
+    while book.remaining > 0 {
         // restart dead slots, then give every idle worker a job
         for (s, slot) in slots.iter_mut().enumerate() {
-            if slot.retired || queue.is_empty() {
+            if slot.retired || book.queue.is_empty() {
                 continue;
             }
-            if slot.link.is_none() && !start(s, slot, &mut stats, log, &mut last_death) {
+            if slot.link.is_none() && !start(s, slot, &mut book.stats, log, &mut book.last_death) {
                 slot.idle_deaths += 1;
                 if slot.idle_deaths >= max_attempts {
                     log(format!(
@@ -213,7 +223,9 @@ pub fn run(
             if slot.in_flight.is_some() {
                 continue;
             }
-            let Some(k) = queue.pop_front() else { break };
+            let Some(k) = book.queue.pop_front() else {
+                break;
+            };
             let line = protocol::job_line(study, &jobs[k]);
             let sent = match slot.link.as_mut() {
                 Some(link) => link.send(&line),
@@ -223,26 +235,15 @@ pub fn run(
                 Ok(()) => slot.in_flight = Some((k, Instant::now())),
                 Err(e) => {
                     // never reached the worker: not an attempt
-                    queue.push_front(k);
-                    died(
-                        s,
-                        slot,
-                        &format!("sending job {}: {e}", jobs[k].index),
-                        &mut queue,
-                        &mut attempts,
-                        &mut results,
-                        &mut remaining,
-                        &mut stats,
-                        log,
-                        &mut last_death,
-                    );
+                    book.queue.push_front(k);
+                    book.died(s, slot, &format!("sending job {}: {e}", jobs[k].index), log);
                 }
             }
         }
         if slots.iter().all(|s| s.retired) {
             return Err(SweepError::NoWorkersLeft {
-                remaining,
-                last: last_death,
+                remaining: book.remaining,
+                last: book.last_death,
             });
         }
         let ev = match rx.recv_timeout(tick) {
@@ -270,11 +271,11 @@ pub fn run(
                         let k = by_index[&index];
                         slot.in_flight = None;
                         slot.idle_deaths = 0;
-                        if results[k].is_none() {
-                            results[k] = Some(outcome);
-                            remaining -= 1;
-                            stats.per_slot[s] += 1;
-                            done(remaining);
+                        if book.results[k].is_none() {
+                            book.results[k] = Some(outcome);
+                            book.remaining -= 1;
+                            book.stats.per_slot[s] += 1;
+                            done(book.remaining);
                         }
                     }
                     other => {
@@ -285,18 +286,7 @@ pub fn run(
                             ),
                             Err(e) => e,
                         };
-                        died(
-                            s,
-                            slot,
-                            &why,
-                            &mut queue,
-                            &mut attempts,
-                            &mut results,
-                            &mut remaining,
-                            &mut stats,
-                            log,
-                            &mut last_death,
-                        );
+                        book.died(s, slot, &why, log);
                     }
                 }
             }
@@ -310,18 +300,7 @@ pub fn run(
                 if generation != slot.generation || slot.link.is_none() {
                     continue;
                 }
-                died(
-                    s,
-                    slot,
-                    "its output ended",
-                    &mut queue,
-                    &mut attempts,
-                    &mut results,
-                    &mut remaining,
-                    &mut stats,
-                    log,
-                    &mut last_death,
-                );
+                book.died(s, slot, "its output ended", log);
             }
             None => {}
         }
@@ -343,18 +322,7 @@ pub fn run(
                 None if !link.is_alive() => "it is no longer alive".to_owned(),
                 None => continue,
             };
-            died(
-                s,
-                slot,
-                &why,
-                &mut queue,
-                &mut attempts,
-                &mut results,
-                &mut remaining,
-                &mut stats,
-                log,
-                &mut last_death,
-            );
+            book.died(s, slot, &why, log);
         }
     }
     for slot in &mut slots {
@@ -362,11 +330,12 @@ pub fn run(
             link.finish(Duration::from_secs(2));
         }
     }
-    let outcomes = results
+    let outcomes = book
+        .results
         .into_iter()
         .map(|r| r.unwrap_or_else(|| Err("no result (internal: job lost)".into())))
         .collect();
-    Ok((outcomes, stats))
+    Ok((outcomes, book.stats))
 }
 
 #[cfg(test)]
