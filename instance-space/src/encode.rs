@@ -107,7 +107,11 @@ pub(crate) fn model_segments(model: &Store, epoch: u64) -> ModelSegments {
         model.selection(),
     )];
     let mut w = SegmentWriter::new();
-    w.push(&objects_header).push(&recs).push(&names);
+    let with_geometry = geometry_index(&recs);
+    w.push(&objects_header)
+        .push(&recs)
+        .push(&names)
+        .push(&with_geometry);
     let objects = w.to_vec();
     let chunk_header = [pose_chunk_header(epoch, model.version, 0, poses.len())];
     ModelSegments {
@@ -115,6 +119,15 @@ pub(crate) fn model_segments(model: &Store, epoch: u64) -> ModelSegments {
         poses: pose_chunk_writer(&chunk_header, &poses).to_vec(),
         geometry,
     }
+}
+
+/// The objects segment's last section: the index of every record with geometry, ascending.
+pub(crate) fn geometry_index(recs: &[ObjectRec]) -> Vec<u64> {
+    recs.iter()
+        .enumerate()
+        .filter(|(_, r)| r.flags & crate::layout::flags::HAS_GEOMETRY != 0)
+        .map(|(i, _)| i as u64)
+        .collect()
 }
 
 pub(crate) fn pose_chunk_header(

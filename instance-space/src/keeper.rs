@@ -1063,8 +1063,12 @@ impl Keeper {
             n,
             self.model.selection(),
         )];
+        let with_geometry = crate::encode::geometry_index(&recs);
         let mut w = SegmentWriter::new();
-        w.push(&header).push(&recs).push(&names);
+        w.push(&header)
+            .push(&recs)
+            .push(&names)
+            .push(&with_geometry);
         Self::send(&self.objects_pub, &w, "objects")
     }
 

@@ -3,7 +3,9 @@
 //! (zero-copy) with `bytemuck` — no `unsafe` anywhere in this crate.
 //!
 //! A segment is `[magic, n_sections, (offset_words, len_bytes) × n, data…]`. The segments:
-//! * objects: [`ObjectsHeader`], [`ObjectRec`] × n, names (UTF-8 arena) — one per structure
+//! * objects: [`ObjectsHeader`], [`ObjectRec`] × n, names (UTF-8 arena), and the index (`u64`)
+//!   of every object that has geometry, ascending — so that a reader finds the geometry it must
+//!   subscribe to without touching every record's page — one per structure
 //!   version, O(objects), no geometry;
 //! * poses head: [`PosesHeader`] and the generation of every pose chunk — published by every
 //!   commit, O(objects / [`POSE_CHUNK`]) words;

@@ -726,16 +726,29 @@ impl Reader {
                 geometry,
             }));
         }
-        let recs: Vec<(Id, u64, bool)> = Segment::parse(objects.words())?
-            .section::<ObjectRec>(1)?
-            .iter()
-            .map(|r| (r.id, r.geom_gen, r.flags & flags::HAS_GEOMETRY != 0))
-            .collect();
+        // The objects with geometry, from the segment's index of them: the records of the
+        // others are not touched (at 10⁵ objects, reading every record faulted in 32 MB of
+        // shared memory per attach). (index, id, generation).
+        let (n_objects, recs) = {
+            let seg = Segment::parse(objects.words())?;
+            let all = seg.section::<ObjectRec>(1)?;
+            let mut recs: Vec<(usize, Id, u64)> = Vec::new();
+            for &i in seg.section::<u64>(3)? {
+                let r = all.get(i as usize).ok_or(LayoutError::Section(3))?;
+                if r.flags & flags::HAS_GEOMETRY == 0
+                    || recs.last().is_some_and(|l| l.0 >= i as usize)
+                {
+                    return Err(LayoutError::Section(3).into());
+                }
+                recs.push((i as usize, r.id, r.geom_gen));
+            }
+            (all.len(), recs)
+        };
         // Subscribe to every geometry service this version needs first, then ask the keeper
         // once to deliver their history, then collect: one round trip, not one per object.
         let mut opened = false;
-        for &(id, _, has) in &recs {
-            if has && !self.geometry.contains_key(&id) {
+        for &(_, id, _) in &recs {
+            if !self.geometry.contains_key(&id) {
                 let svc = self
                     .node
                     .service_builder(&self.session.service(&services::geometry(id))?)
@@ -763,15 +776,10 @@ impl Reader {
                 .hello
                 .notify_with_custom_event_id(EventId::new(events::HELLO));
         }
-        let mut geometry = Vec::with_capacity(recs.len());
+        let mut geometry: Vec<Option<Rc<Words>>> = vec![None; n_objects];
         let mut said_hello = opened;
-        for &(id, generation, has) in &recs {
-            if !has {
-                geometry.push(None);
-                continue;
-            }
+        for &(i, id, generation) in &recs {
             let Some(g) = self.geometry.get_mut(&id) else {
-                geometry.push(None);
                 continue;
             };
             while g.generation != generation {
@@ -805,12 +813,13 @@ impl Reader {
                     }
                 }
             }
-            geometry.push(g.latest.clone());
+            geometry[i] = g.latest.clone();
         }
-        let live: std::collections::HashSet<Id> =
-            recs.iter().filter(|r| r.2).map(|r| r.0).collect();
-        self.geometry.retain(|id, _| live.contains(id));
-        let Some(poses) = self.collect_pose_chunks(head, &h, recs.len(), deadline)? else {
+        if self.geometry.len() > recs.len() {
+            let live: std::collections::HashSet<Id> = recs.iter().map(|r| r.1).collect();
+            self.geometry.retain(|id, _| live.contains(id));
+        }
+        let Some(poses) = self.collect_pose_chunks(head, &h, n_objects, deadline)? else {
             // A chunk newer than this head: a newer head follows.
             return Ok(None);
         };

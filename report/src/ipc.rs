@@ -297,10 +297,21 @@ pub fn latency_reader(session: &str, count: usize, out: &Path) -> Result<()> {
     use std::io::Write;
     std::io::stdout().flush()?;
     let mut lat = Vec::with_capacity(count);
+    let mut last = std::time::Instant::now();
     while lat.len() < count {
-        let Some(woke) = reader.wait_event(Duration::from_secs(10))? else {
-            bail!("no change within 10 s after {} samples", lat.len())
+        // `None` is a timeout or a wake-up without an event (a signal interrupted the wait):
+        // only ten seconds without a change end the measurement.
+        let Some(woke) = reader.wait_event(Duration::from_secs(1))? else {
+            if last.elapsed() > Duration::from_secs(10) {
+                bail!(
+                    "no change within {:.1} s after {} samples",
+                    last.elapsed().as_secs_f64(),
+                    lat.len()
+                )
+            }
+            continue;
         };
+        last = std::time::Instant::now();
         for ch in reader.wait_change(Duration::ZERO)? {
             lat.push(woke.saturating_sub(ch.published_ns) as f64 / 1e3);
         }
