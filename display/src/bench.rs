@@ -170,7 +170,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
         // A renderer per size: what it holds is this scene alone.
         let mut r = Renderer::headless()?;
         let mut model = cubes(n);
-        let snap = Snapshot::from_store(&model);
+        let mut snap = Snapshot::from_store(&model);
         let ids: Vec<u64> = snap.objects().iter().map(|o| o.id).collect();
         r.sync(&snap);
         r.frame_all();
@@ -188,7 +188,16 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             p[3] = (rng % 97) as f64 * 0.01;
             tx.set_pose(id, p);
             let applied = model.apply(&tx).map_err(|e| AppError(e.to_string()))?;
-            let snap = Snapshot::from_store(&model);
+            // The next snapshot as a session reader assembles it: the moved body's pose chunk
+            // new, every other chunk, the objects and the geometry shared with the last one.
+            // (Rebuilding it from the model, O(N), between two timed updates evicted the
+            // renderer's working set from the caches and made the update look O(N).)
+            let moved = robosim_instance_space::layout::PoseRec {
+                id,
+                pose: p,
+                joint: 0.0,
+            };
+            snap = snap.advanced(applied.version, &[moved]);
             let change = Change {
                 version: applied.version,
                 aspects: aspect::POSE,

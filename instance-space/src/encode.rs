@@ -79,8 +79,8 @@ impl GeometryParts {
 /// The three kinds of segment of a whole model, as owned words.
 pub(crate) struct ModelSegments {
     pub objects: Vec<u64>,
-    /// Every pose as one chunk (a pose chunk segment with `first` 0).
-    pub poses: Vec<u64>,
+    /// Every object's pose record, in object order.
+    pub poses: Vec<PoseRec>,
     /// In object order; `None` for objects without geometry.
     pub geometry: Vec<Option<Vec<u64>>>,
 }
@@ -113,10 +113,9 @@ pub(crate) fn model_segments(model: &Store, epoch: u64) -> ModelSegments {
         .push(&names)
         .push(&with_geometry);
     let objects = w.to_vec();
-    let chunk_header = [pose_chunk_header(epoch, model.version, 0, poses.len())];
     ModelSegments {
         objects,
-        poses: pose_chunk_writer(&chunk_header, &poses).to_vec(),
+        poses,
         geometry,
     }
 }

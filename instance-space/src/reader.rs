@@ -12,8 +12,8 @@
 
 use crate::keeper::events;
 use crate::layout::{
-    ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader,
-    PoseRec, PosesHeader, Segment, flags, geometry_sections as gs,
+    ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, POSE_CHUNK, PolygonRec,
+    PoseChunkHeader, PoseRec, PosesHeader, Segment, flags, geometry_sections as gs,
 };
 use crate::services;
 use crate::session::{Session, SessionError};
@@ -177,20 +177,23 @@ impl Snapshot {
     }
 
     /// A process-local snapshot of a plain [`Store`](crate::Store), with the same records and
-    /// views as a published one (epoch 0). For tools that evaluate a model without a session —
-    /// `robosim render` — so they read it through the one API the session readers use.
+    /// views as a published one (epoch 0), its poses in chunks of [`POSE_CHUNK`] as a keeper
+    /// publishes them. For tools that evaluate a model without a session — `robosim render` —
+    /// so they read it through the one API the session readers use.
     pub fn from_store(model: &crate::Store) -> Snapshot {
         let segs = crate::encode::model_segments(model, 0);
+        let poses = segs
+            .poses
+            .chunks(POSE_CHUNK)
+            .enumerate()
+            .map(|(k, recs)| Self::owned_chunk(0, model.version, k * POSE_CHUNK, recs))
+            .collect();
         Snapshot {
             version: model.version,
             epoch: 0,
             objects: Rc::new(Words::Owned(segs.objects)),
-            poses: vec![PoseSrc::chunk(
-                Rc::new(Words::Owned(segs.poses)),
-                model.len(),
-                model.version,
-            )],
-            chunk_len: model.len().max(1),
+            poses,
+            chunk_len: POSE_CHUNK,
             flat: std::cell::OnceCell::new(),
             geometry: Rc::new(
                 segs.geometry
@@ -200,37 +203,57 @@ impl Snapshot {
             ),
         }
     }
+
+    /// A pose chunk segment of `recs` (objects `first..`) owned by this process.
+    fn owned_chunk(epoch: u64, generation: u64, first: usize, recs: &[PoseRec]) -> PoseSrc {
+        let header = [crate::encode::pose_chunk_header(
+            epoch,
+            generation,
+            first,
+            recs.len(),
+        )];
+        let words = crate::encode::pose_chunk_writer(&header, recs).to_vec();
+        PoseSrc::chunk(Rc::new(Words::Owned(words)), recs.len(), generation)
+    }
+
     /// A process-local copy of this snapshot in which the objects of `overrides` have the
     /// given local poses and joint values — what the simulator publishes as its high-rate state
-    /// (link poses relative to the robot) — sharing the objects segment and the geometry with
-    /// this one. Ids the snapshot does not hold are ignored. O(objects) to copy the poses.
+    /// (link poses relative to the robot) — sharing the objects segment, the geometry and every
+    /// pose chunk no override falls in with this one. Ids the snapshot does not hold are
+    /// ignored. O(overrides + touched chunks × chunk length + chunks).
     pub fn with_poses(&self, overrides: &[PoseRec]) -> Snapshot {
-        let mut recs = self.poses().to_vec();
+        self.advanced(self.version, overrides)
+    }
+
+    /// This snapshot moved on to `version` by pose-only changes: [`Snapshot::with_poses`] at
+    /// another version — what a reader following pose-only commits assembles, for tools that
+    /// replay such changes without a session (and `robosim bench display`).
+    pub fn advanced(&self, version: u64, overrides: &[PoseRec]) -> Snapshot {
+        let chunk_len = self.chunk_len.max(1);
+        let mut touched: std::collections::BTreeMap<usize, Vec<PoseRec>> = Default::default();
         for o in overrides {
-            if let Some(i) = self.index_of(o.id)
-                && let Some(r) = recs.get_mut(i)
-            {
+            let Some(i) = self.index_of(o.id) else {
+                continue;
+            };
+            let k = i / chunk_len;
+            let recs = touched.entry(k).or_insert_with(|| self.chunk(k).to_vec());
+            if let Some(r) = recs.get_mut(i % chunk_len) {
                 r.pose = o.pose;
                 r.joint = o.joint;
             }
         }
-        let header = [crate::encode::pose_chunk_header(
-            self.epoch,
-            self.version,
-            0,
-            recs.len(),
-        )];
-        let words = crate::encode::pose_chunk_writer(&header, &recs).to_vec();
+        let mut poses = self.poses.clone();
+        for (k, recs) in touched {
+            if let Some(p) = poses.get_mut(k) {
+                *p = Self::owned_chunk(self.epoch, version, k * chunk_len, &recs);
+            }
+        }
         Snapshot {
-            version: self.version,
+            version,
             epoch: self.epoch,
             objects: self.objects.clone(),
-            poses: vec![PoseSrc::chunk(
-                Rc::new(Words::Owned(words)),
-                recs.len(),
-                self.version,
-            )],
-            chunk_len: recs.len().max(1),
+            poses,
+            chunk_len,
             flat: std::cell::OnceCell::new(),
             geometry: self.geometry.clone(),
         }

@@ -412,6 +412,44 @@ mod tests {
         );
     }
 
+    /// A snapshot advanced by pose-only changes equals the model's snapshot after them, and
+    /// shares every pose chunk they did not touch with the one it came from.
+    #[test]
+    fn advanced_snapshot_equals_a_rebuild_and_shares_untouched_chunks() {
+        use crate::layout::{POSE_CHUNK, PoseRec};
+        let mut tx = Transaction::new();
+        let n = 2 * POSE_CHUNK + 30;
+        for k in 0..n {
+            tx.create(Kind::Solid, &format!("s{k}"), None);
+        }
+        let mut m = Store::default();
+        m.apply(&tx).expect("valid");
+        let before = Snapshot::from_store(&m);
+        let i = POSE_CHUNK + 7;
+        let id = before.objects()[i].id;
+        let mut p = crate::IDENTITY;
+        p[3] = 4.0;
+        let mut tx = Transaction::new();
+        tx.set_pose(id, p);
+        let applied = m.apply(&tx).expect("valid");
+        let after = before.advanced(
+            applied.version,
+            &[PoseRec {
+                id,
+                pose: p,
+                joint: 0.0,
+            }],
+        );
+        let rebuilt = Snapshot::from_store(&m);
+        assert_eq!(after.version(), rebuilt.version());
+        assert_eq!(after.poses(), rebuilt.poses());
+        assert_eq!(after.pose(i).pose[3], 4.0);
+        assert_eq!(before.pose(i).pose[3], 0.0, "the old snapshot is untouched");
+        assert!(std::ptr::eq(before.pose(0), after.pose(0)));
+        assert!(std::ptr::eq(before.pose(n - 1), after.pose(n - 1)));
+        assert!(!std::ptr::eq(before.pose(i), after.pose(i)));
+    }
+
     /// A general joint (`Kinematics::Axis`) reads back equal through the records, the view
     /// carries its placement, axis and parent, and a visual is an object like a solid.
     #[test]
