@@ -143,10 +143,10 @@ fn two_workers_give_the_one_worker_csv_in_job_order() {
         col(&t, "error"),
     );
     let f = |r: usize, c: usize| -> f64 { t[r][c].parse().expect("a number") };
-    for r in 1..5 {
-        assert_eq!(t[r][err], "", "job {} failed: {:?}", r - 1, t[r]);
+    for (r, row) in t.iter().enumerate().take(5).skip(1) {
+        assert_eq!(row[err], "", "job {} failed: {row:?}", r - 1);
         assert_eq!(f(r, points_c), 861.0);
-        assert!(f(r, reached) > 0.0, "nothing reached: {:?}", t[r]);
+        assert!(f(r, reached) > 0.0, "nothing reached: {row:?}");
     }
     // the bits change the bound, not the reach: the same solutions at 8 and 12 bits, so the
     // worst bound scales by 2^(12-8) = 16 (joint resolution 2π/2^bits, seed §2.7)

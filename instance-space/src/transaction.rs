@@ -361,12 +361,12 @@ mod tests {
     #[test]
     fn creates_count_survives_the_wire() {
         let tx = two_creates();
-        let mut back = Transaction::decode(&tx.encode()).unwrap();
+        let mut back = Transaction::decode(&tx.encode()).expect("round trip");
         assert_eq!(back, tx);
         assert_eq!(back.create(Kind::Solid, "c", None), ObjRef::New(2));
-        let json = serde_json::to_string(&tx).unwrap();
+        let json = serde_json::to_string(&tx).expect("round trip");
         assert!(json.starts_with("{\"ops\":["), "{json}");
-        let mut back: Transaction = serde_json::from_str(&json).unwrap();
+        let mut back: Transaction = serde_json::from_str(&json).expect("round trip");
         assert_eq!(back, tx);
         assert_eq!(back.create(Kind::Solid, "c", None), ObjRef::New(2));
         let mut built = Transaction::from_ops(tx.ops().to_vec());

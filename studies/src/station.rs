@@ -981,7 +981,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
                 .iter()
                 .enumerate()
                 // neither feathered nor parked for the servicer: tracking
-                .filter(|(ai, a)| !a.2 && !(st.oru.parked && *ai == s.oru.array))
+                .filter(|(ai, a)| !(a.2 || (st.oru.parked && *ai == s.oru.array)))
                 .map(|(_, a)| a.1)
         })
         .fold(1.0f64, f64::min)
