@@ -231,9 +231,15 @@ impl BoxTree {
         let mut k = self.leaves + slot;
         self.lo[k] = lo;
         self.hi[k] = hi;
+        // Up to the root, or to the first node the change leaves as it was (its ancestors
+        // are then unchanged too): a body moving inside the scene's box touches a few nodes.
         while k > 1 {
             k /= 2;
+            let before = (self.lo[k], self.hi[k]);
             self.join(k);
+            if (self.lo[k], self.hi[k]) == before {
+                break;
+            }
         }
     }
 
@@ -356,6 +362,9 @@ enum Target {
 
 struct Body {
     slot: u32,
+    /// Its index in the snapshot last synced in full (valid while only poses change since:
+    /// `sync_changes` checks the record's id before using it).
+    index: usize,
     world: [f64; 12],
     material: [f32; 8],
     geom_gen: u64,
@@ -1230,6 +1239,7 @@ impl Renderer {
                     if let Some(b) = self.bodies.get_mut(&id) {
                         b.world = world;
                         b.material = material;
+                        b.index = i;
                     }
                 }
                 None => {
@@ -1248,6 +1258,7 @@ impl Renderer {
                         id,
                         Body {
                             slot,
+                            index: i,
                             world,
                             material,
                             geom_gen: rec.geom_gen,
@@ -1316,21 +1327,26 @@ impl Renderer {
             if let Some(kids) = self.children.get(&id) {
                 stack.extend(kids.iter().copied());
             }
-            let Some(slot) = self.bodies.get(&id).map(|b| b.slot) else {
+            let Some(b) = self.bodies.get_mut(&id) else {
                 continue;
             };
-            let Some(i) = snap.index_of(id) else {
-                // Not in this snapshot after all: a structure change slipped through.
-                return self.sync(snap);
+            // Its index as of the last full sync (the structure has not changed since), else
+            // looked up.
+            let i = if snap.objects().get(b.index).is_some_and(|r| r.id == id) {
+                b.index
+            } else {
+                match snap.index_of(id) {
+                    Some(i) => i,
+                    // Not in this snapshot after all: a structure change slipped through.
+                    None => return self.sync(snap),
+                }
             };
             let world = snap.world_pose(i);
-            if self.bodies.get(&id).is_some_and(|b| b.world != world) {
+            if b.world != world {
+                b.world = world;
+                let (slot, (lo, hi)) = (b.slot, world_box(&world, &b.bbox));
                 self.write_transform(slot, &world, &mut stats);
-                if let Some(b) = self.bodies.get_mut(&id) {
-                    b.world = world;
-                    let (lo, hi) = world_box(&world, &b.bbox);
-                    self.boxes.set(slot, lo, hi);
-                }
+                self.boxes.set(slot, lo, hi);
             }
         }
         self.finish(snap, stats)
