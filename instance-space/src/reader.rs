@@ -882,7 +882,7 @@ impl Reader {
             .current
             .clone()
             .filter(|c| c.epoch == h.epoch && c.chunk_len == chunk_len);
-        let in_base = |base: &Option<Base>, k: usize| {
+        let held_or_base = |base: &Option<Base>, k: usize| {
             let held = cur.as_ref().and_then(|c| {
                 c.poses
                     .get(k)
@@ -896,18 +896,34 @@ impl Reader {
         self.chunks.truncate(gens.len());
         self.chunks.resize_with(gens.len(), || None);
         self.receive_base()?;
-        let unopened = (0..gens.len())
-            .filter(|&k| self.chunks[k].is_none() && in_base(&self.base, k).is_none())
+        // Each chunk no service is followed for, once: where it is, or `None` (missing).
+        let mut unfollowed: Vec<Option<PoseSrc>> = (0..gens.len())
+            .map(|k| {
+                self.chunks[k]
+                    .is_none()
+                    .then(|| held_or_base(&self.base, k))
+                    .flatten()
+            })
+            .collect();
+        let missing = |chunks: &[Option<ChunkSub>], unfollowed: &[Option<PoseSrc>], k: usize| {
+            chunks[k].is_none() && unfollowed[k].is_none()
+        };
+        let n_missing = (0..gens.len())
+            .filter(|&k| missing(&self.chunks, &unfollowed, k))
             .count();
-        if unopened > 0
-            && (self.current.is_none() || unopened > BASE_OVER)
-            && !self.wait_base(h, deadline)?
-        {
-            return Ok(None);
+        if n_missing > 0 && (self.current.is_none() || n_missing > BASE_OVER) {
+            if !self.wait_base(h, deadline)? {
+                return Ok(None);
+            }
+            for k in 0..gens.len() {
+                if missing(&self.chunks, &unfollowed, k) {
+                    unfollowed[k] = held_or_base(&self.base, k);
+                }
+            }
         }
         let mut opened = false;
         for k in 0..gens.len() {
-            if self.chunks[k].is_none() && in_base(&self.base, k).is_none() {
+            if missing(&self.chunks, &unfollowed, k) {
                 self.chunks[k] = Some(self.open_chunk(k)?);
                 opened = true;
             }
@@ -924,8 +940,8 @@ impl Reader {
         for (k, &generation) in gens.iter().enumerate() {
             let count = count_of(k);
             let Some(c) = self.chunks[k].as_mut() else {
-                // Not followed: the base holds it (checked above).
-                out.push(in_base(&self.base, k).ok_or(LayoutError::Section(1))?);
+                // Not followed: held or in the base (found above).
+                out.push(unfollowed[k].take().ok_or(LayoutError::Section(1))?);
                 continue;
             };
             while !(c.epoch == h.epoch && c.generation == generation) {
