@@ -1158,3 +1158,139 @@ fn a_pose_change_republishes_only_its_chunk_and_readers_reuse_the_others() {
     assert!(!std::ptr::eq(new.pose(last), grown.pose(last)));
     assert_eq!(grown.name(n + 1), "appended");
 }
+
+/// An axis-aligned box of half-size `h`, as a transaction's geometry.
+fn cube(h: f64) -> robosim_instance_space::GeometryInput {
+    robosim_scene::box_geometry([2.0 * h, 2.0 * h, 2.0 * h])
+}
+
+/// Waits until `r` has a snapshot of `version` or newer.
+fn follow(r: &mut Reader, version: u64) -> std::rc::Rc<robosim_instance_space::Snapshot> {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while r.snapshot().is_none_or(|s| s.version() < version) {
+        let _ = r.wait_change(Duration::from_millis(200)).expect("wait");
+        assert!(
+            Instant::now() < deadline,
+            "reader never saw version {version}"
+        );
+    }
+    r.snapshot().expect("snapshot")
+}
+
+/// The largest |coordinate| of object `i`'s vertices (a cube's half-size).
+fn half_size(snap: &robosim_instance_space::Snapshot, i: usize) -> f64 {
+    let g = snap.geometry(i).expect("geometry");
+    g.vertices
+        .iter()
+        .flatten()
+        .fold(0.0_f64, |m, v| m.max(v.abs()))
+}
+
+#[test]
+fn geometry_arrives_by_one_base_then_by_updates_and_survives_a_keeper_restart() {
+    let mut t = TestSession::new("geom");
+    let keeper = t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "w").expect("connect");
+    let mut tx = Transaction::new();
+    let scene = tx.create(Kind::Scene, "scene", None);
+    for k in 0..40 {
+        let b = tx.create(Kind::Solid, &format!("box{k}"), Some(scene));
+        tx.set_geometry(b, Some(cube(0.5 + k as f64 * 0.01)));
+    }
+    let built = c.transact(&tx).expect("build");
+    // A late joiner takes every geometry from one base (no service per object).
+    let mut r = Reader::attach(&s, "r").expect("attach");
+    assert_eq!(r.geometry_bases_asked(), 1);
+    let first = r.snapshot().expect("snapshot");
+    for k in 0..40 {
+        let i = first.find(&format!("box{k}")).expect("box");
+        assert_eq!(half_size(&first, i), 0.5 + k as f64 * 0.01);
+        assert_eq!(
+            first.geometry(i).expect("g").header.id,
+            built.created[k + 1]
+        );
+    }
+    // One geometry changed: it comes by the update, the others stay where they were.
+    let changed = built.created[5];
+    let mut tx = Transaction::new();
+    tx.set_geometry(changed, Some(cube(2.0)));
+    let a = c.transact(&tx).expect("regrow");
+    let second = follow(&mut r, a.version);
+    let i = second.index_of(changed).expect("changed");
+    assert_eq!(half_size(&second, i), 2.0);
+    assert_eq!(
+        half_size(&first, i),
+        0.5 + 4.0 * 0.01,
+        "a held snapshot keeps its geometry"
+    );
+    let j = second.find("box20").expect("box20");
+    assert!(std::ptr::eq(
+        first.geometry(j).expect("g").vertices,
+        second.geometry(j).expect("g").vertices
+    ));
+    assert_eq!(r.geometry_bases_asked(), 1, "an update was enough");
+    // A pose-only change keeps every geometry.
+    let mut tx = Transaction::new();
+    tx.set_pose(changed, IDENTITY);
+    let moved = c.transact(&tx).expect("move");
+    let third = follow(&mut r, moved.version);
+    assert!(std::ptr::eq(
+        second.geometry(i).expect("g").vertices,
+        third.geometry(i).expect("g").vertices
+    ));
+    // A change too large for an update (1,000 boxes ≈ 1.5 MiB): the reader asks for a base.
+    let mut tx = Transaction::new();
+    for k in 0..1000 {
+        let b = tx.create(
+            Kind::Solid,
+            &format!("more{k}"),
+            Some(built.created[0].into()),
+        );
+        tx.set_geometry(b, Some(cube(0.25)));
+    }
+    let grown = c.transact(&tx).expect("grow");
+    let fourth = follow(&mut r, grown.version);
+    assert_eq!(r.geometry_bases_asked(), 2);
+    assert_eq!(fourth.len(), 1041);
+    let with_geometry = (0..fourth.len())
+        .filter(|&i| fourth.geometry(i).is_some())
+        .count();
+    assert_eq!(with_geometry, 1040);
+    assert_eq!(
+        half_size(&fourth, fourth.find("more999").expect("more")),
+        0.25
+    );
+    assert_eq!(
+        half_size(&fourth, fourth.index_of(changed).expect("c")),
+        2.0
+    );
+    // Deleting an object with geometry, and removing another's geometry.
+    let mut tx = Transaction::new();
+    tx.delete(built.created[7], false);
+    tx.set_geometry(built.created[8], None);
+    let cut = c.transact(&tx).expect("cut");
+    let fifth = follow(&mut r, cut.version);
+    assert!(fifth.index_of(built.created[7]).is_none());
+    assert!(
+        fifth
+            .geometry(fifth.index_of(built.created[8]).expect("8"))
+            .is_none()
+    );
+    assert_eq!(r.geometry_bases_asked(), 2);
+    drop((first, second, third, fourth, fifth));
+    // A keeper restart: the surviving reader takes the new keeper's base.
+    kill9(keeper);
+    t.start_keeper();
+    let mut c = Client::connect(&s, "after").expect("connect");
+    let mut tx = Transaction::new();
+    tx.set_geometry(changed, Some(cube(3.0)));
+    let after = c.transact(&tx).expect("after restart");
+    let sixth = follow(&mut r, after.version);
+    assert_eq!(half_size(&sixth, sixth.index_of(changed).expect("c")), 3.0);
+    assert_eq!(
+        half_size(&sixth, sixth.find("box20").expect("b")),
+        0.5 + 0.2
+    );
+    assert_eq!(r.geometry_bases_asked(), 3);
+}

@@ -59,6 +59,10 @@ fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> ClientError 
 /// How often a waiting writer asks whether the keeper is still alive.
 pub const LIVENESS_PERIOD: Duration = Duration::from_millis(50);
 
+/// How long [`Client::connect`] waits for a keeper whose services exist to register (one
+/// starting up).
+const CONNECT_WAIT: Duration = Duration::from_secs(10);
+
 /// The alive node named `space` (the keeper's role) in this session's iceoryx2 world.
 fn keeper_node(config: &iceoryx2::config::Config) -> Option<UniqueNodeId> {
     let mut found = None;
@@ -141,6 +145,20 @@ impl Client {
             .listener_builder()
             .create()
             .map_err(ipc("create ack listener"))?;
+        // A keeper makes its request service before its server port (whose fixed response
+        // pool takes a while) and registers in the session after both: until then a request
+        // would find no server and no keeper, and be taken for one sent to a dead keeper.
+        let registered = || session.processes().iter().any(|p| p.role == "space");
+        let start = Instant::now();
+        while !registered() {
+            if start.elapsed() > CONNECT_WAIT {
+                return Err(no_keeper(
+                    services::REQUESTS,
+                    &format!("its keeper did not register within {CONNECT_WAIT:?}"),
+                ));
+            }
+            std::thread::sleep(Duration::from_millis(2));
+        }
         let config = session.iox_config()?;
         let keeper = keeper_node(&config);
         let spin = crate::keeper::spin_from_env().map_err(|message| ClientError::Ipc {
@@ -329,10 +347,8 @@ impl Client {
                 return Ok(resp.payload().to_vec());
             }
             // iceoryx2 may report the connection down while it is being re-established; only
-            // a keeper that is really gone from the session ends the wait.
-            if !p.inner.is_connected()
-                && !self.session.processes().iter().any(|p| p.role == "space")
-            {
+            // a keeper that is really gone ends the wait.
+            if !p.inner.is_connected() && !self.keeper_alive() {
                 return Err(ClientError::KeeperGone);
             }
             if checked.elapsed() >= LIVENESS_PERIOD {

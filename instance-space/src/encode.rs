@@ -2,8 +2,8 @@
 //! the keeper to publish and by [`crate::Snapshot::from_store`] for a process-local snapshot.
 
 use crate::layout::{
-    GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader, PoseRec, SegmentWriter,
-    flags,
+    GeometryBundleHeader, GeometryEntry, GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec,
+    PoseChunkHeader, PoseRec, SegmentWriter, flags,
 };
 use crate::store::{Id, Kinematics, Object, Store};
 use robosim_geometry::Polyhedron;
@@ -72,6 +72,58 @@ impl GeometryParts {
             .push(&self.penalty)
             .push(&self.polygons)
             .push(&poly.edges);
+        w
+    }
+}
+
+/// A geometry bundle of the objects given (those without geometry are skipped): see
+/// [`GeometryBundleHeader`]. The objects must come in ascending id.
+pub(crate) struct GeometryBundle {
+    header: [GeometryBundleHeader; 1],
+    entries: Vec<GeometryEntry>,
+    data: Vec<u64>,
+}
+
+impl GeometryBundle {
+    pub(crate) fn new<'a>(
+        epoch: u64,
+        version: u64,
+        objects: impl IntoIterator<Item = &'a Object>,
+    ) -> Self {
+        let mut entries = Vec::new();
+        let mut data: Vec<u64> = Vec::new();
+        for o in objects {
+            let Some(poly) = &o.geometry else {
+                continue;
+            };
+            let parts = GeometryParts::new(poly, o.id, o.geom_gen);
+            let w = parts.writer(poly);
+            let start = data.len();
+            data.resize(start + w.words(), 0);
+            w.write(&mut data[start..]);
+            entries.push(GeometryEntry {
+                id: o.id,
+                generation: o.geom_gen,
+                start: start as u64,
+                len: w.words() as u64,
+            });
+        }
+        GeometryBundle {
+            header: [GeometryBundleHeader {
+                epoch,
+                version,
+                count: entries.len() as u64,
+            }],
+            entries,
+            data,
+        }
+    }
+    pub(crate) fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+    pub(crate) fn writer(&self) -> SegmentWriter<'_> {
+        let mut w = SegmentWriter::new();
+        w.push(&self.header).push(&self.entries).push(&self.data);
         w
     }
 }

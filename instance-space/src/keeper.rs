@@ -7,7 +7,8 @@
 //! 1. validates and applies each transaction in arrival order ([`Store::apply`]); a refused one
 //!    changes nothing and gets its typed error;
 //! 2. appends each committed one to the journal and syncs once (group commit);
-//! 3. publishes what changed — a geometry segment per changed object, the objects segment if
+//! 3. publishes what changed — one geometry update holding the changed objects' geometry, the
+//!    objects segment if
 //!    any structure/appearance/kinematics/dynamics changed, the pose chunks (of
 //!    [`POSE_CHUNK`] objects each) holding a pose that changed, and always the poses head
 //!    (version and chunk generations), which every snapshot starts from — then the change
@@ -16,7 +17,10 @@
 //! 4. only then acknowledges, and notifies readers and waiting clients.
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
-use crate::layout::{ChangeRec, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader, SegmentWriter};
+use crate::layout::{
+    ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader,
+    SegmentWriter,
+};
 use crate::replica::{LOG_MAGIC, Log, LogAnswer, PublishedLibrary, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
 use crate::session::{Registration, Session, SessionError};
@@ -38,11 +42,15 @@ type PubSubService =
 pub(crate) mod events {
     /// A client sent a request.
     pub const REQUEST: usize = 0;
-    /// A reader attached or opened a geometry service: deliver history now.
+    /// A reader attached or subscribed to a pose chunk: deliver history now.
     pub const HELLO: usize = 1;
     /// A reader wants every pose at once (attaching, or after a keeper restart): publish the
     /// pose base unless the one published is current. Implies [`HELLO`].
     pub const BASE: usize = 2;
+    /// A reader lacks geometry (attaching, after a keeper restart, or having missed an
+    /// update): publish the geometry base unless the one published is current. Implies
+    /// [`HELLO`].
+    pub const GEOMETRY_BASE: usize = 3;
     /// On the change event: the keeper died (emitted by iceoryx2's dead-node cleanup).
     pub const KEEPER_DEAD: usize = 7;
 }
@@ -213,7 +221,11 @@ pub struct Keeper {
     chunk_gen: Vec<u64>,
     /// Chunks to publish with the next head.
     chunk_dirty: Vec<bool>,
-    geometry: HashMap<Id, (Pub, u64)>,
+    /// Geometry updates, the geometry base, and the (epoch, structure version) of the last base
+    /// published.
+    geometry_pub: Pub,
+    geometry_base_pub: Pub,
+    geometry_base_published: Option<(u64, u64)>,
     library: Option<Pub>,
     // Caches so a pose change costs one record update plus one copy of its chunk.
     order: Vec<Id>,
@@ -434,6 +446,12 @@ impl Keeper {
         let poses_pub = publisher(&poses_svc, 1024, "poses")?;
         let base_svc = pubsub(services::POSE_BASE, 1, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let base_pub = publisher(&base_svc, 1024, "pose base")?;
+        // Geometry: readers copy what an update carries and let go of it, so few samples are
+        // borrowed; a base stays mapped while a snapshot uses it.
+        let geometry_svc = pubsub(services::GEOMETRY, 8, 0, 2)?;
+        let geometry_pub = publisher(&geometry_svc, 1024, "geometry")?;
+        let geometry_base_svc = pubsub(services::GEOMETRY_BASE, 1, 1, MAX_HELD_SNAPSHOTS + 1)?;
+        let geometry_base_pub = publisher(&geometry_base_svc, 1024, "geometry base")?;
 
         // The request service last: a writer that can connect (`Client::connect`, which is
         // how launchers and tests wait for a keeper) finds every other service of the keeper
@@ -498,6 +516,7 @@ impl Keeper {
                 services::OBJECTS,
                 services::POSES,
                 services::CHANGES,
+                services::GEOMETRY,
             ],
         )?;
         let mut keeper = Keeper {
@@ -519,7 +538,9 @@ impl Keeper {
             chunk_pubs: Vec::new(),
             chunk_gen: Vec::new(),
             chunk_dirty: Vec::new(),
-            geometry: HashMap::new(),
+            geometry_pub,
+            geometry_base_pub,
+            geometry_base_published: None,
             library: None,
             order: Vec::new(),
             index: HashMap::new(),
@@ -544,6 +565,8 @@ impl Keeper {
                 Box::new(objects_svc),
                 Box::new(poses_svc),
                 Box::new(base_svc),
+                Box::new(geometry_svc),
+                Box::new(geometry_base_svc),
             ],
         };
         keeper.publish_all()?;
@@ -652,10 +675,11 @@ impl Keeper {
     /// group. Within the spin window after the last group ([`KeeperOptions::spin`]) the wait
     /// polls instead of blocking.
     pub fn step(&mut self, wait: Duration) -> Result<GroupStats, KeeperError> {
-        let (mut hello, mut base) = (false, false);
+        let (mut hello, mut base, mut geometry_base) = (false, false, false);
         let mut on_event = |e: iceoryx2::prelude::EventId| {
-            hello |= e == EventId::new(events::HELLO) || e == EventId::new(events::BASE);
             base |= e == EventId::new(events::BASE);
+            geometry_base |= e == EventId::new(events::GEOMETRY_BASE);
+            hello |= e == EventId::new(events::HELLO) || base || geometry_base;
         };
         let mut ready = self.server.has_requests().unwrap_or(false);
         if !ready && let Some(at) = self.last_served {
@@ -680,6 +704,9 @@ impl Keeper {
         }
         if base {
             self.publish_base()?;
+        }
+        if geometry_base {
+            self.publish_geometry_base()?;
         }
         let mut pending = Vec::new();
         let mut applied = Vec::new();
@@ -875,15 +902,6 @@ impl Keeper {
         self.model = model;
         self.log.clear();
         self.epoch = wall_clock_epoch().max(self.epoch + 1);
-        let stale: Vec<Id> = self
-            .geometry
-            .keys()
-            .copied()
-            .filter(|id| self.model.get(*id).is_none_or(|o| o.geometry.is_none()))
-            .collect();
-        for id in stale {
-            self.geometry.remove(&id);
-        }
         self.chunk_gen.clear();
         self.chunk_dirty.clear();
         self.publish_all()?;
@@ -891,18 +909,10 @@ impl Keeper {
         Ok(())
     }
 
-    /// Publishes the whole model: every geometry, the objects segment, every pose chunk and the
-    /// head (a keeper starting, or a replica's model replaced).
+    /// Publishes the objects segment, every pose chunk and the head (a keeper starting, or a
+    /// replica's model replaced). Geometry waits for a reader to ask for the base (its epoch is
+    /// new, so every reader does).
     fn publish_all(&mut self) -> Result<(), KeeperError> {
-        let ids: Vec<Id> = self
-            .model
-            .objects()
-            .filter(|o| o.geometry.is_some())
-            .map(|o| o.id)
-            .collect();
-        for id in ids {
-            self.publish_geometry(id)?;
-        }
         self.rebuild_structure()?;
         self.publish_poses()
     }
@@ -977,8 +987,8 @@ impl Keeper {
         }
         geometry_changed.sort_unstable();
         geometry_changed.dedup();
-        for id in geometry_changed {
-            self.publish_geometry(id)?;
+        if !geometry_changed.is_empty() {
+            self.publish_geometry_update(&geometry_changed, applied)?;
         }
         if structure {
             self.rebuild_structure()?;
@@ -1009,9 +1019,8 @@ impl Keeper {
             let _ = p.update_connections();
         }
         let _ = self.changes_pub.update_connections();
-        for (p, _) in self.geometry.values() {
-            let _ = p.update_connections();
-        }
+        let _ = self.geometry_pub.update_connections();
+        let _ = self.geometry_base_pub.update_connections();
         if let Some(p) = &self.library {
             let _ = p.update_connections();
         }
@@ -1181,45 +1190,43 @@ impl Keeper {
         Self::send(&self.changes_pub, &w, "changes")
     }
 
-    /// Publishes (creating its service if needed) or retires the geometry of `id`.
-    fn publish_geometry(&mut self, id: Id) -> Result<(), KeeperError> {
-        let Some((poly, generation)) = self
-            .model
-            .get(id)
-            .and_then(|o| o.geometry.clone().map(|g| (g, o.geom_gen)))
-        else {
-            // Deleted, or its geometry removed: the service goes with the publisher.
-            self.geometry.remove(&id);
+    /// Publishes the geometry of `ids` (ascending; those deleted or without geometry are
+    /// skipped) as one update, unless it is larger than [`GEOMETRY_UPDATE_MAX_WORDS`]: readers
+    /// then find it in no update and ask for the base. Before the objects segment, so a reader
+    /// that sees the new structure finds the update already published.
+    fn publish_geometry_update(
+        &mut self,
+        ids: &[Id],
+        applied: &[Applied],
+    ) -> Result<(), KeeperError> {
+        let version = applied.last().map_or(self.model.version, |a| a.version);
+        let bundle = crate::encode::GeometryBundle::new(
+            self.epoch,
+            version,
+            ids.iter().filter_map(|&id| self.model.get(id)),
+        );
+        let w = bundle.writer();
+        if bundle.is_empty() || w.words() > GEOMETRY_UPDATE_MAX_WORDS {
             return Ok(());
-        };
-        if !self.geometry.contains_key(&id) {
-            let svc = pubsub_service(
-                &self.session,
-                &self.node,
-                &self.opts,
-                &services::geometry(id),
-                SubscriberQueue {
-                    buffer: 1,
-                    history: 1,
-                    borrowed: 2,
-                },
-            )?;
-            let p = svc
-                .publisher_builder()
-                .initial_max_slice_len(1024)
-                .allocation_strategy(AllocationStrategy::PowerOfTwo)
-                .max_loaned_samples(1)
-                .create()
-                .map_err(ipc(format!("create geometry publisher of object {id}")))?;
-            self.geometry.insert(id, (p, 0));
-            self._services.push(Box::new(svc));
         }
-        let parts = crate::encode::GeometryParts::new(&poly, id, generation);
-        let w = parts.writer(&poly);
-        if let Some((p, g)) = self.geometry.get_mut(&id) {
-            Self::send(p, &w, "geometry")?;
-            *g = generation;
+        Self::send(&self.geometry_pub, &w, "geometry update")
+    }
+
+    /// Publishes the geometry base — every object's geometry at the current structure version —
+    /// unless the last one published is of this structure version (a new subscriber then has it
+    /// from the service's history). O(geometry), once per request, never per commit.
+    fn publish_geometry_base(&mut self) -> Result<(), KeeperError> {
+        let now = (self.epoch, self.structure_version);
+        if self.geometry_base_published == Some(now) {
+            return Ok(());
         }
+        let bundle = crate::encode::GeometryBundle::new(
+            self.epoch,
+            self.structure_version,
+            self.model.objects(),
+        );
+        Self::send(&self.geometry_base_pub, &bundle.writer(), "geometry base")?;
+        self.geometry_base_published = Some(now);
         Ok(())
     }
 }

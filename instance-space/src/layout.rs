@@ -16,8 +16,15 @@
 //!   [`PoseRec`] — the whole poses of one version in one sample, O(objects), published only
 //!   when a reader asks for it (attaching, or after a keeper restart), so that a late joiner
 //!   subscribes to one service instead of one per chunk;
-//! * geometry, one service per object: [`GeometryHeader`], vertices, indices, penalty planes,
-//!   polygons, edges, box — O(that object's geometry), published only when it changes;
+//! * geometry of one object: [`GeometryHeader`], vertices, indices, penalty planes, polygons,
+//!   edges, box — never published alone but inside a geometry bundle:
+//! * geometry bundles ([`GeometryBundleHeader`], a [`GeometryEntry`] per object, their geometry
+//!   segments end to end), on two services: the geometry update, the objects whose geometry
+//!   one group of commits changed (O(changed), up to [`GEOMETRY_UPDATE_MAX_WORDS`]; a larger
+//!   change goes by the base only), and the geometry base, every object's geometry at one
+//!   structure version, published only when a reader asks for it (attaching, after a keeper
+//!   restart, or having missed an update) — so a session holds two geometry services whatever
+//!   the number of objects;
 //! * changes: [`ChangeRec`] × n and their ids.
 
 use bytemuck::{Pod, Zeroable};
@@ -277,6 +284,34 @@ pub struct GeometryHeader {
     /// bbox centre and half-diagonal.
     pub bbox: [f64; 6],
 }
+
+/// The header of a geometry bundle: section 0 this header, section 1 one [`GeometryEntry`] per
+/// object (ascending id), section 2 (words) the objects' geometry segments end to end.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct GeometryBundleHeader {
+    pub epoch: u64,
+    /// The base: the structure version it was taken at (it holds every object's geometry as of
+    /// then). An update: the version of the last commit whose geometry it carries.
+    pub version: u64,
+    pub count: u64,
+}
+
+/// Where one object's geometry segment is in a bundle's section 2.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct GeometryEntry {
+    pub id: u64,
+    /// The object's geometry generation ([`ObjectRec::geom_gen`]).
+    pub generation: u64,
+    /// First word and length in words.
+    pub start: u64,
+    pub len: u64,
+}
+
+/// The largest geometry update, in words (1 MiB): a group of commits that changes more
+/// geometry than this (a scene loaded at once) publishes no update; readers take the base.
+pub const GEOMETRY_UPDATE_MAX_WORDS: usize = 1 << 17;
 
 /// A polygon record: `indices[start..start+len]`, its plane `n·p + d = 0` as [nx, ny, nz, d].
 #[repr(C)]

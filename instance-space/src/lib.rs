@@ -67,9 +67,10 @@ pub mod services {
     pub fn pose_chunk(k: usize) -> String {
         format!("space/poses/{k}")
     }
-    pub fn geometry(id: u64) -> String {
-        format!("space/geometry/{id}")
-    }
+    /// Geometry updates: the geometry each group of commits changed (see [`crate::layout`]).
+    pub const GEOMETRY: &str = "space/geometry";
+    /// The geometry base: every object's geometry, published on a reader's request.
+    pub const GEOMETRY_BASE: &str = "space/geometry-base";
 }
 
 /// CLOCK_MONOTONIC in ns: comparable across processes on one machine (unlike

@@ -12,8 +12,9 @@
 
 use crate::keeper::events;
 use crate::layout::{
-    ChangeRec, GeometryHeader, LayoutError, ObjectRec, ObjectsHeader, POSE_CHUNK, PolygonRec,
-    PoseChunkHeader, PoseRec, PosesHeader, Segment, flags, geometry_sections as gs,
+    ChangeRec, GeometryBundleHeader, GeometryEntry, GeometryHeader, LayoutError, ObjectRec,
+    ObjectsHeader, POSE_CHUNK, PolygonRec, PoseChunkHeader, PoseRec, PosesHeader, Segment, flags,
+    geometry_sections as gs,
 };
 use crate::services;
 use crate::session::{Session, SessionError};
@@ -92,7 +93,39 @@ pub struct Snapshot {
     flat: std::cell::OnceCell<Vec<PoseRec>>,
     /// By object index; `None` for objects without geometry. Shared by the snapshots of one
     /// objects segment (a pose change does not touch it).
-    geometry: Rc<Vec<Option<Rc<Words>>>>,
+    geometry: Rc<Vec<Option<GeomSrc>>>,
+}
+
+/// One object's geometry segment: all of `words` (a copy this process owns), or words
+/// `start..start + len` of section 2 of a geometry base. Bounds were checked when the snapshot
+/// was assembled.
+#[derive(Clone)]
+struct GeomSrc {
+    words: Rc<Words>,
+    range: Option<(usize, usize)>,
+    generation: u64,
+}
+
+impl GeomSrc {
+    fn owned(words: Vec<u64>, generation: u64) -> GeomSrc {
+        GeomSrc {
+            words: Rc::new(Words::Owned(words)),
+            range: None,
+            generation,
+        }
+    }
+    fn segment(&self) -> Option<Segment<'_>> {
+        let all = self.words.words();
+        let words = match self.range {
+            None => all,
+            Some((start, len)) => Segment::parse(all)
+                .ok()?
+                .section::<u64>(2)
+                .ok()?
+                .get(start..start + len)?,
+        };
+        Segment::parse(words).ok()
+    }
 }
 
 /// One pose chunk of a snapshot: records `first..first + count` of section `section` of
@@ -198,7 +231,8 @@ impl Snapshot {
             geometry: Rc::new(
                 segs.geometry
                     .into_iter()
-                    .map(|g| g.map(|w| Rc::new(Words::Owned(w))))
+                    .zip(model.objects())
+                    .map(|(g, o)| g.map(|w| GeomSrc::owned(w, o.geom_gen)))
                     .collect(),
             ),
         }
@@ -369,8 +403,7 @@ impl Snapshot {
         })
     }
     pub fn geometry(&self, i: usize) -> Option<GeometryView<'_>> {
-        let s = self.geometry.get(i)?.as_ref()?;
-        let seg = Self::seg(s);
+        let seg = self.geometry.get(i)?.as_ref()?.segment()?;
         Some(GeometryView {
             header: seg.record(gs::HEADER).ok()?,
             vertices: seg.section(gs::VERTICES).ok()?,
@@ -495,10 +528,52 @@ impl Base {
 /// costs milliseconds, a base one round trip.
 const BASE_OVER: usize = 8;
 
-struct GeomSub {
-    sub: Sub,
-    latest: Option<Rc<Words>>,
-    generation: u64,
+/// One object's geometry as an update brought it (copied out of the update's sample).
+struct GeomUpdate {
+    epoch: u64,
+    /// The update's version.
+    version: u64,
+    geometry: GeomSrc,
+}
+
+/// A received geometry bundle (a base), its header checked.
+struct GeomBase {
+    words: Rc<Words>,
+    head: GeometryBundleHeader,
+}
+
+impl GeomBase {
+    fn parse(s: Sample) -> Result<GeomBase, ReaderError> {
+        let words = Rc::new(Words::Shared(s));
+        let head = *Segment::parse(words.words())?.record::<GeometryBundleHeader>(0)?;
+        Ok(GeomBase { words, head })
+    }
+
+    /// The geometry of object `id` at `generation` of `epoch`, if this base holds it.
+    fn find(&self, epoch: u64, id: Id, generation: u64) -> Result<Option<GeomSrc>, ReaderError> {
+        if self.head.epoch != epoch {
+            return Ok(None);
+        }
+        let seg = Segment::parse(self.words.words())?;
+        let entries = seg.section::<GeometryEntry>(1)?;
+        let Ok(k) = entries.binary_search_by_key(&id, |e| e.id) else {
+            return Ok(None);
+        };
+        let e = entries[k];
+        if e.generation != generation {
+            return Ok(None);
+        }
+        let (start, len) = (e.start as usize, e.len as usize);
+        let data = seg.section::<u64>(2)?.len();
+        if start.checked_add(len).is_none_or(|end| end > data) {
+            return Err(LayoutError::Section(1).into());
+        }
+        Ok(Some(GeomSrc {
+            words: self.words.clone(),
+            range: Some((start, len)),
+            generation,
+        }))
+    }
 }
 
 /// The Library Space as published ([`Reader::library`]).
@@ -520,7 +595,13 @@ pub struct Reader {
     changes: Sub,
     listener: iceoryx2::port::listener::Listener<ipc::Service>,
     hello: iceoryx2::port::notifier::Notifier<ipc::Service>,
-    geometry: HashMap<Id, GeomSub>,
+    /// Geometry updates, and the geometry they brought that no snapshot took yet.
+    geometry_sub: Sub,
+    geometry: HashMap<Id, GeomUpdate>,
+    geometry_base_sub: Sub,
+    /// The newest geometry base received, and how many times this reader asked for one.
+    geometry_base: Option<GeomBase>,
+    geometry_bases_asked: u64,
     /// Subscriptions to the pose chunks, by chunk index: opened when this reader first needs
     /// a chunk that its pose base does not hold.
     chunks: Vec<Option<ChunkSub>>,
@@ -559,6 +640,16 @@ impl Reader {
         let poses_svc = open(services::POSES)?;
         let changes_svc = open(services::CHANGES)?;
         let base_svc = open(services::POSE_BASE)?;
+        let geometry_svc = open(services::GEOMETRY)?;
+        let geometry_base_svc = open(services::GEOMETRY_BASE)?;
+        let geometry_sub = geometry_svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe geometry"))?;
+        let geometry_base_sub = geometry_base_svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe geometry base"))?;
         let base_sub = base_svc
             .subscriber_builder()
             .create()
@@ -601,7 +692,11 @@ impl Reader {
             changes,
             listener,
             hello,
+            geometry_sub,
             geometry: HashMap::new(),
+            geometry_base_sub,
+            geometry_base: None,
+            geometry_bases_asked: 0,
             chunks: Vec::new(),
             base_sub,
             base: None,
@@ -617,6 +712,8 @@ impl Reader {
                 Box::new(poses_svc),
                 Box::new(changes_svc),
                 Box::new(base_svc),
+                Box::new(geometry_svc),
+                Box::new(geometry_base_svc),
                 Box::new(change_event),
                 Box::new(req_event),
             ],
@@ -652,6 +749,13 @@ impl Reader {
     /// its pose base (a late joiner starts with none, whatever the model's size).
     pub fn pose_chunks_followed(&self) -> usize {
         self.chunks.iter().filter(|c| c.is_some()).count()
+    }
+
+    /// How many times this reader asked the keeper for the geometry base: once to attach (to a
+    /// model with geometry), then only after a keeper restart or a geometry change it had no
+    /// update for (too large for one, or missed while this reader did not follow).
+    pub fn geometry_bases_asked(&self) -> u64 {
+        self.geometry_bases_asked
     }
 
     /// The newest consistent snapshot this reader has assembled (call [`Reader::refresh`] or
@@ -767,81 +871,9 @@ impl Reader {
             }
             (all.len(), recs)
         };
-        // Subscribe to every geometry service this version needs first, then ask the keeper
-        // once to deliver their history, then collect: one round trip, not one per object.
-        let mut opened = false;
-        for &(_, id, _) in &recs {
-            if !self.geometry.contains_key(&id) {
-                let svc = self
-                    .node
-                    .service_builder(&self.session.service(&services::geometry(id))?)
-                    .publish_subscribe::<[u64]>()
-                    .open()
-                    .map_err(ipc(format!("open geometry of object {id}")))?;
-                let sub = svc
-                    .subscriber_builder()
-                    .create()
-                    .map_err(ipc(format!("subscribe geometry of object {id}")))?;
-                self._services.push(Box::new(svc));
-                self.geometry.insert(
-                    id,
-                    GeomSub {
-                        sub,
-                        latest: None,
-                        generation: 0,
-                    },
-                );
-                opened = true;
-            }
-        }
-        if opened {
-            let _ = self
-                .hello
-                .notify_with_custom_event_id(EventId::new(events::HELLO));
-        }
-        let mut geometry: Vec<Option<Rc<Words>>> = vec![None; n_objects];
-        let mut said_hello = opened;
-        for &(i, id, generation) in &recs {
-            let Some(g) = self.geometry.get_mut(&id) else {
-                continue;
-            };
-            while g.generation != generation {
-                match g
-                    .sub
-                    .receive()
-                    .map_err(ipc(format!("receive geometry of object {id}")))?
-                {
-                    Some(s) => {
-                        let gh: GeometryHeader =
-                            *Segment::parse(s.payload())?.record::<GeometryHeader>(gs::HEADER)?;
-                        g.generation = gh.generation;
-                        g.latest = Some(Rc::new(Words::Shared(s)));
-                        if gh.generation > generation {
-                            // Geometry newer than this head: a newer head follows.
-                            return Ok(None);
-                        }
-                    }
-                    None if Instant::now() > deadline => {
-                        return Err(ReaderError::Timeout(self.timeout));
-                    }
-                    None => {
-                        if !said_hello {
-                            // New subscriber: ask the keeper to deliver its history now.
-                            let _ = self
-                                .hello
-                                .notify_with_custom_event_id(EventId::new(events::HELLO));
-                            said_hello = true;
-                        }
-                        std::thread::sleep(Duration::from_micros(50));
-                    }
-                }
-            }
-            geometry[i] = g.latest.clone();
-        }
-        if self.geometry.len() > recs.len() {
-            let live: std::collections::HashSet<Id> = recs.iter().map(|r| r.1).collect();
-            self.geometry.retain(|id, _| live.contains(id));
-        }
+        let Some(geometry) = self.collect_geometry(&h, n_objects, &recs, deadline)? else {
+            return Ok(None);
+        };
         let Some(poses) = self.collect_pose_chunks(head, &h, n_objects, deadline)? else {
             // A chunk newer than this head: a newer head follows.
             return Ok(None);
@@ -855,6 +887,146 @@ impl Reader {
             flat: std::cell::OnceCell::new(),
             geometry: Rc::new(geometry),
         }))
+    }
+
+    /// The geometry of the objects `recs` ((index, id, generation), the objects with geometry
+    /// at structure version `h.structure_version`): as the current snapshot holds it, from a
+    /// geometry update, or from the geometry base — asked for when something is in none of
+    /// them. `None` when the base is newer than the head (a newer head follows).
+    fn collect_geometry(
+        &mut self,
+        h: &PosesHeader,
+        n_objects: usize,
+        recs: &[(usize, Id, u64)],
+        deadline: Instant,
+    ) -> Result<Option<Vec<Option<GeomSrc>>>, ReaderError> {
+        self.receive_geometry_updates()?;
+        self.receive_geometry_base()?;
+        let cur = self.current.clone().filter(|c| c.epoch == h.epoch);
+        let held = |id: Id, generation: u64| {
+            let c = cur.as_ref()?;
+            c.geometry
+                .get(c.index_of(id)?)?
+                .as_ref()
+                .filter(|g| g.generation == generation)
+                .cloned()
+        };
+        let mut geometry: Vec<Option<GeomSrc>> = vec![None; n_objects];
+        let mut missing = Vec::new();
+        for &(i, id, generation) in recs {
+            let found = match self.geometry.get(&id) {
+                Some(u) if u.epoch == h.epoch && u.geometry.generation == generation => {
+                    Some(u.geometry.clone())
+                }
+                _ => held(id, generation),
+            };
+            let found = match (found, &self.geometry_base) {
+                (Some(g), _) => Some(g),
+                (None, Some(b)) => b.find(h.epoch, id, generation)?,
+                (None, None) => None,
+            };
+            match found {
+                Some(g) => geometry[i] = Some(g),
+                None => missing.push((i, id, generation)),
+            }
+        }
+        if !missing.is_empty() {
+            let base = self.wait_geometry_base(h, deadline)?;
+            if base.head.epoch != h.epoch {
+                return Ok(None);
+            }
+            for &(i, id, generation) in &missing {
+                match base.find(h.epoch, id, generation)? {
+                    Some(g) => geometry[i] = Some(g),
+                    // The base is newer than this head (a newer head follows)…
+                    None if base.head.version > h.structure_version => return Ok(None),
+                    // …or does not hold what the objects segment of its own version names.
+                    None => return Err(LayoutError::Section(1).into()),
+                }
+            }
+        }
+        // What updates up to this structure version brought is in this snapshot (which holds
+        // it from now on) or superseded; newer ones wait for the next head.
+        self.geometry
+            .retain(|_, u| u.epoch == h.epoch && u.version > h.structure_version);
+        Ok(Some(geometry))
+    }
+
+    /// Copies the geometry of every update received since the last call (the update samples
+    /// are released at once).
+    fn receive_geometry_updates(&mut self) -> Result<(), ReaderError> {
+        while let Some(s) = self
+            .geometry_sub
+            .receive()
+            .map_err(ipc("receive geometry update"))?
+        {
+            let seg = Segment::parse(s.payload())?;
+            let head: GeometryBundleHeader = *seg.record(0)?;
+            let data = seg.section::<u64>(2)?;
+            for e in seg.section::<GeometryEntry>(1)? {
+                let words = data
+                    .get(e.start as usize..)
+                    .and_then(|d| d.get(..e.len as usize))
+                    .ok_or(LayoutError::Section(1))?;
+                self.geometry.insert(
+                    e.id,
+                    GeomUpdate {
+                        epoch: head.epoch,
+                        version: head.version,
+                        geometry: GeomSrc::owned(words.to_vec(), e.generation),
+                    },
+                );
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes the newest geometry base published, if one came since the last call.
+    fn receive_geometry_base(&mut self) -> Result<(), ReaderError> {
+        let mut newest = None;
+        while let Some(s) = self
+            .geometry_base_sub
+            .receive()
+            .map_err(ipc("receive geometry base"))?
+        {
+            newest = Some(s);
+        }
+        if let Some(s) = newest {
+            self.geometry_base = Some(GeomBase::parse(s)?);
+        }
+        Ok(())
+    }
+
+    /// Asks the keeper for a geometry base and waits for one of head `h`'s structure version
+    /// or newer (or of a newer keeper).
+    fn wait_geometry_base(
+        &mut self,
+        h: &PosesHeader,
+        deadline: Instant,
+    ) -> Result<&GeomBase, ReaderError> {
+        let fresh = |b: &GeomBase| {
+            b.head.epoch > h.epoch
+                || (b.head.epoch == h.epoch && b.head.version >= h.structure_version)
+        };
+        if !self.geometry_base.as_ref().is_some_and(fresh) {
+            self.geometry_bases_asked += 1;
+            let _ = self
+                .hello
+                .notify_with_custom_event_id(EventId::new(events::GEOMETRY_BASE));
+            loop {
+                self.receive_geometry_base()?;
+                if self.geometry_base.as_ref().is_some_and(fresh) {
+                    break;
+                }
+                if Instant::now() > deadline {
+                    return Err(ReaderError::Timeout(self.timeout));
+                }
+                std::thread::sleep(Duration::from_micros(50));
+            }
+        }
+        self.geometry_base
+            .as_ref()
+            .ok_or(ReaderError::Timeout(self.timeout))
     }
 
     /// The pose chunks the head names, each at the generation the head gives: chunks this
