@@ -95,15 +95,6 @@ struct Running {
     stdin: Option<ChildStdin>,
 }
 
-fn status_words(s: std::process::ExitStatus) -> String {
-    use std::os::unix::process::ExitStatusExt;
-    match (s.code(), s.signal()) {
-        (Some(c), _) => format!("exited with status {c}"),
-        (None, Some(sig)) => format!("killed by signal {sig}"),
-        _ => format!("ended ({s})"),
-    }
-}
-
 /// Runs a host until the process is ended: on each open request, `spawn()` is started with
 /// piped stdin/stdout (stderr inherited) and piped to the requesting coordinator. `ready` is
 /// called once the host listens.
@@ -190,7 +181,7 @@ pub fn host(
     let end = |z: &zenoh::Session, id: &str, mut r: Running| {
         r.stdin = None;
         let how = match r.child.wait() {
-            Ok(s) => status_words(s),
+            Ok(s) => robosim_instance_space::exit_words(s),
             Err(e) => format!("not waited for: {e}"),
         };
         let _ = put(z, &out_key(id), tagged(b'E', &how));

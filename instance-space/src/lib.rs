@@ -38,8 +38,8 @@ pub use reader::{
 };
 pub use scratch::ScratchKeeper;
 pub use session::{
-    ProcInfo, Registration, Session, SessionError, default_session_name, home, pid_alive,
-    running_sessions, write_private,
+    ProcInfo, Registration, Session, SessionError, default_session_name, exit_words, home,
+    pid_alive, running_sessions, write_private,
 };
 pub use store::{
     Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,

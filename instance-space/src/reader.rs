@@ -758,6 +758,13 @@ impl Reader {
         self.geometry_bases_asked
     }
 
+    /// The size in words of the geometry base this reader holds (0 without one).
+    pub fn geometry_base_words(&self) -> usize {
+        self.geometry_base
+            .as_ref()
+            .map_or(0, |b| b.words.words().len())
+    }
+
     /// The newest consistent snapshot this reader has assembled (call [`Reader::refresh`] or
     /// [`Reader::wait_change`] to advance it). Cheap: a reference-counted handle.
     pub fn snapshot(&self) -> Option<Rc<Snapshot>> {

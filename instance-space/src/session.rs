@@ -424,6 +424,17 @@ pub fn pid_alive(pid: u32) -> bool {
     }
 }
 
+/// How a child process ended, in words for a message: "exited with status 3", "killed by
+/// signal 9".
+pub fn exit_words(s: std::process::ExitStatus) -> String {
+    use std::os::unix::process::ExitStatusExt;
+    match (s.code(), s.signal()) {
+        (Some(c), _) => format!("exited with status {c}"),
+        (None, Some(sig)) => format!("killed by signal {sig}"),
+        _ => format!("ended ({s})"),
+    }
+}
+
 /// One registered process of a session.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct ProcInfo {

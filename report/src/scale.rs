@@ -12,13 +12,17 @@
 //!   keeper): attach, receive the publication, then parse and check the source (as before)
 //!   or decode the checked library the keeper publishes beside it.
 //!
+//! * with every body a box (a model with geometry, against a keeper of its own): a late
+//!   joiner's attach, which takes every geometry from one geometry base, and a one-body
+//!   geometry change (transaction, then a reader following it by the geometry update).
+//!
 //! Figures are reported with their ratio to the 10² model of the same run (the goal is each
-//! within 1.5×). Bodies are solids without geometry, so the pose path is measured alone (each
-//! object with geometry has a geometry service of its own, a cost of its own).
+//! within 1.5×). The pose path is measured on solids without geometry, so that it is measured
+//! alone.
 
 use crate::ipc::{Result, bin, keeper, stats};
 use robosim_instance_space::layout::{POSE_CHUNK, PoseRec};
-use robosim_instance_space::{Client, IDENTITY, Kind, Reader, Transaction};
+use robosim_instance_space::{Client, GeometryInput, IDENTITY, Kind, Reader, Transaction};
 use std::fmt::Write as _;
 use std::path::Path;
 use std::process::{Command, Stdio};
@@ -34,6 +38,11 @@ pub const SIZES: [usize; 4] = [100, 1_000, 10_000, 100_000];
 /// A scene of `n` solids without geometry, created 1,000 per transaction; returns the id of the
 /// middle one.
 pub(crate) fn build(client: &mut Client, n: usize) -> Result<u64> {
+    build_with(client, n, None)
+}
+
+/// [`build`], every solid given `geometry` if some.
+fn build_with(client: &mut Client, n: usize, geometry: Option<&GeometryInput>) -> Result<u64> {
     let mut tx = Transaction::new();
     tx.create(Kind::Scene, "scale", None);
     let scene = client.transact(&tx)?.created[0];
@@ -43,7 +52,10 @@ pub(crate) fn build(client: &mut Client, n: usize) -> Result<u64> {
         let mut tx = Transaction::new();
         let end = (k + 1_000).min(n);
         for j in k..end {
-            tx.create(Kind::Solid, &format!("body{j}"), Some(scene.into()));
+            let b = tx.create(Kind::Solid, &format!("body{j}"), Some(scene.into()));
+            if let Some(g) = geometry {
+                tx.set_geometry(b, Some(g.clone()));
+            }
         }
         let c = client.transact(&tx)?;
         if (k..end).contains(&(n / 2)) {
@@ -133,6 +145,87 @@ struct Row {
     follow: (f64, f64, f64),
     notify: (f64, f64, f64),
     attach: (f64, f64, f64),
+    geometry: GeomRow,
+}
+
+/// The model of boxes: attach (ms), one-body geometry change tx and follow (µs), the geometry
+/// base's size (bytes).
+struct GeomRow {
+    attach: (f64, f64, f64),
+    tx: (f64, f64, f64),
+    follow: (f64, f64, f64),
+    base_bytes: usize,
+}
+
+/// A box of sides `s` (m), as a transaction's geometry.
+fn cube(s: f64) -> Result<GeometryInput> {
+    let p = robosim_geometry::shapes::cuboid(s, s, s).map_err(|e| e.to_string())?;
+    Ok(GeometryInput::from_polyhedron(&p))
+}
+
+/// The model of `n` boxes: late joiners, and one box's geometry changed and followed.
+fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result<GeomRow> {
+    let kp = keeper(name, false)?;
+    let mut client = Client::connect(kp.session(), "scale-writer")?;
+    let body = build_with(&mut client, n, Some(&cube(0.1)?))?;
+    let mut attach_ms = Vec::with_capacity(attach_reps);
+    let mut base_bytes = 0;
+    for _ in 0..attach_reps {
+        let t = Instant::now();
+        let r = Reader::attach(kp.session(), "scale-joiner")?;
+        attach_ms.push(t.elapsed().as_nanos() as f64 / 1e6);
+        let snap = r.snapshot().ok_or("no snapshot")?;
+        let boxes = (0..snap.len())
+            .filter(|&i| snap.geometry(i).is_some())
+            .count();
+        // At most one request: a base the keeper published for an earlier joiner may reach
+        // this one from the service's history before it needs to ask.
+        if boxes != n || r.geometry_bases_asked() > 1 {
+            bail!(
+                "a late joiner saw {boxes} of {n} boxes, asking {} times for a geometry base",
+                r.geometry_bases_asked()
+            );
+        }
+        base_bytes = 8 * r.geometry_base_words();
+    }
+    let mut follower = Reader::attach(kp.session(), "scale-follower")?;
+    let (mut tx_us, mut follow_us) = (Vec::with_capacity(reps), Vec::with_capacity(reps));
+    for k in 0..reps + 20 {
+        let side = 0.1 + (k % 7 + 1) as f64 * 0.01;
+        let mut tx = Transaction::new();
+        tx.set_geometry(body, Some(cube(side)?));
+        let t = Instant::now();
+        let c = client.transact(&tx)?;
+        let tx_time = t.elapsed().as_nanos() as f64 / 1e3;
+        let t = Instant::now();
+        while follower.snapshot().is_none_or(|s| s.version() < c.version) {
+            follower.wait_change(Duration::from_secs(5))?;
+        }
+        let follow_time = t.elapsed().as_nanos() as f64 / 1e3;
+        let snap = follower.snapshot().ok_or("no snapshot")?;
+        let g = snap
+            .index_of(body)
+            .and_then(|i| snap.geometry(i))
+            .ok_or("the changed box has no geometry")?;
+        let x = g.vertices.iter().map(|v| v[0]).fold(f64::MIN, f64::max);
+        if (x - side / 2.0).abs() > 1e-12 {
+            bail!("the follower has a stale geometry at {n} boxes");
+        }
+        // The first changes warm up pages and caches.
+        if k >= 20 {
+            tx_us.push(tx_time);
+            follow_us.push(follow_time);
+        }
+    }
+    if follower.geometry_bases_asked() != 1 {
+        bail!("the follower asked for a geometry base again at {n} boxes");
+    }
+    Ok(GeomRow {
+        attach: stats(attach_ms),
+        tx: stats(tx_us),
+        follow: stats(follow_us),
+        base_bytes,
+    })
 }
 
 /// Runs the bench and writes `scale.md` and `scale.csv` into `out`.
@@ -225,12 +318,20 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
                 bail!("a late joiner saw {len} objects, not {}", n + 1);
             }
         }
+        drop((client, follower, kp));
+        let geometry = geometry_row(
+            &format!("sg{pid}n{n}"),
+            n,
+            attach_reps,
+            if quick { 30 } else { 200 },
+        )?;
         rows.push(Row {
             n,
             tx: stats(tx_us),
             follow: stats(follow_us),
             notify: stats(lat),
             attach: stats(attach_ms),
+            geometry,
         });
     }
     let lib = lib.ok_or("no library measurement")?;
@@ -293,6 +394,38 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             ("attach_mean", r.attach.0, "ms"),
             ("published_bytes", now as f64, "B"),
             ("whole_head_bytes", whole as f64, "B"),
+        ] {
+            writeln!(csv, "{m},{},{v:.3},{u}", r.n).ok();
+        }
+    }
+    writeln!(md, "\n## A model with geometry\n").ok();
+    writeln!(md, "The same sizes with every body a box (8 vertices, 6 faces), against a keeper of its own. A late joiner asks the keeper at most once for the **geometry base** (every object's geometry in one sample, kept in shared memory and viewed in place) — the model's geometry travels in two iceoryx2 services whatever the number of objects, where it had one per object before (a service costs milliseconds to make and to open). A **one-body geometry change** (`SetGeometry` on the middle box) goes by the **geometry update** (the changed geometry alone); the keeper still republishes the objects segment, O(objects), as for every structural change, so it is not flat — the table shows by how much.\n").ok();
+    writeln!(md, "| bodies | attach mean (ms) | ×10² | geometry base (MB) | geometry tx mean / p99 (µs) | ×10² | reader follows mean / p99 (µs) | ×10² |\n|---|---|---|---|---|---|---|---|").ok();
+    let gb = &base.geometry;
+    for r in rows {
+        let g = &r.geometry;
+        writeln!(
+            md,
+            "| {} | {:.2} | {:.2} | {:.1} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} |",
+            r.n,
+            g.attach.0,
+            g.attach.0 / gb.attach.0,
+            g.base_bytes as f64 / 1e6,
+            g.tx.0,
+            g.tx.2,
+            g.tx.0 / gb.tx.0,
+            g.follow.0,
+            g.follow.2,
+            g.follow.0 / gb.follow.0,
+        )
+        .ok();
+        for (m, v, u) in [
+            ("geometry_attach_mean", g.attach.0, "ms"),
+            ("geometry_base_bytes", g.base_bytes as f64, "B"),
+            ("geometry_tx_mean", g.tx.0, "us"),
+            ("geometry_tx_p99", g.tx.2, "us"),
+            ("geometry_follow_mean", g.follow.0, "us"),
+            ("geometry_follow_p99", g.follow.2, "us"),
         ] {
             writeln!(csv, "{m},{},{v:.3},{u}", r.n).ok();
         }

@@ -129,15 +129,6 @@ struct LocalWorker {
     stdin: Option<ChildStdin>,
 }
 
-fn status_words(s: std::process::ExitStatus) -> String {
-    use std::os::unix::process::ExitStatusExt;
-    match (s.code(), s.signal()) {
-        (Some(c), _) => format!("exited with status {c}"),
-        (None, Some(sig)) => format!("killed by signal {sig}"),
-        _ => format!("ended ({s})"),
-    }
-}
-
 impl WorkerLink for LocalWorker {
     fn describe(&self) -> String {
         format!("pid {}", self.child.id())
@@ -156,11 +147,11 @@ impl WorkerLink for LocalWorker {
     fn kill(&mut self) -> String {
         self.stdin = None;
         if let Ok(Some(s)) = self.child.try_wait() {
-            return status_words(s);
+            return robosim_instance_space::exit_words(s);
         }
         let _ = self.child.kill();
         match self.child.wait() {
-            Ok(s) => status_words(s),
+            Ok(s) => robosim_instance_space::exit_words(s),
             Err(e) => format!("not waited for: {e}"),
         }
     }
