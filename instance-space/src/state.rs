@@ -238,14 +238,35 @@ impl PendingCommand {
     pub fn bytes(&self) -> &[u8] {
         self.request.payload()
     }
-    /// Sends the answer (a sender that already gave up is ignored).
+    /// Sends the answer (a sender that already gave up is ignored). An answer longer than
+    /// [`MAX_ANSWER`] is replaced by a refusal that says so.
     pub fn reply(self, answer: &[u8]) {
-        if let Ok(r) = self.request.loan_slice_uninit(answer.len().max(1)) {
-            let payload = if answer.is_empty() { &b" "[..] } else { answer };
+        let too_long;
+        let payload = if answer.is_empty() {
+            &b" "[..]
+        } else if answer.len() > MAX_ANSWER {
+            too_long = format!(
+                "refused: the answer is {} bytes, more than a command answer holds ({MAX_ANSWER})",
+                answer.len()
+            );
+            too_long.as_bytes()
+        } else {
+            answer
+        };
+        if let Ok(r) = self.request.loan_slice_uninit(payload.len()) {
             let _ = r.write_from_slice(payload).send();
         }
     }
 }
+
+/// The longest answer to a command, bytes. Answers come from a fixed pool of this size: a
+/// resizable pool made iceoryx2 scan ~255 segments' bookkeeping whenever a sender left (every
+/// `robosim simctl` run), which stalled the daemon for a quarter of a second each time — a
+/// test polling `simctl get` at 50 Hz slowed the daemon's stepping by 4× (found in stop 33).
+pub const MAX_ANSWER: usize = 256 * 1024;
+/// Senders send one command at a time; a few in flight leave room for a sender that gave up.
+const COMMANDS_IN_FLIGHT: usize = 4;
+const MAX_SENDERS: usize = 16;
 
 fn command_service(name: &str) -> String {
     format!("{}/commands", service_name(name))
@@ -257,19 +278,23 @@ impl CommandReceiver {
         let svc = node
             .service_builder(&session.service(&command_service(name))?)
             .request_response::<[u8], [u8]>()
-            .max_clients(16)
+            .max_clients(MAX_SENDERS)
             .max_servers(1)
-            .max_active_requests_per_client(16)
+            .max_active_requests_per_client(COMMANDS_IN_FLIGHT)
             .max_response_buffer_size(1)
             .max_borrowed_responses_per_pending_response(1)
             .enable_safe_overflow_for_requests(false)
             .open_or_create()
             .map_err(ipc("create command service"))?;
+        // Every sender's commands in flight, each answer buffered or borrowed (answered at once,
+        // once), as the keeper sizes its pool (keeper.rs).
+        let need = MAX_SENDERS * COMMANDS_IN_FLIGHT * 2 + 1;
         let server = svc
             .server_builder()
             .max_loaned_responses_per_request(1)
-            .initial_max_slice_len(256)
-            .allocation_strategy(AllocationStrategy::PowerOfTwo)
+            .initial_max_slice_len(MAX_ANSWER)
+            .allocation_strategy(AllocationStrategy::Static)
+            .override_response_preallocation(move |worst| need.min(worst))
             .create()
             .map_err(ipc("create command server"))?;
         Ok(CommandReceiver {
