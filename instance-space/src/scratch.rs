@@ -1,6 +1,7 @@
 //! A keeper process on a throw-away session, for benches: started from the `robosim` binary
 //! (`robosim space --session NAME …`), waited for until a client can connect, and on drop
-//! stopped with SIGTERM (the keeper's clean shutdown) and its session directory removed.
+//! stopped with SIGTERM (the keeper's clean shutdown) and its session directory and shared-memory
+//! files removed.
 //!
 //! Benches start their keepers as separate processes on purpose: the costs they report are
 //! those a user's processes see across the shared-memory boundary.
@@ -79,5 +80,10 @@ impl Drop for ScratchKeeper {
             .status();
         let _ = self.child.wait();
         let _ = std::fs::remove_dir_all(self.session.dir());
+        // iceoryx2 leaves the session's global management segment in /dev/shm when the last
+        // node goes; a throw-away session's files go with it (mappings still open stay valid).
+        for (path, _) in self.session.shm_files() {
+            let _ = std::fs::remove_file(path);
+        }
     }
 }
