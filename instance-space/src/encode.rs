@@ -85,11 +85,13 @@ pub(crate) struct GeometryBundle {
 }
 
 impl GeometryBundle {
+    /// `None` as soon as the geometry passes `max_words` (the rest is not encoded).
     pub(crate) fn new<'a>(
         epoch: u64,
         version: u64,
         objects: impl IntoIterator<Item = &'a Object>,
-    ) -> Self {
+        max_words: usize,
+    ) -> Option<Self> {
         let mut entries = Vec::new();
         let mut data: Vec<u64> = Vec::new();
         for o in objects {
@@ -99,6 +101,9 @@ impl GeometryBundle {
             let parts = GeometryParts::new(poly, o.id, o.geom_gen);
             let w = parts.writer(poly);
             let start = data.len();
+            if start + w.words() > max_words {
+                return None;
+            }
             data.resize(start + w.words(), 0);
             w.write(&mut data[start..]);
             entries.push(GeometryEntry {
@@ -108,7 +113,7 @@ impl GeometryBundle {
                 len: w.words() as u64,
             });
         }
-        GeometryBundle {
+        Some(GeometryBundle {
             header: [GeometryBundleHeader {
                 epoch,
                 version,
@@ -116,7 +121,7 @@ impl GeometryBundle {
             }],
             entries,
             data,
-        }
+        })
     }
     pub(crate) fn is_empty(&self) -> bool {
         self.entries.is_empty()

@@ -988,7 +988,7 @@ impl Keeper {
         geometry_changed.sort_unstable();
         geometry_changed.dedup();
         if !geometry_changed.is_empty() {
-            self.publish_geometry_update(&geometry_changed, applied)?;
+            self.publish_geometry_update(&geometry_changed)?;
         }
         if structure {
             self.rebuild_structure()?;
@@ -1194,22 +1194,20 @@ impl Keeper {
     /// skipped) as one update, unless it is larger than [`GEOMETRY_UPDATE_MAX_WORDS`]: readers
     /// then find it in no update and ask for the base. Before the objects segment, so a reader
     /// that sees the new structure finds the update already published.
-    fn publish_geometry_update(
-        &mut self,
-        ids: &[Id],
-        applied: &[Applied],
-    ) -> Result<(), KeeperError> {
-        let version = applied.last().map_or(self.model.version, |a| a.version);
-        let bundle = crate::encode::GeometryBundle::new(
+    fn publish_geometry_update(&mut self, ids: &[Id]) -> Result<(), KeeperError> {
+        // The geometry alone is held to the limit; the bundle's index adds 32 B per object.
+        let Some(bundle) = crate::encode::GeometryBundle::new(
             self.epoch,
-            version,
+            self.model.version,
             ids.iter().filter_map(|&id| self.model.get(id)),
-        );
-        let w = bundle.writer();
-        if bundle.is_empty() || w.words() > GEOMETRY_UPDATE_MAX_WORDS {
+            GEOMETRY_UPDATE_MAX_WORDS,
+        ) else {
+            return Ok(());
+        };
+        if bundle.is_empty() {
             return Ok(());
         }
-        Self::send(&self.geometry_pub, &w, "geometry update")
+        Self::send(&self.geometry_pub, &bundle.writer(), "geometry update")
     }
 
     /// Publishes the geometry base — every object's geometry at the current structure version —
@@ -1220,11 +1218,14 @@ impl Keeper {
         if self.geometry_base_published == Some(now) {
             return Ok(());
         }
-        let bundle = crate::encode::GeometryBundle::new(
+        let Some(bundle) = crate::encode::GeometryBundle::new(
             self.epoch,
             self.structure_version,
             self.model.objects(),
-        );
+            usize::MAX,
+        ) else {
+            return Ok(());
+        };
         Self::send(&self.geometry_base_pub, &bundle.writer(), "geometry base")?;
         self.geometry_base_published = Some(now);
         Ok(())

@@ -453,6 +453,15 @@ pub fn compose(a: &[f64; 12], b: &[f64; 12]) -> [f64; 12] {
     out
 }
 
+/// The newest sample `sub` holds (the older ones are released), if any.
+fn newest(sub: &Sub, what: &str) -> Result<Option<Sample>, ReaderError> {
+    let mut newest = None;
+    while let Some(s) = sub.receive().map_err(ipc(format!("receive {what}")))? {
+        newest = Some(s);
+    }
+    Ok(newest)
+}
+
 fn unreachable_segment() -> Segment<'static> {
     static EMPTY: [u64; 2] = [crate::layout::MAGIC, 0];
     // EMPTY is a valid segment with no sections.
@@ -775,11 +784,7 @@ impl Reader {
     pub fn refresh(&mut self) -> Result<bool, ReaderError> {
         // The poses head: the keeper publishes it last in every commit, after the objects
         // segment, the geometry and the pose chunks it names.
-        let mut head: Option<Sample> = None;
-        while let Some(s) = self.poses.receive().map_err(ipc("receive poses"))? {
-            head = Some(s);
-        }
-        let Some(mut head) = head else {
+        let Some(mut head) = newest(&self.poses, "poses")? else {
             return Ok(false);
         };
         let deadline = Instant::now() + self.timeout;
@@ -795,11 +800,7 @@ impl Reader {
             drop(head);
             let grace = Instant::now() + self.timeout.min(Duration::from_secs(1));
             head = loop {
-                let mut newest = None;
-                while let Some(s) = self.poses.receive().map_err(ipc("receive poses"))? {
-                    newest = Some(s);
-                }
-                if let Some(s) = newest {
+                if let Some(s) = newest(&self.poses, "poses")? {
                     break s;
                 }
                 if Instant::now() > grace {
@@ -990,15 +991,7 @@ impl Reader {
 
     /// Takes the newest geometry base published, if one came since the last call.
     fn receive_geometry_base(&mut self) -> Result<(), ReaderError> {
-        let mut newest = None;
-        while let Some(s) = self
-            .geometry_base_sub
-            .receive()
-            .map_err(ipc("receive geometry base"))?
-        {
-            newest = Some(s);
-        }
-        if let Some(s) = newest {
+        if let Some(s) = newest(&self.geometry_base_sub, "geometry base")? {
             self.geometry_base = Some(GeomBase::parse(s)?);
         }
         Ok(())
@@ -1017,19 +1010,10 @@ impl Reader {
         };
         if !self.geometry_base.as_ref().is_some_and(fresh) {
             self.geometry_bases_asked += 1;
-            let _ = self
-                .hello
-                .notify_with_custom_event_id(EventId::new(events::GEOMETRY_BASE));
-            loop {
-                self.receive_geometry_base()?;
-                if self.geometry_base.as_ref().is_some_and(fresh) {
-                    break;
-                }
-                if Instant::now() > deadline {
-                    return Err(ReaderError::Timeout(self.timeout));
-                }
-                std::thread::sleep(Duration::from_micros(50));
-            }
+            self.ask_until(events::GEOMETRY_BASE, deadline, |r| {
+                r.receive_geometry_base()?;
+                Ok(r.geometry_base.as_ref().is_some_and(fresh))
+            })?;
         }
         self.geometry_base
             .as_ref()
@@ -1196,13 +1180,27 @@ impl Reader {
         })
     }
 
+    /// Sends the keeper `event` (on the request event) and polls `got` until it says the
+    /// answer arrived, or the deadline passes.
+    fn ask_until(
+        &mut self,
+        event: usize,
+        deadline: Instant,
+        mut got: impl FnMut(&mut Reader) -> Result<bool, ReaderError>,
+    ) -> Result<(), ReaderError> {
+        let _ = self.hello.notify_with_custom_event_id(EventId::new(event));
+        while !got(self)? {
+            if Instant::now() > deadline {
+                return Err(ReaderError::Timeout(self.timeout));
+            }
+            std::thread::sleep(Duration::from_micros(50));
+        }
+        Ok(())
+    }
+
     /// Takes the newest pose base published, if one came since the last call.
     fn receive_base(&mut self) -> Result<(), ReaderError> {
-        let mut newest = None;
-        while let Some(s) = self.base_sub.receive().map_err(ipc("receive pose base"))? {
-            newest = Some(s);
-        }
-        if let Some(s) = newest {
+        if let Some(s) = newest(&self.base_sub, "pose base")? {
             self.base = Some(Base::parse(s)?);
         }
         Ok(())
@@ -1215,19 +1213,10 @@ impl Reader {
             b.head.epoch > h.epoch || (b.head.epoch == h.epoch && b.head.version >= h.version)
         };
         if !self.base.as_ref().is_some_and(fresh) {
-            let _ = self
-                .hello
-                .notify_with_custom_event_id(EventId::new(events::BASE));
-            loop {
-                self.receive_base()?;
-                if self.base.as_ref().is_some_and(fresh) {
-                    break;
-                }
-                if Instant::now() > deadline {
-                    return Err(ReaderError::Timeout(self.timeout));
-                }
-                std::thread::sleep(Duration::from_micros(50));
-            }
+            self.ask_until(events::BASE, deadline, |r| {
+                r.receive_base()?;
+                Ok(r.base.as_ref().is_some_and(fresh))
+            })?;
         }
         Ok(self
             .base
