@@ -104,7 +104,8 @@ pub enum Which {
         quick: bool,
     },
     /// A parameter sweep (surgical: encoder bits × upper arm × forearm) in this process, on 1 and on 2
-    /// worker processes: wall time and speed-up.
+    /// worker processes, and on 1 and 2 workers of a sweep host over Zenoh: wall time and
+    /// speed-up.
     Sweep {
         /// Where to write sweep.md and sweep.csv.
         #[arg(long, default_value = crate::reports::DEFAULT_OUT)]
@@ -188,7 +189,13 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
         }
         Which::Sweep { out, quick } => {
             let me = std::env::current_exe()?;
-            let paths = robosim_studies::sweep::bench::run(&out, quick, &me).map_err(CliError)?;
+            let paths = robosim_studies::sweep::bench::run(
+                &out,
+                quick,
+                &me,
+                &mut crate::sweep_remote::connect,
+            )
+            .map_err(CliError)?;
             wrote(&out, &paths)
         }
         Which::Files { out, quick } => {

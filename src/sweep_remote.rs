@@ -38,6 +38,14 @@ impl Launcher for RemoteLauncher {
     fn describe(&self) -> String {
         format!("remote {}", self.remote.endpoint())
     }
+    fn waiting(&self) -> Option<String> {
+        (!self.remote.host_here()).then(|| {
+            format!(
+                "its host at {} is gone (the link closed or lapsed); waiting for it to come back",
+                self.remote.endpoint()
+            )
+        })
+    }
     fn launch(&mut self, sink: EventSink) -> Result<Box<dyn WorkerLink>, String> {
         let lines = sink.clone();
         let pipe = self.remote.open(

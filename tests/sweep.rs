@@ -2,8 +2,10 @@
 //! `robosim sweep-worker` processes and gathers one CSV; a worker killed with SIGKILL mid-job
 //! (by the test hook, or from outside by its pid) has its job redone and the CSV is the
 //! one-worker CSV byte for byte; a job that kills every worker it runs on fails alone, in its
-//! row; bad input is refused by name. No session, no shared memory: each test has its own
-//! temp dir.
+//! row; bad input is refused by name. Workers on a `robosim sweep-host` over Zenoh (TCP on
+//! localhost): the same CSV; a host killed mid-sweep has its jobs redone locally; a host whose
+//! link lapsed is waited for and used again. No session, no shared memory: each test has its
+//! own temp dir.
 
 mod common;
 
@@ -491,18 +493,23 @@ fn remote_workers_on_a_sweep_host_give_the_one_worker_csv() {
     );
 }
 
-#[test]
-fn a_sweep_host_killed_mid_sweep_has_its_jobs_redone_locally() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    let one = reference(dir.path());
-    let mut host = Host::start(1);
+/// Runs `robosim sweep surgical` with `extra`, writing `csv` in `dir`, and hands `on_line`
+/// each line of its stderr as it comes (to act on the sweep mid-way). Returns whether it
+/// succeeded, its stderr and its stdout.
+fn sweep_watched(
+    dir: &Path,
+    csv: &str,
+    extra: &[&str],
+    on_line: &mut dyn FnMut(&str),
+) -> (bool, String, String) {
     let mut child = Command::new(ROBOSIM)
         .arg("sweep")
         .arg("surgical")
         .args(PARAMS)
-        .args(["--workers", "1", "--remote", &host.endpoint, "--out"])
-        .arg(dir.path().join("host-killed.csv"))
-        .env("ROBOSIM_HOME", dir.path())
+        .args(extra)
+        .arg("--out")
+        .arg(dir.join(csv))
+        .env("ROBOSIM_HOME", dir)
         .env_remove("ROBOSIM_SWEEP_DIE_ON")
         .env_remove("ROBOSIM_SWEEP_DIE_ONCE")
         .stdout(Stdio::piped())
@@ -511,31 +518,51 @@ fn a_sweep_host_killed_mid_sweep_has_its_jobs_redone_locally() {
         .expect("robosim sweep starts");
     let stderr = child.stderr.take().expect("stderr");
     let mut log = String::new();
-    let mut killed = false;
     for line in BufReader::new(stderr).lines() {
         let line = line.expect("stderr line");
         log += &line;
         log.push('\n');
-        if !killed && line.starts_with("sweep: worker 1 started: remote ") {
-            // stopped first, so its worker cannot answer anything before the kill, then
-            // SIGKILL: whatever the timing, the host is gone mid-sweep
-            let pid = host.child.id().to_string();
-            for sig in ["-STOP", "-KILL"] {
-                let s = Command::new("kill")
-                    .args([sig, &pid])
-                    .status()
-                    .expect("kill runs");
-                assert!(s.success(), "kill {sig} {pid}");
-            }
-            let _ = host.child.wait();
-            killed = true;
-        }
+        on_line(&line);
     }
     let mut stdout = String::new();
     std::io::Read::read_to_string(&mut child.stdout.take().expect("stdout"), &mut stdout)
         .expect("stdout");
     let status = child.wait().expect("wait");
-    assert!(status.success(), "{log}\n{stdout}");
+    (status.success(), log, stdout)
+}
+
+/// Sends `sig` ("-STOP", "-KILL"…) to `pid`.
+fn signal(sig: &str, pid: u32) {
+    let s = Command::new("kill")
+        .args([sig, &pid.to_string()])
+        .status()
+        .expect("kill runs");
+    assert!(s.success(), "kill {sig} {pid}");
+}
+
+#[test]
+fn a_sweep_host_killed_mid_sweep_has_its_jobs_redone_locally() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let one = reference(dir.path());
+    let mut host = Host::start(1);
+    let pid = host.child.id();
+    let mut killed = false;
+    let (ok, log, stdout) = sweep_watched(
+        dir.path(),
+        "host-killed.csv",
+        &["--workers", "1", "--remote", &host.endpoint.clone()],
+        &mut |line| {
+            if !killed && line.starts_with("sweep: worker 1 started: remote ") {
+                // stopped first, so its worker cannot answer anything before the kill, then
+                // SIGKILL: whatever the timing, the host is gone mid-sweep
+                signal("-STOP", pid);
+                signal("-KILL", pid);
+                killed = true;
+            }
+        },
+    );
+    let _ = host.child.wait();
+    assert!(ok, "{log}\n{stdout}");
     assert!(killed, "the remote worker never started:\n{log}");
     assert!(
         log.contains("died: its output ended (its host is gone"),
@@ -544,6 +571,64 @@ fn a_sweep_host_killed_mid_sweep_has_its_jobs_redone_locally() {
     assert!(stdout.contains("4 ran, 0 failed"), "{stdout}\n{log}");
     let csv = std::fs::read_to_string(dir.path().join("host-killed.csv")).expect("host-killed.csv");
     assert_eq!(csv, one, "{log}");
+}
+
+/// The link to the only host lapses mid-sweep (the host is stopped with SIGSTOP past the 3 s
+/// link lease, so the coordinator sees its token go) and comes back (SIGCONT: Zenoh
+/// reconnects): the sweep waits for the host instead of giving its workers up, then runs the
+/// rest there; the CSV is the one-worker CSV.
+#[test]
+fn a_sweep_host_whose_link_lapsed_is_used_again_when_it_is_back() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let one = reference(dir.path());
+    let host = Host::start(1);
+    let pid = host.child.id();
+    let (mut stopped, mut continued) = (false, false);
+    let (ok, log, stdout) = sweep_watched(
+        dir.path(),
+        "host-back.csv",
+        &[
+            "--workers",
+            "0",
+            "--remote",
+            &host.endpoint.clone(),
+            "--remote-wait",
+            "120",
+        ],
+        &mut |line| {
+            if !stopped && line.starts_with("sweep: worker 0 started: remote ") {
+                signal("-STOP", pid);
+                stopped = true;
+            }
+            if stopped
+                && !continued
+                && line.starts_with("sweep: worker 0 (remote ")
+                && line.contains(") waits: its host at ")
+            {
+                signal("-CONT", pid);
+                continued = true;
+            }
+        },
+    );
+    if !continued {
+        signal("-CONT", pid);
+    }
+    assert!(ok, "{log}\n{stdout}\nhost:\n{}", host.log());
+    assert!(continued, "the sweep never waited for its host:\n{log}");
+    assert!(
+        log.contains("died: its output ended (its host is gone (the link to it closed or lapsed))"),
+        "{log}"
+    );
+    assert!(log.contains("sweep: worker 0 (remote "), "{log}");
+    assert!(log.contains(") can start again"), "{log}");
+    assert!(
+        log.matches("sweep: worker 0 started: remote ").count() >= 2,
+        "the host was not used again:\n{log}"
+    );
+    assert!(!log.contains("given up"), "{log}");
+    assert!(stdout.contains("4 ran, 0 failed"), "{stdout}\n{log}");
+    let csv = std::fs::read_to_string(dir.path().join("host-back.csv")).expect("host-back.csv");
+    assert_eq!(csv, one, "{log}\nhost:\n{}", host.log());
 }
 
 #[test]

@@ -32,7 +32,8 @@ pub struct SweepArgs {
     /// Key prefix of the sweep hosts on the Zenoh network (their --key).
     #[arg(long, default_value = "robosim", value_name = "PREFIX")]
     pub remote_key: String,
-    /// How long to wait at the start for each --remote host to answer, seconds.
+    /// How long to wait for a --remote host, seconds: at the start for each to answer, and
+    /// later, when every worker left is on a host whose link lapsed, for one to come back.
     #[arg(long, default_value_t = 15.0, value_name = "SECONDS")]
     pub remote_wait: f64,
     /// The CSV to write: the parameters' columns, then the study's result columns, then
@@ -258,6 +259,7 @@ pub fn run(
     let opts = Options {
         max_attempts: args.attempts,
         job_timeout,
+        host_wait: Duration::from_secs_f64(args.remote_wait),
     };
     let mut launchers = local_launchers(exe, workers.min(p.jobs.len().max(1)));
     for endpoint in &args.remote {

@@ -9,6 +9,11 @@
 //! started again; a slot whose workers die `max_attempts` times in a row without a job in
 //! flight (one that cannot start) is given up. Every death is one log line; the results do not
 //! depend on who ran what.
+//!
+//! A slot whose launcher is waiting for its host ([`Launcher::waiting`]: the host's link lapsed)
+//! is neither started nor given up: it takes jobs again once its host is back. While other
+//! workers run it may wait as long as the sweep lasts; when every slot left waits, the sweep
+//! fails after [`Options::host_wait`] without a host coming back.
 
 use super::SweepError;
 use super::protocol::{self, Outcome};
@@ -25,6 +30,8 @@ pub struct Options {
     pub max_attempts: u32,
     /// A job running longer than this kills its worker (and counts as a death). None: no limit.
     pub job_timeout: Option<Duration>,
+    /// How long every worker left may wait for its host to come back before the sweep fails.
+    pub host_wait: Duration,
 }
 
 impl Default for Options {
@@ -32,6 +39,7 @@ impl Default for Options {
         Options {
             max_attempts: 3,
             job_timeout: None,
+            host_wait: Duration::from_secs(15),
         }
     }
 }
@@ -57,6 +65,8 @@ struct Slot {
     /// Deaths without a job in flight since the last result.
     idle_deaths: u32,
     retired: bool,
+    /// What its launcher said it waits for (logged once), while it does.
+    waiting: Option<String>,
 }
 
 /// The jobs' book: what is queued, tried, answered and still to come, and what the workers
@@ -145,6 +155,7 @@ pub fn run(
             in_flight: None,
             idle_deaths: 0,
             retired: false,
+            waiting: None,
         })
         .collect();
     let by_index: std::collections::HashMap<usize, usize> =
@@ -203,11 +214,37 @@ pub fn run(
     }
 
     let tick = Duration::from_millis(200);
+    // Since when every slot left has been waiting for its host (none running).
+    let mut stalled: Option<Instant> = None;
     while book.remaining > 0 {
         // restart dead slots, then give every idle worker a job
         for (s, slot) in slots.iter_mut().enumerate() {
             if slot.retired || book.queue.is_empty() {
                 continue;
+            }
+            if slot.link.is_none() {
+                match slot.launcher.waiting() {
+                    Some(why) => {
+                        if slot.waiting.is_none() {
+                            log(format!(
+                                "sweep: worker {s} ({}) waits: {why}",
+                                slot.launcher.describe()
+                            ));
+                            book.last_death = why.clone();
+                            slot.waiting = Some(why);
+                        }
+                        continue;
+                    }
+                    None => {
+                        if slot.waiting.take().is_some() {
+                            log(format!(
+                                "sweep: worker {s} ({}) can start again",
+                                slot.launcher.describe()
+                            ));
+                            slot.idle_deaths = 0;
+                        }
+                    }
+                }
             }
             if slot.link.is_none() && !start(s, slot, &mut book.stats, log, &mut book.last_death) {
                 slot.idle_deaths += 1;
@@ -245,6 +282,27 @@ pub fn run(
                 remaining: book.remaining,
                 last: book.last_death,
             });
+        }
+        let all_wait = slots
+            .iter()
+            .all(|s| s.retired || (s.link.is_none() && s.waiting.is_some()));
+        match (all_wait, stalled) {
+            (false, _) => stalled = None,
+            (true, None) => stalled = Some(Instant::now()),
+            (true, Some(t0)) if t0.elapsed() > opts.host_wait => {
+                for slot in &mut slots {
+                    slot.retired = true;
+                }
+                return Err(SweepError::NoWorkersLeft {
+                    remaining: book.remaining,
+                    last: format!(
+                        "{}; no host came back within {:.0} s",
+                        book.last_death,
+                        opts.host_wait.as_secs_f64()
+                    ),
+                });
+            }
+            (true, Some(_)) => {}
         }
         let ev = match rx.recv_timeout(tick) {
             Ok(ev) => Some(ev),
@@ -455,6 +513,7 @@ mod tests {
             &Options {
                 max_attempts: 3,
                 job_timeout: None,
+                ..Options::default()
             },
             &mut |l| log.push(l),
             &mut |_| {},
@@ -509,5 +568,125 @@ mod tests {
             ),
             Err(SweepError::NoWorkers)
         ));
+    }
+
+    /// Workers on a "host" that goes away while running job `away_on` the first time (its
+    /// worker's output ends, as when a link lapses) and comes back after `back_after` (never
+    /// when `None`).
+    struct Away {
+        here: std::sync::Arc<std::sync::atomic::AtomicBool>,
+        gone_once: std::sync::Arc<std::sync::atomic::AtomicBool>,
+        away_on: usize,
+        back_after: Option<Duration>,
+    }
+
+    impl Launcher for Away {
+        fn describe(&self) -> String {
+            "away".into()
+        }
+        fn waiting(&self) -> Option<String> {
+            (!self.here.load(std::sync::atomic::Ordering::SeqCst)).then(|| "host away".into())
+        }
+        fn launch(&mut self, sink: EventSink) -> Result<Box<dyn WorkerLink>, String> {
+            use std::sync::atomic::Ordering::SeqCst;
+            if !self.here.load(SeqCst) {
+                return Err("launched while its host is away".into());
+            }
+            let (tx, rx) = mpsc::channel::<String>();
+            let alive = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
+            let (flag, here, gone_once) = (alive.clone(), self.here.clone(), self.gone_once.clone());
+            let (away_on, back_after) = (self.away_on, self.back_after);
+            std::thread::spawn(move || {
+                for line in rx {
+                    let (_, job) = protocol::parse_job(&line).expect("a job line");
+                    if job.index == away_on && !gone_once.swap(true, SeqCst) {
+                        here.store(false, SeqCst);
+                        if let Some(d) = back_after {
+                            let h = here.clone();
+                            std::thread::spawn(move || {
+                                std::thread::sleep(d);
+                                h.store(true, SeqCst);
+                            });
+                        }
+                        break;
+                    }
+                    let i = job.index as f64;
+                    sink.line(protocol::result_line(job.index, &Ok(vec![i, 2.0 * i])));
+                }
+                flag.store(false, SeqCst);
+                sink.closed();
+            });
+            Ok(Box::new(ThreadLink {
+                jobs: Some(tx),
+                alive,
+            }))
+        }
+    }
+
+    fn away(back_after: Option<Duration>) -> Vec<Box<dyn Launcher>> {
+        vec![Box::new(Away {
+            here: std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true)),
+            gone_once: Default::default(),
+            away_on: 3,
+            back_after,
+        })]
+    }
+
+    #[test]
+    fn a_worker_whose_host_went_away_waits_and_is_used_again_when_it_is_back() {
+        let js = jobs(8);
+        let mut log = Vec::new();
+        // max_attempts 2: a coordinator that launched while the host is away would give the
+        // slot up after two failed starts, and the sweep would fail
+        let (out, stats) = run(
+            "t",
+            &js,
+            away(Some(Duration::from_millis(300))),
+            &Options {
+                max_attempts: 2,
+                ..Options::default()
+            },
+            &mut |l| log.push(l),
+            &mut |_| {},
+        )
+        .expect("sweep");
+        for (i, o) in out.iter().enumerate() {
+            assert_eq!(o, &Ok(vec![i as f64, 2.0 * i as f64]), "{log:#?}");
+        }
+        assert_eq!((stats.started, stats.deaths, stats.redone), (2, 1, 1), "{log:#?}");
+        let at = |needle: &str| log.iter().position(|l| l.contains(needle));
+        let (Some(died), Some(waits), Some(again)) = (
+            at("worker 0 (thread) died: its output ended"),
+            at("worker 0 (away) waits: host away"),
+            at("worker 0 (away) can start again"),
+        ) else {
+            panic!("{log:#?}");
+        };
+        assert!(died < waits && waits < again, "{log:#?}");
+        assert_eq!(log.iter().filter(|l| l.contains("waits")).count(), 1, "{log:#?}");
+    }
+
+    #[test]
+    fn a_sweep_whose_every_host_stays_away_fails_after_the_host_wait() {
+        let t0 = Instant::now();
+        let e = run(
+            "t",
+            &jobs(8),
+            away(None),
+            &Options {
+                host_wait: Duration::from_secs(1),
+                ..Options::default()
+            },
+            &mut |_| {},
+            &mut |_| {},
+        )
+        .expect_err("no host");
+        assert!(t0.elapsed() >= Duration::from_secs(1));
+        assert!(
+            e.to_string().contains(
+                "no worker left with 5 jobs to run (last: host away; no host came back within 1 s)"
+            ),
+            "{e}"
+        );
     }
 }

@@ -62,6 +62,13 @@ impl EventSink {
 pub trait Launcher: Send {
     /// What it starts, for the log: "local process", "tcp/10.0.0.2:7447".
     fn describe(&self) -> String;
+    /// Why it cannot start a worker now but may later — its host is gone (a lapsed link, a
+    /// host restarting) and may come back — or `None`: it can try. The coordinator does not
+    /// launch a waiting launcher's worker (so it is not given up for failing to start) and
+    /// starts it again once this says `None`.
+    fn waiting(&self) -> Option<String> {
+        None
+    }
     /// Starts one worker whose result lines, then its end, go to `sink`.
     fn launch(&mut self, sink: EventSink) -> Result<Box<dyn WorkerLink>, String>;
 }
