@@ -11,7 +11,7 @@
 
 mod common;
 
-use common::{Procs, wait_for};
+use common::{Hosts, Procs, wait_for};
 use robosim_instance_space::{
     Client, ClientError, Id, Kind, ObjRef, Session, Transaction, TxError,
 };
@@ -238,84 +238,6 @@ fn killed_bridges_come_back_and_nothing_acknowledged_is_lost() {
     }
 }
 
-/// Two network namespaces joined by a veth pair, removed when dropped.
-struct Hosts {
-    a: String,
-    b: String,
-}
-
-impl Hosts {
-    /// `None` (with the reason) when this machine cannot make them: not root, or no iproute2.
-    fn make() -> Result<Hosts, String> {
-        let id = std::process::id();
-        let hosts = Hosts {
-            a: format!("rsbra{id}"),
-            b: format!("rsbrb{id}"),
-        };
-        let (va, vb) = (format!("rsva{id}"), format!("rsvb{id}"));
-        let steps: Vec<Vec<String>> = vec![
-            vec!["netns", "add", &hosts.a],
-            vec!["netns", "add", &hosts.b],
-            vec!["link", "add", &va, "type", "veth", "peer", "name", &vb],
-            vec!["link", "set", &va, "netns", &hosts.a],
-            vec!["link", "set", &vb, "netns", &hosts.b],
-            vec!["-n", &hosts.a, "addr", "add", "10.77.0.1/24", "dev", &va],
-            vec!["-n", &hosts.b, "addr", "add", "10.77.0.2/24", "dev", &vb],
-            vec!["-n", &hosts.a, "link", "set", &va, "up"],
-            vec!["-n", &hosts.b, "link", "set", &vb, "up"],
-            vec!["-n", &hosts.a, "link", "set", "lo", "up"],
-            vec!["-n", &hosts.b, "link", "set", "lo", "up"],
-        ]
-        .into_iter()
-        .map(|v| v.into_iter().map(str::to_owned).collect())
-        .collect();
-        for step in steps {
-            let out = Command::new("ip")
-                .args(&step)
-                .output()
-                .map_err(|e| format!("ip: {e}"))?;
-            if !out.status.success() {
-                return Err(format!(
-                    "ip {}: {}",
-                    step.join(" "),
-                    String::from_utf8_lossy(&out.stderr).trim()
-                ));
-            }
-        }
-        Ok(hosts)
-    }
-
-    /// Takes host a's end of the link down or up.
-    fn link(&self, up: bool) {
-        let va = format!("rsva{}", std::process::id());
-        let ok = Command::new("ip")
-            .args([
-                "-n",
-                &self.a,
-                "link",
-                "set",
-                &va,
-                if up { "up" } else { "down" },
-            ])
-            .status()
-            .expect("ip")
-            .success();
-        assert!(
-            ok,
-            "could not set the link {}",
-            if up { "up" } else { "down" }
-        );
-    }
-}
-
-impl Drop for Hosts {
-    fn drop(&mut self) {
-        for ns in [&self.a, &self.b] {
-            let _ = Command::new("ip").args(["netns", "del", ns]).status();
-        }
-    }
-}
-
 /// `robosim ARGS --session` of `p`, inside network namespace `ns`.
 fn spawn_in(p: &mut Procs, ns: &str, args: &[&str]) -> u32 {
     let dir = p.home.path().join("logs");
@@ -326,7 +248,7 @@ fn spawn_in(p: &mut Procs, ns: &str, args: &[&str]) -> u32 {
 
 #[test]
 fn a_cut_link_between_two_network_namespaces_resynchronises() {
-    let hosts = match Hosts::make() {
+    let hosts = match Hosts::make("br") {
         Ok(h) => h,
         Err(why) => {
             // CI runs as root with iproute2 installed: there, not running is a failure.

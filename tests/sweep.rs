@@ -404,8 +404,13 @@ struct Host {
 impl Host {
     /// Starts a host with `workers` workers on a free port and waits for its ready line.
     fn start(workers: usize) -> Host {
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-        let mut child = Command::new(ROBOSIM)
+        Host::start_in(&[], &format!("tcp/127.0.0.1:{}", free_port()), workers)
+    }
+    /// Starts a host listening on `endpoint` under `wrapper` (`ip netns exec NS`: on another
+    /// network host) and waits for its ready line.
+    fn start_in(wrapper: &[&str], endpoint: &str, workers: usize) -> Host {
+        let endpoint = endpoint.to_owned();
+        let mut child = wrapped(wrapper)
             .args(["sweep-host", "--listen", &endpoint, "--workers"])
             .arg(workers.to_string())
             .env_remove("ROBOSIM_SWEEP_DIE_ON")
@@ -493,16 +498,29 @@ fn remote_workers_on_a_sweep_host_give_the_one_worker_csv() {
     );
 }
 
-/// Runs `robosim sweep surgical` with `extra`, writing `csv` in `dir`, and hands `on_line`
-/// each line of its stderr as it comes (to act on the sweep mid-way). Returns whether it
-/// succeeded, its stderr and its stdout.
+/// `robosim`, run by `wrapper` (`ip netns exec NS`) unless it is empty.
+fn wrapped(wrapper: &[&str]) -> Command {
+    match wrapper.split_first() {
+        Some((cmd, args)) => {
+            let mut c = Command::new(cmd);
+            c.args(args).arg(ROBOSIM);
+            c
+        }
+        None => Command::new(ROBOSIM),
+    }
+}
+
+/// Runs `robosim sweep surgical` with `extra` (under `wrapper`, see [`wrapped`]), writing
+/// `csv` in `dir`, and hands `on_line` each line of its stderr as it comes (to act on the
+/// sweep mid-way). Returns whether it succeeded, its stderr and its stdout.
 fn sweep_watched(
     dir: &Path,
     csv: &str,
     extra: &[&str],
+    wrapper: &[&str],
     on_line: &mut dyn FnMut(&str),
 ) -> (bool, String, String) {
-    let mut child = Command::new(ROBOSIM)
+    let mut child = wrapped(wrapper)
         .arg("sweep")
         .arg("surgical")
         .args(PARAMS)
@@ -551,6 +569,7 @@ fn a_sweep_host_killed_mid_sweep_has_its_jobs_redone_locally() {
         dir.path(),
         "host-killed.csv",
         &["--workers", "1", "--remote", &host.endpoint.clone()],
+        &[],
         &mut |line| {
             if !killed && line.starts_with("sweep: worker 1 started: remote ") {
                 // stopped first, so its worker cannot answer anything before the kill, then
@@ -595,6 +614,7 @@ fn a_sweep_host_whose_link_lapsed_is_used_again_when_it_is_back() {
             "--remote-wait",
             "120",
         ],
+        &[],
         &mut |line| {
             if !stopped && line.starts_with("sweep: worker 0 started: remote ") {
                 signal("-STOP", pid);
@@ -657,4 +677,68 @@ fn a_remote_endpoint_with_no_host_is_refused_by_name() {
         "{err}"
     );
     assert!(!dir.path().join("none.csv").exists());
+}
+
+/// The host and the coordinator on two network hosts (namespaces joined by a veth pair; root
+/// and iproute2, as in CI): the link is cut mid-sweep (`ip link set … down`) until the
+/// coordinator has seen the host go, then restored; the sweep waits, reconnects, runs the rest
+/// on the same host and gives the one-worker CSV.
+#[test]
+fn a_cut_link_to_a_sweep_host_on_another_network_host_is_waited_out() {
+    let hosts = match common::Hosts::make("sw") {
+        Ok(h) => h,
+        Err(why) => {
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "the two-host sweep test could not make its hosts: {why}"
+            );
+            eprintln!("skipped: cannot make network namespaces here ({why})");
+            return;
+        }
+    };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let one = reference(dir.path());
+    let host = Host::start_in(
+        &["ip", "netns", "exec", &hosts.a],
+        "tcp/10.77.0.1:7448",
+        1,
+    );
+    let (mut cut, mut restored) = (false, false);
+    let (ok, log, stdout) = sweep_watched(
+        dir.path(),
+        "cut.csv",
+        &[
+            "--workers",
+            "0",
+            "--remote",
+            "tcp/10.77.0.1:7448",
+            "--remote-wait",
+            "120",
+        ],
+        &["ip", "netns", "exec", &hosts.b],
+        &mut |line| {
+            if !cut && line.starts_with("sweep: worker 0 started: remote ") {
+                hosts.link(false);
+                cut = true;
+            }
+            if cut && !restored && line.contains(") waits: its host at tcp/10.77.0.1:7448 is gone")
+            {
+                hosts.link(true);
+                restored = true;
+            }
+        },
+    );
+    if !restored {
+        hosts.link(true);
+    }
+    assert!(ok, "{log}\n{stdout}\nhost:\n{}", host.log());
+    assert!(restored, "the sweep never waited for its host:\n{log}");
+    assert!(log.contains(") can start again"), "{log}");
+    assert!(
+        log.matches("sweep: worker 0 started: remote ").count() >= 2,
+        "the host was not used again:\n{log}"
+    );
+    assert!(stdout.contains("4 ran, 0 failed"), "{stdout}\n{log}");
+    let csv = std::fs::read_to_string(dir.path().join("cut.csv")).expect("cut.csv");
+    assert_eq!(csv, one, "{log}\nhost:\n{}", host.log());
 }

@@ -195,18 +195,48 @@ pub fn host(
                     .wait();
             }
             HostEvent::Open(q) => {
-                let id = q
+                // "<coordinator>/<n> <floor>": the coordinator's pipes below <floor> ended on
+                // its side when it lost this host; those still running here are killed first
+                let text = q
                     .payload()
                     .map(|p| String::from_utf8_lossy(&p.to_bytes()).into_owned())
                     .unwrap_or_default();
-                let valid = id.split('/').count() == 2
+                let (id, floor) = match text.split_once(' ') {
+                    Some((id, f)) => (id.to_owned(), f.parse::<u64>().ok()),
+                    None => (text.clone(), Some(0)),
+                };
+                let valid = floor.is_some()
+                    && id.split('/').count() == 2
                     && id.split('/').all(|p| {
                         !p.is_empty()
                             && p.chars()
                                 .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
                     });
+                if let (true, Some(floor), Some((cid, _))) = (valid, floor, id.split_once('/')) {
+                    let stale: Vec<String> = running
+                        .keys()
+                        .filter(|r| {
+                            r.split_once('/').is_some_and(|(c, n)| {
+                                c == cid && n.parse::<u64>().is_ok_and(|n| n < floor)
+                            })
+                        })
+                        .cloned()
+                        .collect();
+                    for old in stale {
+                        if let Some(mut r) = running.remove(&old) {
+                            eprintln!(
+                                "sweep-host: pipe {old}: its coordinator lost this host since, \
+                                 killing it"
+                            );
+                            let _ = r.child.kill();
+                            end(&z, &old, r);
+                        }
+                    }
+                }
                 let answer = if !valid {
-                    Err(format!("pipe id {id:?}: expected COORDINATOR/N"))
+                    Err(format!(
+                        "pipe request {text:?}: expected COORDINATOR/N FLOOR"
+                    ))
                 } else if running.contains_key(&id) {
                     Err(format!("pipe {id} is open already"))
                 } else if running.len() >= workers {
@@ -344,6 +374,10 @@ pub struct Remote {
     cid: String,
     workers: usize,
     next: AtomicU64,
+    /// The first pipe number after the host was last lost: the pipes below it ended here when
+    /// their host went, and the host is told to kill them should it still run them (it does
+    /// when it did not see this coordinator go, e.g. after a link cut shorter on its side).
+    floor: Arc<AtomicU64>,
     host_here: Arc<AtomicBool>,
     pipes: Arc<Mutex<HashMap<u64, Arc<PipeState>>>>,
     _token: zenoh::liveliness::LivelinessToken,
@@ -365,7 +399,8 @@ impl Remote {
         let cid = format!("c{}-{nanos}", std::process::id());
         let host_here = Arc::new(AtomicBool::new(false));
         let pipes: Arc<Mutex<HashMap<u64, Arc<PipeState>>>> = Arc::default();
-        let (here, watched) = (host_here.clone(), pipes.clone());
+        let floor = Arc::new(AtomicU64::new(0));
+        let (here, watched, lost_at) = (host_here.clone(), pipes.clone(), floor.clone());
         let host_watch = z
             .liveliness()
             .declare_subscriber(k("host"))
@@ -374,12 +409,12 @@ impl Remote {
                 SampleKind::Put => here.store(true, Ordering::SeqCst),
                 SampleKind::Delete => {
                     here.store(false, Ordering::SeqCst);
-                    let all: Vec<Arc<PipeState>> = watched
-                        .lock()
-                        .unwrap_or_else(|p| p.into_inner())
-                        .drain()
-                        .map(|(_, p)| p)
-                        .collect();
+                    let mut pipes = watched.lock().unwrap_or_else(|p| p.into_inner());
+                    if let Some(&last) = pipes.keys().max() {
+                        lost_at.fetch_max(last + 1, Ordering::SeqCst);
+                    }
+                    let all: Vec<Arc<PipeState>> = pipes.drain().map(|(_, p)| p).collect();
+                    drop(pipes);
                     for p in all {
                         p.end("its host is gone (the link to it closed or lapsed)".into());
                     }
@@ -438,6 +473,7 @@ impl Remote {
             cid,
             workers,
             next: AtomicU64::new(0),
+            floor,
             host_here,
             pipes,
             _token: token,
@@ -501,7 +537,7 @@ impl Remote {
             let replies = self
                 .z
                 .get(key(&self.key, "sweep/open"))
-                .payload(id.clone())
+                .payload(format!("{id} {}", self.floor.load(Ordering::SeqCst)))
                 .timeout(Duration::from_secs(10))
                 .wait()
                 .map_err(|e| e.to_string())?;
@@ -597,5 +633,68 @@ impl Drop for Pipe {
             .lock()
             .unwrap_or_else(|p| p.into_inner())
             .remove(&self.n);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A host that did not see its coordinator lose it (the link came back before its own
+    /// lease ran out) still runs the pipes the coordinator gave up: a full host would refuse
+    /// the coordinator's new pipe. The floor sent with the open request has it kill them first.
+    #[test]
+    fn pipes_from_before_a_lost_host_are_killed_when_the_coordinator_opens_anew() {
+        let port = std::net::TcpListener::bind("127.0.0.1:0")
+            .and_then(|l| l.local_addr())
+            .expect("a free port")
+            .port();
+        let endpoint = format!("tcp/127.0.0.1:{port}");
+        let args = HostArgs {
+            listen: endpoint.clone(),
+            workers: Some(1),
+            key: format!("t{}", std::process::id()),
+        };
+        let key = args.key.clone();
+        // The host runs on a thread until the test process ends; its workers are `cat`, which
+        // ends when its stdin closes.
+        std::thread::spawn(move || {
+            let spawn = || Command::new("cat");
+            let _ = host(&args, &spawn, &mut |_| {});
+        });
+        let remote = Remote::connect(&endpoint, &key, Duration::from_secs(15)).expect("connect");
+        assert_eq!(remote.workers(), 1);
+        let (tx, rx) = mpsc::channel::<String>();
+        let echo = {
+            let tx = tx.clone();
+            move |line: String| {
+                let _ = tx.send(line);
+            }
+        };
+        let first = remote.open(echo.clone(), |_| {}).expect("first pipe");
+        first.send("one").expect("send");
+        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).as_deref(), Ok("one"));
+        // As the host's Delete does on the coordinator's side: the first pipe is over here.
+        first.state.end("its host is gone (test)".into());
+        remote.floor.store(1, Ordering::SeqCst);
+        let ended = Arc::new(Mutex::new(None::<String>));
+        let e = ended.clone();
+        let second = remote
+            .open(echo, move |how| {
+                *e.lock().unwrap_or_else(|p| p.into_inner()) = Some(how);
+            })
+            .expect("the host frees its one worker for the new pipe");
+        second.send("two").expect("send");
+        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).as_deref(), Ok("two"));
+        assert_eq!(*ended.lock().unwrap_or_else(|p| p.into_inner()), None);
+        // Without the floor, a third pipe is refused: the host is full.
+        let third = remote.open(|_| {}, |_| {});
+        assert!(
+            third
+                .as_ref()
+                .is_err_and(|e| e.contains("the host is full: 1 of 1 workers run")),
+            "{:?}",
+            third.err()
+        );
     }
 }

@@ -160,3 +160,85 @@ pub fn wait_for<T>(what: &str, mut f: impl FnMut() -> Option<T>) -> T {
         std::thread::sleep(Duration::from_millis(20));
     }
 }
+
+/// Two network namespaces joined by a veth pair, removed when dropped.
+pub struct Hosts {
+    pub a: String,
+    pub b: String,
+    veth: String,
+}
+
+impl Hosts {
+    /// An error (with the reason) when this machine cannot make them: not root, or no
+    /// iproute2. `tag` (two characters) tells apart the hosts of different test files; host a
+    /// is 10.77.0.1, host b 10.77.0.2.
+    pub fn make(tag: &str) -> Result<Hosts, String> {
+        let id = std::process::id();
+        let hosts = Hosts {
+            a: format!("rs{tag}a{id}"),
+            b: format!("rs{tag}b{id}"),
+            veth: format!("rs{tag}v{id}"),
+        };
+        let (va, vb) = (format!("{}a", hosts.veth), format!("{}b", hosts.veth));
+        let steps: Vec<Vec<String>> = vec![
+            vec!["netns", "add", &hosts.a],
+            vec!["netns", "add", &hosts.b],
+            vec!["link", "add", &va, "type", "veth", "peer", "name", &vb],
+            vec!["link", "set", &va, "netns", &hosts.a],
+            vec!["link", "set", &vb, "netns", &hosts.b],
+            vec!["-n", &hosts.a, "addr", "add", "10.77.0.1/24", "dev", &va],
+            vec!["-n", &hosts.b, "addr", "add", "10.77.0.2/24", "dev", &vb],
+            vec!["-n", &hosts.a, "link", "set", &va, "up"],
+            vec!["-n", &hosts.b, "link", "set", &vb, "up"],
+            vec!["-n", &hosts.a, "link", "set", "lo", "up"],
+            vec!["-n", &hosts.b, "link", "set", "lo", "up"],
+        ]
+        .into_iter()
+        .map(|v| v.into_iter().map(str::to_owned).collect())
+        .collect();
+        for step in steps {
+            let out = Command::new("ip")
+                .args(&step)
+                .output()
+                .map_err(|e| format!("ip: {e}"))?;
+            if !out.status.success() {
+                return Err(format!(
+                    "ip {}: {}",
+                    step.join(" "),
+                    String::from_utf8_lossy(&out.stderr).trim()
+                ));
+            }
+        }
+        Ok(hosts)
+    }
+
+    /// Takes host a's end of the link down or up.
+    pub fn link(&self, up: bool) {
+        let va = format!("{}a", self.veth);
+        let ok = Command::new("ip")
+            .args([
+                "-n",
+                &self.a,
+                "link",
+                "set",
+                &va,
+                if up { "up" } else { "down" },
+            ])
+            .status()
+            .expect("ip")
+            .success();
+        assert!(
+            ok,
+            "could not set the link {}",
+            if up { "up" } else { "down" }
+        );
+    }
+}
+
+impl Drop for Hosts {
+    fn drop(&mut self) {
+        for ns in [&self.a, &self.b] {
+            let _ = Command::new("ip").args(["netns", "del", ns]).status();
+        }
+    }
+}
