@@ -1159,6 +1159,108 @@ fn a_pose_change_republishes_only_its_chunk_and_readers_reuse_the_others() {
     assert_eq!(grown.name(n + 1), "appended");
 }
 
+/// A structural change — a rename, a colour, the selection, a delete, an object appended —
+/// republishes the object chunks it changed, not the whole objects segment: a following reader
+/// keeps every other chunk as the same memory, and asks for the objects base only to attach;
+/// what it assembles is what a late joiner reads from a base.
+#[test]
+fn a_structural_change_republishes_only_its_object_chunk_and_readers_reuse_the_others() {
+    use robosim_instance_space::layout::OBJECT_CHUNK;
+    let mut t = TestSession::new("ochunks");
+    t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "w").expect("connect");
+    let mut tx = Transaction::new();
+    let scene = tx.create(Kind::Scene, "scene", None);
+    // Four chunks, the last one partly full.
+    let n = 3 * OBJECT_CHUNK + 40;
+    for k in 0..n {
+        tx.create(Kind::Solid, &format!("body{k}"), Some(scene));
+    }
+    let built = c.transact(&tx).expect("build");
+    // Nothing but the build since: the objects head a late joiner finds carries every chunk.
+    let mut r = Reader::attach(&s, "r").expect("attach");
+    let asked = r.objects_bases_asked();
+    assert_eq!(asked, 0, "the build's objects head carried every chunk");
+    let old = r.snapshot().expect("snapshot");
+    assert_eq!(old.len(), n + 1);
+    let body = built.created[OBJECT_CHUNK + 10];
+    let i = old.index_of(body).expect("body");
+    assert_eq!(i / OBJECT_CHUNK, 1, "the body is in the second chunk");
+    let (first, last) = (0, n);
+    // A rename in the second chunk.
+    let mut tx = Transaction::new();
+    tx.set_name(body, "renamed");
+    let renamed = follow_tx(&mut r, &mut c, &tx);
+    assert_eq!(renamed.name(i), "renamed");
+    // (created[0] is the scene)
+    assert_eq!(old.name(i), format!("body{}", OBJECT_CHUNK + 9), "a held snapshot");
+    assert_eq!(renamed.find("renamed"), Some(i));
+    assert!(std::ptr::eq(old.rec(first), renamed.rec(first)));
+    assert!(std::ptr::eq(old.rec(last), renamed.rec(last)));
+    assert!(!std::ptr::eq(old.rec(i), renamed.rec(i)));
+    // A colour in the last chunk.
+    let mut tx = Transaction::new();
+    let mut look = robosim_instance_space::Appearance::default();
+    look.color = [0.1, 0.2, 0.3, 1.0];
+    tx.set_appearance(built.created[n], look);
+    let coloured = follow_tx(&mut r, &mut c, &tx);
+    assert_eq!(coloured.rec(last).color, [0.1, 0.2, 0.3, 1.0]);
+    assert!(std::ptr::eq(renamed.rec(i), coloured.rec(i)));
+    assert!(!std::ptr::eq(renamed.rec(last), coloured.rec(last)));
+    // The selection: the header alone.
+    let mut tx = Transaction::new();
+    tx.select(Some(body.into()), None);
+    let selected = follow_tx(&mut r, &mut c, &tx);
+    assert_eq!(selected.selection().map(|s| s.object), Some(body));
+    assert!((0..=n).step_by(97).all(|k| std::ptr::eq(coloured.rec(k), selected.rec(k))));
+    assert_eq!(r.objects_bases_asked(), asked, "following asked for the objects base");
+    // A late joiner takes the chunks the last heads did not carry from one objects base, and
+    // reads what the follower assembled.
+    let mut late = Reader::attach(&s, "late").expect("late joiner");
+    assert_eq!(late.objects_bases_asked(), 1);
+    let same = |a: &robosim_instance_space::Snapshot, b: &robosim_instance_space::Snapshot| {
+        assert_eq!(a.version(), b.version());
+        assert_eq!(a.objects(), b.objects());
+        assert!((0..a.len()).all(|k| a.name(k) == b.name(k) && a.rec(k) == b.rec(k)));
+        assert_eq!(a.selection(), b.selection());
+    };
+    same(&late.snapshot().expect("snapshot"), &selected);
+    // A delete in the first chunk shifts every object after it: every chunk is new, and the
+    // follower still reads what the keeper holds.
+    let mut tx = Transaction::new();
+    tx.delete(built.created[3], false);
+    let shrunk = follow_tx(&mut r, &mut c, &tx);
+    assert_eq!(shrunk.len(), n);
+    assert_eq!(shrunk.index_of(built.created[3]), None);
+    assert_eq!(shrunk.name(shrunk.index_of(body).expect("body")), "renamed");
+    // An object appended (the largest id sorts last) touches only the last chunk.
+    let mut tx = Transaction::new();
+    tx.create(Kind::Solid, "appended", Some(built.created[0].into()));
+    let grown = follow_tx(&mut r, &mut c, &tx);
+    assert_eq!(grown.len(), n + 1);
+    assert_eq!(grown.name(n), "appended");
+    assert!(std::ptr::eq(shrunk.rec(first), grown.rec(first)));
+    assert!(std::ptr::eq(shrunk.rec(2 * OBJECT_CHUNK), grown.rec(2 * OBJECT_CHUNK)));
+    assert_eq!(r.objects_bases_asked(), asked, "following asked for the objects base");
+    let late = follow(&mut late, grown.version());
+    same(&late, &grown);
+    let fresh = Reader::attach(&s, "fresh").expect("fresh");
+    same(&fresh.snapshot().expect("snapshot"), &grown);
+}
+
+/// Commits `tx` through `c` and waits until `r` has its version.
+fn follow_tx(
+    r: &mut Reader,
+    c: &mut Client,
+    tx: &Transaction,
+) -> std::rc::Rc<robosim_instance_space::Snapshot> {
+    let v = c.transact(tx).expect("commit").version;
+    let snap = follow(r, v);
+    assert_eq!(snap.version(), v);
+    snap
+}
+
 /// An axis-aligned box of half-size `h`, as a transaction's geometry.
 fn cube(h: f64) -> robosim_instance_space::GeometryInput {
     robosim_scene::box_geometry([2.0 * h, 2.0 * h, 2.0 * h])

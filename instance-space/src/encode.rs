@@ -2,8 +2,9 @@
 //! the keeper to publish and by [`crate::Snapshot::from_store`] for a process-local snapshot.
 
 use crate::layout::{
-    GeometryBundleHeader, GeometryEntry, GeometryHeader, ObjectRec, ObjectsHeader, PolygonRec,
-    PoseChunkHeader, PoseRec, SegmentWriter, flags,
+    ChunkEntry, GeometryBundleHeader, GeometryEntry, GeometryHeader, OBJECT_CHUNK,
+    ObjectChunkHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader, PoseRec,
+    SegmentWriter, flags,
 };
 use crate::store::{Id, Kinematics, Object, Store};
 use robosim_geometry::Polyhedron;
@@ -133,51 +134,120 @@ impl GeometryBundle {
     }
 }
 
-/// The three kinds of segment of a whole model, as owned words.
+/// The segments of a whole model, as owned words.
 pub(crate) struct ModelSegments {
-    pub objects: Vec<u64>,
+    /// The objects' header and every object chunk, in object order.
+    pub objects_header: ObjectsHeader,
+    pub object_chunks: Vec<Vec<u64>>,
     /// Every object's pose record, in object order.
     pub poses: Vec<PoseRec>,
     /// In object order; `None` for objects without geometry.
     pub geometry: Vec<Option<Vec<u64>>>,
 }
 
-/// Every segment of `model` as the keeper would publish it at its current version.
+/// Every segment of `model` as the keeper would publish it at its current version (every
+/// object chunk of generation `model.structure_version()`).
 pub(crate) fn model_segments(model: &Store, epoch: u64) -> ModelSegments {
-    let mut recs = Vec::with_capacity(model.len());
-    let mut names = Vec::new();
-    let mut poses = Vec::with_capacity(model.len());
-    let mut geometry = Vec::with_capacity(model.len());
-    for o in model.objects() {
-        recs.push(object_rec(o, &mut names));
-        poses.push(pose_rec(o));
-        geometry.push(o.geometry.as_ref().map(|poly| {
-            GeometryParts::new(poly, o.id, o.geom_gen)
-                .writer(poly)
-                .to_vec()
-        }));
-    }
-    let objects_header = [ObjectsHeader::new(
-        model.structure_version(),
-        epoch,
-        recs.len(),
-        model.selection(),
-    )];
-    let mut w = SegmentWriter::new();
-    let with_geometry = geometry_index(&recs);
-    w.push(&objects_header)
-        .push(&recs)
-        .push(&names)
-        .push(&with_geometry);
-    let objects = w.to_vec();
+    let objects: Vec<&Object> = model.objects().collect();
+    let generation = model.structure_version();
+    let object_chunks = objects
+        .chunks(OBJECT_CHUNK)
+        .enumerate()
+        .map(|(k, c)| object_chunk(c.iter().copied(), k * OBJECT_CHUNK, generation))
+        .collect();
+    let poses = objects.iter().map(|o| pose_rec(o)).collect();
+    let geometry = objects
+        .iter()
+        .map(|o| {
+            o.geometry.as_ref().map(|poly| {
+                GeometryParts::new(poly, o.id, o.geom_gen)
+                    .writer(poly)
+                    .to_vec()
+            })
+        })
+        .collect();
     ModelSegments {
-        objects,
+        objects_header: ObjectsHeader::new(generation, epoch, objects.len(), model.selection()),
+        object_chunks,
         poses,
         geometry,
     }
 }
 
-/// The objects segment's last section: the index of every record with geometry, ascending.
+/// The segment of the object chunk holding `objects` (object order), the first of them object
+/// `first`, at `generation` (see [`ObjectChunkHeader`]).
+pub(crate) fn object_chunk<'a>(
+    objects: impl IntoIterator<Item = &'a Object>,
+    first: usize,
+    generation: u64,
+) -> Vec<u64> {
+    let mut recs = Vec::with_capacity(OBJECT_CHUNK);
+    let mut names = Vec::new();
+    for o in objects {
+        recs.push(object_rec(o, &mut names));
+    }
+    let header = [ObjectChunkHeader {
+        generation,
+        first: first as u64,
+        count: recs.len() as u64,
+    }];
+    let with_geometry = geometry_index(&recs);
+    let mut w = SegmentWriter::new();
+    w.push(&header)
+        .push(&recs)
+        .push(&names)
+        .push(&with_geometry);
+    w.to_vec()
+}
+
+/// Sets the generation in an object chunk's header (written by [`object_chunk`]).
+pub(crate) fn set_chunk_generation(words: &mut [u64], generation: u64) {
+    // Section 0's offset is word 2 (see `SegmentWriter`); the generation is its first word.
+    if let Some(&off) = words.get(2)
+        && let Some(w) = words.get_mut(off as usize)
+    {
+        *w = generation;
+    }
+}
+
+/// The bundle index of the object chunks `carried` — (chunk index, its segment), ascending —
+/// laid end to end, with their generations from `gens`.
+pub(crate) fn chunk_entries(gens: &[u64], carried: &[(usize, &[u64])]) -> Vec<ChunkEntry> {
+    let mut start = 0;
+    carried
+        .iter()
+        .map(|&(k, words)| {
+            let e = ChunkEntry {
+                id: k as u64,
+                generation: gens.get(k).copied().unwrap_or(0),
+                start: start as u64,
+                len: words.len() as u64,
+            };
+            start += words.len();
+            e
+        })
+        .collect()
+}
+
+/// An objects publication (see [`crate::layout`]): `header`, the generation of every chunk,
+/// and the chunks `carried` as a bundle indexed by `entries` ([`chunk_entries`]); the
+/// segments are written in place.
+pub(crate) fn objects_writer<'a>(
+    header: &'a [ObjectsHeader; 1],
+    gens: &'a [u64],
+    entries: &'a [ChunkEntry],
+    carried: &[(usize, &'a [u64])],
+) -> SegmentWriter<'a> {
+    let mut w = SegmentWriter::new();
+    w.push(header)
+        .push(gens)
+        .push(entries)
+        .push_parts(carried.iter().map(|&(_, words)| words));
+    w
+}
+
+/// An object chunk's last section: the index in the chunk of every record with geometry,
+/// ascending.
 pub(crate) fn geometry_index(recs: &[ObjectRec]) -> Vec<u64> {
     recs.iter()
         .enumerate()

@@ -8,8 +8,9 @@
 //!    changes nothing and gets its typed error;
 //! 2. appends each committed one to the journal and syncs once (group commit);
 //! 3. publishes what changed — one geometry update holding the changed objects' geometry, the
-//!    objects segment if
-//!    any structure/appearance/kinematics/dynamics changed, the pose chunks (of
+//!    objects head with the object chunks (of [`OBJECT_CHUNK`] objects each) whose records
+//!    changed if any structure/appearance/kinematics/dynamics/geometry or the selection
+//!    changed, the pose chunks (of
 //!    [`POSE_CHUNK`] objects each) holding a pose that changed, and always the poses head
 //!    (version and chunk generations), which every snapshot starts from — then the change
 //!    records. A one-body pose transaction thus publishes one chunk and the head: its cost
@@ -18,7 +19,7 @@
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
 use crate::layout::{
-    ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader,
+    ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, OBJECT_CHUNK, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader,
     SegmentWriter,
 };
 use crate::replica::{LOG_MAGIC, Log, LogAnswer, PublishedLibrary, SNAPSHOT_MAGIC, SpaceSnapshot};
@@ -51,6 +52,10 @@ pub(crate) mod events {
     /// update): publish the geometry base unless the one published is current. Implies
     /// [`HELLO`].
     pub const GEOMETRY_BASE: usize = 3;
+    /// A reader lacks object chunks (attaching, after a keeper restart, or having missed an
+    /// objects head): publish the objects base unless the one published is current. Implies
+    /// [`HELLO`].
+    pub const OBJECTS_BASE: usize = 4;
     /// On the change event: the keeper died (emitted by iceoryx2's dead-node cleanup).
     pub const KEEPER_DEAD: usize = 7;
 }
@@ -210,7 +215,17 @@ pub struct Keeper {
     ack_notifier: Notifier,
     change_notifier: Notifier,
     changes_pub: Pub,
+    /// The objects head (header, chunk generations, the chunks a structural commit changed).
     objects_pub: Pub,
+    /// The objects base (every object chunk, on request) and the (epoch, structure version) of
+    /// the last one published.
+    objects_base_pub: Pub,
+    objects_base_published: Option<(u64, u64)>,
+    /// Each object chunk's segment as last published and its generation (the structure
+    /// version it was published at); the chunks to carry with the next objects head.
+    obj_chunks: Vec<Vec<u64>>,
+    obj_gen: Vec<u64>,
+    obj_dirty: Vec<bool>,
     poses_pub: Pub,
     /// The pose base (every pose of one version, on request) and the (epoch, version) of the
     /// last one published.
@@ -442,6 +457,8 @@ impl Keeper {
         let changes_pub = publisher(&changes_svc, 64, "changes")?;
         let objects_svc = pubsub(services::OBJECTS, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let objects_pub = publisher(&objects_svc, 1024, "objects")?;
+        let objects_base_svc = pubsub(services::OBJECTS_BASE, 1, 1, MAX_HELD_SNAPSHOTS + 1)?;
+        let objects_base_pub = publisher(&objects_base_svc, 1024, "objects base")?;
         let poses_svc = pubsub(services::POSES, 2, 1, MAX_HELD_SNAPSHOTS + 1)?;
         let poses_pub = publisher(&poses_svc, 1024, "poses")?;
         let base_svc = pubsub(services::POSE_BASE, 1, 1, MAX_HELD_SNAPSHOTS + 1)?;
@@ -532,6 +549,11 @@ impl Keeper {
             change_notifier,
             changes_pub,
             objects_pub,
+            objects_base_pub,
+            objects_base_published: None,
+            obj_chunks: Vec::new(),
+            obj_gen: Vec::new(),
+            obj_dirty: Vec::new(),
             poses_pub,
             base_pub,
             base_published: None,
@@ -563,6 +585,7 @@ impl Keeper {
                 Box::new(change_event),
                 Box::new(changes_svc),
                 Box::new(objects_svc),
+                Box::new(objects_base_svc),
                 Box::new(poses_svc),
                 Box::new(base_svc),
                 Box::new(geometry_svc),
@@ -675,11 +698,12 @@ impl Keeper {
     /// group. Within the spin window after the last group ([`KeeperOptions::spin`]) the wait
     /// polls instead of blocking.
     pub fn step(&mut self, wait: Duration) -> Result<GroupStats, KeeperError> {
-        let (mut hello, mut base, mut geometry_base) = (false, false, false);
+        let (mut hello, mut base, mut geometry_base, mut objects_base) = (false, false, false, false);
         let mut on_event = |e: iceoryx2::prelude::EventId| {
             base |= e == EventId::new(events::BASE);
             geometry_base |= e == EventId::new(events::GEOMETRY_BASE);
-            hello |= e == EventId::new(events::HELLO) || base || geometry_base;
+            objects_base |= e == EventId::new(events::OBJECTS_BASE);
+            hello |= e == EventId::new(events::HELLO) || base || geometry_base || objects_base;
         };
         let mut ready = self.server.has_requests().unwrap_or(false);
         if !ready && let Some(at) = self.last_served {
@@ -707,6 +731,9 @@ impl Keeper {
         }
         if geometry_base {
             self.publish_geometry_base()?;
+        }
+        if objects_base {
+            self.publish_objects_base()?;
         }
         let mut pending = Vec::new();
         let mut applied = Vec::new();
@@ -904,6 +931,9 @@ impl Keeper {
         self.epoch = wall_clock_epoch().max(self.epoch + 1);
         self.chunk_gen.clear();
         self.chunk_dirty.clear();
+        self.obj_chunks.clear();
+        self.obj_gen.clear();
+        self.obj_dirty.clear();
         self.publish_all()?;
         let _ = self.change_notifier.notify();
         Ok(())
@@ -913,7 +943,7 @@ impl Keeper {
     /// replica's model replaced). Geometry waits for a reader to ask for the base (its epoch is
     /// new, so every reader does).
     fn publish_all(&mut self) -> Result<(), KeeperError> {
-        self.rebuild_structure()?;
+        self.rebuild_structure(None)?;
         self.publish_poses()
     }
 
@@ -962,20 +992,22 @@ impl Keeper {
             self.journal.sync()?;
         }
         let mut structure = false;
+        // Objects whose record changed (or that came or went).
+        let mut restructured: Vec<Id> = Vec::new();
         let mut geometry_changed: Vec<Id> = Vec::new();
         let mut posed: Vec<Id> = Vec::new();
         for a in applied {
             for &(id, asp) in &a.changes {
-                if asp
-                    & (aspect::STRUCTURE
-                        | aspect::APPEARANCE
-                        | aspect::KINEMATICS
-                        | aspect::DYNAMICS
-                        | aspect::GEOMETRY
-                        | aspect::SELECTION)
-                    != 0
-                {
+                let record = aspect::STRUCTURE
+                    | aspect::APPEARANCE
+                    | aspect::KINEMATICS
+                    | aspect::DYNAMICS
+                    | aspect::GEOMETRY;
+                if asp & (record | aspect::SELECTION) != 0 {
                     structure = true;
+                }
+                if asp & record != 0 {
+                    restructured.push(id);
                 }
                 if asp & aspect::GEOMETRY != 0 {
                     geometry_changed.push(id);
@@ -991,11 +1023,15 @@ impl Keeper {
             self.publish_geometry_update(&geometry_changed)?;
         }
         if structure {
-            self.rebuild_structure()?;
-        } else {
-            for id in posed {
-                if let (Some(&i), Some(o)) = (self.index.get(&id), self.model.get(id)) {
-                    self.poses[i] = crate::encode::pose_rec(o);
+            restructured.sort_unstable();
+            restructured.dedup();
+            self.rebuild_structure(Some(&restructured))?;
+        }
+        for id in posed {
+            if let (Some(&i), Some(o)) = (self.index.get(&id), self.model.get(id)) {
+                let rec = crate::encode::pose_rec(o);
+                if self.poses[i] != rec {
+                    self.poses[i] = rec;
                     if let Some(d) = self.chunk_dirty.get_mut(i / POSE_CHUNK) {
                         *d = true;
                     }
@@ -1013,6 +1049,7 @@ impl Keeper {
 
     fn update_connections(&mut self) {
         let _ = self.objects_pub.update_connections();
+        let _ = self.objects_base_pub.update_connections();
         let _ = self.poses_pub.update_connections();
         let _ = self.base_pub.update_connections();
         for (p, _) in &self.chunk_pubs {
@@ -1036,49 +1073,214 @@ impl Keeper {
         Ok(())
     }
 
-    /// Objects segment (and the pose caches' order) from the model: O(objects). Marks for
-    /// publication the pose chunks whose records differ from the last published ones (an
-    /// object added at the end touches only the last chunk).
-    fn rebuild_structure(&mut self) -> Result<(), KeeperError> {
+    /// The object chunks and the pose caches after a structural change of the objects
+    /// `changed` (ascending; `None`: everything, as when a keeper starts), then the objects
+    /// head carrying the chunks that changed. When no object came or went, only the chunks of
+    /// `changed` are encoded again, and when objects were only added after the last one (ids
+    /// grow, so a create appends) those and the chunks from the first new one:
+    /// O(changed chunks + objects / [`OBJECT_CHUNK`]). Otherwise (a delete, an object made with
+    /// a smaller id) the order, the pose records and every chunk are rebuilt — O(objects) here —
+    /// but only the chunks that differ are published (as a delete republishes the pose chunks
+    /// after it).
+    fn rebuild_structure(&mut self, changed: Option<&[Id]>) -> Result<(), KeeperError> {
         let n = self.model.len();
-        let mut recs = Vec::with_capacity(n);
-        let mut names = Vec::new();
-        let old_poses = std::mem::take(&mut self.poses);
-        self.order.clear();
-        self.index.clear();
-        self.poses.reserve(n);
-        for (i, o) in self.model.objects().enumerate() {
-            recs.push(crate::encode::object_rec(o, &mut names));
-            self.order.push(o.id);
-            self.index.insert(o.id, i);
-            self.poses.push(crate::encode::pose_rec(o));
-        }
-        let chunks = n.div_ceil(POSE_CHUNK);
-        let first_time = self.chunk_gen.is_empty();
-        self.chunk_gen.resize(chunks, 0);
-        self.chunk_dirty.resize(chunks, false);
-        for k in 0..chunks {
-            let range = k * POSE_CHUNK..((k + 1) * POSE_CHUNK).min(n);
-            if first_time || old_poses.get(range.clone()) != Some(&self.poses[range]) {
-                self.chunk_dirty[k] = true;
+        let same_objects = changed.is_some_and(|ids| {
+            n == self.order.len()
+                && self.obj_chunks.len() == n.div_ceil(OBJECT_CHUNK)
+                && ids
+                    .iter()
+                    .all(|id| self.index.contains_key(id) && self.model.get(*id).is_some())
+        });
+        // Objects only added, all after the last one (ids grow): appended to the caches.
+        let appended: Option<Vec<Id>> = changed.and_then(|ids| {
+            let last = self.order.last().copied().unwrap_or(0);
+            let new: Vec<Id> = ids
+                .iter()
+                .copied()
+                .filter(|id| !self.index.contains_key(id))
+                .collect();
+            (!same_objects
+                && !self.order.is_empty()
+                && self.obj_chunks.len() == self.order.len().div_ceil(OBJECT_CHUNK)
+                && n == self.order.len() + new.len()
+                && new.iter().all(|&id| id > last && self.model.get(id).is_some())
+                && ids
+                    .iter()
+                    .all(|id| self.model.get(*id).is_some()))
+            .then_some(new)
+        });
+        let version = self.model.version;
+        if let Some(new) = appended {
+            let start = self.order.len();
+            for id in new {
+                if let Some(o) = self.model.get(id) {
+                    self.index.insert(id, self.order.len());
+                    self.order.push(id);
+                    self.poses.push(crate::encode::pose_rec(o));
+                }
+            }
+            let chunks = n.div_ceil(POSE_CHUNK);
+            self.chunk_gen.resize(chunks, 0);
+            self.chunk_dirty.resize(chunks, false);
+            for d in &mut self.chunk_dirty[start / POSE_CHUNK..] {
+                *d = true;
+            }
+            let mut ks: Vec<usize> = changed
+                .unwrap_or(&[])
+                .iter()
+                .filter_map(|id| self.index.get(id).map(|&i| i / OBJECT_CHUNK))
+                .filter(|&k| k < start / OBJECT_CHUNK)
+                .collect();
+            ks.dedup();
+            ks.extend(start / OBJECT_CHUNK..n.div_ceil(OBJECT_CHUNK));
+            for k in ks {
+                self.encode_object_chunk(k, version);
+            }
+            for id in changed.unwrap_or(&[]) {
+                if let Some(&i) = self.index.get(id)
+                    && i < start
+                    && let Some(o) = self.model.get(*id)
+                {
+                    let rec = crate::encode::pose_rec(o);
+                    if self.poses[i] != rec {
+                        self.poses[i] = rec;
+                        self.chunk_dirty[i / POSE_CHUNK] = true;
+                    }
+                }
+            }
+        } else if same_objects {
+            let mut ks: Vec<usize> = changed
+                .unwrap_or(&[])
+                .iter()
+                .filter_map(|id| self.index.get(id).map(|&i| i / OBJECT_CHUNK))
+                .collect();
+            ks.dedup();
+            for k in ks {
+                self.encode_object_chunk(k, version);
+            }
+            // A structural change may move an object too (its pose record is compared).
+            for id in changed.unwrap_or(&[]) {
+                if let (Some(&i), Some(o)) = (self.index.get(id), self.model.get(*id)) {
+                    let rec = crate::encode::pose_rec(o);
+                    if self.poses[i] != rec {
+                        self.poses[i] = rec;
+                        self.chunk_dirty[i / POSE_CHUNK] = true;
+                    }
+                }
+            }
+        } else {
+            let old_poses = std::mem::take(&mut self.poses);
+            self.order.clear();
+            self.index.clear();
+            self.poses.reserve(n);
+            for (i, o) in self.model.objects().enumerate() {
+                self.order.push(o.id);
+                self.index.insert(o.id, i);
+                self.poses.push(crate::encode::pose_rec(o));
+            }
+            let chunks = n.div_ceil(POSE_CHUNK);
+            let first_time = self.chunk_gen.is_empty();
+            self.chunk_gen.resize(chunks, 0);
+            self.chunk_dirty.resize(chunks, false);
+            for k in 0..chunks {
+                let range = k * POSE_CHUNK..((k + 1) * POSE_CHUNK).min(n);
+                if first_time || old_poses.get(range.clone()) != Some(&self.poses[range]) {
+                    self.chunk_dirty[k] = true;
+                }
+            }
+            // Chunks past the end go with their publishers (readers stop asking for them).
+            self.chunk_pubs.truncate(chunks);
+            let chunks = n.div_ceil(OBJECT_CHUNK);
+            self.obj_chunks.truncate(chunks);
+            self.obj_gen.truncate(chunks);
+            self.obj_dirty.truncate(chunks);
+            for k in 0..chunks {
+                self.encode_object_chunk(k, version);
             }
         }
-        // Chunks past the end go with their publishers (readers stop asking for them).
-        self.chunk_pubs.truncate(chunks);
-        self.structure_version = self.model.version;
-        let header = [ObjectsHeader::new(
-            self.model.version,
+        self.structure_version = version;
+        self.publish_objects_head()
+    }
+
+    /// Encodes object chunk `k` from the model; if it differs from the one last published (or
+    /// is new) it takes generation `version` and is marked for the next objects head.
+    fn encode_object_chunk(&mut self, k: usize, version: u64) {
+        let range = k * OBJECT_CHUNK..((k + 1) * OBJECT_CHUNK).min(self.order.len());
+        let objects = self.order[range.clone()]
+            .iter()
+            .filter_map(|&id| self.model.get(id));
+        match self.obj_chunks.get_mut(k) {
+            Some(old) => {
+                let mut words = crate::encode::object_chunk(objects, range.start, self.obj_gen[k]);
+                if words != *old {
+                    crate::encode::set_chunk_generation(&mut words, version);
+                    *old = words;
+                    self.obj_gen[k] = version;
+                    self.obj_dirty[k] = true;
+                }
+            }
+            None => {
+                // Chunks are encoded in order: this one is the next.
+                self.obj_chunks
+                    .push(crate::encode::object_chunk(objects, range.start, version));
+                self.obj_gen.push(version);
+                self.obj_dirty.push(true);
+            }
+        }
+    }
+
+    fn objects_header(&self) -> [ObjectsHeader; 1] {
+        [ObjectsHeader::new(
+            self.structure_version,
             self.epoch,
-            n,
+            self.order.len(),
             self.model.selection(),
-        )];
-        let with_geometry = crate::encode::geometry_index(&recs);
-        let mut w = SegmentWriter::new();
-        w.push(&header)
-            .push(&recs)
-            .push(&names)
-            .push(&with_geometry);
-        Self::send(&self.objects_pub, &w, "objects")
+        )]
+    }
+
+    /// Publishes the objects head: the header, every chunk's generation, and the chunks marked
+    /// since the last head — none when they pass [`GEOMETRY_UPDATE_MAX_WORDS`] (readers then
+    /// take the objects base).
+    fn publish_objects_head(&mut self) -> Result<(), KeeperError> {
+        let mut carried: Vec<(usize, &[u64])> = Vec::new();
+        let mut words = 0;
+        for (k, d) in self.obj_dirty.iter().enumerate() {
+            if *d {
+                words += self.obj_chunks[k].len();
+                carried.push((k, &self.obj_chunks[k]));
+            }
+        }
+        if words > GEOMETRY_UPDATE_MAX_WORDS {
+            carried.clear();
+        }
+        let header = self.objects_header();
+        let entries = crate::encode::chunk_entries(&self.obj_gen, &carried);
+        let w = crate::encode::objects_writer(&header, &self.obj_gen, &entries, &carried);
+        Self::send(&self.objects_pub, &w, "objects")?;
+        self.obj_dirty.iter_mut().for_each(|d| *d = false);
+        Ok(())
+    }
+
+    /// Publishes the objects base — every object chunk at the current structure version —
+    /// unless the last one published is of this structure version. O(objects), once per
+    /// request, never per commit.
+    fn publish_objects_base(&mut self) -> Result<(), KeeperError> {
+        let now = (self.epoch, self.structure_version);
+        if self.objects_base_published == Some(now) {
+            return Ok(());
+        }
+        let carried: Vec<(usize, &[u64])> = self
+            .obj_chunks
+            .iter()
+            .enumerate()
+            .map(|(k, c)| (k, c.as_slice()))
+            .collect();
+        let header = self.objects_header();
+        let entries = crate::encode::chunk_entries(&self.obj_gen, &carried);
+        let w = crate::encode::objects_writer(&header, &self.obj_gen, &entries, &carried);
+        Self::send(&self.objects_base_pub, &w, "objects base")?;
+        self.objects_base_published = Some(now);
+        Ok(())
     }
 
     /// Publishes the changed pose chunks, then the head that names their generations: a

@@ -3,10 +3,19 @@
 //! (zero-copy) with `bytemuck` — no `unsafe` anywhere in this crate.
 //!
 //! A segment is `[magic, n_sections, (offset_words, len_bytes) × n, data…]`. The segments:
-//! * objects: [`ObjectsHeader`], [`ObjectRec`] × n, names (UTF-8 arena), and the index (`u64`)
-//!   of every object that has geometry, ascending — so that a reader finds the geometry it must
-//!   subscribe to without touching every record's page — one per structure
-//!   version, O(objects), no geometry;
+//! * object chunk, [`OBJECT_CHUNK`] objects in object order: [`ObjectChunkHeader`],
+//!   [`ObjectRec`] × up to [`OBJECT_CHUNK`], their names (UTF-8 arena, offsets local to the
+//!   chunk), and the index in the chunk (`u64`) of every object that has geometry, ascending —
+//!   so that a reader finds the geometry it needs without touching every record's page — never
+//!   published alone but in an objects publication:
+//! * objects publication ([`ObjectsHeader`], the generation of every object chunk, then a
+//!   bundle of object chunks: a [`ChunkEntry`] per chunk carried and their segments end to end),
+//!   on two services: the objects head, published by every structural commit with the chunks
+//!   that commit changed (O(objects / [`OBJECT_CHUNK`] + changed chunks), the chunks omitted when
+//!   they pass [`GEOMETRY_UPDATE_MAX_WORDS`]), and the objects base, every chunk at one
+//!   structure version, published only when a reader asks for it (attaching, after a keeper
+//!   restart, or having missed a head) — a reader assembles the objects of a structure version
+//!   from the chunks with exactly the generations its head names;
 //! * poses head: [`PosesHeader`] and the generation of every pose chunk — published by every
 //!   commit, O(objects / [`POSE_CHUNK`]) words;
 //! * pose chunks, one service per [`POSE_CHUNK`] objects: [`PoseChunkHeader`], [`PoseRec`] ×
@@ -46,7 +55,8 @@ pub enum LayoutError {
 /// Builds a segment: push sections, then write into a `u64` buffer of [`SegmentWriter::words`].
 #[derive(Default)]
 pub struct SegmentWriter<'a> {
-    sections: Vec<&'a [u8]>,
+    /// Each section: its parts, end to end.
+    sections: Vec<Vec<&'a [u8]>>,
 }
 
 impl<'a> SegmentWriter<'a> {
@@ -56,8 +66,18 @@ impl<'a> SegmentWriter<'a> {
         }
     }
     pub fn push<T: Pod>(&mut self, data: &'a [T]) -> &mut Self {
-        self.sections.push(bytemuck::cast_slice(data));
+        self.sections.push(vec![bytemuck::cast_slice(data)]);
         self
+    }
+    /// One section of the word slices `parts` end to end (a bundle's segments, written
+    /// without first copying them into one buffer).
+    pub fn push_parts(&mut self, parts: impl IntoIterator<Item = &'a [u64]>) -> &mut Self {
+        self.sections
+            .push(parts.into_iter().map(bytemuck::cast_slice).collect());
+        self
+    }
+    fn section_len(parts: &[&[u8]]) -> usize {
+        parts.iter().map(|p| p.len()).sum()
     }
     /// Total size in words.
     pub fn words(&self) -> usize {
@@ -65,7 +85,7 @@ impl<'a> SegmentWriter<'a> {
             + self
                 .sections
                 .iter()
-                .map(|s| s.len().div_ceil(8))
+                .map(|s| Self::section_len(s).div_ceil(8))
                 .sum::<usize>()
     }
     /// Writes the segment into `out`, which must be exactly [`Self::words`] long.
@@ -74,13 +94,18 @@ impl<'a> SegmentWriter<'a> {
         out[0] = MAGIC;
         out[1] = self.sections.len() as u64;
         let mut offset = 2 + 2 * self.sections.len();
-        for (i, s) in self.sections.iter().enumerate() {
+        for (i, parts) in self.sections.iter().enumerate() {
+            let len = Self::section_len(parts);
             out[2 + 2 * i] = offset as u64;
-            out[3 + 2 * i] = s.len() as u64;
-            let w = s.len().div_ceil(8);
+            out[3 + 2 * i] = len as u64;
+            let w = len.div_ceil(8);
             let dst: &mut [u8] = bytemuck::cast_slice_mut(&mut out[offset..offset + w]);
-            dst[..s.len()].copy_from_slice(s);
-            dst[s.len()..].fill(0);
+            let mut at = 0;
+            for p in parts {
+                dst[at..at + p.len()].copy_from_slice(p);
+                at += p.len();
+            }
+            dst[len..].fill(0);
             offset += w;
         }
     }
@@ -176,6 +201,28 @@ impl ObjectsHeader {
         })
     }
 }
+
+/// Objects per object chunk: the pose partition, so that object `i` is in chunk
+/// `i / OBJECT_CHUNK` of both. A structural change to one object republishes its chunk (≈ 84 KB
+/// of records and names) and one word per chunk.
+pub const OBJECT_CHUNK: usize = POSE_CHUNK;
+
+/// An object chunk: section 0 this header, section 1 the [`ObjectRec`]s of objects
+/// `first..first + count` (object order), section 2 their names, section 3 (`u64`) the index in
+/// the chunk of each object with geometry, ascending.
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct ObjectChunkHeader {
+    /// The structure version at which this chunk was last published.
+    pub generation: u64,
+    /// Index of the first object in this chunk.
+    pub first: u64,
+    pub count: u64,
+}
+
+/// Where one chunk's segment is in a bundle's words: the key (an object chunk's index, or in a
+/// geometry bundle the object's id), its generation, and its word range.
+pub type ChunkEntry = GeometryEntry;
 
 /// `ObjectRec::flags` bits.
 pub mod flags {

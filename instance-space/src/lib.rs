@@ -53,7 +53,12 @@ pub mod services {
     pub const REQUESTS: &str = "space/tx";
     pub const REQUEST_EVENT: &str = "space/tx-event";
     pub const ACK_EVENT: &str = "space/ack-event";
+    /// The objects head: the objects' header, every object chunk's generation, and the chunks
+    /// the last structural commit changed (see [`crate::layout`]).
     pub const OBJECTS: &str = "space/objects";
+    /// The objects base: every object chunk of one structure version, published on a reader's
+    /// request.
+    pub const OBJECTS_BASE: &str = "space/objects-base";
     /// The poses head (version and chunk generations); the chunks are [`pose_chunk`].
     pub const POSES: &str = "space/poses";
     /// The pose base: every pose of one version, published on a reader's request (see

@@ -1,8 +1,8 @@
 //! Readers: map the keeper's published model and follow its changes.
 //!
 //! A [`Snapshot`] holds the iceoryx2 samples of one consistent version — the pose chunks the
-//! poses head names, the objects segment it is indexed against, and the geometry samples those
-//! objects reference — and views them in place: reading the model copies nothing, whatever its size. Holding a
+//! poses head names, the object chunks of the structure version it is indexed against, and the
+//! geometry those objects reference — and views them in place: reading the model copies nothing, whatever its size. Holding a
 //! snapshot keeps its version alive while the keeper publishes newer ones (up to
 //! `MAX_HELD_SNAPSHOTS` older snapshots per reader at a time).
 //!
@@ -12,9 +12,9 @@
 
 use crate::keeper::events;
 use crate::layout::{
-    ChangeRec, GeometryBundleHeader, GeometryEntry, GeometryHeader, LayoutError, ObjectRec,
-    ObjectsHeader, POSE_CHUNK, PolygonRec, PoseChunkHeader, PoseRec, PosesHeader, Segment, flags,
-    geometry_sections as gs,
+    ChangeRec, ChunkEntry, GeometryBundleHeader, GeometryHeader, LayoutError, OBJECT_CHUNK,
+    ObjectChunkHeader, ObjectRec, ObjectsHeader, POSE_CHUNK, PolygonRec, PoseChunkHeader, PoseRec,
+    PosesHeader, Segment, flags, geometry_sections as gs,
 };
 use crate::services;
 use crate::session::{Session, SessionError};
@@ -82,7 +82,16 @@ pub struct Change {
 pub struct Snapshot {
     version: u64,
     epoch: u64,
-    objects: Rc<Words>,
+    /// The objects' header (structure version, count, selection) and every object chunk's
+    /// generation, as the objects head named them; shared by the snapshots of one structure
+    /// version.
+    head: Rc<ObjectsHead>,
+    /// The object chunks of that structure version, in object order ([`OBJECT_CHUNK`] objects
+    /// each, the last maybe fewer): where each one's records, names and geometry index are. A
+    /// chunk unchanged between structure versions is the same memory in the snapshots of both.
+    objects: Vec<ObjSrc>,
+    /// [`Snapshot::objects`] as one slice, assembled on first use when there are several chunks.
+    objects_flat: std::cell::OnceCell<Vec<ObjectRec>>,
     /// Where each pose chunk of this version is, in object order (one chunk holding every pose
     /// for a process-local snapshot): its own chunk sample, or its range of a pose base. A
     /// chunk unchanged between versions is the same sample, shared by the snapshots of both.
@@ -91,9 +100,88 @@ pub struct Snapshot {
     chunk_len: usize,
     /// [`Snapshot::poses`] as one slice, assembled on first use when there are several chunks.
     flat: std::cell::OnceCell<Vec<PoseRec>>,
-    /// By object index; `None` for objects without geometry. Shared by the snapshots of one
-    /// objects segment (a pose change does not touch it).
-    geometry: Rc<Vec<Option<GeomSrc>>>,
+    /// By object chunk, then index in it; `None` for objects without geometry. A chunk's table
+    /// is shared by the snapshots that share the chunk (a pose change touches none).
+    geometry: Vec<Rc<Vec<Option<GeomSrc>>>>,
+}
+
+/// An objects head as a reader keeps it: the header and the chunks' generations (copied).
+struct ObjectsHead {
+    header: ObjectsHeader,
+    gens: Vec<u64>,
+}
+
+/// One object chunk's segment: all of `words` (a copy this process owns), or words
+/// `start..start + len` of section 3 of an objects publication (a base). Checked when the
+/// snapshot was assembled.
+#[derive(Clone)]
+struct ObjSrc {
+    words: Rc<Words>,
+    range: Option<(usize, usize)>,
+    generation: u64,
+}
+
+impl ObjSrc {
+    fn segment(&self) -> Segment<'_> {
+        let words = self.words.words();
+        let seg = match self.range {
+            None => Segment::parse(words).ok(),
+            Some((start, len)) => Segment::parse(words)
+                .ok()
+                .and_then(|s| s.section::<u64>(3).ok())
+                .and_then(|d| d.get(start..start + len))
+                .and_then(|w| Segment::parse(w).ok()),
+        };
+        // Checked when the snapshot was assembled ([`ObjSrc::check`]).
+        #[allow(clippy::redundant_closure)]
+        seg.unwrap_or_else(|| unreachable_segment())
+    }
+    fn records(&self) -> &[ObjectRec] {
+        self.segment().section(1).unwrap_or(&[])
+    }
+    fn names(&self) -> &[u8] {
+        self.segment().section(2).unwrap_or(&[])
+    }
+    /// Checks the chunk is chunk `k` of `count` objects, its names and geometry index sound;
+    /// returns its objects with geometry: (index in the chunk, id, geometry generation).
+    fn check(&self, k: usize, count: usize) -> Result<Vec<(usize, Id, u64)>, ReaderError> {
+        let words = self.words.words();
+        let seg = match self.range {
+            None => Segment::parse(words)?,
+            Some((start, len)) => {
+                let data = Segment::parse(words)?.section::<u64>(3)?;
+                let w = start
+                    .checked_add(len)
+                    .and_then(|end| data.get(start..end))
+                    .ok_or(LayoutError::Section(2))?;
+                Segment::parse(w)?
+            }
+        };
+        let h: ObjectChunkHeader = *seg.record(0)?;
+        let recs = seg.section::<ObjectRec>(1)?;
+        let names = seg.section::<u8>(2)?.len();
+        if h.first as usize != k * OBJECT_CHUNK || h.count as usize != count || recs.len() != count
+        {
+            return Err(LayoutError::Section(1).into());
+        }
+        let in_names = |off: u32, len: u32| (off as usize).checked_add(len as usize).is_some_and(|e| e <= names);
+        if !recs
+            .iter()
+            .all(|r| in_names(r.name_off, r.name_len) && in_names(r.origin_off, r.origin_len))
+        {
+            return Err(LayoutError::Section(2).into());
+        }
+        let mut out: Vec<(usize, Id, u64)> = Vec::new();
+        for &j in seg.section::<u64>(3)? {
+            let r = recs.get(j as usize).ok_or(LayoutError::Section(3))?;
+            if r.flags & flags::HAS_GEOMETRY == 0 || out.last().is_some_and(|l| l.0 >= j as usize)
+            {
+                return Err(LayoutError::Section(3).into());
+            }
+            out.push((j as usize, r.id, r.geom_gen));
+        }
+        Ok(out)
+    }
 }
 
 /// One object's geometry segment: all of `words` (a copy this process owns), or words
@@ -221,20 +309,37 @@ impl Snapshot {
             .enumerate()
             .map(|(k, recs)| Self::owned_chunk(0, model.version, k * POSE_CHUNK, recs))
             .collect();
+        let generation = segs.objects_header.version;
+        let geometry: Vec<Option<GeomSrc>> = segs
+            .geometry
+            .into_iter()
+            .zip(model.objects())
+            .map(|(g, o)| g.map(|w| GeomSrc::owned(w, o.geom_gen)))
+            .collect();
         Snapshot {
             version: model.version,
             epoch: 0,
-            objects: Rc::new(Words::Owned(segs.objects)),
+            head: Rc::new(ObjectsHead {
+                header: segs.objects_header,
+                gens: vec![generation; segs.object_chunks.len()],
+            }),
+            objects: segs
+                .object_chunks
+                .into_iter()
+                .map(|w| ObjSrc {
+                    words: Rc::new(Words::Owned(w)),
+                    range: None,
+                    generation,
+                })
+                .collect(),
+            objects_flat: std::cell::OnceCell::new(),
             poses,
             chunk_len: POSE_CHUNK,
             flat: std::cell::OnceCell::new(),
-            geometry: Rc::new(
-                segs.geometry
-                    .into_iter()
-                    .zip(model.objects())
-                    .map(|(g, o)| g.map(|w| GeomSrc::owned(w, o.geom_gen)))
-                    .collect(),
-            ),
+            geometry: geometry
+                .chunks(OBJECT_CHUNK)
+                .map(|c| Rc::new(c.to_vec()))
+                .collect(),
         }
     }
 
@@ -285,7 +390,9 @@ impl Snapshot {
         Snapshot {
             version,
             epoch: self.epoch,
+            head: self.head.clone(),
             objects: self.objects.clone(),
+            objects_flat: std::cell::OnceCell::new(),
             poses,
             chunk_len,
             flat: std::cell::OnceCell::new(),
@@ -301,24 +408,37 @@ impl Snapshot {
         self.epoch
     }
     pub fn len(&self) -> usize {
-        self.objects().len()
+        self.head.header.count as usize
     }
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
     pub(crate) fn objects_header(&self) -> ObjectsHeader {
-        Self::seg(&self.objects)
-            .record::<ObjectsHeader>(0)
-            .copied()
-            .unwrap_or(bytemuck::Zeroable::zeroed())
+        self.head.header
     }
     /// The session's selection at this version (the display's last pick), if any.
     pub fn selection(&self) -> Option<crate::Selection> {
         self.objects_header().selection()
     }
-    /// Every object, sorted by id.
+    /// Every object, sorted by id. In place when the model fits one object chunk; otherwise
+    /// the chunks are copied into one array on the first call (O(objects), once per snapshot)
+    /// — [`Snapshot::rec`], [`Snapshot::object`] and [`Snapshot::index_of`] read in place.
     pub fn objects(&self) -> &[ObjectRec] {
-        Self::seg(&self.objects).section(1).unwrap_or(&[])
+        match self.objects.as_slice() {
+            [] => &[],
+            [one] => one.records(),
+            many => self.objects_flat.get_or_init(|| {
+                let mut v = Vec::with_capacity(self.len());
+                for c in many {
+                    v.extend_from_slice(c.records());
+                }
+                v
+            }),
+        }
+    }
+    /// The record of object `i`, in place. Panics if `i` is out of range, like indexing.
+    pub fn rec(&self, i: usize) -> &ObjectRec {
+        &self.objects[i / OBJECT_CHUNK].records()[i % OBJECT_CHUNK]
     }
     /// Every object's local pose, same order as [`Snapshot::objects`]. In place when the
     /// model fits one pose chunk or every chunk is still as in one pose base; otherwise the
@@ -351,29 +471,38 @@ impl Snapshot {
     fn chunk(&self, k: usize) -> &[PoseRec] {
         self.poses.get(k).map_or(&[], PoseSrc::records)
     }
-    pub fn name(&self, i: usize) -> &str {
-        let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
-        let r = &self.objects()[i];
+    /// Bytes `off..off + len` of the names of object `i`'s chunk, as text.
+    fn text(&self, i: usize, off: u32, len: u32) -> &str {
+        let names = self.objects[i / OBJECT_CHUNK].names();
         names
-            .get(r.name_off as usize..(r.name_off + r.name_len) as usize)
+            .get(off as usize..off as usize + len as usize)
             .and_then(|b| std::str::from_utf8(b).ok())
             .unwrap_or("")
+    }
+    pub fn name(&self, i: usize) -> &str {
+        let r = self.rec(i);
+        self.text(i, r.name_off, r.name_len)
     }
     /// The origin record of an instance (see [`crate::Op::SetOrigin`]); empty otherwise.
     pub fn origin(&self, i: usize) -> &str {
-        let names: &[u8] = Self::seg(&self.objects).section(2).unwrap_or(&[]);
-        let r = &self.objects()[i];
-        names
-            .get(r.origin_off as usize..(r.origin_off + r.origin_len) as usize)
-            .and_then(|b| std::str::from_utf8(b).ok())
-            .unwrap_or("")
+        let r = self.rec(i);
+        self.text(i, r.origin_off, r.origin_len)
     }
+    /// The index of object `id`: a binary search over the chunks' first ids, then in one chunk.
     pub fn index_of(&self, id: Id) -> Option<usize> {
-        self.objects().binary_search_by_key(&id, |r| r.id).ok()
+        let k = self
+            .objects
+            .partition_point(|c| c.records().first().is_some_and(|r| r.id <= id))
+            .checked_sub(1)?;
+        let j = self.objects[k]
+            .records()
+            .binary_search_by_key(&id, |r| r.id)
+            .ok()?;
+        Some(k * OBJECT_CHUNK + j)
     }
     pub fn object(&self, i: usize) -> ObjectView<'_> {
         ObjectView {
-            rec: &self.objects()[i],
+            rec: self.rec(i),
             pose: self.pose(i),
             name: self.name(i),
         }
@@ -394,7 +523,7 @@ impl Snapshot {
             }
             let mut at = i;
             for want in above.iter().rev() {
-                match self.index_of(self.objects()[at].parent) {
+                match self.index_of(self.rec(at).parent) {
                     Some(p) if self.name(p) == *want => at = p,
                     _ => return false,
                 }
@@ -402,8 +531,14 @@ impl Snapshot {
             true
         })
     }
+    fn geom_src(&self, i: usize) -> Option<&GeomSrc> {
+        self.geometry
+            .get(i / OBJECT_CHUNK)?
+            .get(i % OBJECT_CHUNK)?
+            .as_ref()
+    }
     pub fn geometry(&self, i: usize) -> Option<GeometryView<'_>> {
-        let seg = self.geometry.get(i)?.as_ref()?.segment()?;
+        let seg = self.geom_src(i)?.segment()?;
         Some(GeometryView {
             header: seg.record(gs::HEADER).ok()?,
             vertices: seg.section(gs::VERTICES).ok()?,
@@ -424,14 +559,14 @@ impl Snapshot {
     /// 3×4 row-major.
     pub fn world_pose(&self, i: usize) -> [f64; 12] {
         let mut m = self.pose(i).pose;
-        let mut parent = self.objects()[i].parent;
+        let mut parent = self.rec(i).parent;
         let mut guard = self.len();
         while parent != 0 && guard > 0 {
             let Some(p) = self.index_of(parent) else {
                 break;
             };
             m = compose(&self.pose(p).pose, &m);
-            parent = self.objects()[p].parent;
+            parent = self.rec(p).parent;
             guard -= 1;
         }
         m
@@ -545,6 +680,31 @@ struct GeomUpdate {
     geometry: GeomSrc,
 }
 
+/// In a bundle (`entries` the section of its [`ChunkEntry`]s, ascending by key, the next section
+/// their words): the word range of `key` at `generation`, if the bundle holds it.
+fn bundle_find(
+    words: &[u64],
+    entries: usize,
+    key: u64,
+    generation: u64,
+) -> Result<Option<(usize, usize)>, ReaderError> {
+    let seg = Segment::parse(words)?;
+    let list = seg.section::<ChunkEntry>(entries)?;
+    let Ok(k) = list.binary_search_by_key(&key, |e| e.id) else {
+        return Ok(None);
+    };
+    let e = list[k];
+    if e.generation != generation {
+        return Ok(None);
+    }
+    let (start, len) = (e.start as usize, e.len as usize);
+    let data = seg.section::<u64>(entries + 1)?.len();
+    if start.checked_add(len).is_none_or(|end| end > data) {
+        return Err(LayoutError::Section(entries).into());
+    }
+    Ok(Some((start, len)))
+}
+
 /// A received geometry bundle (a base), its header checked.
 struct GeomBase {
     words: Rc<Words>,
@@ -563,26 +723,50 @@ impl GeomBase {
         if self.head.epoch != epoch {
             return Ok(None);
         }
-        let seg = Segment::parse(self.words.words())?;
-        let entries = seg.section::<GeometryEntry>(1)?;
-        let Ok(k) = entries.binary_search_by_key(&id, |e| e.id) else {
-            return Ok(None);
-        };
-        let e = entries[k];
-        if e.generation != generation {
-            return Ok(None);
-        }
-        let (start, len) = (e.start as usize, e.len as usize);
-        let data = seg.section::<u64>(2)?.len();
-        if start.checked_add(len).is_none_or(|end| end > data) {
-            return Err(LayoutError::Section(1).into());
-        }
-        Ok(Some(GeomSrc {
-            words: self.words.clone(),
-            range: Some((start, len)),
-            generation,
-        }))
+        Ok(
+            bundle_find(self.words.words(), 1, id, generation)?.map(|range| GeomSrc {
+                words: self.words.clone(),
+                range: Some(range),
+                generation,
+            }),
+        )
     }
+}
+
+/// A received objects base, its header checked.
+struct ObjBase {
+    words: Rc<Words>,
+    head: ObjectsHeader,
+}
+
+impl ObjBase {
+    fn parse(s: Sample) -> Result<ObjBase, ReaderError> {
+        let words = Rc::new(Words::Shared(s));
+        let head = *Segment::parse(words.words())?.record::<ObjectsHeader>(0)?;
+        Ok(ObjBase { words, head })
+    }
+
+    /// Object chunk `k` at `generation` of `epoch`, if this base holds it.
+    fn find(&self, epoch: u64, k: usize, generation: u64) -> Result<Option<ObjSrc>, ReaderError> {
+        if self.head.epoch != epoch {
+            return Ok(None);
+        }
+        Ok(
+            bundle_find(self.words.words(), 2, k as u64, generation)?.map(|range| ObjSrc {
+                words: self.words.clone(),
+                range: Some(range),
+                generation,
+            }),
+        )
+    }
+}
+
+/// An object chunk as an objects head brought it (copied out of the head's sample).
+struct ObjUpdate {
+    epoch: u64,
+    /// The head's structure version.
+    version: u64,
+    chunk: ObjSrc,
 }
 
 /// The Library Space as published ([`Reader::library`]).
@@ -617,7 +801,14 @@ pub struct Reader {
     base_sub: Sub,
     /// The newest pose base received.
     base: Option<Base>,
-    latest_objects: Option<Rc<Words>>,
+    /// The newest objects head received, and the object chunks heads brought that no snapshot
+    /// took yet (by chunk index).
+    latest_head: Option<Rc<ObjectsHead>>,
+    obj_updates: HashMap<usize, ObjUpdate>,
+    objects_base_sub: Sub,
+    /// The newest objects base received, and how many times this reader asked for one.
+    objects_base: Option<ObjBase>,
+    objects_bases_asked: u64,
     current: Option<Rc<Snapshot>>,
     log: VecDeque<Change>,
     /// Highest change version seen (0 = none yet).
@@ -646,6 +837,11 @@ impl Reader {
                 .map_err(|e| no_keeper(suffix, &e))
         };
         let objects_svc = open(services::OBJECTS)?;
+        let objects_base_svc = open(services::OBJECTS_BASE)?;
+        let objects_base_sub = objects_base_svc
+            .subscriber_builder()
+            .create()
+            .map_err(ipc("subscribe objects base"))?;
         let poses_svc = open(services::POSES)?;
         let changes_svc = open(services::CHANGES)?;
         let base_svc = open(services::POSE_BASE)?;
@@ -709,7 +905,11 @@ impl Reader {
             chunks: Vec::new(),
             base_sub,
             base: None,
-            latest_objects: None,
+            latest_head: None,
+            obj_updates: HashMap::new(),
+            objects_base_sub,
+            objects_base: None,
+            objects_bases_asked: 0,
             current: None,
             log: VecDeque::new(),
             seen: 0,
@@ -718,6 +918,7 @@ impl Reader {
             timeout: Duration::from_secs(10),
             _services: vec![
                 Box::new(objects_svc),
+                Box::new(objects_base_svc),
                 Box::new(poses_svc),
                 Box::new(changes_svc),
                 Box::new(base_svc),
@@ -765,6 +966,13 @@ impl Reader {
     /// update for (too large for one, or missed while this reader did not follow).
     pub fn geometry_bases_asked(&self) -> u64 {
         self.geometry_bases_asked
+    }
+
+    /// How many times this reader asked the keeper for the objects base: once to attach, then
+    /// only after a keeper restart or a structural change whose chunks it did not get from an
+    /// objects head (too many at once, or heads missed while it did not follow).
+    pub fn objects_bases_asked(&self) -> u64 {
+        self.objects_bases_asked
     }
 
     /// The size in words of the geometry base this reader holds (0 without one).
@@ -818,110 +1026,191 @@ impl Reader {
         deadline: Instant,
     ) -> Result<Option<Snapshot>, ReaderError> {
         let h: PosesHeader = *Segment::parse(head.payload())?.record::<PosesHeader>(0)?;
-        // The objects segment the head is indexed against; it was published before the head.
+        // The objects head of the structure version the poses head is indexed against; it was
+        // published before the poses head.
         loop {
-            if let Some(o) = &self.latest_objects {
-                let oh: ObjectsHeader = *Segment::parse(o.words())?.record::<ObjectsHeader>(0)?;
-                if oh.version == h.structure_version && oh.epoch == h.epoch {
+            self.receive_objects_heads()?;
+            if let Some(o) = &self.latest_head {
+                let oh = o.header;
+                if oh.epoch == h.epoch && oh.version == h.structure_version {
                     break;
                 }
-                if oh.version > h.structure_version && oh.epoch == h.epoch {
-                    // Structure moved on after this head.
+                if oh.epoch > h.epoch || (oh.epoch == h.epoch && oh.version > h.structure_version)
+                {
+                    // Structure moved on after this head (or a new keeper started).
                     return Ok(None);
                 }
             }
-            match self.objects.receive().map_err(ipc("receive objects"))? {
-                Some(s) => self.latest_objects = Some(Rc::new(Words::Shared(s))),
-                None if Instant::now() > deadline => {
-                    return Err(ReaderError::Timeout(self.timeout));
-                }
-                None => std::thread::sleep(Duration::from_micros(50)),
+            if Instant::now() > deadline {
+                return Err(ReaderError::Timeout(self.timeout));
             }
+            std::thread::sleep(Duration::from_micros(50));
         }
-        let objects = self
-            .latest_objects
+        let objects_head = self
+            .latest_head
             .clone()
             .ok_or(ReaderError::Timeout(self.timeout))?;
-        // Same objects segment as the current snapshot (a pose-only change): same geometry.
+        let n = objects_head.header.count as usize;
+        // Same structure as the current snapshot (a pose-only change): same objects, geometry.
         if let Some(cur) = &self.current
-            && Rc::ptr_eq(&cur.objects, &objects)
+            && Rc::ptr_eq(&cur.head, &objects_head)
         {
-            let geometry = cur.geometry.clone();
-            let n = cur.len();
+            let (objects, geometry) = (cur.objects.clone(), cur.geometry.clone());
             let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
                 return Ok(None);
             };
             return Ok(Some(Snapshot {
                 version: h.version,
                 epoch: h.epoch,
+                head: objects_head,
                 objects,
+                objects_flat: std::cell::OnceCell::new(),
                 poses,
                 chunk_len: (h.chunk_len as usize).max(1),
                 flat: std::cell::OnceCell::new(),
                 geometry,
             }));
         }
-        // The objects with geometry, from the segment's index of them: the records of the
-        // others are not touched (at 10⁵ objects, reading every record faulted in 32 MB of
-        // shared memory per attach). (index, id, generation).
-        let (n_objects, recs) = {
-            let seg = Segment::parse(objects.words())?;
-            let all = seg.section::<ObjectRec>(1)?;
-            let mut recs: Vec<(usize, Id, u64)> = Vec::new();
-            for &i in seg.section::<u64>(3)? {
-                let r = all.get(i as usize).ok_or(LayoutError::Section(3))?;
-                if r.flags & flags::HAS_GEOMETRY == 0
-                    || recs.last().is_some_and(|l| l.0 >= i as usize)
-                {
-                    return Err(LayoutError::Section(3).into());
-                }
-                recs.push((i as usize, r.id, r.geom_gen));
-            }
-            (all.len(), recs)
-        };
-        let Some(geometry) = self.collect_geometry(&h, n_objects, &recs, deadline)? else {
+        let Some((objects, geometry)) = self.collect_objects(&h, &objects_head, deadline)? else {
             return Ok(None);
         };
-        let Some(poses) = self.collect_pose_chunks(head, &h, n_objects, deadline)? else {
+        let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
             // A chunk newer than this head: a newer head follows.
             return Ok(None);
         };
         Ok(Some(Snapshot {
             version: h.version,
             epoch: h.epoch,
+            head: objects_head,
             objects,
+            objects_flat: std::cell::OnceCell::new(),
             poses,
             chunk_len: (h.chunk_len as usize).max(1),
             flat: std::cell::OnceCell::new(),
-            geometry: Rc::new(geometry),
+            geometry,
         }))
     }
 
-    /// The geometry of the objects `recs` ((index, id, generation), the objects with geometry
-    /// at structure version `h.structure_version`): as the current snapshot holds it, from a
-    /// geometry update, or from the geometry base — asked for when something is in none of
-    /// them. `None` when the base is newer than the head (a newer head follows).
+    /// The object chunks `oh` names, each at its generation — as the current snapshot holds
+    /// it (with its geometry table), from an objects head, or from the objects base, asked for
+    /// when some are in none of them — and the geometry tables of those not held. `None` when
+    /// the base is newer than the head (a newer head follows).
+    #[allow(clippy::type_complexity)]
+    fn collect_objects(
+        &mut self,
+        h: &PosesHeader,
+        oh: &ObjectsHead,
+        deadline: Instant,
+    ) -> Result<Option<(Vec<ObjSrc>, Vec<Rc<Vec<Option<GeomSrc>>>>)>, ReaderError> {
+        let n = oh.header.count as usize;
+        let chunks = n.div_ceil(OBJECT_CHUNK);
+        if oh.gens.len() != chunks {
+            return Err(LayoutError::Section(1).into());
+        }
+        let count_of = |k: usize| OBJECT_CHUNK.min(n - k * OBJECT_CHUNK);
+        self.receive_objects_base()?;
+        let cur = self.current.clone().filter(|c| c.epoch == h.epoch);
+        // (chunk, its geometry table when held by the current snapshot)
+        let mut found: Vec<Option<(ObjSrc, Option<Rc<Vec<Option<GeomSrc>>>>)>> =
+            Vec::with_capacity(chunks);
+        let mut missing = Vec::new();
+        for (k, &generation) in oh.gens.iter().enumerate() {
+            let held = cur.as_ref().and_then(|c| {
+                let src = c.objects.get(k).filter(|o| o.generation == generation)?;
+                (src.records().len() == count_of(k))
+                    .then(|| (src.clone(), c.geometry.get(k).cloned()))
+            });
+            let got = match held {
+                Some((src, table)) => Some((src, table)),
+                None => match self.obj_updates.get(&k) {
+                    Some(u) if u.epoch == h.epoch && u.chunk.generation == generation => {
+                        Some((u.chunk.clone(), None))
+                    }
+                    _ => match &self.objects_base {
+                        Some(b) => b.find(h.epoch, k, generation)?.map(|c| (c, None)),
+                        None => None,
+                    },
+                },
+            };
+            if got.is_none() {
+                missing.push(k);
+            }
+            found.push(got);
+        }
+        if !missing.is_empty() {
+            let base = self.wait_objects_base(h, deadline)?;
+            if base.head.epoch != h.epoch {
+                return Ok(None);
+            }
+            for &k in &missing {
+                match base.find(h.epoch, k, oh.gens[k])? {
+                    Some(c) => found[k] = Some((c, None)),
+                    // The base is newer than this head (a newer head follows)…
+                    None if base.head.version > h.structure_version => return Ok(None),
+                    // …or does not hold what its own head names.
+                    None => return Err(LayoutError::Section(2).into()),
+                }
+            }
+        }
+        let mut objects = Vec::with_capacity(chunks);
+        let mut geometry = Vec::with_capacity(chunks);
+        // The objects with geometry of the chunks not held: (chunk, index in it, id, generation).
+        let mut want: Vec<(usize, usize, Id, u64)> = Vec::new();
+        for (k, f) in found.into_iter().enumerate() {
+            let (src, table) = f.ok_or(LayoutError::Section(1))?;
+            match table {
+                Some(t) => geometry.push(t),
+                None => {
+                    for (j, id, generation) in src.check(k, count_of(k))? {
+                        want.push((k, j, id, generation));
+                    }
+                    geometry.push(Rc::new(vec![None; count_of(k)]));
+                }
+            }
+            objects.push(src);
+        }
+        if !want.is_empty() {
+            let Some(found) = self.collect_geometry(h, &want, deadline)? else {
+                return Ok(None);
+            };
+            for ((k, j, _, _), g) in want.iter().zip(found) {
+                if let Some(t) = geometry.get_mut(*k).and_then(Rc::get_mut)
+                    && let Some(slot) = t.get_mut(*j)
+                {
+                    *slot = Some(g);
+                }
+            }
+        }
+        // What heads up to this structure version brought is in this snapshot (which holds it
+        // from now on) or superseded; newer ones wait for the next head.
+        self.obj_updates
+            .retain(|_, u| u.epoch == h.epoch && u.version > h.structure_version);
+        Ok(Some((objects, geometry)))
+    }
+
+    /// The geometry of the objects `want` ((chunk, index in it, id, generation), objects with
+    /// geometry at structure version `h.structure_version`), in that order: as the current
+    /// snapshot holds it, from a geometry update, or from the geometry base — asked for when
+    /// something is in none of them. `None` when the base is newer than the head (a newer head
+    /// follows).
     fn collect_geometry(
         &mut self,
         h: &PosesHeader,
-        n_objects: usize,
-        recs: &[(usize, Id, u64)],
+        want: &[(usize, usize, Id, u64)],
         deadline: Instant,
-    ) -> Result<Option<Vec<Option<GeomSrc>>>, ReaderError> {
+    ) -> Result<Option<Vec<GeomSrc>>, ReaderError> {
         self.receive_geometry_updates()?;
         self.receive_geometry_base()?;
         let cur = self.current.clone().filter(|c| c.epoch == h.epoch);
         let held = |id: Id, generation: u64| {
             let c = cur.as_ref()?;
-            c.geometry
-                .get(c.index_of(id)?)?
-                .as_ref()
+            c.geom_src(c.index_of(id)?)
                 .filter(|g| g.generation == generation)
                 .cloned()
         };
-        let mut geometry: Vec<Option<GeomSrc>> = vec![None; n_objects];
+        let mut geometry: Vec<Option<GeomSrc>> = Vec::with_capacity(want.len());
         let mut missing = Vec::new();
-        for &(i, id, generation) in recs {
+        for (w, &(_, _, id, generation)) in want.iter().enumerate() {
             let found = match self.geometry.get(&id) {
                 Some(u) if u.epoch == h.epoch && u.geometry.generation == generation => {
                     Some(u.geometry.clone())
@@ -933,22 +1222,23 @@ impl Reader {
                 (None, Some(b)) => b.find(h.epoch, id, generation)?,
                 (None, None) => None,
             };
-            match found {
-                Some(g) => geometry[i] = Some(g),
-                None => missing.push((i, id, generation)),
+            if found.is_none() {
+                missing.push(w);
             }
+            geometry.push(found);
         }
         if !missing.is_empty() {
             let base = self.wait_geometry_base(h, deadline)?;
             if base.head.epoch != h.epoch {
                 return Ok(None);
             }
-            for &(i, id, generation) in &missing {
+            for &w in &missing {
+                let (_, _, id, generation) = want[w];
                 match base.find(h.epoch, id, generation)? {
-                    Some(g) => geometry[i] = Some(g),
+                    Some(g) => geometry[w] = Some(g),
                     // The base is newer than this head (a newer head follows)…
                     None if base.head.version > h.structure_version => return Ok(None),
-                    // …or does not hold what the objects segment of its own version names.
+                    // …or does not hold what the objects of its own version name.
                     None => return Err(LayoutError::Section(1).into()),
                 }
             }
@@ -957,7 +1247,74 @@ impl Reader {
         // it from now on) or superseded; newer ones wait for the next head.
         self.geometry
             .retain(|_, u| u.epoch == h.epoch && u.version > h.structure_version);
-        Ok(Some(geometry))
+        Ok(Some(
+            geometry
+                .into_iter()
+                .map(|g| g.ok_or(LayoutError::Section(1)))
+                .collect::<Result<_, _>>()?,
+        ))
+    }
+
+    /// Takes every objects head published since the last call: the newest becomes
+    /// `latest_head`, and the chunks they carry are copied out (the samples are released).
+    fn receive_objects_heads(&mut self) -> Result<(), ReaderError> {
+        while let Some(s) = self.objects.receive().map_err(ipc("receive objects"))? {
+            let seg = Segment::parse(s.payload())?;
+            let header: ObjectsHeader = *seg.record(0)?;
+            let gens = seg.section::<u64>(1)?.to_vec();
+            let data = seg.section::<u64>(3)?;
+            for e in seg.section::<ChunkEntry>(2)? {
+                let words = data
+                    .get(e.start as usize..)
+                    .and_then(|d| d.get(..e.len as usize))
+                    .ok_or(LayoutError::Section(2))?;
+                self.obj_updates.insert(
+                    e.id as usize,
+                    ObjUpdate {
+                        epoch: header.epoch,
+                        version: header.version,
+                        chunk: ObjSrc {
+                            words: Rc::new(Words::Owned(words.to_vec())),
+                            range: None,
+                            generation: e.generation,
+                        },
+                    },
+                );
+            }
+            self.latest_head = Some(Rc::new(ObjectsHead { header, gens }));
+        }
+        Ok(())
+    }
+
+    /// Takes the newest objects base published, if one came since the last call.
+    fn receive_objects_base(&mut self) -> Result<(), ReaderError> {
+        if let Some(s) = newest(&self.objects_base_sub, "objects base")? {
+            self.objects_base = Some(ObjBase::parse(s)?);
+        }
+        Ok(())
+    }
+
+    /// Asks the keeper for an objects base and waits for one of head `h`'s structure version
+    /// or newer (or of a newer keeper).
+    fn wait_objects_base(
+        &mut self,
+        h: &PosesHeader,
+        deadline: Instant,
+    ) -> Result<&ObjBase, ReaderError> {
+        let fresh = |b: &ObjBase| {
+            b.head.epoch > h.epoch
+                || (b.head.epoch == h.epoch && b.head.version >= h.structure_version)
+        };
+        if !self.objects_base.as_ref().is_some_and(fresh) {
+            self.objects_bases_asked += 1;
+            self.ask_until(events::OBJECTS_BASE, deadline, |r| {
+                r.receive_objects_base()?;
+                Ok(r.objects_base.as_ref().is_some_and(fresh))
+            })?;
+        }
+        self.objects_base
+            .as_ref()
+            .ok_or(ReaderError::Timeout(self.timeout))
     }
 
     /// Copies the geometry of every update received since the last call (the update samples
@@ -971,7 +1328,7 @@ impl Reader {
             let seg = Segment::parse(s.payload())?;
             let head: GeometryBundleHeader = *seg.record(0)?;
             let data = seg.section::<u64>(2)?;
-            for e in seg.section::<GeometryEntry>(1)? {
+            for e in seg.section::<ChunkEntry>(1)? {
                 let words = data
                     .get(e.start as usize..)
                     .and_then(|d| d.get(..e.len as usize))
