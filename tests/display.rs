@@ -220,7 +220,7 @@ fn a_session_display_redraws_a_moved_link_uploading_its_transforms_only() {
     });
     let link = snap.find("shoulder").expect("shoulder link");
     assert_eq!(snap.object(link).kind(), Some(Kind::Link));
-    let link_id = snap.objects()[link].id;
+    let link_id = snap.rec(link).id;
     // The link's own bodies: geometry objects under it, not under a further link.
     let mut bodies = 0;
     let mut stack = vec![link_id];
@@ -591,11 +591,11 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
         .id;
         let mut links: Vec<(u32, f64)> = (0..snap.len())
             .filter(|&i| {
-                snap.objects()[i].parent == rid && snap.object(i).kind() == Some(Kind::Link)
+                snap.rec(i).parent == rid && snap.object(i).kind() == Some(Kind::Link)
             })
             .map(|i| {
                 (
-                    snap.objects()[i].index_or_family,
+                    snap.rec(i).index_or_family,
                     snap.poses()[i].joint.to_degrees(),
                 )
             })

@@ -329,5 +329,5 @@ fn a_pick_in_the_display_is_what_the_next_editor_command_acts_on() {
     // The space holds b under a.
     let ia = snap.find("a").expect("a");
     let ib = snap.find("b").expect("b");
-    assert_eq!(snap.objects()[ib].parent, snap.objects()[ia].id);
+    assert_eq!(snap.rec(ib).parent, snap.rec(ia).id);
 }

@@ -56,8 +56,8 @@ fn instantiate_station_and_puma_from_other_processes_then_change_one_parameter()
     let snap = reader.snapshot().expect("snapshot");
     let station = snap.find("station").expect("station instance");
     let puma = snap.find("puma560").expect("puma instance");
-    let station_ids = subtree(&snap, snap.objects()[station].id);
-    let puma_ids = subtree(&snap, snap.objects()[puma].id);
+    let station_ids = subtree(&snap, snap.rec(station).id);
+    let puma_ids = subtree(&snap, snap.rec(puma).id);
     assert!(
         station_ids.len() > 100,
         "the station has its trusses, panels, modules: {}",
@@ -143,7 +143,7 @@ fn a_sessions_library_space_is_shared_memory_any_process_lists_and_instantiates_
     let snap = reader.snapshot().expect("snapshot");
     let jig = snap.find("jig").expect("jig");
     let solid = (0..snap.len())
-        .find(|&i| snap.objects()[i].parent == snap.objects()[jig].id)
+        .find(|&i| snap.rec(i).parent == snap.rec(jig).id)
         .expect("a part");
     let g = snap.geometry(solid).expect("geometry");
     let half = g.header.bbox[3..6].to_vec();

@@ -83,7 +83,7 @@ fn parent_of(p: &mut Planner, name: &str) -> String {
     let i = snap
         .find(name)
         .unwrap_or_else(|| panic!("no object {name}"));
-    let parent = snap.objects()[i].parent;
+    let parent = snap.rec(i).parent;
     snap.index_of(parent)
         .map(|k| snap.name(k).to_owned())
         .unwrap_or_default()

@@ -520,7 +520,7 @@ fn a_keeper_killed_while_making_a_service_does_not_stop_the_next_one() {
     assert_eq!(snap.len(), 401, "the scene and its 400 solids");
     for k in [0, 255, 299] {
         let i = snap.find(&format!("b{k}")).expect("acknowledged object");
-        assert!(snap.objects()[i].id > 0);
+        assert!(snap.rec(i).id > 0);
     }
     assert!(r.refresh().is_ok());
 }
@@ -885,7 +885,7 @@ fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_vers
     let snap = r.snapshot().expect("snapshot");
     let link = snap.find("link1").expect("demo scene has link1");
     let mut tx = Transaction::new();
-    tx.set_joint(snap.objects()[link].id, 0.5);
+    tx.set_joint(snap.rec(link).id, 0.5);
     let v = c.transact(&tx).expect("commit").version;
     let mut state =
         robosim_instance_space::state::StateSubscriber::open(&s, "simulator", "test-state")
@@ -905,7 +905,7 @@ fn up_ps_down_start_only_the_named_components_and_state_names_its_structure_vers
     let j = rec
         .joints
         .iter()
-        .find(|j| j.id == snap.objects()[link].id)
+        .find(|j| j.id == snap.rec(link).id)
         .expect("link1 state");
     assert_eq!(j.q, 0.5);
     let (ok, text) = run(&["down", "--session", &t.name]);

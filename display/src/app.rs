@@ -249,7 +249,7 @@ impl Posed {
             {
                 bail!("pose track {}: sample {} is not finite", t.object, k + 1);
             }
-            let o = &snap.objects()[i];
+            let o = snap.rec(i);
             out.push((o.id, o.parent, t.world.clone()));
         }
         Ok(Posed(out))
@@ -509,7 +509,7 @@ fn prepared_model(a: &RenderArgs, mut model: Store) -> Result<Store> {
         let snap = Snapshot::from_store(&model);
         let ids: Vec<_> = (0..snap.len())
             .filter(|&i| snap.name(i) == name)
-            .map(|i| snap.objects()[i].id)
+            .map(|i| snap.rec(i).id)
             .collect();
         if ids.is_empty() {
             let mut names: Vec<&str> = (0..snap.len()).map(|i| snap.name(i)).collect();
@@ -883,14 +883,14 @@ impl Host for SessionHost {
             return format!("object {}", hit.id);
         };
         let mut link = None;
-        let mut parent = snap.objects()[i].parent;
+        let mut parent = snap.rec(i).parent;
         let mut path = snap.name(i).to_owned();
         while let Some(k) = (parent != 0).then(|| snap.index_of(parent)).flatten() {
             if link.is_none() && snap.object(k).kind() == Some(Kind::Link) {
                 link = Some(snap.name(k).to_owned());
             }
             path = format!("{}/{path}", snap.name(k));
-            parent = snap.objects()[k].parent;
+            parent = snap.rec(k).parent;
         }
         let p = hit.point;
         format!(

@@ -1178,7 +1178,7 @@ impl Renderer {
             self.children.entry(rec.parent).or_default().push(rec.id);
         }
         for i in 0..snap.len() {
-            let rec = &snap.objects()[i];
+            let rec = snap.rec(i);
             // Fully transparent (alpha 0) is not drawn: an imported URDF link's collision
             // solids when it has visuals (file-io's urdf_session), kept for collision only.
             if rec.flags & flags::HAS_GEOMETRY == 0 || rec.color[3] <= 0.0 {

@@ -52,7 +52,7 @@ fn scene() -> (Store, u64, u64) {
     );
     model.apply(&tx).expect("valid");
     let snap = Snapshot::from_store(&model);
-    let id = |n| snap.objects()[snap.find(n).expect("present")].id;
+    let id = |n| snap.rec(snap.find(n).expect("present")).id;
     let (r, b) = (id("red"), id("blue"));
     (model, r, b)
 }
@@ -231,7 +231,7 @@ fn change_driven_sync_matches_the_full_comparison() {
     // The item carrying both cubes moves: both transforms, found through the children index.
     let item = {
         let snap = Snapshot::from_store(&model);
-        snap.objects()[snap.find("pair").expect("item")].id
+        snap.rec(snap.find("pair").expect("item")).id
     };
     let mut tx = Transaction::new();
     tx.set_pose(item, at(0.0, 0.0, 2.0));

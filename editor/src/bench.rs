@@ -118,11 +118,11 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
         let target = (0..snap.len())
             .find(|&i| {
                 snap.object(i).kind() == Some(Kind::Item)
-                    && snap.children(snap.objects()[i].id).next().is_some()
+                    && snap.children(snap.rec(i).id).next().is_some()
             })
             .or_else(|| (0..snap.len()).find(|&i| snap.geometry(i).is_some()))
             .ok_or("the space_station scene has no item to move")?;
-        let id = snap.objects()[target].id;
+        let id = snap.rec(target).id;
         module = snap.path(target);
         let pose0 = snap.pose(target).pose;
         drop(snap);

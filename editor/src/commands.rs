@@ -164,7 +164,7 @@ fn target<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<Target, Strin
                 ));
             }
             return Ok(Target::Model {
-                id: snap.objects()[i].id,
+                id: snap.rec(i).id,
                 path: path.to_owned(),
             });
         }

@@ -505,7 +505,7 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
     };
     let header: DesignRecord = serde_json::from_str(snap.origin(si))
         .map_err(|e| EditError::Invalid(format!("{robot}: its editor record: {e}")))?;
-    let scene = snap.objects()[si].id;
+    let scene = snap.rec(si).id;
     let mut design = Design {
         robot: header.robot.clone(),
         links: Vec::new(),
@@ -520,7 +520,7 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
                 "{robot}: link {item} is missing"
             )));
         };
-        let lid = snap.objects()[li].id;
+        let lid = snap.rec(li).id;
         links.insert(lname.clone(), lid);
         let mut objs = Vec::new();
         let mut stack: Vec<Id> = vec![lid];
@@ -529,7 +529,7 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
                 let rec: ObjectRecord = serde_json::from_str(snap.origin(k)).map_err(|e| {
                     EditError::Invalid(format!("{}: its editor record: {e}", snap.path(k)))
                 })?;
-                let id = snap.objects()[k].id;
+                let id = snap.rec(k).id;
                 objects.insert((lname.clone(), rec.object.name.clone()), id);
                 objs.push((id, rec.object));
                 stack.push(id);

@@ -403,12 +403,12 @@ fn import_parent(s: &Session, parent: Option<&str>) -> Result<Option<u64>> {
             scenes
                 .iter()
                 .find(|&&i| snap.name(i) == p)
-                .map(|&i| snap.objects()[i].id)
+                .map(|&i| snap.rec(i).id)
                 .ok_or_else(|| {
                     FileError::Usage(format!("session {} has no scene {p:?}", s.name()))
                 })?,
         ),
-        None => scenes.first().map(|&i| snap.objects()[i].id),
+        None => scenes.first().map(|&i| snap.rec(i).id),
     })
 }
 

@@ -59,7 +59,7 @@ impl SavedModel {
             .unwrap_or_default();
         let mut objects = Vec::with_capacity(snap.len());
         for i in 0..snap.len() {
-            let rec = &snap.objects()[i];
+            let rec = snap.rec(i);
             let pose = &snap.poses()[i];
             let geometry = snap.geometry(i).map(|g| GeometryInput {
                 vertices: g.vertices.to_vec(),

@@ -159,12 +159,12 @@ fn a_urdf_robots_collision_shapes_are_solids_that_collide() {
         .collect();
     assert_eq!(solids.len(), collisions);
     for &i in &solids {
-        assert_eq!(snap.objects()[i].color[3], 1.0, "{} is drawn", snap.name(i));
+        assert_eq!(snap.rec(i).color[3], 1.0, "{} is drawn", snap.name(i));
     }
     // link4's collision solid hangs from link4's link object.
     let l4 = snap.find("panda_link4").expect("link 4");
     let c4 = snap.find("panda_link4-collision0").expect("its solid");
-    assert_eq!(snap.objects()[c4].parent, snap.objects()[l4].id);
+    assert_eq!(snap.rec(c4).parent, snap.rec(l4).id);
     let scene = CompiledScene::of(&snap);
     let arm = scene.robot("arm").expect("compiled");
     let settings = robosim_collision::robot::CollisionSettings {
@@ -299,7 +299,7 @@ fn concave_collision_meshes_arrive_decomposed() {
     assert_eq!(checked, imp.decomposed);
     let drawn = (0..snap.len())
         .filter(|&i| snap.object(i).kind() == Some(Kind::Solid))
-        .all(|i| snap.objects()[i].color[3] == 1.0);
+        .all(|i| snap.rec(i).color[3] == 1.0);
     assert!(drawn, "without visuals the solids are drawn");
     assert!(
         (0..snap.len()).any(|i| snap.name(i).ends_with(".1")),

@@ -434,7 +434,7 @@ pub fn transaction_from_json(snap: &Snapshot, ops: &Value) -> Result<Transaction
             let n = v
                 .as_str()
                 .ok_or_else(|| bad(format!("{at}: objects are named by strings")))?;
-            snap.find(n).map(|i| snap.objects()[i].id).ok_or_else(|| {
+            snap.find(n).map(|i| snap.rec(i).id).ok_or_else(|| {
                 ProtocolError::new(
                     ErrorKind::UnknownObject,
                     format!("{at}: no object named {n:?}"),

@@ -143,7 +143,7 @@ impl Plant {
             let Some(i) = snap.find(item) else {
                 return BTreeSet::new();
             };
-            let id: Id = snap.objects()[i].id;
+            let id: Id = snap.rec(i).id;
             snap.children(id).map(|k| snap.name(k).to_owned()).collect()
         };
         let on = under(&self.name);

@@ -365,7 +365,7 @@ impl Ops {
             "use" | "dontuse" => {
                 let name = str_field(req, "object")?;
                 let i = object_index(&snap, name)?;
-                let id = snap.objects()[i].id;
+                let id = snap.rec(i).id;
                 if op == "use" {
                     self.unused.remove(&id);
                 } else {
@@ -441,7 +441,7 @@ impl Ops {
                 };
                 let pose = pose::from_isometry(&new);
                 let mut tx = Transaction::new();
-                tx.set_pose(snap.objects()[i].id, pose);
+                tx.set_pose(snap.rec(i).id, pose);
                 let v = self
                     .client
                     .transact(&tx)

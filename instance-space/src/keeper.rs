@@ -939,7 +939,7 @@ impl Keeper {
         Ok(())
     }
 
-    /// Publishes the objects segment, every pose chunk and the head (a keeper starting, or a
+    /// Publishes the objects head (every object chunk), every pose chunk and the poses head (a keeper starting, or a
     /// replica's model replaced). Geometry waits for a reader to ask for the base (its epoch is
     /// new, so every reader does).
     fn publish_all(&mut self) -> Result<(), KeeperError> {
@@ -1394,7 +1394,7 @@ impl Keeper {
 
     /// Publishes the geometry of `ids` (ascending; those deleted or without geometry are
     /// skipped) as one update, unless it is larger than [`GEOMETRY_UPDATE_MAX_WORDS`]: readers
-    /// then find it in no update and ask for the base. Before the objects segment, so a reader
+    /// then find it in no update and ask for the base. Before the objects head, so a reader
     /// that sees the new structure finds the update already published.
     fn publish_geometry_update(&mut self, ids: &[Id]) -> Result<(), KeeperError> {
         // The geometry alone is held to the limit; the bundle's index adds 32 B per object.

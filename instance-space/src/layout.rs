@@ -176,7 +176,7 @@ pub struct ObjectsHeader {
 pub const NO_POLYGON: u64 = u64::MAX;
 
 impl ObjectsHeader {
-    /// The header of a model's objects segment.
+    /// The header of a model's objects publication.
     pub(crate) fn new(
         version: u64,
         epoch: u64,
@@ -286,7 +286,7 @@ pub struct ObjectRec {
 pub struct PosesHeader {
     /// The model version of this publication (the newest committed version).
     pub version: u64,
-    /// The objects segment these poses are indexed against.
+    /// The structure version (objects head) these poses are indexed against.
     pub structure_version: u64,
     pub epoch: u64,
     pub count: u64,
@@ -312,7 +312,7 @@ pub struct PoseChunkHeader {
     pub count: u64,
 }
 
-/// Local pose of the object at the same index of the objects segment.
+/// Local pose of the object at the same index in object order.
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
 pub struct PoseRec {

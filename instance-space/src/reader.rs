@@ -90,8 +90,10 @@ pub struct Snapshot {
     /// each, the last maybe fewer): where each one's records, names and geometry index are. A
     /// chunk unchanged between structure versions is the same memory in the snapshots of both.
     objects: Vec<ObjSrc>,
-    /// [`Snapshot::objects`] as one slice, assembled on first use when there are several chunks.
-    objects_flat: std::cell::OnceCell<Vec<ObjectRec>>,
+    /// [`Snapshot::objects`] as one slice, assembled on first use when there are several
+    /// chunks; shared by the snapshots of one structure version (so a pose change does not
+    /// assemble it again).
+    objects_flat: Rc<std::cell::OnceCell<Vec<ObjectRec>>>,
     /// Where each pose chunk of this version is, in object order (one chunk holding every pose
     /// for a process-local snapshot): its own chunk sample, or its range of a pose base. A
     /// chunk unchanged between versions is the same sample, shared by the snapshots of both.
@@ -142,8 +144,9 @@ impl ObjSrc {
     fn names(&self) -> &[u8] {
         self.segment().section(2).unwrap_or(&[])
     }
-    /// Checks the chunk is chunk `k` of `count` objects, its names and geometry index sound;
-    /// returns its objects with geometry: (index in the chunk, id, geometry generation).
+    /// Checks the chunk is chunk `k` of `count` objects with its sections in bounds and its
+    /// geometry index sound; returns its objects with geometry: (index in the chunk, id,
+    /// geometry generation).
     fn check(&self, k: usize, count: usize) -> Result<Vec<(usize, Id, u64)>, ReaderError> {
         let words = self.words.words();
         let seg = match self.range {
@@ -159,17 +162,12 @@ impl ObjSrc {
         };
         let h: ObjectChunkHeader = *seg.record(0)?;
         let recs = seg.section::<ObjectRec>(1)?;
-        let names = seg.section::<u8>(2)?.len();
+        // Names are read with bounds checks ([`Snapshot::name`]); the records are not all
+        // touched here (at 10⁵ objects that faulted in 32 MB of shared memory per attach).
+        seg.section::<u8>(2)?;
         if h.first as usize != k * OBJECT_CHUNK || h.count as usize != count || recs.len() != count
         {
             return Err(LayoutError::Section(1).into());
-        }
-        let in_names = |off: u32, len: u32| (off as usize).checked_add(len as usize).is_some_and(|e| e <= names);
-        if !recs
-            .iter()
-            .all(|r| in_names(r.name_off, r.name_len) && in_names(r.origin_off, r.origin_len))
-        {
-            return Err(LayoutError::Section(2).into());
         }
         let mut out: Vec<(usize, Id, u64)> = Vec::new();
         for &j in seg.section::<u64>(3)? {
@@ -332,7 +330,7 @@ impl Snapshot {
                     generation,
                 })
                 .collect(),
-            objects_flat: std::cell::OnceCell::new(),
+            objects_flat: Rc::default(),
             poses,
             chunk_len: POSE_CHUNK,
             flat: std::cell::OnceCell::new(),
@@ -357,7 +355,7 @@ impl Snapshot {
 
     /// A process-local copy of this snapshot in which the objects of `overrides` have the
     /// given local poses and joint values — what the simulator publishes as its high-rate state
-    /// (link poses relative to the robot) — sharing the objects segment, the geometry and every
+    /// (link poses relative to the robot) — sharing the object chunks, the geometry and every
     /// pose chunk no override falls in with this one. Ids the snapshot does not hold are
     /// ignored. O(overrides + touched chunks × chunk length + chunks).
     pub fn with_poses(&self, overrides: &[PoseRec]) -> Snapshot {
@@ -392,7 +390,7 @@ impl Snapshot {
             epoch: self.epoch,
             head: self.head.clone(),
             objects: self.objects.clone(),
-            objects_flat: std::cell::OnceCell::new(),
+            objects_flat: self.objects_flat.clone(),
             poses,
             chunk_len,
             flat: std::cell::OnceCell::new(),
@@ -421,8 +419,9 @@ impl Snapshot {
         self.objects_header().selection()
     }
     /// Every object, sorted by id. In place when the model fits one object chunk; otherwise
-    /// the chunks are copied into one array on the first call (O(objects), once per snapshot)
-    /// — [`Snapshot::rec`], [`Snapshot::object`] and [`Snapshot::index_of`] read in place.
+    /// the chunks are copied into one array on the first call (O(objects), once per structure
+    /// version: the snapshots of pose changes share it) — [`Snapshot::rec`],
+    /// [`Snapshot::object`] and [`Snapshot::index_of`] read in place.
     pub fn objects(&self) -> &[ObjectRec] {
         match self.objects.as_slice() {
             [] => &[],
@@ -1055,7 +1054,11 @@ impl Reader {
         if let Some(cur) = &self.current
             && Rc::ptr_eq(&cur.head, &objects_head)
         {
-            let (objects, geometry) = (cur.objects.clone(), cur.geometry.clone());
+            let (objects, geometry, objects_flat) = (
+                cur.objects.clone(),
+                cur.geometry.clone(),
+                cur.objects_flat.clone(),
+            );
             let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
                 return Ok(None);
             };
@@ -1064,7 +1067,7 @@ impl Reader {
                 epoch: h.epoch,
                 head: objects_head,
                 objects,
-                objects_flat: std::cell::OnceCell::new(),
+                objects_flat,
                 poses,
                 chunk_len: (h.chunk_len as usize).max(1),
                 flat: std::cell::OnceCell::new(),
@@ -1083,7 +1086,7 @@ impl Reader {
             epoch: h.epoch,
             head: objects_head,
             objects,
-            objects_flat: std::cell::OnceCell::new(),
+            objects_flat: Rc::default(),
             poses,
             chunk_len: (h.chunk_len as usize).max(1),
             flat: std::cell::OnceCell::new(),

@@ -235,7 +235,7 @@ pub struct MassProps {
 /// The session's selection: the object (and polygon of its geometry, when the pick hit one)
 /// that the next editing command acts on. The display writes it when the user picks (clicks);
 /// the editor reads it. One per session, a record of the Instance Space beside the objects —
-/// not an object aspect — published in the objects segment's header
+/// not an object aspect — published in the objects head's header
 /// (`Snapshot::selection`), journaled like any transaction and kept in checkpoints. A deleted
 /// object stops being selected; a polygon the object's new geometry no longer has is dropped.
 #[derive(
@@ -363,7 +363,7 @@ impl Applied {
 pub struct Store {
     pub version: u64,
     /// The version of the last transaction that touched anything but poses and joint values
-    /// (what a published objects segment carries: see `Snapshot::structure_version`).
+    /// (what a published objects head carries: see `Snapshot::structure_version`).
     structure_version: u64,
     next_id: Id,
     objects: BTreeMap<Id, Object>,

@@ -151,8 +151,8 @@ pub struct RobotView<'a> {
 }
 
 impl Snapshot {
-    /// The version the objects segment (structure, geometry references, kinematics, dynamics,
-    /// appearance) was published at. Equal for two snapshots exactly when only poses and
+    /// The structure version: the version at which the objects (structure, geometry
+    /// references, kinematics, dynamics, appearance) last changed. Equal for two snapshots exactly when only poses and
     /// joint values differ between them — the key of every compiled-model cache.
     pub fn structure_version(&self) -> u64 {
         self.objects_header().version
@@ -349,14 +349,14 @@ mod tests {
         assert_eq!(r.convention, DhConvention::Modified);
         assert_eq!(r.ik_family, 2);
         assert_eq!(r.tool, tool);
-        assert_eq!(snap.objects()[r.index].kinematics(), Some(rk));
+        assert_eq!(snap.rec(r.index).kinematics(), Some(rk));
         let kinds: Vec<JointKind> = r.joints.iter().map(|j| j.kind).collect();
         assert_eq!(
             kinds,
             [JointKind::Fixed, JointKind::Revolute, JointKind::Prismatic]
         );
         for j in &r.joints {
-            let rec = &snap.objects()[j.index];
+            let rec = snap.rec(j.index);
             assert!(joints.contains(&rec.kinematics().expect("a joint")));
             assert_eq!(rec.dynamics().map(|m| m.com), Some([0.0, 0.1, 0.2]));
         }
@@ -391,7 +391,7 @@ mod tests {
         moved[7] = 2.0;
         let o = snap.with_poses(&[
             PoseRec {
-                id: snap.objects()[ia].id,
+                id: snap.rec(ia).id,
                 pose: moved,
                 joint: 0.5,
             },
@@ -496,7 +496,7 @@ mod tests {
         assert_eq!(r.joints.len(), 3);
         for (j, (view, k)) in r.joints.iter().zip(&written).enumerate() {
             assert_eq!(
-                snap.objects()[view.index].kinematics(),
+                snap.rec(view.index).kinematics(),
                 Some(*k),
                 "joint {j}"
             );

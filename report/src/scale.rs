@@ -154,6 +154,9 @@ struct GeomRow {
     attach: (f64, f64, f64),
     tx: (f64, f64, f64),
     follow: (f64, f64, f64),
+    /// One box created (appended to the scene): the keeper's transaction, a reader following.
+    create_tx: (f64, f64, f64),
+    create_follow: (f64, f64, f64),
     base_bytes: usize,
 }
 
@@ -220,10 +223,45 @@ fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result
     if follower.geometry_bases_asked() != 1 {
         bail!("the follower asked for a geometry base again at {n} boxes");
     }
+    // One box created at a time: appended to the last object chunk.
+    let scene = {
+        let snap = follower.snapshot().ok_or("no snapshot")?;
+        snap.rec(snap.index_of(body).ok_or("body missing")?).parent
+    };
+    let asked = follower.objects_bases_asked();
+    let (mut create_us, mut create_follow_us) = (Vec::with_capacity(reps), Vec::with_capacity(reps));
+    for k in 0..reps + 20 {
+        let mut tx = Transaction::new();
+        let b = tx.create(Kind::Solid, &format!("added{k}"), Some(scene.into()));
+        tx.set_geometry(b, Some(cube(0.05)?));
+        let t = Instant::now();
+        let c = client.transact(&tx)?;
+        let tx_time = t.elapsed().as_nanos() as f64 / 1e3;
+        let t = Instant::now();
+        while follower.snapshot().is_none_or(|s| s.version() < c.version) {
+            follower.wait_change(Duration::from_secs(5))?;
+        }
+        let follow_time = t.elapsed().as_nanos() as f64 / 1e3;
+        let snap = follower.snapshot().ok_or("no snapshot")?;
+        let added = c.created.first().copied().ok_or("nothing created")?;
+        let i = snap.index_of(added).ok_or("the created box is missing")?;
+        if i + 1 != snap.len() || snap.geometry(i).is_none() || snap.len() != n + 2 + k {
+            bail!("the follower has not the created box at the end at {n} boxes");
+        }
+        if k >= 20 {
+            create_us.push(tx_time);
+            create_follow_us.push(follow_time);
+        }
+    }
+    if follower.objects_bases_asked() != asked {
+        bail!("the follower asked for an objects base while following creates at {n} boxes");
+    }
     Ok(GeomRow {
         attach: stats(attach_ms),
         tx: stats(tx_us),
         follow: stats(follow_us),
+        create_tx: stats(create_us),
+        create_follow: stats(create_follow_us),
         base_bytes,
     })
 }
@@ -399,14 +437,14 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
         }
     }
     writeln!(md, "\n## A model with geometry\n").ok();
-    writeln!(md, "The same sizes with every body a box (8 vertices, 6 faces), against a keeper of its own. A late joiner asks the keeper at most once for the **geometry base** (every object's geometry in one sample, kept in shared memory and viewed in place) — the model's geometry travels in two iceoryx2 services whatever the number of objects, where it had one per object before (a service costs milliseconds to make and to open). A **one-body geometry change** (`SetGeometry` on the middle box) goes by the **geometry update** (the changed geometry alone); the keeper still republishes the objects segment, O(objects), as for every structural change, so it is not flat — the table shows by how much.\n").ok();
-    writeln!(md, "| bodies | attach mean (ms) | ×10² | geometry base (MB) | geometry tx mean / p99 (µs) | ×10² | reader follows mean / p99 (µs) | ×10² |\n|---|---|---|---|---|---|---|---|").ok();
+    writeln!(md, "The same sizes with every body a box (8 vertices, 6 faces), against a keeper of its own. A late joiner asks the keeper at most once for the **geometry base** (every object's geometry in one sample, kept in shared memory and viewed in place) — the model's geometry travels in two iceoryx2 services whatever the number of objects, where it had one per object before (a service costs milliseconds to make and to open). A **one-body geometry change** (`SetGeometry` on the middle box) goes by the **geometry update** (the changed geometry alone) and republishes the one **object chunk** (256 objects' records) whose record changed, with one generation word per chunk; a **box created** (one `Create` + `SetGeometry`, appended after the last object) republishes the last object chunk. A late joiner takes the object chunks from one **objects base**; a follower asks for none (checked).\n").ok();
+    writeln!(md, "| bodies | attach mean (ms) | ×10² | geometry base (MB) | geometry tx mean / p99 (µs) | ×10² | reader follows mean / p99 (µs) | ×10² | create tx mean / p99 (µs) | ×10² | reader follows create mean / p99 (µs) | ×10² |\n|---|---|---|---|---|---|---|---|---|---|---|---|").ok();
     let gb = &base.geometry;
     for r in rows {
         let g = &r.geometry;
         writeln!(
             md,
-            "| {} | {:.2} | {:.2} | {:.1} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} |",
+            "| {} | {:.2} | {:.2} | {:.1} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} |",
             r.n,
             g.attach.0,
             g.attach.0 / gb.attach.0,
@@ -417,6 +455,12 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             g.follow.0,
             g.follow.2,
             g.follow.0 / gb.follow.0,
+            g.create_tx.0,
+            g.create_tx.2,
+            g.create_tx.0 / gb.create_tx.0,
+            g.create_follow.0,
+            g.create_follow.2,
+            g.create_follow.0 / gb.create_follow.0,
         )
         .ok();
         for (m, v, u) in [
@@ -426,6 +470,10 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             ("geometry_tx_p99", g.tx.2, "us"),
             ("geometry_follow_mean", g.follow.0, "us"),
             ("geometry_follow_p99", g.follow.2, "us"),
+            ("create_tx_mean", g.create_tx.0, "us"),
+            ("create_tx_p99", g.create_tx.2, "us"),
+            ("create_follow_mean", g.create_follow.0, "us"),
+            ("create_follow_p99", g.create_follow.2, "us"),
         ] {
             writeln!(csv, "{m},{},{v:.3},{u}", r.n).ok();
         }

@@ -164,12 +164,12 @@ impl CompiledScene {
                 Ok(None) => {}
                 Ok(Some(solid)) => self.objects.push(SolidObject {
                     index: i,
-                    id: snap.objects()[i].id,
+                    id: snap.rec(i).id,
                     path: snap.path(i),
                     solid: Arc::new(solid),
                     pose: pose::to_isometry(&snap.world_pose(i)),
                 }),
-                Err(reason) => self.refused.push((snap.objects()[i].id, reason)),
+                Err(reason) => self.refused.push((snap.rec(i).id, reason)),
             }
         }
         self.robots.clear();
@@ -322,7 +322,7 @@ fn compile_robot(
     let mut link_bodies = vec![
         snap.children(view.id)
             .filter(|&k| snap.object(k).kind() != Some(Kind::Link))
-            .flat_map(|k| bodies_under(snap, snap.objects()[k].id))
+            .flat_map(|k| bodies_under(snap, snap.rec(k).id))
             .collect::<Vec<Id>>(),
     ];
     for j in &view.joints {

@@ -461,7 +461,7 @@ pub fn reinstantiate(
             tx.delete(*id, true);
         }
     }
-    tx.set_origin(snap.objects()[top].id, &origin.to_record());
+    tx.set_origin(snap.rec(top).id, &origin.to_record());
     Ok(tx)
 }
 

@@ -99,7 +99,7 @@ pub fn subtree(snap: &Snapshot, top: Id) -> HashSet<Id> {
     let mut stack = vec![top];
     while let Some(id) = stack.pop() {
         for k in snap.children(id) {
-            let c = snap.objects()[k].id;
+            let c = snap.rec(k).id;
             if set.insert(c) {
                 stack.push(c);
             }
@@ -122,7 +122,7 @@ pub fn bodies_under(snap: &Snapshot, top: Id) -> Vec<Id> {
         }
         for k in snap.children(id) {
             if snap.object(k).kind() != Some(Kind::Link) {
-                stack.push(snap.objects()[k].id);
+                stack.push(snap.rec(k).id);
             }
         }
     }

@@ -70,7 +70,7 @@ fn joint_and_pose_changes_update_in_place_and_match_a_fresh_compile() {
     let mut moved = snap.poses()[head].pose;
     moved[3] -= 0.25;
     let mut tx = Transaction::new();
-    tx.set_pose(snap.objects()[head].id, moved);
+    tx.set_pose(snap.rec(head).id, moved);
     m.apply(&tx).expect("pose tx");
     let snap = Snapshot::from_store(&m);
     assert_eq!(cache.sync(&snap), Sync::Posed);

@@ -198,7 +198,7 @@ fn mapped_robot(snap: &Snapshot, arm: &CompiledRobot, name: &str) -> Result<Robo
         .ok_or_else(|| crate::StudyError(format!("no object {name} in the snapshot")))?;
     Ok(Robot {
         base: m4(&snap.world_pose(i)),
-        tool: m4(&snap.objects()[i].tool),
+        tool: m4(&snap.rec(i).tool),
         ..arm.robot.clone()
     })
 }
@@ -543,7 +543,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         .ok_or_else(|| crate::StudyError(format!("{SCENE} has no head")))?;
     let head_obj = snap
         .find("head")
-        .and_then(|i| (0..snap.len()).find(|&k| snap.objects()[k].parent == snap.objects()[i].id))
+        .and_then(|i| (0..snap.len()).find(|&k| snap.rec(k).parent == snap.rec(i).id))
         .ok_or_else(|| crate::StudyError("the snapshot has no head solid".into()))?;
     let head = m4(&snap.world_pose(head_obj));
     let head_part = head_item

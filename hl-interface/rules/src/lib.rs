@@ -133,8 +133,8 @@ impl Mirror {
                 .kind()
                 .map_or("unknown".to_owned(), |k| format!("{k:?}").to_lowercase());
             let parent = snap
-                .index_of(snap.objects()[i].parent)
-                .filter(|_| snap.objects()[i].parent != 0)
+                .index_of(snap.rec(i).parent)
+                .filter(|_| snap.rec(i).parent != 0)
                 .map_or("nil".to_owned(), |k| sym(snap.name(k)));
             out.push((
                 format!("instance {name}"),

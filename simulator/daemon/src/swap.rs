@@ -109,7 +109,7 @@ impl SwapStage {
             let i = snap
                 .find_path(path)
                 .ok_or_else(|| format!("no object {path} in the Instance Space"))?;
-            let o = &snap.objects()[i];
+            let o = snap.rec(i);
             let link_id = sims[array].links.get(swap.link.wrapping_sub(1)).copied();
             let parent_world = match snap.index_of(o.parent) {
                 Some(p) => iso(&snap.world_pose(p)),
