@@ -1118,10 +1118,12 @@ impl Reader {
             Vec::with_capacity(chunks);
         let mut missing = Vec::new();
         for (k, &generation) in oh.gens.iter().enumerate() {
+            // Same epoch and generation: the same chunk (the keeper gives a chunk a new
+            // generation whenever its words change, its length included), so it is not
+            // touched again — at 10⁵ objects that was a cache miss per chunk.
             let held = cur.as_ref().and_then(|c| {
                 let src = c.objects.get(k).filter(|o| o.generation == generation)?;
-                (src.records().len() == count_of(k))
-                    .then(|| (src.clone(), c.geometry.get(k).cloned()))
+                Some((src.clone(), c.geometry.get(k).cloned()))
             });
             let got = match held {
                 Some((src, table)) => Some((src, table)),

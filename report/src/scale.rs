@@ -167,6 +167,23 @@ fn cube(s: f64) -> Result<GeometryInput> {
 }
 
 /// The model of `n` boxes: late joiners, and one box's geometry changed and followed.
+/// Commits `tx` and waits until `follower` has its version: what the keeper answered, the
+/// transaction's time and the follower's (µs).
+fn commit_and_follow(
+    client: &mut Client,
+    follower: &mut Reader,
+    tx: &Transaction,
+) -> Result<(robosim_instance_space::Applied, f64, f64)> {
+    let t = Instant::now();
+    let c = client.transact(tx)?;
+    let tx_time = t.elapsed().as_nanos() as f64 / 1e3;
+    let t = Instant::now();
+    while follower.snapshot().is_none_or(|s| s.version() < c.version) {
+        follower.wait_change(Duration::from_secs(5))?;
+    }
+    Ok((c, tx_time, t.elapsed().as_nanos() as f64 / 1e3))
+}
+
 fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result<GeomRow> {
     let kp = keeper(name, false)?;
     let mut client = Client::connect(kp.session(), "scale-writer")?;
@@ -192,19 +209,14 @@ fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result
         base_bytes = 8 * r.geometry_base_words();
     }
     let mut follower = Reader::attach(kp.session(), "scale-follower")?;
+    // 0 or 1: a base published for a joiner above may reach it from the service's history.
+    let asked_to_attach = follower.geometry_bases_asked();
     let (mut tx_us, mut follow_us) = (Vec::with_capacity(reps), Vec::with_capacity(reps));
     for k in 0..reps + 20 {
         let side = 0.1 + (k % 7 + 1) as f64 * 0.01;
         let mut tx = Transaction::new();
         tx.set_geometry(body, Some(cube(side)?));
-        let t = Instant::now();
-        let c = client.transact(&tx)?;
-        let tx_time = t.elapsed().as_nanos() as f64 / 1e3;
-        let t = Instant::now();
-        while follower.snapshot().is_none_or(|s| s.version() < c.version) {
-            follower.wait_change(Duration::from_secs(5))?;
-        }
-        let follow_time = t.elapsed().as_nanos() as f64 / 1e3;
+        let (_, tx_time, follow_time) = commit_and_follow(&mut client, &mut follower, &tx)?;
         let snap = follower.snapshot().ok_or("no snapshot")?;
         let g = snap
             .index_of(body)
@@ -220,7 +232,7 @@ fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result
             follow_us.push(follow_time);
         }
     }
-    if follower.geometry_bases_asked() != 1 {
+    if follower.geometry_bases_asked() != asked_to_attach {
         bail!("the follower asked for a geometry base again at {n} boxes");
     }
     // One box created at a time: appended to the last object chunk.
@@ -234,14 +246,7 @@ fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result
         let mut tx = Transaction::new();
         let b = tx.create(Kind::Solid, &format!("added{k}"), Some(scene.into()));
         tx.set_geometry(b, Some(cube(0.05)?));
-        let t = Instant::now();
-        let c = client.transact(&tx)?;
-        let tx_time = t.elapsed().as_nanos() as f64 / 1e3;
-        let t = Instant::now();
-        while follower.snapshot().is_none_or(|s| s.version() < c.version) {
-            follower.wait_change(Duration::from_secs(5))?;
-        }
-        let follow_time = t.elapsed().as_nanos() as f64 / 1e3;
+        let (c, tx_time, follow_time) = commit_and_follow(&mut client, &mut follower, &tx)?;
         let snap = follower.snapshot().ok_or("no snapshot")?;
         let added = c.created.first().copied().ok_or("nothing created")?;
         let i = snap.index_of(added).ok_or("the created box is missing")?;
