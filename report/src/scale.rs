@@ -337,8 +337,11 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             std::io::BufReader::new(o).read_line(&mut line)?;
         }
         for k in 0..lat_count {
+            // The writer alone: the in-process follower does not follow in this phase, so the
+            // latency reader shares the two cores with the keeper only (with it, a second
+            // reader assembling every version at the same moment made this figure a
+            // measure of CPU contention, growing with its O(chunks) work).
             client.transact(&pose_tx(body, k as f64 * 1e-3))?;
-            follower.wait_change(Duration::from_secs(5))?;
             // Let the reader block again, so every sample is a wake-up from sleep.
             std::thread::sleep(Duration::from_micros(300));
         }
@@ -398,7 +401,7 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
     writeln!(md, "Measured on this machine (2 cores, shared), one run; ratios are to the 10² model of the same run (goal: each ≤ 1.5 at 10⁵). Bodies are solids without geometry under one scene; one body in the middle is moved by one `SetPose` transaction at a time. The keeper runs without the journal's fsync (a constant ≈ 130 µs here, docs/bench/ipc.md (d)) so that what grows with the model is not hidden.\n").ok();
     writeln!(md, "* **pose tx**: `Client::transact`, end to end through the keeper process (apply, publish one pose chunk of {POSE_CHUNK} records and the head, acknowledge);").ok();
     writeln!(md, "* **reader follows**: `Reader::wait_change` right after the acknowledgement, in this process: drain the change record and assemble the new snapshot (receive the one changed chunk; reuse the others);").ok();
-    writeln!(md, "* **notify**: keeper's publish stamp → a reader process blocked in `wait_event` wakes (CLOCK_MONOTONIC);").ok();
+    writeln!(md, "* **notify**: keeper's publish stamp → a reader process blocked in `wait_event` wakes (CLOCK_MONOTONIC), one pose transaction every 300 µs; the writer does not follow in this phase (until stop 34 it did: a second reader assembling each version at the same moment, on two cores);").ok();
     writeln!(
         md,
         "* **attach**: a late joiner's `Reader::attach` until its first snapshot (the whole model);"
