@@ -590,9 +590,7 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
             .find(|&i| snap.name(i) == robot && snap.object(i).kind() == Some(Kind::Robot))?]
         .id;
         let mut links: Vec<(u32, f64)> = (0..snap.len())
-            .filter(|&i| {
-                snap.rec(i).parent == rid && snap.object(i).kind() == Some(Kind::Link)
-            })
+            .filter(|&i| snap.rec(i).parent == rid && snap.object(i).kind() == Some(Kind::Link))
             .map(|i| {
                 (
                     snap.rec(i).index_or_family,

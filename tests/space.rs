@@ -1194,7 +1194,11 @@ fn a_structural_change_republishes_only_its_object_chunk_and_readers_reuse_the_o
     let renamed = follow_tx(&mut r, &mut c, &tx);
     assert_eq!(renamed.name(i), "renamed");
     // (created[0] is the scene)
-    assert_eq!(old.name(i), format!("body{}", OBJECT_CHUNK + 9), "a held snapshot");
+    assert_eq!(
+        old.name(i),
+        format!("body{}", OBJECT_CHUNK + 9),
+        "a held snapshot"
+    );
     assert_eq!(renamed.find("renamed"), Some(i));
     assert!(std::ptr::eq(old.rec(first), renamed.rec(first)));
     assert!(std::ptr::eq(old.rec(last), renamed.rec(last)));
@@ -1213,8 +1217,16 @@ fn a_structural_change_republishes_only_its_object_chunk_and_readers_reuse_the_o
     tx.select(Some(body.into()), None);
     let selected = follow_tx(&mut r, &mut c, &tx);
     assert_eq!(selected.selection().map(|s| s.object), Some(body));
-    assert!((0..=n).step_by(97).all(|k| std::ptr::eq(coloured.rec(k), selected.rec(k))));
-    assert_eq!(r.objects_bases_asked(), asked, "following asked for the objects base");
+    assert!(
+        (0..=n)
+            .step_by(97)
+            .all(|k| std::ptr::eq(coloured.rec(k), selected.rec(k)))
+    );
+    assert_eq!(
+        r.objects_bases_asked(),
+        asked,
+        "following asked for the objects base"
+    );
     // A late joiner takes the chunks the last heads did not carry from one objects base, and
     // reads what the follower assembled.
     let mut late = Reader::attach(&s, "late").expect("late joiner");
@@ -1241,8 +1253,15 @@ fn a_structural_change_republishes_only_its_object_chunk_and_readers_reuse_the_o
     assert_eq!(grown.len(), n + 1);
     assert_eq!(grown.name(n), "appended");
     assert!(std::ptr::eq(shrunk.rec(first), grown.rec(first)));
-    assert!(std::ptr::eq(shrunk.rec(2 * OBJECT_CHUNK), grown.rec(2 * OBJECT_CHUNK)));
-    assert_eq!(r.objects_bases_asked(), asked, "following asked for the objects base");
+    assert!(std::ptr::eq(
+        shrunk.rec(2 * OBJECT_CHUNK),
+        grown.rec(2 * OBJECT_CHUNK)
+    ));
+    assert_eq!(
+        r.objects_bases_asked(),
+        asked,
+        "following asked for the objects base"
+    );
     let late = follow(&mut late, grown.version());
     same(&late, &grown);
     let fresh = Reader::attach(&s, "fresh").expect("fresh");

@@ -698,11 +698,7 @@ fn a_cut_link_to_a_sweep_host_on_another_network_host_is_waited_out() {
     };
     let dir = tempfile::tempdir().expect("temp dir");
     let one = reference(dir.path());
-    let host = Host::start_in(
-        &["ip", "netns", "exec", &hosts.a],
-        "tcp/10.77.0.1:7448",
-        1,
-    );
+    let host = Host::start_in(&["ip", "netns", "exec", &hosts.a], "tcp/10.77.0.1:7448", 1);
     let (mut cut, mut restored) = (false, false);
     let (ok, log, stdout) = sweep_watched(
         dir.path(),

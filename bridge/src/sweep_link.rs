@@ -673,7 +673,10 @@ mod tests {
         };
         let first = remote.open(echo.clone(), |_| {}).expect("first pipe");
         first.send("one").expect("send");
-        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).as_deref(), Ok("one"));
+        assert_eq!(
+            rx.recv_timeout(Duration::from_secs(10)).as_deref(),
+            Ok("one")
+        );
         // As the host's Delete does on the coordinator's side: the first pipe is over here.
         first.state.end("its host is gone (test)".into());
         remote.floor.store(1, Ordering::SeqCst);
@@ -685,7 +688,10 @@ mod tests {
             })
             .expect("the host frees its one worker for the new pipe");
         second.send("two").expect("send");
-        assert_eq!(rx.recv_timeout(Duration::from_secs(10)).as_deref(), Ok("two"));
+        assert_eq!(
+            rx.recv_timeout(Duration::from_secs(10)).as_deref(),
+            Ok("two")
+        );
         assert_eq!(*ended.lock().unwrap_or_else(|p| p.into_inner()), None);
         // Without the floor, a third pipe is refused: the host is full.
         let third = remote.open(|_| {}, |_| {});

@@ -19,8 +19,8 @@
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
 use crate::layout::{
-    ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, OBJECT_CHUNK, ObjectsHeader, POSE_CHUNK, PoseRec, PosesHeader,
-    SegmentWriter,
+    ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, OBJECT_CHUNK, ObjectsHeader, POSE_CHUNK, PoseRec,
+    PosesHeader, SegmentWriter,
 };
 use crate::replica::{LOG_MAGIC, Log, LogAnswer, PublishedLibrary, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
@@ -698,7 +698,8 @@ impl Keeper {
     /// group. Within the spin window after the last group ([`KeeperOptions::spin`]) the wait
     /// polls instead of blocking.
     pub fn step(&mut self, wait: Duration) -> Result<GroupStats, KeeperError> {
-        let (mut hello, mut base, mut geometry_base, mut objects_base) = (false, false, false, false);
+        let (mut hello, mut base, mut geometry_base, mut objects_base) =
+            (false, false, false, false);
         let mut on_event = |e: iceoryx2::prelude::EventId| {
             base |= e == EventId::new(events::BASE);
             geometry_base |= e == EventId::new(events::GEOMETRY_BASE);
@@ -1103,10 +1104,10 @@ impl Keeper {
                 && !self.order.is_empty()
                 && self.obj_chunks.len() == self.order.len().div_ceil(OBJECT_CHUNK)
                 && n == self.order.len() + new.len()
-                && new.iter().all(|&id| id > last && self.model.get(id).is_some())
-                && ids
+                && new
                     .iter()
-                    .all(|id| self.model.get(*id).is_some()))
+                    .all(|&id| id > last && self.model.get(id).is_some())
+                && ids.iter().all(|id| self.model.get(*id).is_some()))
             .then_some(new)
         });
         let version = self.model.version;

@@ -172,8 +172,7 @@ impl ObjSrc {
         let mut out: Vec<(usize, Id, u64)> = Vec::new();
         for &j in seg.section::<u64>(3)? {
             let r = recs.get(j as usize).ok_or(LayoutError::Section(3))?;
-            if r.flags & flags::HAS_GEOMETRY == 0 || out.last().is_some_and(|l| l.0 >= j as usize)
-            {
+            if r.flags & flags::HAS_GEOMETRY == 0 || out.last().is_some_and(|l| l.0 >= j as usize) {
                 return Err(LayoutError::Section(3).into());
             }
             out.push((j as usize, r.id, r.geom_gen));
@@ -1034,8 +1033,7 @@ impl Reader {
                 if oh.epoch == h.epoch && oh.version == h.structure_version {
                     break;
                 }
-                if oh.epoch > h.epoch || (oh.epoch == h.epoch && oh.version > h.structure_version)
-                {
+                if oh.epoch > h.epoch || (oh.epoch == h.epoch && oh.version > h.structure_version) {
                     // Structure moved on after this head (or a new keeper started).
                     return Ok(None);
                 }

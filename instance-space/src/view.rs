@@ -495,11 +495,7 @@ mod tests {
         let r = snap.robot("tree").expect("robot");
         assert_eq!(r.joints.len(), 3);
         for (j, (view, k)) in r.joints.iter().zip(&written).enumerate() {
-            assert_eq!(
-                snap.rec(view.index).kinematics(),
-                Some(*k),
-                "joint {j}"
-            );
+            assert_eq!(snap.rec(view.index).kinematics(), Some(*k), "joint {j}");
             let o = view.origin.expect("a general joint has an origin");
             assert_eq!(o.placement, placement);
             assert_eq!(o.axis, [0.0, 0.6, -0.8]);

@@ -241,7 +241,8 @@ fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result
         snap.rec(snap.index_of(body).ok_or("body missing")?).parent
     };
     let asked = follower.objects_bases_asked();
-    let (mut create_us, mut create_follow_us) = (Vec::with_capacity(reps), Vec::with_capacity(reps));
+    let (mut create_us, mut create_follow_us) =
+        (Vec::with_capacity(reps), Vec::with_capacity(reps));
     for k in 0..reps + 20 {
         let mut tx = Transaction::new();
         let b = tx.create(Kind::Solid, &format!("added{k}"), Some(scene.into()));

@@ -134,8 +134,12 @@ pub fn run(
     // the same sweep on the workers of a sweep host, over Zenoh on localhost TCP
     let host = Host::start(exe, 2)?;
     for workers in [1usize, 2] {
-        let mut launchers = connect(&host.endpoint, "robosim", std::time::Duration::from_secs(15))
-            .map_err(|e| format!("{e}\nthe host said:\n{}", host.log()))?;
+        let mut launchers = connect(
+            &host.endpoint,
+            "robosim",
+            std::time::Duration::from_secs(15),
+        )
+        .map_err(|e| format!("{e}\nthe host said:\n{}", host.log()))?;
         launchers.truncate(workers);
         let l = load();
         let ran = sweep_on(&p, launchers, &opts, None, &mut |line| eprintln!("{line}"))

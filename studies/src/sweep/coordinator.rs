@@ -594,7 +594,8 @@ mod tests {
             }
             let (tx, rx) = mpsc::channel::<String>();
             let alive = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(true));
-            let (flag, here, gone_once) = (alive.clone(), self.here.clone(), self.gone_once.clone());
+            let (flag, here, gone_once) =
+                (alive.clone(), self.here.clone(), self.gone_once.clone());
             let (away_on, back_after) = (self.away_on, self.back_after);
             std::thread::spawn(move || {
                 for line in rx {
@@ -653,7 +654,11 @@ mod tests {
         for (i, o) in out.iter().enumerate() {
             assert_eq!(o, &Ok(vec![i as f64, 2.0 * i as f64]), "{log:#?}");
         }
-        assert_eq!((stats.started, stats.deaths, stats.redone), (2, 1, 1), "{log:#?}");
+        assert_eq!(
+            (stats.started, stats.deaths, stats.redone),
+            (2, 1, 1),
+            "{log:#?}"
+        );
         let at = |needle: &str| log.iter().position(|l| l.contains(needle));
         let (Some(died), Some(waits), Some(again)) = (
             at("worker 0 (thread) died: its output ended"),
@@ -663,7 +668,11 @@ mod tests {
             panic!("{log:#?}");
         };
         assert!(died < waits && waits < again, "{log:#?}");
-        assert_eq!(log.iter().filter(|l| l.contains("waits")).count(), 1, "{log:#?}");
+        assert_eq!(
+            log.iter().filter(|l| l.contains("waits")).count(),
+            1,
+            "{log:#?}"
+        );
     }
 
     #[test]
