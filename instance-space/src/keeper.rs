@@ -940,8 +940,8 @@ impl Keeper {
         Ok(())
     }
 
-    /// Publishes the objects head (every object chunk), every pose chunk and the poses head (a keeper starting, or a
-    /// replica's model replaced). Geometry waits for a reader to ask for the base (its epoch is
+    /// Publishes the objects head (every object chunk), every pose chunk and the poses head (a
+    /// keeper starting, or a replica's model replaced). Geometry waits for a reader to ask for the base (its epoch is
     /// new, so every reader does).
     fn publish_all(&mut self) -> Result<(), KeeperError> {
         self.rebuild_structure(None)?;
@@ -1028,7 +1028,9 @@ impl Keeper {
             restructured.dedup();
             self.rebuild_structure(Some(&restructured))?;
         }
-        for id in posed {
+        // Moved objects, and those a structural change may have moved (a reparent): their pose
+        // records are compared, and their chunks marked when they differ.
+        for id in posed.into_iter().chain(restructured) {
             if let (Some(&i), Some(o)) = (self.index.get(&id), self.model.get(id)) {
                 let rec = crate::encode::pose_rec(o);
                 if self.poses[i] != rec {
@@ -1082,36 +1084,12 @@ impl Keeper {
     /// O(changed chunks + objects / [`OBJECT_CHUNK`]). Otherwise (a delete, an object made with
     /// a smaller id) the order, the pose records and every chunk are rebuilt — O(objects) here —
     /// but only the chunks that differ are published (as a delete republishes the pose chunks
-    /// after it).
+    /// after it). The pose records of `changed` are refreshed by the caller.
     fn rebuild_structure(&mut self, changed: Option<&[Id]>) -> Result<(), KeeperError> {
         let n = self.model.len();
-        let same_objects = changed.is_some_and(|ids| {
-            n == self.order.len()
-                && self.obj_chunks.len() == n.div_ceil(OBJECT_CHUNK)
-                && ids
-                    .iter()
-                    .all(|id| self.index.contains_key(id) && self.model.get(*id).is_some())
-        });
-        // Objects only added, all after the last one (ids grow): appended to the caches.
-        let appended: Option<Vec<Id>> = changed.and_then(|ids| {
-            let last = self.order.last().copied().unwrap_or(0);
-            let new: Vec<Id> = ids
-                .iter()
-                .copied()
-                .filter(|id| !self.index.contains_key(id))
-                .collect();
-            (!same_objects
-                && !self.order.is_empty()
-                && self.obj_chunks.len() == self.order.len().div_ceil(OBJECT_CHUNK)
-                && n == self.order.len() + new.len()
-                && new
-                    .iter()
-                    .all(|&id| id > last && self.model.get(id).is_some())
-                && ids.iter().all(|id| self.model.get(*id).is_some()))
-            .then_some(new)
-        });
         let version = self.model.version;
-        if let Some(new) = appended {
+        if let Some(new) = changed.and_then(|ids| self.appended(ids, n)) {
+            // In place: the objects kept are where they were; `new` (maybe none) goes after them.
             let start = self.order.len();
             for id in new {
                 if let Some(o) = self.model.get(id) {
@@ -1129,45 +1107,16 @@ impl Keeper {
             let mut ks: Vec<usize> = changed
                 .unwrap_or(&[])
                 .iter()
-                .filter_map(|id| self.index.get(id).map(|&i| i / OBJECT_CHUNK))
-                .filter(|&k| k < start / OBJECT_CHUNK)
+                .filter_map(|id| self.index.get(id).copied())
+                .filter(|&i| i < start)
+                .map(|i| i / OBJECT_CHUNK)
                 .collect();
-            ks.dedup();
-            ks.extend(start / OBJECT_CHUNK..n.div_ceil(OBJECT_CHUNK));
-            for k in ks {
-                self.encode_object_chunk(k, version);
+            if start < n {
+                ks.extend(start / OBJECT_CHUNK..n.div_ceil(OBJECT_CHUNK));
             }
-            for id in changed.unwrap_or(&[]) {
-                if let Some(&i) = self.index.get(id)
-                    && i < start
-                    && let Some(o) = self.model.get(*id)
-                {
-                    let rec = crate::encode::pose_rec(o);
-                    if self.poses[i] != rec {
-                        self.poses[i] = rec;
-                        self.chunk_dirty[i / POSE_CHUNK] = true;
-                    }
-                }
-            }
-        } else if same_objects {
-            let mut ks: Vec<usize> = changed
-                .unwrap_or(&[])
-                .iter()
-                .filter_map(|id| self.index.get(id).map(|&i| i / OBJECT_CHUNK))
-                .collect();
             ks.dedup();
             for k in ks {
                 self.encode_object_chunk(k, version);
-            }
-            // A structural change may move an object too (its pose record is compared).
-            for id in changed.unwrap_or(&[]) {
-                if let (Some(&i), Some(o)) = (self.index.get(id), self.model.get(*id)) {
-                    let rec = crate::encode::pose_rec(o);
-                    if self.poses[i] != rec {
-                        self.poses[i] = rec;
-                        self.chunk_dirty[i / POSE_CHUNK] = true;
-                    }
-                }
             }
         } else {
             let old_poses = std::mem::take(&mut self.poses);
@@ -1201,6 +1150,24 @@ impl Keeper {
         }
         self.structure_version = version;
         self.publish_objects_head()
+    }
+
+    /// The objects `changed` (ascending) brought that the caches lack, when the caches can
+    /// follow in place: every changed object is in the model, none left it, and those new to
+    /// the caches (none, for a change to existing objects) all come after the last one (ids
+    /// grow, so a create appends). `None`: rebuild.
+    fn appended(&self, changed: &[Id], n: usize) -> Option<Vec<Id>> {
+        let last = self.order.last().copied().unwrap_or(0);
+        let new: Vec<Id> = changed
+            .iter()
+            .copied()
+            .filter(|id| !self.index.contains_key(id))
+            .collect();
+        (self.obj_chunks.len() == self.order.len().div_ceil(OBJECT_CHUNK)
+            && n == self.order.len() + new.len()
+            && new.iter().all(|&id| id > last)
+            && changed.iter().all(|&id| self.model.get(id).is_some()))
+        .then_some(new)
     }
 
     /// Encodes object chunk `k` from the model; if it differs from the one last published (or
@@ -1254,12 +1221,22 @@ impl Keeper {
         if words > GEOMETRY_UPDATE_MAX_WORDS {
             carried.clear();
         }
-        let header = self.objects_header();
-        let entries = crate::encode::chunk_entries(&self.obj_gen, &carried);
-        let w = crate::encode::objects_writer(&header, &self.obj_gen, &entries, &carried);
-        Self::send(&self.objects_pub, &w, "objects")?;
+        self.send_objects(&self.objects_pub, &carried, "objects")?;
         self.obj_dirty.iter_mut().for_each(|d| *d = false);
         Ok(())
+    }
+
+    /// Sends an objects publication carrying the chunks `carried` on `publisher`.
+    fn send_objects(
+        &self,
+        publisher: &Pub,
+        carried: &[(usize, &[u64])],
+        what: &str,
+    ) -> Result<(), KeeperError> {
+        let header = self.objects_header();
+        let entries = crate::encode::chunk_entries(&self.obj_gen, carried);
+        let w = crate::encode::objects_writer(&header, &self.obj_gen, &entries, carried);
+        Self::send(publisher, &w, what)
     }
 
     /// Publishes the objects base — every object chunk at the current structure version —
@@ -1276,10 +1253,7 @@ impl Keeper {
             .enumerate()
             .map(|(k, c)| (k, c.as_slice()))
             .collect();
-        let header = self.objects_header();
-        let entries = crate::encode::chunk_entries(&self.obj_gen, &carried);
-        let w = crate::encode::objects_writer(&header, &self.obj_gen, &entries, &carried);
-        Self::send(&self.objects_base_pub, &w, "objects base")?;
+        self.send_objects(&self.objects_base_pub, &carried, "objects base")?;
         self.objects_base_published = Some(now);
         Ok(())
     }
