@@ -113,53 +113,67 @@ struct ObjectsHead {
     gens: Vec<u64>,
 }
 
-/// One object chunk's segment: all of `words` (a copy this process owns), or words
-/// `start..start + len` of section 3 of an objects publication (a base). Checked when the
-/// snapshot was assembled.
+/// One segment a snapshot uses — an object's geometry, an object chunk: all of `words` (a copy
+/// this process owns), or words `start..start + len` of section `section` of a bundle (a
+/// geometry or objects base, viewed in place). Bounds were checked when the snapshot was
+/// assembled.
 #[derive(Clone)]
-struct ObjSrc {
+struct SegSrc {
     words: Rc<Words>,
-    range: Option<(usize, usize)>,
+    /// (section, start, len) in a bundle; `None`: the whole of `words`.
+    range: Option<(usize, usize, usize)>,
     generation: u64,
 }
 
-impl ObjSrc {
-    fn segment(&self) -> Segment<'_> {
-        let words = self.words.words();
-        let seg = match self.range {
-            None => Segment::parse(words).ok(),
-            Some((start, len)) => Segment::parse(words)
-                .ok()
-                .and_then(|s| s.section::<u64>(3).ok())
-                .and_then(|d| d.get(start..start + len))
-                .and_then(|w| Segment::parse(w).ok()),
-        };
-        // Checked when the snapshot was assembled ([`ObjSrc::check`]).
-        #[allow(clippy::redundant_closure)]
-        seg.unwrap_or_else(|| unreachable_segment())
+/// An object's geometry segment.
+type GeomSrc = SegSrc;
+/// An object chunk's segment.
+type ObjSrc = SegSrc;
+
+impl SegSrc {
+    fn owned(words: Vec<u64>, generation: u64) -> SegSrc {
+        SegSrc {
+            words: Rc::new(Words::Owned(words)),
+            range: None,
+            generation,
+        }
     }
-    fn records(&self) -> &[ObjectRec] {
-        self.segment().section(1).unwrap_or(&[])
-    }
-    fn names(&self) -> &[u8] {
-        self.segment().section(2).unwrap_or(&[])
-    }
-    /// Checks the chunk is chunk `k` of `count` objects with its sections in bounds and its
-    /// geometry index sound; returns its objects with geometry: (index in the chunk, id,
-    /// geometry generation).
-    fn check(&self, k: usize, count: usize) -> Result<Vec<(usize, Id, u64)>, ReaderError> {
-        let words = self.words.words();
-        let seg = match self.range {
-            None => Segment::parse(words)?,
-            Some((start, len)) => {
-                let data = Segment::parse(words)?.section::<u64>(3)?;
-                let w = start
+    /// The segment's words, or why they are not where `range` says.
+    fn seg_words(&self) -> Result<&[u64], ReaderError> {
+        let all = self.words.words();
+        match self.range {
+            None => Ok(all),
+            Some((section, start, len)) => {
+                let data = Segment::parse(all)?.section::<u64>(section)?;
+                Ok(start
                     .checked_add(len)
                     .and_then(|end| data.get(start..end))
-                    .ok_or(LayoutError::Section(2))?;
-                Segment::parse(w)?
+                    .ok_or(LayoutError::Section(section))?)
             }
-        };
+        }
+    }
+    fn segment(&self) -> Option<Segment<'_>> {
+        Segment::parse(self.seg_words().ok()?).ok()
+    }
+    /// As an object chunk (checked when the snapshot was assembled, [`SegSrc::check_chunk`]).
+    fn chunk(&self) -> Segment<'_> {
+        // (a closure: `unreachable_segment` as a fn item would pin the lifetime to 'static)
+        #[allow(clippy::redundant_closure)]
+        self.segment().unwrap_or_else(|| unreachable_segment())
+    }
+    /// An object chunk's records.
+    fn records(&self) -> &[ObjectRec] {
+        self.chunk().section(1).unwrap_or(&[])
+    }
+    /// An object chunk's names.
+    fn names(&self) -> &[u8] {
+        self.chunk().section(2).unwrap_or(&[])
+    }
+    /// Checks this is object chunk `k` of `count` objects with its sections in bounds and its
+    /// geometry index sound; returns its objects with geometry: (index in the chunk, id,
+    /// geometry generation).
+    fn check_chunk(&self, k: usize, count: usize) -> Result<Vec<(usize, Id, u64)>, ReaderError> {
+        let seg = Segment::parse(self.seg_words()?)?;
         let h: ObjectChunkHeader = *seg.record(0)?;
         let recs = seg.section::<ObjectRec>(1)?;
         // Names are read with bounds checks ([`Snapshot::name`]); the records are not all
@@ -178,38 +192,6 @@ impl ObjSrc {
             out.push((j as usize, r.id, r.geom_gen));
         }
         Ok(out)
-    }
-}
-
-/// One object's geometry segment: all of `words` (a copy this process owns), or words
-/// `start..start + len` of section 2 of a geometry base. Bounds were checked when the snapshot
-/// was assembled.
-#[derive(Clone)]
-struct GeomSrc {
-    words: Rc<Words>,
-    range: Option<(usize, usize)>,
-    generation: u64,
-}
-
-impl GeomSrc {
-    fn owned(words: Vec<u64>, generation: u64) -> GeomSrc {
-        GeomSrc {
-            words: Rc::new(Words::Owned(words)),
-            range: None,
-            generation,
-        }
-    }
-    fn segment(&self) -> Option<Segment<'_>> {
-        let all = self.words.words();
-        let words = match self.range {
-            None => all,
-            Some((start, len)) => Segment::parse(all)
-                .ok()?
-                .section::<u64>(2)
-                .ok()?
-                .get(start..start + len)?,
-        };
-        Segment::parse(words).ok()
     }
 }
 
@@ -323,11 +305,7 @@ impl Snapshot {
             objects: segs
                 .object_chunks
                 .into_iter()
-                .map(|w| ObjSrc {
-                    words: Rc::new(Words::Owned(w)),
-                    range: None,
-                    generation,
-                })
+                .map(|w| ObjSrc::owned(w, generation))
                 .collect(),
             objects_flat: Rc::default(),
             poses,
@@ -679,13 +657,14 @@ struct GeomUpdate {
 }
 
 /// In a bundle (`entries` the section of its [`ChunkEntry`]s, ascending by key, the next section
-/// their words): the word range of `key` at `generation`, if the bundle holds it.
+/// their words): where `key` at `generation` is — (words section, first word, length) — if the
+/// bundle holds it.
 fn bundle_find(
     words: &[u64],
     entries: usize,
     key: u64,
     generation: u64,
-) -> Result<Option<(usize, usize)>, ReaderError> {
+) -> Result<Option<(usize, usize, usize)>, ReaderError> {
     let seg = Segment::parse(words)?;
     let list = seg.section::<ChunkEntry>(entries)?;
     let Ok(k) = list.binary_search_by_key(&key, |e| e.id) else {
@@ -700,7 +679,13 @@ fn bundle_find(
     if start.checked_add(len).is_none_or(|end| end > data) {
         return Err(LayoutError::Section(entries).into());
     }
-    Ok(Some((start, len)))
+    Ok(Some((entries + 1, start, len)))
+}
+
+/// Whether a base of keeper `epoch` at structure version `version` serves head `h`: of its
+/// structure version or newer, or of a newer keeper (then a newer head follows).
+fn serves_structure(h: &PosesHeader, epoch: u64, version: u64) -> bool {
+    epoch > h.epoch || (epoch == h.epoch && version >= h.structure_version)
 }
 
 /// A received geometry bundle (a base), its header checked.
@@ -1164,7 +1149,7 @@ impl Reader {
             match table {
                 Some(t) => geometry.push(t),
                 None => {
-                    for (j, id, generation) in src.check(k, count_of(k))? {
+                    for (j, id, generation) in src.check_chunk(k, count_of(k))? {
                         want.push((k, j, id, generation));
                     }
                     geometry.push(Rc::new(vec![None; count_of(k)]));
@@ -1276,11 +1261,7 @@ impl Reader {
                     ObjUpdate {
                         epoch: header.epoch,
                         version: header.version,
-                        chunk: ObjSrc {
-                            words: Rc::new(Words::Owned(words.to_vec())),
-                            range: None,
-                            generation: e.generation,
-                        },
+                        chunk: ObjSrc::owned(words.to_vec(), e.generation),
                     },
                 );
             }
@@ -1304,10 +1285,7 @@ impl Reader {
         h: &PosesHeader,
         deadline: Instant,
     ) -> Result<&ObjBase, ReaderError> {
-        let fresh = |b: &ObjBase| {
-            b.head.epoch > h.epoch
-                || (b.head.epoch == h.epoch && b.head.version >= h.structure_version)
-        };
+        let fresh = |b: &ObjBase| serves_structure(h, b.head.epoch, b.head.version);
         if !self.objects_base.as_ref().is_some_and(fresh) {
             self.objects_bases_asked += 1;
             self.ask_until(events::OBJECTS_BASE, deadline, |r| {
@@ -1364,10 +1342,7 @@ impl Reader {
         h: &PosesHeader,
         deadline: Instant,
     ) -> Result<&GeomBase, ReaderError> {
-        let fresh = |b: &GeomBase| {
-            b.head.epoch > h.epoch
-                || (b.head.epoch == h.epoch && b.head.version >= h.structure_version)
-        };
+        let fresh = |b: &GeomBase| serves_structure(h, b.head.epoch, b.head.version);
         if !self.geometry_base.as_ref().is_some_and(fresh) {
             self.geometry_bases_asked += 1;
             self.ask_until(events::GEOMETRY_BASE, deadline, |r| {
