@@ -1159,6 +1159,90 @@ fn a_pose_change_republishes_only_its_chunk_and_readers_reuse_the_others() {
     assert_eq!(grown.name(n + 1), "appended");
 }
 
+/// A late joiner of a large model takes the pose base an earlier joiner had the keeper publish,
+/// and opens the service of the one chunk that moved since, rather than have the keeper copy
+/// every pose again (at 10⁵ bodies 11 MB, milliseconds); when more than a few chunks moved
+/// since, it asks for a fresh base. Either way its snapshot is the newest version, equal to a
+/// follower's.
+#[test]
+fn a_late_joiner_reuses_a_published_pose_base_and_opens_only_the_chunks_moved_since() {
+    use robosim_instance_space::layout::POSE_CHUNK;
+    let mut t = TestSession::new("stalebase");
+    t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "w").expect("connect");
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scene", None);
+    let scene = c.transact(&tx).expect("scene").created[0];
+    // More records than a chunk service's open is worth (the reader's RECORDS_PER_OPEN, 16384):
+    // 17,000 bodies, 67 chunks.
+    let n = 17_000;
+    let mut bodies = Vec::with_capacity(n);
+    for k in 0..n / 1_000 {
+        let mut tx = Transaction::new();
+        for j in 0..1_000 {
+            tx.create(
+                Kind::Solid,
+                &format!("b{}", k * 1_000 + j),
+                Some(scene.into()),
+            );
+        }
+        bodies.extend(c.transact(&tx).expect("build").created);
+    }
+    let mut follower = Reader::attach(&s, "follower").expect("attach");
+    assert_eq!(
+        follower.pose_bases_asked(),
+        1,
+        "the first joiner asks for a base"
+    );
+    let follow = |r: &mut Reader, v: u64| {
+        while r.snapshot().expect("snapshot").version() < v {
+            r.wait_change(Duration::from_secs(5)).expect("wait");
+        }
+        r.snapshot().expect("snapshot")
+    };
+    let move_to = |c: &mut Client, which: &[u64], x: f64| {
+        let mut tx = Transaction::new();
+        for &b in which {
+            let mut pose = IDENTITY;
+            pose[3] = x;
+            tx.set_pose(b, pose);
+        }
+        c.transact(&tx).expect("move").version
+    };
+    // One body moves: one chunk differs from the published base.
+    let one = bodies[5 * POSE_CHUNK + 3];
+    let v = move_to(&mut c, &[one], 4.0);
+    let late = Reader::attach(&s, "late").expect("late joiner");
+    let ls = late.snapshot().expect("snapshot");
+    assert_eq!(ls.version(), v);
+    assert_eq!(late.pose_bases_asked(), 0, "the published base served");
+    assert_eq!(
+        late.pose_chunks_followed(),
+        1,
+        "only the moved chunk is opened"
+    );
+    assert_eq!(ls.pose(ls.index_of(one).expect("body")).pose[3], 4.0);
+    let fs = follow(&mut follower, v);
+    assert_eq!(ls.poses(), fs.poses());
+    // Ten bodies in ten chunks move: more than a reader opens services for; a new joiner asks
+    // for a fresh base and follows no chunk.
+    let ten: Vec<u64> = (0..10).map(|k| bodies[k * 6 * POSE_CHUNK + 1]).collect();
+    let v = move_to(&mut c, &ten, -2.0);
+    let later = Reader::attach(&s, "later").expect("later joiner");
+    let ls = later.snapshot().expect("snapshot");
+    assert_eq!(ls.version(), v);
+    assert_eq!(later.pose_bases_asked(), 1);
+    assert_eq!(later.pose_chunks_followed(), 0);
+    let fs = follow(&mut follower, v);
+    assert_eq!(ls.poses(), fs.poses());
+    assert!(
+        ten.iter()
+            .all(|&b| ls.pose(ls.index_of(b).expect("body")).pose[3] == -2.0)
+    );
+    assert_eq!(ls.pose(ls.index_of(one).expect("body")).pose[3], 4.0);
+}
+
 /// A structural change — a rename, a colour, the selection, a delete, an object appended —
 /// republishes the object chunks it changed, not the whole objects segment: a following reader
 /// keeps every other chunk as the same memory, and asks for the objects base only to attach;

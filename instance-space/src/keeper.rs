@@ -1051,16 +1051,19 @@ impl Keeper {
     }
 
     fn update_connections(&mut self) {
-        let _ = self.objects_pub.update_connections();
+        // In the order of publication, the bases first and the poses head last: a reader that
+        // receives a head from a service's history finds in the others' histories what was
+        // published before it (a base included).
         let _ = self.objects_base_pub.update_connections();
-        let _ = self.poses_pub.update_connections();
         let _ = self.base_pub.update_connections();
+        let _ = self.geometry_base_pub.update_connections();
+        let _ = self.geometry_pub.update_connections();
+        let _ = self.objects_pub.update_connections();
         for (p, _) in &self.chunk_pubs {
             let _ = p.update_connections();
         }
         let _ = self.changes_pub.update_connections();
-        let _ = self.geometry_pub.update_connections();
-        let _ = self.geometry_base_pub.update_connections();
+        let _ = self.poses_pub.update_connections();
         if let Some(p) = &self.library {
             let _ = p.update_connections();
         }

@@ -145,6 +145,8 @@ struct Row {
     follow: (f64, f64, f64),
     notify: (f64, f64, f64),
     attach: (f64, f64, f64),
+    /// Per round: (pose tx p50, reader follows p50, notify p50, attach).
+    rounds: Vec<[f64; 4]>,
     geometry: GeomRow,
 }
 
@@ -272,61 +274,96 @@ fn geometry_row(name: &str, n: usize, attach_reps: usize, reps: usize) -> Result
     })
 }
 
-/// Runs the bench and writes `scale.md` and `scale.csv` into `out`.
-pub fn run(out: &Path, quick: bool) -> Result<()> {
-    let tx_reps = if quick { 300 } else { 3_000 };
-    let lat_count = if quick { 300 } else { 2_000 };
-    let attach_reps = if quick { 3 } else { 10 };
-    let pid = std::process::id();
-    let mut rows = Vec::new();
-    let mut lib = None;
-    for n in SIZES {
-        // Short session names: iceoryx2 limits the length of the names derived from them.
-        let kp = keeper(&format!("sc{pid}n{n}"), false)?;
-        if lib.is_none() {
-            lib = Some(library_row(kp.session(), if quick { 5 } else { 20 })?);
-        }
+/// One model of the pose path: its keeper, the writer, the in-process follower, and the
+/// samples gathered over the rounds.
+struct PoseModel {
+    n: usize,
+    kp: robosim_instance_space::ScratchKeeper,
+    client: Client,
+    follower: Reader,
+    body: u64,
+    /// Pose transactions committed so far (the next one moves the body to x = (k + 1) mm).
+    k: usize,
+    tx_us: Vec<f64>,
+    follow_us: Vec<f64>,
+    notify_us: Vec<f64>,
+    attach_ms: Vec<f64>,
+    /// Per round: (pose tx p50, reader follows p50, notify p50, attach), for the ratios.
+    rounds: Vec<[f64; 4]>,
+}
+
+impl PoseModel {
+    fn start(name: &str, n: usize) -> Result<PoseModel> {
+        let kp = keeper(name, false)?;
         let mut client = Client::connect(kp.session(), "scale-writer")?;
         let body = build(&mut client, n)?;
-        let mut follower = Reader::attach(kp.session(), "scale-follower")?;
+        let follower = Reader::attach(kp.session(), "scale-follower")?;
+        let mut m = PoseModel {
+            n,
+            kp,
+            client,
+            follower,
+            body,
+            k: 0,
+            tx_us: Vec::new(),
+            follow_us: Vec::new(),
+            notify_us: Vec::new(),
+            attach_ms: Vec::new(),
+            rounds: Vec::new(),
+        };
         // Warm-up: first touch of shared-memory pages is not what this measures.
-        for k in 0..200 {
-            client.transact(&pose_tx(body, k as f64 * 1e-3))?;
-            follower.wait_change(Duration::from_secs(5))?;
-        }
-        let mut tx_us = Vec::with_capacity(tx_reps);
-        let mut follow_us = Vec::with_capacity(tx_reps);
-        for k in 0..tx_reps {
-            let tx = pose_tx(body, (k + 1) as f64 * 1e-3);
+        m.pose_batch(200, false)?;
+        Ok(m)
+    }
+
+    /// `count` one-body pose transactions, each followed by the in-process follower; the
+    /// times recorded if `record`. Returns the medians of this batch (tx, follow).
+    fn pose_batch(&mut self, count: usize, record: bool) -> Result<(f64, f64)> {
+        let (mut tx_us, mut follow_us) = (Vec::with_capacity(count), Vec::with_capacity(count));
+        let n = self.n;
+        for _ in 0..count {
+            self.k += 1;
+            let x = tx_pose_x(self.k);
             let t = Instant::now();
-            let c = client.transact(&tx)?;
+            let c = self.client.transact(&pose_tx(self.body, x))?;
             tx_us.push(t.elapsed().as_nanos() as f64 / 1e3);
             let t = Instant::now();
-            let changes = follower.wait_change(Duration::from_secs(5))?;
+            let changes = self.follower.wait_change(Duration::from_secs(5))?;
             follow_us.push(t.elapsed().as_nanos() as f64 / 1e3);
-            let snap = follower.snapshot().ok_or("no snapshot")?;
+            let snap = self.follower.snapshot().ok_or("no snapshot")?;
             if changes.last().map(|c| c.version) != Some(c.version) || snap.version() != c.version {
                 bail!(
                     "the follower did not reach version {} at {n} bodies",
                     c.version
                 );
             }
-            let i = snap.index_of(body).ok_or("body missing")?;
-            if snap.pose(i).pose[3] != tx_pose_x(k + 1) {
+            let i = snap.index_of(self.body).ok_or("body missing")?;
+            if snap.pose(i).pose[3] != x {
                 bail!("the follower's snapshot has a stale pose at {n} bodies");
             }
         }
+        let medians = (stats(tx_us.clone()).1, stats(follow_us.clone()).1);
+        if record {
+            self.tx_us.extend(tx_us);
+            self.follow_us.extend(follow_us);
+        }
+        Ok(medians)
+    }
 
-        // Notification latency: a reader process blocked in wait_event.
-        let lat_path = std::env::temp_dir().join(format!("robosim-scale-lat-{pid}-{n}.txt"));
+    /// Notification latency of `count` pose transactions, one every 300 µs, to a reader
+    /// process of this round blocked in `wait_event`; the follower catches up afterwards,
+    /// untimed. Returns this batch's median (µs).
+    fn notify_batch(&mut self, count: usize, tag: &str) -> Result<f64> {
+        let n = self.n;
+        let lat_path = std::env::temp_dir().join(format!("robosim-scale-lat-{tag}.txt"));
         let mut reader = Command::new(bin()?)
             .args([
                 "bench",
                 "ipc-reader",
                 "--session",
-                kp.session().name(),
+                self.kp.session().name(),
                 "--count",
-                &lat_count.to_string(),
+                &count.to_string(),
                 "--out",
             ])
             .arg(&lat_path)
@@ -337,47 +374,125 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
         if let Some(o) = reader.stdout.as_mut() {
             std::io::BufReader::new(o).read_line(&mut line)?;
         }
-        for k in 0..lat_count {
+        if line.trim() != "ready" {
+            let _ = reader.kill();
+            let _ = reader.wait();
+            bail!("the latency reader at {n} bodies did not attach");
+        }
+        for _ in 0..count {
             // The writer alone: the in-process follower does not follow in this phase, so the
             // latency reader shares the two cores with the keeper only (with it, a second
             // reader assembling every version at the same moment made this figure a
             // measure of CPU contention, growing with its O(chunks) work).
-            client.transact(&pose_tx(body, k as f64 * 1e-3))?;
+            self.k += 1;
+            self.client
+                .transact(&pose_tx(self.body, tx_pose_x(self.k)))?;
             // Let the reader block again, so every sample is a wake-up from sleep.
             std::thread::sleep(Duration::from_micros(300));
         }
         let status = reader.wait()?;
+        let text = std::fs::read_to_string(&lat_path).unwrap_or_default();
+        let _ = std::fs::remove_file(&lat_path);
         if !status.success() {
             bail!("latency reader failed at {n} bodies: {status}");
         }
-        let text = std::fs::read_to_string(&lat_path)?;
-        let _ = std::fs::remove_file(&lat_path);
         let lat: Vec<f64> = text.lines().filter_map(|l| l.parse().ok()).collect();
-
-        // Late joiners.
-        let mut attach_ms = Vec::with_capacity(attach_reps);
-        for _ in 0..attach_reps {
-            let t = Instant::now();
-            let r = Reader::attach(kp.session(), "scale-joiner")?;
-            attach_ms.push(t.elapsed().as_nanos() as f64 / 1e6);
-            let len = r.snapshot().map_or(0, |s| s.len());
-            if len != n + 1 {
-                bail!("a late joiner saw {len} objects, not {}", n + 1);
-            }
+        if lat.len() != count {
+            bail!(
+                "the latency reader at {n} bodies recorded {} of {count} changes",
+                lat.len()
+            );
         }
+        let median = stats(lat.clone()).1;
+        self.notify_us.extend(lat);
+        // Untimed: the follower drains what it did not follow.
+        let version = self
+            .client
+            .transact(&pose_tx(self.body, tx_pose_x(self.k)))?
+            .version;
+        while self
+            .follower
+            .snapshot()
+            .is_none_or(|s| s.version() < version)
+        {
+            self.follower.wait_change(Duration::from_secs(5))?;
+        }
+        Ok(median)
+    }
+
+    /// One late joiner's attach (ms).
+    fn attach(&mut self) -> Result<f64> {
+        let t = Instant::now();
+        let r = Reader::attach(self.kp.session(), "scale-joiner")?;
+        let ms = t.elapsed().as_nanos() as f64 / 1e6;
+        let len = r.snapshot().map_or(0, |s| s.len());
+        if len != self.n + 1 {
+            bail!("a late joiner saw {len} objects, not {}", self.n + 1);
+        }
+        self.attach_ms.push(ms);
+        Ok(ms)
+    }
+}
+
+/// Runs the bench and writes `scale.md` and `scale.csv` into `out`.
+///
+/// The pose path is measured in rounds over the four models at once, each against a keeper of
+/// its own: in every round each model in turn (the order rotating) takes a batch of pose
+/// transactions, a batch of notifications and one late joiner. A load that comes and goes on
+/// this shared machine then falls on every size alike, and each round gives its own ratios to
+/// the 10² model, whose spread is reported beside the pooled figures.
+pub fn run(out: &Path, quick: bool) -> Result<()> {
+    let rounds = if quick { 3 } else { 10 };
+    let tx_batch = if quick { 100 } else { 300 };
+    let lat_batch = if quick { 100 } else { 200 };
+    let pid = std::process::id();
+    let mut models = Vec::new();
+    let mut lib = None;
+    for n in SIZES {
+        // Short session names: iceoryx2 limits the length of the names derived from them.
+        let m = PoseModel::start(&format!("sc{pid}n{n}"), n)?;
+        if lib.is_none() {
+            lib = Some(library_row(m.kp.session(), if quick { 5 } else { 20 })?);
+        }
+        models.push(m);
+    }
+    for round in 0..rounds {
+        for j in 0..models.len() {
+            let m = &mut models[(j + round) % SIZES.len()];
+            let (tx, follow) = m.pose_batch(tx_batch, true)?;
+            let notify = m.notify_batch(lat_batch, &format!("{pid}-{}-{round}", m.n))?;
+            let attach = m.attach()?;
+            m.rounds.push([tx, follow, notify, attach]);
+        }
+    }
+    let mut rows = Vec::new();
+    for m in models {
+        let PoseModel {
+            n,
+            kp,
+            client,
+            follower,
+            tx_us,
+            follow_us,
+            notify_us,
+            attach_ms,
+            rounds,
+            ..
+        } = m;
         drop((client, follower, kp));
         let geometry = geometry_row(
             &format!("sg{pid}n{n}"),
             n,
-            attach_reps,
+            if quick { 3 } else { 10 },
             if quick { 30 } else { 200 },
         )?;
         rows.push(Row {
             n,
             tx: stats(tx_us),
             follow: stats(follow_us),
-            notify: stats(lat),
+            notify: stats(notify_us),
             attach: stats(attach_ms),
+            rounds,
             geometry,
         });
     }
@@ -399,46 +514,75 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
         if quick { " --quick" } else { "" }
     )
     .ok();
-    writeln!(md, "Measured on this machine (2 cores, shared), one run; ratios are to the 10² model of the same run (goal: each ≤ 1.5 at 10⁵). Bodies are solids without geometry under one scene; one body in the middle is moved by one `SetPose` transaction at a time. The keeper runs without the journal's fsync (a constant ≈ 130 µs here, docs/bench/ipc.md (d)) so that what grows with the model is not hidden.\n").ok();
+    let rounds = base.rounds.len();
+    writeln!(md, "Measured on this machine (2 cores, shared), one run of {rounds} rounds. The four models run at once, each against a keeper of its own, and every round gives each model in turn (the order rotating) a batch of pose transactions, a batch of notifications and one late joiner: a load that comes and goes on this shared machine falls on every size alike. **×10²** is the ratio of the pooled median to the 10² model's, with in brackets the least and greatest ratio of one round's medians (goal: each ≤ 1.5 at 10⁵). Bodies are solids without geometry under one scene; one body in the middle is moved by one `SetPose` transaction at a time. The keeper runs without the journal's fsync (a constant ≈ 130 µs here, docs/bench/ipc.md (d)) so that what grows with the model is not hidden.\n").ok();
     writeln!(md, "* **pose tx**: `Client::transact`, end to end through the keeper process (apply, publish one pose chunk of {POSE_CHUNK} records and the head, acknowledge);").ok();
     writeln!(md, "* **reader follows**: `Reader::wait_change` right after the acknowledgement, in this process: drain the change record and assemble the new snapshot (receive the one changed chunk; reuse the others);").ok();
-    writeln!(md, "* **notify**: keeper's publish stamp → a reader process blocked in `wait_event` wakes (CLOCK_MONOTONIC), one pose transaction every 300 µs; the writer does not follow in this phase (until stop 34 it did: a second reader assembling each version at the same moment, on two cores);").ok();
+    writeln!(md, "* **notify**: keeper's publish stamp → a reader process blocked in `wait_event` wakes (CLOCK_MONOTONIC), one pose transaction every 300 µs, a new reader process each round; the writer does not follow in this phase (until stop 34 it did: a second reader assembling each version at the same moment, on two cores);").ok();
     writeln!(
         md,
-        "* **attach**: a late joiner's `Reader::attach` until its first snapshot (the whole model);"
+        "* **attach**: a late joiner's `Reader::attach` until its first snapshot (the whole model), one per round;"
     )
     .ok();
     writeln!(md, "* **bytes published**: what the keeper copies into shared memory per one-body pose transaction, computed from the layout — now, and with the whole pose head republished per commit as before.\n").ok();
-    writeln!(md, "| bodies | pose tx mean / p99 (µs) | ×10² | reader follows mean / p99 (µs) | ×10² | notify p50 / p99 (µs) | ×10² (p50) | attach mean (ms) | ×10² | bytes published now / whole head |\n|---|---|---|---|---|---|---|---|---|---|").ok();
+    writeln!(md, "| bodies | pose tx p50 / p99 (µs) | ×10² | reader follows p50 / p99 (µs) | ×10² | notify p50 / p99 (µs) | ×10² | attach p50 / max (ms) | ×10² | bytes published now / whole head |\n|---|---|---|---|---|---|---|---|---|---|").ok();
     for r in rows {
         let (now, whole) = published_bytes(r.n);
+        let ratio = |i: usize, pooled: f64, pooled_base: f64| {
+            let per: Vec<f64> = r
+                .rounds
+                .iter()
+                .zip(&base.rounds)
+                .map(|(a, b)| a[i] / b[i])
+                .collect();
+            let lo = per.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = per.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            (pooled / pooled_base, lo, hi)
+        };
+        let cell = |(p, lo, hi): (f64, f64, f64)| format!("{p:.2} [{lo:.2}–{hi:.2}]");
+        let tx = ratio(0, r.tx.1, base.tx.1);
+        let follow = ratio(1, r.follow.1, base.follow.1);
+        let notify = ratio(2, r.notify.1, base.notify.1);
+        let attach = ratio(3, r.attach.1, base.attach.1);
+        let attach_max = r.rounds.iter().map(|x| x[3]).fold(0.0, f64::max);
         writeln!(
             md,
-            "| {} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.2} | {:.2} | {} / {} |",
+            "| {} | {:.1} / {:.1} | {} | {:.1} / {:.1} | {} | {:.1} / {:.1} | {} | {:.2} / {:.2} | {} | {} / {} |",
             r.n,
-            r.tx.0,
+            r.tx.1,
             r.tx.2,
-            r.tx.0 / base.tx.0,
-            r.follow.0,
+            cell(tx),
+            r.follow.1,
             r.follow.2,
-            r.follow.0 / base.follow.0,
+            cell(follow),
             r.notify.1,
             r.notify.2,
-            r.notify.1 / base.notify.1,
-            r.attach.0,
-            r.attach.0 / base.attach.0,
+            cell(notify),
+            r.attach.1,
+            attach_max,
+            cell(attach),
             now,
             whole
         )
         .ok();
         for (m, v, u) in [
             ("pose_tx_mean", r.tx.0, "us"),
+            ("pose_tx_p50", r.tx.1, "us"),
             ("pose_tx_p99", r.tx.2, "us"),
+            ("pose_tx_ratio", tx.0, "x"),
+            ("pose_tx_ratio_round_max", tx.2, "x"),
             ("reader_follow_mean", r.follow.0, "us"),
+            ("reader_follow_p50", r.follow.1, "us"),
             ("reader_follow_p99", r.follow.2, "us"),
+            ("reader_follow_ratio", follow.0, "x"),
             ("notify_p50", r.notify.1, "us"),
             ("notify_p99", r.notify.2, "us"),
+            ("notify_ratio", notify.0, "x"),
+            ("notify_ratio_round_max", notify.2, "x"),
             ("attach_mean", r.attach.0, "ms"),
+            ("attach_p50", r.attach.1, "ms"),
+            ("attach_ratio", attach.0, "x"),
+            ("attach_ratio_round_max", attach.2, "x"),
             ("published_bytes", now as f64, "B"),
             ("whole_head_bytes", whole as f64, "B"),
         ] {
