@@ -88,8 +88,10 @@ pub struct Snapshot {
     head: Rc<ObjectsHead>,
     /// The object chunks of that structure version, in object order ([`OBJECT_CHUNK`] objects
     /// each, the last maybe fewer): where each one's records, names and geometry index are. A
-    /// chunk unchanged between structure versions is the same memory in the snapshots of both.
-    objects: Vec<ObjSrc>,
+    /// chunk unchanged between structure versions is the same memory in the snapshots of both;
+    /// the list itself is shared by the snapshots of one structure version (a pose change
+    /// copies no per-chunk handle).
+    objects: Rc<Vec<ObjSrc>>,
     /// [`Snapshot::objects`] as one slice, assembled on first use when there are several
     /// chunks; shared by the snapshots of one structure version (so a pose change does not
     /// assemble it again).
@@ -104,8 +106,8 @@ pub struct Snapshot {
     flat: std::cell::OnceCell<Vec<PoseRec>>,
     /// By object chunk, then index in it; `None` for objects without geometry. A chunk's table
     /// is shared by the snapshots that share the chunk (a pose change touches none); a chunk
-    /// with no geometry at all has an empty table.
-    geometry: Vec<Rc<Vec<Option<GeomSrc>>>>,
+    /// with no geometry at all has an empty table. The list is shared like `objects`.
+    geometry: Rc<Vec<Rc<Vec<Option<GeomSrc>>>>>,
 }
 
 /// An objects head as a reader keeps it: the header and the chunks' generations (copied).
@@ -303,19 +305,22 @@ impl Snapshot {
                 header: segs.objects_header,
                 gens: vec![generation; segs.object_chunks.len()],
             }),
-            objects: segs
-                .object_chunks
-                .into_iter()
-                .map(|w| ObjSrc::owned(w, generation))
-                .collect(),
+            objects: Rc::new(
+                segs.object_chunks
+                    .into_iter()
+                    .map(|w| ObjSrc::owned(w, generation))
+                    .collect(),
+            ),
             objects_flat: Rc::default(),
             poses,
             chunk_len: POSE_CHUNK,
             flat: std::cell::OnceCell::new(),
-            geometry: geometry
-                .chunks(OBJECT_CHUNK)
-                .map(|c| Rc::new(c.to_vec()))
-                .collect(),
+            geometry: Rc::new(
+                geometry
+                    .chunks(OBJECT_CHUNK)
+                    .map(|c| Rc::new(c.to_vec()))
+                    .collect(),
+            ),
         }
     }
 
@@ -711,19 +716,76 @@ impl GeomBase {
         let head = *Segment::parse(words.words())?.record::<GeometryBundleHeader>(0)?;
         Ok(GeomBase { words, head })
     }
+}
 
-    /// The geometry of object `id` at `generation` of `epoch`, if this base holds it.
-    fn find(&self, epoch: u64, id: Id, generation: u64) -> Result<Option<GeomSrc>, ReaderError> {
-        if self.head.epoch != epoch {
+/// Looks objects' geometry up in a geometry base in ascending id order, each search galloping
+/// from where the last one ended: a late joiner of 10⁵ boxes made 10⁵ independent binary
+/// searches over a 3 MB entry list, a cache miss per step.
+struct BaseCursor<'a> {
+    base: &'a GeomBase,
+    list: &'a [ChunkEntry],
+    /// Words in the base's data section.
+    data: usize,
+    at: usize,
+}
+
+impl GeomBase {
+    fn cursor(&self) -> Result<BaseCursor<'_>, ReaderError> {
+        let seg = Segment::parse(self.words.words())?;
+        Ok(BaseCursor {
+            base: self,
+            list: seg.section::<ChunkEntry>(1)?,
+            data: seg.section::<u64>(2)?.len(),
+            at: 0,
+        })
+    }
+}
+
+impl BaseCursor<'_> {
+    /// The geometry of object `id` at `generation` of `epoch`, if the base holds it; fastest
+    /// when called with ascending ids.
+    fn find(
+        &mut self,
+        epoch: u64,
+        id: Id,
+        generation: u64,
+    ) -> Result<Option<GeomSrc>, ReaderError> {
+        if self.base.head.epoch != epoch {
             return Ok(None);
         }
-        Ok(
-            bundle_find(self.words.words(), 1, id, generation)?.map(|range| GeomSrc {
-                words: self.words.clone(),
-                range: Some(range),
-                generation,
-            }),
-        )
+        let list = self.list;
+        // From the last position if the entries before it are all below `id`, else from 0.
+        let from = if self.at > 0 && list.get(self.at - 1).is_some_and(|e| e.id < id) {
+            self.at
+        } else {
+            0
+        };
+        // Gallop to a bound `hi` with list[hi].id >= id (or the end); everything before `lo`
+        // is below `id`.
+        let (mut lo, mut hi, mut step) = (from, from, 1);
+        while hi < list.len() && list[hi].id < id {
+            lo = hi + 1;
+            hi = from + step;
+            step *= 2;
+        }
+        let hi = hi.min(list.len());
+        let k = lo + list[lo..hi].partition_point(|e| e.id < id);
+        self.at = k;
+        let Some(e) = list
+            .get(k)
+            .filter(|e| e.id == id && e.generation == generation)
+        else {
+            return Ok(None);
+        };
+        let (start, len) = (e.start as usize, e.len as usize);
+        if start.checked_add(len).is_none_or(|end| end > self.data) {
+            return Err(LayoutError::Section(1).into());
+        }
+        Ok(Some(GeomSrc {
+            words: self.base.words.clone(),
+            range: Some((2, start, len)),
+            generation,
+        }))
     }
 }
 
@@ -1091,12 +1153,12 @@ impl Reader {
             version: h.version,
             epoch: h.epoch,
             head: objects_head,
-            objects,
+            objects: Rc::new(objects),
             objects_flat: Rc::default(),
             poses,
             chunk_len: (h.chunk_len as usize).max(1),
             flat: std::cell::OnceCell::new(),
-            geometry,
+            geometry: Rc::new(geometry),
         }))
     }
 
@@ -1227,17 +1289,25 @@ impl Reader {
         };
         let mut geometry: Vec<Option<GeomSrc>> = Vec::with_capacity(want.len());
         let mut missing = Vec::new();
+        // `want` is in object order, which is ascending id order.
+        let mut in_base = self
+            .geometry_base
+            .as_ref()
+            .map(GeomBase::cursor)
+            .transpose()?;
         for (w, &(_, _, id, generation)) in want.iter().enumerate() {
-            let found = match self.geometry.get(&id) {
+            let update = match self.geometry.get(&id) {
                 Some(u) if u.epoch == h.epoch && u.geometry.generation == generation => {
                     Some(u.geometry.clone())
                 }
-                _ => held(id, generation),
+                _ => None,
             };
-            let found = match (found, &self.geometry_base) {
-                (Some(g), _) => Some(g),
-                (None, Some(b)) => b.find(h.epoch, id, generation)?,
-                (None, None) => None,
+            let found = match update.or_else(|| held(id, generation)) {
+                Some(g) => Some(g),
+                None => match in_base.as_mut() {
+                    Some(b) => b.find(h.epoch, id, generation)?,
+                    None => None,
+                },
             };
             if found.is_none() {
                 missing.push(w);
@@ -1249,9 +1319,10 @@ impl Reader {
             if base.head.epoch != h.epoch {
                 return Ok(None);
             }
+            let mut base_at = base.cursor()?;
             for &w in &missing {
                 let (_, _, id, generation) = want[w];
-                match base.find(h.epoch, id, generation)? {
+                match base_at.find(h.epoch, id, generation)? {
                     Some(g) => geometry[w] = Some(g),
                     // The base is newer than this head (a newer head follows)…
                     None if base.head.version > h.structure_version => return Ok(None),
@@ -1713,5 +1784,85 @@ impl Reader {
             .filter(|c| c.version > version)
             .cloned()
             .collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::layout::SegmentWriter;
+
+    /// A geometry base of the objects `ids` (ascending), object `id`'s geometry the one word
+    /// `id * 10` at generation `id + 1`.
+    fn base(ids: &[u64]) -> GeomBase {
+        let head = [GeometryBundleHeader {
+            epoch: 3,
+            version: 1,
+            count: ids.len() as u64,
+        }];
+        let entries: Vec<ChunkEntry> = ids
+            .iter()
+            .enumerate()
+            .map(|(k, &id)| ChunkEntry {
+                id,
+                generation: id + 1,
+                start: k as u64,
+                len: 1,
+            })
+            .collect();
+        let data: Vec<u64> = ids.iter().map(|id| id * 10).collect();
+        let mut w = SegmentWriter::new();
+        w.push(&head).push(&entries).push(&data);
+        let mut words = vec![0; w.words()];
+        w.write(&mut words);
+        GeomBase {
+            words: Rc::new(Words::Owned(words)),
+            head: head[0],
+        }
+    }
+
+    fn word(g: Option<GeomSrc>) -> Option<u64> {
+        g.map(|g| g.seg_words().expect("in bounds")[0])
+    }
+
+    #[test]
+    fn the_base_cursor_finds_what_a_binary_search_finds_in_any_order() {
+        // Gaps of every size, so the gallop overshoots and lands on boundaries.
+        let ids: Vec<u64> = (0..2_000u64).map(|k| k * 3 + (k * k) % 7).collect();
+        let mut ids = ids;
+        ids.dedup();
+        let b = base(&ids);
+        let mut c = b.cursor().expect("cursor");
+        // Ascending, with absent ids between.
+        for id in 0..ids.last().copied().unwrap_or(0) + 5 {
+            let want = ids.binary_search(&id).ok().map(|_| id * 10);
+            assert_eq!(word(c.find(3, id, id + 1).expect("find")), want, "id {id}");
+        }
+        // Descending and jumping: the cursor starts over where it must.
+        for &id in ids
+            .iter()
+            .rev()
+            .step_by(37)
+            .chain([ids[5], ids[1_000], ids[2]].iter())
+        {
+            assert_eq!(word(c.find(3, id, id + 1).expect("find")), Some(id * 10));
+        }
+        // Another generation or another keeper: not there.
+        assert_eq!(word(c.find(3, ids[7], ids[7] + 2).expect("find")), None);
+        assert_eq!(word(c.find(4, ids[7], ids[7] + 1).expect("find")), None);
+    }
+
+    #[test]
+    fn an_entry_past_the_data_is_an_error_not_a_panic() {
+        let mut b = base(&[1, 2, 3]);
+        if let Words::Owned(w) = Rc::get_mut(&mut b.words).expect("unique") {
+            // The third entry's start: section 1's first word is in the section table, and an
+            // entry is four words (id, generation, start, len).
+            let off = w[2 + 2] as usize;
+            w[off + 2 * 4 + 2] = 99;
+        }
+        let mut c = b.cursor().expect("cursor");
+        assert_eq!(word(c.find(3, 1, 2).expect("find")), Some(10));
+        assert!(c.find(3, 3, 4).is_err());
     }
 }
