@@ -765,6 +765,21 @@ fn large_answers_arrive_whole_in_parts() {
     let mut tx = Transaction::new();
     tx.create(Kind::Scene, "after", None);
     assert_eq!(c.transact(&tx).expect("committed").version, a.version + 4);
+    // The whole model (12,001 objects, hundreds of parts fetched 16 at a time) equals what a
+    // reader of the same version sees.
+    let snap = c.snapshot().expect("snapshot");
+    assert!(snap.model.len() > 100 * 4096, "{} bytes", snap.model.len());
+    let model = robosim_instance_space::journal::decode_store(&snap.model).expect("decode");
+    assert_eq!(model.version, a.version + 4);
+    let r = with_home(t.home.path(), || Reader::attach(&s, "r")).expect("attach");
+    let rs = r.snapshot().expect("snapshot");
+    assert_eq!(rs.version(), model.version);
+    assert_eq!(rs.len(), model.objects().count());
+    assert!(
+        model
+            .objects()
+            .all(|o| rs.index_of(o.id).is_some_and(|i| rs.name(i) == o.name))
+    );
 }
 
 #[test]

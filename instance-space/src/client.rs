@@ -5,7 +5,7 @@
 //! is how a writer gets group commit: the keeper syncs the journal once for everything that
 //! arrived together.
 
-use crate::keeper::{MAX_IN_FLIGHT, MORE_MAGIC, answer, events};
+use crate::keeper::{MAX_IN_FLIGHT, MORE_MAGIC, RESPONSE_CAP, answer, events};
 use crate::replica::{LOG_MAGIC, LogAnswer, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
 use crate::session::{Session, SessionError};
@@ -290,41 +290,56 @@ impl Client {
         decode(&bytes, "decode log answer")
     }
 
-    /// The whole encoded answer to `p`, its parts fetched and joined.
+    /// The whole encoded answer to `p`, its parts fetched and joined. The continuation requests
+    /// are pipelined, [`PART_WINDOW`] in flight: one round trip per part made a replica's join
+    /// to a model of 10⁵ bodies take seconds (docs/bench/bridge.md).
     fn wait_answer(&mut self, p: Pending) -> Result<Vec<u8>, ClientError> {
-        let mut p = p;
-        let mut whole: Vec<u8> = Vec::new();
-        loop {
-            let mut resp = self.wait_response(&p)?;
-            match resp.first() {
-                Some(&answer::WHOLE) => {
-                    resp.remove(0);
-                    return Ok(resp);
+        let cut = |why: &str| ClientError::Ipc {
+            what: "receive response".into(),
+            message: format!("the keeper's answer was cut off or expired: {why}"),
+        };
+        let resp = self.wait_response(&p)?;
+        drop(p);
+        let (token, total, first) = match resp.first() {
+            Some(&answer::WHOLE) => return Ok(resp[1..].to_vec()),
+            Some(&answer::PART) => {
+                let part = Part::parse(&resp).ok_or_else(|| cut("a part too short"))?;
+                if part.offset != 0 {
+                    return Err(cut("the first part is not at offset 0"));
                 }
-                Some(&answer::PART) if resp.len() >= answer::PART_HEADER => {
-                    let word = |at: usize| {
-                        resp.get(at..at + 8)
-                            .and_then(|b| <[u8; 8]>::try_from(b).ok())
-                            .map_or(0, u64::from_le_bytes)
-                    };
-                    let (token, total) = (word(1), word(9) as usize);
-                    whole.extend_from_slice(&resp[answer::PART_HEADER..]);
-                    if whole.len() >= total {
-                        return Ok(whole);
-                    }
-                    let mut more = MORE_MAGIC.to_vec();
-                    more.extend_from_slice(&token.to_le_bytes());
-                    drop(p);
-                    p = self.submit_raw(&more)?;
-                }
-                _ => {
-                    return Err(ClientError::Ipc {
-                        what: "receive response".into(),
-                        message: "the keeper's answer was cut off or expired".into(),
-                    });
-                }
+                (part.token, part.total, part.bytes)
             }
+            _ => return Err(cut("no answer tag")),
+        };
+        let mut whole = Vec::with_capacity(total);
+        whole.extend_from_slice(first);
+        let step = RESPONSE_CAP - answer::PART_HEADER;
+        let mut to_ask = total.saturating_sub(whole.len()).div_ceil(step);
+        let mut more = MORE_MAGIC.to_vec();
+        more.extend_from_slice(&token.to_le_bytes());
+        let mut asked = std::collections::VecDeque::new();
+        while whole.len() < total {
+            while to_ask > 0 && asked.len() < PART_WINDOW {
+                asked.push_back(self.submit_raw(&more)?);
+                to_ask -= 1;
+            }
+            let Some(p) = asked.pop_front() else {
+                return Err(cut("fewer parts than its length"));
+            };
+            let resp = self.wait_response(&p)?;
+            let part = (resp.first() == Some(&answer::PART))
+                .then(|| Part::parse(&resp))
+                .flatten()
+                .ok_or_else(|| cut("a continuation was not a part"))?;
+            if part.token != token || part.total != total || part.offset != whole.len() {
+                return Err(cut("a part out of order"));
+            }
+            if part.bytes.is_empty() || whole.len() + part.bytes.len() > total {
+                return Err(cut("a part of the wrong length"));
+            }
+            whole.extend_from_slice(part.bytes);
         }
+        Ok(whole)
     }
 
     /// The bytes of the next response to `p` (see [`Client::wait`] for the errors).
@@ -366,6 +381,34 @@ impl Client {
                 (self.timeout - elapsed).min(Duration::from_millis(5)),
             );
         }
+    }
+}
+
+/// Continuation requests a client keeps in flight while it fetches a large answer's parts (of
+/// the keeper's [`MAX_IN_FLIGHT`] per client).
+const PART_WINDOW: usize = 16;
+
+/// One part of a large answer, as [`answer::PART`] lays it out.
+struct Part<'a> {
+    token: u64,
+    total: usize,
+    offset: usize,
+    bytes: &'a [u8],
+}
+
+impl<'a> Part<'a> {
+    fn parse(resp: &'a [u8]) -> Option<Part<'a>> {
+        let word = |at: usize| {
+            resp.get(at..at + 8)
+                .and_then(|b| <[u8; 8]>::try_from(b).ok())
+                .map(u64::from_le_bytes)
+        };
+        Some(Part {
+            token: word(1)?,
+            total: usize::try_from(word(9)?).ok()?,
+            offset: usize::try_from(word(17)?).ok()?,
+            bytes: resp.get(answer::PART_HEADER..)?,
+        })
     }
 }
 

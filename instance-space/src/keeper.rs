@@ -163,12 +163,14 @@ pub(crate) const MORE_MAGIC: [u8; 5] = [0xFF, b'M', b'O', b'R', b'E'];
 pub(crate) mod answer {
     /// The whole answer follows.
     pub const WHOLE: u8 = 0;
-    /// A part: token (u64 LE), total length (u64 LE), then the bytes from the part's offset.
+    /// A part: token (u64 LE), total length (u64 LE), the part's offset in the answer (u64
+    /// LE), then its bytes. Parts are sent in order, one per request (the first, then one per
+    /// continuation request).
     pub const PART: u8 = 1;
     /// The continuation named an answer the keeper no longer holds.
     pub const EXPIRED: u8 = 2;
     /// Header length of a part.
-    pub const PART_HEADER: usize = 17;
+    pub const PART_HEADER: usize = 25;
 }
 /// A keeper's epoch: the wall clock in ns when it started (or replaced its model), so a
 /// reader tells a new keeper's segments from an old one's.
@@ -231,8 +233,9 @@ pub struct Keeper {
     /// last one published.
     base_pub: Pub,
     base_published: Option<(u64, u64)>,
-    /// One publisher per pose chunk, and the version each chunk was last published at.
-    chunk_pubs: Vec<(Pub, PubSubService)>,
+    /// One publisher per pose chunk, made when the chunk first changes in an epoch (see
+    /// [`Keeper::publish_all`]), and the version each chunk was last published at.
+    chunk_pubs: Vec<Option<(Pub, PubSubService)>>,
     chunk_gen: Vec<u64>,
     /// Chunks to publish with the next head.
     chunk_dirty: Vec<bool>,
@@ -943,8 +946,21 @@ impl Keeper {
     /// Publishes the objects head (every object chunk), every pose chunk and the poses head (a
     /// keeper starting, or a replica's model replaced). Geometry waits for a reader to ask for the base (its epoch is
     /// new, so every reader does).
+    ///
+    /// The pose chunks are not published on their own services here: in a new epoch every
+    /// reader takes its chunks from a pose base (asked for, `Reader::collect_pose_chunks`), so
+    /// the head names them at this version and a chunk's service is made when the chunk first
+    /// changes. Making every chunk's service at start (391 iceoryx2 services at 10⁵ objects,
+    /// milliseconds each) held a restarting keeper, or a replica joining, for seconds.
     fn publish_all(&mut self) -> Result<(), KeeperError> {
         self.rebuild_structure(None)?;
+        let version = self.model.version;
+        for (g, d) in self.chunk_gen.iter_mut().zip(&mut self.chunk_dirty) {
+            if *d {
+                *g = version;
+                *d = false;
+            }
+        }
         self.publish_poses()
     }
 
@@ -976,6 +992,7 @@ impl Keeper {
         out.push(answer::PART);
         out.extend_from_slice(&token.to_le_bytes());
         out.extend_from_slice(&(answer.len() as u64).to_le_bytes());
+        out.extend_from_slice(&(*offset as u64).to_le_bytes());
         out.extend_from_slice(&answer[*offset..end]);
         *offset = end;
         if end == answer.len() {
@@ -1059,7 +1076,7 @@ impl Keeper {
         let _ = self.geometry_base_pub.update_connections();
         let _ = self.geometry_pub.update_connections();
         let _ = self.objects_pub.update_connections();
-        for (p, _) in &self.chunk_pubs {
+        for (p, _) in self.chunk_pubs.iter().flatten() {
             let _ = p.update_connections();
         }
         let _ = self.changes_pub.update_connections();
@@ -1269,10 +1286,15 @@ impl Keeper {
             if !self.chunk_dirty[k] {
                 continue;
             }
-            while self.chunk_pubs.len() <= k {
-                let p = self.chunk_publisher(self.chunk_pubs.len())?;
-                self.chunk_pubs.push(p);
+            if self.chunk_pubs.len() <= k {
+                self.chunk_pubs.resize_with(k + 1, || None);
             }
+            if self.chunk_pubs[k].is_none() {
+                self.chunk_pubs[k] = Some(self.chunk_publisher(k)?);
+            }
+            let Some((publisher, _)) = &self.chunk_pubs[k] else {
+                continue;
+            };
             let first = k * POSE_CHUNK;
             let recs = &self.poses[first..(first + POSE_CHUNK).min(self.poses.len())];
             let header = [crate::encode::pose_chunk_header(
@@ -1282,7 +1304,7 @@ impl Keeper {
                 recs.len(),
             )];
             Self::send(
-                &self.chunk_pubs[k].0,
+                publisher,
                 &crate::encode::pose_chunk_writer(&header, recs),
                 "pose chunk",
             )?;

@@ -1491,6 +1491,13 @@ impl Reader {
                     .and_then(|b| b.chunk(k, chunk_len, count_of(k), h.epoch, gens[k]))
             })
         };
+        // After a keeper restart (a new epoch) no chunk is held and none is on its service
+        // before it changes (`Keeper::publish_all`): the base has them all, and the services
+        // followed under the old keeper are let go.
+        let new_keeper = self.current.as_ref().is_some_and(|c| c.epoch != h.epoch);
+        if new_keeper {
+            self.chunks.clear();
+        }
         self.chunks.truncate(gens.len());
         self.chunks.resize_with(gens.len(), || None);
         self.receive_base()?;
@@ -1509,9 +1516,11 @@ impl Reader {
         let n_missing = (0..gens.len())
             .filter(|&k| missing(&self.chunks, &unfollowed, k))
             .count();
+        let attaching = self.current.is_none();
         if n_missing > 0
             && (n_missing > BASE_OVER
-                || (self.current.is_none() && n_missing * RECORDS_PER_OPEN > n))
+                || new_keeper
+                || (attaching && n_missing * RECORDS_PER_OPEN > n))
         {
             if !self.wait_base(h, deadline)? {
                 return Ok(None);
