@@ -1302,6 +1302,10 @@ fn a_structural_change_republishes_only_its_object_chunk_and_readers_reuse_the_o
     assert!(std::ptr::eq(old.rec(first), renamed.rec(first)));
     assert!(std::ptr::eq(old.rec(last), renamed.rec(last)));
     assert!(!std::ptr::eq(old.rec(i), renamed.rec(i)));
+    // No pose moved: every pose chunk is the same memory (the last, partly full one was
+    // republished by every structural change until stop 35).
+    assert!(std::ptr::eq(old.pose(last), renamed.pose(last)));
+    assert!(std::ptr::eq(old.pose(i), renamed.pose(i)));
     // A colour in the last chunk.
     let mut tx = Transaction::new();
     let mut look = robosim_instance_space::Appearance::default();

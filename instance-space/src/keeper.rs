@@ -1121,8 +1121,12 @@ impl Keeper {
             let chunks = n.div_ceil(POSE_CHUNK);
             self.chunk_gen.resize(chunks, 0);
             self.chunk_dirty.resize(chunks, false);
-            for d in &mut self.chunk_dirty[start / POSE_CHUNK..] {
-                *d = true;
+            // The pose chunks of the objects appended, if any (a change to existing objects
+            // alone marked the last chunk too, republishing it for nothing).
+            if start < self.order.len() {
+                for d in &mut self.chunk_dirty[start / POSE_CHUNK..] {
+                    *d = true;
+                }
             }
             let mut ks: Vec<usize> = changed
                 .unwrap_or(&[])
