@@ -943,9 +943,9 @@ impl Keeper {
         Ok(())
     }
 
-    /// Publishes the objects head (every object chunk), every pose chunk and the poses head (a
-    /// keeper starting, or a replica's model replaced). Geometry waits for a reader to ask for the base (its epoch is
-    /// new, so every reader does).
+    /// Publishes the objects head (every object chunk) and the poses head (a keeper starting,
+    /// or a replica's model replaced). Geometry waits for a reader to ask for the base (its
+    /// epoch is new, so every reader does).
     ///
     /// The pose chunks are not published on their own services here: in a new epoch every
     /// reader takes its chunks from a pose base (asked for, `Reader::collect_pose_chunks`), so
