@@ -1157,8 +1157,13 @@ impl Keeper {
             self.chunk_gen.resize(chunks, 0);
             self.chunk_dirty.resize(chunks, false);
             for k in 0..chunks {
+                // A chunk is the same only if its records *and its length* are: the newest
+                // object deleted leaves the last chunk's first records as they were, and a
+                // chunk kept under its old generation then had one record more than the head
+                // said (readers exited: "section 1 is out of bounds", issue 34 item 4).
                 let range = k * POSE_CHUNK..((k + 1) * POSE_CHUNK).min(n);
-                if first_time || old_poses.get(range.clone()) != Some(&self.poses[range]) {
+                let was = k * POSE_CHUNK..((k + 1) * POSE_CHUNK).min(old_poses.len());
+                if first_time || old_poses.get(was) != Some(&self.poses[range]) {
                     self.chunk_dirty[k] = true;
                 }
             }

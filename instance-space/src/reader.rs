@@ -876,6 +876,12 @@ pub struct Reader {
     /// Changes drained but not yet returned by [`Reader::wait_change`].
     pending: Vec<Change>,
     timeout: Duration,
+    /// The role this reader attached as: [`Reader::reattach`] attaches again as it.
+    role: String,
+    /// How many times this reader attached again after meeting a malformed segment, and the
+    /// last segment error that made it.
+    reattached: u64,
+    last_reattach: Option<String>,
     _services: Vec<Box<dyn std::any::Any>>,
 }
 
@@ -975,6 +981,9 @@ impl Reader {
             log_floor: 0,
             pending: Vec::new(),
             timeout: Duration::from_secs(10),
+            role: role.to_owned(),
+            reattached: 0,
+            last_reattach: None,
             _services: vec![
                 Box::new(objects_svc),
                 Box::new(objects_base_svc),
@@ -992,7 +1001,9 @@ impl Reader {
             .notify_with_custom_event_id(EventId::new(events::HELLO));
         let start = Instant::now();
         while r.current.is_none() {
-            r.refresh()?;
+            // (not `refresh`: a malformed segment met while attaching is the answer, not a
+            // reason to attach again)
+            r.refresh_once()?;
             if r.current.is_some() {
                 break;
             }
@@ -1056,8 +1067,64 @@ impl Reader {
         self.current.clone()
     }
 
+    /// How many times this reader met a malformed published segment and attached again
+    /// ([`Reader::refresh`]); 0 for a reader that followed every publication as published.
+    pub fn reattachments(&self) -> u64 {
+        self.reattached
+    }
+
+    /// The segment error that made this reader attach again last, if it ever did.
+    pub fn last_reattach_cause(&self) -> Option<&str> {
+        self.last_reattach.as_deref()
+    }
+
     /// Assembles the newest published version if there is one; returns whether it advanced.
+    ///
+    /// A reader that meets a malformed segment (one whose sections disagree with the head that
+    /// names it) does not stop following: it lets go of everything it assembled from (its
+    /// subscriptions, the chunks and bases it holds), attaches again — fresh subscriptions, the
+    /// keeper asked for fresh bases — and assembles the newest version from those
+    /// ([`Reader::reattachments`] counts it). Its change log goes on uninterrupted. Only when
+    /// the fresh attachment meets a malformed segment too is the error returned (the keeper's
+    /// publication itself is wrong); the snapshot then stays the last good one and the next
+    /// call tries again.
     pub fn refresh(&mut self) -> Result<bool, ReaderError> {
+        match self.refresh_once() {
+            Err(ReaderError::Layout(cause)) => {
+                self.reattach(&cause)?;
+                Ok(true)
+            }
+            other => other,
+        }
+    }
+
+    /// Attaches again as this reader's role (after a malformed segment, `cause`): the snapshot
+    /// and everything it was assembled from come from the fresh attachment; the change stream
+    /// (its subscription, log and pending records) is this reader's own and goes on.
+    fn reattach(&mut self, cause: &LayoutError) -> Result<(), ReaderError> {
+        // Records not drained yet stay with the change stream kept.
+        let drained = self.drain_changes()?;
+        self.pending.extend(drained);
+        let fresh = Reader::attach(&self.session, &self.role)?;
+        let old = std::mem::replace(self, fresh);
+        self.changes = old.changes;
+        self.listener = old.listener;
+        self.log = old.log;
+        self.seen = old.seen;
+        self.log_floor = old.log_floor;
+        self.pending = old.pending;
+        self.timeout = old.timeout;
+        self.pose_bases_asked += old.pose_bases_asked;
+        self.objects_bases_asked += old.objects_bases_asked;
+        self.geometry_bases_asked += old.geometry_bases_asked;
+        self.reattached = old.reattached + 1;
+        self.last_reattach = Some(cause.to_string());
+        // The old change stream's service handles stay with it.
+        self._services.extend(old._services);
+        Ok(())
+    }
+
+    fn refresh_once(&mut self) -> Result<bool, ReaderError> {
         // The poses head: the keeper publishes it last in every commit, after the objects
         // segment, the geometry and the pose chunks it names.
         let Some(mut head) = newest(&self.poses, "poses")? else {

@@ -1,0 +1,245 @@
+//! Readers follow every valid transaction (issue 34 item 4): a keeper (in a thread of this
+//! process, on its own session and home) commits creates and deletes across pose and object
+//! chunk boundaries, and a live [`Reader`] that follows every version must hold, at each one,
+//! what the keeper holds. Deleting the newest object (or undoing a create, which is that
+//! delete) used to leave its pose chunk shorter than the chunk the keeper had published under
+//! the same generation, and readers exited with "a published segment is malformed: section 1
+//! is out of bounds".
+
+use robosim_instance_space::journal::decode_store;
+use robosim_instance_space::layout::{OBJECT_CHUNK, POSE_CHUNK};
+use robosim_instance_space::{
+    Client, IDENTITY, Id, Keeper, KeeperOptions, Kind, Reader, Session, Snapshot, Transaction,
+};
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+/// A keeper stepping in a thread of this process; stopped (and the session's shared memory
+/// removed) when dropped.
+struct ThreadKeeper {
+    stop: Arc<AtomicBool>,
+    thread: Option<std::thread::JoinHandle<()>>,
+    name: String,
+    _home: tempfile::TempDir,
+    session: Session,
+}
+
+impl ThreadKeeper {
+    fn start(tag: &str) -> ThreadKeeper {
+        iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+        let home = tempfile::tempdir().expect("temp dir");
+        let name = format!("t{tag}{}", std::process::id());
+        let session = Session::open_in(home.path(), Some(&name)).expect("session");
+        let stop = Arc::new(AtomicBool::new(false));
+        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
+        let thread = {
+            let (session, stop) = (session.clone(), stop.clone());
+            std::thread::spawn(move || {
+                let (mut keeper, _) =
+                    Keeper::start(&session, KeeperOptions::default()).expect("start the keeper");
+                let _ = ready_tx.send(());
+                while !stop.load(Ordering::Relaxed) {
+                    keeper.step(Duration::from_millis(5)).expect("keeper step");
+                }
+            })
+        };
+        ready_rx
+            .recv_timeout(Duration::from_secs(30))
+            .expect("the keeper started");
+        ThreadKeeper {
+            stop,
+            thread: Some(thread),
+            name,
+            _home: home,
+            session,
+        }
+    }
+}
+
+impl Drop for ThreadKeeper {
+    fn drop(&mut self) {
+        self.stop.store(true, Ordering::Relaxed);
+        if let Some(t) = self.thread.take() {
+            let _ = t.join();
+        }
+        let prefix = format!("rs_{}_", self.name);
+        for e in std::fs::read_dir("/dev/shm")
+            .into_iter()
+            .flatten()
+            .flatten()
+        {
+            if e.file_name().to_string_lossy().starts_with(&prefix) {
+                let _ = std::fs::remove_file(e.path());
+            }
+        }
+    }
+}
+
+/// Asserts that the reader's snapshot is the keeper's model at the same version: every
+/// object's record, name, pose and geometry size.
+fn assert_same(got: &Snapshot, model: &robosim_instance_space::Store, what: &str) {
+    let want = Snapshot::from_store(model);
+    assert_eq!(got.version(), want.version(), "{what}: version");
+    assert_eq!(got.len(), want.len(), "{what}: object count");
+    assert_eq!(got.objects(), want.objects(), "{what}: object records");
+    assert_eq!(got.poses(), want.poses(), "{what}: pose records");
+    for i in 0..want.len() {
+        assert_eq!(got.name(i), want.name(i), "{what}: name of object {i}");
+        assert_eq!(got.pose(i), want.pose(i), "{what}: pose of object {i}");
+        assert_eq!(
+            got.geometry(i).map(|g| g.vertices.len()),
+            want.geometry(i).map(|g| g.vertices.len()),
+            "{what}: geometry of object {i}"
+        );
+    }
+}
+
+/// Commits `tx`, has `r` follow it (every version in turn: nothing else commits), and checks
+/// that what `r` holds is what the keeper holds. Returns the ids created.
+fn commit_and_follow(c: &mut Client, r: &mut Reader, tx: &Transaction, what: &str) -> Vec<Id> {
+    let done = c
+        .transact(tx)
+        .unwrap_or_else(|e| panic!("{what}: commit: {e}"));
+    let deadline = Instant::now() + Duration::from_secs(30);
+    while r.snapshot().is_none_or(|s| s.version() < done.version) {
+        r.wait_change(Duration::from_millis(200))
+            .unwrap_or_else(|e| panic!("{what}: the reader stopped following: {e}"));
+        assert!(
+            Instant::now() < deadline,
+            "{what}: the reader never saw version {}",
+            done.version
+        );
+    }
+    let snap = r.snapshot().expect("snapshot");
+    assert_eq!(
+        snap.version(),
+        done.version,
+        "{what}: followed every version"
+    );
+    let model = decode_store(&c.snapshot().expect("the keeper's model").model).expect("decode");
+    assert_same(&snap, &model, what);
+    assert_eq!(
+        r.reattachments(),
+        0,
+        "{what}: the reader followed without having to reattach"
+    );
+    done.created
+}
+
+/// `n` solids under `parent`, each at its own place (so that every pose record differs).
+fn solids(parent: Id, from: usize, n: usize) -> Transaction {
+    let mut tx = Transaction::new();
+    for k in from..from + n {
+        let o = tx.create(Kind::Solid, &format!("body{k}"), Some(parent.into()));
+        let mut pose = IDENTITY;
+        pose[3] = k as f64;
+        tx.set_pose(o, pose);
+    }
+    tx
+}
+
+#[test]
+fn deleting_the_newest_object_keeps_readers_following() {
+    let k = ThreadKeeper::start("newest");
+    let mut c = Client::connect(&k.session, "writer").expect("connect");
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scene", None);
+    let scene = c.transact(&tx).expect("scene").created[0];
+    let mut r = Reader::attach(&k.session, "follower").expect("attach");
+    assert_eq!(
+        POSE_CHUNK, OBJECT_CHUNK,
+        "one partition for poses and objects"
+    );
+
+    // One partly full chunk: the scene and three solids; the newest deleted.
+    let mut ids = commit_and_follow(&mut c, &mut r, &solids(scene, 0, 3), "three solids");
+    let mut tx = Transaction::new();
+    tx.delete(ids[2], false);
+    commit_and_follow(
+        &mut c,
+        &mut r,
+        &tx,
+        "delete the newest of a partly full chunk",
+    );
+    ids.pop();
+
+    // Undoing a create: create, then delete what was created (the editor's undo).
+    let made = commit_and_follow(&mut c, &mut r, &solids(scene, 3, 1), "create");
+    let mut tx = Transaction::new();
+    tx.delete(made[0], false);
+    commit_and_follow(&mut c, &mut r, &tx, "undo of the create");
+
+    // Two full chunks (the scene, two solids kept, and the rest up to 2 × chunk).
+    let n = 1 + ids.len();
+    let more = 2 * OBJECT_CHUNK - n;
+    ids.extend(commit_and_follow(
+        &mut c,
+        &mut r,
+        &solids(scene, 10, more),
+        "fill two chunks",
+    ));
+    assert_eq!(r.snapshot().map(|s| s.len()), Some(2 * OBJECT_CHUNK));
+    let mut tx = Transaction::new();
+    tx.delete(ids.pop().expect("newest"), false);
+    commit_and_follow(&mut c, &mut r, &tx, "delete the newest of a full chunk");
+
+    // The newest alone in its chunk: 2 × chunk + 1 objects, then the newest deleted (the
+    // chunk goes away).
+    ids.extend(commit_and_follow(
+        &mut c,
+        &mut r,
+        &solids(scene, 1_000, 2),
+        "one past two chunks",
+    ));
+    assert_eq!(r.snapshot().map(|s| s.len()), Some(2 * OBJECT_CHUNK + 1));
+    let mut tx = Transaction::new();
+    tx.delete(ids.pop().expect("newest"), false);
+    commit_and_follow(&mut c, &mut r, &tx, "delete the newest, alone in its chunk");
+
+    // The newest two across a chunk boundary in one transaction, then undoing a create of a
+    // chunk's worth.
+    ids.extend(commit_and_follow(
+        &mut c,
+        &mut r,
+        &solids(scene, 2_000, 1),
+        "one past two chunks again",
+    ));
+    let mut tx = Transaction::new();
+    tx.delete(ids.pop().expect("newest"), false);
+    tx.delete(ids.pop().expect("second newest"), false);
+    commit_and_follow(
+        &mut c,
+        &mut r,
+        &tx,
+        "delete the newest two across a boundary",
+    );
+    let made = commit_and_follow(
+        &mut c,
+        &mut r,
+        &solids(scene, 3_000, OBJECT_CHUNK + 3),
+        "create a chunk's worth",
+    );
+    let mut tx = Transaction::new();
+    for &id in made.iter().rev() {
+        tx.delete(id, false);
+    }
+    commit_and_follow(&mut c, &mut r, &tx, "undo of the chunk's worth");
+
+    // Further edits after all that: a move of the last object, a rename, a create.
+    let last = *ids.last().expect("last");
+    let mut tx = Transaction::new();
+    let mut pose = IDENTITY;
+    pose[7] = 2.5;
+    tx.set_pose(last, pose);
+    commit_and_follow(&mut c, &mut r, &tx, "move the last object");
+    let mut tx = Transaction::new();
+    tx.set_name(last, "renamed");
+    commit_and_follow(&mut c, &mut r, &tx, "rename the last object");
+    commit_and_follow(&mut c, &mut r, &solids(scene, 4_000, 1), "create after");
+
+    // A late joiner reads the same.
+    let late = Reader::attach(&k.session, "late").expect("late joiner");
+    let model = decode_store(&c.snapshot().expect("model").model).expect("decode");
+    assert_same(&late.snapshot().expect("snapshot"), &model, "late joiner");
+}
