@@ -37,6 +37,13 @@ pub enum ClientError {
     },
     #[error("transaction refused: {0}")]
     Refused(#[from] TxError),
+    /// [`Client::transact_fresh`] rebuilt its transaction from a fresh read `attempts` times and
+    /// every time another writer changed what it read before the keeper applied it
+    /// ([`TxError::Conflict`]); nothing of it was committed.
+    #[error(
+        "conflict: the edit lost to concurrent writes {attempts} times in a row and was not committed; the last: {last}"
+    )]
+    Conflict { attempts: u32, last: TxError },
     #[error(
         "the keeper went away before answering (it may have committed the transaction; check the version after it restarts)"
     )]
@@ -55,6 +62,11 @@ fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> ClientError 
         message: format!("{e:?}"),
     }
 }
+
+/// How many times [`Client::transact_fresh`] builds and sends a read-modify-write before it
+/// gives up on conflicts. Each conflict means another writer committed in between, so N
+/// writers racing on one object need at most N attempts each.
+pub const MAX_FRESH_ATTEMPTS: u32 = 64;
 
 /// How often a waiting writer asks whether the keeper is still alive.
 pub const LIVENESS_PERIOD: Duration = Duration::from_millis(50);
@@ -201,6 +213,39 @@ impl Client {
     pub fn transact(&mut self, tx: &Transaction) -> Result<Committed, ClientError> {
         let p = self.submit(tx)?;
         Ok(self.wait(p)??)
+    }
+
+    /// A read-modify-write (a relative move, one joint of a robot's q) committed against the
+    /// model as it is when the keeper applies it: `build(attempt)` reads the model (a fresh
+    /// snapshot) and returns the transaction computed from it, with an [`crate::Op::Expect`]
+    /// for every object it read at the snapshot's version
+    /// ([`Transaction::expect`]). When another writer changed one of them in between, the
+    /// keeper refuses it ([`TxError::Conflict`], nothing changed) and it is built again from
+    /// a new read, at most [`MAX_FRESH_ATTEMPTS`] times; then [`ClientError::Conflict`].
+    ///
+    /// A fresh read after a conflict sees the conflicting write: the keeper publishes a group
+    /// of commits before it answers any request of the group.
+    pub fn transact_fresh<E: From<ClientError>>(
+        &mut self,
+        mut build: impl FnMut(u32) -> Result<Transaction, E>,
+    ) -> Result<Committed, E> {
+        let mut attempt = 0;
+        loop {
+            let tx = build(attempt)?;
+            attempt += 1;
+            match self.transact(&tx) {
+                Err(ClientError::Refused(e @ TxError::Conflict { .. })) => {
+                    if attempt >= MAX_FRESH_ATTEMPTS {
+                        return Err(ClientError::Conflict {
+                            attempts: attempt,
+                            last: e,
+                        }
+                        .into());
+                    }
+                }
+                other => return other.map_err(E::from),
+            }
+        }
     }
 
     /// Sends `tx` without waiting.

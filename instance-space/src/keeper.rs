@@ -609,7 +609,7 @@ impl Keeper {
     /// Applies a transaction from inside the keeper's process (e.g. loading the start-up
     /// scene): the same validation, journal, publication and announcement as a remote one.
     pub fn commit_local(&mut self, tx: &Transaction) -> Result<Applied, TxError> {
-        let bytes = tx.encode();
+        let bytes = tx.without_preconditions().unwrap_or_else(|| tx.clone()).encode();
         let result = self.model.apply(tx);
         if let Ok(applied) = &result {
             self.journal
@@ -774,17 +774,24 @@ impl Keeper {
                 self.held.insert(ticket, req);
                 continue;
             }
-            let result = tx.and_then(|tx| self.model.apply(&tx));
-            match &result {
-                Ok(a) => {
-                    self.journal.append(a.version, payload)?;
-                    self.log.push(a.version, payload);
+            match tx.and_then(|tx| self.model.apply(&tx).map(|a| (a, tx))) {
+                Ok((a, tx)) => {
+                    // Journaled and logged as committed: without its preconditions, decided
+                    // here against this model's versions (a replay, or a replica, must not
+                    // decide them again against a model rebuilt from a checkpoint).
+                    let committed = tx.without_preconditions().map(|c| c.encode());
+                    let bytes = committed.as_deref().unwrap_or(payload);
+                    self.journal.append(a.version, bytes)?;
+                    self.log.push(a.version, bytes);
                     applied.push(a.clone());
                     stats.committed += 1;
+                    pending.push((req, Reply::Tx(Ok(a))));
                 }
-                Err(_) => stats.refused += 1,
+                Err(e) => {
+                    stats.refused += 1;
+                    pending.push((req, Reply::Tx(Err(e))));
+                }
             }
-            pending.push((req, Reply::Tx(result)));
         }
         if pending.is_empty() {
             if !self.to_forward.is_empty() {

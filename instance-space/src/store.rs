@@ -108,6 +108,8 @@ pub mod aspect {
     pub const DYNAMICS: u64 = 32;
     /// Every aspect of one object (what a create or a delete touches).
     pub const ALL: u64 = 63;
+    /// How many aspects [`ALL`] holds (bits 0 to `COUNT - 1`).
+    pub const COUNT: usize = 6;
     /// The session's selection (the display's pick, see [`crate::Selection`]) moved to or away
     /// from the object. Not part of [`ALL`]: it is a session record, not an object aspect.
     pub const SELECTION: u64 = 64;
@@ -329,6 +331,22 @@ pub enum TxError {
     NotRigid { op: usize, id: Id, field: String },
     #[error("malformed transaction: {message}")]
     Malformed { message: String },
+    /// An [`Op::Expect`] precondition failed: another transaction changed the object after the
+    /// version the writer read it at. Nothing was changed; read the object again and rebuild
+    /// the transaction ([`crate::Client::transact_fresh`] does).
+    #[error(
+        "op {op}: object {id}: its {aspects} changed at version {changed}, after version {read} this transaction was computed from (a concurrent write; read it again and retry)"
+    )]
+    Conflict {
+        op: usize,
+        id: Id,
+        /// The aspects expected unchanged that did change, by name (`pose`, `structure`, …).
+        aspects: String,
+        /// The version the writer read the object at.
+        read: u64,
+        /// The version of the latest transaction that changed one of them.
+        changed: u64,
+    },
     #[error("the transaction is empty")]
     Empty,
     /// A replica's bridge could not have the transaction decided by the keeper that owns the
@@ -369,6 +387,15 @@ pub struct Store {
     objects: BTreeMap<Id, Object>,
     children: HashMap<Id, BTreeSet<Id>>,
     selection: Option<Selection>,
+    /// Per object, the version of the last transaction that changed each aspect (index: the
+    /// aspect's bit number, [`aspect::COUNT`] of them), for [`Op::Expect`]. An object without
+    /// an entry has not changed since `stamps_base`.
+    stamps: HashMap<Id, [u64; aspect::COUNT]>,
+    /// The version every aspect of an object without a stamp is taken to have changed at: 0
+    /// for a store built by transactions, the checkpoint's version for one rebuilt from a
+    /// checkpoint (what changed before it is not known, so a precondition read before it
+    /// conflicts — a retry reads again — rather than pass unchecked).
+    stamps_base: u64,
 }
 
 impl Default for Store {
@@ -388,6 +415,8 @@ impl Store {
             objects: BTreeMap::new(),
             children: HashMap::new(),
             selection: None,
+            stamps: HashMap::new(),
+            stamps_base: 0,
         }
     }
     /// Rebuilds a model from a checkpoint's parts.
@@ -404,6 +433,8 @@ impl Store {
             objects: BTreeMap::new(),
             children: HashMap::new(),
             selection: None,
+            stamps: HashMap::new(),
+            stamps_base: version,
         };
         for o in objects {
             m.children.entry(o.parent).or_default().insert(o.id);
@@ -452,8 +483,12 @@ impl Store {
     /// grows by one and the result says what changed; on error nothing changed at all.
     /// Cost: proportional to the objects the transaction touches (plus its geometry), not to
     /// the model.
+    ///
+    /// [`Op::Expect`] preconditions are checked against the committed model (where in the
+    /// transaction they stand does not matter); a transaction of preconditions only changes
+    /// nothing and is refused as [`TxError::Empty`].
     pub fn apply(&mut self, tx: &Transaction) -> Result<Applied, TxError> {
-        if tx.is_empty() {
+        if tx.ops().iter().all(Op::is_precondition) {
             return Err(TxError::Empty);
         }
         let mut stage = Stage {
@@ -507,6 +542,23 @@ impl Store {
             }
         }
         self.next_id = next_id;
+        let version = self.version + 1;
+        for (&id, &mask) in &touched {
+            if !self.objects.contains_key(&id) {
+                self.stamps.remove(&id);
+                continue;
+            }
+            if mask & aspect::ALL == 0 {
+                continue;
+            }
+            let base = self.stamps_base;
+            let stamp = self.stamps.entry(id).or_insert([base; aspect::COUNT]);
+            for (bit, s) in stamp.iter_mut().enumerate() {
+                if mask & (1 << bit) != 0 {
+                    *s = version;
+                }
+            }
+        }
         // The selection: as the transaction set it, then as the committed model still holds
         // it (a deleted object, a polygon its new geometry lacks). Both the object it left and
         // the one it reached are announced with the SELECTION aspect.
@@ -535,6 +587,24 @@ impl Store {
     /// The version of the last transaction that changed anything but poses and joint values.
     pub fn structure_version(&self) -> u64 {
         self.structure_version
+    }
+
+    /// The version of the last transaction that changed any of `aspects` of object `id` (for a
+    /// store rebuilt from a checkpoint, at least the checkpoint's version); `None` for an
+    /// object that does not exist.
+    pub fn changed_at(&self, id: Id, aspects: u64) -> Option<u64> {
+        self.objects.get(&id)?;
+        let base = self.stamps_base;
+        Some(match self.stamps.get(&id) {
+            None => base,
+            Some(stamp) => stamp
+                .iter()
+                .enumerate()
+                .filter(|(bit, _)| aspects & (1 << bit) != 0)
+                .map(|(_, v)| *v)
+                .max()
+                .unwrap_or(base),
+        })
     }
 }
 
@@ -810,6 +880,11 @@ impl Stage<'_> {
                 obj.geometry = poly;
                 obj.geom_gen += 1;
             }
+            Op::Expect {
+                id,
+                aspects,
+                version,
+            } => self.expect(i, *id, *aspects, *version)?,
             Op::Select { id, polygon } => {
                 let Some(id) = id else {
                     if polygon.is_some() {
@@ -843,6 +918,47 @@ impl Stage<'_> {
                     polygon: *polygon,
                 }));
             }
+        }
+        Ok(())
+    }
+
+    /// [`Op::Expect`]: checked against the committed model, whatever this transaction
+    /// changed before it.
+    fn expect(&self, i: usize, id: Id, aspects: u64, version: u64) -> Result<(), TxError> {
+        let invalid = |reason: String| TxError::InvalidValue {
+            op: i,
+            id,
+            field: "expect".into(),
+            reason,
+        };
+        if aspects == 0 || aspects & !aspect::ALL != 0 {
+            return Err(invalid(format!(
+                "aspects {aspects:#x} must be a non-empty set of object aspects (bits of {:#x})",
+                aspect::ALL
+            )));
+        }
+        if version > self.model.version {
+            return Err(invalid(format!(
+                "version {version} was never committed (the model is at version {})",
+                self.model.version
+            )));
+        }
+        let Some(changed) = self.model.changed_at(id, aspects) else {
+            return Err(TxError::UnknownObject { op: i, id });
+        };
+        if changed > version {
+            let mask = self.model.stamps.get(&id).map_or(aspects, |stamp| {
+                (0..aspect::COUNT)
+                    .filter(|&bit| aspects & (1 << bit) != 0 && stamp[bit] > version)
+                    .fold(0, |m, bit| m | (1 << bit))
+            });
+            return Err(TxError::Conflict {
+                op: i,
+                id,
+                aspects: aspect::names(mask).join(", "),
+                read: version,
+                changed,
+            });
         }
         Ok(())
     }
@@ -1064,6 +1180,121 @@ mod tests {
             out.entry(o.parent).or_default().insert(o.id);
         }
         out
+    }
+
+    /// Two writers read an object at the same version and each commits a pose computed from
+    /// it: with [`Op::Expect`] the second is refused as a conflict (nothing changed), and built
+    /// again from the new version it commits; an unrelated aspect (a rename) or another
+    /// object does not conflict; a precondition on a version never committed, on no aspect or
+    /// alone in its transaction is refused as such.
+    #[test]
+    fn a_stale_read_modify_write_is_refused_as_a_conflict() {
+        let mut m = Store::new();
+        let mut tx = Transaction::new();
+        tx.create(Kind::Item, "a", None);
+        tx.create(Kind::Item, "b", None);
+        let created = m.apply(&tx).expect("create").created;
+        let (a, b) = (created[0], created[1]);
+        let read = m.version;
+        let moved = |x: f64| {
+            let mut p = IDENTITY;
+            p[3] = x;
+            p
+        };
+        let mut first = Transaction::new();
+        first.expect(a, aspect::POSE, read).set_pose(a, moved(1.0));
+        let mut second = Transaction::new();
+        second.expect(a, aspect::POSE, read).set_pose(a, moved(1.0));
+        m.apply(&first).expect("the first writer commits");
+        let before = m.version;
+        let e = m.apply(&second).expect_err("the second read a stale pose");
+        assert_eq!(
+            e,
+            TxError::Conflict {
+                op: 0,
+                id: a,
+                aspects: "pose".into(),
+                read,
+                changed: before,
+            }
+        );
+        assert_eq!(
+            (m.version, m.get(a).map(|o| o.pose[3])),
+            (before, Some(1.0))
+        );
+        let mut again = Transaction::new();
+        again
+            .expect(a, aspect::POSE, m.version)
+            .set_pose(a, moved(2.0));
+        m.apply(&again).expect("built again from the new version");
+        // A rename of `a` and a move of `b` leave a's pose unchanged since `now`.
+        let now = m.version;
+        let mut other = Transaction::new();
+        other.set_name(a, "a2").set_pose(b, moved(5.0));
+        m.apply(&other).expect("rename");
+        let mut pose_only = Transaction::new();
+        pose_only
+            .expect(a, aspect::POSE, now)
+            .set_pose(a, moved(3.0));
+        m.apply(&pose_only).expect("only the name changed");
+        let mut with_structure = Transaction::new();
+        with_structure
+            .expect(a, aspect::POSE | aspect::STRUCTURE, now)
+            .set_pose(a, moved(4.0));
+        assert!(matches!(
+            m.apply(&with_structure),
+            Err(TxError::Conflict { ref aspects, .. }) if aspects == "structure, pose"
+        ));
+        for (aspects, version) in [(0, now), (aspect::SELECTION, now), (aspect::POSE, 1000)] {
+            let mut bad = Transaction::new();
+            bad.expect(a, aspects, version).set_pose(a, moved(0.0));
+            assert!(
+                matches!(m.apply(&bad), Err(TxError::InvalidValue { ref field, .. }) if field == "expect"),
+                "{aspects} at {version}"
+            );
+        }
+        let mut alone = Transaction::new();
+        alone.expect(a, aspect::POSE, m.version);
+        assert_eq!(m.apply(&alone), Err(TxError::Empty));
+        let mut gone = Transaction::new();
+        gone.expect(99, aspect::POSE, m.version)
+            .set_pose(a, moved(0.0));
+        assert_eq!(
+            m.apply(&gone),
+            Err(TxError::UnknownObject { op: 0, id: 99 })
+        );
+    }
+
+    /// A store rebuilt from a checkpoint does not know when its objects last changed: a
+    /// precondition read before the checkpoint conflicts (a retry reads again), one read at or
+    /// after it passes; a deleted object's stamps go with it.
+    #[test]
+    fn preconditions_after_a_checkpoint_are_checked_against_it() {
+        let mut m = Store::new();
+        let mut tx = Transaction::new();
+        tx.create(Kind::Item, "a", None);
+        let a = m.apply(&tx).expect("create").created[0];
+        for _ in 0..3 {
+            let mut t = Transaction::new();
+            t.set_name(a, "x");
+            m.apply(&t).expect("rename");
+        }
+        let objects: Vec<Object> = m.objects().cloned().collect();
+        let mut r = Store::from_parts(m.version, m.next_id, objects, None);
+        assert_eq!(r.changed_at(a, aspect::POSE), Some(4));
+        let mut stale = Transaction::new();
+        stale.expect(a, aspect::POSE, 2).set_pose(a, IDENTITY);
+        assert!(matches!(
+            r.apply(&stale),
+            Err(TxError::Conflict { changed: 4, .. })
+        ));
+        let mut fresh = Transaction::new();
+        fresh.expect(a, aspect::POSE, 4).set_pose(a, IDENTITY);
+        r.apply(&fresh).expect("read at the checkpoint");
+        let mut del = Transaction::new();
+        del.delete(a, false);
+        r.apply(&del).expect("delete");
+        assert!(r.stamps.is_empty() && r.changed_at(a, aspect::ALL).is_none());
     }
 
     /// The children index is maintained incrementally (only where a parent changed); after

@@ -101,6 +101,26 @@ pub enum Op {
         id: Option<ObjRef>,
         polygon: Option<u32>,
     },
+    /// A precondition, not a change: the transaction is refused with
+    /// [`crate::TxError::Conflict`] (and changes nothing) when any of `aspects` ([`crate::aspect`]
+    /// bits of [`crate::aspect::ALL`]) of object `id` was changed by a transaction committed
+    /// after `version`. A writer that computed its change from what it read at `version` (a
+    /// relative move: `pose · T`, one joint of a robot's q) sends this with it, so a concurrent
+    /// write to the same object is never overwritten unseen; [`crate::Client::transact_fresh`]
+    /// reads again and retries. Decided by the keeper that owns the model; the journal and the
+    /// replicas' log hold the transaction without it ([`Transaction::without_preconditions`]).
+    Expect {
+        id: Id,
+        aspects: u64,
+        version: u64,
+    },
+}
+
+impl Op {
+    /// Whether this op is a precondition ([`Op::Expect`]) rather than a change.
+    pub fn is_precondition(&self) -> bool {
+        matches!(self, Op::Expect { .. })
+    }
 }
 
 /// An ordered list of operations, applied all or nothing.
@@ -289,6 +309,38 @@ impl Transaction {
         self
     }
 
+    /// Adds a precondition ([`Op::Expect`]): refused unless none of `aspects` of `id` changed
+    /// after `version` (the version the writer read `id` at).
+    pub fn expect(&mut self, id: Id, aspects: u64, version: u64) -> &mut Self {
+        self.ops.push(Op::Expect {
+            id,
+            aspects,
+            version,
+        });
+        self
+    }
+
+    /// Whether any op is a precondition ([`Op::Expect`]).
+    pub fn has_preconditions(&self) -> bool {
+        self.ops.iter().any(Op::is_precondition)
+    }
+
+    /// The transaction as committed: its changes without its preconditions (what the keeper
+    /// journals and sends to replicas, so replaying it never depends on versions it was
+    /// checked against). `None` when it has no precondition (the transaction is its own
+    /// committed form).
+    pub fn without_preconditions(&self) -> Option<Transaction> {
+        self.has_preconditions().then(|| {
+            Transaction::from_ops(
+                self.ops
+                    .iter()
+                    .filter(|o| !o.is_precondition())
+                    .cloned()
+                    .collect(),
+            )
+        })
+    }
+
     /// The wire form (bincode 2, standard configuration).
     pub fn encode(&self) -> Vec<u8> {
         // Encoding plain data into a Vec cannot fail.
@@ -354,6 +406,35 @@ mod tests {
         let b = tx.create(Kind::Solid, "b", Some(a));
         assert_eq!((a, b), (ObjRef::New(0), ObjRef::New(1)));
         tx
+    }
+
+    /// `Op::Expect` is the last variant, so every op journaled before it existed keeps its
+    /// tag and old journals decode as they were written; the committed form drops only the
+    /// preconditions.
+    #[test]
+    fn preconditions_leave_old_encodings_and_the_committed_form_alone() {
+        let mut tx = Transaction::new();
+        tx.select(None, None);
+        // One op (length 1), tag 11 (Select), two `None`s.
+        assert_eq!(tx.encode(), vec![1, 11, 0, 0]);
+        assert!(tx.without_preconditions().is_none());
+        let mut with = Transaction::new();
+        with.expect(7, crate::aspect::POSE, 3)
+            .set_joint(ObjRef::Id(7), 0.5)
+            .expect(8, crate::aspect::ALL, 3);
+        assert_eq!(with.encode()[1], 12, "Expect's tag follows Select's");
+        assert_eq!(
+            Transaction::decode(&with.encode()).expect("round trip"),
+            with
+        );
+        let committed = with.without_preconditions().expect("it has preconditions");
+        assert_eq!(
+            committed.ops(),
+            &[Op::SetJoint {
+                id: ObjRef::Id(7),
+                value: 0.5
+            }]
+        );
     }
 
     /// The count of creates survives both wire forms: the next create after decoding refers
