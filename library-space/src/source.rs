@@ -119,53 +119,18 @@ pub const MAX_SOURCE_BYTES: u64 = 16 << 20;
 /// Reads a library source file, refusing what is not one: anything but a regular file (a
 /// directory, a FIFO — whose open would block —, a character or block device such as
 /// `/dev/zero`, a socket), a file larger than [`MAX_SOURCE_BYTES`], text that is not UTF-8.
-/// The error is the reason, to follow "cannot read … `path`: ".
+/// The reading is [`robosim_input::read_to_string`], the one reader of every file input. The
+/// error is the reason, to follow "cannot read … `path`: ".
 pub(crate) fn read_source_file(path: &std::path::Path) -> Result<String, String> {
-    use std::io::Read;
-    use std::os::unix::fs::FileTypeExt;
-    // stat before open: opening a FIFO for reading blocks until a writer comes
-    let kind = |t: std::fs::FileType| -> Option<&'static str> {
-        if t.is_file() {
-            None
-        } else if t.is_dir() {
-            Some("a directory")
-        } else if t.is_fifo() {
-            Some("a FIFO (named pipe)")
-        } else if t.is_char_device() {
-            Some("a character device")
-        } else if t.is_block_device() {
-            Some("a block device")
-        } else if t.is_socket() {
-            Some("a socket")
-        } else {
-            Some("not a file")
+    robosim_input::read_to_string(
+        path,
+        "a library source file",
+        robosim_input::Limit::fixed(MAX_SOURCE_BYTES),
+    )
+    .map_err(|e| match e.problem {
+        robosim_input::InputProblem::NotRegular(kind) => {
+            format!("it is {kind}, not a regular file; a library source must be a file")
         }
-    };
-    let not_regular =
-        |what: &str| format!("it is {what}, not a regular file; a library source must be a file");
-    let meta = std::fs::metadata(path).map_err(|e| e.to_string())?;
-    if let Some(what) = kind(meta.file_type()) {
-        return Err(not_regular(what));
-    }
-    let file = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    // the same check on what was opened, should the path have changed in between
-    if let Some(what) = kind(file.metadata().map_err(|e| e.to_string())?.file_type()) {
-        return Err(not_regular(what));
-    }
-    let mut bytes = Vec::new();
-    file.take(MAX_SOURCE_BYTES + 1)
-        .read_to_end(&mut bytes)
-        .map_err(|e| e.to_string())?;
-    if bytes.len() as u64 > MAX_SOURCE_BYTES {
-        return Err(format!(
-            "it is larger than {} MiB, the limit for a library source file",
-            MAX_SOURCE_BYTES >> 20
-        ));
-    }
-    String::from_utf8(bytes).map_err(|e| {
-        format!(
-            "it is not UTF-8 text (invalid byte at offset {})",
-            e.utf8_error().valid_up_to()
-        )
+        _ => e.reason(),
     })
 }
