@@ -204,7 +204,7 @@ fn move_model<S: Space>(
         .ok_or_else(|| format!("{path}: no longer in the session"))?;
     let before = snap.pose(i).pose;
     let after = robosim_scene::pose::from_matrix(&f(robosim_scene::pose::to_matrix(&before)));
-    ed.move_model_object(id, before, after)
+    ed.move_model_object(id, before, after, snap.version())
         .map_err(|e| format!("{path}: {e}"))
 }
 
@@ -755,7 +755,11 @@ pub fn execute<S: Space>(
         other => {
             let near = VERBS
                 .iter()
-                .find(|k| k.starts_with(&other[..other.len().min(2)]))
+                // The first two characters (not bytes: a verb may start with `日本`).
+                .find(|k| {
+                    let two: String = other.chars().take(2).collect();
+                    k.starts_with(&two)
+                })
                 .map(|k| format!(" (did you mean {k}?)"))
                 .unwrap_or_default();
             Err(format!("unknown command {other:?}{near}"))

@@ -19,6 +19,15 @@ use nalgebra::{Matrix4, Rotation3, Unit, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+/// The most triangles one Collada file may expand to (every instance of every geometry
+/// counted): a geometry instanced by many nodes multiplies its triangles, so a few megabytes of
+/// file could otherwise ask for tens of gigabytes. 10⁷ triangles are 720 MB as `f64`; the
+/// panda's visual meshes hold 10⁴–10⁵ each.
+pub const MAX_TRIANGLES: usize = 10_000_000;
+
+/// Inputs (offsets) of one primitive, at most.
+const MAX_INPUT_OFFSET: usize = 1024;
+
 /// A malformed or unsupported Collada file: the file, the 1-based line, the element, what.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[error("{}:{line}: {element}: {reason}", file.display())]
@@ -40,6 +49,8 @@ struct Ctx<'a, 'i> {
     file: &'a Path,
     doc: &'a roxmltree::Document<'i>,
     ids: HashMap<&'a str, roxmltree::Node<'a, 'i>>,
+    /// Triangles the file may expand to ([`MAX_TRIANGLES`]).
+    budget: usize,
 }
 
 fn elem_name(n: roxmltree::Node) -> String {
@@ -145,7 +156,7 @@ impl<'a, 'i> Ctx<'a, 'i> {
                 format!("positions have stride {stride}; 3 or more needed"),
             ));
         }
-        if count * stride > values.len() {
+        if count.checked_mul(stride).is_none_or(|n| n > values.len()) {
             return Err(self.err(
                 fa,
                 format!(
@@ -165,11 +176,13 @@ impl<'a, 'i> Ctx<'a, 'i> {
             .collect())
     }
 
-    /// The triangles of one primitive element, in the geometry's frame, by material symbol.
+    /// The triangles of one primitive element, in the geometry's frame, by material symbol;
+    /// more than `room` is refused (the file's triangle budget, [`MAX_TRIANGLES`]).
     fn primitive(
         &self,
         prim: roxmltree::Node<'a, 'i>,
         out: &mut Triangles,
+        room: usize,
     ) -> Result<(), DaeError> {
         let inputs: Vec<roxmltree::Node> = kids(prim, "input").collect();
         let mut vertex_input = None;
@@ -180,6 +193,17 @@ impl<'a, 'i> Ctx<'a, 'i> {
                 .unwrap_or("0")
                 .parse()
                 .map_err(|_| self.err(*inp, "attribute `offset` is not a number"))?;
+            // An offset past every index a `<p>` could hold is refused before it is used as a
+            // stride (`off + 1` would overflow at usize::MAX).
+            if off >= MAX_INPUT_OFFSET {
+                return Err(self.err(
+                    *inp,
+                    format!(
+                        "attribute `offset` = {off}: at most {} inputs",
+                        MAX_INPUT_OFFSET
+                    ),
+                ));
+            }
             n_offsets = n_offsets.max(off + 1);
             if inp.attribute("semantic") == Some("VERTEX") {
                 vertex_input = Some((*inp, off));
@@ -249,12 +273,16 @@ impl<'a, 'i> Ctx<'a, 'i> {
                 let vc = self.need(prim, "vcount")?;
                 let counts = self.ints(vc)?;
                 let v = take(p)?;
-                if counts.iter().sum::<usize>() != v.len() {
+                let total = counts
+                    .iter()
+                    .try_fold(0usize, |a, &c| a.checked_add(c))
+                    .filter(|&t| t == v.len());
+                if total.is_none() {
                     return Err(self.err(
                         vc,
                         format!(
                             "vertex counts sum to {}, <p> holds {} vertices",
-                            counts.iter().sum::<usize>(),
+                            counts.iter().map(|&c| c as u128).sum::<u128>(),
                             v.len()
                         ),
                     ));
@@ -277,6 +305,15 @@ impl<'a, 'i> Ctx<'a, 'i> {
                 return Err(self.err(
                     p,
                     format!("a polygon has {} vertices; 3 or more needed", poly.len()),
+                ));
+            }
+            if poly.len() - 2 > room.saturating_sub(out.len()) {
+                return Err(self.err(
+                    p,
+                    format!(
+                        "the file expands to more than {} triangles (every instance of every geometry counted)",
+                        self.budget
+                    ),
                 ));
             }
             let a = point(p, poly[0])?;
@@ -317,8 +354,9 @@ impl<'a, 'i> Ctx<'a, 'i> {
         for prim in mesh.children().filter(|c| {
             c.is_element() && matches!(c.tag_name().name(), "triangles" | "polylist" | "polygons")
         }) {
+            let used: usize = out.iter().map(|p| p.triangles.len()).sum();
             let mut tris = Vec::new();
-            self.primitive(prim, &mut tris)?;
+            self.primitive(prim, &mut tris, self.budget.saturating_sub(used))?;
             let rgba = prim
                 .attribute("material")
                 .and_then(|s| binding.get(s))
@@ -412,6 +450,15 @@ impl<'a, 'i> Ctx<'a, 'i> {
 /// Reads a Collada file's triangles in metres, Z up, grouped by colour. `file` names it in
 /// errors.
 pub fn read_dae(bytes: &[u8], file: &Path) -> Result<Vec<ColouredTriangles>, DaeError> {
+    read_dae_within(bytes, file, MAX_TRIANGLES)
+}
+
+/// [`read_dae`] with a triangle budget of `budget` instead of [`MAX_TRIANGLES`].
+fn read_dae_within(
+    bytes: &[u8],
+    file: &Path,
+    budget: usize,
+) -> Result<Vec<ColouredTriangles>, DaeError> {
     let whole = |reason: String| DaeError {
         file: file.to_path_buf(),
         line: 0,
@@ -424,6 +471,13 @@ pub fn read_dae(bytes: &[u8], file: &Path) -> Result<Vec<ColouredTriangles>, Dae
             e.valid_up_to()
         ))
     })?;
+    // roxmltree recurses once per nesting level: a deep file would overflow the stack.
+    robosim_input::xml_depth(text, robosim_input::MAX_XML_DEPTH).map_err(|e| DaeError {
+        file: file.to_path_buf(),
+        line: e.line,
+        element: "XML".into(),
+        reason: e.to_string(),
+    })?;
     let doc = roxmltree::Document::parse(text).map_err(|e| DaeError {
         file: file.to_path_buf(),
         line: e.pos().row,
@@ -435,6 +489,7 @@ pub fn read_dae(bytes: &[u8], file: &Path) -> Result<Vec<ColouredTriangles>, Dae
         file,
         doc: &doc,
         ids: HashMap::new(),
+        budget,
     };
     if root.tag_name().name() != "COLLADA" {
         return Err(ctx.err(root, "the root element is not <COLLADA>"));
@@ -581,5 +636,56 @@ mod tests {
         assert!(e.reason.contains("malformed XML"), "{e}");
         let e = read_dae(b"<robot/>", Path::new("q.dae")).expect_err("an error");
         assert!(e.reason.contains("not <COLLADA>"), "{e}");
+    }
+    // Issue 34 (fuzzing): sizes and offsets from the file are checked without overflow (a
+    // debug build panicked on the multiplication or addition; a release build wrapped and
+    // indexed out of bounds).
+    #[test]
+    fn collada_accessor_count_times_stride_overflowing_is_an_error_not_a_panic() {
+        let huge = QUAD.replace(
+            r#"count="4" stride="3""#,
+            r#"count="4294967296" stride="4294967296""#,
+        );
+        let e = read_dae(huge.as_bytes(), Path::new("q.dae")).expect_err("an error");
+        assert_eq!(e.element, "<float_array id=\"g-pos-a\">", "{e}");
+        assert!(e.reason.contains("accessor announces"), "{e}");
+    }
+
+    #[test]
+    fn collada_input_offset_of_usize_max_is_an_error_not_a_panic() {
+        let huge = QUAD.replace(
+            r##"source="#g-n" offset="1""##,
+            &format!(r##"source="#g-n" offset="{}""##, usize::MAX),
+        );
+        let e = read_dae(huge.as_bytes(), Path::new("q.dae")).expect_err("an error");
+        assert_eq!(e.line, 14, "{e}");
+        assert!(e.reason.contains("attribute `offset`"), "{e}");
+    }
+
+    #[test]
+    fn collada_polylist_vertex_counts_overflowing_their_sum_are_an_error_not_a_panic() {
+        let huge = QUAD.replace(
+            "<vcount>4</vcount>",
+            &format!("<vcount>{} 5</vcount>", usize::MAX),
+        );
+        let e = read_dae(huge.as_bytes(), Path::new("q.dae")).expect_err("an error");
+        assert_eq!(e.element, "<vcount>", "{e}");
+    }
+
+    /// A geometry instanced by many nodes multiplies its triangles: the file's expansion is
+    /// bounded (here with a budget of 100 triangles; `read_dae` uses [`MAX_TRIANGLES`]).
+    #[test]
+    fn collada_instancing_past_the_triangle_budget_is_refused_not_an_allocation() {
+        let one = r##"<node><instance_geometry url="#g"/></node>"##;
+        let many = QUAD.replace(
+            r#"<node id="n">"#,
+            &format!(r#"{}<node id="n">"#, one.repeat(40)),
+        );
+        // 41 instances of 3 triangles: 123.
+        let all = read_dae_within(many.as_bytes(), Path::new("q.dae"), 123).expect("within");
+        assert_eq!(all.iter().map(|p| p.triangles.len()).sum::<usize>(), 123);
+        let e = read_dae_within(many.as_bytes(), Path::new("q.dae"), 100).expect_err("over");
+        assert!(e.reason.contains("more than 100 triangles"), "{e}");
+        assert!(e.to_string().starts_with("q.dae:"), "{e}");
     }
 }
