@@ -6,9 +6,16 @@
 //!   acknowledges; one sync covers every transaction of a group (group commit).
 //! * `checkpoint-<version>.bin`: magic, crc32, the whole model (bincode). Written to a temp file,
 //!   synced, renamed, directory synced; then a new journal starts and older files are removed.
-//! * [`recover`]: newest valid checkpoint, then every journal record after it, in order. A torn
-//!   or corrupt tail (short record, bad CRC, version out of sequence) is reported and cut off;
-//!   nothing before it is lost.
+//! * `journal.control` ([`CONTROL_FILE`]): names the current journal file and its first
+//!   version; written at a journal's start, at every checkpoint and after every recovery. A
+//!   recovery that finds less than it names (the journal gone, the checkpoint before it gone)
+//!   refuses and changes nothing.
+//! * [`recover`]: newest valid checkpoint, then every journal record after it, in order, each
+//!   taken from whichever copy (log or mirror) holds it intact: the longest valid prefix over
+//!   both copies. Every disagreement between the copies is reported, and both are rewritten to
+//!   what was recovered. A torn or corrupt tail (short record, bad CRC, version out of
+//!   sequence, in both copies) is reported and cut off, kept under `lost/` when it holds
+//!   anything readable; nothing before it is lost.
 //!
 //! Every file is created 0600 inside the session's 0700 data directory.
 
@@ -16,7 +23,7 @@ use crate::store::{Appearance, Id, Kind, Kinematics, MassProps, Object, Pose, St
 use crate::transaction::{GeometryInput, Transaction};
 use serde::{Deserialize, Serialize};
 use std::fs::{self, File, OpenOptions};
-use std::io::{BufWriter, Read, Seek, SeekFrom, Write};
+use std::io::{BufWriter, Read, Write};
 use std::os::unix::fs::{DirBuilderExt, OpenOptionsExt};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -36,6 +43,51 @@ pub enum JournalError {
     Magic { path: PathBuf, what: &'static str },
     #[error("{path}: checkpoint is corrupt: {reason}")]
     Checkpoint { path: PathBuf, reason: String },
+    #[error(
+        "{path}: the journal control file is unreadable: {reason}; nothing was changed. Restore \
+         it, or move it aside to recover from what the data directory holds (and be told what \
+         that lacks)"
+    )]
+    Control { path: PathBuf, reason: String },
+    #[error(
+        "neither {log} nor its mirror {mirror} starts with a robosim journal header (bad \
+         magic): refusing to read them; nothing was changed"
+    )]
+    Headers { log: PathBuf, mirror: PathBuf },
+    /// The control file names a journal that is gone (both copies).
+    #[error(
+        "the session's journal {journal} is missing, and so is its mirror {mirror}, but \
+         {control} names it as the journal of every transaction from version {first_version} \
+         on: the transactions acknowledged since version {} would be lost (the data directory \
+         holds the model up to version {found}). Refusing to start; nothing was changed. \
+         Restore the journal files, or, to accept the loss, move {control} aside (the keeper \
+         then starts from version {found}), or start over with `robosim up SCENE --fresh` (the \
+         data directory is moved aside, not deleted)",
+        first_version - 1
+    )]
+    Missing {
+        control: PathBuf,
+        journal: PathBuf,
+        mirror: PathBuf,
+        first_version: u64,
+        found: u64,
+    },
+    /// The control file says a checkpoint holds version `needed`, and none does.
+    #[error(
+        "{control} says version {needed} is checkpointed in {checkpoint}, but the data \
+         directory holds the model only up to version {found} ({}): refusing to start; nothing \
+         was changed. Restore the checkpoint, or, to accept the loss, move {control} aside, or \
+         start over with `robosim up SCENE --fresh` (the data directory is moved aside, not \
+         deleted)",
+        match used { Some(c) => format!("from {c}"), None => "no readable checkpoint".to_owned() }
+    )]
+    Behind {
+        control: PathBuf,
+        checkpoint: PathBuf,
+        needed: u64,
+        found: u64,
+        used: Option<String>,
+    },
 }
 
 fn io_err(path: &Path) -> impl FnOnce(std::io::Error) -> JournalError + '_ {
@@ -84,8 +136,8 @@ fn sync_dir(dir: &Path) -> Result<(), JournalError> {
         .map_err(io_err(dir))
 }
 
-/// Removes the mirror `m` if there is one.
-fn remove_stale_mirror(m: &Path) -> Result<(), JournalError> {
+/// Removes the file `m` if there is one.
+fn remove_if_present(m: &Path) -> Result<(), JournalError> {
     match fs::remove_file(m) {
         Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(JournalError::Io {
             path: m.to_owned(),
@@ -120,10 +172,11 @@ impl Journal {
             Some((m, BufWriter::with_capacity(1 << 20, mf)))
         } else {
             // A mirror left by an older journal of this name must not be read for this one.
-            remove_stale_mirror(&m)?;
+            remove_if_present(&m)?;
             None
         };
         sync_dir(dir)?;
+        write_control(dir, first_version, copies.clamp(1, 2))?;
         Ok(Journal {
             dir: dir.to_owned(),
             path,
@@ -139,31 +192,25 @@ impl Journal {
         1 + self.mirror.is_some() as u8
     }
 
-    /// Reopens an existing journal for appending (after recovery cut it to its valid length).
-    /// The mirror is rewritten from the journal (recovery has just checked and repaired it), or
-    /// removed with one copy: a mirror must never hold records a cut took out of the journal.
-    fn reopen(dir: &Path, path: PathBuf, records: u64, copies: u8) -> Result<Self, JournalError> {
-        let mut f = OpenOptions::new()
-            .append(true)
-            .open(&path)
-            .map_err(io_err(&path))?;
-        f.seek(SeekFrom::End(0)).map_err(io_err(&path))?;
-        let m = mirror_path(&path);
+    /// Reopens an existing journal for appending, after recovery made its copies hold exactly
+    /// what was recovered (and removed the mirror when one copy is kept).
+    fn reopen(
+        dir: &Path,
+        path: PathBuf,
+        first_version: u64,
+        records: u64,
+        copies: u8,
+    ) -> Result<Self, JournalError> {
+        let open = |p: &Path| OpenOptions::new().append(true).open(p).map_err(io_err(p));
+        let f = open(&path)?;
         let mirror = if copies >= 2 {
-            let bytes = read_journal_bytes(&path)?;
-            let tmp = m.with_extension("mirror-tmp");
-            drop(create_with(&tmp, &bytes)?);
-            fs::rename(&tmp, &m).map_err(io_err(&m))?;
-            let mf = OpenOptions::new()
-                .append(true)
-                .open(&m)
-                .map_err(io_err(&m))?;
+            let m = mirror_path(&path);
+            let mf = open(&m)?;
             Some((m, BufWriter::with_capacity(1 << 20, mf)))
         } else {
-            remove_stale_mirror(&m)?;
             None
         };
-        sync_dir(dir)?;
+        write_control(dir, first_version, copies.clamp(1, 2))?;
         Ok(Journal {
             dir: dir.to_owned(),
             path,
@@ -422,6 +469,8 @@ pub fn decode_store(bytes: &[u8]) -> Result<Store, StoreDecodeError> {
 /// there is removed, a checkpoint of `model` written and a new journal opened after it. For a
 /// mirror that takes its model from elsewhere (a bridge's snapshot), not for recovery.
 pub fn reset(dir: &Path, model: &Store, copies: u8) -> Result<Journal, JournalError> {
+    // The control file first: it must never name a journal this removes.
+    remove_if_present(&dir.join(CONTROL_FILE))?;
     for e in fs::read_dir(dir).map_err(io_err(dir))?.flatten() {
         let name = e.file_name().to_string_lossy().into_owned();
         if (name.starts_with("journal-") && (name.ends_with(".log") || name.ends_with(".mirror")))
@@ -434,8 +483,8 @@ pub fn reset(dir: &Path, model: &Store, copies: u8) -> Result<Journal, JournalEr
     Journal::create_copies(dir, model.version + 1, copies)
 }
 
-/// The file in a session's `run/` directory where the keeper leaves [`RecoveryReport::lost_message`]
-/// when its recovery lost something (removed when a later recovery loses nothing).
+/// The file in a session's `run/` directory where the keeper leaves [`RecoveryReport::notice`]
+/// when its recovery lost or repaired something (removed when a later recovery finds nothing).
 pub const LOST_NOTE: &str = "recovery-lost.txt";
 
 /// Decodes a checkpoint body with a memory limit in proportion to its size, as
@@ -478,6 +527,20 @@ impl RecoveryReport {
     /// Readable (checksummed, once acknowledged) records that recovery could not replay.
     pub fn lost_records(&self) -> u64 {
         self.lost.iter().map(|l| l.readable_records).sum()
+    }
+
+    /// What a launcher says aloud after the keeper started: [`RecoveryReport::lost_message`],
+    /// then every problem recovery found and what it did (a copy repaired from the other, a
+    /// torn tail cut); empty when recovery found nothing to say.
+    pub fn notice(&self) -> String {
+        let mut m = self.lost_message();
+        if !self.problems.is_empty() {
+            m += "recovery of the journal found:\n";
+            for p in &self.problems {
+                m += &format!("  {p}\n");
+            }
+        }
+        m
     }
 
     /// The loud paragraph a command line prints when something was lost (empty otherwise).
@@ -709,13 +772,521 @@ pub fn recover(dir: &Path) -> Result<(Store, Journal, RecoveryReport), JournalEr
     recover_copies(dir, 1)
 }
 
+/// The session's journal control file, in the data directory beside the journal: which
+/// journal file is current, the version it starts at (the checkpoint before it holds every
+/// version below) and how many copies it keeps. Written (temp file, fsync, rename, directory
+/// fsync) whenever a journal file is started or reopened — at a session's first start, at
+/// every checkpoint (the keeper's clean stop writes one), after every recovery.
+///
+/// Recovery reads it before anything else and refuses to start (changing nothing) when the
+/// data directory holds less than it names: the current journal gone (both copies), or no
+/// checkpoint/journal reaching the version the journal starts after. This is PostgreSQL's
+/// `pg_control`: a vanished journal is an error naming the files and versions, not a new,
+/// empty session at version 1. A data directory without it (written by an older robosim) is
+/// recovered as found, and gets one.
+pub const CONTROL_FILE: &str = "journal.control";
+const CONTROL_HEAD: &str = "robosim journal control 1";
+
+/// What [`CONTROL_FILE`] says.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Control {
+    /// The current journal's file name (`journal-<first version>.log`).
+    pub journal: String,
+    /// The version of the journal's first record: every version below it is in a checkpoint
+    /// (or there is none: 1).
+    pub first_version: u64,
+    /// The copies the journal was written with (1, or 2 with a `.mirror`).
+    pub copies: u8,
+}
+
+fn write_control(dir: &Path, first_version: u64, copies: u8) -> Result<(), JournalError> {
+    let text = format!(
+        "{CONTROL_HEAD}\njournal {}\nfirst_version {first_version}\ncopies {copies}\n",
+        journal_name(first_version)
+    );
+    let path = dir.join(CONTROL_FILE);
+    let tmp = dir.join(format!("{CONTROL_FILE}.tmp"));
+    drop(create_with(&tmp, text.as_bytes())?);
+    fs::rename(&tmp, &path).map_err(io_err(&path))?;
+    sync_dir(dir)
+}
+
+/// Reads the data directory's [`CONTROL_FILE`]; `None` when there is none.
+pub fn read_control(dir: &Path) -> Result<Option<Control>, JournalError> {
+    let path = dir.join(CONTROL_FILE);
+    let bad = |reason: String| JournalError::Control {
+        path: path.clone(),
+        reason,
+    };
+    let meta = match fs::symlink_metadata(&path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(io_err(&path)(e)),
+        Ok(m) => m,
+    };
+    if !meta.is_file() || meta.len() > 4096 {
+        return Err(bad(format!(
+            "not a regular file of at most 4096 bytes ({} bytes)",
+            meta.len()
+        )));
+    }
+    let text = fs::read_to_string(&path).map_err(io_err(&path))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(CONTROL_HEAD) {
+        return Err(bad(format!("its first line is not {CONTROL_HEAD:?}")));
+    }
+    let (mut journal, mut first, mut copies) = (None, None, None);
+    for l in lines {
+        match l.split_once(' ') {
+            Some(("journal", v)) => journal = Some(v.to_owned()),
+            Some(("first_version", v)) => first = v.parse::<u64>().ok(),
+            Some(("copies", v)) => copies = v.parse::<u8>().ok().filter(|c| (1..=2).contains(c)),
+            _ => return Err(bad(format!("unexpected line {l:?}"))),
+        }
+    }
+    match (journal, first, copies) {
+        (Some(journal), Some(first_version), Some(copies))
+            if first_version >= 1 && journal == journal_name(first_version) =>
+        {
+            Ok(Some(Control {
+                journal,
+                first_version,
+                copies,
+            }))
+        }
+        _ => Err(bad(
+            "it must name the journal, its first version (>= 1, as in the name) and its copies (1 or 2)"
+                .into(),
+        )),
+    }
+}
+
+/// A journal file's first version, from its name (`journal-<20 digits>.log` / `.mirror`).
+fn journal_first_version(name: &str) -> Option<u64> {
+    let stem = name
+        .strip_suffix(".log")
+        .or_else(|| name.strip_suffix(".mirror"))?
+        .strip_prefix("journal-")?;
+    (stem.len() == 20 && stem.bytes().all(|b| b.is_ascii_digit()))
+        .then(|| stem.parse().ok())
+        .flatten()
+}
+
+/// Reads a journal copy: `None` when there is none.
+fn read_copy(path: &Path) -> Result<Option<Vec<u8>>, JournalError> {
+    match fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => Ok(None),
+        Err(e) => Err(io_err(path)(e)),
+        Ok(_) => read_journal_bytes(path).map(Some),
+    }
+}
+
+const COPY_NAMES: [&str; 2] = ["log", "mirror"];
+
+/// A journal file's two copies as read, and what recovery makes of them (worked out before
+/// anything on disk changes: see [`recover_copies`]).
+struct PairPlan {
+    first: u64,
+    paths: [PathBuf; 2],
+    orig: [Option<Vec<u8>>; 2],
+    /// The journal as recovered: the header and every record taken, each from a copy where it
+    /// checks out. Both copies are made this (a copy's extra bytes kept first, see `cut`).
+    good: Vec<u8>,
+    /// Records replayed into the model.
+    records: u64,
+    /// Per copy: the records it lacked or held damaged, (byte offset, version, what was wrong).
+    repairs: [Vec<(usize, u64, String)>; 2],
+    /// Per copy: why it is kept whole under `lost/` before it is rewritten (it held a readable
+    /// record other than the one taken).
+    keep_whole: [Option<String>; 2],
+    /// Where replay stopped before the end of a copy.
+    cut: Option<Cut>,
+    /// Follows a cut in an earlier journal: set aside whole.
+    aside: bool,
+    header_problem: Option<String>,
+}
+
+struct Cut {
+    pos: usize,
+    cause: String,
+    /// The first version the recovered model lacks.
+    first_version: u64,
+    /// Only a record torn by a crash while it was written, in every copy, with nothing
+    /// readable after it: never acknowledged (the sync that acknowledges it did not finish).
+    torn: bool,
+}
+
+/// The record at `pos` of `bytes` whose length field is damaged but whose checksum holds for
+/// some length: (length, version). The length is the one field the checksum does not cover; a
+/// record is taken with a repaired length only if it ends at the end of the copy or where a
+/// record of the next version starts, and its transaction decodes.
+fn length_repaired(bytes: &[u8], pos: usize, version: u64) -> Option<usize> {
+    let head = bytes.get(pos..pos + RECORD_HEADER)?;
+    if u64::from_le_bytes(head[8..16].try_into().ok()?) != version {
+        return None;
+    }
+    let crc = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
+    let body = &bytes[pos + RECORD_HEADER..];
+    let mut h = crc32fast::Hasher::new();
+    h.update(&head[8..16]);
+    for len in 0..=body.len() {
+        if h.clone().finalize() == crc {
+            let end = pos + RECORD_HEADER + len;
+            let next_ok = end == bytes.len()
+                || matches!(check_record(bytes, end), Ok((_, v)) if v == version + 1);
+            if next_ok && Transaction::decode(&body[..len]).is_ok() {
+                return Some(len);
+            }
+        }
+        if let Some(&b) = body.get(len) {
+            h.update(&[b]);
+        }
+    }
+    None
+}
+
+/// Is `bytes[pos..]` nothing but a record torn while being written (or nothing at all)?
+fn only_torn(bytes: &[u8], pos: usize) -> bool {
+    bytes.len() <= pos
+        || (matches!(
+            check_record(bytes, pos),
+            Err("torn record header" | "torn record")
+        ) && scan_records(bytes, pos).0.is_empty())
+}
+
+/// Works out one journal file: reads both copies, takes record by record the longest valid
+/// prefix over them (a record is taken from whichever copy holds it intact and in sequence)
+/// and replays it into `model`. Changes nothing on disk.
+fn plan_pair(
+    dir: &Path,
+    first: u64,
+    model: &mut Store,
+    mirror_expected: bool,
+) -> Result<PairPlan, JournalError> {
+    let log = dir.join(journal_name(first));
+    let mirror = mirror_path(&log);
+    let orig = [read_copy(&log)?, read_copy(&mirror)?];
+    let paths = [log, mirror];
+    let mut plan = PairPlan {
+        first,
+        paths,
+        orig,
+        good: JOURNAL_MAGIC.to_vec(),
+        records: 0,
+        repairs: [Vec::new(), Vec::new()],
+        keep_whole: [None, None],
+        cut: None,
+        aside: false,
+        header_problem: None,
+    };
+    let header_ok =
+        |b: &Option<Vec<u8>>| b.as_deref().is_some_and(|b| b.starts_with(JOURNAL_MAGIC));
+    if !plan.orig.iter().any(header_ok) {
+        let torn_only = plan
+            .orig
+            .iter()
+            .flatten()
+            .all(|b| b.len() < JOURNAL_MAGIC.len() && JOURNAL_MAGIC.starts_with(b));
+        if !torn_only {
+            return Err(JournalError::Headers {
+                log: plan.paths[0].clone(),
+                mirror: plan.paths[1].clone(),
+            });
+        }
+        // Torn while being created: it holds nothing.
+        plan.header_problem = Some(format!(
+            "{}: torn header ({} bytes); rewritten empty",
+            plan.paths[0].display(),
+            plan.orig[0].as_ref().map_or(0, Vec::len)
+        ));
+        return Ok(plan);
+    }
+    for i in 0..2 {
+        let missing_ok = i == 1 && !mirror_expected;
+        match &plan.orig[i] {
+            None if missing_ok => {}
+            None => plan.repairs[i].push((0, 0, "missing".into())),
+            Some(b) if !b.starts_with(JOURNAL_MAGIC) => {
+                plan.repairs[i].push((0, 0, "damaged header".into()))
+            }
+            Some(_) => {}
+        }
+    }
+    let mut pos = JOURNAL_MAGIC.len();
+    while plan.orig.iter().flatten().any(|b| b.len() > pos) {
+        let expected = model.version + 1;
+        let mut why: [String; 2] = [String::new(), String::new()];
+        let mut cand: [Option<(usize, u64, bool)>; 2] = [None, None];
+        for i in 0..2 {
+            match &plan.orig[i] {
+                None => why[i] = "missing".into(),
+                Some(b) if b.len() <= pos => why[i] = format!("ends at byte {}", b.len()),
+                Some(b) => match check_record(b, pos) {
+                    Ok((len, v)) if v == expected || v <= model.version => {
+                        cand[i] = Some((len, v, false))
+                    }
+                    Ok((_, v)) => {
+                        why[i] = format!("version {v} out of sequence (expected {expected})")
+                    }
+                    Err(w) => why[i] = w.into(),
+                },
+            }
+        }
+        if cand.iter().all(Option::is_none) {
+            for i in 0..2 {
+                if let Some(b) = &plan.orig[i]
+                    && let Some(len) = length_repaired(b, pos, expected)
+                {
+                    cand[i] = Some((len, expected, true));
+                }
+            }
+        }
+        // The record as it must be: its bytes from copy `i`, the length field rewritten.
+        let record = |i: usize, (len, _, _): (usize, u64, bool)| -> Vec<u8> {
+            let mut r = plan.orig[i].as_deref().unwrap_or_default()[pos..pos + RECORD_HEADER + len]
+                .to_vec();
+            r[0..4].copy_from_slice(&(len as u32).to_le_bytes());
+            r
+        };
+        let Some(i) = (0..2).find(|&i| cand[i].is_some()) else {
+            let torn = plan.orig.iter().flatten().all(|b| only_torn(b, pos));
+            let parts: Vec<String> = (0..2)
+                .filter(|&i| plan.orig[i].is_some() || mirror_expected)
+                .map(|i| {
+                    let at = if why[i].starts_with("ends at") || why[i] == "missing" {
+                        String::new()
+                    } else {
+                        format!(" at byte {pos}")
+                    };
+                    format!("{}: {}{at}", plan.paths[i].display(), why[i])
+                })
+                .collect();
+            plan.cut = Some(Cut {
+                pos,
+                cause: parts.join("; "),
+                first_version: expected,
+                torn,
+            });
+            break;
+        };
+        let Some(c) = cand[i] else { break };
+        let rec = record(i, c);
+        let j = 1 - i;
+        let rec_j = cand[j].map(|cj| record(j, cj));
+        let v = c.1;
+        if c.2 {
+            plan.repairs[i].push((pos, v, "damaged length field".into()));
+        }
+        match cand[j] {
+            Some(cj) if rec_j.as_deref() == Some(&rec[..]) => {
+                if cj.2 {
+                    plan.repairs[j].push((pos, v, "damaged length field".into()));
+                }
+            }
+            Some((_, vj, _)) => {
+                plan.keep_whole[j] = Some(format!(
+                    "its record at byte {pos} (version {vj}) differs from the {}'s (version {v}), which was taken",
+                    COPY_NAMES[i]
+                ));
+                plan.repairs[j].push((pos, v, "a different record".into()));
+            }
+            None if plan.orig[j].is_none() && j == 1 && !mirror_expected => {}
+            None => plan.repairs[j].push((pos, v, std::mem::take(&mut why[j]))),
+        }
+        if v > model.version {
+            let payload = &rec[RECORD_HEADER..];
+            if let Err(e) = Transaction::decode(payload).and_then(|tx| model.apply(&tx)) {
+                plan.cut = Some(Cut {
+                    pos,
+                    cause: format!(
+                        "{}: record for version {v} no longer applies ({e}) at byte {pos}",
+                        plan.paths[0].display()
+                    ),
+                    first_version: v,
+                    torn: false,
+                });
+                break;
+            }
+            plan.records += 1;
+        }
+        plan.good.extend_from_slice(&rec);
+        pos += rec.len();
+    }
+    Ok(plan)
+}
+
+/// "versions 58..=201 (144 records)" / "version 20".
+fn versions_words(repairs: &[(usize, u64, String)]) -> String {
+    let vs: Vec<u64> = repairs.iter().map(|r| r.1).filter(|&v| v > 0).collect();
+    match (vs.first(), vs.last()) {
+        (Some(a), Some(b)) if vs.len() == 1 || a == b => format!("the record of version {a}"),
+        (Some(a), Some(b)) => format!("{} records (versions {a}..={b})", vs.len()),
+        _ => "its header".into(),
+    }
+}
+
+/// Does what `plan` worked out, on disk: keeps whatever a copy holds that the recovered journal
+/// lacks (under `lost/`), then rewrites each copy to the recovered journal (temp file, fsync,
+/// rename: at every moment one copy holds every record taken).
+fn carry_out(
+    dir: &Path,
+    plan: &PairPlan,
+    copies: u8,
+    report: &mut RecoveryReport,
+) -> Result<(), JournalError> {
+    if let Some(p) = &plan.header_problem {
+        report.problems.push(p.clone());
+    }
+    for i in 0..2 {
+        if let (Some(reason), Some(bytes)) = (&plan.keep_whole[i], &plan.orig[i]) {
+            let kept = keep_whole(dir, &plan.paths[i], bytes)?;
+            report.problems.push(format!(
+                "{}: the copies disagree: {reason}; this copy is kept whole as {}",
+                plan.paths[i].display(),
+                kept.display()
+            ));
+        }
+        let r = &plan.repairs[i];
+        if let Some((pos, _, what)) = r.first() {
+            let other = COPY_NAMES[1 - i];
+            report.problems.push(if what == "missing" {
+                format!(
+                    "{}: missing; rewritten from the {other}",
+                    plan.paths[i].display()
+                )
+            } else {
+                format!(
+                    "{}: {what} at byte {pos}; {} {} repaired from the {other}",
+                    plan.paths[i].display(),
+                    versions_words(r),
+                    if r.iter().filter(|x| x.1 > 0).count() > 1 {
+                        "were"
+                    } else {
+                        "was"
+                    }
+                )
+            });
+        }
+    }
+    if let Some(cut) = &plan.cut {
+        let tail_bytes: u64 = plan
+            .orig
+            .iter()
+            .flatten()
+            .map(|b| b.len().saturating_sub(cut.pos) as u64)
+            .max()
+            .unwrap_or(0);
+        report.problems.push(format!(
+            "{}; dropped the tail ({tail_bytes} bytes)",
+            cut.cause
+        ));
+        if !cut.torn {
+            // Keep the tail of the copy holding the most readable records (then the longer).
+            let rank = |i: usize| {
+                plan.orig[i].as_deref().map_or((0, 0), |b| {
+                    let n = if b.len() > cut.pos {
+                        scan_records(b, cut.pos).0.len()
+                    } else {
+                        0
+                    };
+                    (n, b.len())
+                })
+            };
+            let best = if rank(1) > rank(0) { 1 } else { 0 };
+            if let Some(b) = &plan.orig[best] {
+                let tail = keep_cut(
+                    dir,
+                    &plan.paths[best],
+                    b,
+                    cut.pos.min(b.len()),
+                    cut.first_version,
+                    cut.cause.clone(),
+                )?;
+                report.lost.push(tail);
+            }
+            let other = 1 - best;
+            if let (Some(a), Some(b)) = (&plan.orig[best], &plan.orig[other])
+                && b.len() > cut.pos
+                && a.get(cut.pos..) != b.get(cut.pos..)
+                && !scan_records(b, cut.pos).0.is_empty()
+            {
+                let also = keep_cut(
+                    dir,
+                    &plan.paths[other],
+                    b,
+                    cut.pos,
+                    cut.first_version,
+                    cut.cause.clone(),
+                )?;
+                report.problems.push(format!(
+                    "{}: its own tail, different from the {}'s, is kept too in {}",
+                    plan.paths[other].display(),
+                    COPY_NAMES[best],
+                    also.copy.display()
+                ));
+            }
+        }
+    }
+    for i in 0..2 {
+        let path = &plan.paths[i];
+        if i == 1 && copies < 2 {
+            // One copy from here on: the mirror holds nothing the log now lacks (its extra
+            // records were kept above).
+            remove_if_present(path)?;
+            continue;
+        }
+        if plan.orig[i].as_deref() == Some(&plan.good[..]) {
+            continue;
+        }
+        let tmp = path.with_extension(format!("{}-tmp", COPY_NAMES[i]));
+        drop(create_with(&tmp, &plan.good)?);
+        fs::rename(&tmp, path).map_err(io_err(path))?;
+        sync_dir(dir)?;
+    }
+    Ok(())
+}
+
+/// Keeps the whole file `path` (its bytes as read) under `<data>/lost/`; the copy's path.
+fn keep_whole(dir: &Path, path: &Path, bytes: &[u8]) -> Result<PathBuf, JournalError> {
+    let lost_dir = dir.join("lost");
+    fs::DirBuilder::new()
+        .recursive(true)
+        .mode(0o700)
+        .create(&lost_dir)
+        .map_err(io_err(&lost_dir))?;
+    let base = path
+        .file_name()
+        .map_or_else(|| "journal".into(), |n| n.to_string_lossy().into_owned());
+    let copy = lost_dir.join(format!("{base}.whole.{}", unique_stamp()));
+    drop(create_with(&copy, bytes)?);
+    sync_dir(&lost_dir)?;
+    Ok(copy)
+}
+
+/// Seconds since the epoch and nanoseconds: names of kept files never collide.
+fn unique_stamp() -> String {
+    let d = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    format!("{}.{:09}", d.as_secs(), d.subsec_nanos())
+}
+
 /// [`recover`], then keep `copies` (1 or 2) copies of the journal from here on. Recovery reads
 /// a mirror wherever one exists, whatever `copies` says.
+///
+/// For each journal file, record by record, a record is taken from whichever copy holds it
+/// intact and in sequence: the longest valid prefix over both copies, whichever is shorter or
+/// damaged. Every disagreement between the copies is a problem in the report; a copy is then
+/// rewritten to what was recovered, and only after whatever it held beyond that (a tail past a
+/// record damaged in both copies, a readable record other than the one taken) was kept under
+/// `lost/` and reported. Nothing on disk changes until the whole recovery is worked out, and
+/// nothing changes at all when the data directory holds less than its [`CONTROL_FILE`] names
+/// (the recovery is refused).
 pub fn recover_copies(
     dir: &Path,
     copies: u8,
 ) -> Result<(Store, Journal, RecoveryReport), JournalError> {
     let mut report = RecoveryReport::default();
+    let control = read_control(dir)?;
     let mut names: Vec<String> = fs::read_dir(dir)
         .map_err(io_err(dir))?
         .flatten()
@@ -723,6 +1294,7 @@ pub fn recover_copies(
         .collect();
     names.sort();
     let mut model = Store::new();
+    let mut checkpoint_name_used = None;
     for ck in names
         .iter()
         .rev()
@@ -732,81 +1304,138 @@ pub fn recover_copies(
             Ok(m) => {
                 model = m;
                 report.checkpoint_version = model.version;
+                checkpoint_name_used = Some(ck.clone());
                 break;
             }
             Err(e) => report.problems.push(format!("skipped checkpoint: {e}")),
         }
     }
-    let journals: Vec<&String> = names
+    let mut firsts: Vec<u64> = names
         .iter()
-        .filter(|n| n.starts_with("journal-") && n.ends_with(".log"))
+        .filter_map(|n| journal_first_version(n))
         .collect();
-    let mut last: Option<(PathBuf, u64)> = None;
-    let mut stop = false;
-    for name in journals {
-        let path = dir.join(name);
-        if stop {
-            report.problems.push(format!(
-                "{}: after a corrupt record; set aside as {}.corrupt",
-                path.display(),
-                name
-            ));
-            let aside = dir.join(format!("{name}.corrupt"));
-            let _ = fs::rename(&path, &aside);
-            // Its mirror goes with it: a later journal of the same name must never read it.
-            let m = mirror_path(&path);
-            let _ = fs::rename(&m, m.with_extension("mirror.corrupt"));
-            if let Ok(bytes) = read_journal_bytes(&aside) {
-                let (records, damaged) = scan_records(&bytes, JOURNAL_MAGIC.len().min(bytes.len()));
-                report.lost.push(LostTail {
-                    cause: format!("{name}: follows the cut"),
-                    first_version: model.version + 1,
-                    last_version: records.iter().map(|r| r.version).max(),
-                    readable_records: records.len() as u64,
-                    damaged_bytes: damaged,
-                    copy: aside,
-                });
-            }
+    firsts.dedup();
+    let mirror_expected = control.as_ref().is_some_and(|c| c.copies >= 2);
+    // Work everything out first.
+    let mut plans: Vec<PairPlan> = Vec::new();
+    let mut stopped = false;
+    for &first in &firsts {
+        if stopped {
+            let log = dir.join(journal_name(first));
+            plans.push(PairPlan {
+                first,
+                orig: [None, None],
+                paths: [log.clone(), mirror_path(&log)],
+                good: Vec::new(),
+                records: 0,
+                repairs: [Vec::new(), Vec::new()],
+                keep_whole: [None, None],
+                cut: None,
+                aside: true,
+                header_problem: None,
+            });
             continue;
         }
-        let (records, good_len, problem) = replay(&path, &mut model, &mut report)?;
-        if let Some(p) = problem {
-            report.problems.push(p.clone());
-            // Keep what is cut. A torn last record with nothing readable after it was never
-            // acknowledged (the sync that acknowledges it did not finish): not a loss.
-            let bytes = read_journal_bytes(&path)?;
-            let cut = keep_cut(dir, &path, &bytes, good_len as usize, model.version + 1, p)?;
-            if cut.readable_records > 0 || !cut.cause.contains("torn record") {
-                report.lost.push(cut);
-            } else {
-                let _ = fs::remove_file(&cut.copy);
-            }
-            let f = OpenOptions::new()
-                .write(true)
-                .open(&path)
-                .map_err(io_err(&path))?;
-            f.set_len(good_len).map_err(io_err(&path))?;
-            f.sync_all().map_err(io_err(&path))?;
-            stop = true;
+        let plan = plan_pair(dir, first, &mut model, mirror_expected)?;
+        stopped = plan.cut.is_some();
+        plans.push(plan);
+    }
+    if let Some(c) = &control {
+        let log = dir.join(&c.journal);
+        if !firsts.contains(&c.first_version) {
+            return Err(JournalError::Missing {
+                control: dir.join(CONTROL_FILE),
+                journal: log.clone(),
+                mirror: mirror_path(&log),
+                first_version: c.first_version,
+                found: model.version,
+            });
         }
-        last = Some((path, records));
+        if model.version + 1 < c.first_version {
+            return Err(JournalError::Behind {
+                control: dir.join(CONTROL_FILE),
+                checkpoint: dir.join(checkpoint_name(c.first_version - 1)),
+                needed: c.first_version - 1,
+                found: model.version,
+                used: checkpoint_name_used,
+            });
+        }
+    }
+    // Then do it.
+    let mut last: Option<(PathBuf, u64, u64)> = None;
+    for plan in &plans {
+        if plan.aside {
+            set_aside(dir, plan, model.version + 1, &mut report)?;
+            continue;
+        }
+        carry_out(dir, plan, copies, &mut report)?;
+        report.replayed += plan.records;
+        last = Some((plan.paths[0].clone(), plan.first, plan.records));
     }
     let journal = match last {
-        Some((path, records))
-            if path.file_name().is_some_and(|n| {
-                *n.to_string_lossy() >= *journal_name(report.checkpoint_version + 1)
-            }) =>
-        {
-            Journal::reopen(dir, path, records, copies)?
+        Some((path, first, records)) if first > report.checkpoint_version => {
+            Journal::reopen(dir, path, first, records, copies)?
         }
-        _ => Journal::create_copies(dir, model.version + 1, copies)?,
+        _ => {
+            if model.version > report.checkpoint_version {
+                // The journal that starts after the model must follow a checkpoint of it.
+                write_checkpoint(dir, &model)?;
+                report.checkpoint_version = model.version;
+            }
+            Journal::create_copies(dir, model.version + 1, copies)?
+        }
     };
     Ok((model, journal, report))
 }
 
+/// Sets a journal that follows a cut aside (`.corrupt`, both copies) and reports what it holds.
+fn set_aside(
+    dir: &Path,
+    plan: &PairPlan,
+    first_version: u64,
+    report: &mut RecoveryReport,
+) -> Result<(), JournalError> {
+    let name = journal_name(plan.first);
+    let mut best: Option<LostTail> = None;
+    for path in &plan.paths {
+        if fs::symlink_metadata(path).is_err() {
+            continue;
+        }
+        let file = path
+            .file_name()
+            .map_or_else(|| name.clone(), |n| n.to_string_lossy().into_owned());
+        let aside = dir.join(format!("{file}.corrupt"));
+        fs::rename(path, &aside).map_err(io_err(path))?;
+        report.problems.push(format!(
+            "{}: after a corrupt record; set aside as {file}.corrupt",
+            path.display()
+        ));
+        if let Ok(bytes) = read_journal_bytes(&aside) {
+            let (records, damaged) = scan_records(&bytes, JOURNAL_MAGIC.len().min(bytes.len()));
+            let tail = LostTail {
+                cause: format!("{file}: follows the cut"),
+                first_version,
+                last_version: records.iter().map(|r| r.version).max(),
+                readable_records: records.len() as u64,
+                damaged_bytes: damaged,
+                copy: aside,
+            };
+            if best
+                .as_ref()
+                .is_none_or(|b| b.readable_records < tail.readable_records)
+            {
+                best = Some(tail);
+            }
+        }
+    }
+    sync_dir(dir)?;
+    report.lost.extend(best);
+    Ok(())
+}
+
 /// The record at `pos` of a journal's bytes: (payload length, version), or what is wrong.
 fn check_record(bytes: &[u8], pos: usize) -> Result<(usize, u64), &'static str> {
-    if bytes.len() - pos < RECORD_HEADER {
+    if bytes.len().saturating_sub(pos) < RECORD_HEADER {
         return Err("torn record header");
     }
     let len =
@@ -830,118 +1459,4 @@ fn check_record(bytes: &[u8], pos: usize) -> Result<(usize, u64), &'static str> 
     let mut vb = [0u8; 8];
     vb.copy_from_slice(v);
     Ok((len, u64::from_le_bytes(vb)))
-}
-
-/// Writes `data` at byte `pos` of the file `path` and syncs it.
-fn write_at(path: &Path, pos: usize, data: &[u8]) -> Result<(), JournalError> {
-    use std::os::unix::fs::FileExt;
-    let f = OpenOptions::new()
-        .write(true)
-        .open(path)
-        .map_err(io_err(path))?;
-    f.write_all_at(data, pos as u64)
-        .and_then(|_| f.sync_data())
-        .map_err(io_err(path))
-}
-
-/// Replays one journal file into `model`; returns (records replayed, valid length, problem).
-fn replay(
-    path: &Path,
-    model: &mut Store,
-    report: &mut RecoveryReport,
-) -> Result<(u64, u64, Option<String>), JournalError> {
-    let mut bytes = Vec::new();
-    File::open(path)
-        .and_then(|mut f| f.read_to_end(&mut bytes))
-        .map_err(io_err(path))?;
-    if bytes.len() < 8 || &bytes[..8] != JOURNAL_MAGIC {
-        if bytes.len() < 8 && JOURNAL_MAGIC.starts_with(&bytes) {
-            // Torn while being created: it holds nothing. Rewrite its header.
-            let mut f = OpenOptions::new()
-                .write(true)
-                .open(path)
-                .map_err(io_err(path))?;
-            f.write_all(JOURNAL_MAGIC)
-                .and_then(|_| f.sync_all())
-                .map_err(io_err(path))?;
-            report.problems.push(format!(
-                "{}: torn header ({} bytes); rewritten empty",
-                path.display(),
-                bytes.len()
-            ));
-            return Ok((0, 8, None));
-        }
-        return Err(JournalError::Magic {
-            path: path.to_owned(),
-            what: "journal",
-        });
-    }
-    // The mirror, when the journal keeps two copies: the same bytes at the same offsets.
-    let mirror = fs::read(mirror_path(path)).ok();
-    let mut pos = 8usize;
-    let mut records = 0u64;
-    let tail = |bytes: &[u8], pos: usize, what: &str| {
-        Some(format!(
-            "{}: {what} at byte {pos}; dropped the tail ({} bytes)",
-            path.display(),
-            bytes.len() - pos
-        ))
-    };
-    while pos < bytes.len() {
-        let (len, version) = match check_record(&bytes, pos) {
-            Ok(r) => r,
-            Err(what) => match mirror
-                .as_deref()
-                .and_then(|m| record_at(m, pos, None).map(|r| (m, r)))
-            {
-                Some((m, r)) => {
-                    // Repair the journal from its mirror, on disk and here.
-                    let good = &m[pos..pos + RECORD_HEADER + r.len];
-                    write_at(path, pos, good)?;
-                    if bytes.len() < pos + good.len() {
-                        bytes.resize(pos + good.len(), 0);
-                    }
-                    bytes[pos..pos + good.len()].copy_from_slice(good);
-                    report.problems.push(format!(
-                        "{}: {what} at byte {pos}; the record of version {} was repaired from the mirror",
-                        path.display(),
-                        r.version
-                    ));
-                    (r.len, r.version)
-                }
-                None => return Ok((records, pos as u64, tail(&bytes, pos, what))),
-            },
-        };
-        let at = |what: &str| tail(&bytes, pos, what);
-        let payload = &bytes[pos + RECORD_HEADER..pos + RECORD_HEADER + len];
-        if version <= model.version {
-            // Already in the checkpoint.
-            pos += RECORD_HEADER + len;
-            continue;
-        }
-        if version != model.version + 1 {
-            return Ok((
-                records,
-                pos as u64,
-                at(&format!(
-                    "version {version} out of sequence (expected {})",
-                    model.version + 1
-                )),
-            ));
-        }
-        let applied = Transaction::decode(payload).and_then(|tx| model.apply(&tx));
-        if let Err(e) = applied {
-            return Ok((
-                records,
-                pos as u64,
-                at(&format!(
-                    "record for version {version} no longer applies ({e})"
-                )),
-            ));
-        }
-        records += 1;
-        report.replayed += 1;
-        pos += RECORD_HEADER + len;
-    }
-    Ok((records, pos as u64, None))
 }

@@ -24,7 +24,7 @@ use crate::layout::{
 };
 use crate::replica::{LOG_MAGIC, Log, LogAnswer, PublishedLibrary, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
-use crate::session::{Registration, Session, SessionError};
+use crate::session::{KeeperLock, Registration, Session, SessionError};
 use crate::store::{Applied, Id, Store, TxError, aspect};
 use crate::transaction::Transaction;
 use iceoryx2::port::update_connections::UpdateConnections;
@@ -267,6 +267,8 @@ pub struct Keeper {
     to_forward: Vec<(u64, Vec<u8>)>,
     _registration: Registration,
     _services: Vec<Box<dyn std::any::Any>>,
+    /// Held until everything above is dropped (the journal closed).
+    _lock: KeeperLock,
 }
 
 /// What the keeper sends back for one request.
@@ -353,6 +355,11 @@ impl Keeper {
         opts: KeeperOptions,
         source: Source,
     ) -> Result<(Keeper, RecoveryReport), KeeperError> {
+        // One keeper per session, by an OS lock taken before the journal is touched: two
+        // keepers started at the same instant both passed the registry check below, both
+        // recovered, and the one that lost the race for the services had already replaced the
+        // other's journal mirror (issue 34 item 2).
+        let lock = session.lock_keeper()?;
         if let Some(p) = session
             .processes()
             .into_iter()
@@ -524,10 +531,11 @@ impl Keeper {
         // What recovery lost is written before the keeper registers, so a launcher that
         // waits for the registration (`robosim up`) finds it and says it aloud.
         let lost_note = session.run_dir().join(journal::LOST_NOTE);
-        if report.lost.is_empty() {
+        let notice = report.notice();
+        if notice.is_empty() {
             let _ = std::fs::remove_file(&lost_note);
         } else {
-            crate::session::write_private(&lost_note, report.lost_message().as_bytes())?;
+            crate::session::write_private(&lost_note, notice.as_bytes())?;
         }
         let registration = session.register(
             "space",
@@ -581,6 +589,7 @@ impl Keeper {
             held: HashMap::new(),
             to_forward: Vec::new(),
             _registration: registration,
+            _lock: lock,
             _services: vec![
                 Box::new(rr),
                 Box::new(req_event),

@@ -31,6 +31,18 @@ pub enum SessionError {
         path: PathBuf,
         source: std::io::Error,
     },
+    /// Another keeper holds the session's keeper lock ([`Session::lock_keeper`]).
+    #[error(
+        "session {session} already has a keeper ({}; it holds the lock {}): one keeper per \
+         session. Stop it first (`robosim down --session {session}`)",
+        match pid { Some(p) => format!("pid {p}"), None => "its pid is not known yet".to_owned() },
+        lock.display()
+    )]
+    KeeperRunning {
+        session: String,
+        pid: Option<u32>,
+        lock: PathBuf,
+    },
     /// A reader or joiner named a session that was never started (nothing is created).
     #[error("no session {name} under {}; {}", home.display(), running_list(running))]
     NoSession {
@@ -382,6 +394,58 @@ impl Session {
         Ok(Registration { path })
     }
 
+    /// Takes the session's keeper lock: an OS lock (`flock`, exclusive, not waited for) on
+    /// `<session>/keeper.lock`, held until the returned guard drops (or the process dies: the
+    /// kernel releases it, so a keeper killed with -9 leaves no stale lock). The holder's pid
+    /// is written into the file. A keeper takes it before it touches the journal, so two
+    /// keepers started at the same instant cannot both recover and write it: the second gets
+    /// [`SessionError::KeeperRunning`] naming the first's pid.
+    pub fn lock_keeper(&self) -> Result<KeeperLock, SessionError> {
+        use std::os::unix::fs::FileExt;
+        let path = self.dir.join(KEEPER_LOCK);
+        let io = |source| SessionError::Io {
+            path: path.clone(),
+            source,
+        };
+        let file = fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create(true)
+            .truncate(false)
+            .mode(0o600)
+            .open(&path)
+            .map_err(io)?;
+        match file.try_lock() {
+            Ok(()) => {}
+            Err(fs::TryLockError::WouldBlock) => {
+                // The holder writes its pid right after it locks: wait a moment for it (a pid
+                // left by an earlier, dead holder is not the answer).
+                let start = std::time::Instant::now();
+                let pid = loop {
+                    let pid = fs::read_to_string(&path)
+                        .ok()
+                        .and_then(|t| t.trim().parse::<u32>().ok())
+                        .filter(|&p| pid_alive(p));
+                    if pid.is_some() || start.elapsed() > std::time::Duration::from_secs(2) {
+                        break pid;
+                    }
+                    std::thread::sleep(std::time::Duration::from_millis(10));
+                };
+                return Err(SessionError::KeeperRunning {
+                    session: self.name.clone(),
+                    pid,
+                    lock: path,
+                });
+            }
+            Err(fs::TryLockError::Error(e)) => return Err(io(e)),
+        }
+        let pid = format!("{}\n", std::process::id());
+        file.set_len(0)
+            .and_then(|_| file.write_all_at(pid.as_bytes(), 0))
+            .map_err(io)?;
+        Ok(KeeperLock { file })
+    }
+
     /// Processes registered in this session that are still alive (stale entries of dead
     /// processes are removed).
     pub fn processes(&self) -> Vec<ProcInfo> {
@@ -443,6 +507,22 @@ pub struct ProcInfo {
     /// What it is attached to (services, files).
     pub attached: Vec<String>,
     pub started_unix_ms: u64,
+}
+
+/// The session's keeper lock file (in the session directory).
+pub const KEEPER_LOCK: &str = "keeper.lock";
+
+/// The session's keeper lock ([`Session::lock_keeper`]); released when dropped.
+#[derive(Debug)]
+pub struct KeeperLock {
+    file: fs::File,
+}
+
+impl Drop for KeeperLock {
+    fn drop(&mut self) {
+        // The pid goes while the lock is still held; closing the file releases the lock.
+        let _ = self.file.set_len(0);
+    }
 }
 
 /// Removes the registry entry when dropped.
