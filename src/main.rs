@@ -106,6 +106,16 @@ enum Command {
         /// activations, statistics, all).
         #[arg(long, value_delimiter = ',')]
         watch: Vec<String>,
+        /// Rule execution time allowed per pass, seconds (waiting for the session's answers
+        /// not counted); past it the rules are halted and the process fails naming the rule.
+        #[arg(long, default_value_t = 5.0)]
+        time_limit: f64,
+        /// Nested deffunction/generic function calls allowed.
+        #[arg(long, default_value_t = 2000)]
+        max_depth: u32,
+        /// Memory CLIPS may hold, MiB.
+        #[arg(long, default_value_t = 256)]
+        max_memory: usize,
     },
     /// Run the automation layer's plant on a session: a fault model (the ECLSS by default) whose
     /// injected faults raise alarms over time; its units live in the Instance Space, where
@@ -458,9 +468,29 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 .map(drop)
                 .map_err(CliError::from)
         }
-        Command::Rules { file, watch } => {
+        Command::Rules {
+            file,
+            watch,
+            time_limit,
+            max_depth,
+            max_memory,
+        } => {
             existing(session)?;
-            robosim_rules::run(&file, session, &watch).map_err(|e| CliError(e.to_string()))
+            let time = std::time::Duration::try_from_secs_f64(time_limit)
+                .ok()
+                .filter(|t| !t.is_zero())
+                .ok_or_else(|| {
+                    CliError(format!(
+                        "--time-limit {time_limit}: not a positive number of seconds"
+                    ))
+                })?;
+            let limits = robosim_rules::clips::Limits {
+                time,
+                depth: max_depth,
+                memory: max_memory.saturating_mul(1 << 20),
+            };
+            robosim_rules::run(&file, session, &watch, &limits)
+                .map_err(|e| CliError(e.to_string()))
         }
         Command::Automation { model, time_scale } => {
             existing(session)?;

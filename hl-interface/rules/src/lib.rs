@@ -44,7 +44,7 @@
 
 pub mod clips;
 
-use clips::{Arg, Clips, ClipsError, quote};
+use clips::{Arg, Clips, ClipsError, Limits, Stop, quote};
 use robosim_hl_interface::ProtocolError;
 use robosim_hl_interface::planner::Planner;
 use robosim_instance_space::Session;
@@ -83,6 +83,10 @@ pub enum RulesError {
     Watch(String),
     #[error(transparent)]
     Clips(#[from] ClipsError),
+    /// A run of the rules went past one of its [`Limits`] (the rule base is at fault: it is
+    /// not run again).
+    #[error("rules: {0}")]
+    Limit(Stop),
     #[error("{0}")]
     Session(#[from] ProtocolError),
     #[error("session: {0}")]
@@ -293,7 +297,8 @@ fn text(args: &[Arg], i: usize, what: &str) -> Result<String, String> {
 
 fn number(args: &[Arg], i: usize, what: &str) -> Result<f64, String> {
     match args.get(i) {
-        Some(Arg::Num(x)) => Ok(*x),
+        Some(Arg::Num(x)) if x.is_finite() => Ok(*x),
+        Some(Arg::Num(x)) => Err(format!("{what} (argument {i}) is not a finite number: {x}")),
         Some(Arg::Text(s)) => Err(format!("{what} (argument {i}) must be a number, got {s:?}")),
         None => Err(format!("missing {what} (argument {i})")),
     }
@@ -319,12 +324,22 @@ pub fn call(
             let robot = text(args, 1, "the robot")?;
             let index = number(args, 2, "the joint index")?;
             let value = number(args, 3, "the joint value")?;
-            let mut q = p.joints(&robot).map_err(e)?;
-            let k = (index >= 0.0 && index.fract() == 0.0 && (index as usize) < q.len())
-                .then_some(index as usize)
-                .ok_or_else(|| format!("robot {robot} has no joint {index}"))?;
-            q[k] = value;
-            p.set_joints(&robot, &q).map(|v| v as i64).map_err(e)
+            // One joint of q: read, set and written against the q the keeper holds when it
+            // commits (a concurrent write of another joint is read again, not undone).
+            p.update_joints(&robot, |q| {
+                let k = (index >= 0.0 && index.fract() == 0.0 && (index as usize) < q.len())
+                    .then_some(index as usize)
+                    .ok_or_else(|| {
+                        ProtocolError::new(
+                            robosim_hl_interface::ErrorKind::BadRequest,
+                            format!("robot {robot} has no joint {index}"),
+                        )
+                    })?;
+                q[k] = value;
+                Ok(())
+            })
+            .map(|v| v as i64)
+            .map_err(e)
         }
         "set-joints" => {
             let robot = text(args, 1, "the robot")?;
@@ -411,20 +426,32 @@ fn said(last: &mut Option<String>, peer: &str, r: Result<Value, ProtocolError>) 
     }
 }
 
-/// `robosim rules FILE --session S`: runs until SIGTERM/SIGINT.
-pub fn run(file: &Path, session: Option<&str>, watch: &[String]) -> Result<(), RulesError> {
+/// `robosim rules FILE --session S`: runs until SIGTERM/SIGINT (exit 0, also when the signal
+/// comes while a rule runs: the engine is halted), or until a run of the rules goes past one
+/// of `limits` ([`RulesError::Limit`], naming the rule).
+pub fn run(
+    file: &Path,
+    session: Option<&str>,
+    watch: &[String],
+    limits: &Limits,
+) -> Result<(), RulesError> {
     let session = Session::existing(session)?;
-    let signals = session.node("rules-signals", true)?;
+    let signals = Rc::new(session.node("rules-signals", true)?);
     let planner = Rc::new(RefCell::new(Planner::attach_to(&session)?));
     let answers: Rc<RefCell<Vec<String>>> = Rc::default();
     let plant_state: Rc<RefCell<Option<Value>>> = Rc::default();
     let (p2, a2, s2) = (planner.clone(), answers.clone(), plant_state.clone());
-    let mut clips = Clips::new(Box::new(move |args: &[Arg]| {
-        let mut p = p2
-            .try_borrow_mut()
-            .map_err(|_| "the planner is busy (a nested call)".to_owned())?;
-        call(&mut p, args, &mut a2.borrow_mut(), s2.borrow().as_ref())
-    }))?;
+    let mut clips = Clips::with_limits(
+        Box::new(move |args: &[Arg]| {
+            let mut p = p2
+                .try_borrow_mut()
+                .map_err(|_| "the planner is busy (a nested call)".to_owned())?;
+            call(&mut p, args, &mut a2.borrow_mut(), s2.borrow().as_ref())
+        }),
+        *limits,
+    )?;
+    let s3 = signals.clone();
+    clips.set_terminate(Box::new(move || s3.wait(Duration::ZERO).is_err()));
     for t in TEMPLATES {
         clips.build(t)?;
     }
@@ -490,7 +517,14 @@ pub fn run(file: &Path, session: Option<&str>, watch: &[String]) -> Result<(), R
         )?;
         mirror.update(&mut clips, facts)?;
         loop {
-            clips.run(-1);
+            match clips.run(-1) {
+                Ok(_) => {}
+                Err(stop @ Stop::Terminated { .. }) => {
+                    eprintln!("rules: {stop}; stopped");
+                    return Ok(());
+                }
+                Err(stop) => return Err(RulesError::Limit(stop)),
+            }
             let pending: Vec<String> = answers.borrow_mut().drain(..).collect();
             if pending.is_empty() {
                 break;
