@@ -103,6 +103,15 @@ pub enum FileError {
     /// A URDF file that cannot be imported (file, line, element and what).
     #[error(transparent)]
     Urdf(#[from] crate::urdf_import::UrdfError),
+    /// An input file that is not a regular file, or is larger than its limit, or cannot be read
+    /// ([`robosim_input::read_file`]).
+    #[error(transparent)]
+    Input(#[from] robosim_input::InputError),
+    /// An output file that was not written: something other than a regular file is at its path
+    /// (a link, a FIFO, a device), or a step of the atomic write failed
+    /// ([`robosim_input::write_file_atomic`]).
+    #[error(transparent)]
+    Output(#[from] robosim_input::OutputError),
 }
 
 impl From<robosim_urdf::stl::MeshFileError> for FileError {
@@ -112,12 +121,5 @@ impl From<robosim_urdf::stl::MeshFileError> for FileError {
             line: e.line,
             reason: e.reason,
         }
-    }
-}
-
-pub(crate) fn io(path: &std::path::Path) -> impl FnOnce(std::io::Error) -> FileError + '_ {
-    move |source| FileError::Io {
-        path: path.to_owned(),
-        source,
     }
 }

@@ -30,7 +30,7 @@
 //! types. The file `testdata/file-io/station-v1.rsm`, written by version 1, is loaded by a test
 //! forever.
 
-use crate::error::{FileError, io};
+use crate::error::FileError;
 use crate::model::{LibrarySource, SavedModel};
 use robosim_instance_space::{Kinematics, ObjectData};
 use serde::{Deserialize, Serialize};
@@ -192,9 +192,10 @@ pub fn decode(bytes: &[u8], path: &Path) -> Result<SavedModel, FileError> {
     Ok(model)
 }
 
-/// Reads and decodes the model file at `path`.
+/// Reads and decodes the model file at `path`: a regular file of at most
+/// [`robosim_input::Limit::MODEL`] bytes ([`FileError::Input`] otherwise).
 pub fn read(path: &Path) -> Result<SavedModel, FileError> {
-    let bytes = std::fs::read(path).map_err(io(path))?;
+    let bytes = robosim_input::read_file(path, "a model file", robosim_input::Limit::MODEL)?;
     decode(&bytes, path)
 }
 
@@ -210,23 +211,10 @@ pub fn write(model: &SavedModel, path: &Path, encoding: Encoding) -> Result<u64,
     Ok(bytes.len() as u64)
 }
 
+/// Every output file of this crate (models, exports): [`robosim_input::write_file_atomic`] —
+/// temporary file, sync, rename, directory sync; never onto a link, a FIFO or a device.
 pub(crate) fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
-    use std::io::Write as _;
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = path.with_file_name(format!(".{name}.tmp-{}", std::process::id()));
-    let result = (|| {
-        let mut f = std::fs::File::create(&tmp)?;
-        f.write_all(bytes)?;
-        f.sync_all()?;
-        std::fs::rename(&tmp, path)
-    })();
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
-    }
-    result.map_err(io(path))
+    Ok(robosim_input::write_file_atomic(path, bytes)?)
 }
 
 fn decode_binary(bytes: &[u8], path: &Path) -> Result<SavedModel, FileError> {

@@ -8,7 +8,7 @@
 //! the convex hull (parry's) is kept instead: what convex collision wants, at the price of the
 //! shape's concavities in the display too.
 
-use crate::error::{FileError, io};
+use crate::error::FileError;
 use crate::stl::Triangles;
 use robosim_instance_space::{Appearance, GeometryInput, Kind, ObjRef, Pose, Transaction};
 use std::collections::HashMap;
@@ -32,7 +32,7 @@ pub fn read_mesh(path: &Path, scale: f64) -> Result<Triangles, FileError> {
             "--scale {scale}: must be a positive number (file units to metres)"
         )));
     }
-    let bytes = std::fs::read(path).map_err(io(path))?;
+    let bytes = robosim_input::read_file(path, "a mesh file", robosim_input::Limit::MESH)?;
     let ext = path
         .extension()
         .and_then(|e| e.to_str())

@@ -172,6 +172,12 @@ pub enum LinkFileError {
     },
     #[error("{path}: {what}")]
     Content { path: PathBuf, what: String },
+    /// Not a regular file, larger than the limit, or unreadable.
+    #[error(transparent)]
+    Input(#[from] robosim_input::InputError),
+    /// Not written: a link, FIFO or device at the path, or a failed step.
+    #[error(transparent)]
+    Output(#[from] robosim_input::OutputError),
 }
 
 /// One solid of a link: its distinct vertices and its polygons as index lists.
@@ -217,26 +223,18 @@ impl LinkFile {
         s
     }
 
-    /// Writes the file (to a temporary name first, then renamed: a reader never sees half a file).
+    /// Writes the file by [`robosim_input::write_file_atomic`] (a temporary file, synced,
+    /// renamed: a reader never sees half a file; a link, FIFO or device at `path` is refused).
     pub fn write(&self, path: &Path) -> Result<(), LinkFileError> {
-        let tmp = path.with_extension(format!(
-            "{}.tmp",
-            path.extension().and_then(|e| e.to_str()).unwrap_or("")
-        ));
-        let io = |source| LinkFileError::Io {
-            path: path.to_owned(),
-            source,
-        };
-        std::fs::write(&tmp, self.to_text()).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        Ok(robosim_input::write_file_atomic(
+            path,
+            self.to_text().as_bytes(),
+        )?)
     }
 
-    /// Reads a link file.
+    /// Reads a link file: a regular file of at most [`robosim_input::Limit::TEXT`] bytes.
     pub fn read(path: &Path) -> Result<LinkFile, LinkFileError> {
-        let text = std::fs::read_to_string(path).map_err(|source| LinkFileError::Io {
-            path: path.to_owned(),
-            source,
-        })?;
+        let text = robosim_input::read_to_string(path, "a link file", robosim_input::Limit::TEXT)?;
         LinkFile::parse(&text, path)
     }
 

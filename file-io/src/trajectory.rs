@@ -9,7 +9,7 @@
 //! Output: `t_s,<joint>_<unit>,…` — one column per joint named after its link, unit `rad` for a
 //! revolute joint and `m` for a prismatic one (from the session's robot), rows as logged.
 
-use crate::error::{FileError, io};
+use crate::error::FileError;
 use robosim_instance_space::{JointKind, Snapshot};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -126,7 +126,7 @@ pub fn export(
     dt_s: Option<f64>,
     out: &Path,
 ) -> Result<usize, FileError> {
-    let text = std::fs::read_to_string(log).map_err(io(log))?;
+    let text = robosim_input::read_to_string(log, "a simulator log", robosim_input::Limit::MODEL)?;
     let csv = convert(&text, columns, dt_s, log)?;
     crate::format::write_atomic(out, csv.as_bytes())?;
     Ok(csv.lines().count().saturating_sub(1))

@@ -184,13 +184,15 @@ impl MeshRef {
         if !matches!(ext.as_str(), "stl" | "obj" | "dae") {
             return Err(self.err(MeshProblem::UnsupportedFormat { path, format: ext }));
         }
-        let bytes = std::fs::read(&path).map_err(|e| {
-            if e.kind() == std::io::ErrorKind::NotFound {
-                self.err(MeshProblem::NotFound(path.clone()))
-            } else {
-                self.err(MeshProblem::Read(format!("{}: {e}", path.display())))
-            }
-        })?;
+        let bytes = robosim_input::read_file(&path, "a mesh file", robosim_input::Limit::MESH)
+            .map_err(|e| match &e.problem {
+                robosim_input::InputProblem::Io(io)
+                    if io.kind() == std::io::ErrorKind::NotFound =>
+                {
+                    self.err(MeshProblem::NotFound(path.clone()))
+                }
+                _ => self.err(MeshProblem::Read(e.to_string())),
+            })?;
         let mut parts = match ext.as_str() {
             "dae" => {
                 read_dae(&bytes, &path).map_err(|e| self.err(MeshProblem::Dae(Box::new(e))))?

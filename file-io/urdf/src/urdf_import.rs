@@ -38,6 +38,10 @@ pub enum UrdfErrorKind {
     Io(String),
     #[error("malformed XML: {0}")]
     Xml(String),
+    /// Elements nested deeper than [`robosim_input::MAX_XML_DEPTH`]: refused before parsing,
+    /// whose recursion would overflow the stack.
+    #[error("{0}")]
+    TooDeep(robosim_input::XmlTooDeep),
     #[error("the root element is <{0}>, not <robot>")]
     NotARobot(String),
     #[error(
@@ -160,12 +164,7 @@ pub struct UrdfMimic {
 /// Reads the URDF at `path` and builds the chain from its root link to `tip` (`None`: the only
 /// leaf link, when there is exactly one).
 pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
-    let text = std::fs::read_to_string(path).map_err(|e| UrdfError {
-        file: path.to_path_buf(),
-        line: 0,
-        element: "file".into(),
-        kind: UrdfErrorKind::Io(e.to_string()),
-    })?;
+    let text = read_urdf_file(path)?;
     import_urdf_str(&text, path, tip)
 }
 
@@ -177,13 +176,21 @@ pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfErro
 /// on the last joint's child link, which [`UrdfRobot::tip`] names; [`UrdfRobot::held`] is
 /// empty.
 pub fn import_urdf_tree(path: &Path) -> Result<UrdfRobot, UrdfError> {
-    let text = std::fs::read_to_string(path).map_err(|e| UrdfError {
-        file: path.to_path_buf(),
-        line: 0,
-        element: "file".into(),
-        kind: UrdfErrorKind::Io(e.to_string()),
-    })?;
+    let text = read_urdf_file(path)?;
     import_urdf_tree_str(&text, path)
+}
+
+/// The URDF file's text, read by [`robosim_input::read_to_string`]: a regular file of at most
+/// [`robosim_input::Limit::TEXT`] (a FIFO, a device or a larger file is refused by name).
+fn read_urdf_file(path: &Path) -> Result<String, UrdfError> {
+    robosim_input::read_to_string(path, "a URDF file", robosim_input::Limit::TEXT).map_err(|e| {
+        UrdfError {
+            file: path.to_path_buf(),
+            line: 0,
+            element: "file".into(),
+            kind: UrdfErrorKind::Io(e.reason()),
+        }
+    })
 }
 
 /// [`import_urdf_tree`] on text already read; `file` names it in errors.
@@ -514,6 +521,17 @@ fn xml_error(text: &str, file: &Path, e: roxmltree::Error) -> UrdfError {
     }
 }
 
+/// Refuses XML nested deeper than [`robosim_input::MAX_XML_DEPTH`] before roxmltree, which
+/// recurses once per level, sees it.
+fn check_depth(text: &str, file: &Path) -> Result<(), UrdfError> {
+    robosim_input::xml_depth(text, robosim_input::MAX_XML_DEPTH).map_err(|e| UrdfError {
+        file: file.to_path_buf(),
+        line: e.line,
+        element: "XML".into(),
+        kind: UrdfErrorKind::TooDeep(e),
+    })
+}
+
 /// [`import_urdf`] on text already read; `file` names it in errors.
 pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
     import_impl(text, file, tip, false)
@@ -525,6 +543,7 @@ fn import_impl(
     tip: Option<&str>,
     tree: bool,
 ) -> Result<UrdfRobot, UrdfError> {
+    check_depth(text, file)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| xml_error(text, file, e))?;
     let rd = Reader { file, doc: &doc };
     let root_el = doc.root_element();
