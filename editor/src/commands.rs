@@ -204,7 +204,7 @@ fn move_model<S: Space>(
         .ok_or_else(|| format!("{path}: no longer in the session"))?;
     let before = snap.pose(i).pose;
     let after = robosim_scene::pose::from_matrix(&f(robosim_scene::pose::to_matrix(&before)));
-    ed.move_model_object(id, before, after)
+    ed.move_model_object(id, before, after, snap.version())
         .map_err(|e| format!("{path}: {e}"))
 }
 

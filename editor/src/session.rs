@@ -60,7 +60,14 @@ struct DesignRecord {
 #[derive(Debug, Clone)]
 enum Step {
     Design(Design),
-    Pose { id: Id, before: Pose, after: Pose },
+    /// `at`: the version of the commit that left the object where this step starts from (a
+    /// concurrent move of it since makes undo/redo a conflict, not an overwrite).
+    Pose {
+        id: Id,
+        before: Pose,
+        after: Pose,
+        at: u64,
+    },
 }
 
 /// An editor session: the design, its history, and what of it the space holds.
@@ -162,22 +169,30 @@ impl<S: Space> Editor<S> {
 
     /// Moves object `id` of the session's model — one that is not part of the design, e.g. a
     /// module of a library scene — from local pose `before` (what the space holds) to `after`:
-    /// one transaction (a single pose op), undoable like any edit.
+    /// one transaction (a single pose op), undoable like any edit. `read`: the version
+    /// `before` was read at; when another writer moved the object since, the keeper refuses
+    /// the move as a conflict and nothing changes (the move is not made from a stale pose).
     pub fn move_model_object(
         &mut self,
         id: Id,
         before: Pose,
         after: Pose,
+        read: u64,
     ) -> Result<Done, EditError> {
-        let done = self.commit_pose(id, after)?;
-        self.undo.push(Step::Pose { id, before, after });
+        let done = self.commit_pose(id, after, read)?;
+        self.undo.push(Step::Pose {
+            id,
+            before,
+            after,
+            at: done.version,
+        });
         self.redo.clear();
         Ok(done)
     }
 
-    fn commit_pose(&mut self, id: Id, pose: Pose) -> Result<Done, EditError> {
+    fn commit_pose(&mut self, id: Id, pose: Pose, read: u64) -> Result<Done, EditError> {
         let mut tx = Transaction::new();
-        tx.set_pose(id, pose);
+        tx.set_pose(id, pose).expect_unchanged_since(read);
         let (_, version) = self
             .space
             .commit(&tx)
@@ -208,9 +223,22 @@ impl<S: Space> Editor<S> {
                     }
                 }
             }
-            Step::Pose { id, before, after } => self
-                .commit_pose(*id, if back { *before } else { *after })
-                .map(|done| (done, step.clone())),
+            Step::Pose {
+                id,
+                before,
+                after,
+                at,
+            } => self
+                .commit_pose(*id, if back { *before } else { *after }, *at)
+                .map(|done| {
+                    let inverse = Step::Pose {
+                        id: *id,
+                        before: *before,
+                        after: *after,
+                        at: done.version,
+                    };
+                    (done, inverse)
+                }),
         };
         match result {
             Ok((done, inverse)) => {
@@ -248,8 +276,16 @@ impl<S: Space> Editor<S> {
     }
 
     /// Commits the difference between what the space holds and the design.
+    ///
+    /// Every object the difference writes must be as this editor last committed (or read) it:
+    /// a concurrent write to one of them since `self.version` makes the keeper refuse the
+    /// edit as a conflict ([`robosim_instance_space::TxError::Conflict`]) instead of the
+    /// editor's stale copy overwriting it.
     fn sync(&mut self) -> Result<Done, EditError> {
-        let (tx, creates) = self.diff()?;
+        let (mut tx, creates) = self.diff()?;
+        if !tx.is_empty() {
+            tx.expect_unchanged_since(self.version);
+        }
         if tx.is_empty() {
             self.committed = Some(self.design.clone());
             return Ok(Done {
@@ -286,7 +322,7 @@ impl<S: Space> Editor<S> {
         self.version = version;
         Ok(Done {
             version,
-            ops: tx.len(),
+            ops: tx.ops().iter().filter(|o| !o.is_precondition()).count(),
         })
     }
 

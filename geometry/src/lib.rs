@@ -23,3 +23,50 @@ pub mod triangulate;
 
 pub use mass::{MassError, MassProperties};
 pub use polyhedron::{Aabb, GeometryError, PLANARITY_TOL, Plane, Polygon, Polyhedron};
+
+/// The unit vector along `v` (an axis from user input), computed without overflow or
+/// underflow: `v` is first divided by its largest |component|, so `[1e200, 0, 0]` and
+/// `[1e-200, 0, 0]` are both the x axis (`v.norm()` would be ∞ and 0). `None` when `v` is zero
+/// or not finite — the only axes that name no direction.
+pub fn unit_axis(v: nalgebra::Vector3<f64>) -> Option<nalgebra::Unit<nalgebra::Vector3<f64>>> {
+    if !v.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    let largest = v.amax();
+    if largest == 0.0 {
+        return None;
+    }
+    // Every component of `v / largest` is in [-1, 1] and one is ±1: its norm is in [1, √3].
+    Some(nalgebra::Unit::new_normalize(v / largest))
+}
+
+#[cfg(test)]
+mod unit_axis_tests {
+    use super::unit_axis;
+    use nalgebra::Vector3;
+
+    /// An axis scaled near either end of f64's range is still its direction; zero and
+    /// non-finite axes are refused. Holds issue 34 item 9 (`postrotate` about `[1e200,0,0]`
+    /// committed a no-op, `[1e-200,0,0]` was refused as zero).
+    #[test]
+    fn huge_and_tiny_axes_keep_their_direction() {
+        let x = Vector3::x();
+        for s in [1e200, 1e-200, f64::MAX, 5e-324, 1.0, -1e300] {
+            let u = unit_axis(x * s).expect("a direction");
+            assert_eq!(u.into_inner(), x * s.signum(), "{s}");
+        }
+        let u = unit_axis(Vector3::new(1e200, 1e200, 0.0)).expect("a direction");
+        let h = std::f64::consts::FRAC_1_SQRT_2;
+        assert!((u.into_inner() - Vector3::new(h, h, 0.0)).amax() < 1e-15);
+        let u = unit_axis(Vector3::new(3e-320, 4e-320, 0.0)).expect("subnormal");
+        assert!((u.into_inner() - Vector3::new(0.6, 0.8, 0.0)).amax() < 1e-3);
+        for bad in [
+            Vector3::zeros(),
+            Vector3::new(f64::NAN, 0.0, 0.0),
+            Vector3::new(f64::INFINITY, 0.0, 0.0),
+            Vector3::new(1.0, f64::NEG_INFINITY, 0.0),
+        ] {
+            assert!(unit_axis(bad).is_none(), "{bad:?}");
+        }
+    }
+}

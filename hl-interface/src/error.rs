@@ -83,6 +83,10 @@ pub enum ErrorKind {
     Session,
     /// `transaction` (session ops): the keeper refused or did not acknowledge a transaction.
     Transaction,
+    /// `conflict` (session ops): a relative edit (`posttranslate`, a joint of a robot's q) lost
+    /// to concurrent writes to the same object on every one of its attempts; nothing of it was
+    /// committed.
+    Conflict,
     /// `joint_limit` (session ops): a commanded joint value is outside the joint's limits.
     JointLimit,
     /// `unknown_object` (session ops): no object of that name or id in the Instance Space.
@@ -123,6 +127,7 @@ const NAMED: &[(ErrorKind, &str)] = &[
     (ErrorKind::UnknownFault, "unknown_fault"),
     (ErrorKind::Session, "session"),
     (ErrorKind::Transaction, "transaction"),
+    (ErrorKind::Conflict, "conflict"),
     (ErrorKind::JointLimit, "joint_limit"),
     (ErrorKind::UnknownObject, "unknown_object"),
     (ErrorKind::Check, "check"),

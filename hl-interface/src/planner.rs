@@ -148,6 +148,17 @@ impl Planner {
         self.ops.set_joints(robot, q)
     }
 
+    /// Changes `robot`'s committed joint values by `change` (read, changed and written in one
+    /// transaction, read again when another writer moved the robot in between); the
+    /// acknowledged version. See [`Ops::update_joints`].
+    pub fn update_joints(
+        &mut self,
+        robot: &str,
+        change: impl FnMut(&mut [f64]) -> Result<()>,
+    ) -> Result<u64> {
+        self.ops.update_joints(robot, change)
+    }
+
     /// Sends a transaction and waits for the keeper's acknowledgement.
     pub fn transact(&mut self, tx: &Transaction) -> Result<Committed> {
         self.ops

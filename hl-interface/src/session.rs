@@ -33,7 +33,7 @@ use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Isometry3, Vector3};
 use robosim_collision::Mode;
 use robosim_collision::robot::{Body, CheckResult, CollisionSettings};
-use robosim_instance_space::{Client, Id, Reader, Session, Snapshot, Transaction};
+use robosim_instance_space::{Client, Id, Reader, Session, Snapshot, Transaction, aspect};
 use robosim_kinematics::Robot;
 use robosim_scene::{CompiledRobot, CompiledScene, Obstacles, SceneError, joint_tx, pose};
 use serde_json::{Value, json};
@@ -59,11 +59,71 @@ fn scene_err(e: SceneError) -> ProtocolError {
 /// A writer's failure as the protocol's error: the keeper's refusal is `transaction`, a keeper
 /// that is missing or went away (or any other transport failure) is `session`.
 pub fn client_err(e: robosim_instance_space::ClientError) -> ProtocolError {
+    use robosim_instance_space::ClientError;
     let kind = match e {
-        robosim_instance_space::ClientError::Refused(_) => ErrorKind::Transaction,
+        ClientError::Refused(_) => ErrorKind::Transaction,
+        ClientError::Conflict { .. } => ErrorKind::Conflict,
         _ => ErrorKind::Session,
     };
     err(kind, e.to_string())
+}
+
+impl From<robosim_instance_space::ClientError> for ProtocolError {
+    fn from(e: robosim_instance_space::ClientError) -> Self {
+        client_err(e)
+    }
+}
+
+/// The newest snapshot of `reader`, with `scene` brought to it.
+fn fresh_snapshot(
+    reader: &mut Reader,
+    scene: &mut CompiledScene,
+) -> std::result::Result<std::rc::Rc<Snapshot>, ProtocolError> {
+    reader
+        .refresh()
+        .map_err(|e| err(ErrorKind::Session, e.to_string()))?;
+    let snap = reader
+        .snapshot()
+        .ok_or_else(|| err(ErrorKind::Session, "no snapshot"))?;
+    scene.sync(&snap);
+    Ok(snap)
+}
+
+/// The rigid motion of a `pretranslate` / `posttranslate` (`by` [x,y,z], m) or a `prerotate` /
+/// `postrotate` (`axis` [x,y,z] of any non-zero finite length, `angle` rad) request.
+fn relative_motion(op: &str, req: &Value) -> std::result::Result<Isometry3<f64>, ProtocolError> {
+    if op.ends_with("translate") {
+        let v = vec_field(req, "by")?;
+        if v.len() != 3 {
+            return Err(err(ErrorKind::BadRequest, "`by` must have 3 numbers"));
+        }
+        return Ok(Isometry3::translation(v[0], v[1], v[2]));
+    }
+    let axis = vec_field(req, "axis")?;
+    let angle = req
+        .get("angle")
+        .and_then(Value::as_f64)
+        .filter(|a| a.is_finite())
+        .ok_or_else(|| {
+            err(
+                ErrorKind::BadRequest,
+                "`angle` must be a finite number (rad)",
+            )
+        })?;
+    let unit = match axis[..] {
+        [x, y, z] => robosim_geometry::unit_axis(Vector3::new(x, y, z)),
+        _ => None,
+    }
+    .ok_or_else(|| {
+        err(
+            ErrorKind::BadRequest,
+            format!("`axis` must be 3 finite numbers, not all zero (got {axis:?})"),
+        )
+    })?;
+    Ok(Isometry3::from_parts(
+        nalgebra::Translation3::identity(),
+        nalgebra::UnitQuaternion::from_axis_angle(&unit, angle),
+    ))
 }
 
 /// Why a session could not be attached.
@@ -227,15 +287,74 @@ impl Ops {
 
     /// The newest snapshot, with the compiled scene brought to it.
     fn snap(&mut self) -> std::result::Result<std::rc::Rc<Snapshot>, ProtocolError> {
-        self.reader
-            .refresh()
-            .map_err(|e| err(ErrorKind::Session, e.to_string()))?;
-        let snap = self
-            .reader
-            .snapshot()
-            .ok_or_else(|| err(ErrorKind::Session, "no snapshot"))?;
-        self.scene.sync(&snap);
-        Ok(snap)
+        fresh_snapshot(&mut self.reader, &mut self.scene)
+    }
+
+    /// Changes `robot`'s joint values by `change` from their committed values, in one
+    /// transaction with the poses of its links, whatever other writers commit meanwhile: `q`
+    /// is read, changed and written back with a precondition that none of the robot's links
+    /// moved since the read, and read again when one did ([`Client::transact_fresh`]). So
+    /// concurrent writers of different joints of one robot (`(robosim set-joint R I Q)` in
+    /// rule bases) or of relative moves of the same joint never undo each other. The same
+    /// refusals as [`Ops::set_joints`] for the `q` it makes; `conflict` after
+    /// [`robosim_instance_space::MAX_FRESH_ATTEMPTS`] lost races. The acknowledged version.
+    pub fn update_joints(
+        &mut self,
+        robot: &str,
+        mut change: impl FnMut(&mut [f64]) -> std::result::Result<(), ProtocolError>,
+    ) -> std::result::Result<u64, ProtocolError> {
+        let Ops {
+            reader,
+            client,
+            scene,
+            ..
+        } = self;
+        let committed = client.transact_fresh(|_| {
+            let snap = fresh_snapshot(reader, scene)?;
+            let p = scene.robot(robot).map_err(scene_err)?;
+            let mut q = p.q.clone();
+            change(&mut q)?;
+            p.robot
+                .check_q(&q)
+                .map_err(|e| err(ErrorKind::BadRequest, format!("robot {robot}: {e}")))?;
+            robosim_kinematics::movej_interpolate(&p.robot, &q, &q, 1)
+                .map_err(|e| err(ErrorKind::JointLimit, format!("robot {robot}: {e}")))?;
+            let mut tx = joint_tx(&p.robot, &p.links, &q);
+            for id in &p.links {
+                tx.expect(*id, aspect::POSE | aspect::STRUCTURE, snap.version());
+            }
+            Ok::<_, ProtocolError>(tx)
+        })?;
+        Ok(committed.version)
+    }
+
+    /// `pretranslate` / `posttranslate` / `prerotate` / `postrotate`: the object's committed
+    /// local pose composed with the request's motion (`T·pose` / `pose·T`), applied against
+    /// the pose the keeper holds when it commits — a concurrent move of the same object is
+    /// read again, never overwritten ([`Client::transact_fresh`]).
+    fn relative_move(&mut self, op: &str, req: &Value) -> OpResult {
+        let name = str_field(req, "object")?;
+        let t = relative_motion(op, req)?;
+        let pre = op.starts_with("pre");
+        let Ops {
+            reader,
+            client,
+            scene,
+            ..
+        } = self;
+        let mut pose = robosim_instance_space::IDENTITY;
+        let committed = client.transact_fresh(|_| {
+            let snap = fresh_snapshot(reader, scene)?;
+            let i = object_index(&snap, name)?;
+            let id = snap.rec(i).id;
+            let cur = pose::to_isometry(&snap.poses()[i].pose);
+            pose = pose::from_isometry(&if pre { t * cur } else { cur * t });
+            let mut tx = Transaction::new();
+            tx.expect(id, aspect::POSE | aspect::STRUCTURE, snap.version())
+                .set_pose(id, pose);
+            Ok::<_, ProtocolError>(tx)
+        })?;
+        Ok(json!({"object": name, "pose": pose::rows(&pose), "version": committed.version}))
     }
 
     /// The session this attachment belongs to.
@@ -347,9 +466,15 @@ impl Ops {
                     .into(),
             )
         })?;
+        // A simulator that dies (kill -9) is said at once by name, not after the timeout.
         let answer = sender
             .send(br#"{"cmd":"get"}"#, std::time::Duration::from_secs(10))
-            .map_err(|e| none(format!("the simulator: {e}")))?;
+            .map_err(|e| match e {
+                robosim_instance_space::state::StateError::ReceiverDead { .. } => {
+                    none(e.to_string())
+                }
+                e => none(format!("the simulator: {e}")),
+            })?;
         match serde_json::from_slice::<Value>(&answer) {
             Ok(Value::Object(m)) => Ok(Value::Object(m)),
             _ => Err(none(format!(
@@ -400,54 +525,7 @@ impl Ops {
                 )
             }
             "pretranslate" | "posttranslate" | "prerotate" | "postrotate" => {
-                let name = str_field(req, "object")?;
-                let i = object_index(&snap, name)?;
-                let t = if op.ends_with("translate") {
-                    let v = vec_field(req, "by")?;
-                    if v.len() != 3 {
-                        return Err(err(ErrorKind::BadRequest, "`by` must have 3 numbers"));
-                    }
-                    Isometry3::translation(v[0], v[1], v[2])
-                } else {
-                    let axis = vec_field(req, "axis")?;
-                    let angle = req
-                        .get("angle")
-                        .and_then(Value::as_f64)
-                        .filter(|a| a.is_finite())
-                        .ok_or_else(|| {
-                            err(
-                                ErrorKind::BadRequest,
-                                "`angle` must be a finite number (rad)",
-                            )
-                        })?;
-                    let a = Vector3::new(
-                        *axis.first().unwrap_or(&0.0),
-                        *axis.get(1).unwrap_or(&0.0),
-                        *axis.get(2).unwrap_or(&0.0),
-                    );
-                    if axis.len() != 3 || a.norm() < 1e-12 {
-                        return Err(err(
-                            ErrorKind::BadRequest,
-                            "`axis` must be 3 numbers, not all zero",
-                        ));
-                    }
-                    Isometry3::new(Vector3::zeros(), a.normalize() * angle)
-                };
-                let cur = pose::to_isometry(&snap.poses()[i].pose);
-                let new = if op.starts_with("pre") {
-                    t * cur
-                } else {
-                    cur * t
-                };
-                let pose = pose::from_isometry(&new);
-                let mut tx = Transaction::new();
-                tx.set_pose(snap.rec(i).id, pose);
-                let v = self
-                    .client
-                    .transact(&tx)
-                    .map_err(|e| err(ErrorKind::Transaction, e.to_string()))?
-                    .version;
-                Ok(json!({"object": name, "pose": pose::rows(&pose), "version": v}))
+                self.relative_move(op, req)
             }
             _ => self.robot_op(op, req, &snap),
         }

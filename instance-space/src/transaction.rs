@@ -320,6 +320,36 @@ impl Transaction {
         self
     }
 
+    /// Adds, for every existing object this transaction changes, a precondition
+    /// ([`Op::Expect`]) that the aspects it changes were not changed after `version`: a writer
+    /// that computed the transaction from what it read at `version` overwrites no concurrent
+    /// write unseen. Objects it creates or only selects need none.
+    pub fn expect_unchanged_since(&mut self, version: u64) -> &mut Self {
+        use crate::store::aspect::*;
+        let mut written: std::collections::BTreeMap<Id, u64> = Default::default();
+        for op in &self.ops {
+            let (id, aspects) = match op {
+                Op::Create { .. } | Op::Select { .. } | Op::Expect { .. } => continue,
+                Op::Delete { id, .. } => (id, ALL),
+                Op::SetParent { id, .. } | Op::SetName { id, .. } | Op::SetOrigin { id, .. } => {
+                    (id, STRUCTURE)
+                }
+                Op::SetPose { id, .. } | Op::SetJoint { id, .. } => (id, POSE),
+                Op::SetAppearance { id, .. } => (id, APPEARANCE),
+                Op::SetKinematics { id, .. } => (id, KINEMATICS),
+                Op::SetDynamics { id, .. } => (id, DYNAMICS),
+                Op::SetGeometry { id, .. } => (id, GEOMETRY),
+            };
+            if let ObjRef::Id(id) = id {
+                *written.entry(*id).or_default() |= aspects;
+            }
+        }
+        for (id, aspects) in written {
+            self.expect(id, aspects, version);
+        }
+        self
+    }
+
     /// Whether any op is a precondition ([`Op::Expect`]).
     pub fn has_preconditions(&self) -> bool {
         self.ops.iter().any(Op::is_precondition)
