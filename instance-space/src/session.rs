@@ -369,6 +369,42 @@ impl Session {
             .collect()
     }
 
+    /// Removes what this session's processes that died (`kill -9`) left in shared memory, as
+    /// iceoryx2 means it to be done: its dead-node cleanup for every dead node of the session
+    /// (the node's ports, connections and data segments, and the services it was the last user
+    /// of); then, when no node of the session is alive and no registered process is, every
+    /// file of the session's prefix left in /dev/shm (iceoryx2's management segments, which
+    /// outlive the last node). A node still alive (a reader or client that did not register)
+    /// keeps what it uses.
+    pub fn remove_leftovers(&self) -> Leftovers {
+        let before = self.shm_files().len();
+        let mut out = Leftovers::default();
+        if let Ok(cfg) = self.iox_config() {
+            let _ = Node::<ipc::Service>::list(&cfg, |state| {
+                match state {
+                    NodeState::Dead(view) => {
+                        if view
+                            .blocking_remove_stale_resources(std::time::Duration::from_secs(1))
+                            .is_ok()
+                        {
+                            out.dead_nodes += 1;
+                        }
+                    }
+                    NodeState::Alive(_) | NodeState::Inaccessible(_) => out.alive_nodes += 1,
+                    NodeState::Undefined(_) => {}
+                }
+                CallbackProgression::Continue
+            });
+        }
+        if out.alive_nodes == 0 && self.processes().is_empty() {
+            for (path, _) in self.shm_files() {
+                let _ = fs::remove_file(path);
+            }
+        }
+        out.files = before.saturating_sub(self.shm_files().len());
+        out
+    }
+
     /// A service name inside this session.
     pub fn service(&self, suffix: &str) -> Result<ServiceName, SessionError> {
         let s = format!("robosim/{}/{}", self.name, suffix);
@@ -415,29 +451,29 @@ impl Session {
             .mode(0o600)
             .open(&path)
             .map_err(io)?;
-        match file.try_lock() {
-            Ok(()) => {}
-            Err(fs::TryLockError::WouldBlock) => {
-                // The holder writes its pid right after it locks: wait a moment for it (a pid
-                // left by an earlier, dead holder is not the answer).
-                let start = std::time::Instant::now();
-                let pid = loop {
+        // The holder writes its pid right after it locks. Until a live holder's pid is there
+        // (a pid left by an earlier holder, dead, is not the answer; a holder killed a moment
+        // ago releases the lock as it exits), try again for a moment.
+        let start = std::time::Instant::now();
+        loop {
+            match file.try_lock() {
+                Ok(()) => break,
+                Err(fs::TryLockError::WouldBlock) => {
                     let pid = fs::read_to_string(&path)
                         .ok()
                         .and_then(|t| t.trim().parse::<u32>().ok())
                         .filter(|&p| pid_alive(p));
                     if pid.is_some() || start.elapsed() > std::time::Duration::from_secs(2) {
-                        break pid;
+                        return Err(SessionError::KeeperRunning {
+                            session: self.name.clone(),
+                            pid,
+                            lock: path,
+                        });
                     }
                     std::thread::sleep(std::time::Duration::from_millis(10));
-                };
-                return Err(SessionError::KeeperRunning {
-                    session: self.name.clone(),
-                    pid,
-                    lock: path,
-                });
+                }
+                Err(fs::TryLockError::Error(e)) => return Err(io(e)),
             }
-            Err(fs::TryLockError::Error(e)) => return Err(io(e)),
         }
         let pid = format!("{}\n", std::process::id());
         file.set_len(0)
@@ -507,6 +543,17 @@ pub struct ProcInfo {
     /// What it is attached to (services, files).
     pub attached: Vec<String>,
     pub started_unix_ms: u64,
+}
+
+/// What [`Session::remove_leftovers`] found and removed.
+#[derive(Debug, Default, Clone, Copy, PartialEq)]
+pub struct Leftovers {
+    /// Dead iceoryx2 nodes whose resources were removed.
+    pub dead_nodes: u64,
+    /// Nodes still alive (their resources were kept).
+    pub alive_nodes: u64,
+    /// Files of the session removed from /dev/shm.
+    pub files: usize,
 }
 
 /// The session's keeper lock file (in the session directory).

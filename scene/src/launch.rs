@@ -274,10 +274,14 @@ fn existing(session: &Session) -> Existing {
     if let Some(p) = session.processes().iter().find(|p| p.role == "space") {
         return Existing::Running(p.pid, recorded);
     }
+    // The journal control file counts: a session whose journal vanished is refused by its
+    // keeper, and `--fresh` must be able to move what is left aside.
     let saved = std::fs::read_dir(session.data_dir()).is_ok_and(|d| {
         d.flatten().any(|e| {
             let n = e.file_name().to_string_lossy().into_owned();
-            n.starts_with("journal-") || n.starts_with("checkpoint-")
+            n.starts_with("journal-")
+                || n.starts_with("checkpoint-")
+                || n == robosim_instance_space::journal::CONTROL_FILE
         })
     });
     if saved {
@@ -384,6 +388,15 @@ fn up_start(
             vec!["--load".into(), abs.display().to_string()]
         }
     };
+    // The keeper builds its own Library Space: it must be given the same library files the
+    // scene was checked against here (absolute: the keeper runs in another directory), or a
+    // scene that names a declaration only FILE declares is refused by the keeper.
+    let mut start_args = start_args;
+    for file in library {
+        let abs = std::path::absolute(file).map_err(io("the library file"))?;
+        start_args.push("--library".into());
+        start_args.push(abs.display().to_string());
+    }
     let session = Session::open(session)?;
     let name = session.name().to_owned();
     let other = |scene_name: &str, running: bool, recorded: &Option<String>| -> SceneError {
@@ -591,7 +604,15 @@ pub fn down(session: Option<&str>) -> Result<()> {
     let session = Session::existing(session)?;
     let procs = session.processes();
     if procs.is_empty() {
+        // Processes killed with -9 leave their shared memory behind: remove it.
+        let left = session.remove_leftovers();
         println!("session {}: nothing running", session.name());
+        if left.files > 0 {
+            println!(
+                "removed {} shared-memory file(s) left by processes that died ({} dead node(s))",
+                left.files, left.dead_nodes
+            );
+        }
         return Ok(());
     }
     let (keepers, components): (Vec<_>, Vec<_>) =
@@ -608,11 +629,10 @@ pub fn down(session: Option<&str>) -> Result<()> {
     }
     print!("{report}");
     // Registry entries of processes that died without cleaning up; and, with every process of
-    // the session gone, what iceoryx2 leaves in /dev/shm (its global management segment).
+    // the session gone, what they and iceoryx2 leave in /dev/shm (a killed process's segments,
+    // the global management segment).
     if session.processes().is_empty() {
-        for (path, _) in session.shm_files() {
-            let _ = std::fs::remove_file(path);
-        }
+        session.remove_leftovers();
     }
     Ok(())
 }
