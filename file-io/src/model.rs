@@ -277,7 +277,8 @@ pub(crate) fn blame(
         | T::NeedsParent { op, .. }
         | T::HasChildren { op, .. }
         | T::TooLarge { op, .. }
-        | T::NotRigid { op, .. } => Some(*op),
+        | T::NotRigid { op, .. }
+        | T::Conflict { op, .. } => Some(*op),
         T::Malformed { .. } | T::Empty | T::Forward { .. } => None,
     };
     match op

@@ -30,6 +30,8 @@ pub enum ErrorKind {
     Include,
     /// A required property is missing.
     Missing,
+    /// An expression whose value is not a finite number (`1e308 m * 10`, `2 ^ 100000`).
+    Overflow,
 }
 
 impl ErrorKind {
@@ -46,6 +48,7 @@ impl ErrorKind {
             ErrorKind::OutOfRange => "value out of range",
             ErrorKind::Include => "include error",
             ErrorKind::Missing => "missing property",
+            ErrorKind::Overflow => "overflow",
         }
     }
 }

@@ -304,3 +304,21 @@ fn errors_are_found_at_load_time_in_files_and_includes() {
     assert!(e.location.file.ends_with("part.rsl"));
     assert_eq!((e.location.line, e.location.column), (2, 22));
 }
+
+#[test]
+fn an_expression_that_overflows_is_an_overflow_error_never_inf() {
+    // issue 34 item 8: `let x = 2 ^ 100000` and `1e308 m * 10` evaluated to inf, which reached
+    // answers as JSON null
+    let e = fail("solid a {\n  let x = 2 ^ 100000\n  part box(x * 1 m, 1 m, 1 m)\n}\n");
+    assert_eq!(e.kind, ErrorKind::Overflow);
+    at(&e, 2, 11);
+    assert_eq!(
+        e.message,
+        "the value of this expression is not a finite number (+inf): it overflows f64's range"
+    );
+    let e = fail("let c = 1e308 m * 10\n");
+    assert_eq!(e.kind, ErrorKind::Overflow, "{e}");
+    at(&e, 1, 9);
+    let e = fail("let c = 1e400 m\n");
+    assert_eq!(e.kind, ErrorKind::Overflow, "{e}");
+}

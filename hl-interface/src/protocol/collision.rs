@@ -20,6 +20,7 @@
 //!
 //! Entry points: [`dispatch`], [`solid_from_json`], [`pose_from_json`].
 
+use super::finite::check;
 use crate::robot_json::{matrix4_from_json, number, number_array, robot_from_json};
 use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Isometry3, Point3, Vector3};
@@ -277,6 +278,8 @@ fn op_collide(req: &Value) -> Result<Value, ProtocolError> {
         PairResult::Unknown { .. } => Value::Null,
     };
     let w = r.witness();
+    check("signed_distance", &r.signed_distance())?;
+    check("witness", &w)?;
     let mut out = json!({
         "mode": mode.name(),
         "verdict": verdict,
@@ -422,6 +425,13 @@ fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value
         CheckResult::Contact(cs) => {
             out["verdict"] = json!("contact");
             out["clear"] = json!(false);
+            for (i, c) in cs.iter().enumerate() {
+                check(
+                    &format!("contacts[{i}].signed_distance"),
+                    &c.signed_distance,
+                )?;
+                check(&format!("contacts[{i}].witness"), &c.witness)?;
+            }
             out["contacts"] = Value::Array(
                 cs.iter()
                     .map(|c| {

@@ -19,6 +19,7 @@
 //!
 //! Entry point: [`dispatch`].
 
+use super::finite::check;
 use crate::robot_json::robot_from_json;
 use crate::{ErrorKind, ProtocolError};
 use robosim_dynamics::{Data, DynamicsError, Model, aba, crba, fd_cholesky, gravity, rnea};
@@ -163,7 +164,9 @@ fn op_id(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
         vector(req, "qdd", n, false)?,
     );
     let mut data = Data::new(&model);
-    Ok(json!({ "tau": rnea(&model, &mut data, &q, &qd, &qdd)?.as_slice() }))
+    let tau = rnea(&model, &mut data, &q, &qd, &qdd)?;
+    check("tau", tau.as_slice())?;
+    Ok(json!({ "tau": tau.as_slice() }))
 }
 
 fn op_mass_matrix(
@@ -174,6 +177,7 @@ fn op_mass_matrix(
     let q = vector(req, "q", model.dof(), false)?;
     let mut data = Data::new(&model);
     let m = crba(&model, &mut data, &q)?;
+    check("mass_matrix", m)?;
     let rows: Vec<Vec<f64>> = (0..m.nrows())
         .map(|r| m.row(r).iter().copied().collect())
         .collect();
@@ -184,7 +188,9 @@ fn op_gravity(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Val
     let model = model_of(req, robots)?;
     let q = vector(req, "q", model.dof(), false)?;
     let mut data = Data::new(&model);
-    Ok(json!({ "tau": gravity(&model, &mut data, &q)?.as_slice() }))
+    let tau = gravity(&model, &mut data, &q)?;
+    check("tau", tau.as_slice())?;
+    Ok(json!({ "tau": tau.as_slice() }))
 }
 
 fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
@@ -206,6 +212,7 @@ fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
             ));
         }
     };
+    check("qdd", qdd.as_slice())?;
     Ok(json!({ "qdd": qdd.as_slice() }))
 }
 
@@ -319,6 +326,11 @@ fn op_simulate(
         max_steps,
     };
     let (samples, stats) = simulate(&model, config, &q0, &qd0, &tau, &outputs)?;
+    for (i, s) in samples.iter().enumerate() {
+        check(&format!("samples[{i}].q"), s.q.as_slice())?;
+        check(&format!("samples[{i}].qd"), s.qd.as_slice())?;
+        check(&format!("samples[{i}].energy"), &s.energy)?;
+    }
     let samples: Vec<Value> = samples
         .into_iter()
         .map(|s| json!({ "t": s.t, "q": s.q, "qd": s.qd, "energy": s.energy }))

@@ -12,6 +12,7 @@
 //! `position`, `orientation`, `per_axis` [dx dy dz rx ry rz], `position_worst_case`,
 //! `orientation_worst_case`, `resolution`.
 
+use super::finite::check;
 use crate::robot_json::{
     matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array, robot_from_json,
 };
@@ -113,11 +114,15 @@ fn op_fk(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
             .last()
             .copied()
             .unwrap_or_else(|| fk::forward(&robot, &q));
+        check("pose", &pose)?;
+        check("frames", frames.as_slice())?;
         Ok(
             json!({"pose": matrix4_to_json(&pose), "frames": frames.iter().map(matrix4_to_json).collect::<Vec<_>>()}),
         )
     } else {
-        Ok(json!({"pose": matrix4_to_json(&fk::forward(&robot, &q))}))
+        let pose = fk::forward(&robot, &q);
+        check("pose", &pose)?;
+        Ok(json!({"pose": matrix4_to_json(&pose)}))
     }
 }
 
@@ -138,7 +143,12 @@ fn op_jacobian(
         }
     };
     let j = jacobian(&robot, &q, frame);
+    // before the SVD: a non-finite Jacobian has no singular values
+    check("jacobian", &j)?;
     let s = singularity(&j);
+    check("singularity.sigma_min", &s.sigma_min)?;
+    check("singularity.sigma_max", &s.sigma_max)?;
+    check("singularity.manipulability", &s.manipulability)?;
     Ok(json!({
         "jacobian": matrix_to_json(&j),
         "frame": if frame == Frame::Base { "base" } else { "tool" },
@@ -274,11 +284,20 @@ fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
         family_json["reason"] = json!(reason);
     }
     match ik::solve(&robot, &pose, method, &options) {
-        Ok(r) => Ok(json!({
+        Ok(r) => {
+            for (i, s) in r.solutions.iter().enumerate() {
+                check(&format!("solutions[{i}].q"), &s.q)?;
+                check(
+                    &format!("solutions[{i}].residual"),
+                    &[s.residual.position, s.residual.orientation],
+                )?;
+            }
+            Ok(json!({
             "method": r.method.name(),
             "family": family_json,
             "solutions": r.solutions.iter().map(solution_json).collect::<Vec<_>>(),
-        })),
+            }))
+        }
         Err(e) => Err(match &e {
             IkError::Model(_) | IkError::BadTarget | IkError::BadOptions { .. } => {
                 ProtocolError::new(ErrorKind::BadRequest, e.to_string())
@@ -328,6 +347,12 @@ fn op_encoder_error(
         EncoderErrorError::Model(m) => ProtocolError::new(ErrorKind::BadRequest, format!("q: {m}")),
         other => ProtocolError::new(ErrorKind::BadRequest, other.to_string()),
     })?;
+    check("position", &e.position)?;
+    check("orientation", &e.orientation)?;
+    check("per_axis", &e.per_axis)?;
+    check("position_worst_case", &e.position_worst_case)?;
+    check("orientation_worst_case", &e.orientation_worst_case)?;
+    check("resolution", &e.resolution)?;
     Ok(json!({
         "position": e.position,
         "orientation": e.orientation,

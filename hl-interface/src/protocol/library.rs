@@ -12,6 +12,7 @@
 //! alpha, theta, offset, qlim, mass, com, inertia (3×3 rows), motor_inertia, viscous,
 //! coulomb}], `gravity`, `base` and `tool` (4×4, row-major nested arrays).
 
+use super::finite::check;
 use crate::robot_json::{matrix_to_json, matrix4_to_json, robot_to_json};
 use crate::{ErrorKind, ProtocolError};
 use robosim_kinematics::Robot;
@@ -63,6 +64,11 @@ fn answer(op: &str, req: &Value) -> Result<Value, ProtocolError> {
             robosim_library::Error::NoSuchDeclaration { .. } => ErrorKind::UnknownDeclaration,
             robosim_library::Error::NoSuchParameter { .. }
             | robosim_library::Error::BadParameter { .. } => ErrorKind::BadParameter,
+            robosim_library::Error::Source(ref s)
+                if s.kind == robosim_library::ErrorKind::Overflow =>
+            {
+                ErrorKind::Overflow
+            }
             _ => ErrorKind::LibraryError,
         };
         ProtocolError::new(kind, e.to_string())
@@ -126,6 +132,7 @@ fn answer(op: &str, req: &Value) -> Result<Value, ProtocolError> {
                     },
                 )
                 .map_err(lib_err)?;
+            check_evaluated(&e)?;
             Ok(evaluated_json(&e, geometry))
         }
     }
@@ -164,6 +171,56 @@ fn primitive_json(p: &robosim_library::Primitive) -> Value {
             angle,
             facets,
         } => json!({"shape": "revolution", "points": points, "angle": angle, "facets": facets}),
+    }
+}
+
+/// The numbers the evaluation made beyond its expressions (which the library checks itself):
+/// placed solids' transforms and vertices, mass properties.
+fn check_evaluated(e: &Evaluated) -> Result<(), ProtocolError> {
+    let solid = |what: &str, p: &PlacedSolid| -> Result<(), ProtocolError> {
+        check(&format!("{what}.transform"), &p.transform)?;
+        check(
+            &format!("{what}.vertices"),
+            p.polyhedron.vertices.as_slice(),
+        )
+    };
+    let frames = |what: &str, frames: &[Vec<PlacedSolid>]| -> Result<(), ProtocolError> {
+        for (f, parts) in frames.iter().enumerate() {
+            for (i, p) in parts.iter().enumerate() {
+                solid(&format!("{what}frames[{f}][{i}]"), p)?;
+            }
+        }
+        Ok(())
+    };
+    match e {
+        Evaluated::Robot(r) | Evaluated::Link(r) => frames("", &r.frames),
+        Evaluated::Scene(s) => {
+            for r in &s.robots {
+                check(&format!("robots[{}].placement", r.name), &r.placement)?;
+                frames(&format!("robots[{}].", r.name), &r.model.frames)?;
+            }
+            for i in &s.solids {
+                check(&format!("solids[{}].placement", i.name), &i.placement)?;
+                for (k, p) in i.solid.parts.iter().enumerate() {
+                    solid(&format!("solids[{}].parts[{k}]", i.name), p)?;
+                }
+            }
+            Ok(())
+        }
+        Evaluated::Solid(s) => {
+            for (k, p) in s.parts.iter().enumerate() {
+                solid(&format!("parts[{k}]"), p)?;
+            }
+            if let Some(m) = &s.mass {
+                check("mass.mass", &m.mass)?;
+                check("mass.volume", &m.volume)?;
+                check("mass.com", &m.center_of_mass)?;
+                check("mass.inertia", &m.inertia)?;
+            }
+            Ok(())
+        }
+        Evaluated::Constant { value, .. } => check("value", value),
+        Evaluated::Colour { .. } | Evaluated::Surface(_) => Ok(()),
     }
 }
 

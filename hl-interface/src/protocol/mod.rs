@@ -8,9 +8,13 @@
 //! * [`collision`] — `collide`, `check`;
 //! * [`library`] — `lib_list`, `lib_params`, `lib_evaluate`;
 //! * [`automation`] — `diag_check`, `diag_simulate`, `diag_diagnose`.
+//!
+//! Every numeric answer passes [`finite::check`] before it is serialised: a result that left
+//! f64's range is an `overflow` refusal, never `null` inside `"ok": true`.
 
 pub mod automation;
 pub mod collision;
 pub mod dynamics;
+pub mod finite;
 pub mod kinematics;
 pub mod library;

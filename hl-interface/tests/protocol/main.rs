@@ -11,6 +11,7 @@ mod fuzz;
 mod fuzz_corpus;
 mod kinematics;
 mod library;
+mod overflow;
 mod pipes;
 mod process;
 mod session;

@@ -3,7 +3,43 @@
 use super::*;
 
 impl Evaluator<'_> {
+    /// The value of `e`. Every expression's value passes here, so a number that left f64's
+    /// range — a literal such as `1e400`, `1e308 m * 10`, `2 ^ 100000`, a builtin's result —
+    /// is refused where it is made (an [`ErrorKind::Overflow`] marking that expression) and
+    /// never reaches a declaration, a file or an answer as `inf`, `NaN` or JSON `null`.
     pub(crate) fn eval(&mut self, e: &Expr, scope: &Scope) -> RResult<Value> {
+        let v = self.eval_unchecked(e, scope)?;
+        let bad = match &v {
+            Value::Num(q) => (!q.value.is_finite()).then_some(q.value),
+            Value::Transform(m) => m.iter().copied().find(|x| !x.is_finite()),
+            _ => None,
+        };
+        match bad {
+            None => Ok(v),
+            Some(x) => {
+                let what = if matches!(v, Value::Transform(_)) {
+                    "this transform has an entry that"
+                } else {
+                    "the value of this expression"
+                };
+                let shown = if x.is_nan() {
+                    "NaN"
+                } else if x > 0.0 {
+                    "+inf"
+                } else {
+                    "-inf"
+                };
+                Err(err(
+                    ErrorKind::Overflow,
+                    e.span,
+                    format!("{what} is not a finite number ({shown}): it overflows f64's range"),
+                )
+                .expected("a result within ±1.8e308 (in SI units)"))
+            }
+        }
+    }
+
+    fn eval_unchecked(&mut self, e: &Expr, scope: &Scope) -> RResult<Value> {
         self.steps += 1;
         if self.steps > EVAL_STEP_BUDGET {
             return Err(err(

@@ -165,7 +165,11 @@ pub struct Singularity {
     pub condition: f64,
 }
 
-/// Singular-value measures of `jac` (any 6 × n). Uses an SVD; never NaN for finite input.
+/// Singular-value measures of `jac` (any 6 × n). Uses an SVD of `jac` scaled by its largest
+/// entry (singular values scale with the matrix), so entries near `f64::MAX` (links of 1e308 m)
+/// cannot overflow inside the decomposition; a measure whose value itself leaves f64's range
+/// is `inf`. Never NaN or a panic for finite input; a non-finite entry gives NaN measures (the
+/// caller checks the Jacobian first, as the query protocol does).
 pub fn singularity(jac: &Jacobian) -> Singularity {
     let n = jac.ncols();
     if n == 0 {
@@ -176,13 +180,29 @@ pub fn singularity(jac: &Jacobian) -> Singularity {
             condition: f64::INFINITY,
         };
     }
-    let m: DMatrix<f64> = DMatrix::from_iterator(6, n, jac.iter().copied());
+    if jac.iter().any(|x| !x.is_finite()) {
+        return Singularity {
+            sigma_min: f64::NAN,
+            sigma_max: f64::NAN,
+            manipulability: f64::NAN,
+            condition: f64::NAN,
+        };
+    }
+    let scale = jac.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    let scale = if scale > 0.0 { scale } else { 1.0 };
+    let m: DMatrix<f64> = DMatrix::from_iterator(6, n, jac.iter().map(|x| x / scale));
     let sv = m.singular_values();
-    let sigma_min = sv.iter().copied().fold(f64::INFINITY, f64::min);
-    let sigma_max = sv.iter().copied().fold(0.0, f64::max);
-    let manipulability = if n < 6 { 0.0 } else { sv.iter().product() };
-    let condition = if sigma_min > 0.0 {
-        sigma_max / sigma_min
+    let unit_min = sv.iter().copied().fold(f64::INFINITY, f64::min);
+    let unit_max = sv.iter().copied().fold(0.0, f64::max);
+    let (sigma_min, sigma_max) = (unit_min * scale, unit_max * scale);
+    let manipulability = if n < 6 {
+        0.0
+    } else {
+        sv.iter().map(|s| s * scale).product()
+    };
+    // the ratio of the scaled values: the scale cancels and cannot overflow here
+    let condition = if unit_min > 0.0 {
+        unit_max / unit_min
     } else {
         f64::INFINITY
     };
