@@ -419,3 +419,115 @@ fn a_render_playback_is_recorded_to_mcap_at_the_trajectorys_dt() {
     assert_close(&last, &want, "last sample in rad");
     assert_eq!(stream(&bytes, "/tf").len(), 4, "link poses per sample");
 }
+
+/// A tmpfs of `size` mounted on a fresh directory, unmounted when dropped; `None` (with the
+/// reason printed) when this process may not mount one (not root, or no CAP_SYS_ADMIN).
+struct TinyFs {
+    dir: tempfile::TempDir,
+}
+
+impl TinyFs {
+    fn mount(size: &str) -> Option<TinyFs> {
+        let uid = Command::new("id").arg("-u").output().ok()?;
+        if text(&uid.stdout).trim() != "0" {
+            eprintln!("skipped: mounting a tiny tmpfs needs root");
+            return None;
+        }
+        let dir = tempfile::tempdir().expect("mount point");
+        let out = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+            .arg(dir.path())
+            .output()
+            .ok()?;
+        if !out.status.success() {
+            eprintln!("skipped: mount -t tmpfs failed: {}", text(&out.stderr));
+            return None;
+        }
+        Some(TinyFs { dir })
+    }
+}
+
+impl Drop for TinyFs {
+    fn drop(&mut self) {
+        let _ = Command::new("umount")
+            .arg("-l")
+            .arg(self.dir.path())
+            .status();
+    }
+}
+
+/// Issue 34 item 7: the disk filling up under `simulator --record FILE` made the whole
+/// simulator exit. The recording stops with a message naming the file and the error; the
+/// daemon keeps stepping and answering, and `get` reports the recording stopped and why.
+#[test]
+fn a_full_disk_stops_the_recording_and_the_simulator_keeps_simulating() {
+    let Some(fs) = TinyFs::mount("96k") else {
+        return;
+    };
+    let mut p = Procs::new("recfull");
+    let effects = p.home.path().join("effects.json");
+    std::fs::write(&effects, EFFECTS).expect("effects");
+    let mcap = fs.dir.path().join("run.mcap");
+    p.start_keeper(&["--scene", "puma560"]);
+    let daemon = p.spawn(&[
+        "simulator",
+        "--mode",
+        "lockstep",
+        "--effects",
+        effects.to_str().expect("utf-8"),
+        "--record",
+        mcap.to_str().expect("utf-8"),
+    ]);
+    let session = p.session();
+    wait_for("simulator registered", || {
+        session
+            .processes()
+            .iter()
+            .any(|x| x.role == "simulator" && x.pid == daemon)
+            .then_some(())
+    });
+    // Step until the file system is full (96 KiB: a few hundred samples at most).
+    let mut s = get(&p);
+    for _ in 0..200 {
+        if s["recording"]["state"] == "stopped" {
+            break;
+        }
+        let before = s["run_steps"].as_u64().expect("run_steps");
+        s = step(&p, 20);
+        assert_eq!(s["run_steps"].as_u64(), Some(before + 20), "{s}");
+    }
+    let rec = &s["recording"];
+    assert_eq!(rec["state"], "stopped", "the disk filled up: {s}");
+    let why = rec["stopped"].as_str().expect("why it stopped");
+    assert!(
+        why.contains(&mcap.display().to_string()) && why.contains("No space left on device"),
+        "names the file and the error: {why}"
+    );
+    let written = rec["messages"].as_u64().expect("messages");
+    assert!(written > 0, "{s}");
+    // Still simulating and answering after it.
+    let before = s["run_steps"].as_u64().expect("run_steps");
+    let s = step(&p, 5);
+    assert_eq!(
+        s["run_steps"].as_u64(),
+        Some(before + 5),
+        "still stepping: {s}"
+    );
+    assert_eq!(s["recording"]["messages"].as_u64(), Some(written));
+    let log = std::fs::read_to_string(
+        p.home
+            .path()
+            .join("logs")
+            .join(format!("{daemon}-simulator.log")),
+    )
+    .unwrap_or_default();
+    assert_eq!(
+        log.matches("the recording stopped; the simulation goes on")
+            .count(),
+        1,
+        "said once: {log}"
+    );
+    assert!(p.stop(daemon).success(), "a clean stop after it: {log}");
+    drop(p);
+    drop(fs);
+}

@@ -177,3 +177,41 @@ fn concurrent_relative_joint_moves_all_land() {
         );
     }
 }
+
+/// `postrotate` / `prerotate` about an axis of any finite non-zero length turn the object by
+/// the angle (issue 34 item 9): `[1e200, 0, 0]` committed a no-op (its norm overflowed) and
+/// `[1e-200, 0, 0]` was refused as "all zero"; a zero or non-finite axis is refused, naming it.
+#[test]
+fn rotate_about_a_huge_or_tiny_axis_turns_the_object() {
+    let k = demo_session("axis");
+    let mut ops = Ops::attach(&k.session).expect("attach");
+    let quarter = std::f64::consts::FRAC_PI_2;
+    for (op, axis) in [("postrotate", 1e200), ("prerotate", 1e-200), ("postrotate", 5e-324)] {
+        let a = ops
+            .dispatch(
+                op,
+                &json!({"object": "table", "axis": [axis, 0.0, 0.0], "angle": quarter}),
+            )
+            .expect("a session op")
+            .unwrap_or_else(|e| panic!("{op} about [{axis:e}, 0, 0] refused: {e}"));
+        assert!(a["version"].as_u64().is_some(), "{a}");
+    }
+    // Three quarter turns about x: the rotation part is [[1,0,0],[0,0,1],[0,-1,0]].
+    let snap = snapshot(&k.session);
+    let p = snap.pose(snap.find("table").expect("the table")).pose;
+    let want = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0];
+    let got = [p[0], p[1], p[2], p[4], p[5], p[6], p[8], p[9], p[10]];
+    for (g, w) in got.iter().zip(want) {
+        assert!((g - w).abs() < 1e-12, "rotation {got:?}, want {want:?}");
+    }
+    for axis in [json!([0.0, 0.0, 0.0]), json!([1.0, 0.0]), json!([1e308, "x", 0.0])] {
+        let e = ops
+            .dispatch(
+                "postrotate",
+                &json!({"object": "table", "axis": axis, "angle": 1.0}),
+            )
+            .expect("a session op")
+            .expect_err("no direction");
+        assert_eq!(e.kind.as_str(), "bad_request", "{e}");
+    }
+}

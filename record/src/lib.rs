@@ -51,6 +51,23 @@ pub enum RecordError {
     Sample { path: PathBuf, what: String },
 }
 
+impl RecordError {
+    /// `source` on `path`: an I/O error as [`RecordError::Io`], so its message is the
+    /// system's (`No space left on device`), not the MCAP crate's summary of it.
+    fn from_mcap(path: &Path, source: mcap::McapError) -> RecordError {
+        match source {
+            mcap::McapError::Io(source) => RecordError::Io {
+                path: path.to_owned(),
+                source,
+            },
+            source => RecordError::Mcap {
+                path: path.to_owned(),
+                source,
+            },
+        }
+    }
+}
+
 type Result<T> = std::result::Result<T, RecordError>;
 
 /// One robot at one instant.
@@ -146,10 +163,7 @@ impl Recorder {
             .mode(0o600)
             .open(path)
             .map_err(io)?;
-        let mcap_err = |source| RecordError::Mcap {
-            path: path.to_owned(),
-            source,
-        };
+        let mcap_err = |source| RecordError::from_mcap(path, source);
         let mut writer = mcap::WriteOptions::new()
             .profile("")
             .library(concat!("robosim-record ", env!("CARGO_PKG_VERSION")))
@@ -197,7 +211,7 @@ impl Recorder {
 
     fn mcap_err(&self) -> impl FnOnce(mcap::McapError) -> RecordError + use<> {
         let path = self.path.clone();
-        move |source| RecordError::Mcap { path, source }
+        move |source| RecordError::from_mcap(&path, source)
     }
 
     fn write(&mut self, topic: &str, schema: u16, t_ns: u64, message: &Value) -> Result<()> {

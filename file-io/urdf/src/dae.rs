@@ -15,7 +15,7 @@
 //! Errors name the file, the line and the element ([`DaeError`]).
 
 use crate::stl::Triangles;
-use nalgebra::{Matrix4, Rotation3, Unit, Vector3};
+use nalgebra::{Matrix4, Rotation3, Vector3};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
@@ -398,12 +398,10 @@ impl<'a, 'i> Ctx<'a, 'i> {
                 "translate" => Matrix4::new_translation(&Vector3::new(v[0], v[1], v[2])),
                 "scale" => Matrix4::new_nonuniform_scaling(&Vector3::new(v[0], v[1], v[2])),
                 _ => {
-                    let axis = Vector3::new(v[0], v[1], v[2]);
-                    if axis.norm() == 0.0 {
-                        return Err(self.err(t, "rotation axis is the zero vector"));
-                    }
-                    Rotation3::from_axis_angle(&Unit::new_normalize(axis), v[3].to_radians())
-                        .to_homogeneous()
+                    // Normalised without overflow or underflow: `1e200 0 0` is the x axis.
+                    let axis = robosim_geometry::unit_axis(Vector3::new(v[0], v[1], v[2]))
+                        .ok_or_else(|| self.err(t, "rotation axis is zero or not finite"))?;
+                    Rotation3::from_axis_angle(&axis, v[3].to_radians()).to_homogeneous()
                 }
             };
             m *= step;

@@ -410,11 +410,14 @@ impl Reader<'_, '_> {
             Some(a) => {
                 let el = format!("{element}/<axis>");
                 let v = self.triple(a, &el, "xyz", [1.0, 0.0, 0.0])?;
-                let n = v.norm();
-                if n == 0.0 {
-                    return Err(self.err(a, &el, UrdfErrorKind::ZeroAxis));
+                // Normalised without overflow or underflow: `[1e200, 0, 0]` is the x axis.
+                if v.norm() == 1.0 {
+                    v
+                } else {
+                    robosim_geometry::unit_axis(v)
+                        .ok_or_else(|| self.err(a, &el, UrdfErrorKind::ZeroAxis))?
+                        .into_inner()
                 }
-                if n == 1.0 { v } else { v / n }
             }
         };
         let limit = child(node, "limit");
@@ -1023,6 +1026,24 @@ mod tests {
         let e = import(text, tip).expect_err("refused");
         assert!(e.to_string().starts_with("t.urdf:"), "{e}");
         (e.line, e.element, e.kind)
+    }
+
+    /// An axis of any finite non-zero length is its direction (issue 34 item 9): `0 0 1e200`
+    /// overflowed the norm (the axis became zero) and `0 0 1e-200` underflowed it (refused as
+    /// zero); the robot is the one with `0 0 2`.
+    #[test]
+    fn a_huge_or_tiny_axis_is_its_direction() {
+        let want = import(TWO_LINK, None).expect("imports");
+        let q = [0.3, -0.7];
+        for xyz in ["0 0 1e200", "0 0 1e-200", "0 0 5e-324"] {
+            let text =
+                TWO_LINK.replace(r#"<axis xyz="0 0 2"/>"#, &format!(r#"<axis xyz="{xyz}"/>"#));
+            let r = import(&text, None).unwrap_or_else(|e| panic!("axis {xyz}: {e}"));
+            let (a, b) = (forward(&r.robot, &q), forward(&want.robot, &q));
+            assert!((a - b).abs().max() < 1e-15, "axis {xyz}: {a} vs {b}");
+        }
+        let zero = TWO_LINK.replace(r#"<axis xyz="0 0 2"/>"#, r#"<axis xyz="0 0 0"/>"#);
+        assert!(matches!(kind_of(&zero, None).2, UrdfErrorKind::ZeroAxis));
     }
 
     #[test]

@@ -723,7 +723,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 d.source
             );
             let mut r = recording::Recording::create(path, &source)?;
-            r.sample(0, &mut d.sims)?;
+            r.sample(0, &mut d.sims);
             eprintln!("simulator: recording to {}", path.display());
             Some(r)
         }
@@ -761,7 +761,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     stepped_version,
                     paused_at,
                 };
-                let rec = recording.as_ref().map(|r| (r.path(), r.messages()));
+                let rec = recording.as_ref().map(|r| r.status());
                 let space = d.space.as_ref().map(|sp| sp.status(&d.sims));
                 let mut answer = status::status(&d.sims, &l, &d.source, rec, space);
                 if let Some(sw) = &d.swap {
@@ -784,7 +784,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 Ok(v) => {
                     cmd.reply(b"ok");
                     if let Some(r) = &mut recording {
-                        r.event(run_ns, Level::Info, "simulator", &v.to_string())?;
+                        r.event(run_ns, Level::Info, "simulator", &v.to_string());
                     }
                 }
                 Err(e) => {
@@ -796,7 +796,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                             Level::Warning,
                             "simulator",
                             &format!("refused {text}: {e}"),
-                        )?;
+                        );
                     }
                 }
             }
@@ -823,7 +823,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     &format!(
                         "{why}: pipelines rebuilt at version {version} from the committed joint values; their clock restarts at 0"
                     ),
-                )?;
+                );
             }
         }
         let step_now = running || budget > 0;
@@ -837,7 +837,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 if let Err(e) = s.pipeline.step() {
                     eprintln!("simulator: {}: {e}; paused", s.name);
                     if let Some(r) = &mut recording {
-                        r.event(run_ns, Level::Error, &s.name, &format!("{e}; paused"))?;
+                        r.event(run_ns, Level::Error, &s.name, &format!("{e}; paused"));
                     }
                     s.error = Some(e.to_string());
                     if running {
@@ -852,7 +852,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
             {
                 eprintln!("simulator: space stage: {e}; paused");
                 if let Some(r) = &mut recording {
-                    r.event(run_ns, Level::Error, "space", &format!("{e}; paused"))?;
+                    r.event(run_ns, Level::Error, "space", &format!("{e}; paused"));
                 }
                 if running {
                     paused_at = Some(pause_record(&mut reader, steps, "error")?);
@@ -865,7 +865,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
             {
                 eprintln!("simulator: swap stage: {e}; paused");
                 if let Some(r) = &mut recording {
-                    r.event(run_ns, Level::Error, "swap", &format!("{e}; paused"))?;
+                    r.event(run_ns, Level::Error, "swap", &format!("{e}; paused"));
                 }
                 if running {
                     paused_at = Some(pause_record(&mut reader, steps, "error")?);
@@ -878,7 +878,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
             d.clock_steps += 1;
             run_ns += time_ns(1, d.dt());
             if let Some(r) = &mut recording {
-                r.sample(run_ns, &mut d.sims)?;
+                r.sample(run_ns, &mut d.sims);
             }
         }
         if step_now && (steps.is_multiple_of(publish_every) || mode == Mode::Lockstep) {
@@ -917,7 +917,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
             logs_dirty = false;
         }
         if let Some(r) = &mut recording {
-            r.maybe_flush(idle)?;
+            r.maybe_flush(idle);
         }
         match mode {
             Mode::Fast => {}
@@ -937,13 +937,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
         }
     }
     if let Some(r) = recording {
-        let path = r.path().to_owned();
-        let counts = r.finish()?;
-        eprintln!(
-            "simulator: recorded {} messages to {}",
-            counts.values().sum::<u64>(),
-            path.display()
-        );
+        r.finish()?;
     }
     let c = d.counters;
     eprintln!(

@@ -16,19 +16,31 @@
 //! nothing queued) and at least once per second of wall time, so a `kill -9` loses at most the
 //! last second of a free-running recording and nothing of an idle one. `robosim down`
 //! (SIGTERM) closes the file with its summary.
+//!
+//! A write that fails (disk full, I/O error) stops the recording, not the simulator: the
+//! daemon says once on stderr which file and why (`simulator: recording to FILE stopped: …;
+//! the simulation goes on`), keeps stepping and answering, and `get` reports
+//! `"recording": {"path": …, "messages": N, "state": "stopped", "stopped": "why"}` (N: the
+//! messages written before the failure; the file keeps the chunks completed before it, which
+//! a streaming reader reads, and has no summary).
 
 use crate::{Result, Sim};
 use robosim_record::{ContactSample, Level, Recorder, RobotSample};
 use robosim_scene::link_poses;
-use std::collections::BTreeMap;
-use std::path::Path;
+use serde_json::{Value, json};
+use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 /// The most wall time between two flushes of a free-running recording.
 const FLUSH_EVERY: Duration = Duration::from_secs(1);
 
 pub(crate) struct Recording {
-    rec: Recorder,
+    path: PathBuf,
+    /// `None` once a write failed (then `stopped` says why).
+    rec: Option<Recorder>,
+    stopped: Option<String>,
+    /// Messages written when the recording stopped.
+    written: u64,
     /// Messages written since the last flush.
     dirty: bool,
     last_flush: Instant,
@@ -37,24 +49,59 @@ pub(crate) struct Recording {
 impl Recording {
     pub(crate) fn create(path: &Path, source: &str) -> Result<Recording> {
         Ok(Recording {
-            rec: Recorder::create(path, source)?,
+            path: path.to_owned(),
+            rec: Some(Recorder::create(path, source)?),
+            stopped: None,
+            written: 0,
             dirty: false,
             last_flush: Instant::now(),
         })
     }
 
-    pub(crate) fn path(&self) -> &Path {
-        self.rec.path()
-    }
-
     /// Messages written so far, all channels.
     pub(crate) fn messages(&self) -> u64 {
-        self.rec.counts().values().sum()
+        match &self.rec {
+            Some(r) => r.counts().values().sum(),
+            None => self.written,
+        }
+    }
+
+    /// The `recording` member of the `get` answer (status.rs).
+    pub(crate) fn status(&self) -> Value {
+        json!({
+            "path": self.path.display().to_string(),
+            "messages": self.messages(),
+            "state": if self.stopped.is_some() { "stopped" } else { "recording" },
+            "stopped": self.stopped,
+        })
+    }
+
+    /// `r`'s error stops the recording (module docs): said once, the writer dropped (its
+    /// close writes nothing more that could fail loudly: its errors are ignored).
+    fn check(&mut self, r: std::result::Result<(), robosim_record::RecordError>) {
+        if let Err(e) = r {
+            self.written = self.messages();
+            self.rec = None;
+            eprintln!("simulator: {e}: the recording stopped; the simulation goes on");
+            self.stopped = Some(e.to_string());
+        }
     }
 
     /// Every robot's state at run time `t_ns`, and an event for each contact that began or
     /// ended since the last sample.
-    pub(crate) fn sample(&mut self, t_ns: u64, sims: &mut [Sim]) -> Result<()> {
+    pub(crate) fn sample(&mut self, t_ns: u64, sims: &mut [Sim]) {
+        let r = self.write_sample(t_ns, sims);
+        self.check(r);
+    }
+
+    fn write_sample(
+        &mut self,
+        t_ns: u64,
+        sims: &mut [Sim],
+    ) -> std::result::Result<(), robosim_record::RecordError> {
+        let Some(rec) = &mut self.rec else {
+            return Ok(());
+        };
         let poses: Vec<Vec<[f64; 12]>> = sims
             .iter()
             .map(|s| {
@@ -80,7 +127,7 @@ impl Recording {
                 }
             })
             .collect();
-        self.rec.robots(t_ns, &robots)?;
+        rec.robots(t_ns, &robots)?;
         let contacts: Vec<ContactSample<'_>> = sims
             .iter()
             .filter_map(|s| {
@@ -92,7 +139,7 @@ impl Recording {
                 })
             })
             .collect();
-        self.rec.contacts(t_ns, &contacts)?;
+        rec.contacts(t_ns, &contacts)?;
         for s in sims.iter_mut() {
             let now = s.pipeline.data().contact == Some(true);
             if now != s.contact_was {
@@ -101,7 +148,7 @@ impl Recording {
                 } else {
                     (Level::Info, "clear again")
                 };
-                self.rec.log(t_ns, level, &s.name, what)?;
+                rec.log(t_ns, level, &s.name, what)?;
                 s.contact_was = now;
             }
         }
@@ -110,24 +157,46 @@ impl Recording {
     }
 
     /// An event of the run at `t_ns`; `name` says who (a robot, or `simulator`).
-    pub(crate) fn event(&mut self, t_ns: u64, level: Level, name: &str, what: &str) -> Result<()> {
-        self.rec.log(t_ns, level, name, what)?;
-        self.dirty = true;
-        Ok(())
+    pub(crate) fn event(&mut self, t_ns: u64, level: Level, name: &str, what: &str) {
+        if let Some(rec) = &mut self.rec {
+            let r = rec.log(t_ns, level, name, what);
+            self.dirty = true;
+            self.check(r);
+        }
     }
 
     /// Completes the chunk on disk when the daemon is `idle` or a second has passed.
-    pub(crate) fn maybe_flush(&mut self, idle: bool) -> Result<()> {
-        if self.dirty && (idle || self.last_flush.elapsed() >= FLUSH_EVERY) {
-            self.rec.flush()?;
+    pub(crate) fn maybe_flush(&mut self, idle: bool) {
+        if self.dirty
+            && (idle || self.last_flush.elapsed() >= FLUSH_EVERY)
+            && let Some(rec) = &mut self.rec
+        {
+            let r = rec.flush();
             self.dirty = false;
             self.last_flush = Instant::now();
+            self.check(r);
         }
-        Ok(())
     }
 
-    /// Writes the summary and closes the file; messages per topic.
-    pub(crate) fn finish(self) -> Result<BTreeMap<String, u64>> {
-        Ok(self.rec.finish()?)
+    /// Writes the summary and closes the file, and says so on stderr (a recording that
+    /// stopped earlier has nothing to close: its reason is said again).
+    pub(crate) fn finish(self) -> Result<()> {
+        match self.rec {
+            Some(rec) => {
+                let counts = rec.finish()?;
+                eprintln!(
+                    "simulator: recorded {} messages to {}",
+                    counts.values().sum::<u64>(),
+                    self.path.display()
+                );
+            }
+            None => eprintln!(
+                "simulator: the recording to {} had stopped after {} messages: {}",
+                self.path.display(),
+                self.written,
+                self.stopped.as_deref().unwrap_or("")
+            ),
+        }
+        Ok(())
     }
 }

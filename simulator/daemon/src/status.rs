@@ -5,7 +5,8 @@
 //! {"t_s": 0.5, "steps": 50, "run_steps": 50, "dt_s": 0.01, "mode": "lockstep",
 //!  "state": "paused", "running": false, "queued_steps": 0, "version": 3, "stepped_version": 3,
 //!  "paused_at": {"version": 3, "run_steps": 50, "cause": "command"},
-//!  "effects": "from effects.json", "recording": {"path": "run.mcap", "messages": 153},
+//!  "effects": "from effects.json", "recording": {"path": "run.mcap", "messages": 153,
+//!  "state": "recording", "stopped": null},
 //!  "robots": [{"name": "puma560", "t_s": 0.5, "steps": 50,
 //!              "stages": ["motion", "joint_limits", "link_frames", "logging"],
 //!              "joints": ["link1", …], "joint_types": ["revolute", …],
@@ -125,7 +126,7 @@ pub(crate) fn status(
     sims: &[Sim],
     l: &LoopState,
     effects: &str,
-    recording: Option<(&std::path::Path, u64)>,
+    recording: Option<Value>,
     space: Option<Value>,
 ) -> Value {
     let state = if l.running {
@@ -150,7 +151,7 @@ pub(crate) fn status(
             "version": p.version, "run_steps": p.run_steps, "cause": p.cause,
         })),
         "effects": effects,
-        "recording": recording.map(|(p, n)| json!({"path": p.display().to_string(), "messages": n})),
+        "recording": recording,
         "robots": sims.iter().map(robot).collect::<Vec<_>>(),
     });
     if let (Some(space), Some(m)) = (space, v.as_object_mut()) {
