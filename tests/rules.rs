@@ -438,3 +438,155 @@ fn up_starts_the_eclss_plant_a_scene_declares_or_with_names_and_down_stops_it() 
         assert!(!robosim_instance_space::pid_alive(*pid), "{role} stopped");
     }
 }
+
+/// Writes `text` as a rule file in the session's home; its path.
+fn rule_file(k: &Procs, name: &str, text: &str) -> String {
+    let path = k.home.path().join(name);
+    std::fs::write(&path, text).expect("rule file");
+    path.display().to_string()
+}
+
+/// The log of the process `pid` started by `Procs::spawn` (role `role`).
+fn log_of(k: &Procs, pid: u32, role: &str) -> String {
+    std::fs::read_to_string(k.home.path().join("logs").join(format!("{pid}-{role}.log")))
+        .unwrap_or_default()
+}
+
+/// Waits (60 s at most) for the child `pid` this test started to exit; its status.
+fn exit_of(k: &mut Procs, pid: u32) -> std::process::ExitStatus {
+    let i = k
+        .children
+        .iter()
+        .position(|c| c.id() == pid)
+        .expect("a process this test started");
+    let mut c = k.children.remove(i);
+    wait_for("the rules process to end", || c.try_wait().expect("wait"))
+}
+
+/// Issue 34 item 5: `(robosim set-joint positioner 3 (/ 0.0 0.0))` printed "divide by zero …
+/// Execution halted" and still committed joint 3 = 1.0.
+#[test]
+fn a_failed_clips_expression_in_a_robosim_call_commits_nothing() {
+    let mut k = Procs::new("rulesdiv");
+    k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    let before = p.snapshot().expect("snapshot");
+    let q0 = robosim_hl_interface::planner::joints_of(&before, "positioner").expect("joints");
+    let v0 = before.version();
+    drop(before);
+    let file = rule_file(
+        &k,
+        "div.clp",
+        "(defrule bad (space (version ?v)) => (robosim set-joint positioner 3 (/ 0.0 0.0)))\n\
+         (defrule inf (declare (salience 10)) (space (version ?v)) => (robosim set-joint positioner 2 (* 1e308 10.0)))\n",
+    );
+    let rules = k.spawn(&["rules", &file]);
+    // Registered once its first pass (where both rules fired) is over.
+    wait_role(&k, "rules");
+    assert!(
+        p.wait_change(Duration::from_millis(300))
+            .expect("wait")
+            .is_none(),
+        "nothing committed"
+    );
+    let after = p.snapshot().expect("snapshot");
+    assert_eq!(after.version(), v0, "no transaction");
+    assert_eq!(
+        robosim_hl_interface::planner::joints_of(&after, "positioner").expect("joints"),
+        q0
+    );
+    drop(after);
+    k.stop(rules);
+    let log = log_of(&k, rules, "rules");
+    assert!(
+        log.contains(
+            "(robosim set-joint …) failed: argument 4 of (robosim set-joint …) did not evaluate"
+        ),
+        "the failed argument is named: {log}"
+    );
+    assert!(
+        log.contains("the joint value (argument 3) is not a finite number: inf"),
+        "a non-finite value is refused: {log}"
+    );
+}
+
+/// Issue 34 item 16: a rule whose right-hand side never ends hung the process for good (and
+/// ignored SIGTERM). It is halted on the time limit, and the process fails naming the rule.
+#[test]
+fn an_endless_right_hand_side_stops_on_the_time_limit_with_an_error_naming_the_rule() {
+    let mut k = Procs::new("rulesspin");
+    k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let file = rule_file(
+        &k,
+        "spin.clp",
+        "(defrule spin (space) => (while TRUE do (+ 1 1)))\n",
+    );
+    let rules = k.spawn(&["rules", &file, "--time-limit", "0.5"]);
+    let status = exit_of(&mut k, rules);
+    let log = log_of(&k, rules, "rules");
+    assert_eq!(status.code(), Some(1), "a failure, not a signal: {log}");
+    assert!(
+        log.contains("rule spin: ran past the time limit of 500ms of rule execution in one pass"),
+        "{log}"
+    );
+}
+
+/// Issue 34 item 16: SIGTERM to a rules process inside an endless rule was ignored (`down`
+/// waited 10 s and sent SIGKILL). It halts the rule; the process ends with exit 0 and says why.
+#[test]
+fn sigterm_halts_an_endless_rule_and_the_rules_process_exits_0() {
+    let mut k = Procs::new("rulesterm");
+    k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let file = rule_file(
+        &k,
+        "spin.clp",
+        "(defrule spin (space) => (printout t \"spinning\" crlf) (while TRUE do (+ 1 1)))\n",
+    );
+    let rules = k.spawn(&["rules", &file, "--time-limit", "3600"]);
+    // What the rule printed shows while it runs (flushed on the engine's periodic check).
+    wait_for("the rule to run", || {
+        log_of(&k, rules, "rules")
+            .contains("spinning")
+            .then_some(())
+    });
+    let status = k.stop(rules);
+    let log = log_of(&k, rules, "rules");
+    assert!(status.success(), "{status}: {log}");
+    assert!(
+        log.contains("rules: a termination request (SIGTERM/SIGINT) halted rule spin; stopped"),
+        "{log}"
+    );
+}
+
+/// Issue 34 item 16: deep recursion overflowed the stack and a string doubled 40 times
+/// segfaulted the rules process; each is now an error naming the rule, and the process exits
+/// with a failure, not a signal.
+#[test]
+fn deep_recursion_and_a_string_doubled_forty_times_are_errors_not_crashes() {
+    let mut k = Procs::new("rulesmem");
+    k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let cases = [
+        (
+            "deep.clp",
+            "(deffunction down (?n) (+ 1 (down (+ ?n 1))))\n(defrule dive (space) => (down 0))\n",
+            "rule dive: deffunction down called",
+        ),
+        (
+            "grow.clp",
+            "(defrule grow (space) => (bind ?s \"ab\") (loop-for-count 40 (bind ?s (str-cat ?s ?s))))\n",
+            "rule grow: CLIPS asked for",
+        ),
+    ];
+    for (name, text, says) in cases {
+        let file = rule_file(&k, name, text);
+        let rules = k.spawn(&["rules", &file, "--max-memory", "64"]);
+        let status = exit_of(&mut k, rules);
+        let log = log_of(&k, rules, "rules");
+        assert_eq!(
+            status.code(),
+            Some(1),
+            "{name}: an error, not a crash: {log}"
+        );
+        assert!(log.contains(says), "{name}: {log}");
+    }
+}

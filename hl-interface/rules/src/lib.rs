@@ -37,6 +37,11 @@
 //! * `(robosim diagnose)` — the query op `diag_diagnose` over every alarm the plant rings now;
 //!   asserts a `diagnosis` fact, returns the number of components it names.
 //!
+//! A call whose argument fails to evaluate (`(/ 0.0 0.0)`) or is not a finite number does
+//! nothing ([`clips`]). Every run of the rules is bounded by [`clips::Limits`] (time per pass,
+//! call depth and stack, memory); past one the process fails naming the rule, and SIGTERM
+//! halts a running rule (exit 0). docs/rules.md, "Limits".
+//!
 //! Rule bases shipped (`hl-interface/rules/rulebases/`): `joint_guard.clp` (soft joint limits
 //! enforced by setting the joint back, contact alarms handled by pausing the simulator and
 //! backing the robot off to its clear joints) and `eclss_guard.clp` (ECLSS alarms diagnosed,
