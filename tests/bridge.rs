@@ -89,9 +89,13 @@ struct Pair {
 
 impl Pair {
     fn start(tag: &str, primary_flags: &[&str]) -> Pair {
+        Pair::start_keeping(tag, &["--no-sync"], primary_flags)
+    }
+    /// [`Pair::start`] with the primary's keeper started with `keeper_flags`.
+    fn start_keeping(tag: &str, keeper_flags: &[&str], primary_flags: &[&str]) -> Pair {
         let mut p = Procs::new(&format!("{tag}p"));
         let r = Procs::new(&format!("{tag}r"));
-        p.start_keeper(&["--no-sync"]);
+        p.start_keeper(keeper_flags);
         let endpoint = format!("tcp/127.0.0.1:{}", free_port());
         let mut pair = Pair {
             p,
@@ -369,4 +373,52 @@ fn the_library_and_the_simulators_state_cross_too() {
     });
     assert_eq!(got.joints, vec![joint(0.75)]);
     assert_eq!(got.header.structure_version, 3);
+}
+
+/// Issue 34 item 18: kill -9 of the primary's keeper made the primary's bridge exit, and the
+/// replica stayed stale until a person restarted the bridge. The bridge now waits for the
+/// keeper to come back (`robosim space` on the same session), reattaches by itself, and the
+/// replica follows what is committed after — the same bridge process all along.
+#[test]
+fn a_killed_primary_keeper_restarted_is_followed_by_the_same_bridge() {
+    // A durable keeper: what it acknowledged survives its kill -9.
+    let mut pair = Pair::start_keeping("bkk", &[], &[]);
+    let (ps, rs) = (pair.p.session(), pair.r.session());
+    let keeper = ps
+        .processes()
+        .iter()
+        .find(|p| p.role == "space")
+        .map(|p| p.pid)
+        .expect("the primary's keeper");
+    let mut pw = Client::connect(&ps, "writer").expect("primary writer");
+    let root = scene(&mut pw);
+    let before = create_solid(&mut pw, "before", root).expect("write");
+    assert_equal(&ps, &rs);
+    drop(pw);
+
+    kill9(keeper);
+    wait_for("the keeper gone", || {
+        (!robosim_instance_space::pid_alive(keeper)).then_some(())
+    });
+    pair.p.start_keeper(&[]);
+    let mut pw = Client::connect(&ps, "writer").expect("primary writer after the restart");
+    let after = create_solid(&mut pw, "after", root).expect("write after the restart");
+    // The replica has it without the bridge having been restarted.
+    let v = assert_equal(&ps, &rs);
+    let model = robosim_instance_space::journal::decode_store(&model_bytes(&rs)).expect("model");
+    assert!(model.get(before).is_some() && model.get(after).is_some());
+    // Writes from the replica go through the reattached bridge too.
+    let mut rw = Client::connect(&rs, "writer").expect("replica writer");
+    create_solid(&mut rw, "from-replica", root).expect("replica write after the restart");
+    assert!(assert_equal(&ps, &rs) > v);
+    let bridge = pair
+        .p
+        .children
+        .iter_mut()
+        .find(|c| c.id() == pair.primary_bridge)
+        .expect("the primary's bridge");
+    assert!(
+        bridge.try_wait().expect("try_wait").is_none(),
+        "the same primary bridge still runs"
+    );
 }

@@ -13,7 +13,7 @@
 //! The bridge holds no model: a bridge restarted (or killed and restarted) serves the same
 //! history, because the log it serves is the keeper's.
 
-use crate::{BridgeArgs, LogMsg, Result, StateMsg, decode, encode, key, zerr};
+use crate::{BridgeArgs, BridgeError, LogMsg, Result, StateMsg, decode, encode, key, zerr};
 use robosim_instance_space::replica::LogAnswer;
 use robosim_instance_space::state::StateSubscriber;
 use robosim_instance_space::{Client, Reader, Session, TxError};
@@ -27,9 +27,27 @@ struct Published {
     at: Instant,
 }
 
+/// The bridge's attachment to the keeper: a client (its log, snapshots, writes) and a reader
+/// (its change event). Made again when the keeper comes back after it died.
+struct KeeperLink {
+    client: Client,
+    reader: Reader,
+}
+
+impl KeeperLink {
+    fn attach(session: &Session) -> Result<KeeperLink> {
+        Ok(KeeperLink {
+            client: Client::connect(session, "bridge")?,
+            reader: Reader::attach(session, "bridge")?,
+        })
+    }
+}
+
+/// How often a bridge whose keeper died looks for the restarted one.
+const KEEPER_POLL: Duration = Duration::from_millis(100);
+
 pub fn serve(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()> {
-    let mut client = Client::connect(session, "bridge")?;
-    let mut reader = Reader::attach(session, "bridge")?;
+    let mut link = Some(KeeperLink::attach(session)?);
     let signals = session.node("bridge-signals", true)?;
     let registration = session.register("bridge", &[])?;
     let z = zenoh::open(crate::zenoh_config(Some(endpoint), None)?)
@@ -67,53 +85,144 @@ pub fn serve(session: &Session, endpoint: &str, args: &BridgeArgs) -> Result<()>
     );
     let heartbeat = Duration::from_millis(args.heartbeat_ms.max(1));
     let mut published = Published {
-        version: current_version(&mut client)?,
+        version: match &mut link {
+            Some(l) => current_version(&mut l.client)?,
+            None => 0,
+        },
         library_gen: 0,
         at: Instant::now() - heartbeat,
     };
     let mut last_activity = Instant::now();
+    let queries = Queries {
+        snapshots: &snapshots,
+        logs: &logs,
+        txs: &txs,
+    };
     while signals.wait(Duration::ZERO).is_ok() {
-        // Zenoh's queries do not wake the keeper's change event: poll both (see poll_sleep).
-        if reader.wait_event(Duration::ZERO)?.is_none() {
-            crate::poll_sleep(last_activity);
-        } else {
-            last_activity = Instant::now();
-        }
-        let before = (published.version, published.at);
-        publish_log(&mut client, &log_pub, &mut published, heartbeat)?;
-        if published.version != before.0 {
-            last_activity = Instant::now();
-        }
-        while let Ok(Some(q)) = snapshots.try_recv() {
-            last_activity = Instant::now();
-            let snap = client.snapshot()?;
-            let _ = q.reply(q.key_expr().clone(), encode(&snap)).wait();
-        }
-        while let Ok(Some(q)) = logs.try_recv() {
-            last_activity = Instant::now();
-            let asked = q
-                .payload()
-                .and_then(|p| decode::<(u64, u64)>(&p.to_bytes()));
-            let answer = match asked {
-                Some((since, lib_gen)) => client.log_since(since, lib_gen)?,
-                None => LogAnswer::Gone {
-                    oldest: 0,
-                    version: published.version,
-                },
-            };
-            let _ = q
-                .reply(q.key_expr().clone(), encode(&answer))
-                .express(true)
-                .wait();
-        }
-        if forward_writes(&mut client, &txs, args)? > 0 {
-            last_activity = Instant::now();
+        let Some(l) = &mut link else {
+            // The keeper died (kill -9, a crash): wait for it to come back — `robosim up` or
+            // `robosim space` on this session — and carry on from it. Meanwhile remote
+            // writers are refused by name; snapshot and log queries wait (replicas ask again).
+            refuse_writes(
+                &txs,
+                "the primary's keeper is not running (it is restarting?)",
+            );
+            states.pass(session, &z)?;
+            if session.processes().iter().any(|p| p.role == "space") {
+                match KeeperLink::attach(session) {
+                    Ok(mut l) => match current_version(&mut l.client) {
+                        Ok(v) => {
+                            eprintln!(
+                                "bridge: the keeper of session {} is back at version {v}; publishing from it",
+                                session.name()
+                            );
+                            // The restarted keeper counts its library publications afresh:
+                            // replicas get its library again.
+                            published.library_gen = 0;
+                            published.at = Instant::now() - heartbeat;
+                            link = Some(l);
+                            last_activity = Instant::now();
+                            continue;
+                        }
+                        Err(e) => eprintln!("bridge: the restarted keeper: {e}; trying again"),
+                    },
+                    Err(e) => eprintln!("bridge: the restarted keeper: {e}; trying again"),
+                }
+            }
+            std::thread::sleep(KEEPER_POLL);
+            continue;
+        };
+        match pass(l, &queries, &log_pub, &mut published, heartbeat, args) {
+            Ok(active) => {
+                if active {
+                    last_activity = Instant::now();
+                } else {
+                    crate::poll_sleep(last_activity);
+                }
+            }
+            // The keeper went away: what the bridge published stays published; it waits
+            // for the keeper to come back rather than leave its replicas stale.
+            Err(e @ (BridgeError::Client(_) | BridgeError::Reader(_))) => {
+                eprintln!(
+                    "bridge: lost the keeper of session {} ({e}); waiting for it to restart",
+                    session.name()
+                );
+                link = None;
+                continue;
+            }
+            Err(e) => return Err(e),
         }
         states.pass(session, &z)?;
     }
     drop(registration);
     eprintln!("bridge: stopped");
     Ok(())
+}
+
+/// The bridge's Zenoh queryables.
+struct Queries<'a> {
+    snapshots:
+        &'a zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
+    logs: &'a zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
+    txs: &'a zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
+}
+
+/// One pass over the keeper and the queries (module docs, steps 1–3); whether anything
+/// happened. An error of the client or the reader is the keeper's absence to the caller.
+fn pass(
+    l: &mut KeeperLink,
+    q: &Queries<'_>,
+    log_pub: &zenoh::pubsub::Publisher<'_>,
+    published: &mut Published,
+    heartbeat: Duration,
+    args: &BridgeArgs,
+) -> Result<bool> {
+    // Zenoh's queries do not wake the keeper's change event: poll both (see poll_sleep).
+    let mut active = l.reader.wait_event(Duration::ZERO)?.is_some();
+    let before = published.version;
+    publish_log(&mut l.client, log_pub, published, heartbeat)?;
+    active |= published.version != before;
+    while let Ok(Some(query)) = q.snapshots.try_recv() {
+        active = true;
+        let snap = l.client.snapshot()?;
+        let _ = query.reply(query.key_expr().clone(), encode(&snap)).wait();
+    }
+    while let Ok(Some(query)) = q.logs.try_recv() {
+        active = true;
+        let asked = query
+            .payload()
+            .and_then(|p| decode::<(u64, u64)>(&p.to_bytes()));
+        let answer = match asked {
+            Some((since, lib_gen)) => l.client.log_since(since, lib_gen)?,
+            None => LogAnswer::Gone {
+                oldest: 0,
+                version: published.version,
+            },
+        };
+        let _ = query
+            .reply(query.key_expr().clone(), encode(&answer))
+            .express(true)
+            .wait();
+    }
+    active |= forward_writes(&mut l.client, q.txs, args)? > 0;
+    Ok(active)
+}
+
+/// Answers every waiting remote transaction with a refusal saying `why` (nothing forwarded).
+fn refuse_writes(
+    txs: &zenoh::query::Queryable<zenoh::handlers::FifoChannelHandler<zenoh::query::Query>>,
+    why: &str,
+) {
+    while let Ok(Some(q)) = txs.try_recv() {
+        let verdict: std::result::Result<robosim_instance_space::Applied, TxError> =
+            Err(TxError::Forward {
+                reason: why.to_owned(),
+            });
+        let _ = q
+            .reply(q.key_expr().clone(), encode(&verdict))
+            .express(true)
+            .wait();
+    }
 }
 
 /// The keeper's version now (a log request from beyond any version answers with it).
@@ -232,12 +341,25 @@ fn answer(
     q: zenoh::query::Query,
     p: robosim_instance_space::Pending,
 ) -> Result<()> {
-    let verdict = client.wait(p)?;
+    let (verdict, lost) = match client.wait(p) {
+        Ok(verdict) => (verdict, None),
+        // The writer hears why (the keeper died with its transaction in flight), and the
+        // bridge goes on to wait for the keeper.
+        Err(e) => (
+            Err(TxError::Forward {
+                reason: format!("the primary's keeper: {e}"),
+            }),
+            Some(e),
+        ),
+    };
     let _ = q
         .reply(q.key_expr().clone(), encode(&verdict))
         .express(true)
         .wait();
-    Ok(())
+    match lost {
+        Some(e) => Err(e.into()),
+        None => Ok(()),
+    }
 }
 
 /// The state services passed on: each opened when its simulator appears, its newest record
