@@ -315,9 +315,12 @@ fn framed(id: Value, result: Result<Map<String, Value>, ProtocolError>) -> Strin
 
 /// Reads request lines from `input` until end of input and writes one answer line to `output`
 /// for each, flushing after every answer (a planner can talk to it through pipes, one request
-/// at a time). A line that is not UTF-8 is answered with `parse_error` like any other bad line.
+/// at a time). A line that is not UTF-8 is answered with `parse_error` like any other bad line;
+/// so is a line longer than [`robosim_input::Limit::LINE`] (64 MiB, `ROBOSIM_MAX_LINE_BYTES`),
+/// answered as soon as the limit is passed and then skipped to its newline without being held
+/// (`robosim query < /dev/zero` answers once and holds at most the limit).
 /// Returns the counts, or the first I/O error of either stream (e.g. a broken pipe when the
-/// client goes away).
+/// client goes away; an `InvalidInput` error when `ROBOSIM_MAX_LINE_BYTES` is not a size).
 pub fn serve(input: impl BufRead, output: impl Write) -> io::Result<ServeStats> {
     serve_inner(input, output, &mut None)
 }
@@ -337,16 +340,32 @@ fn serve_inner(
     mut output: impl Write,
     ext: &mut Option<Extension<'_>>,
 ) -> io::Result<ServeStats> {
+    use robosim_input::{Limit, Line};
+    let max = Limit::LINE
+        .bytes()
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidInput, e))?;
+    let max = usize::try_from(max).unwrap_or(usize::MAX);
     let mut stats = ServeStats::default();
     let mut buf = Vec::new();
     loop {
-        buf.clear();
-        if input.read_until(b'\n', &mut buf)? == 0 {
+        let line = robosim_input::read_line_bounded(&mut input, &mut buf, max)?;
+        if line == Line::Eof {
             return Ok(stats);
         }
         stats.lines += 1;
-        let bytes = buf.strip_suffix(b"\n").unwrap_or(&buf);
-        let (text, ok) = match std::str::from_utf8(bytes) {
+        let (text, ok) = match std::str::from_utf8(&buf) {
+            _ if line == Line::TooLong => {
+                let f = ProtocolError::new(
+                    ErrorKind::ParseError,
+                    format!(
+                        "input line {}: longer than {}, the limit for a request line (set {} to raise it); the rest of the line is skipped",
+                        stats.lines,
+                        robosim_input::format_bytes(max as u64),
+                        Limit::LINE.env.unwrap_or("ROBOSIM_MAX_LINE_BYTES"),
+                    ),
+                );
+                (framed(Value::Null, Err(f)), false)
+            }
             Ok(line) => handle_numbered(line, Some(stats.lines), ext),
             Err(e) => {
                 let f = ProtocolError::new(
@@ -368,6 +387,9 @@ fn serve_inner(
         output.write_all(text.as_bytes())?;
         output.write_all(b"\n")?;
         output.flush()?;
+        if line == Line::TooLong {
+            robosim_input::skip_line(&mut input)?;
+        }
     }
 }
 
