@@ -588,9 +588,21 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             robosim_editor::cli::edit(&s, &robot, script.as_deref()).map_err(CliError)
         }
         Command::Completions { shell } => {
+            // Generated into memory, then written once: clap_complete panics on a failed write
+            // (`completions bash | head -1` closes the pipe), a write here is an error we
+            // read — a reader that stopped early ends the command quietly, as Unix tools do.
             let mut cmd = <Cli as clap::CommandFactory>::command();
-            clap_complete::generate(shell, &mut cmd, "robosim", &mut std::io::stdout());
-            Ok(())
+            let mut script = Vec::new();
+            clap_complete::generate(shell, &mut cmd, "robosim", &mut script);
+            let mut out = std::io::stdout().lock();
+            match std::io::Write::write_all(&mut out, &script)
+                .and_then(|()| std::io::Write::flush(&mut out))
+            {
+                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError(format!(
+                    "writing the completion script to standard output: {e}"
+                ))),
+                _ => Ok(()),
+            }
         }
     }
 }

@@ -135,12 +135,18 @@ pub fn run_space_with(
     let lib = crate::instantiate::build_library_from(library, extra)?;
     let spin = robosim_instance_space::spin_from_env().map_err(SceneError::Launch)?;
     let static_responses = std::env::var_os("ROBOSIM_BENCH_DYNAMIC_RESPONSES").is_none();
+    // Writers and readers served at once (each `robosim query` is one of each).
+    let defaults = KeeperOptions::default();
+    let max_processes =
+        robosim_instance_space::max_clients_from_env().map_err(SceneError::Launch)?;
     let opts = KeeperOptions {
         durable,
         journal_copies,
         spin,
         static_responses,
-        ..KeeperOptions::default()
+        max_clients: max_processes.unwrap_or(defaults.max_clients),
+        max_readers: max_processes.unwrap_or(defaults.max_readers),
+        ..defaults
     };
     let (mut keeper, report) =
         robosim_instance_space::Keeper::start(&session, opts).map_err(keeper_err)?;
