@@ -21,10 +21,12 @@ pub struct Trajectory {
 
 impl Trajectory {
     pub fn load(path: &Path) -> Result<Trajectory> {
-        let text = std::fs::read_to_string(path).map_err(|e| DisplayError::Io {
-            path: path.to_path_buf(),
-            source: e,
-        })?;
+        // A regular file of at most Limit::MODEL bytes (a FIFO or a device is refused).
+        let text = robosim_input::read_to_string(path, "a trajectory", robosim_input::Limit::MODEL)
+            .map_err(|e| DisplayError::Io {
+                path: path.to_path_buf(),
+                source: std::io::Error::new(std::io::ErrorKind::InvalidInput, e.reason()),
+            })?;
         Self::parse(&text, path)
     }
 

@@ -8,11 +8,16 @@ use std::cell::RefCell;
 use std::path::Path;
 use std::rc::Rc;
 
+/// A ROBOSIM program's text: a regular file of at most [`robosim_input::Limit::TEXT`] bytes.
+fn read_program(path: &Path) -> Result<String, String> {
+    robosim_input::read_to_string(path, "a ROBOSIM program", robosim_input::Limit::TEXT)
+        .map_err(|e| e.to_string())
+}
+
 /// `robosim lang run PROGRAM --out DIR`: every STORE-LINK becomes a link file in DIR; a program
 /// with an error writes none.
 pub fn lang_run(program_path: &Path, out: &Path) -> Result<String, String> {
-    let text = std::fs::read_to_string(program_path)
-        .map_err(|e| format!("{}: {e}", program_path.display()))?;
+    let text = read_program(program_path)?;
     let o = program::run(&text, &program_path.display().to_string()).map_err(|e| e.to_string())?;
     if o.links.is_empty() {
         return Err(format!(
@@ -47,8 +52,7 @@ pub fn lang_run_into(
     name: &str,
     session: &Session,
 ) -> Result<String, String> {
-    let text = std::fs::read_to_string(program_path)
-        .map_err(|e| format!("{}: {e}", program_path.display()))?;
+    let text = read_program(program_path)?;
     let o = program::run(&text, &program_path.display().to_string()).map_err(|e| e.to_string())?;
     let links: Vec<_> = o
         .links
@@ -174,7 +178,8 @@ pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(),
     match script {
         Some(path) => {
             let text =
-                std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+                robosim_input::read_to_string(path, "an editor script", robosim_input::Limit::TEXT)
+                    .map_err(|e| e.to_string())?;
             for (k, line) in text.lines().enumerate() {
                 if let Some(said) = follow(&mut reader, &ed, &mut p, ed.version)? {
                     println!("{said}");

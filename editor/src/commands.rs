@@ -644,12 +644,18 @@ pub fn execute<S: Space>(
         "save" => {
             let f = word(&l, 0, "a file name")?;
             let text = serde_json::to_string_pretty(ed.design()).map_err(|e| e.to_string())?;
-            std::fs::write(f, text).map_err(|e| format!("save: {f}: {e}"))?;
+            robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
+                .map_err(|e| format!("save: {e}"))?;
             Ok(Outcome::Said(format!("saved {f}")))
         }
         "load" => {
             let f = word(&l, 0, "a file name")?;
-            let text = std::fs::read_to_string(f).map_err(|e| format!("load: {f}: {e}"))?;
+            let text = robosim_input::read_to_string(
+                std::path::Path::new(f),
+                "an editor design",
+                robosim_input::Limit::TEXT,
+            )
+            .map_err(|e| format!("load: {e}"))?;
             let d: Design = serde_json::from_str(&text).map_err(|e| format!("load: {f}: {e}"))?;
             validate(&d).map_err(|e| format!("load: {f}: {e}"))?;
             done(ed.replace(d))
@@ -668,12 +674,18 @@ pub fn execute<S: Space>(
                 std::fs::create_dir_all(dir)
                     .map_err(|e| format!("code: {}: {e}", dir.display()))?;
             }
-            std::fs::write(f, text).map_err(|e| format!("code: {f}: {e}"))?;
+            robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
+                .map_err(|e| format!("code: {e}"))?;
             Ok(Outcome::Said(format!("wrote {f}")))
         }
         "read-code" => {
             let f = word(&l, 0, "a ROBOSIM program")?;
-            let text = std::fs::read_to_string(f).map_err(|e| format!("read-code: {f}: {e}"))?;
+            let text = robosim_input::read_to_string(
+                std::path::Path::new(f),
+                "a ROBOSIM program",
+                robosim_input::Limit::TEXT,
+            )
+            .map_err(|e| format!("read-code: {e}"))?;
             let out = program::run(&text, f).map_err(|e| e.to_string())?;
             let robot = ed.design().robot.clone();
             let d = codegen::design_from_program(&out, &robot).map_err(|e| e.to_string())?;

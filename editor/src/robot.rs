@@ -119,7 +119,8 @@ pub fn order_links(
 /// directory (a program, notes) are not links.
 fn looks_like_link_file(p: &Path) -> bool {
     use std::io::BufRead;
-    let Ok(f) = std::fs::File::open(p) else {
+    // Only a regular file is opened: a FIFO in the folder would block the open.
+    let Ok((f, _)) = robosim_input::open_regular(p, "a link file") else {
         return false;
     };
     let mut first = String::new();

@@ -154,17 +154,24 @@ pub const SHIPPED_MODELS: &[&str] = &["eclss"];
 
 /// Loads a model by shipped name (`eclss`) or from a file path.
 ///
-/// Errors: unreadable file (reported at 0:0), or any parse/resolution error of [`parse_model`].
+/// Errors: unreadable file — missing, not a regular file, larger than
+/// [`robosim_input::Limit::TEXT`] — (reported at 0:0), or any parse/resolution error of [`parse_model`].
 pub fn load_model(name_or_path: &str) -> Result<Model, ModelError> {
     if name_or_path == "eclss" {
         return parse_model(ECLSS_SOURCE, "<eclss>");
     }
-    let text = std::fs::read_to_string(Path::new(name_or_path)).map_err(|e| ModelError {
+    let text = robosim_input::read_to_string(
+        Path::new(name_or_path),
+        "a fault model",
+        robosim_input::Limit::TEXT,
+    )
+    .map_err(|e| ModelError {
         file: name_or_path.to_string(),
         line: 0,
         col: 0,
         message: format!(
-            "cannot read model (not a file, and not a shipped model {SHIPPED_MODELS:?}): {e}"
+            "cannot read model (not a shipped model {SHIPPED_MODELS:?} either): {}",
+            e.reason()
         ),
     })?;
     parse_model(&text, name_or_path)

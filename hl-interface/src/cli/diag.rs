@@ -185,8 +185,9 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
         } => {
             let m = load(&model)?;
             let g = FaultGraph::new(&m);
-            let text = std::fs::read_to_string(&alarms)
-                .map_err(|e| format!("{}: {e}", alarms.display()))?;
+            let text =
+                robosim_input::read_to_string(&alarms, "an alarm file", robosim_input::Limit::TEXT)
+                    .map_err(|e| e.to_string())?;
             let events = parse_alarms(&m, &text, &alarms.display().to_string())?;
             let present = allocation(&m, &drop)?;
             let mut ilm = Ilm::new(&m, &g, Some(&present));

@@ -31,8 +31,8 @@ pub struct SimArgs {
 fn load_robot(spec: &str, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Robot, String> {
     if spec.ends_with(".json") {
         let path = PathBuf::from(spec);
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let text = robosim_input::read_to_string(&path, "a robot file", robosim_input::Limit::TEXT)
+            .map_err(|e| e.to_string())?;
         let v: serde_json::Value = serde_json::from_str(&text)
             .map_err(|e| format!("{}:{}:{}: {e}", path.display(), e.line(), e.column()))?;
         return robot_from_json(&v).map_err(|e| format!("{}: {e}", path.display()));
@@ -55,7 +55,12 @@ pub fn run(args: &SimArgs, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<(),
             SceneEffects::from_json(s).map_err(|e| e.to_string())?
         }
         Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
+            let text = robosim_input::read_to_string(
+                std::path::Path::new(path),
+                "an effects file",
+                robosim_input::Limit::TEXT,
+            )
+            .map_err(|e| e.to_string())?;
             SceneEffects::from_json(&text).map_err(|e| format!("{path}: {e}"))?
         }
     };

@@ -305,8 +305,12 @@ fn scene_effects(
     file: Option<&str>,
 ) -> Result<(SceneEffects, String, Declared)> {
     if let Some(f) = file {
-        let text =
-            std::fs::read_to_string(f).map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?;
+        let text = robosim_input::read_to_string(
+            std::path::Path::new(f),
+            "an effects file",
+            robosim_input::Limit::TEXT,
+        )
+        .map_err(|e| DaemonError::Effects(e.to_string()))?;
         return Ok((
             SceneEffects::from_json(&text)
                 .map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?,
