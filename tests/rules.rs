@@ -590,3 +590,42 @@ fn deep_recursion_and_a_string_doubled_forty_times_are_errors_not_crashes() {
         assert!(log.contains(says), "{name}: {log}");
     }
 }
+
+/// Issue 34 item 16: `robosim down` with the shipped rule bases running took 10 s (the rules
+/// processes were SIGKILLed after ignoring SIGTERM). They end on SIGTERM.
+#[test]
+fn down_stops_the_shipped_rule_bases_by_sigterm() {
+    let k = Procs::new("rulesdown");
+    let down = Down(&k);
+    let (ok, text) = robosim(&k, &["up", "station_eclss"]);
+    assert!(ok, "{text}");
+    let mut k2 = Procs {
+        children: Vec::new(),
+        home: tempfile::tempdir().expect("unused home"),
+        name: k.name.clone(),
+    };
+    for file in [RULES, ECLSS_RULES] {
+        let c = Command::new(ROBOSIM)
+            .args(["rules", file, "--session", &k.name])
+            .env("ROBOSIM_HOME", k.home.path())
+            .env("IOX2_LOG_LEVEL", "Error")
+            .spawn()
+            .expect("rules");
+        k2.children.push(c);
+    }
+    wait_for("both rule bases registered", || {
+        (ps(&k).iter().filter(|(r, _)| r == "rules").count() == 2).then_some(())
+    });
+    let (ok, text) = robosim(&k, &["down"]);
+    assert!(ok, "{text}");
+    assert_eq!(text.matches("stopped rules (pid").count(), 2, "{text}");
+    assert!(!text.contains("SIGKILL"), "{text}");
+    for c in &mut k2.children {
+        let status = c.wait().expect("wait");
+        assert!(
+            status.success(),
+            "a rules process ended by SIGTERM, exit 0: {status}"
+        );
+    }
+    drop(down);
+}
