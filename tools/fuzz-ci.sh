@@ -20,7 +20,7 @@ shift || true
 if [ "$#" -gt 0 ]; then
   TARGETS=("$@")
 else
-  TARGETS=(library protocol trajectory hfm journal)
+  TARGETS=(library protocol trajectory hfm journal urdf stl obj dae model linkfile program edit)
 fi
 # Per-input limits: an input slower than this many seconds is a hang; more memory than this
 # is a leak or an unbounded allocation. Both fail the run like a crash.

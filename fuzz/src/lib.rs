@@ -13,13 +13,26 @@
 //! Targets: [`library`] (Library Space language: lex, parse, check, evaluate; a parameter
 //! expression), [`protocol`] (query protocol: line → request → answer, without a session),
 //! [`trajectory`] (the display's joint trajectory files), [`hfm`] (HPM/HFM model files),
-//! [`journal`] (Instance Space recovery: checkpoint + journal records).
+//! [`journal`] (Instance Space recovery: checkpoint + journal records), [`urdf`] (URDF as a
+//! chain and as a tree, collision solids), [`stl`] and [`obj`] (mesh import, through
+//! [`mesh`]), [`dae`] (Collada), [`model`] (model files, binary and JSON, and their load
+//! transaction), [`linkfile`] (link files and `lang load`), [`program`] (ROBOSIM programs and
+//! `lang run`), [`edit`] (the editor's command lines).
 
+pub mod dae;
+pub mod edit;
 pub mod hfm;
 pub mod journal;
 pub mod library;
+pub mod linkfile;
+pub mod mesh;
+pub mod model;
+pub mod obj;
+pub mod program;
 pub mod protocol;
+pub mod stl;
 pub mod trajectory;
+pub mod urdf;
 
 /// The display's trajectory reader, compiled from its source file: depending on
 /// `robosim-display` would build wgpu and winit under the sanitizer, minutes of the CI budget
