@@ -1744,3 +1744,65 @@ fn down_after_kill9_of_the_keeper_removes_the_sessions_shared_memory() {
         "{text}"
     );
 }
+
+/// Issue 34 item 1: both journal files deleted after `kill -9` (the scene note kept) made the
+/// next `up` start silently at version 1 with the scene loaded again. The journal control
+/// file names the journal and its first version: the keeper refuses, `up` says why, naming
+/// the files, and changes nothing; `up --fresh` moves what is left aside and starts over.
+#[test]
+fn vanished_journal_files_are_refused_by_up_naming_them() {
+    let mut t = TestSession::new("jv");
+    let keeper = t.start_keeper();
+    let s = t.session();
+    let mut c = Client::connect(&s, "writer").expect("connect");
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scene", None);
+    c.transact(&tx).expect("scene");
+    drop(c);
+    kill9(keeper);
+    let i = t
+        .children
+        .iter()
+        .position(|c| c.id() == keeper)
+        .expect("ours");
+    let _ = t.children[i].wait();
+    let (log, mirror) = journal_copies(&s);
+    std::fs::remove_file(&log).expect("remove log");
+    std::fs::remove_file(&mirror).expect("remove mirror");
+    struct Down(Command);
+    impl Drop for Down {
+        fn drop(&mut self) {
+            let _ = self.0.output();
+        }
+    }
+    let mut down = t.command(ROBOSIM);
+    down.args(["down", "--session", &t.name]);
+    let _down = Down(down);
+    let out = t
+        .command(ROBOSIM)
+        .args(["up", "demo", "--session", &t.name])
+        .output()
+        .expect("run up");
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        !out.status.success(),
+        "`up` must not start from nothing:\n{err}"
+    );
+    let name = log
+        .file_name()
+        .expect("name")
+        .to_string_lossy()
+        .into_owned();
+    for want in [name.as_str(), "is missing", "journal.control", "--fresh"] {
+        assert!(err.contains(want), "{want:?} in:\n{err}");
+    }
+    assert!(!log.exists() && !mirror.exists());
+    let out = t
+        .command(ROBOSIM)
+        .args(["up", "demo", "--session", &t.name, "--fresh"])
+        .output()
+        .expect("run up --fresh");
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{err}");
+    assert!(err.contains("the saved model was moved to"), "{err}");
+}
