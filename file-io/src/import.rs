@@ -159,6 +159,19 @@ fn weld(tris: &Triangles) -> MeshGeometry {
             dropped += 1;
             continue;
         }
+        // The keeper's own polygon check (a sliver can pass the area test above and still
+        // have a normal too inexact for the planarity test): what it would refuse is dropped.
+        let corners: Vec<nalgebra::Point3<f64>> = p
+            .iter()
+            .map(|&k| {
+                let v = vertices[k as usize];
+                nalgebra::Point3::new(v[0], v[1], v[2])
+            })
+            .collect();
+        if robosim_geometry::check_polygon(&corners, 0, &[0, 1, 2]).is_err() {
+            dropped += 1;
+            continue;
+        }
         polygons.push(p);
     }
     MeshGeometry {

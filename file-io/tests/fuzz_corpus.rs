@@ -48,3 +48,27 @@ fn dae_fuzz_corpus_replays() {
 fn model_fuzz_corpus_replays() {
     replay::replay(&fuzz_dir(), "model", model::run);
 }
+
+/// Issue 34 (fuzzing, `stl` target): `import mesh --hull` of a (mutated) panda STL kept a hull
+/// sliver triangle that passed the importer's area test but not the keeper's planarity test
+/// ("polygon 13 is not planar: vertex 12 lies -9.6e-11 m off its plane"), so the import was
+/// refused whole. The importer now drops what the keeper's own polygon check refuses.
+#[test]
+fn imported_hull_sliver_triangle_is_dropped_not_refused_by_the_keeper() {
+    use robosim_file_io::import::{Placement, import_tx, mesh_geometry, read_mesh};
+    let path = fuzz_dir().join("seeds/stl/regression-hull-sliver-refused-by-keeper.stl");
+    let tris = read_mesh(&path, 1.0).expect("reads");
+    for hull in [false, true] {
+        let g = mesh_geometry(&tris, hull, &path).expect("geometry");
+        let place = Placement {
+            name: "m".into(),
+            pose: robosim_instance_space::IDENTITY,
+            parent: None,
+            appearance: robosim_instance_space::Appearance::default(),
+        };
+        if let Err(e) = robosim_instance_space::Store::new().apply(&import_tx(&g.geometry, &place))
+        {
+            panic!("hull {hull}: the keeper refuses the imported geometry: {e}");
+        }
+    }
+}

@@ -22,7 +22,9 @@ pub mod shapes;
 pub mod triangulate;
 
 pub use mass::{MassError, MassProperties};
-pub use polyhedron::{Aabb, GeometryError, PLANARITY_TOL, Plane, Polygon, Polyhedron};
+pub use polyhedron::{
+    Aabb, GeometryError, PLANARITY_TOL, Plane, Polygon, Polyhedron, check_polygon,
+};
 
 /// The unit vector along `v` (an axis from user input), computed without overflow or
 /// underflow: `v` is first divided by its largest |component|, so `[1e200, 0, 0]` and

@@ -290,8 +290,9 @@ impl Polyhedron {
 }
 
 /// Newell's normal (area-weighted, robust for nearly degenerate input), then planarity and
-/// convexity against it.
-fn check_polygon(
+/// convexity against it. Public so that readers which drop bad polygons of a mesh (STL/OBJ
+/// import) drop exactly those the keeper's validation would refuse.
+pub fn check_polygon(
     vertices: &[Point3<f64>],
     fi: usize,
     face: &[u32],
