@@ -715,17 +715,30 @@ pub fn serve(
     input: impl BufRead,
     output: impl Write,
 ) -> std::result::Result<crate::ServeStats, ServeError> {
-    let mut ops = Ops::attach(session)?;
+    // A session that cannot take this process (no keeper, its reader or writer limit reached)
+    // answers every session op with a `session` error saying so, pure ops as ever; the stream
+    // then ends with that error (the exit status says the session was not served).
+    let mut ops = Ops::attach(session);
     let listing: Vec<(&str, &str)> = OPS.iter().map(|op| (*op, "session")).collect();
-    let mut answer = |op: &str, req: &Value| -> Option<OpResult> { ops.dispatch(op, req) };
-    Ok(crate::serve_with(
+    let mut answer = |op: &str, req: &Value| -> Option<OpResult> {
+        match &mut ops {
+            Ok(ops) => ops.dispatch(op, req),
+            Err(why) => (OPS.contains(&op) && !is_pure_form(op, req))
+                .then(|| Err(err(ErrorKind::Session, why.to_string()))),
+        }
+    };
+    let stats = crate::serve_with(
         input,
         output,
         crate::Extension {
             ops: &listing,
             answer: &mut answer,
         },
-    )?)
+    )?;
+    match ops {
+        Ok(_) => Ok(stats),
+        Err(e) => Err(e.into()),
+    }
 }
 
 /// Why [`serve`] stopped early.

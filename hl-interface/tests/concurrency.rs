@@ -186,7 +186,11 @@ fn rotate_about_a_huge_or_tiny_axis_turns_the_object() {
     let k = demo_session("axis");
     let mut ops = Ops::attach(&k.session).expect("attach");
     let quarter = std::f64::consts::FRAC_PI_2;
-    for (op, axis) in [("postrotate", 1e200), ("prerotate", 1e-200), ("postrotate", 5e-324)] {
+    for (op, axis) in [
+        ("postrotate", 1e200),
+        ("prerotate", 1e-200),
+        ("postrotate", 5e-324),
+    ] {
         let a = ops
             .dispatch(
                 op,
@@ -204,7 +208,11 @@ fn rotate_about_a_huge_or_tiny_axis_turns_the_object() {
     for (g, w) in got.iter().zip(want) {
         assert!((g - w).abs() < 1e-12, "rotation {got:?}, want {want:?}");
     }
-    for axis in [json!([0.0, 0.0, 0.0]), json!([1.0, 0.0]), json!([1e308, "x", 0.0])] {
+    for axis in [
+        json!([0.0, 0.0, 0.0]),
+        json!([1.0, 0.0]),
+        json!([1e308, "x", 0.0]),
+    ] {
         let e = ops
             .dispatch(
                 "postrotate",
@@ -214,4 +222,107 @@ fn rotate_about_a_huge_or_tiny_axis_turns_the_object() {
             .expect_err("no direction");
         assert_eq!(e.kind.as_str(), "bad_request", "{e}");
     }
+}
+
+/// A session serves 16 readers and 16 writers by default; the 17th `robosim query` died on a
+/// raw iceoryx2 error with no answer. Now the reader or writer beyond the limit gets a typed
+/// error naming the session, the limit and how to raise it, and `serve` answers each session
+/// op with a `session` error saying so.
+#[test]
+fn clients_beyond_the_limit_get_a_typed_session_error() {
+    use robosim_hl_interface::session::{AttachError, serve};
+    use robosim_instance_space::{ClientError, ReaderError};
+    let opts = KeeperOptions::default();
+    let limit = opts.max_clients;
+    assert_eq!(
+        (limit, opts.max_readers),
+        (16, 16),
+        "the documented defaults"
+    );
+    let k = ThreadKeeper::start("limit", opts);
+    let held: Vec<Ops> = (0..limit)
+        .map(|n| Ops::attach(&k.session).unwrap_or_else(|e| panic!("attach {n}: {e}")))
+        .collect();
+    let e = Ops::attach(&k.session)
+        .err()
+        .expect("the 17th reader is refused");
+    let said = e.to_string();
+    assert!(
+        matches!(
+            e,
+            AttachError::Reader(ReaderError::TooManyReaders { limit: 16, .. })
+        ),
+        "{said}"
+    );
+    assert!(
+        said.contains("limit of 16 readers") && said.contains("ROBOSIM_MAX_CLIENTS"),
+        "{said}"
+    );
+    let e = Client::connect(&k.session, "extra")
+        .err()
+        .expect("the 17th writer is refused");
+    assert!(
+        matches!(e, ClientError::TooManyClients { limit: 16, .. }),
+        "{e}"
+    );
+    assert!(e.to_string().contains("limit of 16 writers"), "{e}");
+    let input = concat!(
+        r#"{"id": 1, "op": "posttranslate", "object": "table", "by": [0.001, 0, 0]}"#,
+        "\n",
+        r#"{"id": 2, "op": "get_robot", "robot": "arm2"}"#,
+        "\n"
+    );
+    let mut out = Vec::new();
+    let served = serve(&k.session, input.as_bytes(), &mut out);
+    assert!(served.is_err(), "the stream ends with the attach error");
+    let answers: Vec<serde_json::Value> = String::from_utf8_lossy(&out)
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("a JSON answer"))
+        .collect();
+    assert_eq!(answers.len(), 2, "one answer per request: {answers:?}");
+    for a in &answers {
+        assert_eq!(a["ok"], false, "{a}");
+        assert_eq!(a["error"]["kind"], "session", "{a}");
+        let m = a["error"]["message"].as_str().unwrap_or("");
+        assert!(m.contains("limit of 16"), "{a}");
+    }
+    drop(held);
+}
+
+/// The limit is the keeper's option (`ROBOSIM_MAX_CLIENTS` for a session's keeper): raised to
+/// 17, a 17th reader and writer attach.
+#[test]
+fn raising_the_client_limit_lets_a_17th_in() {
+    let opts = KeeperOptions {
+        max_clients: 17,
+        max_readers: 17,
+        ..KeeperOptions::default()
+    };
+    let k = ThreadKeeper::start("raised", opts);
+    let held: Vec<Ops> = (0..17)
+        .map(|n| Ops::attach(&k.session).unwrap_or_else(|e| panic!("attach {n}: {e}")))
+        .collect();
+    assert_eq!(held.len(), 17);
+}
+
+/// A transaction larger than a request may be is refused before any shared memory is asked
+/// for, naming its size and the limit (it said "iceoryx2 loan request: OutOfMemory").
+#[test]
+fn an_oversized_transaction_names_its_size_and_the_limit() {
+    use robosim_instance_space::{ClientError, MAX_REQUEST_BYTES};
+    let k = ThreadKeeper::start("big", KeeperOptions::default());
+    let mut c = Client::connect(&k.session, "big").expect("connect");
+    // Zeroed pages from the allocator: never touched, so this costs no memory.
+    let bytes = vec![0u8; MAX_REQUEST_BYTES + 1];
+    let e = c.submit_raw(&bytes).err().expect("refused");
+    assert!(
+        matches!(e, ClientError::TooLarge { bytes, limit } if bytes == MAX_REQUEST_BYTES + 1 && limit == MAX_REQUEST_BYTES),
+        "{e}"
+    );
+    let said = e.to_string();
+    assert!(
+        said.contains(&(MAX_REQUEST_BYTES + 1).to_string())
+            && said.contains(&MAX_REQUEST_BYTES.to_string()),
+        "{said}"
+    );
 }

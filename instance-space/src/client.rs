@@ -52,6 +52,22 @@ pub enum ClientError {
     Timeout(Duration),
     #[error("more than {MAX_IN_FLIGHT} transactions in flight; wait for some first")]
     TooManyInFlight,
+    /// The session's keeper serves at most `limit` writers at once and that many are
+    /// connected (each `robosim query`, editor, simulator, rules process is one).
+    #[error(
+        "session {session} already has its limit of {limit} writers connected; stop one, or start the session's keeper with more ({MAX_CLIENTS_ENV}=N robosim up …)"
+    )]
+    TooManyClients { session: String, limit: usize },
+    /// A transaction larger than one request may be.
+    #[error(
+        "the transaction is {bytes} bytes encoded; a request may be at most {limit} bytes (split it into several transactions)"
+    )]
+    TooLarge { bytes: usize, limit: usize },
+    /// The shared memory for requests could not grow to hold this one.
+    #[error(
+        "the transaction is {bytes} bytes encoded and the shared memory could not grow to hold it (is /dev/shm full?)"
+    )]
+    OutOfSharedMemory { bytes: usize },
     #[error("iceoryx2 {what}: {message}")]
     Ipc { what: String, message: String },
 }
@@ -67,6 +83,38 @@ fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> ClientError 
 /// gives up on conflicts. Each conflict means another writer committed in between, so N
 /// writers racing on one object need at most N attempts each.
 pub const MAX_FRESH_ATTEMPTS: u32 = 64;
+
+/// The environment variable that sets how many writers and readers a session's keeper serves
+/// at once ([`crate::KeeperOptions::max_clients`] and `max_readers`; default 16 each).
+pub const MAX_CLIENTS_ENV: &str = "ROBOSIM_MAX_CLIENTS";
+
+/// The writer and reader limit [`MAX_CLIENTS_ENV`] names (`None` when unset); an unreadable
+/// value is an error naming the variable.
+pub fn max_clients_from_env() -> Result<Option<usize>, String> {
+    match std::env::var(MAX_CLIENTS_ENV) {
+        Err(_) => Ok(None),
+        Ok(v) => v
+            .trim()
+            .parse::<usize>()
+            .ok()
+            .filter(|n| (1..=MAX_CLIENTS_CEILING).contains(n))
+            .map(Some)
+            .ok_or_else(|| {
+                format!(
+                    "{MAX_CLIENTS_ENV}={v:?}: expected a whole number of processes, 1 to {MAX_CLIENTS_CEILING}"
+                )
+            }),
+    }
+}
+
+/// The most writers (and readers) [`MAX_CLIENTS_ENV`] may ask for: each costs the keeper a
+/// response pool share and every service a port slot.
+pub const MAX_CLIENTS_CEILING: usize = 256;
+
+/// The largest encoded transaction a client sends (a request of more is refused before any
+/// shared memory is asked for: [`ClientError::TooLarge`]). 512 MiB: four times a 10⁵-object
+/// model with geometry in one transaction.
+pub const MAX_REQUEST_BYTES: usize = 1 << 29;
 
 /// How often a waiting writer asks whether the keeper is still alive.
 pub const LIVENESS_PERIOD: Duration = Duration::from_millis(50);
@@ -138,7 +186,15 @@ impl Client {
             .initial_max_slice_len(4096)
             .allocation_strategy(AllocationStrategy::PowerOfTwo)
             .create()
-            .map_err(ipc("create client"))?;
+            .map_err(|e| match e {
+                iceoryx2::service::port_factory::client::ClientCreateError::ExceedsMaxSupportedClients => {
+                    ClientError::TooManyClients {
+                        session: session.name().to_owned(),
+                        limit: rr.static_config().max_clients(),
+                    }
+                }
+                e => ipc("create client")(e),
+            })?;
         let req_event = node
             .service_builder(&session.service(services::REQUEST_EVENT)?)
             .event()
@@ -258,29 +314,30 @@ impl Client {
         if self.keeper_gone {
             return Err(ClientError::KeeperGone);
         }
+        if bytes.len() > MAX_REQUEST_BYTES {
+            return Err(ClientError::TooLarge {
+                bytes: bytes.len(),
+                limit: MAX_REQUEST_BYTES,
+            });
+        }
+        use iceoryx2::port::LoanError;
         let req = self
             .client
             .loan_slice_uninit(bytes.len().max(1))
-            .map_err(|e| match format!("{e:?}") {
-                m if m.contains("ExceedsMaxLoans") || m.contains("ExceedsMaxActive") => {
-                    ClientError::TooManyInFlight
+            .map_err(|e| match e {
+                LoanError::ExceedsMaxLoans => ClientError::TooManyInFlight,
+                LoanError::OutOfMemory | LoanError::ExceedsMaxLoanSize => {
+                    ClientError::OutOfSharedMemory { bytes: bytes.len() }
                 }
-                m => ClientError::Ipc {
-                    what: "loan request".into(),
-                    message: m,
-                },
+                e => ipc("loan request")(e),
             })?;
         let payload = if bytes.is_empty() { &[0u8][..] } else { bytes };
-        let inner = req
-            .write_from_slice(payload)
-            .send()
-            .map_err(|e| match format!("{e:?}") {
-                m if m.contains("ExceedsMaxActive") => ClientError::TooManyInFlight,
-                m => ClientError::Ipc {
-                    what: "send request".into(),
-                    message: m,
-                },
-            })?;
+        let inner = req.write_from_slice(payload).send().map_err(|e| match e {
+            iceoryx2::port::client::RequestSendError::ExceedsMaxActiveRequests => {
+                ClientError::TooManyInFlight
+            }
+            e => ipc("send request")(e),
+        })?;
         let _ = self
             .notifier
             .notify_with_custom_event_id(EventId::new(events::REQUEST));

@@ -30,7 +30,10 @@ mod store;
 mod transaction;
 mod view;
 
-pub use client::{Client, ClientError, Committed, MAX_FRESH_ATTEMPTS, Pending};
+pub use client::{
+    Client, ClientError, Committed, MAX_CLIENTS_ENV, MAX_FRESH_ATTEMPTS, MAX_REQUEST_BYTES,
+    Pending, max_clients_from_env,
+};
 pub use journal::ObjectData;
 pub use keeper::{DEFAULT_SPIN_US, Keeper, KeeperError, KeeperOptions, SPIN_ENV, spin_from_env};
 pub use reader::{

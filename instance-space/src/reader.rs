@@ -51,6 +51,13 @@ pub enum ReaderError {
     ChangesLost { since: u64, oldest: u64 },
     #[error("this reader holds too many snapshots; drop old ones before taking a new one")]
     TooManySnapshotsHeld,
+    /// The session's keeper serves at most `limit` readers at once and that many are attached
+    /// (each `robosim query`, display, simulator, rules process is one).
+    #[error(
+        "session {session} already has its limit of {limit} readers attached; stop one, or start the session's keeper with more ({}=N robosim up …)",
+        crate::MAX_CLIENTS_ENV
+    )]
+    TooManyReaders { session: String, limit: usize },
     #[error("iceoryx2 {what}: {message}")]
     Ipc { what: String, message: String },
 }
@@ -905,7 +912,15 @@ impl Reader {
         let objects_base_sub = objects_base_svc
             .subscriber_builder()
             .create()
-            .map_err(ipc("subscribe objects base"))?;
+            .map_err(|e| match e {
+                iceoryx2::port::subscriber::SubscriberCreateError::ExceedsMaxSupportedSubscribers => {
+                    ReaderError::TooManyReaders {
+                        session: session.name().to_owned(),
+                        limit: objects_base_svc.static_config().max_subscribers(),
+                    }
+                }
+                e => ipc("subscribe objects base")(e),
+            })?;
         let poses_svc = open(services::POSES)?;
         let changes_svc = open(services::CHANGES)?;
         let base_svc = open(services::POSE_BASE)?;
