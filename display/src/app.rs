@@ -44,7 +44,7 @@ use crate::trajectory::to_si;
 use crate::window::{Host, WindowOptions};
 use crate::{Camera, Hit, Projection, Renderer, Style};
 use nalgebra::{Point3, Vector3};
-use robosim_instance_space::{Client, Kind, Reader, Session, Snapshot, Store};
+use robosim_instance_space::{Client, FollowTrouble, Kind, Reader, Session, Snapshot, Store};
 use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -650,6 +650,9 @@ pub struct DisplayArgs {
 /// The session side of the display: its reader and, for knob moves and playback, a client.
 struct SessionHost {
     reader: Reader,
+    /// The reader's errors, said once: the display keeps the last version it drew and tries
+    /// again (a malformed segment makes the reader attach again; issue 34 item 4).
+    trouble: FollowTrouble,
     session: Session,
     client: Option<Client>,
     collisions: bool,
@@ -784,7 +787,7 @@ impl Host for SessionHost {
     fn update(&mut self, r: &mut Renderer) -> std::result::Result<bool, String> {
         // `wait_change` may already have advanced the reader: compare versions, not
         // `refresh`'s answer.
-        self.reader.refresh().map_err(|e| e.to_string())?;
+        self.trouble.refresh("display", &mut self.reader);
         let Some(snap) = self.reader.snapshot() else {
             return Ok(false);
         };
@@ -939,6 +942,7 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     )?;
     let mut host = SessionHost {
         reader,
+        trouble: FollowTrouble::default(),
         session: session.clone(),
         client: None,
         collisions: a.view.collisions,
@@ -1041,12 +1045,17 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             sample += 1;
         }
         if !host.update(&mut r).map_err(AppError)? {
-            if let Err(e) = host.reader.wait_change(Duration::from_millis(20)) {
-                // SIGTERM/SIGINT interrupt the wait: stop cleanly (`robosim down`).
-                if signals.wait(Duration::ZERO).is_err() {
-                    break;
-                }
-                return Err(e.into());
+            let waited = host.reader.wait_change(Duration::from_millis(20));
+            // SIGTERM/SIGINT interrupt the wait: stop cleanly (`robosim down`).
+            if waited.is_err() && signals.wait(Duration::ZERO).is_err() {
+                break;
+            }
+            // Any other error is said once; the display keeps its last frame and follows on.
+            if !host
+                .trouble
+                .note("display", &host.reader, waited.map(|_| ()))
+            {
+                std::thread::sleep(Duration::from_millis(20));
             }
             continue;
         }

@@ -37,7 +37,8 @@ pub use client::{
 pub use journal::ObjectData;
 pub use keeper::{DEFAULT_SPIN_US, Keeper, KeeperError, KeeperOptions, SPIN_ENV, spin_from_env};
 pub use reader::{
-    Change, GeometryView, LibraryPublication, ObjectView, Reader, ReaderError, Snapshot, compose,
+    Change, FollowTrouble, GeometryView, LibraryPublication, ObjectView, Reader, ReaderError,
+    Snapshot, compose,
 };
 pub use scratch::ScratchKeeper;
 pub use session::{

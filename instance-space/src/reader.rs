@@ -832,6 +832,65 @@ struct ObjUpdate {
     chunk: ObjSrc,
 }
 
+/// What a long-running follower (the simulator daemon, the display, the bridge) does with
+/// its reader's errors: it does not exit on them. A malformed segment already makes the
+/// reader attach again ([`Reader::refresh`]); any other error (the keeper killed between the
+/// parts of a version, an iceoryx2 refusal) leaves the snapshot at the last good version and
+/// the next pass tries again. Each trouble is said once on stderr — when it begins, when it
+/// changes, when the reader attached again, and when following resumes — not once per pass.
+#[derive(Debug, Default)]
+pub struct FollowTrouble {
+    said: Option<String>,
+    reattached: u64,
+}
+
+impl FollowTrouble {
+    /// [`Reader::refresh`] for a follower named `who`: whether the snapshot advanced; `false`
+    /// on an error (said once).
+    pub fn refresh(&mut self, who: &str, reader: &mut Reader) -> bool {
+        let r = reader.refresh();
+        let advanced = matches!(r, Ok(true));
+        self.note(who, reader, r.map(|_| ()));
+        advanced
+    }
+
+    /// Notes the outcome `r` of a reader call made by follower `who`; `true` when it went
+    /// well.
+    pub fn note(&mut self, who: &str, reader: &Reader, r: Result<(), ReaderError>) -> bool {
+        let version = reader.snapshot().map_or(0, |s| s.version());
+        if reader.reattachments() != self.reattached {
+            self.reattached = reader.reattachments();
+            eprintln!(
+                "{who}: met a malformed published segment ({}); attached again, following from version {version}",
+                reader.last_reattach_cause().unwrap_or("?")
+            );
+        }
+        match r {
+            Ok(()) => {
+                if self.said.take().is_some() {
+                    eprintln!("{who}: following the model again at version {version}");
+                }
+                true
+            }
+            Err(e) => {
+                let message = e.to_string();
+                if self.said.as_deref() != Some(message.as_str()) {
+                    eprintln!(
+                        "{who}: cannot follow the model ({message}); keeping version {version} and trying again"
+                    );
+                    self.said = Some(message);
+                }
+                false
+            }
+        }
+    }
+
+    /// Whether the last reader call noted went wrong.
+    pub fn in_trouble(&self) -> bool {
+        self.said.is_some()
+    }
+}
+
 /// The Library Space as published ([`Reader::library`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct LibraryPublication {

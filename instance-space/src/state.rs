@@ -26,6 +26,13 @@ pub enum StateError {
     NoPublisher { session: String, name: String },
     #[error("iceoryx2 {what}: {message}")]
     Ipc { what: String, message: String },
+    /// The receiver of a command died (killed, crashed) before answering it: no receiver is
+    /// left, or iceoryx2 finds every receiver's node dead (its process gone without cleaning
+    /// up). Said as soon as it is seen, not after the sender's timeout.
+    #[error(
+        "the {name} of session {session} died before answering (its process ended without stopping: killed or crashed); start it again (`robosim up SCENE --with {name}` or `robosim {name}`)"
+    )]
+    ReceiverDead { session: String, name: String },
     #[error("malformed state record: {0}")]
     Layout(#[from] crate::layout::LayoutError),
 }
@@ -314,10 +321,21 @@ impl CommandReceiver {
 }
 
 pub struct CommandSender {
-    _node: Node<ipc::Service>,
+    node: Node<ipc::Service>,
     client: iceoryx2::port::client::Client<ipc::Service, [u8], (), [u8], ()>,
-    _services: Vec<Box<dyn std::any::Any>>,
+    service: iceoryx2::service::port_factory::request_response::PortFactory<
+        ipc::Service,
+        [u8],
+        (),
+        [u8],
+        (),
+    >,
+    session: String,
+    name: String,
 }
+
+/// How often a sender waiting for an answer checks that its receiver is alive.
+const LIVENESS_EVERY: Duration = Duration::from_millis(20);
 
 impl CommandSender {
     pub fn open(session: &Session, name: &str, role: &str) -> Result<Self, StateError> {
@@ -338,12 +356,35 @@ impl CommandSender {
             .create()
             .map_err(ipc("create command client"))?;
         Ok(CommandSender {
-            _node: node,
+            node,
             client,
-            _services: vec![Box::new(svc)],
+            service: svc,
+            session: session.name().to_owned(),
+            name: name.to_owned(),
         })
     }
-    /// Sends one command and waits (up to `timeout`) for the receiver's answer.
+
+    /// Whether a receiver of this service is alive: some server of it whose node iceoryx2
+    /// does not find dead (a node it cannot judge — no permission, inconsistent — counts as
+    /// alive: only a death seen is reported).
+    fn receiver_alive(&self) -> bool {
+        use iceoryx2::node::NodeState;
+        use iceoryx2::service::port_factory::PortFactory as _;
+        let mut servers = Vec::new();
+        self.service.dynamic_config().list_servers(|s| {
+            servers.push(s.node_id);
+            CallbackProgression::Continue
+        });
+        servers.into_iter().any(
+            |id| match Node::<ipc::Service>::state_of(self.node.config(), id) {
+                Ok(Some(NodeState::Dead(_))) | Ok(None) => false,
+                Ok(Some(_)) | Err(_) => true,
+            },
+        )
+    }
+
+    /// Sends one command and waits (up to `timeout`) for the receiver's answer; a receiver
+    /// that dies meanwhile (or is dead already) is [`StateError::ReceiverDead`] at once.
     pub fn send(&mut self, bytes: &[u8], timeout: Duration) -> Result<Vec<u8>, StateError> {
         let r = self
             .client
@@ -355,9 +396,19 @@ impl CommandSender {
             .send()
             .map_err(ipc("send command"))?;
         let start = std::time::Instant::now();
+        let mut next_check = start;
         loop {
             if let Some(resp) = pending.receive().map_err(ipc("receive answer"))? {
                 return Ok(resp.payload().to_vec());
+            }
+            if std::time::Instant::now() >= next_check {
+                next_check += LIVENESS_EVERY;
+                if !self.receiver_alive() {
+                    return Err(StateError::ReceiverDead {
+                        session: self.session.clone(),
+                        name: self.name.clone(),
+                    });
+                }
             }
             if start.elapsed() > timeout {
                 return Err(StateError::Ipc {

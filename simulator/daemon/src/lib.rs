@@ -66,7 +66,7 @@ pub use ctl::ctl;
 use nalgebra::DVector;
 use robosim_instance_space::layout::PoseRec;
 use robosim_instance_space::state::{CommandReceiver, JointStateRec, StatePublisher};
-use robosim_instance_space::{Kind, Reader, Session, Snapshot};
+use robosim_instance_space::{FollowTrouble, Kind, Reader, Session, Snapshot};
 use robosim_library::Library;
 use robosim_record::{Level, time_ns};
 use robosim_scene::{CompiledScene, Origin, Sync, link_poses};
@@ -634,13 +634,20 @@ impl Daemon<'_> {
 /// to the Instance Space at this moment (the reader is refreshed first, so a transaction
 /// acknowledged before the pause is counted and one committed after it is not), which orders
 /// the pause against the journal's versions.
-fn pause_record(reader: &mut Reader, run_steps: u64, cause: &'static str) -> Result<status::Pause> {
-    reader.refresh()?;
-    Ok(status::Pause {
+/// A reader error is said by `trouble` and the pause is recorded at the version the reader
+/// last followed.
+fn pause_record(
+    reader: &mut Reader,
+    trouble: &mut FollowTrouble,
+    run_steps: u64,
+    cause: &'static str,
+) -> status::Pause {
+    trouble.refresh("simulator", reader);
+    status::Pause {
         version: reader.snapshot().map_or(0, |s| s.version()),
         run_steps,
         cause,
-    })
+    }
 }
 
 /// The command's `cmd`, if it is a JSON object with one.
@@ -662,6 +669,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
     let session = Session::open(session)?;
     let signals = session.node("simulator-signals", true)?;
     let mut reader = Reader::attach(&session, "simulator")?;
+    let mut trouble = FollowTrouble::default();
     let mut state = StatePublisher::create(&session, "simulator")?;
     let mut commands = CommandReceiver::create(&session, "simulator")?;
     let _reg = session.register(
@@ -779,7 +787,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                 apply(&mut d.sims, &v, &mut running, &mut budget, &mut reset).map(|()| v)
             });
             if was_running && !running {
-                paused_at = Some(pause_record(&mut reader, steps, "command")?);
+                paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "command"));
             } else if running {
                 paused_at = None;
             }
@@ -806,8 +814,9 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
             }
         }
         // Follow the committed model: a structure change rebuilds, a joint/pose change is
-        // applied in place (module docs).
-        reader.refresh()?;
+        // applied in place (module docs). A reader error does not stop the simulator: it keeps
+        // the last version it followed and tries again on the next pass (issue 34 item 4).
+        trouble.refresh("simulator", &mut reader);
         if let Some(snap) = reader.snapshot()
             && (reset || snap.version() != version)
         {
@@ -845,7 +854,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     }
                     s.error = Some(e.to_string());
                     if running {
-                        paused_at = Some(pause_record(&mut reader, steps, "error")?);
+                        paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "error"));
                     }
                     running = false;
                 }
@@ -859,7 +868,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     r.event(run_ns, Level::Error, "space", &format!("{e}; paused"));
                 }
                 if running {
-                    paused_at = Some(pause_record(&mut reader, steps, "error")?);
+                    paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "error"));
                 }
                 running = false;
             }
@@ -872,7 +881,7 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
                     r.event(run_ns, Level::Error, "swap", &format!("{e}; paused"));
                 }
                 if running {
-                    paused_at = Some(pause_record(&mut reader, steps, "error")?);
+                    paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "error"));
                 }
                 running = false;
             }
