@@ -58,6 +58,10 @@ pub enum ClipsError {
     Load { path: String, what: &'static str },
     #[error("CLIPS refused {what}: {text}")]
     Refused { what: &'static str, text: String },
+    /// A rule file that is not a regular file, is larger than [`robosim_input::Limit::TEXT`],
+    /// or cannot be read.
+    #[error(transparent)]
+    Input(#[from] robosim_input::InputError),
 }
 
 /// The bounds of one run of the rules ([`Clips::run`]).
@@ -555,8 +559,11 @@ impl Clips {
         unsafe { (*self.ctx).terminate = Some(terminate) }
     }
 
-    /// Loads a rule file (constructs only), then resets (deffacts asserted).
+    /// Loads a rule file (constructs only), then resets (deffacts asserted). The file is first
+    /// read by [`robosim_input::read_file`]: CLIPS's own open of a FIFO would block and its
+    /// reader would take `/dev/zero` until memory runs out.
     pub fn load(&mut self, path: &std::path::Path) -> Result<(), ClipsError> {
+        robosim_input::read_file(path, "a rule file", robosim_input::Limit::TEXT)?;
         let shown = path.display().to_string();
         let p = cstring(&shown, &shown)?;
         // SAFETY: live environment, NUL-terminated path.
