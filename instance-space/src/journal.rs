@@ -651,9 +651,7 @@ fn keep_cut(
         .mode(0o700)
         .create(&lost_dir)
         .map_err(io_err(&lost_dir))?;
-    let stamp = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
+    let stamp = unique_stamp();
     let base = path
         .file_name()
         .map_or_else(|| "journal".into(), |n| n.to_string_lossy().into_owned());
@@ -926,22 +924,24 @@ fn length_repaired(bytes: &[u8], pos: usize, version: u64) -> Option<usize> {
     }
     let crc = u32::from_le_bytes([head[4], head[5], head[6], head[7]]);
     let body = &bytes[pos + RECORD_HEADER..];
-    let mut h = crc32fast::Hasher::new();
-    h.update(&head[8..16]);
-    for len in 0..=body.len() {
-        if h.clone().finalize() == crc {
+    let next = (version + 1).to_le_bytes();
+    // Where the record can end: the end of the copy, or a header naming the next version
+    // (a cheap comparison first; the checksums only there).
+    (0..=body.len())
+        .filter(|&len| {
             let end = pos + RECORD_HEADER + len;
-            let next_ok = end == bytes.len()
-                || matches!(check_record(bytes, end), Ok((_, v)) if v == version + 1);
-            if next_ok && Transaction::decode(&body[..len]).is_ok() {
-                return Some(len);
-            }
-        }
-        if let Some(&b) = body.get(len) {
-            h.update(&[b]);
-        }
-    }
-    None
+            end == bytes.len() || bytes.get(end + 8..end + 16) == Some(&next[..])
+        })
+        .find(|&len| {
+            let end = pos + RECORD_HEADER + len;
+            let mut h = crc32fast::Hasher::new();
+            h.update(&head[8..16]);
+            h.update(&body[..len]);
+            h.finalize() == crc
+                && (end == bytes.len()
+                    || matches!(check_record(bytes, end), Ok((_, v)) if v == version + 1))
+                && Transaction::decode(&body[..len]).is_ok()
+        })
 }
 
 /// Is `bytes[pos..]` nothing but a record torn while being written (or nothing at all)?
