@@ -730,6 +730,11 @@ impl Interp<'_> {
 /// link file of this run behind.
 pub fn write_links(out: &Output, dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
     std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    // A link, FIFO or device where a link file goes is refused before anything is written
+    // (the rename below would replace it).
+    for l in &out.links {
+        robosim_input::check_output_path(&dir.join(&l.name)).map_err(|e| e.to_string())?;
+    }
     let mut tmps = Vec::new();
     for l in &out.links {
         let tmp = dir.join(format!(".{}.tmp", l.name));

@@ -41,3 +41,39 @@ fn issue_34_lang_run_of_a_fifo_or_a_device_is_refused() {
         .expect_err("a device is refused");
     assert!(e.contains("it is a character device"), "{e}");
 }
+
+#[test]
+fn issue_34_lang_run_refuses_to_write_a_link_file_through_a_symlink() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let prg = dir.path().join("box.rsim");
+    std::fs::write(
+        &prg,
+        "UNITS M\nBOX X=0.1, Y=0.1, Z=0.4\nSTORE-LINK C.L1\nEND\n",
+    )
+    .expect("write");
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).expect("mkdir");
+    let precious = dir.path().join("precious");
+    std::fs::write(&precious, "keep me").expect("write");
+    std::os::unix::fs::symlink(&precious, out.join("C.L1")).expect("symlink");
+    let e = robosim_editor::cli::lang_run(&prg, &out).expect_err("a link is refused");
+    assert!(
+        e.starts_with(&format!(
+            "cannot write `{}`: it is a symbolic link",
+            out.join("C.L1").display()
+        )),
+        "{e}"
+    );
+    assert_eq!(std::fs::read_to_string(&precious).expect("read"), "keep me");
+    assert!(
+        std::fs::symlink_metadata(out.join("C.L1"))
+            .expect("link")
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(
+        std::fs::read_dir(&out).expect("dir").count(),
+        1,
+        "nothing written"
+    );
+}

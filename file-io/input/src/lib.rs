@@ -25,5 +25,5 @@ mod xml;
 pub use limit::{Limit, LimitError, format_bytes};
 pub use line::{Line, read_line_bounded, skip_line};
 pub use read::{FileKind, InputError, InputProblem, open_regular, read_file, read_to_string};
-pub use write::{OutputError, OutputProblem, write_file_atomic};
+pub use write::{OutputError, OutputProblem, check_output_path, write_file_atomic};
 pub use xml::{MAX_XML_DEPTH, XmlTooDeep, xml_depth};

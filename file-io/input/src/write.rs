@@ -95,6 +95,18 @@ pub fn write_file_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
         .map_err(io("sync its directory"))
 }
 
+/// Refuses `path` as an output file, as [`write_file_atomic`] would, when something other than
+/// a regular file is there (a link, a FIFO, a device, a directory, a socket); nothing there or a
+/// regular file is fine. For writers that must check several outputs before writing any.
+pub fn check_output_path(path: &Path) -> Result<(), OutputError> {
+    check_target(path)
+        .map(|_| ())
+        .map_err(|problem| OutputError {
+            path: path.to_path_buf(),
+            problem,
+        })
+}
+
 /// What is at `path`, not following a link: nothing (`None`), a regular file (its mode), or an
 /// error for anything else.
 fn check_target(path: &Path) -> Result<Option<u32>, OutputProblem> {
