@@ -60,14 +60,7 @@ struct DesignRecord {
 #[derive(Debug, Clone)]
 enum Step {
     Design(Design),
-    /// `at`: the version of the commit that left the object where this step starts from (a
-    /// concurrent move of it since makes undo/redo a conflict, not an overwrite).
-    Pose {
-        id: Id,
-        before: Pose,
-        after: Pose,
-        at: u64,
-    },
+    Pose { id: Id, before: Pose, after: Pose },
 }
 
 /// An editor session: the design, its history, and what of it the space holds.
@@ -84,6 +77,10 @@ pub struct Editor<S: Space> {
     committed: Option<Design>,
     /// Version of the last commit.
     pub version: u64,
+    /// Objects of the model outside the design this editor moved: the version of its last
+    /// write of each one's pose (an undo or redo expects the pose unchanged since: a move by
+    /// another writer in between makes it a conflict, not an overwrite).
+    moved: BTreeMap<Id, u64>,
 }
 
 /// The result of an accepted edit.
@@ -106,6 +103,7 @@ impl<S: Space> Editor<S> {
             objects: BTreeMap::new(),
             committed: None,
             version: 0,
+            moved: BTreeMap::new(),
         };
         e.sync()?;
         Ok(e)
@@ -124,6 +122,7 @@ impl<S: Space> Editor<S> {
             links,
             objects,
             version: snap.version(),
+            moved: BTreeMap::new(),
         })
     }
 
@@ -180,12 +179,7 @@ impl<S: Space> Editor<S> {
         read: u64,
     ) -> Result<Done, EditError> {
         let done = self.commit_pose(id, after, read)?;
-        self.undo.push(Step::Pose {
-            id,
-            before,
-            after,
-            at: done.version,
-        });
+        self.undo.push(Step::Pose { id, before, after });
         self.redo.clear();
         Ok(done)
     }
@@ -198,6 +192,7 @@ impl<S: Space> Editor<S> {
             .commit(&tx)
             .map_err(|e| EditError::Invalid(format!("the keeper refused the edit: {e}")))?;
         self.version = version;
+        self.moved.insert(id, version);
         Ok(Done { version, ops: 1 })
     }
 
@@ -223,22 +218,11 @@ impl<S: Space> Editor<S> {
                     }
                 }
             }
-            Step::Pose {
-                id,
-                before,
-                after,
-                at,
-            } => self
-                .commit_pose(*id, if back { *before } else { *after }, *at)
-                .map(|done| {
-                    let inverse = Step::Pose {
-                        id: *id,
-                        before: *before,
-                        after: *after,
-                        at: done.version,
-                    };
-                    (done, inverse)
-                }),
+            Step::Pose { id, before, after } => {
+                let since = self.moved.get(id).copied().unwrap_or(self.version);
+                self.commit_pose(*id, if back { *before } else { *after }, since)
+                    .map(|done| (done, step.clone()))
+            }
         };
         match result {
             Ok((done, inverse)) => {
