@@ -45,7 +45,14 @@ impl RgbaImage {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir).map_err(io)?;
         }
-        self.encode_into(path, std::fs::File::create(path).map_err(io)?)
+        // Encoded in memory, then written by robosim_input::write_file_atomic: a FIFO, a device
+        // or a link at `path` is refused, a crash leaves no half image.
+        let mut bytes = Vec::new();
+        self.encode_into(path, &mut bytes)?;
+        robosim_input::write_file_atomic(path, &bytes).map_err(|e| DisplayError::Image {
+            path: path.to_path_buf(),
+            what: e.problem.to_string(),
+        })
     }
 
     /// [`RgbaImage::save_png`] for a session's files: the file mode 0600, missing parent
@@ -54,11 +61,14 @@ impl RgbaImage {
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             crate::private::private_dir(dir, false)?;
         }
-        self.encode_into(path, crate::private::create_file(path)?)
+        self.encode_into(
+            path,
+            std::io::BufWriter::new(crate::private::create_file(path)?),
+        )
     }
 
-    fn encode_into(&self, path: &Path, file: std::fs::File) -> Result<()> {
-        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), self.width, self.height);
+    fn encode_into(&self, path: &Path, out: impl std::io::Write) -> Result<()> {
+        let mut enc = png::Encoder::new(out, self.width, self.height);
         enc.set_color(png::ColorType::Rgba);
         enc.set_depth(png::BitDepth::Eight);
         let png_err = |e: png::EncodingError| DisplayError::Image {
@@ -76,10 +86,12 @@ impl RgbaImage {
             path: path.to_path_buf(),
             what,
         };
-        let file = std::fs::File::open(path).map_err(|e| DisplayError::Io {
-            path: path.to_path_buf(),
-            source: e,
-        })?;
+        // A regular file only (a FIFO would block the open, a device never ends).
+        let (file, _) =
+            robosim_input::open_regular(path, "a PNG image").map_err(|e| DisplayError::Image {
+                path: path.to_path_buf(),
+                what: e.reason(),
+            })?;
         let decoder = png::Decoder::new(std::io::BufReader::new(file));
         let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
         let mut buf = vec![0; reader.output_buffer_size()];
@@ -256,5 +268,36 @@ mod tests {
         std::fs::write(&bad, b"not a png").expect("write");
         let e = RgbaImage::load_png(&bad).expect_err("refused").to_string();
         assert!(e.contains("bad.png"), "{e}");
+    }
+
+    #[test]
+    fn issue_34_png_save_through_a_symlink_or_onto_a_device_is_refused_and_load_of_a_device_too() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        let target = dir.path().join("precious");
+        std::fs::write(&target, "keep me").expect("write");
+        let link = dir.path().join("out.png");
+        std::os::unix::fs::symlink(&target, &link).expect("symlink");
+        let a = square(5, 100);
+        let e = a
+            .save_png(&link)
+            .expect_err("a link is refused")
+            .to_string();
+        assert!(e.contains("it is a symbolic link"), "{e}");
+        assert!(
+            std::fs::symlink_metadata(&link)
+                .expect("link")
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read_to_string(&target).expect("read"), "keep me");
+        let e = a
+            .save_png(Path::new("/dev/null"))
+            .expect_err("a device is refused")
+            .to_string();
+        assert!(e.contains("it is a character device"), "{e}");
+        let e = RgbaImage::load_png(Path::new("/dev/zero"))
+            .expect_err("a device")
+            .to_string();
+        assert!(e.contains("it is a character device"), "{e}");
     }
 }
