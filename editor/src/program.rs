@@ -26,6 +26,21 @@ use std::collections::BTreeMap;
 pub const DEFAULT_DENSITY: f64 = 2700.0;
 /// Tolerance of the DH check (unitless on axes, metres on offsets).
 pub const DH_TOL: f64 = 1e-9;
+/// The most polygons the working object and each register may hold (every placed object counts
+/// at least one): `ADD A` doubles the working object, so 40 of them in a 600-byte program
+/// would otherwise ask for terabytes. The environment variable [`POLYGON_BUDGET_ENV`] raises it.
+pub const POLYGON_BUDGET: usize = 5_000_000;
+/// The environment variable that sets another polygon budget for `lang run` / `lang load`.
+pub const POLYGON_BUDGET_ENV: &str = "ROBOSIM_LANG_MAX_POLYGONS";
+
+/// The polygon budget of a run: [`POLYGON_BUDGET_ENV`] when set to a whole number, else
+/// [`POLYGON_BUDGET`].
+pub fn polygon_budget() -> usize {
+    std::env::var(POLYGON_BUDGET_ENV)
+        .ok()
+        .and_then(|v| v.trim().parse().ok())
+        .unwrap_or(POLYGON_BUDGET)
+}
 
 /// A shape and where the program put it (construction frame of the link).
 #[derive(Debug, Clone, PartialEq)]
@@ -160,6 +175,11 @@ pub fn placed_vertices(p: &Placed) -> Vec<Point3<f64>> {
 
 struct Interp<'a> {
     file: &'a str,
+    /// [`polygon_budget`] of this run.
+    budget: usize,
+    /// Polygons (at least one per object) of the working object and of each register.
+    work_polygons: usize,
+    reg_polygons: BTreeMap<char, usize>,
     length: f64,
     angle: f64,
     density: f64,
@@ -176,10 +196,19 @@ pub fn run(text: &str, file: &str) -> Result<Output, LangError> {
     run_commands(&cmds, file)
 }
 
-/// Runs parsed commands.
+/// Runs parsed commands, within [`polygon_budget`].
 pub fn run_commands(cmds: &[Command], file: &str) -> Result<Output, LangError> {
+    run_with_budget(cmds, file, polygon_budget())
+}
+
+/// Runs parsed commands; a working object or register of more than `budget` polygons is
+/// refused at the command that would make it.
+pub fn run_with_budget(cmds: &[Command], file: &str, budget: usize) -> Result<Output, LangError> {
     let mut it = Interp {
         file,
+        budget,
+        work_polygons: 0,
+        reg_polygons: BTreeMap::new(),
         length: 0.01,
         angle: std::f64::consts::PI / 180.0,
         density: DEFAULT_DENSITY,
@@ -295,7 +324,25 @@ impl Interp<'_> {
         Ok(out)
     }
 
+    /// The argument's value in SI units; a value beyond f64's range (`X = 1e309`, or a unit
+    /// conversion that overflows) is refused naming the argument.
     fn value(&self, c: &Command, a: &Arg, length: Option<bool>) -> Result<f64, LangError> {
+        let v = self.value_si(c, a, length)?;
+        if v.is_finite() {
+            Ok(v)
+        } else {
+            Err(self.err(
+                c,
+                a.span,
+                format!(
+                    "argument {} is not a finite number in SI units (overflows ±1.8e308)",
+                    a.key
+                ),
+            ))
+        }
+    }
+
+    fn value_si(&self, c: &Command, a: &Arg, length: Option<bool>) -> Result<f64, LangError> {
         match (length, &a.unit) {
             (None, None) => Ok(a.value),
             (None, Some((w, _))) => Err(self.err(
@@ -396,10 +443,31 @@ impl Interp<'_> {
         }
     }
 
+    /// Refuses a working object of `polygons` polygons when that is over the budget.
+    fn within_budget(&self, c: &Command, polygons: usize) -> Result<(), LangError> {
+        if polygons <= self.budget {
+            return Ok(());
+        }
+        Err(self.err(
+            c,
+            c.span,
+            format!(
+                "the working object would hold {polygons} polygons, over the budget of {} \
+                 (set {POLYGON_BUDGET_ENV} to raise it)",
+                self.budget
+            ),
+        ))
+    }
+
     fn add_shape(&mut self, c: &Command, shape: Shape) -> Result<(), LangError> {
-        shape
+        let polygons = shape
             .polyhedron()
-            .map_err(|e| self.err(c, c.span, e.to_string()))?;
+            .map_err(|e| self.err(c, c.span, e.to_string()))?
+            .map_or(0, |p| p.polygons.len())
+            .max(1);
+        let total = self.work_polygons.saturating_add(polygons);
+        self.within_budget(c, total)?;
+        self.work_polygons = total;
         self.work.objects.push(Placed {
             shape,
             m: Matrix4::identity(),
@@ -408,10 +476,32 @@ impl Interp<'_> {
         Ok(())
     }
 
-    fn transform(&mut self, t: &Matrix4<f64>) {
-        for o in &mut self.work.objects {
-            o.m = t * o.m;
+    /// Moves the working object by `t`. A placement that leaves f64's range (two
+    /// `TRANSLATE X=1e308` in metres) is refused here, naming the object's line, and the
+    /// working object is left as it was: nothing non-finite reaches a link file.
+    fn transform(&mut self, c: &Command, t: &Matrix4<f64>) -> Result<(), LangError> {
+        let moved: Vec<Matrix4<f64>> = self.work.objects.iter().map(|o| t * o.m).collect();
+        if let Some((o, _)) = self
+            .work
+            .objects
+            .iter()
+            .zip(&moved)
+            .find(|(_, m)| m.iter().any(|x| !x.is_finite()))
+        {
+            return Err(self.err(
+                c,
+                c.span,
+                format!(
+                    "this would place the object made on line {} outside f64's range \
+                     (a coordinate overflows ±1.8e308 m)",
+                    o.span.line
+                ),
+            ));
         }
+        for (o, m) in self.work.objects.iter_mut().zip(moved) {
+            o.m = m;
+        }
+        Ok(())
     }
 
     fn command(&mut self, c: &Command) -> Result<(), LangError> {
@@ -465,10 +555,12 @@ impl Interp<'_> {
             "CLEAR" => {
                 self.no_args(c)?;
                 self.work = Work::default();
+                self.work_polygons = 0;
             }
             "STORE" => {
                 let r = self.register(c)?;
                 self.regs.insert(r, self.work.clone());
+                self.reg_polygons.insert(r, self.work_polygons);
             }
             "LOAD" | "ADD" => {
                 let r = self.register(c)?;
@@ -479,9 +571,14 @@ impl Interp<'_> {
                         format!("register {r} was never stored"),
                     ));
                 };
+                let reg_polygons = self.reg_polygons.get(&r).copied().unwrap_or(0);
                 if name == "LOAD" {
                     self.work = w;
+                    self.work_polygons = reg_polygons;
                 } else {
+                    let total = self.work_polygons.saturating_add(reg_polygons);
+                    self.within_budget(c, total)?;
+                    self.work_polygons = total;
                     // the register's objects first: CLEAR, make, ADD B, STORE B keeps the
                     // order the objects were made in
                     let mine = std::mem::replace(&mut self.work.objects, w.objects);
@@ -646,13 +743,13 @@ impl Interp<'_> {
                         "Y" => 1,
                         _ => 2,
                     };
-                    self.transform(&axis_rotation(axis, v));
+                    self.transform(c, &axis_rotation(axis, v))?;
                 }
             }
             "TRANSLATE" => {
                 let a = self.args(c, &["X", "Y", "Z"], len)?;
                 let t = Vector3::from(["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0)));
-                self.transform(&Matrix4::new_translation(&t));
+                self.transform(c, &Matrix4::new_translation(&t))?;
             }
             "STORE-LINK" => {
                 let (w, s) = self.word(c, "a link name such as C.LOC")?;
@@ -685,6 +782,10 @@ impl Interp<'_> {
                 }
                 let file = build_link(&self.work.objects, self.density)
                     .map_err(|e| self.err(c, s, format!("link {w}: {e}")))?;
+                // what `lang run` writes, `lang load` must read back: the stored text is
+                // read here by the same reader, and a refusal names this line
+                LinkFile::parse(&file.to_text(), std::path::Path::new(&w))
+                    .map_err(|e| self.err(c, s, format!("link {w} would not read back: {e}")))?;
                 self.out.links.push(StoredLink {
                     name: w,
                     objects: self.work.objects.clone(),

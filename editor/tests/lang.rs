@@ -282,3 +282,62 @@ fn link_files_load_as_a_robot_whose_fk_equals_a_hand_written_dh_model() {
         );
     }
 }
+
+/// Issue 34 item 11: two `TRANSLATE X=1e308` in metres wrote `inf` into the link file and
+/// succeeded; `lang load` then refused the run's own output. The overflow is refused at the
+/// TRANSLATE that makes it, naming its line and the object's.
+#[test]
+fn lang_run_refuses_a_translate_that_overflows_instead_of_writing_inf() {
+    let text = "UNITS M\nBOX X = 1, Y = 1, Z = 1\nTRANSLATE X = 1e308\nTRANSLATE X = 1e308\nSTORE-LINK A.L\nEND\n";
+    let e = program::run(text, "inf.rsim").expect_err("overflow");
+    assert_eq!(e.span.line, 4, "{e}");
+    assert_eq!(e.command, "TRANSLATE", "{e}");
+    assert!(
+        e.what.contains("object made on line 2") && e.what.contains("outside f64's range"),
+        "{e}"
+    );
+    let e = program::run("UNITS M\nBOX X = 1e309, Y = 1, Z = 1\nEND\n", "big.rsim")
+        .expect_err("a literal beyond f64");
+    assert!(e.what.contains("not finite"), "{e}");
+}
+
+/// What `lang run` stores must be what `lang load` reads: a box whose mass overflows (a
+/// density of 1e300 kg/m³) is refused at STORE-LINK, not written as `inf`.
+#[test]
+fn lang_run_writes_only_link_files_lang_load_reads_back() {
+    let text =
+        "DENSITY RHO = 1e300\nUNITS M\nBOX X = 1000, Y = 1000, Z = 1000\nSTORE-LINK HUGE.L\nEND\n";
+    let e = program::run(text, "huge.rsim").expect_err("mass overflows");
+    assert_eq!(e.span.line, 4, "{e}");
+    assert!(e.what.contains("would not read back"), "{e}");
+    // and a normal program's every link reads back equal
+    let out = program::run(TABLE1, "table1.rsim").expect("Table 1 runs");
+    for l in &out.links {
+        let back = LinkFile::parse(&l.file.to_text(), Path::new(&l.name)).expect("reads back");
+        assert_eq!(back.to_text(), l.file.to_text());
+    }
+}
+
+/// Issue 34 item 15: BOX, STORE A, then 40 × (ADD A, STORE A) doubles the working object 40
+/// times (a 613-byte program grew to 3.7 GB). The polygon budget refuses it at the first ADD
+/// over the budget, naming the budget, the count and how to raise it.
+#[test]
+fn lang_doubling_add_is_refused_by_the_polygon_budget() {
+    let mut text = String::from("BOX X = 1, Y = 1, Z = 1\nSTORE A\n");
+    for _ in 0..40 {
+        text.push_str("ADD A\nSTORE A\n");
+    }
+    text.push_str("END\n");
+    let cmds = robosim_editor::lang::parse(&text, "double.rsim").expect("parses");
+    let e = program::run_with_budget(&cmds, "double.rsim", 1000).expect_err("over budget");
+    assert_eq!(e.command, "ADD", "{e}");
+    assert!(
+        e.what.contains("over the budget of 1000")
+            && e.what.contains("1536 polygons")
+            && e.what.contains(program::POLYGON_BUDGET_ENV),
+        "{e}"
+    );
+    // the default budget refuses it too (2^40 boxes), long before memory runs out
+    let e = program::run(&text, "double.rsim").expect_err("over the default budget");
+    assert!(e.what.contains("over the budget"), "{e}");
+}

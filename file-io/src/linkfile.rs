@@ -349,6 +349,7 @@ impl LinkFile {
             }
             vectors.push(([v[0], v[1], v[2]], d));
         }
+        check_ainert(&m4(2), rows[2].0, path)?;
         Ok(LinkFile {
             dh: DhRow {
                 theta: rows[0].1[0],
@@ -494,6 +495,63 @@ impl LinkFile {
         }
         Ok(out)
     }
+}
+
+/// AINERT (the pseudo-inertia, first on file line `line`) is a body's: symmetric, its mass
+/// (row 4, column 4) finite and ≥ 0, and the inertia it gives about the centre of mass one a
+/// rigid body has ([`robosim_instance_space::mass_props`]). A negative mass used to be read as
+/// 0 kg without a word.
+fn check_ainert(j: &Matrix4<f64>, line: usize, path: &Path) -> Result<(), LinkFileError> {
+    let content = |what: String| LinkFileError::Content {
+        path: path.to_owned(),
+        what,
+    };
+    let scale = j.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+    for r in 0..4 {
+        for c in r + 1..4 {
+            if (j[(r, c)] - j[(c, r)]).abs() > 1e-9 * scale.max(1.0) {
+                return Err(content(format!(
+                    "AINERT (lines {line}-{}) is not symmetric: row {} column {} is {} but row {} column {} is {}",
+                    line + 3,
+                    r + 1,
+                    c + 1,
+                    j[(r, c)],
+                    c + 1,
+                    r + 1,
+                    j[(c, r)]
+                )));
+            }
+        }
+    }
+    let mass = j[(3, 3)];
+    if mass < 0.0 {
+        return Err(content(format!(
+            "AINERT mass (line {}, column 4) is {mass} kg: a link's mass is zero or positive",
+            line + 3
+        )));
+    }
+    if mass == 0.0 {
+        return Ok(());
+    }
+    let (m, com, i) = from_pseudo_inertia(j);
+    let props = robosim_instance_space::MassProps {
+        mass: m,
+        com: [com.x, com.y, com.z],
+        inertia: [
+            i[(0, 0)],
+            i[(1, 1)],
+            i[(2, 2)],
+            i[(0, 1)],
+            i[(0, 2)],
+            i[(1, 2)],
+        ],
+    };
+    robosim_instance_space::mass_props(&props).map_err(|(field, reason)| {
+        content(format!(
+            "AINERT (lines {line}-{}): the link's {field} {reason}",
+            line + 3
+        ))
+    })
 }
 
 /// Pseudo-inertia `∫ [x xᵀ x; xᵀ 1] dm` from mass, centre of mass and the inertia tensor about

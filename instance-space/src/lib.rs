@@ -47,7 +47,8 @@ pub use session::{
 };
 pub use store::{
     Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,
-    MassProps, Object, Pose, Selection, Store, TxError, aspect,
+    MassProps, Object, Pose, Selection, Store, TxError, aspect, INERTIA_TOL, mass_props,
+    principal_moments,
 };
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
 pub use view::{JointOrigin, JointView, RobotView};

@@ -9,6 +9,9 @@
 //! Poses are local (relative to the parent) rigid transforms, 3×4 row-major `[R | t]`, metres.
 
 use crate::transaction::{ObjRef, Op, Transaction};
+
+mod validate;
+pub use validate::{INERTIA_TOL, mass_props, principal_moments};
 use robosim_geometry::Polyhedron;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
@@ -504,6 +507,7 @@ impl Store {
             stage.op(i, op)?;
         }
         stage.check_structure()?;
+        stage.check_chains(tx.ops())?;
         let Stage {
             overlay,
             created,
@@ -826,14 +830,14 @@ impl Stage<'_> {
                     for (k, v) in m.inertia.iter().enumerate() {
                         finite(i, rid, &format!("inertia[{k}]"), *v)?;
                     }
-                    if m.mass < 0.0 {
-                        return Err(TxError::InvalidValue {
+                    validate::mass_props(m).map_err(|(field, reason)| {
+                        TxError::InvalidValue {
                             op: i,
                             id: rid,
-                            field: "mass".into(),
-                            reason: format!("{} kg is negative", m.mass),
-                        });
-                    }
+                            field: field.into(),
+                            reason,
+                        }
+                    })?;
                 }
                 self.edit(i, *id, DYNAMICS)?.dynamics = *dynamics;
             }

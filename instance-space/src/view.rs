@@ -333,7 +333,7 @@ mod tests {
                 Some(MassProps {
                     mass: 1.0 + j as f64,
                     com: [0.0, 0.1, 0.2],
-                    inertia: [1.0, 2.0, 3.0, 0.1, 0.2, 0.3],
+                    inertia: [2.0, 3.0, 4.0, 0.1, 0.2, 0.3],
                 }),
             );
             tx.set_joint(l, 0.25 * j as f64);
