@@ -38,7 +38,7 @@ pyo3::create_exception!(
     _robosim,
     TransactionError,
     RobosimError,
-    "The keeper refused a transaction; nothing changed (kind `transaction`)."
+    "The keeper refused a transaction, or a relative edit lost to concurrent writes on every attempt; nothing changed (kind `transaction` or `conflict`)."
 );
 pyo3::create_exception!(
     _robosim,
@@ -54,7 +54,8 @@ fn raise(py: Python<'_>, e: ProtocolError) -> PyErr {
     let text = format!("{}: {}", e.kind, e.message);
     let err = match e.kind {
         ErrorKind::Session => SessionError::new_err(text),
-        ErrorKind::Transaction => TransactionError::new_err(text),
+        // A conflict: the keeper refused a relative edit on every attempt; nothing changed.
+        ErrorKind::Transaction | ErrorKind::Conflict => TransactionError::new_err(text),
         ErrorKind::JointLimit => JointLimitError::new_err(text),
         _ => RobosimError::new_err(text),
     };
