@@ -128,10 +128,12 @@ pub fn percentile(samples: &mut [f64], p: f64) -> f64 {
     samples[rank.saturating_sub(1).min(samples.len() - 1)]
 }
 
+/// Every report output (PNG, CSV, markdown) by [`robosim_input::write_file_atomic`]: a link, a
+/// FIFO or a device at `path` is refused, a crash leaves no half file.
 fn write_file(path: &Path, bytes: &[u8]) -> Result<(), ReportError> {
-    std::fs::write(path, bytes).map_err(|source| ReportError::Io {
+    robosim_input::write_file_atomic(path, bytes).map_err(|e| ReportError::Io {
         path: path.to_owned(),
-        source,
+        source: std::io::Error::other(e.problem),
     })
 }
 

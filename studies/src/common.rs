@@ -226,7 +226,7 @@ pub fn write_trajectory(path: &Path, robot: &Robot, dt: f64, samples: &[Vec<f64>
         s.push_str(&cols.join(" "));
         s.push('\n');
     }
-    std::fs::write(path, s).map_err(|e| StudyError(format!("{}: {e}", path.display())))
+    robosim_input::write_file_atomic(path, s.as_bytes()).map_err(|e| StudyError(e.to_string()))
 }
 
 /// A CSV file written row by row; every value finite (a NaN is a bug, refused by name).
@@ -346,4 +346,29 @@ pub fn timed<T>(f: impl FnOnce() -> T) -> (T, f64) {
     let t = std::time::Instant::now();
     let v = f();
     (v, t.elapsed().as_secs_f64())
+}
+
+/// The most time steps one study run may take by default (a planner's `--step 0.000001`
+/// asked for 2.7 TB of samples); [`STEP_BUDGET_ENV`] raises it.
+pub const STEP_BUDGET: usize = 2_000_000;
+/// The environment variable that sets another step budget for `robosim study`.
+pub const STEP_BUDGET_ENV: &str = "ROBOSIM_STUDY_MAX_STEPS";
+
+/// The number of steps `steps` (a real count: span / step, rounded up) when it is within the
+/// step budget ([`STEP_BUDGET`], or [`STEP_BUDGET_ENV`] when set); otherwise a refusal naming
+/// `what` is stepped, the count, the budget and how to raise it — before anything is allocated.
+pub fn step_count(steps: f64, what: &str) -> crate::Result<usize> {
+    let budget = std::env::var(STEP_BUDGET_ENV)
+        .ok()
+        .and_then(|v| v.trim().parse::<usize>().ok())
+        .unwrap_or(STEP_BUDGET);
+    let n = steps.ceil();
+    if n.is_finite() && n >= 0.0 && n <= budget as f64 {
+        Ok(n as usize)
+    } else {
+        Err(crate::StudyError(format!(
+            "{what} would take {n:e} time steps, over the budget of {budget} \
+             (give a larger --step or a shorter run, or set {STEP_BUDGET_ENV} to raise it)"
+        )))
+    }
 }

@@ -97,7 +97,8 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
         DiagCmd::Check { model, dot } => {
             let m = load(&model)?;
             if let Some(path) = &dot {
-                std::fs::write(path, m.to_dot()).map_err(|e| format!("{}: {e}", path.display()))?;
+                robosim_input::write_file_atomic(path, m.to_dot().as_bytes())
+                    .map_err(|e| e.to_string())?;
             }
             let findings = check_model(&m);
             let _ = writeln!(
