@@ -198,3 +198,159 @@ fn a_paused_daemon_says_its_contact_is_from_an_older_version() {
     assert_eq!(stepped["stepped_version"], stepped["version"], "{stepped}");
     assert!(p.stop(daemon).success());
 }
+
+/// Issue 34 (messages): `sim_state` after the simulator was killed waited its whole 10 s
+/// timeout and then said "no answer". A dead simulator is seen (iceoryx2 finds its node dead)
+/// and named at once: the answer is the typed `session` error saying the simulator died, not
+/// the timeout's.
+#[test]
+fn sim_state_of_a_killed_simulator_says_it_died_instead_of_timing_out() {
+    let mut p = Procs::new("simdead");
+    p.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let session = p.session();
+    let daemon = p.spawn(&["simulator", "--mode", "lockstep"]);
+    let mut ops = Ops::attach(&session).expect("attach the session ops");
+    wait_for("the simulator's first answer", || {
+        ops.dispatch("sim_state", &json!({}))
+            .expect("a session op")
+            .ok()
+    });
+    // Another process's sender, open when the simulator dies (a `simctl` or a planner in
+    // the middle of a call): the command service outlives the simulator, so a request is
+    // sent — and used to wait out the whole timeout for an answer that never came.
+    let mut held =
+        robosim_instance_space::state::CommandSender::open(&session, "simulator", "held")
+            .expect("the simulator's command service");
+    let _ = Command::new("kill")
+        .args(["-KILL", &daemon.to_string()])
+        .status();
+    wait_for("the simulator gone", || {
+        (!robosim_instance_space::pid_alive(daemon)).then_some(())
+    });
+    let dead = held
+        .send(br#"{"cmd":"get"}"#, Duration::from_secs(120))
+        .expect_err("no answer from a killed simulator");
+    assert!(
+        matches!(
+            dead,
+            robosim_instance_space::state::StateError::ReceiverDead { ref name, .. } if name == "simulator"
+        ),
+        "the sender sees the simulator dead (not a timeout): {dead}"
+    );
+    let e = ops
+        .dispatch("sim_state", &json!({}))
+        .expect("a session op")
+        .expect_err("no state from a killed simulator");
+    assert_eq!(e.kind, robosim_hl_interface::ErrorKind::Session, "{e}");
+    assert!(
+        e.message.contains("simulator") && e.message.contains("died"),
+        "names the dead simulator: {e}"
+    );
+    assert!(
+        !e.message.contains("no answer within"),
+        "answered by the death seen, not by the timeout: {e}"
+    );
+}
+
+/// The display's frame records (`frames.jsonl` in its output directory).
+fn frames(dir: &std::path::Path) -> Vec<serde_json::Value> {
+    std::fs::read_to_string(dir.join("frames.jsonl"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| serde_json::from_str(l).ok())
+        .collect()
+}
+
+/// Issue 34 item 4: with a simulator and a headless display running, `robosim edit 'delete
+/// b'` of the newest object made both exit with "a published segment is malformed: section 1
+/// is out of bounds". Both must follow the delete and the edits after it: each edit is seen by
+/// the simulator (its `sim_state` version) and drawn by the display (a frame of that version),
+/// and neither process exits.
+#[test]
+fn deleting_the_newest_object_keeps_the_simulator_and_the_display_following() {
+    let mut p = Procs::new("newest");
+    p.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let session = p.session();
+    let daemon = p.spawn(&["simulator", "--mode", "lockstep"]);
+    let out = p.home.path().join("display-out");
+    let out_s = out.to_string_lossy().into_owned();
+    let display = p.spawn(&["display", "--headless", "--size", "96x72", "--out", &out_s]);
+    let mut ops = Ops::attach(&session).expect("attach the session ops");
+    let mut sim_version = || -> Option<u64> {
+        ops.dispatch("sim_state", &json!({}))
+            .expect("a session op")
+            .ok()
+            .and_then(|v| v["version"].as_u64())
+    };
+    wait_for("the simulator's first answer", &mut sim_version);
+    wait_for("the display's first frame", || {
+        frames(&out).into_iter().next()
+    });
+    let mut c = Client::connect(&session, "probe").expect("client");
+    let (home, name) = (p.home.path().to_owned(), p.name.clone());
+    let mut edit = |k: usize, script: &str| -> u64 {
+        let f = home.join(format!("edit{k}.edit"));
+        std::fs::write(&f, format!("units cm\n{script}\n")).expect("script");
+        let o = Command::new(ROBOSIM)
+            .args(["edit", "--script", &f.to_string_lossy(), "--session", &name])
+            .env("ROBOSIM_HOME", &home)
+            .output()
+            .expect("robosim edit");
+        assert!(
+            o.status.success(),
+            "{script}: {}{}",
+            String::from_utf8_lossy(&o.stdout),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let model = c.snapshot().expect("the keeper's model").model;
+        robosim_instance_space::journal::decode_store(&model)
+            .expect("decode")
+            .version
+    };
+    let steps = [
+        "box a X = 10, Y = 10, Z = 10",
+        "box b X = 5, Y = 5, Z = 5",
+        // b is the newest object of the session.
+        "delete b",
+        "box c X = 4, Y = 4, Z = 4",
+        "translate c X = 20",
+        // c is the newest again.
+        "delete c",
+        "translate a Y = 5",
+    ];
+    for (k, script) in steps.iter().enumerate() {
+        let v = edit(k, script);
+        wait_for(
+            &format!("the simulator following {script:?} (v{v})"),
+            || (sim_version()? >= v).then_some(()),
+        );
+        wait_for(&format!("the display drawing {script:?} (v{v})"), || {
+            frames(&out)
+                .iter()
+                .any(|f| f["version"].as_u64() >= Some(v))
+                .then_some(())
+        });
+        for (pid, who) in [(daemon, "simulator"), (display, "display")] {
+            let child = p
+                .children
+                .iter_mut()
+                .find(|c| c.id() == pid)
+                .expect("started here");
+            assert!(
+                child.try_wait().expect("try_wait").is_none(),
+                "the {who} exited after {script:?}"
+            );
+        }
+    }
+    let log = |pid: u32, what: &str| {
+        std::fs::read_to_string(p.home.path().join(format!("logs/{pid}-{what}.log")))
+            .unwrap_or_default()
+    };
+    for (pid, what) in [(daemon, "simulator"), (display, "display")] {
+        let text = log(pid, what);
+        assert!(
+            !text.contains("malformed"),
+            "the {what} met a malformed segment:\n{text}"
+        );
+    }
+}
