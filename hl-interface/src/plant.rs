@@ -312,14 +312,21 @@ pub fn run(session: Option<&str>, model: &str, time_scale: f64) -> Result<(), Pl
         plant.model.components.len(),
         plant.model.alarms.len()
     );
+    // A reader error does not end the plant: said once, the last version kept, tried again
+    // (issue 34 item 4).
+    let mut trouble = robosim_instance_space::FollowTrouble::default();
     while signals.wait(Duration::ZERO).is_ok() {
         // Commands are looked at every 2 ms; a commit wakes the wait at once.
-        if !reader
-            .wait_change(Duration::from_millis(2))
-            .map_err(session_err)?
-            .is_empty()
-            && let Some(s) = reader.snapshot()
-        {
+        let waited = reader.wait_change(Duration::from_millis(2));
+        // SIGTERM/SIGINT interrupt the wait: stop cleanly.
+        if waited.is_err() && signals.wait(Duration::ZERO).is_err() {
+            break;
+        }
+        let changed = waited.as_ref().is_ok_and(|c| !c.is_empty());
+        if !trouble.note("automation", &reader, waited.map(|_| ())) {
+            std::thread::sleep(Duration::from_millis(2));
+        }
+        if changed && let Some(s) = reader.snapshot() {
             plant.follow(&s, now());
         }
         for cmd in commands.drain().map_err(session_err)? {
