@@ -173,6 +173,16 @@ pub fn placed_vertices(p: &Placed) -> Vec<Point3<f64>> {
     }
 }
 
+/// `x` for a message: plain when it reads well, in exponent form when Display would print
+/// hundreds of digits (1e308) or a long run of zeros (1e-12).
+fn readable(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-6..1e15).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 struct Interp<'a> {
     file: &'a str,
     /// [`polygon_budget`] of this run.
@@ -416,7 +426,10 @@ impl Interp<'_> {
             Err(self.err(
                 c,
                 s,
-                format!("argument {k} must be positive, got {}", v / self.length),
+                format!(
+                    "argument {k} must be positive, got {}",
+                    readable(v / self.length)
+                ),
             ))
         }
     }
@@ -531,7 +544,7 @@ impl Interp<'_> {
                     return Err(self.err(
                         c,
                         s,
-                        format!("argument RHO must be zero or positive, got {v}"),
+                        format!("argument RHO must be zero or positive, got {}", readable(v)),
                     ));
                 }
                 self.density = v;

@@ -515,10 +515,10 @@ fn check_ainert(j: &Matrix4<f64>, line: usize, path: &Path) -> Result<(), LinkFi
                     line + 3,
                     r + 1,
                     c + 1,
-                    j[(r, c)],
+                    readable(j[(r, c)]),
                     c + 1,
                     r + 1,
-                    j[(c, r)]
+                    readable(j[(c, r)])
                 )));
             }
         }
@@ -526,8 +526,9 @@ fn check_ainert(j: &Matrix4<f64>, line: usize, path: &Path) -> Result<(), LinkFi
     let mass = j[(3, 3)];
     if mass < 0.0 {
         return Err(content(format!(
-            "AINERT mass (line {}, column 4) is {mass} kg: a link's mass is zero or positive",
-            line + 3
+            "AINERT mass (line {}, column 4) is {} kg: a link's mass is zero or positive",
+            line + 3,
+            readable(mass)
         )));
     }
     if mass == 0.0 {
@@ -552,6 +553,16 @@ fn check_ainert(j: &Matrix4<f64>, line: usize, path: &Path) -> Result<(), LinkFi
             line + 3
         ))
     })
+}
+
+/// `x` for a message: plain when it reads well, in exponent form when Display would print
+/// hundreds of digits (1e308) or a long run of zeros (1e-12).
+fn readable(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-6..1e15).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
 }
 
 /// Pseudo-inertia `∫ [x xᵀ x; xᵀ 1] dm` from mass, centre of mass and the inertia tensor about

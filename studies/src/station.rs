@@ -447,7 +447,13 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
     let t0 = std::time::Instant::now();
     let period = s.orbit.period_s();
     let t_end = p.orbits * period;
-    let n = (t_end / p.step_s).ceil() as usize;
+    let n = common::step_count(
+        t_end / p.step_s,
+        &format!(
+            "the station study ({} orbit(s) of {:.0} s at a step of {} s)",
+            p.orbits, period, p.step_s
+        ),
+    )?;
     let plan = schedule(s, p.task_start_s)?;
     let sched = &plan.points;
     let mut prev: Vec<Vec<f64>> = s

@@ -718,7 +718,11 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
                 if dur == 0.0 {
                     continue;
                 }
-                let n = (dur / p.step_s).ceil().max(1.0) as usize;
+                let n = common::step_count(
+                    dur / p.step_s,
+                    &format!("a {dur:.1} s move at a step of {} s", p.step_s),
+                )?
+                .max(1);
                 let (qa0, qp0) = (qa.clone(), qp.clone());
                 for k in 1..=n {
                     let u = k as f64 / n as f64;
@@ -763,7 +767,14 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
         }
         // weld
         let len = seam.length();
-        let n = (len / p.speed_m_s / p.step_s).ceil().max(1.0) as usize;
+        let n = common::step_count(
+            len / p.speed_m_s / p.step_s,
+            &format!(
+                "a {len:.3} m seam at {} m/s and a step of {} s",
+                p.speed_m_s, p.step_s
+            ),
+        )?
+        .max(1);
         let mut s_prev = 0.0;
         for k in 0..=n {
             let sarc = (k as f64 * p.speed_m_s * p.step_s).min(len);

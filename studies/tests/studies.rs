@@ -937,3 +937,39 @@ fn headless_frames_draw_the_orus_where_the_swap_has_carried_them() {
         Err(e) => assert!(e.0.contains("no_such"), "{}", e.0),
     }
 }
+
+/// Issue 34 item 15: `robosim study station --step 0.000001` tried to allocate 2.7 TB. The step
+/// budget refuses it before the loop, naming the count, the budget and how to raise it.
+#[test]
+fn station_study_with_a_microsecond_step_is_refused_by_the_step_budget() {
+    let p = StationParams {
+        step_s: 1e-6,
+        ..quick_station()
+    };
+    let s = station::setup(&p).expect("the study sets up");
+    let e = station::simulate(&s, &p)
+        .err()
+        .expect("over the step budget")
+        .to_string();
+    assert!(
+        e.contains("time steps, over the budget of")
+            && e.contains(robosim_studies::common::STEP_BUDGET_ENV)
+            && e.contains("a step of 0.000001 s"),
+        "{e}"
+    );
+}
+
+#[test]
+fn welding_study_with_a_tiny_step_is_refused_by_the_step_budget() {
+    let p = WeldingParams {
+        step_s: 1e-9,
+        ..quick_welding()
+    };
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut log = Vec::new();
+    let e = welding::run(&p, dir.path(), &mut log)
+        .err()
+        .expect("over the step budget")
+        .to_string();
+    assert!(e.contains("over the budget of"), "{e}");
+}
