@@ -64,13 +64,21 @@ pub enum ReaderError {
 
 fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> ReaderError {
     let what = what.into();
-    move |e| {
-        let message = format!("{e:?}");
-        if message.contains("ExceedsMaxBorrow") {
-            ReaderError::TooManySnapshotsHeld
-        } else {
-            ReaderError::Ipc { what, message }
-        }
+    move |e| ReaderError::Ipc {
+        what,
+        message: format!("{e:?}"),
+    }
+}
+
+/// A subscriber's receive error: holding too many samples (snapshots) by its variant, any
+/// other as [`ReaderError::Ipc`].
+fn receive_err(
+    what: impl Into<String>,
+) -> impl FnOnce(iceoryx2::port::ReceiveError) -> ReaderError {
+    let what = what.into();
+    move |e| match e {
+        iceoryx2::port::ReceiveError::ExceedsMaxBorrows => ReaderError::TooManySnapshotsHeld,
+        e => ipc(what)(e),
     }
 }
 
@@ -580,7 +588,7 @@ pub fn compose(a: &[f64; 12], b: &[f64; 12]) -> [f64; 12] {
 /// The newest sample `sub` holds (the older ones are released), if any.
 fn newest(sub: &Sub, what: &str) -> Result<Option<Sample>, ReaderError> {
     let mut newest = None;
-    while let Some(s) = sub.receive().map_err(ipc(format!("receive {what}")))? {
+    while let Some(s) = sub.receive().map_err(receive_err(format!("receive {what}")))? {
         newest = Some(s);
     }
     Ok(newest)
@@ -1487,7 +1495,7 @@ impl Reader {
     /// Takes every objects head published since the last call: the newest becomes
     /// `latest_head`, and the chunks they carry are copied out (the samples are released).
     fn receive_objects_heads(&mut self) -> Result<(), ReaderError> {
-        while let Some(s) = self.objects.receive().map_err(ipc("receive objects"))? {
+        while let Some(s) = self.objects.receive().map_err(receive_err("receive objects"))? {
             let seg = Segment::parse(s.payload())?;
             let header: ObjectsHeader = *seg.record(0)?;
             let gens = seg.section::<u64>(1)?.to_vec();
@@ -1545,7 +1553,7 @@ impl Reader {
         while let Some(s) = self
             .geometry_sub
             .receive()
-            .map_err(ipc("receive geometry update"))?
+            .map_err(receive_err("receive geometry update"))?
         {
             let seg = Segment::parse(s.payload())?;
             let head: GeometryBundleHeader = *seg.record(0)?;
@@ -1699,7 +1707,7 @@ impl Reader {
                 match c
                     .sub
                     .receive()
-                    .map_err(ipc(format!("receive pose chunk {k}")))?
+                    .map_err(receive_err(format!("receive pose chunk {k}")))?
                 {
                     Some(s) => {
                         let ch: PoseChunkHeader =
@@ -1815,7 +1823,7 @@ impl Reader {
 
     fn drain_changes(&mut self) -> Result<Vec<Change>, ReaderError> {
         let mut out = Vec::new();
-        while let Some(s) = self.changes.receive().map_err(ipc("receive changes"))? {
+        while let Some(s) = self.changes.receive().map_err(receive_err("receive changes"))? {
             let seg = Segment::parse(s.payload())?;
             let recs: &[ChangeRec] = seg.section(0)?;
             let ids: &[u64] = seg.section(1)?;
@@ -1897,7 +1905,7 @@ impl Reader {
             .notify_with_custom_event_id(EventId::new(events::HELLO));
         let deadline = Instant::now() + self.timeout;
         loop {
-            if let Some(s) = sub.receive().map_err(ipc("receive library"))? {
+            if let Some(s) = sub.receive().map_err(receive_err("receive library"))? {
                 return Ok(LibraryPublication {
                     files: crate::layout::decode_files(s.payload())?,
                     checked: crate::layout::decode_library_checked(s.payload())?,
