@@ -33,11 +33,11 @@ fn link_file_negative_ainert_mass_is_refused_not_stored_as_zero() {
 
 #[test]
 fn link_file_inertia_no_body_has_is_refused() {
-    // principal moments 1, 1, 5: 5 > 1 + 1
-    let i = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, 5.0));
+    // a negative principal moment
+    let i = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -5.0));
     let text = link(pseudo_inertia(3.0, &Vector3::new(0.1, 0.0, 0.0), &i));
-    let e = LinkFile::parse(&text, Path::new("BAD.L")).expect_err("triangle inequality");
-    assert!(e.to_string().contains("triangle inequality"), "{e}");
+    let e = LinkFile::parse(&text, Path::new("BAD.L")).expect_err("not PSD");
+    assert!(e.to_string().contains("positive semi-definite"), "{e}");
     // a body's inertia reads back
     let i = Matrix3::from_diagonal(&Vector3::new(2.0, 3.0, 4.0));
     let text = link(pseudo_inertia(3.0, &Vector3::new(0.1, 0.2, 0.3), &i));

@@ -292,3 +292,72 @@ fn fixture_model() -> SavedModel {
     }
     m
 }
+
+/// Issue 34 item 10: a model file whose robot has a duplicate joint index, or one link in the
+/// modified convention among standard ones, loaded and silently changed the robot. The load's
+/// transaction (what `robosim load` and `space --load` send) is refused by the keeper's check,
+/// naming the link and the field.
+#[test]
+fn model_file_with_a_duplicate_joint_index_or_mixed_conventions_is_refused() {
+    use robosim_instance_space::{DhConvention, Kinematics, TxError};
+    let good = scene_model("puma560", &[]).expect("puma");
+    let links: Vec<usize> = good
+        .objects
+        .iter()
+        .enumerate()
+        .filter(|(_, o)| matches!(o.kinematics, Some(Kinematics::Joint { .. })))
+        .map(|(i, _)| i)
+        .collect();
+    assert_eq!(links.len(), 6);
+    Store::new()
+        .apply(&good.to_transaction(&[]).expect("plan").tx)
+        .expect("the good model loads");
+    let refused = |m: &SavedModel| -> TxError {
+        Store::new()
+            .apply(&m.to_transaction(&[]).expect("plan").tx)
+            .expect_err("refused")
+    };
+    let mut dup = good.clone();
+    if let Some(Kinematics::Joint { index, .. }) = &mut dup.objects[links[5]].kinematics {
+        *index = 2;
+    }
+    let e = refused(&dup);
+    assert!(
+        matches!(&e, TxError::InvalidValue { field, reason, .. }
+            if field == "kinematics.index" && reason.contains("joint index 2 is also link")),
+        "{e}"
+    );
+    let mut out_of_range = good.clone();
+    if let Some(Kinematics::Joint { index, .. }) = &mut out_of_range.objects[links[0]].kinematics {
+        *index = 6;
+    }
+    let e = refused(&out_of_range);
+    assert!(e.to_string().contains("out of range"), "{e}");
+    let mut mixed = good.clone();
+    let original = match &good.objects[links[3]].kinematics {
+        Some(Kinematics::Joint { convention, .. }) => *convention,
+        _ => unreachable!("a DH link"),
+    };
+    let other = match original {
+        DhConvention::Standard => DhConvention::Modified,
+        DhConvention::Modified => DhConvention::Standard,
+    };
+    if let Some(Kinematics::Joint { convention, .. }) = &mut mixed.objects[links[3]].kinematics {
+        *convention = other;
+    }
+    let e = refused(&mixed);
+    assert!(
+        matches!(&e, TxError::InvalidValue { field, .. } if field == "kinematics.convention"),
+        "{e}"
+    );
+    let mut bad_inertia = good.clone();
+    if let Some(d) = &mut bad_inertia.objects[links[1]].dynamics {
+        d.inertia = [1.0, 1.0, -5.0, 0.0, 0.0, 0.0];
+        d.mass = 1.0;
+    }
+    let e = refused(&bad_inertia);
+    assert!(
+        matches!(&e, TxError::InvalidValue { field, .. } if field == "inertia"),
+        "{e}"
+    );
+}
