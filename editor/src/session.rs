@@ -52,6 +52,28 @@ struct DesignRecord {
     robot: String,
     links: Vec<String>,
     current: usize,
+    /// Per link (as `links`), its objects' names in the design's order. The store orders
+    /// objects by id, and an object an undo brings back gets a new id, so without this a
+    /// restarted editor would list (and generate code for) the objects in another order.
+    /// Absent in designs written before it: their objects are read in id order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    order: Vec<Vec<String>>,
+}
+
+impl DesignRecord {
+    fn of(d: &Design) -> DesignRecord {
+        DesignRecord {
+            editor: 1,
+            robot: d.robot.clone(),
+            links: d.links.iter().map(|l| l.name.clone()).collect(),
+            current: d.current,
+            order: d
+                .links
+                .iter()
+                .map(|l| l.objects.iter().map(|o| o.name.clone()).collect())
+                .collect(),
+        }
+    }
 }
 
 /// One undoable step: a whole design (what the design was before, or after), or a move of an
@@ -327,18 +349,8 @@ impl<S: Space> Editor<S> {
                 tx.create(Kind::Scene, &d.robot, None)
             }
         };
-        let header = DesignRecord {
-            editor: 1,
-            robot: d.robot.clone(),
-            links: d.links.iter().map(|l| l.name.clone()).collect(),
-            current: d.current,
-        };
-        let old_header = DesignRecord {
-            editor: 1,
-            robot: old.robot.clone(),
-            links: old.links.iter().map(|l| l.name.clone()).collect(),
-            current: old.current,
-        };
+        let header = DesignRecord::of(d);
+        let old_header = DesignRecord::of(old);
         if self.scene.is_none() || header != old_header {
             tx.set_origin(scene, &json(&header));
         }
@@ -533,7 +545,7 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
     };
     let mut links = BTreeMap::new();
     let mut objects = BTreeMap::new();
-    for lname in &header.links {
+    for (li_order, lname) in header.links.iter().enumerate() {
         let item = format!("{robot}.{lname}");
         let Some(li) = snap.children(scene).find(|&k| snap.name(k) == item) else {
             return Err(EditError::Invalid(format!(
@@ -556,6 +568,16 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
             }
         }
         objs.sort_by_key(|(id, _)| *id);
+        if let Some(order) = header.order.get(li_order) {
+            // The design's order; a name the record does not list keeps its id order, last.
+            let rank = |o: &EdObject| {
+                order
+                    .iter()
+                    .position(|n| *n == o.name)
+                    .unwrap_or(usize::MAX)
+            };
+            objs.sort_by_key(|(_, o)| rank(o));
+        }
         design.links.push(crate::structure::LinkDesign {
             name: lname.clone(),
             objects: objs.into_iter().map(|x| x.1).collect(),

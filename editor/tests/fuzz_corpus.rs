@@ -74,3 +74,33 @@ fn unknown_verb_starting_with_a_multibyte_character_is_an_error_not_a_panic() {
     let e = robosim_editor::commands::execute(&mut ed, &mut p, "bo x").expect_err("unknown");
     assert!(e.contains("did you mean box?"), "{e}");
 }
+
+/// Found by the `edit` fuzz target: `delete k` then `undo` brings `k` back under a new id, and
+/// a restarted editor (reading the design from the space) listed the link's objects in id order
+/// — `t` before `k` — so its listing and generated code changed order. The design record now
+/// carries each link's object order.
+#[test]
+fn undo_of_a_delete_keeps_the_design_order_when_read_back_from_the_space() {
+    let mut ed = robosim_editor::session::Editor::new(robosim_instance_space::Store::new(), "r")
+        .expect("a new design");
+    let mut p = robosim_editor::commands::Prompt::default();
+    for line in [
+        "cone k R = 3, H = 4",
+        "truncated-cone t R1 = 3, R2 = 5, H = 6, N = 8",
+        "delete k",
+        "undo",
+    ] {
+        robosim_editor::commands::execute(&mut ed, &mut p, line).expect(line);
+    }
+    let names = |d: &robosim_editor::structure::Design| -> Vec<String> {
+        d.links
+            .iter()
+            .flat_map(|l| l.objects.iter().map(|o| o.name.clone()))
+            .collect()
+    };
+    assert_eq!(names(ed.design()), ["k", "t"], "the editor's own order");
+    let snap = robosim_instance_space::Snapshot::from_store(&ed.space);
+    let back = robosim_editor::session::design_from_snapshot(&snap, "r").expect("read back");
+    assert_eq!(names(&back), ["k", "t"], "the order read back from the space");
+    assert_eq!(&back, ed.design());
+}

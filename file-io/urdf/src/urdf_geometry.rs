@@ -212,10 +212,29 @@ impl MeshRef {
         if parts.is_empty() {
             return Err(self.err(MeshProblem::Empty(path)));
         }
-        for t in parts.iter_mut().flat_map(|p| p.triangles.iter_mut()) {
-            for v in t.iter_mut() {
+        // Scaled, every coordinate must be finite: a NaN or an infinity in the file (or one
+        // that the `scale` attribute overflows) would reach the display and the collision
+        // solids as a silent wrong shape.
+        for (i, t) in parts
+            .iter_mut()
+            .flat_map(|p| p.triangles.iter_mut())
+            .enumerate()
+        {
+            for (j, v) in t.iter_mut().enumerate() {
                 for (c, s) in v.iter_mut().zip(self.scale.iter()) {
                     *c *= s;
+                }
+                if let Some(bad) = v.iter().find(|c| !c.is_finite()) {
+                    return Err(self.err(MeshProblem::Read(format!(
+                        "{}: triangle {i}, vertex {j}: coordinate {bad} is not a finite number{}",
+                        path.display(),
+                        if self.scale == Vector3::new(1.0, 1.0, 1.0) {
+                            String::new()
+                        } else {
+                            let k = self.scale;
+                            format!(" (after the scale {} {} {})", k.x, k.y, k.z)
+                        }
+                    ))));
                 }
             }
         }
