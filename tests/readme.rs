@@ -58,16 +58,7 @@ impl Drop for Cleanup {
                 .args(["down", "--session", s])
                 .env("ROBOSIM_HOME", &self.home)
                 .output();
-            let prefix = format!("rs_{s}_");
-            for e in std::fs::read_dir("/dev/shm")
-                .into_iter()
-                .flatten()
-                .flatten()
-            {
-                if e.file_name().to_string_lossy().starts_with(&prefix) {
-                    let _ = std::fs::remove_file(e.path());
-                }
-            }
+            robosim_instance_space::remove_shm_files(s);
         }
     }
 }

@@ -138,14 +138,7 @@ impl Drop for TestSession {
             let _ = c.kill();
             let _ = c.wait();
         }
-        let prefix = format!("rs_{}_", self.name);
-        if let Ok(entries) = std::fs::read_dir("/dev/shm") {
-            for e in entries.flatten() {
-                if e.file_name().to_string_lossy().starts_with(&prefix) {
-                    let _ = std::fs::remove_file(e.path());
-                }
-            }
-        }
+        robosim_instance_space::remove_shm_files(&self.name);
     }
 }
 

@@ -5,10 +5,9 @@
 //! `Client::transact_fresh`, 12 `posttranslate`s of 1 mm moved the object 3 mm.
 
 use robosim_hl_interface::session::Ops;
-use robosim_instance_space::{Client, Keeper, KeeperOptions, Reader, Session};
+use robosim_instance_space::{Client, KeeperOptions, Reader, Session, ThreadKeeper};
 use serde_json::json;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{Arc, Barrier};
+use std::sync::Barrier;
 use std::time::Duration;
 
 /// Writers racing; more than the default 16 clients of a session (the keeper here allows more).
@@ -16,63 +15,11 @@ const WRITERS: usize = 17;
 /// Edits each writer makes.
 const EDITS: usize = 3;
 
-/// A keeper stepping in a thread of this process on its own session and home; stopped and its
-/// shared memory removed when dropped.
-struct ThreadKeeper {
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-    name: String,
-    _home: tempfile::TempDir,
-    session: Session,
-}
-
-impl ThreadKeeper {
-    fn start(tag: &str, opts: KeeperOptions) -> ThreadKeeper {
-        let home = tempfile::tempdir().expect("temp dir");
-        let name = format!("c{tag}{}", std::process::id());
-        let session = Session::open_in(home.path(), Some(&name)).expect("session");
-        let stop = Arc::new(AtomicBool::new(false));
-        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-        let thread = {
-            let (session, stop) = (session.clone(), stop.clone());
-            std::thread::spawn(move || {
-                let (mut keeper, _) = Keeper::start(&session, opts).expect("start the keeper");
-                let _ = ready_tx.send(());
-                while !stop.load(Ordering::Relaxed) {
-                    keeper.step(Duration::from_millis(5)).expect("keeper step");
-                }
-            })
-        };
-        ready_rx
-            .recv_timeout(Duration::from_secs(60))
-            .expect("the keeper started");
-        ThreadKeeper {
-            stop,
-            thread: Some(thread),
-            name,
-            _home: home,
-            session,
-        }
-    }
-}
-
-impl Drop for ThreadKeeper {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-        let prefix = format!("rs_{}_", self.name);
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-    }
+/// A keeper stepping in a thread of this process on session `c<tag><pid>` of its own (home,
+/// shared memory removed when dropped).
+fn thread_keeper(tag: &str, opts: KeeperOptions) -> ThreadKeeper {
+    let name = format!("c{tag}{}", std::process::id());
+    ThreadKeeper::start(&name, opts, Duration::from_secs(60)).expect("the keeper started")
 }
 
 /// A keeper holding the built-in `demo` scene (a table at x = 0.8 m, the two-joint arm2).
@@ -82,9 +29,9 @@ fn demo_session(tag: &str) -> ThreadKeeper {
         max_readers: WRITERS + 4,
         ..KeeperOptions::default()
     };
-    let k = ThreadKeeper::start(tag, opts);
+    let k = thread_keeper(tag, opts);
     let lib = robosim_library::standard_library().expect("the standard library");
-    let mut c = Client::connect(&k.session, "setup").expect("connect");
+    let mut c = Client::connect(k.session(), "setup").expect("connect");
     for tx in robosim_scene::load_from(lib, "demo").expect("demo scene") {
         c.transact(&tx).expect("demo committed");
     }
@@ -119,7 +66,7 @@ fn snapshot(session: &Session) -> std::rc::Rc<robosim_instance_space::Snapshot> 
 fn concurrent_relative_edits_all_land() {
     let k = demo_session("rel");
     let step = 0.001;
-    race(&k.session, |w, ops| {
+    race(k.session(), |w, ops| {
         // Half the writers translate in the parent's frame, half in the table's own: with the
         // table unrotated both add `step` along x.
         let op = if w % 2 == 0 {
@@ -133,7 +80,7 @@ fn concurrent_relative_edits_all_land() {
             .unwrap_or_else(|e| panic!("writer {w}: {op} refused: {e}"));
         assert!(a["version"].as_u64().is_some(), "acknowledged: {a}");
     });
-    let snap = snapshot(&k.session);
+    let snap = snapshot(k.session());
     let i = snap.find("table").expect("the table");
     let x = snap.pose(i).pose[3];
     let want = 0.8 + (WRITERS * EDITS) as f64 * step;
@@ -149,7 +96,7 @@ fn concurrent_relative_edits_all_land() {
 fn concurrent_relative_joint_moves_all_land() {
     let k = demo_session("joint");
     let step = 0.01;
-    race(&k.session, |w, ops| {
+    race(k.session(), |w, ops| {
         // Writers of joint 0 and of joint 1 race on the same robot: each writes the whole q
         // (and the link poses), so a stale read of the other joint would undo its moves.
         let j = w % 2;
@@ -159,7 +106,7 @@ fn concurrent_relative_joint_moves_all_land() {
         })
         .unwrap_or_else(|e| panic!("writer {w}: joint {j} refused: {e}"));
     });
-    let snap = snapshot(&k.session);
+    let snap = snapshot(k.session());
     let q: Vec<f64> = ["link1", "link2"]
         .iter()
         .map(|l| snap.pose(snap.find(l).expect("a link")).joint)
@@ -184,7 +131,7 @@ fn concurrent_relative_joint_moves_all_land() {
 #[test]
 fn rotate_about_a_huge_or_tiny_axis_turns_the_object() {
     let k = demo_session("axis");
-    let mut ops = Ops::attach(&k.session).expect("attach");
+    let mut ops = Ops::attach(k.session()).expect("attach");
     let quarter = std::f64::consts::FRAC_PI_2;
     for (op, axis) in [
         ("postrotate", 1e200),
@@ -201,7 +148,7 @@ fn rotate_about_a_huge_or_tiny_axis_turns_the_object() {
         assert!(a["version"].as_u64().is_some(), "{a}");
     }
     // Three quarter turns about x: the rotation part is [[1,0,0],[0,0,1],[0,-1,0]].
-    let snap = snapshot(&k.session);
+    let snap = snapshot(k.session());
     let p = snap.pose(snap.find("table").expect("the table")).pose;
     let want = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, -1.0, 0.0];
     let got = [p[0], p[1], p[2], p[4], p[5], p[6], p[8], p[9], p[10]];
@@ -239,11 +186,11 @@ fn clients_beyond_the_limit_get_a_typed_session_error() {
         (16, 16),
         "the documented defaults"
     );
-    let k = ThreadKeeper::start("limit", opts);
+    let k = thread_keeper("limit", opts);
     let held: Vec<Ops> = (0..limit)
-        .map(|n| Ops::attach(&k.session).unwrap_or_else(|e| panic!("attach {n}: {e}")))
+        .map(|n| Ops::attach(k.session()).unwrap_or_else(|e| panic!("attach {n}: {e}")))
         .collect();
-    let e = Ops::attach(&k.session)
+    let e = Ops::attach(k.session())
         .err()
         .expect("the 17th reader is refused");
     let said = e.to_string();
@@ -258,7 +205,7 @@ fn clients_beyond_the_limit_get_a_typed_session_error() {
         said.contains("limit of 16 readers") && said.contains("ROBOSIM_MAX_CLIENTS"),
         "{said}"
     );
-    let e = Client::connect(&k.session, "extra")
+    let e = Client::connect(k.session(), "extra")
         .err()
         .expect("the 17th writer is refused");
     assert!(
@@ -273,7 +220,7 @@ fn clients_beyond_the_limit_get_a_typed_session_error() {
         "\n"
     );
     let mut out = Vec::new();
-    let served = serve(&k.session, input.as_bytes(), &mut out);
+    let served = serve(k.session(), input.as_bytes(), &mut out);
     assert!(served.is_err(), "the stream ends with the attach error");
     let answers: Vec<serde_json::Value> = String::from_utf8_lossy(&out)
         .lines()
@@ -298,9 +245,9 @@ fn raising_the_client_limit_lets_a_17th_in() {
         max_readers: 17,
         ..KeeperOptions::default()
     };
-    let k = ThreadKeeper::start("raised", opts);
+    let k = thread_keeper("raised", opts);
     let held: Vec<Ops> = (0..17)
-        .map(|n| Ops::attach(&k.session).unwrap_or_else(|e| panic!("attach {n}: {e}")))
+        .map(|n| Ops::attach(k.session()).unwrap_or_else(|e| panic!("attach {n}: {e}")))
         .collect();
     assert_eq!(held.len(), 17);
 }
@@ -310,8 +257,8 @@ fn raising_the_client_limit_lets_a_17th_in() {
 #[test]
 fn an_oversized_transaction_names_its_size_and_the_limit() {
     use robosim_instance_space::{ClientError, MAX_REQUEST_BYTES};
-    let k = ThreadKeeper::start("big", KeeperOptions::default());
-    let mut c = Client::connect(&k.session, "big").expect("connect");
+    let k = thread_keeper("big", KeeperOptions::default());
+    let mut c = Client::connect(k.session(), "big").expect("connect");
     // Zeroed pages from the allocator: never touched, so this costs no memory.
     let bytes = vec![0u8; MAX_REQUEST_BYTES + 1];
     let e = c.submit_raw(&bytes).err().expect("refused");

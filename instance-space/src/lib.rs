@@ -40,10 +40,10 @@ pub use reader::{
     Change, FollowTrouble, GeometryView, LibraryPublication, ObjectView, Reader, ReaderError,
     Snapshot, compose,
 };
-pub use scratch::ScratchKeeper;
+pub use scratch::{ScratchKeeper, ThreadKeeper};
 pub use session::{
     ProcInfo, Registration, Session, SessionError, default_session_name, exit_words, home,
-    pid_alive, running_sessions, write_private,
+    pid_alive, remove_shm_files, running_sessions, write_private,
 };
 pub use store::{
     Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,

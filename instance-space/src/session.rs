@@ -225,7 +225,7 @@ impl Session {
     }
     /// The shared-memory file prefix of this session (in /dev/shm).
     pub fn shm_prefix(&self) -> String {
-        format!("rs_{}_", self.name)
+        shm_prefix_of(&self.name)
     }
 
     /// The iceoryx2 configuration of this session.
@@ -543,6 +543,28 @@ pub struct ProcInfo {
     /// What it is attached to (services, files).
     pub attached: Vec<String>,
     pub started_unix_ms: u64,
+}
+
+/// The prefix of session `name`'s files in /dev/shm (see [`Session::shm_prefix`]).
+fn shm_prefix_of(name: &str) -> String {
+    format!("rs_{name}_")
+}
+
+/// Removes every file of session `name` in /dev/shm (the prefix `rs_NAME_`), whoever still
+/// maps them, and returns how many it removed. For throw-away sessions (tests, benches) once
+/// their processes are stopped: iceoryx2 leaves the global management segment behind when the
+/// last node goes. A user's session goes through [`Session::remove_leftovers`], which keeps
+/// what live nodes use.
+pub fn remove_shm_files(name: &str) -> usize {
+    let prefix = shm_prefix_of(name);
+    let Ok(entries) = fs::read_dir("/dev/shm") else {
+        return 0;
+    };
+    entries
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+        .filter(|e| fs::remove_file(e.path()).is_ok())
+        .count()
 }
 
 /// What [`Session::remove_leftovers`] found and removed.

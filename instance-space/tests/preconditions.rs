@@ -4,7 +4,7 @@
 //! refusing it (which would cut recovery at that record).
 
 use robosim_instance_space::{
-    IDENTITY, Keeper, KeeperOptions, Kind, Session, Transaction, TxError, aspect,
+    IDENTITY, Keeper, KeeperOptions, Kind, Session, Transaction, TxError, aspect, remove_shm_files,
 };
 
 #[test]
@@ -47,14 +47,5 @@ fn a_committed_precondition_replays_after_a_checkpoint() {
     assert_eq!(k.store().version, last, "every committed record replayed");
     assert_eq!(k.store().get(a).map(|o| o.pose[3]), Some(1.0));
     drop(k);
-    let prefix = format!("rs_{name}_");
-    for e in std::fs::read_dir("/dev/shm")
-        .into_iter()
-        .flatten()
-        .flatten()
-    {
-        if e.file_name().to_string_lossy().starts_with(&prefix) {
-            let _ = std::fs::remove_file(e.path());
-        }
-    }
+    remove_shm_files(&name);
 }

@@ -9,71 +9,17 @@
 use robosim_instance_space::journal::decode_store;
 use robosim_instance_space::layout::{OBJECT_CHUNK, POSE_CHUNK};
 use robosim_instance_space::{
-    Client, IDENTITY, Id, Keeper, KeeperOptions, Kind, Reader, Session, Snapshot, Transaction,
+    Client, IDENTITY, Id, KeeperOptions, Kind, Reader, Snapshot, ThreadKeeper, Transaction,
 };
-use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-/// A keeper stepping in a thread of this process; stopped (and the session's shared memory
-/// removed) when dropped.
-struct ThreadKeeper {
-    stop: Arc<AtomicBool>,
-    thread: Option<std::thread::JoinHandle<()>>,
-    name: String,
-    _home: tempfile::TempDir,
-    session: Session,
-}
-
-impl ThreadKeeper {
-    fn start(tag: &str) -> ThreadKeeper {
-        iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
-        let home = tempfile::tempdir().expect("temp dir");
-        let name = format!("t{tag}{}", std::process::id());
-        let session = Session::open_in(home.path(), Some(&name)).expect("session");
-        let stop = Arc::new(AtomicBool::new(false));
-        let (ready_tx, ready_rx) = std::sync::mpsc::channel();
-        let thread = {
-            let (session, stop) = (session.clone(), stop.clone());
-            std::thread::spawn(move || {
-                let (mut keeper, _) =
-                    Keeper::start(&session, KeeperOptions::default()).expect("start the keeper");
-                let _ = ready_tx.send(());
-                while !stop.load(Ordering::Relaxed) {
-                    keeper.step(Duration::from_millis(5)).expect("keeper step");
-                }
-            })
-        };
-        ready_rx
-            .recv_timeout(Duration::from_secs(30))
-            .expect("the keeper started");
-        ThreadKeeper {
-            stop,
-            thread: Some(thread),
-            name,
-            _home: home,
-            session,
-        }
-    }
-}
-
-impl Drop for ThreadKeeper {
-    fn drop(&mut self) {
-        self.stop.store(true, Ordering::Relaxed);
-        if let Some(t) = self.thread.take() {
-            let _ = t.join();
-        }
-        let prefix = format!("rs_{}_", self.name);
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
-    }
+/// A keeper stepping in a thread of this process on session `t<tag><pid>` of its own
+/// (stopped, its home and shared memory removed, when dropped).
+fn thread_keeper(tag: &str) -> ThreadKeeper {
+    iceoryx2::prelude::set_log_level(iceoryx2::prelude::LogLevel::Error);
+    let name = format!("t{tag}{}", std::process::id());
+    ThreadKeeper::start(&name, KeeperOptions::default(), Duration::from_secs(30))
+        .expect("the keeper started")
 }
 
 /// Asserts that the reader's snapshot is the keeper's model at the same version: every
@@ -141,12 +87,12 @@ fn solids(parent: Id, from: usize, n: usize) -> Transaction {
 
 #[test]
 fn deleting_the_newest_object_keeps_readers_following() {
-    let k = ThreadKeeper::start("newest");
-    let mut c = Client::connect(&k.session, "writer").expect("connect");
+    let k = thread_keeper("newest");
+    let mut c = Client::connect(k.session(), "writer").expect("connect");
     let mut tx = Transaction::new();
     tx.create(Kind::Scene, "scene", None);
     let scene = c.transact(&tx).expect("scene").created[0];
-    let mut r = Reader::attach(&k.session, "follower").expect("attach");
+    let mut r = Reader::attach(k.session(), "follower").expect("attach");
     assert_eq!(
         POSE_CHUNK, OBJECT_CHUNK,
         "one partition for poses and objects"
@@ -239,7 +185,7 @@ fn deleting_the_newest_object_keeps_readers_following() {
     commit_and_follow(&mut c, &mut r, &solids(scene, 4_000, 1), "create after");
 
     // A late joiner reads the same.
-    let late = Reader::attach(&k.session, "late").expect("late joiner");
+    let late = Reader::attach(k.session(), "late").expect("late joiner");
     let model = decode_store(&c.snapshot().expect("model").model).expect("decode");
     assert_same(&late.snapshot().expect("snapshot"), &model, "late joiner");
 }

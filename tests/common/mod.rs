@@ -133,16 +133,7 @@ impl Drop for Procs {
                 }
             }
         }
-        let prefix = format!("rs_{}_", self.name);
-        for e in std::fs::read_dir("/dev/shm")
-            .into_iter()
-            .flatten()
-            .flatten()
-        {
-            if e.file_name().to_string_lossy().starts_with(&prefix) {
-                let _ = std::fs::remove_file(e.path());
-            }
-        }
+        robosim_instance_space::remove_shm_files(&self.name);
     }
 }
 
