@@ -4,11 +4,11 @@
 //! started.
 
 use robosim_instance_space::{
-    Client, ClientError, IDENTITY, Kind, Reader, Session, Transaction, TxError,
+    Client, ClientError, IDENTITY, Id, Kind, Reader, Session, Transaction, TxError,
 };
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
 const ROBOSIM: &str = env!("CARGO_BIN_EXE_robosim");
@@ -130,6 +130,39 @@ impl TestSession {
     fn file(&self, name: &str) -> PathBuf {
         self.home.path().join(name)
     }
+    /// `kill -9` of child `pid` (one this session started), and waits for it to be gone.
+    fn kill9_and_reap(&mut self, pid: u32) {
+        kill9(pid);
+        let i = self
+            .children
+            .iter()
+            .position(|c| c.id() == pid)
+            .expect("ours");
+        let _ = self.children[i].wait();
+    }
+    /// Runs `robosim ARGS` in this session's home to the end.
+    fn robosim(&self, args: &[&str]) -> Output {
+        self.command(ROBOSIM)
+            .args(args)
+            .output()
+            .unwrap_or_else(|e| panic!("run robosim {args:?}: {e}"))
+    }
+    /// A guard that runs `robosim down` on this session when dropped: stops what `up`
+    /// started, whatever the test's outcome.
+    fn down_when_dropped(&self) -> Down {
+        let mut down = self.command(ROBOSIM);
+        down.args(["down", "--session", &self.name]);
+        Down(down)
+    }
+}
+
+/// See [`TestSession::down_when_dropped`].
+struct Down(Command);
+
+impl Drop for Down {
+    fn drop(&mut self) {
+        let _ = self.0.output();
+    }
 }
 
 impl Drop for TestSession {
@@ -152,6 +185,22 @@ fn kill9(pid: u32) {
     let _ = Command::new("kill")
         .args(["-KILL", &pid.to_string()])
         .status();
+}
+
+/// Commits a new `Kind::Scene` object named "scene"; its id.
+fn create_scene(c: &mut Client) -> Id {
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scene", None);
+    c.transact(&tx).expect("scene").created[0]
+}
+
+/// Renames `scene` `n` times, to n0, n1, …, one transaction each.
+fn rename_scene(c: &mut Client, scene: Id, n: usize) {
+    for k in 0..n {
+        let mut tx = Transaction::new();
+        tx.set_name(scene, &format!("n{k}"));
+        c.transact(&tx).expect("rename");
+    }
 }
 
 fn scene_tx() -> Transaction {
@@ -391,9 +440,7 @@ fn kill_9_of_the_keeper_mid_burst_loses_nothing_acknowledged() {
     let s = t.session();
     let scene = {
         let mut c = with_home(t.home.path(), || Client::connect(&s, "setup")).expect("connect");
-        let mut tx = Transaction::new();
-        tx.create(Kind::Scene, "scene", None);
-        c.transact(&tx).expect("scene").created[0]
+        create_scene(&mut c)
     };
     let mut reader = with_home(t.home.path(), || Reader::attach(&s, "survivor")).expect("attach");
     let log = t.file("burst.log");
@@ -941,9 +988,7 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
     let keeper = t.start_keeper();
     let s = t.session();
     let mut c = Client::connect(&s, "writer").expect("connect");
-    let mut tx = Transaction::new();
-    tx.create(Kind::Scene, "scene", None);
-    let scene = c.transact(&tx).expect("scene").created[0]; // version 1
+    let scene = create_scene(&mut c); // version 1
     for chunk in (1..=600)
         .collect::<Vec<u32>>()
         .chunks(Client::MAX_IN_FLIGHT)
@@ -961,13 +1006,7 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
         }
     }
     drop(c);
-    kill9(keeper);
-    let i = t
-        .children
-        .iter()
-        .position(|c| c.id() == keeper)
-        .expect("ours");
-    let _ = t.children[i].wait();
+    t.kill9_and_reap(keeper);
 
     // Flip one bit in the payload of the record of version 300.
     let journal = std::fs::read_dir(s.data_dir())
@@ -999,21 +1038,8 @@ fn journal_bit_flip_is_said_aloud_by_up_and_the_cut_is_kept() {
     m[r.offset + 16 + r.len / 2] ^= 0x10;
     std::fs::write(&mirror, &m).expect("write mirror");
 
-    /// Stops what `up` started, whatever the test's outcome.
-    struct Down(Command);
-    impl Drop for Down {
-        fn drop(&mut self) {
-            let _ = self.0.output();
-        }
-    }
-    let mut down = t.command(ROBOSIM);
-    down.args(["down", "--session", &t.name]);
-    let _down = Down(down);
-    let out = t
-        .command(ROBOSIM)
-        .args(["up", "demo", "--session", &t.name])
-        .output()
-        .expect("run up");
+    let _down = t.down_when_dropped();
+    let out = t.robosim(&["up", "demo", "--session", &t.name]);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(out.status.success(), "{err}");
     for want in [
@@ -1179,9 +1205,7 @@ fn a_late_joiner_reuses_a_published_pose_base_and_opens_only_the_chunks_moved_si
     t.start_keeper();
     let s = t.session();
     let mut c = Client::connect(&s, "w").expect("connect");
-    let mut tx = Transaction::new();
-    tx.create(Kind::Scene, "scene", None);
-    let scene = c.transact(&tx).expect("scene").created[0];
+    let scene = create_scene(&mut c);
     // More records than a chunk service's open is worth (the reader's RECORDS_PER_OPEN, 16384):
     // 17,000 bodies, 67 chunks.
     let n = 17_000;
@@ -1551,22 +1575,10 @@ fn half_truncated_journal_log_after_kill9_loses_nothing_through_up_and_down() {
     let keeper = t.start_keeper();
     let s = t.session();
     let mut c = Client::connect(&s, "writer").expect("connect");
-    let mut tx = Transaction::new();
-    tx.create(Kind::Scene, "scene", None);
-    let scene = c.transact(&tx).expect("scene").created[0];
-    for k in 0..200 {
-        let mut tx = Transaction::new();
-        tx.set_name(scene, &format!("n{k}"));
-        c.transact(&tx).expect("rename");
-    }
+    let scene = create_scene(&mut c);
+    rename_scene(&mut c, scene, 200);
     drop(c);
-    kill9(keeper);
-    let i = t
-        .children
-        .iter()
-        .position(|c| c.id() == keeper)
-        .expect("ours");
-    let _ = t.children[i].wait();
+    t.kill9_and_reap(keeper);
     let (log, mirror) = journal_copies(&s);
     let len = std::fs::metadata(&log).expect("log").len();
     assert_eq!(std::fs::metadata(&mirror).expect("mirror").len(), len);
@@ -1577,21 +1589,9 @@ fn half_truncated_journal_log_after_kill9_loses_nothing_through_up_and_down() {
         .set_len(len / 2)
         .expect("cut the log");
 
-    struct Down(Command);
-    impl Drop for Down {
-        fn drop(&mut self) {
-            let _ = self.0.output();
-        }
-    }
-    let mut down = t.command(ROBOSIM);
-    down.args(["down", "--session", &t.name]);
-    let _down = Down(down);
+    let _down = t.down_when_dropped();
     let up = |t: &TestSession| {
-        let out = t
-            .command(ROBOSIM)
-            .args(["up", "demo", "--session", &t.name])
-            .output()
-            .expect("run up");
+        let out = t.robosim(&["up", "demo", "--session", &t.name]);
         let err = String::from_utf8_lossy(&out.stderr).into_owned();
         assert!(out.status.success(), "{err}");
         (up_version(&String::from_utf8_lossy(&out.stdout)), err)
@@ -1603,11 +1603,7 @@ fn half_truncated_journal_log_after_kill9_loses_nothing_through_up_and_down() {
         "`up` says the copies disagreed and what was repaired:\n{err}"
     );
     assert!(!err.contains("RECOVERY LOST DATA"), "{err}");
-    let out = t
-        .command(ROBOSIM)
-        .args(["down", "--session", &t.name])
-        .output()
-        .expect("down");
+    let out = t.robosim(&["down", "--session", &t.name]);
     assert!(out.status.success());
     let (v, err) = up(&t);
     assert_eq!(v, 201, "after down and up: {err}");
@@ -1676,14 +1672,8 @@ fn two_keepers_started_at_once_one_runs_and_the_other_names_the_holder() {
         assert!(start.elapsed() < Duration::from_secs(30), "keeper not up");
         std::thread::sleep(Duration::from_millis(20));
     };
-    let mut tx = Transaction::new();
-    tx.create(Kind::Scene, "scene", None);
-    let scene = c.transact(&tx).expect("scene").created[0];
-    for k in 0..20 {
-        let mut tx = Transaction::new();
-        tx.set_name(scene, &format!("n{k}"));
-        c.transact(&tx).expect("rename");
-    }
+    let scene = create_scene(&mut c);
+    rename_scene(&mut c, scene, 20);
     let (log, mirror) = journal_copies(&s);
     let (l, m) = (
         std::fs::read(&log).expect("log"),
@@ -1704,26 +1694,14 @@ fn down_after_kill9_of_the_keeper_removes_the_sessions_shared_memory() {
     let s = t.session();
     {
         let mut c = Client::connect(&s, "writer").expect("connect");
-        let mut tx = Transaction::new();
-        tx.create(Kind::Scene, "scene", None);
-        c.transact(&tx).expect("scene");
+        create_scene(&mut c);
         let r = Reader::attach(&s, "reader").expect("attach");
         assert!(r.snapshot().is_some());
     }
-    kill9(keeper);
-    let i = t
-        .children
-        .iter()
-        .position(|c| c.id() == keeper)
-        .expect("ours");
-    let _ = t.children[i].wait();
+    t.kill9_and_reap(keeper);
     let left = s.shm_files().len();
     assert!(left > 0, "a killed keeper leaves shared memory behind");
-    let out = t
-        .command(ROBOSIM)
-        .args(["down", "--session", &t.name])
-        .output()
-        .expect("down");
+    let out = t.robosim(&["down", "--session", &t.name]);
     let text = String::from_utf8_lossy(&out.stdout).into_owned();
     assert!(out.status.success(), "{text}");
     let files = s.shm_files();
@@ -1748,34 +1726,14 @@ fn vanished_journal_files_are_refused_by_up_naming_them() {
     let keeper = t.start_keeper();
     let s = t.session();
     let mut c = Client::connect(&s, "writer").expect("connect");
-    let mut tx = Transaction::new();
-    tx.create(Kind::Scene, "scene", None);
-    c.transact(&tx).expect("scene");
+    create_scene(&mut c);
     drop(c);
-    kill9(keeper);
-    let i = t
-        .children
-        .iter()
-        .position(|c| c.id() == keeper)
-        .expect("ours");
-    let _ = t.children[i].wait();
+    t.kill9_and_reap(keeper);
     let (log, mirror) = journal_copies(&s);
     std::fs::remove_file(&log).expect("remove log");
     std::fs::remove_file(&mirror).expect("remove mirror");
-    struct Down(Command);
-    impl Drop for Down {
-        fn drop(&mut self) {
-            let _ = self.0.output();
-        }
-    }
-    let mut down = t.command(ROBOSIM);
-    down.args(["down", "--session", &t.name]);
-    let _down = Down(down);
-    let out = t
-        .command(ROBOSIM)
-        .args(["up", "demo", "--session", &t.name])
-        .output()
-        .expect("run up");
+    let _down = t.down_when_dropped();
+    let out = t.robosim(&["up", "demo", "--session", &t.name]);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(
         !out.status.success(),
@@ -1790,11 +1748,7 @@ fn vanished_journal_files_are_refused_by_up_naming_them() {
         assert!(err.contains(want), "{want:?} in:\n{err}");
     }
     assert!(!log.exists() && !mirror.exists());
-    let out = t
-        .command(ROBOSIM)
-        .args(["up", "demo", "--session", &t.name, "--fresh"])
-        .output()
-        .expect("run up --fresh");
+    let out = t.robosim(&["up", "demo", "--session", &t.name, "--fresh"]);
     let err = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(out.status.success(), "{err}");
     assert!(err.contains("the saved model was moved to"), "{err}");
