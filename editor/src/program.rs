@@ -20,6 +20,7 @@ use crate::lang::{Arg, Command, LangError, Span, Unit, parse, unit};
 use crate::shape::{Shape, axis_rotation, facets_for, rigid_inverse};
 use nalgebra::{Matrix4, Point3, Vector3};
 use robosim_file_io::linkfile::{self, DhRow, LinkFile, LinkJoint, pseudo_inertia};
+use robosim_geometry::readable;
 use std::collections::BTreeMap;
 
 /// The default density, kg/m³ (aluminium).
@@ -170,16 +171,6 @@ pub fn placed_vertices(p: &Placed) -> Vec<Point3<f64>> {
             .map(|v| Point3::from((p.m * v.to_homogeneous()).xyz()))
             .collect(),
         _ => Vec::new(),
-    }
-}
-
-/// `x` for a message: plain when it reads well, in exponent form when Display would print
-/// hundreds of digits (1e308) or a long run of zeros (1e-12).
-fn readable(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-6..1e15).contains(&x.abs()) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
     }
 }
 
@@ -449,7 +440,10 @@ impl Interp<'_> {
                     Err(self.err(
                         c,
                         s,
-                        format!("argument N: {n} facets (an integer from 3 to 16384)"),
+                        format!(
+                            "argument N: {} facets (an integer from 3 to 16384)",
+                            readable(n)
+                        ),
                     ))
                 }
             }

@@ -23,6 +23,7 @@
 //! solids by shared vertices.
 
 use nalgebra::{Matrix4, Point3};
+use robosim_geometry::readable;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -553,16 +554,6 @@ fn check_ainert(j: &Matrix4<f64>, line: usize, path: &Path) -> Result<(), LinkFi
             line + 3
         ))
     })
-}
-
-/// `x` for a message: plain when it reads well, in exponent form when Display would print
-/// hundreds of digits (1e308) or a long run of zeros (1e-12).
-fn readable(x: f64) -> String {
-    if x != 0.0 && x.is_finite() && !(1e-6..1e15).contains(&x.abs()) {
-        format!("{x:e}")
-    } else {
-        format!("{x}")
-    }
 }
 
 /// Pseudo-inertia `∫ [x xᵀ x; xᵀ 1] dm` from mass, centre of mass and the inertia tensor about

@@ -26,6 +26,17 @@ pub use polyhedron::{
     Aabb, GeometryError, PLANARITY_TOL, Plane, Polygon, Polyhedron, check_polygon,
 };
 
+/// `x` for a message: plain when it reads well, in exponent form when Display would print
+/// hundreds of digits (1e308 is 309 of them) or a long run of zeros (1e-12). Every user-facing
+/// message that prints a number from the input goes through this.
+pub fn readable(x: f64) -> String {
+    if x != 0.0 && x.is_finite() && !(1e-6..1e15).contains(&x.abs()) {
+        format!("{x:e}")
+    } else {
+        format!("{x}")
+    }
+}
+
 /// The unit vector along `v` (an axis from user input), computed without overflow or
 /// underflow: `v` is first divided by its largest |component|, so `[1e200, 0, 0]` and
 /// `[1e-200, 0, 0]` are both the x axis (`v.norm()` would be ∞ and 0). `None` when `v` is zero
@@ -70,5 +81,23 @@ mod unit_axis_tests {
         ] {
             assert!(unit_axis(bad).is_none(), "{bad:?}");
         }
+    }
+}
+
+#[cfg(test)]
+mod readable_tests {
+    use super::readable;
+
+    /// Issue 34, messages: a message naming 1e308 printed all 309 digits of it.
+    #[test]
+    fn messages_print_huge_and_tiny_numbers_in_exponent_form_not_309_digits() {
+        assert_eq!(readable(1e308), "1e308");
+        assert_eq!(readable(-1.5e300), "-1.5e300");
+        assert_eq!(readable(1e-12), "1e-12");
+        assert_eq!(readable(0.25), "0.25");
+        assert_eq!(readable(-3.0), "-3");
+        assert_eq!(readable(0.0), "0");
+        assert_eq!(readable(f64::INFINITY), "inf");
+        assert!(format!("{}", 1e308).len() > 300, "what Display prints");
     }
 }

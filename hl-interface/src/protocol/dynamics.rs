@@ -24,6 +24,7 @@ use crate::robot_json::robot_from_json;
 use crate::{ErrorKind, ProtocolError};
 use robosim_dynamics::{Data, DynamicsError, Model, aba, crba, fd_cholesky, gravity, rnea};
 use robosim_dynamics::{Integrator, IntegratorConfig, StepSize, fixture_robot, simulate};
+use robosim_geometry::readable;
 use robosim_kinematics::Robot;
 use serde_json::{Map, Value, json};
 
@@ -230,7 +231,10 @@ fn op_simulate(
     if !(t_end.is_finite() && t_end >= 0.0) {
         return Err(ProtocolError::new(
             ErrorKind::InvalidRequest,
-            format!("`t_end` must be a non-negative number of seconds, got {t_end}"),
+            format!(
+                "`t_end` must be a non-negative number of seconds, got {}",
+                readable(t_end)
+            ),
         ));
     }
     let outputs: Vec<f64> = match req.get("outputs") {
@@ -257,7 +261,11 @@ fn op_simulate(
     if let Some((i, t)) = outputs.iter().enumerate().find(|(_, t)| **t > t_end) {
         return Err(ProtocolError::new(
             ErrorKind::InvalidRequest,
-            format!("`outputs`[{i}] = {t} s is after t_end = {t_end} s"),
+            format!(
+                "`outputs`[{i}] = {} s is after t_end = {} s",
+                readable(*t),
+                readable(t_end)
+            ),
         ));
     }
     let name = req
@@ -315,7 +323,7 @@ fn op_simulate(
         Some(m) => {
             return Err(ProtocolError::new(
                 ErrorKind::InvalidRequest,
-                format!("`max_steps` must be at least 1, got {m}"),
+                format!("`max_steps` must be at least 1, got {}", readable(m)),
             ));
         }
     };
