@@ -11,11 +11,11 @@
 use crate::transaction::{ObjRef, Op, Transaction};
 
 mod validate;
-pub use validate::{INERTIA_TOL, mass_props, principal_moments};
 use robosim_geometry::Polyhedron;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::sync::Arc;
+pub use validate::{INERTIA_TOL, mass_props, principal_moments};
 
 /// Object identifier; assigned by the keeper, never reused within a session. 0 means "none".
 pub type Id = u64;
@@ -830,13 +830,11 @@ impl Stage<'_> {
                     for (k, v) in m.inertia.iter().enumerate() {
                         finite(i, rid, &format!("inertia[{k}]"), *v)?;
                     }
-                    validate::mass_props(m).map_err(|(field, reason)| {
-                        TxError::InvalidValue {
-                            op: i,
-                            id: rid,
-                            field: field.into(),
-                            reason,
-                        }
+                    validate::mass_props(m).map_err(|(field, reason)| TxError::InvalidValue {
+                        op: i,
+                        id: rid,
+                        field: field.into(),
+                        reason,
                     })?;
                 }
                 self.edit(i, *id, DYNAMICS)?.dynamics = *dynamics;
