@@ -165,8 +165,8 @@ pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRo
         Some(LinkJoint::Revolute | LinkJoint::Prismatic)
     ) {
         return Err(format!(
-            "{bname}: the base link's I joint is {:?}; a base has a fixed I joint or none",
-            base.joint_i
+            "{bname}: the base link's I joint is {}; a base has a fixed I joint or none",
+            joint_words(base.joint_i)
         ));
     }
     if links.len() < 2 {
@@ -181,15 +181,17 @@ pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRo
             Some(LinkJoint::Prismatic) => JointType::Prismatic,
             other => {
                 return Err(format!(
-                    "{lname}: link {k}'s I joint is {other:?}; links after the base move with a revolute or prismatic I joint"
+                    "{lname}: link {k}'s I joint is {}; links after the base move with a revolute or prismatic I joint",
+                    joint_words(other)
                 ));
             }
         };
         let (prev_name, prev) = &links[k - 1];
         if prev.joint_i1.is_some() && prev.joint_i1 != l.joint_i {
             return Err(format!(
-                "{lname}: its I joint ({:?}) is not the joint {prev_name} ends with ({:?})",
-                l.joint_i, prev.joint_i1
+                "{lname}: its I joint ({}) is not the joint {prev_name} ends with ({})",
+                joint_words(l.joint_i),
+                joint_words(prev.joint_i1)
             ));
         }
         let row = linkfile::dh_decompose(&l.amat, crate::program::DH_TOL)
@@ -314,4 +316,15 @@ pub fn robot_transaction(r: &LoadedRobot, name: &str) -> Result<Transaction, Str
         }
     }
     Ok(tx)
+}
+
+/// A link file's joint for a message: "revolute", "prismatic", "fixed", or "absent" (was
+/// printed as Rust's `Some(Revolute)`).
+fn joint_words(j: Option<LinkJoint>) -> &'static str {
+    match j {
+        Some(LinkJoint::Revolute) => "revolute",
+        Some(LinkJoint::Prismatic) => "prismatic",
+        Some(LinkJoint::Fixed) => "fixed",
+        None => "absent",
+    }
 }
