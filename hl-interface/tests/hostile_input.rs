@@ -43,6 +43,21 @@ fn answer(from: &mut BufReader<ChildStdout>) -> Value {
     serde_json::from_str(&line).unwrap_or_else(|e| panic!("answer not JSON ({e}): {line:?}"))
 }
 
+/// A valid request (id 2) sent after a hostile one: the server must still answer it.
+const NEXT: &str = r#"{"id": 2, "op": "fk", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0]}"#;
+
+/// The next answer is the successful one to [`NEXT`], and then the server (its input closed)
+/// exits successfully.
+fn next_answered_then_clean_exit(mut child: Child, from: &mut BufReader<ChildStdout>) {
+    let b = answer(from);
+    assert_eq!(
+        (b["id"].clone(), b["ok"].clone()),
+        (Value::from(2), Value::from(true)),
+        "{b}"
+    );
+    assert!(child.wait().expect("wait").success());
+}
+
 #[test]
 fn issue_34_query_of_dev_zero_answers_line_too_long_instead_of_running_out_of_memory() {
     let zero = std::fs::File::open("/dev/zero").expect("open /dev/zero");
@@ -74,11 +89,7 @@ fn issue_34_query_skips_an_overlong_line_and_answers_the_next_request() {
         "x".repeat(5000)
     );
     writeln!(to, "{long}").expect("write");
-    writeln!(
-        to,
-        r#"{{"id": 2, "op": "fk", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0]}}"#
-    )
-    .expect("write");
+    writeln!(to, "{NEXT}").expect("write");
     drop(to);
     let a = answer(&mut from);
     assert_eq!(a["error"]["kind"], "parse_error", "{a}");
@@ -88,13 +99,7 @@ fn issue_34_query_skips_an_overlong_line_and_answers_the_next_request() {
             .is_some_and(|m| m.contains("longer than 1000 bytes")),
         "{a}"
     );
-    let b = answer(&mut from);
-    assert_eq!(
-        (b["id"].clone(), b["ok"].clone()),
-        (Value::from(2), Value::from(true)),
-        "{b}"
-    );
-    assert!(child.wait().expect("wait").success());
+    next_answered_then_clean_exit(child, &mut from);
 }
 
 #[test]
@@ -114,11 +119,7 @@ fn issue_34_query_survives_a_urdf_robot_nested_20000_deep_and_answers_the_next_r
     let mut to = child.stdin.take().expect("stdin");
     let req = serde_json::json!({"id": 1, "op": "fk", "robot": {"urdf": deep}, "q": []});
     writeln!(to, "{req}").expect("write");
-    writeln!(
-        to,
-        r#"{{"id": 2, "op": "fk", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0]}}"#
-    )
-    .expect("write");
+    writeln!(to, "{NEXT}").expect("write");
     drop(to);
     let a = answer(&mut from);
     assert_eq!(
@@ -131,13 +132,7 @@ fn issue_34_query_survives_a_urdf_robot_nested_20000_deep_and_answers_the_next_r
         msg.contains("deep.urdf:3: XML: elements nested more than 512 deep"),
         "{msg}"
     );
-    let b = answer(&mut from);
-    assert_eq!(
-        (b["id"].clone(), b["ok"].clone()),
-        (Value::from(2), Value::from(true)),
-        "{b}"
-    );
-    assert!(child.wait().expect("wait").success());
+    next_answered_then_clean_exit(child, &mut from);
 }
 
 #[test]

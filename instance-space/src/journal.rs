@@ -903,6 +903,25 @@ struct PairPlan {
     header_problem: Option<String>,
 }
 
+impl PairPlan {
+    /// The plan for journal `first` before its copies are compared: nothing replayed,
+    /// repaired, cut or set aside yet.
+    fn new(first: u64, paths: [PathBuf; 2], orig: [Option<Vec<u8>>; 2], good: Vec<u8>) -> Self {
+        PairPlan {
+            first,
+            paths,
+            orig,
+            good,
+            records: 0,
+            repairs: [Vec::new(), Vec::new()],
+            keep_whole: [None, None],
+            cut: None,
+            aside: false,
+            header_problem: None,
+        }
+    }
+}
+
 struct Cut {
     pos: usize,
     cause: String,
@@ -966,18 +985,7 @@ fn plan_pair(
     let mirror = mirror_path(&log);
     let orig = [read_copy(&log)?, read_copy(&mirror)?];
     let paths = [log, mirror];
-    let mut plan = PairPlan {
-        first,
-        paths,
-        orig,
-        good: JOURNAL_MAGIC.to_vec(),
-        records: 0,
-        repairs: [Vec::new(), Vec::new()],
-        keep_whole: [None, None],
-        cut: None,
-        aside: false,
-        header_problem: None,
-    };
+    let mut plan = PairPlan::new(first, paths, orig, JOURNAL_MAGIC.to_vec());
     let header_ok =
         |b: &Option<Vec<u8>>| b.as_deref().is_some_and(|b| b.starts_with(JOURNAL_MAGIC));
     if !plan.orig.iter().any(header_ok) {
@@ -1330,17 +1338,10 @@ pub fn recover_copies(
     for &first in &firsts {
         if stopped {
             let log = dir.join(journal_name(first));
+            let paths = [log.clone(), mirror_path(&log)];
             plans.push(PairPlan {
-                first,
-                orig: [None, None],
-                paths: [log.clone(), mirror_path(&log)],
-                good: Vec::new(),
-                records: 0,
-                repairs: [Vec::new(), Vec::new()],
-                keep_whole: [None, None],
-                cut: None,
                 aside: true,
-                header_problem: None,
+                ..PairPlan::new(first, paths, [None, None], Vec::new())
             });
             continue;
         }

@@ -25,34 +25,45 @@ pub fn read_line_bounded<R: BufRead + ?Sized>(
     buf.clear();
     let mut any = false;
     loop {
-        let chunk = match input.fill_buf() {
-            Ok(c) => c,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(e),
-        };
-        if chunk.is_empty() {
-            return Ok(if any { Line::Complete } else { Line::Eof });
-        }
-        any = true;
         let room = max - buf.len();
-        let newline = chunk.iter().position(|&b| b == b'\n');
-        match newline {
-            Some(k) if k <= room => {
-                buf.extend_from_slice(&chunk[..k]);
-                input.consume(k + 1);
-                return Ok(Line::Complete);
+        // (bytes to consume, the line's end if this chunk ends it)
+        let (used, end) = with_chunk(input, |chunk| {
+            if chunk.is_empty() {
+                return (0, Some(if any { Line::Complete } else { Line::Eof }));
             }
-            _ if chunk.len() <= room && newline.is_none() => {
-                let n = chunk.len();
-                buf.extend_from_slice(chunk);
-                input.consume(n);
+            match chunk.iter().position(|&b| b == b'\n') {
+                Some(k) if k <= room => {
+                    buf.extend_from_slice(&chunk[..k]);
+                    (k + 1, Some(Line::Complete))
+                }
+                None if chunk.len() <= room => {
+                    buf.extend_from_slice(chunk);
+                    (chunk.len(), None)
+                }
+                _ => {
+                    // More than `max` bytes before the newline.
+                    buf.extend_from_slice(&chunk[..room]);
+                    (room, Some(Line::TooLong))
+                }
             }
-            _ => {
-                // More than `max` bytes before the newline.
-                buf.extend_from_slice(&chunk[..room]);
-                input.consume(room);
-                return Ok(Line::TooLong);
-            }
+        })?;
+        input.consume(used);
+        match end {
+            Some(line) => return Ok(line),
+            None => any = true,
+        }
+    }
+}
+
+/// `f` of the bytes `input.fill_buf()` holds (empty at the end of the stream), the read
+/// retried while it is interrupted. (A closure rather than the slice: a borrow returned from
+/// the retry loop would hold `input` for every iteration.)
+fn with_chunk<R: BufRead + ?Sized, T>(input: &mut R, f: impl FnOnce(&[u8]) -> T) -> io::Result<T> {
+    loop {
+        match input.fill_buf() {
+            Ok(chunk) => return Ok(f(chunk)),
+            Err(e) if e.kind() == io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
         }
     }
 }
@@ -62,21 +73,18 @@ pub fn read_line_bounded<R: BufRead + ?Sized>(
 pub fn skip_line<R: BufRead + ?Sized>(input: &mut R) -> io::Result<u64> {
     let mut skipped = 0u64;
     loop {
-        let chunk = match input.fill_buf() {
-            Ok(c) => c,
-            Err(e) if e.kind() == io::ErrorKind::Interrupted => continue,
-            Err(e) => return Err(e),
-        };
-        if chunk.is_empty() {
+        // (bytes to consume, whether the line ended: the newline or the end of the stream)
+        let (n, newline, ended) = with_chunk(input, |chunk| {
+            match chunk.iter().position(|&b| b == b'\n') {
+                Some(k) => (k, true, true),
+                None => (chunk.len(), false, chunk.is_empty()),
+            }
+        })?;
+        input.consume(n + usize::from(newline));
+        skipped += n as u64;
+        if ended {
             return Ok(skipped);
         }
-        if let Some(k) = chunk.iter().position(|&b| b == b'\n') {
-            input.consume(k + 1);
-            return Ok(skipped + k as u64);
-        }
-        let n = chunk.len();
-        input.consume(n);
-        skipped += n as u64;
     }
 }
 
