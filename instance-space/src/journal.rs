@@ -635,6 +635,17 @@ fn record_at(bytes: &[u8], pos: usize, after: Option<u64>) -> Option<RecordAt> {
     })
 }
 
+/// `<data>/lost/`, made (private to the user) if it is not there.
+fn make_lost_dir(dir: &Path) -> Result<PathBuf, JournalError> {
+    let lost_dir = dir.join("lost");
+    fs::DirBuilder::new()
+        .recursive(true)
+        .mode(0o700)
+        .create(&lost_dir)
+        .map_err(io_err(&lost_dir))?;
+    Ok(lost_dir)
+}
+
 /// Keeps `bytes[from..]` of the journal `path` as a journal file of its own under
 /// `<data>/lost/` and describes what it holds.
 fn keep_cut(
@@ -645,12 +656,7 @@ fn keep_cut(
     first_version: u64,
     cause: String,
 ) -> Result<LostTail, JournalError> {
-    let lost_dir = dir.join("lost");
-    fs::DirBuilder::new()
-        .recursive(true)
-        .mode(0o700)
-        .create(&lost_dir)
-        .map_err(io_err(&lost_dir))?;
+    let lost_dir = make_lost_dir(dir)?;
     let stamp = unique_stamp();
     let base = path
         .file_name()
@@ -1263,12 +1269,7 @@ fn carry_out(
 
 /// Keeps the whole file `path` (its bytes as read) under `<data>/lost/`; the copy's path.
 fn keep_whole(dir: &Path, path: &Path, bytes: &[u8]) -> Result<PathBuf, JournalError> {
-    let lost_dir = dir.join("lost");
-    fs::DirBuilder::new()
-        .recursive(true)
-        .mode(0o700)
-        .create(&lost_dir)
-        .map_err(io_err(&lost_dir))?;
+    let lost_dir = make_lost_dir(dir)?;
     let base = path
         .file_name()
         .map_or_else(|| "journal".into(), |n| n.to_string_lossy().into_owned());
