@@ -489,8 +489,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 depth: max_depth,
                 memory: max_memory.saturating_mul(1 << 20),
             };
-            robosim_rules::run(&file, session, &watch, &limits)
-                .map_err(|e| CliError(e.to_string()))
+            robosim_rules::run(&file, session, &watch, &limits).map_err(|e| CliError(e.to_string()))
         }
         Command::Automation { model, time_scale } => {
             existing(session)?;

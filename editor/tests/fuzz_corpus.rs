@@ -101,6 +101,10 @@ fn undo_of_a_delete_keeps_the_design_order_when_read_back_from_the_space() {
     assert_eq!(names(ed.design()), ["k", "t"], "the editor's own order");
     let snap = robosim_instance_space::Snapshot::from_store(&ed.space);
     let back = robosim_editor::session::design_from_snapshot(&snap, "r").expect("read back");
-    assert_eq!(names(&back), ["k", "t"], "the order read back from the space");
+    assert_eq!(
+        names(&back),
+        ["k", "t"],
+        "the order read back from the space"
+    );
     assert_eq!(&back, ed.design());
 }

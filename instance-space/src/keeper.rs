@@ -618,7 +618,10 @@ impl Keeper {
     /// Applies a transaction from inside the keeper's process (e.g. loading the start-up
     /// scene): the same validation, journal, publication and announcement as a remote one.
     pub fn commit_local(&mut self, tx: &Transaction) -> Result<Applied, TxError> {
-        let bytes = tx.without_preconditions().unwrap_or_else(|| tx.clone()).encode();
+        let bytes = tx
+            .without_preconditions()
+            .unwrap_or_else(|| tx.clone())
+            .encode();
         let result = self.model.apply(tx);
         if let Ok(applied) = &result {
             self.journal

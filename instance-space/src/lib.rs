@@ -46,8 +46,8 @@ pub use session::{
     pid_alive, remove_shm_files, running_sessions, write_private,
 };
 pub use store::{
-    Appearance, Applied, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS,
-    MassProps, Object, Pose, Selection, Store, TxError, aspect, INERTIA_TOL, mass_props,
+    Appearance, Applied, DhConvention, IDENTITY, INERTIA_TOL, Id, JointKind, Kind, Kinematics,
+    MAX_ELEMENTS, MassProps, Object, Pose, Selection, Store, TxError, aspect, mass_props,
     principal_moments,
 };
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction};

@@ -588,7 +588,10 @@ pub fn compose(a: &[f64; 12], b: &[f64; 12]) -> [f64; 12] {
 /// The newest sample `sub` holds (the older ones are released), if any.
 fn newest(sub: &Sub, what: &str) -> Result<Option<Sample>, ReaderError> {
     let mut newest = None;
-    while let Some(s) = sub.receive().map_err(receive_err(format!("receive {what}")))? {
+    while let Some(s) = sub
+        .receive()
+        .map_err(receive_err(format!("receive {what}")))?
+    {
         newest = Some(s);
     }
     Ok(newest)
@@ -1495,7 +1498,11 @@ impl Reader {
     /// Takes every objects head published since the last call: the newest becomes
     /// `latest_head`, and the chunks they carry are copied out (the samples are released).
     fn receive_objects_heads(&mut self) -> Result<(), ReaderError> {
-        while let Some(s) = self.objects.receive().map_err(receive_err("receive objects"))? {
+        while let Some(s) = self
+            .objects
+            .receive()
+            .map_err(receive_err("receive objects"))?
+        {
             let seg = Segment::parse(s.payload())?;
             let header: ObjectsHeader = *seg.record(0)?;
             let gens = seg.section::<u64>(1)?.to_vec();
@@ -1823,7 +1830,11 @@ impl Reader {
 
     fn drain_changes(&mut self) -> Result<Vec<Change>, ReaderError> {
         let mut out = Vec::new();
-        while let Some(s) = self.changes.receive().map_err(receive_err("receive changes"))? {
+        while let Some(s) = self
+            .changes
+            .receive()
+            .map_err(receive_err("receive changes"))?
+        {
             let seg = Segment::parse(s.payload())?;
             let recs: &[ChangeRec] = seg.section(0)?;
             let ids: &[u64] = seg.section(1)?;
