@@ -536,18 +536,7 @@ fn check_ainert(j: &Matrix4<f64>, line: usize, path: &Path) -> Result<(), LinkFi
         return Ok(());
     }
     let (m, com, i) = from_pseudo_inertia(j);
-    let props = robosim_instance_space::MassProps {
-        mass: m,
-        com: [com.x, com.y, com.z],
-        inertia: [
-            i[(0, 0)],
-            i[(1, 1)],
-            i[(2, 2)],
-            i[(0, 1)],
-            i[(0, 2)],
-            i[(1, 2)],
-        ],
-    };
+    let props = robosim_scene::instantiate::mass_props(m, &com, &i);
     robosim_instance_space::mass_props(&props).map_err(|(field, reason)| {
         content(format!(
             "AINERT (lines {line}-{}): the link's {field} {reason}",

@@ -353,30 +353,32 @@ fn serve_inner(
             return Ok(stats);
         }
         stats.lines += 1;
-        let (text, ok) = match std::str::from_utf8(&buf) {
-            _ if line == Line::TooLong => {
-                let f = ProtocolError::new(
-                    ErrorKind::ParseError,
-                    format!(
-                        "input line {}: longer than {}, the limit for a request line (set {} to raise it); the rest of the line is skipped",
-                        stats.lines,
-                        robosim_input::format_bytes(max as u64),
-                        Limit::LINE.env.unwrap_or("ROBOSIM_MAX_LINE_BYTES"),
-                    ),
-                );
-                (framed(Value::Null, Err(f)), false)
-            }
-            Ok(line) => handle_numbered(line, Some(stats.lines), ext),
-            Err(e) => {
-                let f = ProtocolError::new(
-                    ErrorKind::ParseError,
-                    format!(
-                        "input line {}: not UTF-8 (invalid byte at offset {})",
-                        stats.lines,
-                        e.valid_up_to()
-                    ),
-                );
-                (framed(Value::Null, Err(f)), false)
+        // A line past the limit is answered without looking at its bytes.
+        let (text, ok) = if line == Line::TooLong {
+            let f = ProtocolError::new(
+                ErrorKind::ParseError,
+                format!(
+                    "input line {}: longer than {}, the limit for a request line (set {} to raise it); the rest of the line is skipped",
+                    stats.lines,
+                    robosim_input::format_bytes(max as u64),
+                    Limit::LINE.env.unwrap_or("ROBOSIM_MAX_LINE_BYTES"),
+                ),
+            );
+            (framed(Value::Null, Err(f)), false)
+        } else {
+            match std::str::from_utf8(&buf) {
+                Ok(line) => handle_numbered(line, Some(stats.lines), ext),
+                Err(e) => {
+                    let f = ProtocolError::new(
+                        ErrorKind::ParseError,
+                        format!(
+                            "input line {}: not UTF-8 (invalid byte at offset {})",
+                            stats.lines,
+                            e.valid_up_to()
+                        ),
+                    );
+                    (framed(Value::Null, Err(f)), false)
+                }
             }
         };
         if ok {

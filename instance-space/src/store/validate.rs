@@ -70,11 +70,18 @@ struct Place {
 }
 
 impl Stage<'_> {
-    /// The robots this transaction touched: each touched robot, and the robot (before and
-    /// after) of each touched link.
+    /// The robots whose chains this transaction may have changed: each robot, and the robot
+    /// (before and after) of each link, whose structure or kinematics it touched. Pose-only
+    /// writes (joint values, the most frequent transactions) cannot change a chain and cost
+    /// nothing here.
     fn touched_robots(&self) -> BTreeSet<Id> {
+        use crate::store::aspect::{KINEMATICS, STRUCTURE};
         let mut robots = BTreeSet::new();
-        for &id in self.touched.keys() {
+        for (&id, _) in self
+            .touched
+            .iter()
+            .filter(|(_, mask)| *mask & (STRUCTURE | KINEMATICS) != 0)
+        {
             for o in [self.lookup(id), self.model.objects.get(&id)]
                 .into_iter()
                 .flatten()
