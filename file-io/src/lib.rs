@@ -20,7 +20,7 @@
 //! * [`urdf_import`] — a URDF read as a chain; [`urdf_geometry`] its visual and collision
 //!   geometry (meshes loaded lazily, [`package`] resolves `package://` names, [`dae`] reads
 //!   Collada visual meshes) and the collision solids of its links — all re-exported from the
-//!   `robosim-urdf` crate (file-io/urdf/), which the Library Space uses for `from_urdf`.
+//!   `robosim-urdf` crate (core/urdf/), which the Library Space uses for `from_urdf`.
 //! * [`cli`] — the command-line glue (clap argument structs and run functions).
 
 pub mod bench;
@@ -40,7 +40,7 @@ pub mod urdf;
 pub mod urdf_session;
 mod world;
 
-// The URDF reader and the mesh readers live in `robosim-urdf` (file-io/urdf/); re-exported under
+// The URDF reader and the mesh readers live in `robosim-urdf` (core/urdf/); re-exported under
 // their old paths. `stl` stays here: it adds the STL writer to the reader.
 pub use robosim_urdf::{dae, obj, package, urdf_geometry, urdf_import};
 

@@ -1,4 +1,4 @@
-//! Target `dae`: Collada visual meshes (`file-io/urdf/src/dae.rs` `read_dae`, what a URDF's
+//! Target `dae`: Collada visual meshes (`core/urdf/src/dae.rs` `read_dae`, what a URDF's
 //! `<mesh filename="….dae">` is read with).
 //!
 //! Whatever the bytes: coloured triangles or a [`DaeError`] naming the file given (`fuzz.dae`)

@@ -1,5 +1,5 @@
 //! The shared body of targets `stl` and `obj`: a mesh file as `robosim import mesh` reads it
-//! (`file-io/src/import.rs` `read_mesh`: the reader of `file-io/urdf/src/{stl,obj}.rs`, then
+//! (`file-io/src/import.rs` `read_mesh`: the reader of `core/urdf/src/{stl,obj}.rs`, then
 //! the finite check after scaling), then made Instance Space geometry both ways (`mesh_geometry`:
 //! welded triangles, and with `--hull` the convex hull).
 //!

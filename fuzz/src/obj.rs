@@ -1,4 +1,4 @@
-//! Target `obj`: Wavefront OBJ meshes (`file-io/urdf/src/obj.rs` through
+//! Target `obj`: Wavefront OBJ meshes (`core/urdf/src/obj.rs` through
 //! `robosim_file_io::import::read_mesh`). What must hold: see [`crate::mesh`].
 
 pub fn run(data: &[u8]) {

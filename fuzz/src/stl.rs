@@ -1,4 +1,4 @@
-//! Target `stl`: STL meshes, binary and ASCII (`file-io/urdf/src/stl.rs` through
+//! Target `stl`: STL meshes, binary and ASCII (`core/urdf/src/stl.rs` through
 //! `robosim_file_io::import::read_mesh`). What must hold: see [`crate::mesh`].
 
 pub fn run(data: &[u8]) {

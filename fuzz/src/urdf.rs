@@ -1,4 +1,4 @@
-//! Target `urdf`: the URDF reader (`file-io/urdf/src/urdf_import.rs`, `urdf_geometry.rs`) on
+//! Target `urdf`: the URDF reader (`core/urdf/src/urdf_import.rs`, `urdf_geometry.rs`) on
 //! text, read both ways `robosim import urdf` and `from_urdf` read it: as a chain to the only
 //! leaf (`import_urdf_str`) and as the whole tree (`import_urdf_tree_str`).
 //!

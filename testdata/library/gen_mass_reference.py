@@ -1,6 +1,6 @@
 """Reference mass properties (density 1) of extruded and revolved solids, computed with trimesh
 5.2.0 (its own extrusion/revolution generators and mass-property code), for
-geometry/tests/mass_reference.rs.
+core/geometry/tests/mass_reference.rs.
 
     /tmp/rtbenv/bin/pip install trimesh==5.2.0 shapely mapbox_earcut
     /tmp/rtbenv/bin/python testdata/library/gen_mass_reference.py > testdata/library/mass_reference.json
