@@ -8,7 +8,7 @@
 //!   placement, a motion about a unit axis, a trailing transform; DH rows and general URDF-style
 //!   joints both fill it: see the `model` module docs) and [`chain::build_chain`], which folds
 //!   fixed joints into it (DESIGN.md, "The query protocol"; its
-//!   inline JSON form is read and written by `robosim_hl_interface::robot_json`);
+//!   inline JSON form is read and written by [`json`]);
 //!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
 //! * [`Data`] — the working memory (frames, Jacobian) apart from the model: sized once for a
@@ -19,6 +19,8 @@
 //! * [`encoder::encoder_error`] — encoder quantisation bounds (seed §2.7).
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
 
+#![forbid(unsafe_code)]
+
 mod builtin;
 pub mod chain;
 mod data;
@@ -26,6 +28,7 @@ pub mod encoder;
 pub mod fk;
 pub mod ik;
 pub mod jacobian;
+pub mod json;
 mod model;
 pub mod movej;
 pub mod pose;
