@@ -21,9 +21,9 @@
 //!
 //! Entry points: [`sweep_robot`], [`motion_bounds`].
 
+use crate::bodies::{Body, CheckError, Collision, LinkSolids, Scene, check_link_count, link_poses};
 use crate::exact::{self, ExactOptions};
 use crate::outcome::PairResult;
-use crate::robot::{Body, CheckError, Collision, LinkSolids, Scene, check_link_count, link_poses};
 use crate::solid::Solid;
 use nalgebra::Isometry3;
 use robosim_kinematics::{Convention, JointType, Robot, fk};

@@ -19,6 +19,7 @@
 //!   hull is far from the mesh.
 
 pub mod bbox;
+mod bodies;
 pub mod broad;
 pub mod ccd;
 pub mod decompose;
