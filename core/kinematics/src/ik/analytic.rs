@@ -15,16 +15,17 @@
 //! * wrist `NoFlip` ⇔ sin α4 · sin θ5 ≤ 0; `Flip` is (θ4 + π, −θ5, θ6 + π).
 //!
 //! Rounding at the workspace boundary: a sine or cosine that exceeds 1 by at most
-//! [`CLAMP_SLACK`] is clamped and the solution carries [`Note::ElbowClamped`] /
-//! [`Note::ShoulderClamped`]; beyond that the branch is unreachable. At the wrist singularity
-//! (|sin θ5| < [`WRIST_SINGULAR`]) θ4 is taken from the reference (see [`Note::WristSingular`]);
+//! [`CLAMP_SLACK`] is clamped and the solution carries [`super::Note::ElbowClamped`] /
+//! [`super::Note::ShoulderClamped`]; beyond that the branch is unreachable. At the wrist singularity
+//! (|sin θ5| < [`WRIST_SINGULAR`]) θ4 is taken from the reference (see [`super::Note::WristSingular`]);
 //! never NaN.
+
+pub use super::closed_form::{CLAMP_SLACK, Flags, RawSolution, WRIST_SINGULAR};
 
 use super::family::{ArmGeometry, BoomGeometry, Family, recognise, recognised_from_axes};
 use super::parallel::ParallelSolver;
 use super::{
-    Branch, Elbow, IkError, IkOptions, IkResult, IkSolver, Method, Note, Shoulder, Wrist, finish,
-    wrap,
+    Branch, Elbow, IkError, IkOptions, IkResult, IkSolver, Method, Shoulder, Wrist, finish, wrap,
 };
 use crate::fk::forward;
 use crate::jacobian::{Frame, jacobian};
@@ -34,10 +35,6 @@ use crate::pose::{rigid_inverse, rot_x, trans};
 use nalgebra::{Matrix3, Matrix4, Vector3};
 use std::f64::consts::PI;
 
-/// How far past ±1 a sine/cosine may be, by rounding, before the branch counts as unreachable.
-pub const CLAMP_SLACK: f64 = 1e-10;
-/// |sin θ5| below this is treated as the wrist singularity.
-pub const WRIST_SINGULAR: f64 = 1e-12;
 /// |sin θ5| above this: the wrist angles in closed form; below, θ6 from the residual rotation.
 const WRIST_DIRECT: f64 = 1e-4;
 
@@ -52,34 +49,6 @@ pub(crate) fn rz_rx(theta: f64, alpha: f64) -> Matrix3<f64> {
 pub(crate) fn rz_rx_sc(theta: f64, (sa, ca): (f64, f64)) -> Matrix3<f64> {
     let (st, ct) = theta.sin_cos();
     Matrix3::new(ct, -st * ca, st * sa, st, ct * ca, -ct * sa, 0.0, sa, ca)
-}
-
-/// Closed-form flags kept without allocation (see [`Note`]).
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub struct Flags {
-    pub wrist_singular: bool,
-    pub shoulder_singular: bool,
-    pub elbow_clamped: Option<f64>,
-    pub shoulder_clamped: Option<f64>,
-}
-
-impl Flags {
-    pub fn notes(&self) -> Vec<Note> {
-        let mut n = Vec::new();
-        if self.shoulder_singular {
-            n.push(Note::ShoulderSingular);
-        }
-        if let Some(excess) = self.shoulder_clamped {
-            n.push(Note::ShoulderClamped { excess });
-        }
-        if let Some(excess) = self.elbow_clamped {
-            n.push(Note::ElbowClamped { excess });
-        }
-        if self.wrist_singular {
-            n.push(Note::WristSingular);
-        }
-        n
-    }
 }
 
 /// The position part: waist, shoulder, elbow from the wrist point.
@@ -369,14 +338,6 @@ impl Arm {
             Arm::Boom(b) => b.r03(theta),
         }
     }
-}
-
-/// A raw closed-form solution: joint values (offsets removed, each wrapped into (−π, π]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct RawSolution {
-    pub q: [f64; 6],
-    pub branch: Branch,
-    pub flags: Flags,
 }
 
 /// The spherical-wrist solver, precomputed for one robot.

@@ -24,7 +24,8 @@
 //!
 //! Entry point: [`Hybrid`].
 
-use super::analytic::{ArmSolver, CLAMP_SLACK, Flags, pick, rz_rx};
+use super::analytic::{ArmSolver, pick, rz_rx};
+use super::closed_form::{CLAMP_SLACK, Flags};
 use super::family::{ArmGeometry, Family, recognise};
 use super::{Branch, IkError, IkOptions, IkResult, IkSolver, Method, Wrist, finish, wrap};
 use crate::model::Robot;

@@ -16,6 +16,7 @@
 //! decide), the [`IkSolver`] trait, [`IkOptions`], [`IkResult`], [`IkError`].
 
 pub mod analytic;
+mod closed_form;
 pub mod dls;
 pub mod equivalent;
 pub mod family;

@@ -15,7 +15,7 @@
 //!
 //! Rounding at the boundary as in [`super::analytic`] ([`CLAMP_SLACK`]).
 
-use super::analytic::{CLAMP_SLACK, Flags, RawSolution, WRIST_SINGULAR};
+use super::closed_form::{CLAMP_SLACK, Flags, RawSolution, WRIST_SINGULAR};
 use super::family::ParallelGeometry;
 use super::{Branch, Elbow, Shoulder, Wrist, wrap};
 use crate::pose::{rigid_inverse, rot_x, rot_z, trans};
