@@ -15,6 +15,8 @@
 //! The model format, the algorithms and the measured curves are documented in
 //! `docs/automation.md`.
 
+#![forbid(unsafe_code)]
+
 pub mod analysis;
 pub mod diag;
 pub mod kernel;

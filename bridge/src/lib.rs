@@ -20,6 +20,8 @@
 //! generation) → [`LogAnswer`]; and published [`LogMsg`]s), `<key>/tx` (query: an encoded
 //! transaction → `Result<Applied, TxError>`), `<key>/state/<name>` (published [`StateMsg`]).
 
+#![forbid(unsafe_code)]
+
 pub mod primary;
 pub mod replica;
 pub mod sweep_link;

@@ -9,6 +9,8 @@
 //!
 //! Documentation: docs/editor.md.
 
+#![forbid(unsafe_code)]
+
 pub mod bench;
 pub mod cli;
 pub mod codegen;

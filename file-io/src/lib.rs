@@ -23,6 +23,8 @@
 //!   `robosim-urdf` crate (core/urdf/), which the Library Space uses for `from_urdf`.
 //! * [`cli`] — the command-line glue (clap argument structs and run functions).
 
+#![forbid(unsafe_code)]
+
 pub mod bench;
 pub mod bench_urdf;
 pub mod cli;

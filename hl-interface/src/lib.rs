@@ -39,6 +39,8 @@
 //! [`client::Client`] (a Rust client over a server's pipes), [`session`] (the simulation-library
 //! ops on a running session: MOVEJ, MOVEJI, KINV, CHECK, …).
 
+#![forbid(unsafe_code)]
+
 pub mod cli;
 pub mod client;
 mod error;

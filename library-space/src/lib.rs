@@ -16,6 +16,7 @@
 //!   what a session publishes so that its processes read the library instead of re-parsing
 //!   and re-checking it.
 
+#![forbid(unsafe_code)]
 #![expect(
     clippy::result_large_err,
     reason = "errors carry the located source line for the user; they are rare and not on a hot path"

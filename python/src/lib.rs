@@ -12,6 +12,8 @@
 //! classes are `unsendable`, used from the thread that made them. Waits are cut into slices of
 //! [`WAIT_SLICE`] so Ctrl-C interrupts them.
 
+#![forbid(unsafe_code)]
+
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};

@@ -24,6 +24,8 @@
 //!
 //! Entry points: [`Recorder`], [`RobotSample`], [`Level`], [`playback::record_playback`].
 
+#![forbid(unsafe_code)]
+
 pub mod playback;
 pub mod schema;
 

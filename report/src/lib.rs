@@ -19,6 +19,8 @@
 //! * [`cli`] — the clap arguments and runners of `robosim report ik|collision`;
 //! * [`font`] — the bundled font plots and the display's status line are drawn with.
 
+#![forbid(unsafe_code)]
+
 pub mod automation;
 pub mod bridge;
 pub mod cli;

@@ -14,6 +14,8 @@
 //! state over time) for the same two; [`numeric`] (golden-section search) for them and the studies. The daemon
 //! itself is `robosim-simulator-daemon`.
 
+#![forbid(unsafe_code)]
+
 pub mod effects;
 pub mod numeric;
 pub mod orbit;

@@ -18,6 +18,8 @@
 //! * [`decompose::convex_parts`] — a triangle mesh as convex parts: its hull, or V-HACD when the
 //!   hull is far from the mesh.
 
+#![forbid(unsafe_code)]
+
 pub mod bbox;
 mod bodies;
 pub mod broad;

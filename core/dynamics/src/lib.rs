@@ -20,6 +20,7 @@
 //! gravity from the robot (world frame); joint friction `b q̇ + c sign(q̇)` and motor (rotor)
 //! inertia reflected to the joint, both optional (zero by default).
 
+#![forbid(unsafe_code)]
 #![expect(
     clippy::needless_range_loop,
     reason = "the algorithms index several per-joint arrays in step; indices read like the papers"

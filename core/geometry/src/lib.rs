@@ -15,6 +15,8 @@
 //! Frames and units: metres, in the solid's own frame; polygons are listed counter-clockwise
 //! seen from outside, so plane normals point outward.
 
+#![forbid(unsafe_code)]
+
 pub mod mass;
 pub mod polygon2d;
 mod polyhedron;

@@ -16,6 +16,8 @@
 //! per-format defaults [`Limit::TEXT`], [`Limit::MESH`], [`Limit::MODEL`], [`Limit::LINE`]),
 //! [`read_line_bounded`] / [`skip_line`], [`xml_depth`], [`write_file_atomic`].
 
+#![forbid(unsafe_code)]
+
 mod limit;
 mod line;
 mod read;

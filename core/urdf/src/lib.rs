@@ -15,6 +15,8 @@
 //! `robosim-file-io` re-exports these modules under their old paths
 //! (`robosim_file_io::urdf_import`, …).
 
+#![forbid(unsafe_code)]
+
 pub mod dae;
 pub mod obj;
 pub mod package;

@@ -53,6 +53,8 @@
 //! t = 0, with a new record sequence (seq 1). The keeper and the Instance Space do not notice
 //! either event. Readers see the state service go silent and then resume (tested).
 
+#![forbid(unsafe_code)]
+
 pub mod bench;
 mod ctl;
 mod follow;
