@@ -269,7 +269,7 @@ enum Command {
 /// The component names `up --with` accepts (only what this build has).
 fn component_names() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(
-        robosim_scene::launch::COMPONENTS
+        robosim_launcher::COMPONENTS
             .iter()
             .map(|(name, _)| *name),
     )
@@ -389,7 +389,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             no_sync,
             journal_copies,
             ..
-        } => robosim_file_io::cli::space_load(&file, session, &library, !no_sync, journal_copies)
+        } => robosim_launcher::space_load(&file, session, &library, !no_sync, journal_copies)
             .map_err(CliError::from),
         Command::Space {
             scene,
@@ -397,7 +397,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             library,
             no_sync,
             journal_copies,
-        } => robosim_scene::launch::run_space(
+        } => robosim_launcher::run_space(
             session,
             scene.as_deref(),
             &library,
@@ -410,14 +410,14 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             with,
             library,
             ..
-        } => robosim_file_io::cli::up_load(&file, &with, session, &library).map_err(CliError::from),
+        } => robosim_launcher::up_load(&file, &with, session, &library).map_err(CliError::from),
         Command::Up {
             scene,
             load: None,
             with,
             library,
             fresh,
-        } => robosim_scene::launch::up_with_library(
+        } => robosim_launcher::up_with_library(
             scene.as_deref().unwrap_or_default(),
             &with,
             session,
@@ -449,8 +449,8 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             existing(session)?;
             robosim_file_io::cli::import(&cmd, session).map_err(CliError::from)
         }
-        Command::Ps { json } => robosim_scene::launch::ps(session, json).map_err(CliError::from),
-        Command::Down => robosim_scene::launch::down(session).map_err(CliError::from),
+        Command::Ps { json } => robosim_launcher::ps(session, json).map_err(CliError::from),
+        Command::Down => robosim_launcher::down(session).map_err(CliError::from),
         Command::Simulator {
             mode,
             effects,

@@ -142,7 +142,7 @@ fn up_with_another_scene_says_what_happened_and_fresh_starts_over() {
         robosim_instance_space::Session::open_in(home, Some(&s))
             .expect("session")
             .data_dir()
-            .join(robosim_scene::launch::SCENE_NOTE),
+            .join(robosim_launcher::SCENE_NOTE),
     )
     .expect("scene note");
     assert_eq!(note, "stanford");

@@ -2,7 +2,8 @@
 //! per command; the binary adds the subcommands and passes `--session`.
 //!
 //! `robosim save FILE`, `load FILE [--merge|--replace]`, `info [FILE]`, `export [FORMAT] FILE`,
-//! `import mesh FILE --as NAME --at x,y,z[,r,p,y]`, `up --load FILE`, `space --load FILE`.
+//! `import mesh FILE --as NAME --at x,y,z[,r,p,y]` (`up --load FILE` and `space --load FILE`
+//! are the launcher's, robosim-launcher).
 
 use crate::error::FileError;
 use crate::format::{self, Encoding};
@@ -497,38 +498,5 @@ fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
     for n in &u.notes {
         println!("  note: {n}");
     }
-    Ok(())
-}
-
-/// `robosim up --load FILE --with …`: checks the file, then starts the session's keeper from it.
-pub fn up_load(
-    file: &Path,
-    with: &[String],
-    session: Option<&str>,
-    library: &[PathBuf],
-) -> Result<()> {
-    format::read(file)?;
-    robosim_scene::launch::up_from_file(file, with, session, library)?;
-    Ok(())
-}
-
-/// `robosim space --load FILE`: the keeper, starting from the file's model (it replaces what
-/// the session's journal held, as one journaled transaction).
-pub fn space_load(
-    file: &Path,
-    session: Option<&str>,
-    library: &[PathBuf],
-    durable: bool,
-    journal_copies: u8,
-) -> Result<()> {
-    let preload = session::preload(file)?;
-    robosim_scene::launch::run_space_with(
-        session,
-        None,
-        library,
-        durable,
-        journal_copies,
-        Some(preload),
-    )?;
     Ok(())
 }

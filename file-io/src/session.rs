@@ -164,26 +164,3 @@ impl std::fmt::Display for Info {
 pub fn info(session: &Session) -> Result<Info, FileError> {
     Ok(Info::of(&read_session(session)?))
 }
-
-/// A keeper's start from a file (`robosim space --load FILE`): the file's Library Space
-/// additions, and the transaction that replaces whatever the keeper recovered with the file's
-/// model (one journaled transaction; an empty session just gets the creates).
-pub fn preload(path: &Path) -> Result<robosim_scene::launch::Preload, FileError> {
-    let model = format::read(path)?;
-    let what = path.display().to_string();
-    let library = model
-        .library
-        .iter()
-        .map(|f| (f.name.clone(), f.text.clone()))
-        .collect();
-    Ok(robosim_scene::launch::Preload {
-        what,
-        library,
-        transaction: Box::new(move |store: &Store| {
-            model
-                .to_transaction(&roots_of(store))
-                .map(|p| p.tx)
-                .map_err(|e| e.to_string())
-        }),
-    })
-}

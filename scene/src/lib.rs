@@ -12,8 +12,6 @@
 //! * [`compiled`] — [`CompiledScene`]: the robot and obstacle models of a snapshot, compiled once
 //!   per structure version and updated in place when only poses and joint values change (a
 //!   30-step MOVEJI compiles its robot once).
-//! * [`launch`] — sessions: the keeper process with its scene (`robosim space`) and `robosim
-//!   up / ps / down`.
 //! * [`pose`] — the one conversion between the Instance Space's 3×4 poses and nalgebra.
 //!
 //! Nothing here talks to a transport: it reads [`Snapshot`]s (shared or process-local) and
@@ -22,17 +20,18 @@
 //! [`Robot`]: robosim_kinematics::Robot
 //! [`Snapshot`]: robosim_instance_space::Snapshot
 
+#![forbid(unsafe_code)]
+
 pub mod compiled;
 mod error;
 pub mod instantiate;
-pub mod launch;
 pub mod load;
 pub mod pose;
 pub mod robot;
 pub mod solids;
 
 pub use compiled::{CacheStats, CompiledRobot, CompiledScene, Obstacles, Sync};
-pub use error::SceneError;
+pub use error::{SceneError, SessionFailure};
 pub use instantiate::{
     LibraryFrom, Origin, build_library, find_instance, instantiate, library_from_publication,
     parse_params, reinstantiate, session_library, session_library_from,

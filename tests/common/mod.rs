@@ -92,7 +92,7 @@ impl Procs {
         // scene is in. Tests start from a model that is
         // there, not from a race with its loading.
         if extra.contains(&"--scene") {
-            let note = s.data_dir().join(robosim_scene::launch::SCENE_NOTE);
+            let note = s.data_dir().join(robosim_launcher::SCENE_NOTE);
             wait_for("the keeper's scene", || note.exists().then_some(()));
         }
         pid

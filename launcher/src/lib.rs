@@ -8,33 +8,38 @@
 //! 10 s), components first and the keeper last so that its final checkpoint sees their last
 //! writes.
 //!
-//! It lives beside instantiation because starting a session means loading a scene: the keeper
-//! process ([`run_space`]) builds the Library Space and instantiates the scene into an empty
-//! model, and [`up`] checks the scene exists before it starts anything. Processes are started
-//! from the running executable (the `robosim` binary).
+//! It sits beside the binary, above the spaces, the scene seam and the file interface it
+//! starts sessions from: the keeper process ([`run_space`]) builds the Library Space and
+//! instantiates the scene into an empty model (robosim-scene), or starts from a model file
+//! ([`space_load`], robosim-file-io); [`up`] checks the scene exists before it starts anything.
+//! Processes are started from the running executable (the `robosim` binary). Nothing below the
+//! binary's floor depends on this crate.
 //!
-//! Entry points: [`run_space`] ([`run_space_with`] a [`Preload`]ed model), [`up`],
-//! [`up_with_library`], [`up_from_file`], [`ps`], [`down`].
+//! Entry points: [`run_space`] ([`run_space_with`] a [`Preload`]ed model, [`space_load`] from a
+//! model file), [`up`], [`up_with_library`], [`up_from_file`] ([`up_load`] checks the file
+//! first), [`ps`], [`down`]; errors are [`LaunchError`].
 
-type Result<T> = std::result::Result<T, SceneError>;
+#![forbid(unsafe_code)]
+
+mod error;
+
+pub use error::LaunchError;
+
+type Result<T> = std::result::Result<T, LaunchError>;
 
 macro_rules! bail {
-    ($($t:tt)*) => { return Err(SceneError::Launch(format!($($t)*))) };
+    ($($t:tt)*) => { return Err(LaunchError::Process(format!($($t)*))) };
 }
 
-fn io(what: &str) -> impl Fn(std::io::Error) -> SceneError + '_ {
-    move |e| SceneError::Launch(format!("{what}: {e}"))
+fn io(what: &'static str) -> impl Fn(std::io::Error) -> LaunchError {
+    move |source| LaunchError::Io { what, source }
 }
 
-fn keeper_err<E: std::fmt::Display>(e: E) -> SceneError {
-    SceneError::Session(e.to_string())
-}
-
-use crate::SceneError;
-use crate::load as scene;
 use robosim_instance_space::{Client, KeeperOptions, Reader, Session};
+use robosim_scene::load as scene;
 use std::os::unix::fs::OpenOptionsExt;
 use std::os::unix::process::CommandExt;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -59,7 +64,7 @@ pub fn declared_components(
     if name == "demo" {
         return Ok(Vec::new());
     }
-    let origin = crate::instantiate::Origin::defaults(name);
+    let origin = robosim_scene::Origin::defaults(name);
     let Ok(robosim_library::Evaluated::Scene(sc)) = origin.evaluate(lib) else {
         return Ok(Vec::new());
     };
@@ -88,8 +93,8 @@ pub const SCENE_NOTE: &str = "scene";
 /// How the scene note records a model the keeper started from a file (`space --load`).
 const FILE_NOTE_PREFIX: &str = "file ";
 
-/// A model the keeper starts from instead of its scene (`robosim space --load FILE`), prepared
-/// by the file interface, which this crate does not depend on.
+/// A model the keeper starts from instead of its scene (`robosim space --load FILE`): what
+/// [`preload`] makes of a model file.
 pub struct Preload {
     /// Where the model comes from (for messages).
     pub what: String,
@@ -108,7 +113,7 @@ pub struct Preload {
 pub fn run_space(
     session: Option<&str>,
     scene_name: Option<&str>,
-    library: &[std::path::PathBuf],
+    library: &[PathBuf],
     durable: bool,
     journal_copies: u8,
 ) -> Result<()> {
@@ -120,7 +125,7 @@ pub fn run_space(
 pub fn run_space_with(
     session: Option<&str>,
     scene_name: Option<&str>,
-    library: &[std::path::PathBuf],
+    library: &[PathBuf],
     durable: bool,
     journal_copies: u8,
     preload: Option<Preload>,
@@ -132,13 +137,13 @@ pub fn run_space_with(
     // The Library Space: the standard library plus the given files, checked before anything
     // is published or instantiated.
     let extra = preload.as_ref().map_or(&[][..], |p| p.library.as_slice());
-    let lib = crate::instantiate::build_library_from(library, extra)?;
-    let spin = robosim_instance_space::spin_from_env().map_err(SceneError::Launch)?;
+    let lib = robosim_scene::instantiate::build_library_from(library, extra)?;
+    let spin = robosim_instance_space::spin_from_env().map_err(LaunchError::Environment)?;
     let static_responses = std::env::var_os("ROBOSIM_BENCH_DYNAMIC_RESPONSES").is_none();
     // Writers and readers served at once (each `robosim query` is one of each).
     let defaults = KeeperOptions::default();
     let max_processes =
-        robosim_instance_space::max_clients_from_env().map_err(SceneError::Launch)?;
+        robosim_instance_space::max_clients_from_env().map_err(LaunchError::Environment)?;
     let opts = KeeperOptions {
         durable,
         journal_copies,
@@ -148,8 +153,7 @@ pub fn run_space_with(
         max_readers: max_processes.unwrap_or(defaults.max_readers),
         ..defaults
     };
-    let (mut keeper, report) =
-        robosim_instance_space::Keeper::start(&session, opts).map_err(keeper_err)?;
+    let (mut keeper, report) = robosim_instance_space::Keeper::start(&session, opts)?;
     eprintln!(
         "space: session {} at version {} (checkpoint {}, {} journal records replayed)",
         session.name(),
@@ -164,20 +168,23 @@ pub fn run_space_with(
     eprint!("{}", report.lost_message());
     // The sources (for tools that need the text: `save`, `load`) and the checked library
     // (what every process reads instead of parsing and checking the sources again).
-    keeper
-        .publish_library_checked(&lib.sources(), Some(&lib.encode_checked()))
-        .map_err(keeper_err)?;
+    keeper.publish_library_checked(&lib.sources(), Some(&lib.encode_checked()))?;
     eprintln!(
         "space: Library Space published ({} declarations)",
         lib.declarations().len()
     );
     if let Some(p) = preload {
-        let tx = (p.transaction)(keeper.store())
-            .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
+        let tx = (p.transaction)(keeper.store()).map_err(|reason| LaunchError::Preload {
+            what: p.what.clone(),
+            reason,
+        })?;
         if !tx.is_empty() {
             let a = keeper
                 .commit_local(&tx)
-                .map_err(|e| SceneError::Instantiate(format!("{}: {e}", p.what)))?;
+                .map_err(|source| LaunchError::Refused {
+                    what: p.what.clone(),
+                    source,
+                })?;
             eprintln!(
                 "space: loaded {} ({} objects, version {})",
                 p.what,
@@ -197,7 +204,10 @@ pub fn run_space_with(
         for tx in &txs {
             keeper
                 .commit_local(tx)
-                .map_err(|e| SceneError::Instantiate(format!("scene {name}: {e}")))?;
+                .map_err(|source| LaunchError::Refused {
+                    what: format!("scene {name}"),
+                    source,
+                })?;
         }
         robosim_instance_space::write_private(
             &session.data_dir().join(SCENE_NOTE),
@@ -209,7 +219,7 @@ pub fn run_space_with(
             keeper.store().version
         );
     }
-    keeper.run().map_err(keeper_err)?;
+    keeper.run()?;
     eprintln!("space: stopped at version {}", keeper.store().version);
     Ok(())
 }
@@ -230,7 +240,10 @@ fn spawn(session: &Session, role: &str, args: &[&str]) -> Result<u32> {
         .stderr(log)
         .process_group(0)
         .spawn()
-        .map_err(|e| SceneError::Launch(format!("cannot start {role}: {e}")))?;
+        .map_err(|source| LaunchError::Start {
+            role: role.to_owned(),
+            source,
+        })?;
     Ok(child.id())
 }
 
@@ -299,7 +312,7 @@ fn existing(session: &Session) -> Existing {
 
 /// Moves a stopped session's saved model aside (`<session>/previous-<unix ms>/`) so the next
 /// keeper starts empty; nothing is deleted.
-fn move_aside(session: &Session) -> Result<std::path::PathBuf> {
+fn move_aside(session: &Session) -> Result<PathBuf> {
     let ms = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map_or(0, |d| d.as_millis());
@@ -323,7 +336,7 @@ pub fn up_with_library(
     scene_name: &str,
     with: &[String],
     session: Option<&str>,
-    library: &[std::path::PathBuf],
+    library: &[PathBuf],
     fresh: bool,
 ) -> Result<()> {
     up_start(Start::Scene(scene_name), with, session, library, fresh)
@@ -333,10 +346,10 @@ pub fn up_with_library(
 /// by the caller, the file interface). The file's model replaces what a stopped session held
 /// (one journaled transaction); a running session is refused (use `robosim load`).
 pub fn up_from_file(
-    file: &std::path::Path,
+    file: &Path,
     with: &[String],
     session: Option<&str>,
-    library: &[std::path::PathBuf],
+    library: &[PathBuf],
 ) -> Result<()> {
     up_start(Start::File(file), with, session, library, false)
 }
@@ -345,7 +358,7 @@ pub fn up_from_file(
 #[derive(Clone, Copy)]
 enum Start<'a> {
     Scene(&'a str),
-    File(&'a std::path::Path),
+    File(&'a Path),
 }
 
 /// What the scene note says a session's model came from, in words.
@@ -363,7 +376,7 @@ fn up_start(
     start: Start<'_>,
     with: &[String],
     session: Option<&str>,
-    library: &[std::path::PathBuf],
+    library: &[PathBuf],
     fresh: bool,
 ) -> Result<()> {
     for c in with {
@@ -384,7 +397,7 @@ fn up_start(
     let mut components: Vec<(String, Vec<String>)> = Vec::new();
     let start_args: Vec<String> = match start {
         Start::Scene(scene_name) => {
-            let lib = crate::build_library(library)?;
+            let lib = robosim_scene::build_library(library)?;
             scene::load_from(&lib, scene_name)?;
             components = declared_components(&lib, scene_name)?;
             vec!["--scene".into(), scene_name.into()]
@@ -405,7 +418,7 @@ fn up_start(
     }
     let session = Session::open(session)?;
     let name = session.name().to_owned();
-    let other = |scene_name: &str, running: bool, recorded: &Option<String>| -> SceneError {
+    let other = |scene_name: &str, running: bool, recorded: &Option<String>| -> LaunchError {
         let from = origin_words(recorded.as_deref());
         let (what, start, stop) = if running {
             (
@@ -424,7 +437,7 @@ fn up_start(
                 String::new(),
             )
         };
-        SceneError::Launch(format!(
+        LaunchError::Process(format!(
             "session {name} {what} {from}; {scene_name} was not loaded.\n  \
              to add {scene_name} to that model: {start}robosim instantiate {scene_name} --session {name}\n  \
              to start over with {scene_name}:   {stop}robosim up {scene_name} --session {name} --fresh   \
@@ -512,7 +525,7 @@ fn up_start(
     // The keeper is up when a client can connect and a reader sees the model. A keeper that
     // starts from a big model file (replacing what it recovered) may publish later than a
     // reader's 10 s: wait on while it lives, up to 5 minutes.
-    Client::connect(&session, "launcher").map_err(keeper_err)?;
+    Client::connect(&session, "launcher")?;
     let waiting = Instant::now();
     let reader = loop {
         match Reader::attach(&session, "launcher-reader") {
@@ -641,4 +654,58 @@ pub fn down(session: Option<&str>) -> Result<()> {
         session.remove_leftovers();
     }
     Ok(())
+}
+
+/// A keeper's start from a file (`robosim space --load FILE`): the file's Library Space
+/// additions, and the transaction that replaces whatever the keeper recovered with the file's
+/// model (one journaled transaction; an empty session just gets the creates).
+pub fn preload(path: &Path) -> Result<Preload> {
+    let model = robosim_file_io::format::read(path)?;
+    let what = path.display().to_string();
+    let library = model
+        .library
+        .iter()
+        .map(|f| (f.name.clone(), f.text.clone()))
+        .collect();
+    Ok(Preload {
+        what,
+        library,
+        transaction: Box::new(move |store: &robosim_instance_space::Store| {
+            model
+                .to_transaction(&robosim_file_io::session::roots_of(store))
+                .map(|p| p.tx)
+                .map_err(|e| e.to_string())
+        }),
+    })
+}
+
+/// `robosim up --load FILE --with …`: checks the file, then starts the session's keeper from it.
+pub fn up_load(
+    file: &Path,
+    with: &[String],
+    session: Option<&str>,
+    library: &[PathBuf],
+) -> Result<()> {
+    robosim_file_io::format::read(file)?;
+    up_from_file(file, with, session, library)
+}
+
+/// `robosim space --load FILE`: the keeper, starting from the file's model (it replaces what
+/// the session's journal held, as one journaled transaction).
+pub fn space_load(
+    file: &Path,
+    session: Option<&str>,
+    library: &[PathBuf],
+    durable: bool,
+    journal_copies: u8,
+) -> Result<()> {
+    let preload = preload(file)?;
+    run_space_with(
+        session,
+        None,
+        library,
+        durable,
+        journal_copies,
+        Some(preload),
+    )
 }
