@@ -93,8 +93,14 @@ def main():
     ]
     ref = {"generator": f"roboticstoolbox-python {rtb_version}", "robots": {}}
     for name, robot, source in robots:
+        description = robot_json(robot, name, source)
+        if name == "puma560":
+            # d1 is 26.45 in, exactly 0.67183 m; RTB's float product 26.45 * 0.0254 is one unit
+            # in the last place low (0.6718299999999999). The file carries the published value,
+            # as library-space/stdlib/puma560.rsl does (library-space/tests/builtin_tables.rs).
+            description["joints"][0]["d"] = 0.67183
         with open(os.path.join(HERE, f"{name}.json"), "w") as f:
-            json.dump(robot_json(robot, name, source), f, indent=1)
+            json.dump(description, f, indent=1)
             f.write("\n")
         samples = []
         qs = [np.zeros(robot.n)] + random_q(robot, 40)

@@ -1,9 +1,11 @@
 //! The reference robots shipped with the crate, usable by name before the library language
 //! lands. Their parameters are those of `testdata/kinematics/*.json` (generated from Robotics
 //! Toolbox for Python 1.5.0 by `testdata/kinematics/generate.py`; sources in the README there),
-//! written out here as Rust so this numeric crate reads no JSON: each number is the f64 the
-//! JSON reader made of the file (hl-interface's test `builtin_robots_match_their_json` checks
-//! that each robot equals its file as read, bit for bit).
+//! written out here as Rust so the numbers need no file: each number is the f64 the JSON reader
+//! makes of the file (the `json` module's test `builtin_robots_match_their_json` checks that
+//! each robot equals its file as read, bit for bit). The standard library's
+//! `library-space/stdlib/{puma560,stanford,panda}.rsl` define the same robots;
+//! `library-space/tests/builtin_tables.rs` checks that each compiles to its table here.
 //!
 //! Entry points: [`builtin_robot`], [`BUILTIN_NAMES`].
 #![expect(
@@ -40,7 +42,9 @@ fn puma560() -> Robot {
             Joint {
                 joint_type: JointType::Revolute,
                 a: 0.0,
-                d: 0.6718299999999999,
+                // 26.45 in, exactly 0.67183 m (RTB computes 26.45 * 0.0254 and rounds to
+                // 0.6718299999999999, one unit in the last place low).
+                d: 0.67183,
                 alpha: 1.5707963267948966,
                 theta: 0.0,
                 offset: 0.0,
