@@ -9,8 +9,9 @@ use crate::keeper::{MAX_IN_FLIGHT, MORE_MAGIC, RESPONSE_CAP, answer, events};
 use crate::replica::{LOG_MAGIC, LogAnswer, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
 use crate::session::{Session, SessionError};
-use crate::store::{Applied, TxError};
+use crate::store::Applied;
 use crate::transaction::Transaction;
+use crate::transaction::TxError;
 use iceoryx2::identifiers::UniqueNodeId;
 use iceoryx2::node::NodeView;
 use iceoryx2::prelude::*;
@@ -33,7 +34,8 @@ pub enum ClientError {
     NoKeeper {
         session: String,
         service: String,
-        cause: String,
+        #[source]
+        cause: crate::error::Cause,
     },
     #[error("transaction refused: {0}")]
     Refused(#[from] TxError),
@@ -68,14 +70,21 @@ pub enum ClientError {
         "the transaction is {bytes} bytes encoded and the shared memory could not grow to hold it (is /dev/shm full?)"
     )]
     OutOfSharedMemory { bytes: usize },
-    #[error("iceoryx2 {what}: {message}")]
-    Ipc { what: String, message: String },
+    /// iceoryx2 refused `what`; its error is the source (matched by variant where it matters).
+    #[error("iceoryx2 {what}: {source}")]
+    Ipc {
+        what: String,
+        #[source]
+        source: crate::error::Cause,
+    },
 }
 
-fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> ClientError {
+fn ipc<E: std::error::Error + Send + Sync + 'static>(
+    what: &'static str,
+) -> impl FnOnce(E) -> ClientError {
     move |e| ClientError::Ipc {
         what: what.to_owned(),
-        message: format!("{e:?}"),
+        source: Box::new(e),
     }
 }
 
@@ -171,16 +180,16 @@ impl Client {
     /// Connects to the keeper of `session` as a process of role `role` (used in its node name).
     pub fn connect(session: &Session, role: &str) -> Result<Self, ClientError> {
         let node = session.node(role, false)?;
-        let no_keeper = |service: &str, e: &dyn std::fmt::Debug| ClientError::NoKeeper {
+        let no_keeper = |service: &str, e: crate::error::Cause| ClientError::NoKeeper {
             session: session.name().to_owned(),
             service: service.to_owned(),
-            cause: format!("{e:?}"),
+            cause: e,
         };
         let rr = node
             .service_builder(&session.service(services::REQUESTS)?)
             .request_response::<[u8], [u8]>()
             .open()
-            .map_err(|e| no_keeper(services::REQUESTS, &e))?;
+            .map_err(|e| no_keeper(services::REQUESTS, Box::new(e)))?;
         let client = rr
             .client_builder()
             .initial_max_slice_len(4096)
@@ -199,7 +208,7 @@ impl Client {
             .service_builder(&session.service(services::REQUEST_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(services::REQUEST_EVENT, &e))?;
+            .map_err(|e| no_keeper(services::REQUEST_EVENT, Box::new(e)))?;
         let notifier = req_event
             .notifier_builder()
             .create()
@@ -208,7 +217,7 @@ impl Client {
             .service_builder(&session.service(services::ACK_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(services::ACK_EVENT, &e))?;
+            .map_err(|e| no_keeper(services::ACK_EVENT, Box::new(e)))?;
         let acks = ack_event
             .listener_builder()
             .create()
@@ -222,16 +231,17 @@ impl Client {
             if start.elapsed() > CONNECT_WAIT {
                 return Err(no_keeper(
                     services::REQUESTS,
-                    &format!("its keeper did not register within {CONNECT_WAIT:?}"),
+                    format!("its keeper did not register within {CONNECT_WAIT:?}").into(),
                 ));
             }
             std::thread::sleep(Duration::from_millis(2));
         }
         let config = session.iox_config()?;
         let keeper = keeper_node(&config);
+        // A message built from the environment, not a wrapped error: boxed as the cause.
         let spin = crate::keeper::spin_from_env().map_err(|message| ClientError::Ipc {
             what: "spin window".into(),
-            message,
+            source: message.into(),
         })?;
         Ok(Client {
             session: session.clone(),
@@ -398,7 +408,7 @@ impl Client {
     fn wait_answer(&mut self, p: Pending) -> Result<Vec<u8>, ClientError> {
         let cut = |why: &str| ClientError::Ipc {
             what: "receive response".into(),
-            message: format!("the keeper's answer was cut off or expired: {why}"),
+            source: format!("the keeper's answer was cut off or expired: {why}").into(),
         };
         let resp = self.wait_response(&p)?;
         drop(p);
@@ -524,6 +534,6 @@ fn decode<T: serde::de::DeserializeOwned>(bytes: &[u8], what: &str) -> Result<T,
         .map(|(r, _)| r)
         .map_err(|e| ClientError::Ipc {
             what: what.into(),
-            message: e.to_string(),
+            source: Box::new(e),
         })
 }

@@ -19,7 +19,8 @@
 //!
 //! Every file is created 0600 inside the session's 0700 data directory.
 
-use crate::store::{Appearance, Id, Kind, Kinematics, MassProps, Object, Pose, Store};
+use crate::object::{Appearance, Id, Kind, Kinematics, MassProps, Object, Pose};
+use crate::store::Store;
 use crate::transaction::{GeometryInput, Transaction};
 use serde::{Deserialize, Serialize};
 use std::fs::{self, File, OpenOptions};

@@ -22,11 +22,13 @@ use crate::layout::{
     ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, OBJECT_CHUNK, ObjectsHeader, POSE_CHUNK, PoseRec,
     PosesHeader, SegmentWriter,
 };
+use crate::object::{Id, aspect};
 use crate::replica::{LOG_MAGIC, Log, LogAnswer, PublishedLibrary, SNAPSHOT_MAGIC, SpaceSnapshot};
 use crate::services;
 use crate::session::{KeeperLock, Registration, Session, SessionError};
-use crate::store::{Applied, Id, Store, TxError, aspect};
+use crate::store::{Applied, Store};
 use crate::transaction::Transaction;
+use crate::transaction::TxError;
 use iceoryx2::port::update_connections::UpdateConnections;
 use iceoryx2::prelude::*;
 use std::collections::HashMap;
@@ -68,18 +70,37 @@ pub enum KeeperError {
     Journal(#[from] JournalError),
     #[error("another keeper is running in session {session} (pid {pid})")]
     AlreadyRunning { session: String, pid: u32 },
-    #[error("iceoryx2 {what}: {message}")]
-    Ipc { what: String, message: String },
+    /// iceoryx2 refused `what`; its error is the source (matched by variant where it matters).
+    #[error("iceoryx2 {what}: {source}")]
+    Ipc {
+        what: String,
+        #[source]
+        source: crate::error::Cause,
+    },
     /// A replica was handed a transaction that does not follow its model.
     #[error("replica out of step: {0}")]
-    OutOfStep(String),
+    OutOfStep(#[from] OutOfStep),
 }
 
-fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> KeeperError {
+/// Why a replica's model and the one it follows differ ([`Keeper::apply_upstream`]): the
+/// replica takes a new snapshot.
+#[derive(Debug, thiserror::Error)]
+pub enum OutOfStep {
+    /// The next entry is not the version after the replica's.
+    #[error("transaction {version} does not follow version {model}")]
+    Gap { version: u64, model: u64 },
+    /// The entry did not decode or this model refused it.
+    #[error("transaction {version} was refused here: {source}")]
+    Refused { version: u64, source: TxError },
+}
+
+fn ipc<E: std::error::Error + Send + Sync + 'static>(
+    what: impl Into<String>,
+) -> impl FnOnce(E) -> KeeperError {
     let what = what.into();
     move |e| KeeperError::Ipc {
         what,
-        message: format!("{e:?}"),
+        source: Box::new(e),
     }
 }
 
@@ -919,10 +940,10 @@ impl Keeper {
                 continue;
             }
             if *version != self.model.version + 1 {
-                failure = Some(format!(
-                    "transaction {version} does not follow version {}",
-                    self.model.version
-                ));
+                failure = Some(OutOfStep::Gap {
+                    version: *version,
+                    model: self.model.version,
+                });
                 break;
             }
             match Transaction::decode(bytes).and_then(|tx| self.model.apply(&tx)) {
@@ -932,14 +953,17 @@ impl Keeper {
                     applied.push(a);
                 }
                 Err(e) => {
-                    failure = Some(format!("transaction {version} was refused here: {e}"));
+                    failure = Some(OutOfStep::Refused {
+                        version: *version,
+                        source: e,
+                    });
                     break;
                 }
             }
         }
         self.finish_group(&applied)?;
         match failure {
-            Some(why) => Err(KeeperError::OutOfStep(why)),
+            Some(why) => Err(why.into()),
             None => Ok(applied.len()),
         }
     }

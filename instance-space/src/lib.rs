@@ -18,9 +18,11 @@
 
 mod client;
 mod encode;
+mod error;
 pub mod journal;
 mod keeper;
 pub mod layout;
+mod object;
 mod reader;
 pub mod replica;
 mod scratch;
@@ -34,23 +36,26 @@ pub use client::{
     Client, ClientError, Committed, MAX_CLIENTS_ENV, MAX_FRESH_ATTEMPTS, MAX_REQUEST_BYTES,
     Pending, max_clients_from_env,
 };
+pub use error::{Cause, error_chain};
 pub use journal::ObjectData;
-pub use keeper::{DEFAULT_SPIN_US, Keeper, KeeperError, KeeperOptions, SPIN_ENV, spin_from_env};
+pub use keeper::{
+    DEFAULT_SPIN_US, Keeper, KeeperError, KeeperOptions, OutOfStep, SPIN_ENV, spin_from_env,
+};
+pub use object::{
+    Appearance, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS, MassProps,
+    Object, Pose, Selection, aspect,
+};
 pub use reader::{
     Change, FollowTrouble, GeometryView, LibraryPublication, ObjectView, Reader, ReaderError,
     Snapshot, compose,
 };
 pub use scratch::{ScratchKeeper, ThreadKeeper};
 pub use session::{
-    ProcInfo, Registration, Session, SessionError, default_session_name, exit_words, home,
-    pid_alive, remove_shm_files, running_sessions, write_private,
+    OpenOrCreateError, ProcInfo, Registration, Session, SessionError, default_session_name,
+    exit_words, home, pid_alive, remove_shm_files, running_sessions, write_private,
 };
-pub use store::{
-    Appearance, Applied, DhConvention, IDENTITY, INERTIA_TOL, Id, JointKind, Kind, Kinematics,
-    MAX_ELEMENTS, MassProps, Object, Pose, Selection, Store, TxError, aspect, mass_props,
-    principal_moments,
-};
-pub use transaction::{GeometryInput, ObjRef, Op, Transaction};
+pub use store::{Applied, INERTIA_TOL, Store, mass_props, principal_moments};
+pub use transaction::{GeometryInput, ObjRef, Op, Transaction, TxError};
 pub use view::{JointOrigin, JointView, RobotView};
 
 /// Service suffixes inside a session (see [`Session::service`]).

@@ -16,9 +16,9 @@ use crate::layout::{
     ObjectChunkHeader, ObjectRec, ObjectsHeader, POSE_CHUNK, PolygonRec, PoseChunkHeader, PoseRec,
     PosesHeader, Segment, flags, geometry_sections as gs,
 };
+use crate::object::{Id, Kind};
 use crate::services;
 use crate::session::{Session, SessionError};
-use crate::store::{Id, Kind};
 use iceoryx2::prelude::*;
 use std::collections::{HashMap, VecDeque};
 use std::rc::Rc;
@@ -39,7 +39,8 @@ pub enum ReaderError {
     NoKeeper {
         session: String,
         service: String,
-        cause: String,
+        #[source]
+        cause: crate::error::Cause,
     },
     #[error("the keeper published nothing within {0:?}")]
     Timeout(Duration),
@@ -58,15 +59,22 @@ pub enum ReaderError {
         crate::MAX_CLIENTS_ENV
     )]
     TooManyReaders { session: String, limit: usize },
-    #[error("iceoryx2 {what}: {message}")]
-    Ipc { what: String, message: String },
+    /// iceoryx2 refused `what`; its error is the source (matched by variant where it matters).
+    #[error("iceoryx2 {what}: {source}")]
+    Ipc {
+        what: String,
+        #[source]
+        source: crate::error::Cause,
+    },
 }
 
-fn ipc<E: std::fmt::Debug>(what: impl Into<String>) -> impl FnOnce(E) -> ReaderError {
+fn ipc<E: std::error::Error + Send + Sync + 'static>(
+    what: impl Into<String>,
+) -> impl FnOnce(E) -> ReaderError {
     let what = what.into();
     move |e| ReaderError::Ipc {
         what,
-        message: format!("{e:?}"),
+        source: Box::new(e),
     }
 }
 
@@ -966,16 +974,16 @@ impl Reader {
     /// Attaches to the keeper of `session` and waits (up to 10 s) for its current model.
     pub fn attach(session: &Session, role: &str) -> Result<Reader, ReaderError> {
         let node = session.node(role, false)?;
-        let no_keeper = |service: &str, e: &dyn std::fmt::Debug| ReaderError::NoKeeper {
+        let no_keeper = |service: &str, e: crate::error::Cause| ReaderError::NoKeeper {
             session: session.name().to_owned(),
             service: service.to_owned(),
-            cause: format!("{e:?}"),
+            cause: e,
         };
         let open = |suffix: &str| -> Result<_, ReaderError> {
             node.service_builder(&session.service(suffix)?)
                 .publish_subscribe::<[u64]>()
                 .open()
-                .map_err(|e| no_keeper(suffix, &e))
+                .map_err(|e| no_keeper(suffix, Box::new(e)))
         };
         let objects_svc = open(services::OBJECTS)?;
         let objects_base_svc = open(services::OBJECTS_BASE)?;
@@ -1024,7 +1032,7 @@ impl Reader {
             .service_builder(&session.service(services::CHANGE_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(services::CHANGE_EVENT, &e))?;
+            .map_err(|e| no_keeper(services::CHANGE_EVENT, Box::new(e)))?;
         let listener = change_event
             .listener_builder()
             .create()
@@ -1033,7 +1041,7 @@ impl Reader {
             .service_builder(&session.service(services::REQUEST_EVENT)?)
             .event()
             .open()
-            .map_err(|e| no_keeper(services::REQUEST_EVENT, &e))?;
+            .map_err(|e| no_keeper(services::REQUEST_EVENT, Box::new(e)))?;
         let hello = req_event
             .notifier_builder()
             .create()
@@ -1903,10 +1911,9 @@ impl Reader {
             .service_builder(&self.session.service(services::LIBRARY)?)
             .publish_subscribe::<[u64]>()
             .open()
-            .map_err(|e| ReaderError::Ipc {
-                what: "open the Library Space".into(),
-                message: format!("{e:?} (the keeper publishes it at start)"),
-            })?;
+            .map_err(ipc(
+                "open the Library Space (the keeper publishes it at start)",
+            ))?;
         let sub = svc
             .subscriber_builder()
             .create()

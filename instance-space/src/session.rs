@@ -24,8 +24,14 @@ pub enum SessionError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("iceoryx2 configuration for session {session}: {message}")]
-    Config { session: String, message: String },
+    /// iceoryx2 refused a name or path this session builds (`what`), or to create a node.
+    #[error("iceoryx2 configuration for session {session}: {what}: {source}")]
+    Config {
+        session: String,
+        what: String,
+        #[source]
+        source: crate::error::Cause,
+    },
     #[error("{path}: {source}")]
     Io {
         path: PathBuf,
@@ -50,6 +56,56 @@ pub enum SessionError {
         home: PathBuf,
         running: Vec<String>,
     },
+}
+
+/// The `open_or_create` error of an iceoryx2 service builder (one type per messaging pattern):
+/// whether it failed because the service hangs in creation, told by its variant.
+pub trait OpenOrCreateError {
+    /// True for `HangsInCreation`, whether met while opening or while creating.
+    fn hangs_in_creation(&self) -> bool;
+}
+
+impl OpenOrCreateError
+    for iceoryx2::service::builder::publish_subscribe::PublishSubscribeOpenOrCreateError
+{
+    fn hangs_in_creation(&self) -> bool {
+        use iceoryx2::service::builder::publish_subscribe::{
+            PublishSubscribeCreateError as Create, PublishSubscribeOpenError as Open,
+            PublishSubscribeOpenOrCreateError as E,
+        };
+        matches!(
+            self,
+            E::PublishSubscribeOpenError(Open::HangsInCreation)
+                | E::PublishSubscribeCreateError(Create::HangsInCreation)
+        )
+    }
+}
+
+impl OpenOrCreateError for iceoryx2::service::builder::event::EventOpenOrCreateError {
+    fn hangs_in_creation(&self) -> bool {
+        use iceoryx2::service::builder::event::{
+            EventOpenError as Open, EventOpenOrCreateError as E,
+        };
+        // iceoryx2 0.10's EventCreateError has no HangsInCreation: a creator that finds the
+        // service half-made reports it while opening.
+        matches!(self, E::EventOpenError(Open::HangsInCreation))
+    }
+}
+
+impl OpenOrCreateError
+    for iceoryx2::service::builder::request_response::RequestResponseOpenOrCreateError
+{
+    fn hangs_in_creation(&self) -> bool {
+        use iceoryx2::service::builder::request_response::{
+            RequestResponseCreateError as Create, RequestResponseOpenError as Open,
+            RequestResponseOpenOrCreateError as E,
+        };
+        matches!(
+            self,
+            E::RequestResponseOpenError(Open::HangsInCreation)
+                | E::RequestResponseCreateError(Create::HangsInCreation)
+        )
+    }
 }
 
 fn running_list(running: &[String]) -> String {
@@ -228,18 +284,27 @@ impl Session {
         shm_prefix_of(&self.name)
     }
 
+    /// A [`SessionError::Config`] of this session for `what`, keeping iceoryx2's error.
+    fn config_err<E: std::error::Error + Send + Sync + 'static>(
+        &self,
+        what: impl Into<String>,
+    ) -> impl FnOnce(E) -> SessionError {
+        let (session, what) = (self.name.clone(), what.into());
+        move |e| SessionError::Config {
+            session,
+            what,
+            source: Box::new(e),
+        }
+    }
+
     /// The iceoryx2 configuration of this session.
     pub fn iox_config(&self) -> Result<iceoryx2::config::Config, SessionError> {
-        let err = |message: String| SessionError::Config {
-            session: self.name.clone(),
-            message,
-        };
         let mut cfg = iceoryx2::config::Config::default();
-        cfg.global.prefix = FileName::new(self.shm_prefix().as_bytes())
-            .map_err(|e| err(format!("prefix: {e:?}")))?;
+        cfg.global.prefix =
+            FileName::new(self.shm_prefix().as_bytes()).map_err(self.config_err("prefix"))?;
         let root = format!("{}/", self.dir.join("iox2").display());
         let root =
-            Path::new(root.as_bytes()).map_err(|e| err(format!("root path {root:?}: {e:?}")))?;
+            Path::new(root.as_bytes()).map_err(self.config_err(format!("root path {root:?}")))?;
         cfg.global.set_root_path(&root);
         Ok(cfg)
     }
@@ -279,13 +344,12 @@ impl Session {
     /// Runs `open_or_create` (an iceoryx2 service builder's); when it fails because the service
     /// hangs in creation, removes the session's stalled service configs
     /// ([`Session::remove_stalled_services`]) and runs it once more.
-    pub fn open_or_create_service<T, E: std::fmt::Debug>(
+    pub fn open_or_create_service<T, E: OpenOrCreateError>(
         &self,
         mut open_or_create: impl FnMut() -> Result<T, E>,
     ) -> Result<T, E> {
         match open_or_create() {
-            // iceoryx2's error types differ per messaging pattern; each names the cause so.
-            Err(e) if format!("{e:?}").contains("HangsInCreation") => {
+            Err(e) if e.hangs_in_creation() => {
                 let timeout = self
                     .iox_config()
                     .map(|c| c.global.creation_timeout)
@@ -310,10 +374,7 @@ impl Session {
         handle_signals: bool,
     ) -> Result<Node<ipc::Service>, SessionError> {
         let cfg = self.iox_config()?;
-        let name = NodeName::new(role).map_err(|e| SessionError::Config {
-            session: self.name.clone(),
-            message: format!("node name {role:?}: {e:?}"),
-        })?;
+        let name = NodeName::new(role).map_err(self.config_err(format!("node name {role:?}")))?;
         let node = NodeBuilder::new()
             .name(&name)
             .config(&cfg)
@@ -323,10 +384,7 @@ impl Session {
                 SignalHandlingMode::Disabled
             })
             .create::<ipc::Service>()
-            .map_err(|e| SessionError::Config {
-                session: self.name.clone(),
-                message: format!("node {role:?}: {e:?}"),
-            })?;
+            .map_err(self.config_err(format!("node {role:?}")))?;
         self.tighten_shm_modes();
         Ok(node)
     }
@@ -408,10 +466,7 @@ impl Session {
     /// A service name inside this session.
     pub fn service(&self, suffix: &str) -> Result<ServiceName, SessionError> {
         let s = format!("robosim/{}/{}", self.name, suffix);
-        ServiceName::new(&s).map_err(|e| SessionError::Config {
-            session: self.name.clone(),
-            message: format!("service name {s:?}: {e:?}"),
-        })
+        ServiceName::new(&s).map_err(self.config_err(format!("service name {s:?}")))
     }
 
     /// Registers this process in the session's registry until the returned guard drops.
@@ -631,5 +686,47 @@ pub(crate) fn timed_wait_events<F: FnMut(EventActivation)>(
     match listener.timed_wait(callback, timeout) {
         Err(iceoryx2::port::listener::ListenerWaitError::InterruptSignal) => Ok(0),
         r => r,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::OpenOrCreateError;
+    use iceoryx2::service::builder::{event, publish_subscribe as ps, request_response as rr};
+
+    /// The stalled-service cleanup is chosen by iceoryx2's variant (an upgrade that renames it
+    /// fails to compile here), whether the service was being opened or created.
+    #[test]
+    fn hangs_in_creation_is_told_by_variant_for_every_messaging_pattern() {
+        use ps::PublishSubscribeOpenOrCreateError as P;
+        assert!(
+            P::PublishSubscribeOpenError(ps::PublishSubscribeOpenError::HangsInCreation)
+                .hangs_in_creation()
+        );
+        assert!(
+            P::PublishSubscribeCreateError(ps::PublishSubscribeCreateError::HangsInCreation)
+                .hangs_in_creation()
+        );
+        assert!(
+            !P::PublishSubscribeOpenError(ps::PublishSubscribeOpenError::DoesNotExist)
+                .hangs_in_creation()
+        );
+        assert!(!P::SystemInFlux.hangs_in_creation());
+        use event::EventOpenOrCreateError as E;
+        assert!(E::EventOpenError(event::EventOpenError::HangsInCreation).hangs_in_creation());
+        assert!(!E::EventCreateError(event::EventCreateError::AlreadyExists).hangs_in_creation());
+        use rr::RequestResponseOpenOrCreateError as R;
+        assert!(
+            R::RequestResponseOpenError(rr::RequestResponseOpenError::HangsInCreation)
+                .hangs_in_creation()
+        );
+        assert!(
+            R::RequestResponseCreateError(rr::RequestResponseCreateError::HangsInCreation)
+                .hangs_in_creation()
+        );
+        assert!(
+            !R::RequestResponseOpenError(rr::RequestResponseOpenError::DoesNotExist)
+                .hangs_in_creation()
+        );
     }
 }

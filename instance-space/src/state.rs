@@ -24,8 +24,13 @@ pub enum StateError {
     Session(#[from] SessionError),
     #[error("no state service {name:?} in session {session} (is the simulator running?)")]
     NoPublisher { session: String, name: String },
-    #[error("iceoryx2 {what}: {message}")]
-    Ipc { what: String, message: String },
+    /// iceoryx2 refused `what`; its error is the source (matched by variant where it matters).
+    #[error("iceoryx2 {what}: {source}")]
+    Ipc {
+        what: String,
+        #[source]
+        source: crate::error::Cause,
+    },
     /// The receiver of a command died (killed, crashed) before answering it: no receiver is
     /// left, or iceoryx2 finds every receiver's node dead (its process gone without cleaning
     /// up). Said as soon as it is seen, not after the sender's timeout.
@@ -37,10 +42,12 @@ pub enum StateError {
     Layout(#[from] crate::layout::LayoutError),
 }
 
-fn ipc<E: std::fmt::Debug>(what: &'static str) -> impl FnOnce(E) -> StateError {
+fn ipc<E: std::error::Error + Send + Sync + 'static>(
+    what: &'static str,
+) -> impl FnOnce(E) -> StateError {
     move |e| StateError::Ipc {
         what: what.to_owned(),
-        message: format!("{e:?}"),
+        source: Box::new(e),
     }
 }
 
@@ -413,7 +420,7 @@ impl CommandSender {
             if start.elapsed() > timeout {
                 return Err(StateError::Ipc {
                     what: "command".into(),
-                    message: format!("no answer within {timeout:?}"),
+                    source: format!("no answer within {timeout:?}").into(),
                 });
             }
             std::thread::sleep(Duration::from_micros(200));

@@ -4,7 +4,7 @@
 //! Objects the transaction creates are referred to by [`ObjRef::New`]`(k)`, the k-th create of
 //! the same transaction; the keeper assigns their ids and returns them in order.
 
-use crate::store::{Appearance, Id, Kind, Kinematics, MassProps, Pose};
+use crate::object::{Appearance, Id, Kind, Kinematics, MassProps, Pose};
 use serde::{Deserialize, Serialize};
 
 /// An object: an existing id, or the k-th object this transaction creates.
@@ -325,7 +325,7 @@ impl Transaction {
     /// that computed the transaction from what it read at `version` overwrites no concurrent
     /// write unseen. Objects it creates or only selects need none.
     pub fn expect_unchanged_since(&mut self, version: u64) -> &mut Self {
-        use crate::store::aspect::*;
+        use crate::object::aspect::*;
         let mut written: std::collections::BTreeMap<Id, u64> = Default::default();
         for op in &self.ops {
             let (id, aspects) = match op {
@@ -379,7 +379,7 @@ impl Transaction {
 
     /// Decodes the wire form. A length prefix that claims more memory than the message could
     /// describe (e.g. 10^12 vertices in a 40-byte request) is refused before any allocation.
-    pub fn decode(bytes: &[u8]) -> Result<Self, crate::store::TxError> {
+    pub fn decode(bytes: &[u8]) -> Result<Self, TxError> {
         // Decoded size is at most ~32× the encoded size for our types (an empty inner Vec is
         // 1 byte on the wire, 24 in memory), so this limit never refuses an honest message.
         const CAP: usize = 1 << 34;
@@ -390,20 +390,20 @@ impl Transaction {
         let result = decode_limited(bytes, limit);
         match result {
             Ok((tx, used)) if used == bytes.len() => Ok(tx),
-            Ok((_, used)) => Err(crate::store::TxError::Malformed {
+            Ok((_, used)) => Err(TxError::Malformed {
                 message: format!(
                     "{} trailing bytes after the transaction",
                     bytes.len() - used
                 ),
             }),
-            Err(e) if too_large(&e) => Err(crate::store::TxError::TooLarge {
+            Err(e) if too_large(&e) => Err(TxError::TooLarge {
                 op: 0,
                 id: 0,
                 field: "request".into(),
                 requested: u64::MAX,
                 limit: limit as u64,
             }),
-            Err(e) => Err(crate::store::TxError::Malformed {
+            Err(e) => Err(TxError::Malformed {
                 message: e.to_string(),
             }),
         }
@@ -423,6 +423,84 @@ fn decode_limited(
     }
     try_limit!(16, 20, 24, 28, 30, 32);
     bincode::decode_from_slice(bytes, standard().with_limit::<{ 1usize << 34 }>())
+}
+
+/// Why a transaction was refused. `op` is the index of the offending operation in the
+/// transaction; `id` the object (0 for one the transaction was creating).
+#[derive(Debug, Clone, PartialEq, thiserror::Error, Serialize, Deserialize)]
+pub enum TxError {
+    #[error("op {op}: object {id} does not exist")]
+    UnknownObject { op: usize, id: Id },
+    #[error("op {op}: `new {reference}` refers to no earlier create in this transaction")]
+    UnknownNewRef { op: usize, reference: u32 },
+    #[error("op {op}: object {id}: {field} is not finite ({value})")]
+    NonFinite {
+        op: usize,
+        id: Id,
+        field: String,
+        value: f64,
+    },
+    #[error("op {op}: object {id}: {field}: {reason}")]
+    InvalidValue {
+        op: usize,
+        id: Id,
+        field: String,
+        reason: String,
+    },
+    #[error("op {op}: object {id}: geometry refused: {reason}")]
+    InvalidGeometry { op: usize, id: Id, reason: String },
+    #[error(
+        "op {op}: object {id}: making {parent} its parent would close a cycle in the hierarchy"
+    )]
+    Cycle { op: usize, id: Id, parent: Id },
+    #[error("op {op}: object {id}: a {kind} cannot be a child of a {parent_kind}")]
+    WrongParentKind {
+        op: usize,
+        id: Id,
+        kind: String,
+        parent_kind: String,
+    },
+    #[error("op {op}: object {id}: a {kind} needs a parent")]
+    NeedsParent { op: usize, id: Id, kind: String },
+    #[error(
+        "op {op}: object {id} still has {children} children; delete them first or delete recursively"
+    )]
+    HasChildren { op: usize, id: Id, children: usize },
+    #[error("op {op}: object {id}: {field} asks for {requested} elements; the limit is {limit}")]
+    TooLarge {
+        op: usize,
+        id: Id,
+        field: String,
+        requested: u64,
+        limit: u64,
+    },
+    #[error("op {op}: object {id}: {field} is not a rigid transform (orthonormal, det +1)")]
+    NotRigid { op: usize, id: Id, field: String },
+    #[error("malformed transaction: {message}")]
+    Malformed { message: String },
+    /// An [`Op::Expect`] precondition failed: another transaction changed the object after the
+    /// version the writer read it at. Nothing was changed; read the object again and rebuild
+    /// the transaction ([`crate::Client::transact_fresh`] does).
+    #[error(
+        "op {op}: object {id}: its {aspects} changed at version {changed}, after version {read} this transaction was computed from (a concurrent write; read it again and retry)"
+    )]
+    Conflict {
+        op: usize,
+        id: Id,
+        /// The aspects expected unchanged that did change, by name (`pose`, `structure`, …).
+        aspects: String,
+        /// The version the writer read the object at.
+        read: u64,
+        /// The version of the latest transaction that changed one of them.
+        changed: u64,
+    },
+    #[error("the transaction is empty")]
+    Empty,
+    /// A replica's bridge could not have the transaction decided by the keeper that owns the
+    /// model (`robosim bridge`): refused there by flag, or no answer (then it may have been
+    /// committed: the replica shows it when it arrives).
+    #[error("not committed through the bridge: {reason}")]
+    Forward { reason: String },
 }
 
 #[cfg(test)]
