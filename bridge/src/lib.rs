@@ -33,8 +33,13 @@ use std::time::Duration;
 
 #[derive(Debug, thiserror::Error)]
 pub enum BridgeError {
-    #[error("zenoh {what}: {message}")]
-    Zenoh { what: String, message: String },
+    /// Zenoh refused `what`; its error is the source.
+    #[error("zenoh {what}: {source}")]
+    Zenoh {
+        what: String,
+        #[source]
+        source: robosim_instance_space::Cause,
+    },
     #[error(transparent)]
     Session(#[from] robosim_instance_space::SessionError),
     #[error(transparent)]
@@ -43,19 +48,25 @@ pub enum BridgeError {
     Reader(#[from] robosim_instance_space::ReaderError),
     #[error(transparent)]
     Keeper(#[from] robosim_instance_space::KeeperError),
+    /// The primary's snapshot did not come (the message says how).
     #[error("the primary's snapshot: {0}")]
     Snapshot(String),
+    /// The primary's snapshot came and its model does not decode.
+    #[error("the primary's snapshot: {0}")]
+    SnapshotModel(#[source] robosim_instance_space::journal::StoreDecodeError),
     #[error("{0}")]
     Usage(String),
 }
 
 pub type Result<T> = std::result::Result<T, BridgeError>;
 
-pub(crate) fn zerr<E: std::fmt::Display>(what: impl Into<String>) -> impl FnOnce(E) -> BridgeError {
+pub(crate) fn zerr<E: Into<robosim_instance_space::Cause>>(
+    what: impl Into<String>,
+) -> impl FnOnce(E) -> BridgeError {
     let what = what.into();
     move |e| BridgeError::Zenoh {
         what,
-        message: e.to_string(),
+        source: e.into(),
     }
 }
 

@@ -174,8 +174,7 @@ fn snapshot(
 }
 
 fn decode_model(snap: &SpaceSnapshot) -> Result<Store> {
-    robosim_instance_space::journal::decode_store(&snap.model)
-        .map_err(|e| BridgeError::Snapshot(e.to_string()))
+    robosim_instance_space::journal::decode_store(&snap.model).map_err(BridgeError::SnapshotModel)
 }
 
 impl Replica<'_> {
