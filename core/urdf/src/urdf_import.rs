@@ -540,6 +540,8 @@ pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<Urd
     import_impl(text, file, tip, false)
 }
 
+/// The import, as named steps: read and check the document, read its links and joints, check
+/// they form one tree, then build either the whole tree or the chain to the tip.
 fn import_impl(
     text: &str,
     file: &Path,
@@ -550,6 +552,52 @@ fn import_impl(
     let doc = roxmltree::Document::parse(text).map_err(|e| xml_error(text, file, e))?;
     let rd = Reader { file, doc: &doc };
     let root_el = doc.root_element();
+    let robot_name = robot_name(&rd, root_el)?;
+    let at_robot = RobotElement {
+        rd: &rd,
+        node: root_el,
+        name: &robot_name,
+    };
+    let geometry = crate::urdf_geometry::read_all(&rd, root_el)?;
+    let parts = read_links_and_joints(&rd, root_el)?;
+    let links_tree = LinkTree::check(&at_robot, &parts)?;
+    if tree {
+        return build_whole_tree(
+            file,
+            &rd,
+            root_el,
+            &robot_name,
+            &links_tree.root,
+            &parts.links,
+            &parts.joints,
+            &links_tree.children,
+            geometry,
+        );
+    }
+    let tip = find_tip(&at_robot, tip, &parts, &links_tree)?;
+    build_chain_to_tip(&at_robot, &parts, &links_tree, tip, geometry)
+}
+
+/// The `<robot>` element, for errors that concern the whole robot.
+struct RobotElement<'r, 'a, 'input, 'n> {
+    rd: &'r Reader<'a, 'input>,
+    node: roxmltree::Node<'n, 'input>,
+    name: &'r str,
+}
+
+impl RobotElement<'_, '_, '_, '_> {
+    fn err(&self, kind: UrdfErrorKind) -> UrdfError {
+        UrdfError {
+            file: self.rd.file.to_path_buf(),
+            line: self.rd.line(self.node),
+            element: format!("<robot name={:?}>", self.name),
+            kind,
+        }
+    }
+}
+
+/// The robot's name, after refusing an unprocessed xacro file and a root that is not `<robot>`.
+fn robot_name(rd: &Reader, root_el: roxmltree::Node) -> Result<String, UrdfError> {
     // Processed URDFs often still declare xmlns:xacro (the UR files do): only elements in the
     // xacro namespace mark an unprocessed file.
     let is_xacro = root_el.descendants().any(|n| {
@@ -568,9 +616,18 @@ fn import_impl(
             UrdfErrorKind::NotARobot(root_el.tag_name().name().to_string()),
         ));
     }
-    let robot_name = root_el.attribute("name").unwrap_or("urdf").to_string();
+    Ok(root_el.attribute("name").unwrap_or("urdf").to_string())
+}
 
-    let mut geometry = crate::urdf_geometry::read_all(&rd, root_el)?;
+/// The `<link>` and `<joint>` elements of a robot, in file order.
+struct Parts {
+    links: HashMap<String, LinkRec>,
+    link_order: Vec<String>,
+    joints: Vec<JointRec>,
+}
+
+/// Reads every `<link>` (its inertial) and `<joint>`; a name used twice is refused.
+fn read_links_and_joints(rd: &Reader, root_el: roxmltree::Node) -> Result<Parts, UrdfError> {
     let mut links: HashMap<String, LinkRec> = HashMap::new();
     let mut link_order: Vec<String> = Vec::new();
     let mut joints: Vec<JointRec> = Vec::new();
@@ -604,163 +661,196 @@ fn import_impl(
             _ => {}
         }
     }
+    Ok(Parts {
+        links,
+        link_order,
+        joints,
+    })
+}
 
-    // The tree: each link's parent joint; every joint's links must exist.
-    let joint_err = |j: &JointRec, kind| UrdfError {
+/// An error at joint `j`'s element.
+fn joint_err(file: &Path, j: &JointRec, kind: UrdfErrorKind) -> UrdfError {
+    UrdfError {
         file: file.to_path_buf(),
         line: j.line,
         element: format!("<joint name={:?}>", j.name),
         kind,
-    };
-    let mut parent_joint: HashMap<&str, usize> = HashMap::new();
-    let mut children: HashMap<&str, Vec<usize>> = HashMap::new();
-    for (k, j) in joints.iter().enumerate() {
-        for (role, link) in [("parent", &j.parent), ("child", &j.child)] {
-            if !links.contains_key(link) {
+    }
+}
+
+/// The links as a tree: each link's parent joint, each link's child joints (file order), and
+/// the one root.
+struct LinkTree<'p> {
+    parent_joint: HashMap<&'p str, usize>,
+    children: HashMap<&'p str, Vec<usize>>,
+    root: String,
+}
+
+impl<'p> LinkTree<'p> {
+    /// Checks that every joint's links exist, no link has two parents, there is one root, and
+    /// every link is reached from it (one that is not sits on a cycle).
+    fn check(at_robot: &RobotElement, parts: &'p Parts) -> Result<Self, UrdfError> {
+        let file = at_robot.rd.file;
+        let (links, joints) = (&parts.links, &parts.joints);
+        let mut parent_joint: HashMap<&str, usize> = HashMap::new();
+        let mut children: HashMap<&str, Vec<usize>> = HashMap::new();
+        for (k, j) in joints.iter().enumerate() {
+            for (role, link) in [("parent", &j.parent), ("child", &j.child)] {
+                if !links.contains_key(link) {
+                    return Err(joint_err(
+                        file,
+                        j,
+                        UrdfErrorKind::MissingLink {
+                            role,
+                            link: link.clone(),
+                        },
+                    ));
+                }
+            }
+            if let Some(&first) = parent_joint.get(j.child.as_str()) {
                 return Err(joint_err(
+                    file,
                     j,
-                    UrdfErrorKind::MissingLink {
-                        role,
-                        link: link.clone(),
+                    UrdfErrorKind::TwoParents {
+                        link: j.child.clone(),
+                        first: joints[first].name.clone(),
                     },
                 ));
             }
+            parent_joint.insert(&j.child, k);
+            children.entry(&j.parent).or_default().push(k);
         }
-        if let Some(&first) = parent_joint.get(j.child.as_str()) {
-            return Err(joint_err(
-                j,
-                UrdfErrorKind::TwoParents {
-                    link: j.child.clone(),
-                    first: joints[first].name.clone(),
-                },
-            ));
-        }
-        parent_joint.insert(&j.child, k);
-        children.entry(&j.parent).or_default().push(k);
-    }
-    let roots: Vec<&String> = link_order
-        .iter()
-        .filter(|l| !parent_joint.contains_key(l.as_str()))
-        .collect();
-    let root = match roots.as_slice() {
-        [] => {
-            return Err(UrdfError {
-                file: file.to_path_buf(),
-                line: rd.line(root_el),
-                element: format!("<robot name={robot_name:?}>"),
-                kind: UrdfErrorKind::NoRoot,
-            });
-        }
-        [r] => (*r).clone(),
-        [a, b, ..] => {
-            return Err(UrdfError {
-                file: file.to_path_buf(),
-                line: links[b.as_str()].line,
-                element: format!("<link name={b:?}>"),
-                kind: UrdfErrorKind::TwoRoots((*a).clone(), (*b).clone()),
-            });
-        }
-    };
-    // Every link must be reachable from the root; one that is not sits on a cycle.
-    let mut reached: HashSet<&str> = HashSet::new();
-    let mut stack = vec![root.as_str()];
-    while let Some(l) = stack.pop() {
-        reached.insert(l);
-        for &k in children.get(l).map_or(&[][..], |v| v.as_slice()) {
-            stack.push(&joints[k].child);
-        }
-    }
-    if let Some(l) = link_order.iter().find(|l| !reached.contains(l.as_str())) {
-        let j = &joints[parent_joint[l.as_str()]];
-        return Err(joint_err(j, UrdfErrorKind::Cycle(l.clone())));
-    }
-
-    if tree {
-        return build_whole_tree(
-            file,
-            &rd,
-            root_el,
-            &robot_name,
-            &root,
-            &links,
-            &joints,
-            &children,
-            geometry,
-        );
-    }
-
-    // The tip, and the chain root → tip.
-    let tip = match tip {
-        Some(t) => {
-            if !links.contains_key(t) {
+        let roots: Vec<&String> = parts
+            .link_order
+            .iter()
+            .filter(|l| !parent_joint.contains_key(l.as_str()))
+            .collect();
+        let root = match roots.as_slice() {
+            [] => return Err(at_robot.err(UrdfErrorKind::NoRoot)),
+            [r] => (*r).clone(),
+            [a, b, ..] => {
                 return Err(UrdfError {
                     file: file.to_path_buf(),
-                    line: rd.line(root_el),
-                    element: format!("<robot name={robot_name:?}>"),
-                    kind: UrdfErrorKind::TipNotALink(t.to_string()),
+                    line: links[b.as_str()].line,
+                    element: format!("<link name={b:?}>"),
+                    kind: UrdfErrorKind::TwoRoots((*a).clone(), (*b).clone()),
                 });
             }
-            t.to_string()
+        };
+        let mut reached: HashSet<&str> = HashSet::new();
+        let mut stack = vec![root.as_str()];
+        while let Some(l) = stack.pop() {
+            reached.insert(l);
+            for &k in children.get(l).map_or(&[][..], |v| v.as_slice()) {
+                stack.push(&joints[k].child);
+            }
+        }
+        if let Some(l) = parts
+            .link_order
+            .iter()
+            .find(|l| !reached.contains(l.as_str()))
+        {
+            let j = &joints[parent_joint[l.as_str()]];
+            return Err(joint_err(file, j, UrdfErrorKind::Cycle(l.clone())));
+        }
+        Ok(LinkTree {
+            parent_joint,
+            children,
+            root,
+        })
+    }
+}
+
+/// The tip link: the one asked for (it must be a link), else the only leaf.
+fn find_tip(
+    at_robot: &RobotElement,
+    tip: Option<&str>,
+    parts: &Parts,
+    tree: &LinkTree,
+) -> Result<String, UrdfError> {
+    match tip {
+        Some(t) => {
+            if !parts.links.contains_key(t) {
+                return Err(at_robot.err(UrdfErrorKind::TipNotALink(t.to_string())));
+            }
+            Ok(t.to_string())
         }
         None => {
-            let leaves: Vec<&String> = link_order
+            let leaves: Vec<&String> = parts
+                .link_order
                 .iter()
-                .filter(|l| !children.contains_key(l.as_str()))
+                .filter(|l| !tree.children.contains_key(l.as_str()))
                 .collect();
             if leaves.len() != 1 {
-                return Err(UrdfError {
-                    file: file.to_path_buf(),
-                    line: rd.line(root_el),
-                    element: format!("<robot name={robot_name:?}>"),
-                    kind: UrdfErrorKind::AmbiguousTip(
-                        leaves.len(),
-                        leaves
-                            .iter()
-                            .map(|s| s.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", "),
-                    ),
-                });
+                return Err(at_robot.err(UrdfErrorKind::AmbiguousTip(
+                    leaves.len(),
+                    leaves
+                        .iter()
+                        .map(|s| s.as_str())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                )));
             }
-            leaves[0].clone()
+            Ok(leaves[0].clone())
         }
-    };
+    }
+}
+
+/// The joints from the root to `tip`, root first.
+fn chain_to(tip: &str, tree: &LinkTree, joints: &[JointRec]) -> Vec<usize> {
     let mut chain: Vec<usize> = Vec::new();
-    let mut l = tip.as_str();
-    while let Some(&k) = parent_joint.get(l) {
+    let mut l = tip;
+    while let Some(&k) = tree.parent_joint.get(l) {
         chain.push(k);
         l = joints[k].parent.as_str();
     }
     chain.reverse();
-    let on_chain: HashSet<usize> = chain.iter().copied().collect();
+    chain
+}
 
-    // Off-chain subtrees at q = 0, lumped into the chain link they hang from.
-    fn subtree(
-        link: &str,
-        joints: &[JointRec],
-        links: &HashMap<String, LinkRec>,
-        children: &HashMap<&str, Vec<usize>>,
-        skip: &HashSet<usize>,
-        held: &mut Vec<usize>,
-    ) -> Inertial {
-        let mut total = links[link].inertial;
-        for &k in children.get(link).map_or(&[][..], |v| v.as_slice()) {
-            if skip.contains(&k) {
-                continue;
-            }
-            held.push(k);
-            let sub = subtree(&joints[k].child, joints, links, children, skip, held);
-            total.merge(&sub.transformed(&joints[k].placement));
+/// The inertial of `link` with its subtree at q = 0, skipping the joints in `skip`; the joints
+/// folded in are appended to `held`.
+fn subtree(
+    link: &str,
+    joints: &[JointRec],
+    links: &HashMap<String, LinkRec>,
+    children: &HashMap<&str, Vec<usize>>,
+    skip: &HashSet<usize>,
+    held: &mut Vec<usize>,
+) -> Inertial {
+    let mut total = links[link].inertial;
+    for &k in children.get(link).map_or(&[][..], |v| v.as_slice()) {
+        if skip.contains(&k) {
+            continue;
         }
-        total
+        held.push(k);
+        let sub = subtree(&joints[k].child, joints, links, children, skip, held);
+        total.merge(&sub.transformed(&joints[k].placement));
     }
+    total
+}
+
+/// The chain's segments, each carrying its off-chain subtrees at q = 0 lumped into the chain
+/// link they hang from, and the off-chain joints so held (sorted; the root's included, which
+/// cannot move and are not part of the dynamics). A mimic joint on the chain is refused.
+fn chain_segments(
+    file: &Path,
+    parts: &Parts,
+    tree: &LinkTree,
+    chain: &[usize],
+) -> Result<(Vec<Segment>, Vec<usize>), UrdfError> {
+    let (joints, links, children) = (&parts.joints, &parts.links, &tree.children);
+    let on_chain: HashSet<usize> = chain.iter().copied().collect();
     let mut held = Vec::new();
-    let mut notes = Vec::new();
     let mut segments = Vec::with_capacity(chain.len());
-    for &k in &chain {
+    for &k in chain {
         let j = &joints[k];
         if j.mimic && j.kind != SegmentKind::Fixed {
-            return Err(joint_err(j, UrdfErrorKind::MimicOnChain(j.name.clone())));
+            return Err(joint_err(
+                file,
+                j,
+                UrdfErrorKind::MimicOnChain(j.name.clone()),
+            ));
         }
         segments.push(Segment {
             kind: j.kind,
@@ -769,23 +859,40 @@ fn import_impl(
             qlim: j.qlim,
             viscous: j.viscous,
             coulomb: j.coulomb,
-            child: subtree(&j.child, &joints, &links, &children, &on_chain, &mut held),
+            child: subtree(&j.child, joints, links, children, &on_chain, &mut held),
         });
     }
-    // What the root carries off the chain cannot move: it is not part of the dynamics.
     let mut root_held = Vec::new();
-    subtree(&root, &joints, &links, &children, &on_chain, &mut root_held);
+    subtree(
+        &tree.root,
+        joints,
+        links,
+        children,
+        &on_chain,
+        &mut root_held,
+    );
     held.extend(root_held);
     held.sort_unstable();
+    Ok((segments, held))
+}
 
-    let built = build_chain(&robot_name, &segments);
+/// The chain root → `tip` as a robot: its segments, the robot checked, the movable joints'
+/// names and limits, the folded and held joints, and the geometry placed on its bodies.
+fn build_chain_to_tip(
+    at_robot: &RobotElement,
+    parts: &Parts,
+    tree: &LinkTree,
+    tip: String,
+    mut geometry: crate::urdf_geometry::UrdfGeometry,
+) -> Result<UrdfRobot, UrdfError> {
+    let joints = &parts.joints;
+    let chain = chain_to(&tip, tree, joints);
+    let (segments, held) = chain_segments(at_robot.rd.file, parts, tree, &chain)?;
+    let built = build_chain(at_robot.name, &segments);
     let robot = built.robot;
-    robot.validate().map_err(|e| UrdfError {
-        file: file.to_path_buf(),
-        line: rd.line(root_el),
-        element: format!("<robot name={robot_name:?}>"),
-        kind: UrdfErrorKind::Model(e),
-    })?;
+    robot
+        .validate()
+        .map_err(|e| at_robot.err(UrdfErrorKind::Model(e)))?;
     let movable: Vec<UrdfJoint> = built
         .segment_of_joint
         .iter()
@@ -805,19 +912,21 @@ fn import_impl(
         .filter(|&&k| joints[k].kind == SegmentKind::Fixed)
         .map(|&k| joints[k].name.clone())
         .collect();
-    for &k in &held {
-        if joints[k].mimic {
-            notes.push(format!(
+    let notes = held
+        .iter()
+        .filter(|&&k| joints[k].mimic)
+        .map(|&k| {
+            format!(
                 "joint {:?} mimics another joint; it is off the chain and held at 0",
                 joints[k].name
-            ));
-        }
-    }
+            )
+        })
+        .collect();
     let parent_links = movable
         .iter()
-        .map(|m| joints[parent_joint[m.link.as_str()]].parent.clone())
+        .map(|m| joints[tree.parent_joint[m.link.as_str()]].parent.clone())
         .collect();
-    let tree: Vec<crate::urdf_geometry::TreeJoint> = joints
+    let placed: Vec<crate::urdf_geometry::TreeJoint> = joints
         .iter()
         .enumerate()
         .map(|(k, j)| crate::urdf_geometry::TreeJoint {
@@ -831,10 +940,10 @@ fn import_impl(
                 .map(|i| i + 1),
         })
         .collect();
-    crate::urdf_geometry::place(&mut geometry, &root, &tree);
+    crate::urdf_geometry::place(&mut geometry, &tree.root, &placed);
     Ok(UrdfRobot {
         robot,
-        root,
+        root: tree.root.clone(),
         tip,
         joints: movable,
         folded,
