@@ -4,6 +4,7 @@
 //! `bench`.
 
 mod bench;
+mod cli;
 mod reports;
 mod sweep_remote;
 
@@ -156,46 +157,46 @@ enum Command {
     },
     /// Draw a library scene or robot to PNG, with no session or other process (`--play`: one
     /// frame per trajectory sample).
-    Render(robosim_display::app::RenderArgs),
+    Render(cli::display::RenderArgs),
     /// Attach to a session and draw it on every change: a window, or headless PNG frames with
     /// per-frame upload counters (frames.jsonl).
-    Display(robosim_display::app::DisplayArgs),
+    Display(cli::display::DisplayArgs),
     /// A headless session that does real work and says what it did.
     Demo,
     /// The seed's case studies end to end, written to --out DIR (docs/studies.md).
     Study {
         #[command(subcommand)]
-        cmd: robosim_studies::cli::StudyCmd,
+        cmd: cli::studies::StudyCmd,
     },
     /// A parameter study over worker processes: every combination of the --param values is
     /// one job; jobs go to N headless workers, results to one CSV; a worker that dies has its
     /// job redone (docs/studies.md, "Sweeps").
-    Sweep(robosim_studies::sweep::cli::SweepArgs),
+    Sweep(cli::studies::SweepArgs),
     /// (internal) a sweep's worker: job lines on stdin, result lines on stdout.
     #[command(hide = true)]
     SweepWorker,
     /// Runs sweep workers here for `robosim sweep --remote ENDPOINT` on other machines, over
     /// Zenoh (docs/studies.md, "Sweeps on other machines"); until stopped.
-    SweepHost(robosim_bridge::sweep_link::HostArgs),
+    SweepHost(cli::bridge::HostArgs),
     /// The Library Space: list, show and check declarations.
     Lib {
         #[command(subcommand)]
-        cmd: robosim_hl_interface::cli::lib::LibCmd,
+        cmd: cli::hl_interface::LibCmd,
     },
     /// Hierarchical fault models and diagnosis (seed §3.4, §4.3).
     Diag {
         #[command(subcommand)]
-        cmd: robosim_hl_interface::cli::diag::DiagCmd,
+        cmd: cli::hl_interface::DiagCmd,
     },
     /// The query protocol over JSON lines: one request per stdin line, one answer per stdout
     /// line. With --session, also the simulation-library ops on that session's Instance Space
     /// (MOVEJ, MOVEJI, KINV, JACOB, CHECK, USE, C_SWITCH, PRE/POST TRANSLATE/ROTATE, …).
     Query {
         #[command(flatten)]
-        args: robosim_hl_interface::cli::QueryArgs,
+        args: cli::hl_interface::QueryArgs,
     },
     /// Build a scene's effect pipeline, print it, optionally run it headless.
-    Sim(robosim_hl_interface::cli::sim::SimArgs),
+    Sim(cli::hl_interface::SimArgs),
     /// Read a journal file (a session's `data/journal-*.log`, or a cut that recovery kept under
     /// `data/lost/`): every readable record with its version and operations, and the damage.
     Journal {
@@ -211,33 +212,33 @@ enum Command {
     /// additions) at one version to FILE (binary with a checksum; JSON for .json).
     Save {
         #[command(flatten)]
-        args: robosim_file_io::cli::SaveArgs,
+        args: cli::file_io::SaveArgs,
     },
     /// Load a model file into the session as one transaction (replace by default, or --merge).
     Load {
         #[command(flatten)]
-        args: robosim_file_io::cli::LoadArgs,
+        args: cli::file_io::LoadArgs,
     },
     /// The session's (or a model file's) version, object counts and model digest.
     Info {
         #[command(flatten)]
-        args: robosim_file_io::cli::InfoArgs,
+        args: cli::file_io::InfoArgs,
     },
     /// Export for other tools: glTF 2.0 binary (.glb), binary STL, the logged joint trajectory
     /// (CSV), of a session or (--scene) a library scene.
     Export {
         #[command(flatten)]
-        args: robosim_file_io::cli::ExportArgs,
+        args: cli::file_io::ExportArgs,
     },
     /// Import into a session: `mesh FILE --as NAME --at x,y,z[,r,p,y]` (STL or OBJ).
     Import {
         #[command(subcommand)]
-        cmd: robosim_file_io::cli::ImportCmd,
+        cmd: cli::file_io::ImportCmd,
     },
     /// Benchmarks: figures as ratios against a baseline measured in the same run.
     /// Carry this session's space to other machines over Zenoh (--listen, beside the keeper),
     /// or keep this session a replica of one (--connect): docs/bridge.md.
-    Bridge(robosim_bridge::BridgeArgs),
+    Bridge(cli::bridge::BridgeArgs),
     Bench {
         #[command(subcommand)]
         which: bench::Which,
@@ -269,9 +270,7 @@ enum Command {
 /// The component names `up --with` accepts (only what this build has).
 fn component_names() -> clap::builder::PossibleValuesParser {
     clap::builder::PossibleValuesParser::new(
-        robosim_launcher::COMPONENTS
-            .iter()
-            .map(|(name, _)| *name),
+        robosim_launcher::COMPONENTS.iter().map(|(name, _)| *name),
     )
 }
 
@@ -427,27 +426,27 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         .map_err(CliError::from),
         Command::Save { args } => {
             existing(session)?;
-            robosim_file_io::cli::save(&args, session).map_err(CliError::from)
+            robosim_file_io::cli::save(&args.into(), session).map_err(CliError::from)
         }
         Command::Load { args } => {
             existing(session)?;
-            robosim_file_io::cli::load(&args, session).map_err(CliError::from)
+            robosim_file_io::cli::load(&args.into(), session).map_err(CliError::from)
         }
         Command::Info { args } => {
             if args.file.is_none() {
                 existing(session)?;
             }
-            robosim_file_io::cli::info(&args, session).map_err(CliError::from)
+            robosim_file_io::cli::info(&args.into(), session).map_err(CliError::from)
         }
         Command::Export { args } => {
             if args.scene.is_none() {
                 existing(session)?;
             }
-            robosim_file_io::cli::export(&args, session).map_err(CliError::from)
+            robosim_file_io::cli::export(&args.into(), session).map_err(CliError::from)
         }
         Command::Import { cmd } => {
             existing(session)?;
-            robosim_file_io::cli::import(&cmd, session).map_err(CliError::from)
+            robosim_file_io::cli::import(&cmd.into(), session).map_err(CliError::from)
         }
         Command::Ps { json } => robosim_launcher::ps(session, json).map_err(CliError::from),
         Command::Down => robosim_launcher::down(session).map_err(CliError::from),
@@ -508,10 +507,12 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         Command::Set { instance, params } => cli_set(&instance, &params, session),
         Command::Demo => robosim_studies::surgical::run(session, &mut std::io::stdout().lock())
             .map_err(|e| CliError(e.0)),
-        Command::Study { cmd } => robosim_studies::cli::run(&cmd, &mut std::io::stdout().lock())
-            .map_err(|e| CliError(e.0)),
+        Command::Study { cmd } => {
+            robosim_studies::cli::run(&cmd.into(), &mut std::io::stdout().lock())
+                .map_err(|e| CliError(e.0))
+        }
         Command::Sweep(args) => robosim_studies::sweep::cli::run(
-            &args,
+            &args.into(),
             &std::env::current_exe()?,
             &mut sweep_remote::connect,
             &mut std::io::stdout().lock(),
@@ -524,29 +525,30 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 c.arg("sweep-worker");
                 c
             };
-            robosim_bridge::sweep_link::host(&args, &spawn, &mut |line| eprintln!("{line}"))
+            robosim_bridge::sweep_link::host(&args.into(), &spawn, &mut |line| eprintln!("{line}"))
                 .map_err(|e| CliError(e.to_string()))
         }
         Command::SweepWorker => robosim_studies::sweep::cli::worker().map_err(CliError::from),
         Command::Bench { which } => bench::run(which, session),
         Command::Bridge(args) => {
-            robosim_bridge::run(session, &args).map_err(|e| CliError(e.to_string()))
+            robosim_bridge::run(session, &args.into()).map_err(CliError::from)
         }
         Command::Lib { cmd } => match session {
-            None => robosim_hl_interface::cli::lib::run(cmd).map_err(CliError),
+            None => robosim_hl_interface::cli::lib::run(cmd.into()).map_err(CliError),
             Some(_) => session_library(session)
                 .and_then(|lib| {
-                    robosim_hl_interface::cli::lib::render_with(cmd, Some(&lib)).map_err(CliError)
+                    robosim_hl_interface::cli::lib::render_with(cmd.into(), Some(&lib))
+                        .map_err(CliError)
                 })
                 .map(|text| print!("{text}")),
         },
-        Command::Diag { cmd } => robosim_hl_interface::cli::diag::run(cmd).map_err(CliError),
+        Command::Diag { cmd } => robosim_hl_interface::cli::diag::run(cmd.into()).map_err(CliError),
         Command::Query { args } => match session {
-            None => robosim_hl_interface::cli::run(&args).map_err(CliError),
-            Some(s) => query_session(s, &args),
+            None => robosim_hl_interface::cli::run(&args.into()).map_err(CliError),
+            Some(s) => query_session(s, &args.into()),
         },
         Command::Sim(args) => {
-            robosim_hl_interface::cli::sim::run(&args, &robosim_library::standard_robot)
+            robosim_hl_interface::cli::sim::run(&args.into(), &robosim_library::standard_robot)
                 .map_err(CliError)
         }
         Command::Journal {
@@ -554,9 +556,10 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         } => robosim_instance_space::journal::inspect(&path, &mut std::io::stdout().lock())
             .map_err(CliError::from),
         Command::Report { which } => reports::run(which),
-        Command::Render(args) => render(&args),
-        Command::Display(mut args) => {
+        Command::Render(args) => render(&args.into()),
+        Command::Display(args) => {
             existing(session)?;
+            let mut args = robosim_display::app::DisplayArgs::from(args);
             args.session = session.map(str::to_owned);
             robosim_display::app::cmd_display(&args).map_err(|e| CliError(e.0))
         }

@@ -37,9 +37,9 @@ pub struct Common {
 #[derive(clap::Subcommand)]
 pub enum Which {
     /// IK methods and tolerances: success, time, residual (PUMA 560, 7-DOF arm), with peer solvers.
-    Ik(robosim_report::cli::ReportIkArgs),
+    Ik(crate::cli::report::ReportIkArgs),
     /// Collision modes, broad phase and tessellation: time against false negatives/positives.
-    Collision(robosim_report::cli::ReportCollisionArgs),
+    Collision(crate::cli::report::ReportCollisionArgs),
     /// Integrators and steps: error at t = 2 s of a falling PUMA 560 against wall time.
     Dynamics(Common),
     /// Time per step with each effect declared, and the cost of undeclared effects (none).

@@ -71,38 +71,30 @@ pub(crate) fn zerr<E: Into<robosim_instance_space::Cause>>(
 }
 
 /// `robosim bridge` (exactly one of `--listen` and `--connect`).
-#[derive(clap::Args, Debug, Clone)]
+#[derive(Debug, Clone)]
 pub struct BridgeArgs {
     /// Serve this session's space on a Zenoh endpoint, e.g. tcp/0.0.0.0:7447 (the bridge
     /// listens there and nowhere else; no multicast scouting).
-    #[arg(long, conflicts_with = "connect", required_unless_present = "connect")]
     pub listen: Option<String>,
     /// Keep this session a replica of the space served at a Zenoh endpoint, e.g.
     /// tcp/10.0.0.1:7447 (reconnects until stopped). The session must have no keeper: this
     /// bridge becomes its keeper, and the session's model is replaced by the primary's.
-    #[arg(long)]
     pub connect: Option<String>,
     /// With --listen: refuse remote writers (replicas read; their transactions are refused
     /// with a clear error).
-    #[arg(long, requires = "listen")]
     pub read_only: bool,
     /// Key prefix of this space on the Zenoh network (several spaces can share one network).
-    #[arg(long, default_value = "robosim")]
     pub key: String,
     /// High-rate state services passed to the replica (`state/<name>`, the simulator's is
     /// `simulator`).
-    #[arg(long = "state", default_value = "simulator")]
     pub states: Vec<String>,
     /// The most state records per second passed on per service (the newest is sent; the ones
     /// between are dropped). 0 passes none.
-    #[arg(long, default_value_t = 30.0)]
     pub state_hz: f64,
     /// With --connect: how long a forwarded transaction waits for the primary's answer, ms.
-    #[arg(long, default_value_t = 5000)]
     pub tx_timeout_ms: u64,
     /// Heartbeat period of the primary, ms (a replica that hears of a newer version catches up;
     /// how soon a restored link resynchronises when nothing is being written).
-    #[arg(long, default_value_t = 200)]
     pub heartbeat_ms: u64,
 }
 

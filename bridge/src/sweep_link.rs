@@ -35,18 +35,15 @@ use zenoh::Wait;
 use zenoh::sample::SampleKind;
 
 /// `robosim sweep-host`: runs sweep workers for coordinators on other machines.
-#[derive(clap::Args, Debug, Clone)]
+#[derive(Debug, Clone)]
 pub struct HostArgs {
     /// The Zenoh endpoint to listen on, e.g. tcp/0.0.0.0:7448 (only there; no multicast
     /// scouting, no gossip).
-    #[arg(long)]
     pub listen: String,
     /// Worker processes run at most at once, for all coordinators together [default: one per
     /// core].
-    #[arg(long)]
     pub workers: Option<usize>,
     /// Key prefix on the Zenoh network (the coordinator's `--remote-key` must match).
-    #[arg(long, default_value = "robosim")]
     pub key: String,
 }
 

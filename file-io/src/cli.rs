@@ -1,5 +1,6 @@
-//! The command-line glue of the file interface: one clap argument struct and one run function
-//! per command; the binary adds the subcommands and passes `--session`.
+//! The commands of the file interface: one argument struct (plain types) and one run function
+//! per command; the binary parses the command line into them (src/cli/file_io.rs) and passes
+//! `--session`.
 //!
 //! `robosim save FILE`, `load FILE [--merge|--replace]`, `info [FILE]`, `export [FORMAT] FILE`,
 //! `import mesh FILE --as NAME --at x,y,z[,r,p,y]` (`up --load FILE` and `space --load FILE`
@@ -15,12 +16,11 @@ use std::path::{Path, PathBuf};
 type Result<T> = std::result::Result<T, FileError>;
 
 /// `robosim save FILE`
-#[derive(clap::Args, Debug)]
+#[derive(Debug)]
 pub struct SaveArgs {
     /// The model file: binary (checksummed), or JSON when the name ends in .json.
     pub file: PathBuf,
     /// Write the readable JSON form whatever the name.
-    #[arg(long)]
     pub json: bool,
 }
 
@@ -45,15 +45,13 @@ pub fn save(a: &SaveArgs, session: Option<&str>) -> Result<()> {
 }
 
 /// `robosim load FILE`
-#[derive(clap::Args, Debug)]
+#[derive(Debug)]
 pub struct LoadArgs {
     /// A model file written by `robosim save` (binary or JSON, told apart by content).
     pub file: PathBuf,
     /// Add the file's objects beside the session's (new ids) instead of replacing them.
-    #[arg(long, conflicts_with = "replace")]
     pub merge: bool,
     /// Delete every object of the session and create the file's (the default).
-    #[arg(long)]
     pub replace: bool,
 }
 
@@ -86,7 +84,7 @@ pub fn load(a: &LoadArgs, session: Option<&str>) -> Result<()> {
 }
 
 /// `robosim info [FILE]`
-#[derive(clap::Args, Debug)]
+#[derive(Debug)]
 pub struct InfoArgs {
     /// Describe this model file instead of a session's model.
     pub file: Option<PathBuf>,
@@ -102,29 +100,22 @@ pub fn info(a: &InfoArgs, session: Option<&str>) -> Result<()> {
 }
 
 /// `robosim export [FORMAT] FILE`
-#[derive(clap::Args, Debug)]
+#[derive(Debug)]
 pub struct ExportArgs {
     /// `[gltf|stl|trajectory|urdf] FILE`; without a format, the file's extension says
     /// (.glb, .stl, .csv, .urdf).
-    #[arg(num_args = 1..=2, value_names = ["FORMAT", "FILE"], required = true)]
     pub what: Vec<String>,
     /// Export a Library Space declaration instantiated with its defaults, without a session.
-    #[arg(long)]
     pub scene: Option<String>,
     /// Library files to add to the standard library (with --scene).
-    #[arg(long)]
     pub library: Vec<PathBuf>,
     /// STL: only this object and what hangs under it (by name).
-    #[arg(long)]
     pub body: Option<String>,
     /// Trajectory and URDF: the robot (default: the session's or scene's only robot).
-    #[arg(long)]
     pub robot: Option<String>,
     /// Trajectory: the simulator log to read (default: the session's run/simulator-ROBOT.csv).
-    #[arg(long)]
     pub log: Option<PathBuf>,
     /// Trajectory: seconds between two log rows, for a log without a time column.
-    #[arg(long)]
     pub dt: Option<f64>,
 }
 
@@ -329,7 +320,7 @@ fn export_trajectory(a: &ExportArgs, session: Option<&str>, out: &Path) -> Resul
 }
 
 /// `robosim import …`
-#[derive(clap::Subcommand, Debug)]
+#[derive(Debug)]
 pub enum ImportCmd {
     /// An STL (binary or ASCII) or OBJ mesh as an item placed in the scene (one transaction).
     Mesh(ImportMeshArgs),
@@ -339,46 +330,36 @@ pub enum ImportCmd {
     Urdf(ImportUrdfArgs),
 }
 
-#[derive(clap::Args, Debug)]
+#[derive(Debug)]
 pub struct ImportUrdfArgs {
     /// The URDF file (`package://` meshes are found through ROS_PACKAGE_PATH and the file's
     /// ancestors; xacro files are refused: run xacro first).
     pub file: PathBuf,
     /// The robot's name in the session (default: the URDF's `<robot name>`).
-    #[arg(long = "as")]
     pub name: Option<String>,
     /// Position (m) and optionally roll, pitch, yaw (deg) of the root link in the parent's frame.
-    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
     pub at: String,
     /// The scene to place it in (default: the session's first scene).
-    #[arg(long)]
     pub parent: Option<String>,
     /// Leave the `<visual>`s out (their meshes are not read; the collision solids are drawn).
-    #[arg(long)]
     pub no_visuals: bool,
 }
 
-#[derive(clap::Args, Debug)]
+#[derive(Debug)]
 pub struct ImportMeshArgs {
     /// The mesh file (.stl or .obj).
     pub file: PathBuf,
     /// The item's name (its solid is NAME-mesh).
-    #[arg(long = "as")]
     pub name: String,
     /// Position (m) and optionally roll, pitch, yaw (deg) in the parent's frame.
-    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
     pub at: String,
     /// File units to metres (e.g. 0.001 for a file in millimetres).
-    #[arg(long, default_value_t = 1.0)]
     pub scale: f64,
     /// Keep the convex hull instead of the mesh.
-    #[arg(long)]
     pub hull: bool,
     /// r,g,b[,a] in 0..1.
-    #[arg(long)]
     pub color: Option<String>,
     /// The scene to place it in (default: the session's first scene).
-    #[arg(long)]
     pub parent: Option<String>,
 }
 

@@ -21,7 +21,8 @@
 //!   geometry (meshes loaded lazily, [`package`] resolves `package://` names, [`dae`] reads
 //!   Collada visual meshes) and the collision solids of its links — all re-exported from the
 //!   `robosim-urdf` crate (core/urdf/), which the Library Space uses for `from_urdf`.
-//! * [`cli`] — the command-line glue (clap argument structs and run functions).
+//! * [`cli`] — the commands' argument structs (plain types; the binary parses them, in its
+//!   src/cli/file_io.rs) and run functions.
 
 #![forbid(unsafe_code)]
 

@@ -16,7 +16,8 @@
 //!   transactions, notification latency, journaled throughput), across real processes;
 //! * [`scale`] — `robosim bench scale`: what a one-body change costs at 10²…10⁵ objects;
 //! * [`journal`] — `robosim bench journal`: what the journal's second copy costs;
-//! * [`cli`] — the clap arguments and runners of `robosim report ik|collision`;
+//! * [`cli`] — the arguments (plain types; the binary parses them) and runners of `robosim
+//!   report ik|collision`;
 //! * [`font`] — the bundled font plots and the display's status line are drawn with.
 
 #![forbid(unsafe_code)]

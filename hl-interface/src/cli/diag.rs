@@ -13,14 +13,13 @@ use std::fmt::Write as _;
 use std::path::PathBuf;
 
 /// `robosim diag …`
-#[derive(Debug, Clone, clap::Subcommand)]
+#[derive(Debug, Clone)]
 pub enum DiagCmd {
     /// Load a hierarchical process/fault model and run its consistency checks.
     Check {
         /// Model file, or a shipped model name (eclss).
         model: String,
         /// Also write the process/fault model as Graphviz DOT to this file.
-        #[arg(long)]
         dot: Option<PathBuf>,
     },
     /// Inject faults and print the timed alarm sequence (the format `diag run` reads).
@@ -28,16 +27,12 @@ pub enum DiagCmd {
         /// Model file, or a shipped model name (eclss).
         model: String,
         /// Failure mode to inject, as NAME or NAME@SECONDS (repeat for multiple faults).
-        #[arg(long = "fault", required = true)]
         faults: Vec<String>,
         /// Seed of the propagation-time (and probability) sampling.
-        #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Sample edge probabilities (default: every edge fires, the complete alarm sequence).
-        #[arg(long)]
         sample: bool,
         /// Alarms the sensor allocation lacks (filtered out), by name.
-        #[arg(long = "drop")]
         drop: Vec<String>,
     },
     /// Diagnose an alarm sequence file (lines `SECONDS ALARM`) with FSPI, FSCI and ILM.
@@ -45,13 +40,10 @@ pub enum DiagCmd {
         /// Model file, or a shipped model name (eclss).
         model: String,
         /// The alarm sequence: lines `SECONDS ALARM` (what `diag simulate` prints).
-        #[arg(long)]
         alarms: PathBuf,
         /// Judge the diagnosis at this time (seconds; default: the last alarm).
-        #[arg(long)]
         until: Option<f64>,
         /// Alarms not in the sensor allocation, by name (they count as absent, not normal).
-        #[arg(long = "drop")]
         drop: Vec<String>,
     },
     /// Diagnosability: every single fault through simulator and diagnoser; resolution per
@@ -60,13 +52,10 @@ pub enum DiagCmd {
         /// Model file, or a shipped model name (eclss).
         model: String,
         /// Sensor budget: how many alarms to keep.
-        #[arg(long)]
         sensors: Option<usize>,
         /// Simulated scenarios per fault (propagation sampled).
-        #[arg(long, default_value_t = 3)]
         trials: usize,
         /// Seed of the scenario sampling.
-        #[arg(long, default_value_t = 1)]
         seed: u64,
     },
 }

@@ -1,18 +1,17 @@
 //! The `robosim lib …` commands: list declarations, show one's parameters, check a file.
 //!
-//! Wire as `Lib { #[command(subcommand)] cmd: robosim_hl_interface::cli::lib::LibCmd }` and call
+//! The binary parses the command line into a [`LibCmd`] (src/cli/hl_interface.rs) and calls
 //! [`run`]; on `Err(message)` print it to stderr and exit non-zero (the message of a source
 //! error starts with `error[…]` and names file:line:col).
 
 use robosim_library::{Evaluated, Library, Params};
 use std::path::PathBuf;
 
-#[derive(Debug, Clone, clap::Subcommand)]
+#[derive(Debug, Clone)]
 pub enum LibCmd {
     /// List every declaration with its kind (the standard library, or FILE with --file).
     List {
         /// A library file to list instead of the standard library (it may `include "std"`).
-        #[arg(long)]
         file: Option<PathBuf>,
     },
     /// Show a declaration: kind, description, parameters with defaults and units.
@@ -20,7 +19,6 @@ pub enum LibCmd {
         /// The declaration (`robosim lib list` names them).
         name: String,
         /// Look NAME up in this library file instead of the standard library.
-        #[arg(long)]
         file: Option<PathBuf>,
     },
     /// Check a library file (any name): parse, resolve, evaluate every declaration at its
@@ -34,16 +32,12 @@ pub enum LibCmd {
         /// The declaration to evaluate.
         name: String,
         /// A parameter value as NAME=EXPR, e.g. `--param "upper_arm=30 cm"`; repeatable.
-        #[arg(long = "param", value_name = "NAME=EXPR")]
         params: Vec<String>,
         /// Force this facet count on every round primitive.
-        #[arg(long)]
         facets: Option<usize>,
         /// Include every solid's vertices and polygons.
-        #[arg(long)]
         geometry: bool,
         /// Look NAME up in this library file instead of the standard library.
-        #[arg(long)]
         file: Option<PathBuf>,
     },
 }

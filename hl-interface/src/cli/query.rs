@@ -9,13 +9,11 @@ use std::io::{self, BufReader};
 use std::path::PathBuf;
 
 /// Arguments of `robosim query`.
-#[derive(Debug, Clone, clap::Args)]
+#[derive(Debug, Clone)]
 pub struct QueryArgs {
     /// Read requests from this file instead of standard input ("-" is standard input).
-    #[arg(long, value_name = "FILE")]
     pub input: Option<PathBuf>,
     /// At the end, print the counts (lines, ok, errors) to standard error.
-    #[arg(long)]
     pub stats: bool,
 }
 

@@ -11,20 +11,16 @@ use std::path::PathBuf;
 use std::time::Instant;
 
 /// `robosim sim`: build a scene's effect pipeline, print it, optionally run it.
-#[derive(Debug, Clone, clap::Args)]
+#[derive(Debug, Clone)]
 pub struct SimArgs {
     /// A library robot name (puma560, stanford, panda, …) or a robot JSON file (inline format).
-    #[arg(long, default_value = "puma560")]
     pub robot: String,
     /// The scene's effect declaration: a JSON file, or JSON text starting with `{`.
     /// Default: kinematics only.
-    #[arg(long)]
     pub effects: Option<String>,
     /// Initial joint values (rad or m), comma-separated; default all zero.
-    #[arg(long, value_delimiter = ',', allow_hyphen_values = true)]
     pub q0: Option<Vec<f64>>,
     /// Steps to run headless after printing the pipeline (0: print only).
-    #[arg(long, default_value_t = 0)]
     pub steps: u64,
 }
 

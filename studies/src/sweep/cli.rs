@@ -11,7 +11,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
-#[derive(clap::Args, Debug, Clone)]
+#[derive(Debug, Clone)]
 pub struct SweepArgs {
     /// The study: surgical (seed §2.7 reach and encoder accuracy), welding, or station
     /// (docs/studies.md lists each one's parameters and result columns).
@@ -19,33 +19,25 @@ pub struct SweepArgs {
     /// A swept parameter, NAME=A:B:N (N values evenly from A to B, both included) or
     /// NAME=V1,V2,… (numbers in the parameter's unit, or words for a choice). Repeat for more
     /// parameters: every combination is run, the first parameter varying slowest.
-    #[arg(long = "param", value_name = "NAME=RANGE")]
     pub params: Vec<String>,
     /// Worker processes on this machine [default: one per core]. 0 with --remote: only
     /// remote workers.
-    #[arg(long)]
     pub workers: Option<usize>,
     /// Workers on another machine: the Zenoh endpoint where `robosim sweep-host` listens
     /// there, e.g. tcp/10.0.0.2:7448; as many workers as that host runs. Repeat for more hosts.
-    #[arg(long = "remote", value_name = "ENDPOINT")]
     pub remote: Vec<String>,
     /// Key prefix of the sweep hosts on the Zenoh network (their --key).
-    #[arg(long, default_value = "robosim", value_name = "PREFIX")]
     pub remote_key: String,
     /// How long to wait for a --remote host, seconds: at the start for each to answer, and
     /// later, when every worker left is on a host whose link lapsed, for one to come back.
-    #[arg(long, default_value_t = 15.0, value_name = "SECONDS")]
     pub remote_wait: f64,
     /// The CSV to write: the parameters' columns, then the study's result columns, then
     /// `error` (empty for a job that ran), one row per point in job order.
-    #[arg(long)]
     pub out: PathBuf,
     /// How many times a job is tried when its worker dies running it.
-    #[arg(long, default_value_t = 3)]
     pub attempts: u32,
     /// Kill a worker whose job runs longer than this many seconds (counted as a death: the
     /// job is redone) [default: no limit].
-    #[arg(long, value_name = "SECONDS")]
     pub job_timeout: Option<f64>,
 }
 

@@ -1,0 +1,183 @@
+//! `robosim study` and `robosim sweep`: the clap arguments of robosim-studies' runners
+//! (`robosim_studies::cli`, `robosim_studies::sweep::cli`), each converted to the library's plain argument type.
+
+use std::path::PathBuf;
+
+#[derive(clap::Subcommand, Debug, Clone)]
+pub enum StudyCmd {
+    /// The downhand welding cell (seed §2.2): the positioner keeps the weld pool downhand while
+    /// the arm follows the seams; CSV, trajectories, summary, plots, frames.
+    Welding(WeldingArgs),
+    /// The Space Station (seed ch. 4): orbit, sun-tracking arrays, power and battery, an ORU
+    /// swap by the servicer with the arrays feathered where it passes; CSV, summary, plots, frames.
+    Station(StationArgs),
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct WeldingArgs {
+    /// Directory for the outputs (created).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Seams to weld: circle (pipe to flange), saddle (branch to pipe) or both.
+    #[arg(long, default_value = "both", value_parser = ["circle", "saddle", "both"])]
+    pub seam: String,
+    /// Torch travel speed along the seam, mm/s.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 8.0)]
+    pub speed: f64,
+    /// Step, s.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 0.25)]
+    pub step: f64,
+    /// Height of the branch's axis above the flange, m (the scene's `branch_height`, default
+    /// 0.18 m): moves the branch, so the saddle seam with it.
+    #[arg(long, allow_hyphen_values = true)]
+    pub branch_height: Option<f64>,
+    /// The arm's base along world x, m (default: the scene's −1.1 m).
+    #[arg(long, allow_hyphen_values = true)]
+    pub arm_x: Option<f64>,
+    /// Collision mode of the clearance checks.
+    #[arg(long, default_value = "exact", value_parser = ["bbox", "polygon", "exact"])]
+    pub mode: String,
+    /// Frames to render headless (0: none).
+    #[arg(long, default_value_t = 12)]
+    pub frames: usize,
+    /// Also write the accuracy-against-time section (runs the study several times).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub accuracy: bool,
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct StationArgs {
+    /// Directory for the outputs (created).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Orbit altitude, km (default: the scene's orbit effect, 400 km).
+    #[arg(long, allow_hyphen_values = true)]
+    pub altitude: Option<f64>,
+    /// Beta angle, degrees (default: the scene's, 20°).
+    #[arg(long, allow_hyphen_values = true)]
+    pub beta: Option<f64>,
+    /// Step, s.
+    #[arg(long, default_value_t = 10.0)]
+    pub step: f64,
+    /// Length of the run in orbits.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1.0)]
+    pub orbits: f64,
+    /// Keep-out distance between the servicer and an array, m.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 1.0)]
+    pub keep_out: f64,
+    /// Constant station load, kW.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 100.0)]
+    pub load: f64,
+    /// Battery capacity, kWh.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 150.0)]
+    pub battery: f64,
+    /// When the servicer's ORU swap starts, s.
+    #[arg(long, allow_hyphen_values = true, default_value_t = 300.0)]
+    pub task_start: f64,
+    /// Collision mode of the clearance checks.
+    #[arg(long, default_value = "exact", value_parser = ["bbox", "polygon", "exact"])]
+    pub mode: String,
+    /// Frames to render headless (0: none).
+    #[arg(long, default_value_t = 12)]
+    pub frames: usize,
+    /// Also write the accuracy-against-time section (runs the study several times).
+    #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
+    pub accuracy: bool,
+}
+
+impl From<StudyCmd> for robosim_studies::cli::StudyCmd {
+    fn from(a: StudyCmd) -> Self {
+        match a {
+            StudyCmd::Welding(x) => robosim_studies::cli::StudyCmd::Welding(x.into()),
+            StudyCmd::Station(x) => robosim_studies::cli::StudyCmd::Station(x.into()),
+        }
+    }
+}
+
+impl From<WeldingArgs> for robosim_studies::cli::WeldingArgs {
+    fn from(a: WeldingArgs) -> Self {
+        robosim_studies::cli::WeldingArgs {
+            out: a.out,
+            seam: a.seam,
+            speed: a.speed,
+            step: a.step,
+            branch_height: a.branch_height,
+            arm_x: a.arm_x,
+            mode: a.mode,
+            frames: a.frames,
+            accuracy: a.accuracy,
+        }
+    }
+}
+
+impl From<StationArgs> for robosim_studies::cli::StationArgs {
+    fn from(a: StationArgs) -> Self {
+        robosim_studies::cli::StationArgs {
+            out: a.out,
+            altitude: a.altitude,
+            beta: a.beta,
+            step: a.step,
+            orbits: a.orbits,
+            keep_out: a.keep_out,
+            load: a.load,
+            battery: a.battery,
+            task_start: a.task_start,
+            mode: a.mode,
+            frames: a.frames,
+            accuracy: a.accuracy,
+        }
+    }
+}
+#[derive(clap::Args, Debug, Clone)]
+pub struct SweepArgs {
+    /// The study: surgical (seed §2.7 reach and encoder accuracy), welding, or station
+    /// (docs/studies.md lists each one's parameters and result columns).
+    pub study: String,
+    /// A swept parameter, NAME=A:B:N (N values evenly from A to B, both included) or
+    /// NAME=V1,V2,… (numbers in the parameter's unit, or words for a choice). Repeat for more
+    /// parameters: every combination is run, the first parameter varying slowest.
+    #[arg(long = "param", value_name = "NAME=RANGE")]
+    pub params: Vec<String>,
+    /// Worker processes on this machine [default: one per core]. 0 with --remote: only
+    /// remote workers.
+    #[arg(long)]
+    pub workers: Option<usize>,
+    /// Workers on another machine: the Zenoh endpoint where `robosim sweep-host` listens
+    /// there, e.g. tcp/10.0.0.2:7448; as many workers as that host runs. Repeat for more hosts.
+    #[arg(long = "remote", value_name = "ENDPOINT")]
+    pub remote: Vec<String>,
+    /// Key prefix of the sweep hosts on the Zenoh network (their --key).
+    #[arg(long, default_value = "robosim", value_name = "PREFIX")]
+    pub remote_key: String,
+    /// How long to wait for a --remote host, seconds: at the start for each to answer, and
+    /// later, when every worker left is on a host whose link lapsed, for one to come back.
+    #[arg(long, default_value_t = 15.0, value_name = "SECONDS")]
+    pub remote_wait: f64,
+    /// The CSV to write: the parameters' columns, then the study's result columns, then
+    /// `error` (empty for a job that ran), one row per point in job order.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// How many times a job is tried when its worker dies running it.
+    #[arg(long, default_value_t = 3)]
+    pub attempts: u32,
+    /// Kill a worker whose job runs longer than this many seconds (counted as a death: the
+    /// job is redone) [default: no limit].
+    #[arg(long, value_name = "SECONDS")]
+    pub job_timeout: Option<f64>,
+}
+
+impl From<SweepArgs> for robosim_studies::sweep::cli::SweepArgs {
+    fn from(a: SweepArgs) -> Self {
+        robosim_studies::sweep::cli::SweepArgs {
+            study: a.study,
+            params: a.params,
+            workers: a.workers,
+            remote: a.remote,
+            remote_key: a.remote_key,
+            remote_wait: a.remote_wait,
+            out: a.out,
+            attempts: a.attempts,
+            job_timeout: a.job_timeout,
+        }
+    }
+}
