@@ -17,6 +17,8 @@
 //! * [`broad`] — sweep-and-prune and BVH broad phases.
 //! * [`decompose::convex_parts`] — a triangle mesh as convex parts: its hull, or V-HACD when the
 //!   hull is far from the mesh.
+//! * [`json::solid_from_json`], [`json::pose_from_json`] — DESIGN.md's shape and pose JSON form
+//!   (the query protocol's, and the checked-in fixtures').
 
 #![forbid(unsafe_code)]
 
@@ -26,6 +28,7 @@ pub mod broad;
 pub mod ccd;
 pub mod decompose;
 pub mod exact;
+pub mod json;
 mod outcome;
 pub mod polygon;
 pub mod robot;

@@ -8,7 +8,7 @@
 
 use nalgebra::{Isometry3, Point3, Vector3};
 use robosim_collision::{ShapeError, Solid};
-use robosim_hl_interface::protocol::collision::solid_from_json;
+use robosim_collision::json::solid_from_json;
 use serde_json::json;
 
 fn p(x: f64, y: f64, z: f64) -> Point3<f64> {
@@ -103,9 +103,9 @@ fn query_protocol_shapes_refuse_flat_convexes_and_name_the_field() {
     let flat = json!({"shape": "convex", "points": [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]]});
     let e = solid_from_json(&flat, "a", &[]).expect_err("refused");
     assert!(
-        e.message.starts_with("a: ") && e.message.contains("degenerate"),
+        e.to_string().starts_with("a: ") && e.to_string().contains("degenerate"),
         "{}",
-        e.message
+        e
     );
     let compound = json!({"shape": "compound", "parts": [
         {"shape": "box", "size": [1, 1, 1], "pose": [[1,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]},
@@ -114,11 +114,11 @@ fn query_protocol_shapes_refuse_flat_convexes_and_name_the_field() {
     ]});
     let e = solid_from_json(&compound, "b", &[]).expect_err("refused");
     assert!(
-        e.message.starts_with("b.parts[1]: ") && e.message.contains("degenerate"),
+        e.to_string().starts_with("b.parts[1]: ") && e.to_string().contains("degenerate"),
         "{}",
-        e.message
+        e
     );
     let thin = json!({"shape": "box", "size": [1, 1, 1e-12]});
     let e = solid_from_json(&thin, "c", &[]).expect_err("refused");
-    assert!(e.message.contains("degenerate"), "{}", e.message);
+    assert!(e.to_string().contains("degenerate"), "{e}");
 }

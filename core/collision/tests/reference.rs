@@ -8,7 +8,7 @@
 //! the true solids touch (the faceted solids lie inside the true ones).
 
 use robosim_collision::{Mode, PairResult, collide};
-use robosim_hl_interface::protocol::collision::{pose_from_json, solid_from_json};
+use robosim_collision::json::{pose_from_json, solid_from_json};
 use serde_json::Value;
 
 /// Declared boundary band for booleans against FCL, and the tolerance on FCL's distances: its

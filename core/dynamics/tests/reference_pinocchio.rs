@@ -4,7 +4,7 @@
 //! max(|ref|∞, 1)). Forward dynamics is checked twice: by ABA and by CRBA + Cholesky.
 
 use robosim_dynamics::{Data, Model, aba, crba, fd_cholesky, gravity, rnea};
-use robosim_hl_interface::robot_json::robot_from_json;
+use robosim_kinematics::json::robot_from_json;
 use serde_json::Value;
 use std::path::PathBuf;
 

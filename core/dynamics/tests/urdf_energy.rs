@@ -8,7 +8,7 @@
 //! potential-energy scale; one-hour symplectic Euler: no secular growth), and no NaN.
 
 use robosim_dynamics::{Integrator, IntegratorConfig, Model, simulate};
-use robosim_file_io::urdf_import::{import_urdf, import_urdf_tree};
+use robosim_urdf::urdf_import::{import_urdf, import_urdf_tree};
 use robosim_kinematics::Robot;
 use std::path::PathBuf;
 

@@ -1,7 +1,7 @@
 //! Shared helpers for the integration tests: the checked-in fixture robots.
 #![allow(dead_code)]
 
-use robosim_hl_interface::robot_json::robot_from_json;
+use robosim_kinematics::json::robot_from_json;
 use robosim_kinematics::Robot;
 use std::path::PathBuf;
 
