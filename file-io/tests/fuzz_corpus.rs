@@ -6,7 +6,7 @@
 #[path = "../../fuzz/src/dae.rs"]
 mod dae;
 #[path = "../../fuzz/src/mesh.rs"]
-mod mesh;
+pub(crate) mod mesh;
 #[path = "../../fuzz/src/model.rs"]
 mod model;
 #[path = "../../fuzz/src/obj.rs"]

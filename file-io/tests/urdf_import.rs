@@ -2,7 +2,7 @@
 //! example-robot-data, read by `pinocchio_reference.py`), and against robosim's own DH robots
 //! through the URDF exporter (DH → URDF → general joints must be the same robot).
 
-mod reference;
+use crate::reference;
 
 use nalgebra::DMatrix;
 use reference::{floats, matrix, rel};

@@ -3,7 +3,7 @@
 //! read back through the records, the scene compiler and the kinematics and dynamics cores — and
 //! its geometry must be there, drawn and collided as the URDF says.
 
-mod reference;
+use crate::reference;
 
 use nalgebra::DMatrix;
 use reference::{floats, matrix, rel};
