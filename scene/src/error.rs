@@ -1,16 +1,22 @@
 //! What can go wrong between the spaces and the cores.
 
-use robosim_instance_space::Id;
+use robosim_instance_space::{Id, ReaderError, SessionError};
+use robosim_library::LibError;
+use std::sync::Arc;
 
-/// Why a scene operation failed. Every variant names the input it is about.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+/// Why a scene operation failed. Every variant names the input it is about; a variant that
+/// wraps another error keeps it as its source (shared, so that the error stays `Clone`).
+#[derive(Debug, Clone, thiserror::Error)]
 pub enum SceneError {
     /// A scene or declaration name the library does not have.
     #[error("unknown scene {name:?}; scenes and robots: {known}")]
     UnknownScene { name: String, known: String },
     /// The Library Space refused (parse or evaluation error, with file:line:col).
     #[error("{0}")]
-    Library(String),
+    Library(#[from] robosim_library::Error),
+    /// The session's published Library Space does not parse.
+    #[error("the session's Library Space: {0}")]
+    SessionLibrary(#[source] LibError),
     /// The declaration cannot become Instance Space objects.
     #[error("{0}")]
     Instantiate(String),
@@ -42,18 +48,33 @@ pub enum SceneError {
     Launch(String),
     /// The session (shared memory) could not be read or written. The message names the
     /// session already (every `SessionError` and `ReaderError` does), so it is not prefixed.
-    #[error("{0}")]
-    Session(String),
+    #[error(transparent)]
+    Session(SessionFailure),
 }
 
-impl From<robosim_instance_space::ReaderError> for SceneError {
-    fn from(e: robosim_instance_space::ReaderError) -> Self {
-        SceneError::Session(e.to_string())
+/// Why a session could not be read or written: the Instance Space's own error, kept whole.
+#[derive(Debug, Clone, thiserror::Error)]
+pub enum SessionFailure {
+    #[error(transparent)]
+    Reader(Arc<ReaderError>),
+    #[error(transparent)]
+    Session(Arc<SessionError>),
+}
+
+impl From<LibError> for SceneError {
+    fn from(e: LibError) -> Self {
+        SceneError::Library(robosim_library::Error::Source(e))
     }
 }
 
-impl From<robosim_instance_space::SessionError> for SceneError {
-    fn from(e: robosim_instance_space::SessionError) -> Self {
-        SceneError::Session(e.to_string())
+impl From<ReaderError> for SceneError {
+    fn from(e: ReaderError) -> Self {
+        SceneError::Session(SessionFailure::Reader(Arc::new(e)))
+    }
+}
+
+impl From<SessionError> for SceneError {
+    fn from(e: SessionError) -> Self {
+        SceneError::Session(SessionFailure::Session(Arc::new(e)))
     }
 }

@@ -319,7 +319,7 @@ fn evaluate(lib: &Library, origin: &Origin) -> Result<Evaluated> {
         params = params.expr(k, v);
     }
     lib.evaluate(&origin.declaration, &params)
-        .map_err(|e| SceneError::Library(e.to_string()))
+        .map_err(SceneError::from)
 }
 
 /// The transaction that creates instance `name` of `origin.declaration` with its parameters.
@@ -488,7 +488,7 @@ pub fn build_library_from(
     files: &[std::path::PathBuf],
     extra: &[(String, String)],
 ) -> Result<Library> {
-    let std = Library::standard().map_err(|e| SceneError::Library(e.to_string()))?;
+    let std = Library::standard().map_err(SceneError::from)?;
     let mut sources = std.sources();
     let mut add = |name: String, text: String| {
         if !sources.iter().any(|(n, _)| *n == name) {
@@ -496,7 +496,7 @@ pub fn build_library_from(
         }
     };
     for f in files {
-        let lib = Library::load(f).map_err(|e| SceneError::Library(e.to_string()))?;
+        let lib = Library::load(f).map_err(SceneError::from)?;
         for (name, text) in lib.sources() {
             add(name, text);
         }
@@ -504,7 +504,7 @@ pub fn build_library_from(
     for (name, text) in extra {
         add(name.clone(), text.clone());
     }
-    Library::from_sources(&sources).map_err(|e| SceneError::Library(e.to_string()))
+    Library::from_sources(&sources).map_err(SceneError::from)
 }
 
 /// How [`session_library_from`] got the library.
@@ -548,7 +548,6 @@ pub fn library_from_publication(
         },
         None => "the keeper published no checked library (only its source)".to_owned(),
     };
-    let lib = Library::from_sources(&published.files)
-        .map_err(|e| SceneError::Library(format!("the session's Library Space: {e}")))?;
+    let lib = Library::from_sources(&published.files).map_err(SceneError::SessionLibrary)?;
     Ok((lib, LibraryFrom::Parsed { reason }))
 }

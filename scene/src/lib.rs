@@ -31,7 +31,7 @@ pub mod robot;
 pub mod solids;
 
 pub use compiled::{CacheStats, CompiledRobot, CompiledScene, Obstacles, Sync};
-pub use error::SceneError;
+pub use error::{SceneError, SessionFailure};
 pub use instantiate::{
     LibraryFrom, Origin, build_library, find_instance, instantiate, library_from_publication,
     parse_params, reinstantiate, session_library, session_library_from,
