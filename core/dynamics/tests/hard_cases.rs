@@ -1,7 +1,7 @@
 //! Named hard cases: a 1e-6 kg link beside 100 kg ones; one hour at 1 kHz with the symplectic
 //! integrator; a prismatic joint at its limit; bit-identical fixed-step runs.
 
-mod common;
+use crate::common;
 
 use nalgebra::{DVector, Matrix3, Vector3};
 use robosim_dynamics::{

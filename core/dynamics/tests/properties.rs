@@ -3,7 +3,7 @@
 //! kinetic energy = ½ q̇ᵀ M q̇; gravity torque = ∂V/∂q; energy drift of each integrator shrinks
 //! with the step as its order says.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use robosim_dynamics::{
