@@ -25,9 +25,10 @@ impl std::fmt::Display for AppError {
     }
 }
 
+/// The error's message and its causes down the `source()` chain, each said once.
 impl<E: std::error::Error> From<E> for AppError {
     fn from(e: E) -> Self {
-        AppError(e.to_string())
+        AppError(robosim_instance_space::error_chain(&e))
     }
 }
 
@@ -300,7 +301,7 @@ fn parse_joints<'a>(
 
 /// `q` is a configuration `robot` can take: right length, finite, inside every joint's limits.
 fn check_q(robot: &robosim_kinematics::Robot, q: &[f64]) -> Result<()> {
-    robot.check_q(q).map_err(|e| AppError(e.to_string()))?;
+    robot.check_q(q).map_err(AppError::from)?;
     if let Some((j, v, [lo, hi])) = robot.outside_limits(q) {
         let unit = |x: f64| match robot.joints[j].joint_type {
             robosim_kinematics::JointType::Prismatic => format!("{x} m"),
@@ -426,8 +427,8 @@ fn record_playback(path: &Path, player: &Player, snap: &Snapshot) -> Result<()> 
             },
         )
         .collect();
-    let counts = robosim_record::playback::record_playback(path, &tracks, dt, 1)
-        .map_err(|e| AppError(e.to_string()))?;
+    let counts =
+        robosim_record::playback::record_playback(path, &tracks, dt, 1).map_err(AppError::from)?;
     let total: u64 = counts.values().sum();
     println!(
         "recorded {} samples ({total} messages) → {}",
@@ -1043,9 +1044,9 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
                 .flatten(),
             status,
         };
-        let line = serde_json::to_string(&rec).map_err(|e| AppError(e.to_string()))?;
+        let line = serde_json::to_string(&rec).map_err(AppError::from)?;
         writeln!(log, "{line}").map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;
-        log.flush().map_err(|e| AppError(e.to_string()))?;
+        log.flush().map_err(AppError::from)?;
         frames += 1;
         if a.max_frames.is_some_and(|m| frames >= m) {
             break;

@@ -187,7 +187,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             p[11] = 0.01 * (u + 1) as f64;
             p[3] = (rng % 97) as f64 * 0.01;
             tx.set_pose(id, p);
-            let applied = model.apply(&tx).map_err(|e| AppError(e.to_string()))?;
+            let applied = model.apply(&tx).map_err(AppError::from)?;
             // The next snapshot as a session reader assembles it: the moved body's pose chunk
             // new, every other chunk, the objects and the geometry shared with the last one.
             // (Rebuilding it from the model, O(N), between two timed updates evicted the
@@ -293,7 +293,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     };
     let tess_report = tessellation(reps)?;
     for rep in [&frames_report, &uploads_report, &tess_report] {
-        for p in write_report(out, rep).map_err(|e| AppError(e.to_string()))? {
+        for p in write_report(out, rep).map_err(AppError::from)? {
             println!("wrote {}", p.display());
         }
     }
@@ -301,8 +301,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
 }
 
 fn sphere_model(facets: usize) -> Result<Store> {
-    let poly =
-        robosim_geometry::shapes::sphere(0.5, Some(facets)).map_err(|e| AppError(e.to_string()))?;
+    let poly = robosim_geometry::shapes::sphere(0.5, Some(facets)).map_err(AppError::from)?;
     let mut model = Store::new();
     let mut tx = Transaction::new();
     let s = tx.create(Kind::Solid, "sphere", None);
@@ -321,7 +320,7 @@ fn sphere_model(facets: usize) -> Result<Store> {
             ..Default::default()
         },
     );
-    model.apply(&tx).map_err(|e| AppError(e.to_string()))?;
+    model.apply(&tx).map_err(AppError::from)?;
     Ok(model)
 }
 

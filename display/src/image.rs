@@ -71,9 +71,9 @@ impl RgbaImage {
         let mut enc = png::Encoder::new(out, self.width, self.height);
         enc.set_color(png::ColorType::Rgba);
         enc.set_depth(png::BitDepth::Eight);
-        let png_err = |e: png::EncodingError| DisplayError::Image {
+        let png_err = |e: png::EncodingError| DisplayError::Png {
             path: path.to_path_buf(),
-            what: e.to_string(),
+            source: Box::new(e),
         };
         let mut w = enc.write_header().map_err(png_err)?;
         w.write_image_data(&self.pixels).map_err(png_err)?;
@@ -93,11 +93,13 @@ impl RgbaImage {
                 what: e.reason(),
             })?;
         let decoder = png::Decoder::new(std::io::BufReader::new(file));
-        let mut reader = decoder.read_info().map_err(|e| bad(e.to_string()))?;
+        let png_err = |e: png::DecodingError| DisplayError::Png {
+            path: path.to_path_buf(),
+            source: Box::new(e),
+        };
+        let mut reader = decoder.read_info().map_err(png_err)?;
         let mut buf = vec![0; reader.output_buffer_size()];
-        let info = reader
-            .next_frame(&mut buf)
-            .map_err(|e| bad(e.to_string()))?;
+        let info = reader.next_frame(&mut buf).map_err(png_err)?;
         buf.truncate(info.buffer_size());
         if info.bit_depth != png::BitDepth::Eight {
             return Err(bad(format!("bit depth {:?}; 8 expected", info.bit_depth)));

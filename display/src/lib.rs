@@ -42,10 +42,23 @@ pub use vulkan_env::quiet_vulkan_probe;
 
 use std::path::PathBuf;
 
+/// Why drawing failed. A variant that wraps wgpu's, winit's or png's error keeps it as its
+/// source ([`std::error::Error::source`]); its message names what was being done.
 #[derive(Debug, thiserror::Error)]
 pub enum DisplayError {
-    #[error("no graphics adapter: {0}")]
-    NoAdapter(String),
+    #[error("no graphics adapter: {0}; {hint}", hint = renderer::NO_ADAPTER_HINT)]
+    NoAdapter(#[source] wgpu::RequestAdapterError),
+    /// The adapter refused a device.
+    #[error("graphics device: {0}")]
+    DeviceRequest(#[source] wgpu::RequestDeviceError),
+    /// A step of drawing on the device failed (`what`: waiting for the frame, readback).
+    #[error("graphics device: {what}: {source}")]
+    Gpu {
+        what: &'static str,
+        #[source]
+        source: robosim_instance_space::Cause,
+    },
+    /// The device cannot do what was asked (a message, not a wrapped error).
     #[error("graphics device: {0}")]
     Device(String),
     #[error("{0}")]
@@ -59,6 +72,13 @@ pub enum DisplayError {
     },
     #[error("{path}: {what}")]
     Image { path: PathBuf, what: String },
+    /// png could not encode or decode the image at `path`.
+    #[error("{path}: {source}")]
+    Png {
+        path: PathBuf,
+        #[source]
+        source: robosim_instance_space::Cause,
+    },
     #[error("{path}:{line}: {what}")]
     Trajectory {
         path: PathBuf,
@@ -67,6 +87,13 @@ pub enum DisplayError {
     },
     #[error("window: {0}")]
     Window(String),
+    /// The window system refused `what` (create the window, its surface, the event loop).
+    #[error("window: {what}: {source}")]
+    WindowSystem {
+        what: &'static str,
+        #[source]
+        source: robosim_instance_space::Cause,
+    },
 }
 
 pub type Result<T> = std::result::Result<T, DisplayError>;

@@ -53,6 +53,16 @@ pub struct SlotPoint {
 const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
 const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 
+/// A [`DisplayError::Gpu`] for `what`, keeping wgpu's error.
+fn gpu_err<E: Into<robosim_instance_space::Cause>>(
+    what: &'static str,
+) -> impl FnOnce(E) -> DisplayError {
+    move |e| DisplayError::Gpu {
+        what,
+        source: e.into(),
+    }
+}
+
 /// What to do when no Vulkan adapter is found: the software driver is the one system package
 /// the display needs.
 pub const NO_ADAPTER_HINT: &str = "robosim draws with Vulkan; on a machine without a GPU \
@@ -86,7 +96,7 @@ impl Gpu {
             compatible_surface: surface,
             apply_limit_buckets: false,
         }))
-        .map_err(|e| DisplayError::NoAdapter(format!("{e}; {NO_ADAPTER_HINT}")))?;
+        .map_err(DisplayError::NoAdapter)?;
         let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
             label: Some("robosim display"),
             required_features: wgpu::Features::empty(),
@@ -98,7 +108,7 @@ impl Gpu {
             },
             ..Default::default()
         }))
-        .map_err(|e| DisplayError::Device(e.to_string()))?;
+        .map_err(DisplayError::DeviceRequest)?;
         Ok(Gpu {
             instance,
             adapter,
@@ -1628,7 +1638,7 @@ impl Renderer {
         self.gpu
             .device
             .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| DisplayError::Device(format!("waiting for the frame: {e}")))?;
+            .map_err(gpu_err("waiting for the frame"))?;
         Ok(())
     }
 
@@ -1702,11 +1712,9 @@ impl Renderer {
         });
         self.wait()?;
         rx.recv()
-            .map_err(|e| DisplayError::Device(format!("readback: {e}")))?
-            .map_err(|e| DisplayError::Device(format!("readback: {e}")))?;
-        let mapped = readback
-            .get_mapped_range(..)
-            .map_err(|e| DisplayError::Device(format!("readback: {e:?}")))?;
+            .map_err(gpu_err("readback"))?
+            .map_err(gpu_err("readback"))?;
+        let mapped = readback.get_mapped_range(..).map_err(gpu_err("readback"))?;
         let mut pixels = Vec::with_capacity((width * height * 4) as usize);
         for y in 0..height as usize {
             let start = y * row as usize;

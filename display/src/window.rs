@@ -120,12 +120,12 @@ impl App {
         let window = Arc::new(
             event_loop
                 .create_window(attrs)
-                .map_err(|e| DisplayError::Window(e.to_string()))?,
+                .map_err(window_err("create the window"))?,
         );
         let instance = wgpu::Instance::new(instance_descriptor(None));
         let surface = instance
             .create_surface(window.clone())
-            .map_err(|e| DisplayError::Window(format!("surface: {e}")))?;
+            .map_err(window_err("surface"))?;
         let gpu = Gpu::with_instance(instance, Some(&surface))?;
         let caps = surface.get_capabilities(&gpu.adapter);
         let format = caps
@@ -432,7 +432,7 @@ pub fn run(
                 .into(),
         ));
     }
-    let event_loop = EventLoop::new().map_err(|e| DisplayError::Window(e.to_string()))?;
+    let event_loop = EventLoop::new().map_err(window_err("event loop"))?;
     let mut app = App {
         host,
         opts,
@@ -454,9 +454,19 @@ pub fn run(
     };
     event_loop
         .run_app(&mut app)
-        .map_err(|e| DisplayError::Window(e.to_string()))?;
+        .map_err(window_err("event loop"))?;
     match app.error {
         Some(e) => Err(e),
         None => Ok(()),
+    }
+}
+
+/// A [`DisplayError::WindowSystem`] for `what`, keeping winit's or wgpu's error.
+fn window_err<E: Into<robosim_instance_space::Cause>>(
+    what: &'static str,
+) -> impl FnOnce(E) -> DisplayError {
+    move |e| DisplayError::WindowSystem {
+        what,
+        source: e.into(),
     }
 }

@@ -137,7 +137,7 @@ impl ThreadKeeper {
                 let mut keeper = match Keeper::start(&session, opts) {
                     Ok((k, _)) => k,
                     Err(e) => {
-                        let _ = ready_tx.send(Err(e.to_string()));
+                        let _ = ready_tx.send(Err(e));
                         return Ok(());
                     }
                 };
@@ -157,7 +157,10 @@ impl ThreadKeeper {
         };
         match ready_rx.recv_timeout(timeout) {
             Ok(Ok(())) => Ok(keeper),
-            Ok(Err(e)) => Err(what(&format!("the keeper did not start: {e}"))),
+            Ok(Err(e)) => Err(what(&format!(
+                "the keeper did not start: {}",
+                crate::error::error_chain(&e)
+            ))),
             Err(_) => Err(what(&format!(
                 "the keeper did not start within {timeout:?}"
             ))),
