@@ -397,7 +397,8 @@ fn face(d: &Design, p: &Prompt, obj: &str, w: &str) -> Result<usize, String> {
         .ok_or_else(|| "no polygons".into())
 }
 
-/// Runs one line against the editor.
+/// Runs one line against the editor: the verb picks its handler (one function per command or
+/// family of commands, below).
 pub fn execute<S: Space>(
     ed: &mut Editor<S>,
     p: &mut Prompt,
@@ -406,377 +407,450 @@ pub fn execute<S: Space>(
     let Some(l) = split(line)? else {
         return Ok(Outcome::Said(String::new()));
     };
-    let done = |r: Result<crate::session::Done, EditError>| -> Result<Outcome, String> {
-        r.map(|d| Outcome::Said(format!("ok, version {} ({} ops)", d.version, d.ops)))
-            .map_err(|e| e.to_string())
-    };
     let v = l.verb.as_str();
     match v {
-        "units" => {
-            let w = word(&l, 0, "a unit (m, cm, mm, in, ft, deg, rad)")?;
-            match unit(w) {
-                Some(Unit::Length(f)) => p.length = (f, w.to_owned()),
-                Some(Unit::Angle(f)) => p.angle = (f, w.to_owned()),
-                None => {
-                    return Err(format!(
-                        "units: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)"
-                    ));
-                }
-            }
-            Ok(Outcome::Said(format!(
-                "units {} and {}",
-                p.length.1, p.angle.1
-            )))
-        }
-        "box" | "cylinder" | "cone" | "truncated-cone" | "sphere" => {
-            let name = word(&l, 0, "an object name")?;
-            let shape = match v {
-                "box" => {
-                    Prompt::check_keys(&l, &["X", "Y", "Z"])?;
-                    Shape::Box {
-                        x: p.need(&l, "X", true)?,
-                        y: p.need(&l, "Y", true)?,
-                        z: p.need(&l, "Z", true)?,
-                    }
-                }
-                "cylinder" | "cone" => {
-                    Prompt::check_keys(&l, &["R", "H", "N"])?;
-                    let r = p.need(&l, "R", true)?;
-                    let h = p.need(&l, "H", true)?;
-                    let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(r));
-                    if v == "cone" {
-                        Shape::Cone { r, h, n }
-                    } else {
-                        Shape::Cylinder { r, h, n }
-                    }
-                }
-                "truncated-cone" => {
-                    Prompt::check_keys(&l, &["R1", "R2", "H", "N"])?;
-                    let upper = p.need(&l, "R1", true)?;
-                    let lower = p.need(&l, "R2", true)?;
-                    let h = p.need(&l, "H", true)?;
-                    let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(upper.max(lower)));
-                    Shape::TruncatedCone { upper, lower, h, n }
-                }
-                _ => {
-                    Prompt::check_keys(&l, &["R", "N"])?;
-                    let r = p.need(&l, "R", true)?;
-                    let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(r));
-                    Shape::Sphere { r, n }
-                }
-            };
-            done(ed.apply(|d| d.make(name, shape)))
-        }
-        "move" | "draw" => {
-            let pt = p.xyz(&l, true)?;
-            if v == "move" {
-                p.profile.clear();
-            } else if p.profile.is_empty() {
-                return Err("draw: start the polygon with move".into());
-            }
-            p.profile.push(pt);
-            Ok(Outcome::Said(format!("{} points", p.profile.len())))
-        }
-        "extrude" | "revolve" => {
-            let name = word(&l, 0, "an object name")?;
-            let mut pts = p.profile.clone();
-            if pts.len() > 1 && pts.first() == pts.last() {
-                pts.pop();
-            }
-            let shape = if v == "extrude" {
-                Prompt::check_keys(&l, &["Z"])?;
-                Shape::Extrude {
-                    profile: pts.iter().map(|q| [q[0], q[1]]).collect(),
-                    h: p.need(&l, "Z", true)?,
-                }
-            } else {
-                Prompt::check_keys(&l, &["A", "N"])?;
-                let angle = p.get(&l, "A", false)?.unwrap_or(std::f64::consts::TAU);
-                let rmax = pts.iter().map(|q| q[0]).fold(0.0, f64::max);
-                let n = Prompt::count(&l)?.unwrap_or_else(|| {
-                    ((facets_for(rmax) as f64 * angle / std::f64::consts::TAU).ceil() as usize)
-                        .max(1)
-                });
-                Shape::Revolve {
-                    profile: pts.iter().map(|q| [q[0], q[2]]).collect(),
-                    angle,
-                    n,
-                }
-            };
-            // The seed asks counter-clockwise for extrude and clockwise for revolve; either is
-            // accepted (the faces are oriented outward from the signed area): say when the
-            // drawing went the other way.
-            let plane: Vec<[f64; 2]> = match &shape {
-                Shape::Extrude { profile, .. } | Shape::Revolve { profile, .. } => profile.clone(),
-                _ => Vec::new(),
-            };
-            let area = signed_area(&plane);
-            let note = match v {
-                "extrude" if area < 0.0 => {
-                    "; the polygon was drawn clockwise (the seed asks counter-clockwise for extrude): winding fixed, faces oriented outward"
-                }
-                "revolve" if area > 0.0 => {
-                    "; the profile was drawn counter-clockwise (the seed asks clockwise for revolve): winding fixed, faces oriented outward"
-                }
-                _ => "",
-            };
-            let r = done(ed.apply(|d| d.make(name, shape)));
-            if r.is_ok() {
-                p.profile.clear();
-            }
-            r.map(|o| match o {
-                Outcome::Said(s) => Outcome::Said(format!("{s}{note}")),
-                other => other,
-            })
-        }
+        "units" => set_units(p, &l),
+        "box" | "cylinder" | "cone" | "truncated-cone" | "sphere" => make_primitive(ed, p, &l, v),
+        "move" | "draw" => add_profile_point(p, &l, v),
+        "extrude" | "revolve" => sweep_profile(ed, p, &l, v),
         "clone" => {
             let src = design_name(ed, p, word(&l, 0, "the object to clone")?)?;
             let name = word(&l, 1, "the new name")?;
             done(ed.apply(|d| d.clone_object(&src, name)))
         }
-        "translate" => {
-            let t = p.xyz(&l, true)?;
-            match target(ed, p, word(&l, 0, "an object")?)? {
-                Target::Design(o) => done(ed.apply(|d| d.translate(&o, t))),
-                Target::Model { id, path } => {
-                    if !t.iter().all(|x| x.is_finite()) {
-                        return Err("translate: the translation is not finite".into());
-                    }
-                    let d = move_model(ed, p, id, &path, |m| {
-                        nalgebra::Matrix4::new_translation(&nalgebra::Vector3::from(t)) * m
-                    })?;
-                    Ok(Outcome::Said(format!(
-                        "ok, version {} ({} ops): moved {path}",
-                        d.version, d.ops
-                    )))
-                }
-            }
-        }
+        "translate" => translate(ed, p, &l),
         "home" => {
             let o = design_name(ed, p, word(&l, 0, "an object")?)?;
             done(ed.apply(|d| d.home(&o)))
         }
-        "rotate" | "rotate-rel" => {
-            let r = p.xyz(&l, false)?;
-            match target(ed, p, word(&l, 0, "an object")?)? {
-                Target::Design(o) => done(ed.apply(|d| d.rotate(&o, r, v == "rotate-rel"))),
-                Target::Model { id, path } => {
-                    if v == "rotate" {
-                        return Err(format!(
-                            "rotate: {path} is not in the design and has no home to rotate from; use rotate-rel"
-                        ));
-                    }
-                    let rot = crate::shape::axis_rotation(2, r[2])
-                        * crate::shape::axis_rotation(1, r[1])
-                        * crate::shape::axis_rotation(0, r[0]);
-                    let d = move_model(ed, p, id, &path, |m| m * rot)?;
-                    Ok(Outcome::Said(format!(
-                        "ok, version {} ({} ops): turned {path}",
-                        d.version, d.ops
-                    )))
-                }
-            }
-        }
+        "rotate" | "rotate-rel" => rotate(ed, p, &l, v),
         "delete" => {
             let o = design_name(ed, p, word(&l, 0, "an object")?)?;
             done(ed.apply(|d| d.delete(&o)))
         }
-        "attach" => {
-            // attach CHILD FACE [to] BASE FACE
-            let w: Vec<&str> = l
-                .words
-                .iter()
-                .map(String::as_str)
-                .filter(|w| *w != "to")
-                .collect();
-            if w.len() != 4 {
-                return Err("attach: attach CHILD POLYGON to BASE POLYGON (polygon: a number, top, bottom, or . for the picked one)".into());
-            }
-            let (child, base) = (design_name(ed, p, w[0])?, design_name(ed, p, w[2])?);
-            let d0 = ed.design().clone();
-            let (cf, bf) = (face(&d0, p, &child, w[1])?, face(&d0, p, &base, w[3])?);
-            done(ed.apply(|d| d.attach(&child, cf, &base, bf)))
-        }
-        "resize" => {
-            let o = &design_name(ed, p, word(&l, 0, "an object")?)?;
-            let obj = ed.design().object(o).map_err(|e| e.to_string())?.clone();
-            let names = obj.shape.dim_names();
-            Prompt::check_keys(&l, names)?;
-            let cur = obj.shape.dims();
-            let mut dims = Vec::new();
-            for (k, n) in names.iter().enumerate() {
-                let is_angle = matches!(obj.shape, Shape::Revolve { .. });
-                dims.push(p.get(&l, n, !is_angle)?.unwrap_or(cur[k]));
-            }
-            done(ed.apply(|d| d.resize(o, &dims)))
-        }
+        "attach" => attach(ed, p, &l),
+        "resize" => resize(ed, p, &l),
         "r-joint-i" | "p-joint-i" | "f-joint-i" | "r-joint-i+1" | "p-joint-i+1" | "f-joint-i+1" => {
-            let name = word(&l, 0, "a name for the joint")?;
-            let kind = match &v[..1] {
-                "r" => LinkJoint::Revolute,
-                "p" => LinkJoint::Prismatic,
-                _ => LinkJoint::Fixed,
-            };
-            let output = v.ends_with("i+1");
-            done(ed.apply(|d| d.make(name, Shape::Joint { kind, output })))
+            make_joint_marker(ed, &l, v)
         }
-        "check" => {
-            let row = ed.design().check_joints().map_err(|e| e.to_string())?;
-            Ok(Outcome::Said(format!(
-                "link {}: valid DH: THETA {:.6} {}, DZ {:.6} {}, DA {:.6} {}, ALPHA {:.6} {}",
-                ed.design().link().name,
-                row.theta / p.angle.0,
-                p.angle.1,
-                row.dz / p.length.0,
-                p.length.1,
-                row.da / p.length.0,
-                p.length.1,
-                row.alpha / p.angle.0,
-                p.angle.1
-            )))
-        }
+        "check" => check_link(ed, p),
         "link" => {
             let n = word(&l, 0, "a link name (LOC, L1, …)")?;
             done(ed.apply(|d| d.switch_link(n)))
         }
         "undo" => done(ed.undo()),
         "redo" => done(ed.redo()),
-        "save" => {
-            let f = word(&l, 0, "a file name")?;
-            let text = serde_json::to_string_pretty(ed.design()).map_err(|e| e.to_string())?;
-            robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
-                .map_err(|e| format!("save: {e}"))?;
-            Ok(Outcome::Said(format!("saved {f}")))
-        }
-        "load" => {
-            let f = word(&l, 0, "a file name")?;
-            let text = robosim_input::read_to_string(
-                std::path::Path::new(f),
-                "an editor design",
-                robosim_input::Limit::TEXT,
-            )
-            .map_err(|e| format!("load: {e}"))?;
-            let d: Design = serde_json::from_str(&text).map_err(|e| format!("load: {f}: {e}"))?;
-            validate(&d).map_err(|e| format!("load: {f}: {e}"))?;
-            done(ed.replace(d))
-        }
+        "save" => save_design(ed, &l),
+        "load" => load_design(ed, &l),
         "restart" => {
             let robot = ed.design().robot.clone();
             done(ed.replace(Design::new(&robot)))
         }
-        "code" => {
-            let f = word(&l, 0, "a file name")?;
-            let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
-            if let Some(dir) = std::path::Path::new(f)
-                .parent()
-                .filter(|d| !d.as_os_str().is_empty())
-            {
-                std::fs::create_dir_all(dir)
-                    .map_err(|e| format!("code: {}: {e}", dir.display()))?;
-            }
-            robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
-                .map_err(|e| format!("code: {e}"))?;
-            Ok(Outcome::Said(format!("wrote {f}")))
-        }
-        "read-code" => {
-            let f = word(&l, 0, "a ROBOSIM program")?;
-            let text = robosim_input::read_to_string(
-                std::path::Path::new(f),
-                "a ROBOSIM program",
-                robosim_input::Limit::TEXT,
-            )
-            .map_err(|e| format!("read-code: {e}"))?;
-            let out = program::run(&text, f).map_err(|e| e.to_string())?;
-            let robot = ed.design().robot.clone();
-            let d = codegen::design_from_program(&out, &robot).map_err(|e| e.to_string())?;
-            done(ed.replace(d))
-        }
-        "run" => {
-            let dir = word(&l, 0, "a directory for the link files")?;
-            let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
-            let out = program::run(&text, "(generated)").map_err(|e| e.to_string())?;
-            let paths = program::write_links(&out, std::path::Path::new(dir))?;
-            Ok(Outcome::Said(format!(
-                "wrote {}",
-                paths
-                    .iter()
-                    .map(|p| p.display().to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            )))
-        }
-        "faces" => {
-            let o = &design_name(ed, p, word(&l, 0, "an object")?)?;
-            let obj = ed.design().object(o).map_err(|e| e.to_string())?;
-            let Some(poly) = obj.shape.polyhedron().map_err(|e| e.to_string())? else {
-                return Ok(Outcome::Said(format!(
-                    "{o}: a joint marker; polygon 0 is its frame"
-                )));
-            };
-            let mut s = String::new();
-            for k in 0..poly.polygons.len() {
-                let f = crate::shape::face_frame(&poly, k);
-                s.push_str(&format!(
-                    "{k}: centre ({:.4}, {:.4}, {:.4}) {}, normal ({:.3}, {:.3}, {:.3}){}\n",
-                    f[(0, 3)] / p.length.0,
-                    f[(1, 3)] / p.length.0,
-                    f[(2, 3)] / p.length.0,
-                    p.length.1,
-                    f[(0, 2)],
-                    f[(1, 2)],
-                    f[(2, 2)],
-                    if obj.shape.planar_face(&poly, k) {
-                        ""
-                    } else {
-                        " (curved-surface facet)"
-                    }
-                ));
-            }
-            Ok(Outcome::Said(s.trim_end().to_owned()))
-        }
+        "code" => write_code(ed, p, &l),
+        "read-code" => read_code(ed, &l),
+        "run" => run_code(ed, p, &l),
+        "faces" => list_faces(ed, p, &l),
         "picked" => Ok(Outcome::Said(match &p.picked {
             Some(k) => format!("picked: {}", k.describe()),
             None => "nothing is picked (click an object in the display)".into(),
         })),
-        "list" => {
-            let d = ed.design();
-            let mut s = format!(
-                "robot {}, link {} of {}:",
-                d.robot,
-                d.link().name,
-                d.links.len()
-            );
-            for o in &d.link().objects {
-                s.push_str(&format!(
-                    "\n  {} {}{}",
-                    o.name,
-                    o.shape.command(),
-                    o.parent
-                        .as_ref()
-                        .map(|p| format!(" on {p}"))
-                        .unwrap_or_default()
-                ));
-            }
-            Ok(Outcome::Said(s))
-        }
+        "list" => Ok(list_objects(ed.design())),
         "help" => Ok(Outcome::Said(format!(
             "commands: {} (docs/editor.md)",
             VERBS.join(" ")
         ))),
         "quit" | "exit" => Ok(Outcome::Quit),
-        other => {
-            let near = VERBS
-                .iter()
-                // The first two characters (not bytes: a verb may start with `日本`).
-                .find(|k| {
-                    let two: String = other.chars().take(2).collect();
-                    k.starts_with(&two)
-                })
-                .map(|k| format!(" (did you mean {k}?)"))
-                .unwrap_or_default();
-            Err(format!("unknown command {other:?}{near}"))
+        other => Err(unknown_verb(other)),
+    }
+}
+
+/// What an edit that went through says: the new version and its op count.
+fn done(r: Result<crate::session::Done, EditError>) -> Result<Outcome, String> {
+    r.map(|d| Outcome::Said(format!("ok, version {} ({} ops)", d.version, d.ops)))
+        .map_err(|e| e.to_string())
+}
+
+/// `units U`: the unit of lengths or of angles from now on.
+fn set_units(p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+    let w = word(l, 0, "a unit (m, cm, mm, in, ft, deg, rad)")?;
+    match unit(w) {
+        Some(Unit::Length(f)) => p.length = (f, w.to_owned()),
+        Some(Unit::Angle(f)) => p.angle = (f, w.to_owned()),
+        None => {
+            return Err(format!(
+                "units: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)"
+            ));
         }
     }
+    Ok(Outcome::Said(format!(
+        "units {} and {}",
+        p.length.1, p.angle.1
+    )))
+}
+
+/// `box|cylinder|cone|truncated-cone|sphere NAME KEY = VALUE …`: a primitive in the design.
+fn make_primitive<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    l: &Line,
+    v: &str,
+) -> Result<Outcome, String> {
+    let name = word(l, 0, "an object name")?;
+    let shape = match v {
+        "box" => {
+            Prompt::check_keys(l, &["X", "Y", "Z"])?;
+            Shape::Box {
+                x: p.need(l, "X", true)?,
+                y: p.need(l, "Y", true)?,
+                z: p.need(l, "Z", true)?,
+            }
+        }
+        "cylinder" | "cone" => {
+            Prompt::check_keys(l, &["R", "H", "N"])?;
+            let r = p.need(l, "R", true)?;
+            let h = p.need(l, "H", true)?;
+            let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(r));
+            if v == "cone" {
+                Shape::Cone { r, h, n }
+            } else {
+                Shape::Cylinder { r, h, n }
+            }
+        }
+        "truncated-cone" => {
+            Prompt::check_keys(l, &["R1", "R2", "H", "N"])?;
+            let upper = p.need(l, "R1", true)?;
+            let lower = p.need(l, "R2", true)?;
+            let h = p.need(l, "H", true)?;
+            let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(upper.max(lower)));
+            Shape::TruncatedCone { upper, lower, h, n }
+        }
+        _ => {
+            Prompt::check_keys(l, &["R", "N"])?;
+            let r = p.need(l, "R", true)?;
+            let n = Prompt::count(&l)?.unwrap_or_else(|| facets_for(r));
+            Shape::Sphere { r, n }
+        }
+    };
+    done(ed.apply(|d| d.make(name, shape)))
+}
+
+/// `move X Y Z` starts the profile, `draw X Y Z` adds a point to it.
+fn add_profile_point(p: &mut Prompt, l: &Line, v: &str) -> Result<Outcome, String> {
+    let pt = p.xyz(l, true)?;
+    if v == "move" {
+        p.profile.clear();
+    } else if p.profile.is_empty() {
+        return Err("draw: start the polygon with move".into());
+    }
+    p.profile.push(pt);
+    Ok(Outcome::Said(format!("{} points", p.profile.len())))
+}
+
+/// `extrude NAME Z = H` / `revolve NAME [A = ANGLE] [N = n]`: the profile drawn so far as a
+/// solid (the profile is cleared when it went through).
+fn sweep_profile<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    l: &Line,
+    v: &str,
+) -> Result<Outcome, String> {
+    let name = word(l, 0, "an object name")?;
+    let mut pts = p.profile.clone();
+    if pts.len() > 1 && pts.first() == pts.last() {
+        pts.pop();
+    }
+    let shape = if v == "extrude" {
+        Prompt::check_keys(l, &["Z"])?;
+        Shape::Extrude {
+            profile: pts.iter().map(|q| [q[0], q[1]]).collect(),
+            h: p.need(l, "Z", true)?,
+        }
+    } else {
+        Prompt::check_keys(l, &["A", "N"])?;
+        let angle = p.get(l, "A", false)?.unwrap_or(std::f64::consts::TAU);
+        let rmax = pts.iter().map(|q| q[0]).fold(0.0, f64::max);
+        let n = Prompt::count(&l)?.unwrap_or_else(|| {
+            ((facets_for(rmax) as f64 * angle / std::f64::consts::TAU).ceil() as usize).max(1)
+        });
+        Shape::Revolve {
+            profile: pts.iter().map(|q| [q[0], q[2]]).collect(),
+            angle,
+            n,
+        }
+    };
+    // The seed asks counter-clockwise for extrude and clockwise for revolve; either is
+    // accepted (the faces are oriented outward from the signed area): say when the
+    // drawing went the other way.
+    let plane: Vec<[f64; 2]> = match &shape {
+        Shape::Extrude { profile, .. } | Shape::Revolve { profile, .. } => profile.clone(),
+        _ => Vec::new(),
+    };
+    let area = signed_area(&plane);
+    let note = match v {
+        "extrude" if area < 0.0 => {
+            "; the polygon was drawn clockwise (the seed asks counter-clockwise for extrude): winding fixed, faces oriented outward"
+        }
+        "revolve" if area > 0.0 => {
+            "; the profile was drawn counter-clockwise (the seed asks clockwise for revolve): winding fixed, faces oriented outward"
+        }
+        _ => "",
+    };
+    let r = done(ed.apply(|d| d.make(name, shape)));
+    if r.is_ok() {
+        p.profile.clear();
+    }
+    r.map(|o| match o {
+        Outcome::Said(s) => Outcome::Said(format!("{s}{note}")),
+        other => other,
+    })
+}
+
+/// `translate OBJECT X Y Z`: a design object, or a model object moved in the space.
+fn translate<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+    let t = p.xyz(l, true)?;
+    match target(ed, p, word(l, 0, "an object")?)? {
+        Target::Design(o) => done(ed.apply(|d| d.translate(&o, t))),
+        Target::Model { id, path } => {
+            if !t.iter().all(|x| x.is_finite()) {
+                return Err("translate: the translation is not finite".into());
+            }
+            let d = move_model(ed, p, id, &path, |m| {
+                nalgebra::Matrix4::new_translation(&nalgebra::Vector3::from(t)) * m
+            })?;
+            Ok(Outcome::Said(format!(
+                "ok, version {} ({} ops): moved {path}",
+                d.version, d.ops
+            )))
+        }
+    }
+}
+
+/// `rotate OBJECT RX RY RZ` (from its home) / `rotate-rel` (from where it is); a model object
+/// only turns relative.
+fn rotate<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    l: &Line,
+    v: &str,
+) -> Result<Outcome, String> {
+    let r = p.xyz(l, false)?;
+    match target(ed, p, word(l, 0, "an object")?)? {
+        Target::Design(o) => done(ed.apply(|d| d.rotate(&o, r, v == "rotate-rel"))),
+        Target::Model { id, path } => {
+            if v == "rotate" {
+                return Err(format!(
+                    "rotate: {path} is not in the design and has no home to rotate from; use rotate-rel"
+                ));
+            }
+            let rot = crate::shape::axis_rotation(2, r[2])
+                * crate::shape::axis_rotation(1, r[1])
+                * crate::shape::axis_rotation(0, r[0]);
+            let d = move_model(ed, p, id, &path, |m| m * rot)?;
+            Ok(Outcome::Said(format!(
+                "ok, version {} ({} ops): turned {path}",
+                d.version, d.ops
+            )))
+        }
+    }
+}
+
+/// `attach CHILD FACE [to] BASE FACE`.
+fn attach<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+    // attach CHILD FACE [to] BASE FACE
+    let w: Vec<&str> = l
+        .words
+        .iter()
+        .map(String::as_str)
+        .filter(|w| *w != "to")
+        .collect();
+    if w.len() != 4 {
+        return Err("attach: attach CHILD POLYGON to BASE POLYGON (polygon: a number, top, bottom, or . for the picked one)".into());
+    }
+    let (child, base) = (design_name(ed, p, w[0])?, design_name(ed, p, w[2])?);
+    let d0 = ed.design().clone();
+    let (cf, bf) = (face(&d0, p, &child, w[1])?, face(&d0, p, &base, w[3])?);
+    done(ed.apply(|d| d.attach(&child, cf, &base, bf)))
+}
+
+/// `resize OBJECT KEY = VALUE …`: dimensions not given keep their value.
+fn resize<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+    let o = &design_name(ed, p, word(l, 0, "an object")?)?;
+    let obj = ed.design().object(o).map_err(|e| e.to_string())?.clone();
+    let names = obj.shape.dim_names();
+    Prompt::check_keys(l, names)?;
+    let cur = obj.shape.dims();
+    let mut dims = Vec::new();
+    for (k, n) in names.iter().enumerate() {
+        let is_angle = matches!(obj.shape, Shape::Revolve { .. });
+        dims.push(p.get(l, n, !is_angle)?.unwrap_or(cur[k]));
+    }
+    done(ed.apply(|d| d.resize(o, &dims)))
+}
+
+/// `r-joint-i NAME` and the like: a joint marker (revolute, prismatic or fixed; the link's
+/// input joint i or output joint i+1).
+fn make_joint_marker<S: Space>(ed: &mut Editor<S>, l: &Line, v: &str) -> Result<Outcome, String> {
+    let name = word(l, 0, "a name for the joint")?;
+    let kind = match &v[..1] {
+        "r" => LinkJoint::Revolute,
+        "p" => LinkJoint::Prismatic,
+        _ => LinkJoint::Fixed,
+    };
+    let output = v.ends_with("i+1");
+    done(ed.apply(|d| d.make(name, Shape::Joint { kind, output })))
+}
+
+/// `check`: the link's joint markers as a DH row, in the session's units.
+fn check_link<S: Space>(ed: &mut Editor<S>, p: &mut Prompt) -> Result<Outcome, String> {
+    let row = ed.design().check_joints().map_err(|e| e.to_string())?;
+    Ok(Outcome::Said(format!(
+        "link {}: valid DH: THETA {:.6} {}, DZ {:.6} {}, DA {:.6} {}, ALPHA {:.6} {}",
+        ed.design().link().name,
+        row.theta / p.angle.0,
+        p.angle.1,
+        row.dz / p.length.0,
+        p.length.1,
+        row.da / p.length.0,
+        p.length.1,
+        row.alpha / p.angle.0,
+        p.angle.1
+    )))
+}
+
+/// `save FILE`: the design as JSON.
+fn save_design<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, String> {
+    let f = word(l, 0, "a file name")?;
+    let text = serde_json::to_string_pretty(ed.design()).map_err(|e| e.to_string())?;
+    robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
+        .map_err(|e| format!("save: {e}"))?;
+    Ok(Outcome::Said(format!("saved {f}")))
+}
+
+/// `load FILE`: a design saved before, checked, replaces the current one.
+fn load_design<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, String> {
+    let f = word(l, 0, "a file name")?;
+    let text = robosim_input::read_to_string(
+        std::path::Path::new(f),
+        "an editor design",
+        robosim_input::Limit::TEXT,
+    )
+    .map_err(|e| format!("load: {e}"))?;
+    let d: Design = serde_json::from_str(&text).map_err(|e| format!("load: {f}: {e}"))?;
+    validate(&d).map_err(|e| format!("load: {f}: {e}"))?;
+    done(ed.replace(d))
+}
+
+/// `code FILE`: the design as a ROBOSIM program.
+fn write_code<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+    let f = word(l, 0, "a file name")?;
+    let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
+    if let Some(dir) = std::path::Path::new(f)
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+    {
+        std::fs::create_dir_all(dir).map_err(|e| format!("code: {}: {e}", dir.display()))?;
+    }
+    robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
+        .map_err(|e| format!("code: {e}"))?;
+    Ok(Outcome::Said(format!("wrote {f}")))
+}
+
+/// `read-code FILE`: a ROBOSIM program run and read back as the design.
+fn read_code<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, String> {
+    let f = word(l, 0, "a ROBOSIM program")?;
+    let text = robosim_input::read_to_string(
+        std::path::Path::new(f),
+        "a ROBOSIM program",
+        robosim_input::Limit::TEXT,
+    )
+    .map_err(|e| format!("read-code: {e}"))?;
+    let out = program::run(&text, f).map_err(|e| e.to_string())?;
+    let robot = ed.design().robot.clone();
+    let d = codegen::design_from_program(&out, &robot).map_err(|e| e.to_string())?;
+    done(ed.replace(d))
+}
+
+/// `run DIR`: the design's program run, its link files written to DIR.
+fn run_code<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+    let dir = word(l, 0, "a directory for the link files")?;
+    let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
+    let out = program::run(&text, "(generated)").map_err(|e| e.to_string())?;
+    let paths = program::write_links(&out, std::path::Path::new(dir))?;
+    Ok(Outcome::Said(format!(
+        "wrote {}",
+        paths
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    )))
+}
+
+/// `faces OBJECT`: each polygon's centre and normal.
+fn list_faces<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+    let o = &design_name(ed, p, word(l, 0, "an object")?)?;
+    let obj = ed.design().object(o).map_err(|e| e.to_string())?;
+    let Some(poly) = obj.shape.polyhedron().map_err(|e| e.to_string())? else {
+        return Ok(Outcome::Said(format!(
+            "{o}: a joint marker; polygon 0 is its frame"
+        )));
+    };
+    let mut s = String::new();
+    for k in 0..poly.polygons.len() {
+        let f = crate::shape::face_frame(&poly, k);
+        s.push_str(&format!(
+            "{k}: centre ({:.4}, {:.4}, {:.4}) {}, normal ({:.3}, {:.3}, {:.3}){}\n",
+            f[(0, 3)] / p.length.0,
+            f[(1, 3)] / p.length.0,
+            f[(2, 3)] / p.length.0,
+            p.length.1,
+            f[(0, 2)],
+            f[(1, 2)],
+            f[(2, 2)],
+            if obj.shape.planar_face(&poly, k) {
+                ""
+            } else {
+                " (curved-surface facet)"
+            }
+        ));
+    }
+    Ok(Outcome::Said(s.trim_end().to_owned()))
+}
+
+/// `list`: the link's objects and what they sit on.
+fn list_objects(d: &Design) -> Outcome {
+    let mut s = format!(
+        "robot {}, link {} of {}:",
+        d.robot,
+        d.link().name,
+        d.links.len()
+    );
+    for o in &d.link().objects {
+        s.push_str(&format!(
+            "\n  {} {}{}",
+            o.name,
+            o.shape.command(),
+            o.parent
+                .as_ref()
+                .map(|p| format!(" on {p}"))
+                .unwrap_or_default()
+        ));
+    }
+    Outcome::Said(s)
+}
+
+/// An unknown verb, with the command it may have meant.
+fn unknown_verb(other: &str) -> String {
+    let near = VERBS
+        .iter()
+        // The first two characters (not bytes: a verb may start with `日本`).
+        .find(|k| {
+            let two: String = other.chars().take(2).collect();
+            k.starts_with(&two)
+        })
+        .map(|k| format!(" (did you mean {k}?)"))
+        .unwrap_or_default();
+    format!("unknown command {other:?}{near}")
 }
 
 /// Twice the signed area of a closed polygon (shoelace): positive counter-clockwise.
