@@ -276,7 +276,7 @@ fn the_pictures_of_the_crates_are_current() {
     }
     assert_eq!(
         doc, want_doc,
-        "docs/architecture.md's crate graph is stale: ROBOSIM_UPDATE_DOCS=1 cargo test --test architecture"
+        "docs/architecture.md's crate graph is stale: ROBOSIM_UPDATE_DOCS=1 cargo test -p robosim --test robosim architecture::"
     );
     assert_eq!(
         std::fs::read_to_string(&svg_path).unwrap_or_default(),

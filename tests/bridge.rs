@@ -9,7 +9,7 @@
 //! `a_cut_link_between_two_network_namespaces_resynchronises`; it needs root and iproute2
 //! (CI has both) and says why it did not run otherwise.
 
-mod common;
+use crate::common;
 
 use common::{Hosts, Procs, wait_for};
 use robosim_instance_space::{

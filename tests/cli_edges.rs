@@ -5,7 +5,7 @@
 use std::io::Read;
 use std::process::{Command, Stdio};
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM};
 

@@ -5,7 +5,7 @@
 //! transforms only; trajectory playback of the welding cell's two robots; the window under
 //! Xvfb with scripted knob keys and a pick; and clear errors for bad input.
 //!
-//! Golden images live in tests/golden; `ROBOSIM_BLESS=1 cargo test --test display` rewrites
+//! Golden images live in tests/golden; `ROBOSIM_BLESS=1 cargo test -p robosim --test robosim display::` rewrites
 //! them from this machine's renderer (look at them before committing).
 
 use nalgebra::Point3;
@@ -15,7 +15,7 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 

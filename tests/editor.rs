@@ -4,7 +4,7 @@
 //! process beside it draws every committed version; then `robosim lang run` and `robosim lang
 //! load` turn the result into a robot of the session.
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 use serde_json::Value;

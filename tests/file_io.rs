@@ -8,7 +8,7 @@
 //!   a model the keeper refuses) change nothing: same digest, same version;
 //! * import of a mesh and export of a session as glTF and STL.
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 use robosim_file_io::format::{self, Encoding};

@@ -1,7 +1,7 @@
 //! Issue #19, "a user's first hour": the command-line defects a newcomer met, each tried the way
 //! they met it — the real binary, a real session, real pipes and directories.
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM};
 use std::process::{Command, Output, Stdio};

@@ -8,7 +8,7 @@
 //!   Library Space (its counters, printed on SIGTERM), and its published state is the MOVEJI's
 //!   last step. A structure change (a rename) does rebuild: the cache is not simply stuck.
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 use robosim_hl_interface::session::Ops;

@@ -413,7 +413,7 @@ fn run_child(reader: &str, path: &Path, fifos: &[PathBuf]) -> (Outcome, Duration
     let mut cmd = Command::new(std::env::current_exe().expect("current_exe"));
     cmd.args([
         "--exact",
-        "hostile_case_child",
+        "hostile_inputs::hostile_case_child",
         "--nocapture",
         "--test-threads=1",
     ])

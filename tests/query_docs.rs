@@ -9,7 +9,7 @@ use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-mod common;
+use crate::common;
 #[path = "../hl-interface/examples/make_query_doc/doc.rs"]
 #[allow(
     dead_code,

@@ -4,7 +4,7 @@
 //! on stderr; the run recorded to MCAP, read back with the `mcap` crate — closed with its
 //! summary by `robosim down`, still streamable after `kill -9`.
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 use serde_json::{Value, json};

@@ -16,7 +16,7 @@ use robosim_hl_interface::planner::Planner;
 use std::process::Command;
 use std::time::Duration;
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 

@@ -4,7 +4,7 @@
 //! joint values committed in the Instance Space (the guarantee: high-rate state is the
 //! daemon's alone and is not journaled).
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 use robosim_instance_space::Client;

@@ -94,7 +94,7 @@ impl TestSession {
             .command(exe.to_str().expect("utf-8 path"))
             .args([
                 "--exact",
-                "child_process_entry",
+                "space::child_process_entry",
                 "--nocapture",
                 "--test-threads=1",
             ])

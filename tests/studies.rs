@@ -3,7 +3,7 @@
 //! space stage, the welding cell without them — and `robosim study` from the command line.
 //! Each test has its own ROBOSIM_HOME and session name and stops what it started.
 
-mod common;
+use crate::common;
 
 use common::{Procs, ROBOSIM, wait_for};
 use serde_json::{Value, json};

@@ -7,7 +7,7 @@
 //! link lapsed is waited for and used again. No session, no shared memory: each test has its
 //! own temp dir.
 
-mod common;
+use crate::common;
 
 use common::ROBOSIM;
 use std::io::{BufRead, BufReader};

@@ -38,7 +38,7 @@ fn edit_fuzz_corpus_replays() {
 /// Writes `fuzz/seeds/linkfile/`: the link files `lang run` writes for Table 1 and for the
 /// two-link program of the `program` seeds, one file per seed and the robot's files joined by
 /// `%%` lines (the `linkfile` target's envelope). Run by hand after a change to the link
-/// file format: `cargo test -p robosim-editor --test fuzz_corpus -- --ignored
+/// file format: `cargo test -p robosim-editor --test editor -- --ignored
 /// regenerate_linkfile_seeds`.
 #[test]
 #[ignore = "writes fuzz/seeds/linkfile/; run by hand"]

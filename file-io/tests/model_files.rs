@@ -265,7 +265,7 @@ fn the_checked_in_version_1_file_loads_forever() {
 }
 
 /// Writes the version-1 fixtures (run once, by hand, when the fixture is first made:
-/// `cargo test --workspace --test model_files -- --ignored write_version_1_fixture`).
+/// `cargo test -p robosim-file-io --test file_io -- --ignored write_version_1_fixture`).
 #[test]
 #[ignore = "writes testdata/file-io; run by hand only"]
 fn write_version_1_fixture() {

@@ -1,7 +1,21 @@
 //! The JSON-lines transport driven as a client would: whole sessions through [`serve`], bad
 //! lines, a fuzz of arbitrary input, interactive use through pipes and of the real process;
 //! and each area's ops (`kinematics`, `dynamics`, `collision`, `library`) through its `dispatch`.
-//! One test binary (the modules below) to keep link time down.
+//! One test binary (the modules below) to keep link time down: it is the crate's only one
+//! (Cargo.toml: `autotests = false`), so the other files of tests/ are modules of it too —
+//! `cargo test -p robosim-hl-interface --test hl_interface FILE::`. A new file of tests/ needs
+//! its `mod` line here.
+
+#[path = "../concurrency.rs"]
+mod concurrency;
+#[path = "../diag_cli.rs"]
+mod diag_cli;
+#[path = "../hostile_input.rs"]
+mod hostile_input;
+#[path = "../lib_cli.rs"]
+mod lib_cli;
+#[path = "../sim_cli.rs"]
+mod sim_cli;
 
 mod bad_lines;
 mod collision;
