@@ -6,7 +6,7 @@
 //! bounding box) into the frame it belongs to: the solid declaration's frame, a robot's link
 //! frame j (the frame at the end of `A_j`, DESIGN.md), or the world for scene items.
 
-use nalgebra::{Matrix4, Vector3};
+use nalgebra::Matrix4;
 use robosim_geometry::{MassProperties, Polyhedron};
 use robosim_kinematics::Robot;
 use serde::{Deserialize, Serialize};
@@ -137,7 +137,59 @@ impl RobotModel {
     }
 }
 
+impl RobotModel {
+    /// The robot's box parts per frame (`[0]`: base, `[j]`: link j), as the scene-level plans
+    /// read them ([`robosim_model::parts`]: solar panels, ORUs).
+    pub fn box_parts(&self) -> Vec<Vec<robosim_model::parts::BoxPart>> {
+        self.frames.iter().map(|f| box_parts(f)).collect()
+    }
+}
+
+/// The box primitives among `solids`, as plain box parts.
+fn box_parts(solids: &[PlacedSolid]) -> Vec<robosim_model::parts::BoxPart> {
+    solids
+        .iter()
+        .filter_map(|s| match s.primitive {
+            Primitive::Box { size } => Some(robosim_model::parts::BoxPart {
+                name: s.name.clone(),
+                size,
+                transform: s.transform,
+            }),
+            _ => None,
+        })
+        .collect()
+}
+
 impl SceneModel {
+    /// The scene by its box parts ([`robosim_model::parts::SceneParts`]): what the simulator's
+    /// scene-level plans (the ORU swap, the solar arrays) read, without library types.
+    pub fn parts(&self) -> robosim_model::parts::SceneParts {
+        use robosim_model::parts::{RobotParts, SceneParts, SolidParts};
+        SceneParts {
+            name: self.name.clone(),
+            robots: self
+                .robots
+                .iter()
+                .map(|r| RobotParts {
+                    name: r.name.clone(),
+                    robot: r.model.robot.clone(),
+                    link_names: r.model.link_names.clone(),
+                    q: r.q.clone(),
+                    frames: r.model.box_parts(),
+                })
+                .collect(),
+            solids: self
+                .solids
+                .iter()
+                .map(|i| SolidParts {
+                    name: i.name.clone(),
+                    placement: i.placement,
+                    parts: box_parts(&i.solid.parts),
+                })
+                .collect(),
+        }
+    }
+
     /// What changed from `self` (the old evaluation) to `new`, item by item, by name.
     pub fn changes_to(&self, new: &SceneModel) -> SceneChanges {
         let mut c = SceneChanges {
@@ -213,146 +265,15 @@ pub struct PlacedItem {
     pub placement: Matrix4<f64>,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum CollisionMode {
-    /// Bounding boxes only (seed §2.6, first stage).
-    Bbox,
-    /// The seed's polygon algorithm.
-    Polygon,
-    /// Exact (GJK/EPA on the convex pieces).
-    Exact,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct CollisionEffect {
-    pub mode: CollisionMode,
-    /// Check links of one robot against each other.
-    pub self_collision: bool,
-    /// Swept (continuous) checks between steps.
-    pub continuous: bool,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Integrator {
-    Euler,
-    SemiImplicitEuler,
-    Rk4,
-    Dopri5,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct DynamicsEffect {
-    pub integrator: Integrator,
-    /// Integration step, s.
-    pub step_s: f64,
-    /// Gravity in the world frame, m/s².
-    pub gravity: Vector3<f64>,
-}
-
-/// The effects a scene calls for (DESIGN.md, "Scenes declare their effects"). What is not
-/// declared is off and costs nothing — except kinematics, on unless the scene says `off`.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Effects {
-    pub kinematics: bool,
-    pub joint_limits: bool,
-    pub collision: Option<CollisionEffect>,
-    pub dynamics: Option<DynamicsEffect>,
-    /// Encoder resolution in bits (seed §2.7), if joint readings are quantised.
-    pub encoder_bits: Option<u32>,
-    /// Signals to log (`q`, `qd`, `tau`, `contacts`, `energy`, …).
-    pub logged: Vec<String>,
-    /// A circular Earth orbit the scene flies (the sun vector and eclipses follow from it).
-    #[serde(default)]
-    pub orbit: Option<OrbitEffect>,
-    /// Solar arrays turn their gimbals to face the sun (needs `orbit`).
-    #[serde(default)]
-    pub sun_tracking: bool,
-    /// Electrical power from the arrays and a battery (needs `orbit`).
-    #[serde(default)]
-    pub power: Option<PowerEffect>,
-    /// The automation layer's plant (a fault model whose faults ring alarms), run beside the
-    /// simulator as its own process (`robosim automation`, started by `robosim up`).
-    #[serde(default)]
-    pub automation: Option<AutomationEffect>,
-    /// The kinematic step (s) when dynamics is not declared: `kinematics { step: 100 ms }`
-    /// (`None`: the simulator's default, 1 ms).
-    #[serde(default)]
-    pub kinematic_step_s: Option<f64>,
-    /// A manipulator task: the servicer swaps an orbital replacement unit (ORU).
-    #[serde(default)]
-    pub oru_swap: Option<OruSwapEffect>,
-}
-
-/// `oru_swap { servicer: "servicer", spare: "spare_oru", start: 300 s }`: the placed robot
-/// `servicer` takes the failed ORU (the box part named `oru…` on a robot's link) off its robot,
-/// sets it down beside the placed solid `spare`, and bolts the spare in its place, starting at
-/// `start` (the plan: `robosim_simulator::swap`).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct OruSwapEffect {
-    /// The place name of the manipulator doing the swap.
-    pub servicer: String,
-    /// The place name of the spare ORU (a solid with a box part named `oru…`).
-    pub spare: String,
-    /// When the task starts, s (≥ 0).
-    pub start_s: f64,
-}
-
-/// `automation { model: "eclss", time_scale: 60 }` (or `automation: on`, the ECLSS at the wall
-/// clock's pace): the scene's fault-monitoring plant. Not a simulator stage: `robosim up SCENE`
-/// starts `robosim automation --model MODEL --time-scale X` as one more component process.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct AutomationEffect {
-    /// The fault model: a shipped name (`eclss`) or a model file (`robosim diag check`).
-    pub model: String,
-    /// Plant seconds per wall-clock second (> 0).
-    pub time_scale: f64,
-}
-
-impl Default for AutomationEffect {
-    fn default() -> Self {
-        AutomationEffect {
-            model: "eclss".into(),
-            time_scale: 1.0,
-        }
-    }
-}
-
-/// `orbit { altitude: 400 km, beta: 0 deg }`: a circular orbit about a spherical Earth.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct OrbitEffect {
-    /// Height above the Earth's mean equatorial radius, m (> 0).
-    pub altitude_m: f64,
-    /// Angle between the orbit plane and the sun vector, rad, in [−90°, 90°].
-    pub beta_rad: f64,
-}
-
-/// `power { efficiency: 0.14 }`: array power = Σ projected area × efficiency × solar flux.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct PowerEffect {
-    /// Solar-cell efficiency, in (0, 1].
-    pub efficiency: f64,
-}
-
-impl Default for Effects {
-    fn default() -> Self {
-        Effects {
-            kinematics: true,
-            joint_limits: false,
-            collision: None,
-            dynamics: None,
-            encoder_bits: None,
-            logged: vec![],
-            orbit: None,
-            sun_tracking: false,
-            power: None,
-            automation: None,
-            kinematic_step_s: None,
-            oru_swap: None,
-        }
-    }
-}
+/// The effects a scene calls for (DESIGN.md, "Scenes declare their effects"): the one typed
+/// set, `robosim_model`'s [`robosim_model::Options`] (the simulator reads the same types),
+/// here under the names the library has always used. What is not declared is off and costs
+/// nothing — except kinematics, on unless the scene says `off` (the evaluator starts from
+/// it). The effects block is read by `eval::effects`.
+pub use robosim_model::{
+    AutomationEffect, CollisionEffect, CollisionMode, DynamicsEffect, EncoderEffect, Integrator,
+    LoggingEffect, OnContact, Options as Effects, OrbitEffect, OruSwapEffect, PowerEffect, Signal,
+};
 
 /// Which placed items differ between two evaluations of a scene (see
 /// [`SceneModel::changes_to`]): what a live parameter change must re-instantiate.

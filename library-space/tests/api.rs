@@ -104,12 +104,16 @@ fn scene_evaluates_placements_q_and_effects() {
     );
     let d = fx.dynamics.expect("dynamics");
     assert_eq!(
-        (d.integrator, d.step_s),
+        (d.integrator, d.dt),
         (robosim_library::Integrator::SemiImplicitEuler, 0.002)
     );
-    assert_eq!(d.gravity, Vector3::new(0.0, 0.0, -9.81));
-    assert_eq!(fx.encoder_bits, Some(14));
-    assert_eq!(fx.logged, vec!["q", "tau"]);
+    assert_eq!(d.gravity, Some([0.0, 0.0, -9.81]));
+    assert_eq!(fx.encoder.map(|e| e.bits), Some(14));
+    let log = fx.logging.as_ref().expect("logging");
+    assert_eq!(
+        log.signals,
+        [robosim_library::Signal::Q, robosim_library::Signal::Tau]
+    );
 }
 
 #[test]

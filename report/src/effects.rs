@@ -9,7 +9,7 @@ use nalgebra::{DVector, Isometry3, Vector3};
 use robosim_collision::robot::Scene;
 use robosim_collision::{Mode, Solid};
 use robosim_simulator::{
-    CollisionEffect, DynamicsEffect, EncoderEffect, LoggingEffect, SceneEffects, Signal,
+    CollisionEffect, DynamicsEffect, EncoderEffect, Integrator, LoggingEffect, SceneEffects, Signal,
 };
 use robosim_simulator::{Command, Pipeline, SceneGeometry};
 use std::path::{Path, PathBuf};
@@ -47,9 +47,9 @@ fn collision(mode: Mode, continuous: bool) -> Option<CollisionEffect> {
     })
 }
 
-fn dynamics(integrator: &str) -> Option<DynamicsEffect> {
+fn dynamics(integrator: Integrator) -> Option<DynamicsEffect> {
     Some(DynamicsEffect {
-        integrator: integrator.into(),
+        integrator,
         dt: 1e-3,
         ..DynamicsEffect::default()
     })
@@ -109,27 +109,28 @@ fn configurations() -> Vec<(&'static str, SceneEffects)> {
         (
             "+ dynamics rk4 1 ms (no collision)",
             SceneEffects {
-                dynamics: dynamics("rk4"),
+                dynamics: dynamics(Integrator::Rk4),
                 ..lim.clone()
             },
         ),
         (
             "+ dynamics semi_implicit_euler 1 ms",
             SceneEffects {
-                dynamics: dynamics("semi_implicit_euler"),
+                dynamics: dynamics(Integrator::SemiImplicitEuler),
                 ..lim.clone()
             },
         ),
         (
             "all: rk4 + limits + bbox + encoder + logging",
             SceneEffects {
-                dynamics: dynamics("rk4"),
+                dynamics: dynamics(Integrator::Rk4),
                 collision: collision(Mode::BBox, false),
                 encoder: Some(EncoderEffect { bits: 16 }),
                 logging: Some(LoggingEffect {
                     signals: vec![Signal::T, Signal::Q, Signal::QMeasured, Signal::Contact],
                     every: 10,
                     path: None,
+                    unsupported: Vec::new(),
                 }),
                 ..lim
             },

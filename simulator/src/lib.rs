@@ -1,22 +1,26 @@
 //! The simulator: the effect pipeline over the kinematics, dynamics and collision cores
-//! (DESIGN.md, "Scenes declare their effects"). A scene's [`SceneEffects`] declaration builds a
-//! [`Pipeline`] holding only the declared stages; [`Pipeline::step`] runs them in order;
-//! printing a pipeline describes what it built and what it left out.
+//! (DESIGN.md, "Scenes declare their effects"). A scene's effect declaration — the one typed
+//! [`Options`] of `robosim-model`, here also called [`SceneEffects`] — builds a [`Pipeline`]: a
+//! [`Model`] with a part per declared stage and a [`Data`] holding all per-step state;
+//! [`Pipeline::step`] runs the declared stage functions in a fixed order; printing a pipeline
+//! describes what it built and what it left out.
 //!
-//! Entry points: [`SceneEffects`] (and its JSON form), [`Pipeline::build`], [`Pipeline::step`],
-//! [`Command`]. `robosim sim` is `robosim_hl_interface::cli::sim`; `robosim report effects` is
-//! `robosim_report::effects`.
+//! Entry points: [`SceneEffects`] (and its JSON form, [`Options::from_json`]),
+//! [`Pipeline::build`], [`Pipeline::step`], [`Pipeline::rewind`], [`Command`]. `robosim sim` is
+//! `robosim_hl_interface::cli::sim`; `robosim report effects` is `robosim_report::effects`.
 //!
 //! Scene-level effects (not per robot): [`orbit`] (a circular orbit, the sun vector, eclipses)
 //! and [`power`] (solar arrays found by their panels, sun tracking of their gimbals, array
 //! power, the battery) — the models the simulator daemon's space stage and `robosim study
 //! station` share; [`swap`] (the `oru_swap` effect: the servicer's ORU swap planned, the ORUs'
-//! state over time) for the same two; [`numeric`] (golden-section search) for them and the studies. The daemon
-//! itself is `robosim-simulator-daemon`.
+//! state over time) for the same two; [`numeric`] (golden-section search) for them and the
+//! studies. They read a scene as [`robosim_model::parts::SceneParts`] (its box parts), not as
+//! library types: this crate does not depend on the Library Space. The daemon itself is
+//! `robosim-simulator-daemon`.
 
 #![forbid(unsafe_code)]
 
-pub mod effects;
+pub mod model;
 pub mod numeric;
 pub mod orbit;
 pub mod pipeline;
@@ -24,8 +28,13 @@ pub mod power;
 mod stages;
 pub mod swap;
 
-pub use effects::{
-    CollisionEffect, DynamicsEffect, EffectsError, EncoderEffect, LoggingEffect, OnContact,
-    SceneEffects, Signal,
+pub use model::{Model, SceneGeometry, StepError};
+pub use pipeline::Pipeline;
+/// The scene's effect declaration under the simulator's older name: [`Options`].
+pub use robosim_model::Options as SceneEffects;
+/// A declaration that cannot be built, under the simulator's older name: [`OptionsError`].
+pub use robosim_model::OptionsError as EffectsError;
+pub use robosim_model::{
+    CollisionEffect, Command, Data, DynamicsEffect, EncoderEffect, Integrator, LoggingEffect,
+    OnContact, Options, OptionsError, Signal,
 };
-pub use pipeline::{Command, Data, Model, Pipeline, SceneGeometry, Stage, StepError};

@@ -1,240 +1,135 @@
-//! The per-step pipeline: an ordered list of the stages a scene declared, nothing else
-//! (DESIGN.md, "Scenes declare their effects"). An undeclared effect has no stage, so it costs no
-//! branch, no allocation and no memory per step; the only per-step work besides the stages is
-//! advancing the clock. Stages are named by what they depend on (MuJoCo's habit).
+//! The per-step pipeline (MuJoCo's `mj_step` shape): a fixed sequence of stage functions over
+//! `(&Model, &mut Data)`, each run only when the scene declared its effect (DESIGN.md, "Scenes
+//! declare their effects"). An undeclared effect has no model part and no `Data` field — no
+//! allocation, no memory, no work per step beyond one untaken branch; the only other per-step
+//! work is advancing the clock. Stages are named by what they depend on (MuJoCo's habit).
 //!
-//! Order: motion source (dynamics, or kinematic motion) → joint limits → link frames → collision
-//! → encoder → logging.
+//! Order ([`Pipeline::step`]): motion source (dynamics, or kinematic motion) → joint limits →
+//! link frames → collision → encoder → logging.
+//!
+//! All state is in [`Data`]: [`Pipeline::data`] saves a step (clone it), [`Pipeline::rewind`]
+//! puts a saved one back.
 //!
 //! Entry points: [`Pipeline::build`], [`Pipeline::step`], [`Pipeline`]'s `Display` (the printable
 //! description), [`Command`].
 
-use crate::effects::{EffectsError, SceneEffects};
-use crate::stages;
+use crate::model::{Model, SceneGeometry, StepError};
+use crate::stages::{self, logging::LogHandle, logging::Logging};
 use nalgebra::{DVector, Matrix4};
-use robosim_collision::robot::{LinkSolids, Scene};
+use robosim_collision::robot::Scene;
 use robosim_kinematics::{Robot, State};
+use robosim_model::{Command, Data, Options, OptionsError};
 use std::fmt;
 
-/// What the robot is told to do.
-#[derive(Debug, Clone, PartialEq)]
-pub enum Command {
-    /// No command: zero joint torque under dynamics, standing still under kinematic motion.
-    Idle,
-    /// Joint targets (rad or m): kinematic motion at `max_speed`, or the dynamics stage's
-    /// gravity-compensated PD controller.
-    Target(DVector<f64>),
-    /// Joint torques (N·m or N); dynamics only.
-    Torque(DVector<f64>),
-}
-
-/// What the simulation is of, fixed once the pipeline is built (MuJoCo's `mjModel`): the robot
-/// and the step. Stages read it; nothing writes it after [`Pipeline::build`]. A stage's own
-/// model part (the dynamics model, the collision solids) lives in the stage.
-#[derive(Debug, Clone)]
-pub struct Model {
-    pub robot: Robot,
-    /// The pipeline step (s).
-    pub dt: f64,
-}
-
-/// What changes as the simulation runs (MuJoCo's `mjData`): the state, the command, and the
-/// outputs of declared stages (`None` when the stage that fills them is not in the pipeline).
-/// Sized once by [`Pipeline::build`]; a step allocates nothing in it.
-#[derive(Debug, Clone)]
-pub struct Data {
-    pub state: State,
-    pub command: Command,
-    /// The torques applied in the last step (dynamics only; zeros otherwise).
-    pub tau: DVector<f64>,
-    /// Steps taken.
-    pub step: u64,
-    /// Link frames `base, 1..n, tool` in the world (link-frames stage).
-    pub frames: Option<Vec<Matrix4<f64>>>,
-    /// Quantised joint readings (encoder stage).
-    pub q_measured: Option<DVector<f64>>,
-    /// Whether the last collision check found a contact (collision stage).
-    pub contact: Option<bool>,
-    /// Steps whose collision check found a contact (collision stage; 0 otherwise).
-    pub contact_steps: u64,
-}
-
-/// Why a step failed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum StepError {
-    #[error("dynamics: {0}")]
-    Dynamics(#[from] robosim_dynamics::DynamicsError),
-    #[error("collision: {0}")]
-    Collision(String),
-    #[error("logging: {0}")]
-    Logging(String),
-    #[error("command: {0}")]
-    Command(String),
-}
-
-/// One stage of the pipeline.
-pub trait Stage: Send {
-    /// Short name (`dynamics`, `joint_limits`, …).
-    fn name(&self) -> &'static str;
-    /// What its result depends on (`q`, `q, qd, tau`, …).
-    fn depends_on(&self) -> &'static str;
-    /// Its settings, for the printable description.
-    fn describe(&self) -> String;
-    /// Runs the stage for the current step: reads `m`, reads and writes `d`.
-    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError>;
-    /// The robot was put at `q` from outside the pipeline (a writer moved its joints in the
-    /// Instance Space): forget anything remembered about the old configuration.
-    fn teleported(&mut self, _q: &DVector<f64>) {}
-    /// Writes out what the stage buffers (the logging stage's CSV rows).
-    fn flush(&mut self) -> Result<(), StepError> {
-        Ok(())
-    }
-    /// The obstacles this stage checks against, if it has any (to move them in place).
-    fn obstacles_mut(&mut self) -> Option<&mut Scene> {
-        None
-    }
-}
-
-/// A scene's simulation: its model, its data and the stages it declared.
+/// A scene's simulation: its model, its data, and the log sink if logging is declared.
 pub struct Pipeline {
     model: Model,
     data: Data,
-    stages: Vec<Box<dyn Stage>>,
-    /// Effects the scene did not declare (or declared off), for the description.
-    left_out: Vec<&'static str>,
-    /// Logging stage index, if declared (to hand out its rows).
-    log_stage: Option<usize>,
-    logged: Option<stages::logging::LogHandle>,
+    log: Option<(Logging, LogHandle)>,
 }
 
-/// The scene around the robot, for collision: obstacles and the robot's link solids
-/// (`None`: simple DH-segment solids of the declared `link_radius`).
-#[derive(Default)]
-pub struct SceneGeometry {
-    pub obstacles: Scene,
-    pub link_solids: Option<LinkSolids>,
+/// One stage as the description prints it.
+struct Described {
+    name: &'static str,
+    settings: String,
+    depends_on: &'static str,
 }
 
 impl Pipeline {
-    /// Builds the pipeline `effects` declares for `robot` starting at rest at `q0`.
+    /// Builds the pipeline `effects` declares for `robot` starting at rest at `q0`: each
+    /// declared effect's model part, checked, and the `Data` its stages fill, sized once.
     pub fn build(
         robot: &Robot,
         q0: &[f64],
-        effects: &SceneEffects,
+        effects: &Options,
         geometry: SceneGeometry,
-    ) -> Result<Pipeline, EffectsError> {
-        let bad = |field: &str, reason: String| EffectsError {
+    ) -> Result<Pipeline, OptionsError> {
+        let bad = |field: &str, reason: String| OptionsError {
             field: field.to_string(),
             reason,
         };
         robot.validate().map_err(|e| bad("robot", e.to_string()))?;
         robot.check_q(q0).map_err(|e| bad("q0", e.to_string()))?;
         let n = robot.dof();
-        let mut stages: Vec<Box<dyn Stage>> = Vec::new();
-        let mut left_out = Vec::new();
-        let mut dt = effects.dt;
-        if !(dt > 0.0 && dt.is_finite()) {
+        let mut data = Data {
+            state: State {
+                q: DVector::from_column_slice(q0),
+                qd: DVector::zeros(n),
+                qdd: DVector::zeros(n),
+                t: 0.0,
+            },
+            command: Command::Idle,
+            tau: DVector::zeros(n),
+            step: 0,
+            frames: None,
+            q_measured: None,
+            contact: None,
+            contact_steps: 0,
+            q_safe: None,
+            integrator: None,
+        };
+        let mut model = Model {
+            robot: robot.clone(),
+            dt: effects.dt,
+            options: effects.clone(),
+            motion: None,
+            dynamics: None,
+            limits: None,
+            collision: None,
+            encoder: None,
+        };
+        if !(model.dt > 0.0 && model.dt.is_finite()) {
             return Err(bad(
                 "dt",
-                format!("must be a positive number of seconds, got {dt}"),
+                format!("must be a positive number of seconds, got {}", model.dt),
             ));
         }
         match &effects.dynamics {
             Some(d) => {
-                let stage = stages::dynamics::DynamicsStage::new(robot, d)?;
-                dt = d.dt;
-                stages.push(Box::new(stage));
+                let (part, integrator) = stages::dynamics::build(robot, d)?;
+                model.dt = d.dt;
+                model.dynamics = Some(part);
+                data.integrator = Some(integrator);
             }
-            None => {
-                left_out.push("dynamics");
-                if effects.kinematics {
-                    if !(effects.max_speed > 0.0 && effects.max_speed.is_finite()) {
-                        return Err(bad(
-                            "max_speed",
-                            format!("must be positive, got {}", effects.max_speed),
-                        ));
-                    }
-                    stages.push(Box::new(stages::motion::KinematicMotion::new(
-                        effects.max_speed,
-                    )));
+            None if effects.kinematics => {
+                if !(effects.max_speed > 0.0 && effects.max_speed.is_finite()) {
+                    return Err(bad(
+                        "max_speed",
+                        format!("must be positive, got {}", effects.max_speed),
+                    ));
                 }
+                model.motion = Some(effects.max_speed);
             }
+            None => {}
         }
         if effects.joint_limits {
-            stages.push(Box::new(stages::limits::JointLimits::new(robot)?));
-        } else {
-            left_out.push("joint_limits");
+            model.limits = Some(stages::limits::build(robot)?);
         }
-        let mut frames = None;
         if effects.kinematics {
-            frames = Some(vec![Matrix4::identity(); n + 2]);
-            stages.push(Box::new(stages::frames::LinkFrames));
-        } else {
-            left_out.push("kinematics");
+            data.frames = Some(vec![Matrix4::identity(); n + 2]);
         }
-        let mut contact = None;
-        match &effects.collision {
-            Some(c) if c.enabled => {
-                contact = Some(false);
-                stages.push(Box::new(stages::collision::CollisionStage::new(
-                    robot, q0, c, geometry,
-                )?));
-            }
-            _ => left_out.push("collision"),
+        if let Some(c) = effects.collision.as_ref().filter(|c| c.enabled) {
+            model.collision = Some(stages::collision::build(robot, c, geometry)?);
+            data.contact = Some(false);
+            data.q_safe = Some(DVector::from_column_slice(q0));
         }
-        let mut q_measured = None;
-        match &effects.encoder {
-            Some(e) => {
-                q_measured = Some(DVector::zeros(n));
-                stages.push(Box::new(stages::encoder::Encoder::new(robot, e)?));
-            }
-            None => left_out.push("encoder"),
+        if let Some(e) = &effects.encoder {
+            model.encoder = Some(stages::encoder::build(robot, e)?);
+            data.q_measured = Some(DVector::zeros(n));
         }
-        let mut log_stage = None;
-        let mut logged = None;
-        match &effects.logging {
+        let log = match &effects.logging {
             Some(l) => {
                 let joints: Vec<_> = robot.joints.iter().map(|j| j.joint_type).collect();
-                let (stage, handle) = stages::logging::Logging::new(
+                Some(Logging::new(
                     &joints,
                     l,
-                    q_measured.is_some(),
-                    contact.is_some(),
-                )?;
-                log_stage = Some(stages.len());
-                logged = Some(handle);
-                stages.push(Box::new(stage));
+                    data.q_measured.is_some(),
+                    data.contact.is_some(),
+                )?)
             }
-            None => left_out.push("logging"),
-        }
-        let state = State {
-            q: DVector::from_column_slice(q0),
-            qd: DVector::zeros(n),
-            qdd: DVector::zeros(n),
-            t: 0.0,
+            None => None,
         };
-        let model = Model {
-            robot: robot.clone(),
-            dt,
-        };
-        let data = Data {
-            state,
-            command: Command::Idle,
-            tau: DVector::zeros(n),
-            step: 0,
-            frames,
-            q_measured,
-            contact,
-            contact_steps: 0,
-        };
-        Ok(Pipeline {
-            model,
-            data,
-            stages,
-            left_out,
-            log_stage,
-            logged,
-        })
+        Ok(Pipeline { model, data, log })
     }
 
     /// What the simulation is of (fixed).
@@ -242,20 +137,68 @@ impl Pipeline {
         &self.model
     }
 
-    /// Where it stands: state, command, the declared stages' outputs. Changed only by
-    /// [`Pipeline::step`], [`Pipeline::set_command`] and [`Pipeline::teleport`] (checked).
+    /// Where it stands: state, command, the declared stages' outputs and memories. Changed
+    /// only by [`Pipeline::step`], [`Pipeline::set_command`], [`Pipeline::teleport`] and
+    /// [`Pipeline::rewind`] (checked). Clone it to save the step.
     pub fn data(&self) -> &Data {
         &self.data
     }
 
-    /// One step: every declared stage in order, then the clock. Time advances by `model.dt`.
-    pub fn step(&mut self) -> Result<(), StepError> {
-        for stage in &mut self.stages {
-            stage.run(&self.model, &mut self.data)?;
+    /// Puts a saved [`Data`] back (from [`Pipeline::data`] of this pipeline): the next step
+    /// goes on from it exactly as it did the first time. Refused when `saved` does not fit the
+    /// pipeline (another robot's size, another set of declared stages). The log is output:
+    /// rewound steps are logged again.
+    pub fn rewind(&mut self, saved: Data) -> Result<(), StepError> {
+        let fits = |a: bool, b: bool| a == b;
+        let n = self.model.robot.dof();
+        let ok = saved.state.q.len() == n
+            && saved.state.qd.len() == n
+            && saved.tau.len() == n
+            && fits(saved.frames.is_some(), self.data.frames.is_some())
+            && fits(saved.q_measured.is_some(), self.data.q_measured.is_some())
+            && fits(saved.contact.is_some(), self.data.contact.is_some())
+            && fits(saved.q_safe.is_some(), self.data.q_safe.is_some())
+            && fits(saved.integrator.is_some(), self.data.integrator.is_some());
+        if !ok {
+            return Err(StepError::Command(
+                "rewind to data that does not fit this pipeline (other joints or stages)".into(),
+            ));
         }
-        self.data.step += 1;
+        self.data = saved;
+        Ok(())
+    }
+
+    /// One step (MuJoCo's `mj_step`): every declared stage in the fixed order, then the clock.
+    /// Time advances by `model.dt`.
+    pub fn step(&mut self) -> Result<(), StepError> {
+        let (m, d) = (&self.model, &mut self.data);
+        // the motion source: depends on q, q̇ and the command
+        if let Some(dy) = &m.dynamics {
+            stages::dynamics::run(m, dy, d)?;
+        } else if let Some(max_speed) = m.motion {
+            stages::motion::run(m, max_speed, d);
+        }
+        // depends on q, q̇
+        if let Some(limits) = &m.limits {
+            stages::limits::run(limits, d);
+        }
+        // depend only on q
+        if d.frames.is_some() {
+            stages::frames::run(m, d);
+        }
+        if let Some(c) = &m.collision {
+            stages::collision::run(m, c, d)?;
+        }
+        if let Some(e) = &m.encoder {
+            stages::encoder::run(e, d);
+        }
+        // depends on all of the above
+        if let Some((log, _)) = &mut self.log {
+            log.run(m, d)?;
+        }
+        d.step += 1;
         // the clock is kept as step · dt so that it does not drift by summation
-        self.data.state.t = self.data.step as f64 * self.model.dt;
+        d.state.t = d.step as f64 * m.dt;
         Ok(())
     }
 
@@ -289,7 +232,7 @@ impl Pipeline {
             }
             Command::Torque(t) => {
                 check(t, "torque")?;
-                if !self.stages.iter().any(|s| s.name() == "dynamics") {
+                if self.model.dynamics.is_none() {
                     return Err(StepError::Command(
                         "torque commands need the dynamics effect".into(),
                     ));
@@ -317,8 +260,8 @@ impl Pipeline {
         self.data.state.q.copy_from(&q);
         self.data.state.qd.fill(0.0);
         self.data.state.qdd.fill(0.0);
-        for s in &mut self.stages {
-            s.teleported(&q);
+        if let Some(q_safe) = self.data.q_safe.as_mut() {
+            q_safe.copy_from(&q);
         }
         Ok(())
     }
@@ -326,31 +269,101 @@ impl Pipeline {
     /// The collision stage's obstacles (`None` when collision is not declared), to move an
     /// obstacle in place (`Scene::set_pose`) instead of rebuilding the pipeline.
     pub fn obstacles_mut(&mut self) -> Option<&mut Scene> {
-        self.stages.iter_mut().find_map(|s| s.obstacles_mut())
+        self.model.collision.as_mut().map(|c| &mut c.scene)
     }
 
     /// Writes out the rows the logging stage buffers, so a reader of its CSV file sees every
     /// step taken so far (the file is also flushed when the pipeline is dropped).
     pub fn flush_log(&mut self) -> Result<(), StepError> {
-        self.stages.iter_mut().try_for_each(|s| s.flush())
+        match &mut self.log {
+            Some((log, _)) => log.flush(),
+            None => Ok(()),
+        }
+    }
+
+    /// The declared stages in the order [`Pipeline::step`] runs them.
+    fn described(&self) -> Vec<Described> {
+        use stages::*;
+        let m = &self.model;
+        let one = |name, settings, depends_on| Described {
+            name,
+            settings,
+            depends_on,
+        };
+        let mut out = Vec::new();
+        if let Some(dy) = &m.dynamics {
+            out.push(one(
+                dynamics::NAME,
+                dynamics::describe(dy),
+                dynamics::DEPENDS_ON,
+            ));
+        } else if let Some(max_speed) = m.motion {
+            out.push(one(
+                motion::NAME,
+                motion::describe(max_speed),
+                motion::DEPENDS_ON,
+            ));
+        }
+        if m.limits.is_some() {
+            out.push(one(limits::NAME, limits::describe(), limits::DEPENDS_ON));
+        }
+        if self.data.frames.is_some() {
+            out.push(one(frames::NAME, frames::describe(), frames::DEPENDS_ON));
+        }
+        if let Some(c) = &m.collision {
+            out.push(one(
+                collision::NAME,
+                collision::describe(c),
+                collision::DEPENDS_ON,
+            ));
+        }
+        if let Some(e) = &m.encoder {
+            out.push(one(
+                encoder::NAME,
+                encoder::describe(e),
+                encoder::DEPENDS_ON,
+            ));
+        }
+        if let Some((log, _)) = &self.log {
+            out.push(one(logging::NAME, log.describe(), logging::DEPENDS_ON));
+        }
+        out
+    }
+
+    /// The effects the scene did not declare (or declared off), for the description.
+    fn left_out(&self) -> Vec<&'static str> {
+        let m = &self.model;
+        let mut out = Vec::new();
+        for (name, declared) in [
+            ("dynamics", m.dynamics.is_some()),
+            ("joint_limits", m.limits.is_some()),
+            ("kinematics", self.data.frames.is_some()),
+            ("collision", m.collision.is_some()),
+            ("encoder", m.encoder.is_some()),
+            ("logging", self.log.is_some()),
+        ] {
+            if !declared {
+                out.push(name);
+            }
+        }
+        out
     }
 
     /// The names of the stages, in order.
     pub fn stage_names(&self) -> Vec<&'static str> {
-        self.stages.iter().map(|s| s.name()).collect()
+        self.described().iter().map(|s| s.name).collect()
     }
 
     /// The rows logged in memory so far (`t_s`, then the `signals` columns as declared; empty
     /// when logging is not declared or writes to a file).
     pub fn log(&self) -> Vec<Vec<f64>> {
-        let _ = self.log_stage;
-        self.logged.as_ref().map(|h| h.rows()).unwrap_or_default()
+        self.log.as_ref().map(|(_, h)| h.rows()).unwrap_or_default()
     }
 
     /// The CSV header of the log, if logging is declared: `t_s`, then one column per signal and
     /// joint named with its unit (`q1_rad`, `q3_m`, `qd1_rad_s`, `tau1_Nm`, `contact`).
     pub fn log_header(&self) -> Option<Vec<String>> {
-        self.logged.as_ref().map(|h| h.header())
+        self.log.as_ref().map(|(_, h)| h.header())
     }
 }
 
@@ -367,24 +380,26 @@ impl fmt::Display for Pipeline {
             self.model.robot.dof(),
             self.model.dt
         )?;
-        if self.stages.is_empty() {
+        let stages = self.described();
+        if stages.is_empty() {
             writeln!(f, "  (no stages: the robot stands still)")?;
         }
-        for (i, s) in self.stages.iter().enumerate() {
+        for (i, s) in stages.iter().enumerate() {
             writeln!(
                 f,
                 "  {}. {:<13} {:<58} depends on {}",
                 i + 1,
-                s.name(),
-                s.describe(),
-                s.depends_on()
+                s.name,
+                s.settings,
+                s.depends_on
             )?;
         }
-        if !self.left_out.is_empty() {
+        let left_out = self.left_out();
+        if !left_out.is_empty() {
             writeln!(
                 f,
                 "  not declared (not in the pipeline, no cost): {}",
-                self.left_out.join(", ")
+                left_out.join(", ")
             )?;
         }
         Ok(())

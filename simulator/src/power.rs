@@ -19,6 +19,7 @@
 
 use nalgebra::{Matrix3, Vector3};
 use robosim_kinematics::{Robot, fk};
+use robosim_model::parts::BoxPart;
 use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
 /// Solar flux at 1 AU, W/m² (the total solar irradiance, SORCE/TIM 2008: 1360.8 ± 0.5).
@@ -86,24 +87,19 @@ impl SolarArray {
     }
 }
 
-/// The solar array of a library robot model: its box parts named `panel…`/`blanket…`
+/// The solar array of a robot's box parts per frame (`frames[j]`: the boxes of link j, 0 =
+/// base; [`robosim_model::parts::RobotParts::frames`]): its boxes named `panel…`/`blanket…`
 /// ([`is_panel`]); `None` when it has none.
-pub fn solar_array(model: &robosim_library::RobotModel) -> Option<SolarArray> {
-    let panels = model
-        .frames
+pub fn solar_array(frames: &[Vec<BoxPart>]) -> Option<SolarArray> {
+    let panels = frames
         .iter()
         .enumerate()
         .flat_map(|(link, parts)| parts.iter().map(move |s| (link, s)))
-        .filter_map(|(link, s)| {
-            let leaf = s.name.rsplit('/').next().unwrap_or(&s.name);
-            match s.primitive {
-                robosim_library::Primitive::Box { size } if is_panel(leaf) => Some(PanelBox {
-                    link,
-                    size,
-                    rotation: s.transform.fixed_view::<3, 3>(0, 0).into_owned(),
-                }),
-                _ => None,
-            }
+        .filter(|(_, s)| is_panel(s.leaf()))
+        .map(|(link, s)| PanelBox {
+            link,
+            size: s.size,
+            rotation: s.transform.fixed_view::<3, 3>(0, 0).into_owned(),
         });
     SolarArray::from_panels(panels)
 }

@@ -3,7 +3,7 @@
 //! beside the spare, and bolts the spare in its place. The plan is the same code for `robosim
 //! study station` and the simulator daemon's swap stage; what each does with it:
 //!
-//! * [`Swap::from_scene`] reads the scene: the servicer (a placed robot), the failed ORU (a box
+//! * [`Swap::from_scene`] reads the scene (its box parts, [`SceneParts`]): the servicer (a placed robot), the failed ORU (a box
 //!   part named `oru…` on a link of another robot, the last found), the spare (a placed solid
 //!   with such a box), the service angle of the carrying robot (its ORU's grapple facing up,
 //!   [`crate::power::track`]) and the ORUs as scene objects;
@@ -21,7 +21,8 @@ use nalgebra::{Isometry3, Matrix4, Point3, Vector3};
 use robosim_collision::robot::isometry_from_matrix;
 use robosim_kinematics::ik::{self, IkOptions, Method};
 use robosim_kinematics::{Robot, fk};
-use robosim_library::{OruSwapEffect, Primitive, SceneModel};
+use robosim_model::OruSwapEffect;
+use robosim_model::parts::{BoxPart, SceneParts};
 
 /// Why a swap cannot be planned: what and where.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -43,15 +44,12 @@ pub const STOW_OFFSET: [f64; 3] = [0.0, 1.2, 0.0];
 
 /// The ORU's box among `parts` (a box whose leaf name starts with `oru`: `oru_box` in the
 /// solid, `oru0` where the solar structure places it), with its height (box z).
-fn oru_box(parts: &[robosim_library::PlacedSolid]) -> Option<(&robosim_library::PlacedSolid, f64)> {
-    parts.iter().find_map(|s| {
-        let leaf = s.name.rsplit('/').next().unwrap_or(&s.name);
-        match s.primitive {
-            // a solid placed as a part takes the placing part's name (`oru0` on the mast)
-            Primitive::Box { size } if leaf.starts_with("oru") => Some((s, size[2])),
-            _ => None,
-        }
-    })
+fn oru_box(parts: &[BoxPart]) -> Option<(&BoxPart, f64)> {
+    // a solid placed as a part takes the placing part's name (`oru0` on the mast)
+    parts
+        .iter()
+        .find(|s| s.leaf().starts_with("oru"))
+        .map(|s| (s, s.size[2]))
 }
 
 /// The swap read from a scene ([`Swap::from_scene`]).
@@ -85,7 +83,7 @@ pub struct Swap {
 
 impl Swap {
     /// The swap `fx` declares in `scene`; an error names what the scene lacks.
-    pub fn from_scene(scene: &SceneModel, fx: &OruSwapEffect) -> Result<Swap> {
+    pub fn from_scene(scene: &SceneParts, fx: &OruSwapEffect) -> Result<Swap> {
         let lift = |h: f64| Isometry3::translation(0.0, 0.0, h / 2.0);
         let Some(si) = scene.robots.iter().position(|r| r.name == fx.servicer) else {
             bail!(
@@ -100,7 +98,7 @@ impl Swap {
             if ri == si {
                 continue;
             }
-            for (link, parts) in placed.model.frames.iter().enumerate() {
+            for (link, parts) in placed.frames.iter().enumerate() {
                 if let Some((solid, h)) = oru_box(parts) {
                     let mount = isometry_from_matrix(&solid.transform) * lift(h);
                     found = Some((ri, link, mount, solid.name.clone(), h));
@@ -114,10 +112,7 @@ impl Swap {
             );
         };
         let placed = &scene.robots[ai];
-        let Some(link_name) = link
-            .checked_sub(1)
-            .and_then(|l| placed.model.link_names.get(l))
-        else {
+        let Some(link_name) = link.checked_sub(1).and_then(|l| placed.link_names.get(l)) else {
             bail!(
                 "{}: its ORU {name} rides on the base, not on a link",
                 placed.name
@@ -127,7 +122,7 @@ impl Swap {
         let Some(item) = scene.solids.iter().find(|x| x.name == fx.spare) else {
             bail!("{} places no {}", scene.name, fx.spare);
         };
-        let Some((solid, h)) = oru_box(&item.solid.parts) else {
+        let Some((solid, h)) = oru_box(&item.parts) else {
             bail!("{}: {} has no box part named oru…", scene.name, fx.spare);
         };
         let spare = isometry_from_matrix(&(item.placement * solid.transform)) * lift(h);
@@ -149,7 +144,7 @@ impl Swap {
             normal: mount * Vector3::z(),
             link,
         };
-        let robot = &placed.model.robot;
+        let robot = &placed.robot;
         let (service_q, c) = power::track(robot, &up, &placed.q, &Vector3::z(), 1e-9);
         if c < 1.0 - 1e-9 {
             bail!(
@@ -160,7 +155,7 @@ impl Swap {
         }
         Ok(Swap {
             servicer: si,
-            servicer_robot: scene.robots[si].model.robot.clone(),
+            servicer_robot: scene.robots[si].robot.clone(),
             servicer_q0: scene.robots[si].q.clone(),
             array: ai,
             array_robot: robot.clone(),

@@ -6,8 +6,8 @@ use robosim_collision::{Mode, Solid};
 use robosim_dynamics::fixture_robot;
 use robosim_kinematics::{Robot, fk};
 use robosim_simulator::{
-    CollisionEffect, Command, DynamicsEffect, EncoderEffect, LoggingEffect, OnContact, Pipeline,
-    SceneEffects, SceneGeometry, Signal,
+    CollisionEffect, Command, DynamicsEffect, EncoderEffect, Integrator, LoggingEffect, OnContact,
+    Pipeline, SceneEffects, SceneGeometry, Signal,
 };
 use std::sync::Arc;
 
@@ -171,7 +171,7 @@ fn a_target_outside_the_joint_limits_is_refused_and_changes_nothing() {
 fn dynamics_controller_holds_and_moves_the_arm_and_torque_needs_dynamics() {
     let effects = SceneEffects {
         dynamics: Some(DynamicsEffect {
-            integrator: "rk4".into(),
+            integrator: Integrator::Rk4,
             kp: 400.0,
             kd: 40.0,
             ..DynamicsEffect::default()
@@ -317,6 +317,7 @@ fn encoder_quantises_and_logging_records() {
                 signals: vec![Signal::T, Signal::Q, Signal::QMeasured],
                 every: 10,
                 path: path.clone(),
+                unsupported: Vec::new(),
             }),
             ..SceneEffects::default()
         };
@@ -363,6 +364,7 @@ fn log_header_has_time_first_and_units_per_joint_type() {
             signals: vec![Signal::Q, Signal::Qd, Signal::Qdd, Signal::Tau],
             every: 2,
             path: None,
+            unsupported: Vec::new(),
         }),
         ..SceneEffects::default()
     };
@@ -407,22 +409,20 @@ fn effects_parse_from_json_with_errors_that_say_where() {
         err.to_string().contains("line 2") && err.to_string().contains("colision"),
         "{err}"
     );
-    let bad = SceneEffects {
-        dynamics: Some(DynamicsEffect {
-            integrator: "leapfrog".into(),
-            ..DynamicsEffect::default()
-        }),
-        ..SceneEffects::default()
-    };
-    let err = Pipeline::build(&puma(), &Q0, &bad, SceneGeometry::default())
-        .err()
-        .expect("refused");
-    assert_eq!(err.field, "dynamics.integrator");
+    // the integrator is typed where the declaration is read: an unknown name never reaches
+    // the pipeline
+    let err = SceneEffects::from_json("{\"dynamics\": {\"integrator\": \"leapfrog\"}}")
+        .expect_err("refused");
+    assert!(
+        err.to_string().contains("unknown integrator \"leapfrog\""),
+        "{err}"
+    );
     let bad = SceneEffects {
         logging: Some(LoggingEffect {
             signals: vec![Signal::QMeasured],
             every: 1,
             path: None,
+            unsupported: Vec::new(),
         }),
         ..SceneEffects::default()
     };
@@ -440,7 +440,7 @@ fn pipeline_runs_are_bit_identical() {
     let effects = SceneEffects {
         joint_limits: true,
         dynamics: Some(DynamicsEffect {
-            integrator: "rk4".into(),
+            integrator: Integrator::Rk4,
             ..DynamicsEffect::default()
         }),
         ..SceneEffects::default()
@@ -473,7 +473,7 @@ fn every_integrator_runs_in_the_pipeline_and_agrees_with_simulate() {
         ("dopri5", Some(1e-9)),
     ] {
         let d = DynamicsEffect {
-            integrator: integrator.into(),
+            integrator: Integrator::from_name(integrator).expect("name"),
             dt: 1e-3,
             rtol,
             atol: rtol,
@@ -530,4 +530,80 @@ fn every_integrator_runs_in_the_pipeline_and_agrees_with_simulate() {
         "measured: {test}: max |t − 0.2| = {t_worst:.3e} s (bound {:e})",
         1e-12
     );
+}
+
+/// Data is all the state: saved mid-run (a clone), run on, put back — the steps after it come
+/// out bit for bit the same, for every stage that remembers something between steps (the
+/// adaptive integrator's step proposal and counters, the collision stage's last safe q).
+#[test]
+fn a_saved_data_rewinds_the_run_bit_for_bit() {
+    let effects = SceneEffects {
+        kinematics: true,
+        joint_limits: true,
+        dynamics: Some(DynamicsEffect {
+            integrator: Integrator::Dopri5,
+            rtol: Some(1e-8),
+            atol: Some(1e-8),
+            ..DynamicsEffect::default()
+        }),
+        collision: Some(CollisionEffect {
+            mode: Mode::BBox,
+            self_collision: false,
+            on_contact: OnContact::Stop,
+            ..CollisionEffect::default()
+        }),
+        encoder: Some(EncoderEffect { bits: 12 }),
+        ..SceneEffects::default()
+    };
+    let geometry = SceneGeometry {
+        obstacles: wall_scene(),
+        link_solids: None,
+    };
+    // the arm points away from the wall and swings into it (as in the collision test)
+    let q0 = [std::f64::consts::PI, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let mut p = Pipeline::build(&puma(), &q0, &effects, geometry).expect("builds");
+    p.set_command(target(&[0.0; 6])).expect("target");
+    for _ in 0..150 {
+        p.step().expect("step");
+    }
+    let saved = p.data().clone();
+    assert!(saved.integrator.is_some() && saved.q_safe.is_some());
+    let mut first = Vec::new();
+    for _ in 0..600 {
+        p.step().expect("step");
+        first.push(p.data().clone());
+    }
+    let last = &first[first.len() - 1];
+    assert_ne!(*last, saved, "the run moved on");
+    assert!(
+        last.contact_steps > saved.contact_steps,
+        "the arm reached the wall after the save ({} contact steps before, {} after)",
+        saved.contact_steps,
+        last.contact_steps
+    );
+    assert!(
+        last.integrator.as_ref().map(|i| i.stepper.stats)
+            != saved.integrator.as_ref().map(|i| i.stepper.stats),
+        "the integrator's counters are part of the state"
+    );
+    p.rewind(saved.clone()).expect("fits");
+    assert_eq!(*p.data(), saved);
+    for (k, want) in first.iter().enumerate() {
+        p.step().expect("step");
+        let got = p.data();
+        assert_eq!(got, want, "step {k} after the rewind");
+        let bits = |v: &DVector<f64>| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&got.state.q), bits(&want.state.q), "step {k}: q bits");
+        assert_eq!(
+            bits(&got.state.qd),
+            bits(&want.state.qd),
+            "step {k}: qd bits"
+        );
+    }
+    // a Data from another pipeline (other stages) does not fit
+    let other = build(&SceneEffects {
+        kinematics: true,
+        ..SceneEffects::default()
+    });
+    assert!(p.rewind(other.data().clone()).is_err());
 }

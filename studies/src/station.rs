@@ -198,7 +198,7 @@ fn oru_setup(
     let Some(fx) = &scene.effects.oru_swap else {
         bail!("{SCENE} declares no oru_swap effect");
     };
-    let swap = Swap::from_scene(scene, fx).map_err(|e| StudyError(e.0))?;
+    let swap = Swap::from_scene(&scene.parts(), fx).map_err(|e| StudyError(e.0))?;
     let Some(ai) = arrays.iter().position(|a| a.body == swap.array) else {
         bail!(
             "{}: the robot carrying the failed ORU is not a solar array",
@@ -257,7 +257,7 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
     let bodies: Vec<Body> = scene.robots.iter().map(Body::of).collect::<Result<_>>()?;
     let mut arrays = Vec::new();
     for (i, (b, placed)) in bodies.iter().zip(&scene.robots).enumerate() {
-        if let Some(cells) = power::solar_array(&placed.model) {
+        if let Some(cells) = power::solar_array(&placed.model.box_parts()) {
             if cells.link == 0 {
                 bail!("array {}: its panels are fixed to the base", b.name);
             }

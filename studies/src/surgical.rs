@@ -430,7 +430,7 @@ pub fn reach(p: &ReachParams) -> Result<Reach> {
         Some(b) => b,
         None => scene
             .effects
-            .encoder_bits
+            .encoder.map(|e| e.bits)
             .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?,
     };
     let settings = settings_of(&scene);
@@ -447,7 +447,7 @@ fn settings_of(scene: &SceneModel) -> CollisionSettings {
         enabled: true,
         self_collision: scene.effects.collision.is_some_and(|c| c.self_collision),
         mode: match scene.effects.collision.map(|c| c.mode) {
-            Some(CollisionMode::Bbox) => Mode::BBox,
+            Some(CollisionMode::BBox) => Mode::BBox,
             Some(CollisionMode::Exact) => Mode::Exact,
             _ => Mode::Polygon,
         },
@@ -615,7 +615,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         out,
         "\n== 4. collision ({}, the scene's mode; self {}): each solution's link solids against the head",
         match scene.effects.collision.map(|c| c.mode) {
-            Some(CollisionMode::Bbox) => "bbox",
+            Some(CollisionMode::BBox) => "bbox",
             Some(CollisionMode::Exact) => "exact",
             _ => "polygon",
         },
@@ -685,7 +685,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     // The seed's whole study (see `reach_sweep`).
     let bits = scene
         .effects
-        .encoder_bits
+        .encoder.map(|e| e.bits)
         .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?;
     let t0 = Instant::now();
     let reach = reach_sweep(&robot, &links, &obstacles, &settings, &arm.q, bits, &frame)?;

@@ -250,6 +250,13 @@ impl Stepper {
         &self.data
     }
 
+    /// The step the adaptive integrator proposes next (s; 0 before its first step): the one
+    /// thing a stepper carries from a step to the next besides [`Stepper::stats`] (the rest of
+    /// it is workspace, overwritten before it is read).
+    pub fn step_proposal(&self) -> f64 {
+        self.h
+    }
+
     /// Evaluates f at (yq, yv) into stage `s`.
     /// Stage `s`'s derivative at (`yq`, `yv`). A non-finite stage state, or a non-finite q̈ at a
     /// later stage, is the step diverging ([`DynamicsError::Diverged`]); a non-finite q̈ at

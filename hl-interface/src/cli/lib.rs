@@ -251,16 +251,17 @@ fn describe_effects(fx: &robosim_library::Effects) -> String {
         ));
     }
     if let Some(d) = fx.dynamics {
+        let g = d.gravity.unwrap_or_default();
         parts.push(format!(
             "dynamics {:?}, step {} s, gravity [{}, {}, {}] m/s^2",
-            d.integrator, d.step_s, d.gravity.x, d.gravity.y, d.gravity.z
+            d.integrator, d.dt, g[0], g[1], g[2]
         ));
     }
-    if let Some(b) = fx.encoder_bits {
+    if let Some(b) = fx.encoder.map(|e| e.bits) {
         parts.push(format!("{b}-bit encoders"));
     }
-    if !fx.logged.is_empty() {
-        parts.push(format!("logging {}", fx.logged.join(", ")));
+    if let Some(l) = &fx.logging {
+        parts.push(format!("logging {}", l.names().join(", ")));
     }
     if let Some(a) = &fx.automation {
         parts.push(format!(

@@ -21,6 +21,7 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 mod builtins;
+mod effects;
 mod expr;
 mod robots;
 mod scenes;

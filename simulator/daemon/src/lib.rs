@@ -70,12 +70,11 @@ use robosim_instance_space::layout::PoseRec;
 use robosim_instance_space::state::{CommandReceiver, JointStateRec, StatePublisher};
 use robosim_instance_space::{FollowTrouble, Kind, Reader, Session, Snapshot};
 use robosim_library::Library;
+use robosim_model::Options as SceneEffects;
+use robosim_model::parts::SceneParts;
 use robosim_record::{Level, time_ns};
 use robosim_scene::{CompiledScene, Origin, Sync, link_poses};
-use robosim_simulator::effects::{
-    CollisionEffect, DynamicsEffect, EncoderEffect, LoggingEffect, SceneEffects, Signal,
-};
-use robosim_simulator::pipeline::{Command, Pipeline, SceneGeometry};
+use robosim_simulator::{Command, Pipeline, SceneGeometry};
 use serde_json::Value;
 use std::collections::HashSet;
 use std::path::PathBuf;
@@ -194,73 +193,28 @@ pub struct Counters {
     pub library_parses: u64,
 }
 
-/// The library's effect declaration as the simulator's (type to type; what the library
-/// language does not say takes the simulator's defaults). Logged signals the simulator does
-/// not know are left out.
-pub fn declared_effects(e: &robosim_library::Effects, log_path: &std::path::Path) -> SceneEffects {
-    let collision = e.collision.as_ref().map(|c| CollisionEffect {
-        mode: match c.mode {
-            robosim_library::CollisionMode::Bbox => robosim_collision::Mode::BBox,
-            robosim_library::CollisionMode::Polygon => robosim_collision::Mode::Polygon,
-            robosim_library::CollisionMode::Exact => robosim_collision::Mode::Exact,
-        },
-        self_collision: c.self_collision,
-        continuous: c.continuous,
-        ..CollisionEffect::default()
-    });
-    let dynamics = e.dynamics.as_ref().map(|d| DynamicsEffect {
-        integrator: match d.integrator {
-            robosim_library::Integrator::Euler => "euler",
-            robosim_library::Integrator::SemiImplicitEuler => "semi_implicit_euler",
-            robosim_library::Integrator::Rk4 => "rk4",
-            robosim_library::Integrator::Dopri5 => "dopri5",
-        }
-        .to_owned(),
-        dt: d.step_s,
-        gravity: Some([d.gravity.x, d.gravity.y, d.gravity.z]),
-        ..DynamicsEffect::default()
-    });
-    let signals: Vec<Signal> = e
-        .logged
-        .iter()
-        .filter_map(|s| match s.as_str() {
-            "contacts" | "contact" => Some(Signal::Contact),
-            "t" => Some(Signal::T),
-            "q" => Some(Signal::Q),
-            "qd" => Some(Signal::Qd),
-            "qdd" => Some(Signal::Qdd),
-            "tau" => Some(Signal::Tau),
-            "q_measured" => Some(Signal::QMeasured),
-            _ => None,
-        })
-        .collect();
-    SceneEffects {
-        dt: e.kinematic_step_s.unwrap_or(SceneEffects::default().dt),
-        kinematics: e.kinematics,
-        joint_limits: e.joint_limits,
-        collision,
-        dynamics,
-        encoder: e.encoder_bits.map(|bits| EncoderEffect { bits }),
-        logging: (!signals.is_empty()).then(|| LoggingEffect {
-            signals,
+/// A scene's declared effects as the daemon runs them: the same [`SceneEffects`]
+/// (`robosim_model::Options`, which the library reads typed), with a declared log written to
+/// `log_path` (the declaration names no file) and left out when it names no signal the
+/// simulator logs ([`not_simulated`] says which it named).
+pub fn declared_effects(e: &SceneEffects, log_path: &std::path::Path) -> SceneEffects {
+    let mut o = e.clone();
+    o.logging = o
+        .logging
+        .filter(|l| !l.signals.is_empty())
+        .map(|l| robosim_model::LoggingEffect {
             path: Some(log_path.to_owned()),
-            ..LoggingEffect::default()
-        }),
-        ..SceneEffects::default()
-    }
+            ..l
+        });
+    o
 }
 
-/// What a library declaration asks for that the daemon does not simulate (said on stderr when
-/// the pipelines are built): logged signals the simulator does not know.
-pub fn not_simulated(e: &robosim_library::Effects) -> Vec<String> {
-    e.logged
+/// What a declaration asks for that the daemon does not simulate (said on stderr when the
+/// pipelines are built): logged signals the simulator does not know.
+pub fn not_simulated(e: &SceneEffects) -> Vec<String> {
+    e.logging
         .iter()
-        .filter(|s| {
-            !matches!(
-                s.as_str(),
-                "contacts" | "contact" | "t" | "q" | "qd" | "qdd" | "tau" | "q_measured"
-            )
-        })
+        .flat_map(|l| &l.unsupported)
         .map(|s| {
             format!(
                 "logged signal {s:?} (the simulator logs t, q, qd, qdd, tau, q_measured, contact)"
@@ -295,7 +249,7 @@ impl LibraryCache {
 
 /// The library declaration and the evaluated scene, when the effects come from the library
 /// (the space stage reads them; `--effects` JSON has no orbit, so it builds none).
-type Declared = Option<(robosim_library::Effects, robosim_library::SceneModel)>;
+type Declared = Option<(SceneEffects, SceneParts)>;
 
 /// The scene's declared effects: `--effects`, else its Library Space declaration.
 fn scene_effects(
@@ -330,7 +284,7 @@ fn scene_effects(
             return Ok((
                 declared_effects(&sc.effects, &path),
                 format!("declared by scene {}", origin.declaration),
-                Some((sc.effects.clone(), sc)),
+                Some((sc.effects.clone(), sc.parts())),
             ));
         }
     }

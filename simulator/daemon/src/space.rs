@@ -19,9 +19,10 @@
 
 use crate::Sim;
 use nalgebra::Vector3;
-use robosim_library::SceneModel;
+use robosim_model::Options;
+use robosim_model::parts::SceneParts;
+use robosim_simulator::Command;
 use robosim_simulator::orbit::Orbit;
-use robosim_simulator::pipeline::Command;
 use robosim_simulator::power::{self, Battery, SolarArray};
 use serde_json::{Value, json};
 use std::f64::consts::TAU;
@@ -61,8 +62,8 @@ impl SpaceStage {
     /// The stage the scene's declaration asks for, or `None` (no `orbit` declared). `notes`
     /// receives what is said on stderr: declared effects that find nothing to act on.
     pub(crate) fn build(
-        effects: &robosim_library::Effects,
-        scene: &SceneModel,
+        effects: &Options,
+        scene: &SceneParts,
         sims: &mut [Sim],
         notes: &mut Vec<String>,
     ) -> Result<Option<SpaceStage>, String> {
@@ -76,7 +77,7 @@ impl SpaceStage {
         let orbit = Orbit::new(o.altitude_m, o.beta_rad).map_err(|e| e.to_string())?;
         let mut arrays = Vec::new();
         for placed in &scene.robots {
-            let Some(cells) = power::solar_array(&placed.model) else {
+            let Some(cells) = power::solar_array(&placed.frames) else {
                 continue;
             };
             match sims.iter().position(|s| s.name == placed.name) {

@@ -53,7 +53,7 @@
 
 use crate::{Mode, Sim};
 use robosim_kinematics::JointType;
-use robosim_simulator::pipeline::Command;
+use robosim_simulator::Command;
 use serde_json::{Value, json};
 
 /// The daemon's loop state that `get` reports.

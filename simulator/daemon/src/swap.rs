@@ -28,8 +28,9 @@ use nalgebra::Isometry3;
 use robosim_collision::robot::isometry_from_matrix;
 use robosim_instance_space::Snapshot;
 use robosim_instance_space::layout::PoseRec;
-use robosim_library::SceneModel;
-use robosim_simulator::pipeline::Command;
+use robosim_model::Options;
+use robosim_model::parts::SceneParts;
+use robosim_simulator::Command;
 use robosim_simulator::swap::{Held, OruState, Plan, Swap, servicer_at};
 use serde_json::{Value, json};
 
@@ -87,8 +88,8 @@ fn iso(p: &[f64; 12]) -> Isometry3<f64> {
 impl SwapStage {
     /// The stage the scene's declaration asks for, or `None` (no `oru_swap` declared).
     pub(crate) fn build(
-        effects: &robosim_library::Effects,
-        scene: &SceneModel,
+        effects: &Options,
+        scene: &SceneParts,
         sims: &mut [Sim],
         snap: &Snapshot,
     ) -> Result<Option<SwapStage>, String> {

@@ -2,132 +2,123 @@
 //! obstacles and, if declared, itself — in the declared mode (bbox, the seed's polygon algorithm,
 //! exact); with `continuous`, the whole motion of the step is swept instead (conservative
 //! advancement with exact distances, `robosim_collision::ccd`). A doubtful answer (`Unknown`)
-//! counts as a contact. On contact the robot is put back at its last collision-free q, at rest
-//! (`on_contact: stop`), or the contact is only recorded (`report`). Depends only on q.
+//! counts as a contact. On contact the robot is put back at its last collision-free q
+//! (`Data::q_safe`), at rest (`on_contact: stop`), or the contact is only recorded (`report`).
+//! Depends only on q.
 
-use crate::effects::{CollisionEffect, EffectsError, OnContact};
-use crate::pipeline::{Data, Model, SceneGeometry, Stage, StepError};
-use nalgebra::DVector;
+use crate::model::{Model, SceneGeometry, StepError};
 use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot};
 use robosim_collision::robot::{CheckResult, CollisionSettings, LinkSolids, Scene, check_robot};
 use robosim_kinematics::Robot;
+use robosim_model::{CollisionEffect, Data, OnContact, OptionsError};
 
-pub struct CollisionStage {
+pub const NAME: &str = "collision";
+pub const DEPENDS_ON: &str = "q";
+
+/// The collision stage's compiled part: the robot's link solids, the obstacles, the settings.
+#[derive(Debug, Clone)]
+pub struct CollisionModel {
     links: LinkSolids,
-    scene: Scene,
+    pub(crate) scene: Scene,
     settings: CollisionSettings,
     on_contact: OnContact,
-    q_safe: DVector<f64>,
     sweep: SweepOptions,
 }
 
-impl CollisionStage {
-    pub fn new(
-        robot: &Robot,
-        q0: &[f64],
-        c: &CollisionEffect,
-        geometry: SceneGeometry,
-    ) -> Result<Self, EffectsError> {
-        let links = match geometry.link_solids {
-            Some(l) => l,
-            None => LinkSolids::from_dh(robot, c.link_radius).map_err(|e| EffectsError {
-                field: "collision.link_radius".into(),
-                reason: e.to_string(),
-            })?,
-        };
-        if links.links.len() != robot.dof() + 1 {
-            return Err(EffectsError {
-                field: "collision".into(),
-                reason: format!(
-                    "{} link solids for a robot with {} joints (base first: expected {})",
-                    links.links.len(),
-                    robot.dof(),
-                    robot.dof() + 1
-                ),
-            });
-        }
-        let settings = CollisionSettings {
-            enabled: true,
-            self_collision: c.self_collision,
-            mode: c.mode,
-            all_contacts: false,
-            continuous: c.continuous,
-        };
-        Ok(CollisionStage {
-            links,
-            scene: geometry.obstacles,
-            settings,
-            on_contact: c.on_contact,
-            q_safe: DVector::from_column_slice(q0),
-            sweep: SweepOptions::default(),
-        })
+pub fn build(
+    robot: &Robot,
+    c: &CollisionEffect,
+    geometry: SceneGeometry,
+) -> Result<CollisionModel, OptionsError> {
+    let links = match geometry.link_solids {
+        Some(l) => l,
+        None => LinkSolids::from_dh(robot, c.link_radius).map_err(|e| OptionsError {
+            field: "collision.link_radius".into(),
+            reason: e.to_string(),
+        })?,
+    };
+    if links.links.len() != robot.dof() + 1 {
+        return Err(OptionsError {
+            field: "collision".into(),
+            reason: format!(
+                "{} link solids for a robot with {} joints (base first: expected {})",
+                links.links.len(),
+                robot.dof(),
+                robot.dof() + 1
+            ),
+        });
     }
+    let settings = CollisionSettings {
+        enabled: true,
+        self_collision: c.self_collision,
+        mode: c.mode,
+        all_contacts: false,
+        continuous: c.continuous,
+    };
+    Ok(CollisionModel {
+        links,
+        scene: geometry.obstacles,
+        settings,
+        on_contact: c.on_contact,
+        sweep: SweepOptions::default(),
+    })
 }
 
-impl Stage for CollisionStage {
-    fn name(&self) -> &'static str {
-        "collision"
-    }
-    fn depends_on(&self) -> &'static str {
-        "q"
-    }
-    fn describe(&self) -> String {
-        let used = self.scene.objects().iter().filter(|o| o.in_use).count();
-        format!(
-            "{}{}, self {}, {} obstacle(s), on contact {}",
-            self.settings.mode.name(),
-            if self.settings.continuous {
-                " + continuous sweep"
-            } else {
-                ""
-            },
-            if self.settings.self_collision {
-                "on"
-            } else {
-                "off"
-            },
-            used,
-            match self.on_contact {
-                OnContact::Stop => "stop",
-                OnContact::Report => "report",
-            }
+pub fn describe(c: &CollisionModel) -> String {
+    let used = c.scene.objects().iter().filter(|o| o.in_use).count();
+    format!(
+        "{}{}, self {}, {} obstacle(s), on contact {}",
+        c.settings.mode.name(),
+        if c.settings.continuous {
+            " + continuous sweep"
+        } else {
+            ""
+        },
+        if c.settings.self_collision {
+            "on"
+        } else {
+            "off"
+        },
+        used,
+        c.on_contact.name()
+    )
+}
+
+/// Checks the step's q (or sweeps from `d.q_safe` to it), sets `d.contact`, counts contact
+/// steps, and on contact under `stop` puts the robot back at `d.q_safe`, at rest; a clear q
+/// becomes the new `d.q_safe`.
+pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError> {
+    // the builder allocates `q_safe` whenever it declares this stage
+    let Some(q_safe) = d.q_safe.as_mut() else {
+        return Ok(());
+    };
+    let q = d.state.q.as_slice();
+    let contact = if c.settings.continuous {
+        let s = sweep_robot(
+            &m.robot,
+            &c.links,
+            q_safe.as_slice(),
+            q,
+            &c.scene,
+            c.settings.self_collision,
+            &c.sweep,
         )
-    }
-    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError> {
-        let q = d.state.q.as_slice();
-        let contact = if self.settings.continuous {
-            let s = sweep_robot(
-                &m.robot,
-                &self.links,
-                self.q_safe.as_slice(),
-                q,
-                &self.scene,
-                self.settings.self_collision,
-                &self.sweep,
-            )
+        .map_err(|e| StepError::Collision(e.to_string()))?;
+        !matches!(s, Sweep::Clear)
+    } else {
+        let r = check_robot(&m.robot, &c.links, q, &c.scene, &c.settings)
             .map_err(|e| StepError::Collision(e.to_string()))?;
-            !matches!(s, Sweep::Clear)
-        } else {
-            let r = check_robot(&m.robot, &self.links, q, &self.scene, &self.settings)
-                .map_err(|e| StepError::Collision(e.to_string()))?;
-            !matches!(r, CheckResult::Clear)
-        };
-        if contact {
-            d.contact_steps += 1;
-            if self.on_contact == OnContact::Stop {
-                d.state.q.copy_from(&self.q_safe);
-                d.state.qd.fill(0.0);
-            }
-        } else {
-            self.q_safe.copy_from(&d.state.q);
+        !matches!(r, CheckResult::Clear)
+    };
+    if contact {
+        d.contact_steps += 1;
+        if c.on_contact == OnContact::Stop {
+            d.state.q.copy_from(q_safe);
+            d.state.qd.fill(0.0);
         }
-        d.contact = Some(contact);
-        Ok(())
+    } else {
+        q_safe.copy_from(&d.state.q);
     }
-    fn teleported(&mut self, q: &DVector<f64>) {
-        self.q_safe.copy_from(q);
-    }
-    fn obstacles_mut(&mut self) -> Option<&mut Scene> {
-        Some(&mut self.scene)
-    }
+    d.contact = Some(contact);
+    Ok(())
 }

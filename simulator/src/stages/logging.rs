@@ -1,12 +1,13 @@
 //! Signal logging: every `every`-th step, one row of the declared signals — to a CSV file (header
 //! first, flushed by `Pipeline::flush_log` and when the pipeline is dropped) or to memory.
-//! Depends on everything before it.
+//! Depends on everything before it. The sink is output, not state: it is not in `Data`
+//! (a rewound simulation logs its steps again).
 //! The first column is always the simulation time `t_s`; every column name carries its unit
 //! (`q1_rad`, `q3_m`, `qd1_rad_s`, `tau1_Nm`).
 
-use crate::effects::{EffectsError, LoggingEffect, Signal};
-use crate::pipeline::{Data, Model, Stage, StepError};
+use crate::model::{Model, StepError};
 use robosim_kinematics::JointType;
+use robosim_model::{Data, LoggingEffect, OptionsError, Signal};
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::sync::{Arc, Mutex};
@@ -16,6 +17,10 @@ enum Sink {
     Csv(BufWriter<File>, String),
 }
 
+pub const NAME: &str = "logging";
+pub const DEPENDS_ON: &str = "all of the above";
+
+/// The logging stage's sink: where rows go, and the row being written (workspace).
 pub struct Logging {
     signals: Vec<Signal>,
     every: u64,
@@ -108,8 +113,8 @@ impl Logging {
         l: &LoggingEffect,
         has_encoder: bool,
         has_collision: bool,
-    ) -> Result<(Self, LogHandle), EffectsError> {
-        let bad = |field: &str, reason: String| EffectsError {
+    ) -> Result<(Self, LogHandle), OptionsError> {
+        let bad = |field: &str, reason: String| OptionsError {
             field: format!("logging.{field}"),
             reason,
         };
@@ -161,14 +166,8 @@ impl Logging {
     }
 }
 
-impl Stage for Logging {
-    fn name(&self) -> &'static str {
-        "logging"
-    }
-    fn depends_on(&self) -> &'static str {
-        "all of the above"
-    }
-    fn describe(&self) -> String {
+impl Logging {
+    pub fn describe(&self) -> String {
         let names: Vec<&str> = self.signals.iter().map(|s| s.name()).collect();
         let to = match &self.sink {
             Sink::Memory(_) => "memory".to_string(),
@@ -176,7 +175,8 @@ impl Stage for Logging {
         };
         format!("{} every {} step(s) to {to}", names.join(", "), self.every)
     }
-    fn flush(&mut self) -> Result<(), StepError> {
+    /// Writes out what the sink buffers (a CSV file's rows).
+    pub fn flush(&mut self) -> Result<(), StepError> {
         match &mut self.sink {
             Sink::Memory(_) => Ok(()),
             Sink::Csv(f, path) => f
@@ -184,7 +184,8 @@ impl Stage for Logging {
                 .map_err(|e| StepError::Logging(format!("{path}: {e}"))),
         }
     }
-    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError> {
+    /// Every `every`-th step, the declared signals of `d` as one row.
+    pub fn run(&mut self, m: &Model, d: &Data) -> Result<(), StepError> {
         if !(d.step + 1).is_multiple_of(self.every) {
             return Ok(());
         }

@@ -2,44 +2,28 @@
 //! at most `max_speed · dt` per step; q̇ is the resulting finite difference. Depends on q and the
 //! command.
 
-use crate::pipeline::{Command, Data, Model, Stage, StepError};
+use crate::model::Model;
+use robosim_model::{Command, Data};
 
-pub struct KinematicMotion {
-    max_speed: f64,
+pub const NAME: &str = "motion";
+pub const DEPENDS_ON: &str = "q, command";
+
+pub fn describe(max_speed: f64) -> String {
+    format!("kinematic, towards joint targets at ≤ {max_speed} rad/s")
 }
 
-impl KinematicMotion {
-    pub fn new(max_speed: f64) -> Self {
-        KinematicMotion { max_speed }
-    }
-}
-
-impl Stage for KinematicMotion {
-    fn name(&self) -> &'static str {
-        "motion"
-    }
-    fn depends_on(&self) -> &'static str {
-        "q, command"
-    }
-    fn describe(&self) -> String {
-        format!(
-            "kinematic, towards joint targets at ≤ {} rad/s",
-            self.max_speed
-        )
-    }
-    fn run(&mut self, m: &Model, d: &mut Data) -> Result<(), StepError> {
-        let max_step = self.max_speed * m.dt;
-        match &d.command {
-            Command::Target(target) => {
-                for j in 0..d.state.q.len() {
-                    let dq = (target[j] - d.state.q[j]).clamp(-max_step, max_step);
-                    d.state.q[j] += dq;
-                    d.state.qd[j] = dq / m.dt;
-                }
+/// One step towards the commanded target at `max_speed` (rad/s or m/s); at rest otherwise.
+pub fn run(m: &Model, max_speed: f64, d: &mut Data) {
+    let max_step = max_speed * m.dt;
+    match &d.command {
+        Command::Target(target) => {
+            for j in 0..d.state.q.len() {
+                let dq = (target[j] - d.state.q[j]).clamp(-max_step, max_step);
+                d.state.q[j] += dq;
+                d.state.qd[j] = dq / m.dt;
             }
-            // a torque command cannot be set without dynamics (Pipeline::set_command)
-            Command::Idle | Command::Torque(_) => d.state.qd.fill(0.0),
         }
-        Ok(())
+        // a torque command cannot be set without dynamics (Pipeline::set_command)
+        Command::Idle | Command::Torque(_) => d.state.qd.fill(0.0),
     }
 }

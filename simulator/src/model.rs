@@ -1,0 +1,53 @@
+//! What a simulation is of, fixed once the pipeline is built (MuJoCo's `mjModel`): the robot, the
+//! step, the declared effects, and one compiled part per declared stage (the dynamics model and
+//! its controller, the joint stops, the collision solids and obstacles, the encoder
+//! resolutions). A stage that is not declared has no part: `None`, nothing allocated. The stage
+//! functions read it; only [`crate::Pipeline::obstacles_mut`] changes it after the build (to
+//! move an obstacle in place).
+//!
+//! Also here, because every stage and the pipeline share them: [`StepError`] and
+//! [`SceneGeometry`].
+
+use crate::stages::{collision::CollisionModel, dynamics::DynamicsModel, encoder::EncoderModel};
+use robosim_collision::robot::{LinkSolids, Scene};
+use robosim_kinematics::Robot;
+use robosim_model::Options;
+
+/// The compiled simulation: read by every stage, written by none.
+#[derive(Debug, Clone)]
+pub struct Model {
+    pub robot: Robot,
+    /// The pipeline step (s): the dynamics effect's, else the kinematic one.
+    pub dt: f64,
+    /// What the scene declared.
+    pub options: Options,
+    /// Kinematic motion's speed limit (rad/s or m/s), when kinematics is declared without
+    /// dynamics.
+    pub(crate) motion: Option<f64>,
+    pub(crate) dynamics: Option<DynamicsModel>,
+    /// The joint-stop model (limits checked at build).
+    pub(crate) limits: Option<robosim_dynamics::Model>,
+    pub(crate) collision: Option<CollisionModel>,
+    pub(crate) encoder: Option<EncoderModel>,
+}
+
+/// Why a step failed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum StepError {
+    #[error("dynamics: {0}")]
+    Dynamics(#[from] robosim_dynamics::DynamicsError),
+    #[error("collision: {0}")]
+    Collision(String),
+    #[error("logging: {0}")]
+    Logging(String),
+    #[error("command: {0}")]
+    Command(String),
+}
+
+/// The scene around the robot, for collision: obstacles and the robot's link solids
+/// (`None`: simple DH-segment solids of the declared `link_radius`).
+#[derive(Default)]
+pub struct SceneGeometry {
+    pub obstacles: Scene,
+    pub link_solids: Option<LinkSolids>,
+}
