@@ -3,6 +3,13 @@
 //! generated from the Cargo.toml files by this test — `ROBOSIM_UPDATE_DOCS=1 cargo test --test
 //! architecture` rewrites them; without it the test fails when they are stale — and the rules
 //! below fail the build when an arrow points the wrong way.
+//!
+//! The floors (issue 35, "Folders say the layers"): every workspace crate sits on one floor of
+//! [`FLOORS`], and may depend — dependencies, dev-dependencies and build-dependencies alike, as
+//! `cargo metadata` lists them — only on crates of its own floor or below; a crate missing from
+//! the table fails. A folder says its floor (`core/*` is the core floor; a crate nested in
+//! another crate's folder sits on that crate's floor). clap is the binary's alone, and every
+//! crate whose sources hold no `unsafe` says `#![forbid(unsafe_code)]`.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -24,6 +31,8 @@ const CORE_ALLOWED: &[&str] = &[
     "thiserror",
     "rand",
     "rand_chacha",
+    // The inline robot JSON form lives in the kinematics core (robosim_kinematics::json).
+    "serde_json",
     "robosim-geometry",
     "robosim-kinematics",
     "robosim-dynamics",
@@ -282,5 +291,361 @@ fn the_pictures_of_the_crates_are_current() {
         std::fs::read_to_string(&svg_path).unwrap_or_default(),
         want_svg,
         "docs/images/crates.svg is stale"
+    );
+}
+
+/// The floors, bottom first: a crate may depend only on crates of its floor or below.
+///
+/// * core — what every process computes with: plain functions over plain data, no transport;
+/// * engine — the effect pipeline and the automation kernels over the cores;
+/// * spaces — the Instance Space (shared memory) and the Library Space (the language);
+/// * seam — Library → Instance and Instance → cores (scene), and the recording format (record);
+/// * tools — the accuracy-against-time reports (report): below the processes because the
+///   display draws its status line with report's bundled font and its bench writes reports;
+/// * processes — each a process role or a front end (and the launcher that starts them);
+/// * studies — the case studies, which start sessions and drive the processes;
+/// * binary — the `robosim` binary: the command line (clap) and the dispatch.
+const FLOORS: &[(&str, &[&str])] = &[
+    (
+        "core",
+        &[
+            "robosim-input",
+            "robosim-geometry",
+            "robosim-kinematics",
+            "robosim-dynamics",
+            "robosim-collision",
+            "robosim-urdf",
+            "robosim-model",
+        ],
+    ),
+    ("engine", &["robosim-simulator", "robosim-automation"]),
+    ("spaces", &["robosim-instance-space", "robosim-library"]),
+    ("seam", &["robosim-scene", "robosim-record"]),
+    ("tools", &["robosim-report"]),
+    (
+        "processes",
+        &[
+            "robosim-simulator-daemon",
+            "robosim-display",
+            "robosim-hl-interface",
+            "robosim-rules",
+            "robosim-file-io",
+            "robosim-editor",
+            "robosim-bridge",
+            "robosim-python",
+            "robosim-launcher",
+        ],
+    ),
+    ("studies", &["robosim-studies"]),
+    ("binary", &["robosim"]),
+];
+
+/// Folders that say a floor: every crate under them sits on it.
+const FOLDER_FLOORS: &[(&str, &str)] = &[("core/", "core")];
+
+/// Arrows pointing up that are being removed now (issue 35), each with who removes it. The test
+/// fails on any upward arrow not listed here; the lead empties this list when they have landed.
+const KNOWN_UPWARD: &[(&str, &str, &str)] = &[(
+    "robosim-simulator",
+    "robosim-library",
+    "H-OPTIONS: swap.rs and power.rs take robosim-model types, not library models",
+)];
+
+/// Crates nested in the folder of a crate of another floor, known: the simulator daemon (a
+/// process) still lives in simulator/ (the engine's folder). No one moves it in this wave; the
+/// lead decides (a top-level daemon/ folder beside the other processes).
+const KNOWN_NESTED: &[(&str, &str)] = &[(
+    "robosim-simulator-daemon",
+    "simulator/daemon/ is a process nested in the engine's folder (to move beside the other processes)",
+)];
+
+/// Crates that may depend on clap and clap_complete: the binary, whose src/cli/ is the command
+/// line of every crate.
+const CLAP_USERS: &[&str] = &["robosim"];
+
+/// One workspace package as `cargo metadata` lists it.
+struct Package {
+    name: String,
+    /// Its folder relative to the workspace root ("" for the root package).
+    folder: String,
+    /// Every dependency: (name, kind: "normal", "dev" or "build").
+    deps: Vec<(String, String)>,
+    /// The root source files of its lib, cdylib and bin targets.
+    roots: Vec<std::path::PathBuf>,
+}
+
+/// The workspace's packages from `cargo metadata --no-deps` (dev-dependencies included).
+fn packages() -> Vec<Package> {
+    let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".to_owned());
+    let out = std::process::Command::new(cargo)
+        .args([
+            "metadata",
+            "--no-deps",
+            "--format-version",
+            "1",
+            "--offline",
+        ])
+        .current_dir(ROOT)
+        .output()
+        .expect("cargo metadata runs");
+    assert!(
+        out.status.success(),
+        "cargo metadata: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let meta: serde_json::Value = serde_json::from_slice(&out.stdout).expect("metadata JSON");
+    let root = Path::new(ROOT);
+    let str_of = |v: &serde_json::Value| v.as_str().unwrap_or_default().to_owned();
+    meta["packages"]
+        .as_array()
+        .expect("packages")
+        .iter()
+        .map(|p| {
+            let manifest = std::path::PathBuf::from(str_of(&p["manifest_path"]));
+            let dir = manifest.parent().expect("manifest's folder");
+            let folder = dir
+                .strip_prefix(root)
+                .unwrap_or(dir)
+                .to_string_lossy()
+                .into_owned();
+            let deps = p["dependencies"]
+                .as_array()
+                .expect("dependencies")
+                .iter()
+                .map(|d| {
+                    let kind = d["kind"].as_str().unwrap_or("normal").to_owned();
+                    (str_of(&d["name"]), kind)
+                })
+                .collect();
+            let roots = p["targets"]
+                .as_array()
+                .expect("targets")
+                .iter()
+                .filter(|t| {
+                    t["kind"].as_array().is_some_and(|k| {
+                        k.iter()
+                            .any(|k| matches!(k.as_str(), Some("lib" | "cdylib" | "rlib" | "bin")))
+                    })
+                })
+                .map(|t| std::path::PathBuf::from(str_of(&t["src_path"])))
+                .collect();
+            Package {
+                name: str_of(&p["name"]),
+                folder,
+                deps,
+                roots,
+            }
+        })
+        .collect()
+}
+
+/// The floor index of every crate of [`FLOORS`].
+fn floor_of() -> BTreeMap<&'static str, usize> {
+    let mut m = BTreeMap::new();
+    for (i, (_, crates)) in FLOORS.iter().enumerate() {
+        for c in *crates {
+            assert!(m.insert(*c, i).is_none(), "{c} is on two floors");
+        }
+    }
+    m
+}
+
+/// Every dependency arrow between workspace crates that points to a higher floor, as
+/// "from (floor) -> to (floor) [kind]", the known ones left out.
+fn upward_arrows(pkgs: &[Package], floors: &BTreeMap<&str, usize>) -> Vec<String> {
+    let names: BTreeSet<&str> = pkgs.iter().map(|p| p.name.as_str()).collect();
+    let mut bad = Vec::new();
+    for p in pkgs {
+        let Some(&from) = floors.get(p.name.as_str()) else {
+            continue;
+        };
+        for (d, kind) in &p.deps {
+            if !names.contains(d.as_str()) {
+                continue;
+            }
+            let Some(&to) = floors.get(d.as_str()) else {
+                continue;
+            };
+            let known = KNOWN_UPWARD
+                .iter()
+                .any(|(a, b, _)| *a == p.name && *b == d.as_str());
+            if to > from && !known {
+                bad.push(format!(
+                    "{} ({}) -> {d} ({}) [{kind}]",
+                    p.name, FLOORS[from].0, FLOORS[to].0
+                ));
+            }
+        }
+    }
+    bad
+}
+
+#[test]
+fn every_crate_depends_only_on_its_floor_or_below_dev_dependencies_included() {
+    let pkgs = packages();
+    let floors = floor_of();
+    let missing: Vec<&str> = pkgs
+        .iter()
+        .map(|p| p.name.as_str())
+        .filter(|n| !floors.contains_key(n))
+        .collect();
+    assert!(
+        missing.is_empty(),
+        "crates on no floor (add them to FLOORS in tests/architecture.rs): {missing:?}"
+    );
+    let bad = upward_arrows(&pkgs, &floors);
+    assert!(
+        bad.is_empty(),
+        "dependencies pointing to a higher floor:\n  {}",
+        bad.join("\n  ")
+    );
+}
+
+#[test]
+fn the_floor_check_catches_an_upward_arrow() {
+    // The same check over a made-up crate on the core floor that dev-depends on the binary.
+    let mut floors = floor_of();
+    floors.insert("robosim-made-up-core", 0);
+    let pkgs = vec![
+        Package {
+            name: "robosim-made-up-core".into(),
+            folder: "core/made-up".into(),
+            deps: vec![("robosim".into(), "dev".into())],
+            roots: Vec::new(),
+        },
+        Package {
+            name: "robosim".into(),
+            folder: String::new(),
+            deps: Vec::new(),
+            roots: Vec::new(),
+        },
+    ];
+    assert_eq!(
+        upward_arrows(&pkgs, &floors),
+        ["robosim-made-up-core (core) -> robosim (binary) [dev]"]
+    );
+}
+
+#[test]
+fn every_folder_says_its_floor() {
+    let pkgs = packages();
+    let floors = floor_of();
+    let mut bad = Vec::new();
+    for p in &pkgs {
+        let Some(&floor) = floors.get(p.name.as_str()) else {
+            continue;
+        };
+        let folder = format!("{}/", p.folder);
+        for (prefix, said) in FOLDER_FLOORS {
+            if folder.starts_with(prefix) && FLOORS[floor].0 != *said {
+                bad.push(format!(
+                    "{} in {folder} sits on floor {}, the folder says {said}",
+                    p.name, FLOORS[floor].0
+                ));
+            }
+        }
+        // A crate nested in another crate's folder sits on that crate's floor.
+        for q in &pkgs {
+            let outer = format!("{}/", q.folder);
+            let nested = q.name != p.name && !q.folder.is_empty() && folder.starts_with(&outer);
+            let known = KNOWN_NESTED.iter().any(|(n, _)| *n == p.name);
+            if nested && !known && floors.get(q.name.as_str()) != Some(&floor) {
+                bad.push(format!(
+                    "{} in {folder} sits on floor {}, inside {} of floor {}",
+                    p.name,
+                    FLOORS[floor].0,
+                    q.name,
+                    floors.get(q.name.as_str()).map_or("none", |&f| FLOORS[f].0)
+                ));
+            }
+        }
+    }
+    assert!(
+        bad.is_empty(),
+        "folders that misstate the floor:\n  {}",
+        bad.join("\n  ")
+    );
+}
+
+#[test]
+fn clap_is_the_binarys_alone() {
+    let bad: Vec<String> = packages()
+        .iter()
+        .filter(|p| !CLAP_USERS.contains(&p.name.as_str()))
+        .flat_map(|p| {
+            p.deps
+                .iter()
+                .filter(|(d, _)| d == "clap" || d == "clap_complete")
+                .map(move |(d, kind)| format!("{} -> {d} [{kind}]", p.name))
+        })
+        .collect();
+    assert!(
+        bad.is_empty(),
+        "clap outside the binary (its command line lives in src/cli/): {bad:?}"
+    );
+}
+
+/// True when `text` holds the keyword `unsafe` outside `//` comments.
+fn has_unsafe(text: &str) -> bool {
+    let ident = |c: Option<char>| c.is_some_and(|c| c.is_alphanumeric() || c == '_');
+    text.lines().any(|line| {
+        let code = line.split("//").next().unwrap_or_default();
+        code.match_indices("unsafe").any(|(i, _)| {
+            !ident(code[..i].chars().next_back()) && !ident(code[i + 6..].chars().next())
+        })
+    })
+}
+
+/// The `.rs` files under `dir`, recursively.
+fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for e in entries.flatten() {
+        let path = e.path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|x| x == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn the_unsafe_check_sees_the_keyword_not_words_that_contain_it() {
+    assert!(has_unsafe("    unsafe { libc::kill(pid, 9) };"));
+    assert!(has_unsafe("pub unsafe fn f() {}"));
+    assert!(!has_unsafe("#![forbid(unsafe_code)]"));
+    assert!(!has_unsafe("// SAFETY: no unsafe here"));
+    assert!(!has_unsafe("let not_unsafe = 1;"));
+}
+
+#[test]
+fn every_crate_without_unsafe_forbids_it() {
+    let mut missing = Vec::new();
+    for p in packages() {
+        let mut files = Vec::new();
+        for r in &p.roots {
+            rust_files(r.parent().expect("a target's folder"), &mut files);
+        }
+        files.sort();
+        files.dedup();
+        let unsafe_in: Vec<&std::path::PathBuf> = files
+            .iter()
+            .filter(|f| has_unsafe(&std::fs::read_to_string(f).unwrap_or_default()))
+            .collect();
+        if !unsafe_in.is_empty() {
+            continue;
+        }
+        for r in &p.roots {
+            let text = std::fs::read_to_string(r).unwrap_or_default();
+            if !text.lines().any(|l| l.trim() == "#![forbid(unsafe_code)]") {
+                missing.push(format!("{} ({})", p.name, r.display()));
+            }
+        }
+    }
+    assert!(
+        missing.is_empty(),
+        "crates without unsafe that do not say #![forbid(unsafe_code)]: {missing:?}"
     );
 }
