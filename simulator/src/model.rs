@@ -5,13 +5,14 @@
 //! functions read it; only [`crate::Pipeline::obstacles_mut`] changes it after the build (to
 //! move an obstacle in place).
 //!
-//! Also here, because every stage and the pipeline share them: [`StepError`] and
-//! [`SceneGeometry`].
+//! The stage parts are defined here and filled by each stage's `build` (`crate::stages`), so
+//! the stages depend on this file and this file on none of them. Also here, because every
+//! stage and the pipeline share them: [`StepError`] and [`SceneGeometry`].
 
-use crate::stages::{collision::CollisionModel, dynamics::DynamicsModel, encoder::EncoderModel};
-use robosim_collision::robot::{LinkSolids, Scene};
+use robosim_collision::ccd::SweepOptions;
+use robosim_collision::robot::{CollisionSettings, LinkSolids, Scene};
 use robosim_kinematics::Robot;
-use robosim_model::Options;
+use robosim_model::{OnContact, Options};
 
 /// The compiled simulation: read by every stage, written by none.
 #[derive(Debug, Clone)]
@@ -50,4 +51,33 @@ pub enum StepError {
 pub struct SceneGeometry {
     pub obstacles: Scene,
     pub link_solids: Option<LinkSolids>,
+}
+
+/// The dynamics stage's compiled part (`stages::dynamics`): the dynamics model (gravity as
+/// declared), the controller's gains, the printable summary.
+#[derive(Debug, Clone)]
+pub struct DynamicsModel {
+    pub(crate) model: robosim_dynamics::Model,
+    pub(crate) kp: f64,
+    pub(crate) kd: f64,
+    pub(crate) summary: String,
+}
+
+/// The collision stage's compiled part (`stages::collision`): the robot's link solids, the
+/// obstacles, the settings.
+#[derive(Debug, Clone)]
+pub struct CollisionModel {
+    pub(crate) links: LinkSolids,
+    pub(crate) scene: Scene,
+    pub(crate) settings: CollisionSettings,
+    pub(crate) on_contact: OnContact,
+    pub(crate) sweep: SweepOptions,
+}
+
+/// The encoder stage's compiled part (`stages::encoder`): its bits and each joint's
+/// resolution (rad or m).
+#[derive(Debug, Clone)]
+pub struct EncoderModel {
+    pub(crate) bits: u32,
+    pub(crate) resolution: Vec<f64>,
 }

@@ -6,24 +6,14 @@
 //! (`Data::q_safe`), at rest (`on_contact: stop`), or the contact is only recorded (`report`).
 //! Depends only on q.
 
-use crate::model::{Model, SceneGeometry, StepError};
+use crate::model::{CollisionModel, Model, SceneGeometry, StepError};
 use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot};
-use robosim_collision::robot::{CheckResult, CollisionSettings, LinkSolids, Scene, check_robot};
+use robosim_collision::robot::{CheckResult, CollisionSettings, LinkSolids, check_robot};
 use robosim_kinematics::Robot;
 use robosim_model::{CollisionEffect, Data, OnContact, OptionsError};
 
 pub const NAME: &str = "collision";
 pub const DEPENDS_ON: &str = "q";
-
-/// The collision stage's compiled part: the robot's link solids, the obstacles, the settings.
-#[derive(Debug, Clone)]
-pub struct CollisionModel {
-    links: LinkSolids,
-    pub(crate) scene: Scene,
-    settings: CollisionSettings,
-    on_contact: OnContact,
-    sweep: SweepOptions,
-}
 
 pub fn build(
     robot: &Robot,

@@ -5,7 +5,7 @@
 //! The integrator's state (its step proposal, its counters) and workspace live in
 //! `Data::integrator`.
 
-use crate::model::{Model, StepError};
+use crate::model::{DynamicsModel, Model, StepError};
 use nalgebra::{DVector, Vector3};
 use robosim_dynamics::{IntegratorConfig, StepSize, Stepper, rnea};
 use robosim_kinematics::Robot;
@@ -13,16 +13,6 @@ use robosim_model::{Command, Data, DynamicsEffect, IntegratorState, OptionsError
 
 pub const NAME: &str = "dynamics";
 pub const DEPENDS_ON: &str = "q, qd, command";
-
-/// The dynamics stage's compiled part: the dynamics model (gravity as declared), the
-/// controller's gains, the printable summary.
-#[derive(Debug, Clone)]
-pub struct DynamicsModel {
-    model: robosim_dynamics::Model,
-    kp: f64,
-    kd: f64,
-    summary: String,
-}
 
 /// The stage's model part and the integrator's initial state, from the declared effect.
 pub fn build(

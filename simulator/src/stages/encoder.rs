@@ -2,18 +2,12 @@
 //! resolution `r = 2π / 2^bits` for a revolute joint and `(hi − lo) / 2^bits` for a prismatic
 //! one, into `Data::q_measured`. Depends only on q.
 
+use crate::model::EncoderModel;
 use robosim_kinematics::{JointType, Robot};
 use robosim_model::{Data, EncoderEffect, OptionsError};
 
 pub const NAME: &str = "encoder";
 pub const DEPENDS_ON: &str = "q";
-
-/// The encoder's compiled part: its bits and each joint's resolution (rad or m).
-#[derive(Debug, Clone)]
-pub struct EncoderModel {
-    bits: u32,
-    resolution: Vec<f64>,
-}
 
 pub fn build(robot: &Robot, e: &EncoderEffect) -> Result<EncoderModel, OptionsError> {
     if !(1..=52).contains(&e.bits) {
