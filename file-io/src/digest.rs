@@ -2,7 +2,8 @@
 //! in any process, on any machine, whatever the ids, the creation order or the version.
 //!
 //! **What is in it** (per object, little-endian, every float by its IEEE bits with −0 read as
-//! +0): kind (u32); name (u64 length, UTF-8 bytes); local pose (12 × f64, row-major `[R | t]`);
+//! +0; the order is `robosim_instance_space::record::canonical_object`'s, the one description
+//! of the record layout that the Instance Space's encoder and view share): kind (u32); name (u64 length, UTF-8 bytes); local pose (12 × f64, row-major `[R | t]`);
 //! joint value (f64); appearance (colour 4 × f32, diffuse, specular, shininess f32);
 //! kinematics (tag u8: 0 none, 1 joint — index u32, joint type u32, convention u32, a, d,
 //! alpha, theta, offset, qlim[2] f64; 2 robot — convention u32, IK family u32, tool 12 × f64;
@@ -24,7 +25,8 @@
 //! that differ only in which of two siblings was created first have the same digest.
 
 use crate::model::SavedModel;
-use robosim_instance_space::{Kinematics, ObjectData};
+use robosim_instance_space::ObjectData;
+use robosim_instance_space::record::{FieldSink, canonical_object};
 use sha2::{Digest, Sha256};
 
 /// A 32-byte digest, shown as 64 lowercase hex digits.
@@ -44,7 +46,8 @@ const DOMAIN: &[u8] = b"robosim-model-digest-1";
 
 struct Enc(Sha256);
 
-impl Enc {
+/// Every float by its IEEE bits with −0 read as +0.
+impl FieldSink for Enc {
     fn u8(&mut self, v: u8) {
         self.0.update([v]);
     }
@@ -66,99 +69,23 @@ impl Enc {
         self.u64(b.len() as u64);
         self.0.update(b);
     }
-    fn f64s(&mut self, v: &[f64]) {
-        for x in v {
-            self.f64(*x);
-        }
-    }
 }
 
+/// The object's own fields, in the order the Instance Space's record layout describes
+/// ([`robosim_instance_space::record::canonical_object`]).
 fn object_fields(e: &mut Enc, o: &ObjectData) {
-    e.u32(o.kind as u32);
-    e.bytes(o.name.as_bytes());
-    e.f64s(&o.pose);
-    e.f64(o.joint);
-    let a = &o.appearance;
-    for c in a.color {
-        e.f32(c);
-    }
-    e.f32(a.diffuse);
-    e.f32(a.specular);
-    e.f32(a.shininess);
-    match o.kinematics {
-        None => e.u8(0),
-        Some(Kinematics::Joint {
-            index,
-            joint,
-            convention,
-            a,
-            d,
-            alpha,
-            theta,
-            offset,
-            qlim,
-        }) => {
-            e.u8(1);
-            e.u32(index);
-            e.u32(joint as u32);
-            e.u32(convention as u32);
-            e.f64s(&[a, d, alpha, theta, offset, qlim[0], qlim[1]]);
-        }
-        Some(Kinematics::Robot {
-            convention,
-            ik_family,
-            tool,
-        }) => {
-            e.u8(2);
-            e.u32(convention as u32);
-            e.u32(ik_family);
-            e.f64s(&tool);
-        }
-        Some(Kinematics::Axis {
-            index,
-            parent,
-            joint,
-            placement,
-            axis,
-            offset,
-            qlim,
-        }) => {
-            e.u8(3);
-            e.u32(index);
-            e.u32(parent);
-            e.u32(joint as u32);
-            e.f64s(&placement);
-            e.f64s(&axis);
-            e.f64s(&[offset, qlim[0], qlim[1]]);
-        }
-    }
-    match o.dynamics {
-        None => e.u8(0),
-        Some(m) => {
-            e.u8(1);
-            e.f64(m.mass);
-            e.f64s(&m.com);
-            e.f64s(&m.inertia);
-        }
-    }
-    match &o.geometry {
-        None => e.u8(0),
-        Some(g) => {
-            e.u8(1);
-            e.u64(g.vertices.len() as u64);
-            for v in &g.vertices {
-                e.f64s(v);
-            }
-            e.u64(g.polygons.len() as u64);
-            for p in &g.polygons {
-                e.u64(p.len() as u64);
-                for i in p {
-                    e.u32(*i);
-                }
-            }
-        }
-    }
-    e.bytes(o.origin.as_bytes());
+    canonical_object(
+        o.kind,
+        &o.name,
+        &o.pose,
+        o.joint,
+        &o.appearance,
+        o.kinematics.as_ref(),
+        o.dynamics.as_ref(),
+        o.geometry.as_ref(),
+        &o.origin,
+        e,
+    );
 }
 
 /// The digest of `model`'s objects. `None` when its structure is invalid
@@ -199,4 +126,131 @@ pub fn digest(model: &SavedModel) -> Option<ModelDigest> {
         e.0.update(r);
     }
     Some(ModelDigest(e.0.finalize().into()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use robosim_instance_space::{
+        Appearance, DhConvention, GeometryInput, JointKind, Kind, Kinematics, MassProps,
+    };
+
+    fn object(id: u64, kind: Kind, kinematics: Option<Kinematics>) -> ObjectData {
+        ObjectData {
+            id,
+            kind,
+            parent: 0,
+            name: format!("o{id}"),
+            pose: [
+                0.0, -1.0, 0.0, 0.5, 1.0, 0.0, 0.0, -0.25, 0.0, 0.0, 1.0, 2.0,
+            ],
+            joint: 0.125,
+            appearance: Appearance {
+                color: [0.1, 0.2, 0.3, 1.0],
+                diffuse: 0.75,
+                specular: -0.0,
+                shininess: 8.0,
+            },
+            kinematics,
+            dynamics: None,
+            geometry: None,
+            geom_gen: 7,
+            origin: String::new(),
+        }
+    }
+
+    /// One object of every record kind (no kinematics, a DH joint, a robot, a general joint;
+    /// with and without mass properties, geometry and an origin), each model's digest as the
+    /// encoding had it before the record layout was described once (instance-space's
+    /// `record` module): the digest's bytes may not change.
+    fn every_kind() -> Vec<(&'static str, ObjectData)> {
+        let joint = Kinematics::Joint {
+            index: 2,
+            joint: JointKind::Prismatic,
+            convention: DhConvention::Modified,
+            a: 0.1,
+            d: -0.2,
+            alpha: 1.5,
+            theta: -0.0,
+            offset: 0.3,
+            qlim: [-1.0, 2.0],
+        };
+        let robot = Kinematics::Robot {
+            convention: DhConvention::Standard,
+            ik_family: 3,
+            tool: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.103],
+        };
+        let axis = Kinematics::Axis {
+            index: 4,
+            parent: 3,
+            joint: JointKind::Revolute,
+            placement: [
+                1.0, 0.0, 0.0, 0.01, 0.0, 0.0, -1.0, 0.02, 0.0, 1.0, 0.0, 0.03,
+            ],
+            axis: [0.0, 0.6, 0.8],
+            offset: -0.5,
+            qlim: [f64::NEG_INFINITY, f64::INFINITY],
+        };
+        let mut heavy = object(5, Kind::Link, Some(joint));
+        heavy.dynamics = Some(MassProps {
+            mass: 2.5,
+            com: [0.0, 0.01, -0.02],
+            inertia: [0.1, 0.2, 0.3, 0.001, -0.002, 0.0],
+        });
+        heavy.geometry = Some(GeometryInput {
+            vertices: vec![
+                [0.0, 0.0, 0.0],
+                [1.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0],
+                [0.0, 0.0, 1.0],
+            ],
+            polygons: vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]],
+        });
+        heavy.origin = r#"{"decl":"x"}"#.into();
+        vec![
+            ("none", object(1, Kind::Item, None)),
+            ("joint", object(2, Kind::Link, Some(joint))),
+            ("robot", object(3, Kind::Robot, Some(robot))),
+            ("axis", object(4, Kind::Link, Some(axis))),
+            ("joint+dynamics+geometry+origin", heavy),
+        ]
+    }
+
+    #[test]
+    fn every_record_kind_keeps_its_digest() {
+        let want = [
+            (
+                "none",
+                "bdb959905c6bb041140057b3aa61caca5a414548b2da8ec4be06ce865a40fc63",
+            ),
+            (
+                "joint",
+                "b8c00b9cf74511703a185fa1ed279b33441a0ebcb4b637f7ed47b9e99a8f005a",
+            ),
+            (
+                "robot",
+                "2bb9eaaf9107f48935396e28855596b83fc4f7e600c310087f69fa6a981de8bd",
+            ),
+            (
+                "axis",
+                "c7b4c7bca746c20d165cbc749b919721ddad598fdc6d0bd03b2044bfdc3f923c",
+            ),
+            (
+                "joint+dynamics+geometry+origin",
+                "da2e2bab1c5aa0f1bef163be4f628a9d8747f4460a8222db660f08cbe5b7bb15",
+            ),
+        ];
+        let mut got = Vec::new();
+        for (name, o) in every_kind() {
+            let model = SavedModel {
+                version: 1,
+                objects: vec![o],
+                library: Vec::new(),
+            };
+            got.push((name, digest(&model).expect("valid").to_string()));
+        }
+        for ((n, d), (wn, wd)) in got.iter().zip(want) {
+            assert_eq!((*n, d.as_str()), (wn, wd), "all: {got:#?}");
+        }
+    }
 }

@@ -6,7 +6,8 @@ use crate::layout::{
     ObjectChunkHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader, PoseRec,
     SegmentWriter, flags,
 };
-use crate::store::{Id, Kinematics, Object, Store};
+use crate::record::{self, KinematicsFields};
+use crate::store::{Id, Object, Store};
 use robosim_geometry::Polyhedron;
 
 pub(crate) fn pose_rec(o: &Object) -> PoseRec {
@@ -291,12 +292,7 @@ pub(crate) fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
         name_len: o.name.len() as u32,
         geom_gen: o.geom_gen,
         color: o.appearance.color,
-        surface: [
-            o.appearance.diffuse,
-            o.appearance.specular,
-            o.appearance.shininess,
-            0.0,
-        ],
+        surface: record::surface(&o.appearance),
         ..bytemuck::Zeroable::zeroed()
     };
     if !o.origin.is_empty() {
@@ -307,61 +303,9 @@ pub(crate) fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
     if o.geometry.is_some() {
         rec.flags |= flags::HAS_GEOMETRY;
     }
-    match o.kinematics {
-        Some(Kinematics::Joint {
-            index,
-            joint,
-            convention,
-            a,
-            d,
-            alpha,
-            theta,
-            offset,
-            qlim,
-        }) => {
-            rec.flags |= flags::HAS_KINEMATICS;
-            rec.kin_tag = flags::KIN_JOINT;
-            rec.joint_kind = joint as u32;
-            rec.convention = convention as u32;
-            rec.index_or_family = index;
-            rec.dh = [a, d, alpha, theta, offset, qlim[0], qlim[1]];
-        }
-        Some(Kinematics::Axis {
-            index,
-            parent,
-            joint,
-            placement,
-            axis,
-            offset,
-            qlim,
-        }) => {
-            rec.flags |= flags::HAS_KINEMATICS;
-            rec.kin_tag = flags::KIN_AXIS;
-            rec.joint_kind = joint as u32;
-            rec.convention = parent;
-            rec.index_or_family = index;
-            rec.dh = [axis[0], axis[1], axis[2], 0.0, offset, qlim[0], qlim[1]];
-            rec.tool = placement;
-        }
-        Some(Kinematics::Robot {
-            convention,
-            ik_family,
-            tool,
-        }) => {
-            rec.flags |= flags::HAS_KINEMATICS;
-            rec.kin_tag = flags::KIN_ROBOT;
-            rec.convention = convention as u32;
-            rec.index_or_family = ik_family;
-            rec.tool = tool;
-        }
-        None => {}
-    }
-    if let Some(m) = o.dynamics {
-        rec.flags |= flags::HAS_DYNAMICS;
-        rec.mass = m.mass;
-        rec.com = m.com;
-        rec.inertia = m.inertia;
-    }
+    // Which aspect field goes where: the one description in `crate::record`.
+    KinematicsFields::of(o.kinematics.as_ref()).write(&mut rec);
+    record::write_dynamics(o.dynamics.as_ref(), &mut rec);
     rec
 }
 

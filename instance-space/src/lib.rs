@@ -24,6 +24,7 @@ mod keeper;
 pub mod layout;
 mod object;
 mod reader;
+pub mod record;
 pub mod replica;
 mod scratch;
 mod session;

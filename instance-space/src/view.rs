@@ -1,5 +1,6 @@
 //! Typed views of a snapshot's flat records: the one place that turns the raw tags of
-//! [`ObjectRec`] (`kin_tag`, `joint_kind`, `convention`, `flags`) back into the model's enums.
+//! [`ObjectRec`] (`kin_tag`, `joint_kind`, `convention`, `flags`) back into the model's enums
+//! (which field holds what is described once, in [`crate::record`]).
 //! Everyone else — the scene compiler, the file interface, the display, the session ops — reads
 //! robots, joints and mass properties through these, never through bare numbers.
 //!
@@ -9,6 +10,7 @@
 
 use crate::layout::{ObjectRec, flags};
 use crate::reader::Snapshot;
+use crate::record::{self, KinematicsFields};
 use crate::store::{Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Pose};
 
 impl JointKind {
@@ -39,59 +41,17 @@ impl ObjectRec {
     /// object has none. A record whose tags this build does not know reads as `None` too (the
     /// keeper validated every record it published, so that only happens across versions).
     pub fn kinematics(&self) -> Option<Kinematics> {
-        if self.flags & flags::HAS_KINEMATICS == 0 {
-            return None;
-        }
-        if self.kin_tag == flags::KIN_AXIS {
-            return Some(Kinematics::Axis {
-                index: self.index_or_family,
-                parent: self.convention,
-                joint: JointKind::from_u32(self.joint_kind)?,
-                placement: self.tool,
-                axis: [self.dh[0], self.dh[1], self.dh[2]],
-                offset: self.dh[4],
-                qlim: [self.dh[5], self.dh[6]],
-            });
-        }
-        let convention = DhConvention::from_u32(self.convention)?;
-        match self.kin_tag {
-            flags::KIN_JOINT => Some(Kinematics::Joint {
-                index: self.index_or_family,
-                joint: JointKind::from_u32(self.joint_kind)?,
-                convention,
-                a: self.dh[0],
-                d: self.dh[1],
-                alpha: self.dh[2],
-                theta: self.dh[3],
-                offset: self.dh[4],
-                qlim: [self.dh[5], self.dh[6]],
-            }),
-            flags::KIN_ROBOT => Some(Kinematics::Robot {
-                convention,
-                ik_family: self.index_or_family,
-                tool: self.tool,
-            }),
-            _ => None,
-        }
+        KinematicsFields::from_rec(self).kinematics()
     }
 
     /// Mass, centre of mass and inertia (about the centre of mass, link frame), if set.
     pub fn dynamics(&self) -> Option<MassProps> {
-        (self.flags & flags::HAS_DYNAMICS != 0).then_some(MassProps {
-            mass: self.mass,
-            com: self.com,
-            inertia: self.inertia,
-        })
+        record::read_dynamics(self)
     }
 
     /// Colour and surface.
     pub fn appearance(&self) -> Appearance {
-        Appearance {
-            color: self.color,
-            diffuse: self.surface[0],
-            specular: self.surface[1],
-            shininess: self.surface[2],
-        }
+        record::appearance(self.color, self.surface)
     }
 
     pub fn has_geometry(&self) -> bool {
