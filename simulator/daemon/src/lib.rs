@@ -611,8 +611,78 @@ fn cmd_name(v: &Value) -> Option<&str> {
     v.get("cmd").and_then(Value::as_str)
 }
 
+/// The main loop's own state and its links to the session (what `get` reports besides the
+/// pipelines, the reader it follows commits with, the recording).
+struct Loop {
+    mode: Mode,
+    /// The pipeline step (s) and how many steps between two state publications.
+    dt: f64,
+    publish_every: u64,
+    running: bool,
+    /// Where the current pause began (status::Pause), `None` while running.
+    paused_at: Option<status::Pause>,
+    /// Steps a lock-step client queued.
+    budget: u64,
+    /// Steps since the daemon started.
+    steps: u64,
+    /// The recording's clock: run time since start, ns (recording module docs).
+    run_ns: u64,
+    /// Where realtime pacing counts from: a wall time and the steps taken then.
+    wall_origin: (Instant, u64),
+    /// Steps taken since the CSV logs were last flushed.
+    logs_dirty: bool,
+    /// The Instance Space version the pipelines follow.
+    version: u64,
+    /// The version the pipelines had taken when they last stepped (0: not yet): their robots'
+    /// `contact` and `error` are from that step. A paused daemon follows commits without
+    /// stepping, so this can lag `version` (status.rs).
+    stepped_version: u64,
+    reader: Reader,
+    trouble: FollowTrouble,
+    recording: Option<recording::Recording>,
+}
+
+impl Loop {
+    /// Stops free running because of `cause`, recording where the pause began.
+    fn pause(&mut self, cause: &'static str) {
+        if self.running {
+            self.paused_at = Some(pause_record(
+                &mut self.reader,
+                &mut self.trouble,
+                self.steps,
+                cause,
+            ));
+        }
+        self.running = false;
+    }
+
+    /// An event in the recording, if one is made.
+    fn event(&mut self, level: Level, source: &str, text: &str) {
+        if let Some(r) = &mut self.recording {
+            r.event(self.run_ns, level, source, text);
+        }
+    }
+
+    /// The loop's part of a `get` answer.
+    fn state(&self, d: &Daemon) -> status::LoopState {
+        status::LoopState {
+            mode: self.mode,
+            running: self.running,
+            budget: self.budget,
+            run_steps: self.steps,
+            clock_steps: d.clock_steps,
+            dt: d.dt(),
+            version: self.version,
+            stepped_version: self.stepped_version,
+            paused_at: self.paused_at,
+        }
+    }
+}
+
 /// The daemon's main loop (see the module docs); returns when the session signals it to stop
-/// (SIGTERM/SIGINT), after closing the recording.
+/// (SIGTERM/SIGINT), after closing the recording. Each pass: answer the queued commands, follow
+/// the committed model, step every pipeline and the scene-level stages (when running or
+/// stepping), publish the state, flush when idle, keep the pace.
 pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
     let Options {
         mode, publish_hz, ..
@@ -625,7 +695,6 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
     let session = Session::open(session)?;
     let signals = session.node("simulator-signals", true)?;
     let mut reader = Reader::attach(&session, "simulator")?;
-    let mut trouble = FollowTrouble::default();
     let mut state = StatePublisher::create(&session, "simulator")?;
     let mut commands = CommandReceiver::create(&session, "simulator")?;
     let _reg = session.register(
@@ -638,11 +707,64 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
             "state/simulator/commands",
         ],
     )?;
+    let (mut d, version) = start(&session, opts, &mut reader)?;
+    announce(&d, mode);
+    let recording = start_recording(&session, opts, &mut d)?;
+    let dt = d.dt();
+    let start = Instant::now();
+    let mut l = Loop {
+        mode,
+        dt,
+        publish_every: ((1.0 / publish_hz) / dt).round().max(1.0) as u64,
+        running: mode != Mode::Lockstep,
+        paused_at: None,
+        budget: 0,
+        steps: 0,
+        run_ns: 0,
+        wall_origin: (start, 0),
+        logs_dirty: false,
+        version,
+        stepped_version: 0,
+        reader,
+        trouble: FollowTrouble::default(),
+        recording,
+    };
+    while signals.wait(Duration::ZERO).is_ok() {
+        let reset = answer_commands(&mut d, &mut l, &mut commands)?;
+        follow_commits(&mut d, &mut l, reset)?;
+        let step_now = l.running || l.budget > 0;
+        if step_now {
+            step_all(&mut d, &mut l);
+        }
+        if step_now && (l.steps.is_multiple_of(l.publish_every) || mode == Mode::Lockstep) {
+            publish(&d, l.version, &mut state)?;
+        }
+        let idle = flush_when_idle(&mut d, &mut l, step_now)?;
+        keep_pace(&l, idle);
+    }
+    if let Some(r) = l.recording {
+        r.finish()?;
+    }
+    let c = d.counters;
+    eprintln!(
+        "simulator: stopped after {} steps; {} rebuild(s), {} change(s) applied in place, {} library parse(s)",
+        l.steps, c.rebuilds, c.in_place, c.library_parses
+    );
+    Ok(c)
+}
+
+/// The daemon with its pipelines built from the session's first snapshot, and that
+/// snapshot's version.
+fn start<'a>(
+    session: &'a Session,
+    opts: &'a Options,
+    reader: &mut Reader,
+) -> Result<(Daemon<'a>, u64)> {
     let snap = reader
         .snapshot()
         .ok_or_else(|| DaemonError::Usage("no snapshot".into()))?;
     let mut d = Daemon {
-        session: &session,
+        session,
         effects_file: opts.effects.as_deref(),
         scene: CompiledScene::new(),
         library: LibraryCache::default(),
@@ -655,13 +777,13 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
         counters: Counters::default(),
         clock_steps: 0,
     };
-    d.follow(&mut reader, &snap, false)?;
-    let mut version = snap.version();
-    // The version the pipelines had taken when they last stepped (0: not yet): their robots'
-    // `contact` and `error` are from that step. A paused daemon follows commits without
-    // stepping, so this can lag `version` (status.rs).
-    let mut stepped_version = 0;
-    drop(snap);
+    d.follow(reader, &snap, false)?;
+    Ok((d, snap.version()))
+}
+
+/// Says on stderr what is simulated: the robots, each pipeline's stages, the scene-level
+/// stages.
+fn announce(d: &Daemon, mode: Mode) {
     eprintln!(
         "simulator: {} robot(s), mode {mode:?}, effects {}",
         d.sims.len(),
@@ -680,240 +802,213 @@ pub fn run(session: Option<&str>, opts: &Options) -> Result<Counters> {
     if let Some(sw) = &d.swap {
         eprintln!("simulator: swap stage: {}", sw.describe(&d.sims));
     }
-    let mut recording = match &opts.record {
-        Some(path) => {
-            let names: Vec<&str> = d.sims.iter().map(|s| s.name.as_str()).collect();
-            let source = format!(
-                "simulator of session {}: {} in {} mode, effects {}",
-                session.name(),
-                names.join(", "),
-                mode.name(),
-                d.source
-            );
-            let mut r = recording::Recording::create(path, &source)?;
-            r.sample(0, &mut d.sims);
-            eprintln!("simulator: recording to {}", path.display());
-            Some(r)
-        }
-        None => None,
+}
+
+/// The recording `--record` asks for, with its first sample (the pipelines at rest).
+fn start_recording(
+    session: &Session,
+    opts: &Options,
+    d: &mut Daemon,
+) -> Result<Option<recording::Recording>> {
+    let Some(path) = &opts.record else {
+        return Ok(None);
     };
-    let dt = d.dt();
-    let publish_every = ((1.0 / publish_hz) / dt).round().max(1.0) as u64;
-    let mut running = mode != Mode::Lockstep;
-    // Where the current pause began (status::Pause), `None` while running.
-    let mut paused_at: Option<status::Pause> = None;
-    let mut budget = 0u64;
-    let start = Instant::now();
-    let mut steps = 0u64;
-    // The recording's clock: run time since start, ns (recording module docs).
-    let mut run_ns = 0u64;
-    let mut wall_origin = (start, 0u64);
-    // Steps taken since the CSV logs were last flushed.
-    let mut logs_dirty = false;
-    while signals.wait(Duration::ZERO).is_ok() {
-        let mut reset = false;
-        for cmd in commands.drain()? {
-            let parsed =
-                serde_json::from_slice::<Value>(cmd.bytes()).map_err(|e| format!("not JSON: {e}"));
-            if let Ok(v) = &parsed
-                && cmd_name(v) == Some("get")
-            {
-                let l = status::LoopState {
-                    mode,
-                    running,
-                    budget,
-                    run_steps: steps,
-                    clock_steps: d.clock_steps,
-                    dt: d.dt(),
-                    version,
-                    stepped_version,
-                    paused_at,
-                };
-                let rec = recording.as_ref().map(|r| r.status());
-                let space = d.space.as_ref().map(|sp| sp.status(&d.sims));
-                let mut answer = status::status(&d.sims, &l, &d.source, rec, space);
-                if let Some(sw) = &d.swap {
-                    answer["swap"] = sw.status(&d.sims);
-                }
-                cmd.reply(answer.to_string().as_bytes());
-                continue;
-            }
-            let was_running = running;
-            let outcome = parsed.and_then(|v| {
-                apply(&mut d.sims, &v, &mut running, &mut budget, &mut reset).map(|()| v)
-            });
-            if was_running && !running {
-                paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "command"));
-            } else if running {
-                paused_at = None;
-            }
-            let text = String::from_utf8_lossy(cmd.bytes()).into_owned();
-            match outcome {
-                Ok(v) => {
-                    cmd.reply(b"ok");
-                    if let Some(r) = &mut recording {
-                        r.event(run_ns, Level::Info, "simulator", &v.to_string());
-                    }
-                }
-                Err(e) => {
-                    eprintln!("simulator: command refused: {e}");
-                    cmd.reply(format!("refused: {e}").as_bytes());
-                    if let Some(r) = &mut recording {
-                        r.event(
-                            run_ns,
-                            Level::Warning,
-                            "simulator",
-                            &format!("refused {text}: {e}"),
-                        );
-                    }
-                }
-            }
-        }
-        // Follow the committed model: a structure change rebuilds, a joint/pose change is
-        // applied in place (module docs). A reader error does not stop the simulator: it keeps
-        // the last version it followed and tries again on the next pass (issue 34 item 4).
-        trouble.refresh("simulator", &mut reader);
-        if let Some(snap) = reader.snapshot()
-            && (reset || snap.version() != version)
-        {
-            let rebuilds = d.counters.rebuilds;
-            if d.follow(&mut reader, &snap, reset)? && reset {
-                wall_origin = (Instant::now(), steps);
-            }
-            version = snap.version();
-            if let Some(r) = &mut recording
-                && d.counters.rebuilds != rebuilds
-            {
-                let why = if reset { "reset" } else { "structure changed" };
-                r.event(
-                    run_ns,
-                    Level::Info,
-                    "simulator",
-                    &format!(
-                        "{why}: pipelines rebuilt at version {version} from the committed joint values; their clock restarts at 0"
-                    ),
-                );
-            }
-        }
-        let step_now = running || budget > 0;
-        if step_now {
-            // every pipeline checks against the other robots at their simulated joints at the
-            // start of this step, whatever the order it steps in ([`follow`])
-            if let Some(f) = &mut d.follow {
-                f.show(&mut d.sims);
-            }
-            for s in &mut d.sims {
-                if let Err(e) = s.pipeline.step() {
-                    eprintln!("simulator: {}: {e}; paused", s.name);
-                    if let Some(r) = &mut recording {
-                        r.event(run_ns, Level::Error, &s.name, &format!("{e}; paused"));
-                    }
-                    s.error = Some(e.to_string());
-                    if running {
-                        paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "error"));
-                    }
-                    running = false;
-                }
-            }
-            let t = d.sims.first().map_or(0.0, |s| s.pipeline.data().state.t);
-            if let Some(sp) = &mut d.space
-                && let Err(e) = sp.update(&mut d.sims, t, dt)
-            {
-                eprintln!("simulator: space stage: {e}; paused");
-                if let Some(r) = &mut recording {
-                    r.event(run_ns, Level::Error, "space", &format!("{e}; paused"));
-                }
-                if running {
-                    paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "error"));
-                }
-                running = false;
-            }
-            // after the space stage: the swap parks the robot it works on
-            if let Some(sw) = &mut d.swap
-                && let Err(e) = sw.update(&mut d.sims, t, dt)
-            {
-                eprintln!("simulator: swap stage: {e}; paused");
-                if let Some(r) = &mut recording {
-                    r.event(run_ns, Level::Error, "swap", &format!("{e}; paused"));
-                }
-                if running {
-                    paused_at = Some(pause_record(&mut reader, &mut trouble, steps, "error"));
-                }
-                running = false;
-            }
-            stepped_version = version;
-            budget = budget.saturating_sub(1);
-            steps += 1;
-            d.clock_steps += 1;
-            run_ns += time_ns(1, d.dt());
-            if let Some(r) = &mut recording {
-                r.sample(run_ns, &mut d.sims);
-            }
-        }
-        if step_now && (steps.is_multiple_of(publish_every) || mode == Mode::Lockstep) {
-            let mut joints = Vec::new();
-            let mut bodies = Vec::new();
-            let mut t = 0.0;
-            for s in &d.sims {
-                let (m, w) = (s.pipeline.model(), s.pipeline.data());
-                t = w.state.t;
-                let poses = link_poses(&m.robot, w.state.q.as_slice());
-                for (j, id) in s.links.iter().enumerate() {
-                    joints.push(JointStateRec {
-                        id: *id,
-                        q: w.state.q[j],
-                        qd: w.state.qd[j],
-                        effort: w.tau.get(j).copied().unwrap_or(0.0),
-                    });
-                    bodies.push(PoseRec {
-                        id: *id,
-                        pose: poses[j],
-                        joint: w.state.q[j],
-                    });
-                }
-            }
-            if let Some(sw) = &d.swap {
-                bodies.extend_from_slice(sw.records());
-            }
-            state.publish(version, t, &joints, &bodies)?;
-        }
-        // Idle (lock-step with nothing queued, or paused): everything so far goes to disk, so
-        // `get`, the CSV log and the recording agree for a reader.
-        let idle = !running && budget == 0;
-        logs_dirty |= step_now;
-        if idle && logs_dirty {
-            d.flush_logs()?;
-            logs_dirty = false;
-        }
-        if let Some(r) = &mut recording {
-            r.maybe_flush(idle);
-        }
-        match mode {
-            Mode::Fast => {}
-            Mode::Realtime => {
-                let next =
-                    wall_origin.0 + Duration::from_secs_f64((steps - wall_origin.1) as f64 * dt);
-                let now = Instant::now();
-                if next > now {
-                    std::thread::sleep((next - now).min(Duration::from_millis(50)));
-                }
-            }
-            Mode::Lockstep => {
-                if idle {
-                    std::thread::sleep(Duration::from_micros(200));
-                }
-            }
-        }
-    }
-    if let Some(r) = recording {
-        r.finish()?;
-    }
-    let c = d.counters;
-    eprintln!(
-        "simulator: stopped after {steps} steps; {} rebuild(s), {} change(s) applied in place, {} library parse(s)",
-        c.rebuilds, c.in_place, c.library_parses
+    let names: Vec<&str> = d.sims.iter().map(|s| s.name.as_str()).collect();
+    let source = format!(
+        "simulator of session {}: {} in {} mode, effects {}",
+        session.name(),
+        names.join(", "),
+        opts.mode.name(),
+        d.source
     );
-    Ok(c)
+    let mut r = recording::Recording::create(path, &source)?;
+    r.sample(0, &mut d.sims);
+    eprintln!("simulator: recording to {}", path.display());
+    Ok(Some(r))
+}
+
+/// Answers every queued command: `get` with the status, the others applied ([`apply`]) and
+/// answered `ok` or `refused: …`. Returns whether one asked for a reset.
+fn answer_commands(d: &mut Daemon, l: &mut Loop, commands: &mut CommandReceiver) -> Result<bool> {
+    let mut reset = false;
+    for cmd in commands.drain()? {
+        let parsed =
+            serde_json::from_slice::<Value>(cmd.bytes()).map_err(|e| format!("not JSON: {e}"));
+        if let Ok(v) = &parsed
+            && cmd_name(v) == Some("get")
+        {
+            let rec = l.recording.as_ref().map(|r| r.status());
+            let space = d.space.as_ref().map(|sp| sp.status(&d.sims));
+            let mut answer = status::status(&d.sims, &l.state(d), &d.source, rec, space);
+            if let Some(sw) = &d.swap {
+                answer["swap"] = sw.status(&d.sims);
+            }
+            cmd.reply(answer.to_string().as_bytes());
+            continue;
+        }
+        let was_running = l.running;
+        let outcome = parsed.and_then(|v| {
+            apply(&mut d.sims, &v, &mut l.running, &mut l.budget, &mut reset).map(|()| v)
+        });
+        if was_running && !l.running {
+            l.paused_at = Some(pause_record(
+                &mut l.reader,
+                &mut l.trouble,
+                l.steps,
+                "command",
+            ));
+        } else if l.running {
+            l.paused_at = None;
+        }
+        let text = String::from_utf8_lossy(cmd.bytes()).into_owned();
+        match outcome {
+            Ok(v) => {
+                cmd.reply(b"ok");
+                l.event(Level::Info, "simulator", &v.to_string());
+            }
+            Err(e) => {
+                eprintln!("simulator: command refused: {e}");
+                cmd.reply(format!("refused: {e}").as_bytes());
+                l.event(Level::Warning, "simulator", &format!("refused {text}: {e}"));
+            }
+        }
+    }
+    Ok(reset)
+}
+
+/// Follows the committed model: a structure change rebuilds, a joint/pose change is applied
+/// in place (module docs). A reader error does not stop the simulator: it keeps the last
+/// version it followed and tries again on the next pass (issue 34 item 4).
+fn follow_commits(d: &mut Daemon, l: &mut Loop, reset: bool) -> Result<()> {
+    l.trouble.refresh("simulator", &mut l.reader);
+    let Some(snap) = l.reader.snapshot() else {
+        return Ok(());
+    };
+    if !(reset || snap.version() != l.version) {
+        return Ok(());
+    }
+    let rebuilds = d.counters.rebuilds;
+    if d.follow(&mut l.reader, &snap, reset)? && reset {
+        l.wall_origin = (Instant::now(), l.steps);
+    }
+    l.version = snap.version();
+    if d.counters.rebuilds != rebuilds {
+        let why = if reset { "reset" } else { "structure changed" };
+        let text = format!(
+            "{why}: pipelines rebuilt at version {} from the committed joint values; their clock restarts at 0",
+            l.version
+        );
+        l.event(Level::Info, "simulator", &text);
+    }
+    Ok(())
+}
+
+/// One step of every pipeline, then the space and swap stages; a failing one pauses the
+/// daemon (its error is kept for `get`). Advances the clocks and samples the recording.
+fn step_all(d: &mut Daemon, l: &mut Loop) {
+    // every pipeline checks against the other robots at their simulated joints at the start
+    // of this step, whatever the order it steps in ([`follow`])
+    if let Some(f) = &mut d.follow {
+        f.show(&mut d.sims);
+    }
+    for s in &mut d.sims {
+        if let Err(e) = s.pipeline.step() {
+            eprintln!("simulator: {}: {e}; paused", s.name);
+            l.event(Level::Error, &s.name, &format!("{e}; paused"));
+            s.error = Some(e.to_string());
+            l.pause("error");
+        }
+    }
+    let t = d.sims.first().map_or(0.0, |s| s.pipeline.data().state.t);
+    if let Some(sp) = &mut d.space
+        && let Err(e) = sp.update(&mut d.sims, t, l.dt)
+    {
+        eprintln!("simulator: space stage: {e}; paused");
+        l.event(Level::Error, "space", &format!("{e}; paused"));
+        l.pause("error");
+    }
+    // after the space stage: the swap parks the robot it works on
+    if let Some(sw) = &mut d.swap
+        && let Err(e) = sw.update(&mut d.sims, t, l.dt)
+    {
+        eprintln!("simulator: swap stage: {e}; paused");
+        l.event(Level::Error, "swap", &format!("{e}; paused"));
+        l.pause("error");
+    }
+    l.stepped_version = l.version;
+    l.budget = l.budget.saturating_sub(1);
+    l.steps += 1;
+    d.clock_steps += 1;
+    l.run_ns += time_ns(1, d.dt());
+    if let Some(r) = &mut l.recording {
+        r.sample(l.run_ns, &mut d.sims);
+    }
+}
+
+/// Publishes every robot's joint state and link poses (and the swap's ORUs) at `version`.
+fn publish(d: &Daemon, version: u64, state: &mut StatePublisher) -> Result<()> {
+    let mut joints = Vec::new();
+    let mut bodies = Vec::new();
+    let mut t = 0.0;
+    for s in &d.sims {
+        let (m, w) = (s.pipeline.model(), s.pipeline.data());
+        t = w.state.t;
+        let poses = link_poses(&m.robot, w.state.q.as_slice());
+        for (j, id) in s.links.iter().enumerate() {
+            joints.push(JointStateRec {
+                id: *id,
+                q: w.state.q[j],
+                qd: w.state.qd[j],
+                effort: w.tau.get(j).copied().unwrap_or(0.0),
+            });
+            bodies.push(PoseRec {
+                id: *id,
+                pose: poses[j],
+                joint: w.state.q[j],
+            });
+        }
+    }
+    if let Some(sw) = &d.swap {
+        bodies.extend_from_slice(sw.records());
+    }
+    state.publish(version, t, &joints, &bodies)?;
+    Ok(())
+}
+
+/// Idle (lock-step with nothing queued, or paused): everything so far goes to disk, so
+/// `get`, the CSV log and the recording agree for a reader. Returns whether idle.
+fn flush_when_idle(d: &mut Daemon, l: &mut Loop, stepped: bool) -> Result<bool> {
+    let idle = !l.running && l.budget == 0;
+    l.logs_dirty |= stepped;
+    if idle && l.logs_dirty {
+        d.flush_logs()?;
+        l.logs_dirty = false;
+    }
+    if let Some(r) = &mut l.recording {
+        r.maybe_flush(idle);
+    }
+    Ok(idle)
+}
+
+/// Waits as the mode says: realtime keeps one step per `dt` of wall time, lock-step naps
+/// while idle, fast does not wait.
+fn keep_pace(l: &Loop, idle: bool) {
+    match l.mode {
+        Mode::Fast => {}
+        Mode::Realtime => {
+            let next = l.wall_origin.0
+                + Duration::from_secs_f64((l.steps - l.wall_origin.1) as f64 * l.dt);
+            let now = Instant::now();
+            if next > now {
+                std::thread::sleep((next - now).min(Duration::from_millis(50)));
+            }
+        }
+        Mode::Lockstep => {
+            if idle {
+                std::thread::sleep(Duration::from_micros(200));
+            }
+        }
+    }
 }
 
 #[cfg(test)]
