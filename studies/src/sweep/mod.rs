@@ -15,6 +15,7 @@
 pub mod bench;
 pub mod cli;
 pub mod coordinator;
+mod params;
 pub mod protocol;
 pub mod spec;
 pub mod study;

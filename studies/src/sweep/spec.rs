@@ -1,29 +1,13 @@
 //! What a sweep runs: `--param name=a:b:n` / `name=v1,v2,…` parsed against a study's
 //! parameters, and their cartesian product as jobs with stable indices.
 
+pub use super::params::Value;
+
 use super::SweepError;
-use super::study::{Kind, StudyDef};
+use super::params::{Kind, StudyDef};
 
 /// Most jobs one sweep may have (a typo such as `a:b:100000` twice is refused, not run).
 pub const MAX_JOBS: usize = 1_000_000;
-
-/// One parameter value: a number (in the parameter's stated unit) or a word (a choice).
-#[derive(Debug, Clone, PartialEq)]
-pub enum Value {
-    Num(f64),
-    Word(String),
-}
-
-impl std::fmt::Display for Value {
-    /// Numbers in Rust's shortest round-trip form (`0.2`, `12`), so a CSV cell reads back bit
-    /// for bit.
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Value::Num(v) => write!(f, "{v}"),
-            Value::Word(w) => f.write_str(w),
-        }
-    }
-}
 
 /// One swept parameter: its name and the values it takes, in order.
 #[derive(Debug, Clone, PartialEq)]
@@ -194,91 +178,4 @@ pub fn jobs(axes: &[Axis]) -> Result<Vec<Job>, SweepError> {
         out.push(Job { index, params });
     }
     Ok(out)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::sweep::study;
-
-    fn axis(s: &str) -> Result<Axis, SweepError> {
-        parse_axis(study::find("welding").expect("welding"), s)
-    }
-
-    #[test]
-    fn a_range_has_n_values_from_a_to_b_exactly() {
-        let a = axis("speed=2:7:11").expect("range");
-        assert_eq!(a.values.len(), 11);
-        assert_eq!(a.values[0], Value::Num(2.0));
-        assert_eq!(a.values[10], Value::Num(7.0));
-        assert_eq!(a.values[5], Value::Num(4.5));
-        let a = axis("arm_x=-1.2:-0.9:4").expect("negative range");
-        assert_eq!(a.values[0], Value::Num(-1.2));
-        assert_eq!(a.values[3], Value::Num(-0.9));
-        assert_eq!(axis("speed=3:3:1").expect("one").values, [Value::Num(3.0)]);
-    }
-
-    #[test]
-    fn lists_take_numbers_and_a_choice_its_words() {
-        let a = axis("mode=bbox, exact").expect("choice");
-        assert_eq!(
-            a.values,
-            [Value::Word("bbox".into()), Value::Word("exact".into())]
-        );
-        assert_eq!(
-            axis("step=0.5,1e-1").expect("numbers").values,
-            [Value::Num(0.5), Value::Num(0.1)]
-        );
-    }
-
-    #[test]
-    fn bad_arguments_are_refused_naming_them() {
-        for (arg, want) in [
-            ("speed", "expected NAME=A:B:N"),
-            ("speed=", "no value for speed"),
-            ("speeds=1,2", "has no parameter \"speeds\""),
-            ("speed=1:2", "expected A:B:N"),
-            ("speed=1:2:3:4", "expected A:B:N"),
-            ("speed=1:2:0", "at least 1"),
-            ("speed=1:2:1", "ambiguous"),
-            ("speed=1:2:x", "not a whole number"),
-            ("speed=1:inf:3", "not a finite number"),
-            ("speed=NaN", "not a finite number"),
-            ("speed=1,,2", "empty value"),
-            ("speed=fast", "\"fast\" is not a number"),
-            ("mode=exact,quick", "expected one of bbox, polygon, exact"),
-            ("seam=1:2:2", "is a choice"),
-        ] {
-            let e = axis(arg).expect_err(arg).to_string();
-            assert!(e.contains(arg), "{e:?} does not name {arg:?}");
-            assert!(e.contains(want), "{arg}: {e:?} does not say {want:?}");
-        }
-    }
-
-    #[test]
-    fn jobs_are_the_product_first_axis_slowest() {
-        let axes = [
-            axis("speed=1,2").expect("speed"),
-            axis("mode=bbox,polygon,exact").expect("mode"),
-        ];
-        let jobs = jobs(&axes).expect("jobs");
-        assert_eq!(jobs.len(), 6);
-        for (i, j) in jobs.iter().enumerate() {
-            assert_eq!(j.index, i);
-            assert_eq!(j.params[0].1, axes[0].values[i / 3]);
-            assert_eq!(j.params[1].1, axes[1].values[i % 3]);
-        }
-        assert_eq!(super::jobs(&[]).expect("defaults").len(), 1);
-        let twice = [axis("speed=1").expect("a"), axis("speed=2").expect("b")];
-        assert!(super::jobs(&twice).is_err());
-        let huge = [
-            axis("speed=1:2:1000").expect("a"),
-            axis("step=0.1:1:1000").expect("b"),
-            axis("arm_x=-1:1:2").expect("c"),
-        ];
-        assert!(matches!(
-            super::jobs(&huge),
-            Err(SweepError::TooMany { .. })
-        ));
-    }
 }

@@ -7,58 +7,11 @@
 //! * `welding` — the downhand welding cell ([`crate::welding::simulate`]).
 //! * `station` — the Space Station's orbit, power and ORU swap ([`crate::station::simulate`]).
 
-use super::spec::Value;
+pub use super::params::{Kind, ParamDef, StudyDef};
+
+use super::params::Value;
 use crate::{Result, StudyError, station, surgical, welding};
 use robosim_collision::Mode;
-
-/// What values a parameter takes.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Kind {
-    /// A finite number in the parameter's unit.
-    Number,
-    /// A whole number (encoder bits).
-    Whole,
-    /// One of these words.
-    Choice(&'static [&'static str]),
-}
-
-/// One parameter of a study.
-#[derive(Debug, Clone, Copy)]
-pub struct ParamDef {
-    pub name: &'static str,
-    pub unit: &'static str,
-    pub kind: Kind,
-    /// What it is, for `robosim sweep --help` and docs/studies.md.
-    pub what: &'static str,
-}
-
-/// A study a sweep can run.
-pub struct StudyDef {
-    pub name: &'static str,
-    pub what: &'static str,
-    pub params: &'static [ParamDef],
-    /// The result columns, each naming its unit.
-    pub results: &'static [&'static str],
-    /// Refuses a point the study cannot run (a value out of its range), naming it; cheap, so
-    /// the coordinator checks every point before any worker starts.
-    pub check: fn(&[(String, Value)]) -> Result<()>,
-    /// Runs the study at a point: one value per result column.
-    pub run: fn(&[(String, Value)]) -> Result<Vec<f64>>,
-}
-
-impl StudyDef {
-    /// "name (unit), …" for error messages.
-    pub fn param_list(&self) -> String {
-        self.params
-            .iter()
-            .map(|p| match p.kind {
-                Kind::Choice(w) => format!("{} ({})", p.name, w.join("|")),
-                _ => format!("{} ({})", p.name, p.unit),
-            })
-            .collect::<Vec<_>>()
-            .join(", ")
-    }
-}
 
 /// Every study a sweep can run.
 pub static STUDIES: &[StudyDef] = &[SURGICAL, WELDING, STATION];
@@ -454,4 +407,91 @@ fn station_params(p: &[(String, Value)]) -> Result<station::StationParams> {
     };
     sp.check()?;
     Ok(sp)
+}
+
+/// `--param` parsing against a real study's parameters (welding's): moved here from spec.rs so
+/// that spec.rs need not import this file.
+#[cfg(test)]
+mod spec_tests {
+    use super::super::SweepError;
+    use super::super::spec::{self, Axis, Value, parse_axis};
+    use super::*;
+
+    fn axis(s: &str) -> std::result::Result<Axis, SweepError> {
+        parse_axis(find("welding").expect("welding"), s)
+    }
+
+    #[test]
+    fn a_range_has_n_values_from_a_to_b_exactly() {
+        let a = axis("speed=2:7:11").expect("range");
+        assert_eq!(a.values.len(), 11);
+        assert_eq!(a.values[0], Value::Num(2.0));
+        assert_eq!(a.values[10], Value::Num(7.0));
+        assert_eq!(a.values[5], Value::Num(4.5));
+        let a = axis("arm_x=-1.2:-0.9:4").expect("negative range");
+        assert_eq!(a.values[0], Value::Num(-1.2));
+        assert_eq!(a.values[3], Value::Num(-0.9));
+        assert_eq!(axis("speed=3:3:1").expect("one").values, [Value::Num(3.0)]);
+    }
+
+    #[test]
+    fn lists_take_numbers_and_a_choice_its_words() {
+        let a = axis("mode=bbox, exact").expect("choice");
+        assert_eq!(
+            a.values,
+            [Value::Word("bbox".into()), Value::Word("exact".into())]
+        );
+        assert_eq!(
+            axis("step=0.5,1e-1").expect("numbers").values,
+            [Value::Num(0.5), Value::Num(0.1)]
+        );
+    }
+
+    #[test]
+    fn bad_arguments_are_refused_naming_them() {
+        for (arg, want) in [
+            ("speed", "expected NAME=A:B:N"),
+            ("speed=", "no value for speed"),
+            ("speeds=1,2", "has no parameter \"speeds\""),
+            ("speed=1:2", "expected A:B:N"),
+            ("speed=1:2:3:4", "expected A:B:N"),
+            ("speed=1:2:0", "at least 1"),
+            ("speed=1:2:1", "ambiguous"),
+            ("speed=1:2:x", "not a whole number"),
+            ("speed=1:inf:3", "not a finite number"),
+            ("speed=NaN", "not a finite number"),
+            ("speed=1,,2", "empty value"),
+            ("speed=fast", "\"fast\" is not a number"),
+            ("mode=exact,quick", "expected one of bbox, polygon, exact"),
+            ("seam=1:2:2", "is a choice"),
+        ] {
+            let e = axis(arg).expect_err(arg).to_string();
+            assert!(e.contains(arg), "{e:?} does not name {arg:?}");
+            assert!(e.contains(want), "{arg}: {e:?} does not say {want:?}");
+        }
+    }
+
+    #[test]
+    fn jobs_are_the_product_first_axis_slowest() {
+        let axes = [
+            axis("speed=1,2").expect("speed"),
+            axis("mode=bbox,polygon,exact").expect("mode"),
+        ];
+        let jobs = spec::jobs(&axes).expect("jobs");
+        assert_eq!(jobs.len(), 6);
+        for (i, j) in jobs.iter().enumerate() {
+            assert_eq!(j.index, i);
+            assert_eq!(j.params[0].1, axes[0].values[i / 3]);
+            assert_eq!(j.params[1].1, axes[1].values[i % 3]);
+        }
+        assert_eq!(spec::jobs(&[]).expect("defaults").len(), 1);
+        let twice = [axis("speed=1").expect("a"), axis("speed=2").expect("b")];
+        assert!(spec::jobs(&twice).is_err());
+        let huge = [
+            axis("speed=1:2:1000").expect("a"),
+            axis("step=0.1:1:1000").expect("b"),
+            axis("arm_x=-1:1:2").expect("c"),
+        ];
+        assert!(matches!(spec::jobs(&huge), Err(SweepError::TooMany { .. })));
+    }
 }
