@@ -1,13 +1,16 @@
-//! What the welding and station studies share: robots in the world from a library scene, their
-//! parts as collision bodies with bounding spheres, clearances between parts, trajectory files
-//! in the display's file-mode format, the headless frames, and the CSV writer.
+//! What the studies share: robots in the world from a library scene, a library primitive as a
+//! collision solid ([`collision_solid`]; the surgical study's too), parts as collision bodies
+//! with bounding spheres, clearances between parts, trajectory files in the display's
+//! file-mode format, the headless frames, and the CSV writer.
 
 use crate::{Result, StudyError};
-use nalgebra::{Isometry3, Matrix4, Point3};
+use nalgebra::{Isometry3, Matrix4, Point3, Vector3};
 use robosim_collision::robot::isometry_from_matrix;
 use robosim_collision::{Mode, PairResult, Solid, collide};
 use robosim_kinematics::{JointType, Robot, fk};
-use robosim_library::{Evaluated, Library, Params, PlacedRobot, SceneModel};
+use robosim_library::{
+    Evaluated, Library, Params, PlacedRobot, PlacedSolid, Primitive, SceneModel,
+};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -22,6 +25,34 @@ pub fn scene(name: &str, params: &Params) -> Result<(&'static Library, SceneMode
         Err(e) => return Err(StudyError(format!("scene {name}: {e}"))),
     };
     Ok((lib, scene))
+}
+
+/// A collision body for a library primitive: the exact primitive where the collision crate
+/// has one (with the library's facet count, so both faceted forms agree), else the library's
+/// polyhedron as a mesh.
+pub(crate) fn collision_solid(p: &PlacedSolid) -> Result<Solid> {
+    let s = match &p.primitive {
+        Primitive::Box { size } => Solid::cuboid(Vector3::new(size[0], size[1], size[2])),
+        Primitive::Cylinder {
+            radius,
+            height,
+            facets,
+        } => Solid::cylinder(*radius, *height, Some(*facets)),
+        Primitive::Cone {
+            radius,
+            height,
+            facets,
+        } => Solid::cone(*radius, *height, Some(*facets)),
+        Primitive::Sphere { radius, facets } => Solid::sphere(*radius, Some(*facets)),
+        _ => {
+            let poly = &p.polyhedron;
+            let polygons: Vec<Vec<u32>> = (0..poly.polygons.len())
+                .map(|i| poly.polygon_indices(i).to_vec())
+                .collect();
+            Solid::mesh(poly.vertices.clone(), &polygons)
+        }
+    };
+    s.map_err(|e| StudyError(format!("solid {}: {e}", p.name)))
 }
 
 /// One collision part: the link it rides on (0 = base), its pose in that link's frame, the
@@ -54,7 +85,7 @@ impl Body {
         let mut parts = Vec::new();
         for (link, solids) in p.model.frames.iter().enumerate() {
             for s in solids {
-                let solid = crate::surgical::collision_solid(s)?;
+                let solid = collision_solid(s)?;
                 let vs = &s.polyhedron.vertices;
                 let n = vs.len().max(1) as f64;
                 let c = vs
@@ -116,7 +147,7 @@ pub fn fixed_parts(scene: &SceneModel) -> Result<Vec<Part>> {
     let mut out = Vec::new();
     for it in &scene.solids {
         for s in &it.solid.parts {
-            let solid = crate::surgical::collision_solid(s)?;
+            let solid = collision_solid(s)?;
             let vs = &s.polyhedron.vertices;
             let n = vs.len().max(1) as f64;
             let c = vs

@@ -25,6 +25,7 @@
 //!
 //! Entry point: [`run`].
 
+use crate::common::collision_solid;
 use crate::{Result, bail, say};
 use nalgebra::{Matrix4, Vector3};
 use robosim_collision::robot::{
@@ -83,34 +84,6 @@ fn vec_str(v: &[f64], digits: usize) -> String {
         .map(|x| format!("{:+.digits$}", (x * scale).round() / scale + 0.0))
         .collect();
     format!("[{}]", parts.join(", "))
-}
-
-/// A collision body for a library primitive: the exact primitive where the collision crate
-/// has one (with the library's facet count, so both faceted forms agree), else the library's
-/// polyhedron as a mesh.
-pub(crate) fn collision_solid(p: &PlacedSolid) -> Result<Solid> {
-    let s = match &p.primitive {
-        Primitive::Box { size } => Solid::cuboid(Vector3::new(size[0], size[1], size[2])),
-        Primitive::Cylinder {
-            radius,
-            height,
-            facets,
-        } => Solid::cylinder(*radius, *height, Some(*facets)),
-        Primitive::Cone {
-            radius,
-            height,
-            facets,
-        } => Solid::cone(*radius, *height, Some(*facets)),
-        Primitive::Sphere { radius, facets } => Solid::sphere(*radius, Some(*facets)),
-        _ => {
-            let poly = &p.polyhedron;
-            let polygons: Vec<Vec<u32>> = (0..poly.polygons.len())
-                .map(|i| poly.polygon_indices(i).to_vec())
-                .collect();
-            Solid::mesh(poly.vertices.clone(), &polygons)
-        }
-    };
-    s.map_err(|e| crate::StudyError(format!("solid {}: {e}", p.name)))
 }
 
 /// The robot's link solids (base first) from the library's evaluation: one solid per frame,
@@ -430,7 +403,8 @@ pub fn reach(p: &ReachParams) -> Result<Reach> {
         Some(b) => b,
         None => scene
             .effects
-            .encoder.map(|e| e.bits)
+            .encoder
+            .map(|e| e.bits)
             .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?,
     };
     let settings = settings_of(&scene);
@@ -685,7 +659,8 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     // The seed's whole study (see `reach_sweep`).
     let bits = scene
         .effects
-        .encoder.map(|e| e.bits)
+        .encoder
+        .map(|e| e.bits)
         .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?;
     let t0 = Instant::now();
     let reach = reach_sweep(&robot, &links, &obstacles, &settings, &arm.q, bits, &frame)?;
