@@ -36,10 +36,12 @@ use robosim_collision::{Mode, Solid};
 use robosim_geometry::MassProperties;
 use robosim_instance_space::state::StateSubscriber;
 use robosim_instance_space::{Client, Kind, Reader, Session, Snapshot, Transaction, aspect};
-use robosim_kinematics::ik::{self, IkOptions, Method};
+use robosim_kinematics::ik::{self, IkOptions, IkResult, Method};
 use robosim_kinematics::{Robot, encoder, movej_interpolate, pose::Residual};
 use robosim_launcher as launcher;
-use robosim_library::{CollisionMode, Evaluated, Params, PlacedSolid, Primitive, SceneModel};
+use robosim_library::{
+    CollisionMode, Evaluated, Library, Params, PlacedRobot, PlacedSolid, Primitive, SceneModel,
+};
 use robosim_scene::pose::to_matrix as m4;
 use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
 use std::sync::Arc;
@@ -431,7 +433,7 @@ fn settings_of(scene: &SceneModel) -> CollisionSettings {
 }
 
 /// Runs the study in session `session` (a fresh one by default) and writes its report to
-/// `out` as it goes.
+/// `out` as it goes: the numbered steps of the module docs, one function each.
 pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     let t_start = Instant::now();
     let name = session
@@ -452,24 +454,122 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         .robots
         .first()
         .ok_or_else(|| crate::StudyError(format!("{SCENE} places no robot")))?;
-    let model = &placed.model;
-    let link_names = &model.link_names;
 
+    let s = start_session(out, &name)?;
+    let Mapped {
+        mut reader,
+        robot,
+        arm,
+        head,
+    } = map_model(out, &s, &scene, placed)?;
+    let (frame, target, sols) = aim_at_head(out, &robot, &arm.q, &head)?;
+    let checks = Checks::of(out, &scene, &placed.model.frames)?;
+    let goal = choose_solution(
+        out,
+        &robot,
+        &checks,
+        &sols,
+        &arm.q,
+        &placed.model.link_names,
+    )?;
+    let bits = seed_sweep(out, &scene, &robot, &checks, &arm.q, &frame)?;
+    let (mut client, last_version) =
+        move_there(out, &s, &mut reader, &robot, &arm, &goal, &target)?;
+    simulator_state(out, &s, &arm, &goal, last_version)?;
+    encoder_study(out, &robot, &goal, bits)?;
+    gravity_study(out, lib, &placed.model.frames, &robot, &goal)?;
+
+    say!(
+        out,
+        "\n== 9. automation: an ECLSS fault with its own sensor failed, alarms, diagnosis (seed §4.3)"
+    );
+    automation(out)?;
+
+    refuse_bad_input(out, &mut client, &reader, &arm)?;
+
+    say!(
+        out,
+        "\n== 11. stop the session (demo ran {:.1} s)",
+        t_start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Step 1: the session on the scene, with the keeper and the simulator daemon.
+fn start_session(out: &mut dyn std::io::Write, name: &str) -> Result<Session> {
     say!(
         out,
         "== 1. session on library scene {SCENE} (seed §2.7): keeper + simulator processes"
     );
-    launcher::up(SCENE, &["simulator".to_owned()], Some(&name))?;
-    let s = Session::open(Some(&name))?;
+    launcher::up(SCENE, &["simulator".to_owned()], Some(name))?;
+    Ok(Session::open(Some(name))?)
+}
 
+/// What step 2 found in shared memory: the reader, the mapped robot, the arm's objects and
+/// joint values, and the head's world pose.
+struct Mapped {
+    reader: Reader,
+    robot: Robot,
+    arm: CompiledRobot,
+    head: Matrix4<f64>,
+}
+
+/// Step 2: a reader maps the model; the mapped robot and the head are checked against the
+/// Library Space evaluation of the same scene.
+fn map_model(
+    out: &mut dyn std::io::Write,
+    s: &Session,
+    scene: &SceneModel,
+    placed: &PlacedRobot,
+) -> Result<Mapped> {
     say!(
         out,
         "\n== 2. a reader maps the model from shared memory (nothing is copied)"
     );
-    let mut reader = Reader::attach(&s, "demo-reader")?;
+    let reader = Reader::attach(s, "demo-reader")?;
     let snap = reader
         .snapshot()
         .ok_or_else(|| crate::StudyError("no snapshot".into()))?;
+    say_contents(out, &snap)?;
+    let compiled = CompiledScene::of(&snap);
+    let robots = compiled.robots();
+    let arm = robots
+        .iter()
+        .find(|r| r.robot.name == placed.name)
+        .ok_or_else(|| crate::StudyError(format!("robot {} not in the snapshot", placed.name)))?;
+    let robot = mapped_robot(&snap, arm, &placed.name)?;
+    let diff = kinematic_difference(&robot, &placed.model.robot);
+    if diff > 1e-12 {
+        bail!("the mapped robot differs from the library's by {diff:e} (DH, limits, base, tool)");
+    }
+    let (head, radius, length) = mapped_head(scene, &snap)?;
+    // The cylinder's axis, signed to point along the world's positive side of it (the seed's
+    // head axis is world +y).
+    let axis: Vector3<f64> = head.fixed_view::<3, 1>(0, 2).into_owned();
+    let axis = if axis.sum() < 0.0 { -axis } else { axis };
+    say!(
+        out,
+        "head: cylinder r {radius:.3} m, length {length:.3} m, axis {} through {}; {}: {} joints at q {}",
+        vec_str(axis.as_slice(), 2),
+        xyz(&head),
+        placed.name,
+        robot.dof(),
+        vec_str(&arm.q, 3)
+    );
+    say!(
+        out,
+        "mapped DH rows, limits, base and tool = the Library Space evaluation (max |Δ| {diff:.1e})"
+    );
+    Ok(Mapped {
+        arm: arm.clone(),
+        reader,
+        robot,
+        head,
+    })
+}
+
+/// "version v: n objects (…), vertices, convex polygons" for a snapshot.
+fn say_contents(out: &mut dyn std::io::Write, snap: &Snapshot) -> Result<()> {
     let polygons: usize = (0..snap.len())
         .filter_map(|i| snap.geometry(i))
         .map(|g| g.polygons.len())
@@ -498,18 +598,12 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         snap.vertex_count(),
         polygons
     );
-    let compiled = CompiledScene::of(&snap);
-    let robots = compiled.robots();
-    let arm = robots
-        .iter()
-        .find(|r| r.robot.name == placed.name)
-        .ok_or_else(|| crate::StudyError(format!("robot {} not in the snapshot", placed.name)))?;
-    let robot = mapped_robot(&snap, arm, &placed.name)?;
-    let diff = kinematic_difference(&robot, &model.robot);
-    if diff > 1e-12 {
-        bail!("the mapped robot differs from the library's by {diff:e} (DH, limits, base, tool)");
-    }
-    // The head as the snapshot has it: its (only) solid's world pose; a cylinder along z.
+    Ok(())
+}
+
+/// The head as the snapshot has it: its (only) solid's world pose (a cylinder along z),
+/// checked against the library's, with its radius and length.
+fn mapped_head(scene: &SceneModel, snap: &Snapshot) -> Result<(Matrix4<f64>, f64, f64)> {
     let head_item = scene
         .solids
         .iter()
@@ -533,45 +627,36 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         Primitive::Cylinder { radius, height, .. } => (radius, height),
         _ => bail!("the head is not a cylinder"),
     };
-    // The cylinder's axis, signed to point along the world's positive side of it (the seed's
-    // head axis is world +y).
-    let axis: Vector3<f64> = head.fixed_view::<3, 1>(0, 2).into_owned();
-    let axis = if axis.sum() < 0.0 { -axis } else { axis };
-    say!(
-        out,
-        "head: cylinder r {radius:.3} m, length {length:.3} m, axis {} through {}; {}: {} joints at q {}",
-        vec_str(axis.as_slice(), 2),
-        xyz(&head),
-        placed.name,
-        robot.dof(),
-        vec_str(&arm.q, 3)
-    );
-    say!(
-        out,
-        "mapped DH rows, limits, base and tool = the Library Space evaluation (max |Δ| {diff:.1e})"
-    );
+    Ok((head, radius, length))
+}
 
+/// Step 3: the tool pose 1 mm off the head and every analytic IK solution for it.
+fn aim_at_head(
+    out: &mut dyn std::io::Write,
+    robot: &Robot,
+    q: &[f64],
+    head: &Matrix4<f64>,
+) -> Result<(HeadFrame, Matrix4<f64>, IkResult)> {
     say!(
         out,
         "\n== 3. kinematics: tool tip {:.1} cm from the head's axis, pointing at it (seed §2.7)",
         TIP_FROM_AXIS * 100.0
     );
-    let frame = HeadFrame::new(&head, &robot);
-    let location = |angle_deg: f64, along: f64| frame.location(angle_deg, along);
-    let target = location(ARC_DEG, ALONG_AXIS);
+    let frame = HeadFrame::new(head, robot);
+    let target = frame.location(ARC_DEG, ALONG_AXIS);
     say!(
         out,
         "target: tip at {} ({ARC_DEG}° above horizontal, {ALONG_AXIS} m along the axis), tool z towards the axis",
         xyz(&target)
     );
-    let family = ik::family::recognise(&robot);
+    let family = ik::family::recognise(robot);
     let opts = IkOptions {
         all: true,
-        q0: Some(arm.q.clone()),
+        q0: Some(q.to_vec()),
         ..IkOptions::default()
     };
     let t0 = Instant::now();
-    let sols = ik::solve(&robot, &target, Method::Analytic, &opts)?;
+    let sols = ik::solve(robot, &target, Method::Analytic, &opts)?;
     let ik_us = t0.elapsed().as_secs_f64() * 1e6;
     let worst = sols
         .solutions
@@ -584,24 +669,56 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         family.name(),
         sols.solutions.len()
     );
+    Ok((frame, target, sols))
+}
 
-    say!(
-        out,
-        "\n== 4. collision ({}, the scene's mode; self {}): each solution's link solids against the head",
-        match scene.effects.collision.map(|c| c.mode) {
-            Some(CollisionMode::BBox) => "bbox",
-            Some(CollisionMode::Exact) => "exact",
-            _ => "polygon",
-        },
-        if scene.effects.collision.is_some_and(|c| c.self_collision) {
-            "on"
-        } else {
-            "off"
-        }
-    );
-    let settings = settings_of(&scene);
-    let links = link_solids(&model.frames)?;
-    let obstacles = obstacles(&scene)?;
+/// Step 4's collision checking: the scene's declared settings, the arm's link solids and the
+/// obstacles.
+struct Checks {
+    settings: CollisionSettings,
+    links: LinkSolids,
+    obstacles: Scene,
+}
+
+impl Checks {
+    /// Says which checking the scene declares and builds it.
+    fn of(
+        out: &mut dyn std::io::Write,
+        scene: &SceneModel,
+        frames: &[Vec<PlacedSolid>],
+    ) -> Result<Checks> {
+        say!(
+            out,
+            "\n== 4. collision ({}, the scene's mode; self {}): each solution's link solids against the head",
+            match scene.effects.collision.map(|c| c.mode) {
+                Some(CollisionMode::BBox) => "bbox",
+                Some(CollisionMode::Exact) => "exact",
+                _ => "polygon",
+            },
+            if scene.effects.collision.is_some_and(|c| c.self_collision) {
+                "on"
+            } else {
+                "off"
+            }
+        );
+        Ok(Checks {
+            settings: settings_of(scene),
+            links: link_solids(frames)?,
+            obstacles: obstacles(scene)?,
+        })
+    }
+}
+
+/// Step 4: each solution checked against the head; the nearest clear solution within limits
+/// whose MOVEJI path is also clear is the goal (its joint values).
+fn choose_solution(
+    out: &mut dyn std::io::Write,
+    robot: &Robot,
+    c: &Checks,
+    sols: &IkResult,
+    q: &[f64],
+    link_names: &[String],
+) -> Result<Vec<f64>> {
     let mut clear = Vec::new();
     for sol in &sols.solutions {
         let label = sol.branch.map_or("-".into(), |b| b.label());
@@ -610,11 +727,11 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         } else {
             "OUT of limits"
         };
-        let v = check_robot(&robot, &links, &sol.q, &obstacles, &settings)?;
+        let v = check_robot(robot, &c.links, &sol.q, &c.obstacles, &c.settings)?;
         let dist: f64 = sol
             .q
             .iter()
-            .zip(&arm.q)
+            .zip(q)
             .map(|(a, b)| (a - b) * (a - b))
             .sum::<f64>()
             .sqrt();
@@ -631,17 +748,15 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         }
     }
     clear.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let mut chosen = None;
     for (dist, sol) in &clear {
         let label = sol.branch.map_or("-".into(), |b| b.label());
-        let moved = move_checked(&robot, &links, &arm.q, &sol.q, STEPS, &obstacles, &settings)?;
+        let moved = move_checked(robot, &c.links, q, &sol.q, STEPS, &c.obstacles, &c.settings)?;
         if moved.completed {
             say!(
                 out,
                 "chosen: {label}, collision-free and nearest to the current q ({dist:.2} rad); its {STEPS}-step MOVEJI path is clear"
             );
-            chosen = Some(*sol);
-            break;
+            return Ok(sol.q.clone());
         }
         let why = moved
             .stopped_by
@@ -653,17 +768,25 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
             moved.steps_done
         );
     }
-    let Some(goal) = chosen else {
-        bail!("no IK solution is collision-free with a clear MOVEJI path");
-    };
-    // The seed's whole study (see `reach_sweep`).
+    bail!("no IK solution is collision-free with a clear MOVEJI path");
+}
+
+/// Step 4, the seed's whole study (see `reach_sweep`); answers the scene's encoder bits.
+fn seed_sweep(
+    out: &mut dyn std::io::Write,
+    scene: &SceneModel,
+    robot: &Robot,
+    c: &Checks,
+    q: &[f64],
+    frame: &HeadFrame,
+) -> Result<u32> {
     let bits = scene
         .effects
         .encoder
         .map(|e| e.bits)
         .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?;
     let t0 = Instant::now();
-    let reach = reach_sweep(&robot, &links, &obstacles, &settings, &arm.q, bits, &frame)?;
+    let reach = reach_sweep(robot, &c.links, &c.obstacles, &c.settings, q, bits, frame)?;
     let Reach {
         points,
         reached,
@@ -684,18 +807,32 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         worst_err.1 * 100.0,
         worst_err.2
     );
+    Ok(bits)
+}
 
+/// Step 5: MOVEJI to the goal, each interpolated step one journaled transaction; the reader
+/// must see every version in order, naming only the arm's links. Answers the writing client
+/// and the last version written.
+fn move_there(
+    out: &mut dyn std::io::Write,
+    s: &Session,
+    reader: &mut Reader,
+    robot: &Robot,
+    arm: &CompiledRobot,
+    goal: &[f64],
+    target: &Matrix4<f64>,
+) -> Result<(Client, u64)> {
     say!(
         out,
         "\n== 5. MOVEJI there: each interpolated step one journaled transaction (joints + link poses)"
     );
-    let path = movej_interpolate(&robot, &arm.q, &goal.q, STEPS)?;
-    let mut client = Client::connect(&s, "demo-writer")?;
+    let path = movej_interpolate(robot, &arm.q, goal, STEPS)?;
+    let mut client = Client::connect(s, "demo-writer")?;
     let t0 = Instant::now();
     let mut last_version = 0;
     let mut seen = Vec::new();
     for q in &path {
-        let tx = joint_tx(&robot, &arm.links, q);
+        let tx = joint_tx(robot, &arm.links, q);
         let c = client.transact(&tx)?;
         last_version = c.version;
         // The reader is told what changed: exactly the arm's links, pose aspect only.
@@ -736,7 +873,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     let last_link = arm.links.last().and_then(|id| snap.index_of(*id));
     if let Some(i) = last_link {
         let tool_world = m4(&snap.world_pose(i)) * robot.tool;
-        let r = Residual::between(&tool_world, &target);
+        let r = Residual::between(&tool_world, target);
         say!(
             out,
             "snapshot v{}: tool tip at {}, off the target by {:.1e} m / {:.1e} rad",
@@ -746,12 +883,22 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
             r.orientation
         );
     }
+    Ok((client, last_version))
+}
 
+/// Step 6: the simulator daemon's state for the new structure version, against the goal.
+fn simulator_state(
+    out: &mut dyn std::io::Write,
+    s: &Session,
+    arm: &CompiledRobot,
+    goal: &[f64],
+    last_version: u64,
+) -> Result<()> {
     say!(
         out,
         "\n== 6. the simulator daemon publishes state for the new structure version"
     );
-    let mut state = StateSubscriber::open(&s, "simulator", "demo-state")?;
+    let mut state = StateSubscriber::open(s, "simulator", "demo-state")?;
     let deadline = Instant::now() + Duration::from_secs(10);
     let rec = loop {
         let recs = state.wait(Duration::from_millis(200))?;
@@ -769,7 +916,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     let off = arm
         .links
         .iter()
-        .zip(&goal.q)
+        .zip(goal)
         .map(|(id, q)| {
             rec.joints
                 .iter()
@@ -784,12 +931,21 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         rec.header.t,
         rec.header.structure_version
     );
+    Ok(())
+}
 
+/// Step 7: the seed's encoder study at the final pose.
+fn encoder_study(
+    out: &mut dyn std::io::Write,
+    robot: &Robot,
+    goal: &[f64],
+    bits: u32,
+) -> Result<()> {
     say!(
         out,
         "\n== 7. the seed's {bits}-bit encoder study at the final pose (seed §2.7)"
     );
-    let e = encoder::encoder_error(&robot, &goal.q, &vec![bits; robot.dof()])?;
+    let e = encoder::encoder_error(robot, goal, &vec![bits; robot.dof()])?;
     say!(
         out,
         "joint resolution {:.2} mrad: tool position error ≤ {:.3} mm (Σ|J|δ, the seed's bound), exact worst case {:.3} mm; orientation ≤ {:.2} mrad",
@@ -798,18 +954,15 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         e.position_worst_case * 1e3,
         e.orientation * 1e3
     );
+    Ok(())
+}
 
-    say!(
-        out,
-        "\n== 8. dynamics: gravity torques holding the arm at the final pose"
-    );
-    let density = match lib.evaluate("aluminium", &Params::new()) {
-        Ok(Evaluated::Constant { value, .. }) => value,
-        _ => bail!("the standard library has no constant `aluminium`"),
-    };
+/// The robot with each link's mass, centre of mass and inertia from its solids at `density`
+/// (kg/m³); `frames` as [`link_solids`] takes them (base first).
+fn with_link_masses(robot: &Robot, frames: &[Vec<PlacedSolid>], density: f64) -> Result<Robot> {
     let mut dyn_robot = robot.clone();
     for (j, joint) in dyn_robot.joints.iter_mut().enumerate() {
-        let parts = model.frames.get(j + 1).map_or(&[][..], Vec::as_slice);
+        let parts = frames.get(j + 1).map_or(&[][..], Vec::as_slice);
         let mut each = Vec::with_capacity(parts.len());
         for p in parts {
             let mp = p
@@ -824,10 +977,31 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
             joint.inertia = mp.inertia;
         }
     }
+    Ok(dyn_robot)
+}
+
+/// Step 8: link masses from the link solids (aluminium), gravity torques at the goal checked
+/// against ∂V/∂q, then held by them and unpowered.
+fn gravity_study(
+    out: &mut dyn std::io::Write,
+    lib: &Library,
+    frames: &[Vec<PlacedSolid>],
+    robot: &Robot,
+    goal: &[f64],
+) -> Result<()> {
+    say!(
+        out,
+        "\n== 8. dynamics: gravity torques holding the arm at the final pose"
+    );
+    let density = match lib.evaluate("aluminium", &Params::new()) {
+        Ok(Evaluated::Constant { value, .. }) => value,
+        _ => bail!("the standard library has no constant `aluminium`"),
+    };
+    let dyn_robot = with_link_masses(robot, frames, density)?;
     let total: f64 = dyn_robot.joints.iter().map(|j| j.mass).sum();
     let dm = robosim_dynamics::Model::new(&dyn_robot)?;
     let mut data = robosim_dynamics::Data::new(&dm);
-    let g = robosim_dynamics::gravity(&dm, &mut data, &goal.q)?
+    let g = robosim_dynamics::gravity(&dm, &mut data, goal)?
         .as_slice()
         .to_vec();
     say!(
@@ -840,8 +1014,8 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     let h = 1e-6;
     let mut dv_err: f64 = 0.0;
     for (j, gj) in g.iter().enumerate() {
-        let mut qp = goal.q.clone();
-        let mut qm = goal.q.clone();
+        let mut qp = goal.to_vec();
+        let mut qm = goal.to_vec();
         qp[j] += h;
         qm[j] -= h;
         let vp = robosim_dynamics::energy(&dm, &mut data, &qp, &zeros)?.potential;
@@ -854,11 +1028,11 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         vec_str(&g, 4)
     );
     let cfg = robosim_dynamics::IntegratorConfig::fixed(robosim_dynamics::Integrator::Rk4, 1e-3);
-    let (held, _) = robosim_dynamics::simulate(&dm, cfg, &goal.q, &zeros, &g, &[1.0])?;
-    let (fell, _) = robosim_dynamics::simulate(&dm, cfg, &goal.q, &zeros, &zeros, &[0.0, 0.2])?;
+    let (held, _) = robosim_dynamics::simulate(&dm, cfg, goal, &zeros, &g, &[1.0])?;
+    let (fell, _) = robosim_dynamics::simulate(&dm, cfg, goal, &zeros, &zeros, &[0.0, 0.2])?;
     let drift = held.last().map_or(f64::INFINITY, |h| {
         h.q.iter()
-            .zip(&goal.q)
+            .zip(goal)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max)
     });
@@ -868,7 +1042,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     );
     let fall = fell.last().map_or(0.0, |s| {
         s.q.iter()
-            .zip(&goal.q)
+            .zip(goal)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max)
     });
@@ -877,13 +1051,16 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         "RK4, 1 ms: held by g(q) for 1 s the arm drifts {drift:.1e} rad; unpowered it falls {fall:.3} rad in 0.2 s, energy change {:.1e} J",
         e1 - e0
     );
+    Ok(())
+}
 
-    say!(
-        out,
-        "\n== 9. automation: an ECLSS fault with its own sensor failed, alarms, diagnosis (seed §4.3)"
-    );
-    automation(out)?;
-
+/// Step 10: a NaN pose is refused whole, naming the object and field; the model stays.
+fn refuse_bad_input(
+    out: &mut dyn std::io::Write,
+    client: &mut Client,
+    reader: &Reader,
+    arm: &CompiledRobot,
+) -> Result<()> {
     say!(
         out,
         "\n== 10. bad input is refused whole, with the object and field named"
@@ -902,12 +1079,6 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
     }
     let v = reader.snapshot().map_or(0, |s| s.version());
     say!(out, "model still at version {v}");
-
-    say!(
-        out,
-        "\n== 11. stop the session (demo ran {:.1} s)",
-        t_start.elapsed().as_secs_f64()
-    );
     Ok(())
 }
 
