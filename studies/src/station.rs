@@ -939,64 +939,141 @@ pub fn frame_args(
 
 /// The summary report: key numbers (table), notes (model and findings), time plots.
 pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Report {
-    use robosim_report::{Plot, Report, Series, Table};
-    let t_end = run.steps.last().map_or(0.0, |st| st.t);
-    let shadow: f64 = run.eclipses.iter().map(|[a, b]| b - a).sum();
-    let feathered_steps = run
-        .steps
-        .iter()
-        .filter(|st| st.arrays.iter().any(|a| a.2))
-        .count();
-    let blocked: Vec<f64> = run
-        .steps
-        .iter()
-        .filter(|st| st.blocked)
-        .map(|st| st.t)
-        .collect();
-    let min_cl = run
-        .steps
-        .iter()
-        .map(|st| (st.clearance_arrays, st.t, &st.clearance_pair))
-        .min_by(|a, b| a.0.total_cmp(&b.0));
-    let min_between = run
-        .steps
-        .iter()
-        .map(|st| (st.between_clearance, st.t, &st.between_pair))
-        .min_by(|a, b| a.0.total_cmp(&b.0));
-    let between_breaks: Vec<f64> = run
-        .steps
-        .iter()
-        .filter(|st| st.between_clearance < p.keep_out_m)
-        .map(|st| st.t)
-        .collect();
-    let serviced_min = run
-        .steps
-        .iter()
-        .map(|st| st.clearance_serviced)
-        .fold(f64::INFINITY, f64::min);
-    let min_struct = run
-        .steps
-        .iter()
-        .map(|st| st.clearance_structure)
-        .fold(f64::INFINITY, f64::min);
-    let worst_inc = run
-        .steps
-        .iter()
-        .flat_map(|st| {
-            st.arrays
-                .iter()
-                .enumerate()
-                // neither feathered nor parked for the servicer: tracking
-                .filter(|(ai, a)| !(a.2 || (st.oru.parked && *ai == s.oru.array)))
-                .map(|(_, a)| a.1)
-        })
-        .fold(1.0f64, f64::min)
-        .clamp(-1.0, 1.0)
-        .acos()
-        .to_degrees();
-    let soc_min = run.steps.iter().map(|st| st.soc).fold(1.0, f64::min);
-    let task_end = run.schedule.last().map_or(0.0, |w| w.0);
-    let area: f64 = s.arrays.iter().map(|a| a.cells.area_m2).sum();
+    use robosim_report::Report;
+    let x = Extremes::of(s, p, run);
+    let table = summary_table(s, p, run, &x);
+    let mut notes = model_notes(s, p, run);
+    notes.extend(clearance_notes(p, run, &x));
+    notes.extend(feathering_notes(p, run, &x));
+    notes.extend(parked_note(s, run, &x));
+    notes.extend(oru_notes(s, run));
+    notes.extend(task_notes(s, run));
+    let plots = summary_plots(s, run);
+    Report {
+        name: "station_summary".into(),
+        title: "Space Station study: orbit, sun tracking, power, ORU swap".into(),
+        notes,
+        table,
+        plots,
+    }
+}
+
+/// The run's extremes and totals that the summary's table and notes quote.
+struct Extremes<'r> {
+    t_end: f64,
+    /// Time in the Earth's shadow, s.
+    shadow: f64,
+    feathered_steps: usize,
+    /// Times of the steps blocked (keep-out broken even feathered).
+    blocked: Vec<f64>,
+    /// Closest servicer–array approach: distance, time, pair.
+    min_cl: Option<(f64, f64, &'r (String, String))>,
+    /// Closest servicer–array approach between steps: distance, time, pair.
+    min_between: Option<(f64, f64, &'r (String, String))>,
+    /// Times of the steps with the keep-out broken between samples.
+    between_breaks: Vec<f64>,
+    serviced_min: f64,
+    min_struct: f64,
+    /// Worst tracking incidence, deg.
+    worst_inc: f64,
+    soc_min: f64,
+    task_end: f64,
+    /// Array panel area, m².
+    area: f64,
+}
+
+impl<'r> Extremes<'r> {
+    fn of(s: &Setup, p: &StationParams, run: &'r Run) -> Extremes<'r> {
+        let t_end = run.steps.last().map_or(0.0, |st| st.t);
+        let shadow: f64 = run.eclipses.iter().map(|[a, b]| b - a).sum();
+        let feathered_steps = run
+            .steps
+            .iter()
+            .filter(|st| st.arrays.iter().any(|a| a.2))
+            .count();
+        let blocked: Vec<f64> = run
+            .steps
+            .iter()
+            .filter(|st| st.blocked)
+            .map(|st| st.t)
+            .collect();
+        let min_cl = run
+            .steps
+            .iter()
+            .map(|st| (st.clearance_arrays, st.t, &st.clearance_pair))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let min_between = run
+            .steps
+            .iter()
+            .map(|st| (st.between_clearance, st.t, &st.between_pair))
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let between_breaks: Vec<f64> = run
+            .steps
+            .iter()
+            .filter(|st| st.between_clearance < p.keep_out_m)
+            .map(|st| st.t)
+            .collect();
+        let serviced_min = run
+            .steps
+            .iter()
+            .map(|st| st.clearance_serviced)
+            .fold(f64::INFINITY, f64::min);
+        let min_struct = run
+            .steps
+            .iter()
+            .map(|st| st.clearance_structure)
+            .fold(f64::INFINITY, f64::min);
+        let worst_inc = run
+            .steps
+            .iter()
+            .flat_map(|st| {
+                st.arrays
+                    .iter()
+                    .enumerate()
+                    // neither feathered nor parked for the servicer: tracking
+                    .filter(|(ai, a)| !(a.2 || (st.oru.parked && *ai == s.oru.array)))
+                    .map(|(_, a)| a.1)
+            })
+            .fold(1.0f64, f64::min)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees();
+        let soc_min = run.steps.iter().map(|st| st.soc).fold(1.0, f64::min);
+        let task_end = run.schedule.last().map_or(0.0, |w| w.0);
+        let area: f64 = s.arrays.iter().map(|a| a.cells.area_m2).sum();
+        Extremes {
+            t_end,
+            shadow,
+            feathered_steps,
+            blocked,
+            min_cl,
+            min_between,
+            between_breaks,
+            serviced_min,
+            min_struct,
+            worst_inc,
+            soc_min,
+            task_end,
+            area,
+        }
+    }
+}
+
+/// The summary's table: quantity, value, unit.
+fn summary_table(s: &Setup, p: &StationParams, run: &Run, x: &Extremes) -> robosim_report::Table {
+    let t_end = x.t_end;
+    let shadow = x.shadow;
+    let feathered_steps = x.feathered_steps;
+    let blocked = &x.blocked;
+    let min_cl = x.min_cl;
+    let min_between = x.min_between;
+    let between_breaks = &x.between_breaks;
+    let serviced_min = x.serviced_min;
+    let min_struct = x.min_struct;
+    let worst_inc = x.worst_inc;
+    let soc_min = x.soc_min;
+    let task_end = x.task_end;
+    let area = x.area;
     let rows = vec![
         (
             "orbit altitude",
@@ -1106,14 +1183,18 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
         ),
         ("wall time of the run", format!("{:.2}", run.wall_s), "s"),
     ];
-    let table = Table {
+    robosim_report::Table {
         columns: vec!["quantity".into(), "value".into(), "unit".into()],
         rows: rows
             .into_iter()
             .map(|(a, b, c)| vec![a.to_owned(), b, c.to_owned()])
             .collect(),
-    };
-    let mut notes = vec![
+    }
+}
+
+/// The scene and model the run used, and its eclipses.
+fn model_notes(s: &Setup, p: &StationParams, run: &Run) -> Vec<String> {
+    let notes = vec![
         format!(
             "Scene `{SCENE}` (effects: kinematics, joint limits, collision {}, orbit, sun tracking, power). Model: circular orbit about a spherical Earth (μ = 3.986004418e14 m³/s², R = 6378.137 km), sun fixed and infinitely far, cylindrical shadow, LVLH hold (body x ram, y orbit normal along the truss, z zenith); power = Σ panel area × {} × {SOLAR_FLUX} W/m² × cos⁺ incidence, 0 in eclipse; battery {:.0} kWh, charge/discharge efficiency {}/{}, constant load {:.0} kW. See docs/studies.md.",
             mode_name(p.mode),
@@ -1136,6 +1217,16 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             }
         ),
     ];
+    notes
+}
+
+/// The servicer's closest approaches: to an array at the samples and between them, and to the
+/// fixed structure.
+fn clearance_notes(p: &StationParams, run: &Run, x: &Extremes) -> Vec<String> {
+    let mut notes = Vec::new();
+    let min_cl = x.min_cl;
+    let min_between = x.min_between;
+    let between_breaks = &x.between_breaks;
     if let Some((d, t, pair)) = min_cl {
         notes.push(format!(
             "Closest approach of the servicer to an array: {d:.3} m at t = {:.1} min ({} × {}); keep-out {} m.",
@@ -1176,6 +1267,13 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             if st.clearance_structure <= 0.0 { " — a CONTACT" } else { "" }
         ));
     }
+    notes
+}
+
+/// The spans with an array feathered for the servicer, and the steps blocked even so.
+fn feathering_notes(p: &StationParams, run: &Run, x: &Extremes) -> Vec<String> {
+    let mut notes = Vec::new();
+    let blocked = &x.blocked;
     // feathered spans
     let mut spans: Vec<(f64, f64, f64)> = Vec::new();
     for st in &run.steps {
@@ -1204,6 +1302,13 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             blocked[0] / 60.0
         ));
     }
+    notes
+}
+
+/// The serviced array parked at its service angle: when, the energy lost, its clearance.
+fn parked_note(s: &Setup, run: &Run, x: &Extremes) -> Vec<String> {
+    let mut notes = Vec::new();
+    let serviced_min = x.serviced_min;
     // the parked spans and the ORUs' journey
     let parked: Vec<f64> = run
         .steps
@@ -1228,6 +1333,12 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             if serviced_min <= 0.0 { " — a CONTACT" } else { " (no keep-out: it is worked on)" }
         ));
     }
+    notes
+}
+
+/// The ORUs' journey: where each was grasped, set down and bolted, and where they ended.
+fn oru_notes(s: &Setup, run: &Run) -> Vec<String> {
+    let mut notes = Vec::new();
     let plan = Plan {
         points: run.schedule.clone(),
         events: run.events.clone(),
@@ -1263,6 +1374,12 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             (last.oru_at[0] - stow).norm() * 1e3
         ));
     }
+    notes
+}
+
+/// The servicer's task, waypoint by waypoint, with the effector's position.
+fn task_notes(s: &Setup, run: &Run) -> Vec<String> {
+    let mut notes = Vec::new();
     for w in &run.schedule {
         let sb = &s.bodies[s.servicer];
         let tip = robosim_kinematics::fk::forward(&sb.robot, &w.1);
@@ -1275,6 +1392,13 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             tip[(2, 3)]
         ));
     }
+    notes
+}
+
+/// Array power, battery and eclipse, the gimbal angles and the servicer's clearances against
+/// time.
+fn summary_plots(s: &Setup, run: &Run) -> Vec<robosim_report::Plot> {
+    use robosim_report::{Plot, Series};
     let series = |label: &str, f: &dyn Fn(&Step) -> f64| Series {
         label: label.into(),
         points: run.steps.iter().map(|st| (st.t / 60.0, f(st))).collect(),
@@ -1339,13 +1463,7 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
             ..Plot::default()
         },
     ];
-    Report {
-        name: "station_summary".into(),
-        title: "Space Station study: orbit, sun tracking, power, ORU swap".into(),
-        notes,
-        table,
-        plots,
-    }
+    plots
 }
 
 /// "What accuracy costs in time": the study run at several steps and collision modes, each
