@@ -9,7 +9,8 @@
 //! * [`digest`] — [`ModelDigest`]: SHA-256 of a canonical encoding, independent of ids, order,
 //!   process and machine.
 //! * [`session`] — against a running session: [`session::save`], [`session::load`],
-//!   [`session::info`], and a keeper's start from a file ([`session::preload`]).
+//!   [`session::info`] (a keeper's start from a file, `robosim space --load`, is the launcher's:
+//!   robosim-launcher reads the file with [`format::read`]).
 //! * [`gltf`], [`stl`], [`trajectory`] — export: `.glb`, binary STL in world coordinates, the
 //!   logged joint trajectory as CSV with units.
 //! * [`linkfile`] — ROBOSIM link files (seed Table 2): write, read, DH rows, pseudo-inertia.
