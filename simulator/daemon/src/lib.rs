@@ -1016,6 +1016,34 @@ mod tests {
     use super::*;
     use serde_json::json;
 
+    /// A declared log goes to the daemon's file; one naming no signal the simulator logs is
+    /// left out (the pipeline would refuse an empty signal list) and its names are said.
+    #[test]
+    fn a_declared_log_is_placed_and_unknown_signals_are_said() {
+        use robosim_model::{LoggingEffect, Signal};
+        let path = std::path::Path::new("/run/x/simulator-log.csv");
+        let mut fx = SceneEffects {
+            logging: Some(LoggingEffect {
+                signals: vec![Signal::Q, Signal::Contact],
+                unsupported: vec!["energy".into()],
+                ..LoggingEffect::default()
+            }),
+            ..SceneEffects::default()
+        };
+        let run = declared_effects(&fx, path);
+        let log = run.logging.expect("kept");
+        assert_eq!(log.path.as_deref(), Some(path));
+        assert_eq!(log.signals, [Signal::Q, Signal::Contact]);
+        assert_eq!(not_simulated(&fx).len(), 1);
+        assert!(not_simulated(&fx)[0].contains("\"energy\""));
+        fx.logging = Some(LoggingEffect {
+            signals: vec![],
+            unsupported: vec!["energy".into()],
+            ..LoggingEffect::default()
+        });
+        assert!(declared_effects(&fx, path).logging.is_none());
+    }
+
     fn step(n: Value, queued: u64) -> (std::result::Result<(), String>, u64) {
         let (mut running, mut budget, mut reset) = (false, queued, false);
         let r = apply(
