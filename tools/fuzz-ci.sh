@@ -1,9 +1,14 @@
 #!/usr/bin/env bash
-# Bounded fuzzing for CI: builds the cargo-fuzz targets of fuzz/ once, runs each for SECONDS,
-# prints per target the executions run and the crashes found, and fails if any target crashed
-# (or hung past the per-input timeout, or ran out of memory). See docs/fuzzing.md.
+# Bounded fuzzing for CI: builds the cargo-fuzz targets of fuzz/ once (one `cargo fuzz build`;
+# the runs execute the built binaries, so nothing is built again per target), runs each for
+# SECONDS, prints per target the executions run and the crashes found, and fails if any target
+# crashed (or hung past the per-input timeout, or ran out of memory). See docs/fuzzing.md.
 #
 #   tools/fuzz-ci.sh [SECONDS] [TARGET...]      (default: 30 s each, every target)
+#
+# FUZZ_QUICK_BUILD=1 (what .ci/run sets): 16 codegen units and no debug info instead of
+# cargo-fuzz's one codegen unit with line tables — a shorter build for short runs; the fuzzing
+# itself is the same (release, debug assertions, coverage instrumentation).
 #
 # Each target starts from its seeds in the repository (fuzz/seeds/TARGET/, read only) and
 # writes what it finds to fuzz/corpus/TARGET/ (not in the repository). A crashing input is
@@ -50,9 +55,24 @@ if ! cargo +"$TOOLCHAIN" fuzz --version >/dev/null 2>&1; then
   cargo install cargo-fuzz --locked || { echo "fuzz-ci: cannot install cargo-fuzz"; exit 3; }
 fi
 
+BUILD_ARGS=(-s "$SANITIZER")
+BUILD_KIND=""
+if [ "${FUZZ_QUICK_BUILD:-0}" = 1 ]; then
+  BUILD_ARGS+=(--codegen-units 16)
+  export CARGO_PROFILE_RELEASE_DEBUG=0
+  BUILD_KIND=", quick build"
+fi
+# As `cargo fuzz run` does for AddressSanitizer builds.
+if [ "$SANITIZER" = address ]; then
+  export ASAN_OPTIONS="${ASAN_OPTIONS:+$ASAN_OPTIONS:}detect_odr_violation=0"
+fi
+# Where `cargo fuzz build` puts the binaries: fuzz/target/HOST/release/TARGET.
+HOST=$(rustc +"$TOOLCHAIN" -vV | sed -n 's/^host: //p')
+BIN_DIR="fuzz/target/$HOST/release"
+
 start=$(date +%s)
-echo "fuzz-ci: building every target of fuzz/ ($TOOLCHAIN, release with debug assertions, sanitizer $SANITIZER)"
-if ! (cd fuzz && cargo +"$TOOLCHAIN" fuzz build -s "$SANITIZER") >"${TMPDIR:-/tmp}/fuzz-ci-build.log" 2>&1; then
+echo "fuzz-ci: building every target of fuzz/ ($TOOLCHAIN, release with debug assertions, sanitizer $SANITIZER$BUILD_KIND)"
+if ! (cd fuzz && cargo +"$TOOLCHAIN" fuzz build "${BUILD_ARGS[@]}") >"${TMPDIR:-/tmp}/fuzz-ci-build.log" 2>&1; then
   tail -n 40 "${TMPDIR:-/tmp}/fuzz-ci-build.log"
   echo "fuzz-ci: build failed"
   exit 3
@@ -66,9 +86,14 @@ for t in "${TARGETS[@]}"; do
   mkdir -p "fuzz/corpus/$t" "fuzz/artifacts/$t"
   before=$(ls "fuzz/artifacts/$t" | wc -l)
   log="$logs/$t.log"
-  (cd fuzz && cargo +"$TOOLCHAIN" fuzz run -s "$SANITIZER" "$t" "corpus/$t" "seeds/$t" -- \
+  if [ ! -x "$BIN_DIR/$t" ]; then
+    echo "fuzz-ci: $t: no binary $BIN_DIR/$t after the build"
+    exit 3
+  fi
+  # What `cargo fuzz run TARGET corpus/TARGET seeds/TARGET -- ARGS` runs, without its rebuild check.
+  (cd fuzz && "../$BIN_DIR/$t" -artifact_prefix="artifacts/$t/" \
       -max_total_time="$SECONDS_PER_TARGET" -timeout="$TIMEOUT_S" -rss_limit_mb="$RSS_MB" \
-      -print_final_stats=1) >"$log" 2>&1
+      -print_final_stats=1 "corpus/$t" "seeds/$t") >"$log" 2>&1
   status=$?
   after=$(ls "fuzz/artifacts/$t" | wc -l)
   crashes=$((after - before))
@@ -90,7 +115,7 @@ for t in "${TARGETS[@]}"; do
     echo "----"
   fi
 done
-echo "fuzz-ci: total $(( $(date +%s) - start )) s (build $((built - start)) s)"
+echo "fuzz-ci: total $(( $(date +%s) - start )) s (build $((built - start)) s, runs $(( $(date +%s) - built )) s)"
 rm -rf "$logs"
 if [ "${#failed[@]}" -gt 0 ]; then
   echo "fuzz-ci: FAILED: ${failed[*]} (inputs in fuzz/artifacts/; replay: cargo +nightly fuzz run TARGET FILE)"
