@@ -1,34 +1,19 @@
-//! The inline robot format of DESIGN.md ("The query protocol"), read and written by hand — the
-//! one reader/writer of it, used by every op that takes or answers a robot:
-//! 4×4 transforms and 3×3 inertias are **row-major nested arrays** here, while nalgebra's serde
-//! form is column-major and flat, so the conversion is explicit.
+//! The inline robot format of DESIGN.md ("The query protocol"): the core's reader and writer
+//! ([`robosim_kinematics::json`], re-exported here under the protocol's path) plus the one form
+//! that reads a file, `{"urdf": PATH, "tip": LINK}` ([`robot_from_urdf_json`]), which
+//! [`robot_from_json`] here accepts too.
 //!
 //! Entry points: [`robot_from_json`], [`robot_to_json`], [`matrix4_from_json`],
 //! [`matrix4_to_json`], [`matrix_to_json`], [`number`], [`number_array`]. Every error names the
 //! field path (`joints[2].qlim[1]`).
 
 use crate::{ErrorKind, ProtocolError};
-use nalgebra::{Matrix3, Matrix4, Vector3};
-use robosim_kinematics::{Convention, Joint, JointType, Origin, Robot};
-use serde_json::{Map, Value, json};
-
-/// A robot description (or a matrix inside a request) that could not be read.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{path}: {reason}")]
-pub struct JsonError {
-    /// Where: a field path such as `robot.joints[2].qlim`.
-    pub path: String,
-    pub reason: String,
-}
-
-impl JsonError {
-    pub fn new(path: impl Into<String>, reason: impl Into<String>) -> Self {
-        JsonError {
-            path: path.into(),
-            reason: reason.into(),
-        }
-    }
-}
+use robosim_kinematics::Robot;
+pub use robosim_kinematics::json::{
+    JsonError, matrix_to_json, matrix3_from_json, matrix4_from_json, matrix4_to_json, number,
+    number_array, robot_to_json,
+};
+use serde_json::{Map, Value};
 
 /// A field of a request that could not be read is a `bad_request`.
 impl From<JsonError> for ProtocolError {
@@ -37,108 +22,17 @@ impl From<JsonError> for ProtocolError {
     }
 }
 
-const JOINT_KEYS: &[&str] = &[
-    "type",
-    "a",
-    "d",
-    "alpha",
-    "theta",
-    "offset",
-    "qlim",
-    "mass",
-    "com",
-    "inertia",
-    "motor_inertia",
-    "viscous",
-    "coulomb",
-    "origin",
-];
-const ORIGIN_KEYS: &[&str] = &["placement", "axis"];
-const ROBOT_KEYS: &[&str] = &[
-    "name",
-    "convention",
-    "joints",
-    "parents",
-    "gravity",
-    "base",
-    "tool",
-    "source",
-    "notes",
-];
-
-/// Reads a robot in DESIGN.md's inline format and validates it ([`Robot::validate`]).
-/// Unknown keys are refused (a misspelt `"alpah"` would otherwise silently be 0); `source` and
-/// `notes` are free-form and ignored. Missing fields take [`Joint::default`] / [`Robot::default`].
-///
-/// An object with a `urdf` key is a URDF file instead: `{"urdf": PATH, "tip": LINK}` —
-/// the serial chain from the file's root link to `tip` ([`robot_from_urdf_json`]).
+/// Reads a robot in DESIGN.md's inline format ([`robosim_kinematics::json::robot_from_json`]:
+/// validated, unknown keys refused) or, for an object with a `urdf` key, a URDF file:
+/// `{"urdf": PATH, "tip": LINK}` — the serial chain from the file's root link to `tip`
+/// ([`robot_from_urdf_json`]).
 pub fn robot_from_json(v: &Value) -> Result<Robot, JsonError> {
-    let obj = v
-        .as_object()
-        .ok_or_else(|| JsonError::new("robot", "expected an object"))?;
-    if obj.contains_key("urdf") {
+    if let Some(obj) = v.as_object()
+        && obj.contains_key("urdf")
+    {
         return robot_from_urdf_json(obj);
     }
-    check_keys(obj, ROBOT_KEYS, "robot")?;
-    let mut robot = Robot::default();
-    if let Some(name) = obj.get("name") {
-        robot.name = name
-            .as_str()
-            .ok_or_else(|| JsonError::new("robot.name", "expected a string"))?
-            .to_owned();
-    }
-    if let Some(c) = obj.get("convention") {
-        robot.convention = match c.as_str() {
-            Some("standard") => Convention::Standard,
-            Some("modified") => Convention::Modified,
-            _ => {
-                return Err(JsonError::new(
-                    "robot.convention",
-                    "expected \"standard\" or \"modified\"",
-                ));
-            }
-        };
-    }
-    let joints = obj
-        .get("joints")
-        .ok_or_else(|| JsonError::new("robot.joints", "missing"))?
-        .as_array()
-        .ok_or_else(|| JsonError::new("robot.joints", "expected an array"))?;
-    for (j, jv) in joints.iter().enumerate() {
-        robot
-            .joints
-            .push(joint_from_json(jv, &format!("robot.joints[{j}]"))?);
-    }
-    if let Some(p) = obj.get("parents") {
-        let arr = p
-            .as_array()
-            .ok_or_else(|| JsonError::new("robot.parents", "expected an array of link frames"))?;
-        robot.parents = arr
-            .iter()
-            .enumerate()
-            .map(|(k, v)| {
-                v.as_u64().map(|x| x as usize).ok_or_else(|| {
-                    JsonError::new(
-                        format!("robot.parents[{k}]"),
-                        "expected a link frame number (0 = the base)",
-                    )
-                })
-            })
-            .collect::<Result<_, _>>()?;
-    }
-    if let Some(g) = obj.get("gravity") {
-        robot.gravity = vector3(g, "robot.gravity")?;
-    }
-    if let Some(b) = obj.get("base") {
-        robot.base = matrix4_from_json(b, "robot.base")?;
-    }
-    if let Some(t) = obj.get("tool") {
-        robot.tool = matrix4_from_json(t, "robot.tool")?;
-    }
-    robot
-        .validate()
-        .map_err(|e| JsonError::new("robot", e.to_string()))?;
-    Ok(robot)
+    robosim_kinematics::json::robot_from_json(v)
 }
 
 const URDF_KEYS: &[&str] = &["urdf", "tip"];
@@ -169,83 +63,6 @@ pub fn robot_from_urdf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
         .map_err(|e| JsonError::new("robot.urdf", e.to_string()))
 }
 
-fn joint_from_json(v: &Value, path: &str) -> Result<Joint, JsonError> {
-    let obj = v
-        .as_object()
-        .ok_or_else(|| JsonError::new(path, "expected an object"))?;
-    check_keys(obj, JOINT_KEYS, path)?;
-    let mut joint = Joint::default();
-    if let Some(t) = obj.get("type") {
-        joint.joint_type = match t.as_str() {
-            Some("revolute") => JointType::Revolute,
-            Some("prismatic") => JointType::Prismatic,
-            _ => {
-                return Err(JsonError::new(
-                    format!("{path}.type"),
-                    "expected \"revolute\" or \"prismatic\"",
-                ));
-            }
-        };
-    }
-    for (key, slot) in [
-        ("a", &mut joint.a),
-        ("d", &mut joint.d),
-        ("alpha", &mut joint.alpha),
-        ("theta", &mut joint.theta),
-        ("offset", &mut joint.offset),
-        ("mass", &mut joint.mass),
-        ("motor_inertia", &mut joint.motor_inertia),
-        ("viscous", &mut joint.viscous),
-        ("coulomb", &mut joint.coulomb),
-    ] {
-        if let Some(x) = obj.get(key) {
-            *slot = number(x, &format!("{path}.{key}"))?;
-        }
-    }
-    if let Some(q) = obj.get("qlim") {
-        let p = format!("{path}.qlim");
-        let arr = fixed_array(q, 2, &p)?;
-        // Infinite limits cannot be written in JSON; null means unlimited on that side.
-        let lo = if arr[0].is_null() {
-            f64::NEG_INFINITY
-        } else {
-            number(&arr[0], &format!("{p}[0]"))?
-        };
-        let hi = if arr[1].is_null() {
-            f64::INFINITY
-        } else {
-            number(&arr[1], &format!("{p}[1]"))?
-        };
-        joint.qlim = [lo, hi];
-    }
-    if let Some(c) = obj.get("com") {
-        joint.com = vector3(c, &format!("{path}.com"))?;
-    }
-    if let Some(i) = obj.get("inertia") {
-        joint.inertia = matrix3_from_json(i, &format!("{path}.inertia"))?;
-    }
-    match obj.get("origin") {
-        None | Some(Value::Null) => {}
-        Some(o) => {
-            let p = format!("{path}.origin");
-            let map = o.as_object().ok_or_else(|| {
-                JsonError::new(&p, "expected {\"placement\": 4×4, \"axis\": [x, y, z]}")
-            })?;
-            check_keys(map, ORIGIN_KEYS, &p)?;
-            let placement = map
-                .get("placement")
-                .ok_or_else(|| JsonError::new(format!("{p}.placement"), "missing"))
-                .and_then(|v| matrix4_from_json(v, &format!("{p}.placement")))?;
-            let axis = map
-                .get("axis")
-                .ok_or_else(|| JsonError::new(format!("{p}.axis"), "missing"))
-                .and_then(|v| vector3(v, &format!("{p}.axis")))?;
-            joint.origin = Some(Origin { placement, axis });
-        }
-    }
-    Ok(joint)
-}
-
 fn check_keys(obj: &Map<String, Value>, allowed: &[&str], path: &str) -> Result<(), JsonError> {
     for key in obj.keys() {
         if !allowed.contains(&key.as_str()) {
@@ -258,253 +75,20 @@ fn check_keys(obj: &Map<String, Value>, allowed: &[&str], path: &str) -> Result<
     Ok(())
 }
 
-/// A finite number at `path`.
-pub fn number(v: &Value, path: &str) -> Result<f64, JsonError> {
-    let x = v
-        .as_f64()
-        .ok_or_else(|| JsonError::new(path, format!("expected a number, got {v}")))?;
-    if !x.is_finite() {
-        return Err(JsonError::new(path, "not finite"));
-    }
-    Ok(x)
-}
-
-fn fixed_array<'a>(v: &'a Value, n: usize, path: &str) -> Result<&'a Vec<Value>, JsonError> {
-    let arr = v
-        .as_array()
-        .ok_or_else(|| JsonError::new(path, format!("expected an array of {n}")))?;
-    if arr.len() != n {
-        return Err(JsonError::new(
-            path,
-            format!("expected {n} entries, got {}", arr.len()),
-        ));
-    }
-    Ok(arr)
-}
-
-/// A vector of finite numbers of any length at `path`.
-pub fn number_array(v: &Value, path: &str) -> Result<Vec<f64>, JsonError> {
-    let arr = v
-        .as_array()
-        .ok_or_else(|| JsonError::new(path, "expected an array of numbers"))?;
-    arr.iter()
-        .enumerate()
-        .map(|(i, x)| number(x, &format!("{path}[{i}]")))
-        .collect()
-}
-
-fn vector3(v: &Value, path: &str) -> Result<Vector3<f64>, JsonError> {
-    let arr = fixed_array(v, 3, path)?;
-    Ok(Vector3::new(
-        number(&arr[0], &format!("{path}[0]"))?,
-        number(&arr[1], &format!("{path}[1]"))?,
-        number(&arr[2], &format!("{path}[2]"))?,
-    ))
-}
-
-fn rows<const N: usize>(v: &Value, path: &str) -> Result<[[f64; N]; N], JsonError> {
-    let arr = fixed_array(v, N, path)?;
-    let mut out = [[0.0; N]; N];
-    for (i, row) in arr.iter().enumerate() {
-        let rp = format!("{path}[{i}]");
-        let r = fixed_array(row, N, &rp)?;
-        for (j, x) in r.iter().enumerate() {
-            out[i][j] = number(x, &format!("{rp}[{j}]"))?;
-        }
-    }
-    Ok(out)
-}
-
-/// A 4×4 matrix from nested row-major arrays (`m[i]` is row i).
-pub fn matrix4_from_json(v: &Value, path: &str) -> Result<Matrix4<f64>, JsonError> {
-    let r = rows::<4>(v, path)?;
-    Ok(Matrix4::from_fn(|i, j| r[i][j]))
-}
-
-/// A 3×3 matrix from nested row-major arrays.
-pub fn matrix3_from_json(v: &Value, path: &str) -> Result<Matrix3<f64>, JsonError> {
-    let r = rows::<3>(v, path)?;
-    Ok(Matrix3::from_fn(|i, j| r[i][j]))
-}
-
-/// Nested row-major arrays of any matrix (`m[i]` is row i).
-pub fn matrix_to_json<R: nalgebra::Dim, C: nalgebra::Dim, S: nalgebra::RawStorage<f64, R, C>>(
-    m: &nalgebra::Matrix<f64, R, C, S>,
-) -> Value {
-    Value::Array(
-        (0..m.nrows())
-            .map(|i| Value::Array((0..m.ncols()).map(|j| json!(m[(i, j)])).collect()))
-            .collect(),
-    )
-}
-
-/// A 4×4 transform as nested row-major arrays.
-pub fn matrix4_to_json(m: &Matrix4<f64>) -> Value {
-    matrix_to_json(m)
-}
-
-fn limit_to_json(x: f64) -> Value {
-    if x.is_finite() { json!(x) } else { Value::Null }
-}
-
-/// Writes a robot in the inline format ([`robot_from_json`] reads it back unchanged).
-pub fn robot_to_json(robot: &Robot) -> Value {
-    let joints: Vec<Value> = robot
-        .joints
-        .iter()
-        .map(|j| {
-            let mut v = json!({
-                "type": match j.joint_type { JointType::Revolute => "revolute", JointType::Prismatic => "prismatic" },
-                "a": j.a, "d": j.d, "alpha": j.alpha, "theta": j.theta, "offset": j.offset,
-                "qlim": [limit_to_json(j.qlim[0]), limit_to_json(j.qlim[1])],
-                "mass": j.mass, "com": [j.com.x, j.com.y, j.com.z], "inertia": matrix_to_json(&j.inertia),
-                "motor_inertia": j.motor_inertia, "viscous": j.viscous, "coulomb": j.coulomb,
-            });
-            // A general joint (URDF's origin and axis) carries them; a DH row does not.
-            if let (Some(o), Some(m)) = (&j.origin, v.as_object_mut()) {
-                m.insert(
-                    "origin".into(),
-                    json!({
-                        "placement": matrix4_to_json(&o.placement),
-                        "axis": [o.axis.x, o.axis.y, o.axis.z],
-                    }),
-                );
-            }
-            v
-        })
-        .collect();
-    let mut out = json!({
-        "name": robot.name,
-        "convention": match robot.convention { Convention::Standard => "standard", Convention::Modified => "modified" },
-        "joints": joints,
-        "gravity": [robot.gravity.x, robot.gravity.y, robot.gravity.z],
-        "base": matrix4_to_json(&robot.base),
-        "tool": matrix4_to_json(&robot.tool),
-    });
-    if !robot.parents.is_empty()
-        && let Some(m) = out.as_object_mut()
-    {
-        m.insert("parents".into(), json!(robot.parents));
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// A general-joint tree (what `get_robot` answers for a URDF robot) reads back as itself:
-    /// origins, axes and parents survive the inline form (before, they were dropped, and the
-    /// session's kinv and jacob silently solved an all-zero DH chain).
     #[test]
-    fn general_joints_and_trees_round_trip() {
-        let mut robot = Robot {
-            name: "y".into(),
-            parents: vec![0, 1, 1],
-            ..Robot::default()
-        };
-        for k in 0..3 {
-            let mut placement = Matrix4::identity();
-            placement[(0, 3)] = 0.1 * (k + 1) as f64;
-            placement[(2, 3)] = -0.05;
-            robot.joints.push(Joint {
-                joint_type: if k == 2 {
-                    JointType::Prismatic
-                } else {
-                    JointType::Revolute
-                },
-                qlim: [-1.0, 1.0],
-                origin: Some(Origin {
-                    placement,
-                    axis: Vector3::new(0.0, 0.6, 0.8),
-                }),
-                ..Joint::default()
-            });
-        }
-        let v = robot_to_json(&robot);
-        assert_eq!(v["parents"], json!([0, 1, 1]));
-        let back = robot_from_json(&v).expect("reads back");
-        assert_eq!(back, robot);
-        // A DH chain writes neither field.
-        let dh = robot_to_json(&Robot {
-            joints: vec![Joint::default()],
-            ..Robot::default()
-        });
-        assert!(dh.get("parents").is_none() && dh["joints"][0].get("origin").is_none());
-        let mut bad = v.clone();
-        bad["joints"][0]["origin"]["axis"] = json!([0, 0]);
-        let e = robot_from_json(&bad).expect_err("a short axis");
-        assert!(e.to_string().contains("robot.joints[0].origin.axis"), "{e}");
-    }
-
-    #[test]
-    fn transforms_are_row_major() {
-        let v = json!([[1, 0, 0, 5], [0, 1, 0, 6], [0, 0, 1, 7], [0, 0, 0, 1]]);
-        let m = matrix4_from_json(&v, "m").expect("valid matrix");
-        assert_eq!((m[(0, 3)], m[(1, 3)], m[(2, 3)]), (5.0, 6.0, 7.0));
-        assert_eq!(
-            matrix4_to_json(&m),
-            json!([
-                [1.0, 0.0, 0.0, 5.0],
-                [0.0, 1.0, 0.0, 6.0],
-                [0.0, 0.0, 1.0, 7.0],
-                [0.0, 0.0, 0.0, 1.0]
-            ])
-        );
-    }
-
-    #[test]
-    fn errors_name_the_field() {
-        let v = json!({"joints": [{"a": 1}, {"qlim": [0, "x"]}]});
-        let e = robot_from_json(&v).expect_err("bad qlim");
-        assert_eq!(e.path, "robot.joints[1].qlim[1]");
-        let v = json!({"joints": [{"alpah": 1}]});
-        assert_eq!(
-            robot_from_json(&v).expect_err("typo").path,
-            "robot.joints[0].alpah"
-        );
-        let v =
-            json!({"joints": [], "base": [[1, 0, 0, 0], [0, 2, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]});
-        assert!(
-            robot_from_json(&v)
-                .expect_err("not rigid")
-                .reason
-                .contains("base")
-        );
-        let v = json!({"joints": [{"qlim": [1, -1]}]});
-        assert!(
-            robot_from_json(&v)
-                .expect_err("reversed")
-                .reason
-                .contains("joint 0")
-        );
-    }
-
-    /// The robots the kinematics crate writes out as Rust equal their checked-in JSON files.
-    #[test]
-    fn builtin_robots_match_their_json() {
-        for (name, text) in [
-            (
-                "puma560",
-                include_str!("../../testdata/kinematics/puma560.json"),
-            ),
-            (
-                "stanford",
-                include_str!("../../testdata/kinematics/stanford.json"),
-            ),
-            (
-                "panda",
-                include_str!("../../testdata/kinematics/panda.json"),
-            ),
-        ] {
-            let v: Value = serde_json::from_str(text).expect("shipped JSON parses");
-            let from_file = robot_from_json(&v).expect("shipped robot is valid");
-            assert_eq!(
-                robosim_kinematics::builtin_robot(name),
-                Some(from_file),
-                "{name}"
-            );
-        }
+    fn a_urdf_key_reads_the_file_and_other_objects_the_inline_form() {
+        let e = robot_from_json(&serde_json::json!({"urdf": "/no/such/file.urdf"}))
+            .expect_err("no such file");
+        assert_eq!(e.path, "robot.urdf");
+        let e = robot_from_json(&serde_json::json!({"urdf": "x.urdf", "tpi": "a"}))
+            .expect_err("a misspelt key");
+        assert_eq!(e.path, "robot.tpi");
+        let e = robot_from_json(&serde_json::json!({"joints": [{"alpah": 1}]})).expect_err("typo");
+        assert_eq!(e.path, "robot.joints[0].alpah");
     }
 
     /// The dynamics crate's fixture robots equal `testdata/dynamics/robots/*.json`.

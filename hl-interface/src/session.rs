@@ -29,6 +29,7 @@
 //! own data (`q` or `scene`, or an inline robot object) is the pure op's, so a pure request
 //! means the same with and without `--session`; one that only names a robot is the session's.
 
+use crate::protocol::RobotArg;
 use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Isometry3, Vector3};
 use robosim_collision::Mode;
@@ -432,9 +433,13 @@ impl Ops {
             .map_err(client_err)
     }
 
-    /// A pure-protocol op (kinematics, dynamics, ...), answered by the same code `serve` uses.
-    fn pure(req: Value) -> OpResult {
-        crate::answer(&req, &mut None).map(Value::Object)
+    /// The pure kinematics op `op` on `robot` as compiled (no inline-JSON round trip), answered
+    /// by the same code `serve` uses, a panic included (`internal_error`).
+    fn pure_kinematics(op: &str, req: &Value, robot: &Robot) -> OpResult {
+        crate::guarded(op, || {
+            crate::protocol::kinematics::dispatch_with(op, req, RobotArg::Given(robot))
+        })
+        .unwrap_or_else(|| Err(err(ErrorKind::UnknownOp, format!("op {op:?}"))))
     }
 
     /// Answers `op` if it is a session op and `req` is not the pure form of a [`SHARED`] op.
@@ -535,20 +540,20 @@ impl Ops {
     /// the pure op on the chain, with `chain` (the joints' indices in the robot's q) and, for
     /// kinv, each solution's `q` given whole (the joints off the chain where they are).
     fn chain_op(op: &str, req: &Value, robot: &Robot, joints: &[usize], q: &[f64]) -> OpResult {
-        let inline = crate::robot_json::robot_to_json(robot);
         let q_chain: Vec<f64> = joints.iter().map(|&j| q[j]).collect();
         let mut out = if op == "kinv" {
             let mut r = req.clone();
             if let Some(m) = r.as_object_mut() {
                 m.remove("tip");
                 m.insert("op".into(), json!("ik"));
-                m.insert("robot".into(), inline);
                 m.entry("q0").or_insert(json!(q_chain));
             }
-            Self::pure(r)?
+            Self::pure_kinematics("ik", &r, robot)?
         } else {
-            Self::pure(
-                json!({"op": "jacobian", "robot": inline, "q": q_chain, "frame": req.get("frame").cloned().unwrap_or(json!("base"))}),
+            Self::pure_kinematics(
+                "jacobian",
+                &json!({"op": "jacobian", "q": q_chain, "frame": req.get("frame").cloned().unwrap_or(json!("base"))}),
+                robot,
             )?
         };
         if let Some(sols) = out.get_mut("solutions").and_then(Value::as_array_mut) {
@@ -614,9 +619,9 @@ impl Ops {
         if let Some((robot, joints)) = chain {
             return Self::chain_op(op, req, &robot, &joints, &p.q);
         }
-        let inline = crate::robot_json::robot_to_json(&p.robot);
         match op {
             "get_robot" => {
+                let inline = crate::robot_json::robot_to_json(&p.robot);
                 let links: Vec<Value> = p.links.iter().map(|id| json!({"id": id, "name": snap.index_of(*id).map_or("", |k| snap.name(k))})).collect();
                 Ok(
                     json!({"robot": inline, "q": p.q, "links": links, "allowed_pairs": p.solids.allowed}),
@@ -626,16 +631,19 @@ impl Ops {
                 let mut r = req.clone();
                 if let Some(m) = r.as_object_mut() {
                     m.insert("op".into(), json!("ik"));
-                    m.insert("robot".into(), inline);
                     m.entry("q0").or_insert(json!(p.q));
                 }
-                Self::pure(r)
+                Self::pure_kinematics("ik", &r, &p.robot)
             }
-            "jacob" => Self::pure(
-                json!({"op": "jacobian", "robot": inline, "q": p.q, "frame": req.get("frame").cloned().unwrap_or(json!("base"))}),
+            "jacob" => Self::pure_kinematics(
+                "jacobian",
+                &json!({"op": "jacobian", "q": p.q, "frame": req.get("frame").cloned().unwrap_or(json!("base"))}),
+                &p.robot,
             ),
-            "encoder" => Self::pure(
-                json!({"op": "encoder_error", "robot": inline, "q": p.q, "bits": req.get("bits").cloned().unwrap_or(Value::Null)}),
+            "encoder" => Self::pure_kinematics(
+                "encoder_error",
+                &json!({"op": "encoder_error", "q": p.q, "bits": req.get("bits").cloned().unwrap_or(Value::Null)}),
+                &p.robot,
             ),
             "check" => {
                 only_fields(

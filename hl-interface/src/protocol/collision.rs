@@ -20,30 +20,39 @@
 //!
 //! Entry points: [`dispatch`], [`solid_from_json`], [`pose_from_json`].
 
+use super::RobotArg;
 use super::finite::check;
-use crate::robot_json::{matrix4_from_json, number, number_array, robot_from_json};
+use crate::robot_json::{number, number_array, robot_from_json};
 use crate::{ErrorKind, ProtocolError};
-use nalgebra::{Isometry3, Point3, Vector3};
+use nalgebra::{Isometry3, Point3};
 use robosim_collision::Solid;
+use robosim_collision::json::ShapeJsonError;
 use robosim_collision::robot::{
     Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
 };
 use robosim_collision::{Mode, PairResult};
 use robosim_kinematics::{Robot, builtin_robot};
-use serde_json::{Map, Value, json};
+use serde_json::{Value, json};
+use std::borrow::Cow;
 use std::sync::Arc;
 
 fn bad(message: impl Into<String>) -> ProtocolError {
     ProtocolError::new(ErrorKind::BadRequest, message)
 }
 
-/// The most meridians a request's sphere may have: the geometry's largest default
-/// ([`robosim_geometry::shapes::MAX_FACETS`], for radii above about 13 m). A sphere of n
-/// meridians has about n²/2 faces and as many vertices, and building its collision solid tests
-/// every vertex against every face: the explicit maximum of the geometry
-/// (`SPHERE_FACET_LIMIT`, 1024) took hours for one `collide` (found by the `protocol` fuzz
-/// target; docs/fuzzing.md).
-pub const MAX_SPHERE_FACETS: usize = robosim_geometry::shapes::MAX_FACETS;
+pub use robosim_collision::json::MAX_SPHERE_FACETS;
+
+/// A shape or pose that could not be read: a field is a `bad_request`, a solid the fields do
+/// not make (degenerate, ...) a `bad_shape`.
+impl From<ShapeJsonError> for ProtocolError {
+    fn from(e: ShapeJsonError) -> Self {
+        let kind = match &e {
+            ShapeJsonError::Field(_) => ErrorKind::BadRequest,
+            ShapeJsonError::Shape { .. } => ErrorKind::BadShape,
+        };
+        ProtocolError::new(kind, e.to_string())
+    }
+}
 
 /// Answers `collide` and `check`; `None` for any other op.
 pub fn dispatch(
@@ -51,9 +60,19 @@ pub fn dispatch(
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
 ) -> Option<Result<Value, ProtocolError>> {
+    dispatch_with(op, req, RobotArg::Request(robots))
+}
+
+/// [`dispatch`] with `check`'s robot given: by the request ([`RobotArg::Request`]) or typed by
+/// the caller ([`RobotArg::Given`]; the request's `robot` is not read).
+pub fn dispatch_with(
+    op: &str,
+    req: &Value,
+    robot: RobotArg<'_>,
+) -> Option<Result<Value, ProtocolError>> {
     match op {
         "collide" => Some(op_collide(req)),
-        "check" => Some(op_check(req, robots)),
+        "check" => Some(op_check(req, robot)),
         _ => None,
     }
 }
@@ -63,174 +82,16 @@ fn field<'a>(v: &'a Value, key: &str, path: &str) -> Result<&'a Value, ProtocolE
         .ok_or_else(|| bad(format!("{path}.{key}: missing")))
 }
 
-fn num(v: &Value, key: &str, path: &str) -> Result<f64, ProtocolError> {
-    number(field(v, key, path)?, &format!("{path}.{key}")).map_err(|e| bad(e.to_string()))
-}
-
-fn point_list(v: &Value, path: &str) -> Result<Vec<Point3<f64>>, ProtocolError> {
-    let arr = v
-        .as_array()
-        .ok_or_else(|| bad(format!("{path}: expected an array of [x, y, z]")))?;
-    arr.iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let c = number_array(p, &format!("{path}[{i}]")).map_err(|e| bad(e.to_string()))?;
-            if c.len() != 3 {
-                return Err(bad(format!(
-                    "{path}[{i}]: expected 3 numbers, got {}",
-                    c.len()
-                )));
-            }
-            Ok(Point3::new(c[0], c[1], c[2]))
-        })
-        .collect()
-}
-
-fn check_keys(
-    obj: &Map<String, Value>,
-    allowed: &[&str],
-    extra: &[&str],
-    path: &str,
-) -> Result<(), ProtocolError> {
-    for k in obj.keys() {
-        if !allowed.contains(&k.as_str()) && !extra.contains(&k.as_str()) {
-            return Err(bad(format!(
-                "{path}.{k}: unknown field (expected one of {:?})",
-                [allowed, extra].concat()
-            )));
-        }
-    }
-    Ok(())
-}
-
-/// A rigid 4×4 pose (row-major nested arrays); refuses non-rigid matrices.
+/// A rigid 4×4 pose (row-major nested arrays); refuses non-rigid matrices
+/// ([`robosim_collision::json::pose_from_json`]).
 pub fn pose_from_json(v: &Value, path: &str) -> Result<Isometry3<f64>, ProtocolError> {
-    let m = matrix4_from_json(v, path).map_err(|e| bad(e.to_string()))?;
-    let r = m.fixed_view::<3, 3>(0, 0);
-    let err = (r.transpose() * r - nalgebra::Matrix3::identity())
-        .abs()
-        .max();
-    if !(err < 1e-9
-        && (r.determinant() - 1.0).abs() < 1e-9
-        && m[(3, 0)] == 0.0
-        && m[(3, 1)] == 0.0
-        && m[(3, 2)] == 0.0
-        && m[(3, 3)] == 1.0)
-    {
-        return Err(bad(format!(
-            "{path}: not a rigid transform (orthonormal rotation, det +1, last row 0 0 0 1)"
-        )));
-    }
-    Ok(robosim_collision::robot::isometry_from_matrix(&m))
+    Ok(robosim_collision::json::pose_from_json(v, path)?)
 }
 
-/// A solid from DESIGN.md's shape JSON. `extra` lists keys the caller handles (name, pose…).
+/// A solid from DESIGN.md's shape JSON ([`robosim_collision::json::solid_from_json`]). `extra`
+/// lists keys the caller handles (name, pose…).
 pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, ProtocolError> {
-    let obj = v
-        .as_object()
-        .ok_or_else(|| bad(format!("{path}: expected a shape object")))?;
-    let kind = obj
-        .get("shape")
-        .and_then(Value::as_str)
-        .ok_or_else(|| bad(format!("{path}.shape: missing or not a string")))?;
-    let facets = |o: &Map<String, Value>| -> Result<Option<usize>, ProtocolError> {
-        match o.get("facets") {
-            None | Some(Value::Null) => Ok(None),
-            Some(f) => f
-                .as_u64()
-                .map(|n| Some(n as usize))
-                .ok_or_else(|| bad(format!("{path}.facets: expected a positive integer"))),
-        }
-    };
-    let shape_err = |e: robosim_collision::ShapeError| {
-        ProtocolError::new(ErrorKind::BadShape, format!("{path}: {e}"))
-    };
-    match kind {
-        "box" => {
-            check_keys(obj, &["shape", "size"], extra, path)?;
-            let s = number_array(field(v, "size", path)?, &format!("{path}.size"))
-                .map_err(|e| bad(e.to_string()))?;
-            if s.len() != 3 {
-                return Err(bad(format!("{path}.size: expected 3 numbers")));
-            }
-            Solid::cuboid(Vector3::new(s[0], s[1], s[2])).map_err(shape_err)
-        }
-        "sphere" => {
-            check_keys(obj, &["shape", "radius", "facets"], extra, path)?;
-            let f = facets(obj)?;
-            if let Some(n) = f
-                && n > MAX_SPHERE_FACETS
-            {
-                return Err(bad(format!(
-                    "{path}.facets: at most {MAX_SPHERE_FACETS} for a sphere, got {n} (n meridians make about n²/2 faces)"
-                )));
-            }
-            Solid::sphere(num(v, "radius", path)?, f).map_err(shape_err)
-        }
-        "cylinder" | "cone" => {
-            check_keys(obj, &["shape", "radius", "height", "facets"], extra, path)?;
-            let (r, h, f) = (
-                num(v, "radius", path)?,
-                num(v, "height", path)?,
-                facets(obj)?,
-            );
-            if kind == "cylinder" {
-                Solid::cylinder(r, h, f)
-            } else {
-                Solid::cone(r, h, f)
-            }
-            .map_err(shape_err)
-        }
-        "convex" => {
-            check_keys(obj, &["shape", "points"], extra, path)?;
-            Solid::convex(&point_list(
-                field(v, "points", path)?,
-                &format!("{path}.points"),
-            )?)
-            .map_err(shape_err)
-        }
-        "mesh" => {
-            check_keys(obj, &["shape", "vertices", "polygons"], extra, path)?;
-            let verts = point_list(field(v, "vertices", path)?, &format!("{path}.vertices"))?;
-            let polys = field(v, "polygons", path)?
-                .as_array()
-                .ok_or_else(|| bad(format!("{path}.polygons: expected an array of index lists")))?;
-            let mut faces = Vec::with_capacity(polys.len());
-            for (i, p) in polys.iter().enumerate() {
-                let ids = p.as_array().ok_or_else(|| {
-                    bad(format!(
-                        "{path}.polygons[{i}]: expected an array of vertex indices"
-                    ))
-                })?;
-                let f: Option<Vec<u32>> = ids
-                    .iter()
-                    .map(|x| x.as_u64().and_then(|n| u32::try_from(n).ok()))
-                    .collect();
-                faces.push(f.ok_or_else(|| {
-                    bad(format!(
-                        "{path}.polygons[{i}]: indices must be non-negative integers"
-                    ))
-                })?);
-            }
-            Solid::mesh(verts, &faces).map_err(shape_err)
-        }
-        "compound" => {
-            check_keys(obj, &["shape", "parts"], extra, path)?;
-            let parts = field(v, "parts", path)?
-                .as_array()
-                .ok_or_else(|| bad(format!("{path}.parts: expected an array")))?;
-            let mut out = Vec::with_capacity(parts.len());
-            for (i, p) in parts.iter().enumerate() {
-                let pp = format!("{path}.parts[{i}]");
-                let pose = pose_from_json(field(p, "pose", &pp)?, &format!("{pp}.pose"))?;
-                out.push((pose, solid_from_json(p, &pp, &["pose"])?));
-            }
-            Solid::compound(out).map_err(shape_err)
-        }
-        other => Err(bad(format!(
-            "{path}.shape: unknown shape \"{other}\" (box, sphere, cylinder, cone, convex, mesh, compound)"
-        ))),
-    }
+    Ok(robosim_collision::json::solid_from_json(v, path, extra)?)
 }
 
 fn mode_field(req: &Value) -> Result<Mode, ProtocolError> {
@@ -296,20 +157,24 @@ fn op_collide(req: &Value) -> Result<Value, ProtocolError> {
     Ok(out)
 }
 
-fn robot_field(
-    req: &Value,
-    robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Result<Robot, ProtocolError> {
+fn robot_field<'a>(req: &Value, arg: RobotArg<'a>) -> Result<Cow<'a, Robot>, ProtocolError> {
+    let robots = match arg {
+        RobotArg::Given(robot) => return Ok(Cow::Borrowed(robot)),
+        RobotArg::Request(robots) => robots,
+    };
     match field(req, "robot", "request")? {
-        Value::String(name) => robots(name).or_else(|| builtin_robot(name)).ok_or_else(|| {
-            ProtocolError::new(
-                ErrorKind::UnknownRobot,
-                format!("robot: no robot named \"{name}\""),
-            )
-        }),
-        v @ Value::Object(_) => {
-            robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
-        }
+        Value::String(name) => robots(name)
+            .or_else(|| builtin_robot(name))
+            .map(Cow::Owned)
+            .ok_or_else(|| {
+                ProtocolError::new(
+                    ErrorKind::UnknownRobot,
+                    format!("robot: no robot named \"{name}\""),
+                )
+            }),
+        v @ Value::Object(_) => robot_from_json(v)
+            .map(Cow::Owned)
+            .map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string())),
         _ => Err(bad(
             "robot: expected a library name or an inline robot object",
         )),
@@ -324,8 +189,8 @@ fn body_json(b: &Body) -> Value {
     }
 }
 
-fn op_check(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
-    let robot = robot_field(req, robots)?;
+fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let robot = robot_field(req, arg)?;
     let q = number_array(field(req, "q", "request")?, "q").map_err(|e| bad(e.to_string()))?;
     robot.check_q(&q).map_err(|e| bad(format!("q: {e}")))?;
     let mut scene = Scene::new();

@@ -19,6 +19,7 @@
 //!
 //! Entry point: [`dispatch`].
 
+use super::RobotArg;
 use super::finite::check;
 use crate::robot_json::robot_from_json;
 use crate::{ErrorKind, ProtocolError};
@@ -49,7 +50,7 @@ impl From<DynamicsError> for ProtocolError {
 }
 
 /// One op's handler.
-type OpFn = fn(&Value, &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError>;
+type OpFn = fn(&Value, RobotArg<'_>) -> Result<Value, ProtocolError>;
 
 /// Default step budget of a `simulate` request (a planner must not stall the server by accident).
 pub const DEFAULT_MAX_STEPS: u64 = 10_000_000;
@@ -61,6 +62,16 @@ pub fn dispatch(
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
 ) -> Option<Result<Value, ProtocolError>> {
+    dispatch_with(op, req, RobotArg::Request(robots))
+}
+
+/// [`dispatch`] with the robot given: by the request ([`RobotArg::Request`]) or typed by the
+/// caller ([`RobotArg::Given`]; the request's `robot` is not read).
+pub fn dispatch_with(
+    op: &str,
+    req: &Value,
+    robot: RobotArg<'_>,
+) -> Option<Result<Value, ProtocolError>> {
     let f: OpFn = match op {
         "id" => op_id,
         "mass_matrix" => op_mass_matrix,
@@ -69,10 +80,14 @@ pub fn dispatch(
         "simulate" => op_simulate,
         _ => return None,
     };
-    Some(f(req, robots))
+    Some(f(req, robot))
 }
 
-fn model_of(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Model, ProtocolError> {
+fn model_of(req: &Value, arg: RobotArg<'_>) -> Result<Model, ProtocolError> {
+    let robots = match arg {
+        RobotArg::Given(robot) => return Ok(Model::new(robot)?),
+        RobotArg::Request(robots) => robots,
+    };
     let robot = match req.get("robot") {
         None => {
             return Err(ProtocolError::new(
@@ -156,8 +171,8 @@ fn number(req: &Value, field: &str) -> Result<Option<f64>, ProtocolError> {
     }
 }
 
-fn op_id(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
-    let model = model_of(req, robots)?;
+fn op_id(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, arg)?;
     let n = model.dof();
     let (q, qd, qdd) = (
         vector(req, "q", n, false)?,
@@ -170,11 +185,8 @@ fn op_id(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
     Ok(json!({ "tau": tau.as_slice() }))
 }
 
-fn op_mass_matrix(
-    req: &Value,
-    robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Result<Value, ProtocolError> {
-    let model = model_of(req, robots)?;
+fn op_mass_matrix(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, arg)?;
     let q = vector(req, "q", model.dof(), false)?;
     let mut data = Data::new(&model);
     let m = crba(&model, &mut data, &q)?;
@@ -185,8 +197,8 @@ fn op_mass_matrix(
     Ok(json!({ "mass_matrix": rows }))
 }
 
-fn op_gravity(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
-    let model = model_of(req, robots)?;
+fn op_gravity(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, arg)?;
     let q = vector(req, "q", model.dof(), false)?;
     let mut data = Data::new(&model);
     let tau = gravity(&model, &mut data, &q)?;
@@ -194,8 +206,8 @@ fn op_gravity(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Val
     Ok(json!({ "tau": tau.as_slice() }))
 }
 
-fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
-    let model = model_of(req, robots)?;
+fn op_fd(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, arg)?;
     let n = model.dof();
     let (q, qd, tau) = (
         vector(req, "q", n, false)?,
@@ -217,11 +229,8 @@ fn op_fd(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
     Ok(json!({ "qdd": qdd.as_slice() }))
 }
 
-fn op_simulate(
-    req: &Value,
-    robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Result<Value, ProtocolError> {
-    let model = model_of(req, robots)?;
+fn op_simulate(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let model = model_of(req, arg)?;
     let n = model.dof();
     let q0 = vector(req, "q0", n, false)?;
     let qd0 = vector(req, "qd0", n, true)?;

@@ -12,6 +12,7 @@
 //! `position`, `orientation`, `per_axis` [dx dy dz rx ry rz], `position_worst_case`,
 //! `orientation_worst_case`, `resolution`.
 
+use super::RobotArg;
 use super::finite::check;
 use crate::robot_json::{
     matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array, robot_from_json,
@@ -24,6 +25,7 @@ use robosim_kinematics::jacobian::{Frame, jacobian, singularity};
 use robosim_kinematics::pose::Tolerances;
 use robosim_kinematics::{builtin_robot, fk};
 use serde_json::{Value, json};
+use std::borrow::Cow;
 
 /// Answers `op` if it is a kinematics op, else `None`. `robots` resolves library names;
 /// names it does not know fall back to [`builtin_robot`].
@@ -32,6 +34,16 @@ pub fn dispatch(
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
 ) -> Option<Result<Value, ProtocolError>> {
+    dispatch_with(op, req, RobotArg::Request(robots))
+}
+
+/// [`dispatch`] with the robot given: by the request ([`RobotArg::Request`]) or typed by the
+/// caller ([`RobotArg::Given`], a session's compiled robot; the request's `robot` is not read).
+pub fn dispatch_with(
+    op: &str,
+    req: &Value,
+    robot: RobotArg<'_>,
+) -> Option<Result<Value, ProtocolError>> {
     let f = match op {
         "fk" => op_fk,
         "jacobian" => op_jacobian,
@@ -39,23 +51,28 @@ pub fn dispatch(
         "encoder_error" => op_encoder_error,
         _ => return None,
     };
-    Some(f(req, robots))
+    Some(f(req, robot))
 }
 
-fn robot(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Robot, ProtocolError> {
+fn robot<'a>(req: &Value, arg: RobotArg<'a>) -> Result<Cow<'a, Robot>, ProtocolError> {
+    let robots = match arg {
+        RobotArg::Given(r) => return Ok(Cow::Borrowed(r)),
+        RobotArg::Request(robots) => robots,
+    };
     match req.get("robot") {
         None => Err(ProtocolError::new(ErrorKind::BadRequest, "robot: missing")),
-        Some(Value::String(name)) => {
-            robots(name).or_else(|| builtin_robot(name)).ok_or_else(|| {
+        Some(Value::String(name)) => robots(name)
+            .or_else(|| builtin_robot(name))
+            .map(Cow::Owned)
+            .ok_or_else(|| {
                 ProtocolError::new(
                     ErrorKind::UnknownRobot,
                     format!("robot: no robot named \"{name}\""),
                 )
-            })
-        }
-        Some(v @ Value::Object(_)) => {
-            robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
-        }
+            }),
+        Some(v @ Value::Object(_)) => robot_from_json(v)
+            .map(Cow::Owned)
+            .map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string())),
         Some(_) => Err(ProtocolError::new(
             ErrorKind::BadRequest,
             "robot: expected a library name or an inline robot object",
@@ -105,8 +122,8 @@ fn uint_field(req: &Value, key: &str, default: u64, max: u64) -> Result<u64, Pro
     }
 }
 
-fn op_fk(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
-    let robot = robot(req, robots)?;
+fn op_fk(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let robot = robot(req, arg)?;
     let q = q_field(req, "q", &robot)?;
     if bool_field(req, "frames", false)? {
         let frames = fk::link_frames(&robot, &q);
@@ -126,11 +143,8 @@ fn op_fk(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
     }
 }
 
-fn op_jacobian(
-    req: &Value,
-    robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Result<Value, ProtocolError> {
-    let robot = robot(req, robots)?;
+fn op_jacobian(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let robot = robot(req, arg)?;
     let q = q_field(req, "q", &robot)?;
     let frame = match req.get("frame").map(|v| v.as_str()) {
         None | Some(Some("base")) => Frame::Base,
@@ -256,8 +270,8 @@ fn solution_json(s: &IkSolution) -> Value {
     v
 }
 
-fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, ProtocolError> {
-    let robot = robot(req, robots)?;
+fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let robot = robot(req, arg)?;
     let pose = matrix4_from_json(
         req.get("pose")
             .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "pose: missing"))?,
@@ -316,11 +330,8 @@ fn op_ik(req: &Value, robots: &dyn Fn(&str) -> Option<Robot>) -> Result<Value, P
     }
 }
 
-fn op_encoder_error(
-    req: &Value,
-    robots: &dyn Fn(&str) -> Option<Robot>,
-) -> Result<Value, ProtocolError> {
-    let robot = robot(req, robots)?;
+fn op_encoder_error(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
+    let robot = robot(req, arg)?;
     let q = q_field(req, "q", &robot)?;
     let bits_v = req
         .get("bits")
