@@ -164,7 +164,9 @@ fn us(s: f64) -> String {
 
 /// Writes `collision.csv`, `collision.md` and `collision.png` into `out_dir`. `quick` runs a
 /// reduced version (for tests and smoke runs; the figures are then rougher). Returns the paths
-/// written, or a message saying what failed.
+/// written, or a message saying what failed. The studies run in a fixed order from one seeded
+/// generator (each draws its samples from it in turn): per pair, a robot against the
+/// surgical head, the seed's §2.7 study, facet counts, the broad phase.
 pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
     let mut rng = ChaCha8Rng::seed_from_u64(1988);
     let scale = if quick { 1 } else { 10 };
@@ -188,18 +190,39 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         "Wall-clock time on a shared 2-core machine under load (load average ≈ 5 during the committed run): best of 9 repetitions for per-pair and per-check times, median over the steps for the broad phase; ratios are to the baseline named in `note`, measured in the same run.".to_owned(),
         "False negatives / positives are counted against the exact mode (parry GJK/EPA on the true primitives).".to_owned(),
     ];
+    pair_study(&mut rng, scale, &mut table);
+    let ph = PumaHead::new(&mut rng, scale)?;
+    let (t_fk, puma_exact_us) = robot_study(&ph, &mut table);
+    robot_study_without_culling_and_with_self(&ph, t_fk, &mut table);
+    notes.push(format!(
+        "PUMA 560 (builtin, Corke/RTB parameters) with assumed link solids: boxes of half-width 4 cm along the DH segments (`LinkSolids::from_dh`). Surgical head: cylinder r = 0.10 m, h = 0.25 m, axis along world y, centre (0.55, −0.15, 0.45) m. Exact-mode check with culling: {puma_exact_us:.2} µs (target 5 µs)."
+    ));
 
-    // 1. Per pair, per mode.
+    seed_study(&ph, t_fk, &mut table, &mut notes)?;
+    let facet_series = facet_study(&mut rng, scale, &mut table);
+    let bp_series = broad_phase_study(&mut rng, quick, &mut table, &mut notes)?;
+    let report = Report {
+        name: "collision".into(),
+        title: "Collision detection: what accuracy costs in time".into(),
+        notes,
+        table,
+        plots: collision_plots(facet_series, bp_series),
+    };
+    write_report(out_dir, &report).map_err(|e| e.to_string())
+}
+
+/// 1. Per pair, per mode: random primitive pairs, each mode's verdict and time against exact.
+fn pair_study(rng: &mut ChaCha8Rng, scale: usize, table: &mut Table) {
     let n_pairs = 200 * scale;
     let pairs: Vec<Pair> = (0..n_pairs)
         .map(|_| {
-            let a = random_solid(&mut rng, None);
-            let b = random_solid(&mut rng, None);
+            let a = random_solid(rng, None);
+            let b = random_solid(rng, None);
             (
                 a,
-                random_pose(&mut rng, 0.05),
+                random_pose(rng, 0.05),
                 b,
-                random_pose(&mut rng, 0.45),
+                random_pose(rng, 0.45),
             )
         })
         .collect();
@@ -240,53 +263,88 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
             "ratio to bbox".into(),
         ]));
     }
+}
 
-    // 2. PUMA against the surgical head.
-    let robot = builtin_robot("puma560").ok_or("the builtin PUMA 560 is missing")?;
-    let links = LinkSolids::from_dh(&robot, 0.04).map_err(|e| e.to_string())?;
-    let mut scene = Scene::new();
-    let head = Solid::cylinder(0.10, 0.25, None).map_err(|e| e.to_string())?;
-    let head_pose = Isometry3::new(
-        Vector3::new(0.55, -0.15, 0.45),
-        Vector3::new(std::f64::consts::FRAC_PI_2, 0.0, 0.0),
-    );
-    scene.add("head", Arc::new(head), head_pose);
-    let n_q = 2000 * scale;
-    let qs: Vec<Vec<f64>> = (0..n_q)
-        .map(|_| {
-            robot
-                .joints
-                .iter()
-                .map(|j| rng.random_range(j.qlim[0]..j.qlim[1]))
-                .collect()
+/// The robot studies' setup: the builtin PUMA 560 with DH link boxes, the surgical head as
+/// the scene, and random joint values within limits.
+struct PumaHead {
+    robot: robosim_kinematics::Robot,
+    links: LinkSolids,
+    scene: Scene,
+    head_pose: Isometry3<f64>,
+    qs: Vec<Vec<f64>>,
+}
+
+impl PumaHead {
+    fn new(rng: &mut ChaCha8Rng, scale: usize) -> Result<PumaHead, String> {
+        let robot = builtin_robot("puma560").ok_or("the builtin PUMA 560 is missing")?;
+        let links = LinkSolids::from_dh(&robot, 0.04).map_err(|e| e.to_string())?;
+        let mut scene = Scene::new();
+        let head = Solid::cylinder(0.10, 0.25, None).map_err(|e| e.to_string())?;
+        let head_pose = Isometry3::new(
+            Vector3::new(0.55, -0.15, 0.45),
+            Vector3::new(std::f64::consts::FRAC_PI_2, 0.0, 0.0),
+        );
+        scene.add("head", Arc::new(head), head_pose);
+        let n_q = 2000 * scale;
+        let qs: Vec<Vec<f64>> = (0..n_q)
+            .map(|_| {
+                robot
+                    .joints
+                    .iter()
+                    .map(|j| rng.random_range(j.qlim[0]..j.qlim[1]))
+                    .collect()
+            })
+            .collect();
+        Ok(PumaHead {
+            robot,
+            links,
+            scene,
+            head_pose,
+            qs,
         })
-        .collect();
-    let settings = |mode| CollisionSettings {
+    }
+}
+
+/// The robot checks' settings in `mode`: no self-collision, the rest the defaults.
+fn check_settings(mode: Mode) -> CollisionSettings {
+    CollisionSettings {
         mode,
         self_collision: false,
         ..CollisionSettings::default()
-    };
-    let verdict = |r: &CheckResult| match r {
+    }
+}
+
+/// A check's verdict as contact yes / no / unknown.
+fn verdict(r: &CheckResult) -> Option<bool> {
+    match r {
         CheckResult::Clear => Some(false),
         CheckResult::Contact(_) => Some(true),
         CheckResult::Unknown { .. } => None,
-    };
-    let puma_truth: Vec<Option<bool>> = qs
+    }
+}
+
+/// 2. PUMA against the surgical head: FK alone (the baseline), then each mode with box
+/// culling. Answers the FK time per q (s) and the exact mode's time per check (µs).
+fn robot_study(ph: &PumaHead, table: &mut Table) -> (f64, f64) {
+    let n_q = ph.qs.len();
+    let puma_truth: Vec<Option<bool>> = ph
+        .qs
         .iter()
         .map(|q| {
             verdict(&check_links(
-                &links,
-                &link_poses(&robot, &links, q),
-                &scene,
-                &settings(Mode::Exact),
+                &ph.links,
+                &link_poses(&ph.robot, &ph.links, q),
+                &ph.scene,
+                &check_settings(Mode::Exact),
             ))
         })
         .collect();
     let hits = puma_truth.iter().filter(|t| **t == Some(true)).count();
     // Baseline: forward kinematics alone (the check cannot be cheaper than placing the links).
     let t_fk = time_per_call(REPS, 1, || {
-        for q in &qs {
-            black_box(link_poses(&robot, &links, q));
+        for q in &ph.qs {
+            black_box(link_poses(&ph.robot, &ph.links, q));
         }
     }) / n_q as f64;
     table.rows.push(row(&[
@@ -303,25 +361,26 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
     ]));
     let mut puma_exact_us = f64::NAN;
     for mode in [Mode::BBox, Mode::Polygon, Mode::Exact] {
-        let s = settings(mode);
-        let got: Vec<Option<bool>> = qs
+        let s = check_settings(mode);
+        let got: Vec<Option<bool>> = ph
+            .qs
             .iter()
             .map(|q| {
                 verdict(&check_links(
-                    &links,
-                    &link_poses(&robot, &links, q),
-                    &scene,
+                    &ph.links,
+                    &link_poses(&ph.robot, &ph.links, q),
+                    &ph.scene,
                     &s,
                 ))
             })
             .collect();
         let (fneg, fpos, unk) = confusion(&got, &puma_truth);
         let t = time_per_call(REPS, 1, || {
-            for q in &qs {
+            for q in &ph.qs {
                 black_box(check_links(
-                    &links,
-                    &link_poses(&robot, &links, q),
-                    &scene,
+                    &ph.links,
+                    &link_poses(&ph.robot, &ph.links, q),
+                    &ph.scene,
                     &s,
                 ));
             }
@@ -342,12 +401,18 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
             "ratio to FK; target < 5 µs per check".into(),
         ]));
     }
+    (t_fk, puma_exact_us)
+}
+
+/// 2, continued: exact without culling (every link narrow), and exact with self-collision.
+fn robot_study_without_culling_and_with_self(ph: &PumaHead, t_fk: f64, table: &mut Table) {
+    let n_q = ph.qs.len();
     // Without culling: every link narrow-tested against the head.
-    let o = &scene.objects()[0];
+    let o = &ph.scene.objects()[0];
     let t_noc = time_per_call(REPS, 1, || {
-        for q in &qs {
-            let lp = link_poses(&robot, &links, q);
-            for (l, p) in links.links.iter().zip(&lp) {
+        for q in &ph.qs {
+            let lp = link_poses(&ph.robot, &ph.links, q);
+            for (l, p) in ph.links.links.iter().zip(&lp) {
                 if let (Some(l), Some(p)) = (l, p) {
                     black_box(exact::intersects(&l.solid, p, &o.solid, &o.pose).ok());
                 }
@@ -368,14 +433,14 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
     ]));
     let s_self = CollisionSettings {
         self_collision: true,
-        ..settings(Mode::Exact)
+        ..check_settings(Mode::Exact)
     };
     let t_self = time_per_call(REPS, 1, || {
-        for q in &qs {
+        for q in &ph.qs {
             black_box(check_links(
-                &links,
-                &link_poses(&robot, &links, q),
-                &scene,
+                &ph.links,
+                &link_poses(&ph.robot, &ph.links, q),
+                &ph.scene,
                 &s_self,
             ));
         }
@@ -392,75 +457,32 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         "".into(),
         "ratio to FK".into(),
     ]));
-    notes.push(format!(
-        "PUMA 560 (builtin, Corke/RTB parameters) with assumed link solids: boxes of half-width 4 cm along the DH segments (`LinkSolids::from_dh`). Surgical head: cylinder r = 0.10 m, h = 0.25 m, axis along world y, centre (0.55, −0.15, 0.45) m. Exact-mode check with culling: {puma_exact_us:.2} µs (target 5 µs)."
-    ));
+}
 
-    // 2b. The seed's surgical-positioner study (§2.7): points around the head, every analytic
-    // IK solution checked for collision; is there at least one that does not touch the head?
-    let mut probe = robot.clone();
+/// 2b. The seed's surgical-positioner study (§2.7): points around the head, every analytic
+/// IK solution checked for collision; is there at least one that does not touch the head?
+fn seed_study(
+    ph: &PumaHead,
+    t_fk: f64,
+    table: &mut Table,
+    notes: &mut Vec<String>,
+) -> Result<(), String> {
+    let mut probe = ph.robot.clone();
     probe.tool = Isometry3::translation(0.0, 0.0, 0.15).to_homogeneous();
     let probe_links = LinkSolids::from_dh(&probe, 0.02).map_err(|e| e.to_string())?;
-    let c = head_pose.translation.vector;
+    let c = ph.head_pose.translation.vector;
     for (standoff, label) in [
         (0.105, "probe tip 5 mm off the head"),
         (0.095, "probe tip 5 mm into the head (all must touch)"),
     ] {
-        let (mut targets, mut reachable, mut free, mut solutions, mut touching) =
-            (0usize, 0usize, 0usize, 0usize, 0usize);
-        let mut checks_s = Vec::new();
-        let s_head = CollisionSettings {
-            self_collision: true,
-            ..settings(Mode::Exact)
-        };
-        let opts = IkOptions {
-            all: true,
-            ..IkOptions::default()
-        };
-        for iy in 0..=10 {
-            let y = -0.10 + 0.02 * iy as f64;
-            for k in 0..=21 {
-                let th = (5.0 * k as f64).to_radians();
-                // Tool z points into the head axis; the probe tip stops 5 mm off the surface.
-                let z = Vector3::new(th.cos(), 0.0, -th.sin());
-                let x = Vector3::y();
-                let yv = z.cross(&x);
-                let p = c + Vector3::new(0.0, y, 0.0) - z * standoff;
-                let mut m = nalgebra::Matrix4::identity();
-                m.fixed_view_mut::<3, 1>(0, 0).copy_from(&x);
-                m.fixed_view_mut::<3, 1>(0, 1).copy_from(&yv);
-                m.fixed_view_mut::<3, 1>(0, 2).copy_from(&z);
-                m.fixed_view_mut::<3, 1>(0, 3).copy_from(&p);
-                targets += 1;
-                let Ok(res) = ik::solve(&probe, &m, Method::Analytic, &opts) else {
-                    continue;
-                };
-                let good: Vec<_> = res
-                    .solutions
-                    .iter()
-                    .filter(|s| s.converged && s.within_limits)
-                    .collect();
-                if good.is_empty() {
-                    continue;
-                }
-                reachable += 1;
-                let mut any_free = false;
-                for sol in good {
-                    solutions += 1;
-                    let t = Instant::now();
-                    let r = check_links(
-                        &probe_links,
-                        &link_poses(&probe, &probe_links, &sol.q),
-                        &scene,
-                        &s_head,
-                    );
-                    checks_s.push(t.elapsed().as_secs_f64());
-                    any_free |= r.is_clear();
-                    touching += usize::from(!r.is_clear());
-                }
-                free += usize::from(any_free);
-            }
-        }
+        let Approaches {
+            targets,
+            reachable,
+            free,
+            solutions,
+            touching,
+            mut checks_s,
+        } = approaches(ph, &probe, &probe_links, &c, standoff);
         let t_sol = if checks_s.is_empty() {
             f64::NAN
         } else {
@@ -485,7 +507,97 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         }
     }
 
-    // 3. Facet count against volume error, time and misses (cylinder pairs, polygon mode).
+    Ok(())
+}
+
+/// What the §2.7 sweep found at one standoff: approach poses, reachable ones, ones with a
+/// collision-free solution, solutions and touching solutions, and each check's time (s).
+struct Approaches {
+    targets: usize,
+    reachable: usize,
+    free: usize,
+    solutions: usize,
+    touching: usize,
+    checks_s: Vec<f64>,
+}
+
+/// The §2.7 sweep at one standoff from the head's axis: 11 positions along the axis, approach
+/// angles 0–105° in 5° steps, every analytic IK solution within limits checked.
+fn approaches(
+    ph: &PumaHead,
+    probe: &robosim_kinematics::Robot,
+    probe_links: &LinkSolids,
+    c: &Vector3<f64>,
+    standoff: f64,
+) -> Approaches {
+    let (mut targets, mut reachable, mut free, mut solutions, mut touching) =
+        (0usize, 0usize, 0usize, 0usize, 0usize);
+    let mut checks_s = Vec::new();
+    let s_head = CollisionSettings {
+        self_collision: true,
+        ..check_settings(Mode::Exact)
+    };
+    let opts = IkOptions {
+        all: true,
+        ..IkOptions::default()
+    };
+    for iy in 0..=10 {
+        let y = -0.10 + 0.02 * iy as f64;
+        for k in 0..=21 {
+            let th = (5.0 * k as f64).to_radians();
+            // Tool z points into the head axis; the probe tip stops 5 mm off the surface.
+            let z = Vector3::new(th.cos(), 0.0, -th.sin());
+            let x = Vector3::y();
+            let yv = z.cross(&x);
+            let p = c + Vector3::new(0.0, y, 0.0) - z * standoff;
+            let mut m = nalgebra::Matrix4::identity();
+            m.fixed_view_mut::<3, 1>(0, 0).copy_from(&x);
+            m.fixed_view_mut::<3, 1>(0, 1).copy_from(&yv);
+            m.fixed_view_mut::<3, 1>(0, 2).copy_from(&z);
+            m.fixed_view_mut::<3, 1>(0, 3).copy_from(&p);
+            targets += 1;
+            let Ok(res) = ik::solve(&probe, &m, Method::Analytic, &opts) else {
+                continue;
+            };
+            let good: Vec<_> = res
+                .solutions
+                .iter()
+                .filter(|s| s.converged && s.within_limits)
+                .collect();
+            if good.is_empty() {
+                continue;
+            }
+            reachable += 1;
+            let mut any_free = false;
+            for sol in good {
+                solutions += 1;
+                let t = Instant::now();
+                let r = check_links(
+                    &probe_links,
+                    &link_poses(&probe, &probe_links, &sol.q),
+                    &ph.scene,
+                    &s_head,
+                );
+                checks_s.push(t.elapsed().as_secs_f64());
+                any_free |= r.is_clear();
+                touching += usize::from(!r.is_clear());
+            }
+            free += usize::from(any_free);
+        }
+    }
+    Approaches {
+        targets,
+        reachable,
+        free,
+        solutions,
+        touching,
+        checks_s,
+    }
+}
+
+/// 3. Facet count against volume error, time and misses (cylinder pairs, polygon mode).
+/// Answers the plots' series: volume error, polygon time, polygon misses.
+fn facet_study(rng: &mut ChaCha8Rng, scale: usize, table: &mut Table) -> [Series; 3] {
     let mut vol_series = Series {
         label: "volume error (1 − V_faceted/V)".into(),
         points: Vec::new(),
@@ -503,8 +615,8 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
             (
                 rng.random_range(0.1..0.3),
                 rng.random_range(0.2..0.6),
-                random_pose(&mut rng, 0.05),
-                random_pose(&mut rng, 0.35),
+                random_pose(rng, 0.05),
+                random_pose(rng, 0.35),
             )
         })
         .collect();
@@ -557,7 +669,17 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         ]));
     }
 
-    // 4. Broad phase, 1 % moving.
+    [vol_series, time_series, miss_series]
+}
+
+/// 4. Broad phase, 1 % moving: sweep-and-prune, BVH and brute force per step at each size.
+/// Answers the plot's series (ms per step against bodies).
+fn broad_phase_study(
+    rng: &mut ChaCha8Rng,
+    quick: bool,
+    table: &mut Table,
+    notes: &mut Vec<String>,
+) -> Result<Vec<Series>, String> {
     let mut bp_series: Vec<Series> = vec![
         Series {
             label: "sweep-and-prune".into(),
@@ -580,71 +702,11 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
     let steps = if quick { 20 } else { 200 };
     let mut bp10k = (f64::NAN, f64::NAN);
     for &n in sizes {
-        // Bodies 0.2–1 m in a cube whose side keeps the density constant (≈ 10,000 in 50 m).
-        let side = 50.0 * (n as f64 / 10_000.0).cbrt();
-        let mut boxes: Vec<Aabb> = (0..n)
-            .map(|_| Aabb {
-                center: Point3::new(
-                    rng.random_range(0.0..side),
-                    rng.random_range(0.0..side),
-                    rng.random_range(0.0..side),
-                ),
-                half: Vector3::new(
-                    rng.random_range(0.1..0.5),
-                    rng.random_range(0.1..0.5),
-                    rng.random_range(0.1..0.5),
-                ),
-            })
-            .collect();
-        let moving: Vec<u32> = (0..n as u32).step_by(100).collect();
-        let vel: Vec<Vector3<f64>> = moving
-            .iter()
-            .map(|_| {
-                Vector3::new(
-                    rng.random_range(-0.05..0.05),
-                    rng.random_range(-0.05..0.05),
-                    rng.random_range(-0.05..0.05),
-                )
-            })
-            .collect();
-        let t_build_sap = Instant::now();
-        let mut sap = SweepAndPrune::from_boxes(&boxes);
-        let t_build_sap = t_build_sap.elapsed().as_secs_f64();
-        let t_build_bvh = Instant::now();
-        let mut bvh = BvhBroadPhase::from_boxes(&boxes);
-        let t_build_bvh = t_build_bvh.elapsed().as_secs_f64();
-        let mut out = Vec::new();
-        let mut per_step = [Vec::new(), Vec::new(), Vec::new()];
-        let mut agree = true;
-        for _ in 0..steps {
-            for (m, v) in moving.iter().zip(&vel) {
-                boxes[*m as usize].center += v;
-            }
-            let t = Instant::now();
-            for m in &moving {
-                sap.set(*m, &boxes[*m as usize]);
-            }
-            out.clear();
-            sap.pairs_involving(&moving, &mut out);
-            per_step[0].push(t.elapsed().as_secs_f64());
-            let sap_pairs = out.clone();
-            let t = Instant::now();
-            for m in &moving {
-                bvh.set(*m, &boxes[*m as usize]);
-            }
-            out.clear();
-            bvh.pairs_involving(&moving, &mut out);
-            per_step[1].push(t.elapsed().as_secs_f64());
-            agree &= out == sap_pairs;
-            let t = Instant::now();
-            out.clear();
-            brute_force_pairs(&boxes, &moving, &mut out);
-            per_step[2].push(t.elapsed().as_secs_f64());
-            agree &= out == sap_pairs;
-        }
-        if !agree {
-            return Err(format!("broad phases disagree with brute force at n = {n}"));
-        }
+        let BroadTimes {
+            mut per_step,
+            t_build_sap,
+            t_build_bvh,
+        } = broad_phase_at(rng, n, steps)?;
         let med: Vec<f64> = per_step.iter_mut().map(|s| percentile(s, 50.0)).collect();
         for (k, name) in ["sweep-and-prune", "bvh", "brute force"].iter().enumerate() {
             bp_series[k].points.push((n as f64, med[k] * 1e3));
@@ -681,39 +743,121 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         bp10k.1 * 1e6
     ));
 
-    let report = Report {
-        name: "collision".into(),
-        title: "Collision detection: what accuracy costs in time".into(),
-        notes,
-        table,
-        plots: vec![
-            Plot {
-                title: "Cylinder facets: volume error".into(),
-                x_label: "facets".into(),
-                y_label: "1 − V_faceted/V".into(),
-                log_x: true,
-                log_y: true,
-                series: vec![vol_series],
-            },
-            Plot {
-                title: "Cylinder facets: polygon-mode time and misses".into(),
-                x_label: "facets".into(),
-                y_label: "µs per pair / % false negatives".into(),
-                log_x: true,
-                log_y: false,
-                series: vec![time_series, miss_series],
-            },
-            Plot {
-                title: "Broad phase, 1 % moving".into(),
-                x_label: "bodies".into(),
-                y_label: "ms per step".into(),
-                log_x: true,
-                log_y: true,
-                series: bp_series,
-            },
-        ],
-    };
-    write_report(out_dir, &report).map_err(|e| e.to_string())
+    Ok(bp_series)
+}
+
+/// One broad-phase size: the per-step times (s) of sweep-and-prune, BVH and brute force, and
+/// the two build times (s).
+struct BroadTimes {
+    per_step: [Vec<f64>; 3],
+    t_build_sap: f64,
+    t_build_bvh: f64,
+}
+
+/// `n` bodies 0.2–1 m in a cube whose side keeps the density constant, 1 % of them moving for
+/// `steps` steps; every step's pairs must agree with brute force.
+fn broad_phase_at(rng: &mut ChaCha8Rng, n: usize, steps: usize) -> Result<BroadTimes, String> {
+    // Bodies 0.2–1 m in a cube whose side keeps the density constant (≈ 10,000 in 50 m).
+    let side = 50.0 * (n as f64 / 10_000.0).cbrt();
+    let mut boxes: Vec<Aabb> = (0..n)
+        .map(|_| Aabb {
+            center: Point3::new(
+                rng.random_range(0.0..side),
+                rng.random_range(0.0..side),
+                rng.random_range(0.0..side),
+            ),
+            half: Vector3::new(
+                rng.random_range(0.1..0.5),
+                rng.random_range(0.1..0.5),
+                rng.random_range(0.1..0.5),
+            ),
+        })
+        .collect();
+    let moving: Vec<u32> = (0..n as u32).step_by(100).collect();
+    let vel: Vec<Vector3<f64>> = moving
+        .iter()
+        .map(|_| {
+            Vector3::new(
+                rng.random_range(-0.05..0.05),
+                rng.random_range(-0.05..0.05),
+                rng.random_range(-0.05..0.05),
+            )
+        })
+        .collect();
+    let t_build_sap = Instant::now();
+    let mut sap = SweepAndPrune::from_boxes(&boxes);
+    let t_build_sap = t_build_sap.elapsed().as_secs_f64();
+    let t_build_bvh = Instant::now();
+    let mut bvh = BvhBroadPhase::from_boxes(&boxes);
+    let t_build_bvh = t_build_bvh.elapsed().as_secs_f64();
+    let mut out = Vec::new();
+    let mut per_step = [Vec::new(), Vec::new(), Vec::new()];
+    let mut agree = true;
+    for _ in 0..steps {
+        for (m, v) in moving.iter().zip(&vel) {
+            boxes[*m as usize].center += v;
+        }
+        let t = Instant::now();
+        for m in &moving {
+            sap.set(*m, &boxes[*m as usize]);
+        }
+        out.clear();
+        sap.pairs_involving(&moving, &mut out);
+        per_step[0].push(t.elapsed().as_secs_f64());
+        let sap_pairs = out.clone();
+        let t = Instant::now();
+        for m in &moving {
+            bvh.set(*m, &boxes[*m as usize]);
+        }
+        out.clear();
+        bvh.pairs_involving(&moving, &mut out);
+        per_step[1].push(t.elapsed().as_secs_f64());
+        agree &= out == sap_pairs;
+        let t = Instant::now();
+        out.clear();
+        brute_force_pairs(&boxes, &moving, &mut out);
+        per_step[2].push(t.elapsed().as_secs_f64());
+        agree &= out == sap_pairs;
+    }
+    if !agree {
+        return Err(format!("broad phases disagree with brute force at n = {n}"));
+    }
+    Ok(BroadTimes {
+        per_step,
+        t_build_sap,
+        t_build_bvh,
+    })
+}
+
+/// The report's plots: the facet series and the broad phase's.
+fn collision_plots(facets: [Series; 3], bp_series: Vec<Series>) -> Vec<Plot> {
+    let [vol_series, time_series, miss_series] = facets;
+    vec![
+        Plot {
+            title: "Cylinder facets: volume error".into(),
+            x_label: "facets".into(),
+            y_label: "1 − V_faceted/V".into(),
+            log_x: true,
+            log_y: true,
+            series: vec![vol_series],
+        },
+        Plot {
+            title: "Cylinder facets: polygon-mode time and misses".into(),
+            x_label: "facets".into(),
+            y_label: "µs per pair / % false negatives".into(),
+            log_x: true,
+            log_y: false,
+            series: vec![time_series, miss_series],
+        },
+        Plot {
+            title: "Broad phase, 1 % moving".into(),
+            x_label: "bodies".into(),
+            y_label: "ms per step".into(),
+            log_x: true,
+            log_y: true,
+            series: bp_series,
+        },
+    ]
 }
 
 #[cfg(test)]
