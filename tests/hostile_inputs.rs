@@ -196,7 +196,7 @@ fn read_with(reader: &str, path: &Path) -> (String, String) {
             Err(e) => urdf_kind(&e),
         },
         "urdf-solids" => match import_urdf_tree(path)
-            .and_then(|r| robosim_file_io::urdf_geometry::link_solids(&r).map(|s| (r, s)))
+            .and_then(|r| robosim_file_io::urdf_import::link_solids(&r).map(|s| (r, s)))
         {
             Ok((r, _)) => (
                 "ok".into(),

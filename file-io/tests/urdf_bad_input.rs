@@ -5,7 +5,8 @@
 //! tree) — and never a panic; a missing mesh is an error only where geometry is needed (FK and
 //! dynamics of that robot still work).
 
-use robosim_file_io::urdf_geometry::{MeshProblem, link_solids};
+use robosim_file_io::urdf_geometry::MeshProblem;
+use robosim_file_io::urdf_import::link_solids;
 use robosim_file_io::urdf_import::{UrdfError, UrdfErrorKind, import_urdf, import_urdf_tree};
 use robosim_kinematics::fk;
 use std::path::{Path, PathBuf};

@@ -11,7 +11,8 @@ use robosim_collision::robot::{
 };
 use robosim_collision::{PairResult, Solid};
 use robosim_file_io::package::ResolveError;
-use robosim_file_io::urdf_geometry::{Geometry, MeshProblem, link_solids};
+use robosim_file_io::urdf_geometry::{Geometry, MeshProblem};
+use robosim_file_io::urdf_import::link_solids;
 use robosim_file_io::urdf_import::{UrdfErrorKind, import_urdf, rpy_matrix};
 use robosim_kinematics::fk;
 use std::path::{Path, PathBuf};

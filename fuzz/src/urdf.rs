@@ -10,7 +10,8 @@
 //! built too (`link_solids`): a solid or a located error.
 
 use robosim_urdf::UrdfError;
-use robosim_urdf::urdf_geometry::{Geometry, link_solids};
+use robosim_urdf::urdf_geometry::Geometry;
+use robosim_urdf::urdf_import::link_solids;
 use robosim_urdf::urdf_import::{import_urdf_str, import_urdf_tree_str};
 use std::path::Path;
 

@@ -23,5 +23,6 @@ pub mod package;
 pub mod stl;
 pub mod urdf_geometry;
 pub mod urdf_import;
+mod urdf_xml;
 
 pub use urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot, import_urdf, import_urdf_tree};

@@ -27,35 +27,16 @@
 //! ([`robosim_collision::robot::check_robot`]).
 
 use crate::dae::{ColouredTriangles, read_dae};
-use crate::package::{ResolveError, resolve};
+use crate::package::resolve;
 use crate::stl::Triangles;
-use crate::urdf_import::{Reader, UrdfError, UrdfErrorKind, UrdfRobot, child};
+pub use crate::urdf_xml::MeshProblem;
+
+use crate::urdf_xml::{Reader, UrdfError, UrdfErrorKind, child};
 use nalgebra::{Matrix4, Point3, Vector3};
 use robosim_collision::Solid;
 use robosim_collision::robot::{LinkSolids, isometry_from_matrix};
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
-
-/// What is wrong with a `<mesh>` (or a geometry built from one), found when it is loaded.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum MeshProblem {
-    #[error("{0}")]
-    Resolve(#[from] ResolveError),
-    #[error("mesh file {0} does not exist")]
-    NotFound(PathBuf),
-    #[error("mesh file {path}: format {format:?} is not read (STL, OBJ and Collada .dae are)")]
-    UnsupportedFormat { path: PathBuf, format: String },
-    #[error("{0}")]
-    Read(String),
-    /// A malformed or unsupported Collada file: its own file, line and element (boxed: it
-    /// would double the size of every `UrdfError`).
-    #[error("{0}")]
-    Dae(Box<crate::dae::DaeError>),
-    #[error("mesh file {0} has no triangles")]
-    Empty(PathBuf),
-    #[error("collision solid: {0}")]
-    Shape(String),
-}
 
 /// A material: a name, an RGBA colour in [0, 1], a texture file name (not loaded).
 #[derive(Debug, Clone, PartialEq)]
@@ -441,12 +422,11 @@ pub fn place(geometry: &mut UrdfGeometry, root: &str, joints: &[TreeJoint]) {
     }
 }
 
-/// The collision solids of an imported robot (see the module docs), one entry per body (base
-/// first), meshes loaded now. Errors name the URDF file, line and element of the failing
-/// `<mesh>` (or `<collision>`).
-pub fn link_solids(robot: &UrdfRobot) -> Result<LinkSolids, UrdfError> {
-    let geo = &robot.geometry;
-    let n = robot.robot.dof();
+/// The collision solids of an imported robot's geometry (see the module docs; `n` its joints),
+/// one entry per body (base first), meshes loaded now. Errors name the URDF file, line and
+/// element of the failing `<mesh>` (or `<collision>`). `urdf_import::link_solids` calls it for
+/// a [`UrdfGeometry`]'s robot.
+pub fn collision_solids(geo: &UrdfGeometry, n: usize) -> Result<LinkSolids, UrdfError> {
     let mut parts: Vec<Vec<(nalgebra::Isometry3<f64>, Solid)>> = vec![Vec::new(); n + 1];
     for (link, g) in &geo.links {
         for s in &g.collision {
