@@ -511,54 +511,15 @@ impl Interp<'_> {
         Ok(())
     }
 
+    /// One command of the program: the name picks its handler (the longer ones are methods
+    /// below; the short ones stay here).
     fn command(&mut self, c: &Command) -> Result<(), LangError> {
         let len = |_: &str| Some(true);
         let name = c.name.as_str();
         match name {
-            "UNITS" => {
-                let (w, s) = self.word(c, "a unit (M, CM, MM, IN, FT, DEG or RAD)")?;
-                match unit(&w) {
-                    Some(Unit::Length(f)) => self.length = f,
-                    Some(Unit::Angle(f)) => self.angle = f,
-                    None => {
-                        return Err(self.err(
-                            c,
-                            s,
-                            format!("unknown unit {w:?} (M, CM, MM, IN, FT, DEG or RAD)"),
-                        ));
-                    }
-                }
-            }
-            "DENSITY" => {
-                let a = self.args(c, &["RHO"], |_| None)?;
-                let Some(&(v, s)) = a.get("RHO") else {
-                    return Err(self.err(c, c.span, "argument RHO (kg/m³) is missing".into()));
-                };
-                if v.is_nan() || v < 0.0 {
-                    return Err(self.err(
-                        c,
-                        s,
-                        format!("argument RHO must be zero or positive, got {}", readable(v)),
-                    ));
-                }
-                self.density = v;
-            }
-            "LOOK-FROM" | "LOOK-AT" => {
-                let a = self.args(c, &["X", "Y", "Z"], len)?;
-                let p = ["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0));
-                if name == "LOOK-FROM" {
-                    if p == [0.0; 3] {
-                        return Err(self.err(
-                            c,
-                            c.span,
-                            "at least one of X, Y, Z must be non-zero".into(),
-                        ));
-                    }
-                    self.out.look_from = Some(p);
-                } else {
-                    self.out.look_at = Some(p);
-                }
-            }
+            "UNITS" => self.set_units(c)?,
+            "DENSITY" => self.set_density(c)?,
+            "LOOK-FROM" | "LOOK-AT" => self.set_view_point(c, name)?,
             "CLEAR" => {
                 self.no_args(c)?;
                 self.work = Work::default();
@@ -569,109 +530,9 @@ impl Interp<'_> {
                 self.regs.insert(r, self.work.clone());
                 self.reg_polygons.insert(r, self.work_polygons);
             }
-            "LOAD" | "ADD" => {
-                let r = self.register(c)?;
-                let Some(w) = self.regs.get(&r).cloned() else {
-                    return Err(self.err(
-                        c,
-                        c.word.as_ref().map_or(c.span, |w| w.1),
-                        format!("register {r} was never stored"),
-                    ));
-                };
-                let reg_polygons = self.reg_polygons.get(&r).copied().unwrap_or(0);
-                if name == "LOAD" {
-                    self.work = w;
-                    self.work_polygons = reg_polygons;
-                } else {
-                    let total = self.work_polygons.saturating_add(reg_polygons);
-                    self.within_budget(c, total)?;
-                    self.work_polygons = total;
-                    // the register's objects first: CLEAR, make, ADD B, STORE B keeps the
-                    // order the objects were made in
-                    let mine = std::mem::replace(&mut self.work.objects, w.objects);
-                    self.work.objects.extend(mine);
-                }
-            }
-            "MOVE" | "DRAW" => {
-                let a = self.args(c, &["X", "Y", "Z"], len)?;
-                let p = ["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0));
-                if name == "MOVE" && !self.profile.is_empty() {
-                    return Err(self.err(c, c.span, format!(
-                        "a second MOVE: the polygon started on line {} was not used by EXTRUDE-SURFACE or REV-SURFACE",
-                        self.profile[0].1.line
-                    )));
-                }
-                if name == "DRAW" && self.profile.is_empty() {
-                    return Err(self.err(
-                        c,
-                        c.span,
-                        "DRAW before MOVE (a polygon starts with MOVE)".into(),
-                    ));
-                }
-                self.profile.push((p, c.span));
-            }
-            "EXTRUDE-SURFACE" | "REV-SURFACE" => {
-                let extrude = name == "EXTRUDE-SURFACE";
-                let allowed: &[&str] = if extrude { &["Z"] } else { &["A", "N"] };
-                let a = self.args(c, allowed, |k| match k {
-                    "Z" => Some(true),
-                    "A" => Some(false),
-                    _ => None,
-                })?;
-                let mut pts: Vec<([f64; 3], Span)> = std::mem::take(&mut self.profile);
-                if pts.len() > 1 && pts.first().map(|p| p.0) == pts.last().map(|p| p.0) {
-                    pts.pop();
-                }
-                if pts.len() < 3 {
-                    return Err(self.err(
-                        c,
-                        c.span,
-                        format!(
-                            "needs a MOVE/DRAW polygon of at least 3 points before it, has {}",
-                            pts.len()
-                        ),
-                    ));
-                }
-                let shape = if extrude {
-                    if let Some((_, s)) = pts.iter().find(|p| p.0[2] != 0.0) {
-                        return Err(LangError {
-                            file: self.file.to_owned(),
-                            span: *s,
-                            command: "MOVE/DRAW".into(),
-                            what: "an EXTRUDE-SURFACE polygon lies in the XY plane: Z must be 0"
-                                .into(),
-                        });
-                    }
-                    let h = self.positive(c, &a, "Z")?;
-                    Shape::Extrude {
-                        profile: pts.iter().map(|p| [p.0[0], p.0[1]]).collect(),
-                        h,
-                    }
-                } else {
-                    if let Some((_, s)) = pts.iter().find(|p| p.0[1] != 0.0 || p.0[0] < 0.0) {
-                        return Err(LangError {
-                            file: self.file.to_owned(),
-                            span: *s,
-                            command: "MOVE/DRAW".into(),
-                            what: "a REV-SURFACE profile lies in the XZ half-plane: Y = 0 and X (the radius) ≥ 0".into(),
-                        });
-                    }
-                    let angle = a.get("A").map_or(std::f64::consts::TAU, |v| v.0);
-                    let rmax = pts.iter().map(|p| p.0[0]).fold(0.0, f64::max);
-                    let full_n = self.facets(c, &a, rmax)?;
-                    let n = if a.contains_key("N") {
-                        full_n
-                    } else {
-                        ((full_n as f64 * angle / std::f64::consts::TAU).ceil() as usize).max(1)
-                    };
-                    Shape::Revolve {
-                        profile: pts.iter().map(|p| [p.0[0], p.0[2]]).collect(),
-                        angle,
-                        n,
-                    }
-                };
-                self.add_shape(c, shape)?;
-            }
+            "LOAD" | "ADD" => self.load_or_add(c, name)?,
+            "MOVE" | "DRAW" => self.profile_point(c, name)?,
+            "EXTRUDE-SURFACE" | "REV-SURFACE" => self.extrude_or_revolve(c, name)?,
             "BOX" => {
                 let a = self.args(c, &["X", "Y", "Z"], len)?;
                 let s = Shape::Box {
@@ -681,18 +542,7 @@ impl Interp<'_> {
                 };
                 self.add_shape(c, s)?;
             }
-            "CYLINDER" | "CONE" => {
-                let a = self.args(c, &["R", "H", "N"], |k| (k != "N").then_some(true))?;
-                let r = self.positive(c, &a, "R")?;
-                let h = self.positive(c, &a, "H")?;
-                let n = self.facets(c, &a, r)?;
-                let s = if name == "CONE" {
-                    Shape::Cone { r, h, n }
-                } else {
-                    Shape::Cylinder { r, h, n }
-                };
-                self.add_shape(c, s)?;
-            }
+            "CYLINDER" | "CONE" => self.cylinder_or_cone(c, name)?,
             "TRUNCATED-CONE" => {
                 let a = self.args(c, &["R1", "R2", "H", "N"], |k| (k != "N").then_some(true))?;
                 let upper = self.positive(c, &a, "R1")?;
@@ -708,128 +558,321 @@ impl Interp<'_> {
                 self.add_shape(c, Shape::Sphere { r, n })?;
             }
             "R-JOINT-I" | "P-JOINT-I" | "F-JOINT-I" | "R-JOINT-I+1" | "P-JOINT-I+1"
-            | "F-JOINT-I+1" => {
-                self.no_args(c)?;
-                let kind = match &name[..1] {
-                    "R" => LinkJoint::Revolute,
-                    "P" => LinkJoint::Prismatic,
-                    _ => LinkJoint::Fixed,
-                };
-                let output = name.ends_with("I+1");
-                if let Some(o) =
-                    self.work.objects.iter().find(
-                        |o| matches!(o.shape, Shape::Joint { output: out, .. } if out == output),
-                    )
-                {
-                    return Err(self.err(
-                        c,
-                        c.span,
-                        format!(
-                            "the working object already has an {} joint (made on line {})",
-                            if output { "I+1" } else { "I" },
-                            o.span.line
-                        ),
-                    ));
-                }
-                self.add_shape(c, Shape::Joint { kind, output })?;
-            }
-            "ROTATE" => {
-                if c.args.is_empty() {
-                    return Err(self.err(
-                        c,
-                        c.span,
-                        "needs at least one of X, Y, Z (angles)".into(),
-                    ));
-                }
-                // applied in the order written
-                self.args(c, &["X", "Y", "Z"], |_| Some(false))?;
-                for a in &c.args {
-                    let v = self.value(c, a, Some(false))?;
-                    let axis = match a.key.as_str() {
-                        "X" => 0,
-                        "Y" => 1,
-                        _ => 2,
-                    };
-                    self.transform(c, &axis_rotation(axis, v))?;
-                }
-            }
+            | "F-JOINT-I+1" => self.joint_marker(c, name)?,
+            "ROTATE" => self.rotate(c)?,
             "TRANSLATE" => {
                 let a = self.args(c, &["X", "Y", "Z"], len)?;
                 let t = Vector3::from(["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0)));
                 self.transform(c, &Matrix4::new_translation(&t))?;
             }
-            "STORE-LINK" => {
-                let (w, s) = self.word(c, "a link name such as C.LOC")?;
-                if w.is_empty()
-                    || w.starts_with('.')
-                    || !w
-                        .chars()
-                        .all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '.' | '_' | '-' | '+'))
-                {
-                    return Err(self.err(
-                        c,
-                        s,
-                        format!("{w:?} is not a link name (letters, digits, . _ - +)"),
-                    ));
-                }
-                if self
-                    .out
-                    .links
-                    .iter()
-                    .any(|l| l.name.eq_ignore_ascii_case(&w))
-                {
-                    return Err(self.err(c, s, format!("link {w} is stored twice")));
-                }
-                if self.work.objects.is_empty() {
-                    return Err(self.err(
-                        c,
-                        c.span,
-                        "the working object is empty (LOAD a register first?)".into(),
-                    ));
-                }
-                let file = build_link(&self.work.objects, self.density)
-                    .map_err(|e| self.err(c, s, format!("link {w}: {e}")))?;
-                // what `lang run` writes, `lang load` must read back: the stored text is
-                // read here by the same reader, and a refusal names this line
-                LinkFile::parse(&file.to_text(), std::path::Path::new(&w))
-                    .map_err(|e| self.err(c, s, format!("link {w} would not read back: {e}")))?;
-                self.out.links.push(StoredLink {
-                    name: w,
-                    objects: self.work.objects.clone(),
-                    file,
-                    span: c.span,
-                });
-            }
-            "VIEW" => {
-                self.no_args(c)?;
-                let joints = self
-                    .work
-                    .objects
-                    .iter()
-                    .filter(|o| o.shape.is_joint())
-                    .count();
-                self.out.views.push(format!(
-                    "line {}: {} objects, {} joints in the working object; {} links stored",
-                    c.span.line,
-                    self.work.objects.len() - joints,
-                    joints,
-                    self.out.links.len()
-                ));
-            }
+            "STORE-LINK" => self.store_link(c)?,
+            "VIEW" => self.view(c)?,
             "END" => {
                 self.no_args(c)?;
                 self.ended = Some(c.span);
             }
-            other => {
-                let near = COMMANDS
-                    .iter()
-                    .find(|k| k.starts_with(&other[..other.len().min(3)]))
-                    .map(|k| format!(" (did you mean {k}?)"))
-                    .unwrap_or_default();
-                return Err(self.err(c, c.span, format!("unknown command{near}")));
+            other => self.unknown_command(c, other)?,
+        }
+        Ok(())
+    }
+
+    /// `UNITS U`: the unit of lengths or of angles from now on.
+    fn set_units(&mut self, c: &Command) -> Result<(), LangError> {
+        let (w, s) = self.word(c, "a unit (M, CM, MM, IN, FT, DEG or RAD)")?;
+        match unit(&w) {
+            Some(Unit::Length(f)) => self.length = f,
+            Some(Unit::Angle(f)) => self.angle = f,
+            None => {
+                return Err(self.err(
+                    c,
+                    s,
+                    format!("unknown unit {w:?} (M, CM, MM, IN, FT, DEG or RAD)"),
+                ));
             }
         }
         Ok(())
+    }
+
+    /// `DENSITY RHO=…`: the density of the solids made from now on (kg/m³).
+    fn set_density(&mut self, c: &Command) -> Result<(), LangError> {
+        let a = self.args(c, &["RHO"], |_| None)?;
+        let Some(&(v, s)) = a.get("RHO") else {
+            return Err(self.err(c, c.span, "argument RHO (kg/m³) is missing".into()));
+        };
+        if v.is_nan() || v < 0.0 {
+            return Err(self.err(
+                c,
+                s,
+                format!("argument RHO must be zero or positive, got {}", readable(v)),
+            ));
+        }
+        self.density = v;
+        Ok(())
+    }
+
+    /// `LOOK-FROM` / `LOOK-AT X= Y= Z=`: the view's eye or target.
+    fn set_view_point(&mut self, c: &Command, name: &str) -> Result<(), LangError> {
+        let len = |_: &str| Some(true);
+        let a = self.args(c, &["X", "Y", "Z"], len)?;
+        let p = ["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0));
+        if name == "LOOK-FROM" {
+            if p == [0.0; 3] {
+                return Err(self.err(c, c.span, "at least one of X, Y, Z must be non-zero".into()));
+            }
+            self.out.look_from = Some(p);
+        } else {
+            self.out.look_at = Some(p);
+        }
+        Ok(())
+    }
+
+    /// `LOAD NAME` / `ADD NAME`: a stored object as the working one, or added to it.
+    fn load_or_add(&mut self, c: &Command, name: &str) -> Result<(), LangError> {
+        let r = self.register(c)?;
+        let Some(w) = self.regs.get(&r).cloned() else {
+            return Err(self.err(
+                c,
+                c.word.as_ref().map_or(c.span, |w| w.1),
+                format!("register {r} was never stored"),
+            ));
+        };
+        let reg_polygons = self.reg_polygons.get(&r).copied().unwrap_or(0);
+        if name == "LOAD" {
+            self.work = w;
+            self.work_polygons = reg_polygons;
+        } else {
+            let total = self.work_polygons.saturating_add(reg_polygons);
+            self.within_budget(c, total)?;
+            self.work_polygons = total;
+            // the register's objects first: CLEAR, make, ADD B, STORE B keeps the
+            // order the objects were made in
+            let mine = std::mem::replace(&mut self.work.objects, w.objects);
+            self.work.objects.extend(mine);
+        }
+        Ok(())
+    }
+
+    /// `MOVE` starts the profile, `DRAW` adds a point to it.
+    fn profile_point(&mut self, c: &Command, name: &str) -> Result<(), LangError> {
+        let len = |_: &str| Some(true);
+        let a = self.args(c, &["X", "Y", "Z"], len)?;
+        let p = ["X", "Y", "Z"].map(|k| a.get(k).map_or(0.0, |v| v.0));
+        if name == "MOVE" && !self.profile.is_empty() {
+            return Err(self.err(c, c.span, format!(
+                    "a second MOVE: the polygon started on line {} was not used by EXTRUDE-SURFACE or REV-SURFACE",
+                    self.profile[0].1.line
+                )));
+        }
+        if name == "DRAW" && self.profile.is_empty() {
+            return Err(self.err(
+                c,
+                c.span,
+                "DRAW before MOVE (a polygon starts with MOVE)".into(),
+            ));
+        }
+        self.profile.push((p, c.span));
+        Ok(())
+    }
+
+    /// `EXTRUDE-SURFACE` / `REV-SURFACE`: the profile drawn so far as a solid.
+    fn extrude_or_revolve(&mut self, c: &Command, name: &str) -> Result<(), LangError> {
+        let extrude = name == "EXTRUDE-SURFACE";
+        let allowed: &[&str] = if extrude { &["Z"] } else { &["A", "N"] };
+        let a = self.args(c, allowed, |k| match k {
+            "Z" => Some(true),
+            "A" => Some(false),
+            _ => None,
+        })?;
+        let mut pts: Vec<([f64; 3], Span)> = std::mem::take(&mut self.profile);
+        if pts.len() > 1 && pts.first().map(|p| p.0) == pts.last().map(|p| p.0) {
+            pts.pop();
+        }
+        if pts.len() < 3 {
+            return Err(self.err(
+                c,
+                c.span,
+                format!(
+                    "needs a MOVE/DRAW polygon of at least 3 points before it, has {}",
+                    pts.len()
+                ),
+            ));
+        }
+        let shape = if extrude {
+            if let Some((_, s)) = pts.iter().find(|p| p.0[2] != 0.0) {
+                return Err(LangError {
+                    file: self.file.to_owned(),
+                    span: *s,
+                    command: "MOVE/DRAW".into(),
+                    what: "an EXTRUDE-SURFACE polygon lies in the XY plane: Z must be 0".into(),
+                });
+            }
+            let h = self.positive(c, &a, "Z")?;
+            Shape::Extrude {
+                profile: pts.iter().map(|p| [p.0[0], p.0[1]]).collect(),
+                h,
+            }
+        } else {
+            if let Some((_, s)) = pts.iter().find(|p| p.0[1] != 0.0 || p.0[0] < 0.0) {
+                return Err(LangError {
+                        file: self.file.to_owned(),
+                        span: *s,
+                        command: "MOVE/DRAW".into(),
+                        what: "a REV-SURFACE profile lies in the XZ half-plane: Y = 0 and X (the radius) ≥ 0".into(),
+                    });
+            }
+            let angle = a.get("A").map_or(std::f64::consts::TAU, |v| v.0);
+            let rmax = pts.iter().map(|p| p.0[0]).fold(0.0, f64::max);
+            let full_n = self.facets(c, &a, rmax)?;
+            let n = if a.contains_key("N") {
+                full_n
+            } else {
+                ((full_n as f64 * angle / std::f64::consts::TAU).ceil() as usize).max(1)
+            };
+            Shape::Revolve {
+                profile: pts.iter().map(|p| [p.0[0], p.0[2]]).collect(),
+                angle,
+                n,
+            }
+        };
+        self.add_shape(c, shape)?;
+        Ok(())
+    }
+
+    /// `CYLINDER` / `CONE R= H= [N=]`.
+    fn cylinder_or_cone(&mut self, c: &Command, name: &str) -> Result<(), LangError> {
+        let a = self.args(c, &["R", "H", "N"], |k| (k != "N").then_some(true))?;
+        let r = self.positive(c, &a, "R")?;
+        let h = self.positive(c, &a, "H")?;
+        let n = self.facets(c, &a, r)?;
+        let s = if name == "CONE" {
+            Shape::Cone { r, h, n }
+        } else {
+            Shape::Cylinder { r, h, n }
+        };
+        self.add_shape(c, s)?;
+        Ok(())
+    }
+
+    /// `R-JOINT-I` and the like: a joint marker on the working object.
+    fn joint_marker(&mut self, c: &Command, name: &str) -> Result<(), LangError> {
+        self.no_args(c)?;
+        let kind = match &name[..1] {
+            "R" => LinkJoint::Revolute,
+            "P" => LinkJoint::Prismatic,
+            _ => LinkJoint::Fixed,
+        };
+        let output = name.ends_with("I+1");
+        if let Some(o) = self
+            .work
+            .objects
+            .iter()
+            .find(|o| matches!(o.shape, Shape::Joint { output: out, .. } if out == output))
+        {
+            return Err(self.err(
+                c,
+                c.span,
+                format!(
+                    "the working object already has an {} joint (made on line {})",
+                    if output { "I+1" } else { "I" },
+                    o.span.line
+                ),
+            ));
+        }
+        self.add_shape(c, Shape::Joint { kind, output })?;
+        Ok(())
+    }
+
+    /// `ROTATE X= | Y= | Z=`: the working object turned.
+    fn rotate(&mut self, c: &Command) -> Result<(), LangError> {
+        if c.args.is_empty() {
+            return Err(self.err(c, c.span, "needs at least one of X, Y, Z (angles)".into()));
+        }
+        // applied in the order written
+        self.args(c, &["X", "Y", "Z"], |_| Some(false))?;
+        for a in &c.args {
+            let v = self.value(c, a, Some(false))?;
+            let axis = match a.key.as_str() {
+                "X" => 0,
+                "Y" => 1,
+                _ => 2,
+            };
+            self.transform(c, &axis_rotation(axis, v))?;
+        }
+        Ok(())
+    }
+
+    /// `STORE-LINK NAME`: the working object as a link of the output.
+    fn store_link(&mut self, c: &Command) -> Result<(), LangError> {
+        let (w, s) = self.word(c, "a link name such as C.LOC")?;
+        if w.is_empty()
+            || w.starts_with('.')
+            || !w
+                .chars()
+                .all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '.' | '_' | '-' | '+'))
+        {
+            return Err(self.err(
+                c,
+                s,
+                format!("{w:?} is not a link name (letters, digits, . _ - +)"),
+            ));
+        }
+        if self
+            .out
+            .links
+            .iter()
+            .any(|l| l.name.eq_ignore_ascii_case(&w))
+        {
+            return Err(self.err(c, s, format!("link {w} is stored twice")));
+        }
+        if self.work.objects.is_empty() {
+            return Err(self.err(
+                c,
+                c.span,
+                "the working object is empty (LOAD a register first?)".into(),
+            ));
+        }
+        let file = build_link(&self.work.objects, self.density)
+            .map_err(|e| self.err(c, s, format!("link {w}: {e}")))?;
+        // what `lang run` writes, `lang load` must read back: the stored text is
+        // read here by the same reader, and a refusal names this line
+        LinkFile::parse(&file.to_text(), std::path::Path::new(&w))
+            .map_err(|e| self.err(c, s, format!("link {w} would not read back: {e}")))?;
+        self.out.links.push(StoredLink {
+            name: w,
+            objects: self.work.objects.clone(),
+            file,
+            span: c.span,
+        });
+        Ok(())
+    }
+
+    /// `VIEW`: the views asked for.
+    fn view(&mut self, c: &Command) -> Result<(), LangError> {
+        self.no_args(c)?;
+        let joints = self
+            .work
+            .objects
+            .iter()
+            .filter(|o| o.shape.is_joint())
+            .count();
+        self.out.views.push(format!(
+            "line {}: {} objects, {} joints in the working object; {} links stored",
+            c.span.line,
+            self.work.objects.len() - joints,
+            joints,
+            self.out.links.len()
+        ));
+        Ok(())
+    }
+
+    /// A command that is none of the above, with the one it may have meant.
+    fn unknown_command(&self, c: &Command, other: &str) -> Result<(), LangError> {
+        let near = COMMANDS
+            .iter()
+            .find(|k| k.starts_with(&other[..other.len().min(3)]))
+            .map(|k| format!(" (did you mean {k}?)"))
+            .unwrap_or_default();
+        Err(self.err(c, c.span, format!("unknown command{near}")))
     }
 }
 
