@@ -171,7 +171,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 depth: max_depth,
                 memory: max_memory.saturating_mul(1 << 20),
             };
-            robosim_rules::run(&file, session, &watch, &limits).map_err(|e| CliError(e.to_string()))
+            robosim_rules::run(&file, session, &watch, &limits).map_err(CliError::from)
         }
         Command::Automation { model, time_scale } => {
             existing(session)?;
@@ -403,9 +403,10 @@ impl std::fmt::Display for CliError {
     }
 }
 
+/// The error's message and its causes down the `source()` chain, each said once.
 impl<E: std::error::Error> From<E> for CliError {
     fn from(e: E) -> Self {
-        CliError(e.to_string())
+        CliError(robosim_instance_space::error_chain(&e))
     }
 }
 
