@@ -343,18 +343,14 @@ const FLOORS: &[(&str, &[&str])] = &[
 /// Folders that say a floor: every crate under them sits on it.
 const FOLDER_FLOORS: &[(&str, &str)] = &[("core/", "core")];
 
-/// Arrows pointing up that are being removed (issue 35), each with who removes it: the test
-/// fails on any upward arrow not listed here. Empty: simulator -> library-space (H-OPTIONS) and
-/// the cores' dev-dependencies on hl-interface and file-io (H-TRUTH) are gone.
+/// Arrows pointing up that are being removed, each with who removes it: the test fails on any
+/// upward arrow not listed here. Empty since issue 35 (the cores' dev-dependencies on hl-interface
+/// and file-io and simulator -> library-space are gone); the mechanism stays for the next move.
 const KNOWN_UPWARD: &[(&str, &str, &str)] = &[];
 
-/// Crates nested in the folder of a crate of another floor, known: the simulator daemon (a
-/// process) still lives in simulator/ (the engine's folder). No one moves it in this wave; the
-/// lead decides (a top-level daemon/ folder beside the other processes).
-const KNOWN_NESTED: &[(&str, &str)] = &[(
-    "robosim-simulator-daemon",
-    "simulator/daemon/ is a process nested in the engine's folder (to move beside the other processes)",
-)];
+/// Crates nested in the folder of a crate of another floor, known. Empty since the simulator
+/// daemon moved from simulator/daemon/ (the engine's folder) to daemon/ beside the other processes.
+const KNOWN_NESTED: &[(&str, &str)] = &[];
 
 /// Crates that may depend on clap and clap_complete: the binary, whose src/cli/ is the command
 /// line of every crate.
