@@ -9,6 +9,7 @@
 
 use crate::{ErrorKind, ProtocolError};
 use robosim_kinematics::Robot;
+use robosim_kinematics::json::check_keys;
 pub use robosim_kinematics::json::{
     JsonError, matrix_to_json, matrix3_from_json, matrix4_from_json, matrix4_to_json, number,
     number_array, robot_to_json,
@@ -61,18 +62,6 @@ pub fn robot_from_urdf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
     robosim_file_io::urdf_import::import_urdf(std::path::Path::new(path), tip)
         .map(|imported| imported.robot)
         .map_err(|e| JsonError::new("robot.urdf", e.to_string()))
-}
-
-fn check_keys(obj: &Map<String, Value>, allowed: &[&str], path: &str) -> Result<(), JsonError> {
-    for key in obj.keys() {
-        if !allowed.contains(&key.as_str()) {
-            return Err(JsonError::new(
-                format!("{path}.{key}"),
-                format!("unknown field (expected one of {})", allowed.join(", ")),
-            ));
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

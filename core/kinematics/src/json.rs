@@ -206,7 +206,8 @@ fn joint_from_json(v: &Value, path: &str) -> Result<Joint, JsonError> {
     Ok(joint)
 }
 
-fn check_keys(obj: &Map<String, Value>, allowed: &[&str], path: &str) -> Result<(), JsonError> {
+/// Refuses a key of `obj` that is not in `allowed`, naming it by its path (`path.key`).
+pub fn check_keys(obj: &Map<String, Value>, allowed: &[&str], path: &str) -> Result<(), JsonError> {
     for key in obj.keys() {
         if !allowed.contains(&key.as_str()) {
             return Err(JsonError::new(

@@ -341,11 +341,13 @@ pub struct OptionsError {
 }
 
 impl Options {
-    /// Parses the JSON form; the error names line and column (from serde_json) or the field.
+    /// Parses the JSON form; the error names the field (`dynamics.integrator`; `.` for the
+    /// top level) and serde_json's reason with its line and column.
     pub fn from_json(text: &str) -> Result<Options, OptionsError> {
-        serde_json::from_str(text).map_err(|e| OptionsError {
-            field: format!("line {} column {}", e.line(), e.column()),
-            reason: e.to_string(),
+        let de = &mut serde_json::Deserializer::from_str(text);
+        serde_path_to_error::deserialize(de).map_err(|e| OptionsError {
+            field: e.path().to_string(),
+            reason: e.inner().to_string(),
         })
     }
 }
@@ -363,7 +365,8 @@ mod tests {
         let e =
             Options::from_json(r#"{"dynamics": {"integrator": "leapfrog"}}"#).expect_err("refused");
         assert!(e.reason.contains("unknown integrator \"leapfrog\""), "{e}");
-        assert!(e.field.starts_with("line 1 column"), "{e}");
+        assert_eq!(e.field, "dynamics.integrator", "{e}");
+        assert!(e.reason.contains("line 1 column"), "{e}");
     }
 
     #[test]
