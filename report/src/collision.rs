@@ -218,12 +218,7 @@ fn pair_study(rng: &mut ChaCha8Rng, scale: usize, table: &mut Table) {
         .map(|_| {
             let a = random_solid(rng, None);
             let b = random_solid(rng, None);
-            (
-                a,
-                random_pose(rng, 0.05),
-                b,
-                random_pose(rng, 0.45),
-            )
+            (a, random_pose(rng, 0.05), b, random_pose(rng, 0.45))
         })
         .collect();
     let truth: Vec<Option<bool>> = pairs

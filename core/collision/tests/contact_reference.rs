@@ -15,8 +15,8 @@
 //! direction's separating-plane bound is); where its five starts disagree by more than
 //! 1e-10 m the value is compared one-sided (ours ≥ reference − 1e-9 m) and listed.
 
-use robosim_collision::{Mode, PairResult, collide};
 use robosim_collision::json::{pose_from_json, solid_from_json};
+use robosim_collision::{Mode, PairResult, collide};
 use serde_json::Value;
 
 const BAND: f64 = 1e-12;

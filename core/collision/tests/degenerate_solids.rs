@@ -7,8 +7,8 @@
 //! Before: 3–4 coplanar points made a flat "convex" solid while 4 coincident ones were refused.
 
 use nalgebra::{Isometry3, Point3, Vector3};
-use robosim_collision::{ShapeError, Solid};
 use robosim_collision::json::solid_from_json;
+use robosim_collision::{ShapeError, Solid};
 use serde_json::json;
 
 fn p(x: f64, y: f64, z: f64) -> Point3<f64> {

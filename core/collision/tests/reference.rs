@@ -7,8 +7,8 @@
 //! reference penetration is at most the two tessellation errors, and may say contact only where
 //! the true solids touch (the faceted solids lie inside the true ones).
 
-use robosim_collision::{Mode, PairResult, collide};
 use robosim_collision::json::{pose_from_json, solid_from_json};
+use robosim_collision::{Mode, PairResult, collide};
 use serde_json::Value;
 
 /// Declared boundary band for booleans against FCL, and the tolerance on FCL's distances: its

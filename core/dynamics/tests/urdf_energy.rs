@@ -8,8 +8,8 @@
 //! potential-energy scale; one-hour symplectic Euler: no secular growth), and no NaN.
 
 use robosim_dynamics::{Integrator, IntegratorConfig, Model, simulate};
-use robosim_urdf::urdf_import::{import_urdf, import_urdf_tree};
 use robosim_kinematics::Robot;
+use robosim_urdf::urdf_import::{import_urdf, import_urdf_tree};
 use std::path::PathBuf;
 
 fn urdf(name: &str) -> PathBuf {

@@ -11,9 +11,10 @@ fn f(v: &Value) -> f64 {
 
 #[test]
 fn extrusions_and_revolutions_match_trimesh() {
-    let data: Value =
-        serde_json::from_str(include_str!("../../../testdata/library/mass_reference.json"))
-            .expect("json");
+    let data: Value = serde_json::from_str(include_str!(
+        "../../../testdata/library/mass_reference.json"
+    ))
+    .expect("json");
     let cases = data["cases"].as_array().expect("cases");
     assert_eq!(cases.len(), 6);
     for c in cases {

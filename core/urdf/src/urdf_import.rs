@@ -28,8 +28,8 @@
 pub use crate::urdf_xml::{Reader, UrdfError, UrdfErrorKind, child, rpy_matrix};
 
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
-use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_chain, build_tree};
 use robosim_kinematics::Robot;
+use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_chain, build_tree};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 

@@ -1,8 +1,8 @@
 //! Shared helpers for the integration tests: the checked-in fixture robots.
 #![allow(dead_code)]
 
-use robosim_kinematics::json::robot_from_json;
 use robosim_kinematics::Robot;
+use robosim_kinematics::json::robot_from_json;
 use std::path::PathBuf;
 
 pub fn testdata() -> PathBuf {
