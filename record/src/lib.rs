@@ -22,11 +22,13 @@
 //! and [`Recorder::flush`] completes a chunk on demand (the daemon calls it whenever it is idle
 //! and at least once a second of wall time).
 //!
-//! Entry points: [`Recorder`], [`RobotSample`], [`Level`], [`playback::record_playback`].
+//! Entry points: [`Recorder`], [`RobotSample`], [`Level`], [`playback::record_playback`], and
+//! for reading a run back as time series, [`read::read_run`].
 
 #![forbid(unsafe_code)]
 
 pub mod playback;
+pub mod read;
 pub mod schema;
 
 use nalgebra::{Matrix3, Matrix4, Rotation3, UnitQuaternion};
