@@ -47,22 +47,64 @@
 //! backing the robot off to its clear joints) and `eclss_guard.clp` (ECLSS alarms diagnosed,
 //! the faulty unit isolated, then its spare brought on line). docs/rules.md.
 
+//!
+//! The engine is linked when the build finds the system CLIPS (build.rs sets `cfg(clips)`);
+//! without it everything here but [`run`] builds, and [`run`] (so `robosim rules`) fails with
+//! [`RulesError::NotBuilt`], saying what to install ([`BUILT_WITH_CLIPS`], [`NOT_BUILT`]).
+
 pub mod clips;
 
-use clips::{Arg, Clips, ClipsError, Limits, Stop, quote};
+#[cfg(clips)]
+use clips::Clips;
+use clips::{Arg, ClipsError, Limits, Stop, quote};
 use robosim_hl_interface::ProtocolError;
 use robosim_hl_interface::planner::Planner;
+#[cfg(clips)]
 use robosim_instance_space::Session;
 use serde_json::Value;
+#[cfg(clips)]
 use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::path::Path;
+#[cfg(clips)]
 use std::rc::Rc;
 use std::time::Duration;
+
+/// Whether this build has the CLIPS engine (build.rs found `libclips.a` and `clips.h`).
+pub const BUILT_WITH_CLIPS: bool = cfg!(clips);
+
+/// What a build without CLIPS says when rules are asked for.
+pub const NOT_BUILT: &str = "this robosim was built without the CLIPS rule engine: the build did not find the system CLIPS (libclips.a and clips.h, or CLIPS_LIB_DIR / CLIPS_INCLUDE_DIR). Install it with `sudo apt-get install --no-install-recommends libclips-dev`, then rebuild: `cargo clean -p robosim-rules && cargo build --release`";
+
+/// For tests that need the engine: `true` (the test should return, skipped) when this build
+/// has no CLIPS, said loudly on stderr with the reason — unless the environment variable `CI`
+/// is `true`, where a missing CLIPS fails the test (CI installs it: every test runs there).
+#[doc(hidden)]
+pub fn skipped_without_clips(test: &str) -> bool {
+    if BUILT_WITH_CLIPS {
+        return false;
+    }
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "{test}: CI=true but {NOT_BUILT}"
+    );
+    eprintln!("\n*** SKIPPED {test}: {NOT_BUILT} ***\n");
+    true
+}
+
+/// `Ok` when this build can run rules, else [`RulesError::NotBuilt`] (what to install).
+pub fn available() -> Result<(), RulesError> {
+    if BUILT_WITH_CLIPS {
+        Ok(())
+    } else {
+        Err(RulesError::NotBuilt)
+    }
+}
 
 /// How often the simulator's state is looked at when nothing is committed.
 pub const POLL: Duration = Duration::from_millis(100);
 /// A mirror-and-run pass slower than this is said on stderr.
+#[cfg(clips)]
 const SLOW_PASS: Duration = Duration::from_secs(2);
 
 /// The bridge's templates, built before the rule file is loaded.
@@ -84,6 +126,9 @@ pub const WATCH_ITEMS: &[&str] = &["facts", "rules", "activations", "statistics"
 
 #[derive(Debug, thiserror::Error)]
 pub enum RulesError {
+    /// The build found no CLIPS to link ([`NOT_BUILT`]).
+    #[error("robosim rules: {NOT_BUILT}")]
+    NotBuilt,
     #[error("--watch {0:?}: not a watch item (facts, rules, activations, statistics, all)")]
     Watch(String),
     #[error(transparent)]
@@ -115,6 +160,7 @@ fn num(x: f64) -> String {
 /// The mirrored facts: key → (fact text, retraction expression).
 #[derive(Default)]
 pub struct Mirror {
+    #[cfg_attr(not(clips), allow(dead_code))]
     facts: BTreeMap<String, (String, String)>,
 }
 
@@ -266,6 +312,7 @@ impl Mirror {
 
     /// Brings working memory to `facts`: retracts what went or changed, asserts what is new
     /// or changed. Returns how many facts were asserted.
+    #[cfg(clips)]
     pub fn update(
         &mut self,
         clips: &mut Clips,
@@ -409,6 +456,7 @@ pub fn call(
     }
 }
 
+#[cfg(clips)]
 /// `r`'s value; its error is written to stderr when it differs from the last one said in
 /// `last` (`None` while the peer answers), so a peer that stops answering is said once.
 fn said(last: &mut Option<String>, peer: &str, r: Result<Value, ProtocolError>) -> Option<Value> {
@@ -434,6 +482,7 @@ fn said(last: &mut Option<String>, peer: &str, r: Result<Value, ProtocolError>) 
 /// `robosim rules FILE --session S`: runs until SIGTERM/SIGINT (exit 0, also when the signal
 /// comes while a rule runs: the engine is halted), or until a run of the rules goes past one
 /// of `limits` ([`RulesError::Limit`], naming the rule).
+#[cfg(clips)]
 pub fn run(
     file: &Path,
     session: Option<&str>,
@@ -557,4 +606,22 @@ pub fn run(
     }
     eprintln!("rules: stopped");
     Ok(())
+}
+
+/// This build has no CLIPS: [`RulesError::NotBuilt`], whatever is asked.
+#[cfg(not(clips))]
+pub fn run(
+    _file: &Path,
+    _session: Option<&str>,
+    _watch: &[String],
+    _limits: &Limits,
+) -> Result<(), RulesError> {
+    Err(RulesError::NotBuilt)
+}
+
+/// The engine's own unit tests (src/clips/engine.rs) are compiled out with it: say so.
+#[cfg(all(test, not(clips)))]
+#[test]
+fn the_engine_unit_tests_are_skipped_without_clips() {
+    assert!(skipped_without_clips("robosim-rules engine unit tests"));
 }
