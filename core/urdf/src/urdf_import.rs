@@ -5,9 +5,11 @@
 //!
 //! What is read: `<link>` with its `<inertial>` (`<origin xyz rpy>`, `<mass value>`,
 //! `<inertia ixx ixy ixz iyy iyz izz>`: the tensor about the centre of mass in the axes the
-//! inertial origin's rpy names); `<joint>` of type revolute, continuous, prismatic or fixed with
+//! inertial origin's rpy names; a slightly negative principal moment is a warning, see
+//! [`NEGATIVE_INERTIA_TOLERANCE`]); `<joint>` of type revolute, continuous, prismatic or fixed with
 //! `<origin xyz rpy>` (URDF's fixed-axis roll–pitch–yaw, `R = Rz(y) Ry(p) Rx(r)`; absent =
-//! identity), `<axis xyz>` (absent = x, normalised as urdfdom does), `<limit lower upper effort
+//! identity), `<axis xyz>` (absent = x, normalised as urdfdom does; not read on a fixed joint,
+//! as urdfdom does not), `<limit lower upper effort
 //! velocity>` (required for revolute and prismatic joints, as the URDF spec says),
 //! `<dynamics damping friction>` (viscous, Coulomb) and `<mimic>` (noted; refused on the chain).
 //!
@@ -130,6 +132,57 @@ struct LinkRec {
     inertial: Inertial,
 }
 
+/// How far below zero a link's smallest principal moment may be, relative to the largest
+/// principal moment of any link of the robot, and still be taken as rounding in the published
+/// file: accepted as written with a warning (Pinocchio and urdfdom check nothing). 1e-6 of the
+/// robot's scale is below the 4–6 significant digits published inertias carry, so it changes
+/// no torque beyond the file's own precision; TIAGo's 1 mg antenna links (−3.5e-8 kg·m²
+/// against the robot's 0.55 kg·m², 6.4e-8) pass, romeo_laas_small's trunk (−0.021 kg·m²
+/// against 0.099, 0.22: not a rigid body) does not. docs/file-io.md, URDF section.
+pub const NEGATIVE_INERTIA_TOLERANCE: f64 = 1e-6;
+
+/// A link's `<inertial>` as read, with what [`check_inertias`] needs.
+struct LinkInertial {
+    inertial: Inertial,
+    /// The largest principal moment of the file's `<inertia>` (kg·m²; 0 without one).
+    largest: f64,
+    /// A negative smallest principal moment beyond round-off of its own entries.
+    negative: Option<NegativeMoment>,
+}
+
+/// A negative principal moment: where (the `<inertia>` element) and how much (kg·m²).
+struct NegativeMoment {
+    line: u32,
+    element: String,
+    min: f64,
+}
+
+/// Accepts each negative principal moment within [`NEGATIVE_INERTIA_TOLERANCE`] of the robot's
+/// largest (a warning naming the link and the value, for [`UrdfRobot::notes`]) and refuses the
+/// first beyond it ([`UrdfErrorKind::InertiaNotPsd`] at its `<inertia>` element).
+fn check_inertias(
+    file: &Path,
+    negative: &[(String, NegativeMoment)],
+    largest: f64,
+) -> Result<Vec<String>, UrdfError> {
+    let mut warnings = Vec::new();
+    for (link, n) in negative {
+        if n.min < -NEGATIVE_INERTIA_TOLERANCE * largest || largest == 0.0 {
+            return Err(UrdfError {
+                file: file.to_path_buf(),
+                line: n.line,
+                element: n.element.clone(),
+                kind: UrdfErrorKind::InertiaNotPsd(n.min),
+            });
+        }
+        warnings.push(format!(
+            "warning: link {link:?}: inertia has a negative principal moment {:e} kg·m², within {NEGATIVE_INERTIA_TOLERANCE:e} of the robot's largest ({largest:e} kg·m²): taken as rounding in the file and used as written",
+            n.min
+        ));
+    }
+    Ok(warnings)
+}
+
 #[derive(Clone)]
 struct JointRec {
     name: String,
@@ -152,9 +205,17 @@ struct JointRec {
 /// The readers of a link's `<inertial>` and of a `<joint>` (the rest of [`Reader`] is in
 /// urdf_xml.rs).
 impl Reader<'_, '_> {
-    fn inertial(&self, link: roxmltree::Node, element: &str) -> Result<Inertial, UrdfError> {
+    /// A link's `<inertial>`; a negative principal moment is not judged here but returned
+    /// ([`LinkInertial::negative`]): whether it is rounding depends on the whole robot's scale
+    /// ([`check_inertias`]).
+    fn inertial(&self, link: roxmltree::Node, element: &str) -> Result<LinkInertial, UrdfError> {
+        let (mut largest, mut negative) = (0.0, None);
         let Some(node) = child(link, "inertial") else {
-            return Ok(Inertial::default());
+            return Ok(LinkInertial {
+                inertial: Inertial::default(),
+                largest,
+                negative,
+            });
         };
         let element = format!("{element}/<inertial>");
         let o = self.origin(node, &element)?;
@@ -179,18 +240,28 @@ impl Reader<'_, '_> {
                     g("izz")?,
                 );
                 let m = Matrix3::new(ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz);
-                let min = SymmetricEigen::new(m).eigenvalues.min();
+                let eig = SymmetricEigen::new(m).eigenvalues;
+                let min = eig.min();
                 if min < -1e-12 * (1.0 + m.abs().max()) {
-                    return Err(self.err(i, &el, UrdfErrorKind::InertiaNotPsd(min)));
+                    negative = Some(NegativeMoment {
+                        line: self.line(i),
+                        element: el,
+                        min,
+                    });
                 }
+                largest = eig.max().max(0.0);
                 m
             }
         };
         let r = o.fixed_view::<3, 3>(0, 0).into_owned();
-        Ok(Inertial {
-            mass,
-            com: o.fixed_view::<3, 1>(0, 3).into_owned(),
-            inertia: r * inertia * r.transpose(),
+        Ok(LinkInertial {
+            inertial: Inertial {
+                mass,
+                com: o.fixed_view::<3, 1>(0, 3).into_owned(),
+                inertia: r * inertia * r.transpose(),
+            },
+            largest,
+            negative,
         })
     }
 
@@ -221,7 +292,9 @@ impl Reader<'_, '_> {
         let parent = link_of("parent")?;
         let child_link = link_of("child")?;
         let placement = self.origin(node, &element)?;
-        let axis = match child(node, "axis") {
+        // A fixed joint's axis is not read (urdfdom skips it, so Pinocchio and ROS do): Kinova's
+        // and TALOS's files write `<axis xyz="0 0 0"/>` on fixed joints.
+        let axis = match child(node, "axis").filter(|_| kind != SegmentKind::Fixed) {
             None => Vector3::x(),
             Some(a) => {
                 let el = format!("{element}/<axis>");
@@ -361,8 +434,8 @@ fn import_impl(
     let geometry = crate::urdf_geometry::read_all(&rd, root_el)?;
     let parts = read_links_and_joints(&rd, root_el)?;
     let links_tree = LinkTree::check(&at_robot, &parts)?;
-    if tree {
-        return build_whole_tree(
+    let mut robot = if tree {
+        build_whole_tree(
             file,
             &rd,
             root_el,
@@ -372,10 +445,13 @@ fn import_impl(
             &parts.joints,
             &links_tree.children,
             geometry,
-        );
-    }
-    let tip = find_tip(&at_robot, tip, &parts, &links_tree)?;
-    build_chain_to_tip(&at_robot, &parts, &links_tree, tip, geometry)
+        )?
+    } else {
+        let tip = find_tip(&at_robot, tip, &parts, &links_tree)?;
+        build_chain_to_tip(&at_robot, &parts, &links_tree, tip, geometry)?
+    };
+    robot.notes.splice(0..0, parts.warnings.iter().cloned());
+    Ok(robot)
 }
 
 /// The `<robot>` element, for errors that concern the whole robot.
@@ -424,6 +500,8 @@ struct Parts {
     links: HashMap<String, LinkRec>,
     link_order: Vec<String>,
     joints: Vec<JointRec>,
+    /// Accepted oddities of the file, one sentence each (for [`UrdfRobot::notes`]).
+    warnings: Vec<String>,
 }
 
 /// Reads every `<link>` (its inertial) and `<joint>`; a name used twice is refused.
@@ -432,6 +510,7 @@ fn read_links_and_joints(rd: &Reader, root_el: roxmltree::Node) -> Result<Parts,
     let mut link_order: Vec<String> = Vec::new();
     let mut joints: Vec<JointRec> = Vec::new();
     let mut joint_names: HashSet<String> = HashSet::new();
+    let (mut largest, mut negative) = (0.0_f64, Vec::new());
     for node in root_el.children().filter(|n| n.is_element()) {
         match node.tag_name().name() {
             "link" => {
@@ -440,7 +519,15 @@ fn read_links_and_joints(rd: &Reader, root_el: roxmltree::Node) -> Result<Parts,
                 if links.contains_key(&name) {
                     return Err(rd.err(node, &element, UrdfErrorKind::DuplicateName(name)));
                 }
-                let inertial = rd.inertial(node, &element)?;
+                let LinkInertial {
+                    inertial,
+                    largest: l,
+                    negative: neg,
+                } = rd.inertial(node, &element)?;
+                largest = largest.max(l);
+                if let Some(n) = neg {
+                    negative.push((name.clone(), n));
+                }
                 links.insert(
                     name.clone(),
                     LinkRec {
@@ -461,10 +548,12 @@ fn read_links_and_joints(rd: &Reader, root_el: roxmltree::Node) -> Result<Parts,
             _ => {}
         }
     }
+    let warnings = check_inertias(rd.file, &negative, largest)?;
     Ok(Parts {
         links,
         link_order,
         joints,
+        warnings,
     })
 }
 
@@ -953,6 +1042,58 @@ mod tests {
         }
         let zero = TWO_LINK.replace(r#"<axis xyz="0 0 2"/>"#, r#"<axis xyz="0 0 0"/>"#);
         assert!(matches!(kind_of(&zero, None).2, UrdfErrorKind::ZeroAxis));
+    }
+
+    /// Issue 36: Kinova's and TALOS's files write `<axis xyz="0 0 0"/>` on fixed joints, which
+    /// urdfdom never reads; they were refused ("axis is the zero vector"). A fixed joint's axis
+    /// is ignored, whatever it says; a movable joint's zero axis is still refused (above).
+    #[test]
+    fn issue_36_a_fixed_joints_zero_axis_is_ignored() {
+        let want = import(TWO_LINK, None).expect("imports");
+        for axis in [r#"<axis xyz="0 0 0"/>"#, r#"<axis xyz="0 nan 0"/>"#] {
+            let text = TWO_LINK.replace(
+                r#"<child link="tip"/><origin xyz="0.5 0 0"/>"#,
+                &format!(r#"<child link="tip"/><origin xyz="0.5 0 0"/>{axis}"#),
+            );
+            assert_ne!(text, TWO_LINK);
+            let r = import(&text, None).unwrap_or_else(|e| panic!("{axis}: {e}"));
+            assert_eq!(r.robot, want.robot, "{axis}");
+        }
+    }
+
+    /// Issue 36: TIAGo's antenna links have a −3.5e-8 kg·m² principal moment (a 1 mg dummy
+    /// link); within NEGATIVE_INERTIA_TOLERANCE of the robot's largest moment it is accepted as
+    /// written with a warning naming the link and the value; beyond it, refused.
+    #[test]
+    fn issue_36_a_slightly_negative_inertia_is_a_warning() {
+        // l1's moments are 0.01..0.03; the finger's eigenvalues are −1e-9, 1e-9, 0 (±1e-9 off
+        // the diagonal): −1e-9 / 0.03 = 3.3e-8 of the robot's largest.
+        let finger = |ixy: &str| {
+            TWO_LINK.replace(
+                "</robot>",
+                &format!(
+                    r#"<link name="finger"><inertial><mass value="0.001"/>
+                   <inertia ixx="0" ixy="{ixy}" ixz="0" iyy="0" iyz="0" izz="0"/></inertial></link>
+                 <joint name="f" type="fixed"><parent link="l2"/><child link="finger"/></joint>
+                 </robot>"#
+                ),
+            )
+        };
+        let r = import(&finger("1e-9"), Some("tip")).expect("imports with a warning");
+        assert_eq!(r.notes.len(), 1, "{:?}", r.notes);
+        let note = &r.notes[0];
+        assert!(
+            note.starts_with("warning: link \"finger\"") && note.contains("-1e-9"),
+            "{note}"
+        );
+        // used as written: l2 carries the finger's inertia, off-diagonal 1e-9
+        assert_eq!(r.robot.joints[1].inertia[(0, 1)], 1e-9);
+        let (line, element, kind) = kind_of(&finger("1e-3"), Some("tip"));
+        assert_eq!(kind, UrdfErrorKind::InertiaNotPsd(-1e-3));
+        assert_eq!(
+            (line, element.as_str()),
+            (24, r#"<link name="finger">/<inertial>/<inertia>"#)
+        );
     }
 
     #[test]
