@@ -13,7 +13,9 @@ What it writes:
     (neither Pinocchio's Model nor robosim's kinematics and dynamics reads them; the copy is
     ~45 % of the original's size). The script checks that Pinocchio's model of the copy and of
     the original agree (RNEA, CRBA at a random state, to 1e-13).
-    example-robot-data is BSD-3-Clause: LICENSE-example-robot-data beside this script.
+    Licences per package (package.xml) in LICENSES.md, written by this script; alex_description
+    (CC-BY-NC-ND-4.0: no derivatives) is not vendored, its reference values are (the test
+    reads the original when EXAMPLE_ROBOT_DATA names the installed robots/ directory).
   * reference.json — {"pinocchio", "example_robot_data", "seed", "refused": {file: reason},
     "robots": [...]}, per robot:
       file, nq, nv, joints (Pinocchio's movable joint names, in Pinocchio's order), continuous
@@ -54,19 +56,42 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 SHARE = os.environ.get("EXAMPLE_ROBOT_DATA") or os.path.join(
     sys.prefix, "lib", f"python{sys.version_info[0]}.{sys.version_info[1]}", "site-packages",
     "cmeel.prefix", "share", "example-robot-data", "robots")
+# example-robot-data's package.xml: the licence of each robot package. CC-BY-NC-ND (alex) allows
+# no derivative: not vendored (its reference values are written; the test reads the original
+# when EXAMPLE_ROBOT_DATA names the installed robots/ directory).
+LICENCE = {}
+for spdx, pkgs in {
+    "Apache-2.0": "alexander centauro hyq panda so_arm tiago tiago_pro",
+    "BSD-2-Clause": "borinot hextilt human simple_humanoid",
+    "BSD-3-Clause": "anymal_b_simple anymal_c_simple bolt finger_edu g1 solo xarm",
+    "BSD": "allegro_hand asr_twodof baxter double_pendulum hector kinova pr2 romeo ur",
+    "CC-BY-NC-ND-4.0": "alex",
+    "CC-BY-SA-4.0": "icub",
+    "ISC": "cassie",
+    "MPL-2.0": "z1",
+}.items():
+    for p in pkgs.split():
+        LICENCE[p + "_description"] = spdx
+LICENCE["talos_data"] = "BSD-3-Clause"
+for p in ("a1", "b1", "go1", "go2", "laikago", "quadruped", "iris"):
+    LICENCE.setdefault(p + "_description", "BSD-2-Clause (no licence of its own in package.xml: the project's)")
+NOT_VENDORED = {"CC-BY-NC-ND-4.0"}
 DROP = {"visual", "collision", "gazebo", "transmission", "sensor"}
 SAMPLES = 2
 rng = np.random.default_rng(36)
 
 
-def strip(text):
+def strip(text, rel, licence):
     root = ET.fromstring(text)
     for parent in root.iter():
         for c in list(parent):
             if c.tag in DROP or (isinstance(c.tag, str) and c.tag.split("}")[-1] in DROP):
                 parent.remove(c)
     ET.indent(root, "  ")
-    return '<?xml version="1.0"?>\n' + ET.tostring(root, encoding="unicode") + "\n"
+    note = (f"<!-- Dynamics-only copy of example-robot-data 6.0 robots/{rel} (licence: {licence}; "
+            "see LICENSES.md): its visual, collision, gazebo, transmission and sensor elements "
+            "and its comments removed by testdata/urdf_corpus/make_reference.py. -->\n")
+    return '<?xml version="1.0"?>\n' + note + ET.tostring(root, encoding="unicode") + "\n"
 
 
 def mat(m):
@@ -252,17 +277,26 @@ def main():
             out["refused"][rel] = re.sub(r"\s+", " ", str(e)).strip()
             continue
         text = open(path).read()
-        small = strip(text)
-        dest = os.path.join(HERE, "robots", key)
-        os.makedirs(os.path.dirname(dest), exist_ok=True)
-        with open(dest, "w") as f:
-            f.write(small)
+        pkg = rel.split("/")[0]
+        licence = LICENCE.get(pkg, "BSD-2-Clause (no licence of its own in package.xml: the project's)")
+        small = strip(text, rel, licence)
+        vendored = licence not in NOT_VENDORED
+        if vendored:
+            dest = os.path.join(HERE, "robots", key)
+            os.makedirs(os.path.dirname(dest), exist_ok=True)
+            with open(dest, "w") as f:
+                f.write(small)
+            lic = os.path.join(os.path.dirname(path), "..", "LICENSE")
+            if os.path.exists(lic):
+                with open(lic) as src, open(os.path.join(os.path.dirname(dest), "LICENSE"), "w") as f:
+                    f.write(src.read())
         if not same_model(model, pin.buildModelFromXML(small)):
             raise SystemExit(f"{rel}: the dynamics-only copy is not the same model")
         total_in += len(text)
         total_out += len(small)
         tip, leaves = choose_tip(text)
-        rob = {"file": key, "source": rel, "nq": model.nq, "nv": model.nv,
+        rob = {"file": key, "source": rel, "licence": licence, "vendored": vendored,
+               "nq": model.nq, "nv": model.nv,
                "joints": [model.names[j] for j in range(1, model.njoints)],
                "continuous": [is_continuous(model, j) for j in range(1, model.njoints)],
                "tip": tip}
@@ -271,6 +305,16 @@ def main():
             rob["chain"] = chain_samples(model, tip)
         out["robots"].append(rob)
     out["bytes"] = {"original": total_in, "dynamics_only": total_out}
+    with open(os.path.join(HERE, "LICENSES.md"), "w") as f:
+        f.write("# Licences of the vendored robot descriptions\n\n"
+                "From example-robot-data 6.0 (https://github.com/gepetto/example-robot-data, "
+                "package.xml; the project itself: BSD-2-Clause, LICENSE-example-robot-data). "
+                "Each file under robots/ is a dynamics-only copy (see its first comment and "
+                "make_reference.py). Packages with their own LICENSE file have it beside the "
+                "copy.\n\n| file | licence | vendored |\n|---|---|---|\n")
+        for rob in out["robots"]:
+            f.write(f"| {rob['source']} | {rob['licence']} | "
+                    f"{'yes' if rob['vendored'] else 'no: the licence allows no derivative'} |\n")
     with open(os.path.join(HERE, "reference.json"), "w") as f:
         json.dump(out, f, separators=(",", ":"))
     print(f"{len(out['robots'])} robots, {len(out['refused'])} refused by Pinocchio; "
