@@ -46,7 +46,7 @@ mod world;
 
 // The URDF reader and the mesh readers live in `robosim-urdf` (core/urdf/); re-exported under
 // their old paths. `stl` stays here: it adds the STL writer to the reader.
-pub use robosim_urdf::{dae, obj, package, urdf_geometry, urdf_import};
+pub use robosim_urdf::{dae, mjcf, obj, package, urdf_geometry, urdf_import};
 
 pub use digest::{ModelDigest, digest};
 pub use error::{FileError, ModelProblem};

@@ -11,6 +11,9 @@
 //! * [`package`] — `package://` names resolved against `ROS_PACKAGE_PATH` and the URDF's
 //!   ancestors.
 //! * [`dae`] — Collada visual meshes; [`stl`], [`obj`] — the STL and OBJ mesh readers.
+//! * [`mjcf`] — MuJoCo's MJCF read into the same [`UrdfRobot`] (issue 36 item 5;
+//!   [`mjcf::import_mjcf_tree`], [`mjcf::import_mjcf`]); its frame and geom arithmetic in
+//!   [`mjcf_frame`].
 //!
 //! `robosim-file-io` re-exports these modules under their old paths
 //! (`robosim_file_io::urdf_import`, …).
@@ -18,6 +21,8 @@
 #![forbid(unsafe_code)]
 
 pub mod dae;
+pub mod mjcf;
+pub mod mjcf_frame;
 pub mod obj;
 pub mod package;
 pub mod stl;
@@ -25,4 +30,5 @@ pub mod urdf_geometry;
 pub mod urdf_import;
 mod urdf_xml;
 
+pub use mjcf::{MjcfError, MjcfErrorKind, import_mjcf, import_mjcf_tree};
 pub use urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot, import_urdf, import_urdf_tree};
