@@ -271,8 +271,9 @@ pub struct PlacedItem {
 /// nothing — except kinematics, on unless the scene says `off` (the evaluator starts from
 /// it). The effects block is read by `eval::effects`.
 pub use robosim_model::{
-    AutomationEffect, CollisionEffect, CollisionMode, DynamicsEffect, EncoderEffect, Integrator,
-    LoggingEffect, OnContact, Options as Effects, OrbitEffect, OruSwapEffect, PowerEffect, Signal,
+    AttitudeEffect, AttitudeHold, AutomationEffect, CollisionEffect, CollisionMode, DynamicsEffect,
+    EncoderEffect, Integrator, LoggingEffect, OnContact, Options as Effects, OrbitEffect,
+    OruSwapEffect, PowerEffect, Signal,
 };
 
 /// Which placed items differ between two evaluations of a scene (see

@@ -14,12 +14,14 @@
 //! power, the battery) — the models the simulator daemon's space stage and `robosim study
 //! station` share; [`swap`] (the `oru_swap` effect: the servicer's ORU swap planned, the ORUs'
 //! state over time) for the same two; [`numeric`] (golden-section search) for them and the
-//! studies. They read a scene as [`robosim_model::parts::SceneParts`] (its box parts), not as
+//! studies; [`attitude`] (the `attitude` effect: rigid-body attitude under gravity-gradient and
+//! drag torques, a CMG cluster, desaturation by thrusters) for the station study. They read a scene as [`robosim_model::parts::SceneParts`] (its box parts), not as
 //! library types: this crate does not depend on the Library Space. The daemon itself is
 //! `robosim-simulator-daemon`.
 
 #![forbid(unsafe_code)]
 
+pub mod attitude;
 pub mod model;
 pub mod numeric;
 pub mod orbit;

@@ -10,7 +10,8 @@
 //! {"dt": 0.001, "max_speed": 1.0,
 //!  "kinematics": true, "joint_limits": true,
 //!  "collision": {"enabled": true, "mode": "bbox"|"polygon"|"exact", "self": true,
-//!                "continuous": false, "on_contact": "stop"|"report", "link_radius": 0.05},
+//!                "continuous": false, "on_contact": "stop"|"report", "link_radius": 0.05,
+//!                "tolerance": "certified"|1e-6},
 //!  "dynamics": {"integrator": "euler"|"semi_implicit_euler"|"rk4"|"dopri5", "dt": 0.001,
 //!               "rtol": null, "atol": null, "gravity": [0, 0, -9.81], "kp": 100, "kd": 20},
 //!  "encoder": {"bits": 12},
@@ -18,7 +19,9 @@
 //!              "every": 1, "path": "run.csv"},
 //!  "orbit": {"altitude_m": 400000, "beta_rad": 0}, "sun_tracking": false,
 //!  "power": {"efficiency": 0.14}, "oru_swap": {"servicer": "s", "spare": "x", "start_s": 0},
-//!  "automation": {"model": "eclss", "time_scale": 1}}
+//!  "automation": {"model": "eclss", "time_scale": 1},
+//!  "attitude": {"cmgs": 4, "cmg_momentum_nms": 4760, "cmg_torque_nm": 258, "saturation": 0.8,
+//!               "dump_to": 0.2, "hold": "lvlh"|"tea", "drag_coefficient": 2.2}}
 //! ```
 
 use serde::{Deserialize, Serialize};
@@ -26,6 +29,8 @@ use std::path::PathBuf;
 
 /// The collision mode: the collision core's enum (`bbox`, `polygon`, `exact`).
 pub use robosim_collision::Mode as CollisionMode;
+/// The exact mode's distance tolerance: the collision core's type.
+pub use robosim_collision::Tolerance as CollisionTolerance;
 /// The integrator of the dynamics effect: the dynamics core's enum, the one type for it
 /// (its names: `euler`, `semi_implicit_euler`, `rk4`, `dopri5`).
 pub use robosim_dynamics::Integrator;
@@ -60,6 +65,10 @@ pub struct Options {
     pub automation: Option<AutomationEffect>,
     /// A manipulator task: the servicer swaps an orbital replacement unit (ORU).
     pub oru_swap: Option<OruSwapEffect>,
+    /// The station's attitude and momentum: rigid-body dynamics under gravity-gradient and
+    /// drag torques, held by a control moment gyroscope cluster, desaturated by thrusters
+    /// (needs `orbit`; `robosim_simulator::attitude`).
+    pub attitude: Option<AttitudeEffect>,
 }
 
 impl Default for Options {
@@ -78,6 +87,7 @@ impl Default for Options {
             power: None,
             automation: None,
             oru_swap: None,
+            attitude: None,
         }
     }
 }
@@ -120,6 +130,9 @@ pub struct CollisionEffect {
     pub on_contact: OnContact,
     /// Radius (m) of the DH-segment link solids used when the robot has no link geometry.
     pub link_radius: f64,
+    /// How closely exact distances are computed (the continuous sweep's): `"certified"` or a
+    /// GJK tolerance in metres (`robosim_collision::Tolerance`). Verdicts stay certified.
+    pub tolerance: CollisionTolerance,
 }
 
 impl Default for CollisionEffect {
@@ -131,6 +144,7 @@ impl Default for CollisionEffect {
             continuous: false,
             on_contact: OnContact::Stop,
             link_radius: 0.05,
+            tolerance: CollisionTolerance::Certified,
         }
     }
 }
@@ -330,6 +344,63 @@ pub struct OrbitEffect {
 pub struct PowerEffect {
     /// Solar-cell efficiency, in (0, 1].
     pub efficiency: f64,
+}
+
+/// The attitude the CMGs hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum AttitudeHold {
+    /// The local-vertical local-horizontal frame (body x ram, y orbit normal, z zenith).
+    #[default]
+    Lvlh,
+    /// A torque-equilibrium attitude: LVLH pitched about the orbit normal so that the
+    /// secular (orbit-normal) torque of gravity gradient and drag vanishes at the start.
+    Tea,
+}
+
+impl AttitudeHold {
+    pub fn name(self) -> &'static str {
+        match self {
+            AttitudeHold::Lvlh => "lvlh",
+            AttitudeHold::Tea => "tea",
+        }
+    }
+}
+
+/// `attitude { cmgs: 4, cmg_momentum: 4760 kg*m^2/s, saturation: 0.8, hold: lvlh }`: the
+/// station's attitude and CMG momentum. Defaults: the ISS's four double-gimbal CMGs of
+/// 4,760 N·m·s and 258 N·m each, desaturation at 80 % of the cluster's capacity down to 20 %,
+/// LVLH hold, drag coefficient 2.2.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AttitudeEffect {
+    /// Number of CMGs in the cluster (≥ 1).
+    pub cmgs: u32,
+    /// Angular momentum of one CMG's wheel, N·m·s (> 0).
+    pub cmg_momentum_nms: f64,
+    /// Largest output torque of one CMG, N·m (> 0).
+    pub cmg_torque_nm: f64,
+    /// Fraction of the cluster's capacity at which a desaturation starts, in (0, 1).
+    pub saturation: f64,
+    /// Fraction of the capacity a desaturation dumps the momentum down to, in [0, saturation).
+    pub dump_to: f64,
+    pub hold: AttitudeHold,
+    /// Drag coefficient of the projected area (free molecular flow), > 0.
+    pub drag_coefficient: f64,
+}
+
+impl Default for AttitudeEffect {
+    fn default() -> Self {
+        AttitudeEffect {
+            cmgs: 4,
+            cmg_momentum_nms: 4760.0,
+            cmg_torque_nm: 258.0,
+            saturation: 0.8,
+            dump_to: 0.2,
+            hold: AttitudeHold::Lvlh,
+            drag_coefficient: 2.2,
+        }
+    }
 }
 
 /// A declaration that cannot be built: `field` names it (`dynamics.dt`).

@@ -2,7 +2,8 @@
 //! ([`Effects`] = `robosim_model::Options`): one named step per effect. Properties
 //! (`kinematics: on`, `encoder_bits: 12`, `log: ["q"]`, …) go through [`Evaluator::effect_prop`];
 //! groups (`collision { … }`, `dynamics { … }`, `orbit { … }`, `kinematics { … }`,
-//! `oru_swap { … }`, `power { … }`, `automation { … }`) through one `*_group` step each.
+//! `oru_swap { … }`, `power { … }`, `automation { … }`, `attitude { … }`) through one
+//! `*_group` step each.
 
 use super::*;
 
@@ -19,6 +20,7 @@ const PROPS: &[&str] = &[
     "power",
     "automation",
     "oru_swap",
+    "attitude",
 ];
 
 /// Every group an `effects { … }` block takes.
@@ -30,6 +32,7 @@ const GROUPS: &[&str] = &[
     "power",
     "oru_swap",
     "automation",
+    "attitude",
 ];
 
 /// `collision: on`: polygon mode, no self-collision, discrete.
@@ -142,6 +145,12 @@ impl Evaluator<'_> {
                 fx.automation = self.switch(value, scope)?.then(AutomationEffect::default)
             }
             "dynamics" => fx.dynamics = self.switch(value, scope)?.then(default_dynamics),
+            "attitude" => {
+                fx.attitude = self.switch(value, scope)?.then(AttitudeEffect::default);
+                if fx.attitude.is_some() {
+                    *needs_orbit = Some((name_span, "attitude"));
+                }
+            }
             _ => return Err(unknown_prop("effects", name, name_span, PROPS)),
         }
         Ok(())
@@ -173,6 +182,10 @@ impl Evaluator<'_> {
                 *needs_orbit = Some((name_span, "power"));
             }
             "automation" => fx.automation = Some(self.automation_group(body, scope)?),
+            "attitude" => {
+                fx.attitude = Some(self.attitude_group(name_span, body, scope)?);
+                *needs_orbit = Some((name_span, "attitude"));
+            }
             _ => return Err(unknown_prop("effects", name, name_span, GROUPS)),
         }
         Ok(())
@@ -530,6 +543,112 @@ impl Evaluator<'_> {
                     ));
                 }
             }
+        }
+        Ok(a)
+    }
+    /// `attitude { cmgs: 4, cmg_momentum: 4760 kg*m^2/s, cmg_torque: 258 kg*m^2/s^2,
+    /// saturation: 0.8, dump_to: 0.2, hold: lvlh | tea, drag_coefficient: 2.2 }` (every
+    /// property optional: `AttitudeEffect::default`, the ISS's CMGs).
+    fn attitude_group(
+        &mut self,
+        group_span: Span,
+        body: &[Stmt],
+        scope: &mut Scope,
+    ) -> RResult<AttitudeEffect> {
+        const NAMES: &[&str] = &[
+            "cmgs",
+            "cmg_momentum",
+            "cmg_torque",
+            "saturation",
+            "dump_to",
+            "hold",
+            "drag_coefficient",
+        ];
+        let mut a = AttitudeEffect::default();
+        let positive = |x: f64, span: Span, what: &str, expected: &str| {
+            if x.is_finite() && x > 0.0 {
+                Ok(x)
+            } else {
+                Err(err(
+                    ErrorKind::OutOfRange,
+                    span,
+                    format!("{what} {x} is out of range"),
+                )
+                .expected(expected))
+            }
+        };
+        let mut dump_span = None;
+        for (name, name_span, value) in group_props(
+            body,
+            "`attitude { … }`",
+            "`cmgs:`, `cmg_momentum:`, `saturation:`, `hold:` or `drag_coefficient:`",
+        )? {
+            match name {
+                "cmgs" => a.cmgs = self.count(value, scope, 1, 64)? as u32,
+                "cmg_momentum" => {
+                    let h = self.quantity(
+                        value,
+                        scope,
+                        Dim([2, 1, 0, -1]),
+                        "an angular momentum such as 4760 kg*m^2/s",
+                    )?;
+                    a.cmg_momentum_nms =
+                        positive(h, value.span, "cmg_momentum", "a positive momentum")?;
+                }
+                "cmg_torque" => {
+                    let t = self.quantity(
+                        value,
+                        scope,
+                        Dim([2, 1, 0, -2]),
+                        "a torque such as 258 kg*m^2/s^2",
+                    )?;
+                    a.cmg_torque_nm = positive(t, value.span, "cmg_torque", "a positive torque")?;
+                }
+                "saturation" | "dump_to" => {
+                    let f = self.quantity(value, scope, Dim::NONE, "a fraction such as 0.8")?;
+                    if !(f.is_finite() && (0.0..1.0).contains(&f)) {
+                        return Err(err(
+                            ErrorKind::OutOfRange,
+                            value.span,
+                            format!("{name} {f} is out of range"),
+                        )
+                        .expected("a fraction of the CMG capacity in [0, 1)"));
+                    }
+                    if name == "saturation" {
+                        a.saturation = f;
+                    } else {
+                        a.dump_to = f;
+                        dump_span = Some(value.span);
+                    }
+                }
+                "hold" => {
+                    a.hold = match self
+                        .word(value, &["lvlh", "tea"], "attitude hold")?
+                        .as_str()
+                    {
+                        "tea" => AttitudeHold::Tea,
+                        _ => AttitudeHold::Lvlh,
+                    }
+                }
+                "drag_coefficient" => {
+                    let c = self.quantity(value, scope, Dim::NONE, "a coefficient such as 2.2")?;
+                    a.drag_coefficient =
+                        positive(c, value.span, "drag_coefficient", "a positive coefficient")?;
+                }
+                _ => return Err(unknown_prop("attitude", name, name_span, NAMES)),
+            }
+        }
+        if a.saturation <= 0.0 || a.dump_to >= a.saturation {
+            let span = dump_span.unwrap_or(group_span);
+            return Err(err(
+                ErrorKind::OutOfRange,
+                span,
+                format!(
+                    "the dump target {} is not below the saturation {}",
+                    a.dump_to, a.saturation
+                ),
+            )
+            .expected("0 ≤ dump_to < saturation < 1"));
         }
         Ok(a)
     }
