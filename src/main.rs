@@ -157,6 +157,8 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             max_depth,
             max_memory,
         } => {
+            // A build without CLIPS says what to install before anything else.
+            robosim_rules::available().map_err(CliError::from)?;
             existing(session)?;
             let time = std::time::Duration::try_from_secs_f64(time_limit)
                 .ok()
@@ -237,6 +239,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         } => robosim_instance_space::journal::inspect(&path, &mut std::io::stdout().lock())
             .map_err(CliError::from),
         Command::Report { which } => reports::run(which),
+        Command::Plot { run, out } => reports::plot(&run, &out),
         Command::Render(args) => render(&args.into()),
         Command::Display(args) => {
             existing(session)?;

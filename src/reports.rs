@@ -1,4 +1,4 @@
-//! `robosim report …`: every "what accuracy costs in time" study, each owned by the crate whose
+//! `robosim report …` (and `robosim plot`, figures of a user's own run): every "what accuracy costs in time" study, each owned by the crate whose
 //! knob it measures, written as CSV + markdown + PNG (default into `./robosim-reports/`; the
 //! published ones are regenerated with `--out docs/reports`).
 
@@ -103,4 +103,30 @@ pub fn run(which: Which) -> Result<()> {
             Ok(())
         }
     }
+}
+
+/// `robosim plot RUN --out DIR`: one line per figure written, and the run's events.
+pub fn plot(run: &Path, out: &Path) -> Result<()> {
+    let s = robosim_report::run_plot::plot_file(run, out)
+        .map_err(|e| crate::CliError(e.to_string()))?;
+    if s.truncated {
+        println!(
+            "{}: the recording ends inside a record (its writer was stopped); plotted to the cut",
+            run.display()
+        );
+    }
+    for f in &s.figures {
+        let series: usize = f.panels.iter().map(|p| p.lines.len()).sum();
+        println!(
+            "wrote {} ({} panels, {series} series)",
+            out.join(&f.file).display(),
+            f.panels.len()
+        );
+    }
+    println!(
+        "wrote {} ({} events marked)",
+        out.join("plot.json").display(),
+        s.events.len()
+    );
+    Ok(())
 }

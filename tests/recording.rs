@@ -307,6 +307,84 @@ fn get_reports_the_lockstep_state_the_csv_log_has_and_down_closes_the_mcap_recor
     );
     assert_eq!(transforms[0]["parent_frame_id"], "world");
     assert_eq!(transforms[1]["parent_frame_id"], "puma560");
+
+    plots_say_what_the_run_did(&p, &mcap_path, &log);
+}
+
+/// Issue 39 item 10: `robosim plot` of the recording and of the CSV log draws what the run
+/// did — 6 joints, q₁ from 0 to 0.5 rad and q₂ to −0.5 rad over 0.5 s, no contact, the two
+/// commands marked — read back from plot.json (the figure's content), and the PNGs decode.
+fn plots_say_what_the_run_did(p: &Procs, mcap: &Path, log: &Path) {
+    let plot = |run: &Path, out: &Path| {
+        let o = Command::new(ROBOSIM)
+            .arg("plot")
+            .arg(run)
+            .arg("--out")
+            .arg(out)
+            .output()
+            .expect("plot");
+        assert!(o.status.success(), "{}", text(&o.stderr));
+        let said = text(&o.stdout);
+        let json: Value =
+            serde_json::from_slice(&std::fs::read(out.join("plot.json")).expect("plot.json"))
+                .expect("JSON");
+        (said, json)
+    };
+    let range = |v: &Value| -> (f64, f64) {
+        let r = floats(v);
+        (r[0], r[1])
+    };
+    let near = |(a, b): (f64, f64), (c, d): (f64, f64), what: &str| {
+        assert!(
+            (a - c).abs() < 1e-9 && (b - d).abs() < 1e-9,
+            "{what}: {a}..{b}, expected {c}..{d}"
+        );
+    };
+    let out = p.home.path().join("plots-mcap");
+    let (said, j) = plot(mcap, &out);
+    assert!(said.contains("puma560.png (2 panels, 12 series)"), "{said}");
+    let figures = j["figures"].as_array().expect("figures");
+    let names: Vec<&str> = figures.iter().filter_map(|f| f["file"].as_str()).collect();
+    assert_eq!(names, ["puma560.png", "contacts.png"]);
+    let panels = figures[0]["panels"].as_array().expect("panels");
+    let titles: Vec<&str> = panels.iter().filter_map(|x| x["title"].as_str()).collect();
+    assert_eq!(
+        titles,
+        ["joint positions", "joint velocities"],
+        "a kinematic run records no efforts (not zeros): no effort or work panel"
+    );
+    assert_eq!(panels[0]["series"].as_array().map(Vec::len), Some(6));
+    near(range(&panels[0]["x_range"]), (0.0, 0.5), "time");
+    near(range(&panels[0]["y_range"]), (-0.5, 0.5), "q");
+    near(
+        range(&panels[1]["y_range"]),
+        (-1.0, 1.0),
+        "q̇ at the 1 rad/s limit",
+    );
+    let contacts = &figures[1]["panels"][0];
+    near(range(&contacts["y_range"]), (0.0, 0.0), "never a contact");
+    assert_eq!(
+        j["events"].as_array().map(Vec::len),
+        Some(2),
+        "target and step"
+    );
+    assert_eq!(j["truncated"], false);
+    for f in ["puma560.png", "contacts.png"] {
+        let png = std::fs::read(out.join(f)).expect("png");
+        assert_eq!(&png[1..4], b"PNG", "{f}");
+    }
+
+    let out = p.home.path().join("plots-csv");
+    let (_, j) = plot(log, &out);
+    let panels = j["figures"][0]["panels"].as_array().expect("panels");
+    assert_eq!(j["figures"][0]["file"], "puma560.png");
+    assert_eq!(panels.len(), 2, "q and qd columns");
+    near(
+        range(&panels[0]["x_range"]),
+        (DT, 0.5),
+        "the log's rows: t = dt … 0.5 s",
+    );
+    near(range(&panels[0]["y_range"]), (-0.5, 0.5), "q in the log");
 }
 
 /// Item 9: a refusal is one message, once, on stderr, exit status 1; `ok` answers go to

@@ -121,7 +121,13 @@ impl Recording {
                     joint_names: &s.link_names,
                     q: w.state.q.as_slice(),
                     qd: w.state.qd.as_slice(),
-                    effort: w.tau.as_slice(),
+                    // Efforts are known only where dynamics runs; a kinematic run records
+                    // none (as a playback), not zeros a plot would draw as torques.
+                    effort: if s.pipeline.model().options.dynamics.is_some() {
+                        w.tau.as_slice()
+                    } else {
+                        &[]
+                    },
                     base: &s.pipeline.model().robot.base,
                     links,
                 }

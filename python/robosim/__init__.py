@@ -11,6 +11,7 @@ transactions, ask any op of the query protocol, and drive the simulator in lock-
     v = s.wait_change(timeout=1.0)         # newest version after the last seen, or None
     r = s.query({"op": "kinv", "robot": "positioner", "pose": T})
     s.sim.step(10)                         # lock-step: 10 simulator steps, then its state
+    robosim.plot("run.mcap", "plots/")     # figures of a recorded run (or its CSV log)
 
 Every refusal raises RobosimError (or SessionError, TransactionError, JointLimitError) with
 ``.kind`` and ``.message``; a refusal changes nothing.
@@ -25,6 +26,7 @@ from ._robosim import (
     Snapshot,
     TransactionError,
 )
+from .plot import plot
 
 __all__ = [
     "Session",
@@ -34,5 +36,6 @@ __all__ = [
     "SessionError",
     "TransactionError",
     "JointLimitError",
+    "plot",
 ]
 __version__ = "0.1.0"

@@ -7,5 +7,6 @@ from ._robosim import (
     Snapshot as Snapshot,
     TransactionError as TransactionError,
 )
+from .plot import plot as plot
 
 __version__: str

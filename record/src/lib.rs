@@ -74,6 +74,9 @@ impl RecordError {
 
 type Result<T> = std::result::Result<T, RecordError>;
 
+/// The first bytes of every MCAP file (how `robosim plot` tells a recording from a CSV log).
+pub const MCAP_MAGIC: &[u8] = mcap::MAGIC;
+
 /// One robot at one instant.
 #[derive(Debug, Clone, Copy)]
 pub struct RobotSample<'a> {

@@ -103,7 +103,7 @@ pub fn read_bytes(
     bytes: &[u8],
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Run, RecordError> {
-    if !bytes.starts_with(mcap::MAGIC) {
+    if !bytes.starts_with(crate::MCAP_MAGIC) {
         return Err(RecordError::Sample {
             path: path.to_owned(),
             what: "not an MCAP file (it does not begin with the MCAP magic)".into(),

@@ -18,6 +18,7 @@
 //! * [`journal`] — `robosim bench journal`: what the journal's second copy costs;
 //! * [`cli`] — the arguments (plain types; the binary parses them) and runners of `robosim
 //!   report ik|collision`;
+//! * [`run_plot::plot_file`] — `robosim plot RUN.mcap|RUN.csv`: figures of a user's own run;
 //! * [`font`] — the bundled font plots and the display's status line are drawn with.
 
 #![forbid(unsafe_code)]
@@ -35,6 +36,7 @@ pub mod journal;
 pub mod library;
 pub mod plot;
 pub mod progress;
+pub mod run_plot;
 pub mod scale;
 
 pub use plot::{Plot, Report, ReportError, Series, Table, percentile, write_report};

@@ -256,7 +256,7 @@ fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Er
 
 /// A tick label: plain with up to 3 decimals in [0.01, 10⁴), else in exponent form with up to 3
 /// significant digits (ticks 1.2e-5 apart must not all read "1e-5").
-fn fmt_tick(v: f64) -> String {
+pub(crate) fn fmt_tick(v: f64) -> String {
     let a = v.abs();
     if a != 0.0 && !(1e-2..1e4).contains(&a) {
         let s = format!("{v:.2e}");

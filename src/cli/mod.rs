@@ -209,6 +209,17 @@ pub(crate) enum Command {
         #[command(subcommand)]
         which: crate::reports::Which,
     },
+    /// Figures of a run: a recording (`simulator --record RUN.mcap`) or the simulator's signal
+    /// log (`run/simulator-ROBOT.csv`) as PNGs in --out — joint positions, velocities, efforts
+    /// and actuator work per robot, contacts, the run's events marked — and plot.json saying
+    /// what each figure holds.
+    Plot {
+        /// The run: an MCAP recording or a simulator signal log (CSV).
+        run: std::path::PathBuf,
+        /// Directory for the PNGs and plot.json.
+        #[arg(long, default_value = "robosim-plots")]
+        out: std::path::PathBuf,
+    },
     /// Save the session's whole model (every object, every aspect, its Library Space
     /// additions) at one version to FILE (binary with a checksum; JSON for .json).
     Save {
