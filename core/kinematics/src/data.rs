@@ -4,8 +4,12 @@
 //! Jacobian — so an IK iteration or a simulation step allocates nothing.
 //!
 //! Entry points: [`Data::new`], [`Data::forward_kinematics`] (every link frame),
-//! [`Data::fk_and_jacobian`] (tool pose and base-frame Jacobian).
+//! [`Data::fk_and_jacobian`] (tool pose and base-frame Jacobian); with a
+//! [`KinematicModel`] compiled once, [`Data::forward_kinematics_compiled`] and
+//! [`Data::fk_and_jacobian_compiled`] (the same numbers, without re-deriving the joints'
+//! constant geometry on every call).
 
+use crate::compiled::KinematicModel;
 use crate::fk::link_frames_into;
 use crate::jacobian::{Jacobian, fk_and_jacobian_into};
 use crate::model::Robot;
@@ -50,6 +54,26 @@ impl Data {
         self.tool = fk_and_jacobian_into(robot, q, &mut self.jacobian);
         (&self.tool, &self.jacobian)
     }
+
+    /// [`Data::forward_kinematics`] from a compiled model (the data sized for its robot).
+    pub fn forward_kinematics_compiled(
+        &mut self,
+        model: &KinematicModel,
+        q: &[f64],
+    ) -> &[Matrix4<f64>] {
+        model.link_frames_into(q, &mut self.frames);
+        &self.frames
+    }
+
+    /// [`Data::fk_and_jacobian`] from a compiled model (the data sized for its robot).
+    pub fn fk_and_jacobian_compiled(
+        &mut self,
+        model: &KinematicModel,
+        q: &[f64],
+    ) -> (&Matrix4<f64>, &Jacobian) {
+        self.tool = model.fk_and_jacobian_into(q, &mut self.jacobian);
+        (&self.tool, &self.jacobian)
+    }
 }
 
 #[cfg(test)]
@@ -75,6 +99,13 @@ mod tests {
             let (t, j) = fk_and_jacobian(&robot, &q);
             let (dt, dj) = d.fk_and_jacobian(&robot, &q);
             assert_eq!((dt, dj), (&t, &j));
+            let model = KinematicModel::new(&robot);
+            let mut c = Data::new(&robot);
+            assert_eq!(
+                c.forward_kinematics_compiled(&model, &q),
+                link_frames(&robot, &q).as_slice()
+            );
+            assert_eq!(c.fk_and_jacobian_compiled(&model, &q), (&t, &j));
         }
     }
 }

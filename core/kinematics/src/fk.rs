@@ -1,13 +1,15 @@
 //! Forward kinematics on the one joint model (see [`crate::Robot`] and the `model` module docs:
 //! `A_j = P_j · M_j(q_j) · T_j`). Depends only on q.
 
+use crate::compiled::{CompiledJoint, OnTheFly, forward_kernel, frames_kernel};
 use crate::model::{Convention, Joint, Robot};
 use nalgebra::Matrix4;
 
 /// The link transform `A_j = P_j · M_j(q + offset_j) · T_j` of joint `j` at joint value `q`
-/// (rad or m), through [`Joint::geometry`] — one code path for DH rows and general joints.
+/// (rad or m): equal to [`Joint::geometry`]`(convention).transform(q)`, formed in closed form
+/// per joint kind (see [`crate::compiled`]).
 pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<f64> {
-    joint.geometry(convention).transform(q)
+    CompiledJoint::new(joint, convention).matrix(q)
 }
 
 /// Every link frame in the world: `frames[0]` is the base, `frames[j]` the frame at the end of
@@ -21,31 +23,16 @@ pub fn link_frames(robot: &Robot, q: &[f64]) -> Vec<Matrix4<f64>> {
 
 /// [`link_frames`] into a caller-owned slice of `robot.dof() + 2` frames (no allocation; see
 /// [`crate::Data`]). Panics if the slice is shorter: its size is the caller's invariant.
+/// Compiles each joint as it goes; [`crate::KinematicModel::link_frames_into`] gives the same
+/// frames from a model compiled once.
 pub fn link_frames_into(robot: &Robot, q: &[f64], frames: &mut [Matrix4<f64>]) {
-    let n = robot.joints.len();
-    assert!(
-        frames.len() >= n + 2,
-        "link_frames_into: {} frames for {n} joints (needs n + 2)",
-        frames.len()
-    );
-    frames[0] = robot.base;
-    for (j, (joint, &qj)) in robot.joints.iter().zip(q).enumerate() {
-        frames[j + 1] = frames[robot.parent(j)] * link_transform(robot.convention, joint, qj);
-    }
-    frames[n + 1] = frames[n] * robot.tool;
+    frames_kernel(OnTheFly(robot), q, frames);
 }
 
 /// The tool pose `T_ee = base · A_1 ⋯ A_n · tool` in the world (for a tree, the product along
 /// the last joint's support path).
 pub fn forward(robot: &Robot, q: &[f64]) -> Matrix4<f64> {
-    if !robot.is_chain() {
-        return link_pose(robot, q, robot.dof()) * robot.tool;
-    }
-    let mut t = robot.base;
-    for (joint, &qj) in robot.joints.iter().zip(q) {
-        t *= link_transform(robot.convention, joint, qj);
-    }
-    t * robot.tool
+    forward_kernel(OnTheFly(robot), q)
 }
 
 /// The world pose of link frame `link` (0 = base, k = the end of joint k−1; see

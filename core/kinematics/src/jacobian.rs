@@ -10,9 +10,10 @@
 //! `T_ee = base · A_1 ⋯ A_n · tool` is expressed (as Robotics Toolbox's `jacob0`); "tool"
 //! re-expresses both velocities in the tool frame's axes (as `jacobe`).
 
-use crate::model::{JointType, Robot};
-use crate::pose::{rotation, translation};
-use nalgebra::{DMatrix, Dyn, Matrix4, OMatrix, U6, Vector3};
+use crate::compiled::{OnTheFly, fk_and_jacobian_kernel, link_jacobian_kernel};
+use crate::model::Robot;
+use crate::pose::rotation;
+use nalgebra::{DMatrix, Dyn, Matrix4, OMatrix, U6};
 
 /// A 6 × n Jacobian.
 pub type Jacobian = OMatrix<f64, U6, Dyn>;
@@ -36,82 +37,24 @@ pub fn fk_and_jacobian(robot: &Robot, q: &[f64]) -> (Matrix4<f64>, Jacobian) {
 }
 
 /// [`fk_and_jacobian`] into a caller-owned 6 × n buffer (no allocation). Returns `T_ee`.
+/// Compiles each joint as it goes; [`crate::KinematicModel::fk_and_jacobian_into`] gives the
+/// same numbers from a model compiled once.
 pub fn fk_and_jacobian_into(robot: &Robot, q: &[f64], jac: &mut Jacobian) -> Matrix4<f64> {
-    if !robot.is_chain() {
-        // A tree: the tool hangs from the last joint's link frame; its support path only.
-        return link_jacobian_into(robot, q, robot.dof(), jac) * robot.tool;
-    }
-    // Joint j's axis is u_j in the joint frame W_j = (frame j−1) · P_j, through W_j's origin
-    // (model docs). First pass: park the world axis (rows 3..6) and W_j's origin (rows 0..3).
-    let mut t = robot.base;
-    for (j, (joint, &qj)) in robot.joints.iter().zip(q).enumerate() {
-        let g = joint.geometry(robot.convention);
-        let w = match &g.placement {
-            Some(p) => t * p,
-            None => t,
-        };
-        let axis = w.fixed_view::<3, 3>(0, 0) * g.axis;
-        for i in 0..3 {
-            jac[(i, j)] = w[(i, 3)];
-            jac[(i + 3, j)] = axis[i];
-        }
-        t *= g.transform(qj);
-    }
-    let tee = t * robot.tool;
-    let pe = translation(&tee);
-    // Second pass: revolute [z × (p_e − o); z], prismatic [z; 0].
-    for (j, joint) in robot.joints.iter().enumerate() {
-        let o = Vector3::new(jac[(0, j)], jac[(1, j)], jac[(2, j)]);
-        let z = Vector3::new(jac[(3, j)], jac[(4, j)], jac[(5, j)]);
-        let (v, w) = match joint.joint_type {
-            JointType::Revolute => (z.cross(&(pe - o)), z),
-            JointType::Prismatic => (z, Vector3::zeros()),
-        };
-        for i in 0..3 {
-            jac[(i, j)] = v[i];
-            jac[(i + 3, j)] = w[i];
-        }
-    }
-    tee
+    fk_and_jacobian_kernel(OnTheFly(robot), q, jac)
 }
 
 /// The world pose of link frame `link` (0 = base, k = the end of joint k−1, see
 /// [`Robot::parents`]) and the base-frame Jacobian of its origin into `jac` (6 × n): the
 /// columns of the joints on its support path as in the module docs, every other column zero.
-/// Works for chains and trees (allocates one frame list). Panics if `link > robot.dof()`.
+/// Works for chains and trees, in one pass along the support path (no allocation). Panics if
+/// `link > robot.dof()`.
 pub fn link_jacobian_into(
     robot: &Robot,
     q: &[f64],
     link: usize,
     jac: &mut Jacobian,
 ) -> Matrix4<f64> {
-    let n = robot.dof();
-    assert!(link <= n, "link_jacobian: link frame {link} of {n}");
-    let mut frames = vec![robot.base; n + 1];
-    for (j, joint) in robot.joints.iter().enumerate() {
-        frames[j + 1] = frames[robot.parent(j)] * joint.geometry(robot.convention).transform(q[j]);
-    }
-    let pe = translation(&frames[link]);
-    jac.fill(0.0);
-    for j in robot.support(link) {
-        let g = robot.joints[j].geometry(robot.convention);
-        let parent = &frames[robot.parent(j)];
-        let w = match &g.placement {
-            Some(p) => parent * p,
-            None => *parent,
-        };
-        let z = w.fixed_view::<3, 3>(0, 0) * g.axis;
-        let o = Vector3::new(w[(0, 3)], w[(1, 3)], w[(2, 3)]);
-        let (v, om) = match g.joint_type {
-            JointType::Revolute => (z.cross(&(pe - o)), z),
-            JointType::Prismatic => (z, Vector3::zeros()),
-        };
-        for i in 0..3 {
-            jac[(i, j)] = v[i];
-            jac[(i + 3, j)] = om[i];
-        }
-    }
-    frames[link]
+    link_jacobian_kernel(&OnTheFly(robot), q, link, jac)
 }
 
 /// [`link_jacobian_into`] allocating, with the rows in `frame` ([`Frame::Tool`]: the link

@@ -11,6 +11,9 @@
 //!   inline JSON form is read and written by [`json`]);
 //!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
+//! * [`KinematicModel`] — the robot compiled once for FK and Jacobians (constant joint
+//!   geometry folded, rigid transforms per joint kind; the `&Robot` functions run the same
+//!   kernels compiling joint by joint).
 //! * [`Data`] — the working memory (frames, Jacobian) apart from the model: sized once for a
 //!   robot, reused so a step or an IK iteration allocates nothing.
 //! * [`jacobian::jacobian`], [`jacobian::singularity`] — geometric Jacobians, distance to
@@ -23,6 +26,7 @@
 
 mod builtin;
 pub mod chain;
+mod compiled;
 mod data;
 pub mod encoder;
 pub mod fk;
@@ -34,6 +38,7 @@ pub mod movej;
 pub mod pose;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
+pub use compiled::KinematicModel;
 pub use data::Data;
 pub use model::{
     Convention, Joint, JointGeometry, JointType, ModelError, Origin, Robot, State, axis_rotation,
