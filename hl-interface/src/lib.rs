@@ -13,7 +13,8 @@
 //! (kinematics, dynamics, collision, library, automation) until one claims its `op`; the answer
 //! is that area's object with `id` (echoed from the request, `null` when absent) and `ok` put
 //! first. Every refusal is one [`ProtocolError`] (an [`ErrorKind`] and a message); inline robots
-//! and `{"urdf": PATH, "tip": LINK}` robots are read by [`robot_json`].
+//! and `{"urdf": PATH, "tip": LINK}` and `{"mjcf": PATH, "tip": BODY}` robots are read by
+//! [`robot_json`].
 //! Robot names resolve in the standard library first (`robosim_library::standard_robot`), then
 //! among the kinematics crate's reference robots (`robosim_kinematics::builtin_robot`).
 //!

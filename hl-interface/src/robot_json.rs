@@ -1,7 +1,8 @@
 //! The inline robot format of DESIGN.md ("The query protocol"): the core's reader and writer
 //! ([`robosim_kinematics::json`], re-exported here under the protocol's path) plus the one form
-//! that reads a file, `{"urdf": PATH, "tip": LINK}` ([`robot_from_urdf_json`]), which
-//! [`robot_from_json`] here accepts too.
+//! that read a file, `{"urdf": PATH, "tip": LINK}` ([`robot_from_urdf_json`]) and
+//! `{"mjcf": PATH, "tip": BODY}` ([`robot_from_mjcf_json`]), which [`robot_from_json`] here
+//! accepts too.
 //!
 //! Entry points: [`robot_from_json`], [`robot_to_json`], [`matrix4_from_json`],
 //! [`matrix4_to_json`], [`matrix_to_json`], [`number`], [`number_array`]. Every error names the
@@ -33,7 +34,38 @@ pub fn robot_from_json(v: &Value) -> Result<Robot, JsonError> {
     {
         return robot_from_urdf_json(obj);
     }
+    if let Some(obj) = v.as_object()
+        && obj.contains_key("mjcf")
+    {
+        return robot_from_mjcf_json(obj);
+    }
     robosim_kinematics::json::robot_from_json(v)
+}
+
+const MJCF_KEYS: &[&str] = &["mjcf", "tip"];
+
+/// `{"mjcf": PATH, "tip": BODY}` (issue 36 item 5): the serial chain of the MuJoCo model at
+/// PATH from the world to the body `tip` (absent: the only leaf body), imported by
+/// [`robosim_file_io::mjcf::import_mjcf`]: q is the hinge and slide joints of the bodies on that
+/// path, in MuJoCo's qpos order; other joints are held at their reference position; the base
+/// frame is the world, the tool frame the tip body's. A ball or free joint on the model is
+/// refused by name. Errors: `robot.mjcf` / `robot.tip` for a field of the wrong type, else
+/// `robot.mjcf` with the importer's message (file, line, element and what).
+pub fn robot_from_mjcf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError> {
+    check_keys(obj, MJCF_KEYS, "robot")?;
+    let path = obj
+        .get("mjcf")
+        .and_then(Value::as_str)
+        .ok_or_else(|| JsonError::new("robot.mjcf", "expected the MJCF file's path (a string)"))?;
+    let tip = match obj.get("tip") {
+        None | Some(Value::Null) => None,
+        Some(t) => Some(t.as_str().ok_or_else(|| {
+            JsonError::new("robot.tip", "expected the tip body's name (a string)")
+        })?),
+    };
+    robosim_file_io::mjcf::import_mjcf(std::path::Path::new(path), tip)
+        .map(|imported| imported.robot)
+        .map_err(|e| JsonError::new("robot.mjcf", e.to_string()))
 }
 
 const URDF_KEYS: &[&str] = &["urdf", "tip"];
@@ -76,8 +108,39 @@ mod tests {
         let e = robot_from_json(&serde_json::json!({"urdf": "x.urdf", "tpi": "a"}))
             .expect_err("a misspelt key");
         assert_eq!(e.path, "robot.tpi");
+        let e = robot_from_json(&serde_json::json!({"mjcf": "/no/such/file.xml"}))
+            .expect_err("no such file");
+        assert_eq!(e.path, "robot.mjcf");
+        let e = robot_from_json(&serde_json::json!({"mjcf": "x.xml", "tpi": "a"}))
+            .expect_err("a misspelt key");
+        assert_eq!(e.path, "robot.tpi");
         let e = robot_from_json(&serde_json::json!({"joints": [{"alpah": 1}]})).expect_err("typo");
         assert_eq!(e.path, "robot.joints[0].alpah");
+    }
+
+    /// `{"mjcf": PATH, "tip"}` through the protocol: the UR5 that MuJoCo wrote from its URDF
+    /// (testdata/mjcf) has MuJoCo's mass matrix at the reference's first q.
+    #[test]
+    fn an_mjcf_robot_answers_with_mujocos_mass_matrix() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../testdata/mjcf");
+        let reference: Value = serde_json::from_str(
+            &std::fs::read_to_string(format!("{dir}/mujoco_reference.json")).expect("reference"),
+        )
+        .expect("JSON");
+        let ur5 = &reference["robots"][0];
+        assert_eq!(ur5["name"], "ur5");
+        let sample = &ur5["samples"][0];
+        let req = serde_json::json!({"id": 1, "op": "mass_matrix",
+            "robot": {"mjcf": format!("{dir}/ur5.xml"), "tip": "wrist_3_link"}, "q": sample["q"]});
+        let a: Value = serde_json::from_str(&crate::handle_request(&req)).expect("answer");
+        let ours = &a["mass_matrix"];
+        let theirs = &sample["mass_matrix"];
+        for r in 0..6 {
+            for c in 0..6 {
+                let (x, y) = (ours[r][c].as_f64(), theirs[r][c].as_f64().expect("number"));
+                assert!(x.is_some_and(|x| (x - y).abs() < 1e-10), "{a}");
+            }
+        }
     }
 
     /// The dynamics crate's fixture robots equal `testdata/dynamics/robots/*.json`.
