@@ -27,7 +27,7 @@ fn cli_lists_shows_and_checks() {
     assert!(
         render(LibCmd::Check { file: good })
             .expect("check")
-            .contains("ok (5 declarations)")
+            .contains("ok (5 declarations of its own:")
     );
     let out = render(LibCmd::Eval {
         name: "surgical_positioner".into(),
@@ -53,4 +53,45 @@ fn cli_lists_shows_and_checks() {
     std::fs::write(&bad, "solid a {\n  part box(1 m, 1 m, 1 deg)\n}\n").expect("write");
     let err = render(LibCmd::Check { file: bad.clone() }).expect_err("bad file");
     assert!(err.contains(&format!("{}:2:22", bad.display())), "{err}");
+}
+
+/// Issue 39 item 3: a user's file sees the standard library — its scene places `puma560()`
+/// beside a solid of its own — without `include "std"`; `check` counts the file's own
+/// declarations, and `eval --file` evaluates its scene with the standard robot in it.
+#[test]
+fn a_users_file_places_a_standard_robot_in_a_scene_of_its_own() {
+    let dir = tempfile::tempdir().expect("tmp");
+    let file = dir.path().join("my.rsl");
+    std::fs::write(
+        &file,
+        "solid my_table(width = 1.2 m) {\n    part box(width, 0.8 m, 0.04 m)\n}\n\
+         scene my_cell(reach = 0.7 m) {\n    place table = my_table() at translate(reach, 0, 0)\n    \
+         place arm = puma560()\n}\n",
+    )
+    .expect("write");
+    let out = render(LibCmd::Check { file: file.clone() }).expect("check");
+    assert!(
+        out.contains(
+            "ok (2 declarations of its own: solid my_table, scene my_cell; the standard library's"
+        ),
+        "{out}"
+    );
+    let out = render(LibCmd::Eval {
+        name: "my_cell".into(),
+        params: vec![],
+        facets: Some(8),
+        geometry: false,
+        file: Some(file),
+    })
+    .expect("eval");
+    let v: serde_json::Value = serde_json::from_str(&out).expect("json");
+    assert_eq!(v["name"], "my_cell");
+    assert!(
+        out.contains("\"puma_waist1/housing\""),
+        "the PUMA 560's own solids: {out}"
+    );
+    assert!(
+        out.contains("\"name\": \"arm\"") && out.contains("\"name\": \"table\""),
+        "{out}"
+    );
 }

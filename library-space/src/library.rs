@@ -273,6 +273,51 @@ impl Library {
         Ok(l.finish()?)
     }
 
+    /// [`Library::load`] of a user's file with the standard library visible to it: a scene of
+    /// the file can place `puma560()` or use `steel` without `include "std"` (an explicit
+    /// `include "std"` is followed once, as before). The library holds both; a declaration of
+    /// the file named like a standard one is a duplicate, as with `include "std"`.
+    /// [`Library::own_declarations`] lists the file's own.
+    pub fn load_with_standard(path: impl AsRef<Path>) -> Result<Library, Error> {
+        let path = path.as_ref();
+        let text = crate::source::read_source_file(path).map_err(|message| Error::Io {
+            path: path.display().to_string(),
+            message,
+        })?;
+        let mut l = Loader {
+            map: SourceMap::default(),
+            decls: vec![],
+            seen: HashSet::new(),
+        };
+        for (name, text) in stdlib::FILES {
+            l.add(name.to_string(), name.to_string(), text.to_string(), None)?;
+        }
+        let key = std::fs::canonicalize(path)
+            .unwrap_or(path.to_path_buf())
+            .display()
+            .to_string();
+        l.add(
+            key,
+            path.display().to_string(),
+            text,
+            path.parent().map(Path::to_path_buf),
+        )?;
+        Ok(l.finish()?)
+    }
+
+    /// The declarations not from the standard library's embedded files, in source order.
+    pub fn own_declarations(&self) -> Vec<DeclInfo> {
+        let std_files: Vec<&str> = stdlib::FILES.iter().map(|(n, _)| *n).collect();
+        self.declarations()
+            .into_iter()
+            .filter(|d| {
+                !std_files
+                    .iter()
+                    .any(|f| d.location.starts_with(&format!("{f}:")))
+            })
+            .collect()
+    }
+
     /// Parses and checks `text` as if it were the file `name`. Includes are resolved relative
     /// to the current directory (`std/…` from the embedded standard library).
     pub fn from_source(name: &str, text: &str) -> Result<Library, LibError> {

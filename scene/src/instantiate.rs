@@ -496,7 +496,8 @@ pub fn build_library_from(
         }
     };
     for f in files {
-        let lib = Library::load(f).map_err(SceneError::from)?;
+        // A user's file sees the standard library (its scenes may place `puma560()`).
+        let lib = Library::load_with_standard(f).map_err(SceneError::from)?;
         for (name, text) in lib.sources() {
             add(name, text);
         }

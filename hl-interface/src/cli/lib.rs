@@ -44,7 +44,8 @@ pub enum LibCmd {
 
 fn open(file: &Option<PathBuf>, session: Option<&Library>) -> Result<Library, String> {
     match (file, session) {
-        (Some(f), _) => Library::load(f).map_err(|e| e.to_string()),
+        // A user's file sees the standard library (its scenes may place `puma560()`).
+        (Some(f), _) => Library::load_with_standard(f).map_err(|e| e.to_string()),
         // A session's Library Space, rebuilt from the source text in shared memory.
         (None, Some(lib)) => Library::from_sources(&lib.sources()).map_err(|e| e.to_string()),
         (None, None) => Library::standard().map_err(|e| e.to_string()),
@@ -224,9 +225,19 @@ pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, Str
             );
         }
         LibCmd::Check { file } => {
-            let lib = Library::load(&file).map_err(|e| e.to_string())?;
-            let n = lib.declarations().len();
-            let _ = writeln!(out, "{}: ok ({n} declarations)", file.display());
+            let lib = Library::load_with_standard(&file).map_err(|e| e.to_string())?;
+            let own = lib.own_declarations();
+            let _ = writeln!(
+                out,
+                "{}: ok ({} declarations of its own: {}; the standard library's {} visible to it)",
+                file.display(),
+                own.len(),
+                own.iter()
+                    .map(|d| format!("{} {}", d.kind.as_str(), d.name))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                lib.declarations().len() - own.len()
+            );
         }
     }
     Ok(out)

@@ -43,7 +43,7 @@ fn answer(op: &str, req: &Value) -> Result<Value, ProtocolError> {
             )
         })?,
         Some(Value::String(f)) => {
-            owned = Library::load(f)
+            owned = Library::load_with_standard(f)
                 .map_err(|e| ProtocolError::new(ErrorKind::LibraryError, e.to_string()))?;
             &owned
         }
