@@ -429,6 +429,7 @@ fn settings_of(scene: &SceneModel) -> CollisionSettings {
         },
         all_contacts: true,
         continuous: false,
+        depth: Some(Default::default()),
     }
 }
 

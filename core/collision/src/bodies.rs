@@ -278,16 +278,17 @@ impl LinkSolids {
 
     /// The pairs self-collision checks: non-adjacent links with solids, minus allowed pairs.
     pub fn self_pairs(&self) -> Vec<(usize, usize)> {
+        self.self_pair_iter().collect()
+    }
+
+    /// [`Self::self_pairs`] without collecting them (no allocation per check).
+    pub fn self_pair_iter(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
         let n = self.links.len();
-        let mut out = Vec::new();
-        for i in 0..n {
-            for j in i + 2..n {
-                if self.links[i].is_some() && self.links[j].is_some() && !self.allows(i, j) {
-                    out.push((i, j));
-                }
-            }
-        }
-        out
+        (0..n)
+            .flat_map(move |i| (i + 2..n).map(move |j| (i, j)))
+            .filter(|&(i, j)| {
+                self.links[i].is_some() && self.links[j].is_some() && !self.allows(i, j)
+            })
     }
 }
 

@@ -35,6 +35,10 @@ pub struct SweepOptions {
     pub tolerance: f64,
     /// Advancement steps per pair before giving up with `Unknown`.
     pub max_iterations: usize,
+    /// How closely each distance is computed. A GJK tolerance t gives distances up to t too
+    /// large; the sweep subtracts t before using one, so it stays conservative (a near miss
+    /// closer than `tolerance + t` may then count as a contact).
+    pub distance: exact::Tolerance,
 }
 
 impl Default for SweepOptions {
@@ -42,6 +46,7 @@ impl Default for SweepOptions {
         SweepOptions {
             tolerance: 1e-6,
             max_iterations: 10_000,
+            distance: exact::Tolerance::Certified,
         }
     }
 }
@@ -163,6 +168,11 @@ pub fn sweep_robot(
     }
     let mut first: Option<(f64, Collision)> = None;
     let eps = opts.tolerance * 0.5;
+    // A GJK tolerance's distances are upper ends: their lower ends are safe to advance by.
+    let slack = match opts.distance {
+        exact::Tolerance::Certified => 0.0,
+        t @ exact::Tolerance::Gjk(_) => t.width(),
+    };
     for (j, target) in &pairs {
         let Some(lj) = &links.links[*j] else { continue };
         let (bound, body_b) = match target {
@@ -208,13 +218,14 @@ pub fn sweep_robot(
                 ExactOptions {
                     distance: true,
                     depth: true,
+                    tolerance: opts.distance,
                 },
             );
             let (d, witness) = match r {
                 PairResult::Clear {
                     distance: Some(d),
                     witness,
-                } => (d, witness),
+                } => (d - slack, witness),
                 PairResult::Clear { distance: None, .. } => {
                     return Ok(Sweep::Unknown {
                         a: Body::Link(*j),

@@ -34,7 +34,7 @@ pub mod polygon;
 pub mod robot;
 mod solid;
 
-pub use exact::ExactOptions;
+pub use exact::{ExactOptions, Tolerance, ToleranceError};
 pub use outcome::{Mode, PairResult};
 pub use polygon::PolygonOptions;
 pub use solid::{

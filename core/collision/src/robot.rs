@@ -22,7 +22,7 @@ pub use crate::bodies::{
 use crate::bbox::world_box;
 use crate::bodies::check_link_count;
 use crate::ccd;
-use crate::exact::{self, ExactOptions};
+use crate::exact::{self, ExactOptions, Tolerance};
 use crate::outcome::{Mode, PairResult};
 use crate::polygon::{self, PolygonOptions};
 use crate::solid::Solid;
@@ -42,6 +42,11 @@ pub struct CollisionSettings {
     pub all_contacts: bool,
     /// MOVEJ/MOVEJI also check between steps (time of impact, exact distances).
     pub continuous: bool,
+    /// Exact mode: the penetration depth and witness points of each contact reported, to this
+    /// tolerance, computed for those pairs only once the certified boolean has found them.
+    /// `None`: the boolean alone (what the simulator's collision stage asks). Every pair is
+    /// tested by the boolean either way.
+    pub depth: Option<Tolerance>,
 }
 
 impl Default for CollisionSettings {
@@ -52,6 +57,7 @@ impl Default for CollisionSettings {
             mode: Mode::Exact,
             all_contacts: false,
             continuous: false,
+            depth: Some(Tolerance::Certified),
         }
     }
 }
@@ -70,8 +76,8 @@ impl CheckResult {
     }
 }
 
-/// One pair in the chosen mode (exact without the separation distance: checks need only the
-/// boolean, and the depth when in contact).
+/// One pair in the chosen mode: the boolean only in exact mode (certified; no distance, no
+/// depth). Allocates nothing unless the answer is `Unknown` (its reason).
 pub(crate) fn narrow(
     a: &Solid,
     pa: &Isometry3<f64>,
@@ -82,17 +88,58 @@ pub(crate) fn narrow(
     match mode {
         Mode::BBox => crate::bbox::collide(a, pa, b, pb),
         Mode::Polygon => polygon::collide(a, pa, b, pb, PolygonOptions::default()),
-        Mode::Exact => exact::collide(
-            a,
-            pa,
-            b,
-            pb,
-            ExactOptions {
-                distance: false,
-                depth: true,
-            },
-        ),
+        Mode::Exact if !boxes_may_meet(a, pa, b, pb) => PairResult::Clear {
+            distance: None,
+            witness: None,
+        },
+        Mode::Exact => exact::collide(a, pa, b, pb, ExactOptions::BOOLEAN),
     }
+}
+
+/// The seed's two-way box test (each solid's own box carried into the other's frame, Eq. 8–9)
+/// as the exact mode's mid-phase: the world boxes of a rotated link are loose, its own box is
+/// not. Each box is the faceted form's, widened by the tessellation error (so that it holds
+/// the exact solid, whatever the facet count) and by 1e-9 of its size and a nanometre, far
+/// above the rounding of the dilation product, so a touching pair is never culled.
+fn boxes_may_meet(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> bool {
+    let widened = |s: &Solid| {
+        let x = &s.bbox;
+        let margin = s.tessellation_error + 1e-9 * (1.0 + x.center.coords.norm() + x.half.norm());
+        Aabb {
+            center: x.center,
+            half: x.half.add_scalar(margin),
+        }
+    };
+    crate::bbox::overlap_two_way(&widened(a), pa, &widened(b), pb)
+}
+
+/// The depth and witness points of a pair [`narrow`] found in contact, when the settings ask
+/// for them (exact mode; the other modes' answers already carry what they have).
+fn detail(
+    r: PairResult,
+    a: &Solid,
+    pa: &Isometry3<f64>,
+    b: &Solid,
+    pb: &Isometry3<f64>,
+    settings: &CollisionSettings,
+) -> PairResult {
+    let Some(tolerance) = settings.depth else {
+        return r;
+    };
+    if settings.mode != Mode::Exact || !matches!(r, PairResult::Contact { .. }) {
+        return r;
+    }
+    exact::collide(
+        a,
+        pa,
+        b,
+        pb,
+        ExactOptions {
+            distance: false,
+            depth: true,
+            tolerance,
+        },
+    )
 }
 
 fn link_boxes(links: &LinkSolids, lp: &[Option<Isometry3<f64>>]) -> Vec<Option<Aabb>> {
@@ -201,7 +248,8 @@ pub fn check_robots(
                         Body::RobotLink { robot: i, link: a },
                         Body::RobotLink { robot: k, link: b },
                     );
-                    match narrow(&la.solid, pa, &lb.solid, pb, settings.mode) {
+                    let r = narrow(&la.solid, pa, &lb.solid, pb, settings.mode);
+                    match detail(r, &la.solid, pa, &lb.solid, pb, settings) {
                         PairResult::Clear { .. } => {}
                         PairResult::Contact {
                             signed_distance,
@@ -247,29 +295,33 @@ pub fn check_links(
     let robot_box = merged_box(&boxes);
     let mut contacts = Vec::new();
     let mut doubt: Option<(Body, Body, String)> = None;
-    let mut record = |r: PairResult, a: Body, b: Body, contacts: &mut Vec<Collision>| -> bool {
-        match r {
-            PairResult::Clear { .. } => false,
-            PairResult::Contact {
-                signed_distance,
-                witness,
-            } => {
-                contacts.push(Collision {
-                    a,
-                    b,
+    // The bodies are named (an object's name copied) only for a pair that is reported.
+    let mut record =
+        |r: PairResult, bodies: &dyn Fn() -> (Body, Body), contacts: &mut Vec<Collision>| -> bool {
+            match r {
+                PairResult::Clear { .. } => false,
+                PairResult::Contact {
                     signed_distance,
                     witness,
-                });
-                !settings.all_contacts
-            }
-            PairResult::Unknown { reason } => {
-                if doubt.is_none() {
-                    doubt = Some((a, b, reason));
+                } => {
+                    let (a, b) = bodies();
+                    contacts.push(Collision {
+                        a,
+                        b,
+                        signed_distance,
+                        witness,
+                    });
+                    !settings.all_contacts
                 }
-                false
+                PairResult::Unknown { reason } => {
+                    if doubt.is_none() {
+                        let (a, b) = bodies();
+                        doubt = Some((a, b, reason));
+                    }
+                    false
+                }
             }
-        }
-    };
+        };
     if let Some(rb) = robot_box {
         let mut cand = Vec::new();
         scene.candidates(&rb, &mut cand);
@@ -284,22 +336,24 @@ pub fn check_links(
                     continue;
                 }
                 let r = narrow(&l.solid, p, &o.solid, &o.pose, settings.mode);
-                if record(
-                    r,
-                    Body::Link(j),
-                    Body::Object {
-                        index: oi,
-                        name: o.name.clone(),
-                    },
-                    &mut contacts,
-                ) {
+                let r = detail(r, &l.solid, p, &o.solid, &o.pose, settings);
+                let bodies = || {
+                    (
+                        Body::Link(j),
+                        Body::Object {
+                            index: oi,
+                            name: o.name.clone(),
+                        },
+                    )
+                };
+                if record(r, &bodies, &mut contacts) {
                     break 'objects;
                 }
             }
         }
     }
     if settings.self_collision && (settings.all_contacts || contacts.is_empty()) {
-        for (i, j) in links.self_pairs() {
+        for (i, j) in links.self_pair_iter() {
             let (Some(bi), Some(bj)) = (&boxes[i], &boxes[j]) else {
                 continue;
             };
@@ -312,7 +366,8 @@ pub fn check_links(
                 continue;
             };
             let r = narrow(&li.solid, pi, &lj.solid, pj, settings.mode);
-            if record(r, Body::Link(j), Body::Link(i), &mut contacts) {
+            let r = detail(r, &li.solid, pi, &lj.solid, pj, settings);
+            if record(r, &|| (Body::Link(j), Body::Link(i)), &mut contacts) {
                 break;
             }
         }

@@ -109,8 +109,8 @@ pub(crate) fn separation(
     u.normalize_mut();
     let first = support(pos12, ma, mb, &u);
     let mut scale = first.a.coords.norm() + first.b.coords.norm();
-    let mut simplex: Vec<Vertex> = vec![first];
-    let mut weights: Vec<f64> = vec![1.0];
+    // At most four vertices and their weights, on the stack (no allocation per pair).
+    let mut simplex = Simplex::one(first);
     let mut best = Separation {
         verdict: Verdict::Undecided,
         lower: f64::NEG_INFINITY,
@@ -125,7 +125,12 @@ pub(crate) fn separation(
     for it in 0..MAX_ITERATIONS {
         best.iterations = it;
         let mix = |f: fn(&Vertex) -> Vector3<f64>| -> Vector3<f64> {
-            simplex.iter().zip(&weights).map(|(s, l)| f(s) * *l).sum()
+            simplex
+                .vertices()
+                .iter()
+                .zip(simplex.weights())
+                .map(|(s, l)| f(s) * *l)
+                .sum()
         };
         let (pa, pb) = (
             Point3::from(mix(|s| s.a.coords)),
@@ -142,7 +147,7 @@ pub(crate) fn separation(
         best.tau = ROUNDING * scale;
         // Inside a tetrahedron of support-point differences, or a point of each solid within
         // rounding of each other.
-        if simplex.len() == 4 || upper <= best.tau.max(CONTACT_BAND) {
+        if simplex.n == 4 || upper <= best.tau.max(CONTACT_BAND) {
             best.upper = best.upper.min(upper);
             best.verdict = Verdict::Touching;
             best.converged = true;
@@ -153,8 +158,9 @@ pub(crate) fn separation(
         // bound across a flat contact. When the closest point is inside a triangle, v is
         // parallel to the triangle's normal, whose direction is good to ε: use that.
         let mut u = v / upper;
-        if simplex.len() == 3 {
-            let n = (simplex[1].w - simplex[0].w).cross(&(simplex[2].w - simplex[0].w));
+        if simplex.n == 3 {
+            let t = simplex.vertices();
+            let n = (t[1].w - t[0].w).cross(&(t[2].w - t[0].w));
             let len = n.norm();
             if len > 0.0 && len.is_finite() {
                 u = n / len * n.dot(&v).signum();
@@ -179,7 +185,7 @@ pub(crate) fn separation(
             return best;
         }
         simplex.push(s);
-        (simplex, weights) = closest_on_simplex(&simplex, scale);
+        simplex = closest_on_simplex(simplex.vertices(), scale);
     }
     best.iterations = MAX_ITERATIONS;
     if best.lower > best.tau {
@@ -188,30 +194,64 @@ pub(crate) fn separation(
     best
 }
 
+/// Up to four simplex vertices with their barycentric weights (the first `n` are used).
+#[derive(Debug, Clone, Copy)]
+struct Simplex {
+    v: [Vertex; 4],
+    w: [f64; 4],
+    n: usize,
+}
+
+impl Simplex {
+    fn one(v: Vertex) -> Self {
+        Simplex {
+            v: [v; 4],
+            w: [1.0, 0.0, 0.0, 0.0],
+            n: 1,
+        }
+    }
+    fn vertices(&self) -> &[Vertex] {
+        &self.v[..self.n]
+    }
+    fn weights(&self) -> &[f64] {
+        &self.w[..self.n]
+    }
+    /// Appends a vertex (weight 0 until [`closest_on_simplex`] sets the weights). Called with
+    /// at most three vertices: four end the search as touching.
+    fn push(&mut self, v: Vertex) {
+        if self.n < 4 {
+            self.v[self.n] = v;
+            self.w[self.n] = 0.0;
+            self.n += 1;
+        }
+    }
+}
+
 /// The closest point of the simplex to the origin: the sub-simplex whose relative interior
 /// holds it and the barycentric weights there. Four vertices are returned only when the origin
 /// is strictly inside a tetrahedron of non-negligible volume.
-fn closest_on_simplex(s: &[Vertex], scale: f64) -> (Vec<Vertex>, Vec<f64>) {
+fn closest_on_simplex(s: &[Vertex], scale: f64) -> Simplex {
     match s.len() {
-        1 => (s.to_vec(), vec![1.0]),
+        1 => Simplex::one(s[0]),
         2 => reduce(s, &segment(s[0].w, s[1].w)),
         3 => reduce(s, &triangle(s[0].w, s[1].w, s[2].w)),
         _ => tetrahedron(s, scale),
     }
 }
 
-fn reduce(s: &[Vertex], l: &[f64]) -> (Vec<Vertex>, Vec<f64>) {
-    let mut kept = Vec::with_capacity(4);
-    let mut w = Vec::with_capacity(4);
+fn reduce(s: &[Vertex], l: &[f64]) -> Simplex {
+    let mut out = Simplex::one(s[0]);
+    out.n = 0;
     for (v, &x) in s.iter().zip(l) {
         if x > 0.0 {
-            kept.push(*v);
-            w.push(x);
+            out.v[out.n] = *v;
+            out.w[out.n] = x;
+            out.n += 1;
         }
     }
-    let sum: f64 = w.iter().sum();
-    w.iter_mut().for_each(|x| *x /= sum);
-    (kept, w)
+    let sum: f64 = out.w[..out.n].iter().sum();
+    out.w[..out.n].iter_mut().for_each(|x| *x /= sum);
+    out
 }
 
 fn segment(a: Vector3<f64>, b: Vector3<f64>) -> [f64; 2] {
@@ -279,12 +319,12 @@ pub(crate) fn triangle(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> [f6
 
 /// Tetrahedron: the origin is inside iff it is on the inner side of every face (Ericson
 /// §5.1.6); a flat tetrahedron (volume below rounding) is treated as the union of its faces.
-fn tetrahedron(s: &[Vertex], scale: f64) -> (Vec<Vertex>, Vec<f64>) {
+fn tetrahedron(s: &[Vertex], scale: f64) -> Simplex {
     let p = [s[0].w, s[1].w, s[2].w, s[3].w];
     let vol6 = (p[1] - p[0]).dot(&(p[2] - p[0]).cross(&(p[3] - p[0])));
     let flat = vol6.abs() <= 64.0 * f64::EPSILON * scale.powi(3);
     let faces = [(0, 1, 2, 3), (0, 2, 3, 1), (0, 3, 1, 2), (1, 3, 2, 0)];
-    let mut best: Option<(f64, Vec<Vertex>, Vec<f64>)> = None;
+    let mut best: Option<(f64, Simplex)> = None;
     let mut outside_any = false;
     for (i, j, k, o) in faces {
         let n = (p[j] - p[i]).cross(&(p[k] - p[i]));
@@ -298,13 +338,12 @@ fn tetrahedron(s: &[Vertex], scale: f64) -> (Vec<Vertex>, Vec<f64>) {
         let q = p[i] * l[0] + p[j] * l[1] + p[k] * l[2];
         let d = q.norm_squared();
         if best.as_ref().is_none_or(|b| d < b.0) {
-            let (kept, w) = reduce(&tri, &l);
-            best = Some((d, kept, w));
+            best = Some((d, reduce(&tri, &l)));
         }
     }
     let inside = !flat && !outside_any;
     match best {
-        Some((_, kept, w)) if !inside => (kept, w),
+        Some((_, kept)) if !inside => kept,
         _ => {
             // Inside: weights of the origin (signed sub-volumes), reported with all four.
             let vol = |a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>, d: Vector3<f64>| {
@@ -317,7 +356,11 @@ fn tetrahedron(s: &[Vertex], scale: f64) -> (Vec<Vertex>, Vec<f64>) {
                 vol(p[0], p[1], z, p[3]) / vol6,
                 vol(p[0], p[1], p[2], z) / vol6,
             ];
-            (s.to_vec(), l.to_vec())
+            Simplex {
+                v: [s[0], s[1], s[2], s[3]],
+                w: l,
+                n: 4,
+            }
         }
     }
 }

@@ -28,13 +28,85 @@ use parry3d_f64::shape::{Shape, ShapeType, SupportMap};
 /// 8 ε L is below it too).
 pub const DISTANCE_TOLERANCE: f64 = 1e-11;
 
+/// How closely a separation (or a contact's depth) is computed. It never changes a verdict:
+/// apart and touching are certified at every tolerance; only the distance's accuracy, and the
+/// time it takes, change (`robosim report collision` plots both per tolerance).
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum Tolerance {
+    /// The certified bracket: the distance within [`DISTANCE_TOLERANCE`] (1e-11 m) of the true
+    /// one, the lower bound maximised over directions where GJK alone does not close it.
+    #[default]
+    Certified,
+    /// GJK stops once its bracket `upper − lower` is at most this many metres (absolute, > 0;
+    /// coal's `gjk_tolerance` plays the same part). The distance reported is the upper end, a
+    /// true distance between two points of the solids, at most this much above the exact one.
+    Gjk(f64),
+}
+
+/// JSON form: `"certified"` or a number of metres.
+impl serde::Serialize for Tolerance {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Tolerance::Certified => s.serialize_str("certified"),
+            Tolerance::Gjk(t) => s.serialize_f64(*t),
+        }
+    }
+}
+
+impl<'de> serde::Deserialize<'de> for Tolerance {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::Error;
+        #[derive(serde::Deserialize)]
+        #[serde(untagged)]
+        enum Form {
+            Name(String),
+            Metres(f64),
+        }
+        match Form::deserialize(d)? {
+            Form::Name(n) if n == "certified" => Ok(Tolerance::Certified),
+            Form::Name(n) => Err(D::Error::custom(format!(
+                "tolerance \"{n}\": expected \"certified\" or a positive number of metres"
+            ))),
+            Form::Metres(t) => Tolerance::gjk(t).map_err(D::Error::custom),
+        }
+    }
+}
+
+/// A tolerance that is not a positive finite number of metres.
+#[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
+#[error("distance tolerance {value} m: expected a positive finite number of metres")]
+pub struct ToleranceError {
+    pub value: f64,
+}
+
+impl Tolerance {
+    /// A GJK tolerance of `metres`; refuses zero, negative and non-finite values.
+    pub fn gjk(metres: f64) -> Result<Self, ToleranceError> {
+        if metres.is_finite() && metres > 0.0 {
+            Ok(Tolerance::Gjk(metres))
+        } else {
+            Err(ToleranceError { value: metres })
+        }
+    }
+
+    /// The bracket width GJK stops at, metres (never below [`DISTANCE_TOLERANCE`]).
+    pub fn width(self) -> f64 {
+        match self {
+            Tolerance::Certified => DISTANCE_TOLERANCE,
+            Tolerance::Gjk(t) => t.max(DISTANCE_TOLERANCE),
+        }
+    }
+}
+
 /// What to compute beyond the boolean.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ExactOptions {
     /// Separation distance and closest points when clear (one more GJK run).
     pub distance: bool,
     /// Penetration depth and deepest points when in contact (EPA).
     pub depth: bool,
+    /// How closely the distance and the depth are computed.
+    pub tolerance: Tolerance,
 }
 
 impl Default for ExactOptions {
@@ -42,8 +114,18 @@ impl Default for ExactOptions {
         ExactOptions {
             distance: true,
             depth: true,
+            tolerance: Tolerance::Certified,
         }
     }
+}
+
+impl ExactOptions {
+    /// The boolean only (what robot checks and the simulator's collision stage ask).
+    pub const BOOLEAN: ExactOptions = ExactOptions {
+        distance: false,
+        depth: false,
+        tolerance: Tolerance::Certified,
+    };
 }
 
 /// Is `p` (world) inside the closed oriented mesh `s` posed by `ps`? `None` if `s` is not a
@@ -377,25 +459,17 @@ fn collide_support_maps(
     opts: ExactOptions,
 ) -> PairResult {
     let pos12 = ga.inv_mul(gb);
-    let mut s = gjk::separation(&pos12, ma, mb, None, opts.distance, DISTANCE_TOLERANCE);
+    let tol = opts.tolerance.width();
+    let mut s = gjk::separation(&pos12, ma, mb, None, opts.distance, tol);
     // GJK's upper bound creeps onto curved contacts: alternating exact projections where both
     // shapes have them (`projection`), then GJK's rules again.
     if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
-        projection::refine(&mut s, &pos12, sa, sb, opts.distance, DISTANCE_TOLERANCE);
+        projection::refine(&mut s, &pos12, sa, sb, opts.distance, tol);
     }
     // The lower bound is the weak side at 1e-9 m gaps on curved or large pairs: maximise the
     // separating-plane bound over directions (`lower`), then GJK's rules again.
     if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {
-        lower::refine(
-            &mut s,
-            &pos12,
-            ma,
-            mb,
-            sa,
-            sb,
-            opts.distance,
-            DISTANCE_TOLERANCE,
-        );
+        lower::refine(&mut s, &pos12, ma, mb, sa, sb, opts.distance, tol);
     }
     match s.verdict {
         gjk::Verdict::Undecided => PairResult::Unknown {
@@ -420,10 +494,10 @@ fn collide_support_maps(
             // GJK's lower bound is a certified lower bound of the signed distance (minus the
             // depth); a bracket [lower, upper] narrower than the tolerance is the answer for
             // touching pairs. Otherwise the lower bound is first maximised over directions.
-            if s.upper - s.lower > DISTANCE_TOLERANCE {
-                lower::refine(&mut s, &pos12, ma, mb, sa, sb, true, DISTANCE_TOLERANCE);
+            if s.upper - s.lower > tol {
+                lower::refine(&mut s, &pos12, ma, mb, sa, sb, true, tol);
             }
-            if s.upper - s.lower <= DISTANCE_TOLERANCE {
+            if s.upper - s.lower <= tol {
                 return PairResult::Contact {
                     signed_distance: Some(s.lower.min(0.0)),
                     witness: Some([ga * s.pa, ga * s.pb]),
@@ -437,11 +511,8 @@ fn collide_support_maps(
             // the true one (the safe side), but certified from that side only.
             let tau = s.tau;
             let lower = s.lower;
-            let usable = |d: f64| {
-                d <= lower + DISTANCE_TOLERANCE && d >= lower - tau
-                    || d < -tau
-                    || !lower.is_finite()
-            };
+            let usable =
+                |d: f64| d <= lower + tol && d >= lower - tau || d < -tau || !lower.is_finite();
             match query::contact(ga, sa, gb, sb, 0.0) {
                 Ok(Some(c)) if c.dist.is_finite() && usable(c.dist.min(0.0)) => {
                     PairResult::Contact {
