@@ -4,5 +4,6 @@
 //! A new file of tests/ needs its `mod` line here (Cargo.toml: `autotests = false`).
 
 mod hard_cases;
+mod peers;
 mod properties;
 mod reference;
