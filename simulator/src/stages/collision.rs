@@ -44,13 +44,18 @@ pub fn build(
         mode: c.mode,
         all_contacts: false,
         continuous: c.continuous,
+        // The stage keeps a yes/no per step (`Data::contact`): the certified boolean alone.
+        depth: None,
     };
     Ok(CollisionModel {
         links,
         scene: geometry.obstacles,
         settings,
         on_contact: c.on_contact,
-        sweep: SweepOptions::default(),
+        sweep: SweepOptions {
+            distance: c.tolerance,
+            ..SweepOptions::default()
+        },
     })
 }
 
