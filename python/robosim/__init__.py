@@ -13,18 +13,38 @@ transactions, ask any op of the query protocol, and drive the simulator in lock-
     s.sim.step(10)                         # lock-step: 10 simulator steps, then its state
     robosim.plot("run.mcap", "plots/")     # figures of a recorded run (or its CSV log)
 
-Every refusal raises RobosimError (or SessionError, TransactionError, JointLimitError) with
+and run the algorithms on one robot, Pinocchio-style, on one configuration or a batch::
+
+    m = robosim.Model("puma560")           # or Model.from_urdf(path, tip=...), s.model("arm2")
+    T = m.fk(q)                            # 4x4; m.fk(Q) for Q of shape (N, n): (N, 4, 4)
+    tau = m.rnea(q, v, a); M = m.crba(q); qdd = m.aba(q, v, tau); g = m.gravity(q)
+    q = m.ik(T, method="analytic")         # every method and branch of the protocol's ik
+
+Every refusal raises RobosimError (or its subclass for the error kind: SessionError,
+TransactionError, JointLimitError, RequestError, RobotError, UnreachableError,
+NotConvergedError, NotApplicableError, NumericalError, ShapeError) with
 ``.kind`` and ``.message``; a refusal changes nothing.
 """
 
 from ._robosim import (
     JointLimitError,
+    Model,
+    NotApplicableError,
+    NotConvergedError,
+    NumericalError,
+    RequestError,
     RobosimError,
+    RobotError,
     Session,
     SessionError,
+    ShapeError,
     Sim,
     Snapshot,
     TransactionError,
+    UnreachableError,
+    collide,
+    distance,
+    query,
 )
 from .plot import plot
 
@@ -36,6 +56,17 @@ __all__ = [
     "SessionError",
     "TransactionError",
     "JointLimitError",
+    "RequestError",
+    "RobotError",
+    "UnreachableError",
+    "NotConvergedError",
+    "NotApplicableError",
+    "NumericalError",
+    "ShapeError",
+    "Model",
+    "query",
+    "collide",
+    "distance",
     "plot",
 ]
 __version__ = "0.1.0"

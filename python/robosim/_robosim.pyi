@@ -23,6 +23,97 @@ class TransactionError(RobosimError):
 class JointLimitError(RobosimError):
     """Joint values outside the limits; nothing changed (kind ``joint_limit``)."""
 
+class RequestError(RobosimError):
+    """A malformed argument: wrong shape, non-finite number, bad field (``bad_request``...)."""
+
+class RobotError(RobosimError):
+    """No such robot, or a description/file that makes none (``unknown_robot``, ``bad_robot``)."""
+
+class UnreachableError(RobosimError):
+    """The pose is outside the workspace (``unreachable``)."""
+
+class NotConvergedError(RobosimError):
+    """An iterative solve missed the tolerance (``not_converged``)."""
+
+class NotApplicableError(RobosimError):
+    """The method does not apply to this robot (``not_applicable``)."""
+
+class NumericalError(RobosimError):
+    """Singular inertia, overflow, divergence or too many steps."""
+
+class ShapeError(RobosimError):
+    """The fields make no solid (``bad_shape``)."""
+
+class Model:
+    """One robot's algorithms (docs/python.md). Per-configuration methods take q of shape (n,)
+    or a batch (N, n) and answer with the batch axis first."""
+
+    def __init__(self, name: str) -> None: ...
+    @staticmethod
+    def from_urdf(path: str, tip: Optional[str] = None) -> "Model": ...
+    @staticmethod
+    def from_mjcf(path: str, tip: Optional[str] = None) -> "Model": ...
+    @staticmethod
+    def from_json(robot: Dict[str, Json]) -> "Model": ...
+    @staticmethod
+    def from_session(session: "Session", name: str) -> "Model": ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def nq(self) -> int: ...
+    @property
+    def nv(self) -> int: ...
+    def limits(self) -> npt.NDArray[np.float64]:
+        """(n, 2): [lo, hi] per joint."""
+    def to_json(self) -> Dict[str, Json]: ...
+    def fk(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+        """Tool pose (4, 4), or (N, 4, 4)."""
+    def frames(self, q: ArrayLike) -> npt.NDArray[np.float64]:
+        """Base, every link, tool: (n+2, 4, 4), or (N, n+2, 4, 4)."""
+    def jacobian(self, q: ArrayLike, frame: str = "base") -> npt.NDArray[np.float64]:
+        """(6, n) rows vx vy vz wx wy wz, frame "base" or "tool"; (N, 6, n)."""
+    def ik(
+        self,
+        pose: ArrayLike,
+        method: Optional[str] = None,
+        q0: Optional[ArrayLike] = None,
+        tol: Union[None, float, Dict[str, Json]] = None,
+        all: bool = False,
+        full: bool = False,
+        respect_limits: bool = True,
+        max_iterations: Optional[int] = None,
+        restarts: Optional[int] = None,
+        seed: Optional[int] = None,
+    ) -> Any:
+        """q (n,); with all (k, n); a batch (N, n) or a list; full: the ik op's answer dicts."""
+    def rnea(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> npt.NDArray[np.float64]: ...
+    def crba(self, q: ArrayLike) -> npt.NDArray[np.float64]: ...
+    def aba(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike) -> npt.NDArray[np.float64]: ...
+    def gravity(self, q: ArrayLike) -> npt.NDArray[np.float64]: ...
+    def simulate(
+        self,
+        q0: ArrayLike,
+        t_end: float,
+        integrator: str = "rk4",
+        dt: Optional[float] = None,
+        qd0: Optional[ArrayLike] = None,
+        tau: Optional[ArrayLike] = None,
+        outputs: Optional[ArrayLike] = None,
+        rtol: Optional[float] = None,
+        atol: Optional[float] = None,
+        limits: bool = False,
+        max_steps: Optional[int] = None,
+    ) -> Dict[str, Json]:
+        """{"t", "q", "qd", "energy", "stats"} at the output times."""
+    def check(self, q: ArrayLike, scene: Dict[str, Json], **options: Json) -> Any:
+        """The check op's answer dict; a list of them for a batch."""
+
+def query(request: Dict[str, Json]) -> Dict[str, Json]:
+    """Any pure op of the query protocol, answered in this process."""
+
+def collide(a: Dict[str, Json], pose_a: ArrayLike, b: Dict[str, Json], pose_b: ArrayLike, **options: Json) -> Dict[str, Json]: ...
+def distance(a: Dict[str, Json], pose_a: ArrayLike, b: Dict[str, Json], pose_b: ArrayLike, **options: Json) -> Optional[float]: ...
+
 class Snapshot:
     """One consistent version of the model, a view of shared memory."""
 
@@ -74,6 +165,8 @@ class Session:
         """The commits after the last one seen: version, aspects, objects, ids, published_ns."""
     def query(self, request: Dict[str, Json]) -> Dict[str, Json]:
         """Any op of the query protocol; the answer dict (number arrays as numpy arrays)."""
+    def model(self, name: str) -> Model:
+        """Robot `name` as the session ops use it."""
     def plant_command(self, command: Dict[str, Json]) -> Dict[str, Json]:
         """A command to the automation plant: {"cmd": "fault", "fault": NAME} or {"cmd": "get"};
         its state (faults, ringing alarms, units). SessionError if no plant runs or it refuses."""

@@ -49,16 +49,75 @@ pyo3::create_exception!(
     "Joint values outside the robot's limits; nothing changed (kind `joint_limit`)."
 );
 
+pyo3::create_exception!(
+    _robosim,
+    RequestError,
+    RobosimError,
+    "A request the op cannot read: a missing or malformed argument, a wrong shape, a non-finite number (kinds `bad_request`, `invalid_request`, `parse_error`)."
+);
+pyo3::create_exception!(
+    _robosim,
+    RobotError,
+    RobosimError,
+    "No robot of that name, or a robot description or file that does not make a robot (kinds `unknown_robot`, `bad_robot`, `invalid_robot`)."
+);
+pyo3::create_exception!(
+    _robosim,
+    UnreachableError,
+    RobosimError,
+    "The pose is outside the robot's workspace (kind `unreachable`)."
+);
+pyo3::create_exception!(
+    _robosim,
+    NotConvergedError,
+    RobosimError,
+    "An iterative solve did not reach the tolerance; the message gives the best q (kind `not_converged`)."
+);
+pyo3::create_exception!(
+    _robosim,
+    NotApplicableError,
+    RobosimError,
+    "The method does not apply to this robot, e.g. analytic IK of a geometry without a closed form (kind `not_applicable`)."
+);
+pyo3::create_exception!(
+    _robosim,
+    NumericalError,
+    RobosimError,
+    "The numbers failed: a singular inertia, a result beyond f64's range, a diverging or over-long simulation (kinds `singular`, `overflow`, `diverged`, `too_many_steps`)."
+);
+pyo3::create_exception!(
+    _robosim,
+    ShapeError,
+    RobosimError,
+    "The fields do not make a solid (kind `bad_shape`)."
+);
+
+mod model;
+
 /// How long one uninterruptible piece of a wait may last.
 const WAIT_SLICE: Duration = Duration::from_millis(50);
 
-fn raise(py: Python<'_>, e: ProtocolError) -> PyErr {
+pub(crate) fn raise(py: Python<'_>, e: ProtocolError) -> PyErr {
     let text = format!("{}: {}", e.kind, e.message);
     let err = match e.kind {
         ErrorKind::Session => SessionError::new_err(text),
         // A conflict: the keeper refused a relative edit on every attempt; nothing changed.
         ErrorKind::Transaction | ErrorKind::Conflict => TransactionError::new_err(text),
         ErrorKind::JointLimit => JointLimitError::new_err(text),
+        ErrorKind::BadRequest | ErrorKind::InvalidRequest | ErrorKind::ParseError => {
+            RequestError::new_err(text)
+        }
+        ErrorKind::UnknownRobot | ErrorKind::BadRobot | ErrorKind::InvalidRobot => {
+            RobotError::new_err(text)
+        }
+        ErrorKind::Unreachable => UnreachableError::new_err(text),
+        ErrorKind::NotConverged => NotConvergedError::new_err(text),
+        ErrorKind::NotApplicable => NotApplicableError::new_err(text),
+        ErrorKind::Singular
+        | ErrorKind::Overflow
+        | ErrorKind::Diverged
+        | ErrorKind::TooManySteps => NumericalError::new_err(text),
+        ErrorKind::BadShape => ShapeError::new_err(text),
         _ => RobosimError::new_err(text),
     };
     let v = err.value(py);
@@ -69,13 +128,13 @@ fn raise(py: Python<'_>, e: ProtocolError) -> PyErr {
     err
 }
 
-fn bad_request(py: Python<'_>, message: String) -> PyErr {
+pub(crate) fn bad_request(py: Python<'_>, message: String) -> PyErr {
     raise(py, ProtocolError::new(ErrorKind::BadRequest, message))
 }
 
 /// A Python value as JSON: dict (str keys), list/tuple, numpy arrays and scalars, str, int,
 /// float (finite), bool, None. `at` names the place for the error.
-fn to_json(py: Python<'_>, v: &Bound<'_, PyAny>, at: &str) -> PyResult<Value> {
+pub(crate) fn to_json(py: Python<'_>, v: &Bound<'_, PyAny>, at: &str) -> PyResult<Value> {
     if v.is_none() {
         return Ok(Value::Null);
     }
@@ -155,7 +214,7 @@ fn pose_array<'py>(py: Python<'py>, p: &[f64; 12]) -> PyResult<Bound<'py, PyAny>
 }
 
 /// JSON as Python: arrays of numbers become numpy arrays (module docs).
-fn to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn to_py<'py>(py: Python<'py>, v: &Value) -> PyResult<Bound<'py, PyAny>> {
     Ok(match v {
         Value::Null => py.None().into_bound(py),
         Value::Bool(b) => PyBool::new(py, *b).to_owned().into_any(),
@@ -447,6 +506,20 @@ impl Session {
         to_py(py, &answer)
     }
 
+    /// Robot `name` of this session as a `robosim.Model`: the robot its session ops (`kinv`,
+    /// `jacob`) use, compiled from the newest snapshot (base placed in the world).
+    fn model(&mut self, py: Python<'_>, name: &str) -> PyResult<model::Model> {
+        let snap = self.planner.snapshot().map_err(|e| raise(py, e))?;
+        let scene = robosim_scene::CompiledScene::of(&snap);
+        let r = scene.robot(name).map_err(|e| {
+            raise(
+                py,
+                ProtocolError::new(ErrorKind::UnknownRobot, format!("robot {name:?}: {e}")),
+            )
+        })?;
+        Ok(model::Model::of(r.robot.clone()))
+    }
+
     /// The session's simulator.
     #[getter]
     fn sim(slf: Bound<'_, Self>) -> Sim {
@@ -543,5 +616,16 @@ fn _robosim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SessionError", py.get_type::<SessionError>())?;
     m.add("TransactionError", py.get_type::<TransactionError>())?;
     m.add("JointLimitError", py.get_type::<JointLimitError>())?;
+    m.add("RequestError", py.get_type::<RequestError>())?;
+    m.add("RobotError", py.get_type::<RobotError>())?;
+    m.add("UnreachableError", py.get_type::<UnreachableError>())?;
+    m.add("NotConvergedError", py.get_type::<NotConvergedError>())?;
+    m.add("NotApplicableError", py.get_type::<NotApplicableError>())?;
+    m.add("NumericalError", py.get_type::<NumericalError>())?;
+    m.add("ShapeError", py.get_type::<ShapeError>())?;
+    m.add_class::<model::Model>()?;
+    m.add_function(wrap_pyfunction!(model::query, m)?)?;
+    m.add_function(wrap_pyfunction!(model::collide, m)?)?;
+    m.add_function(wrap_pyfunction!(model::distance, m)?)?;
     Ok(())
 }
