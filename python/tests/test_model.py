@@ -13,6 +13,7 @@ import robosim
 HERE = os.path.dirname(os.path.abspath(__file__))
 ROOT = os.path.normpath(os.path.join(HERE, "..", ".."))
 UR5_URDF = os.path.join(ROOT, "testdata", "urdf_corpus", "robots", "ur_description", "ur5_robot.urdf")
+UR5_MJCF = os.path.join(ROOT, "testdata", "mjcf", "ur5.xml")
 RNG = np.random.default_rng(7)
 
 
@@ -219,6 +220,17 @@ def test_a_urdf_file_is_the_protocols_urdf_robot():
     same(m.crba(q), robosim.query({"op": "mass_matrix", "robot": spec, "q": q})["mass_matrix"])
     with pytest.raises(robosim.RobotError, match="robot.urdf"):
         robosim.Model.from_urdf("/no/such/file.urdf", tip="x")
+
+
+@pytest.mark.skipif(not os.path.exists(UR5_MJCF), reason="testdata/mjcf not present")
+def test_an_mjcf_file_is_the_protocols_mjcf_robot():
+    m = robosim.Model.from_mjcf(UR5_MJCF, tip="wrist_3_link")
+    spec = {"mjcf": UR5_MJCF, "tip": "wrist_3_link"}
+    q = configs(m, 1)[0]
+    same(m.frames(q), np.stack(robosim.query({"op": "fk", "robot": spec, "q": q, "frames": True})["frames"]))
+    same(m.gravity(q), robosim.query({"op": "gravity", "robot": spec, "q": q})["tau"])
+    with pytest.raises(robosim.RobotError, match="robot.mjcf"):
+        robosim.Model.from_mjcf(UR5_MJCF, tip="no_such_body")
 
 
 def test_an_inline_robot_round_trips(puma):
