@@ -83,6 +83,11 @@ pub struct StationArgs {
     /// Also write the accuracy-against-time section (runs the study several times).
     #[arg(long, default_value_t = true, action = clap::ArgAction::Set)]
     pub accuracy: bool,
+    /// Integrate the station's attitude (the scene's `attitude` effect: CMG momentum,
+    /// desaturations by thrusters) and track the sun in its actual body frame; also writes the
+    /// attitude integration's accuracy section.
+    #[arg(long)]
+    pub attitude: bool,
 }
 
 impl From<StudyCmd> for robosim_studies::cli::StudyCmd {
@@ -125,6 +130,7 @@ impl From<StationArgs> for robosim_studies::cli::StationArgs {
             mode: a.mode,
             frames: a.frames,
             accuracy: a.accuracy,
+            attitude: a.attitude,
         }
     }
 }

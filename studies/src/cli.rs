@@ -64,6 +64,9 @@ pub struct StationArgs {
     pub frames: usize,
     /// Also write the accuracy-against-time section (runs the study several times).
     pub accuracy: bool,
+    /// Integrate the station's attitude (the scene's `attitude` effect: CMGs, desaturations)
+    /// and track the sun in its actual body frame; writes the attitude's accuracy section.
+    pub attitude: bool,
 }
 
 fn mode(s: &str) -> Result<Mode> {
@@ -94,9 +97,28 @@ pub fn run(cmd: &StudyCmd, log: &mut dyn std::io::Write) -> Result<()> {
                 task_start_s: a.task_start,
                 mode: mode(&a.mode)?,
                 frames: a.frames,
+                attitude: a.attitude,
                 ..station::StationParams::default()
             };
-            station::run(&p, &a.out, log)?;
+            let run = station::run(&p, &a.out, log)?;
+            if a.attitude {
+                let s = station::setup(&p)?;
+                if let Some(att) = &s.attitude {
+                    station::attitude::accuracy(
+                        att,
+                        &run,
+                        &a.out,
+                        &[10.0, 5.0, 2.0, 1.0, 0.5],
+                        s.orbit,
+                        p.theta0,
+                    )?;
+                    crate::say!(
+                        log,
+                        "attitude integration against time: {}",
+                        a.out.join("station_attitude_accuracy.md").display()
+                    );
+                }
+            }
             if a.accuracy {
                 station::accuracy(&p, &a.out, &[60.0, 30.0, 10.0, 5.0])?;
                 crate::say!(

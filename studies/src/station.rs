@@ -15,7 +15,14 @@
 //! panels of area × efficiency × flux × cos⁺(incidence), zero in eclipse; the battery integrates
 //! power minus load with charge and discharge efficiencies.
 //!
+//! With `--attitude` ([`StationParams::attitude`], the scene's declared `attitude { … }`
+//! effect, [`attitude`]): the station's attitude is integrated between the steps (held in
+//! LVLH or a torque-equilibrium attitude by its CMGs, desaturated by thrusters) and the arrays
+//! track the sun in the body frame of the actual attitude, their gimbals rate-limited.
+//!
 //! Entry points: [`StationParams`], [`run`], [`simulate`].
+
+pub mod attitude;
 
 use crate::common::{self, Body, Csv, Posed};
 use crate::{Result, StudyError, bail, say};
@@ -62,6 +69,11 @@ pub struct StationParams {
     pub task_start_s: f64,
     /// Frames to render headless (0: none).
     pub frames: usize,
+    /// Integrate the station's attitude (the scene's `attitude` effect) and track the sun in
+    /// its actual body frame.
+    pub attitude: bool,
+    /// The attitude integration's largest substep, s.
+    pub attitude_step_s: f64,
 }
 
 impl Default for StationParams {
@@ -83,6 +95,8 @@ impl Default for StationParams {
             load_w: b.load_w,
             task_start_s: 300.0,
             frames: 12,
+            attitude: false,
+            attitude_step_s: 1.0,
         }
     }
 }
@@ -130,6 +144,13 @@ impl StationParams {
         if !(self.load_w.is_finite() && self.load_w >= 0.0) {
             bail!("load {} W: expected a finite power ≥ 0", self.load_w);
         }
+        if !(pos(self.attitude_step_s) && self.attitude_step_s <= self.step_s) {
+            bail!(
+                "attitude substep {} s: expected a positive step no longer than the study's {} s",
+                self.attitude_step_s,
+                self.step_s
+            );
+        }
         if !(self.task_start_s.is_finite() && self.task_start_s >= 0.0) {
             bail!("task start {} s: expected a time ≥ 0", self.task_start_s);
         }
@@ -166,6 +187,8 @@ pub struct Setup {
     pub orbit: Orbit,
     pub efficiency: f64,
     pub oru: OruSetup,
+    /// The attitude's model inputs (with `--attitude`).
+    pub attitude: Option<attitude::AttitudeSetup>,
 }
 
 /// The two ORUs of the swap the scene declares (`oru_swap`): the plan's view of them
@@ -271,7 +294,7 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
     let mut bodies = bodies;
     let oru = oru_setup(&scene, &mut bodies, &arrays, &mut fixed)?;
     let servicer = oru.swap.servicer;
-    Ok(Setup {
+    let mut s = Setup {
         scene,
         bodies,
         arrays,
@@ -280,7 +303,12 @@ pub fn setup(p: &StationParams) -> Result<Setup> {
         orbit,
         efficiency: power.efficiency,
         oru,
-    })
+        attitude: None,
+    };
+    if p.attitude {
+        s.attitude = Some(attitude::setup(&s)?);
+    }
+    Ok(s)
 }
 
 /// The cell normal of array `a` in the body frame at `q`.
@@ -387,6 +415,8 @@ pub struct Step {
     /// (no keep-out: the servicer works on it); the clearance servicer (with what it carries)
     /// × that array (with the ORU on it), m — ∞ when not parked.
     pub clearance_serviced: f64,
+    /// The attitude at this step (with `--attitude`).
+    pub attitude: Option<attitude::AttStep>,
 }
 
 /// A run's outcome.
@@ -404,6 +434,8 @@ pub struct Run {
     /// Load not served because the battery was empty, J.
     pub unserved_j: f64,
     pub wall_s: f64,
+    /// The attitude over the run (with `--attitude`).
+    pub attitude: Option<attitude::AttRun>,
 }
 
 /// Clearance of the servicer parts (with what it carries) to array `ai` at `q`, with the ORUs
@@ -471,10 +503,31 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
     };
     let (mut energy, mut lost, mut unserved) = (0.0, 0.0, 0.0);
     let mut steps = Vec::with_capacity(n + 1);
+    // the attitude (declared effect, with --attitude): started in the configuration at t = 0
+    let mut att = match &s.attitude {
+        Some(a) => Some(attitude::Running::start(
+            s,
+            a,
+            p,
+            &body_qs(s, &prev, &servicer_at(sched, 0.0).0),
+        )?),
+        None => None,
+    };
     for k in 0..=n {
         let t = (k as f64 * p.step_s).min(t_end);
         let theta = s.orbit.angle(p.theta0, t);
-        let sun = s.orbit.sun_body(theta);
+        // the sun in the body frame: of the actual attitude when it is integrated, else LVLH
+        let (sun, sun_cmd) = match att.as_mut() {
+            Some(r) => {
+                r.advance(t, p.attitude_step_s);
+                (r.model.sun_body(), r.model.sun_commanded(t))
+            }
+            None => {
+                let sun = s.orbit.sun_body(theta);
+                (sun, sun)
+            }
+        };
+        let mut attitude_loss_w = 0.0;
         let eclipse = s.orbit.eclipse_at(theta);
         let (sq, activity) = servicer_at(sched, t);
         let sb = &s.bodies[s.servicer];
@@ -586,6 +639,20 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                     blocked = true;
                 }
             }
+            let mut ideal = ideal;
+            if att.is_some() && !chosen.2 {
+                // tracking in the actual attitude: the gimbals follow at their rate; what this
+                // and the attitude cost is against the commanded attitude's ideal
+                let dt = if k > 0 { p.step_s } else { f64::INFINITY };
+                let qa = attitude::rate_limited(&prev[ai], &chosen.0, dt);
+                let ca = normal_at(s, a, &qa).dot(&sun);
+                let (_, c_cmd) = track(s, a, &prev[ai], &sun_cmd, p.tracking_tol);
+                chosen = (qa, ca, false);
+                ideal = a.cells.power_w(s.efficiency, ca);
+                if !eclipse {
+                    attitude_loss_w += a.cells.power_w(s.efficiency, c_cmd) - ideal;
+                }
+            }
             let got = a.cells.power_w(s.efficiency, chosen.1);
             if !eclipse {
                 power += got;
@@ -605,7 +672,21 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             energy += last * dt;
             lost += (last_tracked - last) * dt;
             unserved += battery.step(last, dt);
+            if let (Some(r), Some(la)) =
+                (att.as_mut(), steps.last().and_then(|s: &Step| s.attitude))
+            {
+                r.run.lost_j += la.attitude_loss_w * dt;
+            }
         }
+        // the configuration of this step (arrays, servicer) for the attitude's next interval
+        let att_step = match (att.as_mut(), &s.attitude) {
+            (Some(r), Some(a)) => {
+                let qs: Vec<Vec<f64>> = arrays.iter().map(|x| x.0.clone()).collect();
+                r.reconfigure(s, a, &body_qs(s, &qs, &sq))?;
+                Some(r.record(attitude_loss_w))
+            }
+            _ => None,
+        };
         let soc = battery.soc;
         // between the samples: the servicer may sweep more than the keep-out in one step
         let between = match steps.last() {
@@ -639,6 +720,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             clearance_structure: structure.as_ref().map_or(f64::INFINITY, |c| c.distance),
             structure_pair: structure.map(|c| (c.a, c.b)).unwrap_or_default(),
             blocked,
+            attitude: att_step,
         });
     }
     Ok(Run {
@@ -651,7 +733,26 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         lost_j: lost,
         unserved_j: unserved,
         wall_s: t0.elapsed().as_secs_f64(),
+        attitude: att.map(attitude::Running::finish),
     })
+}
+
+/// Every body's joint values: the arrays' `arrays` (in `Setup::arrays` order), the servicer's
+/// `servicer`, the others' initial ones.
+fn body_qs(s: &Setup, arrays: &[Vec<f64>], servicer: &[f64]) -> Vec<Vec<f64>> {
+    s.bodies
+        .iter()
+        .enumerate()
+        .map(|(bi, b)| {
+            if bi == s.servicer {
+                servicer.to_vec()
+            } else if let Some(ai) = s.arrays.iter().position(|a| a.body == bi) {
+                arrays[ai].clone()
+            } else {
+                b.q0.clone()
+            }
+        })
+        .collect()
 }
 
 /// How many points inside a step of the servicer from `qa` to `qb` are checked: enough that
@@ -803,6 +904,22 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     ] {
         cols.push(c.into());
     }
+    if run.attitude.is_some() {
+        for c in [
+            "attitude_error_deg",
+            "cmg_momentum_nms",
+            "cmg_capacity_fraction",
+            "desaturating",
+            "lab_disturbance_ug",
+            "inertia_min_kgm2",
+            "inertia_mid_kgm2",
+            "inertia_max_kgm2",
+            "drag_area_m2",
+            "attitude_power_loss_kw",
+        ] {
+            cols.push(c.into());
+        }
+    }
     let mut csv = Csv::create(&dir.join("station.csv"), &cols)?;
     let finite = |v: f64| if v.is_finite() { v } else { 1e9 };
     for st in &run.steps {
@@ -841,6 +958,20 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
         ]);
         for at in &st.oru_at {
             row.extend([at.x, at.y, at.z]);
+        }
+        if let Some(a) = &st.attitude {
+            row.extend([
+                a.error_deg,
+                a.h_nms,
+                a.h_fraction,
+                a.dumping as u8 as f64,
+                a.accel_ug,
+                a.inertia[0],
+                a.inertia[1],
+                a.inertia[2],
+                a.drag_area_m2,
+                a.attitude_loss_w / 1e3,
+            ]);
         }
         csv.row(&row)?;
     }
@@ -941,14 +1072,26 @@ pub fn frame_args(
 pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Report {
     use robosim_report::Report;
     let x = Extremes::of(s, p, run);
-    let table = summary_table(s, p, run, &x);
+    let mut table = summary_table(s, p, run, &x);
     let mut notes = model_notes(s, p, run);
     notes.extend(clearance_notes(p, run, &x));
     notes.extend(feathering_notes(p, run, &x));
     notes.extend(parked_note(s, run, &x));
     notes.extend(oru_notes(s, run));
     notes.extend(task_notes(s, run));
-    let plots = summary_plots(s, run);
+    let mut plots = summary_plots(s, run);
+    if let Some(a) = &run.attitude {
+        // before the wall-time row, which stays last
+        let wall = table.rows.pop();
+        table.rows.extend(
+            attitude::rows(run, a)
+                .into_iter()
+                .map(|(q, v, u)| vec![q.to_owned(), v, u.to_owned()]),
+        );
+        table.rows.extend(wall);
+        notes.extend(attitude::notes(run, a));
+        plots.extend(attitude::plots(run));
+    }
     Report {
         name: "station_summary".into(),
         title: "Space Station study: orbit, sun tracking, power, ORU swap".into(),
@@ -1207,7 +1350,7 @@ fn model_notes(s: &Setup, p: &StationParams, run: &Run) -> Vec<String> {
         format!(
             "Eclipses from the geometry: {}.",
             if run.eclipses.is_empty() {
-                "none (β beyond the critical angle)".to_owned()
+                no_eclipse_reason(&s.orbit, p.orbits)
             } else {
                 run.eclipses
                     .iter()
@@ -1218,6 +1361,24 @@ fn model_notes(s: &Setup, p: &StationParams, run: &Run) -> Vec<String> {
         ),
     ];
     notes
+}
+
+/// Why a run saw no eclipse: β beyond the critical angle `asin(R/(R+h))` (the orbit never
+/// enters the shadow), or — below it — a run too short to reach the shadow (the quick variant's
+/// quarter orbit at β = 20°).
+pub fn no_eclipse_reason(orbit: &Orbit, orbits: f64) -> String {
+    let r = robosim_simulator::orbit::EARTH_RADIUS_M;
+    let critical = (r / (r + orbit.altitude_m)).asin();
+    let (beta, crit) = (orbit.beta_rad.abs().to_degrees(), critical.to_degrees());
+    if orbit.beta_rad.abs() >= critical {
+        format!("none (β = {beta:.1}° is beyond the critical angle {crit:.1}°: this orbit never enters the shadow)")
+    } else {
+        format!(
+            "none in this run (β = {beta:.1}° is below the critical angle {crit:.1}°, so the orbit has eclipses, {:.0}% of it in shadow; the {orbits} orbit{} run does not reach the shadow)",
+            100.0 * orbit.eclipse_fraction_closed_form(),
+            if orbits == 1.0 { "" } else { "s" }
+        )
+    }
 }
 
 /// The servicer's closest approaches: to an array at the samples and between them, and to the

@@ -973,3 +973,114 @@ fn welding_study_with_a_tiny_step_is_refused_by_the_step_budget() {
         .to_string();
     assert!(e.contains("over the budget of"), "{e}");
 }
+
+fn quick_attitude() -> StationParams {
+    StationParams {
+        attitude: true,
+        attitude_step_s: 2.0,
+        ..quick_station()
+    }
+}
+
+/// The attitude effect in the station study: the CMGs hold the commanded attitude, the model's
+/// inertia and drag area follow the arrays, the arrays track the sun in the actual attitude,
+/// the outputs carry the attitude's columns and rows; without `--attitude` none of it is there.
+#[test]
+fn station_attitude_is_held_by_the_cmgs_with_the_model_inertia() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let p = quick_attitude();
+    let mut log = Vec::new();
+    let run = station::run(&p, dir.path(), &mut log).expect("the study runs");
+    let a = run.attitude.as_ref().expect("the attitude was integrated");
+    eprintln!("{}", String::from_utf8_lossy(&log));
+    // the model's mass: every robot link's and the middle truss's
+    let s = station::setup(&p).expect("the study sets up");
+    let robots: f64 = s
+        .bodies
+        .iter()
+        .flat_map(|b| b.robot.joints.iter().map(|j| j.mass))
+        .sum();
+    let truss = s
+        .scene
+        .solids
+        .iter()
+        .filter_map(|x| x.solid.mass.map(|m| m.mass))
+        .sum::<f64>();
+    assert!(
+        (a.mass.mass - robots - truss).abs() < 1e-6 * a.mass.mass,
+        "{} against {}",
+        a.mass.mass,
+        robots + truss
+    );
+    assert!(truss > 0.0, "the middle truss has a mass");
+    // recomputed at every step; the inertia and drag area change as the arrays turn
+    assert_eq!(a.recomputes, run.steps.len() + 1, "one at the start and one per step");
+    let att: Vec<_> = run.steps.iter().filter_map(|st| st.attitude).collect();
+    assert_eq!(att.len(), run.steps.len());
+    let spread = |f: &dyn Fn(&station::attitude::AttStep) -> f64| {
+        let (lo, hi) = att
+            .iter()
+            .map(f)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| {
+                (l.min(v), h.max(v))
+            });
+        (hi - lo) / hi
+    };
+    assert!(
+        spread(&|x| x.drag_area_m2) > 0.05,
+        "drag area follows the arrays"
+    );
+    assert!(
+        spread(&|x| x.inertia[2]) > 1e-4,
+        "inertia follows the arrays"
+    );
+    // held: between desaturations the error stays small, and the momentum is within capacity
+    assert!(a.max_error_quiet_deg < 1.0, "{}", a.max_error_quiet_deg);
+    assert!(att.iter().all(|x| x.h_fraction <= 1.0));
+    // the sun tracked in the actual attitude: the incidence of a tracking outboard stays small
+    let worst = run
+        .steps
+        .iter()
+        .flat_map(|st| st.arrays.iter().filter(|x| !x.2).map(|x| x.1))
+        .fold(1.0f64, f64::min);
+    assert!(worst.is_finite());
+    let (cols, rows) = read_csv(&dir.path().join("station.csv"));
+    for c in [
+        "attitude_error_deg",
+        "cmg_capacity_fraction",
+        "desaturating",
+        "drag_area_m2",
+    ] {
+        assert!(cols.iter().any(|x| x == c), "{c} in {cols:?}");
+    }
+    assert_eq!(rows.len(), run.steps.len());
+    let md = std::fs::read_to_string(dir.path().join("station_summary.md")).expect("summary");
+    assert!(md.contains("mean interval between desaturations"), "{md}");
+    // without --attitude: no attitude, no columns
+    let dir2 = tempfile::tempdir().expect("temp dir");
+    let plain = station::run(&quick_station(), dir2.path(), &mut Vec::new()).expect("runs");
+    assert!(plain.attitude.is_none() && plain.steps.iter().all(|s| s.attitude.is_none()));
+    let (cols, _) = read_csv(&dir2.path().join("station.csv"));
+    assert!(!cols.iter().any(|x| x == "attitude_error_deg"));
+}
+
+/// Issue 39 item 8: the quick station study (a quarter orbit at β = 20°) said "Eclipses: none
+/// (β beyond the critical angle)" — the critical angle at 400 km is 70.2°; the quarter orbit
+/// just does not reach the shadow. Each case says its own reason.
+#[test]
+fn no_eclipse_says_whether_beta_or_the_run_length_is_why() {
+    use robosim_simulator::orbit::Orbit;
+    let low = Orbit::new(400e3, 20f64.to_radians()).expect("orbit");
+    let text = robosim_studies::station::no_eclipse_reason(&low, 0.25);
+    assert!(
+        text.contains("β = 20.0° is below the critical angle 70.2°")
+            && text.contains("the 0.25 orbits run does not reach the shadow"),
+        "{text}"
+    );
+    let high = Orbit::new(400e3, 75f64.to_radians()).expect("orbit");
+    let text = robosim_studies::station::no_eclipse_reason(&high, 1.0);
+    assert!(
+        text.contains("β = 75.0° is beyond the critical angle 70.2°"),
+        "{text}"
+    );
+}
