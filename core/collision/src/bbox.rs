@@ -31,6 +31,18 @@ pub fn world_box(b: &Aabb, pose: &Isometry3<f64>) -> Aabb {
     b.transformed(pose)
 }
 
+/// A box that holds the *exact* solid: the faceted form's box (`Solid::bbox`) widened by the
+/// tessellation error. A round primitive whose facet count is not a multiple of 4 has a
+/// faceted box smaller than the true solid (a hexagonal prism is 0.87 r wide across its flats),
+/// so the exact mode's culling starts from this one.
+#[inline]
+pub fn exact_box(s: &Solid) -> Aabb {
+    Aabb {
+        center: s.bbox.center,
+        half: s.bbox.half.add_scalar(s.tessellation_error),
+    }
+}
+
 /// The bbox mode: contact iff the solids' boxes pass the two-way test. Conservative — it never
 /// misses a contact of the faceted solids, and says contact for many pairs that are clear.
 pub fn collide(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> PairResult {

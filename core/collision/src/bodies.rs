@@ -4,7 +4,7 @@
 //! ([`CheckError`]). Shared by the discrete checks ([`crate::robot`]) and the continuous one
 //! ([`crate::ccd`]); [`crate::robot`] re-exports all of it, so `robot::Scene` etc. still name it.
 
-use crate::bbox::world_box;
+use crate::bbox::{exact_box, world_box};
 use crate::solid::{ShapeError, Solid};
 use nalgebra::{Isometry3, Matrix4, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 use parry3d_f64::bounding_volume::Aabb as PAabb;
@@ -39,11 +39,20 @@ pub struct SceneObject {
     pub pose: Isometry3<f64>,
     pub in_use: bool,
     world_box: Aabb,
+    /// The world box of [`crate::bbox::exact_box`]: it holds the exact solid (the BVH's box).
+    exact_world_box: Aabb,
 }
 
 impl SceneObject {
+    /// The world box of the faceted form (`Solid::bbox`).
     pub fn world_box(&self) -> &Aabb {
         &self.world_box
+    }
+
+    /// A world box that holds the exact solid (the faceted box widened by the tessellation
+    /// error), for the exact mode's culling.
+    pub fn exact_world_box(&self) -> &Aabb {
+        &self.exact_world_box
     }
 }
 
@@ -67,13 +76,17 @@ impl Scene {
         solid: Arc<Solid>,
         pose: Isometry3<f64>,
     ) -> usize {
-        let world_box = world_box(&solid.bbox, &pose);
+        let (world_box, exact_world_box) = (
+            world_box(&solid.bbox, &pose),
+            world_box(&exact_box(&solid), &pose),
+        );
         self.objects.push(SceneObject {
             name: name.into(),
             solid,
             pose,
             in_use: false,
             world_box,
+            exact_world_box,
         });
         let id = self.objects.len() - 1;
         self.use_object(id);
@@ -87,7 +100,7 @@ impl Scene {
         {
             o.in_use = true;
             self.in_use += 1;
-            self.bvh.insert(paabb(&o.world_box), id as u32);
+            self.bvh.insert(paabb(&o.exact_world_box), id as u32);
         }
     }
 
@@ -107,8 +120,9 @@ impl Scene {
         if let Some(o) = self.objects.get_mut(id) {
             o.pose = pose;
             o.world_box = world_box(&o.solid.bbox, &pose);
+            o.exact_world_box = world_box(&exact_box(&o.solid), &pose);
             if o.in_use {
-                self.bvh.insert(paabb(&o.world_box), id as u32);
+                self.bvh.insert(paabb(&o.exact_world_box), id as u32);
             }
         }
     }
@@ -117,14 +131,15 @@ impl Scene {
         &self.objects
     }
 
-    /// Indices of the in-use objects whose world boxes meet `b` (appended to `out`).
+    /// Indices of the in-use objects whose exact world boxes ([`SceneObject::exact_world_box`],
+    /// which hold the faceted boxes too) meet `b` (appended to `out`).
     pub fn candidates(&self, b: &Aabb, out: &mut Vec<usize>) {
         if self.in_use < BVH_THRESHOLD {
             out.extend(
                 self.objects
                     .iter()
                     .enumerate()
-                    .filter(|(_, o)| o.in_use && o.world_box.overlaps(b))
+                    .filter(|(_, o)| o.in_use && o.exact_world_box.overlaps(b))
                     .map(|(i, _)| i),
             );
         } else {

@@ -19,7 +19,7 @@ pub use crate::bodies::{
     link_poses,
 };
 
-use crate::bbox::world_box;
+use crate::bbox::{exact_box, world_box};
 use crate::bodies::check_link_count;
 use crate::ccd;
 use crate::exact::{self, ExactOptions, Tolerance};
@@ -103,8 +103,8 @@ pub(crate) fn narrow(
 /// above the rounding of the dilation product, so a touching pair is never culled.
 fn boxes_may_meet(a: &Solid, pa: &Isometry3<f64>, b: &Solid, pb: &Isometry3<f64>) -> bool {
     let widened = |s: &Solid| {
-        let x = &s.bbox;
-        let margin = s.tessellation_error + 1e-9 * (1.0 + x.center.coords.norm() + x.half.norm());
+        let x = exact_box(s);
+        let margin = 1e-9 * (1.0 + x.center.coords.norm() + x.half.norm());
         Aabb {
             center: x.center,
             half: x.half.add_scalar(margin),
@@ -142,12 +142,15 @@ fn detail(
     )
 }
 
-fn link_boxes(links: &LinkSolids, lp: &[Option<Isometry3<f64>>]) -> Vec<Option<Aabb>> {
+/// World boxes of the link solids at poses `lp`: of the exact solids in exact mode
+/// ([`exact_box`]), of the faceted ones otherwise.
+fn link_boxes(links: &LinkSolids, lp: &[Option<Isometry3<f64>>], mode: Mode) -> Vec<Option<Aabb>> {
     links
         .links
         .iter()
         .zip(lp)
         .map(|(l, p)| match (l, p) {
+            (Some(l), Some(p)) if mode == Mode::Exact => Some(world_box(&exact_box(&l.solid), p)),
             (Some(l), Some(p)) => Some(world_box(&l.solid.bbox, p)),
             _ => None,
         })
@@ -183,7 +186,7 @@ pub fn check_robots(
         r.robot.check_q(r.q)?;
         check_link_count(r.robot, r.links)?;
         let lp = link_poses(r.robot, r.links, r.q);
-        let boxes = link_boxes(r.links, &lp);
+        let boxes = link_boxes(r.links, &lp, settings.mode);
         let rb = merged_box(&boxes);
         placed.push((lp, boxes, rb));
     }
@@ -291,7 +294,7 @@ pub fn check_links(
     scene: &Scene,
     settings: &CollisionSettings,
 ) -> CheckResult {
-    let boxes = link_boxes(links, lp);
+    let boxes = link_boxes(links, lp, settings.mode);
     let robot_box = merged_box(&boxes);
     let mut contacts = Vec::new();
     let mut doubt: Option<(Body, Body, String)> = None;
@@ -332,7 +335,12 @@ pub fn check_links(
                 let (Some(l), Some(p), Some(b)) = (&links.links[j], &lp[j], &boxes[j]) else {
                     continue;
                 };
-                if !b.overlaps(o.world_box()) {
+                let object_box = if settings.mode == Mode::Exact {
+                    o.exact_world_box()
+                } else {
+                    o.world_box()
+                };
+                if !b.overlaps(object_box) {
                     continue;
                 }
                 let r = narrow(&l.solid, p, &o.solid, &o.pose, settings.mode);

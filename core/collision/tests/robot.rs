@@ -350,3 +350,117 @@ fn two_robots_meet_only_when_their_boxes_do() {
     }
     assert!(both(&reach, &apart).is_clear());
 }
+
+/// Issue 37 item 2: the boolean-first check (mid-phase box test, certified boolean, depth only
+/// for reported pairs) finds exactly the pairs that the full exact query on every link × object
+/// pair finds in contact — no pair culled that touches, none invented — at random q of the
+/// PUMA among rotated boxes, cylinders, cones and spheres (with facet counts that are not
+/// multiples of 4, whose faceted boxes are smaller than the exact solids); and the answer with
+/// `depth: None` names the same pairs, without depths.
+#[test]
+fn boolean_first_check_finds_exactly_the_pairs_exact_mode_finds() {
+    let robot = builtin_robot("puma560").expect("puma");
+    let links = LinkSolids::from_dh(&robot, 0.05).expect("links");
+    let mut rng = ChaCha8Rng::seed_from_u64(3702);
+    let mut scene = Scene::new();
+    for i in 0..40 {
+        let s = match i % 4 {
+            0 => Solid::cuboid(Vector3::new(
+                rng.random_range(0.05..0.4),
+                rng.random_range(0.05..0.4),
+                rng.random_range(0.05..0.4),
+            )),
+            1 => Solid::cylinder(
+                rng.random_range(0.03..0.2),
+                rng.random_range(0.1..0.5),
+                Some(6),
+            ),
+            2 => Solid::cone(
+                rng.random_range(0.03..0.2),
+                rng.random_range(0.1..0.5),
+                Some(7),
+            ),
+            _ => Solid::sphere(rng.random_range(0.03..0.2), Some(5)),
+        }
+        .expect("solid");
+        let pose = Isometry3::new(
+            Vector3::new(
+                rng.random_range(-0.9..0.9),
+                rng.random_range(-0.9..0.9),
+                rng.random_range(-0.3..1.2),
+            ),
+            Vector3::new(
+                rng.random_range(-3.0..3.0),
+                rng.random_range(-3.0..3.0),
+                rng.random_range(-3.0..3.0),
+            ),
+        );
+        scene.add(format!("o{i}"), Arc::new(s), pose);
+    }
+    let with_depth = CollisionSettings {
+        self_collision: false,
+        all_contacts: true,
+        ..CollisionSettings::default()
+    };
+    let boolean = CollisionSettings {
+        depth: None,
+        ..with_depth
+    };
+    let mut contacts_seen = 0;
+    for _ in 0..150 {
+        let q: Vec<f64> = robot
+            .joints
+            .iter()
+            .map(|j| rng.random_range(j.qlim[0]..j.qlim[1]))
+            .collect();
+        let lp = robosim_collision::robot::link_poses(&robot, &links, &q);
+        let mut expected = Vec::new();
+        for (oi, o) in scene.objects().iter().enumerate() {
+            for (j, (l, p)) in links.links.iter().zip(&lp).enumerate() {
+                let (Some(l), Some(p)) = (l, p) else { continue };
+                let r = robosim_collision::collide(&l.solid, p, &o.solid, &o.pose, Mode::Exact);
+                assert!(r.intersects().is_some(), "{r:?}");
+                if r.intersects() == Some(true) {
+                    expected.push((j, oi));
+                }
+            }
+        }
+        expected.sort();
+        let pairs = |r: &CheckResult| -> Vec<(usize, usize)> {
+            let mut v: Vec<(usize, usize)> = match r {
+                CheckResult::Contact(cs) => cs
+                    .iter()
+                    .map(|c| match (&c.a, &c.b) {
+                        (Body::Link(j), Body::Object { index, .. }) => (*j, *index),
+                        other => panic!("unexpected bodies {other:?}"),
+                    })
+                    .collect(),
+                CheckResult::Clear => Vec::new(),
+                CheckResult::Unknown { .. } => panic!("unknown: {r:?}"),
+            };
+            v.sort();
+            v
+        };
+        let full = check_robot(&robot, &links, &q, &scene, &with_depth).expect("check");
+        let bare = check_robot(&robot, &links, &q, &scene, &boolean).expect("check");
+        assert_eq!(pairs(&full), expected, "q = {q:?}");
+        assert_eq!(pairs(&bare), expected, "q = {q:?}");
+        if let CheckResult::Contact(cs) = &bare {
+            assert!(
+                cs.iter()
+                    .all(|c| c.signed_distance.is_none() && c.witness.is_none())
+            );
+        }
+        if let CheckResult::Contact(cs) = &full {
+            assert!(
+                cs.iter()
+                    .all(|c| c.signed_distance.is_some_and(|d| d <= 0.0))
+            );
+        }
+        contacts_seen += expected.len();
+    }
+    assert!(
+        contacts_seen > 20,
+        "the scene is too sparse to test: {contacts_seen}"
+    );
+}

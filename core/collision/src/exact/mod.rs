@@ -572,3 +572,22 @@ mod tests {
         );
     }
 }
+
+#[cfg(test)]
+mod tolerance_tests {
+    use super::*;
+
+    #[test]
+    fn tolerance_json_form_and_refusals() {
+        let c: Tolerance = serde_json::from_str("\"certified\"").expect("certified");
+        assert_eq!(c, Tolerance::Certified);
+        let g: Tolerance = serde_json::from_str("1e-6").expect("number");
+        assert_eq!(g, Tolerance::Gjk(1e-6));
+        assert_eq!(serde_json::to_string(&g).expect("json"), "1e-6");
+        for bad in ["0", "-1e-6", "\"loose\"", "true"] {
+            assert!(serde_json::from_str::<Tolerance>(bad).is_err(), "{bad}");
+        }
+        assert!(Tolerance::gjk(f64::NAN).is_err());
+        assert_eq!(Tolerance::Gjk(1e-20).width(), DISTANCE_TOLERANCE);
+    }
+}
