@@ -3,8 +3,8 @@
 
 use crate::layout::{
     ChunkEntry, GeometryBundleHeader, GeometryEntry, GeometryHeader, OBJECT_CHUNK,
-    ObjectChunkHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader, PoseRec,
-    SegmentWriter, flags,
+    ObjectChunkHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader, PoseRec, Segment,
+    SegmentWriter, flags, section_mut,
 };
 use crate::record::{self, KinematicsFields};
 use crate::store::{Id, Object, Store};
@@ -201,6 +201,80 @@ pub(crate) fn object_chunk<'a>(
     w.to_vec()
 }
 
+/// Rewrites record `j` of the object chunk `words` for `o` where it is, when nothing but the
+/// record changes: the same object, its name and origin as the chunk's names section holds
+/// them, and its place in the geometry index the same (geometry before and after, or neither).
+/// `Some(changed)` (whether a byte of the record changed); `None` when the chunk must be
+/// encoded again ([`object_chunk`]). O(1), where encoding the chunk is O([`OBJECT_CHUNK`]).
+/// `names` is scratch space.
+pub(crate) fn patch_object_rec(
+    words: &mut [u64],
+    j: usize,
+    o: &Object,
+    names: &mut Vec<u8>,
+) -> Option<bool> {
+    let seg = Segment::parse(words).ok()?;
+    let old = *seg.section::<ObjectRec>(1).ok()?.get(j)?;
+    let text = seg.section::<u8>(2).ok()?;
+    let at = |off: u32, len: u32| text.get(off as usize..off as usize + len as usize);
+    if old.id != o.id
+        || at(old.name_off, old.name_len)? != o.name.as_bytes()
+        || at(old.origin_off, old.origin_len)? != o.origin.as_bytes()
+    {
+        return None;
+    }
+    names.clear();
+    let mut rec = object_rec(o, names);
+    if (rec.flags ^ old.flags) & flags::HAS_GEOMETRY != 0 {
+        return None;
+    }
+    rec.name_off = old.name_off;
+    rec.origin_off = old.origin_off;
+    // Bytes, not values: -0.0 for 0.0 is a change a reader must see.
+    if bytemuck::bytes_of(&rec) == bytemuck::bytes_of(&old) {
+        return Some(false);
+    }
+    *section_mut::<ObjectRec>(words, 1).ok()?.get_mut(j)? = rec;
+    Some(true)
+}
+
+/// The object chunk `old` with `objects` (object order) appended after its records: its
+/// records, names and geometry index copied as they are and the new ones' added, at
+/// `generation` — what [`object_chunk`] of all of them gives, without encoding the old
+/// records again. `None` when `old` is not a sound object chunk or the result would pass
+/// [`OBJECT_CHUNK`] records.
+pub(crate) fn extend_object_chunk<'a>(
+    old: &[u64],
+    objects: impl IntoIterator<Item = &'a Object>,
+    generation: u64,
+) -> Option<Vec<u64>> {
+    let seg = Segment::parse(old).ok()?;
+    let head: ObjectChunkHeader = *seg.record(0).ok()?;
+    let mut recs = seg.section::<ObjectRec>(1).ok()?.to_vec();
+    let mut names = seg.section::<u8>(2).ok()?.to_vec();
+    let mut with_geometry = seg.section::<u64>(3).ok()?.to_vec();
+    for o in objects {
+        if o.geometry.is_some() {
+            with_geometry.push(recs.len() as u64);
+        }
+        recs.push(object_rec(o, &mut names));
+    }
+    if recs.len() > OBJECT_CHUNK {
+        return None;
+    }
+    let header = [ObjectChunkHeader {
+        generation,
+        first: head.first,
+        count: recs.len() as u64,
+    }];
+    let mut w = SegmentWriter::new();
+    w.push(&header)
+        .push(&recs)
+        .push(&names)
+        .push(&with_geometry);
+    Some(w.to_vec())
+}
+
 /// Sets the generation in an object chunk's header (written by [`object_chunk`]).
 pub(crate) fn set_chunk_generation(words: &mut [u64], generation: u64) {
     // Section 0's offset is word 2 (see `SegmentWriter`); the generation is its first word.
@@ -311,6 +385,7 @@ pub(crate) fn object_rec(o: &Object, names: &mut Vec<u8>) -> ObjectRec {
 
 #[cfg(test)]
 mod tests {
+    use crate::layout::OBJECT_CHUNK;
     use crate::{GeometryInput, Kind, Snapshot, Store, Transaction};
 
     /// A local snapshot reads back what the model holds: names, parents, world poses through
@@ -354,5 +429,95 @@ mod tests {
         assert_eq!(g.vertices.len(), 4);
         assert_eq!(g.polygons.len(), 4);
         assert!(snap.geometry(snap.find("item").expect("item")).is_none());
+    }
+
+    fn tetra(scale: f64) -> GeometryInput {
+        GeometryInput {
+            vertices: vec![
+                [0.0, 0.0, 0.0],
+                [scale, 0.0, 0.0],
+                [0.0, scale, 0.0],
+                [0.0, 0.0, scale],
+            ],
+            polygons: vec![vec![0, 2, 1], vec![0, 1, 3], vec![0, 3, 2], vec![1, 2, 3]],
+        }
+    }
+
+    /// A model of `n` solids under a scene, every other one with geometry; their ids.
+    fn model(n: usize) -> (Store, Vec<u64>) {
+        let mut model = Store::new();
+        let mut tx = Transaction::new();
+        let scene = tx.create(Kind::Scene, "scene", None);
+        for k in 0..n {
+            let s = tx.create(Kind::Solid, &format!("s{k}"), Some(scene));
+            if k % 2 == 0 {
+                tx.set_geometry(s, Some(tetra(1.0)));
+            }
+        }
+        let a = model.apply(&tx).expect("valid transaction");
+        (model, a.created)
+    }
+
+    fn chunk_of(model: &Store, generation: u64) -> Vec<u64> {
+        super::object_chunk(model.objects(), 0, generation)
+    }
+
+    /// A record patched where it is gives the chunk that encoding the model again gives; a
+    /// change to the names or to the geometry index is refused (the chunk is encoded again).
+    #[test]
+    fn a_patched_record_is_the_record_encoded_again() {
+        let (mut model, ids) = model(6);
+        let mut words = chunk_of(&model, 1);
+        // Geometry replaced (the record's generation changes), a colour set.
+        let mut tx = Transaction::new();
+        tx.set_geometry(ids[3], Some(tetra(2.0)));
+        tx.set_appearance(
+            ids[3],
+            crate::Appearance {
+                color: [0.5, 0.25, 1.0, 1.0],
+                ..Default::default()
+            },
+        );
+        model.apply(&tx).expect("valid transaction");
+        let o = model.get(ids[3]).expect("object");
+        let mut names = Vec::new();
+        assert_eq!(
+            super::patch_object_rec(&mut words, 3, o, &mut names),
+            Some(true)
+        );
+        assert_eq!(words, chunk_of(&model, 1));
+        // The same again changes nothing.
+        assert_eq!(
+            super::patch_object_rec(&mut words, 3, o, &mut names),
+            Some(false)
+        );
+        // The wrong place, a new name, geometry gone: not patched, nothing written.
+        let before = words.clone();
+        assert_eq!(super::patch_object_rec(&mut words, 2, o, &mut names), None);
+        let mut tx = Transaction::new();
+        tx.set_name(ids[3], "renamed");
+        model.apply(&tx).expect("valid transaction");
+        let o = model.get(ids[3]).expect("object");
+        assert_eq!(super::patch_object_rec(&mut words, 3, o, &mut names), None);
+        let mut tx = Transaction::new();
+        tx.set_geometry(ids[5], None);
+        model.apply(&tx).expect("valid transaction");
+        let o = model.get(ids[5]).expect("object");
+        assert_eq!(super::patch_object_rec(&mut words, 5, o, &mut names), None);
+        assert_eq!(words, before);
+    }
+
+    /// Objects appended to a chunk give the chunk that encoding all of them gives.
+    #[test]
+    fn an_extended_chunk_is_the_chunk_encoded_again() {
+        let (model, _) = model(9);
+        let objects: Vec<&crate::Object> = model.objects().collect();
+        let old = super::object_chunk(objects[..4].iter().copied(), 0, 3);
+        let extended = super::extend_object_chunk(&old, objects[4..].iter().copied(), 7)
+            .expect("a sound chunk");
+        assert_eq!(extended, super::object_chunk(objects.iter().copied(), 0, 7));
+        // Past a chunk's capacity: refused.
+        let full = super::object_chunk(std::iter::repeat_n(objects[1], OBJECT_CHUNK), 0, 1);
+        assert!(super::extend_object_chunk(&full, [objects[2]], 2).is_none());
     }
 }

@@ -201,6 +201,9 @@ fn wall_clock_epoch() -> u64 {
         .map_or(1, |d| d.as_nanos() as u64)
 }
 
+/// The largest segment [`Keeper::send`] writes through the keeper's scratch words (1 MB).
+const SCRATCH_WORDS: usize = 1 << 17;
+
 /// Large answers not yet fully fetched, at most this many (the oldest go first).
 const MAX_LARGE_ANSWERS: usize = 64;
 
@@ -286,6 +289,8 @@ pub struct Keeper {
     /// and the ones not yet handed to the bridge.
     held: HashMap<u64, ActiveRequest>,
     to_forward: Vec<(u64, Vec<u8>)>,
+    /// Where [`Keeper::send`] writes a segment before copying it into a sample.
+    scratch: std::cell::RefCell<Vec<u64>>,
     _registration: Registration,
     _services: Vec<Box<dyn std::any::Any>>,
     /// Held until everything above is dropped (the journal closed).
@@ -609,6 +614,7 @@ impl Keeper {
             library_gen: 0,
             held: HashMap::new(),
             to_forward: Vec::new(),
+            scratch: std::cell::RefCell::default(),
             _registration: registration,
             _lock: lock,
             _services: vec![
@@ -1130,9 +1136,31 @@ impl Keeper {
         self.last_connect_update = Instant::now();
     }
 
-    fn send(publisher: &Pub, w: &SegmentWriter<'_>, what: &str) -> Result<(), KeeperError> {
+    /// Publishes the segment `w` on `publisher`. A segment up to [`SCRATCH_WORDS`] is written
+    /// once into the keeper's scratch words and copied into an uninitialised sample: `loan_slice`
+    /// first wrote the whole sample with zeros, element by element — a third of the keeper's
+    /// time in a one-body geometry change at 10⁵ objects (issue 37 item 6). Larger ones (the
+    /// bases, published on request) are written into a zeroed sample as before.
+    fn send(&self, publisher: &Pub, w: &SegmentWriter<'_>, what: &str) -> Result<(), KeeperError> {
+        let words = w.words();
+        if words <= SCRATCH_WORDS {
+            let mut scratch = self.scratch.borrow_mut();
+            if scratch.len() < words {
+                scratch.resize(words, 0);
+            }
+            let out = &mut scratch[..words];
+            w.write(out);
+            let sample = publisher
+                .loan_slice_uninit(words)
+                .map_err(ipc(format!("loan {what}")))?;
+            sample
+                .write_from_slice(out)
+                .send()
+                .map_err(ipc(format!("send {what}")))?;
+            return Ok(());
+        }
         let mut sample = publisher
-            .loan_slice(w.words())
+            .loan_slice(words)
             .map_err(ipc(format!("loan {what}")))?;
         w.write(sample.payload_mut());
         sample.send().map_err(ipc(format!("send {what}")))?;
@@ -1171,19 +1199,33 @@ impl Keeper {
                     *d = true;
                 }
             }
-            let mut ks: Vec<usize> = changed
-                .unwrap_or(&[])
-                .iter()
-                .filter_map(|id| self.index.get(id).copied())
-                .filter(|&i| i < start)
-                .map(|i| i / OBJECT_CHUNK)
-                .collect();
-            if start < n {
-                ks.extend(start / OBJECT_CHUNK..n.div_ceil(OBJECT_CHUNK));
+            // A changed object's record is patched where it is in its chunk when nothing else
+            // of the chunk changes (its names, its geometry index): O(1) per object. Encoding
+            // the whole chunk again — 256 records, each looked up in the model — was most of a
+            // one-body geometry change at 10⁵ objects (issue 37 item 6).
+            let mut ks: Vec<usize> = Vec::new();
+            for id in changed.unwrap_or(&[]) {
+                let Some(&i) = self.index.get(id) else {
+                    continue;
+                };
+                if i < start && !self.patch_object(i, version) {
+                    ks.push(i / OBJECT_CHUNK);
+                }
             }
             ks.dedup();
             for k in ks {
                 self.encode_object_chunk(k, version);
+            }
+            if start < n {
+                // The objects appended: the chunk they start in keeps its records and gains
+                // theirs (copied, not encoded again); the chunks after it are new.
+                let first = start / OBJECT_CHUNK;
+                if !self.extend_object_chunk(first, start, version) {
+                    self.encode_object_chunk(first, version);
+                }
+                for k in first + 1..n.div_ceil(OBJECT_CHUNK) {
+                    self.encode_object_chunk(k, version);
+                }
             }
         } else {
             let old_poses = std::mem::take(&mut self.poses);
@@ -1240,6 +1282,59 @@ impl Keeper {
             && new.iter().all(|&id| id > last)
             && changed.iter().all(|&id| self.model.get(id).is_some()))
         .then_some(new)
+    }
+
+    /// Patches the record of object `i` (in the caches) where it is in its object chunk
+    /// ([`crate::encode::patch_object_rec`]); a chunk whose record changed takes generation
+    /// `version` and is marked for the next objects head. `false` when the chunk must be
+    /// encoded again instead.
+    fn patch_object(&mut self, i: usize, version: u64) -> bool {
+        let k = i / OBJECT_CHUNK;
+        let (Some(o), Some(words)) = (
+            self.order.get(i).and_then(|&id| self.model.get(id)),
+            self.obj_chunks.get_mut(k),
+        ) else {
+            return false;
+        };
+        let mut names = Vec::new();
+        match crate::encode::patch_object_rec(words, i % OBJECT_CHUNK, o, &mut names) {
+            None => false,
+            Some(false) => true,
+            Some(true) => {
+                crate::encode::set_chunk_generation(words, version);
+                self.obj_gen[k] = version;
+                self.obj_dirty[k] = true;
+                true
+            }
+        }
+    }
+
+    /// Object chunk `k`, which held the objects before `start` (all of them in the caches
+    /// now), extended by the objects from `start` on that fall in it
+    /// ([`crate::encode::extend_object_chunk`]), at generation `version` and marked for the
+    /// next objects head. `false` (nothing done) when the chunk is not such a one: encode it.
+    fn extend_object_chunk(&mut self, k: usize, start: usize, version: u64) -> bool {
+        let end = ((k + 1) * OBJECT_CHUNK).min(self.order.len());
+        let Some(old) = self.obj_chunks.get(k) else {
+            return false;
+        };
+        let held = crate::layout::Segment::parse(old)
+            .and_then(|s| s.record::<crate::layout::ObjectChunkHeader>(0).copied())
+            .ok();
+        if held.is_none_or(|h| h.first as usize + h.count as usize != start || start >= end) {
+            return false;
+        }
+        let model = &self.model;
+        let added = self.order[start..end]
+            .iter()
+            .filter_map(|&id| model.get(id));
+        let Some(words) = crate::encode::extend_object_chunk(old, added, version) else {
+            return false;
+        };
+        self.obj_chunks[k] = words;
+        self.obj_gen[k] = version;
+        self.obj_dirty[k] = true;
+        true
     }
 
     /// Encodes object chunk `k` from the model; if it differs from the one last published (or
@@ -1308,7 +1403,7 @@ impl Keeper {
         let header = self.objects_header();
         let entries = crate::encode::chunk_entries(&self.obj_gen, carried);
         let w = crate::encode::objects_writer(&header, &self.obj_gen, &entries, carried);
-        Self::send(publisher, &w, what)
+        self.send(publisher, &w, what)
     }
 
     /// Publishes the objects base — every object chunk at the current structure version —
@@ -1355,7 +1450,7 @@ impl Keeper {
                 first,
                 recs.len(),
             )];
-            Self::send(
+            self.send(
                 publisher,
                 &crate::encode::pose_chunk_writer(&header, recs),
                 "pose chunk",
@@ -1366,7 +1461,7 @@ impl Keeper {
         let header = [self.poses_header()];
         let mut w = SegmentWriter::new();
         w.push(&header).push(&self.chunk_gen);
-        Self::send(&self.poses_pub, &w, "poses")
+        self.send(&self.poses_pub, &w, "poses")
     }
 
     /// Publishes the pose base — the current head and every pose record in one sample — unless
@@ -1380,7 +1475,7 @@ impl Keeper {
         let header = [self.poses_header()];
         let mut w = SegmentWriter::new();
         w.push(&header).push(&self.chunk_gen).push(&self.poses);
-        Self::send(&self.base_pub, &w, "pose base")?;
+        self.send(&self.base_pub, &w, "pose base")?;
         self.base_published = Some(now);
         Ok(())
     }
@@ -1441,7 +1536,7 @@ impl Keeper {
         }
         let mut w = SegmentWriter::new();
         w.push(&recs).push(&ids);
-        Self::send(&self.changes_pub, &w, "changes")
+        self.send(&self.changes_pub, &w, "changes")
     }
 
     /// Publishes the geometry of `ids` (ascending; those deleted or without geometry are
@@ -1461,7 +1556,7 @@ impl Keeper {
         if bundle.is_empty() {
             return Ok(());
         }
-        Self::send(&self.geometry_pub, &bundle.writer(), "geometry update")
+        self.send(&self.geometry_pub, &bundle.writer(), "geometry update")
     }
 
     /// Publishes the geometry base — every object's geometry at the current structure version —
@@ -1480,7 +1575,7 @@ impl Keeper {
         ) else {
             return Ok(());
         };
-        Self::send(&self.geometry_base_pub, &bundle.writer(), "geometry base")?;
+        self.send(&self.geometry_base_pub, &bundle.writer(), "geometry base")?;
         self.geometry_base_published = Some(now);
         Ok(())
     }

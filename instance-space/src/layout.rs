@@ -158,6 +158,24 @@ impl<'a> Segment<'a> {
     }
 }
 
+/// Section `i` of the segment `words` viewed as `[T]` in place, to write (a record patched
+/// where it is); the same bounds as [`Segment::section`].
+pub fn section_mut<T: Pod>(words: &mut [u64], i: usize) -> Result<&mut [T], LayoutError> {
+    let n = Segment::parse(words)?.n;
+    if i >= n {
+        return Err(LayoutError::Missing(i));
+    }
+    let off = words[2 + 2 * i] as usize;
+    let len = words[3 + 2 * i] as usize;
+    let w = len.div_ceil(8);
+    let words = off
+        .checked_add(w)
+        .and_then(|end| words.get_mut(off..end))
+        .ok_or(LayoutError::Section(i))?;
+    let bytes: &mut [u8] = bytemuck::cast_slice_mut(words);
+    bytemuck::try_cast_slice_mut(&mut bytes[..len]).map_err(|_| LayoutError::Section(i))
+}
+
 #[repr(C)]
 #[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
 pub struct ObjectsHeader {

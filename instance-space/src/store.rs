@@ -488,12 +488,8 @@ impl Stage<'_> {
                 let rid = self.resolve(i, *id)?;
                 if let Some(m) = dynamics {
                     finite(i, rid, "mass", m.mass)?;
-                    for (k, v) in m.com.iter().enumerate() {
-                        finite(i, rid, &format!("com[{k}]"), *v)?;
-                    }
-                    for (k, v) in m.inertia.iter().enumerate() {
-                        finite(i, rid, &format!("inertia[{k}]"), *v)?;
-                    }
+                    finite_each(i, rid, "com", &m.com)?;
+                    finite_each(i, rid, "inertia", &m.inertia)?;
                     validate::mass_props(m).map_err(|(field, reason)| TxError::InvalidValue {
                         op: i,
                         id: rid,
@@ -523,8 +519,10 @@ impl Stage<'_> {
                             }
                         }
                         for (k, v) in g.vertices.iter().enumerate() {
-                            for (c, x) in v.iter().enumerate() {
-                                finite(i, rid, &format!("vertices[{k}][{c}]"), *x)?;
+                            // The field named only for a value that is not finite: a format
+                            // per coordinate was most of a small geometry's validation.
+                            if v.iter().any(|x| !x.is_finite()) {
+                                finite_each(i, rid, &format!("vertices[{k}]"), v)?;
                             }
                         }
                         let verts = g
@@ -719,6 +717,15 @@ fn finite(op: usize, id: Id, field: &str, value: f64) -> Result<(), TxError> {
     }
 }
 
+/// Every one of `values` finite; the first that is not is named `field[k]` (the name made only
+/// then).
+fn finite_each(op: usize, id: Id, field: &str, values: &[f64]) -> Result<(), TxError> {
+    match values.iter().position(|v| !v.is_finite()) {
+        None => Ok(()),
+        Some(k) => finite(op, id, &format!("{field}[{k}]"), values[k]),
+    }
+}
+
 fn check_name(op: usize, id: Id, name: &str) -> Result<(), TxError> {
     if name.len() > MAX_NAME_BYTES {
         return Err(TxError::TooLarge {
@@ -735,9 +742,7 @@ fn check_name(op: usize, id: Id, name: &str) -> Result<(), TxError> {
 /// Finite, rotation orthonormal with determinant +1 (to 1e-6: poses composed in f64 by a
 /// planner drift a little; the keeper does not renormalise them).
 pub(crate) fn check_pose(op: usize, id: Id, field: &str, p: &Pose) -> Result<(), TxError> {
-    for (k, v) in p.iter().enumerate() {
-        finite(op, id, &format!("{field}[{k}]"), *v)?;
-    }
+    finite_each(op, id, field, p)?;
     let r = nalgebra::Matrix3::new(p[0], p[1], p[2], p[4], p[5], p[6], p[8], p[9], p[10]);
     let err = (r.transpose() * r - nalgebra::Matrix3::identity())
         .abs()
@@ -785,9 +790,7 @@ fn check_kinematics(op: usize, id: Id, k: &Kinematics) -> Result<(), TxError> {
             ..
         } => {
             check_pose(op, id, "placement", placement)?;
-            for (k, v) in axis.iter().enumerate() {
-                finite(op, id, &format!("axis[{k}]"), *v)?;
-            }
+            finite_each(op, id, "axis", axis)?;
             let norm = axis.iter().map(|v| v * v).sum::<f64>().sqrt();
             if (norm - 1.0).abs() > 1e-6 {
                 return Err(TxError::InvalidValue {
