@@ -1,20 +1,28 @@
 //! The query-protocol ops of collision detection (DESIGN.md, "The query protocol"):
 //!
-//! * `collide` — `{a, pose_a, b, pose_b, mode?}` → `{verdict, intersect, distance,
+//! * `collide` — `{a, pose_a, b, pose_b, mode?, tolerance?}` → `{verdict, intersect, distance,
 //!   signed_distance, witness_a, witness_b, reason?, tessellation_error}`. Shapes in DESIGN.md's
 //!   form (`box` size, `sphere` radius, `cylinder`/`cone` radius + height, `convex` points,
 //!   `mesh` vertices + polygons), plus `facets` on round shapes and a `compound` extension
 //!   (`parts`: shapes each with a `pose`). Poses are 4×4 row-major. `mode`: bbox | polygon |
-//!   exact (default exact). `intersect` is `null` when the verdict is `unknown`.
+//!   exact (default exact). `intersect` is `null` when the verdict is `unknown`. `tolerance`
+//!   (exact mode): `"certified"` (default: the distance within 1e-11 m) or a number of metres,
+//!   GJK's bracket width ([`robosim_collision::Tolerance`]; the verdict stays certified).
 //! * `check` — `{robot, q, scene: {objects: [shape + name + pose + use?]}, mode?,
 //!   self_collision? (true), all? (false), links?, allowed?, link_radius? (0.04 m)}` →
 //!   `{verdict, clear, contacts: [{a, b, signed_distance, witness_a, witness_b}], reason?,
-//!   link_solids}`. A body is `{"link": j}` (0 = base) or `{"object": i, "name"}`.
+//!   link_solids}`. `depth?` (true): the contacts' depth and witness points (exact mode; `false`
+//!   answers the certified boolean alone, `signed_distance` and witnesses `null`), to
+//!   `tolerance?` as in `collide`. A body is `{"link": j}` (0 = base) or `{"object": i, "name"}`.
 //!   **Link solids**: `links` gives one entry per link, base first (`null` or a shape with a
 //!   `pose` in the link frame). A robot without them gets [`LinkSolids::from_dh`] boxes of
 //!   half-width `link_radius` along its DH segments; the answer says which was used.
 //!
 //! A sphere's `facets` is at most [`MAX_SPHERE_FACETS`] (the most its default ever is).
+//!
+//! Shapes are built once: the ops take solids from a bounded cache keyed by the shape's
+//! canonical JSON text ([`cached_solid`]), so a client repeating a shape with new poses pays
+//! for parsing and a lookup only.
 //!
 //! Errors: `bad_request` (field path and reason), `bad_shape`, `unknown_robot`, `bad_robot`.
 //!
@@ -26,15 +34,17 @@ use crate::robot_json::{number, number_array, robot_from_json};
 use crate::{ErrorKind, ProtocolError};
 use nalgebra::{Isometry3, Point3};
 use robosim_collision::Solid;
+use robosim_collision::exact::{self, ExactOptions};
 use robosim_collision::json::ShapeJsonError;
 use robosim_collision::robot::{
     Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
 };
-use robosim_collision::{Mode, PairResult};
+use robosim_collision::{Mode, PairResult, Tolerance};
 use robosim_kinematics::{Robot, builtin_robot};
-use serde_json::{Value, json};
+use serde_json::{Map, Value, json};
 use std::borrow::Cow;
-use std::sync::Arc;
+use std::collections::HashMap;
+use std::sync::{Arc, LazyLock, Mutex, PoisonError};
 
 fn bad(message: impl Into<String>) -> ProtocolError {
     ProtocolError::new(ErrorKind::BadRequest, message)
@@ -94,6 +104,112 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, P
     Ok(robosim_collision::json::solid_from_json(v, path, extra)?)
 }
 
+/// Solids the ops have built, by canonical shape text, least recently used evicted first.
+/// Bounded by entry count and by the total length of the keys (a mesh's text is its size).
+struct ShapeCache {
+    map: HashMap<String, (Arc<Solid>, u64)>,
+    tick: u64,
+    key_bytes: usize,
+}
+
+/// Most solids kept.
+const CACHE_ENTRIES: usize = 512;
+/// Most key text kept, bytes (meshes are keyed by their whole description).
+const CACHE_KEY_BYTES: usize = 32 << 20;
+/// Shapes with a longer description are built every time (never cached).
+const MAX_KEY_BYTES: usize = 4 << 20;
+
+impl ShapeCache {
+    fn get(&mut self, key: &str) -> Option<Arc<Solid>> {
+        self.tick += 1;
+        let tick = self.tick;
+        self.map.get_mut(key).map(|(s, used)| {
+            *used = tick;
+            Arc::clone(s)
+        })
+    }
+
+    fn insert(&mut self, key: String, solid: Arc<Solid>) {
+        self.tick += 1;
+        if let Some(entry) = self.map.get_mut(&key) {
+            // built twice at once (two threads): keep one, count its key once
+            *entry = (solid, self.tick);
+            return;
+        }
+        while !self.map.is_empty()
+            && (self.map.len() >= CACHE_ENTRIES || self.key_bytes + key.len() > CACHE_KEY_BYTES)
+        {
+            let oldest = self
+                .map
+                .iter()
+                .min_by_key(|(_, (_, used))| *used)
+                .map(|(k, _)| k.clone());
+            match oldest.and_then(|k| self.map.remove_entry(&k)) {
+                Some((k, _)) => self.key_bytes -= k.len(),
+                None => break,
+            }
+        }
+        self.key_bytes += key.len();
+        self.map.insert(key, (solid, self.tick));
+    }
+}
+
+static SHAPES: LazyLock<Mutex<ShapeCache>> = LazyLock::new(|| {
+    Mutex::new(ShapeCache {
+        map: HashMap::new(),
+        tick: 0,
+        key_bytes: 0,
+    })
+});
+
+/// The canonical text of shape `v` without the keys its caller handles (`extra`: name, pose,
+/// use…): serde_json's maps are sorted, so equal shapes give equal text.
+fn shape_key(v: &Value, extra: &[&str]) -> Option<String> {
+    let text = match v.as_object() {
+        Some(o) if extra.iter().any(|k| o.contains_key(*k)) => {
+            let shape: Map<String, Value> = o
+                .iter()
+                .filter(|(k, _)| !extra.contains(&k.as_str()))
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect();
+            serde_json::to_string(&shape).ok()?
+        }
+        _ => serde_json::to_string(v).ok()?,
+    };
+    (text.len() <= MAX_KEY_BYTES).then_some(text)
+}
+
+/// [`solid_from_json`] through the op cache: a shape described before is not built again.
+/// Errors are not cached (the path in the message is the request's).
+pub fn cached_solid(v: &Value, path: &str, extra: &[&str]) -> Result<Arc<Solid>, ProtocolError> {
+    let Some(key) = shape_key(v, extra) else {
+        return Ok(Arc::new(solid_from_json(v, path, extra)?));
+    };
+    let lock = || SHAPES.lock().unwrap_or_else(PoisonError::into_inner);
+    if let Some(s) = lock().get(&key) {
+        return Ok(s);
+    }
+    let s = Arc::new(solid_from_json(v, path, extra)?);
+    lock().insert(key, Arc::clone(&s));
+    Ok(s)
+}
+
+/// `tolerance`: absent, `null` or `"certified"` — the certified distance; a positive number
+/// of metres — GJK's bracket width.
+fn tolerance_field(req: &Value) -> Result<Tolerance, ProtocolError> {
+    match req.get("tolerance") {
+        None | Some(Value::Null) => Ok(Tolerance::Certified),
+        Some(Value::String(s)) if s == "certified" => Ok(Tolerance::Certified),
+        Some(Value::Number(n)) => n
+            .as_f64()
+            .ok_or_else(|| bad("tolerance: not a number"))
+            .and_then(|t| Tolerance::gjk(t).map_err(|e| bad(format!("tolerance: {e}")))),
+        Some(_) => Err(bad(
+            "tolerance: expected \"certified\" or a positive number of metres",
+        )),
+    }
+}
+
 fn mode_field(req: &Value) -> Result<Mode, ProtocolError> {
     match req.get("mode") {
         None | Some(Value::Null) => Ok(Mode::Exact),
@@ -122,12 +238,25 @@ fn pt(p: &Point3<f64>) -> Value {
 }
 
 fn op_collide(req: &Value) -> Result<Value, ProtocolError> {
-    let a = solid_from_json(field(req, "a", "request")?, "a", &[])?;
-    let b = solid_from_json(field(req, "b", "request")?, "b", &[])?;
+    let a = cached_solid(field(req, "a", "request")?, "a", &[])?;
+    let b = cached_solid(field(req, "b", "request")?, "b", &[])?;
     let pa = pose_from_json(field(req, "pose_a", "request")?, "pose_a")?;
     let pb = pose_from_json(field(req, "pose_b", "request")?, "pose_b")?;
     let mode = mode_field(req)?;
-    let r = robosim_collision::collide(&a, &pa, &b, &pb, mode);
+    let tolerance = tolerance_field(req)?;
+    let r = match mode {
+        Mode::Exact => exact::collide(
+            &a,
+            &pa,
+            &b,
+            &pb,
+            ExactOptions {
+                tolerance,
+                ..ExactOptions::default()
+            },
+        ),
+        _ => robosim_collision::collide(&a, &pa, &b, &pb, mode),
+    };
     let (verdict, reason) = match &r {
         PairResult::Clear { .. } => ("clear", None),
         PairResult::Contact { .. } => ("contact", None),
@@ -199,7 +328,7 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         .ok_or_else(|| bad("scene.objects: expected an array"))?;
     for (i, o) in objs.iter().enumerate() {
         let path = format!("scene.objects[{i}]");
-        let solid = solid_from_json(o, &path, &["name", "pose", "use"])?;
+        let solid = cached_solid(o, &path, &["name", "pose", "use"])?;
         let pose = match o.get("pose") {
             None | Some(Value::Null) => Isometry3::identity(),
             Some(p) => pose_from_json(p, &format!("{path}.pose"))?,
@@ -208,7 +337,7 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
             .get("name")
             .and_then(Value::as_str)
             .map_or_else(|| format!("object{i}"), str::to_owned);
-        let id = scene.add(name, Arc::new(solid), pose);
+        let id = scene.add(name, solid, pose);
         if !bool_field(o, "use", true)? {
             scene.dont_use(id);
         }
@@ -236,15 +365,12 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
                     continue;
                 }
                 let path = format!("links[{j}]");
-                let solid = solid_from_json(l, &path, &["pose"])?;
+                let solid = cached_solid(l, &path, &["pose"])?;
                 let offset = match l.get("pose") {
                     None | Some(Value::Null) => Isometry3::identity(),
                     Some(p) => pose_from_json(p, &format!("{path}.pose"))?,
                 };
-                links.push(Some(LinkSolid {
-                    solid: Arc::new(solid),
-                    offset,
-                }));
+                links.push(Some(LinkSolid { solid, offset }));
             }
             (
                 LinkSolids {
@@ -277,6 +403,11 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         mode: mode_field(req)?,
         self_collision: bool_field(req, "self_collision", true)?,
         all_contacts: bool_field(req, "all", false)?,
+        depth: if bool_field(req, "depth", true)? {
+            Some(tolerance_field(req)?)
+        } else {
+            None
+        },
         ..CollisionSettings::default()
     };
     let r = check_robot(&robot, &links, &q, &scene, &settings).map_err(|e| bad(e.to_string()))?;
@@ -319,4 +450,36 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         }
     }
     Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shape_cache_is_keyed_by_the_shape_alone_and_bounded() {
+        let a = json!({"shape": "box", "size": [0.123, 0.456, 0.789], "name": "x", "pose": null});
+        let b = json!({"shape": "box", "size": [0.123, 0.456, 0.789], "name": "y"});
+        let extra = ["name", "pose", "use"];
+        assert_eq!(shape_key(&a, &extra), shape_key(&b, &extra));
+        let sa = cached_solid(&a, "a", &extra).expect("box");
+        let sb = cached_solid(&b, "b", &extra).expect("box");
+        assert!(Arc::ptr_eq(&sa, &sb), "built twice");
+        // Bounded: the least recently used goes first.
+        let mut c = ShapeCache {
+            map: HashMap::new(),
+            tick: 0,
+            key_bytes: 0,
+        };
+        for i in 0..CACHE_ENTRIES + 10 {
+            c.insert(format!("k{i}"), Arc::clone(&sa));
+            if i >= 1 {
+                // k0 stays the most recently used
+                assert!(c.get("k0").is_some(), "{i}");
+            }
+        }
+        assert_eq!(c.map.len(), CACHE_ENTRIES);
+        assert!(c.get("k1").is_none(), "the oldest unused entry was kept");
+        assert_eq!(c.key_bytes, c.map.keys().map(String::len).sum::<usize>());
+    }
 }

@@ -151,3 +151,103 @@ fn check_puma_against_a_scene_with_assumed_and_given_link_solids() {
         "unknown_robot"
     );
 }
+
+/// Issue 37 item 3: a GJK tolerance per request. A cylinder–cone pair (curved, where GJK's
+/// bracket closes slowly): the distance at 1e-4 m is within 1e-4 m of the certified one and
+/// never below it (GJK's upper end), the verdict is the same, and bad tolerances are refused.
+#[test]
+fn collide_takes_a_tolerance_and_stays_within_it() {
+    let tilt = json!([
+        [0.8, 0.0, 0.6, 0.9],
+        [0.0, 1.0, 0.0, 0.1],
+        [-0.6, 0.0, 0.8, 0.35],
+        [0.0, 0.0, 0.0, 1.0]
+    ]);
+    let req = json!({"a": {"shape": "cylinder", "radius": 0.3, "height": 0.8}, "pose_a": at(0.0, 0.0, 0.0),
+                     "b": {"shape": "cone", "radius": 0.25, "height": 0.6}, "pose_b": tilt});
+    let certified = ask("collide", req.clone()).expect("ok");
+    let mut named = req.clone();
+    named["tolerance"] = json!("certified");
+    assert_eq!(ask("collide", named).expect("ok"), certified);
+    let d0 = certified["distance"].as_f64().expect("clear");
+    assert!(d0 > 0.0, "{certified}");
+    for tol in [1e-9, 1e-6, 1e-4] {
+        let mut r = req.clone();
+        r["tolerance"] = json!(tol);
+        let got = ask("collide", r).expect("ok");
+        assert_eq!(got["verdict"], "clear", "{tol}");
+        let d = got["distance"].as_f64().expect("distance");
+        assert!(d >= d0 - 1e-11 && d <= d0 + tol, "{tol}: {d} vs {d0}");
+    }
+    for bad in [json!(0.0), json!(-1e-6), json!("loose"), json!(true)] {
+        let mut r = req.clone();
+        r["tolerance"] = bad.clone();
+        let e = ask("collide", r).expect_err("refused");
+        assert!(e.to_string().contains("tolerance"), "{bad}: {e}");
+    }
+}
+
+/// Issue 37 item 2: `check` with `depth: false` answers the certified boolean alone — the same
+/// verdict and pair as with depth, no depth or witnesses.
+#[test]
+fn check_without_depth_gives_the_same_pair_and_no_depth() {
+    let scene = json!({"objects": [{"shape": "box", "size": [0.2, 0.2, 0.2], "pose": at(0.45, -0.15, 1.0), "name": "crate"}]});
+    let with = ask(
+        "check",
+        json!({"robot": "puma560", "q": [0, 0, 0, 0, 0, 0], "scene": scene}),
+    )
+    .expect("ok");
+    let without = ask(
+        "check",
+        json!({"robot": "puma560", "q": [0, 0, 0, 0, 0, 0], "scene": scene, "depth": false}),
+    )
+    .expect("ok");
+    assert_eq!(with["verdict"], "contact", "{with}");
+    assert_eq!(without["verdict"], "contact");
+    assert_eq!(with["contacts"][0]["a"], without["contacts"][0]["a"]);
+    assert_eq!(with["contacts"][0]["b"], without["contacts"][0]["b"]);
+    assert!(
+        with["contacts"][0]["signed_distance"]
+            .as_f64()
+            .expect("depth")
+            < 0.0
+    );
+    assert!(
+        without["contacts"][0]["signed_distance"].is_null(),
+        "{without}"
+    );
+    assert!(without["contacts"][0]["witness_a"].is_null());
+}
+
+/// Issue 37 item 4: a shape repeated with other poses (and, for scene objects, other names)
+/// answers exactly as a fresh one: the cache changes nothing but the time.
+#[test]
+fn repeated_shapes_answer_as_fresh_ones() {
+    let cyl = json!({"shape": "cylinder", "radius": 0.21, "height": 0.77, "facets": 24});
+    let cone = json!({"shape": "cone", "radius": 0.13, "height": 0.41});
+    let mut first = Vec::new();
+    for x in [0.3, 0.5, 0.9] {
+        first.push(
+            ask("collide", json!({"a": cyl, "pose_a": at(0.0, 0.0, 0.0), "b": cone, "pose_b": at(x, 0.0, 0.1)}))
+                .expect("ok"),
+        );
+    }
+    for (x, f) in [0.3, 0.5, 0.9].into_iter().zip(&first) {
+        let again = ask(
+            "collide",
+            json!({"a": cyl, "pose_a": at(0.0, 0.0, 0.0), "b": cone, "pose_b": at(x, 0.0, 0.1)}),
+        )
+        .expect("ok");
+        assert_eq!(&again, f, "{x}");
+    }
+    assert_eq!(first[0]["verdict"], "contact");
+    assert_eq!(first[2]["verdict"], "clear");
+    // A bad shape is refused every time (errors are not cached) with its own path.
+    for path in ["a", "b"] {
+        let mut req =
+            json!({"a": cyl, "pose_a": at(0.0, 0.0, 0.0), "b": cyl, "pose_b": at(1.0, 0.0, 0.0)});
+        req[path]["radius"] = json!(-1.0);
+        let e = ask("collide", req).expect_err("negative radius");
+        assert!(e.to_string().contains(&format!(": {path}: ")), "{e}");
+    }
+}
