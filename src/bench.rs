@@ -123,6 +123,10 @@ pub enum Which {
         /// Where to write the latencies.
         #[arg(long)]
         out: PathBuf,
+        /// Listen to the bare iceoryx2 event of this tag in the session instead (the
+        /// baseline of `bench scale`), writing wake-up times.
+        #[arg(long)]
+        bare: Option<String>,
     },
 }
 
@@ -167,10 +171,13 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
             pb.finish_and_clear();
             wrote(&out, &paths)
         }
-        Which::IpcReader { count, out } => {
+        Which::IpcReader { count, out, bare } => {
             let session = session.ok_or_else(|| CliError("ipc-reader needs --session".into()))?;
-            robosim_report::ipc::latency_reader(session, count, &out)
-                .map_err(|e| CliError(e.to_string()))
+            match bare {
+                Some(tag) => robosim_report::ipc::bare_listener(session, &tag, count, &out),
+                None => robosim_report::ipc::latency_reader(session, count, &out),
+            }
+            .map_err(|e| CliError(e.to_string()))
         }
         Which::Editor { out, quick } => {
             let me = std::env::current_exe()?;

@@ -16,6 +16,7 @@
 //! casts over iceoryx2 samples.
 #![deny(unsafe_code)]
 
+pub mod bare_event;
 mod client;
 mod encode;
 mod error;

@@ -321,6 +321,28 @@ pub fn latency_reader(session: &str, count: usize, out: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The listener process of the bare iceoryx2 baseline (`robosim bench ipc-reader --bare TAG`):
+/// blocks for `count` events of bare event `tag` in `session`
+/// ([`robosim_instance_space::bare_event`]) and writes the wake-up times (CLOCK_MONOTONIC ns),
+/// one a line, to `out`.
+pub fn bare_listener(session: &str, tag: &str, count: usize, out: &Path) -> Result<()> {
+    let s = Session::open(Some(session))?;
+    let woke = robosim_instance_space::bare_event::listen(
+        &s,
+        tag,
+        count,
+        Duration::from_secs(10),
+        || {
+            use std::io::Write;
+            println!("ready");
+            let _ = std::io::stdout().flush();
+        },
+    )?;
+    let text: String = woke.iter().map(|t| format!("{t}\n")).collect();
+    std::fs::write(out, text)?;
+    Ok(())
+}
+
 /// The `robosim` binary that runs the keeper and reader processes: this process's own.
 pub(crate) fn bin() -> std::io::Result<PathBuf> {
     std::env::current_exe()

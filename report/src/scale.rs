@@ -144,9 +144,11 @@ struct Row {
     tx: (f64, f64, f64),
     follow: (f64, f64, f64),
     notify: (f64, f64, f64),
+    /// The bare iceoryx2 event between two processes, beside `notify`.
+    event: (f64, f64, f64),
     attach: (f64, f64, f64),
-    /// Per round: (pose tx p50, reader follows p50, notify p50, attach).
-    rounds: Vec<[f64; 4]>,
+    /// Per round: (pose tx p50, reader follows p50, notify p50, attach, bare event p50).
+    rounds: Vec<[f64; 5]>,
     geometry: GeomRow,
 }
 
@@ -291,9 +293,11 @@ struct PoseModel {
     tx_us: Vec<f64>,
     follow_us: Vec<f64>,
     notify_us: Vec<f64>,
+    event_us: Vec<f64>,
     attach_ms: Vec<f64>,
-    /// Per round: (pose tx p50, reader follows p50, notify p50, attach), for the ratios.
-    rounds: Vec<[f64; 4]>,
+    /// Per round: (pose tx p50, reader follows p50, notify p50, attach, bare event p50), for
+    /// the ratios.
+    rounds: Vec<[f64; 5]>,
 }
 
 impl PoseModel {
@@ -312,6 +316,7 @@ impl PoseModel {
             tx_us: Vec::new(),
             follow_us: Vec::new(),
             notify_us: Vec::new(),
+            event_us: Vec::new(),
             attach_ms: Vec::new(),
             rounds: Vec::new(),
         };
@@ -424,6 +429,69 @@ impl PoseModel {
         Ok(median)
     }
 
+    /// The baseline of [`PoseModel::notify_batch`]: `count` notifications of a bare iceoryx2
+    /// event (no keeper, no transaction, nothing of the Instance Space in between), one every
+    /// 300 µs, to a listener process of this round blocked in its wait; CLOCK_MONOTONIC before
+    /// the notify → after the wake-up. Returns this batch's median (µs).
+    fn event_batch(&mut self, count: usize, tag: &str) -> Result<f64> {
+        use robosim_instance_space::bare_event::BareNotifier;
+        let n = self.n;
+        let session = self.kp.session();
+        let mut notifier = BareNotifier::create(session, tag)?;
+        let out = std::env::temp_dir().join(format!("robosim-scale-event-{tag}.txt"));
+        let mut listener = Command::new(bin()?)
+            .args([
+                "bench",
+                "ipc-reader",
+                "--session",
+                session.name(),
+                "--count",
+                &count.to_string(),
+                "--bare",
+                tag,
+                "--out",
+            ])
+            .arg(&out)
+            .stdout(Stdio::piped())
+            .spawn()?;
+        let mut line = String::new();
+        use std::io::BufRead;
+        if let Some(o) = listener.stdout.as_mut() {
+            std::io::BufReader::new(o).read_line(&mut line)?;
+        }
+        if line.trim() != "ready" || notifier.listeners() == 0 {
+            let _ = listener.kill();
+            let _ = listener.wait();
+            bail!("the bare event listener at {n} bodies did not start listening");
+        }
+        let mut sent = Vec::with_capacity(count);
+        for _ in 0..count {
+            sent.push(notifier.notify()?);
+            std::thread::sleep(Duration::from_micros(300));
+        }
+        let status = listener.wait()?;
+        let text = std::fs::read_to_string(&out).unwrap_or_default();
+        let _ = std::fs::remove_file(&out);
+        if !status.success() {
+            bail!("the bare event listener at {n} bodies failed: {status}");
+        }
+        let woke: Vec<u64> = text.lines().filter_map(|l| l.parse().ok()).collect();
+        if woke.len() != count {
+            bail!(
+                "the bare event listener at {n} bodies woke {} times for {count} events",
+                woke.len()
+            );
+        }
+        let lat: Vec<f64> = woke
+            .iter()
+            .zip(&sent)
+            .map(|(w, s)| w.saturating_sub(*s) as f64 / 1e3)
+            .collect();
+        let median = stats(lat.clone()).1;
+        self.event_us.extend(lat);
+        Ok(median)
+    }
+
     /// One late joiner's attach (ms).
     fn attach(&mut self) -> Result<f64> {
         let t = Instant::now();
@@ -465,8 +533,9 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             let m = &mut models[(j + round) % SIZES.len()];
             let (tx, follow) = m.pose_batch(tx_batch, true)?;
             let notify = m.notify_batch(lat_batch, &format!("{pid}-{}-{round}", m.n))?;
+            let event = m.event_batch(lat_batch, &format!("{pid}-{}-{round}", m.n))?;
             let attach = m.attach()?;
-            m.rounds.push([tx, follow, notify, attach]);
+            m.rounds.push([tx, follow, notify, attach, event]);
         }
     }
     let mut rows = Vec::new();
@@ -479,6 +548,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             tx_us,
             follow_us,
             notify_us,
+            event_us,
             attach_ms,
             rounds,
             ..
@@ -495,6 +565,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             tx: stats(tx_us),
             follow: stats(follow_us),
             notify: stats(notify_us),
+            event: stats(event_us),
             attach: stats(attach_ms),
             rounds,
             geometry,
@@ -523,13 +594,14 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
     writeln!(md, "* **pose tx**: `Client::transact`, end to end through the keeper process (apply, publish one pose chunk of {POSE_CHUNK} records and the head, acknowledge);").ok();
     writeln!(md, "* **reader follows**: `Reader::wait_change` right after the acknowledgement, in this process: drain the change record and assemble the new snapshot (receive the one changed chunk; reuse the others);").ok();
     writeln!(md, "* **notify**: keeper's publish stamp → a reader process blocked in `wait_event` wakes (CLOCK_MONOTONIC), one pose transaction every 300 µs, a new reader process each round; the writer does not follow in this phase (until stop 34 it did: a second reader assembling each version at the same moment, on two cores);").ok();
+    writeln!(md, "* **iceoryx2 event**: the baseline of *notify*, measured right after it in every round and model: a bare iceoryx2 event between this process and a listener process of the round (same iceoryx2 configuration, one `notify` every 300 µs, no keeper, no transaction, no sample in between), stamped before the `notify` and at the wake-up; **notify / event** is the ratio of the pooled p50s (in brackets the least and greatest ratio of one round's p50s) — what robosim adds to iceoryx2's own wake-up;").ok();
     writeln!(
         md,
         "* **attach**: a late joiner's `Reader::attach` until its first snapshot (the whole model), one per round;"
     )
     .ok();
     writeln!(md, "* **bytes published**: what the keeper copies into shared memory per one-body pose transaction, computed from the layout — now, and with the whole pose head republished per commit as before.\n").ok();
-    writeln!(md, "| bodies | pose tx p50 / p99 (µs) | ×10² | reader follows p50 / p99 (µs) | ×10² | notify p50 / p99 (µs) | ×10² | attach p50 / max (ms) | ×10² | bytes published now / whole head |\n|---|---|---|---|---|---|---|---|---|---|").ok();
+    writeln!(md, "| bodies | pose tx p50 / p99 (µs) | ×10² | reader follows p50 / p99 (µs) | ×10² | notify p50 / p99 (µs) | ×10² | iceoryx2 event p50 / p99 (µs) | notify / event | attach p50 / max (ms) | ×10² | bytes published now / whole head |\n|---|---|---|---|---|---|---|---|---|---|---|---|").ok();
     for r in rows {
         let (now, whole) = published_bytes(r.n);
         let ratio = |i: usize, pooled: f64, pooled_base: f64| {
@@ -549,9 +621,15 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
         let notify = ratio(2, r.notify.1, base.notify.1);
         let attach = ratio(3, r.attach.1, base.attach.1);
         let attach_max = r.rounds.iter().map(|x| x[3]).fold(0.0, f64::max);
+        let over: Vec<f64> = r.rounds.iter().map(|x| x[2] / x[4]).collect();
+        let over = (
+            r.notify.1 / r.event.1,
+            over.iter().copied().fold(f64::INFINITY, f64::min),
+            over.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        );
         writeln!(
             md,
-            "| {} | {:.1} / {:.1} | {} | {:.1} / {:.1} | {} | {:.1} / {:.1} | {} | {:.2} / {:.2} | {} | {} / {} |",
+            "| {} | {:.1} / {:.1} | {} | {:.1} / {:.1} | {} | {:.1} / {:.1} | {} | {:.1} / {:.1} | {} | {:.2} / {:.2} | {} | {} / {} |",
             r.n,
             r.tx.1,
             r.tx.2,
@@ -562,6 +640,9 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             r.notify.1,
             r.notify.2,
             cell(notify),
+            r.event.1,
+            r.event.2,
+            cell(over),
             r.attach.1,
             attach_max,
             cell(attach),
@@ -583,6 +664,9 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             ("notify_p99", r.notify.2, "us"),
             ("notify_ratio", notify.0, "x"),
             ("notify_ratio_round_max", notify.2, "x"),
+            ("event_p50", r.event.1, "us"),
+            ("event_p99", r.event.2, "us"),
+            ("notify_over_event", over.0, "x"),
             ("attach_mean", r.attach.0, "ms"),
             ("attach_p50", r.attach.1, "ms"),
             ("attach_ratio", attach.0, "x"),
