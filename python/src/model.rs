@@ -21,7 +21,7 @@
 use crate::{bad_request, raise, to_json, to_py};
 use pyo3::prelude::*;
 use pyo3::sync::PyOnceLock;
-use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList};
+use pyo3::types::{PyByteArray, PyBytes, PyDict, PyList, PyTuple};
 use robosim_dynamics::{Data, Model as DynModel};
 use robosim_hl_interface::protocol::{self, RobotArg};
 use robosim_hl_interface::robot_json::robot_from_json;
@@ -32,6 +32,7 @@ use robosim_kinematics::jacobian::{Frame, jacobian};
 use serde_json::{Value, json};
 
 static NUMPY: PyOnceLock<Py<PyModule>> = PyOnceLock::new();
+static NDARRAY: PyOnceLock<Py<PyAny>> = PyOnceLock::new();
 
 fn numpy(py: Python<'_>) -> PyResult<&Bound<'_, PyModule>> {
     NUMPY
@@ -154,16 +155,19 @@ fn same_batch(py: Python<'_>, args: &[(&str, &Rows)]) -> PyResult<Option<usize>>
 }
 
 /// A float64 numpy array of `shape` holding `values` (C order): one copy into a bytearray,
-/// which the array views.
+/// which the array owns as its (writable) buffer — one numpy call.
 fn out_array<'py>(py: Python<'py>, values: &[f64], shape: &[usize]) -> PyResult<Bound<'py, PyAny>> {
-    let mut bytes = Vec::with_capacity(values.len() * 8);
-    for v in values {
-        bytes.extend_from_slice(&v.to_ne_bytes());
-    }
-    let buf = PyByteArray::new(py, &bytes);
-    numpy(py)?
-        .call_method1("frombuffer", (buf, "float64"))?
-        .call_method1("reshape", (shape.to_vec(),))
+    let buf = PyByteArray::new_with(py, values.len() * 8, |b| {
+        for (c, v) in b.chunks_exact_mut(8).zip(values) {
+            c.copy_from_slice(&v.to_ne_bytes());
+        }
+        Ok(())
+    })?;
+    let ndarray =
+        NDARRAY.get_or_try_init(py, || numpy(py)?.getattr("ndarray").map(Bound::unbind))?;
+    ndarray
+        .bind(py)
+        .call1((PyTuple::new(py, shape)?, "float64", buf))
 }
 
 /// `shape` with the batch axis first when there is one.
@@ -270,7 +274,7 @@ impl Model {
         py: Python<'py>,
         args: &[(&str, &Bound<'py, PyAny>)],
         what: &str,
-        f: fn(&DynModel, &mut Data, &[&[f64]]) -> Result<Vec<f64>, ProtocolError>,
+        f: DynFn,
         out_shape: &[usize],
     ) -> PyResult<Bound<'py, PyAny>> {
         let model = self.dyn_model(py)?;
@@ -301,6 +305,9 @@ impl Model {
     }
 }
 
+/// One dynamics algorithm on a row's vectors (q, and v and a/tau when it takes them).
+type DynFn = fn(&DynModel, &mut Data, &[&[f64]]) -> Result<Vec<f64>, ProtocolError>;
+
 #[derive(Clone, Copy)]
 enum Area {
     Kinematics,
@@ -319,10 +326,10 @@ fn robot_from(v: &Value) -> Result<Robot, ProtocolError> {
     robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
 }
 
+#[allow(clippy::too_many_arguments)]
 fn ik_request(
     py: Python<'_>,
     method: Option<&str>,
-    q0: Option<&[f64]>,
     tol: Option<&Bound<'_, PyAny>>,
     all: bool,
     respect_limits: bool,
@@ -333,9 +340,6 @@ fn ik_request(
     let mut req = json!({"op": "ik", "all": all, "respect_limits": respect_limits});
     if let Some(m) = method {
         req["method"] = json!(m);
-    }
-    if let Some(q0) = q0 {
-        req["q0"] = json!(q0);
     }
     if let Some(t) = tol {
         req["tolerances"] = if let Ok(x) = t.extract::<f64>() {
@@ -592,7 +596,6 @@ impl Model {
         let base = ik_request(
             py,
             method,
-            None,
             tol,
             all,
             respect_limits,
