@@ -7,7 +7,8 @@ use crate::spatial::{Force, Motion};
 use nalgebra::{DVector, Vector3, Vector6};
 
 /// Joint accelerations `q̈` (rad/s² or m/s²) under joint torques `τ` at state (q, q̇), with
-/// gravity, friction and motor inertia as the model says. Fills and returns `data.qdd`. Fails
+/// gravity and motor inertia as the model says: Pinocchio's `aba`, the rigid-body equations
+/// (no joint friction: [`crate::friction::aba_with_friction`]). Fills and returns `data.qdd`. Fails
 /// with [`DynamicsError::SingularInertia`] when a joint has no inertia about its axis.
 pub fn aba<'d>(
     model: &Model,
@@ -60,7 +61,7 @@ pub(crate) fn aba_unchecked(
                 inertia: d,
             });
         }
-        let u = tau[j] - Model::friction(link, qd[j]) - s6.dot(&data.pa[j]);
+        let u = tau[j] - s6.dot(&data.pa[j]);
         data.u6[j] = u6;
         data.d[j] = d;
         data.u[j] = u;

@@ -47,7 +47,7 @@ pub(crate) fn crba_pass(model: &Model, data: &mut Data) {
     }
 }
 
-/// Forward dynamics `q̈ = M⁻¹ (τ − C q̇ − g − τ_friction)` by CRBA, RNEA (for the bias) and an
+/// Forward dynamics `q̈ = M⁻¹ (τ − C q̇ − g)` (rigid body, as [`crate::aba`]) by CRBA, RNEA (for the bias) and an
 /// in-place Cholesky factorisation. O(n³); use [`crate::aba`] in loops. Fills `data.qdd` (and
 /// `data.mass_matrix`, `data.tau` = the bias) and returns `data.qdd`.
 pub fn fd_cholesky<'d>(

@@ -18,6 +18,9 @@ pub struct Data {
     pub qdd: DVector<f64>,
     /// Joint-space inertia matrix `M(q)`, `dof × dof`, both triangles filled.
     pub mass_matrix: DMatrix<f64>,
+    /// The torque joint friction applies (N·m or N), dim `dof`: filled by
+    /// [`crate::friction_torque`] (and the stepper when a friction effect is declared).
+    pub passive: DVector<f64>,
     pub(crate) x: Vec<Xform>,
     pub(crate) v: Vec<Motion>,
     pub(crate) a: Vec<Motion>,
@@ -44,6 +47,7 @@ impl Data {
             tau: DVector::zeros(n),
             qdd: DVector::zeros(n),
             mass_matrix: DMatrix::zeros(n, n),
+            passive: DVector::zeros(n),
             x: vec![Xform::default(); n],
             v: vec![Motion::zero(); n],
             a: vec![Motion::zero(); n],

@@ -30,6 +30,7 @@ use crate::crba::{cholesky_in_place, cholesky_solve_in_place, crba_pass};
 use crate::data::Data;
 use crate::energy::energy_unchecked;
 use crate::energy::kinetic_gradient_pass;
+use crate::friction::{JointFriction, friction_torque_unchecked};
 use crate::model::{DynamicsError, Model};
 use crate::rnea::{Terms, rnea_pass};
 use nalgebra::DVector;
@@ -223,6 +224,11 @@ pub struct Stepper {
     h: f64,
     /// Start time of the step being taken (s): what a divergence inside it is reported at.
     t_step: f64,
+    /// Joint friction, when a scene declares it ([`Stepper::with_friction`]); `None`: the
+    /// rigid-body equations alone, at no cost.
+    friction: Option<JointFriction>,
+    /// τ + τ_friction (scratch, used only with friction).
+    tau_total: DVector<f64>,
     pub stats: Stats,
 }
 
@@ -241,8 +247,48 @@ impl Stepper {
             yv: z(),
             t_step: 0.0,
             h: 0.0,
+            friction: None,
+            tau_total: z(),
             stats: Stats::default(),
         })
+    }
+
+    /// The stepper with joint friction acting (a scene's `joint_friction` effect; see
+    /// [`crate::friction`]). Friction settings that act on no joint of `model` are dropped, so
+    /// a robot without friction data steps exactly as without the effect.
+    pub fn with_friction(
+        mut self,
+        model: &Model,
+        friction: JointFriction,
+    ) -> Result<Stepper, DynamicsError> {
+        friction.validate()?;
+        self.friction = friction.acts_on(model).then_some(friction);
+        Ok(self)
+    }
+
+    /// The friction this stepper applies (`None`: none).
+    pub fn friction(&self) -> Option<&JointFriction> {
+        self.friction.as_ref()
+    }
+
+    /// `tau`, plus the friction torque at (q, q̇) when friction acts (into `tau_total`).
+    fn applied<'a>(
+        friction: &Option<JointFriction>,
+        model: &Model,
+        data: &mut Data,
+        tau_total: &'a mut DVector<f64>,
+        q: &[f64],
+        qd: &[f64],
+        tau: &'a [f64],
+    ) -> Result<&'a [f64], DynamicsError> {
+        let Some(f) = friction else {
+            return Ok(tau);
+        };
+        let passive = friction_torque_unchecked(model, data, q, qd, tau, f)?;
+        for j in 0..tau.len() {
+            tau_total[j] = tau[j] + passive[j];
+        }
+        Ok(tau_total.as_slice())
     }
 
     /// The dynamics workspace (e.g. `qdd` of the last evaluation).
@@ -269,6 +315,15 @@ impl Stepper {
         if let Some(joint) = bad(&self.yq).or_else(|| bad(&self.yv)) {
             return Err(DynamicsError::Diverged { t, joint });
         }
+        let tau = Self::applied(
+            &self.friction,
+            model,
+            &mut self.data,
+            &mut self.tau_total,
+            self.yq.as_slice(),
+            self.yv.as_slice(),
+            tau,
+        )?;
         aba_unchecked(
             model,
             &mut self.data,
@@ -388,10 +443,22 @@ impl Stepper {
             kv,
             yq: p,
             yv: v,
+            friction,
+            tau_total,
             ..
         } = self;
         let n = model.dof();
         self.stats.evaluations += 1;
+        // friction at the start of the step (explicit in it), before M and g fill `data`
+        let tau = Self::applied(
+            friction,
+            model,
+            data,
+            tau_total,
+            state.q.as_slice(),
+            state.qd.as_slice(),
+            tau,
+        )?;
         data.update_transforms(model, state.q.as_slice());
         crba_pass(model, data);
         cholesky_in_place(&data.mass_matrix, &mut data.chol)?;
@@ -402,7 +469,6 @@ impl Stepper {
             None,
             Terms {
                 gravity: true,
-                friction: false,
                 motor: false,
             },
         );
@@ -419,8 +485,7 @@ impl Stepper {
             }
         }
         for j in 0..n {
-            let fric = Model::friction(&model.links[j], state.qd[j]);
-            kq[2][j] = data.rhs[j] + h * (tau[j] - kv[1][j] - fric); // the part that does not change
+            kq[2][j] = data.rhs[j] + h * (tau[j] - kv[1][j]); // the part that does not change
             p[j] = kq[2][j] + h * data.tau[j]; // explicit first guess of pₙ₊₁
         }
         let mut converged = false;
@@ -756,6 +821,19 @@ pub fn simulate(
     tau: &[f64],
     outputs: &[f64],
 ) -> Result<(Vec<Sample>, Stats), DynamicsError> {
+    simulate_with_friction(model, config, None, q0, qd0, tau, outputs)
+}
+
+/// [`simulate`] with joint friction acting when `friction` is `Some` ([`Stepper::with_friction`]).
+pub fn simulate_with_friction(
+    model: &Model,
+    config: IntegratorConfig,
+    friction: Option<JointFriction>,
+    q0: &[f64],
+    qd0: &[f64],
+    tau: &[f64],
+    outputs: &[f64],
+) -> Result<(Vec<Sample>, Stats), DynamicsError> {
     model.check_vector("q0", q0)?;
     model.check_vector("qd0", qd0)?;
     model.check_vector("tau", tau)?;
@@ -772,6 +850,9 @@ pub fn simulate(
         prev = t;
     }
     let mut stepper = Stepper::new(model, config)?;
+    if let Some(f) = friction {
+        stepper = stepper.with_friction(model, f)?;
+    }
     let mut state = State {
         q: DVector::from_column_slice(q0),
         qd: DVector::from_column_slice(qd0),

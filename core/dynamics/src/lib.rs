@@ -7,6 +7,8 @@
 //! Entry points:
 //! * [`Model::new`], [`Data::new`] — build once per robot; the algorithms then allocate nothing.
 //! * [`rnea`] (inverse dynamics), [`gravity`], [`coriolis`] — recursive Newton–Euler.
+//! * [`friction`]: joint friction apart from the rigid-body algorithms — [`JointFriction`],
+//!   [`passive_torque`], [`friction_torque`] (stick–slip), [`aba_with_friction`].
 //! * [`crba`] (mass matrix), [`fd_cholesky`] — composite-rigid-body algorithm and M⁻¹ by Cholesky.
 //! * [`aba`] — forward dynamics by the articulated-body algorithm.
 //! * [`energy`] — kinetic + potential energy.
@@ -17,8 +19,10 @@
 //!   4×4 pseudo-inertia and its consistency test.
 //!
 //! Conventions: SI units; standard or modified DH as in DESIGN.md; revolute and prismatic joints;
-//! gravity from the robot (world frame); joint friction `b q̇ + c sign(q̇)` and motor (rotor)
-//! inertia reflected to the joint, both optional (zero by default).
+//! gravity from the robot (world frame); motor (rotor) inertia reflected to the joint (zero by
+//! default; Pinocchio's armature). RNEA, CRBA and ABA are the rigid-body equations, Pinocchio's
+//! (DESIGN.md, "Dynamics contract"): a joint's viscous and Coulomb data act only through
+//! [`friction`] (a scene's joint friction effect: [`Stepper::with_friction`]).
 
 #![forbid(unsafe_code)]
 #![expect(
@@ -31,6 +35,7 @@ mod crba;
 mod data;
 mod energy;
 mod fixtures;
+pub mod friction;
 mod integrate;
 mod model;
 mod rnea;
@@ -41,9 +46,10 @@ pub use crba::{crba, fd_cholesky};
 pub use data::Data;
 pub use energy::{Energy, energy, kinetic_gradient};
 pub use fixtures::fixture_robot;
+pub use friction::{Coulomb, JointFriction, aba_with_friction, friction_torque, passive_torque};
 pub use integrate::{
     Integrator, IntegratorConfig, Sample, Stats, StepSize, Stepper, apply_joint_stops, simulate,
-    state_hash,
+    simulate_with_friction, state_hash,
 };
 pub use model::{DynamicsError, Model, from_pseudo_inertia, physically_consistent, pseudo_inertia};
 pub use rnea::{coriolis, gravity, rnea};

@@ -261,20 +261,6 @@ impl Model {
             None => Ok(()),
         }
     }
-
-    /// Joint friction torque (N·m or N) at joint velocity `qd`: viscous `b·qd` plus Coulomb
-    /// `c·sign(qd)` with `sign(0) = 0` (no stiction model: a joint at rest feels no Coulomb term).
-    #[inline]
-    pub(crate) fn friction(link: &Link, qd: f64) -> f64 {
-        let sign = if qd > 0.0 {
-            1.0
-        } else if qd < 0.0 {
-            -1.0
-        } else {
-            0.0
-        };
-        link.viscous * qd + link.coulomb * sign
-    }
 }
 
 /// `Some((i, ±1))` when `u` is exactly ±e_i.

@@ -11,18 +11,18 @@ use nalgebra::DVector;
 #[derive(Clone, Copy)]
 pub(crate) struct Terms {
     pub gravity: bool,
-    pub friction: bool,
     pub motor: bool,
 }
 
 pub(crate) const ALL: Terms = Terms {
     gravity: true,
-    friction: true,
     motor: true,
 };
 
-/// Inverse dynamics `τ = M(q) q̈ + C(q, q̇) q̇ + g(q) + τ_friction(q̇)` (N·m for revolute, N for
-/// prismatic joints), motor inertia included in `M`. Fills and returns `data.tau`. Depends on
+/// Inverse dynamics `τ = M(q) q̈ + C(q, q̇) q̇ + g(q)` (N·m for revolute, N for prismatic
+/// joints), motor inertia included in `M`: Pinocchio's `rnea` (its `armature` is our motor
+/// inertia). Joint friction is not in it (issue 36; [`crate::friction`]: `τ_rigid − τ_passive`
+/// is the torque a motor supplies when friction acts). Fills and returns `data.tau`. Depends on
 /// q, q̇, q̈. Inputs are checked (length, finite).
 pub fn rnea<'d>(
     model: &Model,
@@ -56,7 +56,6 @@ pub fn gravity<'d>(
         None,
         Terms {
             gravity: true,
-            friction: false,
             motor: false,
         },
     );
@@ -82,7 +81,6 @@ pub fn coriolis<'d>(
         None,
         Terms {
             gravity: false,
-            friction: false,
             motor: false,
         },
     );
@@ -133,9 +131,6 @@ pub(crate) fn rnea_pass(
         let mut tau = link.s.dot(&data.f[j]);
         if terms.motor {
             tau += link.motor_inertia * qdd.map_or(0.0, |a| a[j]);
-        }
-        if terms.friction {
-            tau += Model::friction(link, qd.get(j).copied().unwrap_or(0.0));
         }
         data.tau[j] = tau;
         if let Some(p) = link.parent {

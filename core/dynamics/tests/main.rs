@@ -5,7 +5,9 @@
 
 mod common;
 
+mod friction;
 mod hard_cases;
 mod properties;
 mod reference_pinocchio;
+mod urdf_corpus;
 mod urdf_energy;

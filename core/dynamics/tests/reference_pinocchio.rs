@@ -3,7 +3,10 @@
 //! a tilted base, at 40 random states each, to 1e-9 relative (per vector: |x − ref|∞ ≤ 1e-9 ·
 //! max(|ref|∞, 1)). Forward dynamics is checked twice: by ABA and by CRBA + Cholesky.
 
-use robosim_dynamics::{Data, Model, aba, crba, fd_cholesky, gravity, rnea};
+use robosim_dynamics::{
+    Coulomb, Data, JointFriction, Model, aba, aba_with_friction, crba, fd_cholesky, gravity,
+    passive_torque, rnea,
+};
 use robosim_kinematics::json::robot_from_json;
 use serde_json::Value;
 use std::path::PathBuf;
@@ -124,17 +127,36 @@ fn motor_inertia_and_friction_match_roboticstoolbox() {
         .expect("cases");
     assert!(cases.len() >= 40);
     let (mut worst_tau, mut worst_qdd) = (0.0_f64, 0.0_f64);
+    // RTB's model: viscous + c sign(q̇), no sticking band
+    let rtb_friction = JointFriction {
+        viscous: true,
+        coulomb: Coulomb::StickSlip { velocity: 0.0 },
+    };
     for (i, c) in cases.iter().enumerate() {
         let (q, qd, qdd) = (vec_of(&c["q"]), vec_of(&c["qd"]), vec_of(&c["qdd"]));
-        let tau = rnea(&model, &mut data, &q, &qd, &qdd)
+        // issue 36: RTB's rne adds friction; ours is rigid-body, friction apart: the motor
+        // torque is τ_rigid − τ_passive (sign(q̇) Coulomb; RTB's cases move every joint)
+        let mut tau = rnea(&model, &mut data, &q, &qd, &qdd)
             .expect("rnea")
             .as_slice()
             .to_vec();
+        let mut passive = vec![0.0; q.len()];
+        passive_torque(&model, &qd, &rtb_friction, &mut passive).expect("passive");
+        for (t, p) in tau.iter_mut().zip(&passive) {
+            *t -= p;
+        }
         worst_tau = worst_tau.max(rel_err(&tau, &vec_of(&c["tau"])));
-        let a = aba(&model, &mut data, &q, &qd, &vec_of(&c["tau_fd"]))
-            .expect("aba")
-            .as_slice()
-            .to_vec();
+        let a = aba_with_friction(
+            &model,
+            &mut data,
+            &q,
+            &qd,
+            &vec_of(&c["tau_fd"]),
+            &rtb_friction,
+        )
+        .expect("aba")
+        .as_slice()
+        .to_vec();
         worst_qdd = worst_qdd.max(rel_err(&a, &vec_of(&c["qdd_fd"])));
         assert!(
             worst_tau <= 1e-9 && worst_qdd <= 1e-9,

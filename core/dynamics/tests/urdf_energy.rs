@@ -7,7 +7,9 @@
 //! [0.6, 1.6]; `hard_cases.rs`: 1 s of RK4 at 0.1 ms conserves energy to 1e-6 of the
 //! potential-energy scale; one-hour symplectic Euler: no secular growth), and no NaN.
 
-use robosim_dynamics::{Integrator, IntegratorConfig, Model, simulate};
+use robosim_dynamics::{
+    Integrator, IntegratorConfig, JointFriction, Model, simulate, simulate_with_friction,
+};
 use robosim_kinematics::Robot;
 use robosim_urdf::urdf_import::{import_urdf, import_urdf_tree};
 use std::path::PathBuf;
@@ -198,9 +200,11 @@ fn urdf_robots_with_their_friction_only_lose_energy() {
         let scale = energy_scale(&robot);
         let n = model.dof();
         let outputs: Vec<f64> = (0..=100).map(|k| 0.01 * k as f64).collect();
-        let (s, _) = simulate(
+        // issue 36: friction acts only where declared (the scene's joint_friction effect)
+        let (s, _) = simulate_with_friction(
             &model,
             IntegratorConfig::fixed(Integrator::Rk4, 1e-4),
+            Some(JointFriction::default()),
             &q0,
             &vec![0.0; n],
             &vec![0.0; n],
