@@ -494,7 +494,10 @@ fn collide_support_maps(
             // GJK's lower bound is a certified lower bound of the signed distance (minus the
             // depth); a bracket [lower, upper] narrower than the tolerance is the answer for
             // touching pairs. Otherwise the lower bound is first maximised over directions.
-            if s.upper - s.lower > tol {
+            // Certified: the lower bound maximised over directions first. A GJK tolerance
+            // takes EPA's depth as it comes (coal's way), the refinement only if EPA fails.
+            let certified = opts.tolerance == Tolerance::Certified;
+            if certified && s.upper - s.lower > tol {
                 lower::refine(&mut s, &pos12, ma, mb, sa, sb, true, tol);
             }
             if s.upper - s.lower <= tol {
@@ -518,6 +521,20 @@ fn collide_support_maps(
                     PairResult::Contact {
                         signed_distance: Some(c.dist.min(0.0)),
                         witness: Some([c.point1, c.point2]),
+                    }
+                }
+                _ if !certified => {
+                    lower::refine(&mut s, &pos12, ma, mb, sa, sb, true, tol);
+                    if s.lower.is_finite() {
+                        PairResult::Contact {
+                            signed_distance: Some(s.lower.min(0.0)),
+                            witness: Some([ga * s.pa, ga * s.pb]),
+                        }
+                    } else {
+                        PairResult::Contact {
+                            signed_distance: None,
+                            witness: None,
+                        }
                     }
                 }
                 _ if s.lower.is_finite() => PairResult::Contact {
@@ -589,5 +606,67 @@ mod tolerance_tests {
         }
         assert!(Tolerance::gjk(f64::NAN).is_err());
         assert_eq!(Tolerance::Gjk(1e-20).width(), DISTANCE_TOLERANCE);
+    }
+
+    /// A GJK tolerance changes how a distance or depth is computed, never the verdict, and
+    /// the answer stays near the certified one: clear distances within the tolerance (the
+    /// bracket), overlap depths (EPA's, unrefined) within 1e-6 m on these pairs.
+    #[test]
+    fn gjk_tolerance_keeps_verdicts_and_stays_near_the_certified_answer() {
+        use nalgebra::Vector3;
+        let solids = [
+            Solid::cuboid(Vector3::new(0.4, 0.3, 0.2)).expect("box"),
+            Solid::cylinder(0.2, 0.5, None).expect("cylinder"),
+            Solid::cone(0.15, 0.4, None).expect("cone"),
+        ];
+        let mut worst_clear: f64 = 0.0;
+        let mut worst_depth: f64 = 0.0;
+        let (mut clear, mut overlaps) = (0, 0);
+        for k in 0..300 {
+            let x = k as f64;
+            let (a, b) = (&solids[k % 3], &solids[(k / 3) % 3]);
+            let pa = Isometry3::new(Vector3::zeros(), Vector3::new(0.3 * x.sin(), 0.2, 0.1 * x));
+            let pb = Isometry3::new(
+                Vector3::new(
+                    0.2 + 0.4 * (0.37 * x).sin().abs(),
+                    0.1 * (0.7 * x).cos(),
+                    0.05,
+                ),
+                Vector3::new(0.5 * x.cos(), 0.3 * x, -0.2),
+            );
+            let cert = collide(a, &pa, b, &pb, ExactOptions::default());
+            let loose = collide(
+                a,
+                &pa,
+                b,
+                &pb,
+                ExactOptions {
+                    tolerance: Tolerance::Gjk(1e-6),
+                    ..ExactOptions::default()
+                },
+            );
+            assert_eq!(
+                cert.intersects(),
+                loose.intersects(),
+                "{k}: {cert:?} {loose:?}"
+            );
+            let (Some(dc), Some(dl)) = (cert.signed_distance(), loose.signed_distance()) else {
+                continue;
+            };
+            if dc > 0.0 {
+                assert!(dl >= dc - 1e-11 && dl <= dc + 1e-6, "{k}: {dl} vs {dc}");
+                worst_clear = worst_clear.max(dl - dc);
+                clear += 1;
+            } else {
+                worst_depth = worst_depth.max((dl - dc).abs());
+                overlaps += 1;
+            }
+        }
+        assert!(
+            clear >= 20 && overlaps >= 20,
+            "{clear} clear, {overlaps} overlapping"
+        );
+        assert!(worst_depth <= 1e-6, "depth differs by {worst_depth}");
+        assert!(worst_clear <= 1e-6);
     }
 }
