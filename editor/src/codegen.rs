@@ -51,9 +51,18 @@ pub fn generate(d: &Design, u: CodeUnits) -> Result<String, EditError> {
     Ok(s)
 }
 
+/// `v` rounded to 1e-9 of its unit (mm, degrees, …): what is left of a rotation's or a
+/// sum's rounding (`-0.000000000000007`) is 0, and -0 is 0. Beyond 1e6 units `v` as it is.
+fn clean(v: f64) -> f64 {
+    if !v.is_finite() || v.abs() > 1e6 {
+        return v;
+    }
+    let r = (v * 1e9).round() / 1e9;
+    if r == 0.0 { 0.0 } else { r }
+}
+
 fn num(v: f64) -> String {
-    // -0 reads back as 0; write it as 0 for readability
-    if v == 0.0 { "0".into() } else { format!("{v}") }
+    format!("{}", clean(v))
 }
 
 fn emit_object(s: &mut String, p: &Placed, u: CodeUnits) {
@@ -111,12 +120,12 @@ fn emit_object(s: &mut String, p: &Placed, u: CodeUnits) {
     }
     let [rx, ry, rz] = euler_xyz(&p.m);
     for (k, v) in [("X", rx), ("Y", ry), ("Z", rz)] {
-        if v != 0.0 {
+        if clean(v / u.angle.0) != 0.0 {
             let _ = writeln!(s, "  ROTATE {k} = {}", a(v));
         }
     }
     let t = [p.m[(0, 3)], p.m[(1, 3)], p.m[(2, 3)]];
-    if t != [0.0; 3] {
+    if t.iter().any(|v| clean(v / u.length.0) != 0.0) {
         let _ = writeln!(
             s,
             "  TRANSLATE X = {}, Y = {}, Z = {}",
@@ -161,4 +170,20 @@ pub fn design_from_program(out: &Output, robot: &str) -> Result<Design, EditErro
         links,
         current: 0,
     })
+}
+
+#[cfg(test)]
+mod number_tests {
+    use super::{clean, num};
+
+    /// Issue 39 item 8: generated code printed `ROTATE X = -0.000000000000007`.
+    #[test]
+    fn rounding_residue_prints_as_zero_and_real_values_keep_their_digits() {
+        assert_eq!(num(-0.000000000000007), "0");
+        assert_eq!(num(-0.0), "0");
+        assert_eq!(num(0.1 + 0.2), "0.3");
+        assert_eq!(num(-45.0), "-45");
+        assert_eq!(num(12.345678901), "12.345678901");
+        assert_eq!(clean(2.5e7), 2.5e7);
+    }
 }

@@ -527,7 +527,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                 (sun, sun)
             }
         };
-        let mut attitude_loss_w = 0.0;
+        let (mut attitude_loss_w, mut gimbal_loss_w) = (0.0, 0.0);
         let eclipse = s.orbit.eclipse_at(theta);
         let (sq, activity) = servicer_at(sched, t);
         let sb = &s.bodies[s.servicer];
@@ -648,10 +648,12 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                 let ca = normal_at(s, a, &qa).dot(&sun);
                 let (_, c_cmd) = track(s, a, &prev[ai], &sun_cmd, p.tracking_tol);
                 chosen = (qa, ca, false);
-                ideal = a.cells.power_w(s.efficiency, ca);
+                let reached = a.cells.power_w(s.efficiency, ca);
                 if !eclipse {
-                    attitude_loss_w += a.cells.power_w(s.efficiency, c_cmd) - ideal;
+                    attitude_loss_w += a.cells.power_w(s.efficiency, c_cmd) - reached;
+                    gimbal_loss_w += ideal - reached;
                 }
+                ideal = reached;
             }
             let got = a.cells.power_w(s.efficiency, chosen.1);
             if !eclipse {
@@ -676,6 +678,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                 (att.as_mut(), steps.last().and_then(|s: &Step| s.attitude))
             {
                 r.run.lost_j += la.attitude_loss_w * dt;
+                r.run.gimbal_lost_j += la.gimbal_loss_w * dt;
             }
         }
         // the configuration of this step (arrays, servicer) for the attitude's next interval
@@ -683,7 +686,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             (Some(r), Some(a)) => {
                 let qs: Vec<Vec<f64>> = arrays.iter().map(|x| x.0.clone()).collect();
                 r.reconfigure(s, a, &body_qs(s, &qs, &sq))?;
-                Some(r.record(attitude_loss_w))
+                Some(r.record(attitude_loss_w, gimbal_loss_w))
             }
             _ => None,
         };
@@ -1371,7 +1374,9 @@ pub fn no_eclipse_reason(orbit: &Orbit, orbits: f64) -> String {
     let critical = (r / (r + orbit.altitude_m)).asin();
     let (beta, crit) = (orbit.beta_rad.abs().to_degrees(), critical.to_degrees());
     if orbit.beta_rad.abs() >= critical {
-        format!("none (β = {beta:.1}° is beyond the critical angle {crit:.1}°: this orbit never enters the shadow)")
+        format!(
+            "none (β = {beta:.1}° is beyond the critical angle {crit:.1}°: this orbit never enters the shadow)"
+        )
     } else {
         format!(
             "none in this run (β = {beta:.1}° is below the critical angle {crit:.1}°, so the orbit has eclipses, {:.0}% of it in shadow; the {orbits} orbit{} run does not reach the shadow)",
