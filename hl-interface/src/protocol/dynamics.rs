@@ -4,16 +4,24 @@
 //!
 //! | op | request | answer |
 //! |---|---|---|
-//! | `id` | robot, q, qd, qdd | tau |
+//! | `id` | robot, q, qd, qdd, passive? | tau (and tau_passive with `passive`) |
 //! | `mass_matrix` | robot, q | mass_matrix (n×n rows) |
 //! | `gravity` | robot, q | tau (holds the arm still) |
-//! | `fd` | robot, q, qd, tau, method?: aba\|cholesky | qdd |
-//! | `simulate` | robot, q0, qd0?, tau?, t_end, outputs?, integrator, dt \| rtol+atol, limits?, max_steps? | samples [{t, q, qd, energy}], stats |
+//! | `fd` | robot, q, qd, tau, method?: aba\|cholesky, passive? | qdd (and tau_passive with `passive`) |
+//! | `simulate` | robot, q0, qd0?, tau?, t_end, outputs?, integrator, dt \| rtol+atol, limits?, max_steps?, passive? | samples [{t, q, qd, energy}], stats |
 //!
 //! `robot` is a library name (resolved by the caller's `robots`, then the fixtures compiled into
 //! `robosim_dynamics::fixture_robot`: puma560, stanford, panda) or an inline description
 //! ([`crate::robot_json`]).
-//! Friction and motor inertia are applied when the robot has them. `simulate` starts at t = 0
+//! The rigid-body equations, as Pinocchio computes them (DESIGN.md, "Dynamics contract"; motor
+//! inertia is Pinocchio's armature): a robot's joint damping and Coulomb friction (a URDF's
+//! `<dynamics>`) act only when the request says `"passive": true` (viscous, and Coulomb
+//! stick–slip with a 1e-6 rad/s band) or `"passive": {"viscous": bool, "coulomb":
+//! "off"|"regularised"|"stick_slip", "velocity": v}` (robosim_dynamics::friction). Then `id`
+//! answers `tau` = τ_rigid − τ_passive (what the motors supply) and `tau_passive` (what friction
+//! applies, static friction at rest reported as 0), `fd` answers q̈ under τ + friction
+//! (stick–slip: a joint at rest under a torque below its Coulomb limit stays at rest) and the
+//! friction torque as `tau_passive`. `simulate` starts at t = 0
 //! holds `tau` constant, and answers one sample per `outputs` time (default `[t_end]`); `limits`
 //! (default false) turns on the inelastic joint stops.
 //!
@@ -23,8 +31,11 @@ use super::RobotArg;
 use super::finite::check;
 use crate::robot_json::robot_from_json;
 use crate::{ErrorKind, ProtocolError};
+use robosim_dynamics::{
+    Coulomb, JointFriction, aba_with_friction, passive_torque, simulate_with_friction,
+};
 use robosim_dynamics::{Data, DynamicsError, Model, aba, crba, fd_cholesky, gravity, rnea};
-use robosim_dynamics::{Integrator, IntegratorConfig, StepSize, fixture_robot, simulate};
+use robosim_dynamics::{Integrator, IntegratorConfig, StepSize, fixture_robot};
 use robosim_geometry::readable;
 use robosim_kinematics::Robot;
 use serde_json::{Map, Value, json};
@@ -171,6 +182,61 @@ fn number(req: &Value, field: &str) -> Result<Option<f64>, ProtocolError> {
     }
 }
 
+/// The request's `passive` field: absent or false, `None` (the rigid-body equations); true,
+/// the default friction ([`JointFriction::default`]); an object, its settings.
+fn passive_of(req: &Value) -> Result<Option<JointFriction>, ProtocolError> {
+    let bad = |m: String| ProtocolError::new(ErrorKind::InvalidRequest, m);
+    let friction = match req.get("passive") {
+        None | Some(Value::Null) | Some(Value::Bool(false)) => return Ok(None),
+        Some(Value::Bool(true)) => JointFriction::default(),
+        Some(Value::Object(o)) => {
+            for k in o.keys() {
+                if !matches!(k.as_str(), "viscous" | "coulomb" | "velocity") {
+                    return Err(bad(format!(
+                        "`passive` has an unknown field {k:?} (viscous, coulomb, velocity)"
+                    )));
+                }
+            }
+            let viscous = match o.get("viscous") {
+                None => true,
+                Some(Value::Bool(b)) => *b,
+                Some(v) => {
+                    return Err(bad(format!("`passive.viscous` must be a boolean, got {v}")));
+                }
+            };
+            let velocity =
+                match o.get("velocity") {
+                    None => None,
+                    Some(v) => Some(v.as_f64().ok_or_else(|| {
+                        bad(format!("`passive.velocity` must be a number, got {v}"))
+                    })?),
+                };
+            let coulomb = match o.get("coulomb").map(|v| (v, v.as_str())) {
+                None | Some((_, Some("stick_slip"))) => Coulomb::StickSlip {
+                    velocity: velocity.unwrap_or(1e-6),
+                },
+                Some((_, Some("regularised"))) => Coulomb::Regularised {
+                    velocity: velocity.unwrap_or(1e-3),
+                },
+                Some((_, Some("off"))) => Coulomb::Off,
+                Some((v, _)) => {
+                    return Err(bad(format!(
+                        "`passive.coulomb` must be \"off\", \"regularised\" or \"stick_slip\", got {v}"
+                    )));
+                }
+            };
+            JointFriction { viscous, coulomb }
+        }
+        Some(v) => {
+            return Err(bad(format!(
+                "`passive` must be a boolean or an object, got {v}"
+            )));
+        }
+    };
+    friction.validate()?;
+    Ok(Some(friction))
+}
+
 fn op_id(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let model = model_of(req, arg)?;
     let n = model.dof();
@@ -179,10 +245,18 @@ fn op_id(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         vector(req, "qd", n, false)?,
         vector(req, "qdd", n, false)?,
     );
+    let passive = passive_of(req)?;
     let mut data = Data::new(&model);
     let tau = rnea(&model, &mut data, &q, &qd, &qdd)?;
     check("tau", tau.as_slice())?;
-    Ok(json!({ "tau": tau.as_slice() }))
+    let Some(friction) = passive else {
+        return Ok(json!({ "tau": tau.as_slice() }));
+    };
+    let mut tau_passive = vec![0.0; n];
+    passive_torque(&model, &qd, &friction, &mut tau_passive)?;
+    let total: Vec<f64> = tau.iter().zip(&tau_passive).map(|(t, p)| t - p).collect();
+    check("tau", total.as_slice())?;
+    Ok(json!({ "tau": total, "tau_passive": tau_passive }))
 }
 
 fn op_mass_matrix(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
@@ -215,6 +289,17 @@ fn op_fd(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         vector(req, "tau", n, false)?,
     );
     let mut data = Data::new(&model);
+    if let Some(friction) = passive_of(req)? {
+        if req.get("method").is_some_and(|m| m.as_str() != Some("aba")) {
+            return Err(ProtocolError::new(
+                ErrorKind::InvalidRequest,
+                "`passive` forward dynamics is computed by ABA: leave `method` out or say \"aba\"",
+            ));
+        }
+        let qdd = aba_with_friction(&model, &mut data, &q, &qd, &tau, &friction)?.clone();
+        check("qdd", qdd.as_slice())?;
+        return Ok(json!({ "qdd": qdd.as_slice(), "tau_passive": data.passive.as_slice() }));
+    }
     let qdd = match req.get("method").and_then(Value::as_str) {
         None | Some("aba") => aba(&model, &mut data, &q, &qd, &tau)?,
         Some("cholesky") => fd_cholesky(&model, &mut data, &q, &qd, &tau)?,
@@ -342,7 +427,9 @@ fn op_simulate(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         joint_stops,
         max_steps,
     };
-    let (samples, stats) = simulate(&model, config, &q0, &qd0, &tau, &outputs)?;
+    let friction = passive_of(req)?;
+    let (samples, stats) =
+        simulate_with_friction(&model, config, friction, &q0, &qd0, &tau, &outputs)?;
     for (i, s) in samples.iter().enumerate() {
         check(&format!("samples[{i}].q"), s.q.as_slice())?;
         check(&format!("samples[{i}].qd"), s.qd.as_slice())?;

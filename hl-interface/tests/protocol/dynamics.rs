@@ -277,3 +277,62 @@ fn dynamics_overflow_is_an_error_never_null_inside_a_success() {
         );
     }
 }
+
+/// Issue 36: `id` and `fd` on a URDF robot are the rigid-body equations (Pinocchio's numbers)
+/// although xArm7's URDF has damping and friction on every joint; `"passive": true` adds them
+/// (reported apart as `tau_passive`), and `fd` with it holds a robot at rest whose torques are
+/// within the Coulomb limits of what gravity needs.
+#[test]
+fn issue_36_friction_acts_only_when_the_request_says_passive() {
+    let corpus =
+        std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../testdata/urdf_corpus");
+    let reference: Value = serde_json::from_str(
+        &std::fs::read_to_string(corpus.join("reference.json")).expect("reference"),
+    )
+    .expect("json");
+    let rob = reference["robots"]
+        .as_array()
+        .expect("robots")
+        .iter()
+        .find(|r| r["file"] == "xarm_description/xarm7.urdf")
+        .expect("xarm7")
+        .clone();
+    let robot = json!({
+        "urdf": corpus.join("robots/xarm_description/xarm7.urdf"),
+        "tip": rob["tip"],
+    });
+    let s = &rob["chain"]["samples"][0];
+    let id = json!({"op": "id", "robot": robot, "q": s["q"], "qd": s["v"], "qdd": s["a"]});
+    let rigid = ask(id.clone()).expect("id");
+    assert!(
+        close(&nums(&rigid["tau"]), &nums(&s["rnea"]), 1e-10),
+        "{rigid}"
+    );
+    assert!(rigid.get("tau_passive").is_none());
+    let mut with = id.clone();
+    with["passive"] = json!(true);
+    let with = ask(with).expect("id passive");
+    let (t, p) = (nums(&with["tau"]), nums(&with["tau_passive"]));
+    let r = nums(&rigid["tau"]);
+    for j in 0..7 {
+        assert!((t[j] - (r[j] - p[j])).abs() < 1e-12);
+        assert!(p[j] * nums(&s["v"])[j] < 0.0, "friction opposes motion");
+    }
+    // at rest, the gravity torque plus 0.5 N·m on joint 1 (below its 1 N·m Coulomb limit)
+    let zero = vec![0.0; 7];
+    let g = ask(json!({"op": "gravity", "robot": robot, "q": s["q"]})).expect("gravity");
+    let mut tau = nums(&g["tau"]);
+    tau[0] += 0.5;
+    let fd = json!({"op": "fd", "robot": robot, "q": s["q"], "qd": zero, "tau": tau});
+    let free = ask(fd.clone()).expect("fd");
+    assert!(nums(&free["qdd"]).iter().any(|a| a.abs() > 1e-3), "{free}");
+    let mut held = fd;
+    held["passive"] = json!(true);
+    let held = ask(held).expect("fd passive");
+    assert!(nums(&held["qdd"]).iter().all(|a| a.abs() < 1e-9), "{held}");
+    assert!((nums(&held["tau_passive"])[0] + 0.5).abs() < 1e-9, "{held}");
+    let bad = ask(
+        json!({"op": "id", "robot": robot, "q": s["q"], "qd": s["v"], "qdd": s["a"], "passive": {"coulomb": "sticky"}}),
+    );
+    assert!(bad.is_err());
+}
