@@ -126,6 +126,7 @@ enum Format {
     Stl,
     Trajectory,
     Urdf,
+    Mjcf,
 }
 
 fn export_format(what: &[String]) -> Result<(Format, PathBuf)> {
@@ -134,8 +135,9 @@ fn export_format(what: &[String]) -> Result<(Format, PathBuf)> {
         "stl" => Ok(Format::Stl),
         "trajectory" | "csv" => Ok(Format::Trajectory),
         "urdf" => Ok(Format::Urdf),
+        "mjcf" | "xml" => Ok(Format::Mjcf),
         other => Err(FileError::Usage(format!(
-            "unknown export format {other:?}: gltf, stl, trajectory or urdf"
+            "unknown export format {other:?}: gltf, stl, trajectory, urdf or mjcf"
         ))),
     };
     match what {
@@ -150,7 +152,7 @@ fn export_format(what: &[String]) -> Result<(Format, PathBuf)> {
             Ok((
                 parse(&ext).map_err(|_| {
                     FileError::Usage(format!(
-                        "{file}: say the format (gltf, stl, trajectory, urdf) or use .glb, .stl, .csv or .urdf"
+                        "{file}: say the format (gltf, stl, trajectory, urdf, mjcf) or use .glb, .stl, .csv, .urdf or .xml"
                     ))
                 })?,
                 p,
@@ -165,8 +167,8 @@ pub fn export(a: &ExportArgs, session: Option<&str>) -> Result<()> {
     if fmt == Format::Trajectory {
         return export_trajectory(a, session, &out);
     }
-    if fmt == Format::Urdf {
-        return export_urdf(a, session, &out);
+    if matches!(fmt, Format::Urdf | Format::Mjcf) {
+        return export_robot(a, session, &out, fmt);
     }
     let (model, what) = match &a.scene {
         Some(name) => (
@@ -230,16 +232,17 @@ pub fn export(a: &ExportArgs, session: Option<&str>) -> Result<()> {
                 out.display()
             );
         }
-        Format::Trajectory | Format::Urdf => {}
+        Format::Trajectory | Format::Urdf | Format::Mjcf => {}
     }
     Ok(())
 }
 
-/// `robosim export robot.urdf [--robot NAME] (--session S | --scene NAME)`: a robot of a session
-/// or of a library scene, at its placement there, as URDF ([`crate::urdf`]).
-fn export_urdf(a: &ExportArgs, session: Option<&str>, out: &Path) -> Result<()> {
+/// `robosim export robot.urdf|robot.xml [--robot NAME] (--session S | --scene NAME)`: a robot of
+/// a session or of a library scene, at its placement there, as URDF ([`crate::urdf`]) or MJCF
+/// ([`crate::mjcf_export`]).
+fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) -> Result<()> {
     let robots = match &a.scene {
-        Some(name) => crate::scene_robots(name, &a.library)?,
+        Some(name) => crate::export_robots(name, &a.library)?,
         None => {
             let s = Session::open(session)?;
             let reader = Reader::attach(&s, "file-io")?;
@@ -267,8 +270,25 @@ fn export_urdf(a: &ExportArgs, session: Option<&str>, out: &Path) -> Result<()> 
             }
         },
     };
-    let text = crate::urdf::to_urdf(robot).map_err(FileError::Usage)?;
+    if fmt == Format::Mjcf {
+        let (text, notes) = crate::mjcf_export::to_mjcf(robot).map_err(FileError::Usage)?;
+        format::write_atomic(out, text.as_bytes())?;
+        println!(
+            "exported robot {} to {}: {} joints as MJCF bodies",
+            robot.name,
+            out.display(),
+            robot.dof()
+        );
+        for n in &notes {
+            println!("  note: {n}");
+        }
+        return Ok(());
+    }
+    let (text, notes) = crate::urdf::to_urdf_with_notes(robot).map_err(FileError::Usage)?;
     format::write_atomic(out, text.as_bytes())?;
+    for n in &notes {
+        println!("  note: {n}");
+    }
     println!(
         "exported robot {} to {}: {} joints, {} convention DH as URDF origins and z axes",
         robot.name,
@@ -328,6 +348,9 @@ pub enum ImportCmd {
     /// (meshes as convex hulls) — as a robot placed in the scene (one transaction;
     /// docs/file-io.md, "URDF into a session").
     Urdf(ImportUrdfArgs),
+    /// An MJCF (MuJoCo) robot — its hinge and slide joints, inertials, geoms — the same way
+    /// (docs/file-io.md, "MJCF import"); the arguments are the URDF import's.
+    Mjcf(ImportUrdfArgs),
 }
 
 #[derive(Debug)]
@@ -367,6 +390,7 @@ pub fn import(cmd: &ImportCmd, session: Option<&str>) -> Result<()> {
     match cmd {
         ImportCmd::Mesh(a) => import_mesh(a, session),
         ImportCmd::Urdf(a) => import_urdf(a, session),
+        ImportCmd::Mjcf(a) => import_mjcf(a, session),
     }
 }
 
@@ -450,6 +474,24 @@ fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
     let pose = crate::import::parse_at(&a.at)?;
     // Everything that can be wrong with the file is found before the session is touched.
     let u = crate::urdf_import::import_urdf_tree(&a.file)?;
+    import_robot(a, session, pose, &u)
+}
+
+/// `robosim import mjcf FILE`: the whole tree of an MJCF model ([`crate::mjcf`]), placed as a
+/// URDF robot is; what the file has that is not read is printed as notes.
+fn import_mjcf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
+    let pose = crate::import::parse_at(&a.at)?;
+    let u = crate::mjcf::import_mjcf_tree(&a.file)?;
+    import_robot(a, session, pose, &u)
+}
+
+/// A robot read from a description file into the session (one transaction).
+fn import_robot(
+    a: &ImportUrdfArgs,
+    session: Option<&str>,
+    pose: robosim_instance_space::Pose,
+    u: &crate::urdf_import::UrdfRobot,
+) -> Result<()> {
     let name = a.name.clone().unwrap_or_else(|| u.robot.name.clone());
     let s = Session::open(session)?;
     let parent = import_parent(&s, a.parent.as_deref())?;
@@ -459,7 +501,7 @@ fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
         parent,
         visuals: !a.no_visuals,
     };
-    let imp = crate::urdf_session::urdf_tx(&u, &place)?;
+    let imp = crate::urdf_session::urdf_tx(u, &place)?;
     let applied = import_commit(&s, &imp.tx, &a.file, &name)?;
     println!(
         "imported {} as robot {name}: {} joints ({}), {} visuals, {} collision solids ({} meshes decomposed: hull far from the mesh), {} mesh triangles read, version {}",

@@ -103,6 +103,9 @@ pub enum FileError {
     /// A URDF file that cannot be imported (file, line, element and what).
     #[error(transparent)]
     Urdf(#[from] crate::urdf_import::UrdfError),
+    /// An MJCF file that cannot be imported (file, line, element and what).
+    #[error(transparent)]
+    Mjcf(#[from] crate::mjcf::MjcfError),
     /// An input file that is not a regular file, or is larger than its limit, or cannot be read
     /// ([`robosim_input::read_file`]).
     #[error(transparent)]

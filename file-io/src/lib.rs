@@ -36,6 +36,7 @@ pub mod format;
 pub mod gltf;
 pub mod import;
 pub mod linkfile;
+pub mod mjcf_export;
 pub mod model;
 pub mod session;
 pub mod stl;
@@ -73,6 +74,24 @@ pub fn scene_robots(
     Ok(robots_of(&robosim_instance_space::Snapshot::from_store(
         &store,
     )))
+}
+
+/// The robots `robosim export urdf|mjcf --scene NAME` writes: a robot declaration's own model
+/// (with its friction and motor inertia, which the Instance Space's joint record does not
+/// carry), named NAME, else the robots of the scene as instantiated ([`scene_robots`]).
+pub fn export_robots(
+    name: &str,
+    library: &[std::path::PathBuf],
+) -> Result<Vec<robosim_kinematics::Robot>, FileError> {
+    let lib = robosim_scene::build_library(library)?;
+    if let Ok(robosim_library::Evaluated::Robot(r)) =
+        lib.evaluate(name, &robosim_library::Params::new())
+    {
+        let mut robot = r.robot;
+        robot.name = name.to_string();
+        return Ok(vec![robot]);
+    }
+    scene_robots(name, library)
 }
 
 /// The robots of a snapshot as kinematic (and dynamic) models.

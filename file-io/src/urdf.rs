@@ -27,6 +27,11 @@
 //! link's centre of mass and inertia, placed by `P_j` (the inertia tensor is written in the DH
 //! frame's axes, which the inertial origin's rpy names).
 //!
+//! Every moving link has an `<inertial>`: a massless one gets
+//! [`crate::mjcf_export::TINY_MASS`] (MuJoCo's URDF loader refuses a moving link without mass;
+//! Pinocchio does not care), and an inertia breaking A + B ≥ C is made physical
+//! ([`crate::mjcf_export::physical_inertia`]); [`to_urdf_with_notes`] says which link and what.
+//!
 //! Not in URDF, so not written: gravity, the motor (rotor) inertia (Pinocchio's "armature";
 //! noted in a comment per joint when non-zero), velocity and effort limits (robosim does not
 //! model them: written as 0, which URDF readers take as "unknown"), and the geometry (a link's
@@ -117,6 +122,13 @@ pub fn link_name(robot: &Robot, j: usize) -> String {
 /// (non-finite fields, reversed limits), with the model's own message, and a revolute or
 /// prismatic joint with a half-infinite range (or an infinite prismatic one).
 pub fn to_urdf(robot: &Robot) -> Result<String, String> {
+    to_urdf_with_notes(robot).map(|(text, _)| text)
+}
+
+/// [`to_urdf`] and what was changed to make the file loadable by MuJoCo too (inertias made
+/// physical, massless links given a tiny mass; [`crate::mjcf_export::physical_inertia`]).
+pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String> {
+    let mut notes = Vec::new();
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
@@ -198,13 +210,21 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
             None => Matrix4::new_translation(&j.com),
         };
         let _ = writeln!(out, "  <link name=\"{child}\">");
-        if j.mass > 0.0 {
-            let m = &j.inertia;
+        // Every moving link gets an <inertial> another tool accepts (crate::mjcf_export's rules:
+        // physical moments, a tiny mass for a massless link), each change noted.
+        let (mass, inertia) = crate::mjcf_export::loadable_inertial(
+            j.mass,
+            &j.inertia,
+            &format!("link {i}"),
+            &mut notes,
+        );
+        {
+            let m = &inertia;
             let _ = writeln!(
                 out,
                 "    <inertial>\n      <origin {}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>",
                 oa(&inertial_frame),
-                j.mass,
+                mass,
                 m[(0, 0)],
                 m[(0, 1)],
                 m[(0, 2)],
@@ -263,5 +283,5 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
         oa(&tool_origin)
     );
     let _ = writeln!(out, "</robot>");
-    Ok(out)
+    Ok((out, notes))
 }

@@ -9,6 +9,7 @@ mod exchange;
 mod fuzz_corpus;
 mod hostile_inputs;
 mod linkfile_mass;
+mod mjcf_export;
 mod mjcf_import;
 mod model_files;
 mod urdf_bad_input;

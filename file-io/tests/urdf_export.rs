@@ -230,7 +230,7 @@ fn exported_urdf_read_by_pinocchio_matches_robosim() {
     };
     for name in ["puma560", "stanford", "panda"] {
         // The robot as `robosim export NAME.urdf --scene NAME` exports it.
-        let robot = robosim_file_io::scene_robots(name, &[])
+        let robot = robosim_file_io::export_robots(name, &[])
             .expect("scene")
             .pop()
             .expect("one robot");

@@ -69,6 +69,28 @@ pub enum ImportCmd {
     /// (meshes as convex hulls) — as a robot placed in the scene (one transaction;
     /// docs/file-io.md, "URDF into a session").
     Urdf(ImportUrdfArgs),
+    /// An MJCF (MuJoCo) robot — its hinge and slide joints, inertials and geoms — as a robot
+    /// placed in the scene (one transaction; docs/file-io.md, "MJCF import"). Ball and free
+    /// joints are refused; what is not read (actuators, sensors, …) is printed as notes.
+    Mjcf(ImportMjcfArgs),
+}
+
+#[derive(clap::Args, Debug)]
+pub struct ImportMjcfArgs {
+    /// The MJCF file (meshes are found under its <compiler meshdir>).
+    pub file: PathBuf,
+    /// The robot's name in the session (default: the file's `<mujoco model>`).
+    #[arg(long = "as")]
+    pub name: Option<String>,
+    /// Position (m) and optionally roll, pitch, yaw (deg) of the world body in the parent's frame.
+    #[arg(long, default_value = "0,0,0", allow_hyphen_values = true)]
+    pub at: String,
+    /// The scene to place it in (default: the session's first scene).
+    #[arg(long)]
+    pub parent: Option<String>,
+    /// Leave the visual-only geoms out (the collision geoms are drawn).
+    #[arg(long)]
+    pub no_visuals: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -158,6 +180,15 @@ impl From<ImportCmd> for robosim_file_io::cli::ImportCmd {
         match a {
             ImportCmd::Mesh(x) => robosim_file_io::cli::ImportCmd::Mesh(x.into()),
             ImportCmd::Urdf(x) => robosim_file_io::cli::ImportCmd::Urdf(x.into()),
+            ImportCmd::Mjcf(x) => {
+                robosim_file_io::cli::ImportCmd::Mjcf(robosim_file_io::cli::ImportUrdfArgs {
+                    file: x.file,
+                    name: x.name,
+                    at: x.at,
+                    parent: x.parent,
+                    no_visuals: x.no_visuals,
+                })
+            }
         }
     }
 }

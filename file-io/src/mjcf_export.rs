@@ -1,0 +1,275 @@
+//! MJCF export of a robot (issue 36 item 4, `robosim export mjcf`): robosim's joint model
+//! written as a MuJoCo body tree that MuJoCo loads without flags and whose FK and mass matrix
+//! are robosim's (tools/peers/check_exports.py checks both in MuJoCo 4.0; docs/file-io.md has
+//! the table).
+//!
+//! The robot is first made general ([`robosim_kinematics::chain::to_general`]: every joint an
+//! origin and an axis, DH rows included), then each joint j is a `<body>` named
+//! `<robot>_link<j+1>` whose `pos`/`quat` are the joint's placement times its motion at the
+//! offset (`P_j · M_j(offset)`, so MuJoCo's q is robosim's q, `ref` 0), inside the body of its
+//! parent link; `<robot>_link0` is a joint-less body at the world's origin and the robot's base
+//! placement is multiplied into the bodies on it (Pinocchio 4.1's MJCF reader drops the pos
+//! and quat of a joint-less body on the world); the tool is a body `<robot>_tool` without joint
+//! on the last link. A joint is `hinge` or `slide` with its
+//! `axis`, `range` (or `limited="false"` when unbounded), `damping` (viscous friction),
+//! `frictionloss` (Coulomb) and `armature` (the motor inertia, which MuJoCo adds to M's diagonal
+//! as robosim does). Each body's `<inertial>` is its link's mass, centre of mass and
+//! `fullinertia` (MuJoCo diagonalises it); `<option gravity>` is the robot's gravity.
+//!
+//! Inertias MuJoCo refuses are made physical and said ([`physical_inertia`]): a link whose
+//! principal moments break A + B ≥ C (the PUMA's link 3 in the library's data) has its two
+//! smaller moments raised by half the deficit each (C kept), and a moving link without mass
+//! gets [`TINY_MASS`] kg and [`TINY_INERTIA`] kg·m² (MuJoCo refuses a body with joints and no
+//! mass; its M then differs from robosim's by that much, far below any physical quantity).
+//! Each change is returned as a note and printed by the command.
+//!
+//! Geometry: the `visual` and `collision` default classes are written (geoms of class visual do
+//! not collide, group 2; collision geoms group 3), but the robot's solids are not exported as
+//! geoms yet: the robot model carries no shapes (they are in the session's bodies).
+
+use crate::urdf::link_name;
+use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
+use robosim_kinematics::{JointType, Robot, chain::to_general};
+use std::fmt::Write as _;
+
+/// The mass given to a moving link without mass (kg): MuJoCo refuses a body with joints and
+/// no mass ("mass and inertia of moving bodies must be larger than mjMINVAL").
+pub const TINY_MASS: f64 = 1e-9;
+/// Its principal moments (kg·m²).
+pub const TINY_INERTIA: f64 = 1e-12;
+
+/// A link's inertia as another tool will accept it: the tensor itself when its principal
+/// moments are non-negative and satisfy the triangle inequalities (A + B ≥ C for every
+/// ordering), else the nearest such tensor with the same principal axes — negative moments set
+/// to 0, then the two smaller moments raised by half the deficit each — and a sentence saying
+/// which inequality was broken and by how much. Deficits below 1e-9 of C (rounding in the
+/// data) are fixed without a note.
+pub fn physical_inertia(inertia: &Matrix3<f64>, what: &str) -> (Matrix3<f64>, Option<String>) {
+    let e = SymmetricEigen::new(*inertia);
+    let mut m: Vec<(f64, usize)> = e
+        .eigenvalues
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| (v.max(0.0), i))
+        .collect();
+    m.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (a, b, c) = (m[0].0, m[1].0, m[2].0);
+    let negative = e.eigenvalues.min() < 0.0;
+    // A margin of a few ulps of C: the loader re-diagonalises what is written.
+    let deficit = c - a - b;
+    if deficit < -1e-12 * c && !negative {
+        return (*inertia, None);
+    }
+    let raise = deficit.max(0.0) / 2.0 + 1e-12 * c;
+    let mut d = Vector3::zeros();
+    d[m[0].1] = a + raise;
+    d[m[1].1] = b + raise;
+    d[m[2].1] = c;
+    let fixed = e.eigenvectors * Matrix3::from_diagonal(&d) * e.eigenvectors.transpose();
+    let fixed = (fixed + fixed.transpose()) / 2.0;
+    let note = (deficit > 1e-9 * c || negative).then(|| {
+        format!(
+            "{what}: principal moments {a:e}, {b:e}, {c:e} kg·m² break A + B ≥ C by {deficit:e}{}; written with the two smaller raised by {raise:e} each",
+            if negative {
+                " (a negative moment was set to 0)"
+            } else {
+                ""
+            }
+        )
+    });
+    (fixed, note)
+}
+
+/// The mass and inertia written for a moving link: [`physical_inertia`] of its own, then a
+/// link without mass gets [`TINY_MASS`] (its inertia kept when it has one: the PUMA's link 1 is
+/// massless with a rotor-side inertia about its axis) and a link without inertia
+/// [`TINY_INERTIA`] about each axis. Each change is a note (MuJoCo refuses a body with a joint
+/// and no mass or inertia).
+pub fn loadable_inertial(
+    mass: f64,
+    inertia: &Matrix3<f64>,
+    what: &str,
+    notes: &mut Vec<String>,
+) -> (f64, Matrix3<f64>) {
+    let (mut i, note) = physical_inertia(inertia, what);
+    notes.extend(note);
+    if i.trace() <= 0.0 {
+        i = Matrix3::identity() * TINY_INERTIA;
+    }
+    if mass > 0.0 {
+        if inertia.trace() <= 0.0 {
+            notes.push(format!(
+                "{what}: a point mass (no inertia); written with {TINY_INERTIA:e} kg·m² about each axis (MuJoCo refuses a moving body without inertia)"
+            ));
+        }
+        (mass, i)
+    } else {
+        notes.push(format!(
+            "{what}: no mass; written as {TINY_MASS:e} kg{} (MuJoCo refuses a moving body without mass)",
+            if inertia.trace() > 0.0 {
+                ", its inertia kept".to_string()
+            } else {
+                format!(" with {TINY_INERTIA:e} kg·m² about each axis")
+            }
+        ));
+        (TINY_MASS, i)
+    }
+}
+
+fn v3(v: &Vector3<f64>) -> String {
+    format!("{:?} {:?} {:?}", v.x, v.y, v.z)
+}
+
+/// `pos="…" quat="…"` of a rigid transform.
+fn frame_attrs(m: &Matrix4<f64>) -> String {
+    let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
+    let q = UnitQuaternion::from_matrix(&r);
+    let p: Vector3<f64> = m.fixed_view::<3, 1>(0, 3).into_owned();
+    format!(
+        "pos=\"{}\" quat=\"{:?} {:?} {:?} {:?}\"",
+        v3(&p),
+        q.w,
+        q.i,
+        q.j,
+        q.k
+    )
+}
+
+fn xml(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// The robot as MJCF text (see the module docs) and the notes on what was changed to make it
+/// loadable. Refused: a model that does not validate.
+pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
+    robot
+        .validate()
+        .map_err(|e| format!("robot {}: {e}", robot.name))?;
+    let g = to_general(robot);
+    let name = xml(&robot.name);
+    let mut notes = Vec::new();
+    let mut out = String::new();
+    let _ = writeln!(out, "<mujoco model=\"{name}\">");
+    let _ = writeln!(
+        out,
+        "  <!-- Written by robosim from the joint model of {name} (docs/file-io.md, \"MJCF export\"). -->"
+    );
+    let _ = writeln!(out, "  <compiler angle=\"radian\" autolimits=\"true\"/>");
+    let _ = writeln!(out, "  <option gravity=\"{}\"/>", v3(&robot.gravity));
+    let _ = writeln!(
+        out,
+        "  <default>\n    <default class=\"visual\">\n      <geom contype=\"0\" conaffinity=\"0\" group=\"2\"/>\n    </default>\n    <default class=\"collision\">\n      <geom group=\"3\"/>\n    </default>\n  </default>"
+    );
+    let _ = writeln!(out, "  <worldbody>");
+    // Bodies as a tree: children of link k are the joints whose parent is k.
+    let n = g.dof();
+    let mut bodies: Vec<String> = vec![String::new(); n + 1];
+    for j in (0..n).rev() {
+        let joint = &g.joints[j];
+        let Some(origin) = joint.origin else {
+            return Err(format!(
+                "robot {}: joint {j} has no origin after to_general",
+                robot.name
+            ));
+        };
+        let at = origin.placement
+            * robosim_kinematics::JointGeometry {
+                joint_type: joint.joint_type,
+                placement: None,
+                axis: origin.axis,
+                offset: joint.offset,
+                trailing: None,
+            }
+            .motion(0.0);
+        // The base placement goes into the bodies on the base: Pinocchio 4.1's MJCF reader
+        // drops the pos and quat of a joint-less body on the world.
+        let at = if g.parent(j) == 0 { g.base * at } else { at };
+        let link = xml(&link_name(robot, j + 1));
+        let mut body = String::new();
+        let _ = writeln!(body, "<body name=\"{link}\" {}>", frame_attrs(&at));
+        let kind = match joint.joint_type {
+            JointType::Revolute => "hinge",
+            JointType::Prismatic => "slide",
+        };
+        let [lo, hi] = joint.qlim;
+        let range = if lo.is_finite() && hi.is_finite() {
+            format!("range=\"{lo:?} {hi:?}\"")
+        } else if lo == f64::NEG_INFINITY && hi == f64::INFINITY {
+            "limited=\"false\"".to_string()
+        } else {
+            return Err(format!(
+                "robot {}: joint {j} has limits [{lo}, {hi}]; MJCF has no half-bounded joint",
+                robot.name
+            ));
+        };
+        let _ = writeln!(
+            body,
+            "  <joint name=\"{name}_joint{}\" type=\"{kind}\" axis=\"{}\" {range} damping=\"{:?}\" frictionloss=\"{:?}\" armature=\"{:?}\"/>",
+            j + 1,
+            v3(&origin.axis),
+            joint.viscous,
+            joint.coulomb,
+            joint.motor_inertia
+        );
+        let (mass, inertia) = loadable_inertial(
+            joint.mass,
+            &joint.inertia,
+            &format!("link {}", j + 1),
+            &mut notes,
+        );
+        let _ = writeln!(
+            body,
+            "  <inertial pos=\"{}\" mass=\"{mass:?}\" fullinertia=\"{:?} {:?} {:?} {:?} {:?} {:?}\"/>",
+            v3(&joint.com),
+            inertia[(0, 0)],
+            inertia[(1, 1)],
+            inertia[(2, 2)],
+            inertia[(0, 1)],
+            inertia[(0, 2)],
+            inertia[(1, 2)]
+        );
+        if j + 1 == n {
+            let _ = writeln!(
+                body,
+                "  <body name=\"{}\" {}/>",
+                xml(&format!("{}_tool", robot.name)),
+                frame_attrs(&g.tool)
+            );
+        }
+        let children = std::mem::take(&mut bodies[j + 1]);
+        for line in children.lines() {
+            let _ = writeln!(body, "  {line}");
+        }
+        let _ = writeln!(body, "</body>");
+        // Prepend: children were visited in reverse, so the file keeps joint order.
+        let parent = g.parent(j);
+        bodies[parent] = body + &bodies[parent];
+    }
+    let mut root = String::new();
+    let _ = writeln!(
+        root,
+        "<body name=\"{}\" {}>",
+        xml(&link_name(robot, 0)),
+        frame_attrs(&Matrix4::identity())
+    );
+    if n == 0 {
+        let _ = writeln!(
+            root,
+            "  <body name=\"{}\" {}/>",
+            xml(&format!("{}_tool", robot.name)),
+            frame_attrs(&(g.base * g.tool))
+        );
+    }
+    for line in bodies[0].lines() {
+        let _ = writeln!(root, "  {line}");
+    }
+    let _ = writeln!(root, "</body>");
+    for line in root.lines() {
+        let _ = writeln!(out, "    {line}");
+    }
+    let _ = writeln!(out, "  </worldbody>\n</mujoco>");
+    Ok((out, notes))
+}
