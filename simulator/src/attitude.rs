@@ -230,7 +230,8 @@ pub enum AttitudeError {
 }
 
 /// A desaturation: when it started and ended (s), the momentum before and after (N·m·s), the
-/// largest attitude error (rad) and microgravity disturbance (m/s²) during it.
+/// largest attitude error (rad) and microgravity disturbance (m/s²) during it and the attitude
+/// loop's settling time after it (4 / (ζ ω_n), 222 s).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Dump {
     pub start_s: f64,
@@ -576,8 +577,22 @@ impl Attitude {
                     }
                 }
                 None => {
-                    self.max_error_quiet = self.max_error_quiet.max(e);
-                    self.max_accel_quiet = self.max_accel_quiet.max(acc);
+                    // the loop's settling time after a desaturation belongs to it
+                    let settle = 4.0 / (CONTROL_DAMPING * CONTROL_BANDWIDTH);
+                    match self
+                        .dumps
+                        .last_mut()
+                        .filter(|d| d.end_s.is_some_and(|end| self.t <= end + settle))
+                    {
+                        Some(d) => {
+                            d.max_error_rad = d.max_error_rad.max(e);
+                            d.max_accel = d.max_accel.max(acc);
+                        }
+                        None => {
+                            self.max_error_quiet = self.max_error_quiet.max(e);
+                            self.max_accel_quiet = self.max_accel_quiet.max(acc);
+                        }
+                    }
                     if hn >= high {
                         self.dumps.push(Dump {
                             start_s: self.t,

@@ -209,6 +209,9 @@ pub struct AttStep {
     /// less what they make at the actual one with rate-limited gimbals (0 in eclipse; feathered
     /// and parked arrays count with the feathering losses).
     pub attitude_loss_w: f64,
+    /// The part of it the gimbals' rate costs: the ideal at the actual attitude less what the
+    /// rate-limited gimbals reach, W (≥ 0).
+    pub gimbal_loss_w: f64,
 }
 
 /// The attitude over a run.
@@ -232,6 +235,8 @@ pub struct AttRun {
     /// Energy the attitude cost the tracking arrays (the commanded attitude's ideal against
     /// the actual attitude with rate-limited gimbals), J.
     pub lost_j: f64,
+    /// The part of it the gimbals' rate limit costs, J.
+    pub gimbal_lost_j: f64,
     /// The held pitch from LVLH, rad (TEA; 0 for LVLH).
     pub pitch_rad: f64,
     /// The configurations per step (for the accuracy section).
@@ -279,6 +284,7 @@ impl Running {
                 integrate_s: 0.0,
                 substeps: 0,
                 lost_j: 0.0,
+                gimbal_lost_j: 0.0,
                 pitch_rad: pitch,
                 configs: vec![cfg],
                 mass: cfg.mass,
@@ -316,7 +322,7 @@ impl Running {
     }
 
     /// This step's record.
-    pub fn record(&self, attitude_loss_w: f64) -> AttStep {
+    pub fn record(&self, attitude_loss_w: f64, gimbal_loss_w: f64) -> AttStep {
         let m = &self.model;
         let mut e = self.cfg.mass.inertia.symmetric_eigenvalues();
         e.as_mut_slice().sort_by(f64::total_cmp);
@@ -329,6 +335,7 @@ impl Running {
             inertia: [e[0], e[1], e[2]],
             drag_area_m2: self.cfg.drag.area_m2,
             attitude_loss_w,
+            gimbal_loss_w,
         }
     }
 
@@ -437,8 +444,13 @@ pub fn rows(run: &Run, a: &AttRun) -> Vec<(&'static str, String, &'static str)> 
             "µg",
         ),
         (
-            "energy the attitude cost the tracking arrays",
+            "energy the attitude cost the tracking arrays (commanded attitude's ideal − reached; signed: the one-axis arrays cannot track, an attitude error may help them)",
             format!("{:.3}", a.lost_j / 3.6e6),
+            "kWh",
+        ),
+        (
+            "of which the gimbals' rate limit (could not follow)",
+            format!("{:.3}", a.gimbal_lost_j / 3.6e6),
             "kWh",
         ),
         (
@@ -576,7 +588,7 @@ pub fn accuracy(
     let fine = steps.iter().copied().fold(f64::INFINITY, f64::min) / 4.0;
     let (rm, reference, _) = integrate(fine)?;
     let mut rows = Vec::new();
-    let (mut err_pts, mut time_pts) = (Vec::new(), Vec::new());
+    let (mut err_pts, mut time_pts, mut calm_pts) = (Vec::new(), Vec::new(), Vec::new());
     for &h in steps {
         let (m, trace, wall) = integrate(h)?;
         let att_err = trace
@@ -589,6 +601,22 @@ pub fn accuracy(
             .zip(&reference)
             .map(|((_, x), (_, r))| (x.h - r.h).norm())
             .fold(0.0, f64::max);
+        // before the first desaturation of either: the integration alone (a desaturation
+        // starts at the end of the substep that crosses the threshold, which shifts its pulses)
+        let calm = m
+            .dumps
+            .first()
+            .map(|d| d.start_s)
+            .into_iter()
+            .chain(rm.dumps.first().map(|d| d.start_s))
+            .fold(f64::INFINITY, f64::min);
+        let calm_err = trace
+            .iter()
+            .zip(&reference)
+            .filter(|((t, _), _)| *t < calm)
+            .map(|((_, x), (_, r))| x.q.angle_to(&r.q))
+            .fold(0.0, f64::max);
+        calm_pts.push((h, calm_err.to_degrees().max(1e-12)));
         let first = |m: &Attitude| m.dumps.first().map(|d| d.start_s);
         let shift = match (first(&m), first(&rm)) {
             (Some(x), Some(y)) => format!("{:.1}", (x - y).abs()),
@@ -600,6 +628,7 @@ pub fn accuracy(
         rows.push(vec![
             format!("{h}"),
             format!("{}", m.substeps),
+            format!("{:.3e}", calm_err.to_degrees()),
             format!("{:.3e}", att_err.to_degrees()),
             format!("{h_err:.3e}"),
             format!("{} / {}", m.dumps.len(), rm.dumps.len()),
@@ -611,14 +640,15 @@ pub fn accuracy(
         name: "station_attitude_accuracy".into(),
         title: "Space Station study: attitude integration, what accuracy costs in time".into(),
         notes: vec![format!(
-            "The run's {} configurations (mass properties and drag geometry, one per study step) integrated again with RK4 at each substep (the thruster pulses are integration boundaries at every substep) against the same at {fine} s. Errors are the largest over the study's steps: the attitude's angle from the reference's, and the CMG momentum's distance from it.",
+            "The run's {} configurations (mass properties and drag geometry, one per study step) integrated again with RK4 at each substep (the thruster pulses are integration boundaries at every substep) against the same at {fine} s. Errors are the largest over the study's steps: the attitude's angle from the reference's, and the CMG momentum's distance from it. Before the first desaturation the error is the integrator's; over the whole run it is dominated by when each desaturation starts (the threshold is checked at the end of each substep, so the pulses shift by up to a substep and the attitude's response to them with it).",
             ar.configs.len()
         )],
         table: Table {
             columns: vec![
                 "substep (s)".into(),
                 "substeps".into(),
-                "attitude error vs reference (deg)".into(),
+                "attitude error before the first desaturation (deg)".into(),
+                "attitude error vs reference, whole run (deg)".into(),
                 "CMG momentum error vs reference (N·m·s)".into(),
                 "desaturations (this / reference)".into(),
                 "first desaturation shifted by (s)".into(),
