@@ -590,6 +590,12 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
     )
     .ok();
     let rounds = base.rounds.len();
+    let build = if cfg!(debug_assertions) {
+        "a debug build (our crates at opt-level 1, dependencies at 2): figures are slower than a release build's, and ratios between sizes are what to read"
+    } else {
+        "a release build"
+    };
+    writeln!(md, "Built as {build}.\n").ok();
     writeln!(md, "Measured on this machine (2 cores, shared), one run of {rounds} rounds. The four models run at once, each against a keeper of its own, and every round gives each model in turn (the order rotating) a batch of pose transactions, a batch of notifications and one late joiner: a load that comes and goes on this shared machine falls on every size alike. **×10²** is the ratio of the pooled median to the 10² model's, with in brackets the least and greatest ratio of one round's medians (goal: each ≤ 1.5 at 10⁵). Bodies are solids without geometry under one scene; one body in the middle is moved by one `SetPose` transaction at a time. The keeper runs without the journal's fsync (a constant ≈ 130 µs here, docs/bench/ipc.md (d)) so that what grows with the model is not hidden.\n").ok();
     writeln!(md, "* **pose tx**: `Client::transact`, end to end through the keeper process (apply, publish one pose chunk of {POSE_CHUNK} records and the head, acknowledge);").ok();
     writeln!(md, "* **reader follows**: `Reader::wait_change` right after the acknowledgement, in this process: drain the change record and assemble the new snapshot (receive the one changed chunk; reuse the others);").ok();
@@ -679,28 +685,32 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
     }
     writeln!(md, "\n## A model with geometry\n").ok();
     writeln!(md, "The same sizes with every body a box (8 vertices, 6 faces), against a keeper of its own. A late joiner asks the keeper at most once for the **geometry base** (every object's geometry in one sample, kept in shared memory and viewed in place) — the model's geometry travels in two iceoryx2 services whatever the number of objects, where it had one per object before (a service costs milliseconds to make and to open). A **one-body geometry change** (`SetGeometry` on the middle box) goes by the **geometry update** (the changed geometry alone) and republishes the one **object chunk** (256 objects' records) whose record changed, with one generation word per chunk; a **box created** (one `Create` + `SetGeometry`, appended after the last object) republishes the last object chunk. A late joiner takes the object chunks from one **objects base**; a follower asks for none (checked). **First joiner**: the keeper builds the geometry and objects bases for it; **later joiners** find them in the services' histories (p50 of the others).\n").ok();
-    writeln!(md, "| bodies | first joiner (ms) | later joiners p50 (ms) | ×10² | geometry base (MB) | geometry tx mean / p99 (µs) | ×10² | reader follows mean / p99 (µs) | ×10² | create tx mean / p99 (µs) | ×10² | reader follows create mean / p99 (µs) | ×10² |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|").ok();
+    writeln!(md, "| bodies | first joiner (ms) | later joiners p50 (ms) | ×10² | geometry base (MB) | geometry tx mean / p50 / p99 (µs) | ×10² | reader follows mean / p50 / p99 (µs) | ×10² | create tx mean / p50 / p99 (µs) | ×10² | reader follows create mean / p50 / p99 (µs) | ×10² |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|").ok();
     let gb = &base.geometry;
     for r in rows {
         let g = &r.geometry;
         writeln!(
             md,
-            "| {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} | {:.1} / {:.1} | {:.2} |",
+            "| {} | {:.2} | {:.2} | {:.2} | {:.1} | {:.1} / {:.1} / {:.1} | {:.2} | {:.1} / {:.1} / {:.1} | {:.2} | {:.1} / {:.1} / {:.1} | {:.2} | {:.1} / {:.1} / {:.1} | {:.2} |",
             r.n,
             g.attach_first,
             g.attach.1,
             g.attach.1 / gb.attach.1,
             g.base_bytes as f64 / 1e6,
             g.tx.0,
+            g.tx.1,
             g.tx.2,
             g.tx.0 / gb.tx.0,
             g.follow.0,
+            g.follow.1,
             g.follow.2,
             g.follow.0 / gb.follow.0,
             g.create_tx.0,
+            g.create_tx.1,
             g.create_tx.2,
             g.create_tx.0 / gb.create_tx.0,
             g.create_follow.0,
+            g.create_follow.1,
             g.create_follow.2,
             g.create_follow.0 / gb.create_follow.0,
         )
@@ -710,6 +720,10 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             ("geometry_attach_p50", g.attach.1, "ms"),
             ("geometry_base_bytes", g.base_bytes as f64, "B"),
             ("geometry_tx_mean", g.tx.0, "us"),
+            ("geometry_tx_p50", g.tx.1, "us"),
+            ("geometry_follow_p50", g.follow.1, "us"),
+            ("create_tx_p50", g.create_tx.1, "us"),
+            ("create_follow_p50", g.create_follow.1, "us"),
             ("geometry_tx_p99", g.tx.2, "us"),
             ("geometry_follow_mean", g.follow.0, "us"),
             ("geometry_follow_p99", g.follow.2, "us"),
