@@ -94,19 +94,25 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             ..
         } => robosim_launcher::up_load(&file, &with, session, &library).map_err(CliError::from),
         Command::Up {
-            scene,
+            scene: None,
             load: None,
             with,
             library,
             fresh,
-        } => robosim_launcher::up_with_library(
-            scene.as_deref().unwrap_or_default(),
-            &with,
-            session,
-            &library,
+        } => {
+            if fresh {
+                bail!("--fresh starts a scene over: name it (`robosim up SCENE --fresh`)");
+            }
+            robosim_launcher::up_resume(&with, session, &library).map_err(CliError::from)
+        }
+        Command::Up {
+            scene: Some(scene),
+            load: None,
+            with,
+            library,
             fresh,
-        )
-        .map_err(CliError::from),
+        } => robosim_launcher::up_with_library(&scene, &with, session, &library, fresh)
+            .map_err(CliError::from),
         Command::Save { args } => {
             existing(session)?;
             robosim_file_io::cli::save(&args.into(), session).map_err(CliError::from)

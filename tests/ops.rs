@@ -141,3 +141,67 @@ fn moveji_toward_the_head_stops_at_the_last_safe_step_and_names_the_pair() {
         b[6]
     );
 }
+
+/// Issue 39 item 4: in a session a pure op names a session robot (`{"op": "fk", "robot":
+/// "positioner", …}` answered "no robot named positioner"; the user had to paste `get_robot`'s
+/// description inline). The answers by name are the answers on `get_robot`'s inline robot; a
+/// standard-library name keeps its library meaning; an unknown name is still `unknown_robot`.
+#[test]
+fn a_pure_op_names_a_session_robot() {
+    let mut k = Keeper::new("pureops");
+    k.start_keeper(&["--scene", "surgical_positioner_cell"]);
+    let session = k.session();
+    let start = Instant::now();
+    while !Reader::attach(&session, "test")
+        .ok()
+        .and_then(|r| r.snapshot())
+        .is_some_and(|s| s.find("positioner").is_some())
+    {
+        assert!(
+            start.elapsed() < Duration::from_secs(30),
+            "scene did not load"
+        );
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    let q = json!([0.3, 0.9, -2.1, 0.2, 0.5, -0.4]);
+    let inline =
+        query(&k, &[json!({"op": "get_robot", "robot": "positioner"})])[0]["robot"].clone();
+    assert!(inline.is_object(), "{inline}");
+    let by_name = |op: &str, robot: Value| {
+        let mut r = json!({"op": op, "robot": robot, "q": q});
+        if op == "ik" {
+            r = json!({"op": "ik", "robot": r["robot"], "pose": [[1,0,0,0.3],[0,1,0,0.1],[0,0,1,0.1],[0,0,0,1]], "q0": q});
+        }
+        r
+    };
+    let ops = ["fk", "jacobian", "gravity", "mass_matrix"];
+    let mut lines: Vec<Value> = ops
+        .iter()
+        .map(|op| by_name(op, json!("positioner")))
+        .collect();
+    lines.extend(ops.iter().map(|op| by_name(op, inline.clone())));
+    lines.push(json!({"op": "fk", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0]}));
+    lines.push(json!({"op": "fk", "robot": "arm_nobody_placed", "q": [0, 0, 0, 0, 0, 0]}));
+    let a = query(&k, &lines);
+    for (i, op) in ops.iter().enumerate() {
+        assert_eq!(a[i]["ok"], json!(true), "{op} by name: {}", a[i]);
+        assert_eq!(
+            a[i],
+            a[i + ops.len()],
+            "{op}: by name and inline answer the same"
+        );
+    }
+    let library = robosim_hl_interface::handle_line(
+        r#"{"op": "fk", "robot": "puma560", "q": [0, 0, 0, 0, 0, 0]}"#,
+    );
+    let library: Value = serde_json::from_str(&library).expect("json");
+    assert_eq!(
+        a[2 * ops.len()],
+        library,
+        "a library name means the library's robot"
+    );
+    assert_eq!(
+        a[2 * ops.len() + 1]["error"]["kind"],
+        json!("unknown_robot")
+    );
+}

@@ -91,6 +91,11 @@ fn parent_of(p: &mut Planner, name: &str) -> String {
 
 #[test]
 fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled() {
+    if robosim_rules::skipped_without_clips(
+        "rules::an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled",
+    ) {
+        return;
+    }
     let (mut k, pids) = session_with(
         "rulesec",
         &[&["automation"], &["rules", ECLSS_RULES, "--watch", "rules"]],
@@ -175,6 +180,11 @@ fn an_eclss_fault_is_diagnosed_isolated_then_reconfigured_in_order_and_journaled
 
 #[test]
 fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() {
+    if robosim_rules::skipped_without_clips(
+        "rules::a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints",
+    ) {
+        return;
+    }
     // A free-running simulator: the rule's pause is what stops it.
     let (mut k, pids) = session_with("rulesct", &[&["simulator", "--mode", "realtime"]]);
     let [keeper, sim] = pids[..] else {
@@ -261,6 +271,11 @@ fn a_contact_pauses_the_simulator_and_backs_the_robot_off_to_its_clear_joints() 
 
 #[test]
 fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
+    if robosim_rules::skipped_without_clips(
+        "rules::a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled",
+    ) {
+        return;
+    }
     let (mut k, pids) = session_with("rules", &[&["rules", RULES]]);
     let [keeper, rules] = pids[..] else {
         unreachable!("a keeper and one component")
@@ -467,6 +482,11 @@ fn exit_of(k: &mut Procs, pid: u32) -> std::process::ExitStatus {
 /// Execution halted" and still committed joint 3 = 1.0.
 #[test]
 fn a_failed_clips_expression_in_a_robosim_call_commits_nothing() {
+    if robosim_rules::skipped_without_clips(
+        "rules::a_failed_clips_expression_in_a_robosim_call_commits_nothing",
+    ) {
+        return;
+    }
     let mut k = Procs::new("rulesdiv");
     k.start_keeper(&["--scene", "surgical_positioner_cell"]);
     let mut p = Planner::attach_to(&k.session()).expect("attach");
@@ -514,6 +534,11 @@ fn a_failed_clips_expression_in_a_robosim_call_commits_nothing() {
 /// ignored SIGTERM). It is halted on the time limit, and the process fails naming the rule.
 #[test]
 fn an_endless_right_hand_side_stops_on_the_time_limit_with_an_error_naming_the_rule() {
+    if robosim_rules::skipped_without_clips(
+        "rules::an_endless_right_hand_side_stops_on_the_time_limit_with_an_error_naming_the_rule",
+    ) {
+        return;
+    }
     let mut k = Procs::new("rulesspin");
     k.start_keeper(&["--scene", "surgical_positioner_cell"]);
     let file = rule_file(
@@ -535,6 +560,11 @@ fn an_endless_right_hand_side_stops_on_the_time_limit_with_an_error_naming_the_r
 /// waited 10 s and sent SIGKILL). It halts the rule; the process ends with exit 0 and says why.
 #[test]
 fn sigterm_halts_an_endless_rule_and_the_rules_process_exits_0() {
+    if robosim_rules::skipped_without_clips(
+        "rules::sigterm_halts_an_endless_rule_and_the_rules_process_exits_0",
+    ) {
+        return;
+    }
     let mut k = Procs::new("rulesterm");
     k.start_keeper(&["--scene", "surgical_positioner_cell"]);
     let file = rule_file(
@@ -563,6 +593,11 @@ fn sigterm_halts_an_endless_rule_and_the_rules_process_exits_0() {
 /// with a failure, not a signal.
 #[test]
 fn deep_recursion_and_a_string_doubled_forty_times_are_errors_not_crashes() {
+    if robosim_rules::skipped_without_clips(
+        "rules::deep_recursion_and_a_string_doubled_forty_times_are_errors_not_crashes",
+    ) {
+        return;
+    }
     let mut k = Procs::new("rulesmem");
     k.start_keeper(&["--scene", "surgical_positioner_cell"]);
     let cases = [
@@ -595,6 +630,9 @@ fn deep_recursion_and_a_string_doubled_forty_times_are_errors_not_crashes() {
 /// processes were SIGKILLed after ignoring SIGTERM). They end on SIGTERM.
 #[test]
 fn down_stops_the_shipped_rule_bases_by_sigterm() {
+    if robosim_rules::skipped_without_clips("rules::down_stops_the_shipped_rule_bases_by_sigterm") {
+        return;
+    }
     let k = Procs::new("rulesdown");
     let down = Down(&k);
     let (ok, text) = robosim(&k, &["up", "station_eclss"]);

@@ -260,7 +260,16 @@ fn guarded(
 
 /// Hands the request to each area's `dispatch` until one claims `op`.
 fn dispatch(op: &str, req: &Value) -> Option<Result<Value, ProtocolError>> {
-    let robots: &dyn Fn(&str) -> Option<Robot> = &resolve_robot;
+    dispatch_with_robots(op, req, &resolve_robot)
+}
+
+/// [`dispatch`] with robot names resolved by `robots` (a session's robots, then
+/// [`resolve_robot`]: `session::Ops`), a panic of the op being its `internal_error`.
+pub(crate) fn dispatch_with_robots(
+    op: &str,
+    req: &Value,
+    robots: &dyn Fn(&str) -> Option<Robot>,
+) -> Option<Result<Value, ProtocolError>> {
     protocol::kinematics::dispatch(op, req, robots)
         .or_else(|| protocol::dynamics::dispatch(op, req, robots))
         .or_else(|| protocol::collision::dispatch(op, req, robots))

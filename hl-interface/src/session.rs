@@ -442,8 +442,15 @@ impl Ops {
         .unwrap_or_else(|| Err(err(ErrorKind::UnknownOp, format!("op {op:?}"))))
     }
 
-    /// Answers `op` if it is a session op and `req` is not the pure form of a [`SHARED`] op.
+    /// Answers `op` if it is a session op and `req` is not the pure form of a [`SHARED`] op;
+    /// and a pure op (fk, ik, gravity, collide, …) whose `robot` names a robot of the session
+    /// that no standard or reference robot is called ([`Ops::pure_on_session_robot`]).
     pub fn dispatch(&mut self, op: &str, req: &Value) -> Option<OpResult> {
+        if (!OPS.contains(&op) || is_pure_form(op, req))
+            && let Some(answer) = self.pure_on_session_robot(op, req)
+        {
+            return Some(answer);
+        }
         if !OPS.contains(&op) || is_pure_form(op, req) {
             return None;
         }
@@ -451,6 +458,33 @@ impl Ops {
             return Some(self.sim_state());
         }
         Some(self.answer(op, req))
+    }
+
+    /// A pure op of the protocol whose `robot` is a name that [`crate::resolve_robot`] does
+    /// not know but the session has (`{"op": "fk", "robot": "arm2", …}`): answered by the
+    /// pure op on the session's robot as compiled now (its base pose in the world included, as
+    /// for the session ops). A standard-library name keeps its library meaning, so the pure
+    /// ops answer the same with and without a session. `None` for anything else.
+    fn pure_on_session_robot(&mut self, op: &str, req: &Value) -> Option<OpResult> {
+        let name = req.get("robot")?.as_str()?;
+        if op == "ops" || !crate::OPS.iter().any(|(o, _)| *o == op) {
+            return None;
+        }
+        if crate::resolve_robot(name).is_some() {
+            return None;
+        }
+        if let Err(e) = self.snap() {
+            return Some(Err(e));
+        }
+        let robot = self.scene.robot(name).ok()?.robot.clone();
+        let robots = move |n: &str| {
+            if n == robot.name {
+                Some(robot.clone())
+            } else {
+                crate::resolve_robot(n)
+            }
+        };
+        crate::guarded(op, || crate::dispatch_with_robots(op, req, &robots))
     }
 
     /// `sim_state`: asks the session's simulator daemon (`{"cmd": "get"}` on its command

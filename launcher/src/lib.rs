@@ -359,6 +359,8 @@ pub fn up_from_file(
 enum Start<'a> {
     Scene(&'a str),
     File(&'a Path),
+    /// The model the session holds (saved or running), whatever it came from.
+    Resume,
 }
 
 /// What the scene note says a session's model came from, in words.
@@ -406,6 +408,7 @@ fn up_start(
             let abs = std::path::absolute(file).map_err(io("the model file"))?;
             vec!["--load".into(), abs.display().to_string()]
         }
+        Start::Resume => Vec::new(),
     };
     // The keeper builds its own Library Space: it must be given the same library files the
     // scene was checked against here (absolute: the keeper runs in another directory), or a
@@ -500,6 +503,18 @@ fn up_start(
             }
             false
         }
+        (Existing::Running(pid, _), Start::Resume) => {
+            eprintln!("session {name} already runs (keeper pid {pid}); adding components");
+            true
+        }
+        (Existing::Saved(recorded), Start::Resume) => {
+            eprintln!(
+                "session {name}: resuming its saved model ({}) from the journal",
+                origin_words(recorded.as_deref())
+            );
+            false
+        }
+        (Existing::Nothing, Start::Resume) => bail!("session {name} holds no model to resume"),
         (Existing::Nothing, _) => false,
     };
     let procs = session.processes();
@@ -557,8 +572,61 @@ fn up_start(
         "session {} up: keeper pid {keeper_pid}, model version {version}",
         session.name()
     );
+    if components.iter().any(|(c, _)| c == "display") {
+        println!("{}", display_note(&session));
+    }
     print_ps(&session);
     Ok(())
+}
+
+/// Where the session's display shows its frames: a window with a display server, else PNG
+/// files (`robosim display`'s headless default, `<session>/display/`).
+fn display_note(session: &Session) -> String {
+    let dir = session.dir().join("display");
+    let server = ["DISPLAY", "WAYLAND_DISPLAY"]
+        .iter()
+        .any(|v| std::env::var_os(v).is_some_and(|x| !x.is_empty()));
+    if server {
+        format!(
+            "display: a window on this display server (without one its frames go to {}/latest.png)",
+            dir.display()
+        )
+    } else {
+        format!(
+            "display: no display server, so headless: the latest frame is {}/latest.png (frames.jsonl beside it logs each)",
+            dir.display()
+        )
+    }
+}
+
+/// `robosim up --session NAME` with no scene: resumes the session's saved model (or adds
+/// `with` to the running one) — the scene it came from when one is recorded, with the
+/// components that scene declares. A session that holds no model is refused, saying how to
+/// start one.
+pub fn up_resume(with: &[String], session: Option<&str>, library: &[PathBuf]) -> Result<()> {
+    let s = Session::open(session)?;
+    let name = s.name().to_owned();
+    let recorded = match existing(&s) {
+        Existing::Nothing => bail!(
+            "session {name} holds no model to resume: start it with a scene \
+             (`robosim up SCENE --session {name}`) or a model file \
+             (`robosim up --load FILE --session {name}`)"
+        ),
+        Existing::Running(_, r) | Existing::Saved(r) => r,
+    };
+    // The recorded scene, when it can be found here (one of a user's library files needs
+    // --library again), brings the components it declares; else the journal alone is resumed.
+    let known = |scene: &str| {
+        robosim_scene::build_library(library)
+            .ok()
+            .is_some_and(|lib| scene::load_from(&lib, scene).is_ok())
+    };
+    match recorded.as_deref() {
+        Some(scene) if !scene.starts_with(FILE_NOTE_PREFIX) && known(scene) => {
+            up_start(Start::Scene(scene), with, session, library, false)
+        }
+        _ => up_start(Start::Resume, with, session, library, false),
+    }
 }
 
 fn print_ps(session: &Session) {

@@ -59,8 +59,8 @@ pub(crate) enum Command {
     /// declared by SCENE (an `automation { … }` effect starts the automation plant). A session
     /// that already holds a model (running, or saved in its journal) keeps it.
     Up {
-        /// The library scene or robot to load (`robosim lib list`).
-        #[arg(required_unless_present = "load")]
+        /// The library scene or robot to load (`robosim lib list`). Without it (and without
+        /// --load) the session's saved model is resumed: `robosim up --session lab`.
         scene: Option<String>,
         /// Start the session from this model file (`robosim save`) instead of a scene.
         #[arg(long, conflicts_with = "scene")]
@@ -247,10 +247,10 @@ pub(crate) enum Command {
         #[command(subcommand)]
         cmd: file_io::ImportCmd,
     },
-    /// Benchmarks: figures as ratios against a baseline measured in the same run.
     /// Carry this session's space to other machines over Zenoh (--listen, beside the keeper),
     /// or keep this session a replica of one (--connect): docs/bridge.md.
     Bridge(bridge::BridgeArgs),
+    /// Benchmarks: figures as ratios against a baseline measured in the same run.
     Bench {
         #[command(subcommand)]
         which: crate::bench::Which,
