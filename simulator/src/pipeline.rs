@@ -86,7 +86,8 @@ impl Pipeline {
         }
         match &effects.dynamics {
             Some(d) => {
-                let (part, integrator) = stages::dynamics::build(robot, d)?;
+                let (part, integrator) =
+                    stages::dynamics::build(robot, d, effects.joint_friction.as_ref())?;
                 model.dt = d.dt;
                 model.dynamics = Some(part);
                 data.integrator = Some(integrator);

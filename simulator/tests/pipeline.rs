@@ -607,3 +607,38 @@ fn a_saved_data_rewinds_the_run_bit_for_bit() {
     });
     assert!(p.rewind(other.data().clone()).is_err());
 }
+
+/// Issue 36: the robot's friction data act in the dynamics stage only where the scene declares
+/// the joint friction effect. A PUMA in zero gravity with 5 N·m Coulomb friction on every
+/// joint, at rest, 3 N·m on the shoulder: declared (stick–slip), the arm stays still; not
+/// declared, the rigid-body step moves it.
+#[test]
+fn issue_36_joint_friction_acts_only_where_declared() {
+    let mut robot = puma();
+    robot.gravity = Vector3::zeros();
+    for j in &mut robot.joints {
+        j.coulomb = 5.0;
+    }
+    let run = |friction: Option<robosim_model::JointFrictionEffect>| {
+        let effects = SceneEffects {
+            dynamics: Some(DynamicsEffect {
+                integrator: Integrator::Rk4,
+                ..DynamicsEffect::default()
+            }),
+            joint_friction: friction,
+            ..SceneEffects::default()
+        };
+        let mut p =
+            Pipeline::build(&robot, &Q0, &effects, SceneGeometry::default()).expect("builds");
+        let tau = DVector::from_column_slice(&[0.0, 3.0, 0.0, 0.0, 0.0, 0.0]);
+        p.set_command(Command::Torque(tau)).expect("command");
+        for _ in 0..500 {
+            p.step().expect("step");
+        }
+        (p.data().state.q[1] - Q0[1]).abs()
+    };
+    let held = run(Some(robosim_model::JointFrictionEffect::default()));
+    assert!(held < 1e-12, "held joint moved {held} rad");
+    let moved = run(None);
+    assert!(moved > 1e-3, "without the effect it moves: {moved}");
+}

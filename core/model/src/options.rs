@@ -69,6 +69,58 @@ pub struct Options {
     /// drag torques, held by a control moment gyroscope cluster, desaturated by thrusters
     /// (needs `orbit`; `robosim_simulator::attitude`).
     pub attitude: Option<AttitudeEffect>,
+    /// Joint friction in the dynamics stage (issue 36): the robot's per-joint viscous and
+    /// Coulomb data act only when declared (`robosim_dynamics::friction`).
+    pub joint_friction: Option<JointFrictionEffect>,
+}
+
+/// The joint friction effect: which of the robot's friction data act in the dynamics stage.
+/// `Default`: viscous on, Coulomb stick–slip with a 1e-6 rad/s (m/s) band.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct JointFrictionEffect {
+    pub viscous: bool,
+    pub coulomb: CoulombModel,
+    /// The stick–slip band or the regularisation velocity (rad/s or m/s).
+    pub velocity: f64,
+}
+
+impl Default for JointFrictionEffect {
+    fn default() -> Self {
+        JointFrictionEffect {
+            viscous: true,
+            coulomb: CoulombModel::StickSlip,
+            velocity: 1e-6,
+        }
+    }
+}
+
+/// The Coulomb model of [`JointFrictionEffect`] (`robosim_dynamics::Coulomb`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CoulombModel {
+    Off,
+    Regularised,
+    StickSlip,
+}
+
+impl JointFrictionEffect {
+    /// The dynamics crate's settings.
+    pub fn to_dynamics(&self) -> robosim_dynamics::JointFriction {
+        use robosim_dynamics::Coulomb;
+        robosim_dynamics::JointFriction {
+            viscous: self.viscous,
+            coulomb: match self.coulomb {
+                CoulombModel::Off => Coulomb::Off,
+                CoulombModel::Regularised => Coulomb::Regularised {
+                    velocity: self.velocity,
+                },
+                CoulombModel::StickSlip => Coulomb::StickSlip {
+                    velocity: self.velocity,
+                },
+            },
+        }
+    }
 }
 
 impl Default for Options {
@@ -88,6 +140,7 @@ impl Default for Options {
             automation: None,
             oru_swap: None,
             attitude: None,
+            joint_friction: None,
         }
     }
 }

@@ -9,15 +9,20 @@ use crate::model::{DynamicsModel, Model, StepError};
 use nalgebra::{DVector, Vector3};
 use robosim_dynamics::{IntegratorConfig, StepSize, Stepper, rnea};
 use robosim_kinematics::Robot;
-use robosim_model::{Command, Data, DynamicsEffect, IntegratorState, OptionsError};
+use robosim_model::{
+    Command, Data, DynamicsEffect, IntegratorState, JointFrictionEffect, OptionsError,
+};
 
 pub const NAME: &str = "dynamics";
 pub const DEPENDS_ON: &str = "q, qd, command";
 
-/// The stage's model part and the integrator's initial state, from the declared effect.
+/// The stage's model part and the integrator's initial state, from the declared effect; with a
+/// declared joint friction effect the stepper applies the robot's friction data
+/// (`Stepper::with_friction`), else the step is the rigid-body equations alone.
 pub fn build(
     robot: &Robot,
     d: &DynamicsEffect,
+    friction: Option<&JointFrictionEffect>,
 ) -> Result<(DynamicsModel, IntegratorState), OptionsError> {
     let bad = |field: &str, reason: String| OptionsError {
         field: format!("dynamics.{field}"),
@@ -47,7 +52,19 @@ pub fn build(
         joint_stops: false,
         max_steps: 1_000_000,
     };
-    let stepper = Stepper::new(&model, config).map_err(|e| bad("integrator", e.to_string()))?;
+    let mut stepper = Stepper::new(&model, config).map_err(|e| bad("integrator", e.to_string()))?;
+    if let Some(f) = friction {
+        stepper = stepper
+            .with_friction(&model, f.to_dynamics())
+            .map_err(|e| OptionsError {
+                field: "joint_friction".into(),
+                reason: e.to_string(),
+            })?;
+    }
+    let friction_note = match stepper.friction() {
+        Some(f) => format!(", joint friction {f:?}"),
+        None => String::new(),
+    };
     if !(d.kp >= 0.0 && d.kd >= 0.0 && d.kp.is_finite() && d.kd.is_finite()) {
         return Err(bad(
             "kp",
@@ -75,6 +92,7 @@ pub fn build(
             g.z
         ),
     };
+    let summary = summary + &friction_note;
     let state = IntegratorState {
         stepper,
         rnea: robosim_dynamics::Data::new(&model),
