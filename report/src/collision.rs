@@ -9,6 +9,8 @@
 //! 3. **Facet count** of a cylinder against volume error and polygon-mode time and misses.
 //! 4. **Broad phase**: 10,000 bodies with 1 % moving per step, sweep-and-prune against the BVH
 //!    (and brute force as the baseline), plus their scaling with the body count.
+//! 5. **Distance tolerance**: error and time at each exact-mode tolerance beside coal's
+//!    ([`tolerance`]).
 //!
 //! The PUMA's link solids are [`LinkSolids::from_dh`] boxes (half-width 4 cm along the DH
 //! segments), because the standard library's PUMA solids are not in the tree yet. Timings are
@@ -36,6 +38,8 @@ use std::hint::black_box;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
+
+mod tolerance;
 
 /// Seconds per call of `f`: the best (minimum) over `reps` repetitions of `inner` calls each.
 /// On a shared machine other processes only ever add time, so the minimum is the least noisy
@@ -133,7 +137,7 @@ impl Variant {
                 &p.3,
                 ExactOptions {
                     distance: false,
-                    depth: true,
+                    ..ExactOptions::default()
                 },
             ),
         }
@@ -201,12 +205,16 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
     seed_study(&ph, t_fk, &mut table, &mut notes)?;
     let facet_series = facet_study(&mut rng, scale, &mut table);
     let bp_series = broad_phase_study(&mut rng, quick, &mut table, &mut notes)?;
+    // Last, from checked-in data: the studies above draw the same samples as before.
+    let tolerance_plot = tolerance::tolerance_study(&mut table, &mut notes)?;
+    let mut plots = collision_plots(facet_series, bp_series);
+    plots.push(tolerance_plot);
     let report = Report {
         name: "collision".into(),
         title: "Collision detection: what accuracy costs in time".into(),
         notes,
         table,
-        plots: collision_plots(facet_series, bp_series),
+        plots,
     };
     write_report(out_dir, &report).map_err(|e| e.to_string())
 }
