@@ -201,13 +201,17 @@ fn dh_robots_through_urdf_are_the_same_robots() {
             .expect("scene")
             .pop()
             .expect("one robot");
-        // URDF has no motor (rotor) inertia, and the exporter writes no inertial for a massless
-        // link (the PUMA's link 1 carries 0.35 kg·m² without mass): leave both out here.
+        // URDF has no motor (rotor) inertia: left out here. The exporter writes every link's
+        // inertial as other tools accept it (a tiny mass for a massless link, A + B ≥ C: the
+        // PUMA's links 1 and 3): the robot compared is the one it says it writes.
         for j in &mut dh.joints {
             j.motor_inertia = 0.0;
-            if j.mass == 0.0 {
-                j.inertia = nalgebra::Matrix3::zeros();
-            }
+            (j.mass, j.inertia) = robosim_file_io::mjcf_export::loadable_inertial(
+                j.mass,
+                &j.inertia,
+                "",
+                &mut Vec::new(),
+            );
         }
         let text = robosim_file_io::urdf::to_urdf(&dh).expect("exports");
         let tip = format!("{name}_tool");
