@@ -127,7 +127,7 @@ pub const WATCH_ITEMS: &[&str] = &["facts", "rules", "activations", "statistics"
 #[derive(Debug, thiserror::Error)]
 pub enum RulesError {
     /// The build found no CLIPS to link ([`NOT_BUILT`]).
-    #[error("robosim rules: {NOT_BUILT}")]
+    #[error("rules: {NOT_BUILT}")]
     NotBuilt,
     #[error("--watch {0:?}: not a watch item (facts, rules, activations, statistics, all)")]
     Watch(String),
