@@ -336,3 +336,36 @@ fn the_automation_effect_declares_the_plant_and_refuses_bad_values() {
         assert!(e.contains(says) && e.contains("a.rsl:2:"), "{bad}: {e}");
     }
 }
+
+/// Issue 36: `effects { joint_friction { … } }` declares the joint friction effect (the robot's
+/// viscous and Coulomb data act in the dynamics stage); `joint_friction: on` its default;
+/// an unknown Coulomb model is refused; undeclared, none.
+#[test]
+fn issue_36_the_joint_friction_effect_is_declared_by_the_scene() {
+    let with = |effects: &str| {
+        let src = SRC.replace(
+            "        encoder_bits: 14\n",
+            &format!("        encoder_bits: 14\n        {effects}\n"),
+        );
+        assert_ne!(src, SRC);
+        let l = Library::from_source("demo.rsl", &src).map_err(|e| e.to_string())?;
+        match l.evaluate("demo", &Params::new()) {
+            Ok(Evaluated::Scene(s)) => Ok(s.effects.joint_friction),
+            Ok(_) => panic!("a scene"),
+            Err(e) => Err(e.to_string()),
+        }
+    };
+    let f = with("joint_friction { viscous: off, coulomb: regularised, velocity: 0.001 rad/s }")
+        .expect("evaluates")
+        .expect("declared");
+    assert!(!f.viscous);
+    assert_eq!(f.coulomb, robosim_model::CoulombModel::Regularised);
+    assert!((f.velocity - 1e-3).abs() < 1e-18);
+    let on = with("joint_friction: on").expect("evaluates");
+    assert_eq!(on, Some(robosim_model::JointFrictionEffect::default()));
+    assert!(with("joint_friction { coulomb: sticky }").is_err());
+    let Ok(Evaluated::Scene(s)) = lib().evaluate("demo", &Params::new()) else {
+        panic!("scene")
+    };
+    assert_eq!(s.effects.joint_friction, None);
+}

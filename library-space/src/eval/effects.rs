@@ -2,7 +2,8 @@
 //! ([`Effects`] = `robosim_model::Options`): one named step per effect. Properties
 //! (`kinematics: on`, `encoder_bits: 12`, `log: ["q"]`, …) go through [`Evaluator::effect_prop`];
 //! groups (`collision { … }`, `dynamics { … }`, `orbit { … }`, `kinematics { … }`,
-//! `oru_swap { … }`, `power { … }`, `automation { … }`, `attitude { … }`) through one
+//! `oru_swap { … }`, `power { … }`, `automation { … }`, `attitude { … }`, `joint_friction { … }`)
+//! through one
 //! `*_group` step each.
 
 use super::*;
@@ -21,6 +22,7 @@ const PROPS: &[&str] = &[
     "automation",
     "oru_swap",
     "attitude",
+    "joint_friction",
 ];
 
 /// Every group an `effects { … }` block takes.
@@ -33,6 +35,7 @@ const GROUPS: &[&str] = &[
     "oru_swap",
     "automation",
     "attitude",
+    "joint_friction",
 ];
 
 /// `collision: on`: polygon mode, no self-collision, discrete.
@@ -151,6 +154,11 @@ impl Evaluator<'_> {
                     *needs_orbit = Some((name_span, "attitude"));
                 }
             }
+            "joint_friction" => {
+                fx.joint_friction = self
+                    .switch(value, scope)?
+                    .then(robosim_model::JointFrictionEffect::default)
+            }
             _ => return Err(unknown_prop("effects", name, name_span, PROPS)),
         }
         Ok(())
@@ -186,6 +194,7 @@ impl Evaluator<'_> {
                 fx.attitude = Some(self.attitude_group(name_span, body, scope)?);
                 *needs_orbit = Some((name_span, "attitude"));
             }
+            "joint_friction" => fx.joint_friction = Some(self.joint_friction_group(body, scope)?),
             _ => return Err(unknown_prop("effects", name, name_span, GROUPS)),
         }
         Ok(())
@@ -546,6 +555,61 @@ impl Evaluator<'_> {
         }
         Ok(a)
     }
+    /// `joint_friction { viscous: on, coulomb: stick_slip | regularised | off, velocity: 1e-6
+    /// rad/s }` (issue 36; every property optional: `JointFrictionEffect::default`): the robot's
+    /// per-joint viscous and Coulomb friction act in the dynamics stage.
+    fn joint_friction_group(
+        &mut self,
+        body: &[Stmt],
+        scope: &mut Scope,
+    ) -> RResult<robosim_model::JointFrictionEffect> {
+        use robosim_model::CoulombModel;
+        const NAMES: &[&str] = &["viscous", "coulomb", "velocity"];
+        let mut f = robosim_model::JointFrictionEffect::default();
+        for (name, name_span, value) in group_props(
+            body,
+            "`joint_friction { … }`",
+            "`viscous:`, `coulomb:` or `velocity:`",
+        )? {
+            match name {
+                "viscous" => f.viscous = self.switch(value, scope)?,
+                "coulomb" => {
+                    f.coulomb = match self
+                        .word(
+                            value,
+                            &["stick_slip", "regularised", "off"],
+                            "Coulomb model",
+                        )?
+                        .as_str()
+                    {
+                        "regularised" => CoulombModel::Regularised,
+                        "off" => CoulombModel::Off,
+                        _ => CoulombModel::StickSlip,
+                    }
+                }
+                "velocity" => {
+                    let v = self.quantity(
+                        value,
+                        scope,
+                        Dim([0, 0, 1, -1]),
+                        "a joint velocity such as 1e-6 rad/s",
+                    )?;
+                    if !(v.is_finite() && v >= 0.0) {
+                        return Err(err(
+                            ErrorKind::OutOfRange,
+                            value.span,
+                            format!("velocity {v} is out of range"),
+                        )
+                        .expected("a finite velocity ≥ 0 (> 0 for the regularised model)"));
+                    }
+                    f.velocity = v;
+                }
+                _ => return Err(unknown_prop("joint_friction", name, name_span, NAMES)),
+            }
+        }
+        Ok(f)
+    }
+
     /// `attitude { cmgs: 4, cmg_momentum: 4760 kg*m^2/s, cmg_torque: 258 kg*m^2/s^2,
     /// saturation: 0.8, dump_to: 0.2, hold: lvlh | tea, drag_coefficient: 2.2 }` (every
     /// property optional: `AttitudeEffect::default`, the ISS's CMGs).
