@@ -144,7 +144,7 @@ impl StationParams {
         if !(self.load_w.is_finite() && self.load_w >= 0.0) {
             bail!("load {} W: expected a finite power ≥ 0", self.load_w);
         }
-        if !(pos(self.attitude_step_s) && self.attitude_step_s <= self.step_s) {
+        if self.attitude && !(pos(self.attitude_step_s) && self.attitude_step_s <= self.step_s) {
             bail!(
                 "attitude substep {} s: expected a positive step no longer than the study's {} s",
                 self.attitude_step_s,
