@@ -43,12 +43,16 @@ pub enum Tolerance {
     Gjk(f64),
 }
 
-/// JSON form: `"certified"` or a number of metres.
+/// JSON (and every human-readable) form: `"certified"` or a number of metres. Binary forms
+/// (bincode, which carries models between processes) cannot decode an untagged choice: there
+/// it is an `Option<f64>` (`None`: certified).
 impl serde::Serialize for Tolerance {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        match self {
-            Tolerance::Certified => s.serialize_str("certified"),
-            Tolerance::Gjk(t) => s.serialize_f64(*t),
+        match (self, s.is_human_readable()) {
+            (Tolerance::Certified, true) => s.serialize_str("certified"),
+            (Tolerance::Gjk(t), true) => s.serialize_f64(*t),
+            (Tolerance::Certified, false) => s.serialize_none(),
+            (Tolerance::Gjk(t), false) => s.serialize_some(t),
         }
     }
 }
@@ -56,6 +60,12 @@ impl serde::Serialize for Tolerance {
 impl<'de> serde::Deserialize<'de> for Tolerance {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         use serde::de::Error;
+        if !d.is_human_readable() {
+            return match Option::<f64>::deserialize(d)? {
+                None => Ok(Tolerance::Certified),
+                Some(t) => Tolerance::gjk(t).map_err(D::Error::custom),
+            };
+        }
         #[derive(serde::Deserialize)]
         #[serde(untagged)]
         enum Form {
