@@ -18,10 +18,10 @@
 use nalgebra::Matrix4;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use robosim_collision::json::solid_from_json;
 use robosim_collision::robot::{
     CheckResult, CollisionSettings, LinkSolids, Scene, check_links, isometry_from_matrix,
 };
-use robosim_collision::json::solid_from_json;
 use robosim_kinematics::fk;
 use robosim_library::{Evaluated, Params, PlacedSolid, Primitive};
 use serde_json::{Value, json};
@@ -55,9 +55,11 @@ fn shape_json(p: &PlacedSolid) -> Value {
 }
 
 fn matrix_json(m: &Matrix4<f64>) -> Value {
-    json!((0..4)
-        .map(|r| (0..4).map(|c| m[(r, c)]).collect::<Vec<f64>>())
-        .collect::<Vec<_>>())
+    json!(
+        (0..4)
+            .map(|r| (0..4).map(|c| m[(r, c)]).collect::<Vec<f64>>())
+            .collect::<Vec<_>>()
+    )
 }
 
 fn with_pose(mut shape: Value, key: &str, value: Value) -> Value {
@@ -88,7 +90,11 @@ fn main() -> Result<(), String> {
         for s in &it.solid.parts {
             let pose = it.placement * s.transform;
             objects.push(with_pose(
-                with_pose(shape_json(s), "name", json!(format!("{}/{}", it.name, s.name))),
+                with_pose(
+                    shape_json(s),
+                    "name",
+                    json!(format!("{}/{}", it.name, s.name)),
+                ),
                 "pose",
                 matrix_json(&pose),
             ));
@@ -100,7 +106,11 @@ fn main() -> Result<(), String> {
             for s in solids {
                 let pose = frames[link] * s.transform;
                 objects.push(with_pose(
-                    with_pose(shape_json(s), "name", json!(format!("{}/{}", r.name, s.name))),
+                    with_pose(
+                        shape_json(s),
+                        "name",
+                        json!(format!("{}/{}", r.name, s.name)),
+                    ),
                     "pose",
                     matrix_json(&pose),
                 ));
@@ -159,9 +169,8 @@ fn main() -> Result<(), String> {
     }
     let (nc, qc) = best_contact.ok_or("no contact configuration found")?;
     let (nf, qf) = best_clear.ok_or("no clear configuration found")?;
-    let frames = |q: &[f64]| -> Vec<Value> {
-        fk::link_frames(robot, q).iter().map(matrix_json).collect()
-    };
+    let frames =
+        |q: &[f64]| -> Vec<Value> { fk::link_frames(robot, q).iter().map(matrix_json).collect() };
     let doc = json!({
         "about": "issue 37 item 2 workload: the servicer of the standard library's space_station (default parameters) against every other part of the scene. Written by report/examples/station_check_export.rs.",
         "robot": servicer.name,
@@ -184,11 +193,7 @@ fn main() -> Result<(), String> {
 }
 
 /// Link-box × object-box overlaps at link poses `lp` (the narrow-phase work of a check).
-fn overlap_count(
-    links: &LinkSolids,
-    lp: &[Option<nalgebra::Isometry3<f64>>],
-    sc: &Scene,
-) -> usize {
+fn overlap_count(links: &LinkSolids, lp: &[Option<nalgebra::Isometry3<f64>>], sc: &Scene) -> usize {
     let mut n = 0;
     for (l, p) in links.links.iter().zip(lp) {
         let (Some(l), Some(p)) = (l, p) else { continue };

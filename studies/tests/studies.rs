@@ -1014,7 +1014,11 @@ fn station_attitude_is_held_by_the_cmgs_with_the_model_inertia() {
     );
     assert!(truss > 0.0, "the middle truss has a mass");
     // recomputed at every step; the inertia and drag area change as the arrays turn
-    assert_eq!(a.recomputes, run.steps.len() + 1, "one at the start and one per step");
+    assert_eq!(
+        a.recomputes,
+        run.steps.len() + 1,
+        "one at the start and one per step"
+    );
     let att: Vec<_> = run.steps.iter().filter_map(|st| st.attitude).collect();
     assert_eq!(att.len(), run.steps.len());
     let spread = |f: &dyn Fn(&station::attitude::AttStep) -> f64| {

@@ -35,7 +35,12 @@ fn load() -> Workload {
     let text = std::fs::read_to_string(path).expect("station_check.json is checked in");
     let doc: Value = serde_json::from_str(&text).expect("JSON");
     let mut scene = Scene::new();
-    for (i, o) in doc["objects"].as_array().expect("objects").iter().enumerate() {
+    for (i, o) in doc["objects"]
+        .as_array()
+        .expect("objects")
+        .iter()
+        .enumerate()
+    {
         let solid = solid_from_json(o, &format!("objects[{i}]"), &["name", "pose"]).expect("solid");
         let pose = pose_from_json(&o["pose"], "pose").expect("pose");
         scene.add(o["name"].as_str().unwrap_or("?"), Arc::new(solid), pose);
