@@ -51,14 +51,17 @@ pub fn generate(d: &Design, u: CodeUnits) -> Result<String, EditError> {
     Ok(s)
 }
 
-/// `v` rounded to 1e-9 of its unit (mm, degrees, …): what is left of a rotation's or a
-/// sum's rounding (`-0.000000000000007`) is 0, and -0 is 0. Beyond 1e6 units `v` as it is.
+/// `v` snapped to the nearest 1e-9 of its unit (mm, degrees, …) when it lies within
+/// 1e-13 × max(1, |v|) of it — what is left of a rotation's or a sum's rounding
+/// (`-0.000000000000007`, `0.30000000000000004`) — else `v` as it is, so code still round-trips
+/// to 1e-12; -0 is 0. Beyond 1e6 units `v` as it is.
 fn clean(v: f64) -> f64 {
     if !v.is_finite() || v.abs() > 1e6 {
         return v;
     }
     let r = (v * 1e9).round() / 1e9;
-    if r == 0.0 { 0.0 } else { r }
+    let v = if (v - r).abs() <= 1e-13 * v.abs().max(1.0) { r } else { v };
+    if v == 0.0 { 0.0 } else { v }
 }
 
 fn num(v: f64) -> String {
@@ -185,5 +188,7 @@ mod number_tests {
         assert_eq!(num(-45.0), "-45");
         assert_eq!(num(12.345678901), "12.345678901");
         assert_eq!(clean(2.5e7), 2.5e7);
+        // Digits beyond 1e-9 that are not rounding residue stay (the 1e-12 round trip).
+        assert_eq!(num(0.1234567891234), "0.1234567891234");
     }
 }
