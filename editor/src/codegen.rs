@@ -60,7 +60,11 @@ fn clean(v: f64) -> f64 {
         return v;
     }
     let r = (v * 1e9).round() / 1e9;
-    let v = if (v - r).abs() <= 1e-13 * v.abs().max(1.0) { r } else { v };
+    let v = if (v - r).abs() <= 1e-13 * v.abs().max(1.0) {
+        r
+    } else {
+        v
+    };
     if v == 0.0 { 0.0 } else { v }
 }
 
