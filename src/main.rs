@@ -45,7 +45,7 @@ fn is_broken_pipe(payload: &(dyn std::any::Any + Send)) -> bool {
 fn run() -> ExitCode {
     let cli: Cli = cli::parse();
     if std::env::var_os("IOX2_LOG_LEVEL").is_none() {
-        iceoryx2_log_level(cli.quiet, cli.verbose);
+        robosim_instance_space::set_iceoryx2_log_level(cli.quiet, cli.verbose);
     }
     robosim_report::progress::set_quiet(cli.quiet);
     match dispatch(cli.command, cli.session.as_deref()) {
@@ -317,20 +317,7 @@ fn render(args: &robosim_display::app::RenderArgs) -> Result<()> {
 
 fn query_session(session: &str, args: &robosim_hl_interface::cli::QueryArgs) -> Result<()> {
     let s = existing(Some(session))?;
-    let out = std::io::stdout();
-    let served = match args.input.as_deref() {
-        Some(p) if p.as_os_str() != "-" => session::serve(
-            &s,
-            std::io::BufReader::new(std::fs::File::open(p)?),
-            out.lock(),
-        ),
-        _ => session::serve(&s, std::io::stdin().lock(), out.lock()),
-    };
-    match served {
-        Ok(_) => Ok(()),
-        Err(session::ServeError::Io(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
-        Err(e) => Err(e.into()),
-    }
+    Ok(session::serve_stdio(&s, args.input.as_deref())?)
 }
 
 /// A running session's Library Space.
@@ -386,20 +373,6 @@ fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()
         a.version
     );
     Ok(())
-}
-
-/// iceoryx2 prints a start-up notice at Info level; keep the terminal for our own output unless
-/// asked for more (-v) or less (-q).
-fn iceoryx2_log_level(quiet: bool, verbose: u8) {
-    use iceoryx2::prelude::LogLevel;
-    let level = match (quiet, verbose) {
-        (true, _) => LogLevel::Fatal,
-        (false, 0) => LogLevel::Error,
-        (false, 1) => LogLevel::Warn,
-        (false, 2) => LogLevel::Info,
-        (false, _) => LogLevel::Debug,
-    };
-    iceoryx2::prelude::set_log_level(level);
 }
 
 /// Errors of the command-line layer: a message that says what failed and where.

@@ -105,28 +105,8 @@ pub fn run(which: Which) -> Result<()> {
     }
 }
 
-/// `robosim plot RUN --out DIR`: one line per figure written, and the run's events.
+/// `robosim plot RUN --out DIR` (robosim_report::run_plot).
 pub fn plot(run: &Path, out: &Path) -> Result<()> {
-    let s = robosim_report::run_plot::plot_file(run, out)
-        .map_err(|e| crate::CliError(e.to_string()))?;
-    if s.truncated {
-        println!(
-            "{}: the recording ends inside a record (its writer was stopped); plotted to the cut",
-            run.display()
-        );
-    }
-    for f in &s.figures {
-        let series: usize = f.panels.iter().map(|p| p.lines.len()).sum();
-        println!(
-            "wrote {} ({} panels, {series} series)",
-            out.join(&f.file).display(),
-            f.panels.len()
-        );
-    }
-    println!(
-        "wrote {} ({} events marked)",
-        out.join("plot.json").display(),
-        s.events.len()
-    );
+    robosim_report::run_plot::plot_and_say(run, out)?;
     Ok(())
 }

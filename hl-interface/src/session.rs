@@ -752,6 +752,29 @@ impl Ops {
 /// `robosim query --session NAME`: the session ops, offered to [`crate::serve_with`] as an
 /// extension (so framing, bad lines, panics and flushing behave exactly as in the pure
 /// protocol); every other op goes to the pure protocol.
+/// `robosim query --session S [--input FILE]`: [`serve`] from `input` (a file; `None` or `-`:
+/// standard input) to standard output. A reader that went away (a closed pipe) ends it
+/// quietly.
+pub fn serve_stdio(
+    session: &Session,
+    input: Option<&std::path::Path>,
+) -> std::result::Result<(), ServeError> {
+    let out = std::io::stdout();
+    let served = match input {
+        Some(p) if p.as_os_str() != "-" => serve(
+            session,
+            std::io::BufReader::new(std::fs::File::open(p)?),
+            out.lock(),
+        ),
+        _ => serve(session, std::io::stdin().lock(), out.lock()),
+    };
+    match served {
+        Ok(_) => Ok(()),
+        Err(ServeError::Io(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        Err(e) => Err(e),
+    }
+}
+
 pub fn serve(
     session: &Session,
     input: impl BufRead,

@@ -109,3 +109,18 @@ pub fn monotonic_ns() -> u64 {
     }
     ts.tv_sec as u64 * 1_000_000_000 + ts.tv_nsec as u64
 }
+
+/// iceoryx2 prints a start-up notice at Info level; keep the terminal for the program's own
+/// output unless asked for more (`verbose` 1–3: warnings, info, debug) or less (`quiet`:
+/// fatal errors only).
+pub fn set_iceoryx2_log_level(quiet: bool, verbose: u8) {
+    use iceoryx2::prelude::LogLevel;
+    let level = match (quiet, verbose) {
+        (true, _) => LogLevel::Fatal,
+        (false, 0) => LogLevel::Error,
+        (false, 1) => LogLevel::Warn,
+        (false, 2) => LogLevel::Info,
+        (false, _) => LogLevel::Debug,
+    };
+    iceoryx2::prelude::set_log_level(level);
+}

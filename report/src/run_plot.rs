@@ -148,6 +148,32 @@ pub fn plot_file(run: &Path, out: &Path) -> Result<PlotSummary, RunPlotError> {
     Ok(summary)
 }
 
+/// `robosim plot RUN --out DIR`: [`plot_file`], then one line per figure written and the
+/// events marked, on standard output.
+pub fn plot_and_say(run: &Path, out: &Path) -> Result<PlotSummary, RunPlotError> {
+    let s = plot_file(run, out)?;
+    if s.truncated {
+        println!(
+            "{}: the recording ends inside a record (its writer was stopped); plotted to the cut",
+            run.display()
+        );
+    }
+    for f in &s.figures {
+        let series: usize = f.panels.iter().map(|p| p.lines.len()).sum();
+        println!(
+            "wrote {} ({} panels, {series} series)",
+            out.join(&f.file).display(),
+            f.panels.len()
+        );
+    }
+    println!(
+        "wrote {} ({} events marked)",
+        out.join("plot.json").display(),
+        s.events.len()
+    );
+    Ok(s)
+}
+
 fn read_head(path: &Path) -> Result<Vec<u8>, RunPlotError> {
     use std::io::Read;
     let io = |source| RunPlotError::Io {
