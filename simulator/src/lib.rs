@@ -15,13 +15,15 @@
 //! station` share; [`swap`] (the `oru_swap` effect: the servicer's ORU swap planned, the ORUs'
 //! state over time) for the same two; [`numeric`] (golden-section search) for them and the
 //! studies; [`attitude`] (the `attitude` effect: rigid-body attitude under gravity-gradient and
-//! drag torques, a CMG cluster, desaturation by thrusters) for the station study. They read a scene as [`robosim_model::parts::SceneParts`] (its box parts), not as
+//! drag torques, a CMG cluster, desaturation by thrusters) for the station study; [`consumers`] (the
+//! station's loads with priorities, and how a shortfall is shared) for the station study. They read a scene as [`robosim_model::parts::SceneParts`] (its box parts), not as
 //! library types: this crate does not depend on the Library Space. The daemon itself is
 //! `robosim-simulator-daemon`.
 
 #![forbid(unsafe_code)]
 
 pub mod attitude;
+pub mod consumers;
 pub mod model;
 pub mod numeric;
 pub mod orbit;

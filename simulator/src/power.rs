@@ -15,6 +15,9 @@
 //!   at 1/`discharge_eff`, held over each step, clamped to [0, capacity] (a surplus is shunted,
 //!   a shortfall is load not served) ([`Battery::step`]).
 //!
+//!   [`Battery::supply`] accounts for every joule of an interval ([`Flow`]): produced = served +
+//!   shunted + Δstored + losses.
+//!
 //! Entry points: [`solar_array`], [`SolarArray::from_panels`], [`track`], [`Battery`].
 
 use nalgebra::{Matrix3, Vector3};
@@ -198,21 +201,79 @@ impl Battery {
     }
 
     /// Array power `power_w` held for `dt_s` against the load: charges or discharges; returns
-    /// the load not served (J) when the store runs empty.
+    /// the load not served (J) when the store runs empty ([`Battery::supply`] with the
+    /// constant load).
     pub fn step(&mut self, power_w: f64, dt_s: f64) -> f64 {
-        let net = power_w - self.load_w;
-        let de = if net >= 0.0 {
-            net * self.charge_eff
+        self.supply(power_w, self.load_w, dt_s).unserved_j
+    }
+
+    /// Array power `power_w` held for `dt_s` against a demand `demand_w`: the surplus charges
+    /// the store at `charge_eff` (what the store cannot take is shunted), a shortfall is drawn
+    /// from it at 1/`discharge_eff` (what it cannot give is not served). Every joule is
+    /// accounted for: `produced = served + shunted + Δstored + losses` ([`Flow`]).
+    pub fn supply(&mut self, power_w: f64, demand_w: f64, dt_s: f64) -> Flow {
+        let produced = power_w.max(0.0) * dt_s;
+        let demand = demand_w.max(0.0) * dt_s;
+        let stored = self.energy_j();
+        let mut f = Flow {
+            produced_j: produced,
+            served_j: demand,
+            ..Flow::default()
+        };
+        if produced >= demand {
+            // the surplus: what the store has room for (at the charge efficiency), the rest shunted
+            let surplus = produced - demand;
+            let room = (self.capacity_j - stored).max(0.0);
+            let accepted = surplus.min(room / self.charge_eff);
+            f.stored_j = accepted * self.charge_eff;
+            f.losses_j = accepted - f.stored_j;
+            f.shunted_j = surplus - accepted;
         } else {
-            net / self.discharge_eff
-        } * dt_s;
-        let e = self.energy_j() + de;
-        self.soc = (e / self.capacity_j).clamp(0.0, 1.0);
-        if e < 0.0 {
-            -e * self.discharge_eff
-        } else {
-            0.0
+            let deficit = demand - produced;
+            let drawn = (deficit / self.discharge_eff).min(stored);
+            let delivered = drawn * self.discharge_eff;
+            f.stored_j = -drawn;
+            f.losses_j = drawn - delivered;
+            f.unserved_j = deficit - delivered;
+            f.served_j = produced + delivered;
         }
+        self.soc = ((stored + f.stored_j) / self.capacity_j).clamp(0.0, 1.0);
+        f
+    }
+}
+
+/// Where the energy of one interval went ([`Battery::supply`]), J: produced = served + shunted +
+/// stored + losses (stored < 0 when the store gave energy); unserved = demand − served.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Flow {
+    /// What the arrays produced.
+    pub produced_j: f64,
+    /// What the loads received.
+    pub served_j: f64,
+    /// The surplus the full store could not take (the shunt regulators dissipate it).
+    pub shunted_j: f64,
+    /// The change of the stored energy.
+    pub stored_j: f64,
+    /// Charge and discharge losses (the efficiencies).
+    pub losses_j: f64,
+    /// Demand the store could not cover.
+    pub unserved_j: f64,
+}
+
+impl Flow {
+    /// produced − (served + shunted + stored + losses): zero to rounding.
+    pub fn imbalance_j(&self) -> f64 {
+        self.produced_j - (self.served_j + self.shunted_j + self.stored_j + self.losses_j)
+    }
+
+    /// Adds another interval's flows.
+    pub fn add(&mut self, o: &Flow) {
+        self.produced_j += o.produced_j;
+        self.served_j += o.served_j;
+        self.shunted_j += o.shunted_j;
+        self.stored_j += o.stored_j;
+        self.losses_j += o.losses_j;
+        self.unserved_j += o.unserved_j;
     }
 }
 
@@ -261,6 +322,51 @@ mod tests {
         assert!(
             (unserved / 3.6e6 - (200.0 - 135.0)).abs() < 1e-9,
             "{unserved}"
+        );
+    }
+
+    /// Every joule of an interval is accounted for, in the three regimes (charging with room,
+    /// charging into a full store, drawing it empty): produced = served + shunted + Δstored +
+    /// losses, and the store's change is what its state of charge says.
+    #[test]
+    fn the_battery_accounts_for_every_joule() {
+        let cases = [
+            (0.5, 250e3, 180e3),
+            (0.99, 300e3, 100e3),
+            (0.02, 10e3, 200e3),
+            (0.4, 0.0, 120e3),
+        ];
+        for (soc, p, d) in cases {
+            let mut b = Battery {
+                soc,
+                ..Battery::default()
+            };
+            let before = b.energy_j();
+            let f = b.supply(p, d, 600.0);
+            assert!(f.imbalance_j().abs() < 1e-6, "{soc} {p} {d}: {f:?}");
+            assert!((b.energy_j() - before - f.stored_j).abs() < 1e-6, "{f:?}");
+            assert!(
+                (f.served_j + f.unserved_j - d * 600.0).abs() < 1e-6,
+                "{f:?}"
+            );
+            assert!(f.shunted_j >= 0.0 && f.losses_j >= 0.0 && f.unserved_j >= 0.0);
+        }
+        // full store: the surplus is all shunted, nothing lost
+        let mut b = Battery {
+            soc: 1.0,
+            ..Battery::default()
+        };
+        let f = b.supply(200e3, 100e3, 10.0);
+        assert!(
+            (f.shunted_j - 1e6).abs() < 1e-6 && f.losses_j == 0.0,
+            "{f:?}"
+        );
+        // charging with room: 10 % of the surplus lost
+        let mut b = Battery::default();
+        let f = b.supply(200e3, 100e3, 10.0);
+        assert!(
+            (f.losses_j - 1e5).abs() < 1e-6 && f.shunted_j == 0.0,
+            "{f:?}"
         );
     }
 
