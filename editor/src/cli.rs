@@ -174,6 +174,19 @@ pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(),
         _ => Editor::new(client, robot).map_err(|e| e.to_string())?,
     };
     drop(snap);
+    // The session's edits of this design are undoable here too (issue 39 item 5).
+    let history = crate::session::history_path(&session.data_dir(), robot);
+    match ed.keep_history(history).map_err(|e| e.to_string())? {
+        crate::session::HistoryFound::Taken { undo, redo } if undo + redo > 0 => eprintln!(
+            "edit: design {robot}: {undo} edit(s) to undo and {redo} to redo from earlier editors of session {}",
+            session.name()
+        ),
+        crate::session::HistoryFound::Stale => eprintln!(
+            "edit: design {robot} was changed since its last editor kept its history: \
+             that history is not taken up (undo starts from here)"
+        ),
+        _ => {}
+    }
     let mut p = Prompt::default();
     match script {
         Some(path) => {

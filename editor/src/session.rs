@@ -2,6 +2,16 @@
 //! (so every other process — the display first — sees it through the change notifications),
 //! undo and redo are transactions too, and a refused edit sends nothing.
 //!
+//! Undo across editor processes: an editor given the session's history file
+//! ([`Editor::keep_history`], `<session>/data/editor-<robot>.history.json`, beside the journal)
+//! writes its undo and redo steps there after every accepted edit, undo and redo, with the
+//! design they lead to; a later `robosim edit` of the same design takes them up, so it undoes
+//! the edits of the editors before it. The file is the session's (it sits in the data directory
+//! with the journal: `up --fresh` moves it aside with the model). It is taken up only when the
+//! design it ends at is the design the space holds: a design changed since by anything else is
+//! not undone from a stale history (the editor says so instead). The journal itself cannot
+//! serve: a checkpoint (every clean stop writes one) drops the records before it.
+//!
 //! Where the design lives in the Instance Space: a scene object named after the robot, one item
 //! per link (`ROBOT.LINK`), one solid per editor object under its parent object (or the link),
 //! pose = `ref · amat`, geometry = the shape's polygons (joint markers have none). Each
@@ -35,6 +45,30 @@ impl Space for robosim_instance_space::Client {
             .map(|a| (a.created, a.version))
             .map_err(|e| e.to_string())
     }
+}
+
+/// The history in `path`; `None` when there is no file.
+fn read_history(path: &std::path::Path) -> Result<Option<History>, EditError> {
+    let fail = |problem: String| EditError::History {
+        path: path.display().to_string(),
+        problem,
+    };
+    match std::fs::symlink_metadata(path) {
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(fail(e.to_string())),
+        Ok(_) => {}
+    }
+    let text = robosim_input::read_to_string(
+        path,
+        "the session's edit history",
+        robosim_input::Limit::MODEL,
+    )
+    .map_err(|e| fail(e.to_string()))?;
+    serde_json::from_str(&text).map(Some).map_err(|e| {
+        fail(format!(
+            "not an edit history ({e}); remove it to start a new one"
+        ))
+    })
 }
 
 /// The record on each object (its origin field).
@@ -79,10 +113,48 @@ impl DesignRecord {
 /// One undoable step: a whole design (what the design was before, or after), or a move of an
 /// object of the session's model that is not part of the design (its local pose before and
 /// after).
-#[derive(Debug, Clone)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 enum Step {
     Design(Design),
     Pose { id: Id, before: Pose, after: Pose },
+}
+
+/// The session's edit history of one design, as written to its file: the steps, and the design
+/// they lead to (the design the space held after the last of them).
+#[derive(Debug, Clone, Serialize, Deserialize)]
+struct History {
+    robot: String,
+    now: Design,
+    undo: Vec<Step>,
+    redo: Vec<Step>,
+}
+
+/// The file of the session's edit history of design `robot` in the session's data directory
+/// `data_dir` (a robot name outside `[A-Za-z0-9_+-]` is spelled with `_` there).
+pub fn history_path(data_dir: &std::path::Path, robot: &str) -> std::path::PathBuf {
+    let safe: String = robot
+        .chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '+') {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect();
+    data_dir.join(format!("editor-{safe}.history.json"))
+}
+
+/// What [`Editor::keep_history`] found in the session's history file.
+#[derive(Debug, Clone, PartialEq)]
+pub enum HistoryFound {
+    /// No file (the design's first editor, or its edits were never kept).
+    None,
+    /// Taken up: this many steps to undo and to redo.
+    Taken { undo: usize, redo: usize },
+    /// The file ends at another design than the space holds (changed since by something
+    /// else): not taken up; it is replaced at this editor's first edit.
+    Stale,
 }
 
 /// An editor session: the design, its history, and what of it the space holds.
@@ -103,6 +175,8 @@ pub struct Editor<S: Space> {
     /// write of each one's pose (an undo or redo expects the pose unchanged since: a move by
     /// another writer in between makes it a conflict, not an overwrite).
     moved: BTreeMap<Id, u64>,
+    /// The session's history file, when kept ([`Editor::keep_history`]).
+    history: Option<std::path::PathBuf>,
 }
 
 /// The result of an accepted edit.
@@ -126,6 +200,7 @@ impl<S: Space> Editor<S> {
             committed: None,
             version: 0,
             moved: BTreeMap::new(),
+            history: None,
         };
         e.sync()?;
         Ok(e)
@@ -145,7 +220,69 @@ impl<S: Space> Editor<S> {
             objects,
             version: snap.version(),
             moved: BTreeMap::new(),
+            history: None,
         })
+    }
+
+    /// Keeps this design's undo and redo steps in the session's history file `path` (see the
+    /// module docs), taking up the steps an earlier editor left there when they end at the
+    /// design the space holds.
+    pub fn keep_history(&mut self, path: std::path::PathBuf) -> Result<HistoryFound, EditError> {
+        let found = match read_history(&path)? {
+            None => HistoryFound::None,
+            Some(h) if h.robot == self.design.robot && h.now == self.design => {
+                let found = HistoryFound::Taken {
+                    undo: h.undo.len(),
+                    redo: h.redo.len(),
+                };
+                self.undo = h.undo;
+                self.redo = h.redo;
+                found
+            }
+            Some(_) => HistoryFound::Stale,
+        };
+        self.history = Some(path);
+        Ok(found)
+    }
+
+    /// Before an undo or redo: the steps another editor of the session wrote since this one
+    /// last did (the file ends at the design this editor holds, so its steps are the newest).
+    fn take_up_history(&mut self) -> Result<(), EditError> {
+        let Some(path) = &self.history else {
+            return Ok(());
+        };
+        if let Some(h) = read_history(path)?
+            && h.robot == self.design.robot
+            && h.now == self.design
+        {
+            self.undo = h.undo;
+            self.redo = h.redo;
+        }
+        Ok(())
+    }
+
+    /// After an accepted edit, undo or redo: the history file says what this editor's stacks
+    /// say. The edit is committed either way; a failure here is reported as such.
+    fn write_history(&self, done: Done) -> Result<Done, EditError> {
+        let Some(path) = &self.history else {
+            return Ok(done);
+        };
+        let h = History {
+            robot: self.design.robot.clone(),
+            now: self.design.clone(),
+            undo: self.undo.clone(),
+            redo: self.redo.clone(),
+        };
+        let fail = |problem: String| EditError::History {
+            path: path.display().to_string(),
+            problem: format!(
+                "{problem} (the edit itself was committed at version {}; a later editor cannot undo it)",
+                done.version
+            ),
+        };
+        let text = serde_json::to_vec(&h).map_err(|e| fail(e.to_string()))?;
+        robosim_input::write_file_atomic(path, &text).map_err(|e| fail(e.to_string()))?;
+        Ok(done)
     }
 
     pub fn design(&self) -> &Design {
@@ -179,7 +316,7 @@ impl<S: Space> Editor<S> {
             Ok(done) => {
                 self.undo.push(Step::Design(old));
                 self.redo.clear();
-                Ok(done)
+                self.write_history(done)
             }
             Err(e) => {
                 self.design = old;
@@ -203,7 +340,7 @@ impl<S: Space> Editor<S> {
         let done = self.commit_pose(id, after, read)?;
         self.undo.push(Step::Pose { id, before, after });
         self.redo.clear();
-        Ok(done)
+        self.write_history(done)
     }
 
     fn commit_pose(&mut self, id: Id, pose: Pose, read: u64) -> Result<Done, EditError> {
@@ -221,6 +358,7 @@ impl<S: Space> Editor<S> {
     /// Goes one step through the history: `from` is popped, the step applied in the direction
     /// `back`, and pushed on `to` (on failure, back on `from`).
     fn step(&mut self, back: bool) -> Result<Done, EditError> {
+        self.take_up_history()?;
         let (from, what) = if back {
             (&mut self.undo, "undo")
         } else {
@@ -253,7 +391,7 @@ impl<S: Space> Editor<S> {
                 } else {
                     self.undo.push(inverse);
                 }
-                Ok(done)
+                self.write_history(done)
             }
             Err(e) => {
                 if back {

@@ -91,6 +91,10 @@ pub enum EditError {
     Cycle { child: String, base: String },
     #[error("{0}")]
     Invalid(String),
+    /// The session's edit history file (undo across editor processes) could not be read or
+    /// written.
+    #[error("the session's edit history {path}: {problem}")]
+    History { path: String, problem: String },
     #[error("link {link}: {what}")]
     Joints { link: String, what: String },
     #[error("the I→I+1 relation of link {link} is not a DH transform: {violation}")]

@@ -767,3 +767,75 @@ fn a_model_move_from_a_stale_read_is_a_conflict_not_an_overwrite() {
     assert!(e.contains("concurrent write"), "{e}");
     assert_eq!(pose_of(&ed)[3], 2.0);
 }
+
+/// Issue 39 item 5: undo across editors. Each editor here stands for one `robosim edit`
+/// process: it gets the space the one before it left (the same keeper) and the session's
+/// history file; the second undoes the first's edits, a third redoes what the second undid,
+/// and a design changed outside the kept history is not undone from it.
+#[test]
+fn a_later_editor_undoes_and_redoes_the_edits_of_the_editors_before_it() {
+    use robosim_editor::session::{HistoryFound, history_path};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = history_path(dir.path(), "X");
+    let mut first = Editor::new(Store::new(), "X").expect("editor");
+    assert_eq!(
+        first.keep_history(path.clone()).expect("history"),
+        HistoryFound::None
+    );
+    let mut p = Prompt::default();
+    let steps = [
+        "box a X=10 Y=10 Z=10",
+        "cylinder b R=3 H=8",
+        "translate a X=4",
+    ];
+    let mut states = vec![(first.design().clone(), space_state(&first.space))];
+    for s in steps {
+        execute(&mut first, &mut p, s).unwrap_or_else(|e| panic!("{s}: {e}"));
+        states.push((first.design().clone(), space_state(&first.space)));
+    }
+    let store = first.space;
+    // The second editor: a new process, the design read back from the space.
+    let snap = Snapshot::from_store(&store);
+    let mut second = Editor::resume(store, &snap, "X").expect("resume");
+    drop(snap);
+    assert_eq!(
+        second.keep_history(path.clone()).expect("history"),
+        HistoryFound::Taken { undo: 3, redo: 0 }
+    );
+    let mut p = Prompt::default();
+    for k in [2, 1] {
+        execute(&mut second, &mut p, "undo").expect("undo from the first editor's history");
+        assert_eq!(second.design(), &states[k].0, "undo back to step {k}");
+        assert_eq!(space_state(&second.space), states[k].1, "space at step {k}");
+    }
+    // A third: redoes what the second undid.
+    let store = second.space;
+    let snap = Snapshot::from_store(&store);
+    let mut third = Editor::resume(store, &snap, "X").expect("resume");
+    drop(snap);
+    assert_eq!(
+        third.keep_history(path.clone()).expect("history"),
+        HistoryFound::Taken { undo: 1, redo: 2 }
+    );
+    let mut p = Prompt::default();
+    execute(&mut third, &mut p, "redo").expect("redo");
+    assert_eq!(third.design(), &states[2].0);
+    assert_eq!(space_state(&third.space), states[2].1);
+    // An editor that keeps no history changes the design: the file no longer ends at the
+    // design the space holds, so the next editor does not undo from it.
+    let store = third.space;
+    let snap = Snapshot::from_store(&store);
+    let mut outside = Editor::resume(store, &snap, "X").expect("resume");
+    drop(snap);
+    execute(&mut outside, &mut p, "translate b X=1").expect("edit");
+    let store = outside.space;
+    let snap = Snapshot::from_store(&store);
+    let mut last = Editor::resume(store, &snap, "X").expect("resume");
+    drop(snap);
+    assert_eq!(
+        last.keep_history(path).expect("history"),
+        HistoryFound::Stale
+    );
+    let err = execute(&mut last, &mut p, "undo").expect_err("nothing to undo");
+    assert!(err.contains("nothing to undo"), "{err}");
+}
