@@ -91,19 +91,23 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             load: Some(file),
             with,
             library,
+            sim_mode,
             ..
-        } => robosim_launcher::up_load(&file, &with, session, &library).map_err(CliError::from),
+        } => robosim_launcher::up_load(&file, &with, session, &library, sim_mode.map(|m| m.name()))
+            .map_err(CliError::from),
         Command::Up {
             scene: None,
             load: None,
             with,
             library,
             fresh,
+            sim_mode,
         } => {
             if fresh {
                 bail!("--fresh starts a scene over: name it (`robosim up SCENE --fresh`)");
             }
-            robosim_launcher::up_resume(&with, session, &library).map_err(CliError::from)
+            robosim_launcher::up_resume(&with, session, &library, sim_mode.map(|m| m.name()))
+                .map_err(CliError::from)
         }
         Command::Up {
             scene: Some(scene),
@@ -111,8 +115,16 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             with,
             library,
             fresh,
-        } => robosim_launcher::up_with_library(&scene, &with, session, &library, fresh)
-            .map_err(CliError::from),
+            sim_mode,
+        } => robosim_launcher::up_with_library(
+            &scene,
+            &with,
+            session,
+            &library,
+            fresh,
+            sim_mode.map(|m| m.name()),
+        )
+        .map_err(CliError::from),
         Command::Save { args } => {
             existing(session)?;
             robosim_file_io::cli::save(&args.into(), session).map_err(CliError::from)

@@ -80,3 +80,69 @@ fn completions_end_quietly_when_the_reader_closes_the_pipe() {
         full.stdout.len()
     );
 }
+
+/// `robosim up SCENE --with simulator --sim-mode lockstep` (issue 39 item 2): the simulator `up`
+/// starts steps only on command — it stands still until told, then takes exactly the steps
+/// asked; `--sim-mode` without a simulator to start is refused, saying what to add.
+#[test]
+fn up_starts_a_lock_step_simulator_when_asked() {
+    let p = Procs::new("uplock");
+    let _down = Down(&p);
+    let robosim = |args: &[&str]| {
+        let out = Command::new(ROBOSIM)
+            .args(args)
+            .args(["--session", &p.name])
+            .env("ROBOSIM_HOME", p.home.path())
+            .output()
+            .expect("run robosim");
+        let text = String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr);
+        (out.status.success(), text)
+    };
+    let (ok, text) = robosim(&["up", "surgical_positioner_cell", "--sim-mode", "lockstep"]);
+    assert!(!ok, "--sim-mode without a simulator was accepted: {text}");
+    assert!(text.contains("--with simulator"), "{text}");
+    let (ok, text) = robosim(&[
+        "up",
+        "surgical_positioner_cell",
+        "--with",
+        "simulator",
+        "--sim-mode",
+        "lockstep",
+    ]);
+    assert!(ok, "robosim up failed: {text}");
+    let state = |what: &str| -> serde_json::Value {
+        let (ok, text) = robosim(&["simctl", "get"]);
+        assert!(ok, "simctl get ({what}) failed: {text}");
+        serde_json::from_str(text.trim()).unwrap_or_else(|e| panic!("{e}: {text}"))
+    };
+    let first = state("at start");
+    assert_eq!(first["mode"], "lockstep", "{first}");
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    let still = state("after a wait");
+    assert_eq!(
+        still["steps"], first["steps"],
+        "a lock-step simulator stepped on its own: {first} then {still}"
+    );
+    let (ok, text) = robosim(&["simctl", r#"{"cmd": "step", "n": 10}"#]);
+    assert!(ok, "simctl step failed: {text}");
+    // The steps are queued: wait until none is left (a deadline only against a hang), then
+    // count them.
+    let start = std::time::Instant::now();
+    let after = loop {
+        let s = state("while stepping");
+        if s["queued_steps"] == 0 && s["steps"] != first["steps"] {
+            break s;
+        }
+        assert!(
+            start.elapsed() < std::time::Duration::from_secs(60),
+            "10 lock-step steps not done in 60 s: {s}"
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    };
+    assert_eq!(
+        after["steps"].as_u64(),
+        first["steps"].as_u64().map(|s| s + 10),
+        "{after}"
+    );
+}

@@ -331,3 +331,51 @@ fn a_pick_in_the_display_is_what_the_next_editor_command_acts_on() {
     let ib = snap.find("b").expect("b");
     assert_eq!(snap.rec(ib).parent, snap.rec(ia).id);
 }
+
+/// Issue 39 item 5: a second `robosim edit` of a design undoes the session's edits of it — the
+/// first editor process's — and a third redoes; each is its own process on one session.
+#[test]
+fn a_second_editor_process_undoes_the_first_ones_edits() {
+    let mut k = Procs::new("edundo");
+    k.start_keeper(&[]);
+    let run = |k: &Procs, i: usize, script: &str| -> String {
+        let f = k.home.path().join(format!("undo{i}.edit"));
+        std::fs::write(&f, script).expect("script");
+        let o = robosim(
+            k,
+            &["edit", "--robot", "U", "--script", &f.to_string_lossy()],
+        );
+        let text =
+            String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+        assert!(o.status.success(), "editor {i}:\n{script}\n{text}");
+        text
+    };
+    let mut reader =
+        robosim_instance_space::Reader::attach(&k.session(), "edundo-reader").expect("attach");
+    let design_at = |reader: &mut robosim_instance_space::Reader, text: &str| {
+        let version: u64 = text
+            .lines()
+            .filter_map(|l| l.strip_prefix("ok, version "))
+            .filter_map(|l| l.split_whitespace().next()?.parse().ok())
+            .next_back()
+            .unwrap_or_else(|| panic!("no committed version in {text}"));
+        let snap = wait_for("the edit", || {
+            reader.refresh().ok()?;
+            reader.snapshot().filter(|s| s.version() >= version)
+        });
+        robosim_editor::session::design_from_snapshot(&snap, "U").expect("design")
+    };
+    let t1 = run(&k, 1, "box a X=1 Y=1 Z=1\n");
+    let one = design_at(&mut reader, &t1);
+    let t2 = run(&k, 2, "cylinder b R=0.5 H=2\ntranslate a X=3\n");
+    let three = design_at(&mut reader, &t2);
+    assert_ne!(one, three);
+    // Another process: two undos (of the three edits kept) take the design back to what the
+    // first editor left.
+    let t3 = run(&k, 3, "undo\nundo\n");
+    assert!(t3.contains("3 edit(s) to undo"), "{t3}");
+    assert_eq!(design_at(&mut reader, &t3), one, "{t3}");
+    // And another: redo both.
+    let t4 = run(&k, 4, "redo\nredo\n");
+    assert_eq!(design_at(&mut reader, &t4), three, "{t4}");
+}

@@ -275,7 +275,7 @@ fn wait_registered(session: &Session, role: &str, pid: u32, timeout: Duration) -
 
 /// `robosim up SCENE --with …` with the standard library.
 pub fn up(scene_name: &str, with: &[String], session: Option<&str>) -> Result<()> {
-    up_with_library(scene_name, with, session, &[], false)
+    up_with_library(scene_name, with, session, &[], false, None)
 }
 
 /// What a session already holds when `up` is asked for a scene.
@@ -332,14 +332,26 @@ fn move_aside(session: &Session) -> Result<PathBuf> {
 /// keeps it: `up` adds the components to it when SCENE is the scene that model came from, and
 /// otherwise refuses with the ways to do the other thing (instantiate SCENE into the session,
 /// or `--fresh`, which moves the saved model aside and starts SCENE in an empty one).
+///
+/// `sim_mode`: the simulator's `--mode` (`realtime`, `fast`, `lockstep`) when `up` starts it;
+/// without it the simulator's default (realtime). Naming it without a simulator to start is
+/// refused.
 pub fn up_with_library(
     scene_name: &str,
     with: &[String],
     session: Option<&str>,
     library: &[PathBuf],
     fresh: bool,
+    sim_mode: Option<&str>,
 ) -> Result<()> {
-    up_start(Start::Scene(scene_name), with, session, library, fresh)
+    up_start(
+        Start::Scene(scene_name),
+        with,
+        session,
+        library,
+        fresh,
+        sim_mode,
+    )
 }
 
 /// `robosim up --load FILE --with …`: a session whose keeper starts from a model file (checked
@@ -350,8 +362,9 @@ pub fn up_from_file(
     with: &[String],
     session: Option<&str>,
     library: &[PathBuf],
+    sim_mode: Option<&str>,
 ) -> Result<()> {
-    up_start(Start::File(file), with, session, library, false)
+    up_start(Start::File(file), with, session, library, false, sim_mode)
 }
 
 /// What a new keeper starts with.
@@ -380,7 +393,11 @@ fn up_start(
     session: Option<&str>,
     library: &[PathBuf],
     fresh: bool,
+    sim_mode: Option<&str>,
 ) -> Result<()> {
+    if sim_mode.is_some() && !with.iter().any(|c| c == "simulator") {
+        bail!("--sim-mode sets the mode of the simulator `up` starts: add `--with simulator`");
+    }
     for c in with {
         if !COMPONENTS.iter().any(|(n, _)| n == c) {
             bail!(
@@ -556,8 +573,24 @@ fn up_start(
             components.push((c.clone(), Vec::new()));
         }
     }
+    if let Some(mode) = sim_mode {
+        for (c, extra) in &mut components {
+            if c == "simulator" {
+                extra.extend(["--mode".to_owned(), mode.to_owned()]);
+            }
+        }
+    }
     for (c, extra) in &components {
-        if procs.iter().any(|p| &p.role == c) {
+        if let Some(p) = procs.iter().find(|p| &p.role == c) {
+            // A running simulator keeps its mode: say so when another was asked for.
+            if let (Some(mode), "simulator") = (sim_mode, c.as_str()) {
+                eprintln!(
+                    "session {}: the simulator already runs (pid {}) in its own mode; --sim-mode \
+                     {mode} was not applied (`robosim down`, then `up` again)",
+                    session.name(),
+                    p.pid,
+                );
+            }
             continue;
         }
         let Some((_, sub)) = COMPONENTS.iter().find(|(n, _)| n == c) else {
@@ -603,7 +636,12 @@ fn display_note(session: &Session) -> String {
 /// `with` to the running one) — the scene it came from when one is recorded, with the
 /// components that scene declares. A session that holds no model is refused, saying how to
 /// start one.
-pub fn up_resume(with: &[String], session: Option<&str>, library: &[PathBuf]) -> Result<()> {
+pub fn up_resume(
+    with: &[String],
+    session: Option<&str>,
+    library: &[PathBuf],
+    sim_mode: Option<&str>,
+) -> Result<()> {
     let s = Session::open(session)?;
     let name = s.name().to_owned();
     let recorded = match existing(&s) {
@@ -623,9 +661,9 @@ pub fn up_resume(with: &[String], session: Option<&str>, library: &[PathBuf]) ->
     };
     match recorded.as_deref() {
         Some(scene) if !scene.starts_with(FILE_NOTE_PREFIX) && known(scene) => {
-            up_start(Start::Scene(scene), with, session, library, false)
+            up_start(Start::Scene(scene), with, session, library, false, sim_mode)
         }
-        _ => up_start(Start::Resume, with, session, library, false),
+        _ => up_start(Start::Resume, with, session, library, false, sim_mode),
     }
 }
 
@@ -753,9 +791,10 @@ pub fn up_load(
     with: &[String],
     session: Option<&str>,
     library: &[PathBuf],
+    sim_mode: Option<&str>,
 ) -> Result<()> {
     robosim_file_io::format::read(file)?;
-    up_from_file(file, with, session, library)
+    up_from_file(file, with, session, library, sim_mode)
 }
 
 /// `robosim space --load FILE`: the keeper, starting from the file's model (it replaces what

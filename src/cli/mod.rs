@@ -75,6 +75,10 @@ pub(crate) enum Command {
         /// `<session>/previous-<time>/` (nothing is deleted).
         #[arg(long)]
         fresh: bool,
+        /// The mode of the simulator started with `--with simulator`: realtime (default), fast,
+        /// or lockstep (steps only on command: `simctl step`, Python's `s.sim.step(n)`).
+        #[arg(long)]
+        sim_mode: Option<robosim_simulator_daemon::Mode>,
     },
     /// List a session's processes: role, pid, what each is attached to.
     Ps {
