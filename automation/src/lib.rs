@@ -3,6 +3,9 @@
 //! * [`kernel`] — a macro-dataflow kernel in the spirit of the Multigraph Execution
 //!   Environment: actor and data nodes, ifall/ifany, data- and demand-driven operation, a
 //!   thread-pool scheduler, live rewiring of a running graph, a tracer and DOT export.
+//! * [`dataflow`] — graphs declared in a file (actors from a registry of built-in kinds, data
+//!   nodes, sources and sinks naming session aspects), run by passes and rewired on reload
+//!   (`robosim dataflow`, docs/dataflow.md).
 //! * [`reconfig`] — the reconfigurable controller of pictures 6–7 (P → PID, rewired by a
 //!   Checker actor while the arm runs).
 //! * [`model`] — Hierarchical Process and Fault Models in a declarative text form, consistency
@@ -18,6 +21,7 @@
 #![forbid(unsafe_code)]
 
 pub mod analysis;
+pub mod dataflow;
 pub mod diag;
 pub mod kernel;
 pub mod model;

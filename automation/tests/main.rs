@@ -3,6 +3,7 @@
 //! `cargo test -p robosim-automation --test automation FILE::` the tests of tests/FILE.rs.
 //! A new file of tests/ needs its `mod` line here (Cargo.toml: `autotests = false`).
 
+mod dataflow;
 mod diag;
 mod fuzz_corpus;
 mod hostile_inputs;

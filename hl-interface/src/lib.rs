@@ -44,6 +44,7 @@
 
 pub mod cli;
 pub mod client;
+pub mod dataflow;
 mod error;
 pub mod planner;
 pub mod plant;

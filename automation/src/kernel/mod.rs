@@ -863,6 +863,21 @@ impl Control {
         Ok(last)
     }
 
+    /// A read of `d` that asks for a fresh value whether or not `d` holds one: a request token
+    /// goes to every actor writing `d` (and on upstream through actors lacking inputs), as
+    /// [`request`](Self::request) does for an empty node. This is how a consumer outside the
+    /// graph samples a demand-driven chain once per period (a last-value node is never empty
+    /// again after its first write).
+    pub fn demand(&self, d: DataId) -> Result<(), KernelError> {
+        let mut st = self.lock();
+        data_ref(&st, d)?;
+        let mut seen = Vec::new();
+        self.propagate_request(&mut st, d, &mut seen);
+        drop(st);
+        self.shared.work.notify_all();
+        Ok(())
+    }
+
     /// Gives an actor one firing permit (how sources without inputs are clocked from outside).
     pub fn trigger(&self, a: ActorId) -> Result<(), KernelError> {
         let mut st = self.lock();
