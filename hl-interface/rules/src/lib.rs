@@ -45,7 +45,9 @@
 //! Rule bases shipped (`hl-interface/rules/rulebases/`): `joint_guard.clp` (soft joint limits
 //! enforced by setting the joint back, contact alarms handled by pausing the simulator and
 //! backing the robot off to its clear joints) and `eclss_guard.clp` (ECLSS alarms diagnosed,
-//! the faulty unit isolated, then its spare brought on line). docs/rules.md.
+//! the faulty unit isolated, then its spare brought on line) and `station_power.clp` (the
+//! station's energy scheduler, run in process by `robosim study station --scheduler on` through
+//! [`embedded::Embedded`]). docs/rules.md.
 
 //!
 //! The engine is linked when the build finds the system CLIPS (build.rs sets `cfg(clips)`);
@@ -53,6 +55,7 @@
 //! [`RulesError::NotBuilt`], saying what to install ([`BUILT_WITH_CLIPS`], [`NOT_BUILT`]).
 
 pub mod clips;
+pub mod embedded;
 
 #[cfg(clips)]
 use clips::Clips;
