@@ -242,7 +242,7 @@ pub fn export(a: &ExportArgs, session: Option<&str>) -> Result<()> {
 /// ([`crate::mjcf_export`]).
 fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) -> Result<()> {
     let robots = match &a.scene {
-        Some(name) => crate::export_robots(name, &a.library)?,
+        Some(name) => crate::export_robot_models(name, &a.library)?,
         None => {
             let s = Session::open(session)?;
             let reader = Reader::attach(&s, "file-io")?;
@@ -250,16 +250,22 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
                 .snapshot()
                 .ok_or_else(|| FileError::Usage(format!("session {}: no model", s.name())))?;
             crate::robots_of(&snap)
+                .into_iter()
+                .map(|r| (r, None))
+                .collect()
         }
     };
-    let names: Vec<&str> = robots.iter().map(|r| r.name.as_str()).collect();
-    let robot = match &a.robot {
-        Some(want) => robots.iter().find(|r| r.name == *want).ok_or_else(|| {
-            FileError::Usage(format!(
-                "no robot {want:?} to export; robots: {}",
-                names.join(", ")
-            ))
-        })?,
+    let names: Vec<&str> = robots.iter().map(|(r, _)| r.name.as_str()).collect();
+    let (robot, geometry) = match &a.robot {
+        Some(want) => robots
+            .iter()
+            .find(|(r, _)| r.name == *want)
+            .ok_or_else(|| {
+                FileError::Usage(format!(
+                    "no robot {want:?} to export; robots: {}",
+                    names.join(", ")
+                ))
+            })?,
         None => match robots.as_slice() {
             [one] => one,
             _ => {
@@ -270,35 +276,52 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
             }
         },
     };
-    if fmt == Format::Mjcf {
-        let (text, notes) = crate::mjcf_export::to_mjcf(robot).map_err(FileError::Usage)?;
-        format::write_atomic(out, text.as_bytes())?;
-        println!(
-            "exported robot {} to {}: {} joints as MJCF bodies",
-            robot.name,
-            out.display(),
-            robot.dof()
-        );
-        for n in &notes {
-            println!("  note: {n}");
-        }
-        return Ok(());
+    // Mesh files beside the robot's file, named after it: `<stem>_<shape>.stl`.
+    let stem = out
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("robot")
+        .to_string();
+    let prefix = format!("{stem}_");
+    let dir = out.parent().unwrap_or(Path::new(""));
+    let geometry = geometry.as_ref();
+    let (text, notes, meshes) = if fmt == Format::Mjcf {
+        crate::mjcf_export::to_mjcf_with_geometry(robot, geometry, &prefix)
+    } else {
+        crate::urdf::to_urdf_with_geometry(robot, geometry, &prefix)
     }
-    let (text, notes) = crate::urdf::to_urdf_with_notes(robot).map_err(FileError::Usage)?;
+    .map_err(FileError::Usage)?;
+    for m in &meshes {
+        format::write_atomic(&dir.join(&m.file), &m.bytes)?;
+    }
     format::write_atomic(out, text.as_bytes())?;
-    for n in &notes {
-        println!("  note: {n}");
-    }
+    let shapes = geometry.map_or(0, |g| g.shapes.len());
+    let general = !robot.is_chain() || robot.joints.iter().any(|j| j.is_general());
+    let what = match (fmt, robot.convention) {
+        (Format::Mjcf, _) => "as MJCF bodies".to_string(),
+        _ if general => "as URDF origins and axes".to_string(),
+        (_, robosim_kinematics::Convention::Standard) => {
+            "standard convention DH as URDF origins and z axes".to_string()
+        }
+        (_, robosim_kinematics::Convention::Modified) => {
+            "modified convention DH as URDF origins and z axes".to_string()
+        }
+    };
     println!(
-        "exported robot {} to {}: {} joints, {} convention DH as URDF origins and z axes",
+        "exported robot {} to {}: {} joints {what}; {shapes} shapes, {} mesh files beside it{}",
         robot.name,
         out.display(),
         robot.dof(),
-        match robot.convention {
-            robosim_kinematics::Convention::Standard => "standard",
-            robosim_kinematics::Convention::Modified => "modified",
+        meshes.len(),
+        if geometry.is_none() {
+            " (the geometry of a session's robot is not exported yet)"
+        } else {
+            ""
         }
     );
+    for n in &notes {
+        println!("  note: {n}");
+    }
     Ok(())
 }
 

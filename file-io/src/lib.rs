@@ -32,6 +32,7 @@ pub mod bench_urdf;
 pub mod cli;
 pub mod digest;
 mod error;
+pub mod export_geometry;
 pub mod format;
 pub mod gltf;
 pub mod import;
@@ -92,6 +93,85 @@ pub fn export_robots(
         return Ok(vec![robot]);
     }
     scene_robots(name, library)
+}
+
+/// [`export_robots`] with each robot's geometry ([`export_geometry`]): a robot declaration's
+/// solids, or for a `from_urdf` robot the URDF's own `<visual>` and `<collision>` elements
+/// (the file read again; its movable links must be the declaration's, else its solids are used
+/// and a note says so); a scene's robots with the solids of the robots it places. `None` where
+/// the geometry is not known (a scene robot not found in the scene's evaluation).
+pub fn export_robot_models(
+    name: &str,
+    library: &[std::path::PathBuf],
+) -> Result<
+    Vec<(
+        robosim_kinematics::Robot,
+        Option<export_geometry::ExportGeometry>,
+    )>,
+    FileError,
+> {
+    let lib = robosim_scene::build_library(library)?;
+    match lib.evaluate(name, &robosim_library::Params::new()) {
+        Ok(robosim_library::Evaluated::Robot(r)) => {
+            let mut robot = r.robot.clone();
+            robot.name = name.to_string();
+            let geometry = match lib.robot_file(name) {
+                Some(file) => urdf_geometry_of(&file, &r),
+                None => export_geometry::ExportGeometry::from_frames(&r.frames),
+            };
+            Ok(vec![(robot, Some(geometry))])
+        }
+        Ok(robosim_library::Evaluated::Scene(scene)) => {
+            let robots = scene_robots(name, library)?;
+            Ok(robots
+                .into_iter()
+                .map(|robot| {
+                    let g = scene
+                        .robots
+                        .iter()
+                        .find(|p| p.name == robot.name)
+                        .map(|p| export_geometry::ExportGeometry::from_frames(&p.model.frames));
+                    (robot, g)
+                })
+                .collect())
+        }
+        _ => Ok(scene_robots(name, library)?
+            .into_iter()
+            .map(|r| (r, None))
+            .collect()),
+    }
+}
+
+/// The geometry of a `from_urdf` robot from its file: the whole tree, or the chain to the
+/// declaration's last link; when neither has the declaration's links, its solids.
+fn urdf_geometry_of(
+    file: &std::path::Path,
+    r: &robosim_library::RobotModel,
+) -> export_geometry::ExportGeometry {
+    let same = |u: &urdf_import::UrdfRobot| {
+        u.joints.len() == r.link_names.len()
+            && u.joints
+                .iter()
+                .zip(&r.link_names)
+                .all(|(j, n)| j.link == *n)
+    };
+    let tree = urdf_import::import_urdf_tree(file).ok().filter(same);
+    let u = tree.or_else(|| {
+        urdf_import::import_urdf(file, r.link_names.last().map(String::as_str))
+            .ok()
+            .filter(same)
+    });
+    match u {
+        Some(u) => export_geometry::ExportGeometry::from_urdf(&u),
+        None => {
+            let mut g = export_geometry::ExportGeometry::from_frames(&r.frames);
+            g.notes.push(format!(
+                "{}: its links could not be matched with the declaration's; its collision solids are exported instead of the file's visuals",
+                file.display()
+            ));
+            g
+        }
+    }
 }
 
 /// The robots of a snapshot as kinematic (and dynamic) models.

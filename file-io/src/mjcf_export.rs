@@ -27,6 +27,9 @@
 //! not collide, group 2; collision geoms group 3), but the robot's solids are not exported as
 //! geoms yet: the robot model carries no shapes (they are in the session's bodies).
 
+use crate::export_geometry::{
+    ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
+};
 use crate::urdf::link_name;
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
 use robosim_kinematics::{JointType, Robot, chain::to_general};
@@ -145,9 +148,84 @@ fn xml(s: &str) -> String {
 /// The robot as MJCF text (see the module docs) and the notes on what was changed to make it
 /// loadable. Refused: a model that does not validate.
 pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
+    to_mjcf_with_geometry(robot, None, "").map(|(text, notes, _)| (text, notes))
+}
+
+/// The `<geom>`s of link frame `frame` (see [`crate::export_geometry`]), each line indented by
+/// two spaces: a shape that is visual gets a geom of class `visual`, one that collides a geom
+/// of class `collision` (named `<shape>_visual` / `<shape>_collision`), placed at `x · origin`
+/// in the body; a mesh is the asset `<shape>` (added to `assets`, its file to `meshes`).
+fn body_geoms(
+    geometry: Option<&ExportGeometry>,
+    frame: usize,
+    x: &Matrix4<f64>,
+    prefix: &str,
+    assets: &mut String,
+    meshes: &mut Vec<MeshFile>,
+) -> String {
+    let mut out = String::new();
+    let Some(g) = geometry else {
+        return out;
+    };
+    for s in g.on(frame) {
+        let at = frame_attrs(&(x * s.origin));
+        let name = xml(&s.name);
+        let shape = match &s.kind {
+            ShapeKind::Box { size } => format!(
+                "type=\"box\" size=\"{:?} {:?} {:?}\"",
+                size[0] / 2.0,
+                size[1] / 2.0,
+                size[2] / 2.0
+            ),
+            ShapeKind::Cylinder { radius, length } => {
+                format!("type=\"cylinder\" size=\"{radius:?} {:?}\"", length / 2.0)
+            }
+            ShapeKind::Sphere { radius } => format!("type=\"sphere\" size=\"{radius:?}\""),
+            ShapeKind::Mesh { .. } => {
+                if let Some(file) = mesh_file(s, prefix, meshes) {
+                    let _ = writeln!(
+                        assets,
+                        "    <mesh name=\"{name}\" file=\"{}\"/>",
+                        xml(&file)
+                    );
+                }
+                format!("type=\"mesh\" mesh=\"{name}\"")
+            }
+        };
+        if s.visual {
+            let rgba = match s.rgba {
+                Some([r, g, b, a]) => format!(" rgba=\"{r:?} {g:?} {b:?} {a:?}\""),
+                None => String::new(),
+            };
+            let _ = writeln!(
+                out,
+                "  <geom name=\"{name}_visual\" class=\"visual\" {shape} {at}{rgba}/>"
+            );
+        }
+        if s.collision {
+            let _ = writeln!(
+                out,
+                "  <geom name=\"{name}_collision\" class=\"collision\" {shape} {at}/>"
+            );
+        }
+    }
+    out
+}
+
+/// [`to_mjcf`] with the robot's geometry ([`crate::export_geometry`]): geoms of the `visual`
+/// and `collision` classes in each body, meshes as `<asset><mesh file>` with the files to write
+/// beside the MJCF (`<mesh_prefix><shape>.stl`, relative to its folder).
+pub fn to_mjcf_with_geometry(
+    robot: &Robot,
+    geometry: Option<&ExportGeometry>,
+    mesh_prefix: &str,
+) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
+    let xs = exported_frames(robot, Exported::Mjcf);
+    let mut assets = String::new();
+    let mut meshes = Vec::new();
     let g = to_general(robot);
     let name = xml(&robot.name);
     let mut notes = Vec::new();
@@ -157,12 +235,17 @@ pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
         out,
         "  <!-- Written by robosim from the joint model of {name} (docs/file-io.md, \"MJCF export\"). -->"
     );
-    let _ = writeln!(out, "  <compiler angle=\"radian\" autolimits=\"true\"/>");
+    let _ = writeln!(
+        out,
+        "  <compiler angle=\"radian\" autolimits=\"true\" inertiafromgeom=\"false\"/>"
+    );
     let _ = writeln!(out, "  <option gravity=\"{}\"/>", v3(&robot.gravity));
     let _ = writeln!(
         out,
-        "  <default>\n    <default class=\"visual\">\n      <geom contype=\"0\" conaffinity=\"0\" group=\"2\"/>\n    </default>\n    <default class=\"collision\">\n      <geom group=\"3\"/>\n    </default>\n  </default>"
+        "  <default>\n    <default class=\"visual\">\n      <geom contype=\"0\" conaffinity=\"0\" group=\"2\"/>\n    </default>\n    <default class=\"collision\">\n      <geom contype=\"1\" conaffinity=\"1\" group=\"3\"/>\n    </default>\n  </default>"
     );
+    // The asset section goes here once the bodies have named their meshes.
+    let asset_at = out.len();
     let _ = writeln!(out, "  <worldbody>");
     // Bodies as a tree: children of link k are the joints whose parent is k.
     let n = g.dof();
@@ -231,6 +314,14 @@ pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
             inertia[(0, 2)],
             inertia[(1, 2)]
         );
+        body += &body_geoms(
+            geometry,
+            j + 1,
+            &xs[j + 1],
+            mesh_prefix,
+            &mut assets,
+            &mut meshes,
+        );
         if j + 1 == n {
             let _ = writeln!(
                 body,
@@ -255,6 +346,7 @@ pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
         xml(&link_name(robot, 0)),
         frame_attrs(&Matrix4::identity())
     );
+    root += &body_geoms(geometry, 0, &xs[0], mesh_prefix, &mut assets, &mut meshes);
     if n == 0 {
         let _ = writeln!(
             root,
@@ -271,5 +363,11 @@ pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
         let _ = writeln!(out, "    {line}");
     }
     let _ = writeln!(out, "  </worldbody>\n</mujoco>");
-    Ok((out, notes))
+    if !assets.is_empty() {
+        out.insert_str(asset_at, &format!("  <asset>\n{assets}  </asset>\n"));
+    }
+    if let Some(g) = geometry {
+        notes.extend(g.notes.iter().cloned());
+    }
+    Ok((out, notes, meshes))
 }

@@ -37,12 +37,15 @@
 //! model them: written as 0, which URDF readers take as "unknown"), and the geometry (a link's
 //! bodies are not exported as meshes yet).
 
+use crate::export_geometry::{
+    ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
+};
 use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3};
 use robosim_kinematics::{Convention, JointType, Robot, fk::link_transform};
 use std::fmt::Write as _;
 
 /// The constant transform after the motion, `P_j`.
-fn post(convention: Convention, j: &robosim_kinematics::Joint) -> Matrix4<f64> {
+pub(crate) fn post(convention: Convention, j: &robosim_kinematics::Joint) -> Matrix4<f64> {
     match convention {
         Convention::Standard => {
             let mut tx = Matrix4::identity();
@@ -55,7 +58,7 @@ fn post(convention: Convention, j: &robosim_kinematics::Joint) -> Matrix4<f64> {
 }
 
 /// `P⁻¹` of a rigid transform.
-fn rigid_inverse(m: &Matrix4<f64>) -> Matrix4<f64> {
+pub(crate) fn rigid_inverse(m: &Matrix4<f64>) -> Matrix4<f64> {
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
     let t: Vector3<f64> = m.fixed_view::<3, 1>(0, 3).into_owned();
     let mut out = Matrix4::identity();
@@ -128,7 +131,74 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
 /// [`to_urdf`] and what was changed to make the file loadable by MuJoCo too (inertias made
 /// physical, massless links given a tiny mass; [`crate::mjcf_export::physical_inertia`]).
 pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String> {
+    to_urdf_with_geometry(robot, None, "").map(|(text, notes, _)| (text, notes))
+}
+
+/// The `<visual>` and `<collision>` elements of link frame `frame` (see
+/// [`crate::export_geometry`]): each shape's placement `x · origin` in the URDF link (`x` the
+/// frame's [`crate::export_geometry::exported_frames`] entry), primitives as URDF primitives,
+/// meshes as files `<prefix><shape>.stl` beside the URDF (added to `meshes`).
+fn link_geometry(
+    geometry: Option<&ExportGeometry>,
+    frame: usize,
+    x: &Matrix4<f64>,
+    prefix: &str,
+    meshes: &mut Vec<MeshFile>,
+) -> String {
+    let mut out = String::new();
+    let Some(g) = geometry else {
+        return out;
+    };
+    for s in g.on(frame) {
+        let origin = origin_attrs_with(&(x * s.origin), rpy_stable);
+        let geom = match &s.kind {
+            ShapeKind::Box { size } => {
+                format!("<box size=\"{:?} {:?} {:?}\"/>", size[0], size[1], size[2])
+            }
+            ShapeKind::Cylinder { radius, length } => {
+                format!("<cylinder radius=\"{radius:?}\" length=\"{length:?}\"/>")
+            }
+            ShapeKind::Sphere { radius } => format!("<sphere radius=\"{radius:?}\"/>"),
+            ShapeKind::Mesh { .. } => format!(
+                "<mesh filename=\"{}\"/>",
+                xml(&mesh_file(s, prefix, meshes).unwrap_or_default())
+            ),
+        };
+        let name = xml(&s.name);
+        if s.visual {
+            let material = match s.rgba {
+                Some([r, g, b, a]) => format!(
+                    "\n      <material name=\"{name}_material\"><color rgba=\"{r:?} {g:?} {b:?} {a:?}\"/></material>"
+                ),
+                None => String::new(),
+            };
+            let _ = writeln!(
+                out,
+                "    <visual name=\"{name}\">\n      <origin {origin}/>\n      <geometry>{geom}</geometry>{material}\n    </visual>"
+            );
+        }
+        if s.collision {
+            let _ = writeln!(
+                out,
+                "    <collision name=\"{name}\">\n      <origin {origin}/>\n      <geometry>{geom}</geometry>\n    </collision>"
+            );
+        }
+    }
+    out
+}
+
+/// [`to_urdf_with_notes`] with the robot's geometry ([`crate::export_geometry`]): each link's
+/// `<visual>` and `<collision>` elements, and the mesh files to write beside the URDF (names
+/// `<mesh_prefix><shape>.stl`, relative to the URDF's folder). Without geometry the file is
+/// byte for byte [`to_urdf`]'s.
+pub fn to_urdf_with_geometry(
+    robot: &Robot,
+    geometry: Option<&ExportGeometry>,
+    mesh_prefix: &str,
+) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
     let mut notes = Vec::new();
+    let mut meshes = Vec::new();
+    let xs = exported_frames(robot, Exported::Urdf);
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
@@ -176,7 +246,16 @@ pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String
     }
     let _ = writeln!(out, "<robot name=\"{name}\">");
     let _ = writeln!(out, "  <link name=\"world\"/>");
-    let _ = writeln!(out, "  <link name=\"{}\"/>", xml(&link_name(robot, 0)));
+    let base_geometry = link_geometry(geometry, 0, &xs[0], mesh_prefix, &mut meshes);
+    if base_geometry.is_empty() {
+        let _ = writeln!(out, "  <link name=\"{}\"/>", xml(&link_name(robot, 0)));
+    } else {
+        let _ = write!(
+            out,
+            "  <link name=\"{}\">\n{base_geometry}  </link>\n",
+            xml(&link_name(robot, 0))
+        );
+    }
     let _ = writeln!(
         out,
         "  <joint name=\"{name}_base_joint\" type=\"fixed\">\n    <parent link=\"world\"/>\n    <child link=\"{}\"/>\n    <origin {}/>\n  </joint>",
@@ -233,6 +312,7 @@ pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String
                 m[(2, 2)]
             );
         }
+        out += &link_geometry(geometry, i, &xs[i], mesh_prefix, &mut meshes);
         let _ = writeln!(out, "  </link>");
         let continuous = j.joint_type == JointType::Revolute && j.qlim[0] == f64::NEG_INFINITY;
         let kind = match j.joint_type {
@@ -283,5 +363,8 @@ pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String
         oa(&tool_origin)
     );
     let _ = writeln!(out, "</robot>");
-    Ok((out, notes))
+    if let Some(g) = geometry {
+        notes.extend(g.notes.iter().cloned());
+    }
+    Ok((out, notes, meshes))
 }

@@ -6,6 +6,7 @@
 mod reference;
 
 mod exchange;
+mod export_geometry;
 mod fuzz_corpus;
 mod hostile_inputs;
 mod linkfile_mass;

@@ -388,6 +388,14 @@ impl Library {
             .collect()
     }
 
+    /// The robot file a `robot NAME from_urdf "FILE"` declaration reads, as resolved; `None`
+    /// for any other declaration (or a file name that did not resolve). The URDF export reads
+    /// the file's own visual and collision geometry from it.
+    pub fn robot_file(&self, name: &str) -> Option<std::path::PathBuf> {
+        let d = &self.decls[*self.index.get(name)?];
+        d.urdf.as_ref()?.resolved.clone().ok()
+    }
+
     /// The kind of declaration `name`, if there is one.
     pub fn kind(&self, name: &str) -> Option<DeclKind> {
         self.index.get(name).map(|&i| self.decls[i].kind)
