@@ -369,3 +369,43 @@ fn issue_36_the_joint_friction_effect_is_declared_by_the_scene() {
     };
     assert_eq!(s.effects.joint_friction, None);
 }
+
+/// Issue 37 item 3: `collision { tolerance: … }` sets how closely exact distances are computed
+/// (`certified`, the default, or a GJK tolerance as a length); zero, negative, unitless-wrong
+/// and unknown words are refused with the place.
+#[test]
+fn issue_37_the_collision_effect_takes_a_distance_tolerance() {
+    use robosim_model::CollisionTolerance;
+    let with = |group: &str| {
+        let src = SRC.replace(
+            "        collision { mode: exact, self: on, continuous: on }\n",
+            &format!("        {group}\n"),
+        );
+        assert_ne!(src, SRC);
+        let l = Library::from_source("demo.rsl", &src).map_err(|e| e.to_string())?;
+        match l.evaluate("demo", &Params::new()) {
+            Ok(Evaluated::Scene(s)) => Ok(s.effects.collision.expect("collision declared")),
+            Ok(_) => panic!("a scene"),
+            Err(e) => Err(e.to_string()),
+        }
+    };
+    let c = with("collision { mode: exact, continuous: on, tolerance: 1e-6 m }").expect("1e-6 m");
+    assert_eq!(c.tolerance, CollisionTolerance::Gjk(1e-6));
+    assert!(c.continuous);
+    let c = with("collision { mode: exact, tolerance: 0.002 mm }").expect("0.002 mm");
+    assert!(matches!(c.tolerance, CollisionTolerance::Gjk(t) if (t - 2e-6).abs() < 1e-18));
+    let c = with("collision { mode: exact, tolerance: certified }").expect("certified");
+    assert_eq!(c.tolerance, CollisionTolerance::Certified);
+    let c = with("collision { mode: exact }").expect("default");
+    assert_eq!(c.tolerance, CollisionTolerance::Certified);
+    for (bad, says) in [
+        ("collision { tolerance: 0 m }", "out of range"),
+        ("collision { tolerance: -1 mm }", "out of range"),
+        ("collision { tolerance: 1 s }", "collision"),
+        ("collision { tolerance: exact }", "demo.rsl:"),
+        ("collision { tolerence: 1e-6 m }", "did you mean `tolerance`"),
+    ] {
+        let e = with(bad).expect_err(bad);
+        assert!(e.contains(says) && e.contains("demo.rsl:"), "{bad}: {e}");
+    }
+}

@@ -23,7 +23,8 @@ pub mod parts;
 
 pub use data::{Command, Data, IntegratorState};
 pub use options::{
-    AttitudeEffect, AttitudeHold, AutomationEffect, CollisionEffect, CollisionMode, CoulombModel,
-    DynamicsEffect, EncoderEffect, Integrator, JointFrictionEffect, LoggingEffect, OnContact,
-    Options, OptionsError, OrbitEffect, OruSwapEffect, PowerEffect, Signal,
+    AttitudeEffect, AttitudeHold, AutomationEffect, CollisionEffect, CollisionMode,
+    CollisionTolerance, CoulombModel, DynamicsEffect, EncoderEffect, Integrator,
+    JointFrictionEffect, LoggingEffect, OnContact, Options, OptionsError, OrbitEffect,
+    OruSwapEffect, PowerEffect, Signal,
 };

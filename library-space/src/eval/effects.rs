@@ -237,13 +237,15 @@ impl Evaluator<'_> {
         Ok((!log.signals.is_empty() || !log.unsupported.is_empty()).then_some(log))
     }
 
-    /// `collision { mode: bbox | polygon | exact, self: on, continuous: on }`.
+    /// `collision { mode: bbox | polygon | exact, self: on, continuous: on,
+    /// tolerance: certified | 1e-6 m }`.
     fn collision_group(&mut self, body: &[Stmt], scope: &mut Scope) -> RResult<CollisionEffect> {
+        const NAMES: &[&str] = &["mode", "self", "continuous", "tolerance"];
         let mut c = default_collision();
         for (name, name_span, value) in group_props(
             body,
             "`collision { … }`",
-            "`mode:`, `self:` or `continuous:`",
+            "`mode:`, `self:`, `continuous:` or `tolerance:`",
         )? {
             match name {
                 "mode" => {
@@ -258,14 +260,28 @@ impl Evaluator<'_> {
                 }
                 "self" => c.self_collision = self.switch(value, scope)?,
                 "continuous" => c.continuous = self.switch(value, scope)?,
-                _ => {
-                    return Err(unknown_prop(
-                        "collision",
-                        name,
-                        name_span,
-                        &["mode", "self", "continuous"],
-                    ));
+                // `certified` (the default) or a GJK tolerance, a length > 0
+                "tolerance" => {
+                    c.tolerance = if matches!(&value.kind, ExprKind::Name(w) if w == "certified") {
+                        robosim_model::CollisionTolerance::Certified
+                    } else {
+                        let t = self.quantity(
+                            value,
+                            scope,
+                            Dim::LENGTH,
+                            "`certified` or a GJK tolerance such as 1e-6 m",
+                        )?;
+                        robosim_model::CollisionTolerance::gjk(t).map_err(|_| {
+                            err(
+                                ErrorKind::OutOfRange,
+                                value.span,
+                                format!("collision tolerance {t} m is out of range"),
+                            )
+                            .expected("`certified` or a finite length > 0 such as 1e-6 m")
+                        })?
+                    }
                 }
+                _ => return Err(unknown_prop("collision", name, name_span, NAMES)),
             }
         }
         Ok(c)
