@@ -156,19 +156,49 @@ pub struct Decl {
     /// The `//` comment lines directly above the declaration.
     pub doc: Option<String>,
     pub span: Span,
-    /// `robot NAME from_urdf "FILE" { … }`: the URDF file the robot is read from.
+    /// `robot NAME from_urdf "FILE" { … }` (or `from_mjcf`): the robot file the robot is read
+    /// from.
     pub urdf: Option<UrdfSource>,
 }
 
-/// The file of a `from_urdf` robot: as written, where, and the path it resolves to (relative
-/// names against the folder of the `.rsl` file that declares it; set by the loader, which
-/// knows that file). `Err`: why it cannot be resolved (a standard-library file is embedded
-/// and has no folder).
+/// The format of a robot file: `from_urdf` or `from_mjcf`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+pub enum RobotFileFormat {
+    #[default]
+    Urdf,
+    Mjcf,
+}
+
+impl RobotFileFormat {
+    /// The keyword that declares it: `from_urdf`, `from_mjcf`.
+    pub fn keyword(self) -> &'static str {
+        match self {
+            RobotFileFormat::Urdf => "from_urdf",
+            RobotFileFormat::Mjcf => "from_mjcf",
+        }
+    }
+
+    /// The format's name in messages: `URDF`, `MJCF`.
+    pub fn name(self) -> &'static str {
+        match self {
+            RobotFileFormat::Urdf => "URDF",
+            RobotFileFormat::Mjcf => "MJCF",
+        }
+    }
+}
+
+/// The file of a `from_urdf` (or `from_mjcf`) robot: as written, where, and the path it
+/// resolves to (relative names against the folder of the `.rsl` file that declares it; set by
+/// the loader, which knows that file). `Err`: why it cannot be resolved (a standard-library
+/// file is embedded and has no folder).
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct UrdfSource {
     pub path: String,
     pub span: Span,
     pub resolved: Result<std::path::PathBuf, String>,
+    /// URDF or MJCF (the keyword that declared it).
+    #[serde(default)]
+    pub format: RobotFileFormat,
 }
 
 /// One parsed file: its declarations and includes, in order.

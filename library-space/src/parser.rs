@@ -9,7 +9,7 @@
 //! file    := item*
 //! item    := 'include' STRING | 'let' NAME '=' expr | ('colour'|'color') NAME '=' expr
 //!          | ('surface'|'solid'|'link'|'robot'|'scene') NAME params? '{' stmt* '}'
-//!          | 'robot' NAME params? 'from_urdf' STRING ['{' stmt* '}']
+//!          | 'robot' NAME params? ('from_urdf' | 'from_mjcf') STRING ['{' stmt* '}']
 //! params  := '(' [NAME '=' expr {',' NAME '=' expr}] ')'
 //! stmt    := 'let' NAME '=' expr | NAME ':' expr | NAME '{' stmt* '}'
 //!          | 'part' [NAME '='] expr ['at' expr] [('colour'|'color') expr] ['surface' expr]
@@ -98,15 +98,26 @@ pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
                 };
                 let (name, name_span) = p.name("a name for the declaration")?;
                 let params = if p.is_punct('(') { p.params()? } else { vec![] };
-                let urdf = if p.is_word("from_urdf") {
+                let format = if p.is_word("from_urdf") {
+                    Some(RobotFileFormat::Urdf)
+                } else if p.is_word("from_mjcf") {
+                    Some(RobotFileFormat::Mjcf)
+                } else {
+                    None
+                };
+                let urdf = if let Some(format) = format {
                     let w = p.next().clone();
+                    let (keyword, what) = (format.keyword(), format.name());
                     if kind != DeclKind::Robot {
                         return Err(RawError::new(
                             ErrorKind::Syntax,
                             w.span,
-                            format!("a {} cannot be read `from_urdf`", kind.as_str()),
+                            format!("a {} cannot be read `{keyword}`", kind.as_str()),
                         )
-                        .expected("`robot NAME from_urdf \"FILE.urdf\" { … }`"));
+                        .expected(match format {
+                            RobotFileFormat::Urdf => "`robot NAME from_urdf \"FILE.urdf\" { … }`",
+                            RobotFileFormat::Mjcf => "`robot NAME from_mjcf \"FILE.xml\" { … }`",
+                        }));
                     }
                     let t = p.next().clone();
                     match t.tok {
@@ -114,12 +125,13 @@ pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
                             resolved: Ok(std::path::PathBuf::from(&s)),
                             path: s,
                             span: t.span,
+                            format,
                         }),
                         ref other => {
                             return Err(p.unexpected(
                                 &t,
                                 other,
-                                "the URDF file name in quotes after `from_urdf`",
+                                &format!("the {what} file name in quotes after `{keyword}`"),
                             ));
                         }
                     }
@@ -135,7 +147,7 @@ pub fn parse(tokens: &[Token]) -> RResult<FileAst> {
                         if urdf.is_some() {
                             "`{` to open the robot's properties (tip, base, …)"
                         } else {
-                            "`{` to open the declaration's body (or `(` for its parameters, or `from_urdf \"FILE\"` for a robot)"
+                            "`{` to open the declaration's body (or `(` for its parameters, or `from_urdf \"FILE\"` / `from_mjcf \"FILE\"` for a robot)"
                         },
                     )?;
                     p.body()?

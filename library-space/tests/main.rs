@@ -8,6 +8,7 @@ mod builtin_tables;
 mod checked;
 mod errors;
 mod expressions;
+mod from_mjcf;
 mod from_urdf;
 mod fuzz_corpus;
 mod hostile_urdf;

@@ -4,11 +4,16 @@
 //! and axis); link names are the URDF child links of the movable joints; each body's solids
 //! are its links' `<collision>` shapes (box, cylinder and sphere through the geometry crate's
 //! generators, a mesh as its convex hull), coloured by the link's first `<visual>` colour.
+//!
+//! `robot NAME from_mjcf "FILE" { … }` is the same with MuJoCo's MJCF (`import_mjcf`,
+//! `import_mjcf_tree`): `tip` names a `<body>`, link names are the bodies of the joints, the
+//! solids are the geoms that collide (the reader's geometry, as for a URDF).
 
 use super::*;
-use crate::ast::UrdfSource;
+use crate::ast::{RobotFileFormat, UrdfSource};
 use robosim_urdf::urdf_geometry::{Geometry, LinkGeometry, Shape, hull_points};
 use robosim_urdf::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
+use robosim_urdf::{MjcfError, MjcfErrorKind};
 
 const PROPS: &[&str] = &[
     "tip", "base", "tool", "gravity", "colour", "surface", "facets",
@@ -65,13 +70,23 @@ impl Evaluator<'_> {
                         "colour" | "color" => colour = Some(self.colour(value, scope)?),
                         "surface" => surface = Some(self.surface_ref(value, scope)?),
                         "facets" => {}
-                        _ => return Err(unknown_prop("from_urdf robot", name, *name_span, PROPS)),
+                        _ => {
+                            let what = format!("{} robot", src.format.keyword());
+                            return Err(unknown_prop(&what, name, *name_span, PROPS));
+                        }
                     }
                 }
                 other => {
                     return Err(misplaced(
                         other,
-                        "a `from_urdf` robot (its links and solids come from the URDF file)",
+                        match src.format {
+                            RobotFileFormat::Urdf => {
+                                "a `from_urdf` robot (its links and solids come from the URDF file)"
+                            }
+                            RobotFileFormat::Mjcf => {
+                                "a `from_mjcf` robot (its bodies and solids come from the MJCF file)"
+                            }
+                        },
                         "`let` or a property (tip, base, tool, gravity, colour, surface, facets)",
                     ));
                 }
@@ -81,15 +96,16 @@ impl Evaluator<'_> {
             err(
                 ErrorKind::Include,
                 src.span,
-                format!("robot `{}`: cannot resolve the URDF file: {why}", decl.name),
+                format!(
+                    "robot `{}`: cannot resolve the {} file: {why}",
+                    decl.name,
+                    src.format.name()
+                ),
             )
             .expected("an absolute path, or a robot declared in your own .rsl file (relative names are read from its folder)")
         })?;
-        let imported = match &tip {
-            Some((t, _)) => robosim_urdf::import_urdf(path, Some(t)),
-            None => robosim_urdf::import_urdf_tree(path),
-        };
-        let u = imported.map_err(|e| urdf_error(decl, src, tip.as_ref(), &e))?;
+        let u = import(path, src, tip.as_ref().map(|(t, _)| t.as_str()))
+            .map_err(|(e, at_tip)| import_error(decl, src, tip.as_ref().filter(|_| at_tip), &e))?;
         let mut robot = u.robot.clone();
         robot.name = decl.name.clone();
         if let Some(b) = base {
@@ -267,6 +283,54 @@ fn link_colour(g: &LinkGeometry) -> Option<Rgb> {
         .map(|c| [c[0], c[1], c[2]])
 }
 
+/// The robot file read by its format's reader: the chain to `tip`, or the whole tree. The error
+/// says whether the tip is what is wrong (`true`: it names no link or body of the file).
+fn import(
+    path: &std::path::Path,
+    src: &UrdfSource,
+    tip: Option<&str>,
+) -> Result<UrdfRobot, (String, bool)> {
+    let urdf = |r: Result<UrdfRobot, UrdfError>| {
+        r.map_err(|e| {
+            let at_tip = matches!(e.kind, UrdfErrorKind::TipNotALink(_));
+            (e.to_string(), at_tip)
+        })
+    };
+    let mjcf = |r: Result<UrdfRobot, MjcfError>| {
+        r.map_err(|e| {
+            let at_tip = matches!(e.kind, MjcfErrorKind::TipNotABody(_));
+            (e.to_string(), at_tip)
+        })
+    };
+    match (src.format, tip) {
+        (RobotFileFormat::Urdf, Some(t)) => urdf(robosim_urdf::import_urdf(path, Some(t))),
+        (RobotFileFormat::Urdf, None) => urdf(robosim_urdf::import_urdf_tree(path)),
+        (RobotFileFormat::Mjcf, Some(t)) => mjcf(robosim_urdf::import_mjcf(path, Some(t))),
+        (RobotFileFormat::Mjcf, None) => mjcf(robosim_urdf::import_mjcf_tree(path)),
+    }
+}
+
+/// An import problem as a library error: located at the file name after `from_urdf` or
+/// `from_mjcf` (at `tip:` when the tip is what is wrong), the reader's own file:line: element:
+/// message inside.
+fn import_error(decl: &Decl, src: &UrdfSource, tip: Option<&(String, Span)>, e: &str) -> RawError {
+    let span = tip.map_or(src.span, |(_, s)| *s);
+    err(
+        ErrorKind::Include,
+        span,
+        format!(
+            "robot `{}`: cannot import {} `{}`: {e}",
+            decl.name,
+            src.format.name(),
+            src.path
+        ),
+    )
+    .expected(match src.format {
+        RobotFileFormat::Urdf => "a readable URDF file (relative names from the folder of this .rsl file) and, for `tip:`, one of its links",
+        RobotFileFormat::Mjcf => "a readable MJCF file (relative names from the folder of this .rsl file) and, for `tip:`, one of its bodies",
+    })
+}
+
 /// A URDF problem as a library error: located at the `from_urdf` file name (at `tip:` when the
 /// tip is what is wrong), the URDF's own file:line: element: message inside.
 fn urdf_error(
@@ -282,7 +346,12 @@ fn urdf_error(
     err(
         ErrorKind::Include,
         span,
-        format!("robot `{}`: cannot import URDF `{}`: {e}", decl.name, src.path),
+        format!(
+            "robot `{}`: cannot import {} `{}`: {e}",
+            decl.name,
+            src.format.name(),
+            src.path
+        ),
     )
-    .expected("a readable URDF file (relative names from the folder of this .rsl file) and, for `tip:`, one of its links")
+    .expected("a readable robot file (relative names from the folder of this .rsl file) and, for `tip:`, one of its links")
 }
