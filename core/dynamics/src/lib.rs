@@ -12,6 +12,8 @@
 //! * [`crba`] (mass matrix), [`fd_cholesky`] — composite-rigid-body algorithm and M⁻¹ by Cholesky.
 //! * [`aba`] — forward dynamics by the articulated-body algorithm.
 //! * [`energy`] — kinetic + potential energy.
+//! * [`mimic`] — RNEA, gravity, CRBA and forward dynamics over the reduced coordinates of a
+//!   robot with mimic joints (`robosim_kinematics::mimic::Coupling`).
 //! * [`Stepper`], [`simulate`], [`state_hash`] — explicit / semi-implicit Euler, RK4 and
 //!   Dormand–Prince 5(4) with step control; inelastic joint stops ([`apply_joint_stops`]).
 //! * [`fixture_robot`] — the PUMA 560, Stanford arm and Panda without friction or motor inertia.
@@ -37,6 +39,7 @@ mod energy;
 mod fixtures;
 pub mod friction;
 mod integrate;
+pub mod mimic;
 mod model;
 mod rnea;
 mod spatial;

@@ -11,3 +11,4 @@ mod properties;
 mod reference_pinocchio;
 mod urdf_corpus;
 mod urdf_energy;
+mod urdf_mimic;

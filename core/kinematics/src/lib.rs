@@ -21,6 +21,8 @@
 //! * [`ik::solve`] — inverse kinematics (analytic, Newton, damped least squares, hybrid, auto).
 //! * [`encoder::encoder_error`] — encoder quantisation bounds (seed §2.7).
 //! * [`movej::movej_interpolate`] — MOVEJI's per-step joint-limit check.
+//! * [`mimic`] — mimic joints: the [`mimic::Coupling`] of reduced to full coordinates, FK and
+//!   Jacobians over the reduced ones (the robot itself stays the full model).
 
 #![forbid(unsafe_code)]
 
@@ -33,6 +35,7 @@ pub mod fk;
 pub mod ik;
 pub mod jacobian;
 pub mod json;
+pub mod mimic;
 mod model;
 pub mod movej;
 pub mod pose;

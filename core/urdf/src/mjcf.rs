@@ -1357,6 +1357,7 @@ impl<'a, 'i> Model<'a, 'i> {
             notes: self.notes,
             parent_links,
             mimics: Vec::new(),
+            coupling: None,
             geometry,
         })
     }

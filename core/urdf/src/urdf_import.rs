@@ -11,7 +11,7 @@
 //! identity), `<axis xyz>` (absent = x, normalised as urdfdom does; not read on a fixed joint,
 //! as urdfdom does not), `<limit lower upper effort
 //! velocity>` (required for revolute and prismatic joints, as the URDF spec says),
-//! `<dynamics damping friction>` (viscous, Coulomb) and `<mimic>` (noted; refused on the chain).
+//! `<dynamics damping friction>` (viscous, Coulomb) and `<mimic joint multiplier offset>` (below).
 //!
 //! The chain: q is the movable joints from the root to `tip`, in order; a continuous joint is
 //! one angle with limits ±∞; fixed joints on the chain are folded
@@ -19,6 +19,16 @@
 //! carries is rigid with the link it hangs from: its inertial is lumped into that link. The
 //! robot's base frame is the root link's frame (base = identity), link frame j is the child
 //! link frame of movable joint j, the tool is the tip link's frame; gravity (0, 0, −9.81).
+//!
+//! Mimic joints: [`UrdfRobot::robot`] is the **full** model, every movable joint a coordinate
+//! (Pinocchio's `buildModel(…, mimic=False)`), so everything that takes a `Robot` works on it
+//! unchanged; [`UrdfRobot::coupling`] binds each follower to its leader
+//! (`q_f = multiplier · q_leader + offset`, one coordinate for both: Pinocchio's
+//! `mimic=True`), for the algorithms over the reduced coordinates
+//! (`robosim_kinematics::mimic`, `robosim_dynamics::mimic`). On a chain import, a follower on
+//! the chain whose leader is off it (held at 0) is fixed at its offset in the coupling; a
+//! follower off the chain is held at 0 with its subtree like every off-chain joint, even when
+//! its leader is on the chain (noted: import the tree for it to follow).
 //!
 //! Geometry: `<visual>`, `<collision>` and `<material>` are read into [`UrdfRobot::geometry`]
 //! by [`crate::urdf_geometry`]; meshes are only named there and loaded when an operation needs
@@ -32,6 +42,7 @@ pub use crate::urdf_xml::{Reader, UrdfError, UrdfErrorKind, child, rpy_matrix};
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
 use robosim_kinematics::Robot;
 use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_chain, build_tree};
+use robosim_kinematics::mimic::{Coupling, Mimic, MimicError};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
@@ -63,29 +74,36 @@ pub struct UrdfRobot {
     pub folded: Vec<String>,
     /// Joints off the chain (held at 0, their links lumped).
     pub held: Vec<String>,
-    /// What was read but not used (mimic off the chain, …), one sentence each.
+    /// What was read but not used (a mimic joint held off the chain, …), one sentence each.
     pub notes: Vec<String>,
     /// The movable joints' parent links, in q order (for a chain, the previous joint's child
     /// link; for a tree, [`Robot::parents`] by link name).
     pub parent_links: Vec<String>,
     /// The `<mimic>` joints among the movable joints of the robot (a tree's finger joint): each
-    /// is imported as an **independent** coordinate, as Pinocchio's URDF reader does by default
-    /// (`buildModel(…, mimic=False)`); the relation is kept here for a controller to impose.
+    /// is a coordinate of [`UrdfRobot::robot`], as in Pinocchio's default model
+    /// (`buildModel(…, mimic=False)`); [`UrdfRobot::coupling`] imposes the relations.
     pub mimics: Vec<UrdfMimic>,
+    /// The mimic relations as a map from the reduced coordinates (leaders and every other free
+    /// joint) to the robot's q — Pinocchio's `mimic=True` model over the same robot
+    /// (`robosim_kinematics::mimic`). `None`: no movable joint mimics another.
+    pub coupling: Option<robosim_kinematics::mimic::Coupling>,
     /// Visual and collision geometry of every link, keyed by link name (meshes not loaded:
     /// [`crate::urdf_geometry`]).
     pub geometry: crate::urdf_geometry::UrdfGeometry,
 }
 
-/// A `<mimic>` relation `q[joint] = multiplier · q[mimicked] + offset`, noted, not imposed
-/// (see [`UrdfRobot::mimics`]).
+/// A `<mimic>` relation `q[joint] = multiplier · q[mimicked] + offset` (imposed by
+/// [`UrdfRobot::coupling`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct UrdfMimic {
     /// The mimicking joint's name and its index in q.
     pub joint: String,
     pub index: usize,
-    /// The joint it follows (its name as in the file).
+    /// The joint it follows (its name as in the file) and its index in q (`None`: not a
+    /// coordinate of this import — a fixed joint, or off the chain and held at 0 — so the
+    /// follower is fixed at `offset`).
     pub mimicked: String,
+    pub mimicked_index: Option<usize>,
     pub multiplier: f64,
     pub offset: f64,
 }
@@ -101,7 +119,8 @@ pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfErro
 /// coordinate (depth first from the root link, children in file order), [`Robot::parents`]
 /// says which link each hangs from, fixed joints are folded into the movable joint (or root)
 /// above them, inertia rigid with the root is dropped (it cannot move). `<mimic>` joints are
-/// independent coordinates, noted in [`UrdfRobot::mimics`]. The robot's tool is the identity
+/// coordinates of the robot, bound to their leaders by [`UrdfRobot::coupling`]. The robot's
+/// tool is the identity
 /// on the last joint's child link, which [`UrdfRobot::tip`] names; [`UrdfRobot::held`] is
 /// empty.
 pub fn import_urdf_tree(path: &Path) -> Result<UrdfRobot, UrdfError> {
@@ -721,26 +740,14 @@ fn subtree(
 
 /// The chain's segments, each carrying its off-chain subtrees at q = 0 lumped into the chain
 /// link they hang from, and the off-chain joints so held (sorted; the root's included, which
-/// cannot move and are not part of the dynamics). A mimic joint on the chain is refused.
-fn chain_segments(
-    file: &Path,
-    parts: &Parts,
-    tree: &LinkTree,
-    chain: &[usize],
-) -> Result<(Vec<Segment>, Vec<usize>), UrdfError> {
+/// cannot move and are not part of the dynamics).
+fn chain_segments(parts: &Parts, tree: &LinkTree, chain: &[usize]) -> (Vec<Segment>, Vec<usize>) {
     let (joints, links, children) = (&parts.joints, &parts.links, &tree.children);
     let on_chain: HashSet<usize> = chain.iter().copied().collect();
     let mut held = Vec::new();
     let mut segments = Vec::with_capacity(chain.len());
     for &k in chain {
         let j = &joints[k];
-        if j.mimic && j.kind != SegmentKind::Fixed {
-            return Err(joint_err(
-                file,
-                j,
-                UrdfErrorKind::MimicOnChain(j.name.clone()),
-            ));
-        }
         segments.push(Segment {
             kind: j.kind,
             placement: j.placement,
@@ -762,7 +769,7 @@ fn chain_segments(
     );
     held.extend(root_held);
     held.sort_unstable();
-    Ok((segments, held))
+    (segments, held)
 }
 
 /// The chain root → `tip` as a robot: its segments, the robot checked, the movable joints'
@@ -776,7 +783,7 @@ fn build_chain_to_tip(
 ) -> Result<UrdfRobot, UrdfError> {
     let joints = &parts.joints;
     let chain = chain_to(&tip, tree, joints);
-    let (segments, held) = chain_segments(at_robot.rd.file, parts, tree, &chain)?;
+    let (segments, held) = chain_segments(parts, tree, &chain);
     let built = build_chain(at_robot.name, &segments);
     let robot = built.robot;
     robot
@@ -801,16 +808,18 @@ fn build_chain_to_tip(
         .filter(|&&k| joints[k].kind == SegmentKind::Fixed)
         .map(|&k| joints[k].name.clone())
         .collect();
-    let notes = held
+    let mut notes: Vec<String> = held
         .iter()
-        .filter(|&&k| joints[k].mimic)
+        .filter(|&&k| joints[k].mimic && joints[k].kind != SegmentKind::Fixed)
         .map(|&k| {
             format!(
-                "joint {:?} mimics another joint; it is off the chain and held at 0",
+                "joint {:?} mimics another joint; it is off the chain and held at 0 (import the tree for it to follow its leader)",
                 joints[k].name
             )
         })
         .collect();
+    let coordinates: Vec<usize> = built.segment_of_joint.iter().map(|&s| chain[s]).collect();
+    let (mimics, coupling) = mimic_coupling(at_robot.rd.file, joints, &coordinates, &mut notes)?;
     let parent_links = movable
         .iter()
         .map(|m| joints[tree.parent_joint[m.link.as_str()]].parent.clone())
@@ -839,7 +848,8 @@ fn build_chain_to_tip(
         held: held.iter().map(|&k| joints[k].name.clone()).collect(),
         notes,
         parent_links,
-        mimics: Vec::new(),
+        mimics,
+        coupling,
         geometry,
     })
 }
@@ -897,11 +907,10 @@ fn build_whole_tree(
         element: format!("<robot name={robot_name:?}>"),
         kind: UrdfErrorKind::Model(e),
     })?;
-    let mut notes = Vec::new();
-    let mut mimics = Vec::new();
     let mut movable = Vec::new();
     let mut parent_links = Vec::new();
-    for (index, &s) in built.segment_of_joint.iter().enumerate() {
+    let coordinates: Vec<usize> = built.segment_of_joint.iter().map(|&s| dfs[s]).collect();
+    for &s in &built.segment_of_joint {
         let j = &joints[dfs[s]];
         movable.push(UrdfJoint {
             name: j.name.clone(),
@@ -911,20 +920,9 @@ fn build_whole_tree(
             velocity: j.velocity,
         });
         parent_links.push(j.parent.clone());
-        if let Some((mimicked, multiplier, offset)) = &j.mimic_of {
-            notes.push(format!(
-                "joint {:?} mimics {mimicked:?} (×{multiplier} + {offset}); imported as an independent coordinate",
-                j.name
-            ));
-            mimics.push(UrdfMimic {
-                joint: j.name.clone(),
-                index,
-                mimicked: mimicked.clone(),
-                multiplier: *multiplier,
-                offset: *offset,
-            });
-        }
     }
+    let mut notes = Vec::new();
+    let (mimics, coupling) = mimic_coupling(file, joints, &coordinates, &mut notes)?;
     let folded = dfs
         .iter()
         .filter(|&&k| joints[k].kind == SegmentKind::Fixed)
@@ -959,8 +957,73 @@ fn build_whole_tree(
         notes,
         parent_links,
         mimics,
+        coupling,
         geometry,
     })
+}
+
+/// The `<mimic>` relations of the coordinates (`coordinates[i]`: the index in `joints` of q's
+/// joint i): each follower's leader found by name (refused when it names no joint), its index
+/// in q (`None` when the leader is not a coordinate: fixed, or held off the chain — the
+/// follower is then fixed at its offset), a note per relation, and the coupling (`None`
+/// without any).
+fn mimic_coupling(
+    file: &Path,
+    joints: &[JointRec],
+    coordinates: &[usize],
+    notes: &mut Vec<String>,
+) -> Result<(Vec<UrdfMimic>, Option<Coupling>), UrdfError> {
+    let mut mimics = Vec::new();
+    let mut relations = Vec::new();
+    for (index, &k) in coordinates.iter().enumerate() {
+        let j = &joints[k];
+        let Some((mimicked, multiplier, offset)) = &j.mimic_of else {
+            continue;
+        };
+        let Some(leader) = joints.iter().position(|l| &l.name == mimicked) else {
+            return Err(joint_err(
+                file,
+                j,
+                UrdfErrorKind::MimicUnknownJoint(mimicked.clone()),
+            ));
+        };
+        let mimicked_index = coordinates.iter().position(|&c| c == leader);
+        notes.push(match mimicked_index {
+            Some(_) => format!(
+                "joint {:?} mimics {mimicked:?} (×{multiplier} + {offset}): a coordinate of the robot, one coordinate with its leader in the coupling",
+                j.name
+            ),
+            None => format!(
+                "joint {:?} mimics {mimicked:?} (×{multiplier} + {offset}), which is not a coordinate of this import (fixed, or held at 0 off the chain): fixed at {offset} in the coupling",
+                j.name
+            ),
+        });
+        relations.push(Mimic {
+            follower: index,
+            leader: mimicked_index,
+            multiplier: *multiplier,
+            offset: *offset,
+        });
+        mimics.push(UrdfMimic {
+            joint: j.name.clone(),
+            index,
+            mimicked: mimicked.clone(),
+            mimicked_index,
+            multiplier: *multiplier,
+            offset: *offset,
+        });
+    }
+    if relations.is_empty() {
+        return Ok((mimics, None));
+    }
+    let coupling = Coupling::new(coordinates.len(), &relations).map_err(|e| {
+        let at = match &e {
+            MimicError::Cycle(i) | MimicError::TwoLeaders(i) => *i,
+            _ => relations[0].follower,
+        };
+        joint_err(file, &joints[coordinates[at]], UrdfErrorKind::Mimic(e))
+    })?;
+    Ok((mimics, Some(coupling)))
 }
 
 #[cfg(test)]
@@ -1191,16 +1254,76 @@ mod tests {
 
         let mimic = TWO_LINK.replace(
             r#"<axis xyz="0 0 2"/>"#,
-            r#"<axis xyz="0 0 2"/><mimic joint="j1"/>"#,
+            r#"<axis xyz="0 0 2"/><mimic joint="jx"/>"#,
         );
+        let (line, element, kind) = kind_of(&mimic, None);
+        assert_eq!(kind, UrdfErrorKind::MimicUnknownJoint("jx".into()));
+        assert_eq!((line, element.as_str()), (15, r#"<joint name="j2">"#));
+        // j1 mimics j2 and j2 mimics j1: no coordinate is free
+        let cycle = TWO_LINK
+            .replace(
+                r#"<axis xyz="0 0 2"/>"#,
+                r#"<axis xyz="0 0 2"/><mimic joint="j1"/>"#,
+            )
+            .replace(
+                r#"<axis xyz="0 0 1"/>"#,
+                r#"<axis xyz="0 0 1"/><mimic joint="j2"/>"#,
+            );
         assert!(matches!(
-            kind_of(&mimic, None).2,
-            UrdfErrorKind::MimicOnChain(_)
+            kind_of(&cycle, None).2,
+            UrdfErrorKind::Mimic(robosim_kinematics::mimic::MimicError::Cycle(_))
         ));
 
         let e = import_urdf(Path::new("/nonexistent/robot.urdf"), None).expect_err("no file");
         assert!(matches!(e.kind, UrdfErrorKind::Io(_)));
         assert!(e.to_string().contains("/nonexistent/robot.urdf"));
+    }
+
+    /// Issue 36 item 1: a mimic joint on the chain (refused before) is a coordinate of the full
+    /// robot and follows its leader in the coupling: j2 = −2·j1 + 0.1, so the tool at the
+    /// reduced q = [a] is the full robot's at [a, −2a + 0.1], and the Jacobian is J·G.
+    #[test]
+    fn issue_36_a_mimic_joint_on_the_chain_is_one_coordinate_with_its_leader() {
+        let text = TWO_LINK.replace(
+            r#"<axis xyz="0 0 2"/>"#,
+            r#"<axis xyz="0 0 2"/><mimic joint="j1" multiplier="-2" offset="0.1"/>"#,
+        );
+        let r = import(&text, None).expect("imports");
+        assert_eq!(r.robot.dof(), 2);
+        let c = r.coupling.as_ref().expect("a coupling");
+        assert_eq!((c.full_dof(), c.reduced_dof()), (2, 1));
+        assert_eq!(r.mimics.len(), 1);
+        assert_eq!(
+            (r.mimics[0].index, r.mimics[0].mimicked_index),
+            (1, Some(0))
+        );
+        assert!(
+            r.notes.iter().any(|n| n.contains("one coordinate")),
+            "{:?}",
+            r.notes
+        );
+        let a = 0.4;
+        let full = [a, -2.0 * a + 0.1];
+        let got = robosim_kinematics::mimic::forward(&r.robot, c, &[a]).expect("fk");
+        assert_eq!(got, forward(&r.robot, &full));
+        let jr = robosim_kinematics::mimic::jacobian(
+            &r.robot,
+            c,
+            &[a],
+            robosim_kinematics::jacobian::Frame::Base,
+        )
+        .expect("jacobian");
+        let jf = robosim_kinematics::jacobian::jacobian(
+            &r.robot,
+            &full,
+            robosim_kinematics::jacobian::Frame::Base,
+        );
+        for row in 0..6 {
+            let want = jf[(row, 0)] - 2.0 * jf[(row, 1)];
+            assert!((jr[(row, 0)] - want).abs() < 1e-15, "row {row}");
+        }
+        // a robot without <mimic> has no coupling
+        assert!(import(TWO_LINK, None).expect("imports").coupling.is_none());
     }
 
     #[test]

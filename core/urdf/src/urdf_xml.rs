@@ -62,10 +62,12 @@ pub enum UrdfErrorKind {
     TipNotALink(String),
     #[error("no tip given and the robot has {0} leaf links ({1}); name the tip link")]
     AmbiguousTip(usize, String),
-    #[error(
-        "joint {0:?} on the chain mimics another joint; mimic joints are only supported off the chain (held at 0)"
-    )]
-    MimicOnChain(String),
+    /// A `<mimic joint="…">` naming no joint of the file.
+    #[error("<mimic> names joint {0:?}, which is not a joint of this robot")]
+    MimicUnknownJoint(String),
+    /// The `<mimic>` relations cannot be imposed (a cycle of mimic joints).
+    #[error("the <mimic> joints cannot be imposed: {0}")]
+    Mimic(robosim_kinematics::mimic::MimicError),
     #[error("the imported chain is not a valid robot: {0}")]
     Model(ModelError),
     /// A `<mesh>` (or a collision solid) that cannot be used; found when geometry is needed.
