@@ -42,6 +42,26 @@ pub use vulkan_env::quiet_vulkan_probe;
 
 use std::path::PathBuf;
 
+/// For tests that draw: `true` when this machine has no graphics adapter (the software Vulkan
+/// driver, `mesa-vulkan-drivers libvulkan1`, is missing), after saying on standard error that
+/// test `test` was SKIPPED and why — the caller returns at once. Under `CI=true` a missing
+/// adapter fails the test instead (`.ci/run` installs the driver, so every test runs there), as
+/// `robosim_rules::skipped_without_clips` does for CLIPS. The adapter is probed once per
+/// process.
+pub fn skipped_without_vulkan(test: &str) -> bool {
+    static PROBE: std::sync::OnceLock<std::result::Result<(), String>> = std::sync::OnceLock::new();
+    let probe = PROBE.get_or_init(|| Gpu::headless().map(drop).map_err(|e| e.to_string()));
+    let Err(why) = probe else {
+        return false;
+    };
+    assert!(
+        std::env::var("CI").as_deref() != Ok("true"),
+        "{test}: CI=true but this machine cannot draw: {why}"
+    );
+    eprintln!("\n*** SKIPPED {test}: this machine cannot draw: {why} ***\n");
+    true
+}
+
 /// Why drawing failed. A variant that wraps wgpu's, winit's or png's error keeps it as its
 /// source ([`std::error::Error::source`]); its message names what was being done.
 #[derive(Debug, thiserror::Error)]

@@ -168,6 +168,11 @@ fn churn(r: &mut Renderer) {
 
 #[test]
 fn bodies_added_removed_and_reshaped_draw_as_a_fresh_renderer_draws() {
+    if robosim_display::skipped_without_vulkan(
+        "bodies_added_removed_and_reshaped_draw_as_a_fresh_renderer_draws",
+    ) {
+        return;
+    }
     let mut r = Renderer::headless().expect("adapter");
     churn(&mut r);
     let total = r.total_upload();
@@ -186,6 +191,11 @@ fn bodies_added_removed_and_reshaped_draw_as_a_fresh_renderer_draws() {
 /// spread over many pages, and a page that cannot grow gets a neighbour.
 #[test]
 fn meshes_spread_over_many_small_buffers_draw_the_same() {
+    if robosim_display::skipped_without_vulkan(
+        "meshes_spread_over_many_small_buffers_draw_the_same",
+    ) {
+        return;
+    }
     let mut r = Renderer::headless().expect("adapter");
     r.set_mesh_buffer_limit(64 << 10);
     churn(&mut r);
@@ -200,6 +210,11 @@ fn meshes_spread_over_many_small_buffers_draw_the_same() {
 /// number of shared buffers and draws does not follow the number of bodies.
 #[test]
 fn the_number_of_buffers_and_draws_does_not_follow_the_bodies() {
+    if robosim_display::skipped_without_vulkan(
+        "the_number_of_buffers_and_draws_does_not_follow_the_bodies",
+    ) {
+        return;
+    }
     let mut model = Store::new();
     let mut ids = Vec::new();
     for cell in 0..SIDE * SIDE {

@@ -70,6 +70,11 @@ fn dominant(p: [u8; 4]) -> char {
 
 #[test]
 fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
+    if robosim_display::skipped_without_vulkan(
+        "draws_each_object_where_the_camera_says_and_uploads_only_what_moved",
+    ) {
+        return;
+    }
     let (mut model, red, blue) = scene();
     let mut r = Renderer::headless().expect("a Vulkan adapter (mesa-vulkan-drivers on CI)");
     let first = r.sync(&Snapshot::from_store(&model));
@@ -153,6 +158,11 @@ fn draws_each_object_where_the_camera_says_and_uploads_only_what_moved() {
 /// cube see it, with the plate behind it resolved by the depth buffer.
 #[test]
 fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
+    if robosim_display::skipped_without_vulkan(
+        "a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn",
+    ) {
+        return;
+    }
     let mut model = Store::new();
     let mut tx = Transaction::new();
     let plate = tx.create(Kind::Solid, "plate", None);
@@ -212,6 +222,9 @@ fn a_centimetre_cube_on_a_twenty_kilometre_plate_is_drawn() {
 /// anything but contiguous pose-only records.
 #[test]
 fn change_driven_sync_matches_the_full_comparison() {
+    if robosim_display::skipped_without_vulkan("change_driven_sync_matches_the_full_comparison") {
+        return;
+    }
     use robosim_instance_space::{Change, aspect};
     let (mut model, red, blue) = scene();
     let mut r = Renderer::headless().expect("adapter");
@@ -251,6 +264,11 @@ fn change_driven_sync_matches_the_full_comparison() {
 /// grid in the z = 0 plane; without it the same pixels show the background.
 #[test]
 fn the_grid_and_world_axes_are_drawn_where_the_camera_projects_them() {
+    if robosim_display::skipped_without_vulkan(
+        "the_grid_and_world_axes_are_drawn_where_the_camera_projects_them",
+    ) {
+        return;
+    }
     // A grey cube floating above the origin, so nothing hides the axes.
     let mut model = Store::new();
     let mut tx = Transaction::new();
