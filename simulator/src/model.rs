@@ -11,13 +11,17 @@
 
 use robosim_collision::ccd::SweepOptions;
 use robosim_collision::robot::{CollisionSettings, LinkSolids, Scene};
-use robosim_kinematics::Robot;
+use robosim_kinematics::{KinematicModel, Robot};
 use robosim_model::{OnContact, Options};
 
 /// The compiled simulation: read by every stage, written by none.
 #[derive(Debug, Clone)]
 pub struct Model {
     pub robot: Robot,
+    /// `robot` compiled for forward kinematics (Pinocchio's `Model`): built once with the
+    /// pipeline when a stage that needs link frames is declared (kinematics or collision),
+    /// read by the link-frames and collision stages every step.
+    pub(crate) kinematics: Option<KinematicModel>,
     /// The pipeline step (s): the dynamics effect's, else the kinematic one.
     pub dt: f64,
     /// What the scene declared.
@@ -30,6 +34,13 @@ pub struct Model {
     pub(crate) limits: Option<robosim_dynamics::Model>,
     pub(crate) collision: Option<CollisionModel>,
     pub(crate) encoder: Option<EncoderModel>,
+}
+
+impl Model {
+    /// The compiled kinematic model, when a stage that needs link frames is declared.
+    pub fn kinematics(&self) -> Option<&KinematicModel> {
+        self.kinematics.as_ref()
+    }
 }
 
 /// Why a step failed.

@@ -70,6 +70,7 @@ impl Pipeline {
         };
         let mut model = Model {
             robot: robot.clone(),
+            kinematics: None,
             dt: effects.dt,
             options: effects.clone(),
             motion: None,
@@ -108,6 +109,9 @@ impl Pipeline {
         }
         if effects.kinematics {
             data.frames = Some(vec![Matrix4::identity(); n + 2]);
+        }
+        if effects.kinematics || effects.collision.as_ref().is_some_and(|c| c.enabled) {
+            model.kinematics = Some(robosim_kinematics::KinematicModel::new(robot));
         }
         if let Some(c) = effects.collision.as_ref().filter(|c| c.enabled) {
             model.collision = Some(stages::collision::build(robot, c, geometry)?);

@@ -642,3 +642,86 @@ fn issue_36_joint_friction_acts_only_where_declared() {
     let moved = run(None);
     assert!(moved > 1e-3, "without the effect it moves: {moved}");
 }
+
+/// The link-frames and collision stages read the robot compiled once with the pipeline
+/// (issue 37 item 1): at every step of a move the frames equal `fk::link_frames` on the robot
+/// and the contact flag equals `check_robot`'s answer on the `&Robot` path, with `==`, on the
+/// PUMA and the Panda; the compiled model is there exactly when a stage needs link frames.
+#[test]
+fn compiled_frames_and_collision_stages_equal_the_robot_path_at_every_step() {
+    use robosim_collision::robot::{CollisionSettings, LinkSolids, check_robot};
+    for name in ["puma560", "panda"] {
+        let robot = fixture_robot(name).expect("fixture compiled in");
+        let mid = |f: f64| -> Vec<f64> {
+            robot
+                .joints
+                .iter()
+                .map(|j| j.qlim[0].max(-3.0) + f * (j.qlim[1].min(3.0) - j.qlim[0].max(-3.0)))
+                .collect()
+        };
+        // Blocks around the arm at reach, so the moves pass in and out of contact.
+        let mut scene = Scene::new();
+        for (k, (x, y, z)) in [(0.5, 0.0, 0.6), (0.0, 0.5, 0.3), (-0.4, -0.4, 0.9)]
+            .into_iter()
+            .enumerate()
+        {
+            scene.add(
+                format!("block{k}"),
+                Arc::new(Solid::cuboid(Vector3::new(0.35, 0.35, 0.35)).expect("box")),
+                Isometry3::translation(x, y, z),
+            );
+        }
+        let effect = CollisionEffect {
+            on_contact: OnContact::Report,
+            ..CollisionEffect::default()
+        };
+        let effects = SceneEffects {
+            kinematics: true,
+            max_speed: 2.0,
+            collision: Some(effect.clone()),
+            ..SceneEffects::default()
+        };
+        let geometry = SceneGeometry {
+            obstacles: scene.clone(),
+            link_solids: None,
+        };
+        let mut p = Pipeline::build(&robot, &mid(0.5), &effects, geometry).expect("builds");
+        assert!(p.model().kinematics().is_some());
+        let links = LinkSolids::from_dh(&robot, effect.link_radius).expect("links");
+        let settings = CollisionSettings {
+            self_collision: effect.self_collision,
+            mode: effect.mode,
+            depth: None,
+            ..CollisionSettings::default()
+        };
+        let (mut contact, mut clear) = (0, 0);
+        for goal in [mid(0.1), mid(0.9), mid(0.4)] {
+            p.set_command(target(&goal)).expect("command");
+            for _ in 0..400 {
+                p.step().expect("step");
+                let q = p.data().state.q.as_slice();
+                let frames = p.data().frames.as_ref().expect("declared");
+                assert_eq!(frames, &fk::link_frames(&robot, q), "{name} at {q:?}");
+                let old = check_robot(&robot, &links, q, &scene, &settings).expect("check");
+                assert_eq!(p.data().contact, Some(!old.is_clear()), "{name} at {q:?}");
+                if old.is_clear() {
+                    clear += 1;
+                } else {
+                    contact += 1;
+                }
+            }
+        }
+        assert!(
+            contact > 0 && clear > 0,
+            "{name}: {contact} contact, {clear} clear steps"
+        );
+    }
+    let none = build(&SceneEffects {
+        joint_limits: true,
+        ..SceneEffects::default()
+    });
+    assert!(
+        none.model().kinematics().is_none(),
+        "no stage needs link frames"
+    );
+}

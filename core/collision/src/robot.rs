@@ -28,7 +28,7 @@ use crate::polygon::{self, PolygonOptions};
 use crate::solid::Solid;
 use nalgebra::Isometry3;
 use robosim_geometry::Aabb;
-use robosim_kinematics::Robot;
+use robosim_kinematics::{KinematicModel, Robot};
 
 /// Collision switches (the seed's C_SWITCH and the separate self-collision switch) and mode.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -405,6 +405,44 @@ pub fn check_robot(
     Ok(check_links(links, &lp, scene, settings))
 }
 
+/// [`check_robot`] with the link frames from `kin`, `robot` compiled once
+/// ([`KinematicModel::new`]) by a caller that checks the same robot again and again (the
+/// simulator's collision stage, MOVEJ's steps): the same poses and answers, bit for bit,
+/// without re-deriving the joints' constant geometry per check. `kin` must be compiled from
+/// `robot` (its snapshot; `robot` is read for the q and link-count checks).
+pub fn check_robot_compiled(
+    kin: &KinematicModel,
+    robot: &Robot,
+    links: &LinkSolids,
+    q: &[f64],
+    scene: &Scene,
+    settings: &CollisionSettings,
+) -> Result<CheckResult, CheckError> {
+    robot.check_q(q)?;
+    check_link_count(robot, links)?;
+    let lp = link_poses_compiled(kin, links, q);
+    Ok(check_links(links, &lp, scene, settings))
+}
+
+/// [`link_poses`] from `kin` (compiled from the robot once): the same poses, bit for bit.
+pub fn link_poses_compiled(
+    kin: &KinematicModel,
+    links: &LinkSolids,
+    q: &[f64],
+) -> Vec<Option<Isometry3<f64>>> {
+    let mut frames = vec![nalgebra::Matrix4::identity(); kin.dof() + 2];
+    kin.link_frames_into(q, &mut frames);
+    links
+        .links
+        .iter()
+        .enumerate()
+        .map(|(j, l)| {
+            l.as_ref()
+                .map(|l| isometry_from_matrix(&frames[j]) * l.offset)
+        })
+        .collect()
+}
+
 /// What a checked move did.
 #[derive(Debug, Clone, PartialEq)]
 pub struct MoveOutcome {
@@ -459,7 +497,9 @@ pub fn move_checked(
             .map(|(a, b)| a + (b - a) * s)
             .collect()
     };
-    let start = check_robot(robot, links, q_from, scene, settings)?;
+    // Compiled once for the move: every step's check reads it.
+    let kin = KinematicModel::new(robot);
+    let start = check_robot_compiled(&kin, robot, links, q_from, scene, settings)?;
     if !start.is_clear() {
         return Ok(MoveOutcome {
             q: q_from.to_vec(),
@@ -503,7 +543,7 @@ pub fn move_checked(
                 }
             }
         }
-        let r = check_robot(robot, links, &next, scene, settings)?;
+        let r = check_robot_compiled(&kin, robot, links, &next, scene, settings)?;
         if !r.is_clear() {
             return Ok(MoveOutcome {
                 q: prev,

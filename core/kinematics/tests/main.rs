@@ -3,6 +3,7 @@
 //! `cargo test -p robosim-kinematics --test kinematics FILE::` the tests of tests/FILE.rs.
 //! A new file of tests/ needs its `mod` line here (Cargo.toml: `autotests = false`).
 
+mod compiled_callers;
 mod hard_cases;
 mod peers;
 mod properties;

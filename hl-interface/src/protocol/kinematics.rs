@@ -18,12 +18,12 @@ use crate::robot_json::{
     matrix_to_json, matrix4_from_json, matrix4_to_json, number, number_array, robot_from_json,
 };
 use crate::{ErrorKind, ProtocolError};
-use robosim_kinematics::Robot;
+use nalgebra::Matrix4;
 use robosim_kinematics::encoder::{EncoderErrorError, encoder_error};
 use robosim_kinematics::ik::{self, IkError, IkOptions, IkSolution, Method, Note};
-use robosim_kinematics::jacobian::{Frame, jacobian, singularity};
+use robosim_kinematics::jacobian::{Frame, Jacobian, singularity, to_tool_frame};
 use robosim_kinematics::pose::Tolerances;
-use robosim_kinematics::{builtin_robot, fk};
+use robosim_kinematics::{KinematicModel, Robot, builtin_robot};
 use serde_json::{Value, json};
 use std::borrow::Cow;
 
@@ -125,19 +125,19 @@ fn uint_field(req: &Value, key: &str, default: u64, max: u64) -> Result<u64, Pro
 fn op_fk(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let robot = robot(req, arg)?;
     let q = q_field(req, "q", &robot)?;
+    // Compiled once for the request (the frames and the pose read the same model).
+    let kin = KinematicModel::new(&robot);
     if bool_field(req, "frames", false)? {
-        let frames = fk::link_frames(&robot, &q);
-        let pose = frames
-            .last()
-            .copied()
-            .unwrap_or_else(|| fk::forward(&robot, &q));
+        let mut frames = vec![Matrix4::identity(); kin.dof() + 2];
+        kin.link_frames_into(&q, &mut frames);
+        let pose = frames.last().copied().unwrap_or_else(|| kin.forward(&q));
         check("pose", &pose)?;
         check("frames", frames.as_slice())?;
         Ok(
             json!({"pose": matrix4_to_json(&pose), "frames": frames.iter().map(matrix4_to_json).collect::<Vec<_>>()}),
         )
     } else {
-        let pose = fk::forward(&robot, &q);
+        let pose = kin.forward(&q);
         check("pose", &pose)?;
         Ok(json!({"pose": matrix4_to_json(&pose)}))
     }
@@ -156,7 +156,13 @@ fn op_jacobian(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
             ));
         }
     };
-    let j = jacobian(&robot, &q, frame);
+    // The compiled model's tool pose and base-frame Jacobian: `jacobian::jacobian`'s numbers.
+    let kin = KinematicModel::new(&robot);
+    let mut j = Jacobian::zeros(kin.dof());
+    let tee = kin.fk_and_jacobian_into(&q, &mut j);
+    if frame == Frame::Tool {
+        to_tool_frame(&mut j, &tee);
+    }
     // before the SVD: a non-finite Jacobian has no singular values
     check("jacobian", &j)?;
     let s = singularity(&j);

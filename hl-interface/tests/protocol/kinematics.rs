@@ -153,3 +153,41 @@ fn library_names_resolve_through_the_callback_first() {
             < 1e-12
     );
 }
+
+/// `fk` (pose and every frame) and `jacobian` (both frames) answer from a robot compiled once
+/// per request (issue 37 item 1): the numbers equal the `&Robot` functions' with `==` (JSON
+/// carries an f64 exactly), for builtin and inline robots.
+#[test]
+fn fk_and_jacobian_equal_the_robot_path_bit_for_bit() {
+    use robosim_hl_interface::robot_json::matrix_to_json;
+    use robosim_kinematics::jacobian::{Frame, jacobian};
+    let qs = [
+        ("puma560", vec![0.3, -0.7, 1.1, 0.2, -0.4, 2.0]),
+        ("stanford", vec![-0.5, 0.9, 0.35, 1.3, 0.6, -1.2]),
+        ("panda", vec![0.1, 0.2, -0.3, -1.5, 0.4, 1.6, 0.7]),
+    ];
+    for (name, q) in qs {
+        let robot = builtin_robot(name).expect("builtin");
+        for r in [json!(name), robot_to_json(&robot)] {
+            let a = ask(json!({"op": "fk", "robot": r, "q": q, "frames": true})).expect("fk");
+            let frames = fk::link_frames(&robot, &q);
+            let want: Vec<Value> = frames.iter().map(matrix4_to_json).collect();
+            assert_eq!(a["frames"], json!(want), "{name}");
+            let a = ask(json!({"op": "fk", "robot": r, "q": q})).expect("fk");
+            assert_eq!(
+                a["pose"],
+                matrix4_to_json(&fk::forward(&robot, &q)),
+                "{name}"
+            );
+            for (frame, f) in [("base", Frame::Base), ("tool", Frame::Tool)] {
+                let a = ask(json!({"op": "jacobian", "robot": r, "q": q, "frame": frame}))
+                    .expect("jacobian");
+                assert_eq!(
+                    a["jacobian"],
+                    matrix_to_json(&jacobian(&robot, &q, f)),
+                    "{name} {frame}"
+                );
+            }
+        }
+    }
+}

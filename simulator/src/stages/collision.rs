@@ -8,7 +8,9 @@
 
 use crate::model::{CollisionModel, Model, SceneGeometry, StepError};
 use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot};
-use robosim_collision::robot::{CheckResult, CollisionSettings, LinkSolids, check_robot};
+use robosim_collision::robot::{
+    CheckResult, CollisionSettings, LinkSolids, check_robot, check_robot_compiled,
+};
 use robosim_kinematics::Robot;
 use robosim_model::{CollisionEffect, Data, OnContact, OptionsError};
 
@@ -101,8 +103,12 @@ pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError>
         .map_err(|e| StepError::Collision(e.to_string()))?;
         !matches!(s, Sweep::Clear)
     } else {
-        let r = check_robot(&m.robot, &c.links, q, &c.scene, &c.settings)
-            .map_err(|e| StepError::Collision(e.to_string()))?;
+        // The pipeline compiles the robot whenever it declares this stage.
+        let r = match &m.kinematics {
+            Some(kin) => check_robot_compiled(kin, &m.robot, &c.links, q, &c.scene, &c.settings),
+            None => check_robot(&m.robot, &c.links, q, &c.scene, &c.settings),
+        }
+        .map_err(|e| StepError::Collision(e.to_string()))?;
         !matches!(r, CheckResult::Clear)
     };
     if contact {

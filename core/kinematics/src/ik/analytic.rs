@@ -27,8 +27,8 @@ use super::parallel::ParallelSolver;
 use super::{
     Branch, Elbow, IkError, IkOptions, IkResult, IkSolver, Method, Shoulder, Wrist, finish, wrap,
 };
-use crate::fk::forward;
-use crate::jacobian::{Frame, jacobian};
+use crate::compiled::KinematicModel;
+use crate::jacobian::Jacobian;
 use crate::model::Robot;
 use crate::pose::pose_error;
 use crate::pose::{rigid_inverse, rot_x, trans};
@@ -513,14 +513,17 @@ impl IkSolver for Analytic {
         } else {
             0
         };
+        // Compiled once for every branch's polish and residual.
+        let model = KinematicModel::new(robot);
         let solutions: Vec<_> = raw
             .iter()
             .flatten()
             .map(|s| {
                 let mut q = s.q.to_vec();
-                let steps = polish(robot, target, &mut q, polish_steps);
+                let steps = polish(&model, target, &mut q, polish_steps);
                 finish(
                     robot,
+                    &model,
                     target,
                     options,
                     q,
@@ -546,16 +549,20 @@ impl IkSolver for Analytic {
 /// joint axes (the answer is within ~1e-11 of the true one, so one or two suffice).
 pub const POLISH_STEPS: usize = 4;
 
-/// Newton steps `J Δq = e` (base-frame Jacobian, LU) on `robot` towards `target`, at most
+/// Newton steps `J Δq = e` (base-frame Jacobian, LU) on `model` towards `target`, at most
 /// `steps`, stopping when a step no longer reduces the pose error; returns the steps taken.
-fn polish(robot: &Robot, target: &Matrix4<f64>, q: &mut [f64], steps: usize) -> usize {
-    let error = |q: &[f64]| pose_error(&forward(robot, q), target);
+fn polish(model: &KinematicModel, target: &Matrix4<f64>, q: &mut [f64], steps: usize) -> usize {
+    if steps == 0 {
+        return 0;
+    }
+    let error = |q: &[f64]| pose_error(&model.forward(q), target);
     let mut e = error(q);
+    let mut j = Jacobian::zeros(model.dof());
     for step in 0..steps {
         if e.amax() == 0.0 {
             return step;
         }
-        let j = jacobian(robot, q, Frame::Base);
+        model.fk_and_jacobian_into(q, &mut j);
         let j6 = nalgebra::Matrix6::from_iterator(j.iter().copied());
         let Some(dq) = j6.lu().solve(&e) else {
             return step;

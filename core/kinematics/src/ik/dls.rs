@@ -17,7 +17,8 @@
 //! Entry point: [`Dls`].
 
 use super::{IkError, IkOptions, IkResult, IkSolution, IkSolver, Method, finish};
-use crate::jacobian::{Jacobian, fk_and_jacobian_into};
+use crate::compiled::KinematicModel;
+use crate::jacobian::Jacobian;
 use crate::model::{JointType, Robot};
 use crate::pose::{pose_error, rotation, to_target_frame};
 use nalgebra::{Matrix4, Vector6};
@@ -176,9 +177,11 @@ impl IkSolver for Dls {
             weights[i] = if tol[i].is_finite() { unit } else { 0.0 };
         }
         let rt = rotation(target).transpose();
+        // Compiled once for the solve: every iteration of every start evaluates on it.
+        let model = KinematicModel::new(robot);
         // Fills `ev` for q (no allocation).
         let evaluate = |q: &[f64], ev: &mut Eval| {
-            let t = fk_and_jacobian_into(robot, q, &mut ev.jac);
+            let t = model.fk_and_jacobian_into(q, &mut ev.jac);
             ev.e_raw = to_target_frame(&pose_error(&t, target), target);
             for mut col in ev.jac.column_iter_mut() {
                 let v = rt * col.fixed_rows::<3>(0);
@@ -267,6 +270,7 @@ impl IkSolver for Dls {
             if accepted {
                 let sol = finish(
                     robot,
+                    &model,
                     target,
                     options,
                     q.clone(),
@@ -312,6 +316,7 @@ impl IkSolver for Dls {
         let (_, q, _) = best.unwrap_or((0.0, vec![0.0; n], 0));
         let sol: IkSolution = finish(
             robot,
+            &model,
             target,
             options,
             q,

@@ -249,6 +249,8 @@ impl IkSolver for Hybrid {
         options: &IkOptions,
     ) -> Result<IkResult, IkError> {
         let s = setup(robot, target)?;
+        // Compiled once for every root's residual.
+        let model = crate::compiled::KinematicModel::new(robot);
         let theta1_ref = options
             .q0
             .as_ref()
@@ -415,6 +417,7 @@ impl IkSolver for Hybrid {
                 if !dup {
                     solutions.push(finish(
                         robot,
+                        &model,
                         target,
                         options,
                         q,

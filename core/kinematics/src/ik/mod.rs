@@ -24,7 +24,7 @@ pub mod hybrid;
 pub mod newton;
 pub mod parallel;
 
-use crate::fk::forward;
+use crate::compiled::KinematicModel;
 use crate::model::{JointType, ModelError, Robot};
 use crate::pose::{Residual, Tolerances, is_rigid, pose_error, to_target_frame};
 use nalgebra::Matrix4;
@@ -325,10 +325,13 @@ pub fn solve(
     }
 }
 
-/// Builds a solution record for `q`: residual by FK, convergence by the tolerances, limits after
-/// moving revolute joints by 2π towards `reference` and into their limits where possible.
+/// Builds a solution record for `q`: residual by FK (on `model`, `robot` compiled once per
+/// solve), convergence by the tolerances, limits after moving revolute joints by 2π towards
+/// `reference` and into their limits where possible.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn finish(
     robot: &Robot,
+    model: &KinematicModel,
     target: &Matrix4<f64>,
     options: &IkOptions,
     mut q: Vec<f64>,
@@ -337,7 +340,7 @@ pub(crate) fn finish(
     notes: Vec<Note>,
 ) -> IkSolution {
     let within_limits = fit_limits(robot, &mut q, options.q0.as_deref());
-    let t = forward(robot, &q);
+    let t = model.forward(&q);
     let e = pose_error(&t, target);
     let residual = Residual {
         position: e.fixed_rows::<3>(0).norm(),

@@ -11,6 +11,7 @@
 //! Entry point: [`Newton`].
 
 use super::{IkError, IkOptions, IkResult, IkSolver, Method, finish};
+use crate::compiled::KinematicModel;
 use crate::data::Data;
 use crate::model::Robot;
 use crate::pose::{pose_error, rotation, to_target_frame};
@@ -48,9 +49,10 @@ impl IkSolver for Newton {
         // frames and Jacobian computed into one buffer for the whole solve; the m × n system
         // is rebuilt in place (its LU factorisation still takes its own copy)
         let mut data = Data::new(robot);
+        let model = KinematicModel::new(robot);
         let mut jm = DMatrix::zeros(m, n);
         while iterations < options.max_iterations {
-            let (t, jac) = data.fk_and_jacobian(robot, &q);
+            let (t, jac) = data.fk_and_jacobian_compiled(&model, &q);
             let e = to_target_frame(&pose_error(t, target), target);
             if options.tolerances.accept(&e) {
                 converged = true;
@@ -87,7 +89,16 @@ impl IkSolver for Newton {
         if !q.iter().all(|v| v.is_finite()) {
             q = options.q0.clone().unwrap_or_else(|| vec![0.0; n]);
         }
-        let mut sol = finish(robot, target, options, q, None, iterations, Vec::new());
+        let mut sol = finish(
+            robot,
+            &model,
+            target,
+            options,
+            q,
+            None,
+            iterations,
+            Vec::new(),
+        );
         // `finish` judges by the tolerances too; a stalled run is reported as such.
         sol.converged = converged && sol.converged;
         if !sol.converged {
