@@ -193,6 +193,21 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             };
             robosim_rules::run(&file, session, &watch, &limits).map_err(CliError::from)
         }
+        Command::Dataflow {
+            graph,
+            rate,
+            tolerance,
+            name,
+        } => {
+            existing(session)?;
+            let opts = robosim_hl_interface::dataflow::Options {
+                name,
+                rate_hz: rate,
+                tolerance,
+            };
+            robosim_hl_interface::dataflow::run(&graph, session, &opts)
+                .map_err(|e| CliError(e.to_string()))
+        }
         Command::Automation { model, time_scale } => {
             existing(session)?;
             robosim_hl_interface::plant::run(session, &model, time_scale)

@@ -8,6 +8,7 @@ mod common;
 mod architecture;
 mod bridge;
 mod cli_edges;
+mod dataflow;
 mod demo;
 mod display;
 mod editor;

@@ -487,7 +487,10 @@ pub fn run(graph: &Path, session: Option<&str>, opts: &Options) -> Result<(), Da
     let mut runner = Runner::load(graph, opts.tolerance)?;
     let session = Session::existing(session)?;
     let signals = session.node(&format!("{}-signals", opts.name), true)?;
-    let mut planner = Planner::attach_to(&session)?;
+    let Some(mut planner) = attach(&session, |t| signals.wait(t).is_err())? else {
+        eprintln!("dataflow: stopped before the keeper came");
+        return Ok(());
+    };
     let mut commands = CommandReceiver::create(&session, &opts.name)?;
     let polls_peers = {
         let spec = runner.spec();
@@ -607,6 +610,37 @@ pub fn run(graph: &Path, session: Option<&str>, opts: &Options) -> Result<(), Da
     }
     eprintln!("dataflow: stopped");
     Ok(())
+}
+
+/// Attaches a planner to `session`, waiting for its keeper when none runs yet (a dataflow
+/// process may start before the keeper: processes of a session start in any order); `None`
+/// when SIGTERM/SIGINT came first.
+/// `stopped(t)` waits up to `t` for a termination signal and says whether one came.
+fn attach(
+    session: &Session,
+    stopped: impl Fn(Duration) -> bool,
+) -> Result<Option<Planner>, DataflowError> {
+    let mut said = false;
+    loop {
+        match Planner::attach_to(session) {
+            Ok(p) => {
+                if said {
+                    eprintln!("dataflow: the keeper of session {} is up", session.name());
+                }
+                return Ok(Some(p));
+            }
+            Err(e) if e.kind == ErrorKind::Session => {
+                if !said {
+                    eprintln!("dataflow: waiting for the keeper ({})", e.message);
+                    said = true;
+                }
+                if stopped(POLL) {
+                    return Ok(None);
+                }
+            }
+            Err(e) => return Err(e.into()),
+        }
+    }
 }
 
 /// A failed pass is said; the process goes on (the next change may heal it).

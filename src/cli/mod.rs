@@ -134,6 +134,23 @@ pub(crate) enum Command {
         #[arg(long, default_value_t = 1.0)]
         time_scale: f64,
     },
+    /// Run a dataflow graph (MULTIGRAPH, seed §3.4) on a session: sources read from the Instance
+    /// Space, the simulator and the plant's alarms; sinks written back as transactions; the
+    /// file reloaded and the graph rewired live when it changes (docs/dataflow.md).
+    Dataflow {
+        /// The graph file, e.g. automation/graphs/carriage_servo.flow
+        graph: std::path::PathBuf,
+        /// Run passes at this rate, Hz (default: the file's `rate` line, else on every change).
+        #[arg(long)]
+        rate: Option<f64>,
+        /// A sink value this close to the committed one is not written (m or rad).
+        #[arg(long, default_value_t = 1e-9)]
+        tolerance: f64,
+        /// The process's role and command channel (state/NAME/commands), for several graphs on
+        /// one session.
+        #[arg(long, default_value = "dataflow")]
+        name: String,
+    },
     /// Send commands to a session's simulator: target, torque, pause, resume, step, reset, get.
     Simctl {
         /// JSON, e.g. '{"cmd": "target", "robot": "puma560", "q": [0, 0.5, 0, 0, 0, 0]}', or a
