@@ -235,10 +235,7 @@ pub fn to_mjcf_with_geometry(
         out,
         "  <!-- Written by robosim from the joint model of {name} (docs/file-io.md, \"MJCF export\"). -->"
     );
-    let _ = writeln!(
-        out,
-        "  <compiler angle=\"radian\" autolimits=\"true\" inertiafromgeom=\"false\"/>"
-    );
+    let _ = writeln!(out, "  <compiler angle=\"radian\" autolimits=\"true\"/>");
     let _ = writeln!(out, "  <option gravity=\"{}\"/>", v3(&robot.gravity));
     let _ = writeln!(
         out,
@@ -346,7 +343,17 @@ pub fn to_mjcf_with_geometry(
         xml(&link_name(robot, 0)),
         frame_attrs(&Matrix4::identity())
     );
-    root += &body_geoms(geometry, 0, &xs[0], mesh_prefix, &mut assets, &mut meshes);
+    let base_geoms = body_geoms(geometry, 0, &xs[0], mesh_prefix, &mut assets, &mut meshes);
+    if !base_geoms.is_empty() {
+        // A body with geoms and no <inertial> would have its inertia inferred from them
+        // (inertiafromgeom="auto"), which Pinocchio's MJCF reader and robosim's cannot do for
+        // meshes; the base is welded to the world, so what it weighs changes nothing.
+        let _ = writeln!(
+            root,
+            "  <inertial pos=\"0 0 0\" mass=\"{TINY_MASS:?}\" diaginertia=\"{TINY_INERTIA:?} {TINY_INERTIA:?} {TINY_INERTIA:?}\"/>"
+        );
+    }
+    root += &base_geoms;
     if n == 0 {
         let _ = writeln!(
             root,
