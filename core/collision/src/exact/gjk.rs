@@ -267,7 +267,8 @@ impl Simplex {
             }
         }
         self.n = n;
-        self.w[..n].iter_mut().for_each(|x| *x /= sum);
+        let inv = 1.0 / sum;
+        self.w[..n].iter_mut().for_each(|x| *x *= inv);
     }
 }
 
