@@ -142,8 +142,8 @@ pub fn export_robot_models(
     }
 }
 
-/// The geometry of a `from_urdf` robot from its file: the whole tree, or the chain to the
-/// declaration's last link; when neither has the declaration's links, its solids.
+/// The geometry of a `from_urdf` (or `from_mjcf`) robot from its file: the whole tree, or the
+/// chain to the declaration's last link; when neither has the declaration's links, its solids.
 fn urdf_geometry_of(
     file: &std::path::Path,
     r: &robosim_library::RobotModel,
@@ -155,10 +155,16 @@ fn urdf_geometry_of(
                 .zip(&r.link_names)
                 .all(|(j, n)| j.link == *n)
     };
-    let tree = urdf_import::import_urdf_tree(file).ok().filter(same);
+    // a `from_mjcf` robot's file is MJCF: its reader gives the same UrdfRobot (geoms as geometry)
+    let tip = r.link_names.last().map(String::as_str);
+    let tree = urdf_import::import_urdf_tree(file)
+        .ok()
+        .or_else(|| mjcf::import_mjcf_tree(file).ok())
+        .filter(same);
     let u = tree.or_else(|| {
-        urdf_import::import_urdf(file, r.link_names.last().map(String::as_str))
+        urdf_import::import_urdf(file, tip)
             .ok()
+            .or_else(|| mjcf::import_mjcf(file, tip).ok())
             .filter(same)
     });
     match u {

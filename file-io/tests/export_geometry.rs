@@ -354,3 +354,53 @@ fn a_hull_labelled_a_box_is_written_as_a_mesh() {
         }
     );
 }
+
+/// A robot read `from_mjcf` (issue 36 item 5): its export takes the MJCF's own geoms (the MJCF
+/// reader gives the same imported robot), not the library's solids with a "could not be
+/// matched" note; a box and a sphere stay primitives, in place in both formats.
+#[test]
+fn a_from_mjcf_robot_exports_the_files_own_geoms() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(
+        dir.path().join("small.xml"),
+        r#"<mujoco model="small">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="upper" pos="0 0 0.3">
+      <joint name="shoulder" axis="0 0 1" range="-3 3"/>
+      <inertial pos="0.2 0 0" mass="2" diaginertia="0.01 0.02 0.03"/>
+      <geom type="box" size="0.2 0.05 0.05" pos="0.2 0 0"/>
+      <body name="fore" pos="0.4 0 0">
+        <joint name="elbow" axis="0 1 0" range="-2 2"/>
+        <inertial pos="0.15 0 0" mass="1" diaginertia="0.004 0.005 0.006"/>
+        <geom type="sphere" size="0.05" pos="0.3 0 0"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"#,
+    )
+    .expect("MJCF written");
+    let lib = dir.path().join("robots.rsl");
+    std::fs::write(
+        &lib,
+        "robot small from_mjcf \"small.xml\" { tip: \"fore\" }\n",
+    )
+    .expect("library written");
+    let models =
+        robosim_file_io::export_robot_models("small", std::slice::from_ref(&lib)).expect("exports");
+    let g = models[0].1.as_ref().expect("geometry");
+    assert!(g.notes.is_empty(), "{:?}", g.notes);
+    assert!(
+        g.shapes
+            .iter()
+            .any(|s| matches!(s.kind, ShapeKind::Box { .. }))
+    );
+    assert!(
+        g.shapes
+            .iter()
+            .any(|s| matches!(s.kind, ShapeKind::Sphere { .. }))
+    );
+    let n = export_both("small", std::slice::from_ref(&lib), dir.path());
+    assert!(n >= 4, "{n} shapes compared");
+}
