@@ -44,13 +44,12 @@
 (deffunction sp-demand (?mode ?full ?reduced)
   (if (eq ?mode full) then ?full else (if (eq ?mode reduced) then ?reduced else 0.0)))
 
-;;; The plan's load, kW: every consumer in its mode and the running experiments.
+;;; The plan's base load, kW: every consumer in its mode (the running experiments are added
+;;; by sp-min-energy, each until its run ends).
 (deffunction sp-load ()
   (bind ?l 0.0)
   (do-for-all-facts ((?c sp-consumer)) TRUE
     (bind ?l (+ ?l (sp-demand ?c:mode ?c:full-kw ?c:reduced-kw))))
-  (do-for-all-facts ((?e sp-experiment)) (eq ?e:state running)
-    (bind ?l (+ ?l ?e:power-kw)))
   ?l)
 
 ;;; The store after ?h hours at a net power ?net kW (charged at ?ec up to ?cap, drawn at 1/?ed).
@@ -59,21 +58,42 @@
     then (min ?cap (+ ?e (* ?net ?ec ?h)))
     else (+ ?e (/ (* ?net ?h) ?ed))))
 
-;;; The lowest stored energy (kWh) over the phases with a load of ?load kW, plus ?extra kW
-;;; until time ?until (a candidate experiment). Below 0: that much demand would go unserved.
-(deffunction sp-min-energy (?load ?extra ?until)
-  (bind ?e 0.0) (bind ?cap 0.0) (bind ?ec 1.0) (bind ?ed 1.0)
+;;; The load at time ?t, kW: ?base, plus ?extra before ?until, plus every running experiment
+;;; before its run ends (?now + its time left).
+(deffunction sp-load-at (?base ?extra ?until ?now ?t)
+  (bind ?l ?base)
+  (if (< ?t ?until) then (bind ?l (+ ?l ?extra)))
+  (do-for-all-facts ((?x sp-experiment))
+      (and (eq ?x:state running) (< ?t (+ ?now ?x:remaining-s)))
+    (bind ?l (+ ?l ?x:power-kw)))
+  ?l)
+
+;;; The lowest stored energy (kWh) over the phases with the base load ?base kW, plus ?extra kW
+;;; until time ?until (a candidate experiment), plus the running experiments until they end.
+;;; Below 0: that much demand would go unserved. Exact over the pieces where the load is
+;;; constant (the phases cut at every run's end and at ?until).
+(deffunction sp-min-energy (?base ?extra ?until)
+  (bind ?e 0.0) (bind ?cap 0.0) (bind ?ec 1.0) (bind ?ed 1.0) (bind ?now 0.0)
   (do-for-fact ((?b sp-battery)) TRUE
     (bind ?e ?b:energy-kwh) (bind ?cap ?b:capacity-kwh)
     (bind ?ec ?b:charge-eff) (bind ?ed ?b:discharge-eff))
+  (do-for-fact ((?n sp-now)) TRUE (bind ?now ?n:t))
+  (bind ?cuts (create$ ?until))
+  (do-for-all-facts ((?x sp-experiment)) (eq ?x:state running)
+    (bind ?cuts (create$ ?cuts (+ ?now ?x:remaining-s))))
   (bind ?min ?e)
   (do-for-all-facts ((?p sp-phase)) TRUE
-    (bind ?cut (max ?p:start (min ?p:end ?until)))
-    (bind ?e (sp-charge ?e ?cap ?ec ?ed (- ?p:power-kw (+ ?load ?extra))
-                        (/ (- ?cut ?p:start) 3600.0)))
-    (if (< ?e ?min) then (bind ?min ?e))
-    (bind ?e (sp-charge ?e ?cap ?ec ?ed (- ?p:power-kw ?load) (/ (- ?p:end ?cut) 3600.0)))
-    (if (< ?e ?min) then (bind ?min ?e)))
+    (bind ?pts (create$ ?p:start ?p:end))
+    (progn$ (?c ?cuts)
+      (if (and (> ?c ?p:start) (< ?c ?p:end)) then (bind ?pts (create$ ?pts ?c))))
+    (bind ?pts (sort > ?pts))
+    (loop-for-count (?i 1 (- (length$ ?pts) 1))
+      (bind ?a (nth$ ?i ?pts))
+      (bind ?z (nth$ (+ ?i 1) ?pts))
+      (bind ?e (sp-charge ?e ?cap ?ec ?ed
+                          (- ?p:power-kw (sp-load-at ?base ?extra ?until ?now ?a))
+                          (/ (- ?z ?a) 3600.0)))
+      (if (< ?e ?min) then (bind ?min ?e))))
   ?min)
 
 ;;; Whether [?a, ?b] meets a desaturation window or a docking event; its end if so, else 0.

@@ -264,6 +264,24 @@ mod tests {
         );
     }
 
+    /// Regression: the plan once counted a running experiment's load over the whole orbit while
+    /// the start rule counted it only until the run ends, so a run ending before the eclipse
+    /// was started, then hygiene shed and the run stopped for the energy, then both restored
+    /// and started again — until the 5 s limit halted the rules. Now started once, nothing shed.
+    #[test]
+    fn a_run_ending_before_the_eclipse_is_started_once_and_nothing_cycles() {
+        let (mut e, calls) = engine();
+        // with the furnace until t = 3600 s: 115 + 25.2 − 92.0 = 48.2 kWh ≥ 45 at the eclipse's end
+        facts(&mut e, 115.0, 200.0, "no", None);
+        e.run().expect("the rules come to rest");
+        let v = verbs(&calls);
+        assert_eq!(
+            v,
+            vec![("sp-start-experiment".into(), "furnace".into())],
+            "{v:?}"
+        );
+    }
+
     /// With room: a non-sensitive experiment starts; a sensitive one whose run would meet a
     /// desaturation window is moved after it and not started.
     #[test]
