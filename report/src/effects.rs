@@ -254,8 +254,8 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         format!("The full pipeline as printed by the simulator:\n\n```\n{description}```"),
     ];
     let plots = vec![Plot {
-        title: "time per step by configuration (row number of the table)".into(),
-        x_label: "configuration".into(),
+        title: "time per step by configuration".into(),
+        x_label: "configuration: the table's rows in order (1 = kinematics only)".into(),
         y_label: "µs per step".into(),
         log_x: false,
         log_y: true,

@@ -176,7 +176,15 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
         return if log { (0.1, 10.0) } else { (0.0, 1.0) };
     }
     if log {
-        (lo / 1.5, hi * 1.5)
+        // From the decade at or below the padded minimum: the axis's labelled ticks are the
+        // powers of ten in range, so data between 0.1 and 1 on an axis starting at 0.2 had no
+        // tick below 1 (issue 39 item 8: "no y ticks below 1 µs").
+        // (A hair below it: plotters finds the first tick as the ceiling of a logarithm, which
+        // rounding can put a decade too high.)
+        (
+            10f64.powf((lo / 1.5).log10().floor()) * (1.0 - 1e-9),
+            hi * 1.5,
+        )
     } else if hi - lo < 1e-300 {
         (lo - 1.0, hi + 1.0)
     } else {
@@ -254,6 +262,23 @@ fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Er
     Ok(())
 }
 
+/// Angles in degrees over time, unwrapped: each point is moved by whole turns to within 180°
+/// of the one before, so an angle that passes ±180° is drawn as the continuous curve it is,
+/// not as a vertical line across the plot (issue 39 item 8, the station's gimbal angles).
+/// Non-finite values are kept as they are and do not move the reference.
+pub fn unwrap_degrees(points: &mut [(f64, f64)]) {
+    let mut prev: Option<f64> = None;
+    for p in points.iter_mut() {
+        if !p.1.is_finite() {
+            continue;
+        }
+        if let Some(q) = prev {
+            p.1 -= 360.0 * ((p.1 - q) / 360.0).round();
+        }
+        prev = Some(p.1);
+    }
+}
+
 /// A tick label: plain with up to 3 decimals in [0.01, 10⁴), else in exponent form with up to 3
 /// significant digits (ticks 1.2e-5 apart must not all read "1e-5").
 pub(crate) fn fmt_tick(v: f64) -> String {
@@ -278,6 +303,44 @@ pub(crate) fn fmt_tick(v: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 39 item 8: the station's gimbal angle crossing ±180° was drawn as a vertical line.
+    #[test]
+    fn unwrapped_angles_have_no_jump_of_half_a_turn() {
+        let mut pts: Vec<(f64, f64)> = [170.0, 179.0, -178.0, -170.0, 175.0, f64::NAN, -175.0]
+            .iter()
+            .enumerate()
+            .map(|(i, a)| (i as f64, *a))
+            .collect();
+        unwrap_degrees(&mut pts);
+        let ys: Vec<f64> = pts.iter().map(|p| p.1).collect();
+        assert_eq!(&ys[..5], &[170.0, 179.0, 182.0, 190.0, 175.0]);
+        assert!(ys[5].is_nan());
+        assert_eq!(ys[6], 185.0);
+        // The same angles, modulo whole turns.
+        for (a, b) in ys
+            .iter()
+            .zip([170.0, 179.0, -178.0, -170.0, 175.0, 0.0, -175.0])
+        {
+            if a.is_finite() {
+                assert_eq!((a - b).rem_euclid(360.0), 0.0);
+            }
+        }
+    }
+
+    /// Issue 39 item 8: a log axis over 0.3 … 50 µs has a labelled tick below 1 µs.
+    #[test]
+    fn a_log_axis_has_a_tick_below_its_first_decade_of_data() {
+        use plotters::coord::combinators::LogCoord;
+        use plotters::coord::ranged1d::Ranged;
+        let (lo, hi) = range([0.3, 2.0, 50.0].into_iter(), true);
+        assert!(lo <= 0.1 && hi >= 50.0, "{lo} {hi}");
+        let axis: LogCoord<f64> = (lo..hi).log_scale().into();
+        let ticks = axis.key_points(12);
+        assert!(ticks.iter().any(|t| *t < 1.0 && *t >= lo), "{ticks:?}");
+        let (lo, _) = range([2.0, 3.0].into_iter(), true);
+        assert!((lo - 1.0).abs() < 1e-8, "{lo}");
+    }
 
     /// Issue 17 audit: the welding summary's error axis read "1e-5" at 1.0, 1.2 and 1.4 × 10⁻⁵.
     #[test]

@@ -1573,13 +1573,16 @@ fn summary_plots(s: &Setup, run: &Run) -> Vec<robosim_report::Plot> {
     for (ai, a) in s.arrays.iter().enumerate() {
         let b = &s.bodies[a.body];
         for (j, ln) in b.link_names.iter().enumerate() {
+            let mut points: Vec<(f64, f64)> = run
+                .steps
+                .iter()
+                .map(|st| (st.t / 60.0, st.arrays[ai].0[j].to_degrees()))
+                .collect();
+            // A gimbal passing ±180° is a continuous turn, not a vertical line.
+            robosim_report::plot::unwrap_degrees(&mut points);
             angle_series.push(Series {
                 label: format!("{} {ln}", b.name),
-                points: run
-                    .steps
-                    .iter()
-                    .map(|st| (st.t / 60.0, st.arrays[ai].0[j].to_degrees()))
-                    .collect(),
+                points,
             });
         }
     }
