@@ -177,3 +177,56 @@ fn ball_free_and_bad_input_are_refused_by_name() {
     let e = import_mjcf_tree(Path::new("/nonexistent/robot.xml")).expect_err("no file");
     assert!(matches!(e.kind, MjcfErrorKind::Io(_)));
 }
+
+/// `<equality><joint>` is MuJoCo's mimic joint (issue 36 items 1 and 5):
+/// `y − y₀ = a₀ + a₁ (x − x₀)` with y₀, x₀ the joints' `ref`, read into the coupling as URDF's
+/// `<mimic>` is; a polynomial and an inactive one are noted, not imposed; `<connect>` is listed
+/// as not read; a joint name that is no joint is refused at its element.
+#[test]
+fn an_equality_joint_is_a_mimic_coupling() {
+    let text = |eq: &str| {
+        format!(
+            r#"<mujoco model="eq">
+  <compiler angle="radian"/>
+  <worldbody>
+    <body name="a"><joint name="j1" axis="0 0 1"/><geom type="sphere" size="0.1" mass="1"/>
+      <body name="b" pos="0.5 0 0"><joint name="j2" axis="0 1 0" ref="0.2"/>
+        <geom type="sphere" size="0.1" mass="1"/>
+        <body name="c" pos="0.5 0 0"><joint name="j3" axis="0 1 0" ref="0.3"/>
+          <geom type="sphere" size="0.1" mass="1"/>
+          <body name="d" pos="0.5 0 0"><joint name="j4" axis="1 0 0"/>
+            <geom type="sphere" size="0.1" mass="1"/></body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <equality>{eq}</equality>
+</mujoco>"#
+        )
+    };
+    let eq = r#"<joint joint1="j3" joint2="j2" polycoef="0.1 -2 0 0 0"/>
+    <joint joint1="j4" joint2="j1" polycoef="0 1 0.5 0 0"/>
+    <joint joint1="j1" joint2="j2" active="false"/>
+    <connect body1="a" body2="d" anchor="0 0 0"/>"#;
+    let r = import_mjcf_str(&text(eq), Path::new("eq.xml"), None).expect("imports");
+    let c = r.coupling.as_ref().expect("a coupling");
+    assert_eq!((c.full_dof(), c.reduced_dof()), (4, 3));
+    assert_eq!(r.mimics.len(), 1);
+    let all = r.notes.join("\n");
+    for what in ["polynomial", "inactive", "<equality><connect> (1 element)"] {
+        assert!(all.contains(what), "{what:?} not in the notes:\n{all}");
+    }
+    // q3 = y0 + a0 + a1 (q2 − x0) = 0.3 + 0.1 − 2 (q2 − 0.2)
+    let qr = [0.4, -0.3, 0.7];
+    let q = c.expand_q(&qr).expect("q");
+    let q3 = 0.3 + 0.1 - 2.0 * (-0.3 - 0.2);
+    assert!((q[2] - q3).abs() < 1e-15, "{q:?}");
+    assert_eq!([q[0], q[1], q[3]], qr);
+    let got = robosim_kinematics::mimic::forward(&r.robot, c, &qr).expect("fk");
+    assert_eq!(got, fk::forward(&r.robot, &q));
+    // a joint that is not one
+    let bad = r#"<joint joint1="j3" joint2="nope"/>"#;
+    let (line, element, kind) = refused(&text(bad));
+    assert_eq!(kind, MjcfErrorKind::UnknownJoint("nope".into()));
+    assert_eq!((line, element.as_str()), (15, "<equality>/<joint>"));
+}

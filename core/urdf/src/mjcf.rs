@@ -41,7 +41,11 @@
 //! spherical or floating joint yet (issue 36 item 2); `<include>` (import the included file,
 //! or merge them); `<frame>` (MuJoCo ≥ 3.2); `<compiler coordinate="global">`; malformed
 //! numbers and unknown classes or meshes — each error names the file, line and element.
-//! Not read, and listed in [`UrdfRobot::notes`]: actuators, tendons, equality constraints,
+//! `<equality><joint>` (MuJoCo's mimic, `y − y₀ = a₀ + a₁ (x − x₀)`) is read into
+//! [`UrdfRobot::coupling`] as URDF's `<mimic>` is (imposed exactly; a polynomial one is noted,
+//! not imposed).
+//! Not read, and listed in [`UrdfRobot::notes`]: actuators, tendons, the other equality
+//! constraints (connect, weld, tendon, flex),
 //! sensors, contact pairs and exclusions, keyframes, sites, cameras, lights, joint stiffness,
 //! the other `<option>`s (the scene's options apply).
 
@@ -49,10 +53,11 @@ use crate::mjcf_frame::{
     Primitive, from_axis_angle, from_euler, from_wxyz, from_xyaxes, transform, translation, z_to,
 };
 use crate::urdf_geometry::{Geometry, LinkGeometry, Material, MeshRef, Shape, UrdfGeometry};
-use crate::urdf_import::{UrdfJoint, UrdfRobot};
+use crate::urdf_import::{UrdfJoint, UrdfMimic, UrdfRobot};
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
 use robosim_kinematics::ModelError;
 use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_tree};
+use robosim_kinematics::mimic::{Coupling, Mimic, MimicError};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -102,6 +107,12 @@ pub enum MjcfErrorKind {
     AmbiguousTip(usize, String),
     #[error("the imported robot is not valid: {0}")]
     Model(ModelError),
+    /// An `<equality><joint>` naming no joint of the model.
+    #[error("joint {0:?} is not a <joint> of this model")]
+    UnknownJoint(String),
+    /// The `<equality><joint>` couplings cannot be imposed (a cycle, a joint coupled twice).
+    #[error("the <equality><joint> constraints cannot be imposed: {0}")]
+    Mimic(robosim_kinematics::mimic::MimicError),
 }
 
 /// An MJCF problem: the file, the 1-based line (0 when there is no element), the element
@@ -253,6 +264,7 @@ const READ_SECTIONS: &[&str] = &[
     "worldbody",
     "visual",
     "statistic",
+    "equality",
 ];
 
 /// Body children that are not read (counted in the notes).
@@ -580,6 +592,15 @@ impl<'a, 'i> Model<'a, 'i> {
             if !READ_SECTIONS.contains(&tag) {
                 let n = s.children().filter(|c| c.is_element()).count();
                 *counts.entry(format!("<{tag}>")).or_default() += n.max(1);
+            }
+            if tag == "equality" {
+                // <joint> constraints are read (equality_joints); the others are not
+                for c in s.children().filter(|c| c.is_element()) {
+                    let name = c.tag_name().name();
+                    if name != "joint" {
+                        *counts.entry(format!("<equality><{name}>")).or_default() += 1;
+                    }
+                }
             }
         }
         for b in &self.bodies {
@@ -1178,6 +1199,8 @@ impl<'a, 'i> Model<'a, 'i> {
         let mut placed: Vec<Placed> = Vec::with_capacity(self.bodies.len());
         let mut geoms_of: Vec<Vec<GeomRead>> = Vec::with_capacity(self.bodies.len());
         let mut held = Vec::new();
+        // every joint's reference position (qpos0), moving or held, by name
+        let mut refs: HashMap<String, f64> = HashMap::new();
         let bodies = std::mem::take(&mut self.bodies);
         for (bi, b) in bodies.iter().enumerate() {
             let joints = self.joints(b)?;
@@ -1211,6 +1234,7 @@ impl<'a, 'i> Model<'a, 'i> {
             }
             let n = joints.len();
             for (k, j) in joints.into_iter().enumerate() {
+                refs.insert(j.name.clone(), j.reference);
                 let placement = pending * translation(&(j.anchor - anchor));
                 anchor = j.anchor;
                 let child = if k + 1 == n {
@@ -1347,6 +1371,7 @@ impl<'a, 'i> Model<'a, 'i> {
                 MjcfErrorKind::Model(e),
             )
         })?;
+        let (mimics, coupling) = self.equality_joints(&joints, &refs)?;
         Ok(UrdfRobot {
             robot,
             root: "world".into(),
@@ -1356,9 +1381,125 @@ impl<'a, 'i> Model<'a, 'i> {
             held,
             notes: self.notes,
             parent_links,
-            mimics: Vec::new(),
-            coupling: None,
+            mimics,
+            coupling,
             geometry,
         })
+    }
+
+    /// `<equality><joint joint1 joint2 polycoef>` — MuJoCo's form of a mimic joint,
+    /// `y − y₀ = a₀ + a₁ (x − x₀)` (y = joint1, x = joint2, y₀ and x₀ their `ref`) — as a
+    /// coupling: joint1 follows joint2 with multiplier a₁ and offset `y₀ + a₀ − a₁ x₀`, or is
+    /// fixed at `y₀ + a₀` without joint2 or when joint2 is held (not a coordinate of the
+    /// import: then x = x₀). Imposed exactly (MuJoCo enforces it softly, through solref and
+    /// solimp). Noted and not imposed: an inactive one (`active="false"`), a polynomial
+    /// (a₂…a₄ not zero), one whose joint1 is held. A joint name that is not a joint is refused.
+    fn equality_joints(
+        &mut self,
+        joints: &[UrdfJoint],
+        refs: &HashMap<String, f64>,
+    ) -> Result<(Vec<UrdfMimic>, Option<Coupling>), MjcfError> {
+        let (mut mimics, mut relations, mut nodes) = (Vec::new(), Vec::new(), Vec::new());
+        let index = |n: &str| joints.iter().position(|j| j.name == n);
+        let equalities: Vec<roxmltree::Node> = self
+            .root
+            .children()
+            .filter(|c| c.is_element() && c.tag_name().name() == "equality")
+            .flat_map(|e| {
+                e.children()
+                    .filter(|c| c.is_element() && c.tag_name().name() == "joint")
+            })
+            .collect();
+        for e in equalities {
+            let element = format!(
+                "<equality>/<joint{}>",
+                e.attribute("name")
+                    .map_or(String::new(), |n| format!(" name={n:?}"))
+            );
+            let Some(j1) = e.attribute("joint1") else {
+                return Err(self.err(
+                    e,
+                    &element,
+                    MjcfErrorKind::BadValue {
+                        attribute: "joint1".into(),
+                        value: String::new(),
+                        expected: "the name of the joint it constrains",
+                    },
+                ));
+            };
+            let j2 = e.attribute("joint2");
+            for n in std::iter::once(j1).chain(j2) {
+                if !refs.contains_key(n) {
+                    return Err(self.err(e, &element, MjcfErrorKind::UnknownJoint(n.to_string())));
+                }
+            }
+            let active = match e.attribute("active") {
+                None => true,
+                Some(v) => self.boolean(e, &element, "active", v)?,
+            };
+            let poly = match e.attribute("polycoef") {
+                None => vec![0.0, 1.0, 0.0, 0.0, 0.0],
+                Some(t) => self.numbers(e, &element, "polycoef", t, 5)?,
+            };
+            let follower = index(j1);
+            let why_not = if !active {
+                Some("inactive")
+            } else if poly[2..].iter().any(|&a| a != 0.0) {
+                Some("a polynomial: only a linear coupling is a mimic joint")
+            } else if follower.is_none() {
+                Some("joint1 is held (not a coordinate of this import)")
+            } else {
+                None
+            };
+            if let Some(why) = why_not {
+                self.notes
+                    .push(format!("{element} ({j1:?}) not imposed: {why}"));
+                continue;
+            }
+            let Some(follower) = follower else { continue };
+            let (y0, a0, a1) = (refs[j1], poly[0], poly[1]);
+            let leader = j2.and_then(index);
+            let (multiplier, offset) = match (leader, j2) {
+                (Some(_), Some(j2)) => (a1, y0 + a0 - a1 * refs[j2]),
+                _ => (a1, y0 + a0),
+            };
+            self.notes.push(match (leader, j2) {
+                (Some(_), Some(j2)) => format!(
+                    "{element}: joint {j1:?} follows {j2:?} (×{multiplier} + {offset}) in the coupling, exactly (MuJoCo enforces it softly)"
+                ),
+                _ => format!(
+                    "{element}: joint {j1:?} is fixed at {offset} in the coupling (no joint2, or joint2 held at its ref)"
+                ),
+            });
+            relations.push(Mimic {
+                follower,
+                leader,
+                multiplier,
+                offset,
+            });
+            nodes.push((e, element));
+            mimics.push(UrdfMimic {
+                joint: j1.to_string(),
+                index: follower,
+                mimicked: j2.unwrap_or_default().to_string(),
+                mimicked_index: leader,
+                multiplier,
+                offset,
+            });
+        }
+        if relations.is_empty() {
+            return Ok((mimics, None));
+        }
+        let coupling = Coupling::new(joints.len(), &relations).map_err(|e| {
+            let at = match &e {
+                MimicError::Cycle(i) | MimicError::TwoLeaders(i) => {
+                    relations.iter().position(|r| r.follower == *i).unwrap_or(0)
+                }
+                _ => 0,
+            };
+            let (node, element) = &nodes[at];
+            self.err(*node, element, MjcfErrorKind::Mimic(e))
+        })?;
+        Ok((mimics, Some(coupling)))
     }
 }
