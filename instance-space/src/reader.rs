@@ -68,25 +68,37 @@ pub enum ReaderError {
     },
 }
 
+/// The error of an iceoryx2 call doing `what`. `what` is formatted only when the call fails:
+/// the follow path (every change: the changes, the poses head, the pose base, each changed
+/// chunk) names what it receives without a `String` per call (issue 37 item 5: those
+/// allocations and formats were a fifth of a follower's instructions per change).
 fn ipc<E: std::error::Error + Send + Sync + 'static>(
-    what: impl Into<String>,
+    what: impl std::fmt::Display,
 ) -> impl FnOnce(E) -> ReaderError {
-    let what = what.into();
     move |e| ReaderError::Ipc {
-        what,
+        what: what.to_string(),
         source: Box::new(e),
     }
 }
 
 /// A subscriber's receive error: holding too many samples (snapshots) by its variant, any
-/// other as [`ReaderError::Ipc`].
+/// other as [`ReaderError::Ipc`] (`what` formatted only then, see [`ipc`]).
 fn receive_err(
-    what: impl Into<String>,
+    what: impl std::fmt::Display,
 ) -> impl FnOnce(iceoryx2::port::ReceiveError) -> ReaderError {
-    let what = what.into();
     move |e| match e {
         iceoryx2::port::ReceiveError::ExceedsMaxBorrows => ReaderError::TooManySnapshotsHeld,
         e => ipc(what)(e),
+    }
+}
+
+/// `"{0}{1}"`, formatted when displayed: an error context built on the hot path without
+/// allocating ([`ipc`]).
+struct Joined<A, B>(A, B);
+
+impl<A: std::fmt::Display, B: std::fmt::Display> std::fmt::Display for Joined<A, B> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}{}", self.0, self.1)
     }
 }
 
@@ -598,7 +610,7 @@ fn newest(sub: &Sub, what: &str) -> Result<Option<Sample>, ReaderError> {
     let mut newest = None;
     while let Some(s) = sub
         .receive()
-        .map_err(receive_err(format!("receive {what}")))?
+        .map_err(receive_err(Joined("receive ", what)))?
     {
         newest = Some(s);
     }
@@ -1739,7 +1751,7 @@ impl Reader {
                 match c
                     .sub
                     .receive()
-                    .map_err(receive_err(format!("receive pose chunk {k}")))?
+                    .map_err(receive_err(Joined("receive pose chunk ", k)))?
                 {
                     Some(s) => {
                         let ch: PoseChunkHeader =
@@ -1984,6 +1996,28 @@ impl Reader {
 mod tests {
     use super::*;
     use crate::layout::SegmentWriter;
+
+    /// The error contexts formatted only on failure still say what failed, with the cause kept
+    /// as the source, and a subscriber holding too many samples is still told by its variant.
+    #[test]
+    fn error_contexts_formatted_on_failure_name_what_and_keep_the_cause() {
+        let cause = std::io::Error::other("shared memory gone");
+        match ipc(Joined("receive pose chunk ", 7))(cause) {
+            ReaderError::Ipc { what, source } => {
+                assert_eq!(what, "receive pose chunk 7");
+                assert_eq!(source.to_string(), "shared memory gone");
+            }
+            other => panic!("{other:?}"),
+        }
+        let e = ipc::<std::io::Error>("subscribe changes")(std::io::Error::other("x"));
+        assert_eq!(e.to_string(), "iceoryx2 subscribe changes: x");
+        assert!(matches!(
+            receive_err(Joined("receive ", "poses"))(
+                iceoryx2::port::ReceiveError::ExceedsMaxBorrows
+            ),
+            ReaderError::TooManySnapshotsHeld
+        ));
+    }
 
     /// A geometry base of the objects `ids` (ascending), object `id`'s geometry the one word
     /// `id * 10` at generation `id + 1`.
