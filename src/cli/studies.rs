@@ -65,7 +65,8 @@ pub struct StationArgs {
     /// Keep-out distance between the servicer and an array, m.
     #[arg(long, allow_hyphen_values = true, default_value_t = 1.0)]
     pub keep_out: f64,
-    /// Constant station load, kW.
+    /// The station's base load (avionics, communications, thermal control), kW; the ECLSS
+    /// subsystems, the servicer and the experiments draw beside it.
     #[arg(long, allow_hyphen_values = true, default_value_t = 100.0)]
     pub load: f64,
     /// Battery capacity, kWh.
@@ -88,6 +89,15 @@ pub struct StationArgs {
     /// attitude integration's accuracy section.
     #[arg(long)]
     pub attitude: bool,
+    /// The station's energy scheduler (station_power.clp in the CLIPS engine): on or off
+    /// (default: on when this build has CLIPS); when on, the same run with it off is reported
+    /// beside it.
+    #[arg(long, value_parser = ["on", "off"])]
+    pub scheduler: Option<String>,
+    /// An ECLSS fault injected: FAILURE_MODE@SECONDS (e.g. pump_failure@3000); its alarms are
+    /// diagnosed and its spare brought on line by eclss_guard.clp.
+    #[arg(long)]
+    pub fault: Option<String>,
 }
 
 impl From<StudyCmd> for robosim_studies::cli::StudyCmd {
@@ -131,6 +141,8 @@ impl From<StationArgs> for robosim_studies::cli::StationArgs {
             frames: a.frames,
             accuracy: a.accuracy,
             attitude: a.attitude,
+            scheduler: a.scheduler,
+            fault: a.fault,
         }
     }
 }

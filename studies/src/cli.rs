@@ -52,7 +52,7 @@ pub struct StationArgs {
     pub orbits: f64,
     /// Keep-out distance between the servicer and an array, m.
     pub keep_out: f64,
-    /// Constant station load, kW.
+    /// The station's base load, kW (the ECLSS subsystems, servicer and experiments beside it).
     pub load: f64,
     /// Battery capacity, kWh.
     pub battery: f64,
@@ -67,6 +67,10 @@ pub struct StationArgs {
     /// Integrate the station's attitude (the scene's `attitude` effect: CMGs, desaturations)
     /// and track the sun in its actual body frame; writes the attitude's accuracy section.
     pub attitude: bool,
+    /// `on` or `off` (None: on when this build has CLIPS).
+    pub scheduler: Option<String>,
+    /// An ECLSS fault, `FAILURE_MODE@SECONDS`.
+    pub fault: Option<String>,
 }
 
 fn mode(s: &str) -> Result<Mode> {
@@ -98,6 +102,15 @@ pub fn run(cmd: &StudyCmd, log: &mut dyn std::io::Write) -> Result<()> {
                 mode: mode(&a.mode)?,
                 frames: a.frames,
                 attitude: a.attitude,
+                scheduling: match &a.scheduler {
+                    Some(s) => station::scheduler::Scheduling::parse(s)?,
+                    None => station::scheduler::Scheduling::default_for_build(),
+                },
+                fault: a
+                    .fault
+                    .as_deref()
+                    .map(station::faults::FaultSpec::parse)
+                    .transpose()?,
                 ..station::StationParams::default()
             };
             let run = station::run(&p, &a.out, log)?;

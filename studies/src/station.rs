@@ -20,9 +20,22 @@
 //! LVLH or a torque-equilibrium attitude by its CMGs, desaturated by thrusters) and the arrays
 //! track the sun in the body frame of the actual attitude, their gimbals rate-limited.
 //!
+//! The loads (issue 38 items 3–4, [`loads`]): the station's consumers with priorities (the
+//! ECLSS subsystems of seed §4.3, the base load, the servicer) and experiments, served each
+//! interval through the battery's ledger (produced = served + shunted + Δstored + losses); the
+//! scheduler ([`scheduler`], `--scheduler on`: `station_power.clp` in the CLIPS engine) sheds,
+//! reduces, starts and moves them from the energy it predicts over the coming orbit, the
+//! predicted desaturations and the docking events; an ECLSS fault ([`faults`], `--fault`)
+//! rings alarms that `eclss_guard.clp` diagnoses and repairs, its consumer's demand changing
+//! meanwhile. Every decision is recorded with its rule and reason.
+//!
 //! Entry points: [`StationParams`], [`run`], [`simulate`].
 
 pub mod attitude;
+pub mod faults;
+pub mod loads;
+pub mod power_report;
+pub mod scheduler;
 
 use crate::common::{self, Body, Csv, Posed};
 use crate::{Result, StudyError, bail, say};
@@ -37,6 +50,10 @@ use std::path::Path;
 /// The library scene of the study.
 pub const SCENE: &str = "space_station_study";
 pub use robosim_simulator::power::SOLAR_FLUX;
+
+/// The default docking event, [start, end] s (assumed: a visiting vehicle's final approach
+/// and capture, 40 min in the fifth orbit).
+pub const DOCKING: [f64; 2] = [24_000.0, 26_400.0];
 
 /// The study's parameters (defaults in [`StationParams::default`], stated in docs/studies.md).
 #[derive(Debug, Clone, PartialEq)]
@@ -63,8 +80,25 @@ pub struct StationParams {
     pub soc0: f64,
     pub charge_eff: f64,
     pub discharge_eff: f64,
-    /// Constant station load, W.
+    /// The station's base load (avionics, communications, thermal control: vital), W; the
+    /// ECLSS subsystems, the servicer and the experiments draw beside it ([`loads`]).
     pub load_w: f64,
+    /// Whether `station_power.clp` schedules the loads ([`scheduler::Scheduling`]; default on
+    /// when this build has CLIPS).
+    pub scheduling: scheduler::Scheduling,
+    /// The experiments asked for ([`robosim_simulator::consumers::default_experiments`]).
+    pub experiments: Vec<robosim_simulator::consumers::Experiment>,
+    /// Docking events, [start, end] s (seed §4.2 constraint 2).
+    pub dockings: Vec<[f64; 2]>,
+    /// The battery reserve the scheduler keeps over the coming orbit, and the margin above it
+    /// before anything shed is restored, shares of the capacity.
+    pub reserve: f64,
+    pub margin: f64,
+    /// An ECLSS fault injected ([`faults::FaultSpec`]).
+    pub fault: Option<faults::FaultSpec>,
+    /// With the scheduler on, [`run`] also runs the same study with it off and reports what
+    /// is lost without it.
+    pub compare_off: bool,
     /// When the servicer task starts, s.
     pub task_start_s: f64,
     /// Frames to render headless (0: none).
@@ -93,6 +127,13 @@ impl Default for StationParams {
             charge_eff: b.charge_eff,
             discharge_eff: b.discharge_eff,
             load_w: b.load_w,
+            scheduling: scheduler::Scheduling::default_for_build(),
+            experiments: robosim_simulator::consumers::default_experiments(),
+            dockings: vec![DOCKING],
+            reserve: 0.25,
+            margin: 0.05,
+            fault: None,
+            compare_off: true,
             task_start_s: 300.0,
             frames: 12,
             attitude: false,
@@ -143,6 +184,32 @@ impl StationParams {
         }
         if !(self.load_w.is_finite() && self.load_w >= 0.0) {
             bail!("load {} W: expected a finite power ≥ 0", self.load_w);
+        }
+        if !((0.0..1.0).contains(&self.reserve) && (0.0..1.0).contains(&self.margin)) {
+            bail!(
+                "reserve {} and margin {}: expected shares of the capacity in [0, 1)",
+                self.reserve,
+                self.margin
+            );
+        }
+        for d in &self.dockings {
+            if !(d[0].is_finite() && d[1].is_finite() && d[0] < d[1]) {
+                bail!(
+                    "docking {} to {} s: expected a finite start before its end",
+                    d[0],
+                    d[1]
+                );
+            }
+        }
+        for e in &self.experiments {
+            if !(e.power_w.is_finite() && e.power_w >= 0.0)
+                || !(e.duration_s > 0.0 && e.every_s > 0.0 && e.first_s >= 0.0)
+            {
+                bail!(
+                    "experiment {}: expected a power ≥ 0, a positive duration and period, a start ≥ 0",
+                    e.name
+                );
+            }
         }
         if self.attitude && !(pos(self.attitude_step_s) && self.attitude_step_s <= self.step_s) {
             bail!(
@@ -417,6 +484,8 @@ pub struct Step {
     pub clearance_serviced: f64,
     /// The attitude at this step (with `--attitude`).
     pub attitude: Option<attitude::AttStep>,
+    /// The loads from this step to the next: demanded, served, modes, the energy's flows.
+    pub loads: loads::LoadStep,
 }
 
 /// A run's outcome.
@@ -436,6 +505,18 @@ pub struct Run {
     pub wall_s: f64,
     /// The attitude over the run (with `--attitude`).
     pub attitude: Option<attitude::AttRun>,
+    /// The loads at the end (names, experiments' runs) and the energy's totals.
+    pub loads: loads::Loads,
+    pub totals: loads::Totals,
+    /// Every decision of the rules, in order.
+    pub decisions: Vec<scheduler::Decision>,
+    pub scheduling: scheduler::Scheduling,
+    /// Whether a rule engine ran (the loads scheduled, or a fault handled).
+    pub rules_ran: bool,
+    /// The injected fault at the end (its diagnoses, when it was isolated and replaced).
+    pub fault: Option<faults::EclssFault>,
+    /// The desaturation windows the scheduler was given, as first predicted: (start, end) s.
+    pub predicted_windows: Vec<(f64, f64)>,
 }
 
 /// Clearance of the servicer parts (with what it carries) to array `ai` at `q`, with the ORUs
@@ -502,6 +583,28 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         load_w: p.load_w,
     };
     let (mut energy, mut lost, mut unserved) = (0.0, 0.0, 0.0);
+    // the loads, their scheduler and the fault (issue 38 items 3-4)
+    let mut loads = loads::Loads::new(
+        robosim_simulator::consumers::default_consumers(p.load_w),
+        p.experiments.clone(),
+    );
+    let servicer_load = loads
+        .consumers
+        .iter()
+        .position(|c| c.subsystem == "servicer");
+    let fault = p
+        .fault
+        .as_ref()
+        .map(|f| faults::EclssFault::new(f, &loads.consumers))
+        .transpose()?;
+    let mut rules = scheduler::Scheduler::new(p.scheduling, fault)?;
+    let mut totals = loads::Totals::default();
+    // the scheduler looks one orbit ahead
+    let horizon = period;
+    let eclipses_ahead = s
+        .orbit
+        .eclipse_intervals(p.theta0, t_end + horizon, p.step_s);
+    let mut predicted_windows: Vec<(f64, f64)> = Vec::new();
     let mut steps = Vec::with_capacity(n + 1);
     // the attitude (declared effect, with --attitude): started in the configuration at t = 0
     let mut att = match &s.attitude {
@@ -673,7 +776,22 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             let last_tracked = steps.last().map_or(0.0, |s: &Step| s.tracked_power_w);
             energy += last * dt;
             lost += (last_tracked - last) * dt;
-            unserved += battery.step(last, dt);
+            if let Some(prev_step) = steps.last_mut() {
+                // a sensitive experiment running through a desaturation or a docking is disturbed
+                let disturbed = prev_step.attitude.is_some_and(|a| a.dumping)
+                    || p.dockings
+                        .iter()
+                        .any(|d| d[0] <= prev_step.t && prev_step.t < d[1]);
+                let flow = loads.serve(
+                    &mut prev_step.loads,
+                    &mut battery,
+                    last,
+                    dt,
+                    disturbed,
+                    &mut totals,
+                );
+                unserved += flow.unserved_j;
+            }
             if let (Some(r), Some(la)) =
                 (att.as_mut(), steps.last().and_then(|s: &Step| s.attitude))
             {
@@ -690,6 +808,55 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             }
             _ => None,
         };
+        // the loads from this step to the next: asked for, scheduled
+        loads.ask(t);
+        if let Some(i) = servicer_load {
+            let active = !matches!(activity, "waiting" | "done");
+            let w = if active {
+                loads.consumers[i].full_w
+            } else {
+                0.0
+            };
+            loads.full_w[i] = w;
+            loads.reduced_w[i] = w;
+        }
+        let forecast = loads::Forecast::new(
+            t,
+            horizon,
+            &eclipses_ahead,
+            predicted_sun_w(&steps, power, eclipse, t, period),
+        );
+        let mut windows: Vec<(&'static str, f64, f64)> = p
+            .dockings
+            .iter()
+            .filter(|d| d[1] > t && d[0] < t + horizon)
+            .map(|d| ("docking", d[0], d[1]))
+            .collect();
+        if let (Some(r), Some(a)) = (att.as_ref(), att_step.as_ref())
+            && let Some(w) = attitude::predict_desaturation(&steps, a, r, t, period)
+            && w.0 < t + horizon
+        {
+            windows.push(("desaturation", w.0, w.1));
+            if predicted_windows.last().is_none_or(|l| w.0 > l.1) {
+                predicted_windows.push(w);
+            }
+        }
+        rules.step(
+            &scheduler::PlanFacts {
+                t,
+                step_s: p.step_s,
+                energy_j: battery.energy_j(),
+                capacity_j: battery.capacity_j,
+                charge_eff: battery.charge_eff,
+                discharge_eff: battery.discharge_eff,
+                reserve_j: p.reserve * battery.capacity_j,
+                margin_j: p.margin * battery.capacity_j,
+                forecast: &forecast,
+                windows: &windows,
+            },
+            &mut loads,
+        )?;
+        let load_step = loads.record();
         let soc = battery.soc;
         // between the samples: the servicer may sweep more than the keep-out in one step
         let between = match steps.last() {
@@ -724,8 +891,11 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             structure_pair: structure.map(|c| (c.a, c.b)).unwrap_or_default(),
             blocked,
             attitude: att_step,
+            loads: load_step,
         });
     }
+    let rules_ran = rules.has_engine();
+    let (decisions, fault) = rules.finish();
     Ok(Run {
         steps,
         period_s: period,
@@ -737,7 +907,31 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         unserved_j: unserved,
         wall_s: t0.elapsed().as_secs_f64(),
         attitude: att.map(attitude::Running::finish),
+        loads,
+        totals,
+        decisions,
+        scheduling: p.scheduling,
+        rules_ran,
+        fault,
+        predicted_windows,
     })
+}
+
+/// The sunlit power the power model predicts: the mean delivered over the sunlit steps of the
+/// last orbit and now (persistence), W; 0 before any sunlit step.
+fn predicted_sun_w(steps: &[Step], now_w: f64, eclipse: bool, t: f64, period: f64) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for st in steps.iter().rev().take_while(|st| st.t >= t - period) {
+        if !st.eclipse {
+            sum += st.power_w;
+            n += 1;
+        }
+    }
+    if !eclipse {
+        sum += now_w;
+        n += 1;
+    }
+    if n > 0 { sum / n as f64 } else { 0.0 }
 }
 
 /// Every body's joint values: the arrays' `arrays` (in `Setup::arrays` order), the servicer's
@@ -923,6 +1117,7 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
             cols.push(c.into());
         }
     }
+    cols.extend(power_report::columns(&run));
     let mut csv = Csv::create(&dir.join("station.csv"), &cols)?;
     let finite = |v: f64| if v.is_finite() { v } else { 1e9 };
     for st in &run.steps {
@@ -976,6 +1171,7 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
                 a.attitude_loss_w / 1e3,
             ]);
         }
+        row.extend(power_report::row(&run, st));
         csv.row(&row)?;
     }
     csv.finish()?;
@@ -998,7 +1194,29 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
         common::write_trajectory(&path, &b.robot, p.step_s, &samples)?;
     }
     // --- summary
-    let summary = summarise(&s, p, &run);
+    power_report::write_decisions(dir, &run)?;
+    // the same run without the scheduler: what the rule base is worth
+    let off = if p.scheduling == scheduler::Scheduling::On && p.compare_off {
+        say!(log, "the same run with the scheduler off, for comparison");
+        Some(simulate(
+            &s,
+            &StationParams {
+                scheduling: scheduler::Scheduling::Off,
+                frames: 0,
+                ..p.clone()
+            },
+        )?)
+    } else {
+        None
+    };
+    if !run.rules_ran && !robosim_rules::BUILT_WITH_CLIPS {
+        say!(
+            log,
+            "*** the station's energy scheduler (station_power.clp) did not run: {} ***",
+            robosim_rules::NOT_BUILT
+        );
+    }
+    let summary = summarise_with(&s, p, &run, off.as_ref());
     for line in &summary.notes {
         say!(log, "{line}");
     }
@@ -1073,6 +1291,16 @@ pub fn frame_args(
 
 /// The summary report: key numbers (table), notes (model and findings), time plots.
 pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Report {
+    summarise_with(s, p, run, None)
+}
+
+/// [`summarise`] with the same run's outcome with the scheduler off beside it (`off`).
+pub fn summarise_with(
+    s: &Setup,
+    p: &StationParams,
+    run: &Run,
+    off: Option<&Run>,
+) -> robosim_report::Report {
     use robosim_report::Report;
     let x = Extremes::of(s, p, run);
     let mut table = summary_table(s, p, run, &x);
@@ -1095,6 +1323,16 @@ pub fn summarise(s: &Setup, p: &StationParams, run: &Run) -> robosim_report::Rep
         notes.extend(attitude::notes(run, a));
         plots.extend(attitude::plots(run));
     }
+    // the loads, before the wall-time row
+    let wall = table.rows.pop();
+    table.rows.extend(
+        power_report::rows(run)
+            .into_iter()
+            .map(|(q, v, u)| vec![q, v, u.to_owned()]),
+    );
+    table.rows.extend(wall);
+    notes.extend(power_report::notes(run, off));
+    plots.push(power_report::plot(run));
     Report {
         name: "station_summary".into(),
         title: "Space Station study: orbit, sun tracking, power, ORU swap".into(),

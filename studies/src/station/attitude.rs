@@ -370,6 +370,60 @@ pub fn rate_limited(prev: &[f64], want: &[f64], dt: f64) -> Vec<f64> {
         .collect()
 }
 
+/// A desaturation's length when none has finished yet, s (assumed; the 20-orbit run's dumps
+/// took ~40 s of pulses plus the loop's settling).
+pub const DUMP_GUESS_S: f64 = 300.0;
+
+/// The next desaturation window the momentum manager predicts at `t` (the attitude plan the
+/// scheduler is given, seed §4.2 constraint 1), [start, end] s: under way — from its start to
+/// its expected end; else when |h| reaches the saturation fraction at the secular growth rate
+/// measured over the last orbit (or since the last desaturation, once a quarter orbit has
+/// passed), opened a tenth of an orbit early for the rate's error. Its length: the last
+/// finished desaturation's plus the loop's settling time 4/(ζ ω_n), else [`DUMP_GUESS_S`].
+/// `None` when |h| does not grow.
+pub fn predict_desaturation(
+    steps: &[super::Step],
+    now: &AttStep,
+    r: &Running,
+    t: f64,
+    period: f64,
+) -> Option<(f64, f64)> {
+    let settle = 4.0 / (att::CONTROL_DAMPING * att::CONTROL_BANDWIDTH);
+    let dumps = &r.model.dumps;
+    let length = dumps
+        .iter()
+        .rev()
+        .find_map(|d| d.end_s.map(|e| e - d.start_s + settle))
+        .unwrap_or(DUMP_GUESS_S);
+    if let Some(d) = dumps.last().filter(|d| d.end_s.is_none()) {
+        return Some((d.start_s, (d.start_s + length).max(t)));
+    }
+    let since = dumps
+        .last()
+        .and_then(|d| d.end_s)
+        .map_or(0.0, |e| e + settle)
+        .max(t - period);
+    if t - since < 0.25 * period {
+        return None;
+    }
+    let h0 = steps
+        .iter()
+        .find(|st| st.t >= since)
+        .and_then(|st| st.attitude)
+        .map(|a| (st_t(steps, since), a.h_fraction))?;
+    let rate = (now.h_fraction - h0.1) / (t - h0.0);
+    if !(rate > 0.0) {
+        return None;
+    }
+    let at = t + ((r.run.saturation - now.h_fraction) / rate).max(0.0);
+    Some(((at - 0.1 * period).max(t), at + length))
+}
+
+/// The time of the first step at or after `t`.
+fn st_t(steps: &[super::Step], t: f64) -> f64 {
+    steps.iter().find(|st| st.t >= t).map_or(t, |st| st.t)
+}
+
 /// The mean interval between desaturations, orbits: between the starts of consecutive ones,
 /// and (when there is one) the first's start from t = 0 (momentum starts at zero).
 pub fn mean_interval_orbits(dumps: &[att::Dump], period_s: f64) -> Option<f64> {
