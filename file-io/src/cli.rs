@@ -245,14 +245,13 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
         Some(name) => crate::export_robot_models(name, &a.library)?,
         None => {
             let s = Session::open(session)?;
-            let reader = Reader::attach(&s, "file-io")?;
+            let mut reader = Reader::attach(&s, "file-io")?;
+            // the session's Library Space: the declarations its robots were made from
+            let library = reader.library_files()?;
             let snap = reader
                 .snapshot()
                 .ok_or_else(|| FileError::Usage(format!("session {}: no model", s.name())))?;
-            crate::robots_of(&snap)
-                .into_iter()
-                .map(|r| (r, None))
-                .collect()
+            crate::session_robot_models(&snap, &library)
         }
     };
     let names: Vec<&str> = robots.iter().map(|(r, _)| r.name.as_str()).collect();
@@ -314,7 +313,7 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
         robot.dof(),
         meshes.len(),
         if geometry.is_none() {
-            " (the geometry of a session's robot is not exported yet)"
+            " (no library declaration of this robot to take its geometry and friction from)"
         } else {
             ""
         }

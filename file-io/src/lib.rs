@@ -180,6 +180,83 @@ fn urdf_geometry_of(
     }
 }
 
+/// The robots of a session's snapshot for `robosim export urdf|mjcf --session`: each as the
+/// Instance Space holds it ([`robots_of`]) and, where the robot — or the instance holding it (a
+/// scene) — was made from a library declaration (its origin record), that declaration's
+/// viscous and Coulomb friction and motor inertia (the Instance Space's joint record carries
+/// none of them) and its geometry. A robot with no origin, or whose declaration no longer has
+/// its number of joints (edited in the session), keeps zero friction and has no geometry.
+/// `library`: the session's Library Space files.
+pub fn session_robot_models(
+    snap: &robosim_instance_space::Snapshot,
+    library: &[(String, String)],
+) -> Vec<(
+    robosim_kinematics::Robot,
+    Option<export_geometry::ExportGeometry>,
+)> {
+    let lib = robosim_scene::instantiate::build_library_from(&[], library).ok();
+    let compiled = robosim_scene::CompiledScene::of(snap);
+    compiled
+        .robots()
+        .iter()
+        .map(|cr| {
+            let mut robot = cr.robot.clone();
+            let Some(lib) = &lib else {
+                return (robot, None);
+            };
+            let Some((decl, model)) = declared_model(snap, lib, cr.index) else {
+                return (robot, None);
+            };
+            if model.robot.dof() != robot.dof() {
+                return (robot, None);
+            }
+            for (j, d) in robot.joints.iter_mut().zip(&model.robot.joints) {
+                j.viscous = d.viscous;
+                j.coulomb = d.coulomb;
+                j.motor_inertia = d.motor_inertia;
+            }
+            let geometry = match decl.as_deref().and_then(|d| lib.robot_file(d)) {
+                Some(file) => urdf_geometry_of(&file, &model),
+                None => export_geometry::ExportGeometry::from_frames(&model.frames),
+            };
+            (robot, Some(geometry))
+        })
+        .collect()
+}
+
+/// The library model of the robot at snapshot index `i`: from the origin record of the robot
+/// object or of its nearest ancestor that has one (a robot declaration, or a scene placing a
+/// robot of that name), with the robot declaration's name when known.
+fn declared_model(
+    snap: &robosim_instance_space::Snapshot,
+    lib: &robosim_library::Library,
+    i: usize,
+) -> Option<(Option<String>, robosim_library::RobotModel)> {
+    let name = snap.name(i).to_string();
+    let mut at = i;
+    for _ in 0..snap.len() {
+        let text = snap.origin(at);
+        if !text.is_empty() {
+            let origin = robosim_scene::Origin::from_record(text).ok()?;
+            return match origin.evaluate(lib).ok()? {
+                robosim_library::Evaluated::Robot(r) => Some((Some(origin.declaration), r)),
+                robosim_library::Evaluated::Scene(s) => s
+                    .robots
+                    .into_iter()
+                    .find(|p| p.name == name)
+                    .map(|p| (p.declaration, p.model)),
+                _ => None,
+            };
+        }
+        let parent = snap.rec(at).parent;
+        if parent == 0 {
+            return None;
+        }
+        at = snap.index_of(parent)?;
+    }
+    None
+}
+
 /// The robots of a snapshot as kinematic (and dynamic) models.
 pub fn robots_of(snap: &robosim_instance_space::Snapshot) -> Vec<robosim_kinematics::Robot> {
     robosim_scene::CompiledScene::of(snap)

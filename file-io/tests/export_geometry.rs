@@ -404,3 +404,57 @@ fn a_from_mjcf_robot_exports_the_files_own_geoms() {
     let n = export_both("small", std::slice::from_ref(&lib), dir.path());
     assert!(n >= 4, "{n} shapes compared");
 }
+
+/// A session's robots (here a model built in-process as the keeper would hold it): the
+/// Instance Space carries no friction or shapes, so the export takes them from the library
+/// declaration the robot — or the scene instance holding it — was made from.
+#[test]
+fn a_session_robot_exports_its_declarations_friction_and_geometry() {
+    let lib = robosim_scene::build_library(&[]).expect("standard library");
+    for (instance, robot_name, declaration) in [
+        ("puma560", "puma560", "puma560"),
+        ("downhand_welding_cell", "positioner", "weld_positioner"),
+        ("downhand_welding_cell", "arm", "weld_arm"),
+    ] {
+        let mut store = robosim_instance_space::Store::new();
+        for tx in robosim_scene::load_from(&lib, instance).expect("instantiates") {
+            store.apply(&tx).expect("applies");
+        }
+        let snap = robosim_instance_space::Snapshot::from_store(&store);
+        // without the session's models the joint record has no friction
+        let plain = robosim_file_io::robots_of(&snap);
+        let models = robosim_file_io::session_robot_models(&snap, &lib.sources());
+        assert_eq!(models.len(), plain.len());
+        let (robot, geometry) = models
+            .iter()
+            .find(|(r, _)| r.name == robot_name)
+            .unwrap_or_else(|| panic!("{instance}: robot {robot_name}"));
+        let declared = robosim_file_io::export_robot_models(declaration, &[]).expect("declared");
+        let (want, want_geometry) = &declared[0];
+        for (k, (j, w)) in robot.joints.iter().zip(&want.joints).enumerate() {
+            assert_eq!(
+                (j.viscous, j.coulomb, j.motor_inertia),
+                (w.viscous, w.coulomb, w.motor_inertia),
+                "{instance}: joint {k}"
+            );
+        }
+        assert!(
+            robot
+                .joints
+                .iter()
+                .any(|j| j.viscous != 0.0 || j.motor_inertia != 0.0)
+                || robot_name != "puma560",
+            "{instance}: the PUMA declares friction"
+        );
+        let g = geometry.as_ref().expect("geometry from the declaration");
+        assert_eq!(g, want_geometry.as_ref().expect("declared geometry"));
+        // and it is written where the declaration's is: the URDF text equals the library
+        // export's but for the base placement (the scene places the robot)
+        let (text, _, _) =
+            robosim_file_io::urdf::to_urdf_with_geometry(robot, Some(g), "m_").expect("exports");
+        assert_eq!(
+            text.matches("<collision").count(),
+            g.shapes.iter().filter(|s| s.collision).count()
+        );
+    }
+}
