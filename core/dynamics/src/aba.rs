@@ -4,7 +4,7 @@
 use crate::data::Data;
 use crate::model::{DynamicsError, Model};
 use crate::spatial::{Force, Motion};
-use nalgebra::{DVector, Vector3, Vector6};
+use nalgebra::{DVector, Matrix6, Vector3, Vector6};
 
 /// Joint accelerations `q̈` (rad/s² or m/s²) under joint torques `τ` at state (q, q̇), with
 /// gravity and motor inertia as the model says: Pinocchio's `aba`, the rigid-body equations
@@ -17,7 +17,7 @@ pub fn aba<'d>(
     qd: &[f64],
     tau: &[f64],
 ) -> Result<&'d DVector<f64>, DynamicsError> {
-    model.check_vector("q", q)?;
+    model.check_q(q)?;
     model.check_vector("qd", qd)?;
     model.check_vector("tau", tau)?;
     aba_unchecked(model, data, q, qd, tau)?;
@@ -34,14 +34,26 @@ pub(crate) fn aba_unchecked(
     tau: &[f64],
 ) -> Result<(), DynamicsError> {
     let n = model.dof();
+    // a floating root's velocity coordinates come first (r of them; 0 for a fixed base)
+    let r = model.root_dims().1;
     data.update_transforms(model, q);
+    let v_top = match &model.root {
+        Some(root) => {
+            let v = root.motion(&qd[..r]);
+            data.root.v = v;
+            data.root.ia = root.inertia.matrix();
+            data.root.pa = v.cross_force(&root.inertia.mul_motion(&v)).to6();
+            v
+        }
+        None => Motion::zero(),
+    };
     // pass 1: velocities, velocity-product accelerations, bias forces
     for j in 0..n {
         let link = &model.links[j];
-        let vj = link.s.scale(qd[j]);
+        let vj = link.s.scale(qd[r + j]);
         let v_parent = match link.parent {
             Some(p) => data.v[p],
-            None => Motion::zero(),
+            None => v_top,
         };
         let v = data.x[j].apply_motion(&v_parent).add(&vj);
         data.v[j] = v;
@@ -57,11 +69,11 @@ pub(crate) fn aba_unchecked(
         let d = s6.dot(&u6) + link.motor_inertia;
         if d.is_nan() || d <= 0.0 || !d.is_finite() {
             return Err(DynamicsError::SingularInertia {
-                joint: j,
+                joint: r + j,
                 inertia: d,
             });
         }
-        let u = tau[j] - s6.dot(&data.pa[j]);
+        let u = tau[r + j] - s6.dot(&data.pa[j]);
         data.u6[j] = u6;
         data.d[j] = d;
         data.u[j] = u;
@@ -72,6 +84,13 @@ pub(crate) fn aba_unchecked(
             data.ia[p] += moved;
             let pf = data.x[j].transpose_force(&Force::from6(&pa));
             data.pa[p] += pf.to6();
+        } else if model.root.is_some() {
+            let ia = data.ia[j] - u6 * u6.transpose() / d;
+            let pa: Vector6<f64> = data.pa[j] + ia * data.c[j] + u6 * (u / d);
+            let moved = data.x[j].inertia_to_parent(&ia);
+            data.root.ia += moved;
+            let pf = data.x[j].transpose_force(&Force::from6(&pa));
+            data.root.pa += pf.to6();
         }
     }
     // pass 3: accelerations, outward
@@ -79,16 +98,60 @@ pub(crate) fn aba_unchecked(
         w: Vector3::zeros(),
         v: -model.gravity_base,
     };
+    let a_top = match &model.root {
+        Some(root) => root_acceleration(root, data, &tau[..r], &a0)?,
+        None => a0,
+    };
     for j in 0..n {
         let a_parent = match model.links[j].parent {
             Some(p) => data.a[p],
-            None => a0,
+            None => a_top,
         };
         let a_pre = data.x[j].apply_motion(&a_parent).to6() + data.c[j];
         let qdd = (data.u[j] - data.u6[j].dot(&a_pre)) / data.d[j];
-        data.qdd[j] = qdd;
+        data.qdd[r + j] = qdd;
         let a = a_pre + model.links[j].s.to6() * qdd;
         data.a[j] = Motion::from6(&a);
     }
     Ok(())
+}
+
+/// The root joint's step of the articulated-body algorithm, a joint of several coordinates
+/// (Featherstone 2008, Table 7.1 with `S` 6 × k): with `U = Iᴬ S`, `D = Sᵀ U`,
+/// `u = τ_root − Sᵀ pᴬ`, the root's q̈ is `D⁻¹ (u − Uᵀ X a₀)` and its acceleration
+/// `X a₀ + S q̈` (no velocity-product term: the root hangs from the fixed world). Fills
+/// `data.qdd[..k]` and `data.root.a`, returns the acceleration.
+fn root_acceleration(
+    root: &crate::model::RootBody,
+    data: &mut Data,
+    tau: &[f64],
+    a0: &Motion,
+) -> Result<Motion, DynamicsError> {
+    let k = root.s.len();
+    let a_pre = data.root.x.apply_motion(a0).to6();
+    let mut s = Matrix6::zeros();
+    for (i, si) in root.s.iter().enumerate() {
+        s.set_column(i, &si.to6());
+    }
+    let u6 = data.root.ia * s;
+    let mut d = s.transpose() * u6;
+    let mut rhs = Vector6::zeros();
+    for i in 0..6 {
+        if i < k {
+            rhs[i] = tau[i] - s.column(i).dot(&data.root.pa) - u6.column(i).dot(&a_pre);
+        } else {
+            d[(i, i)] = 1.0;
+        }
+    }
+    let chol = d.cholesky().ok_or(DynamicsError::SingularInertia {
+        joint: 0,
+        inertia: d.determinant(),
+    })?;
+    let qdd = chol.solve(&rhs);
+    for i in 0..k {
+        data.qdd[i] = qdd[i];
+    }
+    let a = Motion::from6(&(a_pre + s * qdd));
+    data.root.a = a;
+    Ok(a)
 }

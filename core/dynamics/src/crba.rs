@@ -14,7 +14,7 @@ pub fn crba<'d>(
     data: &'d mut Data,
     q: &[f64],
 ) -> Result<&'d DMatrix<f64>, DynamicsError> {
-    model.check_vector("q", q)?;
+    model.check_q(q)?;
     data.update_transforms(model, q);
     crba_pass(model, data);
     Ok(&data.mass_matrix)
@@ -22,27 +22,52 @@ pub fn crba<'d>(
 
 pub(crate) fn crba_pass(model: &Model, data: &mut Data) {
     let n = model.dof();
+    // a floating root's coordinates come first (r of them; 0 for a fixed base)
+    let r = model.root_dims().1;
     if !model.robot.is_chain() {
         data.mass_matrix.fill(0.0);
     }
     for j in 0..n {
         data.ic[j] = model.links[j].inertia;
     }
+    if let Some(root) = &model.root {
+        data.root.ic = root.inertia;
+    }
     for j in (0..n).rev() {
         if let Some(p) = model.links[j].parent {
             let moved = data.ic[j].in_parent(&data.x[j]);
             data.ic[p] = data.ic[p].add(&moved);
+        } else if model.root.is_some() {
+            let moved = data.ic[j].in_parent(&data.x[j]);
+            data.root.ic = data.root.ic.add(&moved);
         }
         let mut f = data.ic[j].mul_motion(&model.links[j].s);
-        data.mass_matrix[(j, j)] = model.links[j].s.dot(&f) + model.links[j].motor_inertia;
+        data.mass_matrix[(r + j, r + j)] = model.links[j].s.dot(&f) + model.links[j].motor_inertia;
         // Up the support path; entries of joints on other branches stay 0.
         let mut k = j;
         while let Some(p) = model.links[k].parent {
             f = data.x[k].transpose_force(&f);
             k = p;
             let mkj = model.links[k].s.dot(&f);
-            data.mass_matrix[(k, j)] = mkj;
-            data.mass_matrix[(j, k)] = mkj;
+            data.mass_matrix[(r + k, r + j)] = mkj;
+            data.mass_matrix[(r + j, r + k)] = mkj;
+        }
+        if let Some(root) = &model.root {
+            // joint j's column continues into the root body (link frame 0)
+            let f0 = data.x[k].transpose_force(&f);
+            for (i, s) in root.s.iter().enumerate() {
+                let m = s.dot(&f0);
+                data.mass_matrix[(i, r + j)] = m;
+                data.mass_matrix[(r + j, i)] = m;
+            }
+        }
+    }
+    if let Some(root) = &model.root {
+        for (a, sa) in root.s.iter().enumerate() {
+            let f = data.root.ic.mul_motion(sa);
+            for (b, sb) in root.s.iter().enumerate() {
+                data.mass_matrix[(b, a)] = sb.dot(&f);
+            }
         }
     }
 }
@@ -57,13 +82,13 @@ pub fn fd_cholesky<'d>(
     qd: &[f64],
     tau: &[f64],
 ) -> Result<&'d nalgebra::DVector<f64>, DynamicsError> {
-    model.check_vector("q", q)?;
+    model.check_q(q)?;
     model.check_vector("qd", qd)?;
     model.check_vector("tau", tau)?;
     data.update_transforms(model, q);
     crba_pass(model, data);
     rnea_pass(model, data, qd, None, ALL);
-    let n = model.dof();
+    let n = model.nv();
     for i in 0..n {
         data.rhs[i] = tau[i] - data.tau[i];
     }

@@ -37,17 +37,33 @@ pub struct Data {
     /// Cholesky factor scratch (lower triangle) and a right-hand side.
     pub(crate) chol: DMatrix<f64>,
     pub(crate) rhs: DVector<f64>,
+    /// A floating robot's root body (link frame 0): its transform from the base frame, velocity,
+    /// acceleration, force, composite and articulated inertia, bias force.
+    pub(crate) root: RootData,
+}
+
+/// The root body's per-call quantities (unused for a fixed base).
+#[derive(Debug, Clone)]
+pub(crate) struct RootData {
+    pub x: Xform,
+    pub v: Motion,
+    pub a: Motion,
+    pub f: Force,
+    pub ic: RigidInertia,
+    pub ia: Matrix6<f64>,
+    pub pa: Vector6<f64>,
 }
 
 impl Data {
     /// A workspace sized for `model`.
     pub fn new(model: &Model) -> Data {
         let n = model.dof();
+        let nv = model.nv();
         Data {
-            tau: DVector::zeros(n),
-            qdd: DVector::zeros(n),
-            mass_matrix: DMatrix::zeros(n, n),
-            passive: DVector::zeros(n),
+            tau: DVector::zeros(nv),
+            qdd: DVector::zeros(nv),
+            mass_matrix: DMatrix::zeros(nv, nv),
+            passive: DVector::zeros(nv),
             x: vec![Xform::default(); n],
             v: vec![Motion::zero(); n],
             a: vec![Motion::zero(); n],
@@ -60,15 +76,36 @@ impl Data {
             d: vec![0.0; n],
             u: vec![0.0; n],
             world: vec![(Matrix3::identity(), Vector3::zeros()); n],
-            chol: DMatrix::zeros(n, n),
-            rhs: DVector::zeros(n),
+            chol: DMatrix::zeros(nv, nv),
+            rhs: DVector::zeros(nv),
+            root: RootData {
+                x: Xform::default(),
+                v: Motion::zero(),
+                a: Motion::zero(),
+                f: Force::zero(),
+                ic: RigidInertia::zero(),
+                ia: Matrix6::zeros(),
+                pa: Vector6::zeros(),
+            },
         }
     }
 
     /// Fills the parent-to-child transforms `x[j]` at `q`: the constant `C_j` followed by the
-    /// joint's motion (see the model's module docs). Depends only on q. `q.len() ==
-    /// model.dof()` is the caller's invariant.
+    /// joint's motion (see the model's module docs), and a floating root's `root.x` (base frame
+    /// → link frame 0). Depends only on q. `q.len() == model.nq()` is the caller's invariant.
     pub(crate) fn update_transforms(&mut self, model: &Model, q: &[f64]) {
+        let q = match &model.root {
+            Some(root) => {
+                let (qr, qj) = q.split_at(root.kind.nq());
+                let (r, t) = root.kind.rotation_translation(qr);
+                self.root.x = Xform {
+                    e: r.transpose(),
+                    r: t,
+                };
+                qj
+            }
+            None => q,
+        };
         for ((x, link), &qj) in self.x.iter_mut().zip(&model.links).zip(q) {
             let t = qj + link.offset;
             match link.motor {

@@ -121,14 +121,17 @@ pub fn passive_torque(
     out: &mut [f64],
 ) -> Result<(), DynamicsError> {
     model.check_vector("qd", qd)?;
-    if out.len() != model.dof() {
+    if out.len() != model.nv() {
         return Err(DynamicsError::WrongLength {
             field: "passive",
-            expected: model.dof(),
+            expected: model.nv(),
             got: out.len(),
         });
     }
-    for ((o, link), &v) in out.iter_mut().zip(&model.links).zip(qd) {
+    // a floating root has no friction
+    let r = model.root_dims().1;
+    out[..r].fill(0.0);
+    for ((o, link), &v) in out[r..].iter_mut().zip(&model.links).zip(&qd[r..]) {
         *o = sliding(link.viscous, link.coulomb, v, friction);
     }
     Ok(())
@@ -147,14 +150,17 @@ pub(crate) fn friction_torque_unchecked<'d>(
     tau: &[f64],
     friction: &JointFriction,
 ) -> Result<&'d DVector<f64>, DynamicsError> {
-    let n = model.dof();
+    // velocity coordinates: a floating root's r first (no friction), then the joints'
+    let r = model.root_dims().1;
+    let n = model.nv();
     let band = match friction.coulomb {
         Coulomb::StickSlip { velocity } => Some(velocity),
         _ => None,
     };
     let mut stuck: Vec<usize> = Vec::new();
-    for j in 0..n {
-        let link = &model.links[j];
+    data.passive.as_mut_slice()[..r].fill(0.0);
+    for j in r..n {
+        let link = &model.links[j - r];
         match band {
             Some(v) if link.coulomb > 0.0 && qd[j].abs() <= v => {
                 data.passive[j] = if friction.viscous {
@@ -183,6 +189,7 @@ pub(crate) fn friction_torque_unchecked<'d>(
             motor: false,
         },
     );
+    let root_nv = r;
     loop {
         // the net torque on each joint (applied + friction so far − bias); the stuck joints'
         // `passive` holds their viscous part only
@@ -197,7 +204,7 @@ pub(crate) fn friction_torque_unchecked<'d>(
             for (i, &f) in free.iter().enumerate() {
                 r -= data.mass_matrix[(j, f)] * qdd_free[i];
             }
-            let excess = r.abs() - model.links[j].coulomb;
+            let excess = r.abs() - model.links[j - root_nv].coulomb;
             if excess > 0.0 && worst.is_none_or(|(_, e, _)| excess > e) {
                 worst = Some((k, excess, r));
             }
@@ -213,7 +220,7 @@ pub(crate) fn friction_torque_unchecked<'d>(
             Some((k, _, r)) => {
                 // it slips: kinetic friction against the net torque
                 let j = stuck.remove(k);
-                data.passive[j] -= model.links[j].coulomb * r.signum();
+                data.passive[j] -= model.links[j - root_nv].coulomb * r.signum();
             }
         }
     }
@@ -244,7 +251,7 @@ pub fn friction_torque<'d>(
     tau: &[f64],
     friction: &JointFriction,
 ) -> Result<&'d DVector<f64>, DynamicsError> {
-    model.check_vector("q", q)?;
+    model.check_q(q)?;
     model.check_vector("qd", qd)?;
     model.check_vector("tau", tau)?;
     friction.validate()?;

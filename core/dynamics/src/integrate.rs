@@ -215,7 +215,8 @@ const E: [f64; 7] = [
 pub struct Stepper {
     pub config: IntegratorConfig,
     data: Data,
-    /// Stage derivatives: `kq[s]` = q̇ and `kv[s]` = q̈ at stage s.
+    /// Stage derivatives: `kq[s]` = q̇ (nq: a floating root's in its embedding, see
+    /// `robosim_kinematics::root`) and `kv[s]` = q̈ (nv) at stage s.
     kq: [DVector<f64>; 7],
     kv: [DVector<f64>; 7],
     yq: DVector<f64>,
@@ -229,6 +230,8 @@ pub struct Stepper {
     friction: Option<JointFriction>,
     /// τ + τ_friction (scratch, used only with friction).
     tau_total: DVector<f64>,
+    /// The symplectic step's momentum p = M q̇ (nv; `yq` is nq long for a floating robot).
+    momentum: DVector<f64>,
     pub stats: Stats,
 }
 
@@ -236,19 +239,20 @@ impl Stepper {
     /// A stepper for `model`; fails on an invalid config.
     pub fn new(model: &Model, config: IntegratorConfig) -> Result<Stepper, DynamicsError> {
         config.validate()?;
-        let n = model.dof();
-        let z = || DVector::zeros(n);
+        let (nq, nv) = (model.nq(), model.nv());
+        let z = || DVector::zeros(nv);
         Ok(Stepper {
             config,
             data: Data::new(model),
-            kq: std::array::from_fn(|_| z()),
+            kq: std::array::from_fn(|_| DVector::zeros(nq)),
             kv: std::array::from_fn(|_| z()),
-            yq: z(),
+            yq: DVector::zeros(nq),
             yv: z(),
             t_step: 0.0,
             h: 0.0,
             friction: None,
             tau_total: z(),
+            momentum: z(),
             stats: Stats::default(),
         })
     }
@@ -342,7 +346,7 @@ impl Stepper {
                 DynamicsError::Diverged { t, joint: index }
             });
         }
-        self.kq[s].copy_from(&self.yv);
+        q_dot(model, &self.yq, &self.yv, &mut self.kq[s]);
         self.kv[s].copy_from(&self.data.qdd);
         Ok(())
     }
@@ -360,9 +364,9 @@ impl Stepper {
         model.check_vector("q", state.q.as_slice())?;
         model.check_vector("qd", state.qd.as_slice())?;
         model.check_vector("tau", tau)?;
-        if state.qdd.len() != state.q.len() {
+        if state.qdd.len() != model.nv() {
             // a hand-made State may carry no accelerations; give it room once
-            state.qdd = DVector::zeros(state.q.len());
+            state.qdd = DVector::zeros(model.nv());
         }
         self.step_unchecked(model, state, tau, h)?;
         finish_step(model, state, self.config.joint_stops).map(|_| ())
@@ -389,7 +393,12 @@ impl Stepper {
         state.qdd.copy_from(&self.kv[0]);
         match self.config.integrator {
             Integrator::Euler => {
-                state.q.axpy(h, &self.kq[0], 1.0);
+                if model.root.is_some() {
+                    // q ⊕ h q̇ on the manifold
+                    integrate_q(model, &mut state.q, &self.yv, h);
+                } else {
+                    state.q.axpy(h, &self.kq[0], 1.0);
+                }
                 state.qd.axpy(h, &self.kv[0], 1.0);
             }
             Integrator::Rk4 => {
@@ -409,11 +418,13 @@ impl Stepper {
                     state.q.axpy(w * h, &self.kq[s], 1.0);
                     state.qd.axpy(w * h, &self.kv[s], 1.0);
                 }
+                normalize_root(model, &mut state.q);
             }
             Integrator::Dopri5 => {
                 self.dopri_stages(model, state, tau, h)?;
                 state.q.copy_from(&self.yq);
                 state.qd.copy_from(&self.yv);
+                normalize_root(model, &mut state.q);
             }
             Integrator::SemiImplicitEuler => unreachable!("handled above"),
         }
@@ -441,13 +452,13 @@ impl Stepper {
             data,
             kq,
             kv,
-            yq: p,
+            momentum: p,
             yv: v,
             friction,
             tau_total,
             ..
         } = self;
-        let n = model.dof();
+        let n = model.nv();
         self.stats.evaluations += 1;
         // friction at the start of the step (explicit in it), before M and g fill `data`
         let tau = Self::applied(
@@ -511,7 +522,11 @@ impl Stepper {
         v.copy_from(p);
         cholesky_solve_in_place(&data.chol, v);
         kv[0].copy_from(&state.qd);
-        state.q.axpy(h, v, 1.0);
+        if model.root.is_some() {
+            integrate_q(model, &mut state.q, v, h);
+        } else {
+            state.q.axpy(h, v, 1.0);
+        }
         data.update_transforms(model, state.q.as_slice());
         crba_pass(model, data);
         cholesky_in_place(&data.mass_matrix, &mut data.chol)?;
@@ -549,20 +564,31 @@ impl Stepper {
     }
 
     /// The scaled RMS error estimate of the last Dormand–Prince step from `state` to (yq, yv).
+    /// Over q's nq and q̇'s nv components (equal for a fixed base; a floating root's q is in
+    /// its embedding, one more component than its velocity's).
     fn dopri_error(&self, state: &State, h: f64, rtol: f64, atol: f64) -> f64 {
-        let n = state.q.len();
+        let (nq, nv) = (state.q.len(), state.qd.len());
         let mut sum = 0.0;
-        for i in 0..n {
+        for i in 0..nq.max(nv) {
             let (mut eq, mut ev) = (0.0, 0.0);
             for s in 0..7 {
-                eq += E[s] * self.kq[s][i];
-                ev += E[s] * self.kv[s][i];
+                if i < nq {
+                    eq += E[s] * self.kq[s][i];
+                }
+                if i < nv {
+                    ev += E[s] * self.kv[s][i];
+                }
             }
-            let sq = atol + rtol * state.q[i].abs().max(self.yq[i].abs());
-            let sv = atol + rtol * state.qd[i].abs().max(self.yv[i].abs());
-            sum += (h * eq / sq).powi(2) + (h * ev / sv).powi(2);
+            if i < nq {
+                let sq = atol + rtol * state.q[i].abs().max(self.yq[i].abs());
+                sum += (h * eq / sq).powi(2);
+            }
+            if i < nv {
+                let sv = atol + rtol * state.qd[i].abs().max(self.yv[i].abs());
+                sum += (h * ev / sv).powi(2);
+            }
         }
-        (sum / (2 * n).max(1) as f64).sqrt()
+        (sum / (nq + nv).max(1) as f64).sqrt()
     }
 
     /// Integrates from `state.t` to `t_target` (s) with torques `tau` held constant. Fixed
@@ -579,9 +605,9 @@ impl Stepper {
         model.check_vector("q", state.q.as_slice())?;
         model.check_vector("qd", state.qd.as_slice())?;
         model.check_vector("tau", tau)?;
-        if state.qdd.len() != state.q.len() {
+        if state.qdd.len() != model.nv() {
             // a hand-made State may carry no accelerations; give it room once
-            state.qdd = DVector::zeros(state.q.len());
+            state.qdd = DVector::zeros(model.nv());
         }
         if !t_target.is_finite() || t_target < state.t {
             return Err(DynamicsError::BadOption {
@@ -670,6 +696,7 @@ impl Stepper {
             let err = self.dopri_error(state, h, rtol, atol);
             if err <= 1.0 {
                 state.qdd.copy_from(&self.kv[0]);
+                normalize_root(model, &mut self.yq);
                 state.q.copy_from(&self.yq);
                 state.qd.copy_from(&self.yv);
                 state.t = if last { t_target } else { state.t + h };
@@ -713,14 +740,20 @@ impl Stepper {
         atol: f64,
         span: f64,
     ) -> Result<f64, DynamicsError> {
-        let n = state.q.len();
+        let (nq, nv) = (state.q.len(), state.qd.len());
         let norm = |a: &DVector<f64>, b: &DVector<f64>, sa: &DVector<f64>, sb: &DVector<f64>| {
             let mut s = 0.0;
-            for i in 0..n {
-                s += (a[i] / (atol + rtol * sa[i].abs())).powi(2)
-                    + (b[i] / (atol + rtol * sb[i].abs())).powi(2);
+            for i in 0..nq.max(nv) {
+                if i < nq && i < nv {
+                    s += (a[i] / (atol + rtol * sa[i].abs())).powi(2)
+                        + (b[i] / (atol + rtol * sb[i].abs())).powi(2);
+                } else if i < nq {
+                    s += (a[i] / (atol + rtol * sa[i].abs())).powi(2);
+                } else {
+                    s += (b[i] / (atol + rtol * sb[i].abs())).powi(2);
+                }
             }
-            (s / (2 * n).max(1) as f64).sqrt()
+            (s / (nq + nv).max(1) as f64).sqrt()
         };
         let d0 = norm(&state.q, &state.qd, &state.q, &state.qd);
         let d1 = norm(&self.kq[0], &self.kv[0], &state.q, &state.qd);
@@ -752,15 +785,57 @@ impl Stepper {
 /// Joint stops (if on) and the divergence check after a step; returns whether a stop acted.
 fn finish_step(model: &Model, state: &mut State, joint_stops: bool) -> Result<bool, DynamicsError> {
     let stopped = joint_stops && apply_joint_stops(model, state);
-    for j in 0..state.q.len() {
-        if !(state.q[j].is_finite() && state.qd[j].is_finite()) {
-            return Err(DynamicsError::Diverged {
-                t: state.t,
-                joint: j,
-            });
-        }
+    // `joint`: the index in q, or in q̇ when q is finite
+    let bad = |x: &DVector<f64>| x.iter().position(|v| !v.is_finite());
+    if let Some(joint) = bad(&state.q).or_else(|| bad(&state.qd)) {
+        return Err(DynamicsError::Diverged { t: state.t, joint });
     }
     Ok(stopped)
+}
+
+/// `q̇` in q's coordinates at (q, v) (`out` has nq entries): `v` itself for a fixed base, a
+/// floating root's embedding derivative ([`robosim_kinematics::RootKind::q_dot`]) otherwise.
+fn q_dot(model: &Model, q: &DVector<f64>, v: &DVector<f64>, out: &mut DVector<f64>) {
+    let Some(root) = &model.root else {
+        out.copy_from(v);
+        return;
+    };
+    let (nqr, nvr) = (root.kind.nq(), root.kind.nv());
+    root.kind.q_dot(
+        &q.as_slice()[..nqr],
+        &v.as_slice()[..nvr],
+        &mut out.as_mut_slice()[..nqr],
+    );
+    out.as_mut_slice()[nqr..].copy_from_slice(&v.as_slice()[nvr..]);
+}
+
+/// `q ← q ⊕ h v`: a floating root moved on its manifold ([`robosim_kinematics::RootKind::integrate`]),
+/// the joints by `h v`.
+fn integrate_q(model: &Model, q: &mut DVector<f64>, v: &DVector<f64>, h: f64) {
+    let Some(root) = &model.root else {
+        q.axpy(h, v, 1.0);
+        return;
+    };
+    let (nqr, nvr) = (root.kind.nq(), root.kind.nv());
+    let mut qr = [0.0; 7];
+    qr[..nqr].copy_from_slice(&q.as_slice()[..nqr]);
+    root.kind.integrate(
+        &qr[..nqr],
+        &v.as_slice()[..nvr],
+        h,
+        &mut q.as_mut_slice()[..nqr],
+    );
+    for (qj, vj) in q.as_mut_slice()[nqr..].iter_mut().zip(&v.as_slice()[nvr..]) {
+        *qj += h * vj;
+    }
+}
+
+/// Puts a floating root's quaternion (or cos/sin pair) back to unit norm after a Runge–Kutta
+/// step taken in its embedding.
+fn normalize_root(model: &Model, q: &mut DVector<f64>) {
+    if let Some(root) = &model.root {
+        root.kind.normalize(&mut q.as_mut_slice()[..root.kind.nq()]);
+    }
 }
 
 /// The inelastic joint stop: a joint below `qlim[0]` (above `qlim[1]`) is set to the limit and a
@@ -769,15 +844,17 @@ fn finish_step(model: &Model, state: &mut State, joint_stops: bool) -> Result<bo
 /// stopped. Rad or m.
 pub fn apply_joint_stops(model: &Model, state: &mut State) -> bool {
     let mut any = false;
+    let (nqr, nvr) = model.root_dims();
     for (j, link) in model.links.iter().enumerate() {
+        let (j, jv) = (nqr + j, nvr + j);
         let [lo, hi] = link.joint.qlim;
         if state.q[j] < lo {
             state.q[j] = lo;
-            state.qd[j] = state.qd[j].max(0.0);
+            state.qd[jv] = state.qd[jv].max(0.0);
             any = true;
         } else if state.q[j] > hi {
             state.q[j] = hi;
-            state.qd[j] = state.qd[j].min(0.0);
+            state.qd[jv] = state.qd[jv].min(0.0);
             any = true;
         }
     }
@@ -834,7 +911,7 @@ pub fn simulate_with_friction(
     tau: &[f64],
     outputs: &[f64],
 ) -> Result<(Vec<Sample>, Stats), DynamicsError> {
-    model.check_vector("q0", q0)?;
+    model.check_q(q0)?;
     model.check_vector("qd0", qd0)?;
     model.check_vector("tau", tau)?;
     let mut prev = 0.0;
@@ -856,7 +933,7 @@ pub fn simulate_with_friction(
     let mut state = State {
         q: DVector::from_column_slice(q0),
         qd: DVector::from_column_slice(qd0),
-        qdd: DVector::zeros(model.dof()),
+        qdd: DVector::zeros(model.nv()),
         t: 0.0,
     };
     if config.joint_stops {

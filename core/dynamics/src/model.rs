@@ -19,7 +19,7 @@
 use crate::spatial::{Motion, RigidInertia, skew};
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
 use robosim_kinematics::chain::Inertial;
-use robosim_kinematics::{Joint, JointType, ModelError, Robot};
+use robosim_kinematics::{Joint, JointType, ModelError, Robot, RootKind};
 
 /// Why a model, an input vector or a simulation was refused or stopped.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -120,6 +120,45 @@ pub(crate) struct Link {
     pub coulomb: f64,
 }
 
+/// A floating robot's root body (link frame 0) and its joint (see `robosim_kinematics::root`):
+/// the joint's motion subspace, one unit twist per velocity coordinate in link frame 0
+/// (Pinocchio's order: linear coordinates first), and the base link's spatial inertia about
+/// link frame 0's origin.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct RootBody {
+    pub kind: RootKind,
+    pub s: Vec<Motion>,
+    pub inertia: RigidInertia,
+}
+
+impl RootBody {
+    fn new(root: &robosim_kinematics::RootJoint) -> RootBody {
+        let e = |i: usize| Vector3::ith(i, 1.0);
+        let z = Vector3::zeros();
+        let lin = |i: usize| Motion { w: z, v: e(i) };
+        let ang = |i: usize| Motion { w: e(i), v: z };
+        let s = match root.kind {
+            RootKind::FreeFlyer => vec![lin(0), lin(1), lin(2), ang(0), ang(1), ang(2)],
+            RootKind::Planar => vec![lin(0), lin(1), ang(2)],
+        };
+        let sym = (root.inertia + root.inertia.transpose()) * 0.5;
+        RootBody {
+            kind: root.kind,
+            s,
+            inertia: RigidInertia::from_com(root.mass, &root.com, &sym),
+        }
+    }
+
+    /// The root's velocity `Σ sᵢ vᵢ` from its coordinates (an empty `v`: zero).
+    pub fn motion(&self, v: &[f64]) -> Motion {
+        let mut m = Motion::zero();
+        for (s, &x) in self.s.iter().zip(v) {
+            m = m.add(&s.scale(x));
+        }
+        m
+    }
+}
+
 /// A robot ready for the dynamics algorithms (Pinocchio's `Model`). Build it once with
 /// [`Model::new`]; pair it with a [`crate::Data`] workspace.
 #[derive(Debug, Clone, PartialEq)]
@@ -128,6 +167,8 @@ pub struct Model {
     /// Gravity in the base frame (m/s²): the robot's world gravity rotated by `base`ᵀ.
     pub(crate) gravity_base: Vector3<f64>,
     pub(crate) robot: Robot,
+    /// A floating robot's root body; `None`: fixed base.
+    pub(crate) root: Option<RootBody>,
 }
 
 impl Model {
@@ -208,16 +249,49 @@ impl Model {
             });
         }
         let rot = robot.base.fixed_view::<3, 3>(0, 0).into_owned();
+        if let Some(r) = &robot.root {
+            let sym = (r.inertia + r.inertia.transpose()) * 0.5;
+            let min_eig = SymmetricEigen::new(sym).eigenvalues.min();
+            if min_eig < -1e-12 * (1.0 + sym.abs().max()) {
+                // the base link's inertia; reported as the first velocity coordinate's
+                return Err(DynamicsError::NegativeInertia {
+                    joint: 0,
+                    eigenvalue: min_eig,
+                });
+            }
+        }
         Ok(Model {
             links,
             gravity_base: rot.tr_mul(&robot.gravity),
             robot: robot.clone(),
+            root: robot.root.as_ref().map(RootBody::new),
         })
     }
 
-    /// Number of joints (`nq = nv`).
+    /// Number of (one-coordinate) joints, the root joint not counted; `nq = nv = dof` for a
+    /// fixed-base robot.
     pub fn dof(&self) -> usize {
         self.links.len()
+    }
+
+    /// Configuration dimension (q's length): `dof` plus a floating root's 7 (free-flyer) or 4
+    /// (planar) coordinates.
+    pub fn nq(&self) -> usize {
+        self.robot.nq()
+    }
+
+    /// Velocity dimension (q̇, q̈, τ and `M`'s size): `dof` plus a floating root's 6 or 3.
+    pub fn nv(&self) -> usize {
+        self.robot.nv()
+    }
+
+    /// A floating root's (nq, nv); (0, 0) for a fixed base.
+    #[inline]
+    pub(crate) fn root_dims(&self) -> (usize, usize) {
+        match &self.root {
+            Some(r) => (r.kind.nq(), r.kind.nv()),
+            None => (0, 0),
+        }
     }
 
     /// The robot this model was built from.
@@ -230,12 +304,36 @@ impl Model {
         self.robot.gravity
     }
 
-    /// Checks that `x` has one finite value per joint; `field` names it in the error.
+    /// Checks a configuration: [`Model::nq`] finite values, a floating root's rotation unit
+    /// ([`Robot::check_q`]).
+    pub fn check_q(&self, q: &[f64]) -> Result<(), DynamicsError> {
+        self.check_len("q", q, self.nq())?;
+        if self.root.is_some() {
+            self.robot.check_q(q)?;
+        }
+        Ok(())
+    }
+
+    /// Checks that `x` has one finite value per velocity coordinate ([`Model::nv`]; a
+    /// configuration is checked by [`Model::check_q`], and `field` "q" is sent there);
+    /// `field` names it in the error.
     pub fn check_vector(&self, field: &'static str, x: &[f64]) -> Result<(), DynamicsError> {
-        if x.len() != self.dof() {
+        if field == "q" {
+            return self.check_q(x);
+        }
+        self.check_len(field, x, self.nv())
+    }
+
+    fn check_len(
+        &self,
+        field: &'static str,
+        x: &[f64],
+        expected: usize,
+    ) -> Result<(), DynamicsError> {
+        if x.len() != expected {
             return Err(DynamicsError::WrongLength {
                 field,
-                expected: self.dof(),
+                expected,
                 got: x.len(),
             });
         }

@@ -31,7 +31,7 @@ pub fn rnea<'d>(
     qd: &[f64],
     qdd: &[f64],
 ) -> Result<&'d DVector<f64>, DynamicsError> {
-    model.check_vector("q", q)?;
+    model.check_q(q)?;
     model.check_vector("qd", qd)?;
     model.check_vector("qdd", qdd)?;
     data.update_transforms(model, q);
@@ -47,7 +47,7 @@ pub fn gravity<'d>(
     data: &'d mut Data,
     q: &[f64],
 ) -> Result<&'d DVector<f64>, DynamicsError> {
-    model.check_vector("q", q)?;
+    model.check_q(q)?;
     data.update_transforms(model, q);
     rnea_pass(
         model,
@@ -71,7 +71,7 @@ pub fn coriolis<'d>(
     q: &[f64],
     qd: &[f64],
 ) -> Result<&'d DVector<f64>, DynamicsError> {
-    model.check_vector("q", q)?;
+    model.check_q(q)?;
     model.check_vector("qd", qd)?;
     data.update_transforms(model, q);
     rnea_pass(
@@ -106,15 +106,34 @@ pub(crate) fn rnea_pass(
     } else {
         Motion::zero()
     };
+    let nvr = model.root_dims().1;
+    // the bodies hanging from the base hang from the root body of a floating robot
+    let (v_top, a_top) = match &model.root {
+        Some(root) => {
+            let v = root.motion(qd.get(..nvr).unwrap_or(&[]));
+            // vᵣ × vⱼ vanishes: the root's velocity is its joint velocity
+            let a = data
+                .root
+                .x
+                .apply_motion(&a0)
+                .add(&root.motion(qdd.map_or(&[][..], |a| &a[..nvr])));
+            let iv = root.inertia.mul_motion(&v);
+            data.root.f = root.inertia.mul_motion(&a).add(&v.cross_force(&iv));
+            data.root.v = v;
+            data.root.a = a;
+            (v, a)
+        }
+        None => (Motion::zero(), a0),
+    };
     for j in 0..n {
         let link = &model.links[j];
         let x = &data.x[j];
         let (v_parent, a_parent) = match link.parent {
             Some(p) => (data.v[p], data.a[p]),
-            None => (Motion::zero(), a0),
+            None => (v_top, a_top),
         };
-        let qdj = qd.get(j).copied().unwrap_or(0.0);
-        let qddj = qdd.map_or(0.0, |a| a[j]);
+        let qdj = qd.get(nvr + j).copied().unwrap_or(0.0);
+        let qddj = qdd.map_or(0.0, |a| a[nvr + j]);
         let vj_joint = link.s.scale(qdj);
         let v = x.apply_motion(&v_parent).add(&vj_joint);
         let a = x
@@ -130,12 +149,20 @@ pub(crate) fn rnea_pass(
         let link = &model.links[j];
         let mut tau = link.s.dot(&data.f[j]);
         if terms.motor {
-            tau += link.motor_inertia * qdd.map_or(0.0, |a| a[j]);
+            tau += link.motor_inertia * qdd.map_or(0.0, |a| a[nvr + j]);
         }
-        data.tau[j] = tau;
+        data.tau[nvr + j] = tau;
         if let Some(p) = link.parent {
             let fp = data.x[j].transpose_force(&data.f[j]);
             data.f[p] = data.f[p].add(&fp);
+        } else if model.root.is_some() {
+            let fp = data.x[j].transpose_force(&data.f[j]);
+            data.root.f = data.root.f.add(&fp);
+        }
+    }
+    if let Some(root) = &model.root {
+        for (i, s) in root.s.iter().enumerate() {
+            data.tau[i] = s.dot(&data.root.f);
         }
     }
 }

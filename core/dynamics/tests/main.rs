@@ -10,5 +10,6 @@ mod hard_cases;
 mod properties;
 mod reference_pinocchio;
 mod urdf_corpus;
+mod floating;
 mod urdf_energy;
 mod urdf_mimic;

@@ -38,6 +38,7 @@ fn puma560() -> Robot {
         name: "puma560".to_owned(),
         convention: Convention::Standard,
         parents: Vec::new(),
+        root: None,
         joints: vec![
             Joint {
                 joint_type: JointType::Revolute,
@@ -150,6 +151,7 @@ fn stanford() -> Robot {
         name: "stanford".to_owned(),
         convention: Convention::Standard,
         parents: Vec::new(),
+        root: None,
         joints: vec![
             Joint {
                 joint_type: JointType::Revolute,
@@ -260,6 +262,7 @@ fn panda() -> Robot {
         name: "panda".to_owned(),
         convention: Convention::Modified,
         parents: Vec::new(),
+        root: None,
         joints: vec![
             Joint {
                 joint_type: JointType::Revolute,

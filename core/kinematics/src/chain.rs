@@ -16,6 +16,7 @@
 //! link's frame.
 
 use crate::model::{Joint, JointType, Origin, Robot};
+use crate::root::{RootJoint, RootKind};
 use nalgebra::{Matrix3, Matrix4, Vector3};
 
 /// Mass properties of one link: mass (kg), centre of mass (m) and inertia about the centre of
@@ -80,6 +81,13 @@ pub enum SegmentKind {
     Prismatic,
     /// No coordinate: folded (see the module docs).
     Fixed,
+    /// A floating robot's root joint (URDF's `floating` and `planar`): it must be the first
+    /// segment and hang from the root link. It becomes [`Robot::root`], its placement the
+    /// robot's `base`, its child link link frame 0 (what is rigid with it lumped into the
+    /// root's inertial); axis and limits are not read (Pinocchio ignores a planar joint's axis:
+    /// the plane is its frame's x–y plane). Elsewhere it is treated as fixed: the caller
+    /// refuses that.
+    Root(RootKind),
 }
 
 /// One joint of a chain and the link it carries.
@@ -106,6 +114,10 @@ pub struct Segment {
 pub struct BuiltChain {
     pub robot: Robot,
     pub segment_of_joint: Vec<usize>,
+    /// What is rigid with the root link (or, with a [`SegmentKind::Root`], with link frame 0)
+    /// through fixed joints, in its frame: dropped for a fixed base, the base link's inertial
+    /// (besides the root link's own) for a floating one.
+    pub root_inertial: Inertial,
 }
 
 /// Folds `segments` (root to tip) into a robot named `name` (see the module docs). Does not
@@ -116,15 +128,23 @@ pub fn build_chain(name: &str, segments: &[Segment]) -> BuiltChain {
     let mut inertials: Vec<Inertial> = Vec::new();
     // The fixed transform from the last movable link frame (or the root) to the current link.
     let mut pending = Matrix4::identity();
+    let mut root_inertial = Inertial::default();
+    let mut root: Option<(RootKind, Matrix4<f64>)> = None;
     for (k, seg) in segments.iter().enumerate() {
         let (joint_type, qlim) = match seg.kind {
             SegmentKind::Revolute => (JointType::Revolute, seg.qlim),
             SegmentKind::Continuous => (JointType::Revolute, [f64::NEG_INFINITY, f64::INFINITY]),
             SegmentKind::Prismatic => (JointType::Prismatic, seg.qlim),
-            SegmentKind::Fixed => {
+            SegmentKind::Root(kind) if k == 0 => {
+                root = Some((kind, seg.placement));
+                root_inertial = seg.child;
+                continue;
+            }
+            SegmentKind::Fixed | SegmentKind::Root(_) => {
                 pending *= seg.placement;
-                if let Some(last) = inertials.last_mut() {
-                    last.merge(&seg.child.transformed(&pending));
+                match inertials.last_mut() {
+                    Some(last) => last.merge(&seg.child.transformed(&pending)),
+                    None => root_inertial.merge(&seg.child.transformed(&pending)),
                 }
                 continue;
             }
@@ -154,9 +174,22 @@ pub fn build_chain(name: &str, segments: &[Segment]) -> BuiltChain {
             name: name.to_string(),
             joints,
             tool: pending,
+            base: root.map_or_else(Matrix4::identity, |r| r.1),
+            root: root.map(|(kind, _)| root_joint(kind, &root_inertial)),
             ..Robot::default()
         },
         segment_of_joint,
+        root_inertial,
+    }
+}
+
+/// The root joint of `kind` carrying `inertial`.
+pub fn root_joint(kind: RootKind, inertial: &Inertial) -> RootJoint {
+    RootJoint {
+        kind,
+        mass: inertial.mass,
+        com: inertial.com,
+        inertia: inertial.inertia,
     }
 }
 
@@ -181,6 +214,8 @@ pub fn build_tree(name: &str, segments: &[Segment], parents: &[Option<usize>]) -
     // Per segment: the link frame its child is rigid with (0 = root, k = joint k−1) and the
     // fixed transform from that frame to the child link's frame.
     let mut anchor: Vec<(usize, Matrix4<f64>)> = Vec::with_capacity(segments.len());
+    let mut root_inertial = Inertial::default();
+    let mut root: Option<(RootKind, Matrix4<f64>)> = None;
     for (k, (seg, parent)) in segments.iter().zip(parents).enumerate() {
         let (frame, pending) = match parent {
             Some(p) => {
@@ -196,10 +231,18 @@ pub fn build_tree(name: &str, segments: &[Segment], parents: &[Option<usize>]) -
             SegmentKind::Revolute => (JointType::Revolute, seg.qlim),
             SegmentKind::Continuous => (JointType::Revolute, [f64::NEG_INFINITY, f64::INFINITY]),
             SegmentKind::Prismatic => (JointType::Prismatic, seg.qlim),
-            SegmentKind::Fixed => {
+            SegmentKind::Root(kind) if k == 0 && parent.is_none() => {
+                root = Some((kind, seg.placement));
+                root_inertial = seg.child;
+                anchor.push((0, Matrix4::identity()));
+                continue;
+            }
+            SegmentKind::Fixed | SegmentKind::Root(_) => {
                 let x = pending * seg.placement;
                 if frame > 0 {
                     inertials[frame - 1].merge(&seg.child.transformed(&x));
+                } else {
+                    root_inertial.merge(&seg.child.transformed(&x));
                 }
                 anchor.push((frame, x));
                 continue;
@@ -232,9 +275,12 @@ pub fn build_tree(name: &str, segments: &[Segment], parents: &[Option<usize>]) -
             name: name.to_string(),
             joints,
             parents: if chain { Vec::new() } else { joint_parents },
+            base: root.map_or_else(Matrix4::identity, |r| r.1),
+            root: root.map(|(kind, _)| root_joint(kind, &root_inertial)),
             ..Robot::default()
         },
         segment_of_joint,
+        root_inertial,
     }
 }
 

@@ -29,6 +29,7 @@
 
 use crate::jacobian::Jacobian;
 use crate::model::{Convention, Joint, JointType, Robot, axis_rotation};
+use crate::root::RootKind;
 use nalgebra::{ArrayStorage, Matrix4, Vector3};
 
 /// A rigid transform: rotation `r` stored column-major (`r[col][row]`, as nalgebra stores a
@@ -395,6 +396,8 @@ pub struct KinematicModel {
     base: Matrix4<f64>,
     tool: Se3,
     chain: bool,
+    /// A floating robot's root joint ([`Robot::root`]).
+    root: Option<RootKind>,
 }
 
 impl KinematicModel {
@@ -411,12 +414,23 @@ impl KinematicModel {
             base: robot.base,
             tool: Se3::from_matrix(&robot.tool),
             chain: robot.is_chain(),
+            root: robot.root.as_ref().map(|r| r.kind),
         }
     }
 
-    /// Number of joints.
+    /// Number of (one-coordinate) joints, the root joint not counted ([`Robot::dof`]).
     pub fn dof(&self) -> usize {
         self.joints.len()
+    }
+
+    /// Configuration dimension ([`Robot::nq`]): what q's length must be.
+    pub fn nq(&self) -> usize {
+        self.root.map_or(0, RootKind::nq) + self.joints.len()
+    }
+
+    /// Velocity dimension ([`Robot::nv`]): a Jacobian's columns.
+    pub fn nv(&self) -> usize {
+        self.root.map_or(0, RootKind::nv) + self.joints.len()
     }
 
     /// Whether the robot is a serial chain ([`Robot::is_chain`]).
@@ -459,6 +473,26 @@ pub(crate) trait Joints {
     fn is_chain(&self) -> bool;
     fn base(&self) -> &Matrix4<f64>;
     fn tool(&self) -> Se3;
+    fn root(&self) -> Option<RootKind>;
+}
+
+/// Link frame 0 in the world (`base`, times the root joint's motion for a floating robot) and
+/// the joints' part of q.
+#[inline(always)]
+fn rooted_base<'q>(k: &impl Joints, q: &'q [f64]) -> (Matrix4<f64>, &'q [f64]) {
+    match k.root() {
+        None => (*k.base(), q),
+        Some(kind) => {
+            let nq = kind.nq().min(q.len());
+            let (qr, qj) = q.split_at(nq);
+            let m = if qr.len() == kind.nq() {
+                kind.transform(qr)
+            } else {
+                Matrix4::identity()
+            };
+            (k.base() * m, qj)
+        }
+    }
 }
 
 impl<'a> Joints for &'a KinematicModel {
@@ -486,6 +520,9 @@ impl<'a> Joints for &'a KinematicModel {
     }
     fn tool(&self) -> Se3 {
         self.tool
+    }
+    fn root(&self) -> Option<RootKind> {
+        self.root
     }
 }
 
@@ -518,6 +555,9 @@ impl Joints for OnTheFly<'_> {
     fn tool(&self) -> Se3 {
         Se3::from_matrix(&self.0.tool)
     }
+    fn root(&self) -> Option<RootKind> {
+        self.0.root.as_ref().map(|r| r.kind)
+    }
 }
 
 /// The link frames `base, 1..n, tool` into `frames` (n + 2 entries; panics if fewer). Joints
@@ -531,7 +571,8 @@ pub(crate) fn frames_kernel(k: impl Joints, q: &[f64], frames: &mut [Matrix4<f64
         "link_frames_into: {} frames for {n} joints (needs n + 2)",
         frames.len()
     );
-    frames[0] = *k.base();
+    let (base, q) = rooted_base(&k, q);
+    frames[0] = base;
     let parents = k.parents();
     for (j, &qj) in q.iter().enumerate().take(n) {
         let parent = parents.get(j).copied().unwrap_or(j);
@@ -544,7 +585,7 @@ pub(crate) fn frames_kernel(k: impl Joints, q: &[f64], frames: &mut [Matrix4<f64
 #[inline(always)]
 pub(crate) fn forward_kernel(k: impl Joints, q: &[f64]) -> Matrix4<f64> {
     use std::borrow::Borrow;
-    let mut t = *k.base();
+    let (mut t, q) = rooted_base(&k, q);
     walk_support(&k, k.len(), &mut |j| {
         if let Some(&qj) = q.get(j) {
             t = compose(&t, &k.joint(j).borrow().transform(qj));
@@ -598,11 +639,14 @@ fn jacobian_kernel(
     if link < k.len() || !k.is_chain() {
         jac.fill(0.0);
     }
-    let mut t = *k.base();
+    let (mut t, q) = rooted_base(k, q);
+    let root = k.root();
+    let nv_root = root.map_or(0, RootKind::nv);
+    let frame0 = t;
     walk_support(k, link, &mut |j| {
         let joint = k.joint(j);
         let joint = joint.borrow();
-        park(joint, &t, jac, j);
+        park(joint, &t, jac, nv_root + j);
         if let Some(&qj) = q.get(j) {
             t = compose(&t, &joint.transform(qj));
         }
@@ -612,15 +656,48 @@ fn jacobian_kernel(
     }
     let c = &t.data.0;
     let pe = Vector3::new(c[3][0], c[3][1], c[3][2]);
+    if let Some(kind) = root {
+        root_columns(kind, &frame0, &pe, jac);
+    }
     walk_support(k, link, &mut |j| {
         if k.revolute(j) {
-            let mut col = jac.column_mut(j);
+            let mut col = jac.column_mut(nv_root + j);
             let o: Vector3<f64> = col.fixed_rows::<3>(0).into_owned();
             let u: Vector3<f64> = col.fixed_rows::<3>(3).into_owned();
             col.fixed_rows_mut::<3>(0).copy_from(&u.cross(&(pe - o)));
         }
     });
     t
+}
+
+/// The root joint's columns (the first `kind.nv()`): its velocity is link frame 0's own, so
+/// a linear coordinate along axis `e_i` of link frame 0 gives `[R₀ e_i; 0]` and a rotation
+/// about it `[R₀ e_i × (p_e − p₀); R₀ e_i]`.
+fn root_columns(kind: RootKind, frame0: &Matrix4<f64>, pe: &Vector3<f64>, jac: &mut Jacobian) {
+    let c = &frame0.data.0;
+    let p0 = Vector3::new(c[3][0], c[3][1], c[3][2]);
+    let axis = |i: usize| Vector3::new(c[i][0], c[i][1], c[i][2]);
+    let mut put = |col: usize, lin: Vector3<f64>, ang: Vector3<f64>| {
+        let mut col = jac.column_mut(col);
+        col.fixed_rows_mut::<3>(0).copy_from(&lin);
+        col.fixed_rows_mut::<3>(3).copy_from(&ang);
+    };
+    let zero = Vector3::zeros();
+    match kind {
+        RootKind::FreeFlyer => {
+            for i in 0..3 {
+                let u = axis(i);
+                put(i, u, zero);
+                put(3 + i, u.cross(&(pe - p0)), u);
+            }
+        }
+        RootKind::Planar => {
+            put(0, axis(0), zero);
+            put(1, axis(1), zero);
+            let u = axis(2);
+            put(2, u.cross(&(pe - p0)), u);
+        }
+    }
 }
 
 /// Column `j` from `parent`, the world frame joint `j` hangs from: revolute, the joint frame's

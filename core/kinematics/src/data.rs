@@ -27,18 +27,18 @@ pub struct Data {
 }
 
 impl Data {
-    /// Working memory for `robot` (n + 2 frames, a 6 × n Jacobian), all identity / zero.
+    /// Working memory for `robot` (n + 2 frames, a 6 × nv Jacobian), all identity / zero.
     pub fn new(robot: &Robot) -> Data {
         Data {
             frames: vec![Matrix4::identity(); robot.dof() + 2],
-            jacobian: Jacobian::zeros(robot.dof()),
+            jacobian: Jacobian::zeros(robot.nv()),
             tool: Matrix4::identity(),
         }
     }
 
     /// Whether this data was sized for a robot of `robot`'s joint count.
     pub fn fits(&self, robot: &Robot) -> bool {
-        self.frames.len() == robot.dof() + 2 && self.jacobian.ncols() == robot.dof()
+        self.frames.len() == robot.dof() + 2 && self.jacobian.ncols() == robot.nv()
     }
 
     /// Every link frame at `q` into [`Data::frames`]. `q` must have `robot.dof()` entries and

@@ -13,8 +13,9 @@ pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<
 }
 
 /// Every link frame in the world: `frames[0]` is the base, `frames[j]` the frame at the end of
-/// `A_j` (j = 1..=n), and the last entry the tool frame — n + 2 matrices in all.
-/// `q` must have `robot.dof()` entries (check with [`Robot::check_q`]).
+/// `A_j` (j = 1..=n), and the last entry the tool frame — n + 2 matrices in all (n =
+/// `robot.dof()`). `q` must have `robot.nq()` entries (check with [`Robot::check_q`]); for a
+/// floating robot `frames[0]` is the base link, `base · M_root(q_root)`.
 pub fn link_frames(robot: &Robot, q: &[f64]) -> Vec<Matrix4<f64>> {
     let mut frames = vec![Matrix4::identity(); robot.dof() + 2];
     link_frames_into(robot, q, &mut frames);
@@ -44,9 +45,13 @@ pub fn link_pose(robot: &Robot, q: &[f64], link: usize) -> Matrix4<f64> {
         "link_pose: link frame {link} of {}",
         robot.dof()
     );
-    let mut t = robot.base;
+    let nq_root = robot.root_nq();
+    let mut t = match &robot.root {
+        Some(r) => robot.base * r.kind.transform(&q[..nq_root]),
+        None => robot.base,
+    };
     for j in robot.support(link) {
-        t *= link_transform(robot.convention, &robot.joints[j], q[j]);
+        t *= link_transform(robot.convention, &robot.joints[j], q[nq_root + j]);
     }
     t
 }

@@ -9,6 +9,12 @@
 //! `[u; 0]`). "Base" means the world frame in which
 //! `T_ee = base · A_1 ⋯ A_n · tool` is expressed (as Robotics Toolbox's `jacob0`); "tool"
 //! re-expresses both velocities in the tool frame's axes (as `jacobe`).
+//!
+//! A floating robot ([`Robot::root`]) has `nv = root_nv + n` columns: first its root joint's
+//! (its velocity is the base link's own, in the base link's axes, so a linear coordinate along
+//! axis `e_i` of the base link is the column `[R₀ e_i; 0]` and a rotation about it
+//! `[R₀ e_i × (p_e − p₀); R₀ e_i]`), then the joints'. These are Pinocchio's frame Jacobians in
+//! `LOCAL_WORLD_ALIGNED`.
 
 use crate::compiled::{OnTheFly, fk_and_jacobian_kernel, link_jacobian_kernel};
 use crate::model::Robot;
@@ -29,9 +35,9 @@ pub enum Frame {
 }
 
 /// Tool pose and base-frame Jacobian in one pass over the chain (what an IK iteration needs).
-/// `q` must have `robot.dof()` entries. Returns `(T_ee, J)` with `J` 6 × n.
+/// `q` must have `robot.nq()` entries. Returns `(T_ee, J)` with `J` 6 × `robot.nv()`.
 pub fn fk_and_jacobian(robot: &Robot, q: &[f64]) -> (Matrix4<f64>, Jacobian) {
-    let mut jac = Jacobian::zeros(robot.dof());
+    let mut jac = Jacobian::zeros(robot.nv());
     let tee = fk_and_jacobian_into(robot, q, &mut jac);
     (tee, jac)
 }
@@ -65,7 +71,7 @@ pub fn link_jacobian(
     link: usize,
     frame: Frame,
 ) -> (Matrix4<f64>, Jacobian) {
-    let mut jac = Jacobian::zeros(robot.dof());
+    let mut jac = Jacobian::zeros(robot.nv());
     let pose = link_jacobian_into(robot, q, link, &mut jac);
     if frame == Frame::Tool {
         to_tool_frame(&mut jac, &pose);

@@ -9,7 +9,7 @@
 //! field path (`joints[2].qlim[1]`). The query protocol's `{"urdf": PATH, "tip": LINK}` form
 //! reads a file and lives with the protocol (`robosim_hl_interface::robot_json`), not here.
 
-use crate::{Convention, Joint, JointType, Origin, Robot};
+use crate::{Convention, Joint, JointType, Origin, Robot, RootJoint, RootKind};
 use nalgebra::{Matrix3, Matrix4, Vector3};
 use serde_json::{Map, Value, json};
 
@@ -58,7 +58,9 @@ const ROBOT_KEYS: &[&str] = &[
     "tool",
     "source",
     "notes",
+    "root",
 ];
+const ROOT_KEYS: &[&str] = &["kind", "mass", "com", "inertia"];
 
 /// Reads a robot in DESIGN.md's inline format and validates it ([`Robot::validate`]).
 /// Unknown keys are refused (a misspelt `"alpah"` would otherwise silently be 0); `source` and
@@ -123,10 +125,44 @@ pub fn robot_from_json(v: &Value) -> Result<Robot, JsonError> {
     if let Some(t) = obj.get("tool") {
         robot.tool = matrix4_from_json(t, "robot.tool")?;
     }
+    if let Some(r) = obj.get("root").filter(|r| !r.is_null()) {
+        robot.root = Some(root_from_json(r)?);
+    }
     robot
         .validate()
         .map_err(|e| JsonError::new("robot", e.to_string()))?;
     Ok(robot)
+}
+
+/// `"root": {"kind": "free_flyer" | "planar", "mass", "com", "inertia"}`: a floating base
+/// (see [`crate::root`]; q is then `[q_root, q_joints]`).
+fn root_from_json(v: &Value) -> Result<RootJoint, JsonError> {
+    let path = "robot.root";
+    let obj = v
+        .as_object()
+        .ok_or_else(|| JsonError::new(path, "expected an object"))?;
+    check_keys(obj, ROOT_KEYS, path)?;
+    let kind = obj
+        .get("kind")
+        .and_then(Value::as_str)
+        .and_then(RootKind::from_name)
+        .ok_or_else(|| {
+            JsonError::new(
+                "robot.root.kind",
+                "expected \"free_flyer\" (q: x y z qx qy qz qw, v: vx vy vz wx wy wz) or \"planar\" (q: x y cos sin, v: vx vy wz)",
+            )
+        })?;
+    let mut root = RootJoint::new(kind);
+    if let Some(m) = obj.get("mass") {
+        root.mass = number(m, "robot.root.mass")?;
+    }
+    if let Some(c) = obj.get("com") {
+        root.com = vector3(c, "robot.root.com")?;
+    }
+    if let Some(i) = obj.get("inertia") {
+        root.inertia = matrix3_from_json(i, "robot.root.inertia")?;
+    }
+    Ok(root)
 }
 
 fn joint_from_json(v: &Value, path: &str) -> Result<Joint, JsonError> {
@@ -347,6 +383,15 @@ pub fn robot_to_json(robot: &Robot) -> Value {
         && let Some(m) = out.as_object_mut()
     {
         m.insert("parents".into(), json!(robot.parents));
+    }
+    if let (Some(r), Some(m)) = (&robot.root, out.as_object_mut()) {
+        m.insert(
+            "root".into(),
+            json!({
+                "kind": r.kind.name(), "mass": r.mass, "com": [r.com.x, r.com.y, r.com.z],
+                "inertia": matrix_to_json(&r.inertia),
+            }),
+        );
     }
     out
 }

@@ -10,6 +10,8 @@
 //!   fixed joints into it (DESIGN.md, "The query protocol"; its
 //!   inline JSON form is read and written by [`json`]);
 //!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
+//! * [`RootJoint`] — a floating base (free-flyer or planar root joint, Pinocchio's q and v
+//!   layouts; [`Robot::nq`] ≠ [`Robot::nv`]): see [`root`].
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
 //! * [`KinematicModel`] — the robot compiled once for FK and Jacobians (constant joint
 //!   geometry folded, rigid transforms per joint kind; the `&Robot` functions run the same
@@ -39,6 +41,7 @@ pub mod mimic;
 mod model;
 pub mod movej;
 pub mod pose;
+pub mod root;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
 pub use compiled::KinematicModel;
@@ -47,3 +50,4 @@ pub use model::{
     Convention, Joint, JointGeometry, JointType, ModelError, Origin, Robot, State, axis_rotation,
 };
 pub use movej::{LimitViolation, MoveJError, movej_interpolate};
+pub use root::{RootJoint, RootKind};

@@ -39,6 +39,7 @@
 //! inertia of what it carries is lumped into the link it hangs from — as Pinocchio's URDF
 //! reader does, so q, M(q) and τ are those of the chain with the fixed joints.
 
+use crate::root::RootJoint;
 use nalgebra::{DVector, Matrix3, Matrix4, Vector3};
 use serde::{Deserialize, Serialize};
 
@@ -282,6 +283,11 @@ pub struct Robot {
     pub tool: Matrix4<f64>,
     /// Gravity acceleration in the base frame's parent (world), m/s².
     pub gravity: Vector3<f64>,
+    /// A floating base: the root joint between `base` and link frame 0 and the base link's
+    /// inertial (see [`crate::root`]); `None` (the default): link frame 0 is fixed at `base`.
+    /// With a root, q is `[q_root, q_joints]` ([`Robot::nq`]) and v, τ, q̈ are
+    /// `[v_root, joints]` ([`Robot::nv`]).
+    pub root: Option<RootJoint>,
 }
 
 impl Default for Robot {
@@ -294,6 +300,7 @@ impl Default for Robot {
             base: Matrix4::identity(),
             tool: Matrix4::identity(),
             gravity: Vector3::new(0.0, 0.0, -9.81),
+            root: None,
         }
     }
 }
@@ -331,12 +338,48 @@ pub enum ModelError {
     WrongDof { expected: usize, got: usize },
     #[error("q[{index}] is not finite ({value})")]
     NonFiniteQ { index: usize, value: f64 },
+    #[error(
+        "q[{start}..{end}]: the root joint's rotation is not unit (norm {norm}); a free-flyer's quaternion (qx qy qz qw) and a planar joint's (cos θ, sin θ) must have norm 1"
+    )]
+    NonUnitRoot { start: usize, end: usize, norm: f64 },
+    #[error("the root joint's {field} is not finite or negative")]
+    BadRootInertial { field: &'static str },
 }
 
 impl Robot {
-    /// Number of joints.
+    /// Number of (one-coordinate) joints, the root joint not counted: `nq` and `nv` of a
+    /// fixed-base robot.
     pub fn dof(&self) -> usize {
         self.joints.len()
+    }
+
+    /// The root joint's configuration dimension (0 for a fixed base).
+    pub fn root_nq(&self) -> usize {
+        self.root.as_ref().map_or(0, |r| r.kind.nq())
+    }
+
+    /// The root joint's velocity dimension (0 for a fixed base).
+    pub fn root_nv(&self) -> usize {
+        self.root.as_ref().map_or(0, |r| r.kind.nv())
+    }
+
+    /// Configuration dimension: the length of q (`root_nq + dof`).
+    pub fn nq(&self) -> usize {
+        self.root_nq() + self.dof()
+    }
+
+    /// Velocity dimension: the length of v, τ, q̈ and a Jacobian's columns (`root_nv + dof`).
+    pub fn nv(&self) -> usize {
+        self.root_nv() + self.dof()
+    }
+
+    /// The neutral configuration (nq values): the root at the origin unrotated, joints at 0.
+    pub fn neutral_q(&self) -> DVector<f64> {
+        let mut q = DVector::zeros(self.nq());
+        if let Some(r) = &self.root {
+            r.kind.neutral(&mut q.as_mut_slice()[..r.kind.nq()]);
+        }
+        q
     }
 
     /// Whether the robot is a serial chain (no branches).
@@ -366,7 +409,9 @@ impl Robot {
 
     /// The serial chain from the base to link frame `link` (1..=n) of a tree — its support
     /// path's joints, in order, as a robot of their own — and those joints' indices in this
-    /// robot's q. Every joint keeps its geometry (a joint's placement is in the link frame it
+    /// robot's q. A floating robot's chain starts at its base link, the root joint locked (the
+    /// chain has no root: its `base` is this robot's, so its frames are in the base link's frame
+    /// when the root is at the neutral q), and the indices are past the root's coordinates. Every joint keeps its geometry (a joint's placement is in the link frame it
     /// hangs from, which is the previous joint's of the chain), so the chain's link frames and
     /// Jacobian at its q are this robot's at any q that agrees on those joints: what IK and the
     /// query protocol use for one tip of a branching robot. The tool is this robot's when `link`
@@ -389,7 +434,9 @@ impl Robot {
                 Matrix4::identity()
             },
             gravity: self.gravity,
+            root: None,
         };
+        let path = path.into_iter().map(|j| j + self.root_nq()).collect();
         Some((chain, path))
     }
 
@@ -484,24 +531,37 @@ impl Robot {
                 return Err(ModelError::NotRigid { field });
             }
         }
+        if let Some(r) = &self.root {
+            if !(r.mass.is_finite() && r.mass >= 0.0) {
+                return Err(ModelError::BadRootInertial { field: "mass" });
+            }
+            if !r.com.iter().all(|x| x.is_finite()) {
+                return Err(ModelError::BadRootInertial { field: "com" });
+            }
+            if !r.inertia.iter().all(|x| x.is_finite()) {
+                return Err(ModelError::BadRootInertial { field: "inertia" });
+            }
+        }
         Ok(())
     }
 
-    /// The first joint whose value in `q` lies outside its limits: (index, value, [lo, hi]).
+    /// The first joint whose value in `q` lies outside its limits: (index, value, [lo, hi]);
+    /// a floating root's coordinates have no limits.
     pub fn outside_limits(&self, q: &[f64]) -> Option<(usize, f64, [f64; 2])> {
         self.joints
             .iter()
-            .zip(q)
+            .zip(q.get(self.root_nq()..).unwrap_or(&[]))
             .enumerate()
             .find(|(_, (jt, v))| !(jt.qlim[0]..=jt.qlim[1]).contains(*v))
             .map(|(j, (jt, v))| (j, *v, jt.qlim))
     }
 
-    /// Checks a joint vector against this robot: right length, all finite.
+    /// Checks a configuration against this robot: right length ([`Robot::nq`]), all finite,
+    /// a floating root's rotation unit to 1e-6.
     pub fn check_q(&self, q: &[f64]) -> Result<(), ModelError> {
-        if q.len() != self.dof() {
+        if q.len() != self.nq() {
             return Err(ModelError::WrongDof {
-                expected: self.dof(),
+                expected: self.nq(),
                 got: q.len(),
             });
         }
@@ -510,9 +570,21 @@ impl Robot {
                 return Err(ModelError::NonFiniteQ { index, value });
             }
         }
+        if let Some(r) = &self.root
+            && let Some(norm) = r.kind.unit_error(q, UNIT_TOLERANCE)
+        {
+            let (start, end) = match r.kind {
+                crate::RootKind::FreeFlyer => (3, 7),
+                crate::RootKind::Planar => (2, 4),
+            };
+            return Err(ModelError::NonUnitRoot { start, end, norm });
+        }
         Ok(())
     }
 }
+
+/// How far from 1 a root's quaternion (or cos/sin pair) given as input may be.
+pub const UNIT_TOLERANCE: f64 = 1e-6;
 
 fn is_rigid(m: &Matrix4<f64>) -> bool {
     if !m.iter().all(|v| v.is_finite()) {

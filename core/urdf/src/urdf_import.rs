@@ -33,16 +33,20 @@
 //! Geometry: `<visual>`, `<collision>` and `<material>` are read into [`UrdfRobot::geometry`]
 //! by [`crate::urdf_geometry`]; meshes are only named there and loaded when an operation needs
 //! them (FK and dynamics do not). Not read: `<transmission>`, `<gazebo>`, safety controllers,
-//! calibration. Refused: floating and planar joints, xacro files, and every
+//! calibration. Floating bases: a `floating` (free-flyer) or `planar` joint as the root link's
+//! one joint becomes [`Robot::root`] (its origin the robot's `base`; a planar joint's axis is
+//! not read: Pinocchio's moves in its frame's x–y plane), elsewhere it is refused;
+//! [`import_urdf_tree_floating`] gives a file's root link a free base (`--floating`). Refused:
+//! xacro files, and every
 //! malformed input (see [`UrdfErrorKind`]); each error names the file, the line (roxmltree's
 //! positions) and the element.
 
 pub use crate::urdf_xml::{Reader, UrdfError, UrdfErrorKind, child, rpy_matrix};
 
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, Vector3};
-use robosim_kinematics::Robot;
 use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_chain, build_tree};
 use robosim_kinematics::mimic::{Coupling, Mimic, MimicError};
+use robosim_kinematics::{Robot, RootKind};
 use std::collections::{HashMap, HashSet};
 use std::path::Path;
 
@@ -143,7 +147,52 @@ fn read_urdf_file(path: &Path) -> Result<String, UrdfError> {
 
 /// [`import_urdf_tree`] on text already read; `file` names it in errors.
 pub fn import_urdf_tree_str(text: &str, file: &Path) -> Result<UrdfRobot, UrdfError> {
-    import_impl(text, file, None, true)
+    import_impl(text, file, None, true, None)
+}
+
+/// [`import_urdf_tree`] with a floating base (`robosim import urdf --floating`): a root joint
+/// of `kind` between the world and the root link, which becomes link frame 0 and carries the
+/// root link's inertial with everything fixed to it (Pinocchio's
+/// `buildModel(urdf, JointModelFreeFlyer())`). A file whose root link already hangs from a
+/// `floating` or `planar` joint keeps that one.
+pub fn import_urdf_tree_floating(path: &Path, kind: RootKind) -> Result<UrdfRobot, UrdfError> {
+    let text = read_urdf_file(path)?;
+    import_urdf_tree_floating_str(&text, path, kind)
+}
+
+/// [`import_urdf_tree_floating`] on text already read; `file` names it in errors.
+pub fn import_urdf_tree_floating_str(
+    text: &str,
+    file: &Path,
+    kind: RootKind,
+) -> Result<UrdfRobot, UrdfError> {
+    import_impl(text, file, None, true, Some(kind))
+}
+
+/// A `floating` or `planar` joint must be the root link's one child (robosim's floating base
+/// is the root joint of the tree; Pinocchio allows one anywhere).
+fn check_root_joint(rd: &Reader, root: &str, joints: &[JointRec]) -> Result<(), UrdfError> {
+    for j in joints {
+        if !matches!(j.kind, SegmentKind::Root(_)) {
+            continue;
+        }
+        let siblings = joints.iter().filter(|o| o.parent == root).count();
+        if j.parent != root || siblings != 1 {
+            let kind = match j.kind {
+                SegmentKind::Root(RootKind::Planar) => "planar",
+                _ => "floating",
+            };
+            return Err(UrdfError {
+                file: rd.file.to_path_buf(),
+                line: j.line,
+                element: format!("<joint name={:?}>", j.name),
+                kind: UrdfErrorKind::UnsupportedJointType(format!(
+                    "{kind} (only as the one joint of the root link {root:?}: a floating base)"
+                )),
+            });
+        }
+    }
+    Ok(())
 }
 
 struct LinkRec {
@@ -293,6 +342,9 @@ impl Reader<'_, '_> {
             "continuous" => SegmentKind::Continuous,
             "prismatic" => SegmentKind::Prismatic,
             "fixed" => SegmentKind::Fixed,
+            // a floating base: only on the root link (check_root_joint)
+            "floating" => SegmentKind::Root(RootKind::FreeFlyer),
+            "planar" => SegmentKind::Root(RootKind::Planar),
             other => {
                 return Err(self.err(
                     node,
@@ -313,7 +365,11 @@ impl Reader<'_, '_> {
         let placement = self.origin(node, &element)?;
         // A fixed joint's axis is not read (urdfdom skips it, so Pinocchio and ROS do): Kinova's
         // and TALOS's files write `<axis xyz="0 0 0"/>` on fixed joints.
-        let axis = match child(node, "axis").filter(|_| kind != SegmentKind::Fixed) {
+        // Nor a floating or planar joint's: Pinocchio's planar joint moves in its frame's x–y
+        // plane whatever the axis says.
+        let axis = match child(node, "axis")
+            .filter(|_| !matches!(kind, SegmentKind::Fixed | SegmentKind::Root(_)))
+        {
             None => Vector3::x(),
             Some(a) => {
                 let el = format!("{element}/<axis>");
@@ -429,7 +485,7 @@ pub fn link_solids(robot: &UrdfRobot) -> Result<robosim_collision::robot::LinkSo
 
 /// [`import_urdf`] on text already read; `file` names it in errors.
 pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
-    import_impl(text, file, tip, false)
+    import_impl(text, file, tip, false, None)
 }
 
 /// The import, as named steps: read and check the document, read its links and joints, check
@@ -439,6 +495,7 @@ fn import_impl(
     file: &Path,
     tip: Option<&str>,
     tree: bool,
+    floating: Option<RootKind>,
 ) -> Result<UrdfRobot, UrdfError> {
     check_depth(text, file)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| xml_error(text, file, e))?;
@@ -453,6 +510,7 @@ fn import_impl(
     let geometry = crate::urdf_geometry::read_all(&rd, root_el)?;
     let parts = read_links_and_joints(&rd, root_el)?;
     let links_tree = LinkTree::check(&at_robot, &parts)?;
+    check_root_joint(&rd, &links_tree.root, &parts.joints)?;
     let mut robot = if tree {
         build_whole_tree(
             file,
@@ -464,6 +522,7 @@ fn import_impl(
             &parts.joints,
             &links_tree.children,
             geometry,
+            floating,
         )?
     } else {
         let tip = find_tip(&at_robot, tip, &parts, &links_tree)?;
@@ -830,7 +889,12 @@ fn build_chain_to_tip(
         .map(|(k, j)| crate::urdf_geometry::TreeJoint {
             parent: &j.parent,
             child: &j.child,
-            placement: j.placement,
+            // a root joint's placement is the robot's base, link frame 0 its child's frame
+            placement: if matches!(j.kind, SegmentKind::Root(_)) {
+                Matrix4::identity()
+            } else {
+                j.placement
+            },
             body: built
                 .segment_of_joint
                 .iter()
@@ -866,6 +930,7 @@ fn build_whole_tree(
     joints: &[JointRec],
     children: &HashMap<&str, Vec<usize>>,
     mut geometry: crate::urdf_geometry::UrdfGeometry,
+    floating: Option<RootKind>,
 ) -> Result<UrdfRobot, UrdfError> {
     // Depth first from the root, children in file order: parents come first.
     let mut dfs: Vec<usize> = Vec::with_capacity(joints.len());
@@ -900,7 +965,12 @@ fn build_whole_tree(
         });
     }
     let built = build_tree(robot_name, &segments, &parents);
-    let robot = built.robot;
+    let mut robot = built.robot;
+    if let (Some(kind), None) = (floating, &robot.root) {
+        let mut inertial = links[root].inertial;
+        inertial.merge(&built.root_inertial);
+        robot.root = Some(robosim_kinematics::chain::root_joint(kind, &inertial));
+    }
     robot.validate().map_err(|e| UrdfError {
         file: file.to_path_buf(),
         line: rd.line(root_el),
@@ -936,7 +1006,12 @@ fn build_whole_tree(
         .map(|(k, j)| crate::urdf_geometry::TreeJoint {
             parent: &j.parent,
             child: &j.child,
-            placement: j.placement,
+            // a root joint's placement is the robot's base, link frame 0 its child's frame
+            placement: if matches!(j.kind, SegmentKind::Root(_)) {
+                Matrix4::identity()
+            } else {
+                j.placement
+            },
             body: seg_of_joint
                 .get(&k)
                 .and_then(|s| built.segment_of_joint.iter().position(|x| x == s))
@@ -1058,6 +1133,50 @@ mod tests {
 
     fn import(text: &str, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
         import_urdf_str(text, Path::new("t.urdf"), tip)
+    }
+
+    /// `<joint type="floating">` / `"planar"` on the root link: the robot's root joint, its
+    /// origin the base, the child's inertial the base link's; `--floating`
+    /// ([`import_urdf_tree_floating_str`]) puts a free-flyer on the file's root link.
+    #[test]
+    fn floating_and_planar_root_joints_become_the_robots_root() {
+        for (ty, kind) in [
+            ("floating", RootKind::FreeFlyer),
+            ("planar", RootKind::Planar),
+        ] {
+            let text = TWO_LINK.replace(r#"type="continuous""#, &format!("type={ty:?}"));
+            let r = import(&text, None).expect("imports");
+            let root = r.robot.root.as_ref().expect("a root joint");
+            assert_eq!(root.kind, kind);
+            assert_eq!(root.mass, 2.0);
+            assert_eq!(root.com, Vector3::new(0.1, 0.0, 0.0));
+            assert_eq!(r.robot.dof(), 1);
+            assert_eq!(r.robot.nq(), kind.nq() + 1);
+            assert_eq!(r.robot.base, robosim_kinematics::pose::trans(0.0, 0.0, 0.5));
+            let mut q = r.robot.neutral_q();
+            q[0] = 0.3;
+            q[1] = -0.2;
+            let n = kind.nq();
+            q[n] = 0.4;
+            let t = robosim_kinematics::fk::forward(&r.robot, q.as_slice());
+            // tip = base · (x, y) · Rz(0.4) about j2 at (1, 0, 0) · (0.5, 0, 0)
+            let expected = Vector3::new(
+                0.3 + 1.0 + 0.5 * 0.4f64.cos(),
+                -0.2 + 0.5 * 0.4f64.sin(),
+                0.5,
+            );
+            assert!(
+                (t.fixed_view::<3, 1>(0, 3) - expected).norm() < 1e-15,
+                "{ty}: {t}"
+            );
+        }
+        let tree =
+            import_urdf_tree_floating_str(TWO_LINK, Path::new("t.urdf"), RootKind::FreeFlyer)
+                .expect("imports");
+        let root = tree.robot.root.as_ref().expect("a free base");
+        assert_eq!((root.kind, root.mass), (RootKind::FreeFlyer, 0.0));
+        assert_eq!(tree.robot.dof(), 2);
+        assert_eq!(tree.robot.nv(), 8);
     }
 
     #[test]
@@ -1234,7 +1353,11 @@ mod tests {
             UrdfErrorKind::TwoParents { .. }
         ));
 
-        let floating = TWO_LINK.replace(r#"type="continuous""#, r#"type="floating""#);
+        // a floating joint below the root link: robosim's floating base is the root joint
+        let floating = TWO_LINK.replace(
+            r#"name="j2" type="revolute""#,
+            r#"name="j2" type="floating""#,
+        );
         assert!(matches!(
             kind_of(&floating, None).2,
             UrdfErrorKind::UnsupportedJointType(_)

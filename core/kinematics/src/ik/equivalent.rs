@@ -149,5 +149,6 @@ pub fn equivalent_dh(robot: &Robot) -> Option<Robot> {
         base,
         tool,
         parents: Vec::new(),
+        root: None,
     })
 }
