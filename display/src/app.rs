@@ -967,8 +967,12 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     let mut sample = 0usize;
     let mut next_sample = Instant::now();
     // The camera is framed on the first frame; if that frame has nothing to draw (an empty
-    // session), again on the first frame that has, unless the user placed it.
+    // session), again on the first frame that has, and on the bodies added to the model
+    // later — unless the user placed it.
     let mut framed = false;
+    // The bodies of the last frame: bodies added since are framed (unless the user placed
+    // the camera).
+    let mut shown = std::collections::BTreeSet::new();
     host.snap = None;
     while signals.wait(Duration::ZERO).is_ok() {
         if let Some(p) = &player
@@ -1005,7 +1009,15 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         if !framed {
             a.view.apply(&mut r, !a.no_grid)?;
             framed = r.body_count() > 0 || a.view.placed();
+        } else if !a.view.placed()
+            && let Some(added) = r.added_since(&shown)
+            && let Some(bounds) = r.bounds_of(&added)
+        {
+            // Bodies added to the model on screen (an instance, an imported robot): framed
+            // alone, as the first bodies were (issue 39 item 8).
+            r.camera = a.view.camera(bounds)?;
         }
+        shown = r.body_ids();
         let status = host.status();
         r.set_status(status.as_deref());
         let upload = r.last_upload();

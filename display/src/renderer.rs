@@ -1369,6 +1369,55 @@ impl Renderer {
         sphere_of_box(lo, hi)
     }
 
+    /// The ids of the bodies drawn now.
+    pub fn body_ids(&self) -> std::collections::BTreeSet<Id> {
+        self.bodies.keys().copied().collect()
+    }
+
+    /// The world bounding sphere (centre, radius) of the bodies `ids` among those drawn;
+    /// `None` when none of them is drawn.
+    pub fn bounds_of(&self, ids: &std::collections::BTreeSet<Id>) -> Option<(Point3<f64>, f64)> {
+        let bodies: Vec<_> = ids
+            .iter()
+            .filter_map(|id| self.bodies.get(id))
+            .map(|b| (&b.world, &b.bbox))
+            .collect();
+        (!bodies.is_empty()).then(|| sphere_around(bodies.into_iter()))
+    }
+
+    /// Bodies drawn now that were not drawn when `shown` was taken ([`Renderer::body_ids`]),
+    /// when `shown` had any: what was added to a model already on screen (an instance, an
+    /// imported robot), which a session display frames — framed on the whole Space Station, a
+    /// robot just added is a few pixels (issue 39 item 8). `None` when nothing was added, or
+    /// for the model's first bodies (framed whole).
+    pub fn added_since(
+        &self,
+        shown: &std::collections::BTreeSet<Id>,
+    ) -> Option<std::collections::BTreeSet<Id>> {
+        if shown.is_empty() {
+            return None;
+        }
+        let added: std::collections::BTreeSet<Id> = self
+            .bodies
+            .keys()
+            .filter(|id| !shown.contains(id))
+            .copied()
+            .collect();
+        (!added.is_empty()).then_some(added)
+    }
+
+    /// Points the camera at the bodies `ids` (see [`Renderer::added_since`]), from the default
+    /// direction, keeping the projection; nothing changes when none of them is drawn.
+    pub fn frame_on(&mut self, ids: &std::collections::BTreeSet<Id>) {
+        if let Some((c, r)) = self.bounds_of(ids) {
+            let projection = self.camera.projection;
+            self.camera = Camera {
+                projection,
+                ..Camera::framing(c, r)
+            };
+        }
+    }
+
     /// Points the camera at everything drawn, from the default direction.
     pub fn frame_all(&mut self) {
         let (c, r) = self.bounds();

@@ -102,6 +102,10 @@ struct App {
     next_poll: Instant,
     /// Waiting for the first bodies to frame them (see [`WindowOptions::frame_first_bodies`]).
     frame_pending: bool,
+    /// Framing the bodies added to the model shown (an instance, an imported robot) until the
+    /// user moves the camera (with [`WindowOptions::frame_first_bodies`]); the bodies shown.
+    frame_added: bool,
+    shown: std::collections::BTreeSet<robosim_instance_space::Id>,
 }
 
 impl App {
@@ -162,6 +166,7 @@ impl App {
             None => renderer.frame_all(),
         }
         self.frame_pending = self.opts.frame_first_bodies && renderer.body_count() == 0;
+        self.shown = renderer.body_ids();
         renderer.set_status(self.host.status().as_deref());
         eprintln!("display: window on {}", renderer.gpu().describe());
         self.live = Some(Live {
@@ -326,7 +331,12 @@ impl ApplicationHandler for App {
                         if self.frame_pending && l.renderer.body_count() > 0 {
                             l.renderer.frame_all();
                             self.frame_pending = false;
+                        } else if self.frame_added
+                            && let Some(added) = l.renderer.added_since(&self.shown)
+                        {
+                            l.renderer.frame_on(&added);
                         }
+                        self.shown = l.renderer.body_ids();
                         let status = self.host.status();
                         if status.as_deref() != l.renderer.status() {
                             l.renderer.set_status(status.as_deref());
@@ -388,6 +398,7 @@ impl ApplicationHandler for App {
                     if (position.x - start.0).abs() + (position.y - start.1).abs() > 3.0 {
                         self.dragged = true;
                         self.frame_pending = false;
+                        self.frame_added = false;
                     }
                     if !self.dragged {
                         return;
@@ -408,6 +419,7 @@ impl ApplicationHandler for App {
                     MouseScrollDelta::PixelDelta(p) => p.y / 40.0,
                 };
                 self.frame_pending = false;
+                self.frame_added = false;
                 if let Some(l) = &mut self.live {
                     l.renderer.camera.zoom(0.9f64.powf(lines));
                     l.window.request_redraw();
@@ -433,6 +445,7 @@ pub fn run(
         ));
     }
     let event_loop = EventLoop::new().map_err(window_err("event loop"))?;
+    let frame_added = opts.frame_first_bodies;
     let mut app = App {
         host,
         opts,
@@ -451,6 +464,8 @@ pub fn run(
         script_at: 0,
         next_poll: Instant::now(),
         frame_pending: false,
+        frame_added,
+        shown: std::collections::BTreeSet::new(),
     };
     event_loop
         .run_app(&mut app)

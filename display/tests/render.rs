@@ -332,3 +332,70 @@ fn the_grid_and_world_axes_are_drawn_where_the_camera_projects_them() {
     assert!(near(&img, on_line, &darker(bg)), "grid line at {on_line:?}");
     assert!(!near(&plain, on_line, &darker(bg)));
 }
+
+/// Issue 39 item 8: a body added to a model already on screen — a robot added beside the Space
+/// Station — is framed on its own (`Renderer::added_since`, `frame_on`, as the session display
+/// does): framed on the whole 100 m scene, the 20 cm cube is a few pixels.
+#[test]
+fn a_body_added_to_a_large_scene_is_framed_on_its_own() {
+    if robosim_display::skipped_without_vulkan("a_body_added_to_a_large_scene_is_framed_on_its_own")
+    {
+        return;
+    }
+    let mut model = Store::new();
+    let mut tx = Transaction::new();
+    let truss = tx.create(Kind::Solid, "truss", None);
+    tx.set_geometry(truss, Some(block([50.0, 2.0, 2.0])));
+    tx.set_appearance(
+        truss,
+        Appearance {
+            color: [0.1, 0.1, 0.9, 1.0],
+            ..Appearance::default()
+        },
+    );
+    model.apply(&tx).expect("valid");
+    let mut r = Renderer::headless().expect("adapter");
+    r.sync(&Snapshot::from_store(&model));
+    r.frame_all();
+    let shown = r.body_ids();
+    assert_eq!(r.added_since(&shown), None, "nothing added yet");
+    let mut tx = Transaction::new();
+    let robot = tx.create(Kind::Solid, "robot", None);
+    tx.set_geometry(robot, Some(cube(0.1)));
+    tx.set_pose(robot, at(20.0, 10.0, 0.0));
+    tx.set_appearance(
+        robot,
+        Appearance {
+            color: [0.9, 0.1, 0.1, 1.0],
+            ..Appearance::default()
+        },
+    );
+    let id = model.apply(&tx).expect("valid").created[0];
+    r.sync(&Snapshot::from_store(&model));
+    let red = |r: &mut Renderer| {
+        let img = r.render_image(160, 120).expect("frame");
+        let mut n = 0;
+        for y in 0..120 {
+            for x in 0..160 {
+                n += usize::from(dominant(img.pixel(x, y)) == 'r');
+            }
+        }
+        n
+    };
+    let whole = red(&mut r);
+    let added = r.added_since(&shown).expect("the cube was added");
+    assert_eq!(added, std::collections::BTreeSet::from([id]));
+    r.frame_on(&added);
+    let framed = red(&mut r);
+    eprintln!("measured: red pixels of 19200: {whole} framed on the scene, {framed} on the cube");
+    assert!(
+        whole < 20,
+        "framed on the whole scene the cube is tiny: {whole}"
+    );
+    assert!(
+        framed > 1500,
+        "framed on its own the cube fills the view: {framed}"
+    );
+    // The model's first bodies are not "added": they are framed whole.
+    assert_eq!(r.added_since(&std::collections::BTreeSet::new()), None);
+}
