@@ -107,6 +107,11 @@ fn assert_differs(dir: &Path, name: &str, golden_name: &str, args: &[&str], tol:
 
 #[test]
 fn golden_images_match_and_a_wrong_camera_or_missing_object_does_not() {
+    if robosim_display::skipped_without_vulkan(
+        "golden_images_match_and_a_wrong_camera_or_missing_object_does_not",
+    ) {
+        return;
+    }
     let dir = tempfile::tempdir().expect("tempdir");
     let d = dir.path();
     let tol = Tolerance::default();
@@ -193,6 +198,11 @@ fn frames(dir: &Path) -> Vec<Value> {
 
 #[test]
 fn a_session_display_redraws_a_moved_link_uploading_its_transforms_only() {
+    if robosim_display::skipped_without_vulkan(
+        "a_session_display_redraws_a_moved_link_uploading_its_transforms_only",
+    ) {
+        return;
+    }
     let mut k = Procs::new("dsp");
     k.start_keeper(&["--scene", "puma560"]);
     let out = k.home.path().join("display-out");
@@ -284,6 +294,11 @@ fn a_session_display_redraws_a_moved_link_uploading_its_transforms_only() {
 
 #[test]
 fn welding_cell_trajectories_play_both_robots_together() {
+    if robosim_display::skipped_without_vulkan(
+        "welding_cell_trajectories_play_both_robots_together",
+    ) {
+        return;
+    }
     let dir = tempfile::tempdir().expect("tempdir");
     let d = dir.path();
     let arm = d.join("arm.traj");
@@ -382,6 +397,9 @@ fn bad_render_input_gets_a_clear_error_and_no_file() {
 
 #[test]
 fn the_window_moves_joints_and_picks_under_xvfb() {
+    if robosim_display::skipped_without_vulkan("the_window_moves_joints_and_picks_under_xvfb") {
+        return;
+    }
     let xvfb = Command::new("xvfb-run").arg("--help").output();
     assert!(
         xvfb.is_ok(),
@@ -474,6 +492,9 @@ fn the_window_moves_joints_and_picks_under_xvfb() {
 /// turned away, does not.
 #[test]
 fn colliding_objects_are_highlighted() {
+    if robosim_display::skipped_without_vulkan("colliding_objects_are_highlighted") {
+        return;
+    }
     let dir = tempfile::tempdir().expect("tempdir");
     let view = [
         "--from",
@@ -509,6 +530,10 @@ fn colliding_objects_are_highlighted() {
 /// server), `ps` lists it with what it attached to, and `down` stops it cleanly.
 #[test]
 fn up_with_display_runs_it_headless_and_down_stops_it() {
+    if robosim_display::skipped_without_vulkan("up_with_display_runs_it_headless_and_down_stops_it")
+    {
+        return;
+    }
     let k = Procs::new("dup");
     let run = |args: &[&str]| {
         Command::new(ROBOSIM)
@@ -553,6 +578,11 @@ fn up_with_display_runs_it_headless_and_down_stops_it() {
 /// robots end at their files' last samples.
 #[test]
 fn a_session_display_plays_trajectories_into_the_instance_space() {
+    if robosim_display::skipped_without_vulkan(
+        "a_session_display_plays_trajectories_into_the_instance_space",
+    ) {
+        return;
+    }
     let mut k = Procs::new("dplay");
     k.start_keeper(&["--scene", "downhand_welding_cell"]);
     let arm = k.home.path().join("arm.traj");
@@ -622,6 +652,11 @@ fn a_session_display_plays_trajectories_into_the_instance_space() {
 /// matches an independent render of the committed model with the links at the target.
 #[test]
 fn the_session_display_draws_the_running_simulators_state() {
+    if robosim_display::skipped_without_vulkan(
+        "the_session_display_draws_the_running_simulators_state",
+    ) {
+        return;
+    }
     use robosim_instance_space::Snapshot;
     use robosim_instance_space::layout::PoseRec;
     use robosim_instance_space::state::CommandSender;
@@ -728,6 +763,11 @@ fn the_session_display_draws_the_running_simulators_state() {
 /// successful headless session `display` print nothing called "error".
 #[test]
 fn render_and_display_print_no_error_without_xdg_runtime_dir() {
+    if robosim_display::skipped_without_vulkan(
+        "render_and_display_print_no_error_without_xdg_runtime_dir",
+    ) {
+        return;
+    }
     fn bare(c: &mut Command) -> &mut Command {
         for k in [
             "XDG_RUNTIME_DIR",
@@ -815,6 +855,9 @@ fn not_private(dir: &Path) -> Vec<(PathBuf, u32)> {
 /// the kept frames and `frames.jsonl`.
 #[test]
 fn the_session_display_writes_only_private_files() {
+    if robosim_display::skipped_without_vulkan("the_session_display_writes_only_private_files") {
+        return;
+    }
     let mut k = Procs::new("dpriv");
     k.start_keeper(&["--scene", "puma560"]);
     let display_dir = k.home.path().join(&k.name).join("display");
@@ -867,6 +910,9 @@ fn render_without_a_vulkan_driver_says_how_to_get_one() {
 /// the picture is the golden one (checked by the golden test), so they are another picture.
 #[test]
 fn render_with_grid_is_not_the_golden_picture() {
+    if robosim_display::skipped_without_vulkan("render_with_grid_is_not_the_golden_picture") {
+        return;
+    }
     let dir = tempfile::tempdir().expect("tempdir");
     let out = dir.path().join("grid.png");
     render(&out, &[&["puma560", "--grid"][..], &PUMA_VIEW].concat());
@@ -880,6 +926,11 @@ fn render_with_grid_is_not_the_golden_picture() {
 /// independent render framed on its bounding sphere shows it.
 #[test]
 fn a_display_opened_on_an_empty_session_frames_the_first_model() {
+    if robosim_display::skipped_without_vulkan(
+        "a_display_opened_on_an_empty_session_frames_the_first_model",
+    ) {
+        return;
+    }
     let mut k = Procs::new("dframe");
     k.start_keeper(&[]);
     let out = k.home.path().join("display-out");
@@ -936,6 +987,11 @@ fn a_display_opened_on_an_empty_session_frames_the_first_model() {
 /// the patient's head while the Instance Space keeps it folded away.
 #[test]
 fn the_session_display_colours_the_contacts_of_the_simulated_state() {
+    if robosim_display::skipped_without_vulkan(
+        "the_session_display_colours_the_contacts_of_the_simulated_state",
+    ) {
+        return;
+    }
     use robosim_instance_space::state::CommandSender;
     let mut k = Procs::new("dsimc");
     let effects = k.home.path().join("effects.json");
@@ -1021,6 +1077,9 @@ const PANDA_VIEW: [&str; 6] = [
 /// picture.
 #[test]
 fn a_urdf_robot_renders_from_its_visual_meshes() {
+    if robosim_display::skipped_without_vulkan("a_urdf_robot_renders_from_its_visual_meshes") {
+        return;
+    }
     let dir = tempfile::tempdir().expect("tempdir");
     let d = dir.path();
     let tol = Tolerance::default();
