@@ -198,12 +198,14 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             rate,
             tolerance,
             name,
+            passes,
         } => {
             existing(session)?;
             let opts = robosim_hl_interface::dataflow::Options {
                 name,
                 rate_hz: rate,
                 tolerance,
+                passes,
             };
             robosim_hl_interface::dataflow::run(&graph, session, &opts)
                 .map_err(|e| CliError(e.to_string()))

@@ -142,3 +142,68 @@ fn a_dataflow_process_started_before_the_keeper_waits_for_it() {
     carriage_reaches(&mut p, 39.0);
     assert!(k.stop(pid).success());
 }
+
+/// `robosim ARGS --session NAME` in the session's home, to completion: (success, output).
+fn robosim(k: &Procs, args: &[&str]) -> (bool, String) {
+    let out = Command::new(common::ROBOSIM)
+        .args(args)
+        .args(["--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .env("IOX2_LOG_LEVEL", "Error")
+        .output()
+        .expect("run robosim");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
+    )
+}
+
+/// `robosim down` for the session when dropped (the processes `up` started are not this
+/// test's children).
+struct Down<'a>(&'a Procs);
+
+impl Drop for Down<'_> {
+    fn drop(&mut self) {
+        robosim(self.0, &["down"]);
+    }
+}
+
+#[test]
+fn up_with_dataflow_runs_the_graph_and_down_stops_it_by_sigterm() {
+    let k = Procs::new("dflowup");
+    let (ok, text) = robosim(&k, &["up", SCENE, "--with", "dataflow"]);
+    assert!(!ok && text.contains("--with dataflow=FILE"), "{text}");
+    let (ok, text) = robosim(&k, &["up", SCENE, "--with", "dataflow=/no/such.flow"]);
+    assert!(!ok && text.contains("no such graph file"), "{text}");
+    let down = Down(&k);
+    let with = format!("dataflow={SERVO}");
+    let (ok, text) = robosim(&k, &["up", SCENE, "--with", &with]);
+    assert!(ok, "{text}");
+    assert!(text.contains("dataflow"), "ps lists it: {text}");
+    let mut p = Planner::attach_to(&k.session()).expect("planner");
+    carriage_reaches(&mut p, 39.0);
+    let (ok, text) = robosim(&k, &["down"]);
+    assert!(ok, "{text}");
+    assert!(text.contains("stopped dataflow (pid"), "{text}");
+    assert!(!text.contains("SIGKILL"), "{text}");
+    drop(down);
+}
+
+#[test]
+fn passes_n_runs_n_passes_and_exits_0() {
+    let mut k = Procs::new("dflowpasses");
+    k.start_keeper(&["--scene", SCENE]);
+    let (ok, text) = robosim(&k, &["dataflow", SERVO, "--passes", "5"]);
+    assert!(ok, "{text}");
+    assert!(
+        text.contains("stopped after 5 passes (5 written)"),
+        "{text}"
+    );
+    let mut p = Planner::attach_to(&k.session()).expect("planner");
+    // Five passes of at most 0.1 m each.
+    assert!(
+        (carriage(&mut p) - 20.5).abs() < 1e-9,
+        "{}",
+        carriage(&mut p)
+    );
+}

@@ -288,9 +288,12 @@ fn reconfiguring_keeps_the_state_of_unchanged_actors() {
     // The integrator went on from 3 (not from 0): 4, times the new gain.
     assert_eq!(g.value("i"), Some(4.0));
     assert_eq!(g.value("y"), Some(40.0));
-    // A new actor takes its input node's current value as fresh: the filter started at 3,
-    // then saw 4 (a = dt / (tau + dt) = 0.5).
-    assert_eq!(g.value("f"), Some(3.5));
+    // A new actor reads only what is written after it came: the filter's first sample is 4.
+    assert_eq!(g.value("f"), Some(4.0));
+    assert_eq!(g.fired("filt"), Some(1));
+    // The replacing gain continued from where the old one stopped: it fired once, on the new
+    // value of `i`, not on the stale 3 as well.
+    assert_eq!(g.fired("out"), Some(1));
     assert_eq!(g.fired("int"), Some(4));
     // Removing an actor and its node.
     let smaller =

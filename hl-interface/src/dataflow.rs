@@ -31,7 +31,8 @@
 //! `{"graph": FILE, "passes": N, "writes": N, "values": {node: x, …}, "alarms": [NAME, …],
 //!   "sinks": [{"node", "to", "value"}], "errors": […]}`; `{"cmd": "reload"}` reloads the file.
 //!
-//! The process exits on SIGTERM/SIGINT at once (the waits are interrupted), 0.
+//! The process exits on SIGTERM/SIGINT at once (the waits are interrupted), 0; with
+//! `--passes N` after N passes.
 //!
 //! Entry points: [`run`] (the process), [`Runner`] (one graph on a [`Planner`]: load, pass,
 //! reload, state — what Python's `robosim.Dataflow` drives).
@@ -465,6 +466,8 @@ pub struct Options {
     /// clock; the actors' `dt` stays what the file says).
     pub rate_hz: Option<f64>,
     pub tolerance: f64,
+    /// Stop after this many passes (scripts, the README); `None`: until SIGTERM.
+    pub passes: Option<u64>,
 }
 
 impl Default for Options {
@@ -473,6 +476,7 @@ impl Default for Options {
             name: "dataflow".into(),
             rate_hz: None,
             tolerance: DEFAULT_TOLERANCE,
+            passes: None,
         }
     }
 }
@@ -503,7 +507,8 @@ pub fn run(graph: &Path, session: Option<&str>, opts: &Options) -> Result<(), Da
     };
     // The first pass catches up with the session as it is (a restarted process writes only
     // what differs from what is committed).
-    say_pass(runner.pass(&mut planner, true));
+    let mut ran = u64::from(say_pass(runner.pass(&mut planner, true)));
+    let done = |ran: u64| opts.passes.is_some_and(|n| ran >= n);
     let _registration = session.register(
         &opts.name,
         &[
@@ -528,7 +533,7 @@ pub fn run(graph: &Path, session: Option<&str>, opts: &Options) -> Result<(), Da
     let mut next_tick = Instant::now();
     let mut last_look = Instant::now();
     let mut planner_error: Option<String> = None;
-    while signals.wait(Duration::ZERO).is_ok() {
+    while !done(ran) && signals.wait(Duration::ZERO).is_ok() {
         let period = opts
             .rate_hz
             .or(runner.rate_hz())
@@ -605,10 +610,16 @@ pub fn run(graph: &Path, session: Option<&str>, opts: &Options) -> Result<(), Da
             changed || reloaded || (look && polls_peers)
         };
         if due {
-            say_pass(runner.pass(&mut planner, tick || reloaded));
+            ran += u64::from(say_pass(runner.pass(&mut planner, tick || reloaded)));
         }
     }
-    eprintln!("dataflow: stopped");
+    match opts.passes {
+        Some(n) if done(ran) => eprintln!(
+            "dataflow: stopped after {n} passes ({} written)",
+            runner.writes
+        ),
+        _ => eprintln!("dataflow: stopped"),
+    }
     Ok(())
 }
 
@@ -644,8 +655,13 @@ fn attach(
 }
 
 /// A failed pass is said; the process goes on (the next change may heal it).
-fn say_pass(r: Result<Option<PassReport>, DataflowError>) {
-    if let Err(e) = r {
-        eprintln!("dataflow: {e}");
+/// Whether a pass ran.
+fn say_pass(r: Result<Option<PassReport>, DataflowError>) -> bool {
+    match r {
+        Ok(ran) => ran.is_some(),
+        Err(e) => {
+            eprintln!("dataflow: {e}");
+            true
+        }
     }
 }

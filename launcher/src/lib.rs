@@ -48,10 +48,13 @@ use std::time::{Duration, Instant};
 /// processes join this list when they exist). `automation` is the automation layer's plant
 /// (`robosim automation`, the ECLSS fault model by default); a scene that declares an
 /// `automation { … }` effect has it started with its model and time scale without `--with`.
+/// `dataflow` runs a dataflow graph file named with it, `--with dataflow=GRAPH` (`robosim
+/// dataflow GRAPH`, docs/dataflow.md).
 pub const COMPONENTS: &[(&str, &str)] = &[
     ("simulator", "simulator"),
     ("display", "display"),
     ("automation", "automation"),
+    ("dataflow", "dataflow"),
 ];
 
 /// The components scene `name` declares (its effects), with the arguments each is started with
@@ -398,10 +401,16 @@ fn up_start(
     if sim_mode.is_some() && !with.iter().any(|c| c == "simulator") {
         bail!("--sim-mode sets the mode of the simulator `up` starts: add `--with simulator`");
     }
+    // `NAME=FILE` names a component with the file it runs (`dataflow=GRAPH`).
+    let mut named: Vec<(String, Vec<String>)> = Vec::new();
     for c in with {
-        if !COMPONENTS.iter().any(|(n, _)| n == c) {
+        let (name, file) = match c.split_once('=') {
+            Some((n, f)) => (n, Some(f)),
+            None => (c.as_str(), None),
+        };
+        if !COMPONENTS.iter().any(|(n, _)| *n == name) {
             bail!(
-                "unknown component {c:?}; available: {}",
+                "unknown component {name:?}; available: {}",
                 COMPONENTS
                     .iter()
                     .map(|c| c.0)
@@ -409,6 +418,22 @@ fn up_start(
                     .join(", ")
             );
         }
+        let extra = match (name, file) {
+            ("dataflow", Some(f)) => {
+                // The component runs in another directory: the file, absolute.
+                let abs = std::path::absolute(f).map_err(io("the dataflow graph"))?;
+                if !abs.is_file() {
+                    bail!("--with dataflow={f}: no such graph file");
+                }
+                vec![abs.display().to_string()]
+            }
+            ("dataflow", None) => bail!(
+                "the dataflow component runs a graph file: --with dataflow=FILE (docs/dataflow.md)"
+            ),
+            (_, Some(_)) => bail!("--with {c}: only dataflow=FILE takes a file"),
+            (_, None) => Vec::new(),
+        };
+        named.push((name.to_owned(), extra));
     }
     // What to start besides the keeper: the scene's declared components with their
     // arguments, then those named with --with (a name the scene declares is started once, as
@@ -568,9 +593,9 @@ fn up_start(
         }
     };
     let version = reader.snapshot().map_or(0, |s| s.version());
-    for c in with {
-        if !components.iter().any(|(n, _)| n == c) {
-            components.push((c.clone(), Vec::new()));
+    for (c, extra) in named {
+        if !components.iter().any(|(n, _)| *n == c) {
+            components.push((c, extra));
         }
     }
     if let Some(mode) = sim_mode {

@@ -27,6 +27,7 @@ NotConvergedError, NotApplicableError, NumericalError, ShapeError) with
 """
 
 from ._robosim import (
+    Dataflow,
     JointLimitError,
     Model,
     NotApplicableError,
@@ -50,6 +51,7 @@ from .plot import plot
 
 __all__ = [
     "Session",
+    "Dataflow",
     "Snapshot",
     "Sim",
     "RobosimError",

@@ -1,4 +1,5 @@
 from ._robosim import (
+    Dataflow as Dataflow,
     JointLimitError as JointLimitError,
     Model as Model,
     NotApplicableError as NotApplicableError,

@@ -1,5 +1,6 @@
 """Type stubs of the extension module robosim._robosim (see robosim/__init__.py)."""
 
+import os
 from typing import Any, Dict, List, Optional, Sequence, Union
 
 import numpy as np
@@ -142,6 +143,18 @@ class Sim:
     def resume(self) -> str: ...
     def reset(self) -> str: ...
 
+class Dataflow:
+    """A dataflow graph file (docs/dataflow.md) run on a session pass by pass (Session.dataflow)."""
+
+    def step(self) -> Dict[str, Json]:
+        """One pass: sources read, the graph fired, sinks written; {versions, raised, cleared}."""
+    def reload(self) -> Dict[str, List[str]]:
+        """The file parsed again, the graph rewired; {kept, replaced, added, removed} actors."""
+    def value(self, name: str) -> Optional[float]:
+        """The last value of data node `name`."""
+    def state(self) -> Dict[str, Json]:
+        """Node values, sinks, alarms, actors with firing counts, passes, writes, errors."""
+
 class Session:
     """An attachment to a running session; raises SessionError if there is none."""
 
@@ -167,6 +180,8 @@ class Session:
         """Any op of the query protocol; the answer dict (number arrays as numpy arrays)."""
     def model(self, name: str) -> Model:
         """Robot `name` as the session ops use it."""
+    def dataflow(self, graph: Union[str, "os.PathLike[str]"], tolerance: float = 1e-9) -> Dataflow:
+        """The dataflow graph in file `graph` on this session; RequestError (file:line) if wrong."""
     def plant_command(self, command: Dict[str, Json]) -> Dict[str, Json]:
         """A command to the automation plant: {"cmd": "fault", "fault": NAME} or {"cmd": "get"};
         its state (faults, ringing alarms, units). SessionError if no plant runs or it refuses."""

@@ -92,6 +92,7 @@ pyo3::create_exception!(
     "The fields do not make a solid (kind `bad_shape`)."
 );
 
+mod dataflow;
 mod model;
 
 /// How long one uninterruptible piece of a wait may last.
@@ -506,6 +507,21 @@ impl Session {
         to_py(py, &answer)
     }
 
+    /// The dataflow graph in file `graph` (docs/dataflow.md) on this session, run pass by
+    /// pass in this process: `df.step()` reads the sources, fires the graph and writes the
+    /// sinks (a sink closer than `tolerance` to the committed value is not written).
+    /// `RequestError` naming file:line for a graph with an error.
+    #[pyo3(signature = (graph, tolerance = dataflow::TOLERANCE))]
+    fn dataflow(
+        slf: Bound<'_, Self>,
+        graph: std::path::PathBuf,
+        tolerance: f64,
+    ) -> PyResult<dataflow::Dataflow> {
+        let py = slf.py();
+        let graph = graph.to_string_lossy().into_owned();
+        dataflow::Dataflow::load(py, slf.unbind(), &graph, tolerance)
+    }
+
     /// Robot `name` of this session as a `robosim.Model`: the robot its session ops (`kinv`,
     /// `jacob`) use, compiled from the newest snapshot (base placed in the world).
     fn model(&mut self, py: Python<'_>, name: &str) -> PyResult<model::Model> {
@@ -624,6 +640,7 @@ fn _robosim(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("NumericalError", py.get_type::<NumericalError>())?;
     m.add("ShapeError", py.get_type::<ShapeError>())?;
     m.add_class::<model::Model>()?;
+    m.add_class::<dataflow::Dataflow>()?;
     m.add_function(wrap_pyfunction!(model::query, m)?)?;
     m.add_function(wrap_pyfunction!(model::collide, m)?)?;
     m.add_function(wrap_pyfunction!(model::distance, m)?)?;

@@ -65,7 +65,8 @@ pub(crate) enum Command {
         /// Start the session from this model file (`robosim save`) instead of a scene.
         #[arg(long, conflicts_with = "scene")]
         load: Option<std::path::PathBuf>,
-        /// Comma-separated components to start beside the keeper.
+        /// Comma-separated components to start beside the keeper: simulator, display,
+        /// automation, dataflow=GRAPH (a dataflow graph file, docs/dataflow.md).
         #[arg(long, value_delimiter = ',', value_parser = component_names())]
         with: Vec<String>,
         /// Library files to add to the session's Library Space.
@@ -150,6 +151,9 @@ pub(crate) enum Command {
         /// one session.
         #[arg(long, default_value = "dataflow")]
         name: String,
+        /// Stop after N passes (scripts); without it, until SIGTERM.
+        #[arg(long)]
+        passes: Option<u64>,
     },
     /// Send commands to a session's simulator: target, torque, pause, resume, step, reset, get.
     Simctl {
@@ -300,11 +304,21 @@ pub(crate) enum Command {
     },
 }
 
-/// The component names `up --with` accepts (only what this build has).
-fn component_names() -> clap::builder::PossibleValuesParser {
-    clap::builder::PossibleValuesParser::new(
-        robosim_launcher::COMPONENTS.iter().map(|(name, _)| *name),
-    )
+/// The components `up --with` accepts (only what this build has): a name, or `dataflow=GRAPH`
+/// (the launcher checks the file).
+fn component_names() -> clap::builder::ValueParser {
+    clap::builder::ValueParser::new(|c: &str| -> Result<String, String> {
+        let name = c.split_once('=').map_or(c, |(n, _)| n);
+        let names: Vec<&str> = robosim_launcher::COMPONENTS.iter().map(|(n, _)| *n).collect();
+        if names.contains(&name) {
+            Ok(c.to_owned())
+        } else {
+            Err(format!(
+                "unknown component {name:?} (possible: {}; dataflow=GRAPH names its graph file)",
+                names.join(", ")
+            ))
+        }
+    })
 }
 
 /// `--session`'s help line, with the values that hold on this machine now.

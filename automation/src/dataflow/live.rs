@@ -13,9 +13,9 @@
 //! **Reconfiguration** ([`LiveGraph::reconfigure`]): the new spec is compared with the running
 //! one by name. An actor whose declaration is the same ([`ActorDecl::same_as`]) is kept — its
 //! memory (a filter's output, a PID's integral) and its read positions survive; an actor that
-//! changed is replaced (its successor reads from where it stopped: [`crate::kernel::Edit::move_input`]
-//! semantics for last-value nodes is "the current value is fresh"), one that went is removed,
-//! one that came is added. Data nodes are kept when their retention is the same (with their
+//! changed is replaced, its successor reading each input node from where it stopped
+//! ([`crate::kernel::Edit::connect_in_from`]: no token lost or read twice); one that went is
+//! removed; one that came is added, reading only what is written after it came. Data nodes are kept when their retention is the same (with their
 //! values), re-created otherwise. All of it is one atomic kernel edit.
 
 use super::{ActorDecl, GraphSpec, SinkDecl, actors};
@@ -134,10 +134,17 @@ fn node_list(spec: &GraphSpec) -> Vec<(String, Retention)> {
 }
 
 /// Adds actor `a` and connects its ports to `nodes`.
+/// Where a replaced actor's input ports stood: (actor, port) → (node name, reader position).
+type Positions = BTreeMap<(String, String), (String, u64)>;
+
+/// Adds actor `a` and connects its ports to `nodes`. An input port continues from the position
+/// in `positions` (the actor it replaces, same node); any other reads only what is written from
+/// now on — a new actor never takes a value computed before it came for a fresh token.
 fn add_actor(
     e: &mut Edit<'_>,
     a: &ActorDecl,
     nodes: &BTreeMap<String, DataId>,
+    positions: &Positions,
     file: &str,
 ) -> Result<ActorId, BuildError> {
     let be = build_err(file, &a.name);
@@ -159,7 +166,7 @@ fn add_actor(
         });
     }
     let id = e.add_actor(spec).map_err(&be)?;
-    connect(e, id, a, nodes).map_err(&be)?;
+    connect(e, id, a, nodes, positions).map_err(&be)?;
     Ok(id)
 }
 
@@ -172,11 +179,16 @@ fn connect(
     id: ActorId,
     a: &ActorDecl,
     nodes: &BTreeMap<String, DataId>,
+    positions: &Positions,
 ) -> Result<(), KernelError> {
     let (ins, outs) = kind_ports(a);
     for (port, node) in ins.iter().zip(&a.inputs) {
         if let Some(d) = nodes.get(node) {
-            e.connect_in(*d, id, port)?;
+            let cursor = positions
+                .get(&(a.name.clone(), (*port).to_owned()))
+                .filter(|(n, _)| n == node)
+                .map_or(u64::MAX, |(_, c)| *c);
+            e.connect_in_from(*d, id, port, cursor)?;
         }
     }
     for (port, node) in outs.iter().zip(&a.outputs) {
@@ -202,7 +214,10 @@ impl LiveGraph {
             }
             let mut actors = BTreeMap::new();
             for a in &spec.actors {
-                actors.insert(a.name.clone(), add_actor(e, a, &nodes, &file)?);
+                actors.insert(
+                    a.name.clone(),
+                    add_actor(e, a, &nodes, &Positions::new(), &file)?,
+                );
             }
             Ok((nodes, actors))
         })?;
@@ -326,12 +341,24 @@ impl LiveGraph {
         let mut nodes = self.nodes.clone();
         let mut actor_ids = self.actors.clone();
         let result = self.graph.edit(|e| -> Result<(), BuildError> {
-            // 1. Actors that go or change leave (their ports with them).
+            // 1. Actors that go or change leave (their ports with them); where a changed
+            // actor's inputs stood is noted for its successor.
+            let mut positions = Positions::new();
             for o in &old.actors {
                 if keep_actor.get(&o.name) != Some(&true)
                     && let Some(id) = actor_ids.remove(&o.name)
                 {
-                    e.remove_actor(id).map_err(build_err(&file, &o.name))?;
+                    let be = build_err(&file, &o.name);
+                    let (ins, _) = kind_ports(o);
+                    for (port, node) in ins.iter().zip(&o.inputs) {
+                        if let Some((_, cursor)) = e.disconnect_in(id, port).map_err(&be)? {
+                            positions.insert(
+                                (o.name.clone(), (*port).to_owned()),
+                                (node.clone(), cursor),
+                            );
+                        }
+                    }
+                    e.remove_actor(id).map_err(&be)?;
                 }
             }
             // 2. Nodes that go or change retention leave; new ones come.
@@ -352,7 +379,13 @@ impl LiveGraph {
             // 3. New and changed actors come, wired to the nodes.
             for a in &new.actors {
                 if keep_actor.get(&a.name) != Some(&true) {
-                    let id = add_actor(e, a, &nodes, &file)?;
+                    // A node re-created (retention changed) starts afresh: no position.
+                    let carried: Positions = positions
+                        .iter()
+                        .filter(|(_, (n, _))| kept_nodes.contains(n))
+                        .map(|(k, v)| (k.clone(), v.clone()))
+                        .collect();
+                    let id = add_actor(e, a, &nodes, &carried, &file)?;
                     actor_ids.insert(a.name.clone(), id);
                 }
             }

@@ -683,6 +683,27 @@ impl Edit<'_> {
         Ok(())
     }
 
+    /// Connects data node `d` to input port `port` of `a` with the reader at position
+    /// `cursor` — one that [`disconnect_in`](Self::disconnect_in) returned, so a replacing
+    /// actor continues exactly where the one it replaces stopped (no token lost or read twice);
+    /// `u64::MAX`: only values written from now on. The position is kept within what the node
+    /// still holds.
+    pub fn connect_in_from(
+        &mut self,
+        d: DataId,
+        a: ActorId,
+        port: &str,
+        cursor: u64,
+    ) -> Result<(), KernelError> {
+        let dn = data_ref(self.st, d)?;
+        let cursor = cursor.clamp(dn.base, dn.next);
+        self.connect_in(d, a, port)?;
+        let slot = actor_mut(self.st, a)?;
+        let i = port_index(slot, port, true)?;
+        slot.inputs[i].cursor = cursor;
+        Ok(())
+    }
+
     /// Disconnects input port `port` of `a`; returns the data node it read and the reader's
     /// position. Unread tokens stay in the node for the next reader.
     pub fn disconnect_in(
