@@ -67,6 +67,18 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
     let robot = &u.robot;
     let n = robot.dof();
     let file = &u.geometry.file;
+    if let Some(root) = &robot.root {
+        // the Instance Space's robot record has no root joint yet: refused, not dropped
+        return Err(UrdfError {
+            file: file.clone(),
+            line: 0,
+            element: "<robot>".into(),
+            kind: UrdfErrorKind::UnsupportedJointType(format!(
+                "{} root joint in a session (a session's robot has no floating base yet; robosim_urdf::urdf_import and the dynamics take it)",
+                root.kind.name()
+            )),
+        });
+    }
     let mut tx = Transaction::new();
     let r = tx.create(Kind::Robot, &place.name, place.parent.map(ObjRef::Id));
     tx.set_pose(r, place.pose);
