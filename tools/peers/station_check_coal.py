@@ -69,51 +69,70 @@ def obj(s, pose):
     return o
 
 
-def main():
-    rounds = int(sys.argv[1]) if len(sys.argv) > 1 else 7
+def load():
+    """(doc, scene manager, keep): the station's objects in a DynamicAABBTreeCollisionManager;
+    `keep` holds the coal objects, which must outlive the managers."""
     doc = json.load(open(os.path.join(ROOT, "testdata/collision/station_check.json")))
-    keep = []  # coal objects must outlive the managers
+    keep = []
     scene = coal.DynamicAABBTreeCollisionManager()
     for o in doc["objects"]:
         co = obj(o, mat(o["pose"]))
         keep.append(co)
         scene.registerObject(co)
     scene.setup()
-    results = {}
+    return doc, scene, keep
+
+
+def robot(doc, name, keep):
+    """The robot's parts at configuration `name` ("contact" or "clear") in their own manager."""
+    cfg = doc["configurations"][name]
+    mgr = coal.DynamicAABBTreeCollisionManager()
+    for link, frame in zip(doc["links"], cfg["link_frames"]):
+        for part in link:
+            co = obj(part, mat(frame) @ mat(part["pose"]))
+            keep.append(co)
+            mgr.registerObject(co)
+    mgr.setup()
+    return mgr
+
+
+def check(scene, mgr):
+    """coal's boolean check: one manager-against-manager collide, default callback."""
+    cb = coal.CollisionCallBackDefault()
+    scene.collide(mgr, cb)
+    return cb.data.result.isCollision()
+
+
+def empty_manager():
+    mgr = coal.DynamicAABBTreeCollisionManager()
+    mgr.setup()
+    return mgr
+
+
+def time_once(scene, mgr, empty, n=2000):
+    """One round: (seconds per check, seconds per check of the empty robot manager)."""
+    t0 = time.perf_counter()
+    for _ in range(n):
+        check(scene, mgr)
+    per = (time.perf_counter() - t0) / n
+    t0 = time.perf_counter()
+    for _ in range(n):
+        check(scene, empty)
+    return per, (time.perf_counter() - t0) / n
+
+
+def main():
+    rounds = int(sys.argv[1]) if len(sys.argv) > 1 else 7
+    doc, scene, keep = load()
     for name, expect in [("contact", True), ("clear", False)]:
-        cfg = doc["configurations"][name]
-        robot = coal.DynamicAABBTreeCollisionManager()
-        for link, frame in zip(doc["links"], cfg["link_frames"]):
-            for part in link:
-                co = obj(part, mat(frame) @ mat(part["pose"]))
-                keep.append(co)
-                robot.registerObject(co)
-        robot.setup()
-        empty = coal.DynamicAABBTreeCollisionManager()
-        empty.setup()
-
-        def check(mgr):
-            cb = coal.CollisionCallBackDefault()
-            scene.collide(mgr, cb)
-            return cb.data.result.isCollision()
-
-        got = check(robot)
+        mgr = robot(doc, name, keep)
+        empty = empty_manager()
+        got = check(scene, mgr)
         if got != expect:
             sys.exit(f"{name}: coal says {'contact' if got else 'clear'}, robosim {'contact' if expect else 'clear'}")
-        per = []
-        base = []
         n = 2000
-        for _ in range(rounds):
-            t0 = time.perf_counter()
-            for _ in range(n):
-                check(robot)
-            per.append((time.perf_counter() - t0) / n)
-            t0 = time.perf_counter()
-            for _ in range(n):
-                check(empty)
-            base.append((time.perf_counter() - t0) / n)
+        per, base = zip(*(time_once(scene, mgr, empty, n) for _ in range(rounds)))
         med, bmed = statistics.median(per), statistics.median(base)
-        results[name] = (med, bmed)
         print(
             f"{name}: coal check {med * 1e6:.2f} us per call (min {min(per) * 1e6:.2f}, max {max(per) * 1e6:.2f}), "
             f"binding + callback alone {bmed * 1e6:.2f} us, net {(med - bmed) * 1e6:.2f} us "
