@@ -658,7 +658,7 @@ def write(path, rows, rounds, loads, started, elapsed, sections):
 Written by `tools/peers/run.py` (do not edit by hand; run it again). {started} UTC, {rounds}
 interleaved rounds, {elapsed / 60:.1f} min; {cpu}, {ncpu} cores, Linux, Python
 {platform.python_version()}, numpy {np.__version__}; robosim release builds of this checkout
-(`git describe`: {git_describe()}). **Load**: the machine is shared with other engineers'
+(`git describe`: {git_describe()}{"; -dirty: the checkout is shared, and binaries are built from the working tree with whatever is not committed yet — their build times are under Method" if git_describe().endswith("-dirty") else ""}). **Load**: the machine is shared with other engineers'
 builds: the 1-minute load average at the start of each round was {", ".join(loads)} (on {ncpu}
 cores), so absolute times move between rounds; the ratios are per round (both sides measured
 back to back on the same inputs) and their spread says how much the load moved them.
@@ -718,6 +718,7 @@ def main():
     ap.add_argument("--only", default="", help="comma-separated sections: " + ",".join(s.name for s in SECTIONS))
     ap.add_argument("--out", default=os.path.join(ROOT, "docs", "bench", "peers.md"))
     ap.add_argument("--site", default=os.path.join(tempfile.gettempdir(), "robosim_peers_site"))
+    ap.add_argument("--note", action="append", default=[], help="a line for the doc's Method (e.g. why a build is older)")
     a = ap.parse_args()
     if a.no_build:
         if not os.path.exists(os.path.join(a.site, "robosim")):
@@ -725,6 +726,7 @@ def main():
     else:
         build(a.site)
     sys.path.insert(0, a.site)
+    NOTES.extend(a.note)
     only = set(a.only.split(",")) - {""}
     sections = [S() for S in SECTIONS if not only or S.name in only]
     started = time.strftime("%Y-%m-%d %H:%M", time.gmtime())
