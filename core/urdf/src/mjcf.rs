@@ -37,8 +37,12 @@
 //! origin, as in every URDF-made MJCF). A body without joints is rigid with its parent (its
 //! inertia lumped, as URDF fixed joints are). The base frame is the world.
 //!
-//! Refused, by name: `ball` and `free` joints (and `<freejoint>`): robosim's kinematics has no
-//! spherical or floating joint yet (issue 36 item 2); `<include>` (import the included file,
+//! A `free` joint (`<freejoint>`) as the one joint of the worldbody's first body is the robot's
+//! floating base (`Robot::root`, a free-flyer, docs/dynamics.md "Floating bases"): its q and v
+//! are robosim's (Pinocchio's) — `x y z qx qy qz qw`, the velocity on the body's own axes —
+//! where MuJoCo's qpos is `x y z qw qx qy qz` and its qvel's linear part is in the world frame.
+//! Refused, by name: `ball` joints, and a `free` joint anywhere else: robosim's kinematics has
+//! no spherical joint and only the root may be floating; `<include>` (import the included file,
 //! or merge them); `<frame>` (MuJoCo ≥ 3.2); `<compiler coordinate="global">`; malformed
 //! numbers and unknown classes or meshes — each error names the file, line and element.
 //! `<equality><joint>` (MuJoCo's mimic, `y − y₀ = a₀ + a₁ (x − x₀)`) is read into
@@ -55,7 +59,7 @@ use crate::mjcf_frame::{
 use crate::urdf_geometry::{Geometry, LinkGeometry, Material, MeshRef, Shape, UrdfGeometry};
 use crate::urdf_import::{UrdfJoint, UrdfMimic, UrdfRobot};
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
-use robosim_kinematics::ModelError;
+use robosim_kinematics::{ModelError, RootKind};
 use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_tree};
 use robosim_kinematics::mimic::{Coupling, Mimic, MimicError};
 use std::collections::{BTreeMap, HashMap};
@@ -80,7 +84,7 @@ pub enum MjcfErrorKind {
     },
     /// A ball or free joint (see the module docs).
     #[error(
-        "joint {joint:?} is a {kind} joint: robosim's kinematics has no {kind} joint yet (hinge and slide joints are imported; floating bases are issue 36 item 2)"
+        "joint {joint:?} is a {kind} joint: robosim's kinematics has no {kind} joint yet (hinge and slide joints are imported; a free joint only as the one joint of the first body of the worldbody: a floating base)"
     )]
     UnsupportedJoint { joint: String, kind: String },
     #[error("{0}")]
@@ -875,7 +879,10 @@ impl Model<'_, '_> {
             let kind = match type_name.as_str() {
                 "hinge" => SegmentKind::Revolute,
                 "slide" => SegmentKind::Prismatic,
-                "ball" | "free" => {
+                // a floating base: only the first body's one joint (checked where segments are
+                // built)
+                "free" => SegmentKind::Root(RootKind::FreeFlyer),
+                "ball" => {
                     return Err(self.err(
                         j,
                         &el,
@@ -1233,7 +1240,39 @@ impl<'a, 'i> Model<'a, 'i> {
                 continue;
             }
             let n = joints.len();
+            if let Some(j) = joints
+                .iter()
+                .find(|j| matches!(j.kind, SegmentKind::Root(_)))
+                .filter(|_| bi != 0 || n != 1 || b.parent.is_some())
+            {
+                return Err(self.err(
+                    b.node,
+                    &format!("<body name={:?}>", b.name),
+                    MjcfErrorKind::UnsupportedJoint {
+                        joint: j.name.clone(),
+                        kind: "free".into(),
+                    },
+                ));
+            }
             for (k, j) in joints.into_iter().enumerate() {
+                if matches!(j.kind, SegmentKind::Root(_)) {
+                    // the floating base: the body's pose is the robot's base, its frame link
+                    // frame 0 (a free joint has no anchor or axis)
+                    segments.push(Segment {
+                        kind: j.kind,
+                        placement: pending,
+                        axis: Vector3::z(),
+                        qlim: [0.0; 2],
+                        viscous: 0.0,
+                        coulomb: 0.0,
+                        child: inertial,
+                    });
+                    parents.push(None);
+                    joint_of_segment.push(None);
+                    parent_seg = Some(segments.len() - 1);
+                    pending = Matrix4::identity();
+                    continue;
+                }
                 refs.insert(j.name.clone(), j.reference);
                 let placement = pending * translation(&(j.anchor - anchor));
                 anchor = j.anchor;
@@ -1258,7 +1297,7 @@ impl<'a, 'i> Model<'a, 'i> {
                     child,
                 });
                 parents.push(parent_seg);
-                joint_of_segment.push(moving.then(|| (j.name, j.armature, j.reference, bi)));
+                joint_of_segment.push(moving.then_some((j.name, j.armature, j.reference, bi)));
                 parent_seg = Some(segments.len() - 1);
                 pending = Matrix4::identity();
             }
@@ -1276,6 +1315,8 @@ impl<'a, 'i> Model<'a, 'i> {
             let joint = built.segment_of_joint.iter().position(|&x| x == s);
             seg_frame.push(match joint {
                 Some(j) => (j + 1, Matrix4::identity()),
+                // a free joint's body is link frame 0 itself
+                None if matches!(seg.kind, SegmentKind::Root(_)) => (0, Matrix4::identity()),
                 None => match parents[s] {
                     Some(p) => (seg_frame[p].0, seg_frame[p].1 * seg.placement),
                     None => (0, seg.placement),
