@@ -31,7 +31,7 @@ use crate::export_geometry::{
     ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
 };
 use crate::urdf::link_name;
-use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Matrix4, Rotation3, SymmetricEigen, UnitQuaternion, Vector3};
 use robosim_kinematics::{JointType, Robot, chain::to_general};
 use std::fmt::Write as _;
 
@@ -126,7 +126,9 @@ fn v3(v: &Vector3<f64>) -> String {
 /// `pos="…" quat="…"` of a rigid transform.
 fn frame_attrs(m: &Matrix4<f64>) -> String {
     let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
-    let q = UnitQuaternion::from_matrix(&r);
+    // Shepperd's method on the rotation as it is (`from_matrix` iterates from the identity
+    // and does not reach a half-turn: a box turned 180° came out at its start)
+    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
     let p: Vector3<f64> = m.fixed_view::<3, 1>(0, 3).into_owned();
     format!(
         "pos=\"{}\" quat=\"{:?} {:?} {:?} {:?}\"",

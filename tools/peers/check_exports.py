@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Exports that other tools open (issue 36 item 4): every library robot (puma560, stanford,
-weld_positioner) and two URDF-imported robots (example-robot-data's UR5, and the Panda's arm
+"""Exports that other tools open (issue 36 item 4): every robot of the standard library
+(LIBRARY below) and two URDF-imported robots (example-robot-data's UR5, and the Panda's arm
 to panda_hand, fingers held) exported by `robosim export urdf` and `robosim export mjcf`, loaded
 with no flags by MuJoCo (MjModel.from_xml_path) and Pinocchio (buildModelFromUrdf /
 buildModelFromMJCF), and at 5 random q (numpy default_rng seed 4; q uniform in the limits,
@@ -15,6 +15,16 @@ Tool pose: in MuJoCo-from-MJCF and Pinocchio the body / frame `<robot>_tool`; in
 (which fuses fixed links away) the last link's pose times the file's `<robot>_tool_joint` origin.
 Printed: the largest |difference| of the tool pose (m, and rotation-matrix entries) and of M
 relative to max(1, max|M|), per robot, format and peer, as a Markdown table (docs/file-io.md).
+
+Geometry (the exports' <visual>/<collision> and MJCF geoms, meshes as STL files beside the
+file): MuJoCo loads the MJCF with its meshes and has one geom per <geom> written; Pinocchio's
+buildGeomFromUrdf loads the collision and visual models with one object per <collision> /
+<visual> (Pinocchio 4.1 resolves a relative mesh file name only against package_dirs, not the
+URDF's folder: it is given package_dirs=[the URDF's folder]; MuJoCo needs nothing). At the same
+q, each collision shape's placement in Pinocchio (URDF) is compared with the same shape's geom
+in MuJoCo (MJCF): primitives by their pose, meshes by the world box of their vertices (MuJoCo
+re-centres a mesh on its centre of mass; STL stores f32). Printed: the largest difference per
+robot (second table).
 
 Also writes testdata/mjcf/exports/<robot>.xml (the exported MJCF) and
 testdata/mjcf/exports/mujoco_exports.json (MuJoCo's tool pose and M on them at the same q),
@@ -40,11 +50,14 @@ ROBOSIM = os.path.join(ROOT, "target", "debug", "robosim")
 OUT = os.path.join(ROOT, "testdata", "mjcf", "exports")
 UR5 = os.path.join(ROOT, "testdata", "urdf", "ur5_robot.urdf")
 PANDA = os.path.join(ROOT, "testdata", "urdf", "panda.urdf")
+# The robots of the standard library (library-space/stdlib), all with their default parameters.
+LIBRARY = ["puma560", "stanford", "weld_positioner", "panda", "weld_arm", "weld_study_positioner",
+           "surgical_positioner", "station_servicer", "station_solar_structure",
+           "station_outboard_assembly"]
+# The robots whose exported MJCF and MuJoCo values are kept in testdata (the Rust tests read them).
+REFERENCE = ["puma560", "stanford", "weld_positioner", "ur5", "panda_arm"]
 # name, query robot, library file text (None: the standard library)
-ROBOTS = [
-    ("puma560", "puma560", None),
-    ("stanford", "stanford", None),
-    ("weld_positioner", "weld_positioner", None),
+ROBOTS = [(name, name, None) for name in LIBRARY] + [
     ("ur5", {"urdf": UR5, "tip": "tool0"}, f'robot ur5 from_urdf "{UR5}" {{ tip: "tool0" }}\n'),
     ("panda_arm", {"urdf": PANDA, "tip": "panda_hand"},
      f'robot panda_arm from_urdf "{PANDA}" {{ tip: "panda_hand" }}\n'),
@@ -114,11 +127,78 @@ def pin_values(model, q, frame):
     return x, M
 
 
+def read_stl(path):
+    """Vertices (n, 3) of a binary STL."""
+    with open(path, "rb") as f:
+        data = f.read()
+    n = int.from_bytes(data[80:84], "little")
+    rec = np.frombuffer(data[84:84 + 50 * n], dtype=np.dtype([("n", "<f4", 3), ("v", "<f4", (3, 3)),
+                                                               ("a", "<u2")]))
+    return rec["v"].reshape(-1, 3).astype(float)
+
+
+def collision_names(urdf):
+    """Pinocchio's collision object names (link name + index in the link) -> the <collision>
+    name and its mesh file (None for a primitive)."""
+    out = {}
+    for link in ET.parse(urdf).getroot().iter("link"):
+        for k, c in enumerate(link.findall("collision")):
+            mesh = c.find("geometry/mesh")
+            out[f"{link.get('name')}_{k}"] = (c.get("name"), None if mesh is None else mesh.get("filename"))
+    return out
+
+
+def geometry_check(name, urdf, xml, pin_model, mj_model, q_list):
+    """Loads the geometry in both peers, checks the counts, and compares the placements of the
+    collision shapes (see the docstring). Returns (collision, visual, geoms, pose diff, box diff)."""
+    folder = os.path.dirname(urdf)
+    tree = ET.parse(urdf).getroot()
+    n_col = len(list(tree.iter("collision")))
+    n_vis = len(list(tree.iter("visual")))
+    n_geom = len(list(ET.parse(xml).getroot().find("worldbody").iter("geom")))
+    col = pin.buildGeomFromUrdf(pin_model, urdf, pin.GeometryType.COLLISION, package_dirs=[folder])
+    vis = pin.buildGeomFromUrdf(pin_model, urdf, pin.GeometryType.VISUAL, package_dirs=[folder])
+    if col.ngeoms != n_col or vis.ngeoms != n_vis:
+        sys.exit(f"{name}: Pinocchio loaded {col.ngeoms} collision / {vis.ngeoms} visual objects, "
+                 f"the URDF has {n_col} / {n_vis}")
+    if mj_model.ngeom != n_geom:
+        sys.exit(f"{name}: MuJoCo has {mj_model.ngeom} geoms, the MJCF {n_geom}")
+    names = collision_names(urdf)
+    pose_err, box_err = 0.0, 0.0
+    d = mujoco.MjData(mj_model)
+    for q in q_list:
+        data = pin_model.createData()
+        gdata = col.createData()
+        pin.updateGeometryPlacements(pin_model, data, col, gdata, np.asarray(q, dtype=float))
+        d.qpos[:] = np.asarray(q, dtype=float)
+        mujoco.mj_kinematics(mj_model, d)
+        for i, obj in enumerate(col.geometryObjects):
+            shape, mesh = names[obj.name]
+            g = mj_model.geom(f"{shape}_collision").id
+            X = gdata.oMg[i].homogeneous
+            if mesh is None:
+                Y = np.eye(4)
+                Y[:3, :3] = d.geom_xmat[g].reshape(3, 3)
+                Y[:3, 3] = d.geom_xpos[g]
+                pose_err = max(pose_err, np.abs(X - Y).max())
+            else:
+                v = read_stl(os.path.join(folder, mesh))
+                ours = v @ X[:3, :3].T + X[:3, 3]
+                m = mj_model.geom_dataid[g]
+                a, n = mj_model.mesh_vertadr[m], mj_model.mesh_vertnum[m]
+                mv = mj_model.mesh_vert[a:a + n]
+                theirs = mv @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g]
+                box_err = max(box_err, np.abs(ours.min(0) - theirs.min(0)).max(),
+                              np.abs(ours.max(0) - theirs.max(0)).max())
+    return n_col, n_vis, n_geom, pose_err, box_err
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     rng = np.random.default_rng(4)
     tmp = tempfile.mkdtemp()
     rows = []
+    geo_rows = []
     reference = {"mujoco": mujoco.__version__, "pinocchio": pin.__version__, "robots": []}
     for name, qrobot, lib in ROBOTS:
         extra = []
@@ -128,7 +208,8 @@ def main():
                 fh.write(lib)
             extra = ["--library", f]
         urdf = os.path.join(tmp, f"{name}.urdf")
-        xml = os.path.join(OUT, f"{name}.xml")
+        # beside its meshes; copied into testdata (text only) for the REFERENCE robots
+        xml = os.path.join(tmp, f"{name}.xml")
         notes = run(["export", "urdf", urdf, "--scene", name] + extra)
         notes += run(["export", "mjcf", xml, "--scene", name] + extra)
         for line in notes.splitlines():
@@ -168,8 +249,12 @@ def main():
                 err[k] = (max(a, ex), max(b, em))
             x, M = got[("MJCF", "MuJoCo")]
             samples.append({"q": q.tolist(), "tool": x.tolist(), "mass_matrix": M.tolist()})
-        reference["robots"].append({"name": name, "file": f"{name}.xml", "nq": int(n),
-                                    "samples": samples})
+        geo_rows.append((name,) + geometry_check(name, urdf, xml, pin_urdf, mj_mjcf,
+                                                  [s["q"] for s in samples]))
+        if name in REFERENCE:
+            shutil.copy(xml, os.path.join(OUT, f"{name}.xml"))
+            reference["robots"].append({"name": name, "file": f"{name}.xml", "nq": int(n),
+                                        "samples": samples})
         for (fmt, peer), (ex, em) in sorted(err.items()):
             rows.append(f"| {name} | {fmt} | {peer} | {ex:.1e} | {em:.1e} |")
     with open(os.path.join(OUT, "mujoco_exports.json"), "w") as f:
@@ -180,6 +265,12 @@ def main():
     print("| robot | exported as | loaded by | tool pose max abs diff | M max diff / max(1, max abs M) |")
     print("|---|---|---|---|---|")
     print("\n".join(rows))
+    print()
+    print("| robot | URDF <collision> / <visual> (Pinocchio loads all) | MJCF geoms (MuJoCo loads all) "
+          "| primitive pose max abs diff, Pinocchio vs MuJoCo | mesh world box max abs diff (m) |")
+    print("|---|---|---|---|---|")
+    for name, nc, nv, ng, pe, be in geo_rows:
+        print(f"| {name} | {nc} / {nv} | {ng} | {pe:.1e} | {be:.1e} |")
 
 
 if __name__ == "__main__":
