@@ -171,6 +171,10 @@ impl Drop for Cleanup {
 
 #[test]
 fn every_readme_shell_block_runs_verbatim() {
+    // The render and display blocks draw (a failure under CI=true).
+    if robosim_display::skipped_without_vulkan("every_readme_shell_block_runs_verbatim") {
+        return;
+    }
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let readme = std::fs::read_to_string(root.join("README.md")).expect("README.md");
     let all = blocks(&readme);
