@@ -1,8 +1,10 @@
 //! `robosim report effects` — "only the effects a scene calls for": time per step of one scene
 //! (a PUMA 560 moving between two joint targets among four box obstacles) with kinematics only,
-//! then adding joint limits, collision in each mode, and dynamics; and the check that an
-//! undeclared effect costs nothing (kinematics only against kinematics with collision declared
-//! off). Entry point: [`report_effects`].
+//! then adding joint limits, collision in each mode, dynamics, and the joint friction effect;
+//! and the checks that an undeclared effect costs nothing (kinematics only against kinematics
+//! with collision declared off; dynamics on the PUMA without friction data against the same
+//! with the built-in PUMA's friction data, the joint friction effect undeclared). Entry point:
+//! [`report_effects`].
 
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use nalgebra::{DVector, Isometry3, Vector3};
@@ -55,8 +57,54 @@ fn dynamics(integrator: Integrator) -> Option<DynamicsEffect> {
     })
 }
 
+/// Which PUMA a configuration runs: the fixture (no friction data), or the fixture with the
+/// built-in PUMA's per-joint viscous and Coulomb friction (which act only where the joint
+/// friction effect is declared).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Friction {
+    NoData,
+    Data,
+}
+
+/// Row names the undeclared-effect checks pair up.
+const KIN_ONLY: &str = "kinematics only";
+const COLLISION_OFF: &str = "kinematics, collision declared off";
+const RK4: &str = "+ dynamics rk4 1 ms (no collision)";
+const RK4_FRICTION_UNDECLARED: &str =
+    "+ dynamics rk4 1 ms, robot with friction data, joint friction undeclared";
+
 /// The configurations, kinematics-only first (the baseline).
-fn configurations() -> Vec<(&'static str, SceneEffects)> {
+fn configurations() -> Vec<(&'static str, SceneEffects, Friction)> {
+    configurations_without_friction()
+        .into_iter()
+        .map(|(name, e)| (name, e, Friction::NoData))
+        .chain([
+            (
+                RK4_FRICTION_UNDECLARED,
+                SceneEffects {
+                    joint_limits: true,
+                    kinematics: true,
+                    dynamics: dynamics(Integrator::Rk4),
+                    ..SceneEffects::default()
+                },
+                Friction::Data,
+            ),
+            (
+                "+ dynamics rk4 1 ms + joint friction (viscous, Coulomb stick-slip)",
+                SceneEffects {
+                    joint_limits: true,
+                    kinematics: true,
+                    dynamics: dynamics(Integrator::Rk4),
+                    joint_friction: Some(Default::default()),
+                    ..SceneEffects::default()
+                },
+                Friction::Data,
+            ),
+        ])
+        .collect()
+}
+
+fn configurations_without_friction() -> Vec<(&'static str, SceneEffects)> {
     let kin = SceneEffects {
         kinematics: true,
         ..SceneEffects::default()
@@ -66,9 +114,9 @@ fn configurations() -> Vec<(&'static str, SceneEffects)> {
         ..kin.clone()
     };
     vec![
-        ("kinematics only", kin.clone()),
+        (KIN_ONLY, kin.clone()),
         (
-            "kinematics, collision declared off",
+            COLLISION_OFF,
             SceneEffects {
                 collision: Some(CollisionEffect {
                     enabled: false,
@@ -107,7 +155,7 @@ fn configurations() -> Vec<(&'static str, SceneEffects)> {
             },
         ),
         (
-            "+ dynamics rk4 1 ms (no collision)",
+            RK4,
             SceneEffects {
                 dynamics: dynamics(Integrator::Rk4),
                 ..lim.clone()
@@ -158,6 +206,22 @@ fn run(pipe: &mut Pipeline, steps: usize) -> Result<f64, String> {
 pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
     let robot = robosim_dynamics::fixture_robot("puma560")
         .ok_or("the PUMA 560 fixture is missing from this build")?;
+    // The same robot carrying the built-in PUMA's friction data (its motor inertia left out,
+    // so that only the friction differs from the fixture).
+    let builtin = robosim_kinematics::builtin_robot("puma560")
+        .ok_or("the built-in PUMA 560 is missing from this build")?;
+    let mut with_friction = robot.clone();
+    for (j, b) in with_friction.joints.iter_mut().zip(&builtin.joints) {
+        j.viscous = b.viscous;
+        j.coulomb = b.coulomb;
+    }
+    if with_friction
+        .joints
+        .iter()
+        .all(|j| j.viscous == 0.0 && j.coulomb == 0.0)
+    {
+        return Err("the built-in PUMA 560 has no friction data to measure".into());
+    }
     let configs = configurations();
     // Samples of 1000 steps (one back-and-forth motion), short enough that most run without
     // being descheduled on this shared machine; many rounds, round-robin over the configurations.
@@ -165,9 +229,13 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
     let rounds = if quick { 5 } else { 101 };
     let mut pipes = Vec::new();
     let mut description = String::new();
-    for (name, effects) in &configs {
+    let mut friction_description = String::new();
+    for (name, effects, friction) in &configs {
         let pipe = Pipeline::build(
-            &robot,
+            match friction {
+                Friction::NoData => &robot,
+                Friction::Data => &with_friction,
+            },
             &Q_A,
             effects,
             SceneGeometry {
@@ -179,27 +247,44 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         if name.starts_with("all") {
             description = pipe.to_string();
         }
+        if effects.joint_friction.is_some() {
+            friction_description = pipe.to_string();
+        }
         pipes.push(pipe);
     }
     for pipe in pipes.iter_mut() {
         run(pipe, SAMPLE)?; // warm-up
     }
+    let index = |name: &str| {
+        configs
+            .iter()
+            .position(|(n, _, _)| *n == name)
+            .ok_or_else(|| format!("no configuration {name:?}"))
+    };
+    // The undeclared-effect checks: (baseline, the same with an effect undeclared or off).
+    let pairs = [
+        (index(KIN_ONLY)?, index(COLLISION_OFF)?),
+        (index(RK4)?, index(RK4_FRICTION_UNDECLARED)?),
+    ];
     // round-robin over the configurations so that machine noise hits them all alike
     let mut times: Vec<Vec<f64>> = vec![Vec::new(); configs.len()];
-    let mut ratio_off: Vec<f64> = Vec::new();
-    let (mut a_times, mut b_times) = (Vec::new(), Vec::new());
+    let mut ratios: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
+    let mut a_times: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
+    let mut b_times: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
     for _ in 0..rounds {
         for (i, pipe) in pipes.iter_mut().enumerate() {
             times[i].push(run(pipe, SAMPLE)?);
         }
-        // the undeclared-effect check: A B B A back to back, same number of steps
-        let a1 = run(&mut pipes[0], SAMPLE)?;
-        let b1 = run(&mut pipes[1], SAMPLE)?;
-        let b2 = run(&mut pipes[1], SAMPLE)?;
-        let a2 = run(&mut pipes[0], SAMPLE)?;
-        ratio_off.push((b1 + b2) / (a1 + a2));
-        a_times.extend([a1, a2]);
-        b_times.extend([b1, b2]);
+        // the undeclared-effect checks: A B B A back to back, same number of steps
+        for (k, &(a, b)) in pairs.iter().enumerate() {
+            let a1 = run(&mut pipes[a], SAMPLE)?;
+            let b1 = run(&mut pipes[b], SAMPLE)?;
+            let b2 = run(&mut pipes[b], SAMPLE)?;
+            let a2 = run(&mut pipes[a], SAMPLE)?;
+            ratios[k].push((b1 + b2) / (a1 + a2));
+            a_times[k].extend([a1, a2]);
+            b_times[k].extend([b1, b2]);
+        }
     }
     let medians: Vec<f64> = times.iter_mut().map(|t| percentile(t, 50.0)).collect();
     let minima: Vec<f64> = times.iter_mut().map(|t| percentile(t, 10.0)).collect();
@@ -220,7 +305,7 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
     };
     let mut points = Vec::new();
     let mut points_min = Vec::new();
-    for (i, ((name, _), pipe)) in configs.iter().zip(&pipes).enumerate() {
+    for (i, ((name, _, _), pipe)) in configs.iter().zip(&pipes).enumerate() {
         let contacts = if pipe.data().contact.is_some() {
             pipe.data().contact_steps.to_string()
         } else {
@@ -237,21 +322,29 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         points.push((i as f64 + 1.0, medians[i] * 1e6));
         points_min.push((i as f64 + 1.0, minima[i] * 1e6));
     }
-    let mut r = ratio_off.clone();
-    let (lo, med, hi) = (
-        percentile(&mut r, 0.0),
-        percentile(&mut r, 50.0),
-        percentile(&mut r, 100.0),
-    );
-    let (a_min, b_min) = (
-        percentile(&mut a_times, 10.0),
-        percentile(&mut b_times, 10.0),
-    );
+    // (median, min, max of the A B B A ratios; 10th percentiles of A and B) per pair
+    let mut checks = Vec::new();
+    for k in 0..pairs.len() {
+        let r = &mut ratios[k];
+        checks.push((
+            percentile(r, 50.0),
+            percentile(r, 0.0),
+            percentile(r, 100.0),
+            percentile(&mut a_times[k], 10.0),
+            percentile(&mut b_times[k], 10.0),
+        ));
+    }
+    let (med, lo, hi, a_min, b_min) = checks[0];
+    let (f_med, f_lo, f_hi, f_a_min, f_b_min) = checks[1];
+    let declared = index("+ dynamics rk4 1 ms + joint friction (viscous, Coulomb stick-slip)")?;
+    let rk4 = pairs[1].0;
     let notes = vec![
         format!("Scene: PUMA 560 (testdata/dynamics/robots/puma560.json) moving between two joint targets (kinematic motion at 1 rad/s, or a computed-torque controller under dynamics), four box obstacles, link solids from the DH segments (radius 5 cm). Each sample times {SAMPLE} steps (one back-and-forth motion) after a warm-up; {rounds} rounds, round-robin over the configurations; median and 10th percentile per configuration (samples long enough to be descheduled on this shared machine come out several times slower, so the 10th percentile is the better estimate of the cost itself)."),
         format!("Undeclared effect costs nothing: time(kinematics with collision declared off) / time(kinematics only), measured back to back (A B B A, {SAMPLE} steps each) in every round: median ratio {med:.3}, range {lo:.3} – {hi:.3} over {rounds} rounds; 10th percentiles {:.3} µs vs {:.3} µs per step (ratio {:.3}). Collision declared off builds no stage, so both pipelines run the same code; the spread is the machine's noise.", b_min * 1e6, a_min * 1e6, b_min / a_min),
+        format!("Joint friction undeclared costs nothing: time(rk4 dynamics on the PUMA carrying the built-in PUMA's viscous and Coulomb friction data, joint friction effect undeclared) / time(the same on the fixture PUMA without friction data), measured back to back (A B B A, {SAMPLE} steps each) in every round: median ratio {f_med:.3}, range {f_lo:.3} – {f_hi:.3} over {rounds} rounds; 10th percentiles {:.3} µs vs {:.3} µs per step (ratio {:.3}). Undeclared, the stepper holds no friction model and runs the rigid-body equations alone. Declared (`joint_friction {{ viscous: on, coulomb: stick_slip }}`, the default), the step costs {:.2}× the rigid-body rk4 step (medians of the table; {:.2}× by their 10th percentiles).", f_b_min * 1e6, f_a_min * 1e6, f_b_min / f_a_min, medians[declared] / medians[rk4], minima[declared] / minima[rk4]),
         "Times are wall time on a shared 2-core machine (noisy); compare ratios within this run. Per-call costs of RNEA/CRBA/ABA are in docs/reports/dynamics.md.".into(),
         format!("The full pipeline as printed by the simulator:\n\n```\n{description}```"),
+        format!("The joint friction row's pipeline:\n\n```\n{friction_description}```"),
     ];
     let plots = vec![Plot {
         title: "time per step by configuration".into(),
@@ -289,5 +382,10 @@ mod tests {
         assert_eq!(written.len(), 3);
         let md = std::fs::read_to_string(dir.path().join("effects.md")).expect("md");
         assert!(md.contains("collision declared off"));
+        // the friction rows: undeclared measured against the same-run baseline, and the
+        // declared row's pipeline really applies friction (the stage says so)
+        assert!(md.contains("Joint friction undeclared costs nothing"));
+        assert!(md.contains("joint friction undeclared |"));
+        assert!(md.contains(", joint friction "), "{md}");
     }
 }
