@@ -164,7 +164,7 @@ def geometry_check(name, urdf, xml, pin_model, mj_model, q_list):
     if mj_model.ngeom != n_geom:
         sys.exit(f"{name}: MuJoCo has {mj_model.ngeom} geoms, the MJCF {n_geom}")
     names = collision_names(urdf)
-    pose_err, box_err = 0.0, 0.0
+    pose_err, box_err = None, None  # None: no such shape
     d = mujoco.MjData(mj_model)
     for q in q_list:
         data = pin_model.createData()
@@ -180,7 +180,7 @@ def geometry_check(name, urdf, xml, pin_model, mj_model, q_list):
                 Y = np.eye(4)
                 Y[:3, :3] = d.geom_xmat[g].reshape(3, 3)
                 Y[:3, 3] = d.geom_xpos[g]
-                pose_err = max(pose_err, np.abs(X - Y).max())
+                pose_err = max(pose_err or 0.0, np.abs(X - Y).max())
             else:
                 v = read_stl(os.path.join(folder, mesh))
                 ours = v @ X[:3, :3].T + X[:3, 3]
@@ -188,7 +188,7 @@ def geometry_check(name, urdf, xml, pin_model, mj_model, q_list):
                 a, n = mj_model.mesh_vertadr[m], mj_model.mesh_vertnum[m]
                 mv = mj_model.mesh_vert[a:a + n]
                 theirs = mv @ d.geom_xmat[g].reshape(3, 3).T + d.geom_xpos[g]
-                box_err = max(box_err, np.abs(ours.min(0) - theirs.min(0)).max(),
+                box_err = max(box_err or 0.0, np.abs(ours.min(0) - theirs.min(0)).max(),
                               np.abs(ours.max(0) - theirs.max(0)).max())
     return n_col, n_vis, n_geom, pose_err, box_err
 
@@ -270,7 +270,8 @@ def main():
           "| primitive pose max abs diff, Pinocchio vs MuJoCo | mesh world box max abs diff (m) |")
     print("|---|---|---|---|---|")
     for name, nc, nv, ng, pe, be in geo_rows:
-        print(f"| {name} | {nc} / {nv} | {ng} | {pe:.1e} | {be:.1e} |")
+        fmt = lambda e: "-" if e is None else f"{e:.1e}"
+        print(f"| {name} | {nc} / {nv} | {ng} | {fmt(pe)} | {fmt(be)} |")
 
 
 if __name__ == "__main__":
