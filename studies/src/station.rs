@@ -486,6 +486,8 @@ pub struct Step {
     pub attitude: Option<attitude::AttStep>,
     /// The loads from this step to the next: demanded, served, modes, the energy's flows.
     pub loads: loads::LoadStep,
+    /// The desaturation window the scheduler was given at this step ([start, end] s).
+    pub desat_window: Option<(f64, f64)>,
 }
 
 /// A run's outcome.
@@ -832,10 +834,12 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             .filter(|d| d[1] > t && d[0] < t + horizon)
             .map(|d| ("docking", d[0], d[1]))
             .collect();
+        let mut desat_window = None;
         if let (Some(r), Some(a)) = (att.as_ref(), att_step.as_ref())
             && let Some(w) = attitude::predict_desaturation(&steps, a, r, t, period)
             && w.0 < t + horizon
         {
+            desat_window = Some(w);
             windows.push(("desaturation", w.0, w.1));
             if predicted_windows.last().is_none_or(|l| w.0 > l.1) {
                 predicted_windows.push(w);
@@ -892,6 +896,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             blocked,
             attitude: att_step,
             loads: load_step,
+            desat_window,
         });
     }
     let rules_ran = rules.has_engine();

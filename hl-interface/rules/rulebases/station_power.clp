@@ -58,27 +58,27 @@
     then (min ?cap (+ ?e (* ?net ?ec ?h)))
     else (+ ?e (/ (* ?net ?h) ?ed))))
 
-;;; The load at time ?t, kW: ?base, plus ?extra before ?until, plus every running experiment
-;;; before its run ends (?now + its time left).
-(deffunction sp-load-at (?base ?extra ?until ?now ?t)
+;;; The load at time ?t, kW: ?base, plus ?extra from ?from until ?until, plus every running
+;;; experiment before its run ends (?now + its time left).
+(deffunction sp-load-at (?base ?extra ?from ?until ?now ?t)
   (bind ?l ?base)
-  (if (< ?t ?until) then (bind ?l (+ ?l ?extra)))
+  (if (and (>= ?t ?from) (< ?t ?until)) then (bind ?l (+ ?l ?extra)))
   (do-for-all-facts ((?x sp-experiment))
       (and (eq ?x:state running) (< ?t (+ ?now ?x:remaining-s)))
     (bind ?l (+ ?l ?x:power-kw)))
   ?l)
 
 ;;; The lowest stored energy (kWh) over the phases with the base load ?base kW, plus ?extra kW
-;;; until time ?until (a candidate experiment), plus the running experiments until they end.
-;;; Below 0: that much demand would go unserved. Exact over the pieces where the load is
-;;; constant (the phases cut at every run's end and at ?until).
-(deffunction sp-min-energy (?base ?extra ?until)
+;;; from ?from until ?until (a candidate experiment), plus the running experiments until they
+;;; end. Below 0: that much demand would go unserved. Exact over the pieces where the load is
+;;; constant (the phases cut at every run's end, ?from and ?until).
+(deffunction sp-min-energy-from (?base ?extra ?from ?until)
   (bind ?e 0.0) (bind ?cap 0.0) (bind ?ec 1.0) (bind ?ed 1.0) (bind ?now 0.0)
   (do-for-fact ((?b sp-battery)) TRUE
     (bind ?e ?b:energy-kwh) (bind ?cap ?b:capacity-kwh)
     (bind ?ec ?b:charge-eff) (bind ?ed ?b:discharge-eff))
   (do-for-fact ((?n sp-now)) TRUE (bind ?now ?n:t))
-  (bind ?cuts (create$ ?until))
+  (bind ?cuts (create$ ?from ?until))
   (do-for-all-facts ((?x sp-experiment)) (eq ?x:state running)
     (bind ?cuts (create$ ?cuts (+ ?now ?x:remaining-s))))
   (bind ?min ?e)
@@ -91,10 +91,23 @@
       (bind ?a (nth$ ?i ?pts))
       (bind ?z (nth$ (+ ?i 1) ?pts))
       (bind ?e (sp-charge ?e ?cap ?ec ?ed
-                          (- ?p:power-kw (sp-load-at ?base ?extra ?until ?now ?a))
+                          (- ?p:power-kw (sp-load-at ?base ?extra ?from ?until ?now ?a))
                           (/ (- ?z ?a) 3600.0)))
       (if (< ?e ?min) then (bind ?min ?e))))
   ?min)
+
+;;; The same with the extra load from now (the first phase's start).
+(deffunction sp-min-energy (?base ?extra ?until)
+  (bind ?from 0.0)
+  (do-for-fact ((?n sp-now)) TRUE (bind ?from ?n:t))
+  (sp-min-energy-from ?base ?extra ?from ?until))
+
+;;; The start of the first sunlit phase after ?t (0 if none in the horizon).
+(deffunction sp-next-sunrise (?t)
+  (bind ?s 0.0)
+  (do-for-all-facts ((?p sp-phase)) (and (eq ?p:kind sunlit) (> ?p:start ?t))
+    (if (or (= ?s 0.0) (< ?p:start ?s)) then (bind ?s ?p:start)))
+  ?s)
 
 ;;; Whether [?a, ?b] meets a desaturation window or a docking event; its end if so, else 0.
 (deffunction sp-window-end (?a ?b)
@@ -235,6 +248,9 @@
 (defrule sp-move-experiment
   (declare (salience 40))
   (sp-now (t ?t))
+  ;; matched after the plan is made, so that every window of the pass is asserted when the
+  ;; test below is evaluated (a test CE is evaluated once, when the patterns before it match)
+  (sp-plan)
   ?x <- (sp-experiment (name ?n) (state waiting) (sensitive yes) (remaining-s ?d)
                        (not-before ?nb))
   (test (> (sp-window-end (max ?t ?nb) (+ (max ?t ?nb) ?d)) 0.0))
@@ -256,11 +272,35 @@
   (test (or (eq ?s no) (= (sp-window-end ?t (+ ?t ?d)) 0.0)))
   (test (>= (sp-min-energy ?l ?w (+ ?t ?d)) (+ ?r ?g)))
   =>
+  (bind ?with (sp-min-energy ?l ?w (+ ?t ?d)))
   (modify ?x (state running))
   (robosim start sp-start-experiment ?n ?t
-    (str-cat "predicted minimum with it " (sp-min-energy ?l ?w (+ ?t ?d)) " kWh >= reserve + margin "
+    (str-cat "predicted minimum with it " ?with " kWh >= reserve + margin "
              (+ ?r ?g) " kWh; no window in " ?t "-" (+ ?t ?d) " s"))
   (sp-replan ?p))
+
+;;; Seed §4.2: "based on the reserve energy and projected production must schedule the
+;;; operation of the different consumers" — a run that does not fit now but fits from the next
+;;; sunrise (clear of windows when sensitive) is moved there.
+(defrule sp-move-experiment-to-sunrise
+  (declare (salience 15))
+  (sp-now (t ?t) (reserve-kwh ?r) (margin-kwh ?g))
+  (sp-plan (load-kw ?l))
+  ?x <- (sp-experiment (name ?n) (state waiting) (power-kw ?w) (remaining-s ?d)
+                       (sensitive ?s) (not-before ?nb&:(<= ?nb ?t)))
+  (test (> (sp-next-sunrise ?t) ?t))
+  (test (or (eq ?s no)
+            (= (sp-window-end (sp-next-sunrise ?t) (+ (sp-next-sunrise ?t) ?d)) 0.0)))
+  (test (>= (sp-min-energy-from ?l ?w (sp-next-sunrise ?t) (+ (sp-next-sunrise ?t) ?d))
+            (+ ?r ?g)))
+  =>
+  (bind ?at (sp-next-sunrise ?t))
+  (modify ?x (not-before ?at))
+  (robosim move sp-move-experiment-to-sunrise ?n ?at
+    (str-cat "does not fit now (predicted minimum with it " (sp-min-energy ?l ?w (+ ?t ?d))
+             " kWh) but from the next sunrise at " ?at " s it does ("
+             (sp-min-energy-from ?l ?w ?at (+ ?at ?d)) " kWh >= reserve + margin " (+ ?r ?g)
+             " kWh): moved there")))
 
 ;;; Said once per run asked for: an experiment waiting because the energy is short.
 (defrule sp-defer-experiment

@@ -222,6 +222,7 @@ mod tests {
         ] {
             e.assert_str(&f).expect("a fact");
         }
+        // the window after the experiment: the rules must not depend on the facts' order
         if let Some((a, b)) = window {
             e.assert_str(&format!(
                 "(sp-window (kind desaturation) (start {a:?}) (end {b:?}))"
@@ -303,6 +304,8 @@ mod tests {
             .find(|c| c[1] == "sp-move-experiment")
             .expect("moved");
         assert_eq!(moved[3], "2400", "{c:?}");
+        // moved first, not after some other rule happened to touch the experiment's fact
+        assert_eq!(c[0][1], "sp-move-experiment", "{c:?}");
         assert!(!c.iter().any(|c| c[1] == "sp-start-experiment"), "{c:?}");
     }
 }

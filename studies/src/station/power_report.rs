@@ -265,6 +265,46 @@ pub fn notes(run: &Run, off: Option<&Run>) -> Vec<String> {
             }
         ));
     }
+    if let Some(a) = &run.attitude {
+        // each desaturation against the window the scheduler had one step before it began
+        let mut inside = 0;
+        let mut lead: Vec<f64> = Vec::new();
+        for d in &a.dumps {
+            let before = run.steps.iter().rev().find(|st| st.t < d.start_s);
+            if before
+                .and_then(|st| st.desat_window)
+                .is_some_and(|(w0, w1)| w0 <= d.start_s && d.start_s <= w1)
+            {
+                inside += 1;
+                // how long before it the windows given contained its start, without a break
+                let first = run
+                    .steps
+                    .iter()
+                    .rev()
+                    .filter(|st| st.t < d.start_s)
+                    .take_while(|st| {
+                        st.desat_window
+                            .is_some_and(|(w0, w1)| w0 <= d.start_s && d.start_s <= w1)
+                    })
+                    .last()
+                    .map_or(d.start_s, |st| st.t);
+                lead.push(d.start_s - first);
+            }
+        }
+        n.push(format!(
+            "Desaturations predicted: {inside} of {} began inside the window the scheduler was given (the momentum manager's prediction from |h|'s growth over the last orbit){}.",
+            a.dumps.len(),
+            if lead.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    ", foreseen {:.0} min ahead on average (at least {:.0} min)",
+                    lead.iter().sum::<f64>() / lead.len() as f64 / 60.0,
+                    lead.iter().copied().fold(f64::INFINITY, f64::min) / 60.0
+                )
+            }
+        ));
+    }
     if !run.predicted_windows.is_empty() {
         n.push(format!(
             "Desaturation windows predicted (momentum manager: |h| growth over the last orbit): {}.",
