@@ -142,11 +142,12 @@ fn refused(text: &str) -> (u32, String, MjcfErrorKind) {
 
 #[test]
 fn ball_free_and_bad_input_are_refused_by_name() {
+    // a free joint is the floating base only on the worldbody's first body (issue 36 item 2)
     let (line, element, kind) = refused(
-        "<mujoco>\n<worldbody>\n<body name='torso'>\n<freejoint name='root'/>\n</body></worldbody></mujoco>",
+        "<mujoco>\n<worldbody>\n<body name='torso'>\n<body name='leg'>\n<freejoint name='root'/>\n</body></body></worldbody></mujoco>",
     );
     assert_eq!(line, 4);
-    assert_eq!(element, r#"<body name="torso">/<freejoint name="root">"#);
+    assert_eq!(element, r#"<body name="leg">"#);
     assert_eq!(
         kind,
         MjcfErrorKind::UnsupportedJoint {

@@ -59,9 +59,9 @@ use crate::mjcf_frame::{
 use crate::urdf_geometry::{Geometry, LinkGeometry, Material, MeshRef, Shape, UrdfGeometry};
 use crate::urdf_import::{UrdfJoint, UrdfMimic, UrdfRobot};
 use nalgebra::{Matrix3, Matrix4, SymmetricEigen, UnitQuaternion, Vector3};
-use robosim_kinematics::{ModelError, RootKind};
 use robosim_kinematics::chain::{Inertial, Segment, SegmentKind, build_tree};
 use robosim_kinematics::mimic::{Coupling, Mimic, MimicError};
+use robosim_kinematics::{ModelError, RootKind};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
 
@@ -1413,6 +1413,7 @@ impl<'a, 'i> Model<'a, 'i> {
             )
         })?;
         let (mimics, coupling) = self.equality_joints(&joints, &refs)?;
+        let coupling = coupling.map(|c| c.with_root(robot.root_nq(), robot.root_nv()));
         Ok(UrdfRobot {
             robot,
             root: "world".into(),
@@ -1542,5 +1543,69 @@ impl<'a, 'i> Model<'a, 'i> {
             self.err(*node, element, MjcfErrorKind::Mimic(e))
         })?;
         Ok((mimics, Some(coupling)))
+    }
+}
+
+#[cfg(test)]
+mod floating_tests {
+    use super::*;
+
+    /// A `<freejoint>` on the worldbody's first body is the robot's free-flyer root, the same
+    /// robot as the URDF with a `floating` joint on its root link (base, root inertial, FK); a
+    /// free joint deeper down is refused by name.
+    #[test]
+    fn a_free_joint_on_the_first_body_is_the_floating_base() {
+        let mjcf = r#"<mujoco model="m"><worldbody>
+  <body name="base" pos="0 0 0.5">
+    <freejoint name="root"/>
+    <inertial pos="0.1 0 0" mass="2" diaginertia="0.01 0.02 0.03"/>
+    <body name="l1" pos="1 0 0">
+      <joint name="j2" type="hinge" axis="0 0 1"/>
+      <inertial pos="0 0.2 0" mass="1" diaginertia="0.01 0.01 0.01"/>
+    </body>
+  </body></worldbody></mujoco>"#;
+        let urdf = r#"<robot name="m"><link name="world"/>
+  <link name="base"><inertial><origin xyz="0.1 0 0"/><mass value="2"/>
+    <inertia ixx="0.01" iyy="0.02" izz="0.03" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="l1"><inertial><origin xyz="0 0.2 0"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="root" type="floating"><parent link="world"/><child link="base"/>
+    <origin xyz="0 0 0.5"/></joint>
+  <joint name="j2" type="continuous"><parent link="base"/><child link="l1"/>
+    <origin xyz="1 0 0"/><axis xyz="0 0 1"/></joint></robot>"#;
+        let m = import_mjcf_tree_str(mjcf, Path::new("m.xml")).expect("mjcf");
+        let u = crate::urdf_import::import_urdf_tree_str(urdf, Path::new("m.urdf")).expect("urdf");
+        let (rm, ru) = (&m.robot, &u.robot);
+        assert_eq!(rm.root.as_ref().map(|r| r.kind), Some(RootKind::FreeFlyer));
+        assert_eq!((rm.nq(), rm.nv()), (8, 7));
+        let (a, b) = (
+            rm.root.as_ref().expect("root"),
+            ru.root.as_ref().expect("root"),
+        );
+        assert!((a.mass - b.mass).abs() < 1e-15 && (a.com - b.com).norm() < 1e-15);
+        assert!((a.inertia - b.inertia).abs().max() < 1e-15);
+        assert!((rm.base - ru.base).abs().max() < 1e-15);
+        let mut q = rm.neutral_q();
+        let v = [0.3, -0.2, 0.1, 0.5, -0.4, 0.8];
+        let q0 = q.clone();
+        RootKind::FreeFlyer.integrate(&q0.as_slice()[..7], &v, 1.0, &mut q.as_mut_slice()[..7]);
+        q[7] = 0.7;
+        for link in 0..=1 {
+            let (pm, pu) = (
+                robosim_kinematics::fk::link_pose(rm, q.as_slice(), link),
+                robosim_kinematics::fk::link_pose(ru, q.as_slice(), link),
+            );
+            assert!((pm - pu).abs().max() < 1e-14, "link {link}: {pm} vs {pu}");
+        }
+        assert!((rm.joints[0].com - ru.joints[0].com).norm() < 1e-15);
+        let deeper = mjcf.replace(r#"<freejoint name="root"/>"#, "").replace(
+            r#"<joint name="j2" type="hinge" axis="0 0 1"/>"#,
+            r#"<freejoint name="j2"/>"#,
+        );
+        let e = import_mjcf_tree_str(&deeper, Path::new("m.xml")).expect_err("refused");
+        assert!(
+            matches!(e.kind, MjcfErrorKind::UnsupportedJoint { .. }),
+            "{e}"
+        );
     }
 }
