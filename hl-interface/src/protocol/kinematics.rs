@@ -158,7 +158,7 @@ fn op_jacobian(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     };
     // The compiled model's tool pose and base-frame Jacobian: `jacobian::jacobian`'s numbers.
     let kin = KinematicModel::new(&robot);
-    let mut j = Jacobian::zeros(kin.dof());
+    let mut j = Jacobian::zeros(kin.nv());
     let tee = kin.fk_and_jacobian_into(&q, &mut j);
     if frame == Frame::Tool {
         to_tool_frame(&mut j, &tee);

@@ -557,7 +557,7 @@ fn polish(model: &KinematicModel, target: &Matrix4<f64>, q: &mut [f64], steps: u
     }
     let error = |q: &[f64]| pose_error(&model.forward(q), target);
     let mut e = error(q);
-    let mut j = Jacobian::zeros(model.dof());
+    let mut j = Jacobian::zeros(model.nv());
     for step in 0..steps {
         if e.amax() == 0.0 {
             return step;
