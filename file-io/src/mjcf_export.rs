@@ -23,9 +23,13 @@
 //! mass; its M then differs from robosim's by that much, far below any physical quantity).
 //! Each change is returned as a note and printed by the command.
 //!
-//! Geometry: the `visual` and `collision` default classes are written (geoms of class visual do
-//! not collide, group 2; collision geoms group 3), but the robot's solids are not exported as
-//! geoms yet: the robot model carries no shapes (they are in the session's bodies).
+//! Geometry ([`to_mjcf_with_geometry`], [`crate::export_geometry`]): the `visual` (contype 0,
+//! conaffinity 0, group 2) and `collision` (contype/conaffinity 1, group 3) default classes,
+//! a geom of each class per shape that is drawn / collided, placed in its body by the general
+//! model's frame (the base placement folded into the link-0 body's geoms), primitives as MJCF
+//! primitives and anything else an `<asset><mesh file>` written as binary STL beside the file.
+//! Quaternions by Shepperd's method (`UnitQuaternion::from_matrix`, iterative from the
+//! identity, returned a half-turn rotation unturned).
 
 use crate::export_geometry::{
     ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,

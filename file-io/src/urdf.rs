@@ -34,8 +34,11 @@
 //!
 //! Not in URDF, so not written: gravity, the motor (rotor) inertia (Pinocchio's "armature";
 //! noted in a comment per joint when non-zero), velocity and effort limits (robosim does not
-//! model them: written as 0, which URDF readers take as "unknown"), and the geometry (a link's
-//! bodies are not exported as meshes yet).
+//! model them: written as 0, which URDF readers take as "unknown").
+//!
+//! Geometry ([`to_urdf_with_geometry`], [`crate::export_geometry`]): each link's `<visual>` and
+//! `<collision>` elements, a shape's placement in robosim's link frame j moved into URDF link j
+//! by `P_j`; primitives as URDF primitives, anything else a binary STL beside the file.
 
 use crate::export_geometry::{
     ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
