@@ -15,8 +15,8 @@
 //! `buildModel(…, mimic=True)` for RNEA and CRBA; its ABA refuses mimic joints, so the forward
 //! dynamics here is solved through the reduced mass matrix (a Cholesky factorisation, O(n³)),
 //! not by the articulated-body recursion. Entry points: [`rnea_mimic`], [`gravity_mimic`],
-//! [`crba_mimic`], [`aba_mimic`]. Fixed-base robots (a root joint's coordinates are not in a
-//! coupling).
+//! [`crba_mimic`], [`aba_mimic`]. A floating base's coordinates (`Coupling::with_root`) come
+//! first and pass through (G is the identity on them).
 
 use crate::data::Data;
 use crate::model::{DynamicsError, Model};
@@ -45,25 +45,37 @@ fn length_error(e: MimicError) -> DynamicsError {
     }
 }
 
-/// Checks that the coupling is the model's (one entry per joint) and that a reduced vector
-/// has the coupling's length and is finite.
+/// Checks that the coupling is the model's (one entry per joint, the root's dimensions) and
+/// that a reduced vector has the coupling's length (`reduced_nq` for q, `reduced_nv` for the
+/// others) and is finite.
 fn check(
     model: &Model,
     coupling: &Coupling,
     field: &'static str,
     x: &[f64],
 ) -> Result<(), DynamicsError> {
-    if coupling.full_dof() != model.dof() {
-        return Err(DynamicsError::WrongLength {
-            field: "coupling",
-            expected: model.dof(),
-            got: coupling.full_dof(),
-        });
+    for (what, expected, got) in [
+        ("coupling joints", model.dof(), coupling.full_dof()),
+        ("coupling nq", model.nq(), coupling.full_nq()),
+        ("coupling nv", model.nv(), coupling.full_nv()),
+    ] {
+        if expected != got {
+            return Err(DynamicsError::WrongLength {
+                field: what,
+                expected,
+                got,
+            });
+        }
     }
-    if x.len() != coupling.reduced_dof() {
+    let expected = if field == "q" {
+        coupling.reduced_nq()
+    } else {
+        coupling.reduced_nv()
+    };
+    if x.len() != expected {
         return Err(DynamicsError::WrongLength {
             field,
-            expected: coupling.reduced_dof(),
+            expected,
             got: x.len(),
         });
     }
@@ -137,17 +149,22 @@ pub fn aba_mimic(
     tau_r: &[f64],
 ) -> Result<DVector<f64>, DynamicsError> {
     check(model, coupling, "tau", tau_r)?;
-    let zero = vec![0.0; coupling.reduced_dof()];
+    let zero = vec![0.0; coupling.reduced_nv()];
     let bias = rnea_mimic(model, data, coupling, qr, vr, &zero)?;
     let m = crba_mimic(model, data, coupling, qr)?;
     let rhs = DVector::from_column_slice(tau_r) - bias;
     let Some(chol) = m.clone().cholesky() else {
-        // the first reduced coordinate whose pivot fails: the smallest diagonal entry names it
-        let (joint, inertia) = (0..m.nrows())
+        // the reduced coordinate with the smallest diagonal entry names it (its joint index;
+        // a root's coordinates, which come first, as 0)
+        let (k, inertia) = (0..m.nrows())
             .map(|k| (k, m[(k, k)]))
             .fold((0, f64::INFINITY), |a, b| if b.1 < a.1 { b } else { a });
+        let r = coupling.reduced_nv() - coupling.reduced_dof();
         return Err(DynamicsError::SingularInertia {
-            joint: coupling.free().get(joint).copied().unwrap_or(joint),
+            joint: k
+                .checked_sub(r)
+                .and_then(|j| coupling.free().get(j).copied())
+                .unwrap_or(0),
             inertia,
         });
     };

@@ -213,3 +213,44 @@ fn a_follower_on_the_chain_with_its_leader_held_is_fixed_at_its_offset() {
     assert!(rnea_mimic(&cm, &mut cd, c, &qr[..6], &v, &a).is_err());
     assert!(crba_mimic(&tm, &mut td, c, &qr).is_err());
 }
+
+/// The Panda tree on a free-flyer base (issue 36 item 2 with item 1): the root's 7 q / 6 v come
+/// first in the reduced vectors and pass through; the reduced dynamics is the full one with
+/// `G = diag(I₆, G_joints)` — checked against the explicit matrix.
+#[test]
+fn a_floating_base_passes_through_the_coupling() {
+    let path = dir().join("robots/panda_description/panda.urdf");
+    let text = std::fs::read_to_string(&path).expect("URDF");
+    let tree = robosim_urdf::urdf_import::import_urdf_tree_floating_str(
+        &text,
+        &path,
+        robosim_kinematics::RootKind::FreeFlyer,
+    )
+    .expect("imports");
+    let c = tree.coupling.as_ref().expect("coupling");
+    assert_eq!((c.reduced_nq(), c.reduced_nv()), (7 + 8, 6 + 8));
+    let model = Model::new(&tree.robot).expect("model");
+    let mut data = Data::new(&model);
+    let s = 0.5_f64.sqrt();
+    let mut qr = vec![0.1, -0.2, 0.3, 0.0, s, 0.0, s];
+    qr.extend([0.3, -0.5, 0.2, -1.9, 0.4, 1.6, -0.7, 0.02]);
+    let vr: Vec<f64> = (0..14).map(|k| (k as f64 * 0.7).sin()).collect();
+    let ar: Vec<f64> = (0..14).map(|k| (k as f64 * 1.3).cos()).collect();
+    let g = c.matrix();
+    let q = c.expand_q(&qr).expect("q");
+    assert_eq!(&q[..7], &qr[..7]);
+    let v = &g * nalgebra::DVector::from_row_slice(&vr);
+    let a = &g * nalgebra::DVector::from_row_slice(&ar);
+    let full = rnea(&model, &mut data, &q, v.as_slice(), a.as_slice()).expect("rnea");
+    let want = g.transpose() * full;
+    let got = rnea_mimic(&model, &mut data, c, &qr, &vr, &ar).expect("rnea_mimic");
+    assert!(rel_err(got.as_slice(), want.as_slice()) < 1e-13);
+    let m = crba_mimic(&model, &mut data, c, &qr).expect("crba");
+    let tau = &m * nalgebra::DVector::from_row_slice(&ar)
+        + rnea_mimic(&model, &mut data, c, &qr, &vr, &[0.0; 14]).expect("bias");
+    let qdd = aba_mimic(&model, &mut data, c, &qr, &vr, tau.as_slice()).expect("aba");
+    assert!(rel_err(qdd.as_slice(), &ar) < 1e-9, "{qdd} vs {ar:?}");
+    let (pose, jac) = link_jacobian(&tree.robot, c, &qr, 9, Frame::Base).expect("J");
+    assert_eq!(jac.ncols(), 14);
+    assert_eq!(pose, link_pose(&tree.robot, &q, 9));
+}

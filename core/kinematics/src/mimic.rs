@@ -29,8 +29,9 @@
 //! [`Coupling::reduce_matrix`], [`Coupling::matrix`]; [`forward`], [`link_jacobian`],
 //! [`jacobian`] — FK and Jacobians at a reduced q.
 //!
-//! Coordinates are joint indices of a robot whose joints each have one coordinate (revolute
-//! and prismatic: q and q̇ indexed alike).
+//! Mimic relations are between joints (revolute and prismatic: one coordinate each); a floating
+//! base's coordinates ([`Robot::root`], [`Coupling::with_root`]) come first in every full and
+//! reduced vector and pass through unchanged (G is the identity on them).
 
 use crate::jacobian::{Frame, Jacobian, link_jacobian_into, to_tool_frame};
 use crate::model::Robot;
@@ -97,6 +98,10 @@ pub struct Coupling {
     source: Vec<Source>,
     /// The full index of each reduced coordinate, increasing.
     free: Vec<usize>,
+    /// A floating base's coordinates ([`Robot::root`]: `root_nq` in q, `root_nv` in v), first
+    /// in every full and reduced vector and passed through unchanged.
+    root_nq: usize,
+    root_nv: usize,
 }
 
 impl Coupling {
@@ -163,7 +168,21 @@ impl Coupling {
             };
             source.push(s);
         }
-        Ok(Coupling { source, free })
+        Ok(Coupling {
+            source,
+            free,
+            root_nq: 0,
+            root_nv: 0,
+        })
+    }
+
+    /// This coupling for a robot with a root joint of `root_nq` position and `root_nv`
+    /// velocity coordinates (a free-flyer: 7 and 6; [`Robot::root_nq`], [`Robot::root_nv`]):
+    /// they come first in every full and reduced vector and pass through unchanged.
+    pub fn with_root(mut self, root_nq: usize, root_nv: usize) -> Coupling {
+        self.root_nq = root_nq;
+        self.root_nv = root_nv;
+        self
     }
 
     /// The identity coupling of `dof` coordinates (no mimic joint).
@@ -171,20 +190,44 @@ impl Coupling {
         Coupling {
             source: (0..dof).map(Source::Free).collect(),
             free: (0..dof).collect(),
+            root_nq: 0,
+            root_nv: 0,
         }
     }
 
-    /// Number of full coordinates (the robot's `dof()`).
+    /// Number of joint coordinates of the full model (the robot's `dof()`, the root's not
+    /// counted).
     pub fn full_dof(&self) -> usize {
         self.source.len()
     }
 
-    /// Number of reduced (free) coordinates.
+    /// Number of reduced (free) joint coordinates (the root's not counted).
     pub fn reduced_dof(&self) -> usize {
         self.free.len()
     }
 
-    /// The full index of each reduced coordinate, in order.
+    /// Length of the full q (the robot's `nq()`).
+    pub fn full_nq(&self) -> usize {
+        self.root_nq + self.full_dof()
+    }
+
+    /// Length of the full v, τ (the robot's `nv()`).
+    pub fn full_nv(&self) -> usize {
+        self.root_nv + self.full_dof()
+    }
+
+    /// Length of the reduced q: the root's coordinates and the free joints'.
+    pub fn reduced_nq(&self) -> usize {
+        self.root_nq + self.reduced_dof()
+    }
+
+    /// Length of the reduced v, τ.
+    pub fn reduced_nv(&self) -> usize {
+        self.root_nv + self.reduced_dof()
+    }
+
+    /// The joint index (0-based, the root not counted) of each reduced joint coordinate, in
+    /// order.
     pub fn free(&self) -> &[usize] {
         &self.free
     }
@@ -206,10 +249,13 @@ impl Coupling {
         }
     }
 
-    /// `q = φ(q_r)` into `q` (full length).
+    /// `q = φ(q_r)` into `q` (full length, [`Coupling::full_nq`]).
     pub fn expand_q_into(&self, qr: &[f64], q: &mut [f64]) -> Result<(), MimicError> {
-        self.check("q_r", self.reduced_dof(), qr.len())?;
-        self.check("q", self.full_dof(), q.len())?;
+        self.check("q_r", self.reduced_nq(), qr.len())?;
+        self.check("q", self.full_nq(), q.len())?;
+        let (root, qr) = qr.split_at(self.root_nq);
+        let (q_root, q) = q.split_at_mut(self.root_nq);
+        q_root.copy_from_slice(root);
         for (x, s) in q.iter_mut().zip(&self.source) {
             *x = match *s {
                 Source::Free(k) => qr[k],
@@ -226,15 +272,19 @@ impl Coupling {
 
     /// The full q of a reduced one.
     pub fn expand_q(&self, qr: &[f64]) -> Result<Vec<f64>, MimicError> {
-        let mut q = vec![0.0; self.full_dof()];
+        let mut q = vec![0.0; self.full_nq()];
         self.expand_q_into(qr, &mut q)?;
         Ok(q)
     }
 
-    /// `q̇ = G q̇_r` (a velocity or an acceleration: no offset) into `v` (full length).
+    /// `q̇ = G q̇_r` (a velocity or an acceleration: no offset) into `v` (full length,
+    /// [`Coupling::full_nv`]).
     pub fn expand_v_into(&self, vr: &[f64], v: &mut [f64]) -> Result<(), MimicError> {
-        self.check("v_r", self.reduced_dof(), vr.len())?;
-        self.check("v", self.full_dof(), v.len())?;
+        self.check("v_r", self.reduced_nv(), vr.len())?;
+        self.check("v", self.full_nv(), v.len())?;
+        let (root, vr) = vr.split_at(self.root_nv);
+        let (v_root, v) = v.split_at_mut(self.root_nv);
+        v_root.copy_from_slice(root);
         for (x, s) in v.iter_mut().zip(&self.source) {
             *x = match *s {
                 Source::Free(k) => vr[k],
@@ -251,7 +301,7 @@ impl Coupling {
 
     /// The full velocity (or acceleration) of a reduced one.
     pub fn expand_v(&self, vr: &[f64]) -> Result<Vec<f64>, MimicError> {
-        let mut v = vec![0.0; self.full_dof()];
+        let mut v = vec![0.0; self.full_nv()];
         self.expand_v_into(vr, &mut v)?;
         Ok(v)
     }
@@ -259,23 +309,30 @@ impl Coupling {
     /// The reduced coordinates of a full vector: its free entries (no check that the followers
     /// agree).
     pub fn restrict(&self, q: &[f64]) -> Result<Vec<f64>, MimicError> {
-        self.check("q", self.full_dof(), q.len())?;
-        Ok(self.free.iter().map(|&i| q[i]).collect())
+        self.check("q", self.full_nq(), q.len())?;
+        let (root, q) = q.split_at(self.root_nq);
+        Ok(root
+            .iter()
+            .copied()
+            .chain(self.free.iter().map(|&i| q[i]))
+            .collect())
     }
 
     /// `Gᵀ τ`: a full generalised force (torques) as the reduced one — each follower's torque
     /// added to its leader's, times the multiplier (virtual work).
     pub fn reduce_force(&self, tau: &[f64]) -> Result<DVector<f64>, MimicError> {
-        self.check("tau", self.full_dof(), tau.len())?;
-        let mut out = DVector::zeros(self.reduced_dof());
-        for (t, s) in tau.iter().zip(&self.source) {
+        self.check("tau", self.full_nv(), tau.len())?;
+        let r = self.root_nv;
+        let mut out = DVector::zeros(self.reduced_nv());
+        out.rows_mut(0, r).copy_from_slice(&tau[..r]);
+        for (t, s) in tau[r..].iter().zip(&self.source) {
             match *s {
-                Source::Free(k) => out[k] += t,
+                Source::Free(k) => out[r + k] += t,
                 Source::Follows {
                     reduced,
                     multiplier,
                     ..
-                } => out[reduced] += multiplier * t,
+                } => out[r + reduced] += multiplier * t,
                 Source::Fixed(_) => {}
             }
         }
@@ -285,8 +342,10 @@ impl Coupling {
     /// `A G`: the columns of a matrix over the full coordinates (a 6 × n Jacobian, …) combined
     /// into the reduced ones.
     pub fn reduce_columns(&self, a: &DMatrix<f64>) -> Result<DMatrix<f64>, MimicError> {
-        self.check("columns", self.full_dof(), a.ncols())?;
-        let mut out = DMatrix::zeros(a.nrows(), self.reduced_dof());
+        self.check("columns", self.full_nv(), a.ncols())?;
+        let r = self.root_nv;
+        let mut out = DMatrix::zeros(a.nrows(), self.reduced_nv());
+        out.columns_mut(0, r).copy_from(&a.columns(0, r));
         for (i, s) in self.source.iter().enumerate() {
             let (k, m) = match *s {
                 Source::Free(k) => (k, 1.0),
@@ -297,8 +356,8 @@ impl Coupling {
                 } => (reduced, multiplier),
                 Source::Fixed(_) => continue,
             };
-            let col = a.column(i) * m;
-            let mut dst = out.column_mut(k);
+            let col = a.column(r + i) * m;
+            let mut dst = out.column_mut(r + k);
             dst += col;
         }
         Ok(out)
@@ -306,33 +365,45 @@ impl Coupling {
 
     /// `Gᵀ M G`: a full symmetric matrix (the mass matrix) in the reduced coordinates.
     pub fn reduce_matrix(&self, m: &DMatrix<f64>) -> Result<DMatrix<f64>, MimicError> {
-        self.check("rows", self.full_dof(), m.nrows())?;
+        self.check("rows", self.full_nv(), m.nrows())?;
         let mg = self.reduce_columns(m)?;
         let gt_mg = self.reduce_columns(&mg.transpose())?;
         Ok(gt_mg.transpose())
     }
 
-    /// `G` itself (full × reduced).
+    /// `G` itself (`full_nv × reduced_nv`; the identity on a root's velocities).
     pub fn matrix(&self) -> DMatrix<f64> {
-        let mut g = DMatrix::zeros(self.full_dof(), self.reduced_dof());
+        let r = self.root_nv;
+        let mut g = DMatrix::zeros(self.full_nv(), self.reduced_nv());
+        for k in 0..r {
+            g[(k, k)] = 1.0;
+        }
         for (i, s) in self.source.iter().enumerate() {
             match *s {
-                Source::Free(k) => g[(i, k)] = 1.0,
+                Source::Free(k) => g[(r + i, r + k)] = 1.0,
                 Source::Follows {
                     reduced,
                     multiplier,
                     ..
-                } => g[(i, reduced)] = multiplier,
+                } => g[(r + i, r + reduced)] = multiplier,
                 Source::Fixed(_) => {}
             }
         }
         g
     }
+
+    /// Checks that this coupling is `robot`'s: one source per joint, and the root's
+    /// dimensions.
+    fn check_robot(&self, robot: &Robot) -> Result<(), MimicError> {
+        self.check("robot joints", robot.dof(), self.full_dof())?;
+        self.check("robot nq", robot.nq(), self.full_nq())?;
+        self.check("robot nv", robot.nv(), self.full_nv())
+    }
 }
 
 /// The tool pose at the reduced `qr`: [`crate::fk::forward`] at `φ(qr)`.
 pub fn forward(robot: &Robot, coupling: &Coupling, qr: &[f64]) -> Result<Matrix4<f64>, MimicError> {
-    coupling.check("robot", robot.dof(), coupling.full_dof())?;
+    coupling.check_robot(robot)?;
     Ok(crate::fk::forward(robot, &coupling.expand_q(qr)?))
 }
 
@@ -346,14 +417,14 @@ pub fn link_jacobian(
     link: usize,
     frame: Frame,
 ) -> Result<(Matrix4<f64>, DMatrix<f64>), MimicError> {
-    coupling.check("robot", robot.dof(), coupling.full_dof())?;
+    coupling.check_robot(robot)?;
     let q = coupling.expand_q(qr)?;
-    let mut jac = Jacobian::zeros(robot.dof());
+    let mut jac = Jacobian::zeros(robot.nv());
     let pose = link_jacobian_into(robot, &q, link, &mut jac);
     if frame == Frame::Tool {
         to_tool_frame(&mut jac, &pose);
     }
-    let full = DMatrix::from_column_slice(6, robot.dof(), jac.as_slice());
+    let full = DMatrix::from_column_slice(6, robot.nv(), jac.as_slice());
     Ok((pose, coupling.reduce_columns(&full)?))
 }
 
@@ -364,10 +435,10 @@ pub fn jacobian(
     qr: &[f64],
     frame: Frame,
 ) -> Result<DMatrix<f64>, MimicError> {
-    coupling.check("robot", robot.dof(), coupling.full_dof())?;
+    coupling.check_robot(robot)?;
     let q = coupling.expand_q(qr)?;
     let jac = crate::jacobian::jacobian(robot, &q, frame);
-    let full = DMatrix::from_column_slice(6, robot.dof(), jac.as_slice());
+    let full = DMatrix::from_column_slice(6, robot.nv(), jac.as_slice());
     coupling.reduce_columns(&full)
 }
 
@@ -420,6 +491,37 @@ mod tests {
         let want = c.matrix().transpose() * &mm * c.matrix();
         assert!((c.reduce_matrix(&mm).expect("M") - want).abs().max() < 1e-12);
         assert_eq!(c.restrict(&q).expect("restrict"), [0.3, -0.7]);
+    }
+
+    /// A free-flyer's 7 q / 6 v come first and pass through; G is the identity on them.
+    #[test]
+    fn a_root_passes_through() {
+        let c = Coupling::new(3, &[m(2, Some(0), -1.0, 0.5)])
+            .expect("valid")
+            .with_root(7, 6);
+        assert_eq!(
+            (c.full_nq(), c.full_nv(), c.reduced_nq(), c.reduced_nv()),
+            (10, 9, 9, 8)
+        );
+        let root_q = [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0];
+        let qr: Vec<f64> = root_q.iter().copied().chain([0.3, -0.2]).collect();
+        let q = c.expand_q(&qr).expect("q");
+        assert_eq!(q, [1.0, 2.0, 3.0, 0.0, 0.0, 0.0, 1.0, 0.3, -0.2, 0.2]);
+        assert_eq!(c.restrict(&q).expect("restrict"), qr);
+        let vr: Vec<f64> = (1..=8).map(f64::from).collect();
+        let v = c.expand_v(&vr).expect("v");
+        assert_eq!(
+            DVector::from_row_slice(&v),
+            c.matrix() * DVector::from_row_slice(&vr)
+        );
+        let tau: Vec<f64> = (1..=9).map(|k| f64::from(k) * 0.5).collect();
+        let gt = c.matrix().transpose() * DVector::from_row_slice(&tau);
+        assert_eq!(c.reduce_force(&tau).expect("tau"), gt);
+        let mm = DMatrix::from_fn(9, 9, |i, j| {
+            (1 + i * j) as f64 + if i == j { 20.0 } else { 0.0 }
+        });
+        let want = c.matrix().transpose() * &mm * c.matrix();
+        assert!((c.reduce_matrix(&mm).expect("M") - want).abs().max() < 1e-12);
     }
 
     #[test]

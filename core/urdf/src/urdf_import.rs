@@ -878,7 +878,8 @@ fn build_chain_to_tip(
         })
         .collect();
     let coordinates: Vec<usize> = built.segment_of_joint.iter().map(|&s| chain[s]).collect();
-    let (mimics, coupling) = mimic_coupling(at_robot.rd.file, joints, &coordinates, &mut notes)?;
+    let (mimics, coupling) =
+        mimic_coupling(at_robot.rd.file, joints, &coordinates, &robot, &mut notes)?;
     let parent_links = movable
         .iter()
         .map(|m| joints[tree.parent_joint[m.link.as_str()]].parent.clone())
@@ -992,7 +993,7 @@ fn build_whole_tree(
         parent_links.push(j.parent.clone());
     }
     let mut notes = Vec::new();
-    let (mimics, coupling) = mimic_coupling(file, joints, &coordinates, &mut notes)?;
+    let (mimics, coupling) = mimic_coupling(file, joints, &coordinates, &robot, &mut notes)?;
     let folded = dfs
         .iter()
         .filter(|&&k| joints[k].kind == SegmentKind::Fixed)
@@ -1041,11 +1042,12 @@ fn build_whole_tree(
 /// joint i): each follower's leader found by name (refused when it names no joint), its index
 /// in q (`None` when the leader is not a coordinate: fixed, or held off the chain — the
 /// follower is then fixed at its offset), a note per relation, and the coupling (`None`
-/// without any).
+/// without any; with `robot`'s root joint passed through).
 fn mimic_coupling(
     file: &Path,
     joints: &[JointRec],
     coordinates: &[usize],
+    robot: &Robot,
     notes: &mut Vec<String>,
 ) -> Result<(Vec<UrdfMimic>, Option<Coupling>), UrdfError> {
     let mut mimics = Vec::new();
@@ -1098,7 +1100,10 @@ fn mimic_coupling(
         };
         joint_err(file, &joints[coordinates[at]], UrdfErrorKind::Mimic(e))
     })?;
-    Ok((mimics, Some(coupling)))
+    Ok((
+        mimics,
+        Some(coupling.with_root(robot.root_nq(), robot.root_nv())),
+    ))
 }
 
 #[cfg(test)]
