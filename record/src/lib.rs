@@ -137,7 +137,11 @@ fn transform(rows: &[f64; 12]) -> (Value, Value) {
     let r = Matrix3::new(
         rows[0], rows[1], rows[2], rows[4], rows[5], rows[6], rows[8], rows[9], rows[10],
     );
-    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix(&r));
+    // Shepperd's closed form (`Rotation3::from_matrix` iterates from the identity and returns
+    // it for a half-turn), renormalised: the stored rotation is orthonormal to rounding.
+    let q = UnitQuaternion::from_quaternion(
+        *UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r)).quaternion(),
+    );
     (
         json!({"x": rows[3], "y": rows[7], "z": rows[11]}),
         json!({"x": q.i, "y": q.j, "z": q.k, "w": q.w}),
@@ -389,6 +393,15 @@ mod tests {
             let got = q[k].as_f64().expect("number");
             assert!((got - want).abs() < 1e-12, "{k}: {got} vs {want}");
         }
+    }
+
+    #[test]
+    fn a_half_turn_is_a_half_turn() {
+        // 180° about x (nalgebra's iterative Rotation3::from_matrix gave the identity).
+        let rows = [1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 0.0, -1.0, 0.0];
+        let (_, q) = transform(&rows);
+        let x = q["x"].as_f64().expect("number").abs();
+        assert!((x - 1.0).abs() < 1e-15, "{q}");
     }
 
     #[test]

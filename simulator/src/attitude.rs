@@ -35,7 +35,7 @@
 //! [`density`], [`MassProps::combine`], [`secular_rate_closed_form`].
 
 use crate::orbit::{MU_EARTH, Orbit};
-use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use robosim_model::{AttitudeEffect, AttitudeHold};
 
 /// Standard gravity, m/s² (CGPM 1901), for accelerations in µg.
@@ -278,7 +278,9 @@ pub fn lvlh(theta: f64) -> UnitQuaternion<f64> {
         Vector3::z(),
         Vector3::new(c, s, 0.0),
     ]);
-    UnitQuaternion::from_matrix(&m)
+    // Shepperd's closed form: `UnitQuaternion::from_matrix` iterates from the identity and
+    // returns it for a half-turn (θ = π/2 here).
+    UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m))
 }
 
 /// The error rotation vector (rad) of `q` against `r`: twice the vector part of `r⁻¹ q`, the
@@ -639,6 +641,29 @@ impl Attitude {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn lvlh_axes_at_every_orbit_angle_including_the_half_turn() {
+        // θ = π/2 makes the LVLH matrix a half-turn (trace −1), where nalgebra's iterative
+        // from_matrix returned the identity.
+        for k in 0..=16 {
+            let theta = k as f64 * std::f64::consts::PI / 8.0;
+            let (s, c) = theta.sin_cos();
+            let q = lvlh(theta);
+            assert!(
+                (q * Vector3::x() - Vector3::new(-s, c, 0.0)).norm() < 1e-15,
+                "θ = {theta}"
+            );
+            assert!(
+                (q * Vector3::y() - Vector3::z()).norm() < 1e-15,
+                "θ = {theta}"
+            );
+            assert!(
+                (q * Vector3::z() - Vector3::new(c, s, 0.0)).norm() < 1e-15,
+                "θ = {theta}"
+            );
+        }
+    }
 
     fn rot(axis: Vector3<f64>, a: f64) -> Matrix3<f64> {
         *UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(axis), a)

@@ -4,7 +4,7 @@
 //! inertia of the primitive geoms MuJoCo infers a body's inertia from. No XML here:
 //! [`crate::mjcf`] reads the attributes and calls these.
 
-use nalgebra::{Matrix3, Matrix4, Quaternion, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Matrix4, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use robosim_kinematics::chain::Inertial;
 use std::f64::consts::PI;
 
@@ -76,7 +76,11 @@ pub fn from_xyaxes(x: Vector3<f64>, y: Vector3<f64>) -> Option<UnitQuaternion<f6
     let y = y / ny;
     let z = x.cross(&y);
     let r = Matrix3::from_columns(&[x, y, z]);
-    Some(UnitQuaternion::from_matrix(&r))
+    // Shepperd's closed form: `UnitQuaternion::from_matrix` iterates from the identity and
+    // returns it for a half-turn.
+    Some(UnitQuaternion::from_rotation_matrix(
+        &Rotation3::from_matrix_unchecked(r),
+    ))
 }
 
 /// The shortest rotation taking z to `v` (MuJoCo's `mju_z2quat`; `zaxis` and `fromto`): a half
@@ -175,6 +179,17 @@ impl Primitive {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn xyaxes_of_a_half_turn_is_a_half_turn() {
+        // 180° about z: x → −x, y → −y (nalgebra's iterative from_matrix gave the identity).
+        let q = from_xyaxes(-Vector3::x(), -Vector3::y()).expect("valid");
+        assert!((q * Vector3::x() + Vector3::x()).norm() < 1e-15);
+        assert!((q * Vector3::y() + Vector3::y()).norm() < 1e-15);
+        // 180° about x.
+        let q = from_xyaxes(Vector3::x(), -Vector3::y()).expect("valid");
+        assert!((q * Vector3::z() + Vector3::z()).norm() < 1e-15);
+    }
 
     #[test]
     fn euler_sequences_compose_as_mujoco_does() {
