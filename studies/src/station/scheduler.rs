@@ -27,6 +27,9 @@ use robosim_simulator::consumers::Mode;
 use std::cell::RefCell;
 use std::rc::Rc;
 
+/// A move of a run already moved is recorded again only when it shifts it by more than this, s.
+pub const MOVE_RECORDED_S: f64 = 600.0;
+
 /// Whether the rule base schedules the loads.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scheduling {
@@ -548,7 +551,14 @@ impl Scheduler {
             "move" => {
                 let j = exp().ok_or_else(|| bad("no such experiment"))?;
                 let until = at().ok_or_else(|| bad("a time is needed"))?;
+                let before = loads.exps[j].not_before;
                 loads.exps[j].not_before = until;
+                // a predicted window moves a little as the prediction firms up, and the run
+                // with it: applied every time, recorded when the run was startable or the move
+                // shifts it by more than MOVE_RECORDED_S
+                if before > t && (until - before).abs() <= MOVE_RECORDED_S {
+                    return Ok(());
+                }
                 loads.exps[j].moved += 1;
                 format!("move to {until:.0} s")
             }
