@@ -46,6 +46,13 @@ fn carriage_reaches(p: &mut Planner, q: f64) {
     });
 }
 
+/// Writes `text` to `path` whole at once (a rename), so the process never reads half a file.
+fn write_whole(path: &std::path::Path, text: &str) {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, text).expect("write the graph");
+    std::fs::rename(&tmp, path).expect("replace the graph");
+}
+
 fn wait_role(k: &Procs, role: &str) {
     let session = k.session();
     wait_for(role, || {
@@ -71,15 +78,19 @@ fn the_carriage_servo_follows_its_set_point_restarts_and_reloads() {
     let graph_arg = graph.to_str().expect("utf-8 path").to_owned();
     let mut p = Planner::attach_to(&k.session()).expect("planner");
     assert_eq!(carriage(&mut p), 20.0, "the scene's carriage position");
+    // The spare ORU near the carriage (y = -4 m: 21 m on the rail), so that each move below
+    // takes the servo a few passes (at most 0.1 m a pass), not hundreds: a loaded machine
+    // commits slowly.
+    move_spare(&mut p, -4.0);
 
-    // The servo brings the carriage to the spare ORU (y = 14 m: 39 m on the rail).
+    // The servo brings the carriage to the spare ORU.
     let pid = k.spawn(&["dataflow", &graph_arg]);
     wait_role(&k, "dataflow");
-    carriage_reaches(&mut p, 39.0);
+    carriage_reaches(&mut p, 21.0);
 
     // A planner moves the set-point: the carriage follows.
-    move_spare(&mut p, 10.0);
-    carriage_reaches(&mut p, 35.0);
+    move_spare(&mut p, -3.0);
+    carriage_reaches(&mut p, 22.0);
 
     // Killed outright, the process writes nothing more: a moved set-point is not followed…
     let _ = Command::new("kill")
@@ -90,20 +101,20 @@ fn the_carriage_servo_follows_its_set_point_restarts_and_reloads() {
         .iter_mut()
         .find(|c| c.id() == pid)
         .map(|c| c.wait());
-    move_spare(&mut p, 12.0);
+    move_spare(&mut p, -2.0);
     std::thread::sleep(Duration::from_millis(300));
-    assert!((carriage(&mut p) - 35.0).abs() < 1e-6);
+    assert!((carriage(&mut p) - 22.0).abs() < 1e-6);
     // …until it is started again: it catches up from the committed state.
     let pid = k.spawn(&["dataflow", &graph_arg]);
-    carriage_reaches(&mut p, 37.0);
+    carriage_reaches(&mut p, 23.0);
 
     // The file edited while it runs: only the set-point actor changes (the rail's zero moves
     // 1 m); the other actors are kept with their state, and the carriage moves 1 m.
     let text = std::fs::read_to_string(&graph).expect("read the graph");
     let edited = text.replace("k=1 b=25", "k=1 b=26");
     assert_ne!(text, edited);
-    std::fs::write(&graph, edited).expect("edit the graph");
-    carriage_reaches(&mut p, 38.0);
+    write_whole(&graph, &edited);
+    carriage_reaches(&mut p, 24.0);
     let log = log_of(&k, pid);
     assert!(
         log.contains("reloaded: kept error control limit move rail; replaced setpoint"),
@@ -111,13 +122,13 @@ fn the_carriage_servo_follows_its_set_point_restarts_and_reloads() {
     );
 
     // A file with an error is said with its line, and the running graph goes on.
-    std::fs::write(&graph, text.replace("actor move", "actor move move")).expect("edit");
+    write_whole(&graph, &text.replace("actor move", "actor move move"));
     wait_for("the error said", || {
         log_of(&k, pid).contains("servo.flow:").then_some(())
     });
     assert!(log_of(&k, pid).contains("the running graph goes on"));
-    move_spare(&mut p, 11.0);
-    carriage_reaches(&mut p, 37.0);
+    move_spare(&mut p, -1.5);
+    carriage_reaches(&mut p, 24.5);
 
     // SIGTERM: a clean exit, 0.
     let status = k.stop(pid);
@@ -130,6 +141,11 @@ fn a_dataflow_process_started_before_the_keeper_waits_for_it() {
     let mut k = Procs::new("dflowfirst");
     // A session that exists (its keeper ran once) but has no keeper now.
     let keeper = k.start_keeper(&["--scene", SCENE]);
+    // The spare ORU near the carriage (21 m on the rail): journaled, the next keeper has it.
+    move_spare(
+        &mut Planner::attach_to(&k.session()).expect("planner"),
+        -4.0,
+    );
     assert!(k.stop(keeper).success());
     let pid = k.spawn(&["dataflow", SERVO]);
     wait_for("the dataflow process waiting", || {
@@ -139,7 +155,7 @@ fn a_dataflow_process_started_before_the_keeper_waits_for_it() {
     });
     k.start_keeper(&["--scene", SCENE]);
     let mut p = Planner::attach_to(&k.session()).expect("planner");
-    carriage_reaches(&mut p, 39.0);
+    carriage_reaches(&mut p, 21.0);
     assert!(k.stop(pid).success());
 }
 
@@ -181,7 +197,11 @@ fn up_with_dataflow_runs_the_graph_and_down_stops_it_by_sigterm() {
     assert!(ok, "{text}");
     assert!(text.contains("dataflow"), "ps lists it: {text}");
     let mut p = Planner::attach_to(&k.session()).expect("planner");
-    carriage_reaches(&mut p, 39.0);
+    // The servo drives the carriage toward the spare ORU (39 m on the rail), 0.1 m a pass.
+    wait_for("the carriage driven", || {
+        let _ = p.wait_change(Duration::from_millis(50));
+        (carriage(&mut p) >= 20.5).then_some(())
+    });
     let (ok, text) = robosim(&k, &["down"]);
     assert!(ok, "{text}");
     assert!(text.contains("stopped dataflow (pid"), "{text}");

@@ -117,6 +117,8 @@ pub struct Runner {
     path: PathBuf,
     live: LiveGraph,
     stamp: Option<Stamp>,
+    /// A new version of the file seen once, reloaded when the next look sees it unchanged.
+    pending: Option<Option<Stamp>>,
     start: Instant,
     tolerance: f64,
     alarms: BTreeSet<String>,
@@ -159,6 +161,7 @@ impl Runner {
             path: path.to_owned(),
             live,
             stamp,
+            pending: None,
             start: Instant::now(),
             tolerance,
             alarms: BTreeSet::new(),
@@ -205,11 +208,19 @@ impl Runner {
 
     /// [`reload`](Self::reload) when the file changed since it was last read; `None` when it
     /// did not.
+    /// A change is acted on once the file has stayed the same for one look (an editor that
+    /// writes the file in pieces is not read half-written).
     pub fn reload_if_changed(&mut self) -> Option<Result<Reconfigured, DataflowError>> {
         let now = stamp(&self.path);
         if now == self.stamp {
+            self.pending = None;
             return None;
         }
+        if self.pending.as_ref() != Some(&now) {
+            self.pending = Some(now);
+            return None;
+        }
+        self.pending = None;
         let r = self.reload();
         // A file with an error is said once, not on every look.
         self.stamp = now;
