@@ -9,12 +9,12 @@
 //! field path (`joints[2].qlim[1]`).
 
 use crate::{ErrorKind, ProtocolError};
-use robosim_kinematics::Robot;
 use robosim_kinematics::json::check_keys;
 pub use robosim_kinematics::json::{
     JsonError, matrix_to_json, matrix3_from_json, matrix4_from_json, matrix4_to_json, number,
     number_array, robot_to_json,
 };
+use robosim_kinematics::{Robot, RootKind};
 use serde_json::{Map, Value};
 
 /// A field of a request that could not be read is a `bad_request`.
@@ -68,7 +68,7 @@ pub fn robot_from_mjcf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
         .map_err(|e| JsonError::new("robot.mjcf", e.to_string()))
 }
 
-const URDF_KEYS: &[&str] = &["urdf", "tip"];
+const URDF_KEYS: &[&str] = &["urdf", "tip", "floating"];
 
 /// `{"urdf": PATH, "tip": LINK}` (DESIGN.md, the query protocol): the serial chain of the URDF
 /// at PATH (relative paths from the answering process's working directory) from its root link
@@ -79,12 +79,42 @@ const URDF_KEYS: &[&str] = &["urdf", "tip"];
 /// Errors: `robot.urdf` / `robot.tip` for a field of the wrong type, else `robot.urdf` with the
 /// importer's message (file, line, element and what: a missing file, malformed XML, a tip that
 /// is not a link, ...).
+///
+/// `{"urdf": PATH, "floating": true}` (or `"floating": "free_flyer" | "planar"`; issue 36 item
+/// 2): the whole tree on a floating root joint between the world and the root link
+/// ([`robosim_file_io::urdf_import::import_urdf_tree_floating`], Pinocchio's
+/// `buildModel(urdf, JointModelFreeFlyer())`): q has `nq` values (the root's coordinates first),
+/// v, q̈ and τ `nv`; the tool frame is the last joint's child link. `tip` is refused with it.
 pub fn robot_from_urdf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError> {
     check_keys(obj, URDF_KEYS, "robot")?;
     let path = obj
         .get("urdf")
         .and_then(Value::as_str)
         .ok_or_else(|| JsonError::new("robot.urdf", "expected the URDF file's path (a string)"))?;
+    let floating = match obj.get("floating") {
+        None | Some(Value::Null) | Some(Value::Bool(false)) => None,
+        Some(Value::Bool(true)) => Some(RootKind::FreeFlyer),
+        Some(v) => Some(v.as_str().and_then(RootKind::from_name).ok_or_else(|| {
+            JsonError::new(
+                "robot.floating",
+                "expected true, false, \"free_flyer\" or \"planar\"",
+            )
+        })?),
+    };
+    if let Some(kind) = floating {
+        if obj.get("tip").is_some_and(|t| !t.is_null()) {
+            return Err(JsonError::new(
+                "robot.tip",
+                "a floating robot is the URDF's whole tree: leave `tip` out",
+            ));
+        }
+        return robosim_file_io::urdf_import::import_urdf_tree_floating(
+            std::path::Path::new(path),
+            kind,
+        )
+        .map(|imported| imported.robot)
+        .map_err(|e| JsonError::new("robot.urdf", e.to_string()));
+    }
     let tip = match obj.get("tip") {
         None | Some(Value::Null) => None,
         Some(t) => Some(t.as_str().ok_or_else(|| {

@@ -10,6 +10,9 @@
 //! | `fd` | robot, q, qd, tau, method?: aba\|cholesky, passive? | qdd (and tau_passive with `passive`) |
 //! | `simulate` | robot, q0, qd0?, tau?, t_end, outputs?, integrator, dt \| rtol+atol, limits?, max_steps?, passive? | samples [{t, q, qd, energy}], stats |
 //!
+//! For a robot with a floating `root` q (`q0`) has nq values and qd, qdd, tau (`qd0`) nv
+//! (robosim_kinematics::root's layouts); `simulate` integrates on the manifold.
+//!
 //! `robot` is a library name (resolved by the caller's `robots`, then the fixtures compiled into
 //! `robosim_dynamics::fixture_robot`: puma560, stanford, panda) or an inline description
 //! ([`crate::robot_json`]).
@@ -29,6 +32,7 @@
 
 use super::RobotArg;
 use super::finite::check;
+use super::kinematics::expected_len;
 use crate::robot_json::robot_from_json;
 use crate::{ErrorKind, ProtocolError};
 use robosim_dynamics::{
@@ -129,12 +133,46 @@ fn model_of(req: &Value, arg: RobotArg<'_>) -> Result<Model, ProtocolError> {
     Ok(Model::new(&robot)?)
 }
 
+/// The lengths of the request's vectors ([`expected_len`]): q (`nq` values) and v, q̈, τ (`nv`),
+/// each with how an error says it.
+struct Dims {
+    q: (usize, String),
+    v: (usize, String),
+}
+
+impl Dims {
+    fn of(model: &Model) -> Dims {
+        Dims {
+            q: expected_len(model.robot(), false),
+            v: expected_len(model.robot(), true),
+        }
+    }
+}
+
+/// The configuration `field` (`nq` values); a floating root's rotation must be unit (a request
+/// error, not the robot's).
+fn configuration(
+    req: &Value,
+    field: &str,
+    model: &Model,
+    dims: &Dims,
+) -> Result<Vec<f64>, ProtocolError> {
+    let q = vector(req, field, &dims.q, false)?;
+    if model.robot().root.is_some() {
+        model.robot().check_q(&q).map_err(|e| {
+            ProtocolError::new(ErrorKind::InvalidRequest, format!("`{field}`: {e}"))
+        })?;
+    }
+    Ok(q)
+}
+
 fn vector(
     req: &Value,
     field: &str,
-    n: usize,
+    (n, what): &(usize, String),
     default_zero: bool,
 ) -> Result<Vec<f64>, ProtocolError> {
+    let n = *n;
     match req.get(field) {
         None if default_zero => Ok(vec![0.0; n]),
         None => Err(ProtocolError::new(
@@ -145,10 +183,7 @@ fn vector(
             if a.len() != n {
                 return Err(ProtocolError::new(
                     ErrorKind::InvalidRequest,
-                    format!(
-                        "`{field}` has {} values but the robot has {n} joints",
-                        a.len()
-                    ),
+                    format!("`{field}` has {} values but the robot has {what}", a.len()),
                 ));
             }
             a.iter()
@@ -239,11 +274,11 @@ fn passive_of(req: &Value) -> Result<Option<JointFriction>, ProtocolError> {
 
 fn op_id(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let model = model_of(req, arg)?;
-    let n = model.dof();
+    let dims = Dims::of(&model);
     let (q, qd, qdd) = (
-        vector(req, "q", n, false)?,
-        vector(req, "qd", n, false)?,
-        vector(req, "qdd", n, false)?,
+        configuration(req, "q", &model, &dims)?,
+        vector(req, "qd", &dims.v, false)?,
+        vector(req, "qdd", &dims.v, false)?,
     );
     let passive = passive_of(req)?;
     let mut data = Data::new(&model);
@@ -252,7 +287,7 @@ fn op_id(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let Some(friction) = passive else {
         return Ok(json!({ "tau": tau.as_slice() }));
     };
-    let mut tau_passive = vec![0.0; n];
+    let mut tau_passive = vec![0.0; model.nv()];
     passive_torque(&model, &qd, &friction, &mut tau_passive)?;
     let total: Vec<f64> = tau.iter().zip(&tau_passive).map(|(t, p)| t - p).collect();
     check("tau", total.as_slice())?;
@@ -261,7 +296,7 @@ fn op_id(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
 
 fn op_mass_matrix(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let model = model_of(req, arg)?;
-    let q = vector(req, "q", model.dof(), false)?;
+    let q = configuration(req, "q", &model, &Dims::of(&model))?;
     let mut data = Data::new(&model);
     let m = crba(&model, &mut data, &q)?;
     check("mass_matrix", m)?;
@@ -273,7 +308,7 @@ fn op_mass_matrix(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError
 
 fn op_gravity(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let model = model_of(req, arg)?;
-    let q = vector(req, "q", model.dof(), false)?;
+    let q = configuration(req, "q", &model, &Dims::of(&model))?;
     let mut data = Data::new(&model);
     let tau = gravity(&model, &mut data, &q)?;
     check("tau", tau.as_slice())?;
@@ -282,11 +317,11 @@ fn op_gravity(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
 
 fn op_fd(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let model = model_of(req, arg)?;
-    let n = model.dof();
+    let dims = Dims::of(&model);
     let (q, qd, tau) = (
-        vector(req, "q", n, false)?,
-        vector(req, "qd", n, false)?,
-        vector(req, "tau", n, false)?,
+        configuration(req, "q", &model, &dims)?,
+        vector(req, "qd", &dims.v, false)?,
+        vector(req, "tau", &dims.v, false)?,
     );
     let mut data = Data::new(&model);
     if let Some(friction) = passive_of(req)? {
@@ -316,10 +351,10 @@ fn op_fd(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
 
 fn op_simulate(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let model = model_of(req, arg)?;
-    let n = model.dof();
-    let q0 = vector(req, "q0", n, false)?;
-    let qd0 = vector(req, "qd0", n, true)?;
-    let tau = vector(req, "tau", n, true)?;
+    let dims = Dims::of(&model);
+    let q0 = configuration(req, "q0", &model, &dims)?;
+    let qd0 = vector(req, "qd0", &dims.v, true)?;
+    let tau = vector(req, "tau", &dims.v, true)?;
     let t_end = number(req, "t_end")?
         .ok_or_else(|| ProtocolError::new(ErrorKind::InvalidRequest, "missing field `t_end`"))?;
     if !(t_end.is_finite() && t_end >= 0.0) {

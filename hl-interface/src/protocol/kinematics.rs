@@ -10,7 +10,8 @@
 //! `residual` {position, orientation}, `converged`, `within_limits`, `iterations`, `notes`;
 //! `encoder_error` takes `bits` (one number for all joints or one per joint) and answers
 //! `position`, `orientation`, `per_axis` [dx dy dz rx ry rz], `position_worst_case`,
-//! `orientation_worst_case`, `resolution`.
+//! `orientation_worst_case`, `resolution`. For a robot with a floating `root` q has nq values
+//! and a Jacobian nv columns (the root's first); `ik` and `encoder_error` refuse it.
 
 use super::RobotArg;
 use super::finite::check;
@@ -23,7 +24,7 @@ use robosim_kinematics::encoder::{EncoderErrorError, encoder_error};
 use robosim_kinematics::ik::{self, IkError, IkOptions, IkSolution, Method, Note};
 use robosim_kinematics::jacobian::{Frame, Jacobian, singularity, to_tool_frame};
 use robosim_kinematics::pose::Tolerances;
-use robosim_kinematics::{KinematicModel, Robot, builtin_robot};
+use robosim_kinematics::{KinematicModel, Robot, RootKind, builtin_robot};
 use serde_json::{Value, json};
 use std::borrow::Cow;
 
@@ -85,17 +86,59 @@ fn q_field(req: &Value, key: &str, robot: &Robot) -> Result<Vec<f64>, ProtocolEr
         .get(key)
         .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, format!("{key}: missing")))?;
     let q = number_array(v, key)?;
-    if q.len() != robot.dof() {
+    let (n, what) = expected_len(robot, false);
+    if q.len() != n {
         return Err(ProtocolError::new(
             ErrorKind::BadRequest,
-            format!(
-                "{key}: {} values but the robot has {} joints",
-                q.len(),
-                robot.dof()
-            ),
+            format!("{key}: {} values but the robot has {what}", q.len()),
         ));
     }
+    if robot.root.is_some() {
+        robot
+            .check_q(&q)
+            .map_err(|e| ProtocolError::new(ErrorKind::BadRequest, format!("{key}: {e}")))?;
+    }
     Ok(q)
+}
+
+/// The length a configuration (`velocity` false: [`Robot::nq`]) or a velocity, acceleration or
+/// torque (`velocity` true: [`Robot::nv`]) must have, and how to say it in an error: "6 joints"
+/// for a fixed base (the wording of every fixed-base answer), "nq = 19 (a free_flyer root's 7
+/// coordinates x y z qx qy qz qw, then 12 joints)" for a floating one.
+pub(super) fn expected_len(robot: &Robot, velocity: bool) -> (usize, String) {
+    let Some(root) = &robot.root else {
+        return (robot.dof(), format!("{} joints", robot.dof()));
+    };
+    let (name, n, r, layout) = match (root.kind, velocity) {
+        (RootKind::FreeFlyer, false) => ("nq", robot.nq(), 7, "x y z qx qy qz qw"),
+        (RootKind::FreeFlyer, true) => ("nv", robot.nv(), 6, "vx vy vz wx wy wz"),
+        (RootKind::Planar, false) => ("nq", robot.nq(), 4, "x y cos sin"),
+        (RootKind::Planar, true) => ("nv", robot.nv(), 3, "vx vy wz"),
+    };
+    (
+        n,
+        format!(
+            "{name} = {n} (a {} root's {r} coordinates {layout}, then {} joints)",
+            root.kind.name(),
+            robot.dof()
+        ),
+    )
+}
+
+/// `ik` and `encoder_error` work on the joints of a fixed base: a floating robot is refused.
+fn fixed_base(robot: &Robot, op: &str) -> Result<(), ProtocolError> {
+    match &robot.root {
+        None => Ok(()),
+        Some(root) => Err(ProtocolError::new(
+            ErrorKind::NotApplicable,
+            format!(
+                "{op}: the robot has a {} root (nq = {}, nv = {}); {op} is for a fixed base",
+                root.kind.name(),
+                robot.nq(),
+                robot.nv()
+            ),
+        )),
+    }
 }
 
 fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, ProtocolError> {
@@ -278,6 +321,7 @@ fn solution_json(s: &IkSolution) -> Value {
 
 fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let robot = robot(req, arg)?;
+    fixed_base(&robot, "ik")?;
     let pose = matrix4_from_json(
         req.get("pose")
             .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "pose: missing"))?,
@@ -338,6 +382,7 @@ fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
 
 fn op_encoder_error(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let robot = robot(req, arg)?;
+    fixed_base(&robot, "encoder_error")?;
     let q = q_field(req, "q", &robot)?;
     let bits_v = req
         .get("bits")

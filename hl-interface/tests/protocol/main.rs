@@ -21,6 +21,7 @@ mod bad_lines;
 mod collision;
 mod dynamics;
 mod extension;
+mod floating;
 mod fuzz;
 mod fuzz_corpus;
 mod kinematics;

@@ -1,0 +1,338 @@
+//! Floating bases through the query protocol (issue 36 item 2): Solo-12 read as
+//! `{"urdf": PATH, "floating": true}` (and `"planar"`) answers fk, jacobian, id, gravity, fd and
+//! mass_matrix with Pinocchio 4.1's values (testdata/floating/reference.json, made by
+//! testdata/floating/make_floating_reference.py) for q of length nq and v/a/τ of length nv;
+//! the inline form with `"root"` answers the same; `simulate` integrates on the manifold (a
+//! robot at rest in free fall drops ½ g t² with its quaternion unchanged); a q of the wrong
+//! length is refused naming nq, a velocity naming nv, a non-unit quaternion by its norm.
+
+use nalgebra::DMatrix;
+use robosim_file_io::urdf_import::import_urdf_tree_floating;
+use robosim_hl_interface::ProtocolError;
+use robosim_hl_interface::protocol::{dynamics, kinematics};
+use robosim_hl_interface::robot_json::robot_to_json;
+use robosim_kinematics::{Robot, RootKind};
+use serde_json::{Value, json};
+use std::path::PathBuf;
+
+const SOLO: &str = "testdata/urdf_corpus/robots/solo_description/solo12.urdf";
+/// Relative tolerances over max(1, max |reference|): the core's floating.rs test's.
+const DYN_TOL: f64 = 1e-10;
+const POSE_TOL: f64 = 1e-12;
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn no_library(_: &str) -> Option<Robot> {
+    None
+}
+
+fn ask(req: Value) -> Result<Value, ProtocolError> {
+    let op = req["op"].as_str().expect("op").to_string();
+    kinematics::dispatch(&op, &req, &no_library)
+        .or_else(|| dynamics::dispatch(&op, &req, &no_library))
+        .expect("a kinematics or dynamics op")
+}
+
+fn nums(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("array, got {v}"))
+        .iter()
+        .map(|x| x.as_f64().expect("number"))
+        .collect()
+}
+
+fn rows(v: &Value) -> DMatrix<f64> {
+    let r: Vec<Vec<f64>> = v.as_array().expect("rows").iter().map(nums).collect();
+    let (n, m) = (r.len(), r.first().map_or(0, Vec::len));
+    DMatrix::from_fn(n, m, |i, j| r[i][j])
+}
+
+fn rel_err(got: &[f64], want: &[f64]) -> f64 {
+    assert_eq!(got.len(), want.len());
+    let scale = want.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+    got.iter()
+        .zip(want)
+        .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+        / scale
+}
+
+fn flat(m: &DMatrix<f64>) -> Vec<f64> {
+    (0..m.nrows())
+        .flat_map(|i| (0..m.ncols()).map(move |j| m[(i, j)]))
+        .collect()
+}
+
+/// Pinocchio's velocity index k → robosim's (root first in both, then the joints by name).
+fn velocity_map(robosim_names: &[String], pin_names: &[&str], nvr: usize) -> Vec<usize> {
+    let mut out: Vec<usize> = (0..nvr).collect();
+    for n in pin_names {
+        let i = robosim_names
+            .iter()
+            .position(|j| j == n)
+            .unwrap_or_else(|| panic!("joint {n} not imported"));
+        out.push(nvr + i);
+    }
+    out
+}
+
+/// A reference vector (Pinocchio's order, `nroot` root entries first) in robosim's order.
+fn to_robosim(values: &[f64], nroot: usize, map: &[usize], nvr: usize) -> Vec<f64> {
+    let mut out = vec![0.0; values.len()];
+    out[..nroot].copy_from_slice(&values[..nroot]);
+    for (k, &i) in map.iter().enumerate().skip(nvr) {
+        out[i - nvr + nroot] = values[k - nvr + nroot];
+    }
+    out
+}
+
+fn reference() -> Value {
+    let text = std::fs::read_to_string(repo().join("testdata/floating/reference.json"))
+        .expect("reference.json");
+    serde_json::from_str(&text).expect("JSON")
+}
+
+#[test]
+fn solo12_floating_from_a_urdf_answers_pinocchios_values() {
+    let reference = reference();
+    let path = repo().join(SOLO);
+    let path_s = path.to_str().expect("UTF-8 path");
+    let mut checked = 0;
+    for rob in reference["robots"].as_array().expect("robots") {
+        assert_eq!(rob["file"], SOLO);
+        let kind_name = rob["root"].as_str().expect("root");
+        let kind = RootKind::from_name(kind_name).expect("kind");
+        // the joint names in robosim's order (the protocol's robot is the same import)
+        let imported = import_urdf_tree_floating(&path, kind).expect("imports");
+        let names: Vec<String> = imported.joints.iter().map(|j| j.name.clone()).collect();
+        let pin_names: Vec<&str> = rob["joints"]
+            .as_array()
+            .expect("joints")
+            .iter()
+            .map(|n| n.as_str().expect("name"))
+            .collect();
+        let (nqr, nvr) = (kind.nq(), kind.nv());
+        let (nq, nv) = (
+            rob["nq"].as_u64().expect("nq") as usize,
+            rob["nv"].as_u64().expect("nv") as usize,
+        );
+        let map = velocity_map(&names, &pin_names, nvr);
+        let floating = if kind == RootKind::FreeFlyer {
+            json!(true)
+        } else {
+            json!(kind_name)
+        };
+        let from_file = json!({"urdf": path_s, "floating": floating});
+        let inline = robot_to_json(&imported.robot);
+        assert_eq!(inline["root"]["kind"], kind_name, "{inline}");
+        for s in rob["samples"].as_array().expect("samples") {
+            let q = to_robosim(&nums(&s["q"]), nqr, &map, nvr);
+            let [v, a, tau] = ["v", "a", "tau"].map(|k| to_robosim(&nums(&s[k]), nvr, &map, nvr));
+            let want = |k: &str| to_robosim(&nums(&s[k]), nvr, &map, nvr);
+            assert_eq!((q.len(), v.len()), (nq, nv));
+            for robot in [&from_file, &inline] {
+                let at = |what: &str| format!("{kind_name} {what} ({robot})");
+                // fk: every link frame (frames[0] the base link, frames[k] joint k−1's child)
+                let fk =
+                    ask(json!({"op": "fk", "robot": robot, "q": q, "frames": true})).expect("fk");
+                let frames = fk["frames"].as_array().expect("frames");
+                assert_eq!(frames.len(), names.len() + 2);
+                for (name, fr) in s["frames"].as_object().expect("frames") {
+                    let link = names.iter().position(|n| n == name).map_or(0, |i| i + 1);
+                    let e = rel_err(&flat(&rows(&frames[link])), &flat(&rows(&fr["pose"])));
+                    assert!(e <= POSE_TOL, "{}: {e:e}", at(&format!("fk {name}")));
+                }
+                // the tool is the last joint's child link; its Jacobian has nv columns
+                let last = names.last().expect("joints");
+                let tool = &s["frames"][last.as_str()];
+                let e = rel_err(&flat(&rows(&fk["pose"])), &flat(&rows(&tool["pose"])));
+                assert!(e <= POSE_TOL, "{}: {e:e}", at("fk pose"));
+                let jac = ask(json!({"op": "jacobian", "robot": robot, "q": q})).expect("jacobian");
+                let j = rows(&jac["jacobian"]);
+                assert_eq!((j.nrows(), j.ncols()), (6, nv));
+                let j_ref = rows(&tool["jacobian"]);
+                let j_want = DMatrix::from_fn(6, nv, |r, c| {
+                    j_ref[(r, map.iter().position(|&x| x == c).expect("map"))]
+                });
+                let e = rel_err(&flat(&j), &flat(&j_want));
+                assert!(e <= POSE_TOL, "{}: {e:e}", at("jacobian"));
+                // dynamics
+                let id = ask(json!({"op": "id", "robot": robot, "q": q, "qd": v, "qdd": a}))
+                    .expect("id");
+                let e = rel_err(&nums(&id["tau"]), &want("rnea"));
+                assert!(e <= DYN_TOL, "{}: {e:e}", at("id"));
+                let g = ask(json!({"op": "gravity", "robot": robot, "q": q})).expect("gravity");
+                let e = rel_err(&nums(&g["tau"]), &want("gravity"));
+                assert!(e <= DYN_TOL, "{}: {e:e}", at("gravity"));
+                for method in ["aba", "cholesky"] {
+                    let fd = ask(json!({"op": "fd", "robot": robot, "q": q, "qd": v, "tau": tau, "method": method}))
+                        .expect("fd");
+                    let e = rel_err(&nums(&fd["qdd"]), &want("aba"));
+                    assert!(e <= DYN_TOL, "{}: {e:e}", at(&format!("fd {method}")));
+                }
+                let m =
+                    ask(json!({"op": "mass_matrix", "robot": robot, "q": q})).expect("mass_matrix");
+                let m_ref = rows(&s["M"]);
+                let m_want = DMatrix::from_fn(nv, nv, |i, j| {
+                    let pi = map.iter().position(|&x| x == i).expect("map");
+                    let pj = map.iter().position(|&x| x == j).expect("map");
+                    m_ref[(pi, pj)]
+                });
+                let e = rel_err(&flat(&rows(&m["mass_matrix"])), &flat(&m_want));
+                assert!(e <= DYN_TOL, "{}: {e:e}", at("mass_matrix"));
+                checked += 1;
+            }
+        }
+    }
+    assert_eq!(checked, 16, "2 roots × 4 samples × 2 robot forms");
+}
+
+fn solo() -> Value {
+    json!({"urdf": repo().join(SOLO).to_str().expect("UTF-8 path"), "floating": true})
+}
+
+/// Solo at rest, legs bent, the base tilted 0.4 rad about x at 1 m.
+fn solo_q() -> Vec<f64> {
+    let (s, c) = (0.2f64).sin_cos();
+    let mut q = vec![0.0, 0.0, 1.0, s, 0.0, 0.0, c];
+    for i in 0..12 {
+        q.push([0.1, 0.8, -1.6][i % 3]);
+    }
+    q
+}
+
+#[test]
+fn simulate_drops_a_resting_floating_robot_by_half_g_t_squared() {
+    let q0 = solo_q();
+    let t = 0.5;
+    for integrator in ["rk4", "semi_implicit_euler"] {
+        let r = ask(
+            json!({"op": "simulate", "robot": solo(), "q0": q0, "t_end": t,
+            "integrator": integrator, "dt": 1e-3}),
+        )
+        .expect("simulate");
+        let last = &r["samples"][0];
+        let (q, qd) = (nums(&last["q"]), nums(&last["qd"]));
+        assert_eq!((q.len(), qd.len()), (19, 18), "{integrator}");
+        // in free fall nothing pulls the joints: every body falls with g
+        let z = 1.0 - 0.5 * 9.81 * t * t;
+        let tol = if integrator == "rk4" { 1e-9 } else { 1e-2 };
+        assert!((q[2] - z).abs() <= tol, "{integrator}: z {} vs {z}", q[2]);
+        for (i, (got, want)) in q.iter().zip(&q0).enumerate() {
+            if i != 2 {
+                assert!(
+                    (got - want).abs() <= 1e-9,
+                    "{integrator}: q[{i}] {got} vs {want}"
+                );
+            }
+        }
+        // the base's velocity is LOCAL: g seen in the tilted base frame, the rest at rest
+        let g_local = [0.0, -9.81 * t * (0.4f64).sin(), -9.81 * t * (0.4f64).cos()];
+        for (i, (got, want)) in qd.iter().zip(g_local.iter().chain(&[0.0; 15])).enumerate() {
+            assert!(
+                (got - want).abs() <= 1e-9,
+                "{integrator}: qd[{i}] {got} vs {want}"
+            );
+        }
+    }
+}
+
+#[test]
+fn wrong_lengths_and_a_non_unit_quaternion_are_refused_by_name() {
+    let q = solo_q();
+    let short = &q[..18];
+    for op in ["fk", "jacobian", "mass_matrix", "gravity"] {
+        let e = ask(json!({"op": op, "robot": solo(), "q": short})).expect_err(op);
+        assert!(
+            matches!(e.kind.as_str(), "bad_request" | "invalid_request")
+                && e.message.contains("18 values")
+                && e.message.contains("nq = 19")
+                && e.message.contains("free_flyer"),
+            "{op}: {e:?}"
+        );
+    }
+    let e = ask(
+        json!({"op": "id", "robot": solo(), "q": q, "qd": vec![0.0; 19], "qdd": vec![0.0; 18]}),
+    )
+    .expect_err("qd of nq values");
+    assert!(
+        e.message.contains("`qd` has 19 values") && e.message.contains("nv = 18"),
+        "{e:?}"
+    );
+    let e = ask(json!({"op": "simulate", "robot": solo(), "q0": short, "t_end": 0.1, "integrator": "rk4", "dt": 1e-3}))
+        .expect_err("q0 of nv values");
+    assert!(
+        e.message.contains("`q0` has 18 values") && e.message.contains("nq = 19"),
+        "{e:?}"
+    );
+    let mut bad = q.clone();
+    bad[6] = 2.0;
+    for op in ["fk", "gravity"] {
+        let e = ask(json!({"op": op, "robot": solo(), "q": bad})).expect_err(op);
+        assert!(
+            matches!(e.kind.as_str(), "bad_request" | "invalid_request")
+                && e.message.contains("not unit"),
+            "{op}: {e:?}"
+        );
+    }
+    // ik and encoder_error are for a fixed base
+    let e = ask(json!({"op": "encoder_error", "robot": solo(), "q": q, "bits": 16}))
+        .expect_err("encoder_error");
+    assert_eq!(e.kind.as_str(), "not_applicable", "{e:?}");
+    // `tip` has no meaning for the whole tree
+    let e = ask(json!({"op": "fk", "robot": {"urdf": repo().join(SOLO).to_str(), "floating": true, "tip": "FL_FOOT"}, "q": q}))
+        .expect_err("tip");
+    assert!(e.message.contains("robot.tip"), "{e:?}");
+}
+
+/// A two-body robot on a free-flyer, as MJCF (`<freejoint>` on the world's first body) and as
+/// a URDF with a `floating` root joint (core/urdf's mjcf.rs floating test's pair).
+const MJCF_FREE: &str = r#"<mujoco model="m"><worldbody>
+  <body name="base" pos="0 0 0.5">
+    <freejoint name="root"/>
+    <inertial pos="0.1 0 0" mass="2" diaginertia="0.01 0.02 0.03"/>
+    <body name="l1" pos="1 0 0">
+      <joint name="j2" type="hinge" axis="0 0 1"/>
+      <inertial pos="0 0.2 0" mass="1" diaginertia="0.01 0.01 0.01"/>
+    </body>
+  </body></worldbody></mujoco>"#;
+const URDF_BASE: &str = r#"<robot name="m">
+  <link name="base"><inertial><origin xyz="0.1 0 0"/><mass value="2"/>
+    <inertia ixx="0.01" iyy="0.02" izz="0.03" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="l1"><inertial><origin xyz="0 0.2 0"/><mass value="1"/>
+    <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="j2" type="continuous"><parent link="base"/><child link="l1"/>
+    <origin xyz="1 0 0"/><axis xyz="0 0 1"/></joint></robot>"#;
+
+#[test]
+fn an_mjcf_free_joint_is_the_same_floating_robot_as_the_urdf_one() {
+    let dir = std::env::temp_dir().join(format!("robosim-hffp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let (mjcf, urdf) = (dir.join("m.xml"), dir.join("m.urdf"));
+    std::fs::write(&mjcf, MJCF_FREE).expect("write");
+    std::fs::write(&urdf, URDF_BASE).expect("write");
+    let (s, c) = (0.3f64).sin_cos();
+    // MJCF's body pos (0 0 0.5) is the root joint's placement: q's x y z are relative to it
+    let q = json!([0.2, -0.1, 0.3, 0.0, s, 0.0, c, 0.7]);
+    let (qd, qdd) = (
+        json!([0.3, -0.2, 0.1, 0.5, -0.4, 0.8, 1.1]),
+        json!([0.1, 0.2, -0.3, 0.4, 0.5, -0.6, 0.7]),
+    );
+    let id = |robot: Value| {
+        ask(json!({"op": "id", "robot": robot, "q": q, "qd": qd, "qdd": qdd}))
+            .map(|a| nums(&a["tau"]))
+    };
+    let from_mjcf = id(json!({"mjcf": mjcf.to_str()})).expect("mjcf free joint");
+    let from_urdf = id(json!({"urdf": urdf.to_str(), "floating": true})).expect("urdf");
+    assert_eq!(from_mjcf.len(), 7);
+    assert!(
+        rel_err(&from_mjcf, &from_urdf) <= 1e-12,
+        "{from_mjcf:?} vs {from_urdf:?}"
+    );
+    // the MJCF's 8-value q, 7-value v: a q of 7 is refused naming nq = 8
+    let e = ask(json!({"op": "gravity", "robot": {"mjcf": mjcf.to_str()}, "q": qd}))
+        .expect_err("q of nv values");
+    assert!(e.message.contains("nq = 8"), "{e:?}");
+    std::fs::remove_dir_all(&dir).ok();
+}
