@@ -202,9 +202,15 @@ impl StationParams {
             }
         }
         for e in &self.experiments {
-            if !(e.power_w.is_finite() && e.power_w >= 0.0)
-                || !(e.duration_s > 0.0 && e.every_s > 0.0 && e.first_s >= 0.0)
-            {
+            let ok = e.power_w.is_finite()
+                && e.power_w >= 0.0
+                && e.duration_s.is_finite()
+                && e.duration_s > 0.0
+                && e.every_s.is_finite()
+                && e.every_s > 0.0
+                && e.first_s.is_finite()
+                && e.first_s >= 0.0;
+            if !ok {
                 bail!(
                     "experiment {}: expected a power ≥ 0, a positive duration and period, a start ≥ 0",
                     e.name

@@ -412,7 +412,8 @@ pub fn predict_desaturation(
         .and_then(|st| st.attitude)
         .map(|a| (st_t(steps, since), a.h_fraction))?;
     let rate = (now.h_fraction - h0.1) / (t - h0.0);
-    if !(rate > 0.0) {
+    // NaN (no time between the samples) or not growing: no prediction
+    if rate.is_nan() || rate <= 0.0 {
         return None;
     }
     let at = t + ((r.run.saturation - now.h_fraction) / rate).max(0.0);
