@@ -6,7 +6,7 @@
 //! with the built-in PUMA's friction data, the joint friction effect undeclared). Entry point:
 //! [`report_effects`].
 
-use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
+use crate::plot::{Plot, Report, Series, Table, percentile, write_report_with_x_names};
 use nalgebra::{DVector, Isometry3, Vector3};
 use robosim_collision::robot::Scene;
 use robosim_collision::{Mode, Solid};
@@ -204,6 +204,12 @@ fn run(pipe: &mut Pipeline, steps: usize) -> Result<f64, String> {
 /// Runs the study and writes `effects.csv`, `effects.md`, `effects.png` into `out_dir`.
 /// `quick` runs fewer steps and rounds (a few seconds, for CI).
 pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
+    let (report, names) = effects_report(quick)?;
+    write_report_with_x_names(out_dir, &report, &[names]).map_err(|e| e.to_string())
+}
+
+/// The study's report and its plot's x names (the configurations, the table's first column).
+fn effects_report(quick: bool) -> Result<(Report, Vec<String>), String> {
     let robot = robosim_dynamics::fixture_robot("puma560")
         .ok_or("the PUMA 560 fixture is missing from this build")?;
     // The same robot carrying the built-in PUMA's friction data (its motor inertia left out,
@@ -348,7 +354,7 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
     ];
     let plots = vec![Plot {
         title: "time per step by configuration".into(),
-        x_label: "configuration: the table's rows in order (1 = kinematics only)".into(),
+        x_label: "configuration (the table's rows in order)".into(),
         y_label: "µs per step".into(),
         log_x: false,
         log_y: true,
@@ -370,7 +376,9 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
         table,
         plots,
     };
-    write_report(out_dir, &report).map_err(|e| e.to_string())
+    // the x ticks name the configurations (issue 39: they were numbers 1 … n)
+    let names: Vec<String> = report.table.rows.iter().map(|r| r[0].clone()).collect();
+    Ok((report, names))
 }
 
 #[cfg(test)]
@@ -378,8 +386,28 @@ mod tests {
     #[test]
     fn quick_report_writes_its_files() {
         let dir = tempfile::tempdir().expect("temp dir");
-        let written = super::report_effects(dir.path(), true).expect("report");
+        let (report, names) = super::effects_report(true).expect("report");
+        let written = crate::plot::write_report_with_x_names(dir.path(), &report, &[names.clone()])
+            .expect("written");
         assert_eq!(written.len(), 3);
+        // the figure's x ticks are the configurations, in the table's order (issue 39)
+        let ticks = crate::plot::draw(&dir.path().join("again.png"), &report.plots, &[names])
+            .expect("drawn");
+        let rows: Vec<String> = report
+            .table
+            .rows
+            .iter()
+            .map(|r| crate::plot::short_x_name(&r[0]))
+            .collect();
+        assert_eq!(ticks, [rows]);
+        assert_eq!(ticks[0][0], "kinematics only");
+        assert_eq!(ticks[0][2], "+ joint limits");
+        assert!(
+            ticks[0]
+                .last()
+                .is_some_and(|t| t.ends_with("Coulomb stick-slip)")),
+            "{ticks:?}"
+        );
         let md = std::fs::read_to_string(dir.path().join("effects.md")).expect("md");
         assert!(md.contains("collision declared off"));
         // the friction rows: undeclared measured against the same-run baseline, and the

@@ -2,9 +2,11 @@
 //! panel per plot. Every `robosim report …` command goes through
 //! [`write_report`], so all reports look alike and regenerate the same way.
 //!
-//! Entry points: [`write_report`], [`percentile`].
+//! Entry points: [`write_report`], [`write_report_with_x_names`] (a plot whose x axis is a list
+//! of named categories, its ticks the names), [`percentile`].
 
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -64,6 +66,20 @@ pub enum ReportError {
 /// when there are plots, `<dir>/<name>.png` (one panel per plot). Creates `dir`. Returns the
 /// paths written.
 pub fn write_report(dir: &Path, report: &Report) -> Result<Vec<PathBuf>, ReportError> {
+    write_report_with_x_names(dir, report, &[])
+}
+
+/// [`write_report`] with named categories on x axes: plot `i`'s x values are the positions 1, 2,
+/// … n of the n names `x_names[i]` (the effects report's configurations, say), and its x ticks
+/// read those names — drawn upright, shortened in the middle when longer than
+/// [`X_NAME_CHARS`] characters ([`short_x_name`]) — instead of numbers. A plot with no entry in
+/// `x_names`, or an empty one, keeps its numeric x axis. (Beside [`Plot`] rather than in it, so
+/// that the reports' many `Plot { … }` literals stay as they are.)
+pub fn write_report_with_x_names(
+    dir: &Path,
+    report: &Report,
+    x_names: &[Vec<String>],
+) -> Result<Vec<PathBuf>, ReportError> {
     let ncol = report.table.columns.len();
     for (row, cells) in report.table.rows.iter().enumerate() {
         if cells.len() != ncol {
@@ -93,7 +109,7 @@ pub fn write_report(dir: &Path, report: &Report) -> Result<Vec<PathBuf>, ReportE
     let png_name = format!("{}.png", report.name);
     if !report.plots.is_empty() {
         let png_path = dir.join(&png_name);
-        draw(&png_path, &report.plots)?;
+        draw(&png_path, &report.plots, x_names)?;
         written.push(png_path);
     }
 
@@ -148,21 +164,91 @@ fn csv_cell(c: &str) -> String {
 const PANEL_W: u32 = 900;
 const PANEL_H: u32 = 560;
 
-fn draw(path: &Path, plots: &[Plot]) -> Result<(), ReportError> {
+/// Draws the panels one above the other; a panel with x names is taller by the height of its
+/// upright names. Returns each panel's x tick labels as drawn, left to right.
+pub(crate) fn draw(
+    path: &Path,
+    plots: &[Plot],
+    x_names: &[Vec<String>],
+) -> Result<Vec<Vec<String>>, ReportError> {
     let err = |e: &dyn std::fmt::Display| ReportError::Draw {
         path: path.to_owned(),
         message: e.to_string(),
     };
     crate::font::register_for_plots().map_err(|e| err(&e))?;
-    let root =
-        BitMapBackend::new(path, (PANEL_W, PANEL_H * plots.len() as u32)).into_drawing_area();
+    let names: Vec<Option<Vec<String>>> = (0..plots.len())
+        .map(|i| {
+            let n = x_names.get(i).filter(|n| !n.is_empty())?;
+            Some(n.iter().map(|s| short_x_name(s)).collect())
+        })
+        .collect();
+    let heights: Vec<u32> = names
+        .iter()
+        .map(|n| PANEL_H + n.as_deref().map_or(0, |n| names_area(n) - X_LABEL_AREA))
+        .collect();
+    let root = BitMapBackend::new(path, (PANEL_W, heights.iter().sum())).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
-    let panels = root.split_evenly((plots.len(), 1));
-    for (plot, area) in plots.iter().zip(panels.iter()) {
-        draw_panel(plot, area).map_err(|e| err(&e))?;
+    let breaks: Vec<i32> = heights
+        .iter()
+        .scan(0u32, |y, h| {
+            *y += h;
+            Some(*y as i32)
+        })
+        .take(plots.len().saturating_sub(1))
+        .collect();
+    let panels = root.split_by_breakpoints(Vec::<i32>::new(), breaks);
+    let mut ticks = Vec::new();
+    for ((plot, area), names) in plots.iter().zip(panels.iter()).zip(&names) {
+        ticks.push(draw_panel(plot, names.as_deref(), area).map_err(|e| err(&e))?);
     }
     root.present().map_err(|e| err(&e))?;
-    Ok(())
+    Ok(ticks)
+}
+
+/// The longest x name drawn whole; longer ones keep their start and end ([`short_x_name`]).
+pub const X_NAME_CHARS: usize = 42;
+/// Size of an x tick name, in pixels.
+const X_NAME_FONT: u32 = 13;
+/// The x label area (tick labels and the axis description) of a numeric axis.
+const X_LABEL_AREA: u32 = 45;
+
+/// An x tick name as drawn: `name` when at most [`X_NAME_CHARS`] characters long, else its
+/// first and last whole words around "…" (the two ends tell similar long names apart better
+/// than either), cut inside a word only when a word alone is too long.
+pub fn short_x_name(name: &str) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    if chars.len() <= X_NAME_CHARS {
+        return name.to_owned();
+    }
+    // (the budget leaves room for "…" and the space each side of it)
+    let budget = X_NAME_CHARS - 3;
+    let word = |c: &char| c.is_alphanumeric();
+    let mut head = budget / 2;
+    if word(&chars[head - 1]) && word(&chars[head]) {
+        if let Some(gap) = chars[..head].iter().rposition(|c| !word(c)) {
+            head = gap;
+        }
+    }
+    let start: String = chars[..head].iter().collect();
+    let start = start.trim_end_matches([' ', ',', ';']);
+    let room = budget - start.chars().count();
+    let mut tail = chars.len() - room;
+    if word(&chars[tail - 1]) && word(&chars[tail]) {
+        if let Some(gap) = chars[tail..].iter().position(|c| !word(c)) {
+            tail += gap;
+        }
+    }
+    let end: String = chars[tail..].iter().collect();
+    let end = end.trim_start_matches([' ', ',', ';']);
+    format!("{start} … {end}")
+}
+
+/// Height of the x label area for upright `names`: the longest name, the axis description and
+/// a margin.
+fn names_area(names: &[String]) -> u32 {
+    let longest = names.iter().map(|n| n.chars().count()).max().unwrap_or(0) as u32;
+    // ~0.5 em per character of the bundled sans-serif font
+    longest * X_NAME_FONT / 2 + 50
 }
 
 /// Data range of the finite (and, on log axes, positive) points, padded.
@@ -195,7 +281,14 @@ fn range(values: impl Iterator<Item = f64>, log: bool) -> (f64, f64) {
 
 type Area<'a> = DrawingArea<BitMapBackend<'a>, plotters::coord::Shift>;
 
-fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Error>> {
+/// One panel; returns its x tick labels as drawn. With `names` (already shortened), the x axis
+/// runs from 0.5 to n + 0.5, linear whatever `plot.log_x` says, and the tick at k reads the
+/// k-th name.
+fn draw_panel(
+    plot: &Plot,
+    names: Option<&[String]>,
+    area: &Area<'_>,
+) -> Result<Vec<String>, Box<dyn std::error::Error>> {
     let xs = plot
         .series
         .iter()
@@ -204,25 +297,69 @@ fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Er
         .series
         .iter()
         .flat_map(|s| s.points.iter().map(|p| p.1));
-    let (x0, x1) = range(xs, plot.log_x);
+    let log_x = plot.log_x && names.is_none();
+    let (x0, x1) = match names {
+        Some(n) => (0.5, n.len() as f64 + 0.5),
+        None => range(xs, log_x),
+    };
     let (y0, y1) = range(ys, plot.log_y);
     let mut builder = ChartBuilder::on(area);
     builder
         .caption(&plot.title, (crate::font::PLOT_FAMILY, 22))
         .margin(12)
-        .x_label_area_size(45)
+        .x_label_area_size(names.map_or(X_LABEL_AREA, names_area))
         .y_label_area_size(80);
+    // Numeric x tick labels as plotters asks for them while drawing; with names, the positions
+    // plotters puts its ticks at (their labels left empty: the names are drawn below).
+    let drawn = std::cell::RefCell::new(Vec::new());
+    let tick_at = std::cell::RefCell::new(Vec::new());
+    let x_tick = |v: &f64| -> String {
+        match names {
+            Some(n) => {
+                let k = v.round();
+                if (v - k).abs() < 1e-6 && k >= 1.0 && k <= n.len() as f64 {
+                    tick_at.borrow_mut().push(k as usize);
+                }
+                String::new()
+            }
+            None => {
+                let label = fmt_tick(*v);
+                drawn.borrow_mut().push(label.clone());
+                label
+            }
+        }
+    };
+    // Upright, reading downwards from just below the tick (plotters centres its own x labels
+    // on the tick, which for upright text is across the axis).
+    let names_style = TextStyle::from((crate::font::PLOT_FAMILY, X_NAME_FONT))
+        .transform(FontTransform::Rotate90)
+        .pos(Pos::new(HPos::Left, VPos::Center));
+    // With names, every position gets its tick (plotters picks steps of 1, 2 or 5 of at most
+    // this many ticks); else plotters' default.
+    let x_ticks = names.map_or(11, |n| n.len() + 1);
     // The four axis combinations have different coordinate types, hence the macro.
     macro_rules! body {
         ($chart:expr) => {{
             let mut chart = $chart;
-            chart
-                .configure_mesh()
-                .x_desc(plot.x_label.as_str())
+            let mut mesh = chart.configure_mesh();
+            mesh.x_desc(plot.x_label.as_str())
                 .y_desc(plot.y_label.as_str())
-                .x_label_formatter(&|v| fmt_tick(*v))
-                .y_label_formatter(&|v| fmt_tick(*v))
-                .draw()?;
+                .x_labels(x_ticks)
+                .x_label_formatter(&x_tick)
+                .y_label_formatter(&|v| fmt_tick(*v));
+            if names.is_some() {
+                mesh.axis_desc_style((crate::font::PLOT_FAMILY, 14));
+            }
+            mesh.draw()?;
+            if let Some(n) = names {
+                let (bx, by) = area.get_base_pixel();
+                for k in tick_at.borrow().iter() {
+                    let (px, py) = chart.backend_coord(&(*k as f64, y0));
+                    let name = &n[k - 1];
+                    area.draw_text(name, &names_style, (px - bx, py - by + 8))?;
+                    drawn.borrow_mut().push(name.clone());
+                }
+            }
             for (i, s) in plot.series.iter().enumerate() {
                 let color = Palette99::pick(i).to_rgba();
                 let pts: Vec<(f64, f64)> = s
@@ -251,7 +388,7 @@ fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Er
                 .draw()?;
         }};
     }
-    match (plot.log_x, plot.log_y) {
+    match (log_x, plot.log_y) {
         (false, false) => body!(builder.build_cartesian_2d(x0..x1, y0..y1)?),
         (true, false) => body!(builder.build_cartesian_2d((x0..x1).log_scale(), y0..y1)?),
         (false, true) => body!(builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale())?),
@@ -259,7 +396,7 @@ fn draw_panel(plot: &Plot, area: &Area<'_>) -> Result<(), Box<dyn std::error::Er
             body!(builder.build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?)
         }
     }
-    Ok(())
+    Ok(drawn.into_inner())
 }
 
 /// Angles in degrees over time, unwrapped: each point is moved by whole turns to within 180°
@@ -415,6 +552,80 @@ mod tests {
         let a = png("a", "Accuracy against time", "µs per step");
         assert_eq!(a, png("a2", "Accuracy against time", "µs per step"));
         assert_ne!(a, png("b", "", ""));
+    }
+
+    /// Issue 39: the effects plot's x axis numbered its configurations ("1 = kinematics only");
+    /// with x names, the ticks drawn are the names, in order, one per position (a long one
+    /// shortened in the middle), and a panel without names keeps its numbers.
+    #[test]
+    fn named_x_ticks_are_the_names_in_order() {
+        let names: Vec<String> = [
+            "kinematics only",
+            "kinematics, collision declared off",
+            "+ joint limits",
+            "+ collision bbox (self on)",
+            "+ collision polygon (self on)",
+            "+ collision exact (self on)",
+            "+ collision exact, continuous",
+            "+ dynamics rk4 1 ms (no collision)",
+            "+ dynamics semi_implicit_euler 1 ms",
+            "all: rk4 + limits + bbox + encoder + logging",
+            "+ dynamics rk4 1 ms, robot with friction data, joint friction undeclared",
+            "+ dynamics rk4 1 ms + joint friction (viscous, Coulomb stick-slip)",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        let plot = Plot {
+            title: "time per step by configuration".into(),
+            x_label: "configuration".into(),
+            y_label: "µs per step".into(),
+            log_x: true,
+            log_y: true,
+            series: vec![Series {
+                label: "median".into(),
+                points: (1..=names.len())
+                    .map(|k| (k as f64, 0.1 * (k * k) as f64))
+                    .collect(),
+            }],
+        };
+        let dir = tempfile::tempdir().expect("temp dir");
+        let png = dir.path().join("named.png");
+        let ticks = draw(&png, &[plot.clone(), plot], std::slice::from_ref(&names)).expect("drawn");
+        let want: Vec<String> = names.iter().map(|n| short_x_name(n)).collect();
+        assert_eq!(ticks[0], want);
+        assert_eq!(ticks[0][0], "kinematics only");
+        assert_eq!(ticks[0][3], "+ collision bbox (self on)");
+        let long = &ticks[0][10];
+        assert!(long.chars().count() <= X_NAME_CHARS, "{long}");
+        assert_eq!(long, "+ dynamics rk4 1 ms … friction undeclared");
+        assert_eq!(ticks[0][11], "+ dynamics rk4 1 ms … Coulomb stick-slip)");
+        assert_eq!(ticks[0][9], "all: rk4 + limits + … + encoder + logging");
+        assert_eq!(ticks[0][8], "+ dynamics semi_implicit_euler 1 ms");
+        // the second panel (no names) is numeric, on its log axis
+        assert!(!ticks[1].is_empty());
+        assert!(
+            ticks[1].iter().all(|t| t.parse::<f64>().is_ok()),
+            "{:?}",
+            ticks[1]
+        );
+        // the named panel is taller by its upright names
+        let bytes = std::fs::read(&png).expect("png");
+        let height = u32::from_be_bytes([bytes[20], bytes[21], bytes[22], bytes[23]]);
+        assert_eq!(height, 2 * PANEL_H + names_area(&want) - X_LABEL_AREA);
+    }
+
+    /// A name without spaces is cut inside its one word; one of exactly the limit is whole.
+    #[test]
+    fn a_long_name_is_shortened_in_the_middle() {
+        let whole = "x".repeat(X_NAME_CHARS);
+        assert_eq!(short_x_name(&whole), whole);
+        let word: String = ('a'..='z').cycle().take(60).collect();
+        let short = short_x_name(&word);
+        assert!(short.chars().count() <= X_NAME_CHARS, "{short}");
+        let (start, end) = short.split_once(" … ").expect("elided");
+        assert!(word.starts_with(start) && word.ends_with(end), "{short}");
+        assert!(!start.is_empty() && !end.is_empty(), "{short}");
     }
 
     #[test]
