@@ -60,6 +60,11 @@ const EDITS: &[&str] = &[
 
 #[test]
 fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_robot() {
+    if robosim_display::skipped_without_vulkan(
+        "the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_robot",
+    ) {
+        return;
+    }
     let mut k = Procs::new("edt");
     k.start_keeper(&[]);
     let out = k.home.path().join("display-out");
@@ -215,6 +220,11 @@ fn the_walkthrough_edited_piece_by_piece_is_seen_by_a_display_and_loads_as_a_rob
 #[test]
 fn a_pick_in_the_display_is_what_the_next_editor_command_acts_on() {
     use robosim_editor::shape::face_frame;
+    if robosim_display::skipped_without_vulkan(
+        "a_pick_in_the_display_is_what_the_next_editor_command_acts_on",
+    ) {
+        return;
+    }
     let mut k = Procs::new("pck");
     k.start_keeper(&[]);
     let first = k.home.path().join("first.edit");

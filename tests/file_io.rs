@@ -156,6 +156,11 @@ fn simctl(p: &Procs, cmd: &str) {
 
 #[test]
 fn a_load_reaches_a_running_display_and_simulator_as_one_change() {
+    if robosim_display::skipped_without_vulkan(
+        "a_load_reaches_a_running_display_and_simulator_as_one_change",
+    ) {
+        return;
+    }
     let mut k = Procs::new("fds");
     k.start_keeper(&["--scene", "puma560"]);
     let out = k.home.path().join("display-out");

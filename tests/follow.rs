@@ -268,6 +268,11 @@ fn frames(dir: &std::path::Path) -> Vec<serde_json::Value> {
 /// and neither process exits.
 #[test]
 fn deleting_the_newest_object_keeps_the_simulator_and_the_display_following() {
+    if robosim_display::skipped_without_vulkan(
+        "deleting_the_newest_object_keeps_the_simulator_and_the_display_following",
+    ) {
+        return;
+    }
     let mut p = Procs::new("newest");
     p.start_keeper(&["--scene", "surgical_positioner_cell"]);
     let session = p.session();

@@ -456,6 +456,11 @@ fn a_recording_cut_by_kill_9_streams_every_message_written_before_it() {
 /// the `mcap` crate; the summary is written (the file is closed).
 #[test]
 fn a_render_playback_is_recorded_to_mcap_at_the_trajectorys_dt() {
+    if robosim_display::skipped_without_vulkan(
+        "a_render_playback_is_recorded_to_mcap_at_the_trajectorys_dt",
+    ) {
+        return;
+    }
     let dir = tempfile::tempdir().expect("dir");
     let traj = dir.path().join("puma.traj");
     // Degrees for revolute joints; dt 0.05 s; 4 samples.
