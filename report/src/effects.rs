@@ -387,8 +387,12 @@ mod tests {
     fn quick_report_writes_its_files() {
         let dir = tempfile::tempdir().expect("temp dir");
         let (report, names) = super::effects_report(true).expect("report");
-        let written = crate::plot::write_report_with_x_names(dir.path(), &report, &[names.clone()])
-            .expect("written");
+        let written = crate::plot::write_report_with_x_names(
+            dir.path(),
+            &report,
+            std::slice::from_ref(&names),
+        )
+        .expect("written");
         assert_eq!(written.len(), 3);
         // the figure's x ticks are the configurations, in the table's order (issue 39)
         let ticks = crate::plot::draw(&dir.path().join("again.png"), &report.plots, &[names])

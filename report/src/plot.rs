@@ -224,19 +224,21 @@ pub fn short_x_name(name: &str) -> String {
     let budget = X_NAME_CHARS - 3;
     let word = |c: &char| c.is_alphanumeric();
     let mut head = budget / 2;
-    if word(&chars[head - 1]) && word(&chars[head]) {
-        if let Some(gap) = chars[..head].iter().rposition(|c| !word(c)) {
-            head = gap;
-        }
+    if word(&chars[head - 1])
+        && word(&chars[head])
+        && let Some(gap) = chars[..head].iter().rposition(|c| !word(c))
+    {
+        head = gap;
     }
     let start: String = chars[..head].iter().collect();
     let start = start.trim_end_matches([' ', ',', ';']);
     let room = budget - start.chars().count();
     let mut tail = chars.len() - room;
-    if word(&chars[tail - 1]) && word(&chars[tail]) {
-        if let Some(gap) = chars[tail..].iter().position(|c| !word(c)) {
-            tail += gap;
-        }
+    if word(&chars[tail - 1])
+        && word(&chars[tail])
+        && let Some(gap) = chars[tail..].iter().position(|c| !word(c))
+    {
+        tail += gap;
     }
     let end: String = chars[tail..].iter().collect();
     let end = end.trim_start_matches([' ', ',', ';']);
