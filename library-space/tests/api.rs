@@ -403,7 +403,10 @@ fn issue_37_the_collision_effect_takes_a_distance_tolerance() {
         ("collision { tolerance: -1 mm }", "out of range"),
         ("collision { tolerance: 1 s }", "collision"),
         ("collision { tolerance: exact }", "demo.rsl:"),
-        ("collision { tolerence: 1e-6 m }", "did you mean `tolerance`"),
+        (
+            "collision { tolerence: 1e-6 m }",
+            "did you mean `tolerance`",
+        ),
     ] {
         let e = with(bad).expect_err(bad);
         assert!(e.contains(says) && e.contains("demo.rsl:"), "{bad}: {e}");

@@ -309,7 +309,10 @@ pub(crate) enum Command {
 fn component_names() -> clap::builder::ValueParser {
     clap::builder::ValueParser::new(|c: &str| -> Result<String, String> {
         let name = c.split_once('=').map_or(c, |(n, _)| n);
-        let names: Vec<&str> = robosim_launcher::COMPONENTS.iter().map(|(n, _)| *n).collect();
+        let names: Vec<&str> = robosim_launcher::COMPONENTS
+            .iter()
+            .map(|(n, _)| *n)
+            .collect();
         if names.contains(&name) {
             Ok(c.to_owned())
         } else {

@@ -5,11 +5,11 @@
 
 mod common;
 
+mod floating;
 mod friction;
 mod hard_cases;
 mod properties;
 mod reference_pinocchio;
 mod urdf_corpus;
-mod floating;
 mod urdf_energy;
 mod urdf_mimic;
