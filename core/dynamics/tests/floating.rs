@@ -5,6 +5,7 @@
 //! its energy conserved as the arms' is (urdf_energy.rs's runs and tolerances), its quaternion
 //! unit over a long run.
 
+use crate::common::{floats, matrix, rel_err};
 use nalgebra::DMatrix;
 use robosim_dynamics::{
     Data, Integrator, IntegratorConfig, Model, aba, crba, energy, gravity, rnea, simulate,
@@ -22,29 +23,6 @@ const POSE_TOL: f64 = 1e-12;
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-fn floats(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
-
-fn matrix(v: &Value) -> DMatrix<f64> {
-    let rows: Vec<Vec<f64>> = v.as_array().expect("rows").iter().map(floats).collect();
-    let (r, c) = (rows.len(), rows.first().map_or(0, Vec::len));
-    DMatrix::from_fn(r, c, |i, j| rows[i][j])
-}
-
-fn rel_err(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
-        / scale
 }
 
 fn import(file: &str, kind: RootKind) -> UrdfRobot {

@@ -10,6 +10,7 @@
 //! Pinocchio 4.1's ABA refuses mimic joints: the reference q̈ is `M_r⁻¹ (τ_r − b_r)` from its
 //! CRBA and RNEA.
 
+use crate::common::{floats, matrix, rel_err};
 use nalgebra::{DMatrix, Matrix4};
 use robosim_dynamics::mimic::{aba_mimic, crba_mimic, gravity_mimic, rnea_mimic};
 use robosim_dynamics::{Data, Model, rnea};
@@ -25,30 +26,6 @@ const DYN_TOL: f64 = 1e-10;
 
 fn dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../testdata/urdf_corpus")
-}
-
-fn floats(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
-
-fn matrix(v: &Value) -> DMatrix<f64> {
-    let rows: Vec<Vec<f64>> = v.as_array().expect("rows").iter().map(floats).collect();
-    let (r, c) = (rows.len(), rows.first().map_or(0, Vec::len));
-    DMatrix::from_fn(r, c, |i, j| rows[i][j])
-}
-
-/// max |a − b| over max(1, max |b|).
-fn rel_err(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    let scale = b.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
-    a.iter()
-        .zip(b)
-        .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
-        / scale
 }
 
 fn flat(m: &DMatrix<f64>) -> Vec<f64> {
