@@ -11,7 +11,12 @@
 //! `encoder_error` takes `bits` (one number for all joints or one per joint) and answers
 //! `position`, `orientation`, `per_axis` [dx dy dz rx ry rz], `position_worst_case`,
 //! `orientation_worst_case`, `resolution`. For a robot with a floating `root` q has nq values
-//! and a Jacobian nv columns (the root's first); `ik` and `encoder_error` refuse it.
+//! and a Jacobian nv columns (the root's first). `ik` on such a robot holds the root where the
+//! request's `q0` (nq values, required) puts it and moves the joints of the chain from the base
+//! link to link frame `link` (1..=n, default n: the tip where the tool hangs), answering full
+//! q's (nq) with the root and every other joint as in `q0`; `encoder_error` bounds the tool's
+//! error from the n joint encoders with the root held at q (the Jacobian's joint columns,
+//! nv-index root_nv + k; the root has no encoder).
 
 use super::RobotArg;
 use super::finite::check;
@@ -126,19 +131,19 @@ pub(super) fn expected_len(robot: &Robot, velocity: bool) -> (usize, String) {
 }
 
 /// `ik` and `encoder_error` work on the joints of a fixed base: a floating robot is refused.
-fn fixed_base(robot: &Robot, op: &str) -> Result<(), ProtocolError> {
-    match &robot.root {
-        None => Ok(()),
-        Some(root) => Err(ProtocolError::new(
-            ErrorKind::NotApplicable,
-            format!(
-                "{op}: the robot has a {} root (nq = {}, nv = {}); {op} is for a fixed base",
-                root.kind.name(),
-                robot.nq(),
-                robot.nv()
-            ),
-        )),
-    }
+/// A floating robot with its root held at `q`'s root coordinates: the same joints and tool on
+/// a fixed base at `base · root(q)`, and `q`'s joint values (its last `dof`). `None` for a
+/// fixed-base robot. Its link frames and Jacobian columns are the floating robot's at `q`
+/// (column k is the floating robot's nv-index `root_nv + k`).
+fn root_held(robot: &Robot, q: &[f64]) -> Option<(Robot, Vec<f64>)> {
+    let root = robot.root.as_ref()?;
+    let (q_root, q_joints) = q.split_at(robot.root_nq());
+    let held = Robot {
+        base: robot.base * root.kind.transform(q_root),
+        root: None,
+        ..robot.clone()
+    };
+    Some((held, q_joints.to_vec()))
 }
 
 fn bool_field(req: &Value, key: &str, default: bool) -> Result<bool, ProtocolError> {
@@ -254,7 +259,11 @@ fn axis_tolerances(v: &Value, path: &str) -> Result<[f64; 3], ProtocolError> {
     }
 }
 
-fn ik_options(req: &Value, robot: &Robot) -> Result<IkOptions, ProtocolError> {
+/// The `ik` options; `q0` reads the seed (after the other fields' checks, in this order).
+fn ik_options(
+    req: &Value,
+    q0: impl FnOnce() -> Result<Option<Vec<f64>>, ProtocolError>,
+) -> Result<IkOptions, ProtocolError> {
     let mut o = IkOptions::default();
     if let Some(t) = req.get("tolerances").filter(|t| !t.is_null()) {
         let obj = t.as_object().ok_or_else(|| {
@@ -280,9 +289,7 @@ fn ik_options(req: &Value, robot: &Robot) -> Result<IkOptions, ProtocolError> {
         }
         o.tolerances = tol;
     }
-    if req.get("q0").is_some_and(|v| !v.is_null()) {
-        o.q0 = Some(q_field(req, "q0", robot)?);
-    }
+    o.q0 = q0()?;
     o.all = bool_field(req, "all", false)?;
     o.respect_limits = bool_field(req, "respect_limits", true)?;
     o.max_iterations =
@@ -319,9 +326,72 @@ fn solution_json(s: &IkSolution) -> Value {
     v
 }
 
+/// A floating robot's IK problem: the chain from the base link to link frame `link`, on a fixed
+/// base where `q0` holds the root, `q0` itself (nq values), and the chain's joints' indices in q.
+struct HeldChain {
+    chain: Robot,
+    q0: Vec<f64>,
+    path: Vec<usize>,
+    link: usize,
+}
+
+fn held_chain(req: &Value, robot: &Robot) -> Result<HeldChain, ProtocolError> {
+    let n = robot.dof();
+    let link = uint_field(req, "link", n as u64, n as u64)? as usize;
+    let kind = robot.root.as_ref().map_or("", |r| r.kind.name());
+    if req.get("q0").is_none_or(Value::is_null) {
+        return Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            format!(
+                "q0: missing; the robot has a {kind} root, held where q0 ({} values) puts it while the chain to link {link} moves",
+                robot.nq()
+            ),
+        ));
+    }
+    let q0 = q_field(req, "q0", robot)?;
+    let (Some((chain, path)), Some((held, _))) = (robot.chain_to(link), root_held(robot, &q0))
+    else {
+        return Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            format!("link: {link} is not a link frame of the robot (1..={n})"),
+        ));
+    };
+    let chain = Robot {
+        base: held.base,
+        ..chain
+    };
+    Ok(HeldChain {
+        chain,
+        q0,
+        path,
+        link,
+    })
+}
+
+impl HeldChain {
+    /// The chain's solution as the floating robot's: `q0` with the chain's joints replaced.
+    fn expand(&self, s: &IkSolution) -> IkSolution {
+        let mut q = self.q0.clone();
+        for (&i, &x) in self.path.iter().zip(&s.q) {
+            q[i] = x;
+        }
+        IkSolution { q, ..s.clone() }
+    }
+}
+
 fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
-    let robot = robot(req, arg)?;
-    fixed_base(&robot, "ik")?;
+    let full = robot(req, arg)?;
+    let held = match full.root {
+        Some(_) => Some(held_chain(req, &full)?),
+        None if req.get("link").is_some_and(|v| !v.is_null()) => {
+            return Err(ProtocolError::new(
+                ErrorKind::BadRequest,
+                "link: only for a robot with a floating root (a fixed-base tree's tip is chosen by the robot's `tip`)",
+            ));
+        }
+        None => None,
+    };
+    let robot: &Robot = held.as_ref().map_or(&full, |h| &h.chain);
     let pose = matrix4_from_json(
         req.get("pose")
             .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "pose: missing"))?,
@@ -336,31 +406,45 @@ fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
             )
         })?,
     };
-    let options = ik_options(req, &robot)?;
+    let options = ik_options(req, || match &held {
+        Some(h) => Ok(Some(h.path.iter().map(|&i| h.q0[i]).collect())),
+        None if req.get("q0").is_some_and(|v| !v.is_null()) => Ok(Some(q_field(req, "q0", robot)?)),
+        None => Ok(None),
+    })?;
+    let expand = |s: &IkSolution| match &held {
+        Some(h) => h.expand(s),
+        None => s.clone(),
+    };
     // The closed-form family the geometry admits, and whether it was read from DH rows or
     // from general joints' placements and axes (a URDF): what `auto` chose from.
-    let family = ik::family::recognise(&robot);
+    let family = ik::family::recognise(robot);
     let mut family_json = json!({
         "name": family.name(),
-        "from": if ik::family::recognised_from_axes(&robot) { "joint_axes" } else { "dh_rows" },
+        "from": if ik::family::recognised_from_axes(robot) { "joint_axes" } else { "dh_rows" },
     });
     if let ik::family::Family::General(reason) = &family {
         family_json["reason"] = json!(reason);
     }
-    match ik::solve(&robot, &pose, method, &options) {
+    match ik::solve(robot, &pose, method, &options) {
         Ok(r) => {
-            for (i, s) in r.solutions.iter().enumerate() {
+            let solutions: Vec<IkSolution> = r.solutions.iter().map(expand).collect();
+            for (i, s) in solutions.iter().enumerate() {
                 check(&format!("solutions[{i}].q"), &s.q)?;
                 check(
                     &format!("solutions[{i}].residual"),
                     &[s.residual.position, s.residual.orientation],
                 )?;
             }
-            Ok(json!({
+            let mut answer = json!({
             "method": r.method.name(),
             "family": family_json,
-            "solutions": r.solutions.iter().map(solution_json).collect::<Vec<_>>(),
-            }))
+            "solutions": solutions.iter().map(solution_json).collect::<Vec<_>>(),
+            });
+            if let Some(h) = &held {
+                answer["link"] = json!(h.link);
+                answer["chain"] = json!(h.path);
+            }
+            Ok(answer)
         }
         Err(e) => Err(match &e {
             IkError::Model(_) | IkError::BadTarget | IkError::BadOptions { .. } => {
@@ -373,7 +457,7 @@ fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
                 ProtocolError::new(ErrorKind::NotApplicable, e.to_string())
             }
             IkError::NotConverged { best, .. } => {
-                let s = solution_json(best);
+                let s = solution_json(&expand(best));
                 ProtocolError::new(ErrorKind::NotConverged, format!("{e}; best q {}", s["q"]))
             }
         }),
@@ -381,9 +465,14 @@ fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
 }
 
 fn op_encoder_error(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
-    let robot = robot(req, arg)?;
-    fixed_base(&robot, "encoder_error")?;
-    let q = q_field(req, "q", &robot)?;
+    let full = robot(req, arg)?;
+    let q = q_field(req, "q", &full)?;
+    // A floating robot: the n joint encoders' bound with the root held at q (the root is
+    // estimated, not read by an encoder, so it adds no quantisation term).
+    let (robot, q) = match root_held(&full, &q) {
+        Some((held, q_joints)) => (Cow::Owned(held), q_joints),
+        None => (full, q),
+    };
     let bits_v = req
         .get("bits")
         .ok_or_else(|| ProtocolError::new(ErrorKind::BadRequest, "bits: missing"))?;

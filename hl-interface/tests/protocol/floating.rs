@@ -5,12 +5,15 @@
 //! the inline form with `"root"` answers the same; `simulate` integrates on the manifold (a
 //! robot at rest in free fall drops ½ g t² with its quaternion unchanged); a q of the wrong
 //! length is refused naming nq, a velocity naming nv, a non-unit quaternion by its norm.
+//! `ik` holds the root at q0 and solves one leg's chain from the base link (the answer a whole
+//! q, the root bit for bit q0's); `encoder_error` uses the floating Jacobian's joint columns.
 
 use nalgebra::DMatrix;
 use robosim_file_io::urdf_import::import_urdf_tree_floating;
 use robosim_hl_interface::ProtocolError;
 use robosim_hl_interface::protocol::{dynamics, kinematics};
 use robosim_hl_interface::robot_json::robot_to_json;
+use robosim_kinematics::fk::link_pose;
 use robosim_kinematics::{Robot, RootKind};
 use serde_json::{Value, json};
 use std::path::PathBuf;
@@ -276,10 +279,10 @@ fn wrong_lengths_and_a_non_unit_quaternion_are_refused_by_name() {
             "{op}: {e:?}"
         );
     }
-    // ik and encoder_error are for a fixed base
-    let e = ask(json!({"op": "encoder_error", "robot": solo(), "q": q, "bits": 16}))
-        .expect_err("encoder_error");
-    assert_eq!(e.kind.as_str(), "not_applicable", "{e:?}");
+    // encoder_error's bits are per joint (12), not per coordinate
+    let e = ask(json!({"op": "encoder_error", "robot": solo(), "q": q, "bits": vec![16; 18]}))
+        .expect_err("bits per velocity coordinate");
+    assert_eq!(e.kind.as_str(), "bad_request", "{e:?}");
     // `tip` has no meaning for the whole tree
     let e = ask(json!({"op": "fk", "robot": {"urdf": repo().join(SOLO).to_str(), "floating": true, "tip": "FL_FOOT"}, "q": q}))
         .expect_err("tip");
@@ -335,4 +338,187 @@ fn an_mjcf_free_joint_is_the_same_floating_robot_as_the_urdf_one() {
         .expect_err("q of nv values");
     assert!(e.message.contains("nq = 8"), "{e:?}");
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Solo with its base at a general pose: translated, rotated 0.7 rad about (1, -2, 3)/|.|, legs
+/// bent.
+fn solo_q_tilted() -> Vec<f64> {
+    let axis = [1.0, -2.0, 3.0];
+    let n = (axis.iter().map(|x: &f64| x * x).sum::<f64>()).sqrt();
+    let (s, c) = (0.35f64).sin_cos();
+    let mut q = vec![
+        0.3,
+        -0.2,
+        0.45,
+        s * axis[0] / n,
+        s * axis[1] / n,
+        s * axis[2] / n,
+        c,
+    ];
+    for i in 0..12 {
+        q.push([0.1, 0.8, -1.6][i % 3]);
+    }
+    q
+}
+
+fn pose_of(v: &Value) -> nalgebra::Matrix4<f64> {
+    let m = rows(v);
+    assert_eq!((m.nrows(), m.ncols()), (4, 4));
+    nalgebra::Matrix4::from_fn(|i, j| m[(i, j)])
+}
+
+/// IK on a free-flyer (issue 36 item 2, "a chain from the base link still works"): the root is
+/// held where q0 puts it (a general pose, not the identity), the chain from the base link to
+/// one leg's link frame moves, and the answer is a full q (nq = 19) that reaches, by the
+/// library's FK of the floating robot, a pose made by that FK at other joint values; the root
+/// and the other legs are q0's bit for bit.
+#[test]
+fn ik_moves_one_legs_chain_with_the_floating_root_held() {
+    let path = repo().join(SOLO);
+    let imported = import_urdf_tree_floating(&path, RootKind::FreeFlyer).expect("imports");
+    let robot = &imported.robot;
+    let index = |name: &str| {
+        imported
+            .joints
+            .iter()
+            .position(|j| j.name == name)
+            .unwrap_or_else(|| panic!("{name}"))
+    };
+    let q0 = solo_q_tilted();
+    // the front-right knee's link frame (a leg in the middle of q) and the last link, where the
+    // tool hangs (the default `link`)
+    let fr = index("FR_KFE") + 1;
+    for (link, request_link) in [(fr, Some(fr)), (robot.dof(), None)] {
+        let moved: Vec<usize> = robot.support(link).iter().map(|j| 7 + j).collect();
+        assert_eq!(moved.len(), 3, "a leg is 3 joints");
+        let mut q_target = q0.clone();
+        for (&i, dq) in moved.iter().zip([0.25, -0.3, 0.5]) {
+            q_target[i] += dq;
+        }
+        let target = if link == robot.dof() {
+            robosim_kinematics::fk::forward(robot, &q_target)
+        } else {
+            link_pose(robot, &q_target, link)
+        };
+        let before = if link == robot.dof() {
+            robosim_kinematics::fk::forward(robot, &q0)
+        } else {
+            link_pose(robot, &q0, link)
+        };
+        assert!(
+            (target.fixed_view::<3, 1>(0, 3) - before.fixed_view::<3, 1>(0, 3)).norm() > 0.02,
+            "the target is not the seed's pose"
+        );
+        let mut req = json!({"op": "ik", "robot": solo(), "q0": q0,
+            "pose": target.row_iter().map(|r| r.iter().copied().collect::<Vec<_>>()).collect::<Vec<_>>()});
+        if let Some(l) = request_link {
+            req["link"] = json!(l);
+        }
+        let r = ask(req).expect("ik");
+        assert_eq!(r["link"], json!(link));
+        assert_eq!(
+            nums(&r["chain"]),
+            moved.iter().map(|&i| i as f64).collect::<Vec<_>>()
+        );
+        let sol = &r["solutions"][0];
+        assert_eq!(sol["converged"], json!(true), "{r}");
+        let q = nums(&sol["q"]);
+        assert_eq!(q.len(), 19);
+        for i in (0..19).filter(|i| !moved.contains(i)) {
+            assert_eq!(
+                q[i].to_bits(),
+                q0[i].to_bits(),
+                "q[{i}] moved: {} vs {}",
+                q[i],
+                q0[i]
+            );
+        }
+        let reached = if link == robot.dof() {
+            robosim_kinematics::fk::forward(robot, &q)
+        } else {
+            link_pose(robot, &q, link)
+        };
+        let dp = (reached.fixed_view::<3, 1>(0, 3) - target.fixed_view::<3, 1>(0, 3)).norm();
+        let dr = (reached.fixed_view::<3, 3>(0, 0) - target.fixed_view::<3, 3>(0, 0)).norm();
+        assert!(dp <= 1e-9 && dr <= 1e-9, "link {link}: {dp} m, {dr} off");
+        // and the protocol's own fk agrees for the tip
+        if link == robot.dof() {
+            let f = ask(json!({"op": "fk", "robot": solo(), "q": q})).expect("fk");
+            assert!((pose_of(&f["pose"]) - target).norm() <= 1e-9);
+        }
+    }
+
+    // a pose 5 m from the base: the usual typed error, its best q a full q with the root held
+    let mut far = link_pose(robot, &q0, fr);
+    far[(0, 3)] += 5.0;
+    let far_json: Vec<Vec<f64>> = far
+        .row_iter()
+        .map(|r| r.iter().copied().collect())
+        .collect();
+    let e = ask(json!({"op": "ik", "robot": solo(), "q0": q0, "link": fr, "pose": far_json}))
+        .expect_err("5 m away");
+    match e.kind.as_str() {
+        "unreachable" => {}
+        "not_converged" => {
+            let best = e.message.split("best q ").nth(1).expect("best q");
+            let best: Vec<f64> = serde_json::from_str(best).expect("a q");
+            assert_eq!(best.len(), 19, "{e:?}");
+            for i in 0..7 {
+                assert_eq!(best[i].to_bits(), q0[i].to_bits(), "root q[{i}]");
+            }
+        }
+        k => panic!("kind {k}: {e:?}"),
+    }
+
+    // the root needs a place to be held: q0 is required, and of nq values; link in 1..=n
+    let e = ask(json!({"op": "ik", "robot": solo(), "pose": far_json})).expect_err("no q0");
+    assert!(
+        e.kind.as_str() == "bad_request" && e.message.contains("q0") && e.message.contains("19"),
+        "{e:?}"
+    );
+    let e = ask(json!({"op": "ik", "robot": solo(), "q0": &q0[7..], "pose": far_json}))
+        .expect_err("q0 of joints only");
+    assert!(e.message.contains("nq = 19"), "{e:?}");
+    for link in [0, 13] {
+        let e = ask(json!({"op": "ik", "robot": solo(), "q0": q0, "link": link, "pose": far_json}))
+            .expect_err("link out of range");
+        assert!(
+            e.kind.as_str() == "bad_request" && e.message.contains("link"),
+            "{link}: {e:?}"
+        );
+    }
+}
+
+/// encoder_error on a free-flyer: the 12 joint encoders' bound with the root held at q, the
+/// floating Jacobian's joint columns (nv-index 6 + k), not its first 12 columns.
+#[test]
+fn encoder_error_uses_the_joint_columns_of_a_floating_jacobian() {
+    let q = solo_q_tilted();
+    let bits: Vec<u32> = (0..12).map(|k| 10 + k).collect();
+    let r = ask(json!({"op": "encoder_error", "robot": solo(), "q": q, "bits": bits}))
+        .expect("encoder_error");
+    let j = rows(
+        &ask(json!({"op": "jacobian", "robot": solo(), "q": q})).expect("jacobian")["jacobian"],
+    );
+    assert_eq!((j.nrows(), j.ncols()), (6, 18));
+    let res: Vec<f64> = bits
+        .iter()
+        .map(|&b| 2.0 * std::f64::consts::PI / 2f64.powi(b as i32))
+        .collect();
+    assert!(rel_err(&nums(&r["resolution"]), &res) <= 1e-15);
+    let want: Vec<f64> = (0..6)
+        .map(|i| (0..12).map(|k| j[(i, 6 + k)].abs() * res[k]).sum())
+        .collect();
+    let got = nums(&r["per_axis"]);
+    let scale = want.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    assert!(scale > 0.0);
+    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+        assert!((g - w).abs() <= 1e-12 * scale, "per_axis[{i}] {g} vs {w}");
+    }
+    // the tip's leg is the last 3 joints: their columns carry it, the root's would not count
+    let wrong: f64 = (0..12).map(|k| j[(0, k)].abs() * res[k]).sum();
+    assert!(
+        (wrong - want[0]).abs() > 1e-6 * scale,
+        "the test tells the columns apart"
+    );
 }
