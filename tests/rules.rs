@@ -667,3 +667,127 @@ fn down_stops_the_shipped_rule_bases_by_sigterm() {
     }
     drop(down);
 }
+
+/// Issue 38 item 7: `up SCENE --with rules=joint_guard` (a shipped rule base by name) starts the
+/// rules as a session process: a joint set past its soft limit is set back by the rule. The
+/// rules process SIGKILLed, a violation made while none runs stays; `robosim rules FILE`
+/// started again catches up and sets it back. `down` stops everything (the rules by SIGTERM,
+/// exit 0).
+#[test]
+fn up_with_rules_starts_a_rule_base_and_a_restarted_one_catches_up() {
+    if robosim_rules::skipped_without_clips(
+        "rules::up_with_rules_starts_a_rule_base_and_a_restarted_one_catches_up",
+    ) {
+        return;
+    }
+    let k = Procs::new("rulesup");
+    let down = Down(&k);
+    // An unknown rule base is refused before anything starts.
+    let (ok, text) = robosim(
+        &k,
+        &[
+            "up",
+            "surgical_positioner_cell",
+            "--with",
+            "rules=no_such_guard",
+        ],
+    );
+    assert!(!ok && text.contains("not a shipped rule base"), "{text}");
+    assert!(
+        k.session().processes().is_empty(),
+        "nothing started: {text}"
+    );
+    let (ok, text) = robosim(
+        &k,
+        &[
+            "up",
+            "surgical_positioner_cell",
+            "--with",
+            "rules=joint_guard",
+        ],
+    );
+    assert!(ok, "{text}");
+    let procs = ps(&k);
+    assert_eq!(
+        procs.iter().map(|(r, _)| r.as_str()).collect::<Vec<_>>(),
+        vec!["space", "rules"],
+        "{text}"
+    );
+    let rules = procs[1].1;
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    let waist = |p: &mut Planner| p.joints("positioner").expect("joints")[0];
+    let mut q = p.joints("positioner").expect("joints");
+    q[0] = 1.0;
+    p.set_joints("positioner", &q).expect("set past the limit");
+    wait_for("the rule started by up sets the waist back", || {
+        (waist(&mut p) == 0.8).then_some(())
+    });
+
+    // No rules process: the violation stays (looked at after the keeper has it).
+    let _ = Command::new("kill")
+        .args(["-KILL", &rules.to_string()])
+        .status();
+    wait_for("the rules process gone", || {
+        (!robosim_instance_space::pid_alive(rules)).then_some(())
+    });
+    q[0] = 1.1;
+    p.set_joints("positioner", &q).expect("set again");
+    assert_eq!(waist(&mut p), 1.1, "nothing runs the rules now");
+
+    // Started again by hand on the session: it catches up from the session's state.
+    let mut again = Procs {
+        children: Vec::new(),
+        home: tempfile::tempdir().expect("unused home"),
+        name: k.name.clone(),
+    };
+    let c = Command::new(ROBOSIM)
+        .args(["rules", RULES, "--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .env("IOX2_LOG_LEVEL", "Error")
+        .spawn()
+        .expect("rules");
+    let pid = c.id();
+    again.children.push(c);
+    wait_for("the restarted rules set the waist back", || {
+        (waist(&mut p) == 0.8).then_some(())
+    });
+    assert!(
+        ps(&k).iter().any(|(r, p)| r == "rules" && *p == pid),
+        "the restarted process is registered"
+    );
+    drop(p);
+    let (ok, text) = robosim(&k, &["down"]);
+    assert!(ok && text.contains("stopped rules"), "{text}");
+    assert!(!text.contains("SIGKILL"), "{text}");
+    let status = again.children[0].wait().expect("wait");
+    assert!(status.success(), "rules ended by SIGTERM, exit 0: {status}");
+    assert!(
+        !robosim_instance_space::pid_alive(procs[0].1),
+        "the keeper stopped"
+    );
+    assert!(ps(&k).is_empty(), "nothing left registered");
+    drop(down);
+
+    // Several rule bases: one process each (a name repeated starts it once).
+    let k = Procs::new("rulesup2");
+    let down = Down(&k);
+    let (ok, text) = robosim(
+        &k,
+        &[
+            "up",
+            "demo",
+            "--with",
+            "rules=joint_guard,rules=eclss_guard.clp,rules=joint_guard",
+        ],
+    );
+    assert!(ok, "{text}");
+    assert_eq!(
+        ps(&k).iter().filter(|(r, _)| r == "rules").count(),
+        2,
+        "{text}"
+    );
+    let (ok, text) = robosim(&k, &["down"]);
+    assert!(ok, "{text}");
+    assert_eq!(text.matches("stopped rules (pid").count(), 2, "{text}");
+    drop(down);
+}

@@ -49,13 +49,50 @@ use std::time::{Duration, Instant};
 /// (`robosim automation`, the ECLSS fault model by default); a scene that declares an
 /// `automation { … }` effect has it started with its model and time scale without `--with`.
 /// `dataflow` runs a dataflow graph file named with it, `--with dataflow=GRAPH` (`robosim
-/// dataflow GRAPH`, docs/dataflow.md).
+/// dataflow GRAPH`, docs/dataflow.md). `rules` runs a CLIPS rule base, `--with rules=FILE.clp`
+/// or a shipped one by name (`rules=joint_guard`, [`robosim_rules::embedded::SHIPPED`]);
+/// repeated, one process per rule base (`robosim rules FILE`, docs/rules.md).
 pub const COMPONENTS: &[(&str, &str)] = &[
     ("simulator", "simulator"),
     ("display", "display"),
     ("automation", "automation"),
     ("dataflow", "dataflow"),
+    ("rules", "rules"),
 ];
+
+/// Where `rules=NAME` finds its rule base: a file NAME, else the shipped rule base NAME (with or
+/// without `.clp`), whose compiled-in text the launcher writes into the session's run directory
+/// (`run/rulebases/NAME.clp`) for the process to read.
+enum RuleBase {
+    File(PathBuf),
+    Shipped(&'static str, &'static str),
+}
+
+fn rule_base(f: &str) -> Result<RuleBase> {
+    let abs = std::path::absolute(f).map_err(io("the rule file"))?;
+    if abs.is_file() {
+        return Ok(RuleBase::File(abs));
+    }
+    let file = if f.ends_with(".clp") {
+        f.to_owned()
+    } else {
+        format!("{f}.clp")
+    };
+    match robosim_rules::embedded::SHIPPED
+        .iter()
+        .find(|(n, _)| *n == file)
+    {
+        Some((n, text)) => Ok(RuleBase::Shipped(n, text)),
+        None => bail!(
+            "--with rules={f}: no such rule file, and not a shipped rule base (shipped: {})",
+            robosim_rules::embedded::SHIPPED
+                .iter()
+                .map(|(n, _)| n.trim_end_matches(".clp"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    }
+}
 
 /// The components scene `name` declares (its effects), with the arguments each is started with
 /// besides `--session`: the automation plant of an `automation { … }` effect. A robot, link or
@@ -111,6 +148,9 @@ pub struct Preload {
         ) -> std::result::Result<robosim_instance_space::Transaction, String>,
     >,
 }
+
+/// Stands in a shipped rule base's arguments until its file is written (`up_start`).
+const SHIPPED_MARK: &str = "\0shipped";
 
 /// `robosim space`: recover, load the scene into an empty model, serve until SIGTERM.
 pub fn run_space(
@@ -403,6 +443,7 @@ fn up_start(
     }
     // `NAME=FILE` names a component with the file it runs (`dataflow=GRAPH`).
     let mut named: Vec<(String, Vec<String>)> = Vec::new();
+    let mut shipped_rules: Vec<(&str, &str)> = Vec::new();
     for c in with {
         let (name, file) = match c.split_once('=') {
             Some((n, f)) => (n, Some(f)),
@@ -430,7 +471,23 @@ fn up_start(
             ("dataflow", None) => bail!(
                 "the dataflow component runs a graph file: --with dataflow=FILE (docs/dataflow.md)"
             ),
-            (_, Some(_)) => bail!("--with {c}: only dataflow=FILE takes a file"),
+            ("rules", Some(f)) => {
+                // Before anything starts: a build without CLIPS says what to install.
+                robosim_rules::available()
+                    .map_err(|e| LaunchError::Process(format!("--with rules={f}: {e}")))?;
+                match rule_base(f)? {
+                    RuleBase::File(abs) => vec![abs.display().to_string()],
+                    RuleBase::Shipped(n, text) => {
+                        shipped_rules.push((n, text));
+                        vec![SHIPPED_MARK.to_owned(), n.to_owned()]
+                    }
+                }
+            }
+            ("rules", None) => bail!(
+                "the rules component runs a rule base: --with rules=FILE.clp, or a shipped one \
+                 by name (rules=joint_guard) (docs/rules.md)"
+            ),
+            (_, Some(_)) => bail!("--with {c}: only dataflow=FILE and rules=FILE take a file"),
             (_, None) => Vec::new(),
         };
         named.push((name.to_owned(), extra));
@@ -593,11 +650,30 @@ fn up_start(
         }
     };
     let version = reader.snapshot().map_or(0, |s| s.version());
+    // Several rule bases are several processes: a rules component is one per file.
     for (c, extra) in named {
-        if !components.iter().any(|(n, _)| *n == c) {
+        if !components
+            .iter()
+            .any(|(n, e)| *n == c && (c != "rules" || *e == extra))
+        {
             components.push((c, extra));
         }
     }
+    // A shipped rule base becomes a file the process reads.
+    if !shipped_rules.is_empty() {
+        let dir = session.run_dir().join("rulebases");
+        std::fs::create_dir_all(&dir).map_err(io("the session's rulebases directory"))?;
+        for (n, text) in &shipped_rules {
+            let path = dir.join(n);
+            std::fs::write(&path, text).map_err(io("a shipped rule base"))?;
+            for (c, extra) in &mut components {
+                if c == "rules" && extra[..] == [SHIPPED_MARK, *n] {
+                    *extra = vec![path.display().to_string()];
+                }
+            }
+        }
+    }
+    let rules_running = procs.iter().find(|p| p.role == "rules").map(|p| p.pid);
     if let Some(mode) = sim_mode {
         for (c, extra) in &mut components {
             if c == "simulator" {
@@ -606,7 +682,18 @@ fn up_start(
         }
     }
     for (c, extra) in &components {
-        if let Some(p) = procs.iter().find(|p| &p.role == c) {
+        if let (Some(pid), "rules") = (rules_running, c.as_str()) {
+            // Which rule base a running rules process has is not recorded: keep what runs.
+            eprintln!(
+                "session {}: rules already run (pid {pid}); {} was not started (`robosim rules \
+                 FILE --session {}` adds a rule base)",
+                session.name(),
+                extra.join(" "),
+                session.name(),
+            );
+            continue;
+        }
+        if let Some(p) = procs.iter().find(|p| &p.role == c && c != "rules") {
             // A running simulator keeps its mode: say so when another was asked for.
             if let (Some(mode), "simulator") = (sim_mode, c.as_str()) {
                 eprintln!(

@@ -66,7 +66,8 @@ pub(crate) enum Command {
         #[arg(long, conflicts_with = "scene")]
         load: Option<std::path::PathBuf>,
         /// Comma-separated components to start beside the keeper: simulator, display,
-        /// automation, dataflow=GRAPH (a dataflow graph file, docs/dataflow.md).
+        /// automation, dataflow=GRAPH (a dataflow graph file, docs/dataflow.md), rules=FILE.clp
+        /// (a rule base, or a shipped one by name: rules=joint_guard; repeatable, docs/rules.md).
         #[arg(long, value_delimiter = ',', value_parser = component_names())]
         with: Vec<String>,
         /// Library files to add to the session's Library Space.
@@ -304,8 +305,8 @@ pub(crate) enum Command {
     },
 }
 
-/// The components `up --with` accepts (only what this build has): a name, or `dataflow=GRAPH`
-/// (the launcher checks the file).
+/// The components `up --with` accepts (only what this build has): a name, `dataflow=GRAPH` or
+/// `rules=FILE` (the launcher checks the file).
 fn component_names() -> clap::builder::ValueParser {
     clap::builder::ValueParser::new(|c: &str| -> Result<String, String> {
         let name = c.split_once('=').map_or(c, |(n, _)| n);
@@ -317,7 +318,7 @@ fn component_names() -> clap::builder::ValueParser {
             Ok(c.to_owned())
         } else {
             Err(format!(
-                "unknown component {name:?} (possible: {}; dataflow=GRAPH names its graph file)",
+                "unknown component {name:?} (possible: {}; dataflow=GRAPH names its graph file, rules=FILE.clp its rule base)",
                 names.join(", ")
             ))
         }
