@@ -363,16 +363,12 @@ fn cli_instantiate(
     set: &[String],
     session: Option<&str>,
 ) -> Result<()> {
-    let s = existing(session)?;
     let origin = robosim_scene::Origin {
         declaration: declaration.to_owned(),
         params: robosim_scene::parse_params(set)?,
     };
     let name = name.unwrap_or(declaration);
-    let lib = session_library(session)?;
-    let tx = robosim_scene::instantiate(&lib, &origin, name)?;
-    let mut c = robosim_instance_space::Client::connect(&s, "instantiate")?;
-    let a = c.transact(&tx)?;
+    let a = robosim_scene::instantiate_in_session(&existing(session)?, &origin, name)?;
     println!(
         "instantiated {declaration} as {name}: {} objects, version {}",
         a.created.len(),
@@ -381,19 +377,10 @@ fn cli_instantiate(
     Ok(())
 }
 
-/// `robosim set INSTANCE K=V…`: only what the new values change is written.
+/// `robosim set INSTANCE K=V…`
 fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
-    let s = existing(session)?;
-    let reader = robosim_instance_space::Reader::attach(&s, "set")?;
-    let snap = reader
-        .snapshot()
-        .ok_or_else(|| CliError("no snapshot".into()))?;
-    let (_, mut origin) = robosim_scene::find_instance(&snap, instance)?;
-    origin.params.extend(robosim_scene::parse_params(pairs)?);
-    let lib = session_library(session)?;
-    let tx = robosim_scene::reinstantiate(&lib, &snap, instance, &origin)?;
-    let mut c = robosim_instance_space::Client::connect(&s, "set")?;
-    let a = c.transact(&tx)?;
+    let params = robosim_scene::parse_params(pairs)?;
+    let a = robosim_scene::set_in_session(&existing(session)?, instance, params)?;
     let aspects: Vec<&str> = robosim_instance_space::aspect::names(a.aspects());
     println!(
         "re-instantiated {instance}: {} objects changed ({}), version {}",

@@ -1,6 +1,6 @@
 //! What can go wrong between the spaces and the cores.
 
-use robosim_instance_space::{Id, ReaderError, SessionError};
+use robosim_instance_space::{ClientError, Id, ReaderError, SessionError};
 use robosim_library::LibError;
 use std::sync::Arc;
 
@@ -43,6 +43,9 @@ pub enum SceneError {
     /// The robot's kinematic data is not a valid model (e.g. reversed limits).
     #[error("robot {robot:?}: {reason}")]
     BadRobot { robot: String, reason: String },
+    /// The session's keeper has published no snapshot yet.
+    #[error("the session has no snapshot yet (is its keeper starting?)")]
+    NoSnapshot,
     /// A session's processes could not be started or stopped.
     #[error("{0}")]
     Launch(String),
@@ -59,6 +62,8 @@ pub enum SessionFailure {
     Reader(Arc<ReaderError>),
     #[error(transparent)]
     Session(Arc<SessionError>),
+    #[error(transparent)]
+    Client(Arc<ClientError>),
 }
 
 impl From<LibError> for SceneError {
@@ -70,6 +75,12 @@ impl From<LibError> for SceneError {
 impl From<ReaderError> for SceneError {
     fn from(e: ReaderError) -> Self {
         SceneError::Session(SessionFailure::Reader(Arc::new(e)))
+    }
+}
+
+impl From<ClientError> for SceneError {
+    fn from(e: ClientError) -> Self {
+        SceneError::Session(SessionFailure::Client(Arc::new(e)))
     }
 }
 

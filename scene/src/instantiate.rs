@@ -18,8 +18,8 @@ use crate::SceneError;
 use crate::pose::from_matrix as pose;
 use nalgebra::Matrix4;
 use robosim_instance_space::{
-    Appearance, DhConvention, GeometryInput, IDENTITY, Id, JointKind, Kind, Kinematics, MassProps,
-    ObjRef, Pose, Snapshot, Transaction,
+    Appearance, Client, Committed, DhConvention, GeometryInput, IDENTITY, Id, JointKind, Kind,
+    Kinematics, MassProps, ObjRef, Pose, Reader, Session, Snapshot, Transaction,
 };
 
 type Result<T> = std::result::Result<T, SceneError>;
@@ -515,6 +515,31 @@ pub enum LibraryFrom {
     Checked,
     /// Parsed and checked from the published source text, and why the encoding was not used.
     Parsed { reason: String },
+}
+
+/// `robosim instantiate DECL --as NAME`: the declaration instantiated in the running session's
+/// own library, committed as one transaction.
+pub fn instantiate_in_session(session: &Session, origin: &Origin, name: &str) -> Result<Committed> {
+    let mut reader = Reader::attach(session, "instantiate")?;
+    let lib = session_library(&mut reader)?;
+    let tx = instantiate(&lib, origin, name)?;
+    Ok(Client::connect(session, "instantiate")?.transact(&tx)?)
+}
+
+/// `robosim set INSTANCE K=V…`: the instance re-instantiated with `params` over its recorded
+/// ones; only what the new values change is written (one transaction).
+pub fn set_in_session(
+    session: &Session,
+    instance: &str,
+    params: BTreeMap<String, String>,
+) -> Result<Committed> {
+    let mut reader = Reader::attach(session, "set")?;
+    let snap = reader.snapshot().ok_or(SceneError::NoSnapshot)?;
+    let (_, mut origin) = find_instance(&snap, instance)?;
+    origin.params.extend(params);
+    let lib = session_library(&mut reader)?;
+    let tx = reinstantiate(&lib, &snap, instance, &origin)?;
+    Ok(Client::connect(session, "set")?.transact(&tx)?)
 }
 
 /// A running session's Library Space: the checked library the keeper published, read without

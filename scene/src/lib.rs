@@ -33,8 +33,9 @@ pub mod solids;
 pub use compiled::{CacheStats, CompiledRobot, CompiledScene, Obstacles, Sync};
 pub use error::{SceneError, SessionFailure};
 pub use instantiate::{
-    LibraryFrom, Origin, build_library, find_instance, instantiate, library_from_publication,
-    parse_params, reinstantiate, session_library, session_library_from,
+    LibraryFrom, Origin, build_library, find_instance, instantiate, instantiate_in_session,
+    library_from_publication, parse_params, reinstantiate, session_library, session_library_from,
+    set_in_session,
 };
 pub use load::{box_geometry, load_from};
 pub use robot::{joint_tx, link_poses, robot_model};
