@@ -207,8 +207,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 tolerance,
                 passes,
             };
-            robosim_hl_interface::dataflow::run(&graph, session, &opts)
-                .map_err(|e| CliError(e.to_string()))
+            robosim_hl_interface::dataflow::run(&graph, session, &opts).map_err(CliError::from)
         }
         Command::Automation { model, time_scale } => {
             existing(session)?;
