@@ -9,9 +9,9 @@
 
 use super::{REPS, time_per_call};
 use crate::plot::{Plot, Series, Table};
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use robosim_collision::PairResult;
+use robosim_collision::exact::pair_file::{self, Pair};
 use robosim_collision::exact::{self, ExactOptions, Tolerance};
-use robosim_collision::{PairResult, Solid};
 use std::collections::BTreeMap;
 use std::hint::black_box;
 
@@ -22,61 +22,10 @@ const COAL_TIME: &str = include_str!("../../../testdata/collision/tolerance_coal
 /// The GJK tolerances coal was run at (metres), loosest first.
 const TOLERANCES: [f64; 8] = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9];
 
-struct Pair {
-    class: String,
-    a: Solid,
-    pa: Isometry3<f64>,
-    b: Solid,
-    pb: Isometry3<f64>,
-}
-
 fn nums(cells: &[&str]) -> Result<Vec<f64>, String> {
     cells
         .iter()
         .map(|c| c.parse::<f64>().map_err(|e| format!("{c}: {e}")))
-        .collect()
-}
-
-/// One side of a pairs row: kind, three dimensions, R row-major, t.
-fn body(cells: &[&str]) -> Result<(Solid, Isometry3<f64>), String> {
-    let v = nums(&cells[1..16])?;
-    let s = match cells[0] {
-        "box" => Solid::cuboid(Vector3::new(v[0], v[1], v[2])),
-        "cylinder" => Solid::cylinder(v[0], v[1], None),
-        "cone" => Solid::cone(v[0], v[1], None),
-        k => return Err(format!("unknown kind {k}")),
-    }
-    .map_err(|e| e.to_string())?;
-    let r = Matrix3::from_row_slice(&v[3..12]);
-    let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
-    let pose = Isometry3::from_parts(Translation3::new(v[12], v[13], v[14]), q);
-    Ok((s, pose))
-}
-
-fn pairs() -> Result<Vec<Pair>, String> {
-    PAIRS
-        .lines()
-        .filter(|l| !l.trim().is_empty())
-        .enumerate()
-        .map(|(n, l)| {
-            let c: Vec<&str> = l.split(',').collect();
-            if c.len() != 34 {
-                return Err(format!(
-                    "tolerance_pairs.csv line {}: {} cells",
-                    n + 1,
-                    c.len()
-                ));
-            }
-            let (a, pa) = body(&c[2..18]).map_err(|e| format!("line {}: {e}", n + 1))?;
-            let (b, pb) = body(&c[18..34]).map_err(|e| format!("line {}: {e}", n + 1))?;
-            Ok(Pair {
-                class: c[0].to_owned(),
-                a,
-                pa,
-                b,
-                pb,
-            })
-        })
         .collect()
 }
 
@@ -119,7 +68,7 @@ fn sci(x: f64) -> String {
 /// Rows per class and tolerance (robosim and coal), and the error-against-time plot (all
 /// classes pooled: the largest error and the mean time per pair at each tolerance).
 pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Result<Plot, String> {
-    let pairs = pairs()?;
+    let pairs = pair_file::parse(PAIRS, "tolerance_pairs.csv")?;
     let (coal_d, coal_t) = coal_data()?;
     let reference: Vec<f64> = pairs
         .iter()

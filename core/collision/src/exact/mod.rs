@@ -12,6 +12,7 @@
 
 mod gjk;
 mod lower;
+pub mod pair_file;
 mod projection;
 mod sphere;
 
