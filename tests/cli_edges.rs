@@ -7,19 +7,7 @@ use std::process::{Command, Stdio};
 
 use crate::common;
 
-use common::{Procs, ROBOSIM};
-
-/// `robosim down` of the test's session when the test ends, however it ends.
-struct Down<'a>(&'a Procs);
-
-impl Drop for Down<'_> {
-    fn drop(&mut self) {
-        let _ = Command::new(ROBOSIM)
-            .args(["down", "--session", &self.0.name])
-            .env("ROBOSIM_HOME", self.0.home.path())
-            .output();
-    }
-}
+use common::{Down, Procs, ROBOSIM};
 
 #[test]
 fn up_with_library_gives_the_library_file_to_the_keeper() {

@@ -12,7 +12,7 @@ use std::time::Duration;
 
 use crate::common;
 
-use common::{Procs, wait_for};
+use common::{Down, Procs, robosim, wait_for};
 
 const SERVO: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -157,31 +157,6 @@ fn a_dataflow_process_started_before_the_keeper_waits_for_it() {
     let mut p = Planner::attach_to(&k.session()).expect("planner");
     carriage_reaches(&mut p, 21.0);
     assert!(k.stop(pid).success());
-}
-
-/// `robosim ARGS --session NAME` in the session's home, to completion: (success, output).
-fn robosim(k: &Procs, args: &[&str]) -> (bool, String) {
-    let out = Command::new(common::ROBOSIM)
-        .args(args)
-        .args(["--session", &k.name])
-        .env("ROBOSIM_HOME", k.home.path())
-        .env("IOX2_LOG_LEVEL", "Error")
-        .output()
-        .expect("run robosim");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
-    )
-}
-
-/// `robosim down` for the session when dropped (the processes `up` started are not this
-/// test's children).
-struct Down<'a>(&'a Procs);
-
-impl Drop for Down<'_> {
-    fn drop(&mut self) {
-        robosim(self.0, &["down"]);
-    }
 }
 
 #[test]

@@ -18,7 +18,7 @@ use std::time::Duration;
 
 use crate::common;
 
-use common::{Procs, ROBOSIM, wait_for};
+use common::{Down, Procs, ROBOSIM, robosim, wait_for};
 
 const RULES: &str = concat!(
     env!("CARGO_MANIFEST_DIR"),
@@ -332,31 +332,6 @@ fn a_rule_sets_a_joint_back_in_the_next_commit_and_it_is_journaled() {
         "the rule's transaction was journaled"
     );
     assert_eq!(p.joints("positioner").expect("joints")[0], 0.8);
-}
-
-/// `robosim ARGS --session NAME` in the session's home, to completion: (success, stdout + stderr).
-fn robosim(k: &Procs, args: &[&str]) -> (bool, String) {
-    let out = Command::new(ROBOSIM)
-        .args(args)
-        .args(["--session", &k.name])
-        .env("ROBOSIM_HOME", k.home.path())
-        .env("IOX2_LOG_LEVEL", "Error")
-        .output()
-        .expect("run robosim");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
-    )
-}
-
-/// Runs `robosim down` for the session when dropped, so a failed assertion does not leave the
-/// processes `up` started (they are not this test's children) running.
-struct Down<'a>(&'a Procs);
-
-impl Drop for Down<'_> {
-    fn drop(&mut self) {
-        robosim(self.0, &["down"]);
-    }
 }
 
 /// The roles `robosim ps --json` lists, with their pids.

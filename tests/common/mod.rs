@@ -233,3 +233,28 @@ impl Drop for Hosts {
         }
     }
 }
+
+/// `robosim ARGS --session NAME` in the session's home, to completion: (success, stdout + stderr).
+pub fn robosim(k: &Procs, args: &[&str]) -> (bool, String) {
+    let out = Command::new(ROBOSIM)
+        .args(args)
+        .args(["--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .env("IOX2_LOG_LEVEL", "Error")
+        .output()
+        .expect("run robosim");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
+    )
+}
+
+/// Runs `robosim down` for the session when dropped, so a failed assertion does not leave the
+/// processes `up` started (they are not the test's children) running.
+pub struct Down<'a>(pub &'a Procs);
+
+impl Drop for Down<'_> {
+    fn drop(&mut self) {
+        robosim(self.0, &["down"]);
+    }
+}
