@@ -17,7 +17,7 @@
 //! inside the true one and [`Solid::tessellation_error`] is the Hausdorff distance between them.
 
 use nalgebra::{Isometry3, Point3, UnitQuaternion, Vector3};
-use parry3d_f64::shape::{SharedShape, TriMeshFlags};
+use parry3d_f64::shape::{SharedShape, TriMeshBuilderError, TriMeshFlags};
 use robosim_geometry::{Aabb, GeometryError, Polyhedron, shapes};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -51,9 +51,9 @@ pub enum ShapeError {
         thickness: f64,
         extent: f64,
     },
-    /// parry refused the triangle mesh of a non-convex polyhedron (its message).
+    /// parry refused the triangle mesh of a non-convex polyhedron (its error, kept typed).
     #[error("the triangle mesh was refused: {0}")]
-    MeshRefused(String),
+    MeshRefused(#[source] TriMeshBuilderError),
     /// A compound part is itself a non-convex mesh or a compound (parry cannot nest them).
     #[error("compound part {0} is not convex (only convex parts may be combined)")]
     NonConvexPart(usize),
@@ -472,7 +472,7 @@ impl Solid {
                 TriMeshFlags::empty()
             };
             let mesh = SharedShape::trimesh_with_flags(piece.poly.vertices.clone(), tris, flags)
-                .map_err(|e| ShapeError::MeshRefused(e.to_string()))?;
+                .map_err(ShapeError::MeshRefused)?;
             (mesh, SolidKind::Mesh)
         };
         let bbox = piece.poly.bbox;

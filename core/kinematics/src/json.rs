@@ -14,20 +14,67 @@ use nalgebra::{Matrix3, Matrix4, Vector3};
 use serde_json::{Map, Value, json};
 
 /// A robot description (or a matrix inside a request) that could not be read.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{path}: {reason}")]
+#[derive(Debug, Clone)]
 pub struct JsonError {
     /// Where: a field path such as `robot.joints[2].qlim`.
     pub path: String,
+    /// Why, in words. When a reader below refused the value ([`Robot::validate`], a URDF or
+    /// MJCF importer), this is that error's message and [`JsonError::source`] is the error.
     pub reason: String,
+    /// The typed error of the reader below, if one refused the value ([`JsonError::caused`]):
+    /// `std::error::Error::source` walks to it, and a caller can downcast it.
+    pub source: Option<Cause>,
 }
+
+impl std::fmt::Display for JsonError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.path, self.reason)
+    }
+}
+
+/// The source is the reader's error itself (not the `Arc` around it), so it downcasts.
+impl std::error::Error for JsonError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.source
+            .as_deref()
+            .map(|e| e as &(dyn std::error::Error + 'static))
+    }
+}
+
+/// The typed error behind a [`JsonError`] (shared so that the error stays `Clone`).
+pub type Cause = std::sync::Arc<dyn std::error::Error + Send + Sync>;
 
 impl JsonError {
     pub fn new(path: impl Into<String>, reason: impl Into<String>) -> Self {
         JsonError {
             path: path.into(),
             reason: reason.into(),
+            source: None,
         }
+    }
+
+    /// `path` refused by a reader below with `source`: the reason is its message, and the
+    /// error stays reachable, typed, through `source()`.
+    pub fn caused(
+        path: impl Into<String>,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        JsonError {
+            path: path.into(),
+            reason: source.to_string(),
+            source: Some(std::sync::Arc::new(source)),
+        }
+    }
+}
+
+/// Equal when they say the same thing at the same place (a cause is compared by its message:
+/// `dyn Error` has no equality).
+impl PartialEq for JsonError {
+    fn eq(&self, other: &Self) -> bool {
+        self.path == other.path
+            && self.reason == other.reason
+            && self.source.as_ref().map(ToString::to_string)
+                == other.source.as_ref().map(ToString::to_string)
     }
 }
 
@@ -130,7 +177,7 @@ pub fn robot_from_json(v: &Value) -> Result<Robot, JsonError> {
     }
     robot
         .validate()
-        .map_err(|e| JsonError::new("robot", e.to_string()))?;
+        .map_err(|e| JsonError::caused("robot", e))?;
     Ok(robot)
 }
 
@@ -485,6 +532,23 @@ mod tests {
                 .reason
                 .contains("joint 0")
         );
+    }
+
+    /// A robot that reads but does not validate keeps the model's typed error as its source.
+    #[test]
+    fn an_invalid_robot_keeps_the_model_error() {
+        let e = robot_from_json(&json!({"joints": [{"qlim": [1, -1]}]})).expect_err("reversed");
+        assert_eq!(e.path, "robot");
+        let cause = std::error::Error::source(&e).expect("the model's error");
+        assert_eq!(
+            cause.downcast_ref::<crate::ModelError>(),
+            Some(&crate::ModelError::ReversedLimits {
+                joint: 0,
+                lo: 1.0,
+                hi: -1.0
+            })
+        );
+        assert_eq!(e.to_string(), format!("robot: {cause}"));
     }
 
     /// The robots the kinematics crate writes out as Rust equal their checked-in JSON files.
