@@ -57,6 +57,7 @@ fn puma560() -> Robot {
                 viscous: 5.801821767950799,
                 coulomb: 25.983606500000004,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -73,6 +74,7 @@ fn puma560() -> Robot {
                 viscous: 9.496868641825,
                 coulomb: 10.6197775,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -89,6 +91,7 @@ fn puma560() -> Robot {
                 viscous: 3.9804259903721997,
                 coulomb: 6.36419655,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -105,6 +108,7 @@ fn puma560() -> Robot {
                 viscous: 0.411645229697152,
                 coulomb: 1.06831142,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -121,6 +125,7 @@ fn puma560() -> Robot {
                 viscous: 0.4272830209354,
                 coulomb: 0.85444524,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -137,6 +142,7 @@ fn puma560() -> Robot {
                 viscous: 0.2158232532732,
                 coulomb: 0.55443978,
                 origin: None,
+                spherical: false,
             },
         ],
         gravity: Vector3::new(0.0, 0.0, -9.81),
@@ -168,6 +174,7 @@ fn stanford() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -184,6 +191,7 @@ fn stanford() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Prismatic,
@@ -200,6 +208,7 @@ fn stanford() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -216,6 +225,7 @@ fn stanford() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -232,6 +242,7 @@ fn stanford() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -248,6 +259,7 @@ fn stanford() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
         ],
         gravity: Vector3::new(0.0, 0.0, -9.81),
@@ -282,6 +294,7 @@ fn panda() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -301,6 +314,7 @@ fn panda() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -320,6 +334,7 @@ fn panda() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -339,6 +354,7 @@ fn panda() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -358,6 +374,7 @@ fn panda() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -377,6 +394,7 @@ fn panda() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
             Joint {
                 joint_type: JointType::Revolute,
@@ -396,6 +414,7 @@ fn panda() -> Robot {
                 viscous: 0.0,
                 coulomb: 0.0,
                 origin: None,
+                spherical: false,
             },
         ],
         gravity: Vector3::new(0.0, 0.0, -9.81),

@@ -402,7 +402,9 @@ pub struct KinematicModel {
 
 impl KinematicModel {
     /// Compiles `robot` (assumed valid: [`Robot::validate`]). A snapshot: a later change to
-    /// `robot` is not seen.
+    /// `robot` is not seen. A spherical joint ([`crate::Joint::spherical`]) is not compiled as
+    /// one: the model's nq and nv count one coordinate per joint and the results are not the
+    /// robot's; callers that may meet one use [`KinematicModel::try_new`], which refuses it.
     pub fn new(robot: &Robot) -> KinematicModel {
         KinematicModel {
             joints: robot
@@ -416,6 +418,15 @@ impl KinematicModel {
             chain: robot.is_chain(),
             root: robot.root.as_ref().map(|r| r.kind),
         }
+    }
+
+    /// [`KinematicModel::new`], refusing a robot with a spherical joint
+    /// ([`crate::ModelError::SphericalUnsupported`] naming the first): the compiled kernels
+    /// take one-coordinate joints only (the `&Robot` functions of [`crate::fk`] and
+    /// [`crate::jacobian`] take spherical joints; see [`crate::spherical`]).
+    pub fn try_new(robot: &Robot) -> Result<KinematicModel, crate::ModelError> {
+        robot.refuse_spherical("the compiled kinematic model")?;
+        Ok(KinematicModel::new(robot))
     }
 
     /// Number of (one-coordinate) joints, the root joint not counted ([`Robot::dof`]).
@@ -673,7 +684,12 @@ fn jacobian_kernel(
 /// The root joint's columns (the first `kind.nv()`): its velocity is link frame 0's own, so
 /// a linear coordinate along axis `e_i` of link frame 0 gives `[R₀ e_i; 0]` and a rotation
 /// about it `[R₀ e_i × (p_e − p₀); R₀ e_i]`.
-fn root_columns(kind: RootKind, frame0: &Matrix4<f64>, pe: &Vector3<f64>, jac: &mut Jacobian) {
+pub(crate) fn root_columns(
+    kind: RootKind,
+    frame0: &Matrix4<f64>,
+    pe: &Vector3<f64>,
+    jac: &mut Jacobian,
+) {
     let c = &frame0.data.0;
     let p0 = Vector3::new(c[3][0], c[3][1], c[3][2]);
     let axis = |i: usize| Vector3::new(c[i][0], c[i][1], c[i][2]);

@@ -53,6 +53,7 @@ pub fn encoder_error(
     q: &[f64],
     bits: &[u32],
 ) -> Result<EncoderError, EncoderErrorError> {
+    robot.refuse_spherical("the encoder bounds")?;
     robot.check_q(q)?;
     if bits.len() != robot.dof() {
         return Err(EncoderErrorError::WrongBits {

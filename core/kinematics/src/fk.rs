@@ -14,7 +14,8 @@ pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<
 
 /// Every link frame in the world: `frames[0]` is the base, `frames[j]` the frame at the end of
 /// `A_j` (j = 1..=n), and the last entry the tool frame — n + 2 matrices in all (n =
-/// `robot.dof()`). `q` must have `robot.nq()` entries (check with [`Robot::check_q`]); for a
+/// `robot.dof()`). `q` must have `robot.nq()` entries (spherical joints: see
+/// [`crate::spherical`]) (check with [`Robot::check_q`]); for a
 /// floating robot `frames[0]` is the base link, `base · M_root(q_root)`.
 pub fn link_frames(robot: &Robot, q: &[f64]) -> Vec<Matrix4<f64>> {
     let mut frames = vec![Matrix4::identity(); robot.dof() + 2];
@@ -27,12 +28,18 @@ pub fn link_frames(robot: &Robot, q: &[f64]) -> Vec<Matrix4<f64>> {
 /// Compiles each joint as it goes; [`crate::KinematicModel::link_frames_into`] gives the same
 /// frames from a model compiled once.
 pub fn link_frames_into(robot: &Robot, q: &[f64], frames: &mut [Matrix4<f64>]) {
+    if robot.has_spherical() {
+        return crate::spherical::link_frames_into(robot, q, frames);
+    }
     frames_kernel(OnTheFly(robot), q, frames);
 }
 
 /// The tool pose `T_ee = base · A_1 ⋯ A_n · tool` in the world (for a tree, the product along
 /// the last joint's support path).
 pub fn forward(robot: &Robot, q: &[f64]) -> Matrix4<f64> {
+    if robot.has_spherical() {
+        return crate::spherical::forward(robot, q);
+    }
     forward_kernel(OnTheFly(robot), q)
 }
 
@@ -45,6 +52,9 @@ pub fn link_pose(robot: &Robot, q: &[f64], link: usize) -> Matrix4<f64> {
         "link_pose: link frame {link} of {}",
         robot.dof()
     );
+    if robot.has_spherical() {
+        return crate::spherical::link_pose(robot, q, link);
+    }
     let nq_root = robot.root_nq();
     let mut t = match &robot.root {
         Some(r) => robot.base * r.kind.transform(&q[..nq_root]),

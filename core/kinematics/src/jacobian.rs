@@ -14,7 +14,8 @@
 //! (its velocity is the base link's own, in the base link's axes, so a linear coordinate along
 //! axis `e_i` of the base link is the column `[R₀ e_i; 0]` and a rotation about it
 //! `[R₀ e_i × (p_e − p₀); R₀ e_i]`), then the joints'. These are Pinocchio's frame Jacobians in
-//! `LOCAL_WORLD_ALIGNED`.
+//! `LOCAL_WORLD_ALIGNED`. A spherical joint has three columns, at [`Robot::v_index`]: the
+//! child frame's axes as rotation axes through the joint's origin (see [`crate::spherical`]).
 
 use crate::compiled::{OnTheFly, fk_and_jacobian_kernel, link_jacobian_kernel};
 use crate::model::Robot;
@@ -46,6 +47,9 @@ pub fn fk_and_jacobian(robot: &Robot, q: &[f64]) -> (Matrix4<f64>, Jacobian) {
 /// Compiles each joint as it goes; [`crate::KinematicModel::fk_and_jacobian_into`] gives the
 /// same numbers from a model compiled once.
 pub fn fk_and_jacobian_into(robot: &Robot, q: &[f64], jac: &mut Jacobian) -> Matrix4<f64> {
+    if robot.has_spherical() {
+        return crate::spherical::jacobian_into(robot, q, robot.dof(), Some(&robot.tool), jac);
+    }
     fk_and_jacobian_kernel(OnTheFly(robot), q, jac)
 }
 
@@ -60,6 +64,9 @@ pub fn link_jacobian_into(
     link: usize,
     jac: &mut Jacobian,
 ) -> Matrix4<f64> {
+    if robot.has_spherical() {
+        return crate::spherical::jacobian_into(robot, q, link, None, jac);
+    }
     link_jacobian_kernel(&OnTheFly(robot), q, link, jac)
 }
 

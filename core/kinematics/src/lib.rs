@@ -12,6 +12,8 @@
 //!   [`builtin_robot`] — the shipped PUMA 560, Stanford arm and Franka Panda.
 //! * [`RootJoint`] — a floating base (free-flyer or planar root joint, Pinocchio's q and v
 //!   layouts; [`Robot::nq`] ≠ [`Robot::nv`]): see [`root`].
+//! * [`spherical`] — spherical (ball) joints ([`Joint::spherical`]: 4 q, 3 v, Pinocchio's
+//!   layout) in the general algorithms; what refuses them.
 //! * [`fk::forward`], [`fk::link_frames`] — forward kinematics.
 //! * [`KinematicModel`] — the robot compiled once for FK and Jacobians (constant joint
 //!   geometry folded, rigid transforms per joint kind; the `&Robot` functions run the same
@@ -42,6 +44,7 @@ mod model;
 pub mod movej;
 pub mod pose;
 pub mod root;
+pub mod spherical;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
 pub use compiled::KinematicModel;

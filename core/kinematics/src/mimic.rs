@@ -74,6 +74,9 @@ pub enum MimicError {
         expected: usize,
         got: usize,
     },
+    /// The robot has a spherical joint: the coupling's coordinates are one per joint.
+    #[error("{0}")]
+    Spherical(crate::ModelError),
 }
 
 /// How one full coordinate is obtained from the reduced vector.
@@ -395,6 +398,9 @@ impl Coupling {
     /// Checks that this coupling is `robot`'s: one source per joint, and the root's
     /// dimensions.
     fn check_robot(&self, robot: &Robot) -> Result<(), MimicError> {
+        robot
+            .refuse_spherical("the mimic coupling")
+            .map_err(MimicError::Spherical)?;
         self.check("robot joints", robot.dof(), self.full_dof())?;
         self.check("robot nq", robot.nq(), self.full_nq())?;
         self.check("robot nv", robot.nv(), self.full_nv())

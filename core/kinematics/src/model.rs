@@ -38,6 +38,14 @@
 //! ([`crate::chain`]): its transform joins the next joint's placement (or the tool) and the
 //! inertia of what it carries is lumped into the link it hangs from — as Pinocchio's URDF
 //! reader does, so q, M(q) and τ are those of the chain with the fixed joints.
+//!
+//! A **spherical** (ball) joint ([`Joint::spherical`]) has three rotational degrees of freedom
+//! about its joint frame's origin: `A_j = P_j · R(quat_j)`, 4 q entries (a unit quaternion
+//! `qx qy qz qw`) and 3 v entries (the angular velocity in the child frame) — Pinocchio's
+//! `JointModelSpherical`. It must be general (an [`Origin`]; its `axis`, `offset`, `qlim` and
+//! `joint_type` are not read). Joint j's coordinates then start at [`Robot::q_index`] /
+//! [`Robot::v_index`] instead of `root + j`; see [`crate::spherical`] for which algorithms take
+//! such a robot and which refuse it ([`ModelError::SphericalUnsupported`]).
 
 use crate::root::RootJoint;
 use nalgebra::{DVector, Matrix3, Matrix4, Vector3};
@@ -88,6 +96,11 @@ pub struct Joint {
     /// (Always serialised, `null` when absent: bincode, which carries robots between
     /// processes, cannot skip fields.)
     pub origin: Option<Origin>,
+    /// A spherical (ball) joint: 4 q (unit quaternion `qx qy qz qw`, the rotation of the child
+    /// frame in the joint frame) and 3 v (angular velocity in the child frame), Pinocchio's
+    /// `JointModelSpherical` (see the module docs). `false` (the default): a one-coordinate
+    /// joint of `joint_type`.
+    pub spherical: bool,
 }
 
 /// A general joint's geometry, as URDF's `<origin>` and `<axis>`.
@@ -259,6 +272,7 @@ impl Default for Joint {
             viscous: 0.0,
             coulomb: 0.0,
             origin: None,
+            spherical: false,
         }
     }
 }
@@ -344,6 +358,21 @@ pub enum ModelError {
     NonUnitRoot { start: usize, end: usize, norm: f64 },
     #[error("the root joint's {field} is not finite or negative")]
     BadRootInertial { field: &'static str },
+    #[error(
+        "q[{start}..{end}]: spherical joint {joint}'s quaternion (qx qy qz qw) is not unit (norm {norm})"
+    )]
+    NonUnitSpherical {
+        joint: usize,
+        start: usize,
+        end: usize,
+        norm: f64,
+    },
+    #[error(
+        "joint {joint} is spherical but has no origin: a spherical joint must be general (an origin placement), not a DH row"
+    )]
+    SphericalNotGeneral { joint: usize },
+    #[error("joint {joint} is spherical (a ball joint): {what} handles one-coordinate joints only")]
+    SphericalUnsupported { joint: usize, what: &'static str },
 }
 
 impl Robot {
@@ -363,21 +392,71 @@ impl Robot {
         self.root.as_ref().map_or(0, |r| r.kind.nv())
     }
 
-    /// Configuration dimension: the length of q (`root_nq + dof`).
+    /// Configuration dimension: the length of q (`root_nq + dof`, plus 3 per spherical joint).
     pub fn nq(&self) -> usize {
-        self.root_nq() + self.dof()
+        self.root_nq() + self.dof() + 3 * self.spherical_count()
     }
 
-    /// Velocity dimension: the length of v, τ, q̈ and a Jacobian's columns (`root_nv + dof`).
+    /// Velocity dimension: the length of v, τ, q̈ and a Jacobian's columns (`root_nv + dof`,
+    /// plus 2 per spherical joint).
     pub fn nv(&self) -> usize {
-        self.root_nv() + self.dof()
+        self.root_nv() + self.dof() + 2 * self.spherical_count()
     }
 
-    /// The neutral configuration (nq values): the root at the origin unrotated, joints at 0.
+    /// The number of spherical joints ([`Joint::spherical`]).
+    pub fn spherical_count(&self) -> usize {
+        self.joints.iter().filter(|j| j.spherical).count()
+    }
+
+    /// Whether any joint is spherical.
+    pub fn has_spherical(&self) -> bool {
+        self.joints.iter().any(|j| j.spherical)
+    }
+
+    /// The first spherical joint, as the typed refusal of an algorithm (`what`) that handles
+    /// one-coordinate joints only; `Ok` when there is none.
+    pub fn refuse_spherical(&self, what: &'static str) -> Result<(), ModelError> {
+        match self.joints.iter().position(|j| j.spherical) {
+            Some(joint) => Err(ModelError::SphericalUnsupported { joint, what }),
+            None => Ok(()),
+        }
+    }
+
+    /// Where joint `j`'s coordinates start in q and in v (the root's first): `(root_nq + j,
+    /// root_nv + j)` without spherical joints, each spherical joint before `j` adding 3 and 2.
+    /// O(j).
+    pub fn q_v_index(&self, j: usize) -> (usize, usize) {
+        let balls = self.joints[..j].iter().filter(|x| x.spherical).count();
+        (
+            self.root_nq() + j + 3 * balls,
+            self.root_nv() + j + 2 * balls,
+        )
+    }
+
+    /// Where joint `j`'s coordinates start in q ([`Robot::q_v_index`]).
+    pub fn q_index(&self, j: usize) -> usize {
+        self.q_v_index(j).0
+    }
+
+    /// Where joint `j`'s coordinates start in v, τ, q̈ and the Jacobian's columns
+    /// ([`Robot::q_v_index`]).
+    pub fn v_index(&self, j: usize) -> usize {
+        self.q_v_index(j).1
+    }
+
+    /// The neutral configuration (nq values): the root at the origin unrotated, joints at 0,
+    /// spherical joints at the identity quaternion (0 0 0 1).
     pub fn neutral_q(&self) -> DVector<f64> {
         let mut q = DVector::zeros(self.nq());
         if let Some(r) = &self.root {
             r.kind.neutral(&mut q.as_mut_slice()[..r.kind.nq()]);
+        }
+        if self.has_spherical() {
+            for (j, joint) in self.joints.iter().enumerate() {
+                if joint.spherical {
+                    q[self.q_index(j) + 3] = 1.0;
+                }
+            }
         }
         q
     }
@@ -416,12 +495,17 @@ impl Robot {
     /// Jacobian at its q are this robot's at any q that agrees on those joints: what IK and the
     /// query protocol use for one tip of a branching robot. The tool is this robot's when `link`
     /// is the last link frame (where the tool hangs), else the identity (the tip link's frame).
-    /// `None` for `link` 0 or past n.
+    /// `None` for `link` 0 or past n, or when a joint on the path is spherical (a chain is of
+    /// one-coordinate joints).
     pub fn chain_to(&self, link: usize) -> Option<(Robot, Vec<usize>)> {
         if link == 0 || link > self.dof() {
             return None;
         }
         let path = self.support(link);
+        if path.iter().any(|&j| self.joints[j].spherical) {
+            return None;
+        }
+        let path_q: Vec<usize> = path.iter().map(|&j| self.q_index(j)).collect();
         let chain = Robot {
             name: self.name.clone(),
             convention: self.convention,
@@ -436,8 +520,7 @@ impl Robot {
             gravity: self.gravity,
             root: None,
         };
-        let path = path.into_iter().map(|j| j + self.root_nq()).collect();
-        Some((chain, path))
+        Some((chain, path_q))
     }
 
     /// Checks every field a user or a planner could get wrong; the algorithms assume a
@@ -507,6 +590,9 @@ impl Robot {
                     hi: jt.qlim[1],
                 });
             }
+            if jt.spherical && jt.origin.is_none() {
+                return Err(ModelError::SphericalNotGeneral { joint: j });
+            }
             if let Some(o) = &jt.origin {
                 if !is_rigid(&o.placement) {
                     return Err(ModelError::NotRigidOrigin { joint: j });
@@ -546,8 +632,20 @@ impl Robot {
     }
 
     /// The first joint whose value in `q` lies outside its limits: (index, value, [lo, hi]);
-    /// a floating root's coordinates have no limits.
+    /// a floating root's coordinates have no limits, nor have a spherical joint's (its cone
+    /// limit is not enforced); `index` is the joint's.
     pub fn outside_limits(&self, q: &[f64]) -> Option<(usize, f64, [f64; 2])> {
+        if self.has_spherical() {
+            return self
+                .joints
+                .iter()
+                .enumerate()
+                .filter(|(_, jt)| !jt.spherical)
+                .find_map(|(j, jt)| {
+                    let v = *q.get(self.q_index(j))?;
+                    (!(jt.qlim[0]..=jt.qlim[1]).contains(&v)).then_some((j, v, jt.qlim))
+                });
+        }
         self.joints
             .iter()
             .zip(q.get(self.root_nq()..).unwrap_or(&[]))
@@ -557,7 +655,7 @@ impl Robot {
     }
 
     /// Checks a configuration against this robot: right length ([`Robot::nq`]), all finite,
-    /// a floating root's rotation unit to 1e-6.
+    /// a floating root's rotation and every spherical joint's quaternion unit to 1e-6.
     pub fn check_q(&self, q: &[f64]) -> Result<(), ModelError> {
         if q.len() != self.nq() {
             return Err(ModelError::WrongDof {
@@ -578,6 +676,27 @@ impl Robot {
                 crate::RootKind::Planar => (2, 4),
             };
             return Err(ModelError::NonUnitRoot { start, end, norm });
+        }
+        if self.has_spherical() {
+            for (j, jt) in self.joints.iter().enumerate() {
+                if !jt.spherical {
+                    continue;
+                }
+                let start = self.q_index(j);
+                let norm = q[start..start + 4]
+                    .iter()
+                    .map(|x| x * x)
+                    .sum::<f64>()
+                    .sqrt();
+                if (norm - 1.0).abs() > UNIT_TOLERANCE {
+                    return Err(ModelError::NonUnitSpherical {
+                        joint: j,
+                        start,
+                        end: start + 4,
+                        norm,
+                    });
+                }
+            }
         }
         Ok(())
     }

@@ -41,6 +41,9 @@ pub fn movej_interpolate(
     q_to: &[f64],
     steps: usize,
 ) -> Result<Vec<Vec<f64>>, MoveJError> {
+    robot
+        .refuse_spherical("MOVEJ's joint-space interpolation")
+        .map_err(MoveJError::From)?;
     robot.check_q(q_from).map_err(MoveJError::From)?;
     robot.check_q(q_to).map_err(MoveJError::To)?;
     if steps == 0 {

@@ -622,6 +622,7 @@ fn moving_joint(l: &LinkVal, t: JointType) -> Joint {
         viscous: l.viscous,
         coulomb: l.coulomb,
         origin: None,
+        spherical: false,
     }
 }
 

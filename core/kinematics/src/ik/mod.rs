@@ -296,6 +296,7 @@ pub fn solve(
     options: &IkOptions,
 ) -> Result<IkResult, IkError> {
     robot.validate()?;
+    robot.refuse_spherical("inverse kinematics")?;
     if !is_rigid(target) {
         return Err(IkError::BadTarget);
     }
