@@ -411,17 +411,24 @@ class Distance:
     minus coal's sphere–sphere call, both the median over 60 passes over the 40 pairs (a pass,
     ~40 µs, is shorter than a scheduler slice: the median is the unloaded speed on both sides;
     the criterion bench `tolerance` has the same kernel); agreement against robosim's Python
-    `distance` at the same tolerance."""
+    `distance` at the same tolerance. FCL 0.7 (python-fcl 0.7.0.11) beside coal at 1e-6 m,
+    timed the same way (collision_tolerance_fcl.py: fcl.distance minus its sphere–sphere call,
+    a fresh DistanceResult per call on both): python-fcl cannot set FCL's distance_tolerance,
+    whose default is 1e-6, so FCL has only the 1e-6 rows."""
     name = "dist"
     # (class, robosim's tolerance, coal's gjk_tolerance)
     CASES = [("cylinder-cone", "1e-6", 1e-6), ("cylinder-cone", "1e-9", 1e-9),
              ("cylinder-cone", "certified", 1e-9), ("cylinder-box", "1e-6", 1e-6),
              ("cone-box", "1e-6", 1e-6), ("box-box", "1e-6", 1e-6)]
+    FCL_LABEL = "1e-6"  # FCL's fixed distance_tolerance (python-fcl cannot set it)
 
     def setup(self):
         import robosim
         self.c = load_module("collision_tolerance_coal", os.path.join(HERE, "collision_tolerance_coal.py"))
         self.exe = os.path.join(REL, "examples", "peer_distance")
+        self.f = load_module("collision_tolerance_fcl", os.path.join(HERE, "collision_tolerance_fcl.py"))
+        fcl_pairs = self.f.read_pairs()
+        self.fcl_pairs = {}
         pairs = self.c.read_pairs()
         lines = open(os.path.join(self.c.OUT, "tolerance_pairs.csv")).read().splitlines()
         self.pairs = {}
@@ -437,6 +444,16 @@ class Distance:
                 ours = robosim.distance(a, pa, b, pb, **opts)
                 d = max(d, abs(ours - self.c.distance(ga, ta, gb, tb, tol)))
             self.agree[(cls, label)] = d
+            if label == self.FCL_LABEL:
+                self.fcl_pairs[cls] = [p for p in fcl_pairs if p[0] == cls]
+                req = self.f.fcl.DistanceRequest()
+                d = 0.0
+                for line, (_, _, fa, fb) in zip([l for l in lines if l.startswith(cls + ",")], self.fcl_pairs[cls]):
+                    c = line.split(",")
+                    a, pa = shape_json(c[2:18])
+                    b, pb = shape_json(c[18:34])
+                    d = max(d, abs(robosim.distance(a, pa, b, pb, tolerance=float(label)) - self.f.distance(fa, fb, req)))
+                self.agree[(cls, label, "fcl")] = d
 
     def run(self):
         out = {}
@@ -447,6 +464,9 @@ class Distance:
             ours = json.loads(got)["ns_per_pair"]
             per, floor = self.c.time_once(mine, tol, reps=60)
             out[(cls, label)] = (ours, (per - floor) * 1e9, floor * 1e9)
+            if label == self.FCL_LABEL:
+                per, floor = self.f.time_once(self.fcl_pairs[cls], reps=60)
+                out[(cls, label, "fcl")] = (ours, (per - floor) * 1e9, floor * 1e9)
         return out
 
     def rows(self, rounds):
@@ -458,6 +478,12 @@ class Distance:
                       f"{self.agree[(cls, label)]:.1e} m", "ns", goal=1.0 if matched else None,
                       was="2.7× (certified vs 1e-9)" if not matched else
                       ("1.4–2.2× (curved pairs)" if cls != "box-box" else "0.7–1.1×"))
+        for cls, label, tol in self.CASES:
+            if label == self.FCL_LABEL:
+                yield row(f"exact distance, {cls.replace('-', '–')}, robosim at {label} m",
+                          "FCL 0.7 (python-fcl 0.7.0.11) at its fixed distance_tolerance 1e-6 m",
+                          [r[(cls, label, "fcl")] for r in rounds],
+                          f"{self.agree[(cls, label, 'fcl')]:.1e} m", "ns", goal=1.0, was="not measured")
 
 
 def shape_json(c):
@@ -691,8 +717,8 @@ on a call that costs little more than the binding itself).
         f.write(f"""
 Versions: Pinocchio {pin.__version__}, coal 3.0.3, MuJoCo {sections_version('mujoco')},
 Robotics Toolbox {sections_version('roboticstoolbox')} (tools/peers/requirements.txt pins them;
-tools/peers/setup.sh makes the venv). python-fcl is installed by the requirements but not
-timed yet.
+tools/peers/setup.sh makes the venv); python-fcl 0.7.0.11 (FCL 0.7) in the exact-distance
+rows only, at FCL's fixed 1e-6 m.
 """)
 
 

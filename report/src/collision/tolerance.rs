@@ -5,7 +5,9 @@
 //!    distance; coal's distances and times are checked-in data
 //!    (`tools/peers/collision_tolerance_coal.py` writes `testdata/collision/tolerance_*.csv`:
 //!    the pairs, coal's distance per pair and tolerance, coal's best-of-15 time per pair and
-//!    its Python binding's cost per call, which is subtracted here).
+//!    its Python binding's cost per call, which is subtracted here). FCL 0.7 beside them, the
+//!    same way (`tools/peers/collision_tolerance_fcl.py` writes `tolerance_fcl*.csv`), at its
+//!    one tolerance: python-fcl 0.7.0.11 cannot set FCL's `distance_tolerance` (default 1e-6).
 
 use super::{REPS, time_per_call};
 use crate::plot::{Plot, Series, Table};
@@ -18,6 +20,8 @@ use std::hint::black_box;
 const PAIRS: &str = include_str!("../../../testdata/collision/tolerance_pairs.csv");
 const COAL: &str = include_str!("../../../testdata/collision/tolerance_coal.csv");
 const COAL_TIME: &str = include_str!("../../../testdata/collision/tolerance_coal_time.csv");
+const FCL: &str = include_str!("../../../testdata/collision/tolerance_fcl.csv");
+const FCL_TIME: &str = include_str!("../../../testdata/collision/tolerance_fcl_time.csv");
 
 /// The GJK tolerances coal was run at (metres), loosest first.
 const TOLERANCES: [f64; 8] = [1e-2, 1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8, 1e-9];
@@ -45,20 +49,47 @@ fn distance(p: &Pair, tolerance: Tolerance) -> Option<f64> {
 type CoalDistances = BTreeMap<(String, usize, u64), f64>;
 type CoalTimes = BTreeMap<(String, u64), (f64, f64)>;
 
-fn coal_data() -> Result<(CoalDistances, CoalTimes), String> {
+/// A peer's distances (`class,index,tolerance,distance`) and times
+/// (`class,tolerance,ns_per_pair,binding_ns`), as the peer scripts write them.
+fn peer_data(distances: &str, times: &str) -> Result<(CoalDistances, CoalTimes), String> {
     let mut d = BTreeMap::new();
-    for l in COAL.lines().skip(1).filter(|l| !l.is_empty()) {
+    for l in distances.lines().skip(1).filter(|l| !l.is_empty()) {
         let c: Vec<&str> = l.split(',').collect();
         let v = nums(&c[1..4])?;
         d.insert((c[0].to_owned(), v[0] as usize, v[1].to_bits()), v[2]);
     }
     let mut t = BTreeMap::new();
-    for l in COAL_TIME.lines().skip(1).filter(|l| !l.is_empty()) {
+    for l in times.lines().skip(1).filter(|l| !l.is_empty()) {
         let c: Vec<&str> = l.split(',').collect();
         let v = nums(&c[1..4])?;
         t.insert((c[0].to_owned(), v[0].to_bits()), (v[1], v[2]));
     }
     Ok((d, t))
+}
+
+/// A peer at tolerance `tol` on one class's pairs `idx`: (largest error against `reference`,
+/// seconds per pair net of the binding, pairs without a distance). A peer answers f64::MAX
+/// (coal) or a huge value for a pair it gives up on: counted apart, not in the error.
+fn peer_at(
+    d: &CoalDistances,
+    t: &CoalTimes,
+    class: &str,
+    tol: f64,
+    idx: &[usize],
+    reference: &[f64],
+) -> Option<(f64, f64, usize)> {
+    let errs = idx
+        .iter()
+        .enumerate()
+        .map(|(k, &i)| {
+            d.get(&(class.to_string(), k, tol.to_bits()))
+                .map(|d| (d - reference[i]).abs())
+        })
+        .collect::<Option<Vec<f64>>>()?;
+    let failed = errs.iter().filter(|e| !(**e < 1.0)).count();
+    let err = errs.into_iter().filter(|e| *e < 1.0).fold(0.0, f64::max);
+    let (ns, binding) = *t.get(&(class.to_string(), tol.to_bits()))?;
+    Some((err, ((ns - binding) * 1e-9).max(1e-9), failed))
 }
 
 fn sci(x: f64) -> String {
@@ -69,7 +100,14 @@ fn sci(x: f64) -> String {
 /// classes pooled: the largest error and the mean time per pair at each tolerance).
 pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Result<Plot, String> {
     let pairs = pair_file::parse(PAIRS, "tolerance_pairs.csv")?;
-    let (coal_d, coal_t) = coal_data()?;
+    let (coal_d, coal_t) = peer_data(COAL, COAL_TIME).map_err(|e| format!("coal's data: {e}"))?;
+    let (fcl_d, fcl_t) = peer_data(FCL, FCL_TIME).map_err(|e| format!("FCL's data: {e}"))?;
+    // FCL's one tolerance (python-fcl cannot set it): its row is robosim's at the same value.
+    let fcl_tol = fcl_t
+        .keys()
+        .next()
+        .map(|(_, bits)| f64::from_bits(*bits))
+        .ok_or("FCL's data: no time rows")?;
     let reference: Vec<f64> = pairs
         .iter()
         .map(|p| distance(p, Tolerance::Certified).ok_or("a tolerance pair is not clear"))
@@ -78,6 +116,7 @@ pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Res
     classes.dedup();
     let mut ours_pts = Vec::new();
     let mut coal_pts = Vec::new();
+    let (mut fcl_err, mut fcl_t_sum, mut fcl_n) = (0.0f64, 0.0, 0usize);
     let mut worst_ratio: f64 = 0.0;
     let settings: Vec<(String, Tolerance, Option<f64>)> =
         std::iter::once(("certified".to_owned(), Tolerance::Certified, None))
@@ -107,22 +146,30 @@ pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Res
             }) / idx.len() as f64;
             max_ours = max_ours.max(err_ours);
             t_ours_sum += t_ours * idx.len() as f64;
-            let coal = coal_tol.and_then(|ct| {
-                let errs = idx
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &i)| {
-                        coal_d
-                            .get(&(class.to_string(), k, ct.to_bits()))
-                            .map(|d| (d - reference[i]).abs())
-                    })
-                    .collect::<Option<Vec<f64>>>()?;
-                // coal answers f64::MAX for a pair it gives up on: counted apart, not plotted
-                let failed = errs.iter().filter(|e| !(**e < 1.0)).count();
-                let err = errs.into_iter().filter(|e| *e < 1.0).fold(0.0, f64::max);
-                let (ns, binding) = *coal_t.get(&(class.to_string(), ct.to_bits()))?;
-                Some((err, ((ns - binding) * 1e-9).max(1e-9), failed))
-            });
+            let coal =
+                coal_tol.and_then(|ct| peer_at(&coal_d, &coal_t, class, ct, &idx, &reference));
+            let fcl = coal_tol
+                .filter(|ct| ct.to_bits() == fcl_tol.to_bits())
+                .and_then(|ct| peer_at(&fcl_d, &fcl_t, class, ct, &idx, &reference));
+            let fcl_note = match fcl {
+                Some((e, t, failed)) => {
+                    fcl_err = fcl_err.max(e);
+                    fcl_t_sum += t * idx.len() as f64;
+                    fcl_n += idx.len();
+                    format!(
+                        "; FCL 0.7 at its fixed distance_tolerance {label}: max error {} m, {:.3} µs net of its binding, robosim / FCL {:.2}{}",
+                        sci(e),
+                        t * 1e6,
+                        t_ours / t,
+                        if failed > 0 {
+                            format!(", no distance for {failed} pair(s)")
+                        } else {
+                            String::new()
+                        }
+                    )
+                }
+                None => String::new(),
+            };
             let (ratio, coal_note) = match coal {
                 Some((e, t, failed)) => {
                     max_coal = max_coal.max(e);
@@ -158,7 +205,7 @@ pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Res
                     "0".into(),
                     "0".into(),
                     format!(
-                        "max error {} m against the certified distance{coal_note}; ratio to coal",
+                        "max error {} m against the certified distance{coal_note}{fcl_note}; ratio to coal",
                         sci(err_ours)
                     ),
                 ]
@@ -175,11 +222,16 @@ pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Res
             coal_pts.push((t_coal_sum / n * 1e6, max_coal.max(floor)));
         }
     }
+    let fcl_pts = if fcl_n > 0 && fcl_err.is_finite() {
+        vec![(fcl_t_sum / fcl_n as f64 * 1e6, fcl_err.max(1e-17))]
+    } else {
+        Vec::new()
+    };
     // the certified point last: the line then runs from the loosest tolerance to certified
     let first = ours_pts.len().min(1);
     ours_pts.rotate_left(first);
     notes.push(format!(
-        "Distance tolerance (issue 37 item 3): {} separated pairs in 4 classes from `testdata/collision/tolerance_pairs.csv`; errors against robosim's certified distance (bracket ≤ 1e-11 m); coal 3.0.3's distances and times from `tools/peers/collision_tolerance_coal.py` (best of 15 rounds, its Python binding's cost per call subtracted; robosim's best of {REPS}). The largest robosim / coal time ratio at a matched tolerance: {worst_ratio:.2}. robosim's tolerance is GJK's bracket width (absolute); coal's gjk_tolerance enters its own convergence criterion, so equal numbers are not equal accuracy — the plot puts both at their measured error. Errors of 0 are drawn at 1e-17.",
+        "Distance tolerance (issue 37 item 3): {} separated pairs in 4 classes from `testdata/collision/tolerance_pairs.csv`; errors against robosim's certified distance (bracket ≤ 1e-11 m); coal 3.0.3's distances and times from `tools/peers/collision_tolerance_coal.py` (best of 15 rounds, its Python binding's cost per call subtracted; robosim's best of {REPS}); FCL 0.7's the same way from `tools/peers/collision_tolerance_fcl.py`, at its default distance_tolerance {fcl_tol:e} only (python-fcl 0.7.0.11 cannot set it; one point on the plot). The largest robosim / coal time ratio at a matched tolerance: {worst_ratio:.2}. robosim's tolerance is GJK's bracket width (absolute); coal's gjk_tolerance enters its own convergence criterion, so equal numbers are not equal accuracy — the plot puts both at their measured error. Errors of 0 are drawn at 1e-17.",
         pairs.len()
     ));
     Ok(Plot {
@@ -196,6 +248,10 @@ pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Res
             Series {
                 label: "coal 3.0.3 (gjk_tolerance 1e-2 … 1e-9)".into(),
                 points: coal_pts,
+            },
+            Series {
+                label: "FCL 0.7 (python-fcl; its fixed distance_tolerance 1e-6)".into(),
+                points: fcl_pts,
             },
         ],
     })

@@ -15,6 +15,7 @@ mod lower;
 pub mod pair_file;
 mod projection;
 mod sphere;
+mod support;
 
 pub use gjk::CONTACT_BAND;
 
@@ -471,7 +472,20 @@ fn collide_support_maps(
 ) -> PairResult {
     let pos12 = ga.inv_mul(gb);
     let tol = opts.tolerance.width();
-    let mut s = gjk::separation(&pos12, ma, mb, None, opts.distance, tol);
+    // A GJK tolerance: supports specialised per shape (`support`), then parry's when that
+    // leaves the verdict undecided; certified: parry's only (see `support` for why).
+    let mut s = match (opts.tolerance, support::Kind::of(sa), support::Kind::of(sb)) {
+        (Tolerance::Gjk(_), Some(ka), Some(kb)) => {
+            let placed = support::Placed::new(ka, kb, &pos12);
+            let fast = gjk::run(&placed, &pos12, None, opts.distance, tol);
+            if fast.verdict == gjk::Verdict::Undecided {
+                gjk::separation(&pos12, ma, mb, None, opts.distance, tol)
+            } else {
+                fast
+            }
+        }
+        _ => gjk::separation(&pos12, ma, mb, None, opts.distance, tol),
+    };
     // GJK's upper bound creeps onto curved contacts: alternating exact projections where both
     // shapes have them (`projection`), then GJK's rules again.
     if s.verdict == gjk::Verdict::Undecided || (opts.distance && !s.converged) {

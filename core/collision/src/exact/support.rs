@@ -1,0 +1,199 @@
+//! Support functions specialised per shape, for GJK at a user tolerance ([`super::Tolerance::Gjk`]):
+//! the closed forms of parry 0.25.3's box, cylinder, cone and ball supports inlined behind one
+//! `match` (no `dyn` call per evaluation), and B placed in A's frame by a rotation matrix
+//! computed once per pair (no quaternion rotation per evaluation). Any other support map (a
+//! convex hull) goes through parry's `dyn` support on the same matrix.
+//!
+//! The certified mode does not use these: a rotation matrix rounds differently from parry's
+//! quaternion, and at the 100 m scale one touching contact reference (`box_cone_0_s100_g0`)
+//! then stays undecided after GJK's iteration limit. A GJK tolerance runs these first and, when
+//! the verdict is undecided, GJK again on parry's supports ([`super::gjk::separation`]) — so it
+//! decides every pair the certified mode decides. The bounds are sound with either: the lower
+//! bound is a separating plane of two support points, the upper bound the distance of a point
+//! of each solid, both within the rounding allowance τ = 8 ε L of [`super::gjk`].
+//!
+//! Entry points: [`Kind::of`], [`Placed::new`].
+
+use super::gjk::{Supports, Vertex};
+use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
+use parry3d_f64::shape::{Shape, ShapeType, SupportMap};
+
+/// One convex shape's support function, in its own frame.
+#[derive(Clone, Copy)]
+pub(crate) enum Kind<'a> {
+    /// Half extents.
+    Cuboid(Vector3<f64>),
+    /// parry's cylinder: axis y, centred.
+    Cylinder {
+        radius: f64,
+        half_height: f64,
+    },
+    /// parry's cone: axis y, apex at +half_height.
+    Cone {
+        radius: f64,
+        half_height: f64,
+    },
+    Ball(f64),
+    /// Any other support map (convex hulls).
+    Other(&'a dyn SupportMap),
+}
+
+impl<'a> Kind<'a> {
+    /// The support function of `s`; `None` if `s` is not a support map.
+    pub(crate) fn of(s: &'a dyn Shape) -> Option<Self> {
+        match s.shape_type() {
+            ShapeType::Cuboid => s.as_cuboid().map(|b| Kind::Cuboid(b.half_extents)),
+            ShapeType::Cylinder => s.as_cylinder().map(|c| Kind::Cylinder {
+                radius: c.radius,
+                half_height: c.half_height,
+            }),
+            ShapeType::Cone => s.as_cone().map(|c| Kind::Cone {
+                radius: c.radius,
+                half_height: c.half_height,
+            }),
+            ShapeType::Ball => s.as_ball().map(|b| Kind::Ball(b.radius)),
+            _ => s.as_support_map().map(Kind::Other),
+        }
+    }
+
+    /// A point of the shape maximising `d·p` (parry's closed forms; `d` need not be unit).
+    #[inline(always)]
+    fn local(&self, d: &Vector3<f64>) -> Vector3<f64> {
+        match *self {
+            Kind::Cuboid(h) => {
+                Vector3::new(h.x.copysign(d.x), h.y.copysign(d.y), h.z.copysign(d.z))
+            }
+            Kind::Cylinder {
+                radius,
+                half_height,
+            } => {
+                let rho = (d.x * d.x + d.z * d.z).sqrt();
+                let y = half_height.copysign(d.y);
+                if rho > 0.0 {
+                    let k = radius / rho;
+                    Vector3::new(d.x * k, y, d.z * k)
+                } else {
+                    Vector3::new(0.0, y, 0.0)
+                }
+            }
+            Kind::Cone {
+                radius,
+                half_height,
+            } => {
+                let rho = (d.x * d.x + d.z * d.z).sqrt();
+                if rho > 0.0 {
+                    let k = radius / rho;
+                    let rim = Vector3::new(d.x * k, -half_height, d.z * k);
+                    // The apex when it is further along d than the base's rim point.
+                    if d.dot(&rim) < d.y * half_height {
+                        Vector3::new(0.0, half_height, 0.0)
+                    } else {
+                        rim
+                    }
+                } else {
+                    Vector3::new(0.0, half_height.copysign(d.y), 0.0)
+                }
+            }
+            Kind::Ball(r) => {
+                let n = d.norm();
+                if n > 0.0 {
+                    d * (r / n)
+                } else {
+                    Vector3::zeros()
+                }
+            }
+            Kind::Other(m) => m.local_support_point(d).coords,
+        }
+    }
+}
+
+/// A pair of support functions with B placed in A's frame by a rotation matrix and a
+/// translation (B → A), both computed once.
+pub(crate) struct Placed<'a> {
+    a: Kind<'a>,
+    b: Kind<'a>,
+    /// B's rotation into A's frame, and its transpose (A's directions into B's frame).
+    r: Matrix3<f64>,
+    rt: Matrix3<f64>,
+    t: Vector3<f64>,
+}
+
+impl<'a> Placed<'a> {
+    pub(crate) fn new(a: Kind<'a>, b: Kind<'a>, pos12: &Isometry3<f64>) -> Self {
+        let r = pos12.rotation.to_rotation_matrix().into_inner();
+        Placed {
+            a,
+            b,
+            r,
+            rt: r.transpose(),
+            t: pos12.translation.vector,
+        }
+    }
+}
+
+impl Supports for Placed<'_> {
+    const LEAN: bool = true;
+    #[inline(always)]
+    fn support(&self, u: &Vector3<f64>) -> Vertex {
+        let a = self.a.local(&-u);
+        let b = self.r * self.b.local(&(self.rt * u)) + self.t;
+        Vertex {
+            w: a - b,
+            a: Point3::from(a),
+            b: Point3::from(b),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::UnitQuaternion;
+    use parry3d_f64::shape::{Ball, Cone, Cuboid, Cylinder};
+
+    /// The specialised supports are parry's: the same support value (u·p) in every direction,
+    /// including the axis directions where the closed forms branch.
+    #[test]
+    fn specialised_supports_match_parrys() {
+        let shapes: [Box<dyn Shape>; 4] = [
+            Box::new(Cuboid::new(Vector3::new(0.3, 0.2, 0.1))),
+            Box::new(Cylinder::new(0.25, 0.15)),
+            Box::new(Cone::new(0.35, 0.2)),
+            Box::new(Ball::new(0.4)),
+        ];
+        let pos12 = nalgebra::Isometry3::from_parts(
+            Vector3::new(0.5, -0.2, 1.0).into(),
+            UnitQuaternion::from_euler_angles(0.3, -1.1, 2.0),
+        );
+        let mut dirs: Vec<Vector3<f64>> = (0..200)
+            .map(|k| {
+                let x = k as f64;
+                Vector3::new((1.3 * x).sin(), (0.7 * x).cos(), (2.9 * x).sin() - 0.1)
+            })
+            .collect();
+        dirs.extend([Vector3::y(), -Vector3::y(), Vector3::x(), -Vector3::z()]);
+        for sa in &shapes {
+            for sb in &shapes {
+                let pair = Placed::new(
+                    Kind::of(sa.as_ref()).expect("support map"),
+                    Kind::of(sb.as_ref()).expect("support map"),
+                    &pos12,
+                );
+                let (ma, mb) = (
+                    sa.as_support_map().expect("a"),
+                    sb.as_support_map().expect("b"),
+                );
+                for u in &dirs {
+                    let v = pair.support(u);
+                    let a = ma.local_support_point(&-u);
+                    let b = mb.support_point(&pos12, u);
+                    let tol = 1e-14 * (1.0 + u.norm());
+                    assert!((v.a.coords.dot(u) - a.coords.dot(u)).abs() <= tol, "{u}");
+                    assert!((v.b.coords.dot(u) - b.coords.dot(u)).abs() <= tol, "{u}");
+                    assert!((v.w - (v.a - v.b)).norm() == 0.0);
+                }
+            }
+        }
+    }
+}
+
