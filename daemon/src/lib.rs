@@ -58,6 +58,7 @@
 pub mod bench;
 mod ctl;
 mod follow;
+mod ops;
 pub mod recording;
 mod space;
 pub mod status;
@@ -249,7 +250,7 @@ impl LibraryCache {
 
 /// The library declaration and the evaluated scene, when the effects come from the library
 /// (the space stage reads them; `--effects` JSON has no orbit, so it builds none).
-type Declared = Option<(SceneEffects, SceneParts)>;
+type Declared = Option<(SceneEffects, SceneParts, Option<ops::Geometry>)>;
 
 /// The scene's declared effects: `--effects`, else its Library Space declaration.
 fn scene_effects(
@@ -284,7 +285,11 @@ fn scene_effects(
             return Ok((
                 declared_effects(&sc.effects, &path),
                 format!("declared by scene {}", origin.declaration),
-                Some((sc.effects.clone(), sc.parts())),
+                Some((
+                    sc.effects.clone(),
+                    sc.parts(),
+                    (sc.effects.attitude.is_some()).then(|| ops::Geometry::of(&sc)),
+                )),
             ));
         }
     }
@@ -390,12 +395,13 @@ impl Daemon<'_> {
             .collect::<Result<_>>()?;
         self.space = None;
         self.swap = None;
-        if let Some((fx, scene)) = &declared {
+        if let Some((fx, scene, geometry)) = declared {
+            let (fx, scene) = (&fx, &scene);
             for what in not_simulated(fx) {
                 eprintln!("simulator: WARNING: declared but not simulated: {what}");
             }
             let mut notes = Vec::new();
-            self.space = space::SpaceStage::build(fx, scene, &mut self.sims, &mut notes)
+            self.space = space::SpaceStage::build(fx, scene, geometry, &mut self.sims, &mut notes)
                 .map_err(|e| DaemonError::Effects(format!("the space stage: {e}")))?;
             for n in notes {
                 eprintln!("simulator: WARNING: {n}");
@@ -848,7 +854,11 @@ fn answer_commands(d: &mut Daemon, l: &mut Loop, commands: &mut CommandReceiver)
         }
         let was_running = l.running;
         let outcome = parsed.and_then(|v| {
-            apply(&mut d.sims, &v, &mut l.running, &mut l.budget, &mut reset).map(|()| v)
+            match d.space.as_mut().and_then(|sp| sp.command(&v)) {
+                Some(r) => r,
+                None => apply(&mut d.sims, &v, &mut l.running, &mut l.budget, &mut reset),
+            }
+            .map(|()| v)
         });
         if was_running && !l.running {
             l.paused_at = Some(pause_record(

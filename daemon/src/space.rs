@@ -15,9 +15,15 @@
 //!   joint values (an array still turning delivers less), zero in eclipse; the battery
 //!   ([`robosim_simulator::power::Battery`], its stated defaults) integrates it over each step.
 //!
+//! * **attitude** and **consumers** ([`crate::ops`], when declared): the attitude integrated
+//!   over the step (the arrays' power then taken with the sun in the actual attitude's body
+//!   frame) and the consumers' demand in their commanded modes drawn from the battery in place
+//!   of its constant load.
+//!
 //! What `get` reports is [`SpaceStage::status`] under the key `"space"`.
 
 use crate::Sim;
+use crate::ops::{Geometry, Ops};
 use nalgebra::Vector3;
 use robosim_model::Options;
 use robosim_model::parts::SceneParts;
@@ -56,6 +62,8 @@ pub(crate) struct SpaceStage {
     power_w: f64,
     energy_j: f64,
     unserved_j: f64,
+    /// The attitude and the consumers, when declared ([`crate::ops`]).
+    ops: Option<Ops>,
 }
 
 impl SpaceStage {
@@ -64,13 +72,20 @@ impl SpaceStage {
     pub(crate) fn build(
         effects: &Options,
         scene: &SceneParts,
+        geometry: Option<Geometry>,
         sims: &mut [Sim],
         notes: &mut Vec<String>,
     ) -> Result<Option<SpaceStage>, String> {
         let Some(o) = effects.orbit else {
-            if effects.sun_tracking || effects.power.is_some() {
+            if effects.sun_tracking
+                || effects.power.is_some()
+                || effects.attitude.is_some()
+                || effects.consumers
+            {
                 // the library refuses this; a hand-written declaration could still say it
-                return Err("sun_tracking and power need an orbit effect".into());
+                return Err(
+                    "sun_tracking, power, attitude and consumers need an orbit effect".into(),
+                );
             }
             return Ok(None);
         };
@@ -112,6 +127,7 @@ impl SpaceStage {
             power_w: 0.0,
             energy_j: 0.0,
             unserved_j: 0.0,
+            ops: Ops::build(effects, orbit, geometry, sims)?,
         };
         stage.update(sims, 0.0, 0.0)?;
         Ok(Some(stage))
@@ -135,7 +151,17 @@ impl SpaceStage {
                 self.battery.load_w / 1e3
             ));
         }
+        if let Some(ops) = &self.ops {
+            parts.push(ops.describe());
+        }
         parts.join(" → ")
+    }
+
+    /// A command for the operations stage (`consumer`, `ack`; [`Ops::command`]), `None` for
+    /// any other.
+    pub(crate) fn command(&mut self, cmd: &Value) -> Option<Result<(), String>> {
+        let t = self.t;
+        self.ops.as_mut()?.command(cmd, t)
     }
 
     /// After a step of every pipeline: the orbit at the pipelines' clock `t` (s), new tracking
@@ -145,12 +171,27 @@ impl SpaceStage {
         // the power of the step just ended, held over it (as in the study)
         if dt > 0.0 && self.efficiency.is_some() {
             self.energy_j += self.power_w * dt;
-            self.unserved_j += self.battery.step(self.power_w, dt);
+            self.unserved_j += match &mut self.ops {
+                Some(ops) if ops.has_consumers() => {
+                    ops.supply(&mut self.battery, self.power_w, dt).unserved_j
+                }
+                _ => self.battery.step(self.power_w, dt),
+            };
+        }
+        if let Some(ops) = &mut self.ops {
+            ops.advance_attitude(sims, t, dt)?;
         }
         self.t = t;
         self.theta = self.orbit.angle(0.0, t);
         self.sun = self.orbit.sun_body(self.theta);
         self.eclipse = self.orbit.eclipse_at(self.theta);
+        // the arrays see the sun in the actual attitude's body frame (they are aimed at where it
+        // will be under the commanded one)
+        let sun_actual = self
+            .ops
+            .as_ref()
+            .and_then(Ops::sun_body)
+            .unwrap_or(self.sun);
         // the targets are for the next step: the sun where it will be then
         let sun_next = self
             .orbit
@@ -179,7 +220,7 @@ impl SpaceStage {
             a.cos_incidence = a
                 .cells
                 .normal_at(robot, s.pipeline.data().state.q.as_slice())
-                .dot(&self.sun);
+                .dot(&sun_actual);
             a.power_w = match self.efficiency {
                 Some(e) if !self.eclipse => a.cells.power_w(e, a.cos_incidence),
                 _ => 0.0,
@@ -231,6 +272,7 @@ impl SpaceStage {
             "sun_tracking": self.tracking,
             "arrays": arrays,
             "power": power,
+            "ops": self.ops.as_ref().map(|o| o.status(&self.battery, &self.orbit, self.t)),
         })
     }
 }

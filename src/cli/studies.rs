@@ -11,6 +11,50 @@ pub enum StudyCmd {
     /// The Space Station (seed ch. 4): orbit, sun-tracking arrays, power and battery, an ORU
     /// swap by the servicer with the arrays feathered where it passes; CSV, summary, plots, frames.
     Station(StationArgs),
+    /// The operational station (issue 38 item 7): `robosim up space_station_ops` with the
+    /// simulator, the rules (station_ops.clp), the dataflow (momentum_manager.flow) and the
+    /// automation plant as separate processes on one session, driven headless in lock-step;
+    /// operations.csv, operations_summary.{md,csv,png}, operations_decisions.csv.
+    Operations(OperationsArgs),
+}
+
+#[derive(clap::Args, Debug, Clone)]
+pub struct OperationsArgs {
+    /// Directory for the outputs (created).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Orbits to run.
+    #[arg(long, default_value_t = 1.0)]
+    pub orbits: f64,
+    /// Session name (default: ops-study-<pid>; an existing one is started fresh).
+    #[arg(long)]
+    pub session: Option<String>,
+    /// Simulated seconds between the rules' decisions (one output row each).
+    #[arg(long, default_value_t = 60.0)]
+    pub decide_every: f64,
+    /// The energy scheduler (the rules process): on, or off to measure what it is worth.
+    #[arg(long, default_value = "on", value_parser = ["on", "off"])]
+    pub scheduler: String,
+    /// A fault for the ECLSS plant at a simulated time, FAULT@SECONDS (repeatable).
+    #[arg(long)]
+    pub fault: Vec<String>,
+    /// Leave the session running at the end (`robosim down --session S` stops it).
+    #[arg(long)]
+    pub keep: bool,
+}
+
+impl From<OperationsArgs> for robosim_studies::cli::OperationsArgs {
+    fn from(a: OperationsArgs) -> Self {
+        robosim_studies::cli::OperationsArgs {
+            out: a.out,
+            orbits: a.orbits,
+            session: a.session,
+            decide_every: a.decide_every,
+            scheduler: a.scheduler == "on",
+            fault: a.fault,
+            keep: a.keep,
+        }
+    }
 }
 
 #[derive(clap::Args, Debug, Clone)]
@@ -105,6 +149,7 @@ impl From<StudyCmd> for robosim_studies::cli::StudyCmd {
         match a {
             StudyCmd::Welding(x) => robosim_studies::cli::StudyCmd::Welding(x.into()),
             StudyCmd::Station(x) => robosim_studies::cli::StudyCmd::Station(x.into()),
+            StudyCmd::Operations(x) => robosim_studies::cli::StudyCmd::Operations(x.into()),
         }
     }
 }

@@ -1,7 +1,7 @@
 //! `robosim study welding|station --out DIR`: the arguments (plain types; the binary parses the
 //! command line into them, src/cli/studies.rs) and the runner.
 
-use crate::{Result, StudyError, station, welding};
+use crate::{Result, StudyError, operations, station, welding};
 use robosim_collision::Mode;
 use std::path::PathBuf;
 
@@ -13,6 +13,27 @@ pub enum StudyCmd {
     /// The Space Station (seed ch. 4): orbit, sun-tracking arrays, power and battery, an ORU
     /// swap by the servicer with the arrays feathered where it passes; CSV, summary, plots, frames.
     Station(StationArgs),
+    /// The operational station (issue 38 item 7): simulator, rules, dataflow and automation as
+    /// separate processes on one session, driven headless; CSV, summary, plots.
+    Operations(OperationsArgs),
+}
+
+#[derive(Debug, Clone)]
+pub struct OperationsArgs {
+    /// Directory for the outputs (created).
+    pub out: PathBuf,
+    /// Orbits to run.
+    pub orbits: f64,
+    /// Session name (default: ops-study-<pid>).
+    pub session: Option<String>,
+    /// Simulated seconds between the rules' decisions (one output row each).
+    pub decide_every: f64,
+    /// The scheduler (rules process): on or off.
+    pub scheduler: bool,
+    /// Faults for the automation plant, FAULT@SECONDS.
+    pub fault: Vec<String>,
+    /// Leave the session running.
+    pub keep: bool,
 }
 
 #[derive(Debug, Clone)]
@@ -89,6 +110,23 @@ fn mode(s: &str) -> Result<Mode> {
 /// Runs `robosim study …`, reporting to `log`.
 pub fn run(cmd: &StudyCmd, log: &mut dyn std::io::Write) -> Result<()> {
     match cmd {
+        StudyCmd::Operations(a) => {
+            let p = operations::OpsParams {
+                orbits: a.orbits,
+                out: a.out.clone(),
+                session: a.session.clone(),
+                decide_every_s: a.decide_every,
+                scheduler: a.scheduler,
+                faults: a
+                    .fault
+                    .iter()
+                    .map(|f| operations::parse_fault(f))
+                    .collect::<Result<_>>()?,
+                keep: a.keep,
+            };
+            operations::run(&p, log)?;
+            Ok(())
+        }
         StudyCmd::Station(a) => {
             let p = station::StationParams {
                 altitude_m: a.altitude.map(|km| km * 1e3),

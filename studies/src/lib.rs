@@ -10,6 +10,8 @@
 //!   an ORU swap by the servicer, `robosim study station`; [`orbit`] is its orbit model and
 //!   `robosim_simulator::power` its arrays, tracking, power and battery (both shared with the
 //!   simulator daemon's space stage).
+//! * [`operations`] — issue 38 item 7: the operational station as separate processes on one
+//!   session (simulator, rules, dataflow, automation), `robosim study operations`.
 //! * [`sweep`] — `robosim sweep STUDY --param … --workers N`: a parameter study over worker
 //!   processes, gathered into one CSV; a dead worker's job is redone.
 //! * [`common`] — bodies, clearances, trajectory files, CSV and frames the two share.
@@ -18,6 +20,7 @@
 
 pub mod cli;
 pub mod common;
+pub mod operations;
 /// The orbit model (the `orbit` effect), shared with the simulator daemon.
 pub use robosim_simulator::orbit;
 pub mod station;

@@ -72,6 +72,11 @@ pub struct Options {
     /// Joint friction in the dynamics stage (issue 36): the robot's per-joint viscous and
     /// Coulomb data act only when declared (`robosim_dynamics::friction`).
     pub joint_friction: Option<JointFrictionEffect>,
+    /// The station's loads as consumers with priorities (ECLSS, experiments, servicer;
+    /// `robosim_simulator::consumers`) drawing on the `power` effect's battery, each served,
+    /// reduced or shed as commanded (`consumers: on`; needs `power`; the simulator daemon's
+    /// operations stage, issue 38 item 7).
+    pub consumers: bool,
 }
 
 /// The joint friction effect: which of the robot's friction data act in the dynamics stage.
@@ -141,6 +146,7 @@ impl Default for Options {
             oru_swap: None,
             attitude: None,
             joint_friction: None,
+            consumers: false,
         }
     }
 }

@@ -46,6 +46,10 @@ pub const SHIPPED: &[(&str, &str)] = &[
         "station_power.clp",
         include_str!("../rulebases/station_power.clp"),
     ),
+    (
+        "station_ops.clp",
+        include_str!("../rulebases/station_ops.clp"),
+    ),
 ];
 
 /// The text of the shipped rule base `name` (`station_power.clp`, …).

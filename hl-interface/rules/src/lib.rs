@@ -19,6 +19,8 @@
 //!   simulator contact (`kind contact`) or step error (`kind step-error`) per robot, and every
 //!   alarm the automation plant (`robosim automation`, `robosim_hl_interface::plant`) rings:
 //!   source the fault model's process, kind the alarm's name, value the plant time it rang;
+//! * `(sim-power …)`, `(sim-consumer …)`, `(sim-attitude …)` — the simulator's operations stage
+//!   (`space.ops` of its state, when the scene declares `attitude`/`consumers`; [`TEMPLATES`]);
 //! * `(diagnosis (model M) (failure-modes …) (components …) (alarms N))` — after
 //!   `(robosim diagnose)`.
 //!
@@ -122,6 +124,9 @@ pub const TEMPLATES: &[&str] = &[
     "(deftemplate diagnosis (slot model) (multislot failure-modes) (multislot components) (slot alarms))",
     "(deftemplate robosim-error (slot command) (slot message))",
     "(deftemplate robosim-answer (slot op) (slot json))",
+    "(deftemplate sim-power (slot steps) (slot t) (slot power-kw) (slot battery-kwh) (slot capacity-kwh) (slot charge-eff) (slot discharge-eff) (slot eclipse) (slot to-eclipse-s) (slot eclipse-left-s) (slot eclipse-s) (slot period-s) (slot demand-kw))",
+    "(deftemplate sim-consumer (slot name) (slot priority) (slot mode) (slot full-kw) (slot reduced-kw) (slot served-kw))",
+    "(deftemplate sim-attitude (slot error-deg) (slot h-fraction) (slot saturation) (slot dumping) (slot desaturations))",
 ];
 
 /// What `--watch` may trace (CLIPS `watch` items).
@@ -288,6 +293,9 @@ impl Mirror {
                 ));
             }
         }
+        if let Some(ops) = sim.and_then(|s| s.pointer("/space/ops")).filter(|o| o.is_object()) {
+            ops_facts(sim.and_then(|s| s.get("space")), ops, &mut out);
+        }
         // The automation plant's ringing alarms (`robosim automation`): source the process,
         // kind the alarm's name, value the plant time it rang (s).
         for a in plant
@@ -339,6 +347,66 @@ impl Mirror {
         }
         self.facts = next;
         Ok(asserted)
+    }
+}
+
+/// The simulator's operations stage (`space.ops` of its state, issue 38 item 7) as facts:
+/// `(sim-power …)` (the step it was taken at, power, battery, the eclipse ahead, the demand),
+/// `(sim-consumer …)` per consumer (kW) and `(sim-attitude …)` when the attitude runs.
+fn ops_facts(space: Option<&Value>, ops: &Value, out: &mut Vec<(String, String, String)>) {
+    let f = |v: Option<&Value>| num(v.and_then(Value::as_f64).unwrap_or(0.0));
+    let kw = |v: Option<&Value>| num(v.and_then(Value::as_f64).unwrap_or(0.0) / 1e3);
+    let sp = |p: &str| space.and_then(|s| s.pointer(p));
+    let retract_all = |t: &str| format!("(do-for-all-facts ((?f {t})) TRUE (retract ?f))");
+    out.push((
+        "sim-power".into(),
+        format!(
+            "(sim-power (steps {}) (t {}) (power-kw {}) (battery-kwh {}) (capacity-kwh {}) (charge-eff {}) (discharge-eff {}) (eclipse {}) (to-eclipse-s {}) (eclipse-left-s {}) (eclipse-s {}) (period-s {}) (demand-kw {}))",
+            ops.get("steps").and_then(Value::as_u64).unwrap_or(0),
+            f(sp("/t_s")),
+            kw(sp("/power/power_w")),
+            f(sp("/power/battery_kwh")),
+            f(sp("/power/battery_capacity_kwh")),
+            f(ops.pointer("/battery/charge_eff")),
+            f(ops.pointer("/battery/discharge_eff")),
+            if sp("/eclipse") == Some(&Value::Bool(true)) { "yes" } else { "no" },
+            f(ops.get("to_eclipse_s")),
+            f(ops.get("eclipse_left_s")),
+            f(ops.get("eclipse_s")),
+            f(sp("/orbit/period_s")),
+            kw(ops.get("demand_w")),
+        ),
+        retract_all("sim-power"),
+    ));
+    for c in ops.get("consumers").and_then(Value::as_array).into_iter().flatten() {
+        let name = sym(c.get("name").and_then(Value::as_str).unwrap_or(""));
+        let s = |k: &str| sym(c.get(k).and_then(Value::as_str).unwrap_or("nil"));
+        out.push((
+            format!("sim-consumer {name}"),
+            format!(
+                "(sim-consumer (name {name}) (priority {}) (mode {}) (full-kw {}) (reduced-kw {}) (served-kw {}))",
+                s("priority"),
+                s("mode"),
+                kw(c.get("full_w")),
+                kw(c.get("reduced_w")),
+                kw(c.get("served_w")),
+            ),
+            format!("(do-for-all-facts ((?f sim-consumer)) (eq ?f:name {name}) (retract ?f))"),
+        ));
+    }
+    if let Some(a) = ops.get("attitude").filter(|a| a.is_object()) {
+        out.push((
+            "sim-attitude".into(),
+            format!(
+                "(sim-attitude (error-deg {}) (h-fraction {}) (saturation {}) (dumping {}) (desaturations {}))",
+                f(a.get("error_deg")),
+                f(a.get("h_fraction")),
+                f(a.get("saturation")),
+                if a.get("dumping") == Some(&Value::Bool(true)) { "yes" } else { "no" },
+                a.get("desaturations").and_then(Value::as_u64).unwrap_or(0),
+            ),
+            retract_all("sim-attitude"),
+        ));
     }
 }
 

@@ -23,6 +23,7 @@ const PROPS: &[&str] = &[
     "oru_swap",
     "attitude",
     "joint_friction",
+    "consumers",
 ];
 
 /// Every group an `effects { … }` block takes.
@@ -137,6 +138,12 @@ impl Evaluator<'_> {
                 }
             }
             "joint_limits" => fx.joint_limits = self.switch(value, scope)?,
+            "consumers" => {
+                fx.consumers = self.switch(value, scope)?;
+                if fx.consumers {
+                    *needs_orbit = Some((name_span, "consumers"));
+                }
+            }
             "encoder_bits" => {
                 fx.encoder = Some(EncoderEffect {
                     bits: self.count(value, scope, 1, 32)? as u32,

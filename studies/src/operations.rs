@@ -1,0 +1,574 @@
+//! `robosim study operations --orbits N --out DIR` (issue 38 item 7): the operational station
+//! as separate processes on one session, driven headless.
+//!
+//! The study starts scene [`SCENE`] on a session of its own (`robosim up` through
+//! [`robosim_launcher`]): the keeper, the simulator in lock-step, the rules process running
+//! `station_ops.clp` (the energy scheduler), the dataflow process running
+//! `momentum_manager.flow` (predicted time to saturation of the CMGs) and the automation plant
+//! (the ECLSS fault model). Who owns what:
+//!
+//! * **simulator** — orbit, sun tracking, power, battery, attitude and CMG momentum, the
+//!   consumers' served power in their modes; it publishes all of it in its state (`get`,
+//!   `space.ops`) and takes the rules' decisions as commands, acknowledging each;
+//! * **rules** — the scheduler: reads the state as facts, predicts the energy to the end of the
+//!   next eclipse, sheds and restores consumers by priority, then acknowledges the step;
+//! * **dataflow** — the momentum manager: |h|, its rate and the threshold → the predicted time
+//!   to saturation and the `desaturation_soon` alarm, in its process state;
+//! * **automation** — the ECLSS fault model whose injected faults ring alarms;
+//! * **this study** — the clock: it steps the simulator one decision interval at a time and
+//!   waits until the rules and the dataflow process have acted on that step (acknowledgement
+//!   and source value, not time), so the run is the same however fast the processes are; then
+//!   it records the row.
+//!
+//! Outputs: `operations.csv` (one row per decision interval), `operations_summary.{md,csv,png}`
+//! (desaturations and their interval, energy served and unserved per priority, the ledger,
+//! the decisions with their reasons, faults and alarms) and `operations_decisions.csv`.
+
+use crate::{Result, StudyError, bail, say};
+use robosim_instance_space::Session;
+use robosim_instance_space::state::CommandSender;
+use serde_json::{Value, json};
+use std::io::Write;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+/// The library scene the study runs.
+pub const SCENE: &str = "space_station_ops";
+
+/// The momentum manager's graph, compiled in (written into the session for its process).
+pub const MOMENTUM_MANAGER: &str = include_str!("../../automation/graphs/momentum_manager.flow");
+
+/// How long a process may take to act on one step before the study gives up, s (a condition
+/// waited on, not a pace: a process that died is said at once by its missing acknowledgement).
+const ACT_TIMEOUT: Duration = Duration::from_secs(120);
+
+#[derive(Debug, Clone)]
+pub struct OpsParams {
+    pub orbits: f64,
+    pub out: PathBuf,
+    /// Session name (default `ops-study-<pid>`).
+    pub session: Option<String>,
+    /// Simulated time between the rules' decisions (the study's row interval), s.
+    pub decide_every_s: f64,
+    /// Run the rules process (the scheduler); off measures what it is worth.
+    pub scheduler: bool,
+    /// Faults for the automation plant: (fault name, simulated time s).
+    pub faults: Vec<(String, f64)>,
+    /// Leave the session running at the end (for inspection).
+    pub keep: bool,
+}
+
+impl Default for OpsParams {
+    fn default() -> Self {
+        OpsParams {
+            orbits: 1.0,
+            out: PathBuf::from("operations"),
+            session: None,
+            decide_every_s: 60.0,
+            scheduler: true,
+            faults: Vec::new(),
+            keep: false,
+        }
+    }
+}
+
+/// Stops the session's processes (`robosim down`) when dropped, unless kept.
+struct Down {
+    name: String,
+    keep: bool,
+}
+
+impl Drop for Down {
+    fn drop(&mut self) {
+        if !self.keep {
+            let _ = robosim_launcher::down(Some(&self.name));
+        }
+    }
+}
+
+fn f(v: &Value, p: &str) -> f64 {
+    v.pointer(p).and_then(Value::as_f64).unwrap_or(f64::NAN)
+}
+
+/// One command to a session process's command channel (`dataflow`, …), its JSON answer.
+fn ask(
+    sender: &mut Option<CommandSender>,
+    session: &Session,
+    target: &str,
+    cmd: &Value,
+) -> Option<Value> {
+    if sender.is_none() {
+        *sender = CommandSender::open(session, target, &format!("ops-study-{target}")).ok();
+    }
+    let s = sender.as_mut()?;
+    match s.send(cmd.to_string().as_bytes(), Duration::from_secs(5)) {
+        Ok(a) => serde_json::from_slice(&a).ok(),
+        Err(_) => {
+            *sender = None;
+            None
+        }
+    }
+}
+
+/// One row of `operations.csv`.
+struct Row {
+    t: f64,
+    state: Value,
+    tts_s: f64,
+    soon: bool,
+}
+
+/// Runs the study (module docs); returns the session's final simulator state.
+pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
+    if !(p.orbits > 0.0 && p.orbits.is_finite()) {
+        bail!("--orbits {}: expected a positive number", p.orbits);
+    }
+    if !(p.decide_every_s > 0.0 && p.decide_every_s.is_finite()) {
+        bail!(
+            "--decide-every {}: expected a positive number of seconds",
+            p.decide_every_s
+        );
+    }
+    std::fs::create_dir_all(&p.out).map_err(|e| StudyError(format!("{}: {e}", p.out.display())))?;
+    let name = p
+        .session
+        .clone()
+        .unwrap_or_else(|| format!("ops-study-{}", std::process::id()));
+    let graph = p.out.join("momentum_manager.flow");
+    std::fs::write(&graph, MOMENTUM_MANAGER)
+        .map_err(|e| StudyError(format!("{}: {e}", graph.display())))?;
+    let graph = std::path::absolute(&graph)?;
+    let mut with = vec![
+        "simulator".to_owned(),
+        format!("dataflow={}", graph.display()),
+        "automation".to_owned(),
+    ];
+    if p.scheduler {
+        with.push("rules=station_ops".to_owned());
+    }
+    say!(
+        log,
+        "== session {name}: robosim up {SCENE} --with {} (simulator lock-step)",
+        with.join(",")
+    );
+    robosim_launcher::up_with_library(SCENE, &with, Some(&name), &[], true, Some("lockstep"))?;
+    let _down = Down {
+        name: name.clone(),
+        keep: p.keep,
+    };
+    let session = Session::open(Some(&name))?;
+    let mut planner = robosim_hl_interface::planner::Planner::attach(&name)?;
+    let mut dataflow = None;
+    let mut plant = None;
+    let s0 = planner.sim_state()?;
+    let dt = s0.get("dt_s").and_then(Value::as_f64).unwrap_or(10.0);
+    let period = f(&s0, "/space/orbit/period_s");
+    if !period.is_finite() || s0.pointer("/space/ops/consumers").is_none() {
+        bail!(
+            "the simulator of {SCENE} publishes no operations state (space.ops): is the scene's attitude/consumers effect declared?"
+        );
+    }
+    let chunk = (p.decide_every_s / dt).round().max(1.0) as u64;
+    let total = ((p.orbits * period) / dt).round() as u64;
+    say!(
+        log,
+        "== {} orbit(s) of {period:.0} s: {total} steps of {dt} s, decisions every {chunk} step(s)",
+        p.orbits
+    );
+    let mut faults = p.faults.clone();
+    faults.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut fault_log: Vec<String> = Vec::new();
+    let mut alarms_seen: Vec<String> = Vec::new();
+    let mut rows = Vec::new();
+    let mut done = 0u64;
+    let started = Instant::now();
+    while done < total {
+        let n = chunk.min(total - done);
+        let st = planner.sim_step(n)?;
+        done += n;
+        let steps = st
+            .pointer("/space/ops/steps")
+            .and_then(Value::as_u64)
+            .unwrap_or(0);
+        let t = f(&st, "/space/t_s");
+        // the rules and the momentum manager act on this step before the next
+        let wait = Instant::now();
+        let (state, df) = loop {
+            let s = planner.sim_state()?;
+            let rules_ok = !p.scheduler
+                || s.pointer("/space/ops/acks/rules").and_then(Value::as_u64) >= Some(steps);
+            let df = ask(&mut dataflow, &session, "dataflow", &json!({"cmd": "get"}));
+            let df_steps = df
+                .as_ref()
+                .and_then(|d| d.pointer("/values/steps")?.as_f64())
+                .unwrap_or(-1.0);
+            if rules_ok && df_steps >= steps as f64 {
+                break (s, df);
+            }
+            if wait.elapsed() > ACT_TIMEOUT {
+                bail!(
+                    "step {steps} (t = {t} s): {} within {ACT_TIMEOUT:?} (see the session's run/*.log)",
+                    if rules_ok {
+                        "the dataflow process did not take the step"
+                    } else {
+                        "the rules process did not acknowledge the step"
+                    }
+                );
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        };
+        let df = df.unwrap_or(Value::Null);
+        // faults due by now go to the plant; its alarms are recorded
+        while faults.first().is_some_and(|(_, at)| *at <= t) {
+            let (fault, at) = faults.remove(0);
+            let r = ask(
+                &mut plant,
+                &session,
+                robosim_hl_interface::plant::SERVICE,
+                &json!({"cmd": "fault", "fault": fault}),
+            );
+            fault_log.push(format!(
+                "{fault} injected at t = {at:.0} s (asked at {t:.0} s): {}",
+                if r.is_some() {
+                    "taken by the plant"
+                } else {
+                    "the plant did not answer"
+                }
+            ));
+        }
+        if let Some(pl) = ask(
+            &mut plant,
+            &session,
+            robosim_hl_interface::plant::SERVICE,
+            &json!({"cmd": "get"}),
+        ) {
+            for a in pl
+                .get("alarms")
+                .and_then(Value::as_array)
+                .into_iter()
+                .flatten()
+            {
+                let text = format!(
+                    "{} {}",
+                    a.get("process").and_then(Value::as_str).unwrap_or("?"),
+                    a.get("alarm").and_then(Value::as_str).unwrap_or("?")
+                );
+                if !alarms_seen.contains(&text) {
+                    fault_log.push(format!("alarm {text} seen at t = {t:.0} s"));
+                    alarms_seen.push(text);
+                }
+            }
+        }
+        rows.push(Row {
+            t,
+            tts_s: df
+                .pointer("/values/time_to_saturation")
+                .and_then(Value::as_f64)
+                .unwrap_or(f64::NAN),
+            soon: df
+                .get("alarms")
+                .and_then(Value::as_array)
+                .is_some_and(|a| a.iter().any(|x| x.as_str() == Some("desaturation_soon"))),
+            state,
+        });
+    }
+    let wall = started.elapsed().as_secs_f64();
+    let last = planner.sim_state()?;
+    write_outputs(p, period, &rows, &last, &fault_log, wall, log)?;
+    Ok(last)
+}
+
+fn write_outputs(
+    p: &OpsParams,
+    period: f64,
+    rows: &[Row],
+    last: &Value,
+    fault_log: &[String],
+    wall: f64,
+    log: &mut dyn Write,
+) -> Result<()> {
+    let consumers: Vec<String> = last
+        .pointer("/space/ops/consumers")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter_map(|c| c.get("name")?.as_str().map(str::to_owned))
+        .collect();
+    // --- operations.csv
+    let mut csv = String::from(
+        "t_s,orbit,attitude_error_deg,cmg_momentum_nms,cmg_capacity_fraction,desaturating,power_kw,battery_kwh,battery_soc,demand_kw,predicted_time_to_saturation_s,desaturation_soon",
+    );
+    for c in &consumers {
+        csv.push_str(&format!(",{c}_served_kw,{c}_shed"));
+    }
+    csv.push('\n');
+    for r in rows {
+        let s = &r.state;
+        let a = |k: &str| f(s, &format!("/space/ops/attitude/{k}"));
+        csv.push_str(&format!(
+            "{},{:.5},{:.6},{:.3},{:.5},{},{:.3},{:.3},{:.5},{:.3},{:.1},{}",
+            r.t,
+            r.t / period,
+            a("error_deg"),
+            a("h_nms"),
+            a("h_fraction"),
+            u8::from(s.pointer("/space/ops/attitude/dumping") == Some(&Value::Bool(true))),
+            f(s, "/space/power/power_w") / 1e3,
+            f(s, "/space/power/battery_kwh"),
+            f(s, "/space/power/battery_soc"),
+            f(s, "/space/ops/demand_w") / 1e3,
+            r.tts_s,
+            u8::from(r.soon)
+        ));
+        for c in s
+            .pointer("/space/ops/consumers")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            csv.push_str(&format!(
+                ",{:.3},{}",
+                c.get("served_w")
+                    .and_then(Value::as_f64)
+                    .unwrap_or(f64::NAN)
+                    / 1e3,
+                u8::from(c.get("shed") == Some(&Value::Bool(true)))
+            ));
+        }
+        csv.push('\n');
+    }
+    let path = p.out.join("operations.csv");
+    std::fs::write(&path, csv).map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
+    // --- decisions
+    let ops = last.pointer("/space/ops").cloned().unwrap_or(Value::Null);
+    let decisions: Vec<&Value> = ops
+        .get("decisions")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .collect();
+    let total_decisions = ops
+        .get("decisions_total")
+        .and_then(Value::as_u64)
+        .unwrap_or(0);
+    let mut dcsv = String::from("seq,steps,t_s,orbit,rule,consumer,mode,reason\n");
+    for d in &decisions {
+        let t = d.get("t_s").and_then(Value::as_f64).unwrap_or(f64::NAN);
+        dcsv.push_str(&format!(
+            "{},{},{t},{:.4},{},{},{},\"{}\"\n",
+            d.get("seq").and_then(Value::as_u64).unwrap_or(0),
+            d.get("steps").and_then(Value::as_u64).unwrap_or(0),
+            t / period,
+            d.get("rule").and_then(Value::as_str).unwrap_or(""),
+            d.get("consumer").and_then(Value::as_str).unwrap_or(""),
+            d.get("mode").and_then(Value::as_str).unwrap_or(""),
+            d.get("reason")
+                .and_then(Value::as_str)
+                .unwrap_or("")
+                .replace('"', "'")
+        ));
+    }
+    let path = p.out.join("operations_decisions.csv");
+    std::fs::write(&path, dcsv).map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
+    // --- summary
+    let starts: Vec<f64> = ops
+        .pointer("/attitude/dump_starts_s")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter_map(Value::as_f64)
+        .collect();
+    let mean_interval = (starts.len() >= 2)
+        .then(|| (starts[starts.len() - 1] - starts[0]) / (starts.len() - 1) as f64 / period);
+    let mut table_rows = vec![
+        vec!["orbits run".into(), format!("{}", p.orbits), "".into()],
+        vec![
+            "scheduler (rules process, station_ops.clp)".into(),
+            if p.scheduler { "on" } else { "off" }.into(),
+            "".into(),
+        ],
+        vec!["desaturations".into(), starts.len().to_string(), "".into()],
+        vec![
+            "mean interval between desaturations".into(),
+            mean_interval.map_or("– (fewer than two)".into(), |i| format!("{i:.2}")),
+            "orbits (the seed: about every tenth orbit)".into(),
+        ],
+        vec![
+            "largest attitude error at a recorded step".into(),
+            format!(
+                "{:.4}",
+                rows.iter()
+                    .map(|r| f(&r.state, "/space/ops/attitude/error_deg"))
+                    .fold(0.0, f64::max)
+            ),
+            "deg".into(),
+        ],
+        vec![
+            "lowest battery state of charge at a recorded step".into(),
+            format!(
+                "{:.3}",
+                rows.iter()
+                    .map(|r| f(&r.state, "/space/power/battery_soc"))
+                    .fold(1.0, f64::min)
+            ),
+            "".into(),
+        ],
+    ];
+    for pr in ["vital", "reducible", "sheddable"] {
+        table_rows.push(vec![
+            format!("energy served / unserved, {pr}"),
+            format!(
+                "{:.2} / {:.2}",
+                f(&ops, &format!("/served_kwh/{pr}")),
+                f(&ops, &format!("/unserved_kwh/{pr}"))
+            ),
+            "kWh".into(),
+        ]);
+    }
+    let l = |k: &str| f(&ops, &format!("/ledger_kwh/{k}"));
+    let residue = l("produced") - (l("served") + l("shunted") + l("stored") + l("losses"));
+    table_rows.push(vec![
+        "ledger: produced = served + shunted + Δstored + losses".into(),
+        format!(
+            "{:.2} = {:.2} + {:.2} + {:.2} + {:.2} (residue {residue:.2e})",
+            l("produced"),
+            l("served"),
+            l("shunted"),
+            l("stored"),
+            l("losses")
+        ),
+        "kWh".into(),
+    ]);
+    table_rows.push(vec![
+        "decisions (rule firings the simulator acknowledged)".into(),
+        total_decisions.to_string(),
+        "".into(),
+    ]);
+    table_rows.push(vec!["wall time".into(), format!("{wall:.1}"), "s".into()]);
+    let mut notes = vec![format!(
+        "Scene {SCENE} run as separate processes on one session: the simulator (orbit, tracking, power, battery, attitude, consumers), the rules process (station_ops.clp: {}), the dataflow process (momentum_manager.flow), the automation plant (ECLSS fault model). The study steps the simulator {} s at a time and waits for the rules' acknowledgement and the dataflow's pass on each step before the next.",
+        if p.scheduler { "on" } else { "not started" },
+        p.decide_every_s
+    )];
+    notes.push("Decisions (orbit, rule, consumer → mode: reason):".into());
+    for d in &decisions {
+        notes.push(format!(
+            "* orbit {:.3}: {} — {} → {}: {}",
+            d.get("t_s").and_then(Value::as_f64).unwrap_or(f64::NAN) / period,
+            d.get("rule").and_then(Value::as_str).unwrap_or(""),
+            d.get("consumer").and_then(Value::as_str).unwrap_or(""),
+            d.get("mode").and_then(Value::as_str).unwrap_or(""),
+            d.get("reason").and_then(Value::as_str).unwrap_or("")
+        ));
+    }
+    if decisions.is_empty() {
+        notes.push("* none".into());
+    }
+    notes.push("Faults and reactions:".into());
+    if fault_log.is_empty() {
+        notes.push("* none injected, no alarm rang".into());
+    }
+    notes.extend(fault_log.iter().map(|x| format!("* {x}")));
+    notes.push("Reactions to faults: the plant's alarms are recorded; no consumer's demand follows a diagnosed fault in this session run yet (the in-process station study does that, `--fault`).".into());
+    let series = |label: &str, g: &dyn Fn(&Row) -> f64| robosim_report::Series {
+        label: label.into(),
+        points: rows.iter().map(|r| (r.t / period, g(r))).collect(),
+    };
+    let mut power_series = vec![
+        series("array power (kW)", &|r| {
+            f(&r.state, "/space/power/power_w") / 1e3
+        }),
+        series("demand (kW)", &|r| f(&r.state, "/space/ops/demand_w") / 1e3),
+        series("battery (kWh)", &|r| {
+            f(&r.state, "/space/power/battery_kwh")
+        }),
+    ];
+    for (k, c) in consumers.iter().enumerate() {
+        if c == "station_base" {
+            continue;
+        }
+        power_series.push(series(&format!("{c} served (kW)"), &|r| {
+            f(&r.state, &format!("/space/ops/consumers/{k}/served_w")) / 1e3
+        }));
+    }
+    let report = robosim_report::Report {
+        name: "operations_summary".into(),
+        title: format!(
+            "The operational station: {} orbit(s), processes on one session",
+            p.orbits
+        ),
+        notes,
+        table: robosim_report::Table {
+            columns: vec!["quantity".into(), "value".into(), "unit".into()],
+            rows: table_rows,
+        },
+        plots: vec![
+            robosim_report::Plot {
+                title: "CMG momentum".into(),
+                x_label: "orbits".into(),
+                y_label: "fraction of capacity / flags".into(),
+                series: vec![
+                    series("|h| / capacity", &|r| {
+                        f(&r.state, "/space/ops/attitude/h_fraction")
+                    }),
+                    series("desaturating", &|r| {
+                        f64::from(u8::from(
+                            r.state.pointer("/space/ops/attitude/dumping")
+                                == Some(&Value::Bool(true)),
+                        ))
+                    }),
+                    series("desaturation_soon (dataflow)", &|r| {
+                        f64::from(u8::from(r.soon))
+                    }),
+                ],
+                ..Default::default()
+            },
+            robosim_report::Plot {
+                title: "Attitude error".into(),
+                x_label: "orbits".into(),
+                y_label: "deg".into(),
+                series: vec![series("attitude error", &|r| {
+                    f(&r.state, "/space/ops/attitude/error_deg")
+                })],
+                ..Default::default()
+            },
+            robosim_report::Plot {
+                title: "Power, battery, consumers".into(),
+                x_label: "orbits".into(),
+                y_label: "kW / kWh".into(),
+                series: power_series,
+                ..Default::default()
+            },
+        ],
+    };
+    for n in &report.notes[..1] {
+        say!(log, "{n}");
+    }
+    for r in &report.table.rows {
+        say!(log, "  {}: {} {}", r[0], r[1], r[2]);
+    }
+    let written = robosim_report::write_report(&p.out, &report)?;
+    say!(log, "wrote {}", p.out.join("operations.csv").display());
+    say!(
+        log,
+        "wrote {}",
+        p.out.join("operations_decisions.csv").display()
+    );
+    for w in written {
+        say!(log, "wrote {}", w.display());
+    }
+    Ok(())
+}
+
+/// `FAULT@SECONDS` (`--fault`).
+pub fn parse_fault(s: &str) -> Result<(String, f64)> {
+    let Some((name, at)) = s.rsplit_once('@') else {
+        bail!("--fault {s:?}: expected FAULT@SECONDS (pump_failure@3000)");
+    };
+    let at: f64 = at
+        .parse()
+        .ok()
+        .filter(|x: &f64| x.is_finite() && *x >= 0.0)
+        .ok_or_else(|| StudyError(format!("--fault {s:?}: {at:?} is not a time in seconds")))?;
+    Ok((name.to_owned(), at))
+}
