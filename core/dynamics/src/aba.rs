@@ -33,6 +33,9 @@ pub(crate) fn aba_unchecked(
     qd: &[f64],
     tau: &[f64],
 ) -> Result<(), DynamicsError> {
+    if model.spherical {
+        return crate::spherical::aba(model, data, q, qd, tau);
+    }
     let n = model.dof();
     // a floating root's velocity coordinates come first (r of them; 0 for a fixed base)
     let r = model.root_dims().1;
@@ -121,7 +124,7 @@ pub(crate) fn aba_unchecked(
 /// `u = τ_root − Sᵀ pᴬ`, the root's q̈ is `D⁻¹ (u − Uᵀ X a₀)` and its acceleration
 /// `X a₀ + S q̈` (no velocity-product term: the root hangs from the fixed world). Fills
 /// `data.qdd[..k]` and `data.root.a`, returns the acceleration.
-fn root_acceleration(
+pub(crate) fn root_acceleration(
     root: &crate::model::RootBody,
     data: &mut Data,
     tau: &[f64],

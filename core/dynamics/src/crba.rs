@@ -21,6 +21,9 @@ pub fn crba<'d>(
 }
 
 pub(crate) fn crba_pass(model: &Model, data: &mut Data) {
+    if model.spherical {
+        return crate::spherical::crba_pass(model, data);
+    }
     let n = model.dof();
     // a floating root's coordinates come first (r of them; 0 for a fixed base)
     let r = model.root_dims().1;

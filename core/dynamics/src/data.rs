@@ -40,6 +40,8 @@ pub struct Data {
     /// A floating robot's root body (link frame 0): its transform from the base frame, velocity,
     /// acceleration, force, composite and articulated inertia, bias force.
     pub(crate) root: RootData,
+    /// ABA's per-joint quantities of spherical joints (empty without one).
+    pub(crate) ball: Vec<crate::spherical::BallScratch>,
 }
 
 /// The root body's per-call quantities (unused for a fixed base).
@@ -87,6 +89,11 @@ impl Data {
                 ia: Matrix6::zeros(),
                 pa: Vector6::zeros(),
             },
+            ball: if model.spherical {
+                vec![crate::spherical::BallScratch::default(); n]
+            } else {
+                Vec::new()
+            },
         }
     }
 
@@ -94,6 +101,9 @@ impl Data {
     /// joint's motion (see the model's module docs), and a floating root's `root.x` (base frame
     /// → link frame 0). Depends only on q. `q.len() == model.nq()` is the caller's invariant.
     pub(crate) fn update_transforms(&mut self, model: &Model, q: &[f64]) {
+        if model.spherical {
+            return crate::spherical::update_transforms(self, model, q);
+        }
         let q = match &model.root {
             Some(root) => {
                 let (qr, qj) = q.split_at(root.kind.nq());

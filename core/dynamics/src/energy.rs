@@ -32,6 +32,9 @@ pub fn energy(
 }
 
 pub(crate) fn energy_unchecked(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Energy {
+    if model.spherical {
+        return crate::spherical::energy(model, data, q, qd);
+    }
     data.update_transforms(model, q);
     let base = &model.robot.base;
     let base_rot = base.fixed_view::<3, 3>(0, 0).into_owned();
@@ -85,6 +88,9 @@ pub fn kinetic_gradient<'d>(
 ) -> Result<&'d nalgebra::DVector<f64>, DynamicsError> {
     model.check_q(q)?;
     model.check_vector("qd", qd)?;
+    model
+        .robot
+        .refuse_spherical("the kinetic-energy gradient")?;
     data.update_transforms(model, q);
     kinetic_gradient_pass(model, data, qd);
     Ok(&data.tau)

@@ -121,6 +121,7 @@ pub fn passive_torque(
     out: &mut [f64],
 ) -> Result<(), DynamicsError> {
     model.check_vector("qd", qd)?;
+    model.robot.refuse_spherical("joint friction")?;
     if out.len() != model.nv() {
         return Err(DynamicsError::WrongLength {
             field: "passive",
@@ -255,6 +256,7 @@ pub fn friction_torque<'d>(
     model.check_vector("qd", qd)?;
     model.check_vector("tau", tau)?;
     friction.validate()?;
+    model.robot.refuse_spherical("joint friction")?;
     friction_torque_unchecked(model, data, q, qd, tau, friction)
 }
 

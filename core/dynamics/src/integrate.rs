@@ -266,6 +266,9 @@ impl Stepper {
         friction: JointFriction,
     ) -> Result<Stepper, DynamicsError> {
         friction.validate()?;
+        if friction.acts_on(model) {
+            model.robot.refuse_spherical("joint friction")?;
+        }
         self.friction = friction.acts_on(model).then_some(friction);
         Ok(self)
     }
@@ -382,6 +385,11 @@ impl Stepper {
     ) -> Result<(), DynamicsError> {
         self.t_step = state.t;
         if self.config.integrator == Integrator::SemiImplicitEuler {
+            if model.spherical {
+                model
+                    .robot
+                    .refuse_spherical("the symplectic Euler integrator")?;
+            }
             self.symplectic_euler(model, state, tau, h)?;
             state.t += h;
             self.stats.accepted += 1;
@@ -393,7 +401,7 @@ impl Stepper {
         state.qdd.copy_from(&self.kv[0]);
         match self.config.integrator {
             Integrator::Euler => {
-                if model.root.is_some() {
+                if model.root.is_some() || model.spherical {
                     // q ⊕ h q̇ on the manifold
                     integrate_q(model, &mut state.q, &self.yv, h);
                 } else {
@@ -796,6 +804,9 @@ fn finish_step(model: &Model, state: &mut State, joint_stops: bool) -> Result<bo
 /// `q̇` in q's coordinates at (q, v) (`out` has nq entries): `v` itself for a fixed base, a
 /// floating root's embedding derivative ([`robosim_kinematics::RootKind::q_dot`]) otherwise.
 fn q_dot(model: &Model, q: &DVector<f64>, v: &DVector<f64>, out: &mut DVector<f64>) {
+    if model.spherical {
+        return spherical_q(model, q.as_slice(), v.as_slice(), out.as_mut_slice());
+    }
     let Some(root) = &model.root else {
         out.copy_from(v);
         return;
@@ -812,6 +823,9 @@ fn q_dot(model: &Model, q: &DVector<f64>, v: &DVector<f64>, out: &mut DVector<f6
 /// `q ← q ⊕ h v`: a floating root moved on its manifold ([`robosim_kinematics::RootKind::integrate`]),
 /// the joints by `h v`.
 fn integrate_q(model: &Model, q: &mut DVector<f64>, v: &DVector<f64>, h: f64) {
+    if model.spherical {
+        return spherical_integrate(model, q.as_mut_slice(), v.as_slice(), h);
+    }
     let Some(root) = &model.root else {
         q.axpy(h, v, 1.0);
         return;
@@ -836,6 +850,53 @@ fn normalize_root(model: &Model, q: &mut DVector<f64>) {
     if let Some(root) = &model.root {
         root.kind.normalize(&mut q.as_mut_slice()[..root.kind.nq()]);
     }
+    if model.spherical {
+        for link in model.links.iter().filter(|l| l.spherical) {
+            robosim_kinematics::spherical::quat_normalize(&mut q.as_mut_slice()[link.iq..]);
+        }
+    }
+}
+
+/// [`q_dot`] for a robot with spherical joints: `out` = dq/dt in q's embedding, the root's and
+/// each quaternion's ([`robosim_kinematics::spherical::quat_dot`]) from their velocities, the
+/// other joints' `v`.
+fn spherical_q(model: &Model, q: &[f64], v: &[f64], out: &mut [f64]) {
+    use robosim_kinematics::spherical::quat_dot;
+    if let Some(root) = &model.root {
+        let (nqr, nvr) = (root.kind.nq(), root.kind.nv());
+        root.kind.q_dot(&q[..nqr], &v[..nvr], &mut out[..nqr]);
+    }
+    for link in &model.links {
+        let (iq, iv) = (link.iq, link.iv);
+        if link.spherical {
+            quat_dot(&q[iq..iq + 4], &v[iv..iv + 3], &mut out[iq..iq + 4]);
+        } else {
+            out[iq] = v[iv];
+        }
+    }
+}
+
+/// [`integrate_q`] for a robot with spherical joints: `q ← q ⊕ h v`, the root and each
+/// quaternion on its manifold ([`robosim_kinematics::spherical::quat_integrate`], `q ⊗ exp(h ω)`,
+/// renormalised), the other joints `q + h v`. Allocates nothing.
+fn spherical_integrate(model: &Model, q: &mut [f64], v: &[f64], h: f64) {
+    use robosim_kinematics::spherical::quat_integrate;
+    if let Some(root) = &model.root {
+        let (nqr, nvr) = (root.kind.nq(), root.kind.nv());
+        let mut qr = [0.0; 7];
+        qr[..nqr].copy_from_slice(&q[..nqr]);
+        root.kind.integrate(&qr[..nqr], &v[..nvr], h, &mut q[..nqr]);
+    }
+    for link in &model.links {
+        let (iq, iv) = (link.iq, link.iv);
+        if link.spherical {
+            let mut from = [0.0; 4];
+            from.copy_from_slice(&q[iq..iq + 4]);
+            quat_integrate(&from, &v[iv..iv + 3], h, &mut q[iq..iq + 4]);
+        } else {
+            q[iq] += h * v[iv];
+        }
+    }
 }
 
 /// The inelastic joint stop: a joint below `qlim[0]` (above `qlim[1]`) is set to the limit and a
@@ -846,7 +907,15 @@ pub fn apply_joint_stops(model: &Model, state: &mut State) -> bool {
     let mut any = false;
     let (nqr, nvr) = model.root_dims();
     for (j, link) in model.links.iter().enumerate() {
-        let (j, jv) = (nqr + j, nvr + j);
+        // a spherical joint's cone limit is not enforced
+        if link.spherical {
+            continue;
+        }
+        let (j, jv) = if model.spherical {
+            (link.iq, link.iv)
+        } else {
+            (nqr + j, nvr + j)
+        };
         let [lo, hi] = link.joint.qlim;
         if state.q[j] < lo {
             state.q[j] = lo;

@@ -12,6 +12,11 @@
 //! * [`crba`] (mass matrix), [`fd_cholesky`] — composite-rigid-body algorithm and M⁻¹ by Cholesky.
 //! * [`aba`] — forward dynamics by the articulated-body algorithm.
 //! * [`energy`] — kinetic + potential energy.
+//! * Spherical (ball) joints (`robosim_kinematics::Joint::spherical`, Pinocchio's layout: 4 q,
+//!   3 v) go through RNEA, CRBA, ABA, gravity, energy and the explicit integrators (Euler, RK4,
+//!   Dormand–Prince; the quaternion integrated on the manifold and kept unit). Refused by name
+//!   (`ModelError::SphericalUnsupported`): the symplectic Euler step and the kinetic-energy
+//!   gradient it uses, joint friction and the mimic coupling.
 //! * [`mimic`] — RNEA, gravity, CRBA and forward dynamics over the reduced coordinates of a
 //!   robot with mimic joints (`robosim_kinematics::mimic::Coupling`).
 //! * [`Stepper`], [`simulate`], [`state_hash`] — explicit / semi-implicit Euler, RK4 and
@@ -43,6 +48,7 @@ pub mod mimic;
 mod model;
 mod rnea;
 mod spatial;
+mod spherical;
 
 pub use aba::aba;
 pub use crba::{crba, fd_cholesky};

@@ -54,6 +54,7 @@ fn check(
     field: &'static str,
     x: &[f64],
 ) -> Result<(), DynamicsError> {
+    model.robot.refuse_spherical("the mimic coupling")?;
     for (what, expected, got) in [
         ("coupling joints", model.dof(), coupling.full_dof()),
         ("coupling nq", model.nq(), coupling.full_nq()),

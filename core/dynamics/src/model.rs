@@ -118,6 +118,12 @@ pub(crate) struct Link {
     pub motor_inertia: f64,
     pub viscous: f64,
     pub coulomb: f64,
+    /// A spherical joint (3 v, 4 q; see [`crate::spherical`]): `axis`, `offset`, `motor` and
+    /// `s` are not read.
+    pub spherical: bool,
+    /// Where this joint's coordinates start in q and in v (the root's first).
+    pub iq: usize,
+    pub iv: usize,
 }
 
 /// A floating robot's root body (link frame 0) and its joint (see `robosim_kinematics::root`):
@@ -169,6 +175,9 @@ pub struct Model {
     pub(crate) robot: Robot,
     /// A floating robot's root body; `None`: fixed base.
     pub(crate) root: Option<RootBody>,
+    /// Whether a joint is spherical: the passes then run [`crate::spherical`]'s multi-coordinate
+    /// recursions (one flag test; a robot without one takes the one-coordinate code unchanged).
+    pub(crate) spherical: bool,
 }
 
 impl Model {
@@ -180,6 +189,7 @@ impl Model {
         // T_k of every body so far (index 0: the base, identity), for C_j = T_parent · P_j.
         let mut trailings: Vec<Matrix4<f64>> = Vec::with_capacity(robot.dof() + 1);
         trailings.push(Matrix4::identity());
+        let (mut iq, mut iv) = (robot.root_nq(), robot.root_nv());
         for (j, jt) in robot.joints.iter().enumerate() {
             let asym = (jt.inertia - jt.inertia.transpose()).abs().max();
             if asym > 1e-9 * (1.0 + jt.inertia.abs().max()) {
@@ -246,7 +256,13 @@ impl Model {
                 motor_inertia: jt.motor_inertia,
                 viscous: jt.viscous,
                 coulomb: jt.coulomb,
+                spherical: jt.spherical,
+                iq,
+                iv,
             });
+            let (nq, nv) = if jt.spherical { (4, 3) } else { (1, 1) };
+            iq += nq;
+            iv += nv;
         }
         let rot = robot.base.fixed_view::<3, 3>(0, 0).into_owned();
         if let Some(r) = &robot.root {
@@ -265,11 +281,12 @@ impl Model {
             gravity_base: rot.tr_mul(&robot.gravity),
             robot: robot.clone(),
             root: robot.root.as_ref().map(RootBody::new),
+            spherical: robot.has_spherical(),
         })
     }
 
-    /// Number of (one-coordinate) joints, the root joint not counted; `nq = nv = dof` for a
-    /// fixed-base robot.
+    /// Number of joints, the root joint not counted; `nq = nv = dof` for a fixed-base robot
+    /// without spherical joints (each has 4 q and 3 v).
     pub fn dof(&self) -> usize {
         self.links.len()
     }
@@ -308,7 +325,7 @@ impl Model {
     /// ([`Robot::check_q`]).
     pub fn check_q(&self, q: &[f64]) -> Result<(), DynamicsError> {
         self.check_len("q", q, self.nq())?;
-        if self.root.is_some() {
+        if self.root.is_some() || self.spherical {
             self.robot.check_q(q)?;
         }
         Ok(())

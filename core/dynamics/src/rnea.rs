@@ -97,6 +97,9 @@ pub(crate) fn rnea_pass(
     qdd: Option<&[f64]>,
     terms: Terms,
 ) {
+    if model.spherical {
+        return crate::spherical::rnea_pass(model, data, qd, qdd, terms);
+    }
     let n = model.dof();
     let a0 = if terms.gravity {
         Motion {

@@ -5,6 +5,8 @@
 
 mod common;
 
+mod ball;
+
 mod floating;
 mod friction;
 mod hard_cases;

@@ -81,6 +81,9 @@ pub enum SegmentKind {
     Prismatic,
     /// No coordinate: folded (see the module docs).
     Fixed,
+    /// A spherical (ball) joint about the joint frame's origin: a [`Joint::spherical`] joint
+    /// (4 q, 3 v; axis and limits not read — a cone limit has no place in `qlim`).
+    Spherical,
     /// A floating robot's root joint (URDF's `floating` and `planar`): it must be the first
     /// segment and hang from the root link. It becomes [`Robot::root`], its placement the
     /// robot's `base`, its child link link frame 0 (what is rigid with it lumped into the
@@ -133,7 +136,9 @@ pub fn build_chain(name: &str, segments: &[Segment]) -> BuiltChain {
     for (k, seg) in segments.iter().enumerate() {
         let (joint_type, qlim) = match seg.kind {
             SegmentKind::Revolute => (JointType::Revolute, seg.qlim),
-            SegmentKind::Continuous => (JointType::Revolute, [f64::NEG_INFINITY, f64::INFINITY]),
+            SegmentKind::Continuous | SegmentKind::Spherical => {
+                (JointType::Revolute, [f64::NEG_INFINITY, f64::INFINITY])
+            }
             SegmentKind::Prismatic => (JointType::Prismatic, seg.qlim),
             SegmentKind::Root(kind) if k == 0 => {
                 root = Some((kind, seg.placement));
@@ -154,6 +159,7 @@ pub fn build_chain(name: &str, segments: &[Segment]) -> BuiltChain {
             qlim,
             viscous: seg.viscous,
             coulomb: seg.coulomb,
+            spherical: seg.kind == SegmentKind::Spherical,
             origin: Some(Origin {
                 placement: pending * seg.placement,
                 axis: seg.axis,
@@ -229,7 +235,9 @@ pub fn build_tree(name: &str, segments: &[Segment], parents: &[Option<usize>]) -
         };
         let (joint_type, qlim) = match seg.kind {
             SegmentKind::Revolute => (JointType::Revolute, seg.qlim),
-            SegmentKind::Continuous => (JointType::Revolute, [f64::NEG_INFINITY, f64::INFINITY]),
+            SegmentKind::Continuous | SegmentKind::Spherical => {
+                (JointType::Revolute, [f64::NEG_INFINITY, f64::INFINITY])
+            }
             SegmentKind::Prismatic => (JointType::Prismatic, seg.qlim),
             SegmentKind::Root(kind) if k == 0 && parent.is_none() => {
                 root = Some((kind, seg.placement));
@@ -253,6 +261,7 @@ pub fn build_tree(name: &str, segments: &[Segment], parents: &[Option<usize>]) -
             qlim,
             viscous: seg.viscous,
             coulomb: seg.coulomb,
+            spherical: seg.kind == SegmentKind::Spherical,
             origin: Some(Origin {
                 placement: pending * seg.placement,
                 axis: seg.axis,

@@ -41,8 +41,12 @@
 //! floating base (`Robot::root`, a free-flyer, docs/dynamics.md "Floating bases"): its q and v
 //! are robosim's (Pinocchio's) — `x y z qx qy qz qw`, the velocity on the body's own axes —
 //! where MuJoCo's qpos is `x y z qw qx qy qz` and its qvel's linear part is in the world frame.
-//! Refused, by name: `ball` joints, and a `free` joint anywhere else: robosim's kinematics has
-//! no spherical joint and only the root may be floating; `<include>` (import the included file,
+//! A `ball` joint is a spherical joint (`Joint::spherical`, Pinocchio's `JointModelSpherical`,
+//! docs/dynamics.md "Spherical joints"): 4 q, robosim's quaternion order `qx qy qz qw` where
+//! MuJoCo's qpos is `qw qx qy qz`, and 3 v, the angular velocity in the body frame as MuJoCo's
+//! qvel; so q here is MuJoCo's qpos with each ball's quaternion reordered. Its `range` (a cone
+//! limit, `0 max`) is noted in [`UrdfRobot::notes`], not enforced; `axis` and `ref` do not apply.
+//! Refused, by name: a `free` joint anywhere but the root (only the root may be floating); `<include>` (import the included file,
 //! or merge them); `<frame>` (MuJoCo ≥ 3.2); `<compiler coordinate="global">`; malformed
 //! numbers and unknown classes or meshes — each error names the file, line and element.
 //! `<equality><joint>` (MuJoCo's mimic, `y − y₀ = a₀ + a₁ (x − x₀)`) is read into
@@ -82,9 +86,9 @@ pub enum MjcfErrorKind {
         value: String,
         expected: &'static str,
     },
-    /// A ball or free joint (see the module docs).
+    /// A free joint elsewhere than the root (see the module docs).
     #[error(
-        "joint {joint:?} is a {kind} joint: robosim's kinematics has no {kind} joint yet (hinge and slide joints are imported; a free joint only as the one joint of the first body of the worldbody: a floating base)"
+        "joint {joint:?} is a {kind} joint where robosim takes none (hinge, slide and ball joints are imported; a free joint only as the one joint of the first body of the worldbody: a floating base)"
     )]
     UnsupportedJoint { joint: String, kind: String },
     #[error("{0}")]
@@ -846,6 +850,8 @@ struct JointRead {
     coulomb: f64,
     armature: f64,
     reference: f64,
+    /// A limited ball joint's cone limit (rad): noted, not enforced.
+    cone: Option<f64>,
 }
 
 /// What the build keeps per body.
@@ -882,16 +888,7 @@ impl Model<'_, '_> {
                 // a floating base: only the first body's one joint (checked where segments are
                 // built)
                 "free" => SegmentKind::Root(RootKind::FreeFlyer),
-                "ball" => {
-                    return Err(self.err(
-                        j,
-                        &el,
-                        MjcfErrorKind::UnsupportedJoint {
-                            joint: name,
-                            kind: type_name,
-                        },
-                    ));
-                }
+                "ball" => SegmentKind::Spherical,
                 other => return Err(self.bad(j, &el, "type", other, "hinge, slide, ball or free")),
             };
             let v3 = |name, d: [f64; 3]| -> Result<Vector3<f64>, MjcfError> {
@@ -904,7 +901,7 @@ impl Model<'_, '_> {
             let axis = robosim_geometry::unit_axis(axis)
                 .ok_or_else(|| self.bad(j, &el, "axis", &format!("{axis:?}"), "a non-zero axis"))?
                 .into_inner();
-            let angle = if kind == SegmentKind::Revolute {
+            let angle = if matches!(kind, SegmentKind::Revolute | SegmentKind::Spherical) {
                 self.compiler.angle
             } else {
                 1.0
@@ -923,6 +920,15 @@ impl Model<'_, '_> {
                     q
                 }
                 _ => [f64::NEG_INFINITY, f64::INFINITY],
+            };
+            // a ball's range is `0 max`, the cone of the child's z axis: kept for a note only
+            let (qlim, cone) = if kind == SegmentKind::Spherical {
+                (
+                    [f64::NEG_INFINITY, f64::INFINITY],
+                    (limited && range.is_some()).then_some(qlim[1]),
+                )
+            } else {
+                (qlim, None)
             };
             let kind = if kind == SegmentKind::Revolute && !limited {
                 SegmentKind::Continuous
@@ -949,6 +955,7 @@ impl Model<'_, '_> {
                 anchor,
                 axis,
                 qlim,
+                cone,
             });
         }
         Ok(out)
@@ -1274,6 +1281,12 @@ impl<'a, 'i> Model<'a, 'i> {
                     continue;
                 }
                 refs.insert(j.name.clone(), j.reference);
+                if let Some(cone) = j.cone {
+                    self.notes.push(format!(
+                        "joint {:?}: a ball joint's range (a cone limit of {cone} rad) is noted, not enforced",
+                        j.name
+                    ));
+                }
                 let placement = pending * translation(&(j.anchor - anchor));
                 anchor = j.anchor;
                 let child = if k + 1 == n {
