@@ -24,6 +24,9 @@ use std::collections::{HashMap, VecDeque};
 use std::rc::Rc;
 use std::time::{Duration, Instant};
 
+mod groups;
+use groups::Groups;
+
 type Sample = iceoryx2::sample::Sample<ipc::Service, [u64], ()>;
 type Sub = iceoryx2::port::subscriber::Subscriber<ipc::Service, [u64], ()>;
 
@@ -125,16 +128,18 @@ pub struct Snapshot {
     /// each, the last maybe fewer): where each one's records, names and geometry index are. A
     /// chunk unchanged between structure versions is the same memory in the snapshots of both;
     /// the list itself is shared by the snapshots of one structure version (a pose change
-    /// copies no per-chunk handle).
-    objects: Rc<Vec<ObjSrc>>,
+    /// copies no per-chunk handle), and by groups between structure versions (a one-chunk
+    /// change copies one group of handles, [`groups`]).
+    objects: Groups<ObjSrc>,
     /// [`Snapshot::objects`] as one slice, assembled on first use when there are several
     /// chunks; shared by the snapshots of one structure version (so a pose change does not
     /// assemble it again).
     objects_flat: Rc<std::cell::OnceCell<Vec<ObjectRec>>>,
     /// Where each pose chunk of this version is, in object order (one chunk holding every pose
     /// for a process-local snapshot): its own chunk sample, or its range of a pose base. A
-    /// chunk unchanged between versions is the same sample, shared by the snapshots of both.
-    poses: Vec<PoseSrc>,
+    /// chunk unchanged between versions is the same sample, shared by the snapshots of both;
+    /// the list is shared by groups like `objects`.
+    poses: Groups<PoseSrc>,
     /// Records per chunk (≥ 1).
     chunk_len: usize,
     /// [`Snapshot::poses`] as one slice, assembled on first use when there are several chunks.
@@ -142,7 +147,7 @@ pub struct Snapshot {
     /// By object chunk, then index in it; `None` for objects without geometry. A chunk's table
     /// is shared by the snapshots that share the chunk (a pose change touches none); a chunk
     /// with no geometry at all has an empty table. The list is shared like `objects`.
-    geometry: Rc<Vec<Rc<Vec<Option<GeomSrc>>>>>,
+    geometry: Groups<Table>,
 }
 
 /// An objects head as a reader keeps it: the header and the chunks' generations (copied).
@@ -167,6 +172,8 @@ struct SegSrc {
 type GeomSrc = SegSrc;
 /// An object chunk's segment.
 type ObjSrc = SegSrc;
+/// An object chunk's geometry table: by index in the chunk, `None` for objects without.
+type Table = Rc<Vec<Option<GeomSrc>>>;
 
 impl SegSrc {
     fn owned(words: Vec<u64>, generation: u64) -> SegSrc {
@@ -320,12 +327,13 @@ impl Snapshot {
     /// so they read it through the one API the session readers use.
     pub fn from_store(model: &crate::Store) -> Snapshot {
         let segs = crate::encode::model_segments(model, 0);
-        let poses = segs
-            .poses
-            .chunks(POSE_CHUNK)
-            .enumerate()
-            .map(|(k, recs)| Self::owned_chunk(0, model.version, k * POSE_CHUNK, recs))
-            .collect();
+        let poses = Groups::from_vec(
+            segs.poses
+                .chunks(POSE_CHUNK)
+                .enumerate()
+                .map(|(k, recs)| Self::owned_chunk(0, model.version, k * POSE_CHUNK, recs))
+                .collect(),
+        );
         let generation = segs.objects_header.version;
         let geometry: Vec<Option<GeomSrc>> = segs
             .geometry
@@ -340,7 +348,7 @@ impl Snapshot {
                 header: segs.objects_header,
                 gens: vec![generation; segs.object_chunks.len()],
             }),
-            objects: Rc::new(
+            objects: Groups::from_vec(
                 segs.object_chunks
                     .into_iter()
                     .map(|w| ObjSrc::owned(w, generation))
@@ -350,7 +358,7 @@ impl Snapshot {
             poses,
             chunk_len: POSE_CHUNK,
             flat: std::cell::OnceCell::new(),
-            geometry: Rc::new(
+            geometry: Groups::from_vec(
                 geometry
                     .chunks(OBJECT_CHUNK)
                     .map(|c| Rc::new(c.to_vec()))
@@ -399,9 +407,10 @@ impl Snapshot {
         }
         let mut poses = self.poses.clone();
         for (k, recs) in touched {
-            if let Some(p) = poses.get_mut(k) {
-                *p = Self::owned_chunk(self.epoch, version, k * chunk_len, &recs);
-            }
+            poses.set(
+                k,
+                Self::owned_chunk(self.epoch, version, k * chunk_len, &recs),
+            );
         }
         Snapshot {
             version,
@@ -441,12 +450,12 @@ impl Snapshot {
     /// version: the snapshots of pose changes share it) — [`Snapshot::rec`],
     /// [`Snapshot::object`] and [`Snapshot::index_of`] read in place.
     pub fn objects(&self) -> &[ObjectRec] {
-        match self.objects.as_slice() {
-            [] => &[],
-            [one] => one.records(),
-            many => self.objects_flat.get_or_init(|| {
+        match self.objects.len() {
+            0 => &[],
+            1 => self.objects[0].records(),
+            _ => self.objects_flat.get_or_init(|| {
                 let mut v = Vec::with_capacity(self.len());
-                for c in many {
+                for c in self.objects.iter() {
                     v.extend_from_slice(c.records());
                 }
                 v
@@ -474,7 +483,7 @@ impl Snapshot {
             }
             Some(_) => self.flat.get_or_init(|| {
                 let mut v = Vec::with_capacity(self.len());
-                for c in &self.poses {
+                for c in self.poses.iter() {
                     v.extend_from_slice(c.records());
                 }
                 v
@@ -1325,26 +1334,28 @@ impl Reader {
             version: h.version,
             epoch: h.epoch,
             head: objects_head,
-            objects: Rc::new(objects),
+            objects,
             objects_flat: Rc::default(),
             poses,
             chunk_len: (h.chunk_len as usize).max(1),
             flat: std::cell::OnceCell::new(),
-            geometry: Rc::new(geometry),
+            geometry,
         }))
     }
 
     /// The object chunks `oh` names, each at its generation — as the current snapshot holds
     /// it (with its geometry table), from an objects head, or from the objects base, asked for
-    /// when some are in none of them — and the geometry tables of those not held. `None` when
-    /// the base is newer than the head (a newer head follows).
-    #[allow(clippy::type_complexity)]
+    /// when some are in none of them — and the geometry tables of those not held. The lists
+    /// start as the current snapshot's (shared by groups, [`Groups`]) and only the chunks whose
+    /// generation differs, or that are new, are looked for and replaced: a one-body change at
+    /// 10⁵ objects is one chunk's work, not 391 chunks' bookkeeping. `None` when the base is
+    /// newer than the head (a newer head follows).
     fn collect_objects(
         &mut self,
         h: &PosesHeader,
         oh: &ObjectsHead,
         deadline: Instant,
-    ) -> Result<Option<(Vec<ObjSrc>, Vec<Rc<Vec<Option<GeomSrc>>>>)>, ReaderError> {
+    ) -> Result<Option<(Groups<ObjSrc>, Groups<Table>)>, ReaderError> {
         let n = oh.header.count as usize;
         let chunks = n.div_ceil(OBJECT_CHUNK);
         if oh.gens.len() != chunks {
@@ -1353,32 +1364,42 @@ impl Reader {
         let count_of = |k: usize| OBJECT_CHUNK.min(n - k * OBJECT_CHUNK);
         self.receive_objects_base()?;
         let cur = self.current.clone().filter(|c| c.epoch == h.epoch);
-        // (chunk, its geometry table when held by the current snapshot)
-        let mut found: Vec<Option<(ObjSrc, Option<Rc<Vec<Option<GeomSrc>>>>)>> =
-            Vec::with_capacity(chunks);
+        // Same epoch and generation: the same chunk (the keeper gives a chunk a new
+        // generation whenever its words change, its length included), so it is kept with its
+        // geometry table and not touched again — at 10⁵ objects that was a cache miss per
+        // chunk. The chunks to look for: those whose generation differs, and the new ones.
+        let (mut objects, mut geometry) = match &cur {
+            Some(c) if c.objects.len() == c.geometry.len() => {
+                (c.objects.clone(), c.geometry.clone())
+            }
+            _ => Default::default(),
+        };
+        let mut todo: Vec<usize> = objects
+            .iter()
+            .zip(&oh.gens)
+            .enumerate()
+            .filter(|(_, (o, g))| o.generation != **g)
+            .map(|(k, _)| k)
+            .collect();
+        todo.extend(objects.len().min(chunks)..chunks);
+        objects.truncate(chunks);
+        geometry.truncate(chunks);
+        // (chunk, where it is), in `todo`'s order
+        let mut found: Vec<Option<ObjSrc>> = Vec::with_capacity(todo.len());
         let mut missing = Vec::new();
-        for (k, &generation) in oh.gens.iter().enumerate() {
-            // Same epoch and generation: the same chunk (the keeper gives a chunk a new
-            // generation whenever its words change, its length included), so it is not
-            // touched again — at 10⁵ objects that was a cache miss per chunk.
-            let held = cur.as_ref().and_then(|c| {
-                let src = c.objects.get(k).filter(|o| o.generation == generation)?;
-                Some((src.clone(), c.geometry.get(k).cloned()))
-            });
-            let got = match held {
-                Some((src, table)) => Some((src, table)),
-                None => match self.obj_updates.get(&k) {
-                    Some(u) if u.epoch == h.epoch && u.chunk.generation == generation => {
-                        Some((u.chunk.clone(), None))
-                    }
-                    _ => match &self.objects_base {
-                        Some(b) => b.find(h.epoch, k, generation)?.map(|c| (c, None)),
-                        None => None,
-                    },
+        for (t, &k) in todo.iter().enumerate() {
+            let generation = oh.gens[k];
+            let got = match self.obj_updates.get(&k) {
+                Some(u) if u.epoch == h.epoch && u.chunk.generation == generation => {
+                    Some(u.chunk.clone())
+                }
+                _ => match &self.objects_base {
+                    Some(b) => b.find(h.epoch, k, generation)?,
+                    None => None,
                 },
             };
             if got.is_none() {
-                missing.push(k);
+                missing.push(t);
             }
             found.push(got);
         }
@@ -1387,9 +1408,10 @@ impl Reader {
             if base.head.epoch != h.epoch {
                 return Ok(None);
             }
-            for &k in &missing {
+            for &t in &missing {
+                let k = todo[t];
                 match base.find(h.epoch, k, oh.gens[k])? {
-                    Some(c) => found[k] = Some((c, None)),
+                    Some(c) => found[t] = Some(c),
                     // The base is newer than this head (a newer head follows)…
                     None if base.head.version > h.structure_version => return Ok(None),
                     // …or does not hold what its own head names.
@@ -1397,56 +1419,63 @@ impl Reader {
                 }
             }
         }
-        let mut objects = Vec::with_capacity(chunks);
-        let mut geometry = Vec::with_capacity(chunks);
-        // The objects with geometry of the chunks not held: (chunk, index in it, id, generation).
+        // The chunks found with their geometry tables (`None`: the shared empty one).
+        let mut tables: Vec<(ObjSrc, Option<Vec<Option<GeomSrc>>>)> =
+            Vec::with_capacity(todo.len());
+        // The objects with geometry of those chunks not held: (chunk, index in it, id,
+        // generation), and where each goes: (index in `tables`, index in the chunk).
         let mut want: Vec<(usize, usize, Id, u64)> = Vec::new();
-        // A chunk without geometry shares one empty table (at 10⁵ solids a table of 256 empty
-        // slots per chunk was 5 MB of fresh memory written per attach).
-        let empty: Rc<Vec<Option<GeomSrc>>> = Rc::default();
-        for (k, f) in found.into_iter().enumerate() {
-            let (src, table) = f.ok_or(LayoutError::Section(1))?;
-            match table {
-                Some(t) => geometry.push(t),
-                None => {
-                    let with = src.check_chunk(k, count_of(k))?;
-                    if with.is_empty() {
-                        geometry.push(empty.clone());
-                    } else {
-                        // The chunk as the current snapshot holds it (an older generation):
-                        // an object at the same place with the same geometry generation keeps
-                        // its geometry, found by position rather than looked up by id (a
-                        // one-body change made 256 searches over every chunk at 10⁵ objects).
-                        let old = cur
-                            .as_ref()
-                            .and_then(|c| Some((c.objects.get(k)?.records(), c.geometry.get(k)?)));
-                        let mut table = vec![None; count_of(k)];
-                        for (j, id, g) in with {
-                            let kept = old.and_then(|(recs, t)| {
-                                recs.get(j).filter(|r| r.id == id && r.geom_gen == g)?;
-                                t.get(j)?.as_ref().filter(|s| s.generation == g)
-                            });
-                            match (kept, table.get_mut(j)) {
-                                (Some(s), Some(slot)) => *slot = Some(s.clone()),
-                                _ => want.push((k, j, id, g)),
-                            }
-                        }
-                        geometry.push(Rc::new(table));
+        let mut want_at: Vec<(usize, usize)> = Vec::new();
+        for (t, (&k, f)) in todo.iter().zip(found).enumerate() {
+            let src = f.ok_or(LayoutError::Section(1))?;
+            let with = src.check_chunk(k, count_of(k))?;
+            if with.is_empty() {
+                tables.push((src, None));
+                continue;
+            }
+            // The chunk as the current snapshot holds it (an older generation): an object at
+            // the same place with the same geometry generation keeps its geometry, found by
+            // position rather than looked up by id (a one-body change made 256 searches over
+            // every chunk at 10⁵ objects).
+            let old = cur
+                .as_ref()
+                .and_then(|c| Some((c.objects.get(k)?.records(), c.geometry.get(k)?)));
+            let mut table = vec![None; count_of(k)];
+            for (j, id, g) in with {
+                let kept = old.and_then(|(recs, t)| {
+                    recs.get(j).filter(|r| r.id == id && r.geom_gen == g)?;
+                    t.get(j)?.as_ref().filter(|s| s.generation == g)
+                });
+                match (kept, table.get_mut(j)) {
+                    (Some(s), Some(slot)) => *slot = Some(s.clone()),
+                    _ => {
+                        want.push((k, j, id, g));
+                        want_at.push((t, j));
                     }
                 }
             }
-            objects.push(src);
+            tables.push((src, Some(table)));
         }
         if !want.is_empty() {
-            let Some(found) = self.collect_geometry(h, &want, deadline)? else {
+            let Some(got) = self.collect_geometry(h, &want, deadline)? else {
                 return Ok(None);
             };
-            for ((k, j, _, _), g) in want.iter().zip(found) {
-                if let Some(t) = geometry.get_mut(*k).and_then(Rc::get_mut)
-                    && let Some(slot) = t.get_mut(*j)
+            for (&(t, j), g) in want_at.iter().zip(got) {
+                if let Some((_, Some(table))) = tables.get_mut(t)
+                    && let Some(slot) = table.get_mut(j)
                 {
                     *slot = Some(g);
                 }
+            }
+        }
+        // A chunk without geometry shares one empty table (at 10⁵ solids a table of 256 empty
+        // slots per chunk was 5 MB of fresh memory written per attach).
+        let empty: Table = Rc::default();
+        for (&k, (src, table)) in todo.iter().zip(tables) {
+            let table = table.map_or_else(|| empty.clone(), Rc::new);
+            // `todo` is ascending and holds every chunk from the current length on.
+            if !(objects.set_or_push(k, src) && geometry.set_or_push(k, table)) {
+                return Err(LayoutError::Section(1).into());
             }
         }
         // What heads up to this structure version brought is in this snapshot (which holds it
@@ -1650,16 +1679,19 @@ impl Reader {
 
     /// The pose chunks the head names, each at the generation the head gives: chunks this
     /// reader already holds at that generation are reused, the others taken from its pose base
-    /// or received (only those changed since this reader's last snapshot). A reader without a
-    /// snapshot, or missing many chunks at once, asks the keeper for a base first. `None` when
-    /// a chunk or the base is newer than the head.
+    /// or received (only those changed since this reader's last snapshot). The list starts as
+    /// the current snapshot's (shared by groups, [`Groups`]) and only the chunks whose
+    /// generation or length differs, or that are new, are looked for: a follow costs one
+    /// generation compare per unchanged chunk. A reader without a snapshot, or missing many
+    /// chunks at once, asks the keeper for a base first. `None` when a chunk or the base is
+    /// newer than the head.
     fn collect_pose_chunks(
         &mut self,
         head: &Sample,
         h: &PosesHeader,
         objects: usize,
         deadline: Instant,
-    ) -> Result<Option<Vec<PoseSrc>>, ReaderError> {
+    ) -> Result<Option<Groups<PoseSrc>>, ReaderError> {
         let gens: Vec<u64> = Segment::parse(head.payload())?.section::<u64>(1)?.to_vec();
         let n = h.count as usize;
         let chunk_len = h.chunk_len as usize;
@@ -1667,23 +1699,24 @@ impl Reader {
             return Err(LayoutError::Section(1).into());
         }
         let count_of = |k: usize| chunk_len.min(n - k * chunk_len);
-        // A chunk no service is followed for: as the current snapshot holds it (the same
-        // memory as before), else from the pose base.
-        let cur = self
+        // The chunks as the current snapshot holds them (the same memory as before); those at
+        // another generation or length, and the new ones, are to be found (every one without
+        // a current snapshot of this keeper and chunking).
+        let mut out = self
             .current
-            .clone()
-            .filter(|c| c.epoch == h.epoch && c.chunk_len == chunk_len);
-        let held_or_base = |base: &Option<Base>, k: usize| {
-            let held = cur.as_ref().and_then(|c| {
-                c.poses
-                    .get(k)
-                    .filter(|p| p.generation == gens[k] && p.count == count_of(k))
-            });
-            held.cloned().or_else(|| {
-                base.as_ref()
-                    .and_then(|b| b.chunk(k, chunk_len, count_of(k), h.epoch, gens[k]))
-            })
-        };
+            .as_ref()
+            .filter(|c| c.epoch == h.epoch && c.chunk_len == chunk_len)
+            .map(|c| c.poses.clone())
+            .unwrap_or_default();
+        let mut todo: Vec<usize> = out
+            .iter()
+            .zip(&gens)
+            .enumerate()
+            .filter(|(k, (p, g))| p.generation != **g || p.count != count_of(*k))
+            .map(|(k, _)| k)
+            .collect();
+        todo.extend(out.len().min(gens.len())..gens.len());
+        out.truncate(gens.len());
         // After a keeper restart (a new epoch) no chunk is held and none is on its service
         // before it changes (`Keeper::publish_all`): the base has them all, and the services
         // followed under the old keeper are let go.
@@ -1694,20 +1727,26 @@ impl Reader {
         self.chunks.truncate(gens.len());
         self.chunks.resize_with(gens.len(), || None);
         self.receive_base()?;
-        // Each chunk no service is followed for, once: where it is, or `None` (missing).
-        let mut unfollowed: Vec<Option<PoseSrc>> = (0..gens.len())
-            .map(|k| {
+        let from_base = |base: &Option<Base>, k: usize| {
+            base.as_ref()
+                .and_then(|b| b.chunk(k, chunk_len, count_of(k), h.epoch, gens[k]))
+        };
+        // Each chunk to find that no service is followed for, once (by its place in `todo`):
+        // from the base, or `None` (missing).
+        let mut unfollowed: Vec<Option<PoseSrc>> = todo
+            .iter()
+            .map(|&k| {
                 self.chunks[k]
                     .is_none()
-                    .then(|| held_or_base(&self.base, k))
+                    .then(|| from_base(&self.base, k))
                     .flatten()
             })
             .collect();
-        let missing = |chunks: &[Option<ChunkSub>], unfollowed: &[Option<PoseSrc>], k: usize| {
-            chunks[k].is_none() && unfollowed[k].is_none()
+        let missing = |chunks: &[Option<ChunkSub>], unfollowed: &[Option<PoseSrc>], t: usize| {
+            chunks[todo[t]].is_none() && unfollowed[t].is_none()
         };
-        let n_missing = (0..gens.len())
-            .filter(|&k| missing(&self.chunks, &unfollowed, k))
+        let n_missing = (0..todo.len())
+            .filter(|&t| missing(&self.chunks, &unfollowed, t))
             .count();
         let attaching = self.current.is_none();
         if n_missing > 0
@@ -1718,16 +1757,16 @@ impl Reader {
             if !self.wait_base(h, deadline)? {
                 return Ok(None);
             }
-            for k in 0..gens.len() {
-                if missing(&self.chunks, &unfollowed, k) {
-                    unfollowed[k] = held_or_base(&self.base, k);
+            for t in 0..todo.len() {
+                if missing(&self.chunks, &unfollowed, t) {
+                    unfollowed[t] = from_base(&self.base, todo[t]);
                 }
             }
         }
         let mut opened = false;
-        for k in 0..gens.len() {
-            if missing(&self.chunks, &unfollowed, k) {
-                self.chunks[k] = Some(self.open_chunk(k)?);
+        for t in 0..todo.len() {
+            if missing(&self.chunks, &unfollowed, t) {
+                self.chunks[todo[t]] = Some(self.open_chunk(todo[t])?);
                 opened = true;
             }
         }
@@ -1739,60 +1778,66 @@ impl Reader {
                 .notify_with_custom_event_id(EventId::new(events::HELLO));
             said_hello = true;
         }
-        let mut out = Vec::with_capacity(gens.len());
-        for (k, &generation) in gens.iter().enumerate() {
+        for (t, &k) in todo.iter().enumerate() {
+            let generation = gens[k];
             let count = count_of(k);
-            let Some(c) = self.chunks[k].as_mut() else {
-                // Not followed: held or in the base (found above).
-                out.push(unfollowed[k].take().ok_or(LayoutError::Section(1))?);
-                continue;
-            };
-            while !(c.epoch == h.epoch && c.generation == generation) {
-                match c
-                    .sub
-                    .receive()
-                    .map_err(receive_err(Joined("receive pose chunk ", k)))?
-                {
-                    Some(s) => {
-                        let ch: PoseChunkHeader =
-                            *Segment::parse(s.payload())?.record::<PoseChunkHeader>(0)?;
-                        c.epoch = ch.epoch;
-                        c.generation = ch.generation;
-                        c.latest = Some(Rc::new(Words::Shared(s)));
-                        c.checked = None;
-                        if ch.epoch > h.epoch || (ch.epoch == h.epoch && ch.generation > generation)
+            let src = match self.chunks[k].as_mut() {
+                // Not followed: in the base (found above).
+                None => unfollowed[t].take().ok_or(LayoutError::Section(1))?,
+                Some(c) => {
+                    while !(c.epoch == h.epoch && c.generation == generation) {
+                        match c
+                            .sub
+                            .receive()
+                            .map_err(receive_err(Joined("receive pose chunk ", k)))?
                         {
-                            return Ok(None);
+                            Some(s) => {
+                                let ch: PoseChunkHeader =
+                                    *Segment::parse(s.payload())?.record::<PoseChunkHeader>(0)?;
+                                c.epoch = ch.epoch;
+                                c.generation = ch.generation;
+                                c.latest = Some(Rc::new(Words::Shared(s)));
+                                c.checked = None;
+                                if ch.epoch > h.epoch
+                                    || (ch.epoch == h.epoch && ch.generation > generation)
+                                {
+                                    return Ok(None);
+                                }
+                            }
+                            None if Instant::now() > deadline => {
+                                return Err(ReaderError::Timeout(self.timeout));
+                            }
+                            None => {
+                                if !said_hello {
+                                    let _ = self
+                                        .hello
+                                        .notify_with_custom_event_id(EventId::new(events::HELLO));
+                                    said_hello = true;
+                                }
+                                std::thread::sleep(Duration::from_micros(50));
+                            }
                         }
                     }
-                    None if Instant::now() > deadline => {
-                        return Err(ReaderError::Timeout(self.timeout));
-                    }
-                    None => {
-                        if !said_hello {
-                            let _ = self
-                                .hello
-                                .notify_with_custom_event_id(EventId::new(events::HELLO));
-                            said_hello = true;
+                    let latest = c.latest.clone().ok_or(ReaderError::Timeout(self.timeout))?;
+                    let first = k * chunk_len;
+                    if c.checked != Some((first, count)) {
+                        let seg = Segment::parse(latest.words())?;
+                        let ch: PoseChunkHeader = *seg.record(0)?;
+                        if ch.first as usize != first
+                            || ch.count as usize != count
+                            || seg.section::<PoseRec>(1)?.len() != count
+                        {
+                            return Err(LayoutError::Section(1).into());
                         }
-                        std::thread::sleep(Duration::from_micros(50));
+                        c.checked = Some((first, count));
                     }
+                    PoseSrc::chunk(latest, count, generation)
                 }
+            };
+            // `todo` is ascending and holds every chunk from the current length on.
+            if !out.set_or_push(k, src) {
+                return Err(LayoutError::Section(1).into());
             }
-            let latest = c.latest.clone().ok_or(ReaderError::Timeout(self.timeout))?;
-            let first = k * chunk_len;
-            if c.checked != Some((first, count)) {
-                let seg = Segment::parse(latest.words())?;
-                let ch: PoseChunkHeader = *seg.record(0)?;
-                if ch.first as usize != first
-                    || ch.count as usize != count
-                    || seg.section::<PoseRec>(1)?.len() != count
-                {
-                    return Err(LayoutError::Section(1).into());
-                }
-                c.checked = Some((first, count));
-            }
-            out.push(PoseSrc::chunk(latest, count, generation));
         }
         Ok(Some(out))
     }
