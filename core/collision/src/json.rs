@@ -115,6 +115,28 @@ pub fn pose_from_json(v: &Value, path: &str) -> Result<Isometry3<f64>, ShapeJson
 
 /// A solid from DESIGN.md's shape JSON. `extra` lists keys the caller handles (name, pose…).
 pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, ShapeJsonError> {
+    shape_from_json(v, path, extra, true)
+}
+
+/// [`solid_from_json`] for exact mode alone: a cylinder or cone is built without its faceted
+/// form ([`Solid::round_exact`]: same fields read, same refusals, same exact shape and
+/// tessellation error); every other shape whole. The bbox and polygon modes must not be given
+/// what it returns ([`Solid::has_faceted_form`]).
+pub fn exact_solid_from_json(
+    v: &Value,
+    path: &str,
+    extra: &[&str],
+) -> Result<Solid, ShapeJsonError> {
+    shape_from_json(v, path, extra, false)
+}
+
+/// `faceted`: build the faceted form of round shapes too (compound parts always have it).
+fn shape_from_json(
+    v: &Value,
+    path: &str,
+    extra: &[&str],
+    faceted: bool,
+) -> Result<Solid, ShapeJsonError> {
     let obj = v
         .as_object()
         .ok_or_else(|| bad(path, "expected a shape object"))?;
@@ -166,10 +188,10 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, S
                 num(v, "height", path)?,
                 facets(obj)?,
             );
-            if kind == "cylinder" {
-                Solid::cylinder(r, h, f)
-            } else {
-                Solid::cone(r, h, f)
+            match (faceted, kind == "cone") {
+                (false, cone) => Solid::round_exact(cone, r, h, f),
+                (true, false) => Solid::cylinder(r, h, f),
+                (true, true) => Solid::cone(r, h, f),
             }
             .map_err(shape_err)
         }
@@ -237,6 +259,79 @@ pub fn solid_from_json(v: &Value, path: &str, extra: &[&str]) -> Result<Solid, S
 mod tests {
     use super::*;
     use serde_json::json;
+
+    #[test]
+    fn exact_only_round_shapes_answer_exact_mode_as_the_whole_solids_do() {
+        use crate::exact::{self, ExactOptions};
+        let other = solid_from_json(&json!({"shape": "box", "size": [0.3, 0.2, 0.4]}), "b", &[])
+            .expect("box");
+        let shapes = [
+            json!({"shape": "cylinder", "radius": 0.2, "height": 0.5}),
+            json!({"shape": "cone", "radius": 0.15, "height": 0.4}),
+            json!({"shape": "cylinder", "radius": 0.05, "height": 2.0, "facets": 3}),
+            json!({"shape": "cone", "radius": 1.5, "height": 0.1, "facets": 40}),
+        ];
+        for v in &shapes {
+            let whole = solid_from_json(v, "a", &[]).expect("whole");
+            let lean = exact_solid_from_json(v, "a", &[]).expect("exact only");
+            assert!(whole.has_faceted_form() && !lean.has_faceted_form(), "{v}");
+            assert_eq!(whole.kind, lean.kind);
+            assert_eq!(
+                whole.tessellation_error.to_bits(),
+                lean.tessellation_error.to_bits(),
+                "{v}"
+            );
+            assert_eq!(whole.exact_volume, lean.exact_volume);
+            assert_eq!(whole.exact_offset, lean.exact_offset);
+            // The faceted box lies inside the exact one.
+            for k in 0..3 {
+                assert!(whole.bbox.half[k] <= lean.bbox.half[k] + 1e-15, "{v}");
+            }
+            // Exact mode answers the same, bit for bit, in contact and apart.
+            for i in 0..24 {
+                let t = i as f64 / 24.0;
+                let pb = Isometry3::new(
+                    Vector3::new(0.6 * t - 0.05, 0.1 * (7.0 * t).sin(), 0.2 * t - 0.1),
+                    Vector3::new(0.3, 1.1 * t, -0.4),
+                );
+                let pa = Isometry3::identity();
+                for opts in [ExactOptions::default(), ExactOptions::BOOLEAN] {
+                    assert_eq!(
+                        format!("{:?}", exact::collide(&whole, &pa, &other, &pb, opts)),
+                        format!("{:?}", exact::collide(&lean, &pa, &other, &pb, opts)),
+                        "{v} at {i}"
+                    );
+                    assert_eq!(
+                        format!("{:?}", exact::collide(&other, &pb, &whole, &pa, opts)),
+                        format!("{:?}", exact::collide(&other, &pb, &lean, &pa, opts)),
+                        "{v} at {i}, swapped"
+                    );
+                }
+            }
+        }
+        // Refused alike, with the same message: sizes, facet counts, flat solids (exact form
+        // flat; exact form sound but near the bound, where the whole solid decides), fields.
+        let refused = [
+            json!({"shape": "cylinder", "radius": 0.0, "height": 1.0}),
+            json!({"shape": "cone", "radius": 1.0, "height": -1.0}),
+            json!({"shape": "cylinder", "radius": 1.0, "height": 1.0, "facets": 2}),
+            json!({"shape": "cone", "radius": 1.0, "height": 1.0, "facets": 100000}),
+            json!({"shape": "cylinder", "radius": 1.0, "height": 1e-12}),
+            json!({"shape": "cylinder", "radius": 1.0, "height": 5e-9, "facets": 3}),
+            json!({"shape": "cone", "radius": 1.0, "height": 1.0, "size": 2}),
+            json!({"shape": "cone", "radius": "1", "height": 1.0}),
+        ];
+        for v in &refused {
+            let whole = solid_from_json(v, "a", &[]).err().map(|e| e.to_string());
+            let lean = exact_solid_from_json(v, "a", &[]).err().map(|e| e.to_string());
+            assert_eq!(whole, lean, "{v}");
+        }
+        assert!(
+            solid_from_json(&refused[0], "a", &[]).is_err()
+                && solid_from_json(&refused[4], "a", &[]).is_err(),
+            "the refusals above are refusals"
+        );
+    }
 
     #[test]
     fn fields_and_shapes_fail_apart_and_name_the_path() {

@@ -388,6 +388,70 @@ impl Solid {
         )
     }
 
+    /// The exact form alone of a cylinder (`cone` false) or a cone of `radius` and `height`
+    /// (m), for exact mode, which never reads a round solid's faceted form: the exact shape, the
+    /// tessellation error of `facets` sides (default [`default_facets`]) and the volume as
+    /// [`Solid::cylinder`] and [`Solid::cone`] give them, and the same inputs refused with the
+    /// same errors, without building the faceted polyhedron — `pieces` is empty and `bbox` is
+    /// the exact solid's box. Only exact mode may be given it ([`Solid::has_faceted_form`]).
+    ///
+    /// The faceted form is inscribed in the exact one, so its thickness 2V/S is at least
+    /// (n/2π)·sin(2π/n) ≥ 0.41 of the exact one (smaller volume by that factor, smaller surface,
+    /// smaller extent): an exact solid more than 3× the degeneracy bound thick has a sound
+    /// faceted form. Nearer the bound, or with a facet count the geometry library refuses, the
+    /// whole solid is built, so that the verdict and its error are the faceted check's.
+    pub fn round_exact(
+        cone: bool,
+        radius: f64,
+        height: f64,
+        facets: Option<usize>,
+    ) -> Result<Self, ShapeError> {
+        let (r, h) = (positive("radius", radius)?, positive("height", height)?);
+        let n = facets_checked(facets, r)?;
+        let (vol, area) = if cone {
+            (PI * r * r * h / 3.0, PI * r * (r + (r * r + h * h).sqrt()))
+        } else {
+            (PI * r * r * h, 2.0 * PI * r * (r + h))
+        };
+        let extent = (8.0 * r * r + h * h).sqrt();
+        check_dimensions(vol, area, extent)?;
+        let whole = || {
+            if cone {
+                Solid::cone(radius, height, facets)
+            } else {
+                Solid::cylinder(radius, height, facets)
+            }
+        };
+        if n > shapes::FACET_LIMIT
+            || 2.0 * vol / area <= 3.0 * DEGENERATE_RELATIVE_THICKNESS * extent
+        {
+            return whole();
+        }
+        let (kind, exact) = if cone {
+            (SolidKind::Cone, SharedShape::cone(h / 2.0, r))
+        } else {
+            (SolidKind::Cylinder, SharedShape::cylinder(h / 2.0, r))
+        };
+        Ok(Solid {
+            kind,
+            pieces: Vec::new(),
+            exact,
+            exact_offset: y_to_z(),
+            tessellation_error: shapes::chord_error(r, n),
+            bbox: Aabb {
+                center: Point3::origin(),
+                half: Vector3::new(r, r, h / 2.0),
+            },
+            exact_volume: Some(vol),
+        })
+    }
+
+    /// Whether the faceted form was built (every constructor but [`Solid::round_exact`]):
+    /// what the bbox and polygon modes and the robot checks read.
+    pub fn has_faceted_form(&self) -> bool {
+        !self.pieces.is_empty()
+    }
+
     /// The convex hull of `points` (m). The faceted form is parry's hull triangulation, so both
     /// forms are the same solid (tessellation error 0).
     pub fn convex(points: &[Point3<f64>]) -> Result<Self, ShapeError> {

@@ -22,7 +22,9 @@
 //!
 //! Shapes are built once: the ops take solids from a bounded cache keyed by the shape's
 //! canonical JSON text ([`cached_solid`]), so a client repeating a shape with new poses pays
-//! for parsing and a lookup only.
+//! for parsing and a lookup only. Only what the mode uses is built: an exact-mode `collide`
+//! builds a cylinder or cone without the faceted form (the faceted modes build it when they
+//! first need it).
 //!
 //! Errors: `bad_request` (field path and reason), `bad_shape`, `unknown_robot`, `bad_robot`.
 //!
@@ -182,14 +184,38 @@ fn shape_key(v: &Value, extra: &[&str]) -> Option<String> {
 /// [`solid_from_json`] through the op cache: a shape described before is not built again.
 /// Errors are not cached (the path in the message is the request's).
 pub fn cached_solid(v: &Value, path: &str, extra: &[&str]) -> Result<Arc<Solid>, ProtocolError> {
+    cached_solid_for(v, path, extra, Mode::Polygon)
+}
+
+/// [`cached_solid`] for a request in `mode`: exact mode takes whatever the cache holds and
+/// builds a first-seen cylinder or cone without its faceted form, which it never reads
+/// ([`robosim_collision::json::exact_solid_from_json`]); the faceted modes take only a solid
+/// with its faceted form, and build the whole solid (replacing an exact-only one) when the
+/// cache has none.
+fn cached_solid_for(
+    v: &Value,
+    path: &str,
+    extra: &[&str],
+    mode: Mode,
+) -> Result<Arc<Solid>, ProtocolError> {
+    let exact_only = mode == Mode::Exact;
+    let build = || -> Result<Solid, ProtocolError> {
+        Ok(if exact_only {
+            robosim_collision::json::exact_solid_from_json(v, path, extra)?
+        } else {
+            solid_from_json(v, path, extra)?
+        })
+    };
     let Some(key) = shape_key(v, extra) else {
-        return Ok(Arc::new(solid_from_json(v, path, extra)?));
+        return Ok(Arc::new(build()?));
     };
     let lock = || SHAPES.lock().unwrap_or_else(PoisonError::into_inner);
-    if let Some(s) = lock().get(&key) {
+    if let Some(s) = lock().get(&key)
+        && (exact_only || s.has_faceted_form())
+    {
         return Ok(s);
     }
-    let s = Arc::new(solid_from_json(v, path, extra)?);
+    let s = Arc::new(build()?);
     lock().insert(key, Arc::clone(&s));
     Ok(s)
 }
@@ -238,11 +264,11 @@ fn pt(p: &Point3<f64>) -> Value {
 }
 
 fn op_collide(req: &Value) -> Result<Value, ProtocolError> {
-    let a = cached_solid(field(req, "a", "request")?, "a", &[])?;
-    let b = cached_solid(field(req, "b", "request")?, "b", &[])?;
+    let mode = mode_field(req)?;
+    let a = cached_solid_for(field(req, "a", "request")?, "a", &[], mode)?;
+    let b = cached_solid_for(field(req, "b", "request")?, "b", &[], mode)?;
     let pa = pose_from_json(field(req, "pose_a", "request")?, "pose_a")?;
     let pb = pose_from_json(field(req, "pose_b", "request")?, "pose_b")?;
-    let mode = mode_field(req)?;
     let tolerance = tolerance_field(req)?;
     let r = match mode {
         Mode::Exact => exact::collide(
@@ -481,5 +507,48 @@ mod tests {
         assert_eq!(c.map.len(), CACHE_ENTRIES);
         assert!(c.get("k1").is_none(), "the oldest unused entry was kept");
         assert_eq!(c.key_bytes, c.map.keys().map(String::len).sum::<usize>());
+    }
+
+    #[test]
+    fn exact_mode_builds_no_faceted_form_and_the_faceted_modes_never_get_one_without() {
+        // A shape no other test uses (the cache is shared by the process's tests).
+        let cyl = json!({"shape": "cylinder", "radius": 0.2345678, "height": 0.5});
+        let cone = json!({"shape": "cone", "radius": 0.1534567, "height": 0.4});
+        let pose_b = json!([[1, 0, 0, 0.3], [0, 1, 0, 0.05], [0, 0, 1, 0], [0, 0, 0, 1]]);
+        let eye = json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]);
+        let req = |mode: &str| json!({"a": cyl, "pose_a": eye, "b": cone, "pose_b": pose_b, "mode": mode});
+        let exact_first = op_collide(&req("exact")).expect("exact");
+        let lean = cached_solid_for(&cyl, "a", &[], Mode::Exact).expect("cached");
+        assert!(
+            !lean.has_faceted_form(),
+            "exact mode built the faceted form"
+        );
+        // The faceted modes answer as with solids built whole, and replace the cached entry.
+        for mode in ["polygon", "bbox"] {
+            let got = op_collide(&req(mode)).expect(mode);
+            let whole_a = solid_from_json(&cyl, "a", &[]).expect("a");
+            let whole_b = solid_from_json(&cone, "b", &[]).expect("b");
+            let pa = pose_from_json(&eye, "pose_a").expect("pose");
+            let pb = pose_from_json(&pose_b, "pose_b").expect("pose");
+            let m = if mode == "bbox" {
+                Mode::BBox
+            } else {
+                Mode::Polygon
+            };
+            let want = robosim_collision::collide(&whole_a, &pa, &whole_b, &pb, m);
+            assert_eq!(got["intersect"], json!(want.intersects()), "{mode}");
+            assert_eq!(
+                got["signed_distance"],
+                json!(want.signed_distance()),
+                "{mode}"
+            );
+        }
+        let whole = cached_solid_for(&cyl, "a", &[], Mode::Exact).expect("cached");
+        assert!(
+            whole.has_faceted_form(),
+            "the faceted request's solid was not kept"
+        );
+        // Exact answers do not depend on which form the cache held.
+        assert_eq!(op_collide(&req("exact")).expect("exact"), exact_first);
     }
 }
