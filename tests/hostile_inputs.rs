@@ -195,13 +195,22 @@ fn read_with(reader: &str, path: &Path) -> (String, String) {
             Ok(r) => ("ok".into(), format!("{} joints", r.robot.dof())),
             Err(e) => urdf_kind(&e),
         },
-        "urdf-solids" => match import_urdf_tree(path)
-            .and_then(|r| robosim_file_io::urdf_import::link_solids(&r).map(|s| (r, s)))
-        {
-            Ok((r, _)) => (
-                "ok".into(),
-                format!("{} joints and their solids", r.robot.dof()),
-            ),
+        // The import, then the robot model's collision solids (meshes read now): a mesh's
+        // error is the reader's, named as the import's are.
+        "urdf-solids" => match import_urdf_tree(path) {
+            Ok(r) => match robosim_model::Model::from(&r).collision_solids() {
+                Ok(_) => (
+                    "ok".into(),
+                    format!("{} joints and their solids", r.robot.dof()),
+                ),
+                Err(e) => match e.mesh() {
+                    Some(m) => urdf_kind(m),
+                    None => (
+                        format!("Geometry/{}", variant_path(&format!("{e:?}"))),
+                        e.to_string(),
+                    ),
+                },
+            },
             Err(e) => urdf_kind(&e),
         },
         "mesh" => match robosim_file_io::import::read_mesh(path, 1.0)

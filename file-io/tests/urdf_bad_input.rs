@@ -6,10 +6,17 @@
 //! dynamics of that robot still work).
 
 use robosim_file_io::urdf_geometry::MeshProblem;
-use robosim_file_io::urdf_import::link_solids;
 use robosim_file_io::urdf_import::{UrdfError, UrdfErrorKind, import_urdf, import_urdf_tree};
 use robosim_kinematics::fk;
 use std::path::{Path, PathBuf};
+
+/// The imported robot's collision solids, built from its model's geometry
+/// (`robosim_model::Model::from_imported`, `robosim_model::geometry::link_solids`).
+fn link_solids(
+    r: &robosim_file_io::urdf_import::ImportedRobot,
+) -> Result<robosim_collision::robot::LinkSolids, robosim_model::GeometryError> {
+    robosim_model::Model::from(r).collision_solids()
+}
 
 /// A valid two-joint robot; each case edits one line of it. Line numbers are 1-based.
 const GOOD: &str = r#"<?xml version="1.0"?>
@@ -265,6 +272,7 @@ fn a_missing_mesh_fails_only_where_geometry_is_needed() {
             robosim_dynamics::aba(&model, &mut data, &q, &[0.0; 2], &[1.0, 0.0]).expect("aba");
         assert!((qdd[0] - 10.0).abs() < 1e-9, "{qdd}");
         let e = link_solids(&r).expect_err("the mesh is needed now");
+        let e = e.mesh().expect("the mesh's own error");
         let UrdfErrorKind::Mesh(MeshProblem::NotFound(missing)) = &e.kind else {
             panic!("{e}")
         };

@@ -12,10 +12,17 @@ use robosim_collision::robot::{
 use robosim_collision::{PairResult, Solid};
 use robosim_file_io::package::ResolveError;
 use robosim_file_io::urdf_geometry::{Geometry, MeshProblem};
-use robosim_file_io::urdf_import::link_solids;
 use robosim_file_io::urdf_import::{UrdfErrorKind, import_urdf, rpy_matrix};
 use robosim_kinematics::fk;
 use std::path::{Path, PathBuf};
+
+/// The imported robot's collision solids, built from its model's geometry
+/// (`robosim_model::Model::from_imported`, `robosim_model::geometry::link_solids`).
+fn link_solids(
+    r: &robosim_file_io::urdf_import::ImportedRobot,
+) -> Result<robosim_collision::robot::LinkSolids, robosim_model::GeometryError> {
+    robosim_model::Model::from(r).collision_solids()
+}
 
 fn testdata() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../testdata/urdf")
@@ -296,6 +303,7 @@ fn missing_unknown_and_malformed_meshes_fail_only_where_geometry_is_needed() {
         let t = fk::forward(&r.robot, &[0.0]);
         assert!((t[(2, 3)] - 0.7).abs() < 1e-15);
         let e = link_solids(&r).expect_err("the mesh is needed now");
+        let e = e.mesh().expect("the mesh's own error");
         assert!(is(&e.kind), "{mesh}: {e}");
         assert_eq!(e.file, urdf);
         assert_eq!(e.line, 13, "{e}");

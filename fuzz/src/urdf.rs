@@ -7,11 +7,11 @@
 //! valid robot (`Robot::validate`), with one `UrdfJoint` per coordinate. When it has no
 //! `<mesh>` (meshes name files; reading files is not what this target tests) and at most
 //! [`MAX_ROUND_SHAPES`] spheres and cylinders (each up to 256 facets), its collision solids are
-//! built too (`link_solids`): a solid or a located error.
+//! built too, through the robot model (`robosim_model::Model::from_imported`, then
+//! `collision_solids`): solids, or an error naming the object and its frame.
 
 use robosim_urdf::UrdfError;
 use robosim_urdf::urdf_geometry::Geometry;
-use robosim_urdf::urdf_import::link_solids;
 use robosim_urdf::urdf_import::{import_urdf_str, import_urdf_tree_str};
 use std::path::Path;
 
@@ -65,9 +65,11 @@ pub fn run(data: &[u8]) {
                 }
                 if !mesh
                     && round <= MAX_ROUND_SHAPES
-                    && let Err(e) = link_solids(&robot)
+                    && let Err(e) = robosim_model::Model::from(&robot).collision_solids()
                 {
-                    located(&e);
+                    // No mesh here, so no reader's error: the object and frame are named.
+                    assert!(e.mesh().is_none(), "a mesh error without a mesh: {e}");
+                    let _ = e.to_string();
                 }
             }
             Err(e) => located(&e),

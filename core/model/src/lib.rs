@@ -1,6 +1,11 @@
 //! What a simulation is told and what it is doing, each as one value (MuJoCo's `mjOption` and
 //! `mjData`):
 //!
+//! * [`Model`] — one robot as every reader produces it (Pinocchio's `Model` + `GeometryModel`):
+//!   the joint tree ([`robosim_kinematics::Robot`]), joint and link names, the mimic coupling,
+//!   the analytic IK family, and a [`GeometryModel`] of its visual and collision objects
+//!   (primitives as primitives, mesh files by name, polygons), whose collision solids one
+//!   function builds ([`geometry::link_solids`]).
 //! * [`Options`] — every effect and knob a scene declares (integrator, step, collision mode,
 //!   on-contact policy, gravity, joint limits, encoder bits, logged signals, orbit, power, ORU
 //!   swap, automation), typed once where the scene is read: the Library Space's `effects { … }`
@@ -13,18 +18,22 @@
 //! * [`parts`] — the box parts of a compiled scene that the scene-level plans find by name
 //!   (solar panels, ORUs), filled by whoever compiles the scene.
 //!
-//! Entry points: [`Options`], [`Data`], [`Command`], [`parts::SceneParts`].
+//! Entry points: [`Model`], [`GeometryModel`], [`geometry::link_solids`], [`Options`], [`Data`], [`Command`], [`parts::SceneParts`].
 
 #![forbid(unsafe_code)]
 
 mod data;
+pub mod geometry;
 mod options;
 pub mod parts;
+mod robot;
 
 pub use data::{Command, Data, IntegratorState};
+pub use geometry::{GeometryError, GeometryModel, GeometryObject, MeshFile, Role, Shape};
 pub use options::{
     AttitudeEffect, AttitudeHold, AutomationEffect, CollisionEffect, CollisionMode,
     CollisionTolerance, CoulombModel, DynamicsEffect, EncoderEffect, Integrator,
     JointFrictionEffect, LoggingEffect, OnContact, Options, OptionsError, OrbitEffect,
     OruSwapEffect, PowerEffect, Signal,
 };
+pub use robot::Model;

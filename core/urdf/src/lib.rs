@@ -6,12 +6,13 @@
 //! * [`urdf_import`] — a URDF read as a chain ([`urdf_import::import_urdf`]) or as the whole
 //!   tree ([`urdf_import::import_urdf_tree`]); every error names the file, line and element.
 //! * [`urdf_geometry`] — its visual and collision geometry (meshes loaded lazily,
-//!   [`urdf_geometry::MeshRef::load`]) and the collision solids of its bodies
-//!   ([`urdf_geometry::link_solids`]).
+//!   [`urdf_geometry::MeshRef::load`]); `robosim_model::Model::from_imported` converts it into
+//!   the robot model's geometry, whose collision solids `robosim_model::geometry::link_solids`
+//!   builds.
 //! * [`package`] — `package://` names resolved against `ROS_PACKAGE_PATH` and the URDF's
 //!   ancestors.
 //! * [`dae`] — Collada visual meshes; [`stl`], [`obj`] — the STL and OBJ mesh readers.
-//! * [`mjcf`] — MuJoCo's MJCF read into the same [`UrdfRobot`] (issue 36 item 5;
+//! * [`mjcf`] — MuJoCo's MJCF read into the same [`ImportedRobot`] (issue 36 item 5;
 //!   [`mjcf::import_mjcf_tree`], [`mjcf::import_mjcf`]); its frame and geom arithmetic in
 //!   [`mjcf_frame`].
 //!
@@ -31,4 +32,6 @@ pub mod urdf_import;
 mod urdf_xml;
 
 pub use mjcf::{MjcfError, MjcfErrorKind, import_mjcf, import_mjcf_tree};
-pub use urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot, import_urdf, import_urdf_tree};
+pub use urdf_import::{
+    ImportedRobot, UrdfError, UrdfErrorKind, UrdfRobot, import_urdf, import_urdf_tree,
+};

@@ -2,7 +2,7 @@
 //! `<geometry>` (`<box size>`, `<cylinder radius length>`, `<sphere radius>`, `<mesh filename
 //! scale>`), and for visuals `<material>` (an inline `<color rgba>` / `<texture filename>`, or a
 //! reference by name to a robot-level `<material>`) — read at import into
-//! [`crate::urdf_import::UrdfRobot::geometry`], keyed by link name.
+//! [`crate::urdf_import::ImportedRobot::geometry`], keyed by link name.
 //!
 //! Meshes are **loaded lazily**: the import records the file name, scale and where it was
 //! written; [`MeshRef::load`] resolves it ([`crate::package`]) and reads it only when an
@@ -19,12 +19,12 @@
 //! is the URDF link frame in that body's frame (robosim's link frame j is the URDF child link
 //! frame of movable joint j, so it is the identity on the chain's movable links).
 //!
-//! Collision ([`link_solids`]): each `<collision>` becomes a convex solid in its body's frame —
-//! box, cylinder (axis z, centred, as URDF says) and sphere as they are, a mesh as the convex
-//! hull of its scaled vertices (parry's hull; a convex decomposition is not done) — and the
-//! bodies become a [`LinkSolids`], the same structure DH robots get from
-//! [`LinkSolids::from_dh`], so a URDF robot is checked by the one path
-//! ([`robosim_collision::robot::check_robot`]).
+//! Collision: `robosim_model::Model::from_imported` turns each `<collision>` into a geometry
+//! object on its body (placed at [`LinkGeometry::in_body`] times the shape's origin), and
+//! `robosim_model::geometry::link_solids` builds the solids — box, cylinder (axis z, centred,
+//! as URDF says) and sphere as they are, a mesh as convex parts of its scaled triangles
+//! (`robosim_collision::decompose`: the hull when it is close to the mesh) — as the
+//! `LinkSolids` every robot is checked with (`robosim_collision::robot::check_robot`).
 
 use crate::dae::{ColouredTriangles, read_dae};
 use crate::package::resolve;
@@ -33,8 +33,6 @@ pub use crate::urdf_xml::MeshProblem;
 
 use crate::urdf_xml::{Reader, UrdfError, UrdfErrorKind, child};
 use nalgebra::{Matrix4, Point3, Vector3};
-use robosim_collision::Solid;
-use robosim_collision::robot::{LinkSolids, isometry_from_matrix};
 use std::collections::{BTreeMap, HashMap};
 use std::path::PathBuf;
 
@@ -420,57 +418,6 @@ pub fn place(geometry: &mut UrdfGeometry, root: &str, joints: &[TreeJoint]) {
             });
         }
     }
-}
-
-/// The collision solids of an imported robot's geometry (see the module docs; `n` its joints),
-/// one entry per body (base first), meshes loaded now. Errors name the URDF file, line and
-/// element of the failing `<mesh>` (or `<collision>`). `urdf_import::link_solids` calls it for
-/// a [`UrdfGeometry`]'s robot.
-pub fn collision_solids(geo: &UrdfGeometry, n: usize) -> Result<LinkSolids, UrdfError> {
-    let mut parts: Vec<Vec<(nalgebra::Isometry3<f64>, Solid)>> = vec![Vec::new(); n + 1];
-    for (link, g) in &geo.links {
-        for s in &g.collision {
-            let at_collision = |e: robosim_collision::ShapeError| UrdfError {
-                file: geo.file.clone(),
-                line: s.line,
-                element: format!("<link name={link:?}>/<collision>"),
-                kind: UrdfErrorKind::Mesh(MeshProblem::Shape(e.to_string())),
-            };
-            let solid = match &s.geometry {
-                Geometry::Box { size } => Solid::cuboid(*size).map_err(at_collision)?,
-                Geometry::Cylinder { radius, length } => {
-                    Solid::cylinder(*radius, *length, None).map_err(at_collision)?
-                }
-                Geometry::Sphere { radius } => {
-                    Solid::sphere(*radius, None).map_err(at_collision)?
-                }
-                Geometry::Mesh(m) => {
-                    // As `robosim import urdf` does: the hull, or convex parts when the hull is
-                    // far from a closed mesh (robosim_collision::decompose).
-                    let shape =
-                        |e: robosim_collision::ShapeError| m.err(MeshProblem::Shape(e.to_string()));
-                    let d = robosim_collision::decompose::convex_parts(
-                        &m.load()?,
-                        robosim_collision::decompose::DEFAULT_EXCESS,
-                    )
-                    .map_err(shape)?;
-                    let at = isometry_from_matrix(&(g.in_body * s.origin));
-                    for p in &d.parts {
-                        parts[g.body].push((at, Solid::convex(p).map_err(shape)?));
-                    }
-                    continue;
-                }
-            };
-            let at = isometry_from_matrix(&(g.in_body * s.origin));
-            parts[g.body].push((at, solid));
-        }
-    }
-    LinkSolids::from_parts(parts).map_err(|e| UrdfError {
-        file: geo.file.clone(),
-        line: 0,
-        element: "collision geometry".into(),
-        kind: UrdfErrorKind::Mesh(MeshProblem::Shape(e.to_string())),
-    })
 }
 
 /// The distinct vertices of `tris` (exact duplicates dropped), as points.

@@ -20,9 +20,9 @@
 //! robot's base frame is the root link's frame (base = identity), link frame j is the child
 //! link frame of movable joint j, the tool is the tip link's frame; gravity (0, 0, −9.81).
 //!
-//! Mimic joints: [`UrdfRobot::robot`] is the **full** model, every movable joint a coordinate
+//! Mimic joints: [`ImportedRobot::robot`] is the **full** model, every movable joint a coordinate
 //! (Pinocchio's `buildModel(…, mimic=False)`), so everything that takes a `Robot` works on it
-//! unchanged; [`UrdfRobot::coupling`] binds each follower to its leader
+//! unchanged; [`ImportedRobot::coupling`] binds each follower to its leader
 //! (`q_f = multiplier · q_leader + offset`, one coordinate for both: Pinocchio's
 //! `mimic=True`), for the algorithms over the reduced coordinates
 //! (`robosim_kinematics::mimic`, `robosim_dynamics::mimic`). On a chain import, a follower on
@@ -30,7 +30,7 @@
 //! follower off the chain is held at 0 with its subtree like every off-chain joint, even when
 //! its leader is on the chain (noted: import the tree for it to follow).
 //!
-//! Geometry: `<visual>`, `<collision>` and `<material>` are read into [`UrdfRobot::geometry`]
+//! Geometry: `<visual>`, `<collision>` and `<material>` are read into [`ImportedRobot::geometry`]
 //! by [`crate::urdf_geometry`]; meshes are only named there and loaded when an operation needs
 //! them (FK and dynamics do not). Not read: `<transmission>`, `<gazebo>`, safety controllers,
 //! calibration. Floating bases: a `floating` (free-flyer) or `planar` joint as the root link's
@@ -65,9 +65,11 @@ pub struct UrdfJoint {
     pub velocity: f64,
 }
 
-/// An imported chain (see the module docs).
+/// An imported robot, chain or tree (see the module docs), as the URDF and the MJCF readers
+/// return it; `robosim_model::Model::from_imported` turns it into the one robot model, its
+/// geometry converted once.
 #[derive(Debug, Clone, PartialEq)]
-pub struct UrdfRobot {
+pub struct ImportedRobot {
     /// The chain in the one joint model, validated.
     pub robot: Robot,
     pub root: String,
@@ -84,8 +86,8 @@ pub struct UrdfRobot {
     /// link; for a tree, [`Robot::parents`] by link name).
     pub parent_links: Vec<String>,
     /// The `<mimic>` joints among the movable joints of the robot (a tree's finger joint): each
-    /// is a coordinate of [`UrdfRobot::robot`], as in Pinocchio's default model
-    /// (`buildModel(…, mimic=False)`); [`UrdfRobot::coupling`] imposes the relations.
+    /// is a coordinate of [`ImportedRobot::robot`], as in Pinocchio's default model
+    /// (`buildModel(…, mimic=False)`); [`ImportedRobot::coupling`] imposes the relations.
     pub mimics: Vec<UrdfMimic>,
     /// The mimic relations as a map from the reduced coordinates (leaders and every other free
     /// joint) to the robot's q — Pinocchio's `mimic=True` model over the same robot
@@ -96,8 +98,11 @@ pub struct UrdfRobot {
     pub geometry: crate::urdf_geometry::UrdfGeometry,
 }
 
+/// The importer's robot under its first name (it is the MJCF reader's too).
+pub type UrdfRobot = ImportedRobot;
+
 /// A `<mimic>` relation `q[joint] = multiplier · q[mimicked] + offset` (imposed by
-/// [`UrdfRobot::coupling`]).
+/// [`ImportedRobot::coupling`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct UrdfMimic {
     /// The mimicking joint's name and its index in q.
@@ -114,7 +119,7 @@ pub struct UrdfMimic {
 
 /// Reads the URDF at `path` and builds the chain from its root link to `tip` (`None`: the only
 /// leaf link, when there is exactly one).
-pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
+pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<ImportedRobot, UrdfError> {
     let text = read_urdf_file(path)?;
     import_urdf_str(&text, path, tip)
 }
@@ -123,11 +128,11 @@ pub fn import_urdf(path: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfErro
 /// coordinate (depth first from the root link, children in file order), [`Robot::parents`]
 /// says which link each hangs from, fixed joints are folded into the movable joint (or root)
 /// above them, inertia rigid with the root is dropped (it cannot move). `<mimic>` joints are
-/// coordinates of the robot, bound to their leaders by [`UrdfRobot::coupling`]. The robot's
+/// coordinates of the robot, bound to their leaders by [`ImportedRobot::coupling`]. The robot's
 /// tool is the identity
-/// on the last joint's child link, which [`UrdfRobot::tip`] names; [`UrdfRobot::held`] is
+/// on the last joint's child link, which [`ImportedRobot::tip`] names; [`ImportedRobot::held`] is
 /// empty.
-pub fn import_urdf_tree(path: &Path) -> Result<UrdfRobot, UrdfError> {
+pub fn import_urdf_tree(path: &Path) -> Result<ImportedRobot, UrdfError> {
     let text = read_urdf_file(path)?;
     import_urdf_tree_str(&text, path)
 }
@@ -146,7 +151,7 @@ fn read_urdf_file(path: &Path) -> Result<String, UrdfError> {
 }
 
 /// [`import_urdf_tree`] on text already read; `file` names it in errors.
-pub fn import_urdf_tree_str(text: &str, file: &Path) -> Result<UrdfRobot, UrdfError> {
+pub fn import_urdf_tree_str(text: &str, file: &Path) -> Result<ImportedRobot, UrdfError> {
     import_impl(text, file, None, true, None)
 }
 
@@ -155,7 +160,7 @@ pub fn import_urdf_tree_str(text: &str, file: &Path) -> Result<UrdfRobot, UrdfEr
 /// root link's inertial with everything fixed to it (Pinocchio's
 /// `buildModel(urdf, JointModelFreeFlyer())`). A file whose root link already hangs from a
 /// `floating` or `planar` joint keeps that one.
-pub fn import_urdf_tree_floating(path: &Path, kind: RootKind) -> Result<UrdfRobot, UrdfError> {
+pub fn import_urdf_tree_floating(path: &Path, kind: RootKind) -> Result<ImportedRobot, UrdfError> {
     let text = read_urdf_file(path)?;
     import_urdf_tree_floating_str(&text, path, kind)
 }
@@ -165,7 +170,7 @@ pub fn import_urdf_tree_floating_str(
     text: &str,
     file: &Path,
     kind: RootKind,
-) -> Result<UrdfRobot, UrdfError> {
+) -> Result<ImportedRobot, UrdfError> {
     import_impl(text, file, None, true, Some(kind))
 }
 
@@ -226,7 +231,7 @@ struct NegativeMoment {
 }
 
 /// Accepts each negative principal moment within [`NEGATIVE_INERTIA_TOLERANCE`] of the robot's
-/// largest (a warning naming the link and the value, for [`UrdfRobot::notes`]) and refuses the
+/// largest (a warning naming the link and the value, for [`ImportedRobot::notes`]) and refuses the
 /// first beyond it ([`UrdfErrorKind::InertiaNotPsd`] at its `<inertia>` element).
 fn check_inertias(
     file: &Path,
@@ -476,15 +481,12 @@ fn check_depth(text: &str, file: &Path) -> Result<(), UrdfError> {
     })
 }
 
-/// The collision solids of an imported robot (urdf_geometry.rs's module docs say how), one
-/// entry per body (base first), meshes loaded now. Errors name the URDF file, line and element
-/// of the failing `<mesh>` (or `<collision>`).
-pub fn link_solids(robot: &UrdfRobot) -> Result<robosim_collision::robot::LinkSolids, UrdfError> {
-    crate::urdf_geometry::collision_solids(&robot.geometry, robot.robot.dof())
-}
-
 /// [`import_urdf`] on text already read; `file` names it in errors.
-pub fn import_urdf_str(text: &str, file: &Path, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
+pub fn import_urdf_str(
+    text: &str,
+    file: &Path,
+    tip: Option<&str>,
+) -> Result<ImportedRobot, UrdfError> {
     import_impl(text, file, tip, false, None)
 }
 
@@ -496,7 +498,7 @@ fn import_impl(
     tip: Option<&str>,
     tree: bool,
     floating: Option<RootKind>,
-) -> Result<UrdfRobot, UrdfError> {
+) -> Result<ImportedRobot, UrdfError> {
     check_depth(text, file)?;
     let doc = roxmltree::Document::parse(text).map_err(|e| xml_error(text, file, e))?;
     let rd = Reader { file, doc: &doc };
@@ -578,7 +580,7 @@ struct Parts {
     links: HashMap<String, LinkRec>,
     link_order: Vec<String>,
     joints: Vec<JointRec>,
-    /// Accepted oddities of the file, one sentence each (for [`UrdfRobot::notes`]).
+    /// Accepted oddities of the file, one sentence each (for [`ImportedRobot::notes`]).
     warnings: Vec<String>,
 }
 
@@ -839,7 +841,7 @@ fn build_chain_to_tip(
     tree: &LinkTree,
     tip: String,
     mut geometry: crate::urdf_geometry::UrdfGeometry,
-) -> Result<UrdfRobot, UrdfError> {
+) -> Result<ImportedRobot, UrdfError> {
     let joints = &parts.joints;
     let chain = chain_to(&tip, tree, joints);
     let (segments, held) = chain_segments(parts, tree, &chain);
@@ -904,7 +906,7 @@ fn build_chain_to_tip(
         })
         .collect();
     crate::urdf_geometry::place(&mut geometry, &tree.root, &placed);
-    Ok(UrdfRobot {
+    Ok(ImportedRobot {
         robot,
         root: tree.root.clone(),
         tip,
@@ -932,7 +934,7 @@ fn build_whole_tree(
     children: &HashMap<&str, Vec<usize>>,
     mut geometry: crate::urdf_geometry::UrdfGeometry,
     floating: Option<RootKind>,
-) -> Result<UrdfRobot, UrdfError> {
+) -> Result<ImportedRobot, UrdfError> {
     // Depth first from the root, children in file order: parents come first.
     let mut dfs: Vec<usize> = Vec::with_capacity(joints.len());
     fn visit(
@@ -1023,7 +1025,7 @@ fn build_whole_tree(
     let tip = movable
         .last()
         .map_or_else(|| root.to_string(), |m| m.link.clone());
-    Ok(UrdfRobot {
+    Ok(ImportedRobot {
         robot,
         root: root.to_string(),
         tip,
@@ -1136,7 +1138,7 @@ mod tests {
   </joint>
 </robot>"#;
 
-    fn import(text: &str, tip: Option<&str>) -> Result<UrdfRobot, UrdfError> {
+    fn import(text: &str, tip: Option<&str>) -> Result<ImportedRobot, UrdfError> {
         import_urdf_str(text, Path::new("t.urdf"), tip)
     }
 
