@@ -70,41 +70,24 @@ pub(crate) struct Separation {
 
 /// One simplex vertex: a support point of the Minkowski difference A − B and its two parts.
 #[derive(Debug, Clone, Copy)]
-pub(crate) struct Vertex {
-    pub w: Vector3<f64>,
-    pub a: Point3<f64>,
-    pub b: Point3<f64>,
-}
-
-/// The support functions of a pair: A's in its own frame, B's placed in A's frame. Two
-/// implementations: [`Pair`] (parry's, certified mode) and
-/// [`super::support::Placed`] (specialised per shape, a GJK tolerance).
-pub(crate) trait Supports {
-    /// The tolerance mode's economies, none of which touches the bounds' validity (the upper
-    /// bound is a point of the simplex, the lower one a separating plane, whatever sub-simplex
-    /// and direction are chosen): a tetrahedron is reduced by the newest-vertex rule (the face
-    /// opposite the vertex just added, the previous triangle, is a candidate only when no face
-    /// through the new vertex is), and a triangle's normal replaces v's direction only where
-    /// v's rounding (~ε L / |v| rad, ~ε L² / |v| m of lower bound) is worth the tolerance.
-    const LEAN: bool;
-    /// The point of A − B minimising `z·u`, with its parts.
-    fn support(&self, u: &Vector3<f64>) -> Vertex;
+struct Vertex {
+    w: Vector3<f64>,
+    a: Point3<f64>,
+    b: Point3<f64>,
 }
 
 /// The support functions of A (its own frame) and B (placed in A's frame by `pos12`). B's
 /// support goes through parry's quaternion `support_point`: a rotation matrix would be cheaper
 /// but moves the rounding, and one touching pair at the 100 m scale (`box_cone_0_s100_g0` of
-/// the contact references) then stays undecided after 200 iterations. The certified mode keeps
-/// this one; a GJK tolerance uses [`super::support::Placed`] and falls back to this one when
-/// its verdict is undecided.
+/// the contact references) then stays undecided after 200 iterations.
 struct Pair<'a> {
     ma: &'a dyn SupportMap,
     mb: &'a dyn SupportMap,
     pos12: &'a Isometry3<f64>,
 }
 
-impl Supports for Pair<'_> {
-    const LEAN: bool = false;
+impl Pair<'_> {
+    /// The point of A − B minimising `z·u`, with its parts.
     fn support(&self, u: &Vector3<f64>) -> Vertex {
         let a = self.ma.local_support_point(&-u);
         let b = self.mb.support_point(self.pos12, u);
@@ -124,17 +107,6 @@ pub(crate) fn separation(
     distance: bool,
     tolerance: f64,
 ) -> Separation {
-    run(&Pair { ma, mb, pos12 }, pos12, warm, distance, tolerance)
-}
-
-/// [`separation`] on any [`Supports`] (`pos12` only for the first direction).
-pub(crate) fn run<P: Supports>(
-    pair: &P,
-    pos12: &Isometry3<f64>,
-    warm: Option<Vector3<f64>>,
-    distance: bool,
-    tolerance: f64,
-) -> Separation {
     let mut u = warm
         .filter(|w| w.norm() > 0.0 && w.iter().all(|c| c.is_finite()))
         .unwrap_or(-pos12.translation.vector);
@@ -142,6 +114,7 @@ pub(crate) fn run<P: Supports>(
         u = Vector3::x();
     }
     u.normalize_mut();
+    let pair = Pair { ma, mb, pos12 };
     let first = pair.support(&u);
     let mut scale = first.a.coords.norm() + first.b.coords.norm();
     // At most four vertices and their weights, on the stack (no allocation per pair), reduced
@@ -193,12 +166,8 @@ pub(crate) fn run<P: Supports>(
         // only good to ~ε L / |v| — 1e-7 rad at a 1e-9 m gap, which costs 1e-7 m of lower
         // bound across a flat contact. When the closest point is inside a triangle, v is
         // parallel to the triangle's normal, whose direction is good to ε: use that.
-        let mut u = if P::LEAN {
-            v * upper.recip()
-        } else {
-            v / upper
-        };
-        if simplex.n == 3 && (!P::LEAN || 64.0 * f64::EPSILON * scale * scale > tolerance * upper) {
+        let mut u = v / upper;
+        if simplex.n == 3 {
             let t = simplex.vertices();
             let n = (t[1].w - t[0].w).cross(&(t[2].w - t[0].w));
             let len = n.norm();
@@ -225,7 +194,7 @@ pub(crate) fn run<P: Supports>(
             return best;
         }
         simplex.push(s);
-        simplex.reduce_to_closest(scale, P::LEAN);
+        simplex.reduce_to_closest(scale);
     }
     best.iterations = MAX_ITERATIONS;
     if best.lower > best.tau {
@@ -269,7 +238,7 @@ impl Simplex {
     /// The closest point of the simplex to the origin: keeps the sub-simplex whose relative
     /// interior holds it, with the barycentric weights there. Four vertices are kept only when
     /// the origin is strictly inside a tetrahedron of non-negligible volume.
-    fn reduce_to_closest(&mut self, scale: f64, newest: bool) {
+    fn reduce_to_closest(&mut self, scale: f64) {
         match self.n {
             1 => self.w[0] = 1.0,
             2 => {
@@ -280,7 +249,7 @@ impl Simplex {
                 let l = triangle(self.v[0].w, self.v[1].w, self.v[2].w);
                 self.keep(&l);
             }
-            _ => tetrahedron(self, scale, newest),
+            _ => tetrahedron(self, scale),
         }
     }
 
@@ -369,26 +338,19 @@ pub(crate) fn triangle(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> [f6
 /// Tetrahedron: the origin is inside iff it is on the inner side of every face (Ericson
 /// §5.1.6); a flat tetrahedron (volume below rounding) is treated as the union of its faces.
 /// Reduces `s` (four vertices) in place: to the closest face's sub-simplex, or all four with
-/// the origin's weights when inside. `newest`: the face opposite the last vertex (the previous
-/// triangle) is not a candidate ([`Supports::LEAN`]).
-fn tetrahedron(s: &mut Simplex, scale: f64, newest: bool) {
+/// the origin's weights when inside.
+fn tetrahedron(s: &mut Simplex, scale: f64) {
     let p = [s.v[0].w, s.v[1].w, s.v[2].w, s.v[3].w];
     let vol6 = (p[1] - p[0]).dot(&(p[2] - p[0]).cross(&(p[3] - p[0])));
     let flat = vol6.abs() <= 64.0 * f64::EPSILON * scale.powi(3);
-    // Newest-vertex rule: the previous triangle (0, 1, 2) last, and only when no face through
-    // the new vertex is a candidate (so an origin outside it is never taken for inside).
-    let faces = if newest {
-        [(0, 2, 3, 1), (0, 3, 1, 2), (1, 3, 2, 0), (0, 1, 2, 3)]
-    } else {
-        [(0, 1, 2, 3), (0, 2, 3, 1), (0, 3, 1, 2), (1, 3, 2, 0)]
-    };
+    let faces = [(0, 1, 2, 3), (0, 2, 3, 1), (0, 3, 1, 2), (1, 3, 2, 0)];
     let mut best: Option<(f64, [usize; 3], [f64; 3])> = None;
     let mut outside_any = false;
     for (i, j, k, o) in faces {
         let n = (p[j] - p[i]).cross(&(p[k] - p[i]));
         let outside = -p[i].dot(&n) * (p[o] - p[i]).dot(&n) < 0.0;
         outside_any |= outside;
-        if !(outside || flat) || (newest && o == 3 && best.is_some()) {
+        if !(outside || flat) {
             continue;
         }
         let l = triangle(p[i], p[j], p[k]);

@@ -11,6 +11,7 @@
 //! (boolean only — what the robot checks use).
 
 mod gjk;
+mod lean;
 mod lower;
 pub mod pair_file;
 mod projection;
@@ -459,7 +460,8 @@ pub fn collide(
 
 /// Two convex leaf shapes (not both balls) posed by `ga`, `gb` (parry shape → world): the
 /// boolean and the separation from [`gjk::separation`] (certified bracket, width at most
-/// [`DISTANCE_TOLERANCE`]); the depth of an overlap from parry's EPA, checked against GJK's
+/// [`DISTANCE_TOLERANCE`]; at a GJK tolerance from [`lean::separation`] first, the same
+/// certificates in a faster kernel); the depth of an overlap from parry's EPA, checked against GJK's
 /// lower bound.
 fn collide_support_maps(
     ga: &Isometry3<f64>,
@@ -472,19 +474,24 @@ fn collide_support_maps(
 ) -> PairResult {
     let pos12 = ga.inv_mul(gb);
     let tol = opts.tolerance.width();
-    // A GJK tolerance: supports specialised per shape (`support`), then parry's when that
-    // leaves the verdict undecided; certified: parry's only (see `support` for why).
-    let mut s = match (opts.tolerance, support::Kind::of(sa), support::Kind::of(sb)) {
-        (Tolerance::Gjk(_), Some(ka), Some(kb)) => {
+    // A GJK tolerance: the lean kernel on supports specialised per shape (`lean`, `support`),
+    // then the certified kernel when that leaves the verdict undecided; certified: the
+    // certified kernel only (see `support` for why).
+    let lean_pair = match opts.tolerance {
+        Tolerance::Gjk(_) => support::Kind::of(sa).zip(support::Kind::of(sb)),
+        Tolerance::Certified => None,
+    };
+    let mut s = match lean_pair {
+        Some((ka, kb)) => {
             let placed = support::Placed::new(ka, kb, &pos12);
-            let fast = gjk::run(&placed, &pos12, None, opts.distance, tol);
+            let fast = lean::separation(&placed, &pos12, opts.distance, tol);
             if fast.verdict == gjk::Verdict::Undecided {
                 gjk::separation(&pos12, ma, mb, None, opts.distance, tol)
             } else {
                 fast
             }
         }
-        _ => gjk::separation(&pos12, ma, mb, None, opts.distance, tol),
+        None => gjk::separation(&pos12, ma, mb, None, opts.distance, tol),
     };
     // GJK's upper bound creeps onto curved contacts: alternating exact projections where both
     // shapes have them (`projection`), then GJK's rules again.

@@ -6,16 +6,15 @@
 //!
 //! The certified mode does not use these: a rotation matrix rounds differently from parry's
 //! quaternion, and at the 100 m scale one touching contact reference (`box_cone_0_s100_g0`)
-//! then stays undecided after GJK's iteration limit. A GJK tolerance runs these first and, when
-//! the verdict is undecided, GJK again on parry's supports ([`super::gjk::separation`]) — so it
-//! decides every pair the certified mode decides. The bounds are sound with either: the lower
+//! then stays undecided after GJK's iteration limit. A GJK tolerance runs these first (in
+//! [`super::lean`]) and, when the verdict is undecided, GJK again on parry's supports
+//! ([`super::gjk::separation`]) — so it decides every pair the certified mode decides. The bounds are sound with either: the lower
 //! bound is a separating plane of two support points, the upper bound the distance of a point
 //! of each solid, both within the rounding allowance τ = 8 ε L of [`super::gjk`].
 //!
 //! Entry points: [`Kind::of`], [`Placed::new`].
 
-use super::gjk::{Supports, Vertex};
-use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Vector3};
 use parry3d_f64::shape::{Shape, ShapeType, SupportMap};
 
 /// One convex shape's support function, in its own frame.
@@ -131,17 +130,14 @@ impl<'a> Placed<'a> {
     }
 }
 
-impl Supports for Placed<'_> {
-    const LEAN: bool = true;
+impl Placed<'_> {
+    /// A's support point toward −u and B's toward u (A's frame): the point of A − B
+    /// minimising `z·u` is their difference. `u` need not be unit (only its direction counts).
     #[inline(always)]
-    fn support(&self, u: &Vector3<f64>) -> Vertex {
+    pub(crate) fn parts(&self, u: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
         let a = self.a.local(&-u);
         let b = self.r * self.b.local(&(self.rt * u)) + self.t;
-        Vertex {
-            w: a - b,
-            a: Point3::from(a),
-            b: Point3::from(b),
-        }
+        (a, b)
     }
 }
 
@@ -184,16 +180,15 @@ mod tests {
                     sb.as_support_map().expect("b"),
                 );
                 for u in &dirs {
-                    let v = pair.support(u);
+                    // any positive multiple of u: only its direction counts
+                    let (va, vb) = pair.parts(&(u * 3.7));
                     let a = ma.local_support_point(&-u);
                     let b = mb.support_point(&pos12, u);
                     let tol = 1e-14 * (1.0 + u.norm());
-                    assert!((v.a.coords.dot(u) - a.coords.dot(u)).abs() <= tol, "{u}");
-                    assert!((v.b.coords.dot(u) - b.coords.dot(u)).abs() <= tol, "{u}");
-                    assert!((v.w - (v.a - v.b)).norm() == 0.0);
+                    assert!((va.dot(u) - a.coords.dot(u)).abs() <= tol, "{u}");
+                    assert!((vb.dot(u) - b.coords.dot(u)).abs() <= tol, "{u}");
                 }
             }
         }
     }
 }
-
