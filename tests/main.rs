@@ -17,6 +17,7 @@ mod first_hour;
 mod follow;
 mod hostile_inputs;
 mod library_space;
+mod operations;
 mod ops;
 mod query;
 mod query_docs;

@@ -16,7 +16,8 @@
 //! **Commands** (simctl JSON, [`Ops::command`]): `{"cmd": "consumer", "name": N, "mode":
 //! "full"|"reduced"|"off", "rule": R, "reason": TEXT}` sets a consumer's mode from the next step
 //! and records the decision (with the step and time it was taken at) — answered `ok` only once
-//! recorded: an acknowledged decision is in every later `get`; `{"cmd": "ack", "who": W,
+//! recorded: an acknowledged decision is in every later `get`; `{"cmd": "demand", "name": N,
+//! "full_w": W}` changes a consumer's demand (an operator, a fault); `{"cmd": "ack", "who": W,
 //! "steps": N}` records that process W has acted on the state of step N (the operations
 //! study waits on it, so a run is the same whatever the processes' speed).
 //!
@@ -354,6 +355,7 @@ impl Ops {
     pub(crate) fn command(&mut self, cmd: &Value, t_s: f64) -> Option<Result<(), String>> {
         match cmd.get("cmd").and_then(Value::as_str)? {
             "consumer" => Some(self.decide(cmd, t_s)),
+            "demand" => Some(self.demand(cmd)),
             "ack" => Some((|| {
                 let who = cmd
                     .get("who")
@@ -369,6 +371,33 @@ impl Ops {
             })()),
             _ => None,
         }
+    }
+
+    /// `{"cmd": "demand", "name": N, "full_w": W}`: consumer N now draws W at full capacity
+    /// (its reduced demand scaled with it) — an operator's or a fault's change of a load.
+    fn demand(&mut self, cmd: &Value) -> Result<(), String> {
+        let name = cmd
+            .get("name")
+            .and_then(Value::as_str)
+            .ok_or("`name` must be a string")?;
+        let w = cmd
+            .get("full_w")
+            .and_then(Value::as_f64)
+            .filter(|w| w.is_finite() && *w >= 0.0)
+            .ok_or("`full_w` must be a number of watts, 0 or more")?;
+        let c = self
+            .consumers
+            .iter_mut()
+            .find(|c| c.name == name)
+            .ok_or_else(|| format!("no consumer {name:?}"))?;
+        let ratio = if c.full_w > 0.0 {
+            c.reduced_w / c.full_w
+        } else {
+            1.0
+        };
+        c.full_w = w;
+        c.reduced_w = w * ratio;
+        Ok(())
     }
 
     fn decide(&mut self, cmd: &Value, t_s: f64) -> Result<(), String> {

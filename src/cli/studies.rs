@@ -41,6 +41,10 @@ pub struct OperationsArgs {
     /// Leave the session running at the end (`robosim down --session S` stops it).
     #[arg(long)]
     pub keep: bool,
+    /// The station's base load (avionics, communications, thermal control), kW; default the
+    /// simulator's 100 kW. The ECLSS consumers draw beside it.
+    #[arg(long)]
+    pub base_load: Option<f64>,
 }
 
 impl From<OperationsArgs> for robosim_studies::cli::OperationsArgs {
@@ -53,6 +57,7 @@ impl From<OperationsArgs> for robosim_studies::cli::OperationsArgs {
             scheduler: a.scheduler == "on",
             fault: a.fault,
             keep: a.keep,
+            base_load: a.base_load,
         }
     }
 }

@@ -34,6 +34,8 @@ pub struct OperationsArgs {
     pub fault: Vec<String>,
     /// Leave the session running.
     pub keep: bool,
+    /// The station's base load, kW (default: the simulator's 100 kW).
+    pub base_load: Option<f64>,
 }
 
 #[derive(Debug, Clone)]
@@ -123,6 +125,7 @@ pub fn run(cmd: &StudyCmd, log: &mut dyn std::io::Write) -> Result<()> {
                     .map(|f| operations::parse_fault(f))
                     .collect::<Result<_>>()?,
                 keep: a.keep,
+                base_load_w: a.base_load.map(|kw| kw * 1e3),
             };
             operations::run(&p, log)?;
             Ok(())

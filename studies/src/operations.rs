@@ -56,6 +56,8 @@ pub struct OpsParams {
     pub faults: Vec<(String, f64)>,
     /// Leave the session running at the end (for inspection).
     pub keep: bool,
+    /// The station's base load (consumer `station_base`), W; default the simulator's 100 kW.
+    pub base_load_w: Option<f64>,
 }
 
 impl Default for OpsParams {
@@ -68,6 +70,7 @@ impl Default for OpsParams {
             scheduler: true,
             faults: Vec::new(),
             keep: false,
+            base_load_w: None,
         }
     }
 }
@@ -167,6 +170,10 @@ pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
         bail!(
             "the simulator of {SCENE} publishes no operations state (space.ops): is the scene's attitude/consumers effect declared?"
         );
+    }
+    if let Some(w) = p.base_load_w {
+        planner.sim_command(&json!({"cmd": "demand", "name": "station_base", "full_w": w}))?;
+        say!(log, "== base load {:.0} kW", w / 1e3);
     }
     let chunk = (p.decide_every_s / dt).round().max(1.0) as u64;
     let total = ((p.orbits * period) / dt).round() as u64;
@@ -382,6 +389,17 @@ fn write_outputs(
         .then(|| (starts[starts.len() - 1] - starts[0]) / (starts.len() - 1) as f64 / period);
     let mut table_rows = vec![
         vec!["orbits run".into(), format!("{}", p.orbits), "".into()],
+        vec![
+            "base load (station_base)".into(),
+            format!(
+                "{:.0}",
+                f(
+                    &rows.last().map_or(Value::Null, |r| r.state.clone()),
+                    "/space/ops/consumers/0/full_w"
+                ) / 1e3
+            ),
+            "kW".into(),
+        ],
         vec![
             "scheduler (rules process, station_ops.clp)".into(),
             if p.scheduler { "on" } else { "off" }.into(),
