@@ -130,24 +130,30 @@ pub enum Which {
     },
 }
 
+/// A report's boxed error as the command's: its message and its causes
+/// ([`robosim_instance_space::error_chain`]).
+fn boxed(e: Box<dyn std::error::Error>) -> CliError {
+    CliError(robosim_instance_space::error_chain(&*e))
+}
+
 pub fn run(which: Which, session: Option<&str>) -> Result<()> {
     let wrote = crate::reports::wrote;
     match which {
         Which::Ipc { out, quick } => {
             let pb = robosim_report::progress::spinner("bench ipc");
-            robosim_report::ipc::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
+            robosim_report::ipc::run(&out, quick).map_err(boxed)?;
             pb.finish_and_clear();
             wrote(&out, &[])
         }
         Which::Scale { out, quick } => {
             let pb = robosim_report::progress::spinner("bench scale");
-            robosim_report::scale::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
+            robosim_report::scale::run(&out, quick).map_err(boxed)?;
             pb.finish_and_clear();
             wrote(&out, &[])
         }
         Which::Bridge { out, quick } => {
             let pb = robosim_report::progress::spinner("bench bridge");
-            robosim_report::bridge::run(&out, quick).map_err(|e| CliError(e.to_string()))?;
+            robosim_report::bridge::run(&out, quick).map_err(boxed)?;
             pb.finish_and_clear();
             wrote(&out, &[])
         }
@@ -177,7 +183,7 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
                 Some(tag) => robosim_report::ipc::bare_listener(session, &tag, count, &out),
                 None => robosim_report::ipc::latency_reader(session, count, &out),
             }
-            .map_err(|e| CliError(e.to_string()))
+            .map_err(boxed)
         }
         Which::Editor { out, quick } => {
             let me = std::env::current_exe()?;

@@ -211,8 +211,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         }
         Command::Automation { model, time_scale } => {
             existing(session)?;
-            robosim_hl_interface::plant::run(session, &model, time_scale)
-                .map_err(|e| CliError(e.to_string()))
+            robosim_hl_interface::plant::run(session, &model, time_scale).map_err(CliError::from)
         }
         Command::Simctl { commands } => {
             existing(session)?;
@@ -245,28 +244,28 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 c
             };
             robosim_bridge::sweep_link::host(&args.into(), &spawn, &mut |line| eprintln!("{line}"))
-                .map_err(|e| CliError(e.to_string()))
+                .map_err(CliError::from)
         }
         Command::SweepWorker => robosim_studies::sweep::cli::worker().map_err(CliError::from),
         Command::Bench { which } => bench::run(which, session),
         Command::Bridge(args) => robosim_bridge::run(session, &args.into()).map_err(CliError::from),
         Command::Lib { cmd } => match session {
-            None => robosim_hl_interface::cli::lib::run(cmd.into()).map_err(CliError),
+            None => robosim_hl_interface::cli::lib::run(cmd.into()).map_err(CliError::from),
             Some(_) => session_library(session)
                 .and_then(|lib| {
                     robosim_hl_interface::cli::lib::render_with(cmd.into(), Some(&lib))
-                        .map_err(CliError)
+                        .map_err(CliError::from)
                 })
                 .map(|text| print!("{text}")),
         },
-        Command::Diag { cmd } => robosim_hl_interface::cli::diag::run(cmd.into()).map_err(CliError),
+        Command::Diag { cmd } => robosim_hl_interface::cli::diag::run(cmd.into()).map_err(CliError::from),
         Command::Query { args } => match session {
-            None => robosim_hl_interface::cli::run(&args.into()).map_err(CliError),
+            None => robosim_hl_interface::cli::run(&args.into()).map_err(CliError::from),
             Some(s) => query_session(s, &args.into()),
         },
         Command::Sim(args) => {
             robosim_hl_interface::cli::sim::run(&args.into(), &robosim_library::standard_robot)
-                .map_err(CliError)
+                .map_err(CliError::from)
         }
         Command::Journal {
             cmd: JournalCmd::Inspect { path },
@@ -335,7 +334,7 @@ fn render(args: &robosim_display::app::RenderArgs) -> Result<()> {
         .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
     let out = if urdf {
         let store =
-            robosim_file_io::urdf_session::urdf_store(path).map_err(|e| CliError(e.to_string()))?;
+            robosim_file_io::urdf_session::urdf_store(path)?;
         robosim_display::app::cmd_render_store(args, store)
     } else {
         robosim_display::app::cmd_render(args)

@@ -50,6 +50,12 @@ fn session_err(message: impl Into<String>) -> ProtocolError {
     ProtocolError::new(ErrorKind::Session, message)
 }
 
+/// A `session` error from the session layer's typed error: its message and every cause
+/// ([`robosim_instance_space::error_chain`]), since the protocol's error carries words only.
+fn session_failed(e: &dyn std::error::Error) -> ProtocolError {
+    session_err(robosim_instance_space::error_chain(e))
+}
+
 /// How long a simulator command waits for the daemon's answer.
 const SIM_TIMEOUT: Duration = Duration::from_secs(10);
 
@@ -92,7 +98,7 @@ impl Planner {
     /// Attaches to the running session `name`: a clear `session` error when there is no such
     /// session or no keeper runs in it.
     pub fn attach(name: &str) -> Result<Planner> {
-        let session = Session::existing(Some(name)).map_err(|e| session_err(e.to_string()))?;
+        let session = Session::existing(Some(name)).map_err(|e| session_failed(&e))?;
         Self::attach_to(&session)
     }
 
@@ -108,7 +114,7 @@ impl Planner {
                 session.name()
             )));
         }
-        let mut ops = Ops::attach(session).map_err(|e| session_err(e.to_string()))?;
+        let mut ops = Ops::attach(session).map_err(|e| session_failed(&e))?;
         let seen = ops.reader_mut().snapshot().map_or(0, |s| s.version());
         Ok(Planner {
             ops,
@@ -125,7 +131,7 @@ impl Planner {
     /// The newest committed snapshot (zero-copy: the model stays in shared memory).
     pub fn snapshot(&mut self) -> Result<Rc<Snapshot>> {
         let r = self.ops.reader_mut();
-        r.refresh().map_err(|e| session_err(e.to_string()))?;
+        r.refresh().map_err(|e| session_failed(&e))?;
         r.snapshot()
             .ok_or_else(|| session_err("the keeper has published no model"))
     }
@@ -185,7 +191,7 @@ impl Planner {
     pub fn wait_change(&mut self, timeout: Duration) -> Result<Option<Changes>> {
         let seen = self.seen;
         let r = self.ops.reader_mut();
-        let lost = |e: robosim_instance_space::ReaderError| session_err(e.to_string());
+        let lost = |e: robosim_instance_space::ReaderError| session_failed(&e);
         // A planner that did not look for a long while may have missed change records (the
         // reader's log is bounded): it gets what is still known, marked `lost`.
         let mut missed = false;

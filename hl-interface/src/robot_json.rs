@@ -20,7 +20,10 @@ use serde_json::{Map, Value};
 /// A field of a request that could not be read is a `bad_request`.
 impl From<JsonError> for ProtocolError {
     fn from(e: JsonError) -> Self {
-        ProtocolError::new(ErrorKind::BadRequest, e.to_string())
+        ProtocolError::new(
+            ErrorKind::BadRequest,
+            robosim_instance_space::error_chain(&e),
+        )
     }
 }
 
@@ -65,7 +68,7 @@ pub fn robot_from_mjcf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
     };
     robosim_file_io::mjcf::import_mjcf(std::path::Path::new(path), tip)
         .map(|imported| imported.robot)
-        .map_err(|e| JsonError::new("robot.mjcf", e.to_string()))
+        .map_err(|e| JsonError::caused("robot.mjcf", e))
 }
 
 const URDF_KEYS: &[&str] = &["urdf", "tip", "floating"];
@@ -113,7 +116,7 @@ pub fn robot_from_urdf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
             kind,
         )
         .map(|imported| imported.robot)
-        .map_err(|e| JsonError::new("robot.urdf", e.to_string()));
+        .map_err(|e| JsonError::caused("robot.urdf", e));
     }
     let tip = match obj.get("tip") {
         None | Some(Value::Null) => None,
@@ -123,7 +126,7 @@ pub fn robot_from_urdf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
     };
     robosim_file_io::urdf_import::import_urdf(std::path::Path::new(path), tip)
         .map(|imported| imported.robot)
-        .map_err(|e| JsonError::new("robot.urdf", e.to_string()))
+        .map_err(|e| JsonError::caused("robot.urdf", e))
 }
 
 #[cfg(test)]
@@ -135,6 +138,14 @@ mod tests {
         let e = robot_from_json(&serde_json::json!({"urdf": "/no/such/file.urdf"}))
             .expect_err("no such file");
         assert_eq!(e.path, "robot.urdf");
+        // The importer's error is kept typed behind the field path.
+        let cause = std::error::Error::source(&e).expect("the importer's error");
+        assert!(
+            cause
+                .downcast_ref::<robosim_file_io::urdf_import::UrdfError>()
+                .is_some(),
+            "{cause:?}"
+        );
         let e = robot_from_json(&serde_json::json!({"urdf": "x.urdf", "tpi": "a"}))
             .expect_err("a misspelt key");
         assert_eq!(e.path, "robot.tpi");

@@ -3,6 +3,7 @@
     clippy::unwrap_used,
     reason = "a test unwraps: failing there is the test failing"
 )]
+use robosim_hl_interface::cli::CommandError;
 use robosim_hl_interface::cli::diag::{DiagCmd, execute};
 use robosim_hl_interface::protocol::automation::dispatch;
 use serde_json::json;
@@ -38,6 +39,8 @@ fn check_reports_the_model_and_refuses_inconsistent_ones() {
         dot: None,
     })
     .unwrap_err();
+    assert!(matches!(err, CommandError::Refused(_)), "{err:?}");
+    let err = err.to_string();
     assert!(err.contains("bad.hfm:2:3: error[zero-time-cycle]"), "{err}");
     let syntax = dir.path().join("syntax.hfm");
     std::fs::write(&syntax, "process R {\n  failure f\n  alarm A detect f\n}\n").unwrap();
@@ -46,6 +49,9 @@ fn check_reports_the_model_and_refuses_inconsistent_ones() {
         dot: None,
     })
     .unwrap_err();
+    // A model that does not parse is the fault-model reader's typed error.
+    assert!(matches!(err, CommandError::FaultModel(_)), "{err:?}");
+    let err = err.to_string();
     assert!(
         err.starts_with(&format!("{}:3:11: expected `detects`", syntax.display())),
         "{err}"
@@ -118,7 +124,7 @@ fn run_reports_bad_alarm_files_with_place() {
     })
     .unwrap_err();
     assert_eq!(
-        err,
+        err.to_string(),
         format!("{}:2:3: no alarm named `A_nope`", file.display())
     );
     std::fs::write(&file, "10 A_thc_hx\n5 A_thc_humidity\n").unwrap();
@@ -129,7 +135,11 @@ fn run_reports_bad_alarm_files_with_place() {
         drop: vec![],
     })
     .unwrap_err();
-    assert!(err.contains(":2:1: alarms must be in time order"), "{err}");
+    assert!(
+        err.to_string()
+            .contains(":2:1: alarms must be in time order"),
+        "{err}"
+    );
 }
 
 #[test]

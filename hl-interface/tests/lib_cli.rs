@@ -1,5 +1,6 @@
 //! `robosim lib list|show|eval|check`, driven through [`render`].
 
+use robosim_hl_interface::cli::CommandError;
 use robosim_hl_interface::cli::lib::{LibCmd, render};
 
 /// The library of `library-space/tests/api.rs`.
@@ -52,6 +53,16 @@ fn cli_lists_shows_and_checks() {
     let bad = dir.path().join("bad.txt");
     std::fs::write(&bad, "solid a {\n  part box(1 m, 1 m, 1 deg)\n}\n").expect("write");
     let err = render(LibCmd::Check { file: bad.clone() }).expect_err("bad file");
+    // The library's located error, kept typed.
+    assert!(
+        matches!(
+            err,
+            CommandError::Library(robosim_library::Error::Source(ref e))
+                if e.location.line == 2 && e.location.column == 22
+        ),
+        "{err:?}"
+    );
+    let err = err.to_string();
     assert!(err.contains(&format!("{}:2:22", bad.display())), "{err}");
 }
 

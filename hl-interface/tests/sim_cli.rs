@@ -1,5 +1,6 @@
 //! `robosim sim`, driven through [`run`].
 
+use robosim_hl_interface::cli::CommandError;
 use robosim_hl_interface::cli::sim::{SimArgs, run};
 
 #[test]
@@ -19,17 +20,16 @@ fn sim_command_builds_prints_and_runs() {
     assert!(
         run(&bad, &none)
             .expect_err("unknown robot")
+            .to_string()
             .contains("nonesuch")
     );
     let bad = SimArgs {
         effects: Some(r#"{"dynamics": {"integrator": "leapfrog"}}"#.into()),
         ..args.clone()
     };
-    assert!(
-        run(&bad, &none)
-            .expect_err("bad integrator")
-            .contains("dynamics.integrator")
-    );
+    let err = run(&bad, &none).expect_err("bad integrator");
+    assert!(matches!(err, CommandError::Effects(_)), "{err:?}");
+    assert!(err.to_string().contains("dynamics.integrator"), "{err}");
     let bad = SimArgs {
         q0: Some(vec![0.0; 5]),
         ..args

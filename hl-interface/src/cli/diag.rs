@@ -4,6 +4,7 @@
 //! Entry points: [`run`] (prints to stdout) and [`execute`] (returns the text; what the tests
 //! drive).
 
+use super::CommandError;
 use robosim_automation::analysis::{advise_greedy, evaluate};
 use robosim_automation::diag::{FaultGraph, Ilm};
 use robosim_automation::model::check::{Severity, check_model};
@@ -61,17 +62,17 @@ pub enum DiagCmd {
 }
 
 /// Runs a command and prints its report to stdout.
-pub fn run(cmd: DiagCmd) -> Result<(), String> {
+pub fn run(cmd: DiagCmd) -> Result<(), CommandError> {
     let out = execute(cmd)?;
     print!("{out}");
     Ok(())
 }
 
-fn load(name: &str) -> Result<Model, String> {
-    load_model(name).map_err(|e| e.to_string())
+fn load(name: &str) -> Result<Model, CommandError> {
+    Ok(load_model(name)?)
 }
 
-fn allocation(m: &Model, drop: &[String]) -> Result<Vec<bool>, String> {
+fn allocation(m: &Model, drop: &[String]) -> Result<Vec<bool>, CommandError> {
     let mut p = vec![true; m.alarms.len()];
     for d in drop {
         p[m.find_alarm(d)?] = false;
@@ -80,14 +81,13 @@ fn allocation(m: &Model, drop: &[String]) -> Result<Vec<bool>, String> {
 }
 
 /// Runs a command and returns its report (the last line of `analyze` is a one-line summary).
-pub fn execute(cmd: DiagCmd) -> Result<String, String> {
+pub fn execute(cmd: DiagCmd) -> Result<String, CommandError> {
     let mut o = String::new();
     match cmd {
         DiagCmd::Check { model, dot } => {
             let m = load(&model)?;
             if let Some(path) = &dot {
-                robosim_input::write_file_atomic(path, m.to_dot().as_bytes())
-                    .map_err(|e| e.to_string())?;
+                robosim_input::write_file_atomic(path, m.to_dot().as_bytes())?;
             }
             let findings = check_model(&m);
             let _ = writeln!(
@@ -113,7 +113,9 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
                 .filter(|f| f.severity == Severity::Error)
                 .count();
             if errors > 0 {
-                return Err(format!("{o}{errors} error(s): the model is not consistent"));
+                return Err(CommandError::Refused(format!(
+                    "{o}{errors} error(s): the model is not consistent"
+                )));
             }
             let _ = writeln!(o, "consistent ({} warning(s))", findings.len());
         }
@@ -137,7 +139,9 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
                     None => (f.as_str(), 0.0),
                 };
                 if !t.is_finite() {
-                    return Err(format!("--fault {f}: time must be finite"));
+                    return Err(CommandError::Refused(format!(
+                        "--fault {f}: time must be finite"
+                    )));
                 }
                 inj.push((m.find_failure_mode(name)?, t));
             }
@@ -175,9 +179,11 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
         } => {
             let m = load(&model)?;
             let g = FaultGraph::new(&m);
-            let text =
-                robosim_input::read_to_string(&alarms, "an alarm file", robosim_input::Limit::TEXT)
-                    .map_err(|e| e.to_string())?;
+            let text = robosim_input::read_to_string(
+                &alarms,
+                "an alarm file",
+                robosim_input::Limit::TEXT,
+            )?;
             let events = parse_alarms(&m, &text, &alarms.display().to_string())?;
             let present = allocation(&m, &drop)?;
             let mut ilm = Ilm::new(&m, &g, Some(&present));
@@ -189,15 +195,15 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
                 while i < events.len() && events[i].time == t {
                     let e = events[i];
                     if !present[e.alarm] {
-                        return Err(format!(
+                        return Err(CommandError::Refused(format!(
                             "alarm {} is in the sequence but dropped from the allocation",
                             m.alarms[e.alarm].name
-                        ));
+                        )));
                     }
                     batch.push((e.alarm, e.time));
                     i += 1;
                 }
-                ilm.on_alarms(&batch).map_err(|x| x.to_string())?;
+                ilm.on_alarms(&batch)?;
                 ilm.step();
                 let c = ilm.diagnoser().candidates();
                 let guess = ilm.best_guess();
@@ -296,10 +302,10 @@ pub fn execute(cmd: DiagCmd) -> Result<String, String> {
             let m = load(&model)?;
             let findings = check_model(&m);
             if findings.iter().any(|f| f.severity == Severity::Error) {
-                return Err(format!(
+                return Err(CommandError::Refused(format!(
                     "model {} is not consistent: run `diag check` first",
                     m.source
-                ));
+                )));
             }
             let g = FaultGraph::new(&m);
             let na = m.alarms.len();

@@ -4,6 +4,7 @@
 //! [`run`]; on `Err(message)` print it to stderr and exit non-zero (the message of a source
 //! error starts with `error[…]` and names file:line:col).
 
+use super::CommandError;
 use robosim_library::{Evaluated, Library, Params};
 use std::path::PathBuf;
 
@@ -42,30 +43,32 @@ pub enum LibCmd {
     },
 }
 
-fn open(file: &Option<PathBuf>, session: Option<&Library>) -> Result<Library, String> {
+fn open(file: &Option<PathBuf>, session: Option<&Library>) -> Result<Library, CommandError> {
     match (file, session) {
         // A user's file sees the standard library (its scenes may place `puma560()`).
-        (Some(f), _) => Library::load_with_standard(f).map_err(|e| e.to_string()),
+        (Some(f), _) => Ok(Library::load_with_standard(f)?),
         // A session's Library Space, rebuilt from the source text in shared memory.
-        (None, Some(lib)) => Library::from_sources(&lib.sources()).map_err(|e| e.to_string()),
-        (None, None) => Library::standard().map_err(|e| e.to_string()),
+        (None, Some(lib)) => {
+            Ok(Library::from_sources(&lib.sources()).map_err(robosim_library::Error::from)?)
+        }
+        (None, None) => Ok(Library::standard().map_err(robosim_library::Error::from)?),
     }
 }
 
 /// Runs one `lib` command, printing to stdout. `Err` carries the message for stderr.
-pub fn run(cmd: LibCmd) -> Result<(), String> {
+pub fn run(cmd: LibCmd) -> Result<(), CommandError> {
     print!("{}", render(cmd)?);
     Ok(())
 }
 
 /// The text [`run`] prints (for tests and other front ends).
-pub fn render(cmd: LibCmd) -> Result<String, String> {
+pub fn render(cmd: LibCmd) -> Result<String, CommandError> {
     render_with(cmd, None)
 }
 
 /// [`render`] against a given library (a session's Library Space) instead of the standard
 /// one, where the command names no `--file`.
-pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, String> {
+pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, CommandError> {
     use std::fmt::Write as _;
     let mut out = String::new();
     match cmd {
@@ -85,9 +88,11 @@ pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, Str
         LibCmd::Show { name, file } => {
             let lib = open(&file, session)?;
             let info = lib.declarations().into_iter().find(|d| d.name == name);
-            let params = lib.params(&name).map_err(|e| e.to_string())?;
+            let params = lib.params(&name)?;
             let Some(d) = info else {
-                return Err(format!("no declaration named `{name}`"));
+                return Err(CommandError::Refused(format!(
+                    "no declaration named `{name}`"
+                )));
             };
             let _ = writeln!(out, "{} {}  ({})", d.kind.as_str(), d.name, d.location);
             if let Some(doc) = &d.doc {
@@ -112,10 +117,7 @@ pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, Str
                     );
                 }
             }
-            match lib
-                .evaluate(&name, &Params::new())
-                .map_err(|e| e.to_string())?
-            {
+            match lib.evaluate(&name, &Params::new())? {
                 Evaluated::Robot(r) | Evaluated::Link(r) => {
                     let _ = writeln!(
                         out,
@@ -216,16 +218,11 @@ pub fn render_with(cmd: LibCmd, session: Option<&Library>) -> Result<String, Str
                         crate::ErrorKind::InternalError,
                         "lib_evaluate not handled",
                     ))
-                })
-                .map_err(|e| e.message)?;
-            let _ = writeln!(
-                out,
-                "{}",
-                serde_json::to_string_pretty(&answer).map_err(|e| e.to_string())?
-            );
+                })?;
+            let _ = writeln!(out, "{}", serde_json::to_string_pretty(&answer)?);
         }
         LibCmd::Check { file } => {
-            let lib = Library::load_with_standard(&file).map_err(|e| e.to_string())?;
+            let lib = Library::load_with_standard(&file)?;
             let own = lib.own_declarations();
             let _ = writeln!(
                 out,

@@ -20,12 +20,14 @@ pub struct QueryArgs {
 /// Serves requests until the input ends. A client closing standard output (broken pipe) ends
 /// the session normally. Errors: the input file cannot be opened, or an I/O error on either
 /// stream; bad requests are answered on the stream, never returned here.
-pub fn run(args: &QueryArgs) -> Result<(), String> {
+pub fn run(args: &QueryArgs) -> Result<(), super::CommandError> {
     let stdout = io::stdout();
     let result = match args.input.as_deref() {
         Some(path) if path.as_os_str() != "-" => {
-            let file = std::fs::File::open(path)
-                .map_err(|e| format!("query: cannot open {}: {e}", path.display()))?;
+            let file = std::fs::File::open(path).map_err(|source| super::CommandError::Open {
+                path: path.to_path_buf(),
+                source,
+            })?;
             serve(BufReader::new(file), stdout.lock())
         }
         _ => serve(io::stdin().lock(), stdout.lock()),
@@ -33,7 +35,7 @@ pub fn run(args: &QueryArgs) -> Result<(), String> {
     let stats = match result {
         Ok(stats) => stats,
         Err(e) if e.kind() == io::ErrorKind::BrokenPipe => return Ok(()),
-        Err(e) => return Err(format!("query: {e}")),
+        Err(e) => return Err(super::CommandError::Io(e)),
     };
     if args.stats {
         let ServeStats { lines, ok, errors } = stats;

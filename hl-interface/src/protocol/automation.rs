@@ -13,6 +13,7 @@ use robosim_automation::diag::{FaultGraph, Ilm};
 use robosim_automation::model::check::{Severity, check_model};
 use robosim_automation::model::{Model, load_model};
 use robosim_automation::sim::{SimOptions, simulate};
+use robosim_instance_space::error_chain;
 use robosim_kinematics::Robot;
 use serde_json::{Value, json};
 
@@ -20,7 +21,7 @@ fn model_of(req: &Value) -> Result<Model, ProtocolError> {
     let name = req.get("model").and_then(Value::as_str).ok_or_else(|| {
         ProtocolError::new(ErrorKind::BadRequest, "`model` (a string) is required")
     })?;
-    load_model(name).map_err(|e| ProtocolError::new(ErrorKind::BadModel, e.to_string()))
+    load_model(name).map_err(|e| ProtocolError::new(ErrorKind::BadModel, error_chain(&e)))
 }
 
 fn f64_field(v: &Value, key: &str, default: Option<f64>) -> Result<f64, ProtocolError> {
@@ -149,7 +150,7 @@ fn diagnose(req: &Value) -> Result<Value, ProtocolError> {
     // Alarms with the same time stamp rang together: one update.
     for batch in events.chunk_by(|x, y| x.1 == y.1) {
         ilm.on_alarms(batch)
-            .map_err(|e| ProtocolError::new(ErrorKind::BadAlarm, e.to_string()))?;
+            .map_err(|e| ProtocolError::new(ErrorKind::BadAlarm, error_chain(&e)))?;
     }
     if req.get("until").is_some() {
         ilm.advance_to(f64_field(req, "until", None)?);

@@ -15,6 +15,7 @@
 use super::finite::check;
 use crate::robot_json::{matrix_to_json, matrix4_to_json, robot_to_json};
 use crate::{ErrorKind, ProtocolError};
+use robosim_instance_space::error_chain;
 use robosim_kinematics::Robot;
 use robosim_library::{Effects, Evaluated, Library, Params, PlacedSolid};
 use serde_json::{Value, json};
@@ -44,7 +45,7 @@ fn answer(op: &str, req: &Value) -> Result<Value, ProtocolError> {
         })?,
         Some(Value::String(f)) => {
             owned = Library::load_with_standard(f)
-                .map_err(|e| ProtocolError::new(ErrorKind::LibraryError, e.to_string()))?;
+                .map_err(|e| ProtocolError::new(ErrorKind::LibraryError, error_chain(&e)))?;
             &owned
         }
         Some(other) => {
@@ -71,7 +72,7 @@ fn answer(op: &str, req: &Value) -> Result<Value, ProtocolError> {
             }
             _ => ErrorKind::LibraryError,
         };
-        ProtocolError::new(kind, e.to_string())
+        ProtocolError::new(kind, error_chain(&e))
     };
     match op {
         "lib_list" => Ok(json!({ "declarations": lib.declarations() })),
