@@ -65,7 +65,12 @@ pub struct LangError {
     pub span: Span,
     /// The command it is in ("" when the line has none yet).
     pub command: String,
+    /// What is wrong, in words ("" when `source` says it all).
     pub what: String,
+    /// The solid's or the link's error when a command's shape makes no solid or its objects no
+    /// link (kept typed; the message ends with it).
+    #[source]
+    pub source: Option<crate::program::LinkError>,
 }
 
 impl fmt::Display for LangError {
@@ -74,7 +79,14 @@ impl fmt::Display for LangError {
         if !self.command.is_empty() {
             write!(f, "{}: ", self.command)?;
         }
-        f.write_str(&self.what)
+        f.write_str(&self.what)?;
+        if let Some(source) = &self.source {
+            if !self.what.is_empty() {
+                f.write_str(": ")?;
+            }
+            write!(f, "{source}")?;
+        }
+        Ok(())
     }
 }
 
@@ -138,6 +150,7 @@ fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, Lang
         span: col(i),
         command: command.to_owned(),
         what,
+        source: None,
     };
     let start = c.i;
     let name = c.take_while(is_name_char).to_ascii_uppercase();

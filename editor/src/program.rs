@@ -79,8 +79,23 @@ pub struct Output {
     pub views: Vec<String>,
 }
 
-/// Why a working object cannot become a link file.
-pub type LinkError = String;
+/// Why a working object cannot become a link file. A variant that wraps the geometry's or the
+/// link file's error keeps it (`source()`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LinkError {
+    /// The objects do not make a link (two joints of one kind): the message.
+    #[error("{0}")]
+    Refused(String),
+    /// An object's shape makes no solid.
+    #[error(transparent)]
+    Solid(#[from] robosim_geometry::shapes::ShapeError),
+    /// A solid's mass properties cannot be computed.
+    #[error(transparent)]
+    Mass(#[from] robosim_geometry::MassError),
+    /// The link's two joints are not related by a DH transform.
+    #[error("the I joint and the I+1 joint are not related by a DH transform: {0}")]
+    NotDh(#[source] linkfile::DhViolation),
+}
 
 /// The link file of `objects` (construction frame, m) with uniform `density` (kg/m³).
 pub fn build_link(objects: &[Placed], density: f64) -> Result<LinkFile, LinkError> {
@@ -93,16 +108,16 @@ pub fn build_link(objects: &[Placed], density: f64) -> Result<LinkFile, LinkErro
             Shape::Joint { kind, output } => {
                 let slot = if *output { &mut joint_i1 } else { &mut joint_i };
                 if slot.is_some() {
-                    return Err(format!(
+                    return Err(LinkError::Refused(format!(
                         "two {} joints in one link (the second made on line {})",
                         if *output { "I+1" } else { "I" },
                         o.span.line
-                    ));
+                    )));
                 }
                 *slot = Some((*kind, o.m));
             }
             shape => {
-                let Some(p) = shape.polyhedron().map_err(|e| e.to_string())? else {
+                let Some(p) = shape.polyhedron()? else {
                     continue;
                 };
                 let iso = isometry(&o.m);
@@ -119,7 +134,7 @@ pub fn build_link(objects: &[Placed], density: f64) -> Result<LinkFile, LinkErro
                             .collect(),
                     );
                 }
-                let mp = p.mass_properties(density).map_err(|e| e.to_string())?;
+                let mp = p.mass_properties(density)?;
                 let mp = mp.transformed(&iso);
                 ainert += pseudo_inertia(mp.mass, &mp.center_of_mass.coords, &mp.inertia);
             }
@@ -134,11 +149,7 @@ pub fn build_link(objects: &[Placed], density: f64) -> Result<LinkFile, LinkErro
     );
     let dh = match linkfile::dh_decompose(&amat, DH_TOL) {
         Ok(row) => row,
-        Err(e) if moving => {
-            return Err(format!(
-                "the I joint and the I+1 joint are not related by a DH transform: {e}"
-            ));
-        }
+        Err(e) if moving => return Err(LinkError::NotDh(e)),
         Err(_) => DhRow::default(),
     };
     Ok(LinkFile {
@@ -235,6 +246,7 @@ pub fn run_with_budget(cmds: &[Command], file: &str, budget: usize) -> Result<Ou
             span: *s,
             command: "MOVE".into(),
             what: "this MOVE/DRAW polygon is never used by EXTRUDE-SURFACE or REV-SURFACE".into(),
+            source: None,
         });
     }
     Ok(it.out)
@@ -279,6 +291,7 @@ impl Interp<'_> {
             span,
             command: c.name.clone(),
             what,
+            source: None,
         }
     }
 
@@ -469,7 +482,10 @@ impl Interp<'_> {
     fn add_shape(&mut self, c: &Command, shape: Shape) -> Result<(), LangError> {
         let polygons = shape
             .polyhedron()
-            .map_err(|e| self.err(c, c.span, e.to_string()))?
+            .map_err(|e| LangError {
+                source: Some(LinkError::Solid(e)),
+                ..self.err(c, c.span, String::new())
+            })?
             .map_or(0, |p| p.polygons.len())
             .max(1);
         let total = self.work_polygons.saturating_add(polygons);
@@ -704,6 +720,7 @@ impl Interp<'_> {
                     span: *s,
                     command: "MOVE/DRAW".into(),
                     what: "an EXTRUDE-SURFACE polygon lies in the XY plane: Z must be 0".into(),
+                    source: None,
                 });
             }
             let h = self.positive(c, &a, "Z")?;
@@ -718,6 +735,7 @@ impl Interp<'_> {
                         span: *s,
                         command: "MOVE/DRAW".into(),
                         what: "a REV-SURFACE profile lies in the XZ half-plane: Y = 0 and X (the radius) ≥ 0".into(),
+                        source: None,
                     });
             }
             let angle = a.get("A").map_or(std::f64::consts::TAU, |v| v.0);
@@ -831,8 +849,10 @@ impl Interp<'_> {
                 "the working object is empty (LOAD a register first?)".into(),
             ));
         }
-        let file = build_link(&self.work.objects, self.density)
-            .map_err(|e| self.err(c, s, format!("link {w}: {e}")))?;
+        let file = build_link(&self.work.objects, self.density).map_err(|e| LangError {
+            source: Some(e),
+            ..self.err(c, s, format!("link {w}"))
+        })?;
         // what `lang run` writes, `lang load` must read back: the stored text is
         // read here by the same reader, and a refusal names this line
         LinkFile::parse(&file.to_text(), std::path::Path::new(&w))

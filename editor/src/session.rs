@@ -18,7 +18,7 @@
 //! object's origin record holds its editor record (shape, ref, amat, attachment) as JSON, so
 //! the design can be read back from the space ([`design_from_snapshot`]) by a restarted editor.
 
-use crate::structure::{Design, EdObject, EditError};
+use crate::structure::{Cause, Design, EdObject, EditError};
 use robosim_instance_space::{
     GeometryInput, Id, Kind, ObjRef, Pose, Snapshot, Store, Transaction, TxError,
 };
@@ -27,35 +27,36 @@ use std::collections::BTreeMap;
 
 /// Where transactions go.
 pub trait Space {
-    /// Commits one transaction; the ids of its creates, in order, and the version.
-    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), String>;
+    /// Commits one transaction; the ids of its creates, in order, and the version. A refusal
+    /// is the space's own error ([`TxError`] of a store, `ClientError` of a client), kept.
+    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), Cause>;
 }
 
 impl Space for Store {
-    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), String> {
+    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), Cause> {
         self.apply(tx)
             .map(|a| (a.created, a.version))
-            .map_err(|e: TxError| e.to_string())
+            .map_err(|e: TxError| Cause::new(e))
     }
 }
 
 impl Space for robosim_instance_space::Client {
-    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), String> {
+    fn commit(&mut self, tx: &Transaction) -> Result<(Vec<Id>, u64), Cause> {
         self.transact(tx)
             .map(|a| (a.created, a.version))
-            .map_err(|e| e.to_string())
+            .map_err(Cause::new)
     }
 }
 
 /// The history in `path`; `None` when there is no file.
 fn read_history(path: &std::path::Path) -> Result<Option<History>, EditError> {
-    let fail = |problem: String| EditError::History {
+    let fail = |e| EditError::HistoryRead {
         path: path.display().to_string(),
-        problem,
+        source: e,
     };
     match std::fs::symlink_metadata(path) {
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(fail(e.to_string())),
+        Err(e) => return Err(fail(Cause::new(e))),
         Ok(_) => {}
     }
     let text = robosim_input::read_to_string(
@@ -63,12 +64,13 @@ fn read_history(path: &std::path::Path) -> Result<Option<History>, EditError> {
         "the session's edit history",
         robosim_input::Limit::MODEL,
     )
-    .map_err(|e| fail(e.to_string()))?;
-    serde_json::from_str(&text).map(Some).map_err(|e| {
-        fail(format!(
-            "not an edit history ({e}); remove it to start a new one"
-        ))
-    })
+    .map_err(|e| fail(Cause::new(e)))?;
+    serde_json::from_str(&text)
+        .map(Some)
+        .map_err(|e| EditError::HistoryFormat {
+            path: path.display().to_string(),
+            source: Cause::new(e),
+        })
 }
 
 /// The record on each object (its origin field).
@@ -273,15 +275,13 @@ impl<S: Space> Editor<S> {
             undo: self.undo.clone(),
             redo: self.redo.clone(),
         };
-        let fail = |problem: String| EditError::History {
+        let fail = |source| EditError::HistoryWrite {
             path: path.display().to_string(),
-            problem: format!(
-                "{problem} (the edit itself was committed at version {}; a later editor cannot undo it)",
-                done.version
-            ),
+            version: done.version,
+            source,
         };
-        let text = serde_json::to_vec(&h).map_err(|e| fail(e.to_string()))?;
-        robosim_input::write_file_atomic(path, &text).map_err(|e| fail(e.to_string()))?;
+        let text = serde_json::to_vec(&h).map_err(|e| fail(Cause::new(e)))?;
+        robosim_input::write_file_atomic(path, &text).map_err(|e| fail(Cause::new(e)))?;
         Ok(done)
     }
 
@@ -349,7 +349,7 @@ impl<S: Space> Editor<S> {
         let (_, version) = self
             .space
             .commit(&tx)
-            .map_err(|e| EditError::Invalid(format!("the keeper refused the edit: {e}")))?;
+            .map_err(|source| EditError::Refused { source })?;
         self.version = version;
         self.moved.insert(id, version);
         Ok(Done { version, ops: 1 })
@@ -440,7 +440,7 @@ impl<S: Space> Editor<S> {
         let (ids, version) = self
             .space
             .commit(&tx)
-            .map_err(|e| EditError::Invalid(format!("the keeper refused the edit: {e}")))?;
+            .map_err(|source| EditError::Refused { source })?;
         for (k, key) in creates.into_iter().enumerate() {
             let Some(&id) = ids.get(k) else { break };
             match key {
@@ -635,9 +635,9 @@ fn write_object(
         let g = o
             .shape
             .polyhedron()
-            .map_err(|e| EditError::Shape {
+            .map_err(|source| EditError::Solid {
                 object: o.name.clone(),
-                what: e.to_string(),
+                source,
             })?
             .map(|p| GeometryInput::from_polyhedron(&p));
         if prev.is_some() || g.is_some() {
@@ -673,8 +673,11 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
             "the session holds no editor design {robot:?}"
         )));
     };
-    let header: DesignRecord = serde_json::from_str(snap.origin(si))
-        .map_err(|e| EditError::Invalid(format!("{robot}: its editor record: {e}")))?;
+    let header: DesignRecord =
+        serde_json::from_str(snap.origin(si)).map_err(|e| EditError::Record {
+            at: robot.to_owned(),
+            source: Cause::new(e),
+        })?;
     let scene = snap.rec(si).id;
     let mut design = Design {
         robot: header.robot.clone(),
@@ -696,9 +699,11 @@ fn read_snapshot(snap: &Snapshot, robot: &str) -> Result<Ids, EditError> {
         let mut stack: Vec<Id> = vec![lid];
         while let Some(p) = stack.pop() {
             for k in snap.children(p) {
-                let rec: ObjectRecord = serde_json::from_str(snap.origin(k)).map_err(|e| {
-                    EditError::Invalid(format!("{}: its editor record: {e}", snap.path(k)))
-                })?;
+                let rec: ObjectRecord =
+                    serde_json::from_str(snap.origin(k)).map_err(|e| EditError::Record {
+                        at: snap.path(k).to_string(),
+                        source: Cause::new(e),
+                    })?;
                 let id = snap.rec(k).id;
                 objects.insert((lname.clone(), rec.object.name.clone()), id);
                 objs.push((id, rec.object));

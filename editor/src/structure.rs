@@ -69,8 +69,22 @@ pub enum EditError {
     Exists { name: String, link: String },
     #[error("{0:?} is not an object name (letters, digits, _ - +; not starting with a digit)")]
     BadName(String),
+    /// A shape's dimensions were refused (the message names them).
     #[error("{object}: {what}")]
     Shape { object: String, what: String },
+    /// A shape's solid could not be generated (the geometry's error, kept).
+    #[error("{object}: {source}")]
+    Solid {
+        object: String,
+        source: robosim_geometry::shapes::ShapeError,
+    },
+    /// The keeper (or the store) refused the edit's transaction (its error, kept).
+    #[error("the keeper refused the edit: {source}")]
+    Refused { source: Cause },
+    /// An object's editor record in the space is not readable (`at`: the design or the
+    /// object's path; serde's error, kept).
+    #[error("{at}: its editor record: {source}")]
+    Record { at: String, source: Cause },
     #[error("{object}: polygon {polygon} does not exist (it has polygons 0 to {last})")]
     NoPolygon {
         object: String,
@@ -91,10 +105,24 @@ pub enum EditError {
     Cycle { child: String, base: String },
     #[error("{0}")]
     Invalid(String),
-    /// The session's edit history file (undo across editor processes) could not be read or
-    /// written.
-    #[error("the session's edit history {path}: {problem}")]
-    History { path: String, problem: String },
+    /// The session's edit history file (undo across editor processes) could not be read (the
+    /// I/O error, kept).
+    #[error("the session's edit history {path}: {source}")]
+    HistoryRead { path: String, source: Cause },
+    /// The history file is not an edit history (serde's error, kept).
+    #[error(
+        "the session's edit history {path}: not an edit history ({source}); remove it to start a new one"
+    )]
+    HistoryFormat { path: String, source: Cause },
+    /// The history could not be written after edit `version` was committed (the error, kept).
+    #[error(
+        "the session's edit history {path}: {source} (the edit itself was committed at version {version}; a later editor cannot undo it)"
+    )]
+    HistoryWrite {
+        path: String,
+        version: u64,
+        source: Cause,
+    },
     #[error("link {link}: {what}")]
     Joints { link: String, what: String },
     #[error("the I→I+1 relation of link {link} is not a DH transform: {violation}")]
@@ -102,6 +130,41 @@ pub enum EditError {
         link: String,
         violation: DhViolation,
     },
+}
+
+/// A lower error kept inside an [`EditError`] (the keeper's, serde's, the file system's): shared,
+/// so that the edit error stays `Clone`. Its message is the error's; `source()` is the error
+/// itself (downcast it to match on it); two are equal when they say the same.
+#[derive(Debug, Clone)]
+pub struct Cause(std::sync::Arc<dyn std::error::Error + Send + Sync>);
+
+impl Cause {
+    pub fn new(e: impl std::error::Error + Send + Sync + 'static) -> Cause {
+        Cause(std::sync::Arc::new(e))
+    }
+
+    /// The error, to downcast.
+    pub fn error(&self) -> &(dyn std::error::Error + Send + Sync + 'static) {
+        &*self.0
+    }
+}
+
+impl std::fmt::Display for Cause {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for Cause {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(self.error())
+    }
+}
+
+impl PartialEq for Cause {
+    fn eq(&self, other: &Self) -> bool {
+        self.to_string() == other.to_string()
+    }
 }
 
 fn valid_name(n: &str) -> bool {
@@ -191,9 +254,9 @@ impl Design {
                 link: self.link().name.clone(),
             });
         }
-        shape.polyhedron().map_err(|e| EditError::Shape {
+        shape.polyhedron().map_err(|source| EditError::Solid {
             object: name.to_owned(),
-            what: e.to_string(),
+            source,
         })?;
         if let Shape::Joint { output, .. } = &shape
             && let Some(o) = self
@@ -456,9 +519,9 @@ fn face_of(o: &EdObject, polygon: usize) -> Result<Matrix4<f64>, EditError> {
     let poly = o
         .shape
         .polyhedron()
-        .map_err(|e| EditError::Shape {
+        .map_err(|source| EditError::Solid {
             object: o.name.clone(),
-            what: e.to_string(),
+            source,
         })?
         .ok_or_else(|| EditError::Invalid(format!("{} has no polygons", o.name)))?;
     if polygon >= poly.polygons.len() {

@@ -839,3 +839,25 @@ fn a_later_editor_undoes_and_redoes_the_edits_of_the_editors_before_it() {
     let err = execute(&mut last, &mut p, "undo").expect_err("nothing to undo");
     assert!(err.contains("nothing to undo"), "{err}");
 }
+
+/// A history file that is not an edit history is refused with serde's error kept typed behind
+/// the message (which still names the file and says how to start over).
+#[test]
+fn a_damaged_history_keeps_the_readers_error() {
+    use robosim_editor::structure::EditError;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = robosim_editor::session::history_path(dir.path(), "X");
+    std::fs::write(&path, "{ not json").expect("write");
+    let mut ed = Editor::new(Store::new(), "X").expect("editor");
+    let err = ed.keep_history(path.clone()).expect_err("damaged");
+    let EditError::HistoryFormat { source, .. } = &err else {
+        panic!("{err:?}");
+    };
+    assert!(
+        source.error().downcast_ref::<serde_json::Error>().is_some(),
+        "{err:?}"
+    );
+    let text = err.to_string();
+    assert!(text.contains(&path.display().to_string()), "{text}");
+    assert!(text.contains("remove it to start a new one"), "{text}");
+}
