@@ -271,7 +271,8 @@ pub(crate) fn dispatch_with_robots(
     req: &Value,
     robots: &dyn Fn(&str) -> Option<Robot>,
 ) -> Option<Result<Value, ProtocolError>> {
-    protocol::kinematics::dispatch(op, req, robots)
+    protocol::mimic::dispatch(op, req)
+        .or_else(|| protocol::kinematics::dispatch(op, req, robots))
         .or_else(|| protocol::dynamics::dispatch(op, req, robots))
         .or_else(|| protocol::collision::dispatch(op, req, robots))
         .or_else(|| protocol::library::dispatch(op, req, robots))

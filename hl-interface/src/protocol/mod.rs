@@ -22,6 +22,7 @@ pub mod dynamics;
 pub mod finite;
 pub mod kinematics;
 pub mod library;
+pub mod mimic;
 
 use robosim_kinematics::Robot;
 

@@ -26,6 +26,7 @@ mod fuzz;
 mod fuzz_corpus;
 mod kinematics;
 mod library;
+mod mimic;
 mod overflow;
 mod pipes;
 mod process;
