@@ -183,12 +183,18 @@ impl Swap {
     /// The sites of the swap (body frame, m): the failed ORU's frame with its array parked at the
     /// service angle, the spare's, and where the failed one is stowed.
     pub fn sites(&self) -> [Point3<f64>; 3] {
+        self.sites_with(&Vector3::from(STOW_OFFSET))
+    }
+
+    /// [`Swap::sites`] with the failed ORU stowed at `stow_offset` from the spare (body frame,
+    /// m) instead of [`STOW_OFFSET`].
+    pub fn sites_with(&self, stow_offset: &Vector3<f64>) -> [Point3<f64>; 3] {
         let oru = self.mount_at(&self.service_q);
         let spare = self.spare.translation.vector;
         [
             Point3::from(oru.translation.vector),
             Point3::from(spare),
-            Point3::from(spare + Vector3::from(STOW_OFFSET)),
+            Point3::from(spare + stow_offset),
         ]
     }
 
@@ -200,6 +206,13 @@ impl Swap {
     /// included, seeded from the pose before); a site the servicer cannot reach is an error
     /// naming it.
     pub fn task(&self) -> Result<Vec<Waypoint>> {
+        self.task_with(&Vector3::from(STOW_OFFSET))
+    }
+
+    /// [`Swap::task`] with the failed ORU stowed at `stow_offset` from the spare (body frame, m):
+    /// the same waypoints (indices as [`SwapStep::waypoints`] names them), the stowage's solved
+    /// for that site.
+    pub fn task_with(&self, stow_offset: &Vector3<f64>) -> Result<Vec<Waypoint>> {
         let robot = &self.servicer_robot;
         let q0 = self.servicer_q0.clone();
         let solve = |what: &str, p: Point3<f64>, up: f64, seed: &[f64]| -> Result<Vec<f64>> {
@@ -221,7 +234,7 @@ impl Swap {
                 ))),
             }
         };
-        let [oru, spare, stow] = self.sites();
+        let [oru, spare, stow] = self.sites_with(stow_offset);
         let mut at_site = q0.clone();
         at_site[0] =
             (oru.y - robot.base[(1, 3)]).clamp(robot.joints[0].qlim[0], robot.joints[0].qlim[1]);
@@ -285,12 +298,19 @@ impl Swap {
 
     /// The task as a timed [`Plan`] starting at `start` (s).
     pub fn schedule(&self, start: f64) -> Result<Plan> {
+        Ok(self.timed(&self.task()?, start))
+    }
+
+    /// `waypoints` timed from `start` (s): the first is reached at `start`, each next one when
+    /// the slowest joint gets there at its speed limit ([`servicer_speed`]), dwells added; the
+    /// ORU events at their times.
+    pub fn timed(&self, waypoints: &[Waypoint], start: f64) -> Plan {
         let speed = servicer_speed(&self.servicer_robot);
         let mut out: Vec<(f64, Vec<f64>, &'static str)> = Vec::new();
         let mut events = Vec::new();
         let mut t = start;
-        let mut prev: Option<Vec<f64>> = None;
-        for w in self.task()? {
+        let mut prev: Option<&Vec<f64>> = None;
+        for w in waypoints {
             if let Some(p) = &prev {
                 let dur = p
                     .iter()
@@ -311,12 +331,12 @@ impl Swap {
             if let Some(e) = w.after_dwell {
                 events.push((t, e));
             }
-            prev = Some(w.q);
+            prev = Some(&w.q);
         }
-        Ok(Plan {
+        Plan {
             points: out,
             events,
-        })
+        }
     }
 
     /// The swap's state at `t`: the plan's events up to and including `t` applied in order.
@@ -392,7 +412,89 @@ pub struct Waypoint {
 }
 
 /// Height of the reach pose above each site, m.
-const ABOVE: f64 = 2.5;
+pub const ABOVE: f64 = 2.5;
+
+/// The swap's steps as a planner sequences them (`oru_swap.clp`, the station study's
+/// `oru_plan`): each a run of [`Swap::task`]'s waypoints, parking and unparking the array
+/// steps of their own (no motion).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SwapStep {
+    /// Along the truss to the ORU site.
+    Travel,
+    /// The carrying robot turned to its service angle.
+    Park,
+    /// Reach over the failed ORU, grasp it and release its bolts.
+    Grasp,
+    /// Lift it out and carry it over the truss.
+    Remove,
+    /// Set it down beside the spare, lift off.
+    SetDown,
+    /// Move over the spare, take it, lift it.
+    TakeSpare,
+    /// Carry the spare out, insert and bolt it.
+    Install,
+    /// Withdraw, fold and return to the start.
+    Return,
+    /// The carrying robot tracks again.
+    Unpark,
+}
+
+impl SwapStep {
+    pub const ALL: [SwapStep; 9] = [
+        SwapStep::Travel,
+        SwapStep::Park,
+        SwapStep::Grasp,
+        SwapStep::Remove,
+        SwapStep::SetDown,
+        SwapStep::TakeSpare,
+        SwapStep::Install,
+        SwapStep::Return,
+        SwapStep::Unpark,
+    ];
+
+    /// The rule base's name for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            SwapStep::Travel => "travel",
+            SwapStep::Park => "park",
+            SwapStep::Grasp => "grasp",
+            SwapStep::Remove => "remove",
+            SwapStep::SetDown => "set-down",
+            SwapStep::TakeSpare => "take-spare",
+            SwapStep::Install => "install",
+            SwapStep::Return => "return",
+            SwapStep::Unpark => "unpark",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<SwapStep> {
+        SwapStep::ALL.into_iter().find(|x| x.name() == s)
+    }
+
+    /// Its waypoints among [`Swap::task`]'s (empty for parking and unparking).
+    pub fn waypoints(self) -> std::ops::Range<usize> {
+        match self {
+            SwapStep::Travel => 1..2,
+            SwapStep::Park => 2..2,
+            SwapStep::Grasp => 2..4,
+            SwapStep::Remove => 4..6,
+            SwapStep::SetDown => 6..8,
+            SwapStep::TakeSpare => 8..11,
+            SwapStep::Install => 11..13,
+            SwapStep::Return => 13..15,
+            SwapStep::Unpark => 15..15,
+        }
+    }
+
+    /// The event of a step without motion.
+    pub fn event(self) -> Option<OruEvent> {
+        match self {
+            SwapStep::Park => Some(OruEvent::Park),
+            SwapStep::Unpark => Some(OruEvent::Unpark),
+            _ => None,
+        }
+    }
+}
 
 /// The servicer's effector pose at `p` pointing down (z = −z body, x = +x body).
 fn down_at(p: [f64; 3]) -> Matrix4<f64> {

@@ -34,6 +34,7 @@
 pub mod attitude;
 pub mod faults;
 pub mod loads;
+pub mod oru_plan;
 pub mod power_report;
 pub mod scheduler;
 
@@ -94,8 +95,11 @@ pub struct StationParams {
     /// before anything shed is restored, shares of the capacity.
     pub reserve: f64,
     pub margin: f64,
-    /// An ECLSS fault injected ([`faults::FaultSpec`]).
+    /// An ECLSS fault injected ([`faults::FaultSpec`]), or the array ORU's
+    /// ([`oru_plan::FAULT`]: the swap is then planned by rules, [`oru_plan`]).
     pub fault: Option<faults::FaultSpec>,
+    /// Obstacles the planned swap's steps are checked against ([`oru_plan::Obstacle`]).
+    pub oru_obstacles: Vec<oru_plan::Obstacle>,
     /// With the scheduler on, [`run`] also runs the same study with it off and reports what
     /// is lost without it.
     pub compare_off: bool,
@@ -133,6 +137,7 @@ impl Default for StationParams {
             reserve: 0.25,
             margin: 0.05,
             fault: None,
+            oru_obstacles: Vec::new(),
             compare_off: true,
             task_start_s: 300.0,
             frames: 12,
@@ -525,6 +530,8 @@ pub struct Run {
     pub fault: Option<faults::EclssFault>,
     /// The desaturation windows the scheduler was given, as first predicted: (start, end) s.
     pub predicted_windows: Vec<(f64, f64)>,
+    /// The swap planned by rules (with `--fault array_oru@T`, [`oru_plan`]).
+    pub swap: Option<oru_plan::SwapRun>,
 }
 
 /// Clearance of the servicer parts (with what it carries) to array `ai` at `q`, with the ORUs
@@ -575,7 +582,15 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             p.orbits, period, p.step_s
         ),
     )?;
-    let plan = schedule(s, p.task_start_s)?;
+    // the swap: planned by rules after an array ORU fault, else the declared timetable
+    let mut planner = oru_plan::Planner::new(s, p)?;
+    let mut plan = match &planner {
+        Some(_) => Plan {
+            points: vec![(0.0, s.oru.swap.servicer_q0.clone(), "start, stowed")],
+            events: Vec::new(),
+        },
+        None => schedule(s, p.task_start_s)?,
+    };
     let sched = &plan.points;
     let mut prev: Vec<Vec<f64>> = s
         .arrays
@@ -603,6 +618,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
     let fault = p
         .fault
         .as_ref()
+        .filter(|f| !oru_plan::is_array_fault(f))
         .map(|f| faults::EclssFault::new(f, &loads.consumers))
         .transpose()?;
     let mut rules = scheduler::Scheduler::new(p.scheduling, fault)?;
@@ -626,6 +642,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
     };
     for k in 0..=n {
         let t = (k as f64 * p.step_s).min(t_end);
+        let sched = &plan.points;
         let theta = s.orbit.angle(p.theta0, t);
         // the sun in the body frame: of the actual attitude when it is integrated, else LVLH
         let (sun, sun_cmd) = match att.as_mut() {
@@ -683,7 +700,10 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         let mut clear_min = (f64::INFINITY, (String::new(), String::new()));
         let mut blocked = false;
         let prev_arrays = prev.clone();
+        // per array: delivered and expected power (W, the failed ORU's share), parked
+        let mut observed: Vec<(f64, f64, bool)> = Vec::with_capacity(s.arrays.len());
         for (ai, a) in s.arrays.iter().enumerate() {
+            let share = planner.as_ref().map_or(1.0, |o| o.share(s, ai, t));
             let (q, c) = track(s, a, &prev[ai], &sun, p.tracking_tol);
             let ideal = a.cells.power_w(s.efficiency, c);
             if ost.parked && ai == s.oru.array {
@@ -693,9 +713,15 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                 let cs = normal_at(s, a, &qs).dot(&sun);
                 serviced = array_clearance(s, ai, &qs, &sposed, &ost, p.mode)
                     .map_or(f64::INFINITY, |c| c.distance);
+                let w = if eclipse {
+                    0.0
+                } else {
+                    a.cells.power_w(s.efficiency, cs)
+                };
+                observed.push((w * share, w, true));
                 if !eclipse {
-                    power += a.cells.power_w(s.efficiency, cs);
-                    tracked += ideal;
+                    power += w * share;
+                    tracked += ideal * share;
                 }
                 prev[ai] = qs.clone();
                 arrays.push((qs, cs, false));
@@ -767,9 +793,11 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                 ideal = reached;
             }
             let got = a.cells.power_w(s.efficiency, chosen.1);
+            let w = if eclipse { 0.0 } else { got };
+            observed.push((w * share, w, false));
             if !eclipse {
-                power += got;
-                tracked += ideal;
+                power += got * share;
+                tracked += ideal * share;
             }
             if cl_d < clear_min.0 {
                 clear_min = (cl_d, pair);
@@ -816,6 +844,10 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             }
             _ => None,
         };
+        // the swap's planner: observes this step, its steps executed from the next
+        if let Some(o) = planner.as_mut() {
+            o.step(s, p, t, eclipse, &observed, &mut plan)?;
+        }
         // the loads from this step to the next: asked for, scheduled
         loads.ask(t);
         if let Some(i) = servicer_load {
@@ -828,12 +860,15 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             loads.full_w[i] = w;
             loads.reduced_w[i] = w;
         }
-        let forecast = loads::Forecast::new(
+        let mut forecast = loads::Forecast::new(
             t,
             horizon,
             &eclipses_ahead,
             predicted_sun_w(&steps, power, eclipse, t, period),
         );
+        if let Some(o) = planner.as_mut() {
+            forecast = o.forecast(s, p, t, forecast);
+        }
         let mut windows: Vec<(&'static str, f64, f64)> = p
             .dockings
             .iter()
@@ -906,7 +941,12 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         });
     }
     let rules_ran = rules.has_engine();
-    let (decisions, fault) = rules.finish();
+    let (mut decisions, fault) = rules.finish();
+    let swap = planner.map(oru_plan::Planner::finish);
+    if let Some(r) = &swap {
+        decisions.extend(r.decisions.iter().cloned());
+        decisions.sort_by(|a, b| a.t.total_cmp(&b.t));
+    }
     Ok(Run {
         steps,
         period_s: period,
@@ -925,6 +965,7 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
         rules_ran,
         fault,
         predicted_windows,
+        swap,
     })
 }
 
@@ -1321,6 +1362,7 @@ pub fn summarise_with(
     notes.extend(parked_note(s, run, &x));
     notes.extend(oru_notes(s, run));
     notes.extend(task_notes(s, run));
+    notes.extend(run.swap.iter().flat_map(oru_plan::notes));
     let mut plots = summary_plots(s, run);
     if let Some(a) = &run.attitude {
         // before the wall-time row, which stays last

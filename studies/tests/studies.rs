@@ -8,6 +8,8 @@ use robosim_studies::station::{self, StationParams};
 use robosim_studies::welding::{self, SeamKind, WeldingParams};
 use std::path::Path;
 
+mod station_oru;
+
 fn read_csv(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
     let text = std::fs::read_to_string(path).expect("the file reads");
     let mut lines = text.lines();
