@@ -144,7 +144,8 @@ pub struct StationArgs {
     #[arg(long, value_parser = ["on", "off"])]
     pub scheduler: Option<String>,
     /// An ECLSS fault injected: FAILURE_MODE@SECONDS (e.g. pump_failure@3000); its alarms are
-    /// diagnosed and its spare brought on line by eclss_guard.clp.
+    /// diagnosed and its spare brought on line by eclss_guard.clp. Or array_oru@SECONDS: the
+    /// serviced array's power-system ORU fails and oru_swap.clp plans the ORU swap.
     #[arg(long)]
     pub fault: Option<String>,
 }
