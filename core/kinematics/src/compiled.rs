@@ -398,13 +398,17 @@ pub struct KinematicModel {
     chain: bool,
     /// A floating robot's root joint ([`Robot::root`]).
     root: Option<RootKind>,
+    /// A robot with a spherical joint, kept whole: the compiled kernels take one-coordinate
+    /// joints, so every call runs the general functions of [`crate::spherical`] on it (`None`
+    /// for every other robot: one test per call).
+    general: Option<Box<Robot>>,
 }
 
 impl KinematicModel {
     /// Compiles `robot` (assumed valid: [`Robot::validate`]). A snapshot: a later change to
-    /// `robot` is not seen. A spherical joint ([`crate::Joint::spherical`]) is not compiled as
-    /// one: the model's nq and nv count one coordinate per joint and the results are not the
-    /// robot's; callers that may meet one use [`KinematicModel::try_new`], which refuses it.
+    /// `robot` is not seen. A robot with a spherical joint ([`crate::Joint::spherical`]) is not
+    /// compiled: the model keeps it and runs [`crate::spherical`]'s general FK and Jacobians
+    /// (the same numbers as the `&Robot` functions).
     pub fn new(robot: &Robot) -> KinematicModel {
         KinematicModel {
             joints: robot
@@ -417,16 +421,8 @@ impl KinematicModel {
             tool: Se3::from_matrix(&robot.tool),
             chain: robot.is_chain(),
             root: robot.root.as_ref().map(|r| r.kind),
+            general: robot.has_spherical().then(|| Box::new(robot.clone())),
         }
-    }
-
-    /// [`KinematicModel::new`], refusing a robot with a spherical joint
-    /// ([`crate::ModelError::SphericalUnsupported`] naming the first): the compiled kernels
-    /// take one-coordinate joints only (the `&Robot` functions of [`crate::fk`] and
-    /// [`crate::jacobian`] take spherical joints; see [`crate::spherical`]).
-    pub fn try_new(robot: &Robot) -> Result<KinematicModel, crate::ModelError> {
-        robot.refuse_spherical("the compiled kinematic model")?;
-        Ok(KinematicModel::new(robot))
     }
 
     /// Number of (one-coordinate) joints, the root joint not counted ([`Robot::dof`]).
@@ -436,11 +432,17 @@ impl KinematicModel {
 
     /// Configuration dimension ([`Robot::nq`]): what q's length must be.
     pub fn nq(&self) -> usize {
+        if let Some(r) = &self.general {
+            return r.nq();
+        }
         self.root.map_or(0, RootKind::nq) + self.joints.len()
     }
 
     /// Velocity dimension ([`Robot::nv`]): a Jacobian's columns.
     pub fn nv(&self) -> usize {
+        if let Some(r) = &self.general {
+            return r.nv();
+        }
         self.root.map_or(0, RootKind::nv) + self.joints.len()
     }
 
@@ -452,23 +454,35 @@ impl KinematicModel {
     /// Every link frame into `frames` (`dof() + 2` entries): see [`crate::fk::link_frames_into`]
     /// (the same frames, bit for bit). Panics if the slice is shorter.
     pub fn link_frames_into(&self, q: &[f64], frames: &mut [Matrix4<f64>]) {
+        if let Some(r) = &self.general {
+            return crate::spherical::link_frames_into(r, q, frames);
+        }
         frames_kernel(self, q, frames);
     }
 
     /// The tool pose: see [`crate::fk::forward`].
     pub fn forward(&self, q: &[f64]) -> Matrix4<f64> {
+        if let Some(r) = &self.general {
+            return crate::spherical::forward(r, q);
+        }
         forward_kernel(self, q)
     }
 
     /// Tool pose and base-frame Jacobian (6 × `dof()`) in one pass: see
     /// [`crate::jacobian::fk_and_jacobian_into`].
     pub fn fk_and_jacobian_into(&self, q: &[f64], jac: &mut Jacobian) -> Matrix4<f64> {
+        if let Some(r) = &self.general {
+            return crate::spherical::jacobian_into(r, q, r.dof(), Some(&r.tool), jac);
+        }
         fk_and_jacobian_kernel(self, q, jac)
     }
 
     /// Pose and base-frame Jacobian of link frame `link`: see
     /// [`crate::jacobian::link_jacobian_into`]. Panics if `link > dof()`.
     pub fn link_jacobian_into(&self, q: &[f64], link: usize, jac: &mut Jacobian) -> Matrix4<f64> {
+        if let Some(r) = &self.general {
+            return crate::spherical::jacobian_into(r, q, link, None, jac);
+        }
         link_jacobian_kernel(&self, q, link, jac)
     }
 }

@@ -93,6 +93,7 @@ const JOINT_KEYS: &[&str] = &[
     "viscous",
     "coulomb",
     "origin",
+    "spherical",
 ];
 const ORIGIN_KEYS: &[&str] = &["placement", "axis"];
 const ROBOT_KEYS: &[&str] = &[
@@ -286,6 +287,12 @@ fn joint_from_json(v: &Value, path: &str) -> Result<Joint, JsonError> {
             joint.origin = Some(Origin { placement, axis });
         }
     }
+    // A spherical (ball) joint: 4 q, 3 v (`crate::spherical`); absent or false: one coordinate.
+    if let Some(s) = obj.get("spherical") {
+        joint.spherical = s
+            .as_bool()
+            .ok_or_else(|| JsonError::new(format!("{path}.spherical"), "expected true or false"))?;
+    }
     Ok(joint)
 }
 
@@ -414,6 +421,10 @@ pub fn robot_to_json(robot: &Robot) -> Value {
                         "axis": [o.axis.x, o.axis.y, o.axis.z],
                     }),
                 );
+            }
+            // written only for a spherical joint: the others' JSON is unchanged
+            if let (true, Some(m)) = (j.spherical, v.as_object_mut()) {
+                m.insert("spherical".into(), Value::Bool(true));
             }
             v
         })

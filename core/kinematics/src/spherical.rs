@@ -15,13 +15,13 @@
 //!
 //! The general (tree, URDF/MJCF-style) algorithms: [`crate::fk`] (`link_frames`, `forward`,
 //! `link_pose`), [`crate::jacobian`] (`fk_and_jacobian`, `link_jacobian`, `jacobian`), and the
-//! dynamics crate's RNEA, CRBA, ABA, gravity, energy and explicit integrators. A robot without
-//! spherical joints never reaches this module (one scan of the joints' flags decides), so its
-//! numbers are bit for bit what they were. **Refused** with
-//! [`crate::ModelError::SphericalUnsupported`] naming the joint: the compiled
-//! [`crate::KinematicModel`] ([`crate::KinematicModel::try_new`]), IK ([`crate::ik::solve`]),
-//! the mimic coupling ([`crate::mimic`]), the encoder bounds and MOVEJ; DH rows cannot be
-//! spherical ([`crate::ModelError::SphericalNotGeneral`]).
+//! dynamics crate's RNEA, CRBA, ABA, gravity, energy and explicit integrators. The compiled
+//! [`crate::KinematicModel`] keeps such a robot uncompiled and runs these functions (same
+//! numbers). A robot without spherical joints never reaches this module (one scan of the
+//! joints' flags decides, one `Option` test in the compiled model), so its numbers are bit for
+//! bit what they were. **Refused** with [`crate::ModelError::SphericalUnsupported`] naming the
+//! joint: IK ([`crate::ik::solve`]), the mimic coupling ([`crate::mimic`]), the encoder bounds
+//! and MOVEJ; DH rows cannot be spherical ([`crate::ModelError::SphericalNotGeneral`]).
 //!
 //! # Jacobian columns
 //!
@@ -352,17 +352,27 @@ mod tests {
         }
     }
 
-    /// The compiled model, IK, the chain and the mimic coupling refuse a spherical robot by name.
+    /// The compiled model gives the `&Robot` functions' numbers; IK, the chain and the mimic
+    /// coupling refuse a spherical robot by name.
     #[test]
     fn one_coordinate_algorithms_refuse_a_ball_joint() {
+        let robot = ball_robot(Some(RootKind::FreeFlyer));
+        let model = crate::KinematicModel::new(&robot);
+        assert_eq!((model.nq(), model.nv()), (robot.nq(), robot.nv()));
+        let v0: Vec<f64> = (0..robot.nv()).map(|i| 0.3 - 0.1 * i as f64).collect();
+        let q = integrate(&robot, robot.neutral_q().as_slice(), &v0);
+        let mut frames = vec![Matrix4::identity(); robot.dof() + 2];
+        model.link_frames_into(&q, &mut frames);
+        assert_eq!(frames, crate::fk::link_frames(&robot, &q));
+        assert_eq!(model.forward(&q), crate::fk::forward(&robot, &q));
+        let mut jm = Jacobian::zeros(robot.nv());
+        let tee = model.fk_and_jacobian_into(&q, &mut jm);
+        assert_eq!((tee, jm), crate::jacobian::fk_and_jacobian(&robot, &q));
+        let mut jl = Jacobian::zeros(robot.nv());
+        let pose = model.link_jacobian_into(&q, 3, &mut jl);
+        let (p, j) = crate::jacobian::link_jacobian(&robot, &q, 3, crate::jacobian::Frame::Base);
+        assert_eq!((pose, jl), (p, j));
         let robot = ball_robot(None);
-        assert_eq!(
-            crate::KinematicModel::try_new(&robot).err(),
-            Some(crate::ModelError::SphericalUnsupported {
-                joint: 0,
-                what: "the compiled kinematic model"
-            })
-        );
         assert!(robot.chain_to(2).is_none());
         // the ball on the other branch only shifts the chain's indices
         let mut other = robot.clone();
@@ -382,6 +392,16 @@ mod tests {
         .err()
         .expect("refused");
         assert!(err.to_string().contains("joint 0 is spherical"), "{err}");
+    }
+
+    /// The inline JSON form carries the flag (written only when set) and reads it back.
+    #[test]
+    fn json_round_trips_a_ball_joint() {
+        let robot = ball_robot(Some(RootKind::FreeFlyer));
+        let v = crate::json::robot_to_json(&robot);
+        assert_eq!(v["joints"][0]["spherical"], serde_json::Value::Bool(true));
+        assert!(v["joints"][1].get("spherical").is_none());
+        assert_eq!(crate::json::robot_from_json(&v).expect("reads back"), robot);
     }
 
     /// The quaternion step agrees with its derivative and a quarter turn about x is exact.
