@@ -183,7 +183,7 @@ impl Simplex {
             if sign * n.dot(&a) <= 0.0 {
                 continue;
             }
-            let l = triangle_newest(a, p[j], p[k]);
+            let l = triangle_newest_with(a, p[j], p[k], n);
             let d = (a * l[0] + p[j] * l[1] + p[k] * l[2]).norm_squared();
             if best.as_ref().is_none_or(|b| d < b.0) {
                 best = Some((d, [3, j, k], l));
@@ -221,8 +221,18 @@ impl Simplex {
 /// the in-plane edge normals (n × ac, ab × n), with n = ab × ac. A degenerate triangle goes
 /// to [`triangle`] (Ericson's, every region).
 fn triangle_newest(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> [f64; 3] {
+    triangle_newest_with(a, b, c, (b - a).cross(&(c - a)))
+}
+
+/// [`triangle_newest`] with the face normal `n` = (b − a) × (c − a) already computed.
+#[inline(always)]
+fn triangle_newest_with(
+    a: Vector3<f64>,
+    b: Vector3<f64>,
+    c: Vector3<f64>,
+    n: Vector3<f64>,
+) -> [f64; 3] {
     let (ab, ac) = (b - a, c - a);
-    let n = ab.cross(&ac);
     let nn = n.norm_squared();
     if !(nn > 0.0 && nn.is_finite()) {
         return triangle(a, b, c);
