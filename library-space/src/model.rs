@@ -138,6 +138,93 @@ impl RobotModel {
 }
 
 impl RobotModel {
+    /// The robot as the one robot model ([`robosim_model::Model`]), its solids converted once
+    /// into geometry objects: each placed solid on its frame at its `transform`, role
+    /// collision (the library draws what it collides), colour with alpha 1; a box, cylinder,
+    /// cone or sphere as that primitive with the library's facet count, any other primitive
+    /// (truncated cone, extrusion, revolution) as its polygons; a `from_urdf` mesh (a hull the
+    /// evaluator labels by its bounding box) as its hull. Joint names are the link names (a
+    /// library robot names its links). Collision solids: [`robosim_model::Model::collision_solids`].
+    pub fn model(&self) -> robosim_model::Model {
+        let mut objects = Vec::new();
+        for (frame, solids) in self.frames.iter().enumerate() {
+            for p in solids {
+                objects.push(robosim_model::GeometryObject {
+                    name: p.name.clone(),
+                    frame,
+                    placement: p.transform,
+                    shape: shape_of(p),
+                    role: robosim_model::Role::Collision,
+                    rgba: p.colour.map(|c| [c[0], c[1], c[2], 1.0]),
+                });
+            }
+        }
+        robosim_model::Model {
+            robot: self.robot.clone(),
+            joint_names: self.link_names.clone(),
+            link_names: self.link_names.clone(),
+            coupling: None,
+            geometry: robosim_model::GeometryModel { objects },
+            ik: self.ik.clone(),
+        }
+    }
+}
+
+/// Whether `poly` is the centred box of `size`: 8 vertices, each at ± half the size.
+fn is_box(poly: &Polyhedron, size: &[f64; 3]) -> bool {
+    poly.vertices.len() == 8
+        && poly.vertices.iter().all(|v| {
+            (0..3).all(|k| ((v[k].abs() - size[k] / 2.0).abs()) <= 1e-12 * size[k].max(1.0))
+        })
+}
+
+/// A placed solid's shape for the robot model (see [`RobotModel::model`]).
+fn shape_of(p: &PlacedSolid) -> robosim_model::Shape {
+    use robosim_model::Shape;
+    let polygons = |convex| {
+        let poly = &p.polyhedron;
+        Shape::Polygons {
+            vertices: poly.vertices.clone(),
+            polygons: (0..poly.polygons.len())
+                .map(|i| poly.polygon_indices(i).to_vec())
+                .collect(),
+            convex,
+        }
+    };
+    match &p.primitive {
+        // A box's polyhedron is its 8 corners (centred); a `from_urdf` mesh's hull is
+        // labelled a box of its bounding box but has its own vertices.
+        Primitive::Box { size } if is_box(&p.polyhedron, size) => Shape::Box { size: *size },
+        Primitive::Box { .. } => polygons(true),
+        Primitive::Cylinder {
+            radius,
+            height,
+            facets,
+        } => Shape::Cylinder {
+            radius: *radius,
+            length: *height,
+            facets: Some(*facets),
+        },
+        Primitive::Cone {
+            radius,
+            height,
+            facets,
+        } => Shape::Cone {
+            radius: *radius,
+            height: *height,
+            facets: Some(*facets),
+        },
+        Primitive::Sphere { radius, facets } => Shape::Sphere {
+            radius: *radius,
+            facets: Some(*facets),
+        },
+        Primitive::TruncatedCone { .. }
+        | Primitive::Extrusion { .. }
+        | Primitive::Revolution { .. } => polygons(false),
+    }
+}
+
+impl RobotModel {
     /// The robot's box parts per frame (`[0]`: base, `[j]`: link j), as the scene-level plans
     /// read them ([`robosim_model::parts`]: solar panels, ORUs).
     pub fn box_parts(&self) -> Vec<Vec<robosim_model::parts::BoxPart>> {

@@ -82,8 +82,9 @@ impl Model {
     /// `link/collisionK` and `link/visualK` (K the shape's index among the link's shapes of
     /// that role), on the body the link is rigid with, placed at the link's place in that body
     /// times the shape's origin; meshes by name (read when solids are built); a visual's
-    /// material colour as its `rgba`. Links are taken in name order, each link's shapes in
-    /// file order (the order `robosim_urdf` reads them in).
+    /// material colour as its `rgba`. Objects come frame by frame (base first, as the
+    /// Library Space lists its solids); within a frame, links in name order, each link's
+    /// shapes in file order (the order `robosim_urdf` reads them in).
     pub fn from_imported(u: &ImportedRobot) -> Self {
         let mut objects = Vec::new();
         for (link, g) in &u.geometry.links {
@@ -103,6 +104,8 @@ impl Model {
                 }
             }
         }
+        // Stable: the order within a frame (a compound's part order) is kept.
+        objects.sort_by_key(|o| o.frame);
         Model {
             robot: u.robot.clone(),
             joint_names: u.joints.iter().map(|j| j.name.clone()).collect(),
@@ -183,17 +186,18 @@ mod tests {
         let names: Vec<(&str, usize, Role)> = (m.geometry.objects.iter())
             .map(|o| (o.name.as_str(), o.frame, o.role))
             .collect();
-        // Links in name order (arm, base, tool), collisions before visuals within a link.
+        // Frame by frame; within a frame, links in name order (arm, tool), collisions before
+        // visuals within a link.
         assert_eq!(
             names,
             [
+                ("base/collision0", 0, Role::Collision),
                 ("arm/collision0", 1, Role::Collision),
                 ("arm/visual0", 1, Role::Visual),
-                ("base/collision0", 0, Role::Collision),
                 ("tool/collision0", 1, Role::Collision),
             ]
         );
-        assert_eq!(m.geometry.objects[1].rgba, Some([0.0, 0.0, 1.0, 1.0]));
+        assert_eq!(m.geometry.objects[2].rgba, Some([0.0, 0.0, 1.0, 1.0]));
         // The tool is lumped into the arm's body: its sphere sits at the fixed joint's origin
         // (arm z = 0.6) times its own (y = 0.2).
         let tool = &m.geometry.objects[3];
