@@ -14,6 +14,7 @@ mod display;
 mod editor;
 mod file_io;
 mod first_hour;
+mod floating_session;
 mod follow;
 mod hostile_inputs;
 mod library_space;

@@ -388,6 +388,10 @@ pub struct ImportUrdfArgs {
     pub parent: Option<String>,
     /// Leave the `<visual>`s out (their meshes are not read; the collision solids are drawn).
     pub no_visuals: bool,
+    /// A floating base: `free_flyer` or `planar` root joint between the scene and the root
+    /// link (Pinocchio's `buildModel(urdf, JointModelFreeFlyer())`); `None`: fixed, unless
+    /// the file's root joint is itself floating or planar. URDF only.
+    pub floating: Option<robosim_kinematics::RootKind>,
 }
 
 #[derive(Debug)]
@@ -495,7 +499,10 @@ fn import_mesh(a: &ImportMeshArgs, session: Option<&str>) -> Result<()> {
 fn import_urdf(a: &ImportUrdfArgs, session: Option<&str>) -> Result<()> {
     let pose = crate::import::parse_at(&a.at)?;
     // Everything that can be wrong with the file is found before the session is touched.
-    let u = crate::urdf_import::import_urdf_tree(&a.file)?;
+    let u = match a.floating {
+        None => crate::urdf_import::import_urdf_tree(&a.file)?,
+        Some(kind) => crate::urdf_import::import_urdf_tree_floating(&a.file, kind)?,
+    };
     import_robot(a, session, pose, &u)
 }
 
@@ -526,8 +533,12 @@ fn import_robot(
     let imp = crate::urdf_session::urdf_tx(u, &place)?;
     let applied = import_commit(&s, &imp.tx, &a.file, &name)?;
     println!(
-        "imported {} as robot {name}: {} joints ({}), {} visuals, {} collision solids ({} meshes decomposed: hull far from the mesh), {} mesh triangles read, version {}",
+        "imported {} as robot {name}: {}{} joints ({}), {} visuals, {} collision solids ({} meshes decomposed: hull far from the mesh), {} mesh triangles read, version {}",
         a.file.display(),
+        u.robot
+            .root
+            .as_ref()
+            .map_or(String::new(), |r| format!("a {} base and ", r.kind.name())),
         imp.joints,
         if u.robot.parents.is_empty() {
             "a chain"

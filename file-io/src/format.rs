@@ -26,8 +26,9 @@
 //! so a version-1 body decodes with today's types unchanged and one decoder reads both). A
 //! model without general joints is still written as version 1, so an older build reads it; a
 //! model with them is written as version 2, which an older build refuses as a newer format.
-//! Any other change makes version 3, and the older readers then keep a frozen copy of today's
-//! types. The file `testdata/file-io/station-v1.rsm`, written by version 1, is loaded by a test
+//! Version 3 adds floating robots (`Kinematics::FloatingRobot`, again an appended variant, so
+//! versions 1 and 2 decode unchanged); a model without one is written as before. Any other
+//! change makes version 4, and the older readers then keep a frozen copy of today's types. The file `testdata/file-io/station-v1.rsm`, written by version 1, is loaded by a test
 //! forever.
 
 use crate::error::FileError;
@@ -39,11 +40,18 @@ use std::path::Path;
 /// The magic that starts a binary model file.
 pub const MAGIC: [u8; 8] = *b"\x89RSMODEL";
 /// The format version this build writes (and the newest it reads).
-pub const FORMAT_VERSION: u32 = 2;
+pub const FORMAT_VERSION: u32 = 3;
 
-/// The oldest version that can hold `model`: 2 when it has a general joint, else 1.
+/// The oldest version that can hold `model`: 3 when it has a floating robot, 2 when it has a
+/// general joint, else 1.
 fn version_for(model: &SavedModel) -> u32 {
     if model
+        .objects
+        .iter()
+        .any(|o| matches!(o.kinematics, Some(Kinematics::FloatingRobot { .. })))
+    {
+        3
+    } else if model
         .objects
         .iter()
         .any(|o| matches!(o.kinematics, Some(Kinematics::Axis { .. })))

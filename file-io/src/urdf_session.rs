@@ -3,7 +3,10 @@
 //! What the Instance Space gets, for a robot imported with [`crate::urdf_import::import_urdf_tree`]
 //! (the whole tree: fixed joints folded, every movable joint a coordinate):
 //!
-//! * a **robot** object, placed where asked, tool = identity;
+//! * a **robot** object, placed where asked, tool = identity; for a floating robot (`--floating`
+//!   or a URDF whose root joint is floating/planar) the robot object is the base link: its
+//!   record names the root joint (`Kinematics::FloatingRobot`) and its mass properties are the
+//!   base link's inertial;
 //! * per movable joint, in q order, a **link** object named after the joint's child link, with
 //!   a general joint record (`Kinematics::Axis`: the joint's placement in the link frame it
 //!   hangs from, its axis, limits, and that parent link frame — a tree is kept as a tree), its
@@ -27,10 +30,10 @@ use crate::import::{hull_geometry, mesh_geometry};
 use crate::urdf_geometry::{Geometry, MeshProblem, Shape};
 use crate::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
 use robosim_instance_space::{
-    Appearance, DhConvention, GeometryInput, IDENTITY, JointKind, Kind, Kinematics, ObjRef, Pose,
-    Transaction,
+    Appearance, DhConvention, FloatingBase, GeometryInput, IDENTITY, JointKind, Kind, Kinematics,
+    ObjRef, Pose, Transaction,
 };
-use robosim_kinematics::JointType;
+use robosim_kinematics::{JointType, RootKind};
 use robosim_scene::pose::from_matrix;
 
 /// Where the robot goes.
@@ -67,30 +70,41 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
     let robot = &u.robot;
     let n = robot.dof();
     let file = &u.geometry.file;
-    if let Some(root) = &robot.root {
-        // the Instance Space's robot record has no root joint yet: refused, not dropped
-        return Err(UrdfError {
-            file: file.clone(),
-            line: 0,
-            element: "<robot>".into(),
-            kind: UrdfErrorKind::UnsupportedJointType(format!(
-                "{} root joint in a session (a session's robot has no floating base yet; robosim_urdf::urdf_import and the dynamics take it)",
-                root.kind.name()
-            )),
-        });
-    }
     let mut tx = Transaction::new();
     let r = tx.create(Kind::Robot, &place.name, place.parent.map(ObjRef::Id));
     tx.set_pose(r, place.pose);
+    // A floating robot: the robot object is its base link (pose, inertial), the root joint
+    // recorded on it (`Kinematics::FloatingRobot`).
     tx.set_kinematics(
         r,
-        Some(Kinematics::Robot {
-            convention: DhConvention::Standard,
-            ik_family: 0,
-            tool: IDENTITY,
+        Some(match &robot.root {
+            None => Kinematics::Robot {
+                convention: DhConvention::Standard,
+                ik_family: 0,
+                tool: IDENTITY,
+            },
+            Some(root) => Kinematics::FloatingRobot {
+                convention: DhConvention::Standard,
+                ik_family: 0,
+                tool: IDENTITY,
+                root: match root.kind {
+                    RootKind::FreeFlyer => FloatingBase::FreeFlyer,
+                    RootKind::Planar => FloatingBase::Planar,
+                },
+            },
         }),
     );
-    let q0 = vec![0.0; n];
+    if let Some(root) = &robot.root {
+        tx.set_dynamics(
+            r,
+            Some(robosim_scene::instantiate::mass_props(
+                root.mass,
+                &root.com,
+                &root.inertia,
+            )),
+        );
+    }
+    let q0: Vec<f64> = robot.neutral_q().iter().copied().collect();
     let poses = robosim_scene::link_poses(robot, &q0);
     let mut bodies = vec![r];
     for (j, joint) in robot.joints.iter().enumerate() {

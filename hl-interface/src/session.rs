@@ -244,6 +244,30 @@ fn vec_field(req: &Value, f: &str) -> std::result::Result<Vec<f64>, ProtocolErro
         .collect()
 }
 
+/// A floating robot's q written by a session op keeps its root at the identity (the root's
+/// coordinates of `robot.neutral_q()`): the base is where the robot object stands, moved by
+/// moving the object (`pretranslate`, `prerotate`, …), never by a joint write.
+fn root_held(robot: &Robot, q: &[f64]) -> std::result::Result<(), ProtocolError> {
+    let nq = robot.root_nq();
+    if nq == 0 || q.len() < nq {
+        return Ok(());
+    }
+    let neutral = robot.neutral_q();
+    if q[..nq] == neutral.as_slice()[..nq] {
+        return Ok(());
+    }
+    Err(err(
+        ErrorKind::BadRequest,
+        format!(
+            "robot {}: a session robot's floating base is its object's pose: q's first {nq} \
+             values (the root) must be {:?}; move the base with pretranslate/prerotate on the \
+             robot object",
+            robot.name,
+            &neutral.as_slice()[..nq]
+        ),
+    ))
+}
+
 fn body(b: &Body, p: &CompiledRobot, snap: &Snapshot, scene_names: &[String]) -> Value {
     match b {
         Body::Link(0) => json!({"robot": p.robot.name, "link": 0, "name": "base"}),
@@ -318,6 +342,7 @@ impl Ops {
             p.robot
                 .check_q(&q)
                 .map_err(|e| err(ErrorKind::BadRequest, format!("robot {robot}: {e}")))?;
+            root_held(&p.robot, &q)?;
             robosim_kinematics::movej_interpolate(&p.robot, &q, &q, 1)
                 .map_err(|e| err(ErrorKind::JointLimit, format!("robot {robot}: {e}")))?;
             let mut tx = joint_tx(&p.robot, &p.links, &q);
@@ -388,6 +413,7 @@ impl Ops {
         p.robot
             .check_q(q)
             .map_err(|e| err(ErrorKind::BadRequest, format!("robot {robot}: {e}")))?;
+        root_held(&p.robot, q)?;
         robosim_kinematics::movej_interpolate(&p.robot, q, q, 1)
             .map_err(|e| err(ErrorKind::JointLimit, format!("robot {robot}: {e}")))?;
         self.write_q(&p, q)
@@ -704,6 +730,7 @@ impl Ops {
                 p.robot
                     .check_q(&q)
                     .map_err(|e| err(ErrorKind::BadRequest, e.to_string()))?;
+                root_held(&p.robot, &q)?;
                 let steps = if op == "movej" {
                     1
                 } else {

@@ -44,8 +44,8 @@ pub use keeper::{
     DEFAULT_SPIN_US, Keeper, KeeperError, KeeperOptions, OutOfStep, SPIN_ENV, spin_from_env,
 };
 pub use object::{
-    Appearance, DhConvention, IDENTITY, Id, JointKind, Kind, Kinematics, MAX_ELEMENTS, MassProps,
-    Object, Pose, Selection, aspect,
+    Appearance, DhConvention, FloatingBase, IDENTITY, Id, JointKind, Kind, Kinematics,
+    MAX_ELEMENTS, MassProps, Object, Pose, Selection, aspect,
 };
 pub use reader::{
     Change, FollowTrouble, GeometryView, LibraryPublication, ObjectView, Reader, ReaderError,

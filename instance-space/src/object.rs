@@ -167,6 +167,19 @@ pub enum DhConvention {
     Modified = 1,
 }
 
+/// A floating robot's root joint (the joint between the world and its base link), as the
+/// robot record holds it: Pinocchio's free-flyer (7 q / 6 v) or planar (4 q / 3 v) joint
+/// (`robosim_kinematics::RootKind`). The value is what the robot record's `joint_kind` field
+/// holds (0 there: a fixed-base robot).
+#[derive(
+    Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
+)]
+#[repr(u32)]
+pub enum FloatingBase {
+    FreeFlyer = 1,
+    Planar = 2,
+}
+
 /// Kinematics data (seed §3.2 item 5).
 #[derive(
     Debug, Clone, Copy, PartialEq, Serialize, Deserialize, bincode::Encode, bincode::Decode,
@@ -214,6 +227,40 @@ pub enum Kinematics {
         /// [lo, hi] (rad or m; ±∞ for a continuous joint).
         qlim: [f64; 2],
     },
+    /// A robot with a floating base (issue 36): [`Kinematics::Robot`]'s fields and its root
+    /// joint. The robot object **is** the base link: its pose is the base link's pose, its
+    /// dynamics aspect the base link's inertial, and its links' poses are relative to it as
+    /// for any robot — so moving the base is moving the object, and the root's coordinates
+    /// in a session's q are the identity (see `robosim_scene::robot_model`). Appended after
+    /// the other variants, so journals, checkpoints and model files written before it decode
+    /// unchanged (serde's variant index of the older ones is kept).
+    FloatingRobot {
+        convention: DhConvention,
+        ik_family: u32,
+        tool: Pose,
+        root: FloatingBase,
+    },
+}
+
+impl Kinematics {
+    /// The robot aspect's fields (convention, IK family, tool) of a fixed or floating robot;
+    /// `None` for a joint.
+    pub fn robot_fields(&self) -> Option<(DhConvention, u32, Pose)> {
+        match *self {
+            Kinematics::Robot {
+                convention,
+                ik_family,
+                tool,
+            }
+            | Kinematics::FloatingRobot {
+                convention,
+                ik_family,
+                tool,
+                ..
+            } => Some((convention, ik_family, tool)),
+            Kinematics::Joint { .. } | Kinematics::Axis { .. } => None,
+        }
+    }
 }
 
 /// Dynamics data (seed §3.2 item 6): mass (kg), centre of mass (m, object frame), inertia about

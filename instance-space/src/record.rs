@@ -15,7 +15,9 @@
 //! `digest::tests::every_record_kind_keeps_its_digest` hold them).
 
 use crate::layout::{ObjectRec, flags};
-use crate::store::{Appearance, DhConvention, JointKind, Kind, Kinematics, MassProps, Pose};
+use crate::store::{
+    Appearance, DhConvention, FloatingBase, JointKind, Kind, Kinematics, MassProps, Pose,
+};
 use crate::transaction::GeometryInput;
 
 /// The writer of a canonical (digest) encoding: little-endian integers; floats by their IEEE
@@ -39,7 +41,8 @@ pub trait FieldSink {
 pub struct KinematicsFields {
     /// 0 (none), [`flags::KIN_JOINT`], [`flags::KIN_ROBOT`] or [`flags::KIN_AXIS`].
     pub tag: u32,
-    /// Joint and general joint: [`JointKind`] as u32; robot: 0.
+    /// Joint and general joint: [`JointKind`] as u32; robot: its [`FloatingBase`] as u32, 0 for
+    /// a fixed base.
     pub joint_kind: u32,
     /// Joint and robot: [`DhConvention`] as u32; general joint: the parent link frame.
     pub convention: u32,
@@ -97,6 +100,18 @@ impl KinematicsFields {
                 tool,
             }) => {
                 f.tag = flags::KIN_ROBOT;
+                f.convention = convention as u32;
+                f.index_or_family = ik_family;
+                f.tool = tool;
+            }
+            Some(&Kinematics::FloatingRobot {
+                convention,
+                ik_family,
+                tool,
+                root,
+            }) => {
+                f.tag = flags::KIN_ROBOT;
+                f.joint_kind = root as u32;
                 f.convention = convention as u32;
                 f.index_or_family = ik_family;
                 f.tool = tool;
@@ -161,17 +176,24 @@ impl KinematicsFields {
                 offset: self.dh[4],
                 qlim: [self.dh[5], self.dh[6]],
             }),
-            flags::KIN_ROBOT => Some(Kinematics::Robot {
+            flags::KIN_ROBOT if self.joint_kind == 0 => Some(Kinematics::Robot {
                 convention: DhConvention::from_u32(self.convention)?,
                 ik_family: self.index_or_family,
                 tool: self.tool,
+            }),
+            flags::KIN_ROBOT => Some(Kinematics::FloatingRobot {
+                convention: DhConvention::from_u32(self.convention)?,
+                ik_family: self.index_or_family,
+                tool: self.tool,
+                root: FloatingBase::from_u32(self.joint_kind)?,
             }),
             _ => None,
         }
     }
 
     /// The canonical (digest) order: the tag as u8, then for a joint index, kind, convention
-    /// and the 7 `dh` values; for a robot convention, IK family and the 12 of `tool`; for a
+    /// and the 7 `dh` values; for a robot convention, IK family and the 12 of `tool` (then, for a
+    /// floating robot only, its [`FloatingBase`] as u32: a fixed robot's digest is unchanged); for a
     /// general joint index, parent, kind, placement (12), axis (3), offset, qlo, qhi.
     pub fn canonical(&self, s: &mut impl FieldSink) {
         // The tags are 0..=3 (the flags constants), so the u8 is lossless.
@@ -187,6 +209,9 @@ impl KinematicsFields {
                 s.u32(self.convention);
                 s.u32(self.index_or_family);
                 s.f64s(&self.tool);
+                if self.joint_kind != 0 {
+                    s.u32(self.joint_kind);
+                }
             }
             flags::KIN_AXIS => {
                 s.u32(self.index_or_family);
@@ -351,6 +376,12 @@ mod tests {
                 ik_family: 3,
                 tool: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.103],
             }),
+            Some(Kinematics::FloatingRobot {
+                convention: DhConvention::Standard,
+                ik_family: 0,
+                tool: [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.25],
+                root: FloatingBase::Planar,
+            }),
             Some(Kinematics::Axis {
                 index: 0,
                 parent: 0,
@@ -380,7 +411,9 @@ mod tests {
         for k in every_kinematics() {
             for m in [None, Some(mass)] {
                 let kind = match k {
-                    Some(Kinematics::Robot { .. }) => Kind::Robot,
+                    Some(Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. }) => {
+                        Kind::Robot
+                    }
                     Some(_) => Kind::Link,
                     None => Kind::Item,
                 };
@@ -442,7 +475,7 @@ mod tests {
                 n += 1;
             }
         }
-        assert_eq!(n, 8);
+        assert_eq!(n, 10);
     }
 
     /// The canonical order of each kind, byte for byte (what the model digest hashed before the
@@ -464,7 +497,11 @@ mod tests {
         assert_eq!(robot.len(), 1 + 2 * 4 + 12 * 8);
         assert_eq!(&robot[..9], &[2, 0, 0, 0, 0, 3, 0, 0, 0]);
         assert_eq!(&robot[robot.len() - 8..], &0.103f64.to_le_bytes());
-        let axis = bytes(&ks[3]);
+        // a floating robot: a fixed robot's bytes, then its root (planar = 2)
+        let floating = bytes(&ks[3]);
+        assert_eq!(floating.len(), 1 + 3 * 4 + 12 * 8);
+        assert_eq!(&floating[floating.len() - 4..], &[2, 0, 0, 0]);
+        let axis = bytes(&ks[4]);
         assert_eq!(axis.len(), 1 + 3 * 4 + (12 + 3 + 3) * 8);
         assert_eq!(&axis[..13], &[3, 0, 0, 0, 0, 0, 0, 0, 0, 1, 0, 0, 0]);
         // placement first, then the axis, then offset and the limits

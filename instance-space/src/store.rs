@@ -9,8 +9,8 @@
 //! Poses are local (relative to the parent) rigid transforms, 3×4 row-major `[R | t]`, metres.
 
 pub(crate) use crate::object::{
-    Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Object, Pose, Selection,
-    aspect,
+    Appearance, DhConvention, FloatingBase, Id, JointKind, Kind, Kinematics, MassProps, Object,
+    Pose, Selection, aspect,
 };
 use crate::object::{IDENTITY, MAX_ELEMENTS, MAX_NAME_BYTES, MAX_ORIGIN_BYTES};
 pub(crate) use crate::transaction::TxError;
@@ -472,7 +472,10 @@ impl Stage<'_> {
                             reason: format!("joint data belongs on a link, not a {}", k.name()),
                         });
                     }
-                    (Some(Kinematics::Robot { .. }), Some(k)) if k != Kind::Robot => {
+                    (
+                        Some(Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. }),
+                        Some(k),
+                    ) if k != Kind::Robot => {
                         return Err(TxError::InvalidValue {
                             op: i,
                             id: rid,
@@ -779,7 +782,9 @@ fn check_kinematics(op: usize, id: Id, k: &Kinematics) -> Result<(), TxError> {
             }
             check_qlim(op, id, qlim)?;
         }
-        Kinematics::Robot { tool, .. } => check_pose(op, id, "tool", tool)?,
+        Kinematics::Robot { tool, .. } | Kinematics::FloatingRobot { tool, .. } => {
+            check_pose(op, id, "tool", tool)?
+        }
         Kinematics::Axis {
             index,
             parent,

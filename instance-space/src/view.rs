@@ -11,7 +11,19 @@
 use crate::layout::{ObjectRec, flags};
 use crate::reader::Snapshot;
 use crate::record::{self, KinematicsFields};
-use crate::store::{Appearance, DhConvention, Id, JointKind, Kind, Kinematics, MassProps, Pose};
+use crate::store::{
+    Appearance, DhConvention, FloatingBase, Id, JointKind, Kind, Kinematics, MassProps, Pose,
+};
+
+impl FloatingBase {
+    /// The root a robot record's `joint_kind` field encodes (`None`: 0, a fixed base, or a
+    /// value this build does not know).
+    pub fn from_u32(v: u32) -> Option<FloatingBase> {
+        [FloatingBase::FreeFlyer, FloatingBase::Planar]
+            .into_iter()
+            .find(|k| *k as u32 == v)
+    }
+}
 
 impl JointKind {
     /// The kind a record's `joint_kind` field encodes (`None`: not a known kind).
@@ -106,6 +118,10 @@ pub struct RobotView<'a> {
     pub ik_family: u32,
     /// Tool transform (3×4 row-major), relative to the last link frame.
     pub tool: Pose,
+    /// A floating robot's root joint (`Kinematics::FloatingRobot`); `None` for a fixed base.
+    pub root: Option<FloatingBase>,
+    /// The robot object's mass properties: a floating robot's base link inertial.
+    pub base_mass: Option<MassProps>,
     /// Links that carry a joint record, sorted by their index in the chain.
     pub joints: Vec<JointView>,
 }
@@ -149,13 +165,14 @@ impl Snapshot {
         if r.kind() != Some(Kind::Robot) {
             return None;
         }
-        let (convention, ik_family, tool) = match r.kinematics() {
-            Some(Kinematics::Robot {
-                convention,
-                ik_family,
-                tool,
-            }) => (convention, ik_family, tool),
-            _ => (DhConvention::Standard, 0, crate::IDENTITY),
+        let kinematics = r.kinematics();
+        let (convention, ik_family, tool) = kinematics
+            .as_ref()
+            .and_then(Kinematics::robot_fields)
+            .unwrap_or((DhConvention::Standard, 0, crate::IDENTITY));
+        let root = match kinematics {
+            Some(Kinematics::FloatingRobot { root, .. }) => Some(root),
+            _ => None,
         };
         let mut joints: Vec<(u32, JointView)> = self
             .children(r.id)
@@ -221,7 +238,7 @@ impl Snapshot {
                             }),
                         },
                     )),
-                    Kinematics::Robot { .. } => None,
+                    Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. } => None,
                 }
             })
             .collect();
@@ -233,6 +250,8 @@ impl Snapshot {
             convention,
             ik_family,
             tool,
+            root,
+            base_mass: r.dynamics(),
             joints: joints.into_iter().map(|(_, j)| j).collect(),
         })
     }

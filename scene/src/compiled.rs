@@ -41,7 +41,9 @@ pub struct CompiledRobot {
     pub links: Vec<Id>,
     /// Link object indices in chain order.
     pub link_index: Vec<usize>,
-    /// The committed joint values (rad or m), kept current by `sync`.
+    /// The committed joint values (rad or m), kept current by `sync`: `robot.nq()` of them —
+    /// a floating robot's root coordinates first, always the identity (its base is where the
+    /// robot object stands: `robot.base`).
     pub q: Vec<f64>,
     /// The robot object and everything under it.
     pub subtree: HashSet<Id>,
@@ -144,7 +146,8 @@ impl CompiledScene {
         let poses = snap.poses();
         for r in &mut self.robots {
             r.robot.base = pose::to_matrix(&snap.world_pose(r.index));
-            for (qj, &k) in r.q.iter_mut().zip(&r.link_index) {
+            let root_nq = r.robot.root_nq();
+            for (qj, &k) in r.q.iter_mut().skip(root_nq).zip(&r.link_index) {
                 *qj = poses[k].joint;
             }
         }
@@ -267,7 +270,8 @@ impl CompiledScene {
     /// at the snapshot's values, one to the same version leaves them.
     pub fn set_joints(&mut self, joints: &[(Id, f64)]) {
         for r in &mut self.robots {
-            for (qj, id) in r.q.iter_mut().zip(&r.links) {
+            let root_nq = r.robot.root_nq();
+            for (qj, id) in r.q.iter_mut().skip(root_nq).zip(&r.links) {
                 if let Some((_, q)) = joints.iter().find(|(link, _)| link == id) {
                     *qj = *q;
                 }
@@ -339,7 +343,8 @@ fn compile_robot(
     // Allowed pairs (the seed's robot-declared exceptions): link solids that already overlap
     // at the DH zero configuration are structural contacts of the model, not events. Adjacent
     // links are skipped by the checker itself. Done once per structure version.
-    let zero = vec![0.0; robot.dof()];
+    // q = 0 for the joints (a floating robot's root at the identity)
+    let zero: Vec<f64> = robot.neutral_q().iter().copied().collect();
     let self_only = CollisionSettings {
         all_contacts: true,
         ..CollisionSettings::default()
@@ -353,13 +358,15 @@ fn compile_robot(
             }
         }
     }
+    let mut q: Vec<f64> = robot.neutral_q().as_slice()[..robot.root_nq()].to_vec();
+    q.extend(view.joints.iter().map(|j| j.q));
     Ok(CompiledRobot {
         index: view.index,
         id: view.id,
         robot,
         links: view.joints.iter().map(|j| j.id).collect(),
         link_index: view.joints.iter().map(|j| j.index).collect(),
-        q: view.joints.iter().map(|j| j.q).collect(),
+        q,
         subtree: subtree(snap, view.id),
         solids,
         link_bodies,

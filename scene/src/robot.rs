@@ -4,14 +4,22 @@
 use crate::SceneError;
 use crate::pose;
 use nalgebra::{Matrix3, Matrix4, Vector3};
-use robosim_instance_space::{DhConvention, Id, JointKind, RobotView, Snapshot, Transaction};
-use robosim_kinematics::{Convention, Joint, JointType, Origin, Robot};
+use robosim_instance_space::{
+    DhConvention, FloatingBase, Id, JointKind, RobotView, Snapshot, Transaction,
+};
+use robosim_kinematics::{Convention, Joint, JointType, Origin, Robot, RootJoint, RootKind};
 
 /// The kinematic and dynamic model of robot `view`, placed where it stands: base = the robot
 /// object's world pose, tool = its tool record. Joints in q order. A robot's joints are all DH
 /// rows (`Kinematics::Joint`: a chain read by the robot's convention) or all general joints
 /// (`Kinematics::Axis`: placement and axis, a chain or a tree by their parents); a mix is
 /// refused, and so is a link that carries a fixed joint record (never read as a revolute one).
+///
+/// A floating robot (`Kinematics::FloatingRobot`) gets its root joint (`Robot::root`, the
+/// base link's inertial from the robot object's mass properties): the robot object is the
+/// base link, so `base` is still the object's world pose and the root's coordinates in the
+/// session's q are the identity (`Robot::neutral_q`'s root part). A pure op given another q
+/// (`{"op": "fk", "robot": NAME, "q": [x y z qx qy qz qw, …]}`) moves the base from there.
 pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, SceneError> {
     if view.joints.is_empty() {
         return Err(SceneError::NoJoints(view.name.to_owned()));
@@ -96,6 +104,23 @@ pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, Scene
         parents,
         base: pose::to_matrix(&snap.world_pose(view.index)),
         tool: pose::to_matrix(&view.tool),
+        root: view.root.map(|kind| {
+            let m = view.base_mass.unwrap_or(robosim_instance_space::MassProps {
+                mass: 0.0,
+                com: [0.0; 3],
+                inertia: [0.0; 6],
+            });
+            let i = m.inertia;
+            RootJoint {
+                kind: match kind {
+                    FloatingBase::FreeFlyer => RootKind::FreeFlyer,
+                    FloatingBase::Planar => RootKind::Planar,
+                },
+                mass: m.mass,
+                com: Vector3::from(m.com),
+                inertia: Matrix3::new(i[0], i[3], i[4], i[3], i[1], i[5], i[4], i[5], i[2]),
+            }
+        }),
         ..Robot::default()
     };
     robot.validate().map_err(|e| SceneError::BadRobot {
@@ -106,16 +131,26 @@ pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, Scene
 }
 
 /// The link poses relative to the robot object at `q` (3×4 row-major, one per joint): what
-/// the Instance Space holds for the links of a robot standing at `q`.
+/// the Instance Space holds for the links of a robot standing at `q`. `q` has `robot.nq()`
+/// values; a floating robot's links are placed relative to its base link (the robot object),
+/// whatever the root's coordinates in `q`.
 pub fn link_poses(robot: &Robot, q: &[f64]) -> Vec<[f64; 12]> {
     let local = Robot {
         base: Matrix4::identity(),
         tool: Matrix4::identity(),
         ..robot.clone()
     };
-    robosim_kinematics::fk::link_frames(&local, q)[1..=robot.dof()]
+    let frames = robosim_kinematics::fk::link_frames(&local, q);
+    let base_link = robot
+        .root
+        .as_ref()
+        .and_then(|_| frames.first()?.try_inverse());
+    frames[1..=robot.dof()]
         .iter()
-        .map(pose::from_matrix)
+        .map(|f| match &base_link {
+            Some(inv) => pose::from_matrix(&(inv * f)),
+            None => pose::from_matrix(f),
+        })
         .collect()
 }
 
@@ -124,7 +159,8 @@ pub fn link_poses(robot: &Robot, q: &[f64]) -> Vec<[f64; 12]> {
 /// structure version, so compiled models are updated in place, not rebuilt.
 pub fn joint_tx(robot: &Robot, links: &[Id], q: &[f64]) -> Transaction {
     let mut tx = Transaction::new();
-    for ((id, qj), p) in links.iter().zip(q).zip(link_poses(robot, q)) {
+    let joints = q.get(robot.root_nq()..).unwrap_or_default();
+    for ((id, qj), p) in links.iter().zip(joints).zip(link_poses(robot, q)) {
         tx.set_joint(*id, *qj).set_pose(*id, p);
     }
     tx

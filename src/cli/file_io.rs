@@ -110,6 +110,10 @@ pub struct ImportUrdfArgs {
     /// Leave the `<visual>`s out (their meshes are not read; the collision solids are drawn).
     #[arg(long)]
     pub no_visuals: bool,
+    /// A floating base for the root link: `--floating` (a free-flyer, 7 q / 6 v) or
+    /// `--floating planar` (x, y, yaw); the robot object is then the base link (docs/file-io.md).
+    #[arg(long, num_args = 0..=1, default_missing_value = "free_flyer", value_parser = ["free_flyer", "planar"])]
+    pub floating: Option<String>,
 }
 
 #[derive(clap::Args, Debug)]
@@ -187,6 +191,7 @@ impl From<ImportCmd> for robosim_file_io::cli::ImportCmd {
                     at: x.at,
                     parent: x.parent,
                     no_visuals: x.no_visuals,
+                    floating: None,
                 })
             }
         }
@@ -201,6 +206,10 @@ impl From<ImportUrdfArgs> for robosim_file_io::cli::ImportUrdfArgs {
             at: a.at,
             parent: a.parent,
             no_visuals: a.no_visuals,
+            floating: a
+                .floating
+                .as_deref()
+                .and_then(robosim_kinematics::RootKind::from_name),
         }
     }
 }

@@ -135,7 +135,10 @@ impl Stage<'_> {
     pub(super) fn check_chains(&self, ops: &[Op]) -> Result<(), TxError> {
         for robot in self.touched_robots() {
             let robot_convention = match self.lookup(robot).and_then(|o| o.kinematics) {
-                Some(Kinematics::Robot { convention, .. }) => Some(convention),
+                Some(
+                    Kinematics::Robot { convention, .. }
+                    | Kinematics::FloatingRobot { convention, .. },
+                ) => Some(convention),
                 _ => None,
             };
             let places: Vec<Place> = self
@@ -154,7 +157,7 @@ impl Stage<'_> {
                         index,
                         dh: None,
                     }),
-                    Kinematics::Robot { .. } => None,
+                    Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. } => None,
                 })
                 .collect();
             let invalid = |link: Id, field: &str, reason: String| TxError::InvalidValue {
