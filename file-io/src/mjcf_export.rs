@@ -272,7 +272,12 @@ pub fn to_mjcf_with_geometry(
             .motion(0.0);
         // The base placement goes into the bodies on the base: Pinocchio 4.1's MJCF reader
         // drops the pos and quat of a joint-less body on the world.
-        let at = if g.parent(j) == 0 { g.base * at } else { at };
+        // (A floating robot's base placement is its base body's pose instead.)
+        let at = if g.parent(j) == 0 && robot.root.is_none() {
+            g.base * at
+        } else {
+            at
+        };
         let link = xml(&link_name(robot, j + 1));
         let mut body = String::new();
         let _ = writeln!(body, "<body name=\"{link}\" {}>", frame_attrs(&at));
@@ -347,10 +352,48 @@ pub fn to_mjcf_with_geometry(
         root,
         "<body name=\"{}\" {}>",
         xml(&link_name(robot, 0)),
-        frame_attrs(&Matrix4::identity())
+        frame_attrs(&if robot.root.is_some() {
+            g.base
+        } else {
+            Matrix4::identity()
+        })
     );
     let base_geoms = body_geoms(geometry, 0, &xs[0], mesh_prefix, &mut assets, &mut meshes);
-    if !base_geoms.is_empty() {
+    if let Some(r) = &robot.root {
+        // A floating base: the base body moves freely (MuJoCo's qpos x y z qw qx qy qz with
+        // the linear velocity in the world frame; robosim's and Pinocchio's x y z qx qy qz qw
+        // with it in the base frame), placed at the robot's base as its qpos0. A planar root
+        // is MuJoCo's x and y slides and a z hinge (qpos x y θ, robosim's x y cos θ sin θ).
+        match r.kind {
+            robosim_kinematics::RootKind::FreeFlyer => {
+                let _ = writeln!(root, "  <freejoint name=\"{name}_root\"/>");
+            }
+            robosim_kinematics::RootKind::Planar => {
+                for (axis, kind, dir) in [
+                    ("x", "slide", "1 0 0"),
+                    ("y", "slide", "0 1 0"),
+                    ("yaw", "hinge", "0 0 1"),
+                ] {
+                    let _ = writeln!(
+                        root,
+                        "  <joint name=\"{name}_root_{axis}\" type=\"{kind}\" axis=\"{dir}\" limited=\"false\"/>"
+                    );
+                }
+            }
+        }
+        let (mass, inertia) = loadable_inertial(r.mass, &r.inertia, "link 0", &mut notes);
+        let _ = writeln!(
+            root,
+            "  <inertial pos=\"{}\" mass=\"{mass:?}\" fullinertia=\"{:?} {:?} {:?} {:?} {:?} {:?}\"/>",
+            v3(&r.com),
+            inertia[(0, 0)],
+            inertia[(1, 1)],
+            inertia[(2, 2)],
+            inertia[(0, 1)],
+            inertia[(0, 2)],
+            inertia[(1, 2)]
+        );
+    } else if !base_geoms.is_empty() {
         // A body with geoms and no <inertial> would have its inertia inferred from them
         // (inertiafromgeom="auto"), which Pinocchio's MJCF reader and robosim's cannot do for
         // meshes; the base is welded to the world, so what it weighs changes nothing.
@@ -365,7 +408,11 @@ pub fn to_mjcf_with_geometry(
             root,
             "  <body name=\"{}\" {}/>",
             xml(&format!("{}_tool", robot.name)),
-            frame_attrs(&(g.base * g.tool))
+            frame_attrs(&if robot.root.is_some() {
+                g.tool
+            } else {
+                g.base * g.tool
+            })
         );
     }
     for line in bodies[0].lines() {

@@ -36,6 +36,13 @@
 //! noted in a comment per joint when non-zero), velocity and effort limits (robosim does not
 //! model them: written as 0, which URDF readers take as "unknown").
 //!
+//! A **floating** robot ([`Robot::root`]) is written as ROS and Pinocchio write one: the base
+//! link `<robot>_link0` is the file's root link, with the root's inertial, and there is no
+//! `world` link nor a joint to it (URDF's `floating` joint type is not read by urdfdom's users
+//! as a root joint; Pinocchio adds one with `buildModelFromUrdf(path, JointModelFreeFlyer())`).
+//! The base placement is then not written: the root's coordinates are the base link's pose in
+//! the file's world (a note says so when the robot's base is not the identity).
+//!
 //! Geometry ([`to_urdf_with_geometry`], [`crate::export_geometry`]): each link's `<visual>` and
 //! `<collision>` elements, a shape's placement in robosim's link frame j moved into URDF link j
 //! by `P_j`; primitives as URDF primitives, anything else a binary STL beside the file.
@@ -248,23 +255,69 @@ pub fn to_urdf_with_geometry(
         );
     }
     let _ = writeln!(out, "<robot name=\"{name}\">");
-    let _ = writeln!(out, "  <link name=\"world\"/>");
     let base_geometry = link_geometry(geometry, 0, &xs[0], mesh_prefix, &mut meshes);
-    if base_geometry.is_empty() {
-        let _ = writeln!(out, "  <link name=\"{}\"/>", xml(&link_name(robot, 0)));
-    } else {
+    if let Some(root) = &robot.root {
+        // A floating base as ROS and Pinocchio write one: the base link is the file's root
+        // link (no `world`, no joint to it) with its inertial; the loader adds the root joint.
+        let pin_joint = match root.kind {
+            robosim_kinematics::RootKind::FreeFlyer => "JointModelFreeFlyer",
+            robosim_kinematics::RootKind::Planar => "JointModelPlanar",
+        };
+        let _ = writeln!(
+            out,
+            "  <!-- Floating base ({}): {} is the root link; load with a {} root joint (Pinocchio: buildModelFromUrdf(path, pin.{pin_joint}())). -->",
+            root.kind.name(),
+            xml(&link_name(robot, 0)),
+            root.kind.name(),
+        );
+        notes.push(format!(
+            "floating base ({}): written as ROS and Pinocchio write one, {} the root link with no `world` link and no joint to it; load it with a {} root joint (Pinocchio: buildModelFromUrdf(path, pin.{pin_joint}()))",
+            root.kind.name(),
+            link_name(robot, 0),
+            root.kind.name()
+        ));
+        if robot.base != Matrix4::identity() {
+            notes.push(
+                "floating base: the robot's base placement is not written (the root joint's coordinates are the base link's pose in the file's world); robosim's q with root q_r is the file's with root base · M(q_r)"
+                    .to_string(),
+            );
+        }
+        let (mass, inertia) =
+            crate::mjcf_export::loadable_inertial(root.mass, &root.inertia, "link 0", &mut notes);
+        let m = &inertia;
         let _ = write!(
             out,
-            "  <link name=\"{}\">\n{base_geometry}  </link>\n",
-            xml(&link_name(robot, 0))
+            "  <link name=\"{}\">\n    <inertial>\n      <origin {}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>\n{base_geometry}  </link>\n",
+            xml(&link_name(robot, 0)),
+            oa(&Matrix4::new_translation(&root.com)),
+            mass,
+            m[(0, 0)],
+            m[(0, 1)],
+            m[(0, 2)],
+            m[(1, 1)],
+            m[(1, 2)],
+            m[(2, 2)]
+        );
+    } else {
+        let _ = writeln!(out, "  <link name=\"world\"/>");
+        if base_geometry.is_empty() {
+            let _ = writeln!(out, "  <link name=\"{}\"/>", xml(&link_name(robot, 0)));
+        } else {
+            let _ = write!(
+                out,
+                "  <link name=\"{}\">\n{base_geometry}  </link>\n",
+                xml(&link_name(robot, 0))
+            );
+        }
+    }
+    if robot.root.is_none() {
+        let _ = writeln!(
+            out,
+            "  <joint name=\"{name}_base_joint\" type=\"fixed\">\n    <parent link=\"world\"/>\n    <child link=\"{}\"/>\n    <origin {}/>\n  </joint>",
+            xml(&link_name(robot, 0)),
+            oa(&robot.base)
         );
     }
-    let _ = writeln!(
-        out,
-        "  <joint name=\"{name}_base_joint\" type=\"fixed\">\n    <parent link=\"world\"/>\n    <child link=\"{}\"/>\n    <origin {}/>\n  </joint>",
-        xml(&link_name(robot, 0)),
-        oa(&robot.base)
-    );
     // posts[k]: the trailing part of link frame k (P_k above; the identity for the base and
     // for a general joint).
     let mut posts: Vec<Option<Matrix4<f64>>> = vec![None; robot.dof() + 1];

@@ -30,6 +30,19 @@ Also writes testdata/mjcf/exports/<robot>.xml (the exported MJCF) and
 testdata/mjcf/exports/mujoco_exports.json (MuJoCo's tool pose and M on them at the same q),
 which file-io/tests/mjcf_export.rs re-imports and compares.
 
+A floating robot (issue 36): Solo-12 (testdata/urdf_corpus, vendored from example-robot-data)
+imported into a session with `robosim import urdf --floating`, exported by `robosim export urdf`
+and `robosim export mjcf --robot solo`, loaded by MuJoCo (MJCF: the base body's <freejoint/>)
+and Pinocchio (URDF: buildModelFromUrdf(path, JointModelFreeFlyer()), the ROS convention of a
+floating base, the base link as the file's root link; MJCF: buildModelFromMJCF), and at 5
+random q (seed 5: a random position and unit quaternion, joints in their limits) the tool pose
+and M compared with robosim's on `{"urdf": SOLO, "floating": true}`. MuJoCo's free joint has
+qpos x y z qw qx qy qz (robosim's and Pinocchio's: x y z qx qy qz qw) and its linear velocity
+in the world frame (theirs: in the base frame), so its M is compared as T^T M T, T = diag(R, I).
+MuJoCo's URDF loader welds a URDF's root link to the world, so the URDF export of a floating
+robot is checked in Pinocchio only. Written: testdata/mjcf/exports/solo_floating.json (the
+robosim q, MuJoCo's tool pose and T^T M T at each sample).
+
 Usage (MuJoCo 4.0, pin 4.1 in /work/peers-venv; target/debug/robosim built):
     /work/peers-venv/bin/python tools/peers/check_exports.py
 """
@@ -193,6 +206,97 @@ def geometry_check(name, urdf, xml, pin_model, mj_model, q_list):
     return n_col, n_vis, n_geom, pose_err, box_err
 
 
+SOLO = os.path.join(ROOT, "testdata", "urdf_corpus", "robots", "solo_description", "solo12.urdf")
+
+
+def pin_permuted(model, q, frame, name="solo", root_nq=7, root_nv=6):
+    """pin_values with robosim's joint order: Pinocchio numbers a URDF tree's joints in its own
+    traversal order (a link's child joints by name: solo_joint10 before solo_joint4), so q and
+    M are mapped joint by joint through the names robosim wrote (`<name>_joint<k>`)."""
+    n = len(q) - root_nq
+    iq = list(range(root_nq)) + [model.joints[model.getJointId(f"{name}_joint{k + 1}")].idx_q
+                                 for k in range(n)]
+    iv = list(range(root_nv)) + [model.joints[model.getJointId(f"{name}_joint{k + 1}")].idx_v
+                                 for k in range(n)]
+    qp = np.zeros(model.nq)
+    qp[iq] = q
+    x, M = pin_values(model, qp, frame)
+    return x, M[np.ix_(iv, iv)]
+
+
+def floating_check(rows):
+    """Solo-12 floating through a session's export (see the module docstring)."""
+    home = tempfile.mkdtemp()
+    env = dict(os.environ, ROBOSIM_HOME=home)
+    session = f"peersfloat{os.getpid()}"
+
+    def rs(args):
+        r = subprocess.run([ROBOSIM] + args + ["--session", session], env=env,
+                           capture_output=True, text=True)
+        if r.returncode != 0:
+            sys.exit(f"robosim {' '.join(args)}: {r.stderr}")
+        return r.stdout
+
+    urdf, xml = os.path.join(home, "solo.urdf"), os.path.join(home, "solo.xml")
+    rs(["up", "demo"])
+    try:
+        rs(["import", "urdf", SOLO, "--floating", "--as", "solo"])
+        notes = rs(["export", "urdf", urdf, "--robot", "solo"])
+        notes += rs(["export", "mjcf", xml, "--robot", "solo"])
+    finally:
+        rs(["down"])
+    if "base placement is not written" in notes:
+        sys.exit(f"solo: the session placed the robot off the identity: {notes}")
+    for line in notes.splitlines():
+        if "note:" in line:
+            print(f"solo (floating): {line.strip()}")
+    mj = mujoco.MjModel.from_xml_path(xml)
+    pin_urdf = pin.buildModelFromUrdf(urdf, pin.JointModelFreeFlyer())
+    pin_mjcf = pin.buildModelFromMJCF(xml)
+    assert (mj.nq, mj.nv, pin_urdf.nq, pin_urdf.nv, pin_mjcf.nq) == (19, 18, 19, 18, 19)
+    rng = np.random.default_rng(5)
+    lo, hi = mj.jnt_range[1:, 0], mj.jnt_range[1:, 1]
+    limited = mj.jnt_limited[1:].astype(bool)
+    robot = {"urdf": SOLO, "floating": True}
+    err, samples = {}, []
+    for _ in range(5):
+        quat = rng.normal(size=4)
+        quat /= np.linalg.norm(quat)  # x y z w
+        joints = np.where(limited, rng.uniform(lo, hi), rng.uniform(-np.pi, np.pi, 12))
+        q = np.concatenate([rng.uniform(-1, 1, 3), quat, joints])
+        fk, mm = query([
+            {"id": 1, "op": "fk", "robot": robot, "q": q.tolist()},
+            {"id": 2, "op": "mass_matrix", "robot": robot, "q": q.tolist()},
+        ])
+        ours_x, ours_m = np.array(fk["pose"]), np.array(mm["mass_matrix"])
+        qpos = np.concatenate([q[:3], [quat[3]], quat[:3], joints])
+        x_mj, m_mj = mj_values(mj, qpos, lambda m, d: mj_pose(m, d, "solo_tool"))
+        t = np.eye(18)
+        t[:3, :3] = pin.Quaternion(quat[3], quat[0], quat[1], quat[2]).toRotationMatrix()
+        m_mj = t.T @ m_mj @ t
+        got = {
+            ("MJCF", "MuJoCo"): (x_mj, m_mj),
+            ("URDF", "Pinocchio"): pin_permuted(pin_urdf, q, "solo_tool"),
+            ("MJCF", "Pinocchio"): pin_permuted(pin_mjcf, q, "solo_tool"),
+        }
+        for k, (x, M) in got.items():
+            ex = np.abs(x - ours_x).max()
+            em = np.abs(M - ours_m).max() / max(1.0, np.abs(ours_m).max())
+            a, b = err.get(k, (0.0, 0.0))
+            err[k] = (max(a, ex), max(b, em))
+        samples.append({"q": q.tolist(), "tool": x_mj.tolist(), "mass_matrix": m_mj.tolist()})
+    with open(os.path.join(OUT, "solo_floating.json"), "w") as f:
+        json.dump({"mujoco": mujoco.__version__, "pinocchio": pin.__version__,
+                   "robot": "testdata/urdf_corpus/robots/solo_description/solo12.urdf, floating",
+                   "layout": "q: robosim/Pinocchio (x y z qx qy qz qw, joints); mass_matrix: "
+                             "MuJoCo's, as T^T M T in robosim's velocity layout",
+                   "samples": samples}, f, indent=1)
+        f.write("\n")
+    shutil.rmtree(home)
+    for (fmt, peer), (ex, em) in sorted(err.items()):
+        rows.append(f"| solo (floating) | {fmt} | {peer} | {ex:.1e} | {em:.1e} |")
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     rng = np.random.default_rng(4)
@@ -257,6 +361,7 @@ def main():
                                         "samples": samples})
         for (fmt, peer), (ex, em) in sorted(err.items()):
             rows.append(f"| {name} | {fmt} | {peer} | {ex:.1e} | {em:.1e} |")
+    floating_check(rows)
     with open(os.path.join(OUT, "mujoco_exports.json"), "w") as f:
         json.dump(reference, f, indent=1)
         f.write("\n")
