@@ -85,11 +85,47 @@ pub enum StaleEncoding {
     Length { found: usize, expected: u64 },
     #[error("its payload's checksum does not match (damaged)")]
     Checksum,
+    /// bincode refused the payload (its error, kept: [`DecodeFailure::error`]).
     #[error("its payload cannot be decoded: {0}")]
-    Decode(String),
+    Decode(#[source] DecodeFailure),
+    /// The declarations were decoded but bytes are left after them.
+    #[error("its payload cannot be decoded: {0} bytes left over after the declarations")]
+    LeftOver(usize),
     #[error("it is not consistent with its sources: {0}")]
     Inconsistent(String),
 }
+
+/// bincode's decoding error, shared so that [`StaleEncoding`] stays `Clone` and comparable
+/// (two failures are equal when they say the same: bincode's error has no equality).
+#[derive(Debug, Clone)]
+pub struct DecodeFailure(std::sync::Arc<bincode::error::DecodeError>);
+
+impl DecodeFailure {
+    /// bincode's error.
+    pub fn error(&self) -> &bincode::error::DecodeError {
+        &self.0
+    }
+}
+
+impl std::fmt::Display for DecodeFailure {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for DecodeFailure {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        Some(&*self.0)
+    }
+}
+
+impl PartialEq for DecodeFailure {
+    fn eq(&self, other: &Self) -> bool {
+        self.to_string() == other.to_string()
+    }
+}
+
+impl Eq for DecodeFailure {}
 
 fn u64_at(b: &[u8], at: usize) -> u64 {
     let mut w = [0u8; 8];
@@ -173,12 +209,9 @@ impl Library {
             payload,
             bincode::config::standard().with_limit::<MAX_PAYLOAD>(),
         )
-        .map_err(|e| StaleEncoding::Decode(e.to_string()))?;
+        .map_err(|e| StaleEncoding::Decode(DecodeFailure(std::sync::Arc::new(e))))?;
         if read != payload.len() {
-            return Err(StaleEncoding::Decode(format!(
-                "{} bytes left over after the declarations",
-                payload.len() - read
-            )));
+            return Err(StaleEncoding::LeftOver(payload.len() - read));
         }
         let mut map = SourceMap::default();
         for (name, text) in sources {

@@ -36,7 +36,7 @@ mod units;
 mod value;
 
 pub use ast::DeclKind;
-pub use checked::{CHECKED_FORMAT, StaleEncoding, sources_digest};
+pub use checked::{CHECKED_FORMAT, DecodeFailure, StaleEncoding, sources_digest};
 pub use error::{ErrorKind, LibError};
 pub use eval::{EVAL_STEP_BUDGET, EvalOptions, POLYGON_BUDGET};
 pub use library::{DeclInfo, Error, Library, ParamInfo, ParamValue, Params};
