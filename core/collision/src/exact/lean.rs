@@ -342,7 +342,7 @@ pub(crate) fn separation(
         }
         let (a, b) = pair.parts(&dir);
         let w = a - b;
-        scale = scale.max(a.norm() + b.norm());
+        scale = scale.max(pair.a_norm(&a) + b.norm());
         best.tau = ROUNDING * scale;
         let l = w.dot(&u);
         if l > best.lower {

@@ -115,22 +115,50 @@ pub(crate) struct Placed<'a> {
     r: Matrix3<f64>,
     rt: Matrix3<f64>,
     t: Vector3<f64>,
+    /// |p| of A's support points where it does not depend on p (box, cylinder, ball: every
+    /// support point is a corner, a rim point or on the sphere), and of a cone's rim points.
+    a_reach: f64,
 }
 
 impl<'a> Placed<'a> {
     pub(crate) fn new(a: Kind<'a>, b: Kind<'a>, pos12: &Isometry3<f64>) -> Self {
         let r = pos12.rotation.to_rotation_matrix().into_inner();
+        let a_reach = match a {
+            Kind::Cuboid(h) => h.norm(),
+            Kind::Cylinder {
+                radius,
+                half_height,
+            }
+            | Kind::Cone {
+                radius,
+                half_height,
+            } => radius.hypot(half_height),
+            Kind::Ball(r) => r,
+            Kind::Other(_) => f64::NAN,
+        };
         Placed {
             a,
             b,
             r,
             rt: r.transpose(),
             t: pos12.translation.vector,
+            a_reach,
         }
     }
 }
 
 impl Placed<'_> {
+    /// |a| for a support point `a` of A ([`Placed::parts`]): a constant of the shape except
+    /// at a cone's apex and for hulls (no square root per support point where it is constant).
+    #[inline(always)]
+    pub(crate) fn a_norm(&self, a: &Vector3<f64>) -> f64 {
+        match self.a {
+            Kind::Cone { half_height, .. } if a.y > 0.0 => half_height,
+            Kind::Other(_) => a.norm(),
+            _ => self.a_reach,
+        }
+    }
+
     /// A's support point toward −u and B's toward u (A's frame): the point of A − B
     /// minimising `z·u` is their difference. `u` need not be unit (only its direction counts).
     #[inline(always)]
