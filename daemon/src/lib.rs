@@ -91,18 +91,67 @@ pub enum DaemonError {
     Reader(#[from] robosim_instance_space::ReaderError),
     #[error(transparent)]
     State(#[from] robosim_instance_space::state::StateError),
+    /// The scene's effects cannot be had (the message).
     #[error("{0}")]
     Effects(String),
-    #[error("robot {robot}: {reason}")]
-    Robot { robot: String, reason: String },
+    /// The session's library publication does not load.
+    #[error(transparent)]
+    Library(#[from] robosim_scene::SceneError),
+    /// An `--effects` file cannot be read.
+    #[error(transparent)]
+    Read(#[from] robosim_input::InputError),
+    /// An `--effects` file's declaration was refused.
+    #[error("{file}: {source}")]
+    EffectsFile {
+        file: String,
+        source: robosim_model::OptionsError,
+    },
+    /// A scene-level stage (`stage`: space, swap) cannot be built from the declaration.
+    #[error("the {stage} stage: {source}")]
+    Stage {
+        stage: &'static str,
+        source: StageError,
+    },
+    /// A robot's pipeline cannot be built from the declared effects.
+    #[error("robot {robot}: {source}")]
+    Pipeline {
+        robot: String,
+        source: robosim_model::OptionsError,
+    },
+    /// A robot's pipeline refused the committed q.
+    #[error("robot {robot}: {source}")]
+    Robot {
+        robot: String,
+        source: robosim_simulator::StepError,
+    },
     #[error("{0}")]
     Usage(String),
     #[error("the simulator refused {command}: {reason}")]
     Refused { command: String, reason: String },
     #[error(transparent)]
     Record(#[from] robosim_record::RecordError),
-    #[error("simulator log: {0}")]
-    Log(String),
+    /// A robot's CSV log could not be written.
+    #[error("simulator log: robot {robot}: {source}")]
+    Log {
+        robot: String,
+        source: robosim_simulator::StepError,
+    },
+}
+
+/// Why a scene-level stage (space, swap) was not built: the declaration's problem in words,
+/// or the orbit's typed error.
+#[derive(Debug, thiserror::Error)]
+pub enum StageError {
+    #[error("{0}")]
+    Refused(String),
+    #[error(transparent)]
+    Orbit(#[from] robosim_simulator::orbit::OrbitError),
+}
+
+impl From<String> for StageError {
+    fn from(message: String) -> Self {
+        StageError::Refused(message)
+    }
 }
 
 type Result<T> = std::result::Result<T, DaemonError>;
@@ -237,8 +286,7 @@ impl LibraryCache {
     fn get(&mut self, reader: &mut Reader, counters: &mut Counters) -> Result<&Library> {
         let published = reader.library()?;
         if self.library.is_none() || published.files != self.sources {
-            let (lib, _) = robosim_scene::library_from_publication(&published)
-                .map_err(|e| DaemonError::Effects(e.to_string()))?;
+            let (lib, _) = robosim_scene::library_from_publication(&published)?;
             counters.library_parses += 1;
             self.sources = published.files;
             self.library = Some(lib);
@@ -267,11 +315,12 @@ fn scene_effects(
             std::path::Path::new(f),
             "an effects file",
             robosim_input::Limit::TEXT,
-        )
-        .map_err(|e| DaemonError::Effects(e.to_string()))?;
+        )?;
         return Ok((
-            SceneEffects::from_json(&text)
-                .map_err(|e| DaemonError::Effects(format!("{f}: {e}")))?,
+            SceneEffects::from_json(&text).map_err(|source| DaemonError::EffectsFile {
+                file: f.to_owned(),
+                source,
+            })?,
             format!("from {f}"),
             None,
         ));
@@ -350,10 +399,10 @@ impl Daemon<'_> {
             obstacles,
             link_solids: Some(r.solids.clone()),
         };
-        let pipeline = Pipeline::build(&r.robot, &r.q, &effects, geometry).map_err(|e| {
-            DaemonError::Robot {
+        let pipeline = Pipeline::build(&r.robot, &r.q, &effects, geometry).map_err(|source| {
+            DaemonError::Pipeline {
                 robot: r.name().to_owned(),
-                reason: e.to_string(),
+                source,
             }
         })?;
         Ok(Sim {
@@ -403,12 +452,19 @@ impl Daemon<'_> {
             }
             let mut notes = Vec::new();
             self.space = space::SpaceStage::build(fx, scene, geometry, &mut self.sims, &mut notes)
-                .map_err(|e| DaemonError::Effects(format!("the space stage: {e}")))?;
+                .map_err(|source| DaemonError::Stage {
+                    stage: "space",
+                    source,
+                })?;
             for n in notes {
                 eprintln!("simulator: WARNING: {n}");
             }
-            self.swap = swap::SwapStage::build(fx, scene, &mut self.sims, snap)
-                .map_err(|e| DaemonError::Effects(format!("the swap stage: {e}")))?;
+            self.swap = swap::SwapStage::build(fx, scene, &mut self.sims, snap).map_err(|e| {
+                DaemonError::Stage {
+                    stage: "swap",
+                    source: e.into(),
+                }
+            })?;
         }
         self.refollow(snap);
         self.counters.rebuilds += 1;
@@ -466,9 +522,9 @@ impl Daemon<'_> {
                 self.sims[k]
                     .pipeline
                     .teleport(&r.q)
-                    .map_err(|e| DaemonError::Robot {
+                    .map_err(|source| DaemonError::Robot {
                         robot: r.name().to_owned(),
-                        reason: e.to_string(),
+                        source,
                     })?;
                 self.sims[k].committed_q.clone_from(&r.q);
             }
@@ -585,9 +641,10 @@ impl Daemon<'_> {
     /// Writes out every robot's buffered CSV log rows.
     fn flush_logs(&mut self) -> Result<()> {
         for s in &mut self.sims {
-            s.pipeline
-                .flush_log()
-                .map_err(|e| DaemonError::Log(format!("robot {}: {e}", s.name)))?;
+            s.pipeline.flush_log().map_err(|source| DaemonError::Log {
+                robot: s.name.clone(),
+                source,
+            })?;
         }
         Ok(())
     }
@@ -1054,6 +1111,29 @@ fn step_due(l: &Loop) -> bool {
 mod tests {
     use super::*;
     use serde_json::json;
+
+    /// An orbit the declaration cannot have stops the space stage with the orbit's own error
+    /// kept: the message says the stage and why, and the chain reaches `OrbitError`.
+    #[test]
+    fn a_refused_orbit_keeps_its_error_behind_the_stage() {
+        let e = robosim_simulator::orbit::Orbit::new(10.0, 0.0).expect_err("10 m is no orbit");
+        let why = e.to_string();
+        let e = DaemonError::Stage {
+            stage: "space",
+            source: e.into(),
+        };
+        assert_eq!(e.to_string(), format!("the space stage: {why}"));
+        let stage = std::error::Error::source(&e).expect("the stage's error");
+        assert!(
+            matches!(
+                stage.downcast_ref::<StageError>(),
+                Some(StageError::Orbit(
+                    robosim_simulator::orbit::OrbitError::Altitude(_)
+                ))
+            ),
+            "{stage:?}"
+        );
+    }
 
     /// A declared log goes to the daemon's file; one naming no signal the simulator logs is
     /// left out (the pipeline would refuse an empty signal list) and its names are said.

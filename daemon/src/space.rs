@@ -75,7 +75,7 @@ impl SpaceStage {
         geometry: Option<Geometry>,
         sims: &mut [Sim],
         notes: &mut Vec<String>,
-    ) -> Result<Option<SpaceStage>, String> {
+    ) -> Result<Option<SpaceStage>, crate::StageError> {
         let Some(o) = effects.orbit else {
             if effects.sun_tracking
                 || effects.power.is_some()
@@ -83,13 +83,13 @@ impl SpaceStage {
                 || effects.consumers
             {
                 // the library refuses this; a hand-written declaration could still say it
-                return Err(
+                return Err(crate::StageError::Refused(
                     "sun_tracking, power, attitude and consumers need an orbit effect".into(),
-                );
+                ));
             }
             return Ok(None);
         };
-        let orbit = Orbit::new(o.altitude_m, o.beta_rad).map_err(|e| e.to_string())?;
+        let orbit = Orbit::new(o.altitude_m, o.beta_rad)?;
         let mut arrays = Vec::new();
         for placed in &scene.robots {
             let Some(cells) = power::solar_array(&placed.frames) else {
