@@ -197,3 +197,55 @@ fn station_processes_start_in_any_order_and_a_killed_rules_or_dataflow_process_c
         "the momentum manager reads the CMG momentum again: {df}"
     );
 }
+
+/// `robosim up space_station_ops --with simulator,rules,dataflow,automation`: the bare rules and
+/// dataflow components run what the scene names (station_ops.clp, the shipped
+/// momentum_manager.flow, written into the session's run directory); `down` stops them all.
+#[test]
+fn up_space_station_ops_with_bare_rules_and_dataflow_starts_the_station_processes() {
+    if robosim_rules::skipped_without_clips("operations::up_space_station_ops_with_bare_rules") {
+        return;
+    }
+    let k = Procs::new("opsup");
+    let down = common::Down(&k);
+    let (ok, text) = common::robosim(
+        &k,
+        &[
+            "up",
+            "space_station_ops",
+            "--with",
+            "simulator,rules,dataflow,automation",
+            "--sim-mode",
+            "lockstep",
+        ],
+    );
+    assert!(ok, "{text}");
+    let mut roles: Vec<String> = k
+        .session()
+        .processes()
+        .iter()
+        .map(|p| p.role.clone())
+        .collect();
+    roles.sort();
+    assert_eq!(
+        roles,
+        ["automation", "dataflow", "rules", "simulator", "space"],
+        "{text}"
+    );
+    let run = k.session().run_dir();
+    assert!(run.join("rulebases/station_ops.clp").is_file(), "{text}");
+    assert_eq!(
+        std::fs::read_to_string(run.join("graphs/momentum_manager.flow")).expect("graph written"),
+        std::fs::read_to_string(graph_file()).expect("shipped graph")
+    );
+    // the processes work together: the rules acknowledge the simulator's step, the momentum
+    // manager takes it
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    p.sim_step(5).expect("5 steps");
+    wait_for("the rules acknowledge step 5", || {
+        (rules_ack(&p.sim_state().ok()?) == Some(5)).then_some(())
+    });
+    dataflow_at(&k, 5);
+    drop(down);
+    assert!(k.session().processes().is_empty(), "down stops them all");
+}

@@ -152,6 +152,31 @@ pub struct Preload {
 /// Stands in a shipped rule base's arguments until its file is written (`up_start`).
 const SHIPPED_MARK: &str = "\0shipped";
 
+/// The dataflow graphs shipped in `automation/graphs/`, by file name, compiled in: `--with
+/// dataflow=NAME` (with or without `.flow`) names one when no file NAME exists; its text is
+/// written to `<session>/run/graphs/NAME.flow` for the process to read.
+pub const SHIPPED_GRAPHS: &[(&str, &str)] = &[
+    (
+        "momentum_manager.flow",
+        include_str!("../../automation/graphs/momentum_manager.flow"),
+    ),
+    (
+        "energy_predictor.flow",
+        include_str!("../../automation/graphs/energy_predictor.flow"),
+    ),
+];
+
+/// What a bare `--with rules` or `--with dataflow` runs for a scene that names one (scene,
+/// component, argument): the operational station's scheduler and momentum manager (issue 38
+/// item 7). Any other scene needs `rules=FILE`, `dataflow=FILE`.
+pub const SCENE_DEFAULTS: &[(&str, &str, &str)] = &[
+    ("space_station_ops", "rules", "station_ops"),
+    ("space_station_ops", "dataflow", "momentum_manager"),
+];
+
+/// Stands in a shipped graph's arguments until its file is written (`up_start`).
+const SHIPPED_GRAPH_MARK: &str = "\0shipped-graph";
+
 /// `robosim space`: recover, load the scene into an empty model, serve until SIGTERM.
 pub fn run_space(
     session: Option<&str>,
@@ -444,11 +469,20 @@ fn up_start(
     // `NAME=FILE` names a component with the file it runs (`dataflow=GRAPH`).
     let mut named: Vec<(String, Vec<String>)> = Vec::new();
     let mut shipped_rules: Vec<(&str, &str)> = Vec::new();
+    let mut shipped_graphs: Vec<(&str, &str)> = Vec::new();
     for c in with {
         let (name, file) = match c.split_once('=') {
             Some((n, f)) => (n, Some(f)),
             None => (c.as_str(), None),
         };
+        // a bare rules/dataflow runs what the scene names for it, if it does
+        let file = file.or_else(|| match start {
+            Start::Scene(scene_name) => SCENE_DEFAULTS
+                .iter()
+                .find(|(s, n, _)| *s == scene_name && *n == name)
+                .map(|(_, _, a)| *a),
+            _ => None,
+        });
         if !COMPONENTS.iter().any(|(n, _)| *n == name) {
             bail!(
                 "unknown component {name:?}; available: {}",
@@ -463,10 +497,26 @@ fn up_start(
             ("dataflow", Some(f)) => {
                 // The component runs in another directory: the file, absolute.
                 let abs = std::path::absolute(f).map_err(io("the dataflow graph"))?;
-                if !abs.is_file() {
-                    bail!("--with dataflow={f}: no such graph file");
+                let file = if f.ends_with(".flow") {
+                    f.to_owned()
+                } else {
+                    format!("{f}.flow")
+                };
+                if abs.is_file() {
+                    vec![abs.display().to_string()]
+                } else if let Some((n, text)) = SHIPPED_GRAPHS.iter().find(|(n, _)| *n == file) {
+                    shipped_graphs.push((n, text));
+                    vec![SHIPPED_GRAPH_MARK.to_owned(), (*n).to_owned()]
+                } else {
+                    bail!(
+                        "--with dataflow={f}: no such graph file, and not a shipped graph (shipped: {})",
+                        SHIPPED_GRAPHS
+                            .iter()
+                            .map(|(n, _)| n.trim_end_matches(".flow"))
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    );
                 }
-                vec![abs.display().to_string()]
             }
             ("dataflow", None) => bail!(
                 "the dataflow component runs a graph file: --with dataflow=FILE (docs/dataflow.md)"
@@ -668,6 +718,20 @@ fn up_start(
             std::fs::write(&path, text).map_err(io("a shipped rule base"))?;
             for (c, extra) in &mut components {
                 if c == "rules" && extra[..] == [SHIPPED_MARK, *n] {
+                    *extra = vec![path.display().to_string()];
+                }
+            }
+        }
+    }
+    // A shipped graph becomes a file the process reads.
+    if !shipped_graphs.is_empty() {
+        let dir = session.run_dir().join("graphs");
+        std::fs::create_dir_all(&dir).map_err(io("the session's graphs directory"))?;
+        for (n, text) in &shipped_graphs {
+            let path = dir.join(n);
+            std::fs::write(&path, text).map_err(io("a shipped dataflow graph"))?;
+            for (c, extra) in &mut components {
+                if c == "dataflow" && extra[..] == [SHIPPED_GRAPH_MARK, *n] {
                     *extra = vec![path.display().to_string()];
                 }
             }
