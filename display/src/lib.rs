@@ -50,7 +50,13 @@ use std::path::PathBuf;
 /// process.
 pub fn skipped_without_vulkan(test: &str) -> bool {
     static PROBE: std::sync::OnceLock<std::result::Result<(), String>> = std::sync::OnceLock::new();
-    let probe = PROBE.get_or_init(|| Gpu::headless().map(drop).map_err(|e| e.to_string()));
+    // The reason is kept as words: the probe is cached for the process, and the error is not
+    // `Clone`; its causes are in them.
+    let probe = PROBE.get_or_init(|| {
+        Gpu::headless()
+            .map(drop)
+            .map_err(|e| robosim_instance_space::error_chain(&e))
+    });
     let Err(why) = probe else {
         return false;
     };

@@ -348,7 +348,9 @@ fn unknown_robot(name: &str) -> ProtocolError {
 }
 
 fn robot_from(v: &Value) -> Result<Robot, ProtocolError> {
-    robot_from_json(v).map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string()))
+    robot_from_json(v).map_err(|e| {
+        ProtocolError::new(ErrorKind::BadRobot, robosim_instance_space::error_chain(&e))
+    })
 }
 
 #[allow(clippy::too_many_arguments)]
