@@ -14,4 +14,5 @@ mod fuzz_corpus;
 mod hostile_urdf;
 mod limits;
 mod props;
+mod robot_model;
 mod stdlib;
