@@ -226,6 +226,13 @@ pub fn to_mjcf_with_geometry(
     geometry: Option<&ExportGeometry>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
+    if let Some(k) = robot.joints.iter().position(|j| j.spherical) {
+        // written as a hinge it would load as a different robot: refused by name instead
+        return Err(format!(
+            "robot {}: joint {k} is a ball (spherical) joint; the exporter does not write ball joints yet",
+            robot.name
+        ));
+    }
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;

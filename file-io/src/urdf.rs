@@ -206,6 +206,13 @@ pub fn to_urdf_with_geometry(
     geometry: Option<&ExportGeometry>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
+    if let Some(k) = robot.joints.iter().position(|j| j.spherical) {
+        // written as a hinge it would load as a different robot: refused by name instead
+        return Err(format!(
+            "robot {}: joint {k} is a ball (spherical) joint; URDF has no ball joint",
+            robot.name
+        ));
+    }
     let mut notes = Vec::new();
     let mut meshes = Vec::new();
     let xs = exported_frames(robot, Exported::Urdf);

@@ -533,7 +533,7 @@ impl Session {
                 ProtocolError::new(ErrorKind::UnknownRobot, format!("robot {name:?}: {e}")),
             )
         })?;
-        Ok(model::Model::of(r.robot.clone()))
+        model::Model::checked(r.robot.clone()).map_err(|e| raise(py, e))
     }
 
     /// The session's simulator.

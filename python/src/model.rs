@@ -237,6 +237,35 @@ impl Model {
         }
     }
 
+    /// [`Model::of`] a robot this API can hold: one coordinate per joint. A floating base or a
+    /// ball joint has more q than joints (`nq`) and fewer v (`nv`), which every method here
+    /// sizes by the joint count — refused by name rather than answered in the wrong layout.
+    /// The query protocol serves such robots (`robosim.Session.query`, `robosim query`).
+    pub fn checked(robot: Robot) -> Result<Model, ProtocolError> {
+        let why = if robot.root.is_some() {
+            Some("has a floating root joint")
+        } else if robot.has_spherical() {
+            Some("has a ball (spherical) joint")
+        } else {
+            None
+        };
+        match why {
+            Some(why) => Err(ProtocolError::new(
+                ErrorKind::BadRobot,
+                format!(
+                    "robot {:?} {why} (nq {} / nv {} for {} joints): robosim.Model holds one \
+                     coordinate per joint; use the query protocol (Session.query or `robosim \
+                     query`) for this robot",
+                    robot.name,
+                    robot.nq(),
+                    robot.nv(),
+                    robot.dof()
+                ),
+            )),
+            None => Ok(Model::of(robot)),
+        }
+    }
+
     fn dof(&self) -> usize {
         self.robot.dof()
     }
@@ -436,7 +465,9 @@ impl Model {
         if let Some(t) = tip {
             v["tip"] = json!(t);
         }
-        robot_from(&v).map(Model::of).map_err(|e| raise(py, e))
+        robot_from(&v)
+            .and_then(Model::checked)
+            .map_err(|e| raise(py, e))
     }
 
     /// The serial chain of an MJCF (MuJoCo XML) file to body `tip` (the protocol's
@@ -448,14 +479,18 @@ impl Model {
         if let Some(t) = tip {
             v["tip"] = json!(t);
         }
-        robot_from(&v).map(Model::of).map_err(|e| raise(py, e))
+        robot_from(&v)
+            .and_then(Model::checked)
+            .map_err(|e| raise(py, e))
     }
 
     /// A robot in the protocol's inline JSON form (a dict), or a file form.
     #[staticmethod]
     fn from_json(py: Python<'_>, robot: &Bound<'_, PyAny>) -> PyResult<Self> {
         let v = to_json(py, robot, "robot")?;
-        robot_from(&v).map(Model::of).map_err(|e| raise(py, e))
+        robot_from(&v)
+            .and_then(Model::checked)
+            .map_err(|e| raise(py, e))
     }
 
     /// Robot `name` of a running session as its session ops see it (its compiled scene: the

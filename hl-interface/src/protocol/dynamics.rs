@@ -158,7 +158,7 @@ fn configuration(
     dims: &Dims,
 ) -> Result<Vec<f64>, ProtocolError> {
     let q = vector(req, field, &dims.q, false)?;
-    if model.robot().root.is_some() {
+    if model.robot().root.is_some() || model.robot().has_spherical() {
         model.robot().check_q(&q).map_err(|e| {
             ProtocolError::new(ErrorKind::InvalidRequest, format!("`{field}`: {e}"))
         })?;

@@ -98,7 +98,7 @@ fn q_field(req: &Value, key: &str, robot: &Robot) -> Result<Vec<f64>, ProtocolEr
             format!("{key}: {} values but the robot has {what}", q.len()),
         ));
     }
-    if robot.root.is_some() {
+    if robot.root.is_some() || robot.has_spherical() {
         robot
             .check_q(&q)
             .map_err(|e| ProtocolError::new(ErrorKind::BadRequest, format!("{key}: {e}")))?;
@@ -112,6 +112,22 @@ fn q_field(req: &Value, key: &str, robot: &Robot) -> Result<Vec<f64>, ProtocolEr
 /// coordinates x y z qx qy qz qw, then 12 joints)" for a floating one.
 pub(super) fn expected_len(robot: &Robot, velocity: bool) -> (usize, String) {
     let Some(root) = &robot.root else {
+        if robot.has_spherical() {
+            // a ball joint has 4 coordinates in q (qx qy qz qw) and 3 in v, τ, q̈
+            let (name, n, per) = if velocity {
+                ("nv", robot.nv(), "3 (wx wy wz)")
+            } else {
+                ("nq", robot.nq(), "4 (qx qy qz qw)")
+            };
+            return (
+                n,
+                format!(
+                    "{name} = {n} ({} joints, of which {} ball joints with {per} each)",
+                    robot.dof(),
+                    robot.spherical_count()
+                ),
+            );
+        }
         return (robot.dof(), format!("{} joints", robot.dof()));
     };
     let (name, n, r, layout) = match (root.kind, velocity) {

@@ -522,3 +522,35 @@ fn encoder_error_uses_the_joint_columns_of_a_floating_jacobian() {
         "the test tells the columns apart"
     );
 }
+
+/// A tree with ball joints (testdata/ball, read from its MJCF): the protocol sizes q by `nq`
+/// (4 per ball joint) and v, τ, q̈ by `nv` (3 per ball joint). q sized by the joint count — or
+/// a non-unit quaternion — is refused by name; it used to reach FK and panic on an index.
+#[test]
+fn a_ball_jointed_robot_is_sized_by_nq_and_nv_and_a_joint_count_q_is_refused() {
+    let file = repo().join("testdata/ball/ball_tree.xml");
+    let robot = json!({"mjcf": file, "tip": "finger"});
+    // joints: ball, hinge, ball, slide → nq 10, nv 8
+    let q = json!([0.0, 0.0, 0.0, 1.0, 0.1, 0.0, 0.0, 0.0, 1.0, 0.2]);
+    let v = json!([0.0, 0.0, 0.0, 0.1, 0.0, 0.2, 0.0, 0.0]);
+    for op in ["fk", "jacobian", "mass_matrix", "gravity"] {
+        let ok = ask(json!({"op": op, "robot": robot, "q": q}));
+        assert!(ok.is_ok(), "{op}: {ok:?}");
+        let e = ask(json!({"op": op, "robot": robot, "q": [0.1, 0.2, 0.3, 0.4]}))
+            .expect_err("q with one value per joint");
+        assert!(e.message.contains("nq = 10"), "{op}: {}", e.message);
+        let e = ask(json!({"op": op, "robot": robot,
+            "q": [0.0, 0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0, 1.0, 0.2]}))
+        .expect_err("a zero quaternion");
+        assert!(e.message.contains("not unit"), "{op}: {}", e.message);
+    }
+    let tau = ask(json!({"op": "id", "robot": robot, "q": q, "qd": v, "qdd": v})).expect("id");
+    assert_eq!(nums(&tau["tau"]).len(), 8);
+    let qdd =
+        ask(json!({"op": "fd", "robot": robot, "q": q, "qd": v, "tau": tau["tau"]})).expect("fd");
+    // fd undoes id
+    assert!(rel_err(&nums(&qdd["qdd"]), &nums(&v)) < 1e-9, "{qdd}");
+    let e = ask(json!({"op": "id", "robot": robot, "q": q, "qd": [0.0, 0.0, 0.0, 0.0], "qdd": v}))
+        .expect_err("v with one value per joint");
+    assert!(e.message.contains("nv = 8"), "{}", e.message);
+}
