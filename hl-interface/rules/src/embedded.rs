@@ -50,6 +50,7 @@ pub const SHIPPED: &[(&str, &str)] = &[
         "station_ops.clp",
         include_str!("../rulebases/station_ops.clp"),
     ),
+    ("oru_swap.clp", include_str!("../rulebases/oru_swap.clp")),
 ];
 
 /// The text of the shipped rule base `name` (`station_power.clp`, …).

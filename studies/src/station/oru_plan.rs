@@ -53,7 +53,6 @@ pub const ALT_STOW_OFFSET: [f64; 3] = [0.0, -1.2, 0.0];
 pub const POSE_TOL_M: f64 = 0.02;
 /// The rule base (also in `robosim_rules::embedded::SHIPPED` when it lists it).
 pub const RULE_BASE: &str = "oru_swap.clp";
-const RULE_TEXT: &str = include_str!("../../../hl-interface/rules/rulebases/oru_swap.clp");
 
 /// An ORU-sized unit (the spare's box) left at `at` (its grapple frame, body frame) from
 /// `from_s` until `until_s`: an obstacle the servicer's steps are checked against.
@@ -193,7 +192,9 @@ impl Planner {
             Limits::default(),
         )
         .map_err(|e| StudyError(format!("ORU planner: {e}")))?;
-        let text = robosim_rules::embedded::shipped(RULE_BASE).unwrap_or(RULE_TEXT);
+        let text = robosim_rules::embedded::shipped(RULE_BASE).ok_or_else(|| {
+            StudyError(format!("{RULE_BASE} is not among the shipped rule bases"))
+        })?;
         engine
             .load_text(RULE_BASE, text)
             .map_err(|e| StudyError(format!("{RULE_BASE}: {e}")))?;
