@@ -258,7 +258,9 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 })
                 .map(|text| print!("{text}")),
         },
-        Command::Diag { cmd } => robosim_hl_interface::cli::diag::run(cmd.into()).map_err(CliError::from),
+        Command::Diag { cmd } => {
+            robosim_hl_interface::cli::diag::run(cmd.into()).map_err(CliError::from)
+        }
         Command::Query { args } => match session {
             None => robosim_hl_interface::cli::run(&args.into()).map_err(CliError::from),
             Some(s) => query_session(s, &args.into()),
@@ -333,8 +335,7 @@ fn render(args: &robosim_display::app::RenderArgs) -> Result<()> {
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
     let out = if urdf {
-        let store =
-            robosim_file_io::urdf_session::urdf_store(path)?;
+        let store = robosim_file_io::urdf_session::urdf_store(path)?;
         robosim_display::app::cmd_render_store(args, store)
     } else {
         robosim_display::app::cmd_render(args)

@@ -323,7 +323,9 @@ mod tests {
         ];
         for v in &refused {
             let whole = solid_from_json(v, "a", &[]).err().map(|e| e.to_string());
-            let lean = exact_solid_from_json(v, "a", &[]).err().map(|e| e.to_string());
+            let lean = exact_solid_from_json(v, "a", &[])
+                .err()
+                .map(|e| e.to_string());
             assert_eq!(whole, lean, "{v}");
         }
         assert!(

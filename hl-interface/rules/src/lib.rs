@@ -293,7 +293,10 @@ impl Mirror {
                 ));
             }
         }
-        if let Some(ops) = sim.and_then(|s| s.pointer("/space/ops")).filter(|o| o.is_object()) {
+        if let Some(ops) = sim
+            .and_then(|s| s.pointer("/space/ops"))
+            .filter(|o| o.is_object())
+        {
             ops_facts(sim.and_then(|s| s.get("space")), ops, &mut out);
         }
         // The automation plant's ringing alarms (`robosim automation`): source the process,
@@ -378,7 +381,12 @@ fn ops_facts(space: Option<&Value>, ops: &Value, out: &mut Vec<(String, String, 
         ),
         retract_all("sim-power"),
     ));
-    for c in ops.get("consumers").and_then(Value::as_array).into_iter().flatten() {
+    for c in ops
+        .get("consumers")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+    {
         let name = sym(c.get("name").and_then(Value::as_str).unwrap_or(""));
         let s = |k: &str| sym(c.get(k).and_then(Value::as_str).unwrap_or("nil"));
         out.push((
