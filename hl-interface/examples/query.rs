@@ -32,7 +32,8 @@ fn args() -> Result<QueryArgs, String> {
 }
 
 fn main() -> std::process::ExitCode {
-    match args().and_then(|a| run(&a)) {
+    // the command's error with its causes, one line each
+    match args().and_then(|a| run(&a).map_err(|e| robosim_instance_space::error_chain(&e))) {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             eprintln!("{e}");
