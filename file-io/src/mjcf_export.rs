@@ -123,6 +123,28 @@ pub fn loadable_inertial(
     }
 }
 
+/// A moving body's `<inertial>` line (indented by two spaces), with the mass and inertia
+/// [`loadable_inertial`] makes of `mass` and `inertia` (about `com`, in the body's frame).
+fn inertial_element(
+    com: &Vector3<f64>,
+    mass: f64,
+    inertia: &Matrix3<f64>,
+    what: &str,
+    notes: &mut Vec<String>,
+) -> String {
+    let (mass, i) = loadable_inertial(mass, inertia, what, notes);
+    format!(
+        "  <inertial pos=\"{}\" mass=\"{mass:?}\" fullinertia=\"{:?} {:?} {:?} {:?} {:?} {:?}\"/>\n",
+        v3(com),
+        i[(0, 0)],
+        i[(1, 1)],
+        i[(2, 2)],
+        i[(0, 1)],
+        i[(0, 2)],
+        i[(1, 2)]
+    )
+}
+
 fn v3(v: &Vector3<f64>) -> String {
     format!("{:?} {:?} {:?}", v.x, v.y, v.z)
 }
@@ -312,22 +334,12 @@ pub fn to_mjcf_with_geometry(
             joint.coulomb,
             joint.motor_inertia
         );
-        let (mass, inertia) = loadable_inertial(
+        body += &inertial_element(
+            &joint.com,
             joint.mass,
             &joint.inertia,
             &format!("link {}", j + 1),
             &mut notes,
-        );
-        let _ = writeln!(
-            body,
-            "  <inertial pos=\"{}\" mass=\"{mass:?}\" fullinertia=\"{:?} {:?} {:?} {:?} {:?} {:?}\"/>",
-            v3(&joint.com),
-            inertia[(0, 0)],
-            inertia[(1, 1)],
-            inertia[(2, 2)],
-            inertia[(0, 1)],
-            inertia[(0, 2)],
-            inertia[(1, 2)]
         );
         body += &body_geoms(
             geometry,
@@ -388,18 +400,7 @@ pub fn to_mjcf_with_geometry(
                 }
             }
         }
-        let (mass, inertia) = loadable_inertial(r.mass, &r.inertia, "link 0", &mut notes);
-        let _ = writeln!(
-            root,
-            "  <inertial pos=\"{}\" mass=\"{mass:?}\" fullinertia=\"{:?} {:?} {:?} {:?} {:?} {:?}\"/>",
-            v3(&r.com),
-            inertia[(0, 0)],
-            inertia[(1, 1)],
-            inertia[(2, 2)],
-            inertia[(0, 1)],
-            inertia[(0, 2)],
-            inertia[(1, 2)]
-        );
+        root += &inertial_element(&r.com, r.mass, &r.inertia, "link 0", &mut notes);
     } else if !base_geoms.is_empty() {
         // A body with geoms and no <inertial> would have its inertia inferred from them
         // (inertiafromgeom="auto"), which Pinocchio's MJCF reader and robosim's cannot do for
