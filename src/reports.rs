@@ -3,6 +3,7 @@
 //! published ones are regenerated with `--out docs/reports`).
 
 use crate::Result;
+use robosim_report::cli::Name;
 use std::path::{Path, PathBuf};
 
 /// Where reports and benches go without `--out`: a directory named for us in the working
@@ -52,51 +53,28 @@ pub enum Which {
     All(Common),
 }
 
-fn paths(out: &Path, r: std::result::Result<Vec<PathBuf>, String>) -> Result<()> {
-    wrote(out, &r.map_err(crate::CliError)?)
-}
-
-fn one(which: &str, out: &Path, quick: bool) -> Result<()> {
-    let pb = robosim_report::progress::spinner(&format!("report {which}"));
-    let r = one_report(which, out, quick);
+/// One report with a spinner, then where its files went.
+fn one(name: Name, out: &Path, quick: bool) -> Result<()> {
+    let pb = robosim_report::progress::spinner(&format!("report {}", name.as_str()));
+    let r = robosim_report::cli::run(name, out, quick);
     pb.finish_and_clear();
-    r
-}
-
-fn one_report(which: &str, out: &Path, quick: bool) -> Result<()> {
-    match which {
-        "ik" => paths(
-            out,
-            robosim_report::ik::report_ik(out, quick).map_err(|e| format!("report ik: {e}")),
-        ),
-        "collision" => paths(
-            out,
-            robosim_report::collision::report_collision(out, quick)
-                .map_err(|e| format!("report collision: {e}")),
-        ),
-        "dynamics" => paths(out, robosim_report::dynamics::report_dynamics(out, quick)),
-        "effects" => paths(out, robosim_report::effects::report_effects(out, quick)),
-        "library" => paths(out, robosim_report::library::report_library(out, quick)),
-        "diag" => paths(out, robosim_report::automation::report_diag(out, quick)),
-        other => Err(crate::CliError(format!("no report {other:?}"))),
-    }
+    wrote(out, &r.map_err(crate::CliError)?)
 }
 
 pub fn run(which: Which) -> Result<()> {
     match which {
-        Which::Ik(a) => one("ik", &a.out, a.quick),
-        Which::Collision(a) => one("collision", &a.out, a.quick),
-        Which::Dynamics(c) => one("dynamics", &c.out, c.quick),
-        Which::Effects(c) => one("effects", &c.out, c.quick),
-        Which::Library(c) => one("library", &c.out, c.quick),
-        Which::Diag(c) => one("diag", &c.out, c.quick),
+        Which::Ik(a) => one(Name::Ik, &a.out, a.quick),
+        Which::Collision(a) => one(Name::Collision, &a.out, a.quick),
+        Which::Dynamics(c) => one(Name::Dynamics, &c.out, c.quick),
+        Which::Effects(c) => one(Name::Effects, &c.out, c.quick),
+        Which::Library(c) => one(Name::Library, &c.out, c.quick),
+        Which::Diag(c) => one(Name::Diag, &c.out, c.quick),
         Which::All(c) => {
-            let names = ["ik", "collision", "dynamics", "effects", "library", "diag"];
-            let pb = robosim_report::progress::bar(names.len() as u64, "report all");
-            for w in names {
-                pb.set_message(w);
-                pb.suspend(|| println!("== report {w}"));
-                one(w, &c.out, c.quick)?;
+            let pb = robosim_report::progress::bar(Name::ALL.len() as u64, "report all");
+            for name in Name::ALL {
+                pb.set_message(name.as_str());
+                pb.suspend(|| println!("== report {}", name.as_str()));
+                one(name, &c.out, c.quick)?;
                 pb.inc(1);
             }
             pb.finish_and_clear();

@@ -1,45 +1,74 @@
-//! Command-line surface for the `robosim` binary to wire: `robosim report ik [--out DIR]
-//! [--quick]` and `robosim report collision [--out DIR] [--quick]`.
+//! The reports by name, for the `robosim` binary to wire (`robosim report NAME|all`): which
+//! reports there are, in the order `all` runs them, and the one call that runs one of them.
+//! The binary parses the arguments and prints what was written; nothing here prints.
 //!
-//! Entry points: [`ReportIkArgs`], [`run_report_ik`], [`ReportCollisionArgs`],
-//! [`run_report_collision`].
+//! Entry points: [`Name`], [`Name::ALL`], [`run`].
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-/// `robosim report ik`: the IK accuracy-against-time report (see [`crate::ik`]).
-#[derive(Debug, Clone)]
-pub struct ReportIkArgs {
-    /// Directory for ik.csv, ik.md and ik.png.
-    pub out: PathBuf,
-    /// 200 poses per robot instead of 10,000.
-    pub quick: bool,
+/// One "what accuracy costs in time" report.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Name {
+    /// [`crate::ik::report_ik`]
+    Ik,
+    /// [`crate::collision::report_collision`]
+    Collision,
+    /// [`crate::dynamics::report_dynamics`]
+    Dynamics,
+    /// [`crate::effects::report_effects`]
+    Effects,
+    /// [`crate::library::report_library`]
+    Library,
+    /// [`crate::automation::report_diag`]
+    Diag,
 }
 
-/// Runs the report and prints the paths written (one per line).
-pub fn run_report_ik(args: &ReportIkArgs) -> Result<(), String> {
-    let paths =
-        crate::ik::report_ik(&args.out, args.quick).map_err(|e| format!("report ik: {e}"))?;
-    for p in paths {
-        println!("{}", p.display());
+impl Name {
+    /// Every report, in the order `robosim report all` runs them.
+    pub const ALL: [Name; 6] = [
+        Name::Ik,
+        Name::Collision,
+        Name::Dynamics,
+        Name::Effects,
+        Name::Library,
+        Name::Diag,
+    ];
+
+    /// The command's word for it (`robosim report ik`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Name::Ik => "ik",
+            Name::Collision => "collision",
+            Name::Dynamics => "dynamics",
+            Name::Effects => "effects",
+            Name::Library => "library",
+            Name::Diag => "diag",
+        }
     }
-    Ok(())
 }
 
-/// `robosim report collision`: what accuracy costs in time (see [`crate::collision`]).
-#[derive(Debug, Clone)]
-pub struct ReportCollisionArgs {
-    /// Directory for collision.csv, collision.md and collision.png.
-    pub out: PathBuf,
-    /// A tenth of the samples and two broad-phase sizes (a smoke run; rougher figures).
-    pub quick: bool,
+/// Runs report `name` into `out` (`quick`: fewer samples, a smoke run); the paths written, or
+/// what went wrong prefixed with the report's name.
+pub fn run(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
+    let r = match name {
+        Name::Ik => crate::ik::report_ik(out, quick).map_err(|e| e.to_string()),
+        Name::Collision => crate::collision::report_collision(out, quick),
+        Name::Dynamics => crate::dynamics::report_dynamics(out, quick),
+        Name::Effects => crate::effects::report_effects(out, quick),
+        Name::Library => crate::library::report_library(out, quick),
+        Name::Diag => crate::automation::report_diag(out, quick),
+    };
+    r.map_err(|e| format!("report {}: {e}", name.as_str()))
 }
 
-/// Runs the report and prints the paths written (one per line).
-pub fn run_report_collision(args: &ReportCollisionArgs) -> Result<(), String> {
-    let paths = crate::collision::report_collision(&args.out, args.quick)
-        .map_err(|e| format!("report collision: {e}"))?;
-    for p in paths {
-        println!("{}", p.display());
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_report_has_its_own_word() {
+        let words: std::collections::BTreeSet<&str> =
+            Name::ALL.iter().map(|n| n.as_str()).collect();
+        assert_eq!(words.len(), Name::ALL.len());
     }
-    Ok(())
 }

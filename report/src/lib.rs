@@ -16,8 +16,7 @@
 //!   transactions, notification latency, journaled throughput), across real processes;
 //! * [`scale`] — `robosim bench scale`: what a one-body change costs at 10²…10⁵ objects;
 //! * [`journal`] — `robosim bench journal`: what the journal's second copy costs;
-//! * [`cli`] — the arguments (plain types; the binary parses them) and runners of `robosim
-//!   report ik|collision`;
+//! * [`cli`] — the reports by name and the one call that runs one (`robosim report NAME`);
 //! * [`run_plot::plot_file`] — `robosim plot RUN.mcap|RUN.csv`: figures of a user's own run;
 //! * [`font`] — the bundled font plots and the display's status line are drawn with.
 

@@ -1,4 +1,4 @@
-//! `robosim report ik|collision`: the clap arguments of robosim-report's runners (`robosim_report::cli`).
+//! `robosim report ik|collision`: their clap arguments (the other reports take `reports::Common`).
 
 use std::path::PathBuf;
 
@@ -22,22 +22,4 @@ pub struct ReportCollisionArgs {
     /// A tenth of the samples and two broad-phase sizes (a smoke run; rougher figures).
     #[arg(long)]
     pub quick: bool,
-}
-
-impl From<ReportIkArgs> for robosim_report::cli::ReportIkArgs {
-    fn from(a: ReportIkArgs) -> Self {
-        robosim_report::cli::ReportIkArgs {
-            out: a.out,
-            quick: a.quick,
-        }
-    }
-}
-
-impl From<ReportCollisionArgs> for robosim_report::cli::ReportCollisionArgs {
-    fn from(a: ReportCollisionArgs) -> Self {
-        robosim_report::cli::ReportCollisionArgs {
-            out: a.out,
-            quick: a.quick,
-        }
-    }
 }
