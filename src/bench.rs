@@ -3,7 +3,7 @@
 //! `robosim_file_io::bench`, `robosim_editor::bench`, `robosim_studies::sweep::bench`).
 
 use crate::{CliError, Result};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 #[derive(clap::Subcommand)]
 pub enum Which {
@@ -136,46 +136,46 @@ fn boxed(e: Box<dyn std::error::Error>) -> CliError {
     CliError(robosim_instance_space::error_chain(&*e))
 }
 
+/// Runs bench `name` under a spinner, then prints where its files went (its paths, or `out`).
+fn spun(name: &str, out: &Path, bench: impl FnOnce() -> Result<Vec<PathBuf>>) -> Result<()> {
+    let pb = robosim_report::progress::spinner(&format!("bench {name}"));
+    let paths = bench();
+    pb.finish_and_clear();
+    crate::reports::wrote(out, &paths?)
+}
+
 pub fn run(which: Which, session: Option<&str>) -> Result<()> {
-    let wrote = crate::reports::wrote;
+    let none = |()| Vec::new();
     match which {
-        Which::Ipc { out, quick } => {
-            let pb = robosim_report::progress::spinner("bench ipc");
-            robosim_report::ipc::run(&out, quick).map_err(boxed)?;
-            pb.finish_and_clear();
-            wrote(&out, &[])
-        }
-        Which::Scale { out, quick } => {
-            let pb = robosim_report::progress::spinner("bench scale");
-            robosim_report::scale::run(&out, quick).map_err(boxed)?;
-            pb.finish_and_clear();
-            wrote(&out, &[])
-        }
-        Which::Bridge { out, quick } => {
-            let pb = robosim_report::progress::spinner("bench bridge");
-            robosim_report::bridge::run(&out, quick).map_err(boxed)?;
-            pb.finish_and_clear();
-            wrote(&out, &[])
-        }
-        Which::Journal { out, quick } => {
-            let pb = robosim_report::progress::spinner("bench journal");
-            let paths = robosim_report::journal::run(&out, quick).map_err(CliError)?;
-            pb.finish_and_clear();
-            wrote(&out, &paths)
-        }
-        Which::Display { out, quick } => {
-            let pb = robosim_report::progress::spinner("bench display");
-            robosim_display::bench::run(&out, quick).map_err(|e| crate::CliError(e.0))?;
-            pb.finish_and_clear();
-            wrote(&out, &[])
-        }
+        Which::Ipc { out, quick } => spun("ipc", &out, || {
+            robosim_report::ipc::run(&out, quick)
+                .map(none)
+                .map_err(boxed)
+        }),
+        Which::Scale { out, quick } => spun("scale", &out, || {
+            robosim_report::scale::run(&out, quick)
+                .map(none)
+                .map_err(boxed)
+        }),
+        Which::Bridge { out, quick } => spun("bridge", &out, || {
+            robosim_report::bridge::run(&out, quick)
+                .map(none)
+                .map_err(boxed)
+        }),
+        Which::Journal { out, quick } => spun("journal", &out, || {
+            robosim_report::journal::run(&out, quick).map_err(CliError)
+        }),
+        Which::Display { out, quick } => spun("display", &out, || {
+            robosim_display::bench::run(&out, quick)
+                .map(none)
+                .map_err(|e| CliError(e.0))
+        }),
         Which::Reaction { out, quick, before } => {
             let me = std::env::current_exe()?;
-            let pb = robosim_report::progress::spinner("bench reaction");
-            let paths = robosim_simulator_daemon::bench::run(&out, quick, &me, before.as_deref())
-                .map_err(crate::CliError)?;
-            pb.finish_and_clear();
-            wrote(&out, &paths)
+            spun("reaction", &out, || {
+                robosim_simulator_daemon::bench::run(&out, quick, &me, before.as_deref())
+                    .map_err(CliError)
+            })
         }
         Which::IpcReader { count, out, bare } => {
             let session = session.ok_or_else(|| CliError("ipc-reader needs --session".into()))?;
@@ -187,18 +187,15 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
         }
         Which::Editor { out, quick } => {
             let me = std::env::current_exe()?;
-            let pb = robosim_report::progress::spinner("bench editor");
-            let paths = robosim_editor::bench::run(&out, quick, &me).map_err(CliError)?;
-            pb.finish_and_clear();
-            wrote(&out, &paths)
+            spun("editor", &out, || {
+                robosim_editor::bench::run(&out, quick, &me).map_err(CliError)
+            })
         }
         Which::Urdf { out, quick, urdf } => {
             let me = std::env::current_exe()?;
-            let pb = robosim_report::progress::spinner("bench urdf");
-            let paths =
-                robosim_file_io::bench_urdf::run(&out, quick, &me, &urdf).map_err(CliError)?;
-            pb.finish_and_clear();
-            wrote(&out, &paths)
+            spun("urdf", &out, || {
+                robosim_file_io::bench_urdf::run(&out, quick, &me, &urdf).map_err(CliError)
+            })
         }
         Which::Sweep { out, quick } => {
             let me = std::env::current_exe()?;
@@ -209,13 +206,10 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
                 &mut crate::sweep_remote::connect,
             )
             .map_err(CliError)?;
-            wrote(&out, &paths)
+            crate::reports::wrote(&out, &paths)
         }
-        Which::Files { out, quick } => {
-            let pb = robosim_report::progress::spinner("bench files");
-            let paths = robosim_file_io::bench::run(&out, quick).map_err(CliError)?;
-            pb.finish_and_clear();
-            wrote(&out, &paths)
-        }
+        Which::Files { out, quick } => spun("files", &out, || {
+            robosim_file_io::bench::run(&out, quick).map_err(CliError)
+        }),
     }
 }
