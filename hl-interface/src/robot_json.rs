@@ -73,6 +73,25 @@ pub fn robot_from_mjcf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
 
 const URDF_KEYS: &[&str] = &["urdf", "tip", "floating"];
 
+/// A file robot's `floating` field: absent, null or false → a fixed base; true → a free-flyer
+/// root; `"free_flyer"` or `"planar"` → that root.
+pub fn floating_field(obj: &Map<String, Value>) -> Result<Option<RootKind>, JsonError> {
+    match obj.get("floating") {
+        None | Some(Value::Null) | Some(Value::Bool(false)) => Ok(None),
+        Some(Value::Bool(true)) => Ok(Some(RootKind::FreeFlyer)),
+        Some(v) => v
+            .as_str()
+            .and_then(RootKind::from_name)
+            .map(Some)
+            .ok_or_else(|| {
+                JsonError::new(
+                    "robot.floating",
+                    "expected true, false, \"free_flyer\" or \"planar\"",
+                )
+            }),
+    }
+}
+
 /// `{"urdf": PATH, "tip": LINK}` (DESIGN.md, the query protocol): the serial chain of the URDF
 /// at PATH (relative paths from the answering process's working directory) from its root link
 /// to the link `tip` (absent: the only leaf link, when there is exactly one), imported by
@@ -94,16 +113,7 @@ pub fn robot_from_urdf_json(obj: &Map<String, Value>) -> Result<Robot, JsonError
         .get("urdf")
         .and_then(Value::as_str)
         .ok_or_else(|| JsonError::new("robot.urdf", "expected the URDF file's path (a string)"))?;
-    let floating = match obj.get("floating") {
-        None | Some(Value::Null) | Some(Value::Bool(false)) => None,
-        Some(Value::Bool(true)) => Some(RootKind::FreeFlyer),
-        Some(v) => Some(v.as_str().and_then(RootKind::from_name).ok_or_else(|| {
-            JsonError::new(
-                "robot.floating",
-                "expected true, false, \"free_flyer\" or \"planar\"",
-            )
-        })?),
-    };
+    let floating = floating_field(obj)?;
     if let Some(kind) = floating {
         if obj.get("tip").is_some_and(|t| !t.is_null()) {
             return Err(JsonError::new(

@@ -207,19 +207,22 @@ fn op_fk(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     }
 }
 
+/// A request's `frame`: `"base"` (the default) or `"tool"`.
+pub(super) fn frame_field(req: &Value) -> Result<Frame, ProtocolError> {
+    match req.get("frame").map(|v| v.as_str()) {
+        None | Some(Some("base")) => Ok(Frame::Base),
+        Some(Some("tool")) => Ok(Frame::Tool),
+        _ => Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            "frame: expected \"base\" or \"tool\"",
+        )),
+    }
+}
+
 fn op_jacobian(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let robot = robot(req, arg)?;
     let q = q_field(req, "q", &robot)?;
-    let frame = match req.get("frame").map(|v| v.as_str()) {
-        None | Some(Some("base")) => Frame::Base,
-        Some(Some("tool")) => Frame::Tool,
-        _ => {
-            return Err(ProtocolError::new(
-                ErrorKind::BadRequest,
-                "frame: expected \"base\" or \"tool\"",
-            ));
-        }
-    };
+    let frame = frame_field(req)?;
     // The compiled model's tool pose and base-frame Jacobian: `jacobian::jacobian`'s numbers.
     let kin = KinematicModel::new(&robot);
     let mut j = Jacobian::zeros(kin.nv());

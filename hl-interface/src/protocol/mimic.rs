@@ -22,9 +22,9 @@ use super::finite::check;
 use crate::robot_json::{JsonError, matrix_to_json, number_array};
 use crate::{ErrorKind, ProtocolError};
 use robosim_dynamics::{Data, Model};
+use robosim_kinematics::Robot;
 use robosim_kinematics::jacobian::{Frame, Jacobian, singularity};
 use robosim_kinematics::mimic::{Coupling, MimicError};
-use robosim_kinematics::{Robot, RootKind};
 use serde_json::{Map, Value, json};
 use std::path::Path;
 
@@ -81,16 +81,7 @@ fn robot_and_coupling(obj: &Map<String, Value>) -> Result<(Robot, Coupling), Jso
                 ));
             }
         }
-        let floating = match rest.get("floating") {
-            None | Some(Value::Null) | Some(Value::Bool(false)) => None,
-            Some(Value::Bool(true)) => Some(RootKind::FreeFlyer),
-            Some(v) => Some(v.as_str().and_then(RootKind::from_name).ok_or_else(|| {
-                JsonError::new(
-                    "robot.floating",
-                    "expected true, false, \"free_flyer\" or \"planar\"",
-                )
-            })?),
-        };
+        let floating = crate::robot_json::floating_field(&rest)?;
         match (floating, tip) {
             (Some(_), Some(_)) => {
                 return Err(JsonError::new(
@@ -196,16 +187,7 @@ fn answer(op: &str, req: &Value, obj: &Map<String, Value>) -> Result<Value, Prot
                 .unwrap_or_else(|| Err(ProtocolError::new(ErrorKind::UnknownOp, "fk")))?
         }
         "jacobian" => {
-            let frame = match req.get("frame").map(|v| v.as_str()) {
-                None | Some(Some("base")) => Frame::Base,
-                Some(Some("tool")) => Frame::Tool,
-                _ => {
-                    return Err(ProtocolError::new(
-                        ErrorKind::BadRequest,
-                        "frame: expected \"base\" or \"tool\"",
-                    ));
-                }
-            };
+            let frame = super::kinematics::frame_field(req)?;
             let jr = robosim_kinematics::mimic::jacobian(&robot, &coupling, &qr, frame)
                 .map_err(|e| mimic_error("jacobian", e))?;
             let j = Jacobian::from_fn(jr.ncols(), |r, c| jr[(r, c)]);
