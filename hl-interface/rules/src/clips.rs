@@ -158,6 +158,21 @@ impl Stop {
     }
 }
 
+/// An argument of a `(robosim …)` call as text (a number in its shortest form); none → "".
+pub fn arg_text(a: Option<&Arg>) -> String {
+    match a {
+        Some(Arg::Text(t)) => t.clone(),
+        Some(Arg::Num(x)) => format!("{x}"),
+        None => String::new(),
+    }
+}
+
+/// `x` as a CLIPS float literal: always with a decimal point, since CLIPS reads `1` as an
+/// integer and `1.0` as a float.
+pub fn float_literal(x: f64) -> String {
+    format!("{x:?}")
+}
+
 /// Quotes `s` as a CLIPS string literal.
 pub fn quote(s: &str) -> String {
     let mut out = String::with_capacity(s.len() + 2);

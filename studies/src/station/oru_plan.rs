@@ -31,7 +31,7 @@ use super::{Held, OruState, Plan, Setup, StationParams, Waypoint, servicer_at};
 use crate::common::{self, Posed};
 use crate::{Result, StudyError, bail};
 use nalgebra::{Isometry3, Vector3};
-use robosim_rules::clips::{Arg, Limits, quote};
+use robosim_rules::clips::{Arg, Limits, arg_text as text, float_literal as num, quote};
 use robosim_rules::embedded::{Embedded, Pending};
 use robosim_simulator::swap::{ABOVE, GRAPPLE_M, STOW_OFFSET, SwapStep};
 use std::cell::RefCell;
@@ -121,18 +121,6 @@ pub struct Planner {
     obstacles: Vec<(common::Part, Obstacle)>,
     step_s: f64,
     pub run: SwapRun,
-}
-
-fn text(a: Option<&Arg>) -> String {
-    match a {
-        Some(Arg::Text(t)) => t.clone(),
-        Some(Arg::Num(x)) => format!("{x}"),
-        None => String::new(),
-    }
-}
-
-fn num(x: f64) -> String {
-    format!("{x:?}")
 }
 
 /// `(robosim …)` from oru_swap.clp: decisions are recorded, the rest queued for the study.

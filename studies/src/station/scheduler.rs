@@ -21,7 +21,7 @@
 use super::faults::{EclssFault, FaultState};
 use super::loads::{Forecast, Loads};
 use crate::{Result, StudyError};
-use robosim_rules::clips::{Arg, Limits, quote};
+use robosim_rules::clips::{Arg, Limits, arg_text as text, float_literal as num, quote};
 use robosim_rules::embedded::{Embedded, Pending, shipped};
 use robosim_simulator::consumers::Mode;
 use std::cell::RefCell;
@@ -111,19 +111,6 @@ pub struct Scheduler {
     shared: Rc<RefCell<Shared>>,
     /// Alarm facts asserted so far.
     alarms_asserted: usize,
-}
-
-fn text(a: Option<&Arg>) -> String {
-    match a {
-        Some(Arg::Text(t)) => t.clone(),
-        Some(Arg::Num(x)) => format!("{x}"),
-        None => String::new(),
-    }
-}
-
-fn num(x: f64) -> String {
-    // CLIPS reads `1` as an integer, `1.0` as a float
-    format!("{x:?}")
 }
 
 /// `(robosim …)` from either rule base (module docs).
