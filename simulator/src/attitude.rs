@@ -35,7 +35,7 @@
 //! [`density`], [`MassProps::combine`], [`secular_rate_closed_form`].
 
 use crate::orbit::{MU_EARTH, Orbit};
-use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Matrix4, Quaternion, Rotation3, UnitQuaternion, Vector3};
 use robosim_model::{AttitudeEffect, AttitudeHold};
 
 /// Standard gravity, m/s² (CGPM 1901), for accelerations in µg.
@@ -144,6 +144,48 @@ pub fn gravity_gradient(mu: f64, r_body: &Vector3<f64>, inertia: &Matrix3<f64>) 
 pub struct Facet {
     pub centre: Vector3<f64>,
     pub area_normal: Vector3<f64>,
+}
+
+impl Facet {
+    /// The facets of polyhedron `poly` placed by `m` (its frame → the body frame), appended to
+    /// `out`: per polygon, Newell's area vector and the vertices' mean, the normal turned away
+    /// from the solid's centroid (the library's parts are convex but for a dish). Polygons of
+    /// fewer than 3 vertices are skipped. The one reading of a model's facets for the
+    /// station study and the session simulator's operations stage.
+    pub fn of_polyhedron(
+        poly: &robosim_geometry::Polyhedron,
+        m: &Matrix4<f64>,
+        out: &mut Vec<Facet>,
+    ) {
+        let r = m.fixed_view::<3, 3>(0, 0).into_owned();
+        let t = m.fixed_view::<3, 1>(0, 3).into_owned();
+        let vs: Vec<Vector3<f64>> = poly.vertices.iter().map(|v| r * v.coords + t).collect();
+        if vs.is_empty() {
+            return;
+        }
+        let centroid = vs.iter().sum::<Vector3<f64>>() / vs.len() as f64;
+        for i in 0..poly.polygons.len() {
+            let idx = poly.polygon_indices(i);
+            if idx.len() < 3 {
+                continue;
+            }
+            let mut an = Vector3::zeros();
+            let mut c = Vector3::zeros();
+            for (k, &a) in idx.iter().enumerate() {
+                let (va, vb) = (vs[a as usize], vs[idx[(k + 1) % idx.len()] as usize]);
+                an += 0.5 * va.cross(&vb);
+                c += va;
+            }
+            c /= idx.len() as f64;
+            if an.dot(&(c - centroid)) < 0.0 {
+                an = -an;
+            }
+            out.push(Facet {
+                centre: c,
+                area_normal: an,
+            });
+        }
+    }
 }
 
 /// The model as the flow sees it along `v̂`: projected area and centre of pressure.

@@ -38,36 +38,7 @@ pub struct AttitudeSetup {
 /// The facets of a placed part (`frame` × its transform): Newell's area vector per polygon,
 /// turned away from the part's centroid (the library's parts are convex but for a dish).
 fn part_facets(p: &PlacedSolid, frame: &Matrix4<f64>, out: &mut Vec<Facet>) {
-    let m = frame * p.transform;
-    let r = m.fixed_view::<3, 3>(0, 0).into_owned();
-    let t = m.fixed_view::<3, 1>(0, 3).into_owned();
-    let poly = &p.polyhedron;
-    let vs: Vec<Vector3<f64>> = poly.vertices.iter().map(|v| r * v.coords + t).collect();
-    if vs.is_empty() {
-        return;
-    }
-    let centroid = vs.iter().sum::<Vector3<f64>>() / vs.len() as f64;
-    for i in 0..poly.polygons.len() {
-        let idx = poly.polygon_indices(i);
-        if idx.len() < 3 {
-            continue;
-        }
-        let mut an = Vector3::zeros();
-        let mut c = Vector3::zeros();
-        for (k, &a) in idx.iter().enumerate() {
-            let (va, vb) = (vs[a as usize], vs[idx[(k + 1) % idx.len()] as usize]);
-            an += 0.5 * va.cross(&vb);
-            c += va;
-        }
-        c /= idx.len() as f64;
-        if an.dot(&(c - centroid)) < 0.0 {
-            an = -an;
-        }
-        out.push(Facet {
-            centre: c,
-            area_normal: an,
-        });
-    }
+    Facet::of_polyhedron(&p.polyhedron, &(frame * p.transform), out);
 }
 
 /// The scene's attitude effect and the model's facets and masses (`Setup::scene`).
