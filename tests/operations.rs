@@ -249,3 +249,39 @@ fn up_space_station_ops_with_bare_rules_and_dataflow_starts_the_station_processe
     drop(down);
     assert!(k.session().processes().is_empty(), "down stops them all");
 }
+
+/// `robosim study operations` stopped by SIGTERM mid-run stops the session it started: the
+/// processes `up` launched are not its children and used to be left running.
+#[test]
+fn a_terminated_operations_study_stops_the_session_it_started() {
+    let mut k = Procs::new("opsterm");
+    let out = k.home.path().join("out");
+    let out = out.to_str().expect("utf-8 path").to_owned();
+    let pid = k.spawn(&[
+        "study",
+        "operations",
+        "-q",
+        "--orbits",
+        "20",
+        "--scheduler",
+        "off",
+        "--out",
+        &out,
+    ]);
+    let _down = common::Down(&k);
+    // running: the simulator has taken steps the study asked for
+    wait_for("the study's simulator stepping", || {
+        let mut p = Planner::attach_to(&k.session()).ok()?;
+        let s = p.sim_state().ok()?;
+        (s["steps"].as_u64()? > 0).then_some(())
+    });
+    let _ = Command::new("kill")
+        .args(["-TERM", &pid.to_string()])
+        .status();
+    wait_for("the study gone", || {
+        (!robosim_instance_space::pid_alive(pid)).then_some(())
+    });
+    wait_for("the session's processes stopped", || {
+        k.session().processes().is_empty().then_some(())
+    });
+}

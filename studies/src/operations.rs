@@ -160,6 +160,9 @@ pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
         keep: p.keep,
     };
     let session = Session::open(Some(&name))?;
+    // SIGINT/SIGTERM end the run between steps, so that the guard above stops the session's
+    // processes (a study killed mid-run used to leave them running)
+    let signals = session.node("ops-study", true)?;
     let mut planner = robosim_hl_interface::planner::Planner::attach(&name)?;
     let mut dataflow = None;
     let mut plant = None;
@@ -190,6 +193,11 @@ pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
     let mut done = 0u64;
     let started = Instant::now();
     while done < total {
+        if signals.wait(Duration::ZERO).is_err() {
+            bail!(
+                "interrupted (SIGINT or SIGTERM) after {done} of {total} steps; session {name} stopped"
+            );
+        }
         let n = chunk.min(total - done);
         let st = planner.sim_step(n)?;
         done += n;
@@ -222,7 +230,9 @@ pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
                     }
                 );
             }
-            std::thread::sleep(Duration::from_millis(5));
+            if signals.wait(Duration::from_millis(5)).is_err() {
+                bail!("interrupted (SIGINT or SIGTERM) at step {steps}; session {name} stopped");
+            }
         };
         let df = df.unwrap_or(Value::Null);
         // faults due by now go to the plant; its alarms are recorded
