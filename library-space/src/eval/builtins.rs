@@ -3,6 +3,11 @@
 use super::*;
 
 impl Evaluator<'_> {
+    /// Calls `name`: a declared solid, link or robot first, else a builtin.
+    ///
+    /// A builtin's arguments are evaluated left to right once its name is known; the
+    /// same-unit builtins (`atan2`, `min`, `max`, `sqrt`, `abs`, `range`, `matrix`) take them
+    /// positionally, every other builtin binds them to its signature ([`builtin_signature`]).
     pub(super) fn call(
         &mut self,
         name: &str,
@@ -14,264 +19,188 @@ impl Evaluator<'_> {
         if let Some(&di) = self.index.get(name) {
             return self.call_decl(di, args, span, scope);
         }
-        let spec: &[(&str, Want, bool)] = match name {
-            "sin" | "cos" | "tan" => &[("angle", Want::Q(Dim::ANGLE), true)],
-            "translate" => &[
-                ("x", Want::Q(Dim::LENGTH), true),
-                ("y", Want::Q(Dim::LENGTH), true),
-                ("z", Want::Q(Dim::LENGTH), true),
-            ],
-            "rotate_x" | "rotate_y" | "rotate_z" => &[("angle", Want::Q(Dim::ANGLE), true)],
-            "ypr" => &[
-                ("yaw", Want::Q(Dim::ANGLE), true),
-                ("pitch", Want::Q(Dim::ANGLE), true),
-                ("roll", Want::Q(Dim::ANGLE), true),
-            ],
-            "rgb" => &[
-                ("red", Want::Q(Dim::NONE), true),
-                ("green", Want::Q(Dim::NONE), true),
-                ("blue", Want::Q(Dim::NONE), true),
-            ],
-            "identity" => &[],
-            "box" => &[
-                ("x", Want::Q(Dim::LENGTH), true),
-                ("y", Want::Q(Dim::LENGTH), true),
-                ("z", Want::Q(Dim::LENGTH), true),
-            ],
-            "cylinder" | "cone" => &[
-                ("radius", Want::Q(Dim::LENGTH), true),
-                ("height", Want::Q(Dim::LENGTH), true),
-                ("facets", Want::Count, false),
-            ],
-            "truncated_cone" => &[
-                ("bottom", Want::Q(Dim::LENGTH), true),
-                ("top", Want::Q(Dim::LENGTH), true),
-                ("height", Want::Q(Dim::LENGTH), true),
-                ("facets", Want::Count, false),
-            ],
-            "sphere" => &[
-                ("radius", Want::Q(Dim::LENGTH), true),
-                ("facets", Want::Count, false),
-            ],
-            "extrude" => &[
-                ("points", Want::Points, true),
-                ("height", Want::Q(Dim::LENGTH), true),
-            ],
-            "revolve" => &[
-                ("points", Want::Points, true),
-                ("angle", Want::Q(Dim::ANGLE), false),
-                ("facets", Want::Count, false),
-            ],
-            // same-dimension arguments, checked below
-            "atan2" | "sqrt" | "abs" | "min" | "max" | "matrix" | "range" => &[],
-            _ => {
-                let mut msg = format!("unknown function `{name}`");
-                let cands = self
-                    .index
-                    .keys()
-                    .map(String::as_str)
-                    .chain(BUILTIN_FUNCTIONS.iter().copied());
-                if let Some(s) = suggest(name, cands) {
-                    msg.push_str(&format!("; did you mean `{s}`?"));
-                }
-                return Err(
-                    err(ErrorKind::UnknownName, name_span, msg).expected(format!(
-                        "a declared solid, link or robot, or a builtin: {}",
-                        BUILTIN_FUNCTIONS.join(", ")
-                    )),
-                );
-            }
+        let Some(spec) = builtin_signature(name) else {
+            return Err(self.unknown_function(name, name_span));
         };
+        let vals = self.eval_args(args, scope)?;
+        match name {
+            "atan2" | "min" | "max" => self.same_unit_pair(name, args, vals, span),
+            "sqrt" | "abs" => self.sqrt_or_abs(name, args, vals, span),
+            "range" => self.range(vals, span),
+            "matrix" => {
+                let [(a, sa)] =
+                    self.exactly::<1>(name, "one 4×4 list of rows", args, vals, span)?;
+                self.matrix(a, sa).map(Value::Transform)
+            }
+            _ => {
+                let bound = Bound(self.bind_builtin(name, spec, args, vals, span)?);
+                match name {
+                    "rgb" => rgb(&bound, span),
+                    "box" | "cylinder" | "cone" | "truncated_cone" | "sphere" => {
+                        self.round_solid(name, &bound, span)
+                    }
+                    "extrude" | "revolve" => self.profile_solid(name, &bound, span),
+                    _ => math_or_transform(name, &bound),
+                }
+            }
+        }
+    }
+
+    /// The error for a name that is neither declared nor a builtin, with the nearest name.
+    fn unknown_function(&self, name: &str, name_span: Span) -> RawError {
+        let mut msg = format!("unknown function `{name}`");
+        let cands = self
+            .index
+            .keys()
+            .map(String::as_str)
+            .chain(BUILTIN_FUNCTIONS.iter().copied());
+        if let Some(s) = suggest(name, cands) {
+            msg.push_str(&format!("; did you mean `{s}`?"));
+        }
+        err(ErrorKind::UnknownName, name_span, msg).expected(format!(
+            "a declared solid, link or robot, or a builtin: {}",
+            BUILTIN_FUNCTIONS.join(", ")
+        ))
+    }
+
+    /// Each argument's value with the span of its expression, left to right.
+    fn eval_args(&mut self, args: &[Arg], scope: &Scope) -> RResult<Vec<(Value, Span)>> {
         let mut vals: Vec<(Value, Span)> = Vec::with_capacity(args.len());
         for a in args {
             vals.push((self.eval(&a.value, scope)?, a.value.span));
         }
-        match name {
-            "atan2" | "min" | "max" => {
-                let [(a, sa), (b, sb)] =
-                    self.exactly::<2>(name, "two numbers of the same unit", args, vals, span)?;
-                let (Value::Num(x), Value::Num(y)) = (&a, &b) else {
-                    let bad = if matches!(a, Value::Num(_)) { sb } else { sa };
-                    return Err(err(ErrorKind::Type, bad, format!("`{name}` needs numbers"))
-                        .expected("two numbers of the same unit"));
-                };
-                if !(x.dim == y.dim || x.free || y.free) {
-                    return Err(err(
-                        ErrorKind::Unit,
-                        span,
-                        format!("`{name}` got {} and {}", x.dim.describe(), y.dim.describe()),
-                    )
-                    .expected("two numbers of the same unit"));
-                }
-                let dim = if x.free { y.dim } else { x.dim };
-                return Ok(Value::Num(match name {
-                    "atan2" => Quantity::new(x.value.atan2(y.value), Dim::ANGLE),
-                    "min" => Quantity::new(x.value.min(y.value), dim),
-                    _ => Quantity::new(x.value.max(y.value), dim),
-                }));
-            }
-            "sqrt" | "abs" => {
-                let [(a, sa)] = self.exactly::<1>(name, "one number", args, vals, span)?;
-                let Value::Num(x) = a else {
-                    return Err(err(
-                        ErrorKind::Type,
-                        sa,
-                        format!("`{name}` needs a number, found {}", a.describe()),
-                    )
-                    .expected("a number"));
-                };
-                if name == "abs" {
-                    return Ok(Value::Num(Quantity {
-                        value: x.value.abs(),
-                        ..x
-                    }));
-                }
-                if x.value < 0.0 {
-                    return Err(err(
-                        ErrorKind::OutOfRange,
-                        sa,
-                        format!("square root of a negative number ({})", x.show()),
-                    )
-                    .expected("a value ≥ 0"));
-                }
-                let Some(d) = x.dim.half() else {
-                    return Err(err(
-                        ErrorKind::Unit,
-                        sa,
-                        format!("the square root of {} has no unit", x.dim.describe()),
-                    )
-                    .expected("a quantity whose unit is a square, such as m^2"));
-                };
-                return Ok(Value::Num(Quantity::new(x.value.sqrt(), d)));
-            }
-            "range" => {
-                let n = vals.len();
-                let bounds: Vec<f64> = vals
-                    .iter()
-                    .map(|(v, s)| {
-                        self.num_of(
-                            v,
-                            *s,
-                            Dim::NONE,
-                            "whole numbers: range(n) or range(from, to)",
-                        )
-                    })
-                    .collect::<RResult<_>>()?;
-                let (lo, hi) = match n {
-                    1 => (0.0, bounds[0]),
-                    2 => (bounds[0], bounds[1]),
-                    _ => {
-                        return Err(err(
-                            ErrorKind::Arity,
-                            span,
-                            format!("`range` takes 1 or 2 arguments, got {n}"),
-                        )
-                        .expected("range(n) or range(from, to)"));
-                    }
-                };
-                if lo.fract() != 0.0 || hi.fract() != 0.0 || hi - lo > 100_000.0 {
-                    return Err(err(
-                        ErrorKind::OutOfRange,
-                        span,
-                        "range bounds must be whole numbers at most 100000 apart",
-                    )
-                    .expected("range(n) or range(from, to) with whole numbers"));
-                }
-                let items = ((lo as i64)..(hi as i64))
-                    .map(|k| (Value::Num(Quantity::new(k as f64, Dim::NONE)), span))
-                    .collect();
-                return Ok(Value::List(items));
-            }
-            "matrix" => {
-                let [(a, sa)] =
-                    self.exactly::<1>(name, "one 4×4 list of rows", args, vals, span)?;
-                return self.matrix(a, sa).map(Value::Transform);
-            }
-            _ => {}
+        Ok(vals)
+    }
+
+    /// `atan2(y, x)` (an angle), `min(a, b)`, `max(a, b)`: two numbers of one unit (a plain
+    /// number fits any unit).
+    fn same_unit_pair(
+        &self,
+        name: &str,
+        args: &[Arg],
+        vals: Vec<(Value, Span)>,
+        span: Span,
+    ) -> RResult<Value> {
+        let [(a, sa), (b, sb)] =
+            self.exactly::<2>(name, "two numbers of the same unit", args, vals, span)?;
+        let (Value::Num(x), Value::Num(y)) = (&a, &b) else {
+            let bad = if matches!(a, Value::Num(_)) { sb } else { sa };
+            return Err(err(ErrorKind::Type, bad, format!("`{name}` needs numbers"))
+                .expected("two numbers of the same unit"));
+        };
+        if !(x.dim == y.dim || x.free || y.free) {
+            return Err(err(
+                ErrorKind::Unit,
+                span,
+                format!("`{name}` got {} and {}", x.dim.describe(), y.dim.describe()),
+            )
+            .expected("two numbers of the same unit"));
         }
-        let bound = self.bind_builtin(name, spec, args, vals, span)?;
-        let q = |k: usize| match &bound[k] {
-            Some((Value::Num(q), _)) => q.value,
-            _ => 0.0,
+        let dim = if x.free { y.dim } else { x.dim };
+        Ok(Value::Num(match name {
+            "atan2" => Quantity::new(x.value.atan2(y.value), Dim::ANGLE),
+            "min" => Quantity::new(x.value.min(y.value), dim),
+            _ => Quantity::new(x.value.max(y.value), dim),
+        }))
+    }
+
+    /// `abs(x)` in x's unit; `sqrt(x)` of x ≥ 0 whose unit is a square (m^2 → m).
+    fn sqrt_or_abs(
+        &self,
+        name: &str,
+        args: &[Arg],
+        vals: Vec<(Value, Span)>,
+        span: Span,
+    ) -> RResult<Value> {
+        let [(a, sa)] = self.exactly::<1>(name, "one number", args, vals, span)?;
+        let Value::Num(x) = a else {
+            return Err(err(
+                ErrorKind::Type,
+                sa,
+                format!("`{name}` needs a number, found {}", a.describe()),
+            )
+            .expected("a number"));
         };
-        let present = |k: usize| bound[k].is_some();
-        let solid = |s: &mut Self,
-                     prim: Primitive,
-                     r: Result<Polyhedron, shapes::ShapeError>|
-         -> RResult<Value> {
-            let poly = r.map_err(|e| {
-                err(ErrorKind::OutOfRange, span, e.to_string()).expected(
-                    "parameters a solid can be built from (positive sizes, a simple polygon)",
+        if name == "abs" {
+            return Ok(Value::Num(Quantity {
+                value: x.value.abs(),
+                ..x
+            }));
+        }
+        if x.value < 0.0 {
+            return Err(err(
+                ErrorKind::OutOfRange,
+                sa,
+                format!("square root of a negative number ({})", x.show()),
+            )
+            .expected("a value ≥ 0"));
+        }
+        let Some(d) = x.dim.half() else {
+            return Err(err(
+                ErrorKind::Unit,
+                sa,
+                format!("the square root of {} has no unit", x.dim.describe()),
+            )
+            .expected("a quantity whose unit is a square, such as m^2"));
+        };
+        Ok(Value::Num(Quantity::new(x.value.sqrt(), d)))
+    }
+
+    /// `range(n)` or `range(from, to)`: the whole numbers from..to (to excluded), at most
+    /// 100 000 of them.
+    fn range(&self, vals: Vec<(Value, Span)>, span: Span) -> RResult<Value> {
+        let n = vals.len();
+        let bounds: Vec<f64> = vals
+            .iter()
+            .map(|(v, s)| {
+                self.num_of(
+                    v,
+                    *s,
+                    Dim::NONE,
+                    "whole numbers: range(n) or range(from, to)",
                 )
-            })?;
-            s.polygons += poly.polygons.len();
-            let budget = s.opts.max_polygons.unwrap_or(POLYGON_BUDGET);
-            if s.polygons > budget {
+            })
+            .collect::<RResult<_>>()?;
+        let (lo, hi) = match n {
+            1 => (0.0, bounds[0]),
+            2 => (bounds[0], bounds[1]),
+            _ => {
                 return Err(err(
-                    ErrorKind::OutOfRange,
+                    ErrorKind::Arity,
                     span,
-                    format!("the model has more than {budget} polygons"),
+                    format!("`range` takes 1 or 2 arguments, got {n}"),
                 )
-                .expected("fewer facets or fewer repeated parts"));
-            }
-            Ok(Value::Solid(Rc::new(SolidVal {
-                parts: vec![PlacedSolid {
-                    name: name.to_string(),
-                    primitive: prim,
-                    polyhedron: poly,
-                    transform: Matrix4::identity(),
-                    colour: None,
-                    surface: None,
-                }],
-                mass: None,
-            })))
-        };
-        let facets = |s: &Self, k: usize| -> Option<usize> {
-            match &bound[k] {
-                Some((Value::Num(q), _)) => Some(q.value as usize),
-                _ => s.opts.facets.or(s.facets.last().copied().flatten()),
+                .expected("range(n) or range(from, to)"));
             }
         };
-        let round_facets = |s: &Self, k: usize, r: f64| {
-            facets(s, k).unwrap_or_else(|| shapes::default_facets(r, shapes::DEFAULT_CHORD_TOL))
-        };
-        match name {
-            "sin" => Ok(Value::Num(Quantity::new(q(0).sin(), Dim::NONE))),
-            "cos" => Ok(Value::Num(Quantity::new(q(0).cos(), Dim::NONE))),
-            "tan" => Ok(Value::Num(Quantity::new(q(0).tan(), Dim::NONE))),
-            "translate" => Ok(Value::Transform(translation(q(0), q(1), q(2)))),
-            "rotate_x" => Ok(Value::Transform(rot(Vector3::x(), q(0)))),
-            "rotate_y" => Ok(Value::Transform(rot(Vector3::y(), q(0)))),
-            "rotate_z" => Ok(Value::Transform(rot(Vector3::z(), q(0)))),
-            "ypr" => Ok(Value::Transform(
-                rot(Vector3::z(), q(0)) * rot(Vector3::y(), q(1)) * rot(Vector3::x(), q(2)),
-            )),
-            "identity" => Ok(Value::Transform(Matrix4::identity())),
-            "rgb" => {
-                for (k, b) in bound.iter().enumerate().take(3) {
-                    if !(0.0..=1.0).contains(&q(k)) {
-                        let s = b.as_ref().map_or(span, |b| b.1);
-                        return Err(err(
-                            ErrorKind::OutOfRange,
-                            s,
-                            format!("colour component {} is outside [0, 1]", q(k)),
-                        )
-                        .expected("red, green and blue from 0 to 1"));
-                    }
-                }
-                Ok(Value::Colour([q(0), q(1), q(2)]))
-            }
-            "box" => solid(
-                self,
+        if lo.fract() != 0.0 || hi.fract() != 0.0 || hi - lo > 100_000.0 {
+            return Err(err(
+                ErrorKind::OutOfRange,
+                span,
+                "range bounds must be whole numbers at most 100000 apart",
+            )
+            .expected("range(n) or range(from, to) with whole numbers"));
+        }
+        let items = ((lo as i64)..(hi as i64))
+            .map(|k| (Value::Num(Quantity::new(k as f64, Dim::NONE)), span))
+            .collect();
+        Ok(Value::List(items))
+    }
+
+    /// `box`, `cylinder`, `cone`, `truncated_cone`, `sphere`: a primitive and its polyhedron,
+    /// with the facet count from the argument, the `facets` setting or the chord tolerance.
+    fn round_solid(&mut self, name: &str, bound: &Bound, span: Span) -> RResult<Value> {
+        let q = |k| bound.q(k);
+        let (prim, poly) = match name {
+            "box" => (
                 Primitive::Box {
                     size: [q(0), q(1), q(2)],
                 },
                 shapes::cuboid(q(0), q(1), q(2)),
             ),
             "cylinder" => {
-                let n = round_facets(self, 2, q(0));
-                solid(
-                    self,
+                let n = self.round_facets(bound, 2, q(0));
+                (
                     Primitive::Cylinder {
                         radius: q(0),
                         height: q(1),
@@ -281,9 +210,8 @@ impl Evaluator<'_> {
                 )
             }
             "cone" => {
-                let n = round_facets(self, 2, q(0));
-                solid(
-                    self,
+                let n = self.round_facets(bound, 2, q(0));
+                (
                     Primitive::Cone {
                         radius: q(0),
                         height: q(1),
@@ -293,9 +221,8 @@ impl Evaluator<'_> {
                 )
             }
             "truncated_cone" => {
-                let n = round_facets(self, 3, q(0).max(q(1)));
-                solid(
-                    self,
+                let n = self.round_facets(bound, 3, q(0).max(q(1)));
+                (
                     Primitive::TruncatedCone {
                         bottom: q(0),
                         top: q(1),
@@ -305,10 +232,9 @@ impl Evaluator<'_> {
                     shapes::truncated_cone(q(0), q(1), q(2), Some(n)),
                 )
             }
-            "sphere" => {
-                let n = round_facets(self, 1, q(0)).max(4);
-                solid(
-                    self,
+            _ => {
+                let n = self.round_facets(bound, 1, q(0)).max(4);
+                (
                     Primitive::Sphere {
                         radius: q(0),
                         facets: n,
@@ -316,54 +242,100 @@ impl Evaluator<'_> {
                     shapes::sphere(q(0), Some(n)),
                 )
             }
-            "extrude" | "revolve" => {
-                let Some((Value::List(items), _)) = &bound[0] else {
-                    unreachable!("points checked by bind_builtin")
-                };
-                let pts: Vec<nalgebra::Point2<f64>> = items
-                    .iter()
-                    .map(|(v, _)| match v {
-                        Value::List(xy) => nalgebra::Point2::new(num(&xy[0].0), num(&xy[1].0)),
-                        _ => nalgebra::Point2::origin(),
-                    })
-                    .collect();
-                let arr: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
-                if name == "extrude" {
-                    solid(
-                        self,
-                        Primitive::Extrusion {
-                            points: arr,
-                            height: q(1),
-                        },
-                        shapes::extrude(&pts, q(1)),
-                    )
-                } else {
-                    let angle = if present(1) {
-                        q(1)
-                    } else {
-                        std::f64::consts::TAU
-                    };
-                    let f = facets(self, 2).map(|n| {
-                        // a facets override means "n around a full turn": scale for a partial revolution
-                        if present(2) {
-                            n
-                        } else {
-                            ((n as f64 * angle / std::f64::consts::TAU).ceil() as usize).max(1)
-                        }
-                    });
-                    solid(
-                        self,
-                        Primitive::Revolution {
-                            points: arr,
-                            angle,
-                            facets: f,
-                        },
-                        shapes::revolve(&pts, angle, f),
-                    )
-                }
-            }
-            _ => unreachable!("every name in the spec table is handled above"),
+        };
+        self.new_solid(name, prim, poly, span)
+    }
+
+    /// `extrude(points, height)` and `revolve(points, angle?, facets?)` of a 2-D profile.
+    fn profile_solid(&mut self, name: &str, bound: &Bound, span: Span) -> RResult<Value> {
+        let pts = bound.points(0);
+        let arr: Vec<[f64; 2]> = pts.iter().map(|p| [p.x, p.y]).collect();
+        if name == "extrude" {
+            let height = bound.q(1);
+            return self.new_solid(
+                name,
+                Primitive::Extrusion {
+                    points: arr,
+                    height,
+                },
+                shapes::extrude(&pts, height),
+                span,
+            );
         }
+        let angle = if bound.present(1) {
+            bound.q(1)
+        } else {
+            std::f64::consts::TAU
+        };
+        let f = self.facets(bound, 2).map(|n| {
+            // a facets override means "n around a full turn": scale for a partial revolution
+            if bound.present(2) {
+                n
+            } else {
+                ((n as f64 * angle / std::f64::consts::TAU).ceil() as usize).max(1)
+            }
+        });
+        self.new_solid(
+            name,
+            Primitive::Revolution {
+                points: arr,
+                angle,
+                facets: f,
+            },
+            shapes::revolve(&pts, angle, f),
+            span,
+        )
+    }
+
+    /// The facet count: argument `k` if given, else the `facets` option or the innermost
+    /// `facets` block, else none (the shape's own default).
+    fn facets(&self, bound: &Bound, k: usize) -> Option<usize> {
+        match bound.get(k) {
+            Some((Value::Num(q), _)) => Some(q.value as usize),
+            _ => self.opts.facets.or(self.facets.last().copied().flatten()),
+        }
+    }
+
+    /// [`Self::facets`], or the count that keeps a circle of radius `r` within the chord
+    /// tolerance.
+    fn round_facets(&self, bound: &Bound, k: usize, r: f64) -> usize {
+        self.facets(bound, k)
+            .unwrap_or_else(|| shapes::default_facets(r, shapes::DEFAULT_CHORD_TOL))
+    }
+
+    /// One placed part named after its builtin, counted against the polygon budget.
+    fn new_solid(
+        &mut self,
+        name: &str,
+        prim: Primitive,
+        r: Result<Polyhedron, shapes::ShapeError>,
+        span: Span,
+    ) -> RResult<Value> {
+        let poly = r.map_err(|e| {
+            err(ErrorKind::OutOfRange, span, e.to_string())
+                .expected("parameters a solid can be built from (positive sizes, a simple polygon)")
+        })?;
+        self.polygons += poly.polygons.len();
+        let budget = self.opts.max_polygons.unwrap_or(POLYGON_BUDGET);
+        if self.polygons > budget {
+            return Err(err(
+                ErrorKind::OutOfRange,
+                span,
+                format!("the model has more than {budget} polygons"),
+            )
+            .expected("fewer facets or fewer repeated parts"));
+        }
+        Ok(Value::Solid(Rc::new(SolidVal {
+            parts: vec![PlacedSolid {
+                name: name.to_string(),
+                primitive: prim,
+                polyhedron: poly,
+                transform: Matrix4::identity(),
+                colour: None,
+                surface: None,
+            }],
+            mass: None,
+        })))
     }
 
     pub(super) fn exactly<const N: usize>(
@@ -550,6 +522,136 @@ impl Evaluator<'_> {
         }
         Ok(m)
     }
+}
+
+/// A builtin's parameters: (name, what it must be, required), in call order; `None` for a
+/// name that is no builtin. The same-unit builtins take their arguments positionally and have
+/// an empty list.
+fn builtin_signature(name: &str) -> Option<&'static [(&'static str, Want, bool)]> {
+    Some(match name {
+        "sin" | "cos" | "tan" => &[("angle", Want::Q(Dim::ANGLE), true)],
+        "translate" => &[
+            ("x", Want::Q(Dim::LENGTH), true),
+            ("y", Want::Q(Dim::LENGTH), true),
+            ("z", Want::Q(Dim::LENGTH), true),
+        ],
+        "rotate_x" | "rotate_y" | "rotate_z" => &[("angle", Want::Q(Dim::ANGLE), true)],
+        "ypr" => &[
+            ("yaw", Want::Q(Dim::ANGLE), true),
+            ("pitch", Want::Q(Dim::ANGLE), true),
+            ("roll", Want::Q(Dim::ANGLE), true),
+        ],
+        "rgb" => &[
+            ("red", Want::Q(Dim::NONE), true),
+            ("green", Want::Q(Dim::NONE), true),
+            ("blue", Want::Q(Dim::NONE), true),
+        ],
+        "identity" => &[],
+        "box" => &[
+            ("x", Want::Q(Dim::LENGTH), true),
+            ("y", Want::Q(Dim::LENGTH), true),
+            ("z", Want::Q(Dim::LENGTH), true),
+        ],
+        "cylinder" | "cone" => &[
+            ("radius", Want::Q(Dim::LENGTH), true),
+            ("height", Want::Q(Dim::LENGTH), true),
+            ("facets", Want::Count, false),
+        ],
+        "truncated_cone" => &[
+            ("bottom", Want::Q(Dim::LENGTH), true),
+            ("top", Want::Q(Dim::LENGTH), true),
+            ("height", Want::Q(Dim::LENGTH), true),
+            ("facets", Want::Count, false),
+        ],
+        "sphere" => &[
+            ("radius", Want::Q(Dim::LENGTH), true),
+            ("facets", Want::Count, false),
+        ],
+        "extrude" => &[
+            ("points", Want::Points, true),
+            ("height", Want::Q(Dim::LENGTH), true),
+        ],
+        "revolve" => &[
+            ("points", Want::Points, true),
+            ("angle", Want::Q(Dim::ANGLE), false),
+            ("facets", Want::Count, false),
+        ],
+        // same-unit arguments, checked by their own functions
+        "atan2" | "sqrt" | "abs" | "min" | "max" | "matrix" | "range" => &[],
+        _ => return None,
+    })
+}
+
+/// A builtin's arguments bound to its signature by [`Evaluator::bind_builtin`]: slot `k` is
+/// parameter `k`, checked against its [`Want`], or `None` when an optional one is absent.
+struct Bound(Vec<Option<(Value, Span)>>);
+
+impl Bound {
+    fn get(&self, k: usize) -> Option<&(Value, Span)> {
+        self.0.get(k).and_then(Option::as_ref)
+    }
+
+    fn present(&self, k: usize) -> bool {
+        self.get(k).is_some()
+    }
+
+    /// Parameter `k`'s number in SI units (0 when absent: only optional ones can be).
+    fn q(&self, k: usize) -> f64 {
+        match self.get(k) {
+            Some((Value::Num(q), _)) => q.value,
+            _ => 0.0,
+        }
+    }
+
+    /// Parameter `k`'s `[x, y]` points (checked by `bind_builtin` as a list of pairs of lengths).
+    fn points(&self, k: usize) -> Vec<nalgebra::Point2<f64>> {
+        let Some((Value::List(items), _)) = self.get(k) else {
+            return Vec::new();
+        };
+        items
+            .iter()
+            .map(|(v, _)| match v {
+                Value::List(xy) => nalgebra::Point2::new(num(&xy[0].0), num(&xy[1].0)),
+                _ => nalgebra::Point2::origin(),
+            })
+            .collect()
+    }
+}
+
+/// `sin`, `cos`, `tan` of an angle; the transforms `translate`, `rotate_x|y|z`, `ypr`,
+/// `identity`.
+fn math_or_transform(name: &str, bound: &Bound) -> RResult<Value> {
+    let q = |k| bound.q(k);
+    Ok(match name {
+        "sin" => Value::Num(Quantity::new(q(0).sin(), Dim::NONE)),
+        "cos" => Value::Num(Quantity::new(q(0).cos(), Dim::NONE)),
+        "tan" => Value::Num(Quantity::new(q(0).tan(), Dim::NONE)),
+        "translate" => Value::Transform(translation(q(0), q(1), q(2))),
+        "rotate_x" => Value::Transform(rot(Vector3::x(), q(0))),
+        "rotate_y" => Value::Transform(rot(Vector3::y(), q(0))),
+        "rotate_z" => Value::Transform(rot(Vector3::z(), q(0))),
+        "ypr" => Value::Transform(
+            rot(Vector3::z(), q(0)) * rot(Vector3::y(), q(1)) * rot(Vector3::x(), q(2)),
+        ),
+        _ => Value::Transform(Matrix4::identity()),
+    })
+}
+
+/// `rgb(red, green, blue)`, each from 0 to 1.
+fn rgb(bound: &Bound, span: Span) -> RResult<Value> {
+    for k in 0..3 {
+        let c = bound.q(k);
+        if !(0.0..=1.0).contains(&c) {
+            let s = bound.get(k).map_or(span, |b| b.1);
+            return Err(err(
+                ErrorKind::OutOfRange,
+                s,
+                format!("colour component {c} is outside [0, 1]"),
+            )
+            .expected("red, green and blue from 0 to 1"));
+        }
+    }
+    Ok(Value::Colour([bound.q(0), bound.q(1), bound.q(2)]))
 }
 
 /// What a builtin argument must be.
