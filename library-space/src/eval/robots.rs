@@ -1,8 +1,108 @@
 //! Links and robots: joint kinds, DH rows, limits, dynamics, fixed links folded into base/tool.
+//!
+//! [`Evaluator::link_body`] reads a link's statements, then its joint kind, DH row, limits,
+//! inertial properties and joint friction, each in its own step; [`Evaluator::robot_body`]
+//! reads a robot's statements, folds its fixed links into the base and tool, validates the
+//! chain and checks the declared IK family against the geometry's.
 
 use super::*;
 
+/// The properties a link may declare.
+const LINK_PROPS: &[&str] = &[
+    "joint",
+    "a",
+    "alpha",
+    "d",
+    "theta",
+    "offset",
+    "limits",
+    "mass",
+    "density",
+    "com",
+    "inertia",
+    "motor_inertia",
+    "viscous",
+    "coulomb",
+    "colour",
+    "color",
+    "surface",
+    "facets",
+];
+
+/// The properties a robot may declare.
+const ROBOT_PROPS: &[&str] = &[
+    "convention",
+    "base",
+    "tool",
+    "gravity",
+    "ik",
+    "colour",
+    "surface",
+    "facets",
+];
+
+/// The IK families a robot may declare (`ik:`), as the kinematics crate names them.
+const IK_FAMILIES: &[&str] = &[
+    "spherical_wrist",
+    "rrp_spherical_wrist",
+    "offset_wrist",
+    "three_parallel",
+    "general",
+];
+
+/// A link's unevaluated numeric properties, by name.
+type LinkProps<'b> = HashMap<&'static str, &'b Expr>;
+
+/// What a link's statements declare: its parts (with the link's colour and surface filled in)
+/// and its other properties, still unevaluated.
+struct LinkStatements<'b> {
+    parts: Vec<PlacedSolid>,
+    props: LinkProps<'b>,
+}
+
+/// A link's DH row in SI units. For a moving joint, `offset` is added to q (θ for a revolute,
+/// d for a prismatic joint) and the other of θ/d is constant.
+struct DhRow {
+    a: f64,
+    alpha: f64,
+    d: f64,
+    theta: f64,
+    offset: f64,
+}
+
+/// A link's inertial properties as written, each with the span of its expression.
+struct InertialInputs {
+    density: Option<(f64, Span)>,
+    mass: Option<(f64, Span)>,
+    com: Option<(Vec<f64>, Span)>,
+    inertia: Option<(Matrix3<f64>, Span)>,
+}
+
+impl InertialInputs {
+    /// The span of `com:`, else of `inertia:`, if either is given.
+    fn com_or_inertia_span(&self) -> Option<Span> {
+        self.com
+            .as_ref()
+            .map(|c| c.1)
+            .or(self.inertia.as_ref().map(|i| i.1))
+    }
+}
+
+/// What a robot's statements declare, in source order.
+struct RobotStatements {
+    /// The robot with its declared convention, base, tool and gravity; no joints yet.
+    robot: Robot,
+    base_parts: Vec<PlacedSolid>,
+    links: Vec<(LinkVal, Span)>,
+    colour: Option<Rgb>,
+    surface: Option<Surface>,
+    /// The declared `ik:` family and where.
+    ik: Option<(String, Span)>,
+}
+
 impl Evaluator<'_> {
+    /// Evaluates a link's body into a [`LinkVal`]: statements, joint kind, DH row, limits,
+    /// inertial properties, joint friction.
     pub(super) fn link_body(
         &mut self,
         name: &str,
@@ -10,32 +110,48 @@ impl Evaluator<'_> {
         scope: &mut Scope,
         span: Span,
     ) -> RResult<LinkVal> {
+        let LinkStatements { parts, props } = self.link_statements(name, body, scope)?;
+        let kind = self.joint_kind(name, &props, span)?;
+        let dh = self.dh_row(kind, &props, scope)?;
+        let qlim = self.joint_limits(name, kind, &props, scope, span)?;
+        let inputs = self.inertial_inputs(&props, scope)?;
+        let (mass, com, inertia) = self.link_inertial(inputs, &parts)?;
+        let motor_inertia = self.non_negative(&props, "motor_inertia", scope)?;
+        let viscous = self.non_negative(&props, "viscous", scope)?;
+        let coulomb = self.non_negative(&props, "coulomb", scope)?;
+        Ok(LinkVal {
+            name: name.to_string(),
+            kind,
+            a: dh.a,
+            alpha: dh.alpha,
+            d: dh.d,
+            theta: dh.theta,
+            offset: dh.offset,
+            qlim,
+            mass,
+            com,
+            inertia,
+            motor_inertia,
+            viscous,
+            coulomb,
+            parts,
+        })
+    }
+
+    /// Runs a link's `let`s and `part`s (in order, into `scope`) and collects its properties;
+    /// the parts get the link's `colour:` and `surface:` where they have none.
+    fn link_statements<'b>(
+        &mut self,
+        name: &str,
+        body: &'b [Stmt],
+        scope: &mut Scope,
+    ) -> RResult<LinkStatements<'b>> {
         let mut parts = Vec::new();
         let mut counter = PartNames::default();
         let mut seen = Seen::default();
-        let mut props: HashMap<&str, &Expr> = HashMap::new();
+        let mut props: LinkProps<'b> = HashMap::new();
         let mut colour = None;
         let mut surface = None;
-        const PROPS: &[&str] = &[
-            "joint",
-            "a",
-            "alpha",
-            "d",
-            "theta",
-            "offset",
-            "limits",
-            "mass",
-            "density",
-            "com",
-            "inertia",
-            "motor_inertia",
-            "viscous",
-            "coulomb",
-            "colour",
-            "color",
-            "surface",
-            "facets",
-        ];
         for st in body {
             match st {
                 Stmt::Let {
@@ -73,12 +189,12 @@ impl Evaluator<'_> {
                         "colour" | "color" => colour = Some(self.colour(value, scope)?),
                         "surface" => surface = Some(self.surface_ref(value, scope)?),
                         "facets" => {}
-                        k if PROPS.contains(&k) => {
-                            // PROPS holds 'static strs; find the static one for the map key
-                            let key = PROPS.iter().find(|s| **s == k).copied().unwrap_or("joint");
-                            props.insert(key, value);
-                        }
-                        _ => return Err(unknown_prop("link", p, *name_span, PROPS)),
+                        k => match LINK_PROPS.iter().find(|s| **s == k) {
+                            Some(key) => {
+                                props.insert(key, value);
+                            }
+                            None => return Err(unknown_prop("link", p, *name_span, LINK_PROPS)),
+                        },
                     }
                 }
                 other => {
@@ -91,8 +207,21 @@ impl Evaluator<'_> {
             }
         }
         fill_appearance(&mut parts, colour, surface.as_ref());
-        let kind = match props.get("joint") {
-            Some(e) => match self
+        Ok(LinkStatements { parts, props })
+    }
+
+    /// `joint: revolute | prismatic | fixed`, which every link must declare.
+    fn joint_kind(&mut self, name: &str, props: &LinkProps, span: Span) -> RResult<JointKind> {
+        let Some(e) = props.get("joint") else {
+            return Err(err(
+                ErrorKind::Missing,
+                span,
+                format!("link `{name}` has no `joint:`"),
+            )
+            .expected("`joint: revolute`, `joint: prismatic` or `joint: fixed`"));
+        };
+        Ok(
+            match self
                 .word(e, &["revolute", "prismatic", "fixed"], "joint type")?
                 .as_str()
             {
@@ -100,29 +229,16 @@ impl Evaluator<'_> {
                 "prismatic" => JointKind::Moving(JointType::Prismatic),
                 _ => JointKind::Fixed,
             },
-            None => {
-                return Err(err(
-                    ErrorKind::Missing,
-                    span,
-                    format!("link `{name}` has no `joint:`"),
-                )
-                .expected("`joint: revolute`, `joint: prismatic` or `joint: fixed`"));
-            }
-        };
-        let len = |s: &mut Self, k: &str| -> RResult<f64> {
-            props.get(k).map_or(Ok(0.0), |e| {
-                s.quantity(e, scope, Dim::LENGTH, "a length such as 431.8 mm")
-            })
-        };
-        let ang = |s: &mut Self, k: &str| -> RResult<f64> {
-            props.get(k).map_or(Ok(0.0), |e| {
-                s.quantity(e, scope, Dim::ANGLE, "an angle such as 90 deg")
-            })
-        };
-        let a = len(self, "a")?;
-        let alpha = ang(self, "alpha")?;
-        let (mut d, mut theta, offset);
-        match kind {
+        )
+    }
+
+    /// The DH row: `a`, `alpha`, and for a revolute joint `d` and `offset` (θ is the joint
+    /// variable), for a prismatic one `theta` and `offset` (d is the joint variable), for a
+    /// fixed one `d` and `theta`. Absent values are 0; naming the joint variable is an error.
+    fn dh_row(&mut self, kind: JointKind, props: &LinkProps, scope: &Scope) -> RResult<DhRow> {
+        let a = self.prop_length(props, "a", scope)?;
+        let alpha = self.prop_angle(props, "alpha", scope)?;
+        let (d, theta, offset) = match kind {
             JointKind::Moving(JointType::Prismatic) => {
                 if let Some(e) = props.get("d") {
                     return Err(err(
@@ -132,9 +248,8 @@ impl Evaluator<'_> {
                     )
                     .expected("`offset:` (added to q to give d) and `theta:` (constant)"));
                 }
-                d = 0.0;
-                theta = ang(self, "theta")?;
-                offset = len(self, "offset")?;
+                let theta = self.prop_angle(props, "theta", scope)?;
+                (0.0, theta, self.prop_length(props, "offset", scope)?)
             }
             JointKind::Moving(JointType::Revolute) => {
                 if let Some(e) = props.get("theta") {
@@ -145,27 +260,42 @@ impl Evaluator<'_> {
                     )
                     .expected("`offset:` (added to q to give θ) and `d:` (constant)"));
                 }
-                d = len(self, "d")?;
-                theta = 0.0;
-                offset = ang(self, "offset")?;
+                let d = self.prop_length(props, "d", scope)?;
+                (d, 0.0, self.prop_angle(props, "offset", scope)?)
             }
             JointKind::Fixed => {
-                d = len(self, "d")?;
-                theta = ang(self, "theta")?;
-                offset = 0.0;
-                if props.contains_key("limits") {
-                    let e = props["limits"];
-                    return Err(err(
-                        ErrorKind::UnknownProperty,
-                        e.span,
-                        "a fixed joint has no limits",
-                    )
-                    .expected("no `limits:` on a fixed link"));
-                }
+                let d = self.prop_length(props, "d", scope)?;
+                (d, self.prop_angle(props, "theta", scope)?, 0.0)
             }
-        }
-        let qlim = match (kind, props.get("limits")) {
-            (JointKind::Fixed, _) => [0.0, 0.0],
+        };
+        // + 0.0 turns a written -0 into 0
+        Ok(DhRow {
+            a,
+            alpha,
+            d: d + 0.0,
+            theta: theta + 0.0,
+            offset,
+        })
+    }
+
+    /// `limits: [lower, upper]` in the joint's unit: required for a prismatic joint, ±π for a
+    /// revolute one without it, refused on a fixed one.
+    fn joint_limits(
+        &mut self,
+        name: &str,
+        kind: JointKind,
+        props: &LinkProps,
+        scope: &Scope,
+        span: Span,
+    ) -> RResult<[f64; 2]> {
+        match (kind, props.get("limits")) {
+            (JointKind::Fixed, Some(e)) => Err(err(
+                ErrorKind::UnknownProperty,
+                e.span,
+                "a fixed joint has no limits",
+            )
+            .expected("no `limits:` on a fixed link")),
+            (JointKind::Fixed, None) => Ok([0.0, 0.0]),
             (JointKind::Moving(t), Some(e)) => {
                 let (dim, what) = match t {
                     JointType::Revolute => (
@@ -189,21 +319,22 @@ impl Evaluator<'_> {
                     )
                     .expected("lower ≤ upper"));
                 }
-                [v[0], v[1]]
+                Ok([v[0], v[1]])
             }
             (JointKind::Moving(JointType::Revolute), None) => {
-                [-std::f64::consts::PI, std::f64::consts::PI]
+                Ok([-std::f64::consts::PI, std::f64::consts::PI])
             }
-            (JointKind::Moving(JointType::Prismatic), None) => {
-                return Err(err(
-                    ErrorKind::Missing,
-                    span,
-                    format!("prismatic link `{name}` has no `limits:`"),
-                )
-                .expected("`limits: [lower, upper]` in metres, e.g. [0, 1.2 m]"));
-            }
-        };
-        // dynamics
+            (JointKind::Moving(JointType::Prismatic), None) => Err(err(
+                ErrorKind::Missing,
+                span,
+                format!("prismatic link `{name}` has no `limits:`"),
+            )
+            .expected("`limits: [lower, upper]` in metres, e.g. [0, 1.2 m]")),
+        }
+    }
+
+    /// Evaluates `density`, `mass`, `com` and `inertia`, in that order, each if given.
+    fn inertial_inputs(&mut self, props: &LinkProps, scope: &Scope) -> RResult<InertialInputs> {
         let density = props
             .get("density")
             .map(|e| {
@@ -235,21 +366,31 @@ impl Evaluator<'_> {
             .get("inertia")
             .map(|e| self.inertia(e, scope).map(|m| (m, e.span)))
             .transpose()?;
-        let (mass_v, com_v, inertia_v) = match (density, mass) {
-            (Some(_), Some((_, span))) => {
-                return Err(err(
-                    ErrorKind::Duplicate,
-                    span,
-                    "both `density` and `mass` are given",
-                )
-                .expected("one of them: the other follows from the volume"));
-            }
+        Ok(InertialInputs {
+            density,
+            mass,
+            com,
+            inertia,
+        })
+    }
+
+    /// Mass (kg), centre of mass (m, link frame) and inertia about it (kg·m²): all from the
+    /// parts' geometry with `density`; from `mass` with `com`/`inertia` as given or, missing,
+    /// from the parts' geometry; zero for a massless link.
+    fn link_inertial(
+        &self,
+        inputs: InertialInputs,
+        parts: &[PlacedSolid],
+    ) -> RResult<(f64, Vector3<f64>, Matrix3<f64>)> {
+        match (inputs.density, inputs.mass) {
+            (Some(_), Some((_, span))) => Err(err(
+                ErrorKind::Duplicate,
+                span,
+                "both `density` and `mass` are given",
+            )
+            .expected("one of them: the other follows from the volume")),
             (Some((rho, span)), None) => {
-                if let Some((_, s)) = com
-                    .as_ref()
-                    .map(|c| ((), c.1))
-                    .or(inertia.as_ref().map(|i| ((), i.1)))
-                {
+                if let Some(s) = inputs.com_or_inertia_span() {
                     return Err(err(
                         ErrorKind::Duplicate,
                         s,
@@ -259,8 +400,8 @@ impl Evaluator<'_> {
                         "either density (everything from geometry) or mass with com and inertia",
                     ));
                 }
-                let mp = self.parts_mass(&parts, Some(rho), None, span)?;
-                (mp.mass, mp.center_of_mass.coords, mp.inertia)
+                let mp = self.parts_mass(parts, Some(rho), None, span)?;
+                Ok((mp.mass, mp.center_of_mass.coords, mp.inertia))
             }
             (None, Some((m, span))) => {
                 if m < 0.0 {
@@ -269,91 +410,120 @@ impl Evaluator<'_> {
                             .expected("a mass ≥ 0 kg"),
                     );
                 }
-                let geo = if (com.is_none() || inertia.is_none()) && !parts.is_empty() {
-                    Some(self.parts_mass(&parts, None, Some(m), span)?)
+                let geo = if (inputs.com.is_none() || inputs.inertia.is_none()) && !parts.is_empty()
+                {
+                    Some(self.parts_mass(parts, None, Some(m), span)?)
                 } else {
                     None
                 };
-                let c = com
+                let c = inputs
+                    .com
                     .map(|c| Vector3::new(c.0[0], c.0[1], c.0[2]))
                     .or(geo.map(|g| g.center_of_mass.coords))
                     .unwrap_or_default();
-                let i = inertia
+                let i = inputs
+                    .inertia
                     .map(|i| i.0)
                     .or(geo.map(|g| g.inertia))
                     .unwrap_or_default();
-                (m, c, i)
+                Ok((m, c, i))
             }
             (None, None) => {
-                if let Some((_, s)) = com
-                    .as_ref()
-                    .map(|c| ((), c.1))
-                    .or(inertia.as_ref().map(|i| ((), i.1)))
-                {
+                if let Some(s) = inputs.com_or_inertia_span() {
                     return Err(
                         err(ErrorKind::Missing, s, "`com`/`inertia` without a `mass`")
                             .expected("`mass:` (or `density:`) as well"),
                     );
                 }
-                (0.0, Vector3::zeros(), Matrix3::zeros())
+                Ok((0.0, Vector3::zeros(), Matrix3::zeros()))
             }
-        };
-        let plain = |s: &mut Self, k: &str| -> RResult<f64> {
-            match props.get(k) {
-                Some(e) => {
-                    // quantity_any refuses non-finite values
-                    let v = s.quantity_any(e, scope)?;
-                    if v < 0.0 {
-                        return Err(err(
-                            ErrorKind::OutOfRange,
-                            e.span,
-                            format!("`{k}` must be zero or positive"),
-                        )
-                        .expected("a value ≥ 0 (SI units)"));
-                    }
-                    Ok(v)
-                }
-                None => Ok(0.0),
-            }
-        };
-        let motor_inertia = plain(self, "motor_inertia")?;
-        let viscous = plain(self, "viscous")?;
-        let coulomb = plain(self, "coulomb")?;
-        d += 0.0;
-        theta += 0.0;
-        Ok(LinkVal {
-            name: name.to_string(),
-            kind,
-            a,
-            alpha,
-            d,
-            theta,
-            offset,
-            qlim,
-            mass: mass_v,
-            com: com_v,
-            inertia: inertia_v,
-            motor_inertia,
-            viscous,
-            coulomb,
-            parts,
+        }
+    }
+
+    /// Property `k` as a length in metres, 0 if absent.
+    fn prop_length(&mut self, props: &LinkProps, k: &str, scope: &Scope) -> RResult<f64> {
+        props.get(k).map_or(Ok(0.0), |e| {
+            self.quantity(e, scope, Dim::LENGTH, "a length such as 431.8 mm")
         })
     }
 
+    /// Property `k` as an angle in radians, 0 if absent.
+    fn prop_angle(&mut self, props: &LinkProps, k: &str, scope: &Scope) -> RResult<f64> {
+        props.get(k).map_or(Ok(0.0), |e| {
+            self.quantity(e, scope, Dim::ANGLE, "an angle such as 90 deg")
+        })
+    }
+
+    /// Property `k` (a joint friction or motor inertia, SI units) as a finite value ≥ 0, 0 if
+    /// absent.
+    fn non_negative(&mut self, props: &LinkProps, k: &str, scope: &Scope) -> RResult<f64> {
+        let Some(e) = props.get(k) else {
+            return Ok(0.0);
+        };
+        // quantity_any refuses non-finite values
+        let v = self.quantity_any(e, scope)?;
+        if v < 0.0 {
+            return Err(err(
+                ErrorKind::OutOfRange,
+                e.span,
+                format!("`{k}` must be zero or positive"),
+            )
+            .expected("a value ≥ 0 (SI units)"));
+        }
+        Ok(v)
+    }
+
+    /// Evaluates a robot's body (or imports its URDF) into a [`RobotModel`]: statements, fixed
+    /// links folded into base and tool, the chain validated, the IK family checked.
     pub(super) fn robot_body(&mut self, decl: &Decl, scope: &mut Scope) -> RResult<RobotModel> {
         if let Some(src) = &decl.urdf {
             return self.urdf_robot(decl, src, scope);
         }
-        let mut base_parts = Vec::new();
+        let RobotStatements {
+            mut robot,
+            base_parts,
+            links,
+            colour,
+            surface,
+            ik,
+        } = self.robot_statements(decl, scope)?;
+        let (mut frames, link_names) = fold_fixed_links(&mut robot, base_parts, &links)?;
+        for f in &mut frames {
+            fill_appearance(f, colour, surface.as_ref());
+        }
+        robot.validate().map_err(|e| {
+            err(
+                ErrorKind::OutOfRange,
+                decl.name_span,
+                format!("robot `{}`: {e}", decl.name),
+            )
+        })?;
+        let ik = checked_ik_family(decl, &robot, ik)?;
+        Ok(RobotModel {
+            robot,
+            link_names,
+            frames,
+            ik,
+        })
+    }
+
+    /// Runs a robot's `let`s, `part`s (the base's) and `link`s in order and reads its
+    /// properties.
+    fn robot_statements(&mut self, decl: &Decl, scope: &mut Scope) -> RResult<RobotStatements> {
+        let mut out = RobotStatements {
+            robot: Robot {
+                name: decl.name.clone(),
+                ..Robot::default()
+            },
+            base_parts: Vec::new(),
+            links: Vec::new(),
+            colour: None,
+            surface: None,
+            ik: None,
+        };
         let mut counter = PartNames::default();
         let mut seen = Seen::default();
-        let mut links: Vec<(LinkVal, Span)> = Vec::new();
         let mut link_names: HashMap<String, Span> = HashMap::new();
-        let mut robot = Robot {
-            name: decl.name.clone(),
-            ..Robot::default()
-        };
-        let (mut colour, mut surface, mut ik) = (None, None, None);
         for st in &decl.body {
             match st {
                 Stmt::Let {
@@ -379,7 +549,7 @@ impl Evaluator<'_> {
                     s,
                     repeat,
                     scope,
-                    &mut base_parts,
+                    &mut out.base_parts,
                 )?,
                 Stmt::Link {
                     name,
@@ -396,31 +566,9 @@ impl Evaluator<'_> {
                         .expected("a different link name")
                         .note("first defined here", prev));
                     }
-                    let mut l = match def {
-                        LinkDef::Inline(body) => {
-                            let mut inner = scope.clone();
-                            self.push_facets_body(body, &inner)?;
-                            let l = self.link_body(name, body, &mut inner, *name_span);
-                            self.facets.pop();
-                            l?
-                        }
-                        LinkDef::Ref(e) => match self.eval(e, scope)? {
-                            Value::Link(l) => (*l).clone(),
-                            other => {
-                                return Err(err(
-                                    ErrorKind::Type,
-                                    e.span,
-                                    format!(
-                                        "`link {name} = …` needs a link, but this is {}",
-                                        other.describe()
-                                    ),
-                                )
-                                .expected("a declared link, called: `link upper = puma_link2()`"));
-                            }
-                        },
-                    };
+                    let mut l = self.robot_link(name, *name_span, def, scope)?;
                     l.name = name.clone();
-                    links.push((l, *span));
+                    out.links.push((l, *span));
                 }
                 Stmt::Prop {
                     name,
@@ -428,60 +576,7 @@ impl Evaluator<'_> {
                     value,
                 } => {
                     seen.check(name, *name_span)?;
-                    match name.as_str() {
-                        "convention" => {
-                            robot.convention = match self
-                                .word(value, &["standard", "modified"], "DH convention")?
-                                .as_str()
-                            {
-                                "standard" => Convention::Standard,
-                                _ => Convention::Modified,
-                            }
-                        }
-                        "base" => robot.base = self.transform(value, scope)?,
-                        "tool" => robot.tool = self.transform(value, scope)?,
-                        "gravity" => {
-                            let g =
-                                self.vector(value, scope, Dim::ACCEL, 3, "[gx, gy, gz] in m/s^2")?;
-                            robot.gravity = Vector3::new(g[0], g[1], g[2]);
-                        }
-                        "ik" => {
-                            ik = Some((
-                                self.word(
-                                    value,
-                                    &[
-                                        "spherical_wrist",
-                                        "rrp_spherical_wrist",
-                                        "offset_wrist",
-                                        "three_parallel",
-                                        "general",
-                                    ],
-                                    "IK family",
-                                )?,
-                                value.span,
-                            ))
-                        }
-                        "colour" | "color" => colour = Some(self.colour(value, scope)?),
-                        "surface" => surface = Some(self.surface_ref(value, scope)?),
-                        "facets" => {}
-                        _ => {
-                            return Err(unknown_prop(
-                                "robot",
-                                name,
-                                *name_span,
-                                &[
-                                    "convention",
-                                    "base",
-                                    "tool",
-                                    "gravity",
-                                    "ik",
-                                    "colour",
-                                    "surface",
-                                    "facets",
-                                ],
-                            ));
-                        }
-                    }
+                    self.robot_prop(name, *name_span, value, scope, &mut out)?;
                 }
                 other => {
                     return Err(misplaced(
@@ -492,89 +587,161 @@ impl Evaluator<'_> {
                 }
             }
         }
-        // Fixed links: leading ones fold into the base, trailing ones into the tool.
-        let first_moving = links.iter().position(|(l, _)| l.kind != JointKind::Fixed);
-        let last_moving = links.iter().rposition(|(l, _)| l.kind != JointKind::Fixed);
-        let mut frames: Vec<Vec<PlacedSolid>> = vec![base_parts];
-        let mut names = Vec::new();
-        let mut pre: Matrix4<f64> = Matrix4::identity(); // base-frame transform accumulated by leading fixed links
-        let mut post: Matrix4<f64> = Matrix4::identity(); // frame-n transform accumulated by trailing fixed links
-        for (k, (l, span)) in links.iter().enumerate() {
-            let fixed_a = || fixed_transform(robot.convention, l);
-            match l.kind {
-                JointKind::Fixed if first_moving.is_none_or(|f| k < f) => {
-                    pre *= fixed_a();
-                    frames[0].extend(l.parts.iter().map(|p| PlacedSolid {
-                        transform: pre * p.transform,
+        Ok(out)
+    }
+
+    /// A robot's `link NAME { … }` (evaluated in a copy of the robot's scope) or
+    /// `link NAME = declared_link(…)`.
+    fn robot_link(
+        &mut self,
+        name: &str,
+        name_span: Span,
+        def: &LinkDef,
+        scope: &Scope,
+    ) -> RResult<LinkVal> {
+        match def {
+            LinkDef::Inline(body) => {
+                let mut inner = scope.clone();
+                self.push_facets_body(body, &inner)?;
+                let l = self.link_body(name, body, &mut inner, name_span);
+                self.facets.pop();
+                l
+            }
+            LinkDef::Ref(e) => match self.eval(e, scope)? {
+                Value::Link(l) => Ok((*l).clone()),
+                other => Err(err(
+                    ErrorKind::Type,
+                    e.span,
+                    format!(
+                        "`link {name} = …` needs a link, but this is {}",
+                        other.describe()
+                    ),
+                )
+                .expected("a declared link, called: `link upper = puma_link2()`")),
+            },
+        }
+    }
+
+    /// One robot property (`convention`, `base`, `tool`, `gravity`, `ik`, `colour`, `surface`,
+    /// `facets`) into `out`.
+    fn robot_prop(
+        &mut self,
+        name: &str,
+        name_span: Span,
+        value: &Expr,
+        scope: &Scope,
+        out: &mut RobotStatements,
+    ) -> RResult<()> {
+        let robot = &mut out.robot;
+        match name {
+            "convention" => {
+                robot.convention = match self
+                    .word(value, &["standard", "modified"], "DH convention")?
+                    .as_str()
+                {
+                    "standard" => Convention::Standard,
+                    _ => Convention::Modified,
+                }
+            }
+            "base" => robot.base = self.transform(value, scope)?,
+            "tool" => robot.tool = self.transform(value, scope)?,
+            "gravity" => {
+                let g = self.vector(value, scope, Dim::ACCEL, 3, "[gx, gy, gz] in m/s^2")?;
+                robot.gravity = Vector3::new(g[0], g[1], g[2]);
+            }
+            "ik" => out.ik = Some((self.word(value, IK_FAMILIES, "IK family")?, value.span)),
+            "colour" | "color" => out.colour = Some(self.colour(value, scope)?),
+            "surface" => out.surface = Some(self.surface_ref(value, scope)?),
+            "facets" => {}
+            _ => return Err(unknown_prop("robot", name, name_span, ROBOT_PROPS)),
+        }
+        Ok(())
+    }
+}
+
+/// Folds a robot's fixed links away: leading ones into the base (their parts into frame 0),
+/// trailing ones into the tool (their parts into the last moving link's frame); each moving
+/// link becomes a joint of `robot` with its own frame. Answers the frames (base first) and the
+/// moving links' names. A fixed link between two moving joints is refused: a DH chain has no
+/// constant transform there.
+fn fold_fixed_links(
+    robot: &mut Robot,
+    base_parts: Vec<PlacedSolid>,
+    links: &[(LinkVal, Span)],
+) -> RResult<(Vec<Vec<PlacedSolid>>, Vec<String>)> {
+    let first_moving = links.iter().position(|(l, _)| l.kind != JointKind::Fixed);
+    let last_moving = links.iter().rposition(|(l, _)| l.kind != JointKind::Fixed);
+    let mut frames: Vec<Vec<PlacedSolid>> = vec![base_parts];
+    let mut names = Vec::new();
+    let mut pre: Matrix4<f64> = Matrix4::identity(); // base-frame transform accumulated by leading fixed links
+    let mut post: Matrix4<f64> = Matrix4::identity(); // frame-n transform accumulated by trailing fixed links
+    for (k, (l, span)) in links.iter().enumerate() {
+        let fixed_a = || fixed_transform(robot.convention, l);
+        match l.kind {
+            JointKind::Fixed if first_moving.is_none_or(|f| k < f) => {
+                pre *= fixed_a();
+                frames[0].extend(l.parts.iter().map(|p| PlacedSolid {
+                    transform: pre * p.transform,
+                    ..p.clone()
+                }));
+            }
+            JointKind::Fixed if last_moving.is_some_and(|lm| k > lm) => {
+                post *= fixed_a();
+                if let Some(f) = frames.last_mut() {
+                    f.extend(l.parts.iter().map(|p| PlacedSolid {
+                        transform: post * p.transform,
                         ..p.clone()
                     }));
                 }
-                JointKind::Fixed if last_moving.is_some_and(|lm| k > lm) => {
-                    post *= fixed_a();
-                    if let Some(f) = frames.last_mut() {
-                        f.extend(l.parts.iter().map(|p| PlacedSolid {
-                            transform: post * p.transform,
-                            ..p.clone()
-                        }));
-                    }
-                }
-                JointKind::Fixed => {
-                    return Err(err(ErrorKind::Type, *span, format!("fixed link `{}` sits between two moving joints", l.name))
-                        .expected("fixed links only before the first or after the last moving joint (DH chains have no constant transforms in between); put its parts in the previous link"));
-                }
-                JointKind::Moving(t) => {
-                    robot.joints.push(moving_joint(l, t));
-                    names.push(l.name.clone());
-                    frames.push(l.parts.clone());
-                }
+            }
+            JointKind::Fixed => {
+                return Err(err(ErrorKind::Type, *span, format!("fixed link `{}` sits between two moving joints", l.name))
+                    .expected("fixed links only before the first or after the last moving joint (DH chains have no constant transforms in between); put its parts in the previous link"));
+            }
+            JointKind::Moving(t) => {
+                robot.joints.push(moving_joint(l, t));
+                names.push(l.name.clone());
+                frames.push(l.parts.clone());
             }
         }
-        robot.base *= pre;
-        robot.tool = post * robot.tool;
-        for f in &mut frames {
-            fill_appearance(f, colour, surface.as_ref());
-        }
-        robot.validate().map_err(|e| {
-            err(
+    }
+    robot.base *= pre;
+    robot.tool = post * robot.tool;
+    Ok((frames, names))
+}
+
+/// The robot's IK family: the declared one must be the one the geometry admits (the kinematics
+/// crate's classification); undeclared, the recognised closed form (if any) is recorded.
+fn checked_ik_family(
+    decl: &Decl,
+    robot: &Robot,
+    declared: Option<(String, Span)>,
+) -> RResult<Option<String>> {
+    let family = robosim_kinematics::ik::family::recognise(robot);
+    match declared {
+        Some((w, span)) if w != family.name() => {
+            let why = match &family {
+                robosim_kinematics::ik::family::Family::General(reason) => {
+                    format!(" ({reason})")
+                }
+                _ => String::new(),
+            };
+            Err(err(
                 ErrorKind::OutOfRange,
-                decl.name_span,
-                format!("robot `{}`: {e}", decl.name),
-            )
-        })?;
-        // The declared IK family must be the one the geometry admits (the kinematics crate's
-        // classification); undeclared, the recognised closed form (if any) is recorded.
-        let family = robosim_kinematics::ik::family::recognise(&robot);
-        let ik = match ik {
-            Some((w, span)) if w != family.name() => {
-                let why = match &family {
-                    robosim_kinematics::ik::family::Family::General(reason) => {
-                        format!(" ({reason})")
-                    }
-                    _ => String::new(),
-                };
-                return Err(err(
-                    ErrorKind::OutOfRange,
-                    span,
-                    format!(
-                        "robot `{}` declares `ik: {w}`, but its geometry is `{}`{why}",
-                        decl.name,
-                        family.name()
-                    ),
-                )
-                .expected(format!(
-                    "`ik: {}` (or no `ik:` to let the geometry decide)",
+                span,
+                format!(
+                    "robot `{}` declares `ik: {w}`, but its geometry is `{}`{why}",
+                    decl.name,
                     family.name()
-                )));
-            }
-            _ if family.name() == "general" => None,
-            _ => Some(family.name().to_string()),
-        };
-        Ok(RobotModel {
-            robot,
-            link_names: names,
-            frames,
-            ik,
-        })
+                ),
+            )
+            .expected(format!(
+                "`ik: {}` (or no `ik:` to let the geometry decide)",
+                family.name()
+            )))
+        }
+        _ if family.name() == "general" => Ok(None),
+        _ => Ok(Some(family.name().to_string())),
     }
 }
 
