@@ -26,45 +26,47 @@ use super::gjk::{CONTACT_BAND, MAX_ITERATIONS, ROUNDING, Separation, Verdict, tr
 use super::support::Placed;
 use nalgebra::{Isometry3, Point3, Vector3};
 
-/// An active set and its weights (the simplex that gave the best upper bound).
-type Held = ([usize; 4], [f64; 4], usize);
+type V3 = Vector3<f64>;
 
-/// `best` with the closest points of the simplex `held` (its points on A and on B are made
-/// only once, at the end, or when a later simplex does not improve on it).
-fn finish(mut best: Separation, s: &Simplex, held: Option<Held>) -> Separation {
-    if let Some(h) = held {
-        (best.pa, best.pb) = s.parts(&h);
-    }
-    best
+/// The closest point of a (sub-)simplex to the origin: the point `v` (from the barycentric
+/// weights, so that it is the difference of the points of A and B with those weights) and
+/// `dir`, a positive multiple of v made without a division (the next search direction: the
+/// supports depend on its direction only, so the divisions of the weights run beside them).
+#[derive(Clone, Copy)]
+struct Closest {
+    v: V3,
+    dir: V3,
 }
 
 /// The vertices in four slots; `act[..n]` the active ones (the newest last), `lam` their
 /// barycentric weights.
 struct Simplex {
-    w: [Vector3<f64>; 4],
-    a: [Vector3<f64>; 4],
-    b: [Vector3<f64>; 4],
+    w: [V3; 4],
+    a: [V3; 4],
+    b: [V3; 4],
     act: [usize; 4],
     lam: [f64; 4],
     n: usize,
 }
 
+/// An active set and its weights (the simplex that gave the best upper bound).
+type Held = ([usize; 4], [f64; 4], usize);
+
 impl Simplex {
-    fn v(&self) -> Vector3<f64> {
-        let mut v = self.w[self.act[0]] * self.lam[0];
-        for k in 1..self.n {
-            v += self.w[self.act[k]] * self.lam[k];
-        }
-        v
+    /// The support-point difference of active vertex `k` (slot indices are < 4: the mask
+    /// only spares the bounds check).
+    #[inline(always)]
+    fn wk(&self, k: usize) -> V3 {
+        self.w[self.act[k & 3] & 3]
     }
 
     /// The points of A and of B with the weights of `held` (an active set whose slots have
     /// not been overwritten since).
     fn parts(&self, held: &Held) -> (Point3<f64>, Point3<f64>) {
         let (act, lam, n) = held;
-        let (mut pa, mut pb) = (Vector3::zeros(), Vector3::zeros());
-        for k in 0..*n {
-            let (s, l) = (act[k], lam[k]);
+        let (mut pa, mut pb) = (V3::zeros(), V3::zeros());
+        for k in 0..(*n).min(4) {
+            let (s, l) = (act[k] & 3, lam[k]);
             pa += self.a[s] * l;
             pb += self.b[s] * l;
         }
@@ -76,26 +78,28 @@ impl Simplex {
     }
 
     /// Puts `(w, a, b)` in a free slot and makes it the newest active vertex (n < 4).
-    fn push(&mut self, w: Vector3<f64>, a: Vector3<f64>, b: Vector3<f64>) {
+    #[inline(always)]
+    fn push(&mut self, w: V3, a: V3, b: V3) {
         let mut used = [false; 4];
         for &s in &self.act[..self.n] {
-            used[s] = true;
+            used[s & 3] = true;
         }
         let slot = used.iter().position(|u| !u).unwrap_or(3);
         (self.w[slot], self.a[slot], self.b[slot]) = (w, a, b);
-        self.act[self.n] = slot;
+        self.act[self.n & 3] = slot;
         self.n += 1;
     }
 
     /// Keeps the active vertices `ids` (positions in `act`) whose weight in `l` is positive.
+    #[inline(always)]
     fn keep<const K: usize>(&mut self, ids: [usize; K], l: [f64; K]) {
         let old = self.act;
         let mut n = 0;
         let mut sum = 0.0;
         for (&i, &x) in ids.iter().zip(&l) {
             if x > 0.0 {
-                self.act[n] = old[i];
-                self.lam[n] = x;
+                self.act[n & 3] = old[i & 3];
+                self.lam[n & 3] = x;
                 sum += x;
                 n += 1;
             }
@@ -108,47 +112,65 @@ impl Simplex {
         }
     }
 
-    /// Reduces to the sub-simplex holding the closest point to the origin. Returns true when
-    /// the origin is inside a tetrahedron of non-negligible volume (all four kept).
-    fn reduce(&mut self, scale: f64) -> bool {
+    /// The point of the active vertices with the current weights.
+    fn point(&self) -> V3 {
+        let mut v = self.wk(0) * self.lam[0];
+        for k in 1..self.n.min(4) {
+            v += self.wk(k) * self.lam[k];
+        }
+        v
+    }
+
+    /// Adds the support point `(w, a, b)` as the newest vertex, reduces to the sub-simplex
+    /// holding the closest point to the origin and returns that point; `None` when the origin
+    /// is inside a tetrahedron of non-negligible volume (all four kept). The new `w` is used
+    /// as passed (not read back from its slot: a store and a reload of a 24-byte vector cost a
+    /// failed store forwarding on the critical path).
+    #[inline(always)]
+    fn add(&mut self, w: V3, a: V3, b: V3, scale: f64) -> Option<Closest> {
+        self.push(w, a, b);
         match self.n {
             2 => {
-                let (p, q) = (self.w[self.act[0]], self.w[self.act[1]]);
+                // the newest vertex q (position 1); p's region is kept for rounding's sake
+                let (p, q) = (self.wk(0), w);
                 let d = q - p;
                 let den = d.norm_squared();
-                let t = if den > 0.0 {
-                    (-p.dot(&d) / den).clamp(0.0, 1.0)
-                } else {
-                    0.0
-                };
-                self.keep([0, 1], [1.0 - t, t]);
-                false
+                let num = -p.dot(&d);
+                if !(den > 0.0) || num <= 0.0 {
+                    self.keep([0], [1.0]);
+                    return Some(Closest { v: p, dir: p });
+                }
+                if num >= den {
+                    self.keep([1], [1.0]);
+                    return Some(Closest { v: q, dir: q });
+                }
+                let t = num / den;
+                self.lam[..2].copy_from_slice(&[1.0 - t, t]);
+                Some(Closest {
+                    v: p * (1.0 - t) + q * t,
+                    dir: p * den + d * num,
+                })
             }
             3 => {
                 // the newest vertex (position 2) first
-                let l = triangle_newest(
-                    self.w[self.act[2]],
-                    self.w[self.act[0]],
-                    self.w[self.act[1]],
-                );
+                let (a, b, c) = (w, self.wk(0), self.wk(1));
+                let (l, dir) = triangle_newest(a, b, c);
                 self.keep([2, 0, 1], l);
-                false
+                Some(Closest {
+                    v: self.point(),
+                    dir,
+                })
             }
-            4 => self.tetrahedron(scale),
+            4 => self.tetrahedron(w, scale),
             _ => {
                 self.lam[0] = 1.0;
-                false
+                Some(Closest { v: w, dir: w })
             }
         }
     }
 
-    fn tetrahedron(&mut self, scale: f64) -> bool {
-        let p = [
-            self.w[self.act[0]],
-            self.w[self.act[1]],
-            self.w[self.act[2]],
-            self.w[self.act[3]],
-        ];
+    fn tetrahedron(&mut self, newest: V3, scale: f64) -> Option<Closest> {
+        let p = [self.wk(0), self.wk(1), self.wk(2), newest];
         let vol6 = (p[1] - p[0]).dot(&(p[2] - p[0]).cross(&(p[3] - p[0])));
         let flat = vol6.abs() <= 64.0 * f64::EPSILON * scale.powi(3);
         if flat {
@@ -164,7 +186,8 @@ impl Simplex {
             if let Some((_, ids, l)) = best {
                 self.keep(ids, l);
             }
-            return false;
+            let v = self.point();
+            return Some(Closest { v, dir: v });
         }
         // Faces through the newest vertex 3 (A): the origin is outside face f when the outward
         // normal n_f has n_f·(0 − A) > 0. With n = AB×AC, AC×AD, AD×AB (B, C, D = 0, 1, 2),
@@ -178,92 +201,102 @@ impl Simplex {
             (1, 2, ac.cross(&ad)),
             (2, 0, ad.cross(&ab)),
         ];
-        let mut best: Option<(f64, [usize; 3], [f64; 3])> = None;
+        let mut best: Option<(f64, [usize; 3], [f64; 3], V3)> = None;
         for (j, k, n) in faces {
             if sign * n.dot(&a) <= 0.0 {
                 continue;
             }
-            let l = triangle_newest_with(a, p[j], p[k], n);
+            let (l, dir) = triangle_newest_with(a, p[j], p[k], n);
             let d = (a * l[0] + p[j] * l[1] + p[k] * l[2]).norm_squared();
             if best.as_ref().is_none_or(|b| d < b.0) {
-                best = Some((d, [3, j, k], l));
+                best = Some((d, [3, j, k], l, dir));
             }
+        }
+        if let Some((_, ids, l, dir)) = best {
+            self.keep(ids, l);
+            return Some(Closest {
+                v: self.point(),
+                dir,
+            });
         }
         // Outside none of them: inside, unless (rounding) outside the previous triangle too.
-        if best.is_none() {
-            let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
-            if -p[0].dot(&n) * (p[3] - p[0]).dot(&n) < 0.0 {
-                best = Some((0.0, [0, 1, 2], triangle(p[0], p[1], p[2])));
-            }
-        }
-        if let Some((_, ids, l)) = best {
-            self.keep(ids, l);
-            return false;
+        let n = (p[1] - p[0]).cross(&(p[2] - p[0]));
+        if -p[0].dot(&n) * (p[3] - p[0]).dot(&n) < 0.0 {
+            self.keep([0, 1, 2], triangle(p[0], p[1], p[2]));
+            let v = self.point();
+            return Some(Closest { v, dir: v });
         }
         // Inside: the origin's weights (signed sub-volumes), all four kept.
-        let vol = |a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>, d: Vector3<f64>| {
-            (b - a).dot(&(c - a).cross(&(d - a)))
-        };
-        let z = Vector3::zeros();
+        let vol = |a: V3, b: V3, c: V3, d: V3| (b - a).dot(&(c - a).cross(&(d - a)));
+        let z = V3::zeros();
         self.lam = [
             vol(z, p[1], p[2], p[3]) / vol6,
             vol(p[0], z, p[2], p[3]) / vol6,
             vol(p[0], p[1], z, p[3]) / vol6,
             vol(p[0], p[1], p[2], z) / vol6,
         ];
-        true
+        None
     }
 }
 
 /// Closest point of triangle abc to the origin as barycentric weights, `a` the vertex just
-/// added: by the newest-vertex rule the origin projects into the regions of a, ab, ac or the
-/// face (not b, c or bc, the previous segment), so only those are told apart — by the sides of
-/// the in-plane edge normals (n × ac, ab × n), with n = ab × ac. A degenerate triangle goes
-/// to [`triangle`] (Ericson's, every region).
-fn triangle_newest(a: Vector3<f64>, b: Vector3<f64>, c: Vector3<f64>) -> [f64; 3] {
+/// added, and a positive multiple of that point made without a division: by the newest-vertex
+/// rule the origin projects into the regions of a, ab, ac or the face (not b, c or bc, the
+/// previous segment), so only those are told apart — by the sides of the in-plane edge
+/// normals (n × ac, ab × n), with n = ab × ac. A degenerate triangle goes to [`triangle`]
+/// (Ericson's, every region).
+fn triangle_newest(a: V3, b: V3, c: V3) -> ([f64; 3], V3) {
     triangle_newest_with(a, b, c, (b - a).cross(&(c - a)))
 }
 
 /// [`triangle_newest`] with the face normal `n` = (b − a) × (c − a) already computed.
 #[inline(always)]
-fn triangle_newest_with(
-    a: Vector3<f64>,
-    b: Vector3<f64>,
-    c: Vector3<f64>,
-    n: Vector3<f64>,
-) -> [f64; 3] {
+fn triangle_newest_with(a: V3, b: V3, c: V3, n: V3) -> ([f64; 3], V3) {
     let (ab, ac) = (b - a, c - a);
     let nn = n.norm_squared();
     if !(nn > 0.0 && nn.is_finite()) {
-        return triangle(a, b, c);
+        let l = triangle(a, b, c);
+        return (l, a * l[0] + b * l[1] + c * l[2]);
     }
     let ao = -a;
-    let edge = |e: Vector3<f64>| -> Option<f64> {
+    // The closest point of the edge a + t e, t ∈ (0, 1], when it is beyond a; its direction
+    // a |e|² + e (e·ao) = |e|² (a + t e) needs no division.
+    let edge = |e: V3| -> Option<(f64, V3)> {
         let t = e.dot(&ao);
-        (t > 0.0).then(|| (t / e.norm_squared()).min(1.0))
+        if t <= 0.0 {
+            return None;
+        }
+        let ee = e.norm_squared();
+        Some(if t >= ee {
+            (1.0, a + e)
+        } else {
+            (t / ee, a * ee + e * t)
+        })
     };
     if n.cross(&ac).dot(&ao) > 0.0 {
         // beyond edge ac
-        if let Some(t) = edge(ac) {
-            return [1.0 - t, 0.0, t];
+        if let Some((t, dir)) = edge(ac) {
+            return ([1.0 - t, 0.0, t], dir);
         }
         return match edge(ab) {
-            Some(t) => [1.0 - t, t, 0.0],
-            None => [1.0, 0.0, 0.0],
+            Some((t, dir)) => ([1.0 - t, t, 0.0], dir),
+            None => ([1.0, 0.0, 0.0], a),
         };
     }
     if ab.cross(&n).dot(&ao) > 0.0 {
         // beyond edge ab
         return match edge(ab) {
-            Some(t) => [1.0 - t, t, 0.0],
-            None => [1.0, 0.0, 0.0],
+            Some((t, dir)) => ([1.0 - t, t, 0.0], dir),
+            None => ([1.0, 0.0, 0.0], a),
         };
     }
-    // the face: weights of the origin's projection (its normal component drops out)
+    // the face: weights of the origin's projection (its normal component drops out); the
+    // projection is n (n·a) / |n|², along n to ε whatever |v| (v's own direction is only good
+    // to ~ε L / |v|, 1e-7 rad at a 1e-9 m gap)
     let inv = 1.0 / nn;
     let lb = n.dot(&ao.cross(&ac)) * inv;
     let lc = n.dot(&ab.cross(&ao)) * inv;
-    [1.0 - lb - lc, lb, lc]
+    ([1.0 - lb - lc, lb, lc], n * n.dot(&a))
 }
 
 /// GJK distance between A (its frame) and B (placed in A's frame by `pos12`) on the
@@ -283,9 +316,13 @@ pub(crate) fn separation(
         Vector3::x()
     };
     let (a, b) = pair.parts(&u);
-    let mut scale = a.norm() + b.norm();
+    // L of the rounding allowance: the pair's reach bound where it has one (no square root
+    // per support point), else the largest |a| + |b| seen.
+    let reach = pair.reach();
+    let mut scale = reach.unwrap_or_else(|| a.norm() + b.norm());
+    let w0 = a - b;
     let mut s = Simplex {
-        w: [a - b; 4],
+        w: [w0; 4],
         a: [a; 4],
         b: [b; 4],
         act: [0, 1, 2, 3],
@@ -303,11 +340,26 @@ pub(crate) fn separation(
         converged: false,
         iterations: 0,
     };
-    let mut inside = false;
+    let mut at = Some(Closest { v: w0, dir: w0 });
     let mut held: Option<Held> = None;
     for it in 0..MAX_ITERATIONS {
         best.iterations = it;
-        let v = s.v();
+        let Some(Closest { v, dir }) = at else {
+            // inside a tetrahedron of support-point differences
+            best.upper = 0.0;
+            best.verdict = Verdict::Touching;
+            best.converged = true;
+            return finish(best, &s, Some(s.held()));
+        };
+        // The next support points first (along `dir`: their direction only counts); the
+        // square roots of |v| and |dir| and the checks on the upper bound run beside them.
+        let len = dir.norm();
+        let (dir, len) = if len > 0.0 && len.is_finite() {
+            (dir, len)
+        } else {
+            (v, v.norm())
+        };
+        let (a, b) = pair.parts(&dir);
         let upper = v.norm();
         if !upper.is_finite() || !scale.is_finite() {
             return finish(best, &s, held);
@@ -321,29 +373,24 @@ pub(crate) fn separation(
             (best.pa, best.pb) = s.parts(&h);
         }
         best.tau = ROUNDING * scale;
-        if inside || upper <= best.tau.max(CONTACT_BAND) {
-            best.upper = best.upper.min(upper);
+        if upper <= best.tau.max(CONTACT_BAND) {
             best.verdict = Verdict::Touching;
             best.converged = true;
             return finish(best, &s, held);
         }
-        // The supports are taken along v itself (they depend on its direction only), so the
-        // square root and the reciprocal of |v| run beside them, not before them.
-        u = v * upper.recip();
-        let mut dir = v;
-        if s.n == 3 && 64.0 * f64::EPSILON * scale * scale > tolerance * upper {
-            let t = [s.w[s.act[0]], s.w[s.act[1]], s.w[s.act[2]]];
-            let n = (t[1] - t[0]).cross(&(t[2] - t[0]));
-            let len = n.norm();
-            if len > 0.0 && len.is_finite() {
-                u = n / len * n.dot(&v).signum();
-                dir = u;
-            }
+        // The new upper bound may close the bracket on the lower bound already found (the
+        // support points just taken are then not needed).
+        best.converged = best.upper - best.lower <= tolerance.max(best.tau);
+        if best.converged && best.lower > best.tau {
+            best.verdict = Verdict::Apart;
+            return finish(best, &s, held);
         }
-        let (a, b) = pair.parts(&dir);
+        u = dir * len.recip();
         let w = a - b;
-        scale = scale.max(pair.a_norm(&a) + b.norm());
-        best.tau = ROUNDING * scale;
+        if reach.is_none() {
+            scale = scale.max(a.norm() + b.norm());
+            best.tau = ROUNDING * scale;
+        }
         let l = w.dot(&u);
         if l > best.lower {
             (best.lower, best.normal) = (l, u);
@@ -357,14 +404,22 @@ pub(crate) fn separation(
             best.verdict = Verdict::Touching;
             return finish(best, &s, held);
         }
-        s.push(w, a, b);
-        inside = s.reduce(scale);
+        at = s.add(w, a, b, scale);
     }
     best.iterations = MAX_ITERATIONS;
     if best.lower > best.tau {
         best.verdict = Verdict::Apart;
     }
     finish(best, &s, held)
+}
+
+/// `best` with the closest points of the simplex `held` (its points on A and on B are made
+/// only once, at the end, or when a later simplex does not improve on it).
+fn finish(mut best: Separation, s: &Simplex, held: Option<Held>) -> Separation {
+    if let Some(h) = held {
+        (best.pa, best.pb) = s.parts(&h);
+    }
+    best
 }
 
 #[cfg(test)]
@@ -397,7 +452,7 @@ mod tests {
             if full[0] <= 0.0 {
                 continue; // a region the rule excludes (b, c or bc)
             }
-            let lean = triangle_newest(a, b, c);
+            let (lean, _) = triangle_newest(a, b, c);
             let (p, q) = (point(full, a, b, c), point(lean, a, b, c));
             assert!((p - q).norm() <= 1e-12, "{k}: {full:?} vs {lean:?}");
             checked[full.iter().filter(|w| **w > 0.0).count() - 1] += 1;

@@ -55,6 +55,25 @@ impl<'a> Kind<'a> {
         }
     }
 
+    /// The largest |p| of a point p of the shape (its frame): a box's half diagonal, the rim of
+    /// a cylinder or of a cone's base (a cone's apex, at half_height, is nearer), a ball's
+    /// radius; `None` for a hull.
+    fn reach(&self) -> Option<f64> {
+        match *self {
+            Kind::Cuboid(h) => Some(h.norm()),
+            Kind::Cylinder {
+                radius,
+                half_height,
+            }
+            | Kind::Cone {
+                radius,
+                half_height,
+            } => Some(radius.hypot(half_height)),
+            Kind::Ball(r) => Some(r),
+            Kind::Other(_) => None,
+        }
+    }
+
     /// A point of the shape maximising `d·p` (parry's closed forms; `d` need not be unit).
     #[inline(always)]
     fn local(&self, d: &Vector3<f64>) -> Vector3<f64> {
@@ -115,48 +134,34 @@ pub(crate) struct Placed<'a> {
     r: Matrix3<f64>,
     rt: Matrix3<f64>,
     t: Vector3<f64>,
-    /// |p| of A's support points where it does not depend on p (box, cylinder, ball: every
-    /// support point is a corner, a rim point or on the sphere), and of a cone's rim points.
-    a_reach: f64,
+    /// A bound on |a| + |b| over every support point a of A and b of B (A's frame): the two
+    /// shapes' reaches (the largest |p| of a point of the shape, its own frame) plus |t|;
+    /// `None` when one is a hull (its reach is not kept).
+    reach: Option<f64>,
 }
 
 impl<'a> Placed<'a> {
     pub(crate) fn new(a: Kind<'a>, b: Kind<'a>, pos12: &Isometry3<f64>) -> Self {
         let r = pos12.rotation.to_rotation_matrix().into_inner();
-        let a_reach = match a {
-            Kind::Cuboid(h) => h.norm(),
-            Kind::Cylinder {
-                radius,
-                half_height,
-            }
-            | Kind::Cone {
-                radius,
-                half_height,
-            } => radius.hypot(half_height),
-            Kind::Ball(r) => r,
-            Kind::Other(_) => f64::NAN,
-        };
+        let t = pos12.translation.vector;
+        let reach = a.reach().zip(b.reach()).map(|(ra, rb)| ra + rb + t.norm());
         Placed {
             a,
             b,
             r,
             rt: r.transpose(),
-            t: pos12.translation.vector,
-            a_reach,
+            t,
+            reach,
         }
     }
 }
 
 impl Placed<'_> {
-    /// |a| for a support point `a` of A ([`Placed::parts`]): a constant of the shape except
-    /// at a cone's apex and for hulls (no square root per support point where it is constant).
+    /// The bound [`Placed::reach`] of `|a| + |b|` over all support points (a constant of the
+    /// pair, no square root per support point), `None` with a hull.
     #[inline(always)]
-    pub(crate) fn a_norm(&self, a: &Vector3<f64>) -> f64 {
-        match self.a {
-            Kind::Cone { half_height, .. } if a.y > 0.0 => half_height,
-            Kind::Other(_) => a.norm(),
-            _ => self.a_reach,
-        }
+    pub(crate) fn reach(&self) -> Option<f64> {
+        self.reach
     }
 
     /// A's support point toward −u and B's toward u (A's frame): the point of A − B
