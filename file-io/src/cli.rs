@@ -117,6 +117,43 @@ pub struct ExportArgs {
     pub log: Option<PathBuf>,
     /// Trajectory: seconds between two log rows, for a log without a time column.
     pub dt: Option<f64>,
+    /// URDF and MJCF: `absolute`, `relative` or `file-uri` mesh file names ([`MeshPaths`];
+    /// `None`: the format's default).
+    pub mesh_paths: Option<String>,
+}
+
+/// How an exported URDF or MJCF names the mesh files written beside it (docs/file-io.md,
+/// "Mesh paths"). Pinocchio 4.1's URDF reader finds a relative name only under its
+/// `package_dirs` (not the URDF's folder, not the working directory) and MuJoCo 4.0 opens no
+/// `file://` or `package://` name, so no one form opens everywhere with no flags.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MeshPaths {
+    /// The file's absolute path: MuJoCo and Pinocchio open it with no flags (URDF's default).
+    Absolute,
+    /// The file's name, relative to the export's folder: the folder can be moved; MuJoCo (URDF
+    /// and MJCF) and Pinocchio's MJCF reader find it, Pinocchio's URDF reader needs
+    /// `package_dirs=[folder]` (MJCF's default).
+    Relative,
+    /// `file://` and the absolute path (URDF only): ROS's resource retriever and Pinocchio open
+    /// it, MuJoCo does not.
+    FileUri,
+}
+
+impl MeshPaths {
+    fn parse(mode: Option<&str>, mjcf: bool) -> Result<MeshPaths> {
+        match mode {
+            None if mjcf => Ok(MeshPaths::Relative),
+            None | Some("absolute") => Ok(MeshPaths::Absolute),
+            Some("relative") => Ok(MeshPaths::Relative),
+            Some("file-uri") if !mjcf => Ok(MeshPaths::FileUri),
+            Some("file-uri") => Err(FileError::Usage(
+                "--mesh-paths file-uri is for URDF (MuJoCo opens no file:// mesh name); say absolute or relative".into(),
+            )),
+            Some(other) => Err(FileError::Usage(format!(
+                "--mesh-paths {other:?}: say absolute, relative or file-uri"
+            ))),
+        }
+    }
 }
 
 /// The export formats.
@@ -254,11 +291,11 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
             crate::session_robot_models(&snap, &library)
         }
     };
-    let names: Vec<&str> = robots.iter().map(|(r, _)| r.name.as_str()).collect();
-    let (robot, geometry) = match &a.robot {
+    let names: Vec<&str> = robots.iter().map(|r| r.robot.name.as_str()).collect();
+    let chosen = match &a.robot {
         Some(want) => robots
             .iter()
-            .find(|(r, _)| r.name == *want)
+            .find(|r| r.robot.name == *want)
             .ok_or_else(|| {
                 FileError::Usage(format!(
                     "no robot {want:?} to export; robots: {}",
@@ -281,17 +318,44 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
         .and_then(|s| s.to_str())
         .unwrap_or("robot")
         .to_string();
-    let prefix = format!("{stem}_");
     let dir = out.parent().unwrap_or(Path::new(""));
-    let geometry = geometry.as_ref();
+    let mesh_paths = MeshPaths::parse(a.mesh_paths.as_deref(), fmt == Format::Mjcf)?;
+    let prefix = match mesh_paths {
+        MeshPaths::Relative => format!("{stem}_"),
+        MeshPaths::Absolute | MeshPaths::FileUri => {
+            let abs = std::path::absolute(dir.join(format!("{stem}_"))).map_err(|source| {
+                FileError::Io {
+                    path: dir.to_path_buf(),
+                    source,
+                }
+            })?;
+            let abs = abs.to_str().ok_or_else(|| {
+                FileError::Usage(format!(
+                    "{}: the folder's name is not UTF-8, which a mesh file name in the export must be; use --mesh-paths relative",
+                    dir.display()
+                ))
+            })?;
+            match mesh_paths {
+                MeshPaths::FileUri => format!("file://{abs}"),
+                _ => abs.to_string(),
+            }
+        }
+    };
+    let (robot, coupling, geometry) = (
+        &chosen.robot,
+        chosen.coupling.as_ref(),
+        chosen.geometry.as_ref(),
+    );
     let (text, notes, meshes) = if fmt == Format::Mjcf {
-        crate::mjcf_export::to_mjcf_with_geometry(robot, geometry, &prefix)
+        crate::mjcf_export::to_mjcf_with_geometry(robot, coupling, geometry, &prefix)
     } else {
-        crate::urdf::to_urdf_with_geometry(robot, geometry, &prefix)
+        crate::urdf::to_urdf_with_geometry(robot, coupling, geometry, &prefix)
     }
     .map_err(FileError::Usage)?;
     for m in &meshes {
-        format::write_atomic(&dir.join(&m.file), &m.bytes)?;
+        // (an absolute name replaces `dir` in the join)
+        let file = m.file.strip_prefix("file://").unwrap_or(&m.file);
+        format::write_atomic(&dir.join(file), &m.bytes)?;
     }
     format::write_atomic(out, text.as_bytes())?;
     let shapes = geometry.map_or(0, |g| g.shapes.len());
@@ -306,11 +370,25 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
             "modified convention DH as URDF origins and z axes".to_string()
         }
     };
+    let followers = coupling.map_or(0, |c| c.full_dof() - c.reduced_dof());
     println!(
-        "exported robot {} to {}: {} joints {what}; {shapes} shapes, {} mesh files beside it{}",
+        "exported robot {} to {}: {} joints {what}{}; {shapes} shapes, {} mesh files beside it{}",
         robot.name,
         out.display(),
         robot.dof(),
+        if followers > 0 {
+            format!(
+                " ({followers} mimic {}: {})",
+                if followers == 1 { "joint" } else { "joints" },
+                if fmt == Format::Mjcf {
+                    "<equality><joint>"
+                } else {
+                    "<mimic>"
+                }
+            )
+        } else {
+            String::new()
+        },
         meshes.len(),
         if geometry.is_none() {
             " (no library declaration of this robot to take its geometry and friction from)"

@@ -95,59 +95,85 @@ pub fn export_robots(
     scene_robots(name, library)
 }
 
-/// [`export_robots`] with each robot's geometry ([`export_geometry`]): a robot declaration's
-/// solids, or for a `from_urdf` robot the URDF's own `<visual>` and `<collision>` elements
-/// (the file read again; its movable links must be the declaration's, else its solids are used
-/// and a note says so); a scene's robots with the solids of the robots it places. `None` where
-/// the geometry is not known (a scene robot not found in the scene's evaluation).
+/// A robot as `robosim export urdf|mjcf` writes it: its joint tree, the mimic coupling beside
+/// it (a `from_urdf`/`from_mjcf` robot's file's `<mimic>` / `<equality><joint>`: without it the
+/// export would be another robot) and its geometry.
+#[derive(Debug, Clone)]
+pub struct ExportRobot {
+    pub robot: robosim_kinematics::Robot,
+    /// `None`: no joint mimics another.
+    pub coupling: Option<robosim_kinematics::mimic::Coupling>,
+    /// `None` where the geometry is not known.
+    pub geometry: Option<export_geometry::ExportGeometry>,
+}
+
+/// [`export_robots`] with each robot's geometry ([`export_geometry`]) and coupling: a robot
+/// declaration's solids, or for a `from_urdf` robot the URDF's own `<visual>` and
+/// `<collision>` elements and its mimic coupling (the file read again; its movable links must
+/// be the declaration's, else its solids are used, no coupling, and a note says so); a scene's
+/// robots with the solids of the robots it places. Geometry `None` where it is not known (a
+/// scene robot not found in the scene's evaluation).
 pub fn export_robot_models(
     name: &str,
     library: &[std::path::PathBuf],
-) -> Result<
-    Vec<(
-        robosim_kinematics::Robot,
-        Option<export_geometry::ExportGeometry>,
-    )>,
-    FileError,
-> {
+) -> Result<Vec<ExportRobot>, FileError> {
     let lib = robosim_scene::build_library(library)?;
     match lib.evaluate(name, &robosim_library::Params::new()) {
         Ok(robosim_library::Evaluated::Robot(r)) => {
             let mut robot = r.robot.clone();
             robot.name = name.to_string();
-            let geometry = match lib.robot_file(name) {
+            let (geometry, coupling) = match lib.robot_file(name) {
                 Some(file) => urdf_geometry_of(&file, &r),
-                None => export_geometry::ExportGeometry::from_frames(&r.frames),
+                None => (
+                    export_geometry::ExportGeometry::from_frames(&r.frames),
+                    None,
+                ),
             };
-            Ok(vec![(robot, Some(geometry))])
+            Ok(vec![ExportRobot {
+                coupling: coupling.map(|c| c.with_root(robot.root_nq(), robot.root_nv())),
+                robot,
+                geometry: Some(geometry),
+            }])
         }
         Ok(robosim_library::Evaluated::Scene(scene)) => {
             let robots = scene_robots(name, library)?;
             Ok(robots
                 .into_iter()
                 .map(|robot| {
-                    let g = scene
+                    let geometry = scene
                         .robots
                         .iter()
                         .find(|p| p.name == robot.name)
                         .map(|p| export_geometry::ExportGeometry::from_frames(&p.model.frames));
-                    (robot, g)
+                    ExportRobot {
+                        robot,
+                        coupling: None,
+                        geometry,
+                    }
                 })
                 .collect())
         }
         _ => Ok(scene_robots(name, library)?
             .into_iter()
-            .map(|r| (r, None))
+            .map(|robot| ExportRobot {
+                robot,
+                coupling: None,
+                geometry: None,
+            })
             .collect()),
     }
 }
 
-/// The geometry of a `from_urdf` (or `from_mjcf`) robot from its file: the whole tree, or the
-/// chain to the declaration's last link; when neither has the declaration's links, its solids.
+/// The geometry and mimic coupling of a `from_urdf` (or `from_mjcf`) robot from its file: the
+/// whole tree, or the chain to the declaration's last link; when neither has the declaration's
+/// links, its solids and no coupling.
 fn urdf_geometry_of(
     file: &std::path::Path,
     r: &robosim_library::RobotModel,
-) -> export_geometry::ExportGeometry {
+) -> (
+    export_geometry::ExportGeometry,
+    Option<robosim_kinematics::mimic::Coupling>,
+) {
     let same = |u: &urdf_import::UrdfRobot| {
         u.joints.len() == r.link_names.len()
             && u.joints
@@ -168,14 +194,14 @@ fn urdf_geometry_of(
             .filter(same)
     });
     match u {
-        Some(u) => export_geometry::ExportGeometry::from_urdf(&u),
+        Some(u) => (export_geometry::ExportGeometry::from_urdf(&u), u.coupling),
         None => {
             let mut g = export_geometry::ExportGeometry::from_frames(&r.frames);
             g.notes.push(format!(
                 "{}: its links could not be matched with the declaration's; its collision solids are exported instead of the file's visuals",
                 file.display()
             ));
-            g
+            (g, None)
         }
     }
 }
@@ -190,36 +216,46 @@ fn urdf_geometry_of(
 pub fn session_robot_models(
     snap: &robosim_instance_space::Snapshot,
     library: &[(String, String)],
-) -> Vec<(
-    robosim_kinematics::Robot,
-    Option<export_geometry::ExportGeometry>,
-)> {
+) -> Vec<ExportRobot> {
     let lib = robosim_scene::instantiate::build_library_from(&[], library).ok();
     let compiled = robosim_scene::CompiledScene::of(snap);
+    let bare = |robot| ExportRobot {
+        robot,
+        coupling: None,
+        geometry: None,
+    };
     compiled
         .robots()
         .iter()
         .map(|cr| {
             let mut robot = cr.robot.clone();
             let Some(lib) = &lib else {
-                return (robot, None);
+                return bare(robot);
             };
             let Some((decl, model)) = declared_model(snap, lib, cr.index) else {
-                return (robot, None);
+                return bare(robot);
             };
             if model.robot.dof() != robot.dof() {
-                return (robot, None);
+                return bare(robot);
             }
             for (j, d) in robot.joints.iter_mut().zip(&model.robot.joints) {
                 j.viscous = d.viscous;
                 j.coulomb = d.coulomb;
                 j.motor_inertia = d.motor_inertia;
             }
-            let geometry = match decl.as_deref().and_then(|d| lib.robot_file(d)) {
+            let (geometry, coupling) = match decl.as_deref().and_then(|d| lib.robot_file(d)) {
                 Some(file) => urdf_geometry_of(&file, &model),
-                None => export_geometry::ExportGeometry::from_frames(&model.frames),
+                None => (
+                    export_geometry::ExportGeometry::from_frames(&model.frames),
+                    None,
+                ),
             };
-            (robot, Some(geometry))
+            // (a session's floating robot: the file's coupling with the root's coordinates)
+            ExportRobot {
+                coupling: coupling.map(|c| c.with_root(robot.root_nq(), robot.root_nv())),
+                robot,
+                geometry: Some(geometry),
+            }
         })
         .collect()
 }

@@ -34,8 +34,9 @@
 use crate::export_geometry::{
     ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
 };
-use crate::urdf::link_name;
+use crate::urdf::{link_name, mimic_relations};
 use nalgebra::{Matrix3, Matrix4, Rotation3, SymmetricEigen, UnitQuaternion, Vector3};
+use robosim_kinematics::mimic::Coupling;
 use robosim_kinematics::{JointType, Robot, chain::to_general};
 use std::fmt::Write as _;
 
@@ -176,7 +177,7 @@ fn xml(s: &str) -> String {
 /// The robot as MJCF text (see the module docs) and the notes on what was changed to make it
 /// loadable. Refused: a model that does not validate.
 pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
-    to_mjcf_with_geometry(robot, None, "").map(|(text, notes, _)| (text, notes))
+    to_mjcf_with_geometry(robot, None, None, "").map(|(text, notes, _)| (text, notes))
 }
 
 /// The `<geom>`s of link frame `frame` (see [`crate::export_geometry`]), each line indented by
@@ -240,24 +241,25 @@ fn body_geoms(
     out
 }
 
-/// [`to_mjcf`] with the robot's geometry ([`crate::export_geometry`]): geoms of the `visual`
-/// and `collision` classes in each body, meshes as `<asset><mesh file>` with the files to write
-/// beside the MJCF (`<mesh_prefix><shape>.stl`, relative to its folder).
+/// [`to_mjcf`] with the robot's mimic coupling and geometry ([`crate::export_geometry`]): each
+/// follower an `<equality><joint joint1 joint2 polycoef="offset multiplier 0 0 0">`
+/// ([`crate::urdf::mimic_relations`]; a fixed follower without `joint2`, `polycoef="offset 0 0
+/// 0 0"`), geoms of the `visual` and `collision` classes in each body, meshes as
+/// `<asset><mesh file>` with the files to write beside the MJCF (`<mesh_prefix><shape>.stl`,
+/// relative to its folder).
 pub fn to_mjcf_with_geometry(
     robot: &Robot,
+    coupling: Option<&Coupling>,
     geometry: Option<&ExportGeometry>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
-    if let Some(k) = robot.joints.iter().position(|j| j.spherical) {
-        // written as a hinge it would load as a different robot: refused by name instead
-        return Err(format!(
-            "robot {}: joint {k} is a ball (spherical) joint; the exporter does not write ball joints yet",
-            robot.name
-        ));
-    }
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
+    let mimics = match coupling {
+        Some(c) => mimic_relations(robot, c)?,
+        None => Vec::new(),
+    };
     let xs = exported_frames(robot, Exported::Mjcf);
     let mut assets = String::new();
     let mut meshes = Vec::new();
@@ -290,15 +292,20 @@ pub fn to_mjcf_with_geometry(
                 robot.name
             ));
         };
-        let at = origin.placement
-            * robosim_kinematics::JointGeometry {
-                joint_type: joint.joint_type,
-                placement: None,
-                axis: origin.axis,
-                offset: joint.offset,
-                trailing: None,
-            }
-            .motion(0.0);
+        // (a ball joint's q = the identity quaternion is its placement alone)
+        let at = if joint.spherical {
+            origin.placement
+        } else {
+            origin.placement
+                * robosim_kinematics::JointGeometry {
+                    joint_type: joint.joint_type,
+                    placement: None,
+                    axis: origin.axis,
+                    offset: joint.offset,
+                    trailing: None,
+                }
+                .motion(0.0)
+        };
         // The base placement goes into the bodies on the base: Pinocchio 4.1's MJCF reader
         // drops the pos and quat of a joint-less body on the world.
         // (A floating robot's base placement is its base body's pose instead.)
@@ -311,11 +318,20 @@ pub fn to_mjcf_with_geometry(
         let mut body = String::new();
         let _ = writeln!(body, "<body name=\"{link}\" {}>", frame_attrs(&at));
         let kind = match joint.joint_type {
+            _ if joint.spherical => "ball",
             JointType::Revolute => "hinge",
             JointType::Prismatic => "slide",
         };
         let [lo, hi] = joint.qlim;
-        let range = if lo.is_finite() && hi.is_finite() {
+        // a ball joint: no axis, and no range (robosim has no cone limit on it)
+        let axis = if joint.spherical {
+            String::new()
+        } else {
+            format!(" axis=\"{}\"", v3(&origin.axis))
+        };
+        let range = if joint.spherical {
+            "limited=\"false\"".to_string()
+        } else if lo.is_finite() && hi.is_finite() {
             format!("range=\"{lo:?} {hi:?}\"")
         } else if lo == f64::NEG_INFINITY && hi == f64::INFINITY {
             "limited=\"false\"".to_string()
@@ -327,9 +343,8 @@ pub fn to_mjcf_with_geometry(
         };
         let _ = writeln!(
             body,
-            "  <joint name=\"{name}_joint{}\" type=\"{kind}\" axis=\"{}\" {range} damping=\"{:?}\" frictionloss=\"{:?}\" armature=\"{:?}\"/>",
+            "  <joint name=\"{name}_joint{}\" type=\"{kind}\"{axis} {range} damping=\"{:?}\" frictionloss=\"{:?}\" armature=\"{:?}\"/>",
             j + 1,
-            v3(&origin.axis),
             joint.viscous,
             joint.coulomb,
             joint.motor_inertia
@@ -430,7 +445,27 @@ pub fn to_mjcf_with_geometry(
     for line in root.lines() {
         let _ = writeln!(out, "    {line}");
     }
-    let _ = writeln!(out, "  </worldbody>\n</mujoco>");
+    let _ = writeln!(out, "  </worldbody>");
+    if !mimics.is_empty() {
+        // MuJoCo's mimic joint: y − y₀ = a₀ + a₁ (x − x₀), y₀ = x₀ = 0 (no joint has a `ref`:
+        // MuJoCo's q is robosim's)
+        let _ = writeln!(out, "  <equality>");
+        for m in &mimics {
+            let joint2 = m.leader.map_or(String::new(), |l| {
+                format!(" joint2=\"{name}_joint{}\"", l + 1)
+            });
+            let _ = writeln!(
+                out,
+                "    <joint name=\"{name}_mimic{}\" joint1=\"{name}_joint{}\"{joint2} polycoef=\"{:?} {:?} 0 0 0\"/>",
+                m.follower + 1,
+                m.follower + 1,
+                m.offset,
+                m.multiplier
+            );
+        }
+        let _ = writeln!(out, "  </equality>");
+    }
+    let _ = writeln!(out, "</mujoco>");
     if !assets.is_empty() {
         out.insert_str(asset_at, &format!("  <asset>\n{assets}  </asset>\n"));
     }

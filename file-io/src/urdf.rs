@@ -51,8 +51,52 @@ use crate::export_geometry::{
     ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
 };
 use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3};
+use robosim_kinematics::mimic::{Coupling, Mimic};
 use robosim_kinematics::{Convention, JointType, Robot, fk::link_transform};
 use std::fmt::Write as _;
+
+/// The mimic relations a coupling imposes on `robot`'s joints, one per follower in joint
+/// order, each resolved to a free coordinate (`q_f = multiplier · q_leader + offset`, a
+/// follower of a follower composed; `leader: None` — fixed at `offset`, its leader not part of
+/// the robot), read from the coupling's public map: the multiplier from `G`'s row, the offset
+/// from `φ(0)`. Refused: a coupling that is not this robot's (its number of joints, q or v).
+pub fn mimic_relations(robot: &Robot, coupling: &Coupling) -> Result<Vec<Mimic>, String> {
+    let (root_nq, root_nv) = (robot.root_nq(), robot.root_nv());
+    if coupling.full_dof() != robot.dof()
+        || coupling.full_nq() != robot.nq()
+        || coupling.full_nv() != robot.nv()
+    {
+        return Err(format!(
+            "robot {}: the mimic coupling is over {} joints ({} q, {} v), the robot has {} ({} q, {} v)",
+            robot.name,
+            coupling.full_dof(),
+            coupling.full_nq(),
+            coupling.full_nv(),
+            robot.dof(),
+            robot.nq(),
+            robot.nv()
+        ));
+    }
+    let g = coupling.matrix();
+    let q0 = coupling
+        .expand_q(&vec![0.0; coupling.reduced_nq()])
+        .map_err(|e| format!("robot {}: mimic coupling: {e}", robot.name))?;
+    let free = coupling.free();
+    Ok((0..robot.dof())
+        .filter(|&i| coupling.is_follower(i))
+        .map(|i| {
+            let row = root_nv + i;
+            // one non-zero per follower's row (none: fixed, or a zero multiplier)
+            let leader = (0..free.len()).find(|&k| g[(row, root_nv + k)] != 0.0);
+            Mimic {
+                follower: i,
+                leader: leader.map(|k| free[k]),
+                multiplier: leader.map_or(0.0, |k| g[(row, root_nv + k)]),
+                offset: q0[root_nq + i],
+            }
+        })
+        .collect())
+}
 
 /// The constant transform after the motion, `P_j`.
 pub(crate) fn post(convention: Convention, j: &robosim_kinematics::Joint) -> Matrix4<f64> {
@@ -141,7 +185,7 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
 /// [`to_urdf`] and what was changed to make the file loadable by MuJoCo too (inertias made
 /// physical, massless links given a tiny mass; [`crate::mjcf_export::physical_inertia`]).
 pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String> {
-    to_urdf_with_geometry(robot, None, "").map(|(text, notes, _)| (text, notes))
+    to_urdf_with_geometry(robot, None, None, "").map(|(text, notes, _)| (text, notes))
 }
 
 /// The `<visual>` and `<collision>` elements of link frame `frame` (see
@@ -197,12 +241,16 @@ fn link_geometry(
     out
 }
 
-/// [`to_urdf_with_notes`] with the robot's geometry ([`crate::export_geometry`]): each link's
-/// `<visual>` and `<collision>` elements, and the mesh files to write beside the URDF (names
-/// `<mesh_prefix><shape>.stl`, relative to the URDF's folder). Without geometry the file is
-/// byte for byte [`to_urdf`]'s.
+/// [`to_urdf_with_notes`] with the robot's mimic coupling and geometry
+/// ([`crate::export_geometry`]): each follower joint's `<mimic joint multiplier offset>`
+/// ([`mimic_relations`]; a follower fixed at its offset, its leader not part of the robot, as a
+/// mimic of the first free joint with multiplier 0, noted), each link's `<visual>` and
+/// `<collision>` elements, and the mesh files to write beside the URDF (names
+/// `<mesh_prefix><shape>.stl`: relative to the URDF's folder, or absolute when the prefix is).
+/// Without coupling and geometry the file is byte for byte [`to_urdf`]'s.
 pub fn to_urdf_with_geometry(
     robot: &Robot,
+    coupling: Option<&Coupling>,
     geometry: Option<&ExportGeometry>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
@@ -219,6 +267,32 @@ pub fn to_urdf_with_geometry(
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
+    // mimics[k]: joint k's <mimic> (leader, multiplier, offset)
+    let mut mimics: Vec<Option<(usize, f64, f64)>> = vec![None; robot.dof()];
+    if let Some(c) = coupling {
+        for m in mimic_relations(robot, c)? {
+            let leader = match m.leader {
+                Some(l) => l,
+                None => {
+                    // URDF's <mimic> needs a leader: a fixed follower follows a free joint ×0
+                    let Some(&l) = c.free().first() else {
+                        return Err(format!(
+                            "robot {}: joint {} is fixed at {} by a mimic of a joint that is not part of the robot, and no joint is free to name as its leader (URDF's <mimic> needs one)",
+                            robot.name, m.follower, m.offset
+                        ));
+                    };
+                    notes.push(format!(
+                        "joint {}: fixed at {} by a mimic of a joint that is not part of the robot; written as a mimic of joint {} with multiplier 0",
+                        m.follower + 1,
+                        m.offset,
+                        l + 1
+                    ));
+                    l
+                }
+            };
+            mimics[m.follower] = Some((leader, m.multiplier, m.offset));
+        }
+    }
     let general = !robot.is_chain() || robot.joints.iter().any(|j| j.is_general());
     for (k, j) in robot.joints.iter().enumerate() {
         let [lo, hi] = j.qlim;
@@ -403,6 +477,13 @@ pub fn to_urdf_with_geometry(
             j.viscous,
             j.coulomb
         );
+        if let Some((leader, multiplier, offset)) = mimics[k] {
+            let _ = writeln!(
+                out,
+                "    <mimic joint=\"{name}_joint{}\" multiplier=\"{multiplier:?}\" offset=\"{offset:?}\"/>",
+                leader + 1
+            );
+        }
         if j.motor_inertia != 0.0 {
             let _ = writeln!(
                 out,

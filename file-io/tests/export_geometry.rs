@@ -186,7 +186,7 @@ fn compare(what: &str, robot: &Robot, geometry: &ExportGeometry, u: &UrdfRobot) 
 fn export_both(name: &str, library: &[std::path::PathBuf], dir: &Path) -> usize {
     let models = robosim_file_io::export_robot_models(name, library)
         .unwrap_or_else(|e| panic!("{name}: {e}"));
-    let (robot, geometry) = &models[0];
+    let (robot, geometry) = (&models[0].robot, &models[0].geometry);
     let geometry = geometry.as_ref().expect("a library robot has geometry");
     // Only a visual mesh missing from testdata (the UR5's Collada files) may be left out.
     for n in &geometry.notes {
@@ -197,9 +197,13 @@ fn export_both(name: &str, library: &[std::path::PathBuf], dir: &Path) -> usize 
     }
     let mut n = 0;
     // URDF
-    let (text, _, meshes) =
-        robosim_file_io::urdf::to_urdf_with_geometry(robot, Some(geometry), &format!("{name}_"))
-            .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let (text, _, meshes) = robosim_file_io::urdf::to_urdf_with_geometry(
+        robot,
+        None,
+        Some(geometry),
+        &format!("{name}_"),
+    )
+    .unwrap_or_else(|e| panic!("{name}: {e}"));
     for m in &meshes {
         std::fs::write(dir.join(&m.file), &m.bytes).expect("mesh written");
     }
@@ -211,6 +215,7 @@ fn export_both(name: &str, library: &[std::path::PathBuf], dir: &Path) -> usize 
     // MJCF
     let (text, _, meshes) = robosim_file_io::mjcf_export::to_mjcf_with_geometry(
         robot,
+        None,
         Some(geometry),
         &format!("{name}_"),
     )
@@ -251,7 +256,7 @@ fn library_robots_geometry_round_trips_in_place() {
     }
     // The PUMA's solids are primitives: no mesh written for it.
     let models = robosim_file_io::export_robot_models("puma560", &[]).expect("puma560");
-    let g = models[0].1.as_ref().expect("geometry");
+    let g = models[0].geometry.as_ref().expect("geometry");
     assert!(
         g.shapes
             .iter()
@@ -277,7 +282,7 @@ fn solids_that_are_no_primitive_become_meshes_in_place() {
     .expect("library written");
     let models = robosim_file_io::export_robot_models("shapes_arm", std::slice::from_ref(&lib))
         .expect("exports");
-    let g = models[0].1.as_ref().expect("geometry");
+    let g = models[0].geometry.as_ref().expect("geometry");
     let meshes = g
         .shapes
         .iter()
@@ -308,7 +313,7 @@ fn imported_robots_geometry_round_trips_in_place() {
     for name in ["ur5", "panda_arm"] {
         let models = robosim_file_io::export_robot_models(name, std::slice::from_ref(&lib))
             .expect("exports");
-        let g = models[0].1.as_ref().expect("geometry");
+        let g = models[0].geometry.as_ref().expect("geometry");
         // the file's collisions (and visuals where their meshes are in testdata: the Panda's),
         // not the library's hulls
         assert!(g.shapes.iter().any(|s| s.collision && !s.visual));
@@ -395,7 +400,7 @@ fn a_from_mjcf_robot_exports_the_files_own_geoms() {
     .expect("library written");
     let models =
         robosim_file_io::export_robot_models("small", std::slice::from_ref(&lib)).expect("exports");
-    let g = models[0].1.as_ref().expect("geometry");
+    let g = models[0].geometry.as_ref().expect("geometry");
     assert!(g.notes.is_empty(), "{:?}", g.notes);
     assert!(
         g.shapes
@@ -431,12 +436,13 @@ fn a_session_robot_exports_its_declarations_friction_and_geometry() {
         let plain = robosim_file_io::robots_of(&snap);
         let models = robosim_file_io::session_robot_models(&snap, &lib.sources());
         assert_eq!(models.len(), plain.len());
-        let (robot, geometry) = models
+        let found = models
             .iter()
-            .find(|(r, _)| r.name == robot_name)
+            .find(|r| r.robot.name == robot_name)
             .unwrap_or_else(|| panic!("{instance}: robot {robot_name}"));
+        let (robot, geometry) = (&found.robot, &found.geometry);
         let declared = robosim_file_io::export_robot_models(declaration, &[]).expect("declared");
-        let (want, want_geometry) = &declared[0];
+        let (want, want_geometry) = (&declared[0].robot, &declared[0].geometry);
         for (k, (j, w)) in robot.joints.iter().zip(&want.joints).enumerate() {
             assert_eq!(
                 (j.viscous, j.coulomb, j.motor_inertia),
@@ -456,8 +462,8 @@ fn a_session_robot_exports_its_declarations_friction_and_geometry() {
         assert_eq!(g, want_geometry.as_ref().expect("declared geometry"));
         // and it is written where the declaration's is: the URDF text equals the library
         // export's but for the base placement (the scene places the robot)
-        let (text, _, _) =
-            robosim_file_io::urdf::to_urdf_with_geometry(robot, Some(g), "m_").expect("exports");
+        let (text, _, _) = robosim_file_io::urdf::to_urdf_with_geometry(robot, None, Some(g), "m_")
+            .expect("exports");
         assert_eq!(
             text.matches("<collision").count(),
             g.shapes.iter().filter(|s| s.collision).count()

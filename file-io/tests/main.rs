@@ -7,6 +7,7 @@ mod reference;
 
 mod exchange;
 mod export_geometry;
+mod export_mimic;
 mod fuzz_corpus;
 mod hostile_inputs;
 mod linkfile_mass;

@@ -58,6 +58,12 @@ pub struct ExportArgs {
     /// Trajectory: seconds between two log rows, for a log without a time column.
     #[arg(long)]
     pub dt: Option<f64>,
+    /// URDF and MJCF: how the mesh files beside the export are named in it — `absolute` (URDF's
+    /// default: Pinocchio and MuJoCo open it with no flags), `relative` (MJCF's default; a URDF
+    /// folder that can be moved, Pinocchio then needs package_dirs) or `file-uri` (URDF only,
+    /// `file://` for ROS; MuJoCo refuses it). docs/file-io.md, "Mesh paths".
+    #[arg(long, value_name = "MODE")]
+    pub mesh_paths: Option<String>,
 }
 
 /// `robosim import …`
@@ -175,6 +181,7 @@ impl From<ExportArgs> for robosim_file_io::cli::ExportArgs {
             robot: a.robot,
             log: a.log,
             dt: a.dt,
+            mesh_paths: a.mesh_paths,
         }
     }
 }
