@@ -46,14 +46,21 @@ class ShapeError(RobosimError):
     """The fields make no solid (``bad_shape``)."""
 
 class Model:
-    """One robot's algorithms (docs/python.md). Per-configuration methods take q of shape (n,)
-    or a batch (N, n) and answer with the batch axis first."""
+    """One robot's algorithms (docs/python.md). Per-configuration methods take q of shape (nq,)
+    and v, a, tau of shape (nv,), or batches (N, nq) / (N, nv), and answer with the batch axis
+    first. A floating root's 7 q / 6 v and a ball joint's 4 / 3 are in them (docs/query.md);
+    with mimic=True they are the reduced coordinates (the followers left out)."""
 
     def __init__(self, name: str) -> None: ...
     @staticmethod
-    def from_urdf(path: str, tip: Optional[str] = None) -> "Model": ...
+    def from_urdf(
+        path: str,
+        tip: Optional[str] = None,
+        floating: Union[None, bool, str] = None,
+        mimic: bool = False,
+    ) -> "Model": ...
     @staticmethod
-    def from_mjcf(path: str, tip: Optional[str] = None) -> "Model": ...
+    def from_mjcf(path: str, tip: Optional[str] = None, mimic: bool = False) -> "Model": ...
     @staticmethod
     def from_json(robot: Dict[str, Json]) -> "Model": ...
     @staticmethod
@@ -64,15 +71,24 @@ class Model:
     def nq(self) -> int: ...
     @property
     def nv(self) -> int: ...
+    @property
+    def njoints(self) -> int:
+        """Joints of the full model (root not counted, followers counted)."""
+    @property
+    def coordinates(self) -> List[int]:
+        """The full model's joint index of each reduced joint coordinate."""
+    @property
+    def root(self) -> Optional[str]:
+        """"free_flyer", "planar", or None for a fixed base."""
     def limits(self) -> npt.NDArray[np.float64]:
-        """(n, 2): [lo, hi] per joint."""
+        """(k, 2): [lo, hi] per joint of `coordinates`."""
     def to_json(self) -> Dict[str, Json]: ...
     def fk(self, q: ArrayLike) -> npt.NDArray[np.float64]:
         """Tool pose (4, 4), or (N, 4, 4)."""
     def frames(self, q: ArrayLike) -> npt.NDArray[np.float64]:
-        """Base, every link, tool: (n+2, 4, 4), or (N, n+2, 4, 4)."""
+        """Base, every link, tool: (njoints+2, 4, 4), or (N, njoints+2, 4, 4)."""
     def jacobian(self, q: ArrayLike, frame: str = "base") -> npt.NDArray[np.float64]:
-        """(6, n) rows vx vy vz wx wy wz, frame "base" or "tool"; (N, 6, n)."""
+        """(6, nv) rows vx vy vz wx wy wz, frame "base" or "tool"; (N, 6, nv)."""
     def ik(
         self,
         pose: ArrayLike,
@@ -86,7 +102,8 @@ class Model:
         restarts: Optional[int] = None,
         seed: Optional[int] = None,
     ) -> Any:
-        """q (n,); with all (k, n); a batch (N, n) or a list; full: the ik op's answer dicts."""
+        """q (nq,); with all (k, nq); a batch (N, nq) or a list; full: the ik op's answer dicts.
+        A floating robot needs q0: the root is held there (not with mimic=True)."""
     def rnea(self, q: ArrayLike, v: ArrayLike, a: ArrayLike) -> npt.NDArray[np.float64]: ...
     def crba(self, q: ArrayLike) -> npt.NDArray[np.float64]: ...
     def aba(self, q: ArrayLike, v: ArrayLike, tau: ArrayLike) -> npt.NDArray[np.float64]: ...

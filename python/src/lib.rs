@@ -533,7 +533,7 @@ impl Session {
                 ProtocolError::new(ErrorKind::UnknownRobot, format!("robot {name:?}: {e}")),
             )
         })?;
-        model::Model::checked(r.robot.clone()).map_err(|e| raise(py, e))
+        Ok(model::Model::of(r.robot.clone()))
     }
 
     /// The session's simulator.

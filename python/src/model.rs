@@ -26,10 +26,11 @@ use robosim_dynamics::{Data, Model as DynModel};
 use robosim_hl_interface::protocol::{self, RobotArg};
 use robosim_hl_interface::robot_json::robot_from_json;
 use robosim_hl_interface::{ErrorKind, ProtocolError};
-use robosim_kinematics::Robot;
-use robosim_kinematics::fk;
-use robosim_kinematics::jacobian::{Frame, jacobian};
+use robosim_kinematics::jacobian::{Frame, Jacobian, to_tool_frame};
+use robosim_kinematics::mimic::Coupling;
+use robosim_kinematics::{KinematicModel, Robot, RootKind};
 use serde_json::{Value, json};
+use std::borrow::Cow;
 use std::sync::{Mutex, PoisonError};
 
 static NUMPY: PyOnceLock<Py<PyModule>> = PyOnceLock::new();
@@ -114,7 +115,13 @@ impl Rows {
     }
 }
 
-fn read_rows(py: Python<'_>, x: &Bound<'_, PyAny>, what: &str, n: usize) -> PyResult<Rows> {
+/// Rows of `n` values; `size` says what n counts in an error ("6 joints", "nq = 19 (…)").
+fn read_rows(
+    py: Python<'_>,
+    x: &Bound<'_, PyAny>,
+    what: &str,
+    (n, size): (usize, &str),
+) -> PyResult<Rows> {
     let (shape, values) = read_array(py, x, what)?;
     let batch = match shape.as_slice() {
         [k] if *k == n => None,
@@ -123,7 +130,7 @@ fn read_rows(py: Python<'_>, x: &Bound<'_, PyAny>, what: &str, n: usize) -> PyRe
             return Err(bad_request(
                 py,
                 format!(
-                    "{what}: expected shape ({n},) or (N, {n}) for a robot of {n} joints, got {}",
+                    "{what}: expected shape ({n},) or (N, {n}) for a robot of {size}, got {}",
                     shape_text(&shape)
                 ),
             ));
@@ -216,9 +223,19 @@ fn pose_json(p: &[f64]) -> Value {
 
 /// One robot and its dynamics model (module docs). Immutable, so shared across threads: the
 /// batch loops run with the GIL released.
+///
+/// Sizes are Pinocchio's: q has `nq` values and v, a, τ `nv` (a floating root's 7 / 6 first,
+/// a ball joint's 4 / 3; docs/query.md). With a mimic coupling (`mimic=True`) they are the
+/// **reduced** coordinates (the followers left out, `Coupling::reduced_nq`/`reduced_nv`), and
+/// every method composes the full model's algorithm with the coupling as the query protocol's
+/// `"mimic": true` does ([`robosim_hl_interface::protocol::mimic`]).
 #[pyclass(frozen, module = "robosim")]
 pub struct Model {
     robot: Robot,
+    /// `robot` compiled once (fk, frames, Jacobians: the protocol's `fk`/`jacobian` path).
+    kin: KinematicModel,
+    /// `mimic=True`: the file's coupling; q, v, τ are its reduced coordinates.
+    coupling: Option<Coupling>,
     /// The rigid-body model of `robot`, or why it has none (e.g. no inertias): the dynamics
     /// methods raise that error.
     dynamics: Result<DynModel, ProtocolError>,
@@ -228,41 +245,122 @@ pub struct Model {
 }
 
 impl Model {
+    /// The robot in its own coordinates: q of [`Robot::nq`] values, v, a, τ of [`Robot::nv`]
+    /// (a floating root's and ball joints' layouts, docs/query.md).
     pub fn of(robot: Robot) -> Model {
+        Model::with_coupling(robot, None)
+    }
+
+    /// The robot over the reduced coordinates of `coupling` (its mimic relations).
+    fn with_coupling(robot: Robot, coupling: Option<Coupling>) -> Model {
         let dynamics = DynModel::new(&robot).map_err(ProtocolError::from);
         Model {
+            kin: KinematicModel::new(&robot),
             robot,
+            coupling,
             dynamics,
             scratch: Mutex::new(Vec::new()),
         }
     }
 
-    /// [`Model::of`] a robot this API can hold: one coordinate per joint. A floating base or a
-    /// ball joint has more q than joints (`nq`) and fewer v (`nv`), which every method here
-    /// sizes by the joint count — refused by name rather than answered in the wrong layout.
-    /// The query protocol serves such robots (`robosim.Session.query`, `robosim query`).
-    pub fn checked(robot: Robot) -> Result<Model, ProtocolError> {
-        let why = if robot.root.is_some() {
-            Some("has a floating root joint")
-        } else if robot.has_spherical() {
-            Some("has a ball (spherical) joint")
-        } else {
-            None
+    /// A robot description (the protocol's `robot` forms): with `"mimic": true` a file robot
+    /// over its reduced coordinates, as the protocol's mimic ops take it.
+    fn from_value(v: &Value) -> Result<Model, ProtocolError> {
+        if v.get("mimic") == Some(&Value::Bool(true)) {
+            let (robot, coupling) = protocol::mimic::robot_and_coupling_of(v)?;
+            return Ok(Model::with_coupling(robot, Some(coupling)));
+        }
+        robot_from(v).map(Model::of)
+    }
+
+    /// Configuration length (reduced with a coupling).
+    fn nq_(&self) -> usize {
+        self.coupling
+            .as_ref()
+            .map_or(self.robot.nq(), Coupling::reduced_nq)
+    }
+
+    /// Velocity length (reduced with a coupling).
+    fn nv_(&self) -> usize {
+        self.coupling
+            .as_ref()
+            .map_or(self.robot.nv(), Coupling::reduced_nv)
+    }
+
+    /// What q's (`velocity` false) or v's length counts, for an error: "6 joints" for a
+    /// fixed-base robot of revolute and prismatic joints, else "nq = 19 (a free_flyer root's 7
+    /// first, 12 joints)" and the like.
+    fn size_text(&self, velocity: bool) -> String {
+        let n = if velocity { self.nv_() } else { self.nq_() };
+        let mut parts = Vec::new();
+        if let Some(r) = &self.robot.root {
+            let (k, layout) = match (r.kind, velocity) {
+                (RootKind::FreeFlyer, false) => (7, "x y z qx qy qz qw"),
+                (RootKind::FreeFlyer, true) => (6, "vx vy vz wx wy wz"),
+                (RootKind::Planar, false) => (4, "x y cos sin"),
+                (RootKind::Planar, true) => (3, "vx vy wz"),
+            };
+            parts.push(format!("a {} root's {k} first: {layout}", r.kind.name()));
+        }
+        if self.robot.has_spherical() {
+            parts.push(format!(
+                "{} ball joints with {} each",
+                self.robot.spherical_count(),
+                if velocity {
+                    "3 (wx wy wz)"
+                } else {
+                    "4 (qx qy qz qw)"
+                }
+            ));
+        }
+        if let Some(c) = &self.coupling {
+            parts.push(format!(
+                "{} free joints: {} mimic followers are not coordinates",
+                c.reduced_dof(),
+                c.full_dof() - c.reduced_dof()
+            ));
+        }
+        if parts.is_empty() {
+            return format!("{n} joints");
+        }
+        let name = if velocity { "nv" } else { "nq" };
+        format!("{name} = {n} ({})", parts.join("; "))
+    }
+
+    /// (length, what it counts) of q (`velocity` false) or of v, a, τ.
+    fn size(&self, velocity: bool) -> (usize, String) {
+        let n = if velocity { self.nv_() } else { self.nq_() };
+        (n, self.size_text(velocity))
+    }
+
+    /// The full model's q of a row of q (expanded through the coupling), checked where a
+    /// layout constrains it (a root's or ball joint's unit quaternion): a request error naming
+    /// the entry.
+    fn full_q<'a>(&self, q: &'a [f64]) -> Result<Cow<'a, [f64]>, ProtocolError> {
+        let bad = |e: String| ProtocolError::new(ErrorKind::BadRequest, format!("q: {e}"));
+        let full = match &self.coupling {
+            Some(c) => Cow::Owned(c.expand_q(q).map_err(|e| bad(e.to_string()))?),
+            None => Cow::Borrowed(q),
         };
-        match why {
-            Some(why) => Err(ProtocolError::new(
-                ErrorKind::BadRobot,
+        if self.coupling.is_some() || self.robot.root.is_some() || self.robot.has_spherical() {
+            self.robot.check_q(&full).map_err(|e| bad(e.to_string()))?;
+        }
+        Ok(full)
+    }
+
+    /// An op the reduced coordinates of `mimic=True` do not serve (the protocol's `mimic`
+    /// takes fk, jacobian, id, fd, mass_matrix, gravity only): refused by name.
+    fn refuse_mimic(&self, py: Python<'_>, op: &str) -> PyResult<()> {
+        match &self.coupling {
+            None => Ok(()),
+            Some(_) => Err(bad_request(
+                py,
                 format!(
-                    "robot {:?} {why} (nq {} / nv {} for {} joints): robosim.Model holds one \
-                     coordinate per joint; use the query protocol (Session.query or `robosim \
-                     query`) for this robot",
-                    robot.name,
-                    robot.nq(),
-                    robot.nv(),
-                    robot.dof()
+                    "{op}: not served with mimic=True (the reduced coordinates serve fk, frames, \
+                     jacobian, rnea, crba, aba, gravity, as the query protocol's `mimic`); load \
+                     the robot without mimic for {op}"
                 ),
             )),
-            None => Ok(Model::of(robot)),
         }
     }
 
@@ -305,7 +403,7 @@ impl Model {
         })
     }
 
-    /// A dynamics op of q (and two more vectors): shape (n,) per row.
+    /// A dynamics op of q (nq per row) and up to two more vectors (nv per row).
     fn dyn_call<'py>(
         &self,
         py: Python<'py>,
@@ -315,12 +413,16 @@ impl Model {
         out_shape: &[usize],
     ) -> PyResult<Bound<'py, PyAny>> {
         let model = self.dyn_model(py)?;
-        let n = self.dof();
-        let rows: Vec<(&str, Rows)> = args
+        let (q_size, v_size) = (self.size(false), self.size(true));
+        let rows: Vec<(&str, Rows, usize)> = args
             .iter()
-            .map(|(name, x)| Ok((*name, read_rows(py, x, name, n)?)))
+            .enumerate()
+            .map(|(k, (name, x))| {
+                let (n, text) = if k == 0 { &q_size } else { &v_size };
+                Ok((*name, read_rows(py, x, name, (*n, text))?, *n))
+            })
             .collect::<PyResult<_>>()?;
-        let refs: Vec<(&str, &Rows)> = rows.iter().map(|(n, r)| (*n, r)).collect();
+        let refs: Vec<(&str, &Rows)> = rows.iter().map(|(n, r, _)| (*n, r)).collect();
         let batch = same_batch(py, &refs)?;
         let count = rows[0].1.count();
         let width: usize = out_shape.iter().product();
@@ -333,8 +435,10 @@ impl Model {
                 let mut result = Ok(());
                 for i in 0..count {
                     let row = batch.map(|_| i);
-                    let vs: Vec<&[f64]> = rows.iter().map(|(_, r)| r.row(i, n)).collect();
-                    result = f(model, &mut data, &vs)
+                    let vs: Vec<&[f64]> = rows.iter().map(|(_, r, n)| r.row(i, *n)).collect();
+                    result = self
+                        .full_q(vs[0])
+                        .and_then(|_| f(model, &mut data, self.coupling.as_ref(), &vs))
                         .map_err(|e| in_row(row, e))
                         .and_then(|v| {
                             finite(&v, what, row)?;
@@ -353,8 +457,10 @@ impl Model {
     }
 }
 
-/// One dynamics algorithm on a row's vectors (q, and v and a/tau when it takes them).
-type DynFn = fn(&DynModel, &mut Data, &[&[f64]]) -> Result<Vec<f64>, ProtocolError>;
+/// One dynamics algorithm on a row's vectors (q, and v and a/tau when it takes them): over
+/// the reduced coordinates of the coupling when there is one.
+type DynFn =
+    fn(&DynModel, &mut Data, Option<&Coupling>, &[&[f64]]) -> Result<Vec<f64>, ProtocolError>;
 
 /// The scratch pool. A poisoned lock still holds usable `Data`: every algorithm recomputes from
 /// q what it reads (tested: answers with reused `Data` equal the protocol's with fresh `Data`).
@@ -456,41 +562,56 @@ impl Model {
             .ok_or_else(|| raise(py, unknown_robot(name)))
     }
 
-    /// The serial chain of a URDF file from its root link to `tip` (the protocol's
-    /// `{"urdf": PATH, "tip": LINK}`; without `tip`, the file's one leaf).
+    /// A URDF file's robot (the protocol's `{"urdf": PATH, "tip": LINK, "floating": …}`): the
+    /// serial chain from its root link to `tip` (without `tip`, the file's one leaf);
+    /// `floating=True` (or "free_flyer", "planar") the whole tree on a floating root (q: the
+    /// root's 7 x y z qx qy qz qw first, v its 6). `mimic=True`: the file's `<mimic>` joints
+    /// imposed, q, v, τ the reduced coordinates (the protocol's `"mimic": true`; without `tip`
+    /// the whole tree, Pinocchio's `buildModel(…, mimic=True)`).
     #[staticmethod]
-    #[pyo3(signature = (path, tip = None))]
-    fn from_urdf(py: Python<'_>, path: &str, tip: Option<&str>) -> PyResult<Self> {
+    #[pyo3(signature = (path, tip = None, floating = None, mimic = false))]
+    fn from_urdf(
+        py: Python<'_>,
+        path: &str,
+        tip: Option<&str>,
+        floating: Option<&Bound<'_, PyAny>>,
+        mimic: bool,
+    ) -> PyResult<Self> {
         let mut v = json!({"urdf": path});
         if let Some(t) = tip {
             v["tip"] = json!(t);
         }
-        robot_from(&v)
-            .and_then(Model::checked)
-            .map_err(|e| raise(py, e))
+        if let Some(f) = floating {
+            v["floating"] = to_json(py, f, "floating")?;
+        }
+        if mimic {
+            v["mimic"] = json!(true);
+        }
+        Model::from_value(&v).map_err(|e| raise(py, e))
     }
 
     /// The serial chain of an MJCF (MuJoCo XML) file to body `tip` (the protocol's
-    /// `{"mjcf": PATH, "tip": BODY}`).
+    /// `{"mjcf": PATH, "tip": BODY}`); `mimic=True`: its `<equality><joint>` couplings imposed
+    /// over the reduced coordinates.
     #[staticmethod]
-    #[pyo3(signature = (path, tip = None))]
-    fn from_mjcf(py: Python<'_>, path: &str, tip: Option<&str>) -> PyResult<Self> {
+    #[pyo3(signature = (path, tip = None, mimic = false))]
+    fn from_mjcf(py: Python<'_>, path: &str, tip: Option<&str>, mimic: bool) -> PyResult<Self> {
         let mut v = json!({"mjcf": path});
         if let Some(t) = tip {
             v["tip"] = json!(t);
         }
-        robot_from(&v)
-            .and_then(Model::checked)
-            .map_err(|e| raise(py, e))
+        if mimic {
+            v["mimic"] = json!(true);
+        }
+        Model::from_value(&v).map_err(|e| raise(py, e))
     }
 
-    /// A robot in the protocol's inline JSON form (a dict), or a file form.
+    /// A robot in the protocol's inline JSON form (a dict), or a file form (with `"mimic":
+    /// true`, over the reduced coordinates).
     #[staticmethod]
     fn from_json(py: Python<'_>, robot: &Bound<'_, PyAny>) -> PyResult<Self> {
         let v = to_json(py, robot, "robot")?;
-        robot_from(&v)
-            .and_then(Model::checked)
-            .map_err(|e| raise(py, e))
+        Model::from_value(&v).map_err(|e| raise(py, e))
     }
 
     /// Robot `name` of a running session as its session ops see it (its compiled scene: the
@@ -510,26 +631,57 @@ impl Model {
         &self.robot.name
     }
 
-    /// The number of joints (Pinocchio's `nq`; equal to `nv`: every joint is revolute or
-    /// prismatic).
+    /// The configuration's length (Pinocchio's `nq`): one per revolute or prismatic joint, 4
+    /// per ball joint, a floating root's 7 (or a planar root's 4) first; with `mimic=True` the
+    /// reduced coordinates' (followers left out).
     #[getter]
     fn nq(&self) -> usize {
-        self.dof()
+        self.nq_()
     }
 
-    /// The number of joint velocities (equal to `nq`).
+    /// The velocity's length (Pinocchio's `nv`; also a, τ's and the Jacobian's columns): 3
+    /// per ball joint, a free-flyer root's 6 (planar 3) first; with `mimic=True` reduced.
     #[getter]
     fn nv(&self) -> usize {
+        self.nv_()
+    }
+
+    /// The number of joints of the full model (the root not counted; followers counted):
+    /// `frames` gives `njoints + 2` frames.
+    #[getter]
+    fn njoints(&self) -> usize {
         self.dof()
     }
 
-    /// Joint limits, shape (n, 2): [lo, hi] per joint (rad / m).
-    fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let v: Vec<f64> = self.robot.joints.iter().flat_map(|j| j.qlim).collect();
-        out_array(py, &v, &[self.dof(), 2])
+    /// The full model's joint index (0-based, q order, the root not counted) of each reduced
+    /// joint coordinate: every joint without `mimic=True`, the free ones (leaders and
+    /// unconstrained joints) with it — the protocol's `coordinates`.
+    #[getter]
+    fn coordinates(&self) -> Vec<usize> {
+        self.coupling
+            .as_ref()
+            .map_or_else(|| (0..self.dof()).collect(), |c| c.free().to_vec())
     }
 
-    /// The robot in the protocol's inline JSON form (a dict).
+    /// The floating root's kind ("free_flyer", "planar"), or None for a fixed base.
+    #[getter]
+    fn root(&self) -> Option<&'static str> {
+        self.robot.root.as_ref().map(|r| r.kind.name())
+    }
+
+    /// Joint limits, shape (k, 2): [lo, hi] (rad / m) per joint of `coordinates` (the root has
+    /// none; a ball joint's row is [-inf, inf] where it has no limit).
+    fn limits<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let joints = self.coordinates();
+        let v: Vec<f64> = joints
+            .iter()
+            .flat_map(|&j| self.robot.joints[j].qlim)
+            .collect();
+        out_array(py, &v, &[joints.len(), 2])
+    }
+
+    /// The robot in the protocol's inline JSON form (a dict): the full model (a mimic
+    /// coupling is a file's, not carried by the inline form).
     fn to_json<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(
             py,
@@ -537,38 +689,48 @@ impl Model {
         )
     }
 
-    /// The tool pose in the world, 4×4 (or N×4×4 for a batch q), acting on column vectors (m).
+    /// The tool pose in the world, 4×4 (or N×4×4 for a batch q of shape (N, nq)), acting on
+    /// column vectors (m).
     fn fk<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
-        let rows = read_rows(py, q, "q", n)?;
+        let (n, size) = self.size(false);
+        let rows = read_rows(py, q, "q", (n, &size))?;
         let out = self.per_row(py, rows.count(), 16, |i, out| {
-            let t = fk::forward(&self.robot, rows.row(i, n));
+            let row = rows.batch.map(|_| i);
+            let q = self.full_q(rows.row(i, n)).map_err(|e| in_row(row, e))?;
+            let t = self.kin.forward(&q);
             let start = out.len();
             matrix4_rows(&t, out);
-            finite(&out[start..], "pose", rows.batch.map(|_| i))
+            finite(&out[start..], "pose", row)
         })?;
         out_array(py, &out, &batched(rows.batch, &[4, 4]))
     }
 
-    /// Every link frame in the world: (n+2, 4, 4) — [0] the base, [j] the end of joint j
-    /// (j = 1..n), [n+1] the tool; (N, n+2, 4, 4) for a batch.
+    /// Every link frame in the world: (k+2, 4, 4) for k = `njoints` — [0] the base (a floating
+    /// robot's base link at its root's pose), [j] the end of joint j (j = 1..k; with
+    /// `mimic=True` the followers' links too, moved with their leaders), [k+1] the tool;
+    /// (N, k+2, 4, 4) for a batch.
     fn frames<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
-        let rows = read_rows(py, q, "q", n)?;
-        let k = n + 2;
+        let (n, size) = self.size(false);
+        let rows = read_rows(py, q, "q", (n, &size))?;
+        let k = self.dof() + 2;
         let out = self.per_row(py, rows.count(), 16 * k, |i, out| {
+            let row = rows.batch.map(|_| i);
+            let q = self.full_q(rows.row(i, n)).map_err(|e| in_row(row, e))?;
+            let mut frames = vec![nalgebra::Matrix4::identity(); k];
+            self.kin.link_frames_into(&q, &mut frames);
             let start = out.len();
-            for t in fk::link_frames(&self.robot, rows.row(i, n)) {
-                matrix4_rows(&t, out);
+            for t in &frames {
+                matrix4_rows(t, out);
             }
-            finite(&out[start..], "frames", rows.batch.map(|_| i))
+            finite(&out[start..], "frames", row)
         })?;
         out_array(py, &out, &batched(rows.batch, &[k, 4, 4]))
     }
 
-    /// The geometric Jacobian of the tool, 6×n (rows vx vy vz wx wy wz; N×6×n for a batch):
-    /// `frame="base"` in world axes (Pinocchio's LOCAL_WORLD_ALIGNED), `"tool"` in the tool
-    /// frame's axes (LOCAL) — the protocol's `jacobian` op's two frames.
+    /// The geometric Jacobian of the tool, 6×nv (rows vx vy vz wx wy wz, columns v's — a
+    /// floating root's first; N×6×nv for a batch): `frame="base"` in world axes (Pinocchio's
+    /// LOCAL_WORLD_ALIGNED), `"tool"` in the tool frame's axes (LOCAL) — the protocol's
+    /// `jacobian` op's two frames. With `mimic=True`, `J G` over the reduced coordinates.
     #[pyo3(signature = (q, frame = "base"))]
     fn jacobian<'py>(
         &self,
@@ -586,19 +748,41 @@ impl Model {
                 ));
             }
         };
-        let n = self.dof();
-        let rows = read_rows(py, q, "q", n)?;
-        let out = self.per_row(py, rows.count(), 6 * n, |i, out| {
-            let j = jacobian(&self.robot, rows.row(i, n), frame);
+        let (n, size) = self.size(false);
+        let nv = self.nv_();
+        let rows = read_rows(py, q, "q", (n, &size))?;
+        let out = self.per_row(py, rows.count(), 6 * nv, |i, out| {
+            let row = rows.batch.map(|_| i);
+            let qr = rows.row(i, n);
+            let q = self.full_q(qr).map_err(|e| in_row(row, e))?;
             let start = out.len();
-            for r in 0..6 {
-                for c in 0..n {
-                    out.push(j[(r, c)]);
+            match &self.coupling {
+                Some(c) => {
+                    let j = robosim_kinematics::mimic::jacobian(&self.robot, c, qr, frame)
+                        .map_err(|e| {
+                            in_row(
+                                row,
+                                ProtocolError::new(ErrorKind::BadRequest, format!("q: {e}")),
+                            )
+                        })?;
+                    for r in 0..6 {
+                        out.extend(j.row(r).iter().copied());
+                    }
+                }
+                None => {
+                    let mut j = Jacobian::zeros(self.kin.nv());
+                    let tee = self.kin.fk_and_jacobian_into(&q, &mut j);
+                    if frame == Frame::Tool {
+                        to_tool_frame(&mut j, &tee);
+                    }
+                    for r in 0..6 {
+                        out.extend(j.row(r).iter().copied());
+                    }
                 }
             }
-            finite(&out[start..], "jacobian", rows.batch.map(|_| i))
+            finite(&out[start..], "jacobian", row)
         })?;
-        out_array(py, &out, &batched(rows.batch, &[6, n]))
+        out_array(py, &out, &batched(rows.batch, &[6, nv]))
     }
 
     /// Inverse kinematics of a tool pose (4×4, or N×4×4), by the protocol's `ik` op: `method`
@@ -625,7 +809,8 @@ impl Model {
         restarts: Option<u64>,
         seed: Option<u64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
+        self.refuse_mimic(py, "ik")?;
+        let (n, size) = self.size(false);
         let (shape, poses) = read_array(py, pose, "pose")?;
         let batch = match shape.as_slice() {
             [4, 4] => None,
@@ -641,7 +826,7 @@ impl Model {
             }
         };
         let count = batch.unwrap_or(1);
-        let q0 = q0.map(|x| read_rows(py, x, "q0", n)).transpose()?;
+        let q0 = q0.map(|x| read_rows(py, x, "q0", (n, &size))).transpose()?;
         if let Some(r) = &q0
             && r.batch.is_some()
             && r.batch != batch
@@ -717,8 +902,10 @@ impl Model {
         }
     }
 
-    /// Inverse dynamics (RNEA, the protocol's `id`): the joint torques/forces for q, v, a (n,)
-    /// or (N, n) — Pinocchio's `rnea(model, data, q, v, a)`.
+    /// Inverse dynamics (RNEA, the protocol's `id`): the generalised forces (nv,) for q (nq,),
+    /// v, a (nv,) — or (N, ·) batches — Pinocchio's `rnea(model, data, q, v, a)` (a floating
+    /// root's 6 first: the force and moment on the base link, in its frame). With
+    /// `mimic=True`, `Gᵀ τ` over the reduced coordinates.
     fn rnea<'py>(
         &self,
         py: Python<'py>,
@@ -726,30 +913,40 @@ impl Model {
         v: &Bound<'py, PyAny>,
         a: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
+        let n = self.nv_();
         self.dyn_call(
             py,
             &[("q", q), ("v", v), ("a", a)],
             "tau",
-            |m, d, x| {
-                Ok(robosim_dynamics::rnea(m, d, x[0], x[1], x[2])?
-                    .as_slice()
-                    .to_vec())
+            |m, d, c, x| {
+                let tau = match c {
+                    Some(c) => robosim_dynamics::mimic::rnea_mimic(m, d, c, x[0], x[1], x[2])?,
+                    None => robosim_dynamics::rnea(m, d, x[0], x[1], x[2])?.clone(),
+                };
+                Ok(tau.as_slice().to_vec())
             },
             &[n],
         )
     }
 
-    /// The joint-space mass matrix (CRBA, the protocol's `mass_matrix`), n×n (N×n×n), full
-    /// (both triangles, unlike Pinocchio's `crba` which fills the upper one).
+    /// The joint-space mass matrix (CRBA, the protocol's `mass_matrix`), nv×nv (N×nv×nv), full
+    /// (both triangles, unlike Pinocchio's `crba` which fills the upper one); `Gᵀ M G` with
+    /// `mimic=True`.
     fn crba<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
+        let n = self.nv_();
         self.dyn_call(
             py,
             &[("q", q)],
             "mass_matrix",
-            |m, d, x| {
-                let mm = robosim_dynamics::crba(m, d, x[0])?;
+            |m, d, c, x| {
+                let reduced;
+                let mm = match c {
+                    Some(c) => {
+                        reduced = robosim_dynamics::mimic::crba_mimic(m, d, c, x[0])?;
+                        &reduced
+                    }
+                    None => robosim_dynamics::crba(m, d, x[0])?,
+                };
                 let mut out = Vec::with_capacity(mm.len());
                 for r in 0..mm.nrows() {
                     out.extend(mm.row(r).iter().copied());
@@ -760,8 +957,9 @@ impl Model {
         )
     }
 
-    /// Forward dynamics (ABA, the protocol's `fd` with method aba): the joint accelerations for
-    /// q, v, tau (n,) or (N, n).
+    /// Forward dynamics (ABA, the protocol's `fd` with method aba): the accelerations (nv,)
+    /// for q (nq,), v, tau (nv,) — or (N, ·) batches. With `mimic=True` (the protocol's `fd`
+    /// with `mimic`): `M_r⁻¹ (τ_r − Gᵀ b)` by Cholesky (Pinocchio's ABA refuses mimic joints).
     fn aba<'py>(
         &self,
         py: Python<'py>,
@@ -769,29 +967,37 @@ impl Model {
         v: &Bound<'py, PyAny>,
         tau: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
+        let n = self.nv_();
         self.dyn_call(
             py,
             &[("q", q), ("v", v), ("tau", tau)],
             "qdd",
-            |m, d, x| {
-                Ok(robosim_dynamics::aba(m, d, x[0], x[1], x[2])?
-                    .as_slice()
-                    .to_vec())
+            |m, d, c, x| {
+                let qdd = match c {
+                    Some(c) => robosim_dynamics::mimic::aba_mimic(m, d, c, x[0], x[1], x[2])?,
+                    None => robosim_dynamics::aba(m, d, x[0], x[1], x[2])?.clone(),
+                };
+                Ok(qdd.as_slice().to_vec())
             },
             &[n],
         )
     }
 
     /// The torques that hold the arm still at q (the protocol's `gravity`; Pinocchio's
-    /// `computeGeneralizedGravity`), (n,) or (N, n).
+    /// `computeGeneralizedGravity`), (nv,) or (N, nv); `Gᵀ g` with `mimic=True`.
     fn gravity<'py>(&self, py: Python<'py>, q: &Bound<'py, PyAny>) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
+        let n = self.nv_();
         self.dyn_call(
             py,
             &[("q", q)],
             "tau",
-            |m, d, x| Ok(robosim_dynamics::gravity(m, d, x[0])?.as_slice().to_vec()),
+            |m, d, c, x| {
+                let g = match c {
+                    Some(c) => robosim_dynamics::mimic::gravity_mimic(m, d, c, x[0])?,
+                    None => robosim_dynamics::gravity(m, d, x[0])?.clone(),
+                };
+                Ok(g.as_slice().to_vec())
+            },
             &[n],
         )
     }
@@ -817,21 +1023,23 @@ impl Model {
         limits: bool,
         max_steps: Option<u64>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
-        let one = |x: &Bound<'py, PyAny>, what: &str| -> PyResult<Vec<f64>> {
-            let r = read_rows(py, x, what, n)?;
+        self.refuse_mimic(py, "simulate")?;
+        let (nq, nv) = (self.nq_(), self.nv_());
+        let one = |x: &Bound<'py, PyAny>, what: &str, velocity: bool| -> PyResult<Vec<f64>> {
+            let (n, size) = self.size(velocity);
+            let r = read_rows(py, x, what, (n, &size))?;
             if r.batch.is_some() {
                 return Err(bad_request(py, format!("{what}: expected shape ({n},)")));
             }
             Ok(r.values)
         };
-        let mut req = json!({"op": "simulate", "q0": one(q0, "q0")?, "t_end": t_end,
+        let mut req = json!({"op": "simulate", "q0": one(q0, "q0", false)?, "t_end": t_end,
             "integrator": integrator, "limits": limits});
         if let Some(x) = qd0 {
-            req["qd0"] = json!(one(x, "qd0")?);
+            req["qd0"] = json!(one(x, "qd0", true)?);
         }
         if let Some(x) = tau {
-            req["tau"] = json!(one(x, "tau")?);
+            req["tau"] = json!(one(x, "tau", true)?);
         }
         if let Some(x) = outputs {
             let (shape, v) = read_array(py, x, "outputs")?;
@@ -867,8 +1075,8 @@ impl Model {
         };
         let d = PyDict::new(py);
         d.set_item("t", out_array(py, &col("t"), &[k])?)?;
-        d.set_item("q", out_array(py, &col("q"), &[k, n])?)?;
-        d.set_item("qd", out_array(py, &col("qd"), &[k, n])?)?;
+        d.set_item("q", out_array(py, &col("q"), &[k, nq])?)?;
+        d.set_item("qd", out_array(py, &col("qd"), &[k, nv])?)?;
         d.set_item("energy", out_array(py, &col("energy"), &[k])?)?;
         d.set_item("stats", to_py(py, &answer["stats"])?)?;
         Ok(d.into_any())
@@ -886,8 +1094,9 @@ impl Model {
         scene: &Bound<'py, PyAny>,
         options: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let n = self.dof();
-        let rows = read_rows(py, q, "q", n)?;
+        self.refuse_mimic(py, "check")?;
+        let (n, size) = self.size(false);
+        let rows = read_rows(py, q, "q", (n, &size))?;
         let mut base = json!({"op": "check", "scene": to_json(py, scene, "scene")?});
         kwargs_json(py, options, &mut base)?;
         let answers: Vec<Value> = py
@@ -915,7 +1124,17 @@ impl Model {
     }
 
     fn __repr__(&self) -> String {
-        format!("<robosim.Model {:?} nq={}>", self.robot.name, self.dof())
+        format!(
+            "<robosim.Model {:?} nq={} nv={}{}>",
+            self.robot.name,
+            self.nq_(),
+            self.nv_(),
+            if self.coupling.is_some() {
+                " mimic"
+            } else {
+                ""
+            }
+        )
     }
 }
 

@@ -28,7 +28,9 @@
 //! (`robosim_kinematics::mimic`, `robosim_dynamics::mimic`). On a chain import, a follower on
 //! the chain whose leader is off it (held at 0) is fixed at its offset in the coupling; a
 //! follower off the chain is held at 0 with its subtree like every off-chain joint, even when
-//! its leader is on the chain (noted: import the tree for it to follow).
+//! its leader is on the chain (noted). [`import_urdf_with_followers`] (the query protocol's
+//! `{"urdf", "tip", "mimic": true}`) makes such followers move: the chain plus branches for
+//! them, a tree whose reduced coordinates are the chain's.
 //!
 //! Geometry: `<visual>`, `<collision>` and `<material>` are read into [`ImportedRobot::geometry`]
 //! by [`crate::urdf_geometry`]; meshes are only named there and loaded when an operation needs
@@ -152,7 +154,7 @@ fn read_urdf_file(path: &Path) -> Result<String, UrdfError> {
 
 /// [`import_urdf_tree`] on text already read; `file` names it in errors.
 pub fn import_urdf_tree_str(text: &str, file: &Path) -> Result<ImportedRobot, UrdfError> {
-    import_impl(text, file, None, true, None)
+    import_impl(text, file, None, Shape::Tree, None)
 }
 
 /// [`import_urdf_tree`] with a floating base (`robosim import urdf --floating`): a root joint
@@ -171,7 +173,7 @@ pub fn import_urdf_tree_floating_str(
     file: &Path,
     kind: RootKind,
 ) -> Result<ImportedRobot, UrdfError> {
-    import_impl(text, file, None, true, Some(kind))
+    import_impl(text, file, None, Shape::Tree, Some(kind))
 }
 
 /// A `floating` or `planar` joint must be the root link's one child (robosim's floating base
@@ -487,7 +489,36 @@ pub fn import_urdf_str(
     file: &Path,
     tip: Option<&str>,
 ) -> Result<ImportedRobot, UrdfError> {
-    import_impl(text, file, tip, false, None)
+    import_impl(text, file, tip, Shape::Chain, None)
+}
+
+/// [`import_urdf`] with the chain's **off-chain mimic followers moving**: the chain from the
+/// root link to `tip`, plus — as branches of a tree ([`Robot::parents`]) — every joint off the
+/// chain that `<mimic>`s a movable chain joint (directly or through other followers) and hangs
+/// from the chain through fixed joints or other such followers: a gripper's second finger on a
+/// chain to the first. Each such follower is a coordinate of the full model, bound to its
+/// leader by [`ImportedRobot::coupling`], so over the coupling's reduced coordinates (the
+/// chain's free joints, the same q as [`import_urdf`]'s without the chain's own followers) its
+/// link frames move with the leader and its mass moves in the dynamics, where [`import_urdf`]
+/// holds it at 0, lumped into the link it hangs from. Everything else off the chain is held at
+/// 0 as there, and so is a follower hanging beyond the chain's last movable joint (its link
+/// frame would have to come after the tool's; noted). Without any follower to move, the robot
+/// is [`import_urdf`]'s, bit for bit.
+pub fn import_urdf_with_followers(
+    path: &Path,
+    tip: Option<&str>,
+) -> Result<ImportedRobot, UrdfError> {
+    let text = read_urdf_file(path)?;
+    import_impl(&text, path, tip, Shape::ChainWithFollowers, None)
+}
+
+/// What an import builds: the chain to the tip (its off-chain joints held at 0), the chain with
+/// its off-chain mimic followers as moving branches, or the whole tree.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Shape {
+    Chain,
+    ChainWithFollowers,
+    Tree,
 }
 
 /// The import, as named steps: read and check the document, read its links and joints, check
@@ -496,7 +527,7 @@ fn import_impl(
     text: &str,
     file: &Path,
     tip: Option<&str>,
-    tree: bool,
+    shape: Shape,
     floating: Option<RootKind>,
 ) -> Result<ImportedRobot, UrdfError> {
     check_depth(text, file)?;
@@ -513,7 +544,7 @@ fn import_impl(
     let parts = read_links_and_joints(&rd, root_el)?;
     let links_tree = LinkTree::check(&at_robot, &parts)?;
     check_root_joint(&rd, &links_tree.root, &parts.joints)?;
-    let mut robot = if tree {
+    let mut robot = if shape == Shape::Tree {
         build_whole_tree(
             file,
             &rd,
@@ -528,7 +559,8 @@ fn import_impl(
         )?
     } else {
         let tip = find_tip(&at_robot, tip, &parts, &links_tree)?;
-        build_chain_to_tip(&at_robot, &parts, &links_tree, tip, geometry)?
+        let followers = shape == Shape::ChainWithFollowers;
+        build_chain_to_tip(&at_robot, &parts, &links_tree, tip, geometry, followers)?
     };
     robot.notes.splice(0..0, parts.warnings.iter().cloned());
     Ok(robot)
@@ -833,19 +865,184 @@ fn chain_segments(parts: &Parts, tree: &LinkTree, chain: &[usize]) -> (Vec<Segme
     (segments, held)
 }
 
+/// The off-chain joints that move with the chain under [`import_urdf_with_followers`]: the
+/// followers of movable chain joints (through other followers) with the fixed joints and other
+/// such followers between them and the chain.
+#[derive(Debug, Default)]
+struct FollowerBranches {
+    /// The segments' joints: the chain's, each chain joint followed by the branches hanging
+    /// from its child link (depth first, children in file order; the root link's first). Empty:
+    /// no follower moves (the plain chain).
+    order: Vec<usize>,
+    /// The tip link in the last movable chain joint's frame.
+    tool: Matrix4<f64>,
+    /// Followers of chain joints hanging beyond the last movable chain joint: held.
+    beyond_tool: Vec<usize>,
+}
+
+impl FollowerBranches {
+    fn of(joints: &[JointRec], tree: &LinkTree, chain: &[usize]) -> FollowerBranches {
+        let movable = |k: usize| {
+            matches!(
+                joints[k].kind,
+                SegmentKind::Revolute | SegmentKind::Continuous | SegmentKind::Prismatic
+            )
+        };
+        let Some(last) = chain.iter().rposition(|&k| movable(k)) else {
+            return FollowerBranches::default();
+        };
+        let by_name: HashMap<&str, usize> = joints
+            .iter()
+            .enumerate()
+            .map(|(k, j)| (j.name.as_str(), k))
+            .collect();
+        let on_chain: HashSet<usize> = chain.iter().copied().collect();
+        // a follower whose leader, followed through other followers, is a movable chain joint
+        let follows_chain = |k: usize| {
+            let mut at = k;
+            for _ in 0..=joints.len() {
+                match &joints[at].mimic_of {
+                    None => return at != k && on_chain.contains(&at) && movable(at),
+                    Some((leader, _, _)) => match by_name.get(leader.as_str()) {
+                        Some(&l) => at = l,
+                        None => return false,
+                    },
+                }
+            }
+            false // a cycle: refused later by the coupling
+        };
+        fn collect(
+            link: &str,
+            joints: &[JointRec],
+            tree: &LinkTree,
+            on_chain: &HashSet<usize>,
+            accept: &dyn Fn(usize) -> bool,
+            out: &mut Vec<usize>,
+        ) {
+            for &k in tree.children.get(link).map_or(&[][..], |v| v.as_slice()) {
+                if on_chain.contains(&k) {
+                    continue;
+                }
+                let j = &joints[k];
+                if j.kind == SegmentKind::Fixed {
+                    let mut sub = Vec::new();
+                    collect(&j.child, joints, tree, on_chain, accept, &mut sub);
+                    if !sub.is_empty() {
+                        out.push(k);
+                        out.extend(sub);
+                    }
+                } else if accept(k) {
+                    out.push(k);
+                    collect(&j.child, joints, tree, on_chain, accept, out);
+                }
+            }
+        }
+        let accept = |k: usize| movable(k) && follows_chain(k);
+        let mut order = Vec::new();
+        let mut beyond_tool = Vec::new();
+        if chain
+            .first()
+            .is_some_and(|&k| !matches!(joints[k].kind, SegmentKind::Root(_)))
+        {
+            collect(&tree.root, joints, tree, &on_chain, &accept, &mut order);
+        }
+        let mut tool = Matrix4::identity();
+        for (p, &k) in chain.iter().enumerate() {
+            order.push(k);
+            let mut branch = Vec::new();
+            collect(
+                &joints[k].child,
+                joints,
+                tree,
+                &on_chain,
+                &accept,
+                &mut branch,
+            );
+            if p < last {
+                order.extend(branch);
+            } else {
+                beyond_tool.extend(branch.into_iter().filter(|&b| movable(b)));
+                if p > last {
+                    tool *= joints[k].placement;
+                }
+            }
+        }
+        if order.len() == chain.len() {
+            order.clear();
+        }
+        FollowerBranches {
+            order,
+            tool,
+            beyond_tool,
+        }
+    }
+
+    /// The segments of `order` with their parents (segment indices) for [`build_tree`], each
+    /// carrying its held subtrees at q = 0 as [`chain_segments`] does, and the held joints.
+    fn segments(
+        &self,
+        parts: &Parts,
+        tree: &LinkTree,
+        chain: &[usize],
+    ) -> (Vec<Segment>, Vec<Option<usize>>, Vec<usize>) {
+        let (joints, links, children) = (&parts.joints, &parts.links, &tree.children);
+        let moving: HashSet<usize> = self.order.iter().copied().collect();
+        let mut segment_of_link: HashMap<&str, usize> = HashMap::new();
+        let mut held = Vec::new();
+        let mut segments = Vec::with_capacity(self.order.len());
+        let mut parents = Vec::with_capacity(self.order.len());
+        for (s, &k) in self.order.iter().enumerate() {
+            let j = &joints[k];
+            parents.push(segment_of_link.get(j.parent.as_str()).copied());
+            segment_of_link.insert(j.child.as_str(), s);
+            segments.push(Segment {
+                kind: j.kind,
+                placement: j.placement,
+                axis: j.axis,
+                qlim: j.qlim,
+                viscous: j.viscous,
+                coulomb: j.coulomb,
+                child: subtree(&j.child, joints, links, children, &moving, &mut held),
+            });
+        }
+        debug_assert!(chain.iter().all(|k| moving.contains(k)));
+        subtree(&tree.root, joints, links, children, &moving, &mut held);
+        held.sort_unstable();
+        (segments, parents, held)
+    }
+}
+
 /// The chain root → `tip` as a robot: its segments, the robot checked, the movable joints'
-/// names and limits, the folded and held joints, and the geometry placed on its bodies.
+/// names and limits, the folded and held joints, and the geometry placed on its bodies. With
+/// `followers`, the off-chain mimic followers of chain joints as moving branches
+/// ([`import_urdf_with_followers`]).
 fn build_chain_to_tip(
     at_robot: &RobotElement,
     parts: &Parts,
     tree: &LinkTree,
     tip: String,
     mut geometry: crate::urdf_geometry::UrdfGeometry,
+    followers: bool,
 ) -> Result<ImportedRobot, UrdfError> {
     let joints = &parts.joints;
-    let chain = chain_to(&tip, tree, joints);
-    let (segments, held) = chain_segments(parts, tree, &chain);
-    let built = build_chain(at_robot.name, &segments);
+    let chain_joints = chain_to(&tip, tree, joints);
+    let branches = if followers {
+        FollowerBranches::of(joints, tree, &chain_joints)
+    } else {
+        FollowerBranches::default()
+    };
+    // `chain`: the segments' joints in segment order (the chain's, with the branches after the
+    // chain link they hang from)
+    let (chain, built, held) = if branches.order.is_empty() {
+        let (segments, held) = chain_segments(parts, tree, &chain_joints);
+        (chain_joints, build_chain(at_robot.name, &segments), held)
+    } else {
+        let (segments, parents, held) = branches.segments(parts, tree, &chain_joints);
+        let mut built = build_tree(at_robot.name, &segments, &parents);
+        // the tip link in the last movable joint's frame: the chain's trailing fixed joints
+        built.robot.tool = branches.tool;
+        (branches.order.clone(), built, held)
+    };
     let robot = built.robot;
     robot
         .validate()
@@ -873,8 +1070,15 @@ fn build_chain_to_tip(
         .iter()
         .filter(|&&k| joints[k].mimic && joints[k].kind != SegmentKind::Fixed)
         .map(|&k| {
+            let why = if branches.beyond_tool.contains(&k) {
+                "it mimics a chain joint but hangs beyond the chain's last movable joint"
+            } else if followers {
+                "its leader is not a joint of the chain"
+            } else {
+                "import with the followers (`mimic`) or the tree for it to follow its leader"
+            };
             format!(
-                "joint {:?} mimics another joint; it is off the chain and held at 0 (import the tree for it to follow its leader)",
+                "joint {:?} mimics another joint; it is off the chain and held at 0 ({why})",
                 joints[k].name
             )
         })
@@ -898,11 +1102,7 @@ fn build_chain_to_tip(
             } else {
                 j.placement
             },
-            body: built
-                .segment_of_joint
-                .iter()
-                .position(|&s| chain[s] == k)
-                .map(|i| i + 1),
+            body: coordinates.iter().position(|&c| c == k).map(|i| i + 1),
         })
         .collect();
     crate::urdf_geometry::place(&mut geometry, &tree.root, &placed);

@@ -1,5 +1,6 @@
 //! Mimic joints over the reduced coordinates (issue 36): `"mimic": true` on a file robot,
-//! `{"urdf": PATH, "mimic": true, …}` (with `tip` the chain to it, with `floating` the tree on a
+//! `{"urdf": PATH, "mimic": true, …}` (with `tip` the chain to it and the followers of its joints
+//! that hang off it — a gripper's second finger —, with `floating` the tree on a
 //! floating root, with neither **the whole tree** — not `{"urdf": PATH}`'s chain to the only
 //! leaf: mimic joints are mostly on branches, a gripper's fingers) or
 //! `{"mjcf": PATH, "mimic": true, …}` (MuJoCo's `<equality><joint>`), for `fk`, `jacobian`,
@@ -61,6 +62,18 @@ fn mimic_error(field: &str, e: MimicError) -> ProtocolError {
     ProtocolError::new(ErrorKind::BadRequest, format!("{field}: {e}"))
 }
 
+/// A file robot with `"mimic": true` (a request's `robot` object, the forms above): the file's
+/// full model and its coupling, as the ops here use them (`robosim.Model(…, mimic=True)`).
+pub fn robot_and_coupling_of(robot: &Value) -> Result<(Robot, Coupling), ProtocolError> {
+    let obj = robot.as_object().ok_or_else(|| {
+        invalid_robot(JsonError::new(
+            "robot",
+            "expected a file robot ({\"urdf\": PATH, …} or {\"mjcf\": PATH, …})",
+        ))
+    })?;
+    robot_and_coupling(obj).map_err(invalid_robot)
+}
+
 /// The file's robot and its coupling (the identity for a file without mimic joints).
 fn robot_and_coupling(obj: &Map<String, Value>) -> Result<(Robot, Coupling), JsonError> {
     let mut rest = obj.clone();
@@ -93,10 +106,13 @@ fn robot_and_coupling(obj: &Map<String, Value>) -> Result<(Robot, Coupling), Jso
                 robosim_file_io::urdf_import::import_urdf_tree_floating(Path::new(&path), kind)
                     .map_err(|e| JsonError::caused("robot.urdf", e))?
             }
-            (None, Some(tip)) => {
-                robosim_file_io::urdf_import::import_urdf(Path::new(&path), Some(&tip))
-                    .map_err(|e| JsonError::caused("robot.urdf", e))?
-            }
+            // the chain to the tip with its off-chain followers moving (a gripper's second
+            // finger): the reduced coordinates are the chain's
+            (None, Some(tip)) => robosim_file_io::urdf_import::import_urdf_with_followers(
+                Path::new(&path),
+                Some(&tip),
+            )
+            .map_err(|e| JsonError::caused("robot.urdf", e))?,
             // mimic joints are mostly on branches (a gripper's fingers): without a tip, the
             // whole tree (Pinocchio's model), not the chain to the only leaf
             (None, None) => robosim_file_io::urdf_import::import_urdf_tree(Path::new(&path))
