@@ -282,3 +282,34 @@ def test_mimic_true_equals_the_protocols_mimic_ops_and_refuses_the_others():
         with pytest.raises(robosim.RequestError) as e:
             call()
         assert "mimic=True" in e.value.message, e.value.message
+
+
+def test_mimic_true_on_a_chain_moves_the_followers_off_it():
+    """A chain to a gripper finger with mimic=True: the followers of its joints that hang off
+    the chain (the other fingers) move with their leaders — Pinocchio 4.1's values from
+    testdata/urdf_corpus/mimic_chain_reference.json (make_mimic_chain_reference.py); the
+    reduced coordinates are the chain's free joints, in chain order."""
+    ref = load("testdata", "urdf_corpus", "mimic_chain_reference.json")
+    for rob in ref["robots"]:
+        path = os.path.join(CORPUS, "robots", rob["file"])
+        m = robosim.Model.from_urdf(path, tip=rob["tip"], mimic=True)
+        plain = robosim.Model.from_urdf(path, tip=rob["tip"])
+        assert m.nq == m.nv == len(rob["free"]), rob["file"]
+        assert m.njoints > plain.njoints  # the moving followers are joints of the model
+        for s in rob["samples"]:
+            q, v, a, tau = (np.array(s[k]) for k in ("q", "v", "a", "tau"))
+            close(m.rnea(q, v, a), s["rnea"], DYN_TOL, f"{rob['file']} rnea")
+            close(m.gravity(q), s["gravity"], DYN_TOL, f"{rob['file']} gravity")
+            close(m.crba(q), s["M"], DYN_TOL, f"{rob['file']} crba")
+            close(m.aba(q, v, tau), s["aba"], DYN_TOL, f"{rob['file']} aba")
+            tip = s["frames"][rob["tip"]]
+            close(m.fk(q), tip["pose"], POSE_TOL, f"{rob['file']} fk")
+            close(m.jacobian(q), tip["jacobian"], POSE_TOL, f"{rob['file']} jacobian")
+            frames = m.frames(q)
+            poses = [f for f in frames]
+            for link, fr in s["frames"].items():
+                if link == rob["tip"]:
+                    continue
+                # a follower's link frame is one of the model's frames
+                err = min(rel_err(p, fr["pose"]) for p in poses)
+                assert err <= POSE_TOL, f"{rob['file']} {link}: {err:e}"
