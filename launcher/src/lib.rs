@@ -455,6 +455,17 @@ fn origin_words(recorded: Option<&str>) -> String {
     }
 }
 
+/// The components named with `--with`, with their arguments, and the shipped rule bases and
+/// graphs they name (written into the session's run directory once it exists).
+struct Asked {
+    named: Vec<(String, Vec<String>)>,
+    shipped_rules: Vec<(&'static str, &'static str)>,
+    shipped_graphs: Vec<(&'static str, &'static str)>,
+}
+
+/// Starts (or resumes, or adds to) a session: checks what `--with` names, what the keeper
+/// starts from and what the session already holds, starts the keeper unless it runs, waits
+/// until it serves the model, then starts the components that do not run yet.
 fn up_start(
     start: Start<'_>,
     with: &[String],
@@ -466,11 +477,63 @@ fn up_start(
     if sim_mode.is_some() && !with.iter().any(|c| c == "simulator") {
         bail!("--sim-mode sets the mode of the simulator `up` starts: add `--with simulator`");
     }
-    // `NAME=FILE` names a component with the file it runs (`dataflow=GRAPH`).
-    let mut named: Vec<(String, Vec<String>)> = Vec::new();
-    let mut shipped_rules: Vec<(&str, &str)> = Vec::new();
-    let mut shipped_graphs: Vec<(&str, &str)> = Vec::new();
+    let asked = asked_components(start, with)?;
+    let (mut components, start_args) = keeper_start(start, library)?;
+    let session = Session::open(session)?;
+    let running = reconcile_with_existing(&session, start, fresh, &start_args)?;
+    let procs = session.processes();
+    let keeper_pid = if running {
+        procs
+            .iter()
+            .find(|p| p.role == "space")
+            .map_or(0, |p| p.pid)
+    } else {
+        start_keeper(&session, &start_args)?
+    };
+    let version = wait_model_served(&session, keeper_pid)?;
+    merge_asked(&mut components, asked.named);
+    write_shipped(
+        &session,
+        &mut components,
+        &asked.shipped_rules,
+        &SHIPPED_RULES,
+    )?;
+    write_shipped(
+        &session,
+        &mut components,
+        &asked.shipped_graphs,
+        &SHIPPED_GRAPH,
+    )?;
+    if let Some(mode) = sim_mode {
+        for (c, extra) in &mut components {
+            if c == "simulator" {
+                extra.extend(["--mode".to_owned(), mode.to_owned()]);
+            }
+        }
+    }
+    start_components(&session, &procs, &components, sim_mode)?;
+    println!(
+        "session {} up: keeper pid {keeper_pid}, model version {version}",
+        session.name()
+    );
+    if components.iter().any(|(c, _)| c == "display") {
+        println!("{}", display_note(&session));
+    }
+    print_ps(&session);
+    Ok(())
+}
+
+/// Checks each `--with` component (`NAME` or `NAME=FILE`) and gives it its arguments; a bare
+/// `rules`/`dataflow` runs what the scene names for it ([`SCENE_DEFAULTS`]). Nothing has
+/// started yet when this refuses.
+fn asked_components(start: Start<'_>, with: &[String]) -> Result<Asked> {
+    let mut asked = Asked {
+        named: Vec::new(),
+        shipped_rules: Vec::new(),
+        shipped_graphs: Vec::new(),
+    };
     for c in with {
+        // `NAME=FILE` names a component with the file it runs (`dataflow=GRAPH`).
         let (name, file) = match c.split_once('=') {
             Some((n, f)) => (n, Some(f)),
             None => (c.as_str(), None),
@@ -494,45 +557,11 @@ fn up_start(
             );
         }
         let extra = match (name, file) {
-            ("dataflow", Some(f)) => {
-                // The component runs in another directory: the file, absolute.
-                let abs = std::path::absolute(f).map_err(io("the dataflow graph"))?;
-                let file = if f.ends_with(".flow") {
-                    f.to_owned()
-                } else {
-                    format!("{f}.flow")
-                };
-                if abs.is_file() {
-                    vec![abs.display().to_string()]
-                } else if let Some((n, text)) = SHIPPED_GRAPHS.iter().find(|(n, _)| *n == file) {
-                    shipped_graphs.push((n, text));
-                    vec![SHIPPED_GRAPH_MARK.to_owned(), (*n).to_owned()]
-                } else {
-                    bail!(
-                        "--with dataflow={f}: no such graph file, and not a shipped graph (shipped: {})",
-                        SHIPPED_GRAPHS
-                            .iter()
-                            .map(|(n, _)| n.trim_end_matches(".flow"))
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    );
-                }
-            }
+            ("dataflow", Some(f)) => dataflow_args(f, &mut asked.shipped_graphs)?,
             ("dataflow", None) => bail!(
                 "the dataflow component runs a graph file: --with dataflow=FILE (docs/dataflow.md)"
             ),
-            ("rules", Some(f)) => {
-                // Before anything starts: a build without CLIPS says what to install.
-                robosim_rules::available()
-                    .map_err(|e| LaunchError::Process(format!("--with rules={f}: {e}")))?;
-                match rule_base(f)? {
-                    RuleBase::File(abs) => vec![abs.display().to_string()],
-                    RuleBase::Shipped(n, text) => {
-                        shipped_rules.push((n, text));
-                        vec![SHIPPED_MARK.to_owned(), n.to_owned()]
-                    }
-                }
-            }
+            ("rules", Some(f)) => rules_args(f, &mut asked.shipped_rules)?,
             ("rules", None) => bail!(
                 "the rules component runs a rule base: --with rules=FILE.clp, or a shipped one \
                  by name (rules=joint_guard) (docs/rules.md)"
@@ -540,13 +569,60 @@ fn up_start(
             (_, Some(_)) => bail!("--with {c}: only dataflow=FILE and rules=FILE take a file"),
             (_, None) => Vec::new(),
         };
-        named.push((name.to_owned(), extra));
+        asked.named.push((name.to_owned(), extra));
     }
-    // What to start besides the keeper: the scene's declared components with their
-    // arguments, then those named with --with (a name the scene declares is started once, as
-    // the scene says).
+    Ok(asked)
+}
+
+/// `dataflow=F`'s arguments: the graph file F (absolute: the component runs in another
+/// directory), else the shipped graph F (noted in `shipped`, a mark until its file is written).
+fn dataflow_args(f: &str, shipped: &mut Vec<(&'static str, &'static str)>) -> Result<Vec<String>> {
+    let abs = std::path::absolute(f).map_err(io("the dataflow graph"))?;
+    let file = if f.ends_with(".flow") {
+        f.to_owned()
+    } else {
+        format!("{f}.flow")
+    };
+    if abs.is_file() {
+        Ok(vec![abs.display().to_string()])
+    } else if let Some((n, text)) = SHIPPED_GRAPHS.iter().find(|(n, _)| *n == file) {
+        shipped.push((n, text));
+        Ok(vec![SHIPPED_GRAPH_MARK.to_owned(), (*n).to_owned()])
+    } else {
+        bail!(
+            "--with dataflow={f}: no such graph file, and not a shipped graph (shipped: {})",
+            SHIPPED_GRAPHS
+                .iter()
+                .map(|(n, _)| n.trim_end_matches(".flow"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+}
+
+/// `rules=F`'s arguments: the rule file F, else the shipped rule base F (noted in `shipped`).
+/// A build without CLIPS says what to install, before anything starts.
+fn rules_args(f: &str, shipped: &mut Vec<(&'static str, &'static str)>) -> Result<Vec<String>> {
+    robosim_rules::available()
+        .map_err(|e| LaunchError::Process(format!("--with rules={f}: {e}")))?;
+    Ok(match rule_base(f)? {
+        RuleBase::File(abs) => vec![abs.display().to_string()],
+        RuleBase::Shipped(n, text) => {
+            shipped.push((n, text));
+            vec![SHIPPED_MARK.to_owned(), n.to_owned()]
+        }
+    })
+}
+
+/// What the keeper is started with (`--scene`/`--load`, then `--library` for each library
+/// file), and the components the scene declares. A scene is checked against the library here,
+/// before anything starts.
+fn keeper_start(
+    start: Start<'_>,
+    library: &[PathBuf],
+) -> Result<(Vec<(String, Vec<String>)>, Vec<String>)> {
     let mut components: Vec<(String, Vec<String>)> = Vec::new();
-    let start_args: Vec<String> = match start {
+    let mut start_args: Vec<String> = match start {
         Start::Scene(scene_name) => {
             let lib = robosim_scene::build_library(library)?;
             scene::load_from(&lib, scene_name)?;
@@ -562,41 +638,59 @@ fn up_start(
     // The keeper builds its own Library Space: it must be given the same library files the
     // scene was checked against here (absolute: the keeper runs in another directory), or a
     // scene that names a declaration only FILE declares is refused by the keeper.
-    let mut start_args = start_args;
     for file in library {
         let abs = std::path::absolute(file).map_err(io("the library file"))?;
         start_args.push("--library".into());
         start_args.push(abs.display().to_string());
     }
-    let session = Session::open(session)?;
-    let name = session.name().to_owned();
-    let other = |scene_name: &str, running: bool, recorded: &Option<String>| -> LaunchError {
-        let from = origin_words(recorded.as_deref());
-        let (what, start, stop) = if running {
-            (
-                "already runs",
-                String::new(),
-                format!("robosim down --session {name} && "),
-            )
-        } else {
-            let resume = match recorded.as_deref() {
-                Some(r) if !r.starts_with(FILE_NOTE_PREFIX) => r,
-                _ => "SCENE",
-            };
-            (
-                "has a saved model (in its journal) of",
-                format!("robosim up {resume} --session {name} && "),
-                String::new(),
-            )
+    Ok((components, start_args))
+}
+
+/// The refusal of `up SCENE` on a session that holds another model (`running` or saved),
+/// with the two ways to get SCENE.
+fn other_model(
+    name: &str,
+    scene_name: &str,
+    running: bool,
+    recorded: &Option<String>,
+) -> LaunchError {
+    let from = origin_words(recorded.as_deref());
+    let (what, start, stop) = if running {
+        (
+            "already runs",
+            String::new(),
+            format!("robosim down --session {name} && "),
+        )
+    } else {
+        let resume = match recorded.as_deref() {
+            Some(r) if !r.starts_with(FILE_NOTE_PREFIX) => r,
+            _ => "SCENE",
         };
-        LaunchError::Process(format!(
-            "session {name} {what} {from}; {scene_name} was not loaded.\n  \
-             to add {scene_name} to that model: {start}robosim instantiate {scene_name} --session {name}\n  \
-             to start over with {scene_name}:   {stop}robosim up {scene_name} --session {name} --fresh   \
-             (the saved model is moved aside, not deleted)"
-        ))
+        (
+            "has a saved model (in its journal) of",
+            format!("robosim up {resume} --session {name} && "),
+            String::new(),
+        )
     };
-    let running = match (existing(&session), start) {
+    LaunchError::Process(format!(
+        "session {name} {what} {from}; {scene_name} was not loaded.\n  \
+         to add {scene_name} to that model: {start}robosim instantiate {scene_name} --session {name}\n  \
+         to start over with {scene_name}:   {stop}robosim up {scene_name} --session {name} --fresh   \
+         (the saved model is moved aside, not deleted)"
+    ))
+}
+
+/// Decides what happens to the model the session already holds (see [`up_with_library`]),
+/// says so on stderr, and answers whether its keeper runs (else `up` starts one). `--fresh`
+/// moves a saved model aside here.
+fn reconcile_with_existing(
+    session: &Session,
+    start: Start<'_>,
+    fresh: bool,
+    start_args: &[String],
+) -> Result<bool> {
+    let name = session.name();
+    Ok(match (existing(session), start) {
         (Existing::Running(pid, _), Start::File(_)) => bail!(
             "session {name} is running (keeper pid {pid}): load the file into it with \
              `robosim load {} --session {name}`",
@@ -618,7 +712,7 @@ fn up_start(
                      recorded; {scene_name} was not loaded (`robosim instantiate {scene_name}` adds \
                      it); adding components"
                 ),
-                Some(_) => return Err(other(scene_name, true, &recorded)),
+                Some(_) => return Err(other_model(name, scene_name, true, &recorded)),
             }
             true
         }
@@ -631,7 +725,7 @@ fn up_start(
             false
         }
         (Existing::Saved(_), Start::Scene(_)) if fresh => {
-            let to = move_aside(&session)?;
+            let to = move_aside(session)?;
             eprintln!(
                 "session {name}: the saved model was moved to {}",
                 to.display()
@@ -648,7 +742,7 @@ fn up_start(
                     "session {name}: resuming its saved model from the journal; its scene is not \
                      recorded, so {scene_name} was not loaded (--fresh starts over with it)"
                 ),
-                Some(_) => return Err(other(scene_name, false, &recorded)),
+                Some(_) => return Err(other_model(name, scene_name, false, &recorded)),
             }
             false
         }
@@ -665,42 +759,47 @@ fn up_start(
         }
         (Existing::Nothing, Start::Resume) => bail!("session {name} holds no model to resume"),
         (Existing::Nothing, _) => false,
-    };
-    let procs = session.processes();
-    let keeper_pid = if running {
-        procs
-            .iter()
-            .find(|p| p.role == "space")
-            .map_or(0, |p| p.pid)
-    } else {
-        let mut args = vec!["space", "--session", session.name()];
-        args.extend(start_args.iter().map(String::as_str));
-        let pid = spawn(&session, "space", &args)?;
-        wait_registered(&session, "space", pid, Duration::from_secs(30))?;
-        if let Ok(note) = std::fs::read_to_string(
-            session
-                .run_dir()
-                .join(robosim_instance_space::journal::LOST_NOTE),
-        ) {
-            eprint!("robosim up: {note}");
-        }
-        pid
-    };
-    // The keeper is up when a client can connect and a reader sees the model. A keeper that
-    // starts from a big model file (replacing what it recovered) may publish later than a
-    // reader's 10 s: wait on while it lives, up to 5 minutes.
-    Client::connect(&session, "launcher")?;
+    })
+}
+
+/// Starts the keeper (`robosim space`) and waits until it registers; says what its recovery
+/// lost, if anything. Answers its pid.
+fn start_keeper(session: &Session, start_args: &[String]) -> Result<u32> {
+    let mut args = vec!["space", "--session", session.name()];
+    args.extend(start_args.iter().map(String::as_str));
+    let pid = spawn(session, "space", &args)?;
+    wait_registered(session, "space", pid, Duration::from_secs(30))?;
+    if let Ok(note) = std::fs::read_to_string(
+        session
+            .run_dir()
+            .join(robosim_instance_space::journal::LOST_NOTE),
+    ) {
+        eprint!("robosim up: {note}");
+    }
+    Ok(pid)
+}
+
+/// Waits until the keeper serves: a client can connect and a reader sees the model. Answers
+/// the model's version. A keeper that starts from a big model file (replacing what it
+/// recovered) may publish later than a reader's 10 s: wait on while it lives, up to 5 minutes.
+fn wait_model_served(session: &Session, keeper_pid: u32) -> Result<u64> {
+    Client::connect(session, "launcher")?;
     let waiting = Instant::now();
     let reader = loop {
-        match Reader::attach(&session, "launcher-reader") {
+        match Reader::attach(session, "launcher-reader") {
             Err(robosim_instance_space::ReaderError::Timeout(_))
                 if robosim_instance_space::pid_alive(keeper_pid)
                     && waiting.elapsed() < Duration::from_secs(300) => {}
             r => break r?,
         }
     };
-    let version = reader.snapshot().map_or(0, |s| s.version());
-    // Several rule bases are several processes: a rules component is one per file.
+    Ok(reader.snapshot().map_or(0, |s| s.version()))
+}
+
+/// Adds the `--with` components to the scene's declared ones: a name the scene declares is
+/// started once, as the scene says; several rule bases are several processes (a rules
+/// component is one per file).
+fn merge_asked(components: &mut Vec<(String, Vec<String>)>, named: Vec<(String, Vec<String>)>) {
     for (c, extra) in named {
         if !components
             .iter()
@@ -709,43 +808,70 @@ fn up_start(
             components.push((c, extra));
         }
     }
-    // A shipped rule base becomes a file the process reads.
-    if !shipped_rules.is_empty() {
-        let dir = session.run_dir().join("rulebases");
-        std::fs::create_dir_all(&dir).map_err(io("the session's rulebases directory"))?;
-        for (n, text) in &shipped_rules {
-            let path = dir.join(n);
-            std::fs::write(&path, text).map_err(io("a shipped rule base"))?;
-            for (c, extra) in &mut components {
-                if c == "rules" && extra[..] == [SHIPPED_MARK, *n] {
-                    *extra = vec![path.display().to_string()];
-                }
+}
+
+/// Where a kind of shipped file a component runs is written, and the mark its arguments hold
+/// until then.
+struct ShippedKind {
+    component: &'static str,
+    /// Subdirectory of `<session>/run/`.
+    subdir: &'static str,
+    mark: &'static str,
+    dir_what: &'static str,
+    file_what: &'static str,
+}
+
+const SHIPPED_RULES: ShippedKind = ShippedKind {
+    component: "rules",
+    subdir: "rulebases",
+    mark: SHIPPED_MARK,
+    dir_what: "the session's rulebases directory",
+    file_what: "a shipped rule base",
+};
+
+const SHIPPED_GRAPH: ShippedKind = ShippedKind {
+    component: "dataflow",
+    subdir: "graphs",
+    mark: SHIPPED_GRAPH_MARK,
+    dir_what: "the session's graphs directory",
+    file_what: "a shipped dataflow graph",
+};
+
+/// Writes each shipped rule base or graph into `<session>/run/<dir>/` and puts its path in
+/// place of its mark in the components' arguments.
+fn write_shipped(
+    session: &Session,
+    components: &mut [(String, Vec<String>)],
+    shipped: &[(&str, &str)],
+    kind: &ShippedKind,
+) -> Result<()> {
+    if shipped.is_empty() {
+        return Ok(());
+    }
+    let dir = session.run_dir().join(kind.subdir);
+    std::fs::create_dir_all(&dir).map_err(io(kind.dir_what))?;
+    for (n, text) in shipped {
+        let path = dir.join(n);
+        std::fs::write(&path, text).map_err(io(kind.file_what))?;
+        for (c, extra) in components.iter_mut() {
+            if c == kind.component && extra[..] == [kind.mark, *n] {
+                *extra = vec![path.display().to_string()];
             }
         }
     }
-    // A shipped graph becomes a file the process reads.
-    if !shipped_graphs.is_empty() {
-        let dir = session.run_dir().join("graphs");
-        std::fs::create_dir_all(&dir).map_err(io("the session's graphs directory"))?;
-        for (n, text) in &shipped_graphs {
-            let path = dir.join(n);
-            std::fs::write(&path, text).map_err(io("a shipped dataflow graph"))?;
-            for (c, extra) in &mut components {
-                if c == "dataflow" && extra[..] == [SHIPPED_GRAPH_MARK, *n] {
-                    *extra = vec![path.display().to_string()];
-                }
-            }
-        }
-    }
+    Ok(())
+}
+
+/// Starts each component that does not run yet and waits until it registers. A running
+/// rules process keeps its rule base, a running simulator its mode (both said on stderr).
+fn start_components(
+    session: &Session,
+    procs: &[robosim_instance_space::ProcInfo],
+    components: &[(String, Vec<String>)],
+    sim_mode: Option<&str>,
+) -> Result<()> {
     let rules_running = procs.iter().find(|p| p.role == "rules").map(|p| p.pid);
-    if let Some(mode) = sim_mode {
-        for (c, extra) in &mut components {
-            if c == "simulator" {
-                extra.extend(["--mode".to_owned(), mode.to_owned()]);
-            }
-        }
-    }
-    for (c, extra) in &components {
+    for (c, extra) in components {
         if let (Some(pid), "rules") = (rules_running, c.as_str()) {
             // Which rule base a running rules process has is not recorded: keep what runs.
             eprintln!(
@@ -774,17 +900,9 @@ fn up_start(
         };
         let mut args = vec![*sub, "--session", session.name()];
         args.extend(extra.iter().map(String::as_str));
-        let pid = spawn(&session, c, &args)?;
-        wait_registered(&session, c, pid, Duration::from_secs(30))?;
+        let pid = spawn(session, c, &args)?;
+        wait_registered(session, c, pid, Duration::from_secs(30))?;
     }
-    println!(
-        "session {} up: keeper pid {keeper_pid}, model version {version}",
-        session.name()
-    );
-    if components.iter().any(|(c, _)| c == "display") {
-        println!("{}", display_note(&session));
-    }
-    print_ps(&session);
     Ok(())
 }
 
