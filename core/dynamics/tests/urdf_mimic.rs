@@ -17,7 +17,9 @@ use robosim_dynamics::{Data, Model, rnea};
 use robosim_kinematics::fk::link_pose;
 use robosim_kinematics::jacobian::Frame;
 use robosim_kinematics::mimic::link_jacobian;
-use robosim_urdf::urdf_import::{import_urdf_str, import_urdf_tree_str};
+use robosim_urdf::urdf_import::{
+    import_urdf, import_urdf_str, import_urdf_tree_str, import_urdf_with_followers,
+};
 use serde_json::Value;
 use std::path::PathBuf;
 
@@ -142,6 +144,176 @@ fn mimic_robots_match_pinocchios_mimic_model() {
         worst[0], worst[1], worst[2], worst[3], worst[4], worst[5]
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// Followers off a chain (issue 36 item 1): a chain import to a gripper finger with the
+/// followers of its joints that hang off it moving
+/// ([`robosim_urdf::urdf_import::import_urdf_with_followers`]: PR2's right gripper, TIAGo Pro's
+/// left gripper, Baxter's left gripper) against Pinocchio 4.1 — its full model with the other
+/// joints locked at 0 (`buildReducedModel`) and the relations in closed form, cross-checked
+/// there with its own mimic model: testdata/urdf_corpus/mimic_chain_reference.json, written by
+/// make_mimic_chain_reference.py beside it. The reduced coordinates are the chain's free
+/// joints; the followers' link frames move with their leaders and their mass moves in RNEA,
+/// CRBA and the forward dynamics (the plain chain import holds them at 0, lumped: their link
+/// poses differ, checked).
+#[test]
+fn off_chain_followers_move_with_their_leaders_on_the_chain() {
+    let reference: Value = serde_json::from_str(
+        &std::fs::read_to_string(dir().join("mimic_chain_reference.json")).expect("reference"),
+    )
+    .expect("JSON");
+    let robots = reference["robots"].as_array().expect("robots");
+    assert_eq!(robots.len(), 3);
+    let mut failures = Vec::new();
+    let mut check = |what: String, got: &[f64], want: &[f64], tol: f64| {
+        let e = rel_err(got, want);
+        if e.is_nan() || e > tol {
+            failures.push(format!("{what} differs by {e:e}"));
+        }
+    };
+    let mut moved = 0;
+    for rob in robots {
+        let name = rob["file"].as_str().expect("file");
+        let tip = rob["tip"].as_str().expect("tip");
+        let path = dir().join("robots").join(name);
+        let imported = import_urdf_with_followers(&path, Some(tip)).expect("imports");
+        let plain = import_urdf(&path, Some(tip)).expect("imports");
+        let coupling = imported.coupling.as_ref().expect("a coupling");
+        let names: Vec<&str> = imported.joints.iter().map(|j| j.name.as_str()).collect();
+        for f in rob["moving_followers"].as_array().expect("moving") {
+            let f = f.as_str().expect("name");
+            assert!(names.contains(&f), "{name}: {f} is not a joint: {names:?}");
+            assert!(!imported.held.iter().any(|h| h == f), "{name}: {f} held");
+            assert!(
+                plain.held.iter().any(|h| h == f),
+                "{name}: {f} not held by the chain"
+            );
+        }
+        let free: Vec<&str> = coupling.free().iter().map(|&i| names[i]).collect();
+        let want_free: Vec<&str> = rob["free"]
+            .as_array()
+            .expect("free")
+            .iter()
+            .map(|n| n.as_str().expect("name"))
+            .collect();
+        // the reduced coordinates are the chain's free joints, in chain order
+        assert_eq!(free, want_free, "{name}");
+        let plain_free: Vec<&str> = match &plain.coupling {
+            Some(c) => c
+                .free()
+                .iter()
+                .map(|&i| plain.joints[i].name.as_str())
+                .collect(),
+            None => plain.joints.iter().map(|j| j.name.as_str()).collect(),
+        };
+        assert_eq!(
+            free, plain_free,
+            "{name}: the same q as the plain chain import"
+        );
+        let model = Model::new(&imported.robot).expect("dynamics model");
+        let mut data = Data::new(&model);
+        for s in rob["samples"].as_array().expect("samples") {
+            let [q, v, a, tau] = ["q", "v", "a", "tau"].map(|k| floats(&s[k]));
+            let t = rnea_mimic(&model, &mut data, coupling, &q, &v, &a).expect("rnea");
+            check(
+                format!("{name}: rnea"),
+                t.as_slice(),
+                &floats(&s["rnea"]),
+                DYN_TOL,
+            );
+            let g = gravity_mimic(&model, &mut data, coupling, &q).expect("gravity");
+            check(
+                format!("{name}: gravity"),
+                g.as_slice(),
+                &floats(&s["gravity"]),
+                DYN_TOL,
+            );
+            let m = crba_mimic(&model, &mut data, coupling, &q).expect("crba");
+            check(
+                format!("{name}: M"),
+                &flat(&m),
+                &flat(&matrix(&s["M"])),
+                DYN_TOL,
+            );
+            let qdd = aba_mimic(&model, &mut data, coupling, &q, &v, &tau).expect("aba");
+            check(
+                format!("{name}: aba"),
+                qdd.as_slice(),
+                &floats(&s["aba"]),
+                DYN_TOL,
+            );
+            let plain_q = match &plain.coupling {
+                Some(c) => c.expand_q(&q).expect("q"),
+                None => q.clone(),
+            };
+            for (link, fr) in s["frames"].as_object().expect("frames") {
+                // the tip: the tool frame (a fixed joint's child on Baxter); a follower's
+                // link: its joint's link frame
+                let k = imported.joints.iter().position(|j| &j.link == link);
+                let (pose, jac) = match k {
+                    _ if link == tip => (
+                        robosim_kinematics::mimic::forward(&imported.robot, coupling, &q)
+                            .expect("fk"),
+                        robosim_kinematics::mimic::jacobian(
+                            &imported.robot,
+                            coupling,
+                            &q,
+                            Frame::Base,
+                        )
+                        .expect("J"),
+                    ),
+                    Some(k) => {
+                        link_jacobian(&imported.robot, coupling, &q, k + 1, Frame::Base).expect("J")
+                    }
+                    None => panic!("{name}: {link} is neither the tip nor a joint's link"),
+                };
+                let want = flat(&matrix(&fr["pose"]));
+                check(
+                    format!("{name}: pose of {link}"),
+                    &flat4(&pose),
+                    &want,
+                    POSE_TOL,
+                );
+                check(
+                    format!("{name}: jacobian of {link}"),
+                    &flat(&jac),
+                    &flat(&matrix(&fr["jacobian"])),
+                    POSE_TOL,
+                );
+                if link != tip {
+                    // held at 0, as the plain chain holds it, this link would be elsewhere
+                    assert!(
+                        plain.joints.iter().all(|j| &j.link != link),
+                        "{name}: {link}"
+                    );
+                    let mut held_q = coupling.expand_q(&q).expect("q");
+                    for i in 0..held_q.len() {
+                        if !plain.joints.iter().any(|j| j.name == names[i]) {
+                            held_q[i] = 0.0;
+                        }
+                    }
+                    let k = k.expect("a follower's link");
+                    let held = link_pose(&imported.robot, &held_q, k + 1);
+                    assert!(
+                        rel_err(&flat4(&held), &want) > 1e-6,
+                        "{name}: {link} held at 0 is where the reference puts it"
+                    );
+                    moved += 1;
+                }
+            }
+            let tool =
+                robosim_kinematics::mimic::forward(&imported.robot, coupling, &q).expect("fk");
+            let plain_tool = robosim_kinematics::fk::forward(&plain.robot, &plain_q);
+            check(
+                format!("{name}: tool vs the plain chain's"),
+                &flat4(&tool),
+                &flat4(&plain_tool),
+                POSE_TOL,
+            );
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    assert!(moved >= 6, "follower links checked: {moved}");
 }
 
 /// A chain to the Panda's right finger: the follower (`panda_finger_joint2`) is on the chain,
