@@ -10,6 +10,7 @@
 //! Entry points: [`collide`] (boolean, distance, witness points, depth) and [`intersects`]
 //! (boolean only — what the robot checks use).
 
+mod depth;
 mod gjk;
 mod lean;
 mod lower;
@@ -529,7 +530,21 @@ fn collide_support_maps(
             // Certified: the lower bound maximised over directions first. A GJK tolerance
             // takes EPA's depth as it comes (coal's way), the refinement only if EPA fails.
             let certified = opts.tolerance == Tolerance::Certified;
+            let mut epa = None;
             if certified && s.upper - s.lower > tol {
+                // EPA first: where a ball inside both solids shows that no direction closes
+                // the bracket and EPA's depth is below any τ the search can reach, the search
+                // cannot change the answer (`depth`); otherwise it runs as before.
+                let c = depth::contact(ga, sa, gb, sb);
+                if depth::epa_stands(&c, ga, sa, gb, sb, &pos12, &s, tol)
+                    && let Ok(Some(c)) = c
+                {
+                    return PairResult::Contact {
+                        signed_distance: Some(c.dist.min(0.0)),
+                        witness: Some([c.point1, c.point2]),
+                    };
+                }
+                epa = Some(c);
                 lower::refine(&mut s, &pos12, ma, mb, sa, sb, true, tol);
             }
             if s.upper - s.lower <= tol {
@@ -548,7 +563,7 @@ fn collide_support_maps(
             let lower = s.lower;
             let usable =
                 |d: f64| d <= lower + tol && d >= lower - tau || d < -tau || !lower.is_finite();
-            match query::contact(ga, sa, gb, sb, 0.0) {
+            match epa.unwrap_or_else(|| depth::contact(ga, sa, gb, sb)) {
                 Ok(Some(c)) if c.dist.is_finite() && usable(c.dist.min(0.0)) => {
                     PairResult::Contact {
                         signed_distance: Some(c.dist.min(0.0)),
