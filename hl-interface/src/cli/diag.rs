@@ -82,317 +82,378 @@ fn allocation(m: &Model, drop: &[String]) -> Result<Vec<bool>, CommandError> {
 
 /// Runs a command and returns its report (the last line of `analyze` is a one-line summary).
 pub fn execute(cmd: DiagCmd) -> Result<String, CommandError> {
-    let mut o = String::new();
     match cmd {
-        DiagCmd::Check { model, dot } => {
-            let m = load(&model)?;
-            if let Some(path) = &dot {
-                robosim_input::write_file_atomic(path, m.to_dot().as_bytes())?;
-            }
-            let findings = check_model(&m);
-            let _ = writeln!(
-                o,
-                "model {} ({}): {} processes (depth {}), {} failure modes ({} may originate), {} alarms, {} propagation edges ({} assumed), {} components, {} signal connections",
-                m.processes[0].name,
-                m.source,
-                m.processes.len(),
-                m.max_depth(),
-                m.failure_modes.len(),
-                m.source_failure_modes().len(),
-                m.alarms.len(),
-                m.edges.len(),
-                m.edges.iter().filter(|e| e.assumed).count(),
-                m.components.len(),
-                m.connections.len()
-            );
-            for f in &findings {
-                let _ = writeln!(o, "{}", f.render(&m.source));
-            }
-            let errors = findings
-                .iter()
-                .filter(|f| f.severity == Severity::Error)
-                .count();
-            if errors > 0 {
-                return Err(CommandError::Refused(format!(
-                    "{o}{errors} error(s): the model is not consistent"
-                )));
-            }
-            let _ = writeln!(o, "consistent ({} warning(s))", findings.len());
-        }
+        DiagCmd::Check { model, dot } => check(&model, dot.as_deref()),
         DiagCmd::Simulate {
             model,
             faults,
             seed,
             sample,
             drop,
-        } => {
-            let m = load(&model)?;
-            let g = FaultGraph::new(&m);
-            let mut inj = Vec::new();
-            for f in &faults {
-                let (name, t) = match f.split_once('@') {
-                    Some((n, t)) => (
-                        n,
-                        t.parse::<f64>()
-                            .map_err(|_| format!("--fault {f}: `{t}` is not a time in seconds"))?,
-                    ),
-                    None => (f.as_str(), 0.0),
-                };
-                if !t.is_finite() {
-                    return Err(CommandError::Refused(format!(
-                        "--fault {f}: time must be finite"
-                    )));
-                }
-                inj.push((m.find_failure_mode(name)?, t));
-            }
-            let present = allocation(&m, &drop)?;
-            let opts = SimOptions {
-                seed,
-                sample_probabilities: sample,
-                ..SimOptions::default()
-            };
-            let sim = simulate(&g, &inj, &opts);
-            let seen = filter(&sim.alarms, &present);
-            let _ = writeln!(
-                o,
-                "# model {}; injected: {}; seed {seed}; {}; {} of {} alarms kept by the sensor allocation",
-                m.source,
-                inj.iter()
-                    .map(|(f, t)| format!("{}@{t}", m.failure_modes[*f].path))
-                    .collect::<Vec<_>>()
-                    .join(", "),
-                if sample {
-                    "probabilities sampled"
-                } else {
-                    "every edge fires"
-                },
-                seen.len(),
-                sim.alarms.len()
-            );
-            o.push_str(&write_alarms(&m, &seen));
-        }
+        } => simulate_faults(&model, &faults, seed, sample, &drop),
         DiagCmd::Run {
             model,
             alarms,
             until,
             drop,
-        } => {
-            let m = load(&model)?;
-            let g = FaultGraph::new(&m);
-            let text = robosim_input::read_to_string(
-                &alarms,
-                "an alarm file",
-                robosim_input::Limit::TEXT,
-            )?;
-            let events = parse_alarms(&m, &text, &alarms.display().to_string())?;
-            let present = allocation(&m, &drop)?;
-            let mut ilm = Ilm::new(&m, &g, Some(&present));
-            // Alarms with the same time stamp rang together: one update.
-            let mut i = 0;
-            while i < events.len() {
-                let t = events[i].time;
-                let mut batch = Vec::new();
-                while i < events.len() && events[i].time == t {
-                    let e = events[i];
-                    if !present[e.alarm] {
-                        return Err(CommandError::Refused(format!(
-                            "alarm {} is in the sequence but dropped from the allocation",
-                            m.alarms[e.alarm].name
-                        )));
-                    }
-                    batch.push((e.alarm, e.time));
-                    i += 1;
-                }
-                ilm.on_alarms(&batch)?;
-                ilm.step();
-                let c = ilm.diagnoser().candidates();
-                let guess = ilm.best_guess();
-                let names: Vec<&str> = batch
-                    .iter()
-                    .map(|&(a, _)| m.alarms[a].name.as_str())
-                    .collect();
-                let _ = writeln!(
-                    o,
-                    "t={:>8.1}  {:<24} FSPI: {} single-fault candidate(s){}",
-                    t,
-                    names.join(" "),
-                    c.len(),
-                    guess.map_or(String::new(), |g| format!(
-                        "; ILM depth {}: {}",
-                        g.depth,
-                        g.processes
-                            .iter()
-                            .map(|&p| m.processes[p].path.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ))
-                );
-            }
-            if let Some(t) = until {
-                ilm.advance_to(t);
-            }
-            ilm.run_to_completion();
-            let _ = writeln!(o, "ILM:");
-            for l in &ilm.log {
-                let _ = writeln!(o, "  {l}");
-            }
-            match ilm.best_guess() {
-                None => {
-                    let _ = writeln!(o, "no alarms: nothing to diagnose");
-                }
-                Some(gs) if gs.failure_modes.is_empty() => {
-                    let _ = writeln!(
-                        o,
-                        "no hypothesis of up to 3 faults explains these alarms within the model (a sensor fault, or a fault the model lacks?)"
-                    );
-                }
-                Some(gs) => {
-                    let kind = if gs.multiple {
-                        "multiple fault"
-                    } else {
-                        "single fault"
-                    };
-                    let _ = writeln!(
-                        o,
-                        "diagnosis ({kind}, {} candidate failure mode(s)):",
-                        gs.failure_modes.len()
-                    );
-                    for &f in &gs.failure_modes {
-                        let fm = &m.failure_modes[f];
-                        let comps: Vec<&str> = fm
-                            .components
-                            .iter()
-                            .map(|&c| m.components[c].name.as_str())
-                            .collect();
-                        let _ = writeln!(o, "  {}  [{}]", fm.path, comps.join(", "));
-                    }
-                    if gs.multiple {
-                        let v = ilm.diagnoser().clone().global_verdict();
-                        for h in &v.multiple {
-                            let names: Vec<&str> = h
-                                .iter()
-                                .map(|&f| m.failure_modes[f].path.as_str())
-                                .collect();
-                            let _ = writeln!(o, "  hypothesis: {{{}}}", names.join(", "));
-                        }
-                    }
-                    let comps: Vec<&str> = gs
-                        .components
-                        .iter()
-                        .map(|&c| m.components[c].name.as_str())
-                        .collect();
-                    let _ = writeln!(
-                        o,
-                        "FSCI components: {}",
-                        if comps.is_empty() {
-                            "-".into()
-                        } else {
-                            comps.join(", ")
-                        }
-                    );
-                }
-            }
-        }
+        } => diagnose(&model, &alarms, until, &drop),
         DiagCmd::Analyze {
             model,
             sensors,
             trials,
             seed,
-        } => {
-            let m = load(&model)?;
-            let findings = check_model(&m);
-            if findings.iter().any(|f| f.severity == Severity::Error) {
+        } => analyze(&model, sensors, trials, seed),
+    }
+}
+
+/// `diag check`: the model's size and its consistency findings (optionally its DOT); refused
+/// when a finding is an error.
+fn check(model: &str, dot: Option<&std::path::Path>) -> Result<String, CommandError> {
+    let mut o = String::new();
+    let m = load(model)?;
+    if let Some(path) = dot {
+        robosim_input::write_file_atomic(path, m.to_dot().as_bytes())?;
+    }
+    let findings = check_model(&m);
+    let _ = writeln!(
+        o,
+        "model {} ({}): {} processes (depth {}), {} failure modes ({} may originate), {} alarms, {} propagation edges ({} assumed), {} components, {} signal connections",
+        m.processes[0].name,
+        m.source,
+        m.processes.len(),
+        m.max_depth(),
+        m.failure_modes.len(),
+        m.source_failure_modes().len(),
+        m.alarms.len(),
+        m.edges.len(),
+        m.edges.iter().filter(|e| e.assumed).count(),
+        m.components.len(),
+        m.connections.len()
+    );
+    for f in &findings {
+        let _ = writeln!(o, "{}", f.render(&m.source));
+    }
+    let errors = findings
+        .iter()
+        .filter(|f| f.severity == Severity::Error)
+        .count();
+    if errors > 0 {
+        return Err(CommandError::Refused(format!(
+            "{o}{errors} error(s): the model is not consistent"
+        )));
+    }
+    let _ = writeln!(o, "consistent ({} warning(s))", findings.len());
+    Ok(o)
+}
+
+/// `diag simulate`: the alarm sequence the injected faults ring (a comment line, then the
+/// alarms the sensor allocation keeps, in the format `diag run` reads).
+fn simulate_faults(
+    model: &str,
+    faults: &[String],
+    seed: u64,
+    sample: bool,
+    drop: &[String],
+) -> Result<String, CommandError> {
+    let mut o = String::new();
+    let m = load(model)?;
+    let g = FaultGraph::new(&m);
+    let inj = injections(&m, faults)?;
+    let present = allocation(&m, drop)?;
+    let opts = SimOptions {
+        seed,
+        sample_probabilities: sample,
+        ..SimOptions::default()
+    };
+    let sim = simulate(&g, &inj, &opts);
+    let seen = filter(&sim.alarms, &present);
+    let _ = writeln!(
+        o,
+        "# model {}; injected: {}; seed {seed}; {}; {} of {} alarms kept by the sensor allocation",
+        m.source,
+        inj.iter()
+            .map(|(f, t)| format!("{}@{t}", m.failure_modes[*f].path))
+            .collect::<Vec<_>>()
+            .join(", "),
+        if sample {
+            "probabilities sampled"
+        } else {
+            "every edge fires"
+        },
+        seen.len(),
+        sim.alarms.len()
+    );
+    o.push_str(&write_alarms(&m, &seen));
+    Ok(o)
+}
+
+/// The `--fault NAME[@SECONDS]` arguments as (failure mode index, time in s).
+fn injections(m: &Model, faults: &[String]) -> Result<Vec<(usize, f64)>, CommandError> {
+    let mut inj = Vec::new();
+    for f in faults {
+        let (name, t) = match f.split_once('@') {
+            Some((n, t)) => (
+                n,
+                t.parse::<f64>()
+                    .map_err(|_| format!("--fault {f}: `{t}` is not a time in seconds"))?,
+            ),
+            None => (f.as_str(), 0.0),
+        };
+        if !t.is_finite() {
+            return Err(CommandError::Refused(format!(
+                "--fault {f}: time must be finite"
+            )));
+        }
+        inj.push((m.find_failure_mode(name)?, t));
+    }
+    Ok(inj)
+}
+
+/// `diag run`: feeds the alarm file to the diagnoser one time stamp at a time (a line per
+/// update: FSPI candidates, ILM's best guess), runs ILM to completion (from `until`, if
+/// given), and writes its log and verdict.
+fn diagnose(
+    model: &str,
+    alarms: &std::path::Path,
+    until: Option<f64>,
+    drop: &[String],
+) -> Result<String, CommandError> {
+    let mut o = String::new();
+    let m = load(model)?;
+    let g = FaultGraph::new(&m);
+    let text = robosim_input::read_to_string(alarms, "an alarm file", robosim_input::Limit::TEXT)?;
+    let events = parse_alarms(&m, &text, &alarms.display().to_string())?;
+    let present = allocation(&m, drop)?;
+    let mut ilm = Ilm::new(&m, &g, Some(&present));
+    // Alarms with the same time stamp rang together: one update.
+    let mut i = 0;
+    while i < events.len() {
+        let t = events[i].time;
+        let mut batch = Vec::new();
+        while i < events.len() && events[i].time == t {
+            let e = events[i];
+            if !present[e.alarm] {
                 return Err(CommandError::Refused(format!(
-                    "model {} is not consistent: run `diag check` first",
-                    m.source
+                    "alarm {} is in the sequence but dropped from the allocation",
+                    m.alarms[e.alarm].name
                 )));
             }
-            let g = FaultGraph::new(&m);
-            let na = m.alarms.len();
-            let opts = SimOptions {
-                seed,
-                sample_probabilities: true,
-                ..SimOptions::default()
+            batch.push((e.alarm, e.time));
+            i += 1;
+        }
+        ilm.on_alarms(&batch)?;
+        ilm.step();
+        write_update(&mut o, &m, &ilm, t, &batch);
+    }
+    if let Some(t) = until {
+        ilm.advance_to(t);
+    }
+    ilm.run_to_completion();
+    let _ = writeln!(o, "ILM:");
+    for l in &ilm.log {
+        let _ = writeln!(o, "  {l}");
+    }
+    write_verdict(&mut o, &m, &ilm);
+    Ok(o)
+}
+
+/// One line of `diag run` after the alarms of time `t`: the alarms, FSPI's single-fault
+/// candidates and ILM's best guess so far.
+fn write_update(o: &mut String, m: &Model, ilm: &Ilm, t: f64, batch: &[(usize, f64)]) {
+    let c = ilm.diagnoser().candidates();
+    let guess = ilm.best_guess();
+    let names: Vec<&str> = batch
+        .iter()
+        .map(|&(a, _)| m.alarms[a].name.as_str())
+        .collect();
+    let _ = writeln!(
+        o,
+        "t={:>8.1}  {:<24} FSPI: {} single-fault candidate(s){}",
+        t,
+        names.join(" "),
+        c.len(),
+        guess.map_or(String::new(), |g| format!(
+            "; ILM depth {}: {}",
+            g.depth,
+            g.processes
+                .iter()
+                .map(|&p| m.processes[p].path.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ))
+    );
+}
+
+/// The end of `diag run`: no alarms, no hypothesis, or the diagnosis (its failure modes with
+/// their components, the multiple-fault hypotheses, FSCI's components).
+fn write_verdict(o: &mut String, m: &Model, ilm: &Ilm) {
+    match ilm.best_guess() {
+        None => {
+            let _ = writeln!(o, "no alarms: nothing to diagnose");
+        }
+        Some(gs) if gs.failure_modes.is_empty() => {
+            let _ = writeln!(
+                o,
+                "no hypothesis of up to 3 faults explains these alarms within the model (a sensor fault, or a fault the model lacks?)"
+            );
+        }
+        Some(gs) => {
+            let kind = if gs.multiple {
+                "multiple fault"
+            } else {
+                "single fault"
             };
             let _ = writeln!(
                 o,
-                "{:<28} {:>6} {:>7} {:>9} {:>9} {:>10} {:>9} {:>12}",
-                "allocation",
-                "alarms",
-                "faults",
-                "detected",
-                "isolated",
-                "mean_group",
-                "max_group",
-                "mean_tti_s"
+                "diagnosis ({kind}, {} candidate failure mode(s)):",
+                gs.failure_modes.len()
             );
-            let line =
-                |o: &mut String, label: &str, r: &robosim_automation::analysis::Resolution| {
-                    let _ = writeln!(
-                        o,
-                        "{:<28} {:>6} {:>7} {:>9} {:>9} {:>10.2} {:>9} {:>12}",
-                        label,
-                        r.alarms_kept,
-                        r.faults,
-                        r.detected,
-                        r.isolated,
-                        r.mean_group,
-                        r.max_group,
-                        r.mean_time_to_isolation
-                            .map_or("-".into(), |t| format!("{t:.0}"))
-                    );
-                };
-            let all = evaluate(&m, &g, &vec![true; na], &opts, trials);
-            line(&mut o, "all alarms", &all);
-            let budgets: Vec<usize> = match sensors {
-                Some(n) => vec![n.min(na)],
-                None => [na * 3 / 4, na / 2, na / 4]
-                    .into_iter()
-                    .filter(|&b| b > 0 && b < na)
-                    .collect(),
-            };
-            let max_b = budgets.iter().copied().max().unwrap_or(0);
-            let order = advise_greedy(&m, &g, max_b, &opts, trials);
-            let mut last = None;
-            for &b in &budgets {
-                let mut p = vec![false; na];
-                for &(a, _) in order.iter().take(b) {
-                    p[a] = true;
-                }
-                let r = evaluate(&m, &g, &p, &opts, trials);
-                line(&mut o, &format!("greedy {b}"), &r);
-                last = Some((b, r));
-            }
-            if let Some(n) = sensors {
-                let names: Vec<&str> = order
+            for &f in &gs.failure_modes {
+                let fm = &m.failure_modes[f];
+                let comps: Vec<&str> = fm
+                    .components
                     .iter()
-                    .take(n)
-                    .map(|&(a, _)| m.alarms[a].name.as_str())
+                    .map(|&c| m.components[c].name.as_str())
                     .collect();
-                let _ = writeln!(
-                    o,
-                    "advice: keep {} alarm(s): {}",
-                    names.len(),
-                    names.join(", ")
-                );
+                let _ = writeln!(o, "  {}  [{}]", fm.path, comps.join(", "));
             }
-            let mut summary = format!(
-                "summary: {}: {} single faults x {trials}; all {na} alarms isolate {}/{} (mean group {:.2})",
-                m.processes[0].name,
-                m.source_failure_modes().len(),
-                all.isolated,
-                all.faults,
-                all.mean_group
+            if gs.multiple {
+                let v = ilm.diagnoser().clone().global_verdict();
+                for h in &v.multiple {
+                    let names: Vec<&str> = h
+                        .iter()
+                        .map(|&f| m.failure_modes[f].path.as_str())
+                        .collect();
+                    let _ = writeln!(o, "  hypothesis: {{{}}}", names.join(", "));
+                }
+            }
+            let comps: Vec<&str> = gs
+                .components
+                .iter()
+                .map(|&c| m.components[c].name.as_str())
+                .collect();
+            let _ = writeln!(
+                o,
+                "FSCI components: {}",
+                if comps.is_empty() {
+                    "-".into()
+                } else {
+                    comps.join(", ")
+                }
             );
-            if let Some((b, r)) = last {
-                let _ = write!(
-                    summary,
-                    "; {b} greedy-chosen alarms isolate {}/{} (mean group {:.2})",
-                    r.isolated, r.faults, r.mean_group
-                );
-            }
-            let _ = writeln!(o, "{summary}");
         }
     }
+}
+
+/// `diag analyze`: the resolution of every single fault with all alarms, then with the
+/// greedy advisor's choice at each sensor budget (`--sensors N`, else ¾, ½ and ¼ of the
+/// alarms), the advice for N, and a one-line summary.
+fn analyze(
+    model: &str,
+    sensors: Option<usize>,
+    trials: usize,
+    seed: u64,
+) -> Result<String, CommandError> {
+    let mut o = String::new();
+    let m = load(model)?;
+    let findings = check_model(&m);
+    if findings.iter().any(|f| f.severity == Severity::Error) {
+        return Err(CommandError::Refused(format!(
+            "model {} is not consistent: run `diag check` first",
+            m.source
+        )));
+    }
+    let g = FaultGraph::new(&m);
+    let na = m.alarms.len();
+    let opts = SimOptions {
+        seed,
+        sample_probabilities: true,
+        ..SimOptions::default()
+    };
+    let _ = writeln!(
+        o,
+        "{:<28} {:>6} {:>7} {:>9} {:>9} {:>10} {:>9} {:>12}",
+        "allocation",
+        "alarms",
+        "faults",
+        "detected",
+        "isolated",
+        "mean_group",
+        "max_group",
+        "mean_tti_s"
+    );
+    let all = evaluate(&m, &g, &vec![true; na], &opts, trials);
+    write_resolution(&mut o, "all alarms", &all);
+    let budgets = sensor_budgets(sensors, na);
+    let max_b = budgets.iter().copied().max().unwrap_or(0);
+    let order = advise_greedy(&m, &g, max_b, &opts, trials);
+    let mut last = None;
+    for &b in &budgets {
+        let mut p = vec![false; na];
+        for &(a, _) in order.iter().take(b) {
+            p[a] = true;
+        }
+        let r = evaluate(&m, &g, &p, &opts, trials);
+        write_resolution(&mut o, &format!("greedy {b}"), &r);
+        last = Some((b, r));
+    }
+    if let Some(n) = sensors {
+        let names: Vec<&str> = order
+            .iter()
+            .take(n)
+            .map(|&(a, _)| m.alarms[a].name.as_str())
+            .collect();
+        let _ = writeln!(
+            o,
+            "advice: keep {} alarm(s): {}",
+            names.len(),
+            names.join(", ")
+        );
+    }
+    let mut summary = format!(
+        "summary: {}: {} single faults x {trials}; all {na} alarms isolate {}/{} (mean group {:.2})",
+        m.processes[0].name,
+        m.source_failure_modes().len(),
+        all.isolated,
+        all.faults,
+        all.mean_group
+    );
+    if let Some((b, r)) = last {
+        let _ = write!(
+            summary,
+            "; {b} greedy-chosen alarms isolate {}/{} (mean group {:.2})",
+            r.isolated, r.faults, r.mean_group
+        );
+    }
+    let _ = writeln!(o, "{summary}");
     Ok(o)
+}
+
+/// The sensor budgets `analyze` evaluates: `--sensors N` (at most all `na` alarms), else ¾,
+/// ½ and ¼ of them (those strictly between 0 and `na`).
+fn sensor_budgets(sensors: Option<usize>, na: usize) -> Vec<usize> {
+    match sensors {
+        Some(n) => vec![n.min(na)],
+        None => [na * 3 / 4, na / 2, na / 4]
+            .into_iter()
+            .filter(|&b| b > 0 && b < na)
+            .collect(),
+    }
+}
+
+/// One row of `analyze`'s table.
+fn write_resolution(o: &mut String, label: &str, r: &robosim_automation::analysis::Resolution) {
+    let _ = writeln!(
+        o,
+        "{:<28} {:>6} {:>7} {:>9} {:>9} {:>10.2} {:>9} {:>12}",
+        label,
+        r.alarms_kept,
+        r.faults,
+        r.detected,
+        r.isolated,
+        r.mean_group,
+        r.max_group,
+        r.mean_time_to_isolation
+            .map_or("-".into(), |t| format!("{t:.0}"))
+    );
 }
