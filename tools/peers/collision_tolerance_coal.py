@@ -19,12 +19,22 @@ Writes, for `robosim report collision` (report/src/collision_tolerance.rs reads 
 Errors are not computed here: the report takes them against robosim's certified distances
 (brackets of width <= 1e-11 m), so both libraries are judged by the same reference.
 
-Run: /work/peers-venv/bin/python tools/peers/collision_tolerance_coal.py
+Convex meshes (`hulls`): testdata/collision/tolerance_hull_pairs.csv, 40 pairs of convex hulls
+(class hull-hull) in the same row format with kind `hull,n,radius,seed`: the hull of the n
+points `hull_points(n, radius, seed)` (a golden-angle spiral on an ellipsoid of semi-axes
+radius x (1, 0.8, 0.6), each point's distance jittered by 15 %; Python's math and Rust's f64
+sin/cos/sqrt are both glibc's, so both sides build the hull of the same points: robosim in
+`robosim_collision::exact::pair_file`, coal with Convex.convexHull). Only the pairs file is
+written (`run.py`'s dist section times coal on it); the report's files are left as they are.
+
+Run: /work/peers-venv/bin/python tools/peers/collision_tolerance_coal.py [hulls]
 Versions: coal 3.0.3 (pip, cmeel), numpy, Python 3.11. Seeded: the same pairs every run.
 """
 
 import csv
+import math
 import os
+import sys
 import statistics
 import time
 
@@ -57,7 +67,24 @@ def dims(rng, kind):
     return [rng.uniform(0.05, 0.3), rng.uniform(0.1, 0.6), 0.0]
 
 
+def hull_points(n, radius, seed):
+    """The points of a `hull` row (the same formula as robosim's pair_file::hull_points)."""
+    out = []
+    for k in range(int(n)):
+        z = 1.0 - (2.0 * k + 1.0) / n
+        r = math.sqrt(1.0 - z * z)
+        phi = 2.399963229728653 * k + seed
+        rho = radius * (1.0 + 0.15 * math.sin(1.7 * k + 3.1 * seed))
+        out.append([rho * r * math.cos(phi), rho * 0.8 * r * math.sin(phi), rho * 0.6 * z])
+    return out
+
+
 def geometry(kind, p):
+    if kind == "hull":
+        pts = coal.StdVec_Vec3s()
+        for q in hull_points(int(p[0]), p[1], p[2]):
+            pts.append(np.array(q))
+        return coal.Convex.convexHull(pts, False, "")
     if kind == "box":
         return coal.Box(p[0], p[1], p[2])
     if kind == "cylinder":
@@ -118,7 +145,49 @@ def time_once(pairs, tol, reps=20):
     return statistics.median(per), statistics.median(base)
 
 
+HULL_POINTS = 64
+
+
+def hulls():
+    """testdata/collision/tolerance_hull_pairs.csv: 40 separated pairs of convex hulls of 64
+    points (radius 0.1-0.3 m, gaps 1 mm - 0.3 m), placed as main() places its pairs."""
+    rng = np.random.default_rng(38)
+    rows = []
+    i = 0
+    while i < PER_CLASS:
+        pa = [float(HULL_POINTS), rng.uniform(0.1, 0.3), float(rng.integers(0, 1000))]
+        pb = [float(HULL_POINTS), rng.uniform(0.1, 0.3), float(rng.integers(0, 1000))]
+        ra, rb = rotation(rng), rotation(rng)
+        ta = np.zeros(3)
+        u = rng.normal(size=3)
+        u /= np.linalg.norm(u)
+        ga, gb = geometry("hull", pa), geometry("hull", pb)
+        gap = rng.uniform(1e-3, 0.3)
+        lo, hi = 0.0, 3.0
+        for _ in range(80):
+            mid = 0.5 * (lo + hi)
+            if distance(ga, tf(ra, ta), gb, tf(rb, u * mid), 1e-12) > gap:
+                hi = mid
+            else:
+                lo = mid
+        tb = u * hi
+        d = distance(ga, tf(ra, ta), gb, tf(rb, tb), 1e-12)
+        if not (5e-4 < d < 0.31):
+            continue
+        row = ["hull-hull", i, "hull"] + [repr(float(x)) for x in pa] + [repr(float(x)) for x in ra.flatten()]
+        row += [repr(float(x)) for x in ta] + ["hull"] + [repr(float(x)) for x in pb]
+        row += [repr(float(x)) for x in rb.flatten()] + [repr(float(x)) for x in tb]
+        rows.append(row)
+        i += 1
+    path = os.path.join(OUT, "tolerance_hull_pairs.csv")
+    with open(path, "w", newline="") as f:
+        csv.writer(f).writerows(rows)
+    print(f"{len(rows)} hull pairs written to {path}")
+
+
 def main():
+    if sys.argv[1:] == ["hulls"]:
+        return hulls()
     rng = np.random.default_rng(37)
     pairs = []
     for ka, kb in CLASSES:

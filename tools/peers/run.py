@@ -419,8 +419,11 @@ class Distance:
     # (class, robosim's tolerance, coal's gjk_tolerance)
     CASES = [("cylinder-cone", "1e-6", 1e-6), ("cylinder-cone", "1e-9", 1e-9),
              ("cylinder-cone", "certified", 1e-9), ("cylinder-box", "1e-6", 1e-6),
-             ("cone-box", "1e-6", 1e-6), ("box-box", "1e-6", 1e-6)]
+             ("cylinder-box", "1e-9", 1e-9), ("cone-box", "1e-6", 1e-6), ("cone-box", "1e-9", 1e-9),
+             ("box-box", "1e-6", 1e-6), ("box-box", "1e-9", 1e-9), ("hull-hull", "1e-6", 1e-6),
+             ("hull-hull", "1e-9", 1e-9)]
     FCL_LABEL = "1e-6"  # FCL's fixed distance_tolerance (python-fcl cannot set it)
+    FCL_CLASSES = ["cylinder-cone", "cylinder-box", "cone-box", "box-box"]  # primitives only
 
     def setup(self):
         import robosim
@@ -430,7 +433,9 @@ class Distance:
         fcl_pairs = self.f.read_pairs()
         self.fcl_pairs = {}
         pairs = self.c.read_pairs()
+        pairs += self.c.read_pairs(os.path.join(self.c.OUT, "tolerance_hull_pairs.csv"))
         lines = open(os.path.join(self.c.OUT, "tolerance_pairs.csv")).read().splitlines()
+        lines += open(os.path.join(self.c.OUT, "tolerance_hull_pairs.csv")).read().splitlines()
         self.pairs = {}
         self.agree = {}
         for cls, label, tol in self.CASES:
@@ -444,7 +449,7 @@ class Distance:
                 ours = robosim.distance(a, pa, b, pb, **opts)
                 d = max(d, abs(ours - self.c.distance(ga, ta, gb, tb, tol)))
             self.agree[(cls, label)] = d
-            if label == self.FCL_LABEL:
+            if label == self.FCL_LABEL and cls in self.FCL_CLASSES:
                 self.fcl_pairs[cls] = [p for p in fcl_pairs if p[0] == cls]
                 req = self.f.fcl.DistanceRequest()
                 d = 0.0
@@ -464,7 +469,7 @@ class Distance:
             ours = json.loads(got)["ns_per_pair"]
             per, floor = self.c.time_once(mine, tol, reps=60)
             out[(cls, label)] = (ours, (per - floor) * 1e9, floor * 1e9)
-            if label == self.FCL_LABEL:
+            if label == self.FCL_LABEL and cls in self.FCL_CLASSES:
                 per, floor = self.f.time_once(self.fcl_pairs[cls], reps=60)
                 out[(cls, label, "fcl")] = (ours, (per - floor) * 1e9, floor * 1e9)
         return out
@@ -477,18 +482,27 @@ class Distance:
                       f"coal 3.0.3 at gjk_tolerance {tol:g} m", [r[(cls, label)] for r in rounds],
                       f"{self.agree[(cls, label)]:.1e} m", "ns", goal=1.0 if matched else None,
                       was="2.7× (certified vs 1e-9)" if not matched else
-                      ("1.4–2.2× (curved pairs)" if cls != "box-box" else "0.7–1.1×"))
+                      ({"box-box": "0.7–1.1×", "hull-hull": "not measured"}.get(cls, "1.4–2.2× (curved pairs)")))
         for cls, label, tol in self.CASES:
-            if label == self.FCL_LABEL:
+            if label == self.FCL_LABEL and cls in self.FCL_CLASSES:
                 yield row(f"exact distance, {cls.replace('-', '–')}, robosim at {label} m",
                           "FCL 0.7 (python-fcl 0.7.0.11) at its fixed distance_tolerance 1e-6 m",
                           [r[(cls, label, "fcl")] for r in rounds],
                           f"{self.agree[(cls, label, 'fcl')]:.1e} m", "ns", goal=1.0, was="not measured")
 
 
+def COAL_SIDE():
+    return load_module("collision_tolerance_coal", os.path.join(HERE, "collision_tolerance_coal.py"))
+
+
 def shape_json(c):
     v = [float(x) for x in c[1:16]]
-    s = {"shape": "box", "size": v[:3]} if c[0] == "box" else {"shape": c[0], "radius": v[0], "height": v[1]}
+    if c[0] == "hull":
+        s = {"shape": "convex", "points": COAL_SIDE().hull_points(int(v[0]), v[1], v[2])}
+    elif c[0] == "box":
+        s = {"shape": "box", "size": v[:3]}
+    else:
+        s = {"shape": c[0], "radius": v[0], "height": v[1]}
     pose = np.eye(4)
     pose[:3, :3] = np.array(v[3:12]).reshape(3, 3)
     pose[:3, 3] = v[12:15]

@@ -1,5 +1,6 @@
 //! The exact distance of separated convex pairs at a chosen tolerance (issue 37 item 3): the
-//! 40 pairs per class of `testdata/collision/tolerance_pairs.csv` (coal's side:
+//! 40 pairs per class of `testdata/collision/tolerance_pairs.csv` and of the convex meshes'
+//! `tolerance_hull_pairs.csv` (coal's side:
 //! `tools/peers/collision_tolerance_coal.py`; side by side in `tools/peers/run.py`), timed per
 //! class and tolerance — certified (bracket ≤ 1e-11 m) and GJK 1e-6 / 1e-9 m — through
 //! `exact::collide` with distance and witness points, as the `collide` op asks.
@@ -16,7 +17,13 @@ use std::hint::black_box;
 fn bench(c: &mut Criterion) {
     let all = pairs::load().expect("tolerance_pairs.csv");
     let mut g = c.benchmark_group("tolerance");
-    for class in ["cylinder-cone", "cylinder-box", "cone-box", "box-box"] {
+    for class in [
+        "cylinder-cone",
+        "cylinder-box",
+        "cone-box",
+        "box-box",
+        "hull-hull",
+    ] {
         let mine: Vec<&pairs::Pair> = all.iter().filter(|p| p.class == class).collect();
         g.throughput(Throughput::Elements(mine.len() as u64));
         for (label, tolerance) in [

@@ -2,10 +2,12 @@
 //! `tools/peers/collision_tolerance_coal.py`: 4 classes × 40 pairs, gaps 1 mm – 0.3 m): one
 //! reader for the distance-tolerance report, the `tolerance` bench and the `peer_distance`
 //! example. A row: `class,index`, then per body `kind,p0,p1,p2,R (row-major, 9),t (3)`; a
-//! cylinder or cone is `radius,height,0`, a box its three side lengths.
+//! cylinder or cone is `radius,height,0`, a box its three side lengths, a convex mesh
+//! `hull,n,radius,seed`: the hull of [`hull_points`] (the convex-mesh class of
+//! `testdata/collision/tolerance_hull_pairs.csv`, written by the same script's `hulls`).
 
 use crate::Solid;
-use nalgebra::{Isometry3, Matrix3, Rotation3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 /// One row: its class and the two bodies where they stand.
 pub struct Pair {
@@ -14,6 +16,27 @@ pub struct Pair {
     pub pa: Isometry3<f64>,
     pub b: Solid,
     pub pb: Isometry3<f64>,
+}
+
+/// The points of a `hull` row: n points of a golden-angle spiral on an ellipsoid of semi-axes
+/// radius × (1, 0.8, 0.6), each point's distance jittered by 15 % (the formula of
+/// `tools/peers/collision_tolerance_coal.py`'s `hull_points`; glibc's sin, cos and sqrt on
+/// both sides, so coal builds its hull from the same points).
+pub fn hull_points(n: usize, radius: f64, seed: f64) -> Vec<Point3<f64>> {
+    (0..n)
+        .map(|k| {
+            let k = k as f64;
+            let z = 1.0 - (2.0 * k + 1.0) / n as f64;
+            let r = (1.0 - z * z).sqrt();
+            let phi = 2.399963229728653 * k + seed;
+            let rho = radius * (1.0 + 0.15 * (1.7 * k + 3.1 * seed).sin());
+            Point3::new(
+                rho * r * phi.cos(),
+                rho * 0.8 * r * phi.sin(),
+                rho * 0.6 * z,
+            )
+        })
+        .collect()
 }
 
 /// One side of a row: kind, three dimensions, R row-major, t.
@@ -26,6 +49,10 @@ fn body(cells: &[&str]) -> Result<(Solid, Isometry3<f64>), String> {
         "box" => Solid::cuboid(Vector3::new(v[0], v[1], v[2])),
         "cylinder" => Solid::cylinder(v[0], v[1], None),
         "cone" => Solid::cone(v[0], v[1], None),
+        "hull" if v[0] >= 4.0 && v[0] <= 1e6 && v[0].fract() == 0.0 => {
+            Solid::convex(&hull_points(v[0] as usize, v[1], v[2]))
+        }
+        "hull" => return Err(format!("hull of {} points", v[0])),
         k => return Err(format!("unknown kind {k}")),
     }
     .map_err(|e| e.to_string())?;
@@ -79,5 +106,18 @@ mod tests {
             .err()
             .expect("refused");
         assert!(e.contains("line 1") && e.contains("torus"), "{e}");
+        // a convex mesh: the hull of its formula's points, every vertex one of them
+        let h = parse(&row.replace("box,1,2,3", "hull,64,0.2,7"), "f.csv").expect("hull");
+        let pts = hull_points(64, 0.2, 7.0);
+        let cp = h[0]
+            .a
+            .exact
+            .as_convex_polyhedron()
+            .expect("a convex polyhedron");
+        assert!(cp.points().len() >= 30, "{} vertices", cp.points().len());
+        for q in cp.points() {
+            assert!(pts.iter().any(|p| (p - q).norm() < 1e-15), "{q}");
+        }
+        assert!(parse(&row.replace("box,1,2,3", "hull,2.5,0.2,7"), "f.csv").is_err());
     }
 }

@@ -1,8 +1,9 @@
 //! Support functions specialised per shape, for GJK at a user tolerance ([`super::Tolerance::Gjk`]):
 //! the closed forms of parry 0.25.3's box, cylinder, cone and ball supports inlined behind one
 //! `match` (no `dyn` call per evaluation), and B placed in A's frame by a rotation matrix
-//! computed once per pair (no quaternion rotation per evaluation). Any other support map (a
-//! convex hull) goes through parry's `dyn` support on the same matrix.
+//! computed once per pair (no quaternion rotation per evaluation); a convex hull's vertices
+//! scanned without a branch ([`hull_support`]). Any other support map goes through parry's
+//! `dyn` support on the same matrix.
 //!
 //! The certified mode does not use these: a rotation matrix rounds differently from parry's
 //! quaternion, and at the 100 m scale one touching contact reference (`box_cone_0_s100_g0`)
@@ -14,7 +15,7 @@
 //!
 //! Entry points: [`Kind::of`], [`Placed::new`].
 
-use nalgebra::{Isometry3, Matrix3, Vector3};
+use nalgebra::{Isometry3, Matrix3, Point3, Vector3};
 use parry3d_f64::shape::{Shape, ShapeType, SupportMap};
 
 /// One convex shape's support function, in its own frame.
@@ -33,7 +34,9 @@ pub(crate) enum Kind<'a> {
         half_height: f64,
     },
     Ball(f64),
-    /// Any other support map (convex hulls).
+    /// A convex hull (parry's `ConvexPolyhedron`): its vertices.
+    Hull(&'a [Point3<f64>]),
+    /// Any other support map.
     Other(&'a dyn SupportMap),
 }
 
@@ -51,13 +54,17 @@ impl<'a> Kind<'a> {
                 half_height: c.half_height,
             }),
             ShapeType::Ball => s.as_ball().map(|b| Kind::Ball(b.radius)),
+            ShapeType::ConvexPolyhedron => s
+                .as_convex_polyhedron()
+                .filter(|c| !c.points().is_empty())
+                .map(|c| Kind::Hull(c.points())),
             _ => s.as_support_map().map(Kind::Other),
         }
     }
 
     /// The largest |p| of a point p of the shape (its frame): a box's half diagonal, the rim of
     /// a cylinder or of a cone's base (a cone's apex, at half_height, is nearer), a ball's
-    /// radius; `None` for a hull.
+    /// radius, a hull's farthest vertex; `None` for another support map.
     fn reach(&self) -> Option<f64> {
         match *self {
             Kind::Cuboid(h) => Some(h.norm()),
@@ -70,6 +77,12 @@ impl<'a> Kind<'a> {
                 half_height,
             } => Some(radius.hypot(half_height)),
             Kind::Ball(r) => Some(r),
+            Kind::Hull(p) => Some(
+                p.iter()
+                    .map(|q| q.coords.norm_squared())
+                    .fold(0.0, f64::max)
+                    .sqrt(),
+            ),
             Kind::Other(_) => None,
         }
     }
@@ -120,9 +133,48 @@ impl<'a> Kind<'a> {
                     Vector3::zeros()
                 }
             }
+            Kind::Hull(p) => hull_support(p, d),
             Kind::Other(m) => m.local_support_point(d).coords,
         }
     }
+}
+
+/// The vertex of `p` (not empty) maximising `d·p`: four interleaved running maxima without a
+/// branch (parry's scan keeps one maximum behind a branch: a chain of dependent compares and
+/// a misprediction wherever the maximum moves). Ties may pick another maximal vertex than
+/// parry's first one; the support value is the same.
+#[inline(always)]
+fn hull_support(p: &[Point3<f64>], d: &Vector3<f64>) -> Vector3<f64> {
+    let dot = |q: &Point3<f64>| q.x * d.x + q.y * d.y + q.z * d.z;
+    let mut best = [f64::NEG_INFINITY; 4];
+    let mut at = [0usize; 4];
+    let chunks = p.chunks_exact(4);
+    let rest = chunks.remainder();
+    for (c, q) in chunks.enumerate() {
+        for k in 0..4 {
+            let s = dot(&q[k]);
+            let better = s > best[k];
+            best[k] = if better { s } else { best[k] };
+            at[k] = if better { 4 * c + k } else { at[k] };
+        }
+    }
+    let base = p.len() - rest.len();
+    for (k, q) in rest.iter().enumerate() {
+        let s = dot(q);
+        if s > best[k] {
+            best[k] = s;
+            at[k] = base + k;
+        }
+    }
+    let mut i = at[0];
+    let mut m = best[0];
+    for k in 1..4 {
+        if best[k] > m {
+            m = best[k];
+            i = at[k];
+        }
+    }
+    p.get(i).map_or_else(Vector3::zeros, |q| q.coords)
 }
 
 /// A pair of support functions with B placed in A's frame by a rotation matrix and a
@@ -136,7 +188,7 @@ pub(crate) struct Placed<'a> {
     t: Vector3<f64>,
     /// A bound on |a| + |b| over every support point a of A and b of B (A's frame): the two
     /// shapes' reaches (the largest |p| of a point of the shape, its own frame) plus |t|;
-    /// `None` when one is a hull (its reach is not kept).
+    /// `None` when one is another support map (its reach is not known).
     reach: Option<f64>,
 }
 
@@ -158,7 +210,7 @@ impl<'a> Placed<'a> {
 
 impl Placed<'_> {
     /// The bound [`Placed::reach`] of `|a| + |b|` over all support points (a constant of the
-    /// pair, no square root per support point), `None` with a hull.
+    /// pair, no square root per support point), `None` with another support map.
     #[inline(always)]
     pub(crate) fn reach(&self) -> Option<f64> {
         self.reach
@@ -178,17 +230,29 @@ impl Placed<'_> {
 mod tests {
     use super::*;
     use nalgebra::UnitQuaternion;
-    use parry3d_f64::shape::{Ball, Cone, Cuboid, Cylinder};
+    use parry3d_f64::shape::{Ball, Cone, ConvexPolyhedron, Cuboid, Cylinder};
 
     /// The specialised supports are parry's: the same support value (u·p) in every direction,
     /// including the axis directions where the closed forms branch.
     #[test]
     fn specialised_supports_match_parrys() {
-        let shapes: [Box<dyn Shape>; 4] = [
+        // a hull of 23 points (not a multiple of 4: the scan's remainder is used)
+        let hull: Vec<Point3<f64>> = (0..23)
+            .map(|k| {
+                let x = k as f64;
+                Point3::new(
+                    (1.3 * x).sin() * 0.3,
+                    (0.7 * x).cos() * 0.2,
+                    (2.1 * x).sin() * 0.25,
+                )
+            })
+            .collect();
+        let shapes: [Box<dyn Shape>; 5] = [
             Box::new(Cuboid::new(Vector3::new(0.3, 0.2, 0.1))),
             Box::new(Cylinder::new(0.25, 0.15)),
             Box::new(Cone::new(0.35, 0.2)),
             Box::new(Ball::new(0.4)),
+            Box::new(ConvexPolyhedron::from_convex_hull(&hull).expect("hull")),
         ];
         let pos12 = nalgebra::Isometry3::from_parts(
             Vector3::new(0.5, -0.2, 1.0).into(),
@@ -201,6 +265,7 @@ mod tests {
             })
             .collect();
         dirs.extend([Vector3::y(), -Vector3::y(), Vector3::x(), -Vector3::z()]);
+        assert!(matches!(Kind::of(shapes[4].as_ref()), Some(Kind::Hull(_))));
         for sa in &shapes {
             for sb in &shapes {
                 let pair = Placed::new(
