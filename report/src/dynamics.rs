@@ -62,49 +62,61 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
     // algorithms are one code path; this times the general placements against DH rows.
     let general =
         Model::new(&robosim_kinematics::chain::to_general(&robot)).map_err(|e| e.to_string())?;
-    let zeros = [0.0; 6];
     let reps = if quick { 1 } else { 5 };
+    let (mut notes, aba_cost) = algorithm_costs(
+        &[
+            ("PUMA 560 (6 DOF)", &model),
+            ("PUMA 560 as general joints", &general),
+            ("Panda (7 DOF)", &panda),
+        ],
+        quick,
+    );
+    let reference = Reference::of_fall(&model, quick)?;
+    let runs = integrator_runs(quick);
+    let (table, by_label) = measure_runs(&model, &runs, &reference, reps, aba_cost)?;
+    notes.insert(
+        0,
+        format!(
+            "PUMA 560 (roboticstoolbox-python parameters, testdata/dynamics/robots/puma560.json) falling from rest at q0 = {FALL_Q0:?} rad under gravity, τ = 0, no friction, no motor inertia, no joint stops. Error = max over joints of |q(2 s) − q_ref(2 s)|."
+        ),
+    );
+    notes.insert(
+        1,
+        format!(
+            "Reference: dopri5 with rtol = atol = 1e-13; it agrees with RK4 at dt = {} s to {:.1e} rad. E(0) = {:.6} J.",
+            if quick { "1e-4" } else { "2e-5" },
+            reference.check,
+            reference.e0
+        ),
+    );
+    notes.push(format!(
+        "Wall times: fastest of {reps} run(s) each, one thread, on a shared 2-core machine (noisy; the other engineers' builds run alongside); 'wall time / ABA call' divides by the PUMA's median ABA cost measured above in the same process ({:.2} µs), so it is comparable across machines. The semi-implicit Euler step is the momentum-form symplectic Euler (CRBA + two Cholesky factorisations + a fixed-point solve per step), hence its higher cost per step.",
+        aba_cost * 1e6
+    ));
+    if quick {
+        notes.push("Quick run (fewer steps and repeats): regenerate with quick = false for the published figures.".into());
+    }
+    let report = Report {
+        name: "dynamics".into(),
+        title: "Dynamics: what integration accuracy costs in time".into(),
+        notes,
+        table,
+        plots: error_plots(&by_label),
+    };
+    write_report(out_dir, &report).map_err(|e| e.to_string())
+}
 
-    // --- per-call costs (the baseline for the ratios) ---
+/// Per-call cost of RNEA, CRBA and ABA for each (name, model): a note per model, a note
+/// comparing the second model to the first (general joints against DH rows), and the first
+/// model's median ABA cost (s), the baseline of the report's time ratios.
+fn algorithm_costs(models: &[(&str, &Model)], quick: bool) -> (Vec<String>, f64) {
     let mut notes = Vec::new();
-    let mut costs = Vec::new();
     let mut medians = Vec::new();
-    for (name, m) in [
-        ("PUMA 560 (6 DOF)", &model),
-        ("PUMA 560 as general joints", &general),
-        ("Panda (7 DOF)", &panda),
-    ] {
-        let n = m.dof();
-        let mut data = Data::new(m);
-        let q: Vec<f64> = (0..n).map(|j| 0.3 + 0.1 * j as f64).collect();
-        let qd: Vec<f64> = (0..n).map(|j| 0.5 - 0.2 * j as f64).collect();
-        let qdd: Vec<f64> = (0..n).map(|j| 1.0 - 0.3 * j as f64).collect();
-        let (batches, per) = if quick { (5, 1_000) } else { (201, 1_000) };
-        // interleave the three algorithms batch by batch so that machine noise hits them alike;
-        // short batches, most of them undisturbed; report the median and the 10th percentile
-        let mut t = [Vec::new(), Vec::new(), Vec::new()];
-        for _ in 0..batches {
-            t[0].push(per_call(1, per, || {
-                black_box(
-                    rnea(m, &mut data, black_box(&q), &qd, &qdd)
-                        .map(|t| t[0])
-                        .ok(),
-                );
-            }));
-            t[1].push(per_call(1, per, || {
-                black_box(crba(m, &mut data, black_box(&q)).map(|t| t[(0, 0)]).ok());
-            }));
-            t[2].push(per_call(1, per, || {
-                black_box(
-                    aba(m, &mut data, black_box(&q), &qd, &qdd)
-                        .map(|t| t[0])
-                        .ok(),
-                );
-            }));
-        }
+    let (batches, per) = if quick { (5, 1_000) } else { (201, 1_000) };
+    for &(name, m) in models {
+        let mut t = rnea_crba_aba_times(m, batches, per);
         let med: Vec<f64> = t.iter_mut().map(|x| percentile(x, 50.0) * 1e6).collect();
         let min: Vec<f64> = t.iter_mut().map(|x| percentile(x, 10.0) * 1e6).collect();
-        costs.push(med[2] * 1e-6);
         notes.push(format!(
             "{name}: RNEA {:.2} µs, CRBA {:.2} µs, ABA {:.2} µs per call (median of {batches} interleaved batches of {per} calls; 10th percentile {:.2} / {:.2} / {:.2} µs; ABA/RNEA = {:.2}).",
             med[0], med[1], med[2], min[0], min[1], min[2], med[2] / med[0]
@@ -117,33 +129,84 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
         medians[1][1] / medians[0][1],
         medians[1][2] / medians[0][2]
     ));
-    let aba_cost = costs[0];
+    (notes, medians[0][2] * 1e-6)
+}
 
-    // --- the reference solution ---
-    let reference_config = IntegratorConfig::adaptive(1e-13, 1e-13);
-    let (reference, _) = simulate(
-        &model,
-        reference_config,
-        &FALL_Q0,
-        &zeros,
-        &zeros,
-        &[0.0, FALL_T],
-    )
-    .map_err(|e| e.to_string())?;
-    let e0 = reference[0].energy;
-    let q_ref = reference[1].q.clone();
-    let (check, _) = simulate(
-        &model,
-        IntegratorConfig::fixed(Integrator::Rk4, if quick { 1e-4 } else { 2e-5 }),
-        &FALL_Q0,
-        &zeros,
-        &zeros,
-        &[FALL_T],
-    )
-    .map_err(|e| e.to_string())?;
-    let ref_check = max_diff(&check[0].q, &q_ref);
+/// Per-call times (s) of RNEA, CRBA and ABA on `m` at a fixed (q, q̇, q̈), one per batch of
+/// `per` calls. The three algorithms are interleaved batch by batch so that machine noise hits
+/// them alike; short batches, most of them undisturbed.
+fn rnea_crba_aba_times(m: &Model, batches: usize, per: usize) -> [Vec<f64>; 3] {
+    let n = m.dof();
+    let mut data = Data::new(m);
+    let q: Vec<f64> = (0..n).map(|j| 0.3 + 0.1 * j as f64).collect();
+    let qd: Vec<f64> = (0..n).map(|j| 0.5 - 0.2 * j as f64).collect();
+    let qdd: Vec<f64> = (0..n).map(|j| 1.0 - 0.3 * j as f64).collect();
+    let mut t = [Vec::new(), Vec::new(), Vec::new()];
+    for _ in 0..batches {
+        t[0].push(per_call(1, per, || {
+            black_box(
+                rnea(m, &mut data, black_box(&q), &qd, &qdd)
+                    .map(|t| t[0])
+                    .ok(),
+            );
+        }));
+        t[1].push(per_call(1, per, || {
+            black_box(crba(m, &mut data, black_box(&q)).map(|t| t[(0, 0)]).ok());
+        }));
+        t[2].push(per_call(1, per, || {
+            black_box(
+                aba(m, &mut data, black_box(&q), &qd, &qdd)
+                    .map(|t| t[0])
+                    .ok(),
+            );
+        }));
+    }
+    t
+}
 
-    // --- the runs ---
+/// The fall's high-accuracy solution: dopri5 at rtol = atol = 1e-13.
+struct Reference {
+    /// Energy at t = 0 (J).
+    e0: f64,
+    /// q at [`FALL_T`] (rad).
+    q: Vec<f64>,
+    /// max |q − q_ref| of RK4 at a small fixed step (1e-4 s quick, else 2e-5 s): how far the
+    /// reference is from an independent method (rad).
+    check: f64,
+}
+
+impl Reference {
+    fn of_fall(model: &Model, quick: bool) -> Result<Self, String> {
+        let zeros = [0.0; 6];
+        let (reference, _) = simulate(
+            model,
+            IntegratorConfig::adaptive(1e-13, 1e-13),
+            &FALL_Q0,
+            &zeros,
+            &zeros,
+            &[0.0, FALL_T],
+        )
+        .map_err(|e| e.to_string())?;
+        let q = reference[1].q.clone();
+        let (check, _) = simulate(
+            model,
+            IntegratorConfig::fixed(Integrator::Rk4, if quick { 1e-4 } else { 2e-5 }),
+            &FALL_Q0,
+            &zeros,
+            &zeros,
+            &[FALL_T],
+        )
+        .map_err(|e| e.to_string())?;
+        Ok(Reference {
+            e0: reference[0].energy,
+            check: max_diff(&check[0].q, &q),
+            q,
+        })
+    }
+}
+
+/// Every integrator at each of its fixed steps, then dopri5 at each tolerance.
+fn integrator_runs(quick: bool) -> Vec<Run> {
     let mut runs = Vec::new();
     let fixed = |label, integrator, steps: &[f64], runs: &mut Vec<Run>| {
         for &dt in steps {
@@ -187,7 +250,23 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
             config: IntegratorConfig::adaptive(tol, tol),
         });
     }
+    runs
+}
 
+/// Per integrator: its label, (wall ms, error) points and (step, error) points.
+type ByLabel = Vec<(&'static str, Points, Points)>;
+
+/// Simulates the fall with each run (the fastest of `reps` repeats) and tabulates steps,
+/// evaluations, wall time (also over `aba_cost`, s), error against the reference and energy
+/// drift; the points of the plots, by integrator.
+fn measure_runs(
+    model: &Model,
+    runs: &[Run],
+    reference: &Reference,
+    reps: usize,
+    aba_cost: f64,
+) -> Result<(Table, ByLabel), String> {
+    let zeros = [0.0; 6];
     let columns = [
         "integrator",
         "step or tolerance",
@@ -203,14 +282,13 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
         columns: columns.iter().map(|s| s.to_string()).collect(),
         rows: Vec::new(),
     };
-    // per integrator: (label, (wall ms, error) points, (step, error) points)
-    let mut by_label: Vec<(&str, Points, Points)> = Vec::new();
-    for run in &runs {
+    let mut by_label: ByLabel = Vec::new();
+    for run in runs {
         let mut result = None;
         // the fastest repeat: a run of up to a second is often descheduled on this shared machine
         let wall = time_percentile(reps, 0.0, || {
             result = Some(simulate(
-                &model,
+                model,
                 run.config,
                 &FALL_Q0,
                 &zeros,
@@ -223,8 +301,8 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
             Some(Err(e)) => return Err(format!("{} {}: {e}", run.label, run.setting)),
             None => return Err("no repeats".into()),
         };
-        let err = max_diff(&samples[0].q, &q_ref);
-        let de = (samples[0].energy - e0).abs();
+        let err = max_diff(&samples[0].q, &reference.q);
+        let de = (samples[0].energy - reference.e0).abs();
         table.rows.push(vec![
             run.label.to_string(),
             run.setting.clone(),
@@ -249,29 +327,13 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
             by_label[slot].2.push((dt, err.max(1e-16)));
         }
     }
+    Ok((table, by_label))
+}
 
-    notes.insert(
-        0,
-        format!(
-            "PUMA 560 (roboticstoolbox-python parameters, testdata/dynamics/robots/puma560.json) falling from rest at q0 = {FALL_Q0:?} rad under gravity, τ = 0, no friction, no motor inertia, no joint stops. Error = max over joints of |q(2 s) − q_ref(2 s)|."
-        ),
-    );
-    notes.insert(
-        1,
-        format!(
-            "Reference: dopri5 with rtol = atol = 1e-13; it agrees with RK4 at dt = {} s to {ref_check:.1e} rad. E(0) = {e0:.6} J.",
-            if quick { "1e-4" } else { "2e-5" }
-        ),
-    );
-    notes.push(format!(
-        "Wall times: fastest of {reps} run(s) each, one thread, on a shared 2-core machine (noisy; the other engineers' builds run alongside); 'wall time / ABA call' divides by the PUMA's median ABA cost measured above in the same process ({:.2} µs), so it is comparable across machines. The semi-implicit Euler step is the momentum-form symplectic Euler (CRBA + two Cholesky factorisations + a fixed-point solve per step), hence its higher cost per step.",
-        aba_cost * 1e6
-    ));
-    if quick {
-        notes.push("Quick run (fewer steps and repeats): regenerate with quick = false for the published figures.".into());
-    }
-
-    let plots = vec![
+/// Error against wall time (every integrator) and against fixed step size (the fixed-step
+/// ones), both log-log.
+fn error_plots(by_label: &ByLabel) -> Vec<Plot> {
+    vec![
         Plot {
             title: "PUMA 560 falling for 2 s: error against wall time".into(),
             x_label: "wall time (ms)".into(),
@@ -301,15 +363,7 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
                 })
                 .collect(),
         },
-    ];
-    let report = Report {
-        name: "dynamics".into(),
-        title: "Dynamics: what integration accuracy costs in time".into(),
-        notes,
-        table,
-        plots,
-    };
-    write_report(out_dir, &report).map_err(|e| e.to_string())
+    ]
 }
 
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
