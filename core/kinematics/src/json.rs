@@ -357,11 +357,17 @@ pub fn vector3(v: &Value, path: &str) -> Result<Vector3<f64>, JsonError> {
 fn rows<const N: usize>(v: &Value, path: &str) -> Result<[[f64; N]; N], JsonError> {
     let arr = fixed_array(v, N, path)?;
     let mut out = [[0.0; N]; N];
+    // The element paths are formatted only for an error (a pose is read per request).
     for (i, row) in arr.iter().enumerate() {
-        let rp = format!("{path}[{i}]");
-        let r = fixed_array(row, N, &rp)?;
+        let r = match row.as_array() {
+            Some(r) if r.len() == N => r,
+            _ => fixed_array(row, N, &format!("{path}[{i}]"))?,
+        };
         for (j, x) in r.iter().enumerate() {
-            out[i][j] = number(x, &format!("{rp}[{j}]"))?;
+            out[i][j] = match x.as_f64() {
+                Some(f) if f.is_finite() => f,
+                _ => number(x, &format!("{path}[{i}][{j}]"))?,
+            };
         }
     }
     Ok(out)
@@ -542,6 +548,18 @@ mod tests {
                 .expect_err("reversed")
                 .reason
                 .contains("joint 0")
+        );
+        // a matrix's element paths (formatted only on error)
+        let m = json!([[1, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, "x"], [0, 0, 0, 1]]);
+        assert_eq!(
+            matrix4_from_json(&m, "pose").expect_err("x").path,
+            "pose[2][3]"
+        );
+        let m = json!([[1, 0, 0, 0], [0, 1, 0], [0, 0, 1, 0], [0, 0, 0, 1]]);
+        let e = matrix4_from_json(&m, "pose").expect_err("short row");
+        assert_eq!(
+            (e.path.as_str(), e.reason.as_str()),
+            ("pose[1]", "expected 4 entries, got 3")
         );
     }
 
