@@ -75,7 +75,7 @@ impl<'a> Kind<'a> {
             | Kind::Cone {
                 radius,
                 half_height,
-            } => Some(radius.hypot(half_height)),
+            } => Some((radius * radius + half_height * half_height).sqrt()),
             Kind::Ball(r) => Some(r),
             Kind::Hull(p) => Some(
                 p.iter()
