@@ -273,7 +273,8 @@ pub fn stl_bytes(triangles: &[[[f64; 3]; 3]], what: &str) -> Vec<u8> {
 /// For each robosim link frame j (0..=n), the constant transform `X_j` that takes a shape's
 /// placement in robosim's frame j into the exported link frame j: `E_j⁻¹ · F_j`, with `F_j`
 /// robosim's link frame (`fk::link_frames`) and `E_j` the exported one. Both at q = 0 (the
-/// difference is constant).
+/// difference is constant; q = 0 is the neutral configuration: a floating root at the origin, a
+/// ball joint at the identity quaternion).
 /// * URDF (`Exported::Urdf`): `E_j = F_j · P_j⁻¹` with `P_j` a DH joint's trailing `Tx(a) Rx(α)`
 ///   (crate::urdf's module docs), so `X_j = P_j`; link 0 is at the base: `X_0 = I`.
 /// * MJCF (`Exported::Mjcf`): the bodies are the general joint model's link frames
@@ -281,7 +282,7 @@ pub fn stl_bytes(triangles: &[[[f64; 3]; 3]], what: &str) -> Vec<u8> {
 ///   standard revolute joint's `Tz(d)` included); the link-0 body is at the world origin (the
 ///   base placement is in the bodies on it), so `X_0` is the base placement.
 pub fn exported_frames(robot: &Robot, format: Exported) -> Vec<Matrix4<f64>> {
-    let q = vec![0.0; robot.dof()];
+    let q: Vec<f64> = robot.neutral_q().iter().copied().collect();
     let f = robosim_kinematics::fk::link_frames(robot, &q);
     let mut out = vec![Matrix4::identity(); robot.dof() + 1];
     match format {

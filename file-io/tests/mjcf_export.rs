@@ -99,3 +99,102 @@ fn puma_link_3_is_made_physical_and_said() {
     e.sort_by(f64::total_cmp);
     assert!(e[0] + e[1] >= e[2], "{e:?}");
 }
+
+/// Solo-12 with a free-flyer base (issue 36 items 2 and 4): the numbers MuJoCo 4.0 computed on
+/// the session's MJCF export (testdata/mjcf/exports/solo_floating.json, written by
+/// tools/peers/check_exports.py) are robosim's — its tool pose and mass matrix at each recorded
+/// q, on the robot as imported (`import_urdf_tree_floating`) and on its MJCF export made now
+/// and read back. The JSON's q is robosim's layout (x y z qx qy qz qw, joints) and its M is
+/// MuJoCo's in robosim's velocity layout (TᵀMT), so a change of the free joint's writing, of the
+/// quaternion order or of the base's inertial fails here.
+#[test]
+fn solo_floating_export_has_mujocos_tool_pose_and_mass_matrix() {
+    let text = std::fs::read_to_string(testdata().join("mjcf/exports/solo_floating.json"))
+        .expect("testdata/mjcf/exports/solo_floating.json");
+    let reference: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let solo = testdata().join("urdf_corpus/robots/solo_description/solo12.urdf");
+    let mut u = robosim_file_io::urdf_import::import_urdf_tree_floating(
+        &solo,
+        robosim_kinematics::RootKind::FreeFlyer,
+    )
+    .expect("Solo imports floating");
+    u.robot.name = "solo".into();
+    let (mjcf, _) = to_mjcf(&u.robot).expect("exports");
+    assert!(mjcf.contains("<freejoint name=\"solo_root\"/>"));
+    let back = import_mjcf_tree_str(&mjcf, Path::new("solo.xml")).expect("reads back");
+    assert!(
+        back.robot.root.is_some(),
+        "the export's free joint is a floating base"
+    );
+    let tool = &back.geometry.links["solo_tool"];
+    let samples = reference["samples"].as_array().expect("samples");
+    assert_eq!(samples.len(), 5);
+    let (mut ex, mut em) = (0.0f64, 0.0f64);
+    for (label, robot) in [("imported", &u.robot), ("exported", &back.robot)] {
+        let model = robosim_dynamics::Model::new(robot).expect("dynamics model");
+        let mut data = robosim_dynamics::Data::new(&model);
+        for s in samples {
+            let q = floats(&s["q"]);
+            assert_eq!(q.len(), robot.nq(), "{label}: q");
+            let x = if label == "imported" {
+                fk::forward(robot, &q)
+            } else {
+                fk::link_frames(robot, &q)[tool.body] * tool.in_body
+            };
+            let want = matrix(&s["tool"]);
+            ex = ex.max((x - Matrix4::from_fn(|i, j| want[(i, j)])).amax());
+            let theirs = matrix(&s["mass_matrix"]);
+            let ours = robosim_dynamics::crba(&model, &mut data, &q).expect("crba");
+            em = em.max((ours - &theirs).amax() / theirs.amax().max(1.0));
+        }
+        eprintln!("solo {label}: tool {ex:.1e}, M {em:.1e}");
+    }
+    assert!(ex < 1e-10, "tool pose differs from MuJoCo's by {ex:e}");
+    assert!(em < 1e-10, "M differs from MuJoCo's by {em:e}");
+}
+
+/// Ball joints (issue 36 item 4): the MJCF export writes a spherical joint as `type="ball"`
+/// (MuJoCo's qpos w x y z is robosim's x y z w reordered, by the importer) and reads back as the
+/// same robot — every link frame and M at random q, three balls in a tree. URDF has no ball
+/// joint: its export refuses the robot by name (mjcf_import.rs). MuJoCo's own numbers on the
+/// exported chain are in mujoco_exports.json (`ball_chain`, checked above).
+#[test]
+fn ball_joints_are_exported_as_mujoco_balls() {
+    use rand::{Rng, SeedableRng};
+    let path = testdata().join("ball/ball_tree.xml");
+    let mut u = robosim_file_io::mjcf::import_mjcf_tree(&path).expect("ball_tree imports");
+    u.robot.name = "b".into();
+    let (text, _) = to_mjcf(&u.robot).expect("a ball joint exports");
+    assert_eq!(text.matches("type=\"ball\"").count(), 3, "{text}");
+    let back = import_mjcf_tree_str(&text, Path::new("b.xml")).expect("reads back");
+    assert_eq!(
+        (back.robot.nq(), back.robot.nv()),
+        (u.robot.nq(), u.robot.nv())
+    );
+    let (a, b) = (&u.robot, &back.robot);
+    let ma = robosim_dynamics::Model::new(a).expect("model");
+    let mb = robosim_dynamics::Model::new(b).expect("model");
+    let (mut da, mut db) = (
+        robosim_dynamics::Data::new(&ma),
+        robosim_dynamics::Data::new(&mb),
+    );
+    let mut rng = rand::rngs::StdRng::seed_from_u64(364);
+    let (mut ex, mut em) = (0.0f64, 0.0f64);
+    for _ in 0..10 {
+        let mut q: Vec<f64> = (0..a.nq()).map(|_| rng.random_range(-1.0..1.0)).collect();
+        for (j, joint) in a.joints.iter().enumerate() {
+            if joint.spherical {
+                let s = &mut q[a.q_index(j)..a.q_index(j) + 4];
+                let n = s.iter().map(|x| x * x).sum::<f64>().sqrt();
+                s.iter_mut().for_each(|x| *x /= n);
+            }
+        }
+        for (x, y) in fk::link_frames(a, &q).iter().zip(&fk::link_frames(b, &q)) {
+            ex = ex.max((x - y).amax());
+        }
+        let m1 = robosim_dynamics::crba(&ma, &mut da, &q).expect("crba");
+        let m2 = robosim_dynamics::crba(&mb, &mut db, &q).expect("crba");
+        em = em.max((m1 - m2).amax());
+    }
+    assert!(ex < 1e-12 && em < 1e-12, "frames {ex:e}, M {em:e}");
+}
