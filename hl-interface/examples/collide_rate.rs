@@ -13,7 +13,10 @@
 //! the repeated-shape request lines (one per line) for tools/peers/collide_rate_coal.py, which
 //! runs the same lines through a Python + coal loop.
 //!
-//! `cargo run --release -p robosim-hl-interface --example collide_rate -- [--n 20000] [--rounds 7] [--write FILE]`
+//! `--only certified|new|loose` times one of the three (for a profile: `perf record` of one
+//! stream).
+//!
+//! `cargo run --release -p robosim-hl-interface --example collide_rate -- [--n 20000] [--rounds 7] [--write FILE] [--only NAME]`
 
 use std::time::Instant;
 
@@ -92,13 +95,24 @@ fn main() {
     let first = robosim_hl_interface::handle_line(&same[1]);
     let _ = per_request_us(&same[..100]);
     assert_eq!(first, robosim_hl_interface::handle_line(&same[1]));
+    let only = arg("--only");
+    let runs = |name: &str| only.as_deref().is_none_or(|o| o == name);
     let (mut hit, mut miss, mut hit_loose) = (Vec::new(), Vec::new(), Vec::new());
     for _ in 0..rounds {
-        hit.push(per_request_us(&same));
-        miss.push(per_request_us(&fresh));
-        hit_loose.push(per_request_us(&loose));
+        if runs("certified") {
+            hit.push(per_request_us(&same));
+        }
+        if runs("new") {
+            miss.push(per_request_us(&fresh));
+        }
+        if runs("loose") {
+            hit_loose.push(per_request_us(&loose));
+        }
     }
     let show = |name: &str, x: &[f64]| {
+        if x.is_empty() {
+            return f64::NAN;
+        }
         let m = median(x.to_vec());
         let (lo, hi) = x
             .iter()
