@@ -405,7 +405,9 @@ class Station:
 
 class Distance:
     """Exact distance of separated pairs (40 per class of tolerance_pairs.csv, gaps 1 mm –
-    0.3 m) at matched GJK tolerances (and robosim's certified distance against coal at 1e-9):
+    0.3 m, and of convex meshes in tolerance_hull_pairs.csv: hulls of 64 points, the same points
+    on both sides) at matched GJK tolerances 1e-6 and 1e-9 m (and robosim's certified distance
+    against coal at 1e-9):
     robosim's example peer_distance (exact::collide with distance and witnesses) against
     coal.distance with gjk_tolerance (collision_tolerance_coal.py, request objects made once)
     minus coal's sphere–sphere call, both the median over 60 passes over the 40 pairs (a pass,
