@@ -188,7 +188,7 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
         Which::Editor { out, quick } => {
             let me = std::env::current_exe()?;
             spun("editor", &out, || {
-                robosim_editor::bench::run(&out, quick, &me).map_err(CliError)
+                robosim_editor::bench::run(&out, quick, &me).map_err(CliError::from)
             })
         }
         Which::Urdf { out, quick, urdf } => {

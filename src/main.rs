@@ -289,11 +289,11 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 let s = existing(session)?;
                 robosim_editor::cli::lang_run_into(&program, out.as_deref(), &name, &s)
                     .map(|m| println!("{m}"))
-                    .map_err(CliError)
+                    .map_err(CliError::from)
             }
             (None, Some(out)) => robosim_editor::cli::lang_run(&program, &out)
                 .map(|s| print!("{s}"))
-                .map_err(CliError),
+                .map_err(CliError::from),
             (None, None) => Err(CliError("lang run: give --out DIR or --as NAME".into())),
         },
         Command::Lang {
@@ -302,11 +302,11 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             let s = existing(session)?;
             robosim_editor::cli::lang_load(&dir, &name, robot.as_deref(), &s)
                 .map(|m| println!("{m}"))
-                .map_err(CliError)
+                .map_err(CliError::from)
         }
         Command::Edit { robot, script } => {
             let s = existing(session)?;
-            robosim_editor::cli::edit(&s, &robot, script.as_deref()).map_err(CliError)
+            robosim_editor::cli::edit(&s, &robot, script.as_deref()).map_err(CliError::from)
         }
         Command::Completions { shell } => {
             // Generated into memory, then written once: clap_complete panics on a failed write

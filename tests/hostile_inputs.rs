@@ -271,7 +271,7 @@ fn read_with(reader: &str, path: &Path) -> (String, String) {
         }
         "program" => {
             let out = tempfile::tempdir().expect("tempdir");
-            match robosim_editor::cli::lang_run(path, out.path()) {
+            match robosim_editor::cli::lang_run(path, out.path()).map_err(|e| e.to_string()) {
                 Err(m) => {
                     let p = path.display().to_string();
                     let located = m

@@ -22,15 +22,71 @@
 //! The keeper's own time for an edit is estimated as the edit's round trip minus the empty
 //! transaction's (the keeper publishes no timing of its own for one transaction).
 
-use crate::cli::follow;
-use crate::commands::{Prompt, execute};
+use crate::cli::{RunError, follow};
+use crate::commands::{CommandError, Prompt, execute};
 use crate::session::Editor;
+use crate::structure::EditError;
 use robosim_instance_space::{
-    Client, ClientError, Kind, Reader, ScratchKeeper, Transaction, TxError,
+    Client, ClientError, Kind, Reader, ReaderError, ScratchKeeper, Transaction, TxError,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+/// Why the bench stopped. A variant that wraps a lower error keeps it; the message says which
+/// step (keeper, reader, editor line, file) failed.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    /// The keeper did not start, a version did not arrive, or an edit was lost (the message).
+    #[error("{0}")]
+    Refused(String),
+    /// A raw client's connection or transaction failed.
+    #[error(transparent)]
+    Client(#[from] ClientError),
+    /// The session could not be read.
+    #[error(transparent)]
+    Reader(#[from] ReaderError),
+    /// The editor could not start on its design.
+    #[error(transparent)]
+    Edit(#[from] EditError),
+    /// The editor's prompt could not follow the session.
+    #[error(transparent)]
+    Follow(#[from] RunError),
+    /// An editor line was refused (`line`: the line).
+    #[error("{line}: {source}")]
+    Command { line: String, source: CommandError },
+    /// A report file was not written.
+    #[error("{}: {source}", path.display())]
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+}
+
+impl From<String> for BenchError {
+    fn from(what: String) -> Self {
+        BenchError::Refused(what)
+    }
+}
+
+impl From<&str> for BenchError {
+    fn from(what: &str) -> Self {
+        BenchError::Refused(what.to_owned())
+    }
+}
+
+/// One editor line, its refusal kept with the line.
+fn line<S: crate::session::Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    line: &str,
+) -> Result<(), BenchError> {
+    execute(ed, p, line).map_err(|source| BenchError::Command {
+        line: line.to_owned(),
+        source,
+    })?;
+    Ok(())
+}
 
 fn percentile(v: &mut [f64], p: f64) -> f64 {
     if v.is_empty() {
@@ -61,36 +117,33 @@ struct Row {
 }
 
 /// Waits until `reader` holds `version`; the CLOCK_MONOTONIC time it did.
-fn reach(reader: &mut Reader, version: u64) -> Result<u64, String> {
+fn reach(reader: &mut Reader, version: u64) -> Result<u64, BenchError> {
     let deadline = Instant::now() + Duration::from_secs(10);
     loop {
-        reader.refresh().map_err(|e| e.to_string())?;
+        reader.refresh()?;
         if reader.snapshot().is_some_and(|s| s.version() >= version) {
             return Ok(robosim_instance_space::monotonic_ns());
         }
         if Instant::now() > deadline {
-            return Err(format!("no reader saw version {version} within 10 s"));
+            return Err(format!("no reader saw version {version} within 10 s").into());
         }
-        reader
-            .wait_change(Duration::from_millis(50))
-            .map_err(|e| e.to_string())?;
+        reader.wait_change(Duration::from_millis(50))?;
     }
 }
 
 /// The keeper's publication time of `version`.
-fn published(reader: &mut Reader, version: u64) -> Result<u64, String> {
+fn published(reader: &mut Reader, version: u64) -> Result<u64, BenchError> {
     reader
-        .changes_since(version - 1)
-        .map_err(|e| e.to_string())?
+        .changes_since(version - 1)?
         .into_iter()
         .find(|c| c.version == version)
         .map(|c| c.published_ns)
-        .ok_or_else(|| format!("no change record for version {version}"))
+        .ok_or_else(|| format!("no change record for version {version}").into())
 }
 
 /// Runs the bench and writes `editor.md` and `editor.csv` into `out`. `exe`: the robosim
 /// binary (started as the keeper).
-pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> {
+pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, BenchError> {
     let reps = if quick { 200 } else { 2_000 };
     let warm = if quick { 20 } else { 200 };
     let pid = std::process::id();
@@ -109,9 +162,8 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
         };
         let name = format!("be{pid}{}", durable as u8);
         let kp = ScratchKeeper::start(exe, &name, args, Duration::from_secs(120))?;
-        let err = |e: ClientError| e.to_string();
-        let mut raw = Client::connect(kp.session(), "bench-raw").map_err(err)?;
-        let mut reader = Reader::attach(kp.session(), "bench-reader").map_err(|e| e.to_string())?;
+        let mut raw = Client::connect(kp.session(), "bench-raw")?;
+        let mut reader = Reader::attach(kp.session(), "bench-reader")?;
         reach(&mut reader, 1)?;
         // The module edited: the first item of the scene with geometry below it, by path.
         let snap = reader.snapshot().ok_or("no model")?;
@@ -126,11 +178,11 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
         module = snap.path(target);
         let pose0 = snap.pose(target).pose;
         drop(snap);
-        let client = Client::connect(kp.session(), "bench-editor").map_err(err)?;
-        let mut ed = Editor::new(client, "bench").map_err(|e| e.to_string())?;
+        let client = Client::connect(kp.session(), "bench-editor")?;
+        let mut ed = Editor::new(client, "bench")?;
         let mut p = Prompt::default();
         follow(&mut reader, &ed, &mut p, ed.version)?;
-        execute(&mut ed, &mut p, "box b X=10 Y=10 Z=10")?;
+        line(&mut ed, &mut p, "box b X=10 Y=10 Z=10")?;
         let objects = reader.snapshot().map_or(0, |s| s.len());
 
         let mut empty = Vec::with_capacity(reps);
@@ -147,7 +199,7 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
             let t0 = robosim_instance_space::monotonic_ns();
             match raw.transact(&Transaction::new()) {
                 Err(ClientError::Refused(TxError::Empty)) => {}
-                other => return Err(format!("the empty transaction: {other:?}")),
+                other => return Err(format!("the empty transaction: {other:?}").into()),
             }
             let t1 = robosim_instance_space::monotonic_ns();
             // one pose op, raw
@@ -156,21 +208,21 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
             q[3] += sign * 1e-3;
             tx.set_pose(id, q);
             let t2 = robosim_instance_space::monotonic_ns();
-            let v = raw.transact(&tx).map_err(err)?.version;
+            let v = raw.transact(&tx)?.version;
             let t3 = robosim_instance_space::monotonic_ns();
             reach(&mut reader, v)?;
             // the editor on the module (its prompt first reads the session, as at a prompt)
             follow(&mut reader, &ed, &mut p, v)?;
-            let line = format!("translate {module} X={} cm", sign);
+            let translate = format!("translate {module} X={} cm", sign);
             let t4 = robosim_instance_space::monotonic_ns();
-            execute(&mut ed, &mut p, &line)?;
+            line(&mut ed, &mut p, &translate)?;
             let t5 = robosim_instance_space::monotonic_ns();
             let t6 = reach(&mut reader, ed.version)?;
             let pub_ns = published(&mut reader, ed.version)?;
             // the editor on a design object
             follow(&mut reader, &ed, &mut p, ed.version)?;
             let t7 = robosim_instance_space::monotonic_ns();
-            execute(&mut ed, &mut p, &format!("translate b X={sign} cm"))?;
+            line(&mut ed, &mut p, &format!("translate b X={sign} cm"))?;
             let t8 = robosim_instance_space::monotonic_ns();
             let t9 = reach(&mut reader, ed.version)?;
             if keep {
@@ -196,7 +248,8 @@ pub fn run(out: &Path, quick: bool, exe: &Path) -> Result<Vec<PathBuf>, String> 
         if (x - expect).abs() > 1e-9 {
             return Err(format!(
                 "the module ended at x = {x} m, not at {expect} m: an edit was lost"
-            ));
+            )
+            .into());
         }
         for (measure, v) in [
             ("empty transaction (baseline)", empty),
@@ -233,8 +286,12 @@ fn write(
     reps: usize,
     module: &str,
     rows: &[Row],
-) -> Result<Vec<PathBuf>, String> {
-    std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
+) -> Result<Vec<PathBuf>, BenchError> {
+    let io = |path: &Path| {
+        let path = path.to_path_buf();
+        move |source| BenchError::Write { path, source }
+    };
+    std::fs::create_dir_all(out).map_err(io(out))?;
     let mut csv = String::from("keeper,measure,objects,p50_us,p99_us,mean_us,p50_over_empty\n");
     let mut md =
         String::from("# Editor: one edit in the Space Station model (`robosim bench editor`)\n\n");
@@ -292,7 +349,7 @@ fn write(
     }
     let md_path = out.join("editor.md");
     let csv_path = out.join("editor.csv");
-    std::fs::write(&md_path, md).map_err(|e| format!("{}: {e}", md_path.display()))?;
-    std::fs::write(&csv_path, csv).map_err(|e| format!("{}: {e}", csv_path.display()))?;
+    std::fs::write(&md_path, md).map_err(io(&md_path))?;
+    std::fs::write(&csv_path, csv).map_err(io(&csv_path))?;
     Ok(vec![md_path, csv_path])
 }

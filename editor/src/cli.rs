@@ -1,29 +1,93 @@
 //! The command-line glue: `robosim lang run`, `robosim lang load`, `robosim edit`.
 
-use crate::commands::{Outcome, Picked, Prompt, VERBS, execute};
+use crate::commands::{CommandError, Outcome, Picked, Prompt, VERBS, execute};
+use crate::lang::LangError;
+use crate::program::WriteLinksError;
+use crate::robot::RobotError;
 use crate::session::Editor;
+use crate::structure::EditError;
 use crate::{program, robot};
-use robosim_instance_space::{Client, Reader, Session};
+use robosim_instance_space::{Client, ClientError, Reader, ReaderError, Session};
 use std::cell::RefCell;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
+/// Why `lang run`, `lang load` or `edit` stopped. A variant that wraps a lower error keeps it
+/// (the variant itself for a transparent one, `source()` for the others); the message names the
+/// program, directory, script line or session.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The command's input is wrong (the message names it).
+    #[error("{0}")]
+    Refused(String),
+    /// A program or script could not be read (not a regular file, too large, unreadable).
+    #[error(transparent)]
+    Read(#[from] robosim_input::InputError),
+    /// The program has an error (file:line:column).
+    #[error(transparent)]
+    Program(#[from] LangError),
+    /// The program's link files were not written.
+    #[error(transparent)]
+    WriteLinks(#[from] WriteLinksError),
+    /// A program's links belong to several robots (`program`: the program).
+    #[error("{}: {source}", program.display())]
+    Order {
+        program: PathBuf,
+        source: RobotError,
+    },
+    /// The link files do not make a robot.
+    #[error(transparent)]
+    Robot(#[from] RobotError),
+    /// The session's keeper could not be reached or refused the transaction.
+    #[error(transparent)]
+    Client(#[from] ClientError),
+    /// The session could not be read.
+    #[error(transparent)]
+    Reader(#[from] ReaderError),
+    /// The editor could not start on the design or take up its history.
+    #[error(transparent)]
+    Edit(#[from] EditError),
+    /// A line of an editor script was refused (`script`: the file, `line`: 1-based).
+    #[error(
+        "{}:{line}: {source} (this line changed nothing; the lines before it are committed)",
+        script.display()
+    )]
+    Line {
+        script: PathBuf,
+        line: usize,
+        source: CommandError,
+    },
+    /// The prompt's line editor failed.
+    #[error(transparent)]
+    Prompt(#[from] rustyline::error::ReadlineError),
+}
+
+impl From<String> for RunError {
+    fn from(what: String) -> Self {
+        RunError::Refused(what)
+    }
+}
+
 /// A ROBOSIM program's text: a regular file of at most [`robosim_input::Limit::TEXT`] bytes.
-fn read_program(path: &Path) -> Result<String, String> {
-    robosim_input::read_to_string(path, "a ROBOSIM program", robosim_input::Limit::TEXT)
-        .map_err(|e| e.to_string())
+fn read_program(path: &Path) -> Result<String, RunError> {
+    Ok(robosim_input::read_to_string(
+        path,
+        "a ROBOSIM program",
+        robosim_input::Limit::TEXT,
+    )?)
 }
 
 /// `robosim lang run PROGRAM --out DIR`: every STORE-LINK becomes a link file in DIR; a program
 /// with an error writes none.
-pub fn lang_run(program_path: &Path, out: &Path) -> Result<String, String> {
+pub fn lang_run(program_path: &Path, out: &Path) -> Result<String, RunError> {
     let text = read_program(program_path)?;
-    let o = program::run(&text, &program_path.display().to_string()).map_err(|e| e.to_string())?;
+    let o = program::run(&text, &program_path.display().to_string())?;
     if o.links.is_empty() {
         return Err(format!(
             "{}: the program stores no link (STORE-LINK)",
             program_path.display()
-        ));
+        )
+        .into());
     }
     let paths = program::write_links(&o, out)?;
     let mut s = String::new();
@@ -51,9 +115,9 @@ pub fn lang_run_into(
     out: Option<&Path>,
     name: &str,
     session: &Session,
-) -> Result<String, String> {
+) -> Result<String, RunError> {
     let text = read_program(program_path)?;
-    let o = program::run(&text, &program_path.display().to_string()).map_err(|e| e.to_string())?;
+    let o = program::run(&text, &program_path.display().to_string())?;
     let links: Vec<_> = o
         .links
         .iter()
@@ -63,10 +127,13 @@ pub fn lang_run_into(
         return Err(format!(
             "{}: the program stores no link (STORE-LINK)",
             program_path.display()
-        ));
+        )
+        .into());
     }
-    let (prefix, links) =
-        robot::order_links(links).map_err(|e| format!("{}: {e}", program_path.display()))?;
+    let (prefix, links) = robot::order_links(links).map_err(|source| RunError::Order {
+        program: program_path.to_path_buf(),
+        source,
+    })?;
     let r = robot::from_links(links, name)?;
     let tx = robot::robot_transaction(&r, name)?;
     let mut written = String::new();
@@ -81,8 +148,8 @@ pub fn lang_run_into(
                 .join(", ")
         );
     }
-    let mut c = Client::connect(session, "lang-run").map_err(|e| e.to_string())?;
-    let a = c.transact(&tx).map_err(|e| e.to_string())?;
+    let mut c = Client::connect(session, "lang-run")?;
+    let a = c.transact(&tx)?;
     Ok(format!(
         "ran {} into session {}: {prefix} ({} links: {}) as robot {name}: {} joints, {} objects, version {}{written}",
         program_path.display(),
@@ -106,12 +173,12 @@ pub fn lang_load(
     name: &str,
     prefix: Option<&str>,
     session: &Session,
-) -> Result<String, String> {
+) -> Result<String, RunError> {
     let (prefix, paths) = robot::link_paths(dir, prefix)?;
     let r = robot::load_links(&paths, name)?;
     let tx = robot::robot_transaction(&r, name)?;
-    let mut c = Client::connect(session, "lang-load").map_err(|e| e.to_string())?;
-    let a = c.transact(&tx).map_err(|e| e.to_string())?;
+    let mut c = Client::connect(session, "lang-load")?;
+    let a = c.transact(&tx)?;
     Ok(format!(
         "loaded {prefix} ({} links: {}) as robot {name}: {} joints, {} objects, version {}",
         r.links.len(),
@@ -135,21 +202,19 @@ pub fn follow<S: crate::session::Space>(
     ed: &Editor<S>,
     p: &mut Prompt,
     version: u64,
-) -> Result<Option<String>, String> {
+) -> Result<Option<String>, RunError> {
     let deadline = std::time::Instant::now() + std::time::Duration::from_secs(10);
     loop {
-        reader.refresh().map_err(|e| e.to_string())?;
+        reader.refresh()?;
         if reader.snapshot().is_some_and(|s| s.version() >= version) {
             break;
         }
         if std::time::Instant::now() > deadline {
-            return Err(format!(
-                "the session did not publish version {version} within 10 s"
-            ));
+            return Err(
+                format!("the session did not publish version {version} within 10 s").into(),
+            );
         }
-        reader
-            .wait_change(std::time::Duration::from_millis(100))
-            .map_err(|e| e.to_string())?;
+        reader.wait_change(std::time::Duration::from_millis(100))?;
     }
     let snap = reader.snapshot();
     let picked = snap.as_deref().and_then(|s| Picked::read(s, ed));
@@ -163,20 +228,20 @@ pub fn follow<S: crate::session::Space>(
 }
 
 /// `robosim edit --robot NAME [--script FILE]`: resumes design NAME when the session holds one.
-pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(), String> {
-    let client = Client::connect(session, "edit").map_err(|e| e.to_string())?;
-    let mut reader = Reader::attach(session, "edit").map_err(|e| e.to_string())?;
+pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(), RunError> {
+    let client = Client::connect(session, "edit")?;
+    let mut reader = Reader::attach(session, "edit")?;
     let snap = reader.snapshot();
     let mut ed = match snap.as_deref() {
         Some(s) if crate::session::design_from_snapshot(s, robot).is_ok() => {
-            Editor::resume(client, s, robot).map_err(|e| e.to_string())?
+            Editor::resume(client, s, robot)?
         }
-        _ => Editor::new(client, robot).map_err(|e| e.to_string())?,
+        _ => Editor::new(client, robot)?,
     };
     drop(snap);
     // The session's edits of this design are undoable here too (issue 39 item 5).
     let history = crate::session::history_path(&session.data_dir(), robot);
-    match ed.keep_history(history).map_err(|e| e.to_string())? {
+    match ed.keep_history(history)? {
         crate::session::HistoryFound::Taken { undo, redo } if undo + redo > 0 => eprintln!(
             "edit: design {robot}: {undo} edit(s) to undo and {redo} to redo from earlier editors of session {}",
             session.name()
@@ -190,9 +255,11 @@ pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(),
     let mut p = Prompt::default();
     match script {
         Some(path) => {
-            let text =
-                robosim_input::read_to_string(path, "an editor script", robosim_input::Limit::TEXT)
-                    .map_err(|e| e.to_string())?;
+            let text = robosim_input::read_to_string(
+                path,
+                "an editor script",
+                robosim_input::Limit::TEXT,
+            )?;
             for (k, line) in text.lines().enumerate() {
                 if let Some(said) = follow(&mut reader, &ed, &mut p, ed.version)? {
                     println!("{said}");
@@ -204,12 +271,12 @@ pub fn edit(session: &Session, robot: &str, script: Option<&Path>) -> Result<(),
                             println!("{s}");
                         }
                     }
-                    Err(e) => {
-                        return Err(format!(
-                            "{}:{}: {e} (this line changed nothing; the lines before it are committed)",
-                            path.display(),
-                            k + 1
-                        ));
+                    Err(source) => {
+                        return Err(RunError::Line {
+                            script: path.to_path_buf(),
+                            line: k + 1,
+                            source,
+                        });
                     }
                 }
             }
@@ -272,10 +339,10 @@ fn interactive(
     p: &mut Prompt,
     reader: &mut Reader,
     session: &Session,
-) -> Result<(), String> {
+) -> Result<(), RunError> {
     let names = Rc::new(RefCell::new(Vec::new()));
     let mut rl: rustyline::Editor<Helper, rustyline::history::FileHistory> =
-        rustyline::Editor::new().map_err(|e| e.to_string())?;
+        rustyline::Editor::new()?;
     rl.set_helper(Some(Helper {
         names: names.clone(),
     }));
@@ -325,7 +392,7 @@ fn interactive(
             }
             Err(rustyline::error::ReadlineError::Interrupted) => continue,
             Err(rustyline::error::ReadlineError::Eof) => break,
-            Err(e) => return Err(e.to_string()),
+            Err(e) => return Err(e.into()),
         }
     }
     let _ = rl.save_history(&hist);

@@ -10,6 +10,7 @@ use crate::session::{Editor, Space};
 use crate::shape::{Shape, facets_for};
 use crate::structure::{Design, EditError};
 use robosim_file_io::linkfile::LinkJoint;
+use robosim_geometry::shapes::ShapeError;
 use robosim_instance_space::{Id, Snapshot};
 use std::rc::Rc;
 
@@ -139,7 +140,7 @@ fn pick(p: &Prompt) -> Result<&Picked, String> {
         .ok_or_else(|| "nothing is picked: click an object in the display first".to_owned())
 }
 
-fn target<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<Target, String> {
+fn target<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<Target, CommandError> {
     if is_pick(w) {
         let k = pick(p)?;
         return Ok(match &k.name {
@@ -152,7 +153,7 @@ fn target<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<Target, Strin
     }
     let not_found = match ed.design().object(w) {
         Ok(_) => return Ok(Target::Design(w.to_owned())),
-        Err(e) => e.to_string(),
+        Err(e) => e,
     };
     if let Some(snap) = &p.model {
         let path = w.trim_start_matches('/');
@@ -161,7 +162,8 @@ fn target<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<Target, Strin
             if snap.origin(i).contains("\"editor\"") {
                 return Err(format!(
                     "{w}: an object of an editor design; edit it in that design (robosim edit --robot …)"
-                ));
+                )
+                .into());
             }
             return Ok(Target::Model {
                 id: snap.rec(i).id,
@@ -169,7 +171,7 @@ fn target<S: Space>(ed: &Editor<S>, p: &Prompt, w: &str) -> Result<Target, Strin
             });
         }
     }
-    Err(not_found)
+    Err(not_found.into())
 }
 
 /// The design object a word names (`.`: the pick, which must be a design object).
@@ -194,7 +196,7 @@ fn move_model<S: Space>(
     id: Id,
     path: &str,
     f: impl FnOnce(nalgebra::Matrix4<f64>) -> nalgebra::Matrix4<f64>,
-) -> Result<crate::session::Done, String> {
+) -> Result<crate::session::Done, CommandError> {
     let snap = p
         .model
         .as_ref()
@@ -205,7 +207,99 @@ fn move_model<S: Space>(
     let before = snap.pose(i).pose;
     let after = robosim_scene::pose::from_matrix(&f(robosim_scene::pose::to_matrix(&before)));
     ed.move_model_object(id, before, after, snap.version())
-        .map_err(|e| format!("{path}: {e}"))
+        .map_err(|source| CommandError::Model {
+            path: path.to_owned(),
+            source,
+        })
+}
+
+/// Why a line was refused (nothing changed). A variant that wraps a lower error keeps it
+/// (`source()`, or the variant itself for a transparent one); its message is the line's message,
+/// naming the object, file or argument.
+#[derive(Debug, thiserror::Error)]
+pub enum CommandError {
+    /// The line itself is wrong (the message names the verb, argument or object).
+    #[error("{0}")]
+    Refused(String),
+    /// The design refused the edit, or the keeper its transaction.
+    #[error(transparent)]
+    Edit(#[from] EditError),
+    /// An object of the session's model outside the design could not be moved (`path`: its
+    /// path).
+    #[error("{path}: {source}")]
+    Model { path: String, source: EditError },
+    /// An object's shape makes no solid.
+    #[error(transparent)]
+    Shape(#[from] ShapeError),
+    /// `save FILE`: the design could not be written.
+    #[error("save: {source}")]
+    Save { source: SaveError },
+    /// `load FILE`: the file could not be read.
+    #[error("load: {source}")]
+    LoadRead { source: robosim_input::InputError },
+    /// `load FILE`: the file is not a design (serde's error).
+    #[error("load: {file}: {source}")]
+    LoadFormat {
+        file: String,
+        source: serde_json::Error,
+    },
+    /// `load FILE`: the design read does not hold together.
+    #[error("load: {file}: {source}")]
+    LoadInvalid { file: String, source: InvalidDesign },
+    /// `code FILE`: the program's directory could not be made.
+    #[error("code: {}: {source}", dir.display())]
+    CodeDir {
+        dir: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    /// `code FILE`: the program could not be written.
+    #[error("code: {source}")]
+    CodeWrite { source: robosim_input::OutputError },
+    /// `read-code FILE`: the program could not be read.
+    #[error("read-code: {source}")]
+    CodeRead { source: robosim_input::InputError },
+    /// A ROBOSIM program (read or generated) has an error (file:line:column).
+    #[error(transparent)]
+    Program(#[from] crate::lang::LangError),
+    /// `run DIR`: the link files could not be written.
+    #[error(transparent)]
+    WriteLinks(#[from] program::WriteLinksError),
+}
+
+/// Why `save` could not write the design.
+#[derive(Debug, thiserror::Error)]
+pub enum SaveError {
+    /// The design did not encode as JSON.
+    #[error(transparent)]
+    Encode(#[from] serde_json::Error),
+    /// The file was not written.
+    #[error(transparent)]
+    Write(#[from] robosim_input::OutputError),
+}
+
+/// Why a loaded design does not hold together (the object named).
+#[derive(Debug, thiserror::Error)]
+pub enum InvalidDesign {
+    #[error("{0}")]
+    Refused(String),
+    /// An object's shape makes no solid.
+    #[error("{object}: {source}")]
+    Shape { object: String, source: ShapeError },
+    /// An object's parent is not in its link.
+    #[error(transparent)]
+    Parent(#[from] EditError),
+}
+
+impl From<String> for CommandError {
+    fn from(what: String) -> Self {
+        CommandError::Refused(what)
+    }
+}
+
+impl From<&str> for CommandError {
+    fn from(what: &str) -> Self {
+        CommandError::Refused(what.to_owned())
+    }
 }
 
 /// What a line did.
@@ -357,7 +451,7 @@ fn word<'a>(l: &'a Line, i: usize, what: &str) -> Result<&'a str, String> {
 /// Which polygon a face word names: a number, `top` or `bottom` (the polygon whose outward
 /// normal points most along +z / −z of the object's own frame), or `.` / `selected`: the
 /// polygon picked in the display (on this object).
-fn face(d: &Design, p: &Prompt, obj: &str, w: &str) -> Result<usize, String> {
+fn face(d: &Design, p: &Prompt, obj: &str, w: &str) -> Result<usize, CommandError> {
     if let Ok(k) = w.parse::<usize>() {
         return Ok(k);
     }
@@ -365,29 +459,26 @@ fn face(d: &Design, p: &Prompt, obj: &str, w: &str) -> Result<usize, String> {
         let k = pick(p)?;
         return match (&k.name, k.polygon) {
             (Some(n), Some(poly)) if n == obj => Ok(poly as usize),
-            (Some(n), None) if n == obj => Err(format!("the pick on {obj} is not on a polygon")),
+            (Some(n), None) if n == obj => {
+                Err(format!("the pick on {obj} is not on a polygon").into())
+            }
             _ => Err(format!(
                 "the picked polygon is on {}, not on {obj}",
                 k.name.as_deref().unwrap_or(&k.path)
-            )),
+            )
+            .into()),
         };
     }
-    let o = d.object(obj).map_err(|e| e.to_string())?;
+    let o = d.object(obj)?;
     if o.shape.is_joint() {
         return Ok(0);
     }
-    let p = o
-        .shape
-        .polyhedron()
-        .map_err(|e| e.to_string())?
-        .ok_or("no polygons")?;
+    let p = o.shape.polyhedron()?.ok_or("no polygons")?;
     let sign = match w {
         "top" => 1.0,
         "bottom" => -1.0,
         other => {
-            return Err(format!(
-                "{other:?} is not a polygon (a number, top or bottom)"
-            ));
+            return Err(format!("{other:?} is not a polygon (a number, top or bottom)").into());
         }
     };
     (0..p.polygons.len())
@@ -403,7 +494,7 @@ pub fn execute<S: Space>(
     ed: &mut Editor<S>,
     p: &mut Prompt,
     line: &str,
-) -> Result<Outcome, String> {
+) -> Result<Outcome, CommandError> {
     let Some(l) = split(line)? else {
         return Ok(Outcome::Said(String::new()));
     };
@@ -460,26 +551,27 @@ pub fn execute<S: Space>(
             VERBS.join(" ")
         ))),
         "quit" | "exit" => Ok(Outcome::Quit),
-        other => Err(unknown_verb(other)),
+        other => Err(unknown_verb(other).into()),
     }
 }
 
 /// What an edit that went through says: the new version and its op count.
-fn done(r: Result<crate::session::Done, EditError>) -> Result<Outcome, String> {
-    r.map(|d| Outcome::Said(format!("ok, version {} ({} ops)", d.version, d.ops)))
-        .map_err(|e| e.to_string())
+fn done(r: Result<crate::session::Done, EditError>) -> Result<Outcome, CommandError> {
+    let d = r?;
+    Ok(Outcome::Said(format!(
+        "ok, version {} ({} ops)",
+        d.version, d.ops
+    )))
 }
 
 /// `units U`: the unit of lengths or of angles from now on.
-fn set_units(p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+fn set_units(p: &mut Prompt, l: &Line) -> Result<Outcome, CommandError> {
     let w = word(l, 0, "a unit (m, cm, mm, in, ft, deg, rad)")?;
     match unit(w) {
         Some(Unit::Length(f)) => p.length = (f, w.to_owned()),
         Some(Unit::Angle(f)) => p.angle = (f, w.to_owned()),
         None => {
-            return Err(format!(
-                "units: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)"
-            ));
+            return Err(format!("units: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)").into());
         }
     }
     Ok(Outcome::Said(format!(
@@ -494,7 +586,7 @@ fn make_primitive<S: Space>(
     p: &mut Prompt,
     l: &Line,
     v: &str,
-) -> Result<Outcome, String> {
+) -> Result<Outcome, CommandError> {
     let name = word(l, 0, "an object name")?;
     let shape = match v {
         "box" => {
@@ -535,7 +627,7 @@ fn make_primitive<S: Space>(
 }
 
 /// `move X Y Z` starts the profile, `draw X Y Z` adds a point to it.
-fn add_profile_point(p: &mut Prompt, l: &Line, v: &str) -> Result<Outcome, String> {
+fn add_profile_point(p: &mut Prompt, l: &Line, v: &str) -> Result<Outcome, CommandError> {
     let pt = p.xyz(l, true)?;
     if v == "move" {
         p.profile.clear();
@@ -553,7 +645,7 @@ fn sweep_profile<S: Space>(
     p: &mut Prompt,
     l: &Line,
     v: &str,
-) -> Result<Outcome, String> {
+) -> Result<Outcome, CommandError> {
     let name = word(l, 0, "an object name")?;
     let mut pts = p.profile.clone();
     if pts.len() > 1 && pts.first() == pts.last() {
@@ -606,7 +698,11 @@ fn sweep_profile<S: Space>(
 }
 
 /// `translate OBJECT X Y Z`: a design object, or a model object moved in the space.
-fn translate<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+fn translate<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    l: &Line,
+) -> Result<Outcome, CommandError> {
     let t = p.xyz(l, true)?;
     match target(ed, p, word(l, 0, "an object")?)? {
         Target::Design(o) => done(ed.apply(|d| d.translate(&o, t))),
@@ -632,7 +728,7 @@ fn rotate<S: Space>(
     p: &mut Prompt,
     l: &Line,
     v: &str,
-) -> Result<Outcome, String> {
+) -> Result<Outcome, CommandError> {
     let r = p.xyz(l, false)?;
     match target(ed, p, word(l, 0, "an object")?)? {
         Target::Design(o) => done(ed.apply(|d| d.rotate(&o, r, v == "rotate-rel"))),
@@ -640,7 +736,8 @@ fn rotate<S: Space>(
             if v == "rotate" {
                 return Err(format!(
                     "rotate: {path} is not in the design and has no home to rotate from; use rotate-rel"
-                ));
+                )
+                .into());
             }
             let rot = crate::shape::axis_rotation(2, r[2])
                 * crate::shape::axis_rotation(1, r[1])
@@ -655,7 +752,7 @@ fn rotate<S: Space>(
 }
 
 /// `attach CHILD FACE [to] BASE FACE`.
-fn attach<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+fn attach<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, CommandError> {
     // attach CHILD FACE [to] BASE FACE
     let w: Vec<&str> = l
         .words
@@ -673,9 +770,9 @@ fn attach<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outc
 }
 
 /// `resize OBJECT KEY = VALUE …`: dimensions not given keep their value.
-fn resize<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+fn resize<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, CommandError> {
     let o = &design_name(ed, p, word(l, 0, "an object")?)?;
-    let obj = ed.design().object(o).map_err(|e| e.to_string())?.clone();
+    let obj = ed.design().object(o)?.clone();
     let names = obj.shape.dim_names();
     Prompt::check_keys(l, names)?;
     let cur = obj.shape.dims();
@@ -689,7 +786,11 @@ fn resize<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outc
 
 /// `r-joint-i NAME` and the like: a joint marker (revolute, prismatic or fixed; the link's
 /// input joint i or output joint i+1).
-fn make_joint_marker<S: Space>(ed: &mut Editor<S>, l: &Line, v: &str) -> Result<Outcome, String> {
+fn make_joint_marker<S: Space>(
+    ed: &mut Editor<S>,
+    l: &Line,
+    v: &str,
+) -> Result<Outcome, CommandError> {
     let name = word(l, 0, "a name for the joint")?;
     let kind = match &v[..1] {
         "r" => LinkJoint::Revolute,
@@ -701,8 +802,8 @@ fn make_joint_marker<S: Space>(ed: &mut Editor<S>, l: &Line, v: &str) -> Result<
 }
 
 /// `check`: the link's joint markers as a DH row, in the session's units.
-fn check_link<S: Space>(ed: &mut Editor<S>, p: &mut Prompt) -> Result<Outcome, String> {
-    let row = ed.design().check_joints().map_err(|e| e.to_string())?;
+fn check_link<S: Space>(ed: &mut Editor<S>, p: &mut Prompt) -> Result<Outcome, CommandError> {
+    let row = ed.design().check_joints()?;
     Ok(Outcome::Said(format!(
         "link {}: valid DH: THETA {:.6} {}, DZ {:.6} {}, DA {:.6} {}, ALPHA {:.6} {}",
         ed.design().link().name,
@@ -718,63 +819,81 @@ fn check_link<S: Space>(ed: &mut Editor<S>, p: &mut Prompt) -> Result<Outcome, S
 }
 
 /// `save FILE`: the design as JSON.
-fn save_design<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, String> {
+fn save_design<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, CommandError> {
     let f = word(l, 0, "a file name")?;
-    let text = serde_json::to_string_pretty(ed.design()).map_err(|e| e.to_string())?;
+    let save = |source: SaveError| CommandError::Save { source };
+    let text = serde_json::to_string_pretty(ed.design()).map_err(|e| save(e.into()))?;
     robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
-        .map_err(|e| format!("save: {e}"))?;
+        .map_err(|e| save(e.into()))?;
     Ok(Outcome::Said(format!("saved {f}")))
 }
 
 /// `load FILE`: a design saved before, checked, replaces the current one.
-fn load_design<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, String> {
+fn load_design<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, CommandError> {
     let f = word(l, 0, "a file name")?;
     let text = robosim_input::read_to_string(
         std::path::Path::new(f),
         "an editor design",
         robosim_input::Limit::TEXT,
     )
-    .map_err(|e| format!("load: {e}"))?;
-    let d: Design = serde_json::from_str(&text).map_err(|e| format!("load: {f}: {e}"))?;
-    validate(&d).map_err(|e| format!("load: {f}: {e}"))?;
+    .map_err(|source| CommandError::LoadRead { source })?;
+    let d: Design = serde_json::from_str(&text).map_err(|source| CommandError::LoadFormat {
+        file: f.to_owned(),
+        source,
+    })?;
+    validate(&d).map_err(|source| CommandError::LoadInvalid {
+        file: f.to_owned(),
+        source,
+    })?;
     done(ed.replace(d))
 }
 
 /// `code FILE`: the design as a ROBOSIM program.
-fn write_code<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+fn write_code<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    l: &Line,
+) -> Result<Outcome, CommandError> {
     let f = word(l, 0, "a file name")?;
-    let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
+    let text = codegen::generate(ed.design(), code_units(p))?;
     if let Some(dir) = std::path::Path::new(f)
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
     {
-        std::fs::create_dir_all(dir).map_err(|e| format!("code: {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(|source| CommandError::CodeDir {
+            dir: dir.to_path_buf(),
+            source,
+        })?;
     }
     robosim_input::write_file_atomic(std::path::Path::new(f), text.as_bytes())
-        .map_err(|e| format!("code: {e}"))?;
+        .map_err(|source| CommandError::CodeWrite { source })?;
     Ok(Outcome::Said(format!("wrote {f}")))
 }
 
 /// `read-code FILE`: a ROBOSIM program run and read back as the design.
-fn read_code<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, String> {
+fn read_code<S: Space>(ed: &mut Editor<S>, l: &Line) -> Result<Outcome, CommandError> {
     let f = word(l, 0, "a ROBOSIM program")?;
     let text = robosim_input::read_to_string(
         std::path::Path::new(f),
         "a ROBOSIM program",
         robosim_input::Limit::TEXT,
     )
-    .map_err(|e| format!("read-code: {e}"))?;
-    let out = program::run(&text, f).map_err(|e| e.to_string())?;
+    .map_err(|source| CommandError::CodeRead { source })?;
+    let out = program::run(&text, f)?;
     let robot = ed.design().robot.clone();
-    let d = codegen::design_from_program(&out, &robot).map_err(|e| e.to_string())?;
+    let d = codegen::design_from_program(&out, &robot)?;
     done(ed.replace(d))
 }
 
 /// `run DIR`: the design's program run, its link files written to DIR.
-fn run_code<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+fn run_code<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    l: &Line,
+) -> Result<Outcome, CommandError> {
     let dir = word(l, 0, "a directory for the link files")?;
-    let text = codegen::generate(ed.design(), code_units(p)).map_err(|e| e.to_string())?;
-    let out = program::run(&text, "(generated)").map_err(|e| e.to_string())?;
+    let text = codegen::generate(ed.design(), code_units(p))?;
+    let out = program::run(&text, "(generated)")?;
     let paths = program::write_links(&out, std::path::Path::new(dir))?;
     Ok(Outcome::Said(format!(
         "wrote {}",
@@ -787,10 +906,14 @@ fn run_code<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Ou
 }
 
 /// `faces OBJECT`: each polygon's centre and normal.
-fn list_faces<S: Space>(ed: &mut Editor<S>, p: &mut Prompt, l: &Line) -> Result<Outcome, String> {
+fn list_faces<S: Space>(
+    ed: &mut Editor<S>,
+    p: &mut Prompt,
+    l: &Line,
+) -> Result<Outcome, CommandError> {
     let o = &design_name(ed, p, word(l, 0, "an object")?)?;
-    let obj = ed.design().object(o).map_err(|e| e.to_string())?;
-    let Some(poly) = obj.shape.polyhedron().map_err(|e| e.to_string())? else {
+    let obj = ed.design().object(o)?;
+    let Some(poly) = obj.shape.polyhedron()? else {
         return Ok(Outcome::Said(format!(
             "{o}: a joint marker; polygon 0 is its frame"
         )));
@@ -889,20 +1012,28 @@ fn code_units(p: &Prompt) -> CodeUnits {
 }
 
 /// Checks a loaded design: every shape builds, parents exist, transforms are finite.
-fn validate(d: &Design) -> Result<(), String> {
+fn validate(d: &Design) -> Result<(), InvalidDesign> {
     if d.links.is_empty() || d.current >= d.links.len() {
-        return Err("no links, or the current link is out of range".into());
+        return Err(InvalidDesign::Refused(
+            "no links, or the current link is out of range".into(),
+        ));
     }
     for l in &d.links {
         for o in &l.objects {
             o.shape
                 .polyhedron()
-                .map_err(|e| format!("{}: {e}", o.name))?;
+                .map_err(|source| InvalidDesign::Shape {
+                    object: o.name.clone(),
+                    source,
+                })?;
             if !o.ref_.iter().chain(o.amat.iter()).all(|x| x.is_finite()) {
-                return Err(format!("{}: a transform is not finite", o.name));
+                return Err(InvalidDesign::Refused(format!(
+                    "{}: a transform is not finite",
+                    o.name
+                )));
             }
             if let Some(p) = &o.parent {
-                crate::structure::world_in(l, p).map_err(|e| e.to_string())?;
+                crate::structure::world_in(l, p)?;
             }
         }
     }

@@ -896,15 +896,36 @@ impl Interp<'_> {
     }
 }
 
+/// Why a program's link files were not written: the path and the file system's error, kept.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteLinksError {
+    /// The directory could not be made, a link file not written or not renamed into place.
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: std::path::PathBuf,
+        source: std::io::Error,
+    },
+    /// A link, FIFO or device is where a link file goes (nothing was written).
+    #[error(transparent)]
+    Target(#[from] robosim_input::OutputError),
+}
+
 /// Writes every link of `out` into `dir` (created if missing): all files are first written
 /// under temporary names and renamed only when all were written, so a failed write leaves no
 /// link file of this run behind.
-pub fn write_links(out: &Output, dir: &std::path::Path) -> Result<Vec<std::path::PathBuf>, String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+pub fn write_links(
+    out: &Output,
+    dir: &std::path::Path,
+) -> Result<Vec<std::path::PathBuf>, WriteLinksError> {
+    let io = |path: &std::path::Path| {
+        let path = path.to_path_buf();
+        move |source| WriteLinksError::Io { path, source }
+    };
+    std::fs::create_dir_all(dir).map_err(io(dir))?;
     // A link, FIFO or device where a link file goes is refused before anything is written
     // (the rename below would replace it).
     for l in &out.links {
-        robosim_input::check_output_path(&dir.join(&l.name)).map_err(|e| e.to_string())?;
+        robosim_input::check_output_path(&dir.join(&l.name))?;
     }
     let mut tmps = Vec::new();
     for l in &out.links {
@@ -914,14 +935,14 @@ pub fn write_links(out: &Output, dir: &std::path::Path) -> Result<Vec<std::path:
                 let _ = std::fs::remove_file(t);
             }
             let _ = std::fs::remove_file(&tmp);
-            return Err(format!("{}: {e}", tmp.display()));
+            return Err(io(&tmp)(e));
         }
         tmps.push(tmp);
     }
     let mut paths = Vec::new();
     for (l, tmp) in out.links.iter().zip(&tmps) {
         let p = dir.join(&l.name);
-        std::fs::rename(tmp, &p).map_err(|e| format!("{}: {e}", p.display()))?;
+        std::fs::rename(tmp, &p).map_err(io(&p))?;
         paths.push(p);
     }
     Ok(paths)

@@ -24,6 +24,37 @@ use std::path::{Path, PathBuf};
 pub const REVOLUTE_LIMITS: [f64; 2] = [-std::f64::consts::PI, std::f64::consts::PI];
 pub const PRISMATIC_LIMITS: [f64; 2] = [-1.0, 1.0];
 
+/// Why link files do not make a robot. A variant that wraps the file system's or the link
+/// file's error keeps it (`source()`); the others are the message itself (the files and links
+/// named).
+#[derive(Debug, thiserror::Error)]
+pub enum RobotError {
+    /// The links do not make a chain (the message names the links and what is wrong).
+    #[error("{0}")]
+    Refused(String),
+    /// The directory of link files could not be listed.
+    #[error("{}: {source}", dir.display())]
+    Dir {
+        dir: PathBuf,
+        source: std::io::Error,
+    },
+    /// A link file could not be read, or its vectors make no solid.
+    #[error(transparent)]
+    LinkFile(#[from] linkfile::LinkFileError),
+    /// A link's AMAT is not a DH transform.
+    #[error("{link}: AMAT is not a DH transform: {source}")]
+    NotDh {
+        link: String,
+        source: linkfile::DhViolation,
+    },
+}
+
+impl From<String> for RobotError {
+    fn from(what: String) -> Self {
+        RobotError::Refused(what)
+    }
+}
+
 /// A robot read from link files.
 #[derive(Debug, Clone)]
 pub struct LoadedRobot {
@@ -35,8 +66,11 @@ pub struct LoadedRobot {
 /// The link files of robot `prefix` in `dir` (`PREFIX.EXT`): the base `PREFIX.LOC` first (or
 /// the one link whose I joint is fixed or absent), then the others in natural order of their
 /// extensions (L1, L2, …, L10).
-pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathBuf>), String> {
-    let rd = std::fs::read_dir(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathBuf>), RobotError> {
+    let rd = std::fs::read_dir(dir).map_err(|source| RobotError::Dir {
+        dir: dir.to_path_buf(),
+        source,
+    })?;
     let mut by_prefix: std::collections::BTreeMap<String, Vec<(String, PathBuf)>> =
         Default::default();
     for e in rd.flatten() {
@@ -60,18 +94,19 @@ pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathB
         Some(p) => p.to_owned(),
         None if by_prefix.len() == 1 => by_prefix.keys().next().cloned().unwrap_or_default(),
         None if by_prefix.is_empty() => {
-            return Err(format!("{}: no link files (NAME.EXT) in it", dir.display()));
+            return Err(format!("{}: no link files (NAME.EXT) in it", dir.display()).into());
         }
         None => {
             return Err(format!(
                 "{}: link files of several robots ({}); say which with --robot",
                 dir.display(),
                 by_prefix.keys().cloned().collect::<Vec<_>>().join(", ")
-            ));
+            )
+            .into());
         }
     };
     let Some(mut files) = by_prefix.remove(&prefix) else {
-        return Err(format!("{}: no link files {prefix}.*", dir.display()));
+        return Err(format!("{}: no link files {prefix}.*", dir.display()).into());
     };
     files.sort_by(|a, b| {
         let base = |e: &str| !e.eq_ignore_ascii_case("LOC");
@@ -87,10 +122,10 @@ pub fn link_paths(dir: &Path, prefix: Option<&str>) -> Result<(String, Vec<PathB
 /// belong to one robot (one prefix). The prefix and the ordered links.
 pub fn order_links(
     mut links: Vec<(String, LinkFile)>,
-) -> Result<(String, Vec<(String, LinkFile)>), String> {
+) -> Result<(String, Vec<(String, LinkFile)>), RobotError> {
     let prefix_of = |n: &str| n.split_once('.').map_or(n, |(p, _)| p).to_owned();
     let Some(first) = links.first().map(|l| prefix_of(&l.0)) else {
-        return Err("no links".into());
+        return Err(RobotError::Refused("no links".into()));
     };
     let mut others: Vec<String> = links
         .iter()
@@ -102,7 +137,8 @@ pub fn order_links(
         return Err(format!(
             "links of several robots ({first}, {}); write them with --out and load one with `robosim lang load DIR --robot NAME`",
             others.join(", ")
-        ));
+        )
+        .into());
     }
     let ext = |n: &str| n.split_once('.').map_or("", |(_, e)| e).to_owned();
     links.sort_by(|a, b| {
@@ -142,10 +178,10 @@ fn natural(s: &str) -> (String, u64, String) {
 }
 
 /// Reads the files and checks them as one chain.
-pub fn load_links(paths: &[PathBuf], name: &str) -> Result<LoadedRobot, String> {
+pub fn load_links(paths: &[PathBuf], name: &str) -> Result<LoadedRobot, RobotError> {
     let mut links = Vec::new();
     for p in paths {
-        let f = LinkFile::read(p).map_err(|e| e.to_string())?;
+        let f = LinkFile::read(p)?;
         let lname = p
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
@@ -156,9 +192,9 @@ pub fn load_links(paths: &[PathBuf], name: &str) -> Result<LoadedRobot, String> 
 }
 
 /// The robot of `links` (base first).
-pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRobot, String> {
+pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRobot, RobotError> {
     let Some((bname, base)) = links.first() else {
-        return Err("no links".into());
+        return Err(RobotError::Refused("no links".into()));
     };
     if matches!(
         base.joint_i,
@@ -167,12 +203,13 @@ pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRo
         return Err(format!(
             "{bname}: the base link's I joint is {}; a base has a fixed I joint or none",
             joint_words(base.joint_i)
-        ));
+        )
+        .into());
     }
     if links.len() < 2 {
-        return Err(format!(
-            "{bname}: a robot needs the base link and at least one moving link"
-        ));
+        return Err(
+            format!("{bname}: a robot needs the base link and at least one moving link").into(),
+        );
     }
     let mut joints = Vec::new();
     for (k, (lname, l)) in links.iter().enumerate().skip(1) {
@@ -183,7 +220,8 @@ pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRo
                 return Err(format!(
                     "{lname}: link {k}'s I joint is {}; links after the base move with a revolute or prismatic I joint",
                     joint_words(other)
-                ));
+                )
+                .into());
             }
         };
         let (prev_name, prev) = &links[k - 1];
@@ -192,14 +230,19 @@ pub fn from_links(links: Vec<(String, LinkFile)>, name: &str) -> Result<LoadedRo
                 "{lname}: its I joint ({}) is not the joint {prev_name} ends with ({})",
                 joint_words(l.joint_i),
                 joint_words(prev.joint_i1)
-            ));
+            )
+            .into());
         }
-        let row = linkfile::dh_decompose(&l.amat, crate::program::DH_TOL)
-            .map_err(|e| format!("{lname}: AMAT is not a DH transform: {e}"))?;
+        let row = linkfile::dh_decompose(&l.amat, crate::program::DH_TOL).map_err(|source| {
+            RobotError::NotDh {
+                link: lname.clone(),
+                source,
+            }
+        })?;
         // The file's AMAT must agree with its joint frames.
         let amat = rigid_inverse(&l.ajnt_i) * l.ajnt_i1;
         if (amat - l.amat).amax() > 1e-9 {
-            return Err(format!("{lname}: AMAT is not AJNT-I⁻¹ · AJNT-I+1"));
+            return Err(format!("{lname}: AMAT is not AJNT-I⁻¹ · AJNT-I+1").into());
         }
         let (mass, com_c, inertia_c) = from_pseudo_inertia(&l.ainert);
         // into DH frame k: x_k = AJNT-I+1⁻¹ x_c
@@ -249,7 +292,7 @@ fn pose(m: &Matrix4<f64>) -> [f64; 12] {
 /// The transaction that creates the robot as a top-level Instance Space robot called `name`:
 /// the robot object (pose = base), the base link's solids under it, one link object per moving
 /// link (pose = its DH frame at q = 0, DH row, limits, mass) with its solids.
-pub fn robot_transaction(r: &LoadedRobot, name: &str) -> Result<Transaction, String> {
+pub fn robot_transaction(r: &LoadedRobot, name: &str) -> Result<Transaction, RobotError> {
     let mut tx = Transaction::new();
     let top = tx.create(Kind::Robot, name, None);
     tx.set_pose(top, pose(&r.robot.base));
@@ -301,7 +344,7 @@ pub fn robot_transaction(r: &LoadedRobot, name: &str) -> Result<Transaction, Str
             );
             link
         };
-        let solids = l.solids(Path::new(lname)).map_err(|e| e.to_string())?;
+        let solids = l.solids(Path::new(lname))?;
         let place = pose(&rigid_inverse(&l.ajnt_i1));
         for (s, (verts, faces)) in solids.into_iter().enumerate() {
             let sid = tx.create(Kind::Solid, &format!("s{}", s + 1), Some(parent));

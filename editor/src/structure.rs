@@ -427,6 +427,10 @@ impl Design {
             object: name.to_owned(),
             what,
         })?;
+        shape.polyhedron().map_err(|source| EditError::Solid {
+            object: name.to_owned(),
+            source,
+        })?;
         let mut d = self.clone();
         d.link_mut().objects[k].shape = shape;
         let flip = axis_rotation(0, std::f64::consts::PI);

@@ -3,7 +3,7 @@
 //! and code generation both ways.
 
 use nalgebra::{Matrix4, Vector3};
-use robosim_editor::commands::{Outcome, Prompt, execute};
+use robosim_editor::commands::{CommandError, Outcome, Prompt, execute};
 use robosim_editor::session::{Editor, design_from_snapshot};
 use robosim_editor::shape::{Shape, axis_rotation, face_frame};
 use robosim_editor::{codegen, program, robot};
@@ -309,7 +309,7 @@ fn bad_input_gets_a_clear_error_and_changes_nothing() {
         ),
     ];
     for (line, want) in cases {
-        let e = execute(&mut ed, &mut p, line).expect_err(line);
+        let e = execute(&mut ed, &mut p, line).expect_err(line).to_string();
         assert!(e.contains(want), "{line}: {e}\n  wanted: {want}");
         assert_eq!(ed.design(), &before.0, "{line} changed the design");
         assert_eq!(space_state(&ed.space), before.1, "{line} changed the space");
@@ -368,7 +368,7 @@ fn code_round_trips_to_1e_12_both_ways() {
     }
 }
 
-fn said(r: Result<Outcome, String>) -> String {
+fn said(r: Result<Outcome, CommandError>) -> String {
     match r {
         Ok(Outcome::Said(s)) => s,
         other => panic!("{other:?}"),
@@ -409,7 +409,9 @@ fn save_load_restart_and_read_code_as_commands() {
     // A file that is not a design: refused, nothing changes.
     std::fs::write(dir.path().join("bad.json"), "{\"robot\": 3}").expect("bad");
     let v = ed.version;
-    let e = execute(&mut ed, &mut p, &format!("load {d}/bad.json")).expect_err("bad design");
+    let e = execute(&mut ed, &mut p, &format!("load {d}/bad.json"))
+        .expect_err("bad design")
+        .to_string();
     assert!(e.contains("bad.json"), "{e}");
     assert_eq!((ed.design(), ed.version), (&design, v));
 
@@ -608,7 +610,9 @@ fn the_pick_and_objects_outside_the_design_are_edited_with_undo() {
         [turned[3], turned[7], turned[11]],
         [want[3], want[7], want[11]]
     );
-    let e = execute(&mut ed, &mut p, "rotate station/module Z=90").expect_err("no home");
+    let e = execute(&mut ed, &mut p, "rotate station/module Z=90")
+        .expect_err("no home")
+        .to_string();
     assert!(e.contains("rotate-rel"), "{e}");
     said(execute(&mut ed, &mut p, "undo"));
     assert_eq!(pose_of(&ed), moved);
@@ -618,7 +622,9 @@ fn the_pick_and_objects_outside_the_design_are_edited_with_undo() {
     assert_eq!(pose_of(&ed), moved);
 
     // Nothing picked yet.
-    let e = execute(&mut ed, &mut p, "translate . X=1").expect_err("no pick");
+    let e = execute(&mut ed, &mut p, "translate . X=1")
+        .expect_err("no pick")
+        .to_string();
     assert!(e.contains("nothing is picked"), "{e}");
     // The display picks polygon 2 of box a.
     let a = ed.id_of("a").expect("a");
@@ -641,9 +647,13 @@ fn the_pick_and_objects_outside_the_design_are_edited_with_undo() {
     read(&ed, &mut p);
     said(execute(&mut ed, &mut p, "translate selected Y=1"));
     assert!((pose_of(&ed)[7] - moved[7] - 0.01).abs() < 1e-15);
-    let e = execute(&mut ed, &mut p, "delete .").expect_err("not a design object");
+    let e = execute(&mut ed, &mut p, "delete .")
+        .expect_err("not a design object")
+        .to_string();
     assert!(e.contains("station/module is not part of design M"), "{e}");
-    let e = execute(&mut ed, &mut p, "attach a bottom to a .").expect_err("pick elsewhere");
+    let e = execute(&mut ed, &mut p, "attach a bottom to a .")
+        .expect_err("pick elsewhere")
+        .to_string();
     assert!(e.contains("picked polygon is on station/module"), "{e}");
 }
 
@@ -756,14 +766,18 @@ fn a_model_move_from_a_stale_read_is_a_conflict_not_an_overwrite() {
     };
     p.model = Some(Rc::new(snapshot(&ed)));
     other_moves(&mut ed, 1.0);
-    let e = execute(&mut ed, &mut p, "translate station/module X=10").expect_err("stale");
+    let e = execute(&mut ed, &mut p, "translate station/module X=10")
+        .expect_err("stale")
+        .to_string();
     assert!(e.contains("concurrent write"), "{e}");
     assert_eq!(pose_of(&ed)[3], 1.0, "the other writer's move stays");
     p.model = Some(Rc::new(snapshot(&ed)));
     said(execute(&mut ed, &mut p, "translate station/module X=10"));
     assert!((pose_of(&ed)[3] - 1.1).abs() < 1e-15);
     other_moves(&mut ed, 2.0);
-    let e = execute(&mut ed, &mut p, "undo").expect_err("moved since");
+    let e = execute(&mut ed, &mut p, "undo")
+        .expect_err("moved since")
+        .to_string();
     assert!(e.contains("concurrent write"), "{e}");
     assert_eq!(pose_of(&ed)[3], 2.0);
 }
@@ -836,7 +850,9 @@ fn a_later_editor_undoes_and_redoes_the_edits_of_the_editors_before_it() {
         last.keep_history(path).expect("history"),
         HistoryFound::Stale
     );
-    let err = execute(&mut last, &mut p, "undo").expect_err("nothing to undo");
+    let err = execute(&mut last, &mut p, "undo")
+        .expect_err("nothing to undo")
+        .to_string();
     assert!(err.contains("nothing to undo"), "{err}");
 }
 

@@ -69,9 +69,13 @@ fn unknown_verb_starting_with_a_multibyte_character_is_an_error_not_a_panic() {
     let mut ed = robosim_editor::session::Editor::new(robosim_instance_space::Store::new(), "r")
         .expect("a new design");
     let mut p = robosim_editor::commands::Prompt::default();
-    let e = robosim_editor::commands::execute(&mut ed, &mut p, "日本 x").expect_err("unknown");
+    let e = robosim_editor::commands::execute(&mut ed, &mut p, "日本 x")
+        .expect_err("unknown")
+        .to_string();
     assert!(e.contains("unknown command \"日本\""), "{e}");
-    let e = robosim_editor::commands::execute(&mut ed, &mut p, "bo x").expect_err("unknown");
+    let e = robosim_editor::commands::execute(&mut ed, &mut p, "bo x")
+        .expect_err("unknown")
+        .to_string();
     assert!(e.contains("did you mean box?"), "{e}");
 }
 

@@ -29,7 +29,8 @@ fn issue_34_lang_run_of_a_fifo_or_a_device_is_refused() {
     mkfifo(&fifo);
     let (p, out) = (fifo.clone(), dir.path().join("out"));
     let e = without_blocking(move || robosim_editor::cli::lang_run(&p, &out))
-        .expect_err("a FIFO is refused");
+        .expect_err("a FIFO is refused")
+        .to_string();
     assert_eq!(
         e,
         format!(
@@ -38,7 +39,8 @@ fn issue_34_lang_run_of_a_fifo_or_a_device_is_refused() {
         )
     );
     let e = robosim_editor::cli::lang_run(std::path::Path::new("/dev/zero"), dir.path())
-        .expect_err("a device is refused");
+        .expect_err("a device is refused")
+        .to_string();
     assert!(e.contains("it is a character device"), "{e}");
 }
 
@@ -56,7 +58,9 @@ fn issue_34_lang_run_refuses_to_write_a_link_file_through_a_symlink() {
     let precious = dir.path().join("precious");
     std::fs::write(&precious, "keep me").expect("write");
     std::os::unix::fs::symlink(&precious, out.join("C.L1")).expect("symlink");
-    let e = robosim_editor::cli::lang_run(&prg, &out).expect_err("a link is refused");
+    let e = robosim_editor::cli::lang_run(&prg, &out)
+        .expect_err("a link is refused")
+        .to_string();
     assert!(
         e.starts_with(&format!(
             "cannot write `{}`: it is a symbolic link",

@@ -131,7 +131,9 @@ fn a_failed_program_writes_no_link_file_and_says_where() {
     std::fs::write(&program, &bad).expect("program");
     let out = dir.path().join("out");
     std::fs::create_dir(&out).expect("out");
-    let e = robosim_editor::cli::lang_run(&program, &out).expect_err("negative radius");
+    let e = robosim_editor::cli::lang_run(&program, &out)
+        .expect_err("negative radius")
+        .to_string();
     assert!(
         e.ends_with("bad.rsim:38:10: CYLINDER: argument R must be positive, got -1"),
         "{e}"

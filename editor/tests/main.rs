@@ -4,6 +4,7 @@
 //! A new file of tests/ needs its `mod` line here (Cargo.toml: `autotests = false`).
 
 mod editor;
+mod error_chains;
 mod fuzz_corpus;
 mod hostile_inputs;
 mod lang;
