@@ -222,3 +222,52 @@ fn a_floating_urdf_robot_in_a_session_answers_as_the_pure_ops_on_its_file() {
         assert_eq!(snap.poses()[link.index].joint, neutral_joints[7 + j]);
     }
 }
+
+/// The simulator daemon and a floating session robot (issue 36): the simulator's pipeline holds
+/// one coordinate per joint, so a floating root would not integrate and the robot object would
+/// not move. The daemon refuses it by name instead: a running lock-step daemon that sees Solo
+/// imported with `--floating` stops with the refusal, and one started on a session holding it
+/// does not start — each exits unsuccessfully, its log naming the robot and the root's kind.
+#[test]
+fn the_simulator_refuses_a_floating_session_robot_by_name() {
+    let mut k = Procs::new("floatsim");
+    k.start_keeper(&[]);
+    let session = k.session();
+    let sim = k.spawn(&["simulator", "--mode", "lockstep"]);
+    common::wait_for("the simulator registered", || {
+        session
+            .processes()
+            .iter()
+            .any(|p| p.role == "simulator")
+            .then_some(())
+    });
+    let file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(SOLO);
+    let file_s = file.to_str().expect("UTF-8 path");
+    ok(
+        &k,
+        &["import", "urdf", file_s, "--floating", "--as", "solo"],
+    );
+    let refused = |k: &mut Procs, pid: u32| {
+        let i = k
+            .children
+            .iter()
+            .position(|c| c.id() == pid)
+            .expect("a process this test started");
+        let status = common::wait_for("the simulator to stop", || {
+            k.children[i].try_wait().expect("try_wait")
+        });
+        assert!(!status.success(), "the simulator ran a floating robot");
+        let log = k.home.path().join(format!("logs/{pid}-simulator.log"));
+        let text = std::fs::read_to_string(&log).expect("the simulator's log");
+        assert!(
+            text.contains("robot solo has a free_flyer base")
+                && text.contains("does not integrate a floating root"),
+            "{text}"
+        );
+    };
+    // running when the robot arrives
+    refused(&mut k, sim);
+    // started on a session that holds it
+    let again = k.spawn(&["simulator", "--mode", "lockstep"]);
+    refused(&mut k, again);
+}

@@ -118,6 +118,17 @@ pub enum DaemonError {
         robot: String,
         source: robosim_model::OptionsError,
     },
+    /// A robot on a floating base (`robosim import urdf --floating`, an MJCF free joint): the
+    /// simulator's pipeline holds one coordinate per joint (joint commands, limits, encoders,
+    /// the integrator's state), so its root would not integrate and the robot object would not
+    /// move — refused by name rather than simulated wrong. The query protocol's `simulate`
+    /// (and `robosim.Model.simulate`) integrates such a robot, root on the manifold.
+    #[error(
+        "robot {robot} has a {root} base: the simulator does not integrate a floating root (its \
+         stages hold one coordinate per joint); simulate it with the query protocol's `simulate`, \
+         or take it out of the session to run the simulator"
+    )]
+    FloatingRobot { robot: String, root: &'static str },
     /// A robot's pipeline refused the committed q.
     #[error("robot {robot}: {source}")]
     Robot {
@@ -377,6 +388,12 @@ struct Daemon<'a> {
 impl Daemon<'_> {
     /// The pipeline of compiled robot `r` (shares the compiled solids).
     fn pipeline(&self, r: &robosim_scene::CompiledRobot, snap: &Snapshot) -> Result<Sim> {
+        if let Some(root) = &r.robot.root {
+            return Err(DaemonError::FloatingRobot {
+                robot: r.name().to_owned(),
+                root: root.kind.name(),
+            });
+        }
         let around = self.scene.obstacles(r, &HashSet::new());
         if let (Some(why), Some(c)) = (around.refused.first(), self.effects.collision.as_ref())
             && c.enabled
