@@ -131,6 +131,10 @@ pub struct Snapshot {
     /// copies no per-chunk handle), and by groups between structure versions (a one-chunk
     /// change copies one group of handles, [`groups`]).
     objects: Groups<ObjSrc>,
+    /// The object chunks (indices, ascending) viewed in place in the sample of the objects
+    /// head that carried them rather than copied out of it; every other chunk is a copy or a
+    /// range of an objects base. Shared like `head`.
+    head_views: Rc<Vec<usize>>,
     /// [`Snapshot::objects`] as one slice, assembled on first use when there are several
     /// chunks; shared by the snapshots of one structure version (so a pose change does not
     /// assemble it again).
@@ -172,8 +176,36 @@ struct SegSrc {
 type GeomSrc = SegSrc;
 /// An object chunk's segment.
 type ObjSrc = SegSrc;
-/// An object chunk's geometry table: by index in the chunk, `None` for objects without.
-type Table = Rc<Vec<Option<GeomSrc>>>;
+/// An object chunk's geometry table: by index in the chunk, `None` for objects without; shared
+/// by groups ([`Groups`]), so that the table of a chunk whose one object's geometry changed is
+/// the old one with one group copied, not 256 handles copied.
+type Table = Groups<Option<GeomSrc>>;
+
+/// A changed chunk's geometry table while it is assembled.
+enum NewTable {
+    /// No object of the chunk has geometry: the shared empty table.
+    Empty,
+    /// Built slot by slot.
+    Fresh(Vec<Option<GeomSrc>>),
+    /// The chunk's old table (its objects with geometry at the same places), slots replaced.
+    From(Table),
+}
+
+impl NewTable {
+    fn set(&mut self, j: usize, g: GeomSrc) {
+        match self {
+            NewTable::Empty => {}
+            NewTable::Fresh(v) => {
+                if let Some(slot) = v.get_mut(j) {
+                    *slot = Some(g);
+                }
+            }
+            NewTable::From(t) => {
+                t.set(j, Some(g));
+            }
+        }
+    }
+}
 
 impl SegSrc {
     fn owned(words: Vec<u64>, generation: u64) -> SegSrc {
@@ -213,6 +245,10 @@ impl SegSrc {
     /// An object chunk's names.
     fn names(&self) -> &[u8] {
         self.chunk().section(2).unwrap_or(&[])
+    }
+    /// An object chunk's geometry index: the indices in it of the objects with geometry.
+    fn geometry_index(&self) -> &[u64] {
+        self.chunk().section(3).unwrap_or(&[])
     }
     /// Checks this is object chunk `k` of `count` objects with its sections in bounds and its
     /// geometry index sound; returns its objects with geometry: (index in the chunk, id,
@@ -354,6 +390,7 @@ impl Snapshot {
                     .map(|w| ObjSrc::owned(w, generation))
                     .collect(),
             ),
+            head_views: Rc::default(),
             objects_flat: Rc::default(),
             poses,
             chunk_len: POSE_CHUNK,
@@ -361,7 +398,7 @@ impl Snapshot {
             geometry: Groups::from_vec(
                 geometry
                     .chunks(OBJECT_CHUNK)
-                    .map(|c| Rc::new(c.to_vec()))
+                    .map(|c| Groups::from_vec(c.to_vec()))
                     .collect(),
             ),
         }
@@ -417,6 +454,7 @@ impl Snapshot {
             epoch: self.epoch,
             head: self.head.clone(),
             objects: self.objects.clone(),
+            head_views: self.head_views.clone(),
             objects_flat: self.objects_flat.clone(),
             poses,
             chunk_len,
@@ -864,12 +902,14 @@ impl ObjBase {
     }
 }
 
-/// An object chunk as an objects head brought it (copied out of the head's sample).
+/// An object chunk as an objects head brought it.
 struct ObjUpdate {
     epoch: u64,
     /// The head's structure version.
     version: u64,
     chunk: ObjSrc,
+    /// `chunk` is viewed in the head's sample (the newest head received), not copied.
+    in_head: bool,
 }
 
 /// What a long-running follower (the simulator daemon, the display, the bridge) does with
@@ -967,6 +1007,9 @@ pub struct Reader {
     /// took yet (by chunk index).
     latest_head: Option<Rc<ObjectsHead>>,
     obj_updates: HashMap<usize, ObjUpdate>,
+    /// The objects head samples chunks are viewed in (by snapshots or pending updates): at
+    /// most `MAX_HELD_SNAPSHOTS` alive ([`Reader::receive_objects_heads`]).
+    head_samples: Vec<std::rc::Weak<Words>>,
     objects_base_sub: Sub,
     /// The newest objects base received, and how many times this reader asked for one.
     objects_base: Option<ObjBase>,
@@ -1085,6 +1128,7 @@ impl Reader {
             base: None,
             latest_head: None,
             obj_updates: HashMap::new(),
+            head_samples: Vec::new(),
             objects_base_sub,
             objects_base: None,
             objects_bases_asked: 0,
@@ -1303,8 +1347,9 @@ impl Reader {
         if let Some(cur) = &self.current
             && Rc::ptr_eq(&cur.head, &objects_head)
         {
-            let (objects, geometry, objects_flat) = (
+            let (objects, head_views, geometry, objects_flat) = (
                 cur.objects.clone(),
+                cur.head_views.clone(),
                 cur.geometry.clone(),
                 cur.objects_flat.clone(),
             );
@@ -1316,6 +1361,7 @@ impl Reader {
                 epoch: h.epoch,
                 head: objects_head,
                 objects,
+                head_views,
                 objects_flat,
                 poses,
                 chunk_len: (h.chunk_len as usize).max(1),
@@ -1323,7 +1369,9 @@ impl Reader {
                 geometry,
             }));
         }
-        let Some((objects, geometry)) = self.collect_objects(&h, &objects_head, deadline)? else {
+        let Some((objects, head_views, geometry)) =
+            self.collect_objects(&h, &objects_head, deadline)?
+        else {
             return Ok(None);
         };
         let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
@@ -1335,6 +1383,7 @@ impl Reader {
             epoch: h.epoch,
             head: objects_head,
             objects,
+            head_views: Rc::new(head_views),
             objects_flat: Rc::default(),
             poses,
             chunk_len: (h.chunk_len as usize).max(1),
@@ -1348,14 +1397,19 @@ impl Reader {
     /// when some are in none of them — and the geometry tables of those not held. The lists
     /// start as the current snapshot's (shared by groups, [`Groups`]) and only the chunks whose
     /// generation differs, or that are new, are looked for and replaced: a one-body change at
-    /// 10⁵ objects is one chunk's work, not 391 chunks' bookkeeping. `None` when the base is
-    /// newer than the head (a newer head follows).
+    /// 10⁵ objects is one chunk's work, not 391 chunks' bookkeeping. A chunk the head of this
+    /// structure version carried is viewed in that head's sample, not copied; one the current
+    /// snapshot viewed in an older head's sample and that is kept stays viewed there, unless
+    /// too many head samples are held. Also returns the chunks viewed
+    /// ([`Snapshot::head_views`]). `None` when the base is newer than the head (a newer
+    /// head follows).
+    #[allow(clippy::type_complexity)]
     fn collect_objects(
         &mut self,
         h: &PosesHeader,
         oh: &ObjectsHead,
         deadline: Instant,
-    ) -> Result<Option<(Groups<ObjSrc>, Groups<Table>)>, ReaderError> {
+    ) -> Result<Option<(Groups<ObjSrc>, Vec<usize>, Groups<Table>)>, ReaderError> {
         let n = oh.header.count as usize;
         let chunks = n.div_ceil(OBJECT_CHUNK);
         if oh.gens.len() != chunks {
@@ -1384,13 +1438,17 @@ impl Reader {
         todo.extend(objects.len().min(chunks)..chunks);
         objects.truncate(chunks);
         geometry.truncate(chunks);
-        // (chunk, where it is), in `todo`'s order
+        // (chunk, where it is), in `todo`'s order, and which of them are viewed in the head
         let mut found: Vec<Option<ObjSrc>> = Vec::with_capacity(todo.len());
+        let mut head_views = Vec::new();
         let mut missing = Vec::new();
         for (t, &k) in todo.iter().enumerate() {
             let generation = oh.gens[k];
             let got = match self.obj_updates.get(&k) {
                 Some(u) if u.epoch == h.epoch && u.chunk.generation == generation => {
+                    if u.in_head {
+                        head_views.push(k);
+                    }
                     Some(u.chunk.clone())
                 }
                 _ => match &self.objects_base {
@@ -1419,9 +1477,8 @@ impl Reader {
                 }
             }
         }
-        // The chunks found with their geometry tables (`None`: the shared empty one).
-        let mut tables: Vec<(ObjSrc, Option<Vec<Option<GeomSrc>>>)> =
-            Vec::with_capacity(todo.len());
+        // The chunks found with their geometry tables.
+        let mut tables: Vec<(ObjSrc, NewTable)> = Vec::with_capacity(todo.len());
         // The objects with geometry of those chunks not held: (chunk, index in it, id,
         // generation), and where each goes: (index in `tables`, index in the chunk).
         let mut want: Vec<(usize, usize, Id, u64)> = Vec::new();
@@ -1430,59 +1487,103 @@ impl Reader {
             let src = f.ok_or(LayoutError::Section(1))?;
             let with = src.check_chunk(k, count_of(k))?;
             if with.is_empty() {
-                tables.push((src, None));
+                tables.push((src, NewTable::Empty));
                 continue;
             }
             // The chunk as the current snapshot holds it (an older generation): an object at
             // the same place with the same geometry generation keeps its geometry, found by
             // position rather than looked up by id (a one-body change made 256 searches over
             // every chunk at 10⁵ objects).
-            let old = cur
-                .as_ref()
-                .and_then(|c| Some((c.objects.get(k)?.records(), c.geometry.get(k)?)));
-            let mut table = vec![None; count_of(k)];
+            let old = cur.as_ref().and_then(|c| {
+                let o = c.objects.get(k)?;
+                Some((o.records(), o.geometry_index(), c.geometry.get(k)?))
+            });
+            // When the objects with geometry are at the same places as in the old chunk (a
+            // geometry replaced, a colour, a rename), the old table is the start and only the
+            // slots whose object or geometry changed are replaced.
+            let mut table = match old {
+                Some((_, places, t))
+                    if t.len() == count_of(k) && places == src.geometry_index() =>
+                {
+                    NewTable::From(t.clone())
+                }
+                _ => NewTable::Fresh(vec![None; count_of(k)]),
+            };
             for (j, id, g) in with {
-                let kept = old.and_then(|(recs, t)| {
+                let kept = old.and_then(|(recs, _, t)| {
                     recs.get(j).filter(|r| r.id == id && r.geom_gen == g)?;
                     t.get(j)?.as_ref().filter(|s| s.generation == g)
                 });
-                match (kept, table.get_mut(j)) {
-                    (Some(s), Some(slot)) => *slot = Some(s.clone()),
-                    _ => {
+                match kept {
+                    Some(s) => {
+                        if let NewTable::Fresh(_) = table {
+                            table.set(j, s.clone());
+                        }
+                    }
+                    None => {
                         want.push((k, j, id, g));
                         want_at.push((t, j));
                     }
                 }
             }
-            tables.push((src, Some(table)));
+            tables.push((src, table));
         }
         if !want.is_empty() {
             let Some(got) = self.collect_geometry(h, &want, deadline)? else {
                 return Ok(None);
             };
             for (&(t, j), g) in want_at.iter().zip(got) {
-                if let Some((_, Some(table))) = tables.get_mut(t)
-                    && let Some(slot) = table.get_mut(j)
-                {
-                    *slot = Some(g);
+                if let Some((_, table)) = tables.get_mut(t) {
+                    table.set(j, g);
                 }
             }
         }
         // A chunk without geometry shares one empty table (at 10⁵ solids a table of 256 empty
         // slots per chunk was 5 MB of fresh memory written per attach).
-        let empty: Table = Rc::default();
+        let empty: Table = Groups::default();
         for (&k, (src, table)) in todo.iter().zip(tables) {
-            let table = table.map_or_else(|| empty.clone(), Rc::new);
+            let table = match table {
+                NewTable::Empty => empty.clone(),
+                NewTable::Fresh(v) => Groups::from_vec(v),
+                NewTable::From(t) => t,
+            };
             // `todo` is ascending and holds every chunk from the current length on.
             if !(objects.set_or_push(k, src) && geometry.set_or_push(k, table)) {
                 return Err(LayoutError::Section(1).into());
             }
         }
+        // The chunks the current snapshot views in older heads' samples and that this one
+        // keeps: still viewed there — unless `MAX_HELD_SNAPSHOTS` head samples are alive, when
+        // they are copied out (once), so that the samples go when the older snapshots do and
+        // the next heads are viewed again ([`Reader::receive_objects_heads`]).
+        self.head_samples.retain(|w| w.strong_count() > 0);
+        let crowded = self.head_samples.len() >= crate::keeper::MAX_HELD_SNAPSHOTS;
+        let mut views = Vec::new();
+        if let Some(c) = &cur {
+            for &k in c.head_views.iter() {
+                let (Some(old), Some(now)) = (c.objects.get(k), objects.get(k)) else {
+                    continue;
+                };
+                if !Rc::ptr_eq(&old.words, &now.words) {
+                    continue;
+                }
+                if crowded {
+                    let copy = ObjSrc::owned(old.seg_words()?.to_vec(), old.generation);
+                    objects.set(k, copy);
+                } else {
+                    views.push(k);
+                }
+            }
+        }
+        // (both ascending and disjoint: a chunk of `head_views` was replaced)
+        views.extend(head_views);
+        views.sort_unstable();
+        let head_views = views;
         // What heads up to this structure version brought is in this snapshot (which holds it
         // from now on) or superseded; newer ones wait for the next head.
         self.obj_updates
             .retain(|_, u| u.epoch == h.epoch && u.version > h.structure_version);
-        Ok(Some((objects, geometry)))
+        Ok(Some((objects, head_views, geometry)))
     }
 
     /// The geometry of the objects `want` ((chunk, index in it, id, generation), objects with
@@ -1562,32 +1663,76 @@ impl Reader {
     }
 
     /// Takes every objects head published since the last call: the newest becomes
-    /// `latest_head`, and the chunks they carry are copied out (the samples are released).
+    /// `latest_head`. The chunks the newest carries are viewed in its sample (kept while a
+    /// snapshot or a pending update uses them: a follower of a one-body change copies no chunk
+    /// out — at 10⁵ objects the chunk's 84 kB were most of what following cost); before a
+    /// newer head is taken, the chunks no snapshot took yet from the one before are copied out
+    /// of it ([`Reader::copy_out_head_updates`]), so a reader holds at most one head sample
+    /// besides those of the snapshots it has made. A head is copied out at once, as before,
+    /// when snapshots already hold `MAX_HELD_SNAPSHOTS` head samples: the views never make a
+    /// receive exceed the subscription's borrowed samples (`MAX_HELD_SNAPSHOTS + 1`); and the
+    /// next structural change copies the current snapshot's views out
+    /// ([`Reader::collect_objects`]), so that the samples go with the older snapshots.
     fn receive_objects_heads(&mut self) -> Result<(), ReaderError> {
-        while let Some(s) = self
+        while self
             .objects
-            .receive()
-            .map_err(receive_err("receive objects"))?
+            .has_samples()
+            .map_err(ipc("look for objects heads"))?
         {
-            let seg = Segment::parse(s.payload())?;
+            self.copy_out_head_updates()?;
+            let Some(s) = self
+                .objects
+                .receive()
+                .map_err(receive_err("receive objects"))?
+            else {
+                break;
+            };
+            self.head_samples.retain(|w| w.strong_count() > 0);
+            let view = self.head_samples.len() < crate::keeper::MAX_HELD_SNAPSHOTS;
+            let words = Rc::new(Words::Shared(s));
+            let seg = Segment::parse(words.words())?;
             let header: ObjectsHeader = *seg.record(0)?;
             let gens = seg.section::<u64>(1)?.to_vec();
             let data = seg.section::<u64>(3)?;
             for e in seg.section::<ChunkEntry>(2)? {
-                let words = data
-                    .get(e.start as usize..)
-                    .and_then(|d| d.get(..e.len as usize))
+                let (start, len) = (e.start as usize, e.len as usize);
+                let chunk_words = data
+                    .get(start..)
+                    .and_then(|d| d.get(..len))
                     .ok_or(LayoutError::Section(2))?;
+                let chunk = if view {
+                    ObjSrc {
+                        words: words.clone(),
+                        range: Some((3, start, len)),
+                        generation: e.generation,
+                    }
+                } else {
+                    ObjSrc::owned(chunk_words.to_vec(), e.generation)
+                };
                 self.obj_updates.insert(
                     e.id as usize,
                     ObjUpdate {
                         epoch: header.epoch,
                         version: header.version,
-                        chunk: ObjSrc::owned(words.to_vec(), e.generation),
+                        chunk,
+                        in_head: view,
                     },
                 );
             }
+            if view && Rc::strong_count(&words) > 1 {
+                self.head_samples.push(Rc::downgrade(&words));
+            }
             self.latest_head = Some(Rc::new(ObjectsHead { header, gens }));
+        }
+        Ok(())
+    }
+
+    /// Copies the chunks pending updates view in a head's sample out of it (see
+    /// [`Reader::receive_objects_heads`]); the sample is released unless a snapshot uses it.
+    fn copy_out_head_updates(&mut self) -> Result<(), ReaderError> {
+        for u in self.obj_updates.values_mut().filter(|u| u.in_head) {
+            u.chunk = ObjSrc::owned(u.chunk.seg_words()?.to_vec(), u.chunk.generation);
+            u.in_head = false;
         }
         Ok(())
     }

@@ -189,3 +189,83 @@ fn deleting_the_newest_object_keeps_readers_following() {
     let model = decode_store(&c.snapshot().expect("model").model).expect("decode");
     assert_same(&late.snapshot().expect("snapshot"), &model, "late joiner");
 }
+
+/// A follower views the object chunks an objects head carries in the head's sample instead of
+/// copying them out (issue 37 item 6): snapshots held across structural changes — colours,
+/// geometry, renames, in one chunk after another and in the same chunk again — must still read
+/// their own versions when newer heads have come (an iceoryx2 sample is not reused while held),
+/// and a reader holding as many older snapshots as it may (`MAX_HELD_SNAPSHOTS`, 4) must not
+/// run out of the head subscription's borrowed samples: without the cap on the samples viewed
+/// it does, with `TooManySnapshotsHeld`. The follower never asks for an objects base.
+#[test]
+fn snapshots_held_across_structural_changes_read_their_own_versions() {
+    const OLDER: usize = 4;
+    const CHUNKS: usize = 5;
+    let k = thread_keeper("views");
+    let mut c = Client::connect(k.session(), "writer").expect("connect");
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scene", None);
+    let scene = c.transact(&tx).expect("scene").created[0];
+    let mut r = Reader::attach(k.session(), "follower").expect("attach");
+    let ids = commit_and_follow(
+        &mut c,
+        &mut r,
+        &solids(scene, 0, CHUNKS * OBJECT_CHUNK - 1),
+        "five chunks",
+    );
+    let asked = r.objects_bases_asked();
+    let cube = |s: f64| {
+        let p = robosim_geometry::shapes::cuboid(s, s, s).expect("a cube");
+        robosim_instance_space::GeometryInput::from_polyhedron(&p)
+    };
+    // (snapshot, the keeper's model at its version)
+    let mut held: std::collections::VecDeque<(std::rc::Rc<Snapshot>, Snapshot)> =
+        Default::default();
+    for step in 0..48 {
+        // Chunks 0, 0, 1, 1, 2, 2, … : each chunk changed twice running, then left alone.
+        let chunk = (step / 2) % CHUNKS;
+        let id = ids[chunk * OBJECT_CHUNK + 7 + step % 3];
+        let mut tx = Transaction::new();
+        match step % 3 {
+            0 => {
+                let mut look = robosim_instance_space::Appearance::default();
+                look.color = [step as f32 / 48.0, 0.5, 0.25, 1.0];
+                tx.set_appearance(id, look);
+            }
+            1 => {
+                tx.set_geometry(id, Some(cube(0.1 + step as f64 * 0.01)));
+            }
+            _ => {
+                tx.set_name(id, &format!("renamed{step}"));
+            }
+        }
+        let what = format!("step {step} (chunk {chunk})");
+        commit_and_follow(&mut c, &mut r, &tx, &what);
+        let model = decode_store(&c.snapshot().expect("model").model).expect("decode");
+        held.push_back((
+            r.snapshot().expect("snapshot"),
+            Snapshot::from_store(&model),
+        ));
+        if held.len() > OLDER + 1 {
+            held.pop_front();
+        }
+        for (got, want) in &held {
+            let what = format!("{what}: the snapshot of version {}", want.version());
+            assert_eq!(got.version(), want.version(), "{what}");
+            assert_eq!(got.objects(), want.objects(), "{what}: object records");
+            for i in 0..want.len() {
+                assert_eq!(got.name(i), want.name(i), "{what}: name of object {i}");
+                assert_eq!(
+                    got.geometry(i).map(|g| g.vertices.to_vec()),
+                    want.geometry(i).map(|g| g.vertices.to_vec()),
+                    "{what}: geometry of object {i}"
+                );
+            }
+        }
+    }
+    assert_eq!(
+        r.objects_bases_asked(),
+        asked,
+        "following asked for the objects base"
+    );
+}
