@@ -383,6 +383,55 @@ struct Daemon<'a> {
     counters: Counters,
     /// Steps since the pipelines were last built (all of them).
     clock_steps: u64,
+    /// [`simulated_structure`] of the snapshot the pipelines were built from.
+    structure: Option<u64>,
+}
+
+/// A hash of what the simulation is built from: every object with geometry, mass or a
+/// kinematic role and its ancestors (name, parent, kind, flags, geometry generation, joint
+/// parameters, mass properties), in id order. Objects outside that — the automation plant's
+/// units and the items holding only such — do not enter: moving one (isolating a unit, bringing
+/// a spare on line) changes the Instance Space's structure but not the simulation, which then
+/// keeps its pipelines, its stages and its clock (issue 38: the station's clock restarted at 0
+/// when the rules brought a spare on line).
+fn simulated_structure(snap: &Snapshot) -> u64 {
+    use std::hash::{Hash, Hasher};
+    let n = snap.len();
+    let mut keep = vec![false; n];
+    for i in 0..n {
+        let r = snap.rec(i);
+        if r.geom_gen == 0 && r.kin_tag == 0 && r.mass == 0.0 && snap.geometry(i).is_none() {
+            continue;
+        }
+        let mut k = Some(i);
+        while let Some(j) = k.filter(|&j| !keep[j]) {
+            keep[j] = true;
+            let parent = snap.rec(j).parent;
+            k = (parent != 0).then(|| snap.index_of(parent)).flatten();
+        }
+    }
+    let mut kept: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+    kept.sort_by_key(|&i| snap.rec(i).id);
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    for i in kept {
+        let r = snap.rec(i);
+        (
+            snap.name(i),
+            r.id,
+            r.parent,
+            r.kind,
+            r.flags,
+            r.geom_gen,
+            r.kin_tag,
+        )
+            .hash(&mut h);
+        (r.joint_kind, r.convention, r.index_or_family).hash(&mut h);
+        let numbers = r.dh.iter().chain(&r.tool).chain([&r.mass]).chain(&r.com);
+        for x in numbers.chain(&r.inertia) {
+            x.to_bits().hash(&mut h);
+        }
+    }
+    h.finish()
 }
 
 impl Daemon<'_> {
@@ -508,11 +557,22 @@ impl Daemon<'_> {
     fn follow(&mut self, reader: &mut Reader, snap: &Snapshot, reset: bool) -> Result<bool> {
         match self.scene.sync(snap) {
             Sync::Compiled => {
+                // a structure change outside what is simulated (the plant's units): the
+                // pipelines are kept and follow in place ([`simulated_structure`])
+                let key = simulated_structure(snap);
+                if !reset && self.structure == Some(key) {
+                    self.refollow(snap);
+                    self.in_place(snap)?;
+                    self.counters.in_place += 1;
+                    return Ok(true);
+                }
                 self.rebuild(reader, snap)?;
+                self.structure = Some(key);
                 Ok(true)
             }
             _ if reset => {
                 self.rebuild(reader, snap)?;
+                self.structure = Some(simulated_structure(snap));
                 Ok(true)
             }
             Sync::Unchanged => Ok(false),
@@ -857,6 +917,7 @@ fn start<'a>(
         follow: None,
         counters: Counters::default(),
         clock_steps: 0,
+        structure: None,
     };
     d.follow(reader, &snap, false)?;
     Ok((d, snap.version()))
@@ -973,6 +1034,9 @@ fn follow_commits(d: &mut Daemon, l: &mut Loop, reset: bool) -> Result<()> {
         return Ok(());
     }
     let rebuilds = d.counters.rebuilds;
+    if let Some(sp) = &mut d.space {
+        sp.follow_units(&snap);
+    }
     if d.follow(&mut l.reader, &snap, reset)? && reset {
         l.wall_origin = (Instant::now(), l.steps);
     }

@@ -164,6 +164,14 @@ impl SpaceStage {
         self.ops.as_mut()?.command(cmd, t)
     }
 
+    /// The committed model's plant units, for the operations stage's faults
+    /// ([`Ops::follow_units`]).
+    pub(crate) fn follow_units(&mut self, snap: &robosim_instance_space::Snapshot) {
+        if let Some(ops) = &mut self.ops {
+            ops.follow_units(snap);
+        }
+    }
+
     /// After a step of every pipeline: the orbit at the pipelines' clock `t` (s), new tracking
     /// targets when the sun has moved, the power delivered by the arrays where they are, the
     /// battery over the step `dt` (s) just taken.
@@ -173,7 +181,8 @@ impl SpaceStage {
             self.energy_j += self.power_w * dt;
             self.unserved_j += match &mut self.ops {
                 Some(ops) if ops.has_consumers() => {
-                    ops.supply(&mut self.battery, self.power_w, dt).unserved_j
+                    ops.supply(&mut self.battery, self.power_w, self.t, dt)
+                        .unserved_j
                 }
                 _ => self.battery.step(self.power_w, dt),
             };

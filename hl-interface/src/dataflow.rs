@@ -31,6 +31,11 @@
 //! `{"graph": FILE, "passes": N, "writes": N, "values": {node: x, …}, "alarms": [NAME, …],
 //!   "sinks": [{"node", "to", "value"}], "errors": […]}`; `{"cmd": "reload"}` reloads the file.
 //!
+//! A `sim NAME` sink sends `{"cmd": "set", "name": NAME, "value": x, "from": "dataflow"}` to
+//! the simulator whenever its value changed (within the process: a restarted one sends it
+//! again), before the pass is seen in the state: a reader that has seen step N in `values` knows
+//! the simulator has the settings of that pass.
+//!
 //! The process exits on SIGTERM/SIGINT at once (the waits are interrupted), 0; with
 //! `--passes N` after N passes.
 //!
@@ -122,6 +127,8 @@ pub struct Runner {
     start: Instant,
     tolerance: f64,
     alarms: BTreeSet<String>,
+    /// The last value sent to each `sim NAME` sink (sent again only when it changes).
+    sent: BTreeMap<String, f64>,
     /// Source values of the last pass (a pass with the same values is skipped).
     last_sources: Option<Vec<(String, f64)>>,
     /// Sources that could not be read, said once each until they can be read again.
@@ -165,6 +172,7 @@ impl Runner {
             start: Instant::now(),
             tolerance,
             alarms: BTreeSet::new(),
+            sent: BTreeMap::new(),
             last_sources: None,
             missing: BTreeMap::new(),
             errors: Vec::new(),
@@ -333,6 +341,7 @@ impl Runner {
         let mut joints: BTreeMap<String, Vec<(usize, f64)>> = BTreeMap::new();
         let mut poses: Vec<(String, usize, f64)> = Vec::new();
         let mut alarms = BTreeSet::new();
+        let mut settings: Vec<(String, f64)> = Vec::new();
         for s in &sinks {
             let Some(x) = s.value else { continue };
             match &s.sink.addr {
@@ -357,10 +366,31 @@ impl Runner {
                         alarms.insert(name.clone());
                     }
                 }
+                SinkAddr::Sim { name } => {
+                    if self
+                        .sent
+                        .get(name)
+                        .is_none_or(|v| (v - x).abs() > self.tolerance)
+                    {
+                        settings.push((name.clone(), x));
+                    }
+                }
             }
         }
         drop(snap);
         let mut failed = Vec::new();
+        // Simulator settings: one `set` command each, only when the value changed (a refused
+        // one is said and sent again on the next pass).
+        for (name, x) in settings {
+            match p
+                .sim_command(&json!({"cmd": "set", "name": name, "value": x, "from": "dataflow"}))
+            {
+                Ok(_) => {
+                    self.sent.insert(name, x);
+                }
+                Err(e) => failed.push(format!("sink sim {name}: {e}")),
+            }
+        }
         for (robot, set) in joints {
             let r = p.update_joints(&robot, |q| {
                 for (k, x) in &set {

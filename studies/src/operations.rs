@@ -15,6 +15,13 @@
 //! * **dataflow** — the momentum manager: |h|, its rate and the threshold → the predicted time
 //!   to saturation and the `desaturation_soon` alarm, in its process state;
 //! * **automation** — the ECLSS fault model whose injected faults ring alarms;
+//! * **faults** (`--fault FAILURE_MODE@T`): at T the study injects the failure mode into the
+//!   plant (its alarms) and tells the simulator which consumer's unit failed (its demand); the
+//!   rules diagnose the alarms, isolate the unit and bring its spare on line in the Instance
+//!   Space, which the simulator follows (the consumer's spare starts, then catches up). The
+//!   study waits for the spare (a condition, not time) before the next step, as the in-process
+//!   study handles a fault within its step. With the scheduler off, `eclss_guard.clp` runs as
+//!   the rules process instead (the guard without the energy scheduler, as in process);
 //! * **this study** — the clock: it steps the simulator one decision interval at a time and
 //!   waits until the rules and the dataflow process have acted on that step (acknowledgement
 //!   and source value, not time), so the run is the same however fast the processes are; then
@@ -148,6 +155,31 @@ pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
     ];
     if p.scheduler {
         with.push("rules=station_ops".to_owned());
+    } else if !p.faults.is_empty() {
+        with.push("rules=eclss_guard".to_owned());
+    }
+    // which consumer and units each fault fails (the ECLSS model's process and components)
+    let catalogue =
+        robosim_simulator::consumers::default_consumers(robosim_simulator::consumers::BASE_LOAD_W);
+    let mut injected = Vec::new();
+    for (fault, at) in &p.faults {
+        let spec = crate::station::faults::FaultSpec {
+            failure_mode: fault.clone(),
+            t_s: *at,
+        };
+        let e = crate::station::faults::EclssFault::new(&spec, &catalogue)?;
+        let consumer = e
+            .consumers
+            .first()
+            .map(|&i| catalogue[i].name)
+            .unwrap_or_default();
+        injected.push((
+            fault.clone(),
+            *at,
+            e.model.failure_modes[e.fm].path.clone(),
+            consumer,
+            e.components.clone(),
+        ));
     }
     say!(
         log,
@@ -185,7 +217,7 @@ pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
         "== {} orbit(s) of {period:.0} s: {total} steps of {dt} s, decisions every {chunk} step(s)",
         p.orbits
     );
-    let mut faults = p.faults.clone();
+    let mut faults = injected;
     faults.sort_by(|a, b| a.1.total_cmp(&b.1));
     let mut fault_log: Vec<String> = Vec::new();
     let mut alarms_seen: Vec<String> = Vec::new();
@@ -236,22 +268,61 @@ pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
         };
         let df = df.unwrap_or(Value::Null);
         // faults due by now go to the plant; its alarms are recorded
-        while faults.first().is_some_and(|(_, at)| *at <= t) {
-            let (fault, at) = faults.remove(0);
+        while faults.first().is_some_and(|f| f.1 <= t) {
+            let (fault, at, path, consumer, components) = faults.remove(0);
             let r = ask(
                 &mut plant,
                 &session,
                 robosim_hl_interface::plant::SERVICE,
-                &json!({"cmd": "fault", "fault": fault}),
+                &json!({"cmd": "fault", "fault": path}),
             );
+            let sim = planner.sim_command(&json!({"cmd": "fault", "fault": path,
+                "consumer": consumer, "components": components}));
             fault_log.push(format!(
-                "{fault} injected at t = {at:.0} s (asked at {t:.0} s): {}",
+                "{fault} ({path}) injected at t = {at:.0} s (asked at {t:.0} s): {}; {consumer}'s unit {} failed in the simulator{}",
                 if r.is_some() {
                     "taken by the plant"
                 } else {
                     "the plant did not answer"
+                },
+                components.join(", "),
+                match &sim {
+                    Ok(_) => String::new(),
+                    Err(e) => format!(" — refused: {e}"),
                 }
             ));
+            sim?;
+            if p.scheduler {
+                // the rules diagnose, isolate and bring the spare on line before the clock
+                // moves on (the in-process study does it within the step)
+                let wait = Instant::now();
+                loop {
+                    let s = planner.sim_state()?;
+                    let spare = s
+                        .pointer("/space/ops/faults")
+                        .and_then(Value::as_array)
+                        .and_then(|fs| fs.last())
+                        .and_then(|f| f.get("spare_at_s"))
+                        .and_then(Value::as_f64);
+                    if let Some(at) = spare {
+                        fault_log.push(format!(
+                            "{fault}: diagnosed, {} isolated and its spare on line (followed by the simulator at t = {at:.0} s)",
+                            components.join(", ")
+                        ));
+                        break;
+                    }
+                    if wait.elapsed() > ACT_TIMEOUT {
+                        bail!(
+                            "{fault} at t = {t} s: no spare on line within {ACT_TIMEOUT:?} (the rules' diagnosis and reconfiguration: see the session's run/rules.log)"
+                        );
+                    }
+                    if signals.wait(Duration::from_millis(5)).is_err() {
+                        bail!(
+                            "interrupted (SIGINT or SIGTERM) at step {steps}; session {name} stopped"
+                        );
+                    }
+                }
+            }
         }
         if let Some(pl) = ask(
             &mut plant,
@@ -315,10 +386,20 @@ fn write_outputs(
     let mut csv = String::from(
         "t_s,orbit,attitude_error_deg,cmg_momentum_nms,cmg_capacity_fraction,desaturating,power_kw,battery_kwh,battery_soc,demand_kw,predicted_time_to_saturation_s,desaturation_soon",
     );
+    let experiments: Vec<String> = last
+        .pointer("/space/ops/experiments")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .filter_map(|c| c.get("name")?.as_str().map(str::to_owned))
+        .collect();
     for c in &consumers {
         csv.push_str(&format!(",{c}_served_kw,{c}_shed"));
     }
-    csv.push('\n');
+    for e in &experiments {
+        csv.push_str(&format!(",{e}_served_kw,{e}_state"));
+    }
+    csv.push_str(",docking,vital_short_while_sheddable_s\n");
     for r in rows {
         let s = &r.state;
         let a = |k: &str| f(s, &format!("/space/ops/attitude/{k}"));
@@ -352,7 +433,26 @@ fn write_outputs(
                 u8::from(c.get("shed") == Some(&Value::Bool(true)))
             ));
         }
-        csv.push('\n');
+        for e in s
+            .pointer("/space/ops/experiments")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+        {
+            csv.push_str(&format!(
+                ",{:.3},{}",
+                e.get("served_w")
+                    .and_then(Value::as_f64)
+                    .unwrap_or(f64::NAN)
+                    / 1e3,
+                e.get("state").and_then(Value::as_str).unwrap_or("")
+            ));
+        }
+        csv.push_str(&format!(
+            ",{},{}\n",
+            u8::from(f(s, "/space/ops/docking/to_start_s") == 0.0),
+            f(s, "/space/ops/vital_short_while_sheddable/s")
+        ));
     }
     let path = p.out.join("operations.csv");
     std::fs::write(&path, csv).map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
@@ -468,6 +568,60 @@ fn write_outputs(
         "kWh".into(),
     ]);
     table_rows.push(vec![
+        "vital consumer short while a sheddable one drew: time / sheddable energy".into(),
+        format!(
+            "{:.0} / {:.3}",
+            f(&ops, "/vital_short_while_sheddable/s"),
+            f(&ops, "/vital_short_while_sheddable/sheddable_kwh")
+        ),
+        "s / kWh".into(),
+    ]);
+    let exps: Vec<&Value> = ops
+        .get("experiments")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .collect();
+    let sum = |k: &str| {
+        exps.iter()
+            .map(|e| e.get(k).and_then(Value::as_f64).unwrap_or(0.0))
+            .sum::<f64>()
+    };
+    table_rows.push(vec![
+        "experiment runs asked / started / completed".into(),
+        format!(
+            "{} / {} / {}",
+            sum("asked"),
+            sum("started"),
+            sum("completed")
+        ),
+        "".into(),
+    ]);
+    table_rows.push(vec![
+        "experiment runs moved / stopped (by the rules)".into(),
+        format!("{} / {}", sum("moved"), sum("stopped")),
+        "".into(),
+    ]);
+    let sensitive_disturbed: f64 = exps
+        .iter()
+        .filter(|e| e.get("sensitive") == Some(&Value::Bool(true)))
+        .map(|e| e.get("disturbed_s").and_then(Value::as_f64).unwrap_or(0.0))
+        .sum();
+    table_rows.push(vec![
+        "microgravity run time disturbed (desaturation or docking under way)".into(),
+        format!("{:.1}", sensitive_disturbed / 60.0),
+        "min".into(),
+    ]);
+    let early = decisions
+        .iter()
+        .filter(|d| d.get("mode").and_then(Value::as_str) == Some("desaturate"))
+        .count();
+    table_rows.push(vec![
+        "desaturations started early by the momentum manager (dataflow)".into(),
+        early.to_string(),
+        "".into(),
+    ]);
+    table_rows.push(vec![
         "decisions (rule firings the simulator acknowledged)".into(),
         total_decisions.to_string(),
         "".into(),
@@ -492,12 +646,79 @@ fn write_outputs(
     if decisions.is_empty() {
         notes.push("* none".into());
     }
+    notes
+        .push("Experiments moved (out of desaturation and docking windows, or for energy):".into());
+    let moves: Vec<&&Value> = decisions
+        .iter()
+        .filter(|d| {
+            d.get("mode")
+                .and_then(Value::as_str)
+                .is_some_and(|m| m.starts_with("moved") || m.starts_with("stopped"))
+        })
+        .collect();
+    if moves.is_empty() {
+        notes.push("* none".into());
+    }
+    for d in moves {
+        notes.push(format!(
+            "* orbit {:.3}: {} {} ({}): {}",
+            d.get("t_s").and_then(Value::as_f64).unwrap_or(f64::NAN) / period,
+            d.get("consumer").and_then(Value::as_str).unwrap_or(""),
+            d.get("mode").and_then(Value::as_str).unwrap_or(""),
+            d.get("rule").and_then(Value::as_str).unwrap_or(""),
+            d.get("reason").and_then(Value::as_str).unwrap_or("")
+        ));
+    }
+    notes.push(
+        "Experiments (asked, started, completed, moved, stopped, run min, disturbed min):".into(),
+    );
+    for e in &exps {
+        let g = |k: &str| e.get(k).and_then(Value::as_f64).unwrap_or(0.0);
+        notes.push(format!(
+            "* {}{}: {} / {} / {} / {} / {}, {:.0} min run, {:.1} min disturbed",
+            e.get("name").and_then(Value::as_str).unwrap_or(""),
+            if e.get("sensitive") == Some(&Value::Bool(true)) {
+                " (microgravity)"
+            } else {
+                ""
+            },
+            g("asked"),
+            g("started"),
+            g("completed"),
+            g("moved"),
+            g("stopped"),
+            g("run_s") / 60.0,
+            g("disturbed_s") / 60.0
+        ));
+    }
     notes.push("Faults and reactions:".into());
     if fault_log.is_empty() {
         notes.push("* none injected, no alarm rang".into());
     }
     notes.extend(fault_log.iter().map(|x| format!("* {x}")));
-    notes.push("Reactions to faults: the plant's alarms are recorded; no consumer's demand follows a diagnosed fault in this session run yet (the in-process station study does that, `--fault`).".into());
+    for x in ops
+        .get("faults")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+    {
+        notes.push(format!(
+            "* {}: {} failed at {:.0} s, spare on line at {} s, now {}",
+            x.get("fault").and_then(Value::as_str).unwrap_or(""),
+            x.get("consumer").and_then(Value::as_str).unwrap_or(""),
+            x.get("at_s").and_then(Value::as_f64).unwrap_or(f64::NAN),
+            x.get("spare_at_s")
+                .and_then(Value::as_f64)
+                .map_or("–".into(), |t| format!("{t:.0}")),
+            x.get("state").and_then(Value::as_str).unwrap_or("")
+        ));
+    }
+    notes.push(format!(
+        "Reactions to faults: the failed unit's consumer draws {} of its demand until its spare runs ({} s after on line), then {} times it until the work missed is made up (the in-process study's model); the scheduler's notes (ops-fault-reaction) and any shedding they cause are among the decisions above.",
+        crate::station::faults::STANDBY,
+        crate::station::faults::SPARE_START_S,
+        crate::station::faults::CATCH_UP
+    ));
     let series = |label: &str, g: &dyn Fn(&Row) -> f64| robosim_report::Series {
         label: label.into(),
         points: rows.iter().map(|r| (r.t / period, g(r))).collect(),

@@ -87,6 +87,9 @@ pub enum SinkAddr {
     /// An alarm this graph raises while the value is non-zero (the process says it and lists
     /// it in its state).
     Alarm { name: String },
+    /// A simulator setting: `{"cmd": "set", "name": NAME, "value": x}` sent to the simulator
+    /// when the value changes (what NAME means is the simulator's: its `set` command).
+    Sim { name: String },
 }
 
 impl std::fmt::Display for SourceAddr {
@@ -108,6 +111,7 @@ impl std::fmt::Display for SinkAddr {
             SinkAddr::Joint { robot, index } => write!(f, "joint {robot} {index}"),
             SinkAddr::Pose { object, axis } => write!(f, "pose {object} {}", axis.name()),
             SinkAddr::Alarm { name } => write!(f, "alarm {name}"),
+            SinkAddr::Sim { name } => write!(f, "sim {name}"),
         }
     }
 }

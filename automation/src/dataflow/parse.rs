@@ -206,7 +206,7 @@ fn source_addr(l: &mut Line<'_>) -> Result<SourceAddr, String> {
 }
 
 fn sink_addr(l: &mut Line<'_>) -> Result<SinkAddr, String> {
-    let what = l.word("a sink (joint, pose or alarm)")?;
+    let what = l.word("a sink (joint, pose, alarm or sim)")?;
     let a = match what.as_str() {
         "joint" => SinkAddr::Joint {
             robot: l.word("the robot's name")?,
@@ -219,9 +219,12 @@ fn sink_addr(l: &mut Line<'_>) -> Result<SinkAddr, String> {
         "alarm" => SinkAddr::Alarm {
             name: l.name("the alarm's name")?,
         },
+        "sim" => SinkAddr::Sim {
+            name: l.name("the simulator setting's name")?,
+        },
         other => {
             return Err(format!(
-                "unknown sink `{other}` (joint ROBOT I, pose OBJECT x|y|z, alarm NAME)"
+                "unknown sink `{other}` (joint ROBOT I, pose OBJECT x|y|z, alarm NAME, sim NAME)"
             ));
         }
     };

@@ -22,9 +22,31 @@
 ;;; After every pass on a new step the rules acknowledge it: {"cmd": "ack", "who": "rules",
 ;;; "steps": N} — the operations study steps on only then, so a run does not depend on how
 ;;; fast this process is.
+;;;
+;;; Experiments (sim-experiment: each on its timetable, started by the simulator at its start
+;;; time unless moved — {"cmd": "experiment", "name": N, "start_s": T, "rule", "reason"}):
+;;;   * a microgravity-sensitive run whose planned time overlaps a docking window or the
+;;;     desaturation window the momentum manager predicts (sim-window) is moved to the window's
+;;;     end (a desaturation window's end plus ?*drift* for the prediction's drift); a running one
+;;;     is stopped until then when the window opens within ?*soon* (seed §4.2 constraints 1-2);
+;;;   * with hygiene deferred and the reserve still short, a run about to start is moved to the
+;;;     next sunrise, and a running one stopped until then — before the experiment modules' air
+;;;     is reduced.
+;;; Faults (seed §4.3; the same steps as eclss_guard.clp, which a session without this
+;;; scheduler runs instead): a plant alarm asks for a diagnosis; the diagnosed unit is isolated,
+;;; then its spare brought on line (two transactions). The simulator follows the spare (its
+;;; consumer's demand: standby, the spare starting, catching up); the scheduler notes each change
+;;; of a fault's state with the demand and the prediction it now makes (ops-fault-reaction), and
+;;; sheds by the rules above if the changed demand calls for it.
 
 (defglobal ?*reserve* = 0.30   ; of the capacity, kept for the unforeseen
-           ?*margin* = 0.10)   ; above the reserve before a load is restored
+           ?*margin* = 0.10    ; above the reserve before a load is restored
+           ?*drift* = 300.0    ; s after a predicted desaturation window (the prediction drifts)
+           ?*soon* = 120.0)    ; s: a running sensitive run is stopped this close to a window
+
+(deftemplate handled (slot component) (slot isolated) (slot reconfigured))
+(deftemplate need-diagnosis)
+(deftemplate fault-noted (slot consumer) (slot state))
 
 ;;; The plan's load, kW: every consumer in its mode.
 (deffunction ops-load ()
@@ -32,7 +54,17 @@
   (do-for-all-facts ((?c sim-consumer)) TRUE
     (bind ?l (+ ?l (if (eq ?c:mode full) then ?c:full-kw
                     else (if (eq ?c:mode reduced) then ?c:reduced-kw else 0.0)))))
+  (do-for-all-facts ((?e sim-experiment)) (eq ?e:state running)
+    (bind ?l (+ ?l ?e:power-kw)))
   ?l)
+
+;;; The next sunrise, s: the end of the eclipse under way or of the next one.
+(deffunction ops-sunrise ()
+  (bind ?s 0.0)
+  (do-for-fact ((?p sim-power)) TRUE
+    (bind ?s (if (eq ?p:eclipse yes) then (+ ?p:t ?p:eclipse-left-s)
+              else (+ ?p:t ?p:to-eclipse-s ?p:eclipse-left-s))))
+  ?s)
 
 ;;; The lowest stored energy (kWh) until the end of the next eclipse with the load ?l kW.
 (deffunction ops-min-energy (?l)
@@ -68,6 +100,41 @@
   (robosim sim (str-cat "{\"cmd\": \"consumer\", \"name\": \"" ?name "\", \"mode\": \"" ?mode
                         "\", \"rule\": \"" ?rule "\", \"reason\": \"" ?reason "\"}")))
 
+;;; Moves (or stops) experiment ?name's run to ?start; 0 when the simulator took it.
+(deffunction ops-experiment (?rule ?name ?start ?reason)
+  (robosim sim (str-cat "{\"cmd\": \"experiment\", \"name\": \"" ?name "\", \"start_s\": "
+                        ?start ", \"rule\": \"" ?rule "\", \"reason\": \"" ?reason "\"}")))
+
+(deffunction ops-s (?x) (format nil "%.0f" ?x))
+
+;;; ---------------------------------------------------------------- experiments and windows
+
+(defrule ops-move-out-of-window
+  (declare (salience 30))
+  (sim-power (t ?now))
+  ?e <- (sim-experiment (name ?x) (sensitive yes) (state ~running) (start-s ?s) (end-s ?end))
+  (sim-window (kind ?k) (from-s ?a) (to-s ?b&:(> ?b ?now)))
+  (test (and (< ?s ?b) (> ?end ?a)))
+  =>
+  (bind ?to (if (eq ?k desaturation) then (+ ?b ?*drift*) else ?b))
+  (if (= 0 (ops-experiment ops-move-out-of-window ?x ?to
+             (str-cat "planned " (ops-s ?s) "-" (ops-s ?end) " s overlaps the " ?k " window "
+                      (ops-s ?a) "-" (ops-s ?b) " s: a microgravity run is moved after it")))
+    then (modify ?e (start-s ?to) (end-s (+ ?to (- ?end ?s))))))
+
+(defrule ops-stop-before-window
+  (declare (salience 30))
+  (sim-power (t ?now))
+  ?e <- (sim-experiment (name ?x) (sensitive yes) (state running) (end-s ?end))
+  (sim-window (kind ?k) (from-s ?a&:(<= ?a (+ ?now ?*soon*))) (to-s ?b&:(> ?b ?now)))
+  (test (> ?end ?a))
+  =>
+  (bind ?to (if (eq ?k desaturation) then (+ ?b ?*drift*) else ?b))
+  (if (= 0 (ops-experiment ops-stop-before-window ?x ?to
+             (str-cat "the " ?k " window " (ops-s ?a) "-" (ops-s ?b) " s opens before the run ends ("
+                      (ops-s ?end) " s): stopped, its time left kept")))
+    then (modify ?e (state waiting) (start-s ?to) (end-s (+ ?to (- ?end ?now))))))
+
 ;;; ---------------------------------------------------------------- shedding
 
 (defrule ops-shed-hygiene
@@ -83,10 +150,43 @@
                       (ops-kwh (ops-reserve)) " kWh: hygiene (" ?kw " kW, sheddable) deferred")))
     then (modify ?c (mode off))))
 
+(defrule ops-defer-experiment
+  (declare (salience 15))
+  (sim-power (steps ?n&:(> ?n 0)) (t ?now))
+  (sim-consumer (name hygiene) (mode off))
+  ?e <- (sim-experiment (name ?x) (state ~running) (power-kw ?p)
+                        (start-s ?s&:(<= ?s (+ ?now ?*soon*))) (end-s ?end))
+  (test (> (ops-sunrise) (+ ?now ?*soon*)))
+  (test (< (ops-min-energy (+ (ops-load) ?p)) (ops-reserve)))
+  =>
+  (bind ?to (ops-sunrise))
+  (if (= 0 (ops-experiment ops-defer-experiment ?x ?to
+             (str-cat "predicted minimum " (ops-kwh (ops-min-energy (+ (ops-load) ?p)))
+                      " kWh with its " ?p " kW below the reserve " (ops-kwh (ops-reserve))
+                      " kWh: the run waits for the next sunrise")))
+    then (modify ?e (start-s ?to) (end-s (+ ?to (- ?end ?s))))))
+
+(defrule ops-stop-experiment-for-energy
+  (declare (salience 14))
+  (sim-power (steps ?n&:(> ?n 0)) (t ?now))
+  (sim-consumer (name hygiene) (mode off))
+  ?e <- (sim-experiment (name ?x) (state running) (power-kw ?p) (end-s ?end))
+  (not (sim-experiment (state running) (power-kw ?q&:(> ?q ?p))))
+  (test (< (ops-min-energy (ops-load)) (ops-reserve)))
+  =>
+  (bind ?to (ops-sunrise))
+  (if (= 0 (ops-experiment ops-stop-experiment-for-energy ?x ?to
+             (str-cat "predicted minimum " (ops-kwh (ops-min-energy (ops-load)))
+                      " kWh below the reserve " (ops-kwh (ops-reserve))
+                      " kWh with hygiene off: the largest running experiment (" ?p
+                      " kW) stopped until the next sunrise, its time left kept")))
+    then (modify ?e (state waiting) (start-s ?to) (end-s (+ ?to (- ?end ?now))))))
+
 (defrule ops-reduce-experiment-air
   (declare (salience 10))
   (sim-power (steps ?n&:(> ?n 0)))
   (sim-consumer (name hygiene) (mode off))
+  (not (sim-experiment (state running)))
   ?c <- (sim-consumer (name air_experiment) (mode full) (full-kw ?f) (reduced-kw ?r))
   (test (< (ops-min-energy (ops-load)) (ops-reserve)))
   =>
@@ -125,6 +225,53 @@
                       "and margin " (ops-kwh (+ (ops-reserve) (ops-margin)))
                       " kWh: hygiene back on")))
     then (modify ?c (mode full))))
+
+;;; ---------------------------------------------------------------- faults
+
+(defrule ops-eclss-alarm
+  (declare (salience 50))
+  (alarm (source ?s&:(eq (str-index "ECLSS" (str-cat ?s)) 1)) (kind ?a))
+  =>
+  (assert (need-diagnosis)))
+
+(defrule ops-diagnose
+  (declare (salience 40))
+  ?n <- (need-diagnosis)
+  =>
+  (retract ?n)
+  (do-for-all-facts ((?d diagnosis)) TRUE (retract ?d))
+  (robosim diagnose))
+
+(defrule ops-isolate
+  (declare (salience 40))
+  (diagnosis (components $? ?c $?))
+  (instance (name ?c) (parent eclss))
+  (not (handled (component ?c)))
+  =>
+  (bind ?v (robosim transact (str-cat "[[\"attach\", \"" ?c "\", \"eclss_isolated\"]]")))
+  (assert (handled (component ?c) (isolated ?v) (reconfigured 0))))
+
+(defrule ops-reconfigure
+  (declare (salience 40))
+  ?h <- (handled (component ?c) (isolated ?v&:(> ?v 0)) (reconfigured 0))
+  (instance (name ?s&:(eq ?s (sym-cat ?c _spare))) (parent eclss_spares))
+  =>
+  (bind ?w (robosim transact (str-cat "[[\"attach\", \"" ?s "\", \"eclss\"]]")))
+  (modify ?h (reconfigured ?w)))
+
+(defrule ops-fault-reaction
+  (declare (salience 25))
+  (sim-power (steps ?n))
+  (sim-fault (consumer ?c) (components $?u) (state ?st) (factor ?f))
+  (sim-consumer (name ?c) (full-kw ?kw))
+  (not (fault-noted (consumer ?c) (state ?st)))
+  =>
+  (assert (fault-noted (consumer ?c) (state ?st)))
+  (robosim sim (str-cat "{\"cmd\": \"note\", \"consumer\": \"" ?c
+                        "\", \"rule\": \"ops-fault-reaction\", \"reason\": \"" (implode$ ?u) " "
+                        ?st ": " ?c " draws " ?kw " kW (x" ?f "); predicted minimum "
+                        (ops-kwh (ops-min-energy (ops-load))) " kWh against the reserve "
+                        (ops-kwh (ops-reserve)) " kWh\"}")))
 
 ;;; ---------------------------------------------------------------- acknowledging
 

@@ -19,8 +19,9 @@
 //!   simulator contact (`kind contact`) or step error (`kind step-error`) per robot, and every
 //!   alarm the automation plant (`robosim automation`, `robosim_hl_interface::plant`) rings:
 //!   source the fault model's process, kind the alarm's name, value the plant time it rang;
-//! * `(sim-power …)`, `(sim-consumer …)`, `(sim-attitude …)` — the simulator's operations stage
-//!   (`space.ops` of its state, when the scene declares `attitude`/`consumers`; [`TEMPLATES`]);
+//! * `(sim-power …)`, `(sim-consumer …)`, `(sim-attitude …)`, `(sim-experiment …)`,
+//!   `(sim-window …)`, `(sim-fault …)` — the simulator's operations stage (`space.ops` of its
+//!   state, when the scene declares `attitude`/`consumers`; [`TEMPLATES`]);
 //! * `(diagnosis (model M) (failure-modes …) (components …) (alarms N))` — after
 //!   `(robosim diagnose)`.
 //!
@@ -127,6 +128,9 @@ pub const TEMPLATES: &[&str] = &[
     "(deftemplate sim-power (slot steps) (slot t) (slot power-kw) (slot battery-kwh) (slot capacity-kwh) (slot charge-eff) (slot discharge-eff) (slot eclipse) (slot to-eclipse-s) (slot eclipse-left-s) (slot eclipse-s) (slot period-s) (slot demand-kw))",
     "(deftemplate sim-consumer (slot name) (slot priority) (slot mode) (slot full-kw) (slot reduced-kw) (slot served-kw))",
     "(deftemplate sim-attitude (slot error-deg) (slot h-fraction) (slot saturation) (slot dumping) (slot desaturations))",
+    "(deftemplate sim-experiment (slot name) (slot power-kw) (slot sensitive) (slot state) (slot start-s) (slot end-s))",
+    "(deftemplate sim-window (slot kind) (slot from-s) (slot to-s))",
+    "(deftemplate sim-fault (slot consumer) (multislot components) (slot state) (slot factor))",
 ];
 
 /// What `--watch` may trace (CLIPS `watch` items).
@@ -400,6 +404,57 @@ fn ops_facts(space: Option<&Value>, ops: &Value, out: &mut Vec<(String, String, 
                 kw(c.get("served_w")),
             ),
             format!("(do-for-all-facts ((?f sim-consumer)) (eq ?f:name {name}) (retract ?f))"),
+        ));
+    }
+    let list = |k: &str| ops.get(k).and_then(Value::as_array).into_iter().flatten();
+    for e in list("experiments") {
+        let name = sym(e.get("name").and_then(Value::as_str).unwrap_or(""));
+        out.push((
+            format!("sim-experiment {name}"),
+            format!(
+                "(sim-experiment (name {name}) (power-kw {}) (sensitive {}) (state {}) (start-s {}) (end-s {}))",
+                kw(e.get("power_w")),
+                if e.get("sensitive") == Some(&Value::Bool(true)) { "yes" } else { "no" },
+                sym(e.get("state").and_then(Value::as_str).unwrap_or("nil")),
+                f(e.get("start_s")),
+                f(e.get("end_s")),
+            ),
+            format!("(do-for-all-facts ((?f sim-experiment)) (eq ?f:name {name}) (retract ?f))"),
+        ));
+    }
+    for (i, w) in list("windows").enumerate() {
+        let kind = sym(w.get("kind").and_then(Value::as_str).unwrap_or("nil"));
+        let (from, to) = (f(w.get("from_s")), f(w.get("to_s")));
+        out.push((
+            format!("sim-window {i}"),
+            format!("(sim-window (kind {kind}) (from-s {from}) (to-s {to}))"),
+            format!(
+                "(do-for-all-facts ((?f sim-window)) (and (eq ?f:kind {kind}) (= ?f:from-s {from}) (= ?f:to-s {to})) (retract ?f))"
+            ),
+        ));
+    }
+    for (i, x) in list("faults").enumerate() {
+        let consumer = sym(x.get("consumer").and_then(Value::as_str).unwrap_or(""));
+        let comps: Vec<String> = x
+            .get("components")
+            .and_then(Value::as_array)
+            .into_iter()
+            .flatten()
+            .filter_map(Value::as_str)
+            .map(sym)
+            .collect();
+        let state = sym(x.get("state").and_then(Value::as_str).unwrap_or("nil"));
+        out.push((
+            format!("sim-fault {i}"),
+            format!(
+                "(sim-fault (consumer {consumer}) (components {}) (state {}) (factor {}))",
+                comps.join(" "),
+                state,
+                f(x.get("factor")),
+            ),
+            format!(
+                "(do-for-all-facts ((?f sim-fault)) (and (eq ?f:consumer {consumer}) (eq ?f:state {state})) (retract ?f))"
+            ),
         ));
     }
     if let Some(a) = ops.get("attitude").filter(|a| a.is_object()) {
