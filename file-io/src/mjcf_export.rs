@@ -30,6 +30,13 @@
 //! primitives and anything else an `<asset><mesh file>` written as binary STL beside the file.
 //! Quaternions by Shepperd's method (`UnitQuaternion::from_matrix`, iterative from the
 //! identity, returned a half-turn rotation unturned).
+//!
+//! A ball (spherical) joint is `type="ball"` at its placement (no axis, no range: robosim has
+//! no cone limit); MuJoCo's qpos holds its quaternion `w x y z`, robosim's q `x y z w`, and both
+//! v are the angular velocity in the child frame. Mimic joints ([`to_mjcf_with_geometry`]'s
+//! coupling): an `<equality><joint joint1 joint2 polycoef="offset multiplier 0 0 0">` per
+//! follower (MuJoCo's `y − y₀ = a₀ + a₁ (x − x₀)` with no `ref`: y₀ = x₀ = 0), which MuJoCo
+//! enforces softly when it simulates (its FK and M at a qpos do not depend on it).
 
 use crate::export_geometry::{
     ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,

@@ -46,6 +46,13 @@
 //! Geometry ([`to_urdf_with_geometry`], [`crate::export_geometry`]): each link's `<visual>` and
 //! `<collision>` elements, a shape's placement in robosim's link frame j moved into URDF link j
 //! by `P_j`; primitives as URDF primitives, anything else a binary STL beside the file.
+//!
+//! Mimic joints ([`to_urdf_with_geometry`]'s coupling, [`mimic_relations`]): the [`Robot`] has
+//! every joint a coordinate; the coupling beside it says which follow which, and each follower
+//! gets `<mimic joint multiplier offset>` naming its (resolved, free) leader. URDF's q is
+//! robosim's (the offset is in the origin), so the numbers are the coupling's. Without the
+//! coupling the file would be another robot (every follower free): the export API takes it.
+//! A ball (spherical) joint is refused by name: URDF has no ball joint.
 
 use crate::export_geometry::{
     ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,

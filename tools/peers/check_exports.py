@@ -63,17 +63,28 @@ ROBOSIM = os.path.join(ROOT, "target", "debug", "robosim")
 OUT = os.path.join(ROOT, "testdata", "mjcf", "exports")
 UR5 = os.path.join(ROOT, "testdata", "urdf", "ur5_robot.urdf")
 PANDA = os.path.join(ROOT, "testdata", "urdf", "panda.urdf")
+PR2 = os.path.join(ROOT, "testdata", "urdf_corpus", "robots", "pr2_description", "pr2.urdf")
+BALL = os.path.join(ROOT, "testdata", "ball", "ball_tree.xml")
 # The robots of the standard library (library-space/stdlib), all with their default parameters.
 LIBRARY = ["puma560", "stanford", "weld_positioner", "panda", "weld_arm", "weld_study_positioner",
            "surgical_positioner", "station_servicer", "station_solar_structure",
            "station_outboard_assembly"]
 # The robots whose exported MJCF and MuJoCo values are kept in testdata (the Rust tests read them).
-REFERENCE = ["puma560", "stanford", "weld_positioner", "ur5", "panda_arm"]
-# name, query robot, library file text (None: the standard library)
-ROBOTS = [(name, name, None) for name in LIBRARY] + [
-    ("ur5", {"urdf": UR5, "tip": "tool0"}, f'robot ur5 from_urdf "{UR5}" {{ tip: "tool0" }}\n'),
+REFERENCE = ["puma560", "stanford", "weld_positioner", "ur5", "panda_arm", "panda_mimic",
+             "ball_chain"]
+# name, query robot, library file text (None: the standard library), kind: None, "mimic" (the
+# robot has <mimic> joints: compared over the reduced coordinates) or "ball" (ball joints: MJCF
+# only, URDF has none and its export must refuse the robot)
+ROBOTS = [(name, name, None, None) for name in LIBRARY] + [
+    ("ur5", {"urdf": UR5, "tip": "tool0"}, f'robot ur5 from_urdf "{UR5}" {{ tip: "tool0" }}\n',
+     None),
     ("panda_arm", {"urdf": PANDA, "tip": "panda_hand"},
-     f'robot panda_arm from_urdf "{PANDA}" {{ tip: "panda_hand" }}\n'),
+     f'robot panda_arm from_urdf "{PANDA}" {{ tip: "panda_hand" }}\n', None),
+    ("panda_mimic", {"urdf": PANDA, "mimic": True}, f'robot panda_mimic from_urdf "{PANDA}"\n',
+     "mimic"),
+    ("pr2_mimic", {"urdf": PR2, "mimic": True}, f'robot pr2_mimic from_urdf "{PR2}"\n', "mimic"),
+    ("ball_chain", {"mjcf": BALL, "tip": "finger"},
+     f'robot ball_chain from_mjcf "{BALL}" {{ tip: "finger" }}\n', "ball"),
 ]
 
 
@@ -163,14 +174,20 @@ def collision_names(urdf):
 
 def geometry_check(name, urdf, xml, pin_model, mj_model, q_list):
     """Loads the geometry in both peers, checks the counts, and compares the placements of the
-    collision shapes (see the docstring). Returns (collision, visual, geoms, pose diff, box diff)."""
+    collision shapes (see the docstring). Returns (collision, visual, geoms, pose diff, box diff).
+    Without a URDF (a robot URDF cannot say), MuJoCo's geoms only."""
+    n_geom = len(list(ET.parse(xml).getroot().find("worldbody").iter("geom")))
+    if urdf is None:
+        if mj_model.ngeom != n_geom:
+            sys.exit(f"{name}: MuJoCo has {mj_model.ngeom} geoms, the MJCF {n_geom}")
+        return None, None, n_geom, None, None
     folder = os.path.dirname(urdf)
     tree = ET.parse(urdf).getroot()
     n_col = len(list(tree.iter("collision")))
     n_vis = len(list(tree.iter("visual")))
-    n_geom = len(list(ET.parse(xml).getroot().find("worldbody").iter("geom")))
-    col = pin.buildGeomFromUrdf(pin_model, urdf, pin.GeometryType.COLLISION, package_dirs=[folder])
-    vis = pin.buildGeomFromUrdf(pin_model, urdf, pin.GeometryType.VISUAL, package_dirs=[folder])
+    # no package_dirs: the export names its meshes by absolute path (--mesh-paths absolute)
+    col = pin.buildGeomFromUrdf(pin_model, urdf, pin.GeometryType.COLLISION)
+    vis = pin.buildGeomFromUrdf(pin_model, urdf, pin.GeometryType.VISUAL)
     if col.ngeoms != n_col or vis.ngeoms != n_vis:
         sys.exit(f"{name}: Pinocchio loaded {col.ngeoms} collision / {vis.ngeoms} visual objects, "
                  f"the URDF has {n_col} / {n_vis}")
@@ -182,7 +199,8 @@ def geometry_check(name, urdf, xml, pin_model, mj_model, q_list):
     for q in q_list:
         data = pin_model.createData()
         gdata = col.createData()
-        pin.updateGeometryPlacements(pin_model, data, col, gdata, np.asarray(q, dtype=float))
+        pin.updateGeometryPlacements(pin_model, data, col, gdata,
+                                     pin_q(pin_model, q, name, range(len(q))))
         d.qpos[:] = np.asarray(q, dtype=float)
         mujoco.mj_kinematics(mj_model, d)
         for i, obj in enumerate(col.geometryObjects):
@@ -297,6 +315,97 @@ def floating_check(rows):
         rows.append(f"| solo (floating) | {fmt} | {peer} | {ex:.1e} | {em:.1e} |")
 
 
+def mimic_map(mj, name):
+    """The coupling MuJoCo read from the MJCF export's <equality><joint>: (free joint indices,
+    a function reduced q -> full q, G). Joint k of MuJoCo is robosim's joint k (hinges and
+    slides only: a mimic robot has no ball joint)."""
+    n = mj.njnt
+    rel = {}
+    for e in range(mj.neq):
+        assert mj.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT
+        a0, a1 = mj.eq_data[e][0], mj.eq_data[e][1]
+        rel[int(mj.eq_obj1id[e])] = (int(mj.eq_obj2id[e]), a1, a0)  # leader (-1: none), m, c
+    free = [k for k in range(n) if k not in rel]
+    G = np.zeros((n, len(free)))
+    for i, k in enumerate(free):
+        G[k, i] = 1.0
+    for f, (l, m, c) in rel.items():
+        if l >= 0:
+            G[f, free.index(l)] = m
+
+    def expand(qr):
+        q = np.zeros(n)
+        q[free] = qr
+        for f, (l, m, c) in rel.items():
+            q[f] = m * (q[l] if l >= 0 else 0.0) + c
+        return q
+    return free, expand, G
+
+
+def pin_q(model, q, name, joints):
+    """Pinocchio's q of robosim's q over `joints` (see pin_by_name)."""
+    qp = pin.neutral(model)
+    for k, v in zip(joints, q):
+        j = model.joints[model.getJointId(f"{name}_joint{k + 1}")]
+        if j.nq == 2:
+            qp[j.idx_q:j.idx_q + 2] = [np.cos(v), np.sin(v)]
+        else:
+            qp[j.idx_q] = v
+    return qp
+
+
+def pin_by_name(model, q, frame, name, joints):
+    """pin_values with robosim's joint order: q[k] is joint `joints[k]` (robosim's index), mapped
+    into Pinocchio's q by the joint names robosim wrote (`<name>_joint<k+1>`): Pinocchio numbers a
+    URDF tree's joints in its own traversal order; a continuous joint (URDF `continuous`,
+    Pinocchio's nq = 2) gets cos, sin of the angle. Returns the frame's pose and M over `joints`."""
+    ids = [model.getJointId(f"{name}_joint{k + 1}") for k in joints]
+    iv = [model.joints[i].idx_v for i in ids]
+    x, M = pin_values(model, pin_q(model, q, name, joints), frame)
+    return x, M[np.ix_(iv, iv)]
+
+
+def sample_q(mj, rng, free=None):
+    """A random q at MuJoCo's joints (or only at `free`): hinge and slide uniform in their range
+    ([-pi, pi] when unbounded), a ball a uniformly random unit quaternion. Returns (robosim q,
+    MuJoCo qpos): a ball is x y z w in robosim's q, w x y z in qpos."""
+    ours, qpos = [], []
+    for k in (range(mj.njnt) if free is None else free):
+        if mj.jnt_type[k] == mujoco.mjtJoint.mjJNT_BALL:
+            quat = rng.normal(size=4)
+            quat /= np.linalg.norm(quat)  # x y z w
+            ours += list(quat)
+            qpos += [quat[3], quat[0], quat[1], quat[2]]
+        else:
+            lo, hi = mj.jnt_range[k]
+            v = rng.uniform(lo, hi) if mj.jnt_limited[k] else rng.uniform(-np.pi, np.pi)
+            ours.append(v)
+            qpos.append(v)
+    return np.array(ours), np.array(qpos)
+
+
+def relative_mesh_check(name, lib):
+    """A URDF exported with --mesh-paths relative (the folder can be moved): MuJoCo opens it with
+    no flags; Pinocchio 4.1 finds the meshes only with package_dirs=[the folder]."""
+    tmp = tempfile.mkdtemp()
+    f = os.path.join(tmp, f"{name}.rsl")
+    with open(f, "w") as fh:
+        fh.write(lib)
+    urdf = os.path.join(tmp, f"{name}.urdf")
+    run(["export", "urdf", urdf, "--scene", name, "--library", f, "--mesh-paths", "relative"])
+    mj = mujoco.MjModel.from_xml_path(urdf)
+    model = pin.buildModelFromUrdf(urdf)
+    try:
+        pin.buildGeomFromUrdf(model, urdf, pin.GeometryType.COLLISION)
+        without = "opens"
+    except ValueError as e:
+        without = f"refuses ({str(e).strip()})"
+    col = pin.buildGeomFromUrdf(model, urdf, pin.GeometryType.COLLISION, package_dirs=[tmp])
+    shutil.rmtree(tmp)
+    return (f"{name}, --mesh-paths relative: MuJoCo opens it ({mj.nmesh} meshes); Pinocchio "
+            f"without package_dirs {without}; with package_dirs=[folder] {col.ngeoms} objects")
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     rng = np.random.default_rng(4)
@@ -304,7 +413,7 @@ def main():
     rows = []
     geo_rows = []
     reference = {"mujoco": mujoco.__version__, "pinocchio": pin.__version__, "robots": []}
-    for name, qrobot, lib in ROBOTS:
+    for name, qrobot, lib, kind in ROBOTS:
         extra = []
         if lib is not None:
             f = os.path.join(tmp, f"{name}.rsl")
@@ -314,35 +423,76 @@ def main():
         urdf = os.path.join(tmp, f"{name}.urdf")
         # beside its meshes; copied into testdata (text only) for the REFERENCE robots
         xml = os.path.join(tmp, f"{name}.xml")
-        notes = run(["export", "urdf", urdf, "--scene", name] + extra)
-        notes += run(["export", "mjcf", xml, "--scene", name] + extra)
+        notes = run(["export", "mjcf", xml, "--scene", name] + extra)
+        if kind == "ball":
+            r = subprocess.run([ROBOSIM, "export", "urdf", urdf, "--scene", name] + extra,
+                               capture_output=True, text=True)
+            if r.returncode == 0 or "ball (spherical) joint" not in r.stderr:
+                sys.exit(f"{name}: the URDF export of a ball joint was not refused: {r.stderr}")
+            print(f"{name}: URDF export refused as it must be: {r.stderr.strip()}")
+            urdf = None
+        else:
+            notes += run(["export", "urdf", urdf, "--scene", name] + extra)
         for line in notes.splitlines():
             if "note:" in line:
                 print(f"{name}: {line.strip()}")
         mj_mjcf = mujoco.MjModel.from_xml_path(xml)
-        mj_urdf = mujoco.MjModel.from_xml_path(urdf)
-        pin_urdf = pin.buildModelFromUrdf(urdf)
         pin_mjcf = pin.buildModelFromMJCF(xml)
-        n = mj_mjcf.nq
-        lo, hi = mj_mjcf.jnt_range[:, 0], mj_mjcf.jnt_range[:, 1]
-        limited = mj_mjcf.jnt_limited.astype(bool)
-        offset = urdf_tool_offset(urdf, name)
+        if urdf is not None:
+            mj_urdf = mujoco.MjModel.from_xml_path(urdf)
+            pin_urdf = pin.buildModelFromUrdf(urdf)
+            offset = urdf_tool_offset(urdf, name)
+        n = mj_mjcf.njnt
         last = f"{name}_link{n}"
+        joints = list(range(n))
+        if kind == "mimic":
+            free, expand, G = mimic_map(mj_mjcf, name)
+            followers = n - len(free)
+            pin_mimic = pin.buildModelFromUrdf(urdf, mimic=True)
+            # every peer read the coupling: MuJoCo's equalities from both files, Pinocchio's
+            # mimic model has one coordinate per free joint
+            assert mj_mjcf.neq == followers and mj_urdf.neq == followers, (mj_mjcf.neq, mj_urdf.neq)
+            assert pin_mimic.nv == len(free) and pin_urdf.nv == n, (pin_mimic.nv, pin_urdf.nv)
+            print(f"{name}: {followers} mimic joints; MuJoCo reads {mj_mjcf.neq} equalities from "
+                  f"the MJCF and {mj_urdf.neq} from the URDF, Pinocchio mimic=True nv = "
+                  f"{pin_mimic.nv} of {pin_urdf.nv}")
         samples, err = [], {}
         for _ in range(5):
-            q = np.where(limited, rng.uniform(lo, hi), rng.uniform(-np.pi, np.pi, n))
+            if kind == "mimic":
+                qr, _ = sample_q(mj_mjcf, rng, free)
+                q = qpos = expand(qr)
+                ask = qr
+            else:
+                q, qpos = sample_q(mj_mjcf, rng)
+                ask = q
             fk, mm = query([
-                {"id": 1, "op": "fk", "robot": qrobot, "q": q.tolist()},
-                {"id": 2, "op": "mass_matrix", "robot": qrobot, "q": q.tolist()},
+                {"id": 1, "op": "fk", "robot": qrobot, "q": ask.tolist()},
+                {"id": 2, "op": "mass_matrix", "robot": qrobot, "q": ask.tolist()},
             ])
             ours_x, ours_m = np.array(fk["pose"]), np.array(mm["mass_matrix"])
-            got = {
-                ("MJCF", "MuJoCo"): mj_values(mj_mjcf, q, lambda m, d: mj_pose(m, d, f"{name}_tool")),
-                ("URDF", "MuJoCo"): mj_values(mj_urdf, q, lambda m, d: mj_pose(m, d, last) @ offset),
-                ("URDF", "Pinocchio"): pin_values(pin_urdf, q, f"{name}_tool"),
-                ("MJCF", "Pinocchio"): pin_values(pin_mjcf, q, f"{name}_tool"),
-            }
+            got = {("MJCF", "MuJoCo"): mj_values(mj_mjcf, qpos,
+                                                 lambda m, d: mj_pose(m, d, f"{name}_tool"))}
+            if kind == "mimic":
+                # the full models at q = phi(q_r), M reduced as G^T M G; Pinocchio's mimic model
+                # at q_r itself
+                got[("URDF", "MuJoCo")] = mj_values(mj_urdf, q,
+                                                    lambda m, d: mj_pose(m, d, last) @ offset)
+                got[("URDF", "Pinocchio")] = pin_by_name(pin_urdf, q, f"{name}_tool", name, joints)
+                got[("MJCF", "Pinocchio")] = pin_by_name(pin_mjcf, q, f"{name}_tool", name, joints)
+                full = dict(got)
+                got = {k: (x, G.T @ M @ G) for k, (x, M) in full.items()}
+                got[("URDF", "Pinocchio mimic=True")] = pin_by_name(pin_mimic, qr, f"{name}_tool",
+                                                                    name, free)
+            elif kind == "ball":
+                got[("MJCF", "Pinocchio")] = pin_values(pin_mjcf, q, f"{name}_tool")
+            else:
+                got[("URDF", "MuJoCo")] = mj_values(mj_urdf, q,
+                                                    lambda m, d: mj_pose(m, d, last) @ offset)
+                got[("URDF", "Pinocchio")] = pin_values(pin_urdf, q, f"{name}_tool")
+                got[("MJCF", "Pinocchio")] = pin_values(pin_mjcf, q, f"{name}_tool")
             armature = np.diag(mj_mjcf.dof_armature)
+            if kind == "mimic":
+                armature = G.T @ armature @ G
             for k, (x, M) in got.items():
                 if k[0] == "URDF":
                     # URDF has no motor inertia: compared with it added back (see the docstring).
@@ -351,17 +501,19 @@ def main():
                 em = np.abs(M - ours_m).max() / max(1.0, np.abs(ours_m).max())
                 a, b = err.get(k, (0.0, 0.0))
                 err[k] = (max(a, ex), max(b, em))
-            x, M = got[("MJCF", "MuJoCo")]
+            # the reference: robosim's full q (a ball x y z w) and MuJoCo's full tool pose and M
+            x, M = (full if kind == "mimic" else got)[("MJCF", "MuJoCo")]
             samples.append({"q": q.tolist(), "tool": x.tolist(), "mass_matrix": M.tolist()})
-        geo_rows.append((name,) + geometry_check(name, urdf, xml, pin_urdf, mj_mjcf,
-                                                  [s["q"] for s in samples]))
+        geo_rows.append((name,) + geometry_check(name, urdf, xml, pin_urdf if urdf else None,
+                                                  mj_mjcf, [s["q"] for s in samples]))
         if name in REFERENCE:
             shutil.copy(xml, os.path.join(OUT, f"{name}.xml"))
-            reference["robots"].append({"name": name, "file": f"{name}.xml", "nq": int(n),
+            reference["robots"].append({"name": name, "file": f"{name}.xml", "nq": int(mj_mjcf.nq),
                                         "samples": samples})
         for (fmt, peer), (ex, em) in sorted(err.items()):
             rows.append(f"| {name} | {fmt} | {peer} | {ex:.1e} | {em:.1e} |")
     floating_check(rows)
+    relative = relative_mesh_check("panda_arm", {r[0]: r[2] for r in ROBOTS}["panda_arm"])
     with open(os.path.join(OUT, "mujoco_exports.json"), "w") as f:
         json.dump(reference, f, indent=1)
         f.write("\n")
@@ -371,12 +523,16 @@ def main():
     print("|---|---|---|---|---|")
     print("\n".join(rows))
     print()
-    print("| robot | URDF <collision> / <visual> (Pinocchio loads all) | MJCF geoms (MuJoCo loads all) "
-          "| primitive pose max abs diff, Pinocchio vs MuJoCo | mesh world box max abs diff (m) |")
+    print("| robot | URDF <collision> / <visual> (Pinocchio loads all, no package_dirs) | MJCF geoms "
+          "(MuJoCo loads all) | primitive pose max abs diff, Pinocchio vs MuJoCo | mesh world box "
+          "max abs diff (m) |")
     print("|---|---|---|---|---|")
     for name, nc, nv, ng, pe, be in geo_rows:
         fmt = lambda e: "-" if e is None else f"{e:.1e}"
-        print(f"| {name} | {nc} / {nv} | {ng} | {fmt(pe)} | {fmt(be)} |")
+        urdf_shapes = "no URDF" if nc is None else f"{nc} / {nv}"
+        print(f"| {name} | {urdf_shapes} | {ng} | {fmt(pe)} | {fmt(be)} |")
+    print()
+    print(relative)
 
 
 if __name__ == "__main__":
