@@ -1,11 +1,19 @@
 #!/usr/bin/env python3
 """Exports that other tools open (issue 36 item 4): every robot of the standard library
-(LIBRARY below) and two URDF-imported robots (example-robot-data's UR5, and the Panda's arm
-to panda_hand, fingers held) exported by `robosim export urdf` and `robosim export mjcf`, loaded
-with no flags by MuJoCo (MjModel.from_xml_path) and Pinocchio (buildModelFromUrdf /
-buildModelFromMJCF), and at 5 random q (numpy default_rng seed 4; q uniform in the limits,
-[-pi, pi] when unbounded) the tool pose and the mass matrix compared with robosim's own
-(`robosim query`, ops fk and mass_matrix, on the library robot by name or the URDF by path).
+(LIBRARY below) and imported robots (example-robot-data's UR5; the Panda's arm to panda_hand,
+fingers held; the whole Panda, its finger a <mimic> joint; PR2 with ten <mimic> joints; a chain
+of testdata/ball/ball_tree.xml with two ball joints) exported by `robosim export urdf` and
+`robosim export mjcf`, loaded with no flags by MuJoCo (MjModel.from_xml_path) and Pinocchio
+(buildModelFromUrdf / buildModelFromMJCF), and at 5 random q (numpy default_rng seed 4; q
+uniform in the limits, [-pi, pi] when unbounded, a ball a random unit quaternion) the tool pose
+and the mass matrix compared with robosim's own (`robosim query`, ops fk and mass_matrix, on the
+library robot by name or the file by path).
+
+Mimic robots are compared over the reduced coordinates (robosim's `"mimic": true`): MuJoCo's and
+Pinocchio's full models at q = phi(q_r) with M_r = G^T M G (G from the <equality><joint> MuJoCo
+read from the MJCF), and Pinocchio's mimic model (buildModelFromUrdf(path, mimic=True)) at q_r;
+the script checks that MuJoCo read every equality from both files. A ball joint: robosim's q is
+x y z w, MuJoCo's qpos w x y z; URDF has none, so that robot's URDF export must be refused.
 
 URDF has no element for the motor (rotor) inertia that robosim adds to M's diagonal (MuJoCo's
 armature, which the MJCF export writes): the URDF rows compare the peer's M plus the exported
@@ -19,8 +27,9 @@ relative to max(1, max|M|), per robot, format and peer, as a Markdown table (doc
 Geometry (the exports' <visual>/<collision> and MJCF geoms, meshes as STL files beside the
 file): MuJoCo loads the MJCF with its meshes and has one geom per <geom> written; Pinocchio's
 buildGeomFromUrdf loads the collision and visual models with one object per <collision> /
-<visual> (Pinocchio 4.1 resolves a relative mesh file name only against package_dirs, not the
-URDF's folder: it is given package_dirs=[the URDF's folder]; MuJoCo needs nothing). At the same
+<visual>, with no package_dirs (the URDF names its meshes by absolute path, `--mesh-paths
+absolute`, the default; a `--mesh-paths relative` export is checked to open in MuJoCo and, with
+package_dirs=[folder] only, in Pinocchio 4.1, which resolves a relative name only there). At the same
 q, each collision shape's placement in Pinocchio (URDF) is compared with the same shape's geom
 in MuJoCo (MJCF): primitives by their pose, meshes by the world box of their vertices (MuJoCo
 re-centres a mesh on its centre of mass; STL stores f32). Printed: the largest difference per
