@@ -19,14 +19,23 @@
 //! Hitting `max_iterations` (a pair grazing at a distance just above the tolerance)
 //! gives [`Sweep::Unknown`], never a silent clear.
 //!
-//! Entry points: [`sweep_robot`], [`motion_bounds`].
+//! **Kinematics.** The link poses of every advancement step come from the robot's compiled
+//! [`KinematicModel`] (one FK pass into a reused buffer, no allocation per step):
+//! [`sweep_robot_compiled`] takes one compiled by the caller (MOVEJI's steps, the simulator's
+//! collision stage), [`sweep_robot`] compiles one per sweep. The poses, and so the answers, are
+//! those of `fk::link_frames` on the `Robot` bit for bit (test
+//! `compiled_sweep_answers_as_the_robot_sweep_does`).
+//!
+//! Entry points: [`sweep_robot`], [`sweep_robot_compiled`], [`motion_bounds`].
 
-use crate::bodies::{Body, CheckError, Collision, LinkSolids, Scene, check_link_count, link_poses};
+use crate::bodies::{
+    Body, CheckError, Collision, LinkSolids, Scene, check_link_count, isometry_from_matrix,
+};
 use crate::exact::{self, ExactOptions};
 use crate::outcome::PairResult;
 use crate::solid::Solid;
-use nalgebra::Isometry3;
-use robosim_kinematics::{Convention, JointType, Robot, fk};
+use nalgebra::{Isometry3, Matrix4};
+use robosim_kinematics::{Convention, JointType, KinematicModel, Robot, fk};
 
 /// Tolerances of the sweep.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -120,8 +129,45 @@ pub fn motion_bounds(robot: &Robot, links: &LinkSolids, q0: &[f64], q1: &[f64]) 
     out
 }
 
-fn lerp(q0: &[f64], q1: &[f64], s: f64) -> Vec<f64> {
-    q0.iter().zip(q1).map(|(a, b)| a + (b - a) * s).collect()
+/// `q0 + (q1 − q0) s` into `out`.
+fn lerp_into(q0: &[f64], q1: &[f64], s: f64, out: &mut Vec<f64>) {
+    out.clear();
+    out.extend(q0.iter().zip(q1).map(|(a, b)| a + (b - a) * s));
+}
+
+/// Where the link frames come from: the compiled model (a frames buffer reused every step),
+/// or — tests only, the path before — `fk::link_frames` on the `Robot`.
+enum Frames<'a> {
+    Compiled {
+        kin: &'a KinematicModel,
+        frames: Vec<Matrix4<f64>>,
+    },
+    #[cfg(test)]
+    Robot(&'a Robot),
+}
+
+impl Frames<'_> {
+    /// Every link solid's world pose at `q` into `out` (`None`: no solid), as
+    /// [`crate::bodies::link_poses`].
+    fn poses(&mut self, links: &LinkSolids, q: &[f64], out: &mut Vec<Option<Isometry3<f64>>>) {
+        let frames: &[Matrix4<f64>] = match self {
+            Frames::Compiled { kin, frames } => {
+                kin.link_frames_into(q, frames);
+                frames
+            }
+            #[cfg(test)]
+            Frames::Robot(robot) => {
+                out.clear();
+                out.extend(crate::bodies::link_poses(robot, links, q));
+                return;
+            }
+        };
+        out.clear();
+        out.extend(links.links.iter().enumerate().map(|(j, l)| {
+            l.as_ref()
+                .map(|l| isometry_from_matrix(&frames[j]) * l.offset)
+        }));
+    }
 }
 
 enum Target<'a> {
@@ -131,8 +177,46 @@ enum Target<'a> {
 
 /// Sweeps the robot from `q0` to `q1` (one MOVEJI step) against the in-use objects of `scene`
 /// and, if `self_collision`, its own non-adjacent link pairs; exact-mode distances throughout,
-/// whatever mode the discrete checks use. See the module docs for what is guaranteed.
+/// whatever mode the discrete checks use. See the module docs for what is guaranteed. Compiles
+/// the robot for the sweep; a caller sweeping the same robot again and again compiles it once
+/// and calls [`sweep_robot_compiled`].
 pub fn sweep_robot(
+    robot: &Robot,
+    links: &LinkSolids,
+    q0: &[f64],
+    q1: &[f64],
+    scene: &Scene,
+    self_collision: bool,
+    opts: &SweepOptions,
+) -> Result<Sweep, CheckError> {
+    let kin = KinematicModel::new(robot);
+    sweep_robot_compiled(&kin, robot, links, q0, q1, scene, self_collision, opts)
+}
+
+/// [`sweep_robot`] with the link frames from `kin`, compiled from `robot` once
+/// ([`KinematicModel::new`]; `robot` is read for the q and link-count checks and the motion
+/// bounds): the same answers, bit for bit.
+#[allow(clippy::too_many_arguments)]
+pub fn sweep_robot_compiled(
+    kin: &KinematicModel,
+    robot: &Robot,
+    links: &LinkSolids,
+    q0: &[f64],
+    q1: &[f64],
+    scene: &Scene,
+    self_collision: bool,
+    opts: &SweepOptions,
+) -> Result<Sweep, CheckError> {
+    let frames = Frames::Compiled {
+        kin,
+        frames: vec![Matrix4::identity(); kin.dof() + 2],
+    };
+    sweep(frames, robot, links, q0, q1, scene, self_collision, opts)
+}
+
+#[allow(clippy::too_many_arguments)]
+fn sweep(
+    mut frames: Frames<'_>,
     robot: &Robot,
     links: &LinkSolids,
     q0: &[f64],
@@ -145,7 +229,8 @@ pub fn sweep_robot(
     robot.check_q(q1)?;
     check_link_count(robot, links)?;
     let bounds = motion_bounds(robot, links, q0, q1);
-    let p0 = link_poses(robot, links, q0);
+    let mut p0 = Vec::with_capacity(links.links.len());
+    frames.poses(links, q0, &mut p0);
     let mut pairs: Vec<(usize, Target)> = Vec::new();
     let mut cand = Vec::new();
     for (j, l) in links.links.iter().enumerate() {
@@ -173,6 +258,10 @@ pub fn sweep_robot(
         exact::Tolerance::Certified => 0.0,
         t @ exact::Tolerance::Gjk(_) => t.width(),
     };
+    let (mut q, mut lp) = (
+        Vec::with_capacity(q0.len()),
+        Vec::with_capacity(links.links.len()),
+    );
     for (j, target) in &pairs {
         let Some(lj) = &links.links[*j] else { continue };
         let (bound, body_b) = match target {
@@ -201,7 +290,8 @@ pub fn sweep_robot(
                     ),
                 });
             }
-            let lp = link_poses(robot, links, &lerp(q0, q1, s));
+            lerp_into(q0, q1, s, &mut q);
+            frames.poses(links, &q, &mut lp);
             let Some(pj) = lp[*j] else { break };
             let (solid_b, pose_b) = match target {
                 Target::Object(_, so, po) => (*so, *po),
@@ -269,4 +359,101 @@ pub fn sweep_robot(
         Some((s, collision)) => Sweep::Contact { s, collision },
         None => Sweep::Clear,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{Translation3, Vector3};
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+    use robosim_kinematics::{BUILTIN_NAMES, builtin_robot};
+    use std::sync::Arc;
+
+    /// The sweep on the compiled model ([`sweep_robot`], [`sweep_robot_compiled`]) answers as
+    /// the sweep on `fk::link_frames` of the `Robot` (the path before) does, `==` and bit for
+    /// bit (Debug text: every f64 in its shortest round-trip form): the built-in robots (DH
+    /// standard and modified), random steps against balls and boxes, with and without
+    /// self-collision, certified and at a GJK tolerance. Both contact and clear sweeps occur.
+    #[test]
+    fn compiled_sweep_answers_as_the_robot_sweep_does() {
+        let mut rng = ChaCha8Rng::seed_from_u64(37);
+        let (mut contacts, mut clears) = (0, 0);
+        for name in BUILTIN_NAMES {
+            let robot = builtin_robot(name).expect("builtin");
+            let links = LinkSolids::from_dh(&robot, 0.04).expect("links");
+            let kin = KinematicModel::new(&robot);
+            for i in 0..24 {
+                let mut scene = Scene::new();
+                for k in 0..3 {
+                    let p = Isometry3::from_parts(
+                        Translation3::new(
+                            rng.random_range(-0.8..0.8),
+                            rng.random_range(-0.8..0.8),
+                            rng.random_range(-0.3..0.9),
+                        ),
+                        nalgebra::UnitQuaternion::identity(),
+                    );
+                    let solid = if k % 2 == 0 {
+                        Solid::sphere(rng.random_range(0.05..0.2), None).expect("ball")
+                    } else {
+                        Solid::cuboid(Vector3::repeat(rng.random_range(0.1..0.3))).expect("box")
+                    };
+                    scene.add(format!("o{k}"), Arc::new(solid), p);
+                }
+                let q0: Vec<f64> = (0..robot.dof())
+                    .map(|_| rng.random_range(-2.0..2.0))
+                    .collect();
+                let q1: Vec<f64> = q0.iter().map(|q| q + rng.random_range(-1.0..1.0)).collect();
+                let opts = SweepOptions {
+                    distance: if i % 2 == 0 {
+                        exact::Tolerance::Certified
+                    } else {
+                        exact::Tolerance::Gjk(1e-6)
+                    },
+                    ..SweepOptions::default()
+                };
+                let self_collision = i % 3 == 0;
+                let before = sweep(
+                    Frames::Robot(&robot),
+                    &robot,
+                    &links,
+                    &q0,
+                    &q1,
+                    &scene,
+                    self_collision,
+                    &opts,
+                )
+                .expect("sweep");
+                let now = sweep_robot(&robot, &links, &q0, &q1, &scene, self_collision, &opts)
+                    .expect("sweep");
+                let compiled = sweep_robot_compiled(
+                    &kin,
+                    &robot,
+                    &links,
+                    &q0,
+                    &q1,
+                    &scene,
+                    self_collision,
+                    &opts,
+                )
+                .expect("sweep");
+                assert!(
+                    now == before,
+                    "{name} {q0:?} -> {q1:?}: {now:?} vs {before:?}"
+                );
+                assert_eq!(format!("{now:?}"), format!("{before:?}"));
+                assert_eq!(format!("{compiled:?}"), format!("{before:?}"));
+                match now {
+                    Sweep::Contact { .. } => contacts += 1,
+                    Sweep::Clear => clears += 1,
+                    Sweep::Unknown { .. } => {}
+                }
+            }
+        }
+        assert!(
+            contacts >= 5 && clears >= 5,
+            "{contacts} contact, {clears} clear"
+        );
+    }
 }

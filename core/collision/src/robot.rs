@@ -513,7 +513,8 @@ pub fn move_checked(
     for k in 1..=steps {
         let next = if k == steps { q_to.to_vec() } else { at(k) };
         if settings.continuous {
-            match ccd::sweep_robot(
+            match ccd::sweep_robot_compiled(
+                &kin,
                 robot,
                 links,
                 &prev,
