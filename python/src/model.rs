@@ -266,11 +266,21 @@ impl Model {
     /// A robot description (the protocol's `robot` forms): with `"mimic": true` a file robot
     /// over its reduced coordinates, as the protocol's mimic ops take it.
     fn from_value(v: &Value) -> Result<Model, ProtocolError> {
-        if v.get("mimic") == Some(&Value::Bool(true)) {
-            let (robot, coupling) = protocol::mimic::robot_and_coupling_of(v)?;
-            return Ok(Model::with_coupling(robot, Some(coupling)));
+        match v.get("mimic") {
+            Some(Value::Bool(true)) => {
+                let (robot, coupling) = protocol::mimic::robot_and_coupling_of(v)?;
+                Ok(Model::with_coupling(robot, Some(coupling)))
+            }
+            // `"mimic": false` is the full model, as without the key
+            Some(Value::Bool(false)) => {
+                let mut full = v.clone();
+                if let Some(obj) = full.as_object_mut() {
+                    obj.remove("mimic");
+                }
+                robot_from(&full).map(Model::of)
+            }
+            _ => robot_from(v).map(Model::of),
         }
-        robot_from(v).map(Model::of)
     }
 
     /// Configuration length (reduced with a coupling).

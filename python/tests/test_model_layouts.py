@@ -257,6 +257,8 @@ def test_mimic_true_equals_the_protocols_mimic_ops_and_refuses_the_others():
     assert robosim.Model.from_json({"urdf": path, "mimic": True}).nq == m.nq == 8
     full = robosim.Model.from_urdf(path, tip="panda_leftfinger")
     assert full.nq == 8  # the chain: the other finger held, not a coordinate
+    off = robosim.Model.from_json({"urdf": path, "tip": "panda_leftfinger", "mimic": False})
+    assert off.nq == full.nq and off.coordinates == full.coordinates
     robot = {"urdf": path, "mimic": True}
     rng = np.random.default_rng(36)
     q, v, a = rng.uniform(-0.5, 0.5, (3, 8))
