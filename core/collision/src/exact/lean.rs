@@ -540,4 +540,50 @@ mod tests {
             "{apart} {touching} {undecided}"
         );
     }
+
+    /// What a tolerance means, on the pairs of the tolerance study and the convex meshes
+    /// (`testdata/collision/tolerance_pairs.csv`, `tolerance_hull_pairs.csv`: 200 separated
+    /// pairs): at a GJK tolerance t the distance `collide` reports is a true distance (never
+    /// below the certified one, whose bracket is 1e-11 m) at most t above it. A looser stopping
+    /// rule (coal's relative one, or the lower end of the bracket reported) fails here.
+    #[test]
+    fn reported_distance_is_within_the_tolerance_of_the_certified_one() {
+        use crate::exact::{ExactOptions, Tolerance, collide, pair_file};
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../../testdata/collision/");
+        let mut pairs = Vec::new();
+        for name in ["tolerance_pairs.csv", "tolerance_hull_pairs.csv"] {
+            let path = format!("{dir}{name}");
+            let text = std::fs::read_to_string(&path).expect("pairs file");
+            pairs.extend(pair_file::parse(&text, &path).expect("pairs"));
+        }
+        assert_eq!(pairs.len(), 200);
+        let certified: Vec<f64> = pairs
+            .iter()
+            .map(|p| {
+                collide(&p.a, &p.pa, &p.b, &p.pb, ExactOptions::default())
+                    .signed_distance()
+                    .expect("a distance")
+            })
+            .collect();
+        for t in [1e-3, 1e-6, 1e-9] {
+            let opts = ExactOptions {
+                tolerance: Tolerance::Gjk(t),
+                ..ExactOptions::default()
+            };
+            let mut worst: f64 = 0.0;
+            for (p, dc) in pairs.iter().zip(&certified) {
+                let d = collide(&p.a, &p.pa, &p.b, &p.pb, opts)
+                    .signed_distance()
+                    .expect("a distance");
+                assert!(
+                    d >= dc - 1e-11 && d <= dc + t + 1e-11,
+                    "{} at {t:e}: {d} vs certified {dc}",
+                    p.class
+                );
+                worst = worst.max(d - dc);
+            }
+            // the tolerance is used, not a certified answer in disguise
+            assert!(worst > t * 1e-3, "at {t:e} the worst error is {worst:e}");
+        }
+    }
 }
