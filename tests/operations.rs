@@ -116,18 +116,28 @@ fn station_processes_start_in_any_order_and_a_killed_rules_or_dataflow_process_c
         assert_eq!(mode(&s, vital), "full", "{vital}: {s}");
     }
     let before = decisions(&s);
+    // hygiene first, then the running experiment (life_sciences, on its timetable from 0 s),
+    // then the experiment modules' air (seed §4.2's order)
     assert_eq!(
         before
             .iter()
+            .filter(|d| d["rule"] != "ops-move-out-of-window")
             .map(|d| d["rule"].as_str().unwrap_or(""))
             .collect::<Vec<_>>(),
-        ["ops-shed-hygiene", "ops-reduce-experiment-air"],
+        [
+            "ops-shed-hygiene",
+            "ops-stop-experiment-for-energy",
+            "ops-reduce-experiment-air"
+        ],
         "{s}"
     );
     assert!(
-        before.iter().all(|d| d["reason"]
-            .as_str()
-            .is_some_and(|r| r.contains("below the reserve"))),
+        before
+            .iter()
+            .filter(|d| d["rule"] != "ops-move-out-of-window")
+            .all(|d| d["reason"]
+                .as_str()
+                .is_some_and(|r| r.contains("below the reserve"))),
         "each decision says why: {before:?}"
     );
     // the momentum manager took the same step: a finite, positive time to saturation
@@ -174,6 +184,7 @@ fn station_processes_start_in_any_order_and_a_killed_rules_or_dataflow_process_c
     assert_eq!(
         after[before.len()..]
             .iter()
+            .filter(|d| d["consumer"] == "air_experiment" || d["consumer"] == "hygiene")
             .map(|d| (d["rule"].as_str().unwrap_or(""), d["steps"].as_u64()))
             .collect::<Vec<_>>(),
         [
@@ -284,4 +295,185 @@ fn a_terminated_operations_study_stops_the_session_it_started() {
     wait_for("the session's processes stopped", || {
         k.session().processes().is_empty().then_some(())
     });
+}
+
+fn consumer(s: &Value, name: &str) -> Value {
+    s.pointer("/space/ops/consumers")
+        .and_then(Value::as_array)
+        .and_then(|cs| cs.iter().find(|c| c["name"] == name))
+        .cloned()
+        .unwrap_or(Value::Null)
+}
+
+/// The simulator's state once the rules acknowledged step `steps`.
+fn acked(p: &mut Planner, steps: u64) -> Value {
+    wait_for("the rules acknowledge the step", || {
+        let s = p.sim_state().ok()?;
+        (rules_ack(&s) == Some(steps)).then_some(s)
+    })
+}
+
+/// Issue 38 item 4 on the session: a pump failure injected into the plant (alarms) and the
+/// simulator (the unit's consumer) drops potable water to its standby demand; the rules
+/// (station_ops.clp) diagnose the plant's alarms, isolate the pump and bring its spare on line
+/// in the Instance Space; the simulator follows that commit — without restarting its clock —
+/// and the consumer's spare starts (300 s), catches up at twice its demand, then runs as
+/// before; the scheduler notes every change with the demand and its prediction.
+#[test]
+fn a_pump_failure_changes_potable_water_and_the_rules_bring_its_spare_on_line() {
+    if robosim_rules::skipped_without_clips("operations::a_pump_failure_changes_potable_water") {
+        return;
+    }
+    let mut k = Procs::new("opsf");
+    k.start_keeper(&["--scene", "space_station_ops"]);
+    k.spawn(&["automation"]);
+    k.spawn(&["rules", &rules_file()]);
+    k.spawn(&["simulator", "--mode", "lockstep"]);
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    acked(&mut p, 0);
+    p.sim_step(60).expect("60 steps");
+    let s = acked(&mut p, 60);
+    assert_eq!(consumer(&s, "potable_water")["full_w"], 5e3, "{s}");
+    // the plant's units are there before the fault (the rules isolate among them)
+    let session = k.session();
+    let mut plant: Option<CommandSender> = None;
+    wait_for("the plant takes the fault", || {
+        if plant.is_none() {
+            plant = CommandSender::open(&session, "automation", "ops-test").ok();
+        }
+        let a = plant
+            .as_mut()?
+            .send(
+                br#"{"cmd": "fault", "fault": "pump_failure"}"#,
+                Duration::from_secs(5),
+            )
+            .map_err(|_| plant = None)
+            .ok()?;
+        serde_json::from_slice::<Value>(&a)
+            .ok()?
+            .get("faults")
+            .map(|_| ())
+    });
+    p.sim_command(&json!({"cmd": "fault", "fault": "pump_failure",
+        "consumer": "potable_water", "components": ["water_pump"]}))
+        .expect("the simulator takes the fault");
+    let s = p.sim_state().expect("state");
+    assert_eq!(
+        consumer(&s, "potable_water")["full_w"],
+        500.0,
+        "failed: standby demand (10 %): {s}"
+    );
+    // the rules' diagnosis, isolation and spare, followed by the simulator at t = 60 s
+    let s = wait_for("the spare on line in the simulator", || {
+        let s = p.sim_state().ok()?;
+        s.pointer("/space/ops/faults/0/spare_at_s")?
+            .as_f64()
+            .map(|_| s)
+    });
+    assert_eq!(s["space"]["ops"]["faults"][0]["spare_at_s"], 60.0, "{s}");
+    assert_eq!(s["space"]["t_s"], 60.0, "the clock did not restart: {s}");
+    let snap = p.snapshot().expect("snapshot");
+    let parent = |n: &str| {
+        let i = snap.find(n).expect("unit");
+        let par = snap.index_of(snap.rec(i).parent).expect("parent");
+        snap.name(par).to_owned()
+    };
+    assert_eq!(parent("water_pump"), "eclss_isolated");
+    assert_eq!(parent("water_pump_spare"), "eclss");
+    drop(snap);
+    // the spare starts: still at standby 300 s after it came on line …
+    p.sim_step(240).expect("steps");
+    let s = acked(&mut p, 300);
+    assert_eq!(consumer(&s, "potable_water")["full_w"], 500.0, "{s}");
+    // … then catches up at twice the demand for as long as the unit stood still (300 s) …
+    p.sim_step(120).expect("steps");
+    let s = acked(&mut p, 420);
+    let c = consumer(&s, "potable_water");
+    assert_eq!(c["full_w"], 10e3, "{s}");
+    assert!(
+        c["served_w"].as_f64().is_some_and(|w| w > 9.99e3),
+        "served in full: {c}"
+    );
+    // … and is repaired
+    p.sim_step(300).expect("steps");
+    let s = acked(&mut p, 720);
+    assert_eq!(consumer(&s, "potable_water")["full_w"], 5e3, "{s}");
+    assert_eq!(s["space"]["ops"]["faults"][0]["state"], "repaired", "{s}");
+    let notes: Vec<String> = decisions(&s)
+        .iter()
+        .filter(|d| d["rule"] == "ops-fault-reaction")
+        .map(|d| d["reason"].as_str().unwrap_or("").to_owned())
+        .collect();
+    for (state, kw) in [("catching-up", "10.0 kW"), ("repaired", "5.0 kW")] {
+        assert!(
+            notes
+                .iter()
+                .any(|n| n.contains(&format!("water_pump {state}"))
+                    && n.contains(kw)
+                    && n.contains("predicted minimum")),
+            "the scheduler notes {state}: {notes:?}"
+        );
+    }
+}
+
+/// Issue 38 item 6 → the simulator: the momentum manager (dataflow) predicts saturation inside
+/// a docking window that opens within its lead and commands the desaturation early; the
+/// simulator starts it at once (recorded with the prediction as its reason), so the thrusters
+/// do not fire during the docking. Without the command the cluster would saturate inside the
+/// window (the prediction the window is laid around).
+#[test]
+fn the_momentum_manager_moves_a_desaturation_out_of_a_docking_window() {
+    let mut k = Procs::new("opsd");
+    k.start_keeper(&["--scene", "space_station_ops"]);
+    k.spawn(&["dataflow", &graph_file()]);
+    k.spawn(&["simulator", "--mode", "lockstep"]);
+    let mut p = Planner::attach_to(&k.session()).expect("attach");
+    wait_for("the simulator", || p.sim_state().ok());
+    // an orbit, so that the momentum's growth over it is known
+    let s = p.sim_step(5580).expect("an orbit");
+    let steps = s["space"]["ops"]["steps"].as_u64().expect("steps");
+    let df = dataflow_at(&k, steps);
+    let tts = df
+        .pointer("/values/time_to_saturation")
+        .and_then(Value::as_f64)
+        .expect("time to saturation");
+    let t = s["space"]["t_s"].as_f64().expect("t");
+    assert!(
+        s["space"]["ops"]["attitude"]["desaturations"] == 0 && tts > 1200.0 && tts < 3.0 * 5554.0,
+        "no dump yet, one predicted within three orbits: {tts} s, {s}"
+    );
+    // a docking opens in 300 s and lasts until 600 s past the predicted saturation
+    let (from, to) = (t + 300.0, t + tts + 600.0);
+    p.sim_command(&json!({"cmd": "docking", "from_s": from, "to_s": to}))
+        .expect("docking");
+    let s = p.sim_step(60).expect("a minute");
+    dataflow_at(&k, s["space"]["ops"]["steps"].as_u64().expect("steps"));
+    let s = p.sim_step(60).expect("a minute");
+    let d = decisions(&s);
+    assert!(
+        d.iter().any(|d| d["rule"] == "momentum_manager.flow"
+            && d["mode"] == "desaturate"
+            && d["reason"]
+                .as_str()
+                .is_some_and(|r| r.contains("inside the docking window"))),
+        "the early desaturation recorded with its reason: {d:?}"
+    );
+    // through the window: the dump started before it, none during it
+    let s = p
+        .sim_step((to - s["space"]["t_s"].as_f64().expect("t")).ceil() as u64)
+        .expect("through the window");
+    let starts: Vec<f64> = s["space"]["ops"]["attitude"]["dump_starts_s"]
+        .as_array()
+        .expect("dump starts")
+        .iter()
+        .filter_map(Value::as_f64)
+        .collect();
+    assert!(
+        starts.first().is_some_and(|&a| a < from),
+        "a desaturation before the window ({from} s): {starts:?}"
+    );
+    assert!(
+        starts.iter().all(|&a| a < from || a >= to),
+        "none in the docking window {from}–{to} s: {starts:?}"
+    );
 }
