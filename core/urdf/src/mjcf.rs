@@ -862,6 +862,100 @@ struct Placed {
     in_segment: Matrix4<f64>,
 }
 
+/// The segments of the bodies read so far, as `build` collects them (one entry per segment in
+/// `segments`, `parents` and `joint_of_segment`; one per body in `placed` and `geoms_of`).
+#[derive(Default)]
+struct Chain<'a, 'i> {
+    segments: Vec<Segment>,
+    parents: Vec<Option<usize>>,
+    /// Per movable segment: the joint it came from (name, armature, ref, body).
+    joint_of_segment: Vec<Option<(String, f64, f64, usize)>>,
+    placed: Vec<Placed>,
+    geoms_of: Vec<Vec<GeomRead<'a, 'i>>>,
+    /// Joints held fixed (off the path to the tip).
+    held: Vec<String>,
+    /// Every joint's reference position (qpos0), moving or held, by name.
+    refs: HashMap<String, f64>,
+}
+
+impl Chain<'_, '_> {
+    fn push(
+        &mut self,
+        segment: Segment,
+        parent: Option<usize>,
+        joint: Option<(String, f64, f64, usize)>,
+    ) {
+        self.segments.push(segment);
+        self.parents.push(parent);
+        self.joint_of_segment.push(joint);
+    }
+}
+
+/// With a tip body, which bodies lie on the path from the world to it (an unknown tip: none).
+fn path_to(bodies: &[Body], tip: Option<&str>) -> Option<Vec<bool>> {
+    tip.map(|t| {
+        let mut on = vec![false; bodies.len()];
+        let mut at = bodies.iter().position(|b| b.name == t);
+        while let Some(i) = at {
+            on[i] = true;
+            at = bodies[i].parent;
+        }
+        on
+    })
+}
+
+/// Per segment: the robosim body its child frame is rigid with (0 = the base, k = joint
+/// k−1's link) and the child frame in that body.
+fn segment_frames(chain: &Chain, segment_of_joint: &[usize]) -> Vec<(usize, Matrix4<f64>)> {
+    let mut seg_frame: Vec<(usize, Matrix4<f64>)> = Vec::with_capacity(chain.segments.len());
+    for (s, seg) in chain.segments.iter().enumerate() {
+        let joint = segment_of_joint.iter().position(|&x| x == s);
+        seg_frame.push(match joint {
+            Some(j) => (j + 1, Matrix4::identity()),
+            // a free joint's body is link frame 0 itself
+            None if matches!(seg.kind, SegmentKind::Root(_)) => (0, Matrix4::identity()),
+            None => match chain.parents[s] {
+                Some(p) => (seg_frame[p].0, seg_frame[p].1 * seg.placement),
+                None => (0, seg.placement),
+            },
+        });
+    }
+    seg_frame
+}
+
+/// The moving joints in the robot's order (name, body, continuous), with each one's parent
+/// body ("world" at the root); sets each robot joint's motor inertia (armature) and offset
+/// (−ref, so that q = 0 is the reference pose).
+fn joint_records(
+    robot: &mut robosim_kinematics::Robot,
+    chain: &Chain,
+    segment_of_joint: &[usize],
+    bodies: &[Body],
+) -> (Vec<UrdfJoint>, Vec<String>) {
+    let mut joints = Vec::new();
+    let mut parent_links = Vec::new();
+    for (j, &s) in segment_of_joint.iter().enumerate() {
+        let Some((name, armature, reference, bi)) = chain.joint_of_segment[s].clone() else {
+            continue;
+        };
+        robot.joints[j].motor_inertia = armature;
+        robot.joints[j].offset = -reference;
+        let b = &bodies[bi];
+        joints.push(UrdfJoint {
+            name,
+            link: b.name.clone(),
+            continuous: chain.segments[s].kind == SegmentKind::Continuous,
+            effort: f64::INFINITY,
+            velocity: f64::INFINITY,
+        });
+        parent_links.push(
+            b.parent
+                .map_or_else(|| "world".to_string(), |p| bodies[p].name.clone()),
+        );
+    }
+    (joints, parent_links)
+}
+
 impl Model<'_, '_> {
     fn joints(&self, b: &Body) -> Result<Vec<JointRead>, MjcfError> {
         let mut out = Vec::new();
@@ -1197,39 +1291,82 @@ impl<'a, 'i> Model<'a, 'i> {
     /// segment), built as a tree; with `tip`, only the joints of the bodies from the world to
     /// `tip` move (the others are fixed at their reference position).
     fn build(mut self, tip: Option<&str>) -> Result<UrdfRobot, MjcfError> {
-        let on_path: Option<Vec<bool>> = tip.map(|t| {
-            let mut on = vec![false; self.bodies.len()];
-            let mut at = self.bodies.iter().position(|b| b.name == t);
-            while let Some(i) = at {
-                on[i] = true;
-                at = self.bodies[i].parent;
-            }
-            on
-        });
-        let mut segments: Vec<Segment> = Vec::new();
-        let mut parents: Vec<Option<usize>> = Vec::new();
-        // Per movable segment: the joint it came from (name, armature, ref, body).
-        let mut joint_of_segment: Vec<Option<(String, f64, f64, usize)>> = Vec::new();
-        let mut placed: Vec<Placed> = Vec::with_capacity(self.bodies.len());
-        let mut geoms_of: Vec<Vec<GeomRead>> = Vec::with_capacity(self.bodies.len());
-        let mut held = Vec::new();
-        // every joint's reference position (qpos0), moving or held, by name
-        let mut refs: HashMap<String, f64> = HashMap::new();
+        let on_path = path_to(&self.bodies, tip);
         let bodies = std::mem::take(&mut self.bodies);
+        let mut chain = Chain::default();
         for (bi, b) in bodies.iter().enumerate() {
-            let joints = self.joints(b)?;
-            let geoms = self.geoms(b)?;
-            let inertial = self.inertial(b, &geoms)?;
-            geoms_of.push(geoms);
-            let x = self.frame(b.node, "main", &format!("<body name={:?}>", b.name))?;
-            let (mut parent_seg, mut pending) = match b.parent {
-                Some(p) => (placed[p].segment, placed[p].in_segment * x),
-                None => (None, x),
-            };
             let moving = on_path.as_ref().is_none_or(|on| on[bi]);
-            let mut anchor = Vector3::zeros();
-            if joints.is_empty() {
-                segments.push(Segment {
+            self.body_segments(b, bi, moving, &mut chain)?;
+        }
+        let built = build_tree(&self.name, &chain.segments, &chain.parents);
+        let mut robot = built.robot;
+        robot.gravity = self.gravity;
+        let seg_frame = segment_frames(&chain, &built.segment_of_joint);
+        let (joints, parent_links) =
+            joint_records(&mut robot, &chain, &built.segment_of_joint, &bodies);
+        let geoms_of = std::mem::take(&mut chain.geoms_of);
+        let (geometry, folded) = self.link_geometry(&bodies, geoms_of, &chain.placed, &seg_frame);
+        let tip_name = match tip {
+            Some(t) => {
+                if let Some(g) = geometry.links.get(t)
+                    && g.body == robot.dof()
+                {
+                    robot.tool = g.in_body;
+                }
+                t.to_string()
+            }
+            None => joints
+                .last()
+                .map_or_else(|| "world".to_string(), |j| j.link.clone()),
+        };
+        robot.validate().map_err(|e| {
+            self.err(
+                self.root,
+                &format!("<mujoco model={:?}>", self.name),
+                MjcfErrorKind::Model(e),
+            )
+        })?;
+        let (mimics, coupling) = self.equality_joints(&joints, &chain.refs)?;
+        let coupling = coupling.map(|c| c.with_root(robot.root_nq(), robot.root_nv()));
+        Ok(UrdfRobot {
+            robot,
+            root: "world".into(),
+            tip: tip_name,
+            joints,
+            folded,
+            held: chain.held,
+            notes: self.notes,
+            parent_links,
+            mimics,
+            coupling,
+            geometry,
+        })
+    }
+
+    /// Body `bi`'s segments, appended to `chain`: one fixed segment for a body without
+    /// joints; else one per joint, placed at the joint's anchor, the body's inertial on the
+    /// last. A free joint (only on the first body under the world) is the floating base. Not
+    /// `moving`, a body's joints are held fixed at their reference position.
+    fn body_segments(
+        &mut self,
+        b: &Body<'a, 'i>,
+        bi: usize,
+        moving: bool,
+        chain: &mut Chain<'a, 'i>,
+    ) -> Result<(), MjcfError> {
+        let joints = self.joints(b)?;
+        let geoms = self.geoms(b)?;
+        let inertial = self.inertial(b, &geoms)?;
+        chain.geoms_of.push(geoms);
+        let x = self.frame(b.node, "main", &format!("<body name={:?}>", b.name))?;
+        let (mut parent_seg, mut pending) = match b.parent {
+            Some(p) => (chain.placed[p].segment, chain.placed[p].in_segment * x),
+            None => (None, x),
+        };
+        let mut anchor = Vector3::zeros();
+        if joints.is_empty() {
+            chain.push(
+                Segment {
                     kind: SegmentKind::Fixed,
                     placement: pending,
                     axis: Vector3::z(),
@@ -1237,35 +1374,37 @@ impl<'a, 'i> Model<'a, 'i> {
                     viscous: 0.0,
                     coulomb: 0.0,
                     child: inertial,
-                });
-                parents.push(parent_seg);
-                joint_of_segment.push(None);
-                placed.push(Placed {
-                    segment: Some(segments.len() - 1),
-                    in_segment: Matrix4::identity(),
-                });
-                continue;
-            }
-            let n = joints.len();
-            if let Some(j) = joints
-                .iter()
-                .find(|j| matches!(j.kind, SegmentKind::Root(_)))
-                .filter(|_| bi != 0 || n != 1 || b.parent.is_some())
-            {
-                return Err(self.err(
-                    b.node,
-                    &format!("<body name={:?}>", b.name),
-                    MjcfErrorKind::UnsupportedJoint {
-                        joint: j.name.clone(),
-                        kind: "free".into(),
-                    },
-                ));
-            }
-            for (k, j) in joints.into_iter().enumerate() {
-                if matches!(j.kind, SegmentKind::Root(_)) {
-                    // the floating base: the body's pose is the robot's base, its frame link
-                    // frame 0 (a free joint has no anchor or axis)
-                    segments.push(Segment {
+                },
+                parent_seg,
+                None,
+            );
+            chain.placed.push(Placed {
+                segment: Some(chain.segments.len() - 1),
+                in_segment: Matrix4::identity(),
+            });
+            return Ok(());
+        }
+        let n = joints.len();
+        if let Some(j) = joints
+            .iter()
+            .find(|j| matches!(j.kind, SegmentKind::Root(_)))
+            .filter(|_| bi != 0 || n != 1 || b.parent.is_some())
+        {
+            return Err(self.err(
+                b.node,
+                &format!("<body name={:?}>", b.name),
+                MjcfErrorKind::UnsupportedJoint {
+                    joint: j.name.clone(),
+                    kind: "free".into(),
+                },
+            ));
+        }
+        for (k, j) in joints.into_iter().enumerate() {
+            if matches!(j.kind, SegmentKind::Root(_)) {
+                // the floating base: the body's pose is the robot's base, its frame link
+                // frame 0 (a free joint has no anchor or axis)
+                chain.push(
+                    Segment {
                         kind: j.kind,
                         placement: pending,
                         axis: Vector3::z(),
@@ -1273,34 +1412,36 @@ impl<'a, 'i> Model<'a, 'i> {
                         viscous: 0.0,
                         coulomb: 0.0,
                         child: inertial,
-                    });
-                    parents.push(None);
-                    joint_of_segment.push(None);
-                    parent_seg = Some(segments.len() - 1);
-                    pending = Matrix4::identity();
-                    continue;
-                }
-                refs.insert(j.name.clone(), j.reference);
-                if let Some(cone) = j.cone {
-                    self.notes.push(format!(
-                        "joint {:?}: a ball joint's range (a cone limit of {cone} rad) is noted, not enforced",
-                        j.name
-                    ));
-                }
-                let placement = pending * translation(&(j.anchor - anchor));
-                anchor = j.anchor;
-                let child = if k + 1 == n {
-                    inertial.transformed(&translation(&(-anchor)))
-                } else {
-                    Inertial::default()
-                };
-                let kind = if moving {
-                    j.kind
-                } else {
-                    held.push(j.name.clone());
-                    SegmentKind::Fixed
-                };
-                segments.push(Segment {
+                    },
+                    None,
+                    None,
+                );
+                parent_seg = Some(chain.segments.len() - 1);
+                pending = Matrix4::identity();
+                continue;
+            }
+            chain.refs.insert(j.name.clone(), j.reference);
+            if let Some(cone) = j.cone {
+                self.notes.push(format!(
+                    "joint {:?}: a ball joint's range (a cone limit of {cone} rad) is noted, not enforced",
+                    j.name
+                ));
+            }
+            let placement = pending * translation(&(j.anchor - anchor));
+            anchor = j.anchor;
+            let child = if k + 1 == n {
+                inertial.transformed(&translation(&(-anchor)))
+            } else {
+                Inertial::default()
+            };
+            let kind = if moving {
+                j.kind
+            } else {
+                chain.held.push(j.name.clone());
+                SegmentKind::Fixed
+            };
+            chain.push(
+                Segment {
                     kind,
                     placement,
                     axis: j.axis,
@@ -1308,55 +1449,30 @@ impl<'a, 'i> Model<'a, 'i> {
                     viscous: j.viscous,
                     coulomb: j.coulomb,
                     child,
-                });
-                parents.push(parent_seg);
-                joint_of_segment.push(moving.then_some((j.name, j.armature, j.reference, bi)));
-                parent_seg = Some(segments.len() - 1);
-                pending = Matrix4::identity();
-            }
-            placed.push(Placed {
-                segment: parent_seg,
-                in_segment: translation(&(-anchor)),
-            });
-        }
-        let built = build_tree(&self.name, &segments, &parents);
-        let mut robot = built.robot;
-        robot.gravity = self.gravity;
-        // Robosim body and body frame in it, per segment's child frame.
-        let mut seg_frame: Vec<(usize, Matrix4<f64>)> = Vec::with_capacity(segments.len());
-        for (s, seg) in segments.iter().enumerate() {
-            let joint = built.segment_of_joint.iter().position(|&x| x == s);
-            seg_frame.push(match joint {
-                Some(j) => (j + 1, Matrix4::identity()),
-                // a free joint's body is link frame 0 itself
-                None if matches!(seg.kind, SegmentKind::Root(_)) => (0, Matrix4::identity()),
-                None => match parents[s] {
-                    Some(p) => (seg_frame[p].0, seg_frame[p].1 * seg.placement),
-                    None => (0, seg.placement),
                 },
-            });
-        }
-        let mut joints = Vec::new();
-        let mut parent_links = Vec::new();
-        for (j, &s) in built.segment_of_joint.iter().enumerate() {
-            let Some((name, armature, reference, bi)) = joint_of_segment[s].clone() else {
-                continue;
-            };
-            robot.joints[j].motor_inertia = armature;
-            robot.joints[j].offset = -reference;
-            let b = &bodies[bi];
-            joints.push(UrdfJoint {
-                name,
-                link: b.name.clone(),
-                continuous: segments[s].kind == SegmentKind::Continuous,
-                effort: f64::INFINITY,
-                velocity: f64::INFINITY,
-            });
-            parent_links.push(
-                b.parent
-                    .map_or_else(|| "world".to_string(), |p| bodies[p].name.clone()),
+                parent_seg,
+                moving.then_some((j.name, j.armature, j.reference, bi)),
             );
+            parent_seg = Some(chain.segments.len() - 1);
+            pending = Matrix4::identity();
         }
+        chain.placed.push(Placed {
+            segment: parent_seg,
+            in_segment: translation(&(-anchor)),
+        });
+        Ok(())
+    }
+
+    /// Each body's geometry in the robosim body it is rigid with (`seg_frame`), visual and
+    /// (for geoms that collide) collision shapes; and the bodies without a joint of their own
+    /// (folded into their parent).
+    fn link_geometry(
+        &self,
+        bodies: &[Body],
+        geoms_of: Vec<Vec<GeomRead>>,
+        placed: &[Placed],
+        seg_frame: &[(usize, Matrix4<f64>)],
+    ) -> (UrdfGeometry, Vec<String>) {
         let mut geometry = UrdfGeometry {
             file: self.file.to_path_buf(),
             links: BTreeMap::new(),
@@ -1405,41 +1521,7 @@ impl<'a, 'i> Model<'a, 'i> {
             }
             geometry.links.insert(b.name.clone(), link);
         }
-        let tip_name = match tip {
-            Some(t) => {
-                if let Some(g) = geometry.links.get(t)
-                    && g.body == robot.dof()
-                {
-                    robot.tool = g.in_body;
-                }
-                t.to_string()
-            }
-            None => joints
-                .last()
-                .map_or_else(|| "world".to_string(), |j| j.link.clone()),
-        };
-        robot.validate().map_err(|e| {
-            self.err(
-                self.root,
-                &format!("<mujoco model={:?}>", self.name),
-                MjcfErrorKind::Model(e),
-            )
-        })?;
-        let (mimics, coupling) = self.equality_joints(&joints, &refs)?;
-        let coupling = coupling.map(|c| c.with_root(robot.root_nq(), robot.root_nv()));
-        Ok(UrdfRobot {
-            robot,
-            root: "world".into(),
-            tip: tip_name,
-            joints,
-            folded,
-            held,
-            notes: self.notes,
-            parent_links,
-            mimics,
-            coupling,
-            geometry,
-        })
+        (geometry, folded)
     }
 
     /// `<equality><joint joint1 joint2 polycoef>` — MuJoCo's form of a mimic joint,
