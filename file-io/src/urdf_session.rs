@@ -228,11 +228,11 @@ fn shape_geometry(
     what: &str,
 ) -> Result<(Vec<GeometryInput>, usize, bool), UrdfError> {
     use robosim_geometry::shapes;
-    let bad = |reason: String| UrdfError {
+    let bad = |problem: MeshProblem| UrdfError {
         file: file.to_owned(),
         line: s.line,
         element: format!("<link name={link:?}>/<{what}>"),
-        kind: UrdfErrorKind::Mesh(MeshProblem::Shape(reason)),
+        kind: UrdfErrorKind::Mesh(problem),
     };
     let poly = match &s.geometry {
         Geometry::Box { size } => shapes::cuboid(size.x, size.y, size.z),
@@ -250,7 +250,7 @@ fn shape_geometry(
                 &tris,
                 robosim_collision::decompose::DEFAULT_EXCESS,
             )
-            .map_err(|e| shape(e.to_string()))?;
+            .map_err(|e| m.err(MeshProblem::Parts(e)))?;
             let parts = d
                 .parts
                 .iter()
@@ -261,7 +261,7 @@ fn shape_geometry(
         }
     };
     poly.map(|p| (vec![GeometryInput::from_polyhedron(&p)], 0, false))
-        .map_err(|e| bad(e.to_string()))
+        .map_err(|e| bad(MeshProblem::Solid(e)))
 }
 
 /// A process-local model of the robot in the URDF file at `path`: one scene, `urdf`, with the

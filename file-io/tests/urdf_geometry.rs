@@ -284,10 +284,10 @@ fn missing_unknown_and_malformed_meshes_fail_only_where_geometry_is_needed() {
             },
         ),
         (r#"<mesh filename="bad.stl"/>"#, |k| {
-            matches!(k, UrdfErrorKind::Mesh(MeshProblem::Read(_)))
+            matches!(k, UrdfErrorKind::Mesh(MeshProblem::File(_)))
         }),
         (r#"<mesh filename="flat.obj"/>"#, |k| {
-            matches!(k, UrdfErrorKind::Mesh(MeshProblem::Shape(_)))
+            matches!(k, UrdfErrorKind::Mesh(MeshProblem::Parts(_)))
         }),
     ];
     std::fs::write(tmp.path().join("bad.stl"), b"this is not a mesh\x00\xff").expect("write");

@@ -222,9 +222,7 @@ impl Shape {
             Shape::Mesh(m) => {
                 let r = m.mesh_ref();
                 let shape = |e: ShapeError| {
-                    Failure::Mesh(r.err(robosim_urdf::urdf_geometry::MeshProblem::Shape(
-                        e.to_string(),
-                    )))
+                    Failure::Mesh(r.err(robosim_urdf::urdf_geometry::MeshProblem::Parts(e)))
                 };
                 let tris = r.load().map_err(Failure::Mesh)?;
                 let d = robosim_collision::decompose::convex_parts(

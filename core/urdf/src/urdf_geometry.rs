@@ -178,12 +178,12 @@ impl MeshRef {
             }
             "stl" => vec![ColouredTriangles {
                 triangles: crate::stl::read_stl(&bytes, &path)
-                    .map_err(|e| self.err(MeshProblem::Read(e.to_string())))?,
+                    .map_err(|e| self.err(MeshProblem::File(e)))?,
                 rgba: None,
             }],
             _ => vec![ColouredTriangles {
                 triangles: crate::obj::read_obj(&bytes, &path)
-                    .map_err(|e| self.err(MeshProblem::Read(e.to_string())))?,
+                    .map_err(|e| self.err(MeshProblem::File(e)))?,
                 rgba: None,
             }],
         };

@@ -103,8 +103,22 @@ pub enum MeshProblem {
     Dae(Box<crate::dae::DaeError>),
     #[error("mesh file {0} has no triangles")]
     Empty(PathBuf),
+    /// A mesh file's text or numbers are wrong (its file and line, kept).
+    #[error(transparent)]
+    File(#[from] crate::stl::MeshFileError),
+    /// The solid could not be made (the message says why: too few points, …).
     #[error("collision solid: {0}")]
     Shape(String),
+    /// The geometry refused the solid (a primitive's dimensions, a mesh's convex parts): its
+    /// error, kept.
+    #[error("collision solid: {0}")]
+    Solid(#[source] robosim_geometry::shapes::ShapeError),
+    /// A mesh's convex parts could not be made into solids (the collision crate's error, kept).
+    #[error("collision solid: {0}")]
+    Parts(#[source] robosim_collision::ShapeError),
+    /// A mesh's convex hull is not a valid polyhedron (the geometry's error, kept).
+    #[error("collision solid: its convex hull: {0}")]
+    Hull(#[source] robosim_geometry::GeometryError),
 }
 
 pub struct Reader<'a, 'input> {

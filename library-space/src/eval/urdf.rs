@@ -11,7 +11,7 @@
 
 use super::*;
 use crate::ast::{RobotFileFormat, UrdfSource};
-use robosim_urdf::urdf_geometry::{Geometry, LinkGeometry, Shape, hull_points};
+use robosim_urdf::urdf_geometry::{Geometry, LinkGeometry, MeshProblem, Shape, hull_points};
 use robosim_urdf::urdf_import::{UrdfError, UrdfErrorKind, UrdfRobot};
 use robosim_urdf::{MjcfError, MjcfErrorKind};
 
@@ -184,22 +184,20 @@ impl Evaluator<'_> {
             colour: None,
             surface: None,
         };
-        let shape_err = |m: Option<&robosim_urdf::urdf_geometry::MeshRef>, e: String| match m {
-            Some(m) => m.err(robosim_urdf::urdf_geometry::MeshProblem::Shape(e)),
-            None => UrdfError {
-                file: u.geometry.file.clone(),
-                line: s.line,
-                element: format!("<link name={link:?}>/<collision>"),
-                kind: UrdfErrorKind::Mesh(robosim_urdf::urdf_geometry::MeshProblem::Shape(e)),
-            },
+        let at = |problem: MeshProblem| UrdfError {
+            file: u.geometry.file.clone(),
+            line: s.line,
+            element: format!("<link name={link:?}>/<collision>"),
+            kind: UrdfErrorKind::Mesh(problem),
         };
+        // A primitive the geometry refuses: its error kept, the element named.
+        let solid_err = |e: shapes::ShapeError| at(MeshProblem::Solid(e));
         Ok(match g {
             Geometry::Box { size } => placed(
                 Primitive::Box {
                     size: [size.x, size.y, size.z],
                 },
-                shapes::cuboid(size.x, size.y, size.z)
-                    .map_err(|e| shape_err(None, e.to_string()))?,
+                shapes::cuboid(size.x, size.y, size.z).map_err(solid_err)?,
                 Matrix4::identity(),
             ),
             Geometry::Cylinder { radius, length } => {
@@ -210,8 +208,7 @@ impl Evaluator<'_> {
                         height: *length,
                         facets: n,
                     },
-                    shapes::cylinder(*radius, *length, Some(n))
-                        .map_err(|e| shape_err(None, e.to_string()))?,
+                    shapes::cylinder(*radius, *length, Some(n)).map_err(solid_err)?,
                     Matrix4::identity(),
                 )
             }
@@ -222,7 +219,7 @@ impl Evaluator<'_> {
                         radius: *radius,
                         facets: n,
                     },
-                    shapes::sphere(*radius, Some(n)).map_err(|e| shape_err(None, e.to_string()))?,
+                    shapes::sphere(*radius, Some(n)).map_err(solid_err)?,
                     Matrix4::identity(),
                 )
             }
@@ -232,18 +229,20 @@ impl Evaluator<'_> {
                 // takes it for the convex solid it is
                 let pts = hull_points(&m.load()?);
                 if pts.len() < 4 {
-                    return Err(shape_err(
-                        Some(m),
-                        format!("{} distinct points span no volume", pts.len()),
-                    ));
+                    return Err(m.err(MeshProblem::Shape(format!(
+                        "{} distinct points span no volume",
+                        pts.len()
+                    ))));
                 }
                 let (verts, tris) =
                     parry3d_f64::transformation::try_convex_hull(&pts).map_err(|e| {
-                        shape_err(Some(m), format!("its convex hull cannot be built: {e:?}"))
+                        m.err(MeshProblem::Shape(format!(
+                            "its convex hull cannot be built: {e:?}"
+                        )))
                     })?;
                 let faces: Vec<Vec<u32>> = tris.iter().map(|t| t.to_vec()).collect();
                 let hull = Polyhedron::from_polygons(verts, &faces)
-                    .map_err(|e| shape_err(Some(m), format!("its convex hull: {e}")))?;
+                    .map_err(|e| m.err(MeshProblem::Hull(e)))?;
                 // centred on its bounding box, as every PlacedSolid's polyhedron is
                 let c = hull.bbox.center.coords;
                 let poly = hull.transformed(&Isometry3::translation(-c.x, -c.y, -c.z));
