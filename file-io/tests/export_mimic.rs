@@ -201,3 +201,73 @@ fn a_fixed_follower_and_a_wrong_coupling() {
         assert!(e.contains(&format!("over {} joints", n - 1)), "{e}");
     }
 }
+
+/// `robosim export` (the file-io command, `--scene` of a `from_urdf` declaration): the
+/// declaration's file is read again for its coupling, so the whole Panda's URDF and MJCF carry
+/// the finger's mimic; `--mesh-paths` names the mesh files absolute (URDF's default: Pinocchio
+/// and MuJoCo open it with no flags), relative (MJCF's default) or as `file://` URIs (URDF
+/// only), and every named file exists where it is named.
+#[test]
+fn the_export_command_writes_the_coupling_and_names_meshes_as_asked() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let lib = dir.path().join("lib.rsl");
+    let panda = testdata().join("urdf/panda.urdf");
+    std::fs::write(
+        &lib,
+        format!("robot pm from_urdf \"{}\"\n", panda.display()),
+    )
+    .expect("library written");
+    let export = |file: &str, mesh_paths: Option<&str>| {
+        let out = dir.path().join(file);
+        let args = robosim_file_io::cli::ExportArgs {
+            what: vec![out.display().to_string()],
+            scene: Some("pm".into()),
+            library: vec![lib.clone()],
+            body: None,
+            robot: None,
+            log: None,
+            dt: None,
+            mesh_paths: mesh_paths.map(str::to_string),
+        };
+        robosim_file_io::cli::export(&args, None)
+            .map(|()| std::fs::read_to_string(&out).expect("written"))
+    };
+    let mesh_names = |text: &str, attr: &str| -> Vec<String> {
+        text.split(attr)
+            .skip(1)
+            .filter_map(|t| t.split('"').nth(1).map(str::to_string))
+            .filter(|n| n.ends_with(".stl"))
+            .collect()
+    };
+    let urdf = export("a.urdf", None).expect("exports");
+    assert_eq!(urdf.matches("<mimic joint=\"pm_joint8\"").count(), 1);
+    let names = mesh_names(&urdf, "filename=");
+    assert!(!names.is_empty());
+    for n in &names {
+        assert!(Path::new(n).is_absolute() && Path::new(n).is_file(), "{n}");
+    }
+    let urdf = export("r.urdf", Some("relative")).expect("exports");
+    for n in mesh_names(&urdf, "filename=") {
+        assert!(!n.contains('/') && dir.path().join(&n).is_file(), "{n}");
+    }
+    let urdf = export("u.urdf", Some("file-uri")).expect("exports");
+    for n in mesh_names(&urdf, "filename=") {
+        let path = n.strip_prefix("file://").unwrap_or_else(|| panic!("{n}"));
+        assert!(
+            Path::new(path).is_absolute() && Path::new(path).is_file(),
+            "{n}"
+        );
+    }
+    let mjcf = export("m.xml", None).expect("exports");
+    assert!(mjcf.contains("joint1=\"pm_joint9\" joint2=\"pm_joint8\" polycoef=\"0.0 1.0 0 0 0\""));
+    for n in mesh_names(&mjcf, "file=") {
+        assert!(!n.contains('/') && dir.path().join(&n).is_file(), "{n}");
+    }
+    let e = export("x.xml", Some("file-uri")).expect_err("MuJoCo opens no file:// name");
+    assert!(e.to_string().contains("file-uri is for URDF"), "{e}");
+    let e = export("y.urdf", Some("nope")).expect_err("an unknown mode");
+    assert!(
+        e.to_string().contains("absolute, relative or file-uri"),
+        "{e}"
+    );
+}
