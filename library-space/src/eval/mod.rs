@@ -29,7 +29,6 @@ mod solids;
 mod urdf;
 
 pub(crate) use robots::single_link_robot;
-use solids::PartNames;
 
 /// The most polygons one evaluation may generate (a guard against `for` loops and facet counts
 /// that would exhaust memory).

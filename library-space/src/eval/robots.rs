@@ -5,6 +5,7 @@
 //! reads a robot's statements, folds its fixed links into the base and tool, validates the
 //! chain and checks the declared IK family against the geometry's.
 
+use super::solids::PartNames;
 use super::*;
 
 /// The properties a link may declare.
