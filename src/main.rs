@@ -66,65 +66,28 @@ fn existing(session: Option<&str>) -> Result<robosim_instance_space::Session> {
 fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
     match command {
         Command::Space {
-            load: Some(file),
-            library,
-            no_sync,
-            journal_copies,
-            ..
-        } => robosim_launcher::space_load(&file, session, &library, !no_sync, journal_copies)
-            .map_err(CliError::from),
-        Command::Space {
             scene,
-            load: None,
+            load,
             library,
             no_sync,
             journal_copies,
-        } => robosim_launcher::run_space(
+        } => space(session, scene, load, &library, !no_sync, journal_copies),
+        Command::Up {
+            scene,
+            load,
+            with,
+            library,
+            fresh,
+            sim_mode,
+        } => up(
             session,
-            scene.as_deref(),
-            &library,
-            !no_sync,
-            journal_copies,
-        )
-        .map_err(CliError::from),
-        Command::Up {
-            load: Some(file),
-            with,
-            library,
-            sim_mode,
-            ..
-        } => robosim_launcher::up_load(&file, &with, session, &library, sim_mode.map(|m| m.name()))
-            .map_err(CliError::from),
-        Command::Up {
-            scene: None,
-            load: None,
-            with,
-            library,
-            fresh,
-            sim_mode,
-        } => {
-            if fresh {
-                bail!("--fresh starts a scene over: name it (`robosim up SCENE --fresh`)");
-            }
-            robosim_launcher::up_resume(&with, session, &library, sim_mode.map(|m| m.name()))
-                .map_err(CliError::from)
-        }
-        Command::Up {
-            scene: Some(scene),
-            load: None,
-            with,
-            library,
-            fresh,
-            sim_mode,
-        } => robosim_launcher::up_with_library(
-            &scene,
+            scene,
+            load,
             &with,
-            session,
             &library,
             fresh,
             sim_mode.map(|m| m.name()),
-        )
-        .map_err(CliError::from),
+        ),
         Command::Save { args } => {
             existing(session)?;
             robosim_file_io::cli::save(&args.into(), session).map_err(CliError::from)
@@ -174,25 +137,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             time_limit,
             max_depth,
             max_memory,
-        } => {
-            // A build without CLIPS says what to install before anything else.
-            robosim_rules::available().map_err(CliError::from)?;
-            existing(session)?;
-            let time = std::time::Duration::try_from_secs_f64(time_limit)
-                .ok()
-                .filter(|t| !t.is_zero())
-                .ok_or_else(|| {
-                    CliError(format!(
-                        "--time-limit {time_limit}: not a positive number of seconds"
-                    ))
-                })?;
-            let limits = robosim_rules::clips::Limits {
-                time,
-                depth: max_depth,
-                memory: max_memory.saturating_mul(1 << 20),
-            };
-            robosim_rules::run(&file, session, &watch, &limits).map_err(CliError::from)
-        }
+        } => rules(session, &file, &watch, time_limit, max_depth, max_memory),
         Command::Dataflow {
             graph,
             rate,
@@ -236,28 +181,11 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             &mut std::io::stdout().lock(),
         )
         .map_err(CliError::from),
-        Command::SweepHost(args) => {
-            let exe = std::env::current_exe()?;
-            let spawn = || {
-                let mut c = std::process::Command::new(&exe);
-                c.arg("sweep-worker");
-                c
-            };
-            robosim_bridge::sweep_link::host(&args.into(), &spawn, &mut |line| eprintln!("{line}"))
-                .map_err(CliError::from)
-        }
+        Command::SweepHost(args) => sweep_host(&args.into()),
         Command::SweepWorker => robosim_studies::sweep::cli::worker().map_err(CliError::from),
         Command::Bench { which } => bench::run(which, session),
         Command::Bridge(args) => robosim_bridge::run(session, &args.into()).map_err(CliError::from),
-        Command::Lib { cmd } => match session {
-            None => robosim_hl_interface::cli::lib::run(cmd.into()).map_err(CliError::from),
-            Some(_) => session_library(session)
-                .and_then(|lib| {
-                    robosim_hl_interface::cli::lib::render_with(cmd.into(), Some(&lib))
-                        .map_err(CliError::from)
-                })
-                .map(|text| print!("{text}")),
-        },
+        Command::Lib { cmd } => lib(cmd.into(), session),
         Command::Diag { cmd } => {
             robosim_hl_interface::cli::diag::run(cmd.into()).map_err(CliError::from)
         }
@@ -282,9 +210,119 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             args.session = session.map(str::to_owned);
             robosim_display::app::cmd_display(&args).map_err(|e| CliError(e.0))
         }
-        Command::Lang {
-            cmd: LangCmd::Run { program, out, name },
-        } => match (name, out) {
+        Command::Lang { cmd } => lang(cmd, session),
+        Command::Edit { robot, script } => {
+            let s = existing(session)?;
+            robosim_editor::cli::edit(&s, &robot, script.as_deref()).map_err(CliError::from)
+        }
+        Command::Completions { shell } => completions(shell),
+    }
+}
+
+/// `robosim space [--scene SCENE | --load FILE]`: the keeper process.
+fn space(
+    session: Option<&str>,
+    scene: Option<String>,
+    load: Option<std::path::PathBuf>,
+    library: &[std::path::PathBuf],
+    durable: bool,
+    journal_copies: u8,
+) -> Result<()> {
+    match load {
+        Some(file) => {
+            robosim_launcher::space_load(&file, session, library, durable, journal_copies)
+        }
+        None => {
+            robosim_launcher::run_space(session, scene.as_deref(), library, durable, journal_copies)
+        }
+    }
+    .map_err(CliError::from)
+}
+
+/// `robosim up [SCENE | --load FILE] …`: a scene, a model file, or (neither) the session's
+/// saved model resumed.
+fn up(
+    session: Option<&str>,
+    scene: Option<String>,
+    load: Option<std::path::PathBuf>,
+    with: &[String],
+    library: &[std::path::PathBuf],
+    fresh: bool,
+    sim_mode: Option<&str>,
+) -> Result<()> {
+    match (scene, load) {
+        (_, Some(file)) => robosim_launcher::up_load(&file, with, session, library, sim_mode),
+        (None, None) => {
+            if fresh {
+                bail!("--fresh starts a scene over: name it (`robosim up SCENE --fresh`)");
+            }
+            robosim_launcher::up_resume(with, session, library, sim_mode)
+        }
+        (Some(scene), None) => {
+            robosim_launcher::up_with_library(&scene, with, session, library, fresh, sim_mode)
+        }
+    }
+    .map_err(CliError::from)
+}
+
+/// `robosim rules FILE`: a CLIPS rule base on a session, within its time, depth and memory
+/// limits (`time_limit` s, `max_memory` MiB).
+fn rules(
+    session: Option<&str>,
+    file: &std::path::Path,
+    watch: &[String],
+    time_limit: f64,
+    max_depth: u32,
+    max_memory: usize,
+) -> Result<()> {
+    // A build without CLIPS says what to install before anything else.
+    robosim_rules::available().map_err(CliError::from)?;
+    existing(session)?;
+    let time = std::time::Duration::try_from_secs_f64(time_limit)
+        .ok()
+        .filter(|t| !t.is_zero())
+        .ok_or_else(|| {
+            CliError(format!(
+                "--time-limit {time_limit}: not a positive number of seconds"
+            ))
+        })?;
+    let limits = robosim_rules::clips::Limits {
+        time,
+        depth: max_depth,
+        memory: max_memory.saturating_mul(1 << 20),
+    };
+    robosim_rules::run(file, session, watch, &limits).map_err(CliError::from)
+}
+
+/// `robosim sweep-host`: sweep workers (this executable, `sweep-worker`) for remote sweeps.
+fn sweep_host(args: &robosim_bridge::sweep_link::HostArgs) -> Result<()> {
+    let exe = std::env::current_exe()?;
+    let spawn = || {
+        let mut c = std::process::Command::new(&exe);
+        c.arg("sweep-worker");
+        c
+    };
+    robosim_bridge::sweep_link::host(args, &spawn, &mut |line| eprintln!("{line}"))
+        .map_err(CliError::from)
+}
+
+/// `robosim lib …`: the standard library, or with `--session` the session's Library Space.
+fn lib(cmd: robosim_hl_interface::cli::lib::LibCmd, session: Option<&str>) -> Result<()> {
+    match session {
+        None => robosim_hl_interface::cli::lib::run(cmd).map_err(CliError::from),
+        Some(_) => session_library(session)
+            .and_then(|lib| {
+                robosim_hl_interface::cli::lib::render_with(cmd, Some(&lib)).map_err(CliError::from)
+            })
+            .map(|text| print!("{text}")),
+    }
+}
+
+/// `robosim lang run|load`: a ROBOSIM program into link files (or a session's robot), link
+/// files into a session.
+fn lang(cmd: LangCmd, session: Option<&str>) -> Result<()> {
+    match cmd {
+        LangCmd::Run { program, out, name } => match (name, out) {
             (Some(name), out) => {
                 let s = existing(session)?;
                 robosim_editor::cli::lang_run_into(&program, out.as_deref(), &name, &s)
@@ -296,33 +334,28 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
                 .map_err(CliError::from),
             (None, None) => Err(CliError("lang run: give --out DIR or --as NAME".into())),
         },
-        Command::Lang {
-            cmd: LangCmd::Load { dir, name, robot },
-        } => {
+        LangCmd::Load { dir, name, robot } => {
             let s = existing(session)?;
             robosim_editor::cli::lang_load(&dir, &name, robot.as_deref(), &s)
                 .map(|m| println!("{m}"))
                 .map_err(CliError::from)
         }
-        Command::Edit { robot, script } => {
-            let s = existing(session)?;
-            robosim_editor::cli::edit(&s, &robot, script.as_deref()).map_err(CliError::from)
-        }
-        Command::Completions { shell } => {
-            // Generated into memory, then written once: clap_complete panics on a failed write
-            // (`completions bash | head -1` closes the pipe), a write here is an error we
-            // read — a reader that stopped early ends the command quietly, as Unix tools do.
-            let script = cli::completion_script(shell);
-            let mut out = std::io::stdout().lock();
-            match std::io::Write::write_all(&mut out, &script)
-                .and_then(|()| std::io::Write::flush(&mut out))
-            {
-                Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError(format!(
-                    "writing the completion script to standard output: {e}"
-                ))),
-                _ => Ok(()),
-            }
-        }
+    }
+}
+
+/// `robosim completions SHELL`. Generated into memory, then written once: clap_complete
+/// panics on a failed write (`completions bash | head -1` closes the pipe), a write here is an
+/// error we read — a reader that stopped early ends the command quietly, as Unix tools do.
+fn completions(shell: clap_complete::Shell) -> Result<()> {
+    let script = cli::completion_script(shell);
+    let mut out = std::io::stdout().lock();
+    match std::io::Write::write_all(&mut out, &script)
+        .and_then(|()| std::io::Write::flush(&mut out))
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(CliError(format!(
+            "writing the completion script to standard output: {e}"
+        ))),
+        _ => Ok(()),
     }
 }
 
