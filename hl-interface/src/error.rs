@@ -5,14 +5,19 @@
 //! [`ErrorKind::from_wire`] reads one back).
 
 use std::fmt;
+use std::sync::Arc;
 
 /// A refused request: a machine-readable [`ErrorKind`] and a message naming the field (or
-/// input line) and the reason.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{kind}: {message}")]
+/// input line) and the reason. The wire carries the kind and the message only; on the Rust
+/// side a refusal made from a typed error ([`ProtocolError::caused`]) keeps that error as its
+/// `source()` (downcast it to match on it). Two refusals are equal when kind and message are
+/// (what a client sees).
+#[derive(Debug, Clone)]
 pub struct ProtocolError {
     pub kind: ErrorKind,
     pub message: String,
+    /// The error the message was made from, where there is one (not serialised).
+    cause: Option<Arc<dyn std::error::Error + Send + Sync>>,
 }
 
 impl ProtocolError {
@@ -20,7 +25,24 @@ impl ProtocolError {
         ProtocolError {
             kind,
             message: message.into(),
+            cause: None,
         }
+    }
+
+    /// A refusal of `kind` whose message is `e`'s, keeping `e` as the source.
+    pub fn caused(kind: ErrorKind, e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        ProtocolError {
+            kind,
+            message: e.to_string(),
+            cause: Some(Arc::new(e)),
+        }
+    }
+
+    /// The same refusal keeping `e` as its source (the message is left as it is: it should
+    /// name what `e` says, and where).
+    pub fn with_source(mut self, e: impl std::error::Error + Send + Sync + 'static) -> Self {
+        self.cause = Some(Arc::new(e));
+        self
     }
 
     /// `bad_request`: the request is malformed (the message names the field).
@@ -28,6 +50,29 @@ impl ProtocolError {
         ProtocolError::new(ErrorKind::BadRequest, message)
     }
 }
+
+impl fmt::Display for ProtocolError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: {}", self.kind, self.message)
+    }
+}
+
+impl std::error::Error for ProtocolError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.cause
+            .as_deref()
+            .map(|e| e as &(dyn std::error::Error + 'static))
+    }
+}
+
+/// What a client sees: the kind and the message (the kept cause is not compared).
+impl PartialEq for ProtocolError {
+    fn eq(&self, other: &Self) -> bool {
+        self.kind == other.kind && self.message == other.message
+    }
+}
+
+impl Eq for ProtocolError {}
 
 /// Why a request was refused. The wire names ([`ErrorKind::as_str`]) are part of the
 /// protocol's contract; the area that answers each is in parentheses.

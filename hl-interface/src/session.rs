@@ -54,7 +54,7 @@ fn scene_err(e: SceneError) -> ProtocolError {
         SceneError::Session(_) => ErrorKind::Session,
         _ => ErrorKind::Scene,
     };
-    err(kind, e.to_string())
+    ProtocolError::caused(kind, e)
 }
 
 /// A writer's failure as the protocol's error: the keeper's refusal is `transaction`, a keeper
@@ -66,7 +66,7 @@ pub fn client_err(e: robosim_instance_space::ClientError) -> ProtocolError {
         ClientError::Conflict { .. } => ErrorKind::Conflict,
         _ => ErrorKind::Session,
     };
-    err(kind, e.to_string())
+    ProtocolError::caused(kind, e)
 }
 
 impl From<robosim_instance_space::ClientError> for ProtocolError {
@@ -82,7 +82,7 @@ fn fresh_snapshot(
 ) -> std::result::Result<std::rc::Rc<Snapshot>, ProtocolError> {
     reader
         .refresh()
-        .map_err(|e| err(ErrorKind::Session, e.to_string()))?;
+        .map_err(|e| ProtocolError::caused(ErrorKind::Session, e))?;
     let snap = reader
         .snapshot()
         .ok_or_else(|| err(ErrorKind::Session, "no snapshot"))?;
@@ -722,14 +722,14 @@ impl Ops {
                     &scene,
                     &self.settings,
                 )
-                .map_err(|e| err(ErrorKind::Check, e.to_string()))?;
+                .map_err(|e| ProtocolError::caused(ErrorKind::Check, e))?;
                 Ok(contacts(&res, &p, snap, &names))
             }
             "movej" | "moveji" => {
                 let q = vec_field(req, "q")?;
                 p.robot
                     .check_q(&q)
-                    .map_err(|e| err(ErrorKind::BadRequest, e.to_string()))?;
+                    .map_err(|e| ProtocolError::caused(ErrorKind::BadRequest, e))?;
                 root_held(&p.robot, &q)?;
                 let steps = if op == "movej" {
                     1
@@ -746,7 +746,7 @@ impl Ops {
                 };
                 // Joint limits at every step (MOVEJI's check), before anything moves.
                 let path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
-                    .map_err(|e| err(ErrorKind::JointLimit, e.to_string()))?;
+                    .map_err(|e| ProtocolError::caused(ErrorKind::JointLimit, e))?;
                 let Obstacles { scene, names, .. } = self.obstacles(&p, snap)?;
                 let outcome = robosim_collision::robot::move_checked(
                     &p.robot,
@@ -757,7 +757,7 @@ impl Ops {
                     &scene,
                     &self.settings,
                 )
-                .map_err(|e| err(ErrorKind::Check, e.to_string()))?;
+                .map_err(|e| ProtocolError::caused(ErrorKind::Check, e))?;
                 let mut version = snap.version();
                 for step in path.iter().take(outcome.steps_done) {
                     version = self.write_q(&p, step)?;

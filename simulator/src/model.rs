@@ -48,8 +48,9 @@ impl Model {
 pub enum StepError {
     #[error("dynamics: {0}")]
     Dynamics(#[from] robosim_dynamics::DynamicsError),
+    /// The collision check could not run (the collision crate's error, kept).
     #[error("collision: {0}")]
-    Collision(String),
+    Collision(#[from] robosim_collision::robot::CheckError),
     #[error("logging: {0}")]
     Logging(String),
     #[error("command: {0}")]

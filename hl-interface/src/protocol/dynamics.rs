@@ -60,7 +60,7 @@ impl From<DynamicsError> for ProtocolError {
             | DynamicsError::StepUnderflow { .. } => ErrorKind::Diverged,
             DynamicsError::TooManySteps { .. } => ErrorKind::TooManySteps,
         };
-        ProtocolError::new(kind, e.to_string())
+        ProtocolError::caused(kind, e)
     }
 }
 

@@ -78,7 +78,7 @@ fn robot<'a>(req: &Value, arg: RobotArg<'a>) -> Result<Cow<'a, Robot>, ProtocolE
             }),
         Some(v @ Value::Object(_)) => robot_from_json(v)
             .map(Cow::Owned)
-            .map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string())),
+            .map_err(|e| ProtocolError::caused(ErrorKind::BadRobot, e)),
         Some(_) => Err(ProtocolError::new(
             ErrorKind::BadRequest,
             "robot: expected a library name or an inline robot object",
@@ -467,14 +467,10 @@ fn op_ik(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         }
         Err(e) => Err(match &e {
             IkError::Model(_) | IkError::BadTarget | IkError::BadOptions { .. } => {
-                ProtocolError::new(ErrorKind::BadRequest, e.to_string())
+                ProtocolError::caused(ErrorKind::BadRequest, e)
             }
-            IkError::Unreachable { .. } => {
-                ProtocolError::new(ErrorKind::Unreachable, e.to_string())
-            }
-            IkError::NotApplicable { .. } => {
-                ProtocolError::new(ErrorKind::NotApplicable, e.to_string())
-            }
+            IkError::Unreachable { .. } => ProtocolError::caused(ErrorKind::Unreachable, e),
+            IkError::NotApplicable { .. } => ProtocolError::caused(ErrorKind::NotApplicable, e),
             IkError::NotConverged { best, .. } => {
                 let s = solution_json(&expand(best));
                 ProtocolError::new(ErrorKind::NotConverged, format!("{e}; best q {}", s["q"]))
@@ -515,7 +511,7 @@ fn op_encoder_error(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolErr
     };
     let e = encoder_error(&robot, &q, &bits).map_err(|e| match e {
         EncoderErrorError::Model(m) => ProtocolError::new(ErrorKind::BadRequest, format!("q: {m}")),
-        other => ProtocolError::new(ErrorKind::BadRequest, other.to_string()),
+        other => ProtocolError::caused(ErrorKind::BadRequest, other),
     })?;
     check("position", &e.position)?;
     check("orientation", &e.orientation)?;

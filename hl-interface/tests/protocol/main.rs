@@ -20,6 +20,7 @@ mod sim_cli;
 mod bad_lines;
 mod collision;
 mod dynamics;
+mod error_source;
 mod extension;
 mod floating;
 mod fuzz;

@@ -100,7 +100,7 @@ pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError>
             c.settings.self_collision,
             &c.sweep,
         )
-        .map_err(|e| StepError::Collision(e.to_string()))?;
+        .map_err(StepError::Collision)?;
         !matches!(s, Sweep::Clear)
     } else {
         // The pipeline compiles the robot whenever it declares this stage.
@@ -108,7 +108,7 @@ pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError>
             Some(kin) => check_robot_compiled(kin, &m.robot, &c.links, q, &c.scene, &c.settings),
             None => check_robot(&m.robot, &c.links, q, &c.scene, &c.settings),
         }
-        .map_err(|e| StepError::Collision(e.to_string()))?;
+        .map_err(StepError::Collision)?;
         !matches!(r, CheckResult::Clear)
     };
     if contact {
