@@ -157,6 +157,9 @@ pub enum StageError {
     Refused(String),
     #[error(transparent)]
     Orbit(#[from] robosim_simulator::orbit::OrbitError),
+    /// The swap's plan, robot, object or first target (its error kept).
+    #[error(transparent)]
+    Swap(#[from] swap::SwapStageError),
 }
 
 impl From<String> for StageError {

@@ -30,9 +30,32 @@ use robosim_instance_space::Snapshot;
 use robosim_instance_space::layout::PoseRec;
 use robosim_model::Options;
 use robosim_model::parts::SceneParts;
-use robosim_simulator::Command;
-use robosim_simulator::swap::{Held, OruState, Plan, Swap, servicer_at};
+use robosim_simulator::swap::{Held, OruState, Plan, Swap, SwapError, servicer_at};
+use robosim_simulator::{Command, StepError};
 use serde_json::{Value, json};
+
+/// Why the swap stage could not be built or stopped: the plan's error, the robot or object
+/// missing (named), or a robot's pipeline refusing the target (its error kept).
+#[derive(Debug, thiserror::Error)]
+pub enum SwapStageError {
+    /// The declaration cannot be planned (the plan's words: what and where).
+    #[error(transparent)]
+    Plan(#[from] SwapError),
+    /// A robot the swap names has no pipeline.
+    #[error("robot {0} is not simulated (no pipeline of that name)")]
+    NotSimulated(String),
+    /// An ORU object the swap names is not in the Instance Space (its path).
+    #[error("no object {0} in the Instance Space")]
+    NoObject(String),
+    /// A robot's pipeline refused the target the plan gave it (`role`: servicer, or parking for
+    /// the carrying robot; the pipeline's error kept).
+    #[error("{role} {robot}: {source}")]
+    Command {
+        role: &'static str,
+        robot: String,
+        source: StepError,
+    },
+}
 
 /// One ORU object of the Instance Space: its id, what its pose is relative to, its frame in
 /// the ORU frame.
@@ -92,24 +115,24 @@ impl SwapStage {
         scene: &SceneParts,
         sims: &mut [Sim],
         snap: &Snapshot,
-    ) -> Result<Option<SwapStage>, String> {
+    ) -> Result<Option<SwapStage>, SwapStageError> {
         let Some(fx) = &effects.oru_swap else {
             return Ok(None);
         };
-        let swap = Swap::from_scene(scene, fx).map_err(|e| e.0)?;
+        let swap = Swap::from_scene(scene, fx)?;
         let sim_of = |i: usize| {
             let name = &scene.robots[i].name;
             sims.iter()
                 .position(|s| &s.name == name)
-                .ok_or_else(|| format!("robot {name} is not simulated (no pipeline of that name)"))
+                .ok_or_else(|| SwapStageError::NotSimulated(name.clone()))
         };
         let (servicer, array) = (sim_of(swap.servicer)?, sim_of(swap.array)?);
-        let plan = swap.schedule(fx.start_s).map_err(|e| e.0)?;
+        let plan = swap.schedule(fx.start_s)?;
         let mut objects = Vec::new();
         for (path, in_oru) in &swap.objects {
             let i = snap
                 .find_path(path)
-                .ok_or_else(|| format!("no object {path} in the Instance Space"))?;
+                .ok_or_else(|| SwapStageError::NoObject(path.clone()))?;
             let o = snap.rec(i);
             let link_id = sims[array].links.get(swap.link.wrapping_sub(1)).copied();
             let parent_world = match snap.index_of(o.parent) {
@@ -174,20 +197,33 @@ impl SwapStage {
 
     /// After a step of every pipeline (and the space stage): the targets for the next step,
     /// the ORUs' poses at the pipelines' clock `t` (s); `dt` is the step.
-    pub(crate) fn update(&mut self, sims: &mut [Sim], t: f64, dt: f64) -> Result<(), String> {
+    pub(crate) fn update(
+        &mut self,
+        sims: &mut [Sim],
+        t: f64,
+        dt: f64,
+    ) -> Result<(), SwapStageError> {
         let next = t + dt;
         let (q, _) = servicer_at(&self.plan.points, next);
         let s = &mut sims[self.servicer];
         s.pipeline
             .set_command(Command::Target(nalgebra::DVector::from_vec(q)))
-            .map_err(|e| format!("servicer {}: {e}", s.name))?;
+            .map_err(|source| SwapStageError::Command {
+                role: "servicer",
+                robot: s.name.clone(),
+                source,
+            })?;
         if self.swap.state(&self.plan, next).parked {
             let a = &mut sims[self.array];
             a.pipeline
                 .set_command(Command::Target(nalgebra::DVector::from_vec(
                     self.swap.service_q.clone(),
                 )))
-                .map_err(|e| format!("parking {}: {e}", a.name))?;
+                .map_err(|source| SwapStageError::Command {
+                    role: "parking",
+                    robot: a.name.clone(),
+                    source,
+                })?;
         }
         // where the ORUs are now
         self.t = t;
