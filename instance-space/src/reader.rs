@@ -1568,11 +1568,9 @@ impl Reader {
             }
         }
         // The chunks the current snapshot views in older heads' samples and that this one
-        // keeps: still viewed there — unless `MAX_HELD_SNAPSHOTS` head samples are alive, when
-        // they are copied out (once), so that the samples go when the older snapshots do and
-        // the next heads are viewed again ([`Reader::receive_objects_heads`]).
-        self.head_samples.retain(|w| w.strong_count() > 0);
-        let crowded = self.head_samples.len() >= crate::keeper::MAX_HELD_SNAPSHOTS;
+        // keeps: still viewed there (the same memory, so an unchanged chunk is shared between
+        // the snapshots; how many head samples are held is bounded where heads are received,
+        // [`Reader::receive_objects_heads`]).
         let mut views = Vec::new();
         if let Some(c) = &cur {
             for &k in c.head_views.iter() {
@@ -1582,12 +1580,7 @@ impl Reader {
                 if !Rc::ptr_eq(&old.words, &now.words) {
                     continue;
                 }
-                if crowded {
-                    let copy = ObjSrc::owned(old.seg_words()?.to_vec(), old.generation);
-                    objects.set(k, copy);
-                } else {
-                    views.push(k);
-                }
+                views.push(k);
             }
         }
         // (both ascending and disjoint: a chunk of `head_views` was replaced)
@@ -1685,9 +1678,8 @@ impl Reader {
     /// of it ([`Reader::copy_out_head_updates`]), so a reader holds at most one head sample
     /// besides those of the snapshots it has made. A head is copied out at once, as before,
     /// when snapshots already hold `MAX_HELD_SNAPSHOTS` head samples: the views never make a
-    /// receive exceed the subscription's borrowed samples (`MAX_HELD_SNAPSHOTS + 1`); and the
-    /// next structural change copies the current snapshot's views out
-    /// ([`Reader::collect_objects`]), so that the samples go with the older snapshots.
+    /// receive exceed the subscription's borrowed samples (`MAX_HELD_SNAPSHOTS + 1`). (At
+    /// worst — four chunks changed once and held since — every head is copied, as before.)
     fn receive_objects_heads(&mut self) -> Result<(), ReaderError> {
         while self
             .objects
