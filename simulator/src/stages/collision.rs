@@ -7,7 +7,7 @@
 //! Depends only on q.
 
 use crate::model::{CollisionModel, Model, SceneGeometry, StepError};
-use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot};
+use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot, sweep_robot_compiled};
 use robosim_collision::robot::{
     CheckResult, CollisionSettings, LinkSolids, check_robot, check_robot_compiled,
 };
@@ -91,15 +91,27 @@ pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError>
     };
     let q = d.state.q.as_slice();
     let contact = if c.settings.continuous {
-        let s = sweep_robot(
-            &m.robot,
-            &c.links,
-            q_safe.as_slice(),
-            q,
-            &c.scene,
-            c.settings.self_collision,
-            &c.sweep,
-        )
+        let s = match &m.kinematics {
+            Some(kin) => sweep_robot_compiled(
+                kin,
+                &m.robot,
+                &c.links,
+                q_safe.as_slice(),
+                q,
+                &c.scene,
+                c.settings.self_collision,
+                &c.sweep,
+            ),
+            None => sweep_robot(
+                &m.robot,
+                &c.links,
+                q_safe.as_slice(),
+                q,
+                &c.scene,
+                c.settings.self_collision,
+                &c.sweep,
+            ),
+        }
         .map_err(StepError::Collision)?;
         !matches!(s, Sweep::Clear)
     } else {
