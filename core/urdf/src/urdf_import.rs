@@ -277,6 +277,23 @@ struct JointRec {
     mimic_of: Option<(String, f64, f64)>,
 }
 
+impl JointRec {
+    /// The joint as a chain or tree segment carrying `child`, the inertial of what it moves
+    /// (its child link, with whatever is lumped into it): the one place every import (chain,
+    /// chain with followers, whole tree) fills a [`Segment`] from a `<joint>`.
+    fn segment(&self, child: Inertial) -> Segment {
+        Segment {
+            kind: self.kind,
+            placement: self.placement,
+            axis: self.axis,
+            qlim: self.qlim,
+            viscous: self.viscous,
+            coulomb: self.coulomb,
+            child,
+        }
+    }
+}
+
 /// The readers of a link's `<inertial>` and of a `<joint>` (the rest of [`Reader`] is in
 /// urdf_xml.rs).
 impl Reader<'_, '_> {
@@ -841,15 +858,9 @@ fn chain_segments(parts: &Parts, tree: &LinkTree, chain: &[usize]) -> (Vec<Segme
     let mut segments = Vec::with_capacity(chain.len());
     for &k in chain {
         let j = &joints[k];
-        segments.push(Segment {
-            kind: j.kind,
-            placement: j.placement,
-            axis: j.axis,
-            qlim: j.qlim,
-            viscous: j.viscous,
-            coulomb: j.coulomb,
-            child: subtree(&j.child, joints, links, children, &on_chain, &mut held),
-        });
+        segments.push(j.segment(subtree(
+            &j.child, joints, links, children, &on_chain, &mut held,
+        )));
     }
     let mut root_held = Vec::new();
     subtree(
@@ -995,15 +1006,9 @@ impl FollowerBranches {
             let j = &joints[k];
             parents.push(segment_of_link.get(j.parent.as_str()).copied());
             segment_of_link.insert(j.child.as_str(), s);
-            segments.push(Segment {
-                kind: j.kind,
-                placement: j.placement,
-                axis: j.axis,
-                qlim: j.qlim,
-                viscous: j.viscous,
-                coulomb: j.coulomb,
-                child: subtree(&j.child, joints, links, children, &moving, &mut held),
-            });
+            segments.push(j.segment(subtree(
+                &j.child, joints, links, children, &moving, &mut held,
+            )));
         }
         debug_assert!(chain.iter().all(|k| moving.contains(k)));
         subtree(&tree.root, joints, links, children, &moving, &mut held);
@@ -1157,15 +1162,7 @@ fn build_whole_tree(
         let j = &joints[k];
         seg_of_joint.insert(k, s);
         parents.push(parent_joint_of(&j.parent).map(|pk| seg_of_joint[&pk]));
-        segments.push(Segment {
-            kind: j.kind,
-            placement: j.placement,
-            axis: j.axis,
-            qlim: j.qlim,
-            viscous: j.viscous,
-            coulomb: j.coulomb,
-            child: links[&j.child].inertial,
-        });
+        segments.push(j.segment(links[&j.child].inertial));
     }
     let built = build_tree(robot_name, &segments, &parents);
     let mut robot = built.robot;
