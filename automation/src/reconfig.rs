@@ -27,7 +27,7 @@
 //!
 //! Entry point: [`run_reconfig_demo`] → [`ReconfigOutcome`] (errors before and after).
 
-use crate::kernel::{ActorSpec, Graph, Retention, Value};
+use crate::kernel::{ActorSpec, Graph, KernelError, Retention, Value};
 use std::sync::{Arc, Mutex};
 
 /// Parameters of the demo (SI units: kg, m, s, rad, N·m).
@@ -184,145 +184,159 @@ fn pid_actor(name: &str, (kp, ki, kd): (f64, f64, f64), dt: f64) -> ActorSpec {
     .context((0.0f64, None::<f64>))
 }
 
+/// Why the reconfiguration demo did not run to its end.
+#[derive(Debug, thiserror::Error)]
+pub enum ReconfigError {
+    /// A non-positive step, duration, window, mass or length (the options as given).
+    #[error("invalid reconfiguration demo options: {0}")]
+    InvalidOptions(String),
+    /// The kernel refused building or feeding the graph.
+    #[error(transparent)]
+    Kernel(#[from] KernelError),
+    /// A script of the demo's graph failed while it ran (the script's message, text by the
+    /// kernel's `Script` contract).
+    #[error("script error during the demo: {0}")]
+    Script(String),
+    /// A script panicked while holding the demo's log.
+    #[error("demo log poisoned")]
+    LogPoisoned,
+}
+
 /// Runs the reconfigurable-controller example and reports the tracking error before and after
 /// the Checker's reconfiguration. Side effects: spawns `opts.workers` threads for the run.
 ///
 /// Errors: invalid options (non-positive step, duration or window), or a kernel error while
 /// building the graph.
-pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, String> {
+pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, ReconfigError> {
     if !(opts.dt > 0.0
         && opts.duration > opts.dt
         && opts.window > 0.0
         && opts.mass > 0.0
         && opts.length > 0.0)
     {
-        return Err(format!("invalid reconfiguration demo options: {opts:?}"));
+        return Err(ReconfigError::InvalidOptions(format!("{opts:?}")));
     }
     let o = *opts;
     let log = Arc::new(Mutex::new(Log::default()));
     let graph = Graph::new(o.workers);
     graph.set_tracing(true);
-    let (torque, ack) = graph
-        .edit(|e| -> Result<_, crate::kernel::KernelError> {
-            let torque = e.add_data("torque", Retention::Stream)?;
-            let state = e.add_data("state", Retention::Stream)?;
-            let error = e.add_data("error", Retention::Stream)?;
-            // The Checker runs in lockstep with the loop: the arm steps only once the Checker
-            // has judged the previous sample. A free-running supervisor could fall thousands of
-            // steps behind a simulation that runs as fast as it can, and switch far too late.
-            let ack = e.add_data("checked", Retention::Stream)?;
-            let inertia = o.mass * o.length * o.length;
-            let arm = e.add_actor(
-                ActorSpec::new("arm", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let tau = ctx.input_f64("tau").ok_or("arm: no torque")?;
-                    ctx.input("ok").ok_or("arm: no Checker acknowledgement")?;
-                    let s = ctx.context::<Arm>().ok_or("arm: context")?;
-                    if s.steps >= s.max_steps {
-                        return Ok(()); // the run is over: no new state, the loop drains
+    let (torque, ack) = graph.edit(|e| -> Result<_, KernelError> {
+        let torque = e.add_data("torque", Retention::Stream)?;
+        let state = e.add_data("state", Retention::Stream)?;
+        let error = e.add_data("error", Retention::Stream)?;
+        // The Checker runs in lockstep with the loop: the arm steps only once the Checker
+        // has judged the previous sample. A free-running supervisor could fall thousands of
+        // steps behind a simulation that runs as fast as it can, and switch far too late.
+        let ack = e.add_data("checked", Retention::Stream)?;
+        let inertia = o.mass * o.length * o.length;
+        let arm = e.add_actor(
+            ActorSpec::new("arm", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                let tau = ctx.input_f64("tau").ok_or("arm: no torque")?;
+                ctx.input("ok").ok_or("arm: no Checker acknowledgement")?;
+                let s = ctx.context::<Arm>().ok_or("arm: context")?;
+                if s.steps >= s.max_steps {
+                    return Ok(()); // the run is over: no new state, the loop drains
+                }
+                let qdd =
+                    (tau - o.mass * o.gravity * o.length * s.q.sin() - o.damping * s.qd) / inertia;
+                s.qd += qdd * o.dt;
+                s.q += s.qd * o.dt;
+                s.t += o.dt;
+                s.steps += 1;
+                let out = Value::Vec(vec![s.t, s.q, s.qd]);
+                ctx.emit("state", out)
+            })
+            .inputs(&["tau", "ok"])
+            .outputs(&["state"])
+            .context(Arm {
+                q: 0.0,
+                qd: 0.0,
+                t: 0.0,
+                steps: 0,
+                max_steps: (o.duration / o.dt).round() as usize,
+            }),
+        )?;
+        let log2 = log.clone();
+        let err = e.add_actor(
+            ActorSpec::new("error", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                let (t, q) = ctx
+                    .input("x")
+                    .and_then(pair)
+                    .ok_or("error: no state [t, q, qd]")?;
+                let e = o.setpoint - q;
+                if let Ok(mut l) = log2.lock() {
+                    l.errors.push((t, e));
+                }
+                ctx.emit("e", Value::Vec(vec![t, e]))
+            })
+            .inputs(&["x"])
+            .outputs(&["e"]),
+        )?;
+        let p = e.add_actor(
+            ActorSpec::new("P", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                let e = ctx
+                    .input("e")
+                    .and_then(pair)
+                    .map(|p| p.1)
+                    .ok_or("P: no error sample")?;
+                ctx.emit("u", Value::F64(o.kp * e))
+            })
+            .inputs(&["e"])
+            .outputs(&["u"]),
+        )?;
+        let log3 = log.clone();
+        let checker = e.add_actor(
+            ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
+                let s = ctx
+                    .input("e")
+                    .and_then(pair)
+                    .ok_or("Checker: no error sample")?;
+                let (window, switched) = ctx
+                    .context::<(Vec<(f64, f64)>, bool)>()
+                    .ok_or("Checker: context")?;
+                window.push(s);
+                window.retain(|(t, _)| *t > s.0 - o.window);
+                let r = rms(window, s.0 - o.window, s.0);
+                if o.allow_switch && !*switched && s.0 >= o.settle && r > o.threshold {
+                    *switched = true;
+                    // Unacceptable: reconfigure the running graph to PID.
+                    ctx.control()
+                        .edit(|e| -> Result<(), KernelError> {
+                            let Some(p) = e.actor("P") else { return Ok(()) };
+                            let Some(torque) = e.data("torque") else {
+                                return Ok(());
+                            };
+                            let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
+                            e.connect_out(pid, "u", torque)?;
+                            e.move_input(p, "e", pid, "e")?;
+                            e.remove_actor(p)
+                        })
+                        .map_err(|e| format!("switching to PID: {e}"))?;
+                    if let Ok(mut l) = log3.lock() {
+                        l.switched_at = Some(s.0);
+                        l.checker_window = Some(r);
                     }
-                    let qdd = (tau - o.mass * o.gravity * o.length * s.q.sin() - o.damping * s.qd)
-                        / inertia;
-                    s.qd += qdd * o.dt;
-                    s.q += s.qd * o.dt;
-                    s.t += o.dt;
-                    s.steps += 1;
-                    let out = Value::Vec(vec![s.t, s.q, s.qd]);
-                    ctx.emit("state", out)
-                })
-                .inputs(&["tau", "ok"])
-                .outputs(&["state"])
-                .context(Arm {
-                    q: 0.0,
-                    qd: 0.0,
-                    t: 0.0,
-                    steps: 0,
-                    max_steps: (o.duration / o.dt).round() as usize,
-                }),
-            )?;
-            let log2 = log.clone();
-            let err = e.add_actor(
-                ActorSpec::new("error", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let (t, q) = ctx
-                        .input("x")
-                        .and_then(pair)
-                        .ok_or("error: no state [t, q, qd]")?;
-                    let e = o.setpoint - q;
-                    if let Ok(mut l) = log2.lock() {
-                        l.errors.push((t, e));
-                    }
-                    ctx.emit("e", Value::Vec(vec![t, e]))
-                })
-                .inputs(&["x"])
-                .outputs(&["e"]),
-            )?;
-            let p = e.add_actor(
-                ActorSpec::new("P", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let e = ctx
-                        .input("e")
-                        .and_then(pair)
-                        .map(|p| p.1)
-                        .ok_or("P: no error sample")?;
-                    ctx.emit("u", Value::F64(o.kp * e))
-                })
-                .inputs(&["e"])
-                .outputs(&["u"]),
-            )?;
-            let log3 = log.clone();
-            let checker = e.add_actor(
-                ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                    let s = ctx
-                        .input("e")
-                        .and_then(pair)
-                        .ok_or("Checker: no error sample")?;
-                    let (window, switched) = ctx
-                        .context::<(Vec<(f64, f64)>, bool)>()
-                        .ok_or("Checker: context")?;
-                    window.push(s);
-                    window.retain(|(t, _)| *t > s.0 - o.window);
-                    let r = rms(window, s.0 - o.window, s.0);
-                    if o.allow_switch && !*switched && s.0 >= o.settle && r > o.threshold {
-                        *switched = true;
-                        // Unacceptable: reconfigure the running graph to PID.
-                        ctx.control()
-                            .edit(|e| -> Result<(), crate::kernel::KernelError> {
-                                let Some(p) = e.actor("P") else { return Ok(()) };
-                                let Some(torque) = e.data("torque") else {
-                                    return Ok(());
-                                };
-                                let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
-                                e.connect_out(pid, "u", torque)?;
-                                e.move_input(p, "e", pid, "e")?;
-                                e.remove_actor(p)
-                            })
-                            .map_err(|e| e.to_string())?;
-                        if let Ok(mut l) = log3.lock() {
-                            l.switched_at = Some(s.0);
-                            l.checker_window = Some(r);
-                        }
-                    }
-                    ctx.emit("ok", Value::Unit)
-                })
-                .inputs(&["e"])
-                .outputs(&["ok"])
-                .context((Vec::<(f64, f64)>::new(), false)),
-            )?;
-            e.connect_in(torque, arm, "tau")?;
-            e.connect_out(arm, "state", state)?;
-            e.connect_in(state, err, "x")?;
-            e.connect_out(err, "e", error)?;
-            e.connect_in(error, p, "e")?;
-            e.connect_in(error, checker, "e")?;
-            e.connect_out(checker, "ok", ack)?;
-            e.connect_in(ack, arm, "ok")?;
-            e.connect_out(p, "u", torque)?;
-            Ok((torque, ack))
-        })
-        .map_err(|e| e.to_string())?;
+                }
+                ctx.emit("ok", Value::Unit)
+            })
+            .inputs(&["e"])
+            .outputs(&["ok"])
+            .context((Vec::<(f64, f64)>::new(), false)),
+        )?;
+        e.connect_in(torque, arm, "tau")?;
+        e.connect_out(arm, "state", state)?;
+        e.connect_in(state, err, "x")?;
+        e.connect_out(err, "e", error)?;
+        e.connect_in(error, p, "e")?;
+        e.connect_in(error, checker, "e")?;
+        e.connect_out(checker, "ok", ack)?;
+        e.connect_in(ack, arm, "ok")?;
+        e.connect_out(p, "u", torque)?;
+        Ok((torque, ack))
+    })?;
     let dot_before = graph.to_dot();
-    graph
-        .write(torque, Value::F64(0.0))
-        .map_err(|e| e.to_string())?;
-    graph.write(ack, Value::Unit).map_err(|e| e.to_string())?;
+    graph.write(torque, Value::F64(0.0))?;
+    graph.write(ack, Value::Unit)?;
     graph.wait_idle();
     let dot_after = graph.to_dot();
     let trace = graph.trace();
@@ -336,9 +350,9 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Stri
     }
     let errors = graph.errors();
     if let Some(e) = errors.first() {
-        return Err(format!("script error during the demo: {e}"));
+        return Err(ReconfigError::Script(e.clone()));
     }
-    let l = log.lock().map_err(|_| "demo log poisoned".to_string())?;
+    let l = log.lock().map_err(|_| ReconfigError::LogPoisoned)?;
     let mut samples = l.errors.clone();
     samples.sort_by(|a, b| a.0.total_cmp(&b.0));
     let end = samples.last().map_or(0.0, |s| s.0);

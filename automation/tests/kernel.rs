@@ -177,7 +177,7 @@ fn a_script_reading_an_empty_input_demands_it() {
                     match (ctx.input_f64("fast"), ctx.input_f64("slow")) {
                         (Some(f), None) => {
                             // The slow input is empty: ask for it and wait for it to arrive.
-                            ctx.request("slow")?;
+                            ctx.request("slow").map_err(|e| e.to_string())?;
                             ctx.emit("out", Value::F64(f))
                         }
                         (f, Some(s)) => ctx.emit("out", Value::F64(f.unwrap_or(0.0) + s)),

@@ -142,6 +142,20 @@ pub enum KernelError {
     NotManual,
 }
 
+/// Why a script's read of an input port ([`Ctx::request`]) failed.
+#[derive(Debug, thiserror::Error)]
+pub enum PortError {
+    /// The actor declares no input port of that name.
+    #[error("no input port `{port}`")]
+    NoInput { port: String },
+    /// The port exists but no data node feeds it.
+    #[error("input port `{port}` is not connected")]
+    NotConnected { port: String },
+    /// The kernel refused the read of the port's data node.
+    #[error(transparent)]
+    Kernel(#[from] KernelError),
+}
+
 /// The code an actor runs (reentrant: one script may serve several actors).
 pub trait Script: Send + Sync {
     /// One firing. Reads inputs and writes outputs through `ctx`. An error (or a panic) is
@@ -275,16 +289,16 @@ impl Ctx<'_> {
     /// An attempted read of `port`'s data node from inside a script: when the node is empty,
     /// request tokens go to its writers (demand-driven operation); returns the node's last
     /// value. Errors: unknown or unconnected port.
-    pub fn request(&self, port: &str) -> Result<Option<Value>, String> {
+    pub fn request(&self, port: &str) -> Result<Option<Value>, PortError> {
         let i = self
             .inputs
             .iter()
             .position(|(n, _)| n == port)
-            .ok_or_else(|| format!("no input port `{port}`"))?;
+            .ok_or_else(|| PortError::NoInput { port: port.into() })?;
         let d = self.latest[i]
             .0
-            .ok_or_else(|| format!("input port `{port}` is not connected"))?;
-        self.control.request(d).map_err(|e| e.to_string())
+            .ok_or_else(|| PortError::NotConnected { port: port.into() })?;
+        Ok(self.control.request(d)?)
     }
     /// Writes `value` on output port `port` (delivered to every connected data node when the
     /// firing ends). Unknown ports are an error of the script.
