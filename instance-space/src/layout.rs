@@ -252,6 +252,11 @@ pub mod flags {
     pub const KIN_ROBOT: u32 = 2;
     /// `kin_tag`: the kinematics record is a general joint (placement and axis).
     pub const KIN_AXIS: u32 = 3;
+    /// `kin_tag`: a general joint that follows another (`Kinematics::Mimic`): as
+    /// [`KIN_AXIS`], with `joint_kind` holding the joint kind in its low 8 bits and the
+    /// leader's index + 1 above them (0: no leader), `dh[3]` the multiplier and `dh[4]` the
+    /// mimic offset. No field of the record changes: the layout is the same.
+    pub const KIN_MIMIC: u32 = 4;
 }
 
 /// One object, every aspect but its geometry (which has its own segment) and its pose

@@ -58,7 +58,7 @@ pub use session::{
 };
 pub use store::{Applied, INERTIA_TOL, Store, mass_props, principal_moments};
 pub use transaction::{GeometryInput, ObjRef, Op, Transaction, TxError};
-pub use view::{JointOrigin, JointView, RobotView};
+pub use view::{JointMimic, JointOrigin, JointView, RobotView};
 
 /// Service suffixes inside a session (see [`Session::service`]).
 pub mod services {

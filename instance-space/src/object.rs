@@ -240,6 +240,33 @@ pub enum Kinematics {
         tool: Pose,
         root: FloatingBase,
     },
+    /// A link's general joint that **follows** another (URDF's `<mimic>`, issue 36): the
+    /// fields of [`Kinematics::Axis`] (its own `offset` is 0: a mimic joint moves by its
+    /// coordinate alone) and the relation `q = multiplier · q[leader] + offset`. It is still a
+    /// joint of the robot with its index and committed value (kept equal to the relation by
+    /// whoever writes the robot's joints), but not one of the robot's independent
+    /// coordinates: a session robot's q is the reduced one (`robosim_scene::robot_coupling`).
+    /// `leader: None` — the joint it follows is not one of the robot's (a fixed joint): fixed
+    /// at `offset`. Appended after the other variants (as [`Kinematics::FloatingRobot`]), so
+    /// journals, checkpoints and model files written before it decode unchanged.
+    Mimic {
+        /// Index of the joint in q (0-based), as [`Kinematics::Axis::index`].
+        index: u32,
+        /// The link frame it hangs from, as [`Kinematics::Axis::parent`].
+        parent: u32,
+        joint: JointKind,
+        /// Parent link frame → joint frame, 3×4 row-major (m).
+        placement: Pose,
+        /// Unit axis in the joint frame.
+        axis: [f64; 3],
+        /// [lo, hi] of this joint's own value (rad or m).
+        qlim: [f64; 2],
+        /// The index in q of the joint it follows (`None`: not a joint of the robot).
+        leader: Option<u32>,
+        multiplier: f64,
+        /// Added to `multiplier · q[leader]` (rad or m).
+        offset: f64,
+    },
 }
 
 impl Kinematics {
@@ -258,7 +285,39 @@ impl Kinematics {
                 tool,
                 ..
             } => Some((convention, ik_family, tool)),
-            Kinematics::Joint { .. } | Kinematics::Axis { .. } => None,
+            Kinematics::Joint { .. } | Kinematics::Axis { .. } | Kinematics::Mimic { .. } => None,
+        }
+    }
+
+    /// A mimic joint as the general joint it moves like ([`Kinematics::Axis`], offset 0) and
+    /// its relation (leader, multiplier, offset); `None` for any other aspect.
+    pub fn mimic_parts(&self) -> Option<(Kinematics, Option<u32>, f64, f64)> {
+        match *self {
+            Kinematics::Mimic {
+                index,
+                parent,
+                joint,
+                placement,
+                axis,
+                qlim,
+                leader,
+                multiplier,
+                offset,
+            } => Some((
+                Kinematics::Axis {
+                    index,
+                    parent,
+                    joint,
+                    placement,
+                    axis,
+                    offset: 0.0,
+                    qlim,
+                },
+                leader,
+                multiplier,
+                offset,
+            )),
+            _ => None,
         }
     }
 }

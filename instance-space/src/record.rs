@@ -116,6 +116,26 @@ impl KinematicsFields {
                 f.index_or_family = ik_family;
                 f.tool = tool;
             }
+            Some(&Kinematics::Mimic {
+                index,
+                parent,
+                joint,
+                placement,
+                axis,
+                qlim,
+                leader,
+                multiplier,
+                offset,
+            }) => {
+                f.tag = flags::KIN_MIMIC;
+                f.joint_kind = joint as u32 | leader.map_or(0, |l| l.saturating_add(1) << 8);
+                f.convention = parent;
+                f.index_or_family = index;
+                f.dh = [
+                    axis[0], axis[1], axis[2], multiplier, offset, qlim[0], qlim[1],
+                ];
+                f.tool = placement;
+            }
         }
         f
     }
@@ -187,6 +207,17 @@ impl KinematicsFields {
                 tool: self.tool,
                 root: FloatingBase::from_u32(self.joint_kind)?,
             }),
+            flags::KIN_MIMIC => Some(Kinematics::Mimic {
+                index: self.index_or_family,
+                parent: self.convention,
+                joint: JointKind::from_u32(self.joint_kind & 0xff)?,
+                placement: self.tool,
+                axis: [self.dh[0], self.dh[1], self.dh[2]],
+                qlim: [self.dh[5], self.dh[6]],
+                leader: (self.joint_kind >> 8).checked_sub(1),
+                multiplier: self.dh[3],
+                offset: self.dh[4],
+            }),
             _ => None,
         }
     }
@@ -194,9 +225,10 @@ impl KinematicsFields {
     /// The canonical (digest) order: the tag as u8, then for a joint index, kind, convention
     /// and the 7 `dh` values; for a robot convention, IK family and the 12 of `tool` (then, for a
     /// floating robot only, its [`FloatingBase`] as u32: a fixed robot's digest is unchanged); for a
-    /// general joint index, parent, kind, placement (12), axis (3), offset, qlo, qhi.
+    /// general joint index, parent, kind, placement (12), axis (3), offset, qlo, qhi; for a mimic
+    /// joint index, parent, kind (with the leader), placement (12), then the 7 of `dh`.
     pub fn canonical(&self, s: &mut impl FieldSink) {
-        // The tags are 0..=3 (the flags constants), so the u8 is lossless.
+        // The tags are 0..=4 (the flags constants), so the u8 is lossless.
         s.u8(self.tag as u8);
         match self.tag {
             flags::KIN_JOINT => {
@@ -220,6 +252,13 @@ impl KinematicsFields {
                 s.f64s(&self.tool);
                 s.f64s(&self.dh[0..3]);
                 s.f64s(&self.dh[4..7]);
+            }
+            flags::KIN_MIMIC => {
+                s.u32(self.index_or_family);
+                s.u32(self.convention);
+                s.u32(self.joint_kind);
+                s.f64s(&self.tool);
+                s.f64s(&self.dh);
             }
             _ => {}
         }
@@ -393,7 +432,50 @@ mod tests {
                 offset: -0.5,
                 qlim: [f64::NEG_INFINITY, f64::INFINITY],
             }),
+            Some(Kinematics::Mimic {
+                index: 0,
+                parent: 0,
+                joint: JointKind::Prismatic,
+                placement: [
+                    1.0, 0.0, 0.0, 0.01, 0.0, 0.0, -1.0, 0.02, 0.0, 1.0, 0.0, 0.03,
+                ],
+                axis: [0.0, 0.0, 1.0],
+                qlim: [0.0, 0.04],
+                leader: None,
+                multiplier: -1.5,
+                offset: 0.02,
+            }),
         ]
+    }
+
+    /// A mimic joint's leader and relation lie in the record's fields and come back: the
+    /// leader's index + 1 above the joint kind's 8 bits (0: none), multiplier and offset in
+    /// `dh[3]`, `dh[4]`; an Axis record's fields keep their meaning.
+    #[test]
+    fn a_mimic_joint_keeps_its_leader_and_relation_in_the_record() {
+        for leader in [None, Some(0), Some(41), Some(0xff_fffe)] {
+            let k = Kinematics::Mimic {
+                index: 42,
+                parent: 3,
+                joint: JointKind::Revolute,
+                placement: crate::IDENTITY,
+                axis: [1.0, 0.0, 0.0],
+                qlim: [-0.5, 0.5],
+                leader,
+                multiplier: 2.0,
+                offset: -0.125,
+            };
+            let f = KinematicsFields::of(Some(&k));
+            assert_eq!(f.tag, flags::KIN_MIMIC);
+            assert_eq!(f.joint_kind & 0xff, JointKind::Revolute as u32);
+            assert_eq!(f.joint_kind >> 8, leader.map_or(0, |l| l + 1));
+            assert_eq!((f.index_or_family, f.convention), (42, 3));
+            assert_eq!(f.dh, [1.0, 0.0, 0.0, 2.0, -0.125, -0.5, 0.5]);
+            assert_eq!(f.kinematics(), Some(k), "{leader:?}");
+            let (axis, l, m, c) = k.mimic_parts().expect("a mimic joint");
+            assert_eq!((l, m, c), (leader, 2.0, -0.125));
+            assert!(matches!(axis, Kinematics::Axis { index: 42, offset, .. } if offset == 0.0));
+        }
     }
 
     /// Every record kind (no kinematics, a DH joint, a robot, a general joint; with and without
@@ -475,7 +557,7 @@ mod tests {
                 n += 1;
             }
         }
-        assert_eq!(n, 10);
+        assert_eq!(n, 12);
     }
 
     /// The canonical order of each kind, byte for byte (what the model digest hashed before the
@@ -508,5 +590,11 @@ mod tests {
         assert_eq!(&axis[13 + 3 * 8..13 + 4 * 8], &0.01f64.to_le_bytes());
         assert_eq!(&axis[13 + 13 * 8..13 + 14 * 8], &0.6f64.to_le_bytes());
         assert_eq!(&axis[13 + 15 * 8..13 + 16 * 8], &(-0.5f64).to_le_bytes());
+        // a mimic joint: tag 4, index, parent, kind (prismatic, no leader), placement, the 7
+        // of dh (axis, multiplier, offset, limits)
+        let mimic = bytes(&ks[5]);
+        assert_eq!(mimic.len(), 1 + 3 * 4 + (12 + 7) * 8);
+        assert_eq!(&mimic[..13], &[4, 0, 0, 0, 0, 0, 0, 0, 0, 2, 0, 0, 0]);
+        assert_eq!(&mimic[13 + 15 * 8..13 + 16 * 8], &(-1.5f64).to_le_bytes());
     }
 }

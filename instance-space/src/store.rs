@@ -462,9 +462,14 @@ impl Stage<'_> {
                 }
                 let kind = self.lookup(rid).map(|o| o.kind);
                 match (kinematics, kind) {
-                    (Some(Kinematics::Joint { .. } | Kinematics::Axis { .. }), Some(k))
-                        if k != Kind::Link =>
-                    {
+                    (
+                        Some(
+                            Kinematics::Joint { .. }
+                            | Kinematics::Axis { .. }
+                            | Kinematics::Mimic { .. },
+                        ),
+                        Some(k),
+                    ) if k != Kind::Link => {
                         return Err(TxError::InvalidValue {
                             op: i,
                             id: rid,
@@ -815,6 +820,23 @@ fn check_kinematics(op: usize, id: Id, k: &Kinematics) -> Result<(), TxError> {
                     reason: format!(
                         "link frame {parent} is not before joint {index} (parents come first: at most {index})"
                     ),
+                });
+            }
+        }
+        Kinematics::Mimic { .. } => {
+            let Some((axis, leader, multiplier, offset)) = k.mimic_parts() else {
+                return Ok(());
+            };
+            check_kinematics(op, id, &axis)?;
+            finite(op, id, "multiplier", multiplier)?;
+            finite(op, id, "offset", offset)?;
+            // the record holds leader + 1 above the joint kind's 8 bits
+            if let Some(l) = leader.filter(|l| *l >= 0xff_ffff) {
+                return Err(TxError::InvalidValue {
+                    op,
+                    id,
+                    field: "leader".into(),
+                    reason: format!("joint index {l} is past the record's 2^24 − 2"),
                 });
             }
         }

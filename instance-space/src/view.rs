@@ -93,6 +93,20 @@ pub struct JointView {
     /// A general joint's placement, axis and parent link frame (`Kinematics::Axis`); `None`
     /// for a DH row (`a`, `d`, `alpha`, `theta` then hold it, and are 0 here otherwise).
     pub origin: Option<JointOrigin>,
+    /// The relation of a joint that follows another (`Kinematics::Mimic`, a general joint);
+    /// `None` for an independent joint.
+    pub mimic: Option<JointMimic>,
+}
+
+/// A mimic joint's relation as the Instance Space holds it: `q = multiplier · q[leader] +
+/// offset` (`Kinematics::Mimic`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JointMimic {
+    /// The index in q of the joint it follows (`None`: not a joint of the robot; fixed at
+    /// `offset`).
+    pub leader: Option<u32>,
+    pub multiplier: f64,
+    pub offset: f64,
 }
 
 /// A general joint's geometry as the Instance Space holds it (`Kinematics::Axis`).
@@ -181,7 +195,19 @@ impl Snapshot {
                 if o.kind() != Some(Kind::Link) {
                     return None;
                 }
-                match o.kinematics()? {
+                let kinematics = o.kinematics()?;
+                let (kinematics, mimic) = match kinematics.mimic_parts() {
+                    Some((axis, leader, multiplier, offset)) => (
+                        axis,
+                        Some(JointMimic {
+                            leader,
+                            multiplier,
+                            offset,
+                        }),
+                    ),
+                    None => (kinematics, None),
+                };
+                match kinematics {
                     Kinematics::Joint {
                         index,
                         joint,
@@ -207,6 +233,7 @@ impl Snapshot {
                             q: self.pose(k).joint,
                             mass: o.dynamics(),
                             origin: None,
+                            mimic,
                         },
                     )),
                     Kinematics::Axis {
@@ -236,9 +263,12 @@ impl Snapshot {
                                 placement,
                                 axis,
                             }),
+                            mimic,
                         },
                     )),
-                    Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. } => None,
+                    Kinematics::Robot { .. }
+                    | Kinematics::FloatingRobot { .. }
+                    | Kinematics::Mimic { .. } => None,
                 }
             })
             .collect();

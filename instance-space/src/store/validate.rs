@@ -152,11 +152,13 @@ impl Stage<'_> {
                         index,
                         dh: Some(convention),
                     }),
-                    Kinematics::Axis { index, .. } => Some(Place {
-                        link,
-                        index,
-                        dh: None,
-                    }),
+                    Kinematics::Axis { index, .. } | Kinematics::Mimic { index, .. } => {
+                        Some(Place {
+                            link,
+                            index,
+                            dh: None,
+                        })
+                    }
                     Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. } => None,
                 })
                 .collect();
@@ -191,6 +193,30 @@ impl Stage<'_> {
                     ));
                 }
                 *slot = Some(p.link);
+            }
+            // a mimic joint follows another joint of the robot, not itself (cycles through
+            // several followers are refused where the coupling is built:
+            // robosim_scene::robot_coupling)
+            for p in &places {
+                if let Some(Kinematics::Mimic {
+                    leader: Some(l), ..
+                }) = self.lookup(p.link).and_then(|o| o.kinematics)
+                    && (l as usize >= n || l == p.index)
+                {
+                    return Err(invalid(
+                        p.link,
+                        "kinematics.leader",
+                        format!(
+                            "joint {} follows joint {l}, which is {}: robot {robot} has {n} joints",
+                            p.index,
+                            if l == p.index {
+                                "itself"
+                            } else {
+                                "out of range"
+                            }
+                        ),
+                    ));
+                }
             }
             let first_dh = places.iter().find_map(|p| p.dh.map(|c| (p.link, c)));
             let first_axis = places.iter().find(|p| p.dh.is_none()).map(|p| p.link);
