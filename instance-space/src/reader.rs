@@ -144,6 +144,13 @@ pub struct Snapshot {
     /// chunk unchanged between versions is the same sample, shared by the snapshots of both;
     /// the list is shared by groups like `objects`.
     poses: Groups<PoseSrc>,
+    /// Each pose chunk's generation as the poses head this snapshot was assembled from named
+    /// it (every chunk of `poses` is at it); empty for a snapshot not assembled from a poses
+    /// head (process-local, advanced). The next follow finds the pose chunks that changed by
+    /// comparing these words with the new head's, a pass over two plain arrays, instead of
+    /// walking the chunk handles group by group (at 10⁵ objects that walk grew with the model
+    /// in every follow, a one-body geometry change's included: issue 37 item 6).
+    pose_gens: Rc<Vec<u64>>,
     /// Records per chunk (≥ 1).
     chunk_len: usize,
     /// [`Snapshot::poses`] as one slice, assembled on first use when there are several chunks.
@@ -393,6 +400,7 @@ impl Snapshot {
             head_views: Rc::default(),
             objects_flat: Rc::default(),
             poses,
+            pose_gens: Rc::default(),
             chunk_len: POSE_CHUNK,
             flat: std::cell::OnceCell::new(),
             geometry: Groups::from_vec(
@@ -457,6 +465,7 @@ impl Snapshot {
             head_views: self.head_views.clone(),
             objects_flat: self.objects_flat.clone(),
             poses,
+            pose_gens: Rc::default(),
             chunk_len,
             flat: std::cell::OnceCell::new(),
             geometry: self.geometry.clone(),
@@ -1353,7 +1362,7 @@ impl Reader {
                 cur.geometry.clone(),
                 cur.objects_flat.clone(),
             );
-            let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
+            let Some((poses, pose_gens)) = self.collect_pose_chunks(head, &h, n, deadline)? else {
                 return Ok(None);
             };
             return Ok(Some(Snapshot {
@@ -1364,6 +1373,7 @@ impl Reader {
                 head_views,
                 objects_flat,
                 poses,
+                pose_gens,
                 chunk_len: (h.chunk_len as usize).max(1),
                 flat: std::cell::OnceCell::new(),
                 geometry,
@@ -1374,7 +1384,7 @@ impl Reader {
         else {
             return Ok(None);
         };
-        let Some(poses) = self.collect_pose_chunks(head, &h, n, deadline)? else {
+        let Some((poses, pose_gens)) = self.collect_pose_chunks(head, &h, n, deadline)? else {
             // A chunk newer than this head: a newer head follows.
             return Ok(None);
         };
@@ -1386,6 +1396,7 @@ impl Reader {
             head_views: Rc::new(head_views),
             objects_flat: Rc::default(),
             poses,
+            pose_gens,
             chunk_len: (h.chunk_len as usize).max(1),
             flat: std::cell::OnceCell::new(),
             geometry,
@@ -1843,7 +1854,7 @@ impl Reader {
         h: &PosesHeader,
         objects: usize,
         deadline: Instant,
-    ) -> Result<Option<Groups<PoseSrc>>, ReaderError> {
+    ) -> Result<Option<(Groups<PoseSrc>, Rc<Vec<u64>>)>, ReaderError> {
         let gens: Vec<u64> = Segment::parse(head.payload())?.section::<u64>(1)?.to_vec();
         let n = h.count as usize;
         let chunk_len = h.chunk_len as usize;
@@ -1854,19 +1865,34 @@ impl Reader {
         // The chunks as the current snapshot holds them (the same memory as before); those at
         // another generation or length, and the new ones, are to be found (every one without
         // a current snapshot of this keeper and chunking).
-        let mut out = self
+        let cur = self
             .current
             .as_ref()
-            .filter(|c| c.epoch == h.epoch && c.chunk_len == chunk_len)
-            .map(|c| c.poses.clone())
-            .unwrap_or_default();
-        let mut todo: Vec<usize> = out
-            .iter()
-            .zip(&gens)
-            .enumerate()
-            .filter(|(k, (p, g))| p.generation != **g || p.count != count_of(*k))
-            .map(|(k, _)| k)
-            .collect();
+            .filter(|c| c.epoch == h.epoch && c.chunk_len == chunk_len);
+        let mut out = cur.map(|c| c.poses.clone()).unwrap_or_default();
+        // With as many objects as the current snapshot (so every chunk's length is as it was)
+        // and its head's generations at hand, the chunks to find are those whose generation
+        // word differs; otherwise the held chunks are walked.
+        let mut todo: Vec<usize> = match cur {
+            Some(c)
+                if c.pose_gens.len() == out.len() && out.len() == gens.len() && c.len() == n =>
+            {
+                c.pose_gens
+                    .iter()
+                    .zip(&gens)
+                    .enumerate()
+                    .filter(|(_, (a, b))| a != b)
+                    .map(|(k, _)| k)
+                    .collect()
+            }
+            _ => out
+                .iter()
+                .zip(&gens)
+                .enumerate()
+                .filter(|(k, (p, g))| p.generation != **g || p.count != count_of(*k))
+                .map(|(k, _)| k)
+                .collect(),
+        };
         todo.extend(out.len().min(gens.len())..gens.len());
         out.truncate(gens.len());
         // After a keeper restart (a new epoch) no chunk is held and none is on its service
@@ -1991,7 +2017,7 @@ impl Reader {
                 return Err(LayoutError::Section(1).into());
             }
         }
-        Ok(Some(out))
+        Ok(Some((out, Rc::new(gens))))
     }
 
     /// Opens the service of pose chunk `k` and subscribes (the caller says hello once for all
