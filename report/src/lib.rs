@@ -18,7 +18,8 @@
 //! * [`journal`] — `robosim bench journal`: what the journal's second copy costs;
 //! * [`cli`] — the reports by name and the one call that runs one (`robosim report NAME`);
 //! * [`run_plot::plot_file`] — `robosim plot RUN.mcap|RUN.csv`: figures of a user's own run;
-//! * [`font`] — the bundled font plots and the display's status line are drawn with.
+//! * [`font`] — the bundled font plots and the display's status line are drawn with;
+//! * [`written`] — a run's spinner and where its files went (`robosim report|bench`).
 
 #![forbid(unsafe_code)]
 
@@ -37,5 +38,6 @@ pub mod plot;
 pub mod progress;
 pub mod run_plot;
 pub mod scale;
+pub mod written;
 
 pub use plot::{Plot, Report, ReportError, Series, Table, percentile, write_report};
