@@ -22,6 +22,7 @@
 
 #![forbid(unsafe_code)]
 
+pub mod cli;
 pub mod compiled;
 mod error;
 pub mod instantiate;
