@@ -57,6 +57,7 @@
 //! without it everything here but [`run`] builds, and [`run`] (so `robosim rules`) fails with
 //! [`RulesError::NotBuilt`], saying what to install ([`BUILT_WITH_CLIPS`], [`NOT_BUILT`]).
 
+pub mod cli;
 pub mod clips;
 pub mod embedded;
 
