@@ -9,6 +9,7 @@
 
 pub mod diag;
 pub mod lib;
+pub mod lib_session;
 pub mod query;
 pub mod sim;
 
