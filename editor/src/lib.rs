@@ -16,6 +16,7 @@ pub mod cli;
 pub mod codegen;
 pub mod commands;
 pub mod lang;
+pub mod lang_cmd;
 pub mod program;
 pub mod robot;
 pub mod session;
