@@ -30,6 +30,7 @@ pub mod image;
 pub mod mesh;
 pub mod overlay;
 pub mod private;
+pub mod render_urdf;
 pub mod renderer;
 pub mod trajectory;
 pub mod vulkan_env;
