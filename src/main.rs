@@ -8,7 +8,7 @@ mod cli;
 mod reports;
 mod sweep_remote;
 
-use cli::{Cli, Command, JournalCmd, LangCmd};
+use cli::{Cli, Command, JournalCmd};
 use robosim_hl_interface::session;
 use std::process::ExitCode;
 
@@ -137,7 +137,16 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             time_limit,
             max_depth,
             max_memory,
-        } => rules(session, &file, &watch, time_limit, max_depth, max_memory),
+        } => {
+            let args = robosim_rules::cli::Args {
+                file: &file,
+                watch: &watch,
+                time_limit,
+                max_depth,
+                max_memory,
+            };
+            robosim_rules::cli::run(&args, session).map_err(CliError::from)
+        }
         Command::Dataflow {
             graph,
             rate,
@@ -166,8 +175,12 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             declaration,
             name,
             set,
-        } => cli_instantiate(&declaration, name.as_deref(), &set, session),
-        Command::Set { instance, params } => cli_set(&instance, &params, session),
+        } => robosim_scene::cli::instantiate(&declaration, name.as_deref(), &set, session)
+            .map(|line| println!("{line}"))
+            .map_err(CliError::from),
+        Command::Set { instance, params } => robosim_scene::cli::set(&instance, &params, session)
+            .map(|line| println!("{line}"))
+            .map_err(CliError::from),
         Command::Demo => robosim_studies::surgical::run(session, &mut std::io::stdout().lock())
             .map_err(|e| CliError(e.0)),
         Command::Study { cmd } => {
@@ -185,7 +198,9 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         Command::SweepWorker => robosim_studies::sweep::cli::worker().map_err(CliError::from),
         Command::Bench { which } => bench::run(which, session),
         Command::Bridge(args) => robosim_bridge::run(session, &args.into()).map_err(CliError::from),
-        Command::Lib { cmd } => lib(cmd.into(), session),
+        Command::Lib { cmd } => {
+            robosim_hl_interface::cli::lib_session::run(cmd.into(), session).map_err(CliError::from)
+        }
         Command::Diag { cmd } => {
             robosim_hl_interface::cli::diag::run(cmd.into()).map_err(CliError::from)
         }
@@ -203,14 +218,18 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             .map_err(CliError::from),
         Command::Report { which } => reports::run(which),
         Command::Plot { run, out } => reports::plot(&run, &out),
-        Command::Render(args) => render(&args.into()),
+        Command::Render(args) => {
+            robosim_display::render_urdf::cmd_render_any(&args.into()).map_err(|e| CliError(e.0))
+        }
         Command::Display(args) => {
             existing(session)?;
             let mut args = robosim_display::app::DisplayArgs::from(args);
             args.session = session.map(str::to_owned);
             robosim_display::app::cmd_display(&args).map_err(|e| CliError(e.0))
         }
-        Command::Lang { cmd } => lang(cmd, session),
+        Command::Lang { cmd } => robosim_editor::lang_cmd::run(cmd.into(), session)
+            .map(|text| print!("{text}"))
+            .map_err(CliError::from),
         Command::Edit { robot, script } => {
             let s = existing(session)?;
             robosim_editor::cli::edit(&s, &robot, script.as_deref()).map_err(CliError::from)
@@ -265,35 +284,6 @@ fn up(
     .map_err(CliError::from)
 }
 
-/// `robosim rules FILE`: a CLIPS rule base on a session, within its time, depth and memory
-/// limits (`time_limit` s, `max_memory` MiB).
-fn rules(
-    session: Option<&str>,
-    file: &std::path::Path,
-    watch: &[String],
-    time_limit: f64,
-    max_depth: u32,
-    max_memory: usize,
-) -> Result<()> {
-    // A build without CLIPS says what to install before anything else.
-    robosim_rules::available().map_err(CliError::from)?;
-    existing(session)?;
-    let time = std::time::Duration::try_from_secs_f64(time_limit)
-        .ok()
-        .filter(|t| !t.is_zero())
-        .ok_or_else(|| {
-            CliError(format!(
-                "--time-limit {time_limit}: not a positive number of seconds"
-            ))
-        })?;
-    let limits = robosim_rules::clips::Limits {
-        time,
-        depth: max_depth,
-        memory: max_memory.saturating_mul(1 << 20),
-    };
-    robosim_rules::run(file, session, watch, &limits).map_err(CliError::from)
-}
-
 /// `robosim sweep-host`: sweep workers (this executable, `sweep-worker`) for remote sweeps.
 fn sweep_host(args: &robosim_bridge::sweep_link::HostArgs) -> Result<()> {
     let exe = std::env::current_exe()?;
@@ -304,43 +294,6 @@ fn sweep_host(args: &robosim_bridge::sweep_link::HostArgs) -> Result<()> {
     };
     robosim_bridge::sweep_link::host(args, &spawn, &mut |line| eprintln!("{line}"))
         .map_err(CliError::from)
-}
-
-/// `robosim lib …`: the standard library, or with `--session` the session's Library Space.
-fn lib(cmd: robosim_hl_interface::cli::lib::LibCmd, session: Option<&str>) -> Result<()> {
-    match session {
-        None => robosim_hl_interface::cli::lib::run(cmd).map_err(CliError::from),
-        Some(_) => session_library(session)
-            .and_then(|lib| {
-                robosim_hl_interface::cli::lib::render_with(cmd, Some(&lib)).map_err(CliError::from)
-            })
-            .map(|text| print!("{text}")),
-    }
-}
-
-/// `robosim lang run|load`: a ROBOSIM program into link files (or a session's robot), link
-/// files into a session.
-fn lang(cmd: LangCmd, session: Option<&str>) -> Result<()> {
-    match cmd {
-        LangCmd::Run { program, out, name } => match (name, out) {
-            (Some(name), out) => {
-                let s = existing(session)?;
-                robosim_editor::cli::lang_run_into(&program, out.as_deref(), &name, &s)
-                    .map(|m| println!("{m}"))
-                    .map_err(CliError::from)
-            }
-            (None, Some(out)) => robosim_editor::cli::lang_run(&program, &out)
-                .map(|s| print!("{s}"))
-                .map_err(CliError::from),
-            (None, None) => Err(CliError("lang run: give --out DIR or --as NAME".into())),
-        },
-        LangCmd::Load { dir, name, robot } => {
-            let s = existing(session)?;
-            robosim_editor::cli::lang_load(&dir, &name, robot.as_deref(), &s)
-                .map(|m| println!("{m}"))
-                .map_err(CliError::from)
-        }
-    }
 }
 
 /// `robosim completions SHELL`. Generated into memory, then written once: clap_complete
@@ -359,68 +312,9 @@ fn completions(shell: clap_complete::Shell) -> Result<()> {
     }
 }
 
-/// `robosim render SCENE|FILE.urdf …`: a URDF file is imported by the file interface into a
-/// local model (robot, visuals and collision solids, as `robosim import urdf` does), the rest
-/// comes from the library.
-fn render(args: &robosim_display::app::RenderArgs) -> Result<()> {
-    let path = std::path::Path::new(&args.scene);
-    let urdf = path
-        .extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("urdf"));
-    let out = if urdf {
-        let store = robosim_file_io::urdf_session::urdf_store(path)?;
-        robosim_display::app::cmd_render_store(args, store)
-    } else {
-        robosim_display::app::cmd_render(args)
-    };
-    out.map_err(|e| CliError(e.0))
-}
-
 fn query_session(session: &str, args: &robosim_hl_interface::cli::QueryArgs) -> Result<()> {
     let s = existing(Some(session))?;
     Ok(session::serve_stdio(&s, args.input.as_deref())?)
-}
-
-/// A running session's Library Space.
-fn session_library(session: Option<&str>) -> Result<robosim_library::Library> {
-    let s = existing(session)?;
-    let mut reader = robosim_instance_space::Reader::attach(&s, "library")?;
-    Ok(robosim_scene::session_library(&mut reader)?)
-}
-
-/// `robosim instantiate DECL [--as NAME] [--set K=V]…`
-fn cli_instantiate(
-    declaration: &str,
-    name: Option<&str>,
-    set: &[String],
-    session: Option<&str>,
-) -> Result<()> {
-    let origin = robosim_scene::Origin {
-        declaration: declaration.to_owned(),
-        params: robosim_scene::parse_params(set)?,
-    };
-    let name = name.unwrap_or(declaration);
-    let a = robosim_scene::instantiate_in_session(&existing(session)?, &origin, name)?;
-    println!(
-        "instantiated {declaration} as {name}: {} objects, version {}",
-        a.created.len(),
-        a.version
-    );
-    Ok(())
-}
-
-/// `robosim set INSTANCE K=V…`
-fn cli_set(instance: &str, pairs: &[String], session: Option<&str>) -> Result<()> {
-    let params = robosim_scene::parse_params(pairs)?;
-    let a = robosim_scene::set_in_session(&existing(session)?, instance, params)?;
-    let aspects: Vec<&str> = robosim_instance_space::aspect::names(a.aspects());
-    println!(
-        "re-instantiated {instance}: {} objects changed ({}), version {}",
-        a.changes.len(),
-        aspects.join(", "),
-        a.version
-    );
-    Ok(())
 }
 
 /// Errors of the command-line layer: a message that says what failed and where.

@@ -3,62 +3,19 @@
 //! published ones are regenerated with `--out docs/reports`).
 
 use crate::Result;
+use crate::cli::report::Which;
 use robosim_report::cli::Name;
-use std::path::{Path, PathBuf};
-
-/// Where reports and benches go without `--out`: a directory named for us in the working
-/// directory, never into a path that happens to exist there (`docs/` of whatever repository the
-/// user stands in).
-pub const DEFAULT_OUT: &str = "robosim-reports";
-
-/// Prints where the files of a report or bench went: the paths it returned, or else the
-/// directory (absolute, so a relative `--out` cannot surprise).
-pub fn wrote(out: &Path, paths: &[PathBuf]) -> Result<()> {
-    if paths.is_empty() {
-        let abs = std::fs::canonicalize(out).unwrap_or_else(|_| out.to_owned());
-        println!("wrote into {}", abs.display());
-    }
-    for p in paths {
-        let abs = std::fs::canonicalize(p).unwrap_or_else(|_| p.clone());
-        println!("wrote {}", abs.display());
-    }
-    Ok(())
-}
-
-#[derive(clap::Args, Debug, Clone)]
-pub struct Common {
-    /// Output directory (created if missing).
-    #[arg(long, default_value = DEFAULT_OUT)]
-    pub out: PathBuf,
-    /// Fewer samples (a smoke run; the published reports use the full run).
-    #[arg(long)]
-    pub quick: bool,
-}
-
-#[derive(clap::Subcommand)]
-pub enum Which {
-    /// IK methods and tolerances: success, time, residual (PUMA 560, 7-DOF arm), with peer solvers.
-    Ik(crate::cli::report::ReportIkArgs),
-    /// Collision modes, broad phase and tessellation: time against false negatives/positives.
-    Collision(crate::cli::report::ReportCollisionArgs),
-    /// Integrators and steps: error at t = 2 s of a falling PUMA 560 against wall time.
-    Dynamics(Common),
-    /// Time per step with each effect declared, and the cost of undeclared effects (none).
-    Effects(Common),
-    /// Parse + instantiate the Space Station against facet count.
-    Library(Common),
-    /// Diagnosis update time per alarm against fault-model size; ECLSS resolution by sensor set.
-    Diag(Common),
-    /// Every report above.
-    All(Common),
-}
+use robosim_report::written::{spun, wrote};
+use std::path::Path;
 
 /// One report with a spinner, then where its files went.
 fn one(name: Name, out: &Path, quick: bool) -> Result<()> {
-    let pb = robosim_report::progress::spinner(&format!("report {}", name.as_str()));
-    let r = robosim_report::cli::run(name, out, quick);
-    pb.finish_and_clear();
-    wrote(out, &r.map_err(crate::CliError)?)
+    let paths = spun(&format!("report {}", name.as_str()), || {
+        robosim_report::cli::run(name, out, quick)
+    })
+    .map_err(crate::CliError)?;
+    print!("{}", wrote(out, &paths));
+    Ok(())
 }
 
 pub fn run(which: Which) -> Result<()> {

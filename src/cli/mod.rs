@@ -1,11 +1,13 @@
 //! The command line: clap lives here and nowhere else in the workspace (issue 35; the binary's
-//! own tools, `bench` and `report`, declare their subcommands beside their code). [`Cli`] is the
+//! own tools, `bench` and `report`, too: [`bench`], [`report`]). [`Cli`] is the
 //! whole command tree; one module per library crate holds that crate's commands as clap types,
 //! converted (`From`) to the plain argument types the crate's functions take; `main.rs`
 //! dispatches what [`parse`] returns.
 
+pub mod bench;
 pub mod bridge;
 pub mod display;
+pub mod editor;
 pub mod file_io;
 pub mod hl_interface;
 pub mod report;
@@ -233,7 +235,7 @@ pub(crate) enum Command {
     /// What accuracy costs in time: regenerate a report (CSV, markdown table, PNG plot).
     Report {
         #[command(subcommand)]
-        which: crate::reports::Which,
+        which: report::Which,
     },
     /// Figures of a run: a recording (`simulator --record RUN.mcap`) or the simulator's signal
     /// log (`run/simulator-ROBOT.csv`) as PNGs in --out — joint positions, velocities, efforts
@@ -279,7 +281,7 @@ pub(crate) enum Command {
     /// Benchmarks: figures as ratios against a baseline measured in the same run.
     Bench {
         #[command(subcommand)]
-        which: crate::bench::Which,
+        which: bench::Which,
     },
     /// The ROBOSIM language (seed Table 1): run a program into link files, load link files as
     /// a robot (docs/editor.md).
