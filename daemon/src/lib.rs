@@ -46,6 +46,25 @@
 //! every pipeline checks against the others at the start of the step, independently of the
 //! order the pipelines step in ([`follow`]).
 //!
+//! **Floating robots** (`robosim import urdf FILE --floating [planar]`, issue 36 item 2): the
+//! robot object is the base link, and the session's q holds the root at the identity. The
+//! robot's pipeline holds its whole state, `[q_root, q_joints]` / `[v_root, joints]`, and the
+//! dynamics stage integrates it with the floating model and gravity, root on its manifold (the
+//! core `Stepper`, as the query protocol's `simulate`; `Pipeline` module docs). Every published
+//! state gives the joints' q, q̇, τ (the root left out) and the links relative to the base
+//! link, **plus the robot object's pose**: its committed pose (relative to its parent) composed
+//! with the simulated root motion, so a display or reader of `state/simulator` sees the body
+//! move; `get` adds the root's coordinates and the base link's world pose (`status`). The
+//! recording's base is the moved one. Nothing is committed to the Instance Space (the object's
+//! committed pose stays where it was written). **Another writer** moving the robot object's
+//! pose *re-bases* the robot: as for a fixed robot whose base moved, its pipeline is rebuilt
+//! there — root at the identity at the written pose, at rest, the committed joints, its clock
+//! from 0; a committed joint change teleports it to the committed q, which puts the root back
+//! at the identity (the base where the object stands), at rest. Refused by name (the daemon
+//! stops with the pipeline's error, `DaemonError::Pipeline`): kinematic motion without the
+//! dynamics effect and the collision effect; a `target` command for it is refused (`simctl`'s
+//! answer) — command joint torques (one per joint) instead.
+//!
 //! Entry points: [`run`] (the process) with its [`Options`], [`ctl`] (`robosim simctl`),
 //! [`Mode`], [`Counters`].
 //!
@@ -118,17 +137,6 @@ pub enum DaemonError {
         robot: String,
         source: robosim_model::OptionsError,
     },
-    /// A robot on a floating base (`robosim import urdf --floating`, an MJCF free joint): the
-    /// simulator's pipeline holds one coordinate per joint (joint commands, limits, encoders,
-    /// the integrator's state), so its root would not integrate and the robot object would not
-    /// move — refused by name rather than simulated wrong. The query protocol's `simulate`
-    /// (and `robosim.Model.simulate`) integrates such a robot, root on the manifold.
-    #[error(
-        "robot {robot} has a {root} base: the simulator does not integrate a floating root (its \
-         stages hold one coordinate per joint); simulate it with the query protocol's `simulate`, \
-         or take it out of the session to run the simulator"
-    )]
-    FloatingRobot { robot: String, root: &'static str },
     /// A robot's pipeline refused the committed q.
     #[error("robot {robot}: {source}")]
     Robot {
@@ -229,10 +237,21 @@ impl std::str::FromStr for Mode {
     }
 }
 
+/// A floating robot's object (module docs, "Floating robots"): its id, and its pose relative
+/// to its parent and joint value as committed when the pipeline was built — the pose its root
+/// motion is composed with in every published step.
+pub(crate) struct FloatingObject {
+    id: u64,
+    pose: nalgebra::Matrix4<f64>,
+    joint: f64,
+}
+
 /// One robot's pipeline and what the daemon knows about it.
 pub(crate) struct Sim {
     pub(crate) name: String,
     links: Vec<u64>,
+    /// The robot object of a floating robot (`None`: a fixed base).
+    floating: Option<FloatingObject>,
     /// Link (joint) names in chain order, from the snapshot the pipeline was built from.
     pub(crate) link_names: Vec<String>,
     /// The CSV signal log, if logging is declared.
@@ -245,6 +264,17 @@ pub(crate) struct Sim {
     committed_q: Vec<f64>,
     base: nalgebra::Matrix4<f64>,
     pub(crate) pipeline: Pipeline,
+}
+
+impl Sim {
+    /// Where the robot's base link stands in the world now: the committed base, moved by a
+    /// floating robot's simulated root motion.
+    pub(crate) fn base_now(&self) -> nalgebra::Matrix4<f64> {
+        match self.pipeline.root_transform() {
+            Some(m) => self.base * m,
+            None => self.base,
+        }
+    }
 }
 
 /// What the daemon did with the changes it saw (printed when it stops; read by benches).
@@ -440,11 +470,18 @@ fn simulated_structure(snap: &Snapshot) -> u64 {
 impl Daemon<'_> {
     /// The pipeline of compiled robot `r` (shares the compiled solids).
     fn pipeline(&self, r: &robosim_scene::CompiledRobot, snap: &Snapshot) -> Result<Sim> {
-        if let Some(root) = &r.robot.root {
-            return Err(DaemonError::FloatingRobot {
-                robot: r.name().to_owned(),
-                root: root.kind.name(),
-            });
+        // A robot with mimic joints (URDF `<mimic>`): the pipeline integrates every joint on
+        // its own, so its followers would leave their leaders — refused by name, never run so.
+        if let Some(view) = snap.robot(r.name())
+            && let Some(j) = view.joints.iter().position(|j| j.mimic.is_some())
+        {
+            return Err(DaemonError::Usage(format!(
+                "robot {}: joint {} ({}) is a mimic joint (it follows another); the simulator \
+                 does not integrate a coupled robot — it would move the follower on its own",
+                r.name(),
+                j,
+                snap.name(view.joints[j].index)
+            )));
         }
         let around = self.scene.obstacles(r, &HashSet::new());
         if let (Some(why), Some(c)) = (around.refused.first(), self.effects.collision.as_ref())
@@ -474,9 +511,18 @@ impl Daemon<'_> {
                 source,
             }
         })?;
+        let floating = r.robot.root.as_ref().map(|_| {
+            let rec = snap.pose(r.index);
+            FloatingObject {
+                id: r.id,
+                pose: robosim_scene::pose::to_matrix(&rec.pose),
+                joint: rec.joint,
+            }
+        });
         Ok(Sim {
             name: r.name().to_owned(),
             links: r.links.clone(),
+            floating,
             link_names: r
                 .links
                 .iter()
@@ -1105,18 +1151,28 @@ fn publish(d: &Daemon, version: u64, state: &mut StatePublisher) -> Result<()> {
     for s in &d.sims {
         let (m, w) = (s.pipeline.model(), s.pipeline.data());
         t = w.state.t;
+        // a floating robot's links relative to its base link, the base link (the robot
+        // object) moved by the root: its committed pose composed with the root's motion
         let poses = link_poses(&m.robot, w.state.q.as_slice());
+        let (q, qd, tau) = s.pipeline.joint_state();
         for (j, id) in s.links.iter().enumerate() {
             joints.push(JointStateRec {
                 id: *id,
-                q: w.state.q[j],
-                qd: w.state.qd[j],
-                effort: w.tau.get(j).copied().unwrap_or(0.0),
+                q: q[j],
+                qd: qd[j],
+                effort: tau.get(j).copied().unwrap_or(0.0),
             });
             bodies.push(PoseRec {
                 id: *id,
                 pose: poses[j],
-                joint: w.state.q[j],
+                joint: q[j],
+            });
+        }
+        if let (Some(f), Some(root)) = (&s.floating, s.pipeline.root_transform()) {
+            bodies.push(PoseRec {
+                id: f.id,
+                pose: robosim_scene::pose::from_matrix(&(f.pose * root)),
+                joint: f.joint,
             });
         }
     }

@@ -111,24 +111,28 @@ impl Recording {
                 )
             })
             .collect();
+        // a floating robot's base where its simulated root put it
+        let bases: Vec<_> = sims.iter().map(Sim::base_now).collect();
         let robots: Vec<RobotSample<'_>> = sims
             .iter()
             .zip(&poses)
-            .map(|(s, links)| {
-                let w = s.pipeline.data();
+            .zip(&bases)
+            .map(|((s, links), base)| {
+                // the joints' part (a floating robot's root is in `base`)
+                let (q, qd, tau) = s.pipeline.joint_state();
                 RobotSample {
                     name: &s.name,
                     joint_names: &s.link_names,
-                    q: w.state.q.as_slice(),
-                    qd: w.state.qd.as_slice(),
+                    q,
+                    qd,
                     // Efforts are known only where dynamics runs; a kinematic run records
                     // none (as a playback), not zeros a plot would draw as torques.
                     effort: if s.pipeline.model().options.dynamics.is_some() {
-                        w.tau.as_slice()
+                        tau
                     } else {
                         &[]
                     },
-                    base: &s.pipeline.model().robot.base,
+                    base,
                     links,
                 }
             })

@@ -38,6 +38,12 @@
 //! orders a pause against commits. The daemon runs no
 //! automation layer, so there are no alarms besides contacts and step errors.
 //!
+//! `root`: `null` for a fixed base; for a floating robot (issue 36) `{"kind": "free_flyer" |
+//! "planar", "q": [7 | 4], "v": [6 | 3], "base": 4×4}` — the root's coordinates relative to
+//! where the robot object stood when its pipeline was built (the layouts of
+//! `robosim_kinematics::root`), and the base link's world pose now (row-major rows); `q`, `qd`
+//! and `tau` above are the joints' only.
+//!
 //! A scene that declares `orbit` (and `sun_tracking`, `power`) adds a `"space"` object (absent
 //! otherwise):
 //! ```json
@@ -102,6 +108,17 @@ fn robot(s: &Sim) -> Value {
         Command::Target(q) => (Some(q.as_slice()), None),
         Command::Torque(t) => (None, Some(t.as_slice())),
     };
+    let (q, qd, tau) = s.pipeline.joint_state();
+    let root = m.robot.root.as_ref().map(|r| {
+        let (nq, nv) = (r.kind.nq(), r.kind.nv());
+        let base = s.base_now();
+        json!({
+            "kind": r.kind.name(),
+            "q": &w.state.q.as_slice()[..nq],
+            "v": &w.state.qd.as_slice()[..nv],
+            "base": base.row_iter().map(|row| row.iter().copied().collect::<Vec<f64>>()).collect::<Vec<_>>(),
+        })
+    });
     json!({
         "name": s.name,
         "t_s": w.state.t,
@@ -109,9 +126,10 @@ fn robot(s: &Sim) -> Value {
         "stages": s.pipeline.stage_names(),
         "joints": s.link_names,
         "joint_types": types,
-        "q": w.state.q.as_slice(),
-        "qd": w.state.qd.as_slice(),
-        "tau": w.tau.as_slice(),
+        "q": q,
+        "qd": qd,
+        "tau": tau,
+        "root": root,
         "target": target,
         "torque": torque,
         "contact": w.contact,

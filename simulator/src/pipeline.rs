@@ -10,6 +10,18 @@
 //! All state is in [`Data`]: [`Pipeline::data`] saves a step (clone it), [`Pipeline::rewind`]
 //! puts a saved one back.
 //!
+//! **Floating bases** (`Robot::root`, issue 36 item 2): the pipeline holds the robot's whole
+//! state — q is `[q_root, q_joints]` (`Robot::nq`: a free-flyer's 7 or a planar root's 4, then
+//! one per joint), q̇, q̈ and τ are `[v_root, joints]` (`Robot::nv`) — and the dynamics stage
+//! integrates it with the floating model and gravity, the root on its manifold (the core's
+//! `Stepper`, as the query protocol's `simulate`; the quaternion stays unit). The joint-level
+//! parts act on the joints only: a torque command has one value per joint (the root is not
+//! actuated), joint stops, the encoder and the log's columns skip the root. What has no
+//! meaning for a free base is refused by name, never simulated wrong: a joint target
+//! (computed torque would have to actuate the root), kinematic motion without dynamics, and
+//! the collision stage ([`refuse_floating`]). [`Pipeline::root_transform`] is where the base
+//! link stands relative to where it started; [`Pipeline::joint_state`] the joints' part.
+//!
 //! Entry points: [`Pipeline::build`], [`Pipeline::step`], [`Pipeline`]'s `Display` (the printable
 //! description), [`Command`].
 
@@ -17,7 +29,7 @@ use crate::model::{Model, SceneGeometry, StepError};
 use crate::stages::{self, logging::LogHandle, logging::Logging};
 use nalgebra::{DVector, Matrix4};
 use robosim_collision::robot::Scene;
-use robosim_kinematics::{Robot, State};
+use robosim_kinematics::{Robot, RootKind, State};
 use robosim_model::{Command, Data, Options, OptionsError};
 use std::fmt;
 
@@ -50,16 +62,19 @@ impl Pipeline {
         };
         robot.validate().map_err(|e| bad("robot", e.to_string()))?;
         robot.check_q(q0).map_err(|e| bad("q0", e.to_string()))?;
-        let n = robot.dof();
+        if let Some(root) = &robot.root {
+            refuse_floating(root.kind, effects)?;
+        }
+        let (n, nv) = (robot.dof(), robot.nv());
         let mut data = Data {
             state: State {
                 q: DVector::from_column_slice(q0),
-                qd: DVector::zeros(n),
-                qdd: DVector::zeros(n),
+                qd: DVector::zeros(nv),
+                qdd: DVector::zeros(nv),
                 t: 0.0,
             },
             command: Command::Idle,
-            tau: DVector::zeros(n),
+            tau: DVector::zeros(nv),
             step: 0,
             frames: None,
             q_measured: None,
@@ -155,10 +170,10 @@ impl Pipeline {
     /// rewound steps are logged again.
     pub fn rewind(&mut self, saved: Data) -> Result<(), StepError> {
         let fits = |a: bool, b: bool| a == b;
-        let n = self.model.robot.dof();
-        let ok = saved.state.q.len() == n
-            && saved.state.qd.len() == n
-            && saved.tau.len() == n
+        let (nq, nv) = (self.model.robot.nq(), self.model.robot.nv());
+        let ok = saved.state.q.len() == nq
+            && saved.state.qd.len() == nv
+            && saved.tau.len() == nv
             && fits(saved.frames.is_some(), self.data.frames.is_some())
             && fits(saved.q_measured.is_some(), self.data.q_measured.is_some())
             && fits(saved.contact.is_some(), self.data.contact.is_some())
@@ -227,6 +242,15 @@ impl Pipeline {
         match &command {
             Command::Idle => {}
             Command::Target(q) => {
+                if let Some(root) = &self.model.robot.root {
+                    return Err(StepError::Command(format!(
+                        "a joint target for a robot on a {} base: the simulator's joint-target \
+                         controller (computed torque) would need to actuate the floating root, \
+                         which no motor does; command joint torques (`torque`, one per joint) \
+                         instead",
+                        root.kind.name()
+                    )));
+                }
                 check(q, "target")?;
                 if let Some((j, v, [lo, hi])) = self.model.robot.outside_limits(q.as_slice()) {
                     return Err(StepError::Command(format!(
@@ -249,12 +273,14 @@ impl Pipeline {
     }
 
     /// Puts the robot at `q`, at rest, without stepping (a writer moved its joints in the
-    /// Instance Space). The command stays. Checked: length and finite values.
+    /// Instance Space). The command stays. Checked: length and finite values. A floating
+    /// robot's `q` holds its root first ([`Robot::nq`] values; the session's committed q has
+    /// the root at the identity, which puts the base back where the robot object stands).
     pub fn teleport(&mut self, q: &[f64]) -> Result<(), StepError> {
-        let n = self.model.robot.dof();
+        let n = self.model.robot.nq();
         if q.len() != n {
             return Err(StepError::Command(format!(
-                "teleport to {} values but the robot has {n} joints",
+                "teleport to {} values but the robot has {n} coordinates",
                 q.len()
             )));
         }
@@ -269,6 +295,27 @@ impl Pipeline {
             q_safe.copy_from(&q);
         }
         Ok(())
+    }
+
+    /// A floating robot's root motion `M(q_root)` now (link frame 0 = `robot.base · M`), `None`
+    /// for a fixed base: where the simulated base link stands relative to where it started.
+    pub fn root_transform(&self) -> Option<Matrix4<f64>> {
+        let root = self.model.robot.root.as_ref()?;
+        let nq = root.kind.nq();
+        Some(root.kind.transform(&self.data.state.q.as_slice()[..nq]))
+    }
+
+    /// The joints' part of the state: (q, q̇, τ) without a floating root's coordinates
+    /// (`n` values each; the whole vectors for a fixed base).
+    pub fn joint_state(&self) -> (&[f64], &[f64], &[f64]) {
+        let r = &self.model.robot;
+        let (nq, nv) = (r.root_nq(), r.root_nv());
+        let d = &self.data;
+        (
+            &d.state.q.as_slice()[nq..],
+            &d.state.qd.as_slice()[nv..],
+            &d.tau.as_slice()[nv..],
+        )
     }
 
     /// The collision stage's obstacles (`None` when collision is not declared), to move an
@@ -372,6 +419,34 @@ impl Pipeline {
     }
 }
 
+/// What a floating robot's pipeline cannot have, refused by name (module docs of
+/// [`crate::pipeline`], "Floating bases"): its motion must come from the dynamics effect
+/// (kinematic motion moves joints towards targets and has no law for a free base), and the
+/// collision stage's sweep and its `on_contact` responses act on one coordinate per joint.
+fn refuse_floating(kind: RootKind, effects: &Options) -> Result<(), OptionsError> {
+    let root = kind.name();
+    if effects.dynamics.is_none() && effects.kinematics {
+        return Err(OptionsError {
+            field: "dynamics".into(),
+            reason: format!(
+                "the robot has a {root} base, which kinematic motion (kinematics without \
+                 dynamics) does not move: declare the dynamics effect to simulate it"
+            ),
+        });
+    }
+    if effects.collision.as_ref().is_some_and(|c| c.enabled) {
+        return Err(OptionsError {
+            field: "collision".into(),
+            reason: format!(
+                "the robot has a {root} base: the simulator's collision stage (its swept check \
+                 and its on_contact response) acts on joint coordinates only and does not \
+                 handle a floating root; leave collision out of the effects to simulate it"
+            ),
+        });
+    }
+    Ok(())
+}
+
 impl fmt::Display for Pipeline {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let name = if self.model.robot.name.is_empty() {
@@ -379,9 +454,13 @@ impl fmt::Display for Pipeline {
         } else {
             &self.model.robot.name
         };
+        let root = match &self.model.robot.root {
+            Some(r) => format!(" on a {} base", r.kind.name()),
+            None => String::new(),
+        };
         writeln!(
             f,
-            "pipeline for {name} ({} joints), step {} s:",
+            "pipeline for {name} ({} joints{root}), step {} s:",
             self.model.robot.dof(),
             self.model.dt
         )?;

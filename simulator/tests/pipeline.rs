@@ -725,3 +725,151 @@ fn compiled_frames_and_collision_stages_equal_the_robot_path_at_every_step() {
         "no stage needs link frames"
     );
 }
+
+/// The PUMA on a floating root of `kind`: its base link is a 5 kg box, the arm hangs from it.
+fn floating_puma(kind: robosim_kinematics::RootKind) -> Robot {
+    let mut r = puma();
+    r.root = Some(robosim_kinematics::RootJoint {
+        kind,
+        mass: 5.0,
+        com: Vector3::new(0.01, -0.02, 0.05),
+        inertia: nalgebra::Matrix3::from_diagonal(&Vector3::new(0.05, 0.06, 0.04)),
+    });
+    r
+}
+
+/// Issue 36 item 2 in the simulator: a floating robot's pipeline holds its whole state (nq, nv)
+/// and its dynamics stage integrates it as `robosim_dynamics::simulate` does (same integrator,
+/// same step: the same numbers), the quaternion kept unit; a torque command is the joints'
+/// (the root is not actuated); the encoder and the log see the joints only. A joint target,
+/// kinematic motion without dynamics and collision are refused by name.
+#[test]
+fn a_floating_robot_integrates_as_simulate_does_and_its_joint_stages_see_the_joints() {
+    use robosim_dynamics::{IntegratorConfig, Model, simulate};
+    use robosim_kinematics::RootKind;
+    for kind in [RootKind::FreeFlyer, RootKind::Planar] {
+        let robot = floating_puma(kind);
+        let (nq, nv, n) = (robot.nq(), robot.nv(), robot.dof());
+        let mut q0 = robot.neutral_q().as_slice().to_vec();
+        q0[kind.nq()..].copy_from_slice(&Q0);
+        let effects = SceneEffects {
+            dynamics: Some(DynamicsEffect {
+                integrator: Integrator::from_name("rk4").expect("rk4"),
+                dt: 1e-3,
+                ..DynamicsEffect::default()
+            }),
+            encoder: Some(EncoderEffect { bits: 16 }),
+            logging: Some(LoggingEffect {
+                signals: vec![Signal::Q, Signal::Tau, Signal::QMeasured],
+                every: 1,
+                ..LoggingEffect::default()
+            }),
+            joint_limits: false,
+            ..SceneEffects::default()
+        };
+        let mut p =
+            Pipeline::build(&robot, &q0, &effects, SceneGeometry::default()).expect("builds");
+        assert!(
+            p.to_string()
+                .contains(&format!("on a {} base", kind.name()))
+        );
+        let t_joints = [2.0, -1.0, 0.5, 0.1, -0.2, 0.05];
+        p.set_command(Command::Torque(DVector::from_column_slice(&t_joints)))
+            .expect("one torque per joint");
+        let wrong = p.set_command(Command::Torque(DVector::zeros(nv)));
+        assert!(
+            wrong.is_err(),
+            "a torque with the root's entries is refused"
+        );
+        let e = p
+            .set_command(target(&Q0))
+            .expect_err("a joint target on a floating base");
+        assert!(
+            e.to_string().contains(&format!("{} base", kind.name())),
+            "{e}"
+        );
+        let steps = 300;
+        for _ in 0..steps {
+            p.step().expect("step");
+        }
+        let mut tau = vec![0.0; nv];
+        tau[kind.nv()..].copy_from_slice(&t_joints);
+        let config = IntegratorConfig::fixed(robosim_dynamics::Integrator::Rk4, 1e-3);
+        let model = Model::new(&robot).expect("valid");
+        let (s, _) = simulate(&model, config, &q0, &vec![0.0; nv], &tau, &[0.3]).expect("runs");
+        let d = p.data();
+        assert_eq!(
+            (d.state.q.len(), d.state.qd.len(), d.tau.len()),
+            (nq, nv, nv)
+        );
+        let dq = d
+            .state
+            .q
+            .iter()
+            .zip(&s[0].q)
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+        let dv = d
+            .state
+            .qd
+            .iter()
+            .zip(&s[0].qd)
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+        eprintln!(
+            "measured: floating {} pipeline vs simulate, 300 rk4 steps: |Δq| {dq:.3e}, |Δv| {dv:.3e}",
+            kind.name()
+        );
+        assert!(dq <= 1e-12 && dv <= 1e-10, "Δq {dq:e}, Δv {dv:e}");
+        // it moved: the root fell (free-flyer: z; planar: the torques turn it) and the joints turned
+        let root_moved = d.state.q.iter().zip(&q0).take(kind.nq());
+        assert!(root_moved.fold(0.0_f64, |m, (a, b)| m.max((a - b).abs())) > 1e-3);
+        assert!((d.state.q[kind.nq()] - Q0[0]).abs() > 1e-3);
+        assert!(kind.unit_error(d.state.q.as_slice(), 1e-12).is_none());
+        // root_transform is the root's motion; joint_state the joints' part
+        let m = p.root_transform().expect("floating");
+        assert_eq!(m, kind.transform(&d.state.q.as_slice()[..kind.nq()]));
+        let (qj, qdj, tauj) = p.joint_state();
+        assert_eq!(qj, &d.state.q.as_slice()[kind.nq()..]);
+        assert_eq!((qj.len(), qdj.len()), (n, n));
+        assert_eq!(tauj, &t_joints);
+        assert!(d.tau.iter().take(kind.nv()).all(|x| *x == 0.0));
+        // the encoder reads the joints, the log has one column per joint and signal
+        let measured = d.q_measured.as_ref().expect("encoder");
+        assert_eq!(measured.len(), n);
+        for (m, q) in measured.iter().zip(qj) {
+            assert!((m - q).abs() <= std::f64::consts::TAU / 65536.0);
+        }
+        let log = p.log();
+        assert_eq!(log.len(), steps);
+        assert_eq!(log[steps - 1].len(), 1 + 3 * n);
+        assert_eq!(&log[steps - 1][1..=n], qj);
+        // teleport: the whole configuration (root first), at rest
+        let mut q1 = q0.clone();
+        q1[kind.nq()] = 0.3;
+        p.teleport(&q1).expect("nq values");
+        assert_eq!(p.data().state.q.as_slice(), &q1[..]);
+        assert!(
+            p.teleport(&Q0).is_err(),
+            "joints alone are not the configuration"
+        );
+
+        // refused by name: kinematic motion without dynamics, collision
+        let kin = SceneEffects {
+            kinematics: true,
+            ..SceneEffects::default()
+        };
+        let e = Pipeline::build(&robot, &q0, &kin, SceneGeometry::default())
+            .err()
+            .expect("kinematic motion of a floating base is refused");
+        assert_eq!(e.field, "dynamics");
+        assert!(e.reason.contains(&format!("{} base", kind.name())), "{e}");
+        let col = SceneEffects {
+            collision: Some(CollisionEffect::default()),
+            ..effects.clone()
+        };
+        let e = Pipeline::build(&robot, &q0, &col, SceneGeometry::default())
+            .err()
+            .expect("collision of a floating base is refused");
+        assert_eq!(e.field, "collision");
+        assert!(e.reason.contains("floating root"), "{e}");
+    }
+}

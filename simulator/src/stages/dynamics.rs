@@ -4,6 +4,12 @@
 //! `ë + kd ė + kp e = 0` per joint when the model is exact). Depends on q, q̇ and the command.
 //! The integrator's state (its step proposal, its counters) and workspace live in
 //! `Data::integrator`.
+//!
+//! A floating robot (`Robot::root`) integrates its whole state, root on the manifold
+//! (`robosim_dynamics::Stepper`, the same as the query protocol's `simulate`): q is
+//! `[q_root, q_joints]`, q̇ and τ are `[v_root, joints]`; a torque command gives the joints'
+//! torques and the root's stay 0 (no motor acts on it); a joint target is refused
+//! (`Pipeline::set_command`).
 
 use crate::model::{DynamicsModel, Model, StepError};
 use nalgebra::{DVector, Vector3};
@@ -122,7 +128,12 @@ pub fn run(m: &Model, dy: &DynamicsModel, d: &mut Data) -> Result<(), StepError>
     };
     match &d.command {
         Command::Idle => d.tau.fill(0.0),
-        Command::Torque(t) => d.tau.copy_from(t),
+        // one torque per joint; a floating root is not actuated (its nv entries stay 0)
+        Command::Torque(t) => {
+            let root_nv = m.robot.root_nv();
+            d.tau.rows_mut(0, root_nv).fill(0.0);
+            d.tau.rows_mut(root_nv, t.len()).copy_from(t);
+        }
         Command::Target(target) => {
             // computed torque: the desired acceleration through inverse dynamics
             for j in 0..integ.qdd_des.len() {

@@ -53,7 +53,9 @@ pub fn run(e: &EncoderModel, d: &mut Data) {
     let Some(m) = d.q_measured.as_mut() else {
         return;
     };
-    for (j, r) in e.resolution.iter().enumerate() {
-        m[j] = (d.state.q[j] / r).round() * r;
+    // a floating robot's q has its root first: the encoders read the joints
+    let joints = &d.state.q.as_slice()[d.state.q.len() - e.resolution.len()..];
+    for (j, (r, q)) in e.resolution.iter().zip(joints).enumerate() {
+        m[j] = (q / r).round() * r;
     }
 }

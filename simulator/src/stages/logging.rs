@@ -192,13 +192,15 @@ impl Logging {
         self.row.clear();
         // t_s: the time at the end of this step (the pipeline's clock after it)
         self.row.push((d.step + 1) as f64 * m.dt);
+        // the columns are the joints': a floating robot's root coordinates are left out
+        let (rq, rv) = (m.robot.root_nq(), m.robot.root_nv());
         for s in &self.signals {
             match s {
                 Signal::T => {}
-                Signal::Q => self.row.extend(d.state.q.iter()),
-                Signal::Qd => self.row.extend(d.state.qd.iter()),
-                Signal::Qdd => self.row.extend(d.state.qdd.iter()),
-                Signal::Tau => self.row.extend(d.tau.iter()),
+                Signal::Q => self.row.extend(d.state.q.iter().skip(rq)),
+                Signal::Qd => self.row.extend(d.state.qd.iter().skip(rv)),
+                Signal::Qdd => self.row.extend(d.state.qdd.iter().skip(rv)),
+                Signal::Tau => self.row.extend(d.tau.iter().skip(rv)),
                 Signal::QMeasured => self.row.extend(d.q_measured.iter().flat_map(|m| m.iter())),
                 Signal::Contact => self
                     .row
