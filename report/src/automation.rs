@@ -11,6 +11,7 @@
 //!   alarms are filtered away) and `diag_advisor` (greedy sensor advice against exhaustive
 //!   search on small models).
 
+use crate::cli::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
@@ -376,8 +377,8 @@ pub fn eclss_resolution(
     budgets: &[usize],
     trials: usize,
     random_draws: usize,
-) -> Result<Vec<AllocationRow>, String> {
-    let m = load_model("eclss").map_err(|e| e.to_string())?;
+) -> Result<Vec<AllocationRow>, RunError> {
+    let m = load_model("eclss")?;
     let g = FaultGraph::new(&m);
     let na = m.alarms.len();
     let opts = SimOptions {
@@ -486,7 +487,7 @@ pub fn advisor_gap(
 
 /// Writes the diagnosis reports (see the module docs) into `out_dir`; `quick` limits the
 /// model sizes to 10,000 failure modes and the trial counts. Returns the files written.
-pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
+pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
     let mut written = Vec::new();
     let sizes: &[usize] = if quick {
         &[100, 300, 1000, 3000, 10_000]
@@ -580,7 +581,7 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
                 .collect(),
         }],
     };
-    written.extend(write_report(out_dir, &report).map_err(|e| e.to_string())?);
+    written.extend(write_report(out_dir, &report)?);
 
     let budgets: &[usize] = &[40, 30, 20, 15, 10, 5];
     let res = eclss_resolution(
@@ -654,7 +655,7 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
             series: vec![curve("greedy"), curve("random")],
         }],
     };
-    written.extend(write_report(out_dir, &report).map_err(|e| e.to_string())?);
+    written.extend(write_report(out_dir, &report)?);
 
     let gap = advisor_gap(if quick { 2 } else { 6 }, 32, if quick { 4 } else { 6 });
     let worst = gap.iter().map(|g| g.3 / g.4.max(1e-12)).fold(1.0, f64::max);
@@ -695,6 +696,6 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> 
         table,
         plots: Vec::new(),
     };
-    written.extend(write_report(out_dir, &report).map_err(|e| e.to_string())?);
+    written.extend(write_report(out_dir, &report)?);
     Ok(written)
 }

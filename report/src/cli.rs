@@ -2,7 +2,7 @@
 //! reports there are, in the order `all` runs them, and the one call that runs one of them.
 //! The binary parses the arguments and prints what was written; nothing here prints.
 //!
-//! Entry points: [`Name`], [`Name::ALL`], [`run`].
+//! Entry points: [`Name`], [`Name::ALL`], [`run`] ([`run_typed`] and its [`RunError`]).
 
 use std::path::{Path, PathBuf};
 
@@ -47,18 +47,103 @@ impl Name {
     }
 }
 
+/// Why a report did not run to its end: the lower error kept whole (`#[source]`), its message
+/// naming what was being built. [`run`] prefixes the report's name.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The report's files could not be written.
+    #[error(transparent)]
+    Write(#[from] crate::plot::ReportError),
+    /// A solid of the measured scene was refused (`what`: which one).
+    #[error("{what}: {source}")]
+    Solid {
+        what: &'static str,
+        #[source]
+        source: robosim_collision::ShapeError,
+    },
+    /// A robot's link solids could not be built (`what`: which robot).
+    #[error("{what}'s link solids: {source}")]
+    LinkSolids {
+        what: &'static str,
+        #[source]
+        source: robosim_collision::robot::CheckError,
+    },
+    /// The dynamics refused a model or a simulation (`what`: which).
+    #[error("{what}: {source}")]
+    Dynamics {
+        what: &'static str,
+        #[source]
+        source: robosim_dynamics::DynamicsError,
+    },
+    /// One integrator run of a measured fall failed (`run`: its label and setting).
+    #[error("{run}: {source}")]
+    DynamicsRun {
+        run: String,
+        #[source]
+        source: robosim_dynamics::DynamicsError,
+    },
+    /// A simulator pipeline could not be built (`what`: the effect set's name).
+    #[error("{what}: {source}")]
+    Pipeline {
+        what: String,
+        #[source]
+        source: robosim_simulator::EffectsError,
+    },
+    /// A simulator pipeline refused a command or a step.
+    #[error(transparent)]
+    Step(#[from] robosim_simulator::StepError),
+    /// The library refused a source (`what`: which).
+    #[error("{what}: {source}")]
+    Library {
+        what: &'static str,
+        #[source]
+        source: robosim_library::LibError,
+    },
+    /// The library could not evaluate a declaration (`what`: which).
+    #[error("{what}: {source}")]
+    Evaluate {
+        what: &'static str,
+        #[source]
+        source: robosim_library::Error,
+    },
+    /// A built-in fault model does not load.
+    #[error(transparent)]
+    FaultModel(#[from] robosim_automation::model::ModelError),
+    /// A condition the report checks did not hold (the message says which).
+    #[error("{0}")]
+    Condition(String),
+}
+
+impl From<String> for RunError {
+    fn from(message: String) -> Self {
+        RunError::Condition(message)
+    }
+}
+
+impl From<&str> for RunError {
+    fn from(message: &str) -> Self {
+        RunError::Condition(message.to_string())
+    }
+}
+
 /// Runs report `name` into `out` (`quick`: fewer samples, a smoke run); the paths written, or
-/// what went wrong prefixed with the report's name.
+/// what went wrong prefixed with the report's name. (The answer is text because the binary's
+/// `CliError` takes text for this call; the message holds the whole chain, each variant's
+/// Display ending in its source's.)
 pub fn run(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
-    let r = match name {
-        Name::Ik => crate::ik::report_ik(out, quick).map_err(|e| e.to_string()),
+    run_typed(name, out, quick).map_err(|e| format!("report {}: {e}", name.as_str()))
+}
+
+/// [`run`] with the typed error.
+pub fn run_typed(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
+    match name {
+        Name::Ik => Ok(crate::ik::report_ik(out, quick)?),
         Name::Collision => crate::collision::report_collision(out, quick),
         Name::Dynamics => crate::dynamics::report_dynamics(out, quick),
         Name::Effects => crate::effects::report_effects(out, quick),
         Name::Library => crate::library::report_library(out, quick),
         Name::Diag => crate::automation::report_diag(out, quick),
-    };
-    r.map_err(|e| format!("report {}: {e}", name.as_str()))
+    }
 }
 
 #[cfg(test)]

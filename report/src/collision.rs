@@ -19,6 +19,7 @@
 //!
 //! Entry point: [`report_collision`].
 
+use crate::cli::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use nalgebra::{Isometry3, Point3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -171,7 +172,7 @@ fn us(s: f64) -> String {
 /// written, or a message saying what failed. The studies run in a fixed order from one seeded
 /// generator (each draws its samples from it in turn): per pair, a robot against the
 /// surgical head, the seed's §2.7 study, facet counts, the broad phase.
-pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
+pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
     let mut rng = ChaCha8Rng::seed_from_u64(1988);
     let scale = if quick { 1 } else { 10 };
     let columns = [
@@ -216,7 +217,7 @@ pub fn report_collision(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Str
         table,
         plots,
     };
-    write_report(out_dir, &report).map_err(|e| e.to_string())
+    Ok(write_report(out_dir, &report)?)
 }
 
 /// 1. Per pair, per mode: random primitive pairs, each mode's verdict and time against exact.
@@ -279,11 +280,17 @@ struct PumaHead {
 }
 
 impl PumaHead {
-    fn new(rng: &mut ChaCha8Rng, scale: usize) -> Result<PumaHead, String> {
+    fn new(rng: &mut ChaCha8Rng, scale: usize) -> Result<PumaHead, RunError> {
         let robot = builtin_robot("puma560").ok_or("the builtin PUMA 560 is missing")?;
-        let links = LinkSolids::from_dh(&robot, 0.04).map_err(|e| e.to_string())?;
+        let links = LinkSolids::from_dh(&robot, 0.04).map_err(|source| RunError::LinkSolids {
+            what: "the PUMA 560",
+            source,
+        })?;
         let mut scene = Scene::new();
-        let head = Solid::cylinder(0.10, 0.25, None).map_err(|e| e.to_string())?;
+        let head = Solid::cylinder(0.10, 0.25, None).map_err(|source| RunError::Solid {
+            what: "the PUMA's head cylinder",
+            source,
+        })?;
         let head_pose = Isometry3::new(
             Vector3::new(0.55, -0.15, 0.45),
             Vector3::new(std::f64::consts::FRAC_PI_2, 0.0, 0.0),
@@ -469,10 +476,13 @@ fn seed_study(
     t_fk: f64,
     table: &mut Table,
     notes: &mut Vec<String>,
-) -> Result<(), String> {
+) -> Result<(), RunError> {
     let mut probe = ph.robot.clone();
     probe.tool = Isometry3::translation(0.0, 0.0, 0.15).to_homogeneous();
-    let probe_links = LinkSolids::from_dh(&probe, 0.02).map_err(|e| e.to_string())?;
+    let probe_links = LinkSolids::from_dh(&probe, 0.02).map_err(|source| RunError::LinkSolids {
+        what: "the probe robot",
+        source,
+    })?;
     let c = ph.head_pose.translation.vector;
     for (standoff, label) in [
         (0.105, "probe tip 5 mm off the head"),
@@ -682,7 +692,7 @@ fn broad_phase_study(
     quick: bool,
     table: &mut Table,
     notes: &mut Vec<String>,
-) -> Result<Vec<Series>, String> {
+) -> Result<Vec<Series>, RunError> {
     let mut bp_series: Vec<Series> = vec![
         Series {
             label: "sweep-and-prune".into(),
@@ -759,7 +769,7 @@ struct BroadTimes {
 
 /// `n` bodies 0.2–1 m in a cube whose side keeps the density constant, 1 % of them moving for
 /// `steps` steps; every step's pairs must agree with brute force.
-fn broad_phase_at(rng: &mut ChaCha8Rng, n: usize, steps: usize) -> Result<BroadTimes, String> {
+fn broad_phase_at(rng: &mut ChaCha8Rng, n: usize, steps: usize) -> Result<BroadTimes, RunError> {
     // Bodies 0.2–1 m in a cube whose side keeps the density constant (≈ 10,000 in 50 m).
     let side = 50.0 * (n as f64 / 10_000.0).cbrt();
     let mut boxes: Vec<Aabb> = (0..n)
@@ -823,7 +833,7 @@ fn broad_phase_at(rng: &mut ChaCha8Rng, n: usize, steps: usize) -> Result<BroadT
         agree &= out == sap_pairs;
     }
     if !agree {
-        return Err(format!("broad phases disagree with brute force at n = {n}"));
+        return Err(format!("broad phases disagree with brute force at n = {n}").into());
     }
     Ok(BroadTimes {
         per_step,

@@ -7,6 +7,7 @@
 //! Timing is wall time on a shared, noisy machine: each figure is the median of several repeats
 //! and is also given as a ratio to the cost of one ABA evaluation measured in the same run.
 
+use crate::cli::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use robosim_dynamics::{
     Data, Integrator, IntegratorConfig, Model, aba, crba, fixture_robot, rnea, simulate,
@@ -52,16 +53,26 @@ fn per_call(batches: usize, per_batch: usize, mut f: impl FnMut()) -> f64 {
 
 /// Runs the study and writes `dynamics.csv`, `dynamics.md`, `dynamics.png` into `out_dir`.
 /// `quick` trims the smallest steps and the repeats (for CI smoke runs; a few seconds).
-pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
+pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
     let robot =
         fixture_robot("puma560").ok_or("the PUMA 560 fixture is missing from this build")?;
-    let model = Model::new(&robot).map_err(|e| e.to_string())?;
+    let model = Model::new(&robot).map_err(|source| RunError::Dynamics {
+        what: "the PUMA 560's model",
+        source,
+    })?;
     let panda = Model::new(&fixture_robot("panda").ok_or("the Panda fixture is missing")?)
-        .map_err(|e| e.to_string())?;
+        .map_err(|source| RunError::Dynamics {
+            what: "the Panda's model",
+            source,
+        })?;
     // The same PUMA with every joint general (placement and axis, as a URDF gives them): the
     // algorithms are one code path; this times the general placements against DH rows.
-    let general =
-        Model::new(&robosim_kinematics::chain::to_general(&robot)).map_err(|e| e.to_string())?;
+    let general = Model::new(&robosim_kinematics::chain::to_general(&robot)).map_err(|source| {
+        RunError::Dynamics {
+            what: "the general-joint PUMA 560's model",
+            source,
+        }
+    })?;
     let reps = if quick { 1 } else { 5 };
     let (mut notes, aba_cost) = algorithm_costs(
         &[
@@ -103,7 +114,7 @@ pub fn report_dynamics(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Stri
         table,
         plots: error_plots(&by_label),
     };
-    write_report(out_dir, &report).map_err(|e| e.to_string())
+    Ok(write_report(out_dir, &report)?)
 }
 
 /// Per-call cost of RNEA, CRBA and ABA for each (name, model): a note per model, a note
@@ -176,7 +187,7 @@ struct Reference {
 }
 
 impl Reference {
-    fn of_fall(model: &Model, quick: bool) -> Result<Self, String> {
+    fn of_fall(model: &Model, quick: bool) -> Result<Self, RunError> {
         let zeros = [0.0; 6];
         let (reference, _) = simulate(
             model,
@@ -186,7 +197,10 @@ impl Reference {
             &zeros,
             &[0.0, FALL_T],
         )
-        .map_err(|e| e.to_string())?;
+        .map_err(|source| RunError::Dynamics {
+            what: "the reference fall",
+            source,
+        })?;
         let q = reference[1].q.clone();
         let (check, _) = simulate(
             model,
@@ -196,7 +210,10 @@ impl Reference {
             &zeros,
             &[FALL_T],
         )
-        .map_err(|e| e.to_string())?;
+        .map_err(|source| RunError::Dynamics {
+            what: "the fall's RK4 check",
+            source,
+        })?;
         Ok(Reference {
             e0: reference[0].energy,
             check: max_diff(&check[0].q, &q),
@@ -265,7 +282,7 @@ fn measure_runs(
     reference: &Reference,
     reps: usize,
     aba_cost: f64,
-) -> Result<(Table, ByLabel), String> {
+) -> Result<(Table, ByLabel), RunError> {
     let zeros = [0.0; 6];
     let columns = [
         "integrator",
@@ -298,7 +315,12 @@ fn measure_runs(
         });
         let (samples, stats) = match result {
             Some(Ok(r)) => r,
-            Some(Err(e)) => return Err(format!("{} {}: {e}", run.label, run.setting)),
+            Some(Err(source)) => {
+                return Err(RunError::DynamicsRun {
+                    run: format!("{} {}", run.label, run.setting),
+                    source,
+                });
+            }
             None => return Err("no repeats".into()),
         };
         let err = max_diff(&samples[0].q, &reference.q);

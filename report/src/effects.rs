@@ -6,6 +6,7 @@
 //! with the built-in PUMA's friction data, the joint friction effect undeclared). Entry point:
 //! [`report_effects`].
 
+use crate::cli::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report_with_x_names};
 use nalgebra::{DVector, Isometry3, Vector3};
 use robosim_collision::robot::Scene;
@@ -21,7 +22,7 @@ use std::time::Instant;
 const Q_A: [f64; 6] = [0.0, 0.4, -0.6, 0.0, 0.5, 0.0];
 const Q_B: [f64; 6] = [1.2, 0.9, -1.4, 0.8, -0.4, 1.0];
 
-fn obstacles() -> Result<Scene, String> {
+fn obstacles() -> Result<Scene, RunError> {
     let mut scene = Scene::new();
     let boxes = [
         ("floor", [3.0, 3.0, 0.1], [0.0, 0.0, -0.25]),
@@ -30,7 +31,10 @@ fn obstacles() -> Result<Scene, String> {
         ("post", [0.1, 0.1, 1.0], [0.0, -1.2, 0.3]),
     ];
     for (name, size, at) in boxes {
-        let solid = Solid::cuboid(Vector3::from(size)).map_err(|e| e.to_string())?;
+        let solid = Solid::cuboid(Vector3::from(size)).map_err(|source| RunError::Solid {
+            what: "an obstacle box",
+            source,
+        })?;
         scene.add(
             name,
             Arc::new(solid),
@@ -188,28 +192,27 @@ fn configurations_without_friction() -> Vec<(&'static str, SceneEffects)> {
 
 /// Steps `pipe` `steps` times, switching targets every 500 steps; returns seconds per step.
 /// (The motion repeats every 1000 steps, so measurements of whole thousands are alike.)
-fn run(pipe: &mut Pipeline, steps: usize) -> Result<f64, String> {
+fn run(pipe: &mut Pipeline, steps: usize) -> Result<f64, RunError> {
     let start = Instant::now();
     for k in 0..steps {
         if k % 500 == 0 {
             let target = if (k / 500) % 2 == 0 { Q_B } else { Q_A };
-            pipe.set_command(Command::Target(DVector::from_column_slice(&target)))
-                .map_err(|e| e.to_string())?;
+            pipe.set_command(Command::Target(DVector::from_column_slice(&target)))?;
         }
-        pipe.step().map_err(|e| e.to_string())?;
+        pipe.step()?;
     }
     Ok(start.elapsed().as_secs_f64() / steps as f64)
 }
 
 /// Runs the study and writes `effects.csv`, `effects.md`, `effects.png` into `out_dir`.
 /// `quick` runs fewer steps and rounds (a few seconds, for CI).
-pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
+pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
     let (report, names) = effects_report(quick)?;
-    write_report_with_x_names(out_dir, &report, &[names]).map_err(|e| e.to_string())
+    Ok(write_report_with_x_names(out_dir, &report, &[names])?)
 }
 
 /// The study's report and its plot's x names (the configurations, the table's first column).
-fn effects_report(quick: bool) -> Result<(Report, Vec<String>), String> {
+fn effects_report(quick: bool) -> Result<(Report, Vec<String>), RunError> {
     let robot = robosim_dynamics::fixture_robot("puma560")
         .ok_or("the PUMA 560 fixture is missing from this build")?;
     // The same robot carrying the built-in PUMA's friction data (its motor inertia left out,
@@ -249,7 +252,10 @@ fn effects_report(quick: bool) -> Result<(Report, Vec<String>), String> {
                 link_solids: None,
             },
         )
-        .map_err(|e| format!("{name}: {e}"))?;
+        .map_err(|source| RunError::Pipeline {
+            what: name.to_string(),
+            source,
+        })?;
         if name.starts_with("all") {
             description = pipe.to_string();
         }

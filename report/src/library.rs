@@ -4,6 +4,7 @@
 //!
 //! Entry point: [`report_library`] (wired as `robosim report library`).
 
+use crate::cli::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use robosim_library::{EvalOptions, Evaluated, Library, Params};
 use std::path::{Path, PathBuf};
@@ -35,7 +36,7 @@ fn size(e: &Evaluated) -> (usize, usize) {
 /// Runs the benchmark and writes `library.csv`, `library.md`, `library.png` into `out_dir`.
 /// `quick`: fewer facet counts and repetitions (a smoke run). Times are wall-clock on a shared
 /// machine; the report gives ratios against the smallest facet count measured in the same run.
-pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
+pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
     let facets: &[usize] = if quick {
         &[8, 16, 32, 64]
     } else {
@@ -48,7 +49,10 @@ pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
     let mut lib = None;
     for _ in 0..reps {
         let t = Instant::now();
-        let l = Library::from_source("space station", src).map_err(|e| e.to_string())?;
+        let l = Library::from_source("space station", src).map_err(|source| RunError::Library {
+            what: "the space station source",
+            source,
+        })?;
         parse_ms.push(t.elapsed().as_secs_f64() * 1e3);
         lib = Some(l);
     }
@@ -69,7 +73,10 @@ pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
             let t = Instant::now();
             let e = lib
                 .evaluate_with("space_station", &Params::new(), &opts)
-                .map_err(|e| e.to_string())?;
+                .map_err(|source| RunError::Evaluate {
+                    what: "space_station",
+                    source,
+                })?;
             ms.push(t.elapsed().as_secs_f64() * 1e3);
             dims = size(&e);
         }
@@ -155,5 +162,5 @@ pub fn report_library(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, Strin
             },
         ],
     };
-    write_report(out_dir, &report).map_err(|e| e.to_string())
+    Ok(write_report(out_dir, &report)?)
 }
