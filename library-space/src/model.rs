@@ -100,6 +100,39 @@ pub struct RobotModel {
     pub frames: Vec<Vec<PlacedSolid>>,
     /// The analytic inverse-kinematics family the robot declares (`puma`, `stanford`, …), if any.
     pub ik: Option<String>,
+    /// The file's `<mimic>` relations over `robot`'s joints (a `from_urdf` or `from_mjcf`
+    /// robot's; empty: no joint follows another): the robot stays the full model, every joint a
+    /// coordinate, and [`RobotModel::coupling`] binds the followers to their leaders.
+    ///
+    /// Added after the other fields with a serde default: a robot serialised (JSON) before it
+    /// existed reads back with no relations. (Nothing in the repository keeps a `RobotModel` in
+    /// bincode, whose positional encoding a new field always changes.)
+    #[serde(default)]
+    pub mimics: Vec<MimicJoint>,
+}
+
+/// One mimic relation of a robot by joint index (0-based, a floating root's coordinates not
+/// counted): `q[follower] = multiplier · q[leader] + offset`; `leader: None` — the leader is
+/// not a joint of the robot (a fixed joint, or off the imported chain), so the follower is
+/// fixed at `offset`. The serialisable form of `robosim_kinematics::mimic::Mimic`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct MimicJoint {
+    pub follower: usize,
+    pub leader: Option<usize>,
+    pub multiplier: f64,
+    pub offset: f64,
+}
+
+impl MimicJoint {
+    /// The kinematics core's relation.
+    pub fn relation(&self) -> robosim_kinematics::mimic::Mimic {
+        robosim_kinematics::mimic::Mimic {
+            follower: self.follower,
+            leader: self.leader,
+            multiplier: self.multiplier,
+            offset: self.offset,
+        }
+    }
 }
 
 /// A solid at its place in the world (or in a robot's base frame): a path name, the solid, and
@@ -138,13 +171,34 @@ impl RobotModel {
 }
 
 impl RobotModel {
+    /// The coupling of [`RobotModel::mimics`] over the robot's coordinates (a floating root's
+    /// first, passed through); `Ok(None)` when no joint mimics another. Refused (a follower or
+    /// leader past the robot's joints, two leaders, a cycle, a non-finite factor) only for
+    /// relations the evaluator did not write — it checks them when it reads the file.
+    pub fn coupling(
+        &self,
+    ) -> Result<Option<robosim_kinematics::mimic::Coupling>, robosim_kinematics::mimic::MimicError>
+    {
+        if self.mimics.is_empty() {
+            return Ok(None);
+        }
+        let relations: Vec<_> = self.mimics.iter().map(MimicJoint::relation).collect();
+        let c = robosim_kinematics::mimic::Coupling::new(self.robot.dof(), &relations)?;
+        Ok(Some(
+            c.with_root(self.robot.root_nq(), self.robot.root_nv()),
+        ))
+    }
+
     /// The robot as the one robot model ([`robosim_model::Model`]), its solids converted once
     /// into geometry objects: each placed solid on its frame at its `transform`, role
     /// collision (the library draws what it collides), colour with alpha 1; a box, cylinder,
     /// cone or sphere as that primitive with the library's facet count, any other primitive
     /// (truncated cone, extrusion, revolution) as its polygons; a `from_urdf` mesh (a hull the
     /// evaluator labels by its bounding box) as its hull. Joint names are the link names (a
-    /// library robot names its links). Collision solids: [`robosim_model::Model::collision_solids`].
+    /// library robot names its links). The coupling is [`RobotModel::coupling`]'s (`None` also
+    /// for relations it refuses, which only a hand-edited serialised model can hold: the
+    /// evaluator checks every relation it writes). Collision solids:
+    /// [`robosim_model::Model::collision_solids`].
     pub fn model(&self) -> robosim_model::Model {
         let mut objects = Vec::new();
         for (frame, solids) in self.frames.iter().enumerate() {
@@ -163,7 +217,7 @@ impl RobotModel {
             robot: self.robot.clone(),
             joint_names: self.link_names.clone(),
             link_names: self.link_names.clone(),
-            coupling: None,
+            coupling: self.coupling().ok().flatten(),
             geometry: robosim_model::GeometryModel { objects },
             ik: self.ik.clone(),
         }

@@ -13,6 +13,7 @@ mod from_urdf;
 mod fuzz_corpus;
 mod hostile_urdf;
 mod limits;
+mod mimic_coupling;
 mod props;
 mod robot_model;
 mod stdlib;

@@ -505,6 +505,7 @@ impl Evaluator<'_> {
             link_names,
             frames,
             ik,
+            mimics: Vec::new(),
         })
     }
 
@@ -770,6 +771,7 @@ pub(crate) fn single_link_robot(l: &LinkVal) -> RobotModel {
         link_names: names,
         frames,
         ik: None,
+        mimics: Vec::new(),
     }
 }
 

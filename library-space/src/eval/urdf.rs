@@ -151,11 +151,21 @@ impl Evaluator<'_> {
         } else {
             None
         };
+        // the file's <mimic> relations (checked by the importer: its coupling is built from them)
+        let mimics = (u.mimics.iter())
+            .map(|m| MimicJoint {
+                follower: m.index,
+                leader: m.mimicked_index,
+                multiplier: m.multiplier,
+                offset: m.offset,
+            })
+            .collect();
         Ok(RobotModel {
             robot,
             link_names,
             frames,
             ik,
+            mimics,
         })
     }
 
