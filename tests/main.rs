@@ -15,6 +15,7 @@ mod editor;
 mod file_io;
 mod first_hour;
 mod floating_session;
+mod mimic_session;
 mod follow;
 mod hostile_inputs;
 mod library_space;

@@ -27,8 +27,9 @@
 //! model without general joints is still written as version 1, so an older build reads it; a
 //! model with them is written as version 2, which an older build refuses as a newer format.
 //! Version 3 adds floating robots (`Kinematics::FloatingRobot`, again an appended variant, so
-//! versions 1 and 2 decode unchanged); a model without one is written as before. Any other
-//! change makes version 4, and the older readers then keep a frozen copy of today's types. The file `testdata/file-io/station-v1.rsm`, written by version 1, is loaded by a test
+//! versions 1 and 2 decode unchanged); a model without one is written as before. Version 4 adds
+//! mimic joints (`Kinematics::Mimic`, appended after `FloatingRobot`: versions 1–3 decode
+//! unchanged; a model without one is written as before). Any other change makes version 5, and the older readers then keep a frozen copy of today's types. The file `testdata/file-io/station-v1.rsm`, written by version 1, is loaded by a test
 //! forever.
 
 use crate::error::FileError;
@@ -40,12 +41,18 @@ use std::path::Path;
 /// The magic that starts a binary model file.
 pub const MAGIC: [u8; 8] = *b"\x89RSMODEL";
 /// The format version this build writes (and the newest it reads).
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 
-/// The oldest version that can hold `model`: 3 when it has a floating robot, 2 when it has a
-/// general joint, else 1.
+/// The oldest version that can hold `model`: 4 when it has a mimic joint, 3 when it has a
+/// floating robot, 2 when it has a general joint, else 1.
 fn version_for(model: &SavedModel) -> u32 {
     if model
+        .objects
+        .iter()
+        .any(|o| matches!(o.kinematics, Some(Kinematics::Mimic { .. })))
+    {
+        4
+    } else if model
         .objects
         .iter()
         .any(|o| matches!(o.kinematics, Some(Kinematics::FloatingRobot { .. })))
@@ -151,7 +158,12 @@ fn checksum(head: &[u8], body: &[u8]) -> u32 {
 /// limit of ±∞ is refused (the binary form holds it).
 pub fn encode_json(model: &SavedModel, path: &Path) -> Result<Vec<u8>, FileError> {
     for o in &model.objects {
-        if let Some(Kinematics::Joint { qlim, .. } | Kinematics::Axis { qlim, .. }) = o.kinematics {
+        if let Some(
+            Kinematics::Joint { qlim, .. }
+            | Kinematics::Axis { qlim, .. }
+            | Kinematics::Mimic { qlim, .. },
+        ) = o.kinematics
+        {
             for (k, v) in qlim.iter().enumerate() {
                 if !v.is_finite() {
                     return Err(FileError::NotJsonable {

@@ -219,9 +219,15 @@ pub fn session_robot_models(
 ) -> Vec<ExportRobot> {
     let lib = robosim_scene::instantiate::build_library_from(&[], library).ok();
     let compiled = robosim_scene::CompiledScene::of(snap);
+    // a robot with mimic joints (`robosim import urdf` of a file with `<mimic>`): the coupling
+    // its records hold, so the export writes the `<mimic>` again
+    let held = |robot: &robosim_kinematics::Robot| {
+        let view = snap.robot(&robot.name)?;
+        robosim_scene::robot_coupling(&view, robot).ok().flatten()
+    };
     let bare = |robot| ExportRobot {
+        coupling: held(&robot),
         robot,
-        coupling: None,
         geometry: None,
     };
     compiled
@@ -252,7 +258,9 @@ pub fn session_robot_models(
             };
             // (a session's floating robot: the file's coupling with the root's coordinates)
             ExportRobot {
-                coupling: coupling.map(|c| c.with_root(robot.root_nq(), robot.root_nv())),
+                coupling: coupling
+                    .map(|c| c.with_root(robot.root_nq(), robot.root_nv()))
+                    .or_else(|| held(&robot)),
                 robot,
                 geometry: Some(geometry),
             }

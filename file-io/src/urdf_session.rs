@@ -11,7 +11,9 @@
 //!   a general joint record (`Kinematics::Axis`: the joint's placement in the link frame it
 //!   hangs from, its axis, limits, and that parent link frame — a tree is kept as a tree), its
 //!   mass properties, and its pose at q = 0 relative to the robot (as for every robot: poses of
-//!   links are relative to the robot object);
+//!   links are relative to the robot object); a `<mimic>` follower's record is a mimic joint
+//!   (`Kinematics::Mimic`: the same fields and its leader, multiplier and offset), its value
+//!   the relation's at rest, so the session robot's coordinates are the reduced ones;
 //! * per URDF `<visual>`, a **visual** object (`Kind::Visual`: drawn, never collided) under the
 //!   body the URDF link is rigid with (the robot for the root link and what is fixed to it, else
 //!   the link of its movable joint), placed by the link's place in that body and the visual's
@@ -104,7 +106,13 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
             )),
         );
     }
-    let q0: Vec<f64> = robot.neutral_q().iter().copied().collect();
+    // the joints at rest: a follower (URDF `<mimic>`) at its relation's value there
+    let mut q0: Vec<f64> = robot.neutral_q().iter().copied().collect();
+    if let Some(c) = &u.coupling
+        && let Ok(q) = c.restrict(&q0).and_then(|qr| c.expand_q(&qr))
+    {
+        q0 = q;
+    }
     let poses = robosim_scene::link_poses(robot, &q0);
     let mut bodies = vec![r];
     for (j, joint) in robot.joints.iter().enumerate() {
@@ -126,21 +134,40 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
             .get(j)
             .map_or_else(|| format!("link{}", j + 1), |uj| uj.link.clone());
         let l = tx.create(Kind::Link, &name, Some(r));
-        tx.set_kinematics(
-            l,
-            Some(Kinematics::Axis {
-                index: j as u32,
-                parent: robot.parents.get(j).copied().unwrap_or(j) as u32,
-                joint: match joint.joint_type {
-                    JointType::Revolute => JointKind::Revolute,
-                    JointType::Prismatic => JointKind::Prismatic,
-                },
-                placement: from_matrix(&origin.placement),
-                axis: [origin.axis.x, origin.axis.y, origin.axis.z],
+        let (index, parent) = (j as u32, robot.parents.get(j).copied().unwrap_or(j) as u32);
+        let kind = match joint.joint_type {
+            JointType::Revolute => JointKind::Revolute,
+            JointType::Prismatic => JointKind::Prismatic,
+        };
+        let (placement, axis) = (
+            from_matrix(&origin.placement),
+            [origin.axis.x, origin.axis.y, origin.axis.z],
+        );
+        // A follower (URDF `<mimic>`) is a mimic joint: the session robot's coordinates are
+        // the reduced ones (a URDF joint has no offset of its own: `joint.offset` is 0).
+        let kinematics = match u.mimics.iter().find(|m| m.index == j) {
+            Some(m) if joint.offset == 0.0 => Kinematics::Mimic {
+                index,
+                parent,
+                joint: kind,
+                placement,
+                axis,
+                qlim: joint.qlim,
+                leader: m.mimicked_index.map(|l| l as u32),
+                multiplier: m.multiplier,
+                offset: m.offset,
+            },
+            _ => Kinematics::Axis {
+                index,
+                parent,
+                joint: kind,
+                placement,
+                axis,
                 offset: joint.offset,
                 qlim: joint.qlim,
-            }),
-        );
+            },
+        };
+        tx.set_kinematics(l, Some(kinematics));
         tx.set_dynamics(
             l,
             Some(robosim_scene::instantiate::mass_props(
@@ -150,7 +177,7 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
             )),
         );
         tx.set_pose(l, poses[j]);
-        tx.set_joint(l, 0.0);
+        tx.set_joint(l, q0.get(robot.root_nq() + j).copied().unwrap_or(0.0));
         bodies.push(l);
     }
     let (mut visuals, mut solids, mut triangles, mut decomposed) = (0, 0, 0, 0);

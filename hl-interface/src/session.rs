@@ -36,6 +36,7 @@ use robosim_collision::Mode;
 use robosim_collision::robot::{Body, CheckResult, CollisionSettings};
 use robosim_instance_space::{Client, Id, Reader, Session, Snapshot, Transaction, aspect};
 use robosim_kinematics::Robot;
+use robosim_kinematics::mimic::Coupling;
 use robosim_scene::{CompiledRobot, CompiledScene, Obstacles, SceneError, joint_tx, pose};
 use serde_json::{Value, json};
 use std::collections::HashSet;
@@ -268,6 +269,49 @@ fn root_held(robot: &Robot, q: &[f64]) -> std::result::Result<(), ProtocolError>
     ))
 }
 
+/// The coupling of a session robot's mimic joints (`Kinematics::Mimic` records: a URDF's
+/// `<mimic>` followers, `robosim import urdf`), over its compiled robot; `None` when no joint
+/// follows another. Its q in every session op is then the **reduced** one (the independent
+/// joints, in q order, a floating root's first): what `{"urdf": P, "mimic": true}` takes.
+fn coupling_of(
+    snap: &Snapshot,
+    robot: &Robot,
+) -> std::result::Result<Option<Coupling>, ProtocolError> {
+    match snap.robot(&robot.name) {
+        Some(view) => robosim_scene::robot_coupling(&view, robot).map_err(scene_err),
+        None => Ok(None),
+    }
+}
+
+/// A session write's `q` for a robot with mimic joints: its reduced coordinates, expanded to
+/// the full q the Instance Space holds (each follower at its relation's value). A full-length
+/// q is refused by name: the followers are not coordinates.
+fn expand_written(
+    robot: &Robot,
+    c: &Coupling,
+    q: &[f64],
+) -> std::result::Result<Vec<f64>, ProtocolError> {
+    if q.len() != c.reduced_nq() {
+        let followers: Vec<usize> = (0..c.full_dof()).filter(|&i| c.is_follower(i)).collect();
+        return Err(err(
+            ErrorKind::BadRequest,
+            format!(
+                "robot {}: q has {} values but the robot has {} coordinates — its mimic joints                  (joint indices {followers:?}) follow their leaders and are not written; give                  the independent joints' values, in q order",
+                robot.name,
+                q.len(),
+                c.reduced_nq()
+            ),
+        ));
+    }
+    c.expand_q(q)
+        .map_err(|e| err(ErrorKind::BadRequest, format!("robot {}: {e}", robot.name)))
+}
+
+/// The reduced q of a full one (the followers left out).
+fn reduced_of(c: &Coupling, q: &[f64]) -> Vec<f64> {
+    c.restrict(q).unwrap_or_else(|_| q.to_vec())
+}
+
 fn body(b: &Body, p: &CompiledRobot, snap: &Snapshot, scene_names: &[String]) -> Value {
     match b {
         Body::Link(0) => json!({"robot": p.robot.name, "link": 0, "name": "base"}),
@@ -337,8 +381,20 @@ impl Ops {
         let committed = client.transact_fresh(|_| {
             let snap = fresh_snapshot(reader, scene)?;
             let p = scene.robot(robot).map_err(scene_err)?;
-            let mut q = p.q.clone();
-            change(&mut q)?;
+            let coupling = coupling_of(&snap, &p.robot)?;
+            let q = match &coupling {
+                // the change is made to the reduced coordinates, the followers then follow
+                Some(c) => {
+                    let mut qr = reduced_of(c, &p.q);
+                    change(&mut qr)?;
+                    expand_written(&p.robot, c, &qr)?
+                }
+                None => {
+                    let mut q = p.q.clone();
+                    change(&mut q)?;
+                    q
+                }
+            };
             p.robot
                 .check_q(&q)
                 .map_err(|e| err(ErrorKind::BadRequest, format!("robot {robot}: {e}")))?;
@@ -408,8 +464,16 @@ impl Ops {
         robot: &str,
         q: &[f64],
     ) -> std::result::Result<u64, ProtocolError> {
-        self.snap()?;
+        let snap = self.snap()?;
         let p = self.scene.robot(robot).map_err(scene_err)?.clone();
+        let full;
+        let q = match coupling_of(&snap, &p.robot)? {
+            Some(c) => {
+                full = expand_written(&p.robot, &c, q)?;
+                &full[..]
+            }
+            None => q,
+        };
         p.robot
             .check_q(q)
             .map_err(|e| err(ErrorKind::BadRequest, format!("robot {robot}: {e}")))?;
@@ -503,6 +567,21 @@ impl Ops {
             return Some(Err(e));
         }
         let robot = self.scene.robot(name).ok()?.robot.clone();
+        // a robot with mimic joints: fk, jacobian, id, fd, mass_matrix and gravity over its
+        // reduced coordinates (as `{"urdf": P, "mimic": true}`); the other pure ops refused
+        let snap = match self.reader.snapshot() {
+            Some(s) => s,
+            None => return Some(Err(err(ErrorKind::Session, "no snapshot"))),
+        };
+        match coupling_of(&snap, &robot) {
+            Err(e) => return Some(Err(e)),
+            Ok(Some(c)) => {
+                return crate::guarded(op, || {
+                    Some(crate::protocol::mimic::answer_given(op, req, &robot, &c))
+                });
+            }
+            Ok(None) => {}
+        }
         let robots = move |n: &str| {
             if n == robot.name {
                 Some(robot.clone())
@@ -634,12 +713,86 @@ impl Ops {
         Ok(out)
     }
 
+    /// The session ops on a robot with mimic joints: q in and out is the reduced one
+    /// ([`coupling_of`]). `get_robot` (q reduced, plus `coordinates`: each one's joint index,
+    /// and `q_full`), `movej`/`moveji` (reduced target; every step written with the followers
+    /// at their relation's value), `jacob` (J G over the reduced coordinates), `check`;
+    /// `kinv`, `encoder` and `tip` are refused by name (not yet over the coupling).
+    fn coupled_robot_op(
+        &mut self,
+        op: &str,
+        req: &Value,
+        snap: &Snapshot,
+        p: &CompiledRobot,
+        c: &Coupling,
+    ) -> OpResult {
+        let qr = reduced_of(c, &p.q);
+        if !matches!(req.get("tip"), None | Some(Value::Null)) || matches!(op, "kinv" | "encoder") {
+            return Err(err(
+                ErrorKind::BadRequest,
+                format!(
+                    "robot {} has mimic joints: {op}{} is not taken on it yet (get_robot, movej,                      moveji, jacob, check take its reduced coordinates)",
+                    p.robot.name,
+                    if matches!(req.get("tip"), None | Some(Value::Null)) {
+                        ""
+                    } else {
+                        " with `tip`"
+                    }
+                ),
+            ));
+        }
+        match op {
+            "get_robot" => {
+                let inline = crate::robot_json::robot_to_json(&p.robot);
+                let links: Vec<Value> = p.links.iter().map(|id| json!({"id": id, "name": snap.index_of(*id).map_or("", |k| snap.name(k))})).collect();
+                Ok(
+                    json!({"robot": inline, "q": qr, "coordinates": c.free(), "q_full": p.q,
+                    "links": links, "allowed_pairs": p.solids.allowed}),
+                )
+            }
+            "jacob" => crate::protocol::mimic::answer_given(
+                "jacobian",
+                &json!({"op": "jacobian", "q": qr, "frame": req.get("frame").cloned().unwrap_or(json!("base"))}),
+                &p.robot,
+                c,
+            ),
+            "movej" | "moveji" => {
+                let target = expand_written(&p.robot, c, &vec_field(req, "q")?)?;
+                let mut r = req.clone();
+                r["q"] = json!(target);
+                let mut out = self.robot_op_full(op, &r, snap, p, Some(c))?;
+                if let Some(q) = out.get("q").and_then(Value::as_array) {
+                    let q: Vec<f64> = q.iter().filter_map(Value::as_f64).collect();
+                    out["q"] = json!(reduced_of(c, &q));
+                }
+                Ok(out)
+            }
+            _ => self.robot_op_full(op, req, snap, p, Some(c)),
+        }
+    }
+
     fn robot_op(&mut self, op: &str, req: &Value, snap: &Snapshot) -> OpResult {
         let p = self
             .scene
             .robot(str_field(req, "robot")?)
             .map_err(scene_err)?
             .clone();
+        if let Some(c) = coupling_of(snap, &p.robot)? {
+            return self.coupled_robot_op(op, req, snap, &p, &c);
+        }
+        self.robot_op_full(op, req, snap, &p, None)
+    }
+
+    /// A session op on `p` over its full q (`coupling`: a robot with mimic joints, whose
+    /// `movej`/`moveji` steps are then written with the followers at their relation's value).
+    fn robot_op_full(
+        &mut self,
+        op: &str,
+        req: &Value,
+        snap: &Snapshot,
+        p: &CompiledRobot,
+        coupling: Option<&Coupling>,
+    ) -> OpResult {
         // `tip`: a link of the robot; kinv and jacob then act on the chain from the base to it
         // (a branching robot — a Panda's fingers — has one per leaf), the other joints held.
         let chain = match req.get("tip") {
@@ -745,8 +898,17 @@ impl Ops {
                         })? as usize
                 };
                 // Joint limits at every step (MOVEJI's check), before anything moves.
-                let path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
+                let mut path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
                     .map_err(|e| ProtocolError::caused(ErrorKind::JointLimit, e))?;
+                // an interpolation of two coupled q's is coupled up to rounding: each step's
+                // followers are put back at exactly their relation's value
+                if let Some(c) = coupling {
+                    for step in &mut path {
+                        if let Ok(q) = c.restrict(step).and_then(|qr| c.expand_q(&qr)) {
+                            *step = q;
+                        }
+                    }
+                }
                 let Obstacles { scene, names, .. } = self.obstacles(&p, snap)?;
                 let outcome = robosim_collision::robot::move_checked(
                     &p.robot,

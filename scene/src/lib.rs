@@ -39,4 +39,4 @@ pub use instantiate::{
     set_in_session,
 };
 pub use load::{box_geometry, load_from};
-pub use robot::{joint_tx, link_poses, robot_model};
+pub use robot::{joint_tx, link_poses, robot_coupling, robot_model};

@@ -7,6 +7,7 @@ use nalgebra::{Matrix3, Matrix4, Vector3};
 use robosim_instance_space::{
     DhConvention, FloatingBase, Id, JointKind, RobotView, Snapshot, Transaction,
 };
+use robosim_kinematics::mimic::{Coupling, Mimic};
 use robosim_kinematics::{Convention, Joint, JointType, Origin, Robot, RootJoint, RootKind};
 
 /// The kinematic and dynamic model of robot `view`, placed where it stands: base = the robot
@@ -128,6 +129,33 @@ pub fn robot_model(snap: &Snapshot, view: &RobotView<'_>) -> Result<Robot, Scene
         reason: e.to_string(),
     })?;
     Ok(robot)
+}
+
+/// The coupling of robot `view`'s mimic joints (`Kinematics::Mimic` records: a URDF's
+/// `<mimic>` followers, `robosim import urdf`) over `robot` (its [`robot_model`]), a floating
+/// root's coordinates first; `None` when no joint follows another. A session robot's
+/// coordinates are then the reduced ones. Refused (`BadRobot`): relations that make a cycle,
+/// or a joint following two.
+pub fn robot_coupling(view: &RobotView<'_>, robot: &Robot) -> Result<Option<Coupling>, SceneError> {
+    let relations: Vec<Mimic> = (view.joints.iter().enumerate())
+        .filter_map(|(k, j)| {
+            let m = j.mimic?;
+            Some(Mimic {
+                follower: k,
+                leader: m.leader.map(|l| l as usize),
+                multiplier: m.multiplier,
+                offset: m.offset,
+            })
+        })
+        .collect();
+    if relations.is_empty() {
+        return Ok(None);
+    }
+    let c = Coupling::new(robot.dof(), &relations).map_err(|e| SceneError::BadRobot {
+        robot: view.name.to_owned(),
+        reason: format!("its mimic joints: {e}"),
+    })?;
+    Ok(Some(c.with_root(robot.root_nq(), robot.root_nv())))
 }
 
 /// The link poses relative to the robot object at `q` (3×4 row-major, one per joint): what

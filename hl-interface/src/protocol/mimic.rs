@@ -178,6 +178,30 @@ fn reduced(req: &Value, key: &str, n: usize, what: &str) -> Result<Vec<f64>, Pro
 }
 
 fn answer(op: &str, req: &Value, obj: &Map<String, Value>) -> Result<Value, ProtocolError> {
+    let (robot, coupling) = robot_and_coupling(obj).map_err(invalid_robot)?;
+    answer_given(op, req, &robot, &coupling)
+}
+
+/// Answers `op` (one of [`OPS`]) over the reduced coordinates of `robot` under `coupling`: the
+/// request's `q`, `qd`, `qdd`, `tau` are reduced; its `robot` field is not read. What a file
+/// robot with `"mimic": true` answers, and a session robot with mimic joints
+/// (`Kinematics::Mimic` records) by name.
+pub fn answer_given(
+    op: &str,
+    req: &Value,
+    robot: &Robot,
+    coupling: &Coupling,
+) -> Result<Value, ProtocolError> {
+    if !OPS.contains(&op) {
+        return Err(ProtocolError::new(
+            ErrorKind::BadRequest,
+            format!(
+                "robot {} has mimic joints: {op} is not taken on it (its reduced coordinates are taken by {})",
+                robot.name,
+                OPS.join(", ")
+            ),
+        ));
+    }
     if req
         .get("passive")
         .is_some_and(|p| !p.is_null() && p != &Value::Bool(false))
@@ -187,7 +211,6 @@ fn answer(op: &str, req: &Value, obj: &Map<String, Value>) -> Result<Value, Prot
             "`passive` is not taken with `mimic` (the friction of a coupled joint pair is not modelled)",
         ));
     }
-    let (robot, coupling) = robot_and_coupling(obj).map_err(invalid_robot)?;
     let (nq, nv) = (coupling.reduced_nq(), coupling.reduced_nv());
     let qr = reduced(req, "q", nq, "reduced coordinates")?;
     let q = coupling.expand_q(&qr).map_err(|e| mimic_error("q", e))?;
@@ -199,12 +222,12 @@ fn answer(op: &str, req: &Value, obj: &Map<String, Value>) -> Result<Value, Prot
         "fk" => {
             let mut full = req.clone();
             full["q"] = json!(q);
-            super::kinematics::dispatch_with("fk", &full, RobotArg::Given(&robot))
+            super::kinematics::dispatch_with("fk", &full, RobotArg::Given(robot))
                 .unwrap_or_else(|| Err(ProtocolError::new(ErrorKind::UnknownOp, "fk")))?
         }
         "jacobian" => {
             let frame = super::kinematics::frame_field(req)?;
-            let jr = robosim_kinematics::mimic::jacobian(&robot, &coupling, &qr, frame)
+            let jr = robosim_kinematics::mimic::jacobian(robot, coupling, &qr, frame)
                 .map_err(|e| mimic_error("jacobian", e))?;
             let j = Jacobian::from_fn(jr.ncols(), |r, c| jr[(r, c)]);
             check("jacobian", &j)?;
@@ -223,7 +246,7 @@ fn answer(op: &str, req: &Value, obj: &Map<String, Value>) -> Result<Value, Prot
             })
         }
         _ => {
-            let model = Model::new(&robot)?;
+            let model = Model::new(robot)?;
             let mut data = Data::new(&model);
             match op {
                 "id" => {
@@ -232,19 +255,19 @@ fn answer(op: &str, req: &Value, obj: &Map<String, Value>) -> Result<Value, Prot
                         reduced(req, "qdd", nv, "reduced velocities")?,
                     );
                     let tau = robosim_dynamics::mimic::rnea_mimic(
-                        &model, &mut data, &coupling, &qr, &v, &a,
+                        &model, &mut data, coupling, &qr, &v, &a,
                     )?;
                     check("tau", tau.as_slice())?;
                     json!({ "tau": tau.as_slice() })
                 }
                 "gravity" => {
                     let tau =
-                        robosim_dynamics::mimic::gravity_mimic(&model, &mut data, &coupling, &qr)?;
+                        robosim_dynamics::mimic::gravity_mimic(&model, &mut data, coupling, &qr)?;
                     check("tau", tau.as_slice())?;
                     json!({ "tau": tau.as_slice() })
                 }
                 "mass_matrix" => {
-                    let m = robosim_dynamics::mimic::crba_mimic(&model, &mut data, &coupling, &qr)?;
+                    let m = robosim_dynamics::mimic::crba_mimic(&model, &mut data, coupling, &qr)?;
                     check("mass_matrix", &m)?;
                     let rows: Vec<Vec<f64>> = (0..m.nrows())
                         .map(|r| m.row(r).iter().copied().collect())
@@ -263,7 +286,7 @@ fn answer(op: &str, req: &Value, obj: &Map<String, Value>) -> Result<Value, Prot
                         reduced(req, "tau", nv, "reduced velocities")?,
                     );
                     let qdd = robosim_dynamics::mimic::aba_mimic(
-                        &model, &mut data, &coupling, &qr, &v, &tau,
+                        &model, &mut data, coupling, &qr, &v, &tau,
                     )?;
                     check("qdd", qdd.as_slice())?;
                     json!({ "qdd": qdd.as_slice() })
