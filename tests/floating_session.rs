@@ -223,14 +223,221 @@ fn a_floating_urdf_robot_in_a_session_answers_as_the_pure_ops_on_its_file() {
     }
 }
 
-/// The simulator daemon and a floating session robot (issue 36): the simulator's pipeline holds
-/// one coordinate per joint, so a floating root would not integrate and the robot object would
-/// not move. The daemon refuses it by name instead: a running lock-step daemon that sees Solo
-/// imported with `--floating` stops with the refusal, and one started on a session holding it
-/// does not start — each exits unsuccessfully, its log naming the robot and the root's kind.
+/// Asks the session's simulator (`robosim simctl`), returning whether it was accepted and what
+/// it printed.
+fn simctl(k: &Procs, cmds: &[&str]) -> (bool, String) {
+    let out = std::process::Command::new(common::ROBOSIM)
+        .arg("simctl")
+        .args(["--session", &k.name])
+        .args(cmds)
+        .env("ROBOSIM_HOME", k.home.path())
+        .env("IOX2_LOG_LEVEL", "Error")
+        .output()
+        .expect("simctl");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned() + &String::from_utf8_lossy(&out.stderr),
+    )
+}
+
+/// A 3×4 row-major pose record as a 4×4 matrix.
+fn pose_matrix(p: &[f64; 12]) -> Matrix4<f64> {
+    robosim_scene::pose::to_matrix(p)
+}
+
+/// The simulator daemon integrates a floating session robot (issue 36 item 2): Solo-12 imported
+/// with `--floating` at a turned pose falls under gravity in a lock-step daemon for 200 steps
+/// of 2 ms (RK4) while its joints are driven by torques; what the daemon publishes — the
+/// robot object's pose (committed pose ∘ root motion) and the joints' q (the root left out) —
+/// and the root `get` reports equal the query protocol's `simulate` of the same file from the
+/// same state (the root at the object's pose, the same torques, integrator and step) to 1e-9;
+/// the quaternion stays unit. A joint target for it is refused by name.
 #[test]
-fn the_simulator_refuses_a_floating_session_robot_by_name() {
+fn the_simulator_integrates_a_floating_session_robot_as_simulate_does() {
+    const STEPS: usize = 200;
+    const DT: f64 = 0.002;
     let mut k = Procs::new("floatsim");
+    k.start_keeper(&[]);
+    let session = k.session();
+    let file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(SOLO);
+    let file_s = file.to_str().expect("UTF-8 path");
+    ok(
+        &k,
+        &[
+            "import",
+            "urdf",
+            file_s,
+            "--floating",
+            "--as",
+            "solo",
+            "--at",
+            "0.3,-0.2,1.5,10,-20,30",
+        ],
+    );
+    let reader = Reader::attach(&session, "test").expect("attach");
+    let snap = reader.snapshot().expect("snapshot");
+    let i = snap.find("solo").expect("solo");
+    let (object_id, world0, local0) = (
+        snap.rec(i).id,
+        pose_matrix(&snap.world_pose(i)),
+        pose_matrix(&snap.pose(i).pose),
+    );
+    let robot = snap.robot("solo").expect("solo");
+    let links: Vec<u64> = robot.joints.iter().map(|l| snap.rec(l.index).id).collect();
+    assert_eq!(links.len(), 12);
+    drop(snap);
+    drop(reader);
+
+    let effects = k.home.path().join("effects.json");
+    std::fs::write(
+        &effects,
+        format!(
+            r#"{{"dt": {DT}, "kinematics": true, "dynamics": {{"integrator": "rk4", "dt": {DT}, "gravity": [0, 0, -9.81]}}}}"#
+        ),
+    )
+    .expect("effects");
+    let eff = effects.to_str().expect("UTF-8").to_owned();
+    k.spawn(&["simulator", "--mode", "lockstep", "--effects", &eff]);
+    let mut state = common::wait_for("the state service", || {
+        robosim_instance_space::state::StateSubscriber::open(&session, "simulator", "test").ok()
+    });
+    common::wait_for("the simulator registered", || {
+        session
+            .processes()
+            .iter()
+            .any(|p| p.role == "simulator")
+            .then_some(())
+    });
+
+    // a joint target would need the root actuated: refused by name, nothing changed
+    let (good, out) = simctl(
+        &k,
+        &[r#"{"cmd": "target", "robot": "solo", "q": [0,0,0,0,0,0,0,0,0,0,0,0]}"#],
+    );
+    assert!(
+        !good && out.contains("free_flyer base") && out.contains("`torque`"),
+        "{out}"
+    );
+    let tau = [
+        0.3, -0.2, 0.1, -0.3, 0.25, -0.1, 0.2, 0.15, -0.2, -0.1, 0.3, 0.05,
+    ];
+    let torque = json!({"cmd": "torque", "robot": "solo", "tau": tau}).to_string();
+    let step = json!({"cmd": "step", "n": STEPS}).to_string();
+    let (good, out) = simctl(&k, &[&torque, &step]);
+    assert!(good, "{out}");
+    let mut records = Vec::new();
+    common::wait_for("the states of every step", || {
+        records.extend(
+            state
+                .wait(std::time::Duration::from_millis(100))
+                .expect("state"),
+        );
+        (records.len() >= STEPS).then_some(())
+    });
+    let last = records.last().expect("records");
+    assert!((last.header.t - STEPS as f64 * DT).abs() < 1e-12);
+    let (good, out) = simctl(&k, &["get"]);
+    assert!(good, "{out}");
+    let get: Value = serde_json::from_str(out.trim()).expect("get's JSON");
+    let got = &get["robots"][0];
+    assert_eq!(got["name"], "solo", "{get}");
+
+    // the query protocol's simulate of the file: the root at the object's world pose
+    let r0 = Rotation3::from_matrix_unchecked(world0.fixed_view::<3, 3>(0, 0).into_owned());
+    let quat0 = UnitQuaternion::from_rotation_matrix(&r0);
+    let mut q0 = vec![0.0; 19];
+    q0[..3].copy_from_slice(&[world0[(0, 3)], world0[(1, 3)], world0[(2, 3)]]);
+    q0[3..7].copy_from_slice(quat0.coords.as_slice());
+    let mut tau_v = vec![0.0; 18];
+    tau_v[6..].copy_from_slice(&tau);
+    let t_end = STEPS as f64 * DT;
+    let request = json!({
+        "op": "simulate", "id": 0, "robot": {"urdf": file_s, "floating": true},
+        "q0": q0, "tau": tau_v, "t_end": t_end, "outputs": [t_end],
+        "integrator": "rk4", "dt": DT,
+    });
+    let input = k.home.path().join("simulate.jsonl");
+    std::fs::write(&input, format!("{request}\n")).expect("request");
+    let out = ok(&k, &["query", "--input", input.to_str().expect("UTF-8")]);
+    let answer: Value = serde_json::from_str(out.lines().next().expect("answer")).expect("JSON");
+    assert_eq!(answer["ok"], true, "{answer}");
+    let sample = &answer["samples"][0];
+    let q_ref = nums(&sample["q"]);
+    let m_ref = robosim_kinematics::RootKind::FreeFlyer.transform(&q_ref[..7]);
+
+    // published: the object's pose (relative to its parent) = committed ∘ root motion
+    let body = last
+        .bodies
+        .iter()
+        .find(|b| b.id == object_id)
+        .expect("the robot object's pose is published");
+    let world_pub = world0 * local0.try_inverse().expect("rigid") * pose_matrix(&body.pose);
+    let e_pose = (world_pub - m_ref).abs().max();
+    // published: the joints' q, in link order
+    let q_pub: Vec<f64> = links
+        .iter()
+        .map(|id| {
+            last.joints
+                .iter()
+                .find(|j| j.id == *id)
+                .expect("every link's joint")
+                .q
+        })
+        .collect();
+    let e_joints = max_diff(&q_pub, &q_ref[7..]);
+    // get: the root (relative to the object's committed pose) and the base link's world pose
+    let root = &got["root"];
+    assert_eq!(root["kind"], "free_flyer", "{got}");
+    let q_root = nums(&root["q"]);
+    let quat_norm = q_root[3..7].iter().map(|x| x * x).sum::<f64>().sqrt();
+    let e_base = (matrix(&root["base"]) - m_ref).abs().max();
+    let e_root = (world0 * robosim_kinematics::RootKind::FreeFlyer.transform(&q_root) - m_ref)
+        .abs()
+        .max();
+    let e_get_q = max_diff(&nums(&got["q"]), &q_ref[7..]);
+    let e_get_v = max_diff(
+        &nums(&root["v"])
+            .into_iter()
+            .chain(nums(&got["qd"]))
+            .collect::<Vec<_>>(),
+        &nums(&sample["qd"]),
+    );
+    eprintln!(
+        "measured: floating Solo-12 in the session simulator vs simulate, {STEPS} rk4 steps of {DT} s: \
+         object pose {e_pose:.2e}, joints q {e_joints:.2e}, get base {e_base:.2e}, root {e_root:.2e}, \
+         v {e_get_v:.2e}, |quat| − 1 = {:.2e}; base fell {:.3} m",
+        quat_norm - 1.0,
+        world0[(2, 3)] - m_ref[(2, 3)]
+    );
+    assert!(e_pose < 1e-9, "object pose: {e_pose:e}");
+    assert!(e_joints < 1e-9, "joints: {e_joints:e}");
+    assert!(e_base < 1e-9 && e_root < 1e-9, "get: {e_base:e} {e_root:e}");
+    assert!(
+        e_get_q < 1e-9 && e_get_v < 1e-8,
+        "get: {e_get_q:e} {e_get_v:e}"
+    );
+    assert!(
+        (quat_norm - 1.0).abs() < 1e-12,
+        "quaternion norm {quat_norm}"
+    );
+    // it fell (½ g t² = 0.78 m for the centre of mass) and the joints turned
+    assert!(world0[(2, 3)] - m_ref[(2, 3)] > 0.5, "{m_ref}");
+    assert!(q_pub.iter().any(|q| q.abs() > 1e-2), "{q_pub:?}");
+    // the committed pose has not moved: nothing was written to the Instance Space
+    let reader = Reader::attach(&session, "test").expect("attach");
+    let snap = reader.snapshot().expect("snapshot");
+    let i = snap.find("solo").expect("solo");
+    assert_eq!(pose_matrix(&snap.world_pose(i)), world0);
+}
+
+/// What the simulator does not simulate for a floating robot is refused by name: kinematic
+/// motion without dynamics (the daemon's default effects, "kinematics only") has no law that
+/// moves a free base. A running lock-step daemon that sees Solo imported with `--floating`
+/// stops with the refusal, and one started on a session holding it does not start — each exits
+/// unsuccessfully, its log naming the robot, the root's kind and the effect.
+#[test]
+fn the_simulator_refuses_kinematic_motion_of_a_floating_robot_by_name() {
+    let mut k = Procs::new("floatkin");
     k.start_keeper(&[]);
     let session = k.session();
     let sim = k.spawn(&["simulator", "--mode", "lockstep"]);
@@ -256,12 +463,17 @@ fn the_simulator_refuses_a_floating_session_robot_by_name() {
         let status = common::wait_for("the simulator to stop", || {
             k.children[i].try_wait().expect("try_wait")
         });
-        assert!(!status.success(), "the simulator ran a floating robot");
+        assert!(
+            !status.success(),
+            "the simulator ran kinematic motion of a floating robot"
+        );
         let log = k.home.path().join(format!("logs/{pid}-simulator.log"));
         let text = std::fs::read_to_string(&log).expect("the simulator's log");
         assert!(
-            text.contains("robot solo has a free_flyer base")
-                && text.contains("does not integrate a floating root"),
+            text.contains("robot solo")
+                && text.contains("`dynamics`")
+                && text.contains("free_flyer base")
+                && text.contains("declare the dynamics effect"),
             "{text}"
         );
     };
