@@ -18,13 +18,15 @@
 use crate::SceneError;
 use crate::pose;
 use crate::robot::robot_model;
-use crate::solids::{bodies_under, link_solid, solid_of, solids_under, subtree};
+use crate::solids::{bodies_under, geometry_under, solid_of, subtree};
 use nalgebra::Isometry3;
 use robosim_collision::Solid;
 use robosim_collision::robot::{
     Body, CheckResult, CollisionSettings, LinkSolids, Scene, check_robot,
 };
 use robosim_instance_space::{Id, Kind, Snapshot};
+use robosim_model::geometry::link_solids;
+use robosim_model::{GeometryModel, Model};
 use std::collections::HashSet;
 use std::sync::Arc;
 
@@ -47,8 +49,13 @@ pub struct CompiledRobot {
     pub q: Vec<f64>,
     /// The robot object and everything under it.
     pub subtree: HashSet<Id>,
-    /// Collision solids, base first; `allowed`: link pairs that overlap at q = 0 (structural
-    /// contacts of the model, e.g. a housing around a joint — MoveIt's "default" collisions).
+    /// The collision objects of the base (frame 0) and each link (frame j), from the robot's
+    /// Instance Space records, placed in their frame ([`CompiledRobot::model`]).
+    pub geometry: GeometryModel,
+    /// Collision solids, base first, built from `geometry` by
+    /// [`robosim_model::geometry::link_solids`]; `allowed`: a tree's joint pairs and the link
+    /// pairs that overlap at q = 0 (structural contacts of the model, e.g. a housing around a
+    /// joint — MoveIt's "default" collisions).
     pub solids: LinkSolids,
     /// The objects with geometry that make up the base (0) and each link (1..=n).
     pub link_bodies: Vec<Vec<Id>>,
@@ -57,6 +64,23 @@ pub struct CompiledRobot {
 impl CompiledRobot {
     pub fn name(&self) -> &str {
         &self.robot.name
+    }
+
+    /// The robot as the one robot model: its `robot` (placed where it stands), the link
+    /// objects' names as link and joint names, its collision geometry (no visuals, no
+    /// coupling: the Instance Space records hold neither).
+    pub fn model(&self, snap: &Snapshot) -> Model {
+        let names: Vec<String> = (self.link_index.iter())
+            .map(|&k| snap.name(k).to_owned())
+            .collect();
+        Model {
+            robot: self.robot.clone(),
+            joint_names: names.clone(),
+            link_names: names,
+            coupling: None,
+            geometry: self.geometry.clone(),
+            ik: Model::recognised_ik(&self.robot),
+        }
     }
 }
 
@@ -318,28 +342,31 @@ fn compile_robot(
 ) -> Result<CompiledRobot, SceneError> {
     // Validated by `robot_model`.
     let robot = robot_model(snap, view)?;
-    let bad = |reason: String| SceneError::BadRobot {
-        robot: view.name.to_owned(),
-        reason,
-    };
-    let mut links = vec![link_solid(solids_under(snap, view.id, true).map_err(bad)?).map_err(bad)?];
+    let mut objects = geometry_under(snap, view.id, 0, true);
+    for (j, joint) in view.joints.iter().enumerate() {
+        objects.extend(geometry_under(snap, joint.id, j + 1, false));
+    }
+    let geometry = GeometryModel { objects };
+    let mut solids =
+        link_solids(&geometry, robot.dof()).map_err(|source| SceneError::Geometry {
+            robot: view.name.to_owned(),
+            source,
+        })?;
     let mut link_bodies = vec![
         snap.children(view.id)
             .filter(|&k| snap.object(k).kind() != Some(Kind::Link))
             .flat_map(|k| bodies_under(snap, snap.rec(k).id))
             .collect::<Vec<Id>>(),
     ];
-    for j in &view.joints {
-        links.push(link_solid(solids_under(snap, j.id, false).map_err(bad)?).map_err(bad)?);
-        link_bodies.push(bodies_under(snap, j.id));
-    }
+    link_bodies.extend(view.joints.iter().map(|j| bodies_under(snap, j.id)));
     // In a tree, a joint's link meets the link it hangs from at the joint, as adjacent links of
-    // a chain do (which the checker skips by index): declared allowed.
-    let allowed = (robot.parents.iter().enumerate())
+    // a chain do (which the checker skips by index): declared allowed. These replace
+    // `link_solids`' own (links separated only by links without solids): the scene allows
+    // what touches at q = 0 below instead, so a solid two links away is still checked.
+    solids.allowed = (robot.parents.iter().enumerate())
         .filter(|&(j, &p)| p != j)
         .map(|(j, &p)| (p, j + 1))
         .collect();
-    let mut solids = LinkSolids { links, allowed };
     // Allowed pairs (the seed's robot-declared exceptions): link solids that already overlap
     // at the DH zero configuration are structural contacts of the model, not events. Adjacent
     // links are skipped by the checker itself. Done once per structure version.
@@ -368,6 +395,7 @@ fn compile_robot(
         link_index: view.joints.iter().map(|j| j.index).collect(),
         q,
         subtree: subtree(snap, view.id),
+        geometry,
         solids,
         link_bodies,
     })

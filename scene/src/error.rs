@@ -43,6 +43,13 @@ pub enum SceneError {
     /// The robot's kinematic data is not a valid model (e.g. reversed limits).
     #[error("robot {robot:?}: {reason}")]
     BadRobot { robot: String, reason: String },
+    /// The robot's geometry makes no collision solids (which object, on which frame, why).
+    #[error("robot {robot:?}: {source}")]
+    Geometry {
+        robot: String,
+        #[source]
+        source: robosim_model::GeometryError,
+    },
     /// The session's keeper has published no snapshot yet.
     #[error("the session has no snapshot yet (is its keeper starting?)")]
     NoSnapshot,

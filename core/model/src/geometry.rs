@@ -7,8 +7,9 @@
 //! scale, explicit polygons) and what it is for ([`Role`]: drawn or collided). Every reader
 //! fills it once: the URDF/MJCF importer ([`crate::Model::from_imported`]), the Library Space
 //! (`robosim_library::RobotModel::model`) and the scene compiler (a robot's Instance Space
-//! records, `robosim_scene`). Whoever needs collision solids calls [`link_solids`]; nothing
-//! else turns a description into a [`Solid`].
+//! records, `robosim_scene::CompiledRobot::model`). Whoever needs collision solids calls
+//! [`link_solids`] (or [`GeometryObject::collision_parts`] for one object); nothing else turns
+//! a description into a [`Solid`].
 //!
 //! Building ([`Shape::collision_parts`]): a box, cylinder (axis z, centred), cone and sphere are
 //! the collision crate's exact primitives (with the description's facet count for their
@@ -180,6 +181,27 @@ impl GeometryError {
     }
 }
 
+impl GeometryObject {
+    /// The object's collision parts in its own frame (its placement not applied): one solid
+    /// for a primitive or polygons, a mesh file's convex parts (read now); see the module
+    /// docs. For callers that collide objects one by one (a scene's obstacles, the studies'
+    /// culled parts); a robot's solids come from [`link_solids`].
+    pub fn collision_parts(&self) -> Result<Vec<Solid>, GeometryError> {
+        self.shape.collision_parts().map_err(|f| match f {
+            Failure::Shape(source) => GeometryError::Shape {
+                object: self.name.clone(),
+                frame: self.frame,
+                source,
+            },
+            Failure::Mesh(source) => GeometryError::Mesh {
+                object: self.name.clone(),
+                frame: self.frame,
+                source: Box::new(source),
+            },
+        })
+    }
+}
+
 /// How a shape fails to build, before the object is named.
 enum Failure {
     Shape(ShapeError),
@@ -253,18 +275,7 @@ pub fn link_solids(geometry: &GeometryModel, dof: usize) -> Result<LinkSolids, G
                 last: dof,
             });
         };
-        let solids = o.shape.collision_parts().map_err(|f| match f {
-            Failure::Shape(source) => GeometryError::Shape {
-                object: o.name.clone(),
-                frame: o.frame,
-                source,
-            },
-            Failure::Mesh(source) => GeometryError::Mesh {
-                object: o.name.clone(),
-                frame: o.frame,
-                source: Box::new(source),
-            },
-        })?;
+        let solids = o.collision_parts()?;
         let at = isometry_from_matrix(&o.placement);
         frame.extend(solids.into_iter().map(|s| (at, s)));
     }
