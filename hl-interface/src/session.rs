@@ -51,9 +51,9 @@ fn err(kind: ErrorKind, message: impl Into<String>) -> ProtocolError {
 fn scene_err(e: SceneError) -> ProtocolError {
     let kind = match e {
         SceneError::UnknownRobot { .. } | SceneError::NoJoints(_) => ErrorKind::UnknownRobot,
-        SceneError::FixedJoint { .. } | SceneError::BadRobot { .. } | SceneError::Geometry { .. } => {
-            ErrorKind::BadRobot
-        }
+        SceneError::FixedJoint { .. }
+        | SceneError::BadRobot { .. }
+        | SceneError::Geometry { .. } => ErrorKind::BadRobot,
         SceneError::Session(_) => ErrorKind::Session,
         _ => ErrorKind::Scene,
     };
