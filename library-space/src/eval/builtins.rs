@@ -315,16 +315,11 @@ impl Evaluator<'_> {
             err(ErrorKind::OutOfRange, span, e.to_string())
                 .expected("parameters a solid can be built from (positive sizes, a simple polygon)")
         })?;
-        self.polygons += poly.polygons.len();
-        let budget = self.opts.max_polygons.unwrap_or(POLYGON_BUDGET);
-        if self.polygons > budget {
-            return Err(err(
-                ErrorKind::OutOfRange,
-                span,
-                format!("the model has more than {budget} polygons"),
-            )
-            .expected("fewer facets or fewer repeated parts"));
-        }
+        self.count_polygons(
+            poly.polygons.len(),
+            span,
+            "fewer facets or fewer repeated parts",
+        )?;
         Ok(Value::Solid(Rc::new(SolidVal {
             parts: vec![PlacedSolid {
                 name: name.to_string(),

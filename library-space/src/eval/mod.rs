@@ -494,6 +494,22 @@ impl<'l> Evaluator<'l> {
         Ok(v as usize)
     }
 
+    /// Adds `n` generated polygons to this evaluation's count, refused at `span` past the budget
+    /// ([`EvalOptions::max_polygons`], else [`POLYGON_BUDGET`]); `advice` is how to stay within it.
+    fn count_polygons(&mut self, n: usize, span: Span, advice: &str) -> RResult<()> {
+        self.polygons += n;
+        let budget = self.opts.max_polygons.unwrap_or(POLYGON_BUDGET);
+        if self.polygons > budget {
+            return Err(err(
+                ErrorKind::OutOfRange,
+                span,
+                format!("the model has more than {budget} polygons"),
+            )
+            .expected(advice));
+        }
+        Ok(())
+    }
+
     fn vector(
         &mut self,
         e: &Expr,

@@ -492,13 +492,7 @@ impl Evaluator<'_> {
         for f in &mut frames {
             fill_appearance(f, colour, surface.as_ref());
         }
-        robot.validate().map_err(|e| {
-            err(
-                ErrorKind::OutOfRange,
-                decl.name_span,
-                format!("robot `{}`: {e}", decl.name),
-            )
-        })?;
+        validated(decl, &robot)?;
         let ik = checked_ik_family(decl, &robot, ik)?;
         Ok(RobotModel {
             robot,
@@ -710,6 +704,17 @@ fn fold_fixed_links(
     robot.base *= pre;
     robot.tool = post * robot.tool;
     Ok((frames, names))
+}
+
+/// The kinematics crate's validation of a robot's chain, refused at the declaration's name.
+pub(super) fn validated(decl: &Decl, robot: &Robot) -> RResult<()> {
+    robot.validate().map_err(|e| {
+        err(
+            ErrorKind::OutOfRange,
+            decl.name_span,
+            format!("robot `{}`: {e}", decl.name),
+        )
+    })
 }
 
 /// The robot's IK family: the declared one must be the one the geometry admits (the kinematics

@@ -9,6 +9,7 @@
 //! `import_mjcf_tree`): `tip` names a `<body>`, link names are the bodies of the joints, the
 //! solids are the geoms that collide (the reader's geometry, as for a URDF).
 
+use super::robots::validated;
 use super::*;
 use crate::ast::{RobotFileFormat, UrdfSource};
 use robosim_urdf::urdf_geometry::{Geometry, LinkGeometry, MeshProblem, Shape, hull_points};
@@ -127,7 +128,11 @@ impl Evaluator<'_> {
                     .map_err(|e| urdf_error(decl, src, tip.as_ref(), &e))?;
                 p.transform = g.in_body * s.origin * p.transform;
                 p.colour = shade;
-                self.count_polygons(p.polyhedron.polygons.len(), src.span)?;
+                self.count_polygons(
+                    p.polyhedron.polygons.len(),
+                    src.span,
+                    "fewer facets (`facets:`) or coarser meshes",
+                )?;
                 if let Some(f) = frames.get_mut(g.body) {
                     f.push(p);
                 }
@@ -136,13 +141,7 @@ impl Evaluator<'_> {
         for f in &mut frames {
             fill_appearance(f, colour, surface.as_ref());
         }
-        robot.validate().map_err(|e| {
-            err(
-                ErrorKind::OutOfRange,
-                decl.name_span,
-                format!("robot `{}`: {e}", decl.name),
-            )
-        })?;
+        validated(decl, &robot)?;
         let ik = if robot.parents.is_empty() {
             match robosim_kinematics::ik::family::recognise(&robot) {
                 robosim_kinematics::ik::family::Family::General(_) => None,
@@ -266,21 +265,6 @@ impl Evaluator<'_> {
                 )
             }
         })
-    }
-
-    /// Adds `n` polygons to this evaluation's count, refused past the budget.
-    fn count_polygons(&mut self, n: usize, span: Span) -> RResult<()> {
-        self.polygons += n;
-        let budget = self.opts.max_polygons.unwrap_or(POLYGON_BUDGET);
-        if self.polygons > budget {
-            return Err(err(
-                ErrorKind::OutOfRange,
-                span,
-                format!("the model has more than {budget} polygons"),
-            )
-            .expected("fewer facets (`facets:`) or coarser meshes"));
-        }
-        Ok(())
     }
 }
 
