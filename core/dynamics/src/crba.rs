@@ -5,6 +5,7 @@
 use crate::data::Data;
 use crate::model::{DynamicsError, Model};
 use crate::rnea::{ALL, rnea_pass};
+use crate::spherical::columns;
 use nalgebra::DMatrix;
 
 /// `M(q)` (kg·m², kg, or kg·m for mixed entries), motor inertia on the diagonal. Fills and
@@ -22,7 +23,7 @@ pub fn crba<'d>(
 
 pub(crate) fn crba_pass(model: &Model, data: &mut Data) {
     if model.spherical {
-        return crate::spherical::crba_pass(model, data);
+        return spherical_crba_pass(model, data);
     }
     let n = model.dof();
     // a floating root's coordinates come first (r of them; 0 for a fixed base)
@@ -163,5 +164,69 @@ pub(crate) fn cholesky_solve_in_place(l: &DMatrix<f64>, b: &mut nalgebra::DVecto
             s -= l[(k, i)] * b[k];
         }
         b[i] = s / l[(i, i)];
+    }
+}
+
+/// [`crba_pass`] for a model with spherical joints (see [`crate::spherical`]), over transforms
+/// already in `data.x`.
+fn spherical_crba_pass(model: &Model, data: &mut Data) {
+    let n = model.dof();
+    data.mass_matrix.fill(0.0);
+    for j in 0..n {
+        data.ic[j] = model.links[j].inertia;
+    }
+    if let Some(root) = &model.root {
+        data.root.ic = root.inertia;
+    }
+    for j in (0..n).rev() {
+        let link = &model.links[j];
+        if let Some(p) = link.parent {
+            let moved = data.ic[j].in_parent(&data.x[j]);
+            data.ic[p] = data.ic[p].add(&moved);
+        } else if model.root.is_some() {
+            let moved = data.ic[j].in_parent(&data.x[j]);
+            data.root.ic = data.root.ic.add(&moved);
+        }
+        let (cols, kj) = columns(link);
+        for (i, si) in cols.iter().enumerate().take(kj) {
+            let col = link.iv + i;
+            let mut f = data.ic[j].mul_motion(si);
+            // the joint's own block, symmetric by construction (upper from the lower)
+            for (b, sb) in cols.iter().enumerate().take(i + 1) {
+                let m = sb.dot(&f);
+                data.mass_matrix[(link.iv + b, col)] = m;
+                data.mass_matrix[(col, link.iv + b)] = m;
+            }
+            data.mass_matrix[(col, col)] += link.motor_inertia;
+            // up the support path; entries of joints on other branches stay 0
+            let mut k = j;
+            while let Some(p) = model.links[k].parent {
+                f = data.x[k].transpose_force(&f);
+                k = p;
+                let lk = &model.links[k];
+                let (ck, nk) = columns(lk);
+                for (b, sb) in ck.iter().enumerate().take(nk) {
+                    let m = sb.dot(&f);
+                    data.mass_matrix[(lk.iv + b, col)] = m;
+                    data.mass_matrix[(col, lk.iv + b)] = m;
+                }
+            }
+            if let Some(root) = &model.root {
+                let f0 = data.x[k].transpose_force(&f);
+                for (b, s) in root.s.iter().enumerate() {
+                    let m = s.dot(&f0);
+                    data.mass_matrix[(b, col)] = m;
+                    data.mass_matrix[(col, b)] = m;
+                }
+            }
+        }
+    }
+    if let Some(root) = &model.root {
+        for (a, sa) in root.s.iter().enumerate() {
+            let f = data.root.ic.mul_motion(sa);
+            for (b, sb) in root.s.iter().enumerate() {
+                data.mass_matrix[(b, a)] = sb.dot(&f);
+            }
+        }
     }
 }

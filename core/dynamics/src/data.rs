@@ -4,8 +4,10 @@
 
 use crate::model::{Model, Motor};
 use crate::spatial::{Force, Motion, RigidInertia, Xform};
+use crate::spherical::BallScratch;
 use nalgebra::{DMatrix, DVector, Matrix3, Matrix6, Vector3, Vector6};
 use robosim_kinematics::axis_rotation;
+use robosim_kinematics::spherical::quat_rotation;
 
 /// Per-call results and scratch space for one [`Model`]. Results are public fields named after
 /// what fills them: [`crate::rnea`] fills `tau`, [`crate::crba`] fills `mass_matrix`,
@@ -41,7 +43,7 @@ pub struct Data {
     /// acceleration, force, composite and articulated inertia, bias force.
     pub(crate) root: RootData,
     /// ABA's per-joint quantities of spherical joints (empty without one).
-    pub(crate) ball: Vec<crate::spherical::BallScratch>,
+    pub(crate) ball: Vec<BallScratch>,
 }
 
 /// The root body's per-call quantities (unused for a fixed base).
@@ -90,7 +92,7 @@ impl Data {
                 pa: Vector6::zeros(),
             },
             ball: if model.spherical {
-                vec![crate::spherical::BallScratch::default(); n]
+                vec![BallScratch::default(); n]
             } else {
                 Vec::new()
             },
@@ -102,7 +104,7 @@ impl Data {
     /// → link frame 0). Depends only on q. `q.len() == model.nq()` is the caller's invariant.
     pub(crate) fn update_transforms(&mut self, model: &Model, q: &[f64]) {
         if model.spherical {
-            return crate::spherical::update_transforms(self, model, q);
+            return spherical_update_transforms(self, model, q);
         }
         let q = match &model.root {
             Some(root) => {
@@ -138,6 +140,38 @@ impl Data {
                 Motor::Prismatic => {
                     x.e = link.e_c;
                     x.r = link.r_c + link.e_c.tr_mul(&link.axis) * t;
+                }
+            }
+        }
+    }
+}
+
+/// [`Data::update_transforms`] for a model with spherical joints: the parent-to-child transforms
+/// at `q` (q's layout: the root's, then each joint's 1 or 4).
+pub(crate) fn spherical_update_transforms(data: &mut Data, model: &Model, q: &[f64]) {
+    if let Some(root) = &model.root {
+        let (r, t) = root.kind.rotation_translation(&q[..root.kind.nq()]);
+        data.root.x = Xform {
+            e: r.transpose(),
+            r: t,
+        };
+    }
+    for (x, link) in data.x.iter_mut().zip(&model.links) {
+        let qj = &q[link.iq..];
+        if link.spherical {
+            // child in parent: R_c · R(quat), so e = R(quat)ᵀ e_c
+            x.e = quat_rotation(qj).transpose() * link.e_c;
+            x.r = link.r_c;
+        } else {
+            let t = qj[0] + link.offset;
+            match link.motor {
+                crate::model::Motor::Prismatic => {
+                    x.e = link.e_c;
+                    x.r = link.r_c + link.e_c.tr_mul(&link.axis) * t;
+                }
+                _ => {
+                    x.e = robosim_kinematics::axis_rotation(&link.axis, t).transpose() * link.e_c;
+                    x.r = link.r_c;
                 }
             }
         }

@@ -1,8 +1,9 @@
 //! Mechanical energy, for drift studies of the integrators. Entry point: [`energy`].
 
-use crate::data::Data;
+use crate::data::{Data, spherical_update_transforms};
 use crate::model::{DynamicsError, Model};
 use crate::spatial::Motion;
+use crate::spherical::{columns, combine};
 
 /// Kinetic, potential and total energy (J).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -33,7 +34,7 @@ pub fn energy(
 
 pub(crate) fn energy_unchecked(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Energy {
     if model.spherical {
-        return crate::spherical::energy(model, data, q, qd);
+        return spherical_energy(model, data, q, qd);
     }
     data.update_transforms(model, q);
     let base = &model.robot.base;
@@ -143,4 +144,47 @@ pub(crate) fn kinetic_gradient_pass(model: &Model, data: &mut Data, qd: &[f64]) 
             data.rhs[i] = s.dot(&hc);
         }
     }
+}
+
+/// [`energy_unchecked`] for a model with spherical joints (see [`crate::spherical`]).
+fn spherical_energy(model: &Model, data: &mut Data, q: &[f64], qd: &[f64]) -> Energy {
+    spherical_update_transforms(data, model, q);
+    let base = &model.robot.base;
+    let base_rot = base.fixed_view::<3, 3>(0, 0).into_owned();
+    let base_pos = base.fixed_view::<3, 1>(0, 3).into_owned();
+    let g = model.robot.gravity;
+    let (mut kinetic, mut potential) = (0.0, 0.0);
+    let r = model.root_dims().1;
+    let (v_top, rot_top, pos_top) = match &model.root {
+        Some(root) => {
+            let x = &data.root.x;
+            let v = root.motion(&qd[..r]);
+            kinetic += 0.5 * v.dot(&root.inertia.mul_motion(&v));
+            let pos = base_pos + base_rot * x.r;
+            let rot = base_rot * x.e.transpose();
+            potential -= g.dot(&(rot * root.inertia.h + pos * root.inertia.m));
+            (v, rot, pos)
+        }
+        None => (Motion::zero(), base_rot, base_pos),
+    };
+    for j in 0..model.dof() {
+        let link = &model.links[j];
+        let x = &data.x[j];
+        let (v_parent, rot_p, pos_p) = match link.parent {
+            Some(p) => (data.v[p], data.world[p].0, data.world[p].1),
+            None => (v_top, rot_top, pos_top),
+        };
+        let (cols, k) = columns(link);
+        let v = x
+            .apply_motion(&v_parent)
+            .add(&combine(&cols, k, qd, link.iv));
+        let motor: f64 = qd[link.iv..link.iv + k].iter().map(|w| w * w).sum();
+        kinetic += 0.5 * v.dot(&link.inertia.mul_motion(&v)) + 0.5 * link.motor_inertia * motor;
+        let pos = pos_p + rot_p * x.r;
+        let rot = rot_p * x.e.transpose();
+        potential -= g.dot(&(rot * link.inertia.h + pos * link.inertia.m));
+        data.v[j] = v;
+        data.world[j] = (rot, pos);
+    }
+    Energy { kinetic, potential }
 }

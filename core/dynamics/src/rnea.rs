@@ -5,7 +5,8 @@
 use crate::data::Data;
 use crate::model::{DynamicsError, Model};
 use crate::spatial::Motion;
-use nalgebra::DVector;
+use crate::spherical::{columns, combine};
+use nalgebra::{DVector, Vector3};
 
 /// Which terms the internal pass includes.
 #[derive(Clone, Copy)]
@@ -98,7 +99,7 @@ pub(crate) fn rnea_pass(
     terms: Terms,
 ) {
     if model.spherical {
-        return crate::spherical::rnea_pass(model, data, qd, qdd, terms);
+        return spherical_rnea_pass(model, data, qd, qdd, terms);
     }
     let n = model.dof();
     let a0 = if terms.gravity {
@@ -160,6 +161,84 @@ pub(crate) fn rnea_pass(
             data.f[p] = data.f[p].add(&fp);
         } else if model.root.is_some() {
             let fp = data.x[j].transpose_force(&data.f[j]);
+            data.root.f = data.root.f.add(&fp);
+        }
+    }
+    if let Some(root) = &model.root {
+        for (i, s) in root.s.iter().enumerate() {
+            data.tau[i] = s.dot(&data.root.f);
+        }
+    }
+}
+
+/// [`rnea_pass`] for a model with spherical joints (see [`crate::spherical`]): an empty `qd` is
+/// q̇ = 0, `None` for `qdd` is q̈ = 0.
+fn spherical_rnea_pass(
+    model: &Model,
+    data: &mut Data,
+    qd: &[f64],
+    qdd: Option<&[f64]>,
+    terms: Terms,
+) {
+    let n = model.dof();
+    let a0 = if terms.gravity {
+        Motion {
+            w: Vector3::zeros(),
+            v: -model.gravity_base,
+        }
+    } else {
+        Motion::zero()
+    };
+    let nvr = model.root_dims().1;
+    let (v_top, a_top) = match &model.root {
+        Some(root) => {
+            let v = root.motion(qd.get(..nvr).unwrap_or(&[]));
+            let a = data
+                .root
+                .x
+                .apply_motion(&a0)
+                .add(&root.motion(qdd.map_or(&[][..], |a| &a[..nvr])));
+            let iv = root.inertia.mul_motion(&v);
+            data.root.f = root.inertia.mul_motion(&a).add(&v.cross_force(&iv));
+            data.root.v = v;
+            data.root.a = a;
+            (v, a)
+        }
+        None => (Motion::zero(), a0),
+    };
+    for j in 0..n {
+        let link = &model.links[j];
+        let x = &data.x[j];
+        let (v_parent, a_parent) = match link.parent {
+            Some(p) => (data.v[p], data.a[p]),
+            None => (v_top, a_top),
+        };
+        let (cols, k) = columns(link);
+        let vj = combine(&cols, k, qd, link.iv);
+        let v = x.apply_motion(&v_parent).add(&vj);
+        let a = x
+            .apply_motion(&a_parent)
+            .add(&combine(&cols, k, qdd.unwrap_or(&[]), link.iv))
+            .add(&v.cross_motion(&vj));
+        let iv = link.inertia.mul_motion(&v);
+        data.f[j] = link.inertia.mul_motion(&a).add(&v.cross_force(&iv));
+        data.v[j] = v;
+        data.a[j] = a;
+    }
+    for j in (0..n).rev() {
+        let link = &model.links[j];
+        let (cols, k) = columns(link);
+        for (i, c) in cols.iter().enumerate().take(k) {
+            let mut tau = c.dot(&data.f[j]);
+            if terms.motor {
+                tau += link.motor_inertia * qdd.map_or(0.0, |a| a[link.iv + i]);
+            }
+            data.tau[link.iv + i] = tau;
+        }
+        let fp = data.x[j].transpose_force(&data.f[j]);
+        if let Some(p) = link.parent {
+            data.f[p] = data.f[p].add(&fp);
+        } else if model.root.is_some() {
             data.root.f = data.root.f.add(&fp);
         }
     }
