@@ -4,9 +4,9 @@
 //! joint one `sin_cos` of the joint angle, a closed-form link transform specialised to the joint
 //! kind, and one rigid-transform product (rotation 3×3 and translation, no 4×4 product).
 //!
-//! Entry points: [`KinematicModel::new`] (build once from a [`Robot`]), then
-//! [`KinematicModel::link_frames_into`], [`KinematicModel::forward`],
-//! [`KinematicModel::fk_and_jacobian_into`], [`KinematicModel::link_jacobian_into`]
+//! Entry points: [`crate::KinematicModel::new`] (build once from a [`Robot`]), then
+//! [`crate::KinematicModel::link_frames_into`], [`crate::KinematicModel::forward`],
+//! [`crate::KinematicModel::fk_and_jacobian_into`], [`crate::KinematicModel::link_jacobian_into`]
 //! (or [`crate::Data`]'s `*_compiled` methods). None allocates.
 //!
 //! The `&Robot` functions of [`crate::fk`] and [`crate::jacobian`] run the same kernels,
@@ -27,10 +27,12 @@
 //! folded; for any other axis it keeps the 4×4 path's `(R_parent · R_P) · u`, which rounds
 //! differently.
 
-use crate::jacobian::Jacobian;
 use crate::model::{Convention, Joint, JointType, Robot, axis_rotation};
 use crate::root::RootKind;
-use nalgebra::{ArrayStorage, Matrix4, Vector3};
+use nalgebra::{ArrayStorage, Dyn, Matrix4, OMatrix, U6, Vector3};
+
+/// A 6 × n Jacobian (rows vx vy vz ωx ωy ωz: see [`crate::jacobian`]), as the kernels fill it.
+pub type Jacobian = OMatrix<f64, U6, Dyn>;
 
 /// A rigid transform: rotation `r` stored column-major (`r[col][row]`, as nalgebra stores a
 /// `Matrix3`) and translation `t` (m).
@@ -42,7 +44,7 @@ pub(crate) struct Se3 {
 
 impl Se3 {
     /// The top three rows of a homogeneous transform (its last row is assumed 0 0 0 1).
-    fn from_matrix(m: &Matrix4<f64>) -> Se3 {
+    pub(crate) fn from_matrix(m: &Matrix4<f64>) -> Se3 {
         let c = &m.data.0;
         Se3 {
             r: [
@@ -144,7 +146,7 @@ enum Kind {
 pub(crate) struct CompiledJoint {
     kind: Kind,
     offset: f64,
-    revolute: bool,
+    pub(crate) revolute: bool,
     /// The joint axis in the parent link frame, `R_P · u`.
     axis_in_parent: [f64; 3],
     /// The joint frame's origin in the parent link frame (`P`'s translation); `None`: the
@@ -386,108 +388,14 @@ fn aligned<const I: usize>(p: Option<&Se3>, sign: f64, x: f64) -> Se3 {
     Se3 { r, t: p.t }
 }
 
-/// A robot compiled for kinematics (see the module docs): build once with
-/// [`KinematicModel::new`], then call FK and Jacobians at any q without allocating.
-#[derive(Debug, Clone, PartialEq)]
-pub struct KinematicModel {
-    joints: Vec<CompiledJoint>,
-    /// [`Robot::parents`] (empty: a serial chain).
-    parents: Vec<usize>,
-    base: Matrix4<f64>,
-    tool: Se3,
-    chain: bool,
-    /// A floating robot's root joint ([`Robot::root`]).
-    root: Option<RootKind>,
-    /// A robot with a spherical joint, kept whole: the compiled kernels take one-coordinate
-    /// joints, so every call runs the general functions of [`crate::spherical`] on it (`None`
-    /// for every other robot: one test per call).
-    general: Option<Box<Robot>>,
+/// The link transform `A_j = P_j · M_j(q + offset_j) · T_j` of joint `j` at joint value `q`
+/// (rad or m): equal to [`Joint::geometry`]`(convention).transform(q)`, formed in closed form
+/// per joint kind (the module docs). Public as `fk::link_transform`.
+pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<f64> {
+    CompiledJoint::new(joint, convention).matrix(q)
 }
 
-impl KinematicModel {
-    /// Compiles `robot` (assumed valid: [`Robot::validate`]). A snapshot: a later change to
-    /// `robot` is not seen. A robot with a spherical joint ([`crate::Joint::spherical`]) is not
-    /// compiled: the model keeps it and runs [`crate::spherical`]'s general FK and Jacobians
-    /// (the same numbers as the `&Robot` functions).
-    pub fn new(robot: &Robot) -> KinematicModel {
-        KinematicModel {
-            joints: robot
-                .joints
-                .iter()
-                .map(|j| CompiledJoint::new(j, robot.convention))
-                .collect(),
-            parents: robot.parents.clone(),
-            base: robot.base,
-            tool: Se3::from_matrix(&robot.tool),
-            chain: robot.is_chain(),
-            root: robot.root.as_ref().map(|r| r.kind),
-            general: robot.has_spherical().then(|| Box::new(robot.clone())),
-        }
-    }
-
-    /// Number of (one-coordinate) joints, the root joint not counted ([`Robot::dof`]).
-    pub fn dof(&self) -> usize {
-        self.joints.len()
-    }
-
-    /// Configuration dimension ([`Robot::nq`]): what q's length must be.
-    pub fn nq(&self) -> usize {
-        if let Some(r) = &self.general {
-            return r.nq();
-        }
-        self.root.map_or(0, RootKind::nq) + self.joints.len()
-    }
-
-    /// Velocity dimension ([`Robot::nv`]): a Jacobian's columns.
-    pub fn nv(&self) -> usize {
-        if let Some(r) = &self.general {
-            return r.nv();
-        }
-        self.root.map_or(0, RootKind::nv) + self.joints.len()
-    }
-
-    /// Whether the robot is a serial chain ([`Robot::is_chain`]).
-    pub fn is_chain(&self) -> bool {
-        self.chain
-    }
-
-    /// Every link frame into `frames` (`dof() + 2` entries): see [`crate::fk::link_frames_into`]
-    /// (the same frames, bit for bit). Panics if the slice is shorter.
-    pub fn link_frames_into(&self, q: &[f64], frames: &mut [Matrix4<f64>]) {
-        if let Some(r) = &self.general {
-            return crate::spherical::link_frames_into(r, q, frames);
-        }
-        frames_kernel(self, q, frames);
-    }
-
-    /// The tool pose: see [`crate::fk::forward`].
-    pub fn forward(&self, q: &[f64]) -> Matrix4<f64> {
-        if let Some(r) = &self.general {
-            return crate::spherical::forward(r, q);
-        }
-        forward_kernel(self, q)
-    }
-
-    /// Tool pose and base-frame Jacobian (6 × `dof()`) in one pass: see
-    /// [`crate::jacobian::fk_and_jacobian_into`].
-    pub fn fk_and_jacobian_into(&self, q: &[f64], jac: &mut Jacobian) -> Matrix4<f64> {
-        if let Some(r) = &self.general {
-            return crate::spherical::jacobian_into(r, q, r.dof(), Some(&r.tool), jac);
-        }
-        fk_and_jacobian_kernel(self, q, jac)
-    }
-
-    /// Pose and base-frame Jacobian of link frame `link`: see
-    /// [`crate::jacobian::link_jacobian_into`]. Panics if `link > dof()`.
-    pub fn link_jacobian_into(&self, q: &[f64], link: usize, jac: &mut Jacobian) -> Matrix4<f64> {
-        if let Some(r) = &self.general {
-            return crate::spherical::jacobian_into(r, q, link, None, jac);
-        }
-        link_jacobian_kernel(&self, q, link, jac)
-    }
-}
-
-/// What the kernels read of a robot: [`KinematicModel`] (compiled once) or a [`Robot`]
+/// What the kernels read of a robot: [`crate::KinematicModel`] (compiled once) or a [`Robot`]
 /// compiled joint by joint on the fly ([`OnTheFly`]).
 pub(crate) trait Joints {
     type J: std::borrow::Borrow<CompiledJoint>;
@@ -517,37 +425,6 @@ fn rooted_base<'q>(k: &impl Joints, q: &'q [f64]) -> (Matrix4<f64>, &'q [f64]) {
             };
             (k.base() * m, qj)
         }
-    }
-}
-
-impl<'a> Joints for &'a KinematicModel {
-    type J = &'a CompiledJoint;
-    #[inline(always)]
-    fn len(&self) -> usize {
-        self.joints.len()
-    }
-    #[inline(always)]
-    fn joint(&self, j: usize) -> &'a CompiledJoint {
-        &self.joints[j]
-    }
-    #[inline(always)]
-    fn revolute(&self, j: usize) -> bool {
-        self.joints[j].revolute
-    }
-    fn parents(&self) -> &[usize] {
-        &self.parents
-    }
-    fn is_chain(&self) -> bool {
-        self.chain
-    }
-    fn base(&self) -> &Matrix4<f64> {
-        &self.base
-    }
-    fn tool(&self) -> Se3 {
-        self.tool
-    }
-    fn root(&self) -> Option<RootKind> {
-        self.root
     }
 }
 
@@ -791,6 +668,7 @@ mod tests {
     //! The compiled kernels against the 4×4 products they replace (the previous FK and Jacobian,
     //! kept here as the reference): equal with `==` (to the last bit; zeros may differ in sign).
     use super::*;
+    use crate::KinematicModel;
     use crate::chain::to_general;
     use crate::jacobian::{fk_and_jacobian_into, link_jacobian_into};
     use crate::model::Origin;

@@ -9,9 +9,9 @@
 //! [`Data::fk_and_jacobian_compiled`] (the same numbers, without re-deriving the joints'
 //! constant geometry on every call).
 
-use crate::compiled::KinematicModel;
 use crate::fk::link_frames_into;
 use crate::jacobian::{Jacobian, fk_and_jacobian_into};
+use crate::kinematic_model::KinematicModel;
 use crate::model::Robot;
 use nalgebra::Matrix4;
 

@@ -1,16 +1,11 @@
 //! Forward kinematics on the one joint model (see [`crate::Robot`] and the `model` module docs:
 //! `A_j = P_j · M_j(q_j) · T_j`). Depends only on q.
 
-use crate::compiled::{CompiledJoint, OnTheFly, forward_kernel, frames_kernel};
-use crate::model::{Convention, Joint, Robot};
+use crate::compiled::{OnTheFly, forward_kernel, frames_kernel};
+use crate::model::Robot;
 use nalgebra::Matrix4;
 
-/// The link transform `A_j = P_j · M_j(q + offset_j) · T_j` of joint `j` at joint value `q`
-/// (rad or m): equal to [`Joint::geometry`]`(convention).transform(q)`, formed in closed form
-/// per joint kind (see [`crate::compiled`]).
-pub fn link_transform(convention: Convention, joint: &Joint, q: f64) -> Matrix4<f64> {
-    CompiledJoint::new(joint, convention).matrix(q)
-}
+pub use crate::compiled::link_transform;
 
 /// Every link frame in the world: `frames[0]` is the base, `frames[j]` the frame at the end of
 /// `A_j` (j = 1..=n), and the last entry the tool frame — n + 2 matrices in all (n =
@@ -69,7 +64,7 @@ pub fn link_pose(robot: &Robot, q: &[f64], link: usize) -> Matrix4<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::Joint;
+    use crate::model::{Convention, Joint};
     use nalgebra::Vector4;
 
     #[test]

@@ -20,10 +20,9 @@
 use crate::compiled::{OnTheFly, fk_and_jacobian_kernel, link_jacobian_kernel};
 use crate::model::Robot;
 use crate::pose::rotation;
-use nalgebra::{DMatrix, Dyn, Matrix4, OMatrix, U6};
+use nalgebra::{DMatrix, Matrix4};
 
-/// A 6 × n Jacobian.
-pub type Jacobian = OMatrix<f64, U6, Dyn>;
+pub use crate::compiled::Jacobian;
 
 /// The frame a Jacobian's rows are expressed in.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

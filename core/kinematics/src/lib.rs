@@ -39,6 +39,7 @@ pub mod fk;
 pub mod ik;
 pub mod jacobian;
 pub mod json;
+mod kinematic_model;
 pub mod mimic;
 mod model;
 pub mod movej;
@@ -47,8 +48,8 @@ pub mod root;
 pub mod spherical;
 
 pub use builtin::{BUILTIN_NAMES, builtin_robot};
-pub use compiled::KinematicModel;
 pub use data::Data;
+pub use kinematic_model::KinematicModel;
 pub use model::{
     Convention, Joint, JointGeometry, JointType, ModelError, Origin, Robot, State, axis_rotation,
 };

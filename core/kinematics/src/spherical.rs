@@ -29,8 +29,7 @@
 //! child frame's i-th axis in the world and `o` the joint's origin: the columns of Pinocchio's
 //! `LOCAL_WORLD_ALIGNED` frame Jacobian.
 
-use crate::compiled::root_columns;
-use crate::jacobian::Jacobian;
+use crate::compiled::{Jacobian, link_transform, root_columns};
 use crate::model::Robot;
 use nalgebra::{Matrix3, Matrix4, Quaternion, UnitQuaternion, Vector3};
 
@@ -84,7 +83,7 @@ fn joint_transform(robot: &Robot, j: usize, qj: &[f64]) -> Matrix4<f64> {
             None => m,
         }
     } else {
-        crate::fk::link_transform(robot.convention, joint, qj[0])
+        link_transform(robot.convention, joint, qj[0])
     }
 }
 

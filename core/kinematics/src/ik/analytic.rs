@@ -27,8 +27,8 @@ use super::parallel::ParallelSolver;
 use super::{
     Branch, Elbow, IkError, IkOptions, IkResult, IkSolver, Method, Shoulder, Wrist, finish, wrap,
 };
-use crate::compiled::KinematicModel;
 use crate::jacobian::Jacobian;
+use crate::kinematic_model::KinematicModel;
 use crate::model::Robot;
 use crate::pose::pose_error;
 use crate::pose::{rigid_inverse, rot_x, trans};

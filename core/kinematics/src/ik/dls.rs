@@ -17,8 +17,8 @@
 //! Entry point: [`Dls`].
 
 use super::{IkError, IkOptions, IkResult, IkSolution, IkSolver, Method, finish};
-use crate::compiled::KinematicModel;
 use crate::jacobian::Jacobian;
+use crate::kinematic_model::KinematicModel;
 use crate::model::{JointType, Robot};
 use crate::pose::{pose_error, rotation, to_target_frame};
 use nalgebra::{Matrix4, Vector6};

@@ -250,7 +250,7 @@ impl IkSolver for Hybrid {
     ) -> Result<IkResult, IkError> {
         let s = setup(robot, target)?;
         // Compiled once for every root's residual.
-        let model = crate::compiled::KinematicModel::new(robot);
+        let model = crate::kinematic_model::KinematicModel::new(robot);
         let theta1_ref = options
             .q0
             .as_ref()

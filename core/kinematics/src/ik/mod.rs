@@ -24,7 +24,7 @@ pub mod hybrid;
 pub mod newton;
 pub mod parallel;
 
-use crate::compiled::KinematicModel;
+use crate::kinematic_model::KinematicModel;
 use crate::model::{JointType, ModelError, Robot};
 use crate::pose::{Residual, Tolerances, is_rigid, pose_error, to_target_frame};
 use nalgebra::Matrix4;

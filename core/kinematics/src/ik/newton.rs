@@ -11,8 +11,8 @@
 //! Entry point: [`Newton`].
 
 use super::{IkError, IkOptions, IkResult, IkSolver, Method, finish};
-use crate::compiled::KinematicModel;
 use crate::data::Data;
+use crate::kinematic_model::KinematicModel;
 use crate::model::Robot;
 use crate::pose::{pose_error, rotation, to_target_frame};
 use nalgebra::{DMatrix, DVector, Matrix4};
