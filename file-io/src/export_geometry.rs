@@ -18,8 +18,8 @@
 //! link after joint j, as `robosim_kinematics::fk::link_frames` gives them). The writers move
 //! it into their own link frames ([`exported_frames`]).
 
-use nalgebra::{Matrix4, Vector3};
-use robosim_kinematics::Robot;
+use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3};
+use robosim_kinematics::{Convention, Joint, Robot};
 
 /// What a shape is.
 #[derive(Debug, Clone, PartialEq)]
@@ -289,7 +289,7 @@ pub fn exported_frames(robot: &Robot, format: Exported) -> Vec<Matrix4<f64>> {
         Exported::Urdf => {
             for (j, joint) in robot.joints.iter().enumerate() {
                 if !joint.is_general() {
-                    out[j + 1] = crate::urdf::post(robot.convention, joint);
+                    out[j + 1] = post(robot.convention, joint);
                 }
             }
         }
@@ -298,10 +298,35 @@ pub fn exported_frames(robot: &Robot, format: Exported) -> Vec<Matrix4<f64>> {
             let e = robosim_kinematics::fk::link_frames(&g, &q);
             out[0] = robot.base;
             for j in 1..=robot.dof() {
-                out[j] = crate::urdf::rigid_inverse(&e[j]) * f[j];
+                out[j] = rigid_inverse(&e[j]) * f[j];
             }
         }
     }
+    out
+}
+
+/// The constant transform after the motion, `P_j` (a DH joint's trailing `Tx(a) Rx(α)`, `I` for
+/// modified DH): the URDF link frame's offset from robosim's ([`exported_frames`]).
+pub(crate) fn post(convention: Convention, j: &Joint) -> Matrix4<f64> {
+    match convention {
+        Convention::Standard => {
+            let mut tx = Matrix4::identity();
+            tx[(0, 3)] = j.a;
+            let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), j.alpha).to_homogeneous();
+            tx * rx
+        }
+        Convention::Modified => Matrix4::identity(),
+    }
+}
+
+/// `P⁻¹` of a rigid transform.
+pub(crate) fn rigid_inverse(m: &Matrix4<f64>) -> Matrix4<f64> {
+    let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
+    let t: Vector3<f64> = m.fixed_view::<3, 1>(0, 3).into_owned();
+    let mut out = Matrix4::identity();
+    out.fixed_view_mut::<3, 3>(0, 0).copy_from(&r.transpose());
+    out.fixed_view_mut::<3, 1>(0, 3)
+        .copy_from(&(-(r.transpose() * t)));
     out
 }
 

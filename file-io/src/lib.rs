@@ -36,6 +36,7 @@ pub mod export_geometry;
 pub mod format;
 pub mod gltf;
 pub mod import;
+pub mod inertial;
 pub mod linkfile;
 pub mod mjcf_export;
 pub mod model;

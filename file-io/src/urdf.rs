@@ -28,9 +28,9 @@
 //! frame's axes, which the inertial origin's rpy names).
 //!
 //! Every moving link has an `<inertial>`: a massless one gets
-//! [`crate::mjcf_export::TINY_MASS`] (MuJoCo's URDF loader refuses a moving link without mass;
+//! [`crate::inertial::TINY_MASS`] (MuJoCo's URDF loader refuses a moving link without mass;
 //! Pinocchio does not care), and an inertia breaking A + B ≥ C is made physical
-//! ([`crate::mjcf_export::physical_inertia`]); [`to_urdf_with_notes`] says which link and what.
+//! ([`crate::inertial::physical_inertia`]); [`to_urdf_with_notes`] says which link and what.
 //!
 //! Not in URDF, so not written: gravity, the motor (rotor) inertia (Pinocchio's "armature";
 //! noted in a comment per joint when non-zero), velocity and effort limits (robosim does not
@@ -55,9 +55,10 @@
 //! A ball (spherical) joint is refused by name: URDF has no ball joint.
 
 use crate::export_geometry::{
-    ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
+    ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file, post, rigid_inverse,
 };
-use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3};
+use crate::inertial::loadable_inertial;
+use nalgebra::{Matrix3, Matrix4, Rotation3};
 use robosim_kinematics::mimic::{Coupling, Mimic};
 use robosim_kinematics::{Convention, JointType, Robot, fk::link_transform};
 use std::fmt::Write as _;
@@ -103,30 +104,6 @@ pub fn mimic_relations(robot: &Robot, coupling: &Coupling) -> Result<Vec<Mimic>,
             }
         })
         .collect())
-}
-
-/// The constant transform after the motion, `P_j`.
-pub(crate) fn post(convention: Convention, j: &robosim_kinematics::Joint) -> Matrix4<f64> {
-    match convention {
-        Convention::Standard => {
-            let mut tx = Matrix4::identity();
-            tx[(0, 3)] = j.a;
-            let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), j.alpha).to_homogeneous();
-            tx * rx
-        }
-        Convention::Modified => Matrix4::identity(),
-    }
-}
-
-/// `P⁻¹` of a rigid transform.
-pub(crate) fn rigid_inverse(m: &Matrix4<f64>) -> Matrix4<f64> {
-    let r: Matrix3<f64> = m.fixed_view::<3, 3>(0, 0).into_owned();
-    let t: Vector3<f64> = m.fixed_view::<3, 1>(0, 3).into_owned();
-    let mut out = Matrix4::identity();
-    out.fixed_view_mut::<3, 3>(0, 0).copy_from(&r.transpose());
-    out.fixed_view_mut::<3, 1>(0, 3)
-        .copy_from(&(-(r.transpose() * t)));
-    out
 }
 
 /// `xyz="…" rpy="…"` of a rigid transform, URDF's fixed-axis roll, pitch, yaw
@@ -190,7 +167,7 @@ pub fn to_urdf(robot: &Robot) -> Result<String, String> {
 }
 
 /// [`to_urdf`] and what was changed to make the file loadable by MuJoCo too (inertias made
-/// physical, massless links given a tiny mass; [`crate::mjcf_export::physical_inertia`]).
+/// physical, massless links given a tiny mass; [`crate::inertial::physical_inertia`]).
 pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String> {
     to_urdf_with_geometry(robot, None, None, "").map(|(text, notes, _)| (text, notes))
 }
@@ -370,8 +347,7 @@ pub fn to_urdf_with_geometry(
                     .to_string(),
             );
         }
-        let (mass, inertia) =
-            crate::mjcf_export::loadable_inertial(root.mass, &root.inertia, "link 0", &mut notes);
+        let (mass, inertia) = loadable_inertial(root.mass, &root.inertia, "link 0", &mut notes);
         let m = &inertia;
         let _ = write!(
             out,
@@ -433,14 +409,10 @@ pub fn to_urdf_with_geometry(
             None => Matrix4::new_translation(&j.com),
         };
         let _ = writeln!(out, "  <link name=\"{child}\">");
-        // Every moving link gets an <inertial> another tool accepts (crate::mjcf_export's rules:
+        // Every moving link gets an <inertial> another tool accepts (crate::inertial's rules:
         // physical moments, a tiny mass for a massless link), each change noted.
-        let (mass, inertia) = crate::mjcf_export::loadable_inertial(
-            j.mass,
-            &j.inertia,
-            &format!("link {i}"),
-            &mut notes,
-        );
+        let (mass, inertia) =
+            loadable_inertial(j.mass, &j.inertia, &format!("link {i}"), &mut notes);
         {
             let m = &inertia;
             let _ = writeln!(

@@ -6,8 +6,9 @@
 
 use crate::reference::{floats, matrix, testdata};
 use nalgebra::Matrix4;
+use robosim_file_io::inertial::physical_inertia;
 use robosim_file_io::mjcf::import_mjcf_tree_str;
-use robosim_file_io::mjcf_export::{physical_inertia, to_mjcf};
+use robosim_file_io::mjcf_export::to_mjcf;
 use robosim_kinematics::fk;
 use std::path::Path;
 

@@ -187,7 +187,7 @@ fn exported_urdf_has_robosims_forward_kinematics_and_inertials() {
                 let world_urdf = r_urdf * i_urdf * r_urdf.transpose();
                 // The export makes inertias physical (A + B ≥ C; the PUMA's link 3): compare
                 // with what it says it writes.
-                let (_, inertia) = robosim_file_io::mjcf_export::loadable_inertial(
+                let (_, inertia) = robosim_file_io::inertial::loadable_inertial(
                     j.mass,
                     &j.inertia,
                     "",

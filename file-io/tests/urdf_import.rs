@@ -206,7 +206,7 @@ fn dh_robots_through_urdf_are_the_same_robots() {
         // PUMA's links 1 and 3): the robot compared is the one it says it writes.
         for j in &mut dh.joints {
             j.motor_inertia = 0.0;
-            (j.mass, j.inertia) = robosim_file_io::mjcf_export::loadable_inertial(
+            (j.mass, j.inertia) = robosim_file_io::inertial::loadable_inertial(
                 j.mass,
                 &j.inertia,
                 "",
