@@ -4,8 +4,10 @@
 //! case-sensitive. `!` or `#` starts a comment. Numbers may end in a dot (`-100.`).
 //!
 //! [`parse`] only checks the shape of each line; [`crate::program`] checks the commands and
-//! their arguments. Every error names `file:line:column`, the command and the argument.
+//! their arguments. Every error names `file:line:column`, the command and the argument
+//! ([`LangError`]; when a working object makes no link, its typed cause is a [`LinkError`]).
 
+use robosim_file_io::linkfile::DhViolation;
 use std::fmt;
 
 /// A place in the program, 1-based.
@@ -70,7 +72,7 @@ pub struct LangError {
     /// The solid's or the link's error when a command's shape makes no solid or its objects no
     /// link (kept typed; the message ends with it).
     #[source]
-    pub source: Option<crate::program::LinkError>,
+    pub source: Option<LinkError>,
 }
 
 impl fmt::Display for LangError {
@@ -88,6 +90,25 @@ impl fmt::Display for LangError {
         }
         Ok(())
     }
+}
+
+/// Why a working object cannot become a link file ([`crate::program::build_link`]; a
+/// [`LangError`]'s `source`, so it lives here with it). A variant that wraps the geometry's or the
+/// link file's error keeps it (`source()`).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum LinkError {
+    /// The objects do not make a link (two joints of one kind): the message.
+    #[error("{0}")]
+    Refused(String),
+    /// An object's shape makes no solid.
+    #[error(transparent)]
+    Solid(#[from] robosim_geometry::shapes::ShapeError),
+    /// A solid's mass properties cannot be computed.
+    #[error(transparent)]
+    Mass(#[from] robosim_geometry::MassError),
+    /// The link's two joints are not related by a DH transform.
+    #[error("the I joint and the I+1 joint are not related by a DH transform: {0}")]
+    NotDh(#[source] DhViolation),
 }
 
 fn is_name_char(c: char) -> bool {

@@ -16,7 +16,7 @@
 //! [`run`] interprets a whole program and returns every link it stored; nothing is written. A
 //! program with an error returns the error and no link at all.
 
-use crate::lang::{Arg, Command, LangError, Span, Unit, parse, unit};
+use crate::lang::{Arg, Command, LangError, LinkError, Span, Unit, parse, unit};
 use crate::shape::{Shape, axis_rotation, facets_for, rigid_inverse};
 use nalgebra::{Matrix4, Point3, Vector3};
 use robosim_file_io::linkfile::{self, DhRow, LinkFile, LinkJoint, pseudo_inertia};
@@ -77,24 +77,6 @@ pub struct Output {
     pub look_at: Option<[f64; 3]>,
     /// One line per VIEW.
     pub views: Vec<String>,
-}
-
-/// Why a working object cannot become a link file. A variant that wraps the geometry's or the
-/// link file's error keeps it (`source()`).
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum LinkError {
-    /// The objects do not make a link (two joints of one kind): the message.
-    #[error("{0}")]
-    Refused(String),
-    /// An object's shape makes no solid.
-    #[error(transparent)]
-    Solid(#[from] robosim_geometry::shapes::ShapeError),
-    /// A solid's mass properties cannot be computed.
-    #[error(transparent)]
-    Mass(#[from] robosim_geometry::MassError),
-    /// The link's two joints are not related by a DH transform.
-    #[error("the I joint and the I+1 joint are not related by a DH transform: {0}")]
-    NotDh(#[source] linkfile::DhViolation),
 }
 
 /// The link file of `objects` (construction frame, m) with uniform `density` (kg/m³).
