@@ -642,3 +642,581 @@ fn every_crate_without_unsafe_forbids_it() {
         "crates without unsafe that do not say #![forbid(unsafe_code)]: {missing:?}"
     );
 }
+
+// ---- Files of one crate that import each other (issue 35 item 5, "the circles gone") ----
+//
+// The Rust form of tools/modcycles.py: file A uses an item defined in file B and B one defined
+// in A (`use crate::…`, `use super::…`, `use self::…`, a child module's name, or such a path
+// written in the code). Imports are followed through re-exports to the file that defines the
+// item; a `pub use` (any `pub(…) use`) alone is a module's facade, not an import; everything
+// from a file's first `#[cfg(test)]` on is left out, and so are `src/bin/`, `tests/`, `benches/`,
+// `examples/` and `fuzz/`. A pair means a shared type lives in the wrong file: move it to the
+// file that owns it, or to a small module both import.
+
+/// A module: its path from the crate root (`[]` for lib.rs/main.rs, `["a", "b"]` for
+/// src/a/b.rs or src/a/b/mod.rs).
+type ModKey = Vec<String>;
+
+/// One import of a file: whether it is a `pub use`, its path's segments, and the name it
+/// brings in (the alias, or the last segment).
+struct Import {
+    public: bool,
+    segs: Vec<String>,
+    alias: String,
+}
+
+struct CrateModules {
+    files: BTreeMap<ModKey, std::path::PathBuf>,
+    defs: BTreeMap<ModKey, BTreeSet<String>>,
+    uses: BTreeMap<ModKey, Vec<Import>>,
+}
+
+/// The crates under `root`: folders with a Cargo.toml and a `src/` (target, .git, tests,
+/// benches, examples and fuzz folders not searched).
+fn crate_folders(root: &Path, out: &mut Vec<std::path::PathBuf>) {
+    const SKIP: &[&str] = &[
+        "target",
+        ".git",
+        "node_modules",
+        "fuzz",
+        "tests",
+        "benches",
+        "examples",
+    ];
+    if root.join("Cargo.toml").is_file() && root.join("src").is_dir() {
+        out.push(root.to_path_buf());
+    }
+    let Ok(entries) = std::fs::read_dir(root) else {
+        return;
+    };
+    let mut dirs: Vec<_> = entries
+        .flatten()
+        .map(|e| e.path())
+        .filter(|p| p.is_dir())
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| !SKIP.contains(&n))
+        })
+        .collect();
+    dirs.sort();
+    for d in dirs {
+        crate_folders(&d, out);
+    }
+}
+
+/// The text with comments removed, string and char literals emptied, and everything from the
+/// first `#[cfg(test)]` on cut.
+fn strip_code(text: &str) -> String {
+    let c: Vec<char> = text.chars().collect();
+    let mut out = String::with_capacity(text.len());
+    let mut i = 0;
+    while i < c.len() {
+        let next = c.get(i + 1).copied();
+        if c[i] == '/' && next == Some('/') {
+            while i < c.len() && c[i] != '\n' {
+                i += 1;
+            }
+        } else if c[i] == '/' && next == Some('*') {
+            let mut depth = 0;
+            while i < c.len() {
+                if c[i] == '/' && c.get(i + 1) == Some(&'*') {
+                    depth += 1;
+                    i += 2;
+                } else if c[i] == '*' && c.get(i + 1) == Some(&'/') {
+                    depth -= 1;
+                    i += 2;
+                    if depth == 0 {
+                        break;
+                    }
+                } else {
+                    if c[i] == '\n' {
+                        out.push('\n');
+                    }
+                    i += 1;
+                }
+            }
+        } else if c[i] == 'r'
+            && (next == Some('"') || next == Some('#'))
+            && {
+                // not the end of an identifier (`br"…"` is a raw byte string)
+                let before = |k: usize| i >= k && is_ident_char(c[i - k]);
+                !before(1) || (c[i - 1] == 'b' && !before(2))
+            }
+            && {
+                // a raw string r"…" or r#"…"#
+                let mut k = i + 1;
+                while c.get(k) == Some(&'#') {
+                    k += 1;
+                }
+                c.get(k) == Some(&'"')
+            }
+        {
+            let mut k = i + 1;
+            let mut hashes = 0;
+            while c[k] == '#' {
+                hashes += 1;
+                k += 1;
+            }
+            k += 1;
+            loop {
+                if k >= c.len() {
+                    break;
+                }
+                if c[k] == '"' && (0..hashes).all(|h| c.get(k + 1 + h) == Some(&'#')) {
+                    k += 1 + hashes;
+                    break;
+                }
+                k += 1;
+            }
+            out.push_str("\"\"");
+            i = k;
+        } else if c[i] == '"' {
+            i += 1;
+            while i < c.len() && c[i] != '"' {
+                i += if c[i] == '\\' { 2 } else { 1 };
+            }
+            i += 1;
+            out.push_str("\"\"");
+        } else if c[i] == '\'' {
+            // a char literal ('x', '\n', '\u{1F600}'), not a lifetime ('a)
+            let close = if next == Some('\\') {
+                (i + 2..c.len().min(i + 12)).find(|&k| c[k] == '\'')
+            } else if c.get(i + 2) == Some(&'\'') {
+                Some(i + 2)
+            } else {
+                None
+            };
+            match close {
+                Some(k) => {
+                    out.push_str("' '");
+                    i = k + 1;
+                }
+                None => {
+                    out.push('\'');
+                    i += 1;
+                }
+            }
+        } else {
+            out.push(c[i]);
+            i += 1;
+        }
+    }
+    match out.find("#[cfg(test)]") {
+        Some(k) => out[..k].to_string(),
+        None => out,
+    }
+}
+
+fn is_ident_char(c: char) -> bool {
+    c.is_alphanumeric() || c == '_'
+}
+
+/// After an optional `pub` or `pub(…)` and whitespace at the start of `s`: the rest, and
+/// whether there was one.
+fn after_pub(s: &str) -> (&str, bool) {
+    let Some(rest) = s.strip_prefix("pub") else {
+        return (s, false);
+    };
+    let rest = match rest.strip_prefix('(') {
+        Some(r) => match r.find(')') {
+            Some(k) => &r[k + 1..],
+            None => return (s, false),
+        },
+        None => rest,
+    };
+    if rest.starts_with(char::is_whitespace) {
+        (rest.trim_start(), true)
+    } else {
+        (s, false)
+    }
+}
+
+/// The leading identifier of `s`.
+fn ident(s: &str) -> &str {
+    let end = s.find(|c: char| !is_ident_char(c)).unwrap_or(s.len());
+    &s[..end]
+}
+
+/// The names a file defines at the start of a line: `fn`, `struct`, `enum`, `trait`, `type`,
+/// `const`, `static`, `union`, `mod` (after `pub`, `pub(…)`, `unsafe`, `const`, `async`) and
+/// `macro_rules!`.
+fn definitions(code: &str) -> BTreeSet<String> {
+    const KINDS: &[&str] = &[
+        "fn", "struct", "enum", "trait", "type", "const", "static", "union", "mod",
+    ];
+    const QUALIFIERS: &[&str] = &["unsafe", "const", "async"];
+    let mut out = BTreeSet::new();
+    for line in code.lines() {
+        let (mut s, _) = after_pub(line.trim_start());
+        if let Some(r) = s.strip_prefix("macro_rules!") {
+            let name = ident(r.trim_start());
+            if r.starts_with(char::is_whitespace) && !name.is_empty() {
+                out.insert(name.to_string());
+            }
+            continue;
+        }
+        // the line's first words, each but the last followed by white space
+        let mut words = Vec::new();
+        while words.len() < 8 {
+            let w = ident(s);
+            if w.is_empty() {
+                break;
+            }
+            words.push(w);
+            let rest = &s[w.len()..];
+            if !rest.starts_with(char::is_whitespace) {
+                break;
+            }
+            s = rest.trim_start();
+        }
+        // as many qualifiers as leave a kind and a name (`const fn f`, `const N`)
+        let q = words.iter().take_while(|w| QUALIFIERS.contains(w)).count();
+        for k in (0..=q).rev() {
+            let (Some(kind), Some(name)) = (words.get(k), words.get(k + 1)) else {
+                continue;
+            };
+            if KINDS.contains(kind) && !name.starts_with(|c: char| c.is_ascii_digit()) {
+                out.insert(name.to_string());
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// A `use` tree expanded into its paths: `a::{b, c::{d, self}}` is `a::b`, `a::c::d`, `a::c`.
+fn expand_use(u: &str) -> Vec<String> {
+    let Some(i) = u.find('{') else {
+        return vec![u.to_string()];
+    };
+    let Some(j) = u.rfind('}') else {
+        return vec![u.to_string()];
+    };
+    let head = &u[..i];
+    let mut parts = Vec::new();
+    let mut depth = 0;
+    let mut cur = String::new();
+    for ch in u[i + 1..j].chars() {
+        match ch {
+            '{' => depth += 1,
+            '}' => depth -= 1,
+            _ => {}
+        }
+        if ch == ',' && depth == 0 {
+            parts.push(std::mem::take(&mut cur));
+        } else {
+            cur.push(ch);
+        }
+    }
+    parts.push(cur);
+    let mut out = Vec::new();
+    for p in parts {
+        let p = p.trim();
+        if p.is_empty() {
+            continue;
+        }
+        if p == "self" {
+            out.push(head.trim_end_matches(':').to_string());
+            continue;
+        }
+        out.extend(expand_use(&format!("{head}{p}")));
+    }
+    out
+}
+
+/// The `use` declarations of a file (at a line's start), as (is `pub`, the tree), and the code
+/// without them.
+fn use_declarations(code: &str) -> (Vec<(bool, String)>, String) {
+    let mut uses = Vec::new();
+    let mut rest = String::with_capacity(code.len());
+    let mut at = 0;
+    let mut line_start = 0;
+    while line_start < code.len() {
+        let line_end = code[line_start..]
+            .find('\n')
+            .map_or(code.len(), |k| line_start + k + 1);
+        if line_start < at {
+            line_start = line_end;
+            continue;
+        }
+        let line = &code[line_start..line_end];
+        let trimmed = line.trim_start();
+        let (after, public) = after_pub(trimmed);
+        let is_use = after
+            .strip_prefix("use")
+            .is_some_and(|r| r.starts_with(char::is_whitespace));
+        if is_use {
+            let start = line_start + (line.len() - after.len()) + 3;
+            if let Some(k) = code[start..].find(';') {
+                rest.push_str(&code[at..line_start]);
+                let tree: String = code[start..start + k]
+                    .split_whitespace()
+                    .collect::<Vec<_>>()
+                    .join(" ");
+                uses.push((public, tree));
+                at = start + k + 1;
+            }
+        }
+        line_start = line_end;
+    }
+    rest.push_str(&code[at.min(code.len())..]);
+    (uses, rest)
+}
+
+/// Paths written in the code that start at `crate`, `super` or `self` (`crate::a::B::new`).
+fn code_paths(code: &str) -> Vec<Vec<String>> {
+    let mut out = Vec::new();
+    for (i, _) in code.char_indices() {
+        let prev = code[..i].chars().next_back();
+        if prev.is_some_and(|p| is_ident_char(p) || p == ':') {
+            continue;
+        }
+        let first = ident(&code[i..]);
+        if !matches!(first, "crate" | "super" | "self") {
+            continue;
+        }
+        let mut segs = vec![first.to_string()];
+        let mut k = i + first.len();
+        while code[k..].starts_with("::") {
+            let seg = ident(&code[k + 2..]);
+            if seg.is_empty() || seg.starts_with(|c: char| c.is_ascii_digit()) {
+                break;
+            }
+            segs.push(seg.to_string());
+            k += 2 + seg.len();
+        }
+        if segs.len() > 1 {
+            out.push(segs);
+        }
+    }
+    out
+}
+
+impl CrateModules {
+    fn read(src: &Path) -> CrateModules {
+        let mut paths = Vec::new();
+        rust_files(src, &mut paths);
+        paths.sort();
+        let mut files = BTreeMap::new();
+        for p in paths {
+            let rel = p.strip_prefix(src).expect("under src").with_extension("");
+            let mut key: ModKey = rel
+                .components()
+                .map(|c| c.as_os_str().to_string_lossy().into_owned())
+                .collect();
+            if key.first().is_some_and(|k| k == "bin") {
+                continue;
+            }
+            if key == ["lib"] || key == ["main"] {
+                key.clear();
+            } else if key.last().is_some_and(|k| k == "mod") {
+                key.pop();
+            }
+            files.entry(key).or_insert(p);
+        }
+        let mut defs = BTreeMap::new();
+        let mut uses = BTreeMap::new();
+        for (key, path) in &files {
+            let code = strip_code(&std::fs::read_to_string(path).unwrap_or_default());
+            defs.insert(key.clone(), definitions(&code));
+            let (decls, body) = use_declarations(&code);
+            let mut imports = Vec::new();
+            for (public, tree) in decls {
+                for p in expand_use(&tree) {
+                    let (path, alias) = match p.split_once(" as ") {
+                        Some((a, b)) => (a.trim().to_string(), Some(b.trim().to_string())),
+                        None => (p.trim().to_string(), None),
+                    };
+                    let segs: Vec<String> = path
+                        .split("::")
+                        .map(str::trim)
+                        .filter(|s| !s.is_empty())
+                        .map(String::from)
+                        .collect();
+                    if let Some(last) = segs.last().cloned() {
+                        imports.push(Import {
+                            public,
+                            segs,
+                            alias: alias.unwrap_or(last),
+                        });
+                    }
+                }
+            }
+            for segs in code_paths(&body) {
+                let alias = segs.last().cloned().unwrap_or_default();
+                imports.push(Import {
+                    public: false,
+                    segs,
+                    alias,
+                });
+            }
+            uses.insert(key.clone(), imports);
+        }
+        CrateModules { files, defs, uses }
+    }
+
+    fn has(&self, key: &[String]) -> bool {
+        self.files.contains_key(key)
+    }
+
+    /// The module a path starts from, seen from `here`, and the rest of the path (`None`: an
+    /// outside crate).
+    fn start(&self, here: &[String], segs: &[String]) -> Option<(ModKey, Vec<String>)> {
+        match segs.first().map(String::as_str) {
+            Some("crate") => Some((Vec::new(), segs[1..].to_vec())),
+            Some("super") => {
+                let mut base = here.to_vec();
+                let mut k = 0;
+                while segs.get(k).is_some_and(|s| s == "super") {
+                    base.pop();
+                    k += 1;
+                }
+                Some((base, segs[k..].to_vec()))
+            }
+            Some("self") => Some((here.to_vec(), segs[1..].to_vec())),
+            Some(first) => {
+                let mut child = here.to_vec();
+                child.push(first.to_string());
+                self.has(&child).then(|| (here.to_vec(), segs.to_vec()))
+            }
+            None => None,
+        }
+    }
+
+    /// The file (module) that defines what `segs` names, seen from `here`.
+    fn target(
+        &self,
+        here: &[String],
+        segs: &[String],
+        seen: &mut Vec<(ModKey, String)>,
+    ) -> Option<ModKey> {
+        let (mut base, mut rest) = self.start(here, segs)?;
+        while let Some(first) = rest.first() {
+            let mut child = base.clone();
+            child.push(first.clone());
+            if !self.has(&child) {
+                break;
+            }
+            base = child;
+            rest.remove(0);
+        }
+        if rest.is_empty() || rest == ["*"] {
+            return Some(base);
+        }
+        let name = rest[0].clone();
+        if self.defs.get(&base).is_some_and(|d| d.contains(&name)) {
+            return Some(base);
+        }
+        if seen.contains(&(base.clone(), name.clone())) {
+            return Some(base);
+        }
+        for imp in self.uses.get(&base).into_iter().flatten() {
+            let glob = imp.segs.last().is_some_and(|s| s == "*");
+            if imp.alias != name && !glob {
+                continue;
+            }
+            let path: Vec<String> = if imp.alias == name {
+                imp.segs.clone()
+            } else {
+                let mut p = imp.segs[..imp.segs.len() - 1].to_vec();
+                p.push(name.clone());
+                p
+            };
+            seen.push((base.clone(), name.clone()));
+            let t = self.target(&base, &path, seen);
+            seen.pop();
+            if let Some(t) = t {
+                if imp.alias == name || self.defs.get(&t).is_some_and(|d| d.contains(&name)) {
+                    return Some(t);
+                }
+            }
+        }
+        Some(base)
+    }
+
+    /// Pairs of this crate's files that import each other (paths relative to `root`).
+    fn pairs(&self, root: &Path) -> Vec<String> {
+        let mut edges: BTreeSet<(ModKey, ModKey)> = BTreeSet::new();
+        for (key, imports) in &self.uses {
+            for imp in imports.iter().filter(|i| !i.public) {
+                if let Some(t) = self.target(key, &imp.segs, &mut Vec::new()) {
+                    if &t != key {
+                        edges.insert((key.clone(), t));
+                    }
+                }
+            }
+        }
+        let rel = |k: &ModKey| {
+            let p = &self.files[k];
+            p.strip_prefix(root).unwrap_or(p).display().to_string()
+        };
+        edges
+            .iter()
+            .filter(|(a, b)| a < b && edges.contains(&(b.clone(), a.clone())))
+            .map(|(a, b)| format!("{} <-> {}", rel(a), rel(b)))
+            .collect()
+    }
+}
+
+/// Every pair of files of one crate under `root` that import each other.
+fn module_cycles(root: &Path) -> Vec<String> {
+    let mut crates = Vec::new();
+    crate_folders(root, &mut crates);
+    crates
+        .iter()
+        .flat_map(|c| CrateModules::read(&c.join("src")).pairs(root))
+        .collect()
+}
+
+#[test]
+fn no_two_files_of_a_crate_import_each_other() {
+    let pairs = module_cycles(Path::new(ROOT));
+    assert!(
+        pairs.is_empty(),
+        "files of one crate that import each other (a shared type in the wrong file: move it \
+         to the file that owns it, or to a small module both import; tools/modcycles.py lists \
+         the same): {pairs:#?}"
+    );
+}
+
+#[test]
+fn the_cycle_check_catches_a_pair() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let src = dir.path().join("made-up/src");
+    std::fs::create_dir_all(src.join("outer")).expect("folders");
+    std::fs::write(dir.path().join("made-up/Cargo.toml"), "").expect("Cargo.toml");
+    let files = [
+        (
+            "lib.rs",
+            "mod a;\nmod b;\nmod c;\nmod outer;\npub use a::A;\n",
+        ),
+        // a uses b's item by a `use` with a group, b uses a's through the crate's re-export
+        ("a.rs", "use crate::{c::C, b::B};\npub struct A(B, C);\n"),
+        ("b.rs", "pub struct B;\nfn f() -> crate::A { todo!() }\n"),
+        // c only re-exports (a facade) and writes "crate::a" in a string and a comment
+        (
+            "c.rs",
+            "pub use crate::a::A as Alias;\npub struct C;\n// crate::a::A\nconst S: &str = \"crate::a::A\";\n",
+        ),
+        // a parent and its child, the child reaching up by `super`
+        (
+            "outer/mod.rs",
+            "mod inner;\nuse inner::I;\npub struct O(I);\n",
+        ),
+        (
+            "outer/inner.rs",
+            "pub struct I;\nfn g(_: super::O) {}\n#[cfg(test)]\nmod tests { use crate::a::A; }\n",
+        ),
+    ];
+    for (name, text) in files {
+        std::fs::write(src.join(name), text).expect("file");
+    }
+    assert_eq!(
+        module_cycles(dir.path()),
+        [
+            "made-up/src/a.rs <-> made-up/src/b.rs",
+            "made-up/src/outer/mod.rs <-> made-up/src/outer/inner.rs",
+        ]
+    );
+}
