@@ -146,7 +146,15 @@ enum Frames<'a> {
     Robot(&'a Robot),
 }
 
-impl Frames<'_> {
+impl<'a> Frames<'a> {
+    /// The link frames from `kin`, into a buffer of its own.
+    fn compiled(kin: &'a KinematicModel) -> Self {
+        Frames::Compiled {
+            kin,
+            frames: vec![Matrix4::identity(); kin.dof() + 2],
+        }
+    }
+
     /// Every link solid's world pose at `q` into `out` (`None`: no solid), as
     /// [`crate::bodies::link_poses`].
     fn poses(&mut self, links: &LinkSolids, q: &[f64], out: &mut Vec<Option<Isometry3<f64>>>) {
@@ -207,10 +215,7 @@ pub fn sweep_robot_compiled(
     self_collision: bool,
     opts: &SweepOptions,
 ) -> Result<Sweep, CheckError> {
-    let frames = Frames::Compiled {
-        kin,
-        frames: vec![Matrix4::identity(); kin.dof() + 2],
-    };
+    let frames = Frames::compiled(kin);
     sweep(frames, robot, links, q0, q1, scene, self_collision, opts)
 }
 
@@ -414,30 +419,24 @@ mod tests {
                     ..SweepOptions::default()
                 };
                 let self_collision = i % 3 == 0;
-                let before = sweep(
-                    Frames::Robot(&robot),
-                    &robot,
-                    &links,
-                    &q0,
-                    &q1,
-                    &scene,
-                    self_collision,
-                    &opts,
-                )
-                .expect("sweep");
+                let on = |frames: Frames| {
+                    sweep(
+                        frames,
+                        &robot,
+                        &links,
+                        &q0,
+                        &q1,
+                        &scene,
+                        self_collision,
+                        &opts,
+                    )
+                    .expect("sweep")
+                };
+                let before = on(Frames::Robot(&robot));
+                // What sweep_robot_compiled runs, on the one model compiled for all the steps.
+                let compiled = on(Frames::compiled(&kin));
                 let now = sweep_robot(&robot, &links, &q0, &q1, &scene, self_collision, &opts)
                     .expect("sweep");
-                let compiled = sweep_robot_compiled(
-                    &kin,
-                    &robot,
-                    &links,
-                    &q0,
-                    &q1,
-                    &scene,
-                    self_collision,
-                    &opts,
-                )
-                .expect("sweep");
                 assert!(
                     now == before,
                     "{name} {q0:?} -> {q1:?}: {now:?} vs {before:?}"
