@@ -674,6 +674,21 @@ impl SimFollower {
 }
 
 impl SessionHost {
+    fn new(reader: Reader, session: Session, collisions: bool) -> SessionHost {
+        SessionHost {
+            reader,
+            trouble: FollowTrouble::default(),
+            session,
+            client: None,
+            collisions,
+            snap: None,
+            scene: CompiledScene::new(),
+            sim: SimFollower::new(),
+            showing_sim: false,
+            sim_scene: CompiledScene::new(),
+        }
+    }
+
     /// The simulator's state drawn, as the overlay shows it: time (s) and record number, then
     /// one line per robot with its joint values (degrees for revolute joints, metres for
     /// prismatic ones). `None` when the committed model alone is drawn.
@@ -727,7 +742,7 @@ impl SessionHost {
 }
 
 impl Host for SessionHost {
-    fn update(&mut self, r: &mut Renderer) -> std::result::Result<bool, String> {
+    fn update(&mut self, r: &mut Renderer) -> Result<bool> {
         // `wait_change` may already have advanced the reader: compare versions, not
         // `refresh`'s answer.
         self.trouble.refresh("display", &mut self.reader);
@@ -785,40 +800,31 @@ impl Host for SessionHost {
             .collect()
     }
 
-    fn jog(
-        &mut self,
-        robot_index: usize,
-        joint: usize,
-        delta: f64,
-    ) -> std::result::Result<String, String> {
+    fn jog(&mut self, robot_index: usize, joint: usize, delta: f64) -> Result<String> {
         let r = self
             .scene
             .robots()
             .get(robot_index)
-            .ok_or("no robot to move")?;
+            .ok_or_else(|| AppError("no robot to move".into()))?;
         let mut q = r.q.clone();
         let Some(qj) = q.get_mut(joint) else {
-            return Err(format!("{} has no joint {}", r.robot.name, joint + 1));
+            bail!("{} has no joint {}", r.robot.name, joint + 1);
         };
         *qj += delta;
         let name = r.robot.name.clone();
         let shown = q[joint].to_degrees();
         self.write_q(&name, &q)
             .map(|v| format!("{name} joint {} = {shown:.1}° (version {v})", joint + 1))
-            .map_err(|e| e.to_string())
     }
 
     fn status(&self) -> Option<String> {
         self.sim_status()
     }
 
-    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, String> {
+    fn select(&mut self, hit: Option<&Hit>) -> Result<u64> {
         let mut tx = robosim_instance_space::Transaction::new();
         tx.select(hit.map(|h| h.id.into()), hit.map(|h| h.polygon));
-        let c = self.client().map_err(|e| e.to_string())?;
-        c.transact(&tx)
-            .map(|a| a.version)
-            .map_err(|e| e.to_string())
+        Ok(self.client()?.transact(&tx)?.version)
     }
 
     fn describe(&self, hit: &Hit) -> String {
@@ -868,13 +874,35 @@ struct FrameRecord {
     status: Option<String>,
 }
 
-/// `robosim display --session S …`
+/// `robosim display --session S …`: attaches to the session, waits for its first model, then
+/// shows it in a window, or renders it headless frame by frame into the output directory
+/// (also playing `--play` trajectories into the session and replaying `--script` clicks).
 pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     let session = Session::open(a.session.as_deref())?;
     let headless = a.headless || std::env::var_os("DISPLAY").is_none();
     let signals = session.node("display-signals", true)?;
+    // SIGTERM/SIGINT (`robosim down`) end the display cleanly.
+    let stopped = || signals.wait(Duration::ZERO).is_err();
     let reader = Reader::attach(&session, "display")?;
-    let _reg = session.register(
+    let _reg = register_display(&session)?;
+    let mut host = SessionHost::new(reader, session.clone(), a.view.collisions);
+    if !wait_for_first_model(&mut host, &session, &stopped)? {
+        return Ok(());
+    }
+    host.snap = host.reader.snapshot();
+    let player = match &host.snap {
+        Some(s) if !a.play.is_empty() => Some(Player::load(&a.play, s)?),
+        _ => None,
+    };
+    if !headless {
+        return show_in_window(host, player.is_some(), a, &session);
+    }
+    render_headless(host, player, a, &session, &stopped)
+}
+
+/// Registers the display with the session (`robosim ps`), naming the services it reads.
+fn register_display(session: &Session) -> Result<robosim_instance_space::Registration> {
+    Ok(session.register(
         "display",
         &[
             "space/objects",
@@ -882,25 +910,20 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             "space/changes",
             "space/geometry/*",
         ],
-    )?;
-    let mut host = SessionHost {
-        reader,
-        trouble: FollowTrouble::default(),
-        session: session.clone(),
-        client: None,
-        collisions: a.view.collisions,
-        snap: None,
-        scene: CompiledScene::new(),
-        sim: SimFollower::new(),
-        showing_sim: false,
-        sim_scene: CompiledScene::new(),
-    };
-    // Wait for the first model.
+    )?)
+}
+
+/// Waits up to 30 s for the session's first model; false when a signal stopped the wait.
+fn wait_for_first_model(
+    host: &mut SessionHost,
+    session: &Session,
+    stopped: &dyn Fn() -> bool,
+) -> Result<bool> {
     let deadline = Instant::now() + Duration::from_secs(30);
     while host.reader.snapshot().is_none() {
         if let Err(e) = host.reader.wait_change(Duration::from_millis(100)) {
-            if signals.wait(Duration::ZERO).is_err() {
-                return Ok(());
+            if stopped() {
+                return Ok(false);
             }
             return Err(e.into());
         }
@@ -909,47 +932,104 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
             bail!("session {}: no model published within 30 s", session.name());
         }
     }
-    host.snap = host.reader.snapshot();
-    let player = match &host.snap {
-        Some(s) if !a.play.is_empty() => Some(Player::load(&a.play, s)?),
-        _ => None,
-    };
-    if !headless {
-        let bounds = host
-            .snap
-            .as_deref()
-            .map_or((Point3::origin(), 1.0), scene_bounds);
-        let camera = a.view.camera(bounds)?;
-        host.snap = None;
-        if player.is_some() {
-            bail!(
-                "--play in a window: play headless into the session and watch it in a second `robosim display`"
-            );
-        }
-        let opts = WindowOptions {
-            size: a.view.size,
-            title: format!("robosim — session {}", session.name()),
-            exit_after_frames: a.max_frames,
-            script: a.script.clone(),
-            frame_first_bodies: !a.view.placed(),
-            ..WindowOptions::default()
-        };
-        return Ok(crate::window::run(
-            Box::new(host),
-            Some(camera),
-            a.view.style(!a.no_grid),
-            opts,
-        )?);
+    Ok(true)
+}
+
+/// The display in a window, its camera framed on the first model (`playing`: `--play` was
+/// given, which a window refuses).
+fn show_in_window(
+    mut host: SessionHost,
+    playing: bool,
+    a: &DisplayArgs,
+    session: &Session,
+) -> Result<()> {
+    let bounds = host
+        .snap
+        .as_deref()
+        .map_or((Point3::origin(), 1.0), scene_bounds);
+    let camera = a.view.camera(bounds)?;
+    host.snap = None;
+    if playing {
+        bail!(
+            "--play in a window: play headless into the session and watch it in a second `robosim display`"
+        );
     }
-    // Everything the session display writes is private (0700 / 0600), as the rest of the
-    // session; the session's own display/ directory is tightened if an older run made it wider.
-    let out = a
+    let opts = WindowOptions {
+        size: a.view.size,
+        title: format!("robosim — session {}", session.name()),
+        exit_after_frames: a.max_frames,
+        script: a.script.clone(),
+        frame_first_bodies: !a.view.placed(),
+        ..WindowOptions::default()
+    };
+    Ok(crate::window::run(
+        Box::new(host),
+        Some(camera),
+        a.view.style(!a.no_grid),
+        opts,
+    )?)
+}
+
+/// Where the headless display writes: its directory (latest.png, frames) and frames.jsonl.
+struct HeadlessOutput {
+    dir: PathBuf,
+    log_path: PathBuf,
+    log: std::fs::File,
+}
+
+/// Opens the headless output. Everything the session display writes is private (0700 / 0600),
+/// as the rest of the session; the session's own display/ directory is tightened if an older
+/// run made it wider.
+fn open_headless_output(a: &DisplayArgs, session: &Session) -> Result<HeadlessOutput> {
+    let dir = a
         .out
         .clone()
         .unwrap_or_else(|| session.dir().join("display"));
-    crate::private::private_dir(&out, a.out.is_none())?;
-    let log_path = out.join("frames.jsonl");
-    let mut log = crate::private::append_file(&log_path)?;
+    crate::private::private_dir(&dir, a.out.is_none())?;
+    let log_path = dir.join("frames.jsonl");
+    let log = crate::private::append_file(&log_path)?;
+    Ok(HeadlessOutput { dir, log_path, log })
+}
+
+/// `--play`: the trajectories' samples, written into the session at their own rate.
+struct Playback {
+    player: Option<Player>,
+    sample: usize,
+    next_sample: Instant,
+}
+
+impl Playback {
+    /// Writes the next sample's joint values once a model is drawn and its time has come.
+    fn write_due_sample(&mut self, host: &mut SessionHost) -> Result<()> {
+        let Some(p) = &self.player else {
+            return Ok(());
+        };
+        if host.snap.is_none() || self.sample >= p.len() || Instant::now() < self.next_sample {
+            return Ok(());
+        }
+        for (r, q) in p.at(self.sample) {
+            host.write_q(&r.robot.name, &q)?;
+        }
+        let dt = p
+            .tracks
+            .iter()
+            .map(|t| t.1.dt)
+            .fold(f64::INFINITY, f64::min);
+        self.next_sample = Instant::now() + Duration::from_secs_f64(dt);
+        self.sample += 1;
+        Ok(())
+    }
+}
+
+/// The headless display: one frame per model change, until a signal or `--max-frames`.
+fn render_headless(
+    mut host: SessionHost,
+    player: Option<Player>,
+    a: &DisplayArgs,
+    session: &Session,
+    stopped: &dyn Fn() -> bool,
+) -> Result<()> {
+    let mut out = open_headless_output(a, session)?;
     let clicks = a
         .script
         .iter()
@@ -960,12 +1040,14 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     eprintln!(
         "display: headless on {} → {}",
         r.gpu().describe(),
-        out.display()
+        out.dir.display()
     );
-    let (w, h) = a.view.size;
+    let mut playback = Playback {
+        player,
+        sample: 0,
+        next_sample: Instant::now(),
+    };
     let mut frames = 0u64;
-    let mut sample = 0usize;
-    let mut next_sample = Instant::now();
     // The camera is framed on the first frame; if that frame has nothing to draw (an empty
     // session), again on the first frame that has, and on the bodies added to the model
     // later — unless the user placed it.
@@ -974,91 +1056,17 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
     // the camera).
     let mut shown = std::collections::BTreeSet::new();
     host.snap = None;
-    while signals.wait(Duration::ZERO).is_ok() {
-        if let Some(p) = &player
-            && host.snap.is_some()
-            && sample < p.len()
-            && Instant::now() >= next_sample
-        {
-            for (r, q) in p.at(sample) {
-                host.write_q(&r.robot.name, &q)?;
-            }
-            let dt = p
-                .tracks
-                .iter()
-                .map(|t| t.1.dt)
-                .fold(f64::INFINITY, f64::min);
-            next_sample = Instant::now() + Duration::from_secs_f64(dt);
-            sample += 1;
-        }
-        if !host.update(&mut r).map_err(AppError)? {
-            let waited = host.reader.wait_change(Duration::from_millis(20));
-            // SIGTERM/SIGINT interrupt the wait: stop cleanly (`robosim down`).
-            if waited.is_err() && signals.wait(Duration::ZERO).is_err() {
+    while !stopped() {
+        playback.write_due_sample(&mut host)?;
+        if !host.update(&mut r)? {
+            if host.wait_for_change(stopped) {
                 break;
-            }
-            // Any other error is said once; the display keeps its last frame and follows on.
-            if !host
-                .trouble
-                .note("display", &host.reader, waited.map(|_| ()))
-            {
-                std::thread::sleep(Duration::from_millis(20));
             }
             continue;
         }
-        if !framed {
-            a.view.apply(&mut r, !a.no_grid)?;
-            framed = r.body_count() > 0 || a.view.placed();
-        } else if !a.view.placed()
-            && let Some(added) = r.added_since(&shown)
-            && let Some(bounds) = r.bounds_of(&added)
-        {
-            // Bodies added to the model on screen (an instance, an imported robot): framed
-            // alone, as the first bodies were (issue 39 item 8).
-            r.camera = a.view.camera(bounds)?;
-        }
+        place_camera(&mut r, a, &mut framed, &shown)?;
         shown = r.body_ids();
-        let status = host.status();
-        r.set_status(status.as_deref());
-        let upload = r.last_upload();
-        let t0 = Instant::now();
-        let img = r.render_image(w, h)?;
-        let render_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let tmp = out.join("latest.png.tmp");
-        img.save_png_private(&tmp)?;
-        std::fs::rename(&tmp, out.join("latest.png"))
-            .map_err(|e| AppError(format!("{}: {e}", out.display())))?;
-        let png = if a.every_frame {
-            // Frames of the simulator's state share the model version: the record's sequence
-            // number tells them apart.
-            let name = match host.sim.latest.as_ref().filter(|_| host.sim.applied > 0) {
-                Some(l) => format!("frame-{:08}-sim{:08}.png", r.version(), l.header.seq),
-                None => format!("frame-{:08}.png", r.version()),
-            };
-            img.save_png_private(&out.join(&name))?;
-            Some(name)
-        } else {
-            None
-        };
-        let rec = FrameRecord {
-            version: r.version(),
-            bodies: r.body_count(),
-            triangles: r.triangle_count(),
-            upload,
-            upload_bytes: upload.total_bytes(),
-            render_ms,
-            png,
-            sim_seq: (host.sim.applied > 0)
-                .then(|| host.sim.latest.as_ref().map(|l| l.header.seq))
-                .flatten(),
-            sim_t: (host.sim.applied > 0)
-                .then(|| host.sim.latest.as_ref().map(|l| l.header.t))
-                .flatten(),
-            status,
-        };
-        let line = serde_json::to_string(&rec).map_err(AppError::from)?;
-        writeln!(log, "{line}").map_err(|e| AppError(format!("{}: {e}", log_path.display())))?;
-        log.flush().map_err(AppError::from)?;
+        write_frame(&mut r, &host, a, &mut out)?;
         frames += 1;
         if a.max_frames.is_some_and(|m| frames >= m) {
             break;
@@ -1067,18 +1075,117 @@ pub fn cmd_display(a: &DisplayArgs) -> Result<()> {
         // (same camera, same image size); the selection it commits brings the next frame.
         if let Some(&(x, y)) = clicks.get(next_click) {
             next_click += 1;
-            let hit = r.pick(x, y, w, h);
-            let what = match &hit {
-                Some(h) => host.describe(h),
-                None => "nothing there".into(),
-            };
-            match host.select(hit.as_ref()) {
-                Ok(v) => println!("pick: {what} — selected (version {v})"),
-                Err(e) => println!("pick: {what} — not selected: {e}"),
-            }
+            click_headless(&mut host, &r, x, y, a.view.size);
         }
     }
     Ok(())
+}
+
+impl SessionHost {
+    /// Waits briefly for a model change after an update that drew nothing; true when a signal
+    /// (SIGTERM/SIGINT, `robosim down`) interrupted the wait. Any other error is said once;
+    /// the display keeps its last frame and follows on.
+    fn wait_for_change(&mut self, stopped: &dyn Fn() -> bool) -> bool {
+        let waited = self.reader.wait_change(Duration::from_millis(20));
+        if waited.is_err() && stopped() {
+            return true;
+        }
+        if !self
+            .trouble
+            .note("display", &self.reader, waited.map(|_| ()))
+        {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        false
+    }
+}
+
+/// Frames the camera on the first frame with bodies, then on bodies added to the model on
+/// screen (an instance, an imported robot) alone, as the first bodies were (issue 39 item 8)
+/// — unless the user placed it.
+fn place_camera(
+    r: &mut Renderer,
+    a: &DisplayArgs,
+    framed: &mut bool,
+    shown: &std::collections::BTreeSet<robosim_instance_space::Id>,
+) -> Result<()> {
+    if !*framed {
+        a.view.apply(r, !a.no_grid)?;
+        *framed = r.body_count() > 0 || a.view.placed();
+    } else if !a.view.placed()
+        && let Some(added) = r.added_since(shown)
+        && let Some(bounds) = r.bounds_of(&added)
+    {
+        r.camera = a.view.camera(bounds)?;
+    }
+    Ok(())
+}
+
+/// Renders one frame: latest.png (replaced atomically), with `--every-frame` a numbered PNG,
+/// and its line in frames.jsonl.
+fn write_frame(
+    r: &mut Renderer,
+    host: &SessionHost,
+    a: &DisplayArgs,
+    out: &mut HeadlessOutput,
+) -> Result<()> {
+    let (w, h) = a.view.size;
+    let status = host.status();
+    r.set_status(status.as_deref());
+    let upload = r.last_upload();
+    let t0 = Instant::now();
+    let img = r.render_image(w, h)?;
+    let render_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let tmp = out.dir.join("latest.png.tmp");
+    img.save_png_private(&tmp)?;
+    std::fs::rename(&tmp, out.dir.join("latest.png"))
+        .map_err(|e| AppError(format!("{}: {e}", out.dir.display())))?;
+    let png = if a.every_frame {
+        // Frames of the simulator's state share the model version: the record's sequence
+        // number tells them apart.
+        let name = match host.sim.latest.as_ref().filter(|_| host.sim.applied > 0) {
+            Some(l) => format!("frame-{:08}-sim{:08}.png", r.version(), l.header.seq),
+            None => format!("frame-{:08}.png", r.version()),
+        };
+        img.save_png_private(&out.dir.join(&name))?;
+        Some(name)
+    } else {
+        None
+    };
+    let rec = FrameRecord {
+        version: r.version(),
+        bodies: r.body_count(),
+        triangles: r.triangle_count(),
+        upload,
+        upload_bytes: upload.total_bytes(),
+        render_ms,
+        png,
+        sim_seq: (host.sim.applied > 0)
+            .then(|| host.sim.latest.as_ref().map(|l| l.header.seq))
+            .flatten(),
+        sim_t: (host.sim.applied > 0)
+            .then(|| host.sim.latest.as_ref().map(|l| l.header.t))
+            .flatten(),
+        status,
+    };
+    let line = serde_json::to_string(&rec).map_err(AppError::from)?;
+    writeln!(out.log, "{line}")
+        .map_err(|e| AppError(format!("{}: {e}", out.log_path.display())))?;
+    out.log.flush().map_err(AppError::from)?;
+    Ok(())
+}
+
+/// A scripted click on the headless frame: the pick described and committed as the selection.
+fn click_headless(host: &mut SessionHost, r: &Renderer, x: f64, y: f64, (w, h): (u32, u32)) {
+    let hit = r.pick(x, y, w, h);
+    let what = match &hit {
+        Some(h) => host.describe(h),
+        None => "nothing there".into(),
+    };
+    match host.select(hit.as_ref()) {
+        Ok(v) => println!("pick: {what} — selected (version {v})"),
+        Err(e) => println!("pick: {what} — not selected: {e}"),
+    }
 }
 
 /// A headless script step: `click:X,Y` (pixels from the top-left corner).

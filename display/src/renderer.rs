@@ -602,76 +602,103 @@ impl Pool {
     }
 }
 
-impl Renderer {
-    /// A renderer drawing into textures of `format` (the window's surface format, or
-    /// [`Renderer::headless`]'s RGBA8 sRGB), with 4× multisampling where the adapter allows it.
-    pub fn new(gpu: Gpu, format: wgpu::TextureFormat) -> Renderer {
-        // ROBOSIM_DISPLAY_SAMPLES=1 turns multisampling off (a different rasterization of the
-        // same scene: the golden-image tolerance is checked against it).
-        let forced = std::env::var("ROBOSIM_DISPLAY_SAMPLES").ok();
-        let samples = if forced.as_deref() == Some("1") {
-            1
-        } else {
-            let c = gpu.adapter.get_texture_format_features(format);
-            let d = gpu.adapter.get_texture_format_features(DEPTH_FORMAT);
-            if c.flags.sample_count_supported(4) && d.flags.sample_count_supported(4) {
-                4
-            } else {
-                1
-            }
-        };
-        let device = &gpu.device;
+/// ROBOSIM_DISPLAY_SAMPLES=1 turns multisampling off (a different rasterization of the same
+/// scene: the golden-image tolerance is checked against it); otherwise 4 where the adapter
+/// allows it for both the colour `format` and the depth format, else 1.
+fn sample_count(gpu: &Gpu, format: wgpu::TextureFormat) -> u32 {
+    let forced = std::env::var("ROBOSIM_DISPLAY_SAMPLES").ok();
+    if forced.as_deref() == Some("1") {
+        return 1;
+    }
+    let c = gpu.adapter.get_texture_format_features(format);
+    let d = gpu.adapter.get_texture_format_features(DEPTH_FORMAT);
+    if c.flags.sample_count_supported(4) && d.flags.sample_count_supported(4) {
+        4
+    } else {
+        1
+    }
+}
+
+/// The shader's bindings: the frame uniform (0) and the bodies' transforms and materials (1,
+/// 2, read-only storage).
+fn bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
+    let storage = |binding| wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    };
+    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some("robosim display bindings"),
+        entries: &[
+            wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            },
+            storage(1),
+            storage(2),
+        ],
+    })
+}
+
+/// What the renderer's three pipelines share: the shader, the pipeline layout, multisampling
+/// and the colour target.
+struct PipelineParts {
+    shader: wgpu::ShaderModule,
+    layout: wgpu::PipelineLayout,
+    multisample: wgpu::MultisampleState,
+    target: [Option<wgpu::ColorTargetState>; 1],
+}
+
+impl PipelineParts {
+    fn new(
+        device: &wgpu::Device,
+        bindings: &wgpu::BindGroupLayout,
+        format: wgpu::TextureFormat,
+        samples: u32,
+    ) -> PipelineParts {
         let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: Some("robosim display shader"),
             source: wgpu::ShaderSource::Wgsl(include_str!("shader.wgsl").into()),
         });
-        let storage = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("robosim display bindings"),
-            entries: &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 0,
-                    visibility: wgpu::ShaderStages::VERTEX | wgpu::ShaderStages::FRAGMENT,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage(1),
-                storage(2),
-            ],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
             label: Some("robosim display pipeline layout"),
-            bind_group_layouts: &[Some(&layout)],
+            bind_group_layouts: &[Some(bindings)],
             immediate_size: 0,
         });
-        let multisample = wgpu::MultisampleState {
-            count: samples,
-            mask: !0,
-            alpha_to_coverage_enabled: false,
-        };
-        let target = [Some(wgpu::ColorTargetState {
-            format,
-            blend: None,
-            write_mask: wgpu::ColorWrites::ALL,
-        })];
-        let solid = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        PipelineParts {
+            shader,
+            layout,
+            multisample: wgpu::MultisampleState {
+                count: samples,
+                mask: !0,
+                alpha_to_coverage_enabled: false,
+            },
+            target: [Some(wgpu::ColorTargetState {
+                format,
+                blend: None,
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }
+    }
+
+    /// The solids: triangles writing depth, pushed back a little so the edges win the test.
+    fn solid_pipeline(&self, device: &wgpu::Device) -> wgpu::RenderPipeline {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("robosim solids"),
-            layout: Some(&pipeline_layout),
+            layout: Some(&self.layout),
             vertex: wgpu::VertexState {
-                module: &shader,
+                module: &self.shader,
                 entry_point: Some("vs_solid"),
                 compilation_options: Default::default(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
@@ -698,27 +725,39 @@ impl Renderer {
                     clamp: 0.0,
                 },
             }),
-            multisample,
+            multisample: self.multisample,
             fragment: Some(wgpu::FragmentState {
-                module: &shader,
+                module: &self.shader,
                 entry_point: Some("fs_solid"),
                 compilation_options: Default::default(),
-                targets: &target,
+                targets: &self.target,
             }),
             multiview_mask: None,
             cache: None,
-        });
-        let edge = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("robosim edges"),
-            layout: Some(&pipeline_layout),
+        })
+    }
+
+    /// A line list drawn over the solids without writing depth (the edges, the guides):
+    /// `label`, the shader's `vs`/`fs` entry points, the vertex's `stride` and `attributes`.
+    fn line_pipeline(
+        &self,
+        device: &wgpu::Device,
+        label: &str,
+        (vs, fs): (&str, &str),
+        stride: usize,
+        attributes: &[wgpu::VertexAttribute],
+    ) -> wgpu::RenderPipeline {
+        device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some(label),
+            layout: Some(&self.layout),
             vertex: wgpu::VertexState {
-                module: &shader,
-                entry_point: Some("vs_edge"),
+                module: &self.shader,
+                entry_point: Some(vs),
                 compilation_options: Default::default(),
                 buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<SlotPoint>() as u64,
+                    array_stride: stride as u64,
                     step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
+                    attributes,
                 })],
             },
             primitive: wgpu::PrimitiveState {
@@ -732,71 +771,74 @@ impl Renderer {
                 stencil: Default::default(),
                 bias: Default::default(),
             }),
-            multisample,
+            multisample: self.multisample,
             fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some("fs_edge"),
+                module: &self.shader,
+                entry_point: Some(fs),
                 compilation_options: Default::default(),
-                targets: &target,
+                targets: &self.target,
             }),
             multiview_mask: None,
             cache: None,
-        });
-        let guide = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("robosim guides"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &shader,
-                entry_point: Some("vs_guide"),
-                compilation_options: Default::default(),
-                buffers: &[Some(wgpu::VertexBufferLayout {
-                    array_stride: std::mem::size_of::<GuideVertex>() as u64,
-                    step_mode: wgpu::VertexStepMode::Vertex,
-                    attributes: &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4],
-                })],
-            },
-            primitive: wgpu::PrimitiveState {
-                topology: wgpu::PrimitiveTopology::LineList,
-                ..Default::default()
-            },
-            depth_stencil: Some(wgpu::DepthStencilState {
-                format: DEPTH_FORMAT,
-                depth_write_enabled: Some(false),
-                depth_compare: Some(wgpu::CompareFunction::GreaterEqual),
-                stencil: Default::default(),
-                bias: Default::default(),
-            }),
-            multisample,
-            fragment: Some(wgpu::FragmentState {
-                module: &shader,
-                entry_point: Some("fs_guide"),
-                compilation_options: Default::default(),
-                targets: &target,
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        })
+    }
+}
+
+/// The frame's uniform buffer (camera, light, style), written each frame.
+fn frame_buffer(device: &wgpu::Device) -> wgpu::Buffer {
+    device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("robosim frame"),
+        size: FRAME_BYTES,
+        usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    })
+}
+
+/// The shared vertex pools: every body's triangles, and every body's edges.
+fn shared_pools(device: &wgpu::Device) -> (Pool, Pool) {
+    let max_buffer = device.limits().max_buffer_size;
+    let tris = Pool::new(
+        "robosim shared triangles",
+        size_of::<SlotVertex>() as u64,
+        max_buffer,
+    );
+    let edges = Pool::new(
+        "robosim shared edges",
+        size_of::<SlotPoint>() as u64,
+        max_buffer,
+    );
+    (tris, edges)
+}
+
+impl Renderer {
+    /// A renderer drawing into textures of `format` (the window's surface format, or
+    /// [`Renderer::headless`]'s RGBA8 sRGB), with 4× multisampling where the adapter allows it.
+    pub fn new(gpu: Gpu, format: wgpu::TextureFormat) -> Renderer {
+        let samples = sample_count(&gpu, format);
+        let device = &gpu.device;
+        let layout = bind_group_layout(device);
+        let parts = PipelineParts::new(device, &layout, format, samples);
+        let solid = parts.solid_pipeline(device);
+        let edge = parts.line_pipeline(
+            device,
+            "robosim edges",
+            ("vs_edge", "fs_edge"),
+            size_of::<SlotPoint>(),
+            &wgpu::vertex_attr_array![0 => Float32x3, 1 => Uint32],
+        );
+        let guide = parts.line_pipeline(
+            device,
+            "robosim guides",
+            ("vs_guide", "fs_guide"),
+            size_of::<GuideVertex>(),
+            &wgpu::vertex_attr_array![0 => Float32x3, 1 => Float32x4],
+        );
         let overlay = Overlay::new(device, format, samples, DEPTH_FORMAT);
-        let frame = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("robosim frame"),
-            size: FRAME_BYTES,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
+        let frame = frame_buffer(device);
         let capacity = 64;
         let (transforms, materials) = Self::body_arrays(device, capacity);
         let bind_group = Self::bind(device, &layout, &frame, &transforms, &materials);
-        let max_buffer = device.limits().max_buffer_size;
-        let tris = Pool::new(
-            "robosim shared triangles",
-            size_of::<SlotVertex>() as u64,
-            max_buffer,
-        );
-        let edges = Pool::new(
-            "robosim shared edges",
-            size_of::<SlotPoint>() as u64,
-            max_buffer,
-        );
+        let (tris, edges) = shared_pools(device);
         Renderer {
             gpu,
             format,

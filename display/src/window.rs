@@ -10,6 +10,7 @@
 //! What a window shows comes from a [`Host`]: the session (or local model) it draws, which
 //! moves joints through the Instance Space like any other writer.
 
+use crate::app::AppError;
 use crate::camera::{Camera, Projection};
 use crate::renderer::{Gpu, Hit, Renderer, Style, instance_descriptor};
 use crate::{DisplayError, Result};
@@ -21,10 +22,11 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::window::{Window, WindowId};
 
-/// What the window draws and how its controls act on the model.
+/// What the window draws and how its controls act on the model. Errors are the display's
+/// [`AppError`]: one line naming what failed, its causes said once (`error_chain`).
 pub trait Host {
     /// Brings `renderer` up to the newest model; true when something changed.
-    fn update(&mut self, renderer: &mut Renderer) -> std::result::Result<bool, String>;
+    fn update(&mut self, renderer: &mut Renderer) -> std::result::Result<bool, AppError>;
     /// The robots the knob keys can move: name and number of joints.
     fn robots(&self) -> Vec<(String, usize)>;
     /// Turns joint `joint` (0-based) of robot `robot` by `delta` (rad or m); a status line.
@@ -33,13 +35,13 @@ pub trait Host {
         robot: usize,
         joint: usize,
         delta: f64,
-    ) -> std::result::Result<String, String>;
+    ) -> std::result::Result<String, AppError>;
     /// "object … (link …), polygon …" for a pick.
     fn describe(&self, hit: &Hit) -> String;
     /// Makes a pick the session's selection (the object and polygon hit; `None`, a click on
     /// nothing, clears it) — one transaction, so the editor and every other process see it.
     /// The new version, or why it could not be written.
-    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, String>;
+    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, AppError>;
     /// Text drawn over the frame's top-left corner (lines separated by `\n`), if any.
     fn status(&self) -> Option<String> {
         None
@@ -160,7 +162,7 @@ impl App {
         renderer.style = self.style;
         self.host
             .update(&mut renderer)
-            .map_err(DisplayError::Window)?;
+            .map_err(|e| DisplayError::Window(e.0))?;
         match self.camera {
             Some(c) => renderer.camera = c,
             None => renderer.frame_all(),
@@ -275,7 +277,8 @@ impl App {
                     1.0
                 };
                 self.status = match self.host.jog(self.robot, self.joint, sign * step) {
-                    Ok(s) | Err(s) => s,
+                    Ok(s) => s,
+                    Err(e) => e.0,
                 };
             }
             Key::Named(NamedKey::Tab) if !robots.is_empty() => {
@@ -346,7 +349,7 @@ impl ApplicationHandler for App {
                         l.window.request_redraw();
                     }
                     Ok(false) => {}
-                    Err(e) => title = Some(e),
+                    Err(e) => title = Some(e.0),
                 }
             }
             if let Some(t) = title {
