@@ -47,8 +47,12 @@ pub enum LaunchError {
     #[error(transparent)]
     File(#[from] robosim_file_io::FileError),
     /// A preloaded model that cannot become a transaction on the recovered model.
-    #[error("{what}: {reason}")]
-    Preload { what: String, reason: String },
+    #[error("{what}: {source}")]
+    Preload {
+        what: String,
+        #[source]
+        source: robosim_file_io::ModelProblem,
+    },
     /// The keeper refused the scene's or the file's transaction.
     #[error("{what}: {source}")]
     Refused {

@@ -145,7 +145,10 @@ pub struct Preload {
     pub transaction: Box<
         dyn FnOnce(
             &robosim_instance_space::Store,
-        ) -> std::result::Result<robosim_instance_space::Transaction, String>,
+        ) -> std::result::Result<
+            robosim_instance_space::Transaction,
+            robosim_file_io::ModelProblem,
+        >,
     >,
 }
 
@@ -242,9 +245,9 @@ pub fn run_space_with(
         lib.declarations().len()
     );
     if let Some(p) = preload {
-        let tx = (p.transaction)(keeper.store()).map_err(|reason| LaunchError::Preload {
+        let tx = (p.transaction)(keeper.store()).map_err(|source| LaunchError::Preload {
             what: p.what.clone(),
-            reason,
+            source,
         })?;
         if !tx.is_empty() {
             let a = keeper
@@ -1074,7 +1077,6 @@ pub fn preload(path: &Path) -> Result<Preload> {
             model
                 .to_transaction(&robosim_file_io::session::roots_of(store))
                 .map(|p| p.tx)
-                .map_err(|e| e.to_string())
         }),
     })
 }

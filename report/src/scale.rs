@@ -115,7 +115,7 @@ fn library_row(session: &robosim_instance_space::Session, reps: usize) -> Result
             bail!("the keeper published no checked library");
         };
         let t = Instant::now();
-        let parsed = Library::from_sources(&published.files).map_err(|e| e.to_string())?;
+        let parsed = Library::from_sources(&published.files)?;
         parse.push(ms(t));
         let t = Instant::now();
         let decoded = Library::decode_checked(checked, &published.files)
@@ -169,7 +169,7 @@ struct GeomRow {
 
 /// A box of sides `s` (m), as a transaction's geometry.
 fn cube(s: f64) -> Result<GeometryInput> {
-    let p = robosim_geometry::shapes::cuboid(s, s, s).map_err(|e| e.to_string())?;
+    let p = robosim_geometry::shapes::cuboid(s, s, s)?;
     Ok(GeometryInput::from_polyhedron(&p))
 }
 
