@@ -11,7 +11,7 @@
 //!   alarms are filtered away) and `diag_advisor` (greedy sensor advice against exhaustive
 //!   search on small models).
 
-use crate::cli::RunError;
+use crate::plot::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};

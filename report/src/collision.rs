@@ -19,7 +19,7 @@
 //!
 //! Entry point: [`report_collision`].
 
-use crate::cli::RunError;
+use crate::plot::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use nalgebra::{Isometry3, Point3, Vector3};
 use rand::{Rng, SeedableRng};

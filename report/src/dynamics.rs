@@ -7,7 +7,7 @@
 //! Timing is wall time on a shared, noisy machine: each figure is the median of several repeats
 //! and is also given as a ratio to the cost of one ABA evaluation measured in the same run.
 
-use crate::cli::RunError;
+use crate::plot::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use robosim_dynamics::{
     Data, Integrator, IntegratorConfig, Model, aba, crba, fixture_robot, rnea, simulate,

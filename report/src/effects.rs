@@ -6,7 +6,7 @@
 //! with the built-in PUMA's friction data, the joint friction effect undeclared). Entry point:
 //! [`report_effects`].
 
-use crate::cli::RunError;
+use crate::plot::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report_with_x_names};
 use nalgebra::{DVector, Isometry3, Vector3};
 use robosim_collision::robot::Scene;

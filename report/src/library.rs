@@ -4,7 +4,7 @@
 //!
 //! Entry point: [`report_library`] (wired as `robosim report library`).
 
-use crate::cli::RunError;
+use crate::plot::RunError;
 use crate::plot::{Plot, Report, Series, Table, percentile, write_report};
 use robosim_library::{EvalOptions, Evaluated, Library, Params};
 use std::path::{Path, PathBuf};

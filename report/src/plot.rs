@@ -62,6 +62,85 @@ pub enum ReportError {
     Draw { path: PathBuf, message: String },
 }
 
+/// Why a report did not run to its end: the lower error kept whole (`#[source]`), its message
+/// naming what was being built. [`run`] prefixes the report's name.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    /// The report's files could not be written.
+    #[error(transparent)]
+    Write(#[from] ReportError),
+    /// A solid of the measured scene was refused (`what`: which one).
+    #[error("{what}: {source}")]
+    Solid {
+        what: &'static str,
+        #[source]
+        source: robosim_collision::ShapeError,
+    },
+    /// A robot's link solids could not be built (`what`: which robot).
+    #[error("{what}'s link solids: {source}")]
+    LinkSolids {
+        what: &'static str,
+        #[source]
+        source: robosim_collision::robot::CheckError,
+    },
+    /// The dynamics refused a model or a simulation (`what`: which).
+    #[error("{what}: {source}")]
+    Dynamics {
+        what: &'static str,
+        #[source]
+        source: robosim_dynamics::DynamicsError,
+    },
+    /// One integrator run of a measured fall failed (`run`: its label and setting).
+    #[error("{run}: {source}")]
+    DynamicsRun {
+        run: String,
+        #[source]
+        source: robosim_dynamics::DynamicsError,
+    },
+    /// A simulator pipeline could not be built (`what`: the effect set's name).
+    #[error("{what}: {source}")]
+    Pipeline {
+        what: String,
+        #[source]
+        source: robosim_simulator::EffectsError,
+    },
+    /// A simulator pipeline refused a command or a step.
+    #[error(transparent)]
+    Step(#[from] robosim_simulator::StepError),
+    /// The library refused a source (`what`: which).
+    #[error("{what}: {source}")]
+    Library {
+        what: &'static str,
+        #[source]
+        source: robosim_library::LibError,
+    },
+    /// The library could not evaluate a declaration (`what`: which).
+    #[error("{what}: {source}")]
+    Evaluate {
+        what: &'static str,
+        #[source]
+        source: robosim_library::Error,
+    },
+    /// A built-in fault model does not load.
+    #[error(transparent)]
+    FaultModel(#[from] robosim_automation::model::ModelError),
+    /// A condition the report checks did not hold (the message says which).
+    #[error("{0}")]
+    Condition(String),
+}
+
+impl From<String> for RunError {
+    fn from(message: String) -> Self {
+        RunError::Condition(message)
+    }
+}
+
+impl From<&str> for RunError {
+    fn from(message: &str) -> Self {
+        RunError::Condition(message.to_string())
+    }
+}
+
 /// Writes `<dir>/<name>.csv`, `<dir>/<name>.md` (title, notes, markdown table, image link) and,
 /// when there are plots, `<dir>/<name>.png` (one panel per plot). Creates `dir`. Returns the
 /// paths written.
