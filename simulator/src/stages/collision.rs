@@ -7,10 +7,8 @@
 //! Depends only on q.
 
 use crate::model::{CollisionModel, Model, SceneGeometry, StepError};
-use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot, sweep_robot_compiled};
-use robosim_collision::robot::{
-    CheckResult, CollisionSettings, LinkSolids, check_robot, check_robot_compiled,
-};
+use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot_compiled};
+use robosim_collision::robot::{CheckResult, CollisionSettings, LinkSolids, check_robot_compiled};
 use robosim_kinematics::Robot;
 use robosim_model::{CollisionEffect, Data, OnContact, OptionsError};
 
@@ -85,42 +83,27 @@ pub fn describe(c: &CollisionModel) -> String {
 /// steps, and on contact under `stop` puts the robot back at `d.q_safe`, at rest; a clear q
 /// becomes the new `d.q_safe`.
 pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError> {
-    // the builder allocates `q_safe` whenever it declares this stage
-    let Some(q_safe) = d.q_safe.as_mut() else {
+    // the builder allocates `q_safe` and compiles the robot whenever it declares this stage
+    let (Some(q_safe), Some(kin)) = (d.q_safe.as_mut(), m.kinematics.as_ref()) else {
         return Ok(());
     };
     let q = d.state.q.as_slice();
     let contact = if c.settings.continuous {
-        let s = match &m.kinematics {
-            Some(kin) => sweep_robot_compiled(
-                kin,
-                &m.robot,
-                &c.links,
-                q_safe.as_slice(),
-                q,
-                &c.scene,
-                c.settings.self_collision,
-                &c.sweep,
-            ),
-            None => sweep_robot(
-                &m.robot,
-                &c.links,
-                q_safe.as_slice(),
-                q,
-                &c.scene,
-                c.settings.self_collision,
-                &c.sweep,
-            ),
-        }
+        let s = sweep_robot_compiled(
+            kin,
+            &m.robot,
+            &c.links,
+            q_safe.as_slice(),
+            q,
+            &c.scene,
+            c.settings.self_collision,
+            &c.sweep,
+        )
         .map_err(StepError::Collision)?;
         !matches!(s, Sweep::Clear)
     } else {
-        // The pipeline compiles the robot whenever it declares this stage.
-        let r = match &m.kinematics {
-            Some(kin) => check_robot_compiled(kin, &m.robot, &c.links, q, &c.scene, &c.settings),
-            None => check_robot(&m.robot, &c.links, q, &c.scene, &c.settings),
-        }
-        .map_err(StepError::Collision)?;
+        let r = check_robot_compiled(kin, &m.robot, &c.links, q, &c.scene, &c.settings)
+            .map_err(StepError::Collision)?;
         !matches!(r, CheckResult::Clear)
     };
     if contact {
