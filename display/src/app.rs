@@ -742,7 +742,7 @@ impl SessionHost {
 }
 
 impl Host for SessionHost {
-    fn update(&mut self, r: &mut Renderer) -> Result<bool> {
+    fn update(&mut self, r: &mut Renderer) -> std::result::Result<bool, String> {
         // `wait_change` may already have advanced the reader: compare versions, not
         // `refresh`'s answer.
         self.trouble.refresh("display", &mut self.reader);
@@ -800,31 +800,39 @@ impl Host for SessionHost {
             .collect()
     }
 
-    fn jog(&mut self, robot_index: usize, joint: usize, delta: f64) -> Result<String> {
-        let r = self
-            .scene
-            .robots()
-            .get(robot_index)
-            .ok_or_else(|| AppError("no robot to move".into()))?;
-        let mut q = r.q.clone();
-        let Some(qj) = q.get_mut(joint) else {
-            bail!("{} has no joint {}", r.robot.name, joint + 1);
-        };
-        *qj += delta;
-        let name = r.robot.name.clone();
-        let shown = q[joint].to_degrees();
-        self.write_q(&name, &q)
-            .map(|v| format!("{name} joint {} = {shown:.1}° (version {v})", joint + 1))
+    fn jog(
+        &mut self,
+        robot_index: usize,
+        joint: usize,
+        delta: f64,
+    ) -> std::result::Result<String, String> {
+        (|| -> Result<String> {
+            let r = self
+                .scene
+                .robots()
+                .get(robot_index)
+                .ok_or_else(|| AppError("no robot to move".into()))?;
+            let mut q = r.q.clone();
+            let Some(qj) = q.get_mut(joint) else {
+                bail!("{} has no joint {}", r.robot.name, joint + 1);
+            };
+            *qj += delta;
+            let name = r.robot.name.clone();
+            let shown = q[joint].to_degrees();
+            self.write_q(&name, &q)
+                .map(|v| format!("{name} joint {} = {shown:.1}° (version {v})", joint + 1))
+        })()
+        .map_err(|e| e.0)
     }
 
     fn status(&self) -> Option<String> {
         self.sim_status()
     }
 
-    fn select(&mut self, hit: Option<&Hit>) -> Result<u64> {
+    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, String> {
         let mut tx = robosim_instance_space::Transaction::new();
         tx.select(hit.map(|h| h.id.into()), hit.map(|h| h.polygon));
-        Ok(self.client()?.transact(&tx)?.version)
+        (|| -> Result<u64> { Ok(self.client()?.transact(&tx)?.version) })().map_err(|e| e.0)
     }
 
     fn describe(&self, hit: &Hit) -> String {
@@ -1058,7 +1066,7 @@ fn render_headless(
     host.snap = None;
     while !stopped() {
         playback.write_due_sample(&mut host)?;
-        if !host.update(&mut r)? {
+        if !host.update(&mut r).map_err(AppError)? {
             if host.wait_for_change(stopped) {
                 break;
             }

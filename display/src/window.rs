@@ -10,7 +10,6 @@
 //! What a window shows comes from a [`Host`]: the session (or local model) it draws, which
 //! moves joints through the Instance Space like any other writer.
 
-use crate::app::AppError;
 use crate::camera::{Camera, Projection};
 use crate::renderer::{Gpu, Hit, Renderer, Style, instance_descriptor};
 use crate::{DisplayError, Result};
@@ -22,11 +21,10 @@ use winit::event_loop::{ActiveEventLoop, ControlFlow, EventLoop};
 use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::window::{Window, WindowId};
 
-/// What the window draws and how its controls act on the model. Errors are the display's
-/// [`AppError`]: one line naming what failed, its causes said once (`error_chain`).
+/// What the window draws and how its controls act on the model.
 pub trait Host {
     /// Brings `renderer` up to the newest model; true when something changed.
-    fn update(&mut self, renderer: &mut Renderer) -> std::result::Result<bool, AppError>;
+    fn update(&mut self, renderer: &mut Renderer) -> std::result::Result<bool, String>;
     /// The robots the knob keys can move: name and number of joints.
     fn robots(&self) -> Vec<(String, usize)>;
     /// Turns joint `joint` (0-based) of robot `robot` by `delta` (rad or m); a status line.
@@ -35,13 +33,13 @@ pub trait Host {
         robot: usize,
         joint: usize,
         delta: f64,
-    ) -> std::result::Result<String, AppError>;
+    ) -> std::result::Result<String, String>;
     /// "object … (link …), polygon …" for a pick.
     fn describe(&self, hit: &Hit) -> String;
     /// Makes a pick the session's selection (the object and polygon hit; `None`, a click on
     /// nothing, clears it) — one transaction, so the editor and every other process see it.
     /// The new version, or why it could not be written.
-    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, AppError>;
+    fn select(&mut self, hit: Option<&Hit>) -> std::result::Result<u64, String>;
     /// Text drawn over the frame's top-left corner (lines separated by `\n`), if any.
     fn status(&self) -> Option<String> {
         None
@@ -162,7 +160,7 @@ impl App {
         renderer.style = self.style;
         self.host
             .update(&mut renderer)
-            .map_err(|e| DisplayError::Window(e.0))?;
+            .map_err(DisplayError::Window)?;
         match self.camera {
             Some(c) => renderer.camera = c,
             None => renderer.frame_all(),
@@ -277,8 +275,7 @@ impl App {
                     1.0
                 };
                 self.status = match self.host.jog(self.robot, self.joint, sign * step) {
-                    Ok(s) => s,
-                    Err(e) => e.0,
+                    Ok(s) | Err(s) => s,
                 };
             }
             Key::Named(NamedKey::Tab) if !robots.is_empty() => {
@@ -349,7 +346,7 @@ impl ApplicationHandler for App {
                         l.window.request_redraw();
                     }
                     Ok(false) => {}
-                    Err(e) => title = Some(e.0),
+                    Err(e) => title = Some(e),
                 }
             }
             if let Some(t) = title {
