@@ -25,9 +25,8 @@
 use crate::cli::{RunError, follow};
 use crate::commands::{CommandError, Prompt, execute};
 use crate::session::Editor;
-use crate::structure::EditError;
 use robosim_instance_space::{
-    Client, ClientError, Kind, Reader, ReaderError, ScratchKeeper, Transaction, TxError,
+    Client, ClientError, Kind, Reader, ScratchKeeper, Transaction, TxError,
 };
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -37,21 +36,12 @@ use std::time::{Duration, Instant};
 /// step (keeper, reader, editor line, file) failed.
 #[derive(Debug, thiserror::Error)]
 pub enum BenchError {
-    /// The keeper did not start, a version did not arrive, or an edit was lost (the message).
-    #[error("{0}")]
-    Refused(String),
-    /// A raw client's connection or transaction failed.
+    /// What the bench shares with `robosim edit` ([`RunError`], whole): the keeper did not
+    /// start, a version did not arrive or an edit was lost (`Refused`, the message), a raw
+    /// client's connection or transaction failed, the session could not be read, the editor
+    /// could not start on its design or its prompt could not follow the session.
     #[error(transparent)]
-    Client(#[from] ClientError),
-    /// The session could not be read.
-    #[error(transparent)]
-    Reader(#[from] ReaderError),
-    /// The editor could not start on its design.
-    #[error(transparent)]
-    Edit(#[from] EditError),
-    /// The editor's prompt could not follow the session.
-    #[error(transparent)]
-    Follow(#[from] RunError),
+    Session(RunError),
     /// An editor line was refused (`line`: the line).
     #[error("{line}: {source}")]
     Command { line: String, source: CommandError },
@@ -63,15 +53,10 @@ pub enum BenchError {
     },
 }
 
-impl From<String> for BenchError {
-    fn from(what: String) -> Self {
-        BenchError::Refused(what)
-    }
-}
-
-impl From<&str> for BenchError {
-    fn from(what: &str) -> Self {
-        BenchError::Refused(what.to_owned())
+/// A refusal (`String`, `&str`) or a client, reader or editor error, as [`RunError`] holds it.
+impl<E: Into<RunError>> From<E> for BenchError {
+    fn from(e: E) -> Self {
+        BenchError::Session(e.into())
     }
 }
 

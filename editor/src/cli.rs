@@ -68,6 +68,12 @@ impl From<String> for RunError {
     }
 }
 
+impl From<&str> for RunError {
+    fn from(what: &str) -> Self {
+        RunError::Refused(what.to_owned())
+    }
+}
+
 /// A ROBOSIM program's text: a regular file of at most [`robosim_input::Limit::TEXT`] bytes.
 fn read_program(path: &Path) -> Result<String, RunError> {
     Ok(robosim_input::read_to_string(
