@@ -45,7 +45,8 @@
 //! on-line item `eclss` in the Instance Space (the rules' reconfiguration, followed as
 //! committed: [`Ops::follow_units`]), stays there [`SPARE_START_S`] while the spare starts,
 //! then is [`CATCH_UP`] times itself until the work missed is made up — the in-process station
-//! study's model (studies/src/station/faults.rs), with its constants.
+//! study's model (studies/src/station/faults.rs), with the same constants and catch-up
+//! ([`robosim_simulator::consumers`]).
 //!
 //! `{"cmd": "note", "consumer": C, "rule": R, "reason": TEXT}` records a decision that changes
 //! nothing (a reaction the rules want in the record).
@@ -75,13 +76,8 @@ const DECISIONS_SHOWN: usize = 200;
 /// station study's default: a visiting vehicle's approach and capture, 40 min).
 pub const DOCKING: [f64; 2] = [24_000.0, 26_400.0];
 
-/// What a failed unit's consumer still draws, share of its demand (the in-process study's
-/// `faults::STANDBY`: controllers, sensors and heaters stay on; assumed).
-pub const STANDBY: f64 = 0.1;
-/// How long a spare takes from on line to running, s (`faults::SPARE_START_S`; assumed).
-pub const SPARE_START_S: f64 = 300.0;
-/// The catch-up rate once the spare runs, times the demand (`faults::CATCH_UP`; assumed).
-pub const CATCH_UP: f64 = 2.0;
+/// The fault model's constants, shared with the in-process station study.
+pub use robosim_simulator::consumers::{CATCH_UP, SPARE_START_S, STANDBY};
 
 /// A desaturation's length before the first one is seen, s (assumed; replaced by the last
 /// dump's measured length).
@@ -290,7 +286,7 @@ struct UnitFault {
 
 impl UnitFault {
     fn catch_up_s(&self, spare: f64) -> f64 {
-        (spare + SPARE_START_S - self.at_s) / (CATCH_UP - 1.0)
+        consumers::catch_up_s(self.at_s, spare)
     }
 
     fn state(&self, t: f64) -> &'static str {

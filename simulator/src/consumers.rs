@@ -217,6 +217,22 @@ pub fn default_experiments() -> Vec<Experiment> {
     ]
 }
 
+/// What a failed process's consumer still draws, share of its demand, from the failure until
+/// its spare runs (assumed: controllers, sensors and heaters stay on). The fault model of the
+/// in-process station study (`robosim_studies::station::faults`) and of the daemon's ops stage.
+pub const STANDBY: f64 = 0.1;
+/// How long a spare takes from on line to running, s (assumed: priming and checkout).
+pub const SPARE_START_S: f64 = 300.0;
+/// The catch-up rate once the spare runs, times the demand (assumed: the processor's margin).
+pub const CATCH_UP: f64 = 2.0;
+
+/// How long a failed process's catch-up takes, s, when it failed at `failed_s` and its spare
+/// came on line at `spare_s`: the work missed from the failure to the spare running
+/// ([`SPARE_START_S`] after `spare_s`), made up at ([`CATCH_UP`] − 1) × the demand.
+pub fn catch_up_s(failed_s: f64, spare_s: f64) -> f64 {
+    (spare_s + SPARE_START_S - failed_s) / (CATCH_UP - 1.0)
+}
+
 /// How a shortfall is shared when the loads allowed draw more than the bus can give.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Sharing {

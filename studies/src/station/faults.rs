@@ -19,13 +19,8 @@ use robosim_automation::model::{AlarmId, FmId, Model, load_model};
 use robosim_automation::sim::{AlarmEvent, SimOptions, simulate};
 use robosim_simulator::consumers::Consumer;
 
-/// What a failed process's consumer still draws, share of its demand (assumed: controllers,
-/// sensors and heaters stay on).
-pub const STANDBY: f64 = 0.1;
-/// How long a spare takes from on line to running, s (assumed: priming and checkout).
-pub const SPARE_START_S: f64 = 300.0;
-/// The catch-up rate once the spare runs, times the demand (assumed: the processor's margin).
-pub const CATCH_UP: f64 = 2.0;
+/// The fault model's constants (the simulator's, shared with the daemon's ops stage).
+pub use robosim_simulator::consumers::{CATCH_UP, SPARE_START_S, STANDBY};
 
 /// `FAILURE_MODE@T`: a failure mode of the ECLSS model (a unique dotted tail of its path,
 /// `pump_failure`) injected at T seconds into the run.
@@ -221,7 +216,7 @@ impl EclssFault {
     /// How long the catch-up takes when the spare came on line at `spare`: the work missed
     /// from the fault to the spare running, made up at (CATCH_UP − 1) × the demand.
     fn catch_up_s(&self, spare: f64) -> f64 {
-        (spare + SPARE_START_S - self.spec.t_s) / (CATCH_UP - 1.0)
+        robosim_simulator::consumers::catch_up_s(self.spec.t_s, spare)
     }
 
     /// The share of its demand the failed process's consumer draws at `t`.
