@@ -17,8 +17,13 @@ use std::time::Duration;
 
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
-fn rules_file() -> String {
-    format!("{ROOT}/hl-interface/rules/rulebases/station_ops.clp")
+/// The shipped rule base `station_ops` (eclss_guard.clp's fault rules, then station_ops.clp)
+/// written where the processes of `k` run, as the launcher writes it for `rules=station_ops`.
+fn rules_file(k: &Procs) -> String {
+    let text = robosim_rules::embedded::shipped("station_ops.clp").expect("shipped");
+    let path = k.home.path().join("station_ops.clp");
+    std::fs::write(&path, text).expect("the rule file");
+    path.display().to_string()
 }
 
 fn graph_file() -> String {
@@ -81,7 +86,7 @@ fn station_processes_start_in_any_order_and_a_killed_rules_or_dataflow_process_c
     let mut k = Procs::new("opsx");
     k.start_keeper(&["--scene", "space_station_ops"]);
     // rules and dataflow before the simulator: they wait for it
-    let rules = k.spawn(&["rules", &rules_file()]);
+    let rules = k.spawn(&["rules", &rules_file(&k)]);
     let dataflow = k.spawn(&["dataflow", &graph_file()]);
     k.spawn(&["simulator", "--mode", "lockstep"]);
     let mut p = Planner::attach_to(&k.session()).expect("attach");
@@ -168,7 +173,7 @@ fn station_processes_start_in_any_order_and_a_killed_rules_or_dataflow_process_c
     // Started again: it mirrors the state it missed, restores the loads (the experiment air
     // first, then hygiene) and acknowledges the current step; the decisions acknowledged
     // before are all still there, in order.
-    k.spawn(&["rules", &rules_file()]);
+    k.spawn(&["rules", &rules_file(&k)]);
     let s = wait_for("the restarted rules acknowledge step 120", || {
         let s = p.sim_state().ok()?;
         (rules_ack(&s) == Some(120)).then_some(s)
@@ -327,7 +332,7 @@ fn a_pump_failure_changes_potable_water_and_the_rules_bring_its_spare_on_line() 
     let mut k = Procs::new("opsf");
     k.start_keeper(&["--scene", "space_station_ops"]);
     k.spawn(&["automation"]);
-    k.spawn(&["rules", &rules_file()]);
+    k.spawn(&["rules", &rules_file(&k)]);
     k.spawn(&["simulator", "--mode", "lockstep"]);
     let mut p = Planner::attach_to(&k.session()).expect("attach");
     acked(&mut p, 0);

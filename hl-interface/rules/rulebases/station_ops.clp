@@ -32,20 +32,21 @@
 ;;;   * with hygiene deferred and the reserve still short, a run about to start is moved to the
 ;;;     next sunrise, and a running one stopped until then — before the experiment modules' air
 ;;;     is reduced.
-;;; Faults (seed §4.3; the same steps as eclss_guard.clp, which a session without this
-;;; scheduler runs instead): a plant alarm asks for a diagnosis; the diagnosed unit is isolated,
-;;; then its spare brought on line (two transactions). The simulator follows the spare (its
-;;; consumer's demand: standby, the spare starting, catching up); the scheduler notes each change
-;;; of a fault's state with the demand and the prediction it now makes (ops-fault-reaction), and
-;;; sheds by the rules above if the changed demand calls for it.
+;;; Faults (seed §4.3): eclss_guard.clp's rules, not repeated here — the shipped rule base
+;;; `station_ops` (`rules=station_ops`, robosim_rules::embedded::SHIPPED) is eclss_guard.clp
+;;; followed by this file, loaded as one; run from this file, give eclss_guard.clp its own rules
+;;; process (`--with rules=eclss_guard,rules=FILE`). A plant alarm asks for a diagnosis; the
+;;; diagnosed unit is isolated, then its spare brought on line (two transactions). The
+;;; simulator follows the spare (its consumer's demand: standby, the spare starting, catching
+;;; up); the scheduler notes each change of a fault's state with the demand and the prediction
+;;; it now makes (ops-fault-reaction), and sheds by the rules above if the changed demand calls
+;;; for it.
 
 (defglobal ?*reserve* = 0.30   ; of the capacity, kept for the unforeseen
            ?*margin* = 0.10    ; above the reserve before a load is restored
            ?*drift* = 300.0    ; s after a predicted desaturation window (the prediction drifts)
            ?*soon* = 120.0)    ; s: a running sensitive run is stopped this close to a window
 
-(deftemplate handled (slot component) (slot isolated) (slot reconfigured))
-(deftemplate need-diagnosis)
 (deftemplate fault-noted (slot consumer) (slot state))
 
 ;;; The plan's load, kW: every consumer in its mode.
@@ -227,37 +228,6 @@
     then (modify ?c (mode full))))
 
 ;;; ---------------------------------------------------------------- faults
-
-(defrule ops-eclss-alarm
-  (declare (salience 50))
-  (alarm (source ?s&:(eq (str-index "ECLSS" (str-cat ?s)) 1)) (kind ?a))
-  =>
-  (assert (need-diagnosis)))
-
-(defrule ops-diagnose
-  (declare (salience 40))
-  ?n <- (need-diagnosis)
-  =>
-  (retract ?n)
-  (do-for-all-facts ((?d diagnosis)) TRUE (retract ?d))
-  (robosim diagnose))
-
-(defrule ops-isolate
-  (declare (salience 40))
-  (diagnosis (components $? ?c $?))
-  (instance (name ?c) (parent eclss))
-  (not (handled (component ?c)))
-  =>
-  (bind ?v (robosim transact (str-cat "[[\"attach\", \"" ?c "\", \"eclss_isolated\"]]")))
-  (assert (handled (component ?c) (isolated ?v) (reconfigured 0))))
-
-(defrule ops-reconfigure
-  (declare (salience 40))
-  ?h <- (handled (component ?c) (isolated ?v&:(> ?v 0)) (reconfigured 0))
-  (instance (name ?s&:(eq ?s (sym-cat ?c _spare))) (parent eclss_spares))
-  =>
-  (bind ?w (robosim transact (str-cat "[[\"attach\", \"" ?s "\", \"eclss\"]]")))
-  (modify ?h (reconfigured ?w)))
 
 (defrule ops-fault-reaction
   (declare (salience 25))

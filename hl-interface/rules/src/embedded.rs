@@ -46,9 +46,15 @@ pub const SHIPPED: &[(&str, &str)] = &[
         "station_power.clp",
         include_str!("../rulebases/station_power.clp"),
     ),
+    // The scheduler handles faults with eclss_guard.clp's rules: the two loaded as one text
+    // (station_ops.clp's header).
     (
         "station_ops.clp",
-        include_str!("../rulebases/station_ops.clp"),
+        concat!(
+            include_str!("../rulebases/eclss_guard.clp"),
+            "\n",
+            include_str!("../rulebases/station_ops.clp")
+        ),
     ),
     ("oru_swap.clp", include_str!("../rulebases/oru_swap.clp")),
 ];
