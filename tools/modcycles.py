@@ -47,7 +47,7 @@ def expand(u):
     parts.append(cur)
     res = []
     for p in parts:
-        p = p.strip()
+        p = p.strip(" §")
         if p == '': continue
         if p == 'self': res.append(u[:i].rstrip(':')); continue
         res += expand(u[:i] + p)
