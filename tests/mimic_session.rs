@@ -47,7 +47,8 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
     ok(&k, &["up", "demo"]);
     let file = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join(PANDA);
     let file_s = file.to_str().expect("UTF-8 path");
-    ok(&k, &["import", "urdf", file_s, "--as", "panda"]);
+    // Not "panda": a pure op naming a built-in robot answers for the built-in one.
+    ok(&k, &["import", "urdf", file_s, "--as", "arm", "--mimic"]);
 
     // The file's whole tree: 9 joints, the right finger's joint follows the left one's.
     let tree = robosim_file_io::urdf_import::import_urdf_tree(&file).expect("imports");
@@ -62,9 +63,11 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
     let session = k.session();
     let reader = Reader::attach(&session, "test").expect("attach");
     let snap = reader.snapshot().expect("snapshot");
-    let view = snap.robot("panda").expect("panda");
+    let view = snap.robot("arm").expect("arm");
     assert_eq!(view.joints.len(), 9);
-    let m = view.joints[follower].mimic.expect("the follower is a mimic joint");
+    let m = view.joints[follower]
+        .mimic
+        .expect("the follower is a mimic joint");
     assert_eq!(m.leader, Some(leader as u32));
     assert_eq!((m.multiplier, m.offset), (1.0, 0.0));
     assert!(matches!(
@@ -72,7 +75,11 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
         Some(Kinematics::Mimic { .. })
     ));
     let world = robosim_scene::pose::to_matrix(&snap.world_pose(view.index));
-    assert_eq!(world, nalgebra::Matrix4::identity(), "imported at the origin");
+    assert_eq!(
+        world,
+        nalgebra::Matrix4::identity(),
+        "imported at the origin"
+    );
     drop(snap);
     drop(reader);
 
@@ -93,20 +100,20 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
     full_q[follower] = 0.01; // not the relation's value
     let target: Vec<f64> = qr.iter().map(|x| x * 0.5).collect();
     let requests = [
-        json!({"op": "get_robot", "robot": "panda"}),
-        json!({"op": "fk", "robot": "panda", "q": qr, "frames": true}),
+        json!({"op": "get_robot", "robot": "arm"}),
+        json!({"op": "fk", "robot": "arm", "q": qr, "frames": true}),
         json!({"op": "fk", "robot": pure, "q": qr, "frames": true}),
-        json!({"op": "jacobian", "robot": "panda", "q": qr}),
+        json!({"op": "jacobian", "robot": "arm", "q": qr}),
         json!({"op": "jacobian", "robot": pure, "q": qr}),
-        json!({"op": "id", "robot": "panda", "q": qr, "qd": v, "qdd": a}),
+        json!({"op": "id", "robot": "arm", "q": qr, "qd": v, "qdd": a}),
         json!({"op": "id", "robot": pure, "q": qr, "qd": v, "qdd": a}),
-        json!({"op": "mass_matrix", "robot": "panda", "q": qr}),
+        json!({"op": "mass_matrix", "robot": "arm", "q": qr}),
         json!({"op": "mass_matrix", "robot": pure, "q": qr}),
         json!({"op": "c_switch", "on": false}),
-        json!({"op": "movej", "robot": "panda", "q": full_q}),
-        json!({"op": "movej", "robot": "panda", "q": target}),
-        json!({"op": "get_robot", "robot": "panda"}),
-        json!({"op": "jacob", "robot": "panda"}),
+        json!({"op": "movej", "robot": "arm", "q": full_q}),
+        json!({"op": "movej", "robot": "arm", "q": target}),
+        json!({"op": "get_robot", "robot": "arm"}),
+        json!({"op": "jacob", "robot": "arm"}),
         json!({"op": "jacobian", "robot": pure, "q": target}),
     ];
     let lines: String = (requests.iter().enumerate())
@@ -131,12 +138,7 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
 
     // get_robot: 8 coordinates, the follower at its leader's value in the full q.
     assert_eq!(nums(&answers[0]["q"]).len(), 8, "{}", answers[0]);
-    assert_eq!(
-        answers[0]["coordinates"],
-        json!(c.free()),
-        "{}",
-        answers[0]
-    );
+    assert_eq!(answers[0]["coordinates"], json!(c.free()), "{}", answers[0]);
     // fk (every frame), jacobian, id, mass_matrix: the session's = the pure mimic op's.
     for (s, p, field, tol) in [
         (1, 2, "frames", 1e-12),
@@ -157,17 +159,23 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
     // its leader.
     assert_eq!(answers[10]["ok"], false, "{}", answers[10]);
     let msg = answers[10]["error"]["message"].as_str().unwrap_or("");
-    assert!(msg.contains("9 values") && msg.contains("8 coordinates"), "{msg}");
+    assert!(
+        msg.contains("9 values") && msg.contains("8 coordinates"),
+        "{msg}"
+    );
     assert_eq!(answers[11]["completed"], true, "{}", answers[11]);
     assert_eq!(nums(&answers[12]["q"]), target, "{}", answers[12]);
     let q_full = nums(&answers[12]["q_full"]);
     assert_eq!(q_full[follower], q_full[leader]);
-    assert_eq!(q_full[leader], target[c.free().iter().position(|&i| i == leader).expect("free")]);
+    assert_eq!(
+        q_full[leader],
+        target[c.free().iter().position(|&i| i == leader).expect("free")]
+    );
 
     // What the session holds: the follower's committed value and its link where FK puts it.
     let reader = Reader::attach(&session, "test").expect("attach");
     let snap = reader.snapshot().expect("snapshot");
-    let view = snap.robot("panda").expect("panda");
+    let view = snap.robot("arm").expect("arm");
     let full = c.expand_q(&target).expect("q");
     let frames = robosim_kinematics::fk::link_frames(&tree.robot, &full);
     for (j, link) in view.joints.iter().enumerate() {
@@ -175,4 +183,37 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
         let m = robosim_scene::pose::to_matrix(&snap.poses()[link.index].pose);
         assert!((m - frames[j + 1]).abs().max() < 1e-12, "link {j}");
     }
+    drop(snap);
+    drop(reader);
+
+    // The simulator holds the coupled robot at its committed joints (its pipeline would move
+    // the follower on its own): published with `held` saying why, never stepped, a command to
+    // it refused with that reason — and the simulator keeps running.
+    let mut sim = std::process::Command::new(common::ROBOSIM)
+        .args(["simulator", "--mode", "lockstep", "--session", &k.name])
+        .env("ROBOSIM_HOME", k.home.path())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("simulator");
+    let state = common::wait_for("the simulator after 10 steps", || {
+        let (_, out) = common::robosim(&k, &["simctl", r#"{"cmd": "step", "n": 10}"#]);
+        let _ = out;
+        let (good, out) = common::robosim(&k, &["simctl", "get"]);
+        let g: Value = serde_json::from_str(&out).ok().filter(|_| good)?;
+        (g["run_steps"].as_u64()? >= 10).then_some(g)
+    });
+    let target_cmd = json!({"cmd": "target", "robot": "arm", "q": full}).to_string();
+    let (took, refusal) = common::robosim(&k, &["simctl", &target_cmd]);
+    let _ = sim.kill();
+    let _ = sim.wait();
+    let arm = (state["robots"].as_array().expect("robots").iter())
+        .find(|r| r["name"] == "arm")
+        .unwrap_or_else(|| panic!("the simulator shows the robot: {state}"));
+    let held = arm["held"]
+        .as_str()
+        .unwrap_or_else(|| panic!("held: {arm}"));
+    assert!(held.contains("mimic joint"), "{held}");
+    assert_eq!(nums(&arm["q"]), full, "held at its committed joints: {arm}");
+    assert!(!took && refusal.contains("mimic joint"), "{refusal}");
 }

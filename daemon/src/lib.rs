@@ -258,6 +258,9 @@ pub(crate) struct Sim {
     pub(crate) log_path: Option<PathBuf>,
     /// Why the last step failed, until the pipeline is rebuilt.
     pub(crate) error: Option<String>,
+    /// Why the simulator holds this robot at its committed joints instead of stepping it (a
+    /// robot with mimic joints); `None`: simulated.
+    pub(crate) held: Option<String>,
     /// The collision stage's verdict at the last recorded sample.
     pub(crate) contact_was: bool,
     /// The committed joint values this pipeline last adopted.
@@ -470,18 +473,23 @@ fn simulated_structure(snap: &Snapshot) -> u64 {
 impl Daemon<'_> {
     /// The pipeline of compiled robot `r` (shares the compiled solids).
     fn pipeline(&self, r: &robosim_scene::CompiledRobot, snap: &Snapshot) -> Result<Sim> {
-        // A robot with mimic joints (URDF `<mimic>`): the pipeline integrates every joint on
-        // its own, so its followers would leave their leaders — refused by name, never run so.
-        if let Some(view) = snap.robot(r.name())
-            && let Some(j) = view.joints.iter().position(|j| j.mimic.is_some())
-        {
-            return Err(DaemonError::Usage(format!(
+        // A robot with mimic joints (URDF `<mimic>`): the pipeline would integrate every joint
+        // on its own, so its followers would leave their leaders. It is held at its committed
+        // joints (published, an obstacle to the others, never stepped; commands to it refused
+        // with this reason) — the other robots of the session are simulated as before.
+        let held = snap.robot(r.name()).and_then(|view| {
+            let j = view.joints.iter().position(|j| j.mimic.is_some())?;
+            Some(format!(
                 "robot {}: joint {} ({}) is a mimic joint (it follows another); the simulator \
-                 does not integrate a coupled robot — it would move the follower on its own",
+                 does not integrate a coupled robot — it would move the follower on its own — \
+                 so it holds the robot at its committed joints",
                 r.name(),
                 j,
                 snap.name(view.joints[j].index)
-            )));
+            ))
+        });
+        if let Some(why) = &held {
+            eprintln!("simulator: {why}");
         }
         let around = self.scene.obstacles(r, &HashSet::new());
         if let (Some(why), Some(c)) = (around.refused.first(), self.effects.collision.as_ref())
@@ -530,6 +538,7 @@ impl Daemon<'_> {
                 .collect(),
             log_path: effects.logging.as_ref().and_then(|l| l.path.clone()),
             error: None,
+            held,
             contact_was: false,
             committed_q: r.q.clone(),
             base: r.robot.base,
@@ -692,9 +701,14 @@ fn apply(
             .get("robot")
             .and_then(Value::as_str)
             .ok_or("`robot` must be a string")?;
-        sims.iter()
+        let i = sims
+            .iter()
             .position(|s| s.name == name)
-            .ok_or_else(|| format!("no robot {name:?}"))
+            .ok_or_else(|| format!("no robot {name:?}"))?;
+        match &sims[i].held {
+            Some(why) => Err(why.clone()),
+            None => Ok(i),
+        }
     };
     let vector = |v: &Value, f: &str| -> std::result::Result<DVector<f64>, String> {
         let a = v
@@ -1109,7 +1123,7 @@ fn step_all(d: &mut Daemon, l: &mut Loop) {
     if let Some(f) = &mut d.follow {
         f.show(&mut d.sims);
     }
-    for s in &mut d.sims {
+    for s in d.sims.iter_mut().filter(|s| s.held.is_none()) {
         if let Err(e) = s.pipeline.step() {
             eprintln!("simulator: {}: {e}; paused", s.name);
             l.event(Level::Error, &s.name, &format!("{e}; paused"));
@@ -1117,7 +1131,11 @@ fn step_all(d: &mut Daemon, l: &mut Loop) {
             l.pause("error");
         }
     }
-    let t = d.sims.first().map_or(0.0, |s| s.pipeline.data().state.t);
+    let t = d
+        .sims
+        .iter()
+        .find(|s| s.held.is_none())
+        .map_or(0.0, |s| s.pipeline.data().state.t);
     if let Some(sp) = &mut d.space
         && let Err(e) = sp.update(&mut d.sims, t, l.dt)
     {

@@ -11,7 +11,7 @@
 //!              "stages": ["motion", "joint_limits", "link_frames", "logging"],
 //!              "joints": ["link1", …], "joint_types": ["revolute", …],
 //!              "q": […], "qd": […], "tau": […], "target": […], "torque": null,
-//!              "contact": null, "contact_steps": 0, "error": null,
+//!              "contact": null, "contact_steps": 0, "error": null, "held": null,
 //!              "log": "/…/run/simulator-puma560.csv"}]}
 //! ```
 //!
@@ -20,7 +20,10 @@
 //! last built (start, `reset`, a structure change); `run_steps`: since the daemon started (the
 //! recording's clock). `state`: `running` (free-running), `stepping` (lock-step steps queued)
 //! or `paused`. `contact`: `null` when the robot's pipeline does not check collisions. `error`:
-//! why the robot's last step failed (the daemon then pauses), else `null`.
+//! why the robot's last step failed (the daemon then pauses), else `null`. `held`: why the
+//! simulator holds the robot at its committed joints instead of stepping it (a robot with mimic
+//! joints: its pipeline would move a follower on its own), else `null`; commands to it are
+//! refused with that reason.
 //!
 //! `version`: the Instance Space version the pipelines follow (joint values and structure
 //! taken from it); `stepped_version`: the version they had taken when they last stepped, 0
@@ -135,6 +138,7 @@ fn robot(s: &Sim) -> Value {
         "contact": w.contact,
         "contact_steps": w.contact_steps,
         "error": s.error,
+        "held": s.held,
         "log": s.log_path.as_ref().map(|p| p.display().to_string()),
     })
 }

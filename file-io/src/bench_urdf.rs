@@ -86,6 +86,7 @@ pub fn measure(
         pose: IDENTITY,
         parent: None,
         visuals: true,
+        mimic: false,
     };
     let first = urdf_tx(&u, &place("probe".into()))?;
     let dir = robosim_instance_space::home().join(format!("bench-urdf-{}", std::process::id()));

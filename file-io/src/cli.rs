@@ -470,6 +470,9 @@ pub struct ImportUrdfArgs {
     /// link (Pinocchio's `buildModel(urdf, JointModelFreeFlyer())`); `None`: fixed, unless
     /// the file's root joint is itself floating or planar. URDF only.
     pub floating: Option<robosim_kinematics::RootKind>,
+    /// `<mimic>` followers as mimic joints: the session robot's coordinates are the reduced
+    /// ones ([`crate::urdf_session::UrdfPlacement::mimic`]). URDF only.
+    pub mimic: bool,
 }
 
 #[derive(Debug)]
@@ -607,6 +610,7 @@ fn import_robot(
         pose,
         parent,
         visuals: !a.no_visuals,
+        mimic: a.mimic,
     };
     let imp = crate::urdf_session::urdf_tx(u, &place)?;
     let applied = import_commit(&s, &imp.tx, &a.file, &name)?;

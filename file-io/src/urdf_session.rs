@@ -50,6 +50,11 @@ pub struct UrdfPlacement {
     /// Import the `<visual>`s (else the collision solids are what is drawn, and visual meshes
     /// are not read: for a URDF whose visual meshes are not at hand).
     pub visuals: bool,
+    /// Write each `<mimic>` follower as a mimic joint (`Kinematics::Mimic`), so the session
+    /// robot's coordinates are the reduced ones (`robosim import urdf --mimic`; Pinocchio's
+    /// `mimic=True`). Off: every movable joint is a coordinate of its own (Pinocchio's default),
+    /// which IK to a tip, the encoder ops and the simulator serve; the coupling is then not kept.
+    pub mimic: bool,
 }
 
 /// The transaction and what it holds.
@@ -108,7 +113,7 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
     }
     // the joints at rest: a follower (URDF `<mimic>`) at its relation's value there
     let mut q0: Vec<f64> = robot.neutral_q().iter().copied().collect();
-    if let Some(c) = &u.coupling
+    if let Some(c) = u.coupling.as_ref().filter(|_| place.mimic)
         && let Ok(q) = c.restrict(&q0).and_then(|qr| c.expand_q(&qr))
     {
         q0 = q;
@@ -145,7 +150,12 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
         );
         // A follower (URDF `<mimic>`) is a mimic joint: the session robot's coordinates are
         // the reduced ones (a URDF joint has no offset of its own: `joint.offset` is 0).
-        let kinematics = match u.mimics.iter().find(|m| m.index == j) {
+        let follows = u
+            .mimics
+            .iter()
+            .find(|m| m.index == j)
+            .filter(|_| place.mimic);
+        let kinematics = match follows {
             Some(m) if joint.offset == 0.0 => Kinematics::Mimic {
                 index,
                 parent,
@@ -306,6 +316,7 @@ pub fn urdf_store(
         &u,
         &UrdfPlacement {
             name: u.robot.name.clone(),
+            mimic: false,
             pose: IDENTITY,
             parent: Some(scene),
             visuals: true,

@@ -147,6 +147,7 @@ fn a_urdf_robots_collision_shapes_are_solids_that_collide() {
             pose: at,
             parent: Some(lab),
             visuals: true,
+            mimic: false,
         },
     )
     .expect("transaction");
@@ -253,6 +254,7 @@ fn concave_collision_meshes_arrive_decomposed() {
             pose: robosim_instance_space::IDENTITY,
             parent: None,
             visuals: false,
+            mimic: false,
         },
     )
     .expect("transaction");

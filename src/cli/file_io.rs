@@ -120,6 +120,11 @@ pub struct ImportUrdfArgs {
     /// `--floating planar` (x, y, yaw); the robot object is then the base link (docs/file-io.md).
     #[arg(long, num_args = 0..=1, default_missing_value = "free_flyer", value_parser = ["free_flyer", "planar"])]
     pub floating: Option<String>,
+    /// `<mimic>` followers follow their leaders: the session robot's coordinates are the
+    /// reduced ones (Pinocchio's `mimic=True`; docs/query.md). Without it every movable joint
+    /// is a coordinate of its own (Pinocchio's default), which IK to a tip and the simulator serve.
+    #[arg(long)]
+    pub mimic: bool,
 }
 
 #[derive(clap::Args, Debug)]
@@ -199,6 +204,7 @@ impl From<ImportCmd> for robosim_file_io::cli::ImportCmd {
                     parent: x.parent,
                     no_visuals: x.no_visuals,
                     floating: None,
+                    mimic: false,
                 })
             }
         }
@@ -217,6 +223,7 @@ impl From<ImportUrdfArgs> for robosim_file_io::cli::ImportUrdfArgs {
                 .floating
                 .as_deref()
                 .and_then(robosim_kinematics::RootKind::from_name),
+            mimic: a.mimic,
         }
     }
 }
