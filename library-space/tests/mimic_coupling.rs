@@ -58,7 +58,10 @@ fn a_from_urdf_robot_keeps_its_mimic_coupling_in_the_model() {
         }]
     );
     let model = r.model();
-    let c = model.coupling.as_ref().expect("the model carries the coupling");
+    let c = model
+        .coupling
+        .as_ref()
+        .expect("the model carries the coupling");
     assert_eq!((c.full_nq(), c.reduced_nq()), (9, 8));
     assert!(c.is_follower(right) && !c.is_follower(left));
     // the relations survive a JSON round trip, and a robot written before the field existed
@@ -102,25 +105,28 @@ fn a_from_urdf_robot_keeps_its_mimic_coupling_in_the_model() {
             qr[i] = q_pin[k];
         }
         for (link, fr) in s["frames"].as_object().expect("frames") {
-            let j = model.link_names.iter().position(|l| l == link).expect("link");
-            let (pose, jac) = robosim_kinematics::mimic::link_jacobian(
-                &model.robot,
-                c,
-                &qr,
-                j + 1,
-                Frame::Base,
-            )
-            .expect("coupled Jacobian");
+            let j = model
+                .link_names
+                .iter()
+                .position(|l| l == link)
+                .expect("link");
+            let (pose, jac) =
+                robosim_kinematics::mimic::link_jacobian(&model.robot, c, &qr, j + 1, Frame::Base)
+                    .expect("coupled Jacobian");
             let want = rows(&fr["pose"]);
             let e = (0..4)
                 .flat_map(|a| (0..4).map(move |b| (a, b)))
-                .fold(0.0_f64, |m, (a, b)| m.max((pose[(a, b)] - want[(a, b)]).abs()));
+                .fold(0.0_f64, |m, (a, b)| {
+                    m.max((pose[(a, b)] - want[(a, b)]).abs())
+                });
             assert!(e < 1e-12, "{link}: pose differs by {e:e}");
             let jw = rows(&fr["jacobian"]);
             assert_eq!(jac.ncols(), 8, "{link}: one column per reduced coordinate");
             let e = (0..6)
                 .flat_map(|a| (0..8).map(move |b| (a, b)))
-                .fold(0.0_f64, |m, (a, b)| m.max((jac[(a, perm[b])] - jw[(a, b)]).abs()));
+                .fold(0.0_f64, |m, (a, b)| {
+                    m.max((jac[(a, perm[b])] - jw[(a, b)]).abs())
+                });
             assert!(e < 1e-12, "{link}: Jacobian differs by {e:e}");
             checked += 1;
         }
