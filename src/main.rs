@@ -71,7 +71,15 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             library,
             no_sync,
             journal_copies,
-        } => space(session, scene, load, &library, !no_sync, journal_copies),
+        } => robosim_launcher::entry::space(
+            session,
+            scene.as_deref(),
+            load.as_deref(),
+            &library,
+            !no_sync,
+            journal_copies,
+        )
+        .map_err(CliError::from),
         Command::Up {
             scene,
             load,
@@ -79,15 +87,16 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             library,
             fresh,
             sim_mode,
-        } => up(
+        } => robosim_launcher::entry::up(
             session,
-            scene,
-            load,
+            scene.as_deref(),
+            load.as_deref(),
             &with,
             &library,
             fresh,
             sim_mode.map(|m| m.name()),
-        ),
+        )
+        .map_err(CliError::from),
         Command::Save { args } => {
             existing(session)?;
             robosim_file_io::cli::save(&args.into(), session).map_err(CliError::from)
@@ -236,52 +245,6 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         }
         Command::Completions { shell } => completions(shell),
     }
-}
-
-/// `robosim space [--scene SCENE | --load FILE]`: the keeper process.
-fn space(
-    session: Option<&str>,
-    scene: Option<String>,
-    load: Option<std::path::PathBuf>,
-    library: &[std::path::PathBuf],
-    durable: bool,
-    journal_copies: u8,
-) -> Result<()> {
-    match load {
-        Some(file) => {
-            robosim_launcher::space_load(&file, session, library, durable, journal_copies)
-        }
-        None => {
-            robosim_launcher::run_space(session, scene.as_deref(), library, durable, journal_copies)
-        }
-    }
-    .map_err(CliError::from)
-}
-
-/// `robosim up [SCENE | --load FILE] …`: a scene, a model file, or (neither) the session's
-/// saved model resumed.
-fn up(
-    session: Option<&str>,
-    scene: Option<String>,
-    load: Option<std::path::PathBuf>,
-    with: &[String],
-    library: &[std::path::PathBuf],
-    fresh: bool,
-    sim_mode: Option<&str>,
-) -> Result<()> {
-    match (scene, load) {
-        (_, Some(file)) => robosim_launcher::up_load(&file, with, session, library, sim_mode),
-        (None, None) => {
-            if fresh {
-                bail!("--fresh starts a scene over: name it (`robosim up SCENE --fresh`)");
-            }
-            robosim_launcher::up_resume(with, session, library, sim_mode)
-        }
-        (Some(scene), None) => {
-            robosim_launcher::up_with_library(&scene, with, session, library, fresh, sim_mode)
-        }
-    }
-    .map_err(CliError::from)
 }
 
 /// `robosim sweep-host`: sweep workers (this executable, `sweep-worker`) for remote sweeps.

@@ -21,6 +21,7 @@
 
 #![forbid(unsafe_code)]
 
+pub mod entry;
 mod error;
 
 pub use error::LaunchError;
