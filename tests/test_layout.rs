@@ -153,3 +153,142 @@ fn every_file_of_tests_is_a_module_of_the_test_binary() {
     // looked in the wrong place.
     assert!(checked > 50, "only {checked} test files found");
 }
+
+/// The value of `key = true|false` in the manifest's `[lib]` section, if set there.
+fn lib_flag(manifest: &str, key: &str) -> Option<bool> {
+    let mut in_lib = false;
+    for line in manifest.lines().map(str::trim) {
+        if line.starts_with('[') {
+            in_lib = line == "[lib]";
+        } else if in_lib && let Some(rest) = line.strip_prefix(key) {
+            let value = rest.trim_start();
+            if let Some(v) = value.strip_prefix('=') {
+                return Some(v.trim() == "true");
+            }
+        }
+    }
+    None
+}
+
+/// Every `.rs` file under `dir`, recursively.
+fn rust_files(dir: &Path, out: &mut Vec<PathBuf>) {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return;
+    };
+    for entry in entries {
+        let path = entry.expect("read a source dir").path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+/// Lines (1-based) of `source` where a doc comment opens a code block rustdoc would compile and
+/// run: a fence with no language, or `rust` (with or without attributes other than `ignore`/
+/// `text`-like languages). A fence that closes a block is skipped.
+fn doctest_fences(source: &str) -> Vec<usize> {
+    let mut found = Vec::new();
+    let mut open = false;
+    for (i, line) in source.lines().enumerate() {
+        let l = line.trim_start();
+        let Some(doc) = l
+            .strip_prefix("///")
+            .or_else(|| l.strip_prefix("//!"))
+            .map(str::trim_start)
+        else {
+            continue;
+        };
+        let Some(info) = doc.strip_prefix("```") else {
+            continue;
+        };
+        if open {
+            open = false;
+            continue;
+        }
+        open = true;
+        let info = info.trim();
+        let words: Vec<&str> = info.split(',').map(str::trim).collect();
+        let rust = info.is_empty()
+            || words.iter().all(|w| {
+                matches!(
+                    *w,
+                    "rust"
+                        | "should_panic"
+                        | "no_run"
+                        | "compile_fail"
+                        | "edition2021"
+                        | "edition2024"
+                )
+            });
+        if rust && !words.contains(&"ignore") {
+            found.push(i + 1);
+        }
+    }
+    found
+}
+
+/// CI time (issue 35 item 6): a library whose docs hold no example opts out of rustdoc's test
+/// pass (`doctest = false`), and one without unit tests out of its test-mode build
+/// (`test = false`) — each pass costs a compile of the crate for nothing. These flags would hide a
+/// doc example or a unit test added later, so they are allowed only where there is none.
+#[test]
+fn libraries_that_skip_doctests_or_unit_tests_have_none() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut wrong = Vec::new();
+    let mut skipping = 0;
+    for dir in members(root) {
+        let manifest =
+            std::fs::read_to_string(dir.join("Cargo.toml")).expect("read a member's Cargo.toml");
+        let no_doctests = lib_flag(&manifest, "doctest") == Some(false);
+        let no_unit_tests = lib_flag(&manifest, "test") == Some(false);
+        if !no_doctests && !no_unit_tests {
+            continue;
+        }
+        skipping += 1;
+        let mut files = Vec::new();
+        rust_files(&dir.join("src"), &mut files);
+        for file in files {
+            let source = std::fs::read_to_string(&file).expect("read a source file");
+            if no_doctests {
+                for line in doctest_fences(&source) {
+                    wrong.push(format!(
+                        "{}:{line}: a doc example, but the crate's [lib] says doctest = false \
+                         (it would never run): remove that line from {}/Cargo.toml",
+                        file.display(),
+                        dir.display()
+                    ));
+                }
+            }
+            if no_unit_tests && source.lines().any(|l| l.trim() == "#[test]") {
+                wrong.push(format!(
+                    "{}: a unit test, but the crate's [lib] says test = false (it would never \
+                     run): remove that line from {}/Cargo.toml",
+                    file.display(),
+                    dir.display()
+                ));
+            }
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+    assert!(
+        skipping > 10,
+        "only {skipping} libraries skip a pass: the manifests moved?"
+    );
+}
+
+#[test]
+fn the_doctest_scan_finds_a_runnable_example_and_skips_text() {
+    let src = "//! ```\n//! let x = 1;\n//! ```\n/// ```text\n/// not rust\n/// ```\n\
+               /// ```rust,ignore\n/// skipped\n/// ```\n/// ```no_run\n/// x();\n/// ```\n";
+    assert_eq!(doctest_fences(src), vec![1, 10]);
+    assert_eq!(
+        lib_flag(
+            "[package]\nname = \"a\"\n[lib]\ndoctest = false\n",
+            "doctest"
+        ),
+        Some(false)
+    );
+    assert_eq!(lib_flag("[lib]\ntest = false\n", "doctest"), None);
+}
