@@ -3,8 +3,8 @@
 
 use crate::layout::{
     ChunkEntry, GeometryBundleHeader, GeometryEntry, GeometryHeader, OBJECT_CHUNK,
-    ObjectChunkHeader, ObjectRec, ObjectsHeader, PolygonRec, PoseChunkHeader, PoseRec, Segment,
-    SegmentWriter, flags, section_mut,
+    ObjectChunkHeader, ObjectRec, ObjectsHeader, PatchEntry, PatchRec, PolygonRec, PoseChunkHeader,
+    PoseRec, Segment, SegmentWriter, flags, section_mut,
 };
 use crate::record::{self, KinematicsFields};
 use crate::store::{Id, Object, Store};
@@ -305,20 +305,59 @@ pub(crate) fn chunk_entries(gens: &[u64], carried: &[(usize, &[u64])]) -> Vec<Ch
 }
 
 /// An objects publication (see [`crate::layout`]): `header`, the generation of every chunk,
-/// and the chunks `carried` as a bundle indexed by `entries` ([`chunk_entries`]); the
+/// the chunks `carried` whole as a bundle indexed by `entries` ([`chunk_entries`]), and the
+/// chunks carried as record patches (`patches`, each naming its records in `patched`); the
 /// segments are written in place.
 pub(crate) fn objects_writer<'a>(
     header: &'a [ObjectsHeader; 1],
     gens: &'a [u64],
     entries: &'a [ChunkEntry],
     carried: &[(usize, &'a [u64])],
+    patches: &'a [PatchEntry],
+    patched: &'a [PatchRec],
 ) -> SegmentWriter<'a> {
     let mut w = SegmentWriter::new();
     w.push(header)
         .push(gens)
         .push(entries)
-        .push_parts(carried.iter().map(|&(_, words)| words));
+        .push_parts(carried.iter().map(|&(_, words)| words))
+        .push(patches)
+        .push(patched);
     w
+}
+
+/// Records `indices` (ascending) of the object chunk `words` as patches, appended to `out`
+/// with the entry naming them: chunk `k` at `generation`, carried whole last at `since`.
+/// `None` (nothing appended) when `words` is not a sound object chunk or lacks a record.
+pub(crate) fn chunk_patches(
+    words: &[u64],
+    k: usize,
+    generation: u64,
+    since: u64,
+    indices: &[u32],
+    out: &mut Vec<PatchRec>,
+) -> Option<PatchEntry> {
+    let recs = Segment::parse(words).ok()?.section::<ObjectRec>(1).ok()?;
+    let start = out.len();
+    for &j in indices {
+        match recs.get(j as usize) {
+            Some(&rec) => out.push(PatchRec {
+                index: u64::from(j),
+                rec,
+            }),
+            None => {
+                out.truncate(start);
+                return None;
+            }
+        }
+    }
+    Some(PatchEntry {
+        chunk: k as u64,
+        generation,
+        since,
+        start: start as u64,
+        len: indices.len() as u64,
+    })
 }
 
 /// An object chunk's last section: the index in the chunk of every record with geometry,

@@ -19,8 +19,8 @@
 
 use crate::journal::{self, Journal, JournalError, RecoveryReport};
 use crate::layout::{
-    ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, OBJECT_CHUNK, ObjectsHeader, POSE_CHUNK, PoseRec,
-    PosesHeader, SegmentWriter,
+    ChangeRec, GEOMETRY_UPDATE_MAX_WORDS, OBJECT_CHUNK, OBJECT_PATCH_MAX, ObjectsHeader,
+    POSE_CHUNK, PatchEntry, PatchRec, PoseRec, PosesHeader, SegmentWriter,
 };
 use crate::object::{Id, aspect};
 use crate::replica::{LOG_MAGIC, Log, LogAnswer, PublishedLibrary, SNAPSHOT_MAGIC, SpaceSnapshot};
@@ -252,6 +252,14 @@ pub struct Keeper {
     obj_chunks: Vec<Vec<u64>>,
     obj_gen: Vec<u64>,
     obj_dirty: Vec<bool>,
+    /// Each object chunk's lineage: the generation at which it was last carried whole (by an
+    /// objects head, or served by the objects base when a head carried nothing), and the records
+    /// patched in it since (indices, ascending) — what the next objects head carries for it
+    /// when it changed by patches alone ([`crate::layout::PatchEntry`]). `obj_whole`: it changed
+    /// otherwise (encoded again, extended, new) since the last head, so it goes whole.
+    obj_since: Vec<u64>,
+    obj_patched: Vec<Vec<u32>>,
+    obj_whole: Vec<bool>,
     poses_pub: Pub,
     /// The pose base (every pose of one version, on request) and the (epoch, version) of the
     /// last one published.
@@ -591,6 +599,9 @@ impl Keeper {
             obj_chunks: Vec::new(),
             obj_gen: Vec::new(),
             obj_dirty: Vec::new(),
+            obj_since: Vec::new(),
+            obj_patched: Vec::new(),
+            obj_whole: Vec::new(),
             poses_pub,
             base_pub,
             base_published: None,
@@ -987,6 +998,9 @@ impl Keeper {
         self.obj_chunks.clear();
         self.obj_gen.clear();
         self.obj_dirty.clear();
+        self.obj_since.clear();
+        self.obj_patched.clear();
+        self.obj_whole.clear();
         self.publish_all()?;
         let _ = self.change_notifier.notify();
         Ok(())
@@ -1258,6 +1272,9 @@ impl Keeper {
             self.obj_chunks.truncate(chunks);
             self.obj_gen.truncate(chunks);
             self.obj_dirty.truncate(chunks);
+            self.obj_since.truncate(chunks);
+            self.obj_patched.truncate(chunks);
+            self.obj_whole.truncate(chunks);
             for k in 0..chunks {
                 self.encode_object_chunk(k, version);
             }
@@ -1286,8 +1303,9 @@ impl Keeper {
 
     /// Patches the record of object `i` (in the caches) where it is in its object chunk
     /// ([`crate::encode::patch_object_rec`]); a chunk whose record changed takes generation
-    /// `version` and is marked for the next objects head. `false` when the chunk must be
-    /// encoded again instead.
+    /// `version`, notes the record among those patched since it was last carried whole, and
+    /// is marked for the next objects head. `false` when the chunk must be encoded again
+    /// instead.
     fn patch_object(&mut self, i: usize, version: u64) -> bool {
         let k = i / OBJECT_CHUNK;
         let (Some(o), Some(words)) = (
@@ -1304,6 +1322,12 @@ impl Keeper {
                 crate::encode::set_chunk_generation(words, version);
                 self.obj_gen[k] = version;
                 self.obj_dirty[k] = true;
+                let j = (i % OBJECT_CHUNK) as u32;
+                if let Some(patched) = self.obj_patched.get_mut(k)
+                    && let Err(at) = patched.binary_search(&j)
+                {
+                    patched.insert(at, j);
+                }
                 true
             }
         }
@@ -1334,6 +1358,7 @@ impl Keeper {
         self.obj_chunks[k] = words;
         self.obj_gen[k] = version;
         self.obj_dirty[k] = true;
+        self.obj_whole[k] = true;
         true
     }
 
@@ -1352,6 +1377,7 @@ impl Keeper {
                     *old = words;
                     self.obj_gen[k] = version;
                     self.obj_dirty[k] = true;
+                    self.obj_whole[k] = true;
                 }
             }
             None => {
@@ -1360,6 +1386,9 @@ impl Keeper {
                     .push(crate::encode::object_chunk(objects, range.start, version));
                 self.obj_gen.push(version);
                 self.obj_dirty.push(true);
+                self.obj_since.push(version);
+                self.obj_patched.push(Vec::new());
+                self.obj_whole.push(true);
             }
         }
     }
@@ -1374,35 +1403,87 @@ impl Keeper {
     }
 
     /// Publishes the objects head: the header, every chunk's generation, and the chunks marked
-    /// since the last head — none when they pass [`GEOMETRY_UPDATE_MAX_WORDS`] (readers then
-    /// take the objects base).
+    /// since the last head — a chunk whose records alone changed since it was last carried
+    /// whole as those records (up to [`OBJECT_PATCH_MAX`] of them: O(changed records), not
+    /// O([`OBJECT_CHUNK`])), any other whole — none when they pass
+    /// [`GEOMETRY_UPDATE_MAX_WORDS`] (readers then take the objects base, which serves every
+    /// chunk whole at its generation: the lineages of the chunks marked start there).
     fn publish_objects_head(&mut self) -> Result<(), KeeperError> {
-        let mut carried: Vec<(usize, &[u64])> = Vec::new();
+        let mut whole: Vec<usize> = Vec::new();
+        let mut patches: Vec<PatchEntry> = Vec::new();
+        let mut patched: Vec<PatchRec> = Vec::new();
         let mut words = 0;
-        for (k, d) in self.obj_dirty.iter().enumerate() {
-            if *d {
-                words += self.obj_chunks[k].len();
-                carried.push((k, &self.obj_chunks[k]));
+        let marked: Vec<usize> = (0..self.obj_dirty.len())
+            .filter(|&k| self.obj_dirty[k])
+            .collect();
+        for &k in &marked {
+            let list = &self.obj_patched[k];
+            let entry = (!self.obj_whole[k] && list.len() <= OBJECT_PATCH_MAX)
+                .then(|| {
+                    crate::encode::chunk_patches(
+                        &self.obj_chunks[k],
+                        k,
+                        self.obj_gen[k],
+                        self.obj_since[k],
+                        list,
+                        &mut patched,
+                    )
+                })
+                .flatten();
+            match entry {
+                Some(e) => {
+                    words += e.len as usize * std::mem::size_of::<PatchRec>() / 8;
+                    patches.push(e);
+                }
+                None => {
+                    words += self.obj_chunks[k].len();
+                    whole.push(k);
+                }
             }
         }
-        if words > GEOMETRY_UPDATE_MAX_WORDS {
-            carried.clear();
+        let fits = words <= GEOMETRY_UPDATE_MAX_WORDS;
+        if !fits {
+            patches.clear();
+            patched.clear();
         }
-        self.send_objects(&self.objects_pub, &carried, "objects")?;
+        let carried: Vec<(usize, &[u64])> = whole
+            .iter()
+            .filter(|_| fits)
+            .map(|&k| (k, self.obj_chunks[k].as_slice()))
+            .collect();
+        self.send_objects(&self.objects_pub, &carried, &patches, &patched, "objects")?;
+        // Carried whole (or by nothing: the objects base then serves them whole at their
+        // generations): new lineages.
+        let restart: &[usize] = if fits { &whole } else { &marked };
+        for &k in restart {
+            self.obj_since[k] = self.obj_gen[k];
+            self.obj_patched[k].clear();
+            self.obj_whole[k] = false;
+        }
         self.obj_dirty.iter_mut().for_each(|d| *d = false);
         Ok(())
     }
 
-    /// Sends an objects publication carrying the chunks `carried` on `publisher`.
+    /// Sends an objects publication carrying the chunks `carried` whole and the record
+    /// patches `patches` (records `patched`) on `publisher`.
     fn send_objects(
         &self,
         publisher: &Pub,
         carried: &[(usize, &[u64])],
+        patches: &[PatchEntry],
+        patched: &[PatchRec],
         what: &str,
     ) -> Result<(), KeeperError> {
         let header = self.objects_header();
         let entries = crate::encode::chunk_entries(&self.obj_gen, carried);
-        let w = crate::encode::objects_writer(&header, &self.obj_gen, &entries, carried);
+        let w = crate::encode::objects_writer(
+            &header,
+            &self.obj_gen,
+            &entries,
+            carried,
+            patches,
+            patched,
+        );
         self.send(publisher, &w, what)
     }
 
@@ -1420,7 +1501,7 @@ impl Keeper {
             .enumerate()
             .map(|(k, c)| (k, c.as_slice()))
             .collect();
-        self.send_objects(&self.objects_base_pub, &carried, "objects base")?;
+        self.send_objects(&self.objects_base_pub, &carried, &[], &[], "objects base")?;
         self.objects_base_published = Some(now);
         Ok(())
     }

@@ -9,10 +9,13 @@
 //!   so that a reader finds the geometry it needs without touching every record's page — never
 //!   published alone but in an objects publication:
 //! * objects publication ([`ObjectsHeader`], the generation of every object chunk, then a
-//!   bundle of object chunks: a [`ChunkEntry`] per chunk carried and their segments end to end),
-//!   on two services: the objects head, published by every structural commit with the chunks
-//!   that commit changed (O(objects / [`OBJECT_CHUNK`] + changed chunks), the chunks omitted when
-//!   they pass [`GEOMETRY_UPDATE_MAX_WORDS`]), and the objects base, every chunk at one
+//!   bundle of object chunks: a [`ChunkEntry`] per chunk carried and their segments end to end,
+//!   then the chunks carried as record patches: a [`PatchEntry`] per chunk and the
+//!   [`PatchRec`]s), on two services: the objects head, published by every structural commit
+//!   with the chunks that commit changed (O(objects / [`OBJECT_CHUNK`] + changed records): a
+//!   chunk whose records alone changed since it was last carried whole goes as those records,
+//!   up to [`OBJECT_PATCH_MAX`] of them, any other changed chunk whole; the chunks omitted when
+//!   they pass [`GEOMETRY_UPDATE_MAX_WORDS`]), and the objects base, every chunk whole at one
 //!   structure version, published only when a reader asks for it (attaching, after a keeper
 //!   restart, or having missed a head) — a reader assembles the objects of a structure version
 //!   from the chunks with exactly the generations its head names;
@@ -241,6 +244,41 @@ pub struct ObjectChunkHeader {
 /// Where one chunk's segment is in a bundle's words: the key (an object chunk's index, or in a
 /// geometry bundle the object's id), its generation, and its word range.
 pub type ChunkEntry = GeometryEntry;
+
+/// An object chunk an objects head carries as record patches (section 4 of an objects
+/// publication): the chunk at `generation` is the chunk as it was carried whole at any
+/// generation from `since` to `generation` (in an objects head, or in the objects base) with
+/// the records `start..start + len` of section 5 put in place — every record that changed since
+/// it was last carried whole at `since` (nothing else of the chunk changed: its length, names
+/// and geometry index are those of `since`). A one-record change at 10⁵ objects is then
+/// published as one record, not as its chunk of [`OBJECT_CHUNK`] records (84 kB).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct PatchEntry {
+    /// The object chunk's index.
+    pub chunk: u64,
+    /// Its generation with the patches put in place.
+    pub generation: u64,
+    /// The generation at which it was last carried whole (its lineage).
+    pub since: u64,
+    /// First record and count in section 5.
+    pub start: u64,
+    pub len: u64,
+}
+
+/// One patched record: its index in its chunk, and the record (its id, name, origin and
+/// geometry flag those of the record it replaces).
+#[repr(C)]
+#[derive(Debug, Clone, Copy, Pod, Zeroable, PartialEq)]
+pub struct PatchRec {
+    pub index: u64,
+    pub rec: ObjectRec,
+}
+
+/// The most records an objects head carries as patches of one chunk: past this many records
+/// changed since the chunk was last carried whole, the chunk is carried whole again (and a new
+/// lineage starts). 16 × 336 B, against 84 kB for a chunk of [`OBJECT_CHUNK`] records.
+pub const OBJECT_PATCH_MAX: usize = 16;
 
 /// `ObjectRec::flags` bits.
 pub mod flags {
@@ -498,5 +536,6 @@ mod tests {
         assert_eq!(std::mem::size_of::<ObjectRec>(), 328);
         assert_eq!(std::mem::size_of::<PoseRec>(), 112);
         assert_eq!(std::mem::size_of::<PolygonRec>(), 40);
+        assert_eq!(std::mem::size_of::<PatchRec>(), 336);
     }
 }

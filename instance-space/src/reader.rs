@@ -13,8 +13,8 @@
 use crate::keeper::events;
 use crate::layout::{
     ChangeRec, ChunkEntry, GeometryBundleHeader, GeometryHeader, LayoutError, OBJECT_CHUNK,
-    ObjectChunkHeader, ObjectRec, ObjectsHeader, POSE_CHUNK, PolygonRec, PoseChunkHeader, PoseRec,
-    PosesHeader, Segment, flags, geometry_sections as gs,
+    ObjectChunkHeader, ObjectRec, ObjectsHeader, POSE_CHUNK, PatchEntry, PatchRec, PolygonRec,
+    PoseChunkHeader, PoseRec, PosesHeader, Segment, flags, geometry_sections as gs,
 };
 use crate::object::{Id, Kind};
 use crate::services;
@@ -181,8 +181,34 @@ struct SegSrc {
 
 /// An object's geometry segment.
 type GeomSrc = SegSrc;
-/// An object chunk's segment.
-type ObjSrc = SegSrc;
+
+/// An object chunk of a snapshot: its segment as published whole (`seg`, at generation
+/// `seg.generation`), and the records an objects head patched since ([`PatchEntry`]) — the
+/// chunk at `generation` is `seg` with `patches` put in place. Its length, names and geometry
+/// index are `seg`'s (a patch changes none of them, and every patched record has the id, name,
+/// origin and geometry flag of the record it replaces: checked when the snapshot was
+/// assembled, [`ObjSrc::check_patches`]).
+#[derive(Clone)]
+struct ObjSrc {
+    seg: SegSrc,
+    patches: Option<Rc<Patches>>,
+    generation: u64,
+}
+
+/// The records patched in an object chunk: their indices (ascending) and the records, copied
+/// out of the objects head that carried them (at most [`crate::layout::OBJECT_PATCH_MAX`]).
+struct Patches {
+    at: Vec<usize>,
+    recs: Vec<ObjectRec>,
+}
+
+impl Patches {
+    /// The patched record at index `j`, if `j` is patched.
+    fn get(&self, j: usize) -> Option<&ObjectRec> {
+        let p = self.at.binary_search(&j).ok()?;
+        self.recs.get(p)
+    }
+}
 /// An object chunk's geometry table: by index in the chunk, `None` for objects without; shared
 /// by groups ([`Groups`]), so that the table of a chunk whose one object's geometry changed is
 /// the old one with one group copied, not 256 handles copied.
@@ -239,15 +265,54 @@ impl SegSrc {
     fn segment(&self) -> Option<Segment<'_>> {
         Segment::parse(self.seg_words().ok()?).ok()
     }
-    /// As an object chunk (checked when the snapshot was assembled, [`SegSrc::check_chunk`]).
+}
+
+impl ObjSrc {
+    /// The chunk as published whole (no patches).
+    fn whole(seg: SegSrc) -> ObjSrc {
+        ObjSrc {
+            generation: seg.generation,
+            seg,
+            patches: None,
+        }
+    }
+    fn owned(words: Vec<u64>, generation: u64) -> ObjSrc {
+        ObjSrc::whole(SegSrc::owned(words, generation))
+    }
+    /// The whole segment (checked when the snapshot was assembled, [`ObjSrc::check`]).
     fn chunk(&self) -> Segment<'_> {
         // (a closure: `unreachable_segment` as a fn item would pin the lifetime to 'static)
         #[allow(clippy::redundant_closure)]
-        self.segment().unwrap_or_else(|| unreachable_segment())
+        self.seg.segment().unwrap_or_else(|| unreachable_segment())
     }
-    /// An object chunk's records.
-    fn records(&self) -> &[ObjectRec] {
+    /// The whole segment's records: the chunk's but for the patched ones, which have the same
+    /// ids (so a search by id may use these).
+    fn base_records(&self) -> &[ObjectRec] {
         self.chunk().section(1).unwrap_or(&[])
+    }
+    /// The chunk's record `j`, patched or not. Panics if `j` is out of range, like indexing.
+    fn rec(&self, j: usize) -> &ObjectRec {
+        match self.patches.as_ref().and_then(|p| p.get(j)) {
+            Some(r) => r,
+            None => &self.base_records()[j],
+        }
+    }
+    /// The chunk's record `j`, if it has one.
+    fn get(&self, j: usize) -> Option<&ObjectRec> {
+        let base = self.base_records().get(j)?;
+        Some(self.patches.as_ref().and_then(|p| p.get(j)).unwrap_or(base))
+    }
+    /// The chunk's records, patched, after those of `out`.
+    fn extend_records(&self, out: &mut Vec<ObjectRec>) {
+        let start = out.len();
+        out.extend_from_slice(self.base_records());
+        if let Some(p) = &self.patches {
+            for (&j, r) in p.at.iter().zip(&p.recs) {
+                if let Some(slot) = out.get_mut(start + j) {
+                    *slot = *r;
+                }
+            }
+        }
     }
     /// An object chunk's names.
     fn names(&self) -> &[u8] {
@@ -257,11 +322,35 @@ impl SegSrc {
     fn geometry_index(&self) -> &[u64] {
         self.chunk().section(3).unwrap_or(&[])
     }
-    /// Checks this is object chunk `k` of `count` objects with its sections in bounds and its
-    /// geometry index sound; returns its objects with geometry: (index in the chunk, id,
-    /// geometry generation).
-    fn check_chunk(&self, k: usize, count: usize) -> Result<Vec<(usize, Id, u64)>, ReaderError> {
-        let seg = Segment::parse(self.seg_words()?)?;
+    /// Whether `other` has the same whole segment (the same memory: it was checked once).
+    fn same_whole(&self, other: &ObjSrc) -> bool {
+        Rc::ptr_eq(&self.seg.words, &other.seg.words) && self.seg.range == other.seg.range
+    }
+    /// Checks the patches against the whole segment's records (checked already): each patched
+    /// record replaces one of them and keeps its id, name, origin and geometry flag — so that
+    /// the names, the geometry index and a search by id read the whole segment.
+    fn check_patches(&self) -> Result<(), ReaderError> {
+        let Some(p) = &self.patches else {
+            return Ok(());
+        };
+        let base = self.base_records();
+        for (&j, r) in p.at.iter().zip(&p.recs) {
+            let b = base.get(j).ok_or(LayoutError::Section(5))?;
+            if r.id != b.id
+                || (r.name_off, r.name_len) != (b.name_off, b.name_len)
+                || (r.origin_off, r.origin_len) != (b.origin_off, b.origin_len)
+                || (r.flags ^ b.flags) & flags::HAS_GEOMETRY != 0
+            {
+                return Err(LayoutError::Section(5).into());
+            }
+        }
+        Ok(())
+    }
+    /// Checks this is object chunk `k` of `count` objects with its sections in bounds, its
+    /// geometry index sound and its patches fitting it; returns its objects with geometry:
+    /// (index in the chunk, id, geometry generation), patched.
+    fn check(&self, k: usize, count: usize) -> Result<Vec<(usize, Id, u64)>, ReaderError> {
+        let seg = Segment::parse(self.seg.seg_words()?)?;
         let h: ObjectChunkHeader = *seg.record(0)?;
         let recs = seg.section::<ObjectRec>(1)?;
         // Names are read with bounds checks ([`Snapshot::name`]); the records are not all
@@ -271,12 +360,14 @@ impl SegSrc {
         {
             return Err(LayoutError::Section(1).into());
         }
+        self.check_patches()?;
         let mut out: Vec<(usize, Id, u64)> = Vec::new();
         for &j in seg.section::<u64>(3)? {
             let r = recs.get(j as usize).ok_or(LayoutError::Section(3))?;
             if r.flags & flags::HAS_GEOMETRY == 0 || out.last().is_some_and(|l| l.0 >= j as usize) {
                 return Err(LayoutError::Section(3).into());
             }
+            let r = self.rec(j as usize);
             out.push((j as usize, r.id, r.geom_gen));
         }
         Ok(out)
@@ -492,26 +583,28 @@ impl Snapshot {
     pub fn selection(&self) -> Option<crate::Selection> {
         self.objects_header().selection()
     }
-    /// Every object, sorted by id. In place when the model fits one object chunk; otherwise
-    /// the chunks are copied into one array on the first call (O(objects), once per structure
-    /// version: the snapshots of pose changes share it) — [`Snapshot::rec`],
-    /// [`Snapshot::object`] and [`Snapshot::index_of`] read in place.
+    /// Every object, sorted by id. In place when the model fits one object chunk as it was
+    /// published whole; otherwise (several chunks, or records patched since) the chunks are
+    /// copied into one array on the first call (O(objects), once per structure version: the
+    /// snapshots of pose changes share it) — [`Snapshot::rec`], [`Snapshot::object`] and
+    /// [`Snapshot::index_of`] read in place.
     pub fn objects(&self) -> &[ObjectRec] {
-        match self.objects.len() {
-            0 => &[],
-            1 => self.objects[0].records(),
-            _ => self.objects_flat.get_or_init(|| {
+        match self.objects.first() {
+            None => &[],
+            Some(c) if self.objects.len() == 1 && c.patches.is_none() => c.base_records(),
+            Some(_) => self.objects_flat.get_or_init(|| {
                 let mut v = Vec::with_capacity(self.len());
                 for c in self.objects.iter() {
-                    v.extend_from_slice(c.records());
+                    c.extend_records(&mut v);
                 }
                 v
             }),
         }
     }
-    /// The record of object `i`, in place. Panics if `i` is out of range, like indexing.
+    /// The record of object `i`, in place (a patched record where its objects head put it).
+    /// Panics if `i` is out of range, like indexing.
     pub fn rec(&self, i: usize) -> &ObjectRec {
-        &self.objects[i / OBJECT_CHUNK].records()[i % OBJECT_CHUNK]
+        self.objects[i / OBJECT_CHUNK].rec(i % OBJECT_CHUNK)
     }
     /// Every object's local pose, same order as [`Snapshot::objects`]. In place when the
     /// model fits one pose chunk or every chunk is still as in one pose base; otherwise the
@@ -565,10 +658,11 @@ impl Snapshot {
     pub fn index_of(&self, id: Id) -> Option<usize> {
         let k = self
             .objects
-            .partition_point(|c| c.records().first().is_some_and(|r| r.id <= id))
+            .partition_point(|c| c.base_records().first().is_some_and(|r| r.id <= id))
             .checked_sub(1)?;
+        // (a patched record has the id of the record it replaces)
         let j = self.objects[k]
-            .records()
+            .base_records()
             .binary_search_by_key(&id, |r| r.id)
             .ok()?;
         Some(k * OBJECT_CHUNK + j)
@@ -902,10 +996,12 @@ impl ObjBase {
             return Ok(None);
         }
         Ok(
-            bundle_find(self.words.words(), 2, k as u64, generation)?.map(|range| ObjSrc {
-                words: self.words.clone(),
-                range: Some(range),
-                generation,
+            bundle_find(self.words.words(), 2, k as u64, generation)?.map(|range| {
+                ObjSrc::whole(SegSrc {
+                    words: self.words.clone(),
+                    range: Some(range),
+                    generation,
+                })
             }),
         )
     }
@@ -916,9 +1012,52 @@ struct ObjUpdate {
     epoch: u64,
     /// The head's structure version.
     version: u64,
-    chunk: ObjSrc,
-    /// `chunk` is viewed in the head's sample (the newest head received), not copied.
+    chunk: Brought,
+    /// The chunk's whole segment is viewed in a head's sample (the newest head received),
+    /// not copied.
     in_head: bool,
+}
+
+/// What an objects head brought of one chunk.
+enum Brought {
+    /// The chunk: whole, or patches put on a whole segment of its lineage that an earlier
+    /// pending update brought.
+    Chunk(ObjSrc),
+    /// Patches to put on the chunk's whole segment at a generation from `since` to
+    /// `generation` ([`PatchEntry`]), which the snapshot being followed should hold.
+    Patches {
+        since: u64,
+        generation: u64,
+        patches: Rc<Patches>,
+    },
+}
+
+impl Brought {
+    fn generation(&self) -> u64 {
+        match self {
+            Brought::Chunk(c) => c.generation,
+            Brought::Patches { generation, .. } => *generation,
+        }
+    }
+    /// The chunk at its generation, `patches` put on `held` (the chunk as a snapshot holds
+    /// it) when its whole segment is of the patches' lineage.
+    fn resolve(&self, held: Option<&ObjSrc>) -> Option<ObjSrc> {
+        match self {
+            Brought::Chunk(c) => Some(c.clone()),
+            Brought::Patches {
+                since,
+                generation,
+                patches,
+            } => {
+                let seg = &held?.seg;
+                (*since <= seg.generation && seg.generation <= *generation).then(|| ObjSrc {
+                    seg: seg.clone(),
+                    patches: Some(patches.clone()),
+                    generation: *generation,
+                })
+            }
+        }
+    }
 }
 
 /// What a long-running follower (the simulator daemon, the display, the bridge) does with
@@ -1023,6 +1162,8 @@ pub struct Reader {
     /// The newest objects base received, and how many times this reader asked for one.
     objects_base: Option<ObjBase>,
     objects_bases_asked: u64,
+    /// How many object chunks this reader's snapshots took as record patches.
+    patched_chunks: u64,
     /// How many times this reader asked for a pose base.
     pose_bases_asked: u64,
     current: Option<Rc<Snapshot>>,
@@ -1141,6 +1282,7 @@ impl Reader {
             objects_base_sub,
             objects_base: None,
             objects_bases_asked: 0,
+            patched_chunks: 0,
             pose_bases_asked: 0,
             current: None,
             log: VecDeque::new(),
@@ -1221,6 +1363,13 @@ impl Reader {
         self.objects_bases_asked
     }
 
+    /// How many object chunks this reader's snapshots took as the whole segment of a chunk
+    /// they held (or a head brought) with an objects head's record patches put on it
+    /// ([`crate::layout::PatchEntry`]), rather than as a whole chunk.
+    pub fn patched_chunks_followed(&self) -> u64 {
+        self.patched_chunks
+    }
+
     /// The size in words of the geometry base this reader holds (0 without one).
     pub fn geometry_base_words(&self) -> usize {
         self.geometry_base
@@ -1283,6 +1432,7 @@ impl Reader {
         self.timeout = old.timeout;
         self.pose_bases_asked += old.pose_bases_asked;
         self.objects_bases_asked += old.objects_bases_asked;
+        self.patched_chunks += old.patched_chunks;
         self.geometry_bases_asked += old.geometry_bases_asked;
         self.reattached = old.reattached + 1;
         self.last_reattach = Some(cause.to_string());
@@ -1470,14 +1620,26 @@ impl Reader {
         let mut missing = Vec::new();
         for (t, &k) in todo.iter().enumerate() {
             let generation = oh.gens[k];
-            let got = match self.obj_updates.get(&k) {
-                Some(u) if u.epoch == h.epoch && u.chunk.generation == generation => {
-                    if u.in_head {
+            // (patches the head brought are put on the chunk as the current snapshot holds
+            // it, when that is of their lineage)
+            let brought = match self.obj_updates.get(&k) {
+                Some(u) if u.epoch == h.epoch && u.chunk.generation() == generation => u
+                    .chunk
+                    .resolve(cur.as_ref().and_then(|c| c.objects.get(k)))
+                    .map(|c| (c, u.in_head)),
+                _ => None,
+            };
+            let got = match brought {
+                Some((c, in_head)) => {
+                    if in_head {
                         head_views.push(k);
                     }
-                    Some(u.chunk.clone())
+                    if c.patches.is_some() {
+                        self.patched_chunks += 1;
+                    }
+                    Some(c)
                 }
-                _ => match &self.objects_base {
+                None => match &self.objects_base {
                     Some(b) => b.find(h.epoch, k, generation)?,
                     None => None,
                 },
@@ -1511,19 +1673,58 @@ impl Reader {
         let mut want_at: Vec<(usize, usize)> = Vec::new();
         for (t, (&k, f)) in todo.iter().zip(found).enumerate() {
             let src = f.ok_or(LayoutError::Section(1))?;
-            let with = src.check_chunk(k, count_of(k))?;
-            if with.is_empty() {
-                tables.push((src, NewTable::Empty));
-                continue;
-            }
             // The chunk as the current snapshot holds it (an older generation): an object at
             // the same place with the same geometry generation keeps its geometry, found by
             // position rather than looked up by id (a one-body change made 256 searches over
             // every chunk at 10⁵ objects).
             let old = cur.as_ref().and_then(|c| {
                 let o = c.objects.get(k)?;
-                Some((o.records(), o.geometry_index(), c.geometry.get(k)?))
+                Some((o, o.geometry_index(), c.geometry.get(k)?))
             });
+            // The same whole segment as the held chunk, patched otherwise (an objects head's
+            // record patches): the segment was checked when the held chunk was, so only the
+            // records either chunk patches can differ — O(patched records), where checking
+            // the chunk and matching its objects with geometry is O(chunk) (issue 37 item 6).
+            if let Some((o, places, t_old)) = old
+                && src.same_whole(o)
+                && o.base_records().len() == count_of(k)
+                && (places.is_empty() || t_old.len() == count_of(k))
+            {
+                src.check_patches()?;
+                if places.is_empty() {
+                    tables.push((src, NewTable::Empty));
+                    continue;
+                }
+                let mut slots: Vec<usize> = [&o.patches, &src.patches]
+                    .into_iter()
+                    .flatten()
+                    .flat_map(|p| p.at.iter().copied())
+                    .collect();
+                slots.sort_unstable();
+                slots.dedup();
+                for j in slots {
+                    let r = src.rec(j);
+                    if r.flags & flags::HAS_GEOMETRY == 0 {
+                        // (without geometry in the whole segment too: its slot is empty)
+                        continue;
+                    }
+                    let kept = t_old
+                        .get(j)
+                        .and_then(Option::as_ref)
+                        .is_some_and(|s| s.generation == r.geom_gen && o.rec(j).id == r.id);
+                    if !kept {
+                        want.push((k, j, r.id, r.geom_gen));
+                        want_at.push((t, j));
+                    }
+                }
+                tables.push((src, NewTable::From(t_old.clone())));
+                continue;
+            }
+            let with = src.check(k, count_of(k))?;
+            if with.is_empty() {
+                tables.push((src, NewTable::Empty));
+                continue;
+            }
             // When the objects with geometry are at the same places as in the old chunk (a
             // geometry replaced, a colour, a rename), the old table is the start and only the
             // slots whose object or geometry changed are replaced.
@@ -1536,8 +1737,8 @@ impl Reader {
                 _ => NewTable::Fresh(vec![None; count_of(k)]),
             };
             for (j, id, g) in with {
-                let kept = old.and_then(|(recs, _, t)| {
-                    recs.get(j).filter(|r| r.id == id && r.geom_gen == g)?;
+                let kept = old.and_then(|(o, _, t)| {
+                    o.get(j).filter(|r| r.id == id && r.geom_gen == g)?;
                     t.get(j)?.as_ref().filter(|s| s.generation == g)
                 });
                 match kept {
@@ -1588,15 +1789,16 @@ impl Reader {
                 let (Some(old), Some(now)) = (c.objects.get(k), objects.get(k)) else {
                     continue;
                 };
-                if !Rc::ptr_eq(&old.words, &now.words) {
+                if !Rc::ptr_eq(&old.seg.words, &now.seg.words) {
                     continue;
                 }
                 views.push(k);
             }
         }
-        // (both ascending and disjoint: a chunk of `head_views` was replaced)
+        // (a chunk patched on the whole segment of a held one may be in both)
         views.extend(head_views);
         views.sort_unstable();
+        views.dedup();
         let head_views = views;
         // What heads up to this structure version brought is in this snapshot (which holds it
         // from now on) or superseded; newer ones wait for the next head.
@@ -1719,11 +1921,11 @@ impl Reader {
                     .and_then(|d| d.get(..len))
                     .ok_or(LayoutError::Section(2))?;
                 let chunk = if view {
-                    ObjSrc {
+                    ObjSrc::whole(SegSrc {
                         words: words.clone(),
                         range: Some((3, start, len)),
                         generation: e.generation,
-                    }
+                    })
                 } else {
                     ObjSrc::owned(chunk_words.to_vec(), e.generation)
                 };
@@ -1732,8 +1934,58 @@ impl Reader {
                     ObjUpdate {
                         epoch: header.epoch,
                         version: header.version,
-                        chunk,
+                        chunk: Brought::Chunk(chunk),
                         in_head: view,
+                    },
+                );
+            }
+            // The chunks carried as record patches (none in a head of a keeper that carries
+            // every chunk whole): the records are copied out (a few hundred bytes each). Put on
+            // the whole segment a pending update brought when that is of their lineage (a head
+            // missed by no snapshot), else kept to be put on the held chunk when assembling.
+            let (entries, recs) = match (seg.section::<PatchEntry>(4), seg.section::<PatchRec>(5)) {
+                (Err(LayoutError::Missing(_)), _) => (&[][..], &[][..]),
+                (entries, recs) => (entries?, recs?),
+            };
+            for e in entries {
+                let list = (e.start as usize)
+                    .checked_add(e.len as usize)
+                    .and_then(|end| recs.get(e.start as usize..end))
+                    .filter(|l| !l.is_empty() && l.len() <= OBJECT_CHUNK)
+                    .ok_or(LayoutError::Section(4))?;
+                let at: Vec<usize> = list.iter().map(|p| p.index as usize).collect();
+                if at.windows(2).any(|w| w[0] >= w[1]) || at.iter().any(|&j| j >= OBJECT_CHUNK) {
+                    return Err(LayoutError::Section(5).into());
+                }
+                let patches = Rc::new(Patches {
+                    at,
+                    recs: list.iter().map(|p| p.rec).collect(),
+                });
+                let k = e.chunk as usize;
+                let brought = Brought::Patches {
+                    since: e.since,
+                    generation: e.generation,
+                    patches,
+                };
+                let on_pending = self
+                    .obj_updates
+                    .get(&k)
+                    .filter(|u| u.epoch == header.epoch)
+                    .and_then(|u| match &u.chunk {
+                        Brought::Chunk(c) => Some((brought.resolve(Some(c))?, u.in_head)),
+                        Brought::Patches { .. } => None,
+                    });
+                let (chunk, in_head) = match on_pending {
+                    Some((c, in_head)) => (Brought::Chunk(c), in_head),
+                    None => (brought, false),
+                };
+                self.obj_updates.insert(
+                    k,
+                    ObjUpdate {
+                        epoch: header.epoch,
+                        version: header.version,
+                        chunk,
+                        in_head,
                     },
                 );
             }
@@ -1749,7 +2001,9 @@ impl Reader {
     /// [`Reader::receive_objects_heads`]); the sample is released unless a snapshot uses it.
     fn copy_out_head_updates(&mut self) -> Result<(), ReaderError> {
         for u in self.obj_updates.values_mut().filter(|u| u.in_head) {
-            u.chunk = ObjSrc::owned(u.chunk.seg_words()?.to_vec(), u.chunk.generation);
+            if let Brought::Chunk(c) = &mut u.chunk {
+                c.seg = SegSrc::owned(c.seg.seg_words()?.to_vec(), c.seg.generation);
+            }
             u.in_head = false;
         }
         Ok(())

@@ -7,7 +7,7 @@
 //! is out of bounds".
 
 use robosim_instance_space::journal::decode_store;
-use robosim_instance_space::layout::{OBJECT_CHUNK, POSE_CHUNK};
+use robosim_instance_space::layout::{OBJECT_CHUNK, OBJECT_PATCH_MAX, POSE_CHUNK};
 use robosim_instance_space::{
     Client, IDENTITY, Id, KeeperOptions, Kind, Reader, Snapshot, ThreadKeeper, Transaction,
 };
@@ -378,5 +378,182 @@ fn random_geometry_edits_across_chunks_read_as_a_fresh_reader_does() {
         r.objects_bases_asked(),
         asked,
         "following asked for the objects base"
+    );
+}
+
+/// [`assert_same_geometry`], and every record read in place ([`Snapshot::rec`], where a
+/// patched record is read through its chunk's patches) and found by id.
+fn assert_same_records(got: &Snapshot, want: &Snapshot, what: &str) {
+    assert_same_geometry(got, want, what);
+    for i in 0..want.len() {
+        let rec = want.rec(i);
+        assert_eq!(got.rec(i), rec, "{what}: record of object {i}, in place");
+        assert_eq!(got.index_of(rec.id), Some(i), "{what}: object {i} by id");
+    }
+}
+
+/// A chunk whose records alone changed since an objects head last carried it whole goes as
+/// those records, and readers put them on the chunk they hold (issue 37 item 6): a patch put
+/// at the wrong index, on a chunk of another lineage, read through the wrong list, or a
+/// geometry table kept for a patched record whose geometry changed shows here. Seeded random
+/// edits over three chunks — colours (a patch whatever the object), geometry replaced (a
+/// patch when the object had some), geometry removed or given to an object without (the chunk
+/// goes whole), renames (whole), a box created now and then — then one chunk painted record by
+/// record past [`OBJECT_PATCH_MAX`] (the keeper carries it whole again and a new lineage
+/// starts). A follower compared with the keeper's model at every version (records in place
+/// and as one array, names, ids, vertices), a lagging reader that takes several heads at once
+/// (patches resolved on a whole chunk a head it did not assemble brought), snapshots held
+/// across the edits still reading their own versions, and freshly attached readers.
+#[test]
+fn record_patches_read_as_the_model_and_a_fresh_reader_do() {
+    let k = thread_keeper("patches");
+    let mut c = Client::connect(k.session(), "writer").expect("connect");
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "scene", None);
+    let scene = c.transact(&tx).expect("scene").created[0];
+    let cube = |s: f64| {
+        let p = robosim_geometry::shapes::cuboid(s, s * 1.5, s * 2.0).expect("a box");
+        robosim_instance_space::GeometryInput::from_polyhedron(&p)
+    };
+    let mut seed: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mut next = move |n: usize| {
+        seed = seed
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        ((seed >> 33) as usize) % n
+    };
+    let n = 3 * OBJECT_CHUNK - 10;
+    let ids: Vec<Id> = c
+        .transact(&solids(scene, 0, n))
+        .expect("the solids")
+        .created;
+    let mut tx = Transaction::new();
+    for (j, &id) in ids.iter().enumerate() {
+        if next(3) != 0 {
+            tx.set_geometry(id, Some(cube(0.01 + j as f64 * 1e-4)));
+        }
+    }
+    c.transact(&tx).expect("the geometry");
+    let mut ids = ids;
+    let mut r = Reader::attach(k.session(), "follower").expect("attach");
+    let mut lag = Reader::attach(k.session(), "lagging").expect("attach");
+    let asked = r.objects_bases_asked();
+    let model_now = |c: &mut Client| {
+        let m = decode_store(&c.snapshot().expect("model").model).expect("decode");
+        Snapshot::from_store(&m)
+    };
+    // Snapshots the follower took, held, and the model at their versions.
+    let mut held: Vec<(std::rc::Rc<Snapshot>, Snapshot)> = Vec::new();
+    let mut size = 1.0;
+    let colour = |x: f32| robosim_instance_space::Appearance {
+        color: [x, 1.0 - x, 0.5, 1.0],
+        ..Default::default()
+    };
+    // The random edits, then chunk 1 painted object by object.
+    let painted = OBJECT_PATCH_MAX + 4;
+    for step in 0..100 + painted {
+        let mut tx = Transaction::new();
+        if step < 100 {
+            let mut touched = Vec::new();
+            for _ in 0..1 + next(3) {
+                // Now and then the same few objects again (a patch list that does not grow).
+                let id = if next(4) == 0 {
+                    ids[OBJECT_CHUNK + next(3)]
+                } else {
+                    ids[next(ids.len())]
+                };
+                if touched.contains(&id) {
+                    continue;
+                }
+                touched.push(id);
+                size += 0.013;
+                match next(20) {
+                    0..=9 => {
+                        tx.set_appearance(id, colour(next(1000) as f32 / 1000.0));
+                    }
+                    10..=16 => {
+                        tx.set_geometry(id, Some(cube(size)));
+                    }
+                    17 | 18 => {
+                        tx.set_geometry(id, None);
+                    }
+                    _ => {
+                        tx.set_name(id, &format!("renamed{step}"));
+                    }
+                }
+            }
+            if step % 25 == 24 {
+                let b = tx.create(Kind::Solid, &format!("added{step}"), Some(scene.into()));
+                tx.set_geometry(b, Some(cube(size)));
+            }
+        } else {
+            let j = step - 100;
+            tx.set_appearance(ids[OBJECT_CHUNK + 3 * j], colour(j as f32 / 64.0));
+        }
+        let what = format!("step {step}");
+        let done = c
+            .transact(&tx)
+            .unwrap_or_else(|e| panic!("{what}: commit: {e}"));
+        ids.extend(done.created.iter().copied());
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while r.snapshot().is_none_or(|s| s.version() < done.version) {
+            r.wait_change(Duration::from_millis(200))
+                .unwrap_or_else(|e| panic!("{what}: the reader stopped following: {e}"));
+            assert!(Instant::now() < deadline, "{what}: never followed");
+        }
+        let want = model_now(&mut c);
+        let got = r.snapshot().expect("snapshot");
+        assert_same_records(&got, &want, &what);
+        if step % 7 == 6 {
+            while lag.snapshot().is_none_or(|s| s.version() < done.version) {
+                lag.refresh()
+                    .unwrap_or_else(|e| panic!("{what}: the lagging reader: {e}"));
+                assert!(
+                    Instant::now() < deadline,
+                    "{what}: the lagging reader never followed"
+                );
+            }
+            let l = lag.snapshot().expect("snapshot");
+            assert_same_records(&l, &want, &format!("{what}: the lagging reader"));
+        }
+        if step % 13 == 12 {
+            if held.len() == 3 {
+                held.remove(0);
+            }
+            held.push((got, want));
+        }
+        for (h, at) in &held {
+            assert_same_records(
+                h,
+                at,
+                &format!("{what}: a snapshot held since {}", at.version()),
+            );
+        }
+        if step % 20 == 19 || step == 99 + painted {
+            let fresh = Reader::attach(k.session(), &format!("fresh{step}")).expect("attach");
+            let snap = fresh.snapshot().expect("the fresh reader's snapshot");
+            let got = r.snapshot().expect("snapshot");
+            assert_same_records(&got, &snap, &format!("{what}: the fresh reader"));
+        }
+    }
+    assert_eq!(r.reattachments(), 0, "the follower never reattached");
+    assert_eq!(
+        lag.reattachments(),
+        0,
+        "the lagging reader never reattached"
+    );
+    assert_eq!(
+        r.objects_bases_asked(),
+        asked,
+        "following asked for the objects base"
+    );
+    assert!(
+        r.patched_chunks_followed() >= painted as u64,
+        "the follower took chunks as patches ({} times)",
+        r.patched_chunks_followed()
+    );
+    assert!(
+        lag.patched_chunks_followed() > 0,
+        "the lagging reader took chunks as patches"
     );
 }
