@@ -1,8 +1,9 @@
 //! A driver for profiling what a one-body geometry change costs in a model of `n` boxes:
 //! a keeper in a thread of this process (no journal sync), a model of `n` boxes built once,
 //! then `reps` `SetGeometry` transactions on the middle box and `reps` boxes created, each
-//! followed by a reader in this process. Prints the means (µs) of the keeper's transaction and
-//! of the reader following it. `robosim bench scale` measures the same against keeper
+//! followed by a reader in this process. Prints the means and medians (µs) of the keeper's
+//! transaction and of the reader following it (the median is what to compare on a loaded
+//! machine: a keeper thread descheduled for milliseconds moves the mean, not the median). `robosim bench scale` measures the same against keeper
 //! processes; this exists so that `perf record` sees only the part that matters.
 //!
 //! `cargo run --release -p robosim-instance-space --example geometry_churn -- 100000 2000`
@@ -75,6 +76,11 @@ fn main() -> Result<()> {
     eprintln!("built {n} boxes in {:.1} s", t.elapsed().as_secs_f64());
     let mut reader = Reader::attach(kp.session(), "churn-reader")?;
     let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len().max(1) as f64;
+    let p50 = |v: &[f64]| {
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        s.get(s.len() / 2).copied().unwrap_or(0.0)
+    };
     let (mut tx_us, mut follow_us) = (Vec::new(), Vec::new());
     for k in 0..if only == "create" { 0 } else { reps + 20 } {
         let mut tx = Transaction::new();
@@ -86,9 +92,11 @@ fn main() -> Result<()> {
         }
     }
     println!(
-        "{n} boxes: geometry tx {:.1} µs, follow {:.1} µs",
+        "{n} boxes: geometry tx {:.1} µs, follow {:.1} µs (p50 {:.1} µs, {:.1} µs)",
         mean(&tx_us),
-        mean(&follow_us)
+        mean(&follow_us),
+        p50(&tx_us),
+        p50(&follow_us)
     );
     let (mut tx_us, mut follow_us) = (Vec::new(), Vec::new());
     for k in 0..if only == "geometry" { 0 } else { reps + 20 } {
@@ -109,9 +117,11 @@ fn main() -> Result<()> {
         }
     }
     println!(
-        "{n} boxes: create tx {:.1} µs, follow {:.1} µs",
+        "{n} boxes: create tx {:.1} µs, follow {:.1} µs (p50 {:.1} µs, {:.1} µs)",
         mean(&tx_us),
-        mean(&follow_us)
+        mean(&follow_us),
+        p50(&tx_us),
+        p50(&follow_us)
     );
     Ok(())
 }
