@@ -546,6 +546,33 @@ mod tests {
         assert_eq!(words, before);
     }
 
+    /// The patches of a chunk are its records at the indices given, after what `out` held; an
+    /// index past the chunk appends nothing.
+    #[test]
+    fn chunk_patches_are_the_chunks_records() {
+        let (model, _) = model(6);
+        let words = chunk_of(&model, 4);
+        let recs: Vec<crate::layout::ObjectRec> = model
+            .objects()
+            .map(|o| super::object_rec(o, &mut Vec::new()))
+            .collect();
+        let mut out = Vec::new();
+        let e = super::chunk_patches(&words, 0, 9, 4, &[1, 4], &mut out).expect("sound chunk");
+        assert_eq!(
+            (e.chunk, e.generation, e.since, e.start, e.len),
+            (0, 9, 4, 0, 2)
+        );
+        assert_eq!(out.iter().map(|p| p.index).collect::<Vec<_>>(), [1, 4]);
+        // (names are at their own offsets in the chunk: compare what does not depend on them)
+        assert_eq!(out[0].rec.id, recs[1].id);
+        assert_eq!(out[1].rec.id, recs[4].id);
+        assert_eq!(out[1].rec.geom_gen, recs[4].geom_gen);
+        let e = super::chunk_patches(&words, 0, 9, 4, &[2], &mut out).expect("sound chunk");
+        assert_eq!((e.start, e.len), (2, 1));
+        assert!(super::chunk_patches(&words, 0, 9, 4, &[3, 7], &mut out).is_none());
+        assert_eq!(out.len(), 3, "nothing appended for a refused list");
+    }
+
     /// Objects appended to a chunk give the chunk that encoding all of them gives.
     #[test]
     fn an_extended_chunk_is_the_chunk_encoded_again() {
