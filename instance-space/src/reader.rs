@@ -4,7 +4,9 @@
 //! poses head names, the object chunks of the structure version it is indexed against, and the
 //! geometry those objects reference — and views them in place: reading the model copies nothing, whatever its size. Holding a
 //! snapshot keeps its version alive while the keeper publishes newer ones (up to
-//! `MAX_HELD_SNAPSHOTS` older snapshots per reader at a time).
+//! `MAX_HELD_SNAPSHOTS` older snapshots per reader at a time). An object chunk whose records
+//! alone changed is the whole chunk it held (the same memory) with those records, copied out of
+//! the objects head that carried them as patches ([`crate::layout::PatchEntry`]), put in place.
 //!
 //! [`Reader::wait_change`] blocks (with a timeout) on the keeper's change event and returns the
 //! change records — version, aspects, ids — in order; [`Reader::changes_since`] answers "what
