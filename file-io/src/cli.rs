@@ -358,7 +358,7 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
         format::write_atomic(&dir.join(file), &m.bytes)?;
     }
     format::write_atomic(out, text.as_bytes())?;
-    let shapes = geometry.map_or(0, |g| g.shapes.len());
+    let shapes = geometry.map_or(0, |g| g.objects.len());
     let general = !robot.is_chain() || robot.joints.iter().any(|j| j.is_general());
     let what = match (fmt, robot.convention) {
         (Format::Mjcf, _) => "as MJCF bodies".to_string(),
@@ -396,7 +396,7 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
             ""
         }
     );
-    for n in &notes {
+    for n in notes.iter().chain(&chosen.notes) {
         println!("  note: {n}");
     }
     Ok(())

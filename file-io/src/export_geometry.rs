@@ -1,27 +1,30 @@
-//! A robot's geometry for the URDF and MJCF exports (issue 36 item 4): each shape with the
-//! robosim link frame it is rigid with, its placement in that frame, what it is (box, cylinder,
-//! sphere, or a triangle mesh) and whether it is drawn (visual), collided (collision) or both.
+//! A robot's geometry as the URDF and MJCF exports write it (issue 36 item 4, issue 35 item 2):
+//! the robot model's [`GeometryModel`] (`robosim_model`, the solids the simulator collides),
+//! each object seen as the file writes it ([`ExportShapes::of`]): a name for the file, whether
+//! it is drawn (`<visual>`, MJCF class `visual`) and collided (`<collision>`, class
+//! `collision`), and its shape as a primitive of the format or a triangle mesh.
 //!
-//! Two sources:
-//! * a Library Space robot's solids ([`ExportGeometry::from_frames`], `RobotModel::frames`):
-//!   each solid is both visual and collision (robosim draws and collides the same solids). A
-//!   solid declared as a box, cylinder or sphere whose polyhedron **is** that primitive (every
-//!   vertex on its surface; a `from_urdf` mesh hull is labelled a box of its bounding size and
-//!   is not one) is written as the primitive — URDF and MJCF primitives are exact, robosim's
-//!   cylinder and sphere are the inscribed faceted forms, within their tessellation error
-//!   (docs/file-io.md); anything else (cones, extrusions, revolutions, hulls) is its
-//!   polyhedron triangulated, written as a binary STL mesh.
-//! * an imported URDF's own `<visual>` and `<collision>` elements ([`ExportGeometry::from_urdf`]):
-//!   primitives as they are, meshes loaded (STL, OBJ, Collada) and written as STL.
+//! * Drawn: a [`Role::Visual`] object; a [`Role::Collision`] object too when the model has no
+//!   visual object at all ([`GeometryModel::draws_collisions`]: the Library Space's robots,
+//!   which draw what they collide). Collided: a [`Role::Collision`] object.
+//! * Shape: a box, cylinder (axis z) and sphere are the format's exact primitives (robosim's
+//!   faceted forms are within their tessellation error of them, docs/file-io.md); a cone is
+//!   the geometry library's faceted cone at the object's facet count, polygons are fanned into
+//!   triangles, and a mesh file is read now (STL, OBJ, Collada): each written as a binary STL
+//!   beside the file. A mesh file that cannot be read is left out with a note.
+//! * Names: the object's name made file-safe (`[A-Za-z0-9_-]`) and unique (a suffix `_2`,
+//!   `_3`, … on repeats): an import's `link/visualK` is `link_visualK`; the Library Space names
+//!   parts per link, so its objects come here as `link<j>_<part>` (`crate::library_geometry`).
 //!
-//! Frames: `origin` is the shape's frame in **robosim's** link frame `frame` (0 the base, j the
+//! Frames: an object's `placement` is in **robosim's** link frame `frame` (0 the base, j the
 //! link after joint j, as `robosim_kinematics::fk::link_frames` gives them). The writers move
 //! it into their own link frames ([`exported_frames`]).
 
 use nalgebra::{Matrix3, Matrix4, Rotation3, Vector3};
 use robosim_kinematics::{Convention, Joint, Robot};
+use robosim_model::{GeometryModel, GeometryObject, Role, Shape};
 
-/// What a shape is.
+/// What a shape is written as.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ShapeKind {
     /// Full side lengths (m), centred.
@@ -42,25 +45,24 @@ pub enum ShapeKind {
     },
 }
 
-/// One shape of the robot.
+/// One object of the robot's geometry model as the file writes it.
 #[derive(Debug, Clone, PartialEq)]
-pub struct ExportShape {
-    /// A name for the file (unique within the robot after [`ExportGeometry::unique_names`]).
+pub struct ExportShape<'a> {
+    /// Its name in the file (file-safe, unique within the robot).
     pub name: String,
-    /// Robosim's link frame it is rigid with (0 the base).
-    pub frame: usize,
-    /// The shape's frame in that link frame.
-    pub origin: Matrix4<f64>,
+    /// The model's object (its frame, placement and colour are written as they are).
+    pub object: &'a GeometryObject,
     pub kind: ShapeKind,
-    pub rgba: Option<[f64; 4]>,
+    /// Written as a `<visual>` (MJCF: a geom of class `visual`).
     pub visual: bool,
+    /// Written as a `<collision>` (MJCF: a geom of class `collision`).
     pub collision: bool,
 }
 
-/// Every shape of one robot.
+/// Every object of a robot's geometry model as the file writes it (see the module docs).
 #[derive(Debug, Clone, PartialEq, Default)]
-pub struct ExportGeometry {
-    pub shapes: Vec<ExportShape>,
+pub struct ExportShapes<'a> {
+    pub shapes: Vec<ExportShape<'a>>,
     /// What could not be exported (a mesh file missing, …), one sentence each.
     pub notes: Vec<String>,
 }
@@ -75,55 +77,20 @@ pub struct MeshFile {
     pub bytes: Vec<u8>,
 }
 
-/// Tolerance (relative to the primitive's size) for a polyhedron's vertices to lie on a
-/// primitive's surface.
-const ON_SURFACE: f64 = 1e-9;
-
-/// Whether `poly` is the primitive: every vertex on its surface within [`ON_SURFACE`] and, for
-/// a box, exactly its 8 corners.
-fn is_primitive(kind: &ShapeKind, poly: &robosim_geometry::Polyhedron) -> bool {
-    let v = &poly.vertices;
-    match kind {
-        ShapeKind::Box { size } => {
-            let h = Vector3::new(size[0], size[1], size[2]) / 2.0;
-            let tol = ON_SURFACE * h.max();
-            v.len() == 8
-                && v.iter()
-                    .all(|p| (0..3).all(|i| (p[i].abs() - h[i]).abs() <= tol))
-                && {
-                    // all 8 sign patterns present
-                    let mut seen = [false; 8];
-                    for p in v {
-                        let k = (0..3).fold(0, |k, i| k | (usize::from(p[i] > 0.0) << i));
-                        seen[k] = true;
-                    }
-                    seen.iter().all(|&s| s)
-                }
-        }
-        ShapeKind::Cylinder { radius, length } => {
-            let tol = ON_SURFACE * radius.max(*length);
-            !v.is_empty()
-                && v.iter().all(|p| {
-                    let r = (p.x * p.x + p.y * p.y).sqrt();
-                    ((r - radius).abs() <= tol || r <= tol)
-                        && (p.z.abs() - length / 2.0).abs() <= tol
-                })
-        }
-        ShapeKind::Sphere { radius } => {
-            let tol = ON_SURFACE * radius;
-            !v.is_empty() && v.iter().all(|p| (p.coords.norm() - radius).abs() <= tol)
-        }
-        ShapeKind::Mesh { .. } => false,
-    }
-}
-
 /// A convex-faced polyhedron as triangles (each polygon fanned from its first vertex).
 pub fn polyhedron_triangles(poly: &robosim_geometry::Polyhedron) -> Vec<[[f64; 3]; 3]> {
+    let polygons: Vec<&[u32]> = (0..poly.polygons.len())
+        .map(|i| poly.polygon_indices(i))
+        .collect();
+    fan(&poly.vertices, &polygons)
+}
+
+/// Polygons over `vertices` as triangles, each fanned from its first vertex.
+fn fan(vertices: &[nalgebra::Point3<f64>], polygons: &[&[u32]]) -> Vec<[[f64; 3]; 3]> {
     let mut out = Vec::new();
-    for g in &poly.polygons {
-        let idx = &poly.indices[g.start as usize..(g.start + g.len) as usize];
+    for idx in polygons {
         let p = |i: u32| {
-            let v = poly.vertices[i as usize];
+            let v = vertices[i as usize];
             [v.x, v.y, v.z]
         };
         for k in 1..idx.len().saturating_sub(1) {
@@ -133,95 +100,83 @@ pub fn polyhedron_triangles(poly: &robosim_geometry::Polyhedron) -> Vec<[[f64; 3
     out
 }
 
-impl ExportGeometry {
-    /// The shapes of a Library Space robot (`RobotModel::frames`: `[0]` the base, `[j]` link
-    /// j), each both visual and collision (see the module docs).
-    pub fn from_frames(frames: &[Vec<robosim_library::PlacedSolid>]) -> Self {
-        use robosim_library::Primitive;
-        let mut shapes = Vec::new();
-        for (frame, solids) in frames.iter().enumerate() {
-            for s in solids {
-                let declared = match &s.primitive {
-                    Primitive::Box { size } => Some(ShapeKind::Box { size: *size }),
-                    Primitive::Cylinder { radius, height, .. } => Some(ShapeKind::Cylinder {
-                        radius: *radius,
-                        length: *height,
-                    }),
-                    Primitive::Sphere { radius, .. } => Some(ShapeKind::Sphere { radius: *radius }),
-                    _ => None,
-                };
-                let kind = match declared {
-                    Some(k) if is_primitive(&k, &s.polyhedron) => k,
-                    _ => ShapeKind::Mesh {
-                        triangles: polyhedron_triangles(&s.polyhedron),
-                    },
-                };
-                shapes.push(ExportShape {
-                    name: format!("link{frame}_{}", s.name),
-                    frame,
-                    origin: s.transform,
-                    kind,
-                    rgba: s.colour.map(|c| [c[0], c[1], c[2], 1.0]),
-                    visual: true,
-                    collision: true,
-                });
-            }
-        }
-        let mut g = ExportGeometry {
-            shapes,
-            notes: Vec::new(),
-        };
-        g.unique_names();
-        g
-    }
+/// The link an object's name says (`link/part`: the part before the last `/`).
+fn link_of(object: &GeometryObject) -> &str {
+    object
+        .name
+        .rsplit_once('/')
+        .map_or(object.name.as_str(), |(link, _)| link)
+}
 
-    /// The `<visual>` and `<collision>` elements of an imported URDF robot, in its link
-    /// frames (each URDF link's shapes placed in the body it is rigid with). Meshes are loaded
-    /// now; one that cannot be read is left out with a note.
-    pub fn from_urdf(u: &robosim_urdf::urdf_import::UrdfRobot) -> Self {
-        use robosim_urdf::urdf_geometry::Geometry;
-        let mut g = ExportGeometry::default();
-        for (link, lg) in &u.geometry.links {
-            for (role, list) in [("visual", &lg.visual), ("collision", &lg.collision)] {
-                for (k, s) in list.iter().enumerate() {
-                    let kind = match &s.geometry {
-                        Geometry::Box { size } => ShapeKind::Box {
-                            size: [size.x, size.y, size.z],
-                        },
-                        Geometry::Cylinder { radius, length } => ShapeKind::Cylinder {
-                            radius: *radius,
-                            length: *length,
-                        },
-                        Geometry::Sphere { radius } => ShapeKind::Sphere { radius: *radius },
-                        Geometry::Mesh(m) => match m.load() {
-                            Ok(t) => ShapeKind::Mesh { triangles: t },
-                            Err(e) => {
-                                g.notes.push(format!(
-                                    "link {link:?}: {role} mesh {:?} not exported: {e}",
-                                    m.uri
-                                ));
-                                continue;
-                            }
-                        },
-                    };
-                    g.shapes.push(ExportShape {
-                        name: format!("{link}_{role}{k}"),
-                        frame: lg.body,
-                        origin: lg.in_body * s.origin,
-                        kind,
-                        rgba: s.material.as_ref().and_then(|m| m.rgba),
-                        visual: role == "visual",
-                        collision: role == "collision",
-                    });
-                }
+/// How the file writes `object`'s shape; `Err` a note when it cannot (a mesh file not read).
+fn kind_of(object: &GeometryObject) -> Result<ShapeKind, String> {
+    let faceted = |p: Result<robosim_geometry::Polyhedron, _>| match p {
+        Ok(p) => Ok(ShapeKind::Mesh {
+            triangles: polyhedron_triangles(&p),
+        }),
+        Err(e) => Err(format!("{:?}: not exported: {e}", object.name)),
+    };
+    Ok(match &object.shape {
+        Shape::Box { size } => ShapeKind::Box { size: *size },
+        Shape::Cylinder { radius, length, .. } => ShapeKind::Cylinder {
+            radius: *radius,
+            length: *length,
+        },
+        Shape::Sphere { radius, .. } => ShapeKind::Sphere { radius: *radius },
+        Shape::Cone {
+            radius,
+            height,
+            facets,
+        } => faceted(robosim_geometry::shapes::cone(*radius, *height, *facets))?,
+        Shape::Polygons {
+            vertices, polygons, ..
+        } => {
+            let polygons: Vec<&[u32]> = polygons.iter().map(Vec::as_slice).collect();
+            ShapeKind::Mesh {
+                triangles: fan(vertices, &polygons),
             }
         }
-        g.unique_names();
-        g
+        Shape::Mesh(m) => match m.mesh_ref().load() {
+            Ok(triangles) => ShapeKind::Mesh { triangles },
+            Err(e) => {
+                let role = match object.role {
+                    Role::Visual => "visual",
+                    Role::Collision => "collision",
+                };
+                return Err(format!(
+                    "link {:?}: {role} mesh {:?} not exported: {e}",
+                    link_of(object),
+                    m.uri
+                ));
+            }
+        },
+    })
+}
+
+impl<'a> ExportShapes<'a> {
+    /// The objects of `geometry` as the file writes them, in the model's order (see the module
+    /// docs); mesh files are read now.
+    pub fn of(geometry: &'a GeometryModel) -> Self {
+        let draws_collisions = geometry.draws_collisions();
+        let mut out = ExportShapes::default();
+        for object in &geometry.objects {
+            match kind_of(object) {
+                Ok(kind) => out.shapes.push(ExportShape {
+                    name: object.name.clone(),
+                    object,
+                    kind,
+                    visual: object.role == Role::Visual || draws_collisions,
+                    collision: object.role == Role::Collision,
+                }),
+                Err(note) => out.notes.push(note),
+            }
+        }
+        out.unique_names();
+        out
     }
 
     /// Names made file-safe (`[A-Za-z0-9_-]`) and unique (a suffix `_2`, `_3`, … on repeats).
-    pub fn unique_names(&mut self) {
+    fn unique_names(&mut self) {
         let mut seen = std::collections::HashSet::new();
         for s in &mut self.shapes {
             let base: String = s
@@ -245,9 +200,29 @@ impl ExportGeometry {
         }
     }
 
-    /// The shapes on link frame `frame`.
-    pub fn on(&self, frame: usize) -> impl Iterator<Item = &ExportShape> {
-        self.shapes.iter().filter(move |s| s.frame == frame)
+    /// The shapes on link frame `frame`, in the order the file writes them: the model's, but
+    /// each link's drawn-only shapes before its collided ones (as URDF files list `<visual>`
+    /// before `<collision>`; the model lists an import's collisions first).
+    pub fn on(&self, frame: usize) -> impl Iterator<Item = &ExportShape<'a>> {
+        let here: Vec<&ExportShape<'a>> = self
+            .shapes
+            .iter()
+            .filter(|s| s.object.frame == frame)
+            .collect();
+        let mut ordered = Vec::with_capacity(here.len());
+        let mut i = 0;
+        while i < here.len() {
+            let link = link_of(here[i].object);
+            let run = here[i..]
+                .iter()
+                .take_while(|s| link_of(s.object) == link)
+                .count();
+            let group = &here[i..i + run];
+            ordered.extend(group.iter().filter(|s| !s.collision));
+            ordered.extend(group.iter().filter(|s| s.collision));
+            i += run;
+        }
+        ordered.into_iter()
     }
 }
 
@@ -339,7 +314,7 @@ pub enum Exported {
 
 /// The mesh file of `shape` (written once per shape into `meshes`): `<prefix><name>.stl`.
 pub(crate) fn mesh_file(
-    shape: &ExportShape,
+    shape: &ExportShape<'_>,
     prefix: &str,
     meshes: &mut Vec<MeshFile>,
 ) -> Option<String> {

@@ -98,14 +98,31 @@ pub fn export_robots(
 
 /// A robot as `robosim export urdf|mjcf` writes it: its joint tree, the mimic coupling beside
 /// it (a `from_urdf`/`from_mjcf` robot's file's `<mimic>` / `<equality><joint>`: without it the
-/// export would be another robot) and its geometry.
+/// export would be another robot) and its geometry — the robot model's
+/// ([`robosim_model::GeometryModel`], what the simulator collides; [`export_geometry`] says how
+/// the files write it).
 #[derive(Debug, Clone)]
 pub struct ExportRobot {
     pub robot: robosim_kinematics::Robot,
     /// `None`: no joint mimics another.
     pub coupling: Option<robosim_kinematics::mimic::Coupling>,
     /// `None` where the geometry is not known.
-    pub geometry: Option<export_geometry::ExportGeometry>,
+    pub geometry: Option<robosim_model::GeometryModel>,
+    /// What the geometry is not (a `from_urdf` file's links not matched with the
+    /// declaration's: its library solids instead), one sentence each.
+    pub notes: Vec<String>,
+}
+
+/// A Library Space robot's geometry as the exports write it: its robot model's
+/// (`RobotModel::model`: each placed solid a collision object, drawn as the library draws
+/// it), each object named `link<j>_<part>` — the library names parts per link, a file needs
+/// names unique in the robot.
+pub fn library_geometry(r: &robosim_library::RobotModel) -> robosim_model::GeometryModel {
+    let mut g = r.model().geometry;
+    for o in &mut g.objects {
+        o.name = format!("link{}_{}", o.frame, o.name);
+    }
+    g
 }
 
 /// [`export_robots`] with each robot's geometry ([`export_geometry`]) and coupling: a robot
@@ -123,17 +140,15 @@ pub fn export_robot_models(
         Ok(robosim_library::Evaluated::Robot(r)) => {
             let mut robot = r.robot.clone();
             robot.name = name.to_string();
-            let (geometry, coupling) = match lib.robot_file(name) {
+            let (geometry, coupling, notes) = match lib.robot_file(name) {
                 Some(file) => urdf_geometry_of(&file, &r),
-                None => (
-                    export_geometry::ExportGeometry::from_frames(&r.frames),
-                    None,
-                ),
+                None => (library_geometry(&r), None, Vec::new()),
             };
             Ok(vec![ExportRobot {
                 coupling: coupling.map(|c| c.with_root(robot.root_nq(), robot.root_nv())),
                 robot,
                 geometry: Some(geometry),
+                notes,
             }])
         }
         Ok(robosim_library::Evaluated::Scene(scene)) => {
@@ -145,11 +160,12 @@ pub fn export_robot_models(
                         .robots
                         .iter()
                         .find(|p| p.name == robot.name)
-                        .map(|p| export_geometry::ExportGeometry::from_frames(&p.model.frames));
+                        .map(|p| library_geometry(&p.model));
                     ExportRobot {
                         robot,
                         coupling: None,
                         geometry,
+                        notes: Vec::new(),
                     }
                 })
                 .collect())
@@ -160,20 +176,24 @@ pub fn export_robot_models(
                 robot,
                 coupling: None,
                 geometry: None,
+                notes: Vec::new(),
             })
             .collect()),
     }
 }
 
-/// The geometry and mimic coupling of a `from_urdf` (or `from_mjcf`) robot from its file: the
-/// whole tree, or the chain to the declaration's last link; when neither has the declaration's
-/// links, its solids and no coupling.
+/// The geometry and mimic coupling of a `from_urdf` (or `from_mjcf`) robot from its file (the
+/// whole tree, or the chain to the declaration's last link), as its robot model has them
+/// ([`robosim_model::Model::from_imported`]: the file's `<visual>` and `<collision>` elements);
+/// when neither has the declaration's links, its solids ([`library_geometry`]), no coupling
+/// and a note saying so.
 fn urdf_geometry_of(
     file: &std::path::Path,
     r: &robosim_library::RobotModel,
 ) -> (
-    export_geometry::ExportGeometry,
+    robosim_model::GeometryModel,
     Option<robosim_kinematics::mimic::Coupling>,
+    Vec<String>,
 ) {
     let same = |u: &urdf_import::UrdfRobot| {
         u.joints.len() == r.link_names.len()
@@ -195,15 +215,18 @@ fn urdf_geometry_of(
             .filter(same)
     });
     match u {
-        Some(u) => (export_geometry::ExportGeometry::from_urdf(&u), u.coupling),
-        None => {
-            let mut g = export_geometry::ExportGeometry::from_frames(&r.frames);
-            g.notes.push(format!(
+        Some(u) => {
+            let model = robosim_model::Model::from_imported(&u);
+            (model.geometry, model.coupling, Vec::new())
+        }
+        None => (
+            library_geometry(r),
+            None,
+            vec![format!(
                 "{}: its links could not be matched with the declaration's; its collision solids are exported instead of the file's visuals",
                 file.display()
-            ));
-            (g, None)
-        }
+            )],
+        ),
     }
 }
 
@@ -230,6 +253,7 @@ pub fn session_robot_models(
         coupling: held(&robot),
         robot,
         geometry: None,
+        notes: Vec::new(),
     };
     compiled
         .robots()
@@ -250,12 +274,10 @@ pub fn session_robot_models(
                 j.coulomb = d.coulomb;
                 j.motor_inertia = d.motor_inertia;
             }
-            let (geometry, coupling) = match decl.as_deref().and_then(|d| lib.robot_file(d)) {
+            let (geometry, coupling, notes) = match decl.as_deref().and_then(|d| lib.robot_file(d))
+            {
                 Some(file) => urdf_geometry_of(&file, &model),
-                None => (
-                    export_geometry::ExportGeometry::from_frames(&model.frames),
-                    None,
-                ),
+                None => (library_geometry(&model), None, Vec::new()),
             };
             // (a session's floating robot: the file's coupling with the root's coordinates)
             ExportRobot {
@@ -264,6 +286,7 @@ pub fn session_robot_models(
                     .or_else(|| held(&robot)),
                 robot,
                 geometry: Some(geometry),
+                notes,
             }
         })
         .collect()

@@ -39,7 +39,7 @@
 //! enforces softly when it simulates (its FK and M at a qpos do not depend on it).
 
 use crate::export_geometry::{
-    ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
+    ExportShapes, Exported, MeshFile, ShapeKind, exported_frames, mesh_file,
 };
 use crate::inertial::{TINY_INERTIA, TINY_MASS, loadable_inertial};
 use crate::urdf::{link_name, mimic_relations};
@@ -109,7 +109,7 @@ pub fn to_mjcf(robot: &Robot) -> Result<(String, Vec<String>), String> {
 /// of class `collision` (named `<shape>_visual` / `<shape>_collision`), placed at `x · origin`
 /// in the body; a mesh is the asset `<shape>` (added to `assets`, its file to `meshes`).
 fn body_geoms(
-    geometry: Option<&ExportGeometry>,
+    geometry: Option<&ExportShapes<'_>>,
     frame: usize,
     x: &Matrix4<f64>,
     prefix: &str,
@@ -121,7 +121,7 @@ fn body_geoms(
         return out;
     };
     for s in g.on(frame) {
-        let at = frame_attrs(&(x * s.origin));
+        let at = frame_attrs(&(x * s.object.placement));
         let name = xml(&s.name);
         let shape = match &s.kind {
             ShapeKind::Box { size } => format!(
@@ -146,7 +146,7 @@ fn body_geoms(
             }
         };
         if s.visual {
-            let rgba = match s.rgba {
+            let rgba = match s.object.rgba {
                 Some([r, g, b, a]) => format!(" rgba=\"{r:?} {g:?} {b:?} {a:?}\""),
                 None => String::new(),
             };
@@ -174,7 +174,7 @@ fn body_geoms(
 pub fn to_mjcf_with_geometry(
     robot: &Robot,
     coupling: Option<&Coupling>,
-    geometry: Option<&ExportGeometry>,
+    geometry: Option<&robosim_model::GeometryModel>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
     robot
@@ -185,6 +185,8 @@ pub fn to_mjcf_with_geometry(
         None => Vec::new(),
     };
     let xs = exported_frames(robot, Exported::Mjcf);
+    let shapes = geometry.map(ExportShapes::of);
+    let geometry = shapes.as_ref();
     let mut assets = String::new();
     let mut meshes = Vec::new();
     let g = to_general(robot);

@@ -55,7 +55,7 @@
 //! A ball (spherical) joint is refused by name: URDF has no ball joint.
 
 use crate::export_geometry::{
-    ExportGeometry, Exported, MeshFile, ShapeKind, exported_frames, mesh_file, post, rigid_inverse,
+    ExportShapes, Exported, MeshFile, ShapeKind, exported_frames, mesh_file, post, rigid_inverse,
 };
 use crate::inertial::loadable_inertial;
 use nalgebra::{Matrix3, Matrix4, Rotation3};
@@ -177,7 +177,7 @@ pub fn to_urdf_with_notes(robot: &Robot) -> Result<(String, Vec<String>), String
 /// frame's [`crate::export_geometry::exported_frames`] entry), primitives as URDF primitives,
 /// meshes as files `<prefix><shape>.stl` beside the URDF (added to `meshes`).
 fn link_geometry(
-    geometry: Option<&ExportGeometry>,
+    geometry: Option<&ExportShapes<'_>>,
     frame: usize,
     x: &Matrix4<f64>,
     prefix: &str,
@@ -188,7 +188,7 @@ fn link_geometry(
         return out;
     };
     for s in g.on(frame) {
-        let origin = origin_attrs_with(&(x * s.origin), rpy_stable);
+        let origin = origin_attrs_with(&(x * s.object.placement), rpy_stable);
         let geom = match &s.kind {
             ShapeKind::Box { size } => {
                 format!("<box size=\"{:?} {:?} {:?}\"/>", size[0], size[1], size[2])
@@ -204,7 +204,7 @@ fn link_geometry(
         };
         let name = xml(&s.name);
         if s.visual {
-            let material = match s.rgba {
+            let material = match s.object.rgba {
                 Some([r, g, b, a]) => format!(
                     "\n      <material name=\"{name}_material\"><color rgba=\"{r:?} {g:?} {b:?} {a:?}\"/></material>"
                 ),
@@ -235,7 +235,7 @@ fn link_geometry(
 pub fn to_urdf_with_geometry(
     robot: &Robot,
     coupling: Option<&Coupling>,
-    geometry: Option<&ExportGeometry>,
+    geometry: Option<&robosim_model::GeometryModel>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
     if let Some(k) = robot.joints.iter().position(|j| j.spherical) {
@@ -320,6 +320,8 @@ pub fn to_urdf_with_geometry(
         );
     }
     let _ = writeln!(out, "<robot name=\"{name}\">");
+    let shapes = geometry.map(ExportShapes::of);
+    let geometry = shapes.as_ref();
     let base_geometry = link_geometry(geometry, 0, &xs[0], mesh_prefix, &mut meshes);
     if let Some(root) = &robot.root {
         // A floating base as ROS and Pinocchio write one: the base link is the file's root

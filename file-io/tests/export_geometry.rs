@@ -3,10 +3,11 @@
 //! STL meshes written beside them) read back by robosim's own URDF and MJCF importers, and at
 //! several q each shape's world pose compared with the original's: primitives (same kind and
 //! size, pose to 1e-12) and meshes (the world box of their vertices, to 1e-6 m: STL stores f32).
-//! Which geometry an original robot has: [`robosim_file_io::export_geometry`].
+//! Which geometry an original robot has: its robot model's (`robosim_model::GeometryModel`), written
+//! as [`robosim_file_io::export_geometry`] says.
 
 use nalgebra::Matrix4;
-use robosim_file_io::export_geometry::{ExportGeometry, ShapeKind};
+use robosim_file_io::export_geometry::{ExportShapes, ShapeKind};
 use robosim_file_io::urdf_geometry::Geometry;
 use robosim_file_io::urdf_import::UrdfRobot;
 use robosim_kinematics::{Robot, fk};
@@ -86,7 +87,7 @@ fn sample_q(robot: &Robot, k: usize) -> Vec<f64> {
 /// Compares the re-import `u` of `robot` exported with `geometry` at a few q; returns the count
 /// of (shape, role) pairs compared. `joint`: the exported joint name of robosim's joint i
 /// (0-based) — the re-import's q order is found through it.
-fn compare(what: &str, robot: &Robot, geometry: &ExportGeometry, u: &UrdfRobot) -> usize {
+fn compare(what: &str, robot: &Robot, geometry: &ExportShapes<'_>, u: &UrdfRobot) -> usize {
     assert_eq!(u.robot.dof(), robot.dof(), "{what}: joints");
     // u's joint k is robosim's joint `order[k]`.
     let order: Vec<usize> = u
@@ -109,7 +110,7 @@ fn compare(what: &str, robot: &Robot, geometry: &ExportGeometry, u: &UrdfRobot) 
         let theirs = found(u, &q_u);
         compared = 0;
         for s in &geometry.shapes {
-            let want = frames[s.frame] * s.origin;
+            let want = frames[s.object.frame] * s.object.placement;
             for (visual, on) in [(true, s.visual), (false, s.collision)] {
                 if !on {
                     continue;
@@ -187,8 +188,10 @@ fn export_both(name: &str, library: &[std::path::PathBuf], dir: &Path) -> usize 
     let models = robosim_file_io::export_robot_models(name, library)
         .unwrap_or_else(|e| panic!("{name}: {e}"));
     let (robot, geometry) = (&models[0].robot, &models[0].geometry);
-    let geometry = geometry.as_ref().expect("a library robot has geometry");
+    let model = geometry.as_ref().expect("a library robot has geometry");
+    let geometry = &ExportShapes::of(model);
     // Only a visual mesh missing from testdata (the UR5's Collada files) may be left out.
+    assert!(models[0].notes.is_empty(), "{name}: {:?}", models[0].notes);
     for n in &geometry.notes {
         assert!(
             n.contains("visual mesh") && n.contains("does not exist"),
@@ -197,13 +200,9 @@ fn export_both(name: &str, library: &[std::path::PathBuf], dir: &Path) -> usize 
     }
     let mut n = 0;
     // URDF
-    let (text, _, meshes) = robosim_file_io::urdf::to_urdf_with_geometry(
-        robot,
-        None,
-        Some(geometry),
-        &format!("{name}_"),
-    )
-    .unwrap_or_else(|e| panic!("{name}: {e}"));
+    let (text, _, meshes) =
+        robosim_file_io::urdf::to_urdf_with_geometry(robot, None, Some(model), &format!("{name}_"))
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
     for m in &meshes {
         std::fs::write(dir.join(&m.file), &m.bytes).expect("mesh written");
     }
@@ -216,7 +215,7 @@ fn export_both(name: &str, library: &[std::path::PathBuf], dir: &Path) -> usize 
     let (text, _, meshes) = robosim_file_io::mjcf_export::to_mjcf_with_geometry(
         robot,
         None,
-        Some(geometry),
+        Some(model),
         &format!("{name}_"),
     )
     .unwrap_or_else(|e| panic!("{name}: {e}"));
@@ -256,7 +255,7 @@ fn library_robots_geometry_round_trips_in_place() {
     }
     // The PUMA's solids are primitives: no mesh written for it.
     let models = robosim_file_io::export_robot_models("puma560", &[]).expect("puma560");
-    let g = models[0].geometry.as_ref().expect("geometry");
+    let g = ExportShapes::of(models[0].geometry.as_ref().expect("geometry"));
     assert!(
         g.shapes
             .iter()
@@ -282,7 +281,7 @@ fn solids_that_are_no_primitive_become_meshes_in_place() {
     .expect("library written");
     let models = robosim_file_io::export_robot_models("shapes_arm", std::slice::from_ref(&lib))
         .expect("exports");
-    let g = models[0].geometry.as_ref().expect("geometry");
+    let g = ExportShapes::of(models[0].geometry.as_ref().expect("geometry"));
     let meshes = g
         .shapes
         .iter()
@@ -313,7 +312,7 @@ fn imported_robots_geometry_round_trips_in_place() {
     for name in ["ur5", "panda_arm"] {
         let models = robosim_file_io::export_robot_models(name, std::slice::from_ref(&lib))
             .expect("exports");
-        let g = models[0].geometry.as_ref().expect("geometry");
+        let g = ExportShapes::of(models[0].geometry.as_ref().expect("geometry"));
         // the file's collisions (and visuals where their meshes are in testdata: the Panda's),
         // not the library's hulls
         assert!(g.shapes.iter().any(|s| s.collision && !s.visual));
@@ -327,7 +326,9 @@ fn imported_robots_geometry_round_trips_in_place() {
 }
 
 /// A solid labelled a box whose polyhedron is not that box (a `from_urdf` mesh hull carries its
-/// bounding box as its primitive) is written as its mesh, not as the box.
+/// bounding box as its primitive) is written as its mesh, not as the box: the robot model has
+/// it as polygons (`RobotModel::model`), which the export writes as their triangles; a box
+/// stays a box.
 #[test]
 fn a_hull_labelled_a_box_is_written_as_a_mesh() {
     let hull = robosim_geometry::Polyhedron::from_polygons(
@@ -348,7 +349,17 @@ fn a_hull_labelled_a_box_is_written_as_a_mesh() {
         colour: None,
         surface: None,
     };
-    let g = ExportGeometry::from_frames(&[vec![
+    let mut r = match robosim_scene::build_library(&[])
+        .expect("standard library")
+        .evaluate("puma560", &robosim_library::Params::new())
+    {
+        Ok(robosim_library::Evaluated::Robot(r)) => r,
+        _ => panic!("puma560 is a robot"),
+    };
+    for f in &mut r.frames {
+        f.clear();
+    }
+    r.frames[0] = vec![
         solid(robosim_library::Primitive::Box { size: [1.0; 3] }, hull),
         solid(
             robosim_library::Primitive::Box {
@@ -356,7 +367,9 @@ fn a_hull_labelled_a_box_is_written_as_a_mesh() {
             },
             robosim_geometry::shapes::cuboid(1.0, 2.0, 3.0).expect("box"),
         ),
-    ]]);
+    ];
+    let model = robosim_file_io::library_geometry(&r);
+    let g = ExportShapes::of(&model);
     assert!(matches!(&g.shapes[0].kind, ShapeKind::Mesh { triangles } if triangles.len() == 4));
     assert_eq!(
         g.shapes[1].kind,
@@ -364,6 +377,10 @@ fn a_hull_labelled_a_box_is_written_as_a_mesh() {
             size: [1.0, 2.0, 3.0]
         }
     );
+    // Both drawn and collided (the library draws what it collides), named after their link.
+    assert!(g.shapes.iter().all(|s| s.visual && s.collision));
+    assert_eq!(g.shapes[0].name, "link0_part");
+    assert_eq!(g.shapes[1].name, "link0_part_2");
 }
 
 /// A robot read `from_mjcf` (issue 36 item 5): its export takes the MJCF's own geoms (the MJCF
@@ -400,7 +417,8 @@ fn a_from_mjcf_robot_exports_the_files_own_geoms() {
     .expect("library written");
     let models =
         robosim_file_io::export_robot_models("small", std::slice::from_ref(&lib)).expect("exports");
-    let g = models[0].geometry.as_ref().expect("geometry");
+    assert!(models[0].notes.is_empty(), "{:?}", models[0].notes);
+    let g = ExportShapes::of(models[0].geometry.as_ref().expect("geometry"));
     assert!(g.notes.is_empty(), "{:?}", g.notes);
     assert!(
         g.shapes
@@ -466,7 +484,7 @@ fn a_session_robot_exports_its_declarations_friction_and_geometry() {
             .expect("exports");
         assert_eq!(
             text.matches("<collision").count(),
-            g.shapes.iter().filter(|s| s.collision).count()
+            g.of(robosim_model::Role::Collision).count()
         );
     }
 }

@@ -132,6 +132,13 @@ impl GeometryModel {
     pub fn on(&self, frame: usize) -> impl Iterator<Item = &GeometryObject> {
         self.objects.iter().filter(move |o| o.frame == frame)
     }
+
+    /// Whether the [`Role::Collision`] objects are also what is drawn: the model has no
+    /// [`Role::Visual`] object (its reader has no visuals of its own — the Library Space draws
+    /// what it collides). A drawing or an export shows the visual objects, or else these.
+    pub fn draws_collisions(&self) -> bool {
+        self.of(Role::Visual).next().is_none()
+    }
 }
 
 /// Why a geometry model makes no collision solids: which object, on which frame, and what.
@@ -392,6 +399,19 @@ mod tests {
             .expect("base")
             .solid
             .kind
+    }
+
+    #[test]
+    fn collisions_are_drawn_only_when_the_model_has_no_visual() {
+        let mut g = GeometryModel {
+            objects: vec![object("l1/c", 1, 0.0, Shape::Box { size: [0.1; 3] })],
+        };
+        assert!(g.draws_collisions());
+        g.objects.push(GeometryObject {
+            role: Role::Visual,
+            ..object("l2/v", 2, 0.0, Shape::Box { size: [0.1; 3] })
+        });
+        assert!(!g.draws_collisions());
     }
 
     #[test]
