@@ -45,7 +45,7 @@ use crate::inertial::{TINY_INERTIA, TINY_MASS, loadable_inertial};
 use crate::urdf::{link_name, mimic_relations};
 use nalgebra::{Matrix3, Matrix4, Rotation3, UnitQuaternion, Vector3};
 use robosim_kinematics::mimic::Coupling;
-use robosim_kinematics::{JointType, Robot, chain::to_general};
+use robosim_kinematics::{Joint, JointType, Robot, chain::to_general};
 use std::fmt::Write as _;
 
 /// A moving body's `<inertial>` line (indented by two spaces), with the mass and inertia
@@ -171,6 +171,11 @@ fn body_geoms(
 /// 0 0"`), geoms of the `visual` and `collision` classes in each body, meshes as
 /// `<asset><mesh file>` with the files to write beside the MJCF (`<mesh_prefix><shape>.stl`,
 /// relative to its folder).
+///
+/// Steps: the header ([`header`]), the joints' bodies from the last up so each holds its
+/// children ([`MjcfWriter::joint_body`]), the link-0 body holding them
+/// ([`MjcfWriter::root_body`]), the mimic equalities ([`equality`]), and the assets the bodies
+/// named, inserted after the header.
 pub fn to_mjcf_with_geometry(
     robot: &Robot,
     coupling: Option<&Coupling>,
@@ -185,13 +190,57 @@ pub fn to_mjcf_with_geometry(
         None => Vec::new(),
     };
     let xs = exported_frames(robot, Exported::Mjcf);
-    let shapes = geometry.map(ExportShapes::of);
-    let geometry = shapes.as_ref();
-    let mut assets = String::new();
-    let mut meshes = Vec::new();
-    let g = to_general(robot);
-    let name = xml(&robot.name);
-    let mut notes = Vec::new();
+    let mut w = MjcfWriter {
+        robot,
+        g: to_general(robot),
+        name: xml(&robot.name),
+        notes: Vec::new(),
+        meshes: Vec::new(),
+        assets: String::new(),
+        shapes: geometry.map(ExportShapes::of),
+        xs,
+        prefix: mesh_prefix,
+    };
+    let mut out = header(&w.name, robot);
+    // The asset section goes here once the bodies have named their meshes.
+    let asset_at = out.len();
+    let _ = writeln!(out, "  <worldbody>");
+    // Bodies as a tree: children of link k are the joints whose parent is k.
+    let n = w.g.dof();
+    let mut bodies: Vec<String> = vec![String::new(); n + 1];
+    for j in (0..n).rev() {
+        let children = std::mem::take(&mut bodies[j + 1]);
+        let body = w.joint_body(j, &children)?;
+        // Prepend: children were visited in reverse, so the file keeps joint order.
+        let parent = w.g.parent(j);
+        bodies[parent] = body + &bodies[parent];
+    }
+    let root = w.root_body(&bodies[0]);
+    for line in root.lines() {
+        let _ = writeln!(out, "    {line}");
+    }
+    let _ = writeln!(out, "  </worldbody>");
+    out += &equality(&w.name, &mimics);
+    let _ = writeln!(out, "</mujoco>");
+    let MjcfWriter {
+        mut notes,
+        meshes,
+        assets,
+        shapes,
+        ..
+    } = w;
+    if !assets.is_empty() {
+        out.insert_str(asset_at, &format!("  <asset>\n{assets}  </asset>\n"));
+    }
+    if let Some(g) = shapes {
+        notes.extend(g.notes);
+    }
+    Ok((out, notes, meshes))
+}
+
+/// `<mujoco>` with the comment saying what it was written from, the compiler, the gravity and
+/// the `visual` and `collision` default classes.
+fn header(name: &str, robot: &Robot) -> String {
     let mut out = String::new();
     let _ = writeln!(out, "<mujoco model=\"{name}\">");
     let _ = writeln!(
@@ -204,14 +253,70 @@ pub fn to_mjcf_with_geometry(
         out,
         "  <default>\n    <default class=\"visual\">\n      <geom contype=\"0\" conaffinity=\"0\" group=\"2\"/>\n    </default>\n    <default class=\"collision\">\n      <geom contype=\"1\" conaffinity=\"1\" group=\"3\"/>\n    </default>\n  </default>"
     );
-    // The asset section goes here once the bodies have named their meshes.
-    let asset_at = out.len();
-    let _ = writeln!(out, "  <worldbody>");
-    // Bodies as a tree: children of link k are the joints whose parent is k.
-    let n = g.dof();
-    let mut bodies: Vec<String> = vec![String::new(); n + 1];
-    for j in (0..n).rev() {
-        let joint = &g.joints[j];
+    out
+}
+
+/// The `<equality>` section: per follower MuJoCo's mimic joint, y − y₀ = a₀ + a₁ (x − x₀),
+/// y₀ = x₀ = 0 (no joint has a `ref`: MuJoCo's q is robosim's); empty without followers.
+fn equality(name: &str, mimics: &[robosim_kinematics::mimic::Mimic]) -> String {
+    let mut out = String::new();
+    if mimics.is_empty() {
+        return out;
+    }
+    let _ = writeln!(out, "  <equality>");
+    for m in mimics {
+        let joint2 = m.leader.map_or(String::new(), |l| {
+            format!(" joint2=\"{name}_joint{}\"", l + 1)
+        });
+        let _ = writeln!(
+            out,
+            "    <joint name=\"{name}_mimic{}\" joint1=\"{name}_joint{}\"{joint2} polycoef=\"{:?} {:?} 0 0 0\"/>",
+            m.follower + 1,
+            m.follower + 1,
+            m.offset,
+            m.multiplier
+        );
+    }
+    let _ = writeln!(out, "  </equality>");
+    out
+}
+
+/// The MJCF bodies being written, with what the writing collects (notes, assets, mesh files).
+struct MjcfWriter<'a> {
+    robot: &'a Robot,
+    /// The robot in the general joint model ([`to_general`]): the bodies' frames.
+    g: Robot,
+    /// The robot's name, XML-escaped.
+    name: String,
+    notes: Vec<String>,
+    meshes: Vec<MeshFile>,
+    /// The `<asset>` lines of the meshes the geoms name.
+    assets: String,
+    shapes: Option<ExportShapes<'a>>,
+    /// Per robosim link frame, its placement in the body ([`exported_frames`]).
+    xs: Vec<Matrix4<f64>>,
+    prefix: &'a str,
+}
+
+impl MjcfWriter<'_> {
+    /// The geoms of link frame `frame` ([`body_geoms`]).
+    fn geoms(&mut self, frame: usize) -> String {
+        body_geoms(
+            self.shapes.as_ref(),
+            frame,
+            &self.xs[frame],
+            self.prefix,
+            &mut self.assets,
+            &mut self.meshes,
+        )
+    }
+
+    /// The body of joint `j` (link j + 1) at its placement times its motion at the offset
+    /// (the base placement multiplied in for a body on the base), with its joint, inertial,
+    /// geoms, the tool body on the last link, and `children` (its child bodies) inside.
+    fn joint_body(&mut self, j: usize, children: &str) -> Result<String, String> {
+        let (robot, name) = (self.robot, self.name.clone());
+        let joint = &self.g.joints[j];
         let Some(origin) = joint.origin else {
             return Err(format!(
                 "robot {}: joint {j} has no origin after to_general",
@@ -235,168 +340,156 @@ pub fn to_mjcf_with_geometry(
         // The base placement goes into the bodies on the base: Pinocchio 4.1's MJCF reader
         // drops the pos and quat of a joint-less body on the world.
         // (A floating robot's base placement is its base body's pose instead.)
-        let at = if g.parent(j) == 0 && robot.root.is_none() {
-            g.base * at
+        let at = if self.g.parent(j) == 0 && robot.root.is_none() {
+            self.g.base * at
         } else {
             at
         };
         let link = xml(&link_name(robot, j + 1));
         let mut body = String::new();
         let _ = writeln!(body, "<body name=\"{link}\" {}>", frame_attrs(&at));
-        let kind = match joint.joint_type {
-            _ if joint.spherical => "ball",
-            JointType::Revolute => "hinge",
-            JointType::Prismatic => "slide",
-        };
-        let [lo, hi] = joint.qlim;
-        // a ball joint: no axis, and no range (robosim has no cone limit on it)
-        let axis = if joint.spherical {
-            String::new()
-        } else {
-            format!(" axis=\"{}\"", v3(&origin.axis))
-        };
-        let range = if joint.spherical {
-            "limited=\"false\"".to_string()
-        } else if lo.is_finite() && hi.is_finite() {
-            format!("range=\"{lo:?} {hi:?}\"")
-        } else if lo == f64::NEG_INFINITY && hi == f64::INFINITY {
-            "limited=\"false\"".to_string()
-        } else {
-            return Err(format!(
-                "robot {}: joint {j} has limits [{lo}, {hi}]; MJCF has no half-bounded joint",
-                robot.name
-            ));
-        };
         let _ = writeln!(
             body,
-            "  <joint name=\"{name}_joint{}\" type=\"{kind}\"{axis} {range} damping=\"{:?}\" frictionloss=\"{:?}\" armature=\"{:?}\"/>",
+            "  <joint name=\"{name}_joint{}\" {}/>",
             j + 1,
-            joint.viscous,
-            joint.coulomb,
-            joint.motor_inertia
+            joint_attrs(robot, j, joint, &origin.axis)?
         );
+        let (com, mass, inertia) = (joint.com, joint.mass, joint.inertia);
+        let last = j + 1 == self.g.dof();
+        let tool = frame_attrs(&self.g.tool);
         body += &inertial_element(
-            &joint.com,
-            joint.mass,
-            &joint.inertia,
+            &com,
+            mass,
+            &inertia,
             &format!("link {}", j + 1),
-            &mut notes,
+            &mut self.notes,
         );
-        body += &body_geoms(
-            geometry,
-            j + 1,
-            &xs[j + 1],
-            mesh_prefix,
-            &mut assets,
-            &mut meshes,
-        );
-        if j + 1 == n {
+        body += &self.geoms(j + 1);
+        if last {
             let _ = writeln!(
                 body,
-                "  <body name=\"{}\" {}/>",
+                "  <body name=\"{}\" {tool}/>",
                 xml(&format!("{}_tool", robot.name)),
-                frame_attrs(&g.tool)
             );
         }
-        let children = std::mem::take(&mut bodies[j + 1]);
         for line in children.lines() {
             let _ = writeln!(body, "  {line}");
         }
         let _ = writeln!(body, "</body>");
-        // Prepend: children were visited in reverse, so the file keeps joint order.
-        let parent = g.parent(j);
-        bodies[parent] = body + &bodies[parent];
+        Ok(body)
     }
-    let mut root = String::new();
-    let _ = writeln!(
-        root,
-        "<body name=\"{}\" {}>",
-        xml(&link_name(robot, 0)),
-        frame_attrs(&if robot.root.is_some() {
-            g.base
-        } else {
-            Matrix4::identity()
-        })
-    );
-    let base_geoms = body_geoms(geometry, 0, &xs[0], mesh_prefix, &mut assets, &mut meshes);
-    if let Some(r) = &robot.root {
-        // A floating base: the base body moves freely (MuJoCo's qpos x y z qw qx qy qz with
-        // the linear velocity in the world frame; robosim's and Pinocchio's x y z qx qy qz qw
-        // with it in the base frame), placed at the robot's base as its qpos0. A planar root
-        // is MuJoCo's x and y slides and a z hinge (qpos x y θ, robosim's x y cos θ sin θ).
-        match r.kind {
-            robosim_kinematics::RootKind::FreeFlyer => {
-                let _ = writeln!(root, "  <freejoint name=\"{name}_root\"/>");
-            }
-            robosim_kinematics::RootKind::Planar => {
-                for (axis, kind, dir) in [
-                    ("x", "slide", "1 0 0"),
-                    ("y", "slide", "0 1 0"),
-                    ("yaw", "hinge", "0 0 1"),
-                ] {
-                    let _ = writeln!(
-                        root,
-                        "  <joint name=\"{name}_root_{axis}\" type=\"{kind}\" axis=\"{dir}\" limited=\"false\"/>"
-                    );
-                }
-            }
-        }
-        root += &inertial_element(&r.com, r.mass, &r.inertia, "link 0", &mut notes);
-    } else if !base_geoms.is_empty() {
-        // A body with geoms and no <inertial> would have its inertia inferred from them
-        // (inertiafromgeom="auto"), which Pinocchio's MJCF reader and robosim's cannot do for
-        // meshes; the base is welded to the world, so what it weighs changes nothing.
+
+    /// The link-0 body (at the world's origin, or a floating robot's base placement) with its
+    /// root joint and inertial (floating), or a tiny inertial when it has geoms (welded), its
+    /// geoms, the tool when the robot has no joint, and `children` (the bodies on the base).
+    fn root_body(&mut self, children: &str) -> String {
+        let robot = self.robot;
+        let name = self.name.clone();
+        let mut root = String::new();
         let _ = writeln!(
             root,
-            "  <inertial pos=\"0 0 0\" mass=\"{TINY_MASS:?}\" diaginertia=\"{TINY_INERTIA:?} {TINY_INERTIA:?} {TINY_INERTIA:?}\"/>"
-        );
-    }
-    root += &base_geoms;
-    if n == 0 {
-        let _ = writeln!(
-            root,
-            "  <body name=\"{}\" {}/>",
-            xml(&format!("{}_tool", robot.name)),
+            "<body name=\"{}\" {}>",
+            xml(&link_name(robot, 0)),
             frame_attrs(&if robot.root.is_some() {
-                g.tool
+                self.g.base
             } else {
-                g.base * g.tool
+                Matrix4::identity()
             })
         );
-    }
-    for line in bodies[0].lines() {
-        let _ = writeln!(root, "  {line}");
-    }
-    let _ = writeln!(root, "</body>");
-    for line in root.lines() {
-        let _ = writeln!(out, "    {line}");
-    }
-    let _ = writeln!(out, "  </worldbody>");
-    if !mimics.is_empty() {
-        // MuJoCo's mimic joint: y − y₀ = a₀ + a₁ (x − x₀), y₀ = x₀ = 0 (no joint has a `ref`:
-        // MuJoCo's q is robosim's)
-        let _ = writeln!(out, "  <equality>");
-        for m in &mimics {
-            let joint2 = m.leader.map_or(String::new(), |l| {
-                format!(" joint2=\"{name}_joint{}\"", l + 1)
-            });
+        let base_geoms = self.geoms(0);
+        if let Some(r) = &robot.root {
+            root += &root_joint(&name, r.kind);
+            root += &inertial_element(&r.com, r.mass, &r.inertia, "link 0", &mut self.notes);
+        } else if !base_geoms.is_empty() {
+            // A body with geoms and no <inertial> would have its inertia inferred from them
+            // (inertiafromgeom="auto"), which Pinocchio's MJCF reader and robosim's cannot do
+            // for meshes; the base is welded to the world, so what it weighs changes nothing.
             let _ = writeln!(
-                out,
-                "    <joint name=\"{name}_mimic{}\" joint1=\"{name}_joint{}\"{joint2} polycoef=\"{:?} {:?} 0 0 0\"/>",
-                m.follower + 1,
-                m.follower + 1,
-                m.offset,
-                m.multiplier
+                root,
+                "  <inertial pos=\"0 0 0\" mass=\"{TINY_MASS:?}\" diaginertia=\"{TINY_INERTIA:?} {TINY_INERTIA:?} {TINY_INERTIA:?}\"/>"
             );
         }
-        let _ = writeln!(out, "  </equality>");
+        root += &base_geoms;
+        if self.g.dof() == 0 {
+            let _ = writeln!(
+                root,
+                "  <body name=\"{}\" {}/>",
+                xml(&format!("{}_tool", robot.name)),
+                frame_attrs(&if robot.root.is_some() {
+                    self.g.tool
+                } else {
+                    self.g.base * self.g.tool
+                })
+            );
+        }
+        for line in children.lines() {
+            let _ = writeln!(root, "  {line}");
+        }
+        let _ = writeln!(root, "</body>");
+        root
     }
-    let _ = writeln!(out, "</mujoco>");
-    if !assets.is_empty() {
-        out.insert_str(asset_at, &format!("  <asset>\n{assets}  </asset>\n"));
+}
+
+/// A `<joint>`'s attributes after its name: type (`ball`, `hinge`, `slide`), axis, range (or
+/// `limited="false"`), damping, frictionloss, armature. Refused: a half-bounded range.
+fn joint_attrs(
+    robot: &Robot,
+    j: usize,
+    joint: &Joint,
+    axis: &Vector3<f64>,
+) -> Result<String, String> {
+    let kind = match joint.joint_type {
+        _ if joint.spherical => "ball",
+        JointType::Revolute => "hinge",
+        JointType::Prismatic => "slide",
+    };
+    let [lo, hi] = joint.qlim;
+    // a ball joint: no axis, and no range (robosim has no cone limit on it)
+    let axis = if joint.spherical {
+        String::new()
+    } else {
+        format!(" axis=\"{}\"", v3(axis))
+    };
+    let range = if joint.spherical {
+        "limited=\"false\"".to_string()
+    } else if lo.is_finite() && hi.is_finite() {
+        format!("range=\"{lo:?} {hi:?}\"")
+    } else if lo == f64::NEG_INFINITY && hi == f64::INFINITY {
+        "limited=\"false\"".to_string()
+    } else {
+        return Err(format!(
+            "robot {}: joint {j} has limits [{lo}, {hi}]; MJCF has no half-bounded joint",
+            robot.name
+        ));
+    };
+    Ok(format!(
+        "type=\"{kind}\"{axis} {range} damping=\"{:?}\" frictionloss=\"{:?}\" armature=\"{:?}\"",
+        joint.viscous, joint.coulomb, joint.motor_inertia
+    ))
+}
+
+/// A floating base's root joint lines: a free joint (MuJoCo's qpos x y z qw qx qy qz with the
+/// linear velocity in the world frame; robosim's and Pinocchio's x y z qx qy qz qw with it in
+/// the base frame), or a planar root as MuJoCo's x and y slides and a z hinge (qpos x y θ,
+/// robosim's x y cos θ sin θ). The body is placed at the robot's base as its qpos0.
+fn root_joint(name: &str, kind: robosim_kinematics::RootKind) -> String {
+    let mut out = String::new();
+    match kind {
+        robosim_kinematics::RootKind::FreeFlyer => {
+            let _ = writeln!(out, "  <freejoint name=\"{name}_root\"/>");
+        }
+        robosim_kinematics::RootKind::Planar => {
+            for (axis, kind, dir) in [
+                ("x", "slide", "1 0 0"),
+                ("y", "slide", "0 1 0"),
+                ("yaw", "hinge", "0 0 1"),
+            ] {
+                let _ = writeln!(
+                    out,
+                    "  <joint name=\"{name}_root_{axis}\" type=\"{kind}\" axis=\"{dir}\" limited=\"false\"/>"
+                );
+            }
+        }
     }
-    if let Some(g) = geometry {
-        notes.extend(g.notes.iter().cloned());
-    }
-    Ok((out, notes, meshes))
+    out
 }

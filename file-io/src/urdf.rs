@@ -60,7 +60,7 @@ use crate::export_geometry::{
 use crate::inertial::loadable_inertial;
 use nalgebra::{Matrix3, Matrix4, Rotation3};
 use robosim_kinematics::mimic::{Coupling, Mimic};
-use robosim_kinematics::{Convention, JointType, Robot, fk::link_transform};
+use robosim_kinematics::{Convention, Joint, JointType, Robot, fk::link_transform};
 use std::fmt::Write as _;
 
 /// The mimic relations a coupling imposes on `robot`'s joints, one per follower in joint
@@ -232,12 +232,61 @@ fn link_geometry(
 /// `<collision>` elements, and the mesh files to write beside the URDF (names
 /// `<mesh_prefix><shape>.stl`: relative to the URDF's folder, or absolute when the prefix is).
 /// Without coupling and geometry the file is byte for byte [`to_urdf`]'s.
+///
+/// Steps: refuse what URDF cannot say ([`refuse_unwritable`]), each follower's `<mimic>`
+/// ([`urdf_mimics`]), then the file from the top down — header, base link and its joint to
+/// `world` ([`UrdfWriter::base`]), per joint its link and joint ([`UrdfWriter::joint`]), the
+/// tool ([`UrdfWriter::tool`]).
 pub fn to_urdf_with_geometry(
     robot: &Robot,
     coupling: Option<&Coupling>,
     geometry: Option<&robosim_model::GeometryModel>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
+    let mut notes = Vec::new();
+    let mimics = refuse_unwritable(robot, coupling, &mut notes)?;
+    let mut w = UrdfWriter {
+        robot,
+        general: !robot.is_chain() || robot.joints.iter().any(|j| j.is_general()),
+        name: xml(&robot.name),
+        out: String::new(),
+        notes,
+        meshes: Vec::new(),
+        shapes: geometry.map(ExportShapes::of),
+        xs: exported_frames(robot, Exported::Urdf),
+        prefix: mesh_prefix,
+    };
+    w.header();
+    w.base();
+    // posts[k]: the trailing part of link frame k (P_k above; the identity for the base and
+    // for a general joint).
+    let mut posts: Vec<Option<Matrix4<f64>>> = vec![None; robot.dof() + 1];
+    for (k, j) in robot.joints.iter().enumerate() {
+        posts[k + 1] = w.joint(k, j, &posts, mimics[k]);
+    }
+    w.tool(&posts);
+    let UrdfWriter {
+        out,
+        mut notes,
+        meshes,
+        shapes,
+        ..
+    } = w;
+    if let Some(g) = shapes {
+        notes.extend(g.notes);
+    }
+    Ok((out, notes, meshes))
+}
+
+/// What URDF cannot say, refused with the robot's name: a ball joint, a model that does not
+/// validate, a coupling that is not the robot's ([`urdf_mimics`]), a revolute or prismatic
+/// joint with a half-infinite range (or an infinite prismatic one). Returns each joint's
+/// `<mimic>` (leader, multiplier, offset).
+fn refuse_unwritable(
+    robot: &Robot,
+    coupling: Option<&Coupling>,
+    notes: &mut Vec<String>,
+) -> Result<Vec<Option<(usize, f64, f64)>>, String> {
     if let Some(k) = robot.joints.iter().position(|j| j.spherical) {
         // written as a hinge it would load as a different robot: refused by name instead
         return Err(format!(
@@ -245,39 +294,10 @@ pub fn to_urdf_with_geometry(
             robot.name
         ));
     }
-    let mut notes = Vec::new();
-    let mut meshes = Vec::new();
-    let xs = exported_frames(robot, Exported::Urdf);
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
-    // mimics[k]: joint k's <mimic> (leader, multiplier, offset)
-    let mut mimics: Vec<Option<(usize, f64, f64)>> = vec![None; robot.dof()];
-    if let Some(c) = coupling {
-        for m in mimic_relations(robot, c)? {
-            let leader = match m.leader {
-                Some(l) => l,
-                None => {
-                    // URDF's <mimic> needs a leader: a fixed follower follows a free joint ×0
-                    let Some(&l) = c.free().first() else {
-                        return Err(format!(
-                            "robot {}: joint {} is fixed at {} by a mimic of a joint that is not part of the robot, and no joint is free to name as its leader (URDF's <mimic> needs one)",
-                            robot.name, m.follower, m.offset
-                        ));
-                    };
-                    notes.push(format!(
-                        "joint {}: fixed at {} by a mimic of a joint that is not part of the robot; written as a mimic of joint {} with multiplier 0",
-                        m.follower + 1,
-                        m.offset,
-                        l + 1
-                    ));
-                    l
-                }
-            };
-            mimics[m.follower] = Some((leader, m.multiplier, m.offset));
-        }
-    }
-    let general = !robot.is_chain() || robot.joints.iter().any(|j| j.is_general());
+    let mimics = urdf_mimics(robot, coupling, notes)?;
     for (k, j) in robot.joints.iter().enumerate() {
         let [lo, hi] = j.qlim;
         let continuous =
@@ -293,69 +313,172 @@ pub fn to_urdf_with_geometry(
             ));
         }
     }
-    let oa = |m: &Matrix4<f64>| {
-        if general {
+    Ok(mimics)
+}
+
+/// Each joint's `<mimic>` (leader, multiplier, offset) from the coupling ([`mimic_relations`]):
+/// a follower fixed at its offset (its leader not part of the robot) follows the first free
+/// joint with multiplier 0, noted; refused when no joint is free.
+fn urdf_mimics(
+    robot: &Robot,
+    coupling: Option<&Coupling>,
+    notes: &mut Vec<String>,
+) -> Result<Vec<Option<(usize, f64, f64)>>, String> {
+    let mut mimics: Vec<Option<(usize, f64, f64)>> = vec![None; robot.dof()];
+    let Some(c) = coupling else {
+        return Ok(mimics);
+    };
+    for m in mimic_relations(robot, c)? {
+        let leader = match m.leader {
+            Some(l) => l,
+            None => {
+                // URDF's <mimic> needs a leader: a fixed follower follows a free joint ×0
+                let Some(&l) = c.free().first() else {
+                    return Err(format!(
+                        "robot {}: joint {} is fixed at {} by a mimic of a joint that is not part of the robot, and no joint is free to name as its leader (URDF's <mimic> needs one)",
+                        robot.name, m.follower, m.offset
+                    ));
+                };
+                notes.push(format!(
+                    "joint {}: fixed at {} by a mimic of a joint that is not part of the robot; written as a mimic of joint {} with multiplier 0",
+                    m.follower + 1,
+                    m.offset,
+                    l + 1
+                ));
+                l
+            }
+        };
+        mimics[m.follower] = Some((leader, m.multiplier, m.offset));
+    }
+    Ok(mimics)
+}
+
+/// The URDF text being written, with what the writing collects (notes, mesh files).
+struct UrdfWriter<'a> {
+    robot: &'a Robot,
+    /// Written as origins and axes (a tree, or a joint of the general model), not DH.
+    general: bool,
+    /// The robot's name, XML-escaped.
+    name: String,
+    out: String,
+    notes: Vec<String>,
+    meshes: Vec<MeshFile>,
+    shapes: Option<ExportShapes<'a>>,
+    /// Per robosim link frame, its placement in the URDF link ([`exported_frames`]).
+    xs: Vec<Matrix4<f64>>,
+    prefix: &'a str,
+}
+
+impl UrdfWriter<'_> {
+    /// An `<origin>`'s attributes (the stable rpy for a general robot, so a DH chain's file is
+    /// unchanged byte for byte).
+    fn oa(&self, m: &Matrix4<f64>) -> String {
+        if self.general {
             origin_attrs_with(m, rpy_stable)
         } else {
             origin_attrs(m)
         }
-    };
-    let name = xml(&robot.name);
-    let mut out = String::new();
-    let _ = writeln!(out, "<?xml version=\"1.0\"?>");
-    if general {
+    }
+
+    /// The `<visual>`/`<collision>` elements of link frame `frame` ([`link_geometry`]).
+    fn geometry(&mut self, frame: usize) -> String {
+        link_geometry(
+            self.shapes.as_ref(),
+            frame,
+            &self.xs[frame],
+            self.prefix,
+            &mut self.meshes,
+        )
+    }
+
+    /// The XML declaration, the comment saying what the file was written from, `<robot>`.
+    fn header(&mut self) {
+        let (robot, name, out) = (self.robot, &self.name, &mut self.out);
+        let _ = writeln!(out, "<?xml version=\"1.0\"?>");
+        if self.general {
+            let _ = writeln!(
+                out,
+                "<!-- Written by robosim from the joint model (origins and axes{}) of {name} (docs/file-io.md, \"URDF\"). -->",
+                if robot.is_chain() { "" } else { ", a tree" }
+            );
+        } else {
+            let _ = writeln!(
+                out,
+                "<!-- Written by robosim from the {} DH model of {name} (docs/file-io.md, \"URDF\"). -->",
+                match robot.convention {
+                    Convention::Standard => "standard",
+                    Convention::Modified => "modified",
+                }
+            );
+        }
+        let _ = writeln!(out, "<robot name=\"{name}\">");
+    }
+
+    /// The base link with its geometry: a floating robot's root link with the root's inertial
+    /// (see the module docs), else `world` and the base link fixed to it at the base placement.
+    fn base(&mut self) {
+        let robot = self.robot;
+        let base_geometry = self.geometry(0);
+        let base = xml(&link_name(robot, 0));
+        if let Some(root) = &robot.root {
+            self.floating_base(root, &base, &base_geometry);
+            return;
+        }
+        let _ = writeln!(self.out, "  <link name=\"world\"/>");
+        if base_geometry.is_empty() {
+            let _ = writeln!(self.out, "  <link name=\"{base}\"/>");
+        } else {
+            let _ = write!(
+                self.out,
+                "  <link name=\"{base}\">\n{base_geometry}  </link>\n"
+            );
+        }
+        let origin = self.oa(&robot.base);
         let _ = writeln!(
-            out,
-            "<!-- Written by robosim from the joint model (origins and axes{}) of {name} (docs/file-io.md, \"URDF\"). -->",
-            if robot.is_chain() { "" } else { ", a tree" }
-        );
-    } else {
-        let _ = writeln!(
-            out,
-            "<!-- Written by robosim from the {} DH model of {name} (docs/file-io.md, \"URDF\"). -->",
-            match robot.convention {
-                Convention::Standard => "standard",
-                Convention::Modified => "modified",
-            }
+            self.out,
+            "  <joint name=\"{}_base_joint\" type=\"fixed\">\n    <parent link=\"world\"/>\n    <child link=\"{base}\"/>\n    <origin {origin}/>\n  </joint>",
+            self.name
         );
     }
-    let _ = writeln!(out, "<robot name=\"{name}\">");
-    let shapes = geometry.map(ExportShapes::of);
-    let geometry = shapes.as_ref();
-    let base_geometry = link_geometry(geometry, 0, &xs[0], mesh_prefix, &mut meshes);
-    if let Some(root) = &robot.root {
-        // A floating base as ROS and Pinocchio write one: the base link is the file's root
-        // link (no `world`, no joint to it) with its inertial; the loader adds the root joint.
+
+    /// A floating base as ROS and Pinocchio write one: the base link is the file's root link
+    /// (no `world`, no joint to it) with its inertial; the loader adds the root joint.
+    fn floating_base(
+        &mut self,
+        root: &robosim_kinematics::RootJoint,
+        base: &str,
+        base_geometry: &str,
+    ) {
+        let robot = self.robot;
         let pin_joint = match root.kind {
             robosim_kinematics::RootKind::FreeFlyer => "JointModelFreeFlyer",
             robosim_kinematics::RootKind::Planar => "JointModelPlanar",
         };
         let _ = writeln!(
-            out,
-            "  <!-- Floating base ({}): {} is the root link; load with a {} root joint (Pinocchio: buildModelFromUrdf(path, pin.{pin_joint}())). -->",
+            self.out,
+            "  <!-- Floating base ({}): {base} is the root link; load with a {} root joint (Pinocchio: buildModelFromUrdf(path, pin.{pin_joint}())). -->",
             root.kind.name(),
-            xml(&link_name(robot, 0)),
             root.kind.name(),
         );
-        notes.push(format!(
+        self.notes.push(format!(
             "floating base ({}): written as ROS and Pinocchio write one, {} the root link with no `world` link and no joint to it; load it with a {} root joint (Pinocchio: buildModelFromUrdf(path, pin.{pin_joint}()))",
             root.kind.name(),
             link_name(robot, 0),
             root.kind.name()
         ));
         if robot.base != Matrix4::identity() {
-            notes.push(
+            self.notes.push(
                 "floating base: the robot's base placement is not written (the root joint's coordinates are the base link's pose in the file's world); robosim's q with root q_r is the file's with root base · M(q_r)"
                     .to_string(),
             );
         }
-        let (mass, inertia) = loadable_inertial(root.mass, &root.inertia, "link 0", &mut notes);
+        let (mass, inertia) =
+            loadable_inertial(root.mass, &root.inertia, "link 0", &mut self.notes);
         let m = &inertia;
+        let origin = self.oa(&Matrix4::new_translation(&root.com));
         let _ = write!(
-            out,
-            "  <link name=\"{}\">\n    <inertial>\n      <origin {}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>\n{base_geometry}  </link>\n",
-            xml(&link_name(robot, 0)),
-            oa(&Matrix4::new_translation(&root.com)),
+            self.out,
+            "  <link name=\"{base}\">\n    <inertial>\n      <origin {origin}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>\n{base_geometry}  </link>\n",
             mass,
             m[(0, 0)],
             m[(0, 1)],
@@ -364,30 +487,19 @@ pub fn to_urdf_with_geometry(
             m[(1, 2)],
             m[(2, 2)]
         );
-    } else {
-        let _ = writeln!(out, "  <link name=\"world\"/>");
-        if base_geometry.is_empty() {
-            let _ = writeln!(out, "  <link name=\"{}\"/>", xml(&link_name(robot, 0)));
-        } else {
-            let _ = write!(
-                out,
-                "  <link name=\"{}\">\n{base_geometry}  </link>\n",
-                xml(&link_name(robot, 0))
-            );
-        }
     }
-    if robot.root.is_none() {
-        let _ = writeln!(
-            out,
-            "  <joint name=\"{name}_base_joint\" type=\"fixed\">\n    <parent link=\"world\"/>\n    <child link=\"{}\"/>\n    <origin {}/>\n  </joint>",
-            xml(&link_name(robot, 0)),
-            oa(&robot.base)
-        );
-    }
-    // posts[k]: the trailing part of link frame k (P_k above; the identity for the base and
-    // for a general joint).
-    let mut posts: Vec<Option<Matrix4<f64>>> = vec![None; robot.dof() + 1];
-    for (k, j) in robot.joints.iter().enumerate() {
+
+    /// Joint `k` (`j`): its child link (inertial, geometry) and the joint element with its
+    /// `<mimic>`; `posts` the trailing parts written so far. Returns the trailing part of its
+    /// link frame (`None`: the identity, a general joint).
+    fn joint(
+        &mut self,
+        k: usize,
+        j: &Joint,
+        posts: &[Option<Matrix4<f64>>],
+        mimic: Option<(usize, f64, f64)>,
+    ) -> Option<Matrix4<f64>> {
+        let robot = self.robot;
         let i = k + 1;
         let parent = robot.parent(k);
         let p = (!j.is_general()).then(|| post(robot.convention, j));
@@ -400,38 +512,7 @@ pub fn to_urdf_with_geometry(
             (None, None) => a0,
         };
         let child = xml(&link_name(robot, i));
-        // The inertial: centre of mass and inertia of link i, seen from L_i = F_i · P_i⁻¹.
-        let inertial_frame = match &p {
-            Some(p) => {
-                let com = p * j.com.push(1.0);
-                let mut f = *p;
-                f.fixed_view_mut::<3, 1>(0, 3).copy_from(&com.xyz());
-                f
-            }
-            None => Matrix4::new_translation(&j.com),
-        };
-        let _ = writeln!(out, "  <link name=\"{child}\">");
-        // Every moving link gets an <inertial> another tool accepts (crate::inertial's rules:
-        // physical moments, a tiny mass for a massless link), each change noted.
-        let (mass, inertia) =
-            loadable_inertial(j.mass, &j.inertia, &format!("link {i}"), &mut notes);
-        {
-            let m = &inertia;
-            let _ = writeln!(
-                out,
-                "    <inertial>\n      <origin {}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>",
-                oa(&inertial_frame),
-                mass,
-                m[(0, 0)],
-                m[(0, 1)],
-                m[(0, 2)],
-                m[(1, 1)],
-                m[(1, 2)],
-                m[(2, 2)]
-            );
-        }
-        out += &link_geometry(geometry, i, &xs[i], mesh_prefix, &mut meshes);
-        let _ = writeln!(out, "  </link>");
+        self.link(i, j, &child, p.as_ref());
         let continuous = j.joint_type == JointType::Revolute && j.qlim[0] == f64::NEG_INFINITY;
         let kind = match j.joint_type {
             JointType::Revolute if continuous => "continuous",
@@ -450,15 +531,16 @@ pub fn to_urdf_with_geometry(
                 j.qlim[0], j.qlim[1]
             )
         };
+        let (name, origin) = (&self.name, self.oa(&origin));
+        let out = &mut self.out;
         let _ = writeln!(
             out,
-            "  <joint name=\"{name}_joint{i}\" type=\"{kind}\">\n    <parent link=\"{}\"/>\n    <child link=\"{child}\"/>\n    <origin {}/>\n    <axis xyz=\"{axis}\"/>\n    {limit}\n    <dynamics damping=\"{:?}\" friction=\"{:?}\"/>",
+            "  <joint name=\"{name}_joint{i}\" type=\"{kind}\">\n    <parent link=\"{}\"/>\n    <child link=\"{child}\"/>\n    <origin {origin}/>\n    <axis xyz=\"{axis}\"/>\n    {limit}\n    <dynamics damping=\"{:?}\" friction=\"{:?}\"/>",
             xml(&link_name(robot, parent)),
-            oa(&origin),
             j.viscous,
             j.coulomb
         );
-        if let Some((leader, multiplier, offset)) = mimics[k] {
+        if let Some((leader, multiplier, offset)) = mimic {
             let _ = writeln!(
                 out,
                 "    <mimic joint=\"{name}_joint{}\" multiplier=\"{multiplier:?}\" offset=\"{offset:?}\"/>",
@@ -473,23 +555,60 @@ pub fn to_urdf_with_geometry(
             );
         }
         let _ = writeln!(out, "  </joint>");
-        posts[i] = p;
+        p
     }
-    let tool_origin = match &posts[robot.dof()] {
-        Some(p) => p * robot.tool,
-        None => robot.tool,
-    };
-    let tool = xml(&format!("{}_tool", robot.name));
-    let _ = writeln!(out, "  <link name=\"{tool}\"/>");
-    let _ = writeln!(
-        out,
-        "  <joint name=\"{name}_tool_joint\" type=\"fixed\">\n    <parent link=\"{}\"/>\n    <child link=\"{tool}\"/>\n    <origin {}/>\n  </joint>",
-        xml(&link_name(robot, robot.dof())),
-        oa(&tool_origin)
-    );
-    let _ = writeln!(out, "</robot>");
-    if let Some(g) = geometry {
-        notes.extend(g.notes.iter().cloned());
+
+    /// Link `i` (`child`, moved by joint `j`): its `<inertial>` — centre of mass and inertia
+    /// seen from `L_i = F_i · P_i⁻¹` (`p`: `P_i`, `None` the identity), made loadable by
+    /// another tool (crate::inertial's rules: physical moments, a tiny mass for a massless
+    /// link, each change noted) — and its geometry.
+    fn link(&mut self, i: usize, j: &Joint, child: &str, p: Option<&Matrix4<f64>>) {
+        let inertial_frame = match p {
+            Some(p) => {
+                let com = p * j.com.push(1.0);
+                let mut f = *p;
+                f.fixed_view_mut::<3, 1>(0, 3).copy_from(&com.xyz());
+                f
+            }
+            None => Matrix4::new_translation(&j.com),
+        };
+        let _ = writeln!(self.out, "  <link name=\"{child}\">");
+        let (mass, inertia) =
+            loadable_inertial(j.mass, &j.inertia, &format!("link {i}"), &mut self.notes);
+        let m = &inertia;
+        let origin = self.oa(&inertial_frame);
+        let _ = writeln!(
+            self.out,
+            "    <inertial>\n      <origin {origin}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>",
+            mass,
+            m[(0, 0)],
+            m[(0, 1)],
+            m[(0, 2)],
+            m[(1, 1)],
+            m[(1, 2)],
+            m[(2, 2)]
+        );
+        let geometry = self.geometry(i);
+        self.out += &geometry;
+        let _ = writeln!(self.out, "  </link>");
     }
-    Ok((out, notes, meshes))
+
+    /// The tool: a link `<robot>_tool` fixed to the last link at `P_n · tool`, and `</robot>`.
+    fn tool(&mut self, posts: &[Option<Matrix4<f64>>]) {
+        let robot = self.robot;
+        let tool_origin = match &posts[robot.dof()] {
+            Some(p) => p * robot.tool,
+            None => robot.tool,
+        };
+        let tool = xml(&format!("{}_tool", robot.name));
+        let origin = self.oa(&tool_origin);
+        let _ = writeln!(self.out, "  <link name=\"{tool}\"/>");
+        let _ = writeln!(
+            self.out,
+            "  <joint name=\"{}_tool_joint\" type=\"fixed\">\n    <parent link=\"{}\"/>\n    <child link=\"{tool}\"/>\n    <origin {origin}/>\n  </joint>",
+            self.name,
+            xml(&link_name(robot, robot.dof())),
+        );
+        let _ = writeln!(self.out, "</robot>");
+    }
 }
