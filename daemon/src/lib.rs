@@ -135,7 +135,7 @@ pub enum DaemonError {
     #[error("robot {robot}: {source}")]
     Pipeline {
         robot: String,
-        source: robosim_model::OptionsError,
+        source: robosim_simulator::BuildError,
     },
     /// A robot's pipeline refused the committed q.
     #[error("robot {robot}: {source}")]
@@ -168,6 +168,9 @@ pub enum StageError {
     /// The swap's plan, robot, object or first target (its error kept).
     #[error(transparent)]
     Swap(#[from] swap::SwapStageError),
+    /// The attitude model refused the declaration (its error kept).
+    #[error(transparent)]
+    Attitude(#[from] robosim_simulator::attitude::AttitudeError),
 }
 
 impl From<String> for StageError {
@@ -687,6 +690,26 @@ impl Daemon<'_> {
 /// (10⁶ steps is 1000 s of a 1 ms pipeline): a larger budget is a typo, not a request.
 pub const MAX_STEPS_PER_COMMAND: u64 = 1_000_000;
 
+/// Why a client's command was refused; the reply is `refused: {message}`.
+#[derive(Debug, thiserror::Error)]
+enum Refusal {
+    /// The command's bytes are not JSON.
+    #[error("not JSON: {0}")]
+    NotJson(#[from] serde_json::Error),
+    /// The command's own fields or state refuse it (the message names the field).
+    #[error("{0}")]
+    Command(String),
+    /// The robot's pipeline refused the command (its check, kept).
+    #[error(transparent)]
+    Pipeline(#[from] robosim_simulator::StepError),
+}
+
+impl From<String> for Refusal {
+    fn from(message: String) -> Self {
+        Refusal::Command(message)
+    }
+}
+
 /// Applies one command, validated as strictly as a transaction: a refused command changes
 /// nothing (targets are checked against the joint limits by [`Pipeline::set_command`]).
 fn apply(
@@ -695,7 +718,7 @@ fn apply(
     running: &mut bool,
     budget: &mut u64,
     reset: &mut bool,
-) -> std::result::Result<(), String> {
+) -> std::result::Result<(), Refusal> {
     let robot = |v: &Value| -> std::result::Result<usize, String> {
         let name = v
             .get("robot")
@@ -727,7 +750,7 @@ fn apply(
             sims[i]
                 .pipeline
                 .set_command(Command::Target(q))
-                .map_err(|e| e.to_string())
+                .map_err(Refusal::from)
         }
         Some("torque") => {
             let i = robot(cmd)?;
@@ -735,7 +758,7 @@ fn apply(
             sims[i]
                 .pipeline
                 .set_command(Command::Torque(t))
-                .map_err(|e| e.to_string())
+                .map_err(Refusal::from)
         }
         Some("pause") => {
             *running = false;
@@ -756,10 +779,10 @@ fn apply(
                     ))?,
             };
             if *budget + n > MAX_STEPS_PER_COMMAND {
-                return Err(format!(
+                return Err(Refusal::Command(format!(
                     "{budget} steps are still queued; {n} more would exceed {MAX_STEPS_PER_COMMAND}",
                     budget = *budget
-                ));
+                )));
             }
             *budget += n;
             Ok(())
@@ -768,7 +791,7 @@ fn apply(
             *reset = true;
             Ok(())
         }
-        other => Err(format!("unknown command {other:?}")),
+        other => Err(Refusal::Command(format!("unknown command {other:?}"))),
     }
 }
 
@@ -1037,8 +1060,7 @@ fn start_recording(
 fn answer_commands(d: &mut Daemon, l: &mut Loop, commands: &mut CommandReceiver) -> Result<bool> {
     let mut reset = false;
     for cmd in commands.drain()? {
-        let parsed =
-            serde_json::from_slice::<Value>(cmd.bytes()).map_err(|e| format!("not JSON: {e}"));
+        let parsed = serde_json::from_slice::<Value>(cmd.bytes()).map_err(Refusal::from);
         if let Ok(v) = &parsed
             && cmd_name(v) == Some("get")
         {
@@ -1054,7 +1076,7 @@ fn answer_commands(d: &mut Daemon, l: &mut Loop, commands: &mut CommandReceiver)
         let was_running = l.running;
         let outcome = parsed.and_then(|v| {
             match d.space.as_mut().and_then(|sp| sp.command(&v)) {
-                Some(r) => r,
+                Some(r) => r.map_err(Refusal::from),
                 None => apply(&mut d.sims, &v, &mut l.running, &mut l.budget, &mut reset),
             }
             .map(|()| v)
@@ -1329,7 +1351,8 @@ mod tests {
             &mut running,
             &mut budget,
             &mut reset,
-        );
+        )
+        .map_err(|e| e.to_string());
         (r, budget)
     }
 

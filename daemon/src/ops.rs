@@ -349,18 +349,20 @@ impl Ops {
         orbit: Orbit,
         geometry: Option<Geometry>,
         sims: &[Sim],
-    ) -> Result<Option<Ops>, String> {
+    ) -> Result<Option<Ops>, crate::StageError> {
         if effects.attitude.is_none() && !effects.consumers {
             return Ok(None);
         }
         if effects.consumers && effects.power.is_none() {
-            return Err("consumers need the power effect (they draw on its battery)".into());
+            return Err(crate::StageError::Refused(
+                "consumers need the power effect (they draw on its battery)".into(),
+            ));
         }
         let geometry = geometry.unwrap_or_default();
         let attitude = match effects.attitude {
             Some(e) => {
                 let cfg = geometry.config(sims, &Vector3::x())?;
-                let a = Attitude::new(e, orbit, 0.0, &cfg).map_err(|e| e.to_string())?;
+                let a = Attitude::new(e, orbit, 0.0, &cfg)?;
                 Some((a, cfg))
             }
             None => None,

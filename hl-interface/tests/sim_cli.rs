@@ -34,5 +34,13 @@ fn sim_command_builds_prints_and_runs() {
         q0: Some(vec![0.0; 5]),
         ..args
     };
-    assert!(run(&bad, &none).is_err());
+    let err = run(&bad, &none).expect_err("a start q of the wrong length");
+    assert!(
+        matches!(
+            err,
+            CommandError::Pipeline(robosim_simulator::BuildError::Robot { field: "q0", .. })
+        ),
+        "{err:?}"
+    );
+    assert!(err.to_string().contains("`q0`: q has 5 values"), "{err}");
 }

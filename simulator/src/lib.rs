@@ -32,12 +32,12 @@ pub mod power;
 mod stages;
 pub mod swap;
 
-pub use model::{Model, SceneGeometry, StepError};
+/// A declaration that cannot be built, under the simulator's older name: [`BuildError`].
+pub use model::BuildError as EffectsError;
+pub use model::{BuildError, Model, SceneGeometry, StepError};
 pub use pipeline::Pipeline;
 /// The scene's effect declaration under the simulator's older name: [`Options`].
 pub use robosim_model::Options as SceneEffects;
-/// A declaration that cannot be built, under the simulator's older name: [`OptionsError`].
-pub use robosim_model::OptionsError as EffectsError;
 pub use robosim_model::{
     CollisionEffect, Command, Data, DynamicsEffect, EncoderEffect, Integrator, LoggingEffect,
     OnContact, Options, OptionsError, Signal,

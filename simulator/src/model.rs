@@ -7,7 +7,7 @@
 //!
 //! The stage parts are defined here and filled by each stage's `build` (`crate::stages`), so
 //! the stages depend on this file and this file on none of them. Also here, because every
-//! stage and the pipeline share them: [`StepError`] and [`SceneGeometry`].
+//! stage and the pipeline share them: [`StepError`], [`BuildError`] and [`SceneGeometry`].
 
 use robosim_collision::ccd::SweepOptions;
 use robosim_collision::robot::{CollisionSettings, LinkSolids, Scene};
@@ -55,6 +55,59 @@ pub enum StepError {
     Logging(String),
     #[error("command: {0}")]
     Command(String),
+    /// A declared stage's step found its model part or its `Data` field missing (`stage`
+    /// names the stage, `what` the part). The pipeline's build fills both whenever it declares
+    /// the stage, and [`crate::Pipeline::rewind`] refuses data without them, so this is data
+    /// that was not made for this model: the stage refuses it rather than skip its effect.
+    #[error("{stage}: the stage is declared but {what} is missing (data not made for this model)")]
+    Missing {
+        stage: &'static str,
+        what: &'static str,
+    },
+}
+
+/// Why a pipeline cannot be built from a scene's declaration. Each variant's message is the
+/// declaration's (`scene effects, `field`: reason`), naming the field the build refused; a
+/// variant built from a library's refusal keeps that error as its source.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BuildError {
+    /// A declared value is refused by the declaration's own checks (a step that is not
+    /// positive, a signal nothing computes, a floating root under kinematic motion).
+    #[error(transparent)]
+    Options(#[from] robosim_model::OptionsError),
+    /// The robot itself, or its start q, is refused by the kinematic model (`field`: `robot`,
+    /// `q0`).
+    #[error("scene effects, `{field}`: {source}")]
+    Robot {
+        field: &'static str,
+        #[source]
+        source: robosim_kinematics::ModelError,
+    },
+    /// The dynamics model of a declared stage cannot be had (`field`: `dynamics.robot`,
+    /// `dynamics.integrator`, `joint_friction`, `joint_limits`).
+    #[error("scene effects, `{field}`: {source}")]
+    Dynamics {
+        field: &'static str,
+        #[source]
+        source: robosim_dynamics::DynamicsError,
+    },
+    /// The collision stage's link solids cannot be built from the declared `link_radius`.
+    #[error("scene effects, `collision.link_radius`: {source}")]
+    LinkSolids {
+        #[source]
+        source: robosim_collision::robot::CheckError,
+    },
+}
+
+impl BuildError {
+    /// The declaration's field the build refused (`dynamics.dt`, `q0`, `collision.link_radius`).
+    pub fn field(&self) -> &str {
+        match self {
+            BuildError::Options(e) => &e.field,
+            BuildError::Robot { field, .. } | BuildError::Dynamics { field, .. } => field,
+            BuildError::LinkSolids { .. } => "collision.link_radius",
+        }
+    }
 }
 
 /// The scene around the robot, for collision: obstacles and the robot's link solids

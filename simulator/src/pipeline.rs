@@ -25,7 +25,7 @@
 //! Entry points: [`Pipeline::build`], [`Pipeline::step`], [`Pipeline`]'s `Display` (the printable
 //! description), [`Command`].
 
-use crate::model::{Model, SceneGeometry, StepError};
+use crate::model::{BuildError, Model, SceneGeometry, StepError};
 use crate::stages::{self, logging::LogHandle, logging::Logging};
 use nalgebra::{DVector, Matrix4};
 use robosim_collision::robot::Scene;
@@ -55,13 +55,21 @@ impl Pipeline {
         q0: &[f64],
         effects: &Options,
         geometry: SceneGeometry,
-    ) -> Result<Pipeline, OptionsError> {
-        let bad = |field: &str, reason: String| OptionsError {
-            field: field.to_string(),
-            reason,
+    ) -> Result<Pipeline, BuildError> {
+        let bad = |field: &str, reason: String| {
+            BuildError::Options(OptionsError {
+                field: field.to_string(),
+                reason,
+            })
         };
-        robot.validate().map_err(|e| bad("robot", e.to_string()))?;
-        robot.check_q(q0).map_err(|e| bad("q0", e.to_string()))?;
+        robot.validate().map_err(|source| BuildError::Robot {
+            field: "robot",
+            source,
+        })?;
+        robot.check_q(q0).map_err(|source| BuildError::Robot {
+            field: "q0",
+            source,
+        })?;
         if let Some(root) = &robot.root {
             refuse_floating(root.kind, effects)?;
         }
@@ -203,8 +211,8 @@ impl Pipeline {
             stages::limits::run(limits, d);
         }
         // depend only on q
-        if d.frames.is_some() {
-            stages::frames::run(m, d);
+        if m.options.kinematics {
+            stages::frames::run(m, d)?;
         }
         if let Some(c) = &m.collision {
             stages::collision::run(m, c, d)?;

@@ -430,7 +430,7 @@ fn effects_parse_from_json_with_errors_that_say_where() {
         Pipeline::build(&puma(), &Q0, &bad, SceneGeometry::default())
             .err()
             .expect("refused")
-            .field,
+            .field(),
         "logging.signals"
     );
 }
@@ -860,8 +860,11 @@ fn a_floating_robot_integrates_as_simulate_does_and_its_joint_stages_see_the_joi
         let e = Pipeline::build(&robot, &q0, &kin, SceneGeometry::default())
             .err()
             .expect("kinematic motion of a floating base is refused");
-        assert_eq!(e.field, "dynamics");
-        assert!(e.reason.contains(&format!("{} base", kind.name())), "{e}");
+        assert_eq!(e.field(), "dynamics");
+        assert!(
+            e.to_string().contains(&format!("{} base", kind.name())),
+            "{e}"
+        );
         let col = SceneEffects {
             collision: Some(CollisionEffect::default()),
             ..effects.clone()
@@ -869,7 +872,63 @@ fn a_floating_robot_integrates_as_simulate_does_and_its_joint_stages_see_the_joi
         let e = Pipeline::build(&robot, &q0, &col, SceneGeometry::default())
             .err()
             .expect("collision of a floating base is refused");
-        assert_eq!(e.field, "collision");
-        assert!(e.reason.contains("floating root"), "{e}");
+        assert_eq!(e.field(), "collision");
+        assert!(e.to_string().contains("floating root"), "{e}");
     }
+}
+
+#[test]
+fn a_refused_robot_or_dynamics_keeps_the_library_error_as_its_source() {
+    use robosim_kinematics::ModelError;
+    use robosim_simulator::BuildError;
+    use std::error::Error;
+    // a start q of the wrong length: the kinematic model's own refusal, kept whole
+    let e = Pipeline::build(
+        &puma(),
+        &Q0[..5],
+        &SceneEffects::default(),
+        SceneGeometry::default(),
+    )
+    .err()
+    .expect("refused");
+    assert!(
+        matches!(
+            e,
+            BuildError::Robot {
+                field: "q0",
+                source: ModelError::WrongDof {
+                    expected: 6,
+                    got: 5
+                }
+            }
+        ),
+        "{e:?}"
+    );
+    assert!(e.to_string().starts_with("scene effects, `q0`: "), "{e}");
+    let source = e.source().expect("the cause is kept");
+    assert!(source.downcast_ref::<ModelError>().is_some(), "{source:?}");
+    // a stick-slip band that is not a number: the dynamics crate's refusal, kept
+    let friction = SceneEffects {
+        dynamics: Some(DynamicsEffect::default()),
+        joint_friction: Some(robosim_model::JointFrictionEffect {
+            velocity: f64::NAN,
+            ..Default::default()
+        }),
+        ..SceneEffects::default()
+    };
+    let e = Pipeline::build(&puma(), &Q0, &friction, SceneGeometry::default())
+        .err()
+        .expect("refused");
+    assert!(
+        matches!(
+            e,
+            BuildError::Dynamics {
+                field: "joint_friction",
+                source: robosim_dynamics::DynamicsError::BadOption { .. }
+            }
+        ),
+        "{e:?}"
+    );
+    assert_eq!(e.field(), "joint_friction");
+    assert!(e.to_string().contains("sticking band"), "{e}");
 }

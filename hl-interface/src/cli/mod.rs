@@ -59,15 +59,18 @@ pub enum CommandError {
         path: PathBuf,
         source: crate::robot_json::JsonError,
     },
-    /// A scene's effects declaration was refused (inline text, or builds no pipeline).
+    /// A scene's inline effects declaration was refused.
     #[error(transparent)]
-    Effects(#[from] robosim_simulator::EffectsError),
+    Effects(#[from] robosim_simulator::OptionsError),
     /// An effects file's declaration was refused.
     #[error("{path}: {source}")]
     EffectsFile {
         path: String,
-        source: robosim_simulator::EffectsError,
+        source: robosim_simulator::OptionsError,
     },
+    /// The declared effects build no pipeline for the robot (the simulator's refusal).
+    #[error(transparent)]
+    Pipeline(#[from] robosim_simulator::BuildError),
     /// A headless simulation step failed.
     #[error("step {step}: {source}")]
     Step {

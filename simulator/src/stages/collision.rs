@@ -6,7 +6,7 @@
 //! (`Data::q_safe`), at rest (`on_contact: stop`), or the contact is only recorded (`report`).
 //! Depends only on q.
 
-use crate::model::{CollisionModel, Model, SceneGeometry, StepError};
+use crate::model::{BuildError, CollisionModel, Model, SceneGeometry, StepError};
 use robosim_collision::ccd::{Sweep, SweepOptions, sweep_robot_compiled};
 use robosim_collision::robot::{CheckResult, CollisionSettings, LinkSolids, check_robot_compiled};
 use robosim_kinematics::Robot;
@@ -19,16 +19,14 @@ pub fn build(
     robot: &Robot,
     c: &CollisionEffect,
     geometry: SceneGeometry,
-) -> Result<CollisionModel, OptionsError> {
+) -> Result<CollisionModel, BuildError> {
     let links = match geometry.link_solids {
         Some(l) => l,
-        None => LinkSolids::from_dh(robot, c.link_radius).map_err(|e| OptionsError {
-            field: "collision.link_radius".into(),
-            reason: e.to_string(),
-        })?,
+        None => LinkSolids::from_dh(robot, c.link_radius)
+            .map_err(|source| BuildError::LinkSolids { source })?,
     };
     if links.links.len() != robot.dof() + 1 {
-        return Err(OptionsError {
+        return Err(BuildError::Options(OptionsError {
             field: "collision".into(),
             reason: format!(
                 "{} link solids for a robot with {} joints (base first: expected {})",
@@ -36,7 +34,7 @@ pub fn build(
                 robot.dof(),
                 robot.dof() + 1
             ),
-        });
+        }));
     }
     let settings = CollisionSettings {
         enabled: true,
@@ -83,10 +81,16 @@ pub fn describe(c: &CollisionModel) -> String {
 /// steps, and on contact under `stop` puts the robot back at `d.q_safe`, at rest; a clear q
 /// becomes the new `d.q_safe`.
 pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError> {
-    // the builder allocates `q_safe` and compiles the robot whenever it declares this stage
-    let (Some(q_safe), Some(kin)) = (d.q_safe.as_mut(), m.kinematics.as_ref()) else {
-        return Ok(());
-    };
+    // the builder allocates `q_safe` and compiles the robot whenever it declares this stage;
+    // data without them was not made for this model, and is refused rather than left unchecked
+    let kin = m.kinematics.as_ref().ok_or(StepError::Missing {
+        stage: NAME,
+        what: "the compiled kinematic model (`Model::kinematics`)",
+    })?;
+    let q_safe = d.q_safe.as_mut().ok_or(StepError::Missing {
+        stage: NAME,
+        what: "the last collision-free q (`Data::q_safe`)",
+    })?;
     let q = d.state.q.as_slice();
     let contact = if c.settings.continuous {
         let s = sweep_robot_compiled(
@@ -117,4 +121,63 @@ pub fn run(m: &Model, c: &CollisionModel, d: &mut Data) -> Result<(), StepError>
     }
     d.contact = Some(contact);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::Pipeline;
+    use robosim_dynamics::fixture_robot;
+    use robosim_model::Options;
+
+    /// A PUMA with the collision effect declared (DH-segment solids, no obstacles), at a q
+    /// clear of itself.
+    fn declared() -> Pipeline {
+        let robot = fixture_robot("puma560").expect("fixture compiled in");
+        let effects = Options {
+            collision: Some(CollisionEffect {
+                self_collision: false,
+                ..CollisionEffect::default()
+            }),
+            ..Options::default()
+        };
+        Pipeline::build(
+            &robot,
+            &[0.0, 0.4, -0.6, 0.0, 0.5, 0.0],
+            &effects,
+            SceneGeometry::default(),
+        )
+        .expect("builds")
+    }
+
+    #[test]
+    fn the_stage_refuses_data_without_its_last_safe_q_instead_of_skipping_the_check() {
+        let p = declared();
+        let (m, c) = (p.model(), p.model().collision.as_ref().expect("declared"));
+        let mut d = p.data().clone();
+        run(m, c, &mut d).expect("the pipeline's own data steps");
+        assert_eq!(d.contact, Some(false));
+        d.contact = None;
+        d.q_safe = None;
+        let e = run(m, c, &mut d).expect_err("refused");
+        assert!(
+            matches!(e, StepError::Missing { stage: NAME, what } if what.contains("Data::q_safe")),
+            "{e}"
+        );
+        assert_eq!(d.contact, None, "nothing was recorded");
+        assert!(e.to_string().starts_with("collision: "), "{e}");
+    }
+
+    #[test]
+    fn the_stage_refuses_a_model_without_the_compiled_robot() {
+        let p = declared();
+        let mut m = p.model().clone();
+        m.kinematics = None;
+        let c = p.model().collision.as_ref().expect("declared");
+        let e = run(&m, c, &mut p.data().clone()).expect_err("refused");
+        assert!(
+            matches!(e, StepError::Missing { stage: NAME, what } if what.contains("Model::kinematics")),
+            "{e}"
+        );
+    }
 }

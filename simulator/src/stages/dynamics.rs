@@ -11,7 +11,7 @@
 //! torques and the root's stay 0 (no motor acts on it); a joint target is refused
 //! (`Pipeline::set_command`).
 
-use crate::model::{DynamicsModel, Model, StepError};
+use crate::model::{BuildError, DynamicsModel, Model, StepError};
 use nalgebra::{DVector, Vector3};
 use robosim_dynamics::{IntegratorConfig, StepSize, Stepper, rnea};
 use robosim_kinematics::Robot;
@@ -29,16 +29,21 @@ pub fn build(
     robot: &Robot,
     d: &DynamicsEffect,
     friction: Option<&JointFrictionEffect>,
-) -> Result<(DynamicsModel, IntegratorState), OptionsError> {
-    let bad = |field: &str, reason: String| OptionsError {
-        field: format!("dynamics.{field}"),
-        reason,
+) -> Result<(DynamicsModel, IntegratorState), BuildError> {
+    let bad = |field: &str, reason: String| {
+        BuildError::Options(OptionsError {
+            field: format!("dynamics.{field}"),
+            reason,
+        })
     };
     let mut robot = robot.clone();
     if let Some(g) = d.gravity {
         robot.gravity = Vector3::from(g);
     }
-    let model = robosim_dynamics::Model::new(&robot).map_err(|e| bad("robot", e.to_string()))?;
+    let model = robosim_dynamics::Model::new(&robot).map_err(|source| BuildError::Dynamics {
+        field: "dynamics.robot",
+        source,
+    })?;
     if !(d.dt > 0.0 && d.dt.is_finite()) {
         return Err(bad(
             "dt",
@@ -58,13 +63,16 @@ pub fn build(
         joint_stops: false,
         max_steps: 1_000_000,
     };
-    let mut stepper = Stepper::new(&model, config).map_err(|e| bad("integrator", e.to_string()))?;
+    let mut stepper = Stepper::new(&model, config).map_err(|source| BuildError::Dynamics {
+        field: "dynamics.integrator",
+        source,
+    })?;
     if let Some(f) = friction {
         stepper = stepper
             .with_friction(&model, f.to_dynamics())
-            .map_err(|e| OptionsError {
-                field: "joint_friction".into(),
-                reason: e.to_string(),
+            .map_err(|source| BuildError::Dynamics {
+                field: "joint_friction",
+                source,
             })?;
     }
     let friction_note = match stepper.friction() {
