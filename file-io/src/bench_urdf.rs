@@ -25,6 +25,9 @@ pub enum BenchUrdfError {
     /// The URDF (or a mesh it names) could not be read or turned into a transaction.
     #[error(transparent)]
     Urdf(#[from] UrdfError),
+    /// The URDF's geometry made no transaction (a mesh's triangles, …).
+    #[error(transparent)]
+    Tx(#[from] crate::urdf_session::UrdfTxError),
     /// The keeper's store refused the URDF's transaction.
     #[error("the URDF's transaction on an empty store: {0}")]
     Apply(#[from] TxError),

@@ -103,6 +103,9 @@ pub enum FileError {
     /// A URDF file that cannot be imported (file, line, element and what).
     #[error(transparent)]
     Urdf(#[from] crate::urdf_import::UrdfError),
+    /// A URDF robot whose geometry makes no Instance Space objects (`robosim import urdf`).
+    #[error(transparent)]
+    UrdfTx(#[from] crate::urdf_session::UrdfTxError),
     /// An MJCF file that cannot be imported (file, line, element and what).
     #[error(transparent)]
     Mjcf(#[from] crate::mjcf::MjcfError),

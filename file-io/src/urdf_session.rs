@@ -72,16 +72,70 @@ pub struct UrdfImport {
     pub decomposed: usize,
 }
 
+/// Why a URDF robot makes no transaction ([`urdf_tx`]).
+#[derive(Debug, thiserror::Error)]
+pub enum UrdfTxError {
+    /// The URDF: a mesh it names that cannot be read, a primitive that makes no solid, a joint
+    /// without its origin — its file, line, element and what.
+    #[error(transparent)]
+    Urdf(#[from] UrdfError),
+    /// A mesh's triangles make no Instance Space geometry (none left once the degenerate ones
+    /// are dropped, a flat hull, …): the URDF file, line and element that name the mesh, and
+    /// the mesh importer's error ([`crate::import::mesh_geometry`], `hull_geometry`).
+    #[error("{}:{line}: {element}: collision solid: {source}", file.display())]
+    MeshGeometry {
+        file: std::path::PathBuf,
+        line: u32,
+        element: String,
+        #[source]
+        source: Box<crate::FileError>,
+    },
+}
+
 /// The one transaction that creates robot `u` as [`UrdfPlacement`] says (see the module docs).
-pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfError> {
+///
+/// Steps: the robot object ([`robot_object`]), per movable joint its link object
+/// ([`link_object`], at the joints' rest values [`rest_q`]), then per URDF link its visual
+/// objects and collision solids ([`shape_objects`]).
+pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfTxError> {
     let robot = &u.robot;
-    let n = robot.dof();
-    let file = &u.geometry.file;
     let mut tx = Transaction::new();
+    let r = robot_object(&mut tx, robot, place);
+    let q0 = rest_q(u, place);
+    let poses = robosim_scene::link_poses(robot, &q0);
+    let mut bodies = vec![r];
+    for j in 0..robot.dof() {
+        let l = link_object(&mut tx, u, place, j, r)?;
+        tx.set_pose(l, poses[j]);
+        tx.set_joint(l, q0.get(robot.root_nq() + j).copied().unwrap_or(0.0));
+        bodies.push(l);
+    }
+    let mut imp = UrdfImport {
+        tx,
+        joints: robot.dof(),
+        visuals: 0,
+        solids: 0,
+        triangles: 0,
+        decomposed: 0,
+    };
+    for (link, g) in &u.geometry.links {
+        if let Some(&body) = bodies.get(g.body) {
+            shape_objects(&mut imp, &u.geometry.file, link, g, body, place.visuals)?;
+        }
+    }
+    Ok(imp)
+}
+
+/// The robot object, placed and named as asked: its record a fixed-base robot, or for a
+/// floating robot the root joint (`Kinematics::FloatingRobot`) with the base link's mass
+/// properties (the robot object is its base link).
+fn robot_object(
+    tx: &mut Transaction,
+    robot: &robosim_kinematics::Robot,
+    place: &UrdfPlacement,
+) -> ObjRef {
     let r = tx.create(Kind::Robot, &place.name, place.parent.map(ObjRef::Id));
     tx.set_pose(r, place.pose);
-    // A floating robot: the robot object is its base link (pose, inertial), the root joint
-    // recorded on it (`Kinematics::FloatingRobot`).
     tx.set_kinematics(
         r,
         Some(match &robot.root {
@@ -111,131 +165,149 @@ pub fn urdf_tx(u: &UrdfRobot, place: &UrdfPlacement) -> Result<UrdfImport, UrdfE
             )),
         );
     }
-    // the joints at rest: a follower (URDF `<mimic>`) at its relation's value there
-    let mut q0: Vec<f64> = robot.neutral_q().iter().copied().collect();
+    r
+}
+
+/// The joints at rest (the robot's neutral q); with `--mimic`, a follower (URDF `<mimic>`) at
+/// its relation's value there.
+fn rest_q(u: &UrdfRobot, place: &UrdfPlacement) -> Vec<f64> {
+    let mut q0: Vec<f64> = u.robot.neutral_q().iter().copied().collect();
     if let Some(c) = u.coupling.as_ref().filter(|_| place.mimic)
         && let Ok(q) = c.restrict(&q0).and_then(|qr| c.expand_q(&qr))
     {
         q0 = q;
     }
-    let poses = robosim_scene::link_poses(robot, &q0);
-    let mut bodies = vec![r];
-    for (j, joint) in robot.joints.iter().enumerate() {
-        let Some(origin) = &joint.origin else {
-            // import_urdf_tree writes every joint with its origin; a DH row here is a bug.
-            return Err(UrdfError {
-                file: file.clone(),
-                line: 0,
-                element: format!("joint {j}"),
-                kind: UrdfErrorKind::Model(robosim_kinematics::ModelError::NonFinite {
-                    joint: j,
-                    field: "origin (a DH row, not a URDF joint)",
-                    value: f64::NAN,
-                }),
-            });
-        };
-        let name = u
-            .joints
-            .get(j)
-            .map_or_else(|| format!("link{}", j + 1), |uj| uj.link.clone());
-        let l = tx.create(Kind::Link, &name, Some(r));
-        let (index, parent) = (j as u32, robot.parents.get(j).copied().unwrap_or(j) as u32);
-        let kind = match joint.joint_type {
-            JointType::Revolute => JointKind::Revolute,
-            JointType::Prismatic => JointKind::Prismatic,
-        };
-        let (placement, axis) = (
-            from_matrix(&origin.placement),
-            [origin.axis.x, origin.axis.y, origin.axis.z],
-        );
-        // A follower (URDF `<mimic>`) is a mimic joint: the session robot's coordinates are
-        // the reduced ones (a URDF joint has no offset of its own: `joint.offset` is 0).
-        let follows = u
-            .mimics
-            .iter()
-            .find(|m| m.index == j)
-            .filter(|_| place.mimic);
-        let kinematics = match follows {
-            Some(m) if joint.offset == 0.0 => Kinematics::Mimic {
-                index,
-                parent,
-                joint: kind,
-                placement,
-                axis,
-                qlim: joint.qlim,
-                leader: m.mimicked_index.map(|l| l as u32),
-                multiplier: m.multiplier,
-                offset: m.offset,
-            },
-            _ => Kinematics::Axis {
-                index,
-                parent,
-                joint: kind,
-                placement,
-                axis,
-                offset: joint.offset,
-                qlim: joint.qlim,
-            },
-        };
-        tx.set_kinematics(l, Some(kinematics));
-        tx.set_dynamics(
-            l,
-            Some(robosim_scene::instantiate::mass_props(
-                joint.mass,
-                &joint.com,
-                &joint.inertia,
-            )),
-        );
-        tx.set_pose(l, poses[j]);
-        tx.set_joint(l, q0.get(robot.root_nq() + j).copied().unwrap_or(0.0));
-        bodies.push(l);
-    }
-    let (mut visuals, mut solids, mut triangles, mut decomposed) = (0, 0, 0, 0);
-    for (link, g) in &u.geometry.links {
-        let Some(&body) = bodies.get(g.body) else {
-            continue;
-        };
-        let shown = if place.visuals { &g.visual[..] } else { &[] };
-        for (k, s) in shown.iter().enumerate() {
-            let (pieces, tris, _) = shape_geometry(s, false, file, link, "visual")?;
-            triangles += tris;
-            for geometry in pieces {
-                let v = tx.create(Kind::Visual, &format!("{link}-visual{k}"), Some(body));
-                tx.set_pose(v, from_matrix(&(g.in_body * s.origin)));
-                tx.set_geometry(v, Some(geometry));
-                tx.set_appearance(v, appearance(s, 1.0));
-                visuals += 1;
-            }
+    q0
+}
+
+/// The link object of movable joint `j` under the robot object `r`, named after the joint's
+/// child link: its general joint record (`Kinematics::Axis`, or with `--mimic` a follower's
+/// `Kinematics::Mimic`) and mass properties. Refused: a joint without its origin (a DH row,
+/// which `import_urdf_tree` never writes).
+fn link_object(
+    tx: &mut Transaction,
+    u: &UrdfRobot,
+    place: &UrdfPlacement,
+    j: usize,
+    r: ObjRef,
+) -> Result<ObjRef, UrdfError> {
+    let joint = &u.robot.joints[j];
+    let Some(origin) = &joint.origin else {
+        // import_urdf_tree writes every joint with its origin; a DH row here is a bug.
+        return Err(UrdfError {
+            file: u.geometry.file.clone(),
+            line: 0,
+            element: format!("joint {j}"),
+            kind: UrdfErrorKind::Model(robosim_kinematics::ModelError::NonFinite {
+                joint: j,
+                field: "origin (a DH row, not a URDF joint)",
+                value: f64::NAN,
+            }),
+        });
+    };
+    let name = u
+        .joints
+        .get(j)
+        .map_or_else(|| format!("link{}", j + 1), |uj| uj.link.clone());
+    let l = tx.create(Kind::Link, &name, Some(r));
+    let (index, parent) = (
+        j as u32,
+        u.robot.parents.get(j).copied().unwrap_or(j) as u32,
+    );
+    let kind = match joint.joint_type {
+        JointType::Revolute => JointKind::Revolute,
+        JointType::Prismatic => JointKind::Prismatic,
+    };
+    let (placement, axis) = (
+        from_matrix(&origin.placement),
+        [origin.axis.x, origin.axis.y, origin.axis.z],
+    );
+    // A follower (URDF `<mimic>`) is a mimic joint: the session robot's coordinates are
+    // the reduced ones (a URDF joint has no offset of its own: `joint.offset` is 0).
+    let follows = u
+        .mimics
+        .iter()
+        .find(|m| m.index == j)
+        .filter(|_| place.mimic);
+    let kinematics = match follows {
+        Some(m) if joint.offset == 0.0 => Kinematics::Mimic {
+            index,
+            parent,
+            joint: kind,
+            placement,
+            axis,
+            qlim: joint.qlim,
+            leader: m.mimicked_index.map(|l| l as u32),
+            multiplier: m.multiplier,
+            offset: m.offset,
+        },
+        _ => Kinematics::Axis {
+            index,
+            parent,
+            joint: kind,
+            placement,
+            axis,
+            offset: joint.offset,
+            qlim: joint.qlim,
+        },
+    };
+    tx.set_kinematics(l, Some(kinematics));
+    tx.set_dynamics(
+        l,
+        Some(robosim_scene::instantiate::mass_props(
+            joint.mass,
+            &joint.com,
+            &joint.inertia,
+        )),
+    );
+    Ok(l)
+}
+
+/// URDF link `link`'s shapes under `body` (the object it is rigid with): with `visuals`, a
+/// visual object per `<visual>` (a piece each), and a solid per `<collision>` (a decomposed
+/// mesh's parts `LINK-collisionK.P`), undrawn when the link has visuals; counted in `imp`.
+fn shape_objects(
+    imp: &mut UrdfImport,
+    file: &std::path::Path,
+    link: &str,
+    g: &crate::urdf_geometry::LinkGeometry,
+    body: ObjRef,
+    visuals: bool,
+) -> Result<(), UrdfTxError> {
+    let tx = &mut imp.tx;
+    let shown = if visuals { &g.visual[..] } else { &[] };
+    for (k, s) in shown.iter().enumerate() {
+        let (pieces, tris, _) = shape_geometry(s, false, file, link, "visual")?;
+        imp.triangles += tris;
+        for geometry in pieces {
+            let v = tx.create(Kind::Visual, &format!("{link}-visual{k}"), Some(body));
+            tx.set_pose(v, from_matrix(&(g.in_body * s.origin)));
+            tx.set_geometry(v, Some(geometry));
+            tx.set_appearance(v, appearance(s, 1.0));
+            imp.visuals += 1;
         }
-        let hidden = !shown.is_empty();
-        for (k, s) in g.collision.iter().enumerate() {
-            let (parts, tris, split) = shape_geometry(s, true, file, link, "collision")?;
-            triangles += tris;
-            decomposed += usize::from(split);
-            let many = parts.len() > 1;
-            for (p, geometry) in parts.into_iter().enumerate() {
-                // A decomposed mesh's parts are `LINK-collisionK.P`.
-                let name = if many {
-                    format!("{link}-collision{k}.{p}")
-                } else {
-                    format!("{link}-collision{k}")
-                };
-                let c = tx.create(Kind::Solid, &name, Some(body));
-                tx.set_pose(c, from_matrix(&(g.in_body * s.origin)));
-                tx.set_geometry(c, Some(geometry));
-                tx.set_appearance(c, appearance(s, if hidden { 0.0 } else { 1.0 }));
-                solids += 1;
-            }
+    }
+    let hidden = !shown.is_empty();
+    for (k, s) in g.collision.iter().enumerate() {
+        let (parts, tris, split) = shape_geometry(s, true, file, link, "collision")?;
+        imp.triangles += tris;
+        imp.decomposed += usize::from(split);
+        let many = parts.len() > 1;
+        for (p, geometry) in parts.into_iter().enumerate() {
+            // A decomposed mesh's parts are `LINK-collisionK.P`.
+            let name = if many {
+                format!("{link}-collision{k}.{p}")
+            } else {
+                format!("{link}-collision{k}")
+            };
+            let c = tx.create(Kind::Solid, &name, Some(body));
+            tx.set_pose(c, from_matrix(&(g.in_body * s.origin)));
+            tx.set_geometry(c, Some(geometry));
+            tx.set_appearance(c, appearance(s, if hidden { 0.0 } else { 1.0 }));
+            imp.solids += 1;
         }
     }
-    Ok(UrdfImport {
-        tx,
-        joints: n,
-        visuals,
-        solids,
-        triangles,
-        decomposed,
-    })
+    Ok(())
 }
 
 /// A shape's colour: its material's, else the default grey; alpha forced to `alpha` when 0
@@ -263,7 +335,7 @@ fn shape_geometry(
     file: &std::path::Path,
     link: &str,
     what: &str,
-) -> Result<(Vec<GeometryInput>, usize, bool), UrdfError> {
+) -> Result<(Vec<GeometryInput>, usize, bool), UrdfTxError> {
     use robosim_geometry::shapes;
     let bad = |problem: MeshProblem| UrdfError {
         file: file.to_owned(),
@@ -278,9 +350,14 @@ fn shape_geometry(
         Geometry::Mesh(m) => {
             let tris = m.load()?;
             let path = m.path()?;
-            let shape = |e: String| m.err(MeshProblem::Shape(e));
+            let shape = |e: crate::FileError| UrdfTxError::MeshGeometry {
+                file: m.urdf.clone(),
+                line: m.line,
+                element: m.element.clone(),
+                source: Box::new(e),
+            };
             if !collision {
-                let g = mesh_geometry(&tris, false, &path).map_err(|e| shape(e.to_string()))?;
+                let g = mesh_geometry(&tris, false, &path).map_err(shape)?;
                 return Ok((vec![g.geometry], g.read, false));
             }
             let d = robosim_collision::decompose::convex_parts(
@@ -293,12 +370,12 @@ fn shape_geometry(
                 .iter()
                 .map(|p| hull_geometry(p, &path).map(|g| g.geometry))
                 .collect::<Result<Vec<_>, _>>()
-                .map_err(|e| shape(e.to_string()))?;
+                .map_err(shape)?;
             return Ok((parts, tris.len(), d.decomposed));
         }
     };
     poly.map(|p| (vec![GeometryInput::from_polyhedron(&p)], 0, false))
-        .map_err(|e| bad(MeshProblem::Solid(e)))
+        .map_err(|e| bad(MeshProblem::Solid(e)).into())
 }
 
 /// A process-local model of the robot in the URDF file at `path`: one scene, `urdf`, with the

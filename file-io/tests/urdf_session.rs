@@ -240,6 +240,77 @@ fn a_missing_mesh_fails_the_import_and_names_where() {
     assert!(msg.contains("<mesh>"), "names the element: {msg}");
 }
 
+/// A mesh whose triangles all have (next to) no area makes no geometry: the import fails with
+/// the URDF's file, line and element and the mesh importer's reason, kept as the error's source
+/// (`UrdfTxError::MeshGeometry`), and the message is the one it was when the reason was a string
+/// (`MeshProblem::Shape`).
+#[test]
+fn a_mesh_without_area_fails_the_import_with_its_cause_kept() {
+    use robosim_file_io::FileError;
+    use robosim_file_io::urdf_geometry::MeshProblem;
+    use robosim_file_io::urdf_import::{UrdfError, UrdfErrorKind};
+    use robosim_file_io::urdf_session::UrdfTxError;
+    let tmp = tempfile::tempdir().expect("tmp");
+    std::fs::write(
+        tmp.path().join("flat.stl"),
+        "solid flat\n facet normal 0 0 1\n  outer loop\n   vertex 0 0 0\n   vertex 1 0 0\n   vertex 0.5 1e-12 0\n  endloop\n endfacet\nendsolid flat\n",
+    )
+    .expect("stl");
+    let text = r#"<robot name="flat">
+  <link name="base"/>
+  <link name="arm">
+    <visual><geometry><mesh filename="flat.stl"/></geometry></visual>
+  </link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>
+</robot>
+"#;
+    let urdf = tmp.path().join("flat.urdf");
+    std::fs::write(&urdf, text).expect("urdf");
+    let u = import_urdf_tree(&urdf).expect("imports");
+    let place = UrdfPlacement {
+        name: "flat".into(),
+        pose: robosim_instance_space::IDENTITY,
+        parent: None,
+        visuals: true,
+        mimic: false,
+    };
+    let e = urdf_tx(&u, &place).expect_err("no geometry");
+    let UrdfTxError::MeshGeometry {
+        file,
+        line,
+        element,
+        source,
+    } = &e
+    else {
+        panic!("{e:?}")
+    };
+    let mesh_line = text
+        .lines()
+        .position(|l| l.contains("flat.stl"))
+        .expect("there")
+        + 1;
+    assert_eq!((file, *line as usize), (&urdf, mesh_line), "{e}");
+    assert!(element.contains("<mesh>"), "{e}");
+    assert!(
+        matches!(&**source, FileError::Mesh { reason, .. } if reason.contains("zero area")),
+        "{source}"
+    );
+    let cause = std::error::Error::source(&e).expect("the importer's error as the source");
+    assert_eq!(cause.to_string(), source.to_string());
+    // The message the user read before the error was typed.
+    let before = UrdfError {
+        file: file.clone(),
+        line: *line,
+        element: element.clone(),
+        kind: UrdfErrorKind::Mesh(MeshProblem::Shape(source.to_string())),
+    };
+    assert_eq!(e.to_string(), before.to_string());
+    // Through the file interface's error (`robosim render FILE.urdf`), the same message.
+    let e = robosim_file_io::urdf_session::urdf_store(&urdf).expect_err("no geometry");
+    assert_eq!(e.to_string(), before.to_string());
+}
+
 /// The UR5's collision meshes: those whose hull is far from them (closed meshes, hull > 1.25 ×
 /// their volume, measured) arrive as several convex solids `LINK-collisionK.P`, the others as
 /// their hull; the decomposed parts hold less volume than the hull and at least the mesh's
