@@ -573,79 +573,258 @@ fn servicer_posed<'a>(s: &'a Setup, q: &[f64], oru: &OruState) -> Vec<Posed<'a>>
 /// Runs the study's time loop.
 pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
     let t0 = std::time::Instant::now();
-    let period = s.orbit.period_s();
-    let t_end = p.orbits * period;
-    let n = common::step_count(
-        t_end / p.step_s,
-        &format!(
-            "the station study ({} orbit(s) of {:.0} s at a step of {} s)",
-            p.orbits, period, p.step_s
-        ),
-    )?;
-    // the swap: planned by rules after an array ORU fault, else the declared timetable
-    let mut planner = oru_plan::Planner::new(s, p)?;
-    let mut plan = match &planner {
-        Some(_) => Plan {
-            points: vec![(0.0, s.oru.swap.servicer_q0.clone(), "start, stowed")],
-            events: Vec::new(),
-        },
-        None => schedule(s, p.task_start_s)?,
-    };
-    let sched = &plan.points;
-    let mut prev: Vec<Vec<f64>> = s
-        .arrays
-        .iter()
-        .map(|a| s.bodies[a.body].q0.clone())
-        .collect();
-    let fixed = common::pose_fixed(&s.fixed);
-    let mut battery = Battery {
-        capacity_j: p.battery_j,
-        soc: p.soc0,
-        charge_eff: p.charge_eff,
-        discharge_eff: p.discharge_eff,
-        load_w: p.load_w,
-    };
-    let (mut energy, mut lost, mut unserved) = (0.0, 0.0, 0.0);
-    // the loads, their scheduler and the fault (issue 38 items 3-4)
-    let mut loads = loads::Loads::new(
-        robosim_simulator::consumers::default_consumers(p.load_w),
-        p.experiments.clone(),
-    );
-    let servicer_load = loads
-        .consumers
-        .iter()
-        .position(|c| c.subsystem == "servicer");
-    let fault = p
-        .fault
-        .as_ref()
-        .filter(|f| !oru_plan::is_array_fault(f))
-        .map(|f| faults::EclssFault::new(f, &loads.consumers))
-        .transpose()?;
-    let mut rules = scheduler::Scheduler::new(p.scheduling, fault)?;
-    let mut totals = loads::Totals::default();
-    // the scheduler looks one orbit ahead
-    let horizon = period;
-    let eclipses_ahead = s
-        .orbit
-        .eclipse_intervals(p.theta0, t_end + horizon, p.step_s);
-    let mut predicted_windows: Vec<(f64, f64)> = Vec::new();
-    let mut steps = Vec::with_capacity(n + 1);
-    // the attitude (declared effect, with --attitude): started in the configuration at t = 0
-    let mut att = match &s.attitude {
-        Some(a) => Some(attitude::Running::start(
+    let mut sim = Sim::start(s, p)?;
+    for k in 0..=sim.n {
+        sim.step(k)?;
+    }
+    Ok(sim.finish(t0))
+}
+
+/// The time loop's state, carried from step to step.
+struct Sim<'s> {
+    s: &'s Setup,
+    p: &'s StationParams,
+    period: f64,
+    t_end: f64,
+    /// The last step's index (steps 0..=n).
+    n: usize,
+    /// How far ahead the scheduler looks, s (one orbit).
+    horizon: f64,
+    /// The swap's planner (after an array ORU fault; else the declared timetable).
+    planner: Option<oru_plan::Planner>,
+    plan: Plan,
+    /// Each array's joint values at the previous step.
+    prev: Vec<Vec<f64>>,
+    /// The fixed structure, posed.
+    fixed: Vec<Posed<'s>>,
+    battery: Battery,
+    /// Energy delivered, lost to feathering and parking, and not served, J.
+    energy: f64,
+    lost: f64,
+    unserved: f64,
+    loads: loads::Loads,
+    /// The servicer's consumer (index into the loads' consumers).
+    servicer_load: Option<usize>,
+    rules: scheduler::Scheduler,
+    totals: loads::Totals,
+    /// The eclipses to the end of the run and one horizon beyond.
+    eclipses_ahead: Vec<[f64; 2]>,
+    predicted_windows: Vec<(f64, f64)>,
+    steps: Vec<Step>,
+    /// The attitude (with `--attitude`).
+    att: Option<attitude::Running>,
+}
+
+/// The sun at one step.
+struct Light {
+    /// The step's index and time, s.
+    k: usize,
+    t: f64,
+    /// The sun in the body frame (of the actual attitude when it is integrated, else LVLH),
+    /// and in the commanded attitude's.
+    sun: Vector3<f64>,
+    sun_cmd: Vector3<f64>,
+    eclipse: bool,
+}
+
+/// The servicer at one step: its joint values on the plan, where the ORUs are, its parts posed.
+struct ServicerNow<'s> {
+    q: Vec<f64>,
+    activity: &'static str,
+    oru: OruState,
+    posed: Vec<Posed<'s>>,
+}
+
+/// The servicer's planned sweep around a step: (where the ORUs are, its parts posed) at each
+/// of [`sweep_times`].
+type Sweep<'s> = Vec<(OruState, Vec<Posed<'s>>)>;
+
+/// The arrays at one step: the angles chosen and what they give.
+struct ArraysNow {
+    /// Per array: joint values, cos incidence, feathered.
+    arrays: Vec<(Vec<f64>, f64, bool)>,
+    /// Delivered and tracked (the ideal's) power, W.
+    power: f64,
+    tracked: f64,
+    /// Smallest servicer × array distance outside the serviced array, m, and the pair.
+    clear_min: (f64, (String, String)),
+    blocked: bool,
+    /// The servicer × the parked serviced array, m (∞ when not parked).
+    serviced: f64,
+    /// Per array: delivered and expected power (W, the failed ORU's share), parked.
+    observed: Vec<(f64, f64, bool)>,
+    /// Power lost to the actual attitude and to the gimbals' rate, W.
+    attitude_loss_w: f64,
+    gimbal_loss_w: f64,
+}
+
+impl<'s> Sim<'s> {
+    /// The state at t = 0: the swap's plan, the arrays at their initial angles, the battery,
+    /// the loads and their scheduler (with the fault), the attitude.
+    fn start(s: &'s Setup, p: &'s StationParams) -> Result<Sim<'s>> {
+        let period = s.orbit.period_s();
+        let t_end = p.orbits * period;
+        let n = common::step_count(
+            t_end / p.step_s,
+            &format!(
+                "the station study ({} orbit(s) of {:.0} s at a step of {} s)",
+                p.orbits, period, p.step_s
+            ),
+        )?;
+        // the swap: planned by rules after an array ORU fault, else the declared timetable
+        let planner = oru_plan::Planner::new(s, p)?;
+        let plan = match &planner {
+            Some(_) => Plan {
+                points: vec![(0.0, s.oru.swap.servicer_q0.clone(), "start, stowed")],
+                events: Vec::new(),
+            },
+            None => schedule(s, p.task_start_s)?,
+        };
+        let prev: Vec<Vec<f64>> = s
+            .arrays
+            .iter()
+            .map(|a| s.bodies[a.body].q0.clone())
+            .collect();
+        let battery = Battery {
+            capacity_j: p.battery_j,
+            soc: p.soc0,
+            charge_eff: p.charge_eff,
+            discharge_eff: p.discharge_eff,
+            load_w: p.load_w,
+        };
+        // the loads, their scheduler and the fault (issue 38 items 3-4)
+        let loads = loads::Loads::new(
+            robosim_simulator::consumers::default_consumers(p.load_w),
+            p.experiments.clone(),
+        );
+        let servicer_load = loads
+            .consumers
+            .iter()
+            .position(|c| c.subsystem == "servicer");
+        let fault = p
+            .fault
+            .as_ref()
+            .filter(|f| !oru_plan::is_array_fault(f))
+            .map(|f| faults::EclssFault::new(f, &loads.consumers))
+            .transpose()?;
+        let rules = scheduler::Scheduler::new(p.scheduling, fault)?;
+        // the scheduler looks one orbit ahead
+        let horizon = period;
+        let eclipses_ahead = s
+            .orbit
+            .eclipse_intervals(p.theta0, t_end + horizon, p.step_s);
+        // the attitude (declared effect, with --attitude): started in the configuration at t = 0
+        let att = match &s.attitude {
+            Some(a) => Some(attitude::Running::start(
+                s,
+                a,
+                p,
+                &body_qs(s, &prev, &servicer_at(&plan.points, 0.0).0),
+            )?),
+            None => None,
+        };
+        Ok(Sim {
             s,
-            a,
             p,
-            &body_qs(s, &prev, &servicer_at(sched, 0.0).0),
-        )?),
-        None => None,
-    };
-    for k in 0..=n {
-        let t = (k as f64 * p.step_s).min(t_end);
-        let sched = &plan.points;
+            period,
+            t_end,
+            n,
+            horizon,
+            planner,
+            plan,
+            prev,
+            fixed: common::pose_fixed(&s.fixed),
+            battery,
+            energy: 0.0,
+            lost: 0.0,
+            unserved: 0.0,
+            loads,
+            servicer_load,
+            rules,
+            totals: loads::Totals::default(),
+            eclipses_ahead,
+            predicted_windows: Vec::new(),
+            steps: Vec::with_capacity(n + 1),
+            att,
+        })
+    }
+
+    /// Step `k`: the sun, the servicer, the arrays' angles, the energy over the step just
+    /// ended, the attitude, the swap's planner, the loads' schedule; its record pushed.
+    fn step(&mut self, k: usize) -> Result<()> {
+        let (s, p) = (self.s, self.p);
+        let t = (k as f64 * p.step_s).min(self.t_end);
         let theta = s.orbit.angle(p.theta0, t);
+        let light = self.light(k, t, theta);
+        let sv = self.servicer_now(t)?;
+        let structure = self.structure_clearance(&sv);
+        let sweep = self.servicer_sweep(k, t);
+        let prev_arrays = self.prev.clone();
+        let now = self.place_arrays(&light, &sv, &sweep);
+        self.settle_step_ended(t);
+        // the configuration of this step (arrays, servicer) for the attitude's next interval
+        let att_step = match (self.att.as_mut(), &s.attitude) {
+            (Some(r), Some(a)) => {
+                let qs: Vec<Vec<f64>> = now.arrays.iter().map(|x| x.0.clone()).collect();
+                r.reconfigure(s, a, &body_qs(s, &qs, &sv.q))?;
+                Some(r.record(now.attitude_loss_w, now.gimbal_loss_w))
+            }
+            _ => None,
+        };
+        // the swap's planner: observes this step, its steps executed from the next
+        if let Some(o) = self.planner.as_mut() {
+            o.step(s, p, t, light.eclipse, &now.observed, &mut self.plan)?;
+        }
+        let desat_window =
+            self.schedule_loads(t, now.power, light.eclipse, sv.activity, att_step.as_ref())?;
+        let load_step = self.loads.record();
+        let soc = self.battery.soc;
+        // between the samples: the servicer may sweep more than the keep-out in one step
+        let between = match self.steps.last() {
+            Some(last) => {
+                let q_now: Vec<Vec<f64>> = now.arrays.iter().map(|a| a.0.clone()).collect();
+                between_clearance(s, p, &self.plan, last.t, t, &prev_arrays, &q_now)
+            }
+            None => (f64::INFINITY, Default::default()),
+        };
+        let q_oru_array = &now.arrays[s.oru.array].0;
+        let ost = sv.oru;
+        let oru_at = [ost.failed, ost.spare]
+            .map(|h| Point3::from(oru_frame(s, h, q_oru_array, &sv.q).translation.vector));
+        self.steps.push(Step {
+            t,
+            theta,
+            sun: light.sun,
+            eclipse: light.eclipse,
+            oru: ost,
+            oru_at,
+            clearance_serviced: now.serviced,
+            between_clearance: between.0,
+            between_pair: between.1,
+            arrays: now.arrays,
+            power_w: now.power,
+            tracked_power_w: now.tracked,
+            soc,
+            servicer_q: sv.q,
+            activity: sv.activity,
+            clearance_arrays: now.clear_min.0,
+            clearance_pair: now.clear_min.1,
+            clearance_structure: structure.as_ref().map_or(f64::INFINITY, |c| c.distance),
+            structure_pair: structure.map(|c| (c.a, c.b)).unwrap_or_default(),
+            blocked: now.blocked,
+            attitude: att_step,
+            loads: load_step,
+            desat_window,
+        });
+        Ok(())
+    }
+
+    /// The sun at step `k` (time `t`, orbit angle `theta`): the attitude advanced to `t` first
+    /// when it is integrated.
+    fn light(&mut self, k: usize, t: f64, theta: f64) -> Light {
+        let (s, p) = (self.s, self.p);
         // the sun in the body frame: of the actual attitude when it is integrated, else LVLH
-        let (sun, sun_cmd) = match att.as_mut() {
+        let (sun, sun_cmd) = match self.att.as_mut() {
             Some(r) => {
                 r.advance(t, p.attitude_step_s);
                 (r.model.sun_body(), r.model.sun_commanded(t))
@@ -655,218 +834,232 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                 (sun, sun)
             }
         };
-        let (mut attitude_loss_w, mut gimbal_loss_w) = (0.0, 0.0);
-        let eclipse = s.orbit.eclipse_at(theta);
-        let (sq, activity) = servicer_at(sched, t);
+        Light {
+            k,
+            t,
+            sun,
+            sun_cmd,
+            eclipse: s.orbit.eclipse_at(theta),
+        }
+    }
+
+    /// The servicer at `t` on the plan (its joint values checked against its limits).
+    fn servicer_now(&self, t: f64) -> Result<ServicerNow<'s>> {
+        let s = self.s;
+        let (sq, activity) = servicer_at(&self.plan.points, t);
         let sb = &s.bodies[s.servicer];
         sb.robot
             .check_q(&sq)
             .map_err(|e| StudyError(format!("servicer at t = {t} s: {e}")))?;
-        let ost = oru_state(s, &plan, t);
+        let ost = oru_state(s, &self.plan, t);
         let sposed = servicer_posed(s, &sq, &ost);
-        // the fixed structure with the ORUs set down on it
-        let mut fixed_now = fixed.clone();
-        for (h, part) in [ost.failed, ost.spare].iter().zip(&s.oru.parts) {
+        Ok(ServicerNow {
+            q: sq,
+            activity,
+            oru: ost,
+            posed: sposed,
+        })
+    }
+
+    /// The servicer's clearance to the fixed structure with the ORUs set down on it.
+    fn structure_clearance(&self, sv: &ServicerNow) -> Option<common::Clearance> {
+        let mut fixed_now = self.fixed.clone();
+        for (h, part) in [sv.oru.failed, sv.oru.spare].iter().zip(&self.s.oru.parts) {
             if let Held::Fixed(w) = h {
                 fixed_now.push(posed_oru(part, w));
             }
         }
-        let structure = common::clearance(&sposed, &fixed_now, p.mode);
-        // the servicer's planned sweep over the steps on either side of this sample (with what
-        // it carries then): an array angle chosen here must clear all of it, so that the
-        // motion between two samples — the servicer on its schedule, the array between two
-        // angles that each clear it — keeps the keep-out (the step is not a blind spot)
+        common::clearance(&sv.posed, &fixed_now, self.p.mode)
+    }
+
+    /// The servicer's planned sweep over the steps on either side of step `k` (with what it
+    /// carries then): an array angle chosen here must clear all of it, so that the motion
+    /// between two samples — the servicer on its schedule, the array between two angles that
+    /// each clear it — keeps the keep-out (the step is not a blind spot).
+    fn servicer_sweep(&self, k: usize, t: f64) -> Sweep<'s> {
+        let (s, p, n) = (self.s, self.p, self.n);
+        let sched = &self.plan.points;
         let t_prev = k.checked_sub(1).map(|j| j as f64 * p.step_s);
-        let t_next = (k < n).then(|| ((k + 1) as f64 * p.step_s).min(t_end));
+        let t_next = (k < n).then(|| ((k + 1) as f64 * p.step_s).min(self.t_end));
         let sweep_states: Vec<(f64, OruState)> = sweep_times(s, p, sched, t, t_prev, t_next)
             .into_iter()
-            .map(|tu| (tu, oru_state(s, &plan, tu)))
+            .map(|tu| (tu, oru_state(s, &self.plan, tu)))
             .collect();
-        let sweep: Vec<(OruState, Vec<Posed<'_>>)> = sweep_states
+        sweep_states
             .iter()
             .map(|(tu, o)| (*o, servicer_posed(s, &servicer_at(sched, *tu).0, o)))
-            .collect();
-        let swept_clear = |ai: usize, q: &[f64]| {
-            sweep.iter().all(|(o, posed)| {
-                // parked then: worked on, no keep-out (as between the steps)
-                (o.parked && ai == s.oru.array)
-                    || array_clearance(s, ai, q, posed, o, p.mode)
-                        .is_none_or(|c| c.distance >= p.keep_out_m)
-            })
+            .collect()
+    }
+
+    /// Each array's angles at this step: the serviced array parked, the others tracking the
+    /// sun, feathered where the servicer comes within the keep-out (here or over its sweep),
+    /// rate-limited in the actual attitude; what they deliver.
+    fn place_arrays(&mut self, l: &Light, sv: &ServicerNow, sweep: &Sweep) -> ArraysNow {
+        let (s, p) = (self.s, self.p);
+        let mut now = ArraysNow {
+            arrays: Vec::with_capacity(s.arrays.len()),
+            power: 0.0,
+            tracked: 0.0,
+            clear_min: (f64::INFINITY, (String::new(), String::new())),
+            blocked: false,
+            serviced: f64::INFINITY,
+            observed: Vec::with_capacity(s.arrays.len()),
+            attitude_loss_w: 0.0,
+            gimbal_loss_w: 0.0,
         };
-        let mut serviced = f64::INFINITY;
-        let mut arrays = Vec::with_capacity(s.arrays.len());
-        let (mut power, mut tracked) = (0.0, 0.0);
-        let mut clear_min = (f64::INFINITY, (String::new(), String::new()));
-        let mut blocked = false;
-        let prev_arrays = prev.clone();
-        // per array: delivered and expected power (W, the failed ORU's share), parked
-        let mut observed: Vec<(f64, f64, bool)> = Vec::with_capacity(s.arrays.len());
+        let (sun, eclipse) = (&l.sun, l.eclipse);
         for (ai, a) in s.arrays.iter().enumerate() {
-            let share = planner.as_ref().map_or(1.0, |o| o.share(s, ai, t));
-            let (q, c) = track(s, a, &prev[ai], &sun, p.tracking_tol);
+            let share = self.planner.as_ref().map_or(1.0, |o| o.share(s, ai, l.t));
+            let (q, c) = track(s, a, &self.prev[ai], sun, p.tracking_tol);
             let ideal = a.cells.power_w(s.efficiency, c);
-            if ost.parked && ai == s.oru.array {
-                // parked for the servicer: no tracking, no keep-out (it is worked on), but
-                // its clearance is watched for a contact
-                let qs = s.oru.swap.service_q.clone();
-                let cs = normal_at(s, a, &qs).dot(&sun);
-                serviced = array_clearance(s, ai, &qs, &sposed, &ost, p.mode)
-                    .map_or(f64::INFINITY, |c| c.distance);
-                let w = if eclipse {
-                    0.0
-                } else {
-                    a.cells.power_w(s.efficiency, cs)
-                };
-                observed.push((w * share, w, true));
-                if !eclipse {
-                    power += w * share;
-                    tracked += ideal * share;
-                }
-                prev[ai] = qs.clone();
-                arrays.push((qs, cs, false));
+            if sv.oru.parked && ai == s.oru.array {
+                self.park_serviced(&mut now, l, sv, ai, share, ideal);
                 continue;
             }
             let mut chosen = (q.clone(), c, false);
-            let cl = array_clearance(s, ai, &q, &sposed, &ost, p.mode);
+            let cl = array_clearance(s, ai, &q, &sv.posed, &sv.oru, p.mode);
             let mut cl_d = cl.as_ref().map_or(f64::INFINITY, |c| c.distance);
             let mut pair = cl.map(|c| (c.a, c.b)).unwrap_or_default();
-            if cl_d < p.keep_out_m || !swept_clear(ai, &q) {
-                // feather: the best-powered candidate angle (5° grid on the panel joint, then
-                // on both) that clears the keep-out here and over the servicer's sweep
-                let mut cands: Vec<(f64, Vec<f64>)> = Vec::new();
-                let j = q.len() - 1;
-                for k in 0..72 {
-                    let mut qq = q.clone();
-                    qq[j] = wrap(k as f64 * 5f64.to_radians());
-                    cands.push((normal_at(s, a, &qq).dot(&sun), qq));
-                }
-                if q.len() > 1 {
-                    for k0 in 0..36 {
-                        for k1 in 0..36 {
-                            let mut qq = q.clone();
-                            qq[0] = wrap(k0 as f64 * 10f64.to_radians());
-                            qq[j] = wrap(k1 as f64 * 10f64.to_radians());
-                            cands.push((normal_at(s, a, &qq).dot(&sun), qq));
-                        }
-                    }
-                }
-                cands.sort_by(|x, y| y.0.total_cmp(&x.0));
-                let mut found = false;
-                for (cc, qq) in cands {
-                    let lim_ok = s.bodies[a.body].robot.outside_limits(&qq).is_none();
-                    if !lim_ok {
-                        continue;
-                    }
-                    let c2 = array_clearance(s, ai, &qq, &sposed, &ost, p.mode);
-                    if c2.as_ref().is_none_or(|c2| c2.distance >= p.keep_out_m)
-                        && swept_clear(ai, &qq)
-                    {
-                        let (d2, pair2) = c2.map_or((f64::INFINITY, Default::default()), |c| {
-                            (c.distance, (c.a, c.b))
-                        });
+            if cl_d < p.keep_out_m || !swept_clear(s, p, sweep, ai, &q) {
+                match feather(s, p, ai, &q, sun, sv, sweep) {
+                    Some((qq, cc, d2, pair2)) => {
                         cl_d = d2;
                         pair = pair2;
                         chosen = (qq, cc, true);
-                        found = true;
-                        break;
                     }
-                }
-                if !found {
-                    blocked = true;
+                    None => now.blocked = true,
                 }
             }
             let mut ideal = ideal;
-            if att.is_some() && !chosen.2 {
+            if self.att.is_some() && !chosen.2 {
                 // tracking in the actual attitude: the gimbals follow at their rate; what this
                 // and the attitude cost is against the commanded attitude's ideal
-                let dt = if k > 0 { p.step_s } else { f64::INFINITY };
-                let qa = attitude::rate_limited(&prev[ai], &chosen.0, dt);
-                let ca = normal_at(s, a, &qa).dot(&sun);
-                let (_, c_cmd) = track(s, a, &prev[ai], &sun_cmd, p.tracking_tol);
+                let dt = if l.k > 0 { p.step_s } else { f64::INFINITY };
+                let qa = attitude::rate_limited(&self.prev[ai], &chosen.0, dt);
+                let ca = normal_at(s, a, &qa).dot(sun);
+                let (_, c_cmd) = track(s, a, &self.prev[ai], &l.sun_cmd, p.tracking_tol);
                 chosen = (qa, ca, false);
                 let reached = a.cells.power_w(s.efficiency, ca);
                 if !eclipse {
-                    attitude_loss_w += a.cells.power_w(s.efficiency, c_cmd) - reached;
-                    gimbal_loss_w += ideal - reached;
+                    now.attitude_loss_w += a.cells.power_w(s.efficiency, c_cmd) - reached;
+                    now.gimbal_loss_w += ideal - reached;
                 }
                 ideal = reached;
             }
             let got = a.cells.power_w(s.efficiency, chosen.1);
             let w = if eclipse { 0.0 } else { got };
-            observed.push((w * share, w, false));
+            now.observed.push((w * share, w, false));
             if !eclipse {
-                power += got * share;
-                tracked += ideal * share;
+                now.power += got * share;
+                now.tracked += ideal * share;
             }
-            if cl_d < clear_min.0 {
-                clear_min = (cl_d, pair);
+            if cl_d < now.clear_min.0 {
+                now.clear_min = (cl_d, pair);
             }
-            prev[ai] = chosen.0.clone();
-            arrays.push(chosen);
+            self.prev[ai] = chosen.0.clone();
+            now.arrays.push(chosen);
         }
-        // battery over the step just ended (the power of this step held over the next)
-        if k > 0 {
-            let dt = t - steps.last().map_or(0.0, |s: &Step| s.t);
-            let last = steps.last().map_or(0.0, |s: &Step| s.power_w);
-            let last_tracked = steps.last().map_or(0.0, |s: &Step| s.tracked_power_w);
-            energy += last * dt;
-            lost += (last_tracked - last) * dt;
-            if let Some(prev_step) = steps.last_mut() {
-                // a sensitive experiment running through a desaturation or a docking is disturbed
-                let disturbed = prev_step.attitude.is_some_and(|a| a.dumping)
-                    || p.dockings
-                        .iter()
-                        .any(|d| d[0] <= prev_step.t && prev_step.t < d[1]);
-                let flow = loads.serve(
-                    &mut prev_step.loads,
-                    &mut battery,
-                    last,
-                    dt,
-                    disturbed,
-                    &mut totals,
-                );
-                unserved += flow.unserved_j;
-            }
-            if let (Some(r), Some(la)) =
-                (att.as_mut(), steps.last().and_then(|s: &Step| s.attitude))
-            {
-                r.run.lost_j += la.attitude_loss_w * dt;
-                r.run.gimbal_lost_j += la.gimbal_loss_w * dt;
-            }
-        }
-        // the configuration of this step (arrays, servicer) for the attitude's next interval
-        let att_step = match (att.as_mut(), &s.attitude) {
-            (Some(r), Some(a)) => {
-                let qs: Vec<Vec<f64>> = arrays.iter().map(|x| x.0.clone()).collect();
-                r.reconfigure(s, a, &body_qs(s, &qs, &sq))?;
-                Some(r.record(attitude_loss_w, gimbal_loss_w))
-            }
-            _ => None,
+        now
+    }
+
+    /// The serviced array `ai` parked for the servicer: no tracking, no keep-out (it is worked
+    /// on), but its clearance is watched for a contact.
+    fn park_serviced(
+        &mut self,
+        now: &mut ArraysNow,
+        l: &Light,
+        sv: &ServicerNow,
+        ai: usize,
+        share: f64,
+        ideal: f64,
+    ) {
+        let (s, p) = (self.s, self.p);
+        let a = &s.arrays[ai];
+        let qs = s.oru.swap.service_q.clone();
+        let cs = normal_at(s, a, &qs).dot(&l.sun);
+        now.serviced = array_clearance(s, ai, &qs, &sv.posed, &sv.oru, p.mode)
+            .map_or(f64::INFINITY, |c| c.distance);
+        let w = if l.eclipse {
+            0.0
+        } else {
+            a.cells.power_w(s.efficiency, cs)
         };
-        // the swap's planner: observes this step, its steps executed from the next
-        if let Some(o) = planner.as_mut() {
-            o.step(s, p, t, eclipse, &observed, &mut plan)?;
+        now.observed.push((w * share, w, true));
+        if !l.eclipse {
+            now.power += w * share;
+            now.tracked += ideal * share;
         }
-        // the loads from this step to the next: asked for, scheduled
-        loads.ask(t);
-        if let Some(i) = servicer_load {
+        self.prev[ai] = qs.clone();
+        now.arrays.push((qs, cs, false));
+    }
+
+    /// The battery, energy and loads over the step that ended at `t` (the previous step's
+    /// power held over it), and the attitude's losses over it.
+    fn settle_step_ended(&mut self, t: f64) {
+        if self.steps.is_empty() {
+            return;
+        }
+        let p = self.p;
+        let dt = t - self.steps.last().map_or(0.0, |s: &Step| s.t);
+        let last = self.steps.last().map_or(0.0, |s: &Step| s.power_w);
+        let last_tracked = self.steps.last().map_or(0.0, |s: &Step| s.tracked_power_w);
+        self.energy += last * dt;
+        self.lost += (last_tracked - last) * dt;
+        if let Some(prev_step) = self.steps.last_mut() {
+            // a sensitive experiment running through a desaturation or a docking is disturbed
+            let disturbed = prev_step.attitude.is_some_and(|a| a.dumping)
+                || p.dockings
+                    .iter()
+                    .any(|d| d[0] <= prev_step.t && prev_step.t < d[1]);
+            let flow = self.loads.serve(
+                &mut prev_step.loads,
+                &mut self.battery,
+                last,
+                dt,
+                disturbed,
+                &mut self.totals,
+            );
+            self.unserved += flow.unserved_j;
+        }
+        if let (Some(r), Some(la)) = (
+            self.att.as_mut(),
+            self.steps.last().and_then(|s: &Step| s.attitude),
+        ) {
+            r.run.lost_j += la.attitude_loss_w * dt;
+            r.run.gimbal_lost_j += la.gimbal_loss_w * dt;
+        }
+    }
+
+    /// The loads from `t` to the next step: asked for (the servicer drawing while it works),
+    /// then scheduled by the rules from the energy forecast and the docking and predicted
+    /// desaturation windows; the desaturation window given to them.
+    fn schedule_loads(
+        &mut self,
+        t: f64,
+        power: f64,
+        eclipse: bool,
+        activity: &'static str,
+        att_step: Option<&attitude::AttStep>,
+    ) -> Result<Option<(f64, f64)>> {
+        let (s, p, horizon) = (self.s, self.p, self.horizon);
+        self.loads.ask(t);
+        if let Some(i) = self.servicer_load {
             let active = !matches!(activity, "waiting" | "done");
             let w = if active {
-                loads.consumers[i].full_w
+                self.loads.consumers[i].full_w
             } else {
                 0.0
             };
-            loads.full_w[i] = w;
-            loads.reduced_w[i] = w;
+            self.loads.full_w[i] = w;
+            self.loads.reduced_w[i] = w;
         }
         let mut forecast = loads::Forecast::new(
             t,
             horizon,
-            &eclipses_ahead,
-            predicted_sun_w(&steps, power, eclipse, t, period),
+            &self.eclipses_ahead,
+            predicted_sun_w(&self.steps, power, eclipse, t, self.period),
         );
-        if let Some(o) = planner.as_mut() {
+        if let Some(o) = self.planner.as_mut() {
             forecast = o.forecast(s, p, t, forecast);
         }
         let mut windows: Vec<(&'static str, f64, f64)> = p
@@ -876,17 +1069,18 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
             .map(|d| ("docking", d[0], d[1]))
             .collect();
         let mut desat_window = None;
-        if let (Some(r), Some(a)) = (att.as_ref(), att_step.as_ref())
-            && let Some(w) = attitude::predict_desaturation(&steps, a, r, t, period)
+        if let (Some(r), Some(a)) = (self.att.as_ref(), att_step)
+            && let Some(w) = attitude::predict_desaturation(&self.steps, a, r, t, self.period)
             && w.0 < t + horizon
         {
             desat_window = Some(w);
             windows.push(("desaturation", w.0, w.1));
-            if predicted_windows.last().is_none_or(|l| w.0 > l.1) {
-                predicted_windows.push(w);
+            if self.predicted_windows.last().is_none_or(|l| w.0 > l.1) {
+                self.predicted_windows.push(w);
             }
         }
-        rules.step(
+        let battery = &self.battery;
+        self.rules.step(
             &scheduler::PlanFacts {
                 t,
                 step_s: p.step_s,
@@ -899,74 +1093,102 @@ pub fn simulate(s: &Setup, p: &StationParams) -> Result<Run> {
                 forecast: &forecast,
                 windows: &windows,
             },
-            &mut loads,
+            &mut self.loads,
         )?;
-        let load_step = loads.record();
-        let soc = battery.soc;
-        // between the samples: the servicer may sweep more than the keep-out in one step
-        let between = match steps.last() {
-            Some(last) => {
-                let now: Vec<Vec<f64>> = arrays.iter().map(|a| a.0.clone()).collect();
-                between_clearance(s, p, &plan, last.t, t, &prev_arrays, &now)
-            }
-            None => (f64::INFINITY, Default::default()),
-        };
-        let q_oru_array = &arrays[s.oru.array].0;
-        let oru_at = [ost.failed, ost.spare]
-            .map(|h| Point3::from(oru_frame(s, h, q_oru_array, &sq).translation.vector));
-        steps.push(Step {
-            t,
-            theta,
-            sun,
-            eclipse,
-            oru: ost,
-            oru_at,
-            clearance_serviced: serviced,
-            between_clearance: between.0,
-            between_pair: between.1,
-            arrays,
-            power_w: power,
-            tracked_power_w: tracked,
-            soc,
-            servicer_q: sq,
-            activity,
-            clearance_arrays: clear_min.0,
-            clearance_pair: clear_min.1,
-            clearance_structure: structure.as_ref().map_or(f64::INFINITY, |c| c.distance),
-            structure_pair: structure.map(|c| (c.a, c.b)).unwrap_or_default(),
-            blocked,
-            attitude: att_step,
-            loads: load_step,
-            desat_window,
-        });
+        Ok(desat_window)
     }
-    let rules_ran = rules.has_engine();
-    let (mut decisions, fault) = rules.finish();
-    let swap = planner.map(oru_plan::Planner::finish);
-    if let Some(r) = &swap {
-        decisions.extend(r.decisions.iter().cloned());
-        decisions.sort_by(|a, b| a.t.total_cmp(&b.t));
+
+    /// The run's outcome: the steps, the rules' and the swap planner's decisions in time order.
+    fn finish(self, t0: std::time::Instant) -> Run {
+        let (s, p) = (self.s, self.p);
+        let rules_ran = self.rules.has_engine();
+        let (mut decisions, fault) = self.rules.finish();
+        let swap = self.planner.map(oru_plan::Planner::finish);
+        if let Some(r) = &swap {
+            decisions.extend(r.decisions.iter().cloned());
+            decisions.sort_by(|a, b| a.t.total_cmp(&b.t));
+        }
+        Run {
+            steps: self.steps,
+            period_s: self.period,
+            eclipses: s.orbit.eclipse_intervals(p.theta0, self.t_end, p.step_s),
+            schedule: self.plan.points.clone(),
+            events: self.plan.events.clone(),
+            energy_j: self.energy,
+            lost_j: self.lost,
+            unserved_j: self.unserved,
+            wall_s: t0.elapsed().as_secs_f64(),
+            attitude: self.att.map(attitude::Running::finish),
+            loads: self.loads,
+            totals: self.totals,
+            decisions,
+            scheduling: p.scheduling,
+            rules_ran,
+            fault,
+            predicted_windows: self.predicted_windows,
+            swap,
+        }
     }
-    Ok(Run {
-        steps,
-        period_s: period,
-        eclipses: s.orbit.eclipse_intervals(p.theta0, t_end, p.step_s),
-        schedule: plan.points.clone(),
-        events: plan.events.clone(),
-        energy_j: energy,
-        lost_j: lost,
-        unserved_j: unserved,
-        wall_s: t0.elapsed().as_secs_f64(),
-        attitude: att.map(attitude::Running::finish),
-        loads,
-        totals,
-        decisions,
-        scheduling: p.scheduling,
-        rules_ran,
-        fault,
-        predicted_windows,
-        swap,
+}
+
+/// Whether array `ai` at `q` clears the keep-out over the servicer's whole `sweep` (where the
+/// serviced array is parked then it is worked on: no keep-out, as between the steps).
+fn swept_clear(s: &Setup, p: &StationParams, sweep: &Sweep, ai: usize, q: &[f64]) -> bool {
+    sweep.iter().all(|(o, posed)| {
+        // parked then: worked on, no keep-out (as between the steps)
+        (o.parked && ai == s.oru.array)
+            || array_clearance(s, ai, q, posed, o, p.mode)
+                .is_none_or(|c| c.distance >= p.keep_out_m)
     })
+}
+
+/// Array `ai` feathered from its tracking angles `q`: the best-powered candidate angle (5° grid
+/// on the panel joint, then 10° on both) within its limits that clears the keep-out here and
+/// over the servicer's sweep — (angles, cos incidence, clearance m, pair), None when none does.
+fn feather(
+    s: &Setup,
+    p: &StationParams,
+    ai: usize,
+    q: &[f64],
+    sun: &Vector3<f64>,
+    sv: &ServicerNow,
+    sweep: &Sweep,
+) -> Option<(Vec<f64>, f64, f64, (String, String))> {
+    let a = &s.arrays[ai];
+    let mut cands: Vec<(f64, Vec<f64>)> = Vec::new();
+    let j = q.len() - 1;
+    for k in 0..72 {
+        let mut qq = q.to_vec();
+        qq[j] = wrap(k as f64 * 5f64.to_radians());
+        cands.push((normal_at(s, a, &qq).dot(sun), qq));
+    }
+    if q.len() > 1 {
+        for k0 in 0..36 {
+            for k1 in 0..36 {
+                let mut qq = q.to_vec();
+                qq[0] = wrap(k0 as f64 * 10f64.to_radians());
+                qq[j] = wrap(k1 as f64 * 10f64.to_radians());
+                cands.push((normal_at(s, a, &qq).dot(sun), qq));
+            }
+        }
+    }
+    cands.sort_by(|x, y| y.0.total_cmp(&x.0));
+    for (cc, qq) in cands {
+        let lim_ok = s.bodies[a.body].robot.outside_limits(&qq).is_none();
+        if !lim_ok {
+            continue;
+        }
+        let c2 = array_clearance(s, ai, &qq, &sv.posed, &sv.oru, p.mode);
+        if c2.as_ref().is_none_or(|c2| c2.distance >= p.keep_out_m)
+            && swept_clear(s, p, sweep, ai, &qq)
+        {
+            let (d2, pair2) = c2.map_or((f64::INFINITY, Default::default()), |c| {
+                (c.distance, (c.a, c.b))
+            });
+            return Some((qq, cc, d2, pair2));
+        }
+    }
+    None
 }
 
 /// The sunlit power the power model predicts: the mean delivered over the sunlit steps of the
@@ -1103,7 +1325,62 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
         p.orbits
     );
     let run = simulate(&s, p)?;
-    // --- per-step CSV
+    write_station_csv(&s, p, &run, dir)?;
+    write_trajectories(&s, p, &run, dir)?;
+    // --- summary
+    power_report::write_decisions(dir, &run)?;
+    // the same run without the scheduler: what the rule base is worth
+    let off = if p.scheduling == scheduler::Scheduling::On && p.compare_off {
+        say!(log, "the same run with the scheduler off, for comparison");
+        Some(simulate(
+            &s,
+            &StationParams {
+                scheduling: scheduler::Scheduling::Off,
+                frames: 0,
+                ..p.clone()
+            },
+        )?)
+    } else {
+        None
+    };
+    if !run.rules_ran && !robosim_rules::BUILT_WITH_CLIPS {
+        say!(
+            log,
+            "*** the station's energy scheduler (station_power.clp) did not run: {} ***",
+            robosim_rules::NOT_BUILT
+        );
+    }
+    let summary = summarise_with(&s, p, &run, off.as_ref());
+    for line in &summary.notes {
+        say!(log, "{line}");
+    }
+    robosim_report::write_report(dir, &summary)?;
+    // --- frames
+    if p.frames > 0 {
+        // the robots' trajectories and the ORUs where the swap has them at each step
+        let args = frame_args(&s, &run, dir, p.frames);
+        robosim_display::app::cmd_render(&args)
+            .map_err(|e| StudyError(format!("frames: {}", e.0)))?;
+        say!(log, "frames: {}", dir.join("frames").display());
+    }
+    say!(log, "wrote {}", dir.display());
+    Ok(run)
+}
+
+/// `station.csv`: one row per step ([`station_columns`], [`station_row`]).
+fn write_station_csv(s: &Setup, p: &StationParams, run: &Run, dir: &Path) -> Result<()> {
+    let mut csv = Csv::create(&dir.join("station.csv"), &station_columns(s, run))?;
+    for st in &run.steps {
+        csv.row(&station_row(s, p, run, st))?;
+    }
+    csv.finish()?;
+    Ok(())
+}
+
+/// The columns of `station.csv`: time, orbit and sun; each array's joints, incidence and
+/// feathering; the servicer's joints; power, battery, clearances and the ORUs; the attitude's
+/// (with `--attitude`); the loads' ([`power_report::columns`]).
+fn station_columns(s: &Setup, run: &Run) -> Vec<String> {
     let mut cols: Vec<String> = [
         "t_s",
         "orbit_angle_deg",
@@ -1118,8 +1395,7 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
     .collect();
     for a in &s.arrays {
         let b = &s.bodies[a.body];
-        for (j, ln) in b.link_names.iter().enumerate() {
-            let _ = j;
+        for ln in &b.link_names {
             cols.push(format!("{}_{}_deg", b.name, ln));
         }
         cols.push(format!("{}_incidence_deg", b.name));
@@ -1169,65 +1445,71 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
             cols.push(c.into());
         }
     }
-    cols.extend(power_report::columns(&run));
-    let mut csv = Csv::create(&dir.join("station.csv"), &cols)?;
+    cols.extend(power_report::columns(run));
+    cols
+}
+
+/// One step's row of `station.csv` (infinite clearances written as 1e9).
+fn station_row(s: &Setup, p: &StationParams, run: &Run, st: &Step) -> Vec<f64> {
     let finite = |v: f64| if v.is_finite() { v } else { 1e9 };
-    for st in &run.steps {
-        let mut row = vec![
-            st.t,
-            st.theta.to_degrees(),
-            st.sun.x,
-            st.sun.y,
-            st.sun.z,
-            st.sun.z.clamp(-1.0, 1.0).acos().to_degrees(),
-            st.eclipse as u8 as f64,
-        ];
-        for (q, c, f) in &st.arrays {
-            row.extend(q.iter().map(|v| v.to_degrees()));
-            row.push(c.clamp(-1.0, 1.0).acos().to_degrees());
-            row.push(*f as u8 as f64);
-        }
-        for (v, j) in st.servicer_q.iter().zip(&sb.robot.joints) {
-            row.push(match j.joint_type {
-                robosim_kinematics::JointType::Prismatic => *v,
-                robosim_kinematics::JointType::Revolute => v.to_degrees(),
-            });
-        }
-        row.extend([
-            st.power_w / 1e3,
-            st.tracked_power_w / 1e3,
-            (st.tracked_power_w - st.power_w) / 1e3,
-            st.soc,
-            st.soc * p.battery_j / 3.6e6,
-            finite(st.clearance_arrays),
-            finite(st.between_clearance),
-            finite(st.clearance_structure),
-            st.blocked as u8 as f64,
-            st.oru.parked as u8 as f64,
-            finite(st.clearance_serviced),
-        ]);
-        for at in &st.oru_at {
-            row.extend([at.x, at.y, at.z]);
-        }
-        if let Some(a) = &st.attitude {
-            row.extend([
-                a.error_deg,
-                a.h_nms,
-                a.h_fraction,
-                a.dumping as u8 as f64,
-                a.accel_ug,
-                a.inertia[0],
-                a.inertia[1],
-                a.inertia[2],
-                a.drag_area_m2,
-                a.attitude_loss_w / 1e3,
-            ]);
-        }
-        row.extend(power_report::row(&run, st));
-        csv.row(&row)?;
+    let sb = &s.bodies[s.servicer];
+    let mut row = vec![
+        st.t,
+        st.theta.to_degrees(),
+        st.sun.x,
+        st.sun.y,
+        st.sun.z,
+        st.sun.z.clamp(-1.0, 1.0).acos().to_degrees(),
+        st.eclipse as u8 as f64,
+    ];
+    for (q, c, f) in &st.arrays {
+        row.extend(q.iter().map(|v| v.to_degrees()));
+        row.push(c.clamp(-1.0, 1.0).acos().to_degrees());
+        row.push(*f as u8 as f64);
     }
-    csv.finish()?;
-    // --- trajectories (display file mode) for every robot
+    for (v, j) in st.servicer_q.iter().zip(&sb.robot.joints) {
+        row.push(match j.joint_type {
+            robosim_kinematics::JointType::Prismatic => *v,
+            robosim_kinematics::JointType::Revolute => v.to_degrees(),
+        });
+    }
+    row.extend([
+        st.power_w / 1e3,
+        st.tracked_power_w / 1e3,
+        (st.tracked_power_w - st.power_w) / 1e3,
+        st.soc,
+        st.soc * p.battery_j / 3.6e6,
+        finite(st.clearance_arrays),
+        finite(st.between_clearance),
+        finite(st.clearance_structure),
+        st.blocked as u8 as f64,
+        st.oru.parked as u8 as f64,
+        finite(st.clearance_serviced),
+    ]);
+    for at in &st.oru_at {
+        row.extend([at.x, at.y, at.z]);
+    }
+    if let Some(a) = &st.attitude {
+        row.extend([
+            a.error_deg,
+            a.h_nms,
+            a.h_fraction,
+            a.dumping as u8 as f64,
+            a.accel_ug,
+            a.inertia[0],
+            a.inertia[1],
+            a.inertia[2],
+            a.drag_area_m2,
+            a.attitude_loss_w / 1e3,
+        ]);
+    }
+    row.extend(power_report::row(run, st));
+    row
+}
+
+/// A trajectory file (display file mode) for every robot: the servicer's and the arrays'
+/// joint values at each step, the others' held.
+fn write_trajectories(s: &Setup, p: &StationParams, run: &Run, dir: &Path) -> Result<()> {
     for (bi, b) in s.bodies.iter().enumerate() {
         let samples: Vec<Vec<f64>> = run
             .steps
@@ -1245,44 +1527,7 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
         let path = dir.join(format!("{}.traj", b.name));
         common::write_trajectory(&path, &b.robot, p.step_s, &samples)?;
     }
-    // --- summary
-    power_report::write_decisions(dir, &run)?;
-    // the same run without the scheduler: what the rule base is worth
-    let off = if p.scheduling == scheduler::Scheduling::On && p.compare_off {
-        say!(log, "the same run with the scheduler off, for comparison");
-        Some(simulate(
-            &s,
-            &StationParams {
-                scheduling: scheduler::Scheduling::Off,
-                frames: 0,
-                ..p.clone()
-            },
-        )?)
-    } else {
-        None
-    };
-    if !run.rules_ran && !robosim_rules::BUILT_WITH_CLIPS {
-        say!(
-            log,
-            "*** the station's energy scheduler (station_power.clp) did not run: {} ***",
-            robosim_rules::NOT_BUILT
-        );
-    }
-    let summary = summarise_with(&s, p, &run, off.as_ref());
-    for line in &summary.notes {
-        say!(log, "{line}");
-    }
-    robosim_report::write_report(dir, &summary)?;
-    // --- frames
-    if p.frames > 0 {
-        // the robots' trajectories and the ORUs where the swap has them at each step
-        let args = frame_args(&s, &run, dir, p.frames);
-        robosim_display::app::cmd_render(&args)
-            .map_err(|e| StudyError(format!("frames: {}", e.0)))?;
-        say!(log, "frames: {}", dir.join("frames").display());
-    }
-    say!(log, "wrote {}", dir.display());
-    Ok(run)
+    Ok(())
 }
 
 /// The ORUs' world poses at every step of `run` as the display's pose tracks: each ORU object
@@ -1929,7 +2174,6 @@ fn summary_plots(s: &Setup, run: &Run) -> Vec<robosim_report::Plot> {
 /// "What accuracy costs in time": the study run at several steps and collision modes, each
 /// against the finest exact run; written as `station_accuracy.{md,csv,png}`.
 pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_report::Report> {
-    use robosim_report::{Plot, Report, Series, Table};
     let s = setup(p)?;
     let mut rows = Vec::new();
     let fine_step = steps.iter().copied().fold(f64::INFINITY, f64::min);
@@ -1941,6 +2185,48 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
             ..p.clone()
         },
     )?;
+    let mut time_pts = Vec::new();
+    let mut energy_pts = Vec::new();
+    for (mode, tol) in [
+        (Mode::Exact, p.tracking_tol),
+        (Mode::BBox, p.tracking_tol),
+        (Mode::Exact, 1e-2),
+    ] {
+        for &h in steps {
+            let r = simulate(
+                &s,
+                &StationParams {
+                    step_s: h,
+                    mode,
+                    tracking_tol: tol,
+                    frames: 0,
+                    ..p.clone()
+                },
+            )?;
+            let de = (r.energy_j - reference.energy_j).abs() / reference.energy_j.max(1.0);
+            let ms = r.wall_s * 1e3;
+            let label = format!("{} tol {:.0e}", mode_name(mode), tol);
+            time_pts.push((label.clone(), h, ms));
+            energy_pts.push((label.clone(), h, de));
+            rows.push(accuracy_row(&s, p, &r, (mode, tol, h), de));
+        }
+    }
+    let report = accuracy_report(p, fine_step, rows, &energy_pts, &time_pts);
+    robosim_report::write_report(dir, &report)?;
+    Ok(report)
+}
+
+/// One row of the accuracy table: the run `r` at (collision mode, tracking tolerance, step),
+/// its energy's relative error `de` against the finest run; its eclipse (sampled fraction,
+/// entry seen late), clearances at and between the steps, feathered and blocked steps, wall
+/// time.
+fn accuracy_row(
+    s: &Setup,
+    p: &StationParams,
+    r: &Run,
+    (mode, tol, h): (Mode, f64, f64),
+    de: f64,
+) -> Vec<String> {
     // the eclipse entry as the steps see it (first step in shadow) against the bisected one
     let entry_err = |r: &Run| {
         let first = r.steps.iter().find(|x| x.eclipse).map(|x| x.t);
@@ -1961,63 +2247,51 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
             .map(|st| st.between_clearance)
             .fold(f64::INFINITY, f64::min)
     };
-    let mut time_pts = Vec::new();
-    let mut energy_pts = Vec::new();
-    for (mode, tol) in [
-        (Mode::Exact, p.tracking_tol),
-        (Mode::BBox, p.tracking_tol),
-        (Mode::Exact, 1e-2),
-    ] {
-        for &h in steps {
-            let r = simulate(
-                &s,
-                &StationParams {
-                    step_s: h,
-                    mode,
-                    tracking_tol: tol,
-                    frames: 0,
-                    ..p.clone()
-                },
-            )?;
-            let de = (r.energy_j - reference.energy_j).abs() / reference.energy_j.max(1.0);
-            let sampled_eclipse =
-                r.steps.iter().filter(|st| st.eclipse).count() as f64 / r.steps.len().max(1) as f64;
-            let ms = r.wall_s * 1e3;
-            let label = format!("{} tol {:.0e}", mode_name(mode), tol);
-            time_pts.push((label.clone(), h, ms));
-            energy_pts.push((label.clone(), h, de));
-            rows.push(vec![
-                mode_name(mode).to_owned(),
-                format!("{tol:.0e}"),
-                format!("{h}"),
-                format!("{}", r.steps.len()),
-                format!("{de:.2e}"),
-                format!(
-                    "{:.2e}",
-                    (sampled_eclipse - s.orbit.eclipse_fraction_closed_form()).abs()
-                ),
-                format!("{:.1}", entry_err(&r)),
-                format!("{:.3}", min_cl(&r)),
-                format!("{:.3}", min_between(&r)),
-                format!(
-                    "{}",
-                    r.steps
-                        .iter()
-                        .filter(|st| st.between_clearance < p.keep_out_m)
-                        .count()
-                ),
-                format!(
-                    "{}",
-                    r.steps
-                        .iter()
-                        .filter(|st| st.arrays.iter().any(|a| a.2))
-                        .count()
-                ),
-                format!("{}", r.steps.iter().filter(|st| st.blocked).count()),
-                format!("{ms:.1}"),
-            ]);
-        }
-    }
+    let sampled_eclipse =
+        r.steps.iter().filter(|st| st.eclipse).count() as f64 / r.steps.len().max(1) as f64;
+    let ms = r.wall_s * 1e3;
+    vec![
+        mode_name(mode).to_owned(),
+        format!("{tol:.0e}"),
+        format!("{h}"),
+        format!("{}", r.steps.len()),
+        format!("{de:.2e}"),
+        format!(
+            "{:.2e}",
+            (sampled_eclipse - s.orbit.eclipse_fraction_closed_form()).abs()
+        ),
+        format!("{:.1}", entry_err(r)),
+        format!("{:.3}", min_cl(r)),
+        format!("{:.3}", min_between(r)),
+        format!(
+            "{}",
+            r.steps
+                .iter()
+                .filter(|st| st.between_clearance < p.keep_out_m)
+                .count()
+        ),
+        format!(
+            "{}",
+            r.steps
+                .iter()
+                .filter(|st| st.arrays.iter().any(|a| a.2))
+                .count()
+        ),
+        format!("{}", r.steps.iter().filter(|st| st.blocked).count()),
+        format!("{ms:.1}"),
+    ]
+}
+
+/// The accuracy report: its note, the table of `rows`, energy error and wall time against
+/// the step (one series per mode and tolerance).
+fn accuracy_report(
+    p: &StationParams,
+    fine_step: f64,
+    rows: Vec<Vec<String>>,
+    energy_pts: &[(String, f64, f64)],
+    time_pts: &[(String, f64, f64)],
+) -> robosim_report::Report {
+    use robosim_report::{Plot, Report, Series, Table};
     let group = |pts: &[(String, f64, f64)]| {
         let mut labels: Vec<String> = pts.iter().map(|p| p.0.clone()).collect();
         labels.dedup();
@@ -2033,7 +2307,7 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
             })
             .collect::<Vec<_>>()
     };
-    let report = Report {
+    Report {
         name: "station_accuracy".into(),
         title: "Space Station study: what accuracy costs in time".into(),
         notes: vec![format!(
@@ -2065,7 +2339,7 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
                 y_label: "relative error".into(),
                 log_x: true,
                 log_y: true,
-                series: group(&energy_pts),
+                series: group(energy_pts),
             },
             Plot {
                 title: "Wall time against step".into(),
@@ -2073,10 +2347,8 @@ pub fn accuracy(p: &StationParams, dir: &Path, steps: &[f64]) -> Result<robosim_
                 y_label: "wall time (ms)".into(),
                 log_x: true,
                 log_y: true,
-                series: group(&time_pts),
+                series: group(time_pts),
             },
         ],
-    };
-    robosim_report::write_report(dir, &report)?;
-    Ok(report)
+    }
 }

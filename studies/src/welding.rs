@@ -647,23 +647,66 @@ fn measure(
 /// limits before each seam, from the scene's start pose).
 pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
     let t0 = std::time::Instant::now();
-    let mut steps: Vec<Step> = Vec::new();
-    let mut qa = s.arm.q0.clone();
-    let mut qp = s.positioner.q0.clone();
-    let mut t = 0.0;
-    let mut roll = 0.0;
-    let (mut mid_dh, mut mid_tip) = (0.0f64, 0.0f64);
-    let speed_ratio = |a: &[f64], b: &[f64], v: &[f64], dt: f64| {
-        a.iter()
-            .zip(b)
-            .zip(v)
-            .map(|((x, y), v)| (x - y).abs() / dt / v)
-            .fold(0.0, f64::max)
+    let mut w = Welder {
+        s,
+        p,
+        steps: Vec::new(),
+        qa: s.arm.q0.clone(),
+        qp: s.positioner.q0.clone(),
+        t: 0.0,
+        roll: 0.0,
+        mid_dh: 0.0,
+        mid_tip: 0.0,
     };
     for (si, seam) in s.seams.iter().enumerate() {
+        w.reposition(si, seam)?;
+        w.weld(si, seam)?;
+    }
+    Ok(Run {
+        steps: w.steps,
+        wall_s: t0.elapsed().as_secs_f64(),
+        mid_downhand: w.mid_dh,
+        mid_tip: w.mid_tip,
+    })
+}
+
+/// The largest joint speed from `b` to `a` over `dt` as a fraction of the limits `v`.
+fn speed_ratio(a: &[f64], b: &[f64], v: &[f64], dt: f64) -> f64 {
+    a.iter()
+        .zip(b)
+        .zip(v)
+        .map(|((x, y), v)| (x - y).abs() / dt / v)
+        .fold(0.0, f64::max)
+}
+
+/// The cell as the run leaves it step by step: the steps so far, the joint values, the
+/// clock, the torch roll kept for continuity, the worst mid-step errors.
+struct Welder<'s> {
+    s: &'s Setup,
+    p: &'s WeldingParams,
+    steps: Vec<Step>,
+    /// The arm's and the positioner's joint values now.
+    qa: Vec<f64>,
+    qp: Vec<f64>,
+    /// The time now, s.
+    t: f64,
+    /// The torch roll about its axis of the last IK solution, rad.
+    roll: f64,
+    /// The worst downhand error and tip error at mid-step (of steps without a problem).
+    mid_dh: f64,
+    mid_tip: f64,
+}
+
+impl Welder<'_> {
+    /// Moves to seam `si`'s first weld pose in joint space at the speed limits: the arm back
+    /// to a retracted pose, the positioner to the seam's first downhand pose, the arm to a
+    /// pose 80 mm back along the torch axis, then in to the weld start (no move where the arm
+    /// reaches neither pose).
+    fn reposition(&mut self, si: usize, seam: &Seam) -> Result<()> {
+        let (s, p) = (self.s, self.p);
         // the first weld pose
         let (pt0, t0v, n0, _) = seam.at(0.0);
-        let (qp1, _) = downhand(s, &n0, &qp, p.positioner_tol);
+        let (qp1, _) = downhand(s, &n0, &self.qp, p.positioner_tol);
         let tp = table_pose(s, &qp1);
         let r = rot(&tp);
         let start_arm = arm_ik(
@@ -694,78 +737,90 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
                 )
             });
         if let Ok((_, r0)) = &start_arm {
-            roll = *r0;
+            self.roll = *r0;
         }
-        // reposition in joint space at the speed limits: the arm back to a retracted pose, the
-        // positioner to the seam's first downhand pose, the arm to a pose 80 mm back along the
-        // torch axis, then in to the weld start
         if let (Ok((qa1, _)), Ok((qa_app, _))) = (&start_arm, &approach) {
-            let safe = retract(s, p, &qp, &qp1);
+            let safe = retract(s, p, &self.qp, &qp1);
             let segments: [(Vec<f64>, Vec<f64>); 4] = [
-                (safe.clone(), qp.clone()),
+                (safe.clone(), self.qp.clone()),
                 (safe, qp1.clone()),
                 (qa_app.clone(), qp1.clone()),
                 (qa1.clone(), qp1.clone()),
             ];
             for (qa_to, qp_to) in segments {
-                let dur = qa
-                    .iter()
-                    .zip(&qa_to)
-                    .zip(&p.arm_speed)
-                    .chain(qp.iter().zip(&qp_to).zip(&p.positioner_speed))
-                    .map(|((a, b), v)| (b - a).abs() / v)
-                    .fold(0.0, f64::max);
-                if dur == 0.0 {
-                    continue;
-                }
-                let n = common::step_count(
-                    dur / p.step_s,
-                    &format!("a {dur:.1} s move at a step of {} s", p.step_s),
-                )?
-                .max(1);
-                let (qa0, qp0) = (qa.clone(), qp.clone());
-                for k in 1..=n {
-                    let u = k as f64 / n as f64;
-                    let qa_k: Vec<f64> = qa0
-                        .iter()
-                        .zip(&qa_to)
-                        .map(|(a, b)| a + u * (b - a))
-                        .collect();
-                    let qp_k: Vec<f64> = qp0
-                        .iter()
-                        .zip(&qp_to)
-                        .map(|(a, b)| a + u * (b - a))
-                        .collect();
-                    t += p.step_s;
-                    let (cl, pair) = clearance(s, p, &qa_k, &qp_k);
-                    steps.push(Step {
-                        t,
-                        seam: si,
-                        s: -1.0,
-                        arm_speed_ratio: speed_ratio(&qa_k, &qa, &p.arm_speed, p.step_s),
-                        pos_speed_ratio: speed_ratio(&qp_k, &qp, &p.positioner_speed, p.step_s),
-                        q_arm: qa_k.clone(),
-                        q_pos: qp_k.clone(),
-                        downhand_err: 0.0,
-                        work_angle: 0.0,
-                        work_err: 0.0,
-                        travel_angle: 0.0,
-                        travel_err: 0.0,
-                        tip_err: 0.0,
-                        problem: if cl <= 0.0 {
-                            format!("repositioning: contact {} × {}", pair.0, pair.1)
-                        } else {
-                            String::new()
-                        },
-                        clearance: cl,
-                        clearance_pair: pair,
-                    });
-                    qa = qa_k;
-                    qp = qp_k;
-                }
+                self.move_to(si, &qa_to, &qp_to)?;
             }
         }
-        // weld
+        Ok(())
+    }
+
+    /// One repositioning move to (`qa_to`, `qp_to`), interpolated in joint space over as many
+    /// steps as the slowest joint at its speed limit needs; each step's clearance checked.
+    fn move_to(&mut self, si: usize, qa_to: &[f64], qp_to: &[f64]) -> Result<()> {
+        let (s, p) = (self.s, self.p);
+        let dur = self
+            .qa
+            .iter()
+            .zip(qa_to)
+            .zip(&p.arm_speed)
+            .chain(self.qp.iter().zip(qp_to).zip(&p.positioner_speed))
+            .map(|((a, b), v)| (b - a).abs() / v)
+            .fold(0.0, f64::max);
+        if dur == 0.0 {
+            return Ok(());
+        }
+        let n = common::step_count(
+            dur / p.step_s,
+            &format!("a {dur:.1} s move at a step of {} s", p.step_s),
+        )?
+        .max(1);
+        let (qa0, qp0) = (self.qa.clone(), self.qp.clone());
+        for k in 1..=n {
+            let u = k as f64 / n as f64;
+            let qa_k: Vec<f64> = qa0
+                .iter()
+                .zip(qa_to)
+                .map(|(a, b)| a + u * (b - a))
+                .collect();
+            let qp_k: Vec<f64> = qp0
+                .iter()
+                .zip(qp_to)
+                .map(|(a, b)| a + u * (b - a))
+                .collect();
+            self.t += p.step_s;
+            let (cl, pair) = clearance(s, p, &qa_k, &qp_k);
+            self.steps.push(Step {
+                t: self.t,
+                seam: si,
+                s: -1.0,
+                arm_speed_ratio: speed_ratio(&qa_k, &self.qa, &p.arm_speed, p.step_s),
+                pos_speed_ratio: speed_ratio(&qp_k, &self.qp, &p.positioner_speed, p.step_s),
+                q_arm: qa_k.clone(),
+                q_pos: qp_k.clone(),
+                downhand_err: 0.0,
+                work_angle: 0.0,
+                work_err: 0.0,
+                travel_angle: 0.0,
+                travel_err: 0.0,
+                tip_err: 0.0,
+                problem: if cl <= 0.0 {
+                    format!("repositioning: contact {} × {}", pair.0, pair.1)
+                } else {
+                    String::new()
+                },
+                clearance: cl,
+                clearance_pair: pair,
+            });
+            self.qa = qa_k;
+            self.qp = qp_k;
+        }
+        Ok(())
+    }
+
+    /// Welds seam `si` at the travel speed: a step every `step_s` along it, the last one on
+    /// its end.
+    fn weld(&mut self, si: usize, seam: &Seam) -> Result<()> {
+        let p = self.p;
         let len = seam.length();
         let n = common::step_count(
             len / p.speed_m_s / p.step_s,
@@ -779,105 +834,118 @@ pub fn simulate(s: &Setup, p: &WeldingParams) -> Result<Run> {
         for k in 0..=n {
             let sarc = (k as f64 * p.speed_m_s * p.step_s).min(len);
             if k > 0 {
-                t += p.step_s;
+                self.t += p.step_s;
             }
-            let (pt, tv, nv, _) = seam.at(sarc);
-            let (qp_k, dh) = downhand(s, &nv, &qp, p.positioner_tol);
-            let mut problem = String::new();
-            if dh > p.downhand_tol {
-                problem = format!(
-                    "not downhand: the positioner's limits leave the seam normal {:.1}° from vertical (tolerance {:.1}°)",
-                    dh.to_degrees(),
-                    p.downhand_tol.to_degrees()
-                );
-            }
-            let tp = table_pose(s, &qp_k);
-            let r = rot(&tp);
-            let qa_k = match arm_ik(
-                s,
-                p,
-                &tp.transform_point(&pt),
-                &(r * tv),
-                &(r * nv),
-                &qa,
-                &qp_k,
-                p.standoff_m,
-                roll,
-            ) {
-                Ok((q, r1)) => {
-                    roll = r1;
-                    q
-                }
-                Err(why) => {
-                    if problem.is_empty() {
-                        problem = format!("arm: {why}");
-                    }
-                    qa.clone()
-                }
-            };
-            // mid-step check of the joint interpolation (accuracy between steps)
-            if k > 0 {
-                let qa_m: Vec<f64> = qa.iter().zip(&qa_k).map(|(a, b)| 0.5 * (a + b)).collect();
-                let qp_m: Vec<f64> = qp.iter().zip(&qp_k).map(|(a, b)| 0.5 * (a + b)).collect();
-                // the seam point half way between the two samples (the last step of a seam is
-                // shortened to end on the seam's end, so not sarc − v·h/2)
-                let s_m = 0.5 * (s_prev + sarc);
-                let m = measure(s, p, seam, s_m, &qa_m, &qp_m);
-                if problem.is_empty() {
-                    mid_dh = mid_dh.max(m[0]);
-                    mid_tip = mid_tip.max(m[5]);
-                }
-            }
-            let m = measure(s, p, seam, sarc, &qa_k, &qp_k);
-            let (cl, pair) = clearance(s, p, &qa_k, &qp_k);
-            if problem.is_empty() && cl <= 0.0 {
-                problem = format!("contact: {} × {}", pair.0, pair.1);
-            }
-            let (ar, pr) = if k > 0 {
-                (
-                    speed_ratio(&qa_k, &qa, &p.arm_speed, p.step_s),
-                    speed_ratio(&qp_k, &qp, &p.positioner_speed, p.step_s),
-                )
-            } else {
-                (0.0, 0.0)
-            };
-            if problem.is_empty() && (ar > 1.0 || pr > 1.0) {
-                problem = format!(
-                    "joint speed over the limit ({:.0} % arm, {:.0} % positioner) at {:.1} mm/s",
-                    ar * 100.0,
-                    pr * 100.0,
-                    p.speed_m_s * 1e3
-                );
-            }
-            steps.push(Step {
-                t,
-                seam: si,
-                s: sarc,
-                q_arm: qa_k.clone(),
-                q_pos: qp_k.clone(),
-                downhand_err: m[0],
-                work_angle: m[1],
-                work_err: m[2],
-                travel_angle: m[3],
-                travel_err: m[4],
-                tip_err: m[5],
-                arm_speed_ratio: ar,
-                pos_speed_ratio: pr,
-                clearance: cl,
-                clearance_pair: pair,
-                problem,
-            });
-            qa = qa_k;
-            qp = qp_k;
+            self.weld_step(si, seam, k, s_prev, sarc);
             s_prev = sarc;
         }
+        Ok(())
     }
-    Ok(Run {
-        steps,
-        wall_s: t0.elapsed().as_secs_f64(),
-        mid_downhand: mid_dh,
-        mid_tip,
-    })
+
+    /// Weld step `k` at arc length `sarc` (the previous step's at `s_prev`): the positioner
+    /// downhand, the arm's IK near the last roll, the mid-step check, the clearance and the
+    /// joint speeds; the first problem found is recorded with the step.
+    fn weld_step(&mut self, si: usize, seam: &Seam, k: usize, s_prev: f64, sarc: f64) {
+        let (s, p) = (self.s, self.p);
+        let (pt, tv, nv, _) = seam.at(sarc);
+        let (qp_k, dh) = downhand(s, &nv, &self.qp, p.positioner_tol);
+        let mut problem = String::new();
+        if dh > p.downhand_tol {
+            problem = format!(
+                "not downhand: the positioner's limits leave the seam normal {:.1}° from vertical (tolerance {:.1}°)",
+                dh.to_degrees(),
+                p.downhand_tol.to_degrees()
+            );
+        }
+        let tp = table_pose(s, &qp_k);
+        let r = rot(&tp);
+        let qa_k = match arm_ik(
+            s,
+            p,
+            &tp.transform_point(&pt),
+            &(r * tv),
+            &(r * nv),
+            &self.qa,
+            &qp_k,
+            p.standoff_m,
+            self.roll,
+        ) {
+            Ok((q, r1)) => {
+                self.roll = r1;
+                q
+            }
+            Err(why) => {
+                if problem.is_empty() {
+                    problem = format!("arm: {why}");
+                }
+                self.qa.clone()
+            }
+        };
+        // mid-step check of the joint interpolation (accuracy between steps)
+        if k > 0 {
+            let qa_m: Vec<f64> = self
+                .qa
+                .iter()
+                .zip(&qa_k)
+                .map(|(a, b)| 0.5 * (a + b))
+                .collect();
+            let qp_m: Vec<f64> = self
+                .qp
+                .iter()
+                .zip(&qp_k)
+                .map(|(a, b)| 0.5 * (a + b))
+                .collect();
+            // the seam point half way between the two samples (the last step of a seam is
+            // shortened to end on the seam's end, so not sarc − v·h/2)
+            let s_m = 0.5 * (s_prev + sarc);
+            let m = measure(s, p, seam, s_m, &qa_m, &qp_m);
+            if problem.is_empty() {
+                self.mid_dh = self.mid_dh.max(m[0]);
+                self.mid_tip = self.mid_tip.max(m[5]);
+            }
+        }
+        let m = measure(s, p, seam, sarc, &qa_k, &qp_k);
+        let (cl, pair) = clearance(s, p, &qa_k, &qp_k);
+        if problem.is_empty() && cl <= 0.0 {
+            problem = format!("contact: {} × {}", pair.0, pair.1);
+        }
+        let (ar, pr) = if k > 0 {
+            (
+                speed_ratio(&qa_k, &self.qa, &p.arm_speed, p.step_s),
+                speed_ratio(&qp_k, &self.qp, &p.positioner_speed, p.step_s),
+            )
+        } else {
+            (0.0, 0.0)
+        };
+        if problem.is_empty() && (ar > 1.0 || pr > 1.0) {
+            problem = format!(
+                "joint speed over the limit ({:.0} % arm, {:.0} % positioner) at {:.1} mm/s",
+                ar * 100.0,
+                pr * 100.0,
+                p.speed_m_s * 1e3
+            );
+        }
+        self.steps.push(Step {
+            t: self.t,
+            seam: si,
+            s: sarc,
+            q_arm: qa_k.clone(),
+            q_pos: qp_k.clone(),
+            downhand_err: m[0],
+            work_angle: m[1],
+            work_err: m[2],
+            travel_angle: m[3],
+            travel_err: m[4],
+            tip_err: m[5],
+            arm_speed_ratio: ar,
+            pos_speed_ratio: pr,
+            clearance: cl,
+            clearance_pair: pair,
+            problem,
+        });
+        self.qa = qa_k;
+        self.qp = qp_k;
+    }
 }
 
 /// The retracted arm pose for repositioning: the scene's start pose with the shoulder and elbow
@@ -1086,7 +1154,36 @@ fn weld_steps(run: &Run) -> impl Iterator<Item = &Step> {
 
 /// The summary: per seam coverage, worst errors, clearance, cycle time; sections; plots.
 pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Report {
-    use robosim_report::{Plot, Report, Series, Table};
+    use robosim_report::{Report, Table};
+    let rows = summary_rows(s, run);
+    let notes = summary_notes(s, p, run);
+    let plots = summary_plots(s, run);
+    Report {
+        name: "welding_summary".into(),
+        title: "Downhand welding study: seams, torch angles, clearances, cycle time".into(),
+        notes,
+        table: Table {
+            columns: vec![
+                "seam".into(),
+                "length (mm)".into(),
+                "covered (%)".into(),
+                "worst downhand error (deg)".into(),
+                "worst work angle error (deg)".into(),
+                "worst travel angle error (deg)".into(),
+                "worst tip error (mm)".into(),
+                "min clearance (mm)".into(),
+                "worst speed / limit".into(),
+                "time (s)".into(),
+            ],
+            rows,
+        },
+        plots,
+    }
+}
+
+/// The summary table's rows: per seam (length, covered, worst errors, clearance, speed,
+/// time), then the cell's.
+fn summary_rows(s: &Setup, run: &Run) -> Vec<Vec<String>> {
     let mut rows = Vec::new();
     for (si, seam) in s.seams.iter().enumerate() {
         let st: Vec<&Step> = weld_steps(run).filter(|x| x.seam == si).collect();
@@ -1136,6 +1233,11 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
         String::new(),
         format!("{cycle:.1}"),
     ]);
+    rows
+}
+/// The summary's notes: the scene and the coordination, the mid-step errors, the infeasible
+/// sections.
+fn summary_notes(s: &Setup, p: &WeldingParams, run: &Run) -> Vec<String> {
     let mut notes = vec![format!(
         "Scene `{SCENE}` (effects: kinematics, joint limits, collision {}). Coordination per step: positioner from the downhand condition (seam normal up; tilt scan + golden section, table angle in closed form), then the arm's analytic IK over torch rolls (near the previous roll first), the collision-free solution nearest the previous step kept (branch continuity). Targets: travel (push) angle {:.0}°, work angle along the joint's bisector, standoff {:.0} mm, downhand tolerance {:.0}°; speed limits arm {:?}°/s, positioner {:?}°/s. See docs/studies.md.",
         match p.mode {
@@ -1161,6 +1263,12 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
     for (seam, a, b, why) in secs {
         notes.push(format!("Infeasible: {seam} seam {a:.1}–{b:.1} %: {why}."));
     }
+    notes
+}
+/// The summary's plots against time: torch and downhand errors, joint values, clearance,
+/// joint speed against the limits.
+fn summary_plots(s: &Setup, run: &Run) -> Vec<robosim_report::Plot> {
+    use robosim_report::{Plot, Series};
     let series = |label: &str, f: &dyn Fn(&Step) -> f64| Series {
         label: label.into(),
         points: weld_steps(run).map(|st| (st.t, f(st))).collect(),
@@ -1186,7 +1294,7 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
                 .collect(),
         });
     }
-    let plots = vec![
+    vec![
         Plot {
             title: "Torch angle and downhand errors (welding steps)".into(),
             x_label: "t (s)".into(),
@@ -1229,28 +1337,7 @@ pub fn summarise(s: &Setup, p: &WeldingParams, run: &Run) -> robosim_report::Rep
             ],
             ..Plot::default()
         },
-    ];
-    Report {
-        name: "welding_summary".into(),
-        title: "Downhand welding study: seams, torch angles, clearances, cycle time".into(),
-        notes,
-        table: Table {
-            columns: vec![
-                "seam".into(),
-                "length (mm)".into(),
-                "covered (%)".into(),
-                "worst downhand error (deg)".into(),
-                "worst work angle error (deg)".into(),
-                "worst travel angle error (deg)".into(),
-                "worst tip error (mm)".into(),
-                "min clearance (mm)".into(),
-                "worst speed / limit".into(),
-                "time (s)".into(),
-            ],
-            rows,
-        },
-        plots,
-    }
+    ]
 }
 
 /// "What accuracy costs in time": the study at each of `steps` (s) in three collision modes,

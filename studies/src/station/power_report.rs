@@ -231,13 +231,47 @@ pub fn experiments_total(run: &Run) -> (usize, usize, usize, usize, usize, f64, 
 /// The summary's notes: the consumers, the decisions (the first 30 in full, then a count per
 /// rule), the fault and the reactions, the run with the scheduler off.
 pub fn notes(run: &Run, off: Option<&Run>) -> Vec<String> {
-    let mut n = Vec::new();
-    n.push(format!(
+    let mut n = vec![loads_note(run)];
+    if !run.rules_ran {
+        n.push(format!(
+            "No rule engine ran: {}",
+            if robosim_rules::BUILT_WITH_CLIPS {
+                "the scheduler is off and there is no fault to handle."
+            } else {
+                robosim_rules::NOT_BUILT
+            }
+        ));
+    }
+    n.extend(run.attitude.as_ref().map(|a| desaturations_note(run, a)));
+    if !run.predicted_windows.is_empty() {
+        n.push(format!(
+            "Desaturation windows predicted (momentum manager: |h| growth over the last orbit): {}.",
+            run.predicted_windows
+                .iter()
+                .map(|(a, b)| format!("{:.1}–{:.1} min", a / 60.0, b / 60.0))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    n.extend(decision_notes(run));
+    n.extend(run.fault.as_ref().map(|f| fault_note(run, f)));
+    n.extend(off.map(|o| scheduler_off_note(run, o)));
+    n
+}
+
+/// The loads and experiments, how a shortfall is shared, the scheduler's reserve.
+fn loads_note(run: &Run) -> String {
+    format!(
         "Loads (issue 38 item 3; model in robosim_simulator::consumers, demands assumed and named there): {}; experiments {}. Each interval the arrays' power meets the loads' demand through the battery (Battery::supply: surplus charged at 90 %, what a full store cannot take shunted; shortfall drawn at 1/0.9; what it cannot give unserved, shared among the loads in proportion to their demand: a bus browning out). The scheduler keeps a reserve of {} over the coming orbit.",
         run.loads
             .consumers
             .iter()
-            .map(|c| format!("{} {:.0} kW ({})", c.name, c.full_w / 1e3, c.priority.name()))
+            .map(|c| format!(
+                "{} {:.0} kW ({})",
+                c.name,
+                c.full_w / 1e3,
+                c.priority.name()
+            ))
             .collect::<Vec<_>>()
             .join(", "),
         run.loads
@@ -249,72 +283,64 @@ pub fn notes(run: &Run, off: Option<&Run>) -> Vec<String> {
                 e.power_w / 1e3,
                 e.duration_s / 60.0,
                 e.every_s / run.period_s,
-                if e.sensitive { ", microgravity-sensitive" } else { "" }
+                if e.sensitive {
+                    ", microgravity-sensitive"
+                } else {
+                    ""
+                }
             ))
             .collect::<Vec<_>>()
             .join("; "),
         "25 % of the capacity"
-    ));
-    if !run.rules_ran {
-        n.push(format!(
-            "No rule engine ran: {}",
-            if robosim_rules::BUILT_WITH_CLIPS {
-                "the scheduler is off and there is no fault to handle."
-            } else {
-                robosim_rules::NOT_BUILT
-            }
-        ));
-    }
-    if let Some(a) = &run.attitude {
-        // each desaturation against the window the scheduler had one step before it began
-        let mut inside = 0;
-        let mut lead: Vec<f64> = Vec::new();
-        for d in &a.dumps {
-            let before = run.steps.iter().rev().find(|st| st.t < d.start_s);
-            if before
-                .and_then(|st| st.desat_window)
-                .is_some_and(|(w0, w1)| w0 <= d.start_s && d.start_s <= w1)
-            {
-                inside += 1;
-                // how long before it the windows given contained its start, without a break
-                let first = run
-                    .steps
-                    .iter()
-                    .rev()
-                    .filter(|st| st.t < d.start_s)
-                    .take_while(|st| {
-                        st.desat_window
-                            .is_some_and(|(w0, w1)| w0 <= d.start_s && d.start_s <= w1)
-                    })
-                    .last()
-                    .map_or(d.start_s, |st| st.t);
-                lead.push(d.start_s - first);
-            }
-        }
-        n.push(format!(
-            "Desaturations predicted: {inside} of {} began inside the window the scheduler was given (the momentum manager's prediction from |h|'s growth over the last orbit){}.",
-            a.dumps.len(),
-            if lead.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    ", foreseen {:.0} min ahead on average (at least {:.0} min)",
-                    lead.iter().sum::<f64>() / lead.len() as f64 / 60.0,
-                    lead.iter().copied().fold(f64::INFINITY, f64::min) / 60.0
-                )
-            }
-        ));
-    }
-    if !run.predicted_windows.is_empty() {
-        n.push(format!(
-            "Desaturation windows predicted (momentum manager: |h| growth over the last orbit): {}.",
-            run.predicted_windows
+    )
+}
+
+/// How many desaturations began inside the window the scheduler was given one step before,
+/// and how long ahead the windows foresaw them.
+fn desaturations_note(run: &Run, a: &super::attitude::AttRun) -> String {
+    // each desaturation against the window the scheduler had one step before it began
+    let mut inside = 0;
+    let mut lead: Vec<f64> = Vec::new();
+    for d in &a.dumps {
+        let before = run.steps.iter().rev().find(|st| st.t < d.start_s);
+        if before
+            .and_then(|st| st.desat_window)
+            .is_some_and(|(w0, w1)| w0 <= d.start_s && d.start_s <= w1)
+        {
+            inside += 1;
+            // how long before it the windows given contained its start, without a break
+            let first = run
+                .steps
                 .iter()
-                .map(|(a, b)| format!("{:.1}–{:.1} min", a / 60.0, b / 60.0))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ));
+                .rev()
+                .filter(|st| st.t < d.start_s)
+                .take_while(|st| {
+                    st.desat_window
+                        .is_some_and(|(w0, w1)| w0 <= d.start_s && d.start_s <= w1)
+                })
+                .last()
+                .map_or(d.start_s, |st| st.t);
+            lead.push(d.start_s - first);
+        }
     }
+    format!(
+        "Desaturations predicted: {inside} of {} began inside the window the scheduler was given (the momentum manager's prediction from |h|'s growth over the last orbit){}.",
+        a.dumps.len(),
+        if lead.is_empty() {
+            String::new()
+        } else {
+            format!(
+                ", foreseen {:.0} min ahead on average (at least {:.0} min)",
+                lead.iter().sum::<f64>() / lead.len() as f64 / 60.0,
+                lead.iter().copied().fold(f64::INFINITY, f64::min) / 60.0
+            )
+        }
+    )
+}
+
+/// The first 30 decisions in full, then a count per rule of the others.
+fn decision_notes(run: &Run) -> Vec<String> {
+    let mut n = Vec::new();
     for d in run.decisions.iter().take(30) {
         n.push(format!(
             "Decision {:.1} min, {} → {} {}: {}.",
@@ -343,60 +369,68 @@ pub fn notes(run: &Run, off: Option<&Run>) -> Vec<String> {
                 .join(", ")
         ));
     }
-    if let Some(f) = &run.fault {
-        let first_alarm = f.alarms.first().map(|a| a.time);
-        n.push(format!(
-            "Fault (issue 38 item 4): {} injected at {:.1} min ({}); {} alarm(s) rang{}; diagnoses: {}; isolated {}; spare on line {}; the consumer(s) {} drew {:.0} % of their demand while it stood still, then caught up at {:.0} %.",
-            f.model.failure_modes[f.fm].path,
-            f.spec.t_s / 60.0,
-            f.components.join(", "),
-            f.alarms.len(),
-            first_alarm.map_or(String::new(), |t| format!(", the first at {:.1} min", t / 60.0)),
-            if f.diagnoses.is_empty() {
-                "none".to_owned()
-            } else {
-                f.diagnoses
-                    .iter()
-                    .map(|(t, _, c, a)| format!("{:.1} min ({a} alarms → {})", t / 60.0, c.join(" ")))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            },
-            f.isolated_at.map_or("never".into(), |t| format!("at {:.1} min", t / 60.0)),
-            f.spare_at.map_or("never".into(), |t| format!("at {:.1} min", t / 60.0)),
-            f.consumers
-                .iter()
-                .map(|&i| run.loads.consumers[i].name)
-                .collect::<Vec<_>>()
-                .join(", "),
-            super::faults::STANDBY * 100.0,
-            super::faults::CATCH_UP * 100.0,
-        ));
-    }
-    if let Some(o) = off {
-        let (t_on, t_off) = (&run.totals, &o.totals);
-        let v = Priority::Vital as usize;
-        let (_, _, done_on, _, _, _, dist_on) = experiments_total(run);
-        let (_, _, done_off, _, _, _, dist_off) = experiments_total(o);
-        n.push(format!(
-            "The same run with the scheduler off (every load at full, each experiment started when asked for): vital energy unserved {:.2} kWh (on: {:.2}); all loads unserved {:.2} kWh (on: {:.2}); vital energy unserved while a sheddable load was served {:.2} kWh (on: {:.2}); energy shunted {:.2} kWh (on: {:.2}); experiment runs completed {done_off} (on: {done_on}); sensitive experiment time disturbed by desaturations and dockings {:.1} min (on: {:.1}); lowest state of charge {:.3} (on: {:.3}). What the rule base is worth: {:.2} kWh of vital demand served that the unscheduled station leaves dark, and {:.1} min of undisturbed microgravity.",
-            (t_off.demanded_j[v] - t_off.served_j[v]) / KWH,
-            (t_on.demanded_j[v] - t_on.served_j[v]) / KWH,
-            t_off.flow.unserved_j / KWH,
-            t_on.flow.unserved_j / KWH,
-            vital_unserved_while_sheddable_served_j(o) / KWH,
-            vital_unserved_while_sheddable_served_j(run) / KWH,
-            t_off.flow.shunted_j / KWH,
-            t_on.flow.shunted_j / KWH,
-            dist_off / 60.0,
-            dist_on / 60.0,
-            min_soc(o),
-            min_soc(run),
-            ((t_off.demanded_j[v] - t_off.served_j[v]) - (t_on.demanded_j[v] - t_on.served_j[v]))
-                / KWH,
-            (dist_off - dist_on) / 60.0,
-        ));
-    }
     n
+}
+
+/// The injected fault: its alarms, diagnoses, isolation, spare and what its consumers drew.
+fn fault_note(run: &Run, f: &super::faults::EclssFault) -> String {
+    let first_alarm = f.alarms.first().map(|a| a.time);
+    format!(
+        "Fault (issue 38 item 4): {} injected at {:.1} min ({}); {} alarm(s) rang{}; diagnoses: {}; isolated {}; spare on line {}; the consumer(s) {} drew {:.0} % of their demand while it stood still, then caught up at {:.0} %.",
+        f.model.failure_modes[f.fm].path,
+        f.spec.t_s / 60.0,
+        f.components.join(", "),
+        f.alarms.len(),
+        first_alarm.map_or(String::new(), |t| format!(
+            ", the first at {:.1} min",
+            t / 60.0
+        )),
+        if f.diagnoses.is_empty() {
+            "none".to_owned()
+        } else {
+            f.diagnoses
+                .iter()
+                .map(|(t, _, c, a)| format!("{:.1} min ({a} alarms → {})", t / 60.0, c.join(" ")))
+                .collect::<Vec<_>>()
+                .join(", ")
+        },
+        f.isolated_at
+            .map_or("never".into(), |t| format!("at {:.1} min", t / 60.0)),
+        f.spare_at
+            .map_or("never".into(), |t| format!("at {:.1} min", t / 60.0)),
+        f.consumers
+            .iter()
+            .map(|&i| run.loads.consumers[i].name)
+            .collect::<Vec<_>>()
+            .join(", "),
+        super::faults::STANDBY * 100.0,
+        super::faults::CATCH_UP * 100.0,
+    )
+}
+
+/// The same run with the scheduler off `o` against `run`: what the rule base is worth.
+fn scheduler_off_note(run: &Run, o: &Run) -> String {
+    let (t_on, t_off) = (&run.totals, &o.totals);
+    let v = Priority::Vital as usize;
+    let (_, _, done_on, _, _, _, dist_on) = experiments_total(run);
+    let (_, _, done_off, _, _, _, dist_off) = experiments_total(o);
+    format!(
+        "The same run with the scheduler off (every load at full, each experiment started when asked for): vital energy unserved {:.2} kWh (on: {:.2}); all loads unserved {:.2} kWh (on: {:.2}); vital energy unserved while a sheddable load was served {:.2} kWh (on: {:.2}); energy shunted {:.2} kWh (on: {:.2}); experiment runs completed {done_off} (on: {done_on}); sensitive experiment time disturbed by desaturations and dockings {:.1} min (on: {:.1}); lowest state of charge {:.3} (on: {:.3}). What the rule base is worth: {:.2} kWh of vital demand served that the unscheduled station leaves dark, and {:.1} min of undisturbed microgravity.",
+        (t_off.demanded_j[v] - t_off.served_j[v]) / KWH,
+        (t_on.demanded_j[v] - t_on.served_j[v]) / KWH,
+        t_off.flow.unserved_j / KWH,
+        t_on.flow.unserved_j / KWH,
+        vital_unserved_while_sheddable_served_j(o) / KWH,
+        vital_unserved_while_sheddable_served_j(run) / KWH,
+        t_off.flow.shunted_j / KWH,
+        t_on.flow.shunted_j / KWH,
+        dist_off / 60.0,
+        dist_on / 60.0,
+        min_soc(o),
+        min_soc(run),
+        ((t_off.demanded_j[v] - t_off.served_j[v]) - (t_on.demanded_j[v] - t_on.served_j[v])) / KWH,
+        (dist_off - dist_on) / 60.0,
+    )
 }
 
 fn min_soc(run: &Run) -> f64 {

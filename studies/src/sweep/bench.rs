@@ -5,7 +5,7 @@
 //! per second and the speed-up over one local worker, written as sweep.md and sweep.csv. The
 //! result tables are compared: the bench fails if any differs from the in-process one.
 
-use super::cli::{ConnectRemote, csv, plan, study_named, sweep_local, sweep_on};
+use super::cli::{ConnectRemote, Plan, csv, plan, study_named, sweep_local, sweep_on};
 use super::coordinator::Options;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -70,6 +70,10 @@ impl Drop for Host {
     }
 }
 
+/// One configuration's row of the tables: its name, workers, wall time (s), the load average
+/// before it.
+type Row = (String, usize, f64, String);
+
 /// Runs the bench; `exe` is the robosim binary for the workers and the sweep host, `connect`
 /// reaches a host's workers (`robosim sweep --remote`). Returns the files written.
 pub fn run(
@@ -90,8 +94,7 @@ pub fn run(
     };
     let p = plan(def, &params).map_err(|e| e.to_string())?;
     let jobs = &p.jobs;
-    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
-    let mut rows: Vec<(String, usize, f64, String)> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
 
     // baseline: the same jobs, one after another, in this process
     let load0 = load();
@@ -106,12 +109,25 @@ pub fn run(
 
     let opts = Options::default();
     let mut walls = Vec::new();
+    local_sweeps(&p, exe, &opts, &reference, &mut rows, &mut walls)?;
+    host_sweeps(&p, exe, connect, &opts, &reference, &mut rows, &mut walls)?;
+    write_tables(out, quick, &params, jobs.len(), serial_s, &rows, &walls)
+}
+
+/// The sweep on 1 and on 2 local worker processes, each checked against the in-process
+/// `reference`: a row and a wall time each.
+fn local_sweeps(
+    p: &Plan,
+    exe: &Path,
+    opts: &Options,
+    reference: &str,
+    rows: &mut Vec<Row>,
+    walls: &mut Vec<f64>,
+) -> Result<(), String> {
     for workers in [1usize, 2] {
         let l = load();
-        let ran = sweep_local(&p, exe, workers, &opts, None, &mut |line| {
-            eprintln!("{line}")
-        })
-        .map_err(|e| e.to_string())?;
+        let ran = sweep_local(p, exe, workers, opts, None, &mut |line| eprintln!("{line}"))
+            .map_err(|e| e.to_string())?;
         if ran.csv != reference {
             return Err(format!(
                 "the sweep on {workers} worker(s) gave other results than the in-process run"
@@ -131,7 +147,20 @@ pub fn run(
             l,
         ));
     }
-    // the same sweep on the workers of a sweep host, over Zenoh on localhost TCP
+    Ok(())
+}
+
+/// The same sweep on 1 and 2 workers of a sweep host, over Zenoh on localhost TCP, each
+/// checked against the in-process `reference`: a row and a wall time each.
+fn host_sweeps(
+    p: &Plan,
+    exe: &Path,
+    connect: ConnectRemote<'_>,
+    opts: &Options,
+    reference: &str,
+    rows: &mut Vec<Row>,
+    walls: &mut Vec<f64>,
+) -> Result<(), String> {
     let host = Host::start(exe, 2)?;
     for workers in [1usize, 2] {
         let mut launchers = connect(
@@ -142,7 +171,7 @@ pub fn run(
         .map_err(|e| format!("{e}\nthe host said:\n{}", host.log()))?;
         launchers.truncate(workers);
         let l = load();
-        let ran = sweep_on(&p, launchers, &opts, None, &mut |line| eprintln!("{line}"))
+        let ran = sweep_on(p, launchers, opts, None, &mut |line| eprintln!("{line}"))
             .map_err(|e| format!("{e}\nthe host said:\n{}", host.log()))?;
         if ran.csv != reference {
             return Err(format!(
@@ -167,6 +196,21 @@ pub fn run(
         ));
     }
     drop(host);
+    Ok(())
+}
+
+/// sweep.md and sweep.csv in `out`: the configurations' rows with jobs per second and the
+/// speed-up over 1 local worker (`walls`: 1 and 2 local workers, 1 and 2 on the host).
+fn write_tables(
+    out: &Path,
+    quick: bool,
+    params: &[String],
+    n_jobs: usize,
+    serial_s: f64,
+    rows: &[Row],
+    walls: &[f64],
+) -> Result<Vec<PathBuf>, String> {
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let one = walls[0];
     std::fs::create_dir_all(out).map_err(|e| format!("{}: {e}", out.display()))?;
     let mut c = String::from(
@@ -192,23 +236,23 @@ pub fn run(
             .map(|p| format!("--param {p}"))
             .collect::<Vec<_>>()
             .join(" "),
-        jobs.len(),
+        n_jobs,
         profile = if cfg!(debug_assertions) {
             "dev profile (opt-level 1, dependencies 2, debug assertions on)"
         } else {
             "release profile"
         },
     );
-    for (name, workers, wall, l) in &rows {
-        let jps = jobs.len() as f64 / wall;
+    for (name, workers, wall, l) in rows {
+        let jps = n_jobs as f64 / wall;
         let speed = one / wall;
         c += &format!(
             "{name},{workers},{},{wall:.3},{jps:.2},{speed:.2},{l}\n",
-            jobs.len()
+            n_jobs
         );
         md += &format!(
             "| {name} | {workers} | {} | {wall:.2} | {jps:.2} | {speed:.2} | {l} |\n",
-            jobs.len()
+            n_jobs
         );
     }
     md += &format!(

@@ -173,42 +173,8 @@ pub fn run(
         },
         last_death: String::new(),
     };
-
-    // Starts slot `s`'s worker; false when it could not.
-    let start = |s: usize,
-                 slot: &mut Slot,
-                 stats: &mut Stats,
-                 log: &mut dyn FnMut(String),
-                 last: &mut String|
-     -> bool {
-        slot.generation += 1;
-        match slot
-            .launcher
-            .launch(EventSink::new(tx.clone(), s, slot.generation))
-        {
-            Ok(link) => {
-                log(format!(
-                    "sweep: worker {s} started: {} {}",
-                    slot.launcher.describe(),
-                    link.describe()
-                ));
-                slot.link = Some(link);
-                stats.started += 1;
-                true
-            }
-            Err(e) => {
-                log(format!(
-                    "sweep: worker {s} ({}) could not start: {e}",
-                    slot.launcher.describe()
-                ));
-                *last = e;
-                false
-            }
-        }
-    };
-
     for (s, slot) in slots.iter_mut().enumerate() {
-        if !start(s, slot, &mut book.stats, log, &mut book.last_death) {
+        if !start(&tx, s, slot, &mut book.stats, log, &mut book.last_death) {
             slot.retired = true;
         }
     }
@@ -222,39 +188,7 @@ pub fn run(
             if slot.retired || book.queue.is_empty() {
                 continue;
             }
-            if slot.link.is_none() {
-                match slot.launcher.waiting() {
-                    Some(why) => {
-                        if slot.waiting.is_none() {
-                            log(format!(
-                                "sweep: worker {s} ({}) waits: {why}",
-                                slot.launcher.describe()
-                            ));
-                            book.last_death = why.clone();
-                            slot.waiting = Some(why);
-                        }
-                        continue;
-                    }
-                    None => {
-                        if slot.waiting.take().is_some() {
-                            log(format!(
-                                "sweep: worker {s} ({}) can start again",
-                                slot.launcher.describe()
-                            ));
-                            slot.idle_deaths = 0;
-                        }
-                    }
-                }
-            }
-            if slot.link.is_none() && !start(s, slot, &mut book.stats, log, &mut book.last_death) {
-                slot.idle_deaths += 1;
-                if slot.idle_deaths >= max_attempts {
-                    log(format!(
-                        "sweep: worker {s} given up: it could not be started {} times in a row",
-                        slot.idle_deaths
-                    ));
-                    slot.retired = true;
-                }
+            if !ready(&tx, s, slot, &mut book, log) {
                 continue;
             }
             if slot.in_flight.is_some() {
@@ -263,125 +197,22 @@ pub fn run(
             let Some(k) = book.queue.pop_front() else {
                 break;
             };
-            let line = protocol::job_line(study, &jobs[k]);
-            let sent = match slot.link.as_mut() {
-                Some(link) => link.send(&line),
-                None => Err("not started".into()),
-            };
-            match sent {
-                Ok(()) => slot.in_flight = Some((k, Instant::now())),
-                Err(e) => {
-                    // never reached the worker: not an attempt
-                    book.queue.push_front(k);
-                    book.died(s, slot, &format!("sending job {}: {e}", jobs[k].index), log);
-                }
-            }
+            hand_out(study, s, slot, k, &mut book, log);
         }
-        if slots.iter().all(|s| s.retired) {
-            return Err(SweepError::NoWorkersLeft {
-                remaining: book.remaining,
-                last: book.last_death,
-            });
-        }
-        let all_wait = slots
-            .iter()
-            .all(|s| s.retired || (s.link.is_none() && s.waiting.is_some()));
-        match (all_wait, stalled) {
-            (false, _) => stalled = None,
-            (true, None) => stalled = Some(Instant::now()),
-            (true, Some(t0)) if t0.elapsed() > opts.host_wait => {
-                for slot in &mut slots {
-                    slot.retired = true;
-                }
-                return Err(SweepError::NoWorkersLeft {
-                    remaining: book.remaining,
-                    last: format!(
-                        "{}; no host came back within {:.0} s",
-                        book.last_death,
-                        opts.host_wait.as_secs_f64()
-                    ),
-                });
-            }
-            (true, Some(_)) => {}
-        }
+        check_workers_left(&mut slots, &book, &mut stalled, opts)?;
         let ev = match rx.recv_timeout(tick) {
             Ok(ev) => Some(ev),
             Err(mpsc::RecvTimeoutError::Timeout) => None,
             // the coordinator holds a sender: the channel cannot disconnect
             Err(mpsc::RecvTimeoutError::Disconnected) => None,
         };
-        match ev {
-            Some(Event::Line {
-                slot: s,
-                generation,
-                line,
-            }) => {
-                let Some(slot) = slots.get_mut(s) else {
-                    continue;
-                };
-                if generation != slot.generation || slot.link.is_none() {
-                    continue;
-                }
-                let parsed = protocol::parse_result(&line);
-                let expected = slot.in_flight.map(|(k, _)| jobs[k].index);
-                match parsed {
-                    Ok((index, outcome)) if Some(index) == expected => {
-                        let k = by_index[&index];
-                        slot.in_flight = None;
-                        slot.idle_deaths = 0;
-                        if book.results[k].is_none() {
-                            book.results[k] = Some(outcome);
-                            book.remaining -= 1;
-                            book.stats.per_slot[s] += 1;
-                            done(book.remaining);
-                        }
-                    }
-                    other => {
-                        let why = match other {
-                            Ok((index, _)) => format!(
-                                "answered for job {index} while running {}",
-                                expected.map_or("none".into(), |i| i.to_string())
-                            ),
-                            Err(e) => e,
-                        };
-                        book.died(s, slot, &why, log);
-                    }
-                }
-            }
-            Some(Event::Closed {
-                slot: s,
-                generation,
-            }) => {
-                let Some(slot) = slots.get_mut(s) else {
-                    continue;
-                };
-                if generation != slot.generation || slot.link.is_none() {
-                    continue;
-                }
-                book.died(s, slot, "its output ended", log);
-            }
-            None => {}
+        if let Some(ev) = ev
+            && !take_event(ev, &mut slots, &by_index, &mut book, log, done)
+        {
+            // an earlier worker's event: the next round (as before the split, no reaping)
+            continue;
         }
-        // timeouts, and idle workers that exited (one with a job in flight is reported by the
-        // end of its output, after its last line)
-        for (s, slot) in slots.iter_mut().enumerate() {
-            let Some(link) = slot.link.as_mut() else {
-                continue;
-            };
-            let why = match slot.in_flight {
-                Some((k, t0)) if opts.job_timeout.is_some_and(|limit| t0.elapsed() > limit) => {
-                    format!(
-                        "job {} ran over the {:.1} s timeout",
-                        jobs[k].index,
-                        opts.job_timeout.map_or(0.0, |d| d.as_secs_f64())
-                    )
-                }
-                Some(_) => continue,
-                None if !link.is_alive() => "it is no longer alive".to_owned(),
-                None => continue,
-            };
-            book.died(s, slot, &why, log);
-        }
+        reap(&mut slots, &mut book, opts, log);
     }
     for slot in &mut slots {
         if let Some(mut link) = slot.link.take() {
@@ -394,6 +225,243 @@ pub fn run(
         .map(|r| r.unwrap_or_else(|| Err("no result (internal: job lost)".into())))
         .collect();
     Ok((outcomes, book.stats))
+}
+
+/// Starts slot `s`'s worker (its events sent on `tx`); false when it could not (why in
+/// `last`).
+fn start(
+    tx: &mpsc::Sender<Event>,
+    s: usize,
+    slot: &mut Slot,
+    stats: &mut Stats,
+    log: &mut dyn FnMut(String),
+    last: &mut String,
+) -> bool {
+    slot.generation += 1;
+    match slot
+        .launcher
+        .launch(EventSink::new(tx.clone(), s, slot.generation))
+    {
+        Ok(link) => {
+            log(format!(
+                "sweep: worker {s} started: {} {}",
+                slot.launcher.describe(),
+                link.describe()
+            ));
+            slot.link = Some(link);
+            stats.started += 1;
+            true
+        }
+        Err(e) => {
+            log(format!(
+                "sweep: worker {s} ({}) could not start: {e}",
+                slot.launcher.describe()
+            ));
+            *last = e;
+            false
+        }
+    }
+}
+
+/// Whether slot `s` has a worker to give a job: a slot without one waits while its launcher
+/// waits for its host (said once), else its worker is started again; a slot that cannot be
+/// started `max_attempts` times in a row is given up.
+fn ready(
+    tx: &mpsc::Sender<Event>,
+    s: usize,
+    slot: &mut Slot,
+    book: &mut Ledger,
+    log: &mut dyn FnMut(String),
+) -> bool {
+    if slot.link.is_some() {
+        return true;
+    }
+    match slot.launcher.waiting() {
+        Some(why) => {
+            if slot.waiting.is_none() {
+                log(format!(
+                    "sweep: worker {s} ({}) waits: {why}",
+                    slot.launcher.describe()
+                ));
+                book.last_death = why.clone();
+                slot.waiting = Some(why);
+            }
+            return false;
+        }
+        None => {
+            if slot.waiting.take().is_some() {
+                log(format!(
+                    "sweep: worker {s} ({}) can start again",
+                    slot.launcher.describe()
+                ));
+                slot.idle_deaths = 0;
+            }
+        }
+    }
+    if !start(tx, s, slot, &mut book.stats, log, &mut book.last_death) {
+        slot.idle_deaths += 1;
+        if slot.idle_deaths >= book.max_attempts {
+            log(format!(
+                "sweep: worker {s} given up: it could not be started {} times in a row",
+                slot.idle_deaths
+            ));
+            slot.retired = true;
+        }
+        return false;
+    }
+    true
+}
+
+/// Sends job `k` to slot `s`'s worker; a job that never reached it goes back to the front of
+/// the queue (not an attempt) and the worker is dead.
+fn hand_out(
+    study: &str,
+    s: usize,
+    slot: &mut Slot,
+    k: usize,
+    book: &mut Ledger,
+    log: &mut dyn FnMut(String),
+) {
+    let line = protocol::job_line(study, &book.jobs[k]);
+    let sent = match slot.link.as_mut() {
+        Some(link) => link.send(&line),
+        None => Err("not started".into()),
+    };
+    match sent {
+        Ok(()) => slot.in_flight = Some((k, Instant::now())),
+        Err(e) => {
+            // never reached the worker: not an attempt
+            book.queue.push_front(k);
+            let index = book.jobs[k].index;
+            book.died(s, slot, &format!("sending job {index}: {e}"), log);
+        }
+    }
+}
+
+/// Fails the sweep when every slot is given up, or when every slot left has waited for its
+/// host longer than [`Options::host_wait`] (`stalled`: since when they all wait).
+fn check_workers_left(
+    slots: &mut [Slot],
+    book: &Ledger,
+    stalled: &mut Option<Instant>,
+    opts: &Options,
+) -> Result<(), SweepError> {
+    if slots.iter().all(|s| s.retired) {
+        return Err(SweepError::NoWorkersLeft {
+            remaining: book.remaining,
+            last: book.last_death.clone(),
+        });
+    }
+    let all_wait = slots
+        .iter()
+        .all(|s| s.retired || (s.link.is_none() && s.waiting.is_some()));
+    match (all_wait, *stalled) {
+        (false, _) => *stalled = None,
+        (true, None) => *stalled = Some(Instant::now()),
+        (true, Some(t0)) if t0.elapsed() > opts.host_wait => {
+            for slot in slots.iter_mut() {
+                slot.retired = true;
+            }
+            return Err(SweepError::NoWorkersLeft {
+                remaining: book.remaining,
+                last: format!(
+                    "{}; no host came back within {:.0} s",
+                    book.last_death,
+                    opts.host_wait.as_secs_f64()
+                ),
+            });
+        }
+        (true, Some(_)) => {}
+    }
+    Ok(())
+}
+
+/// A worker's event: its answer booked (or, for a job it was not given or a line that does
+/// not parse, its death), or the end of its output (its death). Events of an earlier worker
+/// of the slot (or of no slot) are ignored: false.
+fn take_event(
+    ev: Event,
+    slots: &mut [Slot],
+    by_index: &std::collections::HashMap<usize, usize>,
+    book: &mut Ledger,
+    log: &mut dyn FnMut(String),
+    done: &mut dyn FnMut(usize),
+) -> bool {
+    match ev {
+        Event::Line {
+            slot: s,
+            generation,
+            line,
+        } => {
+            let Some(slot) = slots.get_mut(s) else {
+                return false;
+            };
+            if generation != slot.generation || slot.link.is_none() {
+                return false;
+            }
+            let parsed = protocol::parse_result(&line);
+            let expected = slot.in_flight.map(|(k, _)| book.jobs[k].index);
+            match parsed {
+                Ok((index, outcome)) if Some(index) == expected => {
+                    let k = by_index[&index];
+                    slot.in_flight = None;
+                    slot.idle_deaths = 0;
+                    if book.results[k].is_none() {
+                        book.results[k] = Some(outcome);
+                        book.remaining -= 1;
+                        book.stats.per_slot[s] += 1;
+                        done(book.remaining);
+                    }
+                }
+                other => {
+                    let why = match other {
+                        Ok((index, _)) => format!(
+                            "answered for job {index} while running {}",
+                            expected.map_or("none".into(), |i| i.to_string())
+                        ),
+                        Err(e) => e,
+                    };
+                    book.died(s, slot, &why, log);
+                }
+            }
+        }
+        Event::Closed {
+            slot: s,
+            generation,
+        } => {
+            let Some(slot) = slots.get_mut(s) else {
+                return false;
+            };
+            if generation != slot.generation || slot.link.is_none() {
+                return false;
+            }
+            book.died(s, slot, "its output ended", log);
+        }
+    }
+    true
+}
+
+/// Timeouts, and idle workers that exited (one with a job in flight is reported by the end
+/// of its output, after its last line): their deaths booked.
+fn reap(slots: &mut [Slot], book: &mut Ledger, opts: &Options, log: &mut dyn FnMut(String)) {
+    for (s, slot) in slots.iter_mut().enumerate() {
+        let Some(link) = slot.link.as_mut() else {
+            continue;
+        };
+        let why = match slot.in_flight {
+            Some((k, t0)) if opts.job_timeout.is_some_and(|limit| t0.elapsed() > limit) => {
+                format!(
+                    "job {} ran over the {:.1} s timeout",
+                    book.jobs[k].index,
+                    opts.job_timeout.map_or(0.0, |d| d.as_secs_f64())
+                )
+            }
+            Some(_) => continue,
+            None if !link.is_alive() => "it is no longer alive".to_owned(),
+            None => continue,
+        };
+        book.died(s, slot, &why, log);
+    }
 }
 
 #[cfg(test)]
