@@ -232,6 +232,15 @@ fn is_box(poly: &Polyhedron, size: &[f64; 3]) -> bool {
         })
 }
 
+impl PlacedSolid {
+    /// The solid's shape as the model describes it ([`RobotModel::model`] gives each placed
+    /// solid of a robot this shape): the studies build a scene's fixed solids from it through
+    /// [`robosim_model::GeometryObject::collision_parts`], the one builder.
+    pub fn shape(&self) -> robosim_model::Shape {
+        shape_of(self)
+    }
+}
+
 /// A placed solid's shape for the robot model (see [`RobotModel::model`]).
 fn shape_of(p: &PlacedSolid) -> robosim_model::Shape {
     use robosim_model::Shape;

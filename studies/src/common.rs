@@ -1,16 +1,14 @@
-//! What the studies share: robots in the world from a library scene, a library primitive as a
-//! collision solid ([`collision_solid`]; the surgical study's too), parts as collision bodies
+//! What the studies share: robots in the world from a library scene, a library primitive as
+//! collision solids ([`collision_solids`], through the model; the surgical study's too), parts as collision bodies
 //! with bounding spheres, clearances between parts, trajectory files in the display's
 //! file-mode format, the headless frames, and the CSV writer.
 
 use crate::{Result, StudyError};
-use nalgebra::{Isometry3, Matrix4, Point3, Vector3};
+use nalgebra::{Isometry3, Matrix4, Point3};
 use robosim_collision::robot::isometry_from_matrix;
 use robosim_collision::{Mode, PairResult, Solid, collide};
 use robosim_kinematics::{JointType, Robot, fk};
-use robosim_library::{
-    Evaluated, Library, Params, PlacedRobot, PlacedSolid, Primitive, SceneModel,
-};
+use robosim_library::{Evaluated, Library, Params, PlacedRobot, PlacedSolid, SceneModel};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -27,32 +25,40 @@ pub fn scene(name: &str, params: &Params) -> Result<(&'static Library, SceneMode
     Ok((lib, scene))
 }
 
-/// A collision body for a library primitive: the exact primitive where the collision crate
-/// has one (with the library's facet count, so both faceted forms agree), else the library's
-/// polyhedron as a mesh.
-pub(crate) fn collision_solid(p: &PlacedSolid) -> Result<Solid> {
-    let s = match &p.primitive {
-        Primitive::Box { size } => Solid::cuboid(Vector3::new(size[0], size[1], size[2])),
-        Primitive::Cylinder {
-            radius,
-            height,
-            facets,
-        } => Solid::cylinder(*radius, *height, Some(*facets)),
-        Primitive::Cone {
-            radius,
-            height,
-            facets,
-        } => Solid::cone(*radius, *height, Some(*facets)),
-        Primitive::Sphere { radius, facets } => Solid::sphere(*radius, Some(*facets)),
-        _ => {
-            let poly = &p.polyhedron;
-            let polygons: Vec<Vec<u32>> = (0..poly.polygons.len())
-                .map(|i| poly.polygon_indices(i).to_vec())
-                .collect();
-            Solid::mesh(poly.vertices.clone(), &polygons)
-        }
-    };
-    s.map_err(|e| StudyError(format!("solid {}: {e}", p.name)))
+/// A library solid's collision solids in its own frame, from the one model builder
+/// ([`robosim_model::GeometryObject::collision_parts`] of its [`PlacedSolid::shape`]): the
+/// exact primitive where the collision crate has one (with the library's facet count, so both
+/// faceted forms agree), a `from_urdf` hull as a convex solid, other polyhedra as a mesh.
+/// `what` names whose solid it is in the error.
+pub(crate) fn collision_solids(p: &PlacedSolid, what: &str) -> Result<Vec<Solid>> {
+    geometry_object(p, 0)
+        .collision_parts()
+        .map_err(|e| StudyError(format!("{what}: {e}")))
+}
+
+/// `p` as a collision object of the model on `frame`, at its placement.
+fn geometry_object(p: &PlacedSolid, frame: usize) -> robosim_model::GeometryObject {
+    robosim_model::GeometryObject {
+        name: p.name.clone(),
+        frame,
+        placement: p.transform,
+        shape: p.shape(),
+        role: robosim_model::Role::Collision,
+        rgba: None,
+    }
+}
+
+/// The centre (mean of the vertices) and radius of a placed solid's bounding sphere, in its
+/// frame.
+fn bounding_sphere(p: &PlacedSolid) -> (Point3<f64>, f64) {
+    let vs = &p.polyhedron.vertices;
+    let n = vs.len().max(1) as f64;
+    let c = vs
+        .iter()
+        .fold(nalgebra::Vector3::zeros(), |a, v| a + v.coords)
+        / n;
+    let radius = vs.iter().map(|v| (v.coords - c).norm()).fold(0.0, f64::max);
+    (Point3::from(c), radius)
 }
 
 /// One collision part: the link it rides on (0 = base), its pose in that link's frame, the
@@ -82,23 +88,23 @@ impl Body {
     pub fn of(p: &PlacedRobot) -> Result<Body> {
         // the evaluated robot's base already includes the scene placement
         let robot = p.model.robot.clone();
+        // One geometry object per placed solid, frame by frame in the same order
+        // (`RobotModel::model`): the object gives the solids, the placed solid its vertices.
+        let model = p.model.model();
+        let placed = p.model.frames.iter().flatten();
         let mut parts = Vec::new();
-        for (link, solids) in p.model.frames.iter().enumerate() {
-            for s in solids {
-                let solid = collision_solid(s)?;
-                let vs = &s.polyhedron.vertices;
-                let n = vs.len().max(1) as f64;
-                let c = vs
-                    .iter()
-                    .fold(nalgebra::Vector3::zeros(), |a, v| a + v.coords)
-                    / n;
-                let radius = vs.iter().map(|v| (v.coords - c).norm()).fold(0.0, f64::max);
+        for (o, s) in model.geometry.objects.iter().zip(placed) {
+            let (centre, radius) = bounding_sphere(s);
+            let solids = o
+                .collision_parts()
+                .map_err(|e| StudyError(format!("robot {}: {e}", p.name)))?;
+            for solid in solids {
                 parts.push(Part {
                     name: s.name.clone(),
-                    link,
-                    offset: isometry_from_matrix(&s.transform),
+                    link: o.frame,
+                    offset: isometry_from_matrix(&o.placement),
                     solid: Arc::new(solid),
-                    centre: Point3::from(c),
+                    centre,
                     radius,
                 });
             }
@@ -147,22 +153,17 @@ pub fn fixed_parts(scene: &SceneModel) -> Result<Vec<Part>> {
     let mut out = Vec::new();
     for it in &scene.solids {
         for s in &it.solid.parts {
-            let solid = collision_solid(s)?;
-            let vs = &s.polyhedron.vertices;
-            let n = vs.len().max(1) as f64;
-            let c = vs
-                .iter()
-                .fold(nalgebra::Vector3::zeros(), |a, v| a + v.coords)
-                / n;
-            let radius = vs.iter().map(|v| (v.coords - c).norm()).fold(0.0, f64::max);
-            out.push(Part {
-                name: format!("{}/{}", it.name, s.name),
-                link: 0,
-                offset: isometry_from_matrix(&(it.placement * s.transform)),
-                solid: Arc::new(solid),
-                centre: Point3::from(c),
-                radius,
-            });
+            let (centre, radius) = bounding_sphere(s);
+            for solid in collision_solids(s, &it.name)? {
+                out.push(Part {
+                    name: format!("{}/{}", it.name, s.name),
+                    link: 0,
+                    offset: isometry_from_matrix(&(it.placement * s.transform)),
+                    solid: Arc::new(solid),
+                    centre,
+                    radius,
+                });
+            }
         }
     }
     Ok(out)

@@ -25,14 +25,14 @@
 //!
 //! Entry point: [`run`].
 
-use crate::common::collision_solid;
+use crate::common::collision_solids;
 use crate::{Result, bail, say};
 use nalgebra::{Matrix4, Vector3};
+use robosim_collision::Mode;
 use robosim_collision::robot::{
-    Body, CheckResult, CollisionSettings, LinkSolid, LinkSolids, Scene, check_robot,
-    isometry_from_matrix, move_checked,
+    Body, CheckResult, CollisionSettings, LinkSolids, Scene, check_robot, isometry_from_matrix,
+    move_checked,
 };
-use robosim_collision::{Mode, Solid};
 use robosim_geometry::MassProperties;
 use robosim_instance_space::state::StateSubscriber;
 use robosim_instance_space::{Client, Kind, Reader, Session, Snapshot, Transaction, aspect};
@@ -40,7 +40,8 @@ use robosim_kinematics::ik::{self, IkOptions, IkResult, Method};
 use robosim_kinematics::{Robot, encoder, movej_interpolate, pose::Residual};
 use robosim_launcher as launcher;
 use robosim_library::{
-    CollisionMode, Evaluated, Library, Params, PlacedRobot, PlacedSolid, Primitive, SceneModel,
+    CollisionMode, Evaluated, Library, Params, PlacedRobot, PlacedSolid, Primitive, RobotModel,
+    SceneModel,
 };
 use robosim_scene::pose::to_matrix as m4;
 use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
@@ -88,33 +89,14 @@ fn vec_str(v: &[f64], digits: usize) -> String {
     format!("[{}]", parts.join(", "))
 }
 
-/// The robot's link solids (base first) from the library's evaluation: one solid per frame,
-/// a compound where a frame carries several parts.
-fn link_solids(frames: &[Vec<PlacedSolid>]) -> Result<LinkSolids> {
-    let mut links = Vec::with_capacity(frames.len());
-    for parts in frames {
-        let mut placed = Vec::with_capacity(parts.len());
-        for p in parts {
-            placed.push((isometry_from_matrix(&p.transform), collision_solid(p)?));
-        }
-        links.push(match placed.len() {
-            0 => None,
-            1 => placed.pop().map(|(offset, solid)| LinkSolid {
-                solid: Arc::new(solid),
-                offset,
-            }),
-            _ => Some(LinkSolid {
-                solid: Arc::new(
-                    Solid::compound(placed).map_err(|e| crate::StudyError(e.to_string()))?,
-                ),
-                offset: nalgebra::Isometry3::identity(),
-            }),
-        });
-    }
-    Ok(LinkSolids {
-        links,
-        allowed: Vec::new(),
-    })
+/// The robot's link solids (base first): its robot model's
+/// ([`robosim_model::Model::collision_solids`]: one solid per frame, a compound where a frame
+/// carries several parts).
+fn link_solids(model: &RobotModel) -> Result<LinkSolids> {
+    model
+        .model()
+        .collision_solids()
+        .map_err(|e| crate::StudyError(format!("robot {}: {e}", model.robot.name)))
 }
 
 /// The scene's fixed solids as collision obstacles, in the world.
@@ -123,7 +105,9 @@ fn obstacles(scene: &SceneModel) -> Result<Scene> {
     for it in &scene.solids {
         for p in &it.solid.parts {
             let pose = isometry_from_matrix(&(it.placement * p.transform));
-            out.add(it.name.clone(), Arc::new(collision_solid(p)?), pose);
+            for solid in collision_solids(p, &it.name)? {
+                out.add(it.name.clone(), Arc::new(solid), pose);
+            }
         }
     }
     Ok(out)
@@ -410,7 +394,7 @@ pub fn reach(p: &ReachParams) -> Result<Reach> {
             .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?,
     };
     let settings = settings_of(&scene);
-    let links = link_solids(&placed.model.frames)?;
+    let links = link_solids(&placed.model)?;
     let obstacles = obstacles(&scene)?;
     reach_sweep(
         robot, &links, &obstacles, &settings, &placed.q, bits, &frame,
@@ -464,7 +448,7 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         head,
     } = map_model(out, &s, &scene, placed)?;
     let (frame, target, sols) = aim_at_head(out, &robot, &arm.q, &head)?;
-    let checks = Checks::of(out, &scene, &placed.model.frames)?;
+    let checks = Checks::of(out, &scene, &placed.model)?;
     let goal = choose_solution(
         out,
         &robot,
@@ -683,11 +667,7 @@ struct Checks {
 
 impl Checks {
     /// Says which checking the scene declares and builds it.
-    fn of(
-        out: &mut dyn std::io::Write,
-        scene: &SceneModel,
-        frames: &[Vec<PlacedSolid>],
-    ) -> Result<Checks> {
+    fn of(out: &mut dyn std::io::Write, scene: &SceneModel, model: &RobotModel) -> Result<Checks> {
         say!(
             out,
             "\n== 4. collision ({}, the scene's mode; self {}): each solution's link solids against the head",
@@ -704,7 +684,7 @@ impl Checks {
         );
         Ok(Checks {
             settings: settings_of(scene),
-            links: link_solids(frames)?,
+            links: link_solids(model)?,
             obstacles: obstacles(scene)?,
         })
     }
@@ -959,7 +939,7 @@ fn encoder_study(
 }
 
 /// The robot with each link's mass, centre of mass and inertia from its solids at `density`
-/// (kg/m³); `frames` as [`link_solids`] takes them (base first).
+/// (kg/m³); `frames` the robot model's placed solids (base first).
 fn with_link_masses(robot: &Robot, frames: &[Vec<PlacedSolid>], density: f64) -> Result<Robot> {
     let mut dyn_robot = robot.clone();
     for (j, joint) in dyn_robot.joints.iter_mut().enumerate() {
