@@ -52,6 +52,11 @@ fn bad(message: impl Into<String>) -> ProtocolError {
     ProtocolError::new(ErrorKind::BadRequest, message)
 }
 
+/// `bad_request` with `e`'s message, keeping `e` as the source.
+fn caused(e: impl std::error::Error + Send + Sync + 'static) -> ProtocolError {
+    ProtocolError::caused(ErrorKind::BadRequest, e)
+}
+
 pub use robosim_collision::json::MAX_SPHERE_FACETS;
 
 /// A shape or pose that could not be read: a field is a `bad_request`, a solid the fields do
@@ -329,7 +334,7 @@ fn robot_field<'a>(req: &Value, arg: RobotArg<'a>) -> Result<Cow<'a, Robot>, Pro
             }),
         v @ Value::Object(_) => robot_from_json(v)
             .map(Cow::Owned)
-            .map_err(|e| ProtocolError::new(ErrorKind::BadRobot, e.to_string())),
+            .map_err(|e| ProtocolError::caused(ErrorKind::BadRobot, e)),
         _ => Err(bad(
             "robot: expected a library name or an inline robot object",
         )),
@@ -346,7 +351,7 @@ fn body_json(b: &Body) -> Value {
 
 fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
     let robot = robot_field(req, arg)?;
-    let q = number_array(field(req, "q", "request")?, "q").map_err(|e| bad(e.to_string()))?;
+    let q = number_array(field(req, "q", "request")?, "q").map_err(caused)?;
     robot.check_q(&q).map_err(|e| bad(format!("q: {e}")))?;
     let mut scene = Scene::new();
     let objs = field(field(req, "scene", "request")?, "objects", "scene")?
@@ -372,7 +377,7 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         None | Some(Value::Null) => {
             let radius = match req.get("link_radius") {
                 None | Some(Value::Null) => 0.04,
-                Some(v) => number(v, "link_radius").map_err(|e| bad(e.to_string()))?,
+                Some(v) => number(v, "link_radius").map_err(caused)?,
             };
             let l = LinkSolids::from_dh(&robot, radius)
                 .map_err(|e| bad(format!("link_radius: {e}")))?;
@@ -418,7 +423,7 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
             .as_array()
             .ok_or_else(|| bad("allowed: expected an array of [i, j] link pairs"))?;
         for (k, p) in arr.iter().enumerate() {
-            let ij = number_array(p, &format!("allowed[{k}]")).map_err(|e| bad(e.to_string()))?;
+            let ij = number_array(p, &format!("allowed[{k}]")).map_err(caused)?;
             if ij.len() != 2 || ij.iter().any(|x| *x < 0.0 || x.fract() != 0.0) {
                 return Err(bad(format!("allowed[{k}]: expected two link indices")));
             }
@@ -436,7 +441,7 @@ fn op_check(req: &Value, arg: RobotArg<'_>) -> Result<Value, ProtocolError> {
         },
         ..CollisionSettings::default()
     };
-    let r = check_robot(&robot, &links, &q, &scene, &settings).map_err(|e| bad(e.to_string()))?;
+    let r = check_robot(&robot, &links, &q, &scene, &settings).map_err(caused)?;
     let mut out = json!({"mode": settings.mode.name(), "link_solids": source});
     match r {
         CheckResult::Clear => {
