@@ -105,7 +105,7 @@ pub enum FileError {
     Urdf(#[from] crate::urdf_import::UrdfError),
     /// A URDF robot whose geometry makes no Instance Space objects (`robosim import urdf`).
     #[error(transparent)]
-    UrdfTx(#[from] crate::urdf_session::UrdfTxError),
+    UrdfTx(#[from] UrdfTxError),
     /// An MJCF file that cannot be imported (file, line, element and what).
     #[error(transparent)]
     Mjcf(#[from] crate::mjcf::MjcfError),
@@ -128,4 +128,24 @@ impl From<robosim_urdf::stl::MeshFileError> for FileError {
             reason: e.reason,
         }
     }
+}
+
+/// Why a URDF robot makes no transaction (`urdf_session::urdf_tx`).
+#[derive(Debug, thiserror::Error)]
+pub enum UrdfTxError {
+    /// The URDF: a mesh it names that cannot be read, a primitive that makes no solid, a joint
+    /// without its origin — its file, line, element and what.
+    #[error(transparent)]
+    Urdf(#[from] crate::urdf_import::UrdfError),
+    /// A mesh's triangles make no Instance Space geometry (none left once the degenerate ones
+    /// are dropped, a flat hull, …): the URDF file, line and element that name the mesh, and
+    /// the mesh importer's error (`import::mesh_geometry`, `hull_geometry`).
+    #[error("{}:{line}: {element}: collision solid: {source}", file.display())]
+    MeshGeometry {
+        file: std::path::PathBuf,
+        line: u32,
+        element: String,
+        #[source]
+        source: Box<crate::FileError>,
+    },
 }

@@ -72,25 +72,7 @@ pub struct UrdfImport {
     pub decomposed: usize,
 }
 
-/// Why a URDF robot makes no transaction ([`urdf_tx`]).
-#[derive(Debug, thiserror::Error)]
-pub enum UrdfTxError {
-    /// The URDF: a mesh it names that cannot be read, a primitive that makes no solid, a joint
-    /// without its origin — its file, line, element and what.
-    #[error(transparent)]
-    Urdf(#[from] UrdfError),
-    /// A mesh's triangles make no Instance Space geometry (none left once the degenerate ones
-    /// are dropped, a flat hull, …): the URDF file, line and element that name the mesh, and
-    /// the mesh importer's error ([`crate::import::mesh_geometry`], `hull_geometry`).
-    #[error("{}:{line}: {element}: collision solid: {source}", file.display())]
-    MeshGeometry {
-        file: std::path::PathBuf,
-        line: u32,
-        element: String,
-        #[source]
-        source: Box<crate::FileError>,
-    },
-}
+pub use crate::error::UrdfTxError;
 
 /// The one transaction that creates robot `u` as [`UrdfPlacement`] says (see the module docs).
 ///
