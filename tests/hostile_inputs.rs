@@ -598,7 +598,12 @@ fn hostile_inputs_give_their_expected_error_kind() {
                 }
             }
         };
-        if took > Duration::from_secs(HANG_S / 2) {
+        // Blocked means blocked on a FIFO: the test opens its other end after HANG_S / 2 s, so a
+        // row with a FIFO that ends later waited for it. A row without one is judged by its
+        // outcome, and a run past HANG_S is a hang (above): a refusal that is slow on a loaded
+        // machine (doubling-40.rsim builds 3 million polygons before its budget stops it,
+        // 3-6 s here) is not a failure of the reader.
+        if !fifos.is_empty() && took > Duration::from_secs(HANG_S / 2) {
             let blocked = format!(
                 "blocked {:.1} s{}",
                 took.as_secs_f64(),
