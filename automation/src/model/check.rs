@@ -57,41 +57,24 @@ fn adjacent(m: &Model, a: ProcId, b: ProcId) -> bool {
     a == b || pa == Some(b) || pb == Some(a) || (pa.is_some() && pa == pb)
 }
 
-/// The findings of the checks, in the order they were found.
-struct Findings(Vec<Finding>);
-
-impl Findings {
-    fn push(&mut self, severity: Severity, code: &'static str, message: String, span: Span) {
-        self.0.push(Finding {
+/// Runs every check; findings are sorted errors first, then by place.
+pub fn check_model(m: &Model) -> Vec<Finding> {
+    let mut out = Vec::new();
+    let mut push = |severity, code, message: String, span| {
+        out.push(Finding {
             severity,
             code,
             message,
             span,
         })
-    }
-}
+    };
 
-/// Runs every check; findings are sorted errors first, then by place.
-pub fn check_model(m: &Model) -> Vec<Finding> {
-    let mut findings = Findings(Vec::new());
-    check_connections(m, &mut findings);
-    check_edges(m, &mut findings);
-    check_zero_time_cycles(m, &mut findings);
-    check_alarms(m, &mut findings);
-    check_observability(m, &mut findings);
-    let mut out = findings.0;
-    out.sort_by_key(|f| (std::cmp::Reverse(f.severity), f.span.line, f.span.col));
-    out
-}
-
-/// `signal-hierarchy` and `signal-direction`.
-fn check_connections(m: &Model, out: &mut Findings) {
     for c in &m.connections {
         let (f, t) = (c.from.process, c.to.process);
         let fam = |p: ProcId| p == c.owner || m.processes[p].parent == Some(c.owner);
         let show = |s: &SignalRef| format!("{}.{}", m.processes[s.process].path, s.signal);
         if !fam(f) || !fam(t) {
-            out.push(
+            push(
                 Severity::Error,
                 "signal-hierarchy",
                 format!(
@@ -115,7 +98,7 @@ fn check_connections(m: &Model, out: &mut Findings) {
             m.processes[t].inputs.contains(&c.to.signal)
         };
         if !from_ok || !to_ok {
-            out.push(
+            push(
                 Severity::Error,
                 "signal-direction",
                 format!(
@@ -129,10 +112,7 @@ fn check_connections(m: &Model, out: &mut Findings) {
             );
         }
     }
-}
 
-/// `edge-hierarchy` and `edge-without-link`.
-fn check_edges(m: &Model, out: &mut Findings) {
     for e in &m.edges {
         let (a, b) = (
             m.failure_modes[e.from].process,
@@ -141,7 +121,7 @@ fn check_edges(m: &Model, out: &mut Findings) {
         let fam = |p: ProcId| p == e.owner || m.processes[p].parent == Some(e.owner);
         let name = |f: FmId| m.failure_modes[f].path.clone();
         if !adjacent(m, a, b) || !fam(a) || !fam(b) {
-            out.push(
+            push(
                 Severity::Error,
                 "edge-hierarchy",
                 format!(
@@ -163,7 +143,7 @@ fn check_edges(m: &Model, out: &mut Findings) {
                 .iter()
                 .any(|c| c.from.process == a && c.to.process == b);
             if !linked {
-                out.push(
+                push(
                     Severity::Error,
                     "edge-without-link",
                     format!(
@@ -178,10 +158,8 @@ fn check_edges(m: &Model, out: &mut Findings) {
             }
         }
     }
-}
 
-/// `zero-time-cycle`: strongly connected components of the tmin = 0 subgraph.
-fn check_zero_time_cycles(m: &Model, out: &mut Findings) {
+    // Zero-time cycles: strongly connected components of the tmin = 0 subgraph.
     let n = m.failure_modes.len();
     let mut zero_adj = vec![Vec::new(); n];
     for e in &m.edges {
@@ -201,7 +179,7 @@ fn check_zero_time_cycles(m: &Model, out: &mut Findings) {
                 .map(|&f| m.failure_modes[f].span)
                 .min_by_key(|s| (s.line, s.col))
                 .unwrap_or_default();
-            out.push(
+            push(
                 Severity::Error,
                 "zero-time-cycle",
                 format!(
@@ -212,15 +190,12 @@ fn check_zero_time_cycles(m: &Model, out: &mut Findings) {
             );
         }
     }
-}
 
-/// `alarm-scope` and `alarm-unattached`.
-fn check_alarms(m: &Model, out: &mut Findings) {
     for a in &m.alarms {
         for &f in &a.detects {
             let p = m.failure_modes[f].process;
             if !m.is_ancestor_or_self(a.process, p) {
-                out.push(
+                push(
                     Severity::Warning,
                     "alarm-scope",
                     format!(
@@ -235,7 +210,7 @@ fn check_alarms(m: &Model, out: &mut Findings) {
             }
         }
         if a.detects.is_empty() {
-            out.push(
+            push(
                 Severity::Warning,
                 "alarm-unattached",
                 format!("alarm `{}` detects no failure mode", a.name),
@@ -243,11 +218,7 @@ fn check_alarms(m: &Model, out: &mut Findings) {
             );
         }
     }
-}
 
-/// `unobservable` (reverse reachability from every alarmed failure mode) and `unreachable`.
-fn check_observability(m: &Model, out: &mut Findings) {
-    let n = m.failure_modes.len();
     // Observability: reverse reachability from every alarmed failure mode.
     let mut radj = vec![Vec::new(); n];
     for e in &m.edges {
@@ -270,7 +241,7 @@ fn check_observability(m: &Model, out: &mut Findings) {
     }
     for (f, fm) in m.failure_modes.iter().enumerate() {
         if !observable[f] {
-            out.push(
+            push(
                 Severity::Warning,
                 "unobservable",
                 format!(
@@ -281,7 +252,7 @@ fn check_observability(m: &Model, out: &mut Findings) {
             );
         }
         if fm.derived && radj[f].is_empty() {
-            out.push(
+            push(
                 Severity::Warning,
                 "unreachable",
                 format!(
@@ -292,6 +263,8 @@ fn check_observability(m: &Model, out: &mut Findings) {
             );
         }
     }
+    out.sort_by_key(|f| (std::cmp::Reverse(f.severity), f.span.line, f.span.col));
+    out
 }
 
 /// Tarjan's strongly connected components (iterative), in reverse topological order.
