@@ -372,6 +372,28 @@ struct UrdfWriter<'a> {
 impl UrdfWriter<'_> {
     /// An `<origin>`'s attributes (the stable rpy for a general robot, so a DH chain's file is
     /// unchanged byte for byte).
+    /// A link's `<inertial>` element (mass and inertia made loadable by
+    /// [`loadable_inertial`]'s rules, each change noted; `frame` the inertial frame in the link).
+    fn inertial(
+        &mut self,
+        mass: f64,
+        inertia: &Matrix3<f64>,
+        what: &str,
+        frame: &Matrix4<f64>,
+    ) -> String {
+        let (mass, m) = loadable_inertial(mass, inertia, what, &mut self.notes);
+        format!(
+            "    <inertial>\n      <origin {}/>\n      <mass value=\"{mass:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>\n",
+            self.oa(frame),
+            m[(0, 0)],
+            m[(0, 1)],
+            m[(0, 2)],
+            m[(1, 1)],
+            m[(1, 2)],
+            m[(2, 2)]
+        )
+    }
+
     fn oa(&self, m: &Matrix4<f64>) -> String {
         if self.general {
             origin_attrs_with(m, rpy_stable)
@@ -472,20 +494,15 @@ impl UrdfWriter<'_> {
                     .to_string(),
             );
         }
-        let (mass, inertia) =
-            loadable_inertial(root.mass, &root.inertia, "link 0", &mut self.notes);
-        let m = &inertia;
-        let origin = self.oa(&Matrix4::new_translation(&root.com));
+        let inertial = self.inertial(
+            root.mass,
+            &root.inertia,
+            "link 0",
+            &Matrix4::new_translation(&root.com),
+        );
         let _ = write!(
             self.out,
-            "  <link name=\"{base}\">\n    <inertial>\n      <origin {origin}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>\n{base_geometry}  </link>\n",
-            mass,
-            m[(0, 0)],
-            m[(0, 1)],
-            m[(0, 2)],
-            m[(1, 1)],
-            m[(1, 2)],
-            m[(2, 2)]
+            "  <link name=\"{base}\">\n{inertial}{base_geometry}  </link>\n"
         );
     }
 
@@ -572,22 +589,8 @@ impl UrdfWriter<'_> {
             }
             None => Matrix4::new_translation(&j.com),
         };
-        let _ = writeln!(self.out, "  <link name=\"{child}\">");
-        let (mass, inertia) =
-            loadable_inertial(j.mass, &j.inertia, &format!("link {i}"), &mut self.notes);
-        let m = &inertia;
-        let origin = self.oa(&inertial_frame);
-        let _ = writeln!(
-            self.out,
-            "    <inertial>\n      <origin {origin}/>\n      <mass value=\"{:?}\"/>\n      <inertia ixx=\"{:?}\" ixy=\"{:?}\" ixz=\"{:?}\" iyy=\"{:?}\" iyz=\"{:?}\" izz=\"{:?}\"/>\n    </inertial>",
-            mass,
-            m[(0, 0)],
-            m[(0, 1)],
-            m[(0, 2)],
-            m[(1, 1)],
-            m[(1, 2)],
-            m[(2, 2)]
-        );
+        let inertial = self.inertial(j.mass, &j.inertia, &format!("link {i}"), &inertial_frame);
+        let _ = write!(self.out, "  <link name=\"{child}\">\n{inertial}");
         let geometry = self.geometry(i);
         self.out += &geometry;
         let _ = writeln!(self.out, "  </link>");
