@@ -12,8 +12,7 @@ use std::path::Path;
 fn one(name: Name, out: &Path, quick: bool) -> Result<()> {
     let paths = spun(&format!("report {}", name.as_str()), || {
         robosim_report::cli::run(name, out, quick)
-    })
-    .map_err(crate::CliError)?;
+    })?;
     print!("{}", wrote(out, &paths));
     Ok(())
 }

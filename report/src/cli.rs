@@ -2,7 +2,7 @@
 //! reports there are, in the order `all` runs them, and the one call that runs one of them.
 //! The binary parses the arguments and prints what was written; nothing here prints.
 //!
-//! Entry points: [`Name`], [`Name::ALL`], [`run`] ([`run_typed`] and its [`RunError`]).
+//! Entry points: [`Name`], [`Name::ALL`], [`run`] and its [`ReportError`] (the report's [`RunError`] as source).
 
 use std::path::{Path, PathBuf};
 
@@ -49,24 +49,27 @@ impl Name {
 
 pub use crate::plot::RunError;
 
-/// Runs report `name` into `out` (`quick`: fewer samples, a smoke run); the paths written, or
-/// what went wrong prefixed with the report's name. (The answer is text because the binary's
-/// `CliError` takes text for this call; the message holds the whole chain, each variant's
-/// Display ending in its source's.)
-pub fn run(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, String> {
-    run_typed(name, out, quick).map_err(|e| format!("report {}: {e}", name.as_str()))
+/// Why report `name` failed: the report's own error, named by the report.
+#[derive(Debug, thiserror::Error)]
+#[error("report {}: {source}", name.as_str())]
+pub struct ReportError {
+    pub name: Name,
+    #[source]
+    pub source: RunError,
 }
 
-/// [`run`] with the typed error.
-pub fn run_typed(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
-    match name {
-        Name::Ik => Ok(crate::ik::report_ik(out, quick)?),
+/// Runs report `name` into `out` (`quick`: fewer samples, a smoke run); the paths written, or
+/// what went wrong, named by the report.
+pub fn run(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportError> {
+    let report = match name {
+        Name::Ik => crate::ik::report_ik(out, quick).map_err(RunError::from),
         Name::Collision => crate::collision::report_collision(out, quick),
         Name::Dynamics => crate::dynamics::report_dynamics(out, quick),
         Name::Effects => crate::effects::report_effects(out, quick),
         Name::Library => crate::library::report_library(out, quick),
         Name::Diag => crate::automation::report_diag(out, quick),
-    }
+    };
+    report.map_err(|source| ReportError { name, source })
 }
 
 #[cfg(test)]
