@@ -489,6 +489,15 @@ pub fn advisor_gap(
 /// model sizes to 10,000 failure modes and the trial counts. Returns the files written.
 pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError> {
     let mut written = Vec::new();
+    written.extend(write_report(out_dir, &update_time_report(quick))?);
+    written.extend(write_report(out_dir, &eclss_resolution_report(quick)?)?);
+    written.extend(write_report(out_dir, &advisor_report(quick))?);
+    Ok(written)
+}
+
+/// `diag_update_time`: the incremental diagnoser's time per alarm against model size, with
+/// re-diagnosing from scratch as the baseline measured in the same run.
+fn update_time_report(quick: bool) -> Report {
     let sizes: &[usize] = if quick {
         &[100, 300, 1000, 3000, 10_000]
     } else {
@@ -552,7 +561,7 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError
             .map(|r| (r.failure_modes as f64, f(r).max(1e-3)))
             .collect(),
     };
-    let report = Report {
+    Report {
         name: "diag_update_time".into(),
         title: "Diagnosis update time per alarm against model size".into(),
         notes: vec![
@@ -580,9 +589,12 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError
                 })
                 .collect(),
         }],
-    };
-    written.extend(write_report(out_dir, &report)?);
+    }
+}
 
+/// `diag_eclss_resolution`: the ECLSS model's isolation rate as alarms are filtered away
+/// (greedy, random, symptom-only and source-only allocations).
+fn eclss_resolution_report(quick: bool) -> Result<Report, RunError> {
     let budgets: &[usize] = &[40, 30, 20, 15, 10, 5];
     let res = eclss_resolution(
         budgets,
@@ -638,7 +650,7 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError
             })
             .collect(),
     };
-    let report = Report {
+    Ok(Report {
         name: "diag_eclss_resolution".into(),
         title: "ECLSS diagnosability: resolution as alarms are filtered away".into(),
         notes: vec![
@@ -654,9 +666,11 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError
             log_y: false,
             series: vec![curve("greedy"), curve("random")],
         }],
-    };
-    written.extend(write_report(out_dir, &report)?);
+    })
+}
 
+/// `diag_advisor`: the greedy sensor advisor against exhaustive search on small random models.
+fn advisor_report(quick: bool) -> Report {
     let gap = advisor_gap(if quick { 2 } else { 6 }, 32, if quick { 4 } else { 6 });
     let worst = gap.iter().map(|g| g.3 / g.4.max(1e-12)).fold(1.0, f64::max);
     let optimal = gap.iter().filter(|g| (g.3 - g.4).abs() < 1e-9).count();
@@ -686,7 +700,7 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError
             })
             .collect(),
     };
-    let report = Report {
+    Report {
         name: "diag_advisor".into(),
         title: "Sensor advisor: greedy against exhaustive search".into(),
         notes: vec![
@@ -695,7 +709,5 @@ pub fn report_diag(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunError
         ],
         table,
         plots: Vec::new(),
-    };
-    written.extend(write_report(out_dir, &report)?);
-    Ok(written)
+    }
 }

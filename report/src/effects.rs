@@ -11,6 +11,7 @@ use crate::plot::{Plot, Report, Series, Table, percentile, write_report_with_x_n
 use nalgebra::{DVector, Isometry3, Vector3};
 use robosim_collision::robot::Scene;
 use robosim_collision::{Mode, Solid};
+use robosim_kinematics::Robot;
 use robosim_simulator::{
     CollisionEffect, DynamicsEffect, EncoderEffect, Integrator, LoggingEffect, SceneEffects, Signal,
 };
@@ -213,60 +214,15 @@ pub fn report_effects(out_dir: &Path, quick: bool) -> Result<Vec<PathBuf>, RunEr
 
 /// The study's report and its plot's x names (the configurations, the table's first column).
 fn effects_report(quick: bool) -> Result<(Report, Vec<String>), RunError> {
-    let robot = robosim_dynamics::fixture_robot("puma560")
-        .ok_or("the PUMA 560 fixture is missing from this build")?;
-    // The same robot carrying the built-in PUMA's friction data (its motor inertia left out,
-    // so that only the friction differs from the fixture).
-    let builtin = robosim_kinematics::builtin_robot("puma560")
-        .ok_or("the built-in PUMA 560 is missing from this build")?;
-    let mut with_friction = robot.clone();
-    for (j, b) in with_friction.joints.iter_mut().zip(&builtin.joints) {
-        j.viscous = b.viscous;
-        j.coulomb = b.coulomb;
-    }
-    if with_friction
-        .joints
-        .iter()
-        .all(|j| j.viscous == 0.0 && j.coulomb == 0.0)
-    {
-        return Err("the built-in PUMA 560 has no friction data to measure".into());
-    }
+    let (robot, with_friction) = puma_without_and_with_friction()?;
     let configs = configurations();
-    // Samples of 1000 steps (one back-and-forth motion), short enough that most run without
-    // being descheduled on this shared machine; many rounds, round-robin over the configurations.
-    const SAMPLE: usize = 1000;
     let rounds = if quick { 5 } else { 101 };
-    let mut pipes = Vec::new();
-    let mut description = String::new();
-    let mut friction_description = String::new();
-    for (name, effects, friction) in &configs {
-        let pipe = Pipeline::build(
-            match friction {
-                Friction::NoData => &robot,
-                Friction::Data => &with_friction,
-            },
-            &Q_A,
-            effects,
-            SceneGeometry {
-                obstacles: obstacles()?,
-                link_solids: None,
-            },
-        )
-        .map_err(|source| RunError::Pipeline {
-            what: name.to_string(),
-            source,
-        })?;
-        if name.starts_with("all") {
-            description = pipe.to_string();
-        }
-        if effects.joint_friction.is_some() {
-            friction_description = pipe.to_string();
-        }
-        pipes.push(pipe);
-    }
-    for pipe in pipes.iter_mut() {
-        run(pipe, SAMPLE)?; // warm-up
-    }
+    let Pipelines {
+        mut pipes,
+        description,
+        friction_description,
+    } = build_pipelines(&configs, &robot, &with_friction)?;
+    warm_up(&mut pipes)?;
     let index = |name: &str| {
         configs
             .iter()
@@ -278,62 +234,15 @@ fn effects_report(quick: bool) -> Result<(Report, Vec<String>), RunError> {
         (index(KIN_ONLY)?, index(COLLISION_OFF)?),
         (index(RK4)?, index(RK4_FRICTION_UNDECLARED)?),
     ];
-    // round-robin over the configurations so that machine noise hits them all alike
-    let mut times: Vec<Vec<f64>> = vec![Vec::new(); configs.len()];
-    let mut ratios: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
-    let mut a_times: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
-    let mut b_times: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
-    for _ in 0..rounds {
-        for (i, pipe) in pipes.iter_mut().enumerate() {
-            times[i].push(run(pipe, SAMPLE)?);
-        }
-        // the undeclared-effect checks: A B B A back to back, same number of steps
-        for (k, &(a, b)) in pairs.iter().enumerate() {
-            let a1 = run(&mut pipes[a], SAMPLE)?;
-            let b1 = run(&mut pipes[b], SAMPLE)?;
-            let b2 = run(&mut pipes[b], SAMPLE)?;
-            let a2 = run(&mut pipes[a], SAMPLE)?;
-            ratios[k].push((b1 + b2) / (a1 + a2));
-            a_times[k].extend([a1, a2]);
-            b_times[k].extend([b1, b2]);
-        }
-    }
+    let Samples {
+        mut times,
+        mut ratios,
+        mut a_times,
+        mut b_times,
+    } = measure_rounds(&mut pipes, &pairs, rounds)?;
     let medians: Vec<f64> = times.iter_mut().map(|t| percentile(t, 50.0)).collect();
     let minima: Vec<f64> = times.iter_mut().map(|t| percentile(t, 10.0)).collect();
-    let base = medians[0];
-    let mut table = Table {
-        columns: [
-            "configuration",
-            "stages",
-            "time per step (µs, median)",
-            "(µs, 10th percentile)",
-            "ratio to kinematics only (median)",
-            "steps in contact",
-        ]
-        .iter()
-        .map(|s| s.to_string())
-        .collect(),
-        rows: Vec::new(),
-    };
-    let mut points = Vec::new();
-    let mut points_min = Vec::new();
-    for (i, ((name, _, _), pipe)) in configs.iter().zip(&pipes).enumerate() {
-        let contacts = if pipe.data().contact.is_some() {
-            pipe.data().contact_steps.to_string()
-        } else {
-            "-".into()
-        };
-        table.rows.push(vec![
-            name.to_string(),
-            pipe.stage_names().join(" → "),
-            format!("{:.3}", medians[i] * 1e6),
-            format!("{:.3}", minima[i] * 1e6),
-            format!("{:.2}", medians[i] / base),
-            contacts,
-        ]);
-        points.push((i as f64 + 1.0, medians[i] * 1e6));
-        points_min.push((i as f64 + 1.0, minima[i] * 1e6));
-    }
+    let (table, points, points_min) = effects_table(&configs, &pipes, &medians, &minima);
     // (median, min, max of the A B B A ratios; 10th percentiles of A and B) per pair
     let mut checks = Vec::new();
     for k in 0..pairs.len() {
@@ -385,6 +294,177 @@ fn effects_report(quick: bool) -> Result<(Report, Vec<String>), RunError> {
     // the x ticks name the configurations (issue 39: they were numbers 1 … n)
     let names: Vec<String> = report.table.rows.iter().map(|r| r[0].clone()).collect();
     Ok((report, names))
+}
+
+/// Samples of 1000 steps (one back-and-forth motion), short enough that most run without
+/// being descheduled on this shared machine; many rounds, round-robin over the configurations.
+const SAMPLE: usize = 1000;
+
+/// The fixture PUMA 560 (no friction data), and the same robot carrying the built-in PUMA's
+/// per-joint viscous and Coulomb friction.
+fn puma_without_and_with_friction() -> Result<(Robot, Robot), RunError> {
+    let robot = robosim_dynamics::fixture_robot("puma560")
+        .ok_or("the PUMA 560 fixture is missing from this build")?;
+    // The same robot carrying the built-in PUMA's friction data (its motor inertia left out,
+    // so that only the friction differs from the fixture).
+    let builtin = robosim_kinematics::builtin_robot("puma560")
+        .ok_or("the built-in PUMA 560 is missing from this build")?;
+    let mut with_friction = robot.clone();
+    for (j, b) in with_friction.joints.iter_mut().zip(&builtin.joints) {
+        j.viscous = b.viscous;
+        j.coulomb = b.coulomb;
+    }
+    if with_friction
+        .joints
+        .iter()
+        .all(|j| j.viscous == 0.0 && j.coulomb == 0.0)
+    {
+        return Err("the built-in PUMA 560 has no friction data to measure".into());
+    }
+    Ok((robot, with_friction))
+}
+
+/// One pipeline per configuration, with the printed pipeline of the "all" row and of the
+/// joint friction row.
+struct Pipelines {
+    pipes: Vec<Pipeline>,
+    description: String,
+    friction_description: String,
+}
+
+fn build_pipelines(
+    configs: &[(&'static str, SceneEffects, Friction)],
+    robot: &Robot,
+    with_friction: &Robot,
+) -> Result<Pipelines, RunError> {
+    let mut pipes = Vec::new();
+    let mut description = String::new();
+    let mut friction_description = String::new();
+    for (name, effects, friction) in configs {
+        let pipe = Pipeline::build(
+            match friction {
+                Friction::NoData => robot,
+                Friction::Data => with_friction,
+            },
+            &Q_A,
+            effects,
+            SceneGeometry {
+                obstacles: obstacles()?,
+                link_solids: None,
+            },
+        )
+        .map_err(|source| RunError::Pipeline {
+            what: name.to_string(),
+            source,
+        })?;
+        if name.starts_with("all") {
+            description = pipe.to_string();
+        }
+        if effects.joint_friction.is_some() {
+            friction_description = pipe.to_string();
+        }
+        pipes.push(pipe);
+    }
+    Ok(Pipelines {
+        pipes,
+        description,
+        friction_description,
+    })
+}
+
+/// One untimed sample per pipeline.
+fn warm_up(pipes: &mut [Pipeline]) -> Result<(), RunError> {
+    for pipe in pipes.iter_mut() {
+        run(pipe, SAMPLE)?; // warm-up
+    }
+    Ok(())
+}
+
+/// Per-sample seconds per step: per configuration, and for each undeclared-effect pair the
+/// A B B A ratios and the A and B times.
+struct Samples {
+    times: Vec<Vec<f64>>,
+    ratios: Vec<Vec<f64>>,
+    a_times: Vec<Vec<f64>>,
+    b_times: Vec<Vec<f64>>,
+}
+
+/// `rounds` rounds: one sample of every pipeline, then each pair back to back (A B B A).
+fn measure_rounds(
+    pipes: &mut [Pipeline],
+    pairs: &[(usize, usize)],
+    rounds: usize,
+) -> Result<Samples, RunError> {
+    // round-robin over the configurations so that machine noise hits them all alike
+    let mut times: Vec<Vec<f64>> = vec![Vec::new(); pipes.len()];
+    let mut ratios: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
+    let mut a_times: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
+    let mut b_times: Vec<Vec<f64>> = vec![Vec::new(); pairs.len()];
+    for _ in 0..rounds {
+        for (i, pipe) in pipes.iter_mut().enumerate() {
+            times[i].push(run(pipe, SAMPLE)?);
+        }
+        // the undeclared-effect checks: A B B A back to back, same number of steps
+        for (k, &(a, b)) in pairs.iter().enumerate() {
+            let a1 = run(&mut pipes[a], SAMPLE)?;
+            let b1 = run(&mut pipes[b], SAMPLE)?;
+            let b2 = run(&mut pipes[b], SAMPLE)?;
+            let a2 = run(&mut pipes[a], SAMPLE)?;
+            ratios[k].push((b1 + b2) / (a1 + a2));
+            a_times[k].extend([a1, a2]);
+            b_times[k].extend([b1, b2]);
+        }
+    }
+    Ok(Samples {
+        times,
+        ratios,
+        a_times,
+        b_times,
+    })
+}
+
+/// The table of the configurations and the plot's points (median, 10th percentile; µs).
+fn effects_table(
+    configs: &[(&'static str, SceneEffects, Friction)],
+    pipes: &[Pipeline],
+    medians: &[f64],
+    minima: &[f64],
+) -> (Table, Vec<(f64, f64)>, Vec<(f64, f64)>) {
+    let base = medians[0];
+    let mut table = Table {
+        columns: [
+            "configuration",
+            "stages",
+            "time per step (µs, median)",
+            "(µs, 10th percentile)",
+            "ratio to kinematics only (median)",
+            "steps in contact",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect(),
+        rows: Vec::new(),
+    };
+    let mut points = Vec::new();
+    let mut points_min = Vec::new();
+    for (i, ((name, _, _), pipe)) in configs.iter().zip(pipes).enumerate() {
+        let contacts = if pipe.data().contact.is_some() {
+            pipe.data().contact_steps.to_string()
+        } else {
+            "-".into()
+        };
+        table.rows.push(vec![
+            name.to_string(),
+            pipe.stage_names().join(" → "),
+            format!("{:.3}", medians[i] * 1e6),
+            format!("{:.3}", minima[i] * 1e6),
+            format!("{:.2}", medians[i] / base),
+            contacts,
+        ]);
+        points.push((i as f64 + 1.0, medians[i] * 1e6));
+        points_min.push((i as f64 + 1.0, minima[i] * 1e6));
+    }
+    (table, points, points_min)
 }
 
 #[cfg(test)]

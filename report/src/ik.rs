@@ -133,35 +133,53 @@ pub fn measure_ik(n: usize) -> Vec<IkRow> {
     };
     let puma_poses = poses(&puma, n, &mut rng);
     let panda_poses = poses(&panda, n, &mut rng);
-
-    // Closed form, raw: all eight solutions, no validation, no FK check (that is done after).
-    if let Ok(solver) = SphericalSolver::new(&puma) {
-        let mut acc = Acc::default();
-        for (q, t) in &puma_poses {
-            let start = Instant::now();
-            let (sols, _) = solver.solve_raw(black_box(t), &[0.0; 6]);
-            let dt = start.elapsed().as_secs_f64();
-            black_box(&sols);
-            acc.times.push(dt);
-            let found: Vec<_> = sols.iter().flatten().collect();
-            let res: Vec<Residual> = found
-                .iter()
-                .map(|s| Residual::between(&forward(&puma, &s.q), t))
-                .collect();
-            let all_good = found.len() == 8
-                && res
-                    .iter()
-                    .all(|r| r.position < 1e-10 && r.orientation < 1e-10);
-            if all_good && found.iter().any(|s| same_angles(&s.q, q, 1e-7)) {
-                acc.ok += 1;
-                acc.pos += res.iter().map(|r| r.position).sum::<f64>() / 8.0;
-                acc.ori += res.iter().map(|r| r.orientation).sum::<f64>() / 8.0;
-            }
-            acc.sols += found.len() as f64;
-        }
-        rows.push(acc.row("puma560", "analytic (raw, all 8)", None));
+    rows.extend(closed_form_raw(&puma, &puma_poses));
+    rows.extend(public_solver(&puma, &puma_poses));
+    rows.push(hybrid_with_wrist_offsets(&puma, n, &mut rng));
+    rows.extend(stanford_closed_form(n, &mut rng));
+    // Numeric methods over the tolerance sweep.
+    for (robot, name, set) in [
+        (&puma, "puma560", &puma_poses),
+        (&panda, "panda", &panda_poses),
+    ] {
+        rows.extend(numeric_sweep(robot, name, set));
     }
-    // Through the public solver: validation, FK residual and limits per solution.
+    rows
+}
+
+/// Closed form, raw: all eight solutions, no validation, no FK check (that is done after).
+/// `None` when the PUMA does not have the spherical wrist the solver needs.
+fn closed_form_raw(puma: &Robot, puma_poses: &[(Vec<f64>, Matrix4<f64>)]) -> Option<IkRow> {
+    let solver = SphericalSolver::new(puma).ok()?;
+    let mut acc = Acc::default();
+    for (q, t) in puma_poses {
+        let start = Instant::now();
+        let (sols, _) = solver.solve_raw(black_box(t), &[0.0; 6]);
+        let dt = start.elapsed().as_secs_f64();
+        black_box(&sols);
+        acc.times.push(dt);
+        let found: Vec<_> = sols.iter().flatten().collect();
+        let res: Vec<Residual> = found
+            .iter()
+            .map(|s| Residual::between(&forward(puma, &s.q), t))
+            .collect();
+        let all_good = found.len() == 8
+            && res
+                .iter()
+                .all(|r| r.position < 1e-10 && r.orientation < 1e-10);
+        if all_good && found.iter().any(|s| same_angles(&s.q, q, 1e-7)) {
+            acc.ok += 1;
+            acc.pos += res.iter().map(|r| r.position).sum::<f64>() / 8.0;
+            acc.ori += res.iter().map(|r| r.orientation).sum::<f64>() / 8.0;
+        }
+        acc.sols += found.len() as f64;
+    }
+    Some(acc.row("puma560", "analytic (raw, all 8)", None))
+}
+
+/// Through the public solver: validation, FK residual and limits per solution.
+fn public_solver(puma: &Robot, puma_poses: &[(Vec<f64>, Matrix4<f64>)]) -> Vec<IkRow> {
+    let mut rows = Vec::new();
     for (method, name) in [
         (Method::Analytic, "analytic (ik::solve, all)"),
         (Method::Hybrid, "hybrid (ik::solve, all)"),
@@ -171,9 +189,9 @@ pub fn measure_ik(n: usize) -> Vec<IkRow> {
             ..IkOptions::default()
         };
         let mut acc = Acc::default();
-        for (q, t) in &puma_poses {
+        for (q, t) in puma_poses {
             let start = Instant::now();
-            let r = ik::solve(&puma, black_box(t), method, &options);
+            let r = ik::solve(puma, black_box(t), method, &options);
             acc.times.push(start.elapsed().as_secs_f64());
             if let Ok(r) = r {
                 acc.score_all_solutions(&r, q);
@@ -181,110 +199,113 @@ pub fn measure_ik(n: usize) -> Vec<IkRow> {
         }
         rows.push(acc.row("puma560", name, None));
     }
-    // The hybrid where the closed form does not apply: the PUMA with wrist offsets
-    // (a5 = 20 mm, d5 = 10 mm, a6 = 15 mm).
-    {
-        let mut offset = puma.clone();
-        offset.joints[4].a = 0.02;
-        offset.joints[4].d = 0.01;
-        offset.joints[5].a = 0.015;
-        let set = poses(&offset, n, &mut rng);
-        let options = IkOptions {
-            all: true,
-            ..IkOptions::default()
-        };
-        let mut acc = Acc::default();
-        for (q, t) in &set {
-            let start = Instant::now();
-            let r = ik::solve(&offset, black_box(t), Method::Hybrid, &options);
-            acc.times.push(start.elapsed().as_secs_f64());
-            if let Ok(r) = r {
-                acc.score_all_solutions(&r, q);
-            }
+    rows
+}
+
+/// The hybrid where the closed form does not apply: the PUMA with wrist offsets
+/// (a5 = 20 mm, d5 = 10 mm, a6 = 15 mm), on `n` poses drawn from `rng`.
+fn hybrid_with_wrist_offsets(puma: &Robot, n: usize, rng: &mut ChaCha8Rng) -> IkRow {
+    let mut offset = puma.clone();
+    offset.joints[4].a = 0.02;
+    offset.joints[4].d = 0.01;
+    offset.joints[5].a = 0.015;
+    let set = poses(&offset, n, rng);
+    let options = IkOptions {
+        all: true,
+        ..IkOptions::default()
+    };
+    let mut acc = Acc::default();
+    for (q, t) in &set {
+        let start = Instant::now();
+        let r = ik::solve(&offset, black_box(t), Method::Hybrid, &options);
+        acc.times.push(start.elapsed().as_secs_f64());
+        if let Ok(r) = r {
+            acc.score_all_solutions(&r, q);
         }
-        rows.push(acc.row("puma560 + wrist offsets", "hybrid (ik::solve, all)", None));
     }
-    // The RRP closed form on the Stanford arm (half its branches reverse the boom, outside the
-    // prismatic limits; all must still reproduce the pose).
-    if let Some(stanford) = builtin_robot("stanford") {
-        let set = poses(&stanford, n, &mut rng);
-        let options = IkOptions {
-            all: true,
-            ..IkOptions::default()
-        };
-        let mut acc = Acc::default();
-        for (q, t) in &set {
-            let start = Instant::now();
-            let r = ik::solve(&stanford, black_box(t), Method::Analytic, &options);
-            acc.times.push(start.elapsed().as_secs_f64());
-            if let Ok(r) = r {
-                let good = r
+    acc.row("puma560 + wrist offsets", "hybrid (ik::solve, all)", None)
+}
+
+/// The RRP closed form on the Stanford arm (half its branches reverse the boom, outside the
+/// prismatic limits; all must still reproduce the pose), on `n` poses drawn from `rng`.
+fn stanford_closed_form(n: usize, rng: &mut ChaCha8Rng) -> Option<IkRow> {
+    let stanford = builtin_robot("stanford")?;
+    let set = poses(&stanford, n, rng);
+    let options = IkOptions {
+        all: true,
+        ..IkOptions::default()
+    };
+    let mut acc = Acc::default();
+    for (q, t) in &set {
+        let start = Instant::now();
+        let r = ik::solve(&stanford, black_box(t), Method::Analytic, &options);
+        acc.times.push(start.elapsed().as_secs_f64());
+        if let Ok(r) = r {
+            let good = r
+                .solutions
+                .iter()
+                .all(|s| s.residual.position < 1e-10 && s.residual.orientation < 1e-10);
+            if good
+                && r.solutions
+                    .iter()
+                    .any(|s| s.q.iter().zip(q).all(|(a, b)| (a - b).abs() < 1e-7))
+            {
+                acc.ok += 1;
+                let k = r.solutions.len() as f64;
+                acc.pos += r.solutions.iter().map(|s| s.residual.position).sum::<f64>() / k;
+                acc.ori += r
                     .solutions
                     .iter()
-                    .all(|s| s.residual.position < 1e-10 && s.residual.orientation < 1e-10);
-                if good
-                    && r.solutions
-                        .iter()
-                        .any(|s| s.q.iter().zip(q).all(|(a, b)| (a - b).abs() < 1e-7))
-                {
-                    acc.ok += 1;
-                    let k = r.solutions.len() as f64;
-                    acc.pos += r.solutions.iter().map(|s| s.residual.position).sum::<f64>() / k;
-                    acc.ori += r
-                        .solutions
-                        .iter()
-                        .map(|s| s.residual.orientation)
-                        .sum::<f64>()
-                        / k;
-                }
-                acc.sols += r.solutions.len() as f64;
+                    .map(|s| s.residual.orientation)
+                    .sum::<f64>()
+                    / k;
             }
+            acc.sols += r.solutions.len() as f64;
         }
-        rows.push(acc.row("stanford", "analytic (ik::solve, all)", None));
     }
-    // Numeric methods over the tolerance sweep.
-    for (robot, name, set) in [
-        (&puma, "puma560", &puma_poses),
-        (&panda, "panda", &panda_poses),
-    ] {
-        for &tol in &TOLERANCES {
-            for (method, label, warm) in [
-                (Method::Newton, "newton (warm ±0.2 rad)", true),
-                (Method::Dls, "dls (warm ±0.2 rad)", true),
-                (Method::Dls, "dls (cold, random restarts)", false),
-            ] {
-                let mut acc = Acc::default();
-                let mut start_rng = ChaCha8Rng::seed_from_u64(7);
-                for (k, (q, t)) in set.iter().enumerate() {
-                    let q0 = warm.then(|| {
-                        q.iter()
-                            .map(|x| x + start_rng.random_range(-0.2..0.2))
-                            .collect::<Vec<f64>>()
-                    });
-                    let options = IkOptions {
-                        tolerances: Tolerances::uniform(tol, tol),
-                        q0,
-                        seed: k as u64,
-                        ..IkOptions::default()
-                    };
-                    let start = Instant::now();
-                    let r = ik::solve(robot, black_box(t), method, &options);
-                    acc.times.push(start.elapsed().as_secs_f64());
-                    match r {
-                        Ok(r) if r.solutions[0].converged => {
-                            let s = &r.solutions[0];
-                            acc.ok += 1;
-                            acc.pos += s.residual.position;
-                            acc.ori += s.residual.orientation;
-                            acc.iters += s.iterations as f64;
-                            acc.sols += 1.0;
-                        }
-                        Ok(_) | Err(IkError::NotConverged { .. }) => {}
-                        Err(_) => {}
+    Some(acc.row("stanford", "analytic (ik::solve, all)", None))
+}
+
+/// Newton and DLS (warm and cold starts) on `set` at every tolerance of [`TOLERANCES`].
+fn numeric_sweep(robot: &Robot, name: &str, set: &[(Vec<f64>, Matrix4<f64>)]) -> Vec<IkRow> {
+    let mut rows = Vec::new();
+    for &tol in &TOLERANCES {
+        for (method, label, warm) in [
+            (Method::Newton, "newton (warm ±0.2 rad)", true),
+            (Method::Dls, "dls (warm ±0.2 rad)", true),
+            (Method::Dls, "dls (cold, random restarts)", false),
+        ] {
+            let mut acc = Acc::default();
+            let mut start_rng = ChaCha8Rng::seed_from_u64(7);
+            for (k, (q, t)) in set.iter().enumerate() {
+                let q0 = warm.then(|| {
+                    q.iter()
+                        .map(|x| x + start_rng.random_range(-0.2..0.2))
+                        .collect::<Vec<f64>>()
+                });
+                let options = IkOptions {
+                    tolerances: Tolerances::uniform(tol, tol),
+                    q0,
+                    seed: k as u64,
+                    ..IkOptions::default()
+                };
+                let start = Instant::now();
+                let r = ik::solve(robot, black_box(t), method, &options);
+                acc.times.push(start.elapsed().as_secs_f64());
+                match r {
+                    Ok(r) if r.solutions[0].converged => {
+                        let s = &r.solutions[0];
+                        acc.ok += 1;
+                        acc.pos += s.residual.position;
+                        acc.ori += s.residual.orientation;
+                        acc.iters += s.iterations as f64;
+                        acc.sols += 1.0;
                     }
+                    Ok(_) | Err(IkError::NotConverged { .. }) => {}
+                    Err(_) => {}
                 }
-                rows.push(acc.row(name, label, Some(tol)));
             }
+            rows.push(acc.row(name, label, Some(tol)));
         }
     }
     rows

@@ -99,8 +99,27 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let tx_reps = if quick { 500 } else { 5_000 };
     let lat_count = if quick { 1_000 } else { 10_000 };
     let pid = std::process::id();
-    let mut md = String::new();
-    let mut csv = String::from("measure,model,value,unit\n");
+    let mut doc = Doc {
+        md: String::new(),
+        csv: String::from("measure,model,value,unit\n"),
+    };
+    write_header(&mut doc, quick);
+    access_and_pose_tx(&mut doc, pid, reps, tx_reps)?;
+    notify_latency(&mut doc, pid, lat_count)?;
+    journaled_throughput(&mut doc, pid, quick)?;
+    write_doc(out, &doc)
+}
+
+/// The bench's two outputs, filled section by section: the Markdown page and the CSV of its
+/// figures.
+struct Doc {
+    md: String,
+    csv: String,
+}
+
+/// The page's title and the note on how to read it.
+fn write_header(doc: &mut Doc, quick: bool) {
+    let Doc { md, .. } = doc;
     writeln!(
         md,
         "# Instance Space benchmark (`robosim bench ipc{}`)\n",
@@ -108,7 +127,12 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     )
     .ok();
     writeln!(md, "Measured on this machine (2 cores, shared), one run; compare figures within this table, not across runs.\n").ok();
+}
 
+/// (a) snapshot access and (b) a one-body pose transaction, without and with fsync, in a
+/// 1,000- and a 1,000,000-vertex model of the same 10 objects.
+fn access_and_pose_tx(doc: &mut Doc, pid: u32, reps: usize, tx_reps: usize) -> Result<()> {
+    let Doc { md, csv } = doc;
     // (a) and (b): two models with the same 10 objects, 1,000 and 1,000,000 vertices in all.
     writeln!(
         md,
@@ -128,44 +152,14 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             let reader = Reader::attach(kp.session(), "bench-reader")?;
             let total_verts = reader.snapshot().map_or(0, |s| s.vertex_count());
             if !durable {
-                let mut samples = Vec::with_capacity(reps);
-                let mut sink = 0usize;
-                for _ in 0..reps {
-                    let t = Instant::now();
-                    let s = reader.snapshot();
-                    if let Some(s) = s {
-                        sink += (0..s.len())
-                            .filter_map(|i| s.geometry(i))
-                            .map(|g| g.header.generation as usize)
-                            .sum::<usize>();
-                    }
-                    samples.push(t.elapsed().as_nanos() as f64);
-                }
-                std::hint::black_box(sink);
+                let samples = snapshot_access_ns(&reader, reps);
                 let (mean, _, p99) = stats(samples);
                 a_means.push(mean);
                 row.push(format!("{mean:.0} / {p99:.0}"));
                 csv.push_str(&format!("snapshot_access_mean,{label},{mean:.1},ns\n"));
                 row.insert(0, total_verts.to_string());
             }
-            // Warm-up: first-touch of shared-memory pages and caches is not what (b) measures.
-            for k in 0..200 {
-                let mut tx = Transaction::new();
-                let mut pose = IDENTITY;
-                pose[11] = k as f64 * 1e-3;
-                tx.set_pose(body, pose);
-                client.transact(&tx)?;
-            }
-            let mut samples = Vec::with_capacity(tx_reps);
-            for k in 0..tx_reps {
-                let mut pose = IDENTITY;
-                pose[3] = k as f64 * 1e-3;
-                let mut tx = Transaction::new();
-                tx.set_pose(body, pose);
-                let t = Instant::now();
-                client.transact(&tx)?;
-                samples.push(t.elapsed().as_nanos() as f64 / 1e3);
-            }
+            let samples = pose_tx_us(&mut client, body, tx_reps)?;
             let (mean, _, p99) = stats(samples);
             if !durable {
                 b_means.push(mean);
@@ -181,7 +175,55 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     if a_means.len() == 2 && b_means.len() == 2 {
         writeln!(md, "\nRatios 1M / 1k (goal: 1 within noise): snapshot access {:.2}, pose transaction {:.2}.\n", a_means[1] / a_means[0], b_means[1] / b_means[0]).ok();
     }
+    Ok(())
+}
 
+/// (a)'s samples: `reps` snapshot accesses, each reading every object's geometry header (ns).
+fn snapshot_access_ns(reader: &Reader, reps: usize) -> Vec<f64> {
+    let mut samples = Vec::with_capacity(reps);
+    let mut sink = 0usize;
+    for _ in 0..reps {
+        let t = Instant::now();
+        let s = reader.snapshot();
+        if let Some(s) = s {
+            sink += (0..s.len())
+                .filter_map(|i| s.geometry(i))
+                .map(|g| g.header.generation as usize)
+                .sum::<usize>();
+        }
+        samples.push(t.elapsed().as_nanos() as f64);
+    }
+    std::hint::black_box(sink);
+    samples
+}
+
+/// (b)'s samples: 200 warm-up transactions, then `tx_reps` one-body pose transactions, each
+/// timed end to end (µs).
+fn pose_tx_us(client: &mut Client, body: u64, tx_reps: usize) -> Result<Vec<f64>> {
+    // Warm-up: first-touch of shared-memory pages and caches is not what (b) measures.
+    for k in 0..200 {
+        let mut tx = Transaction::new();
+        let mut pose = IDENTITY;
+        pose[11] = k as f64 * 1e-3;
+        tx.set_pose(body, pose);
+        client.transact(&tx)?;
+    }
+    let mut samples = Vec::with_capacity(tx_reps);
+    for k in 0..tx_reps {
+        let mut pose = IDENTITY;
+        pose[3] = k as f64 * 1e-3;
+        let mut tx = Transaction::new();
+        tx.set_pose(body, pose);
+        let t = Instant::now();
+        client.transact(&tx)?;
+        samples.push(t.elapsed().as_nanos() as f64 / 1e3);
+    }
+    Ok(samples)
+}
+
+/// (c) change-notification latency keeper → blocked reader in another process.
+fn notify_latency(doc: &mut Doc, pid: u32, lat_count: usize) -> Result<()> {
+    let Doc { md, csv } = doc;
     // (c) notification latency keeper → blocked reader in another process.
     writeln!(md, "## (c) change-notification latency\n").ok();
     {
@@ -231,7 +273,12 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             "notify_latency_p50,,{p50:.2},us\nnotify_latency_p99,,{p99:.2},us\n"
         ));
     }
+    Ok(())
+}
 
+/// (d) journaled transactions per second with group commit, and the cost of one fsync.
+fn journaled_throughput(doc: &mut Doc, pid: u32, quick: bool) -> Result<()> {
+    let Doc { md, csv } = doc;
     // (d) journaled throughput with group commit, and one fsync.
     writeln!(md, "## (d) journaled transactions per second\n").ok();
     {
@@ -279,9 +326,15 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             "journaled_tps,,{tps:.0},1/s\nfsync_mean,,{fmean:.1},us\n"
         ));
     }
+    Ok(())
+}
+
+/// Writes `ipc.md` and `ipc.csv` into `out` and prints the page.
+fn write_doc(out: &Path, doc: &Doc) -> Result<()> {
+    let Doc { md, csv } = doc;
     std::fs::create_dir_all(out)?;
-    std::fs::write(out.join("ipc.md"), &md)?;
-    std::fs::write(out.join("ipc.csv"), &csv)?;
+    std::fs::write(out.join("ipc.md"), md)?;
+    std::fs::write(out.join("ipc.csv"), csv)?;
     print!("{md}");
     println!("written: {}", out.join("ipc.md").display());
     Ok(())

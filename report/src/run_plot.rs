@@ -322,72 +322,108 @@ fn figures_of_run(run: &Run) -> (Vec<Figure>, Vec<Mark>) {
 
 /// The simulator's signal log: `t_s` first, then `<signal><j>_<unit>` columns and `contact`.
 fn figures_of_csv(path: &Path) -> Result<Vec<Figure>, RunPlotError> {
-    let bad = |what: String| RunPlotError::Csv {
-        path: path.to_owned(),
-        what,
-    };
-    let text = std::fs::read_to_string(path).map_err(|source| RunPlotError::Io {
-        path: path.to_owned(),
-        source,
-    })?;
-    let mut lines = text.lines().enumerate();
-    let header: Vec<&str> = lines
-        .next()
-        .map(|(_, h)| h.split(',').map(str::trim).collect())
-        .ok_or_else(|| bad("empty file".into()))?;
-    if header.first() != Some(&"t_s") {
-        return Err(bad(format!(
-            "the first column is {:?}, not t_s: not a simulator signal log (or an MCAP recording)",
-            header.first().copied().unwrap_or("")
-        )));
-    }
-    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
-    let pb = crate::progress::bar(text.len() as u64, "plot");
-    let mut read = header.iter().map(|h| h.len() + 1).sum::<usize>() as u64;
-    for (i, line) in lines {
-        read += line.len() as u64 + 1;
-        if i % 4096 == 0 {
-            pb.set_position(read);
-        }
-        if line.trim().is_empty() {
-            continue;
-        }
-        let cells: Vec<&str> = line.split(',').collect();
-        if cells.len() != header.len() {
-            pb.finish_and_clear();
+    let log = SignalLog::read(path)?;
+    let (mut panels, taken) = joint_panels(&log);
+    panels.extend(actuator_work_panel(&log));
+    panels.extend(other_panels(&log, &taken));
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("run")
+        .to_owned();
+    let robot = stem.strip_prefix("simulator-").unwrap_or(&stem);
+    Ok(vec![Figure {
+        file: format!("{}.png", file_stem(robot)),
+        title: format!("robot {robot} ({})", path.display()),
+        panels,
+    }])
+}
+
+/// A simulator signal log: its header (`t_s` first) and one column of numbers per header cell.
+struct SignalLog {
+    header: Vec<String>,
+    columns: Vec<Vec<f64>>,
+}
+
+impl SignalLog {
+    /// Reads and checks the CSV at `path` (every line as many numbers as the header has cells).
+    fn read(path: &Path) -> Result<Self, RunPlotError> {
+        let bad = |what: String| RunPlotError::Csv {
+            path: path.to_owned(),
+            what,
+        };
+        let text = std::fs::read_to_string(path).map_err(|source| RunPlotError::Io {
+            path: path.to_owned(),
+            source,
+        })?;
+        let mut lines = text.lines().enumerate();
+        let header: Vec<String> = lines
+            .next()
+            .map(|(_, h)| h.split(',').map(|c| c.trim().to_owned()).collect())
+            .ok_or_else(|| bad("empty file".into()))?;
+        if header.first().map(String::as_str) != Some("t_s") {
             return Err(bad(format!(
-                "line {}: {} cells, the header has {}",
-                i + 1,
-                cells.len(),
-                header.len()
+                "the first column is {:?}, not t_s: not a simulator signal log (or an MCAP recording)",
+                header.first().map_or("", String::as_str)
             )));
         }
-        for (c, (cell, col)) in cells.iter().zip(&mut columns).enumerate() {
-            let v = cell.trim().parse::<f64>().map_err(|_| {
-                bad(format!(
-                    "line {}, column {}: {cell:?} is not a number",
+        let mut columns: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+        let pb = crate::progress::bar(text.len() as u64, "plot");
+        let mut read = header.iter().map(|h| h.len() + 1).sum::<usize>() as u64;
+        for (i, line) in lines {
+            read += line.len() as u64 + 1;
+            if i % 4096 == 0 {
+                pb.set_position(read);
+            }
+            if line.trim().is_empty() {
+                continue;
+            }
+            let cells: Vec<&str> = line.split(',').collect();
+            if cells.len() != header.len() {
+                pb.finish_and_clear();
+                return Err(bad(format!(
+                    "line {}: {} cells, the header has {}",
                     i + 1,
-                    header[c]
-                ))
-            })?;
-            col.push(v);
+                    cells.len(),
+                    header.len()
+                )));
+            }
+            for (c, (cell, col)) in cells.iter().zip(&mut columns).enumerate() {
+                let v = cell.trim().parse::<f64>().map_err(|_| {
+                    bad(format!(
+                        "line {}, column {}: {cell:?} is not a number",
+                        i + 1,
+                        header[c]
+                    ))
+                })?;
+                col.push(v);
+            }
         }
+        pb.finish_and_clear();
+        Ok(SignalLog { header, columns })
     }
-    pb.finish_and_clear();
+}
+
+/// Signal groups in the logging stage's order of names; `q_measured` before `q`, whose
+/// prefix it shares: (prefix, panel title, y label).
+const GROUPS: [(&str, &str, &str); 5] = [
+    (
+        "q_measured",
+        "measured joint positions (encoder)",
+        "q̃ (rad | m)",
+    ),
+    ("qdd", "joint accelerations", "q̈ (rad/s² | m/s²)"),
+    ("qd", "joint velocities", "q̇ (rad/s | m/s)"),
+    ("tau", "joint efforts", "τ (N·m | N)"),
+    ("q", "joint positions", "q (rad | m)"),
+];
+
+/// One panel per joint signal group present (`<prefix><digits>_<unit>` columns), in the order
+/// q, q_measured, qd, qdd, tau; and which columns they took (`t_s` counts as taken).
+fn joint_panels(log: &SignalLog) -> (Vec<Panel>, Vec<bool>) {
+    let SignalLog { header, columns } = log;
     let t = &columns[0];
-    // Signal groups in the logging stage's order of names; `q_measured` before `q`, whose
-    // prefix it shares.
-    let groups: [(&str, &str, &str); 5] = [
-        (
-            "q_measured",
-            "measured joint positions (encoder)",
-            "q̃ (rad | m)",
-        ),
-        ("qdd", "joint accelerations", "q̈ (rad/s² | m/s²)"),
-        ("qd", "joint velocities", "q̇ (rad/s | m/s)"),
-        ("tau", "joint efforts", "τ (N·m | N)"),
-        ("q", "joint positions", "q (rad | m)"),
-    ];
+    let groups = GROUPS;
     let mut taken = vec![false; header.len()];
     taken[0] = true;
     let mut by_group: Vec<(usize, Vec<Line>)> = Vec::new();
@@ -422,6 +458,13 @@ fn figures_of_csv(path: &Path) -> Result<Vec<Figure>, RunPlotError> {
             panels.extend(panel(groups[g].1, groups[g].2, lines.clone()));
         }
     }
+    (panels, taken)
+}
+
+/// The actuator work panel, when the log has both joint velocities and efforts.
+fn actuator_work_panel(log: &SignalLog) -> Option<Panel> {
+    let SignalLog { header, columns } = log;
+    let t = &columns[0];
     let col = |prefix: &str| -> Vec<Vec<f64>> {
         let cs: Vec<usize> = header
             .iter()
@@ -443,9 +486,17 @@ fn figures_of_csv(path: &Path) -> Result<Vec<Figure>, RunPlotError> {
     if qd.first().is_some_and(|r| !r.is_empty()) && tau.first().is_some_and(|r| !r.is_empty()) {
         let w = actuator_work(t, &qd, &tau);
         if w.points.len() > 1 {
-            panels.extend(panel("actuator work", "W (J)", vec![w]));
+            return panel("actuator work", "W (J)", vec![w]);
         }
     }
+    None
+}
+
+/// The columns no group took: the contact verdict on a panel of its own, the rest together.
+fn other_panels(log: &SignalLog, taken: &[bool]) -> Vec<Panel> {
+    let SignalLog { header, columns } = log;
+    let t = &columns[0];
+    let mut panels: Vec<Panel> = Vec::new();
     let mut rest = Vec::new();
     for (c, name) in header.iter().enumerate() {
         if taken[c] {
@@ -466,17 +517,7 @@ fn figures_of_csv(path: &Path) -> Result<Vec<Figure>, RunPlotError> {
         }
     }
     panels.extend(panel("other columns", "value", rest));
-    let stem = path
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("run")
-        .to_owned();
-    let robot = stem.strip_prefix("simulator-").unwrap_or(&stem);
-    Ok(vec![Figure {
-        file: format!("{}.png", file_stem(robot)),
-        title: format!("robot {robot} ({})", path.display()),
-        panels,
-    }])
+    panels
 }
 
 /// The data range of finite values, padded by 5 % (a flat series by ±1, or ±|v|/10).

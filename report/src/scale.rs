@@ -581,8 +581,31 @@ fn tx_pose_x(k: usize) -> f64 {
 
 fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
     let base = &rows[0];
-    let mut md = String::new();
-    let mut csv = String::from("measure,bodies,value,unit\n");
+    let mut doc = Doc {
+        md: String::new(),
+        csv: String::from("measure,bodies,value,unit\n"),
+    };
+    write_header(&mut doc, quick, base);
+    write_pose_table(&mut doc, rows, base);
+    write_geometry_table(&mut doc, rows, base);
+    write_library_table(&mut doc, lib);
+    let Doc { md, csv } = &doc;
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("scale.md"), md)?;
+    std::fs::write(out.join("scale.csv"), csv)?;
+    print!("{md}");
+    Ok(())
+}
+
+/// The page and the CSV of its figures, filled section by section.
+struct Doc {
+    md: String,
+    csv: String,
+}
+
+/// The title, the build and how the rounds are run; `base` is the 10² model's row.
+fn write_header(doc: &mut Doc, quick: bool, base: &Row) {
+    let Doc { md, .. } = doc;
     writeln!(
         md,
         "# Costs that follow the change (`robosim bench scale{}`)\n",
@@ -607,6 +630,12 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
     )
     .ok();
     writeln!(md, "* **bytes published**: what the keeper copies into shared memory per one-body pose transaction, computed from the layout — now, and with the whole pose head republished per commit as before.\n").ok();
+}
+
+/// The table of the models without geometry: pose transaction, reader follows, notify against
+/// the bare iceoryx2 event, attach and bytes published; ratios against `base` (the 10² model).
+fn write_pose_table(doc: &mut Doc, rows: &[Row], base: &Row) {
+    let Doc { md, csv } = doc;
     writeln!(md, "| bodies | pose tx p50 / p99 (µs) | ×10² | reader follows p50 / p99 (µs) | ×10² | notify p50 / p99 (µs) | ×10² | iceoryx2 event p50 / p99 (µs) | notify / event | attach p50 / max (ms) | ×10² | bytes published now / whole head |\n|---|---|---|---|---|---|---|---|---|---|---|---|").ok();
     for r in rows {
         let (now, whole) = published_bytes(r.n);
@@ -683,6 +712,12 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             writeln!(csv, "{m},{},{v:.3},{u}", r.n).ok();
         }
     }
+}
+
+/// "A model with geometry": joiners, geometry and create transactions and their followers;
+/// ratios against `base` (the 10² model).
+fn write_geometry_table(doc: &mut Doc, rows: &[Row], base: &Row) {
+    let Doc { md, csv } = doc;
     writeln!(md, "\n## A model with geometry\n").ok();
     writeln!(md, "The same sizes with every body a box (8 vertices, 6 faces), against a keeper of its own. A late joiner asks the keeper at most once for the **geometry base** (every object's geometry in one sample, kept in shared memory and viewed in place) — the model's geometry travels in two iceoryx2 services whatever the number of objects, where it had one per object before (a service costs milliseconds to make and to open). A **one-body geometry change** (`SetGeometry` on the middle box) goes by the **geometry update** (the changed geometry alone) and republishes the one **object chunk** (256 objects' records) whose record changed, with one generation word per chunk; a **box created** (one `Create` + `SetGeometry`, appended after the last object) republishes the last object chunk. A late joiner takes the object chunks from one **objects base**; a follower asks for none (checked). **First joiner**: the keeper builds the geometry and objects bases for it; **later joiners** find them in the services' histories (p50 of the others).\n").ok();
     writeln!(md, "| bodies | first joiner (ms) | later joiners p50 (ms) | ×10² | geometry base (MB) | geometry tx mean / p50 / p99 (µs) | ×10² | reader follows mean / p50 / p99 (µs) | ×10² | create tx mean / p50 / p99 (µs) | ×10² | reader follows create mean / p50 / p99 (µs) | ×10² |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|").ok();
@@ -735,6 +770,11 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
             writeln!(csv, "{m},{},{v:.3},{u}", r.n).ok();
         }
     }
+}
+
+/// "A new process's Library Space": attach, receive, parse against decode; and the footer.
+fn write_library_table(doc: &mut Doc, lib: &LibRow) {
+    let Doc { md, csv } = doc;
     writeln!(md, "\n## A new process's Library Space\n").ok();
     writeln!(md, "The standard library ({} declarations, {} bytes of source) as a process gets it from the 10² session: `Reader::attach`, then `Reader::library` (the keeper's publication: the source files and the checked library's encoding, {} bytes), then either **parse + check** the source (`Library::from_sources`, what every process did before) or **decode** the encoding (`Library::decode_checked`: digest and checksum compared, the declarations' syntax trees read; nothing parsed or evaluated). The two libraries are compared (same declarations) on every repetition.\n", lib.declarations, lib.source_bytes, lib.checked_bytes).ok();
     writeln!(
@@ -762,11 +802,6 @@ fn write(out: &Path, quick: bool, rows: &[Row], lib: &LibRow) -> Result<()> {
         "\nRegenerate: `cargo run --release -- bench scale --out docs/bench`."
     )
     .ok();
-    std::fs::create_dir_all(out)?;
-    std::fs::write(out.join("scale.md"), &md)?;
-    std::fs::write(out.join("scale.csv"), &csv)?;
-    print!("{md}");
-    Ok(())
 }
 
 #[cfg(test)]

@@ -99,129 +99,46 @@ fn sci(x: f64) -> String {
 /// Rows per class and tolerance (robosim and coal), and the error-against-time plot (all
 /// classes pooled: the largest error and the mean time per pair at each tolerance).
 pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Result<Plot, String> {
-    let pairs = pair_file::parse(PAIRS, "tolerance_pairs.csv")?;
-    let (coal_d, coal_t) = peer_data(COAL, COAL_TIME).map_err(|e| format!("coal's data: {e}"))?;
-    let (fcl_d, fcl_t) = peer_data(FCL, FCL_TIME).map_err(|e| format!("FCL's data: {e}"))?;
-    // FCL's one tolerance (python-fcl cannot set it): its row is robosim's at the same value.
-    let fcl_tol = fcl_t
-        .keys()
-        .next()
-        .map(|(_, bits)| f64::from_bits(*bits))
-        .ok_or("FCL's data: no time rows")?;
-    let reference: Vec<f64> = pairs
-        .iter()
-        .map(|p| distance(p, Tolerance::Certified).ok_or("a tolerance pair is not clear"))
-        .collect::<Result<_, _>>()?;
+    let study = Study::load()?;
+    let Study { pairs, fcl_tol, .. } = &study;
     let mut classes: Vec<&str> = pairs.iter().map(|p| p.class.as_str()).collect();
     classes.dedup();
-    let mut ours_pts = Vec::new();
-    let mut coal_pts = Vec::new();
-    let (mut fcl_err, mut fcl_t_sum, mut fcl_n) = (0.0f64, 0.0, 0usize);
-    let mut worst_ratio: f64 = 0.0;
-    let settings: Vec<(String, Tolerance, Option<f64>)> =
-        std::iter::once(("certified".to_owned(), Tolerance::Certified, None))
-            .chain(
-                TOLERANCES
-                    .iter()
-                    .map(|&t| (sci(t), Tolerance::Gjk(t), Some(t))),
-            )
-            .collect();
-    for (label, tol, coal_tol) in &settings {
-        let (mut max_ours, mut max_coal, mut t_ours_sum, mut t_coal_sum) =
-            (0.0f64, 0.0f64, 0.0, 0.0);
+    let mut curves = Curves::default();
+    for (label, tol, coal_tol) in &settings() {
+        let mut sums = SettingSums::default();
         for class in &classes {
-            let idx: Vec<usize> = (0..pairs.len())
-                .filter(|&i| pairs[i].class == *class)
-                .collect();
-            let err_ours = idx
-                .iter()
-                .map(|&i| {
-                    distance(&pairs[i], *tol).map_or(f64::INFINITY, |d| (d - reference[i]).abs())
-                })
-                .fold(0.0, f64::max);
-            let t_ours = time_per_call(REPS, 1, || {
-                for &i in &idx {
-                    black_box(distance(&pairs[i], *tol));
-                }
-            }) / idx.len() as f64;
-            max_ours = max_ours.max(err_ours);
-            t_ours_sum += t_ours * idx.len() as f64;
-            let coal =
-                coal_tol.and_then(|ct| peer_at(&coal_d, &coal_t, class, ct, &idx, &reference));
-            let fcl = coal_tol
-                .filter(|ct| ct.to_bits() == fcl_tol.to_bits())
-                .and_then(|ct| peer_at(&fcl_d, &fcl_t, class, ct, &idx, &reference));
-            let fcl_note = match fcl {
-                Some((e, t, failed)) => {
-                    fcl_err = fcl_err.max(e);
-                    fcl_t_sum += t * idx.len() as f64;
-                    fcl_n += idx.len();
-                    format!(
-                        "; FCL 0.7 at its fixed distance_tolerance {label}: max error {} m, {:.3} µs net of its binding, robosim / FCL {:.2}{}",
-                        sci(e),
-                        t * 1e6,
-                        t_ours / t,
-                        if failed > 0 {
-                            format!(", no distance for {failed} pair(s)")
-                        } else {
-                            String::new()
-                        }
-                    )
-                }
-                None => String::new(),
-            };
-            let (ratio, coal_note) = match coal {
-                Some((e, t, failed)) => {
-                    max_coal = max_coal.max(e);
-                    t_coal_sum += t * idx.len() as f64;
-                    worst_ratio = worst_ratio.max(t_ours / t);
-                    (
-                        format!("{:.2}", t_ours / t),
-                        format!(
-                            "; coal at gjk_tolerance {label}: max error {} m, {:.3} µs net of its binding{}",
-                            sci(e),
-                            t * 1e6,
-                            if failed > 0 {
-                                format!(
-                                    ", no distance for {failed} pair(s) (coal answered f64::MAX)"
-                                )
-                            } else {
-                                String::new()
-                            }
-                        ),
-                    )
-                }
-                None => ("".into(), String::new()),
-            };
-            table.rows.push(
-                [
-                    "tolerance".into(),
-                    format!("{class}, {} separated pairs (1 mm–0.3 m)", idx.len()),
-                    format!("exact, tolerance {label}"),
-                    idx.len().to_string(),
-                    super::us(t_ours),
-                    ratio,
-                    "0".into(),
-                    "0".into(),
-                    "0".into(),
-                    format!(
-                        "max error {} m against the certified distance{coal_note}{fcl_note}; ratio to coal",
-                        sci(err_ours)
-                    ),
-                ]
-                .to_vec(),
-            );
+            table.rows.push(measure_class(
+                &study,
+                class,
+                label,
+                *tol,
+                *coal_tol,
+                &mut sums,
+                &mut curves,
+            ));
         }
         let n = pairs.len() as f64;
         let floor = 1e-17;
         // only finite points reach the log axes
-        if max_ours.is_finite() {
-            ours_pts.push((t_ours_sum / n * 1e6, max_ours.max(floor)));
+        if sums.max_ours.is_finite() {
+            curves
+                .ours_pts
+                .push((sums.t_ours_sum / n * 1e6, sums.max_ours.max(floor)));
         }
-        if coal_tol.is_some() && max_coal.is_finite() {
-            coal_pts.push((t_coal_sum / n * 1e6, max_coal.max(floor)));
+        if coal_tol.is_some() && sums.max_coal.is_finite() {
+            curves
+                .coal_pts
+                .push((sums.t_coal_sum / n * 1e6, sums.max_coal.max(floor)));
         }
     }
+    let Curves {
+        mut ours_pts,
+        coal_pts,
+        fcl_err,
+        fcl_t_sum,
+        fcl_n,
+        worst_ratio,
+    } = curves;
     let fcl_pts = if fcl_n > 0 && fcl_err.is_finite() {
         vec![(fcl_t_sum / fcl_n as f64 * 1e6, fcl_err.max(1e-17))]
     } else {
@@ -255,4 +172,179 @@ pub(super) fn tolerance_study(table: &mut Table, notes: &mut Vec<String>) -> Res
             },
         ],
     })
+}
+
+/// The tolerance pairs, their certified distances, and the peers' data.
+struct Study {
+    pairs: Vec<Pair>,
+    /// Each pair's certified distance.
+    reference: Vec<f64>,
+    coal_d: CoalDistances,
+    coal_t: CoalTimes,
+    fcl_d: CoalDistances,
+    fcl_t: CoalTimes,
+    /// FCL's one tolerance (python-fcl cannot set it).
+    fcl_tol: f64,
+}
+
+impl Study {
+    fn load() -> Result<Self, String> {
+        let pairs = pair_file::parse(PAIRS, "tolerance_pairs.csv")?;
+        let (coal_d, coal_t) =
+            peer_data(COAL, COAL_TIME).map_err(|e| format!("coal's data: {e}"))?;
+        let (fcl_d, fcl_t) = peer_data(FCL, FCL_TIME).map_err(|e| format!("FCL's data: {e}"))?;
+        // FCL's one tolerance (python-fcl cannot set it): its row is robosim's at the same value.
+        let fcl_tol = fcl_t
+            .keys()
+            .next()
+            .map(|(_, bits)| f64::from_bits(*bits))
+            .ok_or("FCL's data: no time rows")?;
+        let reference: Vec<f64> = pairs
+            .iter()
+            .map(|p| distance(p, Tolerance::Certified).ok_or("a tolerance pair is not clear"))
+            .collect::<Result<_, _>>()?;
+        Ok(Study {
+            pairs,
+            reference,
+            coal_d,
+            coal_t,
+            fcl_d,
+            fcl_t,
+            fcl_tol,
+        })
+    }
+}
+
+/// The settings measured: (label, robosim's tolerance, the peers' tolerance); certified first.
+fn settings() -> Vec<(String, Tolerance, Option<f64>)> {
+    std::iter::once(("certified".to_owned(), Tolerance::Certified, None))
+        .chain(
+            TOLERANCES
+                .iter()
+                .map(|&t| (sci(t), Tolerance::Gjk(t), Some(t))),
+        )
+        .collect()
+}
+
+/// Over one setting, all classes: robosim's and coal's largest error and summed time.
+#[derive(Default)]
+struct SettingSums {
+    max_ours: f64,
+    max_coal: f64,
+    t_ours_sum: f64,
+    t_coal_sum: f64,
+}
+
+/// Over the whole study: the plot's points, FCL's one point, the worst robosim / coal ratio.
+#[derive(Default)]
+struct Curves {
+    ours_pts: Vec<(f64, f64)>,
+    coal_pts: Vec<(f64, f64)>,
+    fcl_err: f64,
+    fcl_t_sum: f64,
+    fcl_n: usize,
+    worst_ratio: f64,
+}
+
+/// One class at one setting: robosim's largest error and time per pair, coal's and FCL's at
+/// the same tolerance; returns the table row.
+fn measure_class(
+    study: &Study,
+    class: &str,
+    label: &str,
+    tol: Tolerance,
+    coal_tol: Option<f64>,
+    sums: &mut SettingSums,
+    curves: &mut Curves,
+) -> Vec<String> {
+    let Study {
+        pairs,
+        reference,
+        coal_d,
+        coal_t,
+        fcl_d,
+        fcl_t,
+        fcl_tol,
+    } = study;
+    let Curves {
+        fcl_err,
+        fcl_t_sum,
+        fcl_n,
+        worst_ratio,
+        ..
+    } = curves;
+    let idx: Vec<usize> = (0..pairs.len())
+        .filter(|&i| pairs[i].class == *class)
+        .collect();
+    let err_ours = idx
+        .iter()
+        .map(|&i| distance(&pairs[i], tol).map_or(f64::INFINITY, |d| (d - reference[i]).abs()))
+        .fold(0.0, f64::max);
+    let t_ours = time_per_call(REPS, 1, || {
+        for &i in &idx {
+            black_box(distance(&pairs[i], tol));
+        }
+    }) / idx.len() as f64;
+    sums.max_ours = sums.max_ours.max(err_ours);
+    sums.t_ours_sum += t_ours * idx.len() as f64;
+    let coal = coal_tol.and_then(|ct| peer_at(&coal_d, &coal_t, class, ct, &idx, &reference));
+    let fcl = coal_tol
+        .filter(|ct| ct.to_bits() == fcl_tol.to_bits())
+        .and_then(|ct| peer_at(&fcl_d, &fcl_t, class, ct, &idx, &reference));
+    let fcl_note = match fcl {
+        Some((e, t, failed)) => {
+            *fcl_err = fcl_err.max(e);
+            *fcl_t_sum += t * idx.len() as f64;
+            *fcl_n += idx.len();
+            format!(
+                "; FCL 0.7 at its fixed distance_tolerance {label}: max error {} m, {:.3} µs net of its binding, robosim / FCL {:.2}{}",
+                sci(e),
+                t * 1e6,
+                t_ours / t,
+                if failed > 0 {
+                    format!(", no distance for {failed} pair(s)")
+                } else {
+                    String::new()
+                }
+            )
+        }
+        None => String::new(),
+    };
+    let (ratio, coal_note) = match coal {
+        Some((e, t, failed)) => {
+            sums.max_coal = sums.max_coal.max(e);
+            sums.t_coal_sum += t * idx.len() as f64;
+            *worst_ratio = worst_ratio.max(t_ours / t);
+            (
+                format!("{:.2}", t_ours / t),
+                format!(
+                    "; coal at gjk_tolerance {label}: max error {} m, {:.3} µs net of its binding{}",
+                    sci(e),
+                    t * 1e6,
+                    if failed > 0 {
+                        format!(", no distance for {failed} pair(s) (coal answered f64::MAX)")
+                    } else {
+                        String::new()
+                    }
+                ),
+            )
+        }
+        None => ("".into(), String::new()),
+    };
+    [
+        "tolerance".into(),
+        format!("{class}, {} separated pairs (1 mm–0.3 m)", idx.len()),
+        format!("exact, tolerance {label}"),
+        idx.len().to_string(),
+        super::us(t_ours),
+        ratio,
+        "0".into(),
+        "0".into(),
+        "0".into(),
+        format!(
+            "max error {} m against the certified distance{coal_note}{fcl_note}; ratio to coal",
+            sci(err_ours)
+        ),
+    ]
+    .to_vec()
 }
