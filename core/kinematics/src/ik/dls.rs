@@ -21,7 +21,7 @@ use crate::jacobian::Jacobian;
 use crate::kinematic_model::KinematicModel;
 use crate::model::{JointType, Robot};
 use crate::pose::{pose_error, rotation, to_target_frame};
-use nalgebra::{Matrix4, Vector6};
+use nalgebra::{Matrix3, Matrix4, Vector6};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
@@ -104,14 +104,6 @@ fn clamp(robot: &Robot, q: &mut [f64]) {
     }
 }
 
-/// One evaluated iterate: scaled, weighted target-frame error and Jacobian, raw error.
-struct Eval {
-    jac: Jacobian,
-    e: Vector6<f64>,
-    e_raw: Vector6<f64>,
-    energy: f64,
-}
-
 /// Solves `A x = b` in place for symmetric positive-definite `A` (n × n, row-major; its lower
 /// triangle is overwritten by the Cholesky factor, `b` by x). False if A is not positive
 /// definite.
@@ -151,6 +143,186 @@ fn cholesky_solve(a: &mut [f64], n: usize, b: &mut [f64]) -> bool {
     true
 }
 
+/// One evaluated iterate: scaled, weighted target-frame error and Jacobian, raw error.
+struct Eval {
+    jac: Jacobian,
+    e: Vector6<f64>,
+    e_raw: Vector6<f64>,
+    energy: f64,
+}
+
+impl Eval {
+    fn zeros(n: usize) -> Eval {
+        Eval {
+            jac: Jacobian::zeros(n),
+            e: Vector6::zeros(),
+            e_raw: Vector6::zeros(),
+            energy: 0.0,
+        }
+    }
+}
+
+/// What every iterate of a solve is measured against: the compiled model, the target and the
+/// per-axis weights W.
+struct Objective<'a> {
+    /// Compiled once for the solve: every iteration of every start evaluates on it.
+    model: KinematicModel,
+    target: &'a Matrix4<f64>,
+    /// The target's rotation, transposed: world axes to the target frame's.
+    rt: Matrix3<f64>,
+    weights: [f64; 6],
+}
+
+impl<'a> Objective<'a> {
+    fn new(robot: &Robot, target: &'a Matrix4<f64>, options: &IkOptions, scale: f64) -> Self {
+        let tol = options.tolerances.as_array();
+        let mut weights = [0.0; 6];
+        for i in 0..6 {
+            let unit = if i < 3 { 1.0 / scale } else { 1.0 };
+            weights[i] = if tol[i].is_finite() { unit } else { 0.0 };
+        }
+        Objective {
+            rt: rotation(target).transpose(),
+            model: KinematicModel::new(robot),
+            target,
+            weights,
+        }
+    }
+
+    /// Fills `ev` for q (no allocation).
+    fn evaluate(&self, q: &[f64], ev: &mut Eval) {
+        let (rt, weights, target) = (self.rt, &self.weights, self.target);
+        let t = self.model.fk_and_jacobian_into(q, &mut ev.jac);
+        ev.e_raw = to_target_frame(&pose_error(&t, target), target);
+        for mut col in ev.jac.column_iter_mut() {
+            let v = rt * col.fixed_rows::<3>(0);
+            let w = rt * col.fixed_rows::<3>(3);
+            for i in 0..3 {
+                col[i] = v[i] * weights[i];
+                col[i + 3] = w[i] * weights[i + 3];
+            }
+        }
+        ev.e = Vector6::from_fn(|i, _| ev.e_raw[i] * weights[i]);
+        ev.energy = 0.5 * ev.e.norm_squared();
+    }
+}
+
+/// The buffers of one solve, reused by every iteration of every start.
+struct Work {
+    /// The current iterate's evaluation.
+    cur: Eval,
+    /// The trial step's evaluation.
+    next: Eval,
+    /// Jᵀ W J + λ I (n × n, row-major), then its Cholesky factor.
+    a: Vec<f64>,
+    /// Jᵀ W e, then the step Δq.
+    dq: Vec<f64>,
+    /// q + Δq (shortened, clamped).
+    trial: Vec<f64>,
+}
+
+impl Work {
+    fn new(n: usize) -> Work {
+        Work {
+            cur: Eval::zeros(n),
+            next: Eval::zeros(n),
+            a: vec![0.0; n * n],
+            dq: vec![0.0; n],
+            trial: vec![0.0; n],
+        }
+    }
+
+    /// Fills `a` with Jᵀ W J + λ I and `dq` with Jᵀ W e of the current iterate.
+    fn normal_equations(&mut self, n: usize, lambda: f64) {
+        let (cur, a, dq) = (&self.cur, &mut self.a, &mut self.dq);
+        for i in 0..n {
+            for j in 0..=i {
+                let v = cur.jac.column(i).dot(&cur.jac.column(j));
+                a[i * n + j] = v;
+                a[j * n + i] = v;
+            }
+            a[i * n + i] += lambda;
+            dq[i] = cur.jac.column(i).dot(&cur.e);
+        }
+    }
+}
+
+/// Whether `q` is farther than [`DISTINCT`] from every answer in `found`.
+fn distinct_from(robot: &Robot, found: &[IkSolution], q: &[f64]) -> bool {
+    found.iter().all(|o: &IkSolution| {
+        robot
+            .joints
+            .iter()
+            .zip(o.q.iter().zip(q))
+            .any(|(j, (a, b))| {
+                let d = if j.joint_type == JointType::Revolute {
+                    super::wrap(a - b)
+                } else {
+                    a - b
+                };
+                d.abs() > DISTINCT
+            })
+    })
+}
+
+impl Dls {
+    /// One start from `q`: damped steps until convergence, `max_iterations` or a stall. `q`
+    /// ends at the last accepted iterate, `work.cur` holds its evaluation.
+    fn descend(
+        &self,
+        robot: &Robot,
+        objective: &Objective<'_>,
+        options: &IkOptions,
+        q: &mut [f64],
+        work: &mut Work,
+        total_iterations: &mut usize,
+    ) {
+        let n = robot.dof();
+        objective.evaluate(q, &mut work.cur);
+        let mut mu = self.mu0;
+        let mut stalls = 0;
+        for _ in 0..options.max_iterations {
+            if options.tolerances.accept(&work.cur.e_raw) {
+                break;
+            }
+            *total_iterations += 1;
+            let lambda = mu * work.cur.energy + LAMBDA_FLOOR;
+            work.normal_equations(n, lambda);
+            if !cholesky_solve(&mut work.a, n, &mut work.dq) {
+                break;
+            }
+            let longest = work.dq.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
+            let shrink = if longest > self.max_step {
+                self.max_step / longest
+            } else {
+                1.0
+            };
+            for ((t, qj), d) in work.trial.iter_mut().zip(q.iter()).zip(&work.dq) {
+                *t = qj + shrink * d;
+            }
+            if options.respect_limits {
+                clamp(robot, &mut work.trial);
+            }
+            objective.evaluate(&work.trial, &mut work.next);
+            if work.next.energy < work.cur.energy {
+                let gain =
+                    (work.cur.energy - work.next.energy) / work.cur.energy.max(f64::MIN_POSITIVE);
+                q.copy_from_slice(&work.trial);
+                std::mem::swap(&mut work.cur, &mut work.next);
+                mu = (mu / self.mu_down).max(1e-6);
+                stalls = if gain < 1e-6 { stalls + 1 } else { 0 };
+            } else {
+                mu *= self.mu_up;
+                stalls += 1;
+            }
+            // A local minimum (or a limit the iterate is pressed against): try elsewhere.
+            if stalls >= self.max_stalls || mu > 1e12 {
+                break;
+            }
+        }
+    }
+}
+
 impl IkSolver for Dls {
     fn method(&self) -> Method {
         Method::Dls
@@ -169,41 +341,10 @@ impl IkSolver for Dls {
                 reason: "the robot has no joints".into(),
             });
         }
-        let tol = options.tolerances.as_array();
         let scale = length_scale(robot);
-        let mut weights = [0.0; 6];
-        for i in 0..6 {
-            let unit = if i < 3 { 1.0 / scale } else { 1.0 };
-            weights[i] = if tol[i].is_finite() { unit } else { 0.0 };
-        }
-        let rt = rotation(target).transpose();
-        // Compiled once for the solve: every iteration of every start evaluates on it.
-        let model = KinematicModel::new(robot);
-        // Fills `ev` for q (no allocation).
-        let evaluate = |q: &[f64], ev: &mut Eval| {
-            let t = model.fk_and_jacobian_into(q, &mut ev.jac);
-            ev.e_raw = to_target_frame(&pose_error(&t, target), target);
-            for mut col in ev.jac.column_iter_mut() {
-                let v = rt * col.fixed_rows::<3>(0);
-                let w = rt * col.fixed_rows::<3>(3);
-                for i in 0..3 {
-                    col[i] = v[i] * weights[i];
-                    col[i + 3] = w[i] * weights[i + 3];
-                }
-            }
-            ev.e = Vector6::from_fn(|i, _| ev.e_raw[i] * weights[i]);
-            ev.energy = 0.5 * ev.e.norm_squared();
-        };
-        let fresh = || Eval {
-            jac: Jacobian::zeros(n),
-            e: Vector6::zeros(),
-            e_raw: Vector6::zeros(),
-            energy: 0.0,
-        };
-        let (mut cur, mut next) = (fresh(), fresh());
-        let mut a = vec![0.0; n * n];
-        let mut dq = vec![0.0; n];
-        let mut trial = vec![0.0; n];
+        let objective = Objective::new(robot, target, options, scale);
+        let model = &objective.model;
+        let mut work = Work::new(n);
         let mut rng = ChaCha8Rng::seed_from_u64(options.seed);
         let mut best: Option<(f64, Vec<f64>, usize)> = None;
         let mut total_iterations = 0;
@@ -217,60 +358,20 @@ impl IkSolver for Dls {
             if options.respect_limits {
                 clamp(robot, &mut q);
             }
-            evaluate(&q, &mut cur);
-            let mut mu = self.mu0;
-            let mut stalls = 0;
-            for _ in 0..options.max_iterations {
-                if options.tolerances.accept(&cur.e_raw) {
-                    break;
-                }
-                total_iterations += 1;
-                let lambda = mu * cur.energy + LAMBDA_FLOOR;
-                for i in 0..n {
-                    for j in 0..=i {
-                        let v = cur.jac.column(i).dot(&cur.jac.column(j));
-                        a[i * n + j] = v;
-                        a[j * n + i] = v;
-                    }
-                    a[i * n + i] += lambda;
-                    dq[i] = cur.jac.column(i).dot(&cur.e);
-                }
-                if !cholesky_solve(&mut a, n, &mut dq) {
-                    break;
-                }
-                let longest = dq.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-                let shrink = if longest > self.max_step {
-                    self.max_step / longest
-                } else {
-                    1.0
-                };
-                for ((t, qj), d) in trial.iter_mut().zip(&q).zip(&dq) {
-                    *t = qj + shrink * d;
-                }
-                if options.respect_limits {
-                    clamp(robot, &mut trial);
-                }
-                evaluate(&trial, &mut next);
-                if next.energy < cur.energy {
-                    let gain = (cur.energy - next.energy) / cur.energy.max(f64::MIN_POSITIVE);
-                    q.copy_from_slice(&trial);
-                    std::mem::swap(&mut cur, &mut next);
-                    mu = (mu / self.mu_down).max(1e-6);
-                    stalls = if gain < 1e-6 { stalls + 1 } else { 0 };
-                } else {
-                    mu *= self.mu_up;
-                    stalls += 1;
-                }
-                // A local minimum (or a limit the iterate is pressed against): try elsewhere.
-                if stalls >= self.max_stalls || mu > 1e12 {
-                    break;
-                }
-            }
+            self.descend(
+                robot,
+                &objective,
+                options,
+                &mut q,
+                &mut work,
+                &mut total_iterations,
+            );
+            let cur = &work.cur;
             let accepted = options.tolerances.accept(&cur.e_raw);
             if accepted {
                 let sol = finish(
                     robot,
-                    &model,
+                    model,
                     target,
                     options,
                     q.clone(),
@@ -285,20 +386,7 @@ impl IkSolver for Dls {
                     });
                 }
                 // With `all`, every start runs and each distinct converged answer is kept.
-                let distinct = found.iter().all(|o: &IkSolution| {
-                    robot
-                        .joints
-                        .iter()
-                        .zip(o.q.iter().zip(&sol.q))
-                        .any(|(j, (a, b))| {
-                            let d = if j.joint_type == JointType::Revolute {
-                                super::wrap(a - b)
-                            } else {
-                                a - b
-                            };
-                            d.abs() > DISTINCT
-                        })
-                });
+                let distinct = distinct_from(robot, &found, &sol.q);
                 if sol.converged && distinct {
                     found.push(sol);
                 }
@@ -316,7 +404,7 @@ impl IkSolver for Dls {
         let (_, q, _) = best.unwrap_or((0.0, vec![0.0; n], 0));
         let sol: IkSolution = finish(
             robot,
-            &model,
+            model,
             target,
             options,
             q,

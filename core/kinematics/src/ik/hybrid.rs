@@ -27,7 +27,10 @@
 use super::analytic::{ArmSolver, pick, rz_rx};
 use super::closed_form::{CLAMP_SLACK, Flags};
 use super::family::{ArmGeometry, Family, recognise};
-use super::{Branch, IkError, IkOptions, IkResult, IkSolver, Method, Wrist, finish, wrap};
+use super::{
+    Branch, IkError, IkOptions, IkResult, IkSolution, IkSolver, Method, Wrist, finish, wrap,
+};
+use crate::kinematic_model::KinematicModel;
 use crate::model::Robot;
 use crate::pose::{rigid_inverse, rot_x, rot_z, trans};
 use nalgebra::{Matrix3, Matrix4, Vector3, Vector4};
@@ -237,6 +240,236 @@ fn brent(
     Some((b, 100))
 }
 
+/// Forward-difference step of the slopes that spot dips between two samples of one sign.
+const SLOPE_STEP: f64 = 1e-7;
+
+/// The scan grid: f(θ6) and reach of the four branches at `SAMPLES` + 1 points over [−π, π].
+fn scan(s: &Setup, theta1_ref: f64) -> Vec<(f64, BranchValues)> {
+    (0..=SAMPLES)
+        .map(|k| {
+            let t = -PI + 2.0 * PI * k as f64 / SAMPLES as f64;
+            (t, s.constraints_reach(t, theta1_ref))
+        })
+        .collect()
+}
+
+/// Slopes by a forward difference at every scan point, to spot dips between two samples of
+/// one sign.
+fn slopes(s: &Setup, theta1_ref: f64, table: &[(f64, BranchValues)]) -> Vec<[Option<f64>; 4]> {
+    table
+        .iter()
+        .map(|(t, c)| {
+            let ahead = s.constraints(t + SLOPE_STEP, theta1_ref);
+            std::array::from_fn(|b| match (c[b], ahead[b]) {
+                (Some((f0, _)), Some(f1)) => Some((f1 - f0) / SLOPE_STEP),
+                _ => None,
+            })
+        })
+        .collect()
+}
+
+/// One arm branch of the scan: its f(θ6) and reach, and the root searches over the grid.
+#[derive(Clone, Copy)]
+struct BranchScan<'a> {
+    s: &'a Setup,
+    theta1_ref: f64,
+    bi: usize,
+}
+
+impl BranchScan<'_> {
+    fn f(&self, t: f64) -> Option<f64> {
+        self.s.constraints(t, self.theta1_ref)[self.bi]
+    }
+
+    fn reach(&self, t: f64) -> bool {
+        self.s.constraints_reach(t, self.theta1_ref)[self.bi].is_some_and(|(_, r)| r)
+    }
+
+    /// Roots bracketed by a sign change between two scan points, and those near the reach
+    /// edge ([`Self::edge_roots`]). Returns whether any scan interval was within reach.
+    fn sign_change_roots(
+        &self,
+        table: &[(f64, BranchValues)],
+        roots: &mut Vec<(f64, usize)>,
+    ) -> bool {
+        let bi = self.bi;
+        let f = |t: f64| self.f(t);
+        let mut any_reachable = false;
+        for win in table.windows(2) {
+            let (ta, ca, tb, cb) = (win[0].0, win[0].1[bi], win[1].0, win[1].1[bi]);
+            let (Some((fa, ra)), Some((fb, rb))) = (ca, cb) else {
+                continue;
+            };
+            // Only the reachable part of the interval can hold a solution. Where reach
+            // ends inside it, bisect to the edge: true roots near the workspace boundary
+            // sit close to spurious ones of the clamped extension beyond it.
+            let (ta, fa, tb, fb) = match (ra, rb) {
+                (true, true) => (ta, fa, tb, fb),
+                (false, false) => continue,
+                (true, false) | (false, true) => {
+                    any_reachable = true;
+                    self.edge_roots(ta, ra, tb, roots);
+                    continue;
+                }
+            };
+            any_reachable = true;
+            if fa == 0.0 {
+                roots.push((ta, 0));
+            } else if fb == 0.0 && !rb {
+                roots.push((tb, 0));
+            } else if (fa > 0.0) != (fb > 0.0)
+                && fb != 0.0
+                && let Some(r) = brent(f, ta, tb, fa, fb)
+            {
+                roots.push(r);
+            }
+        }
+        any_reachable
+    }
+
+    /// The roots of a scan interval [ta, tb] where reach ends inside it (`ra`: ta is the
+    /// reachable end).
+    fn edge_roots(&self, ta: f64, ra: bool, tb: f64, roots: &mut Vec<(f64, usize)>) {
+        let f = |t: f64| self.f(t);
+        let (mut inside, mut outside) = if ra { (ta, tb) } else { (tb, ta) };
+        for _ in 0..60 {
+            let mid = 0.5 * (inside + outside);
+            if self.reach(mid) {
+                inside = mid;
+            } else {
+                outside = mid;
+            }
+        }
+        // At the reach edge the elbow branches merge and f(θ6) behaves like
+        // √(distance to the edge): sample uniformly in that square root, where f
+        // is smooth, to separate roots crowding the edge.
+        let far = if ra { ta } else { tb };
+        let pts: Vec<(f64, f64)> = (0..=EDGE_SAMPLES)
+            .filter_map(|i| {
+                let u = i as f64 / EDGE_SAMPLES as f64;
+                let t = inside + (far - inside) * u * u;
+                f(t).map(|v| (t, v))
+            })
+            .collect();
+        for w in pts.windows(2) {
+            let ((t0, f0), (t1, f1)) = (w[0], w[1]);
+            if f0 == 0.0 {
+                roots.push((t0, 0));
+            } else if (f0 > 0.0) != (f1 > 0.0)
+                && f1 != 0.0
+                && let Some(r) = brent(f, t0, t1, f0, f1)
+            {
+                roots.push(r);
+            }
+        }
+    }
+
+    /// A pair of roots closer than the scan step leaves no sign change. Where f keeps
+    /// its sign over an interval but heads towards zero at the start and away at the
+    /// end, a golden-section search finds the dip; if it crosses zero, both roots are
+    /// bracketed.
+    fn dip_roots(
+        &self,
+        table: &[(f64, BranchValues)],
+        slopes: &[[Option<f64>; 4]],
+        roots: &mut Vec<(f64, usize)>,
+    ) {
+        let bi = self.bi;
+        let f = |t: f64| self.f(t);
+        for k in 0..table.len() - 1 {
+            let c = |i: usize| table[i].1[bi].filter(|(_, r)| *r).map(|(f, _)| f);
+            let (Some(f0), Some(f2)) = (c(k), c(k + 1)) else {
+                continue;
+            };
+            let (Some(d0), Some(d2)) = (slopes[k][bi], slopes[k + 1][bi]) else {
+                continue;
+            };
+            let sign = f0.signum();
+            if f2.signum() != sign || sign * d0 >= 0.0 || sign * d2 <= 0.0 {
+                continue;
+            }
+            let (tl, tr) = (table[k].0, table[k + 1].0);
+            let (mut a, mut b) = (tl, tr);
+            let g = 0.5 * (5f64.sqrt() - 1.0);
+            let h = |t: f64| f(t).map_or(f64::INFINITY, |v| sign * v);
+            let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
+            let (mut h1, mut h2) = (h(x1), h(x2));
+            for _ in 0..50 {
+                if h1.min(h2) < 0.0 {
+                    break;
+                }
+                if h1 < h2 {
+                    b = x2;
+                    x2 = x1;
+                    h2 = h1;
+                    x1 = b - g * (b - a);
+                    h1 = h(x1);
+                } else {
+                    a = x1;
+                    x1 = x2;
+                    h1 = h2;
+                    x2 = a + g * (b - a);
+                    h2 = h(x2);
+                }
+            }
+            let (tm, hm) = if h1 < h2 { (x1, h1) } else { (x2, h2) };
+            if hm < 0.0 && self.reach(tm) {
+                let fm = sign * hm;
+                for (lo, flo, hi, fhi) in [(tl, f0, tm, fm), (tm, fm, tr, f2)] {
+                    if let Some(r) = brent(f, lo, hi, flo, fhi) {
+                        roots.push(r);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The solutions of the roots found on this branch, within the arm's reach and not
+    /// found already, appended to `solutions`.
+    fn add_solutions(
+        &self,
+        roots: Vec<(f64, usize)>,
+        robot: &Robot,
+        model: &KinematicModel,
+        target: &Matrix4<f64>,
+        options: &IkOptions,
+        solutions: &mut Vec<IkSolution>,
+    ) {
+        let s = self.s;
+        for (t6, iterations) in roots {
+            let Some(tr) = s.trial(t6, self.bi, self.theta1_ref) else {
+                continue;
+            };
+            // A root of the extension outside the arm's reach is no solution.
+            let excess = tr
+                .flags
+                .elbow_clamped
+                .unwrap_or(0.0)
+                .max(tr.flags.shoulder_clamped.unwrap_or(0.0));
+            if excess > CLAMP_SLACK {
+                continue;
+            }
+            let q: Vec<f64> = (0..6).map(|k| wrap(tr.theta[k] - s.offsets[k])).collect();
+            // The grid's last point equals its first (θ6 = ±π): skip a root found twice.
+            let dup = solutions.iter().any(|o: &IkSolution| {
+                o.branch == tr.branch && o.q.iter().zip(&q).all(|(a, b)| wrap(a - b).abs() < 1e-9)
+            });
+            if !dup {
+                solutions.push(finish(
+                    robot,
+                    model,
+                    target,
+                    options,
+                    q,
+                    tr.branch,
+                    iterations,
+                    tr.flags.notes(),
+                ));
+            }
+        }
+    }
+}
+
 impl IkSolver for Hybrid {
     fn method(&self) -> Method {
         Method::Hybrid
@@ -250,7 +483,7 @@ impl IkSolver for Hybrid {
     ) -> Result<IkResult, IkError> {
         let s = setup(robot, target)?;
         // Compiled once for every root's residual.
-        let model = crate::kinematic_model::KinematicModel::new(robot);
+        let model = KinematicModel::new(robot);
         let theta1_ref = options
             .q0
             .as_ref()
@@ -260,173 +493,19 @@ impl IkSolver for Hybrid {
             + s.offsets[0];
         let mut solutions = Vec::new();
         let mut any_reachable = false;
-        let table: Vec<(f64, BranchValues)> = (0..=SAMPLES)
-            .map(|k| {
-                let t = -PI + 2.0 * PI * k as f64 / SAMPLES as f64;
-                (t, s.constraints_reach(t, theta1_ref))
-            })
-            .collect();
-        // Slopes by a forward difference, to spot dips between two samples of one sign.
-        const STEP: f64 = 1e-7;
-        let slopes: Vec<[Option<f64>; 4]> = table
-            .iter()
-            .map(|(t, c)| {
-                let ahead = s.constraints(t + STEP, theta1_ref);
-                std::array::from_fn(|b| match (c[b], ahead[b]) {
-                    (Some((f0, _)), Some(f1)) => Some((f1 - f0) / STEP),
-                    _ => None,
-                })
-            })
-            .collect();
-        #[expect(
-            clippy::needless_range_loop,
-            reason = "bi indexes the branch inside table, slopes and closures alike"
-        )]
+        let table = scan(&s, theta1_ref);
+        let slopes = slopes(&s, theta1_ref, &table);
         for bi in 0..4 {
-            let f = |t: f64| s.constraints(t, theta1_ref)[bi];
-            let reach = |t: f64| s.constraints_reach(t, theta1_ref)[bi].is_some_and(|(_, r)| r);
+            let branch = BranchScan {
+                s: &s,
+                theta1_ref,
+                bi,
+            };
             let mut roots: Vec<(f64, usize)> = Vec::new();
-            for win in table.windows(2) {
-                let (ta, ca, tb, cb) = (win[0].0, win[0].1[bi], win[1].0, win[1].1[bi]);
-                let (Some((fa, ra)), Some((fb, rb))) = (ca, cb) else {
-                    continue;
-                };
-                // Only the reachable part of the interval can hold a solution. Where reach
-                // ends inside it, bisect to the edge: true roots near the workspace boundary
-                // sit close to spurious ones of the clamped extension beyond it.
-                let (ta, fa, tb, fb) = match (ra, rb) {
-                    (true, true) => (ta, fa, tb, fb),
-                    (false, false) => continue,
-                    (true, false) | (false, true) => {
-                        let (mut inside, mut outside) = if ra { (ta, tb) } else { (tb, ta) };
-                        for _ in 0..60 {
-                            let mid = 0.5 * (inside + outside);
-                            if reach(mid) {
-                                inside = mid;
-                            } else {
-                                outside = mid;
-                            }
-                        }
-                        // At the reach edge the elbow branches merge and f(θ6) behaves like
-                        // √(distance to the edge): sample uniformly in that square root, where f
-                        // is smooth, to separate roots crowding the edge.
-                        any_reachable = true;
-                        let far = if ra { ta } else { tb };
-                        let pts: Vec<(f64, f64)> = (0..=EDGE_SAMPLES)
-                            .filter_map(|i| {
-                                let u = i as f64 / EDGE_SAMPLES as f64;
-                                let t = inside + (far - inside) * u * u;
-                                f(t).map(|v| (t, v))
-                            })
-                            .collect();
-                        for w in pts.windows(2) {
-                            let ((t0, f0), (t1, f1)) = (w[0], w[1]);
-                            if f0 == 0.0 {
-                                roots.push((t0, 0));
-                            } else if (f0 > 0.0) != (f1 > 0.0)
-                                && f1 != 0.0
-                                && let Some(r) = brent(f, t0, t1, f0, f1)
-                            {
-                                roots.push(r);
-                            }
-                        }
-                        continue;
-                    }
-                };
-                any_reachable = true;
-                if fa == 0.0 {
-                    roots.push((ta, 0));
-                } else if fb == 0.0 && !rb {
-                    roots.push((tb, 0));
-                } else if (fa > 0.0) != (fb > 0.0)
-                    && fb != 0.0
-                    && let Some(r) = brent(f, ta, tb, fa, fb)
-                {
-                    roots.push(r);
-                }
-            }
-            // A pair of roots closer than the scan step leaves no sign change. Where f keeps
-            // its sign over an interval but heads towards zero at the start and away at the
-            // end, a golden-section search finds the dip; if it crosses zero, both roots are
-            // bracketed.
-            for k in 0..table.len() - 1 {
-                let c = |i: usize| table[i].1[bi].filter(|(_, r)| *r).map(|(f, _)| f);
-                let (Some(f0), Some(f2)) = (c(k), c(k + 1)) else {
-                    continue;
-                };
-                let (Some(d0), Some(d2)) = (slopes[k][bi], slopes[k + 1][bi]) else {
-                    continue;
-                };
-                let sign = f0.signum();
-                if f2.signum() != sign || sign * d0 >= 0.0 || sign * d2 <= 0.0 {
-                    continue;
-                }
-                let (tl, tr) = (table[k].0, table[k + 1].0);
-                let (mut a, mut b) = (tl, tr);
-                let g = 0.5 * (5f64.sqrt() - 1.0);
-                let h = |t: f64| f(t).map_or(f64::INFINITY, |v| sign * v);
-                let (mut x1, mut x2) = (b - g * (b - a), a + g * (b - a));
-                let (mut h1, mut h2) = (h(x1), h(x2));
-                for _ in 0..50 {
-                    if h1.min(h2) < 0.0 {
-                        break;
-                    }
-                    if h1 < h2 {
-                        b = x2;
-                        x2 = x1;
-                        h2 = h1;
-                        x1 = b - g * (b - a);
-                        h1 = h(x1);
-                    } else {
-                        a = x1;
-                        x1 = x2;
-                        h1 = h2;
-                        x2 = a + g * (b - a);
-                        h2 = h(x2);
-                    }
-                }
-                let (tm, hm) = if h1 < h2 { (x1, h1) } else { (x2, h2) };
-                if hm < 0.0 && reach(tm) {
-                    let fm = sign * hm;
-                    for (lo, flo, hi, fhi) in [(tl, f0, tm, fm), (tm, fm, tr, f2)] {
-                        if let Some(r) = brent(f, lo, hi, flo, fhi) {
-                            roots.push(r);
-                        }
-                    }
-                }
-            }
-            for (t6, iterations) in roots {
-                let Some(tr) = s.trial(t6, bi, theta1_ref) else {
-                    continue;
-                };
-                // A root of the extension outside the arm's reach is no solution.
-                let excess = tr
-                    .flags
-                    .elbow_clamped
-                    .unwrap_or(0.0)
-                    .max(tr.flags.shoulder_clamped.unwrap_or(0.0));
-                if excess > CLAMP_SLACK {
-                    continue;
-                }
-                let q: Vec<f64> = (0..6).map(|k| wrap(tr.theta[k] - s.offsets[k])).collect();
-                // The grid's last point equals its first (θ6 = ±π): skip a root found twice.
-                let dup = solutions.iter().any(|o: &super::IkSolution| {
-                    o.branch == tr.branch
-                        && o.q.iter().zip(&q).all(|(a, b)| wrap(a - b).abs() < 1e-9)
-                });
-                if !dup {
-                    solutions.push(finish(
-                        robot,
-                        &model,
-                        target,
-                        options,
-                        q,
-                        tr.branch,
-                        iterations,
-                        tr.flags.notes(),
-                    ));
-                }
-            }
+            let reached = branch.sign_change_roots(&table, &mut roots);
+            any_reachable |= reached;
+            branch.dip_roots(&table, &slopes, &mut roots);
+            branch.add_solutions(roots, robot, &model, target, options, &mut solutions);
         }
         if solutions.is_empty() {
             let reason = if any_reachable {
