@@ -27,7 +27,7 @@
 //!
 //! Entry point: [`run_reconfig_demo`] → [`ReconfigOutcome`] (errors before and after).
 
-use crate::kernel::{ActorSpec, Graph, KernelError, Retention, Value};
+use crate::kernel::{ActorSpec, DataId, Graph, KernelError, Retention, TraceRecord, Value};
 use std::sync::{Arc, Mutex};
 
 /// Parameters of the demo (SI units: kg, m, s, rad, N·m).
@@ -202,6 +202,152 @@ pub enum ReconfigError {
     LogPoisoned,
 }
 
+/// The arm: one integration step of the pendulum per torque sample, once the Checker has
+/// acknowledged the previous state.
+fn arm_actor(o: ReconfigOptions) -> ActorSpec {
+    let inertia = o.mass * o.length * o.length;
+    ActorSpec::new("arm", move |ctx: &mut crate::kernel::Ctx<'_>| {
+        let tau = ctx.input_f64("tau").ok_or("arm: no torque")?;
+        ctx.input("ok").ok_or("arm: no Checker acknowledgement")?;
+        let s = ctx.context::<Arm>().ok_or("arm: context")?;
+        if s.steps >= s.max_steps {
+            return Ok(()); // the run is over: no new state, the loop drains
+        }
+        let qdd = (tau - o.mass * o.gravity * o.length * s.q.sin() - o.damping * s.qd) / inertia;
+        s.qd += qdd * o.dt;
+        s.q += s.qd * o.dt;
+        s.t += o.dt;
+        s.steps += 1;
+        let out = Value::Vec(vec![s.t, s.q, s.qd]);
+        ctx.emit("state", out)
+    })
+    .inputs(&["tau", "ok"])
+    .outputs(&["state"])
+    .context(Arm {
+        q: 0.0,
+        qd: 0.0,
+        t: 0.0,
+        steps: 0,
+        max_steps: (o.duration / o.dt).round() as usize,
+    })
+}
+
+/// The tracking error `[t, setpoint − q]` of each state, logged.
+fn error_actor(o: ReconfigOptions, log: Arc<Mutex<Log>>) -> ActorSpec {
+    ActorSpec::new("error", move |ctx: &mut crate::kernel::Ctx<'_>| {
+        let (t, q) = ctx
+            .input("x")
+            .and_then(pair)
+            .ok_or("error: no state [t, q, qd]")?;
+        let e = o.setpoint - q;
+        if let Ok(mut l) = log.lock() {
+            l.errors.push((t, e));
+        }
+        ctx.emit("e", Value::Vec(vec![t, e]))
+    })
+    .inputs(&["x"])
+    .outputs(&["e"])
+}
+
+/// The P controller the run starts with.
+fn p_actor(o: ReconfigOptions) -> ActorSpec {
+    ActorSpec::new("P", move |ctx: &mut crate::kernel::Ctx<'_>| {
+        let e = ctx
+            .input("e")
+            .and_then(pair)
+            .map(|p| p.1)
+            .ok_or("P: no error sample")?;
+        ctx.emit("u", Value::F64(o.kp * e))
+    })
+    .inputs(&["e"])
+    .outputs(&["u"])
+}
+
+/// The Checker: judges the RMS error over the last window and, once it is unacceptable,
+/// replaces P by PID in the running graph; acknowledges every sample.
+fn checker_actor(o: ReconfigOptions, log: Arc<Mutex<Log>>) -> ActorSpec {
+    ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
+        let s = ctx
+            .input("e")
+            .and_then(pair)
+            .ok_or("Checker: no error sample")?;
+        let (window, switched) = ctx
+            .context::<(Vec<(f64, f64)>, bool)>()
+            .ok_or("Checker: context")?;
+        window.push(s);
+        window.retain(|(t, _)| *t > s.0 - o.window);
+        let r = rms(window, s.0 - o.window, s.0);
+        if o.allow_switch && !*switched && s.0 >= o.settle && r > o.threshold {
+            *switched = true;
+            // Unacceptable: reconfigure the running graph to PID.
+            ctx.control()
+                .edit(|e| -> Result<(), KernelError> {
+                    let Some(p) = e.actor("P") else { return Ok(()) };
+                    let Some(torque) = e.data("torque") else {
+                        return Ok(());
+                    };
+                    let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
+                    e.connect_out(pid, "u", torque)?;
+                    e.move_input(p, "e", pid, "e")?;
+                    e.remove_actor(p)
+                })
+                .map_err(|e| format!("switching to PID: {e}"))?;
+            if let Ok(mut l) = log.lock() {
+                l.switched_at = Some(s.0);
+                l.checker_window = Some(r);
+            }
+        }
+        ctx.emit("ok", Value::Unit)
+    })
+    .inputs(&["e"])
+    .outputs(&["ok"])
+    .context((Vec::<(f64, f64)>::new(), false))
+}
+
+/// Builds the loop arm → error → P → arm with the Checker beside P; returns the torque and
+/// the acknowledgement data, which the run is started by writing.
+fn build_loop(
+    graph: &Graph,
+    o: ReconfigOptions,
+    log: &Arc<Mutex<Log>>,
+) -> Result<(DataId, DataId), KernelError> {
+    graph.edit(|e| -> Result<_, KernelError> {
+        let torque = e.add_data("torque", Retention::Stream)?;
+        let state = e.add_data("state", Retention::Stream)?;
+        let error = e.add_data("error", Retention::Stream)?;
+        // The Checker runs in lockstep with the loop: the arm steps only once the Checker
+        // has judged the previous sample. A free-running supervisor could fall thousands of
+        // steps behind a simulation that runs as fast as it can, and switch far too late.
+        let ack = e.add_data("checked", Retention::Stream)?;
+        let arm = e.add_actor(arm_actor(o))?;
+        let err = e.add_actor(error_actor(o, log.clone()))?;
+        let p = e.add_actor(p_actor(o))?;
+        let checker = e.add_actor(checker_actor(o, log.clone()))?;
+        e.connect_in(torque, arm, "tau")?;
+        e.connect_out(arm, "state", state)?;
+        e.connect_in(state, err, "x")?;
+        e.connect_out(err, "e", error)?;
+        e.connect_in(error, p, "e")?;
+        e.connect_in(error, checker, "e")?;
+        e.connect_out(checker, "ok", ack)?;
+        e.connect_in(ack, arm, "ok")?;
+        e.connect_out(p, "u", torque)?;
+        Ok((torque, ack))
+    })
+}
+
+/// Firings per actor, in order of first firing.
+fn firings_by_actor(trace: &[TraceRecord]) -> Vec<(String, usize)> {
+    let mut firings_by_actor: Vec<(String, usize)> = Vec::new();
+    for r in trace {
+        match firings_by_actor.iter_mut().find(|(n, _)| *n == r.actor) {
+            Some(e) => e.1 += 1,
+            None => firings_by_actor.push((r.actor.clone(), 1)),
+        }
+    }
+    firings_by_actor
+}
+
 /// Runs the reconfigurable-controller example and reports the tracking error before and after
 /// the Checker's reconfiguration. Side effects: spawns `opts.workers` threads for the run.
 ///
@@ -220,120 +366,7 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Reco
     let log = Arc::new(Mutex::new(Log::default()));
     let graph = Graph::new(o.workers);
     graph.set_tracing(true);
-    let (torque, ack) = graph.edit(|e| -> Result<_, KernelError> {
-        let torque = e.add_data("torque", Retention::Stream)?;
-        let state = e.add_data("state", Retention::Stream)?;
-        let error = e.add_data("error", Retention::Stream)?;
-        // The Checker runs in lockstep with the loop: the arm steps only once the Checker
-        // has judged the previous sample. A free-running supervisor could fall thousands of
-        // steps behind a simulation that runs as fast as it can, and switch far too late.
-        let ack = e.add_data("checked", Retention::Stream)?;
-        let inertia = o.mass * o.length * o.length;
-        let arm = e.add_actor(
-            ActorSpec::new("arm", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                let tau = ctx.input_f64("tau").ok_or("arm: no torque")?;
-                ctx.input("ok").ok_or("arm: no Checker acknowledgement")?;
-                let s = ctx.context::<Arm>().ok_or("arm: context")?;
-                if s.steps >= s.max_steps {
-                    return Ok(()); // the run is over: no new state, the loop drains
-                }
-                let qdd =
-                    (tau - o.mass * o.gravity * o.length * s.q.sin() - o.damping * s.qd) / inertia;
-                s.qd += qdd * o.dt;
-                s.q += s.qd * o.dt;
-                s.t += o.dt;
-                s.steps += 1;
-                let out = Value::Vec(vec![s.t, s.q, s.qd]);
-                ctx.emit("state", out)
-            })
-            .inputs(&["tau", "ok"])
-            .outputs(&["state"])
-            .context(Arm {
-                q: 0.0,
-                qd: 0.0,
-                t: 0.0,
-                steps: 0,
-                max_steps: (o.duration / o.dt).round() as usize,
-            }),
-        )?;
-        let log2 = log.clone();
-        let err = e.add_actor(
-            ActorSpec::new("error", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                let (t, q) = ctx
-                    .input("x")
-                    .and_then(pair)
-                    .ok_or("error: no state [t, q, qd]")?;
-                let e = o.setpoint - q;
-                if let Ok(mut l) = log2.lock() {
-                    l.errors.push((t, e));
-                }
-                ctx.emit("e", Value::Vec(vec![t, e]))
-            })
-            .inputs(&["x"])
-            .outputs(&["e"]),
-        )?;
-        let p = e.add_actor(
-            ActorSpec::new("P", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                let e = ctx
-                    .input("e")
-                    .and_then(pair)
-                    .map(|p| p.1)
-                    .ok_or("P: no error sample")?;
-                ctx.emit("u", Value::F64(o.kp * e))
-            })
-            .inputs(&["e"])
-            .outputs(&["u"]),
-        )?;
-        let log3 = log.clone();
-        let checker = e.add_actor(
-            ActorSpec::new("Checker", move |ctx: &mut crate::kernel::Ctx<'_>| {
-                let s = ctx
-                    .input("e")
-                    .and_then(pair)
-                    .ok_or("Checker: no error sample")?;
-                let (window, switched) = ctx
-                    .context::<(Vec<(f64, f64)>, bool)>()
-                    .ok_or("Checker: context")?;
-                window.push(s);
-                window.retain(|(t, _)| *t > s.0 - o.window);
-                let r = rms(window, s.0 - o.window, s.0);
-                if o.allow_switch && !*switched && s.0 >= o.settle && r > o.threshold {
-                    *switched = true;
-                    // Unacceptable: reconfigure the running graph to PID.
-                    ctx.control()
-                        .edit(|e| -> Result<(), KernelError> {
-                            let Some(p) = e.actor("P") else { return Ok(()) };
-                            let Some(torque) = e.data("torque") else {
-                                return Ok(());
-                            };
-                            let pid = e.add_actor(pid_actor("PID", o.pid, o.dt))?;
-                            e.connect_out(pid, "u", torque)?;
-                            e.move_input(p, "e", pid, "e")?;
-                            e.remove_actor(p)
-                        })
-                        .map_err(|e| format!("switching to PID: {e}"))?;
-                    if let Ok(mut l) = log3.lock() {
-                        l.switched_at = Some(s.0);
-                        l.checker_window = Some(r);
-                    }
-                }
-                ctx.emit("ok", Value::Unit)
-            })
-            .inputs(&["e"])
-            .outputs(&["ok"])
-            .context((Vec::<(f64, f64)>::new(), false)),
-        )?;
-        e.connect_in(torque, arm, "tau")?;
-        e.connect_out(arm, "state", state)?;
-        e.connect_in(state, err, "x")?;
-        e.connect_out(err, "e", error)?;
-        e.connect_in(error, p, "e")?;
-        e.connect_in(error, checker, "e")?;
-        e.connect_out(checker, "ok", ack)?;
-        e.connect_in(ack, arm, "ok")?;
-        e.connect_out(p, "u", torque)?;
-        Ok((torque, ack))
-    })?;
+    let (torque, ack) = build_loop(&graph, o, &log)?;
     let dot_before = graph.to_dot();
     graph.write(torque, Value::F64(0.0))?;
     graph.write(ack, Value::Unit)?;
@@ -341,13 +374,7 @@ pub fn run_reconfig_demo(opts: &ReconfigOptions) -> Result<ReconfigOutcome, Reco
     let dot_after = graph.to_dot();
     let trace = graph.trace();
     let firings = trace.len();
-    let mut firings_by_actor: Vec<(String, usize)> = Vec::new();
-    for r in &trace {
-        match firings_by_actor.iter_mut().find(|(n, _)| *n == r.actor) {
-            Some(e) => e.1 += 1,
-            None => firings_by_actor.push((r.actor.clone(), 1)),
-        }
-    }
+    let firings_by_actor = firings_by_actor(&trace);
     let errors = graph.errors();
     if let Some(e) = errors.first() {
         return Err(ReconfigError::Script(e.clone()));

@@ -57,24 +57,41 @@ fn adjacent(m: &Model, a: ProcId, b: ProcId) -> bool {
     a == b || pa == Some(b) || pb == Some(a) || (pa.is_some() && pa == pb)
 }
 
-/// Runs every check; findings are sorted errors first, then by place.
-pub fn check_model(m: &Model) -> Vec<Finding> {
-    let mut out = Vec::new();
-    let mut push = |severity, code, message: String, span| {
-        out.push(Finding {
+/// The findings of the checks, in the order they were found.
+struct Findings(Vec<Finding>);
+
+impl Findings {
+    fn push(&mut self, severity: Severity, code: &'static str, message: String, span: Span) {
+        self.0.push(Finding {
             severity,
             code,
             message,
             span,
         })
-    };
+    }
+}
 
+/// Runs every check; findings are sorted errors first, then by place.
+pub fn check_model(m: &Model) -> Vec<Finding> {
+    let mut findings = Findings(Vec::new());
+    check_connections(m, &mut findings);
+    check_edges(m, &mut findings);
+    check_zero_time_cycles(m, &mut findings);
+    check_alarms(m, &mut findings);
+    check_observability(m, &mut findings);
+    let mut out = findings.0;
+    out.sort_by_key(|f| (std::cmp::Reverse(f.severity), f.span.line, f.span.col));
+    out
+}
+
+/// `signal-hierarchy` and `signal-direction`.
+fn check_connections(m: &Model, out: &mut Findings) {
     for c in &m.connections {
         let (f, t) = (c.from.process, c.to.process);
         let fam = |p: ProcId| p == c.owner || m.processes[p].parent == Some(c.owner);
         let show = |s: &SignalRef| format!("{}.{}", m.processes[s.process].path, s.signal);
         if !fam(f) || !fam(t) {
-            push(
+            out.push(
                 Severity::Error,
                 "signal-hierarchy",
                 format!(
@@ -98,7 +115,7 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             m.processes[t].inputs.contains(&c.to.signal)
         };
         if !from_ok || !to_ok {
-            push(
+            out.push(
                 Severity::Error,
                 "signal-direction",
                 format!(
@@ -112,7 +129,10 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             );
         }
     }
+}
 
+/// `edge-hierarchy` and `edge-without-link`.
+fn check_edges(m: &Model, out: &mut Findings) {
     for e in &m.edges {
         let (a, b) = (
             m.failure_modes[e.from].process,
@@ -121,7 +141,7 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
         let fam = |p: ProcId| p == e.owner || m.processes[p].parent == Some(e.owner);
         let name = |f: FmId| m.failure_modes[f].path.clone();
         if !adjacent(m, a, b) || !fam(a) || !fam(b) {
-            push(
+            out.push(
                 Severity::Error,
                 "edge-hierarchy",
                 format!(
@@ -143,7 +163,7 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
                 .iter()
                 .any(|c| c.from.process == a && c.to.process == b);
             if !linked {
-                push(
+                out.push(
                     Severity::Error,
                     "edge-without-link",
                     format!(
@@ -158,8 +178,10 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             }
         }
     }
+}
 
-    // Zero-time cycles: strongly connected components of the tmin = 0 subgraph.
+/// `zero-time-cycle`: strongly connected components of the tmin = 0 subgraph.
+fn check_zero_time_cycles(m: &Model, out: &mut Findings) {
     let n = m.failure_modes.len();
     let mut zero_adj = vec![Vec::new(); n];
     for e in &m.edges {
@@ -179,7 +201,7 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
                 .map(|&f| m.failure_modes[f].span)
                 .min_by_key(|s| (s.line, s.col))
                 .unwrap_or_default();
-            push(
+            out.push(
                 Severity::Error,
                 "zero-time-cycle",
                 format!(
@@ -190,12 +212,15 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             );
         }
     }
+}
 
+/// `alarm-scope` and `alarm-unattached`.
+fn check_alarms(m: &Model, out: &mut Findings) {
     for a in &m.alarms {
         for &f in &a.detects {
             let p = m.failure_modes[f].process;
             if !m.is_ancestor_or_self(a.process, p) {
-                push(
+                out.push(
                     Severity::Warning,
                     "alarm-scope",
                     format!(
@@ -210,7 +235,7 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             }
         }
         if a.detects.is_empty() {
-            push(
+            out.push(
                 Severity::Warning,
                 "alarm-unattached",
                 format!("alarm `{}` detects no failure mode", a.name),
@@ -218,7 +243,11 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             );
         }
     }
+}
 
+/// `unobservable` (reverse reachability from every alarmed failure mode) and `unreachable`.
+fn check_observability(m: &Model, out: &mut Findings) {
+    let n = m.failure_modes.len();
     // Observability: reverse reachability from every alarmed failure mode.
     let mut radj = vec![Vec::new(); n];
     for e in &m.edges {
@@ -241,7 +270,7 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
     }
     for (f, fm) in m.failure_modes.iter().enumerate() {
         if !observable[f] {
-            push(
+            out.push(
                 Severity::Warning,
                 "unobservable",
                 format!(
@@ -252,7 +281,7 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             );
         }
         if fm.derived && radj[f].is_empty() {
-            push(
+            out.push(
                 Severity::Warning,
                 "unreachable",
                 format!(
@@ -263,8 +292,6 @@ pub fn check_model(m: &Model) -> Vec<Finding> {
             );
         }
     }
-    out.sort_by_key(|f| (std::cmp::Reverse(f.severity), f.span.line, f.span.col));
-    out
 }
 
 /// Tarjan's strongly connected components (iterative), in reverse topological order.

@@ -301,6 +301,82 @@ impl Parser<'_> {
         Ok(RefAst { parts, span })
     }
 
+    /// `alarm NAME detects REF, ... [generator "TEXT"]`, after the keyword.
+    fn alarm(&mut self, p: &mut ProcAst, sp: Span) -> Result<(), ModelError> {
+        self.next();
+        let (name, _) = self.ident("an alarm name")?;
+        if !self.keyword("detects") {
+            return Err(self.error(format!(
+                "expected `detects` after alarm `{name}`, found {}",
+                Self::describe(self.peek())
+            )));
+        }
+        let mut refs = vec![self.reference("a failure-mode reference")?];
+        while *self.peek() == Tok::Sym(",") {
+            self.next();
+            refs.push(self.reference("a failure-mode reference")?);
+        }
+        let generator = if self.keyword("generator") {
+            match self.next() {
+                (Tok::Str(s), _) => Some(s),
+                (t, s) => {
+                    return Err(err(
+                        self.file,
+                        s,
+                        format!("expected a quoted generator, found {}", Self::describe(&t)),
+                    ));
+                }
+            }
+        } else {
+            None
+        };
+        p.alarms.push((name, refs, generator, sp));
+        Ok(())
+    }
+
+    /// `propagate REF -> REF prob P time TMIN..TMAX [assumed]`, after the keyword.
+    fn propagate(&mut self, p: &mut ProcAst, sp: Span) -> Result<(), ModelError> {
+        self.next();
+        let a = self.reference("a failure-mode reference")?;
+        self.expect_sym("->")?;
+        let b = self.reference("a failure-mode reference")?;
+        if !self.keyword("prob") {
+            return Err(self.error(format!(
+                "expected `prob`, found {}",
+                Self::describe(self.peek())
+            )));
+        }
+        let pspan = self.span();
+        let prob = self.number("a probability")?;
+        if !(prob > 0.0 && prob <= 1.0) {
+            return Err(err(
+                self.file,
+                pspan,
+                format!("probability {prob} is not in (0, 1]"),
+            ));
+        }
+        if !self.keyword("time") {
+            return Err(self.error(format!(
+                "expected `time`, found {}",
+                Self::describe(self.peek())
+            )));
+        }
+        let tspan = self.span();
+        let tmin = self.number("tmin in seconds")?;
+        self.expect_sym("..")?;
+        let tmax = self.number("tmax in seconds")?;
+        if !(tmin >= 0.0 && tmin <= tmax && tmax.is_finite()) {
+            return Err(err(
+                self.file,
+                tspan,
+                format!("propagation time {tmin}..{tmax} needs 0 <= tmin <= tmax < inf"),
+            ));
+        }
+        let assumed = self.keyword("assumed");
+        p.edges.push((a, b, prob, tmin, tmax, assumed, sp));
+        Ok(())
+    }
+
     fn process(&mut self) -> Result<ProcAst, ModelError> {
         let kw_span = self.span();
         if !self.keyword("process") {
@@ -369,81 +445,8 @@ impl Parser<'_> {
                         };
                         p.failures.push((name, derived, comps, sp));
                     }
-                    "alarm" => {
-                        self.next();
-                        let (name, _) = self.ident("an alarm name")?;
-                        if !self.keyword("detects") {
-                            return Err(self.error(format!(
-                                "expected `detects` after alarm `{name}`, found {}",
-                                Self::describe(self.peek())
-                            )));
-                        }
-                        let mut refs = vec![self.reference("a failure-mode reference")?];
-                        while *self.peek() == Tok::Sym(",") {
-                            self.next();
-                            refs.push(self.reference("a failure-mode reference")?);
-                        }
-                        let generator = if self.keyword("generator") {
-                            match self.next() {
-                                (Tok::Str(s), _) => Some(s),
-                                (t, s) => {
-                                    return Err(err(
-                                        self.file,
-                                        s,
-                                        format!(
-                                            "expected a quoted generator, found {}",
-                                            Self::describe(&t)
-                                        ),
-                                    ));
-                                }
-                            }
-                        } else {
-                            None
-                        };
-                        p.alarms.push((name, refs, generator, sp));
-                    }
-                    "propagate" => {
-                        self.next();
-                        let a = self.reference("a failure-mode reference")?;
-                        self.expect_sym("->")?;
-                        let b = self.reference("a failure-mode reference")?;
-                        if !self.keyword("prob") {
-                            return Err(self.error(format!(
-                                "expected `prob`, found {}",
-                                Self::describe(self.peek())
-                            )));
-                        }
-                        let pspan = self.span();
-                        let prob = self.number("a probability")?;
-                        if !(prob > 0.0 && prob <= 1.0) {
-                            return Err(err(
-                                self.file,
-                                pspan,
-                                format!("probability {prob} is not in (0, 1]"),
-                            ));
-                        }
-                        if !self.keyword("time") {
-                            return Err(self.error(format!(
-                                "expected `time`, found {}",
-                                Self::describe(self.peek())
-                            )));
-                        }
-                        let tspan = self.span();
-                        let tmin = self.number("tmin in seconds")?;
-                        self.expect_sym("..")?;
-                        let tmax = self.number("tmax in seconds")?;
-                        if !(tmin >= 0.0 && tmin <= tmax && tmax.is_finite()) {
-                            return Err(err(
-                                self.file,
-                                tspan,
-                                format!(
-                                    "propagation time {tmin}..{tmax} needs 0 <= tmin <= tmax < inf"
-                                ),
-                            ));
-                        }
-                        let assumed = self.keyword("assumed");
-                        p.edges.push((a, b, prob, tmin, tmax, assumed, sp));
-                    }
+                    "alarm" => self.alarm(&mut p, sp)?,
+                    "propagate" => self.propagate(&mut p, sp)?,
                     other => {
                         return Err(self.error(format!(
                             "unknown statement `{other}` in process `{}` (expected process, input, output, component, connect, failure, alarm, propagate or `}}`)",
