@@ -795,42 +795,7 @@ impl Ops {
         p: &CompiledRobot,
         coupling: Option<&Coupling>,
     ) -> OpResult {
-        // `tip`: a link of the robot; kinv and jacob then act on the chain from the base to it
-        // (a branching robot — a Panda's fingers — has one per leaf), the other joints held.
-        let chain = match req.get("tip") {
-            None | Some(Value::Null) => None,
-            Some(t) => {
-                let name = t
-                    .as_str()
-                    .ok_or_else(|| err(ErrorKind::BadRequest, "`tip` must be a link name"))?;
-                let k = p
-                    .links
-                    .iter()
-                    .position(|id| snap.index_of(*id).is_some_and(|i| snap.name(i) == name))
-                    .ok_or_else(|| {
-                        let names: Vec<&str> = p
-                            .links
-                            .iter()
-                            .filter_map(|id| snap.index_of(*id).map(|i| snap.name(i)))
-                            .collect();
-                        err(
-                            ErrorKind::BadRequest,
-                            format!(
-                                "`tip` {name:?} is not a link of {}; its links: {}",
-                                p.robot.name,
-                                names.join(", ")
-                            ),
-                        )
-                    })?;
-                if !matches!(op, "kinv" | "jacob") {
-                    return Err(err(
-                        ErrorKind::BadRequest,
-                        format!("`tip` is for kinv and jacob, not {op}"),
-                    ));
-                }
-                p.robot.chain_to(k + 1)
-            }
-        };
+        let chain = tip_chain(op, req, snap, p)?;
         if let Some((robot, joints)) = chain {
             return Self::chain_op(op, req, &robot, &joints, &p.q);
         }
@@ -880,64 +845,121 @@ impl Ops {
                 .map_err(|e| ProtocolError::caused(ErrorKind::Check, e))?;
                 Ok(contacts(&res, &p, snap, &names))
             }
-            "movej" | "moveji" => {
-                let q = vec_field(req, "q")?;
-                p.robot
-                    .check_q(&q)
-                    .map_err(|e| ProtocolError::caused(ErrorKind::BadRequest, e))?;
-                root_held(&p.robot, &q)?;
-                let steps = if op == "movej" {
-                    1
-                } else {
-                    req.get("steps")
-                        .and_then(Value::as_u64)
-                        .filter(|s| *s > 0 && *s <= 100_000)
-                        .ok_or_else(|| {
-                            err(
-                                ErrorKind::BadRequest,
-                                "`steps` must be an integer in 1..=100000",
-                            )
-                        })? as usize
-                };
-                // Joint limits at every step (MOVEJI's check), before anything moves.
-                let mut path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
-                    .map_err(|e| ProtocolError::caused(ErrorKind::JointLimit, e))?;
-                // an interpolation of two coupled q's is coupled up to rounding: each step's
-                // followers are put back at exactly their relation's value
-                if let Some(c) = coupling {
-                    for step in &mut path {
-                        if let Ok(q) = c.restrict(step).and_then(|qr| c.expand_q(&qr)) {
-                            *step = q;
-                        }
-                    }
-                }
-                let Obstacles { scene, names, .. } = self.obstacles(&p, snap)?;
-                let outcome = robosim_collision::robot::move_checked(
-                    &p.robot,
-                    &p.solids,
-                    &p.q,
-                    &q,
-                    steps,
-                    &scene,
-                    &self.settings,
-                )
-                .map_err(|e| ProtocolError::caused(ErrorKind::Check, e))?;
-                let mut version = snap.version();
-                for step in path.iter().take(outcome.steps_done) {
-                    version = self.write_q(&p, step)?;
-                }
-                Ok(json!({
-                    "completed": outcome.completed,
-                    "steps_done": outcome.steps_done,
-                    "q": path.get(outcome.steps_done.wrapping_sub(1)).cloned().unwrap_or(p.q.clone()),
-                    "version": version,
-                    "stopped_by": outcome.stopped_by.as_ref().map(|r| contacts(r, &p, snap, &names)),
-                    "collision_checked": self.settings.enabled,
-                }))
-            }
+            "movej" | "moveji" => self.move_op(op, req, snap, p, coupling),
             other => Err(err(ErrorKind::UnknownOp, format!("op {other:?}"))),
         }
     }
+
+    /// `movej` (one step) and `moveji` (`steps` interpolated steps) of `p` to `q`: limits at
+    /// every step, then as far as the collision check lets it, each step written.
+    fn move_op(
+        &mut self,
+        op: &str,
+        req: &Value,
+        snap: &Snapshot,
+        p: &CompiledRobot,
+        coupling: Option<&Coupling>,
+    ) -> OpResult {
+        let q = vec_field(req, "q")?;
+        p.robot
+            .check_q(&q)
+            .map_err(|e| ProtocolError::caused(ErrorKind::BadRequest, e))?;
+        root_held(&p.robot, &q)?;
+        let steps = if op == "movej" {
+            1
+        } else {
+            req.get("steps")
+                .and_then(Value::as_u64)
+                .filter(|s| *s > 0 && *s <= 100_000)
+                .ok_or_else(|| {
+                    err(
+                        ErrorKind::BadRequest,
+                        "`steps` must be an integer in 1..=100000",
+                    )
+                })? as usize
+        };
+        // Joint limits at every step (MOVEJI's check), before anything moves.
+        let mut path = robosim_kinematics::movej_interpolate(&p.robot, &p.q, &q, steps)
+            .map_err(|e| ProtocolError::caused(ErrorKind::JointLimit, e))?;
+        // an interpolation of two coupled q's is coupled up to rounding: each step's
+        // followers are put back at exactly their relation's value
+        if let Some(c) = coupling {
+            for step in &mut path {
+                if let Ok(q) = c.restrict(step).and_then(|qr| c.expand_q(&qr)) {
+                    *step = q;
+                }
+            }
+        }
+        let Obstacles { scene, names, .. } = self.obstacles(&p, snap)?;
+        let outcome = robosim_collision::robot::move_checked(
+            &p.robot,
+            &p.solids,
+            &p.q,
+            &q,
+            steps,
+            &scene,
+            &self.settings,
+        )
+        .map_err(|e| ProtocolError::caused(ErrorKind::Check, e))?;
+        let mut version = snap.version();
+        for step in path.iter().take(outcome.steps_done) {
+            version = self.write_q(&p, step)?;
+        }
+        Ok(json!({
+            "completed": outcome.completed,
+            "steps_done": outcome.steps_done,
+            "q": path.get(outcome.steps_done.wrapping_sub(1)).cloned().unwrap_or(p.q.clone()),
+            "version": version,
+            "stopped_by": outcome.stopped_by.as_ref().map(|r| contacts(r, &p, snap, &names)),
+            "collision_checked": self.settings.enabled,
+        }))
+    }
+}
+
+/// The chain a request's `tip` names (a link of `p`; kinv and jacob then act on the chain
+/// from the base to it — a branching robot, a Panda's fingers, has one per leaf — the other
+/// joints held), None without a `tip`.
+fn tip_chain(
+    op: &str,
+    req: &Value,
+    snap: &Snapshot,
+    p: &CompiledRobot,
+) -> std::result::Result<Option<(Robot, Vec<usize>)>, ProtocolError> {
+    let chain = match req.get("tip") {
+        None | Some(Value::Null) => None,
+        Some(t) => {
+            let name = t
+                .as_str()
+                .ok_or_else(|| err(ErrorKind::BadRequest, "`tip` must be a link name"))?;
+            let k = p
+                .links
+                .iter()
+                .position(|id| snap.index_of(*id).is_some_and(|i| snap.name(i) == name))
+                .ok_or_else(|| {
+                    let names: Vec<&str> = p
+                        .links
+                        .iter()
+                        .filter_map(|id| snap.index_of(*id).map(|i| snap.name(i)))
+                        .collect();
+                    err(
+                        ErrorKind::BadRequest,
+                        format!(
+                            "`tip` {name:?} is not a link of {}; its links: {}",
+                            p.robot.name,
+                            names.join(", ")
+                        ),
+                    )
+                })?;
+            if !matches!(op, "kinv" | "jacob") {
+                return Err(err(
+                    ErrorKind::BadRequest,
+                    format!("`tip` is for kinv and jacob, not {op}"),
+                ));
+            }
+            p.robot.chain_to(k + 1)
+        }
+    };
+    Ok(chain)
 }
 
 /// `robosim query --session NAME`: the session ops, offered to [`crate::serve_with`] as an

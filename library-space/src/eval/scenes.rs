@@ -40,52 +40,7 @@ impl Evaluator<'_> {
                         Some(e) => self.transform(e, scope)?,
                         None => Matrix4::identity(),
                     };
-                    let v = self.eval(item, scope)?;
-                    let model = match v {
-                        Value::Robot(r) => Some((*r).clone()),
-                        Value::Link(l) => Some(single_link_robot(&l)),
-                        Value::Solid(s) => {
-                            if let Some(e) = q {
-                                return Err(err(ErrorKind::Type, e.span, "a solid has no joints")
-                                    .expected("`q` only for robots"));
-                            }
-                            let solid = SolidModel {
-                                name: callee_name(item).unwrap_or_else(|| name.clone()),
-                                parts: s.parts.clone(),
-                                mass: s.mass,
-                            };
-                            scene.solids.push(PlacedItem {
-                                name: name.clone(),
-                                solid,
-                                placement,
-                            });
-                            None
-                        }
-                        other => {
-                            return Err(err(
-                                ErrorKind::Type,
-                                item.span,
-                                format!("cannot place {} in a scene", other.describe()),
-                            )
-                            .expected("a robot or a solid"));
-                        }
-                    };
-                    if let Some(mut model) = model {
-                        let dof = model.robot.dof();
-                        let qv = match q {
-                            Some(e) => self.joint_vector(e, scope, &model)?,
-                            None => vec![0.0; dof],
-                        };
-                        model.robot.base = placement * model.robot.base;
-                        model.robot.name = name.clone();
-                        scene.robots.push(PlacedRobot {
-                            name: name.clone(),
-                            declaration: callee_name(item),
-                            model,
-                            placement,
-                            q: qv,
-                        });
-                    }
+                    self.place_item(&mut scene, name, item, q.as_ref(), placement, scope)?;
                 }
                 Stmt::Prop {
                     name,
@@ -124,32 +79,7 @@ impl Evaluator<'_> {
                 }
             }
         }
-        // The swap names a placed robot and a placed solid of this scene.
-        if let Some(sw) = &scene.effects.oru_swap {
-            let span = decl.name_span;
-            if !scene.robots.iter().any(|r| r.name == sw.servicer) {
-                return Err(err(
-                    ErrorKind::Type,
-                    span,
-                    format!(
-                        "scene {}: oru_swap's servicer {:?} is not a placed robot",
-                        scene.name, sw.servicer
-                    ),
-                )
-                .expected("the place name of a robot of the scene"));
-            }
-            if !scene.solids.iter().any(|r| r.name == sw.spare) {
-                return Err(err(
-                    ErrorKind::Type,
-                    span,
-                    format!(
-                        "scene {}: oru_swap's spare {:?} is not a placed solid",
-                        scene.name, sw.spare
-                    ),
-                )
-                .expected("the place name of a solid of the scene"));
-            }
-        }
+        check_oru_swap(&scene, decl.name_span)?;
         // The world's gravity is the scene's: a declared dynamics effect sets it for every robot.
         if let Some(g) = scene.effects.dynamics.and_then(|d| d.gravity) {
             for r in &mut scene.robots {
@@ -157,6 +87,66 @@ impl Evaluator<'_> {
             }
         }
         Ok(scene)
+    }
+
+    /// Evaluates a placed item and adds it to the scene: a robot (a link as a one-link robot)
+    /// at its `q`, or a solid.
+    fn place_item(
+        &mut self,
+        scene: &mut SceneModel,
+        name: &str,
+        item: &Expr,
+        q: Option<&Expr>,
+        placement: Matrix4<f64>,
+        scope: &mut Scope,
+    ) -> RResult<()> {
+        let v = self.eval(item, scope)?;
+        let model = match v {
+            Value::Robot(r) => Some((*r).clone()),
+            Value::Link(l) => Some(single_link_robot(&l)),
+            Value::Solid(s) => {
+                if let Some(e) = q {
+                    return Err(err(ErrorKind::Type, e.span, "a solid has no joints")
+                        .expected("`q` only for robots"));
+                }
+                let solid = SolidModel {
+                    name: callee_name(item).unwrap_or_else(|| name.to_owned()),
+                    parts: s.parts.clone(),
+                    mass: s.mass,
+                };
+                scene.solids.push(PlacedItem {
+                    name: name.to_owned(),
+                    solid,
+                    placement,
+                });
+                None
+            }
+            other => {
+                return Err(err(
+                    ErrorKind::Type,
+                    item.span,
+                    format!("cannot place {} in a scene", other.describe()),
+                )
+                .expected("a robot or a solid"));
+            }
+        };
+        if let Some(mut model) = model {
+            let dof = model.robot.dof();
+            let qv = match q {
+                Some(e) => self.joint_vector(e, scope, &model)?,
+                None => vec![0.0; dof],
+            };
+            model.robot.base = placement * model.robot.base;
+            model.robot.name = name.to_owned();
+            scene.robots.push(PlacedRobot {
+                name: name.to_owned(),
+                declaration: callee_name(item),
+                model,
+                placement,
+                q: qv,
+            });
+        }
+        Ok(())
     }
 
     pub(super) fn joint_vector(
@@ -218,4 +208,33 @@ impl Evaluator<'_> {
         }
         Ok(out)
     }
+}
+
+/// The swap names a placed robot and a placed solid of this scene (`span`: the scene's name).
+fn check_oru_swap(scene: &SceneModel, span: Span) -> RResult<()> {
+    if let Some(sw) = &scene.effects.oru_swap {
+        if !scene.robots.iter().any(|r| r.name == sw.servicer) {
+            return Err(err(
+                ErrorKind::Type,
+                span,
+                format!(
+                    "scene {}: oru_swap's servicer {:?} is not a placed robot",
+                    scene.name, sw.servicer
+                ),
+            )
+            .expected("the place name of a robot of the scene"));
+        }
+        if !scene.solids.iter().any(|r| r.name == sw.spare) {
+            return Err(err(
+                ErrorKind::Type,
+                span,
+                format!(
+                    "scene {}: oru_swap's spare {:?} is not a placed solid",
+                    scene.name, sw.spare
+                ),
+            )
+            .expected("the place name of a solid of the scene"));
+        }
+    }
+    Ok(())
 }
