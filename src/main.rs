@@ -191,10 +191,10 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
             .map(|line| println!("{line}"))
             .map_err(CliError::from),
         Command::Demo => robosim_studies::surgical::run(session, &mut std::io::stdout().lock())
-            .map_err(|e| CliError(e.0)),
+            .map_err(CliError::from),
         Command::Study { cmd } => {
             robosim_studies::cli::run(&cmd.into(), &mut std::io::stdout().lock())
-                .map_err(|e| CliError(e.0))
+                .map_err(CliError::from)
         }
         Command::Sweep(args) => robosim_studies::sweep::cli::run(
             &args.into(),

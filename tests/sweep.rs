@@ -101,7 +101,7 @@ fn in_process() -> String {
     let outcomes: Vec<_> = plan
         .jobs
         .iter()
-        .map(|j| (def.run)(&j.params).map_err(|e| e.0))
+        .map(|j| (def.run)(&j.params).map_err(|e| robosim_instance_space::error_chain(&e)))
         .collect();
     cli::csv(def, &plan.axes, &plan.jobs, &outcomes)
 }

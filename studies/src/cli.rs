@@ -102,7 +102,7 @@ fn mode(s: &str) -> Result<Mode> {
         "polygon" => Mode::Polygon,
         "exact" => Mode::Exact,
         other => {
-            return Err(StudyError(format!(
+            return Err(StudyError::Message(format!(
                 "collision mode {other:?}: bbox, polygon or exact"
             )));
         }

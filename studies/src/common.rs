@@ -16,11 +16,11 @@ use std::sync::Arc;
 /// The standard library's scene `name` evaluated with `params`.
 pub fn scene(name: &str, params: &Params) -> Result<(&'static Library, SceneModel)> {
     let lib = robosim_library::standard_library()
-        .ok_or_else(|| StudyError("the standard library failed to load".into()))?;
+        .ok_or_else(|| StudyError::Message("the standard library failed to load".into()))?;
     let scene = match lib.evaluate(name, params) {
         Ok(Evaluated::Scene(s)) => s,
-        Ok(_) => return Err(StudyError(format!("{name} is not a scene"))),
-        Err(e) => return Err(StudyError(format!("scene {name}: {e}"))),
+        Ok(_) => return Err(StudyError::Message(format!("{name} is not a scene"))),
+        Err(e) => return Err(StudyError::at(format!("scene {name}"), e)),
     };
     Ok((lib, scene))
 }
@@ -33,7 +33,7 @@ pub fn scene(name: &str, params: &Params) -> Result<(&'static Library, SceneMode
 pub(crate) fn collision_solids(p: &PlacedSolid, what: &str) -> Result<Vec<Solid>> {
     geometry_object(p, 0)
         .collision_parts()
-        .map_err(|e| StudyError(format!("{what}: {e}")))
+        .map_err(|e| StudyError::at(what, e))
 }
 
 /// `p` as a collision object of the model on `frame`, at its placement.
@@ -97,7 +97,7 @@ impl Body {
             let (centre, radius) = bounding_sphere(s);
             let solids = o
                 .collision_parts()
-                .map_err(|e| StudyError(format!("robot {}: {e}", p.name)))?;
+                .map_err(|e| StudyError::at(format!("robot {}", p.name), e))?;
             for solid in solids {
                 parts.push(Part {
                     name: s.name.clone(),
@@ -258,7 +258,7 @@ pub fn write_trajectory(path: &Path, robot: &Robot, dt: f64, samples: &[Vec<f64>
         s.push_str(&cols.join(" "));
         s.push('\n');
     }
-    robosim_input::write_file_atomic(path, s.as_bytes()).map_err(|e| StudyError(e.to_string()))
+    robosim_input::write_file_atomic(path, s.as_bytes()).map_err(StudyError::from)
 }
 
 /// A CSV file written row by row; every value finite (a NaN is a bug, refused by name).
@@ -270,11 +270,9 @@ pub struct Csv {
 
 impl Csv {
     pub fn create(path: &Path, columns: &[String]) -> Result<Csv> {
-        let f = std::fs::File::create(path)
-            .map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
+        let f = std::fs::File::create(path).map_err(|e| StudyError::io(path, e))?;
         let mut out = std::io::BufWriter::new(f);
-        writeln!(out, "{}", columns.join(","))
-            .map_err(|e| StudyError(format!("{}: {e}", path.display())))?;
+        writeln!(out, "{}", columns.join(",")).map_err(|e| StudyError::io(path, e))?;
         Ok(Csv {
             path: path.to_owned(),
             out,
@@ -284,7 +282,7 @@ impl Csv {
 
     pub fn row(&mut self, values: &[f64]) -> Result<()> {
         if values.len() != self.columns.len() {
-            return Err(StudyError(format!(
+            return Err(StudyError::Message(format!(
                 "{}: a row of {} values for {} columns",
                 self.path.display(),
                 values.len(),
@@ -292,7 +290,7 @@ impl Csv {
             )));
         }
         if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-            return Err(StudyError(format!(
+            return Err(StudyError::Message(format!(
                 "{}: column {} is not finite ({})",
                 self.path.display(),
                 self.columns[i],
@@ -300,14 +298,13 @@ impl Csv {
             )));
         }
         let cells: Vec<String> = values.iter().map(|v| format!("{v}")).collect();
-        writeln!(self.out, "{}", cells.join(","))
-            .map_err(|e| StudyError(format!("{}: {e}", self.path.display())))
+        writeln!(self.out, "{}", cells.join(",")).map_err(|e| StudyError::io(&self.path, e))
     }
 
     pub fn finish(mut self) -> Result<PathBuf> {
         self.out
             .flush()
-            .map_err(|e| StudyError(format!("{}: {e}", self.path.display())))?;
+            .map_err(|e| StudyError::io(&self.path, e))?;
         Ok(self.path)
     }
 }
@@ -329,7 +326,8 @@ pub fn render_frames(
         return Ok(());
     }
     let args = render_args(scene, plays, samples, count, dir, from, at, poses);
-    robosim_display::app::cmd_render(&args).map_err(|e| StudyError(format!("frames: {}", e.0)))
+    robosim_display::app::cmd_render(&args)
+        .map_err(|e| StudyError::Message(format!("frames: {}", e.0)))
 }
 
 /// What [`render_frames`] asks the display to draw: the scene, the played trajectories, every
@@ -398,7 +396,7 @@ pub fn step_count(steps: f64, what: &str) -> crate::Result<usize> {
     if n.is_finite() && n >= 0.0 && n <= budget as f64 {
         Ok(n as usize)
     } else {
-        Err(crate::StudyError(format!(
+        Err(StudyError::Message(format!(
             "{what} would take {n:e} time steps, over the budget of {budget} \
              (give a larger --step or a shorter run, or set {STEP_BUDGET_ENV} to raise it)"
         )))

@@ -28,32 +28,124 @@ pub mod surgical;
 pub mod sweep;
 pub mod welding;
 
-/// Why a study stopped: what failed, in words (every study step names its input).
-#[derive(Debug)]
-pub struct StudyError(pub String);
+/// Why a study stopped: what failed and where. A failure of another crate keeps its type (the
+/// variant's `source()` or, when transparent, the error itself); the conditions a study
+/// describes itself are [`StudyError::Message`].
+#[derive(Debug, thiserror::Error)]
+pub enum StudyError {
+    /// A condition the study describes itself (`bail!`): a refused parameter, a missing part.
+    #[error("{0}")]
+    Message(String),
+    /// Writing a line of the study's report (`say!`) failed.
+    #[error("writing the study report: {0}")]
+    Report(#[source] std::io::Error),
+    /// Starting or reaching the session failed (the error itself; boxed, it is large).
+    #[error(transparent)]
+    Launch(Box<robosim_launcher::LaunchError>),
+    /// The session's shared memory failed (the error itself).
+    #[error(transparent)]
+    Session(#[from] robosim_instance_space::SessionError),
+    /// The session's state failed (the error itself).
+    #[error(transparent)]
+    State(#[from] robosim_instance_space::state::StateError),
+    /// Reading the session's snapshot failed (the error itself).
+    #[error(transparent)]
+    Reader(#[from] robosim_instance_space::ReaderError),
+    /// A transaction on the session failed (the error itself).
+    #[error(transparent)]
+    Client(#[from] robosim_instance_space::ClientError),
+    /// A high-level interface request failed (the error itself).
+    #[error(transparent)]
+    Protocol(#[from] robosim_hl_interface::ProtocolError),
+    /// A collision check failed (the error itself).
+    #[error(transparent)]
+    Collision(#[from] robosim_collision::robot::CheckError),
+    /// The dynamics model failed (the error itself).
+    #[error(transparent)]
+    Dynamics(#[from] robosim_dynamics::DynamicsError),
+    /// Inverse kinematics failed (the error itself).
+    #[error(transparent)]
+    Ik(#[from] robosim_kinematics::ik::IkError),
+    /// A joint-space move failed (the error itself).
+    #[error(transparent)]
+    MoveJ(#[from] robosim_kinematics::MoveJError),
+    /// The encoder study failed (the error itself).
+    #[error(transparent)]
+    Encoder(#[from] robosim_kinematics::encoder::EncoderErrorError),
+    /// The orbit model failed (the error itself).
+    #[error(transparent)]
+    Orbit(#[from] robosim_simulator::orbit::OrbitError),
+    /// The attitude model failed (the error itself).
+    #[error(transparent)]
+    Attitude(#[from] robosim_simulator::attitude::AttitudeError),
+    /// Planning the ORU swap failed (the error itself).
+    #[error(transparent)]
+    Swap(#[from] robosim_simulator::swap::SwapError),
+    /// The diagnoser's alarms failed (the error itself).
+    #[error(transparent)]
+    Alarm(#[from] robosim_automation::diag::AlarmError),
+    /// Loading an automation model failed (the error itself).
+    #[error(transparent)]
+    Model(#[from] robosim_automation::model::ModelError),
+    /// Writing an output file failed (the error itself).
+    #[error(transparent)]
+    Output(#[from] robosim_input::OutputError),
+    /// Writing a report or plot failed (the error itself).
+    #[error(transparent)]
+    Plot(#[from] robosim_report::ReportError),
+    /// Reading, writing or making the file or directory `path`.
+    #[error("{}: {source}", path.display())]
+    Io {
+        path: std::path::PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// Another crate's failure at a step the study names (`what`: the robot, rule base, time).
+    #[error("{what}: {source}")]
+    At {
+        what: String,
+        #[source]
+        source: Box<dyn std::error::Error + Send + Sync + 'static>,
+    },
+}
 
-impl std::fmt::Display for StudyError {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(&self.0)
+impl From<robosim_launcher::LaunchError> for StudyError {
+    fn from(e: robosim_launcher::LaunchError) -> Self {
+        StudyError::Launch(Box::new(e))
     }
 }
 
-impl<E: std::error::Error> From<E> for StudyError {
-    fn from(e: E) -> Self {
-        StudyError(e.to_string())
+impl StudyError {
+    /// `source` failing on the file or directory `path`.
+    pub(crate) fn io(path: &std::path::Path, source: std::io::Error) -> Self {
+        StudyError::Io {
+            path: path.to_owned(),
+            source,
+        }
+    }
+
+    /// `source` failing at the step `what` names.
+    pub(crate) fn at(
+        what: impl Into<String>,
+        source: impl std::error::Error + Send + Sync + 'static,
+    ) -> Self {
+        StudyError::At {
+            what: what.into(),
+            source: Box::new(source),
+        }
     }
 }
 
 pub type Result<T> = std::result::Result<T, StudyError>;
 
 macro_rules! bail {
-    ($($t:tt)*) => { return Err($crate::StudyError(format!($($t)*))) };
+    ($($t:tt)*) => { return Err($crate::StudyError::Message(format!($($t)*))) };
 }
 pub(crate) use bail;
 
 /// `writeln!` to a study's report writer; a failed write ends the study.
 macro_rules! say {
-    ($out:expr) => { writeln!($out).map_err(|e| $crate::StudyError(e.to_string()))? };
-    ($out:expr, $($t:tt)*) => { writeln!($out, $($t)*).map_err(|e| $crate::StudyError(e.to_string()))? };
+    ($out:expr) => { writeln!($out).map_err($crate::StudyError::Report)? };
+    ($out:expr, $($t:tt)*) => { writeln!($out, $($t)*).map_err($crate::StudyError::Report)? };
 }
 pub(crate) use say;

@@ -145,7 +145,7 @@ struct Injection {
 /// Runs the study (module docs); returns the session's final simulator state.
 pub fn run(p: &OpsParams, log: &mut dyn Write) -> Result<Value> {
     check_params(p)?;
-    std::fs::create_dir_all(&p.out).map_err(|e| StudyError(format!("{}: {e}", p.out.display())))?;
+    std::fs::create_dir_all(&p.out).map_err(|e| StudyError::io(&p.out, e))?;
     let name = p
         .session
         .clone()
@@ -238,9 +238,8 @@ fn check_params(p: &OpsParams) -> Result<()> {
 /// (the scheduler, or the ECLSS guard alone when the scheduler is off and faults are injected).
 fn processes(p: &OpsParams) -> Result<Vec<String>> {
     let graph = p.out.join("momentum_manager.flow");
-    std::fs::write(&graph, MOMENTUM_MANAGER)
-        .map_err(|e| StudyError(format!("{}: {e}", graph.display())))?;
-    let graph = std::path::absolute(&graph)?;
+    std::fs::write(&graph, MOMENTUM_MANAGER).map_err(|e| StudyError::io(&graph, e))?;
+    let graph = std::path::absolute(&graph).map_err(|e| StudyError::io(&graph, e))?;
     let mut with = vec![
         "simulator".to_owned(),
         format!("dataflow={}", graph.display()),
@@ -572,7 +571,7 @@ fn write_outputs(
 
 /// `text` into `path`, an error naming the file.
 fn write_text(path: &std::path::Path, text: String) -> Result<()> {
-    std::fs::write(path, text).map_err(|e| StudyError(format!("{}: {e}", path.display())))
+    std::fs::write(path, text).map_err(|e| StudyError::io(path, e))
 }
 
 /// The `name`s of the records in the array at `pointer` of `state`, in order.
@@ -1054,6 +1053,8 @@ pub fn parse_fault(s: &str) -> Result<(String, f64)> {
         .parse()
         .ok()
         .filter(|x: &f64| x.is_finite() && *x >= 0.0)
-        .ok_or_else(|| StudyError(format!("--fault {s:?}: {at:?} is not a time in seconds")))?;
+        .ok_or_else(|| {
+            StudyError::Message(format!("--fault {s:?}: {at:?} is not a time in seconds"))
+        })?;
     Ok((name.to_owned(), at))
 }

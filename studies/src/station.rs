@@ -299,7 +299,7 @@ fn oru_setup(
     let Some(fx) = &scene.effects.oru_swap else {
         bail!("{SCENE} declares no oru_swap effect");
     };
-    let swap = Swap::from_scene(&scene.parts(), fx).map_err(|e| StudyError(e.0))?;
+    let swap = Swap::from_scene(&scene.parts(), fx).map_err(StudyError::from)?;
     let Some(ai) = arrays.iter().position(|a| a.body == swap.array) else {
         bail!(
             "{}: the robot carrying the failed ORU is not a solar array",
@@ -312,7 +312,7 @@ fn oru_setup(
         .parts
         .iter()
         .position(|p| &p.name == name && p.link == swap.link)
-        .ok_or_else(|| StudyError(format!("{}: ORU part {name} not found", body.name)))?;
+        .ok_or_else(|| StudyError::Message(format!("{}: ORU part {name} not found", body.name)))?;
     let mut failed = body.parts.remove(k);
     failed.offset = swap.mount.inverse() * failed.offset;
     failed.link = 0;
@@ -410,12 +410,12 @@ pub fn sites(s: &Setup) -> [Point3<f64>; 3] {
 
 /// The servicer's waypoints ([`Swap::task`]).
 pub fn task(s: &Setup) -> Result<Vec<Waypoint>> {
-    s.oru.swap.task().map_err(|e| StudyError(e.0))
+    s.oru.swap.task().map_err(StudyError::from)
 }
 
 /// The task as a timed [`Plan`] starting at `start` (s) ([`Swap::schedule`]).
 pub fn schedule(s: &Setup, start: f64) -> Result<Plan> {
-    s.oru.swap.schedule(start).map_err(|e| StudyError(e.0))
+    s.oru.swap.schedule(start).map_err(StudyError::from)
 }
 
 /// The swap's state at `t` ([`Swap::state`]).
@@ -850,7 +850,7 @@ impl<'s> Sim<'s> {
         let sb = &s.bodies[s.servicer];
         sb.robot
             .check_q(&sq)
-            .map_err(|e| StudyError(format!("servicer at t = {t} s: {e}")))?;
+            .map_err(|e| StudyError::at(format!("servicer at t = {t} s"), e))?;
         let ost = oru_state(s, &self.plan, t);
         let sposed = servicer_posed(s, &sq, &ost);
         Ok(ServicerNow {
@@ -1313,7 +1313,7 @@ fn mode_name(m: Mode) -> &'static str {
 /// `frames/`. Progress and the summary go to `log`.
 pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Result<Run> {
     let s = setup(p)?;
-    std::fs::create_dir_all(dir).map_err(|e| StudyError(format!("{}: {e}", dir.display())))?;
+    std::fs::create_dir_all(dir).map_err(|e| StudyError::io(dir, e))?;
     say!(
         log,
         "station study: {} km, beta {:.1}°, period {:.1} min, closed-form eclipse {:.1} % of the orbit; step {} s over {} orbit(s)",
@@ -1360,7 +1360,7 @@ pub fn run(p: &StationParams, dir: &Path, log: &mut dyn std::io::Write) -> Resul
         // the robots' trajectories and the ORUs where the swap has them at each step
         let args = frame_args(&s, &run, dir, p.frames);
         robosim_display::app::cmd_render(&args)
-            .map_err(|e| StudyError(format!("frames: {}", e.0)))?;
+            .map_err(|e| StudyError::Message(format!("frames: {}", e.0)))?;
         say!(log, "frames: {}", dir.join("frames").display());
     }
     say!(log, "wrote {}", dir.display());

@@ -96,7 +96,7 @@ fn link_solids(model: &RobotModel) -> Result<LinkSolids> {
     model
         .model()
         .collision_solids()
-        .map_err(|e| crate::StudyError(format!("robot {}: {e}", model.robot.name)))
+        .map_err(|e| crate::StudyError::at(format!("robot {}", model.robot.name), e))
 }
 
 /// The scene's fixed solids as collision obstacles, in the world.
@@ -154,7 +154,7 @@ fn verdict(r: &CheckResult, link_names: &[String]) -> String {
 fn mapped_robot(snap: &Snapshot, arm: &CompiledRobot, name: &str) -> Result<Robot> {
     let i = snap
         .find(name)
-        .ok_or_else(|| crate::StudyError(format!("no object {name} in the snapshot")))?;
+        .ok_or_else(|| crate::StudyError::Message(format!("no object {name} in the snapshot")))?;
     Ok(Robot {
         base: m4(&snap.world_pose(i)),
         tool: m4(&snap.rec(i).tool),
@@ -294,7 +294,7 @@ pub fn reach_sweep(
                     unreachable += 1;
                     continue;
                 }
-                Err(e) => bail!("IK at {cm} cm, {angle}°: {e}"),
+                Err(e) => return Err(crate::StudyError::at(format!("IK at {cm} cm, {angle}°"), e)),
             };
             let mut best: Option<(f64, &ik::IkSolution)> = None;
             for sol in sols.iter().filter(|s| s.converged && s.within_limits) {
@@ -372,26 +372,24 @@ pub fn reach(p: &ReachParams) -> Result<Reach> {
     let placed = scene
         .robots
         .first()
-        .ok_or_else(|| crate::StudyError(format!("{SCENE} places no robot")))?;
+        .ok_or_else(|| crate::StudyError::Message(format!("{SCENE} places no robot")))?;
     let head_item = scene
         .solids
         .iter()
         .find(|i| i.name == "head")
-        .ok_or_else(|| crate::StudyError(format!("{SCENE} has no head")))?;
+        .ok_or_else(|| crate::StudyError::Message(format!("{SCENE} has no head")))?;
     let head_part = head_item
         .solid
         .parts
         .first()
-        .ok_or_else(|| crate::StudyError("the head has no solid".into()))?;
+        .ok_or_else(|| crate::StudyError::Message("the head has no solid".into()))?;
     let robot = &placed.model.robot;
     let frame = HeadFrame::new(&(head_item.placement * head_part.transform), robot);
     let bits = match p.bits {
         Some(b) => b,
-        None => scene
-            .effects
-            .encoder
-            .map(|e| e.bits)
-            .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?,
+        None => scene.effects.encoder.map(|e| e.bits).ok_or_else(|| {
+            crate::StudyError::Message(format!("{SCENE} declares no encoder bits"))
+        })?,
     };
     let settings = settings_of(&scene);
     let links = link_solids(&placed.model)?;
@@ -429,16 +427,16 @@ pub fn run(session: Option<&str>, out: &mut dyn std::io::Write) -> Result<()> {
         remove_dir: session.is_none(),
     };
     let lib = robosim_library::standard_library()
-        .ok_or_else(|| crate::StudyError("the standard library failed to load".into()))?;
+        .ok_or_else(|| crate::StudyError::Message("the standard library failed to load".into()))?;
     let scene = match lib.evaluate(SCENE, &Params::new()) {
         Ok(Evaluated::Scene(s)) => s,
         Ok(_) => bail!("{SCENE} is not a scene"),
-        Err(e) => bail!("{SCENE}: {e}"),
+        Err(e) => return Err(crate::StudyError::at(SCENE, e)),
     };
     let placed = scene
         .robots
         .first()
-        .ok_or_else(|| crate::StudyError(format!("{SCENE} places no robot")))?;
+        .ok_or_else(|| crate::StudyError::Message(format!("{SCENE} places no robot")))?;
 
     let s = start_session(out, &name)?;
     let Mapped {
@@ -514,14 +512,16 @@ fn map_model(
     let reader = Reader::attach(s, "demo-reader")?;
     let snap = reader
         .snapshot()
-        .ok_or_else(|| crate::StudyError("no snapshot".into()))?;
+        .ok_or_else(|| crate::StudyError::Message("no snapshot".into()))?;
     say_contents(out, &snap)?;
     let compiled = CompiledScene::of(&snap);
     let robots = compiled.robots();
     let arm = robots
         .iter()
         .find(|r| r.robot.name == placed.name)
-        .ok_or_else(|| crate::StudyError(format!("robot {} not in the snapshot", placed.name)))?;
+        .ok_or_else(|| {
+            crate::StudyError::Message(format!("robot {} not in the snapshot", placed.name))
+        })?;
     let robot = mapped_robot(&snap, arm, &placed.name)?;
     let diff = kinematic_difference(&robot, &placed.model.robot);
     if diff > 1e-12 {
@@ -593,17 +593,17 @@ fn mapped_head(scene: &SceneModel, snap: &Snapshot) -> Result<(Matrix4<f64>, f64
         .solids
         .iter()
         .find(|i| i.name == "head")
-        .ok_or_else(|| crate::StudyError(format!("{SCENE} has no head")))?;
+        .ok_or_else(|| crate::StudyError::Message(format!("{SCENE} has no head")))?;
     let head_obj = snap
         .find("head")
         .and_then(|i| (0..snap.len()).find(|&k| snap.rec(k).parent == snap.rec(i).id))
-        .ok_or_else(|| crate::StudyError("the snapshot has no head solid".into()))?;
+        .ok_or_else(|| crate::StudyError::Message("the snapshot has no head solid".into()))?;
     let head = m4(&snap.world_pose(head_obj));
     let head_part = head_item
         .solid
         .parts
         .first()
-        .ok_or_else(|| crate::StudyError("the head has no solid".into()))?;
+        .ok_or_else(|| crate::StudyError::Message("the head has no solid".into()))?;
     let head_lib = head_item.placement * head_part.transform;
     if (head - head_lib).abs().max() > 1e-12 {
         bail!("the head's pose in the snapshot differs from the library's");
@@ -761,11 +761,10 @@ fn seed_sweep(
     q: &[f64],
     frame: &HeadFrame,
 ) -> Result<u32> {
-    let bits = scene
-        .effects
-        .encoder
-        .map(|e| e.bits)
-        .ok_or_else(|| crate::StudyError(format!("{SCENE} declares no encoder bits")))?;
+    let bits =
+        scene.effects.encoder.map(|e| e.bits).ok_or_else(|| {
+            crate::StudyError::Message(format!("{SCENE} declares no encoder bits"))
+        })?;
     let t0 = Instant::now();
     let reach = reach_sweep(robot, &c.links, &c.obstacles, &c.settings, q, bits, frame)?;
     let Reach {
@@ -850,7 +849,7 @@ fn move_there(
     );
     let snap = reader
         .snapshot()
-        .ok_or_else(|| crate::StudyError("no snapshot".into()))?;
+        .ok_or_else(|| crate::StudyError::Message("no snapshot".into()))?;
     let last_link = arm.links.last().and_then(|id| snap.index_of(*id));
     if let Some(i) = last_link {
         let tool_world = m4(&snap.world_pose(i)) * robot.tool;
@@ -949,7 +948,7 @@ fn with_link_masses(robot: &Robot, frames: &[Vec<PlacedSolid>], density: f64) ->
             let mp = p
                 .polyhedron
                 .mass_properties(density)
-                .map_err(|e| crate::StudyError(format!("{}: {e}", p.name)))?;
+                .map_err(|e| crate::StudyError::at(p.name.clone(), e))?;
             each.push(mp.transformed(&isometry_from_matrix(&p.transform)));
         }
         if let Some(mp) = MassProperties::combine(&each) {
@@ -1052,7 +1051,7 @@ fn refuse_bad_input(
     let first = *arm
         .links
         .first()
-        .ok_or_else(|| crate::StudyError("the positioner has no links".into()))?;
+        .ok_or_else(|| crate::StudyError::Message("the positioner has no links".into()))?;
     tx.set_joint(first, 0.0).set_pose(first, pose);
     match client.transact(&tx) {
         Err(e) => say!(out, "refused: {e}"),
@@ -1157,10 +1156,12 @@ fn diagnose(
 ) -> Result<Diagnosis> {
     use robosim_automation::diag::Ilm;
     use robosim_automation::sim::{SimOptions, filter, simulate};
-    let fault = m.find_failure_mode(fault).map_err(crate::StudyError)?;
+    let fault = m
+        .find_failure_mode(fault)
+        .map_err(crate::StudyError::Message)?;
     let mut present = vec![true; m.alarms.len()];
     for a in failed {
-        present[m.find_alarm(a).map_err(crate::StudyError)?] = false;
+        present[m.find_alarm(a).map_err(crate::StudyError::Message)?] = false;
     }
     let opts = SimOptions {
         seed: SEED,

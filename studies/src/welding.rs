@@ -213,7 +213,7 @@ fn cyl(parts: &[PlacedSolid], leaf: &str) -> Result<Cyl> {
     let p = parts
         .iter()
         .find(|p| p.name.rsplit('/').next() == Some(leaf))
-        .ok_or_else(|| StudyError(format!("the workpiece has no part `{leaf}`")))?;
+        .ok_or_else(|| StudyError::Message(format!("the workpiece has no part `{leaf}`")))?;
     let Primitive::Cylinder { radius, height, .. } = p.primitive else {
         bail!("workpiece part `{leaf}` is not a cylinder");
     };
@@ -372,7 +372,7 @@ pub fn setup(p: &WeldingParams) -> Result<Setup> {
             .robots
             .iter()
             .find(|r| r.declaration.as_deref() == Some(decl))
-            .ok_or_else(|| StudyError(format!("{SCENE} places no {decl}")))
+            .ok_or_else(|| StudyError::Message(format!("{SCENE} places no {decl}")))
     };
     let arm_p = find("weld_arm")?;
     let pos_p = find("weld_study_positioner")?;
@@ -1029,7 +1029,7 @@ pub fn sections(s: &Setup, run: &Run) -> Vec<(String, f64, f64, String)> {
 /// `welding_summary.{md,csv,png}` and `frames/` into `dir`.
 pub fn run(p: &WeldingParams, dir: &Path, log: &mut dyn std::io::Write) -> Result<Run> {
     let s = setup(p)?;
-    std::fs::create_dir_all(dir).map_err(|e| StudyError(format!("{}: {e}", dir.display())))?;
+    std::fs::create_dir_all(dir).map_err(|e| StudyError::io(dir, e))?;
     say!(
         log,
         "welding study: {} seam(s) ({}), {:.1} mm/s, step {} s",

@@ -209,12 +209,65 @@ fn an_unreachable_seam_is_reported_where_and_why_without_nan() {
     assert!(md.contains("Infeasible: saddle seam"), "{md}");
 }
 
+/// Issue 35 item 4: a study's failure keeps its cause typed. A CSV in a directory that does
+/// not exist fails on the real `io::Error`, reachable as the error's `source()`, and the one
+/// message still names the file (the CLI's error chain says the cause once); a report writer
+/// that refuses a line ends the study with [`StudyError::Report`], its io error the source.
+#[test]
+fn study_errors_keep_their_io_cause_and_name_the_file() {
+    use robosim_studies::StudyError;
+    use std::error::Error as _;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("no_such_dir").join("t.csv");
+    let e = robosim_studies::common::Csv::create(&path, &["t".to_owned()])
+        .err()
+        .expect("no directory to write in");
+    let io = e
+        .source()
+        .and_then(|s| s.downcast_ref::<std::io::Error>())
+        .expect("the io error is the source");
+    assert_eq!(io.kind(), std::io::ErrorKind::NotFound, "{e:?}");
+    assert!(
+        matches!(&e, StudyError::Io { path: p, .. } if p == &path),
+        "{e:?}"
+    );
+    let said = e.to_string();
+    assert!(said.starts_with(&path.display().to_string()), "{said}");
+    assert!(said.ends_with(&io.to_string()), "{said}");
+    assert_eq!(robosim_instance_space::error_chain(&e), said);
+
+    /// A report writer whose every write fails.
+    struct Refusing;
+    impl std::io::Write for Refusing {
+        fn write(&mut self, _: &[u8]) -> std::io::Result<usize> {
+            Err(std::io::Error::other("the reader went away"))
+        }
+        fn flush(&mut self) -> std::io::Result<()> {
+            Ok(())
+        }
+    }
+    let out = tempfile::tempdir().expect("temp dir");
+    let e = welding::run(&quick_welding(), out.path(), &mut Refusing)
+        .expect_err("the report cannot be written");
+    assert!(matches!(e, StudyError::Report(_)), "{e:?}");
+    let io = e
+        .source()
+        .and_then(|s| s.downcast_ref::<std::io::Error>())
+        .expect("the io error is the source");
+    assert_eq!(io.to_string(), "the reader went away");
+    assert_eq!(
+        e.to_string(),
+        "writing the study report: the reader went away"
+    );
+    assert_eq!(robosim_instance_space::error_chain(&e), e.to_string());
+}
+
 #[test]
 fn bad_welding_parameters_are_refused_by_name() {
     let bad = |p: WeldingParams, words: &str| {
         let dir = tempfile::tempdir().expect("temp dir");
         let e = welding::run(&p, dir.path(), &mut Vec::new()).expect_err("refused");
-        assert!(e.0.contains(words), "{e}");
+        assert!(e.to_string().contains(words), "{e}");
         assert!(!dir.path().join("welding.csv").exists());
     };
     // the branch moved (a scene parameter) so far up that it leaves the pipe
@@ -384,7 +437,7 @@ fn bad_station_parameters_are_refused_by_name() {
     let bad = |p: StationParams, words: &str| {
         let dir = tempfile::tempdir().expect("temp dir");
         let e = station::run(&p, dir.path(), &mut Vec::new()).expect_err("refused");
-        assert!(e.0.contains(words), "{e}");
+        assert!(e.to_string().contains(words), "{e}");
         assert!(!dir.path().join("station.csv").exists());
     };
     bad(

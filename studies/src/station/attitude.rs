@@ -144,7 +144,7 @@ pub fn config(
         }
     }
     let Some(mass) = MassProps::combine(parts) else {
-        return Err(StudyError(format!(
+        return Err(StudyError::Message(format!(
             "{}: the model has no mass",
             super::SCENE
         )));
@@ -238,8 +238,7 @@ impl Running {
         let t0 = std::time::Instant::now();
         let cfg = config(s, a, qs, &Vector3::x())?;
         let recompute_s = t0.elapsed().as_secs_f64();
-        let model = Attitude::new(a.effect, s.orbit, p.theta0, &cfg)
-            .map_err(|e| StudyError(e.to_string()))?;
+        let model = Attitude::new(a.effect, s.orbit, p.theta0, &cfg).map_err(StudyError::from)?;
         let pitch = 2.0 * model.offset.imag().y.atan2(model.offset.w);
         Ok(Running {
             run: AttRun {
@@ -600,8 +599,8 @@ pub fn accuracy(
     let times: Vec<f64> = run.steps.iter().map(|st| st.t).collect();
     let integrate = |dt: f64| -> Result<(Attitude, Vec<(f64, att::State)>, f64)> {
         let t0 = std::time::Instant::now();
-        let mut m = Attitude::new(a.effect, orbit, theta0, &ar.configs[0])
-            .map_err(|e| StudyError(e.to_string()))?;
+        let mut m =
+            Attitude::new(a.effect, orbit, theta0, &ar.configs[0]).map_err(StudyError::from)?;
         let mut trace = Vec::with_capacity(times.len());
         for (k, &t) in times.iter().enumerate() {
             if k > 0 {

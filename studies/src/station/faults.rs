@@ -39,7 +39,7 @@ impl FaultSpec {
         let t_s: f64 = t
             .trim()
             .parse()
-            .map_err(|e| StudyError(format!("--fault {s:?}: time {t:?}: {e}")))?;
+            .map_err(|e| StudyError::at(format!("--fault {s:?}: time {t:?}"), e))?;
         if !(t_s.is_finite() && t_s >= 0.0) {
             bail!("--fault {s:?}: time {t_s}: expected seconds ≥ 0");
         }
@@ -99,10 +99,10 @@ impl EclssFault {
     /// The fault of `spec` on the shipped ECLSS model, its alarms simulated; the consumers
     /// (of `consumers`) whose subsystem is a prefix of the failed process's path.
     pub fn new(spec: &FaultSpec, consumers: &[Consumer]) -> Result<EclssFault> {
-        let model = load_model("eclss").map_err(|e| StudyError(e.to_string()))?;
+        let model = load_model("eclss").map_err(StudyError::from)?;
         let fm = model
             .find_failure_mode(&spec.failure_mode)
-            .map_err(|e| StudyError(format!("--fault: {e}")))?;
+            .map_err(|e| StudyError::Message(format!("--fault: {e}")))?;
         let f = &model.failure_modes[fm];
         if f.derived {
             bail!(
@@ -286,7 +286,7 @@ mod tests {
                 .and_then(|f| EclssFault::new(&f, &c))
                 .err()
                 .unwrap_or_else(|| panic!("{s} accepted"));
-            assert!(e.0.contains(why), "{s}: {e}");
+            assert!(e.to_string().contains(why), "{s}: {e}");
         }
     }
 }

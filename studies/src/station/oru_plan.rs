@@ -179,13 +179,13 @@ impl Planner {
             }),
             Limits::default(),
         )
-        .map_err(|e| StudyError(format!("ORU planner: {e}")))?;
+        .map_err(|e| StudyError::at("ORU planner", e))?;
         let text = robosim_rules::embedded::shipped(RULE_BASE).ok_or_else(|| {
-            StudyError(format!("{RULE_BASE} is not among the shipped rule bases"))
+            StudyError::Message(format!("{RULE_BASE} is not among the shipped rule bases"))
         })?;
         engine
             .load_text(RULE_BASE, text)
-            .map_err(|e| StudyError(format!("{RULE_BASE}: {e}")))?;
+            .map_err(|e| StudyError::at(RULE_BASE, e))?;
         let swap = &s.oru.swap;
         let array = s.bodies[swap.array].name.clone();
         let fx_spare = s.oru.swap.objects[1].0.clone();
@@ -194,9 +194,9 @@ impl Planner {
                 "(oru-swap-declared (array {array}) (spare {}))",
                 quote(&fx_spare)
             ))
-            .map_err(|e| StudyError(format!("{RULE_BASE}: {e}")))?;
+            .map_err(|e| StudyError::at(RULE_BASE, e))?;
         let stow = Vector3::from(STOW_OFFSET);
-        let task = swap.task_with(&stow).map_err(|e| StudyError(e.0))?;
+        let task = swap.task_with(&stow).map_err(StudyError::from)?;
         let obstacles = p
             .oru_obstacles
             .iter()
@@ -295,7 +295,7 @@ impl Planner {
         }
         self.run.loss_w.push((t, loss.max(0.0)));
         let err =
-            |e: robosim_rules::RulesError| StudyError(format!("{RULE_BASE} at t = {t} s: {e}"));
+            |e: robosim_rules::RulesError| StudyError::at(format!("{RULE_BASE} at t = {t} s"), e);
         for tpl in ["oru-now", "oru-array", "oru-servicer", "oru-unit"] {
             self.engine
                 .eval(&format!(

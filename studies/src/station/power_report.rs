@@ -95,7 +95,7 @@ pub fn write_decisions(dir: &Path, run: &Run) -> Result<()> {
         ));
     }
     robosim_input::write_file_atomic(&dir.join("station_decisions.csv"), s.as_bytes())
-        .map_err(|e| StudyError(e.to_string()))
+        .map_err(StudyError::from)
 }
 
 /// Energy unserved to vital loads while a sheddable or reducible one was served, J — what the

@@ -52,7 +52,9 @@ impl Scheduling {
         match s {
             "on" => Ok(Scheduling::On),
             "off" => Ok(Scheduling::Off),
-            other => Err(StudyError(format!("--scheduler {other:?}: on or off"))),
+            other => Err(StudyError::Message(format!(
+                "--scheduler {other:?}: on or off"
+            ))),
         }
     }
 
@@ -256,12 +258,13 @@ impl Scheduler {
                 }),
                 Limits::default(),
             )
-            .map_err(|e| StudyError(format!("station scheduler: {e}")))?;
+            .map_err(|e| StudyError::at("station scheduler", e))?;
             let load = |e: &mut Embedded, name: &str| -> Result<()> {
-                let text = shipped(name)
-                    .ok_or_else(|| StudyError(format!("{name}: not a shipped rule base")))?;
+                let text = shipped(name).ok_or_else(|| {
+                    StudyError::Message(format!("{name}: not a shipped rule base"))
+                })?;
                 e.load_text(name, text)
-                    .map_err(|err| StudyError(format!("{name}: {err}")))
+                    .map_err(|err| StudyError::at(name, err))
             };
             if scheduling == Scheduling::On {
                 load(&mut e, "station_power.clp")?;
@@ -282,7 +285,7 @@ impl Scheduler {
                         e.assert_str(&format!(
                             "(instance (name {n}) (kind solid) (parent {parent}))"
                         ))
-                        .map_err(|err| StudyError(format!("eclss plant: {err}")))?;
+                        .map_err(|err| StudyError::at("eclss plant", err))?;
                     }
                 }
             }
@@ -331,7 +334,7 @@ impl Scheduler {
             return Ok(());
         };
         let err = |e: robosim_rules::RulesError| {
-            StudyError(format!("station scheduler at t = {t} s: {e}"))
+            StudyError::at(format!("station scheduler at t = {t} s"), e)
         };
         // new alarms
         let ringing: Vec<(String, String, String, f64)> = {
@@ -503,7 +506,7 @@ impl Scheduler {
             text(c.get(4)),
         );
         let bad = |what: &str| {
-            StudyError(format!(
+            StudyError::Message(format!(
                 "station_power.clp rule {rule} at t = {t} s: ({cmd} {target} …): {what}"
             ))
         };

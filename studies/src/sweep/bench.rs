@@ -101,7 +101,7 @@ pub fn run(
     let t0 = Instant::now();
     let outcomes: Vec<_> = jobs
         .iter()
-        .map(|j| (def.run)(&j.params).map_err(|e| e.0))
+        .map(|j| (def.run)(&j.params).map_err(|e| robosim_instance_space::error_chain(&e)))
         .collect();
     let serial_s = t0.elapsed().as_secs_f64();
     let reference = csv(def, &p.axes, jobs, &outcomes);

@@ -71,7 +71,7 @@ pub fn plan(def: &'static StudyDef, params: &[String]) -> Result<Plan, SweepErro
         (def.check)(&j.params).map_err(|e| SweepError::Point {
             index: j.index,
             point: point_words(j),
-            why: e.0,
+            source: e,
         })?;
     }
     Ok(Plan { def, axes, jobs })

@@ -34,11 +34,12 @@ pub enum SweepError {
     Param { arg: String, why: String },
     /// The study refuses one of the points (a value outside its range); checked for every
     /// point before any worker starts.
-    #[error("point {index} ({point}): {why}")]
+    #[error("point {index} ({point}): {source}")]
     Point {
         index: usize,
         point: String,
-        why: String,
+        #[source]
+        source: crate::StudyError,
     },
     /// The product of the parameters' values is too large.
     #[error("{axes} is more than {max} jobs")]

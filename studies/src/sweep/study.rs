@@ -25,7 +25,7 @@ fn num(params: &[(String, Value)], name: &str) -> Result<Option<f64>> {
     match params.iter().find(|(n, _)| n == name) {
         None => Ok(None),
         Some((_, Value::Num(v))) if v.is_finite() => Ok(Some(*v)),
-        Some((_, v)) => Err(StudyError(format!(
+        Some((_, v)) => Err(StudyError::Message(format!(
             "{name} = {v}: expected a finite number"
         ))),
     }
@@ -35,7 +35,9 @@ fn word<'a>(params: &'a [(String, Value)], name: &str) -> Result<Option<&'a str>
     match params.iter().find(|(n, _)| n == name) {
         None => Ok(None),
         Some((_, Value::Word(w))) => Ok(Some(w)),
-        Some((_, v)) => Err(StudyError(format!("{name} = {v}: expected a word"))),
+        Some((_, v)) => Err(StudyError::Message(format!(
+            "{name} = {v}: expected a word"
+        ))),
     }
 }
 
@@ -46,7 +48,7 @@ fn mode(params: &[(String, Value)]) -> Result<Option<Mode>> {
         Some("polygon") => Some(Mode::Polygon),
         Some("exact") => Some(Mode::Exact),
         Some(other) => {
-            return Err(StudyError(format!(
+            return Err(StudyError::Message(format!(
                 "mode {other:?}: bbox, polygon or exact"
             )));
         }
@@ -58,7 +60,7 @@ fn mode(params: &[(String, Value)]) -> Result<Option<Mode>> {
 fn known(def: &StudyDef, params: &[(String, Value)]) -> Result<()> {
     for (n, _) in params {
         if !def.params.iter().any(|p| p.name == n) {
-            return Err(StudyError(format!(
+            return Err(StudyError::Message(format!(
                 "study {} has no parameter {n:?}; it has {}",
                 def.name,
                 def.param_list()
@@ -137,14 +139,14 @@ fn surgical_params(p: &[(String, Value)]) -> Result<surgical::ReachParams> {
         None => None,
         Some(b) if b.fract() == 0.0 && (1.0..=52.0).contains(&b) => Some(b as u32),
         Some(b) => {
-            return Err(StudyError(format!(
+            return Err(StudyError::Message(format!(
                 "bits {b}: expected a whole number 1 to 52"
             )));
         }
     };
     let len = |name: &str| -> Result<Option<f64>> {
         match num(p, name)? {
-            Some(v) if !(v > 0.0 && v < 10.0) => Err(StudyError(format!(
+            Some(v) if !(v > 0.0 && v < 10.0) => Err(StudyError::Message(format!(
                 "{name} {v} m: expected a length in (0, 10) m"
             ))),
             v => Ok(v),
@@ -264,7 +266,7 @@ fn welding_params(p: &[(String, Value)]) -> Result<welding::WeldingParams> {
             Some("saddle") => vec![welding::SeamKind::Saddle],
             Some("both") | None => d.seams.clone(),
             Some(other) => {
-                return Err(StudyError(format!(
+                return Err(StudyError::Message(format!(
                     "seam {other:?}: circle, saddle or both"
                 )));
             }

@@ -35,7 +35,7 @@ pub fn run_line(line: &str) -> (usize, Outcome) {
             values.len(),
             def.results.len()
         )),
-        Ok(Err(e)) => Err(e.0),
+        Ok(Err(e)) => Err(robosim_instance_space::error_chain(&e)),
         Err(p) => Err(format!(
             "the study panicked: {}",
             p.downcast_ref::<String>()
