@@ -316,6 +316,71 @@ fn joints_at_their_limits_are_within_limits() {
     assert!(!s.within_limits);
 }
 
+/// A Panda pose with joints 1, 4 and 7 at 2 % of their range from the lower limit (found by a
+/// random run of `properties::fk_ik_fk_round_trip_numeric`): DLS, with limits respected, does
+/// not reach it from any of its 201 starts. That is numeric IK's known limit near joint limits
+/// (docs/kinematics.md); what must hold is that the answer says so — `NotConverged` with the
+/// best attempt, within limits and near the target — and never a wrong pose marked converged.
+#[test]
+fn a_panda_pose_pressed_against_three_limits_is_not_converged_not_wrong() {
+    let robot = builtin_robot("panda").expect("builtin panda");
+    let u = [
+        0.02,
+        0.9433294313775022,
+        0.3818610023994427,
+        0.02,
+        0.7920864396866174,
+        0.9736466648455268,
+        0.02,
+    ];
+    let q: Vec<f64> = robot
+        .joints
+        .iter()
+        .zip(&u)
+        .map(|(j, t)| j.qlim[0] + (j.qlim[1] - j.qlim[0]) * t)
+        .collect();
+    let target = fk::forward(&robot, &q);
+    let options = IkOptions {
+        seed: 28,
+        ..IkOptions::default()
+    };
+    for method in [Method::Auto, Method::Dls] {
+        match ik::solve(&robot, &target, method, &options) {
+            Ok(r) => {
+                // Should the solver learn to reach it, the answer must be right.
+                let s = &r.solutions[0];
+                assert!(s.converged && s.within_limits, "{method:?}: {s:?}");
+                let e = pose_error(&fk::forward(&robot, &s.q), &target);
+                assert!(
+                    e.norm() < 1e-8,
+                    "{method:?}: converged {:?} misses by {}",
+                    s.q,
+                    e.norm()
+                );
+            }
+            Err(IkError::NotConverged { best, .. }) => {
+                assert!(
+                    !best.converged && best.within_limits,
+                    "{method:?}: {best:?}"
+                );
+                assert!(best.q.iter().all(|v| v.is_finite()));
+                let e = pose_error(&fk::forward(&robot, &best.q), &target);
+                let test = "a_panda_pose_pressed_against_three_limits_is_not_converged_not_wrong";
+                // Its best attempt stalls against the limits a few cm / a few 0.01 rad off
+                // (3.7e-2 with this seed): reported, not hidden.
+                measured(test, "best attempt's pose error", e.norm(), "", 1e-1);
+                assert!(
+                    e.norm() < 1e-1,
+                    "{method:?}: best attempt {:?} is {} off",
+                    best.q,
+                    e.norm()
+                );
+            }
+            Err(e) => panic!("{method:?}: {e}"),
+        }
+    }
+}
+
 fn scaled_puma(scale: f64) -> Robot {
     let mut r = puma();
     for j in &mut r.joints {
