@@ -14,7 +14,7 @@ pub(crate) use crate::object::{
 };
 use crate::object::{IDENTITY, MAX_ELEMENTS, MAX_NAME_BYTES, MAX_ORIGIN_BYTES};
 pub(crate) use crate::transaction::TxError;
-use crate::transaction::{ObjRef, Op, Transaction};
+use crate::transaction::{GeometryInput, ObjRef, Op, Transaction};
 
 mod validate;
 use robosim_geometry::Polyhedron;
@@ -333,55 +333,8 @@ impl Stage<'_> {
     fn op(&mut self, i: usize, op: &Op) -> Result<(), TxError> {
         use crate::store::aspect::*;
         match op {
-            Op::Create { kind, name, parent } => {
-                check_name(i, 0, name)?;
-                let parent = match parent {
-                    Some(p) => self.resolve(i, *p)?,
-                    None => 0,
-                };
-                let id = self.next_id;
-                self.next_id += 1;
-                let obj = Object {
-                    id,
-                    kind: *kind,
-                    parent,
-                    name: name.clone(),
-                    pose: IDENTITY,
-                    joint: 0.0,
-                    appearance: Appearance::default(),
-                    kinematics: None,
-                    dynamics: None,
-                    geometry: None,
-                    geom_gen: 0,
-                    origin: String::new(),
-                };
-                self.overlay.insert(id, Some(obj));
-                self.created.push(id);
-                self.touched.insert(id, ALL);
-                self.reparented.push((i, id));
-            }
-            Op::Delete { id, recursive } => {
-                let id = self.resolve(i, *id)?;
-                let mut doomed = vec![id];
-                let mut k = 0;
-                while k < doomed.len() {
-                    let d = doomed[k];
-                    let kids: Vec<Id> = self.child_ids(d);
-                    if !kids.is_empty() && !recursive {
-                        return Err(TxError::HasChildren {
-                            op: i,
-                            id: d,
-                            children: kids.len(),
-                        });
-                    }
-                    doomed.extend(kids);
-                    k += 1;
-                }
-                for d in doomed {
-                    self.overlay.insert(d, None);
-                    self.touched.insert(d, ALL);
-                }
-            }
+            Op::Create { kind, name, parent } => self.create(i, *kind, name, *parent)?,
+            Op::Delete { id, recursive } => self.delete(i, *id, *recursive)?,
             Op::SetParent { id, parent } => {
                 let parent = match parent {
                     Some(p) => self.resolve(i, *p)?,
@@ -427,71 +380,8 @@ impl Stage<'_> {
                 }
                 obj.joint = *value;
             }
-            Op::SetAppearance { id, appearance } => {
-                let rid = self.resolve(i, *id)?;
-                for (k, c) in appearance.color.iter().enumerate() {
-                    if !(0.0..=1.0).contains(c) {
-                        return Err(TxError::InvalidValue {
-                            op: i,
-                            id: rid,
-                            field: format!("color[{k}]"),
-                            reason: format!("{c} is outside [0, 1]"),
-                        });
-                    }
-                }
-                for (f, v) in [
-                    ("diffuse", appearance.diffuse),
-                    ("specular", appearance.specular),
-                    ("shininess", appearance.shininess),
-                ] {
-                    if !v.is_finite() || v < 0.0 {
-                        return Err(TxError::InvalidValue {
-                            op: i,
-                            id: rid,
-                            field: f.into(),
-                            reason: format!("{v} must be finite and ≥ 0"),
-                        });
-                    }
-                }
-                self.edit(i, *id, APPEARANCE)?.appearance = *appearance;
-            }
-            Op::SetKinematics { id, kinematics } => {
-                let rid = self.resolve(i, *id)?;
-                if let Some(k) = kinematics {
-                    check_kinematics(i, rid, k)?;
-                }
-                let kind = self.lookup(rid).map(|o| o.kind);
-                match (kinematics, kind) {
-                    (
-                        Some(
-                            Kinematics::Joint { .. }
-                            | Kinematics::Axis { .. }
-                            | Kinematics::Mimic { .. },
-                        ),
-                        Some(k),
-                    ) if k != Kind::Link => {
-                        return Err(TxError::InvalidValue {
-                            op: i,
-                            id: rid,
-                            field: "kinematics".into(),
-                            reason: format!("joint data belongs on a link, not a {}", k.name()),
-                        });
-                    }
-                    (
-                        Some(Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. }),
-                        Some(k),
-                    ) if k != Kind::Robot => {
-                        return Err(TxError::InvalidValue {
-                            op: i,
-                            id: rid,
-                            field: "kinematics".into(),
-                            reason: format!("robot data belongs on a robot, not a {}", k.name()),
-                        });
-                    }
-                    _ => {}
-                }
-                self.edit(i, *id, KINEMATICS)?.kinematics = *kinematics;
-            }
+            Op::SetAppearance { id, appearance } => self.set_appearance(i, *id, appearance)?,
+            Op::SetKinematics { id, kinematics } => self.set_kinematics(i, *id, kinematics)?,
             Op::SetDynamics { id, dynamics } => {
                 let rid = self.resolve(i, *id)?;
                 if let Some(m) = dynamics {
@@ -507,90 +397,255 @@ impl Stage<'_> {
                 }
                 self.edit(i, *id, DYNAMICS)?.dynamics = *dynamics;
             }
-            Op::SetGeometry { id, geometry } => {
-                let rid = self.resolve(i, *id)?;
-                let poly = match geometry {
-                    None => None,
-                    Some(g) => {
-                        for (field, n) in [
-                            ("vertices", g.vertices.len()),
-                            ("polygons", g.polygons.len()),
-                        ] {
-                            if n as u64 > MAX_ELEMENTS {
-                                return Err(TxError::TooLarge {
-                                    op: i,
-                                    id: rid,
-                                    field: field.into(),
-                                    requested: n as u64,
-                                    limit: MAX_ELEMENTS,
-                                });
-                            }
-                        }
-                        for (k, v) in g.vertices.iter().enumerate() {
-                            // The field named only for a value that is not finite: a format
-                            // per coordinate was most of a small geometry's validation.
-                            if v.iter().any(|x| !x.is_finite()) {
-                                finite_each(i, rid, &format!("vertices[{k}]"), v)?;
-                            }
-                        }
-                        let verts = g
-                            .vertices
-                            .iter()
-                            .map(|v| nalgebra::Point3::new(v[0], v[1], v[2]))
-                            .collect();
-                        let p = Polyhedron::from_polygons(verts, &g.polygons).map_err(|e| {
-                            TxError::InvalidGeometry {
-                                op: i,
-                                id: rid,
-                                reason: e.to_string(),
-                            }
-                        })?;
-                        Some(Arc::new(p))
-                    }
-                };
-                let obj = self.edit(i, *id, GEOMETRY)?;
-                obj.geometry = poly;
-                obj.geom_gen += 1;
-            }
+            Op::SetGeometry { id, geometry } => self.set_geometry(i, *id, geometry)?,
             Op::Expect {
                 id,
                 aspects,
                 version,
             } => self.expect(i, *id, *aspects, *version)?,
-            Op::Select { id, polygon } => {
-                let Some(id) = id else {
-                    if polygon.is_some() {
-                        return Err(TxError::InvalidValue {
-                            op: i,
-                            id: 0,
-                            field: "selection".into(),
-                            reason: "a polygon without an object".into(),
-                        });
-                    }
-                    self.selection = Some(None);
-                    return Ok(());
-                };
-                let rid = self.resolve(i, *id)?;
-                if let Some(k) = polygon {
-                    let n = self
-                        .lookup(rid)
-                        .and_then(|o| o.geometry.as_ref())
-                        .map_or(0, |g| g.polygons.len());
-                    if *k as usize >= n {
-                        return Err(TxError::InvalidValue {
+            Op::Select { id, polygon } => self.select(i, *id, *polygon)?,
+        }
+        Ok(())
+    }
+
+    /// [`Op::Create`]: a new object under `parent` (0: the root) with the next id, an identity
+    /// pose and no data.
+    fn create(
+        &mut self,
+        i: usize,
+        kind: Kind,
+        name: &str,
+        parent: Option<ObjRef>,
+    ) -> Result<(), TxError> {
+        use crate::store::aspect::*;
+        check_name(i, 0, name)?;
+        let parent = match parent {
+            Some(p) => self.resolve(i, p)?,
+            None => 0,
+        };
+        let id = self.next_id;
+        self.next_id += 1;
+        let obj = Object {
+            id,
+            kind,
+            parent,
+            name: name.to_owned(),
+            pose: IDENTITY,
+            joint: 0.0,
+            appearance: Appearance::default(),
+            kinematics: None,
+            dynamics: None,
+            geometry: None,
+            geom_gen: 0,
+            origin: String::new(),
+        };
+        self.overlay.insert(id, Some(obj));
+        self.created.push(id);
+        self.touched.insert(id, ALL);
+        self.reparented.push((i, id));
+        Ok(())
+    }
+
+    /// [`Op::Delete`]: the object, and with `recursive` its whole subtree; an object with
+    /// children is refused without it.
+    fn delete(&mut self, i: usize, id: ObjRef, recursive: bool) -> Result<(), TxError> {
+        use crate::store::aspect::*;
+        let id = self.resolve(i, id)?;
+        let mut doomed = vec![id];
+        let mut k = 0;
+        while k < doomed.len() {
+            let d = doomed[k];
+            let kids: Vec<Id> = self.child_ids(d);
+            if !kids.is_empty() && !recursive {
+                return Err(TxError::HasChildren {
+                    op: i,
+                    id: d,
+                    children: kids.len(),
+                });
+            }
+            doomed.extend(kids);
+            k += 1;
+        }
+        for d in doomed {
+            self.overlay.insert(d, None);
+            self.touched.insert(d, ALL);
+        }
+        Ok(())
+    }
+
+    /// [`Op::SetAppearance`]: colour components in [0, 1], diffuse, specular and shininess
+    /// finite and ≥ 0.
+    fn set_appearance(
+        &mut self,
+        i: usize,
+        id: ObjRef,
+        appearance: &Appearance,
+    ) -> Result<(), TxError> {
+        use crate::store::aspect::*;
+        let rid = self.resolve(i, id)?;
+        for (k, c) in appearance.color.iter().enumerate() {
+            if !(0.0..=1.0).contains(c) {
+                return Err(TxError::InvalidValue {
+                    op: i,
+                    id: rid,
+                    field: format!("color[{k}]"),
+                    reason: format!("{c} is outside [0, 1]"),
+                });
+            }
+        }
+        for (f, v) in [
+            ("diffuse", appearance.diffuse),
+            ("specular", appearance.specular),
+            ("shininess", appearance.shininess),
+        ] {
+            if !v.is_finite() || v < 0.0 {
+                return Err(TxError::InvalidValue {
+                    op: i,
+                    id: rid,
+                    field: f.into(),
+                    reason: format!("{v} must be finite and ≥ 0"),
+                });
+            }
+        }
+        self.edit(i, id, APPEARANCE)?.appearance = *appearance;
+        Ok(())
+    }
+
+    /// [`Op::SetKinematics`]: checked values, joint data only on a link and robot data only
+    /// on a robot.
+    fn set_kinematics(
+        &mut self,
+        i: usize,
+        id: ObjRef,
+        kinematics: &Option<Kinematics>,
+    ) -> Result<(), TxError> {
+        use crate::store::aspect::*;
+        let rid = self.resolve(i, id)?;
+        if let Some(k) = kinematics {
+            check_kinematics(i, rid, k)?;
+        }
+        let kind = self.lookup(rid).map(|o| o.kind);
+        match (kinematics, kind) {
+            (
+                Some(Kinematics::Joint { .. } | Kinematics::Axis { .. } | Kinematics::Mimic { .. }),
+                Some(k),
+            ) if k != Kind::Link => {
+                return Err(TxError::InvalidValue {
+                    op: i,
+                    id: rid,
+                    field: "kinematics".into(),
+                    reason: format!("joint data belongs on a link, not a {}", k.name()),
+                });
+            }
+            (Some(Kinematics::Robot { .. } | Kinematics::FloatingRobot { .. }), Some(k))
+                if k != Kind::Robot =>
+            {
+                return Err(TxError::InvalidValue {
+                    op: i,
+                    id: rid,
+                    field: "kinematics".into(),
+                    reason: format!("robot data belongs on a robot, not a {}", k.name()),
+                });
+            }
+            _ => {}
+        }
+        self.edit(i, id, KINEMATICS)?.kinematics = *kinematics;
+        Ok(())
+    }
+
+    /// [`Op::SetGeometry`]: bounded sizes, finite vertices, a valid polyhedron (its derived
+    /// forms computed here); the object's geometry generation moves on.
+    fn set_geometry(
+        &mut self,
+        i: usize,
+        id: ObjRef,
+        geometry: &Option<GeometryInput>,
+    ) -> Result<(), TxError> {
+        use crate::store::aspect::*;
+        let rid = self.resolve(i, id)?;
+        let poly = match geometry {
+            None => None,
+            Some(g) => {
+                for (field, n) in [
+                    ("vertices", g.vertices.len()),
+                    ("polygons", g.polygons.len()),
+                ] {
+                    if n as u64 > MAX_ELEMENTS {
+                        return Err(TxError::TooLarge {
                             op: i,
                             id: rid,
-                            field: "selection polygon".into(),
-                            reason: format!("polygon {k} does not exist (the object has {n})"),
+                            field: field.into(),
+                            requested: n as u64,
+                            limit: MAX_ELEMENTS,
                         });
                     }
                 }
-                self.selection = Some(Some(Selection {
-                    object: rid,
-                    polygon: *polygon,
-                }));
+                for (k, v) in g.vertices.iter().enumerate() {
+                    // The field named only for a value that is not finite: a format
+                    // per coordinate was most of a small geometry's validation.
+                    if v.iter().any(|x| !x.is_finite()) {
+                        finite_each(i, rid, &format!("vertices[{k}]"), v)?;
+                    }
+                }
+                let verts = g
+                    .vertices
+                    .iter()
+                    .map(|v| nalgebra::Point3::new(v[0], v[1], v[2]))
+                    .collect();
+                let p = Polyhedron::from_polygons(verts, &g.polygons).map_err(|e| {
+                    TxError::InvalidGeometry {
+                        op: i,
+                        id: rid,
+                        reason: e.to_string(),
+                    }
+                })?;
+                Some(Arc::new(p))
+            }
+        };
+        let obj = self.edit(i, id, GEOMETRY)?;
+        obj.geometry = poly;
+        obj.geom_gen += 1;
+        Ok(())
+    }
+
+    /// [`Op::Select`]: the selection set to an object (and one of its polygons), or cleared.
+    fn select(
+        &mut self,
+        i: usize,
+        id: Option<ObjRef>,
+        polygon: Option<u32>,
+    ) -> Result<(), TxError> {
+        let Some(id) = id else {
+            if polygon.is_some() {
+                return Err(TxError::InvalidValue {
+                    op: i,
+                    id: 0,
+                    field: "selection".into(),
+                    reason: "a polygon without an object".into(),
+                });
+            }
+            self.selection = Some(None);
+            return Ok(());
+        };
+        let rid = self.resolve(i, id)?;
+        if let Some(k) = polygon {
+            let n = self
+                .lookup(rid)
+                .and_then(|o| o.geometry.as_ref())
+                .map_or(0, |g| g.polygons.len());
+            if k as usize >= n {
+                return Err(TxError::InvalidValue {
+                    op: i,
+                    id: rid,
+                    field: "selection polygon".into(),
+                    reason: format!("polygon {k} does not exist (the object has {n})"),
+                });
             }
         }
+        self.selection = Some(Some(Selection {
+            object: rid,
+            polygon,
+        }));
         Ok(())
     }
 
