@@ -196,13 +196,36 @@ fn a_urdf_robot_with_mimic_joints_in_a_session_answers_as_the_pure_mimic_ops() {
         .stderr(std::process::Stdio::null())
         .spawn()
         .expect("simulator");
+    // The joint state it publishes, read from its first record on.
+    let mut published = common::wait_for("the simulator's state service", || {
+        robosim_instance_space::state::StateSubscriber::open(&session, "simulator", "test-state")
+            .ok()
+    });
+    // 10 steps asked for once, when the simulator is there to take them.
+    common::wait_for("the simulator to take a step command", || {
+        let (good, _) = common::robosim(&k, &["simctl", r#"{"cmd": "step", "n": 10}"#]);
+        good.then_some(())
+    });
     let state = common::wait_for("the simulator after 10 steps", || {
-        let (_, out) = common::robosim(&k, &["simctl", r#"{"cmd": "step", "n": 10}"#]);
-        let _ = out;
         let (good, out) = common::robosim(&k, &["simctl", "get"]);
         let g: Value = serde_json::from_str(&out).ok().filter(|_| good)?;
         (g["run_steps"].as_u64()? >= 10).then_some(g)
     });
+    // The published clock is the stepping robots' (10 steps of dt), not the held robot's,
+    // which stays at 0 — the held `arm` comes last among the session's robots.
+    let dt = state["t_s"].as_f64().expect("t_s") / 10.0;
+    let clock = common::wait_for("a published state after 10 steps", || {
+        let records = published.wait(std::time::Duration::from_millis(100)).ok()?;
+        records
+            .iter()
+            .map(|r| r.header.t)
+            .reduce(f64::max)
+            .filter(|t| *t > 0.0)
+    });
+    assert!(
+        dt > 0.0 && (clock - 10.0 * dt).abs() < 1e-9 * (10.0 * dt),
+        "published t = {clock} s after 10 steps of {dt} s"
+    );
     let target_cmd = json!({"cmd": "target", "robot": "arm", "q": full}).to_string();
     let (took, refusal) = common::robosim(&k, &["simctl", &target_cmd]);
     let _ = sim.kill();

@@ -796,6 +796,16 @@ fn apply(
 }
 
 impl Daemon<'_> {
+    /// The simulated time (s): the first robot's that steps. A held robot ([`Sim::held`]) is
+    /// never stepped and stays at 0, so it is not the clock; with no robot stepping it is 0.
+    /// The stages and the published joint state both read this one clock.
+    fn clock(&self) -> f64 {
+        self.sims
+            .iter()
+            .find(|s| s.held.is_none())
+            .map_or(0.0, |s| s.pipeline.data().state.t)
+    }
+
     /// The pipeline step (s): every robot's pipeline is built from the same effects.
     fn dt(&self) -> f64 {
         self.sims.first().map_or(0.01, |s| s.pipeline.model().dt)
@@ -1153,11 +1163,7 @@ fn step_all(d: &mut Daemon, l: &mut Loop) {
             l.pause("error");
         }
     }
-    let t = d
-        .sims
-        .iter()
-        .find(|s| s.held.is_none())
-        .map_or(0.0, |s| s.pipeline.data().state.t);
+    let t = d.clock();
     if let Some(sp) = &mut d.space
         && let Err(e) = sp.update(&mut d.sims, t, l.dt)
     {
@@ -1187,10 +1193,8 @@ fn step_all(d: &mut Daemon, l: &mut Loop) {
 fn publish(d: &Daemon, version: u64, state: &mut StatePublisher) -> Result<()> {
     let mut joints = Vec::new();
     let mut bodies = Vec::new();
-    let mut t = 0.0;
     for s in &d.sims {
         let (m, w) = (s.pipeline.model(), s.pipeline.data());
-        t = w.state.t;
         // a floating robot's links relative to its base link, the base link (the robot
         // object) moved by the root: its committed pose composed with the root's motion
         let poses = link_poses(&m.robot, w.state.q.as_slice());
@@ -1219,7 +1223,7 @@ fn publish(d: &Daemon, version: u64, state: &mut StatePublisher) -> Result<()> {
     if let Some(sw) = &d.swap {
         bodies.extend_from_slice(sw.records());
     }
-    state.publish(version, t, &joints, &bodies)?;
+    state.publish(version, d.clock(), &joints, &bodies)?;
     Ok(())
 }
 

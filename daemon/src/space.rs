@@ -41,6 +41,9 @@ const RETRACK_RAD: f64 = 1e-4;
 /// One array: which pipeline, its cells, what it delivers now.
 struct ArrayState {
     sim: usize,
+    /// Its robot is held ([`Sim::held`]): never stepped, so it is not commanded to track; its
+    /// power is computed where it is held.
+    held: bool,
     cells: SolarArray,
     cos_incidence: f64,
     power_w: f64,
@@ -98,6 +101,16 @@ impl SpaceStage {
             match sims.iter().position(|s| s.name == placed.name) {
                 Some(sim) => arrays.push(ArrayState {
                     sim,
+                    held: match &sims[sim].held {
+                        Some(why) => {
+                            notes.push(format!(
+                                "solar array {} is held ({why}): it does not track the sun; its power is computed where it is held",
+                                placed.name
+                            ));
+                            true
+                        }
+                        None => false,
+                    },
                     cells,
                     cos_incidence: 0.0,
                     power_w: 0.0,
@@ -210,7 +223,7 @@ impl SpaceStage {
                 .tracked_sun
                 .is_none_or(|s| s.angle(&sun_next) >= RETRACK_RAD)
         {
-            for a in &self.arrays {
+            for a in self.arrays.iter().filter(|a| !a.held) {
                 let s = &mut sims[a.sim];
                 let robot = &s.pipeline.model().robot;
                 let q_now = s.pipeline.data().state.q.as_slice().to_vec();

@@ -44,6 +44,10 @@ pub enum SwapStageError {
     /// A robot the swap names has no pipeline.
     #[error("robot {0} is not simulated (no pipeline of that name)")]
     NotSimulated(String),
+    /// A robot the swap moves is held at its committed joints (`Sim::held`: never stepped),
+    /// so the swap could not move it; `why` is the hold's reason.
+    #[error("robot {robot} is held ({why}): the ORU swap needs it stepped")]
+    HeldRobot { robot: String, why: String },
     /// An ORU object the swap names is not in the Instance Space (its path).
     #[error("no object {0} in the Instance Space")]
     NoObject(String),
@@ -122,9 +126,17 @@ impl SwapStage {
         let swap = Swap::from_scene(scene, fx)?;
         let sim_of = |i: usize| {
             let name = &scene.robots[i].name;
-            sims.iter()
+            let k = sims
+                .iter()
                 .position(|s| &s.name == name)
-                .ok_or_else(|| SwapStageError::NotSimulated(name.clone()))
+                .ok_or_else(|| SwapStageError::NotSimulated(name.clone()))?;
+            match &sims[k].held {
+                Some(why) => Err(SwapStageError::HeldRobot {
+                    robot: name.clone(),
+                    why: why.clone(),
+                }),
+                None => Ok(k),
+            }
         };
         let (servicer, array) = (sim_of(swap.servicer)?, sim_of(swap.array)?);
         let plan = swap.schedule(fx.start_s)?;
