@@ -88,12 +88,18 @@ impl Body {
     pub fn of(p: &PlacedRobot) -> Result<Body> {
         // the evaluated robot's base already includes the scene placement
         let robot = p.model.robot.clone();
-        // One geometry object per placed solid, frame by frame in the same order
-        // (`RobotModel::model`): the object gives the solids, the placed solid its vertices.
-        let model = p.model.model();
-        let placed = p.model.frames.iter().flatten();
+        // Each placed solid as the collision object `RobotModel::model` makes of it, on its
+        // link's frame: the object gives the solids, the placed solid its vertices. (Paired by
+        // link and solid, not by position in the model's object list.)
         let mut parts = Vec::new();
-        for (o, s) in model.geometry.objects.iter().zip(placed) {
+        for (link, s) in p
+            .model
+            .frames
+            .iter()
+            .enumerate()
+            .flat_map(|(link, solids)| solids.iter().map(move |s| (link, s)))
+        {
+            let o = geometry_object(s, link);
             let (centre, radius) = bounding_sphere(s);
             let solids = o
                 .collision_parts()
@@ -101,7 +107,7 @@ impl Body {
             for solid in solids {
                 parts.push(Part {
                     name: s.name.clone(),
-                    link: o.frame,
+                    link,
                     offset: isometry_from_matrix(&o.placement),
                     solid: Arc::new(solid),
                     centre,
