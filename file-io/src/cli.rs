@@ -358,7 +358,11 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
         format::write_atomic(&dir.join(file), &m.bytes)?;
     }
     format::write_atomic(out, text.as_bytes())?;
-    let shapes = geometry.map_or(0, |g| g.objects.len());
+    // The shapes written: an object the writers left out (a mesh file that cannot be read) is
+    // in the notes, not in this count.
+    let shapes = geometry.map_or(0, |g| {
+        crate::export_geometry::ExportShapes::of(g).shapes.len()
+    });
     let general = !robot.is_chain() || robot.joints.iter().any(|j| j.is_general());
     let what = match (fmt, robot.convention) {
         (Format::Mjcf, _) => "as MJCF bodies".to_string(),

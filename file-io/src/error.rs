@@ -140,11 +140,13 @@ pub enum UrdfTxError {
     /// A mesh's triangles make no Instance Space geometry (none left once the degenerate ones
     /// are dropped, a flat hull, …): the URDF file, line and element that name the mesh, and
     /// the mesh importer's error (`import::mesh_geometry`, `hull_geometry`).
-    #[error("{}:{line}: {element}: collision solid: {source}", file.display())]
+    #[error("{}:{line}: {element}: {role}: {source}", file.display())]
     MeshGeometry {
         file: std::path::PathBuf,
         line: u32,
         element: String,
+        /// What the mesh was being made into: "collision solid" or "visual geometry".
+        role: &'static str,
         #[source]
         source: Box<crate::FileError>,
     },

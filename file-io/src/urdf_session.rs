@@ -336,6 +336,11 @@ fn shape_geometry(
                 file: m.urdf.clone(),
                 line: m.line,
                 element: m.element.clone(),
+                role: if collision {
+                    "collision solid"
+                } else {
+                    "visual geometry"
+                },
                 source: Box::new(e),
             };
             if !collision {

@@ -2,7 +2,7 @@
 //! reports there are, in the order `all` runs them, and the one call that runs one of them.
 //! The binary parses the arguments and prints what was written; nothing here prints.
 //!
-//! Entry points: [`Name`], [`Name::ALL`], [`run`] and its [`ReportError`] (the report's [`RunError`] as source).
+//! Entry points: [`Name`], [`Name::ALL`], [`run`] and its [`ReportFailed`] (the report's [`RunError`] as source).
 
 use std::path::{Path, PathBuf};
 
@@ -52,7 +52,7 @@ pub use crate::plot::RunError;
 /// Why report `name` failed: the report's own error, named by the report.
 #[derive(Debug, thiserror::Error)]
 #[error("report {}: {source}", name.as_str())]
-pub struct ReportError {
+pub struct ReportFailed {
     pub name: Name,
     #[source]
     pub source: RunError,
@@ -60,7 +60,7 @@ pub struct ReportError {
 
 /// Runs report `name` into `out` (`quick`: fewer samples, a smoke run); the paths written, or
 /// what went wrong, named by the report.
-pub fn run(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportError> {
+pub fn run(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportFailed> {
     let report = match name {
         Name::Ik => crate::ik::report_ik(out, quick).map_err(RunError::from),
         Name::Collision => crate::collision::report_collision(out, quick),
@@ -69,7 +69,7 @@ pub fn run(name: Name, out: &Path, quick: bool) -> Result<Vec<PathBuf>, ReportEr
         Name::Library => crate::library::report_library(out, quick),
         Name::Diag => crate::automation::report_diag(out, quick),
     };
-    report.map_err(|source| ReportError { name, source })
+    report.map_err(|source| ReportFailed { name, source })
 }
 
 #[cfg(test)]
