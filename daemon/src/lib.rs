@@ -113,6 +113,9 @@ pub enum DaemonError {
     /// The scene's effects cannot be had (the message).
     #[error("{0}")]
     Effects(String),
+    /// The scene object's origin record does not parse (the JSON error, kept).
+    #[error("{0}")]
+    OriginRecord(#[source] serde_json::Error),
     /// The session's library publication does not load.
     #[error(transparent)]
     Library(#[from] robosim_scene::SceneError),
@@ -378,7 +381,7 @@ fn scene_effects(
     let scene = (0..snap.len())
         .find(|&i| snap.object(i).kind() == Some(Kind::Scene) && !snap.origin(i).is_empty());
     if let Some(i) = scene {
-        let origin = Origin::from_record(snap.origin(i)).map_err(DaemonError::Effects)?;
+        let origin = Origin::from_record(snap.origin(i)).map_err(DaemonError::OriginRecord)?;
         let lib = library.get(reader, counters)?;
         if let Ok(robosim_library::Evaluated::Scene(sc)) = origin.evaluate(lib) {
             let path = session.run_dir().join("simulator-log.csv");

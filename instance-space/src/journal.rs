@@ -42,8 +42,12 @@ pub enum JournalError {
     },
     #[error("{path}: not a robosim {what} (bad magic)")]
     Magic { path: PathBuf, what: &'static str },
-    #[error("{path}: checkpoint is corrupt: {reason}")]
-    Checkpoint { path: PathBuf, reason: String },
+    #[error("{path}: checkpoint is corrupt: {source}")]
+    Checkpoint {
+        path: PathBuf,
+        #[source]
+        source: Corruption,
+    },
     #[error(
         "{path}: the journal control file is unreadable: {reason}; nothing was changed. Restore \
          it, or move it aside to recover from what the data directory holds (and be told what \
@@ -390,42 +394,65 @@ fn read_checkpoint(path: &Path) -> Result<Store, JournalError> {
             path: path.to_owned(),
             what: "checkpoint",
         },
-        StoreDecodeError::Corrupt(reason) => JournalError::Checkpoint {
+        StoreDecodeError::Corrupt(source) => JournalError::Checkpoint {
             path: path.to_owned(),
-            reason,
+            source,
         },
     })
 }
 
 /// Why [`decode_store`] refused its bytes.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 pub enum StoreDecodeError {
     #[error("not a robosim model encoding (bad magic)")]
     Magic,
     #[error("model encoding is corrupt: {0}")]
-    Corrupt(String),
+    Corrupt(#[source] Corruption),
+}
+
+/// What is wrong inside a model encoding whose magic is right (a checkpoint file's, or a
+/// snapshot's): the decoder's own error kept as the source.
+#[derive(Debug, thiserror::Error)]
+pub enum Corruption {
+    #[error("checksum mismatch")]
+    Checksum,
+    /// The objects do not decode.
+    #[error("{0}")]
+    Decode(#[source] bincode::error::DecodeError),
+    #[error("trailing bytes after the selection")]
+    TrailingBytes,
+    /// The selection after the objects does not decode.
+    #[error("selection: {0}")]
+    Selection(#[source] bincode::error::DecodeError),
+    /// An object's stored geometry is not a valid polyhedron.
+    #[error("object {id}: {source}")]
+    Geometry {
+        id: Id,
+        #[source]
+        source: robosim_geometry::GeometryError,
+    },
 }
 
 /// Reads [`encode_store`]'s bytes back into a model: checksum, bounded decode, every geometry
 /// re-validated, as recovery does.
 pub fn decode_store(bytes: &[u8]) -> Result<Store, StoreDecodeError> {
-    let bad = |reason: &str| StoreDecodeError::Corrupt(reason.to_owned());
+    let bad = StoreDecodeError::Corrupt;
     if bytes.len() < 12 || &bytes[..8] != CHECKPOINT_MAGIC {
         return Err(StoreDecodeError::Magic);
     }
     let crc = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
     if crc32fast::hash(&bytes[12..]) != crc {
-        return Err(bad("checksum mismatch"));
+        return Err(bad(Corruption::Checksum));
     }
-    let (data, used) = decode_checkpoint(&bytes[12..]).map_err(|e| bad(&e.to_string()))?;
+    let (data, used) = decode_checkpoint(&bytes[12..]).map_err(|e| bad(Corruption::Decode(e)))?;
     let rest = &bytes[12 + used..];
     let selection: Option<crate::Selection> = if rest.is_empty() {
         None
     } else {
         match bincode::serde::decode_from_slice(rest, bincode::config::standard()) {
             Ok((s, n)) if n == rest.len() => s,
-            Ok(_) => return Err(bad("trailing bytes after the selection")),
-            Err(e) => return Err(bad(&format!("selection: {e}"))),
+            Ok(_) => return Err(bad(Corruption::TrailingBytes)),
+            Err(e) => return Err(bad(Corruption::Selection(e))),
         }
     };
     let mut objects = Vec::with_capacity(data.objects.len());
@@ -439,7 +466,7 @@ pub fn decode_store(bytes: &[u8]) -> Result<Store, StoreDecodeError> {
                     .map(|v| nalgebra::Point3::new(v[0], v[1], v[2]))
                     .collect();
                 let p = robosim_geometry::Polyhedron::from_polygons(verts, &g.polygons)
-                    .map_err(|e| bad(&format!("object {}: {e}", o.id)))?;
+                    .map_err(|source| bad(Corruption::Geometry { id: o.id, source }))?;
                 Some(Arc::new(p))
             }
         };

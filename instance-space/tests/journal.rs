@@ -887,3 +887,52 @@ fn a_vanished_journal_is_refused_naming_the_files_and_versions() {
         "and writes a control file"
     );
 }
+
+/// Issue 35 item 4: a model encoding whose body does not decode is refused with bincode's own
+/// error kept as the source (not flattened into text), under the same message as before.
+#[test]
+fn a_body_that_does_not_decode_keeps_the_decoders_error_as_its_source() {
+    use robosim_instance_space::journal::{
+        Corruption, StoreDecodeError, decode_store, encode_store,
+    };
+    use std::error::Error as _;
+    let mut model = Store::new();
+    let mut tx = Transaction::new();
+    tx.create(Kind::Scene, "s", None);
+    model.apply(&tx).expect("valid");
+    let good = encode_store(&model);
+    // the magic, then the body cut to one byte under a checksum that matches it
+    let body = &good[12..13];
+    let mut bytes = good[..8].to_vec();
+    bytes.extend_from_slice(&crc32fast::hash(body).to_le_bytes());
+    bytes.extend_from_slice(body);
+    let e = decode_store(&bytes).err().expect("refused");
+    let text = e.to_string();
+    assert!(text.starts_with("model encoding is corrupt: "), "{text}");
+    let StoreDecodeError::Corrupt(inner) = &e else {
+        panic!("not Corrupt: {e:?}");
+    };
+    assert!(matches!(inner, Corruption::Decode(_)), "{inner:?}");
+    let cause = e
+        .source()
+        .and_then(|c| c.source())
+        .expect("the decoder's error as the source of the corruption");
+    assert!(
+        cause
+            .downcast_ref::<bincode::error::DecodeError>()
+            .is_some(),
+        "{cause:?}"
+    );
+    // a wrong checksum is its own variant, same text as ever
+    let mut flipped = good.clone();
+    flipped[8] ^= 1;
+    let e = decode_store(&flipped).err().expect("refused");
+    assert!(
+        matches!(e, StoreDecodeError::Corrupt(Corruption::Checksum)),
+        "{e:?}"
+    );
+    assert_eq!(
+        e.to_string(),
+        "model encoding is corrupt: checksum mismatch"
+    );
+}

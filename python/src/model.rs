@@ -347,13 +347,16 @@ impl Model {
     /// layout constrains it (a root's or ball joint's unit quaternion): a request error naming
     /// the entry.
     fn full_q<'a>(&self, q: &'a [f64]) -> Result<Cow<'a, [f64]>, ProtocolError> {
-        let bad = |e: String| ProtocolError::new(ErrorKind::BadRequest, format!("q: {e}"));
+        // the message names the entry; the kinematics error is kept as the source
+        fn bad(e: impl std::error::Error + Send + Sync + 'static) -> ProtocolError {
+            ProtocolError::new(ErrorKind::BadRequest, format!("q: {e}")).with_source(e)
+        }
         let full = match &self.coupling {
-            Some(c) => Cow::Owned(c.expand_q(q).map_err(|e| bad(e.to_string()))?),
+            Some(c) => Cow::Owned(c.expand_q(q).map_err(bad)?),
             None => Cow::Borrowed(q),
         };
         if self.coupling.is_some() || self.robot.root.is_some() || self.robot.has_spherical() {
-            self.robot.check_q(&full).map_err(|e| bad(e.to_string()))?;
+            self.robot.check_q(&full).map_err(bad)?;
         }
         Ok(full)
     }

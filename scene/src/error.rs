@@ -24,8 +24,12 @@ pub enum SceneError {
     #[error("no instance named {name:?}; instances: {known}")]
     UnknownInstance { name: String, known: String },
     /// An instance's origin record is not readable.
-    #[error("instance {name}: unreadable origin record: {reason}")]
-    Origin { name: String, reason: String },
+    #[error("instance {name}: unreadable origin record: {source}")]
+    Origin {
+        name: String,
+        #[source]
+        source: Arc<serde_json::Error>,
+    },
     /// A `NAME=EXPR` parameter without `=`.
     #[error("parameter {0:?} is not NAME=EXPR")]
     Param(String),

@@ -53,8 +53,8 @@ impl Origin {
     }
 
     /// Reads an origin record back.
-    pub fn from_record(text: &str) -> std::result::Result<Origin, String> {
-        serde_json::from_str(text).map_err(|e| e.to_string())
+    pub fn from_record(text: &str) -> std::result::Result<Origin, serde_json::Error> {
+        serde_json::from_str(text)
     }
 
     /// The declaration evaluated with these parameter values.
@@ -417,9 +417,9 @@ pub fn find_instance(snap: &Snapshot, name: &str) -> Result<(usize, Origin)> {
             },
         });
     };
-    let origin = Origin::from_record(snap.origin(i)).map_err(|reason| SceneError::Origin {
+    let origin = Origin::from_record(snap.origin(i)).map_err(|e| SceneError::Origin {
         name: name.to_owned(),
-        reason,
+        source: std::sync::Arc::new(e),
     })?;
     Ok((i, origin))
 }

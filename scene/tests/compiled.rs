@@ -209,3 +209,35 @@ fn flat_geometry_is_a_surface_that_collides_not_an_absent_body() {
         "the plate cuts the base: {check:?}"
     );
 }
+
+/// Issue 35 item 4: an instance whose origin record does not parse is refused by name, with
+/// serde_json's error kept as the source (not flattened into text).
+#[test]
+fn an_unreadable_origin_record_keeps_the_json_error() {
+    use std::error::Error as _;
+    let mut m = Store::new();
+    let mut tx = Transaction::new();
+    let s = tx.create(robosim_instance_space::Kind::Scene, "cell", None);
+    tx.set_origin(s, "{not json");
+    m.apply(&tx).expect("valid");
+    let e = robosim_scene::find_instance(&Snapshot::from_store(&m), "cell")
+        .err()
+        .expect("refused");
+    let json = robosim_scene::Origin::from_record("{not json").expect_err("not json");
+    assert_eq!(
+        e.to_string(),
+        format!("instance cell: unreadable origin record: {json}")
+    );
+    assert!(
+        matches!(e, robosim_scene::SceneError::Origin { .. }),
+        "{e:?}"
+    );
+    let cause = e.source().expect("the JSON error as the source");
+    // shared (SceneError is Clone), so the source is the Arc around serde_json's error
+    assert!(
+        cause
+            .downcast_ref::<std::sync::Arc<serde_json::Error>>()
+            .is_some(),
+        "{cause:?}"
+    );
+}

@@ -13,6 +13,7 @@ use robosim_collision::ccd::SweepOptions;
 use robosim_collision::robot::{CollisionSettings, LinkSolids, Scene};
 use robosim_kinematics::{KinematicModel, Robot};
 use robosim_model::{OnContact, Options};
+use std::path::PathBuf;
 
 /// The compiled simulation: read by every stage, written by none.
 #[derive(Debug, Clone)]
@@ -44,15 +45,23 @@ impl Model {
 }
 
 /// Why a step failed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, thiserror::Error)]
 pub enum StepError {
     #[error("dynamics: {0}")]
     Dynamics(#[from] robosim_dynamics::DynamicsError),
     /// The collision check could not run (the collision crate's error, kept).
     #[error("collision: {0}")]
     Collision(#[from] robosim_collision::robot::CheckError),
-    #[error("logging: {0}")]
-    Logging(String),
+    /// The logging stage could not write its CSV file (the I/O error, kept).
+    #[error("logging: {path}: {source}")]
+    Logging {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The in-memory log's buffer was poisoned (a reader panicked holding it).
+    #[error("logging: log buffer poisoned")]
+    LogBufferPoisoned,
     #[error("command: {0}")]
     Command(String),
     /// A declared stage's step found its model part or its `Data` field missing (`stage`

@@ -7,7 +7,7 @@ use robosim_dynamics::fixture_robot;
 use robosim_kinematics::{Robot, fk};
 use robosim_simulator::{
     CollisionEffect, Command, DynamicsEffect, EncoderEffect, Integrator, LoggingEffect, OnContact,
-    Pipeline, SceneEffects, SceneGeometry, Signal,
+    Pipeline, SceneEffects, SceneGeometry, Signal, StepError,
 };
 use std::sync::Arc;
 
@@ -931,4 +931,38 @@ fn a_refused_robot_or_dynamics_keeps_the_library_error_as_its_source() {
     );
     assert_eq!(e.field(), "joint_friction");
     assert!(e.to_string().contains("sticking band"), "{e}");
+}
+
+/// Issue 35 item 4: a CSV log that cannot be written is refused with the I/O error kept as the
+/// source (not flattened into text) and the file named, under the same message as before.
+#[test]
+fn a_log_write_error_keeps_the_io_error_and_names_the_file() {
+    use std::error::Error as _;
+    let robot = robosim_kinematics::builtin_robot("stanford").expect("builtin");
+    let q0 = [0.0, 0.0, 0.5, 0.0, 0.0, 0.0];
+    // /dev/full opens and takes the header into the buffer; writing it out fails (ENOSPC)
+    let full = std::path::Path::new("/dev/full");
+    let effects = SceneEffects {
+        logging: Some(LoggingEffect {
+            signals: vec![Signal::Q],
+            every: 1,
+            path: Some(full.to_owned()),
+            unsupported: Vec::new(),
+        }),
+        ..SceneEffects::default()
+    };
+    let mut p = Pipeline::build(&robot, &q0, &effects, SceneGeometry::default()).expect("builds");
+    p.step().expect("a row into the buffer");
+    let e = p.flush_log().expect_err("/dev/full refuses the write");
+    let StepError::Logging { path, source } = &e else {
+        panic!("not StepError::Logging: {e:?}");
+    };
+    assert_eq!(path, full);
+    assert_eq!(source.raw_os_error(), Some(28), "ENOSPC: {source}");
+    assert_eq!(e.to_string(), format!("logging: /dev/full: {source}"));
+    let cause = e.source().expect("the I/O error as the source");
+    assert!(
+        cause.downcast_ref::<std::io::Error>().is_some(),
+        "{cause:?}"
+    );
 }

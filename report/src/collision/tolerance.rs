@@ -189,7 +189,7 @@ struct Study {
 
 impl Study {
     fn load() -> Result<Self, String> {
-        let pairs = pair_file::parse(PAIRS, "tolerance_pairs.csv")?;
+        let pairs = pair_file::parse(PAIRS, "tolerance_pairs.csv").map_err(|e| e.to_string())?;
         let (coal_d, coal_t) =
             peer_data(COAL, COAL_TIME).map_err(|e| format!("coal's data: {e}"))?;
         let (fcl_d, fcl_t) = peer_data(FCL, FCL_TIME).map_err(|e| format!("FCL's data: {e}"))?;

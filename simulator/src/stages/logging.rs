@@ -10,11 +10,12 @@ use robosim_kinematics::JointType;
 use robosim_model::{Data, LoggingEffect, OptionsError, Signal};
 use std::fs::File;
 use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
 enum Sink {
     Memory(Arc<Mutex<Vec<Vec<f64>>>>),
-    Csv(BufWriter<File>, String),
+    Csv(BufWriter<File>, PathBuf),
 }
 
 pub const NAME: &str = "logging";
@@ -150,7 +151,7 @@ impl Logging {
                 );
                 writeln!(f, "{}", h.join(","))
                     .map_err(|e| bad("path", format!("{}: {e}", path.display())))?;
-                (Sink::Csv(f, path.display().to_string()), None)
+                (Sink::Csv(f, path.clone()), None)
             }
         };
         let width = h.len();
@@ -171,7 +172,7 @@ impl Logging {
         let names: Vec<&str> = self.signals.iter().map(|s| s.name()).collect();
         let to = match &self.sink {
             Sink::Memory(_) => "memory".to_string(),
-            Sink::Csv(_, p) => format!("CSV {p}"),
+            Sink::Csv(_, p) => format!("CSV {}", p.display()),
         };
         format!("{} every {} step(s) to {to}", names.join(", "), self.every)
     }
@@ -179,9 +180,10 @@ impl Logging {
     pub fn flush(&mut self) -> Result<(), StepError> {
         match &mut self.sink {
             Sink::Memory(_) => Ok(()),
-            Sink::Csv(f, path) => f
-                .flush()
-                .map_err(|e| StepError::Logging(format!("{path}: {e}"))),
+            Sink::Csv(f, path) => f.flush().map_err(|source| StepError::Logging {
+                path: path.clone(),
+                source,
+            }),
         }
     }
     /// Every `every`-th step, the declared signals of `d` as one row.
@@ -210,22 +212,28 @@ impl Logging {
         match &mut self.sink {
             Sink::Memory(rows) => rows
                 .lock()
-                .map_err(|_| StepError::Logging("log buffer poisoned".into()))?
+                .map_err(|_| StepError::LogBufferPoisoned)?
                 .push(self.row.clone()),
             Sink::Csv(f, path) => {
                 let mut first = true;
                 for v in &self.row {
                     if !first {
-                        f.write_all(b",")
-                            .map_err(|e| StepError::Logging(format!("{path}: {e}")))?;
+                        f.write_all(b",").map_err(io_at(path))?;
                     }
                     first = false;
-                    write!(f, "{v}").map_err(|e| StepError::Logging(format!("{path}: {e}")))?;
+                    write!(f, "{v}").map_err(io_at(path))?;
                 }
-                f.write_all(b"\n")
-                    .map_err(|e| StepError::Logging(format!("{path}: {e}")))?;
+                f.write_all(b"\n").map_err(io_at(path))?;
             }
         }
         Ok(())
+    }
+}
+
+/// The logging stage's refusal for an I/O error on its CSV file at `path`.
+fn io_at(path: &Path) -> impl Fn(std::io::Error) -> StepError + '_ {
+    move |source| StepError::Logging {
+        path: path.to_owned(),
+        source,
     }
 }

@@ -11,7 +11,7 @@ pub fn load() -> Result<Vec<Pair>, String> {
     for name in ["tolerance_pairs.csv", "tolerance_hull_pairs.csv"] {
         let path = format!("{dir}{name}");
         let text = std::fs::read_to_string(&path).map_err(|e| format!("{path}: {e}"))?;
-        all.extend(pair_file::parse(&text, &path)?);
+        all.extend(pair_file::parse(&text, &path).map_err(|e| e.to_string())?);
     }
     Ok(all)
 }

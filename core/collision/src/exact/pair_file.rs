@@ -6,7 +6,7 @@
 //! `hull,n,radius,seed`: the hull of [`hull_points`] (the convex-mesh class of
 //! `testdata/collision/tolerance_hull_pairs.csv`, written by the same script's `hulls`).
 
-use crate::Solid;
+use crate::{ShapeError, Solid};
 use nalgebra::{Isometry3, Matrix3, Point3, Rotation3, Translation3, UnitQuaternion, Vector3};
 
 /// One row: its class and the two bodies where they stand.
@@ -39,12 +39,51 @@ pub fn hull_points(n: usize, radius: f64, seed: f64) -> Vec<Point3<f64>> {
         .collect()
 }
 
+/// Why a row of a pairs file was refused: the file, the line (1-based, blank lines not
+/// counted) and what is wrong with the row.
+#[derive(Debug, thiserror::Error)]
+#[error("{file} line {line}: {problem}")]
+pub struct PairFileError {
+    pub file: String,
+    pub line: usize,
+    #[source]
+    pub problem: RowError,
+}
+
+/// What is wrong with one row of a pairs file.
+#[derive(Debug, thiserror::Error)]
+pub enum RowError {
+    /// Not the 34 cells of a row.
+    #[error("{0} cells")]
+    Cells(usize),
+    /// A dimension or pose cell that is not a number.
+    #[error("{cell}: {source}")]
+    Number {
+        cell: String,
+        #[source]
+        source: std::num::ParseFloatError,
+    },
+    /// A `hull` row whose point count is not a whole number in 4..=1e6.
+    #[error("hull of {0} points")]
+    HullPoints(f64),
+    #[error("unknown kind {0}")]
+    UnknownKind(String),
+    /// The dimensions do not make a solid.
+    #[error("{0}")]
+    Shape(#[source] ShapeError),
+}
+
 /// One side of a row: kind, three dimensions, R row-major, t.
-fn body(cells: &[&str]) -> Result<(Solid, Isometry3<f64>), String> {
+fn body(cells: &[&str]) -> Result<(Solid, Isometry3<f64>), RowError> {
     let v = cells[1..16]
         .iter()
-        .map(|c| c.parse::<f64>().map_err(|e| format!("{c}: {e}")))
-        .collect::<Result<Vec<f64>, String>>()?;
+        .map(|c| {
+            c.parse::<f64>().map_err(|source| RowError::Number {
+                cell: (*c).to_owned(),
+                source,
+            })
+        })
+        .collect::<Result<Vec<f64>, RowError>>()?;
     let s = match cells[0] {
         "box" => Solid::cuboid(Vector3::new(v[0], v[1], v[2])),
         "cylinder" => Solid::cylinder(v[0], v[1], None),
@@ -52,10 +91,10 @@ fn body(cells: &[&str]) -> Result<(Solid, Isometry3<f64>), String> {
         "hull" if v[0] >= 4.0 && v[0] <= 1e6 && v[0].fract() == 0.0 => {
             Solid::convex(&hull_points(v[0] as usize, v[1], v[2]))
         }
-        "hull" => return Err(format!("hull of {} points", v[0])),
-        k => return Err(format!("unknown kind {k}")),
+        "hull" => return Err(RowError::HullPoints(v[0])),
+        k => return Err(RowError::UnknownKind(k.to_owned())),
     }
-    .map_err(|e| e.to_string())?;
+    .map_err(RowError::Shape)?;
     let r = Matrix3::from_row_slice(&v[3..12]);
     let q = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(r));
     let pose = Isometry3::from_parts(Translation3::new(v[12], v[13], v[14]), q);
@@ -63,18 +102,22 @@ fn body(cells: &[&str]) -> Result<(Solid, Isometry3<f64>), String> {
 }
 
 /// Every pair of `text` (the file's content), in file order; an error names `file` and the line.
-pub fn parse(text: &str, file: &str) -> Result<Vec<Pair>, String> {
+pub fn parse(text: &str, file: &str) -> Result<Vec<Pair>, PairFileError> {
     text.lines()
         .filter(|l| !l.trim().is_empty())
         .enumerate()
         .map(|(n, l)| {
+            let at = |problem| PairFileError {
+                file: file.to_owned(),
+                line: n + 1,
+                problem,
+            };
             let c: Vec<&str> = l.split(',').collect();
             if c.len() != 34 {
-                return Err(format!("{file} line {}: {} cells", n + 1, c.len()));
+                return Err(at(RowError::Cells(c.len())));
             }
-            let side = |cells| body(cells).map_err(|e| format!("{file} line {}: {e}", n + 1));
-            let (a, pa) = side(&c[2..18])?;
-            let (b, pb) = side(&c[18..34])?;
+            let (a, pa) = body(&c[2..18]).map_err(at)?;
+            let (b, pb) = body(&c[18..34]).map_err(at)?;
             Ok(Pair {
                 class: c[0].to_owned(),
                 a,
@@ -101,11 +144,13 @@ mod tests {
         let e = parse(&format!("{row}\nc,1,box"), "f.csv")
             .err()
             .expect("refused");
-        assert!(e.contains("f.csv line 2"), "{e}");
+        assert!(e.to_string().contains("f.csv line 2"), "{e}");
+        assert!(matches!(e.problem, RowError::Cells(3)), "{e:?}");
         let e = parse(&row.replace("cone", "torus"), "f.csv")
             .err()
             .expect("refused");
-        assert!(e.contains("line 1") && e.contains("torus"), "{e}");
+        let text = e.to_string();
+        assert!(text.contains("line 1") && text.contains("torus"), "{e}");
         // a convex mesh: the hull of its formula's points, every vertex one of them
         let h = parse(&row.replace("box,1,2,3", "hull,64,0.2,7"), "f.csv").expect("hull");
         let pts = hull_points(64, 0.2, 7.0);
@@ -119,5 +164,24 @@ mod tests {
             assert!(pts.iter().any(|p| (p - q).norm() < 1e-15), "{q}");
         }
         assert!(parse(&row.replace("box,1,2,3", "hull,2.5,0.2,7"), "f.csv").is_err());
+        // a bad number or a bad solid keeps its cause
+        let e = parse(&row.replace("box,1,2,3", "box,1,x,3"), "f.csv")
+            .err()
+            .expect("refused");
+        assert_eq!(
+            e.to_string(),
+            format!("f.csv line 1: x: {}", "x".parse::<f64>().unwrap_err())
+        );
+        let cause = std::error::Error::source(&e).and_then(|p| p.source());
+        assert!(
+            cause.is_some_and(|c| c.is::<std::num::ParseFloatError>()),
+            "{e:?}"
+        );
+        let e = parse(&row.replace("box,1,2,3", "box,1,-2,3"), "f.csv")
+            .err()
+            .expect("refused");
+        assert!(matches!(e.problem, RowError::Shape(_)), "{e:?}");
+        let cause = std::error::Error::source(&e).and_then(|p| p.source());
+        assert!(cause.is_some_and(|c| c.is::<ShapeError>()), "{e:?}");
     }
 }
