@@ -114,8 +114,56 @@ pub fn host(
     let z = zenoh::open(crate::zenoh_config(Some(&args.listen), None)?)
         .wait()
         .map_err(zerr(format!("listen on {}", args.listen)))?;
-    let k = |what: &str| key(&args.key, &format!("sweep/{what}"));
     let (tx, rx) = mpsc::channel::<HostEvent>();
+    let listening = listen(&z, &args.key, &tx)?;
+    ready(&format!(
+        "sweep-host: listening on {} as {:?}, {workers} workers at most",
+        args.listen, args.key
+    ));
+
+    let mut host = Host {
+        z: &z,
+        workers,
+        spawn,
+        pipe_prefix: &listening.pipe_prefix,
+        tx,
+        running: HashMap::new(),
+    };
+    while let Ok(ev) = rx.recv() {
+        match ev {
+            HostEvent::Info(q) => {
+                let _ = q
+                    .reply(q.key_expr().clone(), format!("workers={workers}"))
+                    .wait();
+            }
+            HostEvent::Open(q) => host.open(q),
+            HostEvent::In { id, payload } => host.input(&id, &payload),
+            HostEvent::CoordinatorGone(cid) => host.coordinator_gone(&cid),
+            HostEvent::OutputEnded(id) => {
+                if let Some(r) = host.running.remove(&id) {
+                    host.end(&id, r);
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// What a host declares on the Zenoh network; kept while it runs.
+struct Listening {
+    /// `<key>/sweep/pipe/`: the pipes' keys start with it.
+    pipe_prefix: String,
+    _info: zenoh::query::Queryable<()>,
+    _open: zenoh::query::Queryable<()>,
+    _inputs: zenoh::pubsub::Subscriber<()>,
+    _coords: zenoh::pubsub::Subscriber<()>,
+    _token: zenoh::liveliness::LivelinessToken,
+}
+
+/// Declares the host's queryables (info, open), its subscribers (the pipes' inputs, the
+/// coordinators' tokens), each sending its events to `tx`, and its own liveliness token.
+fn listen(z: &zenoh::Session, key_prefix: &str, tx: &mpsc::Sender<HostEvent>) -> Result<Listening> {
+    let k = |what: &str| key(key_prefix, &format!("sweep/{what}"));
     let t = tx.clone();
     let _info = z
         .declare_queryable(k("info"))
@@ -167,136 +215,164 @@ pub fn host(
         .declare_token(k("host"))
         .wait()
         .map_err(zerr("declare the host's token"))?;
-    ready(&format!(
-        "sweep-host: listening on {} as {:?}, {workers} workers at most",
-        args.listen, args.key
-    ));
+    Ok(Listening {
+        pipe_prefix,
+        _info,
+        _open,
+        _inputs,
+        _coords,
+        _token,
+    })
+}
 
-    let mut running: HashMap<String, Running> = HashMap::new();
-    let out_key = |id: &str| format!("{pipe_prefix}{id}/out");
-    // a process's end: reaped, its end message sent after its last line
-    let end = |z: &zenoh::Session, id: &str, mut r: Running| {
+/// A listening host's state: its processes, by pipe id.
+struct Host<'a> {
+    z: &'a zenoh::Session,
+    workers: usize,
+    spawn: &'a dyn Fn() -> Command,
+    pipe_prefix: &'a str,
+    tx: mpsc::Sender<HostEvent>,
+    running: HashMap<String, Running>,
+}
+
+impl Host<'_> {
+    /// The key pipe `id`'s output goes to.
+    fn out_key(&self, id: &str) -> String {
+        let pipe_prefix = self.pipe_prefix;
+        format!("{pipe_prefix}{id}/out")
+    }
+
+    /// A process's end: reaped, its end message sent after its last line.
+    fn end(&self, id: &str, mut r: Running) {
         r.stdin = None;
         let how = match r.child.wait() {
             Ok(s) => robosim_instance_space::exit_words(s),
             Err(e) => format!("not waited for: {e}"),
         };
-        let _ = put(z, &out_key(id), tagged(b'E', &how));
+        let _ = put(self.z, &self.out_key(id), tagged(b'E', &how));
         eprintln!("sweep-host: pipe {id}: the worker {how}");
-    };
-    while let Ok(ev) = rx.recv() {
-        match ev {
-            HostEvent::Info(q) => {
-                let _ = q
-                    .reply(q.key_expr().clone(), format!("workers={workers}"))
-                    .wait();
+    }
+
+    /// An open request: starts a process for the pipe, or refuses it (malformed, open
+    /// already, the host full, the process not started); the answer is the query's reply.
+    fn open(&mut self, q: zenoh::query::Query) {
+        // "<coordinator>/<n> <floor>": the coordinator's pipes below <floor> ended on
+        // its side when it lost this host; those still running here are killed first
+        let text = q
+            .payload()
+            .map(|p| String::from_utf8_lossy(&p.to_bytes()).into_owned())
+            .unwrap_or_default();
+        let (id, floor) = match text.split_once(' ') {
+            Some((id, f)) => (id.to_owned(), f.parse::<u64>().ok()),
+            None => (text.clone(), Some(0)),
+        };
+        let valid = floor.is_some()
+            && id.split('/').count() == 2
+            && id.split('/').all(|p| {
+                !p.is_empty()
+                    && p.chars()
+                        .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
+            });
+        if let (true, Some(floor), Some((cid, _))) = (valid, floor, id.split_once('/')) {
+            self.kill_stale(cid, floor);
+        }
+        let workers = self.workers;
+        let answer = if !valid {
+            Err(format!(
+                "pipe request {text:?}: expected COORDINATOR/N FLOOR"
+            ))
+        } else if self.running.contains_key(&id) {
+            Err(format!("pipe {id} is open already"))
+        } else if self.running.len() >= workers {
+            Err(format!(
+                "the host is full: {workers} of {workers} workers run"
+            ))
+        } else {
+            start(
+                self.z,
+                &id,
+                (self.spawn)(),
+                &self.out_key(&id),
+                self.tx.clone(),
+            )
+            .map(|r| {
+                self.running.insert(id.clone(), r);
+            })
+        };
+        let _ = match answer {
+            Ok(()) => {
+                eprintln!("sweep-host: pipe {id} opened");
+                q.reply(q.key_expr().clone(), "ok").wait()
             }
-            HostEvent::Open(q) => {
-                // "<coordinator>/<n> <floor>": the coordinator's pipes below <floor> ended on
-                // its side when it lost this host; those still running here are killed first
-                let text = q
-                    .payload()
-                    .map(|p| String::from_utf8_lossy(&p.to_bytes()).into_owned())
-                    .unwrap_or_default();
-                let (id, floor) = match text.split_once(' ') {
-                    Some((id, f)) => (id.to_owned(), f.parse::<u64>().ok()),
-                    None => (text.clone(), Some(0)),
-                };
-                let valid = floor.is_some()
-                    && id.split('/').count() == 2
-                    && id.split('/').all(|p| {
-                        !p.is_empty()
-                            && p.chars()
-                                .all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_')
-                    });
-                if let (true, Some(floor), Some((cid, _))) = (valid, floor, id.split_once('/')) {
-                    let stale: Vec<String> = running
-                        .keys()
-                        .filter(|r| {
-                            r.split_once('/').is_some_and(|(c, n)| {
-                                c == cid && n.parse::<u64>().is_ok_and(|n| n < floor)
-                            })
-                        })
-                        .cloned()
-                        .collect();
-                    for old in stale {
-                        if let Some(mut r) = running.remove(&old) {
-                            eprintln!(
-                                "sweep-host: pipe {old}: its coordinator lost this host since, \
-                                 killing it"
-                            );
-                            let _ = r.child.kill();
-                            end(&z, &old, r);
-                        }
-                    }
-                }
-                let answer = if !valid {
-                    Err(format!(
-                        "pipe request {text:?}: expected COORDINATOR/N FLOOR"
-                    ))
-                } else if running.contains_key(&id) {
-                    Err(format!("pipe {id} is open already"))
-                } else if running.len() >= workers {
-                    Err(format!(
-                        "the host is full: {workers} of {workers} workers run"
-                    ))
-                } else {
-                    start(&z, &id, spawn(), &out_key(&id), tx.clone()).map(|r| {
-                        running.insert(id.clone(), r);
-                    })
-                };
-                let _ = match answer {
-                    Ok(()) => {
-                        eprintln!("sweep-host: pipe {id} opened");
-                        q.reply(q.key_expr().clone(), "ok").wait()
-                    }
-                    Err(e) => {
-                        eprintln!("sweep-host: pipe {id} refused: {e}");
-                        q.reply_err(e).wait()
-                    }
-                };
+            Err(e) => {
+                eprintln!("sweep-host: pipe {id} refused: {e}");
+                q.reply_err(e).wait()
             }
-            HostEvent::In { id, payload } => {
-                let Some(r) = running.get_mut(&id) else {
-                    continue;
-                };
-                match payload.split_first() {
-                    Some((b'L', line)) => {
-                        let ok = r.stdin.as_mut().is_some_and(|s| {
-                            s.write_all(line)
-                                .and_then(|_| s.write_all(b"\n"))
-                                .and_then(|_| s.flush())
-                                .is_ok()
-                        });
-                        if !ok {
-                            // its end is reported when its output ends
-                            r.stdin = None;
-                        }
-                    }
-                    Some((b'C', _)) => r.stdin = None,
-                    Some((b'K', _)) => {
-                        let _ = r.child.kill();
-                    }
-                    _ => {}
-                }
-            }
-            HostEvent::CoordinatorGone(cid) => {
-                for (id, r) in running.iter_mut() {
-                    if id.split('/').next() == Some(cid.as_str()) {
-                        eprintln!("sweep-host: pipe {id}: its coordinator is gone, killing it");
-                        r.stdin = None;
-                        let _ = r.child.kill();
-                    }
-                }
-            }
-            HostEvent::OutputEnded(id) => {
-                if let Some(r) = running.remove(&id) {
-                    end(&z, &id, r);
-                }
+        };
+    }
+
+    /// Kills and ends coordinator `cid`'s pipes numbered below `floor`: they ended on its
+    /// side when it lost this host.
+    fn kill_stale(&mut self, cid: &str, floor: u64) {
+        let stale: Vec<String> = self
+            .running
+            .keys()
+            .filter(|r| {
+                r.split_once('/')
+                    .is_some_and(|(c, n)| c == cid && n.parse::<u64>().is_ok_and(|n| n < floor))
+            })
+            .cloned()
+            .collect();
+        for old in stale {
+            if let Some(mut r) = self.running.remove(&old) {
+                eprintln!(
+                    "sweep-host: pipe {old}: its coordinator lost this host since, \
+                     killing it"
+                );
+                let _ = r.child.kill();
+                self.end(&old, r);
             }
         }
     }
-    Ok(())
+
+    /// A message for pipe `id`: a line for its process's stdin (`L`), close its stdin (`C`),
+    /// kill it (`K`). Ignored when the pipe is not running.
+    fn input(&mut self, id: &str, payload: &[u8]) {
+        let Some(r) = self.running.get_mut(id) else {
+            return;
+        };
+        match payload.split_first() {
+            Some((b'L', line)) => {
+                let ok = r.stdin.as_mut().is_some_and(|s| {
+                    s.write_all(line)
+                        .and_then(|_| s.write_all(b"\n"))
+                        .and_then(|_| s.flush())
+                        .is_ok()
+                });
+                if !ok {
+                    // its end is reported when its output ends
+                    r.stdin = None;
+                }
+            }
+            Some((b'C', _)) => r.stdin = None,
+            Some((b'K', _)) => {
+                let _ = r.child.kill();
+            }
+            _ => {}
+        }
+    }
+
+    /// Coordinator `cid`'s token went: its processes are killed (their ends are reported when
+    /// their output ends).
+    fn coordinator_gone(&mut self, cid: &str) {
+        for (id, r) in self.running.iter_mut() {
+            if id.split('/').next() == Some(cid) {
+                eprintln!("sweep-host: pipe {id}: its coordinator is gone, killing it");
+                r.stdin = None;
+                let _ = r.child.kill();
+            }
+        }
+    }
 }
 
 /// Starts one process for pipe `id`: a thread carries its stdout lines to `out_key`.

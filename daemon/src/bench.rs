@@ -21,11 +21,11 @@
 
 use robosim_instance_space::state::{CommandSender, StateSubscriber};
 use robosim_instance_space::{Client, Reader, Session};
-use robosim_scene::{CompiledScene, joint_tx};
+use robosim_scene::{CompiledRobot, CompiledScene, joint_tx};
 use std::fmt::Write as _;
 use std::io::{BufRead, BufReader, Write};
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
 use std::time::{Duration, Instant};
 
 type Result<T> = std::result::Result<T, String>;
@@ -131,149 +131,23 @@ fn measure(bin: &Path, label: &str, scene: &str, reps: usize) -> Result<Row> {
         )?;
         let mut client = wait_until("keeper", || Client::connect(&session, "bench").ok())?;
         let mut reader = Reader::attach(&session, "bench").map_err(e("reader"))?;
-        let snap = wait_until("model", || {
-            reader.refresh().ok()?;
-            reader.snapshot().filter(|s| !s.is_empty())
-        })?;
-        let scene_model = CompiledScene::of(&snap);
-        let robot = scene_model
-            .robots()
-            .first()
-            .ok_or_else(|| format!("{scene} has no robot"))?
-            .clone();
-        let (objects, vertices, robots) =
-            (snap.len(), snap.vertex_count(), scene_model.robots().len());
-        drop(snap);
+        let (robot, (objects, vertices, robots)) = first_robot(&mut reader, scene)?;
 
         // Reaction: fast mode, every step published.
-        let mut ack = Vec::new();
-        let mut reaction = Vec::new();
-        {
-            let _daemon = spawn(
-                bin,
-                &[
-                    "simulator",
-                    "--session",
-                    &name,
-                    "--mode",
-                    "fast",
-                    "--publish-hz",
-                    "1e9",
-                ],
-            )?;
-            let mut state = wait_until("state service", || {
-                StateSubscriber::open(&session, "simulator", "bench").ok()
-            })?;
-            wait_until("first state", || {
-                state
-                    .wait(Duration::from_millis(50))
-                    .ok()
-                    .filter(|r| !r.is_empty())
-            })?;
-            for k in 0..reps {
-                let mut q = robot.q.clone();
-                // Alternate between two values inside the limits: every change is real.
-                q[0] = inside(
-                    &robot.robot,
-                    robot.q[0],
-                    if k % 2 == 0 { 0.45 } else { 0.55 },
-                );
-                let tx = joint_tx(&robot.robot, &robot.links, &q);
-                state.drain().map_err(e("drain"))?;
-                let t0 = Instant::now();
-                let v = client.transact(&tx).map_err(e("transact"))?.version;
-                let t_ack = t0.elapsed();
-                let link = robot.links[0];
-                let seen = wait_until("state of the new version", || {
-                    let recs = state.wait(Duration::from_millis(20)).ok()?;
-                    recs.into_iter().find(|r| r.header.structure_version >= v)
-                })?;
-                let t_seen = t0.elapsed();
-                let qj = seen.joints.iter().find(|j| j.id == link).map(|j| j.q);
-                if qj.is_none_or(|x| (x - q[0]).abs() > 1e-9) {
-                    return Err(format!(
-                        "{label} {scene}: state for version {v} has joint 1 at {qj:?}, committed {}",
-                        q[0]
-                    ));
-                }
-                ack.push(t_ack.as_secs_f64() * 1e3);
-                reaction.push(t_seen.as_secs_f64() * 1e3);
-            }
-        }
+        let (ack, reaction) = reaction_times(
+            bin,
+            &name,
+            &session,
+            &mut client,
+            &robot,
+            reps,
+            label,
+            scene,
+        )?;
 
         // MOVEJI: lockstep daemon, CPU from /proc.
-        let daemon = spawn(
-            bin,
-            &["simulator", "--session", &name, "--mode", "lockstep"],
-        )?;
-        let pid = daemon.0.id();
-        let mut state = wait_until("state service", || {
-            StateSubscriber::open(&session, "simulator", "bench").ok()
-        })?;
-        let mut ctl = wait_until("command service", || {
-            CommandSender::open(&session, "simulator", "bench").ok()
-        })?;
-        let step_and_wait = |ctl: &mut CommandSender, state: &mut StateSubscriber, v: u64| {
-            ctl.send(br#"{"cmd": "step", "n": 1}"#, Duration::from_secs(30))
-                .map_err(e("step"))?;
-            wait_until("lockstep state", || {
-                let recs = state.wait(Duration::from_millis(20)).ok()?;
-                recs.into_iter().find(|r| r.header.structure_version >= v)
-            })
-        };
-        reader.refresh().map_err(e("refresh"))?;
-        let v0 = reader.snapshot().map_or(0, |s| s.version());
-        step_and_wait(&mut ctl, &mut state, v0)?;
-        let mut query = Command::new(bin)
-            .args(["query", "--session", &name])
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::null())
-            .spawn()
-            .map_err(e("query"))?;
-        let mut qin = query.stdin.take().ok_or("query stdin")?;
-        let mut qout = BufReader::new(query.stdout.take().ok_or("query stdout")?);
-        // Warm the query process (attach, first snapshot) before timing.
-        writeln!(qin, r#"{{"op": "get_robot", "robot": "{}"}}"#, robot.name())
-            .map_err(e("write"))?;
-        let mut line = String::new();
-        qout.read_line(&mut line).map_err(e("read"))?;
-        // The query process's per-step collision check is off (C_SWITCH): the bench measures
-        // what the 30 transactions cost the daemon, and the station's alpha joints rest inside
-        // their truss bay (a contact at q = 0 that would stop any MOVEJI at step 0).
-        writeln!(qin, r#"{{"op": "c_switch", "on": false}}"#).map_err(e("write"))?;
-        line.clear();
-        qout.read_line(&mut line).map_err(e("read"))?;
-        let mut target = robot.q.clone();
-        target[0] = inside(&robot.robot, robot.q[0], 0.52);
-        let req =
-            serde_json::json!({"op": "moveji", "robot": robot.name(), "q": target, "steps": 30});
-        let cpu0 = cpu_s(pid)?;
-        let t0 = Instant::now();
-        writeln!(qin, "{req}").map_err(e("write"))?;
-        line.clear();
-        qout.read_line(&mut line).map_err(e("read"))?;
-        let moveji_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let answer: serde_json::Value = serde_json::from_str(&line).map_err(e("answer"))?;
-        let v_end = answer["version"]
-            .as_u64()
-            .ok_or(format!("moveji answered {line}"))?;
-        if answer["steps_done"].as_u64() != Some(30) {
-            return Err(format!(
-                "{label} {scene}: moveji did not take 30 steps: {line}"
-            ));
-        }
-        step_and_wait(&mut ctl, &mut state, v_end)?;
-        let wall = t0.elapsed();
-        let moveji_cpu_s = cpu_s(pid)? - cpu0;
-        // The idle baseline: the same wall time with nothing to do.
-        let idle0 = cpu_s(pid)?;
-        std::thread::sleep(wall.max(Duration::from_millis(200)));
-        let idle_cpu_s = (cpu_s(pid)? - idle0) * wall.as_secs_f64()
-            / wall.max(Duration::from_millis(200)).as_secs_f64();
-        drop(qin);
-        let _ = query.wait();
-        drop(daemon);
+        let (moveji_ms, moveji_cpu_s, idle_cpu_s) =
+            moveji(bin, &name, &session, &mut reader, &robot, label, scene)?;
         Ok(Row {
             binary: label.to_owned(),
             scene: scene.to_owned(),
@@ -289,6 +163,191 @@ fn measure(bin: &Path, label: &str, scene: &str, reps: usize) -> Result<Row> {
     })();
     let _ = std::fs::remove_dir_all(session.dir());
     result
+}
+
+/// Waits for the keeper's model: its first robot, and the scene's (objects, vertices,
+/// robots).
+fn first_robot(reader: &mut Reader, scene: &str) -> Result<(CompiledRobot, (usize, usize, usize))> {
+    let snap = wait_until("model", || {
+        reader.refresh().ok()?;
+        reader.snapshot().filter(|s| !s.is_empty())
+    })?;
+    let scene_model = CompiledScene::of(&snap);
+    let robot = scene_model
+        .robots()
+        .first()
+        .ok_or_else(|| format!("{scene} has no robot"))?
+        .clone();
+    let (objects, vertices, robots) = (snap.len(), snap.vertex_count(), scene_model.robots().len());
+    drop(snap);
+    Ok((robot, (objects, vertices, robots)))
+}
+
+/// The reaction measurement: a daemon in fast mode, publishing every step; `reps` one-joint
+/// changes of `robot` committed by `client`, each timed to its acknowledgement and to the
+/// daemon's first state record of its version (checked to carry the new value). Returns the
+/// (acknowledgement, reaction) times, ms.
+#[allow(clippy::too_many_arguments)]
+fn reaction_times(
+    bin: &Path,
+    name: &str,
+    session: &Session,
+    client: &mut Client,
+    robot: &CompiledRobot,
+    reps: usize,
+    label: &str,
+    scene: &str,
+) -> Result<(Vec<f64>, Vec<f64>)> {
+    let mut ack = Vec::new();
+    let mut reaction = Vec::new();
+    {
+        let _daemon = spawn(
+            bin,
+            &[
+                "simulator",
+                "--session",
+                name,
+                "--mode",
+                "fast",
+                "--publish-hz",
+                "1e9",
+            ],
+        )?;
+        let mut state = wait_until("state service", || {
+            StateSubscriber::open(session, "simulator", "bench").ok()
+        })?;
+        wait_until("first state", || {
+            state
+                .wait(Duration::from_millis(50))
+                .ok()
+                .filter(|r| !r.is_empty())
+        })?;
+        for k in 0..reps {
+            let mut q = robot.q.clone();
+            // Alternate between two values inside the limits: every change is real.
+            q[0] = inside(
+                &robot.robot,
+                robot.q[0],
+                if k % 2 == 0 { 0.45 } else { 0.55 },
+            );
+            let tx = joint_tx(&robot.robot, &robot.links, &q);
+            state.drain().map_err(e("drain"))?;
+            let t0 = Instant::now();
+            let v = client.transact(&tx).map_err(e("transact"))?.version;
+            let t_ack = t0.elapsed();
+            let link = robot.links[0];
+            let seen = wait_until("state of the new version", || {
+                let recs = state.wait(Duration::from_millis(20)).ok()?;
+                recs.into_iter().find(|r| r.header.structure_version >= v)
+            })?;
+            let t_seen = t0.elapsed();
+            let qj = seen.joints.iter().find(|j| j.id == link).map(|j| j.q);
+            if qj.is_none_or(|x| (x - q[0]).abs() > 1e-9) {
+                return Err(format!(
+                    "{label} {scene}: state for version {v} has joint 1 at {qj:?}, committed {}",
+                    q[0]
+                ));
+            }
+            ack.push(t_ack.as_secs_f64() * 1e3);
+            reaction.push(t_seen.as_secs_f64() * 1e3);
+        }
+    }
+    Ok((ack, reaction))
+}
+
+/// The MOVEJI measurement: a daemon in lockstep; a `robosim query` process (warmed up, its
+/// collision check off) moves `robot` in 30 steps, then the daemon is stepped to the last
+/// version. Returns the query's answer time (ms), the daemon's CPU time over the move and
+/// its idle CPU time over the same wall time (s).
+fn moveji(
+    bin: &Path,
+    name: &str,
+    session: &Session,
+    reader: &mut Reader,
+    robot: &CompiledRobot,
+    label: &str,
+    scene: &str,
+) -> Result<(f64, f64, f64)> {
+    let daemon = spawn(bin, &["simulator", "--session", name, "--mode", "lockstep"])?;
+    let pid = daemon.0.id();
+    let mut state = wait_until("state service", || {
+        StateSubscriber::open(session, "simulator", "bench").ok()
+    })?;
+    let mut ctl = wait_until("command service", || {
+        CommandSender::open(session, "simulator", "bench").ok()
+    })?;
+    let step_and_wait = |ctl: &mut CommandSender, state: &mut StateSubscriber, v: u64| {
+        ctl.send(br#"{"cmd": "step", "n": 1}"#, Duration::from_secs(30))
+            .map_err(e("step"))?;
+        wait_until("lockstep state", || {
+            let recs = state.wait(Duration::from_millis(20)).ok()?;
+            recs.into_iter().find(|r| r.header.structure_version >= v)
+        })
+    };
+    reader.refresh().map_err(e("refresh"))?;
+    let v0 = reader.snapshot().map_or(0, |s| s.version());
+    step_and_wait(&mut ctl, &mut state, v0)?;
+    let (mut query, mut qin, mut qout, mut line) = query_process(bin, name, robot)?;
+    let mut target = robot.q.clone();
+    target[0] = inside(&robot.robot, robot.q[0], 0.52);
+    let req = serde_json::json!({"op": "moveji", "robot": robot.name(), "q": target, "steps": 30});
+    let cpu0 = cpu_s(pid)?;
+    let t0 = Instant::now();
+    writeln!(qin, "{req}").map_err(e("write"))?;
+    line.clear();
+    qout.read_line(&mut line).map_err(e("read"))?;
+    let moveji_ms = t0.elapsed().as_secs_f64() * 1e3;
+    let answer: serde_json::Value = serde_json::from_str(&line).map_err(e("answer"))?;
+    let v_end = answer["version"]
+        .as_u64()
+        .ok_or(format!("moveji answered {line}"))?;
+    if answer["steps_done"].as_u64() != Some(30) {
+        return Err(format!(
+            "{label} {scene}: moveji did not take 30 steps: {line}"
+        ));
+    }
+    step_and_wait(&mut ctl, &mut state, v_end)?;
+    let wall = t0.elapsed();
+    let moveji_cpu_s = cpu_s(pid)? - cpu0;
+    // The idle baseline: the same wall time with nothing to do.
+    let idle0 = cpu_s(pid)?;
+    std::thread::sleep(wall.max(Duration::from_millis(200)));
+    let idle_cpu_s = (cpu_s(pid)? - idle0) * wall.as_secs_f64()
+        / wall.max(Duration::from_millis(200)).as_secs_f64();
+    drop(qin);
+    let _ = query.wait();
+    drop(daemon);
+    Ok((moveji_ms, moveji_cpu_s, idle_cpu_s))
+}
+
+/// Starts a `robosim query` process on session `name` and warms it up (attach, first
+/// snapshot: a `get_robot` of `robot`), then turns its collision check off: the process, its
+/// stdin, its stdout and the line buffer its answers were read into.
+fn query_process(
+    bin: &Path,
+    name: &str,
+    robot: &CompiledRobot,
+) -> Result<(Child, ChildStdin, BufReader<ChildStdout>, String)> {
+    let mut query = Command::new(bin)
+        .args(["query", "--session", name])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::null())
+        .spawn()
+        .map_err(e("query"))?;
+    let mut qin = query.stdin.take().ok_or("query stdin")?;
+    let mut qout = BufReader::new(query.stdout.take().ok_or("query stdout")?);
+    // Warm the query process (attach, first snapshot) before timing.
+    writeln!(qin, r#"{{"op": "get_robot", "robot": "{}"}}"#, robot.name()).map_err(e("write"))?;
+    let mut line = String::new();
+    qout.read_line(&mut line).map_err(e("read"))?;
+    // The query process's per-step collision check is off (C_SWITCH): the bench measures
+    // what the 30 transactions cost the daemon, and the station's alpha joints rest inside
+    // their truss bay (a contact at q = 0 that would stop any MOVEJI at step 0).
+    writeln!(qin, r#"{{"op": "c_switch", "on": false}}"#).map_err(e("write"))?;
+    line.clear();
+    qout.read_line(&mut line).map_err(e("read"))?;
+    Ok((query, qin, qout, line))
 }
 
 /// Runs the bench for `after` (and `before`, if given) and writes reaction.md/.csv to `out`.

@@ -70,7 +70,20 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     let r = Renderer::headless()?;
     let adapter = r.gpu().describe();
     let samples = r.samples();
-    // (a) frame time.
+    let frames_report = frame_times(reps, &adapter, samples)?;
+    let uploads_report = uploads(quick, &adapter)?;
+    let tess_report = tessellation(reps)?;
+    for rep in [&frames_report, &uploads_report, &tess_report] {
+        for p in write_report(out, rep).map_err(AppError::from)? {
+            println!("wrote {}", p.display());
+        }
+    }
+    Ok(())
+}
+
+/// (a) Frame time: each scene drawn `reps` times, without and with readback, as ratios to the
+/// empty scene; the `display_frames` report.
+fn frame_times(reps: usize, adapter: &str, samples: u32) -> Result<Report> {
     let mut table = Table {
         columns: [
             "scene",
@@ -116,7 +129,7 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             draw.0, read.0
         );
     }
-    let frames_report = Report {
+    Ok(Report {
         name: "display_frames".into(),
         title: "Display: frame time at 1280×1024".into(),
         notes: vec![
@@ -126,8 +139,12 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
         ],
         table,
         plots: Vec::new(),
-    };
-    // (b) upload per pose update against scene size.
+    })
+}
+
+/// (b) Upload per pose update against scene size: one row and one point per series for each
+/// of [`UPLOAD_SIZES`], as ratios to the smallest; the `display_uploads` report.
+fn uploads(quick: bool, adapter: &str) -> Result<Report> {
     let updates = if quick { 50 } else { 300 };
     let mut table = Table {
         columns: [
@@ -167,70 +184,13 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
     };
     let mut base = (f64::NAN, f64::NAN, f64::NAN);
     for n in UPLOAD_SIZES {
-        // A renderer per size: what it holds is this scene alone.
-        let mut r = Renderer::headless()?;
-        let mut model = cubes(n);
-        let mut snap = Snapshot::from_store(&model);
-        let ids: Vec<u64> = snap.objects().iter().map(|o| o.id).collect();
-        r.sync(&snap);
-        r.frame_all();
-        let (mut bytes, mut t_changes, mut t_full, mut t_frame) =
-            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let mut rng = 0x9e37_79b9_7f4a_7c15_u64;
-        for u in 0..updates {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            let id = ids[(rng % n as u64) as usize];
-            let mut tx = Transaction::new();
-            let mut p = IDENTITY;
-            p[11] = 0.01 * (u + 1) as f64;
-            p[3] = (rng % 97) as f64 * 0.01;
-            tx.set_pose(id, p);
-            let applied = model.apply(&tx).map_err(AppError::from)?;
-            // The next snapshot as a session reader assembles it: the moved body's pose chunk
-            // new, every other chunk, the objects and the geometry shared with the last one.
-            // (Rebuilding it from the model, O(N), between two timed updates evicted the
-            // renderer's working set from the caches and made the update look O(N).)
-            let moved = robosim_instance_space::layout::PoseRec {
-                id,
-                pose: p,
-                joint: 0.0,
-            };
-            snap = snap.advanced(applied.version, &[moved]);
-            let change = Change {
-                version: applied.version,
-                aspects: aspect::POSE,
-                ids: vec![id],
-                published_ns: 0,
-            };
-            // Each update is synced and submitted (as the display's frame would submit it),
-            // timed together: wgpu does per-submission work of its own. The first half goes
-            // the change-driven way, as a session display does; the second half by the full
-            // comparison (O(N): run between the others it evicted their working set from the
-            // caches).
-            if u < updates / 2 {
-                let t0 = Instant::now();
-                let up = r.sync_changes(&snap, std::slice::from_ref(&change));
-                r.flush_uploads();
-                t_changes.push(t0.elapsed().as_secs_f64() * 1e6);
-                bytes.push(up.total_bytes() as f64);
-                // Every tenth update, a frame: its CPU part (bounds, encoding, submission) is
-                // timed; the rasterization is waited for outside the timing.
-                if u % 10 == 0 {
-                    let t0 = Instant::now();
-                    r.submit_frame(FRAME_SIZE.0, FRAME_SIZE.1)?;
-                    t_frame.push(t0.elapsed().as_secs_f64() * 1e6);
-                    r.wait_idle()?;
-                }
-            } else {
-                let t0 = Instant::now();
-                let up = r.sync(&snap);
-                r.flush_uploads();
-                t_full.push(t0.elapsed().as_secs_f64() * 1e6);
-                bytes.push(up.total_bytes() as f64);
-            }
-        }
+        let UploadSamples {
+            r,
+            bytes,
+            t_changes,
+            t_full,
+            t_frame,
+        } = upload_samples(n, updates)?;
         let mean = bytes.iter().sum::<f64>() / bytes.len() as f64;
         let max = bytes.iter().copied().fold(0.0, f64::max);
         let (c, c90) = median_p90(t_changes);
@@ -263,7 +223,18 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
             "bench display: {n} bodies: {mean:.1} B/update, sync_changes {c:.1} µs, full sync {f:.1} µs, frame CPU {fr:.1} µs"
         );
     }
-    let uploads_report = Report {
+    Ok(uploads_report(
+        adapter,
+        table,
+        [bytes_series, changes_series, full_series, frame_series],
+    ))
+}
+
+/// The `display_uploads` report: its notes and plots around the measured `table` and series
+/// (bytes, sync_changes, full sync, frame CPU).
+fn uploads_report(adapter: &str, table: Table, series: [Series; 4]) -> Report {
+    let [bytes_series, changes_series, full_series, frame_series] = series;
+    Report {
         name: "display_uploads".into(),
         title: "Display: bytes uploaded per pose update against scene size".into(),
         notes: vec![
@@ -290,14 +261,95 @@ pub fn run(out: &Path, quick: bool) -> Result<()> {
                 series: vec![changes_series, full_series, frame_series],
             },
         ],
-    };
-    let tess_report = tessellation(reps)?;
-    for rep in [&frames_report, &uploads_report, &tess_report] {
-        for p in write_report(out, rep).map_err(AppError::from)? {
-            println!("wrote {}", p.display());
+    }
+}
+
+/// What (b) measured on one scene size: the renderer (for its buffer counts), the bytes
+/// uploaded per update, and the times (µs) of the `sync_changes` updates, of the full `sync`
+/// updates and of the frames' CPU part.
+struct UploadSamples {
+    r: Renderer,
+    bytes: Vec<f64>,
+    t_changes: Vec<f64>,
+    t_full: Vec<f64>,
+    t_frame: Vec<f64>,
+}
+
+/// (b) on a scene of `n` boxes: `updates` pose updates of one random box, the first half
+/// brought to the renderer by `sync_changes` (every tenth followed by a frame), the second by
+/// the full `sync`.
+fn upload_samples(n: usize, updates: usize) -> Result<UploadSamples> {
+    // A renderer per size: what it holds is this scene alone.
+    let mut r = Renderer::headless()?;
+    let mut model = cubes(n);
+    let mut snap = Snapshot::from_store(&model);
+    let ids: Vec<u64> = snap.objects().iter().map(|o| o.id).collect();
+    r.sync(&snap);
+    r.frame_all();
+    let (mut bytes, mut t_changes, mut t_full, mut t_frame) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut rng = 0x9e37_79b9_7f4a_7c15_u64;
+    for u in 0..updates {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        let id = ids[(rng % n as u64) as usize];
+        let mut tx = Transaction::new();
+        let mut p = IDENTITY;
+        p[11] = 0.01 * (u + 1) as f64;
+        p[3] = (rng % 97) as f64 * 0.01;
+        tx.set_pose(id, p);
+        let applied = model.apply(&tx).map_err(AppError::from)?;
+        // The next snapshot as a session reader assembles it: the moved body's pose chunk
+        // new, every other chunk, the objects and the geometry shared with the last one.
+        // (Rebuilding it from the model, O(N), between two timed updates evicted the
+        // renderer's working set from the caches and made the update look O(N).)
+        let moved = robosim_instance_space::layout::PoseRec {
+            id,
+            pose: p,
+            joint: 0.0,
+        };
+        snap = snap.advanced(applied.version, &[moved]);
+        let change = Change {
+            version: applied.version,
+            aspects: aspect::POSE,
+            ids: vec![id],
+            published_ns: 0,
+        };
+        // Each update is synced and submitted (as the display's frame would submit it),
+        // timed together: wgpu does per-submission work of its own. The first half goes
+        // the change-driven way, as a session display does; the second half by the full
+        // comparison (O(N): run between the others it evicted their working set from the
+        // caches).
+        if u < updates / 2 {
+            let t0 = Instant::now();
+            let up = r.sync_changes(&snap, std::slice::from_ref(&change));
+            r.flush_uploads();
+            t_changes.push(t0.elapsed().as_secs_f64() * 1e6);
+            bytes.push(up.total_bytes() as f64);
+            // Every tenth update, a frame: its CPU part (bounds, encoding, submission) is
+            // timed; the rasterization is waited for outside the timing.
+            if u % 10 == 0 {
+                let t0 = Instant::now();
+                r.submit_frame(FRAME_SIZE.0, FRAME_SIZE.1)?;
+                t_frame.push(t0.elapsed().as_secs_f64() * 1e6);
+                r.wait_idle()?;
+            }
+        } else {
+            let t0 = Instant::now();
+            let up = r.sync(&snap);
+            r.flush_uploads();
+            t_full.push(t0.elapsed().as_secs_f64() * 1e6);
+            bytes.push(up.total_bytes() as f64);
         }
     }
-    Ok(())
+    Ok(UploadSamples {
+        r,
+        bytes,
+        t_changes,
+        t_full,
+        t_frame,
+    })
 }
 
 fn sphere_model(facets: usize) -> Result<Store> {

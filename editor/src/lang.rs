@@ -159,24 +159,42 @@ impl Cursor<'_> {
     }
 }
 
+/// Where a line is: its text, its file and its number, for spans and errors.
+struct At<'a> {
+    line: &'a str,
+    file: &'a str,
+    ln: usize,
+}
+
+impl At<'_> {
+    /// The span of byte `i` of the line (columns count characters, from 1).
+    fn col(&self, i: usize) -> Span {
+        Span {
+            line: self.ln,
+            column: self.line[..i].chars().count() + 1,
+        }
+    }
+    /// An error at byte `i` of the line, in `command`.
+    fn err(&self, i: usize, command: &str, what: String) -> LangError {
+        LangError {
+            file: self.file.to_owned(),
+            span: self.col(i),
+            command: command.to_owned(),
+            what,
+            source: None,
+        }
+    }
+}
+
+/// Parses one line: the command name, then nothing, one word, or KEY = VALUE arguments.
 fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, LangError> {
     let mut c = Cursor { s: line, i: 0 };
     c.skip_ws();
-    let col = |i: usize| Span {
-        line: ln,
-        column: line[..i].chars().count() + 1,
-    };
-    let err = |i: usize, command: &str, what: String| LangError {
-        file: file.to_owned(),
-        span: col(i),
-        command: command.to_owned(),
-        what,
-        source: None,
-    };
+    let at = At { line, file, ln };
     let start = c.i;
     let name = c.take_while(is_name_char).to_ascii_uppercase();
     if name.is_empty() {
-        return Err(err(
+        return Err(at.err(
             start,
             "",
             format!(
@@ -187,7 +205,7 @@ fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, Lang
     }
     let mut cmd = Command {
         name: name.clone(),
-        span: col(start),
+        span: at.col(start),
         word: None,
         args: Vec::new(),
     };
@@ -200,117 +218,155 @@ fn parse_line(line: &str, file: &str, ln: usize) -> Result<Option<Command>, Lang
     let tok = c.take_while(is_name_char).to_owned();
     c.skip_ws();
     if c.peek() != Some('=') {
-        if tok.is_empty() {
-            return Err(err(
-                tok_start,
-                &name,
-                format!("unexpected {:?}", c.peek().unwrap_or(' ')),
-            ));
-        }
-        if let Some(ch) = c.peek() {
-            return Err(err(
-                c.i,
-                &name,
-                format!("unexpected {ch:?} after {tok:?} (one word, or KEY = VALUE arguments)"),
-            ));
-        }
-        cmd.word = Some((tok, col(tok_start)));
+        cmd.word = Some(word_argument(&c, &at, &name, tok, tok_start)?);
         return Ok(Some(cmd));
     }
-    let mut key = (tok, tok_start);
+    key_value_arguments(&mut c, &at, &name, (tok, tok_start), &mut cmd.args)?;
+    Ok(Some(cmd))
+}
+
+/// The command's one word `tok` (at byte `tok_start`), the cursor past it: an error if there
+/// is none, or if anything but '=' follows it.
+fn word_argument(
+    c: &Cursor,
+    at: &At,
+    name: &str,
+    tok: String,
+    tok_start: usize,
+) -> Result<(String, Span), LangError> {
+    if tok.is_empty() {
+        return Err(at.err(
+            tok_start,
+            name,
+            format!("unexpected {:?}", c.peek().unwrap_or(' ')),
+        ));
+    }
+    if let Some(ch) = c.peek() {
+        return Err(at.err(
+            c.i,
+            name,
+            format!("unexpected {ch:?} after {tok:?} (one word, or KEY = VALUE arguments)"),
+        ));
+    }
+    Ok((tok, at.col(tok_start)))
+}
+
+/// The KEY = VALUE arguments, from the cursor at the first '=' (`first` is the key before it
+/// and its byte) to the end of the line, pushed onto `args`.
+fn key_value_arguments(
+    c: &mut Cursor,
+    at: &At,
+    name: &str,
+    first: (String, usize),
+    args: &mut Vec<Arg>,
+) -> Result<(), LangError> {
+    let mut key = first;
     loop {
         if key.0.is_empty() {
-            return Err(err(
-                key.1,
-                &name,
-                "expected an argument name before '='".into(),
-            ));
+            return Err(at.err(key.1, name, "expected an argument name before '='".into()));
         }
         // at '='
         c.i += 1;
         c.skip_ws();
-        let num_start = c.i;
-        let num =
-            c.take_while(|ch| ch.is_ascii_digit() || matches!(ch, '.' | '-' | '+' | 'e' | 'E'));
-        let value: f64 = num.parse().map_err(|_| {
-            err(
-                num_start,
-                &name,
-                format!(
-                    "argument {}: {:?} is not a number",
-                    key.0.to_ascii_uppercase(),
-                    if num.is_empty() {
-                        line[num_start..].split([',', ' ']).next().unwrap_or("")
-                    } else {
-                        num
-                    }
-                ),
-            )
-        })?;
-        if !value.is_finite() {
-            return Err(err(
-                num_start,
-                &name,
-                format!(
-                    "argument {}: {num} is not finite",
-                    key.0.to_ascii_uppercase()
-                ),
-            ));
-        }
-        c.skip_ws();
-        let mut unit_w = None;
-        if c.peek().is_some_and(|ch| ch.is_ascii_alphabetic()) {
-            let us = c.i;
-            let w = c.take_while(|ch| ch.is_ascii_alphabetic()).to_owned();
-            let u = unit(&w).ok_or_else(|| {
-                err(
-                    us,
-                    &name,
-                    format!(
-                        "argument {}: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)",
-                        key.0.to_ascii_uppercase()
-                    ),
-                )
-            })?;
-            unit_w = Some((w, u));
-            c.skip_ws();
-        }
-        cmd.args.push(Arg {
+        let (value, unit_w) = argument_value(c, at, name, &key.0)?;
+        args.push(Arg {
             key: key.0.to_ascii_uppercase(),
             value,
             unit: unit_w,
-            span: col(key.1),
+            span: at.col(key.1),
         });
-        match c.peek() {
+        match next_key(c, at, name, &key.0)? {
             None => break,
-            Some(',') => {
-                c.i += 1;
-                c.skip_ws();
-                let ks = c.i;
-                let k = c.take_while(is_name_char).to_owned();
-                c.skip_ws();
-                if c.peek() != Some('=') {
-                    return Err(err(
-                        c.i,
-                        &name,
-                        format!("expected '=' after argument name {k:?}"),
-                    ));
-                }
-                key = (k, ks);
-            }
-            Some(ch) => {
-                return Err(err(
-                    c.i,
-                    &name,
-                    format!(
-                        "unexpected {ch:?} after argument {} (arguments are separated by commas)",
-                        key.0.to_ascii_uppercase()
-                    ),
-                ));
-            }
+            Some(k) => key = k,
         }
     }
-    Ok(Some(cmd))
+    Ok(())
+}
+
+/// The value of argument `key`, the cursor past the '=': a finite number and, if a word
+/// follows it, its unit; the cursor ends past both and the blanks after them.
+fn argument_value(
+    c: &mut Cursor,
+    at: &At,
+    name: &str,
+    key: &str,
+) -> Result<(f64, Option<(String, Unit)>), LangError> {
+    let line = at.line;
+    let num_start = c.i;
+    let num = c.take_while(|ch| ch.is_ascii_digit() || matches!(ch, '.' | '-' | '+' | 'e' | 'E'));
+    let value: f64 = num.parse().map_err(|_| {
+        at.err(
+            num_start,
+            name,
+            format!(
+                "argument {}: {:?} is not a number",
+                key.to_ascii_uppercase(),
+                if num.is_empty() {
+                    line[num_start..].split([',', ' ']).next().unwrap_or("")
+                } else {
+                    num
+                }
+            ),
+        )
+    })?;
+    if !value.is_finite() {
+        return Err(at.err(
+            num_start,
+            name,
+            format!("argument {}: {num} is not finite", key.to_ascii_uppercase()),
+        ));
+    }
+    c.skip_ws();
+    let mut unit_w = None;
+    if c.peek().is_some_and(|ch| ch.is_ascii_alphabetic()) {
+        let us = c.i;
+        let w = c.take_while(|ch| ch.is_ascii_alphabetic()).to_owned();
+        let u = unit(&w).ok_or_else(|| {
+            at.err(
+                us,
+                name,
+                format!(
+                    "argument {}: unknown unit {w:?} (m, cm, mm, in, ft, deg, rad)",
+                    key.to_ascii_uppercase()
+                ),
+            )
+        })?;
+        unit_w = Some((w, u));
+        c.skip_ws();
+    }
+    Ok((value, unit_w))
+}
+
+/// After argument `key`'s value: the end of the line (`None`), or a comma and the next
+/// argument's key and its byte, the cursor at its '='.
+fn next_key(
+    c: &mut Cursor,
+    at: &At,
+    name: &str,
+    key: &str,
+) -> Result<Option<(String, usize)>, LangError> {
+    match c.peek() {
+        None => Ok(None),
+        Some(',') => {
+            c.i += 1;
+            c.skip_ws();
+            let ks = c.i;
+            let k = c.take_while(is_name_char).to_owned();
+            c.skip_ws();
+            if c.peek() != Some('=') {
+                return Err(at.err(c.i, name, format!("expected '=' after argument name {k:?}")));
+            }
+            Ok(Some((k, ks)))
+        }
+        Some(ch) => Err(at.err(
+            c.i,
+            name,
+            format!(
+                "unexpected {ch:?} after argument {} (arguments are separated by commas)",
+                key.to_ascii_uppercase()
+            ),
+        )),
+    }
 }
 
 #[cfg(test)]
