@@ -396,8 +396,15 @@ fn star_polygon() -> impl Strategy<Value = Vec<Point2<f64>>> {
     })
 }
 
+// A fixed seed: the same cases on every run, so CI never meets a new random case (a random
+// run failed CI once on a pose numeric IK cannot reach, core/kinematics/tests/properties.rs).
+// Look for more by changing the seed or the case count.
 proptest! {
-    #![proptest_config(ProptestConfig::with_cases(200))]
+    #![proptest_config(ProptestConfig {
+        cases: 200,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(0x6E_2026),
+        ..ProptestConfig::default()
+    })]
 
     #[test]
     fn concave_polygons_split_into_convex_pieces_of_equal_total_area(poly in star_polygon()) {
