@@ -346,10 +346,14 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
         chosen.coupling.as_ref(),
         chosen.geometry.as_ref(),
     );
+    // The shapes written (an object the writers leave out — a mesh file that cannot be read —
+    // is in the notes, not in this count), their mesh files read once, here.
+    let export = geometry.map(crate::export_geometry::ExportShapes::of);
+    let shapes = export.as_ref().map_or(0, |e| e.shapes.len());
     let (text, notes, meshes) = if fmt == Format::Mjcf {
-        crate::mjcf_export::to_mjcf_with_geometry(robot, coupling, geometry, &prefix)
+        crate::mjcf_export::to_mjcf_with_shapes(robot, coupling, export, &prefix)
     } else {
-        crate::urdf::to_urdf_with_geometry(robot, coupling, geometry, &prefix)
+        crate::urdf::to_urdf_with_shapes(robot, coupling, export, &prefix)
     }
     .map_err(FileError::Usage)?;
     for m in &meshes {
@@ -358,11 +362,6 @@ fn export_robot(a: &ExportArgs, session: Option<&str>, out: &Path, fmt: Format) 
         format::write_atomic(&dir.join(file), &m.bytes)?;
     }
     format::write_atomic(out, text.as_bytes())?;
-    // The shapes written: an object the writers left out (a mesh file that cannot be read) is
-    // in the notes, not in this count.
-    let shapes = geometry.map_or(0, |g| {
-        crate::export_geometry::ExportShapes::of(g).shapes.len()
-    });
     let general = !robot.is_chain() || robot.joints.iter().any(|j| j.is_general());
     let what = match (fmt, robot.convention) {
         (Format::Mjcf, _) => "as MJCF bodies".to_string(),

@@ -182,6 +182,17 @@ pub fn to_mjcf_with_geometry(
     geometry: Option<&robosim_model::GeometryModel>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
+    to_mjcf_with_shapes(robot, coupling, geometry.map(ExportShapes::of), mesh_prefix)
+}
+
+/// [`to_mjcf_with_geometry`] with the geometry already made into the shapes the file writes (their mesh
+/// files read once): for a caller that also counts them.
+pub fn to_mjcf_with_shapes(
+    robot: &Robot,
+    coupling: Option<&Coupling>,
+    shapes: Option<ExportShapes<'_>>,
+    mesh_prefix: &str,
+) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
     robot
         .validate()
         .map_err(|e| format!("robot {}: {e}", robot.name))?;
@@ -197,7 +208,7 @@ pub fn to_mjcf_with_geometry(
         notes: Vec::new(),
         meshes: Vec::new(),
         assets: String::new(),
-        shapes: geometry.map(ExportShapes::of),
+        shapes,
         xs,
         prefix: mesh_prefix,
     };

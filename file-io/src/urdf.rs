@@ -243,6 +243,17 @@ pub fn to_urdf_with_geometry(
     geometry: Option<&robosim_model::GeometryModel>,
     mesh_prefix: &str,
 ) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
+    to_urdf_with_shapes(robot, coupling, geometry.map(ExportShapes::of), mesh_prefix)
+}
+
+/// [`to_urdf_with_geometry`] with the geometry already made into the shapes the file writes (their mesh
+/// files read once): for a caller that also counts them.
+pub fn to_urdf_with_shapes(
+    robot: &Robot,
+    coupling: Option<&Coupling>,
+    shapes: Option<ExportShapes<'_>>,
+    mesh_prefix: &str,
+) -> Result<(String, Vec<String>, Vec<MeshFile>), String> {
     let mut notes = Vec::new();
     let mimics = refuse_unwritable(robot, coupling, &mut notes)?;
     let mut w = UrdfWriter {
@@ -252,7 +263,7 @@ pub fn to_urdf_with_geometry(
         out: String::new(),
         notes,
         meshes: Vec::new(),
-        shapes: geometry.map(ExportShapes::of),
+        shapes,
         xs: exported_frames(robot, Exported::Urdf),
         prefix: mesh_prefix,
     };
