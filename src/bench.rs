@@ -80,7 +80,7 @@ pub fn run(which: Which, session: Option<&str>) -> Result<()> {
                 &out,
                 quick,
                 &me,
-                &mut crate::sweep_remote::connect,
+                &mut robosim_studies::sweep::remote::connect,
             )
             .map_err(CliError)?;
             print!("{}", wrote(&out, &paths));

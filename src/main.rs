@@ -6,7 +6,6 @@
 mod bench;
 mod cli;
 mod reports;
-mod sweep_remote;
 
 use cli::{Cli, Command, JournalCmd};
 use robosim_hl_interface::session;
@@ -199,7 +198,7 @@ fn dispatch(command: Command, session: Option<&str>) -> Result<()> {
         Command::Sweep(args) => robosim_studies::sweep::cli::run(
             &args.into(),
             &std::env::current_exe()?,
-            &mut sweep_remote::connect,
+            &mut robosim_studies::sweep::remote::connect,
             &mut std::io::stdout().lock(),
         )
         .map_err(CliError::from),

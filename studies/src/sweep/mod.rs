@@ -17,6 +17,7 @@ pub mod cli;
 pub mod coordinator;
 mod params;
 pub mod protocol;
+pub mod remote;
 pub mod spec;
 pub mod study;
 pub mod transport;

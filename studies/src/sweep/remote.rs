@@ -1,10 +1,11 @@
-//! `robosim sweep --remote ENDPOINT`: the studies' [`Launcher`]/[`WorkerLink`] over the
-//! bridge's Zenoh line pipes ([`robosim_bridge::sweep_link`]). The two crates do not know each
-//! other; this is where they meet (docs/studies.md, "Sweeps on other machines").
+//! `robosim sweep --remote ENDPOINT`: the sweep's [`Launcher`]/[`WorkerLink`] over the
+//! bridge's Zenoh line pipes ([`robosim_bridge::sweep_link`]), which know nothing of the
+//! studies (docs/studies.md, "Sweeps on other machines"). The studies sit above the processes'
+//! floor, so they may use the bridge; Zenoh itself stays in the bridge.
 
+use crate::sweep::SweepError;
+use crate::sweep::transport::{EventSink, Launcher, WorkerLink};
 use robosim_bridge::sweep_link::{Pipe, Remote};
-use robosim_studies::sweep::SweepError;
-use robosim_studies::sweep::transport::{EventSink, Launcher, WorkerLink};
 use std::sync::Arc;
 use std::time::Duration;
 
